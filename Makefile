@@ -1,0 +1,44 @@
+# netdae: two commands on a fresh Debian machine with Python 3.11.
+#   make demo   the whole story on netlists/differentiator.cir
+#   make test   the whole test suite
+# Each target sets up what it needs (virtualenv, pip, ngspice) and is idempotent.
+
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV   := .venv
+VPY    := $(VENV)/bin/python
+STAMP  := $(VENV)/.netdae-installed
+DEMO   := netlists/differentiator.cir
+OUT    := out
+
+.PHONY: demo test bench system-deps venv clean
+
+$(VPY):
+	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
+	  if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null; then \
+	    echo "netdae: installing python3-venv"; \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -q python3-venv >/dev/null 2>&1 || \
+	    { apt-get update -q >/dev/null 2>&1; DEBIAN_FRONTEND=noninteractive apt-get install -y -q python3-venv >/dev/null; }; \
+	    rm -rf $(VENV); $(PYTHON) -m venv $(VENV); \
+	  else echo "netdae: cannot create a virtualenv; install it with: sudo apt-get install python3-venv" >&2; exit 1; fi; }
+
+$(STAMP): pyproject.toml | $(VPY)
+	$(VPY) -m pip install -q --upgrade pip
+	$(VPY) -m pip install -q -e '.[test,dev]'
+	@touch $(STAMP)
+
+venv: $(STAMP)
+
+system-deps:
+	@./.ci/ensure-system-deps.sh
+
+demo: system-deps venv
+	$(VENV)/bin/netdae demo $(DEMO) --out $(OUT)
+
+test: system-deps venv
+	$(VPY) -m pytest -q
+
+bench: system-deps venv
+	$(VPY) benchmarks/run.py --quick
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache

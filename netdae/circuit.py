@@ -1,0 +1,361 @@
+"""The elaborated, flat circuit: what the netlist reader hands to the rest of netdae.
+
+A :class:`Circuit` is the output of :func:`netdae.netlist.elaborate`: subcircuits
+are expanded, parameters evaluated, every name is lower case and fully
+qualified, and every element remembers where in the netlist it came from.
+It is plain data: no numerics, no I/O.
+
+Naming scheme (as ngspice prints it)
+------------------------------------
+- Ground is the node ``"0"`` (``gnd`` is an alias and is renamed to ``"0"``).
+- A node ``mid`` inside instance ``x1`` of a subcircuit is ``"x1.mid"``; nested
+  instances prefix outer first: ``"xa.x1.mid"``. Subcircuit ports take the
+  name of the node they are connected to; ``.global`` nodes keep their name.
+- An element ``r1`` inside ``xa.x1`` is ``"r.xa.x1.r1"`` (its letter, a dot, the
+  instance path, a dot, its own name); top-level elements keep their name.
+- Signals: ``v(node)`` for node potentials, ``i(element)`` for branch
+  currents, e.g. ``v(xa.x1.mid)`` and ``i(l.xa.x1.l1)``.
+
+Element kinds
+-------------
+``kind`` names the element family (the first letter alone is ambiguous: an
+``E`` card can be a linear VCVS, a behavioural source or a netdae ideal op-amp):
+
+==============  ======  ===========================  =========================================
+kind            letter  nodes                        fields used
+==============  ======  ===========================  =========================================
+resistor        R       (n+, n-)                     value [ohm]; params: tc1, tc2, m, ...
+capacitor       C       (n+, n-)                     value [F]; params: ic, m
+inductor        L       (n+, n-)                     value [H]; params: ic, m
+coupling        K       ()                           value = k; controls = inductor names
+vsource         V       (n+, n-)                     source
+isource         I       (n+, n-)                     source
+vcvs            E       (n+, n-, nc+, nc-)           value = gain
+vccs            G       (n+, n-, nc+, nc-)           value = transconductance
+cccs            F       (n+, n-)                     value = gain; controls = (vsource,)
+ccvs            H       (n+, n-)                     value = transresistance; controls = (vsource,)
+opamp           E       (out+, out-, in+, in-)       netdae extension: ideal op-amp (nullor)
+bvoltage        B/E     (n+, n-)                     expr: voltage expression
+bcurrent        B/G     (n+, n-)                     expr: current expression
+diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
+bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
+mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
+==============  ======  ===========================  =========================================
+
+Sign conventions (as ngspice): the current of a voltage source, ``i(v1)``,
+flows from its + node through the source to its - node; a current source
+``I1 n+ n- 1m`` carries 1 mA from n+ through the source to n- (it draws the
+current out of n+ and delivers it into n-); an inductor's current flows from
+n+ to n-.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import SourceLocation
+
+__all__ = [
+    "GROUND",
+    "Element",
+    "SourceSpec",
+    "Model",
+    "OpAnalysis",
+    "TranAnalysis",
+    "AcAnalysis",
+    "DcSweep",
+    "DcAnalysis",
+    "Analysis",
+    "Options",
+    "Diagnostic",
+    "Circuit",
+]
+
+GROUND = "0"
+
+
+@dataclass(slots=True)
+class SourceSpec:
+    """Value of an independent source (V or I card).
+
+    Parameters
+    ----------
+    dc : float or None
+        The DC value when one is written (``V1 a 0 5`` or ``dc 5``); ``None``
+        when the card gives only a transient function or nothing.
+    ac_mag, ac_phase : float
+        AC small-signal magnitude and phase in degrees (``ac 1 0``).
+    tran : Waveform or None
+        The transient function (PULSE, SIN, EXP, PWL, SFFM, AM), see
+        :mod:`netdae.netlist.waveforms`; ``None`` for a constant source.
+
+    Notes
+    -----
+    ngspice's rule (``vsrcload.c``), which netdae follows:
+
+    - ``.op`` and ``.dc``: the DC value when given, else the transient function at t = 0.
+    - operating point before ``.tran`` and the transient itself: the transient
+      function at time t when given, else the DC value (0 when absent).
+    """
+
+    dc: float | None = None
+    ac_mag: float = 0.0
+    ac_phase: float = 0.0
+    tran: Any = None  # netdae.netlist.waveforms.Waveform
+
+    def dc_value(self) -> float:
+        """Value used by ``.op`` and ``.dc``."""
+        if self.dc is not None:
+            return self.dc
+        if self.tran is not None:
+            return float(self.tran.value(0.0))
+        return 0.0
+
+    def tran_value_at_zero(self) -> float:
+        """Value used by the operating point that starts a transient."""
+        if self.tran is not None:
+            return float(self.tran.value(0.0))
+        return self.dc if self.dc is not None else 0.0
+
+
+@dataclass(slots=True)
+class Element:
+    """One element of the flat circuit.
+
+    Parameters
+    ----------
+    name : str
+        Full lower-case name (``"r1"``, ``"r.x1.r1"``).
+    kind : str
+        Family, see the table in the module docstring.
+    nodes : tuple of str
+        Full node names in card order; ground is ``"0"``.
+    value : float or None
+        The primary value (resistance, capacitance, gain, coupling factor ...).
+    model : str or None
+        Full name of the ``.model`` card for devices (and models of R, C).
+    controls : tuple of str
+        Controlling elements: the voltage source of F/H, the inductors of K.
+    params : dict
+        Instance parameters, lower-case keys, evaluated to floats (``ic``,
+        ``area``, ``w``, ``l``, ``m``, ``off`` as 1.0 ...).
+    source : SourceSpec or None
+        For V and I cards.
+    expr : object or None
+        For behavioural sources: the expression tree (:mod:`netdae.netlist.expr`).
+    location : SourceLocation or None
+        Where the card is in the netlist (innermost definition for subcircuit
+        internals).
+    instance_path : tuple of str
+        Subcircuit instances this element came from, outermost first (``("xa", "x1")``).
+    """
+
+    name: str
+    kind: str
+    nodes: tuple[str, ...]
+    value: float | None = None
+    model: str | None = None
+    controls: tuple[str, ...] = ()
+    params: dict[str, float] = field(default_factory=dict)
+    source: SourceSpec | None = None
+    expr: Any = None
+    location: SourceLocation | None = None
+    instance_path: tuple[str, ...] = ()
+
+    @property
+    def letter(self) -> str:
+        """The SPICE element letter (``"r"`` for ``"r.x1.r1"``)."""
+        return self.name[0]
+
+
+@dataclass(slots=True)
+class Model:
+    """A ``.model`` card.
+
+    Parameters
+    ----------
+    name : str
+        Full lower-case name (models in subcircuits are scoped like nodes:
+        ``"x1.dmod"``... resolution follows ngspice: inner definitions shadow outer).
+    type : str
+        Lower-case type: ``d``, ``npn``, ``pnp``, ``nmos``, ``pmos``, ``r``, ``c``, ...
+    params : dict
+        Lower-case parameter names to float values (``level`` included when given).
+    location : SourceLocation or None
+    """
+
+    name: str
+    type: str
+    params: dict[str, float] = field(default_factory=dict)
+    location: SourceLocation | None = None
+
+
+@dataclass(slots=True)
+class OpAnalysis:
+    """``.op``."""
+
+    location: SourceLocation | None = None
+
+
+@dataclass(slots=True)
+class TranAnalysis:
+    """``.tran tstep tstop [tstart [tmax]] [uic]``."""
+
+    tstep: float
+    tstop: float
+    tstart: float = 0.0
+    tmax: float | None = None
+    uic: bool = False
+    location: SourceLocation | None = None
+
+
+@dataclass(slots=True)
+class AcAnalysis:
+    """``.ac dec|oct|lin n fstart fstop``."""
+
+    variation: str  # "dec", "oct" or "lin"
+    points: int
+    fstart: float
+    fstop: float
+    location: SourceLocation | None = None
+
+
+@dataclass(slots=True)
+class DcSweep:
+    """One sweep of ``.dc``: a source name (or ``temp``) and its range."""
+
+    source: str
+    start: float
+    stop: float
+    step: float
+
+
+@dataclass(slots=True)
+class DcAnalysis:
+    """``.dc SRC start stop step [SRC2 start2 stop2 step2]`` (first sweep innermost, as ngspice)."""
+
+    sweeps: list[DcSweep]
+    location: SourceLocation | None = None
+
+
+Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis
+
+
+@dataclass(slots=True)
+class Options:
+    """Simulator options (``.options``) with SPICE defaults.
+
+    Parameters
+    ----------
+    reltol, abstol, vntol, chgtol : float
+        Relative tolerance; absolute tolerances for currents [A], voltages [V]
+        and charges [C]. SPICE defaults 1e-3, 1e-12, 1e-6, 1e-14.
+    gmin : float
+        Conductance added across junctions and used by gmin stepping [S].
+    method : str or None
+        ``"gear"``/``"trap"`` when the netlist names one, else None.
+    maxord : int or None
+        Maximum integration order when the netlist gives one, else None.
+    temp, tnom : float
+        Circuit and nominal temperature [degC].
+    itl1, itl4 : int
+        Newton iteration limits for the DC operating point and per time step.
+    interp : bool
+        ``.options interp``: report transient results on the tstep grid.
+    extra : dict
+        Every other option as written (lower-case name to value), kept so that
+        nothing is silently dropped; the analyses report the ones they ignore.
+    """
+
+    reltol: float = 1e-3
+    abstol: float = 1e-12
+    vntol: float = 1e-6
+    chgtol: float = 1e-14
+    gmin: float = 1e-12
+    method: str | None = None
+    maxord: int | None = None
+    temp: float = 27.0
+    tnom: float = 27.0
+    itl1: int = 100
+    itl4: int = 10
+    interp: bool = False
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(slots=True)
+class Diagnostic:
+    """A note or warning about the netlist that is not an error."""
+
+    severity: str  # "note" or "warning"
+    message: str
+    location: SourceLocation | None = None
+
+    def __str__(self) -> str:
+        where = f"{self.location}: " if self.location else ""
+        return f"{where}{self.severity}: {self.message}"
+
+
+@dataclass(slots=True)
+class Circuit:
+    """The elaborated flat circuit.
+
+    Parameters
+    ----------
+    title : str
+        First line of the netlist.
+    elements : list of Element
+        In netlist order, subcircuits expanded in place.
+    nodes : list of str
+        Non-ground node names in order of first appearance.
+    models : dict of str to Model
+    analyses : list of Analysis
+        In netlist order.
+    options : Options
+    ic : dict of str to float
+        ``.ic v(node)=value``: node name to voltage.
+    nodeset : dict of str to float
+        ``.nodeset v(node)=value``.
+    saves : list of str
+        Signals named by ``.save``/``.print``/``.probe`` (``"v(out)"``,
+        ``"i(v1)"``); empty means all.
+    params : dict of str to float
+        Top-level ``.param`` values after evaluation.
+    diagnostics : list of Diagnostic
+    path : str
+        The file the circuit was read from, or ``"<string>"``.
+    """
+
+    title: str
+    elements: list[Element] = field(default_factory=list)
+    nodes: list[str] = field(default_factory=list)
+    models: dict[str, Model] = field(default_factory=dict)
+    analyses: list[Any] = field(default_factory=list)
+    options: Options = field(default_factory=Options)
+    ic: dict[str, float] = field(default_factory=dict)
+    nodeset: dict[str, float] = field(default_factory=dict)
+    saves: list[str] = field(default_factory=list)
+    params: dict[str, float] = field(default_factory=dict)
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+    path: str = "<string>"
+
+    def element(self, name: str) -> Element:
+        """Element by full name (case-insensitive).
+
+        Raises
+        ------
+        KeyError
+            When there is no such element.
+        """
+        key = name.lower()
+        for el in self.elements:
+            if el.name == key:
+                return el
+        raise KeyError(name)
+
+    def count_by_letter(self) -> dict[str, int]:
+        """Number of elements per SPICE letter, e.g. ``{"r": 3, "c": 1}``."""
+        counts: dict[str, int] = {}
+        for el in self.elements:
+            counts[el.letter] = counts.get(el.letter, 0) + 1
+        return dict(sorted(counts.items()))

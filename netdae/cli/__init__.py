@@ -1,0 +1,83 @@
+"""The ``netdae`` command line: ``netdae check | run | index | compare | demo``.
+
+Each subcommand lives in its own module of this package with two functions,
+``add_parser(subparsers)`` and ``main(args) -> int``. Modules import the
+numerical parts of netdae inside ``main`` so that ``netdae --help`` stays fast.
+
+Errors: every :class:`netdae.errors.NetdaeError` becomes one readable line on
+stderr and exit status 2; a bug inside netdae is reported as an internal
+error in one line (set ``NETDAE_DEBUG=1`` for the traceback), exit status 3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+__all__ = ["main", "COMMANDS"]
+
+#: Subcommands in the order ``--help`` lists them.
+COMMANDS = ("check", "index", "run", "compare", "demo")
+
+EXIT_OK = 0
+EXIT_FAIL = 1  # the command ran and its verdict is negative (e.g. compare out of tolerance)
+EXIT_ERROR = 2  # bad input or a netdae error
+EXIT_INTERNAL = 3  # a bug in netdae
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every available subcommand registered."""
+    from .. import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="netdae",
+        description="A SPICE-dialect circuit simulator that treats a netlist as a "
+        "differential-algebraic equation.",
+    )
+    parser.add_argument("--version", action="version", version=f"netdae {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in COMMANDS:
+        try:
+            module = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:  # a subcommand not built into this tree
+            if exc.name == f"{__name__}.{name}":
+                continue
+            raise
+        p = module.add_parser(sub)
+        p.set_defaults(_main=module.main)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    from ..errors import NetdaeError
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args._main(args) or 0)
+    except NetdaeError as exc:
+        print(f"netdae: error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        print("netdae: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
+        if os.environ.get("NETDAE_DEBUG"):
+            raise
+        print(
+            f"netdae: internal error: {type(exc).__name__}: {exc} "
+            "(this is a bug in netdae; rerun with NETDAE_DEBUG=1 for the traceback)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+
+
+def run() -> None:
+    """Console-script entry point."""
+    sys.exit(main())

@@ -1,0 +1,186 @@
+"""netdae's exception hierarchy, organised by meaning.
+
+Every error netdae raises on purpose derives from :class:`NetdaeError`, so a
+caller (and the CLI) can catch one root class and show one readable message.
+
+- :class:`NetlistError` (also a :class:`ValueError`): the text of a netlist is
+  wrong. Carries the file, line and column, the expected form of the card and
+  a hint.
+- :class:`CircuitError`: the netlist is well formed but the circuit it
+  describes cannot be simulated (a loop of voltage sources, a floating node,
+  a singular coupling matrix ...). Names the elements and nodes involved.
+- :class:`SingularPencilError`: the pencil (E, H) of a DAE is singular, so the
+  DAE has no or infinitely many solutions.
+- :class:`ConvergenceError` (also a :class:`RuntimeError`): a numerical
+  method failed; carries the time, step size, worst unknown and a hint.
+- :class:`NgspiceError`: the reference simulator is missing or failed.
+
+Examples
+--------
+>>> from netdae.errors import NetlistError, SourceLocation
+>>> err = NetlistError("C1: expected a value", SourceLocation("rc.cir", 12, 4),
+...                    expected="Cname n+ n- value [ic=v0]", hint="add a capacitance, e.g. 1u")
+>>> print(err)
+rc.cir:12:4: C1: expected a value (expected: Cname n+ n- value [ic=v0]; hint: add a capacitance, e.g. 1u)
+>>> isinstance(err, ValueError)
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "SourceLocation",
+    "NetdaeError",
+    "NetlistError",
+    "CircuitError",
+    "SingularPencilError",
+    "ConvergenceError",
+    "NgspiceError",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class SourceLocation:
+    """A place in a netlist file.
+
+    Parameters
+    ----------
+    file : str
+        Path of the file as given by the user, or ``"<string>"`` for text.
+    line : int
+        1-based line number (of the first physical line of a card).
+    column : int
+        1-based column.
+    """
+
+    file: str
+    line: int
+    column: int = 1
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}"
+
+
+class NetdaeError(Exception):
+    """Root of every error netdae raises on purpose."""
+
+
+class NetlistError(NetdaeError, ValueError):
+    """The netlist text is wrong.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, starting with the element or card name when there is one.
+    location : SourceLocation, optional
+        Where it is wrong.
+    expected : str, optional
+        The expected form of the card, e.g. ``"Rname n+ n- value"``.
+    hint : str, optional
+        What the user might do about it.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        location: SourceLocation | None = None,
+        *,
+        expected: str | None = None,
+        hint: str | None = None,
+    ) -> None:
+        self.message = message
+        self.location = location
+        self.expected = expected
+        self.hint = hint
+        super().__init__(self._render())
+
+    def _render(self) -> str:
+        text = f"{self.location}: {self.message}" if self.location else self.message
+        extra = []
+        if self.expected:
+            extra.append(f"expected: {self.expected}")
+        if self.hint:
+            extra.append(f"hint: {self.hint}")
+        if extra:
+            text += " (" + "; ".join(extra) + ")"
+        return text
+
+    def __reduce__(self):  # keep pickling (multiprocessing, pytest-xdist) working
+        return (
+            _rebuild_netlist_error,
+            (self.message, self.location, self.expected, self.hint),
+        )
+
+
+def _rebuild_netlist_error(message, location, expected, hint):
+    return NetlistError(message, location, expected=expected, hint=hint)
+
+
+class CircuitError(NetdaeError):
+    """The circuit cannot be simulated as described.
+
+    Parameters
+    ----------
+    message : str
+        The explanation in circuit terms.
+    elements : sequence of str, optional
+        Names of the elements involved (ngspice-style full names).
+    nodes : sequence of str, optional
+        Names of the nodes involved.
+    hint : str, optional
+        What the user might do about it.
+    """
+
+    def __init__(self, message: str, *, elements=(), nodes=(), hint: str | None = None):
+        self.message = message
+        self.elements = tuple(elements)
+        self.nodes = tuple(nodes)
+        self.hint = hint
+        text = message if not hint else f"{message} (hint: {hint})"
+        super().__init__(text)
+
+
+class SingularPencilError(CircuitError):
+    """The matrix pencil (E, H) is singular: no or infinitely many solutions."""
+
+
+class ConvergenceError(NetdaeError, RuntimeError):
+    """A numerical method did not converge.
+
+    Parameters
+    ----------
+    message : str
+        What failed.
+    t : float, optional
+        Time at which it failed (transient analyses).
+    h : float, optional
+        Step size at failure.
+    worst : str, optional
+        Name of the unknown with the largest error or residual.
+    hint : str, optional
+        Likely cause and what to try.
+    """
+
+    def __init__(self, message: str, *, t=None, h=None, worst=None, hint=None):
+        self.message = message
+        self.t = t
+        self.h = h
+        self.worst = worst
+        self.hint = hint
+        parts = [message]
+        if t is not None:
+            parts.append(f"at t={t:.6g}")
+        if h is not None:
+            parts.append(f"h={h:.3g}")
+        if worst:
+            parts.append(f"worst unknown {worst}")
+        text = ", ".join(parts)
+        if hint:
+            text += f" (hint: {hint})"
+        super().__init__(text)
+
+
+class NgspiceError(NetdaeError):
+    """ngspice is missing or failed to run a netlist."""

@@ -1,0 +1,41 @@
+"""Shared test configuration.
+
+Tests marked ``@pytest.mark.ngspice`` need the ngspice executable; they are
+skipped with a clear reason on machines without it (``make test`` installs it
+when it can).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+NETLISTS = ROOT / "netlists"
+NGSPICE = shutil.which("ngspice")
+NGSPICE_MISSING = (
+    "ngspice is not installed (install it with: sudo apt-get install ngspice libngspice0 libngspice0-dev)"
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    if NGSPICE:
+        return
+    skip = pytest.mark.skip(reason=NGSPICE_MISSING)
+    for item in items:
+        if "ngspice" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def netlists_dir() -> Path:
+    return NETLISTS
+
+
+@pytest.fixture(scope="session")
+def ngspice_exe() -> str:
+    if not NGSPICE:
+        pytest.skip(NGSPICE_MISSING)
+    return NGSPICE
