@@ -1,0 +1,160 @@
+"""The interface of a nonlinear device family, and the accumulator it writes into.
+
+A *family* holds every instance of one nonlinear element kind (all diodes, all
+BJTs, ...) as arrays of parameters and node indices, and evaluates them all in
+one vectorised pass: currents and charges, and their derivatives, scattered
+into the MNA system's fixed sparsity pattern through precomputed slots. The
+MNA system loops over families (a handful), never over instances.
+
+Life cycle (driven by :func:`netdae.mna.assemble`)
+----------------------------------------------------
+1. ``Family(elements, circuit)`` reads parameters and models (raises
+   :class:`~netdae.errors.CircuitError` for inconsistent data).
+2. ``add_nodes(layout)`` creates internal nodes (e.g. behind a series
+   resistance); ``add_branches(layout)`` creates branch-current unknowns.
+3. ``coordinates(layout)`` returns every (row, column) the family may write
+   (ground, index -1, allowed: it is dropped).
+4. ``bind(slots)`` receives a :class:`SlotMap` to turn coordinates into
+   positions in the Jacobian ``data`` arrays.
+5. ``evaluate(x, t, acc, state, jacobian)`` adds contributions to ``acc``
+   and returns the family's new limiting state (or ``None``).
+
+Sign convention: as in :mod:`netdae.devices.linear`, node rows of ``phi`` are
+the currents *entering* the node and node rows of ``q`` the charges stored on
+the node side of each element, so a device current ``i`` flowing from node a
+to node b through the device adds ``-i`` to ``phi[a]`` and ``+i`` to ``phi[b]``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..dae.sparse import SparsePattern
+
+__all__ = ["Accumulator", "SlotMap", "DeviceFamily"]
+
+
+class SlotMap:
+    """Maps (row, column) pairs, ground included, to Jacobian ``data`` positions.
+
+    Ground rows/columns map to a dummy slot ``nnz`` (one past the end): the
+    accumulator's Jacobian arrays have ``nnz + 1`` entries and the last is
+    discarded, so device code scatters without masking.
+    """
+
+    def __init__(self, pattern: SparsePattern):
+        self.pattern = pattern
+        self.dummy = pattern.nnz
+
+    def __call__(self, rows, cols) -> np.ndarray:
+        rows = np.asarray(rows, dtype=np.int64)
+        cols = np.asarray(cols, dtype=np.int64)
+        out = np.full(rows.shape, self.dummy, dtype=np.int64)
+        keep = (rows >= 0) & (cols >= 0)
+        out[keep] = self.pattern.slots(rows[keep], cols[keep])
+        return out
+
+
+class Accumulator:
+    """Extended arrays that device families add into.
+
+    Attributes
+    ----------
+    q, phi : ndarray, shape (n + 1,)
+        Last entry collects ground contributions (discarded).
+    dq, dphi : ndarray, shape (nnz + 1,)
+        Last entry is the dummy slot (discarded).
+    limited : bool
+        Set by a family that limited a junction voltage.
+    ok : bool
+        Cleared by a family whose evaluation produced non-finite values.
+    """
+
+    def __init__(self, n: int, nnz: int):
+        self.n = n
+        self.nnz = nnz
+        self.q = np.zeros(n + 1)
+        self.phi = np.zeros(n + 1)
+        self.dq = np.zeros(nnz + 1)
+        self.dphi = np.zeros(nnz + 1)
+        self.limited = False
+        self.ok = True
+
+    def reset(self, q0: np.ndarray, phi0: np.ndarray, dq0: np.ndarray | None, dphi0: np.ndarray | None) -> None:
+        """Start from the linear part (copies into the extended arrays)."""
+        self.q[: self.n] = q0
+        self.q[self.n] = 0.0
+        self.phi[: self.n] = phi0
+        self.phi[self.n] = 0.0
+        if dq0 is not None:
+            self.dq[: self.nnz] = dq0
+            self.dq[self.nnz] = 0.0
+            self.dphi[: self.nnz] = dphi0
+            self.dphi[self.nnz] = 0.0
+        self.limited = False
+        self.ok = True
+
+    @staticmethod
+    def rows(idx: np.ndarray, n: int) -> np.ndarray:
+        """Row indices with ground (-1) mapped to the discard slot ``n``."""
+        idx = np.asarray(idx, dtype=np.int64)
+        return np.where(idx < 0, n, idx)
+
+    def add_q(self, rows_ext: np.ndarray, values: np.ndarray) -> None:
+        self.q += np.bincount(rows_ext, weights=values, minlength=self.n + 1)
+
+    def add_phi(self, rows_ext: np.ndarray, values: np.ndarray) -> None:
+        self.phi += np.bincount(rows_ext, weights=values, minlength=self.n + 1)
+
+    def add_dq(self, slots: np.ndarray, values: np.ndarray) -> None:
+        self.dq += np.bincount(slots, weights=values, minlength=self.nnz + 1)
+
+    def add_dphi(self, slots: np.ndarray, values: np.ndarray) -> None:
+        self.dphi += np.bincount(slots, weights=values, minlength=self.nnz + 1)
+
+
+class DeviceFamily:
+    """Base class of a vectorised nonlinear device family.
+
+    Subclasses set :attr:`kinds` and implement the hooks. ``x`` passed to
+    :meth:`evaluate` is *extended*: ``x[n] == 0`` is the ground potential, so
+    node index -1 reads ground directly.
+    """
+
+    #: Element kinds this family handles.
+    kinds: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(self, elements, circuit) -> None:
+        self.elements = list(elements)
+        self.circuit = circuit
+
+    def add_nodes(self, layout) -> None:
+        """Create internal nodes (default: none)."""
+
+    def add_branches(self, layout) -> None:
+        """Create branch-current unknowns (default: none)."""
+
+    def coordinates(self, layout) -> tuple[np.ndarray, np.ndarray]:
+        """Every (row, column) of dq/dx or dphi/dx this family may write."""
+        raise NotImplementedError
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        """Precompute the slots and extended row indices (called once)."""
+        raise NotImplementedError
+
+    def initial_state(self) -> Any:
+        """Limiting state before the first Newton iteration (``None`` if unused)."""
+        return None
+
+    def evaluate(self, x: np.ndarray, t: float, acc: Accumulator, state: Any, jacobian: bool) -> Any:
+        """Add the family's q, phi (and Jacobians) at extended ``x`` into ``acc``.
+
+        Returns the new limiting state; sets ``acc.limited``/``acc.ok`` as needed.
+        """
+        raise NotImplementedError
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        """Pairs of nodes joined by a conducting path at DC (for topology)."""
+        return []

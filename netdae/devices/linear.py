@@ -1,0 +1,299 @@
+"""Stamps of the linear elements into the constant MNA matrices.
+
+The DAE is ``d/dt q(x) = phi(x, t)`` with, for linear elements,
+``q = E x`` and ``phi = H x + B u(t)``. Each function below stamps *all*
+elements of one kind at once (array operations; the only per-element Python
+is reading names at assembly time).
+
+Equations and signs (ngspice's conventions)
+-------------------------------------------
+Node rows are Kirchhoff's current law written as "charge and current
+*entering* the node": for node n, ``d/dt q_n = -(sum of currents leaving n)``.
+
+=============  =================================================================
+R  (a, b, G)   phi_a -= G (v_a - v_b),  phi_b += G (v_a - v_b)
+C  (a, b, C)   q_a += C (v_a - v_b),    q_b -= C (v_a - v_b)
+L  (a, b; k)   phi_a -= i_k, phi_b += i_k;   q_k = L i_k (+ M i_j),  phi_k = v_a - v_b
+V  (a, b; k)   phi_a -= i_k, phi_b += i_k;   phi_k = v_a - v_b - V(t)
+I  (a, b)      phi_a -= I(t), phi_b += I(t)   (current from a through the source to b)
+E  (a,b,c,d;k) as V with phi_k = v_a - v_b - A (v_c - v_d)
+G  (a,b,c,d)   phi_a -= g (v_c - v_d), phi_b += g (v_c - v_d)
+F  (a, b; j)   phi_a -= f i_j, phi_b += f i_j   (j: the controlling V source)
+H  (a, b; k,j) as V with phi_k = v_a - v_b - r i_j
+OPAMP (a,b,c,d;k)  as V in the KCL rows; phi_k = v_c - v_d  (nullor: v_c = v_d)
+K  (L1, L2, k) q_k1 += M i_k2, q_k2 += M i_k1 with M = k sqrt(L1 L2)
+=============  =================================================================
+
+With these signs ``E = diag(A_C C A_C^T, L, 0)`` is symmetric positive
+semi-definite for passive circuits, and the DC matrix is ``-H``.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..circuit import Circuit, Element
+from ..errors import CircuitError
+from ..mna.layout import Layout
+from ..mna.stamps import Triplets
+
+__all__ = ["LinearStamps", "stamp_linear", "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE"]
+
+#: Kinds whose current is an MNA unknown.
+BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "opamp", "bvoltage"})
+
+#: Kinds stamped here (constant matrices).
+LINEAR_KINDS = frozenset(
+    {"resistor", "capacitor", "inductor", "coupling", "vsource", "isource", "vcvs", "vccs", "cccs", "ccvs", "opamp"}
+)
+
+#: ngspice replaces a resistance of exactly zero by 1 milliohm (with a warning); so does netdae.
+ZERO_RESISTANCE = 1e-3
+
+
+@dataclass
+class LinearStamps:
+    """Constant parts of the MNA system.
+
+    Attributes
+    ----------
+    E, H : Triplets
+        Entries of dq/dx and dphi/dx.
+    B : Triplets
+        Source incidence, shape (n, number of independent sources): ``phi += B u(t)``.
+    sources : list of Element
+        Independent sources in column order of ``B``.
+    notes : list of str
+        What the user should know (e.g. a zero resistance replaced).
+    """
+
+    E: Triplets
+    H: Triplets
+    B: Triplets
+    sources: list[Element]
+    notes: list[str]
+
+
+def _temperature_factor(els: list[Element], temp: float, tnom: float) -> np.ndarray:
+    """``1 + tc1 dT + tc2 dT^2`` per element (ngspice's first/second order coefficients)."""
+    tc1 = np.array([el.params.get("tc1", 0.0) for el in els])
+    tc2 = np.array([el.params.get("tc2", 0.0) for el in els])
+    dt = np.array([el.params.get("temp", temp) for el in els]) - tnom
+    return 1.0 + tc1 * dt + tc2 * dt * dt
+
+
+def _multiplier(els: list[Element]) -> np.ndarray:
+    return np.array([el.params.get("m", 1.0) for el in els])
+
+
+def _values(els: list[Element]) -> np.ndarray:
+    return np.array([el.value for el in els], dtype=float)
+
+
+def _two_nodes(els: list[Element], layout: Layout) -> tuple[np.ndarray, np.ndarray]:
+    a = layout.nodes_of([el.nodes[0] for el in els])
+    b = layout.nodes_of([el.nodes[1] for el in els])
+    return a, b
+
+
+def _branches(els: list[Element], layout: Layout) -> np.ndarray:
+    return np.array([layout.branch(el.name) for el in els], dtype=np.int64)
+
+
+def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):
+    r = _values(els)
+    zero = r == 0.0
+    for el in (e for e, z in zip(els, zero) if z):
+        st.notes.append(f"{el.name}: resistance 0 replaced by {ZERO_RESISTANCE:g} ohm (as ngspice does)")
+    r = np.where(zero, ZERO_RESISTANCE, r) * _temperature_factor(els, temp, tnom)
+    g = _multiplier(els) / r
+    a, b = _two_nodes(els, layout)
+    st.H.add_conductance(a, b, -g)
+
+
+def _stamp_capacitors(els, layout, st: LinearStamps, temp, tnom):
+    c = _values(els) * _multiplier(els) * _temperature_factor(els, temp, tnom)
+    a, b = _two_nodes(els, layout)
+    st.E.add_conductance(a, b, c)
+
+
+def _stamp_branch_kcl(els, layout, st: LinearStamps) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """KCL part of a branch element: the branch current leaves node a, enters node b."""
+    a, b = _two_nodes(els, layout)
+    k = _branches(els, layout)
+    st.H.add_incidence(a, b, k, row_sign=0.0, col_sign=-1.0)
+    return a, b, k
+
+
+def _stamp_inductors(els, layout, st: LinearStamps, temp, tnom):
+    a, b, k = _stamp_branch_kcl(els, layout, st)
+    st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=0.0)
+    ind = _values(els) / _multiplier(els) * _temperature_factor(els, temp, tnom)
+    st.E.add(k, k, ind)
+
+
+def _inductance(el: Element) -> float:
+    return el.value / el.params.get("m", 1.0)
+
+
+def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit):
+    """Mutual inductances; each group of coupled inductors must be positive definite."""
+    groups: dict[str, set[str]] = {}
+    mutual: dict[tuple[str, str], float] = defaultdict(float)
+    for el in els:
+        names = list(el.controls)
+        inductors = [circuit.element(nm) for nm in names]
+        for ind in inductors:
+            if ind.kind != "inductor":
+                raise CircuitError(f"{el.name}: {ind.name} is not an inductor", elements=(el.name, ind.name))
+        for i in range(len(inductors)):
+            for j in range(i + 1, len(inductors)):
+                li, lj = inductors[i], inductors[j]
+                m = el.value * np.sqrt(_inductance(li) * _inductance(lj))
+                mutual[(li.name, lj.name)] += m
+                mutual[(lj.name, li.name)] += m
+        merged = set(names)
+        for nm in names:
+            merged |= groups.get(nm, set())
+        for nm in merged:
+            groups[nm] = merged
+    rows, cols, vals = [], [], []
+    for (p, q), m in mutual.items():
+        rows.append(layout.branch(p))
+        cols.append(layout.branch(q))
+        vals.append(m)
+    st.E.add(np.array(rows, dtype=np.int64), np.array(cols, dtype=np.int64), np.array(vals))
+    seen: set[int] = set()
+    for group in groups.values():
+        if id(group) in seen:
+            continue
+        seen.add(id(group))
+        members = sorted(group)
+        mat = np.array(
+            [[_inductance(circuit.element(p)) if p == q else mutual.get((p, q), 0.0) for q in members] for p in members]
+        )
+        if np.any(np.linalg.eigvalsh(mat) <= 0.0):
+            couplings = sorted(el.name for el in els if set(el.controls) <= group)
+            raise CircuitError(
+                f"the inductance matrix of the coupled inductors {', '.join(members)} is not positive definite "
+                f"(couplings {', '.join(couplings)})",
+                elements=tuple(members) + tuple(couplings),
+                hint="coupling factors must satisfy |k| < 1 and together describe a physical transformer",
+            )
+
+
+def _stamp_vsources(els, layout, st: LinearStamps, col0: int):
+    a, b, k = _stamp_branch_kcl(els, layout, st)
+    st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=0.0)
+    cols = col0 + np.arange(len(els))
+    st.B.add(k, cols, -1.0)
+
+
+def _stamp_isources(els, layout, st: LinearStamps, col0: int):
+    a, b = _two_nodes(els, layout)
+    cols = col0 + np.arange(len(els))
+    st.B.add(np.concatenate([a, b]), np.concatenate([cols, cols]), np.concatenate([-np.ones(len(els)), np.ones(len(els))]))
+
+
+def _control_nodes(els, layout) -> tuple[np.ndarray, np.ndarray]:
+    c = layout.nodes_of([el.nodes[2] for el in els])
+    d = layout.nodes_of([el.nodes[3] for el in els])
+    return c, d
+
+
+def _control_branches(els, layout) -> np.ndarray:
+    return np.array([layout.branch(el.controls[0]) for el in els], dtype=np.int64)
+
+
+def _stamp_vcvs(els, layout, st: LinearStamps):
+    a, b, k = _stamp_branch_kcl(els, layout, st)
+    st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=0.0)
+    c, d = _control_nodes(els, layout)
+    gain = _values(els)
+    st.H.add(np.concatenate([k, k]), np.concatenate([c, d]), np.concatenate([-gain, gain]))
+
+
+def _stamp_opamps(els, layout, st: LinearStamps):
+    _, _, k = _stamp_branch_kcl(els, layout, st)
+    c, d = _control_nodes(els, layout)
+    one = np.ones(len(els))
+    st.H.add(np.concatenate([k, k]), np.concatenate([c, d]), np.concatenate([one, -one]))
+
+
+def _stamp_vccs(els, layout, st: LinearStamps):
+    a, b = _two_nodes(els, layout)
+    c, d = _control_nodes(els, layout)
+    g = _values(els) * _multiplier(els)
+    st.H.add(np.concatenate([a, a, b, b]), np.concatenate([c, d, c, d]), np.concatenate([-g, g, g, -g]))
+
+
+def _stamp_cccs(els, layout, st: LinearStamps):
+    a, b = _two_nodes(els, layout)
+    j = _control_branches(els, layout)
+    f = _values(els) * _multiplier(els)
+    st.H.add(np.concatenate([a, b]), np.concatenate([j, j]), np.concatenate([-f, f]))
+
+
+def _stamp_ccvs(els, layout, st: LinearStamps):
+    a, b, k = _stamp_branch_kcl(els, layout, st)
+    st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=0.0)
+    j = _control_branches(els, layout)
+    st.H.add(k, j, -_values(els))
+
+
+def stamp_linear(circuit: Circuit, layout: Layout, by_kind: dict[str, list[Element]]) -> LinearStamps:
+    """Stamp every linear element of ``circuit``.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    layout : Layout
+        With every node and every branch unknown already allocated.
+    by_kind : dict of str to list of Element
+        The circuit's elements grouped by kind.
+
+    Returns
+    -------
+    LinearStamps
+
+    Raises
+    ------
+    CircuitError
+        For a coupling matrix that is not positive definite, or a K that
+        names something other than an inductor.
+
+    Notes
+    -----
+    Cost O(number of elements); the matrices are built once per circuit.
+    """
+    st = LinearStamps(Triplets(), Triplets(), Triplets(), [], [])
+    temp, tnom = circuit.options.temp, circuit.options.tnom
+    get = lambda kind: by_kind.get(kind, [])  # noqa: E731
+    if get("resistor"):
+        _stamp_resistors(get("resistor"), layout, st, temp, tnom)
+    if get("capacitor"):
+        _stamp_capacitors(get("capacitor"), layout, st, temp, tnom)
+    if get("inductor"):
+        _stamp_inductors(get("inductor"), layout, st, temp, tnom)
+    if get("coupling"):
+        _stamp_couplings(get("coupling"), layout, st, circuit)
+    if get("vsource"):
+        _stamp_vsources(get("vsource"), layout, st, 0)
+        st.sources.extend(get("vsource"))
+    if get("isource"):
+        _stamp_isources(get("isource"), layout, st, len(st.sources))
+        st.sources.extend(get("isource"))
+    if get("vcvs"):
+        _stamp_vcvs(get("vcvs"), layout, st)
+    if get("opamp"):
+        _stamp_opamps(get("opamp"), layout, st)
+    if get("vccs"):
+        _stamp_vccs(get("vccs"), layout, st)
+    if get("cccs"):
+        _stamp_cccs(get("cccs"), layout, st)
+    if get("ccvs"):
+        _stamp_ccvs(get("ccvs"), layout, st)
+    return st

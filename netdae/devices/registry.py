@@ -1,0 +1,22 @@
+"""Which device family evaluates which element kind.
+
+Linear kinds are stamped by :mod:`netdae.devices.linear`; every other kind
+must have a nonlinear family listed here.
+"""
+
+from __future__ import annotations
+
+from .base import DeviceFamily
+
+__all__ = ["FAMILIES", "family_for"]
+
+#: Nonlinear device families, in evaluation order.
+FAMILIES: tuple[type[DeviceFamily], ...] = ()
+
+
+def family_for(kind: str) -> type[DeviceFamily] | None:
+    """The family class for an element kind, or None."""
+    for fam in FAMILIES:
+        if kind in fam.kinds:
+            return fam
+    return None

@@ -1,0 +1,107 @@
+"""The vector u(t) of independent source values, ``phi = H x + B u(t)``.
+
+Which value a source takes follows ngspice (``vsrcload.c``): for ``.op`` and
+``.dc`` the DC value when one is written, else the transient function at
+t = 0; for a transient (and the operating point that starts it) the transient
+function at time t when there is one, else the DC value.
+
+Time-varying sources are evaluated through the reader's vectorised
+:class:`~netdae.netlist.waveforms.SourceBank`: one numpy call per waveform
+class, no loop over sources.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..circuit import Element
+
+__all__ = ["SourceVector", "MODE_DC", "MODE_TRAN"]
+
+MODE_DC = "dc"
+MODE_TRAN = "tran"
+
+
+class SourceVector:
+    """Values of the independent sources in the column order of ``B``.
+
+    Parameters
+    ----------
+    sources : list of Element
+        Independent V and I sources.
+    mode : {"dc", "tran"}
+    tstep, tstop : float, optional
+        The transient's step and stop time (ngspice's waveform defaults depend on them).
+    """
+
+    def __init__(self, sources: list[Element], mode: str = MODE_DC, tstep: float | None = None,
+                 tstop: float | None = None):
+        self.names = [el.name for el in sources]
+        self.mode = mode
+        specs = [el.source for el in sources]
+        m = len(specs)
+        self.m = m
+        self.ac = np.array(
+            [s.ac_mag * np.exp(1j * np.deg2rad(s.ac_phase)) for s in specs], dtype=complex
+        ).reshape(m)
+        if mode == MODE_DC:
+            self.u0 = np.array([s.dc_value() for s in specs], dtype=float).reshape(m)
+            self.timed = np.empty(0, dtype=np.int64)
+            self.bank = None
+        else:
+            self.u0 = np.array([s.dc if s.dc is not None else 0.0 for s in specs], dtype=float).reshape(m)
+            self.timed = np.array([i for i, s in enumerate(specs) if s.tran is not None], dtype=np.int64)
+            if self.timed.size:
+                from ..netlist.waveforms import SourceBank
+
+                ts = tstep if tstep is not None else 0.0
+                te = tstop if tstop is not None else 0.0
+                self.bank = SourceBank([specs[i].tran.resolved(ts, te) for i in self.timed])
+                self.u0[self.timed] = 0.0
+            else:
+                self.bank = None
+        self._cache_t: float | None = None
+        self._cache_u: np.ndarray | None = None
+
+    @property
+    def time_dependent(self) -> bool:
+        """True when some source varies in time."""
+        return self.bank is not None
+
+    def values(self, t: float, derivative: int = 0) -> np.ndarray:
+        """u(t) or its ``derivative``-th time derivative, shape (m,).
+
+        Notes
+        -----
+        The last value is cached: a Newton iteration evaluates the same t repeatedly.
+        """
+        if derivative == 0:
+            if self._cache_t == t and self._cache_u is not None:
+                return self._cache_u
+            u = self.u0.copy()
+            if self.bank is not None:
+                u[self.timed] = self.bank.values(t)
+            self._cache_t, self._cache_u = t, u
+            return u
+        u = np.zeros(self.m)
+        if self.bank is not None:
+            u[self.timed] = self.bank.values(t, derivative=derivative)
+        return u
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        """Sorted instants in [t0, t1] where some source is not smooth."""
+        if self.bank is None:
+            return np.empty(0)
+        return np.asarray(self.bank.breakpoints(t0, t1), dtype=float)
+
+    def set_value(self, name: str, value: float) -> None:
+        """Set the DC value of source ``name`` (for ``.dc`` sweeps).
+
+        Raises
+        ------
+        KeyError
+            When there is no such independent source.
+        """
+        i = self.names.index(name.lower())
+        self.u0[i] = value
+        self._cache_t = None

@@ -1,0 +1,80 @@
+"""Accumulators of matrix entries for assembly, with ground dropped.
+
+Stamps are written as arrays of (row, column, value) with ground as index
+``-1``; :class:`Triplets` drops every entry on a ground row or column, so the
+element stamps need no branches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Triplets"]
+
+
+class Triplets:
+    """Growing lists of COO entries of an ``n x m`` matrix.
+
+    Examples
+    --------
+    A 1 S conductance between node 0 and ground:
+
+    >>> t = Triplets()
+    >>> t.add_conductance(np.array([0]), np.array([-1]), np.array([1.0]))
+    >>> t.matrix(1, 1).toarray()
+    array([[1.]])
+    """
+
+    def __init__(self) -> None:
+        self._rows: list[np.ndarray] = []
+        self._cols: list[np.ndarray] = []
+        self._vals: list[np.ndarray] = []
+
+    def add(self, rows, cols, vals) -> None:
+        """Add entries; those with a ground (negative) row or column are dropped."""
+        rows = np.asarray(rows, dtype=np.int64).ravel()
+        cols = np.asarray(cols, dtype=np.int64).ravel()
+        vals = np.broadcast_to(np.asarray(vals, dtype=float), rows.shape).ravel()
+        keep = (rows >= 0) & (cols >= 0)
+        self._rows.append(rows[keep])
+        self._cols.append(cols[keep])
+        self._vals.append(vals[keep])
+
+    def add_conductance(self, a, b, g) -> None:
+        """The symmetric two-terminal pattern ``[[g, -g], [-g, g]]`` between nodes a and b."""
+        a = np.asarray(a, dtype=np.int64)
+        b = np.asarray(b, dtype=np.int64)
+        g = np.asarray(g, dtype=float)
+        self.add(np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b]), np.concatenate([g, -g, -g, g]))
+
+    def add_incidence(self, a, b, k, *, row_sign: float, col_sign: float) -> None:
+        """Branch ``k`` between nodes a (+) and b (-).
+
+        Adds ``col_sign * (+1 at (a, k), -1 at (b, k))`` (the branch current in
+        the KCL rows) and ``row_sign * (+1 at (k, a), -1 at (k, b))`` (the node
+        potentials in the branch row).
+        """
+        a = np.asarray(a, dtype=np.int64)
+        b = np.asarray(b, dtype=np.int64)
+        k = np.asarray(k, dtype=np.int64)
+        one = np.ones(a.shape)
+        if col_sign:
+            self.add(np.concatenate([a, b]), np.concatenate([k, k]), col_sign * np.concatenate([one, -one]))
+        if row_sign:
+            self.add(np.concatenate([k, k]), np.concatenate([a, b]), row_sign * np.concatenate([one, -one]))
+
+    def coordinates(self) -> tuple[np.ndarray, np.ndarray]:
+        """All (row, column) coordinates added so far."""
+        if not self._rows:
+            return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        return np.concatenate(self._rows), np.concatenate(self._cols)
+
+    def matrix(self, n: int, m: int | None = None) -> sp.csc_matrix:
+        """The summed matrix, shape (n, m) (m defaults to n)."""
+        m = n if m is None else m
+        rows, cols = self.coordinates()
+        vals = np.concatenate(self._vals) if self._vals else np.empty(0)
+        mat = sp.coo_matrix((vals, (rows, cols)), shape=(n, m)).tocsc()
+        mat.sum_duplicates()
+        return mat

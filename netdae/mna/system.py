@@ -1,0 +1,145 @@
+"""The MNA system of a circuit as a :class:`~netdae.dae.system.DaeSystem`.
+
+``d/dt q(x) = phi(x, t)`` with
+
+    q(x)      = E x + q_dev(x)
+    phi(x, t) = H x + B u(t) + f_dev(x, t)
+
+where E, H, B are the constant linear stamps (assembled once) and the device
+families add their charges and currents vectorised. For a circuit without
+nonlinear devices, ``linear`` is true and E, H, c(t) = B u(t) are available
+directly (``E x' = H x + c(t)``, the form of the lecture notes (2.8)).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..circuit import Circuit
+from ..dae.sparse import SparsePattern
+from ..dae.system import DaeSystem, Evaluation
+from ..devices.base import Accumulator, DeviceFamily
+from .layout import Layout
+from .sources import SourceVector
+
+__all__ = ["MnaSystem"]
+
+
+class MnaSystem(DaeSystem):
+    """MNA equations of a circuit.
+
+    Build with :func:`netdae.mna.assemble`; see that function for parameters.
+
+    Attributes
+    ----------
+    circuit : Circuit
+    layout : Layout
+        Unknown numbering (``layout.nodes``, ``layout.branches``).
+    sources : SourceVector
+        u(t), with the independent sources' names in column order of ``B``.
+    B : scipy.sparse.csc_matrix, shape (n, m)
+        Source incidence.
+    families : list of DeviceFamily
+    notes : list of str
+        Things the user should know about the assembly.
+    """
+
+    def __init__(self, circuit: Circuit, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
+                 B: sp.csc_matrix, sources: SourceVector, families: list[DeviceFamily],
+                 pattern: SparsePattern, notes: list[str]):
+        self.circuit = circuit
+        self.layout = layout
+        self.n = layout.n
+        self.names = layout.names
+        self.kinds = layout.kinds
+        self.pattern = pattern
+        self._E = E
+        self._H = H
+        self.B = B
+        self.sources = sources
+        self.families = families
+        self.linear = not families
+        self.notes = notes
+        self._dq_lin = pattern.data_of(E)
+        self._dphi_lin = pattern.data_of(H)
+        self._acc = Accumulator(self.n, pattern.nnz) if families else None
+        self._xext = np.zeros(self.n + 1)
+
+    # -- linear parts ------------------------------------------------------
+    @property
+    def E(self) -> sp.csc_matrix:
+        """Constant part of dq/dx (all of it for a linear circuit)."""
+        return self._E
+
+    @property
+    def H(self) -> sp.csc_matrix:
+        """Constant part of dphi/dx (all of it for a linear circuit)."""
+        return self._H
+
+    def source(self, t: float, derivative: int = 0) -> np.ndarray:
+        """``c(t) = B u(t)`` or its time derivative, shape (n,)."""
+        return self.B @ self.sources.values(t, derivative)
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        return self.sources.breakpoints(t0, t1)
+
+    def initial_state(self) -> Any:
+        """Limiting state of every family before a Newton solve."""
+        if not self.families:
+            return None
+        return tuple(f.initial_state() for f in self.families)
+
+    # -- the DAE -------------------------------------------------------------
+    def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
+        x = np.asarray(x, dtype=float)
+        q = self._E @ x
+        phi = self._H @ x
+        if self.sources.m:
+            u = self.sources.values(t)
+            phi += self.B @ (u if source_scale == 1.0 else source_scale * u)
+        if not self.families:
+            return Evaluation(
+                q=q, phi=phi,
+                dq=self._dq_lin if jacobian else None,
+                dphi=self._dphi_lin if jacobian else None,
+            )
+        acc = self._acc
+        acc.reset(q, phi, self._dq_lin if jacobian else None, self._dphi_lin if jacobian else None)
+        xe = self._xext
+        xe[: self.n] = x
+        states = state if state is not None else self.initial_state()
+        new_states = tuple(
+            fam.evaluate(xe, t, acc, st, jacobian) for fam, st in zip(self.families, states)
+        )
+        return Evaluation(
+            q=acc.q[: self.n].copy(),
+            phi=acc.phi[: self.n].copy(),
+            dq=acc.dq[: self.pattern.nnz].copy() if jacobian else None,
+            dphi=acc.dphi[: self.pattern.nnz].copy() if jacobian else None,
+            limited=acc.limited,
+            state=new_states,
+            ok=acc.ok,
+        )
+
+    # -- names -----------------------------------------------------------------
+    def node_index(self, node: str) -> int:
+        """Unknown index of a node name (``-1`` for ground).
+
+        Raises
+        ------
+        KeyError
+        """
+        return self.layout.node(node.lower())
+
+    def describe(self) -> dict:
+        """Sizes for reports: unknowns, nodes, branches, non-zeros, linear."""
+        return {
+            "n_unknowns": self.n,
+            "n_nodes": len(self.layout.nodes),
+            "n_branches": len(self.layout.branches),
+            "nnz": self.pattern.nnz,
+            "linear": self.linear,
+        }
