@@ -6,24 +6,11 @@ import numpy as np
 import pytest
 
 from netdae.analyses.op import operating_point
-from netdae.circuit import Circuit, Element, SourceSpec
+from netdae.circuit import Element
 from netdae.errors import CircuitError
 from netdae.mna import assemble
 
-
-def mk(name, kind, nodes, value=None, **kw):
-    if kind in ("vsource", "isource"):
-        return Element(name, kind, tuple(nodes), source=SourceSpec(dc=value, **kw.pop("src", {})), **kw)
-    return Element(name, kind, tuple(nodes), value, **kw)
-
-
-def circuit(*elements, title="t"):
-    nodes = []
-    for el in elements:
-        for nd in el.nodes:
-            if nd != "0" and nd not in nodes:
-                nodes.append(nd)
-    return Circuit(title, elements=list(elements), nodes=nodes)
+from helpers import circuit, mk
 
 
 def op(*elements):

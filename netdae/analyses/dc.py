@@ -1,0 +1,136 @@
+"""DC sweep (``.dc SRC start stop step [SRC2 start2 stop2 step2]``).
+
+Sweeps the DC value of one or two independent sources (or the circuit
+temperature, ``temp``), solving the operating point at every point with the
+previous solution as the initial guess (continuation). As in ngspice the first
+sweep is the inner loop.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..circuit import Circuit, DcAnalysis, DcSweep
+from ..errors import CircuitError, NetdaeError
+from ..mna import MODE_DC, assemble
+from ..results import Result
+from .op import solve_operating_point, steady_options
+
+__all__ = ["sweep_values", "dc_sweep"]
+
+#: Slack, in units of the step, that keeps the stop value in the sweep despite rounding.
+STEP_SLACK = 1e-9
+
+
+def sweep_values(sw: DcSweep) -> np.ndarray:
+    """Values of one sweep: start, start + step, ... up to stop inclusive.
+
+    Raises
+    ------
+    NetdaeError
+        For a zero step (unless start == stop) or a step pointing away from stop.
+
+    Examples
+    --------
+    >>> sweep_values(DcSweep("v1", 0.0, 1.0, 0.25)).tolist()
+    [0.0, 0.25, 0.5, 0.75, 1.0]
+    >>> sweep_values(DcSweep("v1", 1.0, 0.0, -0.5)).tolist()
+    [1.0, 0.5, 0.0]
+    """
+    if sw.step == 0.0:
+        if sw.start == sw.stop:
+            return np.array([sw.start])
+        raise NetdaeError(f".dc {sw.source}: the step is zero")
+    count = (sw.stop - sw.start) / sw.step
+    if count < -STEP_SLACK:
+        raise NetdaeError(
+            f".dc {sw.source}: the step {sw.step:g} points away from stop {sw.stop:g} (start {sw.start:g})"
+        )
+    k = np.arange(int(np.floor(count + STEP_SLACK)) + 1)
+    return sw.start + k * sw.step
+
+
+def _check_source(circuit: Circuit, name: str) -> None:
+    if name == "temp":
+        return
+    try:
+        el = circuit.element(name)
+    except KeyError:
+        raise CircuitError(f".dc: there is no source named '{name}'", elements=(name,)) from None
+    if el.kind not in ("vsource", "isource"):
+        raise CircuitError(
+            f".dc: '{name}' is a {el.kind}; netdae sweeps independent V and I sources and temp",
+            elements=(name,),
+        )
+
+
+def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
+    """Run a ``.dc`` sweep.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    card : DcAnalysis
+        One or two sweeps (first is the inner loop).
+    **overrides
+        Operating-point tolerances.
+
+    Returns
+    -------
+    Result
+        ``analysis == "dc"``; axes: the swept values per point, named after the
+        sources (``"v1"``, then ``"v2"``); signals per unknown.
+
+    Raises
+    ------
+    CircuitError, ConvergenceError, NetdaeError
+
+    Notes
+    -----
+    One Newton solve per point, warm-started from the previous point. A
+    temperature sweep re-assembles the circuit at each temperature.
+    """
+    t_start = time.perf_counter()
+    sweeps = list(card.sweeps)
+    for sw in sweeps:
+        _check_source(circuit, sw.source)
+    grids = [sweep_values(sw) for sw in sweeps]
+    if len(sweeps) == 1:
+        points = [(v,) for v in grids[0]]
+    else:
+        points = [(v1, v2) for v2 in grids[1] for v1 in grids[0]]
+    names = [sw.source for sw in sweeps]
+    opts = steady_options(circuit, **overrides)
+
+    sweeps_temp = "temp" in names
+    system = None if sweeps_temp else assemble(circuit, mode=MODE_DC)
+    x = None
+    rows = []
+    iterations = 0
+    for values in points:
+        if sweeps_temp:
+            temp = values[names.index("temp")]
+            system = assemble(replace(circuit, options=replace(circuit.options, temp=temp)), mode=MODE_DC)
+            x = None if x is None or x.size != system.n else x
+        for name, v in zip(names, values):
+            if name != "temp":
+                system.sources.set_value(name, v)
+        res = solve_operating_point(system, options=opts, x0=x)
+        iterations += res.iterations
+        x = res.x
+        rows.append(x.copy())
+    X = np.array(rows)
+    axes = {name: np.array([p[i] for p in points]) for i, name in enumerate(names)}
+    return Result(
+        "dc",
+        axes=axes,
+        signals={name: X[:, i] for i, name in enumerate(system.names)},
+        stats={"points": len(points), "newton": iterations, "wall_time": time.perf_counter() - t_start,
+               **system.describe()},
+        message="ok",
+        tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol},
+        notes=list(system.notes),
+    )
