@@ -1,0 +1,239 @@
+"""Results as CSV files, named as ngspice names signals, exact to the last bit.
+
+Layout
+------
+One header row of column names, then one row per point, comma separated:
+
+- the axis columns first: ``time`` (tran), ``frequency`` (ac), or the swept
+  sources of a ``.dc`` (``v1``, then ``v2`` for a nested sweep);
+- then the signals in the result's order: ``v(node)``, ``i(element)``;
+- ac signals are complex and written losslessly as two columns,
+  ``re(v(out))`` and ``im(v(out))``;
+- an operating point has no axis: its file is the header and **one row**, a
+  column per signal.
+
+Numbers are written with Python's ``repr`` (the shortest text that reads back
+as the same double), so :func:`read_csv` returns bit-identical arrays;
+``nan`` and ``inf`` are written as such.
+
+:func:`read_csv` tells the analysis from the header: ``time`` first means
+tran, ``frequency`` first means ac; otherwise the leading columns whose names
+carry no parenthesis are the axes of a dc sweep, and a header whose first
+column already has one (``v(out)``) is an operating point.
+
+Examples
+--------
+>>> import io, numpy as np
+>>> from netdae.results import Result
+>>> r = Result("ac", axes={"frequency": np.array([1.0, 10.0])},
+...            signals={"v(out)": np.array([1 + 0.1j, 0.5 - 0.5j])})
+>>> print(format_csv(r), end="")
+frequency,re(v(out)),im(v(out))
+1.0,1.0,0.1
+10.0,0.5,-0.5
+>>> parse_csv(format_csv(r)).signals["v(out)"]
+array([1. +0.1j, 0.5-0.5j])
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import NetdaeError
+from ..results import Result
+
+__all__ = ["write_csv", "read_csv", "format_csv", "parse_csv"]
+
+_SEPARATOR = ","
+
+
+def format_csv(result: Result) -> str:
+    """Format one result as CSV text (see the module docstring for the layout).
+
+    Parameters
+    ----------
+    result : Result
+        An ``op``, ``dc``, ``ac`` or ``tran`` result.
+
+    Returns
+    -------
+    str
+        The text, ending with a newline.
+
+    Raises
+    ------
+    NetdaeError
+        When axes and signals have different lengths, an op result has an
+        axis, or a name contains a comma or a line break.
+    """
+    columns: list[tuple[str, np.ndarray]] = []
+    for name, values in result.axes.items():
+        values = np.asarray(values)
+        if np.iscomplexobj(values):
+            raise NetdaeError(f"cannot write CSV: the axis {name!r} is complex")
+        columns.append((name, values))
+    if result.analysis == "op" and columns:
+        raise NetdaeError("cannot write CSV: an op result has no axis, this one has " + ", ".join(result.axes))
+    for name, values in result.signals.items():
+        values = np.asarray(values)
+        if np.iscomplexobj(values):
+            columns += [(f"re({name})", values.real), (f"im({name})", values.imag)]
+        else:
+            columns.append((name, values))
+    if not columns:
+        raise NetdaeError(f"cannot write CSV: the {result.analysis} result has no data")
+    length = len(columns[0][1])
+    for name, values in columns:
+        if _SEPARATOR in name or "\n" in name or "\r" in name or not name:
+            raise NetdaeError(f"cannot write CSV: column name {name!r} contains a separator or line break")
+        if values.ndim != 1 or len(values) != length:
+            raise NetdaeError(
+                f"cannot write CSV: {name!r} has shape {values.shape}, expected ({length},) "
+                f"like {columns[0][0]!r}"
+            )
+    header = _SEPARATOR.join(name for name, _ in columns)
+    table = np.column_stack([values.astype(np.float64) for _, values in columns])
+    rows = [_SEPARATOR.join(map(repr, row)) for row in table.tolist()]
+    return "\n".join([header, *rows]) + "\n"
+
+
+def write_csv(path: str | os.PathLike, result: Result) -> None:
+    """Write one result to a CSV file (layout in the module docstring).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (overwritten).
+    result : Result
+        An ``op``, ``dc``, ``ac`` or ``tran`` result.
+
+    Raises
+    ------
+    NetdaeError
+        When the result cannot be written (see :func:`format_csv`) or the file
+        cannot be created.
+    """
+    text = format_csv(result)
+    try:
+        with open(path, "w", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
+    except OSError as exc:
+        raise NetdaeError(f"{path}: cannot write CSV file: {exc.strerror}") from None
+
+
+def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = None) -> Result:
+    """Parse CSV text written by :func:`format_csv`.
+
+    Parameters
+    ----------
+    text : str
+        The whole file.
+    source : str
+        Name used in error messages.
+    analysis : str, optional
+        ``"op"``, ``"dc"``, ``"ac"`` or ``"tran"``; inferred from the header
+        when omitted.
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    NetdaeError
+        With ``source:line`` when a row has the wrong number of fields, a
+        field is not a number, or ``re(x)``/``im(x)`` columns do not pair up.
+    """
+    lines = text.splitlines()
+    if not lines or not lines[0].strip():
+        raise NetdaeError(f"{source}:1: empty CSV file, expected a header row")
+    names = [n.strip().lower() for n in lines[0].split(_SEPARATOR)]
+    if len(set(names)) != len(names) or not all(names):
+        raise NetdaeError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
+    rows = []
+    for number, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        fields = line.split(_SEPARATOR)
+        if len(fields) != len(names):
+            raise NetdaeError(f"{source}:{number}: {len(fields)} fields, expected {len(names)} as in the header")
+        try:
+            rows.append([float(f) for f in fields])
+        except ValueError as exc:
+            raise NetdaeError(f"{source}:{number}: not a number ({exc})") from None
+    table = np.array(rows, dtype=np.float64).reshape(len(rows), len(names))
+    kind, n_axes = _layout(names, analysis, source)
+    if kind == "op" and len(rows) != 1:
+        raise NetdaeError(f"{source}: an op result has one row, this file has {len(rows)}")
+    axes = {names[k]: table[:, k].copy() for k in range(n_axes)}
+    signals: dict[str, np.ndarray] = {}
+    k = n_axes
+    while k < len(names):
+        name = names[k]
+        if name.startswith("re(") and name.endswith(")"):
+            inner = name[3:-1]
+            if k + 1 >= len(names) or names[k + 1] != f"im({inner})":
+                raise NetdaeError(f"{source}:1: column {name!r} is not followed by 'im({inner})'")
+            signals[inner] = table[:, k] + 1j * table[:, k + 1]
+            k += 2
+        elif name.startswith("im(") and name.endswith(")"):
+            raise NetdaeError(f"{source}:1: column {name!r} is not preceded by 're({name[3:-1]})'")
+        else:
+            signals[name] = table[:, k].copy()
+            k += 1
+    return Result(kind, axes=axes, signals=signals, extra={"source": source})
+
+
+def read_csv(path: str | os.PathLike, *, analysis: str | None = None) -> Result:
+    """Read a CSV file written by :func:`write_csv`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    analysis : str, optional
+        Overrides the analysis inferred from the header.
+
+    Returns
+    -------
+    Result
+        Bit-identical to the result that was written.
+
+    Raises
+    ------
+    NetdaeError
+        When the file cannot be read or is malformed (see :func:`parse_csv`).
+    """
+    try:
+        with open(path, encoding="utf-8") as handle:
+            text = handle.read()
+    except OSError as exc:
+        raise NetdaeError(f"{path}: cannot read CSV file: {exc.strerror}") from None
+    return parse_csv(text, os.fspath(path), analysis=analysis)
+
+
+def _layout(names: list[str], analysis: str | None, source: str) -> tuple[str, int]:
+    """The analysis and number of axis columns of a header."""
+    leading = 0
+    while leading < len(names) and "(" not in names[leading] and not names[leading].startswith("@"):
+        leading += 1
+    if analysis is None:
+        if names[0] == "time":
+            analysis = "tran"
+        elif names[0] == "frequency":
+            analysis = "ac"
+        elif leading == 0:
+            analysis = "op"
+        else:
+            analysis = "dc"
+    if analysis in ("tran", "ac"):
+        return analysis, 1
+    if analysis == "op":
+        return analysis, 0
+    if analysis == "dc":
+        if leading == 0:
+            raise NetdaeError(f"{source}:1: a dc result needs its swept source(s) first, e.g. 'v1'")
+        return analysis, leading
+    raise NetdaeError(f"{source}: unknown analysis {analysis!r} (op, dc, ac, tran)")

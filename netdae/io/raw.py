@@ -1,0 +1,677 @@
+"""ngspice raw files: read and write, binary and ascii.
+
+A raw file is a sequence of *plots*, each a text header followed by its data::
+
+    Title: rc test
+    Date: Sat Nov 21 06:06:04  2026
+    Plotname: Transient Analysis
+    Flags: real
+    No. Variables: 3
+    No. Points: 126
+    Variables:
+    \t0\ttime\ttime
+    \t1\tv(out)\tvoltage
+    \t2\ti(v1)\tcurrent
+    Binary:
+    <126 rows of 3 little-endian doubles>
+
+``Values:`` instead of ``Binary:`` announces ascii rows (``index<TAB>value``
+then one ``<TAB>value`` line per further variable; ``re,im`` when complex).
+In a ``complex`` plot every variable, the scale included, is stored as a
+(real, imaginary) pair. The first variable is the plot's *scale* (``time``,
+``frequency``, ``v(v-sweep)``); an operating point has no scale, its first
+variable is an ordinary signal.
+
+Each plot becomes one :class:`~netdae.results.Result`, named in netdae's
+scheme (ngspice's own, lower case):
+
+==============================  =========  =====================================
+Plotname                        analysis   axis
+==============================  =========  =====================================
+``Operating Point``             ``op``     none
+``Transient Analysis``          ``tran``   ``time``
+``AC Analysis``                 ``ac``     ``frequency`` (real part)
+``DC transfer characteristic``  ``dc``     ``v-sweep``, ``i-sweep``, ``res-sweep``,
+                                           ``temp-sweep`` (ngspice does not say which
+                                           source it swept)
+==============================  =========  =====================================
+
+Signals: ``v(node)`` and ``i(element)`` are kept; a bare node name of type
+``voltage`` (what ngspice's ``write`` command produces) becomes ``v(node)``
+and ``name#branch`` becomes ``i(name)``; other names (``@r1[i]``) stay as
+written, lower-cased.
+
+Files netdae writes keep a swept source's own name (``v1``) for a dc axis;
+further axes of a nested sweep are stored as the variables that follow the
+scale and listed in an ``Option: netdae_axes = ( v1 v2 )`` header line, which
+ngspice stores as a plot variable and otherwise ignores.
+
+Examples
+--------
+>>> import numpy as np
+>>> from netdae.results import Result
+>>> r = Result("tran", axes={"time": np.array([0.0, 1e-3])},
+...            signals={"v(out)": np.array([0.0, 0.5])})
+>>> blob = format_raw([r], title="demo", date="today")
+>>> [(p.analysis, p.names()) for p in parse_raw(blob)]
+[('tran', ['v(out)'])]
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import NetdaeError
+from ..results import Result
+
+__all__ = [
+    "read_raw",
+    "write_raw",
+    "parse_raw",
+    "format_raw",
+    "signal_name",
+    "PLOTNAMES",
+]
+
+#: ngspice plot names and the netdae analysis each one holds.
+PLOTNAMES = {
+    "operating point": "op",
+    "transient analysis": "tran",
+    "ac analysis": "ac",
+    "dc transfer characteristic": "dc",
+}
+#: Plot names written for each analysis (ngspice's spelling).
+_PLOTNAME_OF = {
+    "op": "Operating Point",
+    "tran": "Transient Analysis",
+    "ac": "AC Analysis",
+    "dc": "DC transfer characteristic",
+}
+#: Scale names ngspice writes for a dc sweep (``v(v-sweep)`` in a raw file,
+#: ``v-sweep`` in the shared library) and netdae's name for them.
+_SWEEP_NAMES = {
+    "v(v-sweep)": "v-sweep",
+    "v-sweep": "v-sweep",
+    "i(i-sweep)": "i-sweep",
+    "i-sweep": "i-sweep",
+    "res-sweep": "res-sweep",
+    "temp-sweep": "temp-sweep",
+}
+#: Header line announcing the axes of a nested dc sweep (netdae's files only).
+_AXES_OPTION = "netdae_axes"
+#: Bytes per stored double (ngspice writes native little-endian IEEE doubles).
+_DOUBLE = np.dtype("<f8")
+#: Digits written to ascii files: 17 significant digits round-trip any double
+#: (ngspice itself writes 16, ``%.15e``, which is not always exact).
+_ASCII_FORMAT = "%.16e"
+_DATE_FORMAT = "%a %b %d %H:%M:%S  %Y"  # ngspice's datestring()
+
+
+def signal_name(name: str, vtype: str) -> str:
+    """Translate an ngspice vector name into netdae's signal name.
+
+    Parameters
+    ----------
+    name : str
+        The name as ngspice writes it (raw file) or stores it (shared library):
+        ``v(out)``, ``out``, ``i(v1)``, ``v1#branch``, ``@r1[i]``.
+    vtype : str
+        ngspice's type name of the vector (``voltage``, ``current``, ...).
+
+    Returns
+    -------
+    str
+        Lower-case ``v(node)``, ``i(element)``, or the name itself when it is
+        neither (internal device parameters ``@r1[i]``, other types).
+
+    Examples
+    --------
+    >>> signal_name("L.XA.X1.L1#branch", "current"), signal_name("xa.x1.mid", "voltage")
+    ('i(l.xa.x1.l1)', 'v(xa.x1.mid)')
+    >>> signal_name("V(OUT)", "voltage"), signal_name("@r1[i]", "current")
+    ('v(out)', '@r1[i]')
+    """
+    key = name.strip().lower()
+    if key.startswith("@") or (len(key) > 3 and key[1] == "(" and key.endswith(")")):
+        return key
+    if key.endswith("#branch"):
+        return f"i({key[: -len('#branch')]})"
+    if vtype == "voltage":
+        return f"v({key})"
+    if vtype == "current":
+        return f"i({key})"
+    return key
+
+
+def _axis_name(name: str) -> str:
+    key = name.strip().lower()
+    return _SWEEP_NAMES.get(key, key)
+
+
+# ---------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class _Header:
+    title: str = ""
+    date: str = ""
+    plotname: str = ""
+    flags: list[str] = field(default_factory=list)
+    nvars: int | None = None
+    npoints: int | None = None
+    dimensions: str | None = None
+    commands: list[str] = field(default_factory=list)
+    options: list[str] = field(default_factory=list)
+    unknown: list[str] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+    types: list[str] = field(default_factory=list)
+    lengths: list[int | None] = field(default_factory=list)
+
+    @property
+    def complex(self) -> bool:
+        return "complex" in self.flags
+
+    @property
+    def padded(self) -> bool:
+        return "unpadded" not in self.flags
+
+
+class _Reader:
+    """Walks the bytes of a raw file, one plot at a time."""
+
+    def __init__(self, data: bytes, source: str) -> None:
+        self.data = data
+        self.source = source
+        self.pos = 0
+        self.line_no = 1
+
+    def error(self, message: str, line: int | None = None) -> NetdaeError:
+        where = f"{self.source}:{self.line_no if line is None else line}"
+        return NetdaeError(f"{where}: not a readable ngspice raw file: {message}")
+
+    def at_end(self) -> bool:
+        rest = self.data[self.pos :]
+        return not rest.strip()
+
+    def skip_blank(self) -> None:
+        while self.pos < len(self.data) and self.data[self.pos : self.pos + 1] in (b"\n", b"\r", b" ", b"\t"):
+            if self.data[self.pos : self.pos + 1] == b"\n":
+                self.line_no += 1
+            self.pos += 1
+
+    def next_line(self) -> str | None:
+        if self.pos >= len(self.data):
+            return None
+        end = self.data.find(b"\n", self.pos)
+        if end < 0:
+            end = len(self.data)
+        raw = self.data[self.pos : end]
+        self.pos = end + 1
+        self.line_no += 1
+        try:
+            return raw.decode("utf-8").rstrip("\r")
+        except UnicodeDecodeError as exc:
+            raise self.error(f"header line is not text ({exc.reason})", self.line_no - 1) from None
+
+    def header(self) -> tuple[_Header, str]:
+        """Read header lines up to and including ``Binary:``/``Values:``."""
+        head = _Header()
+        first_line = self.line_no
+        while True:
+            line = self.next_line()
+            if line is None:
+                raise self.error("header ends before 'Binary:' or 'Values:'", first_line)
+            key, _, value = line.partition(":")
+            key = key.strip().lower()
+            value = value.strip()
+            if not line.strip():
+                continue
+            if key == "title":
+                head.title = value
+            elif key == "date":
+                head.date = value
+            elif key == "plotname":
+                head.plotname = value
+            elif key == "flags":
+                head.flags = value.lower().split()
+            elif key == "no. variables":
+                head.nvars = self._int(value, "No. Variables")
+            elif key == "no. points":
+                head.npoints = self._int(value, "No. Points")
+            elif key == "dimensions":
+                head.dimensions = value
+            elif key == "command":
+                head.commands.append(value)
+            elif key == "option":
+                head.options.append(value)
+            elif key == "variables":
+                self._variables(head, value)
+            elif key in ("binary", "values"):
+                if not head.names:
+                    raise self.error(f"'{key}:' before 'Variables:'", self.line_no - 1)
+                return head, key
+            else:
+                head.unknown.append(line)
+
+    def _int(self, text: str, what: str) -> int:
+        try:
+            value = int(text.split()[0])
+        except (ValueError, IndexError):
+            raise self.error(f"{what}: expected a count, got {text!r}", self.line_no - 1) from None
+        if value < 0:
+            raise self.error(f"{what}: negative count {value}", self.line_no - 1)
+        return value
+
+    def _variables(self, head: _Header, rest: str) -> None:
+        if head.nvars is None or head.npoints is None:
+            raise self.error("'Variables:' before 'No. Variables:' and 'No. Points:'", self.line_no - 1)
+        if head.nvars == 0:
+            raise self.error("a plot without variables", self.line_no - 1)
+        lines = [rest] if rest else []
+        while len(lines) < head.nvars:
+            line = self.next_line()
+            if line is None:
+                raise self.error(f"file ends inside the {head.nvars} variable lines")
+            lines.append(line)
+        for k, line in enumerate(lines):
+            fields = line.split()
+            if len(fields) < 3 or fields[0] != str(k):
+                raise self.error(
+                    f"variable line {k}: expected '<index> <name> <type>', got {line.strip()!r}",
+                    self.line_no - len(lines) + k,
+                )
+            head.names.append(fields[1])
+            head.types.append(fields[2].lower())
+            head.lengths.append(_dims_length(fields[3:]))
+
+
+def _dims_length(attributes: list[str]) -> int | None:
+    for attr in attributes:
+        key, _, value = attr.partition("=")
+        if key.lower() == "dims" and value:
+            length = 1
+            for part in value.split(","):
+                length *= int(part)
+            return length
+    return None
+
+
+def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
+    """Parse the contents of a raw file.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole file.
+    source : str
+        Name used in error messages and notes (the file's path).
+
+    Returns
+    -------
+    list of Result
+        One per plot, in file order. ``extra`` holds ``title``, ``date``,
+        ``plotname``, ``flags``, ``commands`` and ``options`` (the
+        ``Command:``/``Option:`` lines, never executed), ``variable_types``
+        (signal name to ngspice's type) and ``points_announced``.
+
+    Raises
+    ------
+    NetdaeError
+        When the file is not a raw file, a plot is not one of op, tran, ac, dc,
+        or the data of a plot other than the last is incomplete.
+
+    Notes
+    -----
+    A run that is cut short (killed, or stopped by an error) leaves a header
+    whose ``No. Points`` is wrong: ngspice writes an estimate (often 0) and
+    corrects it only when the analysis ends. The last plot of a file is
+    therefore read up to the last complete point actually present, and a note
+    says so when that differs from the announced count. Cost: one pass over
+    the data; binary data is converted with one ``numpy.frombuffer``.
+    """
+    reader = _Reader(data, source)
+    results: list[Result] = []
+    while True:
+        reader.skip_blank()
+        if reader.at_end():
+            break
+        head, kind = reader.header()
+        if kind == "binary":
+            table, notes = _binary_table(reader, head)
+        else:
+            table, notes = _ascii_table(reader, head)
+        results.append(_to_result(head, table, notes, source))
+    if not results:
+        raise NetdaeError(f"{source}: not a readable ngspice raw file: no plot in it")
+    return results
+
+
+def read_raw(path: str | os.PathLike) -> list[Result]:
+    """Read an ngspice raw file (binary or ascii, one or more plots).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+
+    Returns
+    -------
+    list of Result
+        One per plot, in file order (see :func:`parse_raw`).
+
+    Raises
+    ------
+    NetdaeError
+        When the file cannot be read or is not a raw file.
+    """
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read()
+    except OSError as exc:
+        raise NetdaeError(f"{path}: cannot read raw file: {exc.strerror}") from None
+    return parse_raw(data, os.fspath(path))
+
+
+def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]:
+    """Read binary rows; returns an (m, nvars) float or complex array."""
+    nvars = head.nvars
+    width = 2 if head.complex else 1
+    lengths = [head.npoints if n is None else n for n in head.lengths]
+    start = reader.pos
+    available = len(reader.data) - start
+    notes: list[str] = []
+    if head.padded:
+        row = nvars * width * _DOUBLE.itemsize
+        announced_end = start + head.npoints * row
+        follows = reader.data[announced_end:].lstrip()
+        if announced_end <= len(reader.data) and (not follows or follows.startswith(b"Title:")):
+            npoints = head.npoints
+        else:
+            npoints = available // row
+            notes.append(
+                f"{head.plotname}: the header announces {head.npoints} points, the file holds "
+                f"{npoints} complete points (the run was cut short); read those"
+            )
+            if not _is_last(reader.data, start + npoints * row):
+                raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows")
+        flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=npoints * nvars * width, offset=start)
+        # a plot cut short is the last one: a trailing partial point is dropped
+        reader.pos = start + npoints * row if npoints == head.npoints else len(reader.data)
+        mask = np.ones((npoints, nvars), dtype=bool)
+    else:
+        npoints = max(lengths) if lengths else 0
+        mask = np.arange(npoints)[:, None] < np.asarray(lengths)[None, :]
+        count = int(mask.sum()) * width
+        have = min(count, available // _DOUBLE.itemsize)
+        if have < count:
+            notes.append(f"{head.plotname}: unpadded data ends early (the run was cut short)")
+            npoints = _complete_rows(mask, have // width)
+            mask = mask[:npoints]
+            have = int(mask.sum()) * width
+        flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=have, offset=start)
+        reader.pos = start + have * _DOUBLE.itemsize if have == count else len(reader.data)
+    values = flat[0::2] + 1j * flat[1::2] if head.complex else flat
+    table = np.full(mask.shape, np.nan, dtype=values.dtype)
+    table[mask] = values
+    return table, notes
+
+
+def _complete_rows(mask: np.ndarray, values: int) -> int:
+    """Number of leading rows of ``mask`` whose entries fit in ``values``."""
+    per_row = np.cumsum(mask.sum(axis=1))
+    return int(np.searchsorted(per_row, values, side="right"))
+
+
+def _is_last(data: bytes, pos: int) -> bool:
+    return b"\nPlotname:" not in data[pos:] and not data[pos:].lstrip().startswith(b"Title:")
+
+
+_HEADER_START = re.compile(rb"^[A-Za-z]", re.M)
+
+
+def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]:
+    """Read ``Values:`` rows up to the next header line or the end."""
+    start = reader.pos
+    match = _HEADER_START.search(reader.data, start)
+    end = match.start() if match else len(reader.data)
+    text = reader.data[start:end].decode("ascii", errors="replace")
+    first_line = reader.line_no
+    reader.line_no += text.count("\n")
+    reader.pos = end
+    nvars = head.nvars
+    width = 2 if head.complex else 1
+    tokens = text.replace(",", " ").split() if head.complex else text.split()
+    per_point = 1 + nvars * width
+    npoints = len(tokens) // per_point
+    notes: list[str] = []
+    if not head.padded and len(set(n for n in head.lengths if n is not None)) > 1:
+        raise reader.error("unpadded ascii plots with vectors of different lengths", first_line)
+    if npoints != head.npoints or len(tokens) % per_point:
+        if match is not None and npoints < head.npoints:
+            raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows", first_line)
+        notes.append(
+            f"{head.plotname}: the header announces {head.npoints} points, the file holds "
+            f"{npoints} complete points (the run was cut short); read those"
+        )
+    grid = np.asarray(tokens[: npoints * per_point], dtype=object).reshape(npoints, per_point)
+    try:
+        index = grid[:, 0].astype(np.int64) if npoints else np.zeros(0, dtype=np.int64)
+        numbers = grid[:, 1:].astype(np.float64)
+    except ValueError as exc:
+        raise reader.error(f"bad number in 'Values:' ({exc})", first_line) from None
+    if not np.array_equal(index, np.arange(npoints)):
+        bad = int(np.argmax(index != np.arange(npoints)))
+        raise reader.error(f"point {bad} is numbered {index[bad]} in 'Values:'", first_line)
+    table = numbers[:, 0::2] + 1j * numbers[:, 1::2] if head.complex else numbers
+    return table, notes
+
+
+def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) -> Result:
+    analysis = PLOTNAMES.get(head.plotname.lower())
+    if analysis is None:
+        raise NetdaeError(
+            f"{source}: plot '{head.plotname}' is not an analysis netdae reads "
+            f"(it reads: {', '.join(_PLOTNAME_OF.values())})"
+        )
+    names = [n.lower() for n in head.names]
+    lengths = [table.shape[0] if n is None else min(n, table.shape[0]) for n in head.lengths]
+    columns = [table[: lengths[k], k] for k in range(len(names))]
+    n_axes = 0 if analysis == "op" else _count_axes(head.options, names)
+    axes: dict[str, np.ndarray] = {}
+    signals: dict[str, np.ndarray] = {}
+    types: dict[str, str] = {}
+    for k, (name, vtype, column) in enumerate(zip(names, head.types, columns)):
+        if k < n_axes:
+            key = _axis_name(name)
+            if np.iscomplexobj(column):
+                if np.any(column.imag != 0.0):
+                    notes.append(f"{head.plotname}: the imaginary part of the scale '{key}' is not zero "
+                                 "(ngspice writes uninitialised values there); its real part is used")
+                column = column.real.copy()
+            axes[key] = column
+        else:
+            key = signal_name(name, vtype)
+            if key in signals:
+                raise NetdaeError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
+            signals[key] = column.copy()
+        types[key] = vtype
+    extra = {
+        "title": head.title,
+        "date": head.date,
+        "plotname": head.plotname,
+        "flags": list(head.flags),
+        "commands": list(head.commands),
+        "options": list(head.options),
+        "dimensions": head.dimensions,
+        "variable_types": types,
+        "points_announced": head.npoints,
+        "source": source,
+    }
+    if head.unknown:
+        extra["unknown_header_lines"] = list(head.unknown)
+        notes.append(f"{head.plotname}: header lines netdae does not know were kept in "
+                     f"extra['unknown_header_lines']: {head.unknown}")
+    return Result(analysis, axes=axes, signals=signals, notes=notes, extra=extra)
+
+
+def _count_axes(options: list[str], names: list[str]) -> int:
+    for option in options:
+        key, _, value = option.partition("=")
+        if key.strip().lower() == _AXES_OPTION:
+            listed = value.replace("(", " ").replace(")", " ").lower().split()
+            if listed and listed == names[: len(listed)]:
+                return len(listed)
+    return 1
+
+
+# ---------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------
+
+
+def _vector_type(name: str, axis: bool) -> str:
+    if name == "time":
+        return "time"
+    if name == "frequency":
+        return "frequency"
+    if name in ("res-sweep", "temp-sweep"):
+        return name
+    if axis:
+        # a dc sweep axis is named by its source: v1, i2, r3 or temp
+        return {"v": "voltage", "i": "current", "r": "res-sweep"}.get(name[:1], "temp-sweep" if name == "temp" else "notype")
+    if name.startswith("v("):
+        return "voltage"
+    if name.startswith("i("):
+        return "current"
+    return "notype"
+
+
+def format_raw(
+    results: Result | list[Result],
+    *,
+    binary: bool = True,
+    title: str = "netdae",
+    date: str | None = None,
+) -> bytes:
+    """Format results as the bytes of an ngspice raw file.
+
+    Parameters
+    ----------
+    results : Result or list of Result
+        Analyses ``op``, ``tran``, ``ac`` or ``dc``; one plot each, in order.
+    binary : bool
+        Little-endian doubles (ngspice's default, exact) or ascii ``Values:``
+        with 17 significant digits (also exact).
+    title : str
+        The ``Title:`` line.
+    date : str, optional
+        The ``Date:`` line; now, in ngspice's format, by default.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    NetdaeError
+        When a result is not an analysis a raw file can hold, or its axes and
+        signals have different lengths.
+    """
+    if isinstance(results, Result):
+        results = [results]
+    if date is None:
+        date = _dt.datetime.now().strftime(_DATE_FORMAT)
+    title = " ".join(title.split())
+    return b"".join(_format_plot(r, binary, title, date) for r in results)
+
+
+def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
+    plotname = _PLOTNAME_OF.get(result.analysis)
+    if plotname is None:
+        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc only)")
+    if not result.signals and not result.axes:
+        raise NetdaeError(f"cannot write an empty '{result.analysis}' result to a raw file")
+    known_types = result.extra.get("variable_types", {}) if isinstance(result.extra, dict) else {}
+    columns = [(name, np.asarray(v), True) for name, v in result.axes.items()]
+    columns += [(name, np.asarray(v), False) for name, v in result.signals.items()]
+    npoints = len(columns[0][1])
+    for name, values, _ in columns:
+        if values.ndim != 1 or len(values) != npoints:
+            raise NetdaeError(
+                f"cannot write '{result.analysis}' result: {name!r} has shape {values.shape}, "
+                f"expected ({npoints},) like {columns[0][0]!r}"
+            )
+        if any(c.isspace() for c in name) or not name:
+            raise NetdaeError(f"cannot write a vector named {name!r} to a raw file (no blanks allowed)")
+    is_complex = any(np.iscomplexobj(v) for _, v, _ in columns)
+    lines = [
+        f"Title: {title}",
+        f"Date: {date}",
+        f"Plotname: {plotname}",
+        f"Flags: {'complex' if is_complex else 'real'}",
+        f"No. Variables: {len(columns)}",
+        f"No. Points: {npoints}",
+    ]
+    if len(result.axes) > 1:
+        lines.append(f"Option: {_AXES_OPTION} = ( {' '.join(result.axes)} )")
+    lines.append("Variables:")
+    for k, (name, _, axis) in enumerate(columns):
+        vtype = known_types.get(name) or _vector_type(name, axis)
+        lines.append(f"\t{k}\t{name}\t{vtype}")
+    width = 2 if is_complex else 1
+    table = np.empty((npoints, len(columns) * width), dtype=_DOUBLE)
+    for k, (_, values, _) in enumerate(columns):
+        if is_complex:
+            table[:, 2 * k] = values.real
+            table[:, 2 * k + 1] = values.imag if np.iscomplexobj(values) else 0.0
+        else:
+            table[:, k] = values
+    if binary:
+        lines.append("Binary:")
+        return ("\n".join(lines) + "\n").encode("utf-8") + table.tobytes()
+    lines.append("Values:")
+    body = []
+    for i in range(npoints):
+        cells = [_ASCII_FORMAT % x for x in table[i]]
+        if is_complex:
+            cells = [f"{cells[2 * k]},{cells[2 * k + 1]}" for k in range(len(columns))]
+        body.append(f" {i}\t" + "".join(f"\t{c}\n" for c in cells))
+    return ("\n".join(lines) + "\n" + "\n".join(body) + "\n").encode("utf-8")
+
+
+def write_raw(
+    path: str | os.PathLike,
+    results: Result | list[Result],
+    *,
+    binary: bool = True,
+    title: str = "netdae",
+    date: str | None = None,
+) -> None:
+    """Write results to an ngspice raw file that ngspice's ``load`` reads.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Output file (overwritten).
+    results, binary, title, date
+        As for :func:`format_raw`.
+
+    Raises
+    ------
+    NetdaeError
+        When a result cannot be written (see :func:`format_raw`) or the file
+        cannot be created.
+    """
+    data = format_raw(results, binary=binary, title=title, date=date)
+    try:
+        with open(path, "wb") as handle:
+            handle.write(data)
+    except OSError as exc:
+        raise NetdaeError(f"{path}: cannot write raw file: {exc.strerror}") from None
