@@ -7,11 +7,12 @@ must have a nonlinear family listed here.
 from __future__ import annotations
 
 from .base import DeviceFamily
+from .diode import DiodeFamily
 
 __all__ = ["FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = ()
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily,)
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:

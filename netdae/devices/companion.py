@@ -1,0 +1,193 @@
+"""Scatter of nonlinear branch currents and charges into the MNA system.
+
+A nonlinear device family is described, for all its instances at once, by
+
+- *controls*: node pairs ``(p_k, m_k)`` whose voltage differences
+  ``v_k = x[p_k] - x[m_k]`` the device equations depend on (``vbe``, ``vds`` ...);
+- *current branches*: node pairs ``(a_j, b_j)`` carrying a current ``i_j(v)``
+  from ``a_j`` through the device to ``b_j``;
+- *charge branches*: node pairs carrying a charge ``Q_j(v)`` stored on the
+  ``a_j`` side (``-Q_j`` on the ``b_j`` side), as a capacitor does;
+- the sparse dependence of each output on the controls: a list of
+  ``(output, control)`` pairs whose derivatives the family provides.
+
+:class:`BranchStamps` precomputes, once, every row and every Jacobian slot
+these imply, and then adds one evaluation into an
+:class:`~netdae.devices.base.Accumulator` with one ``bincount`` per array:
+``phi[a] -= i``, ``phi[b] += i``, ``q[a] += Q``, ``q[b] -= Q`` and the
+matching derivative entries.
+
+SPICE's companion model
+-----------------------
+When a family limits its control voltages (``pnjlim``), the outputs are
+evaluated at the limited voltages ``v_lim`` and continued linearly to the
+iterate's voltages ``v(x)``:
+
+    i(x) = i(v_lim) + di/dv (v_lim) (v(x) - v_lim),
+
+the same for the charges. The Newton step then solves exactly the linear
+circuit SPICE builds from its companion models (conductance ``g`` and
+current source ``i - g v_lim``), and at convergence ``v(x) = v_lim``.
+
+Sign conventions are those of :mod:`netdae.devices.base`.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .base import Accumulator, SlotMap
+
+__all__ = ["BranchStamps", "LimitState"]
+
+# row/column order of the four Jacobian entries of one (output, control) pair:
+# (a, p), (a, m), (b, p), (b, m)
+_CURRENT_SIGNS = np.array([-1.0, 1.0, 1.0, -1.0])[:, None, None]
+_CHARGE_SIGNS = -_CURRENT_SIGNS
+
+
+def _pairs(nodes) -> tuple[np.ndarray, np.ndarray]:
+    arr = np.asarray(nodes, dtype=np.int64)
+    if arr.size == 0:
+        return np.empty((0, 0), dtype=np.int64), np.empty((0, 0), dtype=np.int64)
+    return arr[:, 0, :], arr[:, 1, :]
+
+
+class BranchStamps:
+    """Rows and slots of a family's nonlinear branches, and their scatter.
+
+    Parameters
+    ----------
+    controls : array_like of int, shape (nc, 2, N)
+        ``controls[k] = (p_k, m_k)``: node indices (ground ``-1``) per instance.
+    currents : array_like of int, shape (ni, 2, N)
+        Current branches ``(a_j, b_j)``.
+    charges : array_like of int, shape (nq, 2, N)
+        Charge branches.
+    current_deps, charge_deps : sequence of (int, int)
+        ``(output j, control k)`` pairs with a non-zero derivative, in the
+        order the family returns the derivative rows.
+
+    Notes
+    -----
+    Memory: ``4 N`` slots per dependence pair. Each :meth:`add` costs a few
+    numpy calls over arrays of ``N`` times the number of pairs.
+    """
+
+    def __init__(self, controls, currents, charges, current_deps: Sequence[tuple[int, int]],
+                 charge_deps: Sequence[tuple[int, int]]):
+        self.ctrl_p, self.ctrl_m = _pairs(controls)
+        self.cur_a, self.cur_b = _pairs(currents)
+        self.chg_a, self.chg_b = _pairs(charges)
+        self.current_deps = np.asarray(current_deps, dtype=np.int64).reshape(-1, 2)
+        self.charge_deps = np.asarray(charge_deps, dtype=np.int64).reshape(-1, 2)
+        self.n_instances = self.ctrl_p.shape[1] if self.ctrl_p.size else 0
+        # 0/1 matrices summing per-dependence terms into their outputs (linearisation)
+        self._cur_sum = self._summation(self.current_deps, self.cur_a.shape[0])
+        self._chg_sum = self._summation(self.charge_deps, self.chg_a.shape[0])
+
+    @staticmethod
+    def _summation(deps: np.ndarray, n_out: int) -> np.ndarray:
+        mat = np.zeros((n_out, deps.shape[0]))
+        if deps.size:
+            mat[deps[:, 0], np.arange(deps.shape[0])] = 1.0
+        return mat
+
+    def _entries(self, a, b, deps) -> tuple[np.ndarray, np.ndarray]:
+        if deps.size == 0:
+            return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        j, k = deps[:, 0], deps[:, 1]
+        rows = np.stack([a[j], a[j], b[j], b[j]])
+        cols = np.stack([self.ctrl_p[k], self.ctrl_m[k], self.ctrl_p[k], self.ctrl_m[k]])
+        return rows, cols
+
+    def coordinates(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every (row, column) the branches write, ground included (index -1)."""
+        r1, c1 = self._entries(self.cur_a, self.cur_b, self.current_deps)
+        r2, c2 = self._entries(self.chg_a, self.chg_b, self.charge_deps)
+        return np.concatenate([r1.ravel(), r2.ravel()]), np.concatenate([c1.ravel(), c2.ravel()])
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        """Precompute extended rows and Jacobian slots (once, after the pattern is fixed)."""
+        self._cur_rows = Accumulator.rows(np.concatenate([self.cur_a, self.cur_b]).ravel(), n)
+        self._chg_rows = Accumulator.rows(np.concatenate([self.chg_a, self.chg_b]).ravel(), n)
+        r, c = self._entries(self.cur_a, self.cur_b, self.current_deps)
+        self._cur_slots = slots(r, c).ravel()
+        r, c = self._entries(self.chg_a, self.chg_b, self.charge_deps)
+        self._chg_slots = slots(r, c).ravel()
+
+    def voltages(self, x_ext: np.ndarray) -> np.ndarray:
+        """Control voltages ``x[p_k] - x[m_k]``, shape (nc, N).
+
+        ``x_ext`` is the extended iterate (``x_ext[-1] == 0`` is ground, so
+        index -1 reads ground).
+        """
+        return x_ext[self.ctrl_p] - x_ext[self.ctrl_m]
+
+    def linearise(self, values: np.ndarray, derivs: np.ndarray, deps: np.ndarray, summation: np.ndarray,
+                  delta: np.ndarray) -> np.ndarray:
+        """``values + sum_k d(values)/dv_k * delta_k`` (the companion-model continuation)."""
+        if deps.size == 0:
+            return values
+        return values + summation @ (derivs * delta[deps[:, 1]])
+
+    def add(self, acc: Accumulator, currents: np.ndarray, dcurrents: np.ndarray | None,
+            charges: np.ndarray, dcharges: np.ndarray | None, *, delta: np.ndarray | None = None,
+            jacobian: bool = True) -> None:
+        """Add one evaluation to the accumulator.
+
+        Parameters
+        ----------
+        acc : Accumulator
+        currents : ndarray, shape (ni, N)
+            Branch currents at the (limited) control voltages.
+        dcurrents : ndarray, shape (len(current_deps), N) or None
+            Their derivatives, in the order of ``current_deps``.
+        charges : ndarray, shape (nq, N)
+        dcharges : ndarray, shape (len(charge_deps), N) or None
+        delta : ndarray, shape (nc, N), optional
+            ``v(x) - v_lim`` where the family limited its voltages; the
+            outputs are then continued linearly (SPICE's companion model).
+        jacobian : bool
+            Also add the derivatives.
+        """
+        if delta is not None:
+            currents = self.linearise(currents, dcurrents, self.current_deps, self._cur_sum, delta)
+            charges = self.linearise(charges, dcharges, self.charge_deps, self._chg_sum, delta)
+        if currents.size:
+            acc.add_phi(self._cur_rows, np.concatenate([-currents, currents]).ravel())
+        if charges.size:
+            acc.add_q(self._chg_rows, np.concatenate([charges, -charges]).ravel())
+        if not jacobian:
+            return
+        if self.current_deps.size:
+            acc.add_dphi(self._cur_slots, (_CURRENT_SIGNS * dcurrents[None]).ravel())
+        if self.charge_deps.size:
+            acc.add_dq(self._chg_slots, (_CHARGE_SIGNS * dcharges[None]).ravel())
+
+
+class LimitState:
+    """Limited control voltages of one family from the previous Newton iteration.
+
+    Attributes
+    ----------
+    v : ndarray, shape (k, N)
+        The voltages the device equations were last evaluated at.
+    initial : bool
+        True for the state before the first iteration of a solve (SPICE's
+        ``MODEINITJCT``): the family then starts from ``v`` when the iterate
+        is the zero vector, and from the iterate's own voltages otherwise
+        (a continuation from a previous solution).
+    extra : ndarray or None
+        Further per-instance data a family carries between iterations
+        (the MOSFET's threshold voltage).
+    """
+
+    __slots__ = ("v", "initial", "extra")
+
+    def __init__(self, v: np.ndarray, initial: bool = False, extra: np.ndarray | None = None):
+        self.v = v
+        self.initial = initial
+        self.extra = extra

@@ -1,0 +1,294 @@
+"""The junction diode, SPICE level 1, as ngspice 39 computes it.
+
+Syntax: ``Dname anode cathode model [area] [m=M] [off] [temp=T] [dtemp=dT] [ic=V]``
+with ``.model name D (IS= N= RS= TT= CJO= VJ= M= FC= BV= IBV= NBV= EG= XTI= TNOM= AREA=)``.
+
+Equations (``vd`` the voltage across the junction, behind RS)
+--------------------------------------------------------------
+Current (``dioload.c``), ``Is = IS * area * m`` at temperature, ``vte = N kT/q``::
+
+    vd >= -3 vte                 id = Is (exp(vd/vte) - 1)
+    -BV <= vd < -3 vte           id = -Is (1 + (3 vte / (e vd))^3)
+    vd < -BV  (BV given)         id = -Is exp(-(BV' + vd) / (NBV kT/q))
+    always                       id += GMIN vd
+
+``BV'`` is BV adjusted (``diotemp.c``) so that the breakdown current at
+``-BV`` is ``m * IBV``: the root of
+``Is (exp((BV - BV')/(NBV vt)) - 1 + BV'/vt) = m IBV``, found by ngspice's
+fixed-point iteration (25 steps, tolerance ``reltol * m IBV``).
+
+Charge: ``q = TT * id + qdep(vd)``, the depletion charge of
+:func:`~netdae.devices.junction.depletion_charge` with ``CJO * area * m``,
+``VJ``, ``M`` at temperature and ``FC`` (capacitance ``TT gd + cdep``).
+
+Series resistance ``RS / (area m)`` to an internal node ``<name>#internal``
+when RS > 0.
+
+Temperature (device ``temp``, else ``.options temp`` + ``dtemp``; ``TNOM``
+else ``.options tnom``): ``Is ~ exp((T/Tnom - 1) EG/(N vt) + XTI/N ln(T/Tnom))``,
+``VJ``/``CJO`` by :func:`~netdae.devices.junction.scale_junction`. As
+ngspice: ``IS >= 1e-28``, ``M <= 0.9``, ``VJ`` at temperature at most ``1/FC``.
+
+Newton: ``pnjlim`` on ``vd`` with ``vcrit = vte ln(vte / (sqrt 2 Is))``,
+in the breakdown region on ``-(vd + BV')`` with ``NBV vt``; the first
+iteration from a zero iterate starts at ``vcrit`` (0 for ``off``).
+
+Accepted without effect: noise (``KF``, ``AF``) and safe-operating-area
+limits (``FV_MAX`` ...). The instance ``ic`` is only used by ngspice for
+the first iterate of a ``uic`` transient and does not change any solution.
+Any other parameter (sidewall, tunnelling, recombination, IKF/IKR, level 3,
+temperature coefficients) is rejected with an error.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import CircuitError
+from .base import Accumulator, DeviceFamily, SlotMap
+from .companion import BranchStamps, LimitState
+from .junction import (
+    EPSMIN,
+    KELVIN,
+    depletion_charge,
+    ideal_junction,
+    pnjlim,
+    saturation_exponent,
+    scale_junction,
+    thermal_voltage,
+    vcrit,
+)
+from .modelcard import ParameterTable, gather, instance_values, resolve_model
+
+__all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage"]
+
+DIODE_PARAMETERS = ParameterTable(
+    "diode (level 1)",
+    defaults={
+        "level": 1.0, "is": 1e-14, "n": 1.0, "rs": 0.0, "tt": 0.0, "cjo": 0.0, "vj": 1.0, "m": 0.5,
+        "fc": 0.5, "bv": None, "ibv": 1e-3, "nbv": None, "eg": 1.11, "xti": 3.0, "tnom": None, "area": 1.0,
+    },
+    aliases={"js": "is", "cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "ib": "ibv", "tref": "tnom"},
+    inert=frozenset({"kf", "af", "fv_max", "bv_max", "id_max", "pd_max", "te_max"}),
+)
+
+#: Instance parameters and their defaults (None: absent unless given).
+_INSTANCE = {"area": None, "m": 1.0, "off": 0.0, "temp": None, "dtemp": 0.0, "ic": None}
+#: ngspice caps the grading coefficient at 0.9 (``DIOgradingCoeffMax``).
+GRADING_MAX = 0.9
+#: Breakdown adjustment: ngspice's iteration limit.
+BREAKDOWN_ITERATIONS = 25
+#: ngspice starts limiting in breakdown 10 (NBV vt) above -BV.
+_BREAKDOWN_LIMIT_MARGIN = 10.0
+#: ngspice's reverse-region knee (3 vte).
+_REVERSE_KNEE = 3.0
+
+
+def breakdown_voltage(bv, ibv, isat, nbv_vt, vt, reltol):
+    """ngspice's breakdown voltage adjusted to the breakdown current (vectorised).
+
+    Parameters
+    ----------
+    bv : ndarray
+        Breakdown voltage BV [V].
+    ibv : ndarray
+        Current at breakdown, already times the multiplier m [A].
+    isat : ndarray
+        Saturation current at temperature (area and m included) [A].
+    nbv_vt : ndarray
+        NBV times the thermal voltage [V].
+    vt : ndarray
+        Thermal voltage [V].
+    reltol : float
+        The circuit's relative tolerance (ngspice's stopping test uses it).
+
+    Returns
+    -------
+    ndarray
+        The adjusted breakdown voltage ``BV'``.
+
+    Notes
+    -----
+    When ``ibv < isat * bv / vt`` ngspice keeps BV; otherwise it iterates
+    ``BV' = BV - NBV vt ln(ibv/isat + 1 - BV'/vt)`` at most 25 times,
+    stopping where the breakdown current is within ``reltol * ibv``.
+    """
+    bv = np.asarray(bv, dtype=float)
+    xbv = bv.copy()
+    iterate = ~(ibv < isat * bv / vt)
+    if not np.any(iterate):
+        return xbv
+    tol = reltol * ibv
+    x = np.where(iterate, bv - nbv_vt * np.log(1.0 + ibv / isat), bv)
+    active = iterate.copy()
+    for _ in range(BREAKDOWN_ITERATIONS):
+        x_new = bv - nbv_vt * np.log(ibv / isat + 1.0 - x / vt)
+        x = np.where(active, x_new, x)
+        xcbv = isat * (np.exp((bv - x) / nbv_vt) - 1.0 + x / vt)
+        active &= ~(np.abs(xcbv - ibv) <= tol)
+        if not np.any(active):
+            break
+    return np.where(iterate, x, xbv)
+
+
+class DiodeFamily(DeviceFamily):
+    """All diodes of a circuit, evaluated in one vectorised pass.
+
+    Parameters
+    ----------
+    elements : list of Element
+        The ``diode`` elements.
+    circuit : Circuit
+
+    Raises
+    ------
+    CircuitError
+        Missing or mistyped model, unsupported parameter, level other than 1.
+    """
+
+    kinds = frozenset({"diode"})
+
+    def __init__(self, elements, circuit) -> None:
+        super().__init__(elements, circuit)
+        opts = circuit.options
+        self.gmin = float(opts.gmin)
+        rows = []
+        for el in self.elements:
+            model = resolve_model(el, circuit, ("d",))
+            mv = DIODE_PARAMETERS.read(model)
+            if mv["level"] != 1.0:
+                raise CircuitError(f"{el.name}: diode model {model.name} has level {mv['level']:g}; "
+                                   "netdae implements level 1", elements=(el.name,))
+            inst = instance_values(el, _INSTANCE, "diode")
+            row = {k: mv[k] for k in ("is", "n", "rs", "tt", "cjo", "vj", "m", "fc", "ibv", "eg", "xti")}
+            row["bv"] = mv.get("bv", np.nan)
+            row["nbv"] = mv.get("nbv", mv["n"])
+            row["tnom"] = mv.get("tnom", opts.tnom) + KELVIN
+            row["temp"] = inst.get("temp", opts.temp + inst["dtemp"]) + KELVIN
+            row["area"] = inst.get("area", mv["area"])
+            row["mult"] = inst["m"]
+            row["off"] = inst["off"]
+            for key in ("area", "mult"):
+                if row[key] <= 0.0:
+                    raise CircuitError(f"{el.name}: {key if key == 'area' else 'm'} must be positive",
+                                       elements=(el.name,))
+            rows.append(row)
+        self._setup(rows, opts.reltol)
+
+    def _setup(self, rows, reltol: float) -> None:
+        g = lambda name: gather(rows, name)  # noqa: E731
+        temp, tnom = g("temp"), g("tnom")
+        area = g("area") * g("mult")
+        n = g("n")
+        self.vt = thermal_voltage(temp)
+        self.vte = n * self.vt
+        grading = np.minimum(g("m"), GRADING_MAX)
+        cj, vj = scale_junction(g("cjo") * area, grading, g("vj"), tnom, temp)
+        self.isat = np.maximum(g("is"), EPSMIN) * area * np.exp(saturation_exponent(g("eg"), g("xti"), tnom, temp) / n)
+        self.vcrit = vcrit(self.vte, self.isat)
+        self.fc = g("fc")
+        self.vj = np.where(self.fc * vj > 1.0, 1.0 / self.fc, vj)
+        self.cj0 = cj
+        self.grading = grading
+        self.tt = g("tt")
+        rs = g("rs")
+        self.gs = np.where(rs > 0.0, area / np.where(rs > 0.0, rs, 1.0), 0.0)
+        bv = g("bv")
+        self.has_bv = np.isfinite(bv)
+        self.vtebrk = g("nbv") * self.vt
+        self.bv = np.where(self.has_bv, breakdown_voltage(np.where(self.has_bv, bv, 0.0), g("mult") * g("ibv"),
+                                                          self.isat, self.vtebrk, self.vt, reltol), 0.0)
+        self.off = g("off") != 0.0
+        self.has_rs = bool(np.any(self.gs > 0.0))
+        self.has_charge = bool(np.any(self.cj0 > 0.0) or np.any(self.tt > 0.0))
+
+    # -- topology ----------------------------------------------------------
+    def add_nodes(self, layout) -> None:
+        self.anode = layout.nodes_of([el.nodes[0] for el in self.elements])
+        self.cathode = layout.nodes_of([el.nodes[1] for el in self.elements])
+        inner = [layout.add_node(f"{el.name}#internal", internal=True) if gs > 0.0 else a
+                 for el, gs, a in zip(self.elements, self.gs, self.anode)]
+        self.inner = np.array(inner, dtype=np.int64)
+
+    def coordinates(self, layout):
+        junction = (self.inner, self.cathode)
+        controls, currents, deps = [junction], [junction], [(0, 0)]
+        if self.has_rs:
+            controls.append((self.anode, self.inner))
+            currents.append((self.anode, self.inner))
+            deps.append((1, 1))
+        charges = [junction] if self.has_charge else []
+        self.stamps = BranchStamps(controls, currents, charges, deps, [(0, 0)] if self.has_charge else [])
+        return self.stamps.coordinates()
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        self.stamps.bind(slots, n)
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        return [(el.nodes[0], el.nodes[1]) for el in self.elements]
+
+    # -- Newton support ----------------------------------------------------
+    def initial_state(self) -> LimitState:
+        """SPICE's ``MODEINITJCT``: ``vd = vcrit`` (0 for ``off`` diodes)."""
+        return LimitState(np.where(self.off, 0.0, self.vcrit)[None, :], initial=True)
+
+    def limit(self, vd: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """ngspice's diode limiting: pnjlim, shifted by BV' in deep reverse bias."""
+        in_breakdown = self.has_bv & (vd < np.minimum(0.0, -self.bv + _BREAKDOWN_LIMIT_MARGIN * self.vtebrk))
+        vb, cb = pnjlim(-(vd + self.bv), -(vold + self.bv), self.vtebrk, self.vcrit)
+        vf, cf = pnjlim(vd, vold, self.vte, self.vcrit)
+        return np.where(in_breakdown, -(vb + self.bv), vf), np.where(in_breakdown, cb, cf)
+
+    def current(self, vd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Diode current (GMIN included) and conductance at junction voltage ``vd``."""
+        cd, gd = ideal_junction(vd, self.isat, self.vte)
+        brk = self.has_bv & (vd < -self.bv) & (vd < -_REVERSE_KNEE * self.vte)
+        if np.any(brk):
+            evrev = np.exp(np.where(brk, -(self.bv + vd) / self.vtebrk, 0.0))
+            cd = np.where(brk, -self.isat * evrev, cd)
+            gd = np.where(brk, self.isat * evrev / self.vtebrk, gd)
+        return cd + self.gmin * vd, gd + self.gmin
+
+    def charge(self, vd: np.ndarray, cd: np.ndarray, gd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Junction charge ``TT id + qdep(vd)`` and its derivative."""
+        qdep, cdep = depletion_charge(vd, self.cj0, self.vj, self.grading, self.fc)
+        return self.tt * cd + qdep, self.tt * gd + cdep
+
+    def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        v = self.stamps.voltages(x)
+        vd_x = v[0]
+        with np.errstate(all="ignore"):
+            if state is None:
+                state = self.initial_state()
+            if state.initial:
+                if x.any():
+                    vd, changed = vd_x, None
+                else:
+                    vd, changed = state.v[0], True
+            else:
+                vd, mask = self.limit(vd_x, state.v[0])
+                changed = bool(mask.any())
+            cd, gd = self.current(vd)
+            currents, dcurrents = [cd], [gd]
+            if self.has_rs:
+                currents.append(self.gs * v[1])
+                dcurrents.append(self.gs)
+            if self.has_charge:
+                q, c = self.charge(vd, cd, gd)
+                charges, dcharges = q[None, :], c[None, :]
+            else:
+                charges, dcharges = np.empty((0, vd.size)), None
+            delta = None
+            if changed:
+                acc.limited = True
+                delta = np.zeros_like(v)
+                delta[0] = vd_x - vd
+            currents = np.array(currents)
+            self.stamps.add(acc, currents, np.array(dcurrents) if jacobian or delta is not None else None,
+                            charges, dcharges, delta=delta, jacobian=jacobian)
+            if not (math.isfinite(float(cd.sum() + gd.sum())) and (not self.has_charge or
+                                                                     math.isfinite(float(q.sum() + c.sum())))):
+                acc.ok = False
+        return LimitState(vd[None, :])

@@ -1,0 +1,145 @@
+"""Reading ``.model`` cards and instance parameters of the device families.
+
+Each family declares a :class:`ParameterTable`: the parameters netdae
+implements (with ngspice's defaults and aliases), those that do not change
+the DC, AC or transient solution (noise coefficients, safe-operating-area
+limits) and are accepted, and nothing else: any other parameter is an error
+naming the model and the parameter, never silently ignored.
+
+Instances are vectorised by :func:`gather`: one array per parameter, one
+entry per instance, read once when the family is built.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..circuit import Circuit, Element, Model
+from ..errors import CircuitError
+
+__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values"]
+
+
+@dataclass(frozen=True)
+class ParameterTable:
+    """The parameters of one device model as netdae implements it.
+
+    Parameters
+    ----------
+    device : str
+        Human-readable device name for messages (``"diode (level 1)"``).
+    defaults : dict of str to float or None
+        Implemented parameters and ngspice's default (``None``: no default,
+        only used when given).
+    aliases : dict of str to str
+        Alternative spellings (``"cj0"`` -> ``"cjo"``).
+    inert : frozenset of str
+        Accepted parameters without effect on the solution (noise, SOA).
+    """
+
+    device: str
+    defaults: dict[str, float | None]
+    aliases: dict[str, str] = field(default_factory=dict)
+    inert: frozenset[str] = frozenset()
+
+    def canonical(self, name: str) -> str:
+        return self.aliases.get(name, name)
+
+    def read(self, model: Model) -> "ModelValues":
+        """Values of ``model`` with defaults filled in.
+
+        Raises
+        ------
+        CircuitError
+            For a parameter netdae does not implement for this device.
+        """
+        given: dict[str, float] = {}
+        for raw, value in model.params.items():
+            name = self.canonical(raw.lower())
+            if name in self.inert:
+                continue
+            if name not in self.defaults:
+                where = f"{model.location}: " if model.location else ""
+                raise CircuitError(
+                    f"{where}model {model.name}: parameter '{raw}' of the {self.device} is not supported by netdae",
+                    hint="remove it (netdae would otherwise silently compute something else than ngspice)",
+                )
+            given[name] = float(value)
+        return ModelValues(model, given, self.defaults)
+
+
+@dataclass
+class ModelValues:
+    """Parameter values of one model: given ones, else the defaults."""
+
+    model: Model
+    given_values: dict[str, float]
+    defaults: dict[str, float | None]
+
+    def __getitem__(self, name: str) -> float:
+        if name in self.given_values:
+            return self.given_values[name]
+        value = self.defaults[name]
+        if value is None:
+            raise KeyError(name)
+        return value
+
+    def given(self, name: str) -> bool:
+        return name in self.given_values
+
+    def get(self, name: str, default: float) -> float:
+        return self.given_values.get(name, default)
+
+
+def resolve_model(element: Element, circuit: Circuit, types: tuple[str, ...]) -> Model:
+    """The ``.model`` card of a device instance.
+
+    Raises
+    ------
+    CircuitError
+        When the model is missing or of the wrong type.
+    """
+    where = f"{element.location}: " if element.location else ""
+    if element.model is None or element.model not in circuit.models:
+        raise CircuitError(
+            f"{where}{element.name}: model '{element.model}' is not defined",
+            elements=(element.name,),
+            hint=f"add a .model card of type {'/'.join(types)}",
+        )
+    model = circuit.models[element.model]
+    if model.type.lower() not in types:
+        raise CircuitError(
+            f"{where}{element.name}: model {model.name} has type '{model.type}', expected {'/'.join(types)}",
+            elements=(element.name,),
+        )
+    return model
+
+
+def instance_values(element: Element, allowed: dict[str, float | None], device: str) -> dict[str, float]:
+    """Instance parameters of ``element`` with defaults (``None``: absent).
+
+    Raises
+    ------
+    CircuitError
+        For an instance parameter netdae does not implement for this device.
+    """
+    out: dict[str, float] = {}
+    for name, value in element.params.items():
+        if name not in allowed:
+            where = f"{element.location}: " if element.location else ""
+            raise CircuitError(
+                f"{where}{element.name}: instance parameter '{name}' of the {device} is not supported by netdae",
+                elements=(element.name,),
+            )
+        out[name] = float(value)
+    for name, default in allowed.items():
+        if name not in out and default is not None:
+            out[name] = default
+    return out
+
+
+def gather(rows: list[dict[str, float]], name: str, default: float = np.nan) -> np.ndarray:
+    """One parameter of every instance as an array (``default`` where absent)."""
+    return np.array([r.get(name, default) for r in rows], dtype=float)
