@@ -76,6 +76,7 @@ __all__ = [
     "format_raw",
     "signal_name",
     "PLOTNAMES",
+    "PLOTNAME_OF",
 ]
 
 #: ngspice plot names and the netdae analysis each one holds.
@@ -86,7 +87,7 @@ PLOTNAMES = {
     "dc transfer characteristic": "dc",
 }
 #: Plot names written for each analysis (ngspice's spelling).
-_PLOTNAME_OF = {
+PLOTNAME_OF = {
     "op": "Operating Point",
     "tran": "Transient Analysis",
     "ac": "AC Analysis",
@@ -478,7 +479,7 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
     if analysis is None:
         raise NetdaeError(
             f"{source}: plot '{head.plotname}' is not an analysis netdae reads "
-            f"(it reads: {', '.join(_PLOTNAME_OF.values())})"
+            f"(it reads: {', '.join(PLOTNAME_OF.values())})"
         )
     names = [n.lower() for n in head.names]
     lengths = [table.shape[0] if n is None else min(n, table.shape[0]) for n in head.lengths]
@@ -593,7 +594,7 @@ def format_raw(
 
 
 def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
-    plotname = _PLOTNAME_OF.get(result.analysis)
+    plotname = PLOTNAME_OF.get(result.analysis)
     if plotname is None:
         raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc only)")
     if not result.signals and not result.axes:

@@ -1,0 +1,348 @@
+"""ngspice's shared library in this process, through PySpice's binding.
+
+This is the only module of netdae that imports PySpice. It uses PySpice 1.5
+for what it does well -- finding and loading ``libngspice``, declaring its C
+API to cffi, registering the callbacks -- and replaces the parts that do not
+fit ngspice 39:
+
+- PySpice treats every stderr line that does not start with ``Warning:`` as
+  an error and raises on the next command, so ngspice's harmless notes
+  (``Note: v1: dc value used for op ...``) would fail every run. netdae's
+  subclass records ngspice's lines as they come and leaves the judgement to
+  :func:`netdae.ngspice.translate.classify_output`.
+- PySpice 1.5 knows ngspice up to version 34 and logs "Unsupported Ngspice
+  version"; netdae reads the version itself (``version -f``) and keeps
+  PySpice's log records out of the user's console (they become notes).
+- Vectors are read with ``ngGet_Vec_Info`` directly (type, real or complex,
+  length) rather than through PySpice's unit-carrying waveforms.
+- PySpice names the library ``libngspice.so``, which only the ``-dev``
+  package provides; netdae asks the dynamic loader for ``libngspice.so.0``
+  too.
+
+The library is a process-wide singleton with global state, so runs are
+serialised by a lock and each one starts clean: ``destroy all`` (every plot
+of earlier runs), load the circuit, ``bg_run`` (the background thread, so a
+timeout can halt it), collect the plots, ``remcirc``. A library that has
+called its exit callback cannot be used again in this process: later runs
+raise :class:`~netdae.ngspice.BackendUnavailable`, and ``backend="auto"``
+runs the subprocess instead.
+"""
+
+from __future__ import annotations
+
+import ctypes.util
+import logging
+import os
+import re
+import sys
+import threading
+import time
+
+import numpy as np
+
+from ..errors import NgspiceError
+from ..io.raw import PLOTNAME_OF, signal_name
+from ..results import Result
+from . import INSTALL_HINT, BackendOutput, BackendUnavailable
+from .translate import classify_output
+
+__all__ = ["run", "version", "library_path"]
+
+#: ngspice's ``enum simulation_types`` (``src/include/ngspice/sim.h``): the
+#: type names of the vectors netdae reads.
+_VECTOR_TYPES = {0: "notype", 1: "time", 2: "frequency", 3: "voltage", 4: "current"}
+#: ngspice names plots ``tran1``, ``ac2`` ...: the analysis is the prefix.
+_PLOT_PREFIX = re.compile(r"^([a-z]+)\d*$")
+_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc"}
+_AXIS_OF = {"tran": ("time",), "ac": ("frequency",), "dc": ("v-sweep", "i-sweep", "res-sweep", "temp-sweep")}
+#: Seconds to wait for ngspice's background thread to stop after ``bg_halt``.
+_HALT_WAIT = 10.0
+#: Polling interval while waiting for the halted thread [s].
+_HALT_POLL = 0.01
+_VERSION = re.compile(r"ngspice-(\S+)")
+
+_lock = threading.Lock()
+_session = None  # the one _Session of this process, once created
+_session_error: str | None = None  # why it could not be created, once tried
+
+
+def library_path() -> str | None:
+    """The ngspice shared library to load, or None when there is none.
+
+    ``NGSPICE_LIBRARY_PATH`` (PySpice's variable) wins; otherwise the dynamic
+    loader's name for ``libngspice`` (``libngspice.so.0`` on Debian).
+    """
+    env = os.environ.get("NGSPICE_LIBRARY_PATH")
+    if env:
+        return env
+    return ctypes.util.find_library("ngspice")
+
+
+class _Session:
+    """The loaded library, its callbacks' record, and the lock-step protocol."""
+
+    def __init__(self, path: str) -> None:
+        self.library, self.pyspice_notes = _load(path)
+        self.ffi = self.library.ffi
+        self.api = self.library._ngspice_shared
+        self.version = self._read_version()
+
+    # -- commands ----------------------------------------------------------
+
+    def command(self, text: str) -> None:
+        if self.library.exit_status is not None:
+            raise BackendUnavailable(
+                f"ngspice's shared library exited (status {self.library.exit_status}) and cannot be reused "
+                "in this process"
+            )
+        rc = self.api.ngSpice_Command(text.encode("utf-8"))
+        if rc:
+            raise BackendUnavailable(f"ngspice's shared library refused the command {text!r} (code {rc})")
+
+    def _read_version(self) -> str:
+        self.library.lines.clear()
+        self.command("version -f")
+        match = _VERSION.search("\n".join(text for _, text in self.library.lines))
+        if match is None:
+            raise BackendUnavailable("ngspice's shared library does not say which version it is")
+        return f"ngspice-{match.group(1)}"
+
+    # -- a run ---------------------------------------------------------------
+
+    def run(self, netlist: str, timeout: float) -> BackendOutput:
+        lib = self.library
+        self.command("destroy all")
+        lib.lines.clear()
+        lib.finished.clear()
+        self._load(netlist)
+        stderr = [text for stream, text in lib.lines if stream == "stderr"]
+        errors, _ = classify_output(stderr, [], strict=False)
+        if not errors:
+            self.command("bg_run")
+            if not lib.finished.wait(timeout):
+                self._halt()
+                self._clean()
+                raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
+            if lib.exit_status is not None:
+                raise BackendUnavailable(f"ngspice's shared library exited with status {lib.exit_status}")
+        results = self._collect(netlist) if not errors else []
+        output = BackendOutput(
+            results=results,
+            stdout=[text for stream, text in lib.lines if stream != "stderr"],
+            stderr=[text for stream, text in lib.lines if stream == "stderr"],
+            version=self.version,
+        )
+        self._clean()
+        return output
+
+    def _load(self, netlist: str) -> None:
+        ffi = self.ffi
+        # ngSpice_Circ wants a NULL-terminated array of lines; ngspice >= 33
+        # also wants an empty last line.
+        keep = [ffi.new("char[]", line.encode("utf-8")) for line in [*netlist.splitlines(), ""]]
+        lines = ffi.new("char *[]", [*keep, ffi.NULL])
+        rc = self.api.ngSpice_Circ(lines)
+        if rc or self.library.exit_status is not None:
+            raise BackendUnavailable(f"ngspice's shared library could not take the circuit (code {rc})")
+
+    def _halt(self) -> None:
+        self.command("bg_halt")
+        deadline = time.monotonic() + _HALT_WAIT
+        while self.api.ngSpice_running() and time.monotonic() < deadline:
+            time.sleep(_HALT_POLL)
+        if self.api.ngSpice_running():
+            self.library.exit_status = -1  # a thread that does not stop: never reuse
+            raise BackendUnavailable("ngspice's background thread does not stop after bg_halt")
+
+    def _clean(self) -> None:
+        self.command("remcirc")
+        self.command("destroy all")
+
+    def _strings(self, array) -> list[str]:
+        out = []
+        index = 0
+        while array[index] != self.ffi.NULL:
+            out.append(self.ffi.string(array[index]).decode("utf-8", "replace"))
+            index += 1
+        return out
+
+    def _collect(self, netlist: str) -> list[Result]:
+        """The plots of this run, oldest first, as Results."""
+        plots = [p for p in self._strings(self.api.ngSpice_AllPlots()) if p != "const"]
+        title = netlist.splitlines()[0].strip() if netlist.strip() else ""
+        return [self._plot(plot, title) for plot in reversed(plots)]
+
+    def _plot(self, plot: str, title: str) -> Result:
+        match = _PLOT_PREFIX.match(plot)
+        analysis = _ANALYSIS_OF_PREFIX.get(match.group(1) if match else "")
+        if analysis is None:
+            raise NgspiceError(
+                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran)"
+            )
+        # ngspice lists the newest vector first: reversed, that is creation
+        # order, the order of the raw file.
+        names = list(reversed(self._strings(self.api.ngSpice_AllVecs(plot.encode("utf-8")))))
+        axes: dict[str, np.ndarray] = {}
+        signals: dict[str, np.ndarray] = {}
+        types: dict[str, str] = {}
+        for name in names:
+            vtype, data = self._vector(f"{plot}.{name}")
+            if name.lower() in _AXIS_OF.get(analysis, ()):
+                key = name.lower()
+                axes[key] = data.real.copy() if np.iscomplexobj(data) else data
+            else:
+                key = signal_name(name, vtype)
+                signals[key] = data
+            types[key] = vtype
+        extra = {
+            "title": title,
+            "plotname": PLOTNAME_OF[analysis],
+            "plot": plot,
+            "variable_types": types,
+        }
+        return Result(analysis, axes=axes, signals=signals, extra=extra)
+
+    def _vector(self, name: str) -> tuple[str, np.ndarray]:
+        info = self.api.ngGet_Vec_Info(name.encode("utf-8"))
+        if info == self.ffi.NULL:
+            raise NgspiceError(f"ngspice's shared library lists vector {name!r} but cannot return it")
+        length = info.v_length
+        vtype = _VECTOR_TYPES.get(info.v_type, "notype")
+        if info.v_compdata != self.ffi.NULL:
+            pairs = np.frombuffer(self.ffi.buffer(info.v_compdata, length * 16), dtype=np.float64)
+            return vtype, pairs[0::2] + 1j * pairs[1::2]
+        if length == 0:
+            return vtype, np.zeros(0)
+        return vtype, np.frombuffer(self.ffi.buffer(info.v_realdata, length * 8), dtype=np.float64).copy()
+
+
+def _load(path: str):
+    """Load the library through a PySpice subclass; returns (library, notes)."""
+    try:
+        from PySpice.Spice.NgSpice import Shared as pyspice_shared
+    except Exception as exc:  # ImportError, or PySpice failing at import time
+        raise BackendUnavailable(f"PySpice cannot be imported ({type(exc).__name__}: {exc})") from None
+
+    ffi = pyspice_shared.ffi
+    pyspice_version = getattr(sys.modules.get("PySpice"), "__version__", "?")
+
+    class _Library(pyspice_shared.NgSpiceShared):
+        """PySpice's binding with callbacks that record instead of judging."""
+
+        LIBRARY_PATH = path
+
+        def __init__(self) -> None:
+            self.ffi = ffi
+            self.lines: list[tuple[str, str]] = []
+            self.finished = threading.Event()
+            self.exit_status: int | None = None
+            super().__init__(ngspice_id=0, send_data=False)
+
+        @staticmethod
+        def _send_char(message, ngspice_id, user_data):
+            self = ffi.from_handle(user_data)
+            stream, _, text = ffi.string(message).decode("utf-8", "replace").partition(" ")
+            self.lines.append((stream, text))
+            # PySpice reads its own record of stdout for the version check
+            (self._stderr if stream == "stderr" else self._stdout).append(text)
+            return 0
+
+        @staticmethod
+        def _exit(status, immediate_unload, quit_exit, ngspice_id, user_data):
+            self = ffi.from_handle(user_data)
+            self.exit_status = int(status)
+            self.finished.set()
+            return int(status)
+
+        @staticmethod
+        def _background_thread_running(not_running, ngspice_id, user_data):
+            # ngspice passes True when its background thread has *stopped*
+            self = ffi.from_handle(user_data)
+            if not_running:
+                self.finished.set()
+            return 0
+
+    records: list[logging.LogRecord] = []
+    handler = _ListHandler(records)
+    logger = logging.getLogger("PySpice")
+    propagate = logger.propagate
+    logger.addHandler(handler)
+    logger.propagate = False
+    try:
+        library = _Library()
+    except OSError as exc:
+        raise BackendUnavailable(f"cannot load {path}: {exc}") from None
+    except Exception as exc:  # cffi or PySpice failing on this library
+        raise BackendUnavailable(f"PySpice cannot initialise {path} ({type(exc).__name__}: {exc})") from None
+    finally:
+        logger.removeHandler(handler)
+        logger.propagate = propagate
+    notes = [
+        f"PySpice {pyspice_version}: {r.getMessage()} (netdae uses only its library loading, commands and "
+        "callbacks, and reads versions and vectors itself)"
+        for r in records
+        if r.levelno >= logging.WARNING
+    ]
+    return library, notes
+
+
+class _ListHandler(logging.Handler):
+    def __init__(self, records: list[logging.LogRecord]) -> None:
+        super().__init__(logging.DEBUG)
+        self.records = records
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+def _get_session() -> _Session:
+    """The process's session, created on first use (call with the lock held)."""
+    global _session, _session_error
+    if _session is None:
+        if _session_error is not None:
+            raise BackendUnavailable(_session_error)
+        path = library_path()
+        if path is None:
+            _session_error = f"ngspice's shared library is not installed (install it with: {INSTALL_HINT})"
+            raise BackendUnavailable(_session_error)
+        try:
+            _session = _Session(path)
+        except BackendUnavailable as exc:
+            _session_error = str(exc)
+            raise
+    return _session
+
+
+def version() -> str:
+    """``"ngspice-39"``, from the shared library's ``version -f``."""
+    with _lock:
+        return _get_session().version
+
+
+def run(netlist: str, *, timeout: float) -> BackendOutput:
+    """Run a netlist in the shared library.
+
+    Parameters
+    ----------
+    netlist : str
+        The (translated) netlist.
+    timeout : float
+        Seconds before the background thread is halted.
+
+    Returns
+    -------
+    BackendOutput
+        ngspice's lines, and the results when loading reported no error.
+
+    Raises
+    ------
+    BackendUnavailable
+        When the library cannot be loaded or has exited.
+    NgspiceError
+        On a timeout.
+    """
+    with _lock:
+        session = _get_session()
+        output = session.run(netlist, timeout)
+        output.notes, session.pyspice_notes = session.pyspice_notes, []
+        return output

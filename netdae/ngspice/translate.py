@@ -1,0 +1,642 @@
+"""Text-level translation between netdae's netlist dialect and ngspice.
+
+Everything here works on the netlist *text* (netdae's own reader is not
+needed to run a netlist in ngspice) and on ngspice's printed output:
+
+- :func:`translate_for_ngspice` -- make a netlist ngspice runs the way netdae
+  needs it: the ideal op-amp extension becomes a high-gain VCVS, ``.options
+  interp`` and ``filetype`` are removed, ``.control`` blocks are removed,
+  relative ``.include``/``.lib`` paths are made absolute. Every change is
+  returned as a note naming the line.
+- :func:`override_options` -- a variant of a netlist with simulator options
+  overridden (``reltol``, ``method``, ... and ``maxstep``, which ngspice takes
+  from the ``.tran`` card only).
+- :func:`dc_sweeps`, :func:`effective_tolerances` -- what the ``.dc`` and
+  ``.options`` cards say, for naming dc axes and reporting tolerances.
+- :func:`classify_output` -- ngspice's stdout/stderr lines sorted into errors,
+  warnings and notes.
+
+Cards are found the way ngspice finds them: the first line is the title;
+``*`` starts a comment line; ``;``, ``//`` and a ``$`` after a blank start an
+inline comment; a line starting with ``+`` continues the previous card (blank
+and comment lines may come in between); names are case-insensitive. A
+rewritten card is written back on one line.
+
+Examples
+--------
+>>> text, notes = translate_for_ngspice("diff\\nE1 out 0 0 minus OPAMP ; ideal\\n.end\\n")
+>>> print(text, end="")
+diff
+E1 out 0 0 minus 1000000.0
+.end
+>>> notes[0].startswith("line 2: E1")
+True
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+
+from ..errors import NetlistError, NgspiceError, SourceLocation
+
+__all__ = [
+    "OPAMP_GAIN",
+    "NGSPICE_DEFAULT_TOLERANCES",
+    "translate_for_ngspice",
+    "override_options",
+    "dc_sweeps",
+    "DcSweepCard",
+    "effective_tolerances",
+    "classify_output",
+    "spice_number",
+]
+
+#: Gain of the VCVS that stands for netdae's ideal op-amp in ngspice.
+#: The finite-gain circuit differs from the ideal one by a relative error of
+#: about (noise gain)/A, and adds a fast pole: the differentiator of
+#: ``netlists/differentiator.cir`` becomes an index-1 circuit with time
+#: constant L/(R (1 + A)) = 1e-10 s. 1e6 keeps the model error (1e-6 times
+#: the noise gain) three decades below ngspice's default reltol while the
+#: conditioning of the MNA matrix (which grows like A times the spread of the
+#: conductances) leaves rounding errors below it; ngspice runs the
+#: differentiator to completion for every gain from 1e3 to 1e15, so callers
+#: that compare at reltol 1e-6 can pass ``opamp_gain=1e9``.
+OPAMP_GAIN = 1e6
+
+#: ngspice's defaults for the tolerances netdae reports (ngspice manual,
+#: section "Options"): relative, current [A], voltage [V], charge [C], the
+#: truncation-error overestimation factor, and the minimum conductance [S].
+NGSPICE_DEFAULT_TOLERANCES = {
+    "reltol": 1e-3,
+    "abstol": 1e-12,
+    "vntol": 1e-6,
+    "chgtol": 1e-14,
+    "trtol": 7.0,
+    "gmin": 1e-12,
+}
+
+#: Options :func:`override_options` accepts (ngspice ignores unknown options
+#: without a word, so netdae refuses them instead). ``maxstep`` is not an
+#: ngspice option: it is written into the ``.tran`` cards.
+_KNOWN_OPTIONS = frozenset(
+    "reltol abstol vntol chgtol trtol gmin pivtol pivrel itl1 itl2 itl4 itl6 gminsteps srcsteps "
+    "method maxord xmu temp tnom rshunt cshunt ramptime noopiter klu sparse keepopinfo "
+    "savecurrents".split()
+)
+_METHODS = ("trap", "trapezoidal", "gear")
+#: Options whose presence changes what ngspice reports, removed by the translation.
+_STRIPPED_OPTIONS = {
+    "interp": "ngspice 39 interpolates wrong values onto the tstep grid; netdae compares "
+    "at ngspice's own accepted time points",
+    "filetype": "netdae reads ngspice's binary raw file (full double precision)",
+}
+
+#: Scale suffixes as powers of ten (``mil``, a thousandth of an inch, apart).
+_SUFFIX_EXPONENTS = {"t": 12, "g": 9, "meg": 6, "k": 3, "m": -3, "u": -6, "n": -9, "p": -12, "f": -15, "a": -18}
+_MIL = 25.4e-6  # metres per mil
+_NUMBER = re.compile(
+    r"^([+-]?(?:\d+\.?\d*|\.\d+))(?:e([+-]?\d+))?(meg|mil|[tgkmunpfa])?[a-z]*$",
+    re.I,
+)
+
+
+def spice_number(text: str) -> float | None:
+    """A SPICE number with its scale suffix, or None when ``text`` is not one.
+
+    The value is the double nearest to the decimal number (``10u`` is exactly
+    ``1e-05``), trailing letters after the suffix are units and ignored.
+
+    Examples
+    --------
+    >>> spice_number("2.2k"), spice_number("10MEG"), spice_number("10uF"), spice_number("{r}")
+    (2200.0, 10000000.0, 1e-05, None)
+    """
+    match = _NUMBER.match(text.strip())
+    if not match:
+        return None
+    mantissa, exponent, suffix = match.group(1), int(match.group(2) or 0), (match.group(3) or "").lower()
+    if suffix == "mil":
+        return float(f"{mantissa}e{exponent}") * _MIL
+    return float(f"{mantissa}e{exponent + _SUFFIX_EXPONENTS.get(suffix, 0)}")
+
+
+# ---------------------------------------------------------------------------
+# cards
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class _Card:
+    first: int  # index of its first physical line
+    last: int  # index of its last physical line (continuations included)
+    text: str  # logical text, comments removed, continuations joined
+
+    @property
+    def tokens(self) -> list[str]:
+        return self.text.split()
+
+    @property
+    def keyword(self) -> str:
+        tokens = self.tokens
+        return tokens[0].lower() if tokens else ""
+
+
+_INLINE_COMMENT = re.compile(r";|//|(?:^|(?<=[ \t]))\$")
+
+
+def _strip_comment(line: str) -> str:
+    match = _INLINE_COMMENT.search(line)
+    return line[: match.start()] if match else line
+
+
+def _cards(lines: list[str]) -> list[_Card]:
+    """Logical cards of a netlist (the title line excluded)."""
+    cards: list[_Card] = []
+    for index in range(1, len(lines)):
+        stripped = lines[index].strip()
+        if not stripped or stripped.startswith("*"):
+            continue
+        if stripped.startswith("+") and cards:
+            prev = cards[-1]
+            more = _strip_comment(stripped[1:]).strip()
+            cards[-1] = _Card(prev.first, index, f"{prev.text} {more}".strip())
+            continue
+        cards.append(_Card(index, index, _strip_comment(stripped).strip()))
+    return cards
+
+
+def _apply(lines: list[str], edits: dict[int, tuple[int, str | None]]) -> str:
+    """Replace line ranges ``first..last`` by one line (or nothing)."""
+    out: list[str] = []
+    index = 0
+    while index < len(lines):
+        if index in edits:
+            last, replacement = edits[index]
+            if replacement is not None:
+                out.append(replacement)
+            index = last + 1
+        else:
+            out.append(lines[index])
+            index += 1
+    return "\n".join(out) + "\n"
+
+
+def _circuit_cards(cards: list[_Card]) -> list[_Card]:
+    """The cards outside ``.control``/``.endc`` blocks.
+
+    ngspice 39 reads the whole file: cards after ``.end`` still belong to the
+    circuit, so nothing stops at ``.end``.
+    """
+    kept: list[_Card] = []
+    in_control = False
+    for card in cards:
+        if in_control:
+            in_control = card.keyword != ".endc"
+        elif card.keyword == ".control":
+            in_control = True
+        else:
+            kept.append(card)
+    return kept
+
+
+def _where(card: _Card) -> str:
+    if card.last > card.first:
+        return f"lines {card.first + 1}-{card.last + 1}"
+    return f"line {card.first + 1}"
+
+
+def _is_end(card: _Card) -> bool:
+    return card.keyword == ".end"
+
+
+def _option_tokens(text: str) -> list[str]:
+    """``.options a=1 b = 2 c`` -> ['a=1', 'b=2', 'c'] (keyword dropped)."""
+    body = re.sub(r"\s*=\s*", "=", text).split()
+    return body[1:]
+
+
+def _is_options(card: _Card) -> bool:
+    return card.keyword in (".options", ".option", ".opt", ".opts")
+
+
+# ---------------------------------------------------------------------------
+# translation
+# ---------------------------------------------------------------------------
+
+
+def translate_for_ngspice(
+    text: str,
+    *,
+    opamp_gain: float = OPAMP_GAIN,
+    base_dir: str | os.PathLike | None = None,
+    source: str = "<string>",
+) -> tuple[str, list[str]]:
+    """Make a netdae netlist runnable by ngspice, saying what was changed.
+
+    Parameters
+    ----------
+    text : str
+        The netlist (first line is the title).
+    opamp_gain : float
+        Gain of the VCVS that replaces each ideal op-amp (see :data:`OPAMP_GAIN`).
+    base_dir : path-like, optional
+        Directory relative ``.include``/``.lib`` paths refer to; when given,
+        they are made absolute (so that ngspice finds them wherever it runs).
+    source : str
+        Name of the netlist for error messages.
+
+    Returns
+    -------
+    text : str
+        The netlist ngspice should run.
+    notes : list of str
+        One entry per change, ``"line N: <card>: <what and why>"``.
+
+    Raises
+    ------
+    NetlistError
+        When an op-amp card is malformed or a ``.control`` block is not closed.
+
+    Notes
+    -----
+    Translated: ``Ename out+ out- in+ in- OPAMP`` (any case) becomes
+    ``Ename out+ out- in+ in- <opamp_gain>``; ``interp`` and ``filetype`` are
+    removed from ``.options`` cards; ``.control``/``.endc`` blocks are removed
+    (in batch mode ngspice would run their commands in addition to the
+    analyses, and they may quit, write files or alter the circuit).
+    Everything else, including ngspice's default options, is left as written.
+    Cost: one pass over the lines.
+    """
+    if not opamp_gain > 0:
+        raise NgspiceError(f"opamp_gain must be positive, got {opamp_gain!r}")
+    lines = text.splitlines()
+    edits: dict[int, tuple[int, str | None]] = {}
+    notes: list[str] = []
+    subckt: list[str] = []
+    control: _Card | None = None
+    for card in _cards(lines):
+        keyword = card.keyword
+        if control is not None:
+            if keyword == ".endc":
+                edits[control.first] = (card.last, None)
+                notes.append(
+                    f"lines {control.first + 1}-{card.last + 1}: .control block removed (ngspice would run "
+                    "its commands besides the analyses; netdae collects the analyses' results)"
+                )
+                control = None
+            continue
+        if keyword == ".control":
+            control = card
+        elif keyword == ".subckt" and len(card.tokens) > 1:
+            subckt.append(card.tokens[1].lower())
+        elif keyword == ".ends" and subckt:
+            subckt.pop()
+        elif keyword[:1] == "e" and _is_opamp(card.tokens):
+            new = _translate_opamp(card, lines, opamp_gain, source)
+            edits[card.first] = (card.last, new)
+            inside = f" (in subcircuit {subckt[-1]})" if subckt else ""
+            notes.append(
+                f"{_where(card)}: {card.tokens[0]}{inside}: ideal op-amp written as a VCVS of gain "
+                f"{opamp_gain:.3g} (ngspice has no ideal op-amp; the finite gain adds a relative error "
+                f"of about noise-gain/{opamp_gain:.3g} and turns an index-2 op-amp circuit into an "
+                "index-1 one with a fast time constant)"
+            )
+        elif _is_options(card):
+            new, removed = _strip_options(card)
+            if removed:
+                edits[card.first] = (card.last, new)
+                for name, token in removed:
+                    notes.append(f"{_where(card)}: .options {token} removed: {_STRIPPED_OPTIONS[name]}")
+        elif keyword in (".include", ".inc", ".lib") and base_dir is not None:
+            new = _absolute_include(card, base_dir)
+            if new is not None:
+                edits[card.first] = (card.last, new)
+                notes.append(f"{_where(card)}: {card.tokens[0]} path made absolute: {new.split()[1]}")
+    if control is not None:
+        raise NetlistError(
+            ".control block is not closed",
+            SourceLocation(source, control.first + 1),
+            expected=".endc after the control commands",
+        )
+    return _apply(lines, edits), notes
+
+
+def _is_opamp(tokens: list[str]) -> bool:
+    """An E card meant as an ideal op-amp: OPAMP as its gain or its last word."""
+    words = [t.lower() for t in tokens]
+    return len(words) > 3 and (words[-1] == "opamp" or (len(words) > 5 and words[5] == "opamp"))
+
+
+def _translate_opamp(card: _Card, lines: list[str], gain: float, source: str) -> str:
+    tokens = card.tokens
+    if len(tokens) != 6:
+        column = lines[card.first].lower().find("opamp") + 1 if card.first == card.last else 1
+        raise NetlistError(
+            f"{tokens[0]}: an ideal op-amp takes two output and two input nodes and nothing after OPAMP",
+            SourceLocation(source, card.first + 1, max(column, 1)),
+            expected="Ename out+ out- in+ in- OPAMP",
+        )
+    return " ".join(tokens[:5]) + f" {_format_value(float(gain))}"
+
+
+def _strip_options(card: _Card) -> tuple[str | None, list[tuple[str, str]]]:
+    kept: list[str] = []
+    removed: list[tuple[str, str]] = []
+    for token in _option_tokens(card.text):
+        name = token.split("=", 1)[0].lower()
+        if name in _STRIPPED_OPTIONS:
+            removed.append((name, token))
+        else:
+            kept.append(token)
+    if not kept:
+        return None, removed
+    return " ".join([card.tokens[0], *kept]), removed
+
+
+def _absolute_include(card: _Card, base_dir: str | os.PathLike) -> str | None:
+    tokens = card.tokens
+    if card.keyword == ".lib" and len(tokens) != 3:
+        return None  # '.lib name' opens a section of a library file
+    if len(tokens) < 2:
+        return None
+    raw = tokens[1]
+    path = raw.strip("\"'")
+    expanded = os.path.expanduser(path)
+    if os.path.isabs(expanded):
+        return None
+    absolute = os.path.abspath(os.path.join(os.fspath(base_dir), expanded))
+    return " ".join([tokens[0], absolute, *tokens[2:]])
+
+
+# ---------------------------------------------------------------------------
+# options override
+# ---------------------------------------------------------------------------
+
+
+def override_options(text: str, **options: float | str | bool) -> tuple[str, list[str]]:
+    """A variant of a netlist with simulator options overridden.
+
+    Parameters
+    ----------
+    text : str
+        The netlist.
+    **options
+        ngspice option names and values, e.g. ``reltol=1e-6, abstol=1e-15,
+        vntol=1e-9, method="gear"``; ``True`` for flag options. ``maxstep``
+        sets the maximum step of every ``.tran`` card (its fourth argument,
+        ``tmax``; ngspice has no ``maxstep`` option and would ignore it).
+
+    Returns
+    -------
+    text : str
+        The netlist with one ``.options`` card inserted before ``.end`` (at
+        the end when there is no ``.end``), and ``.tran`` cards rewritten for
+        ``maxstep``. A later ``.options`` card overrides an earlier one in
+        ngspice, and ngspice 39 reads cards after ``.end`` too: when
+        ``.options`` cards follow ``.end``, the new card goes after the last
+        of them.
+    notes : list of str
+        What was changed.
+
+    Raises
+    ------
+    NgspiceError
+        For an option ngspice does not know (it would ignore it silently), a
+        bad ``method``, a non-positive ``maxstep``, or ``maxstep`` without a
+        ``.tran`` card.
+
+    Examples
+    --------
+    >>> text, notes = override_options("rc\\nR1 1 0 1k\\n.tran 1u 1m\\n.end\\n", reltol=1e-6, maxstep=1e-6)
+    >>> print(text, end="")
+    rc
+    R1 1 0 1k
+    .tran 1u 1m 0 1e-06
+    .options reltol=1e-06
+    .end
+    """
+    maxstep = options.pop("maxstep", None)
+    for name, value in options.items():
+        if name.lower() not in _KNOWN_OPTIONS:
+            raise NgspiceError(
+                f"unknown ngspice option {name!r} (ngspice would ignore it silently); "
+                f"known: {', '.join(sorted(_KNOWN_OPTIONS))}, and maxstep"
+            )
+        if name.lower() == "method" and str(value).lower() not in _METHODS:
+            raise NgspiceError(f"method must be one of {', '.join(_METHODS)}, got {value!r}")
+    lines = text.splitlines()
+    cards = _circuit_cards(_cards(lines))
+    edits: dict[int, tuple[int, str | None]] = {}
+    notes: list[str] = []
+    if maxstep is not None:
+        for card in cards:
+            if card.keyword == ".tran":
+                edits[card.first] = (card.last, _with_maxstep(card, maxstep))
+                notes.append(f"{_where(card)}: .tran maximum step set to {maxstep!r}: {edits[card.first][1]}")
+        if not edits:
+            raise NgspiceError("maxstep given but the netlist has no .tran card to apply it to")
+    if options:
+        words = []
+        for name, value in options.items():
+            if value is True:
+                words.append(name.lower())
+            else:
+                words.append(f"{name.lower()}={_format_value(value)}")
+        card_text = ".options " + " ".join(words)
+        ends = [card for card in cards if _is_end(card)]
+        later_options = [c for c in cards if _is_options(c) and ends and c.first > ends[0].first]
+        if ends and not later_options:
+            first = ends[0].first
+            notes.append(f"line {first + 1}: inserted before .end: {card_text}")
+        elif later_options:
+            # ngspice 39 reads cards after .end; the last .options card wins
+            first = later_options[-1].last + 1
+            notes.append(f"line {first + 1}: inserted after the last .options card: {card_text}")
+        else:
+            first = len(lines)
+            notes.append(f"line {first + 1}: appended (no .end): {card_text}")
+        if first < len(lines):
+            last, replacement = edits.get(first, (first, lines[first]))
+            edits[first] = (last, f"{card_text}\n{replacement}")
+        else:
+            lines.append(card_text)
+    return _apply(lines, edits), notes
+
+
+def _format_value(value: float | str | int) -> str:
+    """Shortest text that reads back as the same value (``1e-06``, ``gear``)."""
+    if isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, (int, float)):
+        return repr(value)
+    return str(value)
+
+
+def _with_maxstep(card: _Card, maxstep: float) -> str:
+    if not maxstep > 0:
+        raise NgspiceError(f"maxstep must be positive, got {maxstep!r}")
+    tokens = card.tokens
+    flags = [t for t in tokens[1:] if t.lower() == "uic"]
+    numbers = [t for t in tokens[1:] if t.lower() != "uic"]
+    if len(numbers) < 2:
+        raise NgspiceError(f"line {card.first + 1}: cannot set a maximum step on {card.text!r}")
+    tstart = numbers[2] if len(numbers) > 2 else "0"
+    return " ".join([tokens[0], numbers[0], numbers[1], tstart, _format_value(float(maxstep)), *flags])
+
+
+# ---------------------------------------------------------------------------
+# what the netlist asks for
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class DcSweepCard:
+    """The sweeps of one ``.dc`` card, innermost first (as ngspice nests them).
+
+    Attributes
+    ----------
+    sources : tuple of str
+        Lower-case swept names (``"v1"``, ``"i2"``, ``"r1"``, ``"temp"``).
+    ranges : tuple of (float, float, float) or None
+        ``(start, stop, step)`` per source; None when a value is not a plain
+        number (an expression).
+    """
+
+    sources: tuple[str, ...]
+    ranges: tuple[tuple[float, float, float] | None, ...]
+
+
+def dc_sweeps(text: str) -> list[DcSweepCard]:
+    """The ``.dc`` cards of a netlist, in order.
+
+    Examples
+    --------
+    >>> dc_sweeps("t\\nV1 1 0 1\\n.DC V1 0 1 0.5 I2 0 2m 1m\\n.end")[0].sources
+    ('v1', 'i2')
+    """
+    found = []
+    for card in _circuit_cards(_cards(text.splitlines())):
+        if card.keyword != ".dc":
+            continue
+        tokens = card.tokens[1:]
+        if tokens and tokens[0].lower() in ("lin", "dec", "oct"):
+            tokens = tokens[1:]
+        sources, ranges = [], []
+        for k in range(0, len(tokens) - 3, 4):
+            sources.append(tokens[k].lower())
+            values = [spice_number(t) for t in tokens[k + 1 : k + 4]]
+            ranges.append(None if None in values else tuple(values))
+        if sources and len(tokens) % 4 == 0:
+            found.append(DcSweepCard(tuple(sources), tuple(ranges)))
+    return found
+
+
+def effective_tolerances(text: str) -> tuple[dict[str, float], str | None]:
+    """ngspice's tolerances for a netlist: defaults, then its ``.options`` in order.
+
+    Returns
+    -------
+    tolerances : dict
+        ``reltol``, ``abstol``, ``vntol``, ``chgtol``, ``trtol``, ``gmin``.
+    method : str or None
+        The integration method named by the netlist (``"trap"``/``"gear"``),
+        None for ngspice's default (trapezoidal).
+    """
+    tolerances = dict(NGSPICE_DEFAULT_TOLERANCES)
+    method = None
+    for card in _circuit_cards(_cards(text.splitlines())):
+        if not _is_options(card):
+            continue
+        for token in _option_tokens(card.text):
+            name, _, value = token.partition("=")
+            name = name.lower()
+            if name in tolerances:
+                number = spice_number(value)
+                if number is not None:
+                    tolerances[name] = number
+            elif name == "method":
+                method = value.lower()
+    return tolerances, method
+
+
+# ---------------------------------------------------------------------------
+# ngspice's output
+# ---------------------------------------------------------------------------
+
+#: Lines that mean an analysis did not produce a valid result.
+_ERROR_PATTERNS = re.compile(
+    r"^error|simulation interrupted|simulation\(s\) aborted|doanalyses:|timestep too small|"
+    r"^fatal|dc solution failed|cannot|no such|not found|unknown",
+    re.I,
+)
+#: Failure only in strict mode: ngspice continued with gmin or source stepping.
+_STRICT_PATTERNS = re.compile(r"singular matrix", re.I)
+#: Progress chatter of gmin and source stepping (kept out of messages).
+_PROGRESS = re.compile(r"^(trying gmin|supplies reduced)", re.I)
+#: Harmless stderr notes that must not be taken for errors even though they
+#: contain a trigger word.
+_HARMLESS = re.compile(
+    r"^note: no resource usage|^\s*or no active circuit available|can't find init file|"
+    r"no compatibility mode selected",
+    re.I,
+)
+
+
+def classify_output(stderr: list[str], stdout: list[str], *, strict: bool = True) -> tuple[list[str], list[str]]:
+    """Sort ngspice's messages into errors and warnings.
+
+    Parameters
+    ----------
+    stderr, stdout : list of str
+        ngspice's lines (of stdout only ``DC solution failed`` and ``Error``
+        lines are considered).
+    strict : bool
+        When True, ``singular matrix`` (ngspice continued with gmin or source
+        stepping, so its answer depends on them) is an error too.
+
+    Returns
+    -------
+    errors : list of str
+        ngspice's error lines with the lines that explain them (the card and
+        the reason after ``Error on line N``), each once, in order; empty when
+        there is none.
+    warnings : list of str
+        ``Warning:`` and ``Note:`` lines and the lines that continue them,
+        each once; gmin and source stepping progress is left out.
+
+    Examples
+    --------
+    >>> errors, warnings = classify_output(
+    ...     ["Note: v1: dc value used", "Error on line 4 or its substitute:", "  .tran 1u",
+    ...      "TSTOP is invalid, must be greater than zero."], [])
+    >>> errors
+    ['Error on line 4 or its substitute:', '.tran 1u', 'TSTOP is invalid, must be greater than zero.']
+    >>> warnings
+    ['Note: v1: dc value used']
+    """
+    errors: list[str] = []
+    warnings: list[str] = []
+    context = warnings  # where a line that is neither error nor remark belongs
+    for line in [*stderr, *(line for line in stdout if _is_stdout_error(line))]:
+        text = line.strip()
+        if not text or _PROGRESS.match(text) or _HARMLESS.search(text):
+            continue
+        is_remark = text.lower().startswith(("warning", "note"))
+        is_error = (bool(_ERROR_PATTERNS.search(text)) and not is_remark) or (
+            strict and bool(_STRICT_PATTERNS.search(text))
+        )
+        if is_error:
+            target = context = errors
+        elif is_remark:
+            target = context = warnings
+        else:
+            target = context
+        if text not in target:
+            target.append(text)
+    return errors, warnings
+
+
+def _is_stdout_error(line: str) -> bool:
+    return bool(re.search(r"dc solution failed|^error", line.strip(), re.I))
