@@ -1,0 +1,299 @@
+"""The circuit as a graph of classified branches.
+
+Every element of a :class:`~netdae.circuit.Circuit` becomes zero or more
+*branches* (edges between two nodes) of one of five classes, the classes of
+the structural theory of modified nodal analysis [1]_:
+
+==============  =====================================================================
+class           elements
+==============  =====================================================================
+capacitive      capacitors; the junction charge of a diode whose model has a nonzero
+                CJO (CJ0), CJP (CJSW) or TT, in parallel with its conductive branch
+inductive       inductors (of nonzero inductance)
+resistive       resistors; diodes; the conducting terminal pairs of transistors
+                (collector-emitter, base-emitter, base-collector; drain-source,
+                drain-bulk, source-bulk)
+voltage         independent V; and, marked *controlled*: E, H, B with a voltage
+                expression, the output of an ideal op-amp; an inductor of zero
+                inductance (its equation is then ``v = 0``: a 0 V source)
+current         independent I; and, marked *controlled*: G, F, B with a current
+                expression
+==============  =====================================================================
+
+Terminals that carry no branch current -- the controlling inputs of E and G,
+the inputs of an ideal op-amp, a MOSFET gate, a BJT substrate -- are
+*attachments*: they count as connections of a node (for dangling nodes and
+for the messages) but not as edges. A capacitor of zero capacitance stores no
+charge and stamps nothing, so it is left out (and reported as a note).
+
+Transistor charges are not modelled as capacitive branches: transistors are
+outside the hypotheses of the index theorem anyway (the report says so), and
+their conducting pairs are what the DC analysis needs.
+
+References
+----------
+.. [1] D. Estévez Schwarz, C. Tischendorf, "Structural analysis of electric
+   circuits and consequences for MNA", Int. J. Circ. Theor. Appl. 28 (2000)
+   131-162.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..circuit import GROUND, Circuit, Element
+from ..errors import CircuitError
+
+__all__ = [
+    "CAPACITIVE",
+    "INDUCTIVE",
+    "RESISTIVE",
+    "VOLTAGE",
+    "CURRENT",
+    "CONTROLLED_KINDS",
+    "CircuitGraph",
+    "build_graph",
+]
+
+CAPACITIVE, INDUCTIVE, RESISTIVE, VOLTAGE, CURRENT = 0, 1, 2, 3, 4
+
+#: Element kinds whose behaviour is controlled by other circuit quantities:
+#: the index theorem's hypotheses exclude them.
+CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bjt", "mosfet"})
+
+#: Diode model parameters whose nonzero value gives the junction a charge
+#: (ngspice names and aliases: depletion CJO/CJ0, sidewall CJP/CJSW, transit time TT).
+DIODE_CHARGE_PARAMS = ("cjo", "cj0", "cj", "cjp", "cjsw", "tt")
+
+
+@dataclass(frozen=True, slots=True)
+class _Spec:
+    """How one element kind maps to branches: (class, terminal, terminal) and attachments."""
+
+    node_counts: tuple[int, ...]
+    branches: tuple[tuple[int, int, int], ...]
+    attachments: tuple[tuple[int, str], ...] = ()
+
+
+_CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
+
+#: Element kind -> branches and attachments (terminal positions in ``Element.nodes``).
+KIND_TABLE: dict[str, _Spec] = {
+    "resistor": _Spec((2,), ((RESISTIVE, 0, 1),)),
+    "capacitor": _Spec((2,), ((CAPACITIVE, 0, 1),)),
+    "inductor": _Spec((2,), ((INDUCTIVE, 0, 1),)),
+    "vsource": _Spec((2,), ((VOLTAGE, 0, 1),)),
+    "isource": _Spec((2,), ((CURRENT, 0, 1),)),
+    "vcvs": _Spec((4,), ((VOLTAGE, 0, 1),), _CONTROL_INPUTS),
+    "vccs": _Spec((4,), ((CURRENT, 0, 1),), _CONTROL_INPUTS),
+    "cccs": _Spec((2,), ((CURRENT, 0, 1),)),
+    "ccvs": _Spec((2,), ((VOLTAGE, 0, 1),)),
+    "opamp": _Spec((4,), ((VOLTAGE, 0, 1),), ((2, "input"), (3, "input"))),
+    "bvoltage": _Spec((2,), ((VOLTAGE, 0, 1),)),
+    "bcurrent": _Spec((2,), ((CURRENT, 0, 1),)),
+    "diode": _Spec((2,), ((RESISTIVE, 0, 1),)),
+    "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)), ((3, "substrate"),)),
+    "mosfet": _Spec((4,), ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),)),
+    "coupling": _Spec((0,), ()),
+}
+
+#: Kinds whose first two terminals form one branch (a self-loop when they coincide).
+TWO_TERMINAL_BRANCH_KINDS = frozenset(
+    k for k, s in KIND_TABLE.items() if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet")
+)
+
+
+@dataclass(frozen=True)
+class CircuitGraph:
+    """Branches of a circuit as arrays over integer node indices.
+
+    Attributes
+    ----------
+    node_names : tuple of str, shape (n,)
+        ``node_names[0]`` is ground ``"0"``; then the circuit's nodes.
+    u, v : ndarray of int64, shape (m,)
+        Terminal node indices of each branch.
+    cls : ndarray of int8, shape (m,)
+        Branch class (CAPACITIVE ... CURRENT).
+    controlled : ndarray of bool, shape (m,)
+        The branch belongs to a controlled element.
+    element : ndarray of int64, shape (m,)
+        Index of the branch's element in ``element_names``.
+    element_names, element_kinds : tuple of str
+        Every element of the circuit, in netlist order.
+    attach_node, attach_element : ndarray of int64, shape (a,)
+        Terminals that carry no branch current.
+    attach_role : tuple of str, shape (a,)
+        What each attachment is (``"gate"``, ``"controlling input"`` ...).
+    terminal_count : ndarray of int64, shape (n,)
+        Element terminals (branch ends and attachments) on each node.
+    self_loops : tuple of (int, int)
+        ``(element, node)``: elements whose branch has both ends on one node.
+    notes : tuple of (str, str)
+        ``(element, text)``: what the classification decided that the user
+        should know (zero capacitance omitted, zero inductance as a short ...).
+    hypothesis_violations : tuple of (str, str)
+        ``(element, reason)``: elements that break the index theorem's
+        hypotheses (controlled behaviour, non-positive values).
+    """
+
+    node_names: tuple[str, ...]
+    u: np.ndarray
+    v: np.ndarray
+    cls: np.ndarray
+    controlled: np.ndarray
+    element: np.ndarray
+    element_names: tuple[str, ...]
+    element_kinds: tuple[str, ...]
+    attach_node: np.ndarray
+    attach_element: np.ndarray
+    attach_role: tuple[str, ...]
+    terminal_count: np.ndarray
+    self_loops: tuple[tuple[int, int], ...]
+    notes: tuple[tuple[str, str], ...]
+    hypothesis_violations: tuple[tuple[str, str], ...]
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes including ground."""
+        return len(self.node_names)
+
+    def mask(self, *classes: int, controlled: bool | None = None) -> np.ndarray:
+        """Branches of the given classes (and, if given, controlled or not), shape (m,)."""
+        m = np.isin(self.cls, classes)
+        if controlled is not None:
+            m &= self.controlled == controlled
+        return m
+
+
+def _diode_has_charge(circuit: Circuit, el: Element) -> bool:
+    model = circuit.models.get(el.model) if el.model else None
+    if model is None:
+        return False
+    return any(model.params.get(p, 0.0) != 0.0 for p in DIODE_CHARGE_PARAMS)
+
+
+def _value_class(el: Element, base: int, notes: list, violations: list) -> int | None:
+    """Class of a passive branch after looking at its value (None: no branch)."""
+    value = el.value
+    if value is None:
+        return base
+    if value < 0.0:
+        violations.append((el.name, f"negative value {value:g}"))
+        return base
+    if value == 0.0 and base == CAPACITIVE:
+        notes.append((el.name, "zero capacitance: stores no charge, left out of the analysis"))
+        return None
+    if value == 0.0 and base == INDUCTIVE:
+        notes.append((el.name, "zero inductance: its equation is v = 0, analysed as a 0 V source"))
+        return VOLTAGE
+    return base
+
+
+def build_graph(circuit: Circuit) -> CircuitGraph:
+    """Classify the branches of ``circuit``.
+
+    Parameters
+    ----------
+    circuit : Circuit
+
+    Returns
+    -------
+    CircuitGraph
+
+    Raises
+    ------
+    CircuitError
+        When an element has a kind the analysis does not know or the wrong
+        number of nodes.
+
+    Notes
+    -----
+    One pass over the elements (Python, O(m)); everything downstream works
+    on the arrays.
+    """
+    index: dict[str, int] = {GROUND: 0}
+    for name in circuit.nodes:
+        index.setdefault(name, len(index))
+
+    def node(name: str) -> int:
+        idx = index.get(name)
+        if idx is None:
+            idx = index[name] = len(index)
+        return idx
+
+    bu, bv, bcls, bctl, bel = [], [], [], [], []
+    an, ae, arole = [], [], []
+    terminals: list[int] = []
+    self_loops: list[tuple[int, int]] = []
+    notes: list[tuple[str, str]] = []
+    violations: list[tuple[str, str]] = []
+    names, kinds = [], []
+    for k, el in enumerate(circuit.elements):
+        spec = KIND_TABLE.get(el.kind)
+        if spec is None:
+            raise CircuitError(
+                f"{el.name}: element kind '{el.kind}' is unknown to the topological analysis",
+                elements=(el.name,),
+                hint=f"known kinds: {', '.join(sorted(KIND_TABLE))}",
+            )
+        if len(el.nodes) not in spec.node_counts:
+            raise CircuitError(
+                f"{el.name}: a {el.kind} has {' or '.join(map(str, spec.node_counts))} nodes, not {len(el.nodes)}",
+                elements=(el.name,),
+            )
+        names.append(el.name)
+        kinds.append(el.kind)
+        ids = [node(nm) for nm in el.nodes]
+        terminals.extend(ids)
+        controlled = el.kind in CONTROLLED_KINDS
+        if controlled:
+            violations.append((el.name, el.kind))
+        for c, a, b in spec.branches:
+            if el.kind in ("resistor", "capacitor", "inductor"):
+                c = _value_class(el, c, notes, violations)
+                if c is None:
+                    continue
+            bu.append(ids[a])
+            bv.append(ids[b])
+            bcls.append(c)
+            bctl.append(controlled)
+            bel.append(k)
+        if el.kind == "diode" and _diode_has_charge(circuit, el):
+            bu.append(ids[0])
+            bv.append(ids[1])
+            bcls.append(CAPACITIVE)
+            bctl.append(False)
+            bel.append(k)
+        for pos, role in spec.attachments:
+            if pos < len(ids):
+                an.append(ids[pos])
+                ae.append(k)
+                arole.append(role)
+        if el.kind in TWO_TERMINAL_BRANCH_KINDS and ids[0] == ids[1]:
+            self_loops.append((k, ids[0]))
+
+    n = len(index)
+    node_names = [""] * n
+    for name, i in index.items():
+        node_names[i] = name
+    as_int = lambda seq: np.asarray(seq, dtype=np.int64)  # noqa: E731
+    return CircuitGraph(
+        node_names=tuple(node_names),
+        u=as_int(bu),
+        v=as_int(bv),
+        cls=np.asarray(bcls, dtype=np.int8),
+        controlled=np.asarray(bctl, dtype=bool),
+        element=as_int(bel),
+        element_names=tuple(names),
+        element_kinds=tuple(kinds),
+        attach_node=as_int(an),
+        attach_element=as_int(ae),
+        attach_role=tuple(arole),
+        terminal_count=np.bincount(as_int(terminals), minlength=n).astype(np.int64),
+        self_loops=tuple(self_loops),
+        notes=tuple(notes),
+        hypothesis_violations=tuple(violations),
+    )
