@@ -162,6 +162,8 @@ def test_ngspice_errors_surface_with_ngspice_s_message(backend):
         run_ngspice("bad\nV1 in 0 1\nR1 in 0 1k\n.tran 1u\n.end\n", backend=backend)
     with pytest.raises(NgspiceError, match="(?s)singular matrix.*timestep too small"):
         run_ngspice("loop\nV1 in 0 1\nV2 in 0 2\nR1 in 0 1k\n.op\n.end\n", backend=backend)
+    # a failure leaves nothing behind for the next netlist
+    assert run_ngspice(DIVIDER_OP, backend=backend).result("op")["v(out)"][0] == pytest.approx(0.75, rel=1e-14)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -263,6 +265,20 @@ def _python(env_changes: dict, backend: str) -> str:
     )
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
     return done.stdout
+
+
+def test_a_library_that_exited_is_replaced_by_the_subprocess():
+    script = (
+        "from netdae.ngspice import run_ngspice, shared\n"
+        "net = 'd\\nV1 in 0 1\\nR1 in 0 1k\\n.op\\n.end\\n'\n"
+        "assert run_ngspice(net, backend='shared').backend == 'shared'\n"
+        "shared._session.api.ngSpice_Command(b'quit')  # ngspice calls its exit callback\n"
+        "run = run_ngspice(net)\n"
+        "print(run.backend, run.notes[-1])\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("subprocess ") and "exited (status 0)" in done.stdout
 
 
 def test_missing_ngspice_is_a_clear_error_with_the_install_command(tmp_path):

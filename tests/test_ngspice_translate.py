@@ -170,3 +170,14 @@ def test_harmless_notes_are_not_errors():
     stderr = ["Note: v1: dc value used for op instead of transient time=0 value.", "Warning: r2: resistance to low, set to 1 mOhm"]
     errors, warnings = classify_output(stderr, ["Note: No compatibility mode selected!", "Circuit: t"])
     assert errors == [] and warnings == stderr
+
+
+def test_end_is_made_the_last_card():
+    out, notes = translate_for_ngspice("t\nR1 1 0 1k\n.op")
+    assert out.splitlines()[-1] == ".end" and "appended" in notes[0]
+    # ngspice 39 reads cards after .end in batch mode: keep them in the circuit
+    out, notes = translate_for_ngspice("t\nR1 1 0 1k\n.END\nR2 1 0 2k\n.op\n")
+    assert out.splitlines() == ["t", "R1 1 0 1k", "R2 1 0 2k", ".op", ".end"]
+    assert notes[0].startswith("line 3: .end moved")
+    text = "t\nR1 1 0 1k\n.op\n.end\n* trailing comment\n"
+    assert translate_for_ngspice(text) == (text, [])

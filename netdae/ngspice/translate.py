@@ -265,8 +265,9 @@ def translate_for_ngspice(
     ``Ename out+ out- in+ in- <opamp_gain>``; ``interp`` and ``filetype`` are
     removed from ``.options`` cards; ``.control``/``.endc`` blocks are removed
     (in batch mode ngspice would run their commands in addition to the
-    analyses, and they may quit, write files or alter the circuit).
-    Everything else, including ngspice's default options, is left as written.
+    analyses, and they may quit, write files or alter the circuit); a missing
+    ``.end`` is appended and cards after ``.end`` (which ngspice 39 reads) are
+    kept in front of it. Everything else, including ngspice's default options, is left as written.
     Cost: one pass over the lines.
     """
     if not opamp_gain > 0:
@@ -320,7 +321,36 @@ def translate_for_ngspice(
             SourceLocation(source, control.first + 1),
             expected=".endc after the control commands",
         )
+    _end_last(lines, edits, notes)
     return _apply(lines, edits), notes
+
+
+def _end_last(lines: list[str], edits: dict[int, tuple[int, str | None]], notes: list[str]) -> None:
+    """Make one ``.end`` the last card (ngspice's shared library needs it).
+
+    ngspice's batch mode reads a whole file, cards after ``.end`` included,
+    and needs no ``.end``; its shared library loads a circuit when it meets
+    ``.end`` and would keep later lines for the next circuit. Moving ``.end``
+    last makes both read the same circuit.
+    """
+    remaining = [c for c in _cards(lines) if c.first not in edits and not _inside_edit(c, edits)]
+    ends = [c for c in remaining if _is_end(c)]
+    if ends and ends[-1] is remaining[-1] and len(ends) == 1:
+        return
+    for card in ends:
+        edits[card.first] = (card.last, None)
+    lines.append(".end")
+    if ends:
+        notes.append(
+            f"{_where(ends[0])}: .end moved after the last card (ngspice's batch mode reads the cards after "
+            ".end, its shared library would not)"
+        )
+    else:
+        notes.append(f"line {len(lines)}: .end appended (ngspice's shared library needs it)")
+
+
+def _inside_edit(card: _Card, edits: dict[int, tuple[int, str | None]]) -> bool:
+    return any(first <= card.first <= last for first, (last, _) in edits.items())
 
 
 def _is_opamp(tokens: list[str]) -> bool:
