@@ -7,12 +7,13 @@ must have a nonlinear family listed here.
 from __future__ import annotations
 
 from .base import DeviceFamily
+from .bjt import BjtFamily
 from .diode import DiodeFamily
 
 __all__ = ["FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily,)
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily)
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:

@@ -1,0 +1,410 @@
+"""The Gummel-Poon bipolar transistor (SPICE level 1, NPN and PNP) as ngspice 39 computes it.
+
+Syntax: ``Qname c b e [s] model [area] [areab=] [areac=] [m=M] [off] [temp=T] [dtemp=dT]``
+with ``.model name NPN|PNP (IS BF NF VAF IKF ISE NE BR NR VAR IKR ISC NC RB IRB RBM RE RC
+CJE VJE MJE TF XTF VTF ITF CJC VJC MJC XCJC TR CJS VJS MJS XTB EG XTI FC NKF SUBS TNOM)``.
+A three-terminal instance has its substrate at ground.
+
+Equations (type-normalised: for a PNP every voltage and current changes sign)
+---------------------------------------------------------------------------
+Junction currents (``bjtload.c``), :func:`~netdae.devices.junction.ideal_junction`
+with the reverse-bias cubic::
+
+    cbe = IS (e^{vbe/NF vt} - 1)     cben = ISE (e^{vbe/NE vt} - 1) + GMIN vbe
+    cbc = IS (e^{vbc/NR vt} - 1)     cbcn = ISC (e^{vbc/NC vt} - 1) + GMIN vbc
+
+Base charge ``q1 = 1 / (1 - vbc/VAF - vbe/VAR)``,
+``q2 = cbe/IKF + cbc/IKR``, ``qb = q1 (1 + (1 + 4 q2)^NKF) / 2`` (NKF = 1/2:
+a square root). Terminal currents::
+
+    ic = (cbe - cbc)/qb - cbc/BR - cbcn         (collector -> emitter)
+    ib = cbe/BF + cben + cbc/BR + cbcn          (base -> emitter)
+
+Base resistance ``RBM + (RB - RBM)/qb``, or with IRB ngspice's
+``RBM + 3 (RB - RBM) (tan z - z) / (z tan^2 z)``,
+``z = (sqrt(1 + 144 ib / (pi^2 IRB)) - 1) / (24/pi^2 sqrt(ib/IRB))``;
+RC and RE constant. A substrate current ``GMIN vsub`` flows from the
+substrate to the collector (vertical, ``SUBS=1``, NPN default) or to the base
+(lateral, ``SUBS=-1``, PNP default).
+
+Charges: ``qbe = TF cbe' + qdep(vbe; CJE)`` with
+``cbe' = cbe (1 + XTF e^{vbc/(1.44 VTF)} (cbe/(cbe+ITF))^2) / qb`` for
+``vbe > 0`` (``cbe' = cbe`` otherwise, as ngspice), ``qbc = TR cbc +
+qdep(vbc; XCJC CJC)`` at the internal base, ``qbx = qdep(vbx; (1-XCJC) CJC)``
+from the external base to the collector, ``qsub = qdep(vsub; CJS, FC=0)``.
+Their derivatives are ngspice's ``capbe`` (with the transcapacitance
+``geqcb`` to vbc), ``capbc``, ``capbx``, ``capsub``.
+
+Area and temperature (``bjttemp.c``, ``tlev = tlevc = 0``): ``IS`` times
+``area`` and ``exp((T/Tnom - 1) EG/vt + XTI ln(T/Tnom))``; ``ISE`` times
+``area`` and the same exponent over NE divided by ``(T/Tnom)^XTB``; ``ISC``
+likewise times ``areab`` (vertical) or ``areac`` (lateral); ``BF``, ``BR``
+times ``(T/Tnom)^XTB``; ``IKF``, ``IKR``, ``ITF``, ``IRB`` times area;
+``RB``, ``RBM``, ``RE``, ``RC`` over area; ``CJE`` times area, ``CJC``
+times areab/areac, ``CJS`` times areac/areab, with VJ/CJ by
+:func:`~netdae.devices.junction.scale_junction`. ``ISE``/``ISC`` above 1e-4
+are taken as multiples of IS (SPICE2's C2/C4). As in ngspice 39 the
+base-collector saturation current is ``IS * area * areab`` (vertical) or
+``IS * area * areac`` (lateral): with ``area != 1`` it scales with area
+twice. The instance multiplier ``m`` multiplies every current and charge.
+
+Newton: ``pnjlim`` on vbe and vbc (``vt``, ``vcrit = vt ln(vt/(sqrt 2 IS area))``)
+and on vsub (critical voltage 50 V, as ngspice without ISS); the first
+iteration from a zero iterate starts at ``vbe = vcrit``, ``vbc = 0``
+(all 0 for ``off``).
+
+Not implemented (rejected with an error): excess phase PTF, quasi-saturation
+(RCO ...), ISS/NS, IBE/IBC, temperature coefficients (TLEV ...).
+Accepted without effect: noise (KF, AF) and SOA limits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import CircuitError
+from .base import Accumulator, DeviceFamily, SlotMap
+from .companion import BranchStamps, LimitState
+from .junction import KELVIN, depletion_charge, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
+    thermal_voltage, vcrit
+from .modelcard import ParameterTable, gather, instance_values, resolve_model
+
+__all__ = ["BjtFamily", "BJT_PARAMETERS"]
+
+BJT_PARAMETERS = ParameterTable(
+    "bipolar transistor (Gummel-Poon, level 1)",
+    defaults={
+        "level": 1.0, "is": 1e-16, "bf": 100.0, "nf": 1.0, "vaf": 0.0, "ikf": 0.0, "ise": 0.0, "ne": 1.5,
+        "br": 1.0, "nr": 1.0, "var": 0.0, "ikr": 0.0, "isc": 0.0, "nc": 2.0, "rb": 0.0, "irb": 0.0,
+        "rbm": None, "re": 0.0, "rc": 0.0, "cje": 0.0, "vje": 0.75, "mje": 0.33, "tf": 0.0, "xtf": 0.0,
+        "vtf": 0.0, "itf": 0.0, "ptf": 0.0, "cjc": 0.0, "vjc": 0.75, "mjc": 0.33, "xcjc": 1.0, "tr": 0.0,
+        "cjs": 0.0, "vjs": 0.75, "mjs": 0.0, "xtb": 0.0, "eg": 1.11, "xti": 3.0, "fc": 0.5, "nkf": None,
+        "subs": None, "tnom": None,
+    },
+    aliases={"va": "vaf", "ik": "ikf", "c2": "ise", "vb": "var", "c4": "isc", "pe": "vje", "me": "mje",
+             "pc": "vjc", "mc": "mjc", "csub": "cjs", "ccs": "cjs", "ps": "vjs", "ms": "mjs", "tref": "tnom",
+             "nk": "nkf"},
+    inert=frozenset({"kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max", "te_max"}),
+)
+
+_INSTANCE = {"area": 1.0, "areab": None, "areac": None, "m": 1.0, "off": 0.0, "temp": None, "dtemp": 0.0,
+             "icvbe": None, "icvce": None}
+#: ngspice limits FC to 0.9999 and the grading coefficients to 0.999.
+FC_MAX = 0.9999
+GRADING_MAX = 0.999
+#: ISE/ISC above this are SPICE2's C2/C4: multiples of IS.
+LEAK_AS_FACTOR = 1e-4
+#: ngspice's critical voltage for the substrate junction without ISS [V].
+SUBSTRATE_VCRIT = 50.0
+#: VTF enters as exp(vbc / (1.44 VTF)).
+VTF_SCALE = 1.44
+#: Constants of ngspice's IRB base-resistance formula (144/pi^2, 24/pi^2) and its floor on ib/IRB.
+IRB_C1 = 14.59025
+IRB_C2 = 2.4317
+IRB_FLOOR = 1e-9
+VERTICAL, LATERAL = 1.0, -1.0
+
+# control rows
+_VBE, _VBC, _VBX, _VSUB, _VRB, _VRC, _VRE = range(7)
+# current rows
+_IC, _IB, _ISUB, _IRB, _IRC, _IRE = range(6)
+_CURRENT_DEPS = [(_IC, _VBE), (_IC, _VBC), (_IB, _VBE), (_IB, _VBC), (_ISUB, _VSUB), (_IRB, _VRB),
+                 (_IRB, _VBE), (_IRB, _VBC), (_IRC, _VRC), (_IRE, _VRE)]
+_CHARGE_DEPS = [(0, _VBE), (0, _VBC), (1, _VBC), (2, _VBX), (3, _VSUB)]
+
+
+def _inverse(value: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
+    """``1/(value*scale)`` where value != 0, else 0 (SPICE's 'infinite' default)."""
+    nz = value != 0.0
+    return np.where(nz, 1.0 / np.where(nz, value * scale, 1.0), 0.0)
+
+
+class BjtFamily(DeviceFamily):
+    """All bipolar transistors of a circuit, evaluated in one vectorised pass.
+
+    Raises
+    ------
+    CircuitError
+        Missing or mistyped model, unsupported parameter or level.
+    """
+
+    kinds = frozenset({"bjt"})
+
+    def __init__(self, elements, circuit) -> None:
+        super().__init__(elements, circuit)
+        opts = circuit.options
+        self.gmin = float(opts.gmin)
+        rows = []
+        for el in self.elements:
+            model = resolve_model(el, circuit, ("npn", "pnp"))
+            mv = BJT_PARAMETERS.read(model)
+            if mv["level"] != 1.0:
+                raise CircuitError(f"{el.name}: bipolar model {model.name} has level {mv['level']:g}; "
+                                   "netdae implements the Gummel-Poon level 1", elements=(el.name,))
+            if mv["ptf"] != 0.0:
+                raise CircuitError(f"{el.name}: model {model.name}: excess phase (PTF) is not supported by netdae",
+                                   elements=(el.name,), hint="remove PTF")
+            if len(el.nodes) not in (3, 4):
+                raise CircuitError(f"{el.name}: a bipolar transistor has 3 or 4 nodes", elements=(el.name,))
+            inst = instance_values(el, _INSTANCE, "bipolar transistor")
+            row = {k: mv[k] for k in BJT_PARAMETERS.defaults if k not in ("rbm", "nkf", "subs", "tnom", "level")}
+            row["type"] = 1.0 if model.type.lower() == "npn" else -1.0
+            row["subs"] = mv.get("subs", VERTICAL if row["type"] > 0 else LATERAL)
+            if row["subs"] not in (VERTICAL, LATERAL):
+                row["subs"] = VERTICAL if row["type"] > 0 else LATERAL
+            row["rbm"] = mv.get("rbm", mv["rb"])
+            row["nkf"] = mv.get("nkf", np.nan)
+            row["fc"] = min(row["fc"], FC_MAX) if mv.given("fc") else 0.5
+            row["tnom"] = mv.get("tnom", opts.tnom) + KELVIN
+            row["temp"] = inst.get("temp", opts.temp + inst["dtemp"]) + KELVIN
+            row["area"] = inst["area"]
+            row["areab"] = inst.get("areab", inst["area"])
+            row["areac"] = inst.get("areac", inst["area"])
+            row["mult"] = inst["m"]
+            row["off"] = inst["off"]
+            for key in ("ise", "isc"):
+                if row[key] > LEAK_AS_FACTOR:
+                    row[key] *= row["is"]
+            rows.append(row)
+        self._setup(rows)
+
+    def _setup(self, rows) -> None:
+        g = lambda name: gather(rows, name)  # noqa: E731
+        temp, tnom = g("temp"), g("tnom")
+        area, areab, areac = g("area"), g("areab"), g("areac")
+        self.type = g("type")
+        subs = g("subs")
+        self.ttype = self.type * subs
+        vertical = subs == VERTICAL
+        area_bc = np.where(vertical, areab, areac)
+        area_sub = np.where(vertical, areac, areab)
+        self.mult = g("mult")
+        self.vt = thermal_voltage(temp)
+        factlog = saturation_exponent(g("eg"), g("xti"), tnom, temp)
+        bfactor = np.exp(np.log(temp / tnom) * g("xtb"))
+        self.is_be = area * g("is") * np.exp(factlog)
+        self.is_bc = self.is_be * area_bc
+        self.ise = area * g("ise") * np.exp(factlog / g("ne")) / bfactor
+        self.isc = g("isc") * np.exp(factlog / g("nc")) / bfactor * area_bc
+        self.vtf, self.vtr = g("nf") * self.vt, g("nr") * self.vt
+        self.vte, self.vtc = g("ne") * self.vt, g("nc") * self.vt
+        self.bf, self.br = g("bf") * bfactor, g("br") * bfactor
+        self.inv_vaf, self.inv_var = _inverse(g("vaf")), _inverse(g("var"))
+        self.inv_ikf, self.inv_ikr = _inverse(g("ikf"), area), _inverse(g("ikr"), area)
+        self.nkf = g("nkf")
+        self.gc = self.mult * _inverse(g("rc")) * area
+        self.ge = self.mult * _inverse(g("re")) * area
+        self.rb, self.rbm = g("rb") / area, g("rbm") / area
+        self.irb = g("irb") * area
+        self.vcrit = vcrit(self.vt, self.is_be)
+        fc = g("fc")
+        self.fc = fc
+        mje, mjc, mjs = (np.minimum(g(k), GRADING_MAX) for k in ("mje", "mjc", "mjs"))
+        cje, self.vje = scale_junction(g("cje"), mje, g("vje"), tnom, temp)
+        cjc, self.vjc = scale_junction(g("cjc"), mjc, g("vjc"), tnom, temp)
+        cjs, self.vjs = scale_junction(g("cjs"), mjs, g("vjs"), tnom, temp)
+        self.cje, self.mje = cje * area, mje
+        xcjc = g("xcjc")
+        self.cjc_int, self.cjc_ext, self.mjc = cjc * area_bc * xcjc, cjc * area_bc * (1.0 - xcjc), mjc
+        self.cjs, self.mjs = cjs * area_sub, mjs
+        self.tf, self.tr = g("tf"), g("tr")
+        self.xtf = g("xtf")
+        vtf = g("vtf")
+        self.ovtf = _inverse(vtf, VTF_SCALE)
+        self.itf = g("itf") * area
+        self.off = g("off") != 0.0
+        self.has_rb = bool(np.any(self.rb > 0.0))
+        self.rb_varies = bool(np.any((self.rb != self.rbm) & (self.rb > 0.0)))
+        self.has_charge = bool(np.any(self.cje > 0) or np.any(self.cjc_int > 0) or np.any(self.cjc_ext > 0)
+                               or np.any(self.cjs > 0) or np.any(self.tf > 0) or np.any(self.tr > 0))
+
+    # -- topology ----------------------------------------------------------
+    def add_nodes(self, layout) -> None:
+        els = self.elements
+        self.c = layout.nodes_of([el.nodes[0] for el in els])
+        self.b = layout.nodes_of([el.nodes[1] for el in els])
+        self.e = layout.nodes_of([el.nodes[2] for el in els])
+        self.s = layout.nodes_of([el.nodes[3] if len(el.nodes) == 4 else "0" for el in els])
+
+        def inner(outer, conductance, suffix):
+            return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if gval > 0.0 else node
+                             for el, gval, node in zip(els, conductance, outer)], dtype=np.int64)
+
+        self.ci = inner(self.c, self.gc, "collcx")
+        self.bi = inner(self.b, self.rb, "base")
+        self.ei = inner(self.e, self.ge, "emitter")
+        self.sub_con = np.where(self.ttype * self.type > 0, self.ci, self.bi)
+
+    def coordinates(self, layout):
+        controls = [(self.bi, self.ei), (self.bi, self.ci), (self.b, self.ci), (self.s, self.sub_con),
+                    (self.b, self.bi), (self.c, self.ci), (self.e, self.ei)]
+        currents = [(self.ci, self.ei), (self.bi, self.ei), (self.s, self.sub_con), (self.b, self.bi),
+                    (self.c, self.ci), (self.e, self.ei)]
+        charges = [(self.bi, self.ei), (self.bi, self.ci), (self.b, self.ci), (self.s, self.sub_con)]
+        self.stamps = BranchStamps(controls, currents, charges if self.has_charge else [], _CURRENT_DEPS,
+                                   _CHARGE_DEPS if self.has_charge else [])
+        return self.stamps.coordinates()
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        self.stamps.bind(slots, n)
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        pairs = []
+        for el in self.elements:
+            c, b, e = el.nodes[:3]
+            pairs += [(b, e), (b, c)]
+            if len(el.nodes) == 4:
+                pairs.append((el.nodes[3], c))
+        return pairs
+
+    # -- Newton support ----------------------------------------------------
+    def initial_state(self) -> LimitState:
+        """SPICE's ``MODEINITJCT``: vbe = vcrit, vbc = vsub = 0 (all 0 when ``off``)."""
+        zero = np.zeros_like(self.vcrit)
+        return LimitState(np.stack([np.where(self.off, 0.0, self.vcrit), zero, zero]), initial=True)
+
+    def limit(self, vn: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, bool]:
+        """pnjlim on (vbe, vbc, vsub), type-normalised, against the previous values."""
+        vbe, c1 = pnjlim(vn[0], vold[0], self.vt, self.vcrit)
+        vbc, c2 = pnjlim(vn[1], vold[1], self.vt, self.vcrit)
+        vsub, c3 = pnjlim(vn[2], vold[2], self.vt, SUBSTRATE_VCRIT)
+        return np.stack([vbe, vbc, vsub]), bool(c1.any() or c2.any() or c3.any())
+
+    def transport(self, vbe, vbc):
+        """Gummel-Poon currents and their derivatives at type-normalised (vbe, vbc).
+
+        Returns
+        -------
+        dict of ndarray
+            ``ic, ib`` and ``dic_dvbe, dic_dvbc, dib_dvbe, dib_dvbc``, plus the
+            intermediate ``cbe, gbe, cbc, gbc, qb, dqbdve, dqbdvc`` the charges use.
+        """
+        cbe, gbe = ideal_junction(vbe, self.is_be, self.vtf)
+        cben, gben = ideal_junction(vbe, self.ise, self.vte)
+        cbc, gbc = ideal_junction(vbc, self.is_bc, self.vtr)
+        cbcn, gbcn = ideal_junction(vbc, self.isc, self.vtc)
+        cben, gben = cben + self.gmin * vbe, gben + self.gmin
+        cbcn, gbcn = cbcn + self.gmin * vbc, gbcn + self.gmin
+        q1 = 1.0 / (1.0 - self.inv_vaf * vbc - self.inv_var * vbe)
+        arg = np.maximum(0.0, 1.0 + 4.0 * (self.inv_ikf * cbe + self.inv_ikr * cbc))
+        nkf_given = np.isfinite(self.nkf)
+        sq = np.where(arg != 0.0, np.where(nkf_given, arg ** np.where(nkf_given, self.nkf, 0.5), np.sqrt(arg)), 1.0)
+        # d(sq)/d(arg): 1/(2 sq) for the square root
+        dsq = np.where(arg != 0.0, np.where(nkf_given, self.nkf * sq / np.where(arg != 0.0, arg, 1.0),
+                                            0.5 / sq), 0.0)
+        qb = q1 * (1.0 + sq) / 2.0
+        dqbdve = q1 * (qb * self.inv_var + 2.0 * dsq * self.inv_ikf * gbe)
+        dqbdvc = q1 * (qb * self.inv_vaf + 2.0 * dsq * self.inv_ikr * gbc)
+        ict = (cbe - cbc) / qb
+        go = (gbc + (cbe - cbc) * dqbdvc / qb) / qb
+        gm = (gbe - (cbe - cbc) * dqbdve / qb) / qb - go
+        gpi = gbe / self.bf + gben
+        gmu = gbc / self.br + gbcn
+        return {
+            "ic": ict - cbc / self.br - cbcn, "ib": cbe / self.bf + cben + cbc / self.br + cbcn,
+            "dic_dvbe": gm + go, "dic_dvbc": -go - gmu, "dib_dvbe": gpi, "dib_dvbc": gmu,
+            "cbe": cbe, "gbe": gbe, "cbc": cbc, "gbc": gbc, "qb": qb, "dqbdve": dqbdve, "dqbdvc": dqbdvc,
+        }
+
+    def base_resistance(self, tr) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Base-resistance conductance ``gx`` and its derivatives to (vbe, vbc).
+
+        ``RBM + (RB - RBM)/qb`` without IRB, ngspice's tangent formula with it;
+        0 where RB = 0.
+        """
+        rbpi = self.rb - self.rbm
+        qb = tr["qb"]
+        rbb = self.rbm + rbpi / qb
+        drbb_dve = -rbpi / (qb * qb) * tr["dqbdve"]
+        drbb_dvc = -rbpi / (qb * qb) * tr["dqbdvc"]
+        with_irb = self.irb != 0.0
+        if np.any(with_irb):
+            ratio = tr["ib"] / np.where(with_irb, self.irb, 1.0)
+            clamped = ratio < IRB_FLOOR
+            a = np.maximum(ratio, IRB_FLOOR)
+            s = np.sqrt(1.0 + IRB_C1 * a)
+            sa = np.sqrt(a)
+            z = (s - 1.0) / IRB_C2 / sa
+            tz = np.tan(z)
+            h = (tz - z) / (z * tz * tz)
+            dh = (tz * tz * z * tz * tz - (tz - z) * (tz * tz + 2.0 * z * tz * (1.0 + tz * tz))) / (z * z * tz ** 4)
+            dz = (IRB_C1 * sa / (2.0 * s) - (s - 1.0) / (2.0 * sa)) / (IRB_C2 * a)
+            dr_dib = np.where(clamped, 0.0, 3.0 * rbpi * dh * dz / np.where(with_irb, self.irb, 1.0))
+            rbb = np.where(with_irb, self.rbm + 3.0 * rbpi * h, rbb)
+            drbb_dve = np.where(with_irb, dr_dib * tr["dib_dvbe"], drbb_dve)
+            drbb_dvc = np.where(with_irb, dr_dib * tr["dib_dvbc"], drbb_dvc)
+        nz = rbb != 0.0
+        gx = np.where(nz, 1.0 / np.where(nz, rbb, 1.0), 0.0)
+        return gx, -gx * gx * drbb_dve, -gx * gx * drbb_dvc
+
+    def charges(self, vbe, vbc, vbx, vsub, tr):
+        """Junction charges (qbe, qbc, qbx, qsub) and their derivatives, type-normalised."""
+        cbe, gbe, qb = tr["cbe"], tr["gbe"], tr["qb"]
+        tf_on = (self.tf != 0.0) & (vbe > 0.0)
+        argtf = self.xtf * np.exp(vbc * self.ovtf)
+        arg2 = argtf
+        with_itf = self.itf != 0.0
+        temp = cbe / np.where(with_itf, cbe + self.itf, 1.0)
+        argtf = np.where(with_itf, argtf * temp * temp, argtf)
+        arg2 = np.where(with_itf, argtf * (3.0 - temp - temp), arg2)
+        arg3 = cbe * argtf * self.ovtf
+        cbe_mod = cbe * (1.0 + argtf) / qb
+        gbe_mod = (gbe * (1.0 + arg2) - cbe_mod * tr["dqbdve"]) / qb
+        geqcb = self.tf * (arg3 - cbe_mod * tr["dqbdvc"]) / qb
+        cbe_q = np.where(tf_on, cbe_mod, cbe)
+        gbe_q = np.where(tf_on, gbe_mod, gbe)
+        geqcb = np.where(tf_on, geqcb, 0.0)
+        qdep_be, cdep_be = depletion_charge(vbe, self.cje, self.vje, self.mje, self.fc)
+        qdep_bc, cdep_bc = depletion_charge(vbc, self.cjc_int, self.vjc, self.mjc, self.fc)
+        qbx, cbx = depletion_charge(vbx, self.cjc_ext, self.vjc, self.mjc, self.fc)
+        qsub, csub = depletion_charge(vsub, self.cjs, self.vjs, self.mjs, 0.0)
+        q = np.stack([self.tf * cbe_q + qdep_be, self.tr * tr["cbc"] + qdep_bc, qbx, qsub])
+        dq = np.stack([self.tf * gbe_q + cdep_be, geqcb, self.tr * tr["gbc"] + cdep_bc, cbx, csub])
+        return q, dq
+
+    def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        v = self.stamps.voltages(x)
+        tp, ttp = self.type, self.ttype
+        vn_x = np.stack([tp * v[_VBE], tp * v[_VBC], ttp * v[_VSUB]])
+        with np.errstate(all="ignore"):
+            if state is None:
+                state = self.initial_state()
+            if state.initial:
+                if x.any():
+                    vn, changed = vn_x, False
+                else:
+                    vn, changed = state.v, True
+            else:
+                vn, changed = self.limit(vn_x, state.v)
+            vbe, vbc, vsub = vn
+            vbx = tp * v[_VBX]
+            tr = self.transport(vbe, vbc)
+            gx, dgx_dve, dgx_dvc = self.base_resistance(tr) if self.has_rb else (np.zeros_like(vbe),) * 3
+            m = self.mult
+            vrb = v[_VRB]
+            currents = np.stack([tp * m * tr["ic"], tp * m * tr["ib"], ttp * m * self.gmin * vsub,
+                                 m * gx * vrb, self.gc * v[_VRC], self.ge * v[_VRE]])
+            dcur = np.stack([m * tr["dic_dvbe"], m * tr["dic_dvbc"], m * tr["dib_dvbe"], m * tr["dib_dvbc"],
+                             m * np.full_like(vbe, self.gmin), m * gx, tp * m * vrb * dgx_dve,
+                             tp * m * vrb * dgx_dvc, self.gc, self.ge])
+            if self.has_charge:
+                q, dq = self.charges(vbe, vbc, vbx, vsub, tr)
+                signs = np.stack([tp, tp, tp, ttp])
+                q = signs * m * q
+                dq = m * dq
+            else:
+                q, dq = np.empty((0, vbe.size)), None
+            delta = None
+            if changed:
+                acc.limited = True
+                delta = np.zeros_like(v)
+                delta[_VBE] = v[_VBE] - tp * vbe
+                delta[_VBC] = v[_VBC] - tp * vbc
+                delta[_VSUB] = v[_VSUB] - ttp * vsub
+            self.stamps.add(acc, currents, dcur, q, dq, delta=delta, jacobian=jacobian)
+            total = float(currents.sum() + dcur.sum()) + (float(q.sum() + dq.sum()) if self.has_charge else 0.0)
+            if not math.isfinite(total):
+                acc.ok = False
+        return LimitState(vn)
