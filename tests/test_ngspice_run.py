@@ -25,10 +25,14 @@ from netdae.ngspice import (
     run_ngspice,
     run_ngspice_file,
 )
+from netdae.ngspice.shared import library_path
 
 pytestmark = pytest.mark.ngspice
 
-BACKENDS = ["shared", "subprocess"]
+needs_library = pytest.mark.skipif(
+    library_path() is None, reason=f"ngspice's shared library is not installed ({INSTALL_HINT})"
+)
+BACKENDS = [pytest.param("shared", marks=needs_library), "subprocess"]
 
 R, C = 1e3, 1e-6
 TAU = R * C
@@ -116,6 +120,7 @@ def test_dc_sweeps_are_linear_and_named_by_their_sources(backend):
     np.testing.assert_allclose(single["v(out)"], 2e3 * single.axis, rtol=1e-14, atol=1e-16)
 
 
+@needs_library
 def test_both_backends_give_the_same_doubles():
     shared = run_ngspice(HIERARCHY, backend="shared")
     batch = run_ngspice(HIERARCHY, backend="subprocess")
@@ -177,6 +182,7 @@ def test_singular_matrix_is_refused_unless_not_strict(backend):
     assert any("singular matrix" in w for w in run.warnings)
 
 
+@needs_library
 def test_several_netlists_in_one_process_do_not_leak_state():
     first = run_ngspice(RC_STEP, backend="shared").result("tran")
     tight = run_ngspice(RC_STEP, backend="shared", options={"reltol": 1e-7, "method": "gear"}).result("tran")
@@ -227,6 +233,7 @@ def test_timeout_stops_the_run_and_ngspice_stays_usable(backend):
     assert op["v(out)"][0] == pytest.approx(0.75, rel=1e-14)
 
 
+@needs_library
 def test_version_and_availability():
     assert available()
     assert ngspice_version("shared") == ngspice_version("subprocess")
@@ -267,6 +274,7 @@ def _python(env_changes: dict, backend: str) -> str:
     return done.stdout
 
 
+@needs_library
 def test_a_library_that_exited_is_replaced_by_the_subprocess():
     script = (
         "from netdae.ngspice import run_ngspice, shared\n"
