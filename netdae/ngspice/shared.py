@@ -114,26 +114,26 @@ class _Session:
         self.command("destroy all")
         lib.lines.clear()
         lib.finished.clear()
-        self._load(netlist)
-        stderr = [text for stream, text in lib.lines if stream == "stderr"]
-        errors, _ = classify_output(stderr, [], strict=False)
-        if not errors:
-            self.command("bg_run")
-            if not lib.finished.wait(timeout):
-                self._halt()
+        try:
+            self._load(netlist)
+            stderr = [text for stream, text in lib.lines if stream == "stderr"]
+            errors, _ = classify_output(stderr, [], strict=False)
+            if not errors:
+                self.command("bg_run")
+                if not lib.finished.wait(timeout):
+                    self._halt()
+                    raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
+                if lib.exit_status is not None:
+                    raise BackendUnavailable(f"ngspice's shared library exited with status {lib.exit_status}")
+            return BackendOutput(
+                results=[] if errors else self._collect(netlist),
+                stdout=[text for stream, text in lib.lines if stream != "stderr"],
+                stderr=[text for stream, text in lib.lines if stream == "stderr"],
+                version=self.version,
+            )
+        finally:
+            if lib.exit_status is None:
                 self._clean()
-                raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
-            if lib.exit_status is not None:
-                raise BackendUnavailable(f"ngspice's shared library exited with status {lib.exit_status}")
-        results = self._collect(netlist) if not errors else []
-        output = BackendOutput(
-            results=results,
-            stdout=[text for stream, text in lib.lines if stream != "stderr"],
-            stderr=[text for stream, text in lib.lines if stream == "stderr"],
-            version=self.version,
-        )
-        self._clean()
-        return output
 
     def _load(self, netlist: str) -> None:
         ffi = self.ffi
