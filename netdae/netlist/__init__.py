@@ -1,0 +1,64 @@
+"""The SPICE netlist reader (ngspice dialect): text -> :class:`~netdae.circuit.Circuit`.
+
+The reader works in two pure steps that can be used separately:
+
+- :func:`parse` reads the file and everything it includes, and parses every
+  card (a :class:`~netdae.netlist.statements.Netlist`: subcircuit
+  definitions, elements, models, parameters, analyses; nothing evaluated);
+- :func:`elaborate` expands subcircuits with ngspice's naming, evaluates
+  parameters and expressions, checks references, and returns the flat
+  :class:`~netdae.circuit.Circuit`.
+
+:func:`load` does both. Every problem in the netlist is a
+:class:`~netdae.errors.NetlistError` with file, line, column, the expected
+form of the card and a hint. The dialect is described in ``docs/netlist.md``.
+
+Examples
+--------
+>>> from netdae.netlist import load
+>>> c = load('''RC low-pass
+... V1 in 0 PULSE(0 1 0 1u 1u 1m 2m)
+... R1 in out 1k
+... C1 out 0 1u ic=0
+... .tran 1u 5m
+... .end
+... ''')
+>>> c.title, c.nodes, c.count_by_letter()
+('RC low-pass', ['in', 'out'], {'c': 1, 'r': 1, 'v': 1})
+>>> c.element("c1").params
+{'ic': 0.0}
+"""
+
+from __future__ import annotations
+
+import os
+
+from ..circuit import Circuit
+from .elaborate import elaborate
+from .parser import parse
+
+__all__ = ["load", "parse", "elaborate"]
+
+
+def load(path_or_text: str | os.PathLike, *, path: str | None = None) -> Circuit:
+    """Read, parse and elaborate a netlist.
+
+    Parameters
+    ----------
+    path_or_text : str or os.PathLike
+        A file name (a ``PathLike``, or a ``str`` without a newline) or the
+        netlist text itself (a ``str`` with at least one newline).
+    path : str, optional
+        For text: the file name shown in locations; its directory resolves
+        relative ``.include``/``.lib`` names (default: the current directory).
+
+    Returns
+    -------
+    Circuit
+
+    Raises
+    ------
+    NetlistError
+        Anything wrong in the netlist, with its location.
+    """
+    return elaborate(parse(path_or_text, path=path))

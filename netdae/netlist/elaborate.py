@@ -1,0 +1,540 @@
+"""Elaboration: a parsed :class:`Netlist` to a flat :class:`~netdae.circuit.Circuit`.
+
+Subcircuit expansion follows ngspice's ``subckt.c`` step by step, so that
+every hierarchical name is the one ngspice prints:
+
+1. A definition's body is expanded first on its own (memoised): instances
+   of subcircuits defined *inside* it are replaced by their (expanded)
+   bodies; other instances stay, to be expanded where their subcircuit is
+   defined.
+2. Replacing instance ``X`` (current name ``N``) by a body renames every
+   card of the body: an element ``r1`` becomes ``r.N.r1`` (its letter, a dot,
+   ``N``, a dot, its current name, so an element already renamed by an inner
+   expansion, ``r.x3.rl``, becomes ``r.N.r.x3.rl``); an instance ``x1``
+   becomes ``N.x1``; a model ``dm`` becomes ``N:dm``; a node becomes ``N.node``
+   unless it is ground, a ``.global`` node, or a port (then the node the
+   instance connects). Controlling names (F, H, K, ``I()``) are renamed like
+   elements, ``V()`` nodes like nodes.
+3. A device uses the innermost model of that name, looking outward from the
+   definition where the device is written.
+
+Parameters are scoped dynamically (:mod:`netdae.netlist.params`).
+"""
+
+from __future__ import annotations
+
+from ..circuit import (AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
+                       OpAnalysis, Options, SourceSpec, TranAnalysis)
+from ..errors import NetlistError
+from . import expr as ex
+from .elements import error, parse_value
+from .lines import EXPR, STRING, WORD
+from .numbers import parse_number
+from .params import Env, evaluate_val, resolve_behavioural
+from .statements import Definition, ElementCard, InstanceCard, ModelCard, Netlist, ParamDef
+from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
+from .waveforms import WAVEFORMS, Pwl
+
+__all__ = ["elaborate", "BRANCH_KINDS", "MODEL_TYPES"]
+
+#: Element kinds whose branch current is an unknown (what ``I(name)`` may name).
+BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "bvoltage", "opamp"})
+
+#: Model types each device kind accepts.
+MODEL_TYPES = {
+    "diode": ("d",),
+    "bjt": ("npn", "pnp"),
+    "mosfet": ("nmos", "pmos"),
+    "resistor": ("r", "res"),
+    "capacitor": ("c",),
+    "inductor": ("l",),
+}
+
+_INT_OPTIONS = {"maxord", "itl1", "itl4"}
+_FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
+_METHODS = {"gear": "gear", "trap": "trap", "trapezoidal": "trap"}
+
+
+class _Frame:
+    """One instance on a call chain: its card and the subcircuit it instantiates."""
+
+    __slots__ = ("inst", "sub")
+
+    def __init__(self, inst: InstanceCard, sub: Definition) -> None:
+        self.inst = inst
+        self.sub = sub
+
+
+class _Placed:
+    """A card during expansion: its current name, nodes and references."""
+
+    __slots__ = ("item", "name", "nodes", "refs", "crefs", "model", "bound", "frames", "path")
+
+    def __init__(self, item, name, nodes, refs, crefs, model, bound, frames, path) -> None:
+        self.item = item
+        self.name = name
+        self.nodes = nodes
+        self.refs = refs
+        self.crefs = crefs
+        self.model = model
+        self.bound = bound
+        self.frames = frames
+        self.path = path
+
+
+def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
+    """Node and element names an element's expression refers to, as written."""
+    if item.expr is None:
+        return (), ()
+    nodes: dict[str, None] = {}
+    elems: dict[str, None] = {}
+    for n in ex.walk(item.expr[0]):
+        if type(n) is ex.Voltage:
+            nodes[n.pos] = None
+            if n.neg is not None:
+                nodes[n.neg] = None
+        elif type(n) is ex.Current:
+            elems[n.element] = None
+    return tuple(nodes), tuple(elems)
+
+
+def _ground(name: str) -> str:
+    return "0" if name == "gnd" else name
+
+
+class _Elaborator:
+    def __init__(self, net: Netlist) -> None:
+        self.net = net
+        self.globals = {"0", *net.globals}
+        self.diagnostics: list[Diagnostic] = list(net.diagnostics)
+        self.bodies: dict[int, list[_Placed]] = {}
+        self.frames: dict[int, _Frame] = {}
+        self.refs: dict[int, tuple[tuple, tuple]] = {}
+        self.root = self._scope(None, net.top, None)
+        self.envs: dict[tuple, Env] = {(): self.root}
+
+    # -- parameter scopes -------------------------------------------------
+    def _scope(self, parent: Env | None, defn: Definition, frame: _Frame | None) -> Env:
+        env = Env(parent, dict(defn.funcs))
+        if frame is not None:
+            declared = {d.name for d in defn.defaults}
+            for name, val in frame.inst.params.items():
+                if name not in declared:
+                    known = ", ".join(sorted(declared)) or "none"
+                    raise error(frame.inst.card, val[1], f"subcircuit '{defn.name}' has no parameter '{name}' "
+                                f"(its parameters: {known})", ELEMENTS["x"])
+            for d in defn.defaults:
+                if d.name in frame.inst.params:
+                    val = frame.inst.params[d.name]
+                    env.define(ParamDef(d.name, val, frame.inst.card, val[1]), parent)
+                else:
+                    env.define(d, env)
+        for p in defn.params:
+            env.define(p, env, self.diagnostics)
+        return env
+
+    def env(self, frames: tuple) -> Env:
+        env = self.envs.get(frames)
+        if env is None:
+            parent = self.env(frames[:-1])
+            frame = frames[-1]
+            env = self._scope(parent, frame.sub, frame)
+            self.envs[frames] = env
+        return env
+
+    # -- expansion ----------------------------------------------------------
+    def _fresh(self, item) -> _Placed:
+        if isinstance(item, ElementCard):
+            refs = self.refs.get(id(item))
+            if refs is None:
+                refs = _expr_refs(item)
+                self.refs[id(item)] = refs
+            nodes, elems = refs
+            crefs = tuple(c for c, _ in item.controls) + elems
+            model = item.model[0] if item.model is not None else None
+            return _Placed(item, item.name, item.nodes, tuple(_ground(n) for n in nodes), crefs, model,
+                           None, (), ())
+        return _Placed(item, item.name, getattr(item, "nodes", ()), (), (), None, None, (), ())
+
+    def body(self, defn: Definition) -> list[_Placed]:
+        """The definition's cards with its own local instances expanded (memoised)."""
+        key = id(defn)
+        cached = self.bodies.get(key)
+        if cached is not None:
+            return cached
+        out: list[_Placed] = []
+        stack = [self._fresh(item) for item in reversed(defn.items)]
+        while stack:
+            p = stack.pop()
+            if type(p.item) is InstanceCard:
+                sub = defn.subckts.get(p.item.subckt)
+                if sub is not None:
+                    stack.extend(reversed(self._instantiate(p, sub)))
+                    continue
+            out.append(p)
+        self.bodies[key] = out
+        return out
+
+    def _instantiate(self, x: _Placed, sub: Definition) -> list[_Placed]:
+        inst: InstanceCard = x.item
+        for f in x.frames:
+            if f.sub is sub:
+                chain = " -> ".join([fr.sub.name for fr in x.frames[x.frames.index(f):]] + [sub.name])
+                raise error(inst.card, inst.subckt_offset, f"recursive subcircuit instantiation: {chain}",
+                            ELEMENTS["x"])
+        if len(x.nodes) != len(sub.ports):
+            raise error(inst.card, inst.subckt_offset,
+                        f"subcircuit '{sub.name}' has {len(sub.ports)} port(s) ({' '.join(sub.ports) or '-'}), "
+                        f"the instance connects {len(x.nodes)} node(s)", ELEMENTS["x"],
+                        hint=f"defined at {sub.card.file}:{sub.card.line}")
+        frame = self.frames.get(id(inst))
+        if frame is None:
+            frame = self.frames[id(inst)] = _Frame(inst, sub)
+        prefix = x.name
+        ports = dict(zip(sub.ports, x.nodes))
+        glob = self.globals
+        frames = x.frames + (frame,)
+        path = x.path + (inst.name,)
+        own_models = sub.models
+
+        def node(n: str) -> str:
+            if n in glob:
+                return n
+            m = ports.get(n)
+            return m if m is not None else f"{prefix}.{n}"
+
+        def elem(n: str) -> str:
+            return f"{prefix}.{n}" if n[0] == "x" else f"{n[0]}.{prefix}.{n}"
+
+        out = []
+        for b in self.body(sub):
+            item = b.item
+            kind = type(item)
+            if kind is ElementCard:
+                model, bound = b.model, b.bound
+                if model is not None:
+                    if bound is not None:
+                        model = f"{prefix}:{model}"
+                    elif model in own_models:
+                        bound = own_models[model]
+                        model = f"{prefix}:{model}"
+                out.append(_Placed(item, elem(b.name), tuple(map(node, b.nodes)), tuple(map(node, b.refs)),
+                                   tuple(map(elem, b.crefs)), model, bound, frames + b.frames, path + b.path))
+            elif kind is InstanceCard:
+                out.append(_Placed(item, f"{prefix}.{b.name}", tuple(map(node, b.nodes)), (), (), None, None,
+                                   frames + b.frames, path + b.path))
+            else:
+                out.append(_Placed(item, f"{prefix}:{b.name}", (), (), (), None, None, frames + b.frames,
+                                   path + b.path))
+        return out
+
+    # -- circuit --------------------------------------------------------------
+    def run(self) -> Circuit:
+        net = self.net
+        placed = self.body(net.top)
+        circuit = Circuit(title=net.title, path=net.path)
+        elements: dict[str, Element] = {}
+        nodes: dict[str, None] = {}
+        pending: list[tuple[Element, _Placed]] = []
+        for p in placed:
+            item = p.item
+            kind = type(item)
+            if kind is InstanceCard:
+                raise error(item.card, item.subckt_offset, f"unknown subcircuit '{item.subckt}'", ELEMENTS["x"],
+                            hint="define it with .subckt ... .ends (or .include the file that does)")
+            if kind is ModelCard:
+                circuit.models[p.name] = self._model(p)
+                continue
+            el = self._element(p)
+            old = elements.get(el.name)
+            if old is not None:
+                where = old.location
+                raise error(item.card, 0, f"duplicate element name '{el.name}' (first defined at "
+                            f"{where.file}:{where.line})", hint="element names must be unique")
+            elements[el.name] = el
+            for n in el.nodes:
+                if n != "0" and n not in nodes:
+                    nodes[n] = None
+            if el.controls or p.refs:
+                pending.append((el, p))
+            circuit.elements.append(el)
+        for el, p in pending:
+            self._check_references(el, p, elements, nodes)
+        circuit.nodes = list(nodes)
+        circuit.params = self._top_params()
+        self._analyses(circuit, elements)
+        self._options(circuit)
+        self._initial(circuit, nodes)
+        self._saves(circuit, nodes, elements)
+        circuit.diagnostics = self.diagnostics
+        return circuit
+
+    def _top_params(self) -> dict[str, float]:
+        return self.root.all_values()
+
+    def _model(self, p: _Placed) -> Model:
+        item: ModelCard = p.item
+        env = self.env(p.frames)
+        params = {k: evaluate_val(v, env, item.card, f"model parameter '{k}'") for k, v in item.params.items()}
+        return Model(p.name, item.type, params, item.card.location(0))
+
+    def _element(self, p: _Placed) -> Element:
+        item: ElementCard = p.item
+        card = item.card
+        kind = item.kind
+        env = self.env(p.frames) if p.frames else self.root
+        value = evaluate_val(item.value, env, card) if item.value is not None else None
+        el = Element(p.name, kind, p.nodes, value=value, location=card.location(0), instance_path=p.path)
+        if item.params:
+            el.params = {k: evaluate_val(v, env, card, f"parameter '{k}'") for k, v in item.params.items()}
+        if item.flags:
+            for flag in item.flags:
+                el.params[flag] = 1.0
+        if p.model is not None:
+            el.model = self._model_name(p, item)
+        if item.source is not None:
+            el.source = self._source(item, env)
+        if item.expr is not None:
+            nodes_written, elems_written = self.refs[id(item)]
+            node_map = dict(zip(nodes_written, p.refs))
+            elem_map = dict(zip(tuple(c for c, _ in item.controls) + elems_written, p.crefs))
+            el.expr = resolve_behavioural(item.expr[0], env, card, item.expr[1], node_map, elem_map)
+        if item.controls:
+            el.controls = p.crefs[: len(item.controls)]
+        self._check_value(el, item)
+        return el
+
+    def _check_value(self, el: Element, item: ElementCard) -> None:
+        if el.kind == "resistor" and el.value == 0.0:
+            raise error(item.card, item.value[1], "zero resistance", ELEMENTS["r"],
+                        hint="use a 0 V voltage source for a short circuit")
+        if el.kind == "coupling" and not -1.0 <= el.value <= 1.0:
+            raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
+
+    def _model_name(self, p: _Placed, item: ElementCard) -> str:
+        if p.bound is not None:
+            mcard = p.bound
+        else:
+            mcard = self.net.top.models.get(p.model)
+            if mcard is None:
+                raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
+                            ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
+        allowed = MODEL_TYPES.get(item.kind)
+        if allowed is not None and mcard.type not in allowed:
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', a "
+                        f"{ELEMENTS[item.name[0]].description} needs {' or '.join(allowed)}",
+                        ELEMENTS[item.name[0]])
+        return p.model
+
+    def _source(self, item: ElementCard, env: Env) -> SourceSpec:
+        src = item.source
+        card = item.card
+        spec = SourceSpec()
+        if src.dc is not None:
+            spec.dc = evaluate_val(src.dc, env, card, "DC value")
+        if src.ac_mag is not None:
+            spec.ac_mag = evaluate_val(src.ac_mag, env, card, "AC magnitude")
+        if src.ac_phase is not None:
+            spec.ac_phase = evaluate_val(src.ac_phase, env, card, "AC phase")
+        if src.tran is not None:
+            kind, vals, extras, offset = src.tran
+            args = [evaluate_val(v, env, card, f"{kind.upper()} parameter") for v in vals]
+            try:
+                if kind == "pwl":
+                    if len(args) < 2 or len(args) % 2:
+                        raise ValueError(f"PWL needs time-value pairs, got {len(args)} number(s)")
+                    extra = {k: evaluate_val(v, env, card, f"PWL {k}=") for k, v in extras.items()}
+                    spec.tran = Pwl(args[0::2], args[1::2], repeat=extra.get("r"), delay=extra.get("td", 0.0))
+                else:
+                    spec.tran = WAVEFORMS[kind](*args)
+            except ValueError as exc:
+                raise error(card, offset, str(exc), SOURCE_FUNCTIONS) from None
+        return spec
+
+    def _check_references(self, el: Element, p: _Placed, elements: dict, nodes: dict) -> None:
+        item: ElementCard = p.item
+        card = item.card
+        syntax = ELEMENTS[item.name[0]]
+        for (written, offset), full in zip(item.controls, el.controls):
+            target = elements.get(full)
+            need = "inductor" if el.kind == "coupling" else "vsource"
+            if target is None:
+                hint = ("a controlling element must be in the same subcircuit as the element it controls"
+                        if p.path else None)
+                raise error(card, offset, f"'{written}' names no element (looked for '{full}')", syntax, hint=hint)
+            if el.kind == "coupling" and target.kind != "inductor":
+                raise error(card, offset, f"'{written}' is a {target.kind}, not an inductor", syntax)
+            if el.kind in ("cccs", "ccvs") and target.kind != need:
+                raise error(card, offset, f"'{written}' is a {target.kind}, not a voltage source "
+                            "(F and H sense the current of a V source)", syntax,
+                            hint="add a 0 V source in series with the branch and name it")
+        if el.expr is None:
+            return
+        for n in ex.walk(el.expr):
+            if type(n) is ex.Voltage:
+                for name in (n.pos, n.neg):
+                    if name is not None and name not in nodes:
+                        raise error(card, item.expr[1], f"V({name}): no element connects node '{name}'", syntax)
+            elif type(n) is ex.Current:
+                target = elements.get(n.element)
+                if target is None or target.kind not in BRANCH_KINDS:
+                    what = "names no element" if target is None else f"names a {target.kind}, which has no branch current"
+                    raise error(card, item.expr[1], f"I({n.element}) {what}", syntax,
+                                hint="I() names a V source, inductor, E/H source or B voltage source")
+
+    # -- analyses and control cards ------------------------------------------
+    def _value(self, val, card, what: str) -> float:
+        return evaluate_val(val, self.root, card, what)
+
+    def _analyses(self, circuit: Circuit, elements: dict) -> None:
+        for a in self.net.analyses:
+            card, args = a.card, a.args
+            form = DOT_CARDS["." + a.kind]
+            loc = card.location(0)
+            if a.kind == "op":
+                circuit.analyses.append(OpAnalysis(loc))
+            elif a.kind == "tran":
+                v = {k: self._value(args[k], card, k) for k in ("tstep", "tstop", "tstart", "tmax") if k in args}
+                if v["tstep"] <= 0:
+                    raise error(card, args["tstep"][1], f"tstep must be > 0, got {v['tstep']:g}", form)
+                if v["tstop"] <= 0:
+                    raise error(card, args["tstop"][1], f"tstop must be > 0, got {v['tstop']:g}", form)
+                tstart = v.get("tstart", 0.0)
+                if not 0 <= tstart < v["tstop"]:
+                    raise error(card, args["tstart"][1], f"tstart must be in [0, tstop), got {tstart:g}", form)
+                tmax = v.get("tmax")
+                if tmax is not None and tmax <= 0:
+                    raise error(card, args["tmax"][1], f"tmax must be > 0, got {tmax:g}", form)
+                circuit.analyses.append(TranAnalysis(v["tstep"], v["tstop"], tstart, tmax, args["uic"], loc))
+            elif a.kind == "ac":
+                points = self._value(args["points"], card, "points")
+                fstart = self._value(args["fstart"], card, "fstart")
+                fstop = self._value(args["fstop"], card, "fstop")
+                if points < 1 or points != int(points):
+                    raise error(card, args["points"][1], f"points must be a positive integer, got {points:g}", form)
+                if fstart <= 0 and args["variation"] != "lin" or fstart < 0:
+                    raise error(card, args["fstart"][1], f"fstart must be > 0, got {fstart:g}", form)
+                if fstop < fstart:
+                    raise error(card, args["fstop"][1], f"fstop {fstop:g} is below fstart {fstart:g}", form)
+                circuit.analyses.append(AcAnalysis(args["variation"], int(points), fstart, fstop, loc))
+            else:
+                sweeps = []
+                for name, offset, start, stop, step in args["sweeps"]:
+                    if name != "temp":
+                        target = elements.get(name)
+                        if target is None or target.kind not in ("vsource", "isource"):
+                            what = "no element" if target is None else f"a {target.kind}"
+                            raise error(card, offset, f"sweep source '{name}' is {what}", form,
+                                        hint="netdae sweeps V or I sources, or temp")
+                    lo = self._value(start, card, "start")
+                    hi = self._value(stop, card, "stop")
+                    inc = self._value(step, card, "step")
+                    if inc == 0 or (hi - lo) * inc < 0:
+                        raise error(card, step[1], f"step {inc:g} does not lead from {lo:g} to {hi:g}", form)
+                    sweeps.append(DcSweep(name, lo, hi, inc))
+                circuit.analyses.append(DcAnalysis(sweeps, loc))
+
+    def _options(self, circuit: Circuit) -> None:
+        opts = Options()
+        for name, value, offset, card in self.net.options:
+            form = DOT_CARDS[".options"]
+            if name in _FLOAT_OPTIONS or name in _INT_OPTIONS:
+                if value is True or value.kind == STRING:
+                    raise error(card, offset, f"option '{name}' needs a number", form)
+                number = self._option_number(value, card)
+                if name in _INT_OPTIONS:
+                    if number != int(number) or number < 1:
+                        raise error(card, value.start, f"option '{name}' needs a positive integer", form)
+                    number = int(number)
+                elif name not in ("temp", "tnom") and number <= 0:
+                    raise error(card, value.start, f"option '{name}' must be > 0", form)
+                setattr(opts, name, number)
+            elif name == "method":
+                word = value.text if value is not True else ""
+                if word not in _METHODS:
+                    raise error(card, offset, f"unknown integration method '{word}'", form,
+                                hint="method=gear or method=trap")
+                opts.method = _METHODS[word]
+            elif name == "interp":
+                opts.interp = True
+            elif value is True:
+                opts.extra[name] = True
+            elif value.kind == EXPR or (value.kind == WORD and parse_number(value.text) is not None):
+                opts.extra[name] = self._option_number(value, card)
+            else:
+                opts.extra[name] = value.text
+        for val, card in self.net.temps:
+            opts.temp = self._value(val, card, "temperature")
+        circuit.options = opts
+
+    def _option_number(self, tok, card) -> float:
+        return self._value(parse_value(card, tok, DOT_CARDS[".options"]), card, "option value")
+
+    def _initial(self, circuit: Circuit, nodes: dict) -> None:
+        for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
+            for node, val, offset, card in entries:
+                if node not in nodes:
+                    raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
+                                hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
+                target[node] = self._value(val, card, f"initial value of v({node})")
+
+    def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
+        seen: dict[str, None] = {}
+        for signal, offset, card in self.net.saves:
+            text = signal
+            problem = None
+            if "(" in signal:
+                head, args = signal[:-1].split("(", 1)
+                parts = [_ground(a) for a in args.split(",")]
+                if head == "v":
+                    if len(parts) == 2 and parts[1] == "0":
+                        parts = parts[:1]
+                    text = f"v({','.join(parts)})"
+                    problem = next((f"no node '{n}'" for n in parts if n != "0" and n not in nodes), None)
+                elif head == "i":
+                    target = elements.get(parts[0]) if len(parts) == 1 else None
+                    if target is None:
+                        problem = f"no element '{parts[0]}'"
+                    elif target.kind not in BRANCH_KINDS:
+                        problem = f"'{parts[0]}' is a {target.kind}, which has no branch current"
+            elif signal == "all":
+                continue
+            elif signal[0] != "@":
+                text = f"v({_ground(signal)})"
+                if _ground(signal) not in nodes:
+                    problem = f"no node '{signal}'"
+            if problem is not None:
+                self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem}",
+                                                   card.location(offset)))
+            seen.setdefault(text, None)
+        circuit.saves = list(seen)
+
+
+def elaborate(netlist: Netlist) -> Circuit:
+    """Expand subcircuits, evaluate parameters, and build the flat circuit.
+
+    Parameters
+    ----------
+    netlist : Netlist
+        From :func:`netdae.netlist.parse`.
+
+    Returns
+    -------
+    Circuit
+
+    Raises
+    ------
+    NetlistError
+        Unknown subcircuit, wrong number of ports, unknown or cyclic
+        parameter, undefined model or wrong model type, duplicate element
+        name, a K naming a non-inductor, an F/H naming a non-voltage-source,
+        an I()/V() naming nothing, bad analysis values, unknown
+        ``.ic`` nodes ... each at its token.
+
+    Notes
+    -----
+    Linear in the size of the expanded circuit: each definition's body is
+    expanded once and copied per instance; each parameter scope is
+    evaluated once per instance chain.
+    """
+    return _Elaborator(netlist).run()

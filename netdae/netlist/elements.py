@@ -1,0 +1,546 @@
+"""Element cards (R C L K V I E F G H B D Q M X) to :class:`ElementCard` / :class:`InstanceCard`.
+
+One function per element family, all driven by :data:`netdae.netlist.syntax.ELEMENTS`:
+the expected form of a card is the one the error messages show. Values are
+parsed (numbers read, expressions turned into trees) but not evaluated.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from ..errors import NetlistError
+from . import expr as ex
+from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
+from .numbers import parse_number
+from .statements import ElementCard, InstanceCard, SourceCard, Val
+from .syntax import ELEMENTS, SOURCE_FUNCTIONS, UNSUPPORTED_ELEMENTS, ElementSyntax, supported_letters
+from .waveforms import WAVEFORMS
+
+__all__ = ["parse_element", "parse_value", "parse_expr", "parse_node", "error", "split_args", "IDENT"]
+
+#: A bare word that can name a parameter.
+IDENT = re.compile(r"[a-z_][a-z0-9_.]*\Z")
+
+_GROUND_ALIASES = {"0": "0", "gnd": "0"}
+
+
+def error(card: Card, offset: int, message: str, syntax: ElementSyntax | str | None = None,
+          hint: str | None = None) -> NetlistError:
+    """A :class:`NetlistError` at ``offset`` of ``card`` (``message`` prefixed by the card name)."""
+    name = card.text.split(None, 1)[0] if card.text else ""
+    expected = syntax.form if isinstance(syntax, ElementSyntax) else syntax
+    return NetlistError(f"{name}: {message}", card.location(offset), expected=expected, hint=hint)
+
+
+def parse_expr(card: Card, text: str, base: int, context: str, syntax=None) -> ex.Expr:
+    """Parse expression ``text`` found at offset ``base`` of ``card``; errors name the card."""
+    try:
+        return ex.parse_expression(text, context=context, locate=lambda o: card.location(base + o))
+    except NetlistError as exc:
+        name = card.text.split(None, 1)[0]
+        expected = syntax.form if isinstance(syntax, ElementSyntax) else syntax
+        raise NetlistError(f"{name}: {exc.message}", exc.location, expected=expected, hint=exc.hint) from None
+
+
+def parse_value(card: Card, tok: Token, syntax=None, what: str = "value") -> Val:
+    """A number, ``{expr}``/``'expr'`` or parameter name as a :data:`Val`.
+
+    Raises
+    ------
+    NetlistError
+        When the token is none of these.
+    """
+    if tok.kind == EXPR:
+        node = parse_expr(card, tok.text, tok.start + 1, ex.PARAM, syntax)
+        return (node.value if type(node) is ex.Const else node), tok.start
+    if tok.kind == WORD:
+        number = parse_number(tok.text)
+        if number is not None:
+            return number, tok.start
+        if IDENT.match(tok.text):
+            if tok.text == "pi":
+                return math.pi, tok.start
+            if tok.text in ex.RESERVED:
+                raise error(card, tok.start, f"'{tok.text}' cannot be used as a {what}", syntax)
+            return ex.Param(tok.text), tok.start
+    raise error(card, tok.start, f"bad {what} '{tok.text}': expected a number, {{expression}} or parameter name",
+                syntax, hint="numbers look like 10k, 4.7u, 1e-3, 1meg (1m is milli)")
+
+
+def parse_node(card: Card, tok: Token, syntax) -> str:
+    """A node name (``gnd`` becomes ``0``)."""
+    if tok.kind != WORD:
+        raise error(card, tok.start, f"expected a node name, found {tok.text!r}", syntax)
+    return _GROUND_ALIASES.get(tok.text, tok.text)
+
+
+def split_args(card: Card, toks: list[Token], start: int, syntax, *, allow_parens: bool = False):
+    """Split tokens into positional tokens and ``name=value[,value...]`` keywords.
+
+    Returns
+    -------
+    positional : list of Token
+    keywords : list of (Token, list of Token)
+    """
+    positional: list[Token] = []
+    keywords: list[tuple[Token, list[Token]]] = []
+    i = start
+    n = len(toks)
+    while i < n:
+        tok = toks[i]
+        if tok.kind == WORD and i + 1 < n and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
+            values = []
+            j = i + 2
+            if j >= n or toks[j].kind not in (WORD, EXPR):
+                raise error(card, toks[i + 1].start, f"missing value after '{tok.text}='", syntax)
+            values.append(toks[j])
+            j += 1
+            while j + 1 < n and toks[j].text == "," and toks[j].kind == PUNCT and toks[j + 1].kind in (WORD, EXPR):
+                values.append(toks[j + 1])
+                j += 2
+            keywords.append((tok, values))
+            i = j
+            continue
+        if tok.kind == PUNCT:
+            if tok.text == ",":
+                i += 1
+                continue
+            if not (allow_parens and tok.text in "()"):
+                raise error(card, tok.start, f"unexpected '{tok.text}'", syntax)
+        if tok.kind == STRING:
+            raise error(card, tok.start, f"unexpected string \"{tok.text}\"", syntax)
+        positional.append(tok)
+        i += 1
+    return positional, keywords
+
+
+def _end(card: Card) -> int:
+    return len(card.text)
+
+
+def _nodes(card: Card, toks: list[Token], count: int, syntax) -> tuple[str, ...]:
+    if len(toks) < 1 + count or any(t.kind != WORD for t in toks[1 : 1 + count]):
+        found = 0
+        for t in toks[1 : 1 + count]:
+            if t.kind != WORD:
+                break
+            found += 1
+        at = toks[1 + found].start if 1 + found < len(toks) else _end(card)
+        raise error(card, at, f"expected {count} nodes, found {found}", syntax)
+    return tuple(_GROUND_ALIASES.get(t.text, t.text) for t in toks[1 : 1 + count])
+
+
+def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
+    params: dict = {}
+    for key, values in keywords:
+        name = key.text
+        if syntax.keywords and name not in syntax.keywords:
+            known = " ".join(sorted(syntax.keywords))
+            raise error(card, key.start, f"unknown parameter '{name}' for a {syntax.description}", syntax,
+                        hint=f"known parameters: {known}")
+        if name in ("ic",) and kind in ("bjt", "mosfet"):
+            labels = ("icvbe", "icvce") if kind == "bjt" else ("icvds", "icvgs", "icvbs")
+            if len(values) > len(labels):
+                raise error(card, values[len(labels)].start, f"ic= takes at most {len(labels)} values "
+                            f"({', '.join(labels)})", syntax)
+            for label, tok in zip(labels, values):
+                params[label] = parse_value(card, tok, syntax)
+            continue
+        if name == "tc":
+            if len(values) > 2:
+                raise error(card, values[2].start, "tc= takes at most 2 values (tc1, tc2)", syntax)
+            for label, tok in zip(("tc1", "tc2"), values):
+                params[label] = parse_value(card, tok, syntax)
+            continue
+        if len(values) != 1:
+            raise error(card, values[1].start, f"{name}= takes one value", syntax)
+        if name in params:
+            raise error(card, key.start, f"parameter '{name}' given twice", syntax)
+        params[name] = parse_value(card, values[0], syntax)
+    return params
+
+
+# ---------------------------------------------------------------------------
+def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> ElementCard:
+    nodes = _nodes(card, toks, 2, syntax)
+    positional, keywords = split_args(card, toks, 3, syntax)
+    params = _keyword_params(card, keywords, syntax, kind)
+    el = ElementCard(toks[0].text, kind, card, nodes, params=params)
+    if kind == "resistor" and "r" in params:
+        el.value = params.pop("r")
+    if positional:
+        el.value = parse_value(card, positional[0], syntax)
+        if len(positional) > 1:
+            tok = positional[1]
+            if tok.kind != WORD or parse_number(tok.text) is not None:
+                raise error(card, tok.start, f"expected a model name after the value, found {tok.text!r}", syntax)
+            el.model = (tok.text, tok.start)
+        if len(positional) > 2:
+            raise error(card, positional[2].start, f"unexpected {positional[2].text!r}", syntax)
+    if el.value is None:
+        what = {"resistor": "resistance", "capacitor": "capacitance", "inductor": "inductance"}[kind]
+        raise error(card, _end(card), f"missing {what}", syntax,
+                    hint=f"give the {what} after the two nodes, e.g. {'1k' if kind == 'resistor' else '1u'}")
+    return el
+
+
+def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    positional, keywords = split_args(card, toks, 1, syntax)
+    if keywords:
+        raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+    if len(positional) < 3:
+        raise error(card, _end(card), f"expected at least two inductor names and a coupling factor, found {len(positional)} "
+                    "item(s)", syntax)
+    names = positional[:-1]
+    for tok in names:
+        if tok.kind != WORD or not tok.text.startswith("l"):
+            raise error(card, tok.start, f"'{tok.text}' is not an inductor name (inductor names start with L)",
+                        syntax)
+    if len({t.text for t in names}) != len(names):
+        raise error(card, names[0].start, "an inductor is named twice", syntax)
+    return ElementCard(toks[0].text, "coupling", card, (), value=parse_value(card, positional[-1], syntax),
+                       controls=tuple((t.text, t.start) for t in names))
+
+
+_SOURCE_WORDS = set(WAVEFORMS) | {"sine", "dc", "ac"}
+_UNSUPPORTED_SOURCE = {"trnoise": "transient noise", "trrandom": "random transient source",
+                       "distof1": "distortion input", "distof2": "distortion input",
+                       "external": "external source", "portnum": "RF port"}
+
+
+def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> ElementCard:
+    nodes = _nodes(card, toks, 2, syntax)
+    spec = SourceCard()
+    i, n = 3, len(toks)
+    first = True
+
+    def is_value(t: Token) -> bool:
+        return t.kind == EXPR or (t.kind == WORD and t.text not in _SOURCE_WORDS
+                                  and t.text not in _UNSUPPORTED_SOURCE and t.text not in ("r", "td"))
+
+    def skip_eq(j: int) -> int:
+        return j + 1 if j < n and toks[j].kind == PUNCT and toks[j].text == "=" else j
+
+    while i < n:
+        tok = toks[i]
+        word = tok.text if tok.kind == WORD else None
+        if word == "dc":
+            j = skip_eq(i + 1)
+            if j >= n or not is_value(toks[j]):
+                raise error(card, toks[j].start if j < n else _end(card), "missing value after 'dc'", syntax)
+            if spec.dc is not None:
+                raise error(card, tok.start, "DC value given twice", syntax)
+            spec.dc = parse_value(card, toks[j], syntax)
+            i = j + 1
+        elif word == "ac":
+            if spec.ac_mag is not None:
+                raise error(card, tok.start, "'ac' given twice", syntax)
+            j = skip_eq(i + 1)
+            vals = []
+            while j < n and len(vals) < 2 and is_value(toks[j]):
+                vals.append(parse_value(card, toks[j], syntax))
+                j += 1
+                if j < n and toks[j].kind == PUNCT and toks[j].text == ",":
+                    j += 1
+            spec.ac_mag = vals[0] if vals else (1.0, tok.start)
+            spec.ac_phase = vals[1] if len(vals) > 1 else None
+            i = j
+        elif word in WAVEFORMS or word == "sine":
+            if spec.tran is not None:
+                raise error(card, tok.start, "more than one transient function", syntax)
+            i = _waveform(card, toks, i, spec, syntax)
+        elif word in _UNSUPPORTED_SOURCE:
+            raise error(card, tok.start, f"'{word}' ({_UNSUPPORTED_SOURCE[word]}) is not supported by netdae",
+                        syntax, hint=f"supported functions: {SOURCE_FUNCTIONS}")
+        elif first and is_value(tok):
+            spec.dc = parse_value(card, tok, syntax)
+            i += 1
+        else:
+            raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
+                        hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
+        first = False
+    return ElementCard(toks[0].text, kind, card, nodes, source=spec)
+
+
+def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -> int:
+    name_tok = toks[i]
+    kind = "sin" if name_tok.text == "sine" else name_tok.text
+    n = len(toks)
+    j = i + 1
+    vals: list[Val] = []
+    if j < n and toks[j].kind == PUNCT and toks[j].text == "(":
+        j += 1
+        while True:
+            if j >= n:
+                raise error(card, name_tok.start, f"{kind.upper()}( without a closing ')'", syntax)
+            t = toks[j]
+            if t.kind == PUNCT and t.text == ")":
+                j += 1
+                break
+            if t.kind == PUNCT and t.text == ",":
+                j += 1
+                continue
+            vals.append(parse_value(card, t, syntax, f"{kind.upper()} parameter"))
+            j += 1
+    else:
+        while j < n and (toks[j].kind == EXPR or (toks[j].kind == WORD and toks[j].text not in _SOURCE_WORDS
+                                                   and toks[j].text not in ("r", "td")
+                                                   and not (j + 1 < n and toks[j + 1].text == "="))):
+            vals.append(parse_value(card, toks[j], syntax, f"{kind.upper()} parameter"))
+            j += 1
+            if j < n and toks[j].kind == PUNCT and toks[j].text == ",":
+                j += 1
+    extras: dict = {}
+    if kind == "pwl":
+        while j + 2 < n and toks[j].kind == WORD and toks[j].text in ("r", "td") and toks[j + 1].text == "=":
+            if toks[j].text in extras:
+                raise error(card, toks[j].start, f"PWL {toks[j].text}= given twice", syntax)
+            extras[toks[j].text] = parse_value(card, toks[j + 2], syntax)
+            j += 3
+    spec.tran = (kind, vals, extras, name_tok.start)
+    return j
+
+
+def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
+    name = toks[0].text
+    # behavioural form: value= (vol= for E, cur= for G)
+    keys = {"e": ("value", "vol"), "g": ("value", "cur")}.get(letter, ())
+    for k, tok in enumerate(toks):
+        if tok.kind == WORD and tok.text in keys and k + 1 < len(toks) and toks[k + 1].text == "=":
+            if k != 3:
+                raise error(card, tok.start, f"expected 2 nodes before '{tok.text}='", syntax)
+            nodes = _nodes(card, toks, 2, syntax)
+            kind = "bvoltage" if letter == "e" else "bcurrent"
+            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, k + 2, syntax))
+    for tok in toks[3:]:
+        if tok.kind == WORD and tok.text in ("laplace", "table", "freq", "and", "or", "nand", "nor", "chebyshev"):
+            raise error(card, tok.start, f"the '{tok.text.upper()}' form of {letter.upper()} is not supported "
+                        "by netdae", syntax, hint="write it as value={expression}")
+    poly = next((k for k, t in enumerate(toks) if t.kind == WORD and t.text == "poly"), None)
+    if poly is not None:
+        return _poly(card, toks, poly, syntax, letter)
+    if letter in "eg":
+        nodes = _nodes(card, toks, 4, syntax)
+        positional, keywords = split_args(card, toks, 5, syntax)
+        if keywords:
+            raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+        if letter == "e" and positional and positional[0].kind == WORD and positional[0].text == "opamp":
+            if len(positional) > 1:
+                raise error(card, positional[1].start, f"unexpected {positional[1].text!r} after OPAMP", syntax)
+            return ElementCard(name, "opamp", card, nodes)
+        if not positional:
+            what = "gain" if letter == "e" else "transconductance"
+            raise error(card, _end(card), f"missing {what}", syntax)
+        if len(positional) > 1:
+            raise error(card, positional[1].start, f"unexpected {positional[1].text!r}", syntax)
+        kind = "vcvs" if letter == "e" else "vccs"
+        return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[0], syntax))
+    nodes = _nodes(card, toks, 2, syntax)
+    positional, keywords = split_args(card, toks, 3, syntax)
+    if keywords:
+        raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+    if not positional or positional[0].kind != WORD or parse_number(positional[0].text) is not None:
+        at = positional[0].start if positional else _end(card)
+        raise error(card, at, "expected the name of the controlling voltage source", syntax)
+    if len(positional) < 2:
+        what = "gain" if letter == "f" else "transresistance"
+        raise error(card, _end(card), f"missing {what}", syntax)
+    if len(positional) > 2:
+        raise error(card, positional[2].start, f"unexpected {positional[2].text!r}", syntax)
+    kind = "cccs" if letter == "f" else "ccvs"
+    return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[1], syntax),
+                       controls=((positional[0].text, positional[0].start),))
+
+
+def _behavioural(card: Card, toks: list[Token], k: int, syntax) -> tuple:
+    """The behavioural expression starting at token ``k`` (to the end of the card)."""
+    if k >= len(toks):
+        raise error(card, _end(card), "missing expression", syntax)
+    tok = toks[k]
+    if tok.kind == EXPR and k == len(toks) - 1:
+        text, base = tok.text, tok.start + 1
+    else:
+        text, base = card.text[tok.start:], tok.start
+    return parse_expr(card, text, base, ex.BEHAVIOURAL, syntax), tok.start
+
+
+def _poly(card: Card, toks: list[Token], k: int, syntax, letter: str) -> ElementCard:
+    """``POLY(n)`` controlled source as a behavioural polynomial (SPICE2 coefficient order)."""
+    name = toks[0].text
+    if k != 3:
+        raise error(card, toks[k].start, "expected 2 nodes before POLY", syntax)
+    nodes = _nodes(card, toks, 2, syntax)
+    if not (k + 3 < len(toks) and toks[k + 1].text == "(" and toks[k + 3].text == ")"):
+        raise error(card, toks[k].start, "expected POLY(n) with the number of controlling inputs n", syntax)
+    dim_tok = toks[k + 2]
+    dim = parse_number(dim_tok.text) if dim_tok.kind == WORD else None
+    if dim is None or dim != int(dim) or dim < 1:
+        raise error(card, dim_tok.start, f"POLY dimension must be a positive integer, found {dim_tok.text!r}",
+                    syntax)
+    dim = int(dim)
+    rest, keywords = split_args(card, toks, k + 4, syntax)
+    if keywords:
+        raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+    per_input = 2 if letter in "eg" else 1
+    need = dim * per_input
+    if len(rest) < need + 1:
+        raise error(card, _end(card), f"POLY({dim}) needs {need} controlling "
+                    f"{'nodes' if per_input == 2 else 'source names'} and at least one coefficient", syntax)
+    controls = rest[:need]
+    for t in controls:
+        if t.kind != WORD:
+            raise error(card, t.start, f"expected a {'node' if per_input == 2 else 'source'} name", syntax)
+    coeffs = [parse_value(card, t, syntax, "coefficient") for t in rest[need:]]
+    if per_input == 2:
+        inputs = [ex.Voltage(_GROUND_ALIASES.get(controls[2 * m].text, controls[2 * m].text),
+                             _GROUND_ALIASES.get(controls[2 * m + 1].text, controls[2 * m + 1].text))
+                  for m in range(dim)]
+    else:
+        inputs = [ex.Current(t.text) for t in controls]
+    node = poly_expression(inputs, [c for c, _ in coeffs])
+    kind = "bvoltage" if letter in "eh" else "bcurrent"
+    return ElementCard(name, kind, card, nodes, expr=(node, toks[k].start))
+
+
+def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
+    """SPICE2 polynomial: c0 + sum c_i x_i + sum c_ij x_i x_j (i <= j) + ... as a tree.
+
+    Terms are ordered by degree, and within a degree by non-decreasing index
+    tuples in lexicographic order (x1^2, x1 x2, ..., x2^2, ...), as SPICE2 and
+    ngspice define ``POLY``.
+    """
+    terms: list = []
+    dim = len(inputs)
+    index_tuples = [()]
+    degree_tuples = [()]
+    while len(index_tuples) < len(coeffs):
+        degree_tuples = [t + (j,) for t in degree_tuples for j in range(t[-1] if t else 0, dim)]
+        index_tuples.extend(degree_tuples)
+    for coeff, idx in zip(coeffs, index_tuples):
+        if isinstance(coeff, float) and coeff == 0.0:
+            continue
+        term = coeff if not isinstance(coeff, float) else ex.Const(coeff)
+        for j in idx:
+            term = ex.Binary("*", term, inputs[j])
+        terms.append(term)
+    if not terms:
+        return ex.Const(0.0)
+    out = terms[0]
+    for term in terms[1:]:
+        out = ex.Binary("+", out, term)
+    return out
+
+
+def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    nodes = _nodes(card, toks, 2, syntax)
+    if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
+        at = toks[3].start if len(toks) > 3 else _end(card)
+        raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
+    kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
+    return ElementCard(toks[0].text, kind, card, nodes, expr=_behavioural(card, toks, 5, syntax))
+
+
+def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, count: int) -> ElementCard:
+    positional, keywords = split_args(card, toks, 1, syntax)
+    params = _keyword_params(card, keywords, syntax, kind)
+    flags = {}
+    words = []
+    for tok in positional:
+        if tok.kind == WORD and tok.text in syntax.flags:
+            flags[tok.text] = tok.start
+        else:
+            words.append(tok)
+    el = ElementCard(toks[0].text, kind, card, params=params, flags=flags)
+    if kind == "bjt":
+        el.positional = words
+        return el
+    if len(words) < count + 1 or any(t.kind != WORD for t in words[: count + 1]):
+        found = sum(1 for t in words[:count] if t.kind == WORD)
+        raise error(card, _end(card) if len(words) <= count else words[count].start,
+                    f"expected {count} nodes and a model name, found {min(found, count)} node(s)"
+                    f"{' and no model' if len(words) <= count else ''}", syntax)
+    el.nodes = tuple(_GROUND_ALIASES.get(t.text, t.text) for t in words[:count])
+    el.model = (words[count].text, words[count].start)
+    extra = words[count + 1 :]
+    if kind == "diode" and extra:
+        el.params["area"] = parse_value(card, extra[0], syntax, "area")
+        extra = extra[1:]
+    if extra:
+        raise error(card, extra[0].start, f"unexpected {extra[0].text!r}", syntax)
+    return el
+
+
+def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceCard:
+    words: list[Token] = []
+    i = 1
+    while i < len(toks):
+        tok = toks[i]
+        if tok.kind == WORD and tok.text == "params:":
+            i += 1
+            break
+        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].text == "=":
+            break
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"unexpected {tok.text!r}: expected node names and a subcircuit name",
+                        syntax)
+        words.append(tok)
+        i += 1
+    if not words:
+        raise error(card, _end(card), "missing subcircuit name", syntax)
+    positional, keywords = split_args(card, toks, i, syntax)
+    if positional:
+        raise error(card, positional[0].start, f"unexpected {positional[0].text!r} among the parameters",
+                    syntax, hint="instance parameters are written name=value")
+    params = {}
+    for key, values in keywords:
+        if len(values) != 1:
+            raise error(card, values[1].start, f"{key.text}= takes one value", syntax)
+        if key.text in params:
+            raise error(card, key.start, f"parameter '{key.text}' given twice", syntax)
+        params[key.text] = parse_value(card, values[0], syntax)
+    sub = words[-1]
+    nodes = tuple(_GROUND_ALIASES.get(t.text, t.text) for t in words[:-1])
+    return InstanceCard(toks[0].text, card, nodes, sub.text, sub.start, params)
+
+
+def parse_element(card: Card) -> ElementCard | InstanceCard:
+    """Parse one element card.
+
+    Raises
+    ------
+    NetlistError
+        Unsupported element letters, wrong node counts, missing or bad
+        values, unknown parameters ... located at the offending token, with
+        the card's expected form.
+    """
+    toks = card.tokens()
+    head = toks[0]
+    letter = head.text[0]
+    syntax = ELEMENTS.get(letter)
+    if syntax is None or head.kind != WORD:
+        if letter in UNSUPPORTED_ELEMENTS:
+            raise NetlistError(
+                f"{head.text}: element type '{letter.upper()}' ({UNSUPPORTED_ELEMENTS[letter]}) is not "
+                f"supported by netdae", card.location(0),
+                hint=f"netdae reads {supported_letters()}; replace it by an equivalent circuit of these")
+        raise NetlistError(f"unknown card '{head.text}'", card.location(0),
+                           hint=f"element names start with one of {supported_letters()}; dot cards with '.'")
+    if letter in "rcl":
+        return _two_terminal(card, toks, syntax, {"r": "resistor", "c": "capacitor", "l": "inductor"}[letter])
+    if letter == "k":
+        return _coupling(card, toks, syntax)
+    if letter in "vi":
+        return _source(card, toks, syntax, "vsource" if letter == "v" else "isource")
+    if letter in "efgh":
+        return _controlled(card, toks, syntax, letter)
+    if letter == "b":
+        return _b_source(card, toks, syntax)
+    if letter == "d":
+        return _device(card, toks, syntax, "diode", 2)
+    if letter == "q":
+        return _device(card, toks, syntax, "bjt", 3)
+    if letter == "m":
+        return _device(card, toks, syntax, "mosfet", 4)
+    return _instance(card, toks, syntax)

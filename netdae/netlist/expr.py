@@ -1,0 +1,717 @@
+"""Safe SPICE expressions: a parser to an immutable tree, and scalar evaluation.
+
+netdae never calls Python's ``eval``: expressions are parsed by a small
+precedence-climbing parser into the node classes below, and evaluated by
+walking the tree.
+
+Two contexts, as in ngspice
+---------------------------
+``"param"``
+    ``.param`` values, ``{...}`` and ``'...'`` element values, subcircuit
+    and model parameters, ``.func`` bodies. ngspice evaluates these with its
+    numparam code. Numbers are read by
+    :func:`netdae.netlist.numbers.scan_param_number` (``1mil`` = 1e-3).
+    No circuit quantities are allowed.
+``"behavioural"``
+    The expression of a B source (``V=...``/``I=...``) and of
+    ``E``/``G ... value=...``. ngspice evaluates these with its B-source
+    parse trees. Numbers are read by
+    :func:`netdae.netlist.numbers.parse_number` (``1mil`` = 25.4e-6). They
+    may use ``V(node)``, ``V(n1,n2)``, ``I(vname)`` and ``time``. A
+    ``{...}`` inside is a parameter expression (param context).
+
+The two ngspice evaluators disagree on two functions; the parser maps each
+spelling to the node that means what ngspice computes in that context:
+
+=============  ==========================  ==========================
+written        param context               behavioural context
+=============  ==========================  ==========================
+``a**b, a^b``  ``Binary('**')``: |a|^b     ``Binary('**')``: |a|^b
+``pow(a,b)``   ``Call('pow')``: a^b        ``Binary('**')``: |a|^b
+``pwr(a,b)``   ``Binary('**')``: |a|^b     ``Call('pwr')``: sgn(a)|a|^b
+=============  ==========================  ==========================
+
+Grammar (lowest precedence first; ``**`` is left-associative and binds
+tighter than unary minus, as in ngspice: ``-2**2 = -4``, ``2**3**2 = 64``)::
+
+    expr    := or ['?' expr ':' expr]
+    or      := and {'||' and}
+    and     := cmp {'&&' cmp}
+    cmp     := add {('=='|'!='|'<>'|'<'|'<='|'>'|'>=') add}
+    add     := mul {('+'|'-') mul}
+    mul     := unary {('*'|'/'|'%') unary}
+    unary   := ('-'|'+'|'!') unary | power
+    power   := primary {('**'|'^') ('-'|'+'|'!')* primary}
+    primary := number | name | name '(' [expr {',' expr}] ')' | '(' expr ')'
+             | '{' expr '}' | V(node[,node]) | I(element)
+
+Node types (the tree an evaluator walks)
+----------------------------------------
+All nodes are frozen dataclasses (hashable, comparable).
+
+:class:`Const` ``(value: float)``
+    A number.
+:class:`Param` ``(name: str)``
+    A parameter reference. Elaboration replaces every one by a
+    :class:`Const`; none is left in an elaborated circuit.
+:class:`Time` ``()``
+    The simulation time ``time`` [s] (behavioural context only).
+:class:`Voltage` ``(pos: str, neg: str | None)``
+    ``V(pos)`` or ``V(pos, neg)``; after elaboration full node names,
+    ground written as ``V(0)`` is folded to ``Const(0)``, ``V(a, 0)`` is
+    ``Voltage(a, None)``.
+:class:`Current` ``(element: str)``
+    ``I(vname)``: the branch current of an element with a current unknown
+    (V, L, E, H, behavioural voltage source); full element name after
+    elaboration.
+:class:`Unary` ``(op: str, operand)``
+    ``op`` is ``"-"`` (negation) or ``"!"`` (1.0 if operand == 0 else 0.0).
+:class:`Binary` ``(op: str, left, right)``
+    ``+ - * /``; ``**`` = ``abs(left) ** right``; ``%`` = C ``fmod``;
+    comparisons ``== != < <= > >=`` and ``&& ||`` give 1.0 or 0.0 (operands
+    are true when non-zero).
+:class:`Ternary` ``(cond, then, other)``
+    ``then if cond != 0 else other``. ``if(c, a, b)`` and
+    ``ternary_fcn(c, a, b)`` are written as this node.
+:class:`Call` ``(func: str, args: tuple)``
+    A built-in function, see :data:`FUNCTIONS` for the exact meaning of
+    each; before elaboration also a call of a user ``.func`` (elaboration
+    inlines those). ``log`` is written as ``ln`` (both natural),
+    ``arctan`` as ``atan``, ``sqr(x)`` as ``x ** 2``.
+
+Examples
+--------
+>>> e = parse_expression("2*V(out, in) + sin(time) ** 2", context="behavioural")
+>>> e.op, e.left
+('+', Binary(op='*', left=Const(value=2.0), right=Voltage(pos='out', neg='in')))
+>>> evaluate(parse_expression("a*2 + max(1, 3)"), {"a": 1.5}.__getitem__)
+6.0
+>>> evaluate(parse_expression("-2**2"), None), evaluate(parse_expression("2**3**2"), None)
+(-4.0, 64.0)
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Callable, Union
+
+from ..errors import NetlistError, SourceLocation
+from .lines import fold_case
+from .numbers import parse_number, scan_param_number
+
+__all__ = [
+    "Expr",
+    "Const",
+    "Param",
+    "Time",
+    "Voltage",
+    "Current",
+    "Unary",
+    "Binary",
+    "Ternary",
+    "Call",
+    "FUNCTIONS",
+    "PARAM",
+    "BEHAVIOURAL",
+    "parse_expression",
+    "evaluate",
+    "transform",
+    "fold_constants",
+    "walk",
+    "to_text",
+    "RESERVED",
+]
+
+PARAM = "param"
+BEHAVIOURAL = "behavioural"
+
+
+@dataclass(frozen=True, slots=True)
+class Const:
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class Param:
+    name: str
+
+
+@dataclass(frozen=True, slots=True)
+class Time:
+    pass
+
+
+@dataclass(frozen=True, slots=True)
+class Voltage:
+    pos: str
+    neg: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Current:
+    element: str
+
+
+@dataclass(frozen=True, slots=True)
+class Unary:
+    op: str
+    operand: "Expr"
+
+
+@dataclass(frozen=True, slots=True)
+class Binary:
+    op: str
+    left: "Expr"
+    right: "Expr"
+
+
+@dataclass(frozen=True, slots=True)
+class Ternary:
+    cond: "Expr"
+    then: "Expr"
+    other: "Expr"
+
+
+@dataclass(frozen=True, slots=True)
+class Call:
+    func: str
+    args: tuple
+
+
+Expr = Union[Const, Param, Time, Voltage, Current, Unary, Binary, Ternary, Call]
+
+
+def _u(x: float) -> float:
+    return 1.0 if x > 0 else (0.5 if x == 0 else 0.0)
+
+
+def _sgn(x: float) -> float:
+    return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+
+def _pwr(a: float, b: float) -> float:
+    return -(abs(a) ** b) if a < 0 else a**b
+
+
+def _limit(x: float, a: float, b: float) -> float:
+    lo, hi = (b, a) if a > b else (a, b)
+    return min(max(x, lo), hi)
+
+
+def _cpow(a: float, b: float) -> float:
+    if a < 0 and b != math.floor(b):
+        raise ValueError("negative base with a non-integer exponent")
+    return math.pow(a, b)
+
+
+#: Built-in functions after canonicalisation: name -> (arity, scalar function).
+#: Meanings: ``ln`` natural log; ``log10``; ``int`` truncation toward 0;
+#: ``nint`` round half to even; ``u`` unit step (0.5 at 0); ``uramp`` max(x, 0);
+#: ``sgn``; ``pow`` C pow (a < 0 needs an integer b); ``pwr`` sgn(a)|a|^b;
+#: ``limit(x, a, b)`` clamps x between a and b in either order; ``min``/``max``
+#: of two arguments; the rest as in C's math library.
+FUNCTIONS: dict[str, tuple[int, Callable]] = {
+    "sqrt": (1, math.sqrt),
+    "exp": (1, math.exp),
+    "ln": (1, math.log),
+    "log10": (1, math.log10),
+    "sin": (1, math.sin),
+    "cos": (1, math.cos),
+    "tan": (1, math.tan),
+    "asin": (1, math.asin),
+    "acos": (1, math.acos),
+    "atan": (1, math.atan),
+    "sinh": (1, math.sinh),
+    "cosh": (1, math.cosh),
+    "tanh": (1, math.tanh),
+    "asinh": (1, math.asinh),
+    "acosh": (1, math.acosh),
+    "atanh": (1, math.atanh),
+    "abs": (1, abs),
+    "sgn": (1, _sgn),
+    "floor": (1, lambda x: float(math.floor(x))),
+    "ceil": (1, lambda x: float(math.ceil(x))),
+    "int": (1, lambda x: float(math.trunc(x))),
+    "nint": (1, lambda x: float(round(x))),
+    "u": (1, _u),
+    "uramp": (1, lambda x: x if x > 0 else 0.0),
+    "min": (2, min),
+    "max": (2, max),
+    "pow": (2, _cpow),
+    "pwr": (2, _pwr),
+    "limit": (3, _limit),
+}
+
+# spelling -> canonical name (context independent)
+_ALIASES = {"log": "ln", "arctan": "atan"}
+# functions ngspice knows that netdae rejects, with the reason
+_REJECTED = {
+    "agauss": "a Monte-Carlo function", "gauss": "a Monte-Carlo function",
+    "aunif": "a Monte-Carlo function", "unif": "a Monte-Carlo function",
+    "ddt": "a time derivative inside an expression", "sdt": "a time integral inside an expression",
+    "table": "a table lookup", "tablef": "a table lookup", "pwl": "an expression PWL",
+    "u2": "the ngspice-only ramp u2", "eq0": "ngspice-internal", "ne0": "ngspice-internal",
+    "gt0": "ngspice-internal", "lt0": "ngspice-internal", "ge0": "ngspice-internal",
+    "le0": "ngspice-internal",
+}
+#: Names that cannot be parameters (``pi`` is the constant 3.14159...).
+RESERVED = frozenset({"time", "temper", "hertz", "pi"})
+
+_COMPARE = {"==", "!=", "<", "<=", ">", ">="}
+
+_OP = re.compile(r"\*\*|==|!=|<>|<=|>=|&&|\|\||[-+*/%^()<>!?:,{}]")
+_NAME = re.compile(r"[a-z_][a-z0-9_.]*")
+_SPICE_RUN = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[ed][+-]?\d+)?[a-z0-9_]*")
+_WS = re.compile(r"\s*")
+
+_NUM, _ID, _OPER, _END = "num", "id", "op", "end"
+
+
+class _Parser:
+    """Precedence-climbing parser over one expression text."""
+
+    def __init__(self, text: str, context: str, locate: Callable[[int], SourceLocation | None]):
+        self.text = text
+        self.context = context
+        self.locate = locate
+        self.pos = 0
+        self.kind = self.value = None
+        self.start = 0
+        self.advance()
+
+    # -- lexer ---------------------------------------------------------
+    def error(self, message: str, at: int | None = None, hint: str | None = None) -> NetlistError:
+        return NetlistError(message, self.locate(self.start if at is None else at), hint=hint)
+
+    def advance(self) -> None:
+        text = self.text
+        pos = _WS.match(text, self.pos).end()
+        self.start = pos
+        if pos >= len(text):
+            self.kind, self.value, self.pos = _END, None, pos
+            return
+        c = text[pos]
+        if c.isdigit() or (c == "." and pos + 1 < len(text) and text[pos + 1].isdigit()):
+            if self.context == PARAM:
+                value, end = scan_param_number(text, pos)
+            else:
+                end = _SPICE_RUN.match(text, pos).end()
+                value = parse_number(text[pos:end])
+            self.kind, self.value, self.pos = _NUM, value, end
+            return
+        m = _NAME.match(text, pos)
+        if m is not None:
+            self.kind, self.value, self.pos = _ID, m.group(), m.end()
+            return
+        m = _OP.match(text, pos)
+        if m is None:
+            raise self.error(f"unexpected character {c!r} in expression")
+        op = m.group()
+        self.kind, self.value, self.pos = _OPER, ("!=" if op == "<>" else "**" if op == "^" else op), m.end()
+
+    def expect(self, op: str) -> None:
+        if self.kind != _OPER or self.value != op:
+            found = "the end of the expression" if self.kind == _END else repr(self.text[self.start:self.pos])
+            raise self.error(f"expected {op!r} in expression, found {found}")
+        self.advance()
+
+    def is_op(self, *ops: str) -> bool:
+        return self.kind == _OPER and self.value in ops
+
+    # -- grammar -------------------------------------------------------
+    def parse(self) -> Expr:
+        if self.kind == _END:
+            raise self.error("empty expression")
+        node = self.expr()
+        if self.kind != _END:
+            raise self.error(f"unexpected {self.text[self.start:self.pos]!r} in expression",
+                             hint="check for a missing operator or parenthesis")
+        return node
+
+    def expr(self) -> Expr:
+        cond = self.binary(0)
+        if self.is_op("?"):
+            self.advance()
+            then = self.expr()
+            self.expect(":")
+            other = self.expr()
+            return Ternary(cond, then, other)
+        return cond
+
+    _LEVELS = (("||",), ("&&",), ("==", "!=", "<", "<=", ">", ">="), ("+", "-"), ("*", "/", "%"))
+
+    def binary(self, level: int) -> Expr:
+        if level == len(self._LEVELS):
+            return self.unary()
+        ops = self._LEVELS[level]
+        left = self.binary(level + 1)
+        while self.is_op(*ops):
+            op = self.value
+            self.advance()
+            left = Binary(op, left, self.binary(level + 1))
+        return left
+
+    def unary(self) -> Expr:
+        if self.is_op("-", "+", "!"):
+            op = self.value
+            self.advance()
+            operand = self.unary()
+            return _negate(operand) if op == "-" else operand if op == "+" else Unary("!", operand)
+        return self.power()
+
+    def power(self) -> Expr:
+        left = self.primary()
+        while self.is_op("**"):
+            self.advance()
+            signs = []
+            while self.is_op("-", "+", "!"):
+                signs.append(self.value)
+                self.advance()
+            right = self.primary()
+            for op in reversed(signs):
+                right = _negate(right) if op == "-" else right if op == "+" else Unary("!", right)
+            left = Binary("**", left, right)
+        return left
+
+    def primary(self) -> Expr:
+        kind, value, start = self.kind, self.value, self.start
+        if kind == _NUM:
+            self.advance()
+            return Const(value)
+        if kind == _OPER and value == "(":
+            self.advance()
+            node = self.expr()
+            self.expect(")")
+            return node
+        if kind == _OPER and value == "{":
+            saved = self.context
+            self.context = PARAM
+            self.advance()
+            node = self.expr()
+            self.context = saved
+            self.expect("}")
+            return node
+        if kind == _ID:
+            self.advance()
+            if self.is_op("("):
+                if value in ("v", "i"):
+                    return self.branch_reference(value, start)
+                return self.call(value, start)
+            return self.name(value, start)
+        if kind == _END:
+            raise self.error("expression ends where a value is expected",
+                             hint="an operator is missing its right operand")
+        raise self.error(f"unexpected {value!r} where a value is expected")
+
+    def name(self, name: str, start: int) -> Expr:
+        if name == "time":
+            if self.context != BEHAVIOURAL:
+                raise self.error("'time' is only available in behavioural sources (B, E/G value=)", start)
+            return Time()
+        if name in ("temper", "hertz"):
+            raise self.error(f"'{name}' is not supported by netdae", start,
+                             hint="use a parameter for the temperature" if name == "temper" else None)
+        if name == "pi":
+            return Const(math.pi)
+        return Param(name)
+
+    def branch_reference(self, which: str, start: int) -> Expr:
+        if self.context != BEHAVIOURAL:
+            raise self.error(f"circuit reference {which.upper()}(...) is only allowed in behavioural "
+                             "sources (B, E/G value=)", start,
+                             hint="element values and parameters are numbers fixed before simulation")
+        close = self.text.find(")", self.pos)
+        if close < 0:
+            raise self.error(f"{which.upper()}(...): missing ')'", start)
+        names = [s.strip() for s in self.text[self.pos : close].split(",")]
+        if any(not s or " " in s or "(" in s for s in names) or len(names) > (2 if which == "v" else 1):
+            form = "V(node) or V(node1, node2)" if which == "v" else "I(vname)"
+            raise self.error(f"malformed {which.upper()}(...) reference", start, hint=f"write {form}")
+        self.pos = close + 1
+        self.advance()
+        if which == "i":
+            return Current(names[0])
+        return Voltage(names[0], names[1] if len(names) == 2 else None)
+
+    def call(self, name: str, start: int) -> Expr:
+        self.advance()  # '('
+        args: list[Expr] = []
+        if not self.is_op(")"):
+            args.append(self.expr())
+            while self.is_op(","):
+                self.advance()
+                args.append(self.expr())
+        self.expect(")")
+        name = _ALIASES.get(name, name)
+        if name in _REJECTED:
+            raise self.error(f"function {name}() ({_REJECTED[name]}) is not supported by netdae", start)
+        if name in ("if", "ternary_fcn"):
+            self.arity(name, args, 3, start)
+            return Ternary(*args)
+        if name == "sqr":
+            self.arity(name, args, 1, start)
+            return Binary("**", args[0], Const(2.0))
+        if name == "limit" and len(args) == 2:
+            raise self.error("limit(nominal, variation) is a Monte-Carlo function, not supported by netdae",
+                             start, hint="limit(x, lo, hi) clamps x between lo and hi")
+        if name == "pow" and self.context == BEHAVIOURAL or name == "pwr" and self.context == PARAM:
+            self.arity(name, args, 2, start)
+            return Binary("**", args[0], args[1])
+        if name in FUNCTIONS:
+            self.arity(name, args, FUNCTIONS[name][0], start)
+        return Call(name, tuple(args))
+
+    def arity(self, name: str, args: list, n: int, start: int) -> None:
+        if len(args) != n:
+            raise self.error(f"{name}() takes {n} argument{'s' if n != 1 else ''}, got {len(args)}", start)
+
+
+def _negate(node: Expr) -> Expr:
+    if isinstance(node, Const):
+        return Const(-node.value)
+    return Unary("-", node)
+
+
+def parse_expression(
+    text: str,
+    *,
+    context: str = PARAM,
+    locate: Callable[[int], SourceLocation | None] | None = None,
+) -> Expr:
+    """Parse an expression into a tree.
+
+    Parameters
+    ----------
+    text : str
+        Expression text without surrounding braces or quotes (case-insensitive).
+    context : {"param", "behavioural"}
+        Which ngspice evaluator's rules apply (see the module docstring).
+    locate : callable, optional
+        Maps an offset in ``text`` to a :class:`SourceLocation` for errors.
+
+    Returns
+    -------
+    Expr
+
+    Raises
+    ------
+    NetlistError
+        On a syntax error, a wrong number of arguments of a built-in
+        function, an unsupported function, or a circuit reference outside a
+        behavioural source; located at the offending character.
+
+    Notes
+    -----
+    Linear in the length of the text.
+    """
+    return _Parser(fold_case(text), context, locate or (lambda offset: None)).parse()
+
+
+def walk(node: Expr):
+    """Yield every node of a tree (pre-order)."""
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        yield n
+        if isinstance(n, Binary):
+            stack.extend((n.right, n.left))
+        elif isinstance(n, Unary):
+            stack.append(n.operand)
+        elif isinstance(n, Ternary):
+            stack.extend((n.other, n.then, n.cond))
+        elif isinstance(n, Call):
+            stack.extend(reversed(n.args))
+
+
+def transform(node: Expr, leaf: Callable[[Expr], Expr | None]) -> Expr:
+    """Rebuild a tree bottom-up, replacing nodes for which ``leaf`` returns a node.
+
+    ``leaf(n)`` is called for every node before its children; when it returns
+    a node, that node replaces ``n`` (and is not visited further).
+    """
+    new = leaf(node)
+    if new is not None:
+        return new
+    if isinstance(node, Binary):
+        return Binary(node.op, transform(node.left, leaf), transform(node.right, leaf))
+    if isinstance(node, Unary):
+        return Unary(node.op, transform(node.operand, leaf))
+    if isinstance(node, Ternary):
+        return Ternary(transform(node.cond, leaf), transform(node.then, leaf), transform(node.other, leaf))
+    if isinstance(node, Call):
+        return Call(node.func, tuple(transform(a, leaf) for a in node.args))
+    return node
+
+
+def _binary(op: str, a: float, b: float) -> float:
+    if op == "+":
+        return a + b
+    if op == "-":
+        return a - b
+    if op == "*":
+        return a * b
+    if op == "/":
+        return a / b
+    if op == "**":
+        return abs(a) ** b
+    if op == "%":
+        return math.fmod(a, b)
+    if op == "&&":
+        return 1.0 if (a != 0 and b != 0) else 0.0
+    if op == "||":
+        return 1.0 if (a != 0 or b != 0) else 0.0
+    if op == "==":
+        return 1.0 if a == b else 0.0
+    if op == "!=":
+        return 1.0 if a != b else 0.0
+    if op == "<":
+        return 1.0 if a < b else 0.0
+    if op == "<=":
+        return 1.0 if a <= b else 0.0
+    if op == ">":
+        return 1.0 if a > b else 0.0
+    return 1.0 if a >= b else 0.0
+
+
+def evaluate(
+    node: Expr,
+    lookup: Callable[[str], float] | None,
+    call: Callable[[str, list[float]], float] | None = None,
+) -> float:
+    """Evaluate a tree without circuit references to a float.
+
+    Parameters
+    ----------
+    node : Expr
+    lookup : callable
+        ``lookup(name) -> float`` for :class:`Param` nodes (may raise).
+    call : callable, optional
+        ``call(name, args) -> float`` for calls of user functions.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        ``"division by zero"``, a math domain error, an overflow, a
+        non-finite result, or a circuit reference (callers turn it into a
+        :class:`NetlistError` at the card).
+    """
+    try:
+        value = _eval(node, lookup, call)
+    except ZeroDivisionError:
+        raise ValueError("division by zero") from None
+    except OverflowError:
+        raise ValueError("overflow") from None
+    if not math.isfinite(value):
+        raise ValueError(f"the result is {value}")
+    return value
+
+
+def _eval(node, lookup, call) -> float:
+    t = type(node)
+    if t is Const:
+        return node.value
+    if t is Param:
+        return float(lookup(node.name))
+    if t is Binary:
+        return float(_binary(node.op, _eval(node.left, lookup, call), _eval(node.right, lookup, call)))
+    if t is Unary:
+        v = _eval(node.operand, lookup, call)
+        return -v if node.op == "-" else (1.0 if v == 0 else 0.0)
+    if t is Ternary:
+        c = _eval(node.cond, lookup, call)
+        return _eval(node.then if c != 0 else node.other, lookup, call)
+    if t is Call:
+        args = [_eval(a, lookup, call) for a in node.args]
+        spec = FUNCTIONS.get(node.func)
+        if spec is None:
+            if call is None:
+                raise ValueError(f"unknown function {node.func}()")
+            return float(call(node.func, args))
+        try:
+            return float(spec[1](*args))
+        except ValueError:
+            raise ValueError(f"{node.func}({', '.join(f'{a:g}' for a in args)}) is undefined") from None
+    if t is Time:
+        raise ValueError("'time' has no value here")
+    raise ValueError(f"circuit reference {to_text(node)} has no value here")
+
+
+def _is_const(node) -> bool:
+    return type(node) is Const
+
+
+def fold_constants(node: Expr) -> Expr:
+    """Replace every subtree without variables by its value.
+
+    Subtrees whose evaluation fails (e.g. ``1/0``) are left as they are.
+    """
+    if isinstance(node, Binary):
+        left, right = fold_constants(node.left), fold_constants(node.right)
+        out = Binary(node.op, left, right)
+        if _is_const(left) and _is_const(right):
+            return _try_const(out)
+        return out
+    if isinstance(node, Unary):
+        operand = fold_constants(node.operand)
+        out = Unary(node.op, operand)
+        return _try_const(out) if _is_const(operand) else out
+    if isinstance(node, Ternary):
+        cond = fold_constants(node.cond)
+        then, other = fold_constants(node.then), fold_constants(node.other)
+        if _is_const(cond):
+            return then if cond.value != 0 else other
+        return Ternary(cond, then, other)
+    if isinstance(node, Call):
+        args = tuple(fold_constants(a) for a in node.args)
+        out = Call(node.func, args)
+        if node.func in FUNCTIONS and all(_is_const(a) for a in args):
+            return _try_const(out)
+        return out
+    return node
+
+
+def _try_const(node: Expr) -> Expr:
+    try:
+        return Const(evaluate(node, None))
+    except ValueError:
+        return node
+
+
+def to_text(node: Expr) -> str:
+    """The tree as expression text that parses back to the same tree.
+
+    Every compound operand is parenthesised. ``pwr`` and ``pow`` are written
+    as calls: read a text containing ``pwr`` back in the behavioural context
+    and one containing ``pow`` in the param context.
+    """
+    return _text(node, True)
+
+
+def _text(node, top: bool) -> str:
+    t = type(node)
+    if t is Const:
+        s = repr(node.value)
+        return f"({s})" if node.value < 0 and not top else s
+    if t is Param:
+        return node.name
+    if t is Time:
+        return "time"
+    if t is Voltage:
+        return f"v({node.pos})" if node.neg is None else f"v({node.pos},{node.neg})"
+    if t is Current:
+        return f"i({node.element})"
+    if t is Unary:
+        s = f"{node.op}{_text(node.operand, False)}"
+    elif t is Binary:
+        s = f"{_text(node.left, False)} {node.op} {_text(node.right, False)}"
+    elif t is Ternary:
+        s = f"{_text(node.cond, False)} ? {_text(node.then, False)} : {_text(node.other, False)}"
+    else:
+        return f"{node.func}({', '.join(_text(a, True) for a in node.args)})"
+    return s if top else f"({s})"

@@ -1,0 +1,324 @@
+"""Physical lines to logical cards, as ngspice reads them.
+
+Rules (ngspice 39, ``src/frontend/inpcom.c``):
+
+- The first line of the main file is the title, whatever it contains.
+  Included files have no title line.
+- Lines starting with ``*`` (after leading blanks) and blank lines are comments.
+- End-of-line comments start at ``;``, at ``//``, or at a ``$`` that opens
+  the line or follows a blank, a tab or a comma.
+- A line starting with ``+`` continues the previous card (comment lines may
+  stand in between).
+- ``.control`` ... ``.endc`` blocks (ngspice scripts) are skipped; each
+  skipped block becomes a note naming its lines.
+- In the main file ``.end`` ends the netlist: everything after it is
+  ignored. ngspice ignores ``.end`` lines inside included files, and so does
+  netdae (with a note).
+- Everything is case-insensitive: :attr:`Card.text` is folded to lower case
+  (ASCII letters only, so offsets stay valid); :attr:`Card.raw` keeps the
+  original spelling for file names and titles.
+
+Every card keeps the file, line and column of each of its characters
+(:meth:`Card.location`), so a diagnostic can point at the offending token.
+
+Examples
+--------
+>>> title, cards, notes = split_cards("my title\\nR1 a b\\n+ 1k ; load\\n.end\\nR2", "x.cir")
+>>> title, [c.text for c in cards]
+('my title', ['r1 a b 1k'])
+>>> str(cards[0].location(cards[0].text.index("1k")))
+'x.cir:3:3'
+"""
+
+from __future__ import annotations
+
+import re
+from bisect import bisect_right
+
+from ..circuit import Diagnostic
+from ..errors import NetlistError, SourceLocation
+
+__all__ = ["Card", "Token", "split_cards", "fold_case"]
+
+_LOWER = str.maketrans("ABCDEFGHIJKLMNOPQRSTUVWXYZ", "abcdefghijklmnopqrstuvwxyz")
+
+# End-of-line comment starts: ';' anywhere, '//' anywhere, '$' at the start
+# or after a blank, tab or comma (outside .control blocks, as ngspice).
+_COMMENT = re.compile(r";|//|(?:^|(?<=[ \t,]))\$")
+
+# Token starts: a word, one punctuation character, an expression in braces or
+# single quotes, a double-quoted string, or any other single character.
+_TOKEN = re.compile(r"""[^\s=(),{}'"]+|[=(),]|[{'"]|\S""")
+
+#: Token kinds.
+WORD, PUNCT, EXPR, STRING = "word", "punct", "expr", "string"
+
+
+def fold_case(text: str) -> str:
+    """Lower-case ASCII letters only (offsets stay valid for any text)."""
+    return text.lower() if text.isascii() else text.translate(_LOWER)
+
+
+class Token:
+    """One token of a card.
+
+    Attributes
+    ----------
+    text : str
+        The token (lower case); for ``{expr}`` and ``'expr'`` the expression
+        inside the delimiters (it starts at offset ``start + 1``), for
+        ``"string"`` the string without quotes (original case).
+    kind : str
+        ``"word"``, ``"punct"`` (``= ( ) ,``), ``"expr"`` or ``"string"``.
+    start, end : int
+        Offsets of the token in :attr:`Card.text` (delimiters included).
+    """
+
+    __slots__ = ("text", "kind", "start", "end")
+
+    def __init__(self, text: str, kind: str, start: int, end: int) -> None:
+        self.text = text
+        self.kind = kind
+        self.start = start
+        self.end = end
+
+    def __repr__(self) -> str:
+        return f"Token({self.text!r}, {self.kind}, {self.start})"
+
+
+class Card:
+    """One logical line of a netlist (continuations joined).
+
+    Attributes
+    ----------
+    text : str
+        Lower-case text, continuation lines joined by one blank.
+    raw : str
+        The same text in its original case.
+    file : str
+        The file as given (or ``"<string>"``).
+    spans : list of (offset, line, column)
+        Where each physical line starts in :attr:`text`.
+    """
+
+    __slots__ = ("text", "raw", "file", "spans", "_tokens")
+
+    def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
+        self.raw = raw
+        self.text = fold_case(raw)
+        self.file = file
+        self.spans = spans
+        self._tokens: list[Token] | None = None
+
+    @property
+    def line(self) -> int:
+        """Line number of the card's first physical line."""
+        return self.spans[0][1]
+
+    def location(self, offset: int = 0) -> SourceLocation:
+        """The file position of character ``offset`` of :attr:`text`."""
+        spans = self.spans
+        if len(spans) == 1:
+            start, line, col = spans[0]
+        else:
+            start, line, col = spans[bisect_right(spans, (offset, 1 << 62, 0)) - 1]
+        return SourceLocation(self.file, line, col + max(offset - start, 0))
+
+    def tokens(self) -> list[Token]:
+        """The card split into tokens (computed once).
+
+        Raises
+        ------
+        NetlistError
+            On an unterminated ``{``, ``'`` or ``"``, or a stray ``}``.
+        """
+        if self._tokens is None:
+            self._tokens = _tokenize(self)
+        return self._tokens
+
+    def __repr__(self) -> str:
+        return f"Card({self.text!r} @ {self.file}:{self.line})"
+
+
+def _closing_brace(text: str, start: int) -> int:
+    """Index of the ``}`` matching the ``{`` at ``start``, or -1."""
+    depth = 0
+    i = start
+    n = len(text)
+    while i < n:
+        j = min((k for k in (text.find("{", i), text.find("}", i)) if k >= 0), default=-1)
+        if j < 0:
+            return -1
+        depth += 1 if text[j] == "{" else -1
+        if depth == 0:
+            return j
+        i = j + 1
+    return -1
+
+
+def _tokenize(card: Card) -> list[Token]:
+    text = card.text
+    name = text.split(None, 1)[0]
+    out: list[Token] = []
+    pos = 0
+    n = len(text)
+    finder = _TOKEN.search
+    while True:
+        m = finder(text, pos)
+        if m is None:
+            return out
+        s = m.start()
+        tok = m.group()
+        c = tok[0]
+        if c == "{":
+            e = _closing_brace(text, s)
+            if e < 0:
+                raise NetlistError(f"{name}: unterminated '{{': no matching '}}'", card.location(s),
+                                   hint="close the expression with '}'")
+            out.append(Token(text[s + 1 : e], EXPR, s, e + 1))
+            pos = e + 1
+        elif c == "'":
+            e = text.find("'", s + 1)
+            if e < 0:
+                raise NetlistError(f"{name}: unterminated quote: no closing \"'\"", card.location(s),
+                                   hint="close the expression with a single quote")
+            out.append(Token(text[s + 1 : e], EXPR, s, e + 1))
+            pos = e + 1
+        elif c == '"':
+            e = text.find('"', s + 1)
+            if e < 0:
+                raise NetlistError(f"{name}: unterminated string: no closing '\"'", card.location(s),
+                                   hint='close the string with a double quote')
+            out.append(Token(card.raw[s + 1 : e], STRING, s, e + 1))
+            pos = e + 1
+        elif c == "}":
+            raise NetlistError(f"{name}: unexpected '}}' without an opening '{{'", card.location(s))
+        else:
+            kind = PUNCT if tok in "=()," and len(tok) == 1 else WORD
+            out.append(Token(tok, kind, s, m.end()))
+            pos = m.end()
+        if pos >= n:
+            return out
+
+
+def _is_dot(stripped_lower: str, word: str) -> bool:
+    """True when the line's first word is exactly ``word`` (e.g. ``.end``)."""
+    return stripped_lower.startswith(word) and (
+        len(stripped_lower) == len(word) or stripped_lower[len(word)] in " \t"
+    )
+
+
+def split_cards(
+    text: str, file: str, *, title: bool = True
+) -> tuple[str | None, list[Card], list[Diagnostic]]:
+    """Split netlist text into its title and logical cards.
+
+    Parameters
+    ----------
+    text : str
+        The whole file.
+    file : str
+        Name used in locations.
+    title : bool
+        True for the main file (first line is the title, ``.end`` ends the
+        netlist); False for included files.
+
+    Returns
+    -------
+    title : str or None
+        The title line (stripped), None for included files.
+    cards : list of Card
+    notes : list of Diagnostic
+        Skipped ``.control`` blocks and ignored ``.end`` lines.
+
+    Raises
+    ------
+    NetlistError
+        On a continuation line with nothing to continue, an unterminated
+        ``.control`` block or an ``.endc`` without ``.control``.
+
+    Notes
+    -----
+    One pass over the lines; the comment search is one regular-expression
+    call per line that contains a comment character.
+    """
+    lines = text.split("\n")
+    if lines and lines[0].startswith("\ufeff"):
+        lines[0] = lines[0][1:]
+    notes: list[Diagnostic] = []
+    cards: list[Card] = []
+    title_text = None
+    start = 0
+    if title:
+        title_text = lines[0].strip() if lines else ""
+        start = 1
+    cur_raw: list[str] | None = None
+    cur_spans: list[tuple[int, int, int]] = []
+    cur_len = 0
+    control_at = None
+    comment = _COMMENT.search
+
+    def flush() -> None:
+        if cur_raw is not None:
+            cards.append(Card("".join(cur_raw), file, cur_spans))
+
+    for index in range(start, len(lines)):
+        line = lines[index]
+        lineno = index + 1
+        stripped = line.strip()
+        if not stripped or stripped[0] == "*":
+            continue
+        if control_at is not None:
+            if _is_dot(fold_case(stripped[:5]), ".endc"):
+                notes.append(Diagnostic(
+                    "note",
+                    f".control block (lines {control_at.line}-{lineno}) skipped: "
+                    "netdae does not run ngspice scripts",
+                    control_at,
+                ))
+                control_at = None
+            continue
+        if stripped[0] == ".":
+            head = fold_case(stripped[:9])
+            if _is_dot(head, ".control"):
+                flush()
+                cur_raw = None
+                control_at = SourceLocation(file, lineno, line.index(".") + 1)
+                continue
+            if _is_dot(head, ".endc"):
+                raise NetlistError(".endc without a preceding .control",
+                                   SourceLocation(file, lineno, line.index(".") + 1))
+            if _is_dot(head, ".end"):
+                if title:
+                    break
+                notes.append(Diagnostic("note", ".end inside an included file ignored (as ngspice does)",
+                                        SourceLocation(file, lineno, line.index(".") + 1)))
+                continue
+        if ";" in stripped or "$" in stripped or "//" in stripped:
+            m = comment(stripped)
+            if m is not None:
+                stripped = stripped[: m.start()].rstrip()
+                if not stripped:
+                    continue
+        col = len(line) - len(line.lstrip()) + 1
+        if stripped[0] == "+":
+            if cur_raw is None:
+                raise NetlistError("continuation line '+' with no card to continue",
+                                   SourceLocation(file, lineno, col),
+                                   hint="a '+' line continues the card on the line above")
+            body = stripped[1:].lstrip()
+            cur_raw.append(" ")
+            cur_len += 1
+            cur_spans.append((cur_len, lineno, col + len(stripped) - len(body)))
+            cur_raw.append(body)
+            cur_len += len(body)
+            continue
+        flush()
+        cur_raw = [stripped]
+        cur_spans = [(0, lineno, col)]
+        cur_len = len(stripped)
+    if control_at is not None:
+        raise NetlistError(".control block without .endc", control_at,
+                           hint="close the block with a line '.endc'")
+    flush()
+    return title_text, cards, notes

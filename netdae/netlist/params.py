@@ -1,0 +1,225 @@
+"""Parameter scopes: lazy, dependency-ordered evaluation of ``.param`` and subcircuit parameters.
+
+Scoping follows ngspice's numparam, which is *dynamic*: a subcircuit body
+sees its own parameters, then those of the instance that called it, and so
+on up to the top-level ``.param`` values (verified with ngspice 39: a body
+may use a parameter of its caller's subcircuit). Within one scope the order
+of ``.param`` cards does not matter (ngspice sorts them by dependency); a
+name defined twice takes its last definition, with a warning. A subcircuit
+default may use the other parameters of the same subcircuit, including the
+values the instance passed.
+
+User functions (``.func``) are expanded where they are called, so their
+bodies see the parameters of the calling scope, as ngspice's macro
+expansion does.
+"""
+
+from __future__ import annotations
+
+from ..circuit import Diagnostic
+from ..errors import NetlistError
+from . import expr as ex
+from .statements import FuncDef, ParamDef
+
+__all__ = ["Env", "UnknownName", "evaluate_val", "inline_calls", "resolve_behavioural"]
+
+#: Deepest nesting of user-function calls before netdae calls it recursion.
+MAX_CALL_DEPTH = 64
+
+
+class UnknownName(Exception):
+    """A parameter or function name that no scope defines."""
+
+    def __init__(self, name: str, kind: str = "parameter") -> None:
+        super().__init__(name)
+        self.name = name
+        self.kind = kind
+
+
+class Env:
+    """One parameter scope.
+
+    Parameters
+    ----------
+    parent : Env or None
+        The scope of the caller (dynamic scoping).
+    defs : dict of str to (ParamDef, Env)
+        Unevaluated definitions and the scope each is evaluated in.
+    funcs : dict of str to FuncDef
+    diagnostics : list of Diagnostic
+        Where redefinition warnings go.
+    """
+
+    __slots__ = ("parent", "defs", "values", "funcs", "_active")
+
+    def __init__(self, parent: "Env | None", funcs: dict[str, FuncDef] | None = None) -> None:
+        self.parent = parent
+        self.defs: dict[str, tuple[ParamDef, Env]] = {}
+        self.values: dict[str, float] = {}
+        self.funcs = funcs or {}
+        self._active: list[str] = []
+
+    def define(self, pdef: ParamDef, where: "Env", diagnostics: list[Diagnostic] | None = None) -> None:
+        """Add a definition evaluated lazily in ``where`` (last definition wins)."""
+        old = self.defs.get(pdef.name)
+        if old is not None and diagnostics is not None and old[0].card is not pdef.card:
+            first = old[0].card
+            diagnostics.append(Diagnostic(
+                "warning", f"parameter '{pdef.name}' redefined (previous definition at {first.file}:"
+                f"{first.line}); the last definition is used", pdef.card.location(pdef.offset)))
+        self.defs[pdef.name] = (pdef, where)
+
+    def value(self, name: str) -> float:
+        """The value of ``name`` in this scope or a calling one.
+
+        Raises
+        ------
+        UnknownName
+            No scope defines it.
+        NetlistError
+            Its definition fails to evaluate or depends on itself.
+        """
+        env: Env | None = self
+        while env is not None:
+            v = env.values.get(name)
+            if v is not None:
+                return v
+            d = env.defs.get(name)
+            if d is not None:
+                return env._compute(name, d)
+            env = env.parent
+        raise UnknownName(name)
+
+    def _compute(self, name: str, d: tuple[ParamDef, "Env"]) -> float:
+        pdef, where = d
+        if name in self._active:
+            chain = self._active[self._active.index(name):] + [name]
+            raise NetlistError(f"parameter cycle: {' -> '.join(chain)}", pdef.card.location(pdef.offset),
+                               hint="a parameter cannot depend on itself")
+        self._active.append(name)
+        try:
+            v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
+        finally:
+            self._active.pop()
+        self.values[name] = v
+        return v
+
+    def func(self, name: str) -> FuncDef:
+        env: Env | None = self
+        while env is not None:
+            f = env.funcs.get(name)
+            if f is not None:
+                return f
+            env = env.parent
+        raise UnknownName(name, "function")
+
+    def all_values(self) -> dict[str, float]:
+        """Every parameter of this scope (not its parents), evaluated."""
+        return {name: self.value(name) for name in self.defs}
+
+
+def _call(env: Env, depth: int):
+    def call(name: str, args: list[float]) -> float:
+        if depth >= MAX_CALL_DEPTH:
+            raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}'?)")
+        f = env.func(name)
+        if len(args) != len(f.args):
+            raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
+        local = Env(env)
+        local.values.update(zip(f.args, args))
+        return ex.evaluate(f.body, local.value, _call(local, depth + 1))
+    return call
+
+
+def evaluate_val(val, env: Env, card, what: str = "value") -> float:
+    """Evaluate a :data:`~netdae.netlist.statements.Val` in ``env``.
+
+    Raises
+    ------
+    NetlistError
+        At the value's token: unknown parameter or function, division by
+        zero, domain error, non-finite result.
+    """
+    value, offset = val
+    if type(value) is float:
+        return value
+    try:
+        return ex.evaluate(value, env.value, _call(env, 0))
+    except NetlistError:
+        raise
+    except UnknownName as exc:
+        raise NetlistError(f"{_card_name(card)}: unknown {exc.kind} '{exc.name}' in {what}",
+                           card.location(offset),
+                           hint="define it with .param (or .func), or pass it to the subcircuit"
+                           if exc.kind == "parameter" else "define it with .func") from None
+    except ValueError as exc:
+        raise NetlistError(f"{_card_name(card)}: cannot evaluate {what}: {exc}", card.location(offset)) from None
+
+
+def _card_name(card) -> str:
+    return card.text.split(None, 1)[0]
+
+
+def inline_calls(node: ex.Expr, env: Env, depth: int = 0) -> ex.Expr:
+    """Replace calls of user functions by their bodies with the arguments substituted.
+
+    Raises
+    ------
+    UnknownName
+        A function no scope defines.
+    ValueError
+        Wrong argument count or recursion.
+    """
+    def leaf(m):
+        if type(m) is not ex.Call or m.func in ex.FUNCTIONS:
+            return None
+        if depth >= MAX_CALL_DEPTH:
+            raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{m.func}'?)")
+        f = env.func(m.func)
+        if len(m.args) != len(f.args):
+            raise ValueError(f"{m.func}() takes {len(f.args)} argument(s), got {len(m.args)}")
+        bound = dict(zip(f.args, (inline_calls(a, env, depth) for a in m.args)))
+        body = ex.transform(f.body, lambda q: bound.get(q.name) if type(q) is ex.Param else None)
+        return inline_calls(body, env, depth + 1)
+    return ex.transform(node, leaf)
+
+
+def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, elem_map) -> ex.Expr:
+    """A behavioural expression with parameters replaced by numbers.
+
+    User functions are inlined, node and element names mapped to their
+    full names (``node_map``, ``elem_map``: dicts from the names as written),
+    ground references folded, constant subtrees folded.
+
+    Raises
+    ------
+    NetlistError
+        Unknown parameter or function, wrong argument count, recursion.
+    """
+    def leaf(m):
+        t = type(m)
+        if t is ex.Param:
+            return ex.Const(env.value(m.name))
+        if t is ex.Voltage:
+            pos = node_map[m.pos]
+            neg = node_map[m.neg] if m.neg is not None else "0"
+            if pos == neg:
+                return ex.Const(0.0)
+            if neg == "0":
+                return ex.Voltage(pos, None)
+            if pos == "0":
+                return ex.Unary("-", ex.Voltage(neg, None))
+            return ex.Voltage(pos, neg)
+        if t is ex.Current:
+            return ex.Current(elem_map[m.element])
+        return None
+
+    try:
+        return ex.fold_constants(ex.transform(inline_calls(node, env), leaf))
+    except NetlistError:
+        raise
+    except UnknownName as exc:
+        raise NetlistError(f"{_card_name(card)}: unknown {exc.kind} '{exc.name}' in the expression",
+                           card.location(offset)) from None
+    except ValueError as exc:
+        raise NetlistError(f"{_card_name(card)}: {exc}", card.location(offset)) from None

@@ -1,0 +1,443 @@
+"""Cards to a :class:`~netdae.netlist.statements.Netlist`: structure and dot cards.
+
+:func:`parse` reads the files (:mod:`netdae.netlist.reader`), sorts every
+card into the subcircuit definition it belongs to, parses element cards
+(:mod:`netdae.netlist.elements`) and dot cards, and settles what needs the
+whole netlist (which word of a Q card is the model, whether a word after a
+resistor's nodes is a model or a parameter). Nothing is evaluated here.
+"""
+
+from __future__ import annotations
+
+from ..errors import NetlistError
+from . import expr as ex
+from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
+from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
+from .numbers import parse_number
+from .reader import Deck, read_deck
+from .statements import AnalysisCard, Definition, ElementCard, FuncDef, ModelCard, Netlist, ParamDef
+from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, UNSUPPORTED_DOT_CARDS
+
+__all__ = ["parse", "build"]
+
+_IN_SUBCKT = {".param", ".func", ".model", ".subckt", ".ends", ".global"}
+_PRINT_TYPES = {"tran", "ac", "dc", "op", "noise", "disto", "tf", "pz", "sens"}
+
+
+def parse(source, *, path: str | None = None) -> Netlist:
+    """Read and parse a netlist (no evaluation, no subcircuit expansion).
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A file name or the netlist text (see :func:`netdae.netlist.load`).
+    path : str, optional
+        Name of the text for locations and relative includes.
+
+    Returns
+    -------
+    Netlist
+
+    Raises
+    ------
+    NetlistError
+        Any syntax error, located at its token.
+    """
+    return build(read_deck(source, path=path))
+
+
+def build(deck: Deck) -> Netlist:
+    """Parse the cards of a :class:`~netdae.netlist.reader.Deck`."""
+    top = Definition(None)
+    net = Netlist(title=deck.title, path=deck.path, top=top, diagnostics=list(deck.notes),
+                  files=list(deck.files))
+    stack = [top]
+    for card in deck.cards:
+        if card.text[0] == ".":
+            _dot_card(card, stack, net)
+        else:
+            stack[-1].items.append(parse_element(card))
+    if len(stack) > 1:
+        raise NetlistError(f".subckt {stack[-1].name}: no matching .ends", stack[-1].card.location(0),
+                           expected=DOT_CARDS[".ends"], hint="close the definition with '.ends'")
+    _settle(top)
+    return net
+
+
+# ---------------------------------------------------------------------------
+def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
+    toks = card.tokens()
+    word = DOT_ALIASES.get(toks[0].text, toks[0].text)
+    scope = stack[-1]
+    if word in UNSUPPORTED_DOT_CARDS:
+        raise NetlistError(f"{word}: {UNSUPPORTED_DOT_CARDS[word]} is not supported by netdae",
+                           card.location(0),
+                           hint="netdae runs .op, .dc, .ac and .tran; remove the card or run it in ngspice")
+    if word not in DOT_CARDS:
+        raise NetlistError(f"unknown dot card '{toks[0].text}'", card.location(0),
+                           hint="netdae reads " + " ".join(sorted(DOT_CARDS)))
+    if scope.name is not None and word not in _IN_SUBCKT:
+        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}", card.location(0),
+                           hint="move it to the top level (name subcircuit nodes hierarchically, "
+                                "e.g. v(x1.mid))")
+    _HANDLERS[word](card, toks, stack, net)
+
+
+def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    form = DOT_CARDS[".subckt"]
+    if len(toks) < 2 or toks[1].kind != WORD:
+        raise error(card, len(card.text), "missing subcircuit name", form)
+    name = toks[1].text
+    ports: list[str] = []
+    i = 2
+    while i < len(toks):
+        tok = toks[i]
+        if tok.kind == WORD and tok.text == "params:":
+            i += 1
+            break
+        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].text == "=":
+            break
+        node = parse_node(card, tok, form)
+        if node == "0":
+            raise error(card, tok.start, f"ground '{tok.text}' cannot be a subcircuit port", form,
+                        hint="ground is global: use it inside the subcircuit without a port")
+        if node in ports:
+            raise error(card, tok.start, f"port '{node}' listed twice", form)
+        ports.append(node)
+        i += 1
+    positional, keywords = split_args(card, toks, i, form)
+    if positional:
+        raise error(card, positional[0].start, f"unexpected {positional[0].text!r} among the parameters",
+                    form, hint="subcircuit parameters are written name=default")
+    parent = stack[-1]
+    if name in parent.subckts:
+        first = parent.subckts[name].card
+        raise error(card, toks[1].start, f"subcircuit '{name}' is defined twice "
+                    f"(first at {first.file}:{first.line})", form)
+    sub = Definition(name, tuple(ports), parent=parent, card=card)
+    seen = set()
+    for key, values in keywords:
+        _check_param_name(card, key, form)
+        if key.text in seen:
+            raise error(card, key.start, f"parameter '{key.text}' listed twice", form)
+        if len(values) != 1:
+            raise error(card, values[1].start, f"{key.text}= takes one value", form)
+        seen.add(key.text)
+        sub.defaults.append(ParamDef(key.text, parse_value(card, values[0], form), card, key.start))
+    parent.subckts[name] = sub
+    stack.append(sub)
+
+
+def _ends(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    if len(stack) == 1:
+        raise error(card, 0, ".ends without a matching .subckt", DOT_CARDS[".ends"])
+    scope = stack[-1]
+    if len(toks) > 1:
+        if toks[1].kind != WORD or toks[1].text != scope.name:
+            raise error(card, toks[1].start, f"'.ends {toks[1].text}' closes .subckt {scope.name} "
+                        f"(opened at line {scope.card.line})", DOT_CARDS[".ends"])
+        if len(toks) > 2:
+            raise error(card, toks[2].start, f"unexpected {toks[2].text!r}", DOT_CARDS[".ends"])
+    stack.pop()
+
+
+def _check_param_name(card: Card, tok: Token, form: str) -> None:
+    if tok.kind != WORD or not IDENT.match(tok.text):
+        raise error(card, tok.start, f"bad parameter name {tok.text!r}", form,
+                    hint="names start with a letter or '_' and contain letters, digits, '_' or '.'")
+    if tok.text in ex.RESERVED:
+        raise error(card, tok.start, f"'{tok.text}' is reserved and cannot be a parameter name", form)
+
+
+def _param(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    form = DOT_CARDS[".param"]
+    i = 1
+    n = len(toks)
+    if n == 1:
+        raise error(card, len(card.text), "missing name=value", form)
+    while i < n:
+        tok = toks[i]
+        if tok.kind == PUNCT and tok.text == ",":
+            i += 1
+            continue
+        _check_param_name(card, tok, form)
+        if i + 1 >= n or toks[i + 1].text != "=":
+            raise error(card, toks[i + 1].start if i + 1 < n else len(card.text),
+                        f"expected '=' after parameter name '{tok.text}'", form,
+                        hint="write name=value; a value with blanks needs {braces} or 'quotes'")
+        if i + 2 >= n or toks[i + 2].kind not in (WORD, EXPR):
+            raise error(card, toks[i + 1].start, f"missing value for parameter '{tok.text}'", form)
+        stack[-1].params.append(ParamDef(tok.text, parse_value(card, toks[i + 2], form), card, tok.start))
+        i += 3
+
+
+def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    form = DOT_CARDS[".func"]
+    if len(toks) < 4 or toks[1].kind != WORD or toks[2].text != "(":
+        raise error(card, toks[1].start if len(toks) > 1 else len(card.text), "expected name(args)", form)
+    name = toks[1].text
+    if not IDENT.match(name):
+        raise error(card, toks[1].start, f"bad function name {name!r}", form)
+    if name in ex.FUNCTIONS or name in ("if", "ternary_fcn", "log", "arctan", "sqr"):
+        raise error(card, toks[1].start, f"'{name}' is a built-in function and cannot be redefined", form)
+    args: list[str] = []
+    i = 3
+    while i < len(toks) and toks[i].text != ")":
+        tok = toks[i]
+        if tok.kind == PUNCT and tok.text == ",":
+            i += 1
+            continue
+        _check_param_name(card, tok, form)
+        if tok.text in args:
+            raise error(card, tok.start, f"argument '{tok.text}' listed twice", form)
+        args.append(tok.text)
+        i += 1
+    if i >= len(toks):
+        raise error(card, toks[2].start, "missing ')' after the arguments", form)
+    i += 1
+    if i < len(toks) and toks[i].kind == PUNCT and toks[i].text == "=":
+        i += 1
+    if i >= len(toks):
+        raise error(card, len(card.text), "missing function body", form)
+    body_tok = toks[i]
+    if body_tok.kind == EXPR and i == len(toks) - 1:
+        text, base = body_tok.text, body_tok.start + 1
+    else:
+        text, base = card.text[body_tok.start:], body_tok.start
+    body = parse_expr(card, text, base, ex.PARAM, form)
+    scope = stack[-1]
+    if name in scope.funcs:
+        first = scope.funcs[name].card
+        raise error(card, toks[1].start, f"function '{name}' is defined twice (first at {first.file}:"
+                    f"{first.line})", form)
+    scope.funcs[name] = FuncDef(name, tuple(args), body, card)
+
+
+def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    form = DOT_CARDS[".model"]
+    if len(toks) < 3 or toks[1].kind != WORD or toks[2].kind != WORD:
+        raise error(card, toks[-1].end if len(toks) > 1 else len(card.text), "expected a model name and type",
+                    form)
+    name, mtype = toks[1].text, toks[2].text
+    positional, keywords = split_args(card, toks, 3, form, allow_parens=True)
+    stray = [t for t in positional if not (t.kind == PUNCT and t.text in "()")]
+    if stray:
+        raise error(card, stray[0].start, f"expected name=value, found {stray[0].text!r}", form)
+    params = {}
+    for key, values in keywords:
+        if len(values) != 1:
+            raise error(card, values[1].start, f"{key.text}= takes one value", form)
+        if key.text in params:
+            raise error(card, key.start, f"parameter '{key.text}' given twice", form)
+        params[key.text] = parse_value(card, values[0], form)
+    scope = stack[-1]
+    if name in scope.models:
+        first = scope.models[name].card
+        raise error(card, toks[1].start, f"model '{name}' is defined twice (first at {first.file}:{first.line})",
+                    form)
+    model = ModelCard(name, mtype, card, params)
+    scope.models[name] = model
+    scope.items.append(model)
+
+
+def _global(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    for tok in toks[1:]:
+        node = parse_node(card, tok, DOT_CARDS[".global"])
+        if node != "0":
+            net.globals.setdefault(node, (card, tok.start))
+
+
+def _title(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
+    net.title = card.raw[len(".title"):].strip()
+
+
+def _values(card: Card, toks: list[Token], start: int, form: str) -> list:
+    out = []
+    for tok in toks[start:]:
+        if tok.kind == PUNCT and tok.text == ",":
+            continue
+        out.append(parse_value(card, tok, form))
+    return out
+
+
+def _op(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    if len(toks) > 1:
+        raise error(card, toks[1].start, f"unexpected {toks[1].text!r}", DOT_CARDS[".op"])
+    net.analyses.append(AnalysisCard("op", card, {}))
+
+
+def _tran(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".tran"]
+    uic = False
+    rest = []
+    for tok in toks[1:]:
+        if tok.kind == WORD and tok.text == "uic":
+            uic = True
+        else:
+            rest.append(tok)
+    vals = _values(card, rest, 0, form)
+    if len(vals) < 2:
+        raise error(card, len(card.text), f"expected tstep and tstop, found {len(vals)} value(s)", form)
+    if len(vals) > 4:
+        raise error(card, vals[4][1], "too many values", form)
+    args = dict(zip(("tstep", "tstop", "tstart", "tmax"), vals))
+    args["uic"] = uic
+    net.analyses.append(AnalysisCard("tran", card, args))
+
+
+def _ac(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".ac"]
+    if len(toks) < 2 or toks[1].text not in ("dec", "oct", "lin"):
+        raise error(card, toks[1].start if len(toks) > 1 else len(card.text),
+                    "expected the sweep type dec, oct or lin", form)
+    vals = _values(card, toks, 2, form)
+    if len(vals) != 3:
+        raise error(card, vals[3][1] if len(vals) > 3 else len(card.text),
+                    f"expected points, fstart and fstop, found {len(vals)} value(s)", form)
+    net.analyses.append(AnalysisCard("ac", card, {"variation": toks[1].text, "points": vals[0],
+                                                  "fstart": vals[1], "fstop": vals[2]}))
+
+
+def _dc(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".dc"]
+    items = [t for t in toks[1:] if not (t.kind == PUNCT and t.text == ",")]
+    if len(items) not in (4, 8):
+        raise error(card, items[8].start if len(items) > 8 else len(card.text),
+                    f"expected one or two sweeps of 4 items (source start stop step), found {len(items)} item(s)",
+                    form)
+    sweeps = []
+    for k in range(0, len(items), 4):
+        src = items[k]
+        if src.kind != WORD or parse_number(src.text) is not None:
+            raise error(card, src.start, f"expected a source name or temp, found {src.text!r}", form)
+        sweeps.append((src.text, src.start, *[parse_value(card, t, form) for t in items[k + 1 : k + 4]]))
+    net.analyses.append(AnalysisCard("dc", card, {"sweeps": sweeps}))
+
+
+def _ic(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    word = DOT_ALIASES.get(toks[0].text, toks[0].text)
+    form = DOT_CARDS[word]
+    target = net.ic if word == ".ic" else net.nodeset
+    i, n = 1, len(toks)
+    if n == 1:
+        raise error(card, len(card.text), "missing v(node)=value", form)
+    while i < n:
+        if toks[i].kind == PUNCT and toks[i].text == ",":
+            i += 1
+            continue
+        ok = (i + 5 < n and toks[i].text == "v" and toks[i + 1].text == "(" and toks[i + 2].kind == WORD
+              and toks[i + 3].text == ")" and toks[i + 4].text == "=")
+        if not ok:
+            raise error(card, toks[i].start, f"expected v(node)=value, found {toks[i].text!r}", form)
+        node = parse_node(card, toks[i + 2], form)
+        target.append((node, parse_value(card, toks[i + 5], form), toks[i + 2].start, card))
+        i += 6
+
+
+def _options(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".options"]
+    i, n = 1, len(toks)
+    while i < n:
+        tok = toks[i]
+        if tok.kind == PUNCT and tok.text == ",":
+            i += 1
+            continue
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"expected an option name, found {tok.text!r}", form)
+        if i + 1 < n and toks[i + 1].text == "=":
+            if i + 2 >= n or toks[i + 2].kind not in (WORD, EXPR, STRING):
+                raise error(card, toks[i + 1].start, f"missing value for option '{tok.text}'", form)
+            net.options.append((tok.text, toks[i + 2], tok.start, card))
+            i += 3
+        else:
+            net.options.append((tok.text, True, tok.start, card))
+            i += 1
+
+
+def _temp(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    vals = _values(card, toks, 1, DOT_CARDS[".temp"])
+    if len(vals) != 1:
+        raise error(card, vals[1][1] if vals else len(card.text),
+                    "expected one temperature (netdae runs one temperature per netlist)", DOT_CARDS[".temp"])
+    net.temps.append((vals[0], card))
+
+
+def _saves(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    word = toks[0].text
+    i, n = 1, len(toks)
+    if word in (".print", ".plot") and i < n and toks[i].kind == WORD and toks[i].text in _PRINT_TYPES:
+        i += 1
+    while i < n:
+        tok = toks[i]
+        if tok.kind == PUNCT and tok.text == ",":
+            i += 1
+            continue
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"expected a signal, found {tok.text!r}", DOT_CARDS.get(word))
+        if i + 1 < n and toks[i + 1].text == "(":
+            j = i + 2
+            args = []
+            while j < n and toks[j].text != ")":
+                if toks[j].kind == WORD:
+                    args.append("0" if toks[j].text == "gnd" else toks[j].text)
+                elif toks[j].text != ",":
+                    raise error(card, toks[j].start, f"unexpected {toks[j].text!r} in a signal", DOT_CARDS.get(word))
+                j += 1
+            if j >= n or not args:
+                raise error(card, tok.start, f"malformed signal {tok.text}(...)", DOT_CARDS.get(word))
+            net.saves.append((f"{tok.text}({','.join(args)})", tok.start, card))
+            i = j + 1
+        else:
+            net.saves.append((tok.text, tok.start, card))
+            i += 1
+
+
+_HANDLERS = {
+    ".subckt": _subckt, ".ends": _ends, ".param": _param, ".func": _func, ".model": _model,
+    ".global": _global, ".title": _title, ".op": _op, ".tran": _tran, ".ac": _ac, ".dc": _dc,
+    ".ic": _ic, ".nodeset": _ic, ".options": _options, ".temp": _temp, ".save": _saves,
+    ".print": _saves, ".probe": _saves, ".plot": _saves,
+}
+
+
+# ---------------------------------------------------------------------------
+def _settle(scope: Definition) -> None:
+    """Resolve what needs the models of the whole netlist (lexical lookup)."""
+    for item in scope.items:
+        if not isinstance(item, ElementCard):
+            continue
+        if item.kind == "bjt":
+            _settle_bjt(item, scope)
+        elif item.kind in ("resistor", "capacitor", "inductor") and item.model is None:
+            value = item.value[0] if item.value is not None else None
+            if isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+                raise error(item.card, item.value[1], f"'{value.name}' is a model: an element value computed "
+                            "from a model (semiconductor R/C) is not supported by netdae",
+                            ELEMENTS[item.name[0]], hint="give the value after the nodes, then the model name")
+    for sub in scope.subckts.values():
+        _settle(sub)
+
+
+def _settle_bjt(el: ElementCard, scope: Definition) -> None:
+    syntax = ELEMENTS["q"]
+    words = el.positional
+    names = [t.text if t.kind == WORD else None for t in words]
+    card = el.card
+    if len(words) < 4 or any(name is None for name in names[:4]):
+        raise error(card, len(card.text), "expected 3 or 4 nodes and a model name", syntax)
+    if scope.lookup_model(names[3]) is not None:
+        count = 3
+    elif len(words) > 4 and names[4] is not None and scope.lookup_model(names[4]) is not None:
+        count = 4
+    else:
+        tried = f"'{names[3]}'" + (f" or '{names[4]}'" if len(words) > 4 and names[4] else "")
+        raise error(card, words[3].start, f"no model {tried} defined", syntax,
+                    hint="define it with .model mname npn|pnp (...)")
+    el.nodes = tuple("0" if n == "gnd" else n for n in names[:count])
+    el.model = (names[count], words[count].start)
+    extra = words[count + 1 :]
+    if extra:
+        el.params["area"] = parse_value(card, extra[0], syntax, "area")
+    if len(extra) > 1:
+        raise error(card, extra[1].start, f"unexpected {extra[1].text!r}", syntax)
+    el.positional = None

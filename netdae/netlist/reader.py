@@ -1,0 +1,221 @@
+"""Reading netlist files: the main file, ``.include`` and ``.lib`` sections.
+
+This is the I/O edge of the netlist reader. It turns a file (or text) into
+one flat list of :class:`~netdae.netlist.lines.Card`, each remembering its
+own file, with the cards of included files and library sections in place.
+
+Rules (as ngspice):
+
+- ``.include file`` (or ``.inc``) inserts the whole file; ``.lib file
+  section`` inserts the cards between ``.lib section`` and ``.endl`` of that
+  file. A relative file name is resolved against the directory of the file
+  that contains the card (for text without a path: the current directory);
+  ``~`` is expanded; the name may be quoted and keeps its case.
+- A ``.lib section`` card with one argument opens a section definition,
+  which is skipped where it stands (it is read only through a ``.lib file
+  section`` reference).
+- An include cycle is an error naming the chain of files.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+from ..circuit import Diagnostic
+from ..errors import NetlistError, SourceLocation
+from .lines import STRING, WORD, Card, split_cards
+
+__all__ = ["Deck", "read_deck"]
+
+STRING_SOURCE = "<string>"
+
+
+@dataclass
+class Deck:
+    """A netlist's cards with every include expanded.
+
+    Attributes
+    ----------
+    title : str
+    path : str
+        The main file as given, or ``"<string>"``.
+    cards : list of Card
+    notes : list of Diagnostic
+    files : list of str
+        Every file read, main file first.
+    """
+
+    title: str
+    path: str
+    cards: list[Card] = field(default_factory=list)
+    notes: list[Diagnostic] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
+
+
+def _first_word(card: Card) -> str:
+    text = card.text
+    end = len(text)
+    for i, ch in enumerate(text):
+        if ch in " \t(=":
+            end = i
+            break
+    return text[:end]
+
+
+def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
+    try:
+        with open(display, encoding="utf-8", errors="replace", newline=None) as fh:
+            return fh.read()
+    except FileNotFoundError:
+        raise NetlistError(f"{what} '{display}' not found", location,
+                           hint="check the file name; relative names are resolved against the "
+                                "directory of the file that names them") from None
+    except IsADirectoryError:
+        raise NetlistError(f"{what} '{display}' is a directory", location) from None
+    except OSError as exc:
+        raise NetlistError(f"cannot read {what} '{display}': {exc.strerror}", location) from None
+
+
+def read_deck(source, *, path: str | None = None) -> Deck:
+    """Read a netlist and everything it includes.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A file name (a ``PathLike``, or a ``str`` without a newline) or the
+        netlist text itself (a ``str`` containing a newline).
+    path : str, optional
+        For text: the name used in locations and whose directory resolves
+        relative includes.
+
+    Returns
+    -------
+    Deck
+
+    Raises
+    ------
+    NetlistError
+        A missing or unreadable file, an include cycle, a missing library
+        section, an unterminated ``.lib`` section or a stray ``.endl``.
+    """
+    if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source):
+        display = os.fspath(source)
+        text = _read_text(display, None, "netlist file")
+    elif isinstance(source, str):
+        text = source
+        display = path if path is not None else STRING_SOURCE
+    else:
+        raise TypeError(f"source must be a file name or netlist text, not {type(source).__name__}")
+    title, cards, notes = split_cards(text, display, title=True)
+    deck = Deck(title=title or "", path=display, notes=list(notes), files=[display])
+    base = os.path.dirname(display) if display != STRING_SOURCE else ""
+    root_key = (os.path.realpath(display) if display != STRING_SOURCE else STRING_SOURCE, None)
+    deck.cards = _expand(cards, base, [root_key], [display], deck)
+    return deck
+
+
+def _file_argument(card: Card, index: int, what: str) -> tuple[str, int]:
+    toks = [t for t in card.tokens() if t.kind in (WORD, STRING)]
+    if len(toks) <= index:
+        raise NetlistError(f"{_first_word(card)}: missing {what}", card.location(len(card.text)),
+                           expected=_FORMS[_first_word(card)])
+    tok = toks[index]
+    name = tok.text if tok.kind == STRING else card.raw[tok.start:tok.end]
+    return name, tok.start
+
+
+_FORMS = {
+    ".include": ".include filename",
+    ".inc": ".include filename",
+    ".lib": ".lib filename section | .lib section ... .endl",
+}
+
+
+def _resolve(base: str, name: str) -> str:
+    name = os.path.expanduser(name)
+    return os.path.normpath(name if os.path.isabs(name) else os.path.join(base, name))
+
+
+def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: Deck) -> list[Card]:
+    out: list[Card] = []
+    i = 0
+    n = len(cards)
+    while i < n:
+        card = cards[i]
+        i += 1
+        if card.text[0] != ".":
+            out.append(card)
+            continue
+        word = _first_word(card)
+        if word in (".include", ".inc"):
+            name, at = _file_argument(card, 1, "file name")
+            out.extend(_include(card, at, _resolve(base, name), None, chain, shown, deck))
+        elif word == ".lib":
+            args = [t for t in card.tokens() if t.kind in (WORD, STRING)][1:]
+            if len(args) >= 2:
+                name, at = _file_argument(card, 1, "file name")
+                section = args[1].text.lower()
+                out.extend(_include(card, at, _resolve(base, name), section, chain, shown, deck))
+            elif len(args) == 1:
+                i = _skip_section(cards, i - 1)
+            else:
+                raise NetlistError(".lib: missing file name and section", card.location(len(card.text)),
+                                   expected=_FORMS[".lib"])
+        elif word == ".endl":
+            raise NetlistError(".endl without a preceding .lib section", card.location(0),
+                               expected=_FORMS[".lib"])
+        else:
+            out.append(card)
+    return out
+
+
+def _skip_section(cards: list[Card], start: int) -> int:
+    """Index just after the ``.endl`` closing the section opened at ``start``."""
+    for j in range(start + 1, len(cards)):
+        word = _first_word(cards[j])
+        if word == ".endl":
+            return j + 1
+        if word == ".lib" and len([t for t in cards[j].tokens() if t.kind in (WORD, STRING)]) == 2:
+            # a section opening inside a section (a .lib with a file name is a reference)
+            raise NetlistError(".lib section inside another .lib section", cards[j].location(0),
+                               hint=f"close the section opened at line {cards[start].line} with .endl first")
+    raise NetlistError(".lib section without .endl", cards[start].location(0),
+                       hint="close the section with a line '.endl'")
+
+
+def _include(card: Card, at: int, target: str, section: str | None, chain: list, shown: list[str],
+             deck: Deck) -> list[Card]:
+    key = (os.path.realpath(target), section)
+    if key in chain:
+        loop = shown[chain.index(key):] + [target]
+        raise NetlistError("include cycle: " + " -> ".join(loop), card.location(at),
+                           hint="remove the .include/.lib that closes the cycle")
+    text = _read_text(target, card.location(at), "library file" if section else "include file")
+    _, cards, notes = split_cards(text, target, title=False)
+    deck.notes.extend(notes)
+    if target not in deck.files:
+        deck.files.append(target)
+    if section is not None:
+        cards = _section(cards, section, card, at, target)
+    return _expand(cards, os.path.dirname(target), chain + [key], shown + [target], deck)
+
+
+def _section(cards: list[Card], section: str, card: Card, at: int, target: str) -> list[Card]:
+    found = []
+    j = 0
+    while j < len(cards):
+        c = cards[j]
+        if _first_word(c) == ".lib":
+            args = [t for t in c.tokens() if t.kind in (WORD, STRING)][1:]
+            if len(args) == 1:
+                end = _skip_section(cards, j)
+                if args[0].text == section:
+                    return cards[j + 1 : end - 1]
+                found.append(args[0].text)
+                j = end
+                continue
+        j += 1
+    listed = ", ".join(found) if found else "none"
+    raise NetlistError(f".lib: section '{section}' not found in '{target}' (sections: {listed})",
+                       card.location(at))

@@ -1,0 +1,250 @@
+"""The parsed netlist: cards understood, nothing evaluated yet.
+
+:func:`netdae.netlist.parse` returns a :class:`Netlist`: the tree of
+subcircuit definitions (:class:`Definition`, the top level being one too),
+each with its elements, instances, models, parameters and functions in
+netlist order, and the analyses and control cards. Values are kept as
+written: a float for a plain number, an expression tree
+(:mod:`netdae.netlist.expr`) for ``{...}``, ``'...'`` or a parameter name.
+:func:`netdae.netlist.elaborate` evaluates them.
+
+A value always travels with the offset of its token in its card
+(``Val = (value, offset)``) so that an error found later still points at it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+from ..circuit import Diagnostic
+from .expr import Expr
+from .lines import Card
+
+__all__ = [
+    "Val",
+    "ElementCard",
+    "SourceCard",
+    "InstanceCard",
+    "ModelCard",
+    "FuncDef",
+    "ParamDef",
+    "Definition",
+    "AnalysisCard",
+    "Netlist",
+]
+
+#: A value as written (float, or an expression tree) and its offset in the card.
+Val = tuple[Union[float, Expr], int]
+
+
+@dataclass(slots=True)
+class SourceCard:
+    """The value part of a V or I card.
+
+    ``tran`` is ``(kind, [Val, ...], extras, offset)`` with ``extras`` the
+    PWL ``r=``/``td=`` values, or None.
+    """
+
+    dc: Val | None = None
+    ac_mag: Val | None = None
+    ac_phase: Val | None = None
+    tran: tuple | None = None
+
+
+@dataclass(slots=True)
+class ElementCard:
+    """An element card (any letter but X), parsed.
+
+    Attributes
+    ----------
+    name : str
+        Lower-case name as written (``"r1"``).
+    kind : str
+        Element kind (see :mod:`netdae.circuit`); ``"bjt"`` cards get their
+        node count settled when the models are known.
+    card : Card
+    nodes : tuple of str
+    value : Val or None
+    model : (str, int) or None
+        Model name as written and its offset.
+    params : dict of str to Val
+    flags : dict of str to int
+        Bare keywords (``off``) and their offsets.
+    source : SourceCard or None
+    controls : tuple of (str, int)
+        Controlling elements as written (F/H source, K inductors, POLY).
+    expr : (Expr, int) or None
+        Behavioural expression (B, E/G value=, POLY).
+    positional : list of Token
+        Q cards: the words after the name until the first keyword, resolved
+        into nodes, model and area once the models are known.
+    """
+
+    name: str
+    kind: str
+    card: Card
+    nodes: tuple = ()
+    value: Val | None = None
+    model: tuple | None = None
+    params: dict = field(default_factory=dict)
+    flags: dict = field(default_factory=dict)
+    source: SourceCard | None = None
+    controls: tuple = ()
+    expr: tuple | None = None
+    positional: list | None = None
+
+
+@dataclass(slots=True)
+class InstanceCard:
+    """An ``X`` card: an instance of a subcircuit."""
+
+    name: str
+    card: Card
+    nodes: tuple
+    subckt: str
+    subckt_offset: int
+    params: dict  # name -> Val
+
+
+@dataclass(slots=True)
+class ModelCard:
+    """A ``.model`` card."""
+
+    name: str
+    type: str
+    card: Card
+    params: dict  # name -> Val
+
+
+@dataclass(slots=True)
+class FuncDef:
+    """A ``.func name(args) = {body}`` card."""
+
+    name: str
+    args: tuple
+    body: Expr
+    card: Card
+
+
+@dataclass(slots=True)
+class ParamDef:
+    """One ``name=value`` of a ``.param`` card or a subcircuit default."""
+
+    name: str
+    value: Val
+    card: Card
+    offset: int
+
+
+@dataclass
+class Definition:
+    """A subcircuit definition, or the top level (``name`` None).
+
+    Attributes
+    ----------
+    name : str or None
+    ports : tuple of str
+    defaults : list of ParamDef
+        ``params:`` of the ``.subckt`` card, in order.
+    params : list of ParamDef
+        ``.param`` cards of this body, in order.
+    funcs : dict of str to FuncDef
+    items : list of ElementCard, InstanceCard and ModelCard
+        In netlist order.
+    models : dict of str to ModelCard
+        The models defined directly in this body.
+    subckts : dict of str to Definition
+        The subcircuits defined directly in this body.
+    parent : Definition or None
+    card : Card or None
+        The ``.subckt`` card.
+    """
+
+    name: str | None
+    ports: tuple = ()
+    defaults: list = field(default_factory=list)
+    params: list = field(default_factory=list)
+    funcs: dict = field(default_factory=dict)
+    items: list = field(default_factory=list)
+    models: dict = field(default_factory=dict)
+    subckts: dict = field(default_factory=dict)
+    parent: "Definition | None" = None
+    card: Card | None = None
+
+    def lookup_model(self, name: str) -> "tuple[ModelCard, Definition] | None":
+        """The model a card in this body means by ``name`` (innermost first)."""
+        scope: Definition | None = self
+        while scope is not None:
+            model = scope.models.get(name)
+            if model is not None:
+                return model, scope
+            scope = scope.parent
+        return None
+
+    def lookup_subckt(self, name: str) -> "Definition | None":
+        """The subcircuit an instance in this body means by ``name`` (innermost first)."""
+        scope: Definition | None = self
+        while scope is not None:
+            sub = scope.subckts.get(name)
+            if sub is not None:
+                return sub
+            scope = scope.parent
+        return None
+
+    @property
+    def path(self) -> str:
+        """``top`` or the nesting of definitions, e.g. ``outer/inner``."""
+        names = []
+        scope: Definition | None = self
+        while scope is not None and scope.name is not None:
+            names.append(scope.name)
+            scope = scope.parent
+        return "/".join(reversed(names)) or "top"
+
+
+@dataclass(slots=True)
+class AnalysisCard:
+    """An analysis or control card with its values unevaluated.
+
+    ``kind`` is ``"op"``, ``"dc"``, ``"ac"``, ``"tran"``; ``args`` holds the
+    parsed fields (values as :data:`Val`).
+    """
+
+    kind: str
+    card: Card
+    args: dict
+
+
+@dataclass
+class Netlist:
+    """A parsed netlist.
+
+    Attributes
+    ----------
+    title : str
+    path : str
+    top : Definition
+    analyses : list of AnalysisCard
+    options : list of (name, value, offset, Card)
+        ``value`` is a Val, a word (str) or True for a bare flag.
+    temps : list of (Val, Card)
+    ic, nodeset : list of (node, Val, offset, Card)
+    saves : list of (signal, offset, Card)
+    globals : dict of str to (Card, offset)
+    diagnostics : list of Diagnostic
+    files : list of str
+    """
+
+    title: str
+    path: str
+    top: Definition
+    analyses: list = field(default_factory=list)
+    options: list = field(default_factory=list)
+    temps: list = field(default_factory=list)
+    ic: list = field(default_factory=list)
+    nodeset: list = field(default_factory=list)
+    saves: list = field(default_factory=list)
+    globals: dict = field(default_factory=dict)
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)

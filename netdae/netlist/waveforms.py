@@ -1,0 +1,756 @@
+"""Transient source functions: PULSE, SIN, EXP, PWL, SFFM, AM, exactly as ngspice.
+
+Each waveform is built from the numbers written on the card (``None`` for a
+parameter not given). Several ngspice defaults depend on the ``.tran`` step
+TSTEP and stop time TSTOP; :meth:`Waveform.resolved` fills them in:
+
+=====  ============================================  =====================================
+kind   parameters (ngspice order)                    defaults (a 0 counts as "not given"*)
+=====  ============================================  =====================================
+PULSE  v1 v2 td tr tf pw per np                      td 0; tr*, tf* TSTEP; pw*, per* TSTOP;
+                                                     np (number of pulses) 0 = unlimited
+SIN    vo va freq td theta phase                     freq* 1/TSTOP; td, theta, phase 0
+EXP    v1 v2 td1 tau1 td2 tau2                       td1*, tau1*, tau2* TSTEP; td2* td1+TSTEP
+SFFM   vo va fc mdi fs phasec phases                 fc*, fs* 1/TSTOP; mdi, phases 0
+AM     va vo mf fc td phasec phases                  mf* 1/TSTOP; fc, td, phases 0
+PWL    t1 v1 t2 v2 ... [r=trep] [td=delay]           no repeat, no delay
+=====  ============================================  =====================================
+
+Formulas (time ``t``; phases in degrees) as in ngspice 39 ``vsrcload.c``:
+
+- PULSE: ``tau = t - td``; after ``np`` pulses (``tau > np*per``) the value
+  is v1; else ``tau`` is reduced modulo ``per`` when ``tau > per``; v1 for
+  ``tau <= 0`` or ``tau >= tr+pw+tf``, v2 on ``[tr, tr+pw]``, linear ramps
+  in between.
+- SIN: ``vo + va*sin(phase)`` for ``t <= td``, else
+  ``vo + va*sin(2 pi freq (t-td) + phase) * exp(-theta (t-td))``.
+- EXP: v1 up to td1, then ``+ (v2-v1)(1 - exp(-(t-td1)/tau1))`` up to td2,
+  then additionally ``+ (v1-v2)(1 - exp(-(t-td2)/tau2))``.
+- SFFM: ``vo + va*sin(2 pi fc t + phasec + mdi*sin(2 pi fs t + phases))``.
+- AM: 0 for ``t <= td``, else
+  ``va*(vo + sin(2 pi mf tau + phases))*sin(2 pi fc tau + phases)``,
+  ``tau = t - td``. (ngspice 39 uses ``phases`` for the carrier too and
+  ignores ``phasec``; netdae does the same so that both agree.)
+- PWL: ``tau = t - td``; the first value before the first point, the last
+  after the last point, linear in between; at a time listed twice (a step)
+  the first value is taken at that instant. With ``r=trep`` the part from
+  the point at ``trep`` to the last point repeats for ever (``trep`` must be
+  one of the time points); at the end of the list the repeat starts at once.
+
+:meth:`Waveform.derivative` gives exact derivatives of any order (closed
+forms; SFFM by the Leibniz recurrence of sin/cos of the phase), and at a
+corner the one-sided derivative valid just after ``t``. Times within a
+relative :data:`CORNER_RTOL` of a corner count as on it, so that a time
+returned by :meth:`Waveform.breakpoints` lands on its corner despite
+rounding.
+
+:class:`SourceBank` evaluates many waveforms at one time with one numpy
+call per waveform class, for the MNA source vector ``c(t)``.
+
+Examples
+--------
+>>> p = Pulse(0, 1, 1, 0.5, 0.5, 2, 4).resolved(0.01, 10)
+>>> p.value([0, 1.25, 2, 3.75, 5.25]).tolist()
+[0.0, 0.5, 1.0, 0.5, 0.5]
+>>> p.derivative([1, 1.5, 3.5, 4]).tolist()
+[2.0, 0.0, -2.0, 0.0]
+>>> p.breakpoints(0, 6).tolist()
+[1.0, 1.5, 3.5, 4.0, 5.0, 5.5]
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar, Sequence
+
+import numpy as np
+
+__all__ = [
+    "CORNER_RTOL",
+    "Waveform",
+    "Pulse",
+    "Sin",
+    "Exp",
+    "Pwl",
+    "Sffm",
+    "Am",
+    "WAVEFORMS",
+    "SourceBank",
+]
+
+#: Relative distance (to max(|t|, the waveform's time scale)) within which a
+#: time is taken to be on a corner: breakpoints computed as td + k*per + tr
+#: differ from the corner found by reducing t modulo per by a few ulps.
+CORNER_RTOL = 1e-12
+
+_TWO_PI = 2.0 * math.pi
+_DEG = math.pi / 180.0
+
+
+def _as_times(t) -> tuple[np.ndarray, tuple]:
+    arr = np.asarray(t, dtype=float)
+    return arr.reshape(-1), arr.shape
+
+
+def _shape_out(values: np.ndarray, shape: tuple):
+    out = values.reshape(shape)
+    return float(out) if shape == () else out
+
+
+class Waveform:
+    """Base class: a transient function with ngspice's parameters and defaults.
+
+    Parameters
+    ----------
+    *args : float or None
+        The numbers written on the card, in ngspice's order; ``None`` (or
+        fewer arguments) for parameters not given.
+
+    Raises
+    ------
+    ValueError
+        Too few or too many parameters, or values ngspice would misread
+        (negative times); the message names the parameter.
+    """
+
+    #: Lower-case name as written on a card.
+    kind: ClassVar[str] = ""
+    #: Parameter names in card order.
+    names: ClassVar[tuple[str, ...]] = ()
+    #: Number of parameters that must be given.
+    required: ClassVar[int] = 2
+
+    def __init__(self, *args: float | None) -> None:
+        if len(args) < self.required:
+            raise ValueError(
+                f"{self.kind.upper()} needs at least {self.required} parameters "
+                f"({' '.join(self.names[:self.required])}), got {len(args)}"
+            )
+        if len(args) > len(self.names):
+            raise ValueError(
+                f"{self.kind.upper()} takes at most {len(self.names)} parameters "
+                f"({' '.join(self.names)}), got {len(args)}"
+            )
+        self.given = tuple(None if a is None else float(a) for a in args) + (None,) * (
+            len(self.names) - len(args)
+        )
+        self._check()
+        self._P: np.ndarray | None = None
+        self.tstep: float | None = None
+        self.tstop: float | None = None
+
+    def _check(self) -> None:
+        """Validate the given parameters (raise ValueError)."""
+
+    def _arg(self, i: int, default: float, zero_is_default: bool = False) -> float:
+        v = self.given[i]
+        if v is None or (zero_is_default and v == 0.0):
+            return default
+        return v
+
+    # -- resolution -------------------------------------------------------
+    @property
+    def is_resolved(self) -> bool:
+        """True when every parameter has a value (see :meth:`resolved`)."""
+        return self._P is not None
+
+    def resolved(self, tstep: float, tstop: float) -> "Waveform":
+        """A copy with ngspice's TSTEP/TSTOP-dependent defaults filled in.
+
+        Parameters
+        ----------
+        tstep, tstop : float
+            The ``.tran`` step and stop time [s], both > 0.
+
+        Returns
+        -------
+        Waveform
+        """
+        if not (tstep > 0 and tstop > 0):
+            raise ValueError(f"tstep and tstop must be > 0, got {tstep}, {tstop}")
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.tstep, new.tstop = float(tstep), float(tstop)
+        new._P = np.array(self._resolve(new.tstep, new.tstop), dtype=float)[:, None]
+        return new
+
+    def _resolve(self, tstep: float, tstop: float) -> list[float]:
+        raise NotImplementedError
+
+    def _safe_until(self) -> float:
+        """Time up to which the value does not depend on TSTEP/TSTOP defaults."""
+        return math.inf
+
+    def _params(self) -> np.ndarray:
+        """Parameter column (nparams, 1) for the kernels."""
+        return self._P
+
+    # -- evaluation -------------------------------------------------------
+    def value(self, t):
+        """Value at time(s) ``t``.
+
+        Parameters
+        ----------
+        t : float or array_like
+            Times [s].
+
+        Returns
+        -------
+        float or ndarray
+            Same shape as ``t``.
+
+        Raises
+        ------
+        ValueError
+            When the waveform is not resolved and a value at ``t`` depends
+            on TSTEP/TSTOP (values up to the start of the waveform do not,
+            so ``value(0.0)`` always works).
+        """
+        tt, shape = _as_times(t)
+        if self._P is None:
+            if tt.size and float(np.max(tt)) > self._safe_until():
+                raise ValueError(
+                    f"{self.kind.upper()}: the value at t={float(np.max(tt)):g} depends on the "
+                    ".tran step/stop defaults; call resolved(tstep, tstop) first"
+                )
+            P = np.array(self._resolve(1.0, 1.0), dtype=float)[:, None]
+        else:
+            P = self._params()
+        return _shape_out(self._value(P, tt), shape)
+
+    def derivative(self, t, order: int = 1):
+        """Exact ``order``-th time derivative, one-sided (just after ``t``) at corners.
+
+        Parameters
+        ----------
+        t : float or array_like
+        order : int
+            >= 1.
+
+        Returns
+        -------
+        float or ndarray
+        """
+        if order < 1:
+            raise ValueError(f"order must be >= 1, got {order}")
+        self._require_resolved("derivative")
+        tt, shape = _as_times(t)
+        return _shape_out(self._derivative(self._params(), tt, int(order)), shape)
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        """Sorted times in ``[t0, t1]`` where the waveform or a derivative jumps.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
+        self._require_resolved("breakpoints")
+        return _finish_breakpoints(self._breakpoints(self._params(), float(t0), float(t1)), t0, t1)
+
+    def _require_resolved(self, what: str) -> None:
+        if self._P is None:
+            raise ValueError(f"{self.kind.upper()}.{what}() needs resolved(tstep, tstop) first")
+
+    # -- kernels, vectorised over sources (columns of P) and times ------------
+    @staticmethod
+    def _value(P, t):
+        raise NotImplementedError
+
+    @staticmethod
+    def _derivative(P, t, order):
+        raise NotImplementedError
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        raise NotImplementedError
+
+    @classmethod
+    def _stack(cls, waveforms: Sequence["Waveform"]):
+        """Parameters of several resolved waveforms side by side."""
+        return np.concatenate([w._P for w in waveforms], axis=1)
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{n}={v:g}" for n, v in zip(self.names, self.given) if v is not None)
+        state = f", tstep={self.tstep:g}, tstop={self.tstop:g}" if self._P is not None else ""
+        return f"{type(self).__name__}({shown}{state})"
+
+    def __eq__(self, other) -> bool:
+        return type(other) is type(self) and self.given == other.given and (
+            self.tstep, self.tstop) == (other.tstep, other.tstop)
+
+    __hash__ = None
+
+
+def _finish_breakpoints(points: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    points = np.asarray(points, dtype=float).reshape(-1)
+    points = points[(points >= t0) & (points <= t1)]
+    return np.unique(points)
+
+
+def _snap(x: np.ndarray, corner, scale) -> np.ndarray:
+    """``x`` moved onto ``corner`` where it is within the corner tolerance."""
+    return np.where(np.abs(x - corner) <= CORNER_RTOL * scale, corner, x)
+
+
+# ---------------------------------------------------------------------------
+class Pulse(Waveform):
+    """``PULSE(v1 v2 [td [tr [tf [pw [per [np]]]]]])``: trapezoidal pulse train."""
+
+    kind = "pulse"
+    names = ("v1", "v2", "td", "tr", "tf", "pw", "per", "np")
+
+    def _check(self) -> None:
+        for i in (3, 4, 5, 6, 7):
+            v = self.given[i]
+            if v is not None and v < 0:
+                raise ValueError(f"PULSE {self.names[i]} must be >= 0, got {v:g}")
+
+    def _resolve(self, tstep, tstop):
+        return [
+            self._arg(0, 0.0), self._arg(1, 0.0), self._arg(2, 0.0),
+            self._arg(3, tstep, True), self._arg(4, tstep, True),
+            self._arg(5, tstop, True), self._arg(6, tstop, True), self._arg(7, 0.0),
+        ]
+
+    def _safe_until(self) -> float:
+        return self._arg(2, 0.0)
+
+    @staticmethod
+    def _value(P, t):
+        v1, v2, td, tr, tf, pw, per, npulse = P
+        time = t - td
+        after = (npulse > 0) & (time > npulse * per)
+        time = np.where(time > per, time - per * np.floor(time / per), time)
+        top = tr + pw
+        out = np.where(
+            (time <= 0) | (time >= top + tf), v1,
+            np.where((time >= tr) & (time <= top), v2,
+                     np.where(time < tr, v1 + (v2 - v1) * time / tr,
+                              v2 + (v1 - v2) * (time - top) / tf)))
+        return np.where(after, v1, out)
+
+    @staticmethod
+    def _derivative(P, t, order):
+        v1, v2, td, tr, tf, pw, per, npulse = P
+        time = t - td
+        scale = np.maximum(np.abs(t), per)
+        time = _snap(time, 0.0, scale)
+        k = np.floor(time / per)
+        phase = time - k * per
+        phase = _snap(phase, per, scale)
+        wrap = phase >= per
+        k = np.where(wrap, k + 1, k)
+        phase = np.where(wrap, 0.0, phase)
+        top = tr + pw
+        phase = _snap(_snap(_snap(phase, tr, scale), top, scale), top + tf, scale)
+        active = (time >= 0) & ~((npulse > 0) & (k >= npulse))
+        if order > 1:
+            return np.zeros(np.broadcast(t, v1).shape)
+        slope = np.where((phase >= 0) & (phase < tr), (v2 - v1) / tr,
+                         np.where((phase >= top) & (phase < top + tf), (v1 - v2) / tf, 0.0))
+        return np.where(active, slope, 0.0)
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        v1, v2, td, tr, tf, pw, per, npulse = P
+        end = tr + pw + tf
+        kmin = np.maximum(np.floor((t0 - td - end) / per), 0.0)
+        kmax = np.floor((t1 - td) / per)
+        kmax = np.where(npulse > 0, np.minimum(kmax, npulse - 1), kmax)
+        counts = np.maximum(kmax - kmin + 1, 0).astype(np.int64)
+        src = np.repeat(np.arange(counts.size), counts)
+        first = np.repeat(np.cumsum(counts) - counts, counts)
+        k = kmin[src] + (np.arange(src.size) - first)
+        base = td[src] + k * per[src]
+        corners = np.stack([base, base + tr[src], base + tr[src] + pw[src], base + end[src]])
+        return corners.reshape(-1)
+
+
+# ---------------------------------------------------------------------------
+def _sin_derivative(amp, omega, phase, n: int, tau):
+    """n-th derivative of ``amp*sin(omega*tau + phase)``."""
+    return amp * omega**n * np.sin(omega * tau + phase + n * (math.pi / 2))
+
+
+class Sin(Waveform):
+    """``SIN(vo va [freq [td [theta [phase]]]])``: damped sinusoid."""
+
+    kind = "sin"
+    names = ("vo", "va", "freq", "td", "theta", "phase")
+
+    def _resolve(self, tstep, tstop):
+        return [self._arg(0, 0.0), self._arg(1, 0.0), self._arg(2, 1.0 / tstop, True),
+                self._arg(3, 0.0), self._arg(4, 0.0), self._arg(5, 0.0)]
+
+    def _safe_until(self) -> float:
+        return self._arg(3, 0.0) if self._arg(2, 0.0, True) == 0.0 else math.inf
+
+    @staticmethod
+    def _value(P, t):
+        vo, va, freq, td, theta, phase = P
+        tau = t - td
+        ph = phase * _DEG
+        pos = np.maximum(tau, 0.0)
+        wave = vo + va * np.sin(_TWO_PI * freq * pos + ph) * np.exp(-pos * theta)
+        return np.where(tau <= 0, vo + va * np.sin(ph), wave)
+
+    @staticmethod
+    def _derivative(P, t, order):
+        vo, va, freq, td, theta, phase = P
+        tau = _snap(t - td, 0.0, np.abs(t))
+        pos = np.maximum(tau, 0.0)
+        s = 1j * _TWO_PI * freq - theta
+        d = va * np.imag(s**order * np.exp(s * pos + 1j * phase * _DEG))
+        return np.where(tau >= 0, d, 0.0)
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        return P[3]
+
+
+# ---------------------------------------------------------------------------
+class Exp(Waveform):
+    """``EXP(v1 v2 [td1 [tau1 [td2 [tau2]]]])``: exponential rise and fall."""
+
+    kind = "exp"
+    names = ("v1", "v2", "td1", "tau1", "td2", "tau2")
+
+    def _check(self) -> None:
+        for i in (3, 5):
+            v = self.given[i]
+            if v is not None and v < 0:
+                raise ValueError(f"EXP {self.names[i]} must be >= 0, got {v:g}")
+
+    def _resolve(self, tstep, tstop):
+        td1 = self._arg(2, tstep, True)
+        return [self._arg(0, 0.0), self._arg(1, 0.0), td1, self._arg(3, tstep, True),
+                self._arg(4, td1 + tstep, True), self._arg(5, tstep, True)]
+
+    def _safe_until(self) -> float:
+        if self._arg(2, 0.0, True) == 0.0:
+            return 0.0
+        if any(self._arg(i, 0.0, True) == 0.0 for i in (3, 4, 5)):
+            return self._arg(2, 0.0)
+        return math.inf
+
+    @staticmethod
+    def _value(P, t):
+        v1, v2, td1, tau1, td2, tau2 = P
+        rise = (v2 - v1) * -np.expm1(-np.maximum(t - td1, 0.0) / tau1)
+        fall = (v1 - v2) * -np.expm1(-np.maximum(t - td2, 0.0) / tau2)
+        return np.where(t <= td1, v1, np.where(t <= td2, v1 + rise, v1 + rise + fall))
+
+    @staticmethod
+    def _derivative(P, t, order):
+        v1, v2, td1, tau1, td2, tau2 = P
+        a = _snap(t - td1, 0.0, np.abs(t))
+        b = _snap(t - td2, 0.0, np.abs(t))
+        sign = -1.0 if order % 2 == 0 else 1.0
+        rise = np.where(a >= 0, sign * (v2 - v1) / tau1**order * np.exp(-np.maximum(a, 0.0) / tau1), 0.0)
+        fall = np.where(b >= 0, sign * (v1 - v2) / tau2**order * np.exp(-np.maximum(b, 0.0) / tau2), 0.0)
+        return rise + fall
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        return np.concatenate([P[2], P[4]])
+
+
+# ---------------------------------------------------------------------------
+def _sin_of_phase_derivatives(u_derivs: list[np.ndarray], order: int) -> np.ndarray:
+    """d^order/dt^order sin(u(t)) from u, u', ..., u^(order) (Leibniz recurrence).
+
+    With s_n = (sin u)^(n), c_n = (cos u)^(n):
+    s_n = sum_k C(n-1, k) c_k u^(n-k), c_n = -sum_k C(n-1, k) s_k u^(n-k).
+    """
+    s = [np.sin(u_derivs[0])]
+    c = [np.cos(u_derivs[0])]
+    for n in range(1, order + 1):
+        sn = 0.0
+        cn = 0.0
+        for k in range(n):
+            w = math.comb(n - 1, k) * u_derivs[n - k]
+            sn = sn + w * c[k]
+            cn = cn - w * s[k]
+        s.append(sn)
+        c.append(cn)
+    return s[order]
+
+
+class Sffm(Waveform):
+    """``SFFM(vo va [fc [mdi [fs [phasec [phases]]]]])``: single-frequency FM."""
+
+    kind = "sffm"
+    names = ("vo", "va", "fc", "mdi", "fs", "phasec", "phases")
+
+    def _resolve(self, tstep, tstop):
+        return [self._arg(0, 0.0), self._arg(1, 0.0), self._arg(2, 1.0 / tstop, True),
+                self._arg(3, 0.0), self._arg(4, 1.0 / tstop, True), self._arg(5, 0.0),
+                self._arg(6, 0.0)]
+
+    def _safe_until(self) -> float:
+        return 0.0 if (self._arg(2, 0.0, True) == 0.0 or self._arg(4, 0.0, True) == 0.0) else math.inf
+
+    @staticmethod
+    def _value(P, t):
+        vo, va, fc, mdi, fs, phc, phs = P
+        return vo + va * np.sin(_TWO_PI * fc * t + phc * _DEG + mdi * np.sin(_TWO_PI * fs * t + phs * _DEG))
+
+    @staticmethod
+    def _derivative(P, t, order):
+        vo, va, fc, mdi, fs, phc, phs = P
+        wc, ws = _TWO_PI * fc, _TWO_PI * fs
+        inner = ws * t + phs * _DEG
+        u = [wc * t + phc * _DEG + mdi * np.sin(inner)]
+        for k in range(1, order + 1):
+            uk = _sin_derivative(mdi, ws, phs * _DEG, k, t)
+            u.append(uk + wc if k == 1 else uk)
+        return va * _sin_of_phase_derivatives(u, order)
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        return np.empty(0)
+
+
+# ---------------------------------------------------------------------------
+class Am(Waveform):
+    """``AM(va vo [mf [fc [td [phasec [phases]]]]])``: amplitude modulation."""
+
+    kind = "am"
+    names = ("va", "vo", "mf", "fc", "td", "phasec", "phases")
+
+    def _resolve(self, tstep, tstop):
+        return [self._arg(0, 0.0), self._arg(1, 0.0), self._arg(2, 1.0 / tstop, True),
+                self._arg(3, 0.0), self._arg(4, 0.0, True), self._arg(5, 0.0), self._arg(6, 0.0)]
+
+    def _safe_until(self) -> float:
+        return self._arg(4, 0.0) if self._arg(2, 0.0, True) == 0.0 else math.inf
+
+    @staticmethod
+    def _value(P, t):
+        va, vo, mf, fc, td, phc, phs = P
+        tau = t - td
+        ph = phs * _DEG
+        wave = va * (vo + np.sin(_TWO_PI * mf * tau + ph)) * np.sin(_TWO_PI * fc * tau + ph)
+        return np.where(tau <= 0, 0.0, wave)
+
+    @staticmethod
+    def _derivative(P, t, order):
+        va, vo, mf, fc, td, phc, phs = P
+        wm, wc = _TWO_PI * mf, _TWO_PI * fc
+        tau = _snap(t - td, 0.0, np.abs(t))
+        ph = phs * _DEG
+        total = 0.0
+        for k in range(order + 1):
+            fk = va * (vo + np.sin(wm * tau + ph)) if k == 0 else _sin_derivative(va, wm, ph, k, tau)
+            total = total + math.comb(order, k) * fk * _sin_derivative(1.0, wc, ph, order - k, tau)
+        return np.where(tau >= 0, total, 0.0)
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        return P[4]
+
+
+# ---------------------------------------------------------------------------
+class Pwl(Waveform):
+    """``PWL(t1 v1 t2 v2 ...) [r=trep] [td=delay]``: piecewise linear.
+
+    Parameters
+    ----------
+    times, values : sequence of float
+        The corner points (times non-decreasing; a time listed twice is a step).
+    repeat : float or None
+        ``r=``: the time point from which the list repeats; None (or a value
+        below -0.5, as ngspice) for no repetition.
+    delay : float
+        ``td=``: shift of the whole waveform.
+    """
+
+    kind = "pwl"
+    names = ("times", "values", "repeat", "delay")
+
+    def __init__(self, times: Sequence[float], values: Sequence[float],
+                 repeat: float | None = None, delay: float = 0.0) -> None:
+        t = np.asarray(times, dtype=float).reshape(-1)
+        v = np.asarray(values, dtype=float).reshape(-1)
+        if t.size < 1 or t.size != v.size:
+            raise ValueError("PWL needs pairs of time and value (at least one pair)")
+        steps = np.diff(t)
+        if np.any(steps < 0):
+            i = int(np.argmax(steps < 0))
+            raise ValueError(f"PWL time points must not decrease: {t[i + 1]:g} follows {t[i]:g}")
+        if repeat is not None and repeat < -0.5:
+            repeat = None
+        self.times, self.values = t, v
+        self.repeat = None if repeat is None else float(repeat)
+        self.delay = float(delay)
+        self.given = (tuple(t), tuple(v), self.repeat, self.delay)
+        self.start = 0
+        if self.repeat is not None:
+            hits = np.nonzero(t == self.repeat)[0]
+            if self.repeat >= t[-1]:
+                raise ValueError(f"PWL repeat time r={self.repeat:g} must be smaller than the last "
+                                 f"time point {t[-1]:g}")
+            if hits.size == 0:
+                raise ValueError(f"PWL repeat time r={self.repeat:g} does not match any time point")
+            self.start = int(hits[0])
+        self.tstep = self.tstop = None
+        self._P = (t[None, :], v[None, :], np.array([self.delay]),
+                   np.array([self.repeat is not None]), np.array([t[self.start]]),
+                   np.array([t[-1] - t[self.start]]))
+
+    @property
+    def has_steps(self) -> bool:
+        """True when a time point is listed twice (the value jumps there)."""
+        return bool(np.any(np.diff(self.times) == 0))
+
+    def resolved(self, tstep: float, tstop: float) -> "Pwl":
+        """PWL has no TSTEP/TSTOP-dependent defaults: returns itself."""
+        return self
+
+    @classmethod
+    def _stack(cls, waveforms):
+        n = max(w.times.size for w in waveforms)
+        times = np.empty((len(waveforms), n))
+        values = np.empty((len(waveforms), n))
+        for i, w in enumerate(waveforms):
+            m = w.times.size
+            times[i, :m], times[i, m:] = w.times, w.times[-1]
+            values[i, :m], values[i, m:] = w.values, w.values[-1]
+        cols = [np.concatenate([w._P[j] for w in waveforms]) for j in range(2, 6)]
+        return (times, values, *cols)
+
+    @staticmethod
+    def _local_time(P, t, exact: bool):
+        times, values, delay, rep, tstart, period = P
+        tau = t - delay
+        scale = np.maximum(np.abs(t), np.abs(times[:, -1]))
+        over = rep & (tau >= times[:, -1] - (0.0 if exact else CORNER_RTOL * scale))
+        safe_period = np.where(period > 0, period, 1.0)
+        rem = np.fmod(np.maximum(tau - tstart, 0.0), safe_period)
+        if not exact:
+            rem = np.where(safe_period - rem <= CORNER_RTOL * scale, 0.0, rem)
+        return np.where(over, tstart + rem, tau), scale
+
+    @staticmethod
+    def _value(P, t):
+        times, values = P[0], P[1]
+        tau, _ = Pwl._local_time(P, t, exact=True)
+        times = np.broadcast_to(times, (tau.size, times.shape[1]))
+        values = np.broadcast_to(values, times.shape)
+        n = times.shape[1]
+        left = np.count_nonzero(times < tau[:, None], axis=1)  # first index with times >= tau
+        rows = np.arange(tau.size)
+        li = np.minimum(left, n - 1)
+        on_point = (left < n) & (times[rows, li] == tau)
+        lo = np.maximum(left - 1, 0)
+        t_lo, t_hi = times[rows, lo], times[rows, li]
+        v_lo, v_hi = values[rows, lo], values[rows, li]
+        span = np.where(t_hi > t_lo, t_hi - t_lo, 1.0)
+        inner = v_lo + (tau - t_lo) / span * (v_hi - v_lo)
+        return np.where(on_point | (left == 0), values[rows, li],
+                        np.where(left >= n, values[:, -1], inner))
+
+    @staticmethod
+    def _derivative(P, t, order):
+        times, values = P[0], P[1]
+        tau, scale = Pwl._local_time(P, t, exact=False)
+        times = np.broadcast_to(times, (tau.size, times.shape[1]))
+        values = np.broadcast_to(values, times.shape)
+        if order > 1:
+            return np.zeros(tau.size)
+        n = times.shape[1]
+        j = np.count_nonzero(times <= (tau + CORNER_RTOL * scale)[:, None], axis=1) - 1
+        rows = np.arange(tau.size)
+        valid = (j >= 0) & (j < n - 1)
+        jj = np.clip(j, 0, max(n - 2, 0))
+        if n < 2:
+            return np.zeros(tau.size)
+        dt = times[rows, jj + 1] - times[rows, jj]
+        dv = values[rows, jj + 1] - values[rows, jj]
+        return np.where(valid & (dt > 0), dv / np.where(dt > 0, dt, 1.0), 0.0)
+
+    @staticmethod
+    def _breakpoints(P, t0, t1):
+        times, values, delay, rep, tstart, period = P
+        out = [(times + delay[:, None]).reshape(-1)]
+        if np.any(rep):
+            rows = np.nonzero(rep)[0]
+            # repeat k = 1, 2, ... shifts the points in [tstart, tend] by k*period
+            kmax = np.floor((t1 - delay[rows] - tstart[rows]) / period[rows])
+            kmin = np.maximum(np.floor((t0 - delay[rows] - times[rows, -1]) / period[rows]), 1.0)
+            counts = np.maximum(kmax - kmin + 1, 0).astype(np.int64)
+            src = np.repeat(rows, counts)
+            first = np.repeat(np.cumsum(counts) - counts, counts)
+            k = np.repeat(kmin, counts) + (np.arange(src.size) - first)
+            shifted = times[src] + (delay[src] + k * period[src])[:, None]
+            mask = times[src] >= tstart[src][:, None]
+            out.append(shifted[mask])
+        return np.concatenate(out)
+
+    def __repr__(self) -> str:
+        pts = " ".join(f"{a:g} {b:g}" for a, b in zip(self.times, self.values))
+        extra = (f", r={self.repeat:g}" if self.repeat is not None else "") + (
+            f", td={self.delay:g}" if self.delay else "")
+        return f"Pwl({pts}{extra})"
+
+
+#: Waveform classes by the name written on a card.
+WAVEFORMS: dict[str, type[Waveform]] = {
+    cls.kind: cls for cls in (Pulse, Sin, Exp, Pwl, Sffm, Am)
+}
+
+
+class SourceBank:
+    """Many resolved waveforms evaluated together.
+
+    Parameters
+    ----------
+    waveforms : sequence of Waveform
+        Resolved waveforms (:meth:`Waveform.resolved`); their order is the
+        order of the returned values.
+
+    Notes
+    -----
+    Waveforms are grouped by class once; :meth:`values` then makes one
+    vectorised kernel call per class present (at most six), whatever the
+    number of sources: O(k) numpy work, O(1) Python work per call. PWL
+    sources are padded to the longest point list (cost O(k * n_max)).
+
+    Examples
+    --------
+    >>> bank = SourceBank([Sin(0, 1, 1e3).resolved(1e-6, 1e-3), Exp(0, 2, 0, 1e-3).resolved(1e-6, 1e-3)])
+    >>> bank.values(0.0).tolist(), bank.values(0.0, derivative=1).round(6).tolist()
+    ([0.0, 0.0], [6283.185307, 0.0])
+    """
+
+    def __init__(self, waveforms: Sequence[Waveform]) -> None:
+        self.size = len(waveforms)
+        groups: dict[type, list[int]] = {}
+        for i, w in enumerate(waveforms):
+            if not w.is_resolved:
+                raise ValueError(f"waveform {i} ({w!r}) is not resolved")
+            groups.setdefault(type(w), []).append(i)
+        self._groups = [
+            (cls, np.asarray(idx), cls._stack([waveforms[i] for i in idx]))
+            for cls, idx in groups.items()
+        ]
+
+    def values(self, t: float, derivative: int = 0) -> np.ndarray:
+        """Values (or their ``derivative``-th time derivatives) at time ``t``.
+
+        Returns
+        -------
+        ndarray, shape (k,)
+        """
+        out = np.zeros(self.size)
+        for cls, idx, P in self._groups:
+            if derivative == 0:
+                out[idx] = cls._value(P, np.full(idx.size, float(t)))
+            else:
+                out[idx] = cls._derivative(P, np.full(idx.size, float(t)), int(derivative))
+        return out
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        """All sources' breakpoints in ``[t0, t1]``, sorted, without duplicates."""
+        parts = [cls._breakpoints(P, float(t0), float(t1)) for cls, _, P in self._groups]
+        return _finish_breakpoints(np.concatenate(parts) if parts else np.empty(0), t0, t1)
