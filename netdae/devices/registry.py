@@ -9,11 +9,12 @@ from __future__ import annotations
 from .base import DeviceFamily
 from .bjt import BjtFamily
 from .diode import DiodeFamily
+from .mosfet import MosfetFamily
 
 __all__ = ["FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily)
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily)
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:

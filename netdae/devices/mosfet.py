@@ -1,0 +1,561 @@
+"""The Shichman-Hodges MOSFET (SPICE level 1, NMOS and PMOS) as ngspice 39 computes it.
+
+Syntax: ``Mname d g s b model [l=L] [w=W] [ad=] [as=] [pd=] [ps=] [nrd=] [nrs=] [m=M] [off]
+[icvds=] [icvgs=] [icvbs=] [temp=T] [dtemp=dT]`` with ``.model name NMOS|PMOS (LEVEL=1 VTO KP
+GAMMA PHI LAMBDA RD RS CBD CBS IS PB CGSO CGDO CGBO RSH CJ MJ CJSW MJSW JS TOX LD U0 FC NSUB TPG
+NSS TNOM)``. Defaults of L, W, AD, AS: ``.options defl defw defad defas`` (ngspice: 100 um,
+100 um, 0, 0).
+
+Equations (type-normalised: for a PMOS every voltage and current changes sign)
+----------------------------------------------------------------------------
+``mos1load.c``: the device runs in normal mode (``vds >= 0``) or with
+source and drain exchanged. With ``vgs'``, ``vbs'``, ``vds' >= 0`` the
+voltages of that mode::
+
+    sarg = sqrt(PHI - vbs')                        vbs' <= 0
+         = max(0, sqrt(PHI) - vbs' / (2 sqrt(PHI)))  vbs' > 0   (ngspice's clamp)
+    von  = VBI + GAMMA sarg,   vgst = vgs' - von,  beta = KP m W / (L - 2 LD)
+    id   = 0                                        vgst <= 0
+         = beta (1 + LAMBDA vds') vgst^2 / 2        0 < vgst <= vds'
+         = beta (1 + LAMBDA vds') vds' (vgst - vds'/2)   otherwise
+
+flowing from the mode's drain to its source. The body-effect derivative is
+the exact one (ngspice's ``gmbs`` uses ``GAMMA / (2 sarg)`` also for
+``vbs' > 0``, a slightly different Jacobian with the same solution).
+Bulk junctions: ``ibs = IS_s (exp(vbs/vt) - 1) + GMIN vbs`` for
+``vbs > -3 vt``, ``GMIN vbs - IS_s`` below (the same for bd), ``IS_s = m IS``
+or ``m JS AS`` (``m JS AD`` for the drain) when JS, AD and AS are non-zero.
+
+Charges (netdae is charge based, ``d/dt q(x)``):
+
+- bulk junctions: ``qdep`` of :func:`~netdae.devices.junction.depletion_charge`
+  with ``CBD`` (or ``CJ AD``) and ``CJSW PD`` (MJ, MJSW, PB, FC), times m,
+  exactly ngspice's charge;
+- overlaps: ``CGSO m W vgs``, ``CGDO m W vgd``, ``CGBO m Leff vgb``, exact;
+- intrinsic gate charge when TOX is given (``Cox = 3.9 eps0 / TOX m W Leff``):
+  ngspice uses Meyer's capacitances, which are not the derivatives of any
+  charge and do not conserve charge. netdae uses the charge-conserving
+  :func:`gate_charges`: in strong inversion the long-channel gate charge
+  ``(2/3) Cox (A^2 + AB + B^2)/(A + B)`` (``A = vgs' - von``,
+  ``B = max(vgd' - von, 0)``), whose derivatives are exactly Meyer's
+  ``Cgs``/``Cgd``, split between source and drain by the Ward-Dutton
+  partition (40/60 in saturation, 50/50 at vds = 0); below threshold a
+  gate-bulk charge whose derivative is Meyer's total gate capacitance
+  (``Cox`` in accumulation, ``-Cox vgst/PHI`` in depletion, ramping to
+  ``2/3 Cox`` at threshold). See ``docs/devices.md`` for the measured effect.
+
+Temperature (``mos1temp.c``): ``KP (T/Tnom)^-1.5``, ``PHI`` and ``VBI`` by
+the band-gap formulas, ``IS``/``JS`` times ``exp(-Eg(T)/vt + Eg(Tnom)/vt_nom)``,
+junction capacitances and ``PB`` by
+:func:`~netdae.devices.junction.scale_junction`. With TOX and no KP:
+``KP = U0 Cox 1e-4``; with NSUB: PHI, GAMMA and VTO as ngspice derives them.
+
+Newton: ngspice's ``fetlim`` on vgs (or vgd in reverse mode) against the
+previous threshold, ``limvds`` on vds, ``pnjlim`` on vbs (or vbd); the first
+iteration from a zero iterate starts at ``vbs = -1``, ``vgs = VTO(T)``,
+``vds = 0`` (or ``icvds``, ``icvgs``, ``icvbs``; all 0 for ``off``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import CircuitError
+from .base import Accumulator, DeviceFamily, SlotMap
+from .companion import BranchStamps, LimitState
+from .junction import (
+    CHARGE,
+    K_OVER_Q,
+    KELVIN,
+    REFTEMP,
+    depletion_charge,
+    energy_gap,
+    fetlim,
+    limvds,
+    pb_factor,
+    pnjlim,
+    scale_junction,
+)
+from .modelcard import ParameterTable, gather, instance_values, resolve_model
+
+__all__ = ["MosfetFamily", "MOS1_PARAMETERS", "gate_charges", "drain_current"]
+
+MOS1_PARAMETERS = ParameterTable(
+    "MOSFET (level 1)",
+    defaults={
+        "level": 1.0, "vto": 0.0, "kp": 2e-5, "gamma": 0.0, "phi": 0.6, "lambda": 0.0, "rd": 0.0, "rs": 0.0,
+        "cbd": 0.0, "cbs": 0.0, "is": 1e-14, "pb": 0.8, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0, "rsh": 0.0,
+        "cj": 0.0, "mj": 0.5, "cjsw": 0.0, "mjsw": 0.5, "js": 0.0, "tox": 0.0, "ld": 0.0, "u0": 600.0,
+        "fc": 0.5, "nsub": None, "tpg": 1.0, "nss": 0.0, "tnom": None,
+    },
+    aliases={"vt0": "vto", "uo": "u0", "tref": "tnom"},
+    inert=frozenset({"kf", "af"}),
+)
+
+_INSTANCE = {"l": None, "w": None, "ad": None, "as": None, "pd": 0.0, "ps": 0.0, "nrd": 1.0, "nrs": 1.0,
+             "m": 1.0, "off": 0.0, "icvds": 0.0, "icvgs": 0.0, "icvbs": 0.0, "temp": None, "dtemp": 0.0}
+#: ngspice's default L, W [m], AD, AS [m^2] (``.options defl defw defad defas``).
+DEFAULT_L = 1e-4
+DEFAULT_W = 1e-4
+#: Permittivities ngspice's MOS1 uses: SiO2 (3.9 eps0) and Si (11.7 eps0) [F/m].
+EPS0_MOS1 = 8.854214871e-12
+EPS_OX = 3.9 * EPS0_MOS1
+EPS_SI = 11.70 * EPS0_MOS1
+#: Intrinsic carrier density of silicon in ngspice's PHI formula [1/m^3], and cm^-3 -> m^-3.
+NI_SI = 1.45e16
+PER_CM3 = 1e6
+PER_CM2 = 1e4
+#: Mobility in cm^2/Vs times this gives m^2/Vs.
+CM2_TO_M2 = 1e-4
+#: Smallest PHI ngspice derives from NSUB [V], and its work-function constants [eV].
+PHI_MIN = 0.1
+WORKFUNCTION_METAL = 3.2
+WORKFUNCTION_SI = 3.25
+#: ngspice's cap on exp() arguments of the bulk diodes.
+MAX_EXP_ARG = 709.0
+#: Reverse-bias knee of the bulk diodes (3 vt) and the initial vbs of MODEINITJCT [V].
+_BULK_KNEE = 3.0
+_INIT_VBS = -1.0
+
+# controls: vgs, vds, vbs (type-normalised internally), the two series resistors
+_VGS, _VDS, _VBS, _VRD, _VRS = range(5)
+_ID, _IBS, _IBD, _IRD, _IRS = range(5)
+_CURRENT_DEPS = [(_ID, _VGS), (_ID, _VDS), (_ID, _VBS), (_IBS, _VBS), (_IBD, _VBS), (_IBD, _VDS),
+                 (_IRD, _VRD), (_IRS, _VRS)]
+# charge branches referenced to the internal source: q_g, q_d, q_b on (node, s')
+_CHARGE_DEPS = [(j, k) for j in range(3) for k in (_VGS, _VDS, _VBS)]
+
+
+def drain_current(vgs, vds, vbs, beta, lam, vbi, gamma, phi):
+    """Level-1 drain current in the mode's own (normalised) voltages, ``vds >= 0``.
+
+    Parameters
+    ----------
+    vgs, vds, vbs : ndarray
+        Gate-source, drain-source (>= 0) and bulk-source voltage of the mode.
+    beta, lam, vbi, gamma, phi : ndarray
+        ``KP W/Leff`` (m included), LAMBDA, built-in voltage (type-normalised
+        ``VBI``), GAMMA, PHI (at temperature).
+
+    Returns
+    -------
+    cdrain, gm, gds, gmbs, von, dvon : ndarray
+        Current and its derivatives to vgs, vds, vbs; threshold voltage and
+        its derivative to vbs.
+    """
+    sphi = np.sqrt(phi)
+    neg = vbs <= 0.0
+    sarg_neg = np.sqrt(phi - np.where(neg, vbs, 0.0))
+    sarg_pos = sphi - vbs / (sphi + sphi)
+    sarg = np.where(neg, sarg_neg, np.maximum(0.0, sarg_pos))
+    dsarg = np.where(neg, -0.5 / sarg_neg, np.where(sarg_pos > 0.0, -0.5 / sphi, 0.0))
+    von = vbi + gamma * sarg
+    dvon = gamma * dsarg
+    vgst = vgs - von
+    betap = beta * (1.0 + lam * vds)
+    on = vgst > 0.0
+    sat = on & (vgst <= vds)
+    lin = on & ~sat
+    cdrain = np.where(sat, 0.5 * betap * vgst * vgst, np.where(lin, betap * vds * (vgst - 0.5 * vds), 0.0))
+    gm = np.where(sat, betap * vgst, np.where(lin, betap * vds, 0.0))
+    gds = np.where(sat, 0.5 * lam * beta * vgst * vgst,
+                   np.where(lin, betap * (vgst - vds) + lam * beta * vds * (vgst - 0.5 * vds), 0.0))
+    gmbs = -gm * dvon
+    return cdrain, gm, gds, gmbs, von, dvon
+
+
+def _bulk_function(a, phi):
+    """Gate-bulk part of the intrinsic gate charge per Cox, and its derivative, vs vgst ``a``."""
+    acc = a <= -phi
+    dep = (a > -phi) & (a <= -0.5 * phi)
+    weak = (a > -0.5 * phi) & (a <= 0.0)
+    f = np.where(acc, a + phi / 3.0,
+                 np.where(dep, -a * a / (2.0 * phi) - phi / 6.0,
+                          np.where(weak, 2.0 * a / 3.0 + a * a / (6.0 * phi), 0.0)))
+    df = np.where(acc, 1.0, np.where(dep, -a / phi, np.where(weak, 2.0 / 3.0 + a / (3.0 * phi), 0.0)))
+    return f, df
+
+
+def gate_charges(a, b, phi):
+    """Charge-conserving intrinsic charges of the level-1 MOSFET, per unit Cox.
+
+    Parameters
+    ----------
+    a, b : ndarray
+        ``vgs' - von`` and ``vgd' - von`` of the mode (``b <= a``).
+    phi : ndarray
+        Surface potential PHI (at temperature).
+
+    Returns
+    -------
+    qg, qs, qd, qb : ndarray
+        Gate, source, drain and bulk charge divided by Cox (they sum to 0).
+    dqg, dqs, dqd : tuple of two ndarray
+        Derivatives of qg, qs, qd to ``a`` and ``b`` (``qb = -qg - qs - qd``).
+
+    Notes
+    -----
+    With ``A = max(a, 0)``, ``B = max(b, 0)`` the channel charge of the
+    long-channel model is ``-(2/3)(A^2 + AB + B^2)/(A + B)``; the
+    Ward-Dutton partition (charge weighted by the distance from the drain)
+    gives the source ``(2/15)(3A^3 + 6A^2 B + 4AB^2 + 2B^3)/(A+B)^2`` of it
+    and the drain ``(2/15)(2A^3 + 4A^2 B + 6AB^2 + 3B^3)/(A+B)^2`` (60/40 in
+    saturation, halves at B = A). ``d qg/d a`` and ``d qg/d b`` are exactly
+    Meyer's ``Cgs``/``Cgd`` in strong inversion. The bulk carries
+    ``-F(a)`` with ``F' = 1`` (a <= -PHI), ``-a/PHI`` (down to -PHI/2),
+    ``2/3 + a/(3 PHI)`` (up to threshold), Meyer's total gate capacitance
+    below threshold.
+
+    Examples
+    --------
+    >>> qg, qs, qd, qb, *_ = gate_charges(np.array([1.0]), np.array([-1.0]), np.array([0.6]))
+    >>> float(qg[0]), float(qs[0] / (qs[0] + qd[0]))
+    (0.6666666666666666, 0.6)
+    """
+    A = np.maximum(a, 0.0)
+    B = np.maximum(b, 0.0)
+    da = (a > 0.0).astype(float)
+    db = (b > 0.0).astype(float)
+    s = A + B
+    pos = s > 0.0
+    s_safe = np.where(pos, s, 1.0)
+    s2 = s_safe * s_safe
+    s3 = s2 * s_safe
+    two3, two15 = 2.0 / 3.0, 2.0 / 15.0
+    p = np.where(pos, two3 * (A * A + A * B + B * B) / s_safe, 0.0)
+    dp_da = np.where(pos, two3 * (A * A + 2.0 * A * B) / s2, 0.0) * da
+    dp_db = np.where(pos, two3 * (B * B + 2.0 * A * B) / s2, 0.0) * db
+    ns = 3.0 * A ** 3 + 6.0 * A * A * B + 4.0 * A * B * B + 2.0 * B ** 3
+    nd = 2.0 * A ** 3 + 4.0 * A * A * B + 6.0 * A * B * B + 3.0 * B ** 3
+    ps = np.where(pos, two15 * ns / s2, 0.0)
+    pd = np.where(pos, two15 * nd / s2, 0.0)
+    dps_da = np.where(pos, two15 * ((9 * A * A + 12 * A * B + 4 * B * B) * s - 2.0 * ns) / s3, 0.0) * da
+    dps_db = np.where(pos, two15 * ((6 * A * A + 8 * A * B + 6 * B * B) * s - 2.0 * ns) / s3, 0.0) * db
+    dpd_da = np.where(pos, two15 * ((6 * A * A + 8 * A * B + 6 * B * B) * s - 2.0 * nd) / s3, 0.0) * da
+    dpd_db = np.where(pos, two15 * ((4 * A * A + 12 * A * B + 9 * B * B) * s - 2.0 * nd) / s3, 0.0) * db
+    f, df = _bulk_function(a, phi)
+    qg = p + f
+    return qg, -ps, -pd, -f, (dp_da + df, dp_db), (-dps_da, -dps_db), (-dpd_da, -dpd_db)
+
+
+class MosfetFamily(DeviceFamily):
+    """All level-1 MOSFETs of a circuit, evaluated in one vectorised pass.
+
+    Raises
+    ------
+    CircuitError
+        Missing or mistyped model, unsupported parameter or level, a
+        non-positive effective channel length, PHI <= 0, NSUB below ni.
+    """
+
+    kinds = frozenset({"mosfet"})
+
+    def __init__(self, elements, circuit) -> None:
+        super().__init__(elements, circuit)
+        opts = circuit.options
+        self.gmin = float(opts.gmin)
+        defaults = dict(_INSTANCE)
+        defaults["l"] = float(opts.extra.get("defl", DEFAULT_L))
+        defaults["w"] = float(opts.extra.get("defw", DEFAULT_W))
+        defaults["ad"] = float(opts.extra.get("defad", 0.0))
+        defaults["as"] = float(opts.extra.get("defas", 0.0))
+        rows = []
+        for el in self.elements:
+            model = resolve_model(el, circuit, ("nmos", "pmos"))
+            mv = MOS1_PARAMETERS.read(model)
+            if mv["level"] != 1.0:
+                raise CircuitError(f"{el.name}: MOSFET model {model.name} has level {mv['level']:g}; "
+                                   "netdae implements level 1", elements=(el.name,))
+            if len(el.nodes) != 4:
+                raise CircuitError(f"{el.name}: a MOSFET has 4 nodes (d g s b)", elements=(el.name,))
+            inst = instance_values(el, defaults, "MOSFET")
+            row = self._model_row(el, mv, model.type.lower() == "nmos", opts)
+            row.update({k: inst[k] for k in ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs", "off",
+                                              "icvds", "icvgs", "icvbs")})
+            row["mult"] = inst["m"]
+            row["temp"] = inst.get("temp", opts.temp + inst["dtemp"]) + KELVIN
+            row["leff"] = row["l"] - 2.0 * row["ld"]
+            if row["leff"] <= 0.0:
+                raise CircuitError(f"{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not positive",
+                                   elements=(el.name,))
+            rows.append(row)
+        self._setup(rows)
+
+    @staticmethod
+    def _model_row(el, mv, nmos: bool, opts) -> dict:
+        """Model values after ngspice's preprocessing (``mos1temp.c``, model part)."""
+        row = {k: mv[k] for k in MOS1_PARAMETERS.defaults if k not in ("nsub", "tnom", "level")}
+        row["type"] = 1.0 if nmos else -1.0
+        row["tnom"] = mv.get("tnom", opts.tnom) + KELVIN
+        for key in ("cbd", "cbs", "cj", "cjsw", "rd", "rs", "rsh"):
+            row[key + "_given"] = float(mv.given(key))
+        if row["phi"] <= 0.0:
+            raise CircuitError(f"{el.name}: model {mv.model.name}: PHI must be positive", elements=(el.name,))
+        tox = row["tox"]
+        row["cox"] = EPS_OX / tox if tox != 0.0 else 0.0
+        if row["cox"] and not mv.given("kp"):
+            row["kp"] = row["u0"] * row["cox"] * CM2_TO_M2
+        if row["cox"] and mv.given("nsub"):
+            nsub = mv["nsub"]
+            tnom = row["tnom"]
+            vtnom = K_OVER_Q * tnom
+            egfet1 = float(energy_gap(tnom))
+            if nsub * PER_CM3 <= NI_SI:
+                raise CircuitError(f"{el.name}: model {mv.model.name}: NSUB is below the intrinsic density",
+                                   elements=(el.name,))
+            if not mv.given("phi"):
+                row["phi"] = max(PHI_MIN, 2.0 * vtnom * math.log(nsub * PER_CM3 / NI_SI))
+            fermis = row["type"] * 0.5 * row["phi"]
+            wkfng = WORKFUNCTION_METAL
+            if row["tpg"] != 0.0:
+                fermig = row["type"] * row["tpg"] * 0.5 * egfet1
+                wkfng = WORKFUNCTION_SI + 0.5 * egfet1 - fermig
+            wkfngs = wkfng - (WORKFUNCTION_SI + 0.5 * egfet1 + fermis)
+            if not mv.given("gamma"):
+                row["gamma"] = math.sqrt(2.0 * EPS_SI * CHARGE * nsub * PER_CM3) / row["cox"]
+            if not mv.given("vto"):
+                vfb = wkfngs - row["nss"] * PER_CM2 * CHARGE / row["cox"]
+                row["vto"] = vfb + row["type"] * (row["gamma"] * math.sqrt(row["phi"]) + row["phi"])
+        return row
+
+    def _setup(self, rows) -> None:
+        g = lambda name: gather(rows, name)  # noqa: E731
+        temp, tnom = g("temp"), g("tnom")
+        self.type = g("type")
+        m = g("mult")
+        w, leff = g("w"), g("leff")
+        vt = K_OVER_Q * temp
+        self.vt = vt
+        vtnom = K_OVER_Q * tnom
+        ratio = temp / tnom
+        egfet, egfet1 = energy_gap(temp), energy_gap(tnom)
+        phi = g("phi")
+        phio = (phi - pb_factor(tnom)) / (tnom / REFTEMP)
+        self.phi = (temp / REFTEMP) * phio + pb_factor(temp)
+        gamma = g("gamma")
+        self.gamma = gamma
+        vbi = g("vto") - self.type * gamma * np.sqrt(phi) + 0.5 * (egfet1 - egfet) + self.type * 0.5 * (self.phi - phi)
+        self.vbi_n = vbi * self.type
+        self.vto_t = vbi + self.type * gamma * np.sqrt(self.phi)
+        self.beta = g("kp") / (ratio * np.sqrt(ratio)) * m * w / leff
+        self.lam = g("lambda")
+        sat_scale = np.exp(-egfet / vt + egfet1 / vtnom)
+        is_t, js_t = g("is") * sat_scale, g("js") * sat_scale
+        ad, as_ = g("ad"), g("as")
+        use_js = (js_t != 0.0) & (ad != 0.0) & (as_ != 0.0)
+        self.isat_d = np.where(use_js, js_t * m * ad, m * is_t)
+        self.isat_s = np.where(use_js, js_t * m * as_, m * is_t)
+        root2 = math.sqrt(2.0)
+        self.vcrit_d = vt * np.log(vt / (root2 * self.isat_d))
+        self.vcrit_s = vt * np.log(vt / (root2 * self.isat_s))
+        # bulk junction capacitances
+        mj, mjsw, pb = g("mj"), g("mjsw"), g("pb")
+        cbd, self.pb = scale_junction(g("cbd"), mj, pb, tnom, temp)
+        cbs, _ = scale_junction(g("cbs"), mj, pb, tnom, temp)
+        cj, _ = scale_junction(g("cj"), mj, pb, tnom, temp)
+        cjsw, _ = scale_junction(g("cjsw"), mjsw, pb, tnom, temp)
+        cj_given, cjsw_given = g("cj_given") != 0.0, g("cjsw_given") != 0.0
+        self.czbd = np.where(g("cbd_given") != 0.0, cbd * m, np.where(cj_given, cj * m * ad, 0.0))
+        self.czbs = np.where(g("cbs_given") != 0.0, cbs * m, np.where(cj_given, cj * m * as_, 0.0))
+        self.czbdsw = np.where(cjsw_given, cjsw * g("pd") * m, 0.0)
+        self.czbssw = np.where(cjsw_given, cjsw * g("ps") * m, 0.0)
+        self.mj, self.mjsw, self.fc = mj, mjsw, g("fc")
+        # overlap and oxide capacitances
+        self.cgso = g("cgso") * m * w
+        self.cgdo = g("cgdo") * m * w
+        self.cgbo = g("cgbo") * m * leff
+        self.cox = g("cox") * leff * m * w
+        # series resistances (ngspice: RD/RS when given, else RSH times squares)
+        self.gd = self._series(g("rd"), g("rd_given"), g("rsh"), g("nrd"), m)
+        self.gs = self._series(g("rs"), g("rs_given"), g("rsh"), g("nrs"), m)
+        self.off = g("off") != 0.0
+        self.ic = np.stack([g("icvgs"), g("icvds"), g("icvbs")]) * self.type
+        self.has_charge = bool(np.any(self.czbd > 0) or np.any(self.czbs > 0) or np.any(self.czbdsw > 0)
+                               or np.any(self.czbssw > 0) or np.any(self.cgso > 0) or np.any(self.cgdo > 0)
+                               or np.any(self.cgbo > 0) or np.any(self.cox > 0))
+        self.has_cox = bool(np.any(self.cox > 0))
+
+    @staticmethod
+    def _series(r, r_given, rsh, squares, m) -> np.ndarray:
+        by_r = np.where(r != 0.0, m / np.where(r != 0.0, r, 1.0), 0.0)
+        sheet = rsh * squares
+        by_sheet = np.where(sheet != 0.0, m / np.where(sheet != 0.0, sheet, 1.0), 0.0)
+        return np.where(r_given != 0.0, by_r, by_sheet)
+
+    # -- topology ----------------------------------------------------------
+    def add_nodes(self, layout) -> None:
+        els = self.elements
+        self.d, self.g, self.s, self.b = (layout.nodes_of([el.nodes[i] for el in els]) for i in range(4))
+
+        def inner(outer, conductance, suffix):
+            return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if gval > 0.0 else node
+                             for el, gval, node in zip(els, conductance, outer)], dtype=np.int64)
+
+        self.di = inner(self.d, self.gd, "drain")
+        self.si = inner(self.s, self.gs, "source")
+
+    def coordinates(self, layout):
+        controls = [(self.g, self.si), (self.di, self.si), (self.b, self.si), (self.d, self.di),
+                    (self.s, self.si)]
+        currents = [(self.di, self.si), (self.b, self.si), (self.b, self.di), (self.d, self.di),
+                    (self.s, self.si)]
+        charges = [(self.g, self.si), (self.di, self.si), (self.b, self.si)] if self.has_charge else []
+        self.stamps = BranchStamps(controls, currents, charges, _CURRENT_DEPS,
+                                   _CHARGE_DEPS if self.has_charge else [])
+        return self.stamps.coordinates()
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        self.stamps.bind(slots, n)
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        pairs = []
+        for el in self.elements:
+            d, _, s, b = el.nodes
+            pairs += [(d, s), (b, d), (b, s)]
+        return pairs
+
+    # -- Newton support ----------------------------------------------------
+    def initial_state(self) -> LimitState:
+        """SPICE's ``MODEINITJCT``: vbs = -1, vgs = VTO(T), vds = 0 unless icvds/icvgs/icvbs are given."""
+        no_ic = ~np.any(self.ic != 0.0, axis=0)
+        start = np.where(no_ic, np.stack([self.type * self.vto_t, np.zeros_like(self.phi),
+                                          np.full_like(self.phi, _INIT_VBS)]), self.ic)
+        start = np.where(self.off, 0.0, start)
+        return LimitState(start, initial=True, extra=np.zeros_like(self.phi))
+
+    def limit(self, vn: np.ndarray, state: LimitState) -> tuple[np.ndarray, bool]:
+        """ngspice's MOS1 limiting of (vgs, vds, vbs), type-normalised."""
+        vgs_x, vds_x, vbs_x = vn
+        vgs_o, vds_o, vbs_o = state.v
+        von = state.extra
+        vgd_x = vgs_x - vds_x
+        vgdo = vgs_o - vds_o
+        # normal mode last time: limit vgs, then vds
+        g1 = fetlim(vgs_x, vgs_o, von)
+        d1 = limvds(np.where(g1 != vgs_x, g1 - vgd_x, vds_x), vds_o)
+        # reverse mode last time: limit vgd, then -vds
+        gd2 = fetlim(vgd_x, vgdo, von)
+        d2 = -limvds(-np.where(gd2 != vgd_x, vgs_x - gd2, vds_x), -vds_o)
+        g2 = np.where((gd2 != vgd_x) | (d2 != vds_x), gd2 + d2, vgs_x)
+        forward_old = vds_o >= 0.0
+        vgs = np.where(forward_old, g1, g2)
+        vds = np.where(forward_old, d1, d2)
+        # bulk junction on the side that is the source now
+        vbs_l, c1 = pnjlim(vbs_x, vbs_o, self.vt, self.vcrit_s)
+        vbd_l, c2 = pnjlim(vbs_x - vds_x, vbs_o - vds_o, self.vt, self.vcrit_d)
+        fwd = vds >= 0.0
+        vbs_rev = np.where(c2 | (vds != vds_x), vbd_l + vds, vbs_x)
+        vbs = np.where(fwd, vbs_l, vbs_rev)
+        changed = bool(np.any(vgs != vgs_x) or np.any(vds != vds_x) or np.any(vbs != vbs_x))
+        return np.stack([vgs, vds, vbs]), changed
+
+    def bulk_diodes(self, vbs, vbd):
+        """Bulk-source and bulk-drain diode currents and conductances (GMIN included)."""
+        vt = self.vt
+
+        def diode(v, isat):
+            rev = v <= -_BULK_KNEE * vt
+            ev = np.exp(np.minimum(MAX_EXP_ARG, np.where(rev, 0.0, v / vt)))
+            i = np.where(rev, self.gmin * v - isat, isat * (ev - 1.0) + self.gmin * v)
+            gd = np.where(rev, self.gmin, isat * ev / vt + self.gmin)
+            return i, gd
+
+        ibs, gbs = diode(vbs, self.isat_s)
+        ibd, gbd = diode(vbd, self.isat_d)
+        return ibs, gbs, ibd, gbd
+
+    def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        v = self.stamps.voltages(x)
+        tp = self.type
+        vn_x = tp * v[:3]
+        with np.errstate(all="ignore"):
+            if state is None:
+                state = self.initial_state()
+            if state.initial:
+                if x.any():
+                    vn, changed = vn_x, False
+                else:
+                    vn, changed = state.v, True
+            else:
+                vn, changed = self.limit(vn_x, state)
+            vgs, vds, vbs = vn
+            vgd, vbd = vgs - vds, vbs - vds
+            fwd = vds >= 0.0
+            # the mode's own voltages
+            vgs_m = np.where(fwd, vgs, vgd)
+            vbs_m = np.where(fwd, vbs, vbd)
+            vds_m = np.abs(vds)
+            cdrain, gm, gds, gmbs, von, dvon = drain_current(vgs_m, vds_m, vbs_m, self.beta, self.lam, self.vbi_n,
+                                                             self.gamma, self.phi)
+            mode = np.where(fwd, 1.0, -1.0)
+            ibs, gbs, ibd, gbd = self.bulk_diodes(vbs, vbd)
+            currents = np.stack([tp * mode * cdrain, tp * ibs, tp * ibd, self.gd * v[_VRD], self.gs * v[_VRS]])
+            dcur = np.stack([
+                np.where(fwd, gm, -gm),
+                np.where(fwd, gds, gm + gds + gmbs),
+                np.where(fwd, gmbs, -gmbs),
+                gbs, gbd, -gbd, self.gd, self.gs,
+            ])
+            if self.has_charge:
+                q, dq = self.charges(vgs, vds, vbs, vgd, vbd, fwd, von, dvon)
+                q = tp * q
+            else:
+                q, dq = np.empty((0, vgs.size)), None
+            delta = None
+            if changed:
+                acc.limited = True
+                delta = np.zeros_like(v)
+                delta[:3] = v[:3] - tp * vn
+            self.stamps.add(acc, currents, dcur, q, dq, delta=delta, jacobian=jacobian)
+            total = float(currents.sum() + dcur.sum()) + (float(q.sum() + dq.sum()) if self.has_charge else 0.0)
+            if not math.isfinite(total):
+                acc.ok = False
+        return LimitState(vn, extra=von)
+
+    def charges(self, vgs, vds, vbs, vgd, vbd, fwd, von, dvon):
+        """Node charges (q_g, q_d, q_b) referred to the source and their derivatives to (vgs, vds, vbs).
+
+        Type-normalised; see the module docstring for the model.
+        """
+        qbd, cbd = depletion_charge(vbd, self.czbd, self.pb, self.mj, self.fc)
+        qbdsw, cbdsw = depletion_charge(vbd, self.czbdsw, self.pb, self.mjsw, self.fc)
+        qbs, cbs = depletion_charge(vbs, self.czbs, self.pb, self.mj, self.fc)
+        qbssw, cbssw = depletion_charge(vbs, self.czbssw, self.pb, self.mjsw, self.fc)
+        qbd, cbd = qbd + qbdsw, cbd + cbdsw
+        qbs, cbs = qbs + qbssw, cbs + cbssw
+        vgb = vgs - vbs
+        qg = self.cgso * vgs + self.cgdo * vgd + self.cgbo * vgb
+        qd = -self.cgdo * vgd - qbd
+        qb = -self.cgbo * vgb + qbd + qbs
+        zero = np.zeros_like(vgs)
+        # derivatives to (vgs, vds, vbs): rows qg, qd, qb
+        dqg = [self.cgso + self.cgdo + self.cgbo, -self.cgdo + zero, -self.cgbo + zero]
+        dqd = [-self.cgdo + zero, self.cgdo + cbd, -cbd]
+        dqb = [-self.cgbo + zero, -cbd, self.cgbo + cbd + cbs]
+        if self.has_cox:
+            a = np.where(fwd, vgs, vgd) - von
+            b = np.where(fwd, vgd, vgs) - von
+            cg, cs, cd, cb, (g_a, g_b), (s_a, s_b), (d_a, d_b) = gate_charges(a, b, self.phi)
+            cox = self.cox
+            # the device's drain is the mode's drain in normal mode, its source in reverse
+            q_drn_dev = np.where(fwd, cd, cs)
+            qg = qg + cox * cg
+            qd = qd + cox * q_drn_dev
+            qb = qb + cox * cb
+
+            def to_controls(d_a, d_b):
+                # a = u1 - von(u3), b = u2 - von(u3) with u the mode's (vgs', vgd', vbs')
+                d1, d2, d3 = d_a, d_b, -(d_a + d_b) * dvon
+                return (d1 + d2, np.where(fwd, -d2, -d1 - d3), d3)
+
+            gg = to_controls(g_a, g_b)
+            dd = to_controls(np.where(fwd, d_a, s_a), np.where(fwd, d_b, s_b))
+            ss = to_controls(np.where(fwd, s_a, d_a), np.where(fwd, s_b, d_b))
+            # bulk: qb_int = -(qg_int + qs_int + qd_int)
+            bb = tuple(-(gg[i] + dd[i] + ss[i]) for i in range(3))
+            dqg = [dqg[i] + cox * gg[i] for i in range(3)]
+            dqd = [dqd[i] + cox * dd[i] for i in range(3)]
+            dqb = [dqb[i] + cox * bb[i] for i in range(3)]
+        return np.stack([qg, qd, qb]), np.stack(dqg + dqd + dqb)
