@@ -537,16 +537,17 @@ def _count_axes(options: list[str], names: list[str]) -> int:
 # ---------------------------------------------------------------------------
 
 
+#: ngspice's vector type of a dc axis, by the first letter of the swept name.
+_SWEEP_TYPES = {"v": "voltage", "i": "current", "r": "res-sweep"}
+
+
 def _vector_type(name: str, axis: bool) -> str:
-    if name == "time":
-        return "time"
-    if name == "frequency":
-        return "frequency"
-    if name in ("res-sweep", "temp-sweep"):
+    """ngspice's type name for a vector netdae writes."""
+    if name in ("time", "frequency", "res-sweep", "temp-sweep"):
         return name
     if axis:
-        # a dc sweep axis is named by its source: v1, i2, r3 or temp
-        return {"v": "voltage", "i": "current", "r": "res-sweep"}.get(name[:1], "temp-sweep" if name == "temp" else "notype")
+        # a dc sweep axis is named by what it sweeps: v1, i2, r3 or temp
+        return "temp-sweep" if name == "temp" else _SWEEP_TYPES.get(name[:1], "notype")
     if name.startswith("v("):
         return "voltage"
     if name.startswith("i("):
