@@ -14,6 +14,8 @@ caller (and the CLI) can catch one root class and show one readable message.
 - :class:`ConvergenceError` (also a :class:`RuntimeError`): a numerical
   method failed; carries the time, step size, worst unknown and a hint.
 - :class:`NgspiceError`: the reference simulator is missing or failed.
+- :class:`ResultFileError` (also a :class:`ValueError`): a result file (ngspice
+  raw, CSV) cannot be read.
 
 Examples
 --------
@@ -38,6 +40,7 @@ __all__ = [
     "SingularPencilError",
     "ConvergenceError",
     "NgspiceError",
+    "ResultFileError",
 ]
 
 
@@ -184,3 +187,7 @@ class ConvergenceError(NetdaeError, RuntimeError):
 
 class NgspiceError(NetdaeError):
     """ngspice is missing or failed to run a netlist."""
+
+
+class ResultFileError(NetdaeError, ValueError):
+    """A result file (ngspice raw, CSV) is malformed or unreadable."""

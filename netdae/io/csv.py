@@ -41,7 +41,7 @@ import os
 
 import numpy as np
 
-from ..errors import NetdaeError
+from ..errors import NetdaeError, ResultFileError
 from ..results import Result
 
 __all__ = ["write_csv", "read_csv", "format_csv", "parse_csv"]
@@ -148,21 +148,21 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
     """
     lines = text.splitlines()
     if not lines or not lines[0].strip():
-        raise NetdaeError(f"{source}:1: empty CSV file, expected a header row")
+        raise ResultFileError(f"{source}:1: empty CSV file, expected a header row")
     names = [n.strip().lower() for n in lines[0].split(_SEPARATOR)]
     if len(set(names)) != len(names) or not all(names):
-        raise NetdaeError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
+        raise ResultFileError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
     rows = []
     for number, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue
         fields = line.split(_SEPARATOR)
         if len(fields) != len(names):
-            raise NetdaeError(f"{source}:{number}: {len(fields)} fields, expected {len(names)} as in the header")
+            raise ResultFileError(f"{source}:{number}: {len(fields)} fields, expected {len(names)} as in the header")
         try:
             rows.append([float(f) for f in fields])
         except ValueError as exc:
-            raise NetdaeError(f"{source}:{number}: not a number ({exc})") from None
+            raise ResultFileError(f"{source}:{number}: not a number ({exc})") from None
     table = np.array(rows, dtype=np.float64).reshape(len(rows), len(names))
     kind, n_axes = _layout(names, analysis, source)
     if kind == "op" and len(rows) != 1:

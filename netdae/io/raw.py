@@ -66,7 +66,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import NetdaeError
+from ..errors import NetdaeError, ResultFileError
 from ..results import Result
 
 __all__ = [
@@ -195,7 +195,7 @@ class _Reader:
 
     def error(self, message: str, line: int | None = None) -> NetdaeError:
         where = f"{self.source}:{self.line_no if line is None else line}"
-        return NetdaeError(f"{where}: not a readable ngspice raw file: {message}")
+        return ResultFileError(f"{where}: not a readable ngspice raw file: {message}")
 
     def at_end(self) -> bool:
         rest = self.data[self.pos :]
@@ -350,7 +350,7 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
             table, notes = _ascii_table(reader, head)
         results.append(_to_result(head, table, notes, source))
     if not results:
-        raise NetdaeError(f"{source}: not a readable ngspice raw file: no plot in it")
+        raise ResultFileError(f"{source}: not a readable ngspice raw file: no plot in it")
     return results
 
 
@@ -376,7 +376,7 @@ def read_raw(path: str | os.PathLike) -> list[Result]:
         with open(path, "rb") as handle:
             data = handle.read()
     except OSError as exc:
-        raise NetdaeError(f"{path}: cannot read raw file: {exc.strerror}") from None
+        raise ResultFileError(f"{path}: cannot read raw file: {exc.strerror}") from None
     return parse_raw(data, os.fspath(path))
 
 
@@ -477,7 +477,7 @@ def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]
 def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) -> Result:
     analysis = PLOTNAMES.get(head.plotname.lower())
     if analysis is None:
-        raise NetdaeError(
+        raise ResultFileError(
             f"{source}: plot '{head.plotname}' is not an analysis netdae reads "
             f"(it reads: {', '.join(PLOTNAME_OF.values())})"
         )
@@ -500,7 +500,7 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
         else:
             key = signal_name(name, vtype)
             if key in signals:
-                raise NetdaeError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
+                raise ResultFileError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
             signals[key] = column.copy()
         types[key] = vtype
     extra = {
