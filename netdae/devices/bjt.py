@@ -67,7 +67,7 @@ import numpy as np
 from ..errors import CircuitError
 from .base import Accumulator, DeviceFamily, SlotMap
 from .companion import BranchStamps, LimitState
-from .junction import KELVIN, depletion_charge, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
+from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
@@ -205,10 +205,11 @@ class BjtFamily(DeviceFamily):
         cje, self.vje = scale_junction(g("cje"), mje, g("vje"), tnom, temp)
         cjc, self.vjc = scale_junction(g("cjc"), mjc, g("vjc"), tnom, temp)
         cjs, self.vjs = scale_junction(g("cjs"), mjs, g("vjs"), tnom, temp)
-        self.cje, self.mje = cje * area, mje
         xcjc = g("xcjc")
-        self.cjc_int, self.cjc_ext, self.mjc = cjc * area_bc * xcjc, cjc * area_bc * (1.0 - xcjc), mjc
-        self.cjs, self.mjs = cjs * area_sub, mjs
+        self.dep_be = Depletion(cje * area, self.vje, mje, fc)
+        self.dep_bc = Depletion(cjc * area_bc * xcjc, self.vjc, mjc, fc)
+        self.dep_bx = Depletion(cjc * area_bc * (1.0 - xcjc), self.vjc, mjc, fc)
+        self.dep_sub = Depletion(cjs * area_sub, self.vjs, mjs, 0.0)
         self.tf, self.tr = g("tf"), g("tr")
         self.xtf = g("xtf")
         vtf = g("vtf")
@@ -217,8 +218,10 @@ class BjtFamily(DeviceFamily):
         self.off = g("off") != 0.0
         self.has_rb = bool(np.any(self.rb > 0.0))
         self.rb_varies = bool(np.any((self.rb != self.rbm) & (self.rb > 0.0)))
-        self.has_charge = bool(np.any(self.cje > 0) or np.any(self.cjc_int > 0) or np.any(self.cjc_ext > 0)
-                               or np.any(self.cjs > 0) or np.any(self.tf > 0) or np.any(self.tr > 0))
+        self.knee_f, self.knee_r = -3.0 * self.vtf, -3.0 * self.vtr
+        self.knee_e, self.knee_c = -3.0 * self.vte, -3.0 * self.vtc
+        self.has_charge = bool(self.dep_be.active or self.dep_bc.active or self.dep_bx.active
+                               or self.dep_sub.active or np.any(self.tf != 0) or np.any(self.tr != 0))
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
@@ -270,7 +273,7 @@ class BjtFamily(DeviceFamily):
         vbe, c1 = pnjlim(vn[0], vold[0], self.vt, self.vcrit)
         vbc, c2 = pnjlim(vn[1], vold[1], self.vt, self.vcrit)
         vsub, c3 = pnjlim(vn[2], vold[2], self.vt, SUBSTRATE_VCRIT)
-        return np.stack([vbe, vbc, vsub]), bool(c1.any() or c2.any() or c3.any())
+        return np.stack([vbe, vbc, vsub]), not (c1 is None and c2 is None and c3 is None)
 
     def transport(self, vbe, vbc):
         """Gummel-Poon currents and their derivatives at type-normalised (vbe, vbc).
@@ -281,10 +284,10 @@ class BjtFamily(DeviceFamily):
             ``ic, ib`` and ``dic_dvbe, dic_dvbc, dib_dvbe, dib_dvbc``, plus the
             intermediate ``cbe, gbe, cbc, gbc, qb, dqbdve, dqbdvc`` the charges use.
         """
-        cbe, gbe = ideal_junction(vbe, self.is_be, self.vtf)
-        cben, gben = ideal_junction(vbe, self.ise, self.vte)
-        cbc, gbc = ideal_junction(vbc, self.is_bc, self.vtr)
-        cbcn, gbcn = ideal_junction(vbc, self.isc, self.vtc)
+        cbe, gbe = ideal_junction(vbe, self.is_be, self.vtf, self.knee_f)
+        cben, gben = ideal_junction(vbe, self.ise, self.vte, self.knee_e)
+        cbc, gbc = ideal_junction(vbc, self.is_bc, self.vtr, self.knee_r)
+        cbcn, gbcn = ideal_junction(vbc, self.isc, self.vtc, self.knee_c)
         cben, gben = cben + self.gmin * vbe, gben + self.gmin
         cbcn, gbcn = cbcn + self.gmin * vbc, gbcn + self.gmin
         q1 = 1.0 / (1.0 - self.inv_vaf * vbc - self.inv_var * vbe)
@@ -356,10 +359,10 @@ class BjtFamily(DeviceFamily):
         cbe_q = np.where(tf_on, cbe_mod, cbe)
         gbe_q = np.where(tf_on, gbe_mod, gbe)
         geqcb = np.where(tf_on, geqcb, 0.0)
-        qdep_be, cdep_be = depletion_charge(vbe, self.cje, self.vje, self.mje, self.fc)
-        qdep_bc, cdep_bc = depletion_charge(vbc, self.cjc_int, self.vjc, self.mjc, self.fc)
-        qbx, cbx = depletion_charge(vbx, self.cjc_ext, self.vjc, self.mjc, self.fc)
-        qsub, csub = depletion_charge(vsub, self.cjs, self.vjs, self.mjs, 0.0)
+        qdep_be, cdep_be = self.dep_be(vbe)
+        qdep_bc, cdep_bc = self.dep_bc(vbc)
+        qbx, cbx = self.dep_bx(vbx)
+        qsub, csub = self.dep_sub(vsub)
         q = np.stack([self.tf * cbe_q + qdep_be, self.tr * tr["cbc"] + qdep_bc, qbx, qsub])
         dq = np.stack([self.tf * gbe_q + cdep_be, geqcb, self.tr * tr["gbc"] + cdep_bc, cbx, csub])
         return q, dq

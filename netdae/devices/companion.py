@@ -117,6 +117,11 @@ class BranchStamps:
         self._cur_slots = slots(r, c).ravel()
         r, c = self._entries(self.chg_a, self.chg_b, self.charge_deps)
         self._chg_slots = slots(r, c).ravel()
+        n_inst = self.n_instances
+        self._cur_buf = np.empty((2, self.cur_a.shape[0], n_inst))
+        self._chg_buf = np.empty((2, self.chg_a.shape[0], n_inst))
+        self._dcur_buf = np.empty((4, self.current_deps.shape[0], n_inst))
+        self._dchg_buf = np.empty((4, self.charge_deps.shape[0], n_inst))
 
     def voltages(self, x_ext: np.ndarray) -> np.ndarray:
         """Control voltages ``x[p_k] - x[m_k]``, shape (nc, N).
@@ -157,15 +162,21 @@ class BranchStamps:
             currents = self.linearise(currents, dcurrents, self.current_deps, self._cur_sum, delta)
             charges = self.linearise(charges, dcharges, self.charge_deps, self._chg_sum, delta)
         if currents.size:
-            acc.add_phi(self._cur_rows, np.concatenate([-currents, currents]).ravel())
+            buf = self._cur_buf
+            np.negative(currents, out=buf[0])
+            buf[1] = currents
+            acc.add_phi(self._cur_rows, buf.ravel())
         if charges.size:
-            acc.add_q(self._chg_rows, np.concatenate([charges, -charges]).ravel())
+            buf = self._chg_buf
+            buf[0] = charges
+            np.negative(charges, out=buf[1])
+            acc.add_q(self._chg_rows, buf.ravel())
         if not jacobian:
             return
         if self.current_deps.size:
-            acc.add_dphi(self._cur_slots, (_CURRENT_SIGNS * dcurrents[None]).ravel())
+            acc.add_dphi(self._cur_slots, np.multiply(_CURRENT_SIGNS, dcurrents, out=self._dcur_buf).ravel())
         if self.charge_deps.size:
-            acc.add_dq(self._chg_slots, (_CHARGE_SIGNS * dcharges[None]).ravel())
+            acc.add_dq(self._chg_slots, np.multiply(_CHARGE_SIGNS, dcharges, out=self._dchg_buf).ravel())
 
 
 class LimitState:

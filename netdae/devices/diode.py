@@ -18,7 +18,7 @@ Current (``dioload.c``), ``Is = IS * area * m`` at temperature, ``vte = N kT/q``
 fixed-point iteration (25 steps, tolerance ``reltol * m IBV``).
 
 Charge: ``q = TT * id + qdep(vd)``, the depletion charge of
-:func:`~netdae.devices.junction.depletion_charge` with ``CJO * area * m``,
+:class:`~netdae.devices.junction.Depletion` with ``CJO * area * m``,
 ``VJ``, ``M`` at temperature and ``FC`` (capacitance ``TT gd + cdep``).
 
 Series resistance ``RS / (area m)`` to an internal node ``<name>#internal``
@@ -52,7 +52,7 @@ from .companion import BranchStamps, LimitState
 from .junction import (
     EPSMIN,
     KELVIN,
-    depletion_charge,
+    Depletion,
     ideal_junction,
     pnjlim,
     saturation_exponent,
@@ -188,21 +188,22 @@ class DiodeFamily(DeviceFamily):
         cj, vj = scale_junction(g("cjo") * area, grading, g("vj"), tnom, temp)
         self.isat = np.maximum(g("is"), EPSMIN) * area * np.exp(saturation_exponent(g("eg"), g("xti"), tnom, temp) / n)
         self.vcrit = vcrit(self.vte, self.isat)
-        self.fc = g("fc")
-        self.vj = np.where(self.fc * vj > 1.0, 1.0 / self.fc, vj)
-        self.cj0 = cj
-        self.grading = grading
+        fc = g("fc")
+        self.depletion = Depletion(cj, np.where(fc * vj > 1.0, 1.0 / fc, vj), grading, fc)
         self.tt = g("tt")
         rs = g("rs")
         self.gs = np.where(rs > 0.0, area / np.where(rs > 0.0, rs, 1.0), 0.0)
         bv = g("bv")
         self.has_bv = np.isfinite(bv)
         self.vtebrk = g("nbv") * self.vt
+        self.knee = -_REVERSE_KNEE * self.vte
         self.bv = np.where(self.has_bv, breakdown_voltage(np.where(self.has_bv, bv, 0.0), g("mult") * g("ibv"),
                                                           self.isat, self.vtebrk, self.vt, reltol), 0.0)
         self.off = g("off") != 0.0
         self.has_rs = bool(np.any(self.gs > 0.0))
-        self.has_charge = bool(np.any(self.cj0 > 0.0) or np.any(self.tt > 0.0))
+        self.any_bv = bool(np.any(self.has_bv))
+        self.has_tt = bool(np.any(self.tt != 0.0))
+        self.has_charge = self.depletion.active or self.has_tt
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
@@ -225,6 +226,13 @@ class DiodeFamily(DeviceFamily):
 
     def bind(self, slots: SlotMap, n: int) -> None:
         self.stamps.bind(slots, n)
+        count = len(self.elements)
+        self._cur = np.zeros((2 if self.has_rs else 1, count))
+        self._dcur = np.zeros((2 if self.has_rs else 1, count))
+        if self.has_rs:
+            self._dcur[1] = self.gs
+        self._q = np.zeros((1 if self.has_charge else 0, count))
+        self._dq = np.zeros((1 if self.has_charge else 0, count))
 
     def junction_nodes(self) -> list[tuple[str, str]]:
         return [(el.nodes[0], el.nodes[1]) for el in self.elements]
@@ -234,27 +242,39 @@ class DiodeFamily(DeviceFamily):
         """SPICE's ``MODEINITJCT``: ``vd = vcrit`` (0 for ``off`` diodes)."""
         return LimitState(np.where(self.off, 0.0, self.vcrit)[None, :], initial=True)
 
-    def limit(self, vd: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """ngspice's diode limiting: pnjlim, shifted by BV' in deep reverse bias."""
-        in_breakdown = self.has_bv & (vd < np.minimum(0.0, -self.bv + _BREAKDOWN_LIMIT_MARGIN * self.vtebrk))
-        vb, cb = pnjlim(-(vd + self.bv), -(vold + self.bv), self.vtebrk, self.vcrit)
+    def limit(self, vd: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """ngspice's diode limiting: pnjlim, shifted by BV' in deep reverse bias.
+
+        Returns the limited voltages and where they changed (None: nowhere).
+        """
         vf, cf = pnjlim(vd, vold, self.vte, self.vcrit)
-        return np.where(in_breakdown, -(vb + self.bv), vf), np.where(in_breakdown, cb, cf)
+        if not self.any_bv:
+            return vf, cf
+        in_breakdown = self.has_bv & (vd < np.minimum(0.0, -self.bv + _BREAKDOWN_LIMIT_MARGIN * self.vtebrk))
+        if not in_breakdown.any():
+            return vf, cf
+        vb, cb = pnjlim(-(vd + self.bv), -(vold + self.bv), self.vtebrk, self.vcrit)
+        no = np.zeros(vd.shape, dtype=bool)
+        changed = np.where(in_breakdown, no if cb is None else cb, no if cf is None else cf)
+        return np.where(in_breakdown, -(vb + self.bv), vf), (changed if changed.any() else None)
 
     def current(self, vd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Diode current (GMIN included) and conductance at junction voltage ``vd``."""
-        cd, gd = ideal_junction(vd, self.isat, self.vte)
-        brk = self.has_bv & (vd < -self.bv) & (vd < -_REVERSE_KNEE * self.vte)
-        if np.any(brk):
-            evrev = np.exp(np.where(brk, -(self.bv + vd) / self.vtebrk, 0.0))
-            cd = np.where(brk, -self.isat * evrev, cd)
-            gd = np.where(brk, self.isat * evrev / self.vtebrk, gd)
+        cd, gd = ideal_junction(vd, self.isat, self.vte, self.knee)
+        if self.any_bv:
+            brk = self.has_bv & (vd < -self.bv) & (vd < self.knee)
+            if brk.any():
+                evrev = np.exp(np.where(brk, -(self.bv + vd) / self.vtebrk, 0.0))
+                cd = np.where(brk, -self.isat * evrev, cd)
+                gd = np.where(brk, self.isat * evrev / self.vtebrk, gd)
         return cd + self.gmin * vd, gd + self.gmin
 
     def charge(self, vd: np.ndarray, cd: np.ndarray, gd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Junction charge ``TT id + qdep(vd)`` and its derivative."""
-        qdep, cdep = depletion_charge(vd, self.cj0, self.vj, self.grading, self.fc)
-        return self.tt * cd + qdep, self.tt * gd + cdep
+        qdep, cdep = self.depletion(vd)
+        if self.has_tt:
+            return self.tt * cd + qdep, self.tt * gd + cdep
+        return qdep, cdep
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
@@ -262,33 +282,28 @@ class DiodeFamily(DeviceFamily):
         with np.errstate(all="ignore"):
             if state is None:
                 state = self.initial_state()
-            if state.initial:
-                if x.any():
-                    vd, changed = vd_x, None
-                else:
-                    vd, changed = state.v[0], True
+            if not state.initial:
+                vd, changed = self.limit(vd_x, state.v[0])
+            elif x.any():
+                vd, changed = vd_x, None
             else:
-                vd, mask = self.limit(vd_x, state.v[0])
-                changed = bool(mask.any())
+                vd, changed = state.v[0], True
             cd, gd = self.current(vd)
-            currents, dcurrents = [cd], [gd]
+            cur, dcur = self._cur, self._dcur
+            cur[0] = cd
+            dcur[0] = gd
             if self.has_rs:
-                currents.append(self.gs * v[1])
-                dcurrents.append(self.gs)
+                np.multiply(self.gs, v[1], out=cur[1])
             if self.has_charge:
                 q, c = self.charge(vd, cd, gd)
-                charges, dcharges = q[None, :], c[None, :]
-            else:
-                charges, dcharges = np.empty((0, vd.size)), None
+                self._q[0] = q
+                self._dq[0] = c
             delta = None
-            if changed:
+            if changed is not None:
                 acc.limited = True
                 delta = np.zeros_like(v)
                 delta[0] = vd_x - vd
-            currents = np.array(currents)
-            self.stamps.add(acc, currents, np.array(dcurrents) if jacobian or delta is not None else None,
-                            charges, dcharges, delta=delta, jacobian=jacobian)
-            if not (math.isfinite(float(cd.sum() + gd.sum())) and (not self.has_charge or
-                                                                     math.isfinite(float(q.sum() + c.sum())))):
+            self.stamps.add(acc, cur, dcur, self._q, self._dq, delta=delta, jacobian=jacobian)
+            if not math.isfinite(float(cd.sum() + gd.sum()) + (float(q.sum() + c.sum()) if self.has_charge else 0.0)):
                 acc.ok = False
         return LimitState(vd[None, :])

@@ -6,7 +6,7 @@ reproduces ngspice 39's equations for SPICE level-1 junctions:
 - :func:`ideal_junction`: the junction current with ngspice's reverse-bias
   form ``-Is (1 + (3 vte / (e v))^3)`` below ``-3 vte`` (``dioload.c``,
   ``bjtload.c``);
-- :func:`depletion_charge`: the depletion charge whose derivative is
+- :class:`Depletion`: the depletion charge whose derivative is
   ngspice's depletion capacitance, including the linear extrapolation of the
   capacitance above ``FC * VJ`` (``FC = 0`` gives the BJT substrate form);
 - :func:`pnjlim`, :func:`fetlim`, :func:`limvds`: ngspice's Newton limiting
@@ -47,7 +47,7 @@ __all__ = [
     "saturation_exponent",
     "vcrit",
     "ideal_junction",
-    "depletion_charge",
+    "Depletion",
     "pnjlim",
     "fetlim",
     "limvds",
@@ -170,7 +170,7 @@ def vcrit(vte, isat):
     return vte * np.log(vte / (math.sqrt(2.0) * np.asarray(isat, dtype=float)))
 
 
-def ideal_junction(v, isat, vte):
+def ideal_junction(v, isat, vte, knee):
     """Junction current and conductance as ngspice computes them.
 
     ``i = Is (exp(v/vte) - 1)`` for ``v >= -3 vte``; below, ngspice's smooth
@@ -185,6 +185,8 @@ def ideal_junction(v, isat, vte):
         Saturation current [A] (0 gives 0).
     vte : ndarray or float
         Emission coefficient times thermal voltage [V].
+    knee : ndarray or float
+        ``-3 vte``, precomputed by the caller.
 
     Returns
     -------
@@ -194,53 +196,81 @@ def ideal_junction(v, isat, vte):
     Notes
     -----
     Call inside ``np.errstate``: a large forward voltage overflows to inf,
-    which the caller reports as a failed evaluation.
+    which the caller reports as a failed evaluation. When every junction is
+    above the knee (the usual case) only the exponential branch is computed.
     """
-    forward = v >= -_REVERSE_KNEE * vte
-    ev = np.exp(np.where(forward, v / vte, 0.0))
-    vr = np.where(forward, -1.0, v)
+    reverse = v < knee
+    if not reverse.any():
+        ev = np.exp(v / vte)
+        return isat * (ev - 1.0), isat * ev / vte
+    ev = np.exp(np.where(reverse, 0.0, v / vte))
+    vr = np.where(reverse, v, -1.0)
     a = _REVERSE_KNEE * vte / (vr * math.e)
     a = a * a * a
-    i = np.where(forward, isat * (ev - 1.0), -isat * (1.0 + a))
-    g = np.where(forward, isat * ev / vte, isat * _REVERSE_KNEE * a / vr)
+    i = np.where(reverse, -isat * (1.0 + a), isat * (ev - 1.0))
+    g = np.where(reverse, isat * _REVERSE_KNEE * a / vr, isat * ev / vte)
     return i, g
 
 
-def depletion_charge(v, cj0, vj, m, fc):
-    """Depletion charge q(v) and capacitance dq/dv of a graded junction.
+class Depletion:
+    """Depletion charge q(v) and capacitance dq/dv of graded junctions.
 
     Below ``fc * vj``: ``q = vj cj0 (1 - (1 - v/vj)^(1-m)) / (1 - m)``, the
     integral of ``cj0 (1 - v/vj)^-m``. Above, ngspice extrapolates the
     capacitance linearly, ``c = cj0 / F2 (F3 + m v / vj)`` with
     ``F2 = (1 - fc)^(1+m)``, ``F3 = 1 - fc (1 + m)``, and the charge is its
-    integral, continuous at ``fc * vj``. ``fc = 0`` gives the BJT substrate
-    junction (``q = cj0 v (1 + m v / (2 vj))`` for v >= 0).
+    integral, continuous at ``fc * vj`` (``cj0 F1`` there,
+    ``F1 = vj (1 - (1 - fc)^(1-m)) / (1 - m)``). ``fc = 0`` gives the BJT
+    substrate junction (``q = cj0 v (1 + m v / (2 vj))`` for v >= 0).
 
     Parameters
     ----------
-    v : ndarray
-    cj0, vj, m, fc : ndarray or float
+    cj0, vj, m, fc : array_like
         Zero-bias capacitance [F], built-in potential [V], grading
-        coefficient (< 1), forward-bias coefficient (< 1).
+        coefficient (< 1), forward-bias coefficient (< 1), per junction.
 
-    Returns
-    -------
-    q, c : ndarray
-        Charge [C] and capacitance [F]; zero where ``cj0 == 0``.
+    Notes
+    -----
+    The coefficients are computed once; a call costs about ten numpy
+    operations when every junction is below ``fc * vj``.
+
+    Examples
+    --------
+    >>> dep = Depletion(1e-12, 0.8, 0.5, 0.5)
+    >>> q, c = dep(np.array([-1.0, 0.0, 0.6]))
+    >>> np.round(c * 1e12, 12).tolist()  # cj0 / sqrt(1 + 1/0.8), cj0, cj0 / 0.5^1.5 (0.25 + 0.5 * 0.6/0.8)
+    [0.666666666667, 1.0, 1.767766952966]
     """
-    vfc = fc * vj
-    below = v < vfc
-    arg = 1.0 - np.where(below, v, 0.0) / vj
-    sarg = np.exp(-m * np.log(arg))
-    q_below = vj * cj0 * (1.0 - arg * sarg) / (1.0 - m)
-    c_below = cj0 * sarg
-    f1 = vj * (1.0 - np.exp((1.0 - m) * np.log1p(-fc))) / (1.0 - m)
-    f2 = np.exp((1.0 + m) * np.log1p(-fc))
-    f3 = 1.0 - fc * (1.0 + m)
-    czf2 = cj0 / f2
-    q_above = cj0 * f1 + czf2 * (f3 * (v - vfc) + (m / (vj + vj)) * (v * v - vfc * vfc))
-    c_above = czf2 * (f3 + m * v / vj)
-    return np.where(below, q_below, q_above), np.where(below, c_below, c_above)
+
+    def __init__(self, cj0, vj, m, fc):
+        n = np.broadcast(np.asarray(cj0), np.asarray(vj), np.asarray(m), np.asarray(fc)).shape
+        self.cj0 = np.broadcast_to(np.asarray(cj0, dtype=float), n).copy()
+        self.vj = np.broadcast_to(np.asarray(vj, dtype=float), n).copy()
+        self.m = np.broadcast_to(np.asarray(m, dtype=float), n).copy()
+        fc = np.broadcast_to(np.asarray(fc, dtype=float), n)
+        self.active = bool(np.any(self.cj0 != 0.0))
+        self.vfc = fc * self.vj
+        self.q_scale = self.vj * self.cj0 / (1.0 - self.m)
+        xfc = np.log1p(-fc)
+        self.q_fc = self.cj0 * self.vj * (1.0 - np.exp((1.0 - self.m) * xfc)) / (1.0 - self.m)
+        self.czf2 = self.cj0 / np.exp((1.0 + self.m) * xfc)
+        self.f3 = 1.0 - fc * (1.0 + self.m)
+        self.m_over_vj = self.m / self.vj
+
+    def __call__(self, v):
+        """Charge and capacitance at junction voltages ``v`` (same shape as the coefficients)."""
+        below = v < self.vfc
+        if below.all():
+            arg = 1.0 - v / self.vj
+            sarg = np.exp(-self.m * np.log(arg))
+            return self.q_scale * (1.0 - arg * sarg), self.cj0 * sarg
+        arg = 1.0 - np.where(below, v, 0.0) / self.vj
+        sarg = np.exp(-self.m * np.log(arg))
+        dv = v - self.vfc
+        q_above = self.q_fc + self.czf2 * dv * (self.f3 + 0.5 * self.m_over_vj * (v + self.vfc))
+        c_above = self.czf2 * (self.f3 + self.m_over_vj * v)
+        return (np.where(below, self.q_scale * (1.0 - arg * sarg), q_above),
+                np.where(below, self.cj0 * sarg, c_above))
 
 
 def pnjlim(vnew, vold, vt, vcrit_):
@@ -264,27 +294,37 @@ def pnjlim(vnew, vold, vt, vcrit_):
     Returns
     -------
     v : ndarray
-        Limited voltage.
-    changed : ndarray of bool
-        Where the limit applied (ngspice's ``icheck``).
+        Limited voltage (``vnew`` itself when nothing is limited).
+    changed : ndarray of bool or None
+        Where the limit applied (ngspice's ``icheck``); None when nowhere.
 
     Examples
     --------
     >>> v, c = pnjlim(np.array([1.0, 0.3, -5.0]), np.array([0.6, 0.2, 0.0]), 0.025, 0.6)
     >>> np.round(v, 6).tolist(), c.tolist()
-    [[0.682238, 0.3, -1.0], [True, False, True]]
+    ([0.715976, 0.3, -1.0], [True, False, True])
     """
-    vnew = np.asarray(vnew, dtype=float)
     forward = (vnew > vcrit_) & (np.abs(vnew - vold) > vt + vt)
-    arg = (vnew - vold) / vt
-    up = vold + vt * (2.0 + np.log(np.where(arg > 2.0, arg - 2.0, 1.0)))
-    down = vold - vt * (2.0 + np.log(np.where(arg < -2.0, 2.0 - arg, 1.0)))
-    from_off = vt * np.log(np.where(vnew > 0.0, vnew / vt, 1.0))
-    v_fwd = np.where(vold > 0.0, np.where(arg > 0.0, up, down), from_off)
+    negative = vnew < 0.0
+    any_forward = forward.any()
+    if not any_forward and not negative.any():
+        return vnew, None
+    v = vnew
+    changed = forward
+    if any_forward:
+        arg = (vnew - vold) / vt
+        up = vold + vt * (2.0 + np.log(np.where(arg > 2.0, arg - 2.0, 1.0)))
+        down = vold - vt * (2.0 + np.log(np.where(arg < -2.0, 2.0 - arg, 1.0)))
+        from_off = vt * np.log(np.where(vnew > 0.0, vnew / vt, 1.0))
+        v = np.where(forward, np.where(vold > 0.0, np.where(arg > 0.0, up, down), from_off), vnew)
     floor = np.where(vold > 0.0, -vold - 1.0, 2.0 * vold - 1.0)
-    reverse = ~forward & (vnew < 0.0) & (vnew < floor)
-    v = np.where(forward, v_fwd, np.where(reverse, floor, vnew))
-    return v, forward | reverse
+    reverse = negative & (vnew < floor) & ~forward
+    if reverse.any():
+        v = np.where(reverse, floor, v)
+        changed = forward | reverse
+    if not changed.any():
+        return vnew, None
+    return v, changed
 
 
 def fetlim(vnew, vold, vto):

@@ -28,7 +28,7 @@ or ``m JS AS`` (``m JS AD`` for the drain) when JS, AD and AS are non-zero.
 
 Charges (netdae is charge based, ``d/dt q(x)``):
 
-- bulk junctions: ``qdep`` of :func:`~netdae.devices.junction.depletion_charge`
+- bulk junctions: ``qdep`` of :class:`~netdae.devices.junction.Depletion`
   with ``CBD`` (or ``CJ AD``) and ``CJSW PD`` (MJ, MJSW, PB, FC), times m,
   exactly ngspice's charge;
 - overlaps: ``CGSO m W vgs``, ``CGDO m W vgd``, ``CGBO m Leff vgb``, exact;
@@ -70,7 +70,7 @@ from .junction import (
     K_OVER_Q,
     KELVIN,
     REFTEMP,
-    depletion_charge,
+    Depletion,
     energy_gap,
     fetlim,
     limvds,
@@ -361,7 +361,11 @@ class MosfetFamily(DeviceFamily):
         self.czbs = np.where(g("cbs_given") != 0.0, cbs * m, np.where(cj_given, cj * m * as_, 0.0))
         self.czbdsw = np.where(cjsw_given, cjsw * g("pd") * m, 0.0)
         self.czbssw = np.where(cjsw_given, cjsw * g("ps") * m, 0.0)
-        self.mj, self.mjsw, self.fc = mj, mjsw, g("fc")
+        fc = g("fc")
+        self.dep_bd = Depletion(self.czbd, self.pb, mj, fc)
+        self.dep_bdsw = Depletion(self.czbdsw, self.pb, mjsw, fc)
+        self.dep_bs = Depletion(self.czbs, self.pb, mj, fc)
+        self.dep_bssw = Depletion(self.czbssw, self.pb, mjsw, fc)
         # overlap and oxide capacitances
         self.cgso = g("cgso") * m * w
         self.cgdo = g("cgdo") * m * w
@@ -443,10 +447,10 @@ class MosfetFamily(DeviceFamily):
         vgs = np.where(forward_old, g1, g2)
         vds = np.where(forward_old, d1, d2)
         # bulk junction on the side that is the source now
-        vbs_l, c1 = pnjlim(vbs_x, vbs_o, self.vt, self.vcrit_s)
+        vbs_l, _ = pnjlim(vbs_x, vbs_o, self.vt, self.vcrit_s)
         vbd_l, c2 = pnjlim(vbs_x - vds_x, vbs_o - vds_o, self.vt, self.vcrit_d)
         fwd = vds >= 0.0
-        vbs_rev = np.where(c2 | (vds != vds_x), vbd_l + vds, vbs_x)
+        vbs_rev = np.where((vbd_l != vbs_x - vds_x) | (vds != vds_x), vbd_l + vds, vbs_x)
         vbs = np.where(fwd, vbs_l, vbs_rev)
         changed = bool(np.any(vgs != vgs_x) or np.any(vds != vds_x) or np.any(vbs != vbs_x))
         return np.stack([vgs, vds, vbs]), changed
@@ -519,10 +523,10 @@ class MosfetFamily(DeviceFamily):
 
         Type-normalised; see the module docstring for the model.
         """
-        qbd, cbd = depletion_charge(vbd, self.czbd, self.pb, self.mj, self.fc)
-        qbdsw, cbdsw = depletion_charge(vbd, self.czbdsw, self.pb, self.mjsw, self.fc)
-        qbs, cbs = depletion_charge(vbs, self.czbs, self.pb, self.mj, self.fc)
-        qbssw, cbssw = depletion_charge(vbs, self.czbssw, self.pb, self.mjsw, self.fc)
+        qbd, cbd = self.dep_bd(vbd)
+        qbdsw, cbdsw = self.dep_bdsw(vbd)
+        qbs, cbs = self.dep_bs(vbs)
+        qbssw, cbssw = self.dep_bssw(vbs)
         qbd, cbd = qbd + qbdsw, cbd + cbdsw
         qbs, cbs = qbs + qbssw, cbs + cbssw
         vgb = vgs - vbs
