@@ -84,12 +84,14 @@ EPS = float(np.finfo(float).eps)
 #: below this.
 RTOL_FACTOR = 1.0
 
-#: An entry of E (or H) smaller than ``BALANCE_NEGLIGIBLE`` times the largest
-#: entry of its row and of its column *in the same matrix* is treated as
-#: rounding noise by the balancing objective (it stays in the pencil). Without
-#: this, noise-level entries of dense transformed matrices would pull whole rows
-#: up by many orders of magnitude. Genuine small circuit values (1e-15 F next
-#: to 1e-3 S) are relative to entries of the same matrix and are kept.
+#: An entry below ``BALANCE_NEGLIGIBLE`` times *both* the largest entry of its
+#: row and the largest entry of its column (of the pencil ``[alpha0 E, H]``,
+#: ``alpha0 = ||H|| / ||E||``) is rounding noise (``cos(pi/2) = 6e-17`` next to
+#: O(1) entries, or noise in an algebraic row of E) and does not steer the
+#: balancing (it stays in the pencil): fitted, it would drag a row and a column
+#: by 50 binary orders and ruin the rank decisions. A genuine small value of a
+#: badly scaled matrix is large relative to its own row or its own column, and
+#: is kept.
 BALANCE_NEGLIGIBLE = EPS
 
 #: Iteration limit and tolerance of the least-squares solve for the balancing
@@ -138,6 +140,13 @@ class RankDecision:
     dropped: tuple
     gap: float
 
+    @property
+    def margin(self) -> float:
+        """How clear the decision is: ``min(kept[-1] / tol, tol / dropped[0])`` (``inf`` if exact)."""
+        up = self.kept[-1] / self.tol if self.kept and self.tol > 0 else float("inf")
+        down = self.tol / self.dropped[0] if self.dropped and self.dropped[0] > 0 else float("inf")
+        return float(min(up, down))
+
     def to_dict(self) -> dict:
         """JSON-serialisable form."""
         return {
@@ -148,6 +157,7 @@ class RankDecision:
             "kept": list(self.kept),
             "dropped": list(self.dropped),
             "gap": None if not np.isfinite(self.gap) else self.gap,
+            "margin": None if not np.isfinite(self.margin) else self.margin,
         }
 
 
@@ -212,7 +222,7 @@ class Balancing:
     time_scale : float
     spread_before, spread_after : float
         Decades between the largest and smallest entry that steered the
-        balancing (``log10(max/min)`` over the non-negligible entries of E and
+        balancing (``log10(max/min)`` over the significant entries of E and
         H), before and after balancing.
     """
 
@@ -241,20 +251,30 @@ class Balancing:
         }
 
 
-def _significant_entries(M) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows, columns and |values| of the entries that steer the balancing."""
-    coo = sp.coo_matrix(M)
-    mask = coo.data != 0
-    r, c, v = coo.row[mask], coo.col[mask], np.abs(coo.data[mask])
-    if v.size == 0:
-        return r, c, v
-    n_r, n_c = coo.shape
-    rmax = np.zeros(n_r)
-    cmax = np.zeros(n_c)
-    np.maximum.at(rmax, r, v)
-    np.maximum.at(cmax, c, v)
-    keep = v > BALANCE_NEGLIGIBLE * np.maximum(rmax[r], cmax[c])
-    return r[keep], c[keep], v[keep]
+def _significant_entries(E, H):
+    """Entries of E and of H that steer the balancing: ``(re, ce, ve), (rh, ch, vh)``.
+
+    Significance is judged in the combined pencil ``[alpha0 E, H]`` with the
+    provisional time scale ``alpha0 = ||H||_F / ||E||_F``: an entry is noise
+    when it is below ``BALANCE_NEGLIGIBLE`` times both the largest entry of
+    its row and of its column (over E and H together).
+    """
+    ce_, ch_ = sp.coo_matrix(E), sp.coo_matrix(H)
+    me, mh = ce_.data != 0, ch_.data != 0
+    re, ce, ve = ce_.row[me], ce_.col[me], np.abs(ce_.data[me])
+    rh, ch, vh = ch_.row[mh], ch_.col[mh], np.abs(ch_.data[mh])
+    ne, nh = np.linalg.norm(ve), np.linalg.norm(vh)
+    alpha0 = nh / ne if ne > 0 and nh > 0 else 1.0
+    rows = np.concatenate([re, rh])
+    cols = np.concatenate([ce, ch])
+    vals = np.concatenate([alpha0 * ve, vh])
+    rmax = np.zeros(E.shape[0])
+    cmax = np.zeros(E.shape[1])
+    np.maximum.at(rmax, rows, vals)
+    np.maximum.at(cmax, cols, vals)
+    keep = vals >= BALANCE_NEGLIGIBLE * np.minimum(rmax[rows], cmax[cols])
+    ke, kh = keep[: ve.size], keep[ve.size :]
+    return (re[ke], ce[ke], ve[ke]), (rh[kh], ch[kh], vh[kh])
 
 
 def _spread(*values: np.ndarray) -> float:
@@ -265,11 +285,29 @@ def _spread(*values: np.ndarray) -> float:
     return float(np.log10(v.max() / v.min()))
 
 
+def _ward_exponents(n_r, n_c, re, ce, ve, rh, ch, vh) -> np.ndarray:
+    """Integer exponents (rows, columns, time) of the least-squares balancing."""
+    m_e, m_h = ve.size, vh.size
+    eq = np.arange(m_e + m_h)
+    rows = np.concatenate([re, rh])
+    cols = np.concatenate([ce, ch])
+    A = sp.csr_matrix(
+        (
+            np.ones(2 * (m_e + m_h) + m_e),
+            (np.concatenate([eq, eq, np.arange(m_e)]), np.concatenate([rows, n_r + cols, np.full(m_e, n_r + n_c)])),
+        ),
+        shape=(m_e + m_h, n_r + n_c + 1),
+    )
+    rhs = -np.log2(np.concatenate([ve, vh]))
+    sol = lsmr(A, rhs, atol=BALANCE_LSQ_TOL, btol=BALANCE_LSQ_TOL, maxiter=BALANCE_MAXITER)[0]
+    return np.rint(sol).astype(int)
+
+
 def balance_pencil(E, H, *, enabled: bool = True) -> Balancing:
     """Equilibrate the pencil ``lambda E - H`` by diagonal scaling (Ward's method).
 
     Finds integer exponents ``r`` (rows), ``c`` (columns) and ``a`` (time)
-    that minimise, over the significant non-zeros,
+    that minimise, over the non-zero entries,
 
     .. math:: \\sum_E (\\log_2|e_{ij}| + r_i + c_j + a)^2
               + \\sum_H (\\log_2|h_{ij}| + r_i + c_j)^2,
@@ -277,7 +315,10 @@ def balance_pencil(E, H, *, enabled: bool = True) -> Balancing:
     i.e. bring every entry of ``2^a Dl E Dr`` and ``Dl H Dr`` as close to one
     as diagonal scaling allows [3]_. The extra time exponent ``a`` balances E
     against H (capacitances of picofarads against conductances of
-    millisiemens), which LAPACK's ``ggbal`` does not do.
+    millisiemens), which LAPACK's ``ggbal`` does not do. Entries below
+    ``BALANCE_NEGLIGIBLE`` times both the largest entry of their row and of
+    their column (of ``[alpha0 E, H]``, ``alpha0 = ||H|| / ||E||``) are
+    rounding noise and do not steer the fit.
 
     Parameters
     ----------
@@ -296,24 +337,11 @@ def balance_pencil(E, H, *, enabled: bool = True) -> Balancing:
     ``BALANCE_MAXITER`` iterations.
     """
     n_r, n_c = E.shape
-    re, ce, ve = _significant_entries(E)
-    rh, ch, vh = _significant_entries(H)
+    (re, ce, ve), (rh, ch, vh) = _significant_entries(E, H)
     before = _spread(ve, vh)
     if not enabled or (ve.size + vh.size) == 0:
         return Balancing(False, np.ones(n_r), np.ones(n_c), 1.0, before, before)
-    m_e, m_h = ve.size, vh.size
-    eq = np.arange(m_e + m_h)
-    rows = np.concatenate([re, rh])
-    cols = np.concatenate([ce, ch])
-    data_rows = [eq, eq, np.arange(m_e)]
-    data_cols = [rows, n_r + cols, np.full(m_e, n_r + n_c)]
-    A = sp.csr_matrix(
-        (np.ones(2 * (m_e + m_h) + m_e), (np.concatenate(data_rows), np.concatenate(data_cols))),
-        shape=(m_e + m_h, n_r + n_c + 1),
-    )
-    rhs = -np.log2(np.concatenate([ve, vh]))
-    sol = lsmr(A, rhs, atol=BALANCE_LSQ_TOL, btol=BALANCE_LSQ_TOL, maxiter=BALANCE_MAXITER)[0]
-    expo = np.rint(sol).astype(int)
+    expo = _ward_exponents(n_r, n_c, re, ce, ve, rh, ch, vh)
     row_scale = np.ldexp(1.0, expo[:n_r])
     col_scale = np.ldexp(1.0, expo[n_r : n_r + n_c])
     time_scale = float(np.ldexp(1.0, expo[-1]))
@@ -545,6 +573,15 @@ class KroneckerStructure:
     finite_pencil: tuple
     decisions: list
     warnings: list
+
+    @property
+    def margin(self) -> float:
+        """Worst :attr:`RankDecision.margin` of the structure's decisions."""
+        return min((d.margin for d in self.decisions), default=float("inf"))
+
+    def summary(self) -> tuple:
+        """The structure as comparable data."""
+        return (self.regular, tuple(self.infinite_blocks), tuple(self.right_indices), tuple(self.left_indices))
 
 
 def kronecker_structure(Eb: np.ndarray, Hb: np.ndarray, tol_e: float, tol_h: float) -> KroneckerStructure:

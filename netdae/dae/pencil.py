@@ -111,6 +111,11 @@ SHIFT_CHECK_LIMIT = 400
 #: Number of random shifts of the regularity cross-check.
 N_SHIFTS = 3
 
+#: A structure whose closest rank decision has a margin below this factor
+#: (the kept or dropped singular value within this factor of the tolerance) is
+#: re-decided on the unbalanced pencil, and the clearer of the two is reported.
+MARGIN_RETRY = 10.0
+
 #: The Drazin cross-check forms (mu E - H)^-1 E, whose rounding grows with the
 #: condition number of mu E - H: its rank tolerance is this factor times rtol.
 DRAZIN_SAFETY = 1e3
@@ -150,6 +155,45 @@ def _prepare(E, H, tol, balance):
     if not 0.0 <= rtol < 1.0:
         raise ValueError(f"tol is a relative tolerance in [0, 1), got {tol}")
     return E, H, bal, Eb, Hb, rtol
+
+
+@dataclass
+class _Decided:
+    """A structure decided on one scaling of the pencil."""
+
+    bal: Balancing
+    Eb: np.ndarray
+    Hb: np.ndarray
+    tol_e: float
+    tol_h: float
+    ks: KroneckerStructure
+    notes: list
+
+
+def _decide(E, H, bal: Balancing, rtol: float) -> _Decided:
+    Eb, Hb = bal.apply(E, H)
+    tol_e = rtol * float(np.linalg.norm(Eb))
+    tol_h = rtol * float(np.linalg.norm(Hb))
+    return _Decided(bal, Eb, Hb, tol_e, tol_h, kronecker_structure(Eb, Hb, tol_e, tol_h), [])
+
+
+def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
+    """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call."""
+    E, H, bal, _, _, rtol = _prepare(E, H, tol, balance)
+    best = _decide(E, H, bal, rtol)
+    if bal.applied and best.ks.margin < MARGIN_RETRY:
+        plain = _decide(E, H, balance_pencil(E, H, enabled=False), rtol)
+        chosen, other = (plain, best) if plain.ks.margin > best.ks.margin else (best, plain)
+        note = (
+            f"a rank decision of the {'balanced' if chosen is plain else 'unbalanced'} pencil was close "
+            f"(margin {other.ks.margin:.3g}); reporting the {'unbalanced' if chosen is plain else 'balanced'} "
+            f"one (margin {chosen.ks.margin:.3g})"
+        )
+        if plain.ks.summary() != best.ks.summary():
+            note += f"; the two disagree: {chosen.ks.summary()} vs {other.ks.summary()} (regular, infinite blocks, right, left)"
+        chosen.notes.append(note)
+        best = chosen
+    return best, rtol
 
 
 # ---------------------------------------------------------------------------
@@ -383,7 +427,9 @@ def drazin_index(
     Raises
     ------
     SingularPencilError
-        When ``mu E - H`` is numerically singular at every tried shift.
+        When ``mu E - H`` is numerically singular (at tolerance ``n * eps``) at
+        every tried shift: a singular pencil, or one too ill-conditioned for
+        this cross-check.
 
     Notes
     -----
@@ -407,8 +453,9 @@ def drazin_index(
             break
     else:
         raise SingularPencilError(
-            "mu E - H is singular at every tried shift: the pencil is singular",
-            hint="use analyze_pencil for the singular structure",
+            "mu E - H is numerically singular at every tried shift: the pencil is singular, "
+            "or too ill-conditioned for the Drazin cross-check",
+            hint="use analyze_pencil for the structure and its evidence",
         )
     Ehat = sla.solve(A, Eb.astype(complex)) if n else np.zeros((0, 0), dtype=complex)
     tol_abs = rt * np.linalg.norm(Ehat)
@@ -602,8 +649,9 @@ def _structure_warnings(ks: KroneckerStructure, shift: ShiftCheck | None) -> lis
     out = list(ks.warnings)
     if shift is not None and shift.normal_rank != ks.normal_rank:
         out.append(
-            f"random-shift check gives normal rank {shift.normal_rank}, the staircase {ks.normal_rank}: "
-            "a rank decision is close to the tolerance; inspect the evidence or change tol"
+            f"random-shift cross-check gives normal rank {shift.normal_rank}, the staircase {ks.normal_rank} "
+            f"(reported): mu E - H is ill-conditioned at the shifts (closest shift decision margin "
+            f"{min(d.margin for d in shift.decisions):.3g}); inspect the evidence or change tol"
         )
     return out
 
@@ -657,17 +705,19 @@ def analyze_pencil(
     -----
     O(n^3) time and O(n^2) memory; see :data:`DENSE_LIMIT`.
     """
-    E, H, bal, Eb, Hb, rtol = _prepare(E, H, tol, balance)
-    n = E.shape[0]
+    dec, rtol = _structure(E, H, tol, balance)
+    bal, Eb, Hb, tol_e, tol_h, ks = dec.bal, dec.Eb, dec.Hb, dec.tol_e, dec.tol_h, dec.ks
+    n = Eb.shape[0]
     names = tuple(names) if names is not None else tuple(f"x{i}" for i in range(n))
     if len(names) != n:
         raise ValueError(f"names must have {n} entries")
-    tol_e = rtol * float(np.linalg.norm(Eb))
-    tol_h = rtol * float(np.linalg.norm(Hb))
-    ks = kronecker_structure(Eb, Hb, tol_e, tol_h)
     do_shift = n <= SHIFT_CHECK_LIMIT if shift_check is None else bool(shift_check)
     shift = _shift_check(Eb, Hb, rtol, N_SHIFTS, seed) if do_shift else None
-    svd = _svd_form_from(ks.first.first_svd, ks.first.decisions[0], bal, Hb)
+    if n:
+        svd = _svd_form_from(ks.first.first_svd, ks.first.decisions[0], bal, Hb)
+    else:
+        empty = (np.eye(0), np.zeros(0), np.eye(0))
+        svd = _svd_form_from(empty, rank_decision(np.zeros(0), tol_e, "rank of E", (0, 0)), bal, Hb)
     evidence = list(ks.decisions) + (list(shift.decisions) if shift else [])
     neglected = ks.first.neglected + (ks.second.neglected if ks.second is not None else 0.0)
     if ks.regular:
@@ -707,7 +757,7 @@ def analyze_pencil(
         weierstrass=wf,
         svd=svd,
         shift_check=shift,
-        warnings=tuple(_structure_warnings(ks, shift)),
+        warnings=tuple(dec.notes + _structure_warnings(ks, shift)),
     )
 
 
@@ -753,11 +803,11 @@ def weierstrass_form(
     SingularPencilError
         When the pencil is singular (with its minimal indices in the message).
     """
-    E, H, bal, Eb, Hb, rtol = _prepare(E, H, tol, balance)
-    ks = kronecker_structure(Eb, Hb, rtol * np.linalg.norm(Eb), rtol * np.linalg.norm(Hb))
+    dec, rtol = _structure(E, H, tol, balance)
+    ks, bal = dec.ks, dec.bal
     if not ks.regular:
         raise SingularPencilError(
-            f"the pencil lambda E - H is singular (normal rank {ks.normal_rank} < {E.shape[0]}; "
+            f"the pencil lambda E - H is singular (normal rank {ks.normal_rank} < {dec.Eb.shape[0]}; "
             f"right minimal indices {ks.right_indices}, left {ks.left_indices})",
             hint="the DAE has no or infinitely many solutions; analyze_pencil reports the structure",
         )
