@@ -28,7 +28,7 @@ from ..circuit import (AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Ele
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
-from .lines import EXPR, STRING, WORD
+from .lines import EXPR, STRING, WORD, no_gc
 from .numbers import parse_number
 from .params import Env, evaluate_val, resolve_behavioural
 from .statements import Definition, ElementCard, InstanceCard, ModelCard, Netlist, ParamDef
@@ -144,7 +144,10 @@ class _Elaborator:
 
     # -- expansion ----------------------------------------------------------
     def _fresh(self, item) -> _Placed:
-        if isinstance(item, ElementCard):
+        if type(item) is ElementCard:
+            if item.expr is None and not item.controls:
+                return _Placed(item, item.name, item.nodes, (), (),
+                               item.model[0] if item.model is not None else None, None, (), ())
             refs = self.refs.get(id(item))
             if refs is None:
                 refs = _expr_refs(item)
@@ -537,4 +540,5 @@ def elaborate(netlist: Netlist) -> Circuit:
     expanded once and copied per instance; each parameter scope is
     evaluated once per instance chain.
     """
-    return _Elaborator(netlist).run()
+    with no_gc():
+        return _Elaborator(netlist).run()

@@ -121,15 +121,16 @@ def _end(card: Card) -> int:
 
 
 def _nodes(card: Card, toks: list[Token], count: int, syntax) -> tuple[str, ...]:
-    if len(toks) < 1 + count or any(t.kind != WORD for t in toks[1 : 1 + count]):
-        found = 0
-        for t in toks[1 : 1 + count]:
-            if t.kind != WORD:
-                break
-            found += 1
-        at = toks[1 + found].start if 1 + found < len(toks) else _end(card)
-        raise error(card, at, f"expected {count} nodes, found {found}", syntax)
-    return tuple(_GROUND_ALIASES.get(t.text, t.text) for t in toks[1 : 1 + count])
+    words = toks[1 : 1 + count]
+    if len(words) == count and all([t.kind == WORD for t in words]):
+        return tuple([_GROUND_ALIASES.get(t.text, t.text) for t in words])
+    found = 0
+    for t in words:
+        if t.kind != WORD:
+            break
+        found += 1
+    at = toks[1 + found].start if 1 + found < len(toks) else _end(card)
+    raise error(card, at, f"expected {count} nodes, found {found}", syntax)
 
 
 def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:

@@ -45,6 +45,7 @@ ngspice 39, ``src/spicelib/parser/inpeval.c`` (``INPevaluate``) and
 from __future__ import annotations
 
 import re
+from functools import lru_cache
 
 __all__ = ["SCALE", "parse_number", "scan_param_number"]
 
@@ -63,6 +64,8 @@ SCALE = {
 
 #: One thousandth of an inch in metres (``mil``), applied as 25.4 * 1e-6.
 _MIL_FACTOR = 25.4
+#: Distinct number tokens remembered (netlists repeat their values a lot).
+_CACHE_SIZE = 1 << 16
 #: Number of mantissa digits a double holds exactly (2**53 > 10**15).
 _EXACT_DIGITS = 15
 
@@ -86,6 +89,7 @@ def _mantissa(digits: str) -> float:
     return value
 
 
+@lru_cache(maxsize=_CACHE_SIZE)
 def parse_number(token: str) -> float | None:
     """Read a SPICE number the way ngspice's ``INPevaluate`` does.
 

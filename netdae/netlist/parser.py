@@ -12,7 +12,7 @@ from __future__ import annotations
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
-from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
+from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .numbers import parse_number
 from .reader import Deck, read_deck
 from .statements import AnalysisCard, Definition, ElementCard, FuncDef, ModelCard, Netlist, ParamDef
@@ -43,7 +43,8 @@ def parse(source, *, path: str | None = None) -> Netlist:
     NetlistError
         Any syntax error, located at its token.
     """
-    return build(read_deck(source, path=path))
+    with no_gc():
+        return build(read_deck(source, path=path))
 
 
 def build(deck: Deck) -> Netlist:

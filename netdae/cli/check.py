@@ -1,0 +1,172 @@
+"""``netdae check FILE [--json]``: read a netlist and summarise what netdae understood.
+
+Parses and elaborates the netlist (subcircuits expanded, parameters
+evaluated) and prints the title, nodes, element counts by letter, models,
+analyses, options and diagnostics; ``--json`` prints the same as one JSON
+object. A netlist error is reported by the dispatcher as one line
+``netdae: error: file:line:col: ...`` with exit status 2.
+
+The summary is built by :func:`summarize` (a plain dict) and printed by
+:func:`format_summary`; further sections (e.g. topological findings) are
+added to the dict by :func:`summarize` and shown by :func:`format_summary`
+under their key.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+
+__all__ = ["add_parser", "main", "summarize", "format_summary"]
+
+#: Options shown in the text summary even at their default values.
+_MAIN_OPTIONS = ("reltol", "abstol", "vntol", "chgtol", "gmin", "method", "maxord", "temp", "tnom")
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "check",
+        help="read a netlist and summarise it (nodes, elements, analyses, diagnostics)",
+        description="Parse and elaborate a netlist (subcircuits expanded, parameters evaluated) "
+                    "and print what netdae understood. Exit status 0 when the netlist is fine, "
+                    "2 on a netlist error.",
+    )
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    return p
+
+
+def _analysis(a) -> dict:
+    out = {"type": type(a).__name__.removesuffix("Analysis").lower()}
+    for f in dataclasses.fields(a):
+        if f.name == "location":
+            continue
+        value = getattr(a, f.name)
+        if f.name == "sweeps":
+            value = [dataclasses.asdict(s) for s in value]
+        out[f.name] = value
+    if a.location is not None:
+        out["line"] = a.location.line
+    return out
+
+
+def summarize(circuit) -> dict:
+    """The summary of an elaborated circuit as plain, JSON-ready data.
+
+    Parameters
+    ----------
+    circuit : netdae.circuit.Circuit
+
+    Returns
+    -------
+    dict
+        ``title``, ``path``, ``nodes`` (names), ``elements`` (count per
+        letter), ``kinds`` (count per element kind), ``models`` (name to
+        type), ``analyses`` (one dict per analysis), ``options`` (all
+        option values, ``extra`` included), ``params`` (top-level
+        parameters), ``ic``, ``nodeset``, ``saves``, ``diagnostics`` (dicts
+        with ``severity``, ``message``, ``location``).
+    """
+    kinds: dict[str, int] = {}
+    for el in circuit.elements:
+        kinds[el.kind] = kinds.get(el.kind, 0) + 1
+    options = {f.name: getattr(circuit.options, f.name) for f in dataclasses.fields(circuit.options)}
+    return {
+        "title": circuit.title,
+        "path": circuit.path,
+        "nodes": list(circuit.nodes),
+        "elements": circuit.count_by_letter(),
+        "kinds": dict(sorted(kinds.items())),
+        "models": {name: m.type for name, m in circuit.models.items()},
+        "analyses": [_analysis(a) for a in circuit.analyses],
+        "options": options,
+        "params": dict(circuit.params),
+        "ic": dict(circuit.ic),
+        "nodeset": dict(circuit.nodeset),
+        "saves": list(circuit.saves),
+        "diagnostics": [
+            {"severity": d.severity, "message": d.message,
+             "location": str(d.location) if d.location else None}
+            for d in circuit.diagnostics
+        ],
+    }
+
+
+def _fmt(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _analysis_text(a: dict) -> str:
+    kind = a["type"]
+    if kind == "op":
+        return ".op"
+    if kind == "tran":
+        text = f".tran tstep={_fmt(a['tstep'])} tstop={_fmt(a['tstop'])}"
+        if a["tstart"]:
+            text += f" tstart={_fmt(a['tstart'])}"
+        if a["tmax"] is not None:
+            text += f" tmax={_fmt(a['tmax'])}"
+        return text + (" uic" if a["uic"] else "")
+    if kind == "ac":
+        return f".ac {a['variation']} {a['points']} {_fmt(a['fstart'])} {_fmt(a['fstop'])}"
+    sweeps = "; ".join(f"{s['source']} {_fmt(s['start'])} to {_fmt(s['stop'])} step {_fmt(s['step'])}"
+                       for s in a["sweeps"])
+    return f".dc {sweeps}"
+
+
+_STANDARD = {"title", "path", "nodes", "elements", "kinds", "models", "analyses", "options", "params",
+             "ic", "nodeset", "saves", "diagnostics"}
+
+
+def format_summary(summary: dict) -> str:
+    """The summary as text for a terminal."""
+    lines = [f"{summary['path']}: {summary['title'] or '(no title)'}"]
+    nodes = summary["nodes"]
+    lines.append(f"  nodes ({len(nodes)}): " + (" ".join(nodes[:20]) + (" ..." if len(nodes) > 20 else "")
+                                                if nodes else "none"))
+    total = sum(summary["elements"].values())
+    counts = ", ".join(f"{k.upper()} {v}" for k, v in summary["elements"].items())
+    lines.append(f"  elements ({total}): {counts or 'none'}")
+    if summary["models"]:
+        lines.append("  models: " + ", ".join(f"{n} ({t})" for n, t in summary["models"].items()))
+    lines.append("  analyses: " + ("; ".join(_analysis_text(a) for a in summary["analyses"]) or "none"))
+    opts = summary["options"]
+    shown = [f"{k}={_fmt(opts[k])}" for k in _MAIN_OPTIONS if opts.get(k) is not None]
+    shown += [f"{k}={_fmt(v)}" for k, v in opts["extra"].items()]
+    if opts.get("interp"):
+        shown.append("interp")
+    lines.append("  options: " + " ".join(shown))
+    if summary["params"]:
+        lines.append("  params: " + " ".join(f"{k}={_fmt(v)}" for k, v in summary["params"].items()))
+    for key in ("ic", "nodeset"):
+        if summary[key]:
+            lines.append(f"  .{key}: " + " ".join(f"v({n})={_fmt(v)}" for n, v in summary[key].items()))
+    if summary["saves"]:
+        lines.append("  saves: " + " ".join(summary["saves"]))
+    for key, value in summary.items():
+        if key in _STANDARD:
+            continue
+        if isinstance(value, list):
+            lines.append(f"  {key}:" + ("" if value else " none"))
+            lines.extend(f"    {item}" for item in value)
+        else:
+            lines.append(f"  {key}: {value}")
+    diags = summary["diagnostics"]
+    lines.append(f"  diagnostics: {len(diags) or 'none'}")
+    for d in diags:
+        where = f"{d['location']}: " if d["location"] else ""
+        lines.append(f"    {where}{d['severity']}: {d['message']}")
+    return "\n".join(lines)
+
+
+def main(args) -> int:
+    from ..netlist import load
+
+    circuit = load(args.file)
+    summary = summarize(circuit)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(format_summary(summary))
+    return 0
