@@ -252,6 +252,10 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
             if spec.tran is not None:
                 raise error(card, tok.start, "more than one transient function", syntax)
             i = _waveform(card, toks, i, spec, syntax)
+            if kind == "isource" and spec.tran[2]:
+                key = next(iter(spec.tran[2]))
+                raise error(card, spec.tran[2][key][1], f"PWL {key}= is not available on current sources "
+                            "(ngspice 39 rejects it)", syntax, hint="write the repeated or delayed points out")
         elif word in _UNSUPPORTED_SOURCE:
             raise error(card, tok.start, f"'{word}' ({_UNSUPPORTED_SOURCE[word]}) is not supported by netdae",
                         syntax, hint=f"supported functions: {SOURCE_FUNCTIONS}")

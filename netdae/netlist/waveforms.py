@@ -83,6 +83,9 @@ __all__ = [
 #: differ from the corner found by reducing t modulo per by a few ulps.
 CORNER_RTOL = 1e-12
 
+#: A PWL time within this many ulps of a point is on the point (ngspice's AlmostEqualUlps).
+_PWL_EQUAL_ULPS = 3
+
 _TWO_PI = 2.0 * math.pi
 _DEG = math.pi / 180.0
 
@@ -638,10 +641,11 @@ class Pwl(Waveform):
         times = np.broadcast_to(times, (tau.size, times.shape[1]))
         values = np.broadcast_to(values, times.shape)
         n = times.shape[1]
-        left = np.count_nonzero(times < tau[:, None], axis=1)  # first index with times >= tau
+        tol = _PWL_EQUAL_ULPS * np.spacing(np.abs(tau))
+        left = np.count_nonzero(times < (tau - tol)[:, None], axis=1)  # first point not before tau
         rows = np.arange(tau.size)
         li = np.minimum(left, n - 1)
-        on_point = (left < n) & (times[rows, li] == tau)
+        on_point = (left < n) & (times[rows, li] <= tau + tol)
         lo = np.maximum(left - 1, 0)
         t_lo, t_hi = times[rows, lo], times[rows, li]
         v_lo, v_hi = values[rows, lo], values[rows, li]
