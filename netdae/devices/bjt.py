@@ -246,8 +246,8 @@ class BjtFamily(DeviceFamily):
         currents = [(self.ci, self.ei), (self.bi, self.ei), (self.s, self.sub_con), (self.b, self.bi),
                     (self.c, self.ci), (self.e, self.ei)]
         charges = [(self.bi, self.ei), (self.bi, self.ci), (self.b, self.ci), (self.s, self.sub_con)]
-        self.stamps = BranchStamps(controls, currents, charges if self.has_charge else [], _CURRENT_DEPS,
-                                   _CHARGE_DEPS if self.has_charge else [])
+        self.stamps = BranchStamps(len(self.elements), controls, currents, charges if self.has_charge else [],
+                                   _CURRENT_DEPS, _CHARGE_DEPS if self.has_charge else [])
         return self.stamps.coordinates()
 
     def bind(self, slots: SlotMap, n: int) -> None:

@@ -48,10 +48,8 @@ _CURRENT_SIGNS = np.array([-1.0, 1.0, 1.0, -1.0])[:, None, None]
 _CHARGE_SIGNS = -_CURRENT_SIGNS
 
 
-def _pairs(nodes) -> tuple[np.ndarray, np.ndarray]:
-    arr = np.asarray(nodes, dtype=np.int64)
-    if arr.size == 0:
-        return np.empty((0, 0), dtype=np.int64), np.empty((0, 0), dtype=np.int64)
+def _pairs(nodes, n: int) -> tuple[np.ndarray, np.ndarray]:
+    arr = np.asarray(nodes, dtype=np.int64).reshape(-1, 2, n)
     return arr[:, 0, :], arr[:, 1, :]
 
 
@@ -60,6 +58,8 @@ class BranchStamps:
 
     Parameters
     ----------
+    n : int
+        Number of instances N.
     controls : array_like of int, shape (nc, 2, N)
         ``controls[k] = (p_k, m_k)``: node indices (ground ``-1``) per instance.
     currents : array_like of int, shape (ni, 2, N)
@@ -76,14 +76,14 @@ class BranchStamps:
     numpy calls over arrays of ``N`` times the number of pairs.
     """
 
-    def __init__(self, controls, currents, charges, current_deps: Sequence[tuple[int, int]],
+    def __init__(self, n: int, controls, currents, charges, current_deps: Sequence[tuple[int, int]],
                  charge_deps: Sequence[tuple[int, int]]):
-        self.ctrl_p, self.ctrl_m = _pairs(controls)
-        self.cur_a, self.cur_b = _pairs(currents)
-        self.chg_a, self.chg_b = _pairs(charges)
+        self.n_instances = int(n)
+        self.ctrl_p, self.ctrl_m = _pairs(controls, n)
+        self.cur_a, self.cur_b = _pairs(currents, n)
+        self.chg_a, self.chg_b = _pairs(charges, n)
         self.current_deps = np.asarray(current_deps, dtype=np.int64).reshape(-1, 2)
         self.charge_deps = np.asarray(charge_deps, dtype=np.int64).reshape(-1, 2)
-        self.n_instances = self.ctrl_p.shape[1] if self.ctrl_p.size else 0
         # 0/1 matrices summing per-dependence terms into their outputs (linearisation)
         self._cur_sum = self._summation(self.current_deps, self.cur_a.shape[0])
         self._chg_sum = self._summation(self.charge_deps, self.chg_a.shape[0])

@@ -221,7 +221,8 @@ class DiodeFamily(DeviceFamily):
             currents.append((self.anode, self.inner))
             deps.append((1, 1))
         charges = [junction] if self.has_charge else []
-        self.stamps = BranchStamps(controls, currents, charges, deps, [(0, 0)] if self.has_charge else [])
+        self.stamps = BranchStamps(len(self.elements), controls, currents, charges, deps,
+                                   [(0, 0)] if self.has_charge else [])
         return self.stamps.coordinates()
 
     def bind(self, slots: SlotMap, n: int) -> None:

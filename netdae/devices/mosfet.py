@@ -406,7 +406,7 @@ class MosfetFamily(DeviceFamily):
         currents = [(self.di, self.si), (self.b, self.si), (self.b, self.di), (self.d, self.di),
                     (self.s, self.si)]
         charges = [(self.g, self.si), (self.di, self.si), (self.b, self.si)] if self.has_charge else []
-        self.stamps = BranchStamps(controls, currents, charges, _CURRENT_DEPS,
+        self.stamps = BranchStamps(len(self.elements), controls, currents, charges, _CURRENT_DEPS,
                                    _CHARGE_DEPS if self.has_charge else [])
         return self.stamps.coordinates()
 

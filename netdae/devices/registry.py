@@ -7,6 +7,7 @@ must have a nonlinear family listed here.
 from __future__ import annotations
 
 from .base import DeviceFamily
+from .behavioral import BehaviouralFamily
 from .bjt import BjtFamily
 from .diode import DiodeFamily
 from .mosfet import MosfetFamily
@@ -14,7 +15,7 @@ from .mosfet import MosfetFamily
 __all__ = ["FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily)
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, BehaviouralFamily)
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:

@@ -1,0 +1,165 @@
+"""Behavioural sources: ``B`` (and ``E``/``G`` with ``value=``) voltage and current sources.
+
+Syntax: ``Bname n+ n- V={expr}`` (kind ``bvoltage``) or ``Bname n+ n- I={expr}``
+(kind ``bcurrent``), the expression over ``V(node)``, ``V(a, b)``,
+``I(vname)`` and ``time`` (:mod:`netdae.netlist.expr`).
+
+Equations (signs as ngspice's)
+------------------------------
+- ``bcurrent``: the current ``expr(x, t)`` flows from n+ through the source
+  to n-: ``phi[n+] -= expr``, ``phi[n-] += expr``.
+- ``bvoltage``: a branch-current unknown ``i`` (``i(bname)``, from n+
+  through the source to n-, as for a V source) with
+  ``phi[n+] -= i``, ``phi[n-] += i`` and the branch equation
+  ``v(n+) - v(n-) - expr(x, t) = 0``.
+
+The Jacobian is exact: forward-mode differentiation of the expression tree
+(:mod:`netdae.devices.autodiff`). Sources whose expressions have the same
+structure (same tree shape, any constants, any nodes) are evaluated
+together in one vectorised pass: the cost of an evaluation grows with the
+number of *distinct* expression shapes, not with the number of sources (a
+subcircuit with B sources instantiated a hundred times costs one pass per
+source of the subcircuit).
+
+A non-finite value marks the evaluation as failed (recoverable: the solver
+cuts the step or moves on). A non-finite derivative of a finite value (the
+slope of ``sqrt(V(a))`` or ``ln`` at 0, where Newton iterations often start)
+enters the Jacobian as 0 for that iteration: the residual, not the
+Jacobian, decides convergence.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import CircuitError
+from ..netlist.expr import Current
+from .autodiff import ExpressionGroup, group_by_structure
+from .base import Accumulator, DeviceFamily, SlotMap
+from .companion import BranchStamps
+
+__all__ = ["BehaviouralFamily"]
+
+_VOLTAGE, _CURRENT = "bvoltage", "bcurrent"
+#: Index of the ground node in stamp arrays (netdae.mna.layout.GND).
+GND = -1
+
+
+class _Group:
+    """Sources of one kind and one expression structure."""
+
+    def __init__(self, kind: str, elements: list, exprs: ExpressionGroup):
+        self.kind = kind
+        self.elements = elements
+        self.exprs = exprs
+        self.stamps: BranchStamps | None = None
+
+
+class BehaviouralFamily(DeviceFamily):
+    """All behavioural voltage and current sources of a circuit.
+
+    Raises
+    ------
+    CircuitError
+        A source without an expression, with instance parameters, or whose
+        expression references the current of an element that has no branch
+        current (``I(r1)``).
+    """
+
+    kinds = frozenset({_VOLTAGE, _CURRENT})
+
+    def __init__(self, elements, circuit) -> None:
+        super().__init__(elements, circuit)
+        for el in self.elements:
+            where = f"{el.location}: " if el.location else ""
+            if el.expr is None:
+                raise CircuitError(f"{where}{el.name}: behavioural source without an expression",
+                                   elements=(el.name,))
+            if el.params:
+                names = ", ".join(sorted(el.params))
+                raise CircuitError(f"{where}{el.name}: instance parameters ({names}) of behavioural sources "
+                                   "are not supported by netdae", elements=(el.name,))
+        self.groups: list[_Group] = []
+        for kind in (_VOLTAGE, _CURRENT):
+            els = [el for el in self.elements if el.kind == kind]
+            for idx in group_by_structure([el.expr for el in els]):
+                members = [els[i] for i in idx]
+                self.groups.append(_Group(kind, members, ExpressionGroup([el.expr for el in members])))
+
+    # -- topology ----------------------------------------------------------
+    def add_branches(self, layout) -> None:
+        for el in self.elements:
+            if el.kind == _VOLTAGE:
+                layout.add_branch(el.name)
+
+    def _leaf_pair(self, layout, leaf, owner) -> tuple[int, int]:
+        if isinstance(leaf, Current):
+            if not layout.has_branch(leaf.element):
+                where = f"{owner.location}: " if owner.location else ""
+                raise CircuitError(
+                    f"{where}{owner.name}: I({leaf.element}) refers to an element without a branch current",
+                    elements=(owner.name, leaf.element),
+                    hint="only voltage sources, inductors, E/H sources and behavioural voltage sources "
+                    "have a current unknown; measure a current with a 0 V source in series",
+                )
+            return layout.branch(leaf.element), GND
+        return layout.node(leaf.pos), (GND if leaf.neg is None else layout.node(leaf.neg))
+
+    def coordinates(self, layout):
+        rows, cols = [], []
+        for grp in self.groups:
+            n = len(grp.elements)
+            controls = []
+            for column in grp.exprs.leaves:
+                pairs = [self._leaf_pair(layout, leaf, el) for leaf, el in zip(column, grp.elements)]
+                controls.append((np.array([p for p, _ in pairs]), np.array([m for _, m in pairs])))
+            plus = layout.nodes_of([el.nodes[0] for el in grp.elements])
+            minus = layout.nodes_of([el.nodes[1] for el in grp.elements])
+            n_leaves = len(controls)
+            if grp.kind == _CURRENT:
+                currents = [(plus, minus)]
+                deps = [(0, k) for k in range(n_leaves)]
+            else:
+                branch = np.array([layout.branch(el.name) for el in grp.elements], dtype=np.int64)
+                ground = np.full(n, GND, dtype=np.int64)
+                controls += [(plus, minus), (branch, ground)]
+                currents = [(branch, ground), (plus, minus)]
+                deps = [(0, k) for k in range(n_leaves + 1)] + [(1, n_leaves + 1)]
+            grp.stamps = BranchStamps(n, controls, currents, [], deps, [])
+            r, c = grp.stamps.coordinates()
+            rows.append(r)
+            cols.append(c)
+        if not rows:
+            return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        return np.concatenate(rows), np.concatenate(cols)
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        for grp in self.groups:
+            grp.stamps.bind(slots, n)
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        return [(el.nodes[0], el.nodes[1]) for el in self.elements if el.kind == _VOLTAGE]
+
+    # -- evaluation --------------------------------------------------------
+    def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        ok = True
+        with np.errstate(all="ignore"):
+            for grp in self.groups:
+                v = grp.stamps.voltages(x)
+                n_leaves = grp.exprs.n_leaves
+                value, deriv = grp.exprs.evaluate(v[:n_leaves], t)
+                if not math.isfinite(float(deriv.sum())):
+                    deriv = np.where(np.isfinite(deriv), deriv, 0.0)
+                if grp.kind == _CURRENT:
+                    currents, dcur = value[None, :], deriv
+                else:
+                    n = value.size
+                    currents = np.stack([value - v[n_leaves], v[n_leaves + 1]])
+                    dcur = np.concatenate([deriv, -np.ones((1, n)), np.ones((1, n))])
+                grp.stamps.add(acc, currents, dcur, np.empty((0, value.size)), None, jacobian=jacobian)
+                ok = ok and math.isfinite(float(value.sum()))
+        if not ok:
+            acc.ok = False
+        return None
