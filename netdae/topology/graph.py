@@ -53,6 +53,7 @@ __all__ = [
     "VOLTAGE",
     "CURRENT",
     "CONTROLLED_KINDS",
+    "ROLES",
     "CircuitGraph",
     "build_graph",
 ]
@@ -76,6 +77,9 @@ class _Spec:
     branches: tuple[tuple[int, int, int], ...]
     attachments: tuple[tuple[int, str], ...] = ()
 
+
+#: Kinds of attachment (terminals that carry no branch current).
+ROLES = ("controlling input", "input", "gate", "substrate")
 
 _CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
 
@@ -125,8 +129,8 @@ class CircuitGraph:
         Every element of the circuit, in netlist order.
     attach_node, attach_element : ndarray of int64, shape (a,)
         Terminals that carry no branch current.
-    attach_role : tuple of str, shape (a,)
-        What each attachment is (``"gate"``, ``"controlling input"`` ...).
+    attach_role : ndarray of int64, shape (a,)
+        What each attachment is: an index into :data:`ROLES`.
     terminal_count : ndarray of int64, shape (n,)
         Element terminals (branch ends and attachments) on each node.
     self_loops : tuple of (int, int)
@@ -149,7 +153,7 @@ class CircuitGraph:
     element_kinds: tuple[str, ...]
     attach_node: np.ndarray
     attach_element: np.ndarray
-    attach_role: tuple[str, ...]
+    attach_role: np.ndarray
     terminal_count: np.ndarray
     self_loops: tuple[tuple[int, int], ...]
     notes: tuple[tuple[str, str], ...]
@@ -175,21 +179,33 @@ def _diode_has_charge(circuit: Circuit, el: Element) -> bool:
     return any(model.params.get(p, 0.0) != 0.0 for p in DIODE_CHARGE_PARAMS)
 
 
-def _value_class(el: Element, base: int, notes: list, violations: list) -> int | None:
-    """Class of a passive branch after looking at its value (None: no branch)."""
-    value = el.value
-    if value is None:
-        return base
-    if value < 0.0:
-        violations.append((el.name, f"negative value {value:g}"))
-        return base
-    if value == 0.0 and base == CAPACITIVE:
-        notes.append((el.name, "zero capacitance: stores no charge, left out of the analysis"))
-        return None
-    if value == 0.0 and base == INDUCTIVE:
-        notes.append((el.name, "zero inductance: its equation is v = 0, analysed as a 0 V source"))
-        return VOLTAGE
-    return base
+def _passive_values(circuit: Circuit, members: np.ndarray) -> np.ndarray:
+    """Values of R, C, L elements, NaN where none is given (model-only cards)."""
+    els = circuit.elements
+    return np.array([np.nan if els[k].value is None else els[k].value for k in members], dtype=float)
+
+
+def _check(circuit: Circuit, kinds: list[str], counts: np.ndarray) -> np.ndarray:
+    """Kind codes (indices into :data:`KIND_TABLE`); raise for an unknown kind or a wrong node count."""
+    unknown = set(kinds).difference(KIND_TABLE)
+    if unknown:
+        el = next(el for el in circuit.elements if el.kind in unknown)
+        raise CircuitError(
+            f"{el.name}: element kind '{el.kind}' is unknown to the topological analysis",
+            elements=(el.name,),
+            hint=f"known kinds: {', '.join(sorted(KIND_TABLE))}",
+        )
+    kind_code = {k: i for i, k in enumerate(KIND_TABLE)}
+    code = np.fromiter((kind_code[k] for k in kinds), dtype=np.int64, count=len(kinds))
+    for kind, spec in KIND_TABLE.items():
+        bad = np.flatnonzero((code == kind_code[kind]) & ~np.isin(counts, spec.node_counts))
+        if len(bad):
+            el = circuit.elements[bad[0]]
+            raise CircuitError(
+                f"{el.name}: a {kind} has {' or '.join(map(str, spec.node_counts))} nodes, not {len(el.nodes)}",
+                elements=(el.name,),
+            )
+    return code
 
 
 def build_graph(circuit: Circuit) -> CircuitGraph:
@@ -211,89 +227,88 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
 
     Notes
     -----
-    One pass over the elements (Python, O(m)); everything downstream works
-    on the arrays.
+    A few list comprehensions over the elements (names, kinds, nodes,
+    values), then array operations per element kind: O(m) with a small
+    constant. Diode models are looked up per diode.
     """
+    els = circuit.elements
+    kinds = [el.kind for el in els]
+    counts = np.fromiter((len(el.nodes) for el in els), dtype=np.int64, count=len(els))
+    code = _check(circuit, kinds, counts)
     index: dict[str, int] = {GROUND: 0}
     for name in circuit.nodes:
         index.setdefault(name, len(index))
-
-    def node(name: str) -> int:
-        idx = index.get(name)
-        if idx is None:
-            idx = index[name] = len(index)
-        return idx
+    flat = [nm for el in els for nm in el.nodes]
+    ids = np.fromiter((index.setdefault(nm, len(index)) for nm in flat), dtype=np.int64, count=len(flat))
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
 
     bu, bv, bcls, bctl, bel = [], [], [], [], []
     an, ae, arole = [], [], []
-    terminals: list[int] = []
-    self_loops: list[tuple[int, int]] = []
-    notes: list[tuple[str, str]] = []
-    violations: list[tuple[str, str]] = []
-    names, kinds = [], []
-    for k, el in enumerate(circuit.elements):
-        spec = KIND_TABLE.get(el.kind)
-        if spec is None:
-            raise CircuitError(
-                f"{el.name}: element kind '{el.kind}' is unknown to the topological analysis",
-                elements=(el.name,),
-                hint=f"known kinds: {', '.join(sorted(KIND_TABLE))}",
-            )
-        if len(el.nodes) not in spec.node_counts:
-            raise CircuitError(
-                f"{el.name}: a {el.kind} has {' or '.join(map(str, spec.node_counts))} nodes, not {len(el.nodes)}",
-                elements=(el.name,),
-            )
-        names.append(el.name)
-        kinds.append(el.kind)
-        ids = [node(nm) for nm in el.nodes]
-        terminals.extend(ids)
-        controlled = el.kind in CONTROLLED_KINDS
+    notes: list[tuple[int, str]] = []
+    violations: list[tuple[int, str]] = []
+    loops_k = []
+    for kind_index, (kind, spec) in enumerate(KIND_TABLE.items()):
+        members = np.flatnonzero(code == kind_index)
+        if len(members) == 0:
+            continue
+        controlled = kind in CONTROLLED_KINDS
         if controlled:
-            violations.append((el.name, el.kind))
+            violations += [(int(k), kind) for k in members]
+        keep, cls = members, None
+        if kind in ("resistor", "capacitor", "inductor"):
+            value = _passive_values(circuit, members)
+            violations += [(int(k), f"negative value {x:g}") for k, x in zip(members, value) if x < 0.0]
+            zero = value == 0.0
+            if kind == "capacitor":
+                notes += [(int(k), "zero capacitance: stores no charge, left out of the analysis")
+                          for k in members[zero]]
+                keep = members[~zero]
+            elif kind == "inductor":
+                notes += [(int(k), "zero inductance: its equation is v = 0, analysed as a 0 V source")
+                          for k in members[zero]]
+                cls = np.where(zero, VOLTAGE, INDUCTIVE)
         for c, a, b in spec.branches:
-            if el.kind in ("resistor", "capacitor", "inductor"):
-                c = _value_class(el, c, notes, violations)
-                if c is None:
-                    continue
-            bu.append(ids[a])
-            bv.append(ids[b])
-            bcls.append(c)
-            bctl.append(controlled)
-            bel.append(k)
-        if el.kind == "diode" and _diode_has_charge(circuit, el):
-            bu.append(ids[0])
-            bv.append(ids[1])
-            bcls.append(CAPACITIVE)
-            bctl.append(False)
-            bel.append(k)
+            bu.append(ids[start[keep] + a])
+            bv.append(ids[start[keep] + b])
+            bcls.append(np.full(len(keep), c) if cls is None else cls)
+            bctl.append(np.full(len(keep), controlled))
+            bel.append(keep)
+        if kind == "diode":
+            charged = np.array([k for k in members if _diode_has_charge(circuit, els[k])], dtype=np.int64)
+            bu.append(ids[start[charged]])
+            bv.append(ids[start[charged] + 1])
+            bcls.append(np.full(len(charged), CAPACITIVE))
+            bctl.append(np.zeros(len(charged), dtype=bool))
+            bel.append(charged)
         for pos, role in spec.attachments:
-            if pos < len(ids):
-                an.append(ids[pos])
-                ae.append(k)
-                arole.append(role)
-        if el.kind in TWO_TERMINAL_BRANCH_KINDS and ids[0] == ids[1]:
-            self_loops.append((k, ids[0]))
+            present = members[counts[members] > pos]
+            an.append(ids[start[present] + pos])
+            ae.append(present)
+            arole.append(np.full(len(present), ROLES.index(role)))
+        if kind in TWO_TERMINAL_BRANCH_KINDS:
+            loops_k.append(members[ids[start[members]] == ids[start[members] + 1]])
 
     n = len(index)
     node_names = [""] * n
     for name, i in index.items():
         node_names[i] = name
-    as_int = lambda seq: np.asarray(seq, dtype=np.int64)  # noqa: E731
+    cat = lambda parts, dtype=np.int64: np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype)  # noqa: E731
+    loops_k = np.sort(cat(loops_k))
+    names = tuple(el.name for el in els)
     return CircuitGraph(
         node_names=tuple(node_names),
-        u=as_int(bu),
-        v=as_int(bv),
-        cls=np.asarray(bcls, dtype=np.int8),
-        controlled=np.asarray(bctl, dtype=bool),
-        element=as_int(bel),
-        element_names=tuple(names),
+        u=cat(bu),
+        v=cat(bv),
+        cls=cat(bcls, np.int8),
+        controlled=cat(bctl, bool),
+        element=cat(bel),
+        element_names=names,
         element_kinds=tuple(kinds),
-        attach_node=as_int(an),
-        attach_element=as_int(ae),
-        attach_role=tuple(arole),
-        terminal_count=np.bincount(as_int(terminals), minlength=n).astype(np.int64),
-        self_loops=tuple(self_loops),
-        notes=tuple(notes),
-        hypothesis_violations=tuple(violations),
+        attach_node=cat(an),
+        attach_element=cat(ae),
+        attach_role=cat(arole),
+        terminal_count=np.bincount(ids, minlength=n).astype(np.int64),
+        self_loops=tuple((int(k), int(ids[start[k]])) for k in loops_k),
+        notes=tuple((names[k], text) for k, text in sorted(notes)),
+        hypothesis_violations=tuple((names[k], why) for k, why in sorted(violations)),
     )

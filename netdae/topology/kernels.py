@@ -9,6 +9,7 @@ explicit listing of a loop walks it in Python, O(length of the loop).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import networkx as nx
@@ -18,6 +19,7 @@ from scipy.sparse import csgraph
 
 __all__ = [
     "components",
+    "Groups",
     "group_by",
     "Forest",
     "spanning_forest",
@@ -44,8 +46,36 @@ def components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return csgraph.connected_components(adj, directed=False)[1]
 
 
-def group_by(keys: np.ndarray, values: np.ndarray) -> dict[int, np.ndarray]:
-    """``{key: values with that key}``, values kept in their original order.
+class Groups(Mapping):
+    """Values grouped by integer key: a read-only mapping ``key -> ndarray`` of views.
+
+    Attributes
+    ----------
+    keys : ndarray, shape (g,)
+        Distinct keys, ascending.
+    starts, ends : ndarray, shape (g,)
+        Slice of ``values`` holding each key's values.
+    values : ndarray, shape (k,)
+        All values, sorted by key (stable: original order within a key).
+    """
+
+    def __init__(self, keys: np.ndarray, starts: np.ndarray, ends: np.ndarray, values: np.ndarray):
+        self.keys, self.starts, self.ends, self.values = keys, starts, ends, values
+        self._position = dict(zip(keys.tolist(), range(len(keys))))
+
+    def __getitem__(self, key) -> np.ndarray:
+        i = self._position[int(key)]
+        return self.values[self.starts[i]:self.ends[i]]
+
+    def __iter__(self):
+        return iter(self._position)
+
+    def __len__(self) -> int:
+        return len(self._position)
+
+
+def group_by(keys: np.ndarray, values: np.ndarray) -> Groups:
+    """Group ``values`` by ``keys`` in one stable sort, O(k log k).
 
     Parameters
     ----------
@@ -53,15 +83,15 @@ def group_by(keys: np.ndarray, values: np.ndarray) -> dict[int, np.ndarray]:
 
     Returns
     -------
-    dict of int to ndarray
+    Groups
+        ``{key: values with that key}``, values kept in their original order.
     """
-    if len(keys) == 0:
-        return {}
+    keys = np.asarray(keys, dtype=np.int64)
     order = np.argsort(keys, kind="stable")
     sk = keys[order]
-    cuts = np.flatnonzero(np.diff(sk)) + 1
-    starts = np.concatenate(([0], cuts))
-    return {int(sk[s]): chunk for s, chunk in zip(starts, np.split(values[order], cuts))}
+    starts = np.flatnonzero(np.concatenate(([True], sk[1:] != sk[:-1]))) if len(sk) else np.zeros(0, np.int64)
+    ends = np.append(starts[1:], len(sk)).astype(np.int64)
+    return Groups(sk[starts], starts, ends, np.asarray(values)[order])
 
 
 @dataclass(frozen=True)

@@ -32,12 +32,22 @@ class Loop:
     nodes: tuple[str, ...]
     controlled: bool = False
 
-    def path(self) -> str:
-        """The loop as text: ``"0 -v1- a -v2- 0"``."""
-        parts = []
-        for node, el in zip(self.nodes, self.elements):
-            parts.append(f"{node} -{el}-")
-        return " ".join(parts + [self.nodes[0]])
+    def path(self, limit: int | None = None) -> str:
+        """The loop as text: ``"0 -v1- a -v2- 0"``.
+
+        With ``limit``, a loop of more elements shows its first and last
+        ``limit // 2`` steps around an ellipsis.
+
+        >>> Loop(("v1", "c1", "c2"), ("0", "a", "b")).path()
+        '0 -v1- a -c1- b -c2- 0'
+        >>> Loop(tuple(f"c{k}" for k in range(6)), tuple(f"n{k}" for k in range(6))).path(limit=2)
+        'n0 -c0- ... (4 more elements) ... n5 -c5- n0'
+        """
+        steps = [f"{node} -{el}-" for node, el in zip(self.nodes, self.elements)]
+        if limit is not None and len(steps) > limit:
+            half = max(1, limit // 2)
+            steps = steps[:half] + [f"... ({len(steps) - 2 * half:,} more elements) ..."] + steps[-half:]
+        return " ".join(steps + [self.nodes[0]])
 
     def to_dict(self) -> dict:
         return {"elements": list(self.elements), "nodes": list(self.nodes), "controlled": self.controlled}
