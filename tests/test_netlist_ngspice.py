@@ -158,6 +158,19 @@ def test_number_tokens_read_as_ngspice_reads_them(tmp_path):
         assert circuit.element(f"v{k}").source.dc == pytest.approx(theirs, rel=1e-15, abs=0), tok
 
 
+PARAM_NUMBERS = ["10kOhm", "1M", "1MEG", "1mil", "2.2n", "1e3k", "3", ".5u", "2*1m"]
+
+
+def test_bare_parameter_values_read_as_numparam_reads_them(tmp_path):
+    params = " ".join(f"p{k}={tok}" for k, tok in enumerate(PARAM_NUMBERS, 1))
+    lines = ["params", f".param {params}"] + [f"V{k} n{k} 0 {{p{k}}}" for k in range(1, len(PARAM_NUMBERS) + 1)]
+    text = "\n".join(lines + [".op", ".end", ""])
+    vectors, _ = run_ngspice(text, tmp_path)
+    circuit = load(text)
+    for k, tok in enumerate(PARAM_NUMBERS, 1):
+        assert circuit.params[f"p{k}"] == pytest.approx(vectors[f"v(n{k})"][0], rel=1e-15), tok
+
+
 PARAM_EXPRESSIONS = ["10kOhm", "1mil", "1meg", "-2**2", "2**3**2", "(-2)**3", "pow(-2,3)", "pwr(-2,3)",
                      "2*-3", "1?2:3", "0?2:3||1", "nint(2.5)", "int(-2.7)", "5%3", "!0", "2+3*4^2",
                      "log(100)", "1<2&&3>2", "1==1", "1!=2", "abs(-3)+sgn(-2)", "min(3,4)*max(1,2)",

@@ -44,16 +44,25 @@ def parse_expr(card: Card, text: str, base: int, context: str, syntax=None) -> e
         raise NetlistError(f"{name}: {exc.message}", exc.location, expected=expected, hint=exc.hint) from None
 
 
-def parse_value(card: Card, tok: Token, syntax=None, what: str = "value") -> Val:
+def parse_value(card: Card, tok: Token, syntax=None, what: str = "value", *, numparam: bool = False) -> Val:
     """A number, ``{expr}``/``'expr'`` or parameter name as a :data:`Val`.
+
+    Parameters
+    ----------
+    numparam : bool
+        True where ngspice reads the value with its parameter code
+        (``.param``, subcircuit defaults, instance parameters): a bare
+        token is then an expression in the param context (``1mil`` = 1e-3,
+        ``4k7`` an error); otherwise a bare number is read as an element
+        value (``1mil`` = 25.4e-6, ``4k7`` = 4000).
 
     Raises
     ------
     NetlistError
         When the token is none of these.
     """
-    if tok.kind == EXPR:
-        node = parse_expr(card, tok.text, tok.start + 1, ex.PARAM, syntax)
+    if tok.kind == EXPR or (numparam and tok.kind == WORD):
+        node = parse_expr(card, tok.text, tok.start + (tok.kind == EXPR), ex.PARAM, syntax)
         return (node.value if type(node) is ex.Const else node), tok.start
     if tok.kind == WORD:
         number = parse_number(tok.text)
@@ -504,7 +513,7 @@ def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceC
             raise error(card, values[1].start, f"{key.text}= takes one value", syntax)
         if key.text in params:
             raise error(card, key.start, f"parameter '{key.text}' given twice", syntax)
-        params[key.text] = parse_value(card, values[0], syntax)
+        params[key.text] = parse_value(card, values[0], syntax, numparam=True)
     sub = words[-1]
     nodes = tuple(_GROUND_ALIASES.get(t.text, t.text) for t in words[:-1])
     return InstanceCard(toks[0].text, card, nodes, sub.text, sub.start, params)

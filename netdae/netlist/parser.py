@@ -124,7 +124,8 @@ def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist
         if len(values) != 1:
             raise error(card, values[1].start, f"{key.text}= takes one value", form)
         seen.add(key.text)
-        sub.defaults.append(ParamDef(key.text, parse_value(card, values[0], form), card, key.start))
+        sub.defaults.append(ParamDef(key.text, parse_value(card, values[0], form, numparam=True), card,
+                                     key.start))
     parent.subckts[name] = sub
     stack.append(sub)
 
@@ -168,7 +169,8 @@ def _param(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
                         hint="write name=value; a value with blanks needs {braces} or 'quotes'")
         if i + 2 >= n or toks[i + 2].kind not in (WORD, EXPR):
             raise error(card, toks[i + 1].start, f"missing value for parameter '{tok.text}'", form)
-        stack[-1].params.append(ParamDef(tok.text, parse_value(card, toks[i + 2], form), card, tok.start))
+        value = parse_value(card, toks[i + 2], form, f"value of '{tok.text}'", numparam=True)
+        stack[-1].params.append(ParamDef(tok.text, value, card, tok.start))
         i += 3
 
 

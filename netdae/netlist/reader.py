@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 from ..circuit import Diagnostic
 from ..errors import NetlistError, SourceLocation
-from .lines import STRING, WORD, Card, split_cards
+from .lines import EXPR, STRING, WORD, Card, split_cards
 
 __all__ = ["Deck", "read_deck"]
 
@@ -115,14 +115,25 @@ def read_deck(source, *, path: str | None = None) -> Deck:
     return deck
 
 
+def _arguments(card: Card) -> list[tuple[str, str, int]]:
+    """The words of a card as (lower-case text, original text, offset); quotes removed."""
+    out = []
+    for tok in card.tokens():
+        if tok.kind == WORD:
+            out.append((tok.text, card.raw[tok.start:tok.end], tok.start))
+        elif tok.kind in (STRING, EXPR):  # "name" or 'name'
+            raw = card.raw[tok.start + 1 : tok.end - 1]
+            out.append((raw.lower(), raw, tok.start))
+    return out
+
+
 def _file_argument(card: Card, index: int, what: str) -> tuple[str, int]:
-    toks = [t for t in card.tokens() if t.kind in (WORD, STRING)]
-    if len(toks) <= index:
+    args = _arguments(card)
+    if len(args) <= index:
         raise NetlistError(f"{_first_word(card)}: missing {what}", card.location(len(card.text)),
                            expected=_FORMS[_first_word(card)])
-    tok = toks[index]
-    name = tok.text if tok.kind == STRING else card.raw[tok.start:tok.end]
-    return name, tok.start
+    _, raw, start = args[index]
+    return raw, start
 
 
 _FORMS = {
@@ -152,10 +163,10 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             name, at = _file_argument(card, 1, "file name")
             out.extend(_include(card, at, _resolve(base, name), None, chain, shown, deck))
         elif word == ".lib":
-            args = [t for t in card.tokens() if t.kind in (WORD, STRING)][1:]
+            args = _arguments(card)[1:]
             if len(args) >= 2:
                 name, at = _file_argument(card, 1, "file name")
-                section = args[1].text.lower()
+                section = args[1][0]
                 out.extend(_include(card, at, _resolve(base, name), section, chain, shown, deck))
             elif len(args) == 1:
                 i = _skip_section(cards, i - 1)
@@ -176,7 +187,7 @@ def _skip_section(cards: list[Card], start: int) -> int:
         word = _first_word(cards[j])
         if word == ".endl":
             return j + 1
-        if word == ".lib" and len([t for t in cards[j].tokens() if t.kind in (WORD, STRING)]) == 2:
+        if word == ".lib" and len(_arguments(cards[j])) == 2:
             # a section opening inside a section (a .lib with a file name is a reference)
             raise NetlistError(".lib section inside another .lib section", cards[j].location(0),
                                hint=f"close the section opened at line {cards[start].line} with .endl first")
@@ -207,12 +218,12 @@ def _section(cards: list[Card], section: str, card: Card, at: int, target: str) 
     while j < len(cards):
         c = cards[j]
         if _first_word(c) == ".lib":
-            args = [t for t in c.tokens() if t.kind in (WORD, STRING)][1:]
+            args = _arguments(c)[1:]
             if len(args) == 1:
                 end = _skip_section(cards, j)
-                if args[0].text == section:
+                if args[0][0] == section:
                     return cards[j + 1 : end - 1]
-                found.append(args[0].text)
+                found.append(args[0][0])
                 j = end
                 continue
         j += 1

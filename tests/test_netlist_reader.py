@@ -1,0 +1,106 @@
+"""Files: .include and .lib from nested directories, cycles, missing files, text with a path."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from netdae.errors import NetlistError
+from netdae.netlist import load, parse
+
+DATA = Path(__file__).resolve().parent / "data" / "netlist"
+
+
+def test_includes_resolve_relative_to_each_file():
+    c = load(DATA / "main.cir")
+    assert c.title == "Include and library fixture: an RC ladder split over several files"
+    assert c.nodes == ["in", "mid", "out"]
+    # sub/part.inc: subcircuit with continuation lines and inline comments inside
+    assert c.element("r.x1.r1").value == 1e3 and c.element("r.x2.r1").value == 500.0  # rs={rlib}, fast corner
+    assert c.element("c.x1.c1").value == pytest.approx(100e-9)
+    # sub/deeper/leaf.inc and ../../common/models.inc, read inside the subcircuit
+    assert c.element("r.x2.rleak").value == 10e6
+    assert c.element("d.x1.dclamp").model == "x1:dclamp"
+    assert c.models["x2:dclamp"].params == {"is": 1e-14, "n": 1.05, "rs": 0.5}
+    # libs/corner.lib section fast, which includes libs/fast_params.inc
+    assert c.params == {"rlib": 500.0, "clib": pytest.approx(47e-9, rel=1e-15)}
+
+
+def test_locations_name_the_included_file():
+    c = load(DATA / "main.cir")
+    loc = c.element("d.x2.dclamp").location
+    assert Path(loc.file) == DATA / "sub" / "deeper" / "leaf.inc" and (loc.line, loc.column) == (3, 1)
+    r1 = c.element("r.x1.r1").location
+    assert Path(r1.file).name == "part.inc" and r1.line == 5
+    assert Path(c.models["x1:dclamp"].location.file).name == "models.inc"
+
+
+def test_include_paths_are_relative_to_the_including_file_not_the_cwd(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert load(DATA / "main.cir").element("r.x2.rleak").value == 10e6
+    rel = os.path.relpath(DATA / "main.cir", tmp_path)
+    assert load(rel).element("r.x2.rleak").value == 10e6
+
+
+def test_text_with_a_path_resolves_includes_from_that_directory():
+    text = "t\n.include sub/part.inc\nX1 a 0 stage\nV1 a 0 1\n.end\n"
+    c = load(text, path=str(DATA / "virtual.cir"))
+    assert c.path.endswith("virtual.cir") and c.element("r.x1.r1").value == 1e3
+    with pytest.raises(NetlistError, match="include file 'sub/part.inc' not found") as exc:
+        load(text)
+    assert (exc.value.location.file, exc.value.location.line, exc.value.location.column) == ("<string>", 2, 10)
+
+
+def test_lib_sections_select_one_corner(tmp_path):
+    (tmp_path / "top.cir").write_text(f"t\n.lib '{DATA / 'libs' / 'corner.lib'}' slow\nR1 a 0 {{rlib}}\n.end\n")
+    c = load(tmp_path / "top.cir")
+    assert c.params == {"rlib": 2e3, "clib": pytest.approx(220e-9, rel=1e-15)}
+
+
+def test_lib_section_may_pull_another_section_of_its_file(tmp_path):
+    (tmp_path / "top.cir").write_text(f"t\n.lib {DATA / 'libs' / 'self.lib'} outer\nR1 a 0 {{po + pi_}}\n.end\n")
+    assert load(tmp_path / "top.cir").element("r1").value == 3.0
+
+
+def test_section_definitions_in_the_main_file_are_skipped():
+    c = load("t\n.lib unused\nR9 a 0 9\n.endl\nR1 a 0 1\n.end\n")
+    assert [e.name for e in c.elements] == ["r1"]
+
+
+def test_missing_section_lists_the_sections():
+    with pytest.raises(NetlistError, match=r"section 'typ' not found in .*corner.lib' \(sections: fast, slow\)"):
+        load(f"t\n.lib {DATA / 'libs' / 'corner.lib'} typ\n.end\n")
+
+
+def test_include_cycle_names_the_chain():
+    with pytest.raises(NetlistError) as exc:
+        load(DATA / "cycle" / "a.cir")
+    err = exc.value
+    chain = err.message.split("include cycle: ")[1].split(" -> ")
+    assert [Path(p).name for p in chain] == ["b.inc", "c.inc", "b.inc"]
+    assert Path(err.location.file).name == "c.inc" and (err.location.line, err.location.column) == (1, 10)
+
+
+def test_missing_main_file_and_directory():
+    with pytest.raises(NetlistError, match="netlist file 'no/such.cir' not found"):
+        load("no/such.cir")
+    with pytest.raises(NetlistError, match="is a directory"):
+        load(f"t\n.include {DATA}\n.end\n")
+
+
+def test_quoted_names_keep_their_case(tmp_path):
+    sub = tmp_path / "Mixed Case"
+    sub.mkdir()
+    (sub / "Part.INC").write_text("R1 a 0 5\n")
+    c = load(f't\n.include "{sub / "Part.INC"}"\n.end\n')
+    assert c.element("r1").value == 5.0
+
+
+def test_parse_keeps_definitions_unevaluated():
+    net = parse(DATA / "main.cir")
+    stage = net.top.subckts["stage"]
+    assert stage.ports == ("a", "b") and [d.name for d in stage.defaults] == ["rs", "cs"]
+    assert [type(i).__name__ for i in net.top.items] == ["ElementCard", "InstanceCard", "InstanceCard"]
+    assert net.files[0].endswith("main.cir") and len(net.files) == 6
