@@ -70,7 +70,7 @@ MAX_LISTED = 100
 #: Steps of a loop spelled out in a message (the Loop itself keeps all).
 PATH_LIMIT = 16
 
-_ROLE = {"gate": "the gate of {}", "substrate": "the substrate of {}",
+_ROLE = {"gate": "the gate of {}",
          "controlling input": "the controlling input of {}", "input": "the input of op-amp {}"}
 
 _SEVERITY_ORDER = {"error": 0, "warning": 1, "note": 2}

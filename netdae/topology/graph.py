@@ -8,11 +8,12 @@ the structural theory of modified nodal analysis [1]_:
 class           elements
 ==============  =====================================================================
 capacitive      capacitors; the junction charge of a diode whose model has a nonzero
-                CJO (CJ0), CJP (CJSW) or TT, in parallel with its conductive branch
+                CJO (CJ0, CJ) or TT, in parallel with its junction
 inductive       inductors (of nonzero inductance)
-resistive       resistors; diodes; the conducting terminal pairs of transistors
-                (collector-emitter, base-emitter, base-collector; drain-source,
-                drain-bulk, source-bulk)
+resistive       resistors; diode junctions and series resistances; the conducting
+                terminal pairs of transistors (collector-emitter, base-emitter,
+                base-collector, substrate-collector; drain-source, drain-bulk,
+                source-bulk)
 voltage         independent V; and, marked *controlled*: E, H, B with a voltage
                 expression, the output of an ideal op-amp; an inductor of zero
                 inductance (its equation is then ``v = 0``: a 0 V source)
@@ -21,10 +22,15 @@ current         independent I; and, marked *controlled*: G, F, B with a current
 ==============  =====================================================================
 
 Terminals that carry no branch current -- the controlling inputs of E and G,
-the inputs of an ideal op-amp, a MOSFET gate, a BJT substrate -- are
+the inputs of an ideal op-amp, a MOSFET gate -- are
 *attachments*: they count as connections of a node (for dangling nodes and
 for the messages) but not as edges. A capacitor of zero capacitance stores no
 charge and stamps nothing, so it is left out (and reported as a note).
+
+A diode with a series resistance (model RS > 0) has, as in netdae's device
+model and in ngspice, an internal node ``<name>#internal`` between RS and
+the junction: its junction charge then sits behind RS, so a voltage source
+across the diode does not close a CV-loop through it.
 
 Transistor charges are not modelled as capacitive branches: transistors are
 outside the hypotheses of the index theorem anyway (the report says so), and
@@ -65,8 +71,8 @@ CAPACITIVE, INDUCTIVE, RESISTIVE, VOLTAGE, CURRENT = 0, 1, 2, 3, 4
 CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bjt", "mosfet"})
 
 #: Diode model parameters whose nonzero value gives the junction a charge
-#: (ngspice names and aliases: depletion CJO/CJ0, sidewall CJP/CJSW, transit time TT).
-DIODE_CHARGE_PARAMS = ("cjo", "cj0", "cj", "cjp", "cjsw", "tt")
+#: (ngspice names and aliases: depletion CJO/CJ0/CJ, transit time TT).
+DIODE_CHARGE_PARAMS = ("cjo", "cj0", "cj", "tt")
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +85,7 @@ class _Spec:
 
 
 #: Kinds of attachment (terminals that carry no branch current).
-ROLES = ("controlling input", "input", "gate", "substrate")
+ROLES = ("controlling input", "input", "gate")
 
 _CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
 
@@ -97,8 +103,8 @@ KIND_TABLE: dict[str, _Spec] = {
     "opamp": _Spec((4,), ((VOLTAGE, 0, 1),), ((2, "input"), (3, "input"))),
     "bvoltage": _Spec((2,), ((VOLTAGE, 0, 1),)),
     "bcurrent": _Spec((2,), ((CURRENT, 0, 1),)),
-    "diode": _Spec((2,), ((RESISTIVE, 0, 1),)),
-    "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)), ((3, "substrate"),)),
+    "diode": _Spec((2,), ()),  # see _diode_branches
+    "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0))),
     "mosfet": _Spec((4,), ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),)),
     "coupling": _Spec((0,), ()),
 }
@@ -106,7 +112,7 @@ KIND_TABLE: dict[str, _Spec] = {
 #: Kinds whose first two terminals form one branch (a self-loop when they coincide).
 TWO_TERMINAL_BRANCH_KINDS = frozenset(
     k for k, s in KIND_TABLE.items() if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet")
-)
+) | {"diode"}
 
 
 @dataclass(frozen=True)
@@ -172,11 +178,30 @@ class CircuitGraph:
         return m
 
 
-def _diode_has_charge(circuit: Circuit, el: Element) -> bool:
+def _diode_model(circuit: Circuit, el: Element) -> tuple[bool, bool]:
+    """(has a series resistance, has junction charge) from the diode's model card."""
     model = circuit.models.get(el.model) if el.model else None
     if model is None:
-        return False
-    return any(model.params.get(p, 0.0) != 0.0 for p in DIODE_CHARGE_PARAMS)
+        return False, False
+    charge = any(model.params.get(p, 0.0) != 0.0 for p in DIODE_CHARGE_PARAMS)
+    return model.params.get("rs", 0.0) > 0.0, charge
+
+
+def _diode_branches(circuit: Circuit, members: np.ndarray, ids: np.ndarray, start: np.ndarray,
+                    index: dict[str, int]) -> tuple[np.ndarray, ...]:
+    """Branches (u, v, class, element) of the diodes ``members``; creates their internal nodes."""
+    rows = []
+    for k in members.tolist():
+        el = circuit.elements[k]
+        anode, cathode = int(ids[start[k]]), int(ids[start[k] + 1])
+        series, charge = _diode_model(circuit, el)
+        junction = index.setdefault(f"{el.name}#internal", len(index)) if series else anode
+        if series:
+            rows.append((anode, junction, RESISTIVE, k))
+        rows.append((junction, cathode, RESISTIVE, k))
+        if charge:
+            rows.append((junction, cathode, CAPACITIVE, k))
+    return tuple(np.array(col, dtype=np.int64) for col in zip(*rows))
 
 
 def _passive_values(circuit: Circuit, members: np.ndarray) -> np.ndarray:
@@ -229,7 +254,8 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
     -----
     A few list comprehensions over the elements (names, kinds, nodes,
     values), then array operations per element kind: O(m) with a small
-    constant. Diode models are looked up per diode.
+    constant. Diode models are looked up per diode; a diode with a series
+    resistance adds its internal node after the circuit's nodes.
     """
     els = circuit.elements
     kinds = [el.kind for el in els]
@@ -268,18 +294,20 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
                           for k in members[zero]]
                 cls = np.where(zero, VOLTAGE, INDUCTIVE)
         for c, a, b in spec.branches:
-            bu.append(ids[start[keep] + a])
-            bv.append(ids[start[keep] + b])
-            bcls.append(np.full(len(keep), c) if cls is None else cls)
-            bctl.append(np.full(len(keep), controlled))
-            bel.append(keep)
+            with_terminals = counts[keep] > max(a, b)  # optional terminals (a BJT's substrate)
+            have = keep[with_terminals]
+            bu.append(ids[start[have] + a])
+            bv.append(ids[start[have] + b])
+            bcls.append(np.full(len(have), c) if cls is None else cls[with_terminals])
+            bctl.append(np.full(len(have), controlled))
+            bel.append(have)
         if kind == "diode":
-            charged = np.array([k for k in members if _diode_has_charge(circuit, els[k])], dtype=np.int64)
-            bu.append(ids[start[charged]])
-            bv.append(ids[start[charged] + 1])
-            bcls.append(np.full(len(charged), CAPACITIVE))
-            bctl.append(np.zeros(len(charged), dtype=bool))
-            bel.append(charged)
+            du, dv, dc, de = _diode_branches(circuit, members, ids, start, index)
+            bu.append(du)
+            bv.append(dv)
+            bcls.append(dc)
+            bctl.append(np.zeros(len(de), dtype=bool))
+            bel.append(de)
         for pos, role in spec.attachments:
             present = members[counts[members] > pos]
             an.append(ids[start[present] + pos])
