@@ -117,12 +117,6 @@ class _Elaborator:
     def _scope(self, parent: Env | None, defn: Definition, frame: _Frame | None) -> Env:
         env = Env(parent, dict(defn.funcs))
         if frame is not None:
-            declared = {d.name for d in defn.defaults}
-            for name, val in frame.inst.params.items():
-                if name not in declared:
-                    known = ", ".join(sorted(declared)) or "none"
-                    raise error(frame.inst.card, val[1], f"subcircuit '{defn.name}' has no parameter '{name}' "
-                                f"(its parameters: {known})", ELEMENTS["x"])
             for d in defn.defaults:
                 if d.name in frame.inst.params:
                     val = frame.inst.params[d.name]
@@ -192,6 +186,12 @@ class _Elaborator:
                         hint=f"defined at {sub.card.file}:{sub.card.line}")
         frame = self.frames.get(id(inst))
         if frame is None:
+            declared = {d.name for d in sub.defaults}
+            for name, val in inst.params.items():
+                if name not in declared:
+                    known = ", ".join(sorted(declared)) or "none"
+                    raise error(inst.card, val[1], f"subcircuit '{sub.name}' has no parameter '{name}' "
+                                f"(its parameters: {known})", ELEMENTS["x"])
             frame = self.frames[id(inst)] = _Frame(inst, sub)
         prefix = x.name
         ports = dict(zip(sub.ports, x.nodes))
@@ -258,7 +258,7 @@ class _Elaborator:
             for n in el.nodes:
                 if n != "0" and n not in nodes:
                     nodes[n] = None
-            if el.controls or p.refs:
+            if el.controls or el.expr is not None:
                 pending.append((el, p))
             circuit.elements.append(el)
         for el, p in pending:

@@ -208,8 +208,11 @@ def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
         if tok.kind != WORD or not tok.text.startswith("l"):
             raise error(card, tok.start, f"'{tok.text}' is not an inductor name (inductor names start with L)",
                         syntax)
-    if len({t.text for t in names}) != len(names):
-        raise error(card, names[0].start, "an inductor is named twice", syntax)
+    seen = set()
+    for tok in names:
+        if tok.text in seen:
+            raise error(card, tok.start, f"inductor '{tok.text}' is named twice", syntax)
+        seen.add(tok.text)
     return ElementCard(toks[0].text, "coupling", card, (), value=parse_value(card, positional[-1], syntax),
                        controls=tuple((t.text, t.start) for t in names))
 

@@ -1,0 +1,299 @@
+"""Elaboration: every element kind's fields, parameters and scoping, subcircuits, models, control cards."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from netdae.circuit import AcAnalysis, DcAnalysis, OpAnalysis, TranAnalysis
+from netdae.netlist import load
+from netdae.netlist.expr import Binary, Const, Current, Time, Voltage, evaluate, transform
+from netdae.netlist.waveforms import Am, Exp, Pulse, Pwl, Sffm, Sin
+
+
+def net(body: str):
+    return load("test netlist\n" + body + "\n.end\n")
+
+
+def eval_at(expr, volts=None, amps=None):
+    """Value of a behavioural tree for given node voltages and branch currents."""
+    volts, amps = volts or {}, amps or {}
+
+    def leaf(n):
+        if type(n) is Voltage:
+            return Const(volts.get(n.pos, 0.0) - (volts.get(n.neg, 0.0) if n.neg else 0.0))
+        if type(n) is Current:
+            return Const(amps[n.element])
+        return None
+
+    return evaluate(transform(expr, leaf), None)
+
+
+# -- passive elements ------------------------------------------------------------------
+def test_r_c_l_fields():
+    c = net("R1 a b 2k tc1=1m tc2=2u m=2\nR2 b 0 r=3k\nC1 a 0 10u ic=1.5 m=3\nL1 a b 4.7m ic=-2m nt=10\n"
+            "Rm a 0 1k rmod l=2u w=1u\n.model rmod r tc1=0.01")
+    r1, r2, c1, l1, rm = c.elements
+    assert (r1.kind, r1.nodes, r1.value, r1.params) == ("resistor", ("a", "b"), 2e3, {"tc1": 1e-3, "tc2": 2e-6, "m": 2.0})
+    assert r2.value == 3e3 and r2.params == {}
+    assert (c1.kind, c1.value, c1.params) == ("capacitor", pytest.approx(10e-6), {"ic": 1.5, "m": 3.0})
+    assert (l1.kind, l1.value, l1.params) == ("inductor", pytest.approx(4.7e-3), {"ic": -2e-3, "nt": 10.0})
+    assert rm.model == "rmod" and rm.params == {"l": 2e-6, "w": 1e-6}
+    assert c.count_by_letter() == {"c": 1, "l": 1, "r": 3}
+
+
+def test_tc_pair_and_locations():
+    c = net("R1 a 0 1k tc=1m,2u")
+    assert c.element("r1").params == {"tc1": 1e-3, "tc2": 2e-6}
+    loc = c.element("r1").location
+    assert (loc.file, loc.line, loc.column) == ("<string>", 2, 1)
+
+
+def test_coupling_of_two_and_three_inductors():
+    c = net("L1 a 0 1m\nL2 b 0 1m\nL3 c 0 2m\nK1 L1 L2 0.9\nKall l1 l2 l3 0.5")
+    k1, kall = c.element("k1"), c.element("kall")
+    assert (k1.kind, k1.nodes, k1.value, k1.controls) == ("coupling", (), 0.9, ("l1", "l2"))
+    assert kall.controls == ("l1", "l2", "l3") and kall.value == 0.5
+
+
+# -- sources -------------------------------------------------------------------------------
+def test_source_values_and_functions():
+    c = net("V1 a 0 5\nV2 b 0 dc 2 ac 1 45 sin(0 1 1k)\nV3 c 0 dc=3\nV4 d 0 ac\nV5 e 0 ac 2\n"
+            "I1 0 f pulse(0 1m 1u 1n 1n 5u 10u)\nI2 0 g 1m ac 0.5 -90\nV6 h 0 pwl(0 0 1m 1 2m 0) r=1m td=0.5m\n"
+            "V7 i 0 PWL 0 0 1 1\nV8 j 0 exp(0 1 1u 1u)\nV9 k 0 sffm(0 1 1k 5 100)\nV10 l 0 am(1 0.5 1k 10k)\n"
+            "V11 m 0 SINE 0 1 1k\nV12 n 0 pulse(0, 1, 0, 1n, 1n, 1u, 2u)")
+    v1, v2, v3, v4, v5, i1, i2, v6, v7, v8, v9, v10, v11, v12 = c.elements
+    assert (v1.source.dc, v1.source.tran, v1.source.ac_mag) == (5.0, None, 0.0)
+    assert (v2.source.dc, v2.source.ac_mag, v2.source.ac_phase) == (2.0, 1.0, 45.0)
+    assert isinstance(v2.source.tran, Sin) and v2.source.tran.given[:3] == (0.0, 1.0, 1e3)
+    assert v3.source.dc == 3.0
+    assert (v4.source.dc, v4.source.ac_mag) == (None, 1.0)       # 'ac' alone is magnitude 1
+    assert v5.source.ac_mag == 2.0 and v5.source.ac_phase == 0.0
+    assert i1.kind == "isource" and isinstance(i1.source.tran, Pulse) and i1.nodes == ("0", "f")
+    assert (i2.source.dc, i2.source.ac_mag, i2.source.ac_phase) == (1e-3, 0.5, -90.0)
+    assert isinstance(v6.source.tran, Pwl) and (v6.source.tran.repeat, v6.source.tran.delay) == (1e-3, 0.5e-3)
+    assert list(v7.source.tran.times) == [0.0, 1.0]
+    assert isinstance(v8.source.tran, Exp) and isinstance(v9.source.tran, Sffm) and isinstance(v10.source.tran, Am)
+    assert isinstance(v11.source.tran, Sin)
+    assert v12.source.tran.given[:7] == (0.0, 1.0, 0.0, 1e-9, 1e-9, 1e-6, 2e-6)
+
+
+def test_source_spec_operating_point_rules():
+    c = net("V1 a 0 0.5 sin(1 1 1k 0 0 90)\nV2 b 0 sin(0.25 1 1k 0 0 30)\nV3 c 0 ac 1")
+    v1, v2, v3 = (e.source for e in c.elements)
+    assert v1.dc_value() == 0.5 and v1.tran_value_at_zero() == pytest.approx(2.0)
+    assert v2.dc_value() == pytest.approx(0.75) == v2.tran_value_at_zero()
+    assert v3.dc_value() == 0.0 == v3.tran_value_at_zero()
+
+
+# -- controlled and behavioural sources ----------------------------------------------------------
+def test_linear_controlled_sources_and_the_opamp():
+    c = net("V1 in 0 1\nE1 a 0 in 0 10\nG1 b 0 in a 2m\nF1 c 0 v1 3\nH1 d 0 V1 1k\nEop out 0 in n OPAMP\nR1 n 0 1")
+    e1, g1, f1, h1, op = c.elements[1:6]
+    assert (e1.kind, e1.nodes, e1.value) == ("vcvs", ("a", "0", "in", "0"), 10.0)
+    assert (g1.kind, g1.nodes, g1.value) == ("vccs", ("b", "0", "in", "a"), 2e-3)
+    assert (f1.kind, f1.nodes, f1.value, f1.controls) == ("cccs", ("c", "0"), 3.0, ("v1",))
+    assert (h1.kind, h1.value, h1.controls) == ("ccvs", 1e3, ("v1",))
+    assert (op.kind, op.nodes, op.value) == ("opamp", ("out", "0", "in", "n"), None)
+
+
+def test_behavioural_sources():
+    c = net(".param k=3\nV1 in 0 1\nB1 a 0 V=V(in)*k + time\nB2 b 0 I = {2*v(in, a)}\n"
+            "E1 c 0 value={V(in)**2}\nG1 d 0 cur='i(v1)*10'\nE2 e 0 vol={V(in, gnd)}")
+    b1, b2, e1, g1, e2 = c.elements[1:]
+    assert (b1.kind, b2.kind, e1.kind, g1.kind, e2.kind) == ("bvoltage", "bcurrent", "bvoltage", "bcurrent",
+                                                              "bvoltage")
+    assert b1.expr == Binary("+", Binary("*", Voltage("in"), Const(3.0)), Time())
+    assert eval_at(b2.expr, {"in": 2.0, "a": 0.5}) == 3.0
+    assert eval_at(e1.expr, {"in": -3.0}) == 9.0
+    assert eval_at(g1.expr, amps={"v1": 0.25}) == 2.5
+    assert e2.expr == Voltage("in")
+
+
+def test_poly_sources_are_spice2_polynomials():
+    c = net("V1 x 0 1\nV2 y 0 1\nR1 x 0 1\nR2 y 0 1\n"
+            "E1 a 0 POLY(2) x 0 y 0 1 2 3 4 5 6\n"      # 1 + 2x + 3y + 4x^2 + 5xy + 6y^2
+            "G1 b 0 poly(1) x 0 0 1 0.5\n"               # x + 0.5 x^2
+            "F1 c 0 POLY(2) V1 V2 0 1 -1\n"              # i1 - i2
+            "H1 d 0 poly(1) v2 2 0 0 1")                 # 2 + i2^3
+    e1, g1, f1, h1 = c.elements[4:]
+    assert (e1.kind, g1.kind, f1.kind, h1.kind) == ("bvoltage", "bcurrent", "bcurrent", "bvoltage")
+    x, y = 0.7, -1.3
+    assert eval_at(e1.expr, {"x": x, "y": y}) == pytest.approx(1 + 2 * x + 3 * y + 4 * x * x + 5 * x * y + 6 * y * y)
+    assert eval_at(g1.expr, {"x": x}) == pytest.approx(x + 0.5 * x * x)
+    assert eval_at(f1.expr, amps={"v1": 2.0, "v2": 0.5}) == 1.5
+    assert eval_at(h1.expr, amps={"v2": 1.5}) == pytest.approx(2 + 1.5**3)
+
+
+# -- semiconductor devices --------------------------------------------------------------------
+def test_devices_models_and_the_q_node_count():
+    c = net(".model dm d (is=1e-14 n=1.5 cjo=2p)\n.model qn npn is=1e-16 bf=100\n.model qp PNP(bf=50)\n"
+            ".model nm nmos level=1 vto=0.7 kp=50u\n"
+            "D1 a k dm 2 off ic=0.6 temp=50\nQ1 c b e qn\nQ2 c b e sub qn 1.5 ic=0.7,5\nQ3 c b e qp off\n"
+            "M1 d g s b nm w=10u l=1u ad=1p as=1p pd=4u ps=4u ic=1,2,3 off")
+    d1, q1, q2, q3, m1 = c.elements
+    assert (d1.kind, d1.nodes, d1.model) == ("diode", ("a", "k"), "dm")
+    assert d1.params == pytest.approx({"ic": 0.6, "temp": 50.0, "area": 2.0, "off": 1.0})
+    assert (q1.kind, q1.nodes, q1.model) == ("bjt", ("c", "b", "e"), "qn")
+    assert (q2.nodes, q2.model) == (("c", "b", "e", "sub"), "qn")
+    assert q2.params == pytest.approx({"icvbe": 0.7, "icvce": 5.0, "area": 1.5})
+    assert q3.params == {"off": 1.0}
+    assert (m1.kind, m1.nodes, m1.model) == ("mosfet", ("d", "g", "s", "b"), "nm")
+    assert m1.params == pytest.approx({"w": 1e-5, "l": 1e-6, "ad": 1e-12, "as": 1e-12, "pd": 4e-6, "ps": 4e-6,
+                         "icvds": 1.0, "icvgs": 2.0, "icvbs": 3.0, "off": 1.0})
+    assert c.models["dm"].params == {"is": 1e-14, "n": 1.5, "cjo": 2e-12}
+    assert (c.models["qp"].type, c.models["qp"].params) == ("pnp", {"bf": 50.0})
+    assert c.models["nm"].params["level"] == 1.0
+
+
+# -- parameters and functions ----------------------------------------------------------------------
+def test_params_several_per_line_forward_references_and_all_spellings():
+    c = net(".param a=2 b={a*3} c='b+1', d = 4\n.param e={f*2}\n.param f=5\nR1 x 0 {a+b}\nR2 x 0 'c*d'\nR3 x 0 e")
+    assert c.params == {"a": 2.0, "b": 6.0, "c": 7.0, "d": 4.0, "e": 10.0, "f": 5.0}
+    assert [e.value for e in c.elements] == [8.0, 28.0, 10.0]
+
+
+def test_redefined_param_takes_the_last_value_with_a_warning():
+    c = net(".param a=1\nR1 x 0 {a}\n.param a=2")
+    assert c.element("r1").value == 2.0
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert "parameter 'a' redefined" in w.message and w.location.line == 4
+
+
+def test_functions_with_and_without_equals_and_nesting():
+    c = net(".param k=2\n.func f(x, y) = {x*y + k}\n.func g(x) {f(x, x) + 1}\nR1 a 0 {g(3)}\nB1 b 0 V=g(v(a))")
+    assert c.element("r1").value == 12.0
+    assert eval_at(c.element("b1").expr, {"a": 2.0}) == 7.0
+
+
+# -- subcircuits ---------------------------------------------------------------------------------
+SUBCKTS = """
+.param g=10
+.global vdd
+.subckt leaf a b params: r=1k k=2
+R1 a mid {r*k}
+R2 mid b {r}
+Rv vdd mid 1meg
+.ends leaf
+.subckt outer p n rr=100 kk={g}
+X1 p n leaf r={rr*2}
+X2 p n leaf k={kk}
+.subckt local a b
+Rl a b 7
+.ends
+X3 p n local
+.model dm d is=1e-15
+D1 p n dm
+.ends outer
+Xa in gnd outer
+Xb in 0 outer rr=1 kk=3
+V1 in 0 1
+Vdd vdd 0 5
+.model dm d is=2e-14
+D2 in 0 dm
+"""
+
+
+def test_subcircuit_expansion_values_and_ngspice_names():
+    c = net(SUBCKTS)
+    values = {e.name: e.value for e in c.elements if e.kind == "resistor"}
+    assert values == {
+        "r.xa.x1.r1": 400.0, "r.xa.x1.r2": 200.0, "r.xa.x1.rv": 1e6, "r.xa.x2.r1": 10e3, "r.xa.x2.r2": 1e3,
+        "r.xa.x2.rv": 1e6, "r.xa.r.x3.rl": 7.0, "r.xb.x1.r1": 4.0, "r.xb.x1.r2": 2.0, "r.xb.x1.rv": 1e6,
+        "r.xb.x2.r1": 3e3, "r.xb.x2.r2": 1e3, "r.xb.x2.rv": 1e6, "r.xb.r.x3.rl": 7.0}
+    assert c.nodes == ["in", "xa.x1.mid", "vdd", "xa.x2.mid", "xb.x1.mid", "xb.x2.mid"]
+    assert c.element("d.xa.d1").model == "xa:dm" and c.element("d2").model == "dm"
+    assert {n: m.params["is"] for n, m in c.models.items()} == {"xa:dm": 1e-15, "xb:dm": 1e-15, "dm": 2e-14}
+    assert c.element("r.xa.x1.r1").instance_path == ("xa", "x1")
+    assert c.element("r.xb.r.x3.rl").instance_path == ("xb", "x3")
+    assert c.element("r.xa.x1.r1").location.line == 6   # the definition's card
+
+
+def test_parameters_are_scoped_dynamically_like_numparam():
+    c = net(".subckt s2 a b\nR1 a b {rr}\n.ends\n.subckt s1 a b params: rr=5\nX1 a b s2\n.ends\n"
+            "X1 1 0 s1\nX2 1 0 s1 rr=6")
+    assert c.element("r.x1.x1.r1").value == 5.0 and c.element("r.x2.x1.r1").value == 6.0
+
+
+def test_defaults_see_overrides_and_local_params():
+    c = net(".subckt s a b params: rr=5 r2={rr*2}\n.param loc={rr+1}\nR1 a b {r2}\nR2 a b {loc}\n.ends\n"
+            "X1 1 0 s\nX2 1 0 s rr=7\nX3 1 0 s params: r2=1")
+    assert [e.value for e in c.elements] == [10.0, 6.0, 14.0, 8.0, 1.0, 6.0]
+
+
+def test_controls_and_expressions_inside_subcircuits_are_renamed():
+    c = net(".subckt amp in out\nVs in mid 0\nRs mid 0 1k\nF1 out 0 vs 2\nB1 x 0 V=V(in, mid)*I(Vs)\nRx x 0 1\n"
+            "L1 out 0 1m\nL2 x 0 1m\nK1 L1 L2 0.5\n.ends\nX1 a b amp\nV1 a 0 1\nRb b 0 1")
+    assert c.element("f.x1.f1").controls == ("v.x1.vs",)
+    assert c.element("b.x1.b1").expr == Binary("*", Voltage("a", "x1.mid"), Current("v.x1.vs"))
+    assert c.element("k.x1.k1").controls == ("l.x1.l1", "l.x1.l2")
+
+
+def test_global_nodes_and_ground_aliases():
+    c = net(".global vcc\n.subckt s a\nR1 a vcc 1\nR2 a gnd 1\nR3 a 0 1\n.ends\nX1 n s\nV1 vcc GND 5")
+    assert c.element("r.x1.r1").nodes == ("n", "vcc")
+    assert c.element("r.x1.r2").nodes == ("n", "0") == c.element("r.x1.r3").nodes
+    assert c.element("v1").nodes == ("vcc", "0")
+
+
+def test_continuation_lines_and_comments_inside_subcircuits():
+    c = net(".subckt s a b\n+ params: r=1k ; the default\nR1 a\n* a comment inside\n+ b {r} $ value\n.ends\n"
+            "X1 p q s r=2k")
+    assert c.element("r.x1.r1").nodes == ("p", "q") and c.element("r.x1.r1").value == 2e3
+
+
+# -- control cards -------------------------------------------------------------------------------
+def test_analyses():
+    c = net(".param ts=1u\nV1 a 0 1\nI1 0 a 1m\nR1 a 0 1k\n.op\n.tran {ts} 1m\n.tran 1u 2m 0.5m 5u uic\n"
+            ".ac dec 10 1 1meg\n.ac lin 11 0 10\n.dc V1 0 5 0.5\n.dc v1 0 1 0.1 I1 0 1m 0.5m\n.dc temp -50 50 25")
+    op, t1, t2, ac1, ac2, dc1, dc2, dc3 = c.analyses
+    assert isinstance(op, OpAnalysis) and op.location.line == 6
+    assert isinstance(t1, TranAnalysis) and (t1.tstep, t1.tstop, t1.tstart, t1.tmax, t1.uic) == (1e-6, 1e-3, 0, None, False)
+    assert (t2.tstart, t2.tmax, t2.uic) == (0.5e-3, pytest.approx(5e-6), True)
+    assert isinstance(ac1, AcAnalysis) and (ac1.variation, ac1.points, ac1.fstart, ac1.fstop) == ("dec", 10, 1.0, 1e6)
+    assert (ac2.variation, ac2.fstart) == ("lin", 0.0)
+    assert isinstance(dc1, DcAnalysis) and [(s.source, s.start, s.stop, s.step) for s in dc1.sweeps] == [("v1", 0, 5, 0.5)]
+    assert [s.source for s in dc2.sweeps] == ["v1", "i1"]
+    assert dc3.sweeps[0].source == "temp" and dc3.sweeps[0].start == -50
+
+
+def test_options_and_temperature():
+    c = net("R1 a 0 1\n.options reltol=1e-4 abstol=1p method=gear maxord=3 itl1=200 interp\n.option vntol=1u "
+            "filetype=ascii\n.opt tnom=25 noacct gmin=1e-15 rshunt=1e12\n.temp 85")
+    o = c.options
+    assert (o.reltol, o.abstol, o.vntol, o.gmin, o.method, o.maxord, o.itl1, o.interp) == (
+        1e-4, 1e-12, 1e-6, 1e-15, "gear", 3, 200, True)
+    assert (o.temp, o.tnom, o.chgtol, o.itl4) == (85.0, 25.0, 1e-14, 10)
+    assert o.extra == {"filetype": "ascii", "noacct": True, "rshunt": 1e12}
+    assert load("t\nR1 a 0 1\n.options method=trapezoidal\n").options.method == "trap"
+
+
+def test_initial_conditions_saves_and_title():
+    c = net(".title The Real Title\n.subckt s a\nR1 a m 1\nC1 m 0 1u\n.ends\nX1 n s\nV1 n 0 1\n"
+            ".ic v(n)=1 v(x1.m)=0.5\n.nodeset V(N)=0.9\n.save v(n) V(x1.m, 0) i(V1) n v(n,x1.m) all\n"
+            ".print tran v(n) vdb(x1.m)\n.probe @r.x1.r1[i]\n.plot ac v(nope) i(r.x1.r1)")
+    assert c.title == "The Real Title"
+    assert c.ic == {"n": 1.0, "x1.m": 0.5} and c.nodeset == {"n": 0.9}
+    assert c.saves == ["v(n)", "v(x1.m)", "i(v1)", "v(n,x1.m)", "vdb(x1.m)", "@r.x1.r1[i]", "v(nope)", "i(r.x1.r1)"]
+    warnings = [d.message for d in c.diagnostics if d.severity == "warning"]
+    assert warnings == [".plot v(nope): no node 'nope'",
+                        ".plot i(r.x1.r1): 'r.x1.r1' is a resistor, which has no branch current"]
+
+
+def test_control_block_is_a_note_naming_its_lines():
+    c = net("R1 a 0 1\n.control\nrun\nplot v(a)\n.endc")
+    (note,) = c.diagnostics
+    assert note.severity == "note" and "lines 3-6" in note.message and note.location.line == 3
+
+
+def test_circuit_is_independent_of_spelling_case():
+    a = load("t\nR1 IN Out 1K\nV1 in 0 DC 1\n.TRAN 1U 1M\n")
+    b = load("t\nr1 in out 1k\nv1 IN 0 dc 1\n.tran 1u 1m\n")
+    assert [(e.name, e.nodes, e.value) for e in a.elements] == [(e.name, e.nodes, e.value) for e in b.elements]
+    assert [(t.tstep, t.tstop) for t in a.analyses] == [(t.tstep, t.tstop) for t in b.analyses]
+
+
+def test_pi_and_math_in_values():
+    c = net("C1 a 0 {1/(2*pi*1k*1k)}")
+    assert c.element("c1").value == pytest.approx(1 / (2 * math.pi * 1e6))

@@ -1,0 +1,206 @@
+"""Every netlist error: its message, the line and column of the offending token, the expected form, the hint."""
+
+from __future__ import annotations
+
+import pytest
+
+from netdae.cli import main as cli_main
+from netdae.errors import NetlistError
+from netdae.netlist import load
+
+# (netlist, message regex, line, the text the column must point at [, its occurrence in the line])
+CASES = [
+    # elements netdae does not implement
+    ("t\nS1 a b c d sw\n", r"s1: element type 'S' \(voltage-controlled switch\) is not supported", 2, "S1"),
+    ("t\nW1 a b vc sw\n", r"'W' \(current-controlled switch\) is not supported", 2, "W1"),
+    ("t\nT1 a 0 b 0 z0=50 td=1n\n", r"'T' \(lossless transmission line\)", 2, "T1"),
+    ("t\nU1 a b 0 rcmod l=1u\n", r"'U' \(uniform distributed RC line\)", 2, "U1"),
+    ("t\nY1 a 0 b 0 ymod\n", r"'Y' \(single lossy transmission line", 2, "Y1"),
+    ("t\nJ1 d g s jm\n", r"'J' \(JFET\)", 2, "J1"),
+    ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
+    # dot cards netdae does not implement
+    ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
+    ("t\n.meas tran x max v(a)\n", r"\.meas: measurement is not supported", 2, ".meas"),
+    ("t\n.noise v(a) v1 dec 10 1 1k\n", r"noise analysis", 2, ".noise"),
+    ("t\n.pz a 0 b 0 vol pz\n", r"pole-zero", 2, ".pz"),
+    ("t\n.sens v(a)\n", r"sensitivity", 2, ".sens"),
+    ("t\n.disto dec 10 1 1k\n", r"distortion", 2, ".disto"),
+    ("t\n.tf v(a) v1\n", r"transfer-function", 2, ".tf"),
+    ("t\n.step param r 1 2 1\n", r"parameter stepping", 2, ".step"),
+    ("t\n.foo\n", r"unknown dot card '\.foo'", 2, ".foo"),
+    ("t\n.subckt s a\n.tran 1u 1m\n.ends\n", r"\.tran is not allowed inside \.subckt s", 3, ".tran"),
+    # structure
+    ("t\n.subckt s a b\nR1 a b 1\n", r"\.subckt s: no matching \.ends", 2, ".subckt"),
+    ("t\n.ends\n", r"\.ends without a matching \.subckt", 2, ".ends"),
+    ("t\n.subckt s a\n.ends t\n", r"'\.ends t' closes \.subckt s", 3, "t"),
+    ("t\n.subckt s a\n.ends\n.subckt s b\n.ends\n", r"subcircuit 's' is defined twice", 4, "s b"),
+    ("t\n.subckt s a a\n.ends\n", r"port 'a' listed twice", 2, "a", 2),
+    ("t\n.subckt s a 0\n.ends\n", r"ground '0' cannot be a subcircuit port", 2, "0"),
+    ("t\n.control\nrun\n", r"\.control block without \.endc", 2, ".control"),
+    ("t\n.lib sec\nR1 a 0 1\n", r"\.lib section without \.endl", 2, ".lib"),
+    ("t\n.endl\n", r"\.endl without a preceding \.lib", 2, ".endl"),
+    ("t\n+ 1k\n", r"continuation line", 2, "+"),
+    # nodes and values
+    ("t\nR1 a\n", r"r1: expected 2 nodes, found 1", 2, None),
+    ("t\nC1 a b\n", r"c1: missing capacitance", 2, None),
+    ("t\nL1 a b ic=1\n", r"l1: missing inductance", 2, None),
+    ("t\nR1 a b 1k 2k\n", r"expected a model name after the value, found '2k'", 2, "2k"),
+    ("t\nR1 a b 1k foo=2\n", r"unknown parameter 'foo' for a resistor", 2, "foo"),
+    ("t\nC1 a b 1u ic=1 ic=2\n", r"parameter 'ic' given twice", 2, "ic", 2),
+    ("t\nR1 a b ?x\n", r"bad value '\?x'", 2, "?x"),
+    ("t\nR1 a b $x\n", r"r1: missing resistance", 2, " $x"),  # '$' after a blank starts a comment
+    ("t\nR1 a b {1+}\n", r"r1: expression ends where a value is expected", 2, "}"),
+    ("t\nR1 a b {1 +* 2}\n", r"unexpected '\*'", 2, "*"),
+    ("t\nR1 a b {2\n", r"r1: unterminated '\{'", 2, "{"),
+    ("t\nR1 a b '2\n", r"unterminated quote", 2, "'"),
+    ("t\nR1 a b 0\n", r"zero resistance", 2, "0"),
+    ("t\nR1 a b {rr}\n", r"r1: unknown parameter 'rr' in value", 2, "{rr}"),
+    ("t\nR1 a b {f(1)}\n", r"unknown function 'f'", 2, "{f(1)}"),
+    ("t\nR1 a b {1/0}\n", r"cannot evaluate value: division by zero", 2, "{1/0}"),
+    ("t\nR1 a b {sqrt(-1)}\n", r"sqrt\(-1\) is undefined", 2, "{"),
+    ("t\n.param a={b} b={a}\nR1 x 0 {a}\n", r"parameter cycle: a -> b -> a", 2, "a={b}"),
+    ("t\n.param time=1\n", r"'time' is reserved", 2, "time"),
+    ("t\n.param a 1\n", r"expected '=' after parameter name 'a'", 2, "1"),
+    ("t\n.param a = 1 + 2\n", r"expected '=' after parameter name '\+'|bad parameter name", 2, "+"),
+    ("t\n.param 1a=1\n", r"bad parameter name '1a'", 2, "1a"),
+    ("t\n.func sin(x) {x}\n", r"'sin' is a built-in function", 2, "sin"),
+    ("t\n.func f(x) {x}\n.func f(y) {y}\n", r"function 'f' is defined twice", 3, "f(y)"),
+    ("t\n.func f(x) {g(x)}\n.func g(x) {f(x)}\nR1 a 0 {f(1)}\n", r"nested deeper than", 4, "{f(1)}"),
+    ("t\n.param p={v(a)}\n", r"circuit reference V\(\.\.\.\) is only allowed in behavioural", 2, "v(a)"),
+    ("t\nR1 a 0 {time}\n", r"'time' is only available in behavioural", 2, "time"),
+    # subcircuits
+    ("t\nX1 a b nosuch\n", r"x1: unknown subcircuit 'nosuch'", 2, "nosuch"),
+    ("t\n.subckt s a b\n.ends\nX1 a s\n", r"subcircuit 's' has 2 port\(s\) \(a b\), the instance connects 1", 4, "s"),
+    ("t\n.subckt s a params: r=1\n.ends\nX1 n s q=2\n", r"subcircuit 's' has no parameter 'q' \(its parameters: r\)",
+     4, "2"),
+    ("t\n.subckt a p\nX1 p b\n.ends\n.subckt b p\nX1 p a\n.ends\nX1 n a\n",
+     r"recursive subcircuit instantiation: a -> b -> a", 6, "a"),
+    ("t\nX1\n", r"missing subcircuit name", 2, None),
+    ("t\n.subckt s a\nR1 a 0 {q}\n.ends\nX1 n s\n", r"r1: unknown parameter 'q'", 3, "{q}"),
+    # models
+    ("t\nD1 a 0 nomodel\n", r"d1: undefined model 'nomodel'", 2, "nomodel"),
+    ("t\n.subckt s a\n.model dm d\n.ends\nD1 a 0 dm\n", r"undefined model 'dm'", 5, "dm"),
+    ("t\nD1 a 0 q\n.model q npn\n", r"model 'q' is of type 'npn', a diode needs d", 2, "q"),
+    ("t\nQ1 c b e nomodel\n", r"no model 'nomodel' defined", 2, "nomodel"),
+    ("t\nQ1 c b\n", r"expected 3 or 4 nodes and a model name", 2, None),
+    ("t\nM1 d g s nm\n.model nm nmos\n", r"expected 4 nodes and a model name", 2, None),
+    ("t\n.model dm d\n.model dm d\n", r"model 'dm' is defined twice", 3, "dm"),
+    ("t\n.model dm d is\n", r"expected name=value, found 'is'", 2, "is"),
+    ("t\n.model\n", r"expected a model name and type", 2, None),
+    ("t\nR1 a 0 rmod\n.model rmod r\n", r"'rmod' is a model: an element value computed from a model", 2, "rmod"),
+    # references
+    ("t\nR1 a 0 1\nr1 b 0 2\n", r"r1: duplicate element name 'r1' \(first defined at <string>:2\)", 3, "r1"),
+    ("t\nL1 a 0 1m\nR2 b 0 1\nK1 L1 R2 0.5\n", r"'r2' is not an inductor name", 4, "R2"),
+    ("t\nL1 a 0 1m\nK1 L1 L2 0.5\n", r"'l2' names no element", 3, "L2"),
+    ("t\nL1 a 0 1m\nL2 b 0 1m\nK1 L1 L2 1.5\n", r"coupling factor 1.5 outside \[-1, 1\]", 4, "1.5"),
+    ("t\nL1 a 0 1m\nK1 L1 L1 0.5\n", r"inductor 'l1' is named twice", 3, "L1", 2),
+    ("t\nL1 a 0 1m\nK1 L1 0.5\n", r"at least two inductor names and a coupling factor", 3, None),
+    ("t\nR1 a 0 1\nF1 b 0 r1 2\n", r"'r1' is a resistor, not a voltage source", 3, "r1"),
+    ("t\nR1 a 0 1\nH1 b 0 vx 2\n", r"'vx' names no element", 3, "vx"),
+    ("t\n.subckt s a\nF1 a 0 v1 1\n.ends\nX1 n s\nV1 n 0 1\n", r"'v1' names no element \(looked for 'v.x1.v1'\)",
+     3, "v1"),
+    ("t\nR1 a 0 1\nB1 b 0 V=I(r1)\n", r"I\(r1\) names a resistor, which has no branch current", 3, "I(r1)"),
+    ("t\nR1 a 0 1\nB1 b 0 V=V(zz)\n", r"V\(zz\): no element connects node 'zz'", 3, "V(zz)"),
+    # controlled and behavioural sources
+    ("t\nE1 a 0 b\n", r"e1: expected 4 nodes, found 3", 2, None),
+    ("t\nE1 a 0 b 0\n", r"missing gain", 2, None),
+    ("t\nG1 a 0 b 0 1 2\n", r"unexpected '2'", 2, "2"),
+    ("t\nE1 a 0 b 0 opamp 3\n", r"unexpected '3' after OPAMP", 2, "3"),
+    ("t\nF1 a 0 2\n", r"expected the name of the controlling voltage source", 2, "2"),
+    ("t\nV1 x 0 1\nF1 a 0 v1\n", r"missing gain", 3, None),
+    ("t\nE1 a 0 laplace {v(b)} = {1/(1+s)}\n", r"the 'LAPLACE' form of E is not supported", 2, "laplace"),
+    ("t\nE1 a 0 poly(x) b 0 1\n", r"POLY dimension must be a positive integer", 2, "x"),
+    ("t\nE1 a 0 poly(2) b 0 1\n", r"POLY\(2\) needs 4 controlling nodes and at least one coefficient", 2, None),
+    ("t\nB1 a 0 X=1\n", r"expected V=\{expr\} or I=\{expr\} after the nodes", 2, "X"),
+    ("t\nB1 a 0 V=\n", r"missing expression", 2, None),
+    ("t\nB1 a 0 V=v(a)+\n", r"b1: expression ends where a value is expected", 2, None),
+    ("t\nB1 a 0 V=ddt(v(a))\n", r"ddt\(\) .* is not supported", 2, "ddt"),
+    ("t\nB1 a 0 V=v(a,b,c)\n", r"malformed V\(\.\.\.\) reference", 2, "v(a,b,c)"),
+    # independent sources and waveforms
+    ("t\nV1 a 0 pulse(1)\n", r"PULSE needs at least 2 parameters \(v1 v2\), got 1", 2, "pulse"),
+    ("t\nV1 a 0 sin(0 1 2 3 4 5 6)\n", r"SIN takes at most 6 parameters", 2, "sin"),
+    ("t\nV1 a 0 exp(0 1 0 -1)\n", r"EXP tau1 must be >= 0", 2, "exp"),
+    ("t\nV1 a 0 pwl(0 0 1)\n", r"PWL needs time-value pairs, got 3", 2, "pwl"),
+    ("t\nV1 a 0 pwl(0 0 2 1 1 0)\n", r"PWL time points must not decrease: 1 follows 2", 2, "pwl"),
+    ("t\nV1 a 0 pwl(0 0 1 1) r=0.5\n", r"repeat time r=0.5 does not match any time point", 2, "pwl"),
+    ("t\nI1 a 0 pwl(0 0 1 1) r=0\n", r"PWL r= is not available on current sources", 2, "0", 4),
+    ("t\nV1 a 0 pulse(0 1\n", r"PULSE\( without a closing '\)'", 2, "pulse"),
+    ("t\nV1 a 0 1 2\n", r"unexpected '2'", 2, "2"),
+    ("t\nV1 a 0 dc\n", r"missing value after 'dc'", 2, None),
+    ("t\nV1 a 0 dc 1 dc 2\n", r"DC value given twice", 2, "dc", 2),
+    ("t\nV1 a 0 sin(0 1) pulse(0 1)\n", r"more than one transient function", 2, "pulse"),
+    ("t\nV1 a 0 trnoise(1n 1n 0 0)\n", r"'trnoise' \(transient noise\) is not supported", 2, "trnoise"),
+    ("t\nV1 a 0 distof1 1\n", r"'distof1' \(distortion input\) is not supported", 2, "distof1"),
+    # analyses and control cards
+    ("t\n.tran 1u\n", r"expected tstep and tstop, found 1 value", 2, None),
+    ("t\n.tran 0 1m\n", r"tstep must be > 0, got 0", 2, "0"),
+    ("t\n.tran 1u -1m\n", r"tstop must be > 0", 2, "-1m"),
+    ("t\n.tran 1u 1m 2m\n", r"tstart must be in \[0, tstop\), got 0.002", 2, "2m"),
+    ("t\n.tran 1u 1m 0 0 0 0\n", r"too many values", 2, "0", 3),
+    ("t\n.ac dek 10 1 1k\n", r"expected the sweep type dec, oct or lin", 2, "dek"),
+    ("t\n.ac dec 10 1\n", r"expected points, fstart and fstop, found 2", 2, None),
+    ("t\n.ac dec 2.5 1 1k\n", r"points must be a positive integer, got 2.5", 2, "2.5"),
+    ("t\n.ac dec 10 0 1k\n", r"fstart must be > 0", 2, "0", 2),
+    ("t\n.ac lin 10 1k 1\n", r"fstop 1 is below fstart 1000", 2, "1", 3),
+    ("t\n.dc v1 0 1\n", r"expected one or two sweeps of 4 items", 2, None),
+    ("t\nR1 a 0 1\n.dc r1 0 1 0.1\n", r"sweep source 'r1' is a resistor", 3, "r1"),
+    ("t\n.dc vx 0 1 0.1\n", r"sweep source 'vx' is no element", 2, "vx"),
+    ("t\nV1 a 0 1\n.dc v1 0 1 -0.1\n", r"step -0.1 does not lead from 0 to 1", 3, "-0.1"),
+    ("t\n.dc 1 0 1 0.1\n", r"expected a source name or temp", 2, "1"),
+    ("t\nR1 a 0 1\n.ic v(b)=1\n", r"\.ic: unknown node 'b'", 3, "b"),
+    ("t\nR1 a 0 1\n.ic a=1\n", r"expected v\(node\)=value, found 'a'", 3, "a"),
+    ("t\nR1 a 0 1\n.nodeset v(a)\n", r"expected v\(node\)=value", 3, "v"),
+    ("t\n.options reltol\n", r"option 'reltol' needs a number", 2, "reltol"),
+    ("t\n.options reltol=-1\n", r"option 'reltol' must be > 0", 2, "-1"),
+    ("t\n.options maxord=2.5\n", r"option 'maxord' needs a positive integer", 2, "2.5"),
+    ("t\n.options method=euler\n", r"unknown integration method 'euler'", 2, "method"),
+    ("t\n.temp 20 30\n", r"expected one temperature", 2, "30"),
+    ("t\n.op 1\n", r"unexpected '1'", 2, "1"),
+    # files
+    ("t\n.include nothere.cir\n", r"include file 'nothere.cir' not found", 2, "nothere.cir"),
+    ("t\n.lib nothere.lib fast\n", r"library file 'nothere.lib' not found", 2, "nothere.lib"),
+    ("t\n.include\n", r"\.include: missing file name", 2, None),
+    ("t\n.lib\n", r"\.lib: missing file name and section", 2, None),
+]
+
+
+def _column(netlist: str, line: int, token: str | None, occurrence: int = 1) -> int:
+    text = netlist.split("\n")[line - 1]
+    if token is None:
+        return len(text) + 1  # a missing item is reported at the end of the card
+    index = -1
+    for _ in range(occurrence):
+        index = text.index(token, index + 1)
+    return index + 1
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[1][:40] for c in CASES])
+def test_error_message_line_and_column(case):
+    netlist, pattern, line, token, *occ = case
+    with pytest.raises(NetlistError) as exc:
+        load(netlist)
+    err = exc.value
+    assert err.location is not None, str(err)
+    assert __import__("re").search(pattern, err.message), err.message
+    assert (err.location.file, err.location.line) == ("<string>", line), str(err)
+    assert err.location.column == _column(netlist, line, token, *occ), str(err)
+
+
+def test_element_errors_show_the_expected_form_and_a_hint():
+    with pytest.raises(NetlistError) as exc:
+        load("t\nC1 a b\n")
+    err = exc.value
+    assert err.expected.startswith("Cname n+ n- value [mname] [ic=v0]")
+    assert err.hint and str(err).startswith("<string>:2:7: c1: missing capacitance (expected: Cname n+ n- value")
+    with pytest.raises(NetlistError) as exc:
+        load("t\nS1 a b c d sw\n")
+    assert "netdae reads R C L K V I E G F H B D Q M X" in exc.value.hint
+
+
+def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):
+    bad = tmp_path / "bad.cir"
+    bad.write_text("bad netlist\nR1 a 0 1\nC1 a 0\n.end\n")
+    assert cli_main(["check", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith(f"netdae: error: {bad}:3:7: c1: missing capacitance (expected: Cname")
