@@ -50,14 +50,12 @@ References
 
 from __future__ import annotations
 
-from collections import Counter
-from functools import cached_property
-
 import numpy as np
 
 from ..circuit import Circuit
-from .graph import CAPACITIVE, CURRENT, INDUCTIVE, RESISTIVE, ROLES, VOLTAGE, CircuitGraph, build_graph
-from .kernels import components, fundamental_cycle, group_by, on_cycle, spanning_forest
+from .context import EMPTY, Context, Partition, subforest
+from .graph import CAPACITIVE, CURRENT, INDUCTIVE, RESISTIVE, VOLTAGE, build_graph
+from .kernels import components, on_cycle
 from .report import Cutset, Finding, Loop, NodeGroup, TopologyReport
 from .text import name_list, node_phrase, plural
 
@@ -70,166 +68,16 @@ MAX_LISTED = 100
 #: Steps of a loop spelled out in a message (the Loop itself keeps all).
 PATH_LIMIT = 16
 
-_ROLE = {"gate": "the gate of {}",
-         "controlling input": "the controlling input of {}", "input": "the input of op-amp {}"}
-
 _SEVERITY_ORDER = {"error": 0, "warning": 1, "note": 2}
-
-_EMPTY = np.zeros(0, dtype=np.int64)
-
-
-class _Ctx:
-    """The graph, name lookups and the findings collected for one circuit."""
-
-    def __init__(self, graph: CircuitGraph):
-        self.g = graph
-        self.n = graph.n_nodes
-        self.nodes = graph.node_names
-        self.elems = graph.element_names
-        self.node_arr = np.array(graph.node_names, dtype=object)
-        self.elem_arr = np.array(graph.element_names, dtype=object)
-        self.findings: list[Finding] = []
-        self.total: Counter[str] = Counter()
-
-    def want(self, kind: str) -> bool:
-        """Count a finding of ``kind``; true while it should still be spelled out."""
-        self.total[kind] += 1
-        return self.total[kind] <= MAX_LISTED
-
-    def add(self, finding: Finding) -> None:
-        self.findings.append(finding)
-
-    @cached_property
-    def elem_index(self) -> dict[str, int]:
-        return {name: k for k, name in enumerate(self.elems)}
-
-    @cached_property
-    def kinds(self) -> dict[str, str]:
-        return dict(zip(self.elems, self.g.element_kinds))
-
-    @cached_property
-    def controlled_names(self) -> frozenset[str]:
-        return frozenset(self.elem_arr[np.unique(self.g.element[self.g.controlled])])
-
-    def node_names(self, idx) -> tuple[str, ...]:
-        """Names of node indices (sorted, distinct)."""
-        return tuple(self.node_arr[np.asarray(idx, dtype=np.int64)])
-
-    def in_netlist_order(self, names) -> list[str]:
-        """Distinct element names sorted as in the netlist."""
-        return sorted(set(names), key=self.elem_index.__getitem__)
-
-    def elements_by_label(self, keys: np.ndarray, elements: np.ndarray) -> dict[int, tuple[str, ...]]:
-        """``{key: distinct element names in netlist order}`` for (key, element) pairs, in one sort."""
-        if len(keys) == 0:
-            return {}
-        m = len(self.elems)
-        grp = group_by(*np.divmod(np.unique(keys.astype(np.int64) * m + elements), m))
-        names = self.elem_arr[grp.values].tolist()
-        return {k: tuple(names[a:b]) for k, a, b in zip(grp.keys.tolist(), grp.starts.tolist(), grp.ends.tolist())}
-
-    def attachment_phrases(self, att) -> list[str]:
-        g = self.g
-        return [_ROLE[ROLES[g.attach_role[a]]].format(self.elems[g.attach_element[a]]) for a in att]
-
-    def loop(self, forest, sel, local_u, local_v, local_edge, node_of) -> Loop:
-        """The fundamental cycle of a non-tree edge as a :class:`Loop`.
-
-        The loop starts at its first node in circuit order (ground when it
-        passes through ground) and runs in the direction in which the element
-        first in netlist order comes first.
-        """
-        nodes, edges = fundamental_cycle(forest, int(local_u[local_edge]), int(local_v[local_edge]), int(local_edge))
-        nodes = [int(node_of[i]) for i in nodes]
-        k = nodes.index(min(nodes))
-        nodes, edges = nodes[k:] + nodes[:k], edges[k:] + edges[:k]
-        branches = sel[np.asarray(edges)]
-        owners = self.g.element[branches]
-        if owners[0] > owners[-1]:
-            nodes, branches, owners = nodes[:1] + nodes[:0:-1], branches[::-1], owners[::-1]
-        return Loop(
-            elements=tuple(self.elem_arr[owners]),
-            nodes=tuple(self.node_arr[np.asarray(nodes)]),
-            controlled=bool(self.g.controlled[branches].any()),
-        )
-
-
-class _Cut:
-    """Branches crossing between the components of a partition, per component label.
-
-    Attributes
-    ----------
-    keys, branches : ndarray, shape (2 k,)
-        Each crossing branch twice, once under the label of each side.
-    names : dict of int to tuple of str
-        Distinct crossing elements per label, in netlist order.
-    """
-
-    def __init__(self, ctx: _Ctx, labels: np.ndarray, mask: np.ndarray):
-        g = ctx.g
-        b = np.flatnonzero(mask)
-        lu, lv = labels[g.u[b]], labels[g.v[b]]
-        cross = lu != lv
-        self.n = ctx.n
-        self.keys = np.concatenate([lu[cross], lv[cross]])
-        self.branches = np.concatenate([b[cross], b[cross]])
-        self.names = ctx.elements_by_label(self.keys, g.element[self.branches])
-
-    def count(self, flag: np.ndarray) -> np.ndarray:
-        """Per label, the number of crossing branches with ``flag`` (a mask over all branches), shape (n,)."""
-        return np.bincount(self.keys[flag[self.branches]], minlength=self.n)
-
-
-class _Partition:
-    """Components of a subgraph; those without ground in order of their first node.
-
-    Attributes
-    ----------
-    labels : ndarray, shape (n,)
-        Component label of every node.
-    """
-
-    def __init__(self, ctx: _Ctx, mask: np.ndarray):
-        self.ctx = ctx
-        self.labels = components(ctx.n, ctx.g.u[mask], ctx.g.v[mask])
-        grp = group_by(self.labels, np.arange(ctx.n))  # nodes ascending within each component
-        keep = np.flatnonzero(grp.keys != self.labels[0])
-        keep = keep[np.argsort(grp.values[grp.starts[keep]])]
-        self._labels, self._starts, self._ends = grp.keys[keep], grp.starts[keep], grp.ends[keep]
-        self._nodes = grp.values
-        self._names = ctx.node_arr[grp.values].tolist()
-
-    def sets(self):
-        """``(label, node indices, node names)`` of each component without ground."""
-        for label, a, b in zip(self._labels.tolist(), self._starts.tolist(), self._ends.tolist()):
-            yield label, self._nodes[a:b], tuple(self._names[a:b])
-
-    def cut(self, mask: np.ndarray) -> _Cut:
-        """The branches of ``mask`` that cross between components."""
-        return _Cut(self.ctx, self.labels, mask)
-
-    def attachments(self):
-        """Attachment indices per label."""
-        g = self.ctx.g
-        return group_by(self.labels[g.attach_node], np.arange(len(g.attach_node)))
-
-
-def _subforest(ctx: _Ctx, sel: np.ndarray, weight: np.ndarray):
-    """Spanning forest of the branches ``sel`` on the nodes they touch (compressed)."""
-    u, v = ctx.g.u[sel], ctx.g.v[sel]
-    node_of = np.unique(np.concatenate([u, v, [0]]))
-    lu, lv = np.searchsorted(node_of, u), np.searchsorted(node_of, v)
-    return spanning_forest(len(node_of), lu, lv, weight), lu, lv, node_of
-
 
 # ---------------------------------------------------------------- singular structures
 
 
-def _v_loops(ctx: _Ctx) -> tuple[list[Loop], int]:
+def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
     """Loops of voltage-type branches (a basis: the fundamental cycles)."""
     g = ctx.g
     sel = np.flatnonzero(g.cls == VOLTAGE)
-    forest, lu, lv, node_of = _subforest(ctx, sel, np.where(g.controlled[sel], 2, 1))
+    forest, lu, lv, node_of = subforest(ctx, sel, np.where(g.controlled[sel], 2, 1))
     nontree = np.flatnonzero(~forest.tree)
     nontree = nontree[np.argsort(g.controlled[sel[nontree]], kind="stable")]  # certain loops first
     loops = [ctx.loop(forest, sel, lu, lv, e, node_of) for e in nontree[:MAX_LISTED]]
@@ -253,11 +101,11 @@ def _v_loops(ctx: _Ctx) -> tuple[list[Loop], int]:
     return loops, len(nontree)
 
 
-def _cut_groups(ctx: _Ctx) -> tuple[list[NodeGroup], list[Cutset]]:
+def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset]]:
     """Floating groups and cutsets of current sources (independent, then with controlled sources)."""
     g = ctx.g
     indep_i = g.mask(CURRENT, controlled=False)
-    part = _Partition(ctx, ~indep_i)
+    part = Partition(ctx, ~indep_i)
     cut = part.cut(indep_i)
     touching = ctx.elements_by_label(np.concatenate([part.labels[g.u], part.labels[g.v], part.labels[g.attach_node]]),
                                      np.concatenate([g.element, g.element, g.attach_element]))
@@ -270,7 +118,7 @@ def _cut_groups(ctx: _Ctx) -> tuple[list[NodeGroup], list[Cutset]]:
             grp = NodeGroup(names, touching.get(label, ()))
             floating.append(grp)
             if ctx.want("floating"):
-                ctx.add(_floating_finding(ctx, grp, branch_count[label] > 0, att_by.get(label, _EMPTY)))
+                ctx.add(_floating_finding(ctx, grp, branch_count[label] > 0, att_by.get(label, EMPTY)))
             continue
         cutsets.append(Cutset(names, sources))
         if ctx.want("i_cutset"):
@@ -286,7 +134,7 @@ def _cut_groups(ctx: _Ctx) -> tuple[list[NodeGroup], list[Cutset]]:
             ))
     # cutsets that need a controlled current-type source
     ilike = g.cls == CURRENT
-    part_x = _Partition(ctx, ~ilike)
+    part_x = Partition(ctx, ~ilike)
     cut_x = part_x.cut(ilike)
     for label, idx, names in part_x.sets():
         if part.labels[idx[0]] != part.labels[0] or label not in cut_x.names:
@@ -306,7 +154,7 @@ def _cut_groups(ctx: _Ctx) -> tuple[list[NodeGroup], list[Cutset]]:
     return floating, cutsets
 
 
-def _floating_finding(ctx: _Ctx, grp: NodeGroup, has_branches: bool, att: np.ndarray) -> Finding:
+def _floating_finding(ctx: Context, grp: NodeGroup, has_branches: bool, att: np.ndarray) -> Finding:
     g, k = ctx.g, len(grp.nodes)
     hint = "connect the sub-network to ground (a large resistor will do)"
     if k == ctx.n - 1 and g.terminal_count[0] == 0:
@@ -329,13 +177,13 @@ def _floating_finding(ctx: _Ctx, grp: NodeGroup, has_branches: bool, att: np.nda
 # ---------------------------------------------------------------- index-2 structures
 
 
-def _cv_loops(ctx: _Ctx) -> tuple[list[Loop], int, list[Loop], int, list[str]]:
+def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]]:
     """Pure C-loops and CV-loops through a voltage source, plus the index-2 source currents."""
     g = ctx.g
     sel = np.flatnonzero((g.cls == CAPACITIVE) | (g.cls == VOLTAGE))
     is_v = g.cls[sel] == VOLTAGE
     weight = np.where(is_v, np.where(g.controlled[sel], 3, 2), 1)
-    forest, lu, lv, node_of = _subforest(ctx, sel, weight)
+    forest, lu, lv, node_of = subforest(ctx, sel, weight)
     nontree = np.flatnonzero(~forest.tree)
     c_edges = nontree[~is_v[nontree]]
     v_edges = nontree[is_v[nontree]]
@@ -376,11 +224,11 @@ def _cv_loops(ctx: _Ctx) -> tuple[list[Loop], int, list[Loop], int, list[str]]:
     return c_loops, len(c_edges), cv_loops, len(v_edges), signals
 
 
-def _li_cutsets(ctx: _Ctx) -> tuple[list[Cutset], list[str]]:
+def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:
     """Cutsets of inductors and current sources with at least one inductor, and the index-2 potentials."""
     g = ctx.g
     li = (g.cls == INDUCTIVE) | (g.cls == CURRENT)
-    part = _Partition(ctx, ~li)
+    part = Partition(ctx, ~li)
     cut = part.cut(li)
     inductors = cut.count(g.cls == INDUCTIVE)
     controlled = cut.count(g.controlled)
@@ -418,11 +266,11 @@ def _li_cutsets(ctx: _Ctx) -> tuple[list[Cutset], list[str]]:
 # ---------------------------------------------------------------- DC operating point
 
 
-def _no_dc_path(ctx: _Ctx, floating_labels: np.ndarray) -> list[NodeGroup]:
+def _no_dc_path(ctx: Context, floating_labels: np.ndarray) -> list[NodeGroup]:
     """Node sets without a conducting path to ground (capacitors and current sources open)."""
     g = ctx.g
     conducting = (g.cls == RESISTIVE) | (g.cls == INDUCTIVE) | (g.cls == VOLTAGE)
-    part = _Partition(ctx, conducting)
+    part = Partition(ctx, conducting)
     cut = part.cut(~conducting)
     controlled = cut.count(g.controlled)
     att_by = part.attachments()
@@ -435,7 +283,7 @@ def _no_dc_path(ctx: _Ctx, floating_labels: np.ndarray) -> list[NodeGroup]:
         groups.append(grp)
         if floating_labels[idx[0]] != floating_labels[0] or not elements or not ctx.want("no_dc_path"):
             continue  # inside a floating group (reported there), or beyond the listing
-        attaching = list(through) + ctx.attachment_phrases(att_by.get(label, _EMPTY))
+        attaching = list(through) + ctx.attachment_phrases(att_by.get(label, EMPTY))
         how = name_list(attaching)
         if len(names) == 1:
             text = (f"{node_phrase(names)} has no DC path to ground: only {how} "
@@ -453,13 +301,13 @@ def _no_dc_path(ctx: _Ctx, floating_labels: np.ndarray) -> list[NodeGroup]:
     return groups
 
 
-def _dc_loops(ctx: _Ctx) -> tuple[list[Loop], int]:
+def _dc_loops(ctx: Context) -> tuple[list[Loop], int]:
     """Loops of voltage sources and inductors (shorts at DC) through an inductor."""
     g = ctx.g
     sel = np.flatnonzero((g.cls == VOLTAGE) | (g.cls == INDUCTIVE))
     is_l = g.cls[sel] == INDUCTIVE
     weight = np.where(is_l, 3, np.where(g.controlled[sel], 2, 1))
-    forest, lu, lv, node_of = _subforest(ctx, sel, weight)
+    forest, lu, lv, node_of = subforest(ctx, sel, weight)
     l_edges = np.flatnonzero(~forest.tree & is_l)
     loops = [ctx.loop(forest, sel, lu, lv, e, node_of) for e in l_edges[:MAX_LISTED]]
     for lp in loops:
@@ -483,7 +331,7 @@ def _dc_loops(ctx: _Ctx) -> tuple[list[Loop], int]:
 # ---------------------------------------------------------------- small things
 
 
-def _dangling(ctx: _Ctx) -> list[str]:
+def _dangling(ctx: Context) -> list[str]:
     g = ctx.g
     dangling = np.flatnonzero(g.terminal_count == 1)
     dangling = dangling[dangling != 0]
@@ -510,7 +358,7 @@ _LOOP_REPORTED = frozenset({"vsource", "vcvs", "ccvs", "bvoltage", "opamp", "ind
 _CURRENT_KINDS = frozenset({"isource", "vccs", "cccs", "bcurrent"})
 
 
-def _self_loops(ctx: _Ctx) -> list[str]:
+def _self_loops(ctx: Context) -> list[str]:
     g = ctx.g
     for k, i in g.self_loops:
         kind, name, node = g.element_kinds[k], ctx.elems[k], ctx.nodes[i]
@@ -529,7 +377,7 @@ _KIND_GROUPS = (
 )
 
 
-def _applicability(ctx: _Ctx) -> tuple[bool, str | None]:
+def _applicability(ctx: Context) -> tuple[bool, str | None]:
     violations = ctx.g.hypothesis_violations
     parts = []
     for group, label in _KIND_GROUPS:
@@ -545,7 +393,7 @@ def _applicability(ctx: _Ctx) -> tuple[bool, str | None]:
                    "does not apply; the numerical index is authoritative")
 
 
-def _index(ctx: _Ctx, report: TopologyReport) -> None:
+def _index(ctx: Context, report: TopologyReport) -> None:
     """Set ``topological_index`` and ``index_message``."""
     if report.singular:
         first = next(f for f in report.findings if f.severity == "error")
@@ -627,7 +475,7 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
     >>> print(rep.cv_loops[0].path())
     0 -v1- a -c1- 0
     """
-    ctx = _Ctx(build_graph(circuit))
+    ctx = Context(build_graph(circuit), MAX_LISTED)
     g = ctx.g
     rep = TopologyReport()
     rep.v_loops, n_v = _v_loops(ctx)
