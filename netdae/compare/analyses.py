@@ -1,0 +1,353 @@
+"""Compare one analysis: netdae's Result against ngspice's, at ngspice's points.
+
+Each function takes netdae's and ngspice's :class:`~netdae.results.Result`
+of the same analysis and returns an
+:class:`~netdae.compare.model.AnalysisComparison`. Nothing runs a simulator
+here, so every function can be tested on synthetic results.
+
+- :func:`compare_transient` evaluates netdae's dense output (the integrator's
+  interpolating polynomial, ``Result.dense``) at ngspice's accepted time
+  points: neither side is resampled linearly.
+- :func:`compare_ac` expects netdae's phasors at ngspice's frequencies.
+- :func:`compare_dc` expects the same sweep points on both sides.
+- :func:`compare_op` compares every unknown.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import NetdaeError
+from ..results import Result
+from .header import Tolerance
+from .metrics import (
+    ABSOLUTE_FLOOR,
+    JUMP_WINDOW_FRACTION,
+    ac_metrics,
+    floored_scales,
+    initial_jump,
+    point_metrics,
+    signal_kind,
+    waveform_metrics,
+    within,
+)
+from .model import AnalysisComparison, SignalComparison
+
+__all__ = [
+    "DETECTION_TOLERANCE",
+    "AC_DYNAMIC_RANGE",
+    "select_signals",
+    "compare_transient",
+    "compare_dc",
+    "compare_ac",
+    "compare_op",
+]
+
+#: Tolerance used to detect an initial jump when the analysis has none to judge by.
+DETECTION_TOLERANCE = Tolerance(1e-3)
+#: An AC phasor's relative error is measured against its magnitude at that
+#: frequency, but never against less than this fraction of the largest
+#: magnitude of its kind in the analysis (1e-9: -180 dB): both simulators solve
+#: the same linear system in double precision, so agreement is expected far
+#: down a filter's stopband, and only rounding noise lies below this.
+AC_DYNAMIC_RANGE = 1e-9
+#: Relative slack for ngspice's time points at the ends of netdae's interval.
+_END_SLACK = 1e-12
+
+
+def select_signals(netdae: list[str], ngspice: list[str], wanted=None, exclude=()) -> tuple[list, list, list, list]:
+    """Split signal names into compared, netdae-only, ngspice-only and excluded.
+
+    Parameters
+    ----------
+    netdae, ngspice : list of str
+        The names each simulator produced.
+    wanted : sequence of str, optional
+        Compare only these (case-insensitive); default: every common name.
+    exclude : sequence of str
+        Leave these out.
+
+    Returns
+    -------
+    compared, only_netdae, only_ngspice, excluded : list of str
+        ``compared`` in netdae's order.
+
+    Raises
+    ------
+    NetdaeError
+        When a wanted or excluded name is produced by neither simulator.
+
+    Examples
+    --------
+    >>> select_signals(["v(a)", "v(b)", "i(e1)"], ["v(a)", "v(b)", "i(v1)"], exclude=["v(b)"])
+    (['v(a)'], ['i(e1)'], ['i(v1)'], ['v(b)'])
+    """
+    theirs = set(ngspice)
+    ours = set(netdae)
+    every = ours | theirs
+    for name in [*(wanted or ()), *exclude]:
+        if name.lower() not in every:
+            raise NetdaeError(
+                f"signal {name!r} is produced by neither simulator; have: {', '.join(sorted(every))}"
+            )
+    keep = None if wanted is None else {w.lower() for w in wanted}
+    drop = {e.lower() for e in exclude}
+
+    def chosen(name):
+        return keep is None or name in keep
+
+    compared = [n for n in netdae if n in theirs and chosen(n) and n not in drop]
+    excluded = [n for n in netdae if n in theirs and chosen(n) and n in drop]
+    only_netdae = [n for n in netdae if n not in theirs and chosen(n)]
+    only_ngspice = [n for n in ngspice if n not in ours and chosen(n)]
+    return compared, only_netdae, only_ngspice, excluded
+
+
+def _signals_or_error(item: AnalysisComparison, compared: list[str]) -> bool:
+    if compared:
+        return True
+    item.error = "no signal is produced by both simulators (see only_netdae / only_ngspice)"
+    return False
+
+
+def _sorted(signals: list[SignalComparison]) -> list[SignalComparison]:
+    return sorted(signals, key=lambda s: (-s.max_rel, s.name))
+
+
+def _verdict(tol: Tolerance | None, max_abs: float, scale: float) -> bool | None:
+    if tol is None:
+        return None
+    return bool(within(max_abs, scale, tol.rel, tol.abs))
+
+
+def _ranges(names, a_values, b_values):
+    own = np.array([max(np.ptp(a_values[n]), np.ptp(b_values[n])) for n in names], dtype=float)
+    scales, floored = floored_scales(names, own)
+    return scales, floored
+
+
+def _time_points(nd: Result, t: np.ndarray, item: AnalysisComparison) -> np.ndarray:
+    """Mask of ngspice's times inside netdae's computed interval."""
+    t_nd = nd.t
+    if t_nd.size == 0:
+        raise NetdaeError("netdae's transient result has no time points")
+    slack = _END_SLACK * max(abs(t_nd[-1]), abs(t_nd[0]), 1.0)
+    inside = (t >= t_nd[0] - slack) & (t <= t_nd[-1] + slack)
+    if not np.all(inside):
+        outside = t[~inside]
+        item.notes.append(
+            f"{outside.size} of ngspice's {t.size} time points lie outside netdae's interval "
+            f"[{t_nd[0]:.6g}, {t_nd[-1]:.6g}] s and are not compared"
+        )
+    return inside
+
+
+def _jump_reason(nd: Result, t0: float, t_from: float, t_end: float) -> str:
+    share = 100.0 * (t_from - t0) / (t_end - t0) if t_end > t0 else 0.0
+    base = (
+        f"the simulators disagree at t = {t0:.6g} s and agree within tolerance from t = {t_from:.6g} s "
+        f"on ({share:.2g} % of the interval): an inconsistent initial value decays (a jump at the start); "
+        f"the metrics are computed from t = {t_from:.6g} s"
+    )
+    correction = nd.extra.get("initial_correction")
+    if correction:
+        base += f"; netdae computed consistent initial values: {correction}"
+    return base
+
+
+def compare_transient(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=(),
+                      window: float = JUMP_WINDOW_FRACTION) -> AnalysisComparison:
+    """Compare two transient results at ngspice's accepted time points.
+
+    Parameters
+    ----------
+    nd : Result
+        netdae's transient, with ``dense`` (its interpolant).
+    ng : Result
+        ngspice's transient (its accepted points, ``.options interp`` off).
+    tol : Tolerance or None
+        Pass criterion; None to compare without judging.
+    wanted, exclude
+        Signal selection (:func:`select_signals`).
+    window : float
+        Longest initial jump, as a fraction of the interval (:func:`~netdae.compare.metrics.initial_jump`).
+
+    Returns
+    -------
+    AnalysisComparison
+
+    Notes
+    -----
+    Per signal: the scale is the larger of the two peak-to-peak ranges over
+    the whole interval (netdae's at its own accepted points, ngspice's at its
+    points), floored per kind. A signal *jumps* when it is out of tolerance at
+    the first point and within tolerance from some point no later than
+    ``window`` of the interval; then every signal's metrics are computed from
+    the latest such point on, and the whole-interval errors are kept in
+    ``whole``. Cost: one dense evaluation at m points, O(m) per signal.
+    """
+    item = AnalysisComparison("tran", tolerance=tol, axis="time")
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
+        nd.names(), ng.names(), wanted, exclude)
+    if not _signals_or_error(item, compared):
+        return item
+    if nd.dense is None:
+        item.error = "netdae's transient result has no dense output to evaluate at ngspice's time points"
+        return item
+    t_all = ng.t
+    inside = _time_points(nd, t_all, item)
+    t = t_all[inside]
+    if t.size == 0:
+        item.error = "no ngspice time point lies inside netdae's computed interval"
+        return item
+    t = np.clip(t, nd.t[0], nd.t[-1])
+    dense = nd.dense(t)
+    a = {n: np.asarray(dense[n], dtype=float) for n in compared}
+    b = {n: np.asarray(ng.signals[n], dtype=float)[inside] for n in compared}
+    own_nd = {n: np.asarray(nd.signals[n], dtype=float) if n in nd.signals else a[n] for n in compared}
+    scales, floored = _ranges(compared, own_nd, b)
+    judge = tol or DETECTION_TOLERANCE
+    jumps = {
+        name: initial_jump(t, a[name], b[name], scale=scales[k], rel=judge.rel, abs_tol=judge.abs, window=window)
+        for k, name in enumerate(compared)
+    }
+    start = max((j.settle for j in jumps.values() if j is not None), default=0)
+    if start:
+        item.window = {"from": float(t[start]), "index": int(start),
+                       "reason": _jump_reason(nd, float(t[0]), float(t[start]), float(t[-1]))}
+    item.points = int(t.size)
+    item.curves = {"axis": t, "start": start, "values": {n: (a[n], b[n]) for n in compared}}
+    signals = []
+    for k, name in enumerate(compared):
+        m = waveform_metrics(t[start:], a[name][start:], b[name][start:], scale=scales[k])
+        worst = start + m.worst
+        sig = SignalComparison(
+            name, m.max_abs, m.max_rel, m.rms, {"time": float(t[worst])}, float(scales[k]),
+            "floor" if floored[k] else "range", _verdict(tol, m.max_abs, scales[k]),
+            netdae=float(a[name][worst]), ngspice=float(b[name][worst]),
+        )
+        jump = jumps[name]
+        if jump is not None:
+            sig.jump = {"netdae": jump.netdae, "ngspice": jump.ngspice, "settle_time": float(t[jump.settle])}
+        if start:
+            whole = waveform_metrics(t, a[name], b[name], scale=scales[k])
+            sig.whole = {"max_abs": whole.max_abs, "max_rel": whole.max_rel, "rms": whole.rms,
+                         "at": {"time": float(t[whole.worst])}}
+        signals.append(sig)
+    item.signals = _sorted(signals)
+    if nd.status < 0:
+        item.error = f"netdae's transient failed: {nd.message}"
+    return item
+
+
+def _sweep_point(axes: dict[str, np.ndarray], k: int) -> dict[str, float]:
+    return {name: float(values[k]) for name, values in axes.items()}
+
+
+def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
+    """Compare two DC sweeps point by point.
+
+    The scale is the larger of the two ranges over the sweep, floored per
+    kind; the RMS is over the points. The sweep points must agree (ngspice's
+    outer axis of a nested sweep is rebuilt by the bridge).
+    """
+    item = AnalysisComparison("dc", tolerance=tol, axis=", ".join(ng.axes) or None)
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
+        nd.names(), ng.names(), wanted, exclude)
+    if not _signals_or_error(item, compared):
+        return item
+    m = ng.axis.size if ng.axis is not None else 0
+    if nd.axis is None or nd.axis.size != m:
+        item.error = (f"the sweeps differ: netdae has {0 if nd.axis is None else nd.axis.size} points, "
+                      f"ngspice {m}")
+        return item
+    for name, values in ng.axes.items():
+        mine = nd.axes.get(name)
+        if mine is None or not np.allclose(mine, values, rtol=1e-9, atol=1e-12 * max(np.ptp(values), 1.0)):
+            item.error = f"the sweeps differ in {name}: netdae's points are not ngspice's"
+            return item
+    a = {n: np.asarray(nd.signals[n], dtype=float) for n in compared}
+    b = {n: np.asarray(ng.signals[n], dtype=float) for n in compared}
+    scales, floored = _ranges(compared, a, b)
+    index = np.arange(m, dtype=float)
+    item.points = int(m)
+    item.curves = {"axis": ng.axis, "axes": ng.axes, "start": 0, "values": {n: (a[n], b[n]) for n in compared}}
+    signals = []
+    for k, name in enumerate(compared):
+        mm = waveform_metrics(index, a[name], b[name], scale=scales[k], weighted=False)
+        signals.append(SignalComparison(
+            name, mm.max_abs, mm.max_rel, mm.rms, _sweep_point(ng.axes, mm.worst), float(scales[k]),
+            "floor" if floored[k] else "range", _verdict(tol, mm.max_abs, scales[k]),
+            netdae=float(a[name][mm.worst]), ngspice=float(b[name][mm.worst]),
+        ))
+    item.signals = _sorted(signals)
+    return item
+
+
+def compare_ac(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
+    """Compare AC phasors at ngspice's frequencies.
+
+    ``nd`` must hold netdae's phasors at exactly ngspice's frequencies. The
+    relative error at each frequency is ``|A - B| / max(|A|, |B|, floor)``
+    with the floor :data:`AC_DYNAMIC_RANGE` times the largest magnitude of the
+    signal's kind (at least the kind's absolute floor); ``max_rel`` is its
+    maximum over frequency and is what the tolerance judges.
+    """
+    item = AnalysisComparison("ac", tolerance=tol, axis="frequency")
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
+        nd.names(), ng.names(), wanted, exclude)
+    if not _signals_or_error(item, compared):
+        return item
+    f = ng.axis
+    if nd.axis is None or nd.axis.size != f.size or not np.array_equal(nd.axis, f):
+        item.error = "netdae's phasors are not at ngspice's frequencies"
+        return item
+    a = {n: np.asarray(nd.signals[n], dtype=complex) for n in compared}
+    b = {n: np.asarray(ng.signals[n], dtype=complex) for n in compared}
+    peaks: dict[str, float] = {}
+    for n in compared:
+        kind = signal_kind(n)
+        peaks[kind] = max(peaks.get(kind, 0.0), float(np.max(np.abs(a[n]))), float(np.max(np.abs(b[n]))))
+    item.points = int(f.size)
+    item.curves = {"axis": f, "start": 0, "values": {n: (a[n], b[n]) for n in compared}}
+    signals = []
+    for name in compared:
+        kind = signal_kind(name)
+        floor = max(ABSOLUTE_FLOOR[kind], AC_DYNAMIC_RANGE * peaks[kind])
+        m = ac_metrics(a[name], b[name], floor=floor)
+        scale = max(abs(a[name][m.worst]), abs(b[name][m.worst]), floor)
+        signals.append(SignalComparison(
+            name, m.max_abs, m.max_rel, m.rms, {"frequency": float(f[m.worst])}, float(scale),
+            "floor" if scale == floor else "magnitude",
+            _verdict(tol, m.max_rel * scale, scale),
+            netdae=complex(a[name][m.worst]), ngspice=complex(b[name][m.worst]),
+            max_db=m.max_db, max_phase_deg=m.max_phase_deg,
+        ))
+    item.signals = _sorted(signals)
+    return item
+
+
+def compare_op(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
+    """Compare two operating points unknown by unknown.
+
+    The scale of each unknown is the larger of the two magnitudes, floored per
+    kind; ``max_rel = |a - b| / scale``.
+    """
+    item = AnalysisComparison("op", tolerance=tol)
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
+        nd.names(), ng.names(), wanted, exclude)
+    if not _signals_or_error(item, compared):
+        return item
+    a = np.array([float(nd.signals[n][0]) for n in compared])
+    b = np.array([float(ng.signals[n][0]) for n in compared])
+    scales, floored = floored_scales(compared, np.maximum(np.abs(a), np.abs(b)))
+    item.points = 1
+    signals = []
+    for k, name in enumerate(compared):
+        m = point_metrics(a[k], b[k], scale=scales[k])
+        signals.append(SignalComparison(
+            name, m.max_abs, m.max_rel, m.rms, {}, float(scales[k]), "floor" if floored[k] else "magnitude",
+            _verdict(tol, m.max_abs, scales[k]), netdae=float(a[k]), ngspice=float(b[k]),
+        ))
+    item.signals = _sorted(signals)
+    return item

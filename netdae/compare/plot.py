@@ -1,0 +1,145 @@
+"""PNG of a comparison: both waveforms overlaid, the difference underneath.
+
+One pair of panels per signal, for the worst :data:`MAX_SIGNALS_PER_ANALYSIS`
+signals of every analysis with an axis (``.tran``, ``.ac``, ``.dc``), at most
+:data:`MAX_PAIRS` pairs in all:
+
+- transient and DC: netdae (line) and ngspice (dots at its points); below,
+  netdae - ngspice with the tolerance band, and the initial jump's window
+  shaded when the metrics start after t0;
+- AC: both magnitudes in dB; below, the relative error ``|A - B| / |B|`` on a
+  log scale with the tolerance.
+
+matplotlib is imported when a plot is drawn (non-interactive ``Agg`` backend).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import NetdaeError
+from .model import AnalysisComparison, Comparison
+
+__all__ = ["plot_comparison", "MAX_PAIRS", "MAX_SIGNALS_PER_ANALYSIS"]
+
+#: At most this many signal panels (overlay + difference) per figure.
+MAX_PAIRS = 6
+#: At most this many signals (the worst ones) of each analysis.
+MAX_SIGNALS_PER_ANALYSIS = 3
+_DPI = 110
+#: Log-scale floors: magnitudes below 1e-20 (-400 dB) and relative errors below
+#: 1e-18 (under double rounding) are drawn at the floor, so exact zeros stay on the axes.
+_MAGNITUDE_FLOOR = 1e-20
+_RELATIVE_FLOOR = 1e-18
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _panels(comparison: Comparison) -> list[tuple[AnalysisComparison, str]]:
+    chosen = []
+    for item in comparison.analyses:
+        if item.analysis == "op" or not item.curves:
+            continue
+        for sig in item.signals[:MAX_SIGNALS_PER_ANALYSIS]:
+            chosen.append((item, sig.name))
+    return chosen[:MAX_PAIRS]
+
+
+def _xlabel(item: AnalysisComparison) -> str:
+    return {"tran": "time [s]", "ac": "frequency [Hz]"}.get(item.analysis, item.axis or "")
+
+
+def _curves(item: AnalysisComparison) -> list:
+    """Index sets drawn as one curve each: one per outer value of a nested DC sweep."""
+    axes = item.curves.get("axes")
+    if item.analysis != "dc" or not axes or len(axes) < 2:
+        return [slice(None)]
+    outer = list(axes.values())[1]
+    return [np.flatnonzero(outer == value) for value in np.unique(outer)]
+
+
+def _draw_waveform(top, bottom, item: AnalysisComparison, name: str) -> None:
+    x = item.curves["axis"]
+    a, b = item.curves["values"][name]
+    sig = next(s for s in item.signals if s.name == name)
+    for k, sel in enumerate(_curves(item)):
+        first = k == 0
+        top.plot(x[sel], b[sel], ".", color="tab:orange", markersize=3, label="ngspice" if first else None)
+        top.plot(x[sel], a[sel], "-", color="tab:blue", linewidth=1, label="netdae" if first else None)
+        bottom.plot(x[sel], (a - b)[sel], "-", color="tab:red", linewidth=1,
+                    label="netdae - ngspice" if first else None)
+    if item.tolerance is not None:
+        band = item.tolerance.rel * sig.scale
+        for level in (band, -band):
+            bottom.axhline(level, color="grey", linestyle="--", linewidth=0.8)
+    start = item.curves.get("start", 0)
+    if start:
+        for ax in (top, bottom):
+            ax.axvspan(x[0], x[start], color="grey", alpha=0.2, label="initial jump (not judged)")
+        low, high = np.min((a - b)[start:]), np.max((a - b)[start:])
+        pad = 0.1 * (high - low) + (item.tolerance.rel * sig.scale if item.tolerance else 0.0)
+        bottom.set_ylim(low - pad, high + pad)
+    top.set_ylabel(name)
+    bottom.set_ylabel("difference")
+
+
+def _draw_ac(top, bottom, item: AnalysisComparison, name: str) -> None:
+    f = item.curves["axis"]
+    a, b = item.curves["values"][name]
+    top.semilogx(f, 20 * np.log10(np.maximum(np.abs(b), _MAGNITUDE_FLOOR)), ".", color="tab:orange",
+                 markersize=3, label="ngspice")
+    top.semilogx(f, 20 * np.log10(np.maximum(np.abs(a), _MAGNITUDE_FLOOR)), "-", color="tab:blue", linewidth=1,
+                 label="netdae")
+    rel = np.abs(a - b) / np.maximum(np.abs(b), _MAGNITUDE_FLOOR)
+    bottom.loglog(f, np.maximum(rel, _RELATIVE_FLOOR), "-", color="tab:red", linewidth=1,
+                  label="|netdae - ngspice| / |ngspice|")
+    if item.tolerance is not None:
+        bottom.axhline(item.tolerance.rel, color="grey", linestyle="--", linewidth=0.8)
+    top.set_ylabel(f"|{name}| [dB]")
+    bottom.set_ylabel("relative error")
+
+
+def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
+    """Write the overlay/difference PNG of a comparison and return its path.
+
+    Raises
+    ------
+    NetdaeError
+        When no analysis has a waveform to draw (an operating point only, or
+        every analysis failed).
+    """
+    chosen = _panels(comparison)
+    if not chosen:
+        raise NetdaeError(f"{comparison.source}: nothing to plot: no .tran, .ac or .dc analysis was compared")
+    plt = _pyplot()
+    path = Path(path)
+    fig, axes = plt.subplots(2 * len(chosen), 1, figsize=(9, 3.6 * len(chosen)),
+                             gridspec_kw={"height_ratios": [2, 1] * len(chosen)}, squeeze=False)
+    axes = axes[:, 0]
+    for k, (item, name) in enumerate(chosen):
+        top, bottom = axes[2 * k], axes[2 * k + 1]
+        if item.analysis == "ac":
+            _draw_ac(top, bottom, item, name)
+        else:
+            _draw_waveform(top, bottom, item, name)
+        sig = next(s for s in item.signals if s.name == name)
+        top.set_title(f".{item.analysis} {name}: max error {sig.max_rel:.3g} of its scale"
+                      + (" (after the initial jump)" if item.window else ""), fontsize="medium")
+        bottom.set_xlabel(_xlabel(item))
+        for ax in (top, bottom):
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize="small", loc="best")
+    fig.suptitle(f"{comparison.title}: netdae vs {comparison.ngspice_version or 'ngspice'}", fontsize="large")
+    fig.tight_layout()
+    fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+    return path

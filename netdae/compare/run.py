@@ -1,0 +1,305 @@
+"""Run one netlist through netdae and ngspice and compare every analysis.
+
+:func:`compare` reads the netlist once; netdae elaborates it
+(:func:`netdae.load`) and runs each analysis card
+(:func:`netdae.analyses.runner.run`); ngspice runs the *same text* through
+the bridge (:func:`netdae.ngspice.run_ngspice`), which translates netdae's
+extensions (the ideal op-amp becomes a VCVS of large gain) and lists every
+change it made. Analyses are paired by kind and order (ngspice runs them in
+its own order: ac, dc, op, tran) and compared at ngspice's points
+(:mod:`netdae.compare.analyses`).
+
+Tolerances
+----------
+By default both simulators use the netlist's ``.options``. With
+``tight=True``:
+
+- netdae: ``reltol=1e-6``, ``vntol=1e-9`` V, ``abstol=1e-15`` A
+  (:data:`TIGHT_NETDAE`);
+- ngspice: the same three, ``chgtol=1e-20`` C and ``trtol=1``
+  (:data:`TIGHT_NGSPICE`), a maximum step of 1e-4 of the simulated interval
+  (:data:`TIGHT_STEPS_PER_INTERVAL`), and an op-amp gain of 1e9
+  (:data:`TIGHT_OPAMP_GAIN`); the integration method stays the netlist's.
+
+Why the step bound: ngspice's truncation-error control is loose. On the
+series RLC of ``netlists/rlc_series_underdamped.cir`` its error against the
+closed form is 1.8e-3 of the range at the default tolerances and still 1.0e-3
+at ``reltol=1e-6`` (2.9e-4 with ``trtol=1``); only the step bound brings it to
+1.9e-5 (measured with ngspice 39, see ``docs/validation.md``). ``method=gear``
+is not better there (6.0e-4 at ``reltol=1e-6``, ``trtol=1``) and damps the
+ringing numerically, so the method is left alone. ``chgtol`` and ``abstol``
+are lowered so that the relative tolerance decides; ``trtol=1`` removes
+ngspice's factor-7 allowance on its truncation-error estimate.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+
+import numpy as np
+
+from ..circuit import Circuit, TranAnalysis
+from ..errors import NetdaeError, NgspiceError
+from ..results import Result
+from .analyses import compare_ac, compare_dc, compare_op, compare_transient
+from .header import ANALYSES, Tolerance, parse_header
+from .model import AnalysisComparison, Comparison
+
+__all__ = [
+    "compare",
+    "DEFAULT_TOLERANCE",
+    "TIGHT_NETDAE",
+    "TIGHT_NGSPICE",
+    "TIGHT_STEPS_PER_INTERVAL",
+    "TIGHT_OPAMP_GAIN",
+]
+
+#: Pass criterion when neither the caller nor the netlist's header gives one:
+#: 1e-3 of the signal's scale, ngspice's default relative tolerance.
+DEFAULT_TOLERANCE = Tolerance(1e-3)
+#: netdae's tolerances with ``tight=True``.
+TIGHT_NETDAE = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-15}
+#: ngspice's options with ``tight=True`` (module docstring).
+TIGHT_NGSPICE = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-15, "chgtol": 1e-20, "trtol": 1}
+#: With ``tight=True`` ngspice's step is at most the simulated interval over this.
+TIGHT_STEPS_PER_INTERVAL = 1e4
+#: The ideal op-amp's gain in ngspice with ``tight=True``: a model error of
+#: 1e-9 times the noise gain (ngspice runs the differentiator to completion
+#: for gains up to 1e15, see docs/ngspice.md).
+TIGHT_OPAMP_GAIN = 1e9
+_COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac}
+
+
+def _read(netlist) -> tuple[Circuit, str, str, str]:
+    """(circuit, text, source name, working directory) of what the caller gave."""
+    from ..netlist import load
+
+    if isinstance(netlist, Circuit):
+        path = netlist.path
+        if path == "<string>" or not os.path.isfile(path):
+            raise NetdaeError(
+                "compare needs the netlist's text to run ngspice on it, and this circuit has no file "
+                f"({path}); pass the netlist's path or text instead"
+            )
+        return netlist, _read_file(path), path, os.path.dirname(os.path.abspath(path))
+    if isinstance(netlist, str) and "\n" in netlist:
+        return load(netlist), netlist, "<string>", os.getcwd()
+    path = os.fspath(netlist)
+    text = _read_file(path)
+    return load(path), text, path, os.path.dirname(os.path.abspath(path))
+
+
+def _read_file(path: str) -> str:
+    try:
+        with open(path, encoding="utf-8", errors="replace") as handle:
+            return handle.read()
+    except OSError as exc:
+        raise NetdaeError(f"{path}: cannot read netlist: {exc.strerror}") from None
+
+
+def _tolerances(tol, header) -> tuple[dict[str, Tolerance | None], str]:
+    """Tolerance per analysis and where it came from."""
+    if tol is None:
+        if header.tolerances:
+            return {a: header.tolerances.get(a, DEFAULT_TOLERANCE) for a in ANALYSES}, "header"
+        return dict.fromkeys(ANALYSES, DEFAULT_TOLERANCE), "default"
+    if isinstance(tol, Tolerance):
+        return dict.fromkeys(ANALYSES, tol), "argument"
+    if isinstance(tol, dict):
+        out = {}
+        for analysis in ANALYSES:
+            value = tol.get(analysis, DEFAULT_TOLERANCE)
+            out[analysis] = Tolerance(float(value)) if isinstance(value, (int, float)) else value
+        return out, "argument"
+    value = float(tol)
+    if not value > 0:
+        raise NetdaeError(f"the compare tolerance must be positive, got {tol!r}")
+    return dict.fromkeys(ANALYSES, Tolerance(value)), "argument"
+
+
+def _tight_maxstep(circuit: Circuit) -> float | None:
+    spans = [(c.tstop - c.tstart, c.tmax) for c in circuit.analyses if isinstance(c, TranAnalysis)]
+    if not spans:
+        return None
+    bounds = [span / TIGHT_STEPS_PER_INTERVAL for span, _ in spans]
+    bounds += [tmax for _, tmax in spans if tmax]
+    return min(bounds)
+
+
+def _settings(circuit: Circuit, tight: bool, reltol: float | None) -> tuple[dict, dict, float | None]:
+    """netdae overrides, ngspice option overrides, op-amp gain (None: the bridge's)."""
+    if tight:
+        ngspice = dict(TIGHT_NGSPICE)
+        maxstep = _tight_maxstep(circuit)
+        if maxstep is not None:
+            ngspice["maxstep"] = maxstep
+        netdae = dict(TIGHT_NETDAE)
+        if reltol is not None:
+            netdae["reltol"] = ngspice["reltol"] = float(reltol)
+        return netdae, ngspice, TIGHT_OPAMP_GAIN
+    if reltol is not None:
+        return {"reltol": float(reltol)}, {"reltol": float(reltol)}, None
+    return {}, {}, None
+
+
+def _run_netdae(circuit: Circuit, card, overrides: dict) -> Result:
+    """One analysis card through :func:`netdae.analyses.runner.run`."""
+    from ..analyses.runner import run
+
+    (result,) = run(replace(circuit, analyses=[card]), **overrides)
+    return result
+
+
+def _netdae_ac_at(circuit: Circuit, freqs: np.ndarray, overrides: dict) -> Result:
+    """netdae's AC phasors at exactly the given frequencies (ngspice's)."""
+    from ..analyses.ac import solve_ac
+    from ..analyses.op import solve_operating_point, steady_options
+    from ..mna import MODE_DC, assemble
+
+    system = assemble(circuit, mode=MODE_DC)
+    opts = steady_options(circuit, **overrides)
+    op = solve_operating_point(system, options=opts)
+    E, H = system.jacobians(op.x, 0.0)
+    X = solve_ac(E, H, system.B @ system.sources.ac, freqs)
+    return Result("ac", axes={"frequency": np.asarray(freqs, dtype=float)},
+                  signals={name: X[:, i] for i, name in enumerate(system.names)},
+                  tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol})
+
+
+def _netdae_error(exc: BaseException) -> str:
+    if isinstance(exc, ModuleNotFoundError):
+        return f"netdae cannot run this analysis in this build: module {exc.name} is missing"
+    return f"netdae failed: {exc}"
+
+
+def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, overrides, wanted, exclude,
+                  ngspice_failed: bool) -> AnalysisComparison:
+    if ng is None:
+        reason = "ngspice failed on the netlist" if ngspice_failed else f"ngspice produced no {kind} result"
+        return AnalysisComparison(kind, tolerance=tol, error=reason)
+    try:
+        if kind == "ac":
+            nd = _netdae_ac_at(circuit, ng.axis, overrides)
+        else:
+            nd = _run_netdae(circuit, card, overrides)
+    except (NetdaeError, ModuleNotFoundError) as exc:
+        if isinstance(exc, ModuleNotFoundError) and not (exc.name or "").startswith("netdae"):
+            raise
+        return AnalysisComparison(kind, tolerance=tol, error=_netdae_error(exc),
+                                  ngspice_tolerances=dict(ng.tolerances))
+    if kind == "tran":
+        item = compare_transient(nd, ng, tol=tol, wanted=wanted, exclude=exclude)
+    else:
+        item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude)
+    item.netdae_tolerances = dict(nd.tolerances)
+    item.ngspice_tolerances = {**ng.tolerances, "method": ng.extra.get("method", "trap")}
+    item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
+    return item
+
+
+def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "auto", signals=None,
+            exclude=(), reltol: float | None = None) -> Comparison:
+    """Run a netlist in netdae and in ngspice and compare every analysis.
+
+    Parameters
+    ----------
+    netlist : str, path-like or Circuit
+        A netlist file, a netlist's text (a string with a newline), or a
+        circuit loaded from a file (:func:`netdae.load`).
+    tight : bool, optional
+        Run both simulators with tight tolerances (module docstring) so that
+        the differences show the models rather than the step control.
+        Default: what the netlist's header says (``* compare options: tight``),
+        else False.
+    tol : float, Tolerance or dict, optional
+        Pass criterion, relative to each signal's scale
+        (:mod:`netdae.compare.metrics`): one value for every analysis, or a
+        dict from analysis (``"op"``, ``"dc"``, ``"ac"``, ``"tran"``) to a
+        value (None: compare without judging). Default: the netlist's
+        ``* compare tolerance:`` header, else 1e-3.
+    backend : {"auto", "shared", "subprocess"}
+        How to run ngspice (:func:`netdae.ngspice.run_ngspice`).
+    signals : sequence of str, optional
+        Compare only these signals (default: every signal both produce).
+    exclude : sequence of str
+        Signals to leave out.
+    reltol : float, optional
+        Relative tolerance for both simulators (overrides the netlist's and,
+        with ``tight``, the tight one).
+
+    Returns
+    -------
+    Comparison
+        Its ``passed`` is the verdict; a simulator that fails on the netlist
+        is reported in it (``ngspice_error``, an analysis's ``error``), not raised.
+
+    Raises
+    ------
+    NgspiceError
+        When ngspice is not installed (the message gives the install command)
+        or the requested backend cannot run.
+    NetlistError
+        When the netlist is malformed.
+    NetdaeError
+        For a signal name neither simulator produces, or a bad tolerance.
+
+    Notes
+    -----
+    Cost: one netdae run and one ngspice run per analysis card, plus one
+    dense evaluation of netdae's transient at ngspice's time points.
+    """
+    from .. import ngspice as bridge
+    from ..analyses.runner import analysis_name
+
+    circuit, text, source, workdir = _read(netlist)
+    if not circuit.analyses:
+        raise NetdaeError(f"{source}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to compare")
+    header = parse_header(text, source=source)
+    tight = header.tight if tight is None else bool(tight)
+    tolerances, tol_source = _tolerances(tol, header)
+    nd_overrides, ng_options, gain = _settings(circuit, tight, reltol)
+    if not bridge.available():
+        raise NgspiceError(f"ngspice is not installed, so netdae cannot compare against it; install it with: "
+                           f"{bridge.INSTALL_HINT}")
+    comparison = Comparison(source=source, title=circuit.title, tight=tight, tolerance_source=tol_source,
+                            ngspice_options=dict(ng_options), netdae_options=dict(nd_overrides),
+                            opamp_gain=gain if gain is not None else bridge.OPAMP_GAIN)
+    kwargs = {"backend": backend, "workdir": workdir, "source": source, "options": ng_options or None}
+    if gain is not None:
+        kwargs["opamp_gain"] = gain
+    ng_results: list[Result] = []
+    try:
+        run = bridge.run_ngspice(text, **kwargs)
+    except bridge.BackendUnavailable:
+        raise
+    except NgspiceError as exc:
+        comparison.ngspice_error = str(exc)
+    else:
+        ng_results = run.results
+        comparison.ngspice_version, comparison.backend = run.version, run.backend
+        comparison.translations = list(run.notes)
+        comparison.ngspice_warnings = list(run.warnings)
+    if not comparison.ngspice_version:
+        comparison.ngspice_version = _version_or_empty(backend)
+    seen: dict[str, int] = {}
+    for card in circuit.analyses:
+        kind = analysis_name(card)
+        occurrence = seen.get(kind, 0)
+        seen[kind] = occurrence + 1
+        ours = [r for r in ng_results if r.analysis == kind]
+        ng = ours[occurrence] if occurrence < len(ours) else None
+        item = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,
+                             comparison.ngspice_error is not None)
+        item.occurrence = occurrence
+        comparison.analyses.append(item)
+    return comparison
+
+
+def _version_or_empty(backend: str) -> str:
+    from .. import ngspice as bridge
+
+    try:
+        return bridge.ngspice_version(backend)
+    except NgspiceError:
+        return ""
