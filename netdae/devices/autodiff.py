@@ -38,8 +38,9 @@ from ..netlist.expr import Binary, Call, Const, Current, Expr, Param, Ternary, T
 
 __all__ = ["structure_key", "leaves", "ExpressionGroup", "group_by_structure"]
 
-#: ngspice's PTexp returns 1e99 beyond this argument (e^227.9559242 = 1e99).
+#: ngspice's PTexp returns EXP_SATURATED beyond this argument (e^227.9559242 = 1e99).
 EXP_ARG_MAX = 227.9559242
+EXP_SATURATED = 1e99
 #: ngspice's PTlog(0).
 LOG_OF_ZERO = -1e99
 
@@ -175,7 +176,7 @@ def _select(mask, v1, d1, v2, d2):
 
 
 def _exp(u):
-    return np.exp(np.minimum(u, EXP_ARG_MAX))
+    return np.where(u > EXP_ARG_MAX, EXP_SATURATED, np.exp(np.minimum(u, EXP_ARG_MAX)))
 
 
 def _ln(u):
@@ -311,8 +312,9 @@ class ExpressionGroup:
 
         Notes
         -----
-        Call inside ``np.errstate``: invalid operations give non-finite
-        values, which the caller reports.
+        Invalid operations (square root of a negative number ...) give
+        non-finite values silently (numpy's warnings are suppressed here);
+        the caller reports them.
         """
         n_leaves = self.n_leaves
         state = {"leaf": 0, "const": 0}
@@ -349,7 +351,8 @@ class ExpressionGroup:
                 return _call(node.func, [visit(a) for a in node.args])
             raise ValueError(f"cannot evaluate {node!r}")
 
-        value, deriv = visit(self.tree)
+        with np.errstate(all="ignore"):
+            value, deriv = visit(self.tree)
         value = np.broadcast_to(np.asarray(value, dtype=float), (self.n,))
         if deriv is None:
             deriv = np.zeros((n_leaves, self.n))
