@@ -63,11 +63,18 @@ def parse_value(card: Card, tok: Token, syntax=None, what: str = "value", *, num
     """
     if tok.kind == EXPR or (numparam and tok.kind == WORD):
         node = parse_expr(card, tok.text, tok.start + (tok.kind == EXPR), ex.PARAM, syntax)
-        return (node.value if type(node) is ex.Const else node), tok.start
-    if tok.kind == WORD:
+        if type(node) is not ex.Const:
+            return node, tok.start
+        number = node.value
+    elif tok.kind == WORD:
         number = parse_number(tok.text)
-        if number is not None:
-            return number, tok.start
+    else:
+        number = None
+    if number is not None:
+        if not math.isfinite(number):
+            raise error(card, tok.start, f"{what} '{tok.text}' is out of range", syntax)
+        return number, tok.start
+    if tok.kind == WORD:
         if IDENT.match(tok.text):
             if tok.text == "pi":
                 return math.pi, tok.start
@@ -393,7 +400,7 @@ def _poly(card: Card, toks: list[Token], k: int, syntax, letter: str) -> Element
         raise error(card, toks[k].start, "expected POLY(n) with the number of controlling inputs n", syntax)
     dim_tok = toks[k + 2]
     dim = parse_number(dim_tok.text) if dim_tok.kind == WORD else None
-    if dim is None or dim != int(dim) or dim < 1:
+    if dim is None or not math.isfinite(dim) or dim != int(dim) or dim < 1:
         raise error(card, dim_tok.start, f"POLY dimension must be a positive integer, found {dim_tok.text!r}",
                     syntax)
     dim = int(dim)
@@ -534,15 +541,15 @@ def parse_element(card: Card) -> ElementCard | InstanceCard:
     """
     toks = card.tokens()
     head = toks[0]
-    letter = head.text[0]
+    letter = head.text[0] if head.kind == WORD else ""
     syntax = ELEMENTS.get(letter)
-    if syntax is None or head.kind != WORD:
+    if syntax is None:
         if letter in UNSUPPORTED_ELEMENTS:
             raise NetlistError(
                 f"{head.text}: element type '{letter.upper()}' ({UNSUPPORTED_ELEMENTS[letter]}) is not "
                 f"supported by netdae", card.location(0),
                 hint=f"netdae reads {supported_letters()}; replace it by an equivalent circuit of these")
-        raise NetlistError(f"unknown card '{head.text}'", card.location(0),
+        raise NetlistError(f"unknown card '{card.text.split(None, 1)[0]}'", card.location(0),
                            hint=f"element names start with one of {supported_letters()}; dot cards with '.'")
     if letter in "rcl":
         return _two_terminal(card, toks, syntax, {"r": "resistor", "c": "capacitor", "l": "inductor"}[letter])

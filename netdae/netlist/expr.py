@@ -121,11 +121,17 @@ __all__ = [
     "fold_constants",
     "walk",
     "to_text",
+    "depth",
     "RESERVED",
+    "MAX_DEPTH",
 ]
 
 PARAM = "param"
 BEHAVIOURAL = "behavioural"
+
+#: Deepest expression tree accepted (evaluators walk trees recursively, and
+#: Python's recursion limit is about 1000 frames).
+MAX_DEPTH = 300
 
 
 @dataclass(frozen=True, slots=True)
@@ -506,7 +512,34 @@ def parse_expression(
     -----
     Linear in the length of the text.
     """
-    return _Parser(fold_case(text), context, locate or (lambda offset: None)).parse()
+    locate = locate or (lambda offset: None)
+    try:
+        tree = _Parser(fold_case(text), context, locate).parse()
+    except RecursionError:
+        tree = None
+    if tree is None or depth(tree) > MAX_DEPTH:
+        raise NetlistError(f"expression nested deeper than {MAX_DEPTH} levels", locate(0),
+                           hint="split it into parameters or .func definitions")
+    return tree
+
+
+def depth(node: Expr) -> int:
+    """Depth of a tree (a leaf has depth 1), computed without recursion."""
+    best = 0
+    stack = [(node, 1)]
+    while stack:
+        n, d = stack.pop()
+        best = max(best, d)
+        t = type(n)
+        if t is Binary:
+            stack.extend(((n.left, d + 1), (n.right, d + 1)))
+        elif t is Unary:
+            stack.append((n.operand, d + 1))
+        elif t is Ternary:
+            stack.extend(((n.cond, d + 1), (n.then, d + 1), (n.other, d + 1)))
+        elif t is Call:
+            stack.extend((a, d + 1) for a in n.args)
+    return best
 
 
 def walk(node: Expr):
@@ -607,6 +640,8 @@ def evaluate(
         raise ValueError("division by zero") from None
     except OverflowError:
         raise ValueError("overflow") from None
+    except RecursionError:
+        raise ValueError(f"expression nested deeper than {MAX_DEPTH} levels") from None
     if not math.isfinite(value):
         raise ValueError(f"the result is {value}")
     return value

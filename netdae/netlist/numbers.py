@@ -44,6 +44,7 @@ ngspice 39, ``src/spicelib/parser/inpeval.c`` (``INPevaluate``) and
 
 from __future__ import annotations
 
+import math
 import re
 from functools import lru_cache
 
@@ -132,7 +133,10 @@ def parse_number(token: str) -> float | None:
                 exponent -= 3
         elif c in SCALE:
             exponent += _SCALE_EXPONENT[c]
-    value = mantissa * 10.0**exponent
+    try:
+        value = mantissa * 10.0**exponent
+    except OverflowError:  # C's pow() gives inf
+        value = math.inf
     return -value if sign == "-" else value
 
 

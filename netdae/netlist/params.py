@@ -215,11 +215,18 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
         return None
 
     try:
-        return ex.fold_constants(ex.transform(inline_calls(node, env), leaf))
+        tree = ex.fold_constants(ex.transform(inline_calls(node, env), leaf))
     except NetlistError:
         raise
+    except RecursionError:
+        raise NetlistError(f"{_card_name(card)}: expression nested deeper than {ex.MAX_DEPTH} levels after "
+                           "expanding .func calls", card.location(offset)) from None
     except UnknownName as exc:
         raise NetlistError(f"{_card_name(card)}: unknown {exc.kind} '{exc.name}' in the expression",
                            card.location(offset)) from None
     except ValueError as exc:
         raise NetlistError(f"{_card_name(card)}: {exc}", card.location(offset)) from None
+    if ex.depth(tree) > ex.MAX_DEPTH:
+        raise NetlistError(f"{_card_name(card)}: expression nested deeper than {ex.MAX_DEPTH} levels after "
+                           "expanding .func calls", card.location(offset))
+    return tree
