@@ -1,0 +1,69 @@
+"""``netdae check``: the text summary, the JSON object, exit statuses; a large netlist end to end."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from netdae.cli import main as cli_main
+from netdae.cli.check import format_summary, summarize
+from netdae.netlist import load
+
+NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
+
+
+def test_check_prints_the_summary(capsys):
+    assert cli_main(["check", str(NETLISTS / "subckt_ladder.cir")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].endswith("subckt_ladder.cir: RC ladder of four sections built from one subcircuit")
+    assert out[1] == "  nodes (5): in n1 n2 n3 out"
+    assert out[2] == "  elements (9): C 4, R 4, V 1"
+    assert out[3] == "  analyses: .tran tstep=5e-06 tstop=0.004"
+    assert "reltol=0.001" in out[4] and out[5] == "  params: cval=1e-07"
+    assert out[-1] == "  diagnostics: none"
+
+
+def test_check_json_has_the_documented_keys(capsys):
+    assert cli_main(["check", "--json", str(NETLISTS / "rc_lowpass.cir")]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert {"title", "nodes", "elements", "analyses", "diagnostics", "options"} <= set(data)
+    assert data["nodes"] == ["in", "out"] and data["elements"] == {"c": 1, "r": 1, "v": 1}
+    assert [a["type"] for a in data["analyses"]] == ["tran", "ac"]
+    assert data["analyses"][1] == {"type": "ac", "variation": "dec", "points": 10, "fstart": 1.0,
+                                   "fstop": 100000.0, "line": 12}
+    assert data["options"]["reltol"] == 1e-3 and data["options"]["extra"] == {}
+
+
+def test_summary_lists_diagnostics_and_extra_sections():
+    c = load("t\nR1 a 0 1\n.save v(zz)\n.control\nrun\n.endc\n.dc temp 0 50 25\n.options rshunt=1e9\n.end\n")
+    summary = summarize(c)
+    assert [d["severity"] for d in summary["diagnostics"]] == ["note", "warning"]
+    assert summary["analyses"] == [{"type": "dc", "sweeps": [{"source": "temp", "start": 0.0, "stop": 50.0,
+                                                              "step": 25.0}], "line": 7}]
+    summary["findings"] = ["loop of voltage sources: v1 v2"]
+    text = format_summary(summary)
+    assert "  findings:\n    loop of voltage sources: v1 v2" in text
+    assert "rshunt=1e+09" in text and ".dc temp 0 to 50 step 25" in text
+    assert text.endswith("<string>:3:7: warning: .save v(zz): no node 'zz'")
+
+
+def test_check_on_every_example_netlist(capsys):
+    for path in sorted(NETLISTS.glob("*.cir")):
+        assert cli_main(["check", "--json", str(path)]) == 0, path
+        data = json.loads(capsys.readouterr().out)
+        assert sum(data["elements"].values()) > 0
+
+
+def test_large_hierarchical_ladder(tmp_path):
+    n = 20_000
+    lines = ["ladder", ".subckt sec a b params: r=1k", "R1 a b {r}", "C1 b 0 1p", ".ends",
+             "V1 n0 0 PULSE(0 1 0 1n 1n 1u 2u)"]
+    lines += [f"X{i} n{i} n{i + 1} sec r={i + 1}" for i in range(n)]
+    path = tmp_path / "ladder.cir"
+    path.write_text("\n".join(lines + [".tran 1n 1u", ".end", ""]))
+    c = load(path)
+    assert len(c.elements) == 2 * n + 1 and len(c.nodes) == n + 1
+    assert c.element(f"r.x{n - 1}.r1").value == n and c.element(f"r.x{n - 1}.r1").nodes == (f"n{n - 1}", f"n{n}")
+    assert c.element("c.x7.c1").nodes == ("n8", "0")
