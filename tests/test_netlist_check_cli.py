@@ -5,8 +5,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
-
 from netdae.cli import main as cli_main
 from netdae.cli.check import format_summary, summarize
 from netdae.netlist import load

@@ -297,3 +297,24 @@ def test_circuit_is_independent_of_spelling_case():
 def test_pi_and_math_in_values():
     c = net("C1 a 0 {1/(2*pi*1k*1k)}")
     assert c.element("c1").value == pytest.approx(1 / (2 * math.pi * 1e6))
+
+
+def test_models_take_the_parameters_of_their_instance():
+    c = net(".subckt cell a params: isx=1e-15\n.model dm d is={isx} n={1+isx*1e15}\nD1 a 0 dm\n.ends\n"
+            "X1 p cell\nX2 q cell isx=2e-15")
+    assert c.models["x1:dm"].params == pytest.approx({"is": 1e-15, "n": 2.0})
+    assert c.models["x2:dm"].params == pytest.approx({"is": 2e-15, "n": 3.0})
+    assert c.element("d.x2.d1").model == "x2:dm"
+
+
+def test_local_subcircuits_are_invisible_outside():
+    with pytest.raises(Exception, match="unknown subcircuit 'inner'"):
+        net(".subckt outer a\n.subckt inner b\nR1 b 0 1\n.ends\nX1 a inner\n.ends\nX1 n outer\nX2 n inner")
+    c = net(".subckt inner b\nR1 b 0 2\n.ends\n.subckt outer a\n.subckt inner b\nR1 b 0 1\n.ends\nX1 a inner\n"
+            ".ends\nX1 n outer\nX2 n inner")
+    assert c.element("r.x1.r.x1.r1").value == 1.0 and c.element("r.x2.r1").value == 2.0
+
+
+def test_unused_parameters_of_an_instance_are_still_checked():
+    with pytest.raises(Exception, match="division by zero"):
+        net(".subckt s a\n.param bad={1/0}\nR1 a 0 1\n.ends\nX1 n s")

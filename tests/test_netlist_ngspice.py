@@ -287,3 +287,32 @@ def test_example_netlists_parse_in_ngspice_and_netdae(path, tmp_path):
            if re.search(r"\berror\b|unknown|can't find|not found|syntax", line, re.I)]
     assert not bad, "\n".join(bad)
     assert circuit.elements
+
+
+def test_poly_sources_match_ngspice(tmp_path):
+    text = ("poly\nVx x 0 0.7\nVy y 0 -1.3\nRx x 0 1\nRy y 0 2\n"
+            "E1 e 0 POLY(2) x 0 y 0 1 2 3 4 5 6 7\n"       # up to the first cubic term: 7 x^3
+            "Re e 0 1\n"
+            "G1 g 0 POLY(1) x y 0.5 1 0.25\nRg g 0 1\n"
+            "F1 f 0 POLY(2) vx vy 0 1 -1 0.5\nRf f 0 1\n"
+            "H1 h 0 POLY(1) vy 2 0 0 1\nRh h 0 1\n.op\n.end\n")
+    vectors, _ = run_ngspice(text, tmp_path)
+    circuit = load(text)
+    from netdae.netlist.expr import Const, Current, Voltage, evaluate, transform
+    volts = {n[2:-1]: v[0] for n, v in vectors.items() if n.startswith("v(")}
+    amps = {n[2:-1]: v[0] for n, v in vectors.items() if n.startswith("i(")}
+
+    def value(name):
+        def leaf(n):
+            if type(n) is Voltage:
+                return Const(volts[n.pos] - (volts[n.neg] if n.neg else 0.0))
+            if type(n) is Current:
+                return Const(amps[n.element])
+            return None
+        return evaluate(transform(circuit.element(name).expr, leaf), None)
+
+    assert value("e1") == pytest.approx(volts["e"], rel=1e-12)
+    assert value("h1") == pytest.approx(volts["h"], rel=1e-12)
+    # a current source n+ -> n- draws its current out of n+: v = -I * R
+    assert -value("g1") == pytest.approx(volts["g"], rel=1e-12)
+    assert -value("f1") == pytest.approx(volts["f"], rel=1e-12)

@@ -133,6 +133,7 @@ class _Elaborator:
             parent = self.env(frames[:-1])
             frame = frames[-1]
             env = self._scope(parent, frame.sub, frame)
+            env.all_values()  # every parameter of the instance is evaluated, used or not (as ngspice)
             self.envs[frames] = env
         return env
 

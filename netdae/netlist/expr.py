@@ -265,8 +265,6 @@ _REJECTED = {
 #: Names that cannot be parameters (``pi`` is the constant 3.14159...).
 RESERVED = frozenset({"time", "temper", "hertz", "pi"})
 
-_COMPARE = {"==", "!=", "<", "<=", ">", ">="}
-
 _OP = re.compile(r"\*\*|==|!=|<>|<=|>=|&&|\|\||[-+*/%^()<>!?:,{}]")
 _NAME = re.compile(r"[a-z_][a-z0-9_.]*")
 _SPICE_RUN = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[ed][+-]?\d+)?[a-z0-9_]*")

@@ -274,6 +274,8 @@ def split_cards(
     One pass over the lines; the comment search is one regular-expression
     call per line that contains a comment character.
     """
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
     if lines and lines[0].startswith("\ufeff"):
         lines[0] = lines[0][1:]

@@ -43,11 +43,14 @@ class Env:
     ----------
     parent : Env or None
         The scope of the caller (dynamic scoping).
-    defs : dict of str to (ParamDef, Env)
-        Unevaluated definitions and the scope each is evaluated in.
-    funcs : dict of str to FuncDef
-    diagnostics : list of Diagnostic
-        Where redefinition warnings go.
+    funcs : dict of str to FuncDef, optional
+        The ``.func`` definitions of this scope.
+
+    Notes
+    -----
+    Definitions are added with :meth:`define` and evaluated on first use
+    (memoised), so the order of ``.param`` cards does not matter and a
+    parameter nobody uses costs nothing.
     """
 
     __slots__ = ("parent", "defs", "values", "funcs", "_active")
