@@ -15,6 +15,7 @@ matplotlib is imported when a plot is drawn (non-interactive ``Agg`` backend).
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,10 @@ __all__ = ["plot_comparison", "MAX_PAIRS", "MAX_SIGNALS_PER_ANALYSIS"]
 MAX_PAIRS = 6
 #: At most this many signals (the worst ones) of each analysis.
 MAX_SIGNALS_PER_ANALYSIS = 3
+#: Characters of the netlist's title kept in the figure's title.
+TITLE_WIDTH = 80
+#: ngspice's points are drawn as dots up to this many, as a dashed line beyond.
+MAX_MARKERS = 400
 _DPI = 110
 #: Log-scale floors: magnitudes below 1e-20 (-400 dB) and relative errors below
 #: 1e-18 (under double rounding) are drawn at the floor, so exact zeros stay on the axes.
@@ -71,23 +76,28 @@ def _draw_waveform(top, bottom, item: AnalysisComparison, name: str) -> None:
     x = item.curves["axis"]
     a, b = item.curves["values"][name]
     sig = next(s for s in item.signals if s.name == name)
+    start = item.curves.get("start", 0)
+    style = {"marker": ".", "markersize": 3, "linestyle": "none"} if x.size <= MAX_MARKERS else \
+        {"linestyle": "--", "linewidth": 1.5}
     for k, sel in enumerate(_curves(item)):
         first = k == 0
-        top.plot(x[sel], b[sel], ".", color="tab:orange", markersize=3, label="ngspice" if first else None)
         top.plot(x[sel], a[sel], "-", color="tab:blue", linewidth=1, label="netdae" if first else None)
-        bottom.plot(x[sel], (a - b)[sel], "-", color="tab:red", linewidth=1,
+        top.plot(x[sel], b[sel], color="tab:orange", label="ngspice" if first else None, **style)
+        keep = np.arange(x.size)[sel]
+        keep = keep[keep >= start]
+        bottom.plot(x[keep], (a - b)[keep], "-", color="tab:red", linewidth=1,
                     label="netdae - ngspice" if first else None)
     if item.tolerance is not None:
         band = item.tolerance.rel * sig.scale
         for level in (band, -band):
             bottom.axhline(level, color="grey", linestyle="--", linewidth=0.8)
-    start = item.curves.get("start", 0)
     if start:
         for ax in (top, bottom):
-            ax.axvspan(x[0], x[start], color="grey", alpha=0.2, label="initial jump (not judged)")
-        low, high = np.min((a - b)[start:]), np.max((a - b)[start:])
-        pad = 0.1 * (high - low) + (item.tolerance.rel * sig.scale if item.tolerance else 0.0)
-        bottom.set_ylim(low - pad, high + pad)
+            ax.axvspan(x[0], x[start], color="grey", alpha=0.3, label="initial jump (not judged)")
+        if sig.jump:
+            bottom.annotate(f"at t0: netdae - ngspice = {sig.jump['netdae'] - sig.jump['ngspice']:.4g} "
+                            f"(inconsistent start, not judged); drawn from t = {x[start]:.3g} s",
+                            xy=(0.01, 0.04), xycoords="axes fraction", fontsize="small")
     top.set_ylabel(name)
     bottom.set_ylabel("difference")
 
@@ -137,8 +147,10 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
         bottom.set_xlabel(_xlabel(item))
         for ax in (top, bottom):
             ax.grid(True, alpha=0.3)
-            ax.legend(fontsize="small", loc="best")
-    fig.suptitle(f"{comparison.title}: netdae vs {comparison.ngspice_version or 'ngspice'}", fontsize="large")
+            ax.legend(fontsize="small", loc="upper right", framealpha=0.8)
+    title = textwrap.shorten(comparison.title.lstrip("* "), TITLE_WIDTH, placeholder=" ...")
+    fig.suptitle(f"{title}\nnetdae vs {comparison.ngspice_version or 'ngspice'}"
+                 + (" (tight tolerances)" if comparison.tight else ""), fontsize="large")
     fig.tight_layout()
     fig.savefig(path, dpi=_DPI)
     plt.close(fig)
