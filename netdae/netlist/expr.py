@@ -136,38 +136,52 @@ MAX_DEPTH = 300
 
 @dataclass(frozen=True, slots=True)
 class Const:
+    """A number."""
+
     value: float
 
 
 @dataclass(frozen=True, slots=True)
 class Param:
+    """A parameter reference (replaced by a :class:`Const` during elaboration)."""
+
     name: str
 
 
 @dataclass(frozen=True, slots=True)
 class Time:
+    """The simulation time ``time`` [s]."""
+
     pass
 
 
 @dataclass(frozen=True, slots=True)
 class Voltage:
+    """``V(pos)`` or ``V(pos, neg)``: a node potential or a difference of two."""
+
     pos: str
     neg: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
 class Current:
+    """``I(element)``: the branch current of an element with a current unknown."""
+
     element: str
 
 
 @dataclass(frozen=True, slots=True)
 class Unary:
+    """``-operand`` or ``!operand``."""
+
     op: str
     operand: "Expr"
 
 
 @dataclass(frozen=True, slots=True)
 class Binary:
+    """``left op right``; see the module docstring for each operator's meaning."""
+
     op: str
     left: "Expr"
     right: "Expr"
@@ -175,6 +189,8 @@ class Binary:
 
 @dataclass(frozen=True, slots=True)
 class Ternary:
+    """``cond ? then : other``."""
+
     cond: "Expr"
     then: "Expr"
     other: "Expr"
@@ -182,6 +198,8 @@ class Ternary:
 
 @dataclass(frozen=True, slots=True)
 class Call:
+    """A call of a built-in function (:data:`FUNCTIONS`) or, before elaboration, a ``.func``."""
+
     func: str
     args: tuple
 
