@@ -176,8 +176,9 @@ class Model:
     Parameters
     ----------
     name : str
-        Full lower-case name (models in subcircuits are scoped like nodes:
-        ``"x1.dmod"``... resolution follows ngspice: inner definitions shadow outer).
+        Full lower-case name; a model defined inside a subcircuit is scoped as
+        ngspice names it, with a colon: ``"x1:dmod"``, ``"xb:x3.xdeep:dd"``
+        (inner definitions shadow outer ones).
     type : str
         Lower-case type: ``d``, ``npn``, ``pnp``, ``nmos``, ``pmos``, ``r``, ``c``, ...
     params : dict
