@@ -66,7 +66,7 @@ import numpy as np
 
 from ..errors import CircuitError
 from .base import Accumulator, DeviceFamily, SlotMap
-from .companion import BranchStamps, LimitState
+from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
@@ -206,22 +206,31 @@ class BjtFamily(DeviceFamily):
         cjc, self.vjc = scale_junction(g("cjc"), mjc, g("vjc"), tnom, temp)
         cjs, self.vjs = scale_junction(g("cjs"), mjs, g("vjs"), tnom, temp)
         xcjc = g("xcjc")
-        self.dep_be = Depletion(cje * area, self.vje, mje, fc)
-        self.dep_bc = Depletion(cjc * area_bc * xcjc, self.vjc, mjc, fc)
-        self.dep_bx = Depletion(cjc * area_bc * (1.0 - xcjc), self.vjc, mjc, fc)
-        self.dep_sub = Depletion(cjs * area_sub, self.vjs, mjs, 0.0)
+        # the four depletion charges of all devices stacked: be, bc (internal), bx (external), substrate
+        self.depletion = Depletion(
+            np.concatenate([cje * area, cjc * area_bc * xcjc, cjc * area_bc * (1.0 - xcjc), cjs * area_sub]),
+            np.concatenate([self.vje, self.vjc, self.vjc, self.vjs]),
+            np.concatenate([mje, mjc, mjc, mjs]),
+            np.concatenate([fc, fc, fc, np.zeros_like(fc)]),
+        )
         self.tf, self.tr = g("tf"), g("tr")
         self.xtf = g("xtf")
         vtf = g("vtf")
         self.ovtf = _inverse(vtf, VTF_SCALE)
         self.itf = g("itf") * area
         self.off = g("off") != 0.0
-        self.has_rb = bool(np.any(self.rb > 0.0))
         self.rb_varies = bool(np.any((self.rb != self.rbm) & (self.rb > 0.0)))
-        self.knee_f, self.knee_r = -3.0 * self.vtf, -3.0 * self.vtr
-        self.knee_e, self.knee_c = -3.0 * self.vte, -3.0 * self.vtc
-        self.has_charge = bool(self.dep_be.active or self.dep_bc.active or self.dep_bx.active
-                               or self.dep_sub.active or np.any(self.tf != 0) or np.any(self.tr != 0))
+        # the four junction currents of all devices stacked: cbe, cben, cbc, cbcn
+        self.j_isat = np.concatenate([self.is_be, self.ise, self.is_bc, self.isc])
+        self.j_vte = np.concatenate([self.vtf, self.vte, self.vtr, self.vtc])
+        self.j_knee = -3.0 * self.j_vte
+        # limiting of vbe, vbc, vsub stacked
+        self.lim_vt = np.tile(self.vt, 3)
+        self.lim_vcrit = np.concatenate([self.vcrit, self.vcrit, np.full_like(self.vcrit, SUBSTRATE_VCRIT)])
+        self.has_rolloff = bool(np.any(self.inv_ikf != 0.0) or np.any(self.inv_ikr != 0.0))
+        self.has_nkf = bool(np.any(np.isfinite(self.nkf)))
+        self.has_tf = bool(np.any(self.tf != 0.0))
+        self.has_charge = bool(self.depletion.active or self.has_tf or np.any(self.tr != 0))
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
@@ -252,6 +261,20 @@ class BjtFamily(DeviceFamily):
 
     def bind(self, slots: SlotMap, n: int) -> None:
         self.stamps.bind(slots, n)
+        count = len(self.elements)
+        m = self.mult
+        self._tm = self.type * m
+        self._ttm_gmin = self.ttype * m * self.gmin
+        self._cur = np.zeros((6, count))
+        self._dcur = np.zeros((len(_CURRENT_DEPS), count))
+        self._dcur[4] = m * self.gmin
+        # constant base resistance (no RBM/IRB dependence): gx = 1 / RB
+        self._dcur[5] = m * np.where(self.rb > 0.0, 1.0 / np.where(self.rb > 0.0, self.rb, 1.0), 0.0)
+        self._dcur[8], self._dcur[9] = self.gc, self.ge
+        rows = 4 if self.has_charge else 0
+        self._q = np.zeros((rows, count))
+        self._dq = np.zeros((len(_CHARGE_DEPS) if self.has_charge else 0, count))
+        self._charge_sign = (np.stack([self.type, self.type, self.type, self.ttype]) * m)[:rows]
 
     def junction_nodes(self) -> list[tuple[str, str]]:
         pairs = []
@@ -270,10 +293,8 @@ class BjtFamily(DeviceFamily):
 
     def limit(self, vn: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, bool]:
         """pnjlim on (vbe, vbc, vsub), type-normalised, against the previous values."""
-        vbe, c1 = pnjlim(vn[0], vold[0], self.vt, self.vcrit)
-        vbc, c2 = pnjlim(vn[1], vold[1], self.vt, self.vcrit)
-        vsub, c3 = pnjlim(vn[2], vold[2], self.vt, SUBSTRATE_VCRIT)
-        return np.stack([vbe, vbc, vsub]), not (c1 is None and c2 is None and c3 is None)
+        v, changed = pnjlim(vn.ravel(), vold.ravel(), self.lim_vt, self.lim_vcrit)
+        return v.reshape(vn.shape), changed is not None
 
     def transport(self, vbe, vbc):
         """Gummel-Poon currents and their derivatives at type-normalised (vbe, vbc).
@@ -284,19 +305,26 @@ class BjtFamily(DeviceFamily):
             ``ic, ib`` and ``dic_dvbe, dic_dvbc, dib_dvbe, dib_dvbc``, plus the
             intermediate ``cbe, gbe, cbc, gbc, qb, dqbdve, dqbdvc`` the charges use.
         """
-        cbe, gbe = ideal_junction(vbe, self.is_be, self.vtf, self.knee_f)
-        cben, gben = ideal_junction(vbe, self.ise, self.vte, self.knee_e)
-        cbc, gbc = ideal_junction(vbc, self.is_bc, self.vtr, self.knee_r)
-        cbcn, gbcn = ideal_junction(vbc, self.isc, self.vtc, self.knee_c)
+        n = vbe.size
+        i4, g4 = ideal_junction(np.concatenate([vbe, vbe, vbc, vbc]), self.j_isat, self.j_vte, self.j_knee)
+        cbe, cben, cbc, cbcn = i4[:n], i4[n:2 * n], i4[2 * n:3 * n], i4[3 * n:]
+        gbe, gben, gbc, gbcn = g4[:n], g4[n:2 * n], g4[2 * n:3 * n], g4[3 * n:]
         cben, gben = cben + self.gmin * vbe, gben + self.gmin
         cbcn, gbcn = cbcn + self.gmin * vbc, gbcn + self.gmin
         q1 = 1.0 / (1.0 - self.inv_vaf * vbc - self.inv_var * vbe)
-        arg = np.maximum(0.0, 1.0 + 4.0 * (self.inv_ikf * cbe + self.inv_ikr * cbc))
-        nkf_given = np.isfinite(self.nkf)
-        sq = np.where(arg != 0.0, np.where(nkf_given, arg ** np.where(nkf_given, self.nkf, 0.5), np.sqrt(arg)), 1.0)
-        # d(sq)/d(arg): 1/(2 sq) for the square root
-        dsq = np.where(arg != 0.0, np.where(nkf_given, self.nkf * sq / np.where(arg != 0.0, arg, 1.0),
-                                            0.5 / sq), 0.0)
+        if self.has_rolloff:
+            arg = np.maximum(0.0, 1.0 + 4.0 * (self.inv_ikf * cbe + self.inv_ikr * cbc))
+            if self.has_nkf:
+                nkf_given = np.isfinite(self.nkf)
+                nkf = np.where(nkf_given, self.nkf, 0.5)
+                sq = np.where(arg != 0.0, np.where(nkf_given, arg ** nkf, np.sqrt(arg)), 1.0)
+                dsq = np.where(arg != 0.0, nkf * sq / np.where(arg != 0.0, arg, 1.0), 0.0)
+            else:
+                sq = np.sqrt(arg)
+                sq = np.where(arg != 0.0, sq, 1.0)  # ngspice keeps 1 where the argument is exactly 0
+                dsq = np.where(arg != 0.0, 0.5 / sq, 0.0)  # d(sq)/d(arg)
+        else:
+            sq, dsq = 1.0, 0.0
         qb = q1 * (1.0 + sq) / 2.0
         dqbdve = q1 * (qb * self.inv_var + 2.0 * dsq * self.inv_ikf * gbe)
         dqbdvc = q1 * (qb * self.inv_vaf + 2.0 * dsq * self.inv_ikr * gbc)
@@ -342,8 +370,26 @@ class BjtFamily(DeviceFamily):
         gx = np.where(nz, 1.0 / np.where(nz, rbb, 1.0), 0.0)
         return gx, -gx * gx * drbb_dve, -gx * gx * drbb_dvc
 
-    def charges(self, vbe, vbc, vbx, vsub, tr):
-        """Junction charges (qbe, qbc, qbx, qsub) and their derivatives, type-normalised."""
+    def charges(self, vbe, vbc, vbx, vsub, tr) -> None:
+        """Junction charges (qbe, qbc, qbx, qsub) and their derivatives, type-normalised.
+
+        Written into ``self._q`` (4, N) and ``self._dq`` (5, N): dqbe/dvbe,
+        dqbe/dvbc, dqbc/dvbc, dqbx/dvbx, dqsub/dvsub.
+        """
+        q, dq = self._q, self._dq
+        n = vbe.size
+        qj, cj = self.depletion(np.concatenate([vbe, vbc, vbx, vsub]))
+        q[:] = qj.reshape(4, n)
+        cj = cj.reshape(4, n)
+        dq[0] = cj[0]
+        dq[1] = 0.0
+        dq[2] = cj[1]
+        dq[3] = cj[2]
+        dq[4] = cj[3]
+        q[1] += self.tr * tr["cbc"]
+        dq[2] += self.tr * tr["gbc"]
+        if not self.has_tf:
+            return
         cbe, gbe, qb = tr["cbe"], tr["gbe"], tr["qb"]
         tf_on = (self.tf != 0.0) & (vbe > 0.0)
         argtf = self.xtf * np.exp(vbc * self.ovtf)
@@ -356,49 +402,44 @@ class BjtFamily(DeviceFamily):
         cbe_mod = cbe * (1.0 + argtf) / qb
         gbe_mod = (gbe * (1.0 + arg2) - cbe_mod * tr["dqbdve"]) / qb
         geqcb = self.tf * (arg3 - cbe_mod * tr["dqbdvc"]) / qb
-        cbe_q = np.where(tf_on, cbe_mod, cbe)
-        gbe_q = np.where(tf_on, gbe_mod, gbe)
-        geqcb = np.where(tf_on, geqcb, 0.0)
-        qdep_be, cdep_be = self.dep_be(vbe)
-        qdep_bc, cdep_bc = self.dep_bc(vbc)
-        qbx, cbx = self.dep_bx(vbx)
-        qsub, csub = self.dep_sub(vsub)
-        q = np.stack([self.tf * cbe_q + qdep_be, self.tr * tr["cbc"] + qdep_bc, qbx, qsub])
-        dq = np.stack([self.tf * gbe_q + cdep_be, geqcb, self.tr * tr["gbc"] + cdep_bc, cbx, csub])
-        return q, dq
+        q[0] += self.tf * np.where(tf_on, cbe_mod, cbe)
+        dq[0] += self.tf * np.where(tf_on, gbe_mod, gbe)
+        dq[1] = np.where(tf_on, geqcb, 0.0)
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
         tp, ttp = self.type, self.ttype
         vn_x = np.stack([tp * v[_VBE], tp * v[_VBC], ttp * v[_VSUB]])
         with np.errstate(all="ignore"):
-            if state is None:
-                state = self.initial_state()
-            if state.initial:
-                if x.any():
-                    vn, changed = vn_x, False
-                else:
-                    vn, changed = state.v, True
+            start = starting_voltages(state, x, vn_x)
+            if start is not None:
+                vn, changed = start
             else:
                 vn, changed = self.limit(vn_x, state.v)
             vbe, vbc, vsub = vn
-            vbx = tp * v[_VBX]
             tr = self.transport(vbe, vbc)
-            gx, dgx_dve, dgx_dvc = self.base_resistance(tr) if self.has_rb else (np.zeros_like(vbe),) * 3
             m = self.mult
+            cur, dcur = self._cur, self._dcur
             vrb = v[_VRB]
-            currents = np.stack([tp * m * tr["ic"], tp * m * tr["ib"], ttp * m * self.gmin * vsub,
-                                 m * gx * vrb, self.gc * v[_VRC], self.ge * v[_VRE]])
-            dcur = np.stack([m * tr["dic_dvbe"], m * tr["dic_dvbc"], m * tr["dib_dvbe"], m * tr["dib_dvbc"],
-                             m * np.full_like(vbe, self.gmin), m * gx, tp * m * vrb * dgx_dve,
-                             tp * m * vrb * dgx_dvc, self.gc, self.ge])
+            np.multiply(self._tm, tr["ic"], out=cur[_IC])
+            np.multiply(self._tm, tr["ib"], out=cur[_IB])
+            np.multiply(self._ttm_gmin, vsub, out=cur[_ISUB])
+            np.multiply(self.gc, v[_VRC], out=cur[_IRC])
+            np.multiply(self.ge, v[_VRE], out=cur[_IRE])
+            np.multiply(m, tr["dic_dvbe"], out=dcur[0])
+            np.multiply(m, tr["dic_dvbc"], out=dcur[1])
+            np.multiply(m, tr["dib_dvbe"], out=dcur[2])
+            np.multiply(m, tr["dib_dvbc"], out=dcur[3])
+            if self.rb_varies:
+                gx, dgx_dve, dgx_dvc = self.base_resistance(tr)
+                dcur[5] = m * gx
+                dcur[6] = self._tm * vrb * dgx_dve
+                dcur[7] = self._tm * vrb * dgx_dvc
+            np.multiply(dcur[5], vrb, out=cur[_IRB])
             if self.has_charge:
-                q, dq = self.charges(vbe, vbc, vbx, vsub, tr)
-                signs = np.stack([tp, tp, tp, ttp])
-                q = signs * m * q
-                dq = m * dq
-            else:
-                q, dq = np.empty((0, vbe.size)), None
+                self.charges(vbe, vbc, tp * v[_VBX], vsub, tr)
+                self._q *= self._charge_sign
+                self._dq *= m
             delta = None
             if changed:
                 acc.limited = True
@@ -406,8 +447,8 @@ class BjtFamily(DeviceFamily):
                 delta[_VBE] = v[_VBE] - tp * vbe
                 delta[_VBC] = v[_VBC] - tp * vbc
                 delta[_VSUB] = v[_VSUB] - ttp * vsub
-            self.stamps.add(acc, currents, dcur, q, dq, delta=delta, jacobian=jacobian)
-            total = float(currents.sum() + dcur.sum()) + (float(q.sum() + dq.sum()) if self.has_charge else 0.0)
+            self.stamps.add(acc, cur, dcur, self._q, self._dq, delta=delta, jacobian=jacobian)
+            total = float(cur.sum() + dcur.sum()) + (float(self._q.sum() + self._dq.sum()) if self.has_charge else 0.0)
             if not math.isfinite(total):
                 acc.ok = False
         return LimitState(vn)

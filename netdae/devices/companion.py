@@ -40,7 +40,7 @@ import numpy as np
 
 from .base import Accumulator, SlotMap
 
-__all__ = ["BranchStamps", "LimitState"]
+__all__ = ["BranchStamps", "LimitState", "starting_voltages"]
 
 # row/column order of the four Jacobian entries of one (output, control) pair:
 # (a, p), (a, m), (b, p), (b, m)
@@ -202,3 +202,38 @@ class LimitState:
         self.v = v
         self.initial = initial
         self.extra = extra
+
+
+def starting_voltages(state: LimitState | None, x_ext: np.ndarray,
+                      v_x: np.ndarray) -> tuple[np.ndarray, bool] | None:
+    """Control voltages of an evaluation without limiting history, or None.
+
+    Parameters
+    ----------
+    state : LimitState or None
+        The state passed to the family's ``evaluate``.
+    x_ext : ndarray
+        The extended iterate.
+    v_x : ndarray, shape (k, N)
+        The iterate's own (type-normalised) control voltages.
+
+    Returns
+    -------
+    (v, changed) or None
+        ``None`` when ``state`` holds the previous iteration's voltages: the
+        family limits against them. Otherwise the voltages to evaluate at
+        and whether they differ from the iterate's:
+
+        - ``state is None`` (no history, e.g. the first step of an
+          integration from a consistent point): the iterate's voltages;
+        - an initial state (SPICE's ``MODEINITJCT``): its voltages when the
+          iterate is the zero vector (a solve from scratch), else the
+          iterate's (a continuation from a previous solution).
+    """
+    if state is None:
+        return v_x, False
+    if not state.initial:
+        return None
+    if x_ext.any():
+        return v_x, False
+    return state.v, True

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..errors import CircuitError
 from .base import Accumulator, DeviceFamily, SlotMap
-from .companion import BranchStamps, LimitState
+from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import (
     EPSMIN,
     KELVIN,
@@ -281,14 +281,11 @@ class DiodeFamily(DeviceFamily):
         v = self.stamps.voltages(x)
         vd_x = v[0]
         with np.errstate(all="ignore"):
-            if state is None:
-                state = self.initial_state()
-            if not state.initial:
+            start = starting_voltages(state, x, v[:1])
+            if start is None:
                 vd, changed = self.limit(vd_x, state.v[0])
-            elif x.any():
-                vd, changed = vd_x, None
             else:
-                vd, changed = state.v[0], True
+                vd, changed = start[0][0], (True if start[1] else None)
             cd, gd = self.current(vd)
             cur, dcur = self._cur, self._dcur
             cur[0] = cd

@@ -64,7 +64,7 @@ import numpy as np
 
 from ..errors import CircuitError
 from .base import Accumulator, DeviceFamily, SlotMap
-from .companion import BranchStamps, LimitState
+from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import (
     CHARGE,
     K_OVER_Q,
@@ -115,6 +115,9 @@ WORKFUNCTION_METAL = 3.2
 WORKFUNCTION_SI = 3.25
 #: ngspice's cap on exp() arguments of the bulk diodes.
 MAX_EXP_ARG = 709.0
+#: fetlim and limvds leave every step of at most this size unchanged [V] (devsup.c: their
+#: smallest thresholds are 0.5 V), so they are skipped when no control moves further.
+FET_QUIET_STEP = 0.5
 #: Reverse-bias knee of the bulk diodes (3 vt) and the initial vbs of MODEINITJCT [V].
 _BULK_KNEE = 3.0
 _INIT_VBS = -1.0
@@ -126,6 +129,11 @@ _CURRENT_DEPS = [(_ID, _VGS), (_ID, _VDS), (_ID, _VBS), (_IBS, _VBS), (_IBD, _VB
                  (_IRD, _VRD), (_IRS, _VRS)]
 # charge branches referenced to the internal source: q_g, q_d, q_b on (node, s')
 _CHARGE_DEPS = [(j, k) for j in range(3) for k in (_VGS, _VDS, _VBS)]
+
+
+def _first(a, b):
+    """The normal-mode choice of a mode-dependent quantity (every device in normal mode)."""
+    return a
 
 
 def drain_current(vgs, vds, vbs, beta, lam, vbi, gamma, phi):
@@ -167,14 +175,19 @@ def drain_current(vgs, vds, vbs, beta, lam, vbi, gamma, phi):
 
 
 def _bulk_function(a, phi):
-    """Gate-bulk part of the intrinsic gate charge per Cox, and its derivative, vs vgst ``a``."""
-    acc = a <= -phi
-    dep = (a > -phi) & (a <= -0.5 * phi)
-    weak = (a > -0.5 * phi) & (a <= 0.0)
-    f = np.where(acc, a + phi / 3.0,
-                 np.where(dep, -a * a / (2.0 * phi) - phi / 6.0,
-                          np.where(weak, 2.0 * a / 3.0 + a * a / (6.0 * phi), 0.0)))
-    df = np.where(acc, 1.0, np.where(dep, -a / phi, np.where(weak, 2.0 / 3.0 + a / (3.0 * phi), 0.0)))
+    """Gate-bulk part of the intrinsic gate charge per Cox, and its derivative, vs vgst ``a``.
+
+    ``F' = 1`` for a <= -PHI, ``-a/PHI`` up to -PHI/2, ``2/3 + a/(3 PHI)`` up to
+    0 and 0 above, written with two clipped variables (no branches):
+    ``F = min(a + PHI, 0) + G1(u1) - G1(-PHI/2) + G2(u2)`` with
+    ``u1 = clip(a, -PHI, -PHI/2)``, ``u2 = clip(a, -PHI/2, 0)``,
+    ``G1(u) = -u^2/(2 PHI)``, ``G2(u) = 2u/3 + u^2/(6 PHI)``.
+    """
+    half = 0.5 * phi
+    u1 = np.minimum(np.maximum(a, -phi), -half)
+    u2 = np.minimum(np.maximum(a, -half), 0.0)
+    f = np.minimum(a + phi, 0.0) + (half * half - u1 * u1) / (2.0 * phi) + u2 * (2.0 / 3.0 + u2 / (6.0 * phi))
+    df = (u2 / 3.0 - u1) / phi + (1.0 / 6.0) - (2.0 / 3.0) * (a > 0.0)
     return f, df
 
 
@@ -211,33 +224,27 @@ def gate_charges(a, b, phi):
     Examples
     --------
     >>> qg, qs, qd, qb, *_ = gate_charges(np.array([1.0]), np.array([-1.0]), np.array([0.6]))
-    >>> float(qg[0]), float(qs[0] / (qs[0] + qd[0]))
-    (0.6666666666666666, 0.6)
+    >>> round(float(qg[0]), 15), round(float(qs[0] / (qs[0] + qd[0])), 15)
+    (0.666666666666667, 0.6)
     """
     A = np.maximum(a, 0.0)
     B = np.maximum(b, 0.0)
-    da = (a > 0.0).astype(float)
-    db = (b > 0.0).astype(float)
+    A2, B2, AB = A * A, B * B, A * B
     s = A + B
-    pos = s > 0.0
-    s_safe = np.where(pos, s, 1.0)
-    s2 = s_safe * s_safe
-    s3 = s2 * s_safe
+    s = s + (s == 0.0)  # A = B = 0 gives 0/1: every numerator below vanishes there
+    s2 = s * s
+    s3 = s2 * s
     two3, two15 = 2.0 / 3.0, 2.0 / 15.0
-    p = np.where(pos, two3 * (A * A + A * B + B * B) / s_safe, 0.0)
-    dp_da = np.where(pos, two3 * (A * A + 2.0 * A * B) / s2, 0.0) * da
-    dp_db = np.where(pos, two3 * (B * B + 2.0 * A * B) / s2, 0.0) * db
-    ns = 3.0 * A ** 3 + 6.0 * A * A * B + 4.0 * A * B * B + 2.0 * B ** 3
-    nd = 2.0 * A ** 3 + 4.0 * A * A * B + 6.0 * A * B * B + 3.0 * B ** 3
-    ps = np.where(pos, two15 * ns / s2, 0.0)
-    pd = np.where(pos, two15 * nd / s2, 0.0)
-    dps_da = np.where(pos, two15 * ((9 * A * A + 12 * A * B + 4 * B * B) * s - 2.0 * ns) / s3, 0.0) * da
-    dps_db = np.where(pos, two15 * ((6 * A * A + 8 * A * B + 6 * B * B) * s - 2.0 * ns) / s3, 0.0) * db
-    dpd_da = np.where(pos, two15 * ((6 * A * A + 8 * A * B + 6 * B * B) * s - 2.0 * nd) / s3, 0.0) * da
-    dpd_db = np.where(pos, two15 * ((4 * A * A + 12 * A * B + 9 * B * B) * s - 2.0 * nd) / s3, 0.0) * db
+    p = two3 * (A2 + AB + B2) / s
+    dp_da = two3 * (A2 + 2.0 * AB) / s2
+    dp_db = two3 * (B2 + 2.0 * AB) / s2
+    ns = A2 * (3.0 * A + 6.0 * B) + B2 * (4.0 * A + 2.0 * B)
+    ps = two15 * ns / s2
+    dps_da = two15 * ((9.0 * A2 + 12.0 * AB + 4.0 * B2) * s - 2.0 * ns) / s3
+    dps_db = two15 * ((6.0 * A2 + 8.0 * AB + 6.0 * B2) * s - 2.0 * ns) / s3
     f, df = _bulk_function(a, phi)
-    qg = p + f
-    return qg, -ps, -pd, -f, (dp_da + df, dp_db), (-dps_da, -dps_db), (-dpd_da, -dpd_db)
+    return (p + f, -ps, ps - p, -f, (dp_da + df, dp_db), (-dps_da, -dps_db),
+            (dps_da - dp_da, dps_db - dp_db))
 
 
 class MosfetFamily(DeviceFamily):
@@ -362,10 +369,13 @@ class MosfetFamily(DeviceFamily):
         self.czbdsw = np.where(cjsw_given, cjsw * g("pd") * m, 0.0)
         self.czbssw = np.where(cjsw_given, cjsw * g("ps") * m, 0.0)
         fc = g("fc")
-        self.dep_bd = Depletion(self.czbd, self.pb, mj, fc)
-        self.dep_bdsw = Depletion(self.czbdsw, self.pb, mjsw, fc)
-        self.dep_bs = Depletion(self.czbs, self.pb, mj, fc)
-        self.dep_bssw = Depletion(self.czbssw, self.pb, mjsw, fc)
+        # the source and drain junctions of all devices stacked: entries [0, N) source, [N, 2N) drain
+        pb2, fc2 = np.tile(self.pb, 2), np.tile(fc, 2)
+        self.dep_bottom = Depletion(np.concatenate([self.czbs, self.czbd]), pb2, np.tile(mj, 2), fc2)
+        self.dep_side = Depletion(np.concatenate([self.czbssw, self.czbdsw]), pb2, np.tile(mjsw, 2), fc2)
+        self.isat_sd = np.concatenate([self.isat_s, self.isat_d])
+        self.vcrit_sd = np.concatenate([self.vcrit_s, self.vcrit_d])
+        self.vt2 = np.tile(vt, 2)
         # overlap and oxide capacitances
         self.cgso = g("cgso") * m * w
         self.cgdo = g("cgdo") * m * w
@@ -376,9 +386,8 @@ class MosfetFamily(DeviceFamily):
         self.gs = self._series(g("rs"), g("rs_given"), g("rsh"), g("nrs"), m)
         self.off = g("off") != 0.0
         self.ic = np.stack([g("icvgs"), g("icvds"), g("icvbs")]) * self.type
-        self.has_charge = bool(np.any(self.czbd > 0) or np.any(self.czbs > 0) or np.any(self.czbdsw > 0)
-                               or np.any(self.czbssw > 0) or np.any(self.cgso > 0) or np.any(self.cgdo > 0)
-                               or np.any(self.cgbo > 0) or np.any(self.cox > 0))
+        self.has_charge = bool(self.dep_bottom.active or self.dep_side.active or np.any(self.cgso > 0)
+                               or np.any(self.cgdo > 0) or np.any(self.cgbo > 0) or np.any(self.cox > 0))
         self.has_cox = bool(np.any(self.cox > 0))
 
     @staticmethod
@@ -412,6 +421,16 @@ class MosfetFamily(DeviceFamily):
 
     def bind(self, slots: SlotMap, n: int) -> None:
         self.stamps.bind(slots, n)
+        count = len(self.elements)
+        self._cur = np.zeros((5, count))
+        self._dcur = np.zeros((8, count))
+        self._dcur[6], self._dcur[7] = self.gd, self.gs
+        rows = 3 if self.has_charge else 0
+        self._q = np.zeros((rows, count))
+        self._dq = np.zeros((3 * rows, count))
+        # derivatives of the overlap charges to (vgs, vds, vbs): constant
+        cgs, cgd, cgb = self.cgso, self.cgdo, self.cgbo
+        self._dq_overlap = np.stack([cgs + cgd + cgb, -cgd, -cgb, -cgd, cgd, 0.0 * cgd, -cgb, 0.0 * cgb, cgb])
 
     def junction_nodes(self) -> list[tuple[str, str]]:
         pairs = []
@@ -436,19 +455,26 @@ class MosfetFamily(DeviceFamily):
         von = state.extra
         vgd_x = vgs_x - vds_x
         vgdo = vgs_o - vds_o
-        # normal mode last time: limit vgs, then vds
-        g1 = fetlim(vgs_x, vgs_o, von)
-        d1 = limvds(np.where(g1 != vgs_x, g1 - vgd_x, vds_x), vds_o)
-        # reverse mode last time: limit vgd, then -vds
-        gd2 = fetlim(vgd_x, vgdo, von)
-        d2 = -limvds(-np.where(gd2 != vgd_x, vgs_x - gd2, vds_x), -vds_o)
-        g2 = np.where((gd2 != vgd_x) | (d2 != vds_x), gd2 + d2, vgs_x)
-        forward_old = vds_o >= 0.0
-        vgs = np.where(forward_old, g1, g2)
-        vds = np.where(forward_old, d1, d2)
+        quiet = (np.abs(vn[:2] - state.v[:2]).max() <= FET_QUIET_STEP
+                 and np.abs(vgd_x - vgdo).max() <= FET_QUIET_STEP)
+        if quiet:
+            vgs, vds = vgs_x, vds_x
+        else:
+            # normal mode last time: limit vgs, then vds
+            g1 = fetlim(vgs_x, vgs_o, von)
+            d1 = limvds(np.where(g1 != vgs_x, g1 - vgd_x, vds_x), vds_o)
+            # reverse mode last time: limit vgd, then -vds
+            gd2 = fetlim(vgd_x, vgdo, von)
+            d2 = -limvds(-np.where(gd2 != vgd_x, vgs_x - gd2, vds_x), -vds_o)
+            g2 = np.where((gd2 != vgd_x) | (d2 != vds_x), gd2 + d2, vgs_x)
+            forward_old = vds_o >= 0.0
+            vgs = np.where(forward_old, g1, g2)
+            vds = np.where(forward_old, d1, d2)
         # bulk junction on the side that is the source now
-        vbs_l, _ = pnjlim(vbs_x, vbs_o, self.vt, self.vcrit_s)
-        vbd_l, c2 = pnjlim(vbs_x - vds_x, vbs_o - vds_o, self.vt, self.vcrit_d)
+        n = vbs_x.size
+        vb_l, _ = pnjlim(np.concatenate([vbs_x, vbs_x - vds_x]), np.concatenate([vbs_o, vbs_o - vds_o]),
+                         self.vt2, self.vcrit_sd)
+        vbs_l, vbd_l = vb_l[:n], vb_l[n:]
         fwd = vds >= 0.0
         vbs_rev = np.where((vbd_l != vbs_x - vds_x) | (vds != vds_x), vbd_l + vds, vbs_x)
         vbs = np.where(fwd, vbs_l, vbs_rev)
@@ -457,109 +483,105 @@ class MosfetFamily(DeviceFamily):
 
     def bulk_diodes(self, vbs, vbd):
         """Bulk-source and bulk-drain diode currents and conductances (GMIN included)."""
-        vt = self.vt
-
-        def diode(v, isat):
-            rev = v <= -_BULK_KNEE * vt
-            ev = np.exp(np.minimum(MAX_EXP_ARG, np.where(rev, 0.0, v / vt)))
-            i = np.where(rev, self.gmin * v - isat, isat * (ev - 1.0) + self.gmin * v)
-            gd = np.where(rev, self.gmin, isat * ev / vt + self.gmin)
-            return i, gd
-
-        ibs, gbs = diode(vbs, self.isat_s)
-        ibd, gbd = diode(vbd, self.isat_d)
-        return ibs, gbs, ibd, gbd
+        v = np.concatenate([vbs, vbd])
+        vt = self.vt2
+        rev = v <= -_BULK_KNEE * vt
+        ev = np.exp(np.minimum(MAX_EXP_ARG, v / vt))
+        isat = self.isat_sd
+        i = np.where(rev, -isat, isat * (ev - 1.0)) + self.gmin * v
+        g = np.where(rev, 0.0, isat * ev / vt) + self.gmin
+        n = vbs.size
+        return i[:n], g[:n], i[n:], g[n:]
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
         tp = self.type
         vn_x = tp * v[:3]
         with np.errstate(all="ignore"):
-            if state is None:
-                state = self.initial_state()
-            if state.initial:
-                if x.any():
-                    vn, changed = vn_x, False
-                else:
-                    vn, changed = state.v, True
+            start = starting_voltages(state, x, vn_x)
+            if start is not None:
+                vn, changed = start
             else:
                 vn, changed = self.limit(vn_x, state)
             vgs, vds, vbs = vn
             vgd, vbd = vgs - vds, vbs - vds
             fwd = vds >= 0.0
+            select = _first if fwd.all() else (lambda a, b: np.where(fwd, a, b))
             # the mode's own voltages
-            vgs_m = np.where(fwd, vgs, vgd)
-            vbs_m = np.where(fwd, vbs, vbd)
-            vds_m = np.abs(vds)
-            cdrain, gm, gds, gmbs, von, dvon = drain_current(vgs_m, vds_m, vbs_m, self.beta, self.lam, self.vbi_n,
-                                                             self.gamma, self.phi)
-            mode = np.where(fwd, 1.0, -1.0)
+            cdrain, gm, gds, gmbs, von, dvon = drain_current(select(vgs, vgd), np.abs(vds), select(vbs, vbd),
+                                                             self.beta, self.lam, self.vbi_n, self.gamma, self.phi)
             ibs, gbs, ibd, gbd = self.bulk_diodes(vbs, vbd)
-            currents = np.stack([tp * mode * cdrain, tp * ibs, tp * ibd, self.gd * v[_VRD], self.gs * v[_VRS]])
-            dcur = np.stack([
-                np.where(fwd, gm, -gm),
-                np.where(fwd, gds, gm + gds + gmbs),
-                np.where(fwd, gmbs, -gmbs),
-                gbs, gbd, -gbd, self.gd, self.gs,
-            ])
+            cur, dcur = self._cur, self._dcur
+            cur[0] = select(tp, -tp) * cdrain
+            np.multiply(tp, ibs, out=cur[1])
+            np.multiply(tp, ibd, out=cur[2])
+            np.multiply(self.gd, v[_VRD], out=cur[3])
+            np.multiply(self.gs, v[_VRS], out=cur[4])
+            dcur[0] = select(gm, -gm)
+            dcur[1] = select(gds, gm + gds + gmbs)
+            dcur[2] = select(gmbs, -gmbs)
+            dcur[3] = gbs
+            dcur[4] = gbd
+            np.negative(gbd, out=dcur[5])
             if self.has_charge:
-                q, dq = self.charges(vgs, vds, vbs, vgd, vbd, fwd, von, dvon)
-                q = tp * q
-            else:
-                q, dq = np.empty((0, vgs.size)), None
+                self.charges(vgs, vds, vbs, vgd, vbd, fwd, select, von, dvon)
+                self._q *= tp
             delta = None
             if changed:
                 acc.limited = True
                 delta = np.zeros_like(v)
                 delta[:3] = v[:3] - tp * vn
-            self.stamps.add(acc, currents, dcur, q, dq, delta=delta, jacobian=jacobian)
-            total = float(currents.sum() + dcur.sum()) + (float(q.sum() + dq.sum()) if self.has_charge else 0.0)
+            self.stamps.add(acc, cur, dcur, self._q, self._dq, delta=delta, jacobian=jacobian)
+            total = float(cur.sum() + dcur.sum()) + (float(self._q.sum() + self._dq.sum()) if self.has_charge else 0.0)
             if not math.isfinite(total):
                 acc.ok = False
         return LimitState(vn, extra=von)
 
-    def charges(self, vgs, vds, vbs, vgd, vbd, fwd, von, dvon):
-        """Node charges (q_g, q_d, q_b) referred to the source and their derivatives to (vgs, vds, vbs).
+    def charges(self, vgs, vds, vbs, vgd, vbd, fwd, select, von, dvon) -> None:
+        """Node charges (q_g, q_d, q_b) referred to the source, and their derivatives to (vgs, vds, vbs).
 
-        Type-normalised; see the module docstring for the model.
+        Type-normalised, written into ``self._q`` (3, N) and ``self._dq``
+        (9, N, row-major: charge, control); see the module docstring.
         """
-        qbd, cbd = self.dep_bd(vbd)
-        qbdsw, cbdsw = self.dep_bdsw(vbd)
-        qbs, cbs = self.dep_bs(vbs)
-        qbssw, cbssw = self.dep_bssw(vbs)
-        qbd, cbd = qbd + qbdsw, cbd + cbdsw
-        qbs, cbs = qbs + qbssw, cbs + cbssw
+        q, dq = self._q, self._dq
+        dq[:] = self._dq_overlap
         vgb = vgs - vbs
-        qg = self.cgso * vgs + self.cgdo * vgd + self.cgbo * vgb
-        qd = -self.cgdo * vgd - qbd
-        qb = -self.cgbo * vgb + qbd + qbs
-        zero = np.zeros_like(vgs)
-        # derivatives to (vgs, vds, vbs): rows qg, qd, qb
-        dqg = [self.cgso + self.cgdo + self.cgbo, -self.cgdo + zero, -self.cgbo + zero]
-        dqd = [-self.cgdo + zero, self.cgdo + cbd, -cbd]
-        dqb = [-self.cgbo + zero, -cbd, self.cgbo + cbd + cbs]
-        if self.has_cox:
-            a = np.where(fwd, vgs, vgd) - von
-            b = np.where(fwd, vgd, vgs) - von
-            cg, cs, cd, cb, (g_a, g_b), (s_a, s_b), (d_a, d_b) = gate_charges(a, b, self.phi)
-            cox = self.cox
-            # the device's drain is the mode's drain in normal mode, its source in reverse
-            q_drn_dev = np.where(fwd, cd, cs)
-            qg = qg + cox * cg
-            qd = qd + cox * q_drn_dev
-            qb = qb + cox * cb
-
-            def to_controls(d_a, d_b):
-                # a = u1 - von(u3), b = u2 - von(u3) with u the mode's (vgs', vgd', vbs')
-                d1, d2, d3 = d_a, d_b, -(d_a + d_b) * dvon
-                return (d1 + d2, np.where(fwd, -d2, -d1 - d3), d3)
-
-            gg = to_controls(g_a, g_b)
-            dd = to_controls(np.where(fwd, d_a, s_a), np.where(fwd, d_b, s_b))
-            ss = to_controls(np.where(fwd, s_a, d_a), np.where(fwd, s_b, d_b))
-            # bulk: qb_int = -(qg_int + qs_int + qd_int)
-            bb = tuple(-(gg[i] + dd[i] + ss[i]) for i in range(3))
-            dqg = [dqg[i] + cox * gg[i] for i in range(3)]
-            dqd = [dqd[i] + cox * dd[i] for i in range(3)]
-            dqb = [dqb[i] + cox * bb[i] for i in range(3)]
-        return np.stack([qg, qd, qb]), np.stack(dqg + dqd + dqb)
+        np.multiply(self.cgso, vgs, out=q[0])
+        q[0] += self.cgdo * vgd + self.cgbo * vgb
+        np.multiply(-self.cgdo, vgd, out=q[1])
+        np.multiply(-self.cgbo, vgb, out=q[2])
+        n = vbs.size
+        vb = None
+        for dep in (self.dep_bottom, self.dep_side):
+            if dep.active:
+                vb = np.concatenate([vbs, vbd]) if vb is None else vb
+                qj, cj = dep(vb)
+                qbs, qbd, cbs, cbd = qj[:n], qj[n:], cj[:n], cj[n:]
+                q[1] -= qbd
+                q[2] += qbd + qbs
+                dq[4] += cbd
+                dq[5] -= cbd
+                dq[7] -= cbd
+                dq[8] += cbd + cbs
+        if not self.has_cox:
+            return
+        a = select(vgs, vgd) - von
+        b = select(vgd, vgs) - von
+        cg, cs, cd, cb, (g_a, g_b), (s_a, s_b), (d_a, d_b) = gate_charges(a, b, self.phi)
+        cox = self.cox
+        # the device's drain is the mode's drain in normal mode, its source in reverse
+        q[0] += cox * cg
+        q[1] += cox * select(cd, cs)
+        q[2] += cox * cb
+        # derivatives of (gate, device drain, device source) charges to a, b; then to the controls:
+        # a = u1 - von(u3), b = u2 - von(u3) with u the mode's (vgs', vgd', vbs')
+        d_a_all = np.stack([g_a, select(d_a, s_a), select(s_a, d_a)])
+        d_b_all = np.stack([g_b, select(d_b, s_b), select(s_b, d_b)])
+        d_ab = d_a_all + d_b_all
+        d3 = -d_ab * dvon
+        ctrl = cox * np.stack([d_ab, select(-d_b_all, -d_a_all - d3), d3], axis=1)  # (charge, control, N)
+        dq3 = dq.reshape(3, 3, -1)
+        dq3[0] += ctrl[0]
+        dq3[1] += ctrl[1]
+        # bulk: qb_int = -(qg_int + qd_int + qs_int)
+        dq3[2] -= ctrl.sum(axis=0)
