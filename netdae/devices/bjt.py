@@ -55,7 +55,9 @@ iteration from a zero iterate starts at ``vbe = vcrit``, ``vbc = 0``
 
 Not implemented (rejected with an error): excess phase PTF, quasi-saturation
 (RCO ...), ISS/NS, IBE/IBC, temperature coefficients (TLEV ...).
-Accepted without effect: noise (KF, AF) and SOA limits.
+Accepted without effect: noise (KF, AF) and SOA limits; the instance
+``icvbe``/``icvce``, which ngspice uses only for the first iterate of a
+``uic`` transient.
 """
 
 from __future__ import annotations
