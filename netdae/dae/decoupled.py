@@ -61,9 +61,10 @@ __all__ = [
 
 #: Finite parts up to this size are reduced by QZ (backward stable for the
 #: finite eigenvalues even when E_f is ill-conditioned); larger ones by a real
-#: Schur form of ``E_f^{-1} H_f`` (measured on this 2-core machine: QZ takes
-#: 0.8 s at n=500, 6.6 s at 1000 and 84 s at 2000, the Schur route 3 s at 2000).
-QZ_LIMIT = 1000
+#: Schur form of ``E_f^{-1} H_f`` (measured on the 2-core reference machine:
+#: QZ takes 0.8 s at n=500, 6.6 s at 1000 and 84 s at 2000, the Schur form
+#: 0.6 s at 1000 and 3 s at 2000).
+QZ_LIMIT = 600
 
 #: Classification thresholds are ``CLASSIFY_SAFETY * rtol`` times the product
 #: of the norms of the factors (V, N^m, U, B): these products of

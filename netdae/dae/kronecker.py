@@ -57,8 +57,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
-import scipy.sparse as sp
-from scipy.sparse.linalg import lsmr
+from scipy.sparse.linalg import LinearOperator, cg
 
 __all__ = [
     "EPS",
@@ -94,8 +93,8 @@ RTOL_FACTOR = 1.0
 #: is kept.
 BALANCE_NEGLIGIBLE = EPS
 
-#: Iteration limit and tolerance of the least-squares solve for the balancing
-#: exponents. The exponents are rounded to integers, so a loose solve suffices.
+#: Iteration limit and relative tolerance of the conjugate-gradient solve for
+#: the balancing exponents, which are rounded to integers: a loose solve suffices.
 BALANCE_MAXITER = 200
 BALANCE_LSQ_TOL = 1e-6
 
@@ -200,6 +199,13 @@ def _svd(m: np.ndarray):
         return sla.svd(m, full_matrices=True, lapack_driver="gesvd", check_finite=False)
 
 
+def _svdvals(m: np.ndarray) -> np.ndarray:
+    """Singular values only (about a third of the cost of a full SVD)."""
+    if m.size == 0:
+        return np.zeros(0)
+    return sla.svd(m, compute_uv=False, check_finite=False)
+
+
 # ---------------------------------------------------------------------------
 # balancing
 # ---------------------------------------------------------------------------
@@ -251,63 +257,67 @@ class Balancing:
         }
 
 
-def _significant_entries(E, H):
-    """Entries of E and of H that steer the balancing: ``(re, ce, ve), (rh, ch, vh)``.
+def _significant(E: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the entries of E and of H that steer the balancing.
 
     Significance is judged in the combined pencil ``[alpha0 E, H]`` with the
     provisional time scale ``alpha0 = ||H||_F / ||E||_F``: an entry is noise
     when it is below ``BALANCE_NEGLIGIBLE`` times both the largest entry of
     its row and of its column (over E and H together).
     """
-    ce_, ch_ = sp.coo_matrix(E), sp.coo_matrix(H)
-    me, mh = ce_.data != 0, ch_.data != 0
-    re, ce, ve = ce_.row[me], ce_.col[me], np.abs(ce_.data[me])
-    rh, ch, vh = ch_.row[mh], ch_.col[mh], np.abs(ch_.data[mh])
-    ne, nh = np.linalg.norm(ve), np.linalg.norm(vh)
+    aE, aH = np.abs(E), np.abs(H)
+    ne, nh = np.linalg.norm(aE), np.linalg.norm(aH)
     alpha0 = nh / ne if ne > 0 and nh > 0 else 1.0
-    rows = np.concatenate([re, rh])
-    cols = np.concatenate([ce, ch])
-    vals = np.concatenate([alpha0 * ve, vh])
-    rmax = np.zeros(E.shape[0])
-    cmax = np.zeros(E.shape[1])
-    np.maximum.at(rmax, rows, vals)
-    np.maximum.at(cmax, cols, vals)
-    keep = vals >= BALANCE_NEGLIGIBLE * np.minimum(rmax[rows], cmax[cols])
-    ke, kh = keep[: ve.size], keep[ve.size :]
-    return (re[ke], ce[ke], ve[ke]), (rh[kh], ch[kh], vh[kh])
+    rmax = np.maximum(alpha0 * aE.max(axis=1, initial=0.0), aH.max(axis=1, initial=0.0))
+    cmax = np.maximum(alpha0 * aE.max(axis=0, initial=0.0), aH.max(axis=0, initial=0.0))
+    floor = BALANCE_NEGLIGIBLE * np.minimum(rmax[:, None], cmax[None, :])
+    return (aE > 0) & (alpha0 * aE >= floor), (aH > 0) & (aH >= floor)
 
 
-def _spread(*values: np.ndarray) -> float:
-    v = np.concatenate([np.asarray(x, dtype=float).ravel() for x in values])
-    v = v[v > 0]
-    if v.size == 0:
+def _masked_log2(M: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    out = np.zeros(M.shape)
+    np.log2(np.abs(M), out=out, where=mask)
+    return out
+
+
+def _spread(logs: np.ndarray, mask: np.ndarray) -> float:
+    """Decades between the largest and smallest masked entry, from their log2."""
+    if not mask.any():
         return 0.0
-    return float(np.log10(v.max() / v.min()))
+    v = logs[mask]
+    return float((v.max() - v.min()) * np.log10(2.0))
 
 
-def _ward_exponents(n_r, n_c, re, ce, ve, rh, ch, vh) -> np.ndarray:
-    """Integer exponents (rows, columns, time) of the least-squares balancing."""
-    m_e, m_h = ve.size, vh.size
-    eq = np.arange(m_e + m_h)
-    rows = np.concatenate([re, rh])
-    cols = np.concatenate([ce, ch])
-    A = sp.csr_matrix(
-        (
-            np.ones(2 * (m_e + m_h) + m_e),
-            (np.concatenate([eq, eq, np.arange(m_e)]), np.concatenate([rows, n_r + cols, np.full(m_e, n_r + n_c)])),
-        ),
-        shape=(m_e + m_h, n_r + n_c + 1),
-    )
-    rhs = -np.log2(np.concatenate([ve, vh]))
-    sol = lsmr(A, rhs, atol=BALANCE_LSQ_TOL, btol=BALANCE_LSQ_TOL, maxiter=BALANCE_MAXITER)[0]
+def _ward_exponents(ME: np.ndarray, MH: np.ndarray, LE: np.ndarray, LH: np.ndarray) -> np.ndarray:
+    """Integer exponents ``(r, c, a)`` of the least-squares balancing.
+
+    Solves the normal equations of the fit by conjugate gradients; the
+    operator is applied with the dense 0/1 masks (O(n^2) per iteration).
+    The system is singular (``r + t, c - t`` fit equally well) but consistent,
+    and CG from zero returns the minimum-norm solution.
+    """
+    n_r, n_c = ME.shape
+    me, mh = ME.astype(float), MH.astype(float)
+    M = me + mh
+    ne_r, ne_c = me.sum(axis=1), me.sum(axis=0)
+    d_r, d_c = M.sum(axis=1), M.sum(axis=0)
+    n_e = me.sum()
+
+    def normal(w):
+        r, c, a = w[:n_r], w[n_r : n_r + n_c], w[-1]
+        return np.concatenate([d_r * r + M @ c + ne_r * a, M.T @ r + d_c * c + ne_c * a, [ne_r @ r + ne_c @ c + n_e * a]])
+
+    rhs = -np.concatenate([LE.sum(axis=1) + LH.sum(axis=1), LE.sum(axis=0) + LH.sum(axis=0), [LE.sum()]])
+    op = LinearOperator((n_r + n_c + 1,) * 2, matvec=normal, dtype=float)
+    sol = cg(op, rhs, rtol=BALANCE_LSQ_TOL, maxiter=BALANCE_MAXITER)[0]
     return np.rint(sol).astype(int)
 
 
-def balance_pencil(E, H, *, enabled: bool = True) -> Balancing:
+def balance_pencil(E: np.ndarray, H: np.ndarray, *, enabled: bool = True) -> Balancing:
     """Equilibrate the pencil ``lambda E - H`` by diagonal scaling (Ward's method).
 
     Finds integer exponents ``r`` (rows), ``c`` (columns) and ``a`` (time)
-    that minimise, over the non-zero entries,
+    that minimise, over the significant non-zero entries,
 
     .. math:: \\sum_E (\\log_2|e_{ij}| + r_i + c_j + a)^2
               + \\sum_H (\\log_2|h_{ij}| + r_i + c_j)^2,
@@ -322,7 +332,7 @@ def balance_pencil(E, H, *, enabled: bool = True) -> Balancing:
 
     Parameters
     ----------
-    E, H : array_like or sparse, shape (n, n)
+    E, H : ndarray, shape (n, n)
     enabled : bool
         False returns the identity scaling (``applied=False``).
 
@@ -332,21 +342,21 @@ def balance_pencil(E, H, *, enabled: bool = True) -> Balancing:
 
     Notes
     -----
-    One sparse least-squares solve (LSMR) with ``nnz(E) + nnz(H)`` equations
-    and ``2n + 1`` unknowns: O(nnz) per iteration, at most
-    ``BALANCE_MAXITER`` iterations.
+    Conjugate gradients on the normal equations (``2n + 1`` unknowns), each
+    iteration O(n^2) with dense masks, at most ``BALANCE_MAXITER`` iterations.
     """
     n_r, n_c = E.shape
-    (re, ce, ve), (rh, ch, vh) = _significant_entries(E, H)
-    before = _spread(ve, vh)
-    if not enabled or (ve.size + vh.size) == 0:
+    ME, MH = _significant(E, H)
+    LE, LH = _masked_log2(E, ME), _masked_log2(H, MH)
+    mask = np.concatenate([ME, MH], axis=1)
+    before = _spread(np.concatenate([LE, LH], axis=1), mask)
+    if not enabled or not mask.any():
         return Balancing(False, np.ones(n_r), np.ones(n_c), 1.0, before, before)
-    expo = _ward_exponents(n_r, n_c, re, ce, ve, rh, ch, vh)
-    row_scale = np.ldexp(1.0, expo[:n_r])
-    col_scale = np.ldexp(1.0, expo[n_r : n_r + n_c])
-    time_scale = float(np.ldexp(1.0, expo[-1]))
-    after = _spread(ve * time_scale * row_scale[re] * col_scale[ce], vh * row_scale[rh] * col_scale[ch])
-    return Balancing(True, row_scale, col_scale, time_scale, before, after)
+    expo = _ward_exponents(ME, MH, LE, LH)
+    r, c, a = expo[:n_r], expo[n_r : n_r + n_c], expo[-1]
+    shift = r[:, None] + c[None, :]
+    after = _spread(np.concatenate([LE + shift + a, LH + shift], axis=1), mask)
+    return Balancing(True, np.ldexp(1.0, r), np.ldexp(1.0, c), float(np.ldexp(1.0, a)), before, after)
 
 
 # ---------------------------------------------------------------------------
@@ -432,7 +442,9 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
     -----
     Step i costs one SVD of the active E block and one of the H columns on
     its null space, plus O(n^2 (s_i + rho_i) + n k_i^2) for applying the
-    transformations; for a pencil of index k the total is O((k+1) n^3).
+    transformations; for a pencil of index k the total is O((k+1) n^3). The
+    last step, which only confirms full column rank, computes singular values
+    without vectors.
     """
     A = np.array(E, dtype=float, copy=True)
     B = np.array(H, dtype=float, copy=True)
@@ -448,15 +460,18 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
     step = 0
     while c0 < k:
         step += 1
-        P, s, WT = _svd(A[r0:, c0:])
-        if first_svd is None:
-            first_svd = (P, s, WT)
         mi, ki = m - r0, k - c0
+        if first_svd is None:
+            P, s, WT = first_svd = _svd(A[r0:, c0:])
+        else:  # singular values first: the last step (full column rank) needs no vectors
+            s = _svdvals(A[r0:, c0:])
         dec = rank_decision(s, tol_e, f"{label}rank of E block (staircase step {step})", (mi, ki))
         decisions.append(dec)
         ns = ki - dec.rank
         if ns == 0:
             break
+        if step > 1:
+            P, s, WT = _svd(A[r0:, c0:])
         neglected_sq += float(np.sum(s[dec.rank :] ** 2))
         W = np.concatenate([WT[dec.rank :], WT[: dec.rank]]).T  # null space first
         A[:, c0:] = A[:, c0:] @ W
