@@ -8,6 +8,10 @@ VENV   := .venv
 VPY    := $(VENV)/bin/python
 STAMP  := $(VENV)/.netdae-installed
 DEMO   := netlists/differentiator.cir
+# One BLAS thread: netdae's dense problems are small and its sparse LU is
+# single-threaded; BLAS threads only contend on small machines.
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
 OUT    := out
 
 .PHONY: demo test bench system-deps venv clean
