@@ -32,15 +32,18 @@ from __future__ import annotations
 
 from collections import defaultdict
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..circuit import Circuit, Element
 from ..errors import CircuitError
-from ..mna.layout import Layout
-from ..mna.stamps import Triplets
+from .stamps import Triplets
 
-__all__ = ["LinearStamps", "stamp_linear", "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE"]
+if TYPE_CHECKING:
+    from ..mna.layout import Layout
+
+__all__ = ["LinearStamps", "stamp_linear", "capacitances", "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE"]
 
 #: Kinds whose current is an MNA unknown.
 BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "opamp", "bvoltage"})
@@ -114,8 +117,13 @@ def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):
     st.H.add_conductance(a, b, -g)
 
 
+def capacitances(els: list[Element], temp: float, tnom: float) -> np.ndarray:
+    """Effective capacitance of each capacitor [F]: value, multiplier ``m`` and temperature coefficients."""
+    return _values(els) * _multiplier(els) * _temperature_factor(els, temp, tnom)
+
+
 def _stamp_capacitors(els, layout, st: LinearStamps, temp, tnom):
-    c = _values(els) * _multiplier(els) * _temperature_factor(els, temp, tnom)
+    c = capacitances(els, temp, tnom)
     a, b = _two_nodes(els, layout)
     st.E.add_conductance(a, b, c)
 

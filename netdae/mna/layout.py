@@ -2,7 +2,7 @@
 
 The layout turns names into indices once, so that every stamp afterwards is
 array arithmetic. Ground has index ``GND = -1``; stamps map it to an extra
-slot that is dropped (see :mod:`netdae.mna.stamps`), so no branch on ground is
+slot that is dropped (see :mod:`netdae.devices.stamps`), so no branch on ground is
 needed in vectorised code.
 """
 

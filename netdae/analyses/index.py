@@ -1,0 +1,330 @@
+"""Index analysis of a circuit: the pencil, its Kronecker structure, and why, in circuit terms.
+
+:func:`analyze_index` combines two independent views of the DAE
+``E x' = H x + c(t)`` (linearised at the operating point for nonlinear
+circuits, ``H = dphi/dx``):
+
+- the *numerical* structure of the pencil (:mod:`netdae.dae.pencil`):
+  regularity, nilpotency index, infinite Jordan blocks, dynamic states and
+  finite eigenvalues (the circuit's poles), the per-unknown classification
+  (differential, algebraic, index-2, ...), every rank decision with its
+  tolerance; dense O(n^3), used up to :data:`~netdae.dae.pencil.DENSE_LIMIT`
+  unknowns;
+- the *topological* analysis (:mod:`netdae.topology`): V-loops, I-cutsets,
+  CV-loops, LI-cutsets, nodes without DC path, named by element; the index
+  it implies when the theorem of Estévez Schwarz and Tischendorf applies
+  (independent sources and passive elements only).
+
+Above the dense limit the report rests on the topology alone, says so in
+``method``, and gives an index only when the theorem applies.
+
+Consistency: the transient's initial point (the DC operating point at t0,
+or the ``uic`` values) is checked against the explicit and hidden
+constraints ``z(t0) = -sum N^l theta^(l)(t0)`` of the decoupled form (2.12).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..circuit import Circuit, TranAnalysis
+from ..dae.pencil import DENSE_LIMIT, PencilReport, analyze_pencil
+from ..errors import NetdaeError
+from ..mna import MODE_DC, MODE_TRAN, MnaSystem, assemble
+
+__all__ = ["IndexReport", "analyze_index", "index_of_unknowns", "LABEL_DIFFERENTIAL", "LABEL_ALGEBRAIC"]
+
+LABEL_DIFFERENTIAL = "differential"
+LABEL_ALGEBRAIC = "algebraic"
+
+
+@dataclass
+class IndexReport:
+    """What kind of DAE a circuit is, with evidence.
+
+    Attributes
+    ----------
+    regular : bool or None
+        The pencil is regular (None when the topology could not decide).
+    index : int or None
+        Nilpotency index of the linearisation (None: singular, or unknown
+        above the dense limit when the topological theorem does not apply).
+    method : str
+        ``"kronecker"`` (numerical, exact at the tolerance) or ``"topological"``.
+    n_unknowns : int
+    n_dynamic : int or None
+        Number of finite eigenvalues (dynamic states).
+    rank_E : int or None
+    infinite_blocks : list of int
+        Sizes of the nilpotent Jordan blocks (descending).
+    finite_eigenvalues : ndarray of complex
+        The circuit's natural frequencies [1/s] (poles).
+    tolerance : dict
+        Rank-decision tolerances (relative and absolute).
+    unknowns : dict of str to str
+        Signal name to ``"differential"``, ``"algebraic"``, ``"index2"``, ...
+    derivative_order : dict of str to int
+        Highest input derivative each unknown depends on.
+    topology : TopologyReport
+    consistency : ConsistencyReport or None
+        Check of the transient's initial point (when the netlist has ``.tran``).
+    at : str
+        ``"op"`` (linearised at the DC operating point) or ``"t0"`` (at the
+        initial point of the transient).
+    messages : list of str
+        The diagnosis, most important first.
+    pencil : PencilReport or None
+    system : MnaSystem
+    x : ndarray
+        The linearisation point.
+    wall_time : float
+    """
+
+    regular: bool | None
+    index: int | None
+    method: str
+    n_unknowns: int
+    n_dynamic: int | None
+    rank_E: int | None
+    infinite_blocks: list[int]
+    finite_eigenvalues: np.ndarray
+    tolerance: dict
+    unknowns: dict[str, str]
+    derivative_order: dict[str, int]
+    topology: Any
+    consistency: Any
+    at: str
+    messages: list[str] = field(default_factory=list)
+    pencil: PencilReport | None = None
+    system: MnaSystem | None = None
+    x: np.ndarray | None = None
+    wall_time: float = 0.0
+
+    @property
+    def consistent_initial_values(self) -> bool | None:
+        """Whether the transient's initial point satisfies every constraint (None: not checked)."""
+        return None if self.consistency is None else bool(self.consistency.consistent)
+
+    def to_dict(self) -> dict:
+        """The JSON document of ``netdae index --json``."""
+        topo = self.topology.to_dict() if self.topology is not None else {}
+        return {
+            "regular": self.regular,
+            "index": self.index,
+            "method": self.method,
+            "at": self.at,
+            "n_unknowns": self.n_unknowns,
+            "n_dynamic": self.n_dynamic,
+            "rank_E": self.rank_E,
+            "infinite_blocks": list(self.infinite_blocks),
+            "finite_eigenvalues": [[float(z.real), float(z.imag)] for z in self.finite_eigenvalues],
+            "tolerance": self.tolerance,
+            "unknowns": dict(self.unknowns),
+            "derivative_order": dict(self.derivative_order),
+            "topology": {
+                "v_loops": [lp["elements"] for lp in topo.get("v_loops", [])],
+                "i_cutsets": [cs["elements"] for cs in topo.get("i_cutsets", [])],
+                "cv_loops": [lp["elements"] for lp in topo.get("cv_loops", [])],
+                "li_cutsets": [cs["elements"] for cs in topo.get("li_cutsets", [])],
+                "floating_nodes": [g["nodes"] for g in topo.get("floating_groups", [])]
+                + [g["nodes"] for g in topo.get("no_dc_path", [])],
+                "applicable": topo.get("applicable"),
+                "topological_index": topo.get("topological_index"),
+                "findings": topo.get("findings", []),
+            },
+            "consistent_initial_values": self.consistent_initial_values,
+            "consistency": None
+            if self.consistency is None
+            else self.consistency.to_dict(list(self.system.names) if self.system is not None else None),
+            "evidence": [] if self.pencil is None else [d.to_dict() for d in self.pencil.evidence],
+            "warnings": [] if self.pencil is None else list(self.pencil.warnings),
+            "messages": list(self.messages),
+            "wall_time": self.wall_time,
+        }
+
+
+def index_of_unknowns(report: IndexReport) -> np.ndarray:
+    """Per-unknown index for the integrator's error control: 1 + highest input derivative.
+
+    Differential and algebraic unknowns get 1, index-2 unknowns 2, and so on.
+    """
+    names = report.system.names
+    return np.array([1 + report.derivative_order.get(nm, 0) for nm in names], dtype=np.int64)
+
+
+def _linearization_point(circuit: Circuit, system: MnaSystem, at: str, x: np.ndarray | None):
+    """The point (x, t) where the pencil is taken, and the transient's initial point."""
+    from .op import solve_operating_point
+
+    if x is not None:
+        return np.asarray(x, dtype=float)
+    if system.linear:
+        return np.zeros(system.n)
+    return solve_operating_point(system, transient=(at == "t0")).x
+
+
+def _transient_card(circuit: Circuit) -> TranAnalysis | None:
+    return next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None)
+
+
+def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: np.ndarray | None):
+    """Check the transient's starting point against the constraints of the decoupled form."""
+    card = _transient_card(circuit)
+    if card is None or pencil is None or pencil.weierstrass is None:
+        return None
+    from .op import solve_operating_point
+
+    tsys = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
+    if x0 is None:
+        if card.uic:
+            return None  # the uic start is judged by the transient itself
+        x0 = solve_operating_point(tsys, transient=True).x
+    H = pencil.weierstrass
+    ev = tsys.evaluate(x0, 0.0, jacobian=False)
+    c0 = ev.phi - tsys.jacobians(x0, 0.0)[1] @ x0
+
+    def c_derivs(k: int) -> np.ndarray:
+        return c0 if k == 0 else tsys.source(0.0, k)
+
+    return H.check_consistency(x0, c_derivs)
+
+
+def _messages(rep: IndexReport) -> list[str]:
+    out = []
+    topo = rep.topology
+    if rep.regular is False:
+        out.append("singular pencil: the circuit equations have no or infinitely many solutions")
+    elif rep.index is not None:
+        kind = {0: "an ODE (E is invertible)", 1: "index 1: every algebraic unknown follows from the states and inputs"}
+        out.append(f"index {rep.index} ({rep.method}): " + kind.get(rep.index, (
+            f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}")))
+    else:
+        out.append("index unknown: " + (topo.index_message if topo is not None else "no analysis"))
+    hi = [nm for nm, lb in rep.unknowns.items() if lb.startswith("index")]
+    if hi:
+        shown = ", ".join(f"{nm} ({rep.unknowns[nm]})" for nm in hi[:8])
+        out.append(f"unknowns depending on input derivatives: {shown}" + (" ..." if len(hi) > 8 else ""))
+    if topo is not None:
+        for f in topo.findings:
+            if f.kind in ("not_applicable", "truncated", "element_note") or f.severity == "note":
+                continue
+            out.append(f.message)
+        if not topo.applicable and topo.not_applicable_reason:
+            out.append(topo.not_applicable_reason)
+        elif topo.topological_index is not None and rep.index is not None and rep.method == "kronecker" \
+                and topo.topological_index != rep.index:
+            out.append(f"note: the topological index {topo.topological_index} differs from the numerical "
+                       f"index {rep.index}; the numerical one is authoritative (element values may cancel)")
+    if rep.consistency is not None and not rep.consistency.consistent:
+        names = rep.system.names
+        cons = rep.consistency
+        changed = ", ".join(
+            f"{names[i]}: {cons.x_consistent[i] - cons.dx[i]:.6g} -> {cons.x_consistent[i]:.6g}"
+            for i in cons.affected[:6]
+        )
+        out.append("the transient's initial point (DC operating point) violates hidden constraints "
+                   f"because inputs change at t0; consistent values: {changed}")
+    return out
+
+
+def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | None = None,
+                  x: np.ndarray | None = None, method: str = "auto", check_consistency: bool = True) -> IndexReport:
+    """The structure of a circuit's DAE and the reasons for it.
+
+    Parameters
+    ----------
+    circuit : Circuit or MnaSystem
+        An elaborated circuit (or an already assembled system).
+    at : {"op", "t0"}
+        Linearise at the DC operating point (``.op`` source values) or at the
+        initial point of the transient (source values at t0, ``.ic`` applied).
+    tol : float, optional
+        Relative tolerance of every rank decision (default ``n * eps``).
+    x : ndarray, optional
+        Linearisation point (default: the operating point; zeros for linear circuits).
+    method : {"auto", "kronecker", "topological"}
+        ``auto`` uses the dense Kronecker analysis up to DENSE_LIMIT unknowns.
+    check_consistency : bool
+        Check the transient's initial point against the hidden constraints.
+
+    Returns
+    -------
+    IndexReport
+
+    Raises
+    ------
+    NetdaeError
+        For an unknown ``at`` or ``method``, or ``method="kronecker"`` above the dense limit.
+    CircuitError, ConvergenceError
+        When the operating point cannot be computed.
+    """
+    from ..topology import analyze_topology
+
+    t_start = time.perf_counter()
+    if at not in ("op", "t0"):
+        raise NetdaeError(f"--at must be 'op' or 't0', not {at!r}")
+    if method not in ("auto", "kronecker", "topological"):
+        raise NetdaeError(f"method must be auto, kronecker or topological, not {method!r}")
+    if isinstance(circuit, MnaSystem):
+        system, circuit = circuit, circuit.circuit
+    else:
+        card = _transient_card(circuit)
+        if at == "t0" and card is None:
+            raise NetdaeError("--at t0 needs a .tran card (the initial point of a transient)")
+        system = (assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop) if at == "t0"
+                  else assemble(circuit, mode=MODE_DC))
+    topo = analyze_topology(circuit)
+    use_dense = method == "kronecker" or (method == "auto" and system.n <= DENSE_LIMIT)
+    if method == "kronecker" and system.n > DENSE_LIMIT:
+        raise NetdaeError(
+            f"the dense Kronecker analysis is limited to {DENSE_LIMIT} unknowns (this circuit has {system.n}); "
+            "use the topological method"
+        )
+    pencil = None
+    xlin = None
+    if use_dense and not (topo.singular and system.n == 0):
+        if topo.dc_singular and not system.linear:
+            xlin = np.zeros(system.n) if x is None else x  # no operating point exists; linearise at zero
+        else:
+            xlin = _linearization_point(circuit, system, at, x)
+        E, H = system.jacobians(xlin, 0.0)
+        pencil = analyze_pencil(E, H, B=system.B.toarray(), names=system.names, tol=tol)
+    names = system.names
+    if pencil is not None:
+        labels = dict(zip(names, pencil.labels)) if pencil.labels is not None else {}
+        orders = ({nm: int(d) for nm, d in zip(names, pencil.derivative_order)}
+                  if pencil.derivative_order is not None else {})
+        rep = IndexReport(
+            regular=pencil.regular, index=pencil.index, method="kronecker", n_unknowns=system.n,
+            n_dynamic=pencil.n_dynamic, rank_E=pencil.rank_E, infinite_blocks=list(pencil.infinite_blocks),
+            finite_eigenvalues=pencil.finite_eigenvalues,
+            tolerance={"rtol": pencil.rtol, "tol_E": pencil.tol_E, "tol_H": pencil.tol_H},
+            unknowns=labels, derivative_order=orders, topology=topo, consistency=None, at=at,
+            pencil=pencil, system=system, x=xlin,
+        )
+        if check_consistency and pencil.regular:
+            rep.consistency = _consistency(circuit, system, pencil, None)
+    else:
+        idx = topo.topological_index if topo.applicable and not topo.singular else None
+        sig2 = set(topo.index2_signals) if idx == 2 else set()
+        labels = {nm: ("index2" if nm in sig2 else "unclassified") for nm in names}
+        rep = IndexReport(
+            regular=False if topo.singular else (True if idx is not None else None), index=idx,
+            method="topological", n_unknowns=system.n, n_dynamic=None, rank_E=None, infinite_blocks=[],
+            finite_eigenvalues=np.zeros(0, dtype=complex), tolerance={}, unknowns=labels,
+            derivative_order={nm: (1 if nm in sig2 else 0) for nm in names}, topology=topo, consistency=None,
+            at=at, system=system,
+        )
+    rep.messages = _messages(rep)
+    if rep.method == "topological":
+        rep.messages.append(
+            f"method: topological ({system.n} unknowns is above the dense limit of {DENSE_LIMIT}); "
+            + ("the index follows from the circuit's structure" if rep.index is not None
+               else "no exact index can be given")
+        )
+    rep.wall_time = time.perf_counter() - t_start
+    return rep
