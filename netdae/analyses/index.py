@@ -199,7 +199,7 @@ def _messages(rep: IndexReport) -> list[str]:
     if rep.regular is False:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")
     elif rep.index is not None:
-        kind = {0: "an ODE (E is invertible)", 1: "index 1: every algebraic unknown follows from the states and inputs"}
+        kind = {0: "an ODE (E is invertible)", 1: "every algebraic unknown follows from the states and the inputs"}
         out.append(f"index {rep.index} ({rep.method}): " + kind.get(rep.index, (
             f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}")))
     else:
