@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,8 @@ __all__ = ["plot_result", "MAX_CURVES"]
 
 #: At most this many signals are drawn per panel (the first ones in order).
 MAX_CURVES = 12
+#: Titles are wrapped at this many characters.
+TITLE_WIDTH = 80
 
 
 def _pyplot():
@@ -86,7 +89,7 @@ def plot_result(result: Result, path: str | Path, *, title: str = "", signals=No
         axes[-1].set_xlabel("time [s]" if xname == "time" else xname)
         panels = tuple(axes)
     if title:
-        panels[0].set_title(title)
+        panels[0].set_title(textwrap.fill(title, TITLE_WIDTH), fontsize="medium")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

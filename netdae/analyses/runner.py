@@ -29,7 +29,7 @@ def analysis_name(card: Any) -> str:
     raise TypeError(f"not an analysis card: {card!r}")
 
 
-def run(circuit: Circuit | str, *, save: list[str] | None = None, **options) -> list[Result]:
+def run(circuit: Circuit | str, *, save: list[str] | None = None, progress=None, **options) -> list[Result]:
     """Run the analyses of a circuit.
 
     Parameters
@@ -39,6 +39,8 @@ def run(circuit: Circuit | str, *, save: list[str] | None = None, **options) -> 
     save : list of str, optional
         Signals to keep (``v(out)``, ``i(v1)``); default: the netlist's
         ``.save``/``.print``/``.probe`` signals, or everything.
+    progress : callable, optional
+        ``progress(t, tstop, steps)`` for transients (see :func:`~netdae.analyses.tran.transient`).
     **options
         Tolerance overrides (``reltol``, ``abstol``, ``vntol``) passed to every analysis.
 
@@ -79,5 +81,5 @@ def run(circuit: Circuit | str, *, save: list[str] | None = None, **options) -> 
         else:
             from .tran import transient
 
-            results.append(transient(circuit, card, save=save, **options))
+            results.append(transient(circuit, card, save=save, progress=progress, **options))
     return results

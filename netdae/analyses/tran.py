@@ -444,7 +444,9 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         check = rep.pencil.weierstrass.check_consistency(start.x, _c_derivatives(system, start.x, 0.0))
         if not check.consistent:
             if initial == "consistent":
-                x0 = check.x_consistent
+                x0 = start.x.copy()
+                changed = list(check.affected)
+                x0[changed] = check.x_consistent[changed]  # the rest moved by rounding only
                 text, detail = _correction_note(
                     system, start.x, x0,
                     "initial values made consistent (the DC operating point violates hidden constraints because "

@@ -85,7 +85,13 @@ def main(args) -> int:
 
     circuit = load(args.file)
     save = [s.strip().lower() for s in args.save.split(",") if s.strip()] if args.save else None
-    results = run(circuit, save=save, **_overrides(args))
+    from .progress import ProgressBar
+
+    bar = ProgressBar()
+    try:
+        results = run(circuit, save=save, progress=bar, **_overrides(args))
+    finally:
+        bar.close()
     out_dir = Path(args.out) if args.out else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
