@@ -101,46 +101,46 @@ def _check_method(circuit: Circuit) -> None:
         )
 
 
-def _save_request(system: MnaSystem, names: list[str]) -> tuple[np.ndarray, dict[str, tuple[int, int]]]:
-    """Unknowns to keep, and derived differences ``v(a,b)`` as pairs of positions in the kept set."""
+def _save_request(system: MnaSystem, names: list[str]) -> tuple[np.ndarray, list[str], dict[str, tuple[int, int]]]:
+    """What to keep: unknown positions, the requested unknown names, and differences ``v(a,b)``.
+
+    Returns the sorted positions of every unknown to store (requested ones and
+    the nodes of requested differences), the names of the requested unknowns,
+    and for each difference the positions of its two nodes in the stored set
+    (-1 for ground).
+    """
     if not names:
-        return np.arange(system.n), {}
+        return np.arange(system.n), list(system.names), {}
     index = {nm: i for i, nm in enumerate(system.names)}
-    keep: list[int] = []
+    keep: set[int] = set()
+    requested: list[str] = []
     diffs: dict[str, tuple[str, str]] = {}
     for raw in names:
         name = raw.strip().lower()
-        if name in index:
-            keep.append(index[name])
+        if name in index or f"v({name})" in index:
+            name = name if name in index else f"v({name})"
+            keep.add(index[name])
+            requested.append(name)
             continue
-        m = re.fullmatch(r"v\(\s*([^,\s]+)\s*(?:,\s*([^,\s]+)\s*)?\)", name)
-        if m is None and f"v({name})" in index:
-            keep.append(index[f"v({name})"])
-            continue
-        if m and m.group(2) is not None:
-            pair = []
-            for node in m.group(1, 2):
-                if node in ("0", "gnd"):
-                    pair.append("0")
-                elif f"v({node})" in index:
-                    pair.append(f"v({node})")
-                    keep.append(index[f"v({node})"])
-                else:
-                    break
-            else:
+        m = re.fullmatch(r"v\(\s*([^,\s]+)\s*,\s*([^,\s]+)\s*\)", name)
+        if m is not None:
+            pair = ["0" if nd in ("0", "gnd") else f"v({nd})" for nd in m.group(1, 2)]
+            if all(p == "0" or p in index for p in pair):
+                keep.update(index[p] for p in pair if p != "0")
                 diffs[f"v({m.group(1)},{m.group(2)})"] = tuple(pair)
                 continue
         raise NetdaeError(
             f"cannot save '{raw}': netdae keeps node voltages v(node), differences v(a,b) and the branch "
             f"currents of voltage sources, inductors and voltage-type controlled sources (i(name))"
         )
-    keep_arr = np.array(sorted(set(keep)), dtype=np.int64)
+    keep_arr = np.array(sorted(keep), dtype=np.int64)
     pos = {system.names[i]: k for k, i in enumerate(keep_arr)}
-    return keep_arr, {name: (pos.get(a, -1), pos.get(b, -1)) for name, (a, b) in diffs.items()}
+    return keep_arr, requested, {name: (pos.get(a, -1), pos.get(b, -1)) for name, (a, b) in diffs.items()}
 
 
-def _signals(names, values: np.ndarray, diffs) -> dict[str, np.ndarray]:
-    out = {nm: values[:, k] for k, nm in enumerate(names)}
+def _signals(kept_names, requested, values: np.ndarray, diffs) -> dict[str, np.ndarray]:
+    pos = {nm: k for k, nm in enumerate(kept_names)}
+    out = {nm: values[:, pos[nm]] for nm in requested}
     for name, (a, b) in diffs.items():
         va = values[:, a] if a >= 0 else 0.0
         vb = values[:, b] if b >= 0 else 0.0
@@ -460,7 +460,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     notes += [f"warning: {w}" for w in impulses]
 
     names_req = save if save is not None else circuit.saves
-    keep, diffs = _save_request(system, names_req)
+    keep, requested, diffs = _save_request(system, names_req)
     kept_names = [system.names[i] for i in keep]
     unknown_index = np.array([1 + rep.derivative_order.get(nm, 0) for nm in system.names], dtype=np.int64)
     bdf_opts = {"rtol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
@@ -498,7 +498,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         out_t, out_x = times[sel], X[sel]
 
     def dense(t):
-        return _signals(kept_names, np.atleast_2d(np.asarray(dense_kept(np.atleast_1d(t)))), diffs)
+        return _signals(kept_names, requested, np.atleast_2d(np.asarray(dense_kept(np.atleast_1d(t)))), diffs)
 
     stats_out = {
         "steps": stats.get("steps", 0),
@@ -511,11 +511,11 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         "wall_time": time.perf_counter() - t_wall,
         **system.describe(),
     }
-    kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(kept_names + list(diffs)))
+    kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(requested + list(diffs)))
     return Result(
         "tran",
         axes={"time": out_t},
-        signals=_signals(kept_names, out_x, diffs),
+        signals=_signals(kept_names, requested, out_x, diffs),
         stats=stats_out,
         status=STATUS_OK if status >= 0 else STATUS_FAILED,
         message=message,
