@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg as sla
+import scipy.sparse as sp
 from scipy.linalg import block_diag
 from test_pencil_examples import cascade_solution, differentiator_cascade, semi_explicit, sine_derivative
 from test_pencil_oracle import CASES, eig_error, structured_pencil
@@ -242,8 +243,6 @@ def test_classification_weights_are_reported_in_threshold_units():
 
 def test_decoupling_of_a_dae_with_sparse_input():
     E, H, B, names = differentiator_cascade(1)
-    import scipy.sparse as sp
-
     wf = weierstrass_form(sp.csc_matrix(E), sp.csc_matrix(H))
     res_E, res_H = form_residuals(wf, E, H)
     assert res_E / FORM_RTOL < 1 and res_H / FORM_RTOL < 1

@@ -14,9 +14,12 @@ import scipy.sparse as sp
 import slycot
 from test_pencil_examples import (
     PEND_OMEGA,
+    complex_step_jacobian,
     differentiator_cascade,
+    pendulum_E,
     pendulum_hanging_state,
     pendulum_pencil,
+    pendulum_residual,
     semi_explicit,
 )
 
@@ -106,6 +109,10 @@ def test_bad_shapes_raise_value_error():
         analyze_pencil(np.eye(2), np.eye(3))
     with pytest.raises(ValueError, match="non-finite"):
         analyze_pencil(np.eye(2), np.array([[np.nan, 0], [0, 1]]))
+    with pytest.raises(ValueError, match="B must have shape"):
+        analyze_pencil(np.eye(2), np.eye(2), B=np.ones((3, 1)))
+    with pytest.raises(ValueError, match="names"):
+        analyze_pencil(np.eye(2), np.eye(2), names=["a"])
 
 
 # ---------------------------------------------------------------------------
@@ -272,8 +279,6 @@ def test_pendulum_through_a_dae_system():
     form = "index3"
     x0 = pendulum_hanging_state(form)
     E = pendulum_E(form, x0)
-    from test_pencil_examples import complex_step_jacobian, pendulum_residual
-
     system = FunctionDae(
         8,
         q=lambda x: E @ x,
@@ -287,12 +292,6 @@ def test_pendulum_through_a_dae_system():
     assert rep.names[-1] == "lambda2"
     # the multipliers depend on second derivatives of the constraint inputs
     assert rep.labels[-2:] == ("index3", "index3")
-
-
-def pendulum_E(form, x):
-    from test_pencil_examples import pendulum_E as build
-
-    return build(form, x)
 
 
 def test_linear_dae_system():

@@ -466,13 +466,18 @@ class WeierstrassForm:
 
         Parameters
         ----------
-        B : ndarray, shape (n, p), optional
+        B : ndarray, shape (n, p) or (n,), optional
             Input matrix of ``c(t) = B u(t)``: only directions the inputs
             excite count.
 
         Returns
         -------
         Classification
+
+        Raises
+        ------
+        ValueError
+            When B does not have n rows.
 
         Notes
         -----
@@ -491,7 +496,11 @@ class WeierstrassForm:
         if B is None:
             G = U2b
         else:
-            Bb = dl[:, None] * np.asarray(B, dtype=float).reshape(self.n, -1)
+            B = np.asarray(B, dtype=float)
+            B = B[:, None] if B.ndim == 1 else B
+            if B.ndim != 2 or B.shape[0] != self.n:
+                raise ValueError(f"B must have shape ({self.n}, p), got {B.shape}")
+            Bb = dl[:, None] * B
             norms = np.linalg.norm(Bb, axis=0)
             Bb = Bb[:, norms > 0] / norms[norms > 0]
             G = U2b @ Bb

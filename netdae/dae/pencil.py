@@ -99,9 +99,11 @@ __all__ = [
     "blocks_from_ranks",
 ]
 
-#: Largest n for which the dense analysis is used by default: measured on the
-#: reference machine (2 cores) as about 2 s at n=500, 7 s at 1000, 25 s at 2000
-#: for an index-2 pencil (see docs/index-theory.md for the command).
+#: Largest n for which the dense analysis is used by default. Measured on the
+#: 2-core reference machine under load, one BLAS thread, index-2 dense test
+#: pencils: 0.5 s at n=500, 2-4 s at 1000, 15 s at 2000 (with two OpenBLAS
+#: threads on the oversubscribed machine 6 s, 27 s, 230 s; see
+#: docs/index-theory.md for the command).
 DENSE_LIMIT = 2000
 
 #: :func:`analyze_pencil` cross-checks the normal rank by random shifts
@@ -183,14 +185,17 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
     best = _decide(E, H, bal, rtol)
     if bal.applied and best.ks.margin < MARGIN_RETRY:
         plain = _decide(E, H, balance_pencil(E, H, enabled=False), rtol)
-        chosen, other = (plain, best) if plain.ks.margin > best.ks.margin else (best, plain)
+        chosen = plain if plain.ks.margin > best.ks.margin else best
         note = (
-            f"a rank decision of the {'balanced' if chosen is plain else 'unbalanced'} pencil was close "
-            f"(margin {other.ks.margin:.3g}); reporting the {'unbalanced' if chosen is plain else 'balanced'} "
-            f"one (margin {chosen.ks.margin:.3g})"
+            f"the closest rank decision on the balanced pencil had margin {best.ks.margin:.3g}; decided again "
+            f"on the unbalanced pencil (margin {plain.ks.margin:.3g}); reporting the "
+            f"{'unbalanced' if chosen is plain else 'balanced'} one"
         )
         if plain.ks.summary() != best.ks.summary():
-            note += f"; the two disagree: {chosen.ks.summary()} vs {other.ks.summary()} (regular, infinite blocks, right, left)"
+            note += (
+                f"; they disagree: balanced {best.ks.summary()}, unbalanced {plain.ks.summary()} "
+                "(regular, infinite blocks, right and left minimal indices)"
+            )
         chosen.notes.append(note)
         best = chosen
     return best, rtol
