@@ -305,7 +305,9 @@ def _ward_exponents(ME: np.ndarray, MH: np.ndarray, LE: np.ndarray, LH: np.ndarr
 
     def normal(w):
         r, c, a = w[:n_r], w[n_r : n_r + n_c], w[-1]
-        return np.concatenate([d_r * r + M @ c + ne_r * a, M.T @ r + d_c * c + ne_c * a, [ne_r @ r + ne_c @ c + n_e * a]])
+        return np.concatenate(
+            [d_r * r + M @ c + ne_r * a, M.T @ r + d_c * c + ne_c * a, [ne_r @ r + ne_c @ c + n_e * a]]
+        )
 
     rhs = -np.concatenate([LE.sum(axis=1) + LH.sum(axis=1), LE.sum(axis=0) + LH.sum(axis=0), [LE.sum()]])
     op = LinearOperator((n_r + n_c + 1,) * 2, matvec=normal, dtype=float)
