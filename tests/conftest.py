@@ -7,6 +7,13 @@ when it can).
 
 from __future__ import annotations
 
+import os
+
+# One BLAS thread, as the command line and the Makefile use (set before numpy loads):
+# dense problems here are small and threads only contend on small machines.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import shutil
 from pathlib import Path
 
