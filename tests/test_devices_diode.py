@@ -162,7 +162,7 @@ def test_first_iteration_starts_at_vcrit_and_is_linearised():
     # MODEINITJCT: from the zero vector the diode is evaluated at vcrit and continued linearly to v = 0
     Is = 1e-14
     system = assemble(load(f"t\nV1 a 0 1\nR1 a b 1k\nD1 b 0 dm\n.model dm d is={Is}\n.end\n"))
-    ev = system.evaluate(np.zeros(system.n), 0.0)
+    ev = system.evaluate(np.zeros(system.n), 0.0, state=system.initial_state())
     assert ev.limited
     vt = vt_at(27.0)
     vc = vt * math.log(vt / (math.sqrt(2) * Is))
@@ -185,6 +185,17 @@ def test_limited_step_is_flagged_and_continued_linearly():
     i, g = fam.current(np.array([vl]))
     assert ev.phi[system.names.index("v(b)")] == pytest.approx(-(i[0] + g[0] * (1.0 - vl)) + 1e-3 * (0.0 - 1.0),
                                                                  rel=1e-12)
+
+
+def test_without_history_the_diode_is_evaluated_at_the_iterate():
+    # state None (continuation, first step of a transient): no MODEINITJCT, no limiting
+    system = assemble(load("t\nV1 a 0 1\nR1 a b 1k\nD1 b 0 dm\n.model dm d is=1e-14\n.end\n"))
+    fam = system.families[0]
+    x = np.zeros(system.n)
+    ev = system.evaluate(x, 0.0, state=(None,))
+    assert not ev.limited and ev.state[0].v[0, 0] == 0.0
+    i, _ = fam.current(np.array([0.0]))
+    assert ev.phi[system.names.index("v(b)")] == -i[0]
 
 
 def test_off_diode_starts_at_zero():

@@ -198,9 +198,6 @@ B2 c 0 I={1e-12*(exp(V(c)/0.05)-1)}
 """
 
 
-@pytest.mark.xfail(strict=True, reason="netdae.dae.steady: the pivot-ratio test calls the badly scaled Jacobian "
-                                       "singular and gmin stepping gives up when its first step fails "
-                                       "(ngspice raises gmin instead); see docs/devices.md")
 def test_homotopy_rescues_what_plain_newton_cannot():
     result = operating_point(load(HARD), **TIGHT)
     assert result.stats["strategy"] != "newton"
