@@ -42,7 +42,10 @@ from .system import KIND_CURRENT, KIND_OTHER, KIND_VOLTAGE, DaeSystem
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "solve_steady"]
 
-#: Starting conductance of gmin stepping [S] (ngspice starts dynamic gmin at 1e-2... we start a decade lower).
+#: gmin stepping starts one factor below this conductance [S] and, when a step
+#: fails, moves back towards it (ngspice's dynamic gmin: OldGmin = 1e-2).
+GMIN_ANCHOR = 1e-2
+#: Conductance of the regularised start of source stepping [S].
 GMIN_START = 1e-3
 #: Initial and largest reduction factors of the gmin schedule.
 GMIN_FACTOR_START = 10.0
@@ -58,8 +61,10 @@ SOURCE_RAISE_GROWTH = 1.5
 FORCING_CONDUCTANCE = 1e10
 #: Newton iteration limit inside each homotopy step (ngspice's itl3 default... itl1/4 is a fair share).
 HOMOTOPY_MAXITER = 50
-#: A Jacobian pivot ratio below this marks a numerically singular matrix.
-SINGULAR_PIVOT_RATIO = 1e-17
+#: A Jacobian whose LU pivots span more than this ratio is treated as a failed
+#: iteration (try the next homotopy), not as a singular circuit: badly scaled
+#: regular Jacobians (1e10 S forcing next to 1e-12 S junctions) reach 1e-22.
+SINGULAR_PIVOT_RATIO = 1e-30
 
 
 @dataclass
@@ -128,7 +133,11 @@ class SteadyResult:
 
 
 class _Singular(Exception):
-    pass
+    """SuperLU found the Jacobian exactly singular."""
+
+
+class _IllConditioned(Exception):
+    """The LU pivots span more than SINGULAR_PIVOT_RATIO: a failed iteration."""
 
 
 def _tolerances(kinds: np.ndarray, opts: SteadyOptions) -> tuple[np.ndarray, np.ndarray]:
@@ -159,6 +168,7 @@ class _Newton:
         self.x_atol, self.r_atol = _tolerances(system.kinds, opts)
         self.iterations = 0
         self.factorizations = 0
+        self.last_used = 0
         self.last_dx = np.zeros(system.n)
 
     def _residual(self, x, gdiag, scale, state):
@@ -184,7 +194,7 @@ class _Newton:
             raise _Singular(str(exc)) from None
         d = np.abs(lu.U.diagonal())
         if d.size and d.min() <= SINGULAR_PIVOT_RATIO * d.max():
-            raise _Singular("numerically singular Jacobian")
+            raise _IllConditioned()
         return lu
 
     def _residual_small(self, F, jac, x) -> bool:
@@ -192,10 +202,15 @@ class _Newton:
         scale = absj @ np.abs(x)
         return bool(np.all(np.abs(F) <= self.opts.reltol * scale + self.r_atol))
 
-    def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None) -> tuple[np.ndarray, bool]:
-        """Iterate from x; returns (x, converged). Raises _Singular."""
+    def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None, init=False) -> tuple[np.ndarray, bool]:
+        """Iterate from x; returns (x, converged). Raises _Singular.
+
+        ``init`` starts the devices from their initial junction voltages
+        (SPICE's MODEINITJCT), for a solve from scratch; otherwise they are
+        evaluated at x (continuation from a previous solution).
+        """
         maxiter = self.opts.maxiter if maxiter is None else maxiter
-        state = None
+        state = self.system.initial_state() if init and hasattr(self.system, "initial_state") else None
         small_step = False
         x = np.array(x, dtype=float)
         for _ in range(maxiter):
@@ -206,7 +221,10 @@ class _Newton:
             if small_step and not ev.limited and self._residual_small(F, jac, x):
                 return x, True
             self.iterations += 1
-            lu = self._factor(jac)
+            try:
+                lu = self._factor(jac)
+            except _IllConditioned:
+                return x, False
             dx = lu.solve(-F)
             if not np.all(np.isfinite(dx)):
                 return x, False
@@ -280,18 +298,27 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
         finally:
             total_it += newton.iterations
             total_fact += newton.factorizations
+            newton.last_used = newton.iterations
             newton.iterations = newton.factorizations = 0
 
     newton = _Newton(system, t, opts, frc)
+    init = x0 is None
+    singular = None
+    x_new = x
     try:
         if nodeset is not None:
             first = _Newton(system, t, opts, frc + [nodeset])
-            x_ns, ok = run(first, x)
+            x_ns, ok = run(first, x, init=init)
             if ok:
-                x = x_ns
-        x_new, ok = run(newton, x)
+                x, init = x_ns, False
+        x_new, ok = run(newton, x, init=init)
         if ok:
             return result(x_new, True, "newton", "converged", newton)
+    except _Singular as exc:
+        if system.linear:
+            return result(x, False, "newton", f"singular Jacobian ({exc})", newton, singular=True)
+        singular = exc  # a nonlinear Jacobian may be singular at this point only: try the homotopies
+    try:
         if opts.gmin_stepping:
             x_g, ok = _gmin_stepping(newton, x, opts, run)
             if ok:
@@ -301,38 +328,51 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
             if ok:
                 return result(x_s, True, "source stepping", "converged with source stepping", newton)
     except _Singular as exc:
-        return result(x, False, "newton", f"singular Jacobian ({exc})", newton, singular=True)
+        singular = singular or exc
+    if singular is not None:
+        return result(x, False, "newton", f"singular Jacobian ({singular})", newton, singular=True)
     return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)", newton)
 
 
 def _gmin_stepping(newton: _Newton, x, opts: SteadyOptions, run):
-    """Adaptive gmin homotopy from GMIN_START down to zero."""
-    gdiag = GMIN_START
+    """Adaptive gmin homotopy (ngspice's dynamic gmin).
+
+    Starts at ``GMIN_ANCHOR / factor``; after a success the conductance falls
+    by a factor that grows while steps converge quickly; after a failure the
+    factor shrinks to its fourth root and the conductance restarts from the
+    last converged value (initially the anchor) divided by it, so a first
+    failure *raises* the conductance towards the anchor. Ends with a solve
+    without conductance from the solution at ``opts.gmin``.
+    """
     factor = GMIN_FACTOR_START
-    x_ok, g_ok = None, None
-    cur = x
+    g_old = GMIN_ANCHOR
+    gdiag = g_old / factor
+    x_ok = np.asarray(x, dtype=float)
+    fresh = True  # nothing converged yet: start the devices from scratch
     while True:
-        x_new, ok = run(newton, cur, gdiag=gdiag, maxiter=HOMOTOPY_MAXITER)
+        x_new, ok = run(newton, x_ok, gdiag=gdiag, maxiter=HOMOTOPY_MAXITER, init=fresh)
         if ok:
-            x_ok, g_ok, cur = x_new, gdiag, x_new
+            x_ok, fresh = x_new, False
             if gdiag <= opts.gmin:
                 break
-            factor = min(factor * np.sqrt(factor), GMIN_FACTOR_MAX)
+            used = newton.last_used
+            if used <= HOMOTOPY_MAXITER // 4:
+                factor = min(factor * np.sqrt(factor), GMIN_FACTOR_MAX)
+            elif used > 3 * HOMOTOPY_MAXITER // 4:
+                factor = np.sqrt(factor)
+            g_old = gdiag
             gdiag = max(gdiag / factor, opts.gmin)
         else:
-            if x_ok is None and gdiag >= GMIN_START:
-                return cur, False  # not even the most regularised problem converges
             factor = np.sqrt(np.sqrt(factor))
             if factor < GMIN_FACTOR_MIN:
-                return cur, False
-            gdiag = (g_ok if g_ok is not None else GMIN_START * factor) / factor
-            cur = x_ok if x_ok is not None else cur
+                return x_ok, False
+            gdiag = g_old / factor
     return run(newton, x_ok)
 
 
 def _source_stepping(newton: _Newton, x, opts: SteadyOptions, run):
     """Adaptive ramp of every independent source from 0 to 1."""
-    x0, ok = run(newton, np.zeros_like(x), scale=0.0)
+    x0, ok = run(newton, np.zeros_like(x), scale=0.0, init=True)
     if not ok:
         x0, ok = _gmin_at_scale(newton, x0, opts, run, 0.0)
         if not ok:

@@ -87,7 +87,12 @@ class MnaSystem(DaeSystem):
         return self.sources.breakpoints(t0, t1)
 
     def initial_state(self) -> Any:
-        """Limiting state of every family before a Newton solve."""
+        """Limiting state of every family for a solve from scratch (SPICE's MODEINITJCT).
+
+        ``evaluate`` with ``state=None`` evaluates every device at x instead
+        (no limiting history), which is right when x is already a solution
+        nearby (continuation, the first step of a transient).
+        """
         if not self.families:
             return None
         return tuple(f.initial_state() for f in self.families)
@@ -110,7 +115,7 @@ class MnaSystem(DaeSystem):
         acc.reset(q, phi, self._dq_lin if jacobian else None, self._dphi_lin if jacobian else None)
         xe = self._xext
         xe[: self.n] = x
-        states = state if state is not None else self.initial_state()
+        states = state if state is not None else (None,) * len(self.families)
         new_states = tuple(
             fam.evaluate(xe, t, acc, st, jacobian) for fam, st in zip(self.families, states)
         )
