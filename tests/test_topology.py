@@ -121,11 +121,59 @@ def test_differentiator_with_ideal_opamp_is_not_applicable():
     rep = analyze_topology(circuit(
         mk("v1", "vsource", ("in", "0"), 1.0), mk("c1", "capacitor", ("in", "m"), 1e-6),
         mk("r1", "resistor", ("m", "out"), 1e3), mk("e1", "opamp", ("out", "0", "0", "m"))))
-    assert not rep.applicable and rep.topological_index is None
+    assert not rep.applicable and rep.topological_index is None and rep.index2_signals == ["i(v1)", "i(e1)"]
     assert rep.not_applicable_reason.startswith("ideal op-amps e1:")
     assert "numerical index is authoritative" in rep.not_applicable_reason
     assert rep.index_message.startswith("no topological index")
     assert not rep.singular
+
+
+def test_differentiator_virtual_ground_closes_a_likely_cv_loop():
+    """v(m) = 0 (the op-amp's inputs) puts c1 across v1: i(v1) = -C1 V1', i(e1) = C1 V1'."""
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("in", "0"), 1.0), mk("c1", "capacitor", ("in", "m"), 1e-6),
+        mk("r1", "resistor", ("m", "out"), 1e3), mk("e1", "opamp", ("out", "0", "0", "m"))))
+    (loop,) = rep.cv_loops
+    assert loop.path() == "0 -v1- in -c1- m -e1(in)- 0" and loop.controlled
+    f = finding(rep, "cv_loop")
+    assert f.message.startswith("likely index 2 (controlled sources): the loop 0 -v1- in -c1- m -e1(in)- 0 of the "
+                                "voltage source v1, the capacitor c1 and the input of op-amp e1")
+    assert f.signals == ("i(v1)", "i(e1)")
+
+
+def test_voltage_follower_is_not_a_loop_of_sources():
+    """v1, the op-amp input and the op-amp output form a loop, but a regular one."""
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("a", "0"), 1.0), mk("r0", "resistor", ("a", "0"), 1.0),
+        mk("e1", "opamp", ("out", "0", "a", "out")), mk("rl", "resistor", ("out", "0"), 1.0)))
+    assert rep.findings == [finding(rep, "not_applicable")] and not rep.dc_singular
+
+
+def test_source_across_opamp_inputs_is_singular():
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("a", "0"), 1.0), mk("r1", "resistor", ("a", "out"), 1.0),
+        mk("r2", "resistor", ("out", "0"), 1.0), mk("e1", "opamp", ("out", "0", "a", "0"))))
+    assert rep.singular
+    f = finding(rep, "v_loop")
+    assert f.severity == "error" and "the voltage source v1 and the input of op-amp e1 form a loop" in f.message
+
+
+def test_opamp_inputs_on_one_node_are_singular():
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("a", "0"), 1.0), mk("r1", "resistor", ("a", "out"), 1.0),
+        mk("e1", "opamp", ("out", "0", "b", "b")), mk("r2", "resistor", ("b", "0"), 1.0)))
+    assert rep.singular
+    assert "the inputs of op-amp e1 are both on node 'b'" in finding(rep, "v_loop").message
+
+
+def test_integrator_output_is_not_fixed_at_dc():
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("in", "0"), 1.0), mk("r1", "resistor", ("in", "m"), 1e3),
+        mk("c1", "capacitor", ("m", "out"), 1e-6), mk("e1", "opamp", ("out", "0", "0", "m"))))
+    assert rep.dc_singular and not rep.singular
+    assert [(g.nodes, g.elements) for g in rep.no_dc_path] == [(("out",), ("c1", "e1"))]
+    assert ("the potential of node 'out' is not fixed at DC: only c1 and the output of op-amp e1 attach it"
+            in finding(rep, "no_dc_path").message)
 
 
 def test_controlled_sources_and_transistors_are_named():

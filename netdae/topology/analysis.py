@@ -54,7 +54,7 @@ import numpy as np
 
 from ..circuit import Circuit
 from .context import EMPTY, Context, Partition, subforest
-from .graph import CAPACITIVE, CURRENT, INDUCTIVE, RESISTIVE, VOLTAGE, build_graph
+from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE, build_graph
 from .kernels import components, on_cycle
 from .report import Cutset, Finding, Loop, NodeGroup, TopologyReport
 from .text import name_list, node_phrase, plural
@@ -73,46 +73,99 @@ _SEVERITY_ORDER = {"error": 0, "warning": 1, "note": 2}
 # ---------------------------------------------------------------- singular structures
 
 
-def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
-    """Loops of voltage-type branches (a basis: the fundamental cycles)."""
+def _loops_through(ctx: Context, sel: np.ndarray, weight: np.ndarray, probe: np.ndarray, skip: np.ndarray | None,
+                   exact_nullators: bool):
+    """Fundamental loops of the branches ``sel`` closed by non-tree branches of ``probe`` (a mask over ``sel``).
+
+    ``skip`` (a mask over ``sel``): drop the loops of ``skip`` branches
+    alone, i.e. closing branches of ``skip`` whose ends are joined by tree
+    branches of ``skip`` (another analysis reports those). Returns (listed
+    loops with their branches, number of loops), certain loops first.
+    """
     g = ctx.g
-    sel = np.flatnonzero(g.cls == VOLTAGE)
-    forest, lu, lv, node_of = subforest(ctx, sel, np.where(g.controlled[sel], 2, 1))
-    nontree = np.flatnonzero(~forest.tree)
-    nontree = nontree[np.argsort(g.controlled[sel[nontree]], kind="stable")]  # certain loops first
-    loops = [ctx.loop(forest, sel, lu, lv, e, node_of) for e in nontree[:MAX_LISTED]]
-    for lp in loops:
+    forest, lu, lv, node_of = subforest(ctx, sel, weight)
+    closing = np.flatnonzero(~forest.tree & probe)
+    if skip is not None:
+        inside = forest.tree & skip
+        labels = components(len(node_of), lu[inside], lv[inside])
+        closing = closing[~skip[closing] | (labels[lu[closing]] != labels[lv[closing]])]
+    closing = closing[np.argsort(g.controlled[sel[closing]] & (g.cls[sel[closing]] != NULLATOR), kind="stable")]
+    return [ctx.loop(forest, sel, lu, lv, e, node_of, exact_nullators) for e in closing[:MAX_LISTED]], len(closing)
+
+
+def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
+    """Loops of voltage-type branches, in two kinds that do not mix.
+
+    Loops of branches whose current is free (voltage sources, E, H, B and
+    op-amp outputs) leave the circulating current undetermined; loops of
+    branches that fix their voltage (voltage sources, E, H, B and op-amp
+    inputs) make the voltage constraints dependent. A loop through an
+    op-amp's output *and* an op-amp's input (a voltage follower) is neither.
+    """
+    g = ctx.g
+    free = np.flatnonzero(g.cls == VOLTAGE)
+    loops, count = _loops_through(ctx, free, np.where(g.controlled[free], 2, 1), np.ones(len(free), bool), None,
+                                  exact_nullators=False)
+    fixing = np.flatnonzero(g.fixes_voltage)
+    is_input = g.cls[fixing] == NULLATOR
+    weight = np.where(is_input, 3, np.where(g.controlled[fixing], 2, 1))
+    more, more_count = _loops_through(ctx, fixing, weight, is_input, None, exact_nullators=True)
+    listed = (loops + more)[:MAX_LISTED]
+    for lp, _ in listed:
         ctx.want("v_loop")
-        if len(lp.elements) == 1:
-            text = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): its current is undetermined"
-            consistency = "and its voltage must be zero"
+        sources, opamps = ctx.split(lp)
+        if len(lp.elements) == 1 and opamps:
+            text = (f"the inputs of op-amp {opamps[0]} are both on node '{lp.nodes[0]}': its equation "
+                    "v(in+) = v(in-) says nothing, so its output current is undetermined")
+        elif len(lp.elements) == 1:
+            text = (f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): its current is "
+                    "undetermined, and its voltage must be zero")
+        elif opamps:
+            text = (f"{_and_inputs(sources, opamps, 'the voltage source', 'the voltage sources')} form a loop "
+                    f"({lp.path(PATH_LIMIT)}): the op-amp holds its inputs at one potential, so one voltage "
+                    "constraint of the loop is redundant, and the source voltages around it must add up to zero")
         else:
-            text = (f"the voltage sources {name_list(ctx.in_netlist_order(lp.elements))} form a loop "
-                    f"({lp.path(PATH_LIMIT)}): the current circulating in it is undetermined")
-            consistency = "and the source voltages around it must add up to zero"
+            sources = [f"the output of op-amp {e}" if ctx.kinds[e] == "opamp" else e for e in sources]
+            text = (f"the voltage sources {name_list(sources)} form a loop ({lp.path(PATH_LIMIT)}): the current "
+                    "circulating in it is undetermined, and the source voltages around it must add up to zero")
         if lp.controlled:
             ctl = [e for e in ctx.in_netlist_order(lp.elements) if e in ctx.controlled_names]
             text = f"likely singular ({name_list(ctl)} controlled): {text}"
         else:
-            text = f"singular: {text}, {consistency}"
+            text = f"singular: {text}"
         ctx.add(Finding("v_loop", "warning" if lp.controlled else "error", text, lp.elements, lp.nodes,
                         controlled=lp.controlled,
                         hint="remove one source of the loop or put a resistance in series with it"))
-    return loops, len(nontree)
+    return [lp for lp, _ in listed], count + more_count
 
 
-def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset]]:
+def _and_inputs(names: list[str], opamps: list[str], one: str, many: str, *more: str) -> str:
+    """``"the voltage source v1, the capacitor c1 and the input of op-amp e1"``: the given
+    names under ``one``/``many``, any further phrases, then the op-amp inputs (parts may be absent)."""
+    parts = [f"{plural(len(names), one, many)} {name_list(names)}"] if names else []
+    parts += [m for m in more if m]
+    if opamps:
+        parts.append(f"{plural(len(opamps), 'the input of op-amp', 'the inputs of op-amps')} {name_list(opamps)}")
+    return name_list(parts)
+
+
+def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset], np.ndarray]:
     """Floating groups and cutsets of current sources (independent, then with controlled sources)."""
     g = ctx.g
     indep_i = g.mask(CURRENT, controlled=False)
-    part = Partition(ctx, ~indep_i)
+    part = Partition(ctx, g.carrying & ~indep_i)
     cut = part.cut(indep_i)
-    touching = ctx.elements_by_label(np.concatenate([part.labels[g.u], part.labels[g.v], part.labels[g.attach_node]]),
-                                     np.concatenate([g.element, g.element, g.attach_element]))
-    branch_count = np.bincount(part.labels[g.u], minlength=ctx.n)  # a floating group's branches lie inside it
+    sets = list(part.sets())
+    touching = {}
+    if any(label not in cut.names for label, _, _ in sets):  # floating groups: every element touching them
+        touching = ctx.elements_by_label(
+            np.concatenate([part.labels[g.u], part.labels[g.v], part.labels[g.attach_node]]),
+            np.concatenate([g.element, g.element, g.attach_element]))
+    # a floating group's branches lie inside it
+    branch_count = np.bincount(part.labels[g.u[g.carrying]], minlength=ctx.n)
     att_by = part.attachments()
     floating, cutsets = [], []
-    for label, _, names in part.sets():
+    for label, _, names in sets:
         sources = cut.names.get(label)
         if sources is None:
             grp = NodeGroup(names, touching.get(label, ()))
@@ -134,7 +187,7 @@ def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset]]:
             ))
     # cutsets that need a controlled current-type source
     ilike = g.cls == CURRENT
-    part_x = Partition(ctx, ~ilike)
+    part_x = Partition(ctx, g.carrying & ~ilike)
     cut_x = part_x.cut(ilike)
     for label, idx, names in part_x.sets():
         if part.labels[idx[0]] != part.labels[0] or label not in cut_x.names:
@@ -151,7 +204,7 @@ def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset]]:
                 cs.elements, names, controlled=True,
                 hint="give these nodes a path to ground that is not only current sources",
             ))
-    return floating, cutsets
+    return floating, cutsets, part.labels
 
 
 def _floating_finding(ctx: Context, grp: NodeGroup, has_branches: bool, att: np.ndarray) -> Finding:
@@ -178,61 +231,63 @@ def _floating_finding(ctx: Context, grp: NodeGroup, has_branches: bool, att: np.
 
 
 def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]]:
-    """Pure C-loops and CV-loops through a voltage source, plus the index-2 source currents."""
+    """Loops of capacitors, and CV-loops through a voltage source, plus the index-2 currents.
+
+    The forest takes capacitors first, then op-amp inputs, then sources, so
+    a loop closed by a capacitor or an op-amp input holds no source (a C-loop,
+    possibly through a virtual ground), and one closed by a source is a
+    CV-loop unless it holds sources and op-amp inputs only (a V-loop).
+    """
     g = ctx.g
-    sel = np.flatnonzero((g.cls == CAPACITIVE) | (g.cls == VOLTAGE))
-    is_v = g.cls[sel] == VOLTAGE
-    weight = np.where(is_v, np.where(g.controlled[sel], 3, 2), 1)
-    forest, lu, lv, node_of = subforest(ctx, sel, weight)
-    nontree = np.flatnonzero(~forest.tree)
-    c_edges = nontree[~is_v[nontree]]
-    v_edges = nontree[is_v[nontree]]
-    tv = forest.tree & is_v
-    lab_tv = components(len(node_of), lu[tv], lv[tv])
-    v_edges = v_edges[lab_tv[lu[v_edges]] != lab_tv[lv[v_edges]]]  # not a loop of sources alone
-    v_edges = v_edges[np.argsort(g.controlled[sel[v_edges]], kind="stable")]
-    c_loops = [ctx.loop(forest, sel, lu, lv, e, node_of) for e in c_edges[:MAX_LISTED]]
-    cv_loops = [ctx.loop(forest, sel, lu, lv, e, node_of) for e in v_edges[:MAX_LISTED]]
-    kinds = ctx.kinds
-    for lp in cv_loops:
+    sel = np.flatnonzero((g.cls == CAPACITIVE) | g.fixes_voltage)
+    cls = g.cls[sel]
+    is_input = cls == NULLATOR
+    is_source = (cls == VOLTAGE) & g.fixes_voltage[sel]
+    weight = np.select([cls == CAPACITIVE, is_input, is_source & ~g.controlled[sel]], [1, 2, 3], 4)
+    c_loops, n_c = _loops_through(ctx, sel, weight, ~is_source, is_input, exact_nullators=False)
+    cv_loops, n_cv = _loops_through(ctx, sel, weight, is_source, ~(cls == CAPACITIVE), exact_nullators=False)
+    op_signals = []
+    for lp, _ in cv_loops:
         ctx.want("cv_loop")
-        ordered = ctx.in_netlist_order(lp.elements)
-        vs = [e for e in ordered if kinds[e] not in ("capacitor", "diode")]
-        cs = [e if kinds[e] == "capacitor" else f"{e} (junction capacitance)"
-              for e in ordered if kinds[e] in ("capacitor", "diode")]
-        signals = tuple(f"i({e})" for e in vs)
-        text = (f"the loop {lp.path(PATH_LIMIT)} of {plural(len(vs), 'the voltage source', 'the voltage sources')} "
-                f"{name_list(vs)} and {plural(len(cs), 'the capacitor', 'the capacitors')} {name_list(cs)} "
-                f"fixes the capacitor voltages, so {name_list(signals)} {plural(len(vs), 'depends', 'depend')} on "
-                f"{plural(len(vs), 'the derivative of the voltage', 'the derivatives of the voltages')} "
-                f"of {name_list(vs)}")
+        plain, opamps = ctx.split(lp)
+        vs = [e for e in plain if ctx.kinds[e] not in ("capacitor", "diode")]
+        cs = [e if ctx.kinds[e] == "capacitor" else f"{e} (junction capacitance)"
+              for e in plain if ctx.kinds[e] in ("capacitor", "diode")]
+        signals = tuple(f"i({e})" for e in vs + opamps)
+        op_signals += [f"i({e})" for e in opamps]
+        what = _and_inputs(vs, opamps, "the voltage source", "the voltage sources",
+                           f"{plural(len(cs), 'the capacitor', 'the capacitors')} {name_list(cs)}")
+        text = (f"the loop {lp.path(PATH_LIMIT)} of {what} fixes the capacitor voltages, so {name_list(signals)} "
+                f"{plural(len(signals), 'depends', 'depend')} on "
+                f"{plural(len(vs), 'the derivative of the voltage', 'the derivatives of the voltages')} of "
+                f"{name_list(vs)}")
         text = ("likely index 2 (controlled sources): " if lp.controlled else "index 2: ") + text
         ctx.add(Finding("cv_loop", "warning", text, lp.elements, lp.nodes, signals, lp.controlled,
                         hint="a resistance in series with a capacitor of the loop makes it index 1"))
-    for lp in c_loops:
+    for lp, _ in c_loops:
         ctx.want("c_loop")
+        plain, opamps = ctx.split(lp)
         if len(lp.elements) == 1:
             text = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): it stores no charge"
         else:
-            text = (f"the capacitors {name_list(ctx.in_netlist_order(lp.elements))} form a loop "
-                    f"({lp.path(PATH_LIMIT)}): their voltages are not independent (one dynamic state fewer; this "
-                    "does not raise the index)")
-        ctx.add(Finding("c_loop", "note", text, lp.elements, lp.nodes))
-    probe = g.cls == VOLTAGE
-    hit = np.flatnonzero(probe)[on_cycle(ctx.n, g.u, g.v, g.cls == CAPACITIVE, probe)]
-    signals = [f"i({e})" for e in ctx.elem_arr[np.unique(g.element[hit])]]
-    return c_loops, len(c_edges), cv_loops, len(v_edges), signals
+            who = _and_inputs(plain, opamps, "the capacitor", "the capacitors")
+            text = (f"{who} form a loop ({lp.path(PATH_LIMIT)}): their voltages are not independent (one dynamic "
+                    "state fewer; this does not raise the index)")
+        ctx.add(Finding("c_loop", "note", text, lp.elements, lp.nodes, controlled=lp.controlled))
+    probe = g.fixes_voltage & (g.cls == VOLTAGE)
+    hit = np.flatnonzero(probe)[on_cycle(ctx.n, g.u, g.v, (g.cls == CAPACITIVE) | (g.cls == NULLATOR), probe)]
+    signals = [f"i({e})" for e in ctx.elem_arr[np.unique(g.element[hit])]] + op_signals
+    return [lp for lp, _ in c_loops], n_c, [lp for lp, _ in cv_loops], n_cv, signals
 
 
 def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:
     """Cutsets of inductors and current sources with at least one inductor, and the index-2 potentials."""
     g = ctx.g
     li = (g.cls == INDUCTIVE) | (g.cls == CURRENT)
-    part = Partition(ctx, ~li)
+    part = Partition(ctx, g.carrying & ~li)
     cut = part.cut(li)
     inductors = cut.count(g.cls == INDUCTIVE)
     controlled = cut.count(g.controlled)
-    kinds = ctx.kinds
     cutsets, signals = [], []
     for label, _, names in part.sets():
         if inductors[label] == 0:
@@ -243,8 +298,8 @@ def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:
         signals += sig
         if not ctx.want("li_cutset"):
             continue
-        ls = [e for e in cs.elements if kinds[e] == "inductor"]
-        srcs = [e for e in cs.elements if kinds[e] != "inductor"]
+        ls = [e for e in cs.elements if ctx.kinds[e] == "inductor"]
+        srcs = [e for e in cs.elements if ctx.kinds[e] != "inductor"]
         many = len(names) > 1
         head = (f"{node_phrase(names)} {'are' if many else 'is'} connected to the rest of the circuit only through "
                 f"{plural(len(ls), 'the inductor', 'the inductors')} {name_list(ls)}")
@@ -266,12 +321,12 @@ def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:
 # ---------------------------------------------------------------- DC operating point
 
 
-def _no_dc_path(ctx: Context, floating_labels: np.ndarray) -> list[NodeGroup]:
+def _no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGroup], np.ndarray]:
     """Node sets without a conducting path to ground (capacitors and current sources open)."""
     g = ctx.g
     conducting = (g.cls == RESISTIVE) | (g.cls == INDUCTIVE) | (g.cls == VOLTAGE)
     part = Partition(ctx, conducting)
-    cut = part.cut(~conducting)
+    cut = part.cut(g.carrying & ~conducting)
     controlled = cut.count(g.controlled)
     att_by = part.attachments()
     att_names = ctx.elements_by_label(part.labels[g.attach_node], g.attach_element)
@@ -298,34 +353,98 @@ def _no_dc_path(ctx: Context, floating_labels: np.ndarray) -> list[NodeGroup]:
             hint=f"add a large resistor (e.g. 1G) from {node_phrase(names[:1])} to ground, or start the transient "
             "with uic",
         ))
-    return groups
+    return groups, part.labels
 
 
 def _dc_loops(ctx: Context) -> tuple[list[Loop], int]:
-    """Loops of voltage sources and inductors (shorts at DC) through an inductor."""
+    """Loops through an inductor of inductors and voltage-type branches (inductors are shorts at DC).
+
+    As for :func:`_v_loops`, loops through op-amp outputs (free currents) and
+    loops through op-amp inputs (dependent voltage constraints) are found
+    separately and never mixed.
+    """
     g = ctx.g
-    sel = np.flatnonzero((g.cls == VOLTAGE) | (g.cls == INDUCTIVE))
-    is_l = g.cls[sel] == INDUCTIVE
-    weight = np.where(is_l, 3, np.where(g.controlled[sel], 2, 1))
-    forest, lu, lv, node_of = subforest(ctx, sel, weight)
-    l_edges = np.flatnonzero(~forest.tree & is_l)
-    loops = [ctx.loop(forest, sel, lu, lv, e, node_of) for e in l_edges[:MAX_LISTED]]
-    for lp in loops:
+    free = np.flatnonzero((g.cls == VOLTAGE) | (g.cls == INDUCTIVE))
+    is_l = g.cls[free] == INDUCTIVE
+    weight = np.where(is_l, 3, np.where(g.controlled[free], 2, 1))
+    loops, count = _loops_through(ctx, free, weight, is_l, None, exact_nullators=False)
+    fixing = np.flatnonzero(g.fixes_voltage | (g.cls == INDUCTIVE))
+    cls = g.cls[fixing]
+    weight = np.select([cls == INDUCTIVE, cls == NULLATOR, g.controlled[fixing]], [4, 3, 2], 1)
+    more, more_count = _loops_through(ctx, fixing, weight, cls == INDUCTIVE, cls != NULLATOR, exact_nullators=True)
+    listed = (loops + more)[:MAX_LISTED]
+    for lp, _ in listed:
         ctx.want("dc_loop")
+        plain, opamps = ctx.split(lp)
         if len(lp.elements) == 1:
             what = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): at DC its current"
         else:
-            ordered = ctx.in_netlist_order(lp.elements)
-            ls = [e for e in ordered if ctx.kinds[e] == "inductor"]
-            vs = [e for e in ordered if ctx.kinds[e] != "inductor"]
-            with_v = f" with {plural(len(vs), 'the source', 'the sources')} {name_list(vs)}" if vs else ""
-            what = (f"at DC the inductors are shorts, and {name_list(ls)} form a loop{with_v} "
-                    f"({lp.path(PATH_LIMIT)}): the current circulating in it")
+            ls = [e for e in plain if ctx.kinds[e] == "inductor"]
+            vs = [e for e in plain if ctx.kinds[e] != "inductor"]
+            with_v = f" with {_and_inputs(vs, opamps, 'the source', 'the sources')}" if vs or opamps else ""
+            what = (f"at DC the inductors are shorts, and {name_list(ls)} {plural(len(ls), 'forms', 'form')} a loop"
+                    f"{with_v} "
+                    f"({lp.path(PATH_LIMIT)}): " + ("one of its voltage constraints is redundant, so the current "
+                                                     "through it" if opamps else "the current circulating in it"))
         prefix = ("DC operating point likely singular (controlled sources): " if lp.controlled
                   else "DC operating point singular: ")
         ctx.add(Finding("dc_loop", "warning", f"{prefix}{what} is undetermined", lp.elements, lp.nodes,
                         controlled=lp.controlled, hint="add a small resistance in series with one of the inductors"))
-    return loops, len(l_edges)
+    return [lp for lp, _ in listed], count + more_count
+
+
+def _unfixed_potentials(ctx: Context, reported: np.ndarray, fixing: np.ndarray, dc: bool) -> list[NodeGroup]:
+    """Node sets whose potential nothing fixes once op-amp outputs are discounted.
+
+    The output of an ideal op-amp (a norator) carries current but fixes no
+    voltage: a node set joined to ground only through op-amp outputs (and,
+    at DC, capacitors; and current sources) has an undetermined potential
+    (for instance the output of an integrator at DC). Without op-amps this
+    is the analysis of floating nodes and cutsets already done.
+
+    Parameters
+    ----------
+    reported : ndarray, shape (n,)
+        Component labels of the analysis already reported: sets starting in
+        one of its non-ground components are skipped.
+    fixing : ndarray of bool, shape (m,)
+        Branches that fix potentials (conductors, voltage constraints, op-amp inputs).
+    dc : bool
+        Wording for the DC operating point or for the DAE.
+    """
+    g = ctx.g
+    part = Partition(ctx, fixing)
+    cut = part.cut(g.carrying & ~fixing)
+    norator = (g.cls == VOLTAGE) & ~g.fixes_voltage
+    controlled = cut.count(g.controlled & ~norator)
+    sensing = np.bincount(part.labels[g.attach_node[g.attach_role == ROLES.index("controlling input")]],
+                          minlength=ctx.n)
+    groups = []
+    for label, idx, names in part.sets():
+        if reported[idx[0]] != reported[0] or label not in cut.names:
+            continue  # reported already, or a floating group
+        grp = NodeGroup(names, cut.names[label], controlled=bool(controlled[label] or sensing[label]))
+        groups.append(grp)
+        kind = "no_dc_path" if dc else "floating"
+        if not ctx.want(kind):
+            continue
+        how = [f"the output of op-amp {e}" if ctx.kinds[e] == "opamp" else e for e in grp.elements]
+        k = len(names)
+        text = (f"the potential of {node_phrase(names)} is not fixed{' at DC' if dc else ''}: only {name_list(how)} "
+                f"{plural(len(how), 'attaches', 'attach')} {plural(k, 'it', 'them')}, and the output of an ideal "
+                "op-amp fixes no voltage by itself")
+        if dc:
+            text += " (the op-amp has no DC feedback)"
+            prefix = "DC operating point likely singular (controlled sources): " if grp.controlled \
+                else "DC operating point singular: "
+            ctx.add(Finding(kind, "warning", prefix + text, grp.elements, names, controlled=grp.controlled,
+                            hint="give the op-amp a DC feedback path (a large resistor across the capacitor)"))
+        else:
+            ctx.add(Finding(kind, "warning" if grp.controlled else "error",
+                            ("likely singular (controlled sources): " if grp.controlled else "singular: ") + text,
+                            grp.elements, names, controlled=grp.controlled,
+                            hint="connect the op-amp output to the circuit it is meant to drive"))
+    return groups
 
 
 # ---------------------------------------------------------------- small things
@@ -336,8 +455,8 @@ def _dangling(ctx: Context) -> list[str]:
     dangling = np.flatnonzero(g.terminal_count == 1)
     dangling = dangling[dangling != 0]
     owner = np.full(ctx.n, -1, dtype=np.int64)
-    owner[g.u] = g.element
-    owner[g.v] = g.element
+    owner[g.u[g.carrying]] = g.element[g.carrying]
+    owner[g.v[g.carrying]] = g.element[g.carrying]
     attached = np.full(ctx.n, -1, dtype=np.int64)
     attached[g.attach_node] = np.arange(len(g.attach_node))
     for i in dangling:
@@ -479,10 +598,14 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
     g = ctx.g
     rep = TopologyReport()
     rep.v_loops, n_v = _v_loops(ctx)
-    rep.floating_groups, rep.i_cutsets = _cut_groups(ctx)
+    rep.floating_groups, rep.i_cutsets, pencil_labels = _cut_groups(ctx)
     rep.c_loops, n_c, rep.cv_loops, n_cv, cv_signals = _cv_loops(ctx)
     rep.li_cutsets, li_signals = _li_cutsets(ctx)
-    rep.no_dc_path = _no_dc_path(ctx, components(ctx.n, g.u, g.v))
+    rep.no_dc_path, dc_labels = _no_dc_path(ctx, components(ctx.n, g.u[g.carrying], g.v[g.carrying]))
+    if np.any((g.cls == VOLTAGE) & ~g.fixes_voltage):  # ideal op-amps: their outputs fix no voltage
+        fixing = g.fixes_voltage | (g.cls == RESISTIVE) | (g.cls == INDUCTIVE)
+        rep.floating_groups += _unfixed_potentials(ctx, pencil_labels, fixing | (g.cls == CAPACITIVE), dc=False)
+        rep.no_dc_path += _unfixed_potentials(ctx, dc_labels, fixing, dc=True)
     rep.dc_loops, n_dc = _dc_loops(ctx)
     rep.dangling_nodes = _dangling(ctx)
     rep.self_loops = _self_loops(ctx)

@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .graph import ROLES, CircuitGraph
+from .graph import NULLATOR, ROLES, CircuitGraph
 from .kernels import components, fundamental_cycle, group_by, spanning_forest
 from .report import Finding, Loop
 
@@ -83,26 +83,39 @@ class Context:
         g = self.g
         return [_ROLE[ROLES[g.attach_role[a]]].format(self.elems[g.attach_element[a]]) for a in att]
 
-    def loop(self, forest, sel, local_u, local_v, local_edge, node_of) -> Loop:
-        """The fundamental cycle of a non-tree edge as a :class:`Loop`.
+    def loop(self, forest, sel, local_u, local_v, local_edge, node_of, exact_nullators: bool = False):
+        """The fundamental cycle of a non-tree edge as a :class:`Loop`, and its branches.
 
         The loop starts at its first node in circuit order (ground when it
         passes through ground) and runs in the direction in which the element
-        first in netlist order comes first.
+        first in netlist order comes first. It is ``controlled`` when a
+        controlled element's equation takes part; with ``exact_nullators``
+        the op-amp input equation ``v(in+) = v(in-)`` counts as exact.
         """
+        g = self.g
         nodes, edges = fundamental_cycle(forest, int(local_u[local_edge]), int(local_v[local_edge]), int(local_edge))
         nodes = [int(node_of[i]) for i in nodes]
         k = nodes.index(min(nodes))
         nodes, edges = nodes[k:] + nodes[:k], edges[k:] + edges[:k]
         branches = sel[np.asarray(edges)]
-        owners = self.g.element[branches]
+        owners = g.element[branches]
         if owners[0] > owners[-1]:
             nodes, branches, owners = nodes[:1] + nodes[:0:-1], branches[::-1], owners[::-1]
-        return Loop(
+        inputs = g.cls[branches] == NULLATOR
+        relies = g.controlled[branches] & ~(inputs & exact_nullators)
+        loop = Loop(
             elements=tuple(self.elem_arr[owners]),
             nodes=tuple(self.node_arr[np.asarray(nodes)]),
-            controlled=bool(self.g.controlled[branches].any()),
+            controlled=bool(relies.any()),
+            inputs=tuple(inputs.tolist()) if inputs.any() else (),
         )
+        return loop, branches
+
+    def split(self, loop: Loop) -> tuple[list[str], list[str]]:
+        """(elements in the loop by their branch, op-amps in it by their input), each in netlist order."""
+        inputs = loop.inputs or (False,) * len(loop.elements)
+        plain = self.in_netlist_order(e for e, i in zip(loop.elements, inputs) if not i)
+        return plain, self.in_netlist_order(e for e, i in zip(loop.elements, inputs) if i)
 
 
 class Cut:

@@ -15,11 +15,18 @@ resistive       resistors; diode junctions and series resistances; the conductin
                 base-collector, substrate-collector; drain-source, drain-bulk,
                 source-bulk)
 voltage         independent V; and, marked *controlled*: E, H, B with a voltage
-                expression, the output of an ideal op-amp; an inductor of zero
+                expression, the output of an ideal op-amp (a norator: its current
+                is free, its voltage is not fixed); an inductor of zero
                 inductance (its equation is then ``v = 0``: a 0 V source)
 current         independent I; and, marked *controlled*: G, F, B with a current
                 expression
 ==============  =====================================================================
+
+The inputs of an ideal op-amp form a sixth kind of branch, a *nullator*
+(class NULLATOR): zero voltage and zero current. It closes loops of voltage
+constraints (a voltage source across the inputs is a singular loop; the
+virtual ground of an inverting stage puts a capacitor across the source in a
+differentiator) but never connects nodes for cutsets and DC paths.
 
 Terminals that carry no branch current -- the controlling inputs of E and G,
 the inputs of an ideal op-amp, a MOSFET gate -- are
@@ -58,6 +65,7 @@ __all__ = [
     "RESISTIVE",
     "VOLTAGE",
     "CURRENT",
+    "NULLATOR",
     "CONTROLLED_KINDS",
     "ROLES",
     "CircuitGraph",
@@ -65,6 +73,10 @@ __all__ = [
 ]
 
 CAPACITIVE, INDUCTIVE, RESISTIVE, VOLTAGE, CURRENT = 0, 1, 2, 3, 4
+#: The input port of an ideal op-amp (a nullator: zero voltage, zero current). It
+#: takes part in the voltage constraints of loops but carries no current, so it
+#: never connects nodes for cutsets or DC paths.
+NULLATOR = 5
 
 #: Element kinds whose behaviour is controlled by other circuit quantities:
 #: the index theorem's hypotheses exclude them.
@@ -100,7 +112,7 @@ KIND_TABLE: dict[str, _Spec] = {
     "vccs": _Spec((4,), ((CURRENT, 0, 1),), _CONTROL_INPUTS),
     "cccs": _Spec((2,), ((CURRENT, 0, 1),)),
     "ccvs": _Spec((2,), ((VOLTAGE, 0, 1),)),
-    "opamp": _Spec((4,), ((VOLTAGE, 0, 1),), ((2, "input"), (3, "input"))),
+    "opamp": _Spec((4,), ((VOLTAGE, 0, 1), (NULLATOR, 2, 3)), ((2, "input"), (3, "input"))),
     "bvoltage": _Spec((2,), ((VOLTAGE, 0, 1),)),
     "bcurrent": _Spec((2,), ((CURRENT, 0, 1),)),
     "diode": _Spec((2,), ()),  # see _diode_branches
@@ -129,6 +141,12 @@ class CircuitGraph:
         Branch class (CAPACITIVE ... CURRENT).
     controlled : ndarray of bool, shape (m,)
         The branch belongs to a controlled element.
+    fixes_voltage : ndarray of bool, shape (m,)
+        The branch's equation fixes its voltage: voltage sources and the
+        controlled voltage-type outputs, and op-amp inputs (nullators); not
+        the output of an ideal op-amp (a norator: voltage and current free).
+    carrying : ndarray of bool, shape (m,)
+        The branch carries current (every class but NULLATOR).
     element : ndarray of int64, shape (m,)
         Index of the branch's element in ``element_names``.
     element_names, element_kinds : tuple of str
@@ -154,6 +172,8 @@ class CircuitGraph:
     v: np.ndarray
     cls: np.ndarray
     controlled: np.ndarray
+    fixes_voltage: np.ndarray
+    carrying: np.ndarray
     element: np.ndarray
     element_names: tuple[str, ...]
     element_kinds: tuple[str, ...]
@@ -323,13 +343,17 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
     cat = lambda parts, dtype=np.int64: np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype)  # noqa: E731
     loops_k = np.sort(cat(loops_k))
     names = tuple(el.name for el in els)
+    cls, element = cat(bcls, np.int8), cat(bel)
+    norator = (cls == VOLTAGE) & (code[element] == list(KIND_TABLE).index("opamp"))
     return CircuitGraph(
         node_names=tuple(node_names),
         u=cat(bu),
         v=cat(bv),
-        cls=cat(bcls, np.int8),
+        cls=cls,
         controlled=cat(bctl, bool),
-        element=cat(bel),
+        fixes_voltage=((cls == VOLTAGE) & ~norator) | (cls == NULLATOR),
+        carrying=cls != NULLATOR,
+        element=element,
         element_names=names,
         element_kinds=tuple(kinds),
         attach_node=cat(an),

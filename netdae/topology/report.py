@@ -24,13 +24,17 @@ class Loop:
         the loop runs ``nodes[0] -elements[0]- nodes[1] ... -elements[-1]- nodes[0]``
         (it starts at ground when it passes through ground).
     controlled : bool
-        The loop contains a controlled source's output, so the statement
-        made about it is structural (likely), not certain.
+        The statement made about the loop relies on the equation of a
+        controlled element, so it is structural (likely), not certain.
+    inputs : tuple of bool
+        ``inputs[i]`` is true when the loop passes through the *input* of the
+        ideal op-amp ``elements[i]`` (shown as ``e1(in)``); empty: none does.
     """
 
     elements: tuple[str, ...]
     nodes: tuple[str, ...]
     controlled: bool = False
+    inputs: tuple[bool, ...] = ()
 
     def path(self, limit: int | None = None) -> str:
         """The loop as text: ``"0 -v1- a -v2- 0"``.
@@ -43,14 +47,16 @@ class Loop:
         >>> Loop(tuple(f"c{k}" for k in range(6)), tuple(f"n{k}" for k in range(6))).path(limit=2)
         'n0 -c0- ... (4 more elements) ... n5 -c5- n0'
         """
-        steps = [f"{node} -{el}-" for node, el in zip(self.nodes, self.elements)]
+        inputs = self.inputs or (False,) * len(self.elements)
+        steps = [f"{node} -{el}{'(in)' if i else ''}-" for node, el, i in zip(self.nodes, self.elements, inputs)]
         if limit is not None and len(steps) > limit:
             half = max(1, limit // 2)
             steps = steps[:half] + [f"... ({len(steps) - 2 * half:,} more elements) ..."] + steps[-half:]
         return " ".join(steps + [self.nodes[0]])
 
     def to_dict(self) -> dict:
-        return {"elements": list(self.elements), "nodes": list(self.nodes), "controlled": self.controlled}
+        return {"elements": list(self.elements), "nodes": list(self.nodes), "controlled": self.controlled,
+                "inputs": list(self.inputs or (False,) * len(self.elements))}
 
 
 @dataclass(frozen=True, slots=True)
