@@ -166,6 +166,16 @@ def test_opamp_inputs_on_one_node_are_singular():
     assert "the inputs of op-amp e1 are both on node 'b'" in finding(rep, "v_loop").message
 
 
+def test_opamp_output_driving_nothing_has_no_fixed_potential():
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("a", "0"), 1.0), mk("r1", "resistor", ("a", "0"), 1.0),
+        mk("e1", "opamp", ("out", "0", "a", "b")), mk("r2", "resistor", ("b", "0"), 1.0)))
+    assert rep.singular and rep.index2_signals == []
+    assert [(g.nodes, g.elements, g.controlled) for g in rep.floating_groups] == [(("out",), ("e1",), False)]
+    assert finding(rep, "floating").message.startswith(
+        "singular: the potential of node 'out' is not fixed: only the output of op-amp e1 attaches it")
+
+
 def test_integrator_output_is_not_fixed_at_dc():
     rep = analyze_topology(circuit(
         mk("v1", "vsource", ("in", "0"), 1.0), mk("r1", "resistor", ("in", "m"), 1e3),

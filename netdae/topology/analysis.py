@@ -626,7 +626,7 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
     rep.singular = any(f.severity == "error" for f in rep.findings)
     rep.dc_singular = rep.singular or any(
         f.kind in ("dc_loop", "no_dc_path") and not f.controlled for f in rep.findings)
-    rep.index2_signals = list(dict.fromkeys(cv_signals + li_signals))
+    rep.index2_signals = [] if rep.singular else list(dict.fromkeys(cv_signals + li_signals))
     rep.counts = {
         "v_loops": n_v, "i_cutsets": len(rep.i_cutsets), "floating_groups": len(rep.floating_groups),
         "cv_loops": n_cv, "c_loops": n_c, "li_cutsets": len(rep.li_cutsets), "dc_loops": n_dc,

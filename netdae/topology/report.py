@@ -194,7 +194,7 @@ class TopologyReport:
     dc_singular : bool
         A certain singularity of the DC operating point.
     index2_signals : list of str
-        Unknowns likely of index 2 (meaningful when not singular).
+        Unknowns likely of index 2 (empty when the DAE is singular).
     counts : dict of str to int
         Exact numbers of independent loops and of cutsets per kind; the
         lists above may be truncated (see :data:`MAX_LISTED`).
