@@ -53,44 +53,22 @@ from __future__ import annotations
 import numpy as np
 
 from ..circuit import Circuit
-from .context import EMPTY, Context, Partition, subforest
-from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE, build_graph
+from .context import EMPTY, Context, Partition, loops_through
+from .dc import dc_loops, no_dc_path, unfixed_potentials
+from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, VOLTAGE, build_graph
 from .kernels import components, on_cycle
 from .report import Cutset, Finding, Loop, NodeGroup, TopologyReport
-from .text import name_list, node_phrase, plural
+from .text import PATH_LIMIT, name_list, node_phrase, plural, with_inputs
 
-__all__ = ["analyze_topology", "MAX_LISTED", "PATH_LIMIT"]
+__all__ = ["analyze_topology", "MAX_LISTED"]
 
 #: Loops listed per kind, and findings per kind, before a "... more" note
 #: (the counts stay exact; node sets and cutsets are always listed in full).
 MAX_LISTED = 100
 
-#: Steps of a loop spelled out in a message (the Loop itself keeps all).
-PATH_LIMIT = 16
-
 _SEVERITY_ORDER = {"error": 0, "warning": 1, "note": 2}
 
 # ---------------------------------------------------------------- singular structures
-
-
-def _loops_through(ctx: Context, sel: np.ndarray, weight: np.ndarray, probe: np.ndarray, skip: np.ndarray | None,
-                   exact_nullators: bool):
-    """Fundamental loops of the branches ``sel`` closed by non-tree branches of ``probe`` (a mask over ``sel``).
-
-    ``skip`` (a mask over ``sel``): drop the loops of ``skip`` branches
-    alone, i.e. closing branches of ``skip`` whose ends are joined by tree
-    branches of ``skip`` (another analysis reports those). Returns (listed
-    loops with their branches, number of loops), certain loops first.
-    """
-    g = ctx.g
-    forest, lu, lv, node_of = subforest(ctx, sel, weight)
-    closing = np.flatnonzero(~forest.tree & probe)
-    if skip is not None:
-        inside = forest.tree & skip
-        labels = components(len(node_of), lu[inside], lv[inside])
-        closing = closing[~skip[closing] | (labels[lu[closing]] != labels[lv[closing]])]
-    closing = closing[np.argsort(g.controlled[sel[closing]] & (g.cls[sel[closing]] != NULLATOR), kind="stable")]
-    return [ctx.loop(forest, sel, lu, lv, e, node_of, exact_nullators) for e in closing[:MAX_LISTED]], len(closing)
 
 
 def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
@@ -104,12 +82,12 @@ def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
     """
     g = ctx.g
     free = np.flatnonzero(g.cls == VOLTAGE)
-    loops, count = _loops_through(ctx, free, np.where(g.controlled[free], 2, 1), np.ones(len(free), bool), None,
+    loops, count = loops_through(ctx, free, np.where(g.controlled[free], 2, 1), np.ones(len(free), bool), None,
                                   exact_nullators=False)
     fixing = np.flatnonzero(g.fixes_voltage)
     is_input = g.cls[fixing] == NULLATOR
     weight = np.where(is_input, 3, np.where(g.controlled[fixing], 2, 1))
-    more, more_count = _loops_through(ctx, fixing, weight, is_input, None, exact_nullators=True)
+    more, more_count = loops_through(ctx, fixing, weight, is_input, None, exact_nullators=True)
     listed = (loops + more)[:MAX_LISTED]
     for lp, _ in listed:
         ctx.want("v_loop")
@@ -121,7 +99,7 @@ def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
             text = (f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): its current is "
                     "undetermined, and its voltage must be zero")
         elif opamps:
-            text = (f"{_and_inputs(sources, opamps, 'the voltage source', 'the voltage sources')} form a loop "
+            text = (f"{with_inputs(sources, opamps, 'the voltage source', 'the voltage sources')} form a loop "
                     f"({lp.path(PATH_LIMIT)}): the op-amp holds its inputs at one potential, so one voltage "
                     "constraint of the loop is redundant, and the source voltages around it must add up to zero")
         else:
@@ -137,16 +115,6 @@ def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
                         controlled=lp.controlled,
                         hint="remove one source of the loop or put a resistance in series with it"))
     return [lp for lp, _ in listed], count + more_count
-
-
-def _and_inputs(names: list[str], opamps: list[str], one: str, many: str, *more: str) -> str:
-    """``"the voltage source v1, the capacitor c1 and the input of op-amp e1"``: the given
-    names under ``one``/``many``, any further phrases, then the op-amp inputs (parts may be absent)."""
-    parts = [f"{plural(len(names), one, many)} {name_list(names)}"] if names else []
-    parts += [m for m in more if m]
-    if opamps:
-        parts.append(f"{plural(len(opamps), 'the input of op-amp', 'the inputs of op-amps')} {name_list(opamps)}")
-    return name_list(parts)
 
 
 def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset], np.ndarray]:
@@ -244,8 +212,8 @@ def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]
     is_input = cls == NULLATOR
     is_source = (cls == VOLTAGE) & g.fixes_voltage[sel]
     weight = np.select([cls == CAPACITIVE, is_input, is_source & ~g.controlled[sel]], [1, 2, 3], 4)
-    c_loops, n_c = _loops_through(ctx, sel, weight, ~is_source, is_input, exact_nullators=False)
-    cv_loops, n_cv = _loops_through(ctx, sel, weight, is_source, ~(cls == CAPACITIVE), exact_nullators=False)
+    c_loops, n_c = loops_through(ctx, sel, weight, ~is_source, is_input, exact_nullators=False)
+    cv_loops, n_cv = loops_through(ctx, sel, weight, is_source, ~(cls == CAPACITIVE), exact_nullators=False)
     op_signals = []
     for lp, _ in cv_loops:
         ctx.want("cv_loop")
@@ -255,7 +223,7 @@ def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]
               for e in plain if ctx.kinds[e] in ("capacitor", "diode")]
         signals = tuple(f"i({e})" for e in vs + opamps)
         op_signals += [f"i({e})" for e in opamps]
-        what = _and_inputs(vs, opamps, "the voltage source", "the voltage sources",
+        what = with_inputs(vs, opamps, "the voltage source", "the voltage sources",
                            f"{plural(len(cs), 'the capacitor', 'the capacitors')} {name_list(cs)}")
         text = (f"the loop {lp.path(PATH_LIMIT)} of {what} fixes the capacitor voltages, so {name_list(signals)} "
                 f"{plural(len(signals), 'depends', 'depend')} on "
@@ -270,7 +238,7 @@ def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]
         if len(lp.elements) == 1:
             text = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): it stores no charge"
         else:
-            who = _and_inputs(plain, opamps, "the capacitor", "the capacitors")
+            who = with_inputs(plain, opamps, "the capacitor", "the capacitors")
             text = (f"{who} form a loop ({lp.path(PATH_LIMIT)}): their voltages are not independent (one dynamic "
                     "state fewer; this does not raise the index)")
         ctx.add(Finding("c_loop", "note", text, lp.elements, lp.nodes, controlled=lp.controlled))
@@ -316,135 +284,6 @@ def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:
                         hint=f"a resistance from {node_phrase(names[:1])} to ground (or across an inductor) "
                         "makes it index 1"))
     return cutsets, signals
-
-
-# ---------------------------------------------------------------- DC operating point
-
-
-def _no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGroup], np.ndarray]:
-    """Node sets without a conducting path to ground (capacitors and current sources open)."""
-    g = ctx.g
-    conducting = (g.cls == RESISTIVE) | (g.cls == INDUCTIVE) | (g.cls == VOLTAGE)
-    part = Partition(ctx, conducting)
-    cut = part.cut(g.carrying & ~conducting)
-    controlled = cut.count(g.controlled)
-    att_by = part.attachments()
-    att_names = ctx.elements_by_label(part.labels[g.attach_node], g.attach_element)
-    groups = []
-    for label, idx, names in part.sets():
-        through, attached = cut.names.get(label, ()), att_names.get(label, ())
-        elements = tuple(ctx.in_netlist_order(through + attached)) if through and attached else through or attached
-        grp = NodeGroup(names, elements, controlled=bool(controlled[label]))
-        groups.append(grp)
-        if floating_labels[idx[0]] != floating_labels[0] or not elements or not ctx.want("no_dc_path"):
-            continue  # inside a floating group (reported there), or beyond the listing
-        attaching = list(through) + ctx.attachment_phrases(att_by.get(label, EMPTY))
-        how = name_list(attaching)
-        if len(names) == 1:
-            text = (f"{node_phrase(names)} has no DC path to ground: only {how} "
-                    f"{plural(len(attaching), 'attaches', 'attach')} it")
-        else:
-            text = (f"{node_phrase(names)} have no DC path to ground: they are attached to the rest of the circuit "
-                    f"only through {how}")
-        prefix = ("DC operating point likely singular (controlled sources): " if grp.controlled
-                  else "DC operating point singular: ")
-        ctx.add(Finding(
-            "no_dc_path", "warning", prefix + text, elements, names, controlled=grp.controlled,
-            hint=f"add a large resistor (e.g. 1G) from {node_phrase(names[:1])} to ground, or start the transient "
-            "with uic",
-        ))
-    return groups, part.labels
-
-
-def _dc_loops(ctx: Context) -> tuple[list[Loop], int]:
-    """Loops through an inductor of inductors and voltage-type branches (inductors are shorts at DC).
-
-    As for :func:`_v_loops`, loops through op-amp outputs (free currents) and
-    loops through op-amp inputs (dependent voltage constraints) are found
-    separately and never mixed.
-    """
-    g = ctx.g
-    free = np.flatnonzero((g.cls == VOLTAGE) | (g.cls == INDUCTIVE))
-    is_l = g.cls[free] == INDUCTIVE
-    weight = np.where(is_l, 3, np.where(g.controlled[free], 2, 1))
-    loops, count = _loops_through(ctx, free, weight, is_l, None, exact_nullators=False)
-    fixing = np.flatnonzero(g.fixes_voltage | (g.cls == INDUCTIVE))
-    cls = g.cls[fixing]
-    weight = np.select([cls == INDUCTIVE, cls == NULLATOR, g.controlled[fixing]], [4, 3, 2], 1)
-    more, more_count = _loops_through(ctx, fixing, weight, cls == INDUCTIVE, cls != NULLATOR, exact_nullators=True)
-    listed = (loops + more)[:MAX_LISTED]
-    for lp, _ in listed:
-        ctx.want("dc_loop")
-        plain, opamps = ctx.split(lp)
-        if len(lp.elements) == 1:
-            what = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): at DC its current"
-        else:
-            ls = [e for e in plain if ctx.kinds[e] == "inductor"]
-            vs = [e for e in plain if ctx.kinds[e] != "inductor"]
-            with_v = f" with {_and_inputs(vs, opamps, 'the source', 'the sources')}" if vs or opamps else ""
-            what = (f"at DC the inductors are shorts, and {name_list(ls)} {plural(len(ls), 'forms', 'form')} a loop"
-                    f"{with_v} "
-                    f"({lp.path(PATH_LIMIT)}): " + ("one of its voltage constraints is redundant, so the current "
-                                                     "through it" if opamps else "the current circulating in it"))
-        prefix = ("DC operating point likely singular (controlled sources): " if lp.controlled
-                  else "DC operating point singular: ")
-        ctx.add(Finding("dc_loop", "warning", f"{prefix}{what} is undetermined", lp.elements, lp.nodes,
-                        controlled=lp.controlled, hint="add a small resistance in series with one of the inductors"))
-    return [lp for lp, _ in listed], count + more_count
-
-
-def _unfixed_potentials(ctx: Context, reported: np.ndarray, fixing: np.ndarray, dc: bool) -> list[NodeGroup]:
-    """Node sets whose potential nothing fixes once op-amp outputs are discounted.
-
-    The output of an ideal op-amp (a norator) carries current but fixes no
-    voltage: a node set joined to ground only through op-amp outputs (and,
-    at DC, capacitors; and current sources) has an undetermined potential
-    (for instance the output of an integrator at DC). Without op-amps this
-    is the analysis of floating nodes and cutsets already done.
-
-    Parameters
-    ----------
-    reported : ndarray, shape (n,)
-        Component labels of the analysis already reported: sets starting in
-        one of its non-ground components are skipped.
-    fixing : ndarray of bool, shape (m,)
-        Branches that fix potentials (conductors, voltage constraints, op-amp inputs).
-    dc : bool
-        Wording for the DC operating point or for the DAE.
-    """
-    g = ctx.g
-    part = Partition(ctx, fixing)
-    cut = part.cut(g.carrying & ~fixing)
-    norator = (g.cls == VOLTAGE) & ~g.fixes_voltage
-    controlled = cut.count(g.controlled & ~norator)
-    sensing = np.bincount(part.labels[g.attach_node[g.attach_role == ROLES.index("controlling input")]],
-                          minlength=ctx.n)
-    groups = []
-    for label, idx, names in part.sets():
-        if reported[idx[0]] != reported[0] or label not in cut.names:
-            continue  # reported already, or a floating group
-        grp = NodeGroup(names, cut.names[label], controlled=bool(controlled[label] or sensing[label]))
-        groups.append(grp)
-        kind = "no_dc_path" if dc else "floating"
-        if not ctx.want(kind):
-            continue
-        how = [f"the output of op-amp {e}" if ctx.kinds[e] == "opamp" else e for e in grp.elements]
-        k = len(names)
-        text = (f"the potential of {node_phrase(names)} is not fixed{' at DC' if dc else ''}: only {name_list(how)} "
-                f"{plural(len(how), 'attaches', 'attach')} {plural(k, 'it', 'them')}, and the output of an ideal "
-                "op-amp fixes no voltage by itself")
-        if dc:
-            text += " (the op-amp has no DC feedback)"
-            prefix = "DC operating point likely singular (controlled sources): " if grp.controlled \
-                else "DC operating point singular: "
-            ctx.add(Finding(kind, "warning", prefix + text, grp.elements, names, controlled=grp.controlled,
-                            hint="give the op-amp a DC feedback path (a large resistor across the capacitor)"))
-        else:
-            ctx.add(Finding(kind, "warning" if grp.controlled else "error",
-                            ("likely singular (controlled sources): " if grp.controlled else "singular: ") + text,
-                            grp.elements, names, controlled=grp.controlled,
-                            hint="connect the op-amp output to the circuit it is meant to drive"))
-    return groups
 
 
 # ---------------------------------------------------------------- small things
@@ -601,12 +440,12 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
     rep.floating_groups, rep.i_cutsets, pencil_labels = _cut_groups(ctx)
     rep.c_loops, n_c, rep.cv_loops, n_cv, cv_signals = _cv_loops(ctx)
     rep.li_cutsets, li_signals = _li_cutsets(ctx)
-    rep.no_dc_path, dc_labels = _no_dc_path(ctx, components(ctx.n, g.u[g.carrying], g.v[g.carrying]))
+    rep.no_dc_path, dc_labels = no_dc_path(ctx, components(ctx.n, g.u[g.carrying], g.v[g.carrying]))
     if np.any((g.cls == VOLTAGE) & ~g.fixes_voltage):  # ideal op-amps: their outputs fix no voltage
         fixing = g.fixes_voltage | (g.cls == RESISTIVE) | (g.cls == INDUCTIVE)
-        rep.floating_groups += _unfixed_potentials(ctx, pencil_labels, fixing | (g.cls == CAPACITIVE), dc=False)
-        rep.no_dc_path += _unfixed_potentials(ctx, dc_labels, fixing, dc=True)
-    rep.dc_loops, n_dc = _dc_loops(ctx)
+        rep.floating_groups += unfixed_potentials(ctx, pencil_labels, fixing | (g.cls == CAPACITIVE), dc=False)
+        rep.no_dc_path += unfixed_potentials(ctx, dc_labels, fixing, dc=True)
+    rep.dc_loops, n_dc = dc_loops(ctx)
     rep.dangling_nodes = _dangling(ctx)
     rep.self_loops = _self_loops(ctx)
     rep.applicable, rep.not_applicable_reason = _applicability(ctx)

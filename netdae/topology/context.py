@@ -11,7 +11,7 @@ from .graph import NULLATOR, ROLES, CircuitGraph
 from .kernels import components, fundamental_cycle, group_by, spanning_forest
 from .report import Finding, Loop
 
-__all__ = ["Context", "Cut", "Partition", "subforest", "EMPTY"]
+__all__ = ["Context", "Cut", "Partition", "subforest", "loops_through", "EMPTY"]
 
 #: How a message names an attachment of each role (see :data:`~netdae.topology.graph.ROLES`).
 _ROLE = {"gate": "the gate of {}",
@@ -184,3 +184,23 @@ def subforest(ctx: Context, sel: np.ndarray, weight: np.ndarray):
     node_of = np.unique(np.concatenate([u, v, [0]]))
     lu, lv = np.searchsorted(node_of, u), np.searchsorted(node_of, v)
     return spanning_forest(len(node_of), lu, lv, weight), lu, lv, node_of
+
+
+def loops_through(ctx: Context, sel: np.ndarray, weight: np.ndarray, probe: np.ndarray, skip: np.ndarray | None,
+                   exact_nullators: bool):
+    """Fundamental loops of the branches ``sel`` closed by non-tree branches of ``probe`` (a mask over ``sel``).
+
+    ``skip`` (a mask over ``sel``): drop the loops of ``skip`` branches
+    alone, i.e. closing branches of ``skip`` whose ends are joined by tree
+    branches of ``skip`` (another analysis reports those). Returns (listed
+    loops with their branches, number of loops), certain loops first.
+    """
+    g = ctx.g
+    forest, lu, lv, node_of = subforest(ctx, sel, weight)
+    closing = np.flatnonzero(~forest.tree & probe)
+    if skip is not None:
+        inside = forest.tree & skip
+        labels = components(len(node_of), lu[inside], lv[inside])
+        closing = closing[~skip[closing] | (labels[lu[closing]] != labels[lv[closing]])]
+    closing = closing[np.argsort(g.controlled[sel[closing]] & (g.cls[sel[closing]] != NULLATOR), kind="stable")]
+    return [ctx.loop(forest, sel, lu, lv, e, node_of, exact_nullators) for e in closing[:ctx.max_listed]], len(closing)

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-__all__ = ["NAME_LIMIT", "name_list", "node_phrase", "plural"]
+__all__ = ["NAME_LIMIT", "PATH_LIMIT", "name_list", "node_phrase", "plural", "with_inputs"]
 
 #: Names listed in one message before "... and N more" (the finding's fields keep all).
 NAME_LIMIT = 8
+
+#: Steps of a loop spelled out in a message (the Loop itself keeps all).
+PATH_LIMIT = 16
 
 
 def name_list(names: Sequence[str], limit: int = NAME_LIMIT) -> str:
@@ -39,3 +42,13 @@ def node_phrase(nodes: Sequence[str]) -> str:
 def plural(count: int, singular: str, many: str) -> str:
     """The word that agrees with ``count``."""
     return singular if count == 1 else many
+
+
+def with_inputs(names: list[str], opamps: list[str], one: str, many: str, *more: str) -> str:
+    """``"the voltage source v1, the capacitor c1 and the input of op-amp e1"``: the given
+    names under ``one``/``many``, any further phrases, then the op-amp inputs (parts may be absent)."""
+    parts = [f"{plural(len(names), one, many)} {name_list(names)}"] if names else []
+    parts += [m for m in more if m]
+    if opamps:
+        parts.append(f"{plural(len(opamps), 'the input of op-amp', 'the inputs of op-amps')} {name_list(opamps)}")
+    return name_list(parts)
