@@ -7,9 +7,10 @@ object. A netlist error is reported by the dispatcher as one line
 ``netdae: error: file:line:col: ...`` with exit status 2.
 
 The summary is built by :func:`summarize` (a plain dict) and printed by
-:func:`format_summary`; further sections (e.g. topological findings) are
-added to the dict by :func:`summarize` and shown by :func:`format_summary`
-under their key.
+:func:`format_summary`; :func:`main` adds the topological findings
+(:mod:`netdae.topology`: loops of voltage sources, cutsets of current sources,
+CV-loops, LI-cutsets, nodes without DC path, the topological index) under the
+key ``topology`` (the full report with ``--json``).
 """
 
 from __future__ import annotations
@@ -162,10 +163,14 @@ def format_summary(summary: dict) -> str:
 
 def main(args) -> int:
     from ..netlist import load
+    from ..topology import analyze_topology
 
     circuit = load(args.file)
     summary = summarize(circuit)
+    topo = analyze_topology(circuit)
+    summary["topology"] = [str(f) for f in topo.findings] + [topo.index_message]
     if args.json:
+        summary["topology"] = topo.to_dict()
         print(json.dumps(summary, indent=2))
     else:
         print(format_summary(summary))
