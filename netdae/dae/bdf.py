@@ -222,8 +222,8 @@ class IntegrationResult:
         What happened; on failure with t, h, the worst unknown and a hint.
     tolerances : dict
         ``rtol``, ``vntol``, ``abstol``, ``atol`` (or ``"per-unknown"``),
-        ``norm``, ``newton_tol``, ``index_excluded`` (number of unknowns left out
-        of the error test), ``maxord``.
+        ``norm``, ``relref``, ``newton_tol``, ``index_excluded`` (number of
+        unknowns left out of the error test), ``maxord``.
     failure : dict or None
         ``t``, ``h``, ``worst``, ``hint``, ``what`` of a failure.
     restarts : ndarray, shape (r,)
@@ -295,6 +295,15 @@ class BDF:
     norm : {"rms", "max"}
         Weighted RMS norm (IDA) or maximum norm (every unknown within
         tolerance, as SPICE's per-device truncation-error test).
+    relref : {"local", "signal"}
+        What the relative tolerance refers to: the current value
+        ``|x_i(t_n)|`` (IDA: ``w_i = 1 / (rtol |x_i| + atol_i)``) or the largest
+        ``|x_i|`` so far (Spectre's ``relref=sigglobal``). With "local" the
+        tolerance of an unknown collapses to its ``atol`` whenever it crosses
+        zero; with SPICE's abstol = 1e-12 A for currents of milliamperes this
+        can force thousands of order-1 steps at a zero crossing (whose local
+        errors then add up). "signal" keeps the tolerance a fraction of the
+        waveform's amplitude.
     newton_maxiter : int
         Newton iterations per step attempt (nonlinear systems).
     fixed_step : float, optional
@@ -357,6 +366,7 @@ class BDF:
         xp0=None,
         save=None,
         norm: str = "rms",
+        relref: str = "local",
         newton_maxiter: int = NEWTON_MAXITER,
         fixed_step: float | None = None,
         fixed_order: int | None = None,
@@ -380,6 +390,8 @@ class BDF:
             raise ValueError(f"maxord must be 1..{MAX_ORDER}, got {maxord!r}")
         if norm not in ("rms", "max"):
             raise ValueError("norm must be 'rms' or 'max'")
+        if relref not in ("local", "signal"):
+            raise ValueError("relref must be 'local' or 'signal'")
         if not (max_step > 0.0) or min_step < 0.0 or min_step > max_step:
             raise ValueError("need 0 <= min_step <= max_step and max_step > 0")
         if first_step is not None and not (first_step > 0.0):
@@ -391,6 +403,7 @@ class BDF:
         self.max_step = float(max_step)
         self.min_step = float(min_step)
         self.norm = norm
+        self.relref = relref
         self._normf = max_norm if norm == "max" else wrms
         self.newton_maxiter = int(newton_maxiter)
         self.max_steps = max_steps
@@ -399,7 +412,7 @@ class BDF:
         self._atol, atol_label = self._absolute_tolerances(atol, vntol, abstol)
         self._tolerances = {
             "rtol": self.rtol, "vntol": float(vntol), "abstol": float(abstol), "atol": atol_label,
-            "norm": norm, "newton_tol": EPCON, "maxord": self.maxord,
+            "norm": norm, "relref": relref, "newton_tol": EPCON, "maxord": self.maxord,
         }
         self._mask_factor = self._index_mask(index)
         self._save = self._save_indices(save)
@@ -442,12 +455,14 @@ class BDF:
         self._ee = None
         self.h = 0.0
         self._h_request = 0.0
+        self._growth_failed = False
         self._lu = LuCache(system.pattern, permc_spec=permc_spec)
         self._dq_matrix = sp.csc_matrix(
             (np.zeros(system.pattern.nnz), system.pattern.indices, system.pattern.indptr), shape=(n, n)
         )
         self._w = np.empty(n)
         self._w_err = np.empty(n)
+        self._xmax = np.abs(x0)
         self._failure = None
         self.status = "running"
         self.message = ""
@@ -548,6 +563,9 @@ class BDF:
     def _set_weights(self, x):
         w = self._w
         np.abs(x, out=w)
+        if self.relref == "signal":
+            np.maximum(self._xmax, w, out=self._xmax)
+            w[:] = self._xmax
         w *= self.rtol
         w += self._atol
         np.reciprocal(w, out=w)
@@ -736,6 +754,8 @@ class BDF:
             else:
                 nef += 1
                 self.stats["rejected"] += 1
+                if h > self._hused:
+                    self._growth_failed = True
                 eta = self._error_failure(t, h, nef, info)
             if eta is None:
                 return
@@ -970,9 +990,14 @@ class BDF:
     def _complete_step(self, t_new, h, landing, info, retried):
         """Phase 5: order and step-size selection, history update (IDA's IDACompleteStep).
 
-        A step that needed a retry is not followed by a larger step (CVODE's rule):
-        this breaks the cycle "grow, fail, shrink, grow" that otherwise costs a
-        factorisation per step and keeps the order from rising.
+        Two rules beyond IDA keep the step from oscillating: a step that needed a
+        retry is not followed by a larger step (CVODE's rule), and after a larger
+        step failed the error test the step grows again only after ``k + 2``
+        steps at constant size and order, when the order-raise test has run too.
+        Without them a tight absolute tolerance on an algebraic unknown crossing
+        zero (a current, abstol = 1e-12 A) traps the method at order 1 in a
+        cycle "grow, fail, shrink, grow" in which the order can never rise (it
+        needs k + 2 constant steps) and every step costs a factorisation.
         """
         k = self._k
         self._nst += 1
@@ -988,8 +1013,11 @@ class BDF:
         self._kused = k
         self._hused = h
         eta = self._select_order_and_step(k, kdiff, info)
-        if retried and eta > 1.0:
-            eta = 1.0
+        if eta > 1.0:
+            if retried or (self._growth_failed and self._ns < k + 2):
+                eta = 1.0
+            else:
+                self._growth_failed = False
         update_differences(self._P, self._ee, k, self.maxord)
         self.t = t_new
         x_new = self._P[0, : self.n]

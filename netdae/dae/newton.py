@@ -14,8 +14,10 @@ Two pieces, usable by any solver that works on a :class:`SparsePattern`:
   in the cache, as the BDF does while convergence is good). Convergence is
   decided by the rate test of IDA [1]_: with the contraction rate
   ``rho`` estimated from successive corrections,
-  ``rho / (1 - rho) * |dx| <= tol`` in a weighted norm. Optional Armijo
-  backtracking on the residual norm damps the full Newton iteration.
+  ``rho / (1 - rho) * |dx| <= tol`` in a weighted norm; with a Jacobian
+  evaluated in the same solve the estimate is trusted only for
+  ``rho <= 0.25`` (near the root Newton converges quadratically). Optional
+  Armijo backtracking on the residual norm damps the full Newton iteration.
 
 The residual callback
 ---------------------
@@ -84,6 +86,11 @@ __all__ = [
 DEFAULT_PERMC_SPEC = "MMD_AT_PLUS_A"
 #: Largest acceptable contraction rate; above it the iteration is diverging (IDA's RATEMAX).
 RATE_MAX = 0.9
+#: With a Jacobian evaluated in this solve Newton converges quadratically near the root;
+#: a measured rate above this means the iterate is still far away (on the steep side of an
+#: exponential the corrections shrink geometrically while the iterate stalls), so the rate
+#: test is not trusted and the iteration goes on.
+FRESH_RATE_MAX = 0.25
 #: A first correction this small (relative to ``tol``) converges at once.
 TINY_CORRECTION = 1e-4
 #: Armijo sufficient-decrease constant of the damped iteration.
@@ -344,6 +351,7 @@ def newton(
         else:
             x_new = x - d
         # convergence test on the full correction (IDA's idaNlsConvTest)
+        trusted = True
         if m == 0:
             old = dn
             done = dn <= TINY_CORRECTION * tol
@@ -354,9 +362,10 @@ def newton(
             rate_out = rho
             ss = rho / (1.0 - rho)
             done = False
+            trusted = jacobian == "never" or rho <= FRESH_RATE_MAX
         if linear and not limited:
             return NewtonResult(x_new, True, m + 1, rate_out, INFO_CONVERGED, dn, _worst(d, weights), nev)
-        if not limited and (done or ss * dn <= tol):
+        if not limited and (done or (trusted and ss * dn <= tol)):
             return NewtonResult(x_new, True, m + 1, rate_out, INFO_CONVERGED, dn, _worst(d, weights), nev)
         x = x_new
         if m + 1 < maxiter:
