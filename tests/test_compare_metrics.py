@@ -178,13 +178,13 @@ def test_transient_initial_jump_excluded_and_reported():
     t_ng = irregular_times()
     consistent = lambda t: -0.628 * np.cos(W * t)  # noqa: E731
     nd = netdae_result({"v(out)": consistent, "v(in)": lambda t: np.sin(W * t)}, np.linspace(0, T_END, 201),
-                       extra={"initial_correction": "v(out): 0 -> -0.628 (hidden constraint)"})
+                       extra={"initial_correction": {"reason": "hidden constraints",
+                                                     "changed": {"v(out)": [0.0, -0.628]}}})
     ng_out = lambda t: np.where(t == 0.0, 0.0, consistent(t))  # noqa: E731  ngspice starts at its op
     ng = ngspice_result({"v(out)": ng_out, "v(in)": lambda t: np.sin(W * t)}, t_ng)
     item = compare_transient(nd, ng, tol=Tolerance(1e-3))
     assert item.window["index"] == 1 and item.window["from"] == t_ng[1]
-    assert "initial_correction" not in item.window["reason"]
-    assert "v(out): 0 -> -0.628" in item.window["reason"]
+    assert "hidden constraints: v(out) 0 -> -0.628" in item.window["reason"]
     out = next(s for s in item.signals if s.name == "v(out)")
     assert out.jump == {"netdae": -0.628, "ngspice": 0.0, "settle_time": t_ng[1]}
     assert out.max_abs == 0.0 and out.passed is True
@@ -338,5 +338,7 @@ V1 a 0 1
     assert plain.expected_index == "singular"
     assert all(plain.tolerance(a) == Tolerance(5e-3) for a in ("op", "dc", "ac", "tran"))
     assert parse_header("t\nR1 a 0 1\n").tolerances == {}
+    nested = parse_header("t\n* compare tolerance: .op 1e-6; transient 1e-3 (measured 6e-4; 27 periods)\n")
+    assert nested.tolerance("tran") == Tolerance(1e-3) and nested.tolerance("op") == Tolerance(1e-6)
     with pytest.raises(NetdaeError, match="compare tolerance"):
         parse_header("t\n* compare tolerance: tight enough\n")

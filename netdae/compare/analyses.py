@@ -151,8 +151,18 @@ def _jump_reason(nd: Result, t0: float, t_from: float, t_end: float) -> str:
     )
     correction = nd.extra.get("initial_correction")
     if correction:
-        base += f"; netdae computed consistent initial values: {correction}"
+        base += f"; netdae computed consistent initial values: {_correction_text(correction)}"
     return base
+
+
+def _correction_text(correction) -> str:
+    """``{"reason": ..., "changed": {name: [old, new]}}`` (netdae's transient) as one line."""
+    if not isinstance(correction, dict):
+        return str(correction)
+    changed = correction.get("changed") or {}
+    parts = [f"{name} {old:.6g} -> {new:.6g}" for name, (old, new) in changed.items()]
+    reason = correction.get("reason")
+    return (f"{reason}: " if reason else "") + ", ".join(parts)
 
 
 def compare_transient(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=(),

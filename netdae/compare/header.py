@@ -142,9 +142,23 @@ def _index(text: str) -> int | str | None:
     return None
 
 
+def _segments(text: str) -> list[str]:
+    """``text`` split at the semicolons outside parentheses."""
+    parts, depth, current = [], 0, []
+    for char in text:
+        depth += {"(": 1, ")": -1}.get(char, 0)
+        if char == ";" and depth <= 0:
+            parts.append("".join(current))
+            current = []
+        else:
+            current.append(char)
+    parts.append("".join(current))
+    return parts
+
+
 def _tolerances(text: str, source: str) -> dict[str, Tolerance | None]:
     found: dict[str, Tolerance | None] = {}
-    for segment in text.split(";"):
+    for segment in _segments(text):
         words = segment.replace(",", " ").split()
         named: list[str] = []
         while words and (words[0].lower().rstrip(":") in _ANALYSIS_WORDS or words[0].lower() == "and"):
