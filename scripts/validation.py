@@ -299,7 +299,10 @@ def render(rows, errors, jumps, translated, version, step_lines, plot_names) -> 
     if not have_tran:
         out += ["**netdae's transient analysis (`netdae.analyses.tran`) was not built when this page was "
                 "generated: transient rows read *not compared*. Rerun the script once it exists.**", ""]
-    if not have_index:
+    if have_index:
+        out += ["The *index* column is netdae's (`netdae.analyze_index` at the operating point); where it "
+                "differs from the netlist's `* expected index:` header both are shown.", ""]
+    else:
         out += ["The *index* column is the one each netlist's header states (`* expected index:`); "
                 "`netdae.analyze_index` was not built when this page was generated.", ""]
     out += [
