@@ -23,7 +23,7 @@ _EXPORTS = {
     "analyze_index": "netdae.analyses.index",
     "simulate": "netdae.analyses.tran",
     "run": "netdae.analyses.runner",
-    "compare": "netdae.compare",
+    "compare": "netdae.comparison",
 }
 
 

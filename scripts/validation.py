@@ -30,9 +30,9 @@ sys.path.insert(0, str(ROOT))
 
 import netdae  # noqa: E402
 from netdae.analyses.runner import analysis_name  # noqa: E402
-from netdae.compare import compare, read_header  # noqa: E402
-from netdae.compare.plot import plot_comparison  # noqa: E402
-from netdae.compare.run import (  # noqa: E402
+from netdae.comparison import compare, read_header  # noqa: E402
+from netdae.comparison.plot import plot_comparison  # noqa: E402
+from netdae.comparison.run import (  # noqa: E402
     DEFAULT_TOLERANCE,
     TIGHT_NETDAE,
     TIGHT_NGSPICE,
@@ -48,7 +48,7 @@ PLOTS = {
     "rc_differentiator": "the classical RC differentiator (index 2)",
     "lc_ladder_butterworth5": "the fifth-order Butterworth ladder: AC down to -200 dB and the ringing step response",
 }
-#: The circuit and closed form behind the tight settings (see netdae/compare/run.py).
+#: The circuit and closed form behind the tight settings (see netdae/comparison/run.py).
 STEP_CONTROL_NETLIST = "rlc_series_underdamped"
 STEP_CONTROL_SETTINGS = (
     ("ngspice defaults", {}),

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from netdae.compare.analyses import (
+from netdae.comparison.analyses import (
     AC_DYNAMIC_RANGE,
     compare_ac,
     compare_dc,
@@ -20,8 +20,8 @@ from netdae.compare.analyses import (
     compare_transient,
     select_signals,
 )
-from netdae.compare.header import Tolerance, parse_header
-from netdae.compare.metrics import (
+from netdae.comparison.header import Tolerance, parse_header
+from netdae.comparison.metrics import (
     ABSOLUTE_FLOOR,
     FLOOR_FRACTION,
     JUMP_WINDOW_FRACTION,
@@ -30,7 +30,7 @@ from netdae.compare.metrics import (
     kind_floors,
     waveform_metrics,
 )
-from netdae.compare.model import Comparison
+from netdae.comparison.model import Comparison
 from netdae.errors import NetdaeError
 from netdae.results import Result
 

@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from netdae.analyses.runner import analysis_name
-from netdae.compare import compare, read_header
-from netdae.compare.report import format_analysis
+from netdae.comparison import compare, read_header
+from netdae.comparison.report import format_analysis
 from netdae.netlist import load
 
 NETLISTS = sorted((Path(__file__).resolve().parent.parent / "netlists").glob("*.cir"))

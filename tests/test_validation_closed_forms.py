@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from netdae.compare.run import TIGHT_NETDAE, TIGHT_NGSPICE, TIGHT_OPAMP_GAIN, TIGHT_STEPS_PER_INTERVAL
+from netdae.comparison.run import TIGHT_NETDAE, TIGHT_NGSPICE, TIGHT_OPAMP_GAIN, TIGHT_STEPS_PER_INTERVAL
 from netdae.netlist import load
 
 pytestmark = pytest.mark.ngspice

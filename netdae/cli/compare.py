@@ -48,7 +48,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
 
 
 def main(args) -> int:
-    from ..compare import compare, format_comparison
+    from ..comparison import compare, format_comparison
 
     if args.tol is not None and not args.tol > 0:
         from ..errors import NetdaeError
@@ -65,7 +65,7 @@ def main(args) -> int:
     )
     written = None
     if args.plot:
-        from ..compare.plot import plot_comparison
+        from ..comparison.plot import plot_comparison
 
         written = str(plot_comparison(comparison, args.plot))
     if args.json:

@@ -8,7 +8,7 @@ describe the circuit and state, as ``key: value`` lines:
     pencil), optionally followed by an explanation.
 ``* compare tolerance: X``
     The largest error against ngspice, relative to the signal's scale
-    (:mod:`netdae.compare.metrics`), for every analysis; or per analysis,
+    (:mod:`netdae.comparison.metrics`), for every analysis; or per analysis,
     separated by ``;``: ``.op 1e-6 relative (or 1e-9 absolute) against ngspice;
     transient 1e-3 of the signal range``. An analysis named without a number
     (``transient: period and waveform, see ...``) has no numeric tolerance.

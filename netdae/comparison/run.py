@@ -7,7 +7,7 @@ the bridge (:func:`netdae.ngspice.run_ngspice`), which translates netdae's
 extensions (the ideal op-amp becomes a VCVS of large gain) and lists every
 change it made. Analyses are paired by kind and order (ngspice runs them in
 its own order: ac, dc, op, tran) and compared at ngspice's points
-(:mod:`netdae.compare.analyses`).
+(:mod:`netdae.comparison.analyses`).
 
 Tolerances
 ----------
@@ -219,7 +219,7 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
         else False.
     tol : float, Tolerance or dict, optional
         Pass criterion, relative to each signal's scale
-        (:mod:`netdae.compare.metrics`): one value for every analysis, or a
+        (:mod:`netdae.comparison.metrics`): one value for every analysis, or a
         dict from analysis (``"op"``, ``"dc"``, ``"ac"``, ``"tran"``) to a
         value (None: compare without judging). Default: the netlist's
         ``* compare tolerance:`` header, else 1e-3.

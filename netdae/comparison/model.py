@@ -1,8 +1,8 @@
 """The outcome of a comparison: per signal, per analysis, per netlist.
 
 Plain data with a JSON form (:meth:`Comparison.to_dict`); the numbers are
-defined in :mod:`netdae.compare.metrics`, the text table is in
-:mod:`netdae.compare.report`.
+defined in :mod:`netdae.comparison.metrics`, the text table is in
+:mod:`netdae.comparison.report`.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ class SignalComparison:
     name : str
         ``v(node)`` or ``i(element)``.
     max_abs, max_rel, rms : float
-        As defined in :mod:`netdae.compare.metrics`, over the compared window.
+        As defined in :mod:`netdae.comparison.metrics`, over the compared window.
     at : dict of str to float
         Where ``max_rel`` occurs: ``{"time": t}``, ``{"frequency": f}``,
         ``{"v1": ..., "i1": ...}``; empty for an operating point.

@@ -2,7 +2,7 @@
 
 Each function takes netdae's and ngspice's :class:`~netdae.results.Result`
 of the same analysis and returns an
-:class:`~netdae.compare.model.AnalysisComparison`. Nothing runs a simulator
+:class:`~netdae.comparison.model.AnalysisComparison`. Nothing runs a simulator
 here, so every function can be tested on synthetic results.
 
 - :func:`compare_transient` evaluates netdae's dense output (the integrator's
@@ -180,7 +180,7 @@ def compare_transient(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=N
     wanted, exclude
         Signal selection (:func:`select_signals`).
     window : float
-        Longest initial jump, as a fraction of the interval (:func:`~netdae.compare.metrics.initial_jump`).
+        Longest initial jump, as a fraction of the interval (:func:`~netdae.comparison.metrics.initial_jump`).
 
     Returns
     -------

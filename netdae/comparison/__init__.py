@@ -14,11 +14,11 @@ measures the difference at ngspice's own points:
   error, dB and phase errors;
 - ``.dc``: per sweep point; ``.op``: per unknown.
 
-Modules: :mod:`~netdae.compare.metrics` (the error definitions),
-:mod:`~netdae.compare.analyses` (one analysis), :mod:`~netdae.compare.run`
-(running both simulators), :mod:`~netdae.compare.model` (the result and its
-JSON), :mod:`~netdae.compare.report` (text), :mod:`~netdae.compare.plot`
-(PNG), :mod:`~netdae.compare.header` (what a validation netlist states about
+Modules: :mod:`~netdae.comparison.metrics` (the error definitions),
+:mod:`~netdae.comparison.analyses` (one analysis), :mod:`~netdae.comparison.run`
+(running both simulators), :mod:`~netdae.comparison.model` (the result and its
+JSON), :mod:`~netdae.comparison.report` (text), :mod:`~netdae.comparison.plot`
+(PNG), :mod:`~netdae.comparison.header` (what a validation netlist states about
 itself).
 
 Examples
@@ -30,9 +30,6 @@ Examples
 """
 
 from __future__ import annotations
-
-import sys
-import types
 
 from .header import NetlistHeader, Tolerance, parse_header, read_header
 from .model import AnalysisComparison, Comparison, SignalComparison
@@ -53,19 +50,3 @@ __all__ = [
     "TIGHT_NETDAE",
     "TIGHT_NGSPICE",
 ]
-
-
-class _CallablePackage(types.ModuleType):
-    """This package, callable as :func:`compare`.
-
-    ``netdae.compare`` names both this package and the function netdae
-    exports; Python binds the attribute ``netdae.compare`` to the package when
-    it is imported as a module, which would otherwise make
-    ``netdae.compare(path)`` fail depending on import order.
-    """
-
-    def __call__(self, *args, **kwargs) -> Comparison:
-        return compare(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallablePackage
