@@ -14,7 +14,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 OUT    := out
 
-.PHONY: demo test bench system-deps venv clean
+.PHONY: demo test bench validation system-deps venv clean
 
 $(VPY):
 	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
@@ -43,6 +43,9 @@ test: system-deps venv
 
 bench: system-deps venv
 	$(VPY) benchmarks/run.py --quick
+
+validation: system-deps venv
+	$(VPY) scripts/validation.py
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
