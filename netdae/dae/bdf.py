@@ -33,7 +33,12 @@ for index-1 and index-2 DAEs and netdae's tests compare against IDA itself;
 storage. Step-size changes remain rare as in IDA: the step grows only when
 it can double, shrinks only when the error estimate asks for it, and
 Newton's matrix is refactored (nonlinear systems) only when ``cj`` moved by
-more than a factor 1.67 or convergence failed.
+more than a factor 1.67 or convergence failed. Beyond IDA, a step that
+needed a retry is not followed by a larger one (CVODE's rule), and after a
+larger step failed the error test the step grows again only after ``k + 2``
+steps at constant size and order: this keeps a tight absolute tolerance on
+an unknown crossing zero from trapping the method at order 1 in a cycle of
+growth and rejection.
 
 A step is made of named phases (IDA's ``IDAStep``): set coefficients,
 predict, Newton on the corrector, error test, restore and retry on failure,
@@ -586,7 +591,9 @@ class BDF:
         """Derivatives and first step at t0 (order 1)."""
         cap = min(H0_FRACTION * (self._breakpoints[0] - self.t0), self.max_step)
         if self._fixed:
-            self._initialise_history(self._fixed_h, *self._probe_or_fail(self.t0, x0, PROBE_FRACTION * self._fixed_h)[:2])
+            probe = self._probe_or_fail(self.t0, x0, PROBE_FRACTION * self._fixed_h)
+            if probe is not None:
+                self._initialise_history(self._fixed_h, probe[0], probe[1])
             return
         if xp0 is not None:
             xp = np.array(xp0, dtype=float)
@@ -894,10 +901,12 @@ class BDF:
             elif terr_km1 <= 0.5 * terr_k:
                 knew = k - 1
         info = {"knew": knew, "err_k": err_k, "err_km1": err_km1}
-        if c.ck * enorm_k > 1.0:
-            info["worst"] = self._worst(ee_x, self._w_err)
-            return False, "error", info
-        return True, "", info
+        if c.ck * enorm_k <= 1.0:
+            return True, "", info
+        if not math.isfinite(enorm_k):
+            return False, "newton", {"info": INFO_NONFINITE, "worst": self._worst(ee_x, self._w)}
+        info["worst"] = self._worst(ee_x, self._w_err)
+        return False, "error", info
 
     def _corrector_linear(self, t_new, pred, cj):
         """Phase 3 for a linear system: one exact solve with the factorisation of cj E - H.
@@ -918,9 +927,11 @@ class BDF:
         st["newton_iterations"] += 1
         st["factorizations"] = lu.factorizations
         x_new = pred[0] - d
-        if not np.all(np.isfinite(x_new)):
+        if self._fixed and not np.all(np.isfinite(x_new)):
             self._linear_failure = {"info": INFO_NONFINITE, "worst": self._worst(d, self._w)}
             return None
+        # otherwise a non-finite solution shows in the error norm (NaN propagates through
+        # the weights, also the zero weights of untested unknowns)
         return x_new
 
     def _corrector_nonlinear(self, t_new, pred, cj):

@@ -208,7 +208,14 @@ def error_norms(ee: np.ndarray, phi: np.ndarray, k: int, w: np.ndarray, kind: st
 
 
 def _wrms_scaled(a: np.ndarray) -> float:
-    return math.sqrt(float(np.dot(a, a)) / a.size) if a.size else 0.0
+    return math.sqrt(float(a @ a) / a.size) if a.size else 0.0
+
+
+#: Below this row length the history update is one small matrix product (call overhead
+#: dominates); above it, one contiguous vector addition per order (memory traffic dominates).
+UPDATE_MATMUL_MAX = 4096
+
+_SUFFIX_SUMS = [np.triu(np.ones((k + 1, k + 1))) for k in range(8)]
 
 
 def update_differences(phi: np.ndarray, ee: np.ndarray, k: int, maxord: int) -> None:
@@ -216,9 +223,7 @@ def update_differences(phi: np.ndarray, ee: np.ndarray, k: int, maxord: int) -> 
 
     ``phi[k+1] = ee`` (kept for a later order increase) and
     ``phi[j] <- phi[j] + phi[j+1]`` for ``j = k .. 0`` with ``phi[k+1] = ee``,
-    i.e. ``phi[j] <- ee + sum_{i=j}^{k} phi[i]``. One contiguous vector
-    addition per order (a cumulative sum over the reversed rows is several
-    times slower for long rows).
+    i.e. ``phi[j] <- ee + sum_{i=j}^{k} phi[i]``.
 
     Parameters
     ----------
@@ -230,6 +235,11 @@ def update_differences(phi: np.ndarray, ee: np.ndarray, k: int, maxord: int) -> 
         Order of the accepted step.
     maxord : int
 
+    Notes
+    -----
+    Short rows: one product with the (k+1, k+1) upper triangle of ones; long
+    rows: k + 1 contiguous additions (O(k m) instead of O(k^2 m)).
+
     Examples
     --------
     >>> phi = np.array([[1.0], [0.5], [0.0]])
@@ -239,6 +249,11 @@ def update_differences(phi: np.ndarray, ee: np.ndarray, k: int, maxord: int) -> 
     """
     if k < maxord:
         phi[k + 1] = ee
+    if phi.shape[1] <= UPDATE_MATMUL_MAX:
+        head = phi[: k + 1]
+        np.matmul(_SUFFIX_SUMS[k], head, out=head)
+        head += ee
+        return
     np.add(phi[k], ee, out=phi[k])
     for j in range(k - 1, -1, -1):
         np.add(phi[j], phi[j + 1], out=phi[j])

@@ -352,16 +352,16 @@ def newton(
             x_new = x - d
         # convergence test on the full correction (IDA's idaNlsConvTest)
         trusted = True
+        # a correction at the roundoff level converges at once (its rate means nothing)
+        done = dn <= TINY_CORRECTION * tol
         if m == 0:
             old = dn
-            done = dn <= TINY_CORRECTION * tol
-        else:
+        elif not done:
             rho = (dn / old) ** (1.0 / m) if old > 0.0 else 0.0
             if rho > RATE_MAX:
                 return NewtonResult(x_new, False, m + 1, rho, INFO_DIVERGED, dn, _worst(d, weights), nev)
             rate_out = rho
             ss = rho / (1.0 - rho)
-            done = False
             trusted = jacobian == "never" or rho <= FRESH_RATE_MAX
         if linear and not limited:
             return NewtonResult(x_new, True, m + 1, rate_out, INFO_CONVERGED, dn, _worst(d, weights), nev)

@@ -1,0 +1,141 @@
+"""Pure kernels of the FLC-BDF method and its dense output."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from netdae.dae.bdf_kernels import (
+    differences_from_samples,
+    error_norms,
+    flc_coefficients,
+    landing_step,
+    leading_coefficient,
+    merge_breakpoints,
+    predictor_weights,
+    update_differences,
+)
+from netdae.dae.dense import Interpolant
+
+MAXORD = 5
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
+def test_constant_step_coefficients_are_the_classical_bdf(k):
+    h = 0.3
+    c = flc_coefficients(h, k, [(i + 1) * h for i in range(MAXORD + 1)])
+    np.testing.assert_allclose(c.beta, 1.0)
+    np.testing.assert_allclose(c.psi, [(i + 1) * h for i in range(k + 1)])
+    assert c.cj == pytest.approx(sum(1.0 / j for j in range(1, k + 1)) / h)
+    assert c.cj == pytest.approx(leading_coefficient(h, k))
+    assert c.ck == pytest.approx(1.0 / (k + 1))
+    assert c.sigma[k] == pytest.approx(1.0 / (k + 1))
+
+
+def _run_flc_on_polynomial(k, degree, steps, seed=0):
+    """March x' = p'(t) with the FLC formulas over variable steps; return max |x - p|."""
+    rng = np.random.default_rng(seed)
+    coeffs = rng.normal(size=degree + 1)
+    p = np.polynomial.Polynomial(coeffs)
+    dp = p.deriv()
+    h0 = 0.1
+    t = 0.0
+    phi = np.zeros((MAXORD + 1, 1))
+    phi[: k + 1, 0] = differences_from_samples(p(h0 * np.arange(-k, 1))[:, None])[:, 0]
+    psi = [(i + 1) * h0 for i in range(MAXORD + 1)]
+    worst = 0.0
+    for h in steps:
+        c = flc_coefficients(h, k, psi)
+        psi[: k + 1] = c.psi
+        phi[: k + 1] *= np.asarray(c.beta)[:, None]
+        x_pred, xp_pred = predictor_weights(c.gamma, k) @ phi[: k + 1, 0]
+        # corrector for x' = f(t): cj (x - x_pred) + x'_pred = f(t_new)
+        x_new = x_pred + (dp(t + h) - xp_pred) / c.cj
+        update_differences(phi, np.array([x_new - x_pred]), k, MAXORD)
+        t += h
+        worst = max(worst, abs(x_new - p(t)), abs(phi[0, 0] - p(t)))
+    return worst
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
+def test_flc_bdf_is_exact_for_polynomials_of_its_order_with_variable_steps(k):
+    steps = [0.1, 0.13, 0.07, 0.2, 0.05, 0.11, 0.3, 0.09]
+    assert _run_flc_on_polynomial(k, k, steps) < 1e-11
+    # and not for one degree more (the test can fail)
+    assert _run_flc_on_polynomial(k, k + 1, steps) > 1e-8
+
+
+def test_error_norms_match_direct_computation():
+    rng = np.random.default_rng(2)
+    n = 7
+    ee = rng.normal(size=n)
+    phi = rng.normal(size=(6, n))
+    w = rng.uniform(1, 2, size=n)
+    k = 4
+    got = error_norms(ee, phi, k, w)
+    d1 = ee + phi[k]
+    d2 = d1 + phi[k - 1]
+    expect = [np.sqrt(np.mean((v * w) ** 2)) for v in (ee, d1, d2)]
+    np.testing.assert_allclose(got, expect, rtol=1e-14)
+    assert len(error_norms(ee, phi, 1, w)) == 1 and len(error_norms(ee, phi, 2, w)) == 2
+    np.testing.assert_allclose(error_norms(ee, phi, k, w, "max"), [np.max(np.abs(v * w)) for v in (ee, d1, d2)])
+
+
+def test_backward_differences_of_samples():
+    y = np.array([[1.0, 0.0], [2.0, 1.0], [4.0, 4.0], [8.0, 9.0]])
+    d = differences_from_samples(y)
+    np.testing.assert_array_equal(d[:, 0], [8.0, 4.0, 2.0, 1.0])
+    np.testing.assert_array_equal(d[:, 1], [9.0, 5.0, 2.0, 0.0])
+
+
+def test_breakpoint_helpers():
+    bp = merge_breakpoints(0.0, 10.0, [3.0, -1.0, 3.0, 12.0, 5.0, 5.0 + 1e-12, 1e-12], 1e-9)
+    np.testing.assert_array_equal(bp, [3.0, 5.0 + 1e-12, 10.0])
+    assert merge_breakpoints(0.0, 1.0, [], 1e-9).tolist() == [1.0]
+    assert landing_step(1.0, 1.1, 0.1, True) == (1.1, True)
+    assert landing_step(1.0, 0.4, 0.1, True) == (0.4, True)
+    assert landing_step(1.0, 1.8, 0.1, True) == (0.9, False)
+    assert landing_step(1.0, 1.8, 0.1, False) == (1.0, False)
+
+
+# --------------------------------------------------------------------------- dense output
+def _interpolant_for(poly, t, order):
+    orders = np.minimum(np.arange(t.size), order)
+    return Interpolant(t, orders, np.column_stack([poly(t), 2.0 * poly(t)]), ("a", "b"))
+
+
+@pytest.mark.parametrize("order", [1, 2, 3, 4, 5])
+def test_interpolant_is_exact_for_polynomials_of_its_order(order):
+    rng = np.random.default_rng(order)
+    t = np.cumsum(np.concatenate([[0.0], rng.uniform(0.05, 0.3, 25)]))
+    poly = np.polynomial.Polynomial(rng.normal(size=order + 1))
+    f = _interpolant_for(poly, t, order)
+    tq = rng.uniform(t[order], t[-1], 500)
+    np.testing.assert_allclose(f(tq)[:, 0], poly(tq), rtol=0, atol=1e-9 * np.abs(poly(tq)).max())
+    np.testing.assert_allclose(f(tq, ["B"])[:, 0], 2.0 * poly(tq), rtol=0, atol=2e-9 * np.abs(poly(tq)).max())
+
+
+def test_interpolant_uses_the_step_ending_at_a_boundary_and_only_its_points():
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    x = np.array([[0.0], [1.0], [0.0], [5.0]])
+    # order 1 everywhere: piecewise linear, a step boundary returns the stored value
+    f = Interpolant(t, np.array([0, 1, 1, 1]), x, ("y",))
+    np.testing.assert_allclose(f([1.0, 1.5, 2.5])[:, 0], [1.0, 0.5, 2.5])
+    # the third step is order 2: the parabola through t = 1, 2, 3
+    g = Interpolant(t, np.array([0, 1, 1, 2]), x, ("y",))
+    assert g(2.5)[0] == pytest.approx(1.75)
+    assert g(1.5)[0] == pytest.approx(0.5)
+
+
+def test_interpolant_vectorised_matches_pointwise_and_checks_range():
+    rng = np.random.default_rng(7)
+    t = np.cumsum(np.concatenate([[0.0], rng.uniform(0.1, 0.2, 40)]))
+    x = rng.normal(size=(t.size, 3))
+    orders = np.minimum(np.arange(t.size), rng.integers(1, 6, t.size))
+    f = Interpolant(t, orders, x, ("a", "b", "c"))
+    tq = np.sort(rng.uniform(t[0], t[-1], 300))
+    np.testing.assert_allclose(f(tq), np.array([f(s) for s in tq]), rtol=0, atol=1e-13)
+    with pytest.raises(ValueError, match="available"):
+        f([t[-1] + 1.0])
+    with pytest.raises(ValueError, match="no saved component"):
+        f(tq, ["d"])
