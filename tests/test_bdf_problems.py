@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from netdae.dae.sparse import SparsePattern
 from netdae.dae.system import KIND_CURRENT, KIND_OTHER, KIND_VOLTAGE, FunctionDae, LinearDae
 
 
@@ -163,10 +162,6 @@ def differentiator_exact(t, l_ind, g, src):
     v = np.array([src(tt) for tt in np.atleast_1d(t)])
     dv = np.array([src.derivative(tt) for tt in np.atleast_1d(t)])
     return np.column_stack([v, 0 * v, -l_ind * g * dv, -g * v, g * v, -g * v])
-
-
-def dense_pattern(n):
-    return SparsePattern.from_matrices(np.ones((n, n)))
 
 
 def pendulum_ggl(m=1.0, length=1.0, grav=9.81):
