@@ -675,6 +675,7 @@ class BDF:
         self._cj = 1.0 / h
         self._coef = None
         self._rate = RATE_AFTER_SETUP
+        self._growth_failed = False
         self.h = h
 
     def _start_from_history(self, history, x0):
