@@ -62,6 +62,17 @@ def _stats_line(result) -> str:
     return ", ".join(parts)
 
 
+def _scalars(stats: dict) -> dict:
+    """The numbers and strings of a stats dict, nested dicts (the integrator's counters) included."""
+    out = {}
+    for k, v in stats.items():
+        if isinstance(v, (int, float, str, bool)):
+            out[k] = v
+        elif isinstance(v, dict):
+            out[k] = _scalars(v)
+    return out
+
+
 def _json_of(result, files) -> dict:
     if result.analysis == "op":
         return {name: float(v[0]) for name, v in result.signals.items()}
@@ -70,7 +81,7 @@ def _json_of(result, files) -> dict:
         "message": result.message,
         "points": int(result.axis.size) if result.axis is not None else 0,
         "signals": result.names(),
-        "stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float, str, bool))},
+        "stats": _scalars(result.stats),
         "tolerances": result.tolerances,
         "notes": result.notes,
     }
