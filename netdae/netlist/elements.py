@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 
 from ..errors import NetlistError
 from . import expr as ex
@@ -139,7 +140,9 @@ def _end(card: Card) -> int:
 def _nodes(card: Card, toks: list[Token], count: int, syntax) -> tuple[str, ...]:
     words = toks[1 : 1 + count]
     if len(words) == count and all([t.kind == WORD for t in words]):
-        return tuple([_GROUND_ALIASES.get(t.text, t.text) for t in words])
+        # one string object per node name however many cards name it (a 100,000-element netlist
+        # keeps every node name twice otherwise: about 15 MiB)
+        return tuple([_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words])
     found = 0
     for t in words:
         if t.kind != WORD:
@@ -485,7 +488,7 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
         raise error(card, _end(card) if len(words) <= count else words[count].start,
                     f"expected {count} nodes and a model name, found {min(found, count)} node(s)"
                     f"{' and no model' if len(words) <= count else ''}", syntax)
-    el.nodes = tuple(_GROUND_ALIASES.get(t.text, t.text) for t in words[:count])
+    el.nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:count])
     el.model = (words[count].text, words[count].start)
     extra = words[count + 1 :]
     if kind == "diode" and extra:
@@ -525,7 +528,7 @@ def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceC
             raise error(card, key.start, f"parameter '{key.text}' given twice", syntax)
         params[key.text] = parse_value(card, values[0], syntax, numparam=True)
     sub = words[-1]
-    nodes = tuple(_GROUND_ALIASES.get(t.text, t.text) for t in words[:-1])
+    nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:-1])
     return InstanceCard(toks[0].text, card, nodes, sub.text, sub.start, params)
 
 

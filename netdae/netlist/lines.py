@@ -128,7 +128,8 @@ class Card:
 
     def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
         self.raw = raw
-        self.text = fold_case(raw)
+        text = fold_case(raw)
+        self.text = raw if text == raw else text  # one string object for a card already in lower case
         self.file = file
         self.spans = spans
         self._tokens: list[Token] | None = None
@@ -158,6 +159,15 @@ class Card:
         if self._tokens is None:
             self._tokens = _tokenize(self)
         return self._tokens
+
+    def forget_tokens(self) -> None:
+        """Drop the cached tokens (a later :meth:`tokens` splits the card again).
+
+        The parser calls this once an element card is parsed: its tokens are
+        no longer needed, and on a 100,000-element netlist they would hold
+        about 100 MiB for the rest of the run.
+        """
+        self._tokens = None
 
     def __repr__(self) -> str:
         return f"Card({self.text!r} @ {self.file}:{self.line})"

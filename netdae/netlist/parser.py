@@ -58,6 +58,7 @@ def build(deck: Deck) -> Netlist:
             _dot_card(card, stack, net)
         else:
             stack[-1].items.append(parse_element(card))
+            card.forget_tokens()
     if len(stack) > 1:
         raise NetlistError(f".subckt {stack[-1].name}: no matching .ends", stack[-1].card.location(0),
                            expected=DOT_CARDS[".ends"], hint="close the definition with '.ends'")
