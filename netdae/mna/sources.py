@@ -62,6 +62,8 @@ class SourceVector:
                 self.bank = None
         self._cache_t: float | None = None
         self._cache_u: np.ndarray | None = None
+        # every source has a transient function (u0 is then all zero): u(t) is the bank's output
+        self._all_timed = self.bank is not None and self.timed.size == m
 
     @property
     def time_dependent(self) -> bool:
@@ -78,9 +80,12 @@ class SourceVector:
         if derivative == 0:
             if self._cache_t == t and self._cache_u is not None:
                 return self._cache_u
-            u = self.u0.copy()
-            if self.bank is not None:
-                u[self.timed] = self.bank.values(t)
+            if self._all_timed:
+                u = self.bank.values(t)  # a new array, in source order
+            else:
+                u = self.u0.copy()
+                if self.bank is not None:
+                    u[self.timed] = self.bank.values(t)
             self._cache_t, self._cache_u = t, u
             return u
         u = np.zeros(self.m)

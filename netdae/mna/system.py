@@ -27,9 +27,10 @@ from .sources import SourceVector
 
 __all__ = ["MnaSystem"]
 
-#: ``B`` restricted to its non-zero rows is kept dense when it has at most this
-#: many entries: ``c = B u`` then costs one small dense product and one scatter
-#: (about 2 us) instead of a scipy sparse product (about 7 us of call overhead).
+#: ``B`` (or, for a large circuit, ``B`` restricted to its non-zero rows) is
+#: kept dense when it has at most this many entries: ``c = B u`` then costs one
+#: small dense product (and a scatter), about 1-2 us, instead of a scipy sparse
+#: product (about 7 us of call overhead).
 DENSE_SOURCE_ENTRIES = 4096
 
 
@@ -73,14 +74,17 @@ class MnaSystem(DaeSystem):
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._xext = np.zeros(self.n + 1)
         rows = np.unique(B.tocoo().row)
-        if rows.size * B.shape[1] <= DENSE_SOURCE_ENTRIES:
+        self._b_full = B.toarray() if B.shape[0] * B.shape[1] <= DENSE_SOURCE_ENTRIES else None
+        if self._b_full is None and rows.size * B.shape[1] <= DENSE_SOURCE_ENTRIES:
             self._b_rows, self._b_dense = rows, B.tocsr()[rows].toarray()
         else:
             self._b_rows, self._b_dense = None, None
 
     def _add_sources(self, out: np.ndarray, u: np.ndarray) -> np.ndarray:
         """``out += B u`` (in place); returns ``out``."""
-        if self._b_dense is not None:
+        if self._b_full is not None:
+            out += self._b_full @ u
+        elif self._b_dense is not None:
             out[self._b_rows] += self._b_dense @ u
         else:
             out += self.B @ u
@@ -99,7 +103,10 @@ class MnaSystem(DaeSystem):
 
     def source(self, t: float, derivative: int = 0) -> np.ndarray:
         """``c(t) = B u(t)`` or its time derivative, shape (n,)."""
-        return self._add_sources(np.zeros(self.n), self.sources.values(t, derivative))
+        u = self.sources.values(t, derivative)
+        if self._b_full is not None:
+            return self._b_full @ u
+        return self._add_sources(np.zeros(self.n), u)
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         return self.sources.breakpoints(t0, t1)
