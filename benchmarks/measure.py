@@ -178,6 +178,7 @@ def run_netdae(netlist: Path, workdir: Path, signals, *, timeout: float) -> SimR
     s = tran.get("stats", {})
     stats = {"steps": s.get("steps"), "rejected": s.get("rejected"), "newton": s.get("newton"),
              "factorizations": s.get("factorizations"), "analysis_time": s.get("wall_time"),
+             "integration_time": (s.get("integrator") or {}).get("wall_time"),
              "points": s.get("points"), "unknowns": s.get("n_unknowns"), "nnz": s.get("nnz")}
     ok = tran.get("status", -1) >= 0
     t, sig = (None, None)
@@ -196,6 +197,8 @@ def parse_acct(text: str) -> dict:
             stats[key] = float(m.group(1)) if key.endswith("time") else int(m.group(1))
     if "newton" in stats:
         stats["factorizations"] = stats["newton"]
+    if "tran_time" in stats:
+        stats["integration_time"] = stats["tran_time"]
     return stats
 
 
