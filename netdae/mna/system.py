@@ -32,6 +32,10 @@ __all__ = ["MnaSystem"]
 #: small dense product (and a scatter), about 1-2 us, instead of a scipy sparse
 #: product (about 7 us of call overhead).
 DENSE_SOURCE_ENTRIES = 4096
+#: Circuits up to this many unknowns form ``E x`` and ``H x`` with dense
+#: matrices: at this size a dense product (about 1 us) beats scipy's sparse
+#: one (about 4 us of call overhead each).
+DENSE_MATVEC_MAX = 64
 
 
 class MnaSystem(DaeSystem):
@@ -73,6 +77,9 @@ class MnaSystem(DaeSystem):
         self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._xext = np.zeros(self.n + 1)
+        dense = self.n <= DENSE_MATVEC_MAX
+        self._E_mv = E.toarray() if dense else E
+        self._H_mv = H.toarray() if dense else H
         rows = np.unique(B.tocoo().row)
         self._b_full = B.toarray() if B.shape[0] * B.shape[1] <= DENSE_SOURCE_ENTRIES else None
         if self._b_full is None and rows.size * B.shape[1] <= DENSE_SOURCE_ENTRIES:
@@ -125,8 +132,8 @@ class MnaSystem(DaeSystem):
     # -- the DAE -------------------------------------------------------------
     def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
         x = np.asarray(x, dtype=float)
-        q = self._E @ x
-        phi = self._H @ x
+        q = self._E_mv @ x
+        phi = self._H_mv @ x
         if self.sources.m:
             u = self.sources.values(t)
             self._add_sources(phi, u if source_scale == 1.0 else source_scale * u)
