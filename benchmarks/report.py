@@ -127,7 +127,8 @@ def markdown_tables(doc) -> str:
         f"Measured {m['date']} by `{m['command']}` ({m['mode']} run, median of {m['reps']} runs per side, "
         f"{m['elapsed']:.0f} s in all).",
         f"Machine: {m['nproc']} x {m['cpu']}, {m['ram_gib']} GiB RAM, load average at the start {load}; "
-        f"Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}; {m['ngspice']}.",
+        f"Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}; {m['ngspice']}; "
+        f"netdae {m.get('netdae', 'unknown')}.",
         "### netdae and ngspice on the same netlists",
         _md(_COLUMNS, _rows(doc)),
     ]

@@ -29,6 +29,7 @@ import json
 import os
 import platform
 import statistics
+import subprocess
 import sys
 import time
 from dataclasses import asdict, dataclass, field
@@ -46,6 +47,8 @@ from benchmarks import report  # noqa: E402
 RESULTS = Path(__file__).resolve().parent / "results"
 #: A run longer than this [s] is not repeated (its median would cost minutes; its spread is small).
 LONG_RUN = 30.0
+#: Time limit of the tight reference runs [s].
+REFERENCE_TIMEOUT = 300.0
 
 
 @dataclass
@@ -89,7 +92,7 @@ def suite(quick: bool) -> list[C.Bench]:
         C.rc_ladder(1000), C.rc_ladder(10000), C.rc_ladder(100000),
         C.rc_mesh(50), C.rc_mesh(100), C.rc_mesh(300),
         C.rlc_line(100), C.rlc_line(1000), C.differentiator(),
-        C.bridge_rectifier(50), C.voltage_multiplier(4, 100), C.pulse_train(50), C.ring_oscillator(11, 100e-9),
+        C.bridge_rectifier(50), C.voltage_multiplier(4, 50), C.pulse_train(50), C.ring_oscillator(11, 50e-9),
     ]
 
 
@@ -140,7 +143,7 @@ def _reference_runs(bench: C.Bench, workdir: Path, timeout: float, with_netdae: 
         d.mkdir(parents=True, exist_ok=True)
         path = d / "netlist.cir"
         path.write_text(text)
-        out[sim] = runner(path, d, bench.signals, timeout=timeout)
+        out[sim] = runner(path, d, bench.signals, timeout=min(timeout, REFERENCE_TIMEOUT))
     return out
 
 
@@ -292,7 +295,16 @@ def machine() -> dict:
         mem_kb = 0
     import scipy
 
+    root = Path(__file__).resolve().parent.parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
+                              timeout=30).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "netdae"], cwd=root, capture_output=True,
+                               text=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        head, dirty = "unknown", ""
     return {"nproc": os.cpu_count(), "cpu": cpu, "ram_gib": round(mem_kb / 2**20, 1),
+            "netdae": head + (" + uncommitted changes in netdae/" if dirty else ""),
             "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
             "ngspice": M.ngspice_version(), "load_average": os.getloadavg(),
             "date": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
@@ -302,18 +314,18 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller circuits, fewer repetitions (a few minutes)")
     p.add_argument("--only", metavar="NAMES", help="comma-separated circuit names or families (substring match)")
-    p.add_argument("--reps", type=int, help="repetitions per side (default 3 quick, 5 full)")
+    p.add_argument("--reps", type=int, help="repetitions per side (default 3; runs over 30 s once)")
     p.add_argument("--json", metavar="PATH", help="write the results as JSON (default benchmarks/results/latest.json)")
     p.add_argument("--markdown", metavar="PATH", help="regenerate the measured part of this markdown file")
     p.add_argument("--no-tight", action="store_true", help="only the netlists' own tolerances")
     p.add_argument("--no-netdae-only", action="store_true", help="skip start-up, reader and index timings")
     p.add_argument("--netdae-reference", choices=("yes", "no"),
                    help="also run netdae at reltol 1e-8 on nonlinear circuits (default: no in quick mode)")
-    p.add_argument("--timeout", type=float, help="seconds per child process (default 120 quick, 900 full)")
+    p.add_argument("--timeout", type=float, help="seconds per child process (default 120 quick, 600 full)")
     p.add_argument("--workdir", metavar="DIR", help="where netlists and outputs go (default benchmarks/results/work)")
     args = p.parse_args(argv)
-    reps = args.reps or (3 if args.quick else 5)
-    timeout = args.timeout or (120.0 if args.quick else 900.0)
+    reps = args.reps or 3
+    timeout = args.timeout or (120.0 if args.quick else 600.0)
     workdir = Path(args.workdir) if args.workdir else RESULTS / "work"
     workdir.mkdir(parents=True, exist_ok=True)
 
