@@ -179,6 +179,7 @@ def run_netdae(netlist: Path, workdir: Path, signals, *, timeout: float) -> SimR
     stats = {"steps": s.get("steps"), "rejected": s.get("rejected"), "newton": s.get("newton"),
              "factorizations": s.get("factorizations"), "analysis_time": s.get("wall_time"),
              "integration_time": (s.get("integrator") or {}).get("wall_time"),
+             "integrator": s.get("integrator") or {},
              "points": s.get("points"), "unknowns": s.get("n_unknowns"), "nnz": s.get("nnz")}
     ok = tran.get("status", -1) >= 0
     t, sig = (None, None)

@@ -167,6 +167,7 @@ def _side_summary(runs: list[M.SimRun]) -> dict:
         "newton": first.stats.get("newton"),
         "factorizations": first.stats.get("factorizations"),
         "points": None if first.time is None else int(first.time.size),
+        "integrator": first.stats.get("integrator", {}),
     }
 
 
