@@ -19,7 +19,8 @@ array([0., 2.])
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import re
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
@@ -28,6 +29,9 @@ __all__ = ["Result", "STATUS_OK", "STATUS_FAILED"]
 
 STATUS_OK = 0
 STATUS_FAILED = -1
+
+#: ``v(a,b)``: the difference of two node voltages.
+_DIFFERENCE = re.compile(r"v\(\s*([^,\s()]+)\s*,\s*([^,\s()]+)\s*\)")
 
 
 @dataclass
@@ -113,3 +117,31 @@ class Result:
     def names(self) -> list[str]:
         """Signal names in order."""
         return list(self.signals)
+
+    def subset(self, names) -> "Result":
+        """This result with only the signals ``names`` (``v(a,b)`` is formed from ``v(a)`` and ``v(b)``).
+
+        Raises
+        ------
+        KeyError
+            For a name that is neither a signal nor a difference of two node voltages.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> r = Result("op", signals={"v(a)": np.array([3.0]), "v(b)": np.array([1.0])})
+        >>> r.subset(["v(a,b)"]).signals
+        {'v(a,b)': array([2.])}
+        """
+        out = {}
+        for raw in names:
+            name = raw.strip().lower()
+            if name in self:
+                out[name] = self[name]
+                continue
+            m = _DIFFERENCE.fullmatch(name)
+            if m is None:
+                raise KeyError(f"no signal {raw!r}; have {', '.join(self.signals)}")
+            a, b = (0.0 if nd in ("0", "gnd") else self[f"v({nd})"] for nd in m.group(1, 2))
+            out[f"v({m.group(1)},{m.group(2)})"] = a - b
+        return replace(self, signals=out)

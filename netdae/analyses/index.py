@@ -321,8 +321,10 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
         )
     rep.messages = _messages(rep)
     if rep.method == "topological":
+        why = (f"{system.n} unknowns is above the dense limit of {DENSE_LIMIT}" if system.n > DENSE_LIMIT
+               else "requested")
         rep.messages.append(
-            f"method: topological ({system.n} unknowns is above the dense limit of {DENSE_LIMIT}); "
+            f"method: topological ({why}); "
             + ("the index follows from the circuit's structure" if rep.index is not None
                else "no exact index can be given")
         )

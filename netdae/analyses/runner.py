@@ -13,7 +13,7 @@ from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, TranAnalysis
 from ..errors import NetdaeError
 from ..results import Result
 
-__all__ = ["run", "analysis_name"]
+__all__ = ["run", "analysis_name", "unused_options"]
 
 
 def analysis_name(card: Any) -> str:
@@ -63,23 +63,53 @@ def run(circuit: Circuit | str, *, save: list[str] | None = None, progress=None,
         raise NetdaeError(
             f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to run"
         )
+    names = save if save is not None else circuit.saves
+    unused = unused_options(circuit)
     results = []
     for card in circuit.analyses:
         kind = analysis_name(card)
-        if kind == "op":
-            from .op import operating_point
-
-            results.append(operating_point(circuit, **options))
-        elif kind == "dc":
-            from .dc import dc_sweep
-
-            results.append(dc_sweep(circuit, card, **options))
-        elif kind == "ac":
-            from .ac import ac_analysis
-
-            results.append(ac_analysis(circuit, card, **options))
-        else:
+        if kind == "tran":
             from .tran import transient
 
-            results.append(transient(circuit, card, save=save, progress=progress, **options))
+            res = transient(circuit, card, save=names, progress=progress, **options)
+        else:
+            if kind == "op":
+                from .op import operating_point
+
+                res = operating_point(circuit, **options)
+            elif kind == "dc":
+                from .dc import dc_sweep
+
+                res = dc_sweep(circuit, card, **options)
+            else:
+                from .ac import ac_analysis
+
+                res = ac_analysis(circuit, card, **options)
+            if names:
+                try:
+                    res = res.subset(names)
+                except KeyError as exc:
+                    raise NetdaeError(f"cannot save: {exc.args[0]}") from None
+        if unused:
+            res.notes.append(unused)
+        results.append(res)
     return results
+
+
+def unused_options(circuit: Circuit) -> str | None:
+    """A note naming the ``.options`` netdae does not use, or None.
+
+    ``chgtol`` and ``itl4`` have SPICE meanings netdae's integrator does not
+    share (it controls the error of the unknowns, and its Newton iteration per
+    step is limited by its own convergence test); the options netdae does not
+    know are kept as written in ``Options.extra``.
+    """
+    o = circuit.options
+    names = sorted(o.extra)
+    if o.chgtol != type(o)().chgtol:
+        names.insert(0, "chgtol")
+    if o.itl4 != type(o)().itl4:
+        names.insert(0, "itl4")
+    if not names:
+        return None
+    return "options not used by netdae: " + ", ".join(names)

@@ -45,7 +45,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..circuit import Circuit, TranAnalysis
-from ..dae.bdf import integrate
+from ..dae.bdf import MAX_ORDER, integrate
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import DaeSystem, Evaluation, LinearDae
 from ..devices.linear import capacitances
@@ -432,7 +432,10 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     rtol = reltol if reltol is not None else o.reltol
     vntol_ = vntol if vntol is not None else o.vntol
     abstol_ = abstol if abstol is not None else o.abstol
-    order = maxord if maxord is not None else (o.maxord or 5)
+    order = maxord if maxord is not None else (o.maxord or MAX_ORDER)
+    if not 1 <= order <= MAX_ORDER:
+        raise NetdaeError(f"maxord={order}: netdae's BDF has orders 1 to {MAX_ORDER} (BDF6 and beyond are not "
+                          "zero-stable); set .options maxord between 1 and 5")
     tmax = max_step if max_step is not None else card.tmax
     if tmax is None or tmax <= 0.0:
         tmax = min(card.tstep, (card.tstop - card.tstart) / TMAX_DIVISOR)

@@ -27,6 +27,26 @@ EXIT_ERROR = 2  # bad input or a netdae error
 EXIT_INTERNAL = 3  # a bug in netdae
 
 
+def signal_list(text: str | None) -> list[str] | None:
+    """Split a comma-separated signal list, keeping ``v(a,b)`` whole.
+
+    >>> signal_list("v(out), v(in,minus),i(v1)")
+    ['v(out)', 'v(in,minus)', 'i(v1)']
+    """
+    if text is None:
+        return None
+    parts, depth, cur = [], 0, []
+    for ch in text:
+        if ch == "," and depth == 0:
+            parts.append("".join(cur))
+            cur = []
+            continue
+        depth += (ch == "(") - (ch == ")")
+        cur.append(ch)
+    parts.append("".join(cur))
+    return [p.strip().lower() for p in parts if p.strip()]
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every available subcommand registered."""
     from .. import __version__

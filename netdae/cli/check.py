@@ -19,7 +19,7 @@ import argparse
 import dataclasses
 import json
 
-__all__ = ["add_parser", "main", "summarize", "format_summary"]
+__all__ = ["add_parser", "main", "summarize", "format_summary", "topology_lines"]
 
 #: Options shown in the text summary even at their default values.
 _MAIN_OPTIONS = ("reltol", "abstol", "vntol", "chgtol", "gmin", "method", "maxord", "temp", "tnom")
@@ -161,6 +161,11 @@ def format_summary(summary: dict) -> str:
     return "\n".join(lines)
 
 
+def topology_lines(topo) -> list[str]:
+    """The topological findings as text lines, ending with the index statement (reasons once)."""
+    return [str(f) for f in topo.findings if f.kind != "not_applicable"] + [topo.index_message]
+
+
 def main(args) -> int:
     from ..netlist import load
     from ..topology import analyze_topology
@@ -168,7 +173,7 @@ def main(args) -> int:
     circuit = load(args.file)
     summary = summarize(circuit)
     topo = analyze_topology(circuit)
-    summary["topology"] = [str(f) for f in topo.findings] + [topo.index_message]
+    summary["topology"] = topology_lines(topo)
     if args.json:
         summary["topology"] = topo.to_dict()
         print(json.dumps(summary, indent=2))

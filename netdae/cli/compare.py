@@ -17,9 +17,9 @@ __all__ = ["add_parser", "main"]
 
 
 def _names(text: str | None) -> list[str] | None:
-    if text is None:
-        return None
-    return [s.strip().lower() for s in text.split(",") if s.strip()]
+    from . import signal_list
+
+    return signal_list(text)
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -34,8 +34,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("file", help="netlist file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
     p.add_argument("--plot", metavar="PNG", help="write both waveforms and their difference to PNG")
-    p.add_argument("--tight", action="store_true", default=None,
-                   help="tight tolerances on both sides (netdae and ngspice reltol 1e-6, ngspice step bounded)")
+    p.add_argument("--tight", action=argparse.BooleanOptionalAction, default=None,
+                   help="tight tolerances on both sides (netdae and ngspice reltol 1e-6, ngspice step bounded); "
+                   "default: the netlist header's '* compare options:', --no-tight overrides it")
     p.add_argument("--tol", type=float, metavar="REL",
                    help="pass when every error is within REL of its signal's scale "
                    "(default: the netlist's '* compare tolerance:' header, else 1e-3)")

@@ -46,7 +46,7 @@ def main(args) -> int:
     from ..netlist import load
     from ..plotting import plot_result
     from ..topology import analyze_topology
-    from .check import format_summary, summarize
+    from .check import format_summary, summarize, topology_lines
     from .index import format_report
     from .progress import ProgressBar
 
@@ -57,7 +57,7 @@ def main(args) -> int:
     _section("1. the netlist (netdae check)")
     summary = summarize(circuit)
     topo = analyze_topology(circuit)
-    summary["topology"] = [str(f) for f in topo.findings] + [topo.index_message]
+    summary["topology"] = topology_lines(topo)
     print(format_summary(summary))
 
     _section("2. what kind of DAE it is (netdae index)")
@@ -69,8 +69,10 @@ def main(args) -> int:
         results = run(circuit, progress=bar)
     finally:
         bar.close()
-    for k, res in enumerate(results):
-        stem = res.analysis if k == 0 else f"{res.analysis}{k}"
+    counts: dict[str, int] = {}
+    for res in results:
+        counts[res.analysis] = counts.get(res.analysis, 0) + 1
+        stem = res.analysis if counts[res.analysis] == 1 else f"{res.analysis}{counts[res.analysis]}"
         print(f".{res.analysis}: {res.message}")
         for key in ("steps", "rejected", "newton", "factorizations", "points", "wall_time"):
             if key in res.stats:

@@ -56,7 +56,8 @@ def format_report(rep, title: str = "") -> str:
         lines.append(title)
     where = "the DC operating point" if rep.at == "op" else "the transient's initial point"
     idx = "none (singular pencil)" if rep.regular is False else ("unknown" if rep.index is None else str(rep.index))
-    lines.append(f"index: {idx}   method: {rep.method} (linearised at {where}), {rep.n_unknowns} unknowns")
+    how = f"linearised at {where}" if rep.method == "kronecker" else "circuit structure"
+    lines.append(f"index: {idx}   method: {rep.method} ({how}), {rep.n_unknowns} unknowns")
     if rep.method == "kronecker":
         lines.append(f"  pencil: {'regular' if rep.regular else 'singular'}; rank E = {rep.rank_E}; "
                      f"dynamic states = {rep.n_dynamic}; infinite blocks = {list(rep.infinite_blocks) or 'none'}")
@@ -85,8 +86,7 @@ def format_report(rep, title: str = "") -> str:
             lines.append("  (" + ", ".join(f"{c} {lb}" for lb, c in sorted(counts.items())) + ")")
     if rep.pencil is not None:
         lines.append("")
-        lines.append(f"rank decisions (relative tolerance {rep.tolerance.get('rtol', 0):.3g}, "
-                     "on the balanced pencil):")
+        lines.append(f"rank decisions (relative tolerance {rep.tolerance.get('rtol', 0):.3g}):")
         lines += [f"  {_decision_line(d)}" for d in rep.pencil.evidence[:12]]
         lines += [f"  warning: {w}" for w in rep.pencil.warnings]
     if rep.consistency is not None:

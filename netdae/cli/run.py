@@ -92,10 +92,11 @@ def _json_of(result, files) -> dict:
 
 def main(args) -> int:
     from ..analyses.runner import run
+    from . import signal_list
     from ..netlist import load
 
     circuit = load(args.file)
-    save = [s.strip().lower() for s in args.save.split(",") if s.strip()] if args.save else None
+    save = signal_list(args.save)
     from .progress import ProgressBar
 
     bar = ProgressBar()
@@ -137,8 +138,10 @@ def main(args) -> int:
         export_matrices(circuit, args.export)
     if args.json:
         doc: dict = {}
+        seen: dict[str, int] = {}
         for k, res in enumerate(results):
-            key = res.analysis if res.analysis not in doc else f"{res.analysis}{k}"
+            seen[res.analysis] = seen.get(res.analysis, 0) + 1
+            key = res.analysis if seen[res.analysis] == 1 else f"{res.analysis}{seen[res.analysis]}"
             doc[key] = _json_of(res, written[k])
         if args.export:
             doc["export"] = args.export
