@@ -181,3 +181,34 @@ def test_end_is_made_the_last_card():
     assert notes[0].startswith("line 3: .end moved")
     text = "t\nR1 1 0 1k\n.op\n.end\n* trailing comment\n"
     assert translate_for_ngspice(text) == (text, [])
+
+
+def test_coupling_of_three_inductors_becomes_one_card_per_pair():
+    from netdae.ngspice import translate_for_ngspice
+
+    text = "t\nL1 a 0 1m\nL2 b 0 2m\nL3 c 0 3m\nK1 L1 L2 L3 0.5\n.end\n"
+    out, notes = translate_for_ngspice(text)
+    lines = [ln.lower() for ln in out.splitlines()]
+    assert "k1_l1_l2 l1 l2 0.5" in lines and "k1_l1_l3 l1 l3 0.5" in lines and "k1_l2_l3 l2 l3 0.5" in lines
+    assert not any(ln.startswith("k1 ") for ln in lines)
+    assert any("3 inductors" in n and "3 K cards" in n for n in notes)
+
+
+@pytest.mark.ngspice
+def test_three_coil_transformer_agrees_with_ngspice():
+    import netdae
+
+    text = """three coupled coils
+V1 in 0 SIN(0 1 1k)
+R1 in a 10
+L1 a 0 10m
+L2 b 0 20m
+L3 c 0 5m
+R2 b 0 100
+R3 c 0 50
+K1 L1 L2 L3 0.8
+.tran 10u 3m
+.end
+"""
+    comparison = netdae.compare(text, tight=True, tol=1e-3)
+    assert comparison.passed, comparison

@@ -304,6 +304,13 @@ def translate_for_ngspice(
                 f"of about noise-gain/{opamp_gain:.3g} and turns an index-2 op-amp circuit into an "
                 "index-1 one with a fast time constant)"
             )
+        elif keyword[:1] == "k" and len(card.tokens) > 4:
+            edits[card.first] = (card.last, _split_coupling(card.tokens))
+            pairs = len(card.tokens) - 2
+            notes.append(
+                f"{_where(card)}: {card.tokens[0]} couples {pairs} inductors (a netdae extension): written as "
+                f"{pairs * (pairs - 1) // 2} K cards, one per pair, with the same coupling factor"
+            )
         elif _is_options(card):
             new, removed = _strip_options(card)
             if removed:
@@ -351,6 +358,16 @@ def _end_last(lines: list[str], edits: dict[int, tuple[int, str | None]], notes:
 
 def _inside_edit(card: _Card, edits: dict[int, tuple[int, str | None]]) -> bool:
     return any(first <= card.first <= last for first, (last, _) in edits.items())
+
+
+def _split_coupling(tokens: list[str]) -> str:
+    """``K1 L1 L2 L3 k`` as one K card per pair (ngspice 39 couples two inductors per card)."""
+    name, inductors, value = tokens[0], tokens[1:-1], tokens[-1]
+    cards = []
+    for i in range(len(inductors)):
+        for j in range(i + 1, len(inductors)):
+            cards.append(f"{name}_{inductors[i]}_{inductors[j]} {inductors[i]} {inductors[j]} {value}")
+    return "\n".join(cards)
 
 
 def _is_opamp(tokens: list[str]) -> bool:
