@@ -178,6 +178,23 @@ def _netdae_error(exc: BaseException) -> str:
     return f"netdae failed: {exc}"
 
 
+def _with_differences(ng: Result, names: list[str]) -> Result:
+    """ngspice's result with the differences ``v(a,b)`` netdae reports, formed from ``v(a)`` and ``v(b)``.
+
+    ngspice writes the nodes of a saved ``v(a,b)`` separately.
+    """
+    missing = [n for n in names if n not in ng.signals and n.startswith("v(") and "," in n]
+    if not missing:
+        return ng
+    extra = {}
+    for name in missing:
+        try:
+            extra.update(ng.subset([name]).signals)
+        except KeyError:
+            continue  # a node ngspice did not write: reported as netdae-only
+    return replace(ng, signals={**ng.signals, **extra}) if extra else ng
+
+
 def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, overrides, wanted, exclude,
                   ngspice_failed: bool) -> AnalysisComparison:
     if ng is None:
@@ -193,6 +210,7 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
             raise
         return AnalysisComparison(kind, tolerance=tol, error=_netdae_error(exc),
                                   ngspice_tolerances=dict(ng.tolerances))
+    ng = _with_differences(ng, nd.names())
     if kind == "tran":
         item = compare_transient(nd, ng, tol=tol, wanted=wanted, exclude=exclude)
     else:
