@@ -136,3 +136,25 @@ def test_demo_tells_the_whole_story(tmp_path, capsys):
         assert marker in out, marker
     for name in ("tran.csv", "tran.png", "compare.png"):
         assert (tmp_path / name).stat().st_size > 0
+
+
+def test_export_matrices_npz_and_matrix_market(tmp_path, capsys):
+    import scipy.io
+
+    from netdae.io.matrices import load_npz_matrices
+    from netdae.mna import assemble
+
+    path = NETLISTS / "differentiator.cir"
+    status, out, _ = cli(capsys, "run", path, "--export", tmp_path / "m.npz")
+    assert status == 0 and "wrote matrices" in out
+    got = load_npz_matrices(tmp_path / "m.npz")
+    system = assemble(__import__("netdae").load(path))
+    assert got["names"] == list(system.names) and got["sources"] == ["v1"] and not got["linearized"]
+    np.testing.assert_array_equal(got["E"].toarray(), system.E.toarray())
+    np.testing.assert_array_equal(got["H"].toarray(), system.H.toarray())
+    np.testing.assert_array_equal(got["B"].toarray(), system.B.toarray())
+    status, _, _ = cli(capsys, "run", path, "--export", tmp_path / "m.mtx")
+    assert status == 0
+    H = scipy.io.mmread(str(tmp_path / "m.H.mtx")).toarray()
+    np.testing.assert_array_equal(H, system.H.toarray())
+    assert (tmp_path / "m.names.txt").read_text().split()[:len(system.names)] == list(system.names)
