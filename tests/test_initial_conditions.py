@@ -1,0 +1,82 @@
+""".ic, .nodeset, ic= and uic as ngspice honours them, against closed forms and ngspice."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.op import operating_point
+from netdae.analyses.tran import transient
+
+RC = """RC with an initial condition
+V1 in 0 1
+R1 in out 1k
+C1 out 0 1u {cic}
+{cards}
+.tran 10u 5m {uic}
+.options reltol=1e-5
+.end
+"""
+TAU = 1e-3
+
+
+def rc(cic="", cards="", uic=""):
+    return netdae.load(RC.format(cic=cic, cards=cards, uic=uic))
+
+
+@pytest.mark.parametrize("variant", [
+    {"cards": ".ic v(out)=2"},                      # held during the operating point
+    {"cic": "ic=2", "uic": "uic"},                   # the capacitor's own initial voltage
+    {"cards": ".ic v(out)=2", "uic": "uic"},        # uic with node values from .ic
+])
+def test_rc_relaxes_from_its_initial_condition(variant):
+    r = transient(rc(**variant))
+    t = r.t
+    exact = 1.0 + (2.0 - 1.0) * np.exp(-t / TAU)
+    # .ic holds the node through 1e10 S (ngspice's rule): the start is 2 V to about 1e-7
+    assert r["v(out)"][0] == pytest.approx(2.0, abs=1e-6)
+    assert np.max(np.abs(r["v(out)"] - exact)) < 1e-4
+
+
+def test_ic_without_a_transient_does_not_change_the_operating_point():
+    r = operating_point(rc(cards=".ic v(out)=2"))
+    assert float(r["v(out)"][0]) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_nodeset_guides_newton_but_not_the_answer():
+    with_ns = operating_point(rc(cards=".nodeset v(out)=0.3"))
+    assert float(with_ns["v(out)"][0]) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_uic_without_ic_starts_every_capacitor_at_zero():
+    r = transient(rc(uic="uic"))
+    exact = 1.0 - np.exp(-r.t / TAU)
+    assert r["v(out)"][0] == 0.0
+    assert np.max(np.abs(r["v(out)"] - exact)) < 1e-4
+
+
+def test_inductor_ic_with_uic():
+    circuit = netdae.load("""RL with an initial current
+R1 a 0 10
+L1 a 0 10m ic=50m
+.tran 10u 5m uic
+.options reltol=1e-5
+.end
+""")
+    r = transient(circuit)
+    tau = 10e-3 / 10
+    np.testing.assert_allclose(r["i(l1)"], 50e-3 * np.exp(-r.t / tau), atol=1e-6)
+    # the resistor carries the inductor's current: v(a) = -R i(l1) from the first point on
+    assert r["v(a)"][0] == pytest.approx(-10 * 50e-3, rel=1e-6)
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("variant", [
+    {"cards": ".ic v(out)=2"},
+    {"cic": "ic=2", "uic": "uic"},
+])
+def test_initial_conditions_agree_with_ngspice(variant):
+    text = RC.format(cic=variant.get("cic", ""), cards=variant.get("cards", ""), uic=variant.get("uic", ""))
+    comparison = netdae.compare(text, tol=1e-3, signals=["v(out)"])
+    assert comparison.passed, comparison
