@@ -254,7 +254,8 @@ def targets(doc) -> list[dict]:
     for row in (r for r in rows if r["name"] == MEMORY_CIRCUIT and r["variant"] == "default"):
         nd, ng = row["sides"]["netdae"], row["sides"]["ngspice"]
         out.append({"target": f"peak RSS: {row['name']}", "limit": f"<= {MEMORY_RATIO:g}x",
-                    "measured": f"{nd['rss_mb']:.0f} MiB vs {ng['rss_mb']:.0f} MiB = {nd['rss_mb'] / ng['rss_mb']:.2f}x",
+                    "measured": f"{nd['rss_mb']:.0f} MiB vs {ng['rss_mb']:.0f} MiB = "
+                                f"{nd['rss_mb'] / ng['rss_mb']:.2f}x",
                     "met": nd["rss_mb"] / ng["rss_mb"] <= MEMORY_RATIO})
     for r in doc.get("netdae_only", []):
         what = r["what"]
