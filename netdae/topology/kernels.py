@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import networkx as nx
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
@@ -260,6 +259,8 @@ def on_cycle(n: int, u: np.ndarray, v: np.ndarray, base: np.ndarray, probe: np.n
     result = cu == cv
     rest = np.flatnonzero(~result)
     if len(rest):
+        import networkx as nx  # only here: importing it costs 0.1 s of every run's start-up
+
         g = nx.MultiGraph()
         g.add_edges_from(zip(cu[rest].tolist(), cv[rest].tolist()))
         bridges = {frozenset(e) for e in nx.bridges(g)}
