@@ -148,6 +148,24 @@ def test_depletion_closed_form_below_fc():
     assert q[0] == pytest.approx(vj * cj0 * (1 - (1 + 3.0 / vj) ** (1 - m)) / (1 - m), rel=1e-14)
 
 
+@pytest.mark.parametrize("v", [1e-15, -1e-12, 3e-9, -2e-6])
+def test_depletion_charge_and_junction_current_keep_relative_accuracy_near_zero_bias(v):
+    # near v = 0 the series q = cj0 v (1 + m v / (2 vj) + ...), i = Is (v/vte)(1 + v/(2 vte) + ...)
+    # are exact to far below 1e-12 relative; a difference of two numbers near 1 would
+    # leave an absolute error eps * vj cj0 / (1 - m) (relative 1e-4 at v = 1e-15)
+    cj0, vj, m = 10e-12, 0.7, 0.5
+    q, c = Depletion(cj0, vj, m, 0.5)(np.array([v]))
+    x = v / vj
+    series = cj0 * v * (1 + m * x / 2 + m * (m + 1) * x * x / 6)
+    assert q[0] == pytest.approx(series, rel=1e-12)
+    assert c[0] == pytest.approx(cj0 * (1 - x) ** -m, rel=1e-14)
+    isat, vte = 7e-9, 1.8 * VT
+    i, g = ideal_junction(np.array([v]), isat, vte, -3 * vte)
+    y = v / vte
+    assert i[0] == pytest.approx(isat * y * (1 + y / 2 + y * y / 6), rel=1e-12)
+    assert g[0] == pytest.approx(isat * math.exp(y) / vte, rel=1e-14)
+
+
 def test_substrate_form_with_fc_zero():
     cj0, vj, m = 1e-12, 0.75, 0.3
     q, c = Depletion(cj0, vj, m, 0.0)(np.array([0.5]))

@@ -198,17 +198,20 @@ def ideal_junction(v, isat, vte, knee):
     Call inside ``np.errstate``: a large forward voltage overflows to inf,
     which the caller reports as a failed evaluation. When every junction is
     above the knee (the usual case) only the exponential branch is computed.
+    ``expm1`` keeps the current's relative accuracy near zero bias (ngspice's
+    ``exp - 1`` loses it to an absolute ``eps Is``, which a BDF step of
+    1e-17 s turns into noise above ``abstol``).
     """
     reverse = v < knee
     if not reverse.any():
-        ev = np.exp(v / vte)
-        return isat * (ev - 1.0), isat * ev / vte
-    ev = np.exp(np.where(reverse, 0.0, v / vte))
+        em1 = np.expm1(v / vte)
+        return isat * em1, isat * (em1 + 1.0) / vte
+    em1 = np.expm1(np.where(reverse, 0.0, v / vte))
     vr = np.where(reverse, v, -1.0)
     a = _REVERSE_KNEE * vte / (vr * math.e)
     a = a * a * a
-    i = np.where(reverse, -isat * (1.0 + a), isat * (ev - 1.0))
-    g = np.where(reverse, isat * _REVERSE_KNEE * a / vr, isat * ev / vte)
+    i = np.where(reverse, -isat * (1.0 + a), isat * em1)
+    g = np.where(reverse, isat * _REVERSE_KNEE * a / vr, isat * (em1 + 1.0) / vte)
     return i, g
 
 
@@ -259,18 +262,19 @@ class Depletion:
 
     def __call__(self, v):
         """Charge and capacitance at junction voltages ``v`` (same shape as the coefficients)."""
+        # 1 - (1 - v/vj)^(1-m) = -expm1((1-m) log1p(-v/vj)): relative accuracy near
+        # v = 0, where the difference of two numbers near 1 would leave an absolute
+        # error eps * q_scale, noise of eps q_scale / h in the junction current
         below = v < self.vfc
         if below.all():
-            arg = 1.0 - v / self.vj
-            sarg = np.exp(-self.m * np.log(arg))
-            return self.q_scale * (1.0 - arg * sarg), self.cj0 * sarg
-        arg = 1.0 - np.where(below, v, 0.0) / self.vj
-        sarg = np.exp(-self.m * np.log(arg))
+            lx = np.log1p(-v / self.vj)
+            return -self.q_scale * np.expm1((1.0 - self.m) * lx), self.cj0 * np.exp(-self.m * lx)
+        lx = np.log1p(-np.where(below, v, 0.0) / self.vj)
         dv = v - self.vfc
         q_above = self.q_fc + self.czf2 * dv * (self.f3 + 0.5 * self.m_over_vj * (v + self.vfc))
         c_above = self.czf2 * (self.f3 + self.m_over_vj * v)
-        return (np.where(below, self.q_scale * (1.0 - arg * sarg), q_above),
-                np.where(below, self.cj0 * sarg, c_above))
+        return (np.where(below, -self.q_scale * np.expm1((1.0 - self.m) * lx), q_above),
+                np.where(below, self.cj0 * np.exp(-self.m * lx), c_above))
 
 
 def pnjlim(vnew, vold, vt, vcrit_):
