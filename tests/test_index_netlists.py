@@ -22,13 +22,16 @@ from conftest import NETLISTS
 PATHS = sorted(NETLISTS.glob("*.cir"))
 
 
-def ag08bd_index(E, H) -> tuple[int, int]:
-    """(index, number of finite eigenvalues) of a regular pencil from SLICOT (scaled, equil='S')."""
+def ag08bd_index(E, H, equil: str = "S") -> tuple[int, int]:
+    """(index, number of finite eigenvalues) of a regular pencil from SLICOT's ag08bd.
+
+    ``equil="S"`` balances the pencil first, ``"N"`` works in the MNA's own units.
+    """
     E = np.asarray(E, dtype=float)
     H = np.asarray(H, dtype=float)
     n = E.shape[0]
     out = slycot.ag08bd(n, n, 0, 0, np.asfortranarray(H), np.asfortranarray(E), np.zeros((n, 1)),
-                        np.zeros((1, n)), np.zeros((1, 1)), equil="S")
+                        np.zeros((1, n)), np.zeros((1, 1)), equil=equil)
     Af, infe = out[0], out[6]
     return max(infe.tolist(), default=0), Af.shape[0]
 
@@ -41,10 +44,17 @@ def test_index_agrees_with_header_slycot_and_topology(path):
     assert rep.method == "kronecker"
     assert rep.index == header.expected_index, "\n".join(rep.messages)
     E, H = rep.system.jacobians(rep.x, 0.0)
-    index, n_finite = ag08bd_index(E.toarray(), H.toarray())
-    assert index == rep.index
-    assert n_finite == rep.n_dynamic
+    scaled = ag08bd_index(E.toarray(), H.toarray(), "S")
+    unscaled = ag08bd_index(E.toarray(), H.toarray(), "N")
     topo = rep.topology
+    if scaled == unscaled:
+        assert scaled == (rep.index, rep.n_dynamic)
+    else:
+        # SLICOT's balancing can misjudge a rank when capacitances span many decades
+        # (voltage_multiplier.cir: 10 uF pumping capacitors beside 4 pF junctions);
+        # then netdae must agree with one of its answers and with the topology
+        assert (rep.index, rep.n_dynamic) in (scaled, unscaled)
+        assert topo.applicable and not topo.singular and topo.topological_index == rep.index
     if topo.applicable and not topo.singular:
         assert topo.topological_index == rep.index
     # every index-2 unknown the topology names is index-2 numerically too

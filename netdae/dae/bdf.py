@@ -203,6 +203,12 @@ BREAKPOINT_STRETCH = 0.1
 BREAKPOINT_MERGE = 1e-9
 #: A step smaller than this many ulps of t cannot advance time.
 ROUNDOFF_ULPS = 16.0
+#: The corrector residual ``cj (q(x) - q_pred) + q'_pred - phi`` is computed with an
+#: absolute error of about ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row; a tolerance
+#: below this many times that level, propagated to the unknowns, is not attainable
+#: and is raised to it (see ``BDF._rounding_weights``).
+ROUNDING_FACTOR = 10.0
+EPS = float(np.finfo(float).eps)
 #: Linear systems up to this size form their residual with a dense matrix-vector product.
 DENSE_MATVEC_MAX = 48
 #: Initial capacity of the output buffers (they double when full).
@@ -481,8 +487,11 @@ class BDF:
         self._h_request = 0.0
         self._growth_failed = False
         self._lu = LuCache(system.pattern, permc_spec=permc_spec)
+        self._abs_dq = None  # |dq/dx| at the last Jacobian evaluation (a CSC matrix)
+        self._noise_signs = None
         self._w = np.empty(n)
         self._w_err = np.empty(n)
+        self._w_step_err = self._w_err
         self._xmax = np.abs(x0)
         self._failure = None
         self.status = "running"
@@ -881,6 +890,7 @@ class BDF:
         if cj != self._last_cj_attempt:
             self.stats["cj_changes"] += 1
             self._last_cj_attempt = cj
+        self._w_step_err = self._w_err
         if self._linear:
             x_new = self._corrector_linear(t_new, pred, cj)
             if x_new is None:
@@ -902,7 +912,7 @@ class BDF:
     def _error_test(self, ee_x, k):
         """Phase 4: local error test and order-lowering proposal (IDA's IDATestError)."""
         c = self._coef
-        norms = error_norms(ee_x, self._P[:, : self.n], k, self._w_err, self.norm)
+        norms = error_norms(ee_x, self._P[:, : self.n], k, self._w_step_err, self.norm)
         enorm_k = norms[0]
         err_k = c.sigma[k] * enorm_k
         terr_k = (k + 1) * err_k
@@ -970,6 +980,8 @@ class BDF:
             self._state_try = ev.state
             last["ev"] = ev
             last["x"] = x
+            if jacobian:
+                self._keep_abs_dq(ev.dq)
             r = ev.q - q_pred
             r *= cj
             r += qp_pred
@@ -985,13 +997,14 @@ class BDF:
         if not setup:
             ratio = cj / lu.tag
             setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
-        res = self._newton(fun, x_pred, cj, setup)
+        w_newton = self._rounding_weights(x_pred, qp_pred, cj)
+        res = self._newton(fun, x_pred, cj, setup, w_newton)
         if not res.converged and not setup and res.info != INFO_EVALUATION:
             # stale Jacobian: retry once with a fresh one at the same step size
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
             self._state_try = self._state
-            res = self._newton(fun, x_pred, cj, True)
+            res = self._newton(fun, x_pred, cj, True, w_newton)
         st["newton_iterations"] += res.iterations
         st["factorizations"] = lu.factorizations
         if not res.converged:
@@ -1010,13 +1023,71 @@ class BDF:
             return False, {"info": INFO_EVALUATION, "worst": self._nonfinite_worst(ev_new)}
         return True, (res.x, ev_new.q)
 
-    def _newton(self, fun, x_pred, cj, setup):
+    def _keep_abs_dq(self, dq):
+        if self._abs_dq is None:
+            self._abs_dq = self.system.pattern.matrix(np.abs(dq))
+        else:
+            np.abs(dq, out=self._abs_dq.data)
+
+    def _rounding_weights(self, x_pred, qp_pred, cj):
+        """Newton and error-test weights with every tolerance raised to the rounding level.
+
+        The corrector residual holds ``cj (q(x) - q_pred)``: its rounding error
+        ``eps cj |q|`` grows like ``1/h``. An unknown that only such a row fixes
+        (the current of a voltage source driving a capacitor,
+        ``i = cj (q - q_pred) + ...``) carries noise of ``eps |q| / h`` in every
+        Newton correction and in every accepted value. Where that noise reaches
+        the requested tolerance (a current near zero, whose tolerance is
+        ``abstol``) the corrections stop contracting on a converged iterate, the
+        step is cut, and a smaller step only raises the noise: the integration
+        dies with the step size at the roundoff of t. The rounding error of the
+        residual, ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row, propagated to the
+        unknowns through the current factorisation (one solve, two right-hand
+        sides), is a
+        floor below which no tolerance is attainable; both tests use it
+        (``ROUNDING_FACTOR`` times it) where it exceeds the requested tolerance.
+        This is the same accuracy limit as the backward error of the corrector
+        (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed., 2002,
+        Section 7.1); where the tolerance is attainable the weights are unchanged.
+
+        Returns ``self._w`` itself when no floor applies (the common case), else a
+        new array; sets ``self._w_step_err`` for the error test likewise.
+        """
+        self._w_step_err = self._w_err
+        lu = self._lu
+        if self._abs_dq is None or not lu.ready:
+            return self._w
+        noise = self._abs_dq @ np.abs(x_pred)
+        noise *= cj
+        noise += np.abs(qp_pred)
+        noise *= ROUNDING_FACTOR * EPS
+        # |J^-1| b is out of reach; rounding errors have no fixed sign, so take the
+        # larger response to b and to b with fixed pseudo-random signs (a single
+        # non-negative b can cancel, e.g. across a capacitor between two nodes)
+        if self._noise_signs is None:
+            self._noise_signs = np.where(np.random.default_rng(1).random(self.n) < 0.5, -1.0, 1.0)
+        rhs = np.empty((self.n, 2))
+        rhs[:, 0] = noise
+        np.multiply(noise, self._noise_signs, out=rhs[:, 1])
+        floor = np.abs(lu.solve(rhs)).max(axis=1)
+        w = self._w
+        low = floor * w > 1.0
+        if not low.any():
+            return w
+        w = w.copy()
+        w[low] = 1.0 / floor[low]
+        w_err = self._w_err.copy()
+        w_err[low] = np.minimum(w_err[low], w[low])
+        self._w_step_err = w_err
+        return w
+
+    def _newton(self, fun, x_pred, cj, setup, weights):
         if setup:
             rate, jac, scale = RATE_AFTER_SETUP, "first", 1.0
         else:
             rate = RATE_CJ_CHANGED if cj != self._cjlast else self._rate
             jac, scale = "never", 2.0 / (1.0 + cj / self._lu.tag)
-        return newton(fun, x_pred, self._lu, self._w, tol=EPCON, maxiter=self.newton_maxiter,
+        return newton(fun, x_pred, self._lu, weights, tol=EPCON, maxiter=self.newton_maxiter,
                       jacobian=jac, rate=rate, scale=scale, norm=self.norm, tag=cj)
 
     def _complete_step(self, t_new, h, landing, info, retried):
