@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from netdae.topology.kernels import components, fundamental_cycle, group_by, on_cycle, spanning_forest
+from netdae.topology.kernels import bridges, components, fundamental_cycle, group_by, on_cycle, spanning_forest
 
 
 @st.composite
@@ -85,6 +85,27 @@ def test_on_cycle_matches_edge_removal(graph, data):
         g = _nx(n, u, v)
         g.remove_edge(int(u[e]), int(v[e]), key=int(e))
         assert got[k] == nx.has_path(g, int(u[e]), int(v[e]))
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(multigraphs())
+def test_bridges_match_networkx(graph):
+    n, u, v, _ = graph
+    keep = u != v  # bridges() takes no self-loops (a self-loop is never a bridge)
+    u, v = u[keep], v[keep]
+    got = bridges(n, u, v)
+    g = _nx(n, u, v)
+    expected = {frozenset(e) for e in nx.bridges(g)}
+    for e in range(len(u)):
+        parallel = np.count_nonzero(((u == u[e]) & (v == v[e])) | ((u == v[e]) & (v == u[e]))) > 1
+        assert got[e] == (not parallel and frozenset((int(u[e]), int(v[e]))) in expected)
+
+
+def test_bridges_of_a_path_a_cycle_and_a_parallel_pair():
+    # 0-1-2 path (bridges), 2-3-4-2 triangle (not), 4=5 parallel pair (not), 5-6 bridge
+    a = np.array([0, 1, 2, 3, 4, 4, 4, 5])
+    b = np.array([1, 2, 3, 4, 2, 5, 5, 6])
+    assert bridges(7, a, b).tolist() == [True, True, False, False, False, False, False, True]
 
 
 def test_group_by_keeps_order_within_groups():
