@@ -488,7 +488,8 @@ class BDF:
         self._growth_failed = False
         self._lu = LuCache(system.pattern, permc_spec=permc_spec)
         self._abs_dq = None  # |dq/dx| at the last Jacobian evaluation (a CSC matrix)
-        self._noise_signs = None
+        self._noise_signs = None  # fixed +-1 signs and the (n, 2) right-hand sides of the rounding floor
+        self._noise_rhs = None
         self._w = np.empty(n)
         self._w_err = np.empty(n)
         self._w_step_err = self._w_err
@@ -1043,17 +1044,17 @@ class BDF:
         dies with the step size at the roundoff of t. The rounding error of the
         residual, ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row, propagated to the
         unknowns through the current factorisation (one solve, two right-hand
-        sides), is a
-        floor below which no tolerance is attainable; both tests use it
-        (``ROUNDING_FACTOR`` times it) where it exceeds the requested tolerance.
+        sides), is a floor below which no tolerance is attainable; both tests
+        use it (``ROUNDING_FACTOR`` times it) where it exceeds the requested
+        tolerance.
         This is the same accuracy limit as the backward error of the corrector
         (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed., 2002,
         Section 7.1); where the tolerance is attainable the weights are unchanged.
 
         Returns ``self._w`` itself when no floor applies (the common case), else a
-        new array; sets ``self._w_step_err`` for the error test likewise.
+        new array; then also replaces ``self._w_step_err`` (which ``_attempt``
+        resets to ``self._w_err``) for the error test.
         """
-        self._w_step_err = self._w_err
         lu = self._lu
         if self._abs_dq is None or not lu.ready:
             return self._w
@@ -1064,9 +1065,10 @@ class BDF:
         # |J^-1| b is out of reach; rounding errors have no fixed sign, so take the
         # larger response to b and to b with fixed pseudo-random signs (a single
         # non-negative b can cancel, e.g. across a capacitor between two nodes)
-        if self._noise_signs is None:
+        rhs = self._noise_rhs
+        if rhs is None:
+            rhs = self._noise_rhs = np.empty((self.n, 2))
             self._noise_signs = np.where(np.random.default_rng(1).random(self.n) < 0.5, -1.0, 1.0)
-        rhs = np.empty((self.n, 2))
         rhs[:, 0] = noise
         np.multiply(noise, self._noise_signs, out=rhs[:, 1])
         floor = np.abs(lu.solve(rhs)).max(axis=1)

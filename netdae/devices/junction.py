@@ -267,14 +267,17 @@ class Depletion:
         # error eps * q_scale, noise of eps q_scale / h in the junction current
         below = v < self.vfc
         if below.all():
-            lx = np.log1p(-v / self.vj)
-            return -self.q_scale * np.expm1((1.0 - self.m) * lx), self.cj0 * np.exp(-self.m * lx)
-        lx = np.log1p(-np.where(below, v, 0.0) / self.vj)
+            return self._graded(v)
+        q_below, c_below = self._graded(np.where(below, v, 0.0))
         dv = v - self.vfc
         q_above = self.q_fc + self.czf2 * dv * (self.f3 + 0.5 * self.m_over_vj * (v + self.vfc))
         c_above = self.czf2 * (self.f3 + self.m_over_vj * v)
-        return (np.where(below, -self.q_scale * np.expm1((1.0 - self.m) * lx), q_above),
-                np.where(below, self.cj0 * np.exp(-self.m * lx), c_above))
+        return np.where(below, q_below, q_above), np.where(below, c_below, c_above)
+
+    def _graded(self, v):
+        """Charge and capacitance of the graded junction (valid below ``fc * vj``)."""
+        lx = np.log1p(-v / self.vj)
+        return -self.q_scale * np.expm1((1.0 - self.m) * lx), self.cj0 * np.exp(-self.m * lx)
 
 
 def pnjlim(vnew, vold, vt, vcrit_):
