@@ -203,7 +203,8 @@ def test_index_one_consistency_keeps_the_inductor_flux():
     m = V0 - x0[il] / G
     want = {"u1": V0, "m1": m, "o1": -A * m, "ia1": -x0[il], "iv": -x0[il]}
     for nm, v in want.items():
-        assert xc[names.index(nm)] == pytest.approx(v, rel=1e-12, abs=1e-15), nm
+        # backward-stable transformations: a few thousand eps, depending on the BLAS's rounding
+        assert xc[names.index(nm)] == pytest.approx(v, rel=1e-10, abs=1e-15), nm
     # the algebraic equations hold to rounding (normwise backward error)
     algebraic_rows = np.flatnonzero(~E.any(axis=1))
     size = np.linalg.norm(H, np.inf) * np.max(np.abs(xc)) + np.max(np.abs(c))

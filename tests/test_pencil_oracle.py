@@ -109,7 +109,11 @@ def test_random_structure_against_exact_data_and_ag08bd(nf, sizes, seed):
     blocks = tuple(sorted(sizes, reverse=True))
     index = max(sizes, default=0)
     rep = analyze_pencil(E, H)
-    assert rep.regular and rep.warnings == ()
+    assert rep.regular
+    # the only admissible warning is the documented fall-back: a close rank decision on the
+    # balanced pencil decided again on the unbalanced one (which balancing wins a close call
+    # depends on the BLAS's rounding)
+    assert all("decided again on the unbalanced pencil" in w for w in rep.warnings), rep.warnings
     assert rep.infinite_blocks == blocks
     assert rep.index == index
     assert rep.n_dynamic == nf and rep.rank_E == nf + sum(sizes) - len(sizes)
