@@ -27,7 +27,7 @@ $(VPY):
 
 $(STAMP): pyproject.toml | $(VPY)
 	$(VPY) -m pip install -q --upgrade pip
-	$(VPY) -m pip install -q -e '.[test,dev]'
+	$(VPY) -m pip install -q -e '.[test,dev,results]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
