@@ -91,6 +91,29 @@ def plot_result(result: Result, path: str | Path, *, title: str = "", signals=No
     if title:
         panels[0].set_title(textwrap.fill(title, TITLE_WIDTH), fontsize="medium")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
+    return path
+
+
+def save_figure(fig, path: str | Path, *, dpi: int) -> Path:
+    """Save a matplotlib figure whole or not at all, in the format of the path's suffix.
+
+    Raises
+    ------
+    NetdaeError
+        For a suffix matplotlib cannot write.
+    OutputFileError
+        When the file cannot be written; nothing is left under its name.
+    """
+    from .errors import NetdaeError
+    from .io.files import atomic_output
+
+    path = Path(path)
+    kind = path.suffix[1:].lower() or "png"
+    supported = fig.canvas.get_supported_filetypes()
+    if kind not in supported:
+        raise NetdaeError(f"cannot draw {path}: unknown image format '.{kind}' (use {', '.join('.' + k for k in sorted(supported))})")
+    with atomic_output(path) as handle:
+        fig.savefig(handle, format=kind, dpi=dpi)
     return path

@@ -177,7 +177,9 @@ def test_a_run_cut_short_is_read_up_to_its_last_complete_point(ngspice_files, na
         text = data.decode()
         lines = text.rstrip("\n").split("\n")
         cut = ("\n".join(lines[: len(lines) - int(1.5 * row)]) + "\n").encode()
-    tran = parse_raw(cut, "cut")[-1]
+    with pytest.raises(NetdaeError, match=rf"is incomplete: the header announces {n} points, the file holds {n - 2} "):
+        parse_raw(cut, "cut")
+    tran = parse_raw(cut, "cut", partial=True)[-1]
     assert len(tran.t) == n - 2
     np.testing.assert_array_equal(tran["v(out)"], full["v(out)"][: n - 2])
     assert any(f"announces {n} points" in note for note in tran.notes)
@@ -193,7 +195,9 @@ def test_a_killed_run_with_zero_points_announced_is_read_whole(ngspice_files):
     end = data.index(b"\n", start)
     field = b"No. Points: 0"
     killed = data[:start] + field.ljust(end - start) + data[end:]
-    tran = parse_raw(killed, "killed")[-1]
+    with pytest.raises(NetdaeError, match=rf"announces 0 points, the file holds {len(full.t)} complete points"):
+        parse_raw(killed, "killed")
+    tran = parse_raw(killed, "killed", partial=True)[-1]
     np.testing.assert_array_equal(tran["i(l.xa.xb.l1)"], full["i(l.xa.xb.l1)"])
     assert any("announces 0 points" in note for note in tran.notes)
 
@@ -333,3 +337,31 @@ def test_signal_names():
     assert signal_name("xa.x1.mid", "voltage") == "v(xa.x1.mid)"
     assert signal_name("l.xa.x1.l1#branch", "current") == "i(l.xa.x1.l1)"
     assert signal_name("@r1[i]", "current") == "@r1[i]"
+
+
+@pytest.mark.parametrize("binary", [True, False])
+@pytest.mark.parametrize("keep", [0.0, 0.4, 0.999])
+def test_a_truncated_file_is_refused_with_the_counts(tmp_path, binary, keep):
+    # a tran plot of 50 points cut inside its data, as a failed write leaves it
+    tran = _sample_results()[1]
+    data = format_raw([tran], binary=binary, date="now")
+    body = data.index(b"Binary:\n" if binary else b"Values:\n") + 8
+    cut = data[: body + int(keep * (len(data) - body))]
+    if not binary:
+        cut = cut[: cut.rindex(b"\n") + 1]  # whole lines: the count of points is unambiguous
+    # complete points: rows of 3 doubles (binary), groups of index + 3 numbers (ascii)
+    found = (len(cut) - body) // 24 if binary else len(cut[body:].split()) // 4
+    (tmp_path / "cut.raw").write_bytes(cut)
+    with pytest.raises(NetdaeError, match=rf"cut.raw:\d+: plot 'Transient Analysis' is incomplete: the header "
+                                          rf"announces 50 points, the file holds {found} complete point"):
+        read_raw(tmp_path / "cut.raw")
+    partial = read_raw(tmp_path / "cut.raw", partial=True)[0]
+    np.testing.assert_array_equal(partial.t, tran.t[:found])
+
+
+def test_a_truncated_plot_before_another_is_refused_even_when_partial():
+    op, tran = _sample_results()[:2]
+    first = format_raw([tran], date="now")
+    cut = first[: len(first) - 30] + format_raw([op], date="now")
+    with pytest.raises(NetdaeError, match="incomplete and another plot follows"):
+        parse_raw(cut, "two.raw", partial=True)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import NetdaeError
+from ..plotting import save_figure
 from .model import AnalysisComparison, Comparison
 
 __all__ = ["plot_comparison", "MAX_PAIRS", "MAX_SIGNALS_PER_ANALYSIS"]
@@ -152,6 +153,6 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
     fig.suptitle(f"{title}\nnetdae vs {comparison.ngspice_version or 'ngspice'}"
                  + (" (tight tolerances)" if comparison.tight else ""), fontsize="large")
     fig.tight_layout()
-    fig.savefig(path, dpi=_DPI)
+    save_figure(fig, path, dpi=_DPI)
     plt.close(fig)
     return path

@@ -68,6 +68,7 @@ import numpy as np
 
 from ..errors import NetdaeError, ResultFileError
 from ..results import Result
+from .files import write_bytes
 
 __all__ = [
     "read_raw",
@@ -187,15 +188,28 @@ class _Header:
 class _Reader:
     """Walks the bytes of a raw file, one plot at a time."""
 
-    def __init__(self, data: bytes, source: str) -> None:
+    def __init__(self, data: bytes, source: str, partial: bool = False) -> None:
         self.data = data
         self.source = source
+        self.partial = partial
         self.pos = 0
         self.line_no = 1
 
     def error(self, message: str, line: int | None = None) -> NetdaeError:
         where = f"{self.source}:{self.line_no if line is None else line}"
         return ResultFileError(f"{where}: not a readable ngspice raw file: {message}")
+
+    def incomplete(self, head: _Header, found: int, line: int | None = None) -> str:
+        """The note on a plot whose data do not hold the announced points; raises unless ``partial``."""
+        what = (f"the header announces {head.npoints} points, the file holds {found} complete "
+                f"point{'' if found == 1 else 's'}")
+        if not self.partial:
+            where = f"{self.source}:{self.line_no if line is None else line}"
+            raise ResultFileError(
+                f"{where}: plot '{head.plotname}' is incomplete: {what} (the run or the write was "
+                "cut short); read_raw(..., partial=True) reads the complete points"
+            )
+        return f"{head.plotname}: {what} (the run was cut short); read those"
 
     def at_end(self) -> bool:
         rest = self.data[self.pos :]
@@ -304,7 +318,7 @@ def _dims_length(attributes: list[str]) -> int | None:
     return None
 
 
-def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
+def parse_raw(data: bytes, source: str = "<bytes>", *, partial: bool = False) -> list[Result]:
     """Parse the contents of a raw file.
 
     Parameters
@@ -313,6 +327,9 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
         The whole file.
     source : str
         Name used in error messages and notes (the file's path).
+    partial : bool
+        Read the complete points of a last plot that holds fewer (or more)
+        points than its header announces, with a note, instead of raising.
 
     Returns
     -------
@@ -324,20 +341,23 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
 
     Raises
     ------
-    NetdaeError
+    ResultFileError
         When the file is not a raw file, a plot is not one of op, tran, ac, dc,
-        or the data of a plot other than the last is incomplete.
+        or the data of a plot do not hold the points its header announces
+        (the message says how many were announced and found; with ``partial``
+        only a plot other than the last raises).
 
     Notes
     -----
     A run that is cut short (killed, or stopped by an error) leaves a header
     whose ``No. Points`` is wrong: ngspice writes an estimate (often 0) and
-    corrects it only when the analysis ends. The last plot of a file is
-    therefore read up to the last complete point actually present, and a note
-    says so when that differs from the announced count. Cost: one pass over
+    corrects it only when the analysis ends; a write that fails leaves a file
+    shorter than its header says. Either file is refused unless ``partial`` is
+    given: then the last plot is read up to the last complete point actually
+    present, and a note says so. Cost: one pass over
     the data; binary data is converted with one ``numpy.frombuffer``.
     """
-    reader = _Reader(data, source)
+    reader = _Reader(data, source, partial)
     results: list[Result] = []
     while True:
         reader.skip_blank()
@@ -354,13 +374,15 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
     return results
 
 
-def read_raw(path: str | os.PathLike) -> list[Result]:
+def read_raw(path: str | os.PathLike, *, partial: bool = False) -> list[Result]:
     """Read an ngspice raw file (binary or ascii, one or more plots).
 
     Parameters
     ----------
     path : str or path-like
         The file.
+    partial : bool
+        Read what a run cut short left in its last plot (see :func:`parse_raw`).
 
     Returns
     -------
@@ -369,15 +391,16 @@ def read_raw(path: str | os.PathLike) -> list[Result]:
 
     Raises
     ------
-    NetdaeError
-        When the file cannot be read or is not a raw file.
+    ResultFileError
+        When the file cannot be read, is not a raw file, or is incomplete
+        (see :func:`parse_raw`).
     """
     try:
         with open(path, "rb") as handle:
             data = handle.read()
     except OSError as exc:
         raise ResultFileError(f"{path}: cannot read raw file: {exc.strerror}") from None
-    return parse_raw(data, os.fspath(path))
+    return parse_raw(data, os.fspath(path), partial=partial)
 
 
 def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]:
@@ -392,16 +415,14 @@ def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]
         row = nvars * width * _DOUBLE.itemsize
         announced_end = start + head.npoints * row
         follows = reader.data[announced_end:].lstrip()
-        if announced_end <= len(reader.data) and (not follows or follows.startswith(b"Title:")):
+        if announced_end <= len(reader.data) and (not follows or _starts_plot(follows)):
             npoints = head.npoints
         else:
-            npoints = available // row
-            notes.append(
-                f"{head.plotname}: the header announces {head.npoints} points, the file holds "
-                f"{npoints} complete points (the run was cut short); read those"
-            )
-            if not _is_last(reader.data, start + npoints * row):
+            following = _next_plot(reader.data, start)
+            if following is not None:
                 raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows")
+            npoints = available // row
+            notes.append(reader.incomplete(head, npoints))
         flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=npoints * nvars * width, offset=start)
         # a plot cut short is the last one: a trailing partial point is dropped
         reader.pos = start + npoints * row if npoints == head.npoints else len(reader.data)
@@ -412,8 +433,8 @@ def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]
         count = int(mask.sum()) * width
         have = min(count, available // _DOUBLE.itemsize)
         if have < count:
-            notes.append(f"{head.plotname}: unpadded data ends early (the run was cut short)")
             npoints = _complete_rows(mask, have // width)
+            notes.append(reader.incomplete(head, npoints))
             mask = mask[:npoints]
             have = int(mask.sum()) * width
         flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=have, offset=start)
@@ -430,8 +451,19 @@ def _complete_rows(mask: np.ndarray, values: int) -> int:
     return int(np.searchsorted(per_row, values, side="right"))
 
 
-def _is_last(data: bytes, pos: int) -> bool:
-    return b"\nPlotname:" not in data[pos:] and not data[pos:].lstrip().startswith(b"Title:")
+#: The first header line of a plot: ``Title:``, or ``Circuit:`` in the
+#: flavour ngspice prints in server mode (``ngspice -s``, read by PySpice).
+_PLOT_START = re.compile(rb"(?:Title|Circuit):[^\n]*\n(?:[^\n]*\n){0,8}?Plotname:")
+
+
+def _starts_plot(data: bytes) -> bool:
+    return _PLOT_START.match(data) is not None
+
+
+def _next_plot(data: bytes, pos: int) -> int | None:
+    """Offset of the next plot's header at or after ``pos``, if any."""
+    match = _PLOT_START.search(data, pos)
+    return None if match is None else match.start()
 
 
 _HEADER_START = re.compile(rb"^[A-Za-z]", re.M)
@@ -457,10 +489,7 @@ def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]
     if npoints != head.npoints or len(tokens) % per_point:
         if match is not None and npoints < head.npoints:
             raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows", first_line)
-        notes.append(
-            f"{head.plotname}: the header announces {head.npoints} points, the file holds "
-            f"{npoints} complete points (the run was cut short); read those"
-        )
+        notes.append(reader.incomplete(head, npoints, first_line))
     grid = np.asarray(tokens[: npoints * per_point], dtype=object).reshape(npoints, per_point)
     try:
         index = grid[:, 0].astype(np.int64) if npoints else np.zeros(0, dtype=np.int64)
@@ -668,12 +697,9 @@ def write_raw(
     Raises
     ------
     NetdaeError
-        When a result cannot be written (see :func:`format_raw`) or the file
-        cannot be created.
+        When a result cannot be written (see :func:`format_raw`).
+    OutputFileError
+        When the file cannot be written (disk full, file-size limit, no
+        permission); nothing is left under its name.
     """
-    data = format_raw(results, binary=binary, title=title, date=date)
-    try:
-        with open(path, "wb") as handle:
-            handle.write(data)
-    except OSError as exc:
-        raise NetdaeError(f"{path}: cannot write raw file: {exc.strerror}") from None
+    write_bytes(path, format_raw(results, binary=binary, title=title, date=date))
