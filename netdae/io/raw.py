@@ -78,6 +78,7 @@ __all__ = [
     "signal_name",
     "PLOTNAMES",
     "PLOTNAME_OF",
+    "FLAVOURS",
 ]
 
 #: ngspice plot names and the netdae analysis each one holds.
@@ -106,6 +107,15 @@ _SWEEP_NAMES = {
 }
 #: Header line announcing the axes of a nested dc sweep (netdae's files only).
 _AXES_OPTION = "netdae_axes"
+#: Lines ngspice prints in server mode (``ngspice -s``) around a plot's
+#: header, and PySpice's reader requires: the temperatures and the count of
+#: data columns after ``Variables:``.
+_TEMPERATURES = re.compile(r"Doing analysis at TEMP = (\S+) and TNOM = (\S+)", re.I)
+_DATA_COLUMNS = "No. of Data Columns"
+#: The vector types PySpice's reader knows (any other is a KeyError there).
+_PYSPICE_TYPES = ("time", "voltage", "current", "frequency")
+#: Flavours of raw file netdae writes.
+FLAVOURS = ("ngspice", "pyspice")
 #: Bytes per stored double (ngspice writes native little-endian IEEE doubles).
 _DOUBLE = np.dtype("<f8")
 #: Digits written to ascii files: 17 significant digits round-trip any double
@@ -169,6 +179,8 @@ class _Header:
     nvars: int | None = None
     npoints: int | None = None
     dimensions: str | None = None
+    circuit: str | None = None
+    temperatures: tuple[float, float] | None = None
     commands: list[str] = field(default_factory=list)
     options: list[str] = field(default_factory=list)
     unknown: list[str] = field(default_factory=list)
@@ -264,6 +276,11 @@ class _Reader:
                 head.dimensions = value
             elif key == "command":
                 head.commands.append(value)
+            elif key == "circuit":
+                head.circuit = value
+            elif _TEMPERATURES.fullmatch(line.strip()):
+                temp, tnom = _TEMPERATURES.fullmatch(line.strip()).groups()
+                head.temperatures = (float(temp), float(tnom))
             elif key == "option":
                 head.options.append(value)
             elif key == "variables":
@@ -294,6 +311,8 @@ class _Reader:
             line = self.next_line()
             if line is None:
                 raise self.error(f"file ends inside the {head.nvars} variable lines")
+            if line.lower().startswith(_DATA_COLUMNS.lower()):
+                continue  # ngspice -s (and PySpice) only
             lines.append(line)
         for k, line in enumerate(lines):
             fields = line.split()
@@ -540,6 +559,8 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
         "commands": list(head.commands),
         "options": list(head.options),
         "dimensions": head.dimensions,
+        **({"circuit": head.circuit} if head.circuit is not None else {}),
+        **({"temp": head.temperatures[0], "tnom": head.temperatures[1]} if head.temperatures else {}),
         "variable_types": types,
         "points_announced": head.npoints,
         "source": source,
@@ -590,6 +611,9 @@ def format_raw(
     binary: bool = True,
     title: str = "netdae",
     date: str | None = None,
+    flavour: str = "ngspice",
+    temp: float = 27.0,
+    tnom: float = 27.0,
 ) -> bytes:
     """Format results as the bytes of an ngspice raw file.
 
@@ -604,6 +628,13 @@ def format_raw(
         The ``Title:`` line.
     date : str, optional
         The ``Date:`` line; now, in ngspice's format, by default.
+    flavour : {"ngspice", "pyspice"}
+        ``"ngspice"``: the file ``ngspice -r`` writes and ngspice's ``load``
+        reads. ``"pyspice"``: the text ``ngspice -s`` prints, which PySpice's
+        ``RawFile`` parses (see Notes); ngspice's ``load`` refuses it.
+    temp, tnom : float
+        Circuit and nominal temperature in degrees Celsius, written on the
+        ``Doing analysis at TEMP = ...`` line of the ``"pyspice"`` flavour.
 
     Returns
     -------
@@ -613,17 +644,62 @@ def format_raw(
     ------
     NetdaeError
         When a result is not an analysis a raw file can hold, or its axes and
-        signals have different lengths.
+        signals have different lengths; for the ``"pyspice"`` flavour also
+        when asked for ascii, more than one result, or a vector whose type
+        PySpice does not know (a resistance or temperature sweep, ``@``
+        parameters).
+
+    Notes
+    -----
+    PySpice 1.5's ``PySpice.Spice.NgSpice.RawFile.RawFile(data, points)``
+    expects exactly the lines ngspice prints in server mode: ``Circuit:``,
+    ``Doing analysis at TEMP = ... and TNOM = ...``, ``Title:``, ``Date:``,
+    ``Plotname:``, ``Flags:``, ``No. Variables:``, ``No. Points:``,
+    ``Variables:``, ``No. of Data Columns : n``, one tab-separated line per
+    vector whose type is ``time``, ``voltage``, ``current`` or ``frequency``,
+    and ``Binary:``; it reads one plot, binary only, and counts every
+    occurrence of ``Warning`` in the text as a warning line it must find, so
+    the title's ``Warning`` is written in lower case. A dc sweep's scale is
+    named ``v(v-sweep)`` or ``i(i-sweep)`` as ngspice names it (netdae's
+    reader then calls the axis ``v-sweep``). PySpice converts the data with
+    ``numpy.fromstring``, which NumPy 2 no longer accepts for binary data;
+    the header parses with any NumPy.
     """
     if isinstance(results, Result):
         results = [results]
+    if flavour not in FLAVOURS:
+        raise NetdaeError(f"unknown raw file flavour {flavour!r} (one of {', '.join(FLAVOURS)})")
     if date is None:
         date = _dt.datetime.now().strftime(_DATE_FORMAT)
     title = " ".join(title.split())
+    if flavour == "pyspice":
+        if not binary:
+            raise NetdaeError("PySpice reads binary raw files only: write the 'pyspice' flavour with binary=True")
+        if len(results) != 1:
+            raise NetdaeError(f"PySpice reads one plot per raw file; {len(results)} results were given")
+        title = title.replace("Warning", "warning")
+        preamble = f"Circuit: {title}\n\nDoing analysis at TEMP = {temp:f} and TNOM = {tnom:f}\n\n"
+        return preamble.encode("utf-8") + _format_plot(results[0], binary, title, date, pyspice=True)
     return b"".join(_format_plot(r, binary, title, date) for r in results)
 
 
-def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
+def _pyspice_columns(result: Result, columns: list) -> list:
+    """Columns renamed and checked for PySpice: a dc scale named as ngspice names it."""
+    out = []
+    for k, (name, values, axis) in enumerate(columns):
+        vtype = _vector_type(name, axis)
+        if axis and k == 0 and result.analysis == "dc" and vtype in ("voltage", "current"):
+            name = "v(v-sweep)" if vtype == "voltage" else "i(i-sweep)"
+        if vtype not in _PYSPICE_TYPES:
+            raise NetdaeError(
+                f"cannot write {name!r} for PySpice: its vector type '{vtype}' is not one PySpice reads "
+                f"({', '.join(_PYSPICE_TYPES)})"
+            )
+        out.append((name, values, axis))
+    return out
+
+
+def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: bool = False) -> bytes:
     plotname = PLOTNAME_OF.get(result.analysis)
     if plotname is None:
         raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc only)")
@@ -641,6 +717,9 @@ def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
             )
         if any(c.isspace() for c in name) or not name:
             raise NetdaeError(f"cannot write a vector named {name!r} to a raw file (no blanks allowed)")
+    if pyspice:
+        columns = _pyspice_columns(result, columns)
+        known_types = {}
     is_complex = any(np.iscomplexobj(v) for _, v, _ in columns)
     lines = [
         f"Title: {title}",
@@ -650,9 +729,11 @@ def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
         f"No. Variables: {len(columns)}",
         f"No. Points: {npoints}",
     ]
-    if len(result.axes) > 1:
+    if len(result.axes) > 1 and not pyspice:
         lines.append(f"Option: {_AXES_OPTION} = ( {' '.join(result.axes)} )")
     lines.append("Variables:")
+    if pyspice:
+        lines.append(f"{_DATA_COLUMNS} : {len(columns)}")
     for k, (name, _, axis) in enumerate(columns):
         vtype = known_types.get(name) or _vector_type(name, axis)
         lines.append(f"\t{k}\t{name}\t{vtype}")
@@ -684,14 +765,17 @@ def write_raw(
     binary: bool = True,
     title: str = "netdae",
     date: str | None = None,
+    flavour: str = "ngspice",
+    temp: float = 27.0,
+    tnom: float = 27.0,
 ) -> None:
-    """Write results to an ngspice raw file that ngspice's ``load`` reads.
+    """Write results to an ngspice raw file that ngspice's ``load`` (or PySpice) reads.
 
     Parameters
     ----------
     path : str or path-like
         Output file (overwritten).
-    results, binary, title, date
+    results, binary, title, date, flavour, temp, tnom
         As for :func:`format_raw`.
 
     Raises
@@ -702,4 +786,5 @@ def write_raw(
         When the file cannot be written (disk full, file-size limit, no
         permission); nothing is left under its name.
     """
-    write_bytes(path, format_raw(results, binary=binary, title=title, date=date))
+    write_bytes(path, format_raw(results, binary=binary, title=title, date=date, flavour=flavour,
+                                 temp=temp, tnom=tnom))
