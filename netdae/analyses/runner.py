@@ -126,9 +126,10 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
         value = getattr(o, name, None)
         if value is None or overrides.get(name) is not None:
             continue
-        if (problem := option_problem(name, value)) is not None:
-            raise NetlistError(f"{circuit.path}: .options {name}={value:g}: {problem}",
-                               expected=".options name=value ...",
+        if option_problem(name, value) is not None:
+            card = ".options temp (or .temp)" if name == "temp" else f".options {name}"
+            raise NetlistError(f"{circuit.path}: {card}={value:g} is out of range",
+                               expected=f"{name}: {OPTION_RANGES[name][1]}",
                                hint=f"correct or remove {name} in the .options card")
 
 
