@@ -64,7 +64,7 @@ def main(args) -> int:
     print(format_report(analyze_index(circuit)))
 
     _section("3. simulation (netdae run)")
-    bar = ProgressBar()
+    bar = ProgressBar(enabled=args.verbosity >= 0)
     try:
         results = run(circuit, progress=bar)
     finally:
