@@ -84,7 +84,7 @@ def main(args) -> int:
         write_csv(csv_path, res)
         print(f"  wrote {csv_path}")
         if res.analysis != "op":
-            png = plot_result(res, out / f"{stem}.png", title=f"{circuit.title} (netdae {res.analysis})")
+            png = plot_result(res, out / f"{stem}.png", title=f"{circuit.title} (netdae {res.analysis})", circuit=circuit)
             print(f"  wrote {png}")
 
     _section("4. netdae vs ngspice (netdae compare)")

@@ -93,7 +93,7 @@ def stems(results) -> list[str]:
     return out
 
 
-def _write(res, stem: str, args, out_dir: Path | None, title: str) -> list[str]:
+def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None) -> list[str]:
     files = []
     if out_dir is not None:
         if args.format == "csv":
@@ -111,7 +111,7 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str) -> list[str]:
         from ..plotting import plot_result
 
         path = (out_dir or Path(".")) / f"{stem}.png"
-        plot_result(res, path, title=f"{title} ({stem})")
+        plot_result(res, path, title=f"{title} ({stem})", circuit=circuit)
         files.append(str(path))
     return files
 
@@ -143,7 +143,7 @@ def main(args) -> int:
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
     keys = stems(results)
-    written = [_write(res, stem, args, out_dir, circuit.title) for res, stem in zip(results, keys)]
+    written = [_write(res, stem, args, out_dir, circuit.title, circuit) for res, stem in zip(results, keys)]
     exported = []
     if args.export:
         from ..io.matrices import export_matrices
