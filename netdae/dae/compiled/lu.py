@@ -92,7 +92,7 @@ __all__ = [
 #: SuperLU column ordering of the fresh factorisations. Minimum degree on A^T + A suits
 #: MNA matrices, which are structurally (nearly) symmetric: on a 300x300 RC mesh it factors
 #: in 0.41 s with 5.0e6 fill against 0.72-0.85 s and 8.9e6 for COLAMD, and ties on RC
-#: ladders (docs/integrator.md, "Sparse LU").
+#: ladders (docs/integrator.md, the column-ordering table).
 DEFAULT_PERMC_SPEC = "MMD_AT_PLUS_A"
 #: A refactorisation's pivot must be at least this fraction of the largest magnitude in
 #: its column of the active submatrix, else the pivot order is redone (Sparse 1.3's
