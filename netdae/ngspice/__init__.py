@@ -70,6 +70,7 @@ __all__ = [
     "INSTALL_HINT",
     "BACKENDS",
     "DEFAULT_TIMEOUT",
+    "check_timeout",
     "OPAMP_GAIN",
     "NgspiceRun",
     "run_ngspice",
@@ -244,7 +245,8 @@ def run_ngspice(
         ngspice (:func:`netdae.ngspice.deck.self_contained`).
     """
     _check_backend(backend)
-    limit = _limit(timeout)
+    seconds = check_timeout(timeout)
+    limit = None if seconds == float("inf") else seconds
     start = time.perf_counter()
     base_dir = os.fspath(workdir) if workdir is not None else os.getcwd()
     netlist, notes = translate_for_ngspice(text, opamp_gain=opamp_gain, base_dir=base_dir, source=source)
@@ -311,8 +313,14 @@ def run_ngspice_file(path: str | os.PathLike, **kwargs) -> NgspiceRun:
     return run_ngspice(text, **kwargs)
 
 
-def _limit(timeout: float | None) -> float | None:
-    """Seconds for a backend (None: no limit) from the caller's ``timeout``."""
+def check_timeout(timeout: float | None) -> float:
+    """The caller's ``timeout`` as seconds (None: :data:`DEFAULT_TIMEOUT`).
+
+    Raises
+    ------
+    NgspiceError
+        When it is not a positive number (``math.inf`` is allowed: no limit).
+    """
     if timeout is None:
         return DEFAULT_TIMEOUT
     try:
@@ -321,7 +329,7 @@ def _limit(timeout: float | None) -> float | None:
         raise NgspiceError(f"the ngspice timeout must be a number of seconds, got {timeout!r}") from None
     if not value > 0:
         raise NgspiceError(f"the ngspice timeout must be positive, got {timeout!r}")
-    return None if value == float("inf") else value
+    return value
 
 
 def _check_backend(backend: str) -> None:
