@@ -312,6 +312,12 @@ class _Elaborator:
         if el.kind == "resistor" and el.value == 0.0:
             raise error(item.card, item.value[1], "zero resistance", ELEMENTS["r"],
                         hint="use a 0 V voltage source for a short circuit")
+        if el.kind == "resistor" and el.params.get("ac", 1.0) == 0.0:
+            raise error(item.card, item.params["ac"][1], "zero AC resistance (ac=0)", ELEMENTS["r"])
+        if "temp" in el.params and "dtemp" in el.params:
+            self.diagnostics.append(Diagnostic(
+                "warning", f"{item.name}: instance temperature temp= given, dtemp= ignored (as ngspice does)",
+                item.card.location(item.params["dtemp"][1])))
         if el.kind == "coupling" and not -1.0 <= el.value <= 1.0:
             raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
 
@@ -472,7 +478,9 @@ class _Elaborator:
         circuit.options = opts
 
     def _option_number(self, tok, card) -> float:
-        return self._value(parse_value(card, tok, DOT_CARDS[".options"]), card, "option value")
+        val = parse_value(card, tok, DOT_CARDS[".options"], "option value")
+        self.diagnostics.extend(card.take_notes())
+        return self._value(val, card, "option value")
 
     def _initial(self, circuit: Circuit, nodes: dict) -> None:
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):

@@ -59,6 +59,8 @@ def build(deck: Deck) -> Netlist:
         else:
             stack[-1].items.append(parse_element(card))
             card.forget_tokens()
+        if card.notes:
+            net.diagnostics.extend(card.take_notes())
     if len(stack) > 1:
         raise NetlistError(f".subckt {stack[-1].name}: no matching .ends", stack[-1].card.location(0),
                            expected=DOT_CARDS[".ends"], hint="close the definition with '.ends'")

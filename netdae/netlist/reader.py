@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from ..circuit import Diagnostic
 from ..errors import NetlistError, SourceLocation
 from .lines import EXPR, STRING, WORD, Card, split_cards
+from .numbers import MICRO
 
 __all__ = ["Deck", "read_deck"]
 
@@ -63,10 +64,30 @@ def _first_word(card: Card) -> str:
     return text[:end]
 
 
+#: Bytes that are not UTF-8 arrive as lone surrogates (``surrogateescape``): the
+#: Latin-1 micro sign (0xB5) is read as U+00B5, as ngspice reads it; any other
+#: such byte becomes U+FFFD.
+_UNDECODABLE = {0xDC00 + b: "\ufffd" for b in range(0x80, 0x100)} | {0xDCB5: MICRO}
+
+
+def decode(data: bytes) -> str:
+    """Netlist bytes as text: UTF-8, with the Latin-1 micro sign kept.
+
+    Examples
+    --------
+    >>> decode("2\u00b5".encode()), decode(b"2\xb5"), decode(b"2\xff")
+    ('2\u00b5', '2\u00b5', '2\ufffd')
+    """
+    text = data.decode("utf-8", errors="surrogateescape")
+    if text.isascii():
+        return text
+    return text.translate(_UNDECODABLE)
+
+
 def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
     try:
-        with open(display, encoding="utf-8", errors="replace", newline=None) as fh:
-            return fh.read()
+        with open(display, "rb") as fh:
+            return decode(fh.read())
     except FileNotFoundError:
         raise NetlistError(f"{what} '{display}' not found", location,
                            hint="check the file name; relative names are resolved against the "
