@@ -15,6 +15,7 @@ from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .numbers import parse_number
 from .reader import Deck, read_deck
+from .size import MAX_SUBCKT_DEPTH
 from .statements import AnalysisCard, Definition, ElementCard, FuncDef, ModelCard, Netlist, ParamDef
 from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, UNSUPPORTED_DOT_CARDS
 
@@ -92,6 +93,9 @@ def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist
     if len(toks) < 2 or toks[1].kind != WORD:
         raise error(card, len(card.text), "missing subcircuit name", form)
     name = toks[1].text
+    if len(stack) > MAX_SUBCKT_DEPTH:
+        raise error(card, toks[1].start, f"subcircuit definitions nested deeper than {MAX_SUBCKT_DEPTH} levels",
+                    form, hint="close the enclosing definitions with .ends first")
     ports: list[str] = []
     i = 2
     while i < len(toks):

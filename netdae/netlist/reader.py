@@ -31,6 +31,9 @@ __all__ = ["Deck", "read_deck"]
 
 STRING_SOURCE = "<string>"
 
+#: Deepest chain of ``.include``/``.lib`` files (real libraries nest a few levels).
+MAX_INCLUDE_DEPTH = 64
+
 
 @dataclass
 class Deck:
@@ -75,8 +78,8 @@ def decode(data: bytes) -> str:
 
     Examples
     --------
-    >>> decode("2\u00b5".encode()), decode(b"2\xb5"), decode(b"2\xff")
-    ('2\u00b5', '2\u00b5', '2\ufffd')
+    >>> decode(b"2\\xc2\\xb5") == decode(b"2\\xb5") == "2\\u00b5", decode(b"2\\xff") == "2\\ufffd"
+    (True, True)
     """
     text = data.decode("utf-8", errors="surrogateescape")
     if text.isascii():
@@ -96,6 +99,8 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
         raise NetlistError(f"{what} '{display}' is a directory", location) from None
     except OSError as exc:
         raise NetlistError(f"cannot read {what} '{display}': {exc.strerror}", location) from None
+    except ValueError:  # a NUL character in the name
+        raise NetlistError(f"{what} name {display!r} contains a NUL character", location) from None
 
 
 def read_deck(source, *, path: str | None = None) -> Deck:
@@ -218,7 +223,14 @@ def _skip_section(cards: list[Card], start: int) -> int:
 
 def _include(card: Card, at: int, target: str, section: str | None, chain: list, shown: list[str],
              deck: Deck) -> list[Card]:
+    if "\0" in target:
+        raise NetlistError(f"file name {target!r} contains a NUL character", card.location(at),
+                           expected=_FORMS[_first_word(card)])
     key = (os.path.realpath(target), section)
+    if len(chain) > MAX_INCLUDE_DEPTH:
+        shown_chain = " -> ".join(shown[:2] + ["..."] + shown[-2:] + [target])
+        raise NetlistError(f"{_first_word(card)}: files included deeper than {MAX_INCLUDE_DEPTH} levels: "
+                           f"{shown_chain}", card.location(at), hint="include the files from fewer levels")
     if key in chain:
         loop = shown[chain.index(key):] + [target]
         raise NetlistError("include cycle: " + " -> ".join(loop), card.location(at),
