@@ -59,6 +59,7 @@ from .errors import SourceLocation
 
 __all__ = [
     "GROUND",
+    "ABSOLUTE_ZERO",
     "Element",
     "SourceSpec",
     "Model",
@@ -75,6 +76,9 @@ __all__ = [
 ]
 
 GROUND = "0"
+
+#: Absolute zero in degrees Celsius (ngspice's ``CONSTCtoK``): every temperature must lie above it.
+ABSOLUTE_ZERO = -273.15
 
 
 @dataclass(slots=True)
@@ -186,12 +190,15 @@ class Model:
     params : dict
         Lower-case parameter names to float values (``level`` included when given).
     location : SourceLocation or None
+    locations : dict of str to SourceLocation
+        Where each parameter's value is written (for messages about a value).
     """
 
     name: str
     type: str
     params: dict[str, float] = field(default_factory=dict)
     location: SourceLocation | None = None
+    locations: dict[str, SourceLocation] = field(default_factory=dict)
 
 
 @dataclass(slots=True)

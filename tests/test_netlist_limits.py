@@ -163,3 +163,38 @@ def test_with_params_needs_a_netlist():
 
     with pytest.raises(ValueError, match="read from a netlist"):
         Circuit("hand made").with_params(r=1.0)
+
+
+# -- impossible temperatures and model values: at the value, not a later convergence failure --------
+DIODE = "t\nV1 1 0 0.7\nR1 1 2 1k\nD1 2 0 dm\n.model dm d ({model})\n{extra}\n.op\n"
+
+
+@pytest.mark.parametrize("extra, line, column, match", [
+    (".temp -300", 6, 7, ".temp = -300 degC is not above absolute zero"),
+    (".options temp=-273.15", 6, 15, "option temp = -273.15 degC"),
+    (".options tnom=-300", 6, 15, "option tnom = -300 degC"),
+    ("R9 1 0 1k temp=-280", 6, 16, "instance temperature = -280 degC"),
+    (".dc temp 27 -300 -10", 6, 13, "sweep stop temperature = -300 degC"),
+])
+def test_temperature_below_absolute_zero_is_located(extra, line, column, match):
+    with pytest.raises(NetlistError, match=match) as info:
+        load(DIODE.format(model="", extra=extra))
+    assert (info.value.location.line, info.value.location.column) == (line, column)
+
+
+@pytest.mark.parametrize("model, column, match", [
+    ("is=-1e-14", 17, "is must be >= 0"), ("n=0", 16, "n must be > 0"), ("rs=-1", 17, "rs must be >= 0"),
+    ("cjo=-1p", 18, "cjo must be >= 0"), ("tnom=-300", 19, "not above absolute zero"),
+])
+def test_impossible_model_value_is_located(model, column, match):
+    import netdae
+
+    with pytest.raises(NetlistError, match=match) as info:
+        netdae.run(load(DIODE.format(model=model, extra="")))
+    assert (info.value.location.line, info.value.location.column) == (5, column)
+
+
+def test_zero_saturation_current_is_allowed():
+    import netdae
+
+    assert netdae.run(load(DIODE.format(model="is=0", extra="")))[0].status == 0

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from ..circuit import (AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
+from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
                        OpAnalysis, Options, Params, SourceSpec, TranAnalysis)
 from ..errors import NetlistError
 from . import expr as ex
@@ -333,7 +333,16 @@ class _Elaborator:
         item: ModelCard = p.item
         env = self.env(p.frames)
         params = {k: evaluate_val(v, env, item.card, f"model parameter '{k}'") for k, v in item.params.items()}
-        return Model(p.name, item.type, params, item.card.location(0))
+        locations = {k: item.card.location(v[1]) for k, v in item.params.items()}
+        if "tnom" in params:
+            self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
+        return Model(p.name, item.type, params, item.card.location(0), locations)
+
+    @staticmethod
+    def _check_temperature(value: float, card, offset: int, what: str) -> None:
+        if not value > ABSOLUTE_ZERO:
+            raise error(card, offset, f"{what} = {value:g} degC is not above absolute zero ({ABSOLUTE_ZERO:g} degC)",
+                        hint="temperatures are in degrees Celsius")
 
     def _element(self, p: _Placed) -> Element:
         item: ElementCard = p.item
@@ -344,6 +353,8 @@ class _Elaborator:
         el = Element(p.name, kind, p.nodes, value=value, location=card.location(0), instance_path=p.path)
         if item.params:
             el.params = {k: evaluate_val(v, env, card, f"parameter '{k}'") for k, v in item.params.items()}
+            if "temp" in el.params:
+                self._check_temperature(el.params["temp"], card, item.params["temp"][1], "instance temperature")
         if item.flags:
             for flag in item.flags:
                 el.params[flag] = 1.0
@@ -492,6 +503,9 @@ class _Elaborator:
                     lo = self._value(start, card, "start")
                     hi = self._value(stop, card, "stop")
                     inc = self._value(step, card, "step")
+                    if name == "temp":
+                        self._check_temperature(lo, card, start[1], "sweep start temperature")
+                        self._check_temperature(hi, card, stop[1], "sweep stop temperature")
                     if inc == 0 or (hi - lo) * inc < 0:
                         raise error(card, step[1], f"step {inc:g} does not lead from {lo:g} to {hi:g}", form)
                     sweeps.append(DcSweep(name, lo, hi, inc))
@@ -511,6 +525,8 @@ class _Elaborator:
                     number = int(number)
                 elif name not in ("temp", "tnom") and number <= 0:
                     raise error(card, value.start, f"option '{name}' must be > 0", form)
+                elif name in ("temp", "tnom"):
+                    self._check_temperature(number, card, value.start, f"option {name}")
                 setattr(opts, name, number)
             elif name == "method":
                 word = value.text if value is not True else ""
@@ -528,6 +544,7 @@ class _Elaborator:
                 opts.extra[name] = value.text
         for val, card in self.net.temps:
             opts.temp = self._value(val, card, "temperature")
+            self._check_temperature(opts.temp, card, val[1], ".temp")
         circuit.options = opts
 
     def _option_number(self, tok, card) -> float:
