@@ -337,6 +337,12 @@ def split_cards(
                 ))
                 control_at = None
             continue
+        if ";" in stripped or "$" in stripped or "//" in stripped:
+            m = comment(stripped)
+            if m is not None:
+                stripped = stripped[: m.start()].rstrip()
+                if not stripped:
+                    continue
         if stripped[0] == ".":
             head = fold_case(stripped[:9])
             if _is_dot(head, ".control"):
@@ -354,12 +360,6 @@ def split_cards(
                 notes.append(Diagnostic("note", ".end inside an included file ignored (as ngspice does)",
                                         SourceLocation(file, lineno, line.index(".") + 1)))
                 continue
-        if ";" in stripped or "$" in stripped or "//" in stripped:
-            m = comment(stripped)
-            if m is not None:
-                stripped = stripped[: m.start()].rstrip()
-                if not stripped:
-                    continue
         col = len(line) - len(line.lstrip()) + 1
         if stripped[0] == "+":
             if cur_raw is None:
