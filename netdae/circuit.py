@@ -51,6 +51,7 @@ n+ to n-.
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -58,6 +59,7 @@ from .errors import SourceLocation
 
 __all__ = [
     "GROUND",
+    "ABSOLUTE_ZERO",
     "Element",
     "SourceSpec",
     "Model",
@@ -69,10 +71,14 @@ __all__ = [
     "Analysis",
     "Options",
     "Diagnostic",
+    "Params",
     "Circuit",
 ]
 
 GROUND = "0"
+
+#: Absolute zero in degrees Celsius (ngspice's ``CONSTCtoK``): every temperature must lie above it.
+ABSOLUTE_ZERO = -273.15
 
 
 @dataclass(slots=True)
@@ -184,12 +190,15 @@ class Model:
     params : dict
         Lower-case parameter names to float values (``level`` included when given).
     location : SourceLocation or None
+    locations : dict of str to SourceLocation
+        Where each parameter's value is written (for messages about a value).
     """
 
     name: str
     type: str
     params: dict[str, float] = field(default_factory=dict)
     location: SourceLocation | None = None
+    locations: dict[str, SourceLocation] = field(default_factory=dict)
 
 
 @dataclass(slots=True)
@@ -297,6 +306,42 @@ class Diagnostic:
         return f"{where}{self.severity}: {self.message}"
 
 
+class Params(Mapping):
+    """A read-only mapping of parameter names to values.
+
+    :attr:`Circuit.params` is one: editing a value would not change the
+    elements computed from it, so it cannot be edited; re-elaborate with
+    :meth:`Circuit.with_params` instead.
+
+    Examples
+    --------
+    >>> p = Params({"r": 1e3})
+    >>> p["r"], dict(p), p == {"r": 1e3}
+    (1000.0, {'r': 1000.0}, True)
+    >>> p["r"] = 2e3
+    Traceback (most recent call last):
+    ...
+    TypeError: 'Params' object does not support item assignment
+    """
+
+    __slots__ = ("_values",)
+
+    def __init__(self, values: Mapping[str, float] | None = None) -> None:
+        self._values = dict(values or {})
+
+    def __getitem__(self, name: str) -> float:
+        return self._values[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __repr__(self) -> str:
+        return f"Params({self._values!r})"
+
+
 @dataclass(slots=True)
 class Circuit:
     """The elaborated flat circuit.
@@ -320,11 +365,20 @@ class Circuit:
     saves : list of str
         Signals named by ``.save``/``.print``/``.probe`` (``"v(out)"``,
         ``"i(v1)"``); empty means all.
-    params : dict of str to float
-        Top-level ``.param`` values after evaluation.
+    params : Params
+        Top-level ``.param`` values after evaluation (read-only: change them
+        with :meth:`with_params`).
     diagnostics : list of Diagnostic
     path : str
         The file the circuit was read from, or ``"<string>"``.
+    netlist : Netlist or None
+        The parsed netlist this circuit was elaborated from (None for a
+        circuit built by hand).
+    overrides : dict of str to float
+        The top-level parameter values given in place of the netlist's
+        (``netdae.load(..., params=)``, :meth:`with_params`).
+    max_elements : int or None
+        The size limit the circuit was elaborated with.
     """
 
     title: str
@@ -336,9 +390,56 @@ class Circuit:
     ic: dict[str, float] = field(default_factory=dict)
     nodeset: dict[str, float] = field(default_factory=dict)
     saves: list[str] = field(default_factory=list)
-    params: dict[str, float] = field(default_factory=dict)
+    params: Params = field(default_factory=Params)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     path: str = "<string>"
+    netlist: Any = field(default=None, repr=False, compare=False)
+    overrides: dict[str, float] = field(default_factory=dict)
+    max_elements: int | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, Params):
+            self.params = Params(self.params)
+
+    def with_params(self, values: Mapping[str, float] | None = None, /, **kwargs: float) -> "Circuit":
+        """The same netlist elaborated again with other top-level ``.param`` values.
+
+        Parameters
+        ----------
+        values : mapping of str to float, optional
+            New values by parameter name (case-insensitive).
+        **kwargs : float
+            More new values, as keywords.
+
+        Returns
+        -------
+        Circuit
+            A new circuit; this one is unchanged. Earlier overrides are kept
+            unless given again.
+
+        Raises
+        ------
+        NetlistError
+            A name that no top-level ``.param`` card defines, a value that is
+            not a finite number, or anything the new values make wrong.
+        ValueError
+            For a circuit that was not read from a netlist.
+
+        Examples
+        --------
+        >>> from netdae.netlist import load
+        >>> c = load("divider\\n.param r=1k\\nV1 a 0 1\\nR1 a b {r}\\nR2 b 0 {2*r}\\n")
+        >>> d = c.with_params(r=5e3)
+        >>> [e.value for e in d.elements[1:]], d.params["r"], c.params["r"]
+        ([5000.0, 10000.0], 5000.0, 1000.0)
+        """
+        if self.netlist is None:
+            raise ValueError("with_params needs a circuit read from a netlist (netdae.load)")
+        from .netlist.elaborate import elaborate  # the reader builds circuits; import it only here
+
+        merged = dict(self.overrides)
+        merged.update({str(k).lower(): v for k, v in dict(values or {}, **kwargs).items()})
+        return elaborate(self.netlist, params=merged, max_elements=self.max_elements)
 
     def element(self, name: str) -> Element:
         """Element by full name (case-insensitive).

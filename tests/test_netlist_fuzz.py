@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
 from netdae.circuit import Circuit
@@ -48,6 +48,13 @@ VOCAB = [
     ".options", "reltol=1e-3", "method=gear", ".temp", ".save", ".print", ".probe", ".plot", ".global",
     ".include", ".lib", ".endl", ".control", ".endc", ".end", ".title", ".four", "temp", "uic", "time",
     "f(1)", "sqrt(-1)", "1/0", "((((", "))))", "?", ":", "&&", "!", "**", "^", '"', "''",
+    # numbers ngspice reads in part or with the micro sign; unicode digits
+    "2\u00b5", "3\u03bc", "{2\u00b5}", "1.2.3k", "1e3e4", "\u00b2", "{\u00b2}", "\u0663",
+    # instance parameters of R, C, L and temperatures
+    "ac=2k", "ac=0", "scale=2", "scale=0", "dtemp=10", "temp=-300", "temp=27", "tc1=0.01", "m=2",
+    ".temp -300", ".options temp=-300", "tnom=-300", "is=-1", "n=0", "rs=-1", "C1 2 0 0", "0",
+    # file names and odd characters
+    '"a\x00b"', "\x00", "\ufeff", "\u00ff",
 ]
 
 token = st.sampled_from(VOCAB)
@@ -90,6 +97,32 @@ def mutated(draw):
     return text + "\n"
 
 
+@st.composite
+def hierarchies(draw):
+    """Nested subcircuits: random depth and fan-out (sizes up to millions), sometimes recursive."""
+    depth = draw(st.integers(0, 130))
+    lines = ["hierarchy"]
+    for i in range(depth):
+        fan = draw(st.integers(1, 3))
+        target = draw(st.sampled_from([i + 1, i + 1, i + 1, 0, i]))
+        lines.append(f".subckt s{i} a b")
+        lines += [f"X{k} a b s{target}" for k in range(fan)]
+        lines.append(".ends")
+    lines += [f".subckt s{depth} a b", "R1 a b 1k", draw(st.sampled_from(["", "C1 b c 0", "C1 a b 0"])), ".ends",
+              "X0 1 0 s0", "V1 1 0 1", draw(st.sampled_from(["", ".op", ".tran 1u 1m"]))]
+    return "\n".join(lines) + "\n"
+
+
+@st.composite
+def overrides(draw):
+    """A valid netlist with random parameter overrides (names known or not, values of any type)."""
+    text = draw(st.sampled_from(SEEDS[:2]))
+    names = st.sampled_from(["a", "b", "r", "x", "A", "nope", ""])
+    values = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10, 10), st.text(max_size=3),
+                       st.none(), st.booleans())
+    return text, draw(st.dictionaries(names, values, max_size=3))
+
+
 @pytest.fixture(scope="module")
 def where(tmp_path_factory):
     """An empty directory: relative .include names resolve there and find nothing."""
@@ -130,6 +163,41 @@ def test_mutated_netlists(text, where):
     _check(text, where)
 
 
+@SETTINGS
+@given(text=hierarchies())
+def test_hierarchies(text, where):
+    _check(text, where)
+
+
+@SETTINGS
+@given(case=overrides())
+def test_parameter_overrides(case, where):
+    text, params = case
+    try:
+        circuit = load(text, path=where, params=params)
+    except NetlistError as exc:
+        str(exc)
+    else:
+        assert isinstance(circuit, Circuit)
+
+
+#: The longer run: every generator, ten times the examples, a fixed seed (reproducible).
+LONG = settings(SETTINGS, max_examples=10 * EXAMPLES)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("strategy", [char_netlists, token_netlists, truncated(), mutated(), hierarchies()],
+                         ids=["characters", "tokens", "truncated", "mutated", "hierarchies"])
+def test_long_fixed_seed_run(strategy, where):
+    @seed(20240601)
+    @LONG
+    @given(text=strategy)
+    def run(text):
+        _check(text, where)
+
+    run()
+
+
 def test_seeds_are_valid(where):
     for text in SEEDS:
         assert isinstance(load(text, path=where), Circuit)
@@ -140,3 +208,9 @@ def test_deep_nesting_is_an_error_not_a_crash():
         load("t\nR1 a 0 {" + "(" * 2000 + "1" + ")" * 2000 + "}\n")
     with pytest.raises(NetlistError, match="nested deeper"):
         load("t\nB1 a 0 V=" + "+".join(["v(a)"] * 2000) + "\n")
+
+
+def test_end_card_followed_by_a_comment():
+    """Found by the long run: '.end;' reached the parser as a card it has no handler for."""
+    assert [e.name for e in load("t\nR1 1 0 1k\n.end;\nR2 1 0 1\n").elements] == ["r1"]
+    assert [e.name for e in load("t\nR1 1 0 1k\n.end $ done\nR2 1 0 1\n").elements] == ["r1"]

@@ -156,6 +156,7 @@ def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:
     opts = steady_options(circuit, **overrides)
     op = solve_operating_point(system, options=opts)
     E, H = system.jacobians(op.x, 0.0)
+    H = H + system.H_ac  # resistors' ac= values
     b = system.B @ system.sources.ac
     freqs = frequencies(card)
     X = solve_ac(E, H, b, freqs)

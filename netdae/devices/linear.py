@@ -11,7 +11,7 @@ Node rows are Kirchhoff's current law written as "charge and current
 *entering* the node": for node n, ``d/dt q_n = -(sum of currents leaving n)``.
 
 =============  =================================================================
-R  (a, b, G)   phi_a -= G (v_a - v_b),  phi_b += G (v_a - v_b)
+R  (a, b, G)   phi_a -= G (v_a - v_b),  phi_b += G (v_a - v_b)   (.ac: G from ac= when given)
 C  (a, b, C)   q_a += C (v_a - v_b),    q_b -= C (v_a - v_b)
 L  (a, b; k)   phi_a -= i_k, phi_b += i_k;   q_k = L i_k (+ M i_j),  phi_k = v_a - v_b
 V  (a, b; k)   phi_a -= i_k, phi_b += i_k;   phi_k = v_a - v_b - V(t)
@@ -21,7 +21,7 @@ G  (a,b,c,d)   phi_a -= g (v_c - v_d), phi_b += g (v_c - v_d)
 F  (a, b; j)   phi_a -= f i_j, phi_b += f i_j   (j: the controlling V source)
 H  (a, b; k,j) as V with phi_k = v_a - v_b - r i_j
 OPAMP (a,b,c,d;k)  as V in the KCL rows; phi_k = v_c - v_d  (nullor: v_c = v_d)
-K  (L1, L2, k) q_k1 += M i_k2, q_k2 += M i_k1 with M = k sqrt(L1 L2)
+K  (L1, L2, k) q_k1 += M i_k2, q_k2 += M i_k1 with M = k sqrt(L1 L2)  (L before m)
 =============  =================================================================
 
 With these signs ``E = diag(A_C C A_C^T, L, 0)`` is symmetric positive
@@ -43,7 +43,7 @@ from .stamps import Triplets
 if TYPE_CHECKING:
     from ..mna.layout import Layout
 
-__all__ = ["LinearStamps", "stamp_linear", "capacitances", "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE"]
+__all__ = ["LinearStamps", "stamp_linear", "capacitances", "conductances", "inductances", "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE"]
 
 #: Kinds whose current is an MNA unknown.
 BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "opamp", "bvoltage"})
@@ -71,6 +71,9 @@ class LinearStamps:
         Independent sources in column order of ``B``.
     notes : list of str
         What the user should know (e.g. a zero resistance replaced).
+    H_ac : Triplets
+        What ``.ac`` adds to dphi/dx: resistors with an ``ac=`` resistance
+        conduct ``m / (ac factor scale)`` there instead of ``m / (R factor scale)``.
     """
 
     E: Triplets
@@ -78,14 +81,25 @@ class LinearStamps:
     B: Triplets
     sources: list[Element]
     notes: list[str]
+    H_ac: Triplets
 
 
 def _temperature_factor(els: list[Element], temp: float, tnom: float) -> np.ndarray:
-    """``1 + tc1 dT + tc2 dT^2`` per element (ngspice's first/second order coefficients)."""
+    """``1 + tc1 dT + tc2 dT^2`` per element, ``dT = T - tnom``.
+
+    ``T`` is the instance's ``temp=`` when given (its ``dtemp=`` is then
+    ignored, as ngspice does), else the circuit temperature plus ``dtemp=``
+    (``restemp.c``, ``captemp.c``, ``indtemp.c``).
+    """
     tc1 = np.array([el.params.get("tc1", 0.0) for el in els])
     tc2 = np.array([el.params.get("tc2", 0.0) for el in els])
-    dt = np.array([el.params.get("temp", temp) for el in els]) - tnom
+    t = np.array([el.params["temp"] if "temp" in el.params else temp + el.params.get("dtemp", 0.0) for el in els])
+    dt = t - tnom
     return 1.0 + tc1 * dt + tc2 * dt * dt
+
+
+def _scale(els: list[Element]) -> np.ndarray:
+    return np.array([el.params.get("scale", 1.0) for el in els])
 
 
 def _multiplier(els: list[Element]) -> np.ndarray:
@@ -106,20 +120,59 @@ def _branches(els: list[Element], layout: Layout) -> np.ndarray:
     return np.array([layout.branch(el.name) for el in els], dtype=np.int64)
 
 
-def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):
+def conductances(els: list[Element], temp: float, tnom: float, *, ac: bool = False) -> np.ndarray:
+    """Effective conductance of each resistor [S]: ``m / (R factor scale)``.
+
+    Parameters
+    ----------
+    els : list of Element
+        Resistors.
+    temp, tnom : float
+        Circuit and nominal temperature [degC].
+    ac : bool
+        The conductance of ``.ac`` analyses: ``R`` is the instance's ``ac=``
+        resistance where given (ngspice's ``RESacConduct``), else its value.
+
+    Returns
+    -------
+    ndarray, shape (len(els),)
+
+    Notes
+    -----
+    A resistance of exactly zero counts as :data:`ZERO_RESISTANCE`, as in ngspice.
+    """
     r = _values(els)
-    zero = r == 0.0
-    for el in (e for e, z in zip(els, zero) if z):
-        st.notes.append(f"{el.name}: resistance 0 replaced by {ZERO_RESISTANCE:g} ohm (as ngspice does)")
-    r = np.where(zero, ZERO_RESISTANCE, r) * _temperature_factor(els, temp, tnom)
-    g = _multiplier(els) / r
+    if ac:
+        r = np.array([el.params.get("ac", v) for el, v in zip(els, r)], dtype=float)
+    r = np.where(r == 0.0, ZERO_RESISTANCE, r)
+    return _multiplier(els) / (r * _temperature_factor(els, temp, tnom) * _scale(els))
+
+
+def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):
+    for el in els:
+        if el.value == 0.0:
+            st.notes.append(f"{el.name}: resistance 0 replaced by {ZERO_RESISTANCE:g} ohm (as ngspice does)")
+    g = conductances(els, temp, tnom)
     a, b = _two_nodes(els, layout)
     st.H.add_conductance(a, b, -g)
+    with_ac = [k for k, el in enumerate(els) if "ac" in el.params]
+    if with_ac:
+        sub = [els[k] for k in with_ac]
+        st.H_ac.add_conductance(a[with_ac], b[with_ac], g[with_ac] - conductances(sub, temp, tnom, ac=True))
 
 
 def capacitances(els: list[Element], temp: float, tnom: float) -> np.ndarray:
-    """Effective capacitance of each capacitor [F]: value, multiplier ``m`` and temperature coefficients."""
-    return _values(els) * _multiplier(els) * _temperature_factor(els, temp, tnom)
+    """Effective capacitance of each capacitor [F]: value, multiplier ``m``, ``scale`` and temperature coefficients."""
+    return _values(els) * _multiplier(els) * _temperature_factor(els, temp, tnom) * _scale(els)
+
+
+def inductances(els: list[Element], temp: float, tnom: float) -> np.ndarray:
+    """Inductance of each inductor [H] before its multiplier: value, ``scale`` and temperature coefficients.
+
+    This is ngspice's ``INDinduct`` (``indtemp.c``): the value a coupling
+    ``K`` sees (``M = k sqrt(L1 L2)``); the branch law uses ``L / m``.
+    """
+    return _values(els) * _temperature_factor(els, temp, tnom) * _scale(els)
 
 
 def _stamp_capacitors(els, layout, st: LinearStamps, temp, tnom):
@@ -139,16 +192,16 @@ def _stamp_branch_kcl(els, layout, st: LinearStamps) -> tuple[np.ndarray, np.nda
 def _stamp_inductors(els, layout, st: LinearStamps, temp, tnom):
     a, b, k = _stamp_branch_kcl(els, layout, st)
     st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=0.0)
-    ind = _values(els) / _multiplier(els) * _temperature_factor(els, temp, tnom)
-    st.E.add(k, k, ind)
+    st.E.add(k, k, inductances(els, temp, tnom) / _multiplier(els))
 
 
-def _inductance(el: Element) -> float:
-    return el.value / el.params.get("m", 1.0)
+def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit, inductors: list[Element], temp, tnom):
+    """Mutual inductances ``M = k sqrt(L1 L2)`` of the temperature-corrected inductances.
 
-
-def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit):
-    """Mutual inductances; each group of coupled inductors must be positive definite."""
+    Each group of coupled inductors must be positive definite (checked, as
+    ngspice's ``muttemp.c`` does, on the inductances before their multipliers).
+    """
+    value = dict(zip((ind.name for ind in inductors), inductances(inductors, temp, tnom)))
     groups: dict[str, set[str]] = {}
     mutual: dict[tuple[str, str], float] = defaultdict(float)
     for el in els:
@@ -160,7 +213,7 @@ def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit):
         for i in range(len(inductors)):
             for j in range(i + 1, len(inductors)):
                 li, lj = inductors[i], inductors[j]
-                m = el.value * np.sqrt(_inductance(li) * _inductance(lj))
+                m = el.value * np.sqrt(abs(value[li.name] * value[lj.name]))
                 mutual[(li.name, lj.name)] += m
                 mutual[(lj.name, li.name)] += m
         merged = set(names)
@@ -181,7 +234,7 @@ def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit):
         seen.add(id(group))
         members = sorted(group)
         mat = np.array(
-            [[_inductance(circuit.element(p)) if p == q else mutual.get((p, q), 0.0) for q in members] for p in members]
+            [[value[p] if p == q else mutual.get((p, q), 0.0) for q in members] for p in members]
         )
         if np.any(np.linalg.eigvalsh(mat) <= 0.0):
             couplings = sorted(el.name for el in els if set(el.controls) <= group)
@@ -277,7 +330,7 @@ def stamp_linear(circuit: Circuit, layout: Layout, by_kind: dict[str, list[Eleme
     -----
     Cost O(number of elements); the matrices are built once per circuit.
     """
-    st = LinearStamps(Triplets(), Triplets(), Triplets(), [], [])
+    st = LinearStamps(Triplets(), Triplets(), Triplets(), [], [], Triplets())
     temp, tnom = circuit.options.temp, circuit.options.tnom
     get = lambda kind: by_kind.get(kind, [])  # noqa: E731
     if get("resistor"):
@@ -287,7 +340,7 @@ def stamp_linear(circuit: Circuit, layout: Layout, by_kind: dict[str, list[Eleme
     if get("inductor"):
         _stamp_inductors(get("inductor"), layout, st, temp, tnom)
     if get("coupling"):
-        _stamp_couplings(get("coupling"), layout, st, circuit)
+        _stamp_couplings(get("coupling"), layout, st, circuit, get("inductor"), temp, tnom)
     if get("vsource"):
         _stamp_vsources(get("vsource"), layout, st, 0)
         st.sources.extend(get("vsource"))

@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..circuit import Circuit, Element, Model
-from ..errors import CircuitError
+from ..circuit import ABSOLUTE_ZERO, Circuit, Element, Model
+from ..errors import CircuitError, NetlistError
 
 __all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values"]
 
@@ -54,6 +54,10 @@ class ParameterTable:
         ------
         CircuitError
             For a parameter netdae does not implement for this device.
+        NetlistError
+            For an impossible value (a negative saturation current, a
+            non-positive emission coefficient, a temperature below absolute
+            zero ...), located at the value.
         """
         given: dict[str, float] = {}
         for raw, value in model.params.items():
@@ -67,7 +71,36 @@ class ParameterTable:
                     hint="remove it (netdae would otherwise silently compute something else than ngspice)",
                 )
             given[name] = float(value)
+            _check_value(model, raw, name, float(value), self.device)
         return ModelValues(model, given, self.defaults)
+
+
+#: Model parameters that cannot be negative (saturation currents, series
+#: resistances, zero-bias capacitances, transit times, corner currents,
+#: Early voltages): a negative value is a typing error, reported at the value
+#: rather than as a later convergence failure or a silently odd result.
+NONNEGATIVE = frozenset({
+    "is", "js", "isr", "ise", "isc", "iss", "rs", "rsh", "rb", "rbm", "re", "rc", "rd", "cjo", "cje", "cjc",
+    "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
+})
+#: Model parameters that must be positive (emission coefficients, junction potentials).
+POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb"})
+
+
+def _check_value(model: Model, raw: str, name: str, value: float, device: str) -> None:
+    """Refuse a value no device can have, at the value's location."""
+    if name == "tnom":
+        bad, need = not value > ABSOLUTE_ZERO, f"above absolute zero ({ABSOLUTE_ZERO:g} degC)"
+    elif name in POSITIVE:
+        bad, need = not value > 0.0, "> 0"
+    elif name in NONNEGATIVE:
+        bad, need = not value >= 0.0, ">= 0"
+    else:
+        return
+    if bad:
+        raise NetlistError(f"model {model.name}: {raw}={value:g} is impossible for a {device}: {raw} must be {need}",
+                           model.locations.get(raw, model.location),
+                           hint="check the sign and the scale suffix of the value")
 
 
 @dataclass

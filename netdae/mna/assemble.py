@@ -126,4 +126,5 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
         families,
         pattern,
         stamps.notes,
+        stamps.H_ac.matrix(n),
     )

@@ -55,11 +55,14 @@ class MnaSystem(DaeSystem):
     families : list of DeviceFamily
     notes : list of str
         Things the user should know about the assembly.
+    H_ac : scipy.sparse.csc_matrix, shape (n, n)
+        Added to dphi/dx by ``.ac`` only (resistors with an ``ac=``
+        resistance); all zeros when there is none.
     """
 
     def __init__(self, circuit: Circuit, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
                  B: sp.csc_matrix, sources: SourceVector, families: list[DeviceFamily],
-                 pattern: SparsePattern, notes: list[str]):
+                 pattern: SparsePattern, notes: list[str], H_ac: sp.csc_matrix | None = None):
         self.circuit = circuit
         self.layout = layout
         self.n = layout.n
@@ -73,6 +76,7 @@ class MnaSystem(DaeSystem):
         self.families = families
         self.linear = not families
         self.notes = notes
+        self.H_ac = H_ac if H_ac is not None else sp.csc_matrix((self.n, self.n))
         self._dq_lin = pattern.data_of(E)
         self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None

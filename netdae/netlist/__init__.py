@@ -27,11 +27,18 @@ Examples
 ('RC low-pass', ['in', 'out'], {'c': 1, 'r': 1, 'v': 1})
 >>> c.element("c1").params
 {'ic': 0.0}
+
+Top-level parameters can be given without editing the text:
+
+>>> c = load("divider\\n.param r=1k\\nV1 a 0 1\\nR1 a b {r}\\nR2 b 0 1k\\n", params={"r": 3e3})
+>>> c.element("r1").value, c.with_params(r=1e3).element("r1").value
+(3000.0, 1000.0)
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 
 from ..circuit import Circuit
 from .elaborate import elaborate
@@ -40,7 +47,8 @@ from .parser import parse
 __all__ = ["load", "parse", "elaborate"]
 
 
-def load(path_or_text: str | os.PathLike, *, path: str | None = None) -> Circuit:
+def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Mapping[str, float] | None = None,
+         max_elements: int | None = None) -> Circuit:
     """Read, parse and elaborate a netlist.
 
     Parameters
@@ -51,6 +59,14 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None) -> Circuit
     path : str, optional
         For text: the file name shown in locations; its directory resolves
         relative ``.include``/``.lib`` names (default: the current directory).
+    params : mapping of str to float, optional
+        Values for top-level ``.param`` parameters, used instead of the
+        netlist's (without editing the text). A name that no top-level
+        ``.param`` card defines is an error.
+    max_elements : int, optional
+        Refuse a netlist whose expanded circuit would have more elements
+        (default 500,000, about 1 GB while elaborating); the count is
+        estimated from the subcircuit definitions before anything is expanded.
 
     Returns
     -------
@@ -61,4 +77,4 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None) -> Circuit
     NetlistError
         Anything wrong in the netlist, with its location.
     """
-    return elaborate(parse(path_or_text, path=path))
+    return elaborate(parse(path_or_text, path=path), params=params, max_elements=max_elements)

@@ -23,14 +23,18 @@ Parameters are scoped dynamically (:mod:`netdae.netlist.params`).
 
 from __future__ import annotations
 
-from ..circuit import (AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
-                       OpAnalysis, Options, SourceSpec, TranAnalysis)
+import math
+from collections.abc import Mapping
+
+from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
+                       OpAnalysis, Options, Params, SourceSpec, TranAnalysis)
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
 from .lines import EXPR, STRING, WORD, no_gc
 from .numbers import parse_number
 from .params import Env, evaluate_val, resolve_behavioural
+from .size import DEFAULT_MAX_ELEMENTS, check_size
 from .statements import Definition, ElementCard, InstanceCard, ModelCard, Netlist, ParamDef
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
 from .waveforms import WAVEFORMS, Pwl
@@ -103,15 +107,30 @@ def _ground(name: str) -> str:
 
 
 class _Elaborator:
-    def __init__(self, net: Netlist) -> None:
+    def __init__(self, net: Netlist, overrides: dict[str, float], max_elements: int) -> None:
         self.net = net
+        self.overrides = overrides
+        self.max_elements = max_elements
         self.globals = {"0", *net.globals}
         self.diagnostics: list[Diagnostic] = list(net.diagnostics)
         self.bodies: dict[int, list[_Placed]] = {}
         self.frames: dict[int, _Frame] = {}
         self.refs: dict[int, tuple[tuple, tuple]] = {}
         self.root = self._scope(None, net.top, None)
+        self._override(self.root, overrides)
         self.envs: dict[tuple, Env] = {(): self.root}
+
+    @staticmethod
+    def _override(root: Env, overrides: dict[str, float]) -> None:
+        """Top-level parameter values given by the caller replace their ``.param`` definitions."""
+        for name, value in overrides.items():
+            if name not in root.defs:
+                known = ", ".join(sorted(root.defs)) or "none"
+                raise NetlistError(f"params: no top-level .param defines '{name}' (defined: {known})",
+                                   hint="only parameters of top-level .param cards can be given")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise NetlistError(f"params: the value of '{name}' must be a finite number, got {value!r}")
+            root.values[name] = float(value)
 
     # -- parameter scopes -------------------------------------------------
     def _scope(self, parent: Env | None, defn: Definition, frame: _Frame | None) -> Env:
@@ -235,8 +254,10 @@ class _Elaborator:
     # -- circuit --------------------------------------------------------------
     def run(self) -> Circuit:
         net = self.net
+        check_size(net.top, self.max_elements)
         placed = self.body(net.top)
-        circuit = Circuit(title=net.title, path=net.path)
+        circuit = Circuit(title=net.title, path=net.path, netlist=net, overrides=dict(self.overrides),
+                          max_elements=self.max_elements)
         elements: dict[str, Element] = {}
         nodes: dict[str, None] = {}
         pending: list[tuple[Element, _Placed]] = []
@@ -265,13 +286,45 @@ class _Elaborator:
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
         circuit.nodes = list(nodes)
-        circuit.params = self._top_params()
+        self._check_zero_capacitor_nodes(circuit.elements)
+        circuit.params = Params(self._top_params())
         self._analyses(circuit, elements)
+        if circuit.analyses and not nodes:
+            card = self.net.analyses[0].card
+            what = "no elements" if not elements else "no node other than ground"
+            raise error(card, 0, f"the circuit has {what}: nothing to simulate",
+                        hint="connect elements between nodes and ground (0)")
         self._options(circuit)
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
         circuit.diagnostics = self.diagnostics
         return circuit
+
+    def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
+        """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
+        zero_caps = [el for el in elements if el.kind == "capacitor" and el.value == 0.0]
+        if not zero_caps:
+            return
+        only_zero: dict[str, Element] = {}
+        for el in zero_caps:
+            for n in el.nodes:
+                if n != "0":
+                    only_zero.setdefault(n, el)
+        for el in elements:
+            if el.kind == "capacitor" and el.value == 0.0:
+                continue
+            for n in el.nodes:
+                only_zero.pop(n, None)
+            if el.expr is not None:
+                for m in ex.walk(el.expr):
+                    if type(m) is ex.Voltage:
+                        only_zero.pop(m.pos, None)
+                        only_zero.pop(m.neg, None)
+        if only_zero:
+            node, el = next(iter(only_zero.items()))
+            raise NetlistError(f"{el.name}: node '{node}' is connected only through zero capacitances, so its "
+                               "voltage is undetermined", el.location, expected=ELEMENTS["c"].form,
+                               hint="give the capacitance a value, or remove the capacitor")
 
     def _top_params(self) -> dict[str, float]:
         return self.root.all_values()
@@ -280,7 +333,16 @@ class _Elaborator:
         item: ModelCard = p.item
         env = self.env(p.frames)
         params = {k: evaluate_val(v, env, item.card, f"model parameter '{k}'") for k, v in item.params.items()}
-        return Model(p.name, item.type, params, item.card.location(0))
+        locations = {k: item.card.location(v[1]) for k, v in item.params.items()}
+        if "tnom" in params:
+            self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
+        return Model(p.name, item.type, params, item.card.location(0), locations)
+
+    @staticmethod
+    def _check_temperature(value: float, card, offset: int, what: str) -> None:
+        if not value > ABSOLUTE_ZERO:
+            raise error(card, offset, f"{what} = {value:g} degC is not above absolute zero ({ABSOLUTE_ZERO:g} degC)",
+                        hint="temperatures are in degrees Celsius")
 
     def _element(self, p: _Placed) -> Element:
         item: ElementCard = p.item
@@ -291,6 +353,8 @@ class _Elaborator:
         el = Element(p.name, kind, p.nodes, value=value, location=card.location(0), instance_path=p.path)
         if item.params:
             el.params = {k: evaluate_val(v, env, card, f"parameter '{k}'") for k, v in item.params.items()}
+            if "temp" in el.params:
+                self._check_temperature(el.params["temp"], card, item.params["temp"][1], "instance temperature")
         if item.flags:
             for flag in item.flags:
                 el.params[flag] = 1.0
@@ -312,6 +376,12 @@ class _Elaborator:
         if el.kind == "resistor" and el.value == 0.0:
             raise error(item.card, item.value[1], "zero resistance", ELEMENTS["r"],
                         hint="use a 0 V voltage source for a short circuit")
+        if el.kind == "resistor" and el.params.get("ac", 1.0) == 0.0:
+            raise error(item.card, item.params["ac"][1], "zero AC resistance (ac=0)", ELEMENTS["r"])
+        if "temp" in el.params and "dtemp" in el.params:
+            self.diagnostics.append(Diagnostic(
+                "warning", f"{item.name}: instance temperature temp= given, dtemp= ignored (as ngspice does)",
+                item.card.location(item.params["dtemp"][1])))
         if el.kind == "coupling" and not -1.0 <= el.value <= 1.0:
             raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
 
@@ -433,6 +503,9 @@ class _Elaborator:
                     lo = self._value(start, card, "start")
                     hi = self._value(stop, card, "stop")
                     inc = self._value(step, card, "step")
+                    if name == "temp":
+                        self._check_temperature(lo, card, start[1], "sweep start temperature")
+                        self._check_temperature(hi, card, stop[1], "sweep stop temperature")
                     if inc == 0 or (hi - lo) * inc < 0:
                         raise error(card, step[1], f"step {inc:g} does not lead from {lo:g} to {hi:g}", form)
                     sweeps.append(DcSweep(name, lo, hi, inc))
@@ -452,6 +525,8 @@ class _Elaborator:
                     number = int(number)
                 elif name not in ("temp", "tnom") and number <= 0:
                     raise error(card, value.start, f"option '{name}' must be > 0", form)
+                elif name in ("temp", "tnom"):
+                    self._check_temperature(number, card, value.start, f"option {name}")
                 setattr(opts, name, number)
             elif name == "method":
                 word = value.text if value is not True else ""
@@ -469,10 +544,13 @@ class _Elaborator:
                 opts.extra[name] = value.text
         for val, card in self.net.temps:
             opts.temp = self._value(val, card, "temperature")
+            self._check_temperature(opts.temp, card, val[1], ".temp")
         circuit.options = opts
 
     def _option_number(self, tok, card) -> float:
-        return self._value(parse_value(card, tok, DOT_CARDS[".options"]), card, "option value")
+        val = parse_value(card, tok, DOT_CARDS[".options"], "option value")
+        self.diagnostics.extend(card.take_notes())
+        return self._value(val, card, "option value")
 
     def _initial(self, circuit: Circuit, nodes: dict) -> None:
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
@@ -514,13 +592,22 @@ class _Elaborator:
         circuit.saves = list(seen)
 
 
-def elaborate(netlist: Netlist) -> Circuit:
+def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
+              max_elements: int | None = None) -> Circuit:
     """Expand subcircuits, evaluate parameters, and build the flat circuit.
 
     Parameters
     ----------
     netlist : Netlist
         From :func:`netdae.netlist.parse`.
+    params : mapping of str to float, optional
+        Values of top-level ``.param`` parameters that replace the netlist's
+        (names are case-insensitive; a name no top-level ``.param`` card
+        defines is an error).
+    max_elements : int, optional
+        Largest number of elements the expanded circuit may have (default
+        :data:`~netdae.netlist.size.DEFAULT_MAX_ELEMENTS`); counted before
+        expanding.
 
     Returns
     -------
@@ -533,7 +620,9 @@ def elaborate(netlist: Netlist) -> Circuit:
         parameter, undefined model or wrong model type, duplicate element
         name, a K naming a non-inductor, an F/H naming a non-voltage-source,
         an I()/V() naming nothing, bad analysis values, unknown
-        ``.ic`` nodes ... each at its token.
+        ``.ic`` nodes ... each at its token; a circuit larger than
+        ``max_elements`` (naming the subcircuit chain); an unknown name or
+        a bad value in ``params``.
 
     Notes
     -----
@@ -541,5 +630,7 @@ def elaborate(netlist: Netlist) -> Circuit:
     expanded once and copied per instance; each parameter scope is
     evaluated once per instance chain.
     """
+    overrides = {str(k).lower(): v for k, v in (params or {}).items()}
+    limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
     with no_gc():
-        return _Elaborator(netlist).run()
+        return _Elaborator(netlist, overrides, limit).run()

@@ -14,7 +14,7 @@ import sys
 from ..errors import NetlistError
 from . import expr as ex
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
-from .numbers import parse_number
+from .numbers import ignored_text, parse_number
 from .statements import ElementCard, InstanceCard, SourceCard, Val
 from .syntax import ELEMENTS, SOURCE_FUNCTIONS, UNSUPPORTED_ELEMENTS, ElementSyntax, supported_letters
 from .waveforms import WAVEFORMS
@@ -69,6 +69,11 @@ def parse_value(card: Card, tok: Token, syntax=None, what: str = "value", *, num
         number = node.value
     elif tok.kind == WORD:
         number = parse_number(tok.text)
+        if number is not None:
+            ignored = ignored_text(tok.text)
+            if ignored:
+                card.warn(tok.start, f"{what} '{tok.text}' read as {number:g}: '{ignored}' ignored, as ngspice "
+                          "ignores what follows a number and its scale suffix")
     else:
         number = None
     if number is not None:

@@ -285,8 +285,9 @@ RESERVED = frozenset({"time", "temper", "hertz", "pi"})
 
 _OP = re.compile(r"\*\*|==|!=|<>|<=|>=|&&|\|\||[-+*/%^()<>!?:,{}]")
 _NAME = re.compile(r"[a-z_][a-z0-9_.]*")
-_SPICE_RUN = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[ed][+-]?\d+)?[a-z0-9_]*")
+_SPICE_RUN = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[ed][+-]?\d+)?[a-z0-9_\u00b5]*", re.ASCII)
 _WS = re.compile(r"\s*")
+_DIGITS = "0123456789"
 
 _NUM, _ID, _OPER, _END = "num", "id", "op", "end"
 
@@ -315,7 +316,7 @@ class _Parser:
             self.kind, self.value, self.pos = _END, None, pos
             return
         c = text[pos]
-        if c.isdigit() or (c == "." and pos + 1 < len(text) and text[pos + 1].isdigit()):
+        if c in _DIGITS or (c == "." and pos + 1 < len(text) and text[pos + 1] in _DIGITS):
             if self.context == PARAM:
                 value, end = scan_param_number(text, pos)
             else:

@@ -2,7 +2,8 @@
 
 Rules (ngspice 39, ``src/frontend/inpcom.c``):
 
-- The first line of the main file is the title, whatever it contains.
+- The first line of the main file is the title, whatever it contains
+  (a first line ``.title text`` gives the title ``text``, as in ngspice).
   Included files have no title line.
 - Lines starting with ``*`` (after leading blanks) and blank lines are comments.
 - End-of-line comments start at ``;``, at ``//``, or at a ``$`` that opens
@@ -122,9 +123,12 @@ class Card:
         The file as given (or ``"<string>"``).
     spans : list of (offset, line, column)
         Where each physical line starts in :attr:`text`.
+    notes : list of Diagnostic or None
+        Warnings found while parsing the card (a number read only in part),
+        collected by the parser with :meth:`take_notes`.
     """
 
-    __slots__ = ("text", "raw", "file", "spans", "_tokens")
+    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes")
 
     def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
         self.raw = raw
@@ -133,6 +137,19 @@ class Card:
         self.file = file
         self.spans = spans
         self._tokens: list[Token] | None = None
+        self.notes: list[Diagnostic] | None = None
+
+    def warn(self, offset: int, message: str) -> None:
+        """Record a located warning about this card (its name prefixes ``message``)."""
+        name = self.text.split(None, 1)[0] if self.text else ""
+        if self.notes is None:
+            self.notes = []
+        self.notes.append(Diagnostic("warning", f"{name}: {message}", self.location(offset)))
+
+    def take_notes(self) -> list[Diagnostic]:
+        """The recorded warnings, removed from the card."""
+        notes, self.notes = self.notes or [], None
+        return notes
 
     @property
     def line(self) -> int:
@@ -295,6 +312,8 @@ def split_cards(
     start = 0
     if title:
         title_text = lines[0].strip() if lines else ""
+        if _is_dot(fold_case(title_text[:7]), ".title"):  # ngspice: '.title text' as the first line
+            title_text = title_text[len(".title"):].strip()
         start = 1
     cur_raw: list[str] | None = None
     cur_spans: list[tuple[int, int, int]] = []
@@ -318,6 +337,12 @@ def split_cards(
                 ))
                 control_at = None
             continue
+        if ";" in stripped or "$" in stripped or "//" in stripped:
+            m = comment(stripped)
+            if m is not None:
+                stripped = stripped[: m.start()].rstrip()
+                if not stripped:
+                    continue
         if stripped[0] == ".":
             head = fold_case(stripped[:9])
             if _is_dot(head, ".control"):
@@ -335,12 +360,6 @@ def split_cards(
                 notes.append(Diagnostic("note", ".end inside an included file ignored (as ngspice does)",
                                         SourceLocation(file, lineno, line.index(".") + 1)))
                 continue
-        if ";" in stripped or "$" in stripped or "//" in stripped:
-            m = comment(stripped)
-            if m is not None:
-                stripped = stripped[: m.start()].rstrip()
-                if not stripped:
-                    continue
         col = len(line) - len(line.lstrip()) + 1
         if stripped[0] == "+":
             if cur_raw is None:

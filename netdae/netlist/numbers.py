@@ -11,7 +11,9 @@ a ``.model`` or analysis card, and a number inside a behavioural expression
   exponent introduced by ``e`` or ``d`` (``1e-3``, ``1.5d2`` = 150);
 - then one scale suffix, case-insensitive: ``t`` 1e12, ``g`` 1e9,
   ``meg`` 1e6, ``k`` 1e3, ``m`` 1e-3 (so ``1M`` is one milli!), ``mil``
-  25.4e-6, ``u`` 1e-6, ``n`` 1e-9, ``p`` 1e-12, ``f`` 1e-15;
+  25.4e-6, ``u`` 1e-6, ``n`` 1e-9, ``p`` 1e-12, ``f`` 1e-15; the micro
+  sign ``\u00b5`` (U+00B5) is ``u``, as in ngspice since 2021 (the Greek
+  letter mu, U+03BC, is not a suffix there: ``2\u03bc`` is 2);
 - everything after that is ignored, so units may follow: ``10kOhm`` = 1e4,
   ``1uF`` = 1e-6, ``2.2nH``; but beware ``1F`` = 1e-15 (femto) and
   ``1Farad`` = 1e-15, and ``4k7`` = 4000 (ngspice 39 reads no RKM codes).
@@ -19,7 +21,7 @@ a ``.model`` or analysis card, and a number inside a behavioural expression
 :func:`scan_param_number` -- a number inside a parameter expression
 (``.param``, ``{...}`` and ``'...'`` values). This is ngspice's numparam
 reader: a C floating-point literal (exponent ``e`` only), one scale letter
-(``t g meg k m u n p f``, no ``mil``: ``1mil`` is 1e-3 there), then the
+(``t g meg k m u µ n p f``, no ``mil``: ``1mil`` is 1e-3 there), then the
 letters that follow are swallowed (``10kOhm`` = 1e4). A digit right after
 the letters (``4k7``) is a syntax error there.
 
@@ -48,7 +50,7 @@ import math
 import re
 from functools import lru_cache
 
-__all__ = ["SCALE", "parse_number", "scan_param_number"]
+__all__ = ["SCALE", "MICRO", "parse_number", "ignored_text", "scan_param_number"]
 
 #: Scale factors of the one-letter suffixes (``m`` is milli; ``meg`` and
 #: ``mil`` are recognised before ``m``).
@@ -58,10 +60,14 @@ SCALE = {
     "k": 1e3,
     "m": 1e-3,
     "u": 1e-6,
+    "\u00b5": 1e-6,
     "n": 1e-9,
     "p": 1e-12,
     "f": 1e-15,
 }
+
+#: The micro sign (U+00B5), a scale suffix like ``u`` in both of ngspice's readers.
+MICRO = "\u00b5"
 
 #: One thousandth of an inch in metres (``mil``), applied as 25.4 * 1e-6.
 _MIL_FACTOR = 25.4
@@ -72,10 +78,10 @@ _EXACT_DIGITS = 15
 
 # INPevaluate: sign, integer digits, optional fraction, optional exponent
 # (e or d, digits optional), then whatever follows (suffix and ignored text).
-_SPICE_NUMBER = re.compile(r"([+-]?)(\d*)(?:\.(\d*))?(?:[eEdD]([+-]?)(\d*))?(.*)", re.S)
+_SPICE_NUMBER = re.compile(r"([+-]?)(\d*)(?:\.(\d*))?(?:[eEdD]([+-]?)(\d*))?(.*)", re.S | re.ASCII)
 
 # numparam: a C floating literal as sscanf("%lG") reads it.
-_PARAM_NUMBER = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_PARAM_NUMBER = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 # numparam swallows letters after a number (its alfa(): letters, _ [ ] and 8-bit).
 _PARAM_LETTERS = re.compile(r"[A-Za-z_\[\]\x80-\uffff]*")
 
@@ -140,7 +146,40 @@ def parse_number(token: str) -> float | None:
     return -value if sign == "-" else value
 
 
-_SCALE_EXPONENT = {"t": 12, "g": 9, "k": 3, "u": -6, "n": -9, "p": -12, "f": -15}
+_SCALE_EXPONENT = {"t": 12, "g": 9, "k": 3, "u": -6, MICRO: -6, "n": -9, "p": -12, "f": -15}
+_DIGIT_OR_POINT = re.compile(r"[0-9.]")
+
+
+def ignored_text(token: str) -> str:
+    """The part of a number token that :func:`parse_number` ignores, when it looks numeric.
+
+    ngspice ignores whatever follows a number and its scale suffix, so
+    ``1.2.3k`` is 1.2 and ``4k7`` is 4000. A unit (``10kOhm``) is the
+    intended use; ignored text with a digit or a point in it is almost
+    always a typing error, worth a warning.
+
+    Returns
+    -------
+    str
+        The ignored text when it contains a digit or a point, else ``""``
+        (also for a token that is not a number).
+
+    Examples
+    --------
+    >>> ignored_text("1.2.3k"), ignored_text("4k7"), ignored_text("10kOhm"), ignored_text("1meg")
+    ('.3k', '7', '', '')
+    """
+    m = _SPICE_NUMBER.match(token)
+    rest = m.group(6)
+    if not rest or not (m.group(2) or m.group(3)):
+        return ""
+    c = rest[0].lower()
+    if c == "m":
+        low = rest[:3].lower()
+        rest = rest[3:] if low in ("meg", "mil") else rest[1:]
+    elif c in SCALE:
+        rest = rest[1:]
+    return rest if _DIGIT_OR_POINT.search(rest) else ""
 
 
 def scan_param_number(text: str, pos: int) -> tuple[float, int] | None:

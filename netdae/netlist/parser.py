@@ -15,6 +15,7 @@ from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .numbers import parse_number
 from .reader import Deck, read_deck
+from .size import MAX_SUBCKT_DEPTH
 from .statements import AnalysisCard, Definition, ElementCard, FuncDef, ModelCard, Netlist, ParamDef
 from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, UNSUPPORTED_DOT_CARDS
 
@@ -59,6 +60,8 @@ def build(deck: Deck) -> Netlist:
         else:
             stack[-1].items.append(parse_element(card))
             card.forget_tokens()
+        if card.notes:
+            net.diagnostics.extend(card.take_notes())
     if len(stack) > 1:
         raise NetlistError(f".subckt {stack[-1].name}: no matching .ends", stack[-1].card.location(0),
                            expected=DOT_CARDS[".ends"], hint="close the definition with '.ends'")
@@ -90,6 +93,9 @@ def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist
     if len(toks) < 2 or toks[1].kind != WORD:
         raise error(card, len(card.text), "missing subcircuit name", form)
     name = toks[1].text
+    if len(stack) > MAX_SUBCKT_DEPTH:
+        raise error(card, toks[1].start, f"subcircuit definitions nested deeper than {MAX_SUBCKT_DEPTH} levels",
+                    form, hint="close the enclosing definitions with .ends first")
     ports: list[str] = []
     i = 2
     while i < len(toks):

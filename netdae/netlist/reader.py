@@ -25,10 +25,14 @@ from dataclasses import dataclass, field
 from ..circuit import Diagnostic
 from ..errors import NetlistError, SourceLocation
 from .lines import EXPR, STRING, WORD, Card, split_cards
+from .numbers import MICRO
 
 __all__ = ["Deck", "read_deck"]
 
 STRING_SOURCE = "<string>"
+
+#: Deepest chain of ``.include``/``.lib`` files (real libraries nest a few levels).
+MAX_INCLUDE_DEPTH = 64
 
 
 @dataclass
@@ -63,10 +67,30 @@ def _first_word(card: Card) -> str:
     return text[:end]
 
 
+#: Bytes that are not UTF-8 arrive as lone surrogates (``surrogateescape``): the
+#: Latin-1 micro sign (0xB5) is read as U+00B5, as ngspice reads it; any other
+#: such byte becomes U+FFFD.
+_UNDECODABLE = {0xDC00 + b: "\ufffd" for b in range(0x80, 0x100)} | {0xDCB5: MICRO}
+
+
+def decode(data: bytes) -> str:
+    """Netlist bytes as text: UTF-8, with the Latin-1 micro sign kept.
+
+    Examples
+    --------
+    >>> decode(b"2\\xc2\\xb5") == decode(b"2\\xb5") == "2\\u00b5", decode(b"2\\xff") == "2\\ufffd"
+    (True, True)
+    """
+    text = data.decode("utf-8", errors="surrogateescape")
+    if text.isascii():
+        return text
+    return text.translate(_UNDECODABLE)
+
+
 def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
     try:
-        with open(display, encoding="utf-8", errors="replace", newline=None) as fh:
-            return fh.read()
+        with open(display, "rb") as fh:
+            return decode(fh.read())
     except FileNotFoundError:
         raise NetlistError(f"{what} '{display}' not found", location,
                            hint="check the file name; relative names are resolved against the "
@@ -75,6 +99,8 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
         raise NetlistError(f"{what} '{display}' is a directory", location) from None
     except OSError as exc:
         raise NetlistError(f"cannot read {what} '{display}': {exc.strerror}", location) from None
+    except ValueError:  # a NUL character in the name
+        raise NetlistError(f"{what} name {display!r} contains a NUL character", location) from None
 
 
 def read_deck(source, *, path: str | None = None) -> Deck:
@@ -197,7 +223,14 @@ def _skip_section(cards: list[Card], start: int) -> int:
 
 def _include(card: Card, at: int, target: str, section: str | None, chain: list, shown: list[str],
              deck: Deck) -> list[Card]:
+    if "\0" in target:
+        raise NetlistError(f"file name {target!r} contains a NUL character", card.location(at),
+                           expected=_FORMS[_first_word(card)])
     key = (os.path.realpath(target), section)
+    if len(chain) > MAX_INCLUDE_DEPTH:
+        shown_chain = " -> ".join(shown[:2] + ["..."] + shown[-2:] + [target])
+        raise NetlistError(f"{_first_word(card)}: files included deeper than {MAX_INCLUDE_DEPTH} levels: "
+                           f"{shown_chain}", card.location(at), hint="include the files from fewer levels")
     if key in chain:
         loop = shown[chain.index(key):] + [target]
         raise NetlistError("include cycle: " + " -> ".join(loop), card.location(at),
