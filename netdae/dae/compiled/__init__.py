@@ -1,0 +1,1 @@
+"""Compiled (numba) parts of the transient engine."""
