@@ -1,40 +1,103 @@
 """netdae: a SPICE-dialect circuit simulator that treats a netlist as a DAE.
 
-The public API (imported lazily so that ``import netdae`` stays cheap):
+The public API:
 
-- :func:`load` -- read and elaborate a netlist into a :class:`~netdae.circuit.Circuit`.
-- :func:`analyze_index` -- the structure of the DAE: index, Kronecker form, causes.
-- :func:`simulate` -- run a transient analysis.
-- :func:`run` -- run every analysis of a netlist.
-- :func:`compare` -- run a netlist in netdae and ngspice and compare the waveforms.
+- :func:`load` -- read and elaborate a netlist into a :class:`Circuit`.
+- :func:`analyze_index` -- the structure of the DAE: index, Kronecker form,
+  the circuit reasons (an :class:`IndexReport`).
+- :func:`simulate` -- run a transient analysis (a :class:`Result`).
+- :func:`run` -- run every analysis of a netlist (a list of :class:`Result`).
+- :func:`compare` -- run a netlist in netdae and ngspice and compare the
+  waveforms (a :class:`Comparison`).
+- :func:`from_pyspice` -- a PySpice circuit as a netdae :class:`Circuit`.
+- :func:`plot` -- a result as a matplotlib Figure.
+- the errors: :class:`NetdaeError` and its subclasses :class:`NetlistError`,
+  :class:`CircuitError`, :class:`SingularPencilError`,
+  :class:`ConvergenceError`, :class:`NgspiceError`.
+
+``import netdae`` is cheap (no numpy): the names whose modules load the
+numerics (``load``, ``analyze_index``, ``compare``, ``Result``,
+``IndexReport``, ``Comparison``) are imported on first use. Type checkers see
+every name through the static imports below.
+
+Examples
+--------
+>>> import netdae
+>>> r = netdae.simulate("netlists/rc_lowpass.cir", save=["v(out)"])
+>>> r                                                   # doctest: +ELLIPSIS
+<Result tran: ... points, time 0 to 0.005 s; 1 signal (v(out)); ok>
 """
 
 from __future__ import annotations
 
-import importlib
+from typing import TYPE_CHECKING
+
+from .analyses.runner import run, simulate
+from .circuit import Circuit
+from .errors import (
+    CircuitError,
+    ConvergenceError,
+    NetdaeError,
+    NetlistError,
+    NgspiceError,
+    SingularPencilError,
+)
+
+if TYPE_CHECKING:  # imported on first use at run time (they load numpy): see __getattr__
+    from .analyses.index import IndexReport, analyze_index
+    from .comparison import Comparison, compare
+    from .io.pyspice import from_pyspice
+    from .netlist import load
+    from .plotting import plot
+    from .results import Result
 
 __version__ = "0.1.0"
 
-__all__ = ["load", "analyze_index", "simulate", "run", "compare", "__version__"]
-
-# public name -> module that defines it
-_EXPORTS = {
-    "load": "netdae.netlist",
-    "analyze_index": "netdae.analyses.index",
-    "simulate": "netdae.analyses.tran",
-    "run": "netdae.analyses.runner",
-    "compare": "netdae.comparison",
-}
+__all__ = [
+    "__version__",
+    "load",
+    "analyze_index",
+    "simulate",
+    "run",
+    "compare",
+    "from_pyspice",
+    "plot",
+    "Circuit",
+    "Result",
+    "IndexReport",
+    "Comparison",
+    "NetdaeError",
+    "NetlistError",
+    "CircuitError",
+    "SingularPencilError",
+    "ConvergenceError",
+    "NgspiceError",
+]
 
 
 def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
+    """The heavy public names, imported on first use (PEP 562)."""
+    if name == "load":
+        from .netlist import load as value
+    elif name == "analyze_index":
+        from .analyses.index import analyze_index as value
+    elif name == "IndexReport":
+        from .analyses.index import IndexReport as value
+    elif name == "compare":
+        from .comparison import compare as value
+    elif name == "Comparison":
+        from .comparison import Comparison as value
+    elif name == "from_pyspice":
+        from .io.pyspice import from_pyspice as value
+    elif name == "plot":
+        from .plotting import plot as value
+    elif name == "Result":
+        from .results import Result as value
+    else:
         raise AttributeError(f"module 'netdae' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value
 
 
-def __dir__():
-    return sorted(list(globals()) + list(_EXPORTS))
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -16,6 +16,8 @@ caller (and the CLI) can catch one root class and show one readable message.
 - :class:`NgspiceError`: the reference simulator is missing or failed.
 - :class:`ResultFileError` (also a :class:`ValueError`): a result file (ngspice
   raw, CSV) cannot be read.
+- :class:`OutputFileError` (also an :class:`OSError`): an output file (raw,
+  CSV, matrices, plot) cannot be written; names the file and the reason.
 
 Examples
 --------
@@ -41,6 +43,7 @@ __all__ = [
     "ConvergenceError",
     "NgspiceError",
     "ResultFileError",
+    "OutputFileError",
 ]
 
 
@@ -191,3 +194,29 @@ class NgspiceError(NetdaeError):
 
 class ResultFileError(NetdaeError, ValueError):
     """A result file (ngspice raw, CSV) is malformed or unreadable."""
+
+
+class OutputFileError(NetdaeError, OSError):
+    """An output file could not be written; nothing was left under its name.
+
+    Parameters
+    ----------
+    path : str
+        The file that was to be written.
+    reason : str
+        Why, in words (``"the disk is full"``, ``"permission denied"`` ...).
+    errno : int, optional
+        The operating system's error number.
+    """
+
+    def __init__(self, path: str, reason: str, errno: int | None = None) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot write {path}: {reason}")
+        self.errno = errno
+
+    def __str__(self) -> str:
+        return f"cannot write {self.path}: {self.reason}"
+
+    def __reduce__(self):
+        return (OutputFileError, (self.path, self.reason, self.errno))

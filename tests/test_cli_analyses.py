@@ -33,8 +33,9 @@ def test_run_op_table_and_json(tmp_path, capsys):
     assert float(row.split()[1]) == pytest.approx(3.0, rel=1e-12)
     status, out, _ = cli(capsys, "run", path, "--json")
     doc = json.loads(out)
-    assert doc["op"]["v(b)"] == pytest.approx(3.0, rel=1e-12)
-    assert doc["op"]["i(v1)"] == pytest.approx(-3e-3, rel=1e-12)
+    values = doc["op"]["values"]["signals"]
+    assert values["v(b)"] == [pytest.approx(3.0, rel=1e-12)]
+    assert values["i(v1)"] == [pytest.approx(-3e-3, rel=1e-12)]
 
 
 def test_run_writes_files_for_every_analysis(tmp_path, capsys):
@@ -145,16 +146,18 @@ def test_export_matrices_npz_and_matrix_market(tmp_path, capsys):
     from netdae.mna import assemble
 
     path = NETLISTS / "differentiator.cir"
-    status, out, _ = cli(capsys, "run", path, "--export", tmp_path / "m.npz")
-    assert status == 0 and "wrote matrices" in out
+    status, out, err = cli(capsys, "run", path, "--export", tmp_path / "m.npz")
+    assert status == 0 and f"wrote {tmp_path / 'm.npz'}" in err
     got = load_npz_matrices(tmp_path / "m.npz")
     system = assemble(__import__("netdae").load(path))
     assert got["names"] == list(system.names) and got["sources"] == ["v1"] and not got["linearized"]
     np.testing.assert_array_equal(got["E"].toarray(), system.E.toarray())
     np.testing.assert_array_equal(got["H"].toarray(), system.H.toarray())
     np.testing.assert_array_equal(got["B"].toarray(), system.B.toarray())
-    status, _, _ = cli(capsys, "run", path, "--export", tmp_path / "m.mtx")
+    status, _, err = cli(capsys, "run", path, "--export", tmp_path / "m.mtx")
     assert status == 0
+    assert [line.split()[1] for line in err.splitlines() if line.startswith("wrote")] == [
+        str(tmp_path / f"m.{part}") for part in ("E.mtx", "H.mtx", "B.mtx", "names.txt")]
     H = scipy.io.mmread(str(tmp_path / "m.H.mtx")).toarray()
     np.testing.assert_array_equal(H, system.H.toarray())
     assert (tmp_path / "m.names.txt").read_text().split()[:len(system.names)] == list(system.names)

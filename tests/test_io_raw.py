@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import os
 import subprocess
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from netdae.errors import NetdaeError
-from netdae.io.raw import format_raw, parse_raw, read_raw, signal_name, write_raw
+from netdae.io.raw import PLOTNAME_OF, format_raw, parse_raw, read_raw, signal_name, write_raw
 from netdae.results import Result
 
 CIRCUIT = """raw reader test: RC into a two-level subcircuit
@@ -177,7 +178,9 @@ def test_a_run_cut_short_is_read_up_to_its_last_complete_point(ngspice_files, na
         text = data.decode()
         lines = text.rstrip("\n").split("\n")
         cut = ("\n".join(lines[: len(lines) - int(1.5 * row)]) + "\n").encode()
-    tran = parse_raw(cut, "cut")[-1]
+    with pytest.raises(NetdaeError, match=rf"is incomplete: the header announces {n} points, the file holds {n - 2} "):
+        parse_raw(cut, "cut")
+    tran = parse_raw(cut, "cut", partial=True)[-1]
     assert len(tran.t) == n - 2
     np.testing.assert_array_equal(tran["v(out)"], full["v(out)"][: n - 2])
     assert any(f"announces {n} points" in note for note in tran.notes)
@@ -193,7 +196,9 @@ def test_a_killed_run_with_zero_points_announced_is_read_whole(ngspice_files):
     end = data.index(b"\n", start)
     field = b"No. Points: 0"
     killed = data[:start] + field.ljust(end - start) + data[end:]
-    tran = parse_raw(killed, "killed")[-1]
+    with pytest.raises(NetdaeError, match=rf"announces 0 points, the file holds {len(full.t)} complete points"):
+        parse_raw(killed, "killed")
+    tran = parse_raw(killed, "killed", partial=True)[-1]
     np.testing.assert_array_equal(tran["i(l.xa.xb.l1)"], full["i(l.xa.xb.l1)"])
     assert any("announces 0 points" in note for note in tran.notes)
 
@@ -333,3 +338,110 @@ def test_signal_names():
     assert signal_name("xa.x1.mid", "voltage") == "v(xa.x1.mid)"
     assert signal_name("l.xa.x1.l1#branch", "current") == "i(l.xa.x1.l1)"
     assert signal_name("@r1[i]", "current") == "@r1[i]"
+
+
+@pytest.mark.parametrize("binary", [True, False])
+@pytest.mark.parametrize("keep", [0.0, 0.4, 0.999])
+def test_a_truncated_file_is_refused_with_the_counts(tmp_path, binary, keep):
+    # a tran plot of 50 points cut inside its data, as a failed write leaves it
+    tran = _sample_results()[1]
+    data = format_raw([tran], binary=binary, date="now")
+    body = data.index(b"Binary:\n" if binary else b"Values:\n") + 8
+    cut = data[: body + int(keep * (len(data) - body))]
+    if not binary:
+        cut = cut[: cut.rindex(b"\n") + 1]  # whole lines: the count of points is unambiguous
+    # complete points: rows of 3 doubles (binary), groups of index + 3 numbers (ascii)
+    found = (len(cut) - body) // 24 if binary else len(cut[body:].split()) // 4
+    (tmp_path / "cut.raw").write_bytes(cut)
+    with pytest.raises(NetdaeError, match=rf"cut.raw:\d+: plot 'Transient Analysis' is incomplete: the header "
+                                          rf"announces 50 points, the file holds {found} complete point"):
+        read_raw(tmp_path / "cut.raw")
+    partial = read_raw(tmp_path / "cut.raw", partial=True)[0]
+    np.testing.assert_array_equal(partial.t, tran.t[:found])
+
+
+def test_a_truncated_plot_before_another_is_refused_even_when_partial():
+    op, tran = _sample_results()[:2]
+    first = format_raw([tran], date="now")
+    cut = first[: len(first) - 30] + format_raw([op], date="now")
+    with pytest.raises(NetdaeError, match="incomplete and another plot follows"):
+        parse_raw(cut, "two.raw", partial=True)
+
+
+class _NumpyWithFromstring:
+    """numpy as PySpice 1.5 expects it: ``fromstring`` of binary data (removed in NumPy 2)."""
+
+    def __getattr__(self, name):
+        return getattr(np, name)
+
+    @staticmethod
+    def fromstring(data, count=-1, dtype=float):
+        return np.frombuffer(data, dtype=dtype, count=count).copy()
+
+
+def _pyspice_raw(monkeypatch, data: bytes, points: int):
+    pytest.importorskip("PySpice")
+    import PySpice.Spice.RawFile as abc
+    from PySpice.Spice.NgSpice.RawFile import RawFile
+
+    monkeypatch.setattr(abc, "np", _NumpyWithFromstring())
+    return RawFile(data, points)
+
+
+@pytest.mark.parametrize("analysis", ["op", "tran", "ac", "dc"])
+def test_pyspice_s_raw_file_parser_reads_the_pyspice_flavour(monkeypatch, analysis):
+    result = {r.analysis: r for r in _sample_results()}[analysis]
+    if analysis == "dc":  # one sweep: PySpice knows no nested sweeps
+        result = Result("dc", axes={"v1": result.axes["v1"][:3]}, signals={"v(out)": result["v(out)"][:3]})
+    points = len(next(iter(result.signals.values())))
+    data = format_raw(result, title="Warning: written by netdae", date="now", flavour="pyspice", temp=50)
+    raw = _pyspice_raw(monkeypatch, data, points)
+    assert raw.plot_name == PLOTNAME_OF[analysis]
+    assert raw.title == raw.circuit_name == "warning: written by netdae"
+    assert float(raw.temperature) == 50 and float(raw.nominal_temperature) == 27
+    expected = dict(result.axes) | dict(result.signals)
+    if analysis == "dc":
+        expected["v(v-sweep)"] = expected.pop("v1")
+    assert sorted(raw.variables) == sorted(expected)
+    for name, values in expected.items():
+        np.testing.assert_array_equal(raw.variables[name].data, values)
+    # and netdae reads its own PySpice flavour back, the temperatures included
+    (again,) = parse_raw(data, "pyspice.raw")
+    assert again.extra["temp"] == 50 and again.extra["circuit"] == "warning: written by netdae"
+    for name, values in result.signals.items():
+        np.testing.assert_array_equal(again.signals[name], values)
+
+
+def test_pyspice_reads_a_transient_as_pyspice_waveforms(monkeypatch):
+    # the whole path PySpice takes after its server run: RawFile -> to_analysis()
+    pytest.importorskip("PySpice")
+    from PySpice.Spice.Netlist import Circuit
+
+    circuit = Circuit("rc")
+    circuit.V(1, "in", circuit.gnd, 1)
+    circuit.R(1, "in", "out", 1e3)
+    circuit.C(1, "out", circuit.gnd, 1e-6)
+    t = np.linspace(0.0, 5e-3, 11)
+    result = Result("tran", axes={"time": t},
+                    signals={"v(in)": np.ones_like(t), "v(out)": 1 - np.exp(-t / 1e-3), "i(v1)": -np.exp(-t / 1e-3) * 1e-3})
+    raw = _pyspice_raw(monkeypatch, format_raw(result, title="rc", flavour="pyspice"), len(t))
+    raw.simulation = SimpleNamespace(circuit=circuit)  # all fix_case() asks of a simulation
+    analysis = raw.to_analysis()
+    np.testing.assert_array_equal(np.asarray(analysis.time), t)
+    np.testing.assert_array_equal(np.asarray(analysis.nodes["out"]), result["v(out)"])
+    np.testing.assert_array_equal(np.asarray(analysis.branches["V1"]), result["i(v1)"])
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"binary": False}, "binary raw files only"),
+    ({"results": "two"}, "one plot per raw file"),
+    ({"results": "res-sweep"}, "vector type 'res-sweep' is not one PySpice reads"),
+])
+def test_what_pyspice_cannot_read_is_refused(kwargs, message):
+    results = _sample_results()[1]
+    if kwargs.pop("results", None) == "two":
+        results = _sample_results()[:2]
+    elif "binary" not in kwargs:
+        results = Result("dc", axes={"res-sweep": np.arange(3.0)}, signals={"v(out)": np.arange(3.0)})
+    with pytest.raises(NetdaeError, match=message):
+        format_raw(results, flavour="pyspice", **kwargs)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
 import pytest
 
 from netdae.errors import NetlistError, NgspiceError
@@ -13,7 +11,6 @@ from netdae.ngspice.translate import (
     dc_sweeps,
     effective_tolerances,
     override_options,
-    spice_number,
     translate_for_ngspice,
 )
 
@@ -69,19 +66,22 @@ def test_control_blocks_are_removed_with_a_note():
     text = "t\nR1 1 0 1k\n.control\nrun\nquit\n.endc\n.op\n.end\n"
     out, notes = translate_for_ngspice(text)
     assert out.splitlines() == ["t", "R1 1 0 1k", ".op", ".end"]
-    assert notes[0].startswith("lines 3-6: .control block removed")
-    with pytest.raises(NetlistError, match="not closed"):
+    assert ".control block (lines 3-6) skipped" in notes[0]
+    with pytest.raises(NetlistError, match=".control block without .endc"):
         translate_for_ngspice("t\n.control\nrun\n.end\n")
 
 
-def test_relative_includes_become_absolute(tmp_path):
-    text = "t\n.include models/d.lib\n.lib 'lib/x.lib' tt\n.include /abs/y.lib\n.lib section\n.end\n"
+def test_includes_and_library_sections_are_expanded_by_netdae(tmp_path):
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "d.lib").write_text("* diode\n.model dm d is=1e-14\n+ n=1.5 ; ideality\n")
+    (tmp_path / "x.lib").write_text(".lib tt\n.param rval=1k\n.endl\n.lib ff\n.param rval=2k\n.endl\n")
+    text = "t\n.include models/d.lib\n.lib 'x.lib' tt\nE1 o 0 a b opamp\nR1 a o {rval}\n.lib section\nR9 1 0 1\n.endl\n.op\n"
     out, notes = translate_for_ngspice(text, base_dir=tmp_path)
-    lines = out.splitlines()
-    assert lines[1] == f".include {os.path.join(tmp_path, 'models/d.lib')}"
-    assert lines[2] == f".lib {os.path.join(tmp_path, 'lib/x.lib')} tt"
-    assert lines[3:5] == [".include /abs/y.lib", ".lib section"]
-    assert len(notes) == 2
+    assert out.splitlines() == ["t", ".model dm d is=1e-14 n=1.5", ".param rval=1k", f"E1 o 0 a b {OPAMP_GAIN!r}",
+                                "R1 a o {rval}", ".op", ".end"]
+    assert notes[0].startswith("line 4: E1")
+    with pytest.raises(NetlistError, match="not found"):
+        translate_for_ngspice("t\n.include missing.lib\n.op\n", base_dir=tmp_path)
 
 
 def test_override_inserts_before_end_and_validates():
@@ -126,10 +126,15 @@ def test_dc_sweeps_and_tolerances():
 
 @pytest.mark.parametrize(
     "text, value",
-    [("1k", 1e3), ("2.5MEG", 2.5e6), ("10uF", 1e-5), ("-3e-3", -3e-3), ("1mil", 25.4e-6), (".5n", 5e-10), ("v1", None)],
+    [("1k", 1e3), ("2.5MEG", 2.5e6), ("10uF", 1e-5), ("-3e-3", -3e-3), (".5n", 5e-10),
+     ("1a", 1.0), ("1.5d2", 150.0), ("4k7", 4000.0), ("1M", 1e-3)],
 )
-def test_spice_numbers(text, value):
-    assert spice_number(text) == value
+def test_numbers_are_read_as_ngspice_reads_them(text, value):
+    # ngspice 39's INPevaluate: no atto suffix, 'd' exponents, no RKM codes, M is milli
+    (card,) = dc_sweeps(f"t\n.dc v1 0 {text} 1\n.end\n")
+    assert card.ranges[0][1] == pytest.approx(value, rel=1e-15)
+    tolerances, _ = effective_tolerances(f"t\n.options abstol={text}\n")
+    assert tolerances["abstol"] == pytest.approx(value, rel=1e-15)
 
 
 def test_classify_output_of_real_ngspice_failures():
@@ -172,15 +177,16 @@ def test_harmless_notes_are_not_errors():
     assert errors == [] and warnings == stderr
 
 
-def test_end_is_made_the_last_card():
+def test_end_is_the_last_card_and_nothing_follows_it():
     out, notes = translate_for_ngspice("t\nR1 1 0 1k\n.op")
-    assert out.splitlines()[-1] == ".end" and "appended" in notes[0]
-    # ngspice 39 reads cards after .end in batch mode: keep them in the circuit
-    out, notes = translate_for_ngspice("t\nR1 1 0 1k\n.END\nR2 1 0 2k\n.op\n")
-    assert out.splitlines() == ["t", "R1 1 0 1k", "R2 1 0 2k", ".op", ".end"]
-    assert notes[0].startswith("line 3: .end moved")
+    assert out.splitlines() == ["t", "R1 1 0 1k", ".op", ".end"] and notes == []
+    # netdae's reader ends the netlist at .end (ngspice 39 would read on): the rest is dropped, with a note
+    out, notes = translate_for_ngspice("t\nR1 1 0 1k\n.op\n.END\nR2 1 0 2k\n.tran 1u 1m\n")
+    assert out.splitlines() == ["t", "R1 1 0 1k", ".op", ".end"]
+    assert notes == ["line 4: the 2 card(s) or block(s) after .end are not passed to ngspice (netdae's reader "
+                     "ends the netlist at .end; ngspice 39 would read them)"]
     text = "t\nR1 1 0 1k\n.op\n.end\n* trailing comment\n"
-    assert translate_for_ngspice(text) == (text, [])
+    assert translate_for_ngspice(text) == ("t\nR1 1 0 1k\n.op\n.end\n", [])
 
 
 def test_coupling_of_three_inductors_becomes_one_card_per_pair():

@@ -1,19 +1,136 @@
-"""Run every analysis a netlist asks for, in netlist order.
+"""Run the analyses of a netlist: :func:`run` (every card) and :func:`simulate` (its ``.tran``).
 
-This is what ``netdae run FILE`` and :func:`netdae.run` do: dispatch each
+This is what ``netdae run FILE``, :func:`netdae.run` and
+:func:`netdae.simulate` do: check the options (the netlist's ``.options``
+and the caller's overrides) against their valid ranges, dispatch each
 ``.op``, ``.dc``, ``.ac`` and ``.tran`` card of the circuit to its analysis
 and collect the :class:`~netdae.results.Result` objects.
+
+The module imports no numerics at load time, so the command line can use
+:func:`option_problem` to check its arguments without loading numpy.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import math
+import os
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, TranAnalysis
-from ..errors import NetdaeError
-from ..results import Result
+from ..errors import NetdaeError, NetlistError
 
-__all__ = ["run", "analysis_name", "unused_options"]
+if TYPE_CHECKING:
+    from ..results import Result
+
+__all__ = ["run", "simulate", "analysis_name", "unused_options", "option_problem", "check_options",
+           "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO"]
+
+#: Absolute zero in degrees Celsius: the lowest ``temp``/``tnom``.
+ABSOLUTE_ZERO = -273.15
+
+
+def _positive(v: float) -> bool:
+    return math.isfinite(v) and v > 0.0
+
+
+def _fraction(v: float) -> bool:
+    return 0.0 < v < 1.0
+
+
+def _temperature(v: float) -> bool:
+    return math.isfinite(v) and v > ABSOLUTE_ZERO
+
+
+def _order(v: float) -> bool:
+    from ..dae.bdf import MAX_ORDER
+
+    return v == int(v) and 1 <= v <= MAX_ORDER
+
+
+def _count(v: float) -> bool:
+    return math.isfinite(v) and v == int(v) and v >= 1
+
+
+#: Options kept in ``Options.extra`` that netdae's devices read (the MOSFET defaults).
+USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas"})
+
+#: The options netdae uses, with their valid values: name -> (test, what is expected).
+OPTION_RANGES: dict[str, tuple[Callable[[float], bool], str]] = {
+    "reltol": (_fraction, "a relative tolerance between 0 and 1 (exclusive), e.g. 1e-3"),
+    "abstol": (_positive, "a positive current tolerance in amperes, e.g. 1e-12"),
+    "vntol": (_positive, "a positive voltage tolerance in volts, e.g. 1e-6"),
+    "chgtol": (_positive, "a positive charge tolerance in coulombs, e.g. 1e-14"),
+    "gmin": (_positive, "a positive conductance in siemens, e.g. 1e-12"),
+    "temp": (_temperature, f"a temperature in degC above absolute zero ({ABSOLUTE_ZERO})"),
+    "tnom": (_temperature, f"a temperature in degC above absolute zero ({ABSOLUTE_ZERO})"),
+    "maxord": (_order, "a BDF order from 1 to 5"),
+    "itl1": (_count, "a positive number of Newton iterations"),
+    "itl4": (_count, "a positive number of Newton iterations"),
+    "max_step": (_positive, "a positive time step in seconds"),
+}
+
+
+def option_problem(name: str, value: Any) -> str | None:
+    """What is wrong with an option value, or None when it is valid.
+
+    Parameters
+    ----------
+    name : str
+        An option netdae uses (``reltol``, ``abstol``, ``vntol``, ``chgtol``,
+        ``gmin``, ``temp``, ``tnom``, ``maxord``, ``itl1``, ``itl4``,
+        ``max_step``).
+    value : float
+
+    Returns
+    -------
+    str or None
+        ``"expected ..."`` naming the valid values.
+
+    Examples
+    --------
+    >>> option_problem("reltol", 1e-4) is None
+    True
+    >>> option_problem("reltol", 2.0)
+    'expected a relative tolerance between 0 and 1 (exclusive), e.g. 1e-3'
+    """
+    test, expected = OPTION_RANGES[name]
+    try:
+        ok = test(float(value))
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    return None if ok else f"expected {expected}"
+
+
+def check_options(circuit: Circuit, **overrides: Any) -> None:
+    """Check the circuit's ``.options`` and the caller's overrides against :data:`OPTION_RANGES`.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    **overrides
+        Values given by the caller (None: not given), e.g. ``reltol=1e-4``.
+
+    Raises
+    ------
+    NetlistError
+        For an ``.options`` value out of range (``reltol=2``, ``temp=-300``).
+    ValueError
+        For an override out of range.
+    """
+    for name, value in overrides.items():
+        if value is not None and (problem := option_problem(name, value)) is not None:
+            raise ValueError(f"{name}={value!r}: {problem}")
+    o = circuit.options
+    for name in OPTION_RANGES:
+        value = getattr(o, name, None)
+        if value is None or overrides.get(name) is not None:
+            continue
+        if option_problem(name, value) is not None:
+            card = ".options temp (or .temp)" if name == "temp" else f".options {name}"
+            raise NetlistError(f"{circuit.path}: {card}={value:g} is out of range",
+                               expected=f"{name}: {OPTION_RANGES[name][1]}",
+                               hint=f"correct or remove {name} in the .options card")
 
 
 def analysis_name(card: Any) -> str:
@@ -29,20 +146,32 @@ def analysis_name(card: Any) -> str:
     raise TypeError(f"not an analysis card: {card!r}")
 
 
-def run(circuit: Circuit | str, *, save: list[str] | None = None, progress=None, **options) -> list[Result]:
-    """Run the analyses of a circuit.
+def _circuit(circuit: Circuit | str | os.PathLike) -> Circuit:
+    if isinstance(circuit, Circuit):
+        return circuit
+    from ..netlist import load
+
+    return load(circuit)
+
+
+def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
+        reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
+        progress: Callable[[float, float, int], None] | None = None) -> list[Result]:
+    """Run every analysis of a circuit, in netlist order.
 
     Parameters
     ----------
-    circuit : Circuit or str
-        An elaborated circuit, or a netlist path/text for :func:`netdae.load`.
+    circuit : Circuit, str or path-like
+        An elaborated circuit, or a netlist file or text for :func:`netdae.load`.
     save : list of str, optional
-        Signals to keep (``v(out)``, ``i(v1)``); default: the netlist's
-        ``.save``/``.print``/``.probe`` signals, or everything.
+        Signals to keep in every result (``v(out)``, ``v(a,b)``, ``i(v1)``);
+        default: the netlist's ``.save``/``.print``/``.probe`` signals, or
+        every unknown.
+    reltol, abstol, vntol : float, optional
+        Tolerances for every analysis (default: the netlist's ``.options``,
+        else SPICE's 1e-3, 1e-12 A, 1e-6 V).
     progress : callable, optional
-        ``progress(t, tstop, steps)`` for transients (see :func:`~netdae.analyses.tran.transient`).
-    **options
-        Tolerance overrides (``reltol``, ``abstol``, ``vntol``) passed to every analysis.
+        ``progress(t, tstop, steps)`` for transients, called a few times per second.
 
     Returns
     -------
@@ -51,14 +180,27 @@ def run(circuit: Circuit | str, *, save: list[str] | None = None, progress=None,
 
     Raises
     ------
-    NetlistError, CircuitError, ConvergenceError
-        Bad input or a failed operating point; a transient that fails
-        mid-way returns a Result with a failure status instead.
-    """
-    if isinstance(circuit, str):
-        from ..netlist import load
+    NetlistError
+        Bad input, or an ``.options`` value out of range.
+    ValueError
+        A tolerance out of range.
+    NetdaeError
+        No analysis card; a ``save`` name the circuit does not have.
+    CircuitError, ConvergenceError
+        A circuit that cannot be simulated, a failed operating point; a
+        transient that fails mid-way returns a Result with a failure status
+        instead.
 
-        circuit = load(circuit)
+    Examples
+    --------
+    >>> import netdae
+    >>> op, dc = netdae.run("netlists/voltage_divider.cir", save=["v(out)"])
+    >>> op.names(), round(float(op["v(out)"][0]), 6), dc.axis_name
+    (['v(out)'], 3.333333, 'v1')
+    """
+    circuit = _circuit(circuit)
+    options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
+    check_options(circuit, **options)
     if not circuit.analyses:
         raise NetdaeError(
             f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to run"
@@ -96,16 +238,91 @@ def run(circuit: Circuit | str, *, save: list[str] | None = None, progress=None,
     return results
 
 
+def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None = None,
+             save: list[str] | None = None, reltol: float | None = None, abstol: float | None = None,
+             vntol: float | None = None, maxord: int | None = None, initial: str = "consistent",
+             max_step: float | None = None, raise_on_failure: bool = False,
+             progress: Callable[[float, float, int], None] | None = None) -> Result:
+    """Run a circuit's transient analysis (its first ``.tran``, or ``card``).
+
+    Parameters
+    ----------
+    circuit : Circuit, str or path-like
+        An elaborated circuit, or a netlist file or text for :func:`netdae.load`.
+    card : TranAnalysis, optional
+        The analysis to run (default: the circuit's first ``.tran`` card).
+    save : list of str, optional
+        Signals to keep (``v(out)``, ``v(a,b)``, ``i(v1)``); default the
+        netlist's ``.save``/``.print``/``.probe`` signals, else every unknown.
+    reltol, abstol, vntol : float, optional
+        Tolerances (default: the netlist's ``.options``, else SPICE's).
+    maxord : int, optional
+        Highest BDF order, 1 to 5 (default ``.options maxord``, else 5).
+    initial : {"consistent", "ngspice"}
+        ``"consistent"`` replaces an inconsistent start (the hidden
+        constraints of an index-2 circuit) by consistent values and says what
+        changed; ``"ngspice"`` keeps the operating point as ngspice does.
+    max_step : float, optional
+        Largest step [s] (default the card's tmax, else
+        ``min(tstep, (tstop - tstart)/50)``).
+    raise_on_failure : bool
+        Raise :class:`~netdae.errors.ConvergenceError` instead of returning
+        a failed result.
+    progress : callable, optional
+        ``progress(t, tstop, steps)``, called a few times per second.
+
+    Returns
+    -------
+    Result
+        ``analysis == "tran"``, axis ``time``, ``dense(t) -> dict``; see
+        :func:`netdae.analyses.tran.transient` for ``extra``.
+
+    Raises
+    ------
+    NetlistError
+        Bad input, or an ``.options`` value out of range.
+    ValueError
+        A tolerance, order or step out of range; an unknown ``initial``.
+    NetdaeError
+        No ``.tran`` card, ``method=trap``, an unknown save name.
+    CircuitError, SingularPencilError, ConvergenceError
+        A circuit that cannot be simulated.
+
+    Examples
+    --------
+    >>> import netdae
+    >>> r = netdae.simulate("netlists/rc_lowpass.cir", save=["v(out)"], reltol=1e-6)
+    >>> r.names(), float(r.t[-1])
+    (['v(out)'], 0.005)
+    """
+    circuit = _circuit(circuit)
+    if initial not in ("consistent", "ngspice"):
+        raise ValueError(f"initial must be 'consistent' or 'ngspice', not {initial!r}")
+    check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)
+    from .tran import transient
+
+    return transient(circuit, card, save=save, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord,
+                     initial=initial, max_step=max_step, raise_on_failure=raise_on_failure, progress=progress)
+
+
 def unused_options(circuit: Circuit) -> str | None:
     """A note naming the ``.options`` netdae does not use, or None.
 
     ``chgtol`` and ``itl4`` have SPICE meanings netdae's integrator does not
     share (it controls the error of the unknowns, and its Newton iteration per
     step is limited by its own convergence test); the options netdae does not
-    know are kept as written in ``Options.extra``.
+    know are kept as written in ``Options.extra`` (those netdae's devices
+    read from there, :data:`USED_EXTRA_OPTIONS`, are used).
+
+    Examples
+    --------
+    >>> from netdae.circuit import Options
+    >>> c = Circuit("t", options=Options(extra={"defl": 2e-6, "trtol": 7.0}))
+    >>> unused_options(c)
+    'options not used by netdae: trtol'
     """
     o = circuit.options
-    names = sorted(o.extra)
+    names = sorted(name for name in o.extra if name not in USED_EXTRA_OPTIONS)
     if o.chgtol != type(o)().chgtol:
         names.insert(0, "chgtol")
     if o.itl4 != type(o)().itl4:

@@ -4,19 +4,28 @@ Each subcommand lives in its own module of this package with two functions,
 ``add_parser(subparsers)`` and ``main(args) -> int``. Modules import the
 numerical parts of netdae inside ``main`` so that ``netdae --help`` stays fast.
 
-Errors: every :class:`netdae.errors.NetdaeError` becomes one readable line on
-stderr and exit status 2; a bug inside netdae is reported as an internal
-error in one line (set ``NETDAE_DEBUG=1`` for the traceback), exit status 3.
+Results (tables, reports, JSON) go to stdout; diagnostics (notes, files
+written, errors) go to stderr through the ``logging`` logger ``"netdae"``,
+whose level every subcommand's ``-q`` (warnings and errors only) and ``-v``
+(also timings and sizes) set.
+
+Errors: a bad command-line value is a usage error (argparse's message, exit
+status 2); every :class:`netdae.errors.NetdaeError` and every file that
+cannot be read or written becomes one readable line on stderr and exit
+status 2; a bug inside netdae is reported as an internal error in one line
+(set ``NETDAE_DEBUG=1`` for the traceback), exit status 3.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import logging
+import math
 import os
 import sys
 
-__all__ = ["main", "COMMANDS"]
+__all__ = ["main", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity"]
 
 #: Subcommands in the order ``--help`` lists them.
 COMMANDS = ("check", "index", "run", "compare", "demo")
@@ -26,25 +35,107 @@ EXIT_FAIL = 1  # the command ran and its verdict is negative (e.g. compare out o
 EXIT_ERROR = 2  # bad input or a netdae error
 EXIT_INTERNAL = 3  # a bug in netdae
 
+#: The command line's logger: diagnostics (notes, files written, errors) go to
+#: stderr through it; results (tables, reports, JSON) are printed on stdout.
+LOG = logging.getLogger("netdae")
 
-def signal_list(text: str | None) -> list[str] | None:
-    """Split a comma-separated signal list, keeping ``v(a,b)`` whole.
+#: Logging level per verbosity: ``-q`` warnings and errors only, default also
+#: notes and written files, ``-v`` also timings and sizes.
+LEVELS = {-1: logging.WARNING, 0: logging.INFO, 1: logging.DEBUG}
 
-    >>> signal_list("v(out), v(in,minus),i(v1)")
-    ['v(out)', 'v(in,minus)', 'i(v1)']
+
+class _StderrHandler(logging.StreamHandler):
+    """Writes to the current ``sys.stderr`` after flushing stdout, so both streams keep their order."""
+
+    def __init__(self) -> None:
+        super().__init__(sys.stderr)
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.setStream(sys.stderr)
+        try:
+            sys.stdout.flush()
+        except (OSError, ValueError):
+            pass
+        super().emit(record)
+
+
+class _Formatter(logging.Formatter):
+    """``note``-style info lines as written; ``netdae: warning: ...`` above."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = record.getMessage()
+        if record.levelno >= logging.CRITICAL:
+            return f"netdae: internal error: {text}"
+        if record.levelno >= logging.WARNING:
+            return f"netdae: {record.levelname.lower()}: {text}"
+        if record.levelno <= logging.DEBUG:
+            return f"netdae: debug: {text}"
+        return text
+
+
+def _configure_logging(verbosity: int) -> None:
+    for handler in [h for h in LOG.handlers if isinstance(h, _StderrHandler)]:
+        LOG.removeHandler(handler)
+    handler = _StderrHandler()
+    handler.setFormatter(_Formatter())
+    LOG.addHandler(handler)
+    LOG.setLevel(LEVELS[max(-1, min(1, verbosity))])
+    LOG.propagate = False
+
+
+def add_verbosity(parser: argparse.ArgumentParser) -> None:
+    """Give a (sub)command ``-q/--quiet`` and ``-v/--verbose``."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("-q", "--quiet", dest="verbosity", action="store_const", const=-1,
+                       help="print results and errors only (no notes, no progress bar)")
+    group.add_argument("-v", "--verbose", dest="verbosity", action="store_const", const=1,
+                       help="also print timings and sizes on stderr")
+
+
+# -- argument types: a bad value is a usage error (exit status 2) -----------------------
+def signal_names(text: str) -> list[str]:
+    """An argparse type: a comma-separated signal list, each name in its canonical spelling.
+
+    >>> signal_names("V(out), v(in,minus),i(V1), v(a, gnd)")
+    ['v(out)', 'v(in,minus)', 'i(v1)', 'v(a)']
     """
-    if text is None:
-        return None
-    parts, depth, cur = [], 0, []
-    for ch in text:
-        if ch == "," and depth == 0:
-            parts.append("".join(cur))
-            cur = []
-            continue
-        depth += (ch == "(") - (ch == ")")
-        cur.append(ch)
-    parts.append("".join(cur))
-    return [p.strip().lower() for p in parts if p.strip()]
+    from ..signals import canonical, split_signals
+
+    try:
+        return [canonical(name) for name in split_signals(text) or []]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def option_value(name: str):
+    """An argparse type for the simulator option ``name`` (range from :data:`~netdae.analyses.runner.OPTION_RANGES`)."""
+
+    def convert(text: str) -> float:
+        from ..analyses.runner import option_problem
+
+        value = _number(text)
+        problem = option_problem(name, value)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(f"{problem}, got {text!r}")
+        return value
+
+    convert.__name__ = name  # argparse names the type in its messages
+    return convert
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a positive, finite number."""
+    value = _number(text)
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -67,7 +158,8 @@ def build_parser() -> argparse.ArgumentParser:
                 continue
             raise
         p = module.add_parser(sub)
-        p.set_defaults(_main=module.main)
+        add_verbosity(p)
+        p.set_defaults(_main=module.main, verbosity=0)
     return parser
 
 
@@ -90,25 +182,29 @@ def main(argv: list[str] | None = None) -> int:
     from ..errors import NetdaeError
 
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version (0) or a usage error (2), already printed
+        return exc.code if isinstance(exc.code, int) else EXIT_ERROR
+    _configure_logging(args.verbosity)
     try:
         return int(args._main(args) or 0)
     except NetdaeError as exc:
-        print(f"netdae: error: {exc}", file=sys.stderr)
+        LOG.error("%s", exc)
+        return EXIT_ERROR
+    except OSError as exc:  # a file that cannot be read or written: the user's to fix
+        if isinstance(exc, BrokenPipeError):
+            return EXIT_OK
+        LOG.error("%s", exc)
         return EXIT_ERROR
     except KeyboardInterrupt:
-        print("netdae: interrupted", file=sys.stderr)
+        LOG.error("interrupted")
         return 130
-    except BrokenPipeError:
-        return EXIT_OK
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
         if os.environ.get("NETDAE_DEBUG"):
             raise
-        print(
-            f"netdae: internal error: {type(exc).__name__}: {exc} "
-            "(this is a bug in netdae; rerun with NETDAE_DEBUG=1 for the traceback)",
-            file=sys.stderr,
-        )
+        LOG.critical("%s: %s (this is a bug in netdae; rerun with NETDAE_DEBUG=1 for the traceback)",
+                     type(exc).__name__, exc)
         return EXIT_INTERNAL
 
 

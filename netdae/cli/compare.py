@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
+
+from . import option_value, positive_float, signal_names
 
 __all__ = ["add_parser", "main"]
 
-
-def _names(text: str | None) -> list[str] | None:
-    from . import signal_list
-
-    return signal_list(text)
+LOG = logging.getLogger("netdae")
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -37,32 +36,34 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--tight", action=argparse.BooleanOptionalAction, default=None,
                    help="tight tolerances on both sides (netdae and ngspice reltol 1e-6, ngspice step bounded); "
                    "default: the netlist header's '* compare options:', --no-tight overrides it")
-    p.add_argument("--tol", type=float, metavar="REL",
+    p.add_argument("--tol", type=positive_float, metavar="REL",
                    help="pass when every error is within REL of its signal's scale "
                    "(default: the netlist's '* compare tolerance:' header, else 1e-3)")
-    p.add_argument("--reltol", type=float, help="relative tolerance for both simulators")
+    p.add_argument("--reltol", type=option_value("reltol"),
+                   help="relative tolerance for both simulators, between 0 and 1")
     p.add_argument("--backend", choices=("auto", "shared", "subprocess"), default="auto",
                    help="how to run ngspice (default: its shared library, else the executable)")
-    p.add_argument("--signals", metavar="LIST", help="compare only these signals, e.g. 'v(out),i(v1)'")
-    p.add_argument("--exclude", metavar="LIST", help="signals to leave out, e.g. 'v(minus)'")
+    p.add_argument("--signals", metavar="LIST", type=signal_names,
+                   help="compare only these signals, e.g. 'v(out),i(v1)'")
+    p.add_argument("--exclude", metavar="LIST", type=signal_names, default=[],
+                   help="signals to leave out, e.g. 'v(minus)'")
+    p.add_argument("--timeout", metavar="SECONDS", type=positive_float,
+                   help="give up on ngspice after SECONDS (default: 300)")
     return p
 
 
 def main(args) -> int:
     from ..comparison import compare, format_comparison
 
-    if args.tol is not None and not args.tol > 0:
-        from ..errors import NetdaeError
-
-        raise NetdaeError(f"--tol must be positive, got {args.tol:g}")
     comparison = compare(
         args.file,
         tight=args.tight,
         tol=args.tol,
         backend=args.backend,
-        signals=_names(args.signals),
-        exclude=_names(args.exclude) or (),
+        signals=args.signals,
+        exclude=args.exclude,
         reltol=args.reltol,
+        timeout=args.timeout,
     )
     written = None
     if args.plot:
@@ -77,6 +78,6 @@ def main(args) -> int:
         sys.stdout.write("\n")
     else:
         sys.stdout.write(format_comparison(comparison))
-        if written:
-            print(f"wrote {written}")
+    if written:
+        LOG.info("wrote %s", written)
     return 0 if comparison.passed else 1

@@ -64,7 +64,7 @@ def main(args) -> int:
     print(format_report(analyze_index(circuit)))
 
     _section("3. simulation (netdae run)")
-    bar = ProgressBar()
+    bar = ProgressBar(enabled=args.verbosity >= 0)
     try:
         results = run(circuit, progress=bar)
     finally:
@@ -84,7 +84,7 @@ def main(args) -> int:
         write_csv(csv_path, res)
         print(f"  wrote {csv_path}")
         if res.analysis != "op":
-            png = plot_result(res, out / f"{stem}.png", title=f"{circuit.title} (netdae {res.analysis})")
+            png = plot_result(res, out / f"{stem}.png", title=f"{circuit.title} (netdae {res.analysis})", circuit=circuit)
             print(f"  wrote {png}")
 
     _section("4. netdae vs ngspice (netdae compare)")

@@ -14,6 +14,8 @@ import argparse
 import json
 import sys
 
+from . import positive_float
+
 __all__ = ["add_parser", "main", "format_report"]
 
 #: At most this many unknowns are listed one per line in the text report.
@@ -31,10 +33,18 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--at", choices=("op", "t0"), default="op",
                    help="linearise at the DC operating point (default) or at the transient's initial point")
-    p.add_argument("--tol", type=float, help="relative tolerance of the rank decisions (default n*eps)")
+    p.add_argument("--tol", type=_rank_tol, help="relative tolerance of the rank decisions, between 0 and 1 "
+                   "(default n*eps)")
     p.add_argument("--method", choices=("auto", "kronecker", "topological"), default="auto",
                    help="auto: dense Kronecker analysis up to the dense limit, topological above")
     return p
+
+
+def _rank_tol(text: str) -> float:
+    value = positive_float(text)
+    if value >= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a relative tolerance between 0 and 1, got {text!r}")
+    return value
 
 
 def _fmt_eig(z: complex) -> str:

@@ -1,7 +1,7 @@
 """A one-line progress bar on stderr for long transients (terminal only).
 
 Silent unless stderr is a terminal and the run has lasted
-:data:`SHOW_AFTER` seconds; cleared when the run ends.
+:data:`SHOW_AFTER` seconds (and off with ``-q``); cleared when the run ends.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ WIDTH = 30
 class ProgressBar:
     """Callable ``(t, tstop, steps)`` that draws ``[#####.....] 42% t=1.2e-3 s, 3,400 steps/s``."""
 
-    def __init__(self, stream=None):
+    def __init__(self, stream=None, *, enabled: bool = True):
         self.stream = stream if stream is not None else sys.stderr
-        self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.enabled = enabled and bool(getattr(self.stream, "isatty", lambda: False)())
         self.start = time.perf_counter()
         self.shown = False
 

@@ -1,19 +1,36 @@
 """``netdae run FILE``: run the analyses in a netlist, print a summary, write results.
 
 Writes one file per analysis into ``--out DIR`` (``op.csv``, ``dc.csv``,
-``ac.csv``, ``tran.csv``, or ``.raw`` with ``--format raw``), optional PNG plots
-(``--plot``), and prints a table of the operating point and the statistics of
-every analysis (or one JSON object with ``--json``).
+``ac.csv``, ``tran.csv``; a second card of a kind ``tran2.csv`` ...; ``.raw``
+with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
+the operating point and the statistics of every analysis on stdout (or one
+JSON object with ``--json``: one :meth:`~netdae.results.Result.to_dict` per
+analysis). The analyses' notes and the files written are logged on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
+import time
 from pathlib import Path
 
-__all__ = ["add_parser", "main"]
+from . import option_value, signal_names
+
+__all__ = ["add_parser", "main", "stems"]
+
+LOG = logging.getLogger("netdae")
+
+#: Matrix file formats of ``--export``, by suffix.
+EXPORT_SUFFIXES = (".npz", ".mtx")
+
+
+def _export_path(text: str) -> str:
+    if Path(text).suffix not in EXPORT_SUFFIXES:
+        raise argparse.ArgumentTypeError(f"expected a .npz or .mtx path, got {text!r}")
+    return text
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -29,18 +46,17 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--ascii", action="store_true", help="with --format raw: write ascii raw files")
     p.add_argument("--plot", action="store_true", help="also write a PNG plot per analysis (into --out or .)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
-    p.add_argument("--rtol", "--reltol", dest="reltol", type=float, help="relative tolerance (overrides .options reltol)")
-    p.add_argument("--abstol", type=float, help="absolute current tolerance [A]")
-    p.add_argument("--vntol", type=float, help="absolute voltage tolerance [V]")
-    p.add_argument("--save", metavar="SIGNALS",
-                   help="comma-separated signals to keep, e.g. 'v(out),i(v1)' (default: .save cards or all)")
-    p.add_argument("--export", metavar="PATH",
-                   help="write the matrices E, H, B of the (linearised) MNA system: .npz or .mtx (MatrixMarket)")
+    p.add_argument("--rtol", "--reltol", dest="reltol", type=option_value("reltol"),
+                   help="relative tolerance, between 0 and 1 (overrides .options reltol)")
+    p.add_argument("--abstol", type=option_value("abstol"), help="absolute current tolerance [A], positive")
+    p.add_argument("--vntol", type=option_value("vntol"), help="absolute voltage tolerance [V], positive")
+    p.add_argument("--save", metavar="SIGNALS", type=signal_names,
+                   help="comma-separated signals every analysis keeps, e.g. 'v(out),v(a,b),i(v1)' "
+                   "(default: the .save/.print/.probe signals, else all)")
+    p.add_argument("--export", metavar="PATH", type=_export_path,
+                   help="write the matrices E, H, B of the (linearised) MNA system: PATH.npz, or "
+                   "PATH's stem .E.mtx .H.mtx .B.mtx .names.txt (MatrixMarket) for a .mtx path")
     return p
-
-
-def _overrides(args) -> dict:
-    return {k: getattr(args, k) for k in ("reltol", "abstol", "vntol") if getattr(args, k) is not None}
 
 
 def _op_lines(result) -> list[str]:
@@ -62,102 +78,98 @@ def _stats_line(result) -> str:
     return ", ".join(parts)
 
 
-def _scalars(stats: dict) -> dict:
-    """The numbers and strings of a stats dict, nested dicts (the integrator's counters) included."""
-    out = {}
-    for k, v in stats.items():
-        if isinstance(v, (int, float, str, bool)):
-            out[k] = v
-        elif isinstance(v, dict):
-            out[k] = _scalars(v)
+def stems(results) -> list[str]:
+    """File stems (and JSON keys) of results: the analysis, numbered from its second card on.
+
+    >>> from types import SimpleNamespace as R
+    >>> stems([R(analysis="op"), R(analysis="tran"), R(analysis="tran"), R(analysis="ac")])
+    ['op', 'tran', 'tran2', 'ac']
+    """
+    counts: dict[str, int] = {}
+    out = []
+    for res in results:
+        counts[res.analysis] = counts.get(res.analysis, 0) + 1
+        out.append(res.analysis if counts[res.analysis] == 1 else f"{res.analysis}{counts[res.analysis]}")
     return out
 
 
-def _json_of(result, files) -> dict:
-    if result.analysis == "op":
-        return {name: float(v[0]) for name, v in result.signals.items()}
-    out = {
-        "status": result.status,
-        "message": result.message,
-        "points": int(result.axis.size) if result.axis is not None else 0,
-        "signals": result.names(),
-        "stats": _scalars(result.stats),
-        "tolerances": result.tolerances,
-        "notes": result.notes,
-    }
-    if files:
-        out["files"] = files
-    return out
+def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None) -> list[str]:
+    files = []
+    if out_dir is not None:
+        if args.format == "csv":
+            from ..io.csv import write_csv
+
+            path = out_dir / f"{stem}.csv"
+            write_csv(path, res)
+        else:
+            from ..io.raw import write_raw
+
+            path = out_dir / f"{stem}.raw"
+            write_raw(path, [res], binary=not args.ascii, title=title)
+        files.append(str(path))
+    if args.plot and res.analysis != "op":
+        from ..plotting import plot_result
+
+        path = (out_dir or Path(".")) / f"{stem}.png"
+        plot_result(res, path, title=f"{title} ({stem})", circuit=circuit)
+        files.append(str(path))
+    return files
+
+
+def _log_notes(notes) -> None:
+    for note in notes:
+        if note.startswith("warning: "):
+            LOG.warning("%s", note.removeprefix("warning: "))
+        else:
+            LOG.info("note: %s", note)
 
 
 def main(args) -> int:
     from ..analyses.runner import run
-    from . import signal_list
     from ..netlist import load
-
-    circuit = load(args.file)
-    save = signal_list(args.save)
     from .progress import ProgressBar
 
-    bar = ProgressBar()
+    t0 = time.perf_counter()
+    circuit = load(args.file)
+    LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
+              len(circuit.nodes), len(circuit.elements), len(circuit.analyses))
+    bar = ProgressBar(enabled=args.verbosity >= 0)
     try:
-        results = run(circuit, save=save, progress=bar, **_overrides(args))
+        results = run(circuit, save=args.save, progress=bar, reltol=args.reltol, abstol=args.abstol,
+                      vntol=args.vntol)
     finally:
         bar.close()
     out_dir = Path(args.out) if args.out else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
-    written: dict[int, list[str]] = {}
-    counts: dict[str, int] = {}
-    for k, res in enumerate(results):
-        counts[res.analysis] = counts.get(res.analysis, 0) + 1
-        stem = res.analysis if counts[res.analysis] == 1 else f"{res.analysis}{counts[res.analysis]}"
-        files = []
-        if out_dir is not None:
-            if args.format == "csv":
-                from ..io.csv import write_csv
-
-                path = out_dir / f"{stem}.csv"
-                write_csv(path, res)
-            else:
-                from ..io.raw import write_raw
-
-                path = out_dir / f"{stem}.raw"
-                write_raw(path, [res], binary=not args.ascii, title=circuit.title)
-            files.append(str(path))
-        if args.plot and res.analysis != "op":
-            from ..plotting import plot_result
-
-            path = (out_dir or Path(".")) / f"{stem}.png"
-            plot_result(res, path, title=f"{circuit.title} ({stem})")
-            files.append(str(path))
-        written[k] = files
+    keys = stems(results)
+    written = [_write(res, stem, args, out_dir, circuit.title, circuit) for res, stem in zip(results, keys)]
+    exported = []
     if args.export:
         from ..io.matrices import export_matrices
 
-        export_matrices(circuit, args.export)
+        exported = [str(f) for f in export_matrices(circuit, args.export)]
     if args.json:
         doc: dict = {}
-        seen: dict[str, int] = {}
-        for k, res in enumerate(results):
-            seen[res.analysis] = seen.get(res.analysis, 0) + 1
-            key = res.analysis if seen[res.analysis] == 1 else f"{res.analysis}{seen[res.analysis]}"
-            doc[key] = _json_of(res, written[k])
+        for key, res, files in zip(keys, results, written):
+            doc[key] = {**res.to_dict(), "files": files}
         if args.export:
-            doc["export"] = args.export
+            doc["export"] = exported
         json.dump(doc, sys.stdout, indent=2)
         sys.stdout.write("\n")
+        for files in written:
+            for path in files:
+                LOG.info("wrote %s", path)
     else:
         print(circuit.title)
-        for k, res in enumerate(results):
+        for res, files in zip(results, written):
             print()
             print(f".{res.analysis}: {res.message or 'ok'} ({_stats_line(res)})")
             if res.analysis == "op":
                 print("\n".join(_op_lines(res)))
-            for note in res.notes:
-                print(f"note: {note}")
-            for path in written[k]:
-                print(f"wrote {path}")
-        if args.export:
-            print(f"wrote matrices to {args.export}")
+            _log_notes(res.notes)
+            for path in files:
+                LOG.info("wrote %s", path)
+    for path in exported:
+        LOG.info("wrote %s", path)
     return 0 if all(r.ok for r in results) else 1

@@ -127,10 +127,8 @@ def _ranges(names, a_values, b_values):
 
 
 def _time_points(nd: Result, t: np.ndarray, item: AnalysisComparison) -> np.ndarray:
-    """Mask of ngspice's times inside netdae's computed interval."""
+    """Mask of ngspice's times inside netdae's computed interval (not empty)."""
     t_nd = nd.t
-    if t_nd.size == 0:
-        raise NetdaeError("netdae's transient result has no time points")
     slack = _END_SLACK * max(abs(t_nd[-1]), abs(t_nd[0]), 1.0)
     inside = (t >= t_nd[0] - slack) & (t <= t_nd[-1] + slack)
     if not np.all(inside):
@@ -197,19 +195,24 @@ def compare_transient(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=N
     ``whole``. Cost: one dense evaluation at m points, O(m) per signal.
     """
     item = AnalysisComparison("tran", tolerance=tol, axis="time")
+    # netdae's own failure comes first: whatever else goes wrong follows from it
+    failed = f"netdae's transient failed: {nd.message}" if nd.status < 0 else None
     compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
         nd.names(), ng.names(), wanted, exclude)
     if not _signals_or_error(item, compared):
-        return item
+        return _failed_first(item, failed)
+    if nd.t is None or nd.t.size == 0:
+        item.error = "netdae's transient result has no time points"
+        return _failed_first(item, failed)
     if nd.dense is None:
         item.error = "netdae's transient result has no dense output to evaluate at ngspice's time points"
-        return item
+        return _failed_first(item, failed)
     t_all = ng.t
     inside = _time_points(nd, t_all, item)
     t = t_all[inside]
     if t.size == 0:
         item.error = "no ngspice time point lies inside netdae's computed interval"
-        return item
+        return _failed_first(item, failed)
     t = np.clip(t, nd.t[0], nd.t[-1])
     dense = nd.dense(t)
     missing = [n for n in compared if n not in dense]
@@ -252,8 +255,14 @@ def compare_transient(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=N
                          "at": {"time": float(t[whole.worst])}}
         signals.append(sig)
     item.signals = _sorted(signals)
-    if nd.status < 0:
-        item.error = f"netdae's transient failed: {nd.message}"
+    item.error = failed
+    return item
+
+
+def _failed_first(item: AnalysisComparison, failed: str | None) -> AnalysisComparison:
+    """``item`` with netdae's failure in front of the reason the comparison stopped."""
+    if failed is not None:
+        item.error = f"{failed}; therefore: {item.error}" if item.error else failed
     return item
 
 

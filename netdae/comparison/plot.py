@@ -10,7 +10,11 @@ signals of every analysis with an axis (``.tran``, ``.ac``, ``.dc``), at most
 - AC: both magnitudes in dB; below, the relative error ``|A - B| / |B|`` on a
   log scale with the tolerance.
 
-matplotlib is imported when a plot is drawn (non-interactive ``Agg`` backend).
+Axes carry SI prefixes; magnitudes at the rounding level (below
+:data:`netdae.plotting.MAGNITUDE_FLOOR` of the largest) are not drawn, so the dB
+axis spans the data. :func:`comparison_figure` returns the matplotlib Figure
+(for a notebook), :func:`plot_comparison` saves it; matplotlib is imported when
+a figure is built, without pyplot.
 """
 
 from __future__ import annotations
@@ -21,9 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import NetdaeError
+from ..plotting import MAGNITUDE_FLOOR, engineering_axis, magnitude_db, unit_of, save_figure
 from .model import AnalysisComparison, Comparison
 
-__all__ = ["plot_comparison", "MAX_PAIRS", "MAX_SIGNALS_PER_ANALYSIS"]
+__all__ = ["comparison_figure", "plot_comparison", "MAX_PAIRS", "MAX_SIGNALS_PER_ANALYSIS"]
 
 #: At most this many signal panels (overlay + difference) per figure.
 MAX_PAIRS = 6
@@ -34,19 +39,11 @@ TITLE_WIDTH = 80
 #: ngspice's points are drawn as dots up to this many, as a dashed line beyond.
 MAX_MARKERS = 400
 _DPI = 110
-#: Log-scale floors: magnitudes below 1e-20 (-400 dB) and relative errors below
-#: 1e-18 (under double rounding) are drawn at the floor, so exact zeros stay on the axes.
-_MAGNITUDE_FLOOR = 1e-20
+#: Relative errors below 1e-18 (under double rounding) are drawn at this floor,
+#: so exact agreement stays on the log axis.
 _RELATIVE_FLOOR = 1e-18
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+#: Units of the x axis by analysis.
+_X_UNITS = {"tran": "s", "ac": "Hz"}
 
 
 def _panels(comparison: Comparison) -> list[tuple[AnalysisComparison, str]]:
@@ -60,7 +57,11 @@ def _panels(comparison: Comparison) -> list[tuple[AnalysisComparison, str]]:
 
 
 def _xlabel(item: AnalysisComparison) -> str:
-    return {"tran": "time [s]", "ac": "frequency [Hz]"}.get(item.analysis, item.axis or "")
+    return {"tran": "time", "ac": "frequency"}.get(item.analysis, item.axis or "")
+
+
+def _yunit(name: str) -> str:
+    return {"v(": "V", "i(": "A"}.get(name[:2], "")
 
 
 def _curves(item: AnalysisComparison) -> list:
@@ -100,16 +101,23 @@ def _draw_waveform(top, bottom, item: AnalysisComparison, name: str) -> None:
                             xy=(0.01, 0.04), xycoords="axes fraction", fontsize="small")
     top.set_ylabel(name)
     bottom.set_ylabel("difference")
+    if _yunit(name):
+        engineering_axis(top.yaxis, _yunit(name))
+        engineering_axis(bottom.yaxis, _yunit(name))
 
 
 def _draw_ac(top, bottom, item: AnalysisComparison, name: str) -> None:
     f = item.curves["axis"]
     a, b = item.curves["values"][name]
-    top.semilogx(f, 20 * np.log10(np.maximum(np.abs(b), _MAGNITUDE_FLOOR)), ".", color="tab:orange",
-                 markersize=3, label="ngspice")
-    top.semilogx(f, 20 * np.log10(np.maximum(np.abs(a), _MAGNITUDE_FLOOR)), "-", color="tab:blue", linewidth=1,
-                 label="netdae")
-    rel = np.abs(a - b) / np.maximum(np.abs(b), _MAGNITUDE_FLOOR)
+    (db_b, db_a), limits = magnitude_db([b, a])
+    top.semilogx(f, db_b, ".", color="tab:orange", markersize=3, label="ngspice")
+    top.semilogx(f, db_a, "-", color="tab:blue", linewidth=1, label="netdae")
+    if limits is not None:
+        top.set_ylim(*limits)
+    scale = np.max(np.abs(b)) if b.size else 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.abs(a - b) / np.maximum(np.abs(b), scale * MAGNITUDE_FLOOR)
+    rel[~np.isfinite(rel)] = np.nan
     bottom.loglog(f, np.maximum(rel, _RELATIVE_FLOOR), "-", color="tab:red", linewidth=1,
                   label="|netdae - ngspice| / |ngspice|")
     if item.tolerance is not None:
@@ -118,8 +126,8 @@ def _draw_ac(top, bottom, item: AnalysisComparison, name: str) -> None:
     bottom.set_ylabel("relative error")
 
 
-def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
-    """Write the overlay/difference PNG of a comparison and return its path.
+def comparison_figure(comparison: Comparison):
+    """The overlay/difference matplotlib Figure of a comparison (not saved, not shown).
 
     Raises
     ------
@@ -127,13 +135,13 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
         When no analysis has a waveform to draw (an operating point only, or
         every analysis failed).
     """
+    from matplotlib.figure import Figure
+
     chosen = _panels(comparison)
     if not chosen:
         raise NetdaeError(f"{comparison.source}: nothing to plot: no .tran, .ac or .dc analysis was compared")
-    plt = _pyplot()
-    path = Path(path)
-    fig, axes = plt.subplots(2 * len(chosen), 1, figsize=(9, 3.6 * len(chosen)),
-                             gridspec_kw={"height_ratios": [2, 1] * len(chosen)}, squeeze=False)
+    fig = Figure(figsize=(9, 1.2 + 3.6 * len(chosen)), layout="constrained")
+    axes = fig.subplots(2 * len(chosen), 1, gridspec_kw={"height_ratios": [2, 1] * len(chosen)}, squeeze=False)
     axes = axes[:, 0]
     for k, (item, name) in enumerate(chosen):
         top, bottom = axes[2 * k], axes[2 * k + 1]
@@ -145,13 +153,25 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
         top.set_title(f".{item.analysis} {name}: max error {sig.max_rel:.3g} of its scale"
                       + (" (after the initial jump)" if item.window else ""), fontsize="medium")
         bottom.set_xlabel(_xlabel(item))
+        unit = _X_UNITS.get(item.analysis) or unit_of(item.axis or "")
         for ax in (top, bottom):
+            engineering_axis(ax.xaxis, unit)
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize="small", loc="upper right", framealpha=0.8)
     title = textwrap.shorten(comparison.title.lstrip("* "), TITLE_WIDTH, placeholder=" ...")
     fig.suptitle(f"{title}\nnetdae vs {comparison.ngspice_version or 'ngspice'}"
                  + (" (tight tolerances)" if comparison.tight else ""), fontsize="large")
-    fig.tight_layout()
-    fig.savefig(path, dpi=_DPI)
-    plt.close(fig)
-    return path
+    return fig
+
+
+def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
+    """Write the overlay/difference image of a comparison (PNG, or the path's format) and return its path.
+
+    Raises
+    ------
+    NetdaeError
+        As :func:`comparison_figure`, or for a suffix matplotlib cannot write.
+    OutputFileError
+        When the file cannot be written; nothing is left under its name.
+    """
+    return save_figure(comparison_figure(comparison), path, dpi=_DPI)

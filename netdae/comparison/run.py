@@ -222,7 +222,7 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
 
 
 def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "auto", signals=None,
-            exclude=(), reltol: float | None = None, analyses=None) -> Comparison:
+            exclude=(), reltol: float | None = None, analyses=None, timeout: float | None = None) -> Comparison:
     """Run a netlist in netdae and in ngspice and compare every analysis.
 
     Parameters
@@ -253,6 +253,11 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     analyses : sequence of str, optional
         Compare only these kinds of analysis (``"op"``, ``"dc"``, ``"ac"``,
         ``"tran"``); netdae skips the others (ngspice runs the netlist as written).
+    timeout : float, optional
+        Seconds the ngspice run may take; then ngspice is stopped (its process
+        killed, or the shared library's thread halted) and the comparison
+        fails with ``ngspice_error`` saying so. Default
+        :data:`netdae.ngspice.DEFAULT_TIMEOUT`; ``math.inf`` for no limit.
 
     Returns
     -------
@@ -263,8 +268,8 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     Raises
     ------
     NgspiceError
-        When ngspice is not installed (the message gives the install command)
-        or the requested backend cannot run.
+        When ngspice is not installed (the message gives the install command),
+        the requested backend cannot run, or ``timeout`` is not positive.
     NetlistError
         When the netlist is malformed.
     NetdaeError
@@ -294,7 +299,8 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     comparison = Comparison(source=source, title=circuit.title, tight=tight, tolerance_source=tol_source,
                             ngspice_options=dict(ng_options), netdae_options=dict(nd_overrides),
                             opamp_gain=gain if gain is not None else bridge.OPAMP_GAIN)
-    kwargs = {"backend": backend, "workdir": workdir, "source": source, "options": ng_options or None}
+    kwargs = {"backend": backend, "workdir": workdir, "source": source, "options": ng_options or None,
+              "timeout": bridge.check_timeout(timeout)}
     if gain is not None:
         kwargs["opamp_gain"] = gain
     ng_results: list[Result] = []

@@ -3,8 +3,9 @@
 Two pieces, usable by any solver that works on a :class:`SparsePattern`:
 
 - :class:`LuCache` keeps one sparse LU factorisation of a matrix on the fixed
-  pattern (the CSC structure is built once; each factorisation overwrites the
-  values and calls SuperLU), counts factorisations and remembers what the
+  pattern (:class:`netdae.dae.compiled.lu.SparseLU`: refactored in a kept
+  pivot order, with fresh pivoting by SuperLU the first time and whenever a
+  pivot degrades), counts factorisations and remembers what the
   factorisation was made for (its ``tag``, e.g. the BDF coefficient ``cj``),
   so the caller can reuse it while it is good enough.
 - :func:`newton` runs the iteration ``x <- x - s J^{-1} F(x)`` on a residual
@@ -61,9 +62,9 @@ from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from .bdf_kernels import max_norm, wrms
+from .compiled.lu import DEFAULT_PERMC_SPEC, PIVOT_REL_THRESHOLD, SparseLU
 from .sparse import SparsePattern
 
 __all__ = [
@@ -79,11 +80,6 @@ __all__ = [
     "INFO_NONFINITE",
 ]
 
-#: SuperLU column ordering. Minimum degree on A^T + A suits MNA matrices, which
-#: are structurally (nearly) symmetric: on a 300x300 RC mesh it factors in
-#: 0.41 s with 5.0e6 fill against 0.72-0.85 s and 8.9e6 for COLAMD, and ties
-#: on RC ladders (docs/integrator.md, "Sparse LU").
-DEFAULT_PERMC_SPEC = "MMD_AT_PLUS_A"
 #: Largest acceptable contraction rate; above it the iteration is diverging (IDA's RATEMAX).
 RATE_MAX = 0.9
 #: With a Jacobian evaluated in this solve Newton converges quadratically near the root;
@@ -113,46 +109,68 @@ class LuCache:
     ----------
     pattern : SparsePattern
     permc_spec : str
-        SuperLU column ordering (``"MMD_AT_PLUS_A"``, ``"COLAMD"``,
-        ``"MMD_ATA"``, ``"NATURAL"``).
+        SuperLU column ordering of the fresh factorisations
+        (``"MMD_AT_PLUS_A"``, ``"COLAMD"``, ``"MMD_ATA"``, ``"NATURAL"``;
+        :data:`DEFAULT_PERMC_SPEC`).
     diag_pivot_thresh : float, optional
         SuperLU's threshold for preferring a diagonal pivot (default 1:
         partial pivoting).
+    pivot_threshold : float
+        Relative pivot threshold of the refactorisations
+        (:data:`netdae.dae.compiled.lu.PIVOT_REL_THRESHOLD`).
 
     Attributes
     ----------
     factorizations : int
-        Number of successful factorisations so far.
+        Number of successful factorisations so far (fresh and refactored).
+    fresh_factorizations, refactorizations : int
+        Of those, the ones that chose new pivots (SuperLU) and the ones that
+        reused the pivot order.
     tag : object
         What the current factorisation was made for (set by :meth:`factor`);
         ``None`` when there is none.
-    matrix : scipy.sparse.csc_matrix
-        The matrix last passed to :meth:`factor` (its ``data`` is overwritten
-        by every call).
+    lu : SparseLU
+        The factorisation itself.
 
     Notes
     -----
-    The CSC matrix object is built once and its ``data`` replaced by each
-    factorisation, so no sparse constructor runs inside a solver loop.
+    The first factorisation chooses a pivot order (SuperLU); later ones redo
+    only the arithmetic of the elimination in that order, in compiled code,
+    until a pivot degrades (see :mod:`netdae.dae.compiled.lu`). No sparse
+    constructor runs inside a solver loop.
     """
 
     def __init__(self, pattern: SparsePattern, *, permc_spec: str = DEFAULT_PERMC_SPEC,
-                 diag_pivot_thresh: float | None = None) -> None:
+                 diag_pivot_thresh: float | None = None,
+                 pivot_threshold: float = PIVOT_REL_THRESHOLD) -> None:
         self.pattern = pattern
         self.permc_spec = permc_spec
         self.diag_pivot_thresh = diag_pivot_thresh
-        self.matrix = sp.csc_matrix(
-            (np.zeros(pattern.nnz), pattern.indices, pattern.indptr), shape=(pattern.n, pattern.n)
-        )
-        self.matrix.has_sorted_indices = True
-        self._lu = None
+        self.lu = SparseLU(pattern, permc_spec=permc_spec, diag_pivot_thresh=diag_pivot_thresh,
+                           threshold=pivot_threshold)
+        self._data = None
         self.factorizations = 0
         self.tag = None
 
     @property
     def ready(self) -> bool:
         """True when a factorisation is available."""
-        return self._lu is not None
+        return self.lu.ready
+
+    @property
+    def fresh_factorizations(self) -> int:
+        """Factorisations that chose a new pivot order."""
+        return self.lu.fresh_factorizations
+
+    @property
+    def refactorizations(self) -> int:
+        """Factorisations in the kept pivot order."""
+        return self.lu.refactorizations
+
+    @property
+    def matrix(self) -> sp.csc_matrix | None:
+        """The matrix last passed to :meth:`factor` (``None`` before the first)."""
+        return None if self._data is None else self.pattern.matrix(self._data)
 
     def factor(self, data: np.ndarray, tag=None) -> bool:
         """Factor the matrix with values ``data`` on the pattern.
@@ -166,13 +184,11 @@ class LuCache:
         Returns
         -------
         bool
-            False when the matrix is exactly singular (the cache is then empty).
+            False when the matrix is singular, or has non-finite entries (the
+            cache is then empty).
         """
-        self.matrix.data = np.ascontiguousarray(data, dtype=float)
-        try:
-            self._lu = splu(self.matrix, permc_spec=self.permc_spec, diag_pivot_thresh=self.diag_pivot_thresh)
-        except RuntimeError:
-            self._lu = None
+        self._data = data
+        if not self.lu.factor(data):
             self.tag = None
             return False
         self.factorizations += 1
@@ -180,12 +196,12 @@ class LuCache:
         return True
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """Solve ``A y = b`` with the current factorisation."""
-        return self._lu.solve(b)
+        """Solve ``A y = b`` with the current factorisation (``b``: shape (n,) or (n, k))."""
+        return self.lu.solve(b)
 
     def invalidate(self) -> None:
         """Forget the factorisation (the next use must factor again)."""
-        self._lu = None
+        self.lu.invalidate()
         self.tag = None
 
 

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..errors import NetdaeError, ResultFileError
 from ..results import Result
+from .files import write_bytes
 
 __all__ = ["write_csv", "read_csv", "format_csv", "parse_csv"]
 
@@ -112,15 +113,12 @@ def write_csv(path: str | os.PathLike, result: Result) -> None:
     Raises
     ------
     NetdaeError
-        When the result cannot be written (see :func:`format_csv`) or the file
-        cannot be created.
+        When the result cannot be written (see :func:`format_csv`).
+    OutputFileError
+        When the file cannot be written (disk full, file-size limit, no
+        permission); nothing is left under its name.
     """
-    text = format_csv(result)
-    try:
-        with open(path, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-    except OSError as exc:
-        raise NetdaeError(f"{path}: cannot write CSV file: {exc.strerror}") from None
+    write_bytes(path, format_csv(result).encode("utf-8"))
 
 
 def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = None) -> Result:

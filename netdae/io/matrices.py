@@ -14,6 +14,7 @@ blank line and the source names) next to the given path.
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ import scipy.io
 import scipy.sparse as sp
 
 from ..errors import NetdaeError
+from .files import atomic_output
 
 __all__ = ["matrices_of", "export_matrices", "load_npz_matrices"]
 
@@ -50,12 +52,20 @@ def matrices_of(circuit) -> dict:
 def export_matrices(circuit, path: str | Path) -> list[Path]:
     """Write the matrices of ``circuit`` to ``path`` (``.npz`` or ``.mtx``); returns the files written.
 
+    The files appear together or not at all: each is written to a temporary
+    file first and all are renamed once every one is complete.
+
     Raises
     ------
     NetdaeError
         For another file extension.
+    OutputFileError
+        When a file cannot be written (disk full, file-size limit, no
+        permission); none of the files is left behind.
     """
     path = Path(path)
+    if path.suffix not in (".npz", ".mtx"):
+        raise NetdaeError(f"--export: unknown format '{path.suffix}' (use a .npz or .mtx path)")
     m = matrices_of(circuit)
     if path.suffix == ".npz":
         arrays = {"names": np.array(m["names"]), "sources": np.array(m["sources"]),
@@ -68,20 +78,19 @@ def export_matrices(circuit, path: str | Path) -> list[Path]:
             arrays[f"{key}_indices"] = mat.indices
             arrays[f"{key}_indptr"] = mat.indptr
             arrays[f"{key}_shape"] = np.array(mat.shape)
-        np.savez(path, **arrays)
+        with atomic_output(path) as handle:
+            np.savez(handle, **arrays)
         return [path]
-    if path.suffix == ".mtx":
-        stem = path.with_suffix("")
-        files = []
-        for key in ("E", "H", "B"):
-            f = Path(f"{stem}.{key}.mtx")
-            scipy.io.mmwrite(str(f), sp.coo_matrix(m[key]), precision=17,
-                             comment="netdae: E x' = H x + B u(t)" + (" (linearised at the DC operating point)" if m["linearized"] else ""))
-            files.append(f)
-        names = Path(f"{stem}.names.txt")
-        names.write_text("\n".join(m["names"]) + "\n\n" + "\n".join(m["sources"]) + "\n")
-        return files + [names]
-    raise NetdaeError(f"--export: unknown format '{path.suffix}' (use a .npz or .mtx path)")
+    stem = path.with_suffix("")
+    comment = "netdae: E x' = H x + B u(t)" + (" (linearised at the DC operating point)" if m["linearized"] else "")
+    files = [Path(f"{stem}.{key}.mtx") for key in ("E", "H", "B")] + [Path(f"{stem}.names.txt")]
+    with ExitStack() as stack:
+        for key, f in zip(("E", "H", "B"), files):
+            scipy.io.mmwrite(stack.enter_context(atomic_output(f)), sp.coo_matrix(m[key]), precision=17,
+                             comment=comment)
+        names = "\n".join(m["names"]) + "\n\n" + "\n".join(m["sources"]) + "\n"
+        stack.enter_context(atomic_output(files[-1])).write(names.encode("utf-8"))
+    return files
 
 
 def load_npz_matrices(path: str | Path) -> dict:

@@ -68,6 +68,7 @@ import numpy as np
 
 from ..errors import NetdaeError, ResultFileError
 from ..results import Result
+from .files import write_bytes
 
 __all__ = [
     "read_raw",
@@ -77,6 +78,7 @@ __all__ = [
     "signal_name",
     "PLOTNAMES",
     "PLOTNAME_OF",
+    "FLAVOURS",
 ]
 
 #: ngspice plot names and the netdae analysis each one holds.
@@ -105,6 +107,15 @@ _SWEEP_NAMES = {
 }
 #: Header line announcing the axes of a nested dc sweep (netdae's files only).
 _AXES_OPTION = "netdae_axes"
+#: Lines ngspice prints in server mode (``ngspice -s``) around a plot's
+#: header, and PySpice's reader requires: the temperatures and the count of
+#: data columns after ``Variables:``.
+_TEMPERATURES = re.compile(r"Doing analysis at TEMP = (\S+) and TNOM = (\S+)", re.I)
+_DATA_COLUMNS = "No. of Data Columns"
+#: The vector types PySpice's reader knows (any other is a KeyError there).
+_PYSPICE_TYPES = ("time", "voltage", "current", "frequency")
+#: Flavours of raw file netdae writes.
+FLAVOURS = ("ngspice", "pyspice")
 #: Bytes per stored double (ngspice writes native little-endian IEEE doubles).
 _DOUBLE = np.dtype("<f8")
 #: Digits written to ascii files: 17 significant digits round-trip any double
@@ -168,6 +179,8 @@ class _Header:
     nvars: int | None = None
     npoints: int | None = None
     dimensions: str | None = None
+    circuit: str | None = None
+    temperatures: tuple[float, float] | None = None
     commands: list[str] = field(default_factory=list)
     options: list[str] = field(default_factory=list)
     unknown: list[str] = field(default_factory=list)
@@ -187,15 +200,28 @@ class _Header:
 class _Reader:
     """Walks the bytes of a raw file, one plot at a time."""
 
-    def __init__(self, data: bytes, source: str) -> None:
+    def __init__(self, data: bytes, source: str, partial: bool = False) -> None:
         self.data = data
         self.source = source
+        self.partial = partial
         self.pos = 0
         self.line_no = 1
 
     def error(self, message: str, line: int | None = None) -> NetdaeError:
         where = f"{self.source}:{self.line_no if line is None else line}"
         return ResultFileError(f"{where}: not a readable ngspice raw file: {message}")
+
+    def incomplete(self, head: _Header, found: int, line: int | None = None) -> str:
+        """The note on a plot whose data do not hold the announced points; raises unless ``partial``."""
+        what = (f"the header announces {head.npoints} points, the file holds {found} complete "
+                f"point{'' if found == 1 else 's'}")
+        if not self.partial:
+            where = f"{self.source}:{self.line_no if line is None else line}"
+            raise ResultFileError(
+                f"{where}: plot '{head.plotname}' is incomplete: {what} (the run or the write was "
+                "cut short); read_raw(..., partial=True) reads the complete points"
+            )
+        return f"{head.plotname}: {what} (the run was cut short); read those"
 
     def at_end(self) -> bool:
         rest = self.data[self.pos :]
@@ -250,6 +276,11 @@ class _Reader:
                 head.dimensions = value
             elif key == "command":
                 head.commands.append(value)
+            elif key == "circuit":
+                head.circuit = value
+            elif _TEMPERATURES.fullmatch(line.strip()):
+                temp, tnom = _TEMPERATURES.fullmatch(line.strip()).groups()
+                head.temperatures = (float(temp), float(tnom))
             elif key == "option":
                 head.options.append(value)
             elif key == "variables":
@@ -280,6 +311,8 @@ class _Reader:
             line = self.next_line()
             if line is None:
                 raise self.error(f"file ends inside the {head.nvars} variable lines")
+            if line.lower().startswith(_DATA_COLUMNS.lower()):
+                continue  # ngspice -s (and PySpice) only
             lines.append(line)
         for k, line in enumerate(lines):
             fields = line.split()
@@ -304,7 +337,7 @@ def _dims_length(attributes: list[str]) -> int | None:
     return None
 
 
-def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
+def parse_raw(data: bytes, source: str = "<bytes>", *, partial: bool = False) -> list[Result]:
     """Parse the contents of a raw file.
 
     Parameters
@@ -313,6 +346,9 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
         The whole file.
     source : str
         Name used in error messages and notes (the file's path).
+    partial : bool
+        Read the complete points of a last plot that holds fewer (or more)
+        points than its header announces, with a note, instead of raising.
 
     Returns
     -------
@@ -324,20 +360,23 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
 
     Raises
     ------
-    NetdaeError
+    ResultFileError
         When the file is not a raw file, a plot is not one of op, tran, ac, dc,
-        or the data of a plot other than the last is incomplete.
+        or the data of a plot do not hold the points its header announces
+        (the message says how many were announced and found; with ``partial``
+        only a plot other than the last raises).
 
     Notes
     -----
     A run that is cut short (killed, or stopped by an error) leaves a header
     whose ``No. Points`` is wrong: ngspice writes an estimate (often 0) and
-    corrects it only when the analysis ends. The last plot of a file is
-    therefore read up to the last complete point actually present, and a note
-    says so when that differs from the announced count. Cost: one pass over
+    corrects it only when the analysis ends; a write that fails leaves a file
+    shorter than its header says. Either file is refused unless ``partial`` is
+    given: then the last plot is read up to the last complete point actually
+    present, and a note says so. Cost: one pass over
     the data; binary data is converted with one ``numpy.frombuffer``.
     """
-    reader = _Reader(data, source)
+    reader = _Reader(data, source, partial)
     results: list[Result] = []
     while True:
         reader.skip_blank()
@@ -354,13 +393,15 @@ def parse_raw(data: bytes, source: str = "<bytes>") -> list[Result]:
     return results
 
 
-def read_raw(path: str | os.PathLike) -> list[Result]:
+def read_raw(path: str | os.PathLike, *, partial: bool = False) -> list[Result]:
     """Read an ngspice raw file (binary or ascii, one or more plots).
 
     Parameters
     ----------
     path : str or path-like
         The file.
+    partial : bool
+        Read what a run cut short left in its last plot (see :func:`parse_raw`).
 
     Returns
     -------
@@ -369,15 +410,16 @@ def read_raw(path: str | os.PathLike) -> list[Result]:
 
     Raises
     ------
-    NetdaeError
-        When the file cannot be read or is not a raw file.
+    ResultFileError
+        When the file cannot be read, is not a raw file, or is incomplete
+        (see :func:`parse_raw`).
     """
     try:
         with open(path, "rb") as handle:
             data = handle.read()
     except OSError as exc:
         raise ResultFileError(f"{path}: cannot read raw file: {exc.strerror}") from None
-    return parse_raw(data, os.fspath(path))
+    return parse_raw(data, os.fspath(path), partial=partial)
 
 
 def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]:
@@ -392,16 +434,14 @@ def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]
         row = nvars * width * _DOUBLE.itemsize
         announced_end = start + head.npoints * row
         follows = reader.data[announced_end:].lstrip()
-        if announced_end <= len(reader.data) and (not follows or follows.startswith(b"Title:")):
+        if announced_end <= len(reader.data) and (not follows or _starts_plot(follows)):
             npoints = head.npoints
         else:
-            npoints = available // row
-            notes.append(
-                f"{head.plotname}: the header announces {head.npoints} points, the file holds "
-                f"{npoints} complete points (the run was cut short); read those"
-            )
-            if not _is_last(reader.data, start + npoints * row):
+            following = _next_plot(reader.data, start)
+            if following is not None:
                 raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows")
+            npoints = available // row
+            notes.append(reader.incomplete(head, npoints))
         flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=npoints * nvars * width, offset=start)
         # a plot cut short is the last one: a trailing partial point is dropped
         reader.pos = start + npoints * row if npoints == head.npoints else len(reader.data)
@@ -412,8 +452,8 @@ def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]
         count = int(mask.sum()) * width
         have = min(count, available // _DOUBLE.itemsize)
         if have < count:
-            notes.append(f"{head.plotname}: unpadded data ends early (the run was cut short)")
             npoints = _complete_rows(mask, have // width)
+            notes.append(reader.incomplete(head, npoints))
             mask = mask[:npoints]
             have = int(mask.sum()) * width
         flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=have, offset=start)
@@ -430,8 +470,19 @@ def _complete_rows(mask: np.ndarray, values: int) -> int:
     return int(np.searchsorted(per_row, values, side="right"))
 
 
-def _is_last(data: bytes, pos: int) -> bool:
-    return b"\nPlotname:" not in data[pos:] and not data[pos:].lstrip().startswith(b"Title:")
+#: The first header line of a plot: ``Title:``, or ``Circuit:`` in the
+#: flavour ngspice prints in server mode (``ngspice -s``, read by PySpice).
+_PLOT_START = re.compile(rb"(?:Title|Circuit):[^\n]*\n(?:[^\n]*\n){0,8}?Plotname:")
+
+
+def _starts_plot(data: bytes) -> bool:
+    return _PLOT_START.match(data) is not None
+
+
+def _next_plot(data: bytes, pos: int) -> int | None:
+    """Offset of the next plot's header at or after ``pos``, if any."""
+    match = _PLOT_START.search(data, pos)
+    return None if match is None else match.start()
 
 
 _HEADER_START = re.compile(rb"^[A-Za-z]", re.M)
@@ -457,10 +508,7 @@ def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]
     if npoints != head.npoints or len(tokens) % per_point:
         if match is not None and npoints < head.npoints:
             raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows", first_line)
-        notes.append(
-            f"{head.plotname}: the header announces {head.npoints} points, the file holds "
-            f"{npoints} complete points (the run was cut short); read those"
-        )
+        notes.append(reader.incomplete(head, npoints, first_line))
     grid = np.asarray(tokens[: npoints * per_point], dtype=object).reshape(npoints, per_point)
     try:
         index = grid[:, 0].astype(np.int64) if npoints else np.zeros(0, dtype=np.int64)
@@ -511,6 +559,8 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
         "commands": list(head.commands),
         "options": list(head.options),
         "dimensions": head.dimensions,
+        **({"circuit": head.circuit} if head.circuit is not None else {}),
+        **({"temp": head.temperatures[0], "tnom": head.temperatures[1]} if head.temperatures else {}),
         "variable_types": types,
         "points_announced": head.npoints,
         "source": source,
@@ -561,6 +611,9 @@ def format_raw(
     binary: bool = True,
     title: str = "netdae",
     date: str | None = None,
+    flavour: str = "ngspice",
+    temp: float = 27.0,
+    tnom: float = 27.0,
 ) -> bytes:
     """Format results as the bytes of an ngspice raw file.
 
@@ -575,6 +628,13 @@ def format_raw(
         The ``Title:`` line.
     date : str, optional
         The ``Date:`` line; now, in ngspice's format, by default.
+    flavour : {"ngspice", "pyspice"}
+        ``"ngspice"``: the file ``ngspice -r`` writes and ngspice's ``load``
+        reads. ``"pyspice"``: the text ``ngspice -s`` prints, which PySpice's
+        ``RawFile`` parses (see Notes); ngspice's ``load`` refuses it.
+    temp, tnom : float
+        Circuit and nominal temperature in degrees Celsius, written on the
+        ``Doing analysis at TEMP = ...`` line of the ``"pyspice"`` flavour.
 
     Returns
     -------
@@ -584,17 +644,62 @@ def format_raw(
     ------
     NetdaeError
         When a result is not an analysis a raw file can hold, or its axes and
-        signals have different lengths.
+        signals have different lengths; for the ``"pyspice"`` flavour also
+        when asked for ascii, more than one result, or a vector whose type
+        PySpice does not know (a resistance or temperature sweep, ``@``
+        parameters).
+
+    Notes
+    -----
+    PySpice 1.5's ``PySpice.Spice.NgSpice.RawFile.RawFile(data, points)``
+    expects exactly the lines ngspice prints in server mode: ``Circuit:``,
+    ``Doing analysis at TEMP = ... and TNOM = ...``, ``Title:``, ``Date:``,
+    ``Plotname:``, ``Flags:``, ``No. Variables:``, ``No. Points:``,
+    ``Variables:``, ``No. of Data Columns : n``, one tab-separated line per
+    vector whose type is ``time``, ``voltage``, ``current`` or ``frequency``,
+    and ``Binary:``; it reads one plot, binary only, and counts every
+    occurrence of ``Warning`` in the text as a warning line it must find, so
+    the title's ``Warning`` is written in lower case. A dc sweep's scale is
+    named ``v(v-sweep)`` or ``i(i-sweep)`` as ngspice names it (netdae's
+    reader then calls the axis ``v-sweep``). PySpice converts the data with
+    ``numpy.fromstring``, which NumPy 2 no longer accepts for binary data;
+    the header parses with any NumPy.
     """
     if isinstance(results, Result):
         results = [results]
+    if flavour not in FLAVOURS:
+        raise NetdaeError(f"unknown raw file flavour {flavour!r} (one of {', '.join(FLAVOURS)})")
     if date is None:
         date = _dt.datetime.now().strftime(_DATE_FORMAT)
     title = " ".join(title.split())
+    if flavour == "pyspice":
+        if not binary:
+            raise NetdaeError("PySpice reads binary raw files only: write the 'pyspice' flavour with binary=True")
+        if len(results) != 1:
+            raise NetdaeError(f"PySpice reads one plot per raw file; {len(results)} results were given")
+        title = title.replace("Warning", "warning")
+        preamble = f"Circuit: {title}\n\nDoing analysis at TEMP = {temp:f} and TNOM = {tnom:f}\n\n"
+        return preamble.encode("utf-8") + _format_plot(results[0], binary, title, date, pyspice=True)
     return b"".join(_format_plot(r, binary, title, date) for r in results)
 
 
-def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
+def _pyspice_columns(result: Result, columns: list) -> list:
+    """Columns renamed and checked for PySpice: a dc scale named as ngspice names it."""
+    out = []
+    for k, (name, values, axis) in enumerate(columns):
+        vtype = _vector_type(name, axis)
+        if axis and k == 0 and result.analysis == "dc" and vtype in ("voltage", "current"):
+            name = "v(v-sweep)" if vtype == "voltage" else "i(i-sweep)"
+        if vtype not in _PYSPICE_TYPES:
+            raise NetdaeError(
+                f"cannot write {name!r} for PySpice: its vector type '{vtype}' is not one PySpice reads "
+                f"({', '.join(_PYSPICE_TYPES)})"
+            )
+        out.append((name, values, axis))
+    return out
+
+
+def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: bool = False) -> bytes:
     plotname = PLOTNAME_OF.get(result.analysis)
     if plotname is None:
         raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc only)")
@@ -612,6 +717,9 @@ def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
             )
         if any(c.isspace() for c in name) or not name:
             raise NetdaeError(f"cannot write a vector named {name!r} to a raw file (no blanks allowed)")
+    if pyspice:
+        columns = _pyspice_columns(result, columns)
+        known_types = {}
     is_complex = any(np.iscomplexobj(v) for _, v, _ in columns)
     lines = [
         f"Title: {title}",
@@ -621,9 +729,11 @@ def _format_plot(result: Result, binary: bool, title: str, date: str) -> bytes:
         f"No. Variables: {len(columns)}",
         f"No. Points: {npoints}",
     ]
-    if len(result.axes) > 1:
+    if len(result.axes) > 1 and not pyspice:
         lines.append(f"Option: {_AXES_OPTION} = ( {' '.join(result.axes)} )")
     lines.append("Variables:")
+    if pyspice:
+        lines.append(f"{_DATA_COLUMNS} : {len(columns)}")
     for k, (name, _, axis) in enumerate(columns):
         vtype = known_types.get(name) or _vector_type(name, axis)
         lines.append(f"\t{k}\t{name}\t{vtype}")
@@ -655,25 +765,26 @@ def write_raw(
     binary: bool = True,
     title: str = "netdae",
     date: str | None = None,
+    flavour: str = "ngspice",
+    temp: float = 27.0,
+    tnom: float = 27.0,
 ) -> None:
-    """Write results to an ngspice raw file that ngspice's ``load`` reads.
+    """Write results to an ngspice raw file that ngspice's ``load`` (or PySpice) reads.
 
     Parameters
     ----------
     path : str or path-like
         Output file (overwritten).
-    results, binary, title, date
+    results, binary, title, date, flavour, temp, tnom
         As for :func:`format_raw`.
 
     Raises
     ------
     NetdaeError
-        When a result cannot be written (see :func:`format_raw`) or the file
-        cannot be created.
+        When a result cannot be written (see :func:`format_raw`).
+    OutputFileError
+        When the file cannot be written (disk full, file-size limit, no
+        permission); nothing is left under its name.
     """
-    data = format_raw(results, binary=binary, title=title, date=date)
-    try:
-        with open(path, "wb") as handle:
-            handle.write(data)
-    except OSError as exc:
-        raise NetdaeError(f"{path}: cannot write raw file: {exc.strerror}") from None
+    write_bytes(path, format_raw(results, binary=binary, title=title, date=date, flavour=flavour,
+                                 temp=temp, tnom=tnom))

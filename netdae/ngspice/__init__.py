@@ -18,12 +18,19 @@ against ngspice's on the same netlist. Two ways to run it:
 Both give the same doubles: a transient result holds ngspice's own accepted
 time points at full precision.
 
-Before running, the netlist is translated (:func:`translate_for_ngspice`:
-netdae's ideal op-amp becomes a high-gain VCVS, ``.options interp`` and
-``filetype`` and ``.control`` blocks are removed, relative include paths made
-absolute) and, on request, options are overridden (:func:`override_options`).
-Nothing else is changed: ngspice runs with its own defaults. Every change is
-a note in the returned :class:`NgspiceRun` and in each of its results.
+Before running, the netlist is translated (:func:`translate_for_ngspice`):
+netdae writes it out as one self-contained netlist (includes and library
+sections expanded by netdae's reader, no control-language card, nothing after
+``.end``; :mod:`netdae.ngspice.deck`), netdae's ideal op-amp becomes a
+high-gain VCVS, ``.options interp`` and ``filetype`` are removed; on request,
+options are overridden (:func:`override_options`). Nothing else is changed:
+ngspice runs with its own defaults. Every change is a note in the returned
+:class:`NgspiceRun` and in each of its results.
+
+ngspice never runs a command of the netlist's: no ``.control`` block, script
+title, ``*#`` line or ``.include`` reaches it, it never reads the user's
+files or ``.spiceinit``, and it runs in a private temporary directory (both
+backends). See ``docs/ngspice.md``, "What ngspice is allowed to do".
 
 Signals are named as netdae names them: ``v(node)``, ``i(element)`` (ngspice's
 ``l.xa.x1.l1#branch`` becomes ``i(l.xa.x1.l1)``), the axis of a ``.dc``
@@ -63,6 +70,7 @@ __all__ = [
     "INSTALL_HINT",
     "BACKENDS",
     "DEFAULT_TIMEOUT",
+    "check_timeout",
     "OPAMP_GAIN",
     "NgspiceRun",
     "run_ngspice",
@@ -187,7 +195,7 @@ def run_ngspice(
     *,
     backend: str = "auto",
     workdir: str | os.PathLike | None = None,
-    timeout: float = DEFAULT_TIMEOUT,
+    timeout: float | None = None,
     options: dict | None = None,
     opamp_gain: float = OPAMP_GAIN,
     strict: bool = True,
@@ -205,8 +213,10 @@ def run_ngspice(
     workdir : path-like, optional
         Directory relative ``.include``/``.lib`` paths refer to (the
         netlist's directory); the current directory by default.
-    timeout : float
-        Seconds before the run is stopped and an error raised.
+    timeout : float, optional
+        Seconds before the run is stopped (the subprocess killed, the
+        library's thread halted) and an error raised; default
+        :data:`DEFAULT_TIMEOUT`, ``math.inf`` for no limit.
     options : dict, optional
         Options to override, e.g. ``{"reltol": 1e-6, "method": "gear",
         "maxstep": 1e-7}`` (:func:`override_options`).
@@ -230,16 +240,20 @@ def run_ngspice(
         reports an error (its message is quoted), times out, or produces no
         analysis result.
     NetlistError
-        When a netdae extension in the netlist is malformed.
+        When a netdae extension in the netlist is malformed, a file it
+        includes cannot be read, or it holds a card netdae does not hand to
+        ngspice (:func:`netdae.ngspice.deck.self_contained`).
     """
     _check_backend(backend)
+    seconds = check_timeout(timeout)
+    limit = None if seconds == float("inf") else seconds
     start = time.perf_counter()
     base_dir = os.fspath(workdir) if workdir is not None else os.getcwd()
     netlist, notes = translate_for_ngspice(text, opamp_gain=opamp_gain, base_dir=base_dir, source=source)
     if options:
         netlist, more = override_options(netlist, **options)
         notes += more
-    output, used = _run_backend(netlist, backend, timeout, notes)
+    output, used = _run_backend(netlist, backend, limit, notes)
     notes += output.notes
     errors, warnings = classify_output(output.stderr, output.stdout, strict=strict)
     if errors:
@@ -299,12 +313,31 @@ def run_ngspice_file(path: str | os.PathLike, **kwargs) -> NgspiceRun:
     return run_ngspice(text, **kwargs)
 
 
+def check_timeout(timeout: float | None) -> float:
+    """The caller's ``timeout`` as seconds (None: :data:`DEFAULT_TIMEOUT`).
+
+    Raises
+    ------
+    NgspiceError
+        When it is not a positive number (``math.inf`` is allowed: no limit).
+    """
+    if timeout is None:
+        return DEFAULT_TIMEOUT
+    try:
+        value = float(timeout)
+    except (TypeError, ValueError):
+        raise NgspiceError(f"the ngspice timeout must be a number of seconds, got {timeout!r}") from None
+    if not value > 0:
+        raise NgspiceError(f"the ngspice timeout must be positive, got {timeout!r}")
+    return value
+
+
 def _check_backend(backend: str) -> None:
     if backend not in BACKENDS:
         raise NgspiceError(f"unknown ngspice backend {backend!r}; choose one of {', '.join(BACKENDS)}")
 
 
-def _run_backend(netlist: str, backend: str, timeout: float, notes: list[str]) -> tuple[BackendOutput, str]:
+def _run_backend(netlist: str, backend: str, timeout: float | None, notes: list[str]) -> tuple[BackendOutput, str]:
     from . import batch, shared
 
     if backend == "subprocess":

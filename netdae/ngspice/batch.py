@@ -1,9 +1,11 @@
 """ngspice as a subprocess: ``ngspice -b -n -r out.raw netlist.cir``.
 
-The netlist and the raw file live in a fresh temporary directory, which is
-also ngspice's working directory, so that nothing a netlist writes lands
-elsewhere. ``-n`` keeps the user's ``.spiceinit`` out (the system ``spinit``
-is still read, as the shared library does); ``SPICE_ASCIIRAWFILE=0`` keeps
+The netlist and the raw file live in a fresh private temporary directory,
+which is also ngspice's working directory and ``HOME``, so that nothing
+ngspice writes lands elsewhere. ``-n`` keeps the user's ``.spiceinit`` out
+(the system ``spinit`` is still read, as the shared library does). ngspice
+runs in a session of its own: on a timeout the whole process group is
+killed, so no ngspice process outlives the run. ``SPICE_ASCIIRAWFILE=0`` keeps
 the raw file binary (ngspice's default, full double precision) whatever the
 user's environment says. The raw file is read with
 :func:`netdae.io.raw.read_raw`.
@@ -11,9 +13,11 @@ user's environment says. The raw file is read with
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
 
@@ -60,15 +64,15 @@ def version() -> str:
     return _version_cache[exe]
 
 
-def run(netlist: str, *, timeout: float) -> BackendOutput:
+def run(netlist: str, *, timeout: float | None) -> BackendOutput:
     """Run a netlist with the ngspice executable in batch mode.
 
     Parameters
     ----------
     netlist : str
         The (translated) netlist.
-    timeout : float
-        Seconds before ngspice is killed.
+    timeout : float or None
+        Seconds before ngspice is killed (None: no limit).
 
     Returns
     -------
@@ -83,27 +87,14 @@ def run(netlist: str, *, timeout: float) -> BackendOutput:
     """
     exe = executable()
     ngspice = version()
-    env = dict(os.environ, SPICE_ASCIIRAWFILE="0")
     with tempfile.TemporaryDirectory(prefix="netdae-ngspice-") as tmp:
+        env = dict(os.environ, SPICE_ASCIIRAWFILE="0", HOME=tmp)
+        env.pop("SPICE_USERINIT_DIR", None)
         circuit = os.path.join(tmp, "netlist.cir")
         raw = os.path.join(tmp, "out.raw")
         with open(circuit, "w", encoding="utf-8") as handle:
             handle.write(netlist)
-        try:
-            done = subprocess.run(
-                [exe, "-b", "-n", "-r", raw, circuit],
-                cwd=tmp,
-                env=env,
-                stdin=subprocess.DEVNULL,
-                capture_output=True,
-                text=True,
-                errors="replace",
-                timeout=timeout,
-            )
-        except subprocess.TimeoutExpired:
-            raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was stopped)") from None
-        except OSError as exc:
-            raise BackendUnavailable(f"cannot start {exe}: {exc}") from None
+        done = _run_killable([exe, "-b", "-n", "-r", "out.raw", "netlist.cir"], tmp, env, timeout)
         results, read_error = [], None
         if os.path.exists(raw):
             try:
@@ -120,3 +111,30 @@ def run(netlist: str, *, timeout: float) -> BackendOutput:
         returncode=done.returncode,
         read_error=read_error,
     )
+
+
+def _run_killable(argv: list[str], cwd: str, env: dict, timeout: float | None) -> subprocess.CompletedProcess:
+    """Run ngspice in a session of its own; on a timeout kill its whole process group."""
+    try:
+        process = subprocess.Popen(
+            argv, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+            text=True, errors="replace", start_new_session=True,
+        )
+    except OSError as exc:
+        raise BackendUnavailable(f"cannot start {argv[0]}: {exc}") from None
+    try:
+        stdout, stderr = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        _kill_group(process)
+        raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was killed)") from None
+    except BaseException:  # KeyboardInterrupt: leave no ngspice behind
+        _kill_group(process)
+        raise
+    return subprocess.CompletedProcess(argv, process.returncode, stdout, stderr)
+
+
+def _kill_group(process: subprocess.Popen) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(process.pid, signal.SIGKILL)
+    process.kill()
+    process.communicate()

@@ -19,6 +19,18 @@ fit ngspice 39:
   package provides; netdae asks the dynamic loader for ``libngspice.so.0``
   too.
 
+ngspice's library reads ``.spiceinit`` (commands) when it is initialised:
+from the current directory, else from the user's home directory (taken from
+the password database, not ``$HOME``; ``src/sharedspice.c``, ngspice 39).
+netdae initialises it with a private temporary directory as the current
+directory, holding an empty ``.spiceinit`` of its own, so neither the
+directory the user works in nor the home directory is consulted;
+``HOME`` points there too and ``SPICE_USERINIT_DIR`` is unset meanwhile.
+Each run then takes place with a fresh private temporary directory as the
+current directory (anything ngspice writes, e.g. a BSIM model check's log,
+lands there and is removed). The current directory is a property of the
+process: it is changed only while the lock is held and restored at once.
+
 The library is a process-wide singleton with global state, so runs are
 serialised by a lock and each one starts clean: ``destroy all`` (every plot
 of earlier runs), load the circuit, ``bg_run`` (the background thread, so a
@@ -30,11 +42,13 @@ runs the subprocess instead.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes.util
 import logging
 import os
 import re
 import sys
+import tempfile
 import threading
 import time
 
@@ -60,6 +74,10 @@ _HALT_WAIT = 10.0
 #: Polling interval while waiting for the halted thread [s].
 _HALT_POLL = 0.01
 _VERSION = re.compile(r"ngspice-(\S+)")
+#: Prefix of the private temporary directories ngspice runs in.
+_TMP_PREFIX = "netdae-ngspice-"
+#: Content of the empty ``.spiceinit`` that stands in for the user's.
+_EMPTY_SPICEINIT = "* netdae: an empty ngspice start-up file (the user's .spiceinit is not read)\n"
 
 _lock = threading.Lock()
 _session = None  # the one _Session of this process, once created
@@ -82,7 +100,11 @@ class _Session:
     """The loaded library, its callbacks' record, and the lock-step protocol."""
 
     def __init__(self, path: str) -> None:
-        self.library, self.pyspice_notes = _load(path)
+        with tempfile.TemporaryDirectory(prefix=_TMP_PREFIX) as private:
+            with open(os.path.join(private, ".spiceinit"), "w", encoding="utf-8") as handle:
+                handle.write(_EMPTY_SPICEINIT)
+            with _inside(private, home=True):
+                self.library, self.pyspice_notes = _load(path)
         self.ffi = self.library.ffi
         self.api = self.library._ngspice_shared
         self.version = self._read_version()
@@ -109,7 +131,11 @@ class _Session:
 
     # -- a run ---------------------------------------------------------------
 
-    def run(self, netlist: str, timeout: float) -> BackendOutput:
+    def run(self, netlist: str, timeout: float | None) -> BackendOutput:
+        with tempfile.TemporaryDirectory(prefix=_TMP_PREFIX) as private, _inside(private):
+            return self._run(netlist, timeout)
+
+    def _run(self, netlist: str, timeout: float | None) -> BackendOutput:
         lib = self.library
         self.command("destroy all")
         lib.lines.clear()
@@ -120,7 +146,7 @@ class _Session:
             errors, _ = classify_output(stderr, [], strict=False)
             if not errors:
                 self.command("bg_run")
-                if not lib.finished.wait(timeout):
+                if not lib.finished.wait(timeout):  # None: no limit
                     self._halt()
                     raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
                 if lib.exit_status is not None:
@@ -214,6 +240,31 @@ class _Session:
         if length == 0:
             return vtype, np.zeros(0)
         return vtype, np.frombuffer(self.ffi.buffer(info.v_realdata, length * 8), dtype=np.float64).copy()
+
+
+@contextlib.contextmanager
+def _inside(directory: str, *, home: bool = False):
+    """Make ``directory`` the process's current directory (and ``HOME``) for a while."""
+    saved_env = {name: os.environ.get(name) for name in ("HOME", "SPICE_USERINIT_DIR")}
+    try:
+        previous = os.getcwd()
+    except OSError:  # the current directory was removed: there is nothing to return to
+        previous = None
+    os.chdir(directory)
+    if home:
+        os.environ["HOME"] = directory
+        os.environ.pop("SPICE_USERINIT_DIR", None)
+    try:
+        yield
+    finally:
+        if previous is not None:
+            os.chdir(previous)
+        if home:
+            for name, value in saved_env.items():
+                if value is None:
+                    os.environ.pop(name, None)
+                else:
+                    os.environ[name] = value
 
 
 def _load(path: str):
@@ -319,15 +370,15 @@ def version() -> str:
         return _get_session().version
 
 
-def run(netlist: str, *, timeout: float) -> BackendOutput:
+def run(netlist: str, *, timeout: float | None) -> BackendOutput:
     """Run a netlist in the shared library.
 
     Parameters
     ----------
     netlist : str
         The (translated) netlist.
-    timeout : float
-        Seconds before the background thread is halted.
+    timeout : float or None
+        Seconds before the background thread is halted (None: no limit).
 
     Returns
     -------

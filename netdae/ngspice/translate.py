@@ -1,12 +1,12 @@
 """Text-level translation between netdae's netlist dialect and ngspice.
 
-Everything here works on the netlist *text* (netdae's own reader is not
-needed to run a netlist in ngspice) and on ngspice's printed output:
+Everything here works on the netlist *text* and on ngspice's printed output:
 
 - :func:`translate_for_ngspice` -- make a netlist ngspice runs the way netdae
-  needs it: the ideal op-amp extension becomes a high-gain VCVS, ``.options
-  interp`` and ``filetype`` are removed, ``.control`` blocks are removed,
-  relative ``.include``/``.lib`` paths are made absolute. Every change is
+  needs it: the self-contained text of :func:`netdae.ngspice.deck.self_contained`
+  (includes expanded by netdae's reader, no control-language card, one
+  ``.end`` last), in which the ideal op-amp extension becomes a high-gain
+  VCVS and ``.options interp`` and ``filetype`` are removed. Every change is
   returned as a note naming the line.
 - :func:`override_options` -- a variant of a netlist with simulator options
   overridden (``reltol``, ``method``, ... and ``maxstep``, which ngspice takes
@@ -16,6 +16,8 @@ needed to run a netlist in ngspice) and on ngspice's printed output:
 - :func:`classify_output` -- ngspice's stdout/stderr lines sorted into errors,
   warnings and notes.
 
+Numbers are read by netdae's one number parser
+(:func:`netdae.netlist.numbers.parse_number`, ngspice's ``INPevaluate``).
 Cards are found the way ngspice finds them: the first line is the title;
 ``*`` starts a comment line; ``;``, ``//`` and a ``$`` after a blank start an
 inline comment; a line starting with ``+`` continues the previous card (blank
@@ -31,6 +33,9 @@ E1 out 0 0 minus 1000000.0
 .end
 >>> notes[0].startswith("line 2: E1")
 True
+>>> translate_for_ngspice("t\\n.control\\nshell rm -rf ~\\n.endc\\n.op\\n")[0]
+'t\\n.op\\n.end\\n'
+
 """
 
 from __future__ import annotations
@@ -39,7 +44,9 @@ import os
 import re
 from dataclasses import dataclass
 
-from ..errors import NetlistError, NgspiceError, SourceLocation
+from ..errors import NetlistError, NgspiceError
+from ..netlist.numbers import parse_number
+from .deck import Origin, self_contained
 
 __all__ = [
     "OPAMP_GAIN",
@@ -50,7 +57,6 @@ __all__ = [
     "DcSweepCard",
     "effective_tolerances",
     "classify_output",
-    "spice_number",
 ]
 
 #: Gain of the VCVS that stands for netdae's ideal op-amp in ngspice.
@@ -92,35 +98,6 @@ _STRIPPED_OPTIONS = {
     "at ngspice's own accepted time points",
     "filetype": "netdae reads ngspice's binary raw file (full double precision)",
 }
-
-#: Scale suffixes as powers of ten (``mil``, a thousandth of an inch, apart).
-_SUFFIX_EXPONENTS = {"t": 12, "g": 9, "meg": 6, "k": 3, "m": -3, "u": -6, "n": -9, "p": -12, "f": -15, "a": -18}
-_MIL = 25.4e-6  # metres per mil
-_NUMBER = re.compile(
-    r"^([+-]?(?:\d+\.?\d*|\.\d+))(?:e([+-]?\d+))?(meg|mil|[tgkmunpfa])?[a-z]*$",
-    re.I,
-)
-
-
-def spice_number(text: str) -> float | None:
-    """A SPICE number with its scale suffix, or None when ``text`` is not one.
-
-    The value is the double nearest to the decimal number (``10u`` is exactly
-    ``1e-05``), trailing letters after the suffix are units and ignored.
-
-    Examples
-    --------
-    >>> spice_number("2.2k"), spice_number("10MEG"), spice_number("10uF"), spice_number("{r}")
-    (2200.0, 10000000.0, 1e-05, None)
-    """
-    match = _NUMBER.match(text.strip())
-    if not match:
-        return None
-    mantissa, exponent, suffix = match.group(1), int(match.group(2) or 0), (match.group(3) or "").lower()
-    if suffix == "mil":
-        return float(f"{mantissa}e{exponent}") * _MIL
-    return float(f"{mantissa}e{exponent + _SUFFIX_EXPONENTS.get(suffix, 0)}")
-
 
 # ---------------------------------------------------------------------------
 # cards
@@ -242,64 +219,57 @@ def translate_for_ngspice(
     opamp_gain : float
         Gain of the VCVS that replaces each ideal op-amp (see :data:`OPAMP_GAIN`).
     base_dir : path-like, optional
-        Directory relative ``.include``/``.lib`` paths refer to; when given,
-        they are made absolute (so that ngspice finds them wherever it runs).
+        Directory relative ``.include``/``.lib`` names refer to (the
+        netlist's directory); the current directory by default.
     source : str
         Name of the netlist for error messages.
 
     Returns
     -------
     text : str
-        The netlist ngspice should run.
+        The netlist ngspice should run: self-contained, one card per line.
     notes : list of str
-        One entry per change, ``"line N: <card>: <what and why>"``.
+        One entry per change, ``"line N: <card>: <what and why>"`` (lines of
+        the netlist as written; ``"file line N"`` for an included file).
 
     Raises
     ------
     NetlistError
-        When an op-amp card is malformed or a ``.control`` block is not closed.
+        When an op-amp card is malformed, and for every card netdae does not
+        hand to ngspice (:func:`netdae.ngspice.deck.self_contained`).
 
     Notes
     -----
-    Translated: ``Ename out+ out- in+ in- OPAMP`` (any case) becomes
-    ``Ename out+ out- in+ in- <opamp_gain>``; ``interp`` and ``filetype`` are
-    removed from ``.options`` cards; ``.control``/``.endc`` blocks are removed
-    (in batch mode ngspice would run their commands in addition to the
-    analyses, and they may quit, write files or alter the circuit); a missing
-    ``.end`` is appended and cards after ``.end`` (which ngspice 39 reads) are
-    kept in front of it. Everything else, including ngspice's default options, is left as written.
-    Cost: one pass over the lines.
+    First the netlist is written out by netdae
+    (:func:`~netdae.ngspice.deck.self_contained`): ``.include`` files and
+    ``.lib`` sections expanded, ``.control`` blocks and comments left out,
+    continuation lines joined, nothing after ``.end``, one ``.end`` last --
+    ngspice never reads a file of the user's and never runs a command of the
+    netlist. Then: ``Ename out+ out- in+ in- OPAMP`` (any case) becomes
+    ``Ename out+ out- in+ in- <opamp_gain>``; a ``K`` card coupling more than
+    two inductors becomes one card per pair; ``interp`` and ``filetype`` are
+    removed from ``.options`` cards. Everything else, including ngspice's
+    default options, is left as written. Cost: one pass of netdae's reader,
+    one pass over the cards.
     """
     if not opamp_gain > 0:
         raise NgspiceError(f"opamp_gain must be positive, got {opamp_gain!r}")
-    lines = text.splitlines()
+    lines, origins, notes = self_contained(text, base_dir=base_dir, source=source)
     edits: dict[int, tuple[int, str | None]] = {}
-    notes: list[str] = []
     subckt: list[str] = []
-    control: _Card | None = None
     for card in _cards(lines):
         keyword = card.keyword
-        if control is not None:
-            if keyword == ".endc":
-                edits[control.first] = (card.last, None)
-                notes.append(
-                    f"lines {control.first + 1}-{card.last + 1}: .control block removed (ngspice would run "
-                    "its commands besides the analyses; netdae collects the analyses' results)"
-                )
-                control = None
-            continue
-        if keyword == ".control":
-            control = card
-        elif keyword == ".subckt" and len(card.tokens) > 1:
+        where = origins[card.first]
+        if keyword == ".subckt" and len(card.tokens) > 1:
             subckt.append(card.tokens[1].lower())
         elif keyword == ".ends" and subckt:
             subckt.pop()
         elif keyword[:1] == "e" and _is_opamp(card.tokens):
-            new = _translate_opamp(card, lines, opamp_gain, source)
+            new = _translate_opamp(card, opamp_gain, where)
             edits[card.first] = (card.last, new)
             inside = f" (in subcircuit {subckt[-1]})" if subckt else ""
             notes.append(
-                f"{_where(card)}: {card.tokens[0]}{inside}: ideal op-amp written as a VCVS of gain "
+                f"{where}: {card.tokens[0]}{inside}: ideal op-amp written as a VCVS of gain "
                 f"{opamp_gain:.3g} (ngspice has no ideal op-amp; the finite gain adds a relative error "
                 f"of about noise-gain/{opamp_gain:.3g} and turns an index-2 op-amp circuit into an "
                 "index-1 one with a fast time constant)"
@@ -308,7 +278,7 @@ def translate_for_ngspice(
             edits[card.first] = (card.last, _split_coupling(card.tokens))
             pairs = len(card.tokens) - 2
             notes.append(
-                f"{_where(card)}: {card.tokens[0]} couples {pairs} inductors (a netdae extension): written as "
+                f"{where}: {card.tokens[0]} couples {pairs} inductors (a netdae extension): written as "
                 f"{pairs * (pairs - 1) // 2} K cards, one per pair, with the same coupling factor"
             )
         elif _is_options(card):
@@ -316,48 +286,8 @@ def translate_for_ngspice(
             if removed:
                 edits[card.first] = (card.last, new)
                 for name, token in removed:
-                    notes.append(f"{_where(card)}: .options {token} removed: {_STRIPPED_OPTIONS[name]}")
-        elif keyword in (".include", ".inc", ".lib") and base_dir is not None:
-            new = _absolute_include(card, base_dir)
-            if new is not None:
-                edits[card.first] = (card.last, new)
-                notes.append(f"{_where(card)}: {card.tokens[0]} path made absolute: {new.split()[1]}")
-    if control is not None:
-        raise NetlistError(
-            ".control block is not closed",
-            SourceLocation(source, control.first + 1),
-            expected=".endc after the control commands",
-        )
-    _end_last(lines, edits, notes)
+                    notes.append(f"{where}: .options {token} removed: {_STRIPPED_OPTIONS[name]}")
     return _apply(lines, edits), notes
-
-
-def _end_last(lines: list[str], edits: dict[int, tuple[int, str | None]], notes: list[str]) -> None:
-    """Make one ``.end`` the last card (ngspice's shared library needs it).
-
-    ngspice's batch mode reads a whole file, cards after ``.end`` included,
-    and needs no ``.end``; its shared library loads a circuit when it meets
-    ``.end`` and would keep later lines for the next circuit. Moving ``.end``
-    last makes both read the same circuit.
-    """
-    remaining = [c for c in _cards(lines) if c.first not in edits and not _inside_edit(c, edits)]
-    ends = [c for c in remaining if _is_end(c)]
-    if ends and ends[-1] is remaining[-1] and len(ends) == 1:
-        return
-    for card in ends:
-        edits[card.first] = (card.last, None)
-    lines.append(".end")
-    if ends:
-        notes.append(
-            f"{_where(ends[0])}: .end moved after the last card (ngspice's batch mode reads the cards after "
-            ".end, its shared library would not)"
-        )
-    else:
-        notes.append(f"line {len(lines)}: .end appended (ngspice's shared library needs it)")
-
-
-def _inside_edit(card: _Card, edits: dict[int, tuple[int, str | None]]) -> bool:
-    return any(first <= card.first <= last for first, (last, _) in edits.items())
 
 
 def _split_coupling(tokens: list[str]) -> str:
@@ -376,13 +306,12 @@ def _is_opamp(tokens: list[str]) -> bool:
     return len(words) > 3 and (words[-1] == "opamp" or (len(words) > 5 and words[5] == "opamp"))
 
 
-def _translate_opamp(card: _Card, lines: list[str], gain: float, source: str) -> str:
+def _translate_opamp(card: _Card, gain: float, where: Origin) -> str:
     tokens = card.tokens
     if len(tokens) != 6:
-        column = lines[card.first].lower().find("opamp") + 1 if card.first == card.last else 1
         raise NetlistError(
             f"{tokens[0]}: an ideal op-amp takes two output and two input nodes and nothing after OPAMP",
-            SourceLocation(source, card.first + 1, max(column, 1)),
+            where.location("opamp"),
             expected="Ename out+ out- in+ in- OPAMP",
         )
     return " ".join(tokens[:5]) + f" {_format_value(float(gain))}"
@@ -400,21 +329,6 @@ def _strip_options(card: _Card) -> tuple[str | None, list[tuple[str, str]]]:
     if not kept:
         return None, removed
     return " ".join([card.tokens[0], *kept]), removed
-
-
-def _absolute_include(card: _Card, base_dir: str | os.PathLike) -> str | None:
-    tokens = card.tokens
-    if card.keyword == ".lib" and len(tokens) != 3:
-        return None  # '.lib name' opens a section of a library file
-    if len(tokens) < 2:
-        return None
-    raw = tokens[1]
-    path = raw.strip("\"'")
-    expanded = os.path.expanduser(path)
-    if os.path.isabs(expanded):
-        return None
-    absolute = os.path.abspath(os.path.join(os.fspath(base_dir), expanded))
-    return " ".join([tokens[0], absolute, *tokens[2:]])
 
 
 # ---------------------------------------------------------------------------
@@ -573,7 +487,7 @@ def dc_sweeps(text: str) -> list[DcSweepCard]:
         sources, ranges = [], []
         for k in range(0, len(tokens) - 3, 4):
             sources.append(tokens[k].lower())
-            values = [spice_number(t) for t in tokens[k + 1 : k + 4]]
+            values = [parse_number(t) for t in tokens[k + 1 : k + 4]]
             ranges.append(None if None in values else tuple(values))
         if sources and len(tokens) % 4 == 0:
             found.append(DcSweepCard(tuple(sources), tuple(ranges)))
@@ -600,7 +514,7 @@ def effective_tolerances(text: str) -> tuple[dict[str, float], str | None]:
             name, _, value = token.partition("=")
             name = name.lower()
             if name in tolerances:
-                number = spice_number(value)
+                number = parse_number(value)
                 if number is not None:
                     tolerances[name] = number
             elif name == "method":

@@ -1,1 +1,128 @@
-"""Compiled (numba) parts of the transient engine."""
+"""netdae's compiled engine: numba kernels, and the one place that configures numba.
+
+The transient step loop of netdae runs as compiled code (numba): the kernels
+live in the modules of this package (:mod:`netdae.dae.compiled.lu`: the sparse
+LU that refactors on a fixed pivot order) and take only arrays and scalars, so
+that compiled callers can call them as well as Python.
+
+Every kernel is compiled through :func:`kernel` (``numba.njit`` with
+``cache=True`` and numpy's error model: a division by zero gives inf or nan
+instead of raising, the callers test pivots themselves). The compiled machine
+code is cached on disk, so only the first run on a machine pays the
+compilation; later processes load it.
+
+Where the cache goes
+--------------------
+numba writes its cache next to the module (``__pycache__``) when that
+directory is writable. An installed package often is not (a system
+site-packages, a read-only container image), and numba's own fallback, the
+user-wide ``~/.cache/numba``, may be unwritable too, in which case numba
+refuses to define a cached function at all. On import this package therefore
+chooses the directory once (:func:`choose_cache_dir`):
+
+1. ``NUMBA_CACHE_DIR`` when the user set it (numba's own setting, respected);
+2. the package's ``__pycache__`` when it is writable (numba's default);
+3. ``$XDG_CACHE_HOME/netdae/numba`` (``~/.cache/netdae/numba``);
+4. ``<tempdir>/netdae-numba-<uid>``;
+
+and, for 3 and 4, sets ``NUMBA_CACHE_DIR`` (and numba's configuration) to it
+before any kernel is defined. When none is writable the kernels are compiled
+without a cache (every process compiles again; nothing fails).
+:data:`CACHE_DIR` records the choice (``None``: no cache).
+
+Examples
+--------
+>>> from netdae.dae import compiled
+>>> compiled.CACHE_DIR is None or isinstance(compiled.CACHE_DIR, str)
+True
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Callable, Mapping
+
+import numba
+
+__all__ = ["CACHE_DIR", "choose_cache_dir", "kernel"]
+
+#: numba's environment variable for its cache directory.
+CACHE_ENV = "NUMBA_CACHE_DIR"
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def _writable(path: str) -> bool:
+    """True when a file can be created in ``path`` (created if missing)."""
+    try:
+        os.makedirs(path, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError:
+        return False
+    return True
+
+
+def choose_cache_dir(package_dir: str | os.PathLike, environ: Mapping[str, str],
+                     writable: Callable[[str], bool] = _writable) -> str | None:
+    """The directory numba's cache of netdae's kernels should use.
+
+    Parameters
+    ----------
+    package_dir : path
+        Directory of the modules defining the kernels.
+    environ : mapping
+        The environment (``os.environ``).
+    writable : callable
+        ``writable(path) -> bool`` (creates the directory when it can).
+
+    Returns
+    -------
+    str or None
+        The first of: ``NUMBA_CACHE_DIR`` if set, ``package_dir/__pycache__``,
+        ``$XDG_CACHE_HOME/netdae/numba`` (default ``~/.cache``),
+        ``<tempdir>/netdae-numba-<uid>`` that is writable (the first is not
+        tested: the user's choice is numba's business); ``None`` when none is.
+
+    Examples
+    --------
+    >>> choose_cache_dir("/pkg", {"HOME": "/home/u"}, writable=lambda p: p.startswith("/home"))
+    '/home/u/.cache/netdae/numba'
+    """
+    if environ.get(CACHE_ENV):
+        return environ[CACHE_ENV]
+    candidates = [os.path.join(os.fspath(package_dir), "__pycache__")]
+    xdg = environ.get("XDG_CACHE_HOME")
+    home = environ.get("HOME")
+    if xdg:
+        candidates.append(os.path.join(xdg, "netdae", "numba"))
+    elif home:
+        candidates.append(os.path.join(home, ".cache", "netdae", "numba"))
+    uid = os.getuid() if hasattr(os, "getuid") else "user"
+    candidates.append(os.path.join(tempfile.gettempdir(), f"netdae-numba-{uid}"))
+    for path in candidates:
+        if writable(path):
+            return path
+    return None
+
+
+def _configure() -> str | None:
+    path = choose_cache_dir(_PACKAGE_DIR, os.environ)
+    if path is not None and path != os.path.join(os.fspath(_PACKAGE_DIR), "__pycache__"):
+        # numba re-reads its environment before compiling: set both
+        os.environ[CACHE_ENV] = path
+        numba.config.CACHE_DIR = path
+    return path
+
+
+#: Directory of the compiled kernels' cache (``None``: compiled without a cache).
+CACHE_DIR = _configure()
+
+
+def kernel(fn: Callable) -> Callable:
+    """Compile ``fn`` as a netdae kernel: ``numba.njit`` with the disk cache.
+
+    numpy's error model (``x / 0.0`` is inf or nan, not an exception); no
+    fastmath (IEEE semantics kept).
+    """
+    return numba.njit(fn, cache=CACHE_DIR is not None, error_model="numpy")

@@ -1,0 +1,159 @@
+"""Signal names as ngspice writes them: ``v(out)``, ``v(a,b)``, ``i(v1)``, ``@r1[i]``.
+
+The one parser of signal names in netdae's results and command line. It knows
+nothing of a particular circuit: it says what a name *means* (a node voltage,
+a difference of two, a branch current, a device quantity) and spells it the
+way netdae's results key their signals (lower case, no blanks, ground ``0``,
+``v(a,0)`` is ``v(a)``). Standard library only, so the command line can use it
+without loading numpy.
+
+Examples
+--------
+>>> parse_signal("V(Out, GND)")
+Signal(kind='v', args=('out',))
+>>> parse_signal("v(in,minus)").name
+'v(in,minus)'
+>>> parse_signal("I(V1)").name
+'i(v1)'
+>>> parse_signal("out").name            # a bare node name is its voltage
+'v(out)'
+>>> parse_signal("@r1[i]")
+Signal(kind='@', args=('r1', 'i'))
+>>> split_signals("v(out), v(in,minus),i(v1)")
+['v(out)', 'v(in,minus)', 'i(v1)']
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+__all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS"]
+
+#: Node names that mean ground (ngspice accepts ``gnd`` for ``0``).
+GROUND_NAMES = frozenset({"0", "gnd"})
+
+#: The forms a signal name may take, for error messages.
+SIGNAL_FORMS = "v(node), v(node1,node2), i(element), @device[param], or a bare node name"
+
+_NAME = r"[^\s(),\[\]@]+"
+_CALL = re.compile(rf"([vi])\(\s*({_NAME})\s*(?:,\s*({_NAME})\s*)?\)")
+_DEVICE = re.compile(rf"@\s*({_NAME})\s*\[\s*({_NAME})\s*\]")
+_BARE = re.compile(_NAME)
+
+
+@dataclass(frozen=True)
+class Signal:
+    """What a signal name means.
+
+    Parameters
+    ----------
+    kind : {"v", "i", "@"}
+        ``"v"``: a node voltage (one node) or the difference of two
+        (``args == (a, b)``); ``"i"``: the branch current of the element
+        ``args[0]``; ``"@"``: the quantity ``args[1]`` of the device
+        ``args[0]`` (ngspice's ``@r1[i]``).
+    args : tuple of str
+        Node names (ground is ``"0"``), or the element name, or device and
+        quantity; lower case.
+    """
+
+    kind: str
+    args: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        """The canonical spelling, as netdae's results key their signals."""
+        if self.kind == "@":
+            return f"@{self.args[0]}[{self.args[1]}]"
+        return f"{self.kind}({','.join(self.args)})"
+
+    @property
+    def is_difference(self) -> bool:
+        """True for ``v(a,b)``: a difference of two node voltages."""
+        return self.kind == "v" and len(self.args) == 2
+
+    @property
+    def nodes(self) -> tuple[str, ...]:
+        """The nodes of a voltage signal (empty for currents)."""
+        return self.args if self.kind == "v" else ()
+
+
+def _node(text: str) -> str:
+    return "0" if text in GROUND_NAMES else text
+
+
+def parse_signal(text: str) -> Signal:
+    """Parse one signal name.
+
+    Parameters
+    ----------
+    text : str
+        ``v(node)``, ``v(node1,node2)``, ``i(element)``, ``@device[param]``
+        or a bare node name (its voltage); case and blanks do not matter.
+
+    Returns
+    -------
+    Signal
+        ``v(a,0)`` and ``v(a,gnd)`` are ``v(a)``.
+
+    Raises
+    ------
+    ValueError
+        For text of none of these forms (the message lists them).
+    """
+    s = text.strip().lower()
+    m = _CALL.fullmatch(s)
+    if m is not None:
+        kind, first, second = m.groups()
+        if kind == "i":
+            if second is not None:
+                raise ValueError(f"bad signal name {text!r}: i() takes one element name, "
+                                 f"e.g. i(v1) (expected {SIGNAL_FORMS})")
+            return Signal("i", (first,))
+        nodes = (_node(first),) if second is None or _node(second) == "0" else (_node(first), _node(second))
+        return Signal("v", nodes)
+    m = _DEVICE.fullmatch(s)
+    if m is not None:
+        return Signal("@", m.groups())
+    if _BARE.fullmatch(s):
+        return Signal("v", (_node(s),))
+    raise ValueError(f"bad signal name {text!r} (expected {SIGNAL_FORMS})")
+
+
+def canonical(text: str) -> str:
+    """The canonical spelling of a signal name (:attr:`Signal.name`).
+
+    >>> canonical(" V( a , 0 ) ")
+    'v(a)'
+    """
+    return parse_signal(text).name
+
+
+def split_signals(text: str | None) -> list[str] | None:
+    """Split a comma-separated signal list, keeping ``v(a,b)`` and ``@d[p]`` whole.
+
+    Blank entries are dropped and names are lower-cased; None stays None.
+    The names are not parsed (:func:`parse_signal` does that).
+
+    Raises
+    ------
+    ValueError
+        For unbalanced parentheses or brackets.
+    """
+    if text is None:
+        return None
+    parts, depth, cur = [], 0, []
+    for ch in text:
+        if ch == "," and depth == 0:
+            parts.append("".join(cur))
+            cur = []
+            continue
+        depth += (ch in "([") - (ch in ")]")
+        if depth < 0:
+            break
+        cur.append(ch)
+    if depth != 0:
+        raise ValueError(f"unbalanced parentheses in the signal list {text!r}")
+    parts.append("".join(cur))
+    return [p.strip().lower() for p in parts if p.strip()]

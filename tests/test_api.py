@@ -1,0 +1,122 @@
+"""The public Python API: static names, cheap import, explicit keywords, option ranges, signal names."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import netdae
+from netdae.analyses.runner import check_options, option_problem, unused_options
+from netdae.circuit import Options
+from netdae.signals import Signal, canonical, parse_signal, split_signals
+
+from conftest import NETLISTS, ROOT
+
+INIT = ROOT / "netdae" / "__init__.py"
+
+
+def _python(code: str) -> str:
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120,
+                          check=True)
+    return done.stdout.strip()
+
+
+def test_every_public_name_resolves_and_is_statically_imported():
+    tree = ast.parse(INIT.read_text())
+    static: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            static.update(alias.asname or alias.name for alias in node.names)
+    for name in netdae.__all__:
+        assert getattr(netdae, name) is not None, name
+        assert name == "__version__" or name in static, f"{name} is not visible to type checkers"
+    assert netdae.Result.__module__ == "netdae.results" and netdae.load.__module__ == "netdae.netlist"
+    assert issubclass(netdae.NetlistError, netdae.NetdaeError)
+
+
+def test_import_netdae_loads_no_numerics():
+    out = _python("import sys, netdae; print(sorted(m for m in ('numpy', 'scipy', 'numba') if m in sys.modules))")
+    assert out == "[]"
+
+
+def test_py_typed_marker():
+    assert (ROOT / "netdae" / "py.typed").is_file()
+
+
+@pytest.mark.parametrize("func", [netdae.simulate, netdae.run])
+def test_simulate_and_run_take_explicit_keywords(func):
+    params = inspect.signature(func).parameters
+    assert not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    assert {"save", "reltol", "abstol", "vntol", "progress"} <= set(params)
+    assert "Parameters" in func.__doc__ and "reltol" in func.__doc__
+    with pytest.raises(TypeError):
+        func(NETLISTS / "rc_lowpass.cir", rtol=1e-4)  # a misspelt option is no longer swallowed
+
+
+@pytest.mark.parametrize("option, value", [("reltol", 2.0), ("reltol", 1.0), ("reltol", 0.0), ("abstol", -1.0),
+                                           ("vntol", 0.0), ("maxord", 7), ("maxord", 2.5), ("max_step", -1e-6)])
+def test_bad_keyword_values_are_value_errors(option, value):
+    with pytest.raises(ValueError, match=option):
+        netdae.simulate(NETLISTS / "rc_lowpass.cir", **{option: value})
+
+
+@pytest.mark.parametrize("card, name", [("reltol=2", "reltol"), ("reltol=1", "reltol"), ("temp=-300", "temp"),
+                                        ("tnom=-274", "tnom"), ("maxord=6", "maxord")])
+def test_bad_netlist_options_are_netlist_errors(card, name):
+    text = f"rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.options {card}\n.op\n.tran 1u 10u\n.end\n"
+    with pytest.raises(netdae.NetlistError, match=rf"\.options {name}.*out of range"):
+        netdae.run(text)
+
+
+def test_option_ranges():
+    assert option_problem("reltol", 1e-6) is None and option_problem("temp", -273.0) is None
+    assert option_problem("reltol", float("nan")) and option_problem("abstol", float("inf"))
+    assert option_problem("temp", -273.15) and option_problem("itl1", 0)
+    check_options(netdae.load(NETLISTS / "rc_lowpass.cir"), reltol=1e-6)  # valid: no exception
+
+
+def test_unused_options_leaves_out_the_mosfet_defaults():
+    c = netdae.Circuit("t", options=Options(extra={"defl": 2e-6, "defw": 1e-5, "trtol": 7.0}, itl4=20))
+    assert unused_options(c) == "options not used by netdae: itl4, trtol"
+
+
+def test_simulate_accepts_a_path():
+    r = netdae.simulate(Path(NETLISTS / "rc_lowpass.cir"), save=["v(out)"])
+    assert r.names() == ["v(out)"] and r.ok
+
+
+# -- signal names -----------------------------------------------------------------------
+@pytest.mark.parametrize("text, kind, args, name", [
+    ("v(out)", "v", ("out",), "v(out)"),
+    (" V( In , Minus ) ", "v", ("in", "minus"), "v(in,minus)"),
+    ("v(a,0)", "v", ("a",), "v(a)"),
+    ("v(a,GND)", "v", ("a",), "v(a)"),
+    ("v(0,a)", "v", ("0", "a"), "v(0,a)"),
+    ("v(x1.mid)", "v", ("x1.mid",), "v(x1.mid)"),
+    ("I(V1)", "i", ("v1",), "i(v1)"),
+    ("i(l.xa.x1.l1)", "i", ("l.xa.x1.l1",), "i(l.xa.x1.l1)"),
+    ("out", "v", ("out",), "v(out)"),
+    ("gnd", "v", ("0",), "v(0)"),
+    ("@R1[i]", "@", ("r1", "i"), "@r1[i]"),
+])
+def test_parse_signal(text, kind, args, name):
+    sig = parse_signal(text)
+    assert sig == Signal(kind, args) and sig.name == name == canonical(text)
+
+
+@pytest.mark.parametrize("text", ["", "v()", "v(a,b,c)", "i(a,b)", "vdb(out)", "v(a", "x(a)", "@r1", "a b"])
+def test_parse_signal_rejects(text):
+    with pytest.raises(ValueError, match="expected v\\(node\\)"):
+        parse_signal(text)
+
+
+def test_split_signals():
+    assert split_signals("v(a,b), @r1[i] ,,i(v1)") == ["v(a,b)", "@r1[i]", "i(v1)"]
+    assert split_signals(None) is None
+    with pytest.raises(ValueError, match="unbalanced"):
+        split_signals("v(a,b")

@@ -1,0 +1,130 @@
+"""``netdae.compare``: honest failure reports, paths with blanks, and a bounded ngspice run."""
+
+from __future__ import annotations
+
+import inspect
+import math
+import os
+import time
+
+import pytest
+
+import netdae
+from netdae.comparison import compare
+from netdae.ngspice.shared import library_path
+
+pytestmark = pytest.mark.ngspice
+
+needs_library = pytest.mark.skipif(library_path() is None, reason="ngspice's shared library is not installed")
+BACKENDS = [pytest.param("shared", marks=needs_library), "subprocess"]
+
+# netdae's Newton fails at t = 0 on this diode (n = 0.1, a 100 V edge) while
+# ngspice gets through; the output starts at 0.5 ms, so none of ngspice's
+# points lies in the interval netdae computed before it failed.
+NETDAE_FAILS = """diode netdae cannot start
+V1 in 0 PULSE(-100 100 0 1p 1p 1m 2m)
+D1 in out dmod
+R1 out 0 1
+.model dmod d is=1e-30 n=0.1
+.tran 1u 1m 0.5m
+.end
+"""
+
+
+def test_netdae_s_own_failure_is_reported_first():
+    comparison = compare(NETDAE_FAILS)
+    (tran,) = comparison.analyses
+    assert not comparison.passed
+    assert tran.error.startswith("netdae's transient failed: ")
+    assert "Newton" in tran.error and "t=0" in tran.error
+
+
+RC = """rc in a directory with a blank
+.include "models dir/rc.inc"
+V1 in 0 PULSE(0 1 0 1u 1u 1m 2m)
+X1 in out rc
+.tran 10u 3m
+.end
+"""
+RC_INC = ".subckt rc a b\nR1 a b 1k\nC1 b 0 1u\n.ends\n"
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_netlist_in_a_directory_with_blanks_compares(tmp_path, backend):
+    folder = tmp_path / "my circuits"
+    (folder / "models dir").mkdir(parents=True)
+    (folder / "models dir" / "rc.inc").write_text(RC_INC)
+    path = folder / "rc net.cir"
+    path.write_text(RC)
+    comparison = compare(path, backend=backend)
+    assert comparison.ngspice_error is None, comparison.ngspice_error
+    assert comparison.backend == backend and comparison.passed
+    (tran,) = comparison.analyses
+    # the closed form of the step response through both simulators: ngspice's own
+    # points are there, and the comparison judged v(out)
+    assert tran.points > 100 and any(s.name == "v(out)" for s in tran.signals)
+
+
+LONG = """long transient
+V1 in 0 SIN(0 1 1k)
+R1 in out 1k
+C1 out 0 1u
+.tran 1n 10 0 1n
+.end
+"""
+
+
+def _ngspice_children() -> list[int]:
+    """Processes named ngspice whose parent is this process."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as handle:
+                stat = handle.read()
+        except OSError:
+            continue
+        name = stat[stat.index("(") + 1 : stat.rindex(")")]
+        ppid = int(stat[stat.rindex(")") + 2 :].split()[1])
+        if name == "ngspice" and ppid == os.getpid():
+            found.append(int(entry))
+    return found
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_timeout_stops_ngspice_and_fails_the_comparison(backend, monkeypatch):
+    # netdae would take long on this transient too: compare only what the timeout is about
+    import netdae.comparison.run as run_module
+
+    monkeypatch.setattr(run_module, "_compare_card", _no_netdae)
+    start = time.perf_counter()
+    comparison = compare(LONG, backend=backend, timeout=0.5)
+    assert time.perf_counter() - start < 20
+    assert not comparison.passed
+    assert "did not finish within 0.5 s" in comparison.ngspice_error
+    assert _ngspice_children() == []
+
+
+def _no_netdae(kind, circuit, card, ng, tol, *args, **kwargs):
+    from netdae.comparison.model import AnalysisComparison
+
+    return AnalysisComparison(kind, tolerance=tol, error="ngspice failed on the netlist" if ng is None else "x")
+
+
+def test_timeout_must_be_positive():
+    with pytest.raises(netdae.errors.NgspiceError, match="positive"):
+        compare(RC_SIMPLE, timeout=0)
+    assert compare(RC_SIMPLE, timeout=math.inf).passed
+
+
+RC_SIMPLE = "rc\nV1 in 0 1\nR1 in out 1k\nR2 out 0 1k\n.op\n.end\n"
+
+
+def test_compare_signature_is_explicit_and_documented():
+    sig = inspect.signature(netdae.compare)
+    kinds = {p.kind for name, p in sig.parameters.items() if name != "netlist"}
+    assert kinds == {inspect.Parameter.KEYWORD_ONLY}
+    assert sig.parameters["timeout"].default is None
+    for name in sig.parameters:
+        assert f"{name} :" in netdae.compare.__doc__, name
