@@ -25,7 +25,7 @@ import numpy as np
 
 from . import linear_bdf as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
-from .dense_lu import DENSE_MAX, workspace
+from .lu import PIVOT_REL_THRESHOLD, SparseLU
 from .sources import pack_sources
 
 __all__ = ["integrate_compiled", "supports"]
@@ -49,7 +49,7 @@ def supports(system, options: dict) -> bool:
         return False
     if getattr(system.sources, "mode", None) != "tran":
         return False
-    if system.n > DENSE_MAX or system.n == 0:
+    if system.n == 0:
         return False
     return True
 
@@ -203,7 +203,21 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     set_weights(x0, rtol, atol, relref, xmax, mask, w, w_err)
     restart_times = np.zeros(bps.size + 1)
     a_data = np.zeros(e_data.size)
-    lu, piv = workspace(n)
+    sysd = (indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)
+    # the first pivot order: of the first probe's matrix E / eps - H (any degraded pivot later
+    # sends the loop back here for a new one)
+    F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
+    lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
+    eps0 = 1e-3 * min(1e-3 * (bps[0] - t0), max_step)
+    lu_ok = lu.factor(e_data / eps0 - h_data)
+    if not lu_ok:  # a singular pencil shows in the probe; an identity order keeps the loop well defined
+        lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
+    swork = np.zeros(n)
+
+    def lus():
+        plan = lu.plan
+        return (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, swork)
+
     cap = BUFFER_START
     buf_t = np.empty(cap)
     buf_k = np.zeros(cap, dtype=np.int8)
@@ -218,11 +232,18 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         while True:
             tic = time.perf_counter()
             status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs,
-                           atol, mask, high, xmax, w, w_err, save_idx, restart_times,
-                           indptr, indices, e_data, h_data, a_data, lu, piv,
-                           b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n,
+                           atol, mask, high, xmax, w, w_err, save_idx, restart_times, sysd, lus(),
                            buf_t, buf_k, buf_x, chunk)
-            if status == L.BUFFER_FULL:
+            if status == L.NEED_PIVOTS:
+                # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume
+                if lu.factor(a_data):
+                    I[L.I_FACTORIZATIONS] += 1
+                    F[L.F_LU_TAG] = F[L.F_PENDING_TAG]
+                else:
+                    I[L.I_PIVOTS_FAILED] = 1
+                    F[L.F_PIVOT_TAG] = F[L.F_PENDING_TAG]
+                    lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
+            elif status == L.BUFFER_FULL:
                 cap *= 2
                 buf_t = np.resize(buf_t, cap)
                 buf_k = np.resize(buf_k, cap)

@@ -21,11 +21,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from .control import error_norms, flc_coefficients, landing_step, set_weights, update_differences, weighted_norm
-from .dense_lu import factor as lu_factor
-from .dense_lu import solve as lu_solve
+from . import kernel
+from .lu import STATUS_NONFINITE, STATUS_OK
+from .lu import refactor as lu_refactor
+from .lu import solve as lu_solve
 from .sources import source_values
 
 # --- the method's constants (see netdae.dae.bdf, where each is explained) ---------
@@ -65,7 +66,12 @@ F_FAIL_H = 12
 F_LAST_CJ_ATTEMPT = 13
 F_CK = 14
 F_H_REQUEST = 15
-N_F = 16
+F_RESTART_CAP = 16      # the pending restart's step cap
+F_RESTART_FIXED = 17    # 1.0: the pending restart keeps its cap (a given first step)
+F_PENDING_TAG = 18      # tag of the matrix that needs fresh pivots (a_data holds it)
+F_PIVOT_TAG = 19        # tag of the matrix fresh pivoting found singular
+F_PIVOT_THRESHOLD = 20  # relative pivot threshold of the refactorisations
+N_F = 21
 
 # --- integer scalars I[...] ----------------------------------------------------------
 I_K = 0
@@ -95,8 +101,10 @@ I_NORM = 23
 I_RELREF = 24
 I_MAX_STEPS = 25  # 0: no limit
 I_NRESTART_TIMES = 26
-I_STARTED = 27
-N_I = 28
+I_STARTED = 27          # 0: nothing done; 1: running
+I_PENDING_RESTART = 28  # an order-1 restart (with probes) is due before the next step
+I_PIVOTS_FAILED = 29    # fresh pivoting found the matrix tagged F_PIVOT_TAG singular
+N_I = 30
 
 # statuses
 RUNNING = 0
@@ -104,6 +112,12 @@ FINISHED = 1
 FAILED = 2
 BUFFER_FULL = 3   # the output buffers are full: grow them and call again
 CHUNK_DONE = 4    # the chunk's step budget is used: call again
+NEED_PIVOTS = 5   # a refactorisation met a degraded pivot: choose new pivots for a_data, call again
+
+# results of _factor
+FACTOR_OK = 0
+FACTOR_SINGULAR = 1
+FACTOR_NEED_PIVOTS = 2
 
 # failure codes
 FAIL_NEWTON = 1          # too many Newton (linear-solve) failures
@@ -120,7 +134,7 @@ REASON_SINGULAR = 1
 REASON_NONFINITE = 2
 
 
-@njit(cache=True)
+@kernel
 def _matvec_add(indptr, indices, data, x, scale, out):
     """``out += scale * A x`` for the CSC matrix A."""
     for j in range(x.size):
@@ -130,9 +144,10 @@ def _matvec_add(indptr, indices, data, x, scale, out):
                 out[indices[p]] += data[p] * xj
 
 
-@njit(cache=True)
-def _phi(t, x, indptr, indices, h_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u, out):
+@kernel
+def _phi(t, x, sysd, u, out):
     """``out = H x + B u(t)``."""
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     out[:] = 0.0
     _matvec_add(indptr, indices, h_data, x, 1.0, out)
     if skind.size:
@@ -141,25 +156,44 @@ def _phi(t, x, indptr, indices, h_data, b_rows, b_cols, b_vals, skind, spar, spw
             out[b_rows[e]] += b_vals[e] * u[b_cols[e]]
 
 
-@njit(cache=True)
-def _factor(F, I, tag, eps, indptr, indices, e_data, h_data, a_data, lu, piv):
-    """Factor ``tag E - H`` (``E / eps - H`` when eps > 0, tag = 1/eps); False when singular."""
+@kernel
+def _factor(F, I, tag, eps, sysd, lus):
+    """Factor ``tag E - H`` (``E / eps - H`` when eps > 0, tag = 1/eps) in the kept pivot order.
+
+    Returns FACTOR_OK, FACTOR_SINGULAR, or FACTOR_NEED_PIVOTS (then ``a_data`` holds the
+    matrix and F_PENDING_TAG its tag: the caller returns NEED_PIVOTS to Python).
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     if eps > 0.0:
         for p in range(a_data.size):
             a_data[p] = e_data[p] / eps - h_data[p]
     else:
         for p in range(a_data.size):
             a_data[p] = tag * e_data[p] - h_data[p]
-    ok = lu_factor(indptr, indices, a_data, lu, piv)
-    if ok:
+    F[F_LU_TAG] = math.nan
+    if I[I_PIVOTS_FAILED] != 0 and F[F_PIVOT_TAG] == tag:
+        return FACTOR_SINGULAR
+    b_ptr, b_rows_, b_slots, l_ptr, l_rows, u_ptr, u_rows, perm_r, perm_c, l_data, u_data, lwork, swork = lus
+    status = lu_refactor(b_ptr, b_rows_, b_slots, l_ptr, l_rows, u_ptr, u_rows, a_data, l_data, u_data, lwork,
+                         F[F_PIVOT_THRESHOLD])
+    if status == STATUS_OK:
         I[I_FACTORIZATIONS] += 1
         F[F_LU_TAG] = tag
-    else:
-        F[F_LU_TAG] = math.nan
-    return ok
+        return FACTOR_OK
+    if status == STATUS_NONFINITE:
+        return FACTOR_SINGULAR
+    F[F_PENDING_TAG] = tag
+    return FACTOR_NEED_PIVOTS
 
 
-@njit(cache=True)
+@kernel
+def _solve(lus, b):
+    """Solve in place with the current factorisation."""
+    b_ptr, b_rows_, b_slots, l_ptr, l_rows, u_ptr, u_rows, perm_r, perm_c, l_data, u_data, lwork, swork = lus
+    lu_solve(perm_r, perm_c, l_ptr, l_rows, u_ptr, u_rows, l_data, u_data, b, swork)
+
+
+@kernel
 def _worst(v, w):
     best = -1
     big = -1.0
@@ -173,7 +207,7 @@ def _worst(v, w):
     return best
 
 
-@njit(cache=True)
+@kernel
 def _fail(F, I, t, h, code, worst):
     I[I_STATUS] = FAILED
     I[I_FAIL_CODE] = code
@@ -182,7 +216,7 @@ def _fail(F, I, t, h, code, worst):
     F[F_FAIL_H] = h
 
 
-@njit(cache=True)
+@kernel
 def _initialise_history(F, I, P, psi, h, xp):
     n = xp.size
     P[1:, :] = 0.0
@@ -200,50 +234,57 @@ def _initialise_history(F, I, P, psi, h, xp):
     F[F_H] = h
 
 
-@njit(cache=True)
-def _probe(F, I, t, x, eps, high, indptr, indices, e_data, h_data, a_data, lu, piv,
-           b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u, xp, xpp, work):
-    """x'(t+) into ``xp`` and x''(t+) into ``xpp`` by two implicit-Euler steps of size eps."""
+@kernel
+def _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work):
+    """x'(t+) into ``xp`` and x''(t+) into ``xpp`` by two implicit-Euler steps of size eps.
+
+    Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
+    """
     I[I_PROBES] += 1
     I[I_EVALUATIONS] += 1
     I[I_JAC_EVALUATIONS] += 1
-    _phi(t + eps, x, indptr, indices, h_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u, xp)
+    _phi(t + eps, x, sysd, u, xp)
     for i in range(x.size):
         if not math.isfinite(xp[i]):
             _fail(F, I, t, eps, FAIL_PROBE_NONFINITE, i)
-            return False
-    if not _factor(F, I, 1.0 / eps, eps, indptr, indices, e_data, h_data, a_data, lu, piv):
-        _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
-        return False
-    lu_solve(lu, piv, xp)
+            return FACTOR_SINGULAR
+    if F[F_LU_TAG] != 1.0 / eps:
+        rc = _factor(F, I, 1.0 / eps, eps, sysd, lus)
+        if rc == FACTOR_NEED_PIVOTS:
+            I[I_PROBES] -= 1  # it will be repeated
+            I[I_EVALUATIONS] -= 1
+            I[I_JAC_EVALUATIONS] -= 1
+            return rc
+        if rc == FACTOR_SINGULAR:
+            _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
+            return rc
+    _solve(lus, xp)
     for i in range(x.size):
         xp[i] /= eps
         work[i] = x[i] + eps * xp[i]
     I[I_EVALUATIONS] += 1
-    _phi(t + 2.0 * eps, work, indptr, indices, h_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v,
-         spwl_n, u, xpp)
-    lu_solve(lu, piv, xpp)
+    _phi(t + 2.0 * eps, work, sysd, u, xpp)
+    _solve(lus, xpp)
     for i in range(x.size):
         xpp[i] = (xpp[i] / eps - xp[i]) / eps
         if not (math.isfinite(xp[i]) and math.isfinite(xpp[i])):
             _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
-            return False
+            return FACTOR_SINGULAR
         if high[i]:
             xp[i] = 0.0
             xpp[i] = 0.0
-    return True
+    return FACTOR_OK
 
 
-@njit(cache=True)
-def _restart_at(F, I, P, psi, t, x, cap, fixed, w_err, high, indptr, indices, e_data, h_data, a_data, lu, piv,
-                b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u, xp, xpp, work):
-    """Probe the derivatives at (t, x) and start at order 1 with a step <= cap."""
+@kernel
+def _restart_at(F, I, P, psi, t, x, cap, fixed, w_err, high, sysd, lus, u, xp, xpp, work):
+    """Probe the derivatives at (t, x) and start at order 1 with a step <= cap (as _probe returns)."""
     h = cap
     for _ in range(PROBE_RETRIES):
         eps = PROBE_FRACTION * h
-        if not _probe(F, I, t, x, eps, high, indptr, indices, e_data, h_data, a_data, lu, piv,
-                      b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u, xp, xpp, work):
-            return False
+        rc = _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work)
+        if rc != FACTOR_OK:
+            return rc
         if fixed:
             break
         curv = weighted_norm(xpp, w_err, I[I_NORM])
@@ -257,19 +298,31 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, w_err, high, indptr, indices, e_
         if converged:
             break
     _initialise_history(F, I, P, psi, h, xp)
-    return True
+    return FACTOR_OK
 
 
-@njit(cache=True)
+@kernel
 def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
-        atol, mask, high, xmax, w, w_err, save, restart_times,
-        indptr, indices, e_data, h_data, a_data, lu, piv,
-        b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n,
+        atol, mask, high, xmax, w, w_err, save, restart_times, sysd, lus,
         buf_t, buf_k, buf_x, max_chunk_steps):
     """Advance the integration until it finishes, fails, fills the buffers or uses the chunk.
 
-    Returns the status (``I[I_STATUS]``; see the module's status codes).
+    Parameters
+    ----------
+    sysd : tuple
+        The system: ``(indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals,
+        skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it, the work values
+        of the Newton matrix, B in COO, the packed sources).
+    lus : tuple
+        The LU: the plan's arrays (:meth:`netdae.dae.compiled.lu.LuPlan.refactor_args`,
+        ``perm_r``, ``perm_c``), the factors' values and two work vectors.
+
+    Returns
+    -------
+    int
+        A status code of this module (RUNNING is never returned).
     """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     n = P.shape[1]
     maxord = I[I_MAXORD]
     u = np.zeros(skind.size)
@@ -285,23 +338,28 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
 
     if I[I_STARTED] == 0:
         I[I_STARTED] = 1
-        # the record at t0
+        # the record at t0, then the start: an order-1 restart with probed derivatives
         for c in range(save.size):
             buf_x[0, c] = P[0, save[c]]
         buf_t[0] = F[F_T]
         buf_k[0] = 0
         I[I_M] = 1
-        x0 = P[0].copy()
         cap = min(H0_FRACTION * (bps[0] - F[F_T]), F[F_MAX_STEP])
-        fixed = first_step > 0.0
-        h0 = first_step if fixed else cap
-        if not _restart_at(F, I, P, psi, F[F_T], x0, h0, fixed, w_err, high, indptr, indices, e_data, h_data,
-                           a_data, lu, piv, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u,
-                           xp, xpp, work):
-            return I[I_STATUS]
+        I[I_PENDING_RESTART] = 1
+        F[F_RESTART_FIXED] = 1.0 if first_step > 0.0 else 0.0
+        F[F_RESTART_CAP] = first_step if first_step > 0.0 else cap
 
     chunk = 0
     while I[I_STATUS] == RUNNING:
+        if I[I_PENDING_RESTART] != 0:
+            x = P[0].copy()
+            rc = _restart_at(F, I, P, psi, F[F_T], x, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, w_err, high,
+                             sysd, lus, u, xp, xpp, work)
+            if rc == FACTOR_NEED_PIVOTS:
+                return NEED_PIVOTS
+            if rc != FACTOR_OK:
+                return I[I_STATUS]
+            I[I_PENDING_RESTART] = 0
         if I[I_M] >= buf_t.size:
             return BUFFER_FULL
         if chunk >= max_chunk_steps:
@@ -348,26 +406,38 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
                     sp += gamma[i] * P[i, c]
                 x_pred[c] = s
                 xp_pred[c] = sp
-            if cj != F[F_LAST_CJ_ATTEMPT]:
+            cj_counted = cj != F[F_LAST_CJ_ATTEMPT]
+            if cj_counted:
                 I[I_CJ_CHANGES] += 1
                 F[F_LAST_CJ_ATTEMPT] = cj
             # phase 3: the corrector, one exact solve
             kind = 0  # 0 accepted, 1 newton failure, 2 error failure
             worst = -1
-            ok = True
+            rc = FACTOR_OK
             if F[F_LU_TAG] != cj:
-                ok = _factor(F, I, cj, 0.0, indptr, indices, e_data, h_data, a_data, lu, piv)
-            if not ok:
+                rc = _factor(F, I, cj, 0.0, sysd, lus)
+            if rc == FACTOR_NEED_PIVOTS:
+                # undo phase 1 and return for new pivots; the attempt is repeated on the next call
+                psi[:] = psi_saved
+                if ns <= k:
+                    for i in range(ns, k + 1):
+                        for c in range(n):
+                            P[i, c] /= beta[i]
+                F[F_H] = h
+                if cj_counted:  # counted again when the attempt is repeated
+                    I[I_CJ_CHANGES] -= 1
+                    F[F_LAST_CJ_ATTEMPT] = math.nan
+                return NEED_PIVOTS
+            if rc == FACTOR_SINGULAR:
                 kind = 1
                 reason = REASON_SINGULAR
             else:
                 # r = E xp_pred - H x_pred - B u(t_new)
-                _phi(t_new, x_pred, indptr, indices, h_data, b_rows, b_cols, b_vals, skind, spar, spwl_t,
-                     spwl_v, spwl_n, u, r)
+                _phi(t_new, x_pred, sysd, u, r)
                 for c in range(n):
                     r[c] = -r[c]
                 _matvec_add(indptr, indices, e_data, xp_pred, 1.0, r)
-                lu_solve(lu, piv, r)
+                _solve(lus, r)
                 I[I_EVALUATIONS] += 1
                 I[I_NEWTON] += 1
                 for c in range(n):
@@ -526,10 +596,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
             restart_times[I[I_NRESTART_TIMES]] = t_new
             I[I_NRESTART_TIMES] += 1
             h_last = max(h, F[F_H_REQUEST])
-            cap = max(min(h_last, F[F_MAX_STEP], bps[I[I_IBP]] - t_new), F[F_MIN_STEP])
-            x = P[0].copy()
-            if not _restart_at(F, I, P, psi, t_new, x, cap, False, w_err, high, indptr, indices, e_data, h_data,
-                               a_data, lu, piv, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, u,
-                               xp, xpp, work):
-                return I[I_STATUS]
+            F[F_RESTART_CAP] = max(min(h_last, F[F_MAX_STEP], bps[I[I_IBP]] - t_new), F[F_MIN_STEP])
+            F[F_RESTART_FIXED] = 0.0
+            I[I_PENDING_RESTART] = 1
+    return I[I_STATUS]
     return I[I_STATUS]
