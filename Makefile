@@ -14,7 +14,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 OUT    := out
 
-.PHONY: demo test bench validation system-deps venv clean
+.PHONY: demo test bench validation system-deps venv warm clean
 
 $(VPY):
 	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
@@ -32,19 +32,23 @@ $(STAMP): pyproject.toml | $(VPY)
 
 venv: $(STAMP)
 
+# Compile the transient engine into numba's cache (a no-op taking about a second when it is there).
+warm: venv
+	@$(VPY) -m netdae.dae.compiled.warm
+
 system-deps:
 	@./.ci/ensure-system-deps.sh
 
-demo: system-deps venv
+demo: system-deps venv warm
 	$(VENV)/bin/netdae demo $(DEMO) --out $(OUT)
 
-test: system-deps venv
+test: system-deps venv warm
 	$(VPY) -m pytest -q
 
-bench: system-deps venv
+bench: system-deps venv warm
 	$(VPY) benchmarks/run.py --quick
 
-validation: system-deps venv
+validation: system-deps venv warm
 	$(VPY) scripts/validation.py
 
 clean:

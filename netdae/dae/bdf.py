@@ -117,6 +117,7 @@ References
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -1268,6 +1269,11 @@ class BDF:
                 f"{st['newton_failures']} Newton failures, {self._lu.factorizations} factorizations)")
 
 
+def _compiled_engine_enabled() -> bool:
+    """The compiled engine serves what it supports unless ``NETDAE_ENGINE=python``."""
+    return os.environ.get("NETDAE_ENGINE", "compiled").lower() != "python"
+
+
 def integrate(
     system: DaeSystem,
     t_span,
@@ -1320,6 +1326,13 @@ def integrate(
     >>> res.ok, bool(abs(res.x[-1, 0] - np.exp(-5.0)) < 1e-5)
     (True, True)
     """
+    if _compiled_engine_enabled():
+        from .compiled.driver import integrate_compiled
+
+        res = integrate_compiled(system, t_span, x0, progress=progress, raise_on_failure=raise_on_failure,
+                                 **options)
+        if res is not None:
+            return res
     t0, tf = (float(v) for v in t_span)
     solver = BDF(system, t0, x0, tf, **options)
     last = time.perf_counter()

@@ -1,0 +1,165 @@
+"""The FLC-BDF method's formulas as compiled kernels: coefficients, norms, order and step control.
+
+These are the pure functions of the method (DASSL/IDA's ``IDASetCoeffs``,
+``IDATestError``, ``IDACompleteStep`` [1]_), written once, with every
+argument explicit, for the compiled transient engine. They are ordinary
+numba functions: callable from compiled code and, more slowly, from Python.
+The constants are those of :mod:`netdae.dae.bdf`, where each is explained.
+
+References
+----------
+.. [1] A. C. Hindmarsh et al., SUNDIALS IDA, ``src/ida/ida.c``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["flc_coefficients", "weighted_norm", "error_norms", "update_differences", "landing_step",
+           "set_weights", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED"]
+
+NORM_RMS = 0
+NORM_MAX = 1
+RELREF_LOCAL = 0
+RELREF_SIGNAL = 1
+RELREF_MIXED = 2
+#: See :data:`netdae.dae.bdf.MIXED_FLOOR`.
+MIXED_FLOOR = 0.1
+
+
+@njit(cache=True)
+def flc_coefficients(h, k, psi_old, psi, alpha, beta, gamma, sigma):
+    """Coefficients of a step of size ``h`` and order ``k`` (IDA's IDASetCoeffs).
+
+    ``psi_old`` (length >= k) describes the previous steps; ``psi``, ``alpha``,
+    ``beta``, ``gamma``, ``sigma`` (length >= k + 1) are written. ``psi`` may be
+    the same array as ``psi_old``.
+
+    Returns
+    -------
+    (cj, ck) : (float, float)
+        The leading coefficient of the corrector and the error constant.
+    """
+    alpha[0] = 1.0
+    beta[0] = 1.0
+    gamma[0] = 0.0
+    sigma[0] = 1.0
+    temp1 = h
+    for i in range(1, k + 1):
+        temp2 = psi_old[i - 1]
+        psi[i - 1] = temp1
+        beta[i] = beta[i - 1] * temp1 / temp2
+        temp1 = temp2 + h
+        alpha[i] = h / temp1
+        sigma[i] = i * sigma[i - 1] * alpha[i]
+        gamma[i] = gamma[i - 1] + alpha[i - 1] / h
+    psi[k] = temp1
+    alpha_s = 0.0
+    alpha_0 = 0.0
+    for j in range(1, k + 1):
+        alpha_s -= 1.0 / j
+        alpha_0 -= alpha[j - 1]
+    ck = max(abs(alpha[k] + alpha_s - alpha_0), alpha[k])
+    return -alpha_s / h, ck
+
+
+@njit(cache=True)
+def weighted_norm(v, w, kind):
+    """Weighted RMS (``kind`` 0) or maximum (1) norm of ``v * w``."""
+    n = v.size
+    if n == 0:
+        return 0.0
+    if kind == NORM_MAX:
+        m = 0.0
+        for i in range(n):
+            a = abs(v[i] * w[i])
+            if a != a:
+                return a  # NaN propagates
+            if a > m:
+                m = a
+        return m
+    s = 0.0
+    for i in range(n):
+        a = v[i] * w[i]
+        s += a * a
+    return math.sqrt(s / n)
+
+
+@njit(cache=True)
+def _norm_sum(ee, P, rows_from, k, w, kind, n):
+    """Norm of ``ee + sum_{i=rows_from}^{k} P[i, :n]`` weighted by w."""
+    s = 0.0
+    m = 0.0
+    for j in range(n):
+        a = ee[j]
+        for i in range(rows_from, k + 1):
+            a += P[i, j]
+        a *= w[j]
+        if kind == NORM_MAX:
+            a = abs(a)
+            if a != a or m != m:
+                m = math.nan
+            elif a > m:
+                m = a
+        else:
+            s += a * a
+    if kind == NORM_MAX:
+        return m
+    return math.sqrt(s / n) if n else 0.0
+
+
+@njit(cache=True)
+def error_norms(ee, P, k, w, kind, n):
+    """``|ee|``, ``|ee + P[k]|``, ``|ee + P[k] + P[k-1]|`` (as far as k allows; else 0).
+
+    The local error estimates at orders k, k-1, k-2 (IDA's IDATestError);
+    ``P`` holds the predicted differences of the step, columns ``:n`` used.
+    """
+    e0 = _norm_sum(ee, P, k + 1, k, w, kind, n)
+    e1 = _norm_sum(ee, P, k, k, w, kind, n) if k >= 2 else 0.0
+    e2 = _norm_sum(ee, P, k - 1, k, w, kind, n) if k >= 3 else 0.0
+    return e0, e1, e2
+
+
+@njit(cache=True)
+def update_differences(P, ee, k, maxord):
+    """After an accepted step: ``P[k+1] = ee`` and ``P[j] <- ee + sum_{i=j}^{k} P[i]``, in place."""
+    m = ee.size
+    if k < maxord:
+        for c in range(m):
+            P[k + 1, c] = ee[c]
+    for c in range(m):
+        acc = ee[c]
+        for j in range(k, -1, -1):
+            acc += P[j, c]
+            P[j, c] = acc
+
+
+@njit(cache=True)
+def landing_step(h, remaining, stretch, split):
+    """Step that lands on a breakpoint ``remaining`` ahead without a sliver: (h, lands)."""
+    if h * (1.0 + stretch) >= remaining:
+        return remaining, True
+    if split and 2.0 * h > remaining:
+        return 0.5 * remaining, False
+    return h, False
+
+
+@njit(cache=True)
+def set_weights(x, rtol, atol, relref, xmax, mask, w, w_err):
+    """Error weights ``1 / (rtol |x|_ref + atol)``; ``w_err = w * mask`` (index-2 unknowns out)."""
+    for i in range(x.size):
+        a = abs(x[i])
+        if relref == RELREF_SIGNAL:
+            if a > xmax[i]:
+                xmax[i] = a
+            a = xmax[i]
+        elif relref == RELREF_MIXED:
+            if a > xmax[i]:
+                xmax[i] = a
+            a = max(a, MIXED_FLOOR * xmax[i])
+        w[i] = 1.0 / (rtol * a + atol[i])
+        w_err[i] = w[i] * mask[i]
