@@ -67,6 +67,9 @@ UIC_PROBE_FRACTION = 1e-9
 JUMP_PROBE = 1e-9
 #: A derivative jump is reported when it exceeds this fraction of the input's scale.
 JUMP_TOLERANCE = 1e-6
+#: Jumps of the solution (inputs that jump, index-2 unknowns at corners) noted one by one
+#: up to this many; the rest are counted (all are in ``extra["jumps"]``).
+JUMP_NOTES = 3
 #: ngspice's default largest step is (tstop - tstart) / TMAX_DIVISOR (or tstep if smaller).
 TMAX_DIVISOR = 50.0
 #: The relative tolerance refers to an unknown's present magnitude, but to at
@@ -224,8 +227,10 @@ def _consistent_from_charges(system: MnaSystem, start: _Start, rep: IndexReport 
         z0 = wf.nilpotent_from_inputs(np.array([system.source(0.0, k) for k in range(max(wf.index, 1))])) \
             if wf.index else np.zeros(0)
         return wf.combine(y0, z0)
+    # the algebraic equations hold at t = 0 itself: with the inputs taken at h, a source
+    # rising from 0 at t = 0 would start from its value at h, inconsistent with x(0)
     h = UIC_PROBE_FRACTION * tstop
-    res = solve_steady(_EulerProbe(system, start.q0, h, h), h, start.x, options=opts)
+    res = solve_steady(_EulerProbe(system, start.q0, h, 0.0), 0.0, start.x, options=opts)
     if not res.converged:
         raise NetdaeError(
             "uic: could not find values consistent with the initial capacitor voltages and inductor currents "
@@ -507,6 +512,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         notes.append(f"index {index}: solved through the Weierstrass form (finite part by BDF, nilpotent part by "
                      "(2.12) with the inputs' analytic derivatives)")
         failure = None
+        jumps = []
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
     else:
         res = integrate(system, (0.0, card.tstop), x0, rtol=rtol, vntol=vntol_, abstol=abstol_,
@@ -515,6 +521,13 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         times, X, stats, message, status, failure = res.t, res.x, dict(res.stats), res.message, res.status, \
             res.failure
         dense_kept = res.dense
+        jumps = [(t, list(w)) for t, w in res.jumps]
+        for tj, who in jumps[:JUMP_NOTES]:
+            notes.append(f"t={tj:.6g}: the solution jumps ({', '.join(who[:5])}"
+                         f"{' and more' if len(who) > 5 else ''}); both the value from the left and "
+                         "the right limit are reported at this time")
+        if len(jumps) > JUMP_NOTES:
+            notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (extra['jumps'])")
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax,
                       "index_excluded": res.tolerances.get("index_excluded", 0)}
         if failure is not None and rep.topology is not None:
@@ -565,6 +578,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             "impulses": impulses,
             "start": {nm: float(v) for nm, v in zip(system.names, start.x)},
             "failure": failure,
+            "jumps": jumps,
             "index_report": rep,
         },
     )
