@@ -45,9 +45,9 @@ from typing import Any, Callable
 import numpy as np
 
 from ..circuit import Circuit, TranAnalysis
-from ..dae.bdf import MAX_ORDER, integrate
+from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
 from ..dae.steady import SteadyOptions, solve_steady
-from ..dae.system import DaeSystem, Evaluation, LinearDae
+from ..dae.system import LinearDae
 from ..devices.linear import capacitances
 from ..errors import CircuitError, NetdaeError, SingularPencilError
 from ..mna import MODE_TRAN, MnaSystem, assemble
@@ -197,27 +197,6 @@ def _uic_start(system: MnaSystem) -> _Start:
     return _Start(x=x, q0=q0, notes=notes)
 
 
-class _EulerProbe(DaeSystem):
-    """``phi(x, t) - (q(x) - q0)/h = 0``: one implicit Euler step from the charges q0."""
-
-    def __init__(self, system: DaeSystem, q0: np.ndarray, h: float, t: float):
-        self.inner = system
-        self.q0, self.h, self.t = q0, h, t
-        self.n, self.names, self.kinds, self.pattern = system.n, system.names, system.kinds, system.pattern
-        self.linear = system.linear
-
-    def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
-        ev = self.inner.evaluate(x, self.t, jacobian=jacobian, state=state, source_scale=source_scale)
-        return Evaluation(
-            q=ev.q, phi=ev.phi - (ev.q - self.q0) / self.h,
-            dq=ev.dq, dphi=None if ev.dphi is None else ev.dphi - ev.dq / self.h,
-            limited=ev.limited, state=ev.state, ok=ev.ok,
-        )
-
-    def initial_state(self):
-        return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
-
-
 def _consistent_from_charges(system: MnaSystem, start: _Start, rep: IndexReport | None, tstop: float,
                              opts: SteadyOptions) -> np.ndarray:
     """Consistent x0 that keeps the uic charges/fluxes."""
@@ -230,7 +209,7 @@ def _consistent_from_charges(system: MnaSystem, start: _Start, rep: IndexReport 
     # the algebraic equations hold at t = 0 itself: with the inputs taken at h, a source
     # rising from 0 at t = 0 would start from its value at h, inconsistent with x(0)
     h = UIC_PROBE_FRACTION * tstop
-    res = solve_steady(_EulerProbe(system, start.q0, h, 0.0), 0.0, start.x, options=opts)
+    res = solve_steady(ImplicitEulerStep(system, start.q0, h, 0.0), 0.0, start.x, options=opts)
     if not res.converged:
         raise NetdaeError(
             "uic: could not find values consistent with the initial capacitor voltages and inductor currents "

@@ -146,9 +146,10 @@ from .newton import (
     LuCache,
     newton,
 )
-from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem
+from .steady import SteadyOptions, solve_steady
+from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
-__all__ = ["BDF", "IntegrationResult", "integrate"]
+__all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate"]
 
 #: With relref="mixed" the relative tolerance refers to at least this fraction
 #: of the largest magnitude the unknown has had.
@@ -224,6 +225,45 @@ DENSE_MATVEC_MAX = 48
 BUFFER_START = 1024
 #: Least wall time between two progress callbacks [s].
 PROGRESS_INTERVAL = 0.1
+
+
+class ImplicitEulerStep(DaeSystem):
+    """One implicit-Euler step as a steady-state problem: ``phi(x, t) - (q(x) - q0)/h = 0``.
+
+    Parameters
+    ----------
+    system : DaeSystem
+    q0 : ndarray, shape (n,)
+        Charges at the start of the step.
+    h : float
+        Step size.
+    t : float
+        Time at which the inputs are taken (whatever time the solver passes).
+
+    Notes
+    -----
+    Used for consistent values after a jump of the inputs (:class:`BDF`) and
+    for a ``uic`` start (:mod:`netdae.analyses.tran`): as ``h -> 0`` the
+    solution keeps the charges ``q0`` and satisfies the algebraic equations
+    at ``t``.
+    """
+
+    def __init__(self, system: DaeSystem, q0, h: float, t: float):
+        self.inner = system
+        self.q0, self.h, self.t = q0, h, t
+        self.n, self.names, self.kinds, self.pattern = system.n, system.names, system.kinds, system.pattern
+        self.linear = system.linear
+
+    def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0):
+        ev = self.inner.evaluate(x, self.t, jacobian=jacobian, state=state, source_scale=source_scale)
+        return Evaluation(
+            q=ev.q, phi=ev.phi - (ev.q - self.q0) / self.h,
+            dq=ev.dq, dphi=None if ev.dphi is None else ev.dphi - ev.dq / self.h,
+            limited=ev.limited, state=ev.state, ok=ev.ok,
+        )
+
+    def initial_state(self):
+        return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
 
 
 @dataclass
@@ -809,31 +849,21 @@ class BDF:
         return out
 
     def _euler_solve(self, x_start, q0, t1, eps):
-        """Solve ``(q(y) - q0)/eps = phi(y, t1)`` by full Newton from ``x_start`` (None on failure)."""
-        system = self.system
-        st = self.stats
-        state = {"s": self._state}
+        """Solve ``(q(y) - q0)/eps = phi(y, t1)`` from ``x_start`` (None after recording a failure).
 
-        def fun(y, jacobian):
-            ev = system.evaluate(y, t1, jacobian=jacobian, state=state["s"])
-            st["evaluations"] += 1
-            state["s"] = ev.state
-            r = (ev.q - q0) / eps - ev.phi
-            if not jacobian:
-                return r, None, ev.ok, ev.limited
-            st["jacobian_evaluations"] += 1
-            return r, ev.dq / eps - ev.dphi, ev.ok, ev.limited
-
-        res = newton(fun, x_start, self._lu, self._w, tol=EPCON, maxiter=JUMP_NEWTON_MAXITER,
-                     jacobian="always", norm=self.norm, tag=1.0 / eps)
-        st["newton_iterations"] += res.iterations
-        st["factorizations"] = self._lu.factorizations
+        The steady-state solver does it (damped Newton with device limiting,
+        then gmin and source stepping): after a jump of the inputs the start
+        can be far from the solution (a diode switched on by a step).
+        """
+        tol = self._tolerances
+        opts = SteadyOptions(reltol=self.rtol, vntol=tol["vntol"], abstol=tol["abstol"])
+        res = solve_steady(ImplicitEulerStep(self.system, q0, eps, t1), t1, x_start, options=opts)
+        self.stats["newton_iterations"] += res.iterations
+        self.stats["evaluations"] += res.iterations
         if not res.converged:
-            worst = system.names[res.worst] if res.worst >= 0 else None
-            self._fail(self.t, eps, f"the inputs jump at t, and Newton found no values consistent with them "
-                       f"right of it ({res.info})", worst, self._newton_hint(res.info))
+            self._fail(self.t, eps, "the inputs jump at t, and no values consistent with them right of it "
+                       f"were found ({res.message})", None, self._newton_hint(None))
             return None
-        self._state = state["s"]
         return res.x
 
     def _initialise_history(self, h, xp, qp):
