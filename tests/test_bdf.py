@@ -20,6 +20,7 @@ from netdae.errors import ConvergenceError
 
 from test_bdf_problems import (
     Source,
+    Source,
     differentiator,
     differentiator_exact,
     lowpass_sine_exact,
@@ -177,24 +178,36 @@ def test_index2_v_parallel_c_sine_is_exact_to_tolerance_and_converges():
     assert errs[0] < 1e-2 and errs[1] < errs[0] / 5 and errs[2] < errs[1] / 5
 
 
-def test_index2_without_index_information_collapses_the_step():
+def test_index2_jump_at_a_corner_is_reported_on_both_sides():
     c, g = 1e-6, 1e-3
-    src = pwl([0.0, 1e-3, 2e-3, 3e-3], [0.0, 1.0, 1.0, 0.0])
+    corners = [0.0, 1e-3, 2e-3, 3e-3]
+    src = pwl(corners, [0.0, 1.0, 1.0, 0.0])
     dae, index = v_parallel_c(c, g, src)
     x0 = np.array([0.0, -c * 1e3])
-    blind = integrate(dae, (0.0, 3e-3), x0, rtol=1e-3)
-    assert not blind.ok
-    assert blind.failure["worst"] == "i(v1)"
-    assert abs(blind.failure["t"] - 1e-3) < 1e-12 and blind.failure["h"] < 1e-12
     aware = integrate(dae, (0.0, 3e-3), x0, rtol=1e-3, index=index)
-    assert aware.ok, aware.message
-    assert aware.stats["rejected"] == 0 and aware.stats["h_min"] > 1e-7
-    # i(v1) = -C V' - G V exactly, piece by piece (V is piecewise linear, BDF differentiates it exactly)
-    t = aware.t
-    slope = np.select([t <= 1e-3, t <= 2e-3], [1e3, 0.0], -1e3)
-    v = np.interp(t, [0.0, 1e-3, 2e-3, 3e-3], [0.0, 1.0, 1.0, 0.0])
-    inside = ~np.isin(t, [0.0, 1e-3, 2e-3, 3e-3])
-    np.testing.assert_allclose(aware["i(v1)"][inside], (-c * slope - g * v)[inside], rtol=0, atol=1e-12)
+    # without the index information the restart's right limit still catches the jump of
+    # i(v1) (it used to collapse the step at the first corner)
+    blind = integrate(dae, (0.0, 3e-3), x0, rtol=1e-3)
+    for res in (aware, blind):
+        assert res.ok, res.message
+        assert res.stats["rejected"] == 0 and res.stats["h_min"] > 1e-7
+        assert [t for t, _ in res.jumps] == [1e-3, 2e-3]
+        assert all(who == ("i(v1)",) for _, who in res.jumps)
+        # i(v1) = -C V' - G V exactly, piece by piece (V is piecewise linear, BDF differentiates it
+        # exactly); at a corner the left value, then the right limit at the same time
+        t = res.t
+        slope = np.select([t <= 1e-3, t <= 2e-3], [1e3, 0.0], -1e3)
+        v = np.interp(t, corners, [0.0, 1.0, 1.0, 0.0])
+        inside = ~np.isin(t, corners)
+        np.testing.assert_allclose(res["i(v1)"][inside], (-c * slope - g * v)[inside], rtol=0, atol=1e-12)
+        at = np.flatnonzero(t == 1e-3)
+        assert at.size == 2
+        np.testing.assert_allclose(res["i(v1)"][at], [-c * 1e3 - g, -g], rtol=1e-9)
+        # the dense output does not interpolate across the jump
+        tq = np.array([1e-3, 1e-3 + 1e-9, 1.5e-3, 2e-3 + 1e-9])
+        np.testing.assert_allclose(res.dense(tq, ["i(v1)"])[:, 0],
+                                   [-c * 1e3 - g, -g, -g, c * 1e3 - g * (1 - 1e-6)],
+                                   rtol=1e-9, atol=1e-15)
 
 
 def test_index2_sine_without_index_needs_far_more_work():
@@ -301,15 +314,16 @@ def test_singular_system_fails_with_a_message():
 
 def test_min_step_failure_names_time_step_and_unknown():
     c, g = 1e-6, 1e-3
-    src = pwl([0.0, 1e-3, 2e-3], [0.0, 1.0, 1.0])
-    dae, _ = v_parallel_c(c, g, src)
+    ramp = pwl([0.0, 1e-3, 2e-3], [0.0, 1.0, 1.0])
+    hidden = Source(ramp.value, ramp.derivative)  # the corner at 1 ms is not declared a breakpoint
+    dae, _ = v_parallel_c(c, g, hidden)
     res = integrate(dae, (0.0, 2e-3), np.array([0.0, -c * 1e3]), rtol=1e-3, min_step=1e-9)
     assert not res.ok
     f = res.failure
-    assert f["worst"] == "i(v1)" and abs(f["t"] - 1e-3) < 1e-12 and f["h"] <= 4e-9
-    assert "min_step" in res.message and "t=0.001" in res.message and "i(v1)" in res.message
+    assert f["worst"] == "i(v1)" and abs(f["t"] - 1e-3) < 1e-5 and f["h"] <= 4e-9
+    assert "min_step" in res.message and f"t={f['t']:.9g}" in res.message and "i(v1)" in res.message
     # the solution up to the failure is kept
-    assert res.t[-1] == pytest.approx(1e-3) and res.dense(5e-4).shape == (2,)
+    assert res.t[-1] == pytest.approx(f["t"]) and res.dense(5e-4).shape == (2,)
 
 
 def test_kinds_decide_default_absolute_tolerances_for_a_ladder():

@@ -147,9 +147,10 @@ from .newton import (
     LuCache,
     newton,
 )
-from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem
+from .steady import SteadyOptions, solve_steady
+from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
-__all__ = ["BDF", "IntegrationResult", "integrate"]
+__all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate"]
 
 #: With relref="mixed" the relative tolerance refers to at least this fraction
 #: of the largest magnitude the unknown has had.
@@ -198,6 +199,15 @@ PROBE_FRACTION = 1e-3
 #: than probe / PROBE_MAX_RATIO (its error estimate needs probe << step).
 PROBE_MAX_RATIO = 0.02
 PROBE_RETRIES = 3
+#: At a (re)start the right limit x(t+) is measured by the probe (two implicit-Euler
+#: steps of size eps, extrapolated to eps = 0). An unknown whose right limit differs
+#: from the value reached by more than JUMP_DETECT tolerances (weighted, with the
+#: tolerances raised to the rounding level of the probe) means the inputs jumped, an
+#: index-2 unknown jumped at a corner, or the start is inconsistent: the method
+#: restarts from the right limit.
+JUMP_DETECT = 1.0
+#: Newton iterations allowed for each implicit-Euler step of the right-limit solve.
+JUMP_NEWTON_MAXITER = 25
 #: A step may be stretched by this fraction to land on a breakpoint.
 BREAKPOINT_STRETCH = 0.1
 #: Breakpoints closer than this fraction of the interval are merged (no sliver steps).
@@ -216,6 +226,45 @@ DENSE_MATVEC_MAX = 48
 BUFFER_START = 1024
 #: Least wall time between two progress callbacks [s].
 PROGRESS_INTERVAL = 0.1
+
+
+class ImplicitEulerStep(DaeSystem):
+    """One implicit-Euler step as a steady-state problem: ``phi(x, t) - (q(x) - q0)/h = 0``.
+
+    Parameters
+    ----------
+    system : DaeSystem
+    q0 : ndarray, shape (n,)
+        Charges at the start of the step.
+    h : float
+        Step size.
+    t : float
+        Time at which the inputs are taken (whatever time the solver passes).
+
+    Notes
+    -----
+    Used for consistent values after a jump of the inputs (:class:`BDF`) and
+    for a ``uic`` start (:mod:`netdae.analyses.tran`): as ``h -> 0`` the
+    solution keeps the charges ``q0`` and satisfies the algebraic equations
+    at ``t``.
+    """
+
+    def __init__(self, system: DaeSystem, q0, h: float, t: float):
+        self.inner = system
+        self.q0, self.h, self.t = q0, h, t
+        self.n, self.names, self.kinds, self.pattern = system.n, system.names, system.kinds, system.pattern
+        self.linear = system.linear
+
+    def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0):
+        ev = self.inner.evaluate(x, self.t, jacobian=jacobian, state=state, source_scale=source_scale)
+        return Evaluation(
+            q=ev.q, phi=ev.phi - (ev.q - self.q0) / self.h,
+            dq=ev.dq, dphi=None if ev.dphi is None else ev.dphi - ev.dq / self.h,
+            limited=ev.limited, state=ev.state, ok=ev.ok,
+        )
+
+    def initial_state(self):
+        return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
 
 
 @dataclass
@@ -256,6 +305,12 @@ class IntegrationResult:
         ``t``, ``h``, ``worst``, ``hint``, ``what`` of a failure.
     restarts : ndarray, shape (r,)
         Breakpoints at which the method restarted at order 1.
+    jumps : list of (float, tuple of str)
+        Times at which the solution jumped (an input value or an index-2
+        unknown at a corner of the inputs, or an inconsistent start) and the
+        unknowns that jumped by more than their tolerance. At each such time
+        ``t`` holds two equal entries: the value reached from the left, then
+        the right limit the method continued from.
     """
 
     t: np.ndarray
@@ -270,6 +325,7 @@ class IntegrationResult:
     tolerances: dict
     failure: dict | None = None
     restarts: np.ndarray = field(default_factory=lambda: np.empty(0))
+    jumps: list = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -505,6 +561,8 @@ class BDF:
             "wall_time": 0.0,
         }
         self._restart_times: list[float] = []
+        self._jumps: list[tuple[float, tuple[str, ...]]] = []
+        self._segments: list[int] = [0]  # record positions where a restart begins
 
         self._buf_t = np.empty(BUFFER_START)
         self._buf_k = np.zeros(BUFFER_START, dtype=np.int8)
@@ -512,6 +570,14 @@ class BDF:
         self._m = 0
 
         self.t = self.t0
+        if n == 0:
+            # nothing to integrate (a circuit of ideal sources only, or none)
+            self._record(self.t0, x0, 0)
+            self._record(self.t_bound, x0, 0)
+            self.t = self.t_bound
+            self.status = "finished"
+            self.message = f"reached t={self.t_bound:.9g}: the system has no unknowns"
+            return
         self._set_weights(x0)
         ev = self._evaluate(x0, self.t0, jacobian=self._linear)
         if not ev.ok or not np.all(np.isfinite(ev.q)) or not np.all(np.isfinite(ev.phi)):
@@ -564,12 +630,15 @@ class BDF:
             )
         self._high = idx >= 2
         tested = int(np.count_nonzero(~self._high))
-        if tested == 0:
-            raise ValueError("every unknown is marked index 2: nothing is left to control the error")
         self._tolerances["index_excluded"] = n - tested
         if tested == n:
             return None
         factor = (~self._high).astype(float)
+        if tested == 0:
+            # every unknown is a derivative of the inputs (a source driving only
+            # capacitors): nothing to error-test, the steps follow max_step and
+            # the breakpoints
+            return factor
         if self.norm == "rms":
             # the RMS over the tested unknowns only: sqrt(sum_tested (e w)^2 / tested)
             factor *= math.sqrt(n / tested)
@@ -638,14 +707,30 @@ class BDF:
         self._restart_at(x0, h, fixed=first_step is not None)
 
     def _restart_at(self, x, cap, fixed=False):
-        """Probe the derivatives at (t, x) and start at order 1 with a step <= cap."""
+        """Probe the derivatives at (t, x) and start at order 1 with a step <= cap.
+
+        The first probe also measures the right limit x(t+); where it differs
+        from ``x`` (the inputs jumped at t, an index-2 unknown jumped at a
+        corner, or the start is inconsistent) the method continues from the
+        right limit (:meth:`_jump`).
+        """
         h = cap
-        for _ in range(PROBE_RETRIES):
+        checked = False
+        retries = 0
+        while True:
             eps = PROBE_FRACTION * h
             probe = self._probe_or_fail(self.t, x, eps)
             if probe is None:
                 return
-            xp, qp, xpp = probe
+            xp, qp, xpp, x_right, w_floor = probe
+            if not checked:
+                checked = True
+                jump = self._jump(x, x_right, w_floor, eps)
+                if jump is None:
+                    return
+                x, again = jump
+                if again:
+                    continue  # derivatives from the right limit
             if fixed:
                 break
             curv = self._normf(xpp, self._w_err)
@@ -653,12 +738,23 @@ class BDF:
             h_new = max(h_new, self.min_step)
             converged = eps <= PROBE_MAX_RATIO * h_new
             h = h_new
-            if converged:
+            retries += 1
+            if converged or retries >= PROBE_RETRIES:
                 break
         self._initialise_history(h, xp, qp)
 
     def _probe_or_fail(self, t, x, eps):
-        """x'(t+), q'(t+) and x''(t+) from two implicit-Euler Newton steps of size ``eps``.
+        """x'(t+), q'(t+), x''(t+) and the right limit x(t+) from two implicit-Euler steps of size ``eps``.
+
+        Each step is one Newton iteration (exact for a linear system; for a
+        nonlinear one the residual at a consistent x is O(eps)). The right
+        limit is the extrapolation of the two steps to eps = 0,
+        ``2 x_1 - x_2`` (error O(eps^2)), returned with ``x_2`` (for index-2
+        unknowns, which carry an impulse in ``x_1`` when an input value
+        jumps: :meth:`_jump` chooses). Also returns the
+        weights with every tolerance raised to the rounding level of the
+        probe (``1/eps`` times the charges' rounding error), against which a
+        jump is judged.
 
         Returns None after recording a failure when the Newton matrix is singular or
         the evaluation is not finite.
@@ -673,6 +769,7 @@ class BDF:
             self._fail(t, eps, "the Newton matrix (alpha/h) dq/dx - dphi/dx is singular", None,
                        self._newton_hint(INFO_SINGULAR))
             return None
+        self._keep_abs_dq(ev.dq)
         xp = self._lu.solve(ev.phi) / eps
         x1 = x + eps * xp
         ev1 = self._evaluate(x1, t + 2.0 * eps)
@@ -682,9 +779,93 @@ class BDF:
             self._fail(t, eps, "the derivative estimate at the (re)start is not finite", None,
                        self._newton_hint(INFO_SINGULAR))
             return None
+        x_right = (x1 - eps * xp1, x1 + eps * xp1)
+        w_floor = self._rounding_weights(x, np.asarray(ev.phi, dtype=float), 1.0 / eps)
         xp[self._high] = 0.0
         xpp[self._high] = 0.0
-        return xp, np.array(ev.phi, dtype=float), xpp
+        return xp, np.array(ev.phi, dtype=float), xpp, x_right, w_floor
+
+    def _jump(self, x, x_right, w_floor, eps):
+        """Continue from the right limit where it differs from ``x``.
+
+        Returns ``(x_new, reprobe)``, or None after recording a failure.
+        ``x_new`` is ``x`` itself when nothing jumped. Otherwise every
+        unknown takes its right limit (a partial replacement would break the
+        algebraic relations between them), the point ``(t, x_new)`` is recorded a second time (the left
+        and the right value at the same t, so the dense output never
+        interpolates across the jump) and ``reprobe`` says whether the
+        derivatives must be measured again (an unknown that is not index 2
+        jumped: the inputs' values jumped or the start was inconsistent). For
+        a nonlinear system the right limit is then recomputed by converged
+        Newton iterations (the one-iteration probe is accurate only near a
+        consistent point).
+        """
+        n = self.n
+        x_right, x_2 = x_right
+        moved = np.abs(x_right - x) * w_floor
+        if not moved.max() > JUMP_DETECT:
+            return x, False
+        value_jump = bool(np.any(moved[~self._high] > JUMP_DETECT))
+        if value_jump:
+            # an input value jumped: the index-2 unknowns carry an impulse in the first
+            # probe step, their right limit is the value after the second
+            x_right[self._high] = x_2[self._high]
+            if not self._linear:
+                x_right = self._right_limit(x, eps)
+                if x_right is None:
+                    return None
+            moved = np.abs(x_right - x) * w_floor
+        # every unknown takes its right limit: replacing only those that moved much would
+        # break the algebraic relations between them (differential unknowns move by
+        # O(eps^2) only)
+        x_new = x_right
+        names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
+        self._jumps.append((float(self.t), names))
+        self._P[0, :n] = x_new
+        if not self._linear:
+            ev = self._evaluate(x_new, self.t)
+            self._P[0, n:] = ev.q
+        self._set_weights(x_new)
+        self._record(self.t, x_new, 0)
+        self._segments.append(self._m - 1)
+        return x_new, value_jump
+
+    def _right_limit(self, x, eps):
+        """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
+
+        The charges are continuous across t (no impulse), so the steps start
+        from ``q(x)``; the inputs are those right of t. Returns None after
+        recording a failure.
+        """
+        t = self.t
+        q0 = self._evaluate(x, t).q
+        y1 = self._euler_solve(x, q0, t + eps, eps)
+        if y1 is None:
+            return None
+        y2 = self._euler_solve(y1, self._evaluate(y1, t + eps).q, t + 2.0 * eps, eps)
+        if y2 is None:
+            return None
+        out = 2.0 * y1 - y2
+        out[self._high] = y2[self._high]
+        return out
+
+    def _euler_solve(self, x_start, q0, t1, eps):
+        """Solve ``(q(y) - q0)/eps = phi(y, t1)`` from ``x_start`` (None after recording a failure).
+
+        The steady-state solver does it (damped Newton with device limiting,
+        then gmin and source stepping): after a jump of the inputs the start
+        can be far from the solution (a diode switched on by a step).
+        """
+        tol = self._tolerances
+        opts = SteadyOptions(reltol=self.rtol, vntol=tol["vntol"], abstol=tol["abstol"])
+        res = solve_steady(ImplicitEulerStep(self.system, q0, eps, t1), t1, x_start, options=opts)
+        self.stats["newton_iterations"] += res.iterations
+        self.stats["evaluations"] += res.iterations
+        if not res.converged:
+            self._fail(self.t, eps, "the inputs jump at t, and no values consistent with them right of it "
+                       f"were found ({res.message})", None, self._newton_hint(None))
+            return None
+        return res.x
 
     def _initialise_history(self, h, xp, qp):
         n = self.n
@@ -1186,6 +1367,7 @@ class BDF:
         """Order-1 restart on a breakpoint: derivatives from the right by a probe."""
         self.stats["restarts"] += 1
         self._restart_times.append(self.t)
+        self._segments.append(self._m - 1)
         x = self._P[0, : self.n].copy()
         if self._fixed:
             probe = self._probe_or_fail(self.t, x, PROBE_FRACTION * self._fixed_h)
@@ -1221,9 +1403,10 @@ class BDF:
         message = self.message or f"stopped at t={self.t:.9g} before t_bound={self.t_bound:.9g}"
         return IntegrationResult(
             t=t, x=x, order=k, names=names, save=self._save.copy(),
-            dense=Interpolant(t, k, x, names), stats=stats, status=status, message=message,
+            dense=Interpolant(t, k, x, names, segments=np.array(self._segments, dtype=np.int64)),
+            stats=stats, status=status, message=message,
             tolerances=dict(self._tolerances), failure=self._failure,
-            restarts=np.array(self._restart_times),
+            restarts=np.array(self._restart_times), jumps=list(self._jumps),
         )
 
     # -------------------------------------------------------------- failure

@@ -8,6 +8,13 @@ returns exactly this polynomial as its interpolant on ``[t_n, t_{n+1}]``
 values and orders, so dense output costs no memory beyond the saved solution
 itself (one extra ``int8`` per step).
 
+Dense output never crosses a restart: the polynomial of a step uses only
+points from the segment the step belongs to (the method restarts at order 1
+on every breakpoint, so its own history never reaches back either). Where
+the solution jumps, the integrator stores two points at the same time, the
+left value and the right limit; at that time the interpolant returns the
+left value, just after it the polynomial through the right limit.
+
 Evaluation is vectorised over the requested times: one ``searchsorted``
 locates every time's step, and the Lagrange weights of all of them are formed
 together (a loop over the at most six interpolation nodes, none over times
@@ -51,6 +58,11 @@ class Interpolant:
         Solution values of the saved components.
     names : sequence of str, length ns
         Names of the saved components.
+    segments : array_like of int, optional
+        Positions in ``t`` where a new segment starts (a restart of the
+        method at a breakpoint): no polynomial uses a point before the start
+        of its segment. A time listed twice (a jump) always starts a segment
+        at its second entry.
 
     Raises
     ------
@@ -58,7 +70,7 @@ class Interpolant:
         If the arrays disagree in length.
     """
 
-    def __init__(self, t, orders, x, names) -> None:
+    def __init__(self, t, orders, x, names, segments=None) -> None:
         self.t = np.asarray(t, dtype=float)
         self.orders = np.asarray(orders, dtype=np.int64)
         self.x = np.asarray(x, dtype=float)
@@ -66,9 +78,23 @@ class Interpolant:
         m = self.t.size
         if self.x.shape[0] != m or self.orders.shape != (m,):
             raise ValueError("t, orders and x must have the same number of points")
-        # a step started from a given history (no stored points before t0) interpolates
-        # through the points that exist
-        self.orders = np.minimum(self.orders, np.arange(m))
+        # the start of the segment each point belongs to: a step ending at i interpolates
+        # x[start .. i] at most (a step started from a given history, with no stored points
+        # before t0, interpolates through the points that exist)
+        starts = np.zeros(m, dtype=bool)
+        repeated = np.zeros(m, dtype=bool)
+        if m:
+            repeated[1:] = self.t[1:] == self.t[:-1]
+            starts[0] = True
+            starts |= repeated
+        if segments is not None:
+            seg = np.asarray(segments, dtype=np.int64)
+            starts[seg[(seg >= 0) & (seg < m)]] = True
+        last_start = np.maximum.accumulate(np.where(starts, np.arange(m), 0)) if m else np.zeros(0, np.int64)
+        before = np.concatenate([[0], last_start[:-1]]) if m else last_start
+        # the step ending at i starts at the segment start of point i - 1
+        self.orders = np.minimum(self.orders, np.arange(m) - before)
+        self.orders[repeated] = 0
         self.maxorder = int(self.orders[1:].max()) if m > 1 else 0
 
     @property
@@ -145,8 +171,10 @@ class Interpolant:
         valid = j[None, :] <= k[:, None]
         idx = np.where(valid, idx, i[:, None])
         tau = tpts[idx]
-        # normalise by the step length for well-scaled products
+        # normalise by the step length for well-scaled products (a zero-length "step" is the
+        # second point of a jump: order 0, it returns its own value)
         scale = tpts[i] - tpts[i - 1]
+        scale = np.where(scale > 0.0, scale, 1.0)
         s = (tq - tpts[i]) / scale
         u = (tau - tpts[i][:, None]) / scale[:, None]
         weights = np.zeros((tq.size, nodes))
