@@ -48,6 +48,11 @@ PROBE_MAX_RATIO = 0.02
 PROBE_RETRIES = 3
 BREAKPOINT_STRETCH = 0.1
 ROUNDOFF_ULPS = 16.0
+JUMP_DETECT = 1.0
+ROUNDING_FACTOR = 10.0
+EPS = float(np.finfo(np.float64).eps)
+#: Unknowns named per recorded jump (the rest are counted).
+JUMP_NAMES = 32
 
 # --- float scalars F[...] ------------------------------------------------------------
 F_T = 0           # current time
@@ -104,7 +109,9 @@ I_NRESTART_TIMES = 26
 I_STARTED = 27          # 0: nothing done; 1: running
 I_PENDING_RESTART = 28  # an order-1 restart (with probes) is due before the next step
 I_PIVOTS_FAILED = 29    # fresh pivoting found the matrix tagged F_PIVOT_TAG singular
-N_I = 30
+I_NJUMPS = 30           # jumps recorded
+I_NSEGMENTS = 31        # segment starts recorded (restarts and jumps)
+N_I = 32
 
 # statuses
 RUNNING = 0
@@ -235,9 +242,35 @@ def _initialise_history(F, I, P, psi, h, xp):
 
 
 @kernel
-def _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work):
-    """x'(t+) into ``xp`` and x''(t+) into ``xpp`` by two implicit-Euler steps of size eps.
+def _rounding_floor(x, qp, cj, sysd, lus, signs, w, w_out, b1, b2):
+    """Weights with every tolerance raised to the corrector's rounding level (see
+    :meth:`netdae.dae.bdf.BDF._rounding_weights`): ``w_out`` from ``w``."""
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    n = x.size
+    b1[:] = 0.0
+    for j in range(n):
+        xj = abs(x[j])
+        if xj != 0.0:
+            for p in range(indptr[j], indptr[j + 1]):
+                b1[indices[p]] += abs(e_data[p]) * xj
+    for i in range(n):
+        b1[i] = (b1[i] * cj + abs(qp[i])) * (ROUNDING_FACTOR * EPS)
+        b2[i] = b1[i] * signs[i]
+    _solve(lus, b1)
+    _solve(lus, b2)
+    for i in range(n):
+        floor = max(abs(b1[i]), abs(b2[i]))
+        w_out[i] = w[i]
+        if floor * w[i] > 1.0:
+            w_out[i] = 1.0 / floor
 
+
+@kernel
+def _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, xr, x2, wf, signs, w, b1, b2, work):
+    """x'(t+) into ``xp``, x''(t+) into ``xpp`` by two implicit-Euler steps of size eps.
+
+    Also the right limit ``xr`` (the two steps extrapolated to eps = 0), the second
+    step's value ``x2`` and, in ``wf``, the weights raised to the probe's rounding level.
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     I[I_PROBES] += 1
@@ -258,6 +291,8 @@ def _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work):
         if rc == FACTOR_SINGULAR:
             _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
             return rc
+    for i in range(x.size):
+        x2[i] = xp[i]  # phi(x, t + eps), for the rounding floor
     _solve(lus, xp)
     for i in range(x.size):
         xp[i] /= eps
@@ -265,8 +300,12 @@ def _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work):
     I[I_EVALUATIONS] += 1
     _phi(t + 2.0 * eps, work, sysd, u, xpp)
     _solve(lus, xpp)
+    _rounding_floor(x, x2, 1.0 / eps, sysd, lus, signs, w, wf, b1, b2)
     for i in range(x.size):
-        xpp[i] = (xpp[i] / eps - xp[i]) / eps
+        xp1 = xpp[i] / eps
+        xr[i] = work[i] - eps * xp1
+        x2[i] = work[i] + eps * xp1
+        xpp[i] = (xp1 - xp[i]) / eps
         if not (math.isfinite(xp[i]) and math.isfinite(xpp[i])):
             _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
             return FACTOR_SINGULAR
@@ -277,14 +316,77 @@ def _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work):
 
 
 @kernel
-def _restart_at(F, I, P, psi, t, x, cap, fixed, w_err, high, sysd, lus, u, xp, xpp, work):
-    """Probe the derivatives at (t, x) and start at order 1 with a step <= cap (as _probe returns)."""
+def _jump(F, I, t, x, xr, x2, wf, high, P, rtol, atol, mask, xmax, w, w_err, save,
+          buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments):
+    """Continue from the right limit where it differs from ``x`` (see ``BDF._jump``).
+
+    Returns -1 when nothing jumped, else 1 when an unknown that is not index 2 jumped (the
+    inputs' values jumped or the start was inconsistent: the derivatives must be probed
+    again), 0 when only index-2 unknowns did. On a jump ``x`` becomes the right limit,
+    which is recorded a second time at ``t`` and starts a new segment.
+    """
+    n = x.size
+    big = 0.0
+    value_jump = False
+    for i in range(n):
+        m = abs(xr[i] - x[i]) * wf[i]
+        if m > big or m != m:
+            big = m
+        if m > JUMP_DETECT and not high[i]:
+            value_jump = True
+    if not (big > JUMP_DETECT):
+        return -1
+    if value_jump:
+        # an input value jumped: the index-2 unknowns carry an impulse in the first probe
+        # step, their right limit is the value after the second
+        for i in range(n):
+            if high[i]:
+                xr[i] = x2[i]
+    j = I[I_NJUMPS]
+    jump_t[j] = t
+    count = 0
+    for i in range(n):
+        if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
+            if count < JUMP_NAMES:
+                jump_idx[j, count] = i
+            count += 1
+    jump_count[j] = count
+    I[I_NJUMPS] = j + 1
+    for i in range(n):
+        x[i] = xr[i]
+        P[0, i] = xr[i]
+    set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
+    m = I[I_M]
+    buf_t[m] = t
+    buf_k[m] = 0
+    for c in range(save.size):
+        buf_x[m, c] = x[save[c]]
+    I[I_M] = m + 1
+    segments[I[I_NSEGMENTS]] = m
+    I[I_NSEGMENTS] += 1
+    return 1 if value_jump else 0
+
+
+@kernel
+def _restart_at(F, I, P, psi, t, x, cap, fixed, high, sysd, lus, u, xp, xpp, xr, x2, wf, signs, b1, b2, work,
+                rtol, atol, mask, xmax, w, w_err, save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx,
+                segments):
+    """Probe the derivatives at (t, x), continue from the right limit where the solution
+    jumps, and start at order 1 with a step <= cap (returns as _probe)."""
     h = cap
-    for _ in range(PROBE_RETRIES):
+    checked = False
+    retries = 0
+    while True:
         eps = PROBE_FRACTION * h
-        rc = _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, work)
+        rc = _probe(F, I, t, x, eps, high, sysd, lus, u, xp, xpp, xr, x2, wf, signs, w, b1, b2, work)
         if rc != FACTOR_OK:
             return rc
+        if not checked:
+            checked = True
+            again = _jump(F, I, t, x, xr, x2, wf, high, P, rtol, atol, mask, xmax, w, w_err, save,
+                          buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments)
+            if again == 1:
+                continue  # derivatives from the right limit
         if fixed:
             break
         curv = weighted_norm(xpp, w_err, I[I_NORM])
@@ -295,7 +397,8 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, w_err, high, sysd, lus, u, xp, x
         h_new = max(h_new, F[F_MIN_STEP])
         converged = eps <= PROBE_MAX_RATIO * h_new
         h = h_new
-        if converged:
+        retries += 1
+        if converged or retries >= PROBE_RETRIES:
             break
     _initialise_history(F, I, P, psi, h, xp)
     return FACTOR_OK
@@ -303,8 +406,8 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, w_err, high, sysd, lus, u, xp, x
 
 @kernel
 def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
-        atol, mask, high, xmax, w, w_err, save, restart_times, sysd, lus,
-        buf_t, buf_k, buf_x, max_chunk_steps):
+        atol, mask, high, xmax, w, w_err, save, restart_times, sysd, lus, signs,
+        buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, max_chunk_steps):
     """Advance the integration until it finishes, fails, fills the buffers or uses the chunk.
 
     Parameters
@@ -331,6 +434,11 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
     work = np.empty(n)
     r = np.empty(n)
     ee = np.empty(n)
+    xr = np.empty(n)
+    x2 = np.empty(n)
+    wf = np.empty(n)
+    b1 = np.empty(n)
+    b2 = np.empty(n)
     x_pred = np.empty(n)
     xp_pred = np.empty(n)
     rtol = F[F_RTOL]
@@ -352,9 +460,12 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
     chunk = 0
     while I[I_STATUS] == RUNNING:
         if I[I_PENDING_RESTART] != 0:
+            if I[I_M] + 1 >= buf_t.size:
+                return BUFFER_FULL  # a jump records a second point
             x = P[0].copy()
-            rc = _restart_at(F, I, P, psi, F[F_T], x, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, w_err, high,
-                             sysd, lus, u, xp, xpp, work)
+            rc = _restart_at(F, I, P, psi, F[F_T], x, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, high,
+                             sysd, lus, u, xp, xpp, xr, x2, wf, signs, b1, b2, work, rtol, atol, mask, xmax, w,
+                             w_err, save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments)
             if rc == FACTOR_NEED_PIVOTS:
                 return NEED_PIVOTS
             if rc != FACTOR_OK:
@@ -599,5 +710,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
             F[F_RESTART_CAP] = max(min(h_last, F[F_MAX_STEP], bps[I[I_IBP]] - t_new), F[F_MIN_STEP])
             F[F_RESTART_FIXED] = 0.0
             I[I_PENDING_RESTART] = 1
+            segments[I[I_NSEGMENTS]] = I[I_M] - 1
+            I[I_NSEGMENTS] += 1
     return I[I_STATUS]
     return I[I_STATUS]
