@@ -1,0 +1,260 @@
+"""The compiled device kernels against the numpy families and finite differences.
+
+Each kernel (netdae.devices.kernels) must add exactly what its numpy family's
+``evaluate`` adds through an Accumulator: charges, currents, both Jacobians,
+the new limiting state and the flags, for every mode (no history, limiting
+against a previous state, SPICE's initial junction state), on the example
+netlists and on random model cards and random iterates. Where no limiting is
+active the kernel's Jacobians must also match central differences of its own
+q and phi.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from netdae.devices.base import Accumulator, SlotMap
+from netdae.devices.bjt import BjtFamily
+from netdae.devices.companion import LimitState
+from netdae.devices.diode import DiodeFamily
+from netdae.devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
+from netdae.devices.mosfet import MosfetFamily
+from netdae.mna import assemble
+from netdae.netlist import load
+
+NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
+EPS = np.finfo(float).eps
+#: Agreement with the numpy family: a few ulps of each entry, or this fraction of the array's largest entry
+#: (the two scatter the same terms in a different order).
+ULPS = 8.0
+SPREAD = 1e-14
+
+
+# --- the two evaluations -------------------------------------------------------------
+
+class Case:
+    """A circuit's family, packed for its kernel, and both evaluations of it."""
+
+    def __init__(self, text: str, family_cls, kernel, to_state):
+        self.system = assemble(load(text))
+        self.family = next(f for f in self.system.families if isinstance(f, family_cls))
+        self.n = self.system.n
+        self.nnz = self.system.pattern.nnz
+        self.par, self.idx, self.vold0 = self.family.compiled(SlotMap(self.system.pattern), self.n)
+        self.kernel = kernel
+        self.to_state = to_state
+
+    def extended(self, x):
+        return np.append(np.asarray(x, dtype=float), 0.0)
+
+    def numpy(self, xe, mode, vold, jacobian=True):
+        acc = Accumulator(self.n, self.nnz)
+        acc.reset(np.zeros(self.n), np.zeros(self.n), np.zeros(self.nnz), np.zeros(self.nnz))
+        state = None if mode == MODE_EVALUATE else self.to_state(vold, mode == MODE_INITIAL)
+        with np.errstate(all="ignore"):
+            new = self.family.evaluate(xe, 0.0, acc, state, jacobian)
+        return acc, new
+
+    def compiled(self, xe, mode, vold, jacobian=True):
+        q, phi = np.zeros(self.n + 1), np.zeros(self.n + 1)
+        dq, dphi = np.zeros(self.nnz + 1), np.zeros(self.nnz + 1)
+        vnew = np.full_like(vold, np.nan)
+        flags, bad = self.kernel(xe, mode, self.par, self.idx, vold, vnew, q, phi, dq, dphi, jacobian)
+        return q, phi, dq, dphi, vnew, flags, bad
+
+    def compare(self, x, mode, vold, jacobian=True):
+        """Assert the kernel equals the numpy family at ``x``; returns the kernel's flags."""
+        xe = self.extended(x)
+        acc, new = self.numpy(xe, mode, vold, jacobian)
+        q, phi, dq, dphi, vnew, flags, bad = self.compiled(xe, mode, vold, jacobian)
+        assert bool(flags & FLAG_LIMITED) == acc.limited
+        assert bool(flags & FLAG_NONFINITE) == (not acc.ok)
+        assert (bad >= 0) == (not acc.ok)
+        if not acc.ok:
+            return flags
+        close(vnew, self.state_columns(new), "state")
+        pairs = [(q[:-1], acc.q[:-1], "q"), (phi[:-1], acc.phi[:-1], "phi")]
+        if jacobian:
+            pairs += [(dq[:-1], acc.dq[:-1], "dq"), (dphi[:-1], acc.dphi[:-1], "dphi")]
+        else:
+            assert not dq.any() and not dphi.any()
+        for got, want, name in pairs:
+            close(got, want, name)
+        return flags
+
+    def state_columns(self, state):
+        cols = state.v.T
+        if state.extra is not None:
+            cols = np.column_stack([cols, state.extra])
+        return cols
+
+    def jacobians_match_differences(self, x, rtol=2e-6):
+        """The kernel's dq, dphi (mode 0) against central differences of its q, phi."""
+        xe = self.extended(x)
+        vold = self.vold0
+        q, phi, dq, dphi, *_ = self.compiled(xe, MODE_EVALUATE, vold)
+        pattern = self.system.pattern
+        E = pattern.matrix(dq[:-1]).toarray()
+        H = pattern.matrix(dphi[:-1]).toarray()
+        fd_q, fd_phi = np.zeros_like(E), np.zeros_like(H)
+        for j in range(self.n):
+            step = 1e-7 * max(1.0, abs(x[j]))
+            xp, xm = xe.copy(), xe.copy()
+            xp[j] += step
+            xm[j] -= step
+            qp, pp, *_ = self.compiled(xp, MODE_EVALUATE, vold, False)
+            qm, pm, *_ = self.compiled(xm, MODE_EVALUATE, vold, False)
+            fd_q[:, j] = (qp[:-1] - qm[:-1]) / (2 * step)
+            fd_phi[:, j] = (pp[:-1] - pm[:-1]) / (2 * step)
+        np.testing.assert_allclose(H, fd_phi, rtol=rtol, atol=rtol * np.abs(H).max())
+        np.testing.assert_allclose(E, fd_q, rtol=rtol, atol=rtol * max(np.abs(E).max(), 1e-30))
+
+
+def close(got, want, name):
+    """Equal within ULPS ulps of each entry or SPREAD of the largest entry."""
+    got, want = np.asarray(got), np.asarray(want)
+    assert got.shape == want.shape, name
+    tol = ULPS * EPS * np.abs(want) + SPREAD * (np.abs(want).max() if want.size else 0.0)
+    err = np.abs(got - want)
+    worst = int(np.argmax(err - tol)) if err.size else 0
+    assert np.all(err <= tol), f"{name}[{worst}]: kernel {got.flat[worst]!r}, numpy {want.flat[worst]!r}"
+
+
+def netlists_with(letter: str) -> list[Path]:
+    """Example netlists with at least one element card starting with ``letter``."""
+    out = []
+    for path in sorted(NETLISTS.glob("*.cir")):
+        cards = [ln for ln in path.read_text().splitlines()[1:] if ln[:1].upper() == letter]
+        if cards:
+            out.append(path)
+    return out
+
+
+def exercise(case: Case, rng, x_scale, vold_scale, draws=6):
+    """Every mode at random iterates (and the zero iterate of a solve from scratch)."""
+    seen_limited = False
+    nodes = case.n
+    case.compare(np.zeros(nodes), MODE_INITIAL, case.vold0)
+    case.compare(np.zeros(nodes), MODE_EVALUATE, case.vold0)
+    for _ in range(draws):
+        x = rng.uniform(-1.0, 1.0, nodes) * x_scale(rng, nodes)
+        vold = rng.uniform(-1.0, 1.0, case.vold0.shape) * vold_scale(rng, case.vold0.shape)
+        case.compare(x, MODE_EVALUATE, vold)
+        case.compare(x, MODE_INITIAL, case.vold0)
+        case.compare(x, MODE_EVALUATE, vold, jacobian=False)
+        flags = case.compare(x, MODE_LIMIT, vold)
+        seen_limited |= bool(flags & FLAG_LIMITED)
+        case.compare(x, MODE_LIMIT, vold, jacobian=False)
+    return seen_limited
+
+
+def scales(*choices):
+    return lambda rng, shape: rng.choice(np.asarray(choices, dtype=float), size=shape)
+
+
+# --- diode ----------------------------------------------------------------------------------
+
+def diode_state(vold, initial):
+    return LimitState(vold.T.copy(), initial=initial)
+
+
+def diode_case(text):
+    from netdae.devices.kernels.diode import eval_diode
+    return Case(text, DiodeFamily, eval_diode, diode_state)
+
+
+def random_diodes(rng, count=6) -> str:
+    """A netlist of ``count`` diodes with random model cards between five nodes and ground."""
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5"]
+    lines = ["random diodes"]
+    for k in range(count):
+        a, c = rng.choice(nodes, size=2, replace=False)
+        card = [f"is={10 ** rng.uniform(-16, -6):.6g}", f"n={rng.uniform(0.8, 2.0):.6g}"]
+        if rng.random() < 0.5:
+            card.append(f"rs={10 ** rng.uniform(-1, 2):.6g}")
+        if rng.random() < 0.6:
+            card += [f"cjo={10 ** rng.uniform(-13, -10):.6g}", f"vj={rng.uniform(0.4, 1.2):.6g}",
+                     f"m={rng.uniform(0.2, 0.95):.6g}", f"fc={rng.uniform(0.1, 0.95):.6g}"]
+        if rng.random() < 0.4:
+            card.append(f"tt={10 ** rng.uniform(-12, -8):.6g}")
+        if rng.random() < 0.5:
+            card += [f"bv={rng.uniform(2, 60):.6g}", f"ibv={10 ** rng.uniform(-6, -2):.6g}"]
+            if rng.random() < 0.5:
+                card.append(f"nbv={rng.uniform(0.8, 3):.6g}")
+        inst = f"D{k} {a} {c} dm{k} {rng.uniform(0.5, 3):.4g} m={rng.integers(1, 4)}"
+        if rng.random() < 0.3:
+            inst += f" temp={rng.uniform(-40, 125):.5g}"
+        if rng.random() < 0.15:
+            inst += " off"
+        lines += [inst, f".model dm{k} d ({' '.join(card)})"]
+    return "\n".join(lines + [".end", ""])
+
+
+@pytest.mark.parametrize("path", netlists_with("D"), ids=lambda p: p.stem)
+def test_diode_kernel_equals_the_family_on_the_netlists(path):
+    case = diode_case(path.read_text())
+    rng = np.random.default_rng(1)
+    assert exercise(case, rng, scales(0.3, 1.0, 3.0, 30.0), scales(0.5, 1.0, 5.0))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_diode_kernel_equals_the_family_on_random_cards(seed):
+    rng = np.random.default_rng(seed)
+    case = diode_case(random_diodes(rng))
+    # forward, reverse, breakdown and overflowing iterates; old states near and far
+    exercise(case, rng, scales(0.2, 0.8, 2.0, 20.0, 80.0, 400.0), scales(0.3, 0.8, 5.0, 60.0), draws=10)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_diode_kernel_jacobians_match_differences(seed):
+    rng = np.random.default_rng(100 + seed)
+    case = diode_case(random_diodes(rng))
+    for scale in (0.3, 0.7, 5.0, 50.0):
+        x = rng.uniform(-1.0, 1.0, case.n) * scale
+        xe = case.extended(x)
+        *_, flags, _ = case.compiled(xe, MODE_EVALUATE, case.vold0)
+        if flags & FLAG_NONFINITE:
+            continue
+        case.jacobians_match_differences(x)
+
+
+def test_diode_kernel_in_each_region_with_private_nodes():
+    # one diode per anode node, cathodes at ground: the junction voltages are set directly, in
+    # forward bias, around the reverse knee, at and beyond the breakdown, from old states near and far
+    rng = np.random.default_rng(7)
+    count = 8
+    lines = ["regions"]
+    for k in range(count):
+        lines += [f"D{k} a{k} 0 dm{k} m={1 + k % 2}",
+                  f".model dm{k} d (is={10 ** rng.uniform(-15, -9):.4g} n={rng.uniform(1, 2):.4g} "
+                  f"bv={rng.uniform(3, 40):.4g} ibv={10 ** rng.uniform(-5, -3):.4g} cjo=1p tt=1n"
+                  + (" rs=2" if k % 3 == 0 else "") + ")"]
+    case = diode_case("\n".join(lines + [".end", ""]))
+    fam = case.family
+    anodes = [case.system.node_index(f"a{k}") for k in range(count)]
+    kinds = {"forward": lambda r: r.uniform(0.3, 1.5), "knee": lambda r: -3.0 * float(np.mean(fam.vte)) * r.uniform(0.5, 2),
+             "reverse": lambda r: r.uniform(-2.0, -0.1)}
+    breakdown_limited = 0
+    for trial in range(40):
+        x = np.zeros(case.n)
+        vd = np.empty(count)
+        for k in range(count):
+            region = trial % 4
+            if region == 3:  # breakdown: around -BV'
+                vd[k] = -fam.bv[k] - rng.uniform(-0.5, 1.5)
+            else:
+                vd[k] = list(kinds.values())[region](rng)
+        x[anodes] = vd
+        for k in range(count):
+            if fam.gs[k] > 0:
+                x[case.system.node_index(f"d{k}#internal")] = vd[k]
+        vold = (vd + rng.normal(0.0, 1.0, count) * rng.choice([0.01, 0.3, 3.0]))[:, None]
+        flags = case.compare(x, MODE_LIMIT, vold)
+        case.compare(x, MODE_EVALUATE, vold)
+        if trial % 4 == 3 and flags & FLAG_LIMITED:
+            breakdown_limited += 1
+    assert breakdown_limited > 0
