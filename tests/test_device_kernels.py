@@ -258,3 +258,101 @@ def test_diode_kernel_in_each_region_with_private_nodes():
         if trial % 4 == 3 and flags & FLAG_LIMITED:
             breakdown_limited += 1
     assert breakdown_limited > 0
+
+
+# --- BJT ------------------------------------------------------------------------------------
+
+def bjt_case(text):
+    from netdae.devices.kernels.bjt import eval_bjt
+    return Case(text, BjtFamily, eval_bjt, diode_state)
+
+
+def random_bjts(rng, count=6, irb=True) -> str:
+    """``count`` NPN and PNP transistors with random Gummel-Poon cards between six nodes and ground.
+
+    ``irb=False`` leaves out IRB, whose base-resistance formula (ngspice's) loses
+    half the digits at small ``ib/IRB``: central differences of it are noise there.
+    """
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5", "n6"]
+    lines = ["random bjts"]
+
+    def maybe(p, text):
+        return [text] if rng.random() < p else []
+
+    for k in range(count):
+        terms = rng.choice(nodes, size=4, replace=False)
+        card = [f"is={10 ** rng.uniform(-17, -12):.5g}", f"bf={rng.uniform(20, 300):.5g}",
+                f"nf={rng.uniform(0.9, 1.3):.4g}", f"br={rng.uniform(0.5, 5):.4g}", f"nr={rng.uniform(0.9, 1.3):.4g}"]
+        card += maybe(0.6, f"vaf={rng.uniform(10, 200):.5g}") + maybe(0.4, f"var={rng.uniform(5, 50):.5g}")
+        card += maybe(0.5, f"ikf={10 ** rng.uniform(-4, -1):.5g}") + maybe(0.4, f"ikr={10 ** rng.uniform(-4, -1):.5g}")
+        card += maybe(0.3, f"nkf={rng.uniform(0.3, 0.8):.4g}")
+        card += maybe(0.5, f"ise={10 ** rng.uniform(-16, -12):.5g} ne={rng.uniform(1.2, 2.5):.4g}")
+        card += maybe(0.5, f"isc={10 ** rng.uniform(-16, -12):.5g} nc={rng.uniform(1.2, 2.5):.4g}")
+        if rng.random() < 0.6:
+            card.append(f"rb={rng.uniform(10, 500):.5g}")
+            card += maybe(0.6, f"rbm={rng.uniform(1, 10):.5g}") + maybe(0.5 if irb else 0.0, f"irb={10 ** rng.uniform(-5, -2):.5g}")
+        card += maybe(0.5, f"re={rng.uniform(0.1, 5):.4g}") + maybe(0.5, f"rc={rng.uniform(1, 50):.4g}")
+        card += maybe(0.6, f"cje={10 ** rng.uniform(-13, -11):.5g} vje={rng.uniform(0.5, 1.0):.4g} "
+                           f"mje={rng.uniform(0.2, 0.5):.4g}")
+        card += maybe(0.6, f"cjc={10 ** rng.uniform(-13, -11):.5g} vjc={rng.uniform(0.5, 1.0):.4g} "
+                           f"mjc={rng.uniform(0.2, 0.5):.4g} xcjc={rng.uniform(0.3, 1.0):.4g}")
+        card += maybe(0.4, f"cjs={10 ** rng.uniform(-13, -11):.5g} vjs={rng.uniform(0.5, 1.0):.4g} "
+                           f"mjs={rng.uniform(0.0, 0.5):.4g}")
+        card += maybe(0.5, f"tf={10 ** rng.uniform(-11, -9):.5g}") + maybe(0.4, f"tr={10 ** rng.uniform(-9, -7):.5g}")
+        card += maybe(0.4, f"xtf={rng.uniform(0.5, 10):.4g} vtf={rng.uniform(1, 10):.4g}")
+        card += maybe(0.4, f"itf={10 ** rng.uniform(-3, -1):.4g}")
+        card += maybe(0.3, f"xtb={rng.uniform(0.5, 2):.4g}") + maybe(0.3, f"fc={rng.uniform(0.2, 0.9):.4g}")
+        card += maybe(0.2, f"subs={rng.choice([-1, 1])}")
+        kind = rng.choice(["npn", "pnp"])
+        inst = f"Q{k} {' '.join(terms if rng.random() < 0.6 else terms[:3])} qm{k}"
+        inst += f" {rng.uniform(0.5, 3):.4g}" if rng.random() < 0.5 else ""
+        inst += f" areab={rng.uniform(0.5, 3):.4g}" if rng.random() < 0.3 else ""
+        inst += f" areac={rng.uniform(0.5, 3):.4g}" if rng.random() < 0.3 else ""
+        inst += f" m={rng.integers(1, 4)}" if rng.random() < 0.4 else ""
+        inst += f" temp={rng.uniform(-40, 125):.5g}" if rng.random() < 0.3 else ""
+        inst += " off" if rng.random() < 0.15 else ""
+        lines += [inst, f".model qm{k} {kind} ({' '.join(card)})"]
+    return "\n".join(lines + [".end", ""])
+
+
+@pytest.mark.parametrize("path", netlists_with("Q"), ids=lambda p: p.stem)
+def test_bjt_kernel_equals_the_family_on_the_netlists(path):
+    case = bjt_case(path.read_text())
+    rng = np.random.default_rng(2)
+    assert exercise(case, rng, scales(0.3, 1.0, 3.0, 15.0), scales(0.3, 0.8, 5.0))
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_bjt_kernel_equals_the_family_on_random_cards(seed):
+    rng = np.random.default_rng(1000 + seed)
+    case = bjt_case(random_bjts(rng))
+    # forward active, reverse, saturation (both junctions forward), cutoff, overflow
+    exercise(case, rng, scales(0.3, 0.8, 1.0, 5.0, 40.0, 400.0), scales(0.2, 0.8, 5.0, 60.0), draws=10)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_bjt_kernel_jacobians_match_differences(seed):
+    rng = np.random.default_rng(2000 + seed)
+    case = bjt_case(random_bjts(rng, irb=False))
+    for scale in (0.3, 0.8, 3.0, 20.0):
+        x = rng.uniform(-1.0, 1.0, case.n) * scale
+        *_, flags, _ = case.compiled(case.extended(x), MODE_EVALUATE, case.vold0)
+        if flags & FLAG_NONFINITE:
+            continue
+        case.jacobians_match_differences(x)
+
+
+def test_bjt_base_resistance_derivative_matches_differences():
+    # the IRB form of the base resistance where differences of it are well conditioned (ib/IRB from
+    # 1e-3 to 1e3; below, tan(z) - z cancels and differences are noise)
+    from netdae.devices.kernels import bjt as kb
+    par = np.zeros((1, kb.N_PAR))
+    par[0, kb.P_RB], par[0, kb.P_RBM], par[0, kb.P_IRB] = 200.0, 5.0, 1e-4
+    for ratio in np.logspace(-3, 3, 13):
+        ib = ratio * 1e-4
+        gx, dgx, _ = kb.base_resistance(ib, 1.0, 0.0, 1.0, 0.0, 0.0, par, 0)
+        step = 1e-4 * ib
+        up = kb.base_resistance(ib + step, 1.0, 0.0, 1.0, 0.0, 0.0, par, 0)[0]
+        down = kb.base_resistance(ib - step, 1.0, 0.0, 1.0, 0.0, 0.0, par, 0)[0]
+        assert dgx == pytest.approx((up - down) / (2 * step), rel=1e-6)
+        assert 1.0 / 200.0 < gx < 1.0 / 5.0
