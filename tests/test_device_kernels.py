@@ -356,3 +356,94 @@ def test_bjt_base_resistance_derivative_matches_differences():
         down = kb.base_resistance(ib - step, 1.0, 0.0, 1.0, 0.0, 0.0, par, 0)[0]
         assert dgx == pytest.approx((up - down) / (2 * step), rel=1e-6)
         assert 1.0 / 200.0 < gx < 1.0 / 5.0
+
+
+# --- MOSFET ---------------------------------------------------------------------------------
+
+def mosfet_state(vold, initial):
+    return LimitState(vold[:, :3].T.copy(), initial=initial, extra=vold[:, 3].copy())
+
+
+def mosfet_case(text):
+    from netdae.devices.kernels.mosfet import eval_mosfet
+    return Case(text, MosfetFamily, eval_mosfet, mosfet_state)
+
+
+def random_mosfets(rng, count=6) -> str:
+    """``count`` NMOS and PMOS level-1 transistors with random cards between six nodes and ground."""
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5", "n6"]
+    lines = ["random mosfets"]
+
+    def maybe(p, text):
+        return [text] if rng.random() < p else []
+
+    for k in range(count):
+        d, g, s, b = rng.choice(nodes, size=4, replace=rng.random() < 0.3)
+        kind = rng.choice(["nmos", "pmos"])
+        sign = 1 if kind == "nmos" else -1
+        card = ["level=1"] + maybe(0.8, f"vto={sign * rng.uniform(-0.5, 1.5):.4g}")
+        card += maybe(0.7, f"kp={10 ** rng.uniform(-5, -3):.4g}") + maybe(0.6, f"gamma={rng.uniform(0, 1):.4g}")
+        card += maybe(0.5, f"phi={rng.uniform(0.4, 0.9):.4g}") + maybe(0.6, f"lambda={rng.uniform(0, 0.1):.4g}")
+        card += maybe(0.3, f"rd={rng.uniform(1, 100):.4g}") + maybe(0.3, f"rs={rng.uniform(1, 100):.4g}")
+        card += maybe(0.2, f"rsh={rng.uniform(1, 50):.4g}")
+        card += maybe(0.3, f"cbd={10 ** rng.uniform(-15, -13):.4g}") + maybe(0.3, f"cbs={10 ** rng.uniform(-15, -13):.4g}")
+        card += maybe(0.4, f"cj={10 ** rng.uniform(-4, -3):.4g} mj={rng.uniform(0.3, 0.6):.4g}")
+        card += maybe(0.4, f"cjsw={10 ** rng.uniform(-10, -9):.4g} mjsw={rng.uniform(0.2, 0.5):.4g}")
+        card += maybe(0.5, f"is={10 ** rng.uniform(-16, -12):.4g}") + maybe(0.3, f"js={10 ** rng.uniform(-5, -3):.4g}")
+        card += maybe(0.4, f"pb={rng.uniform(0.5, 1.0):.4g} fc={rng.uniform(0.2, 0.9):.4g}")
+        card += maybe(0.5, f"cgso={10 ** rng.uniform(-11, -9):.4g} cgdo={10 ** rng.uniform(-11, -9):.4g}")
+        card += maybe(0.3, f"cgbo={10 ** rng.uniform(-11, -9):.4g}") + maybe(0.4, f"ld={rng.uniform(0, 0.1):.3g}u")
+        if rng.random() < 0.5:
+            card.append(f"tox={rng.uniform(5, 50):.4g}n")
+            card += maybe(0.4, f"nsub={10 ** rng.uniform(15, 17):.4g}") + maybe(0.3, f"u0={rng.uniform(200, 700):.4g}")
+        inst = f"M{k} {d} {g} {s} {b} mm{k} w={rng.uniform(1, 20):.3g}u l={rng.uniform(0.5, 5):.3g}u"
+        inst += f" ad={rng.uniform(1, 20):.3g}p as={rng.uniform(1, 20):.3g}p" if rng.random() < 0.5 else ""
+        inst += f" pd={rng.uniform(2, 20):.3g}u ps={rng.uniform(2, 20):.3g}u" if rng.random() < 0.5 else ""
+        inst += f" m={rng.integers(1, 4)}" if rng.random() < 0.3 else ""
+        inst += f" temp={rng.uniform(-40, 125):.5g}" if rng.random() < 0.3 else ""
+        inst += " off" if rng.random() < 0.1 else ""
+        inst += f" icvds={rng.uniform(-2, 2):.3g}" if rng.random() < 0.1 else ""
+        lines += [inst, f".model mm{k} {kind} ({' '.join(card)})"]
+    return "\n".join(lines + [".end", ""])
+
+
+@pytest.mark.parametrize("path", netlists_with("M"), ids=lambda p: p.stem)
+def test_mosfet_kernel_equals_the_family_on_the_netlists(path):
+    case = mosfet_case(path.read_text())
+    rng = np.random.default_rng(3)
+    assert exercise(case, rng, scales(0.3, 1.0, 3.0, 10.0), scales(0.3, 1.0, 5.0))
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_mosfet_kernel_equals_the_family_on_random_cards(seed):
+    rng = np.random.default_rng(3000 + seed)
+    case = mosfet_case(random_mosfets(rng))
+    # cutoff, linear, saturation, reverse mode (vds < 0), forward bulk junctions, overflow
+    exercise(case, rng, scales(0.2, 0.6, 1.0, 3.0, 10.0, 50.0), scales(0.2, 0.6, 3.0, 20.0), draws=10)
+
+
+def test_mosfet_kernel_limits_quiet_and_moving_families():
+    # from the state of a previous iterate, small moves (every control within 0.5 V: the family
+    # skips fetlim/limvds) and large ones (fetlim and limvds act), in normal and reverse mode
+    rng = np.random.default_rng(3100)
+    case = mosfet_case(random_mosfets(rng, count=8))
+    limited = {}
+    for _ in range(30):
+        x0 = rng.uniform(-3, 5, case.n)
+        *_, vold, _, _ = case.compiled(case.extended(x0), MODE_EVALUATE, case.vold0)
+        for step in (0.02, 0.1, 2.0, 8.0):
+            flags = case.compare(x0 + rng.uniform(-step, step, case.n), MODE_LIMIT, vold)
+            limited[step] = limited.get(step, 0) + bool(flags & FLAG_LIMITED)
+    assert limited[8.0] > 0 and limited[0.02] < limited[8.0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_mosfet_kernel_jacobians_match_differences(seed):
+    rng = np.random.default_rng(4000 + seed)
+    case = mosfet_case(random_mosfets(rng))
+    for scale in (0.5, 1.5, 4.0):
+        x = rng.uniform(-1.0, 1.0, case.n) * scale
+        *_, flags, _ = case.compiled(case.extended(x), MODE_EVALUATE, case.vold0)
+        if flags & FLAG_NONFINITE:
+            continue
+        case.jacobians_match_differences(x)
