@@ -408,6 +408,62 @@ class BjtFamily(DeviceFamily):
         dq[0] += self.tf * np.where(tf_on, gbe_mod, gbe)
         dq[1] = np.where(tf_on, geqcb, 0.0)
 
+    def compiled(self, slots: SlotMap, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pack the family for :func:`netdae.devices.kernels.bjt.eval_bjt` (after ``bind``).
+
+        Returns
+        -------
+        par : ndarray, shape (N, kernels.bjt.N_PAR)
+        idx : ndarray of int64, shape (N, kernels.bjt.N_IDX)
+        vold0 : ndarray, shape (N, 3)
+            The initial state's (vbe, vbc, vsub) (:meth:`initial_state`).
+        """
+        from .kernels import bjt as kb
+        from .kernels.packing import dependence_slots, depletion_columns, extended
+
+        count = len(self.elements)
+        par = np.zeros((count, kb.N_PAR))
+        cols = {
+            kb.P_TYPE: self.type, kb.P_TTYPE: self.ttype, kb.P_M: self.mult, kb.P_TM: self._tm,
+            kb.P_TTM_GMIN: self._ttm_gmin, kb.P_GMIN: self.gmin,
+            kb.P_INV_VAF: self.inv_vaf, kb.P_INV_VAR: self.inv_var, kb.P_INV_IKF: self.inv_ikf,
+            kb.P_INV_IKR: self.inv_ikr, kb.P_NKF: np.where(np.isfinite(self.nkf), self.nkf, 0.5),
+            kb.P_BF: self.bf, kb.P_BR: self.br, kb.P_GC: self.gc, kb.P_GE: self.ge, kb.P_GX0: self._dcur[5],
+            kb.P_RB: self.rb, kb.P_RBM: self.rbm, kb.P_IRB: self.irb, kb.P_RB_FAMILY: self.rb_varies,
+            kb.P_VT: self.vt, kb.P_VCRIT: self.vcrit, kb.P_VCRIT_SUB: self.lim_vcrit[2 * count:],
+            kb.P_CHARGE_FAMILY: self.has_charge, kb.P_TF_FAMILY: self.has_tf, kb.P_TF: self.tf, kb.P_TR: self.tr,
+            kb.P_XTF: self.xtf, kb.P_OVTF: self.ovtf, kb.P_ITF: self.itf,
+            kb.P_QSIGN: self.type * self.mult, kb.P_QSIGN_SUB: self.ttype * self.mult,
+        }
+        for col, values in cols.items():
+            par[:, col] = values
+        # the four junction currents: isat, N vt, knee of cbe, cben, cbc, cbcn
+        for j, base in enumerate((kb.P_IS_BE, kb.P_ISE, kb.P_IS_BC, kb.P_ISC)):
+            part = slice(j * count, (j + 1) * count)
+            par[:, base] = self.j_isat[part]
+            par[:, base + 1] = self.j_vte[part]
+            par[:, base + 2] = self.j_knee[part]
+        if self.has_rolloff:
+            par[:, kb.P_ROLLOFF] = (np.where(np.isfinite(self.nkf), kb.ROLLOFF_POWER, kb.ROLLOFF_SQRT_NKF)
+                                    if self.has_nkf else kb.ROLLOFF_SQRT)
+        for j, base in enumerate((kb.P_DEP_BE, kb.P_DEP_BC, kb.P_DEP_BX, kb.P_DEP_SUB)):
+            par[:, base:base + 9] = depletion_columns(self.depletion, slice(j * count, (j + 1) * count))
+        idx = np.zeros((count, kb.N_IDX), dtype=np.int64)
+        for col, nodes in ((kb.I_C, self.c), (kb.I_B, self.b), (kb.I_E, self.e), (kb.I_S, self.s),
+                           (kb.I_CI, self.ci), (kb.I_BI, self.bi), (kb.I_EI, self.ei), (kb.I_SC, self.sub_con)):
+            idx[:, col] = extended(nodes, n)
+        st = self.stamps
+        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
+            idx[:, kb.S_CUR + 4 * j:kb.S_CUR + 4 * j + 4] = dependence_slots(
+                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
+        charged = np.full(count, self.has_charge)
+        charge_nodes = [(self.bi, self.ei), (self.bi, self.ci), (self.b, self.ci), (self.s, self.sub_con)]
+        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
+            a, b = charge_nodes[out]
+            idx[:, kb.S_CHG + 4 * j:kb.S_CHG + 4 * j + 4] = dependence_slots(
+                slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
+        return par, idx, self.initial_state().v.T.copy()
+
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
         tp, ttp = self.type, self.ttype

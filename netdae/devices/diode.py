@@ -277,6 +277,42 @@ class DiodeFamily(DeviceFamily):
             return self.tt * cd + qdep, self.tt * gd + cdep
         return qdep, cdep
 
+    def compiled(self, slots: SlotMap, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pack the family for :func:`netdae.devices.kernels.diode.eval_diode` (after ``bind``).
+
+        Returns
+        -------
+        par : ndarray, shape (N, kernels.diode.N_PAR)
+        idx : ndarray of int64, shape (N, kernels.diode.N_IDX)
+        vold0 : ndarray, shape (N, 1)
+            The initial state's junction voltages (:meth:`initial_state`).
+        """
+        from .kernels import diode as kd
+        from .kernels.packing import dependence_slots, depletion_columns, extended
+
+        count = len(self.elements)
+        par = np.zeros((count, kd.N_PAR))
+        par[:, kd.P_ISAT] = self.isat
+        par[:, kd.P_VTE] = self.vte
+        par[:, kd.P_VCRIT] = self.vcrit
+        par[:, kd.P_KNEE] = self.knee
+        par[:, kd.P_GMIN] = self.gmin
+        par[:, kd.P_HAS_BV] = self.has_bv
+        par[:, kd.P_BV] = self.bv
+        par[:, kd.P_VTEBRK] = self.vtebrk
+        par[:, kd.P_TT] = self.tt
+        par[:, kd.P_GS] = self.gs
+        par[:, kd.P_CHARGE] = self.has_charge
+        par[:, kd.P_DEP:kd.P_DEP + 9] = depletion_columns(self.depletion)
+        idx = np.zeros((count, kd.N_IDX), dtype=np.int64)
+        idx[:, kd.I_A] = extended(self.anode, n)
+        idx[:, kd.I_I] = extended(self.inner, n)
+        idx[:, kd.I_K] = extended(self.cathode, n)
+        idx[:, kd.S_J:kd.S_J + 4] = dependence_slots(slots, self.inner, self.cathode, self.inner, self.cathode)
+        idx[:, kd.S_R:kd.S_R + 4] = dependence_slots(slots, self.anode, self.inner, self.anode, self.inner,
+                                                            where=self.gs > 0.0)
+        return par, idx, self.initial_state().v.T.copy()
+
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
         vd_x = v[0]

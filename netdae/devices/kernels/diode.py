@@ -1,0 +1,117 @@
+"""The level-1 diode family as one compiled kernel (the twin of :class:`netdae.devices.diode.DiodeFamily`).
+
+Layout (packed by ``DiodeFamily.compiled``)
+-------------------------------------------
+``par`` columns ``P_*``: the saturation current, ``N vt``, ``vcrit``, the
+reverse knee ``-3 N vt``, GMIN, the breakdown flag, ``BV'``, ``NBV vt``,
+TT, the series conductance, the family's charge flag and the nine
+depletion coefficients from ``P_DEP``.
+``idx`` columns: anode ``I_A``, internal anode ``I_I`` (the anode itself
+without RS), cathode ``I_K``; slots ``S_J`` of the junction (current and
+charge on ``vd``) and ``S_R`` of the series resistance.
+``vold``/``vnew``: ``V_VD``, the junction voltage.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
+from .junction import depletion, ideal_junction, pnjlim
+from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
+
+__all__ = ["eval_diode", "diode_limit", "diode_current"]
+
+P_ISAT, P_VTE, P_VCRIT, P_KNEE, P_GMIN, P_HAS_BV, P_BV, P_VTEBRK, P_TT, P_GS, P_CHARGE, P_DEP = range(12)
+#: The depletion coefficients take nine columns from P_DEP.
+N_PAR = P_DEP + 9
+I_A, I_I, I_K, S_J, S_R = 0, 1, 2, 3, 7
+N_IDX = S_R + 4
+V_VD = 0
+N_STATE = 1
+#: ngspice starts limiting in breakdown 10 (NBV vt) above -BV (as netdae.devices.diode).
+BREAKDOWN_LIMIT_MARGIN = 10.0
+
+
+@njit(cache=True, error_model="numpy")
+def diode_limit(vd, vold, par, k):
+    """ngspice's diode limiting of instance ``k``: pnjlim, shifted by BV' in deep reverse bias."""
+    bv = par[k, P_BV]
+    vtebrk = par[k, P_VTEBRK]
+    if par[k, P_HAS_BV] != 0.0 and vd < min(0.0, -bv + BREAKDOWN_LIMIT_MARGIN * vtebrk):
+        vb, changed = pnjlim(-(vd + bv), -(vold + bv), vtebrk, par[k, P_VCRIT])
+        return -(vb + bv), changed
+    return pnjlim(vd, vold, par[k, P_VTE], par[k, P_VCRIT])
+
+
+@njit(cache=True, error_model="numpy")
+def diode_current(vd, par, k):
+    """Current (GMIN included) and conductance of instance ``k`` at junction voltage ``vd``."""
+    isat = par[k, P_ISAT]
+    knee = par[k, P_KNEE]
+    bv = par[k, P_BV]
+    if par[k, P_HAS_BV] != 0.0 and vd < -bv and vd < knee:
+        vtebrk = par[k, P_VTEBRK]
+        evrev = math.exp(-(bv + vd) / vtebrk)
+        cd, gd = -isat * evrev, isat * evrev / vtebrk
+    else:
+        cd, gd = ideal_junction(vd, isat, par[k, P_VTE], knee)
+    gmin = par[k, P_GMIN]
+    return cd + gmin * vd, gd + gmin
+
+
+@njit(cache=True, error_model="numpy")
+def eval_diode(x, mode, par, idx, vold, vnew, q, phi, dq, dphi, jacobian):
+    """Add every diode's current, charge and derivatives (see :mod:`netdae.devices.kernels`)."""
+    count = par.shape[0]
+    start = mode == MODE_INITIAL and is_zero(x)
+    limited = start
+    # pass 1: the junction voltages to evaluate at (the family's limiting decision is shared)
+    for k in range(count):
+        vd_x = x[idx[k, I_I]] - x[idx[k, I_K]]
+        if start:
+            vd = vold[k, V_VD]
+        elif mode == MODE_EVALUATE or mode == MODE_INITIAL:
+            vd = vd_x
+        else:
+            vd, changed = diode_limit(vd_x, vold[k, V_VD], par, k)
+            limited = limited or changed
+        vnew[k, V_VD] = vd
+    bad = -1
+    for k in range(count):
+        a, i, c = idx[k, I_A], idx[k, I_I], idx[k, I_K]
+        vd = vnew[k, V_VD]
+        cd, gd = diode_current(vd, par, k)
+        charged = par[k, P_CHARGE] != 0.0
+        qd = 0.0
+        cq = 0.0
+        if charged:
+            qdep, cdep = depletion(vd, par[k, P_DEP], par[k, P_DEP + 1], par[k, P_DEP + 2], par[k, P_DEP + 3],
+                                   par[k, P_DEP + 4], par[k, P_DEP + 5], par[k, P_DEP + 6], par[k, P_DEP + 7],
+                                   par[k, P_DEP + 8])
+            tt = par[k, P_TT]
+            qd = tt * cd + qdep
+            cq = tt * gd + cdep
+        if bad < 0 and not (math.isfinite(cd) and math.isfinite(gd) and math.isfinite(qd) and math.isfinite(cq)):
+            bad = k
+        cd_out, qd_out = cd, qd
+        if limited:
+            dv = (x[i] - x[c]) - vd
+            cd_out = cd + gd * dv
+            qd_out = qd + cq * dv
+        add_current(phi, i, c, cd_out)
+        gs = par[k, P_GS]
+        if gs != 0.0:
+            add_current(phi, a, i, gs * (x[a] - x[i]))
+        if charged:
+            add_charge(q, i, c, qd_out)
+        if jacobian:
+            add_current_slope(dphi, idx, k, S_J, gd)
+            if gs != 0.0:
+                add_current_slope(dphi, idx, k, S_R, gs)
+            if charged:
+                add_charge_slope(dq, idx, k, S_J, cq)
+    flags = (FLAG_LIMITED if limited else 0) | (FLAG_NONFINITE if bad >= 0 else 0)
+    return flags, bad

@@ -1,0 +1,135 @@
+"""pn-junction physics of one instance, as compiled scalar functions.
+
+The scalar twins of :mod:`netdae.devices.junction` (which stays the
+reference and documents every formula): the same operations in the same
+order, so that a kernel built from them reproduces the numpy families to a
+few ulps (the elementary functions ``exp``, ``log``, ``expm1``, ``log1p`` may
+round differently in numpy's and the C library's implementations).
+
+- :func:`ideal_junction`: ``Is (expm1(v/vte))`` above ``knee = -3 vte``,
+  ngspice's reverse cubic below;
+- :func:`depletion`: the depletion charge and capacitance from the
+  coefficients a :class:`~netdae.devices.junction.Depletion` precomputes;
+- :func:`pnjlim`, :func:`fetlim`, :func:`limvds`: ngspice's limiting
+  (``devsup.c``).
+
+Every function is a numba ``njit`` function with the numpy error model
+(a division by zero gives inf or nan, as in the numpy families).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..junction import (
+    _FET_MIDDLE_DOWN,
+    _FET_MIDDLE_UP,
+    _FET_OFF_UP,
+    _FET_ON_MARGIN,
+    _FET_TWO,
+    _REVERSE_KNEE,
+    _VDS_DOWN,
+    _VDS_FLOOR,
+    _VDS_HIGH,
+    _VDS_UP,
+)
+
+__all__ = ["ideal_junction", "depletion", "pnjlim", "fetlim", "limvds"]
+
+
+@njit(cache=True, error_model="numpy")
+def ideal_junction(v, isat, vte, knee):
+    """Junction current and conductance at ``v`` (see :func:`netdae.devices.junction.ideal_junction`).
+
+    Returns
+    -------
+    (i, g) : (float, float)
+    """
+    if v < knee:
+        a = _REVERSE_KNEE * vte / (v * math.e)
+        a = a * a * a
+        return -isat * (1.0 + a), isat * _REVERSE_KNEE * a / v
+    em1 = math.expm1(v / vte)
+    return isat * em1, isat * (em1 + 1.0) / vte
+
+
+@njit(cache=True, error_model="numpy")
+def depletion(v, cj0, vj, m, vfc, q_scale, q_fc, czf2, f3, m_over_vj):
+    """Depletion charge and capacitance at ``v`` (see :class:`netdae.devices.junction.Depletion`).
+
+    The arguments after ``v`` are a ``Depletion``'s per-junction attributes
+    (``cj0, vj, m, vfc, q_scale, q_fc, czf2, f3, m_over_vj``).
+
+    Returns
+    -------
+    (q, c) : (float, float)
+    """
+    if v < vfc:
+        lx = math.log1p(-v / vj)
+        return -q_scale * math.expm1((1.0 - m) * lx), cj0 * math.exp(-m * lx)
+    dv = v - vfc
+    return q_fc + czf2 * dv * (f3 + 0.5 * m_over_vj * (v + vfc)), czf2 * (f3 + m_over_vj * v)
+
+
+@njit(cache=True, error_model="numpy")
+def pnjlim(vnew, vold, vt, vcrit):
+    """SPICE's pn-junction limiting of one voltage (see :func:`netdae.devices.junction.pnjlim`).
+
+    Returns
+    -------
+    (v, changed) : (float, bool)
+        The limited voltage and whether the limit applied (ngspice's ``icheck``).
+    """
+    if vnew > vcrit and abs(vnew - vold) > vt + vt:
+        if vold > 0.0:
+            arg = (vnew - vold) / vt
+            if arg > 0.0:
+                return vold + vt * (2.0 + math.log(arg - 2.0 if arg > 2.0 else 1.0)), True
+            return vold - vt * (2.0 + math.log(2.0 - arg if arg < -2.0 else 1.0)), True
+        return vt * math.log(vnew / vt if vnew > 0.0 else 1.0), True
+    if vnew < 0.0:
+        floor = -vold - 1.0 if vold > 0.0 else 2.0 * vold - 1.0
+        if vnew < floor:
+            return floor, True
+    return vnew, False
+
+
+@njit(cache=True, error_model="numpy")
+def fetlim(vnew, vold, vto):
+    """SPICE's FET gate-voltage limiting of one voltage (see :func:`netdae.devices.junction.fetlim`)."""
+    vtsthi = abs(_FET_TWO * (vold - vto)) + _FET_TWO
+    vtstlo = abs(vold - vto) + 1.0
+    vtox = vto + _FET_ON_MARGIN
+    delv = vnew - vold
+    if vold >= vto:
+        if vold >= vtox:
+            if delv <= 0.0:
+                if vnew >= vtox:
+                    return vold - vtstlo if -delv > vtstlo else vnew
+                return max(vnew, vto + _FET_TWO)
+            return vold + vtsthi if delv >= vtsthi else vnew
+        if delv <= 0.0:
+            return max(vnew, vto - _FET_MIDDLE_DOWN)
+        return min(vnew, vto + _FET_MIDDLE_UP)
+    if delv <= 0.0:
+        return vold - vtsthi if -delv > vtsthi else vnew
+    vtemp = vto + _FET_OFF_UP
+    if vnew <= vtemp:
+        return vold + vtstlo if delv > vtstlo else vnew
+    return vtemp
+
+
+@njit(cache=True, error_model="numpy")
+def limvds(vnew, vold):
+    """SPICE's drain-source voltage limiting of one voltage (see :func:`netdae.devices.junction.limvds`)."""
+    if vold >= _VDS_HIGH:
+        if vnew > vold:
+            return min(vnew, 3.0 * vold + _VDS_FLOOR)
+        if vnew < _VDS_HIGH:
+            return max(vnew, _VDS_FLOOR)
+        return vnew
+    if vnew > vold:
+        return min(vnew, _VDS_UP)
+    return max(vnew, _VDS_DOWN)
