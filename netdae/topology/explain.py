@@ -40,7 +40,9 @@ def _explain(circuit: Circuit, kinds: tuple[str, ...], signal: str | None, repor
     candidates = [f for f in report.findings if f.kind in kinds]
     if not candidates:
         return None
-    best = min(candidates, key=lambda f: (f.controlled, not _mentions(f, signal), kinds.index(f.kind)))
+    # a group that charge conservation fixes (a note) explains the raw DC matrix, but comes last
+    best = min(candidates, key=lambda f: (f.severity == "note", f.controlled, not _mentions(f, signal),
+                                          kinds.index(f.kind)))
     err = CircuitError(best.message, elements=best.elements, nodes=best.nodes, hint=best.hint)
     if raise_error:
         raise err
