@@ -195,6 +195,7 @@ class _IllConditioned(Exception):
 
 def _power_of_two_scale(m: np.ndarray) -> np.ndarray:
     """``2**-ceil(log2(m))`` for positive entries, 1 elsewhere."""
+    m = np.asarray(m, dtype=float)
     out = np.ones_like(m)
     pos = m > 0
     out[pos] = np.ldexp(1.0, -np.ceil(np.log2(m[pos])).astype(int))
@@ -205,7 +206,7 @@ def _equilibrate(mat: sp.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
     """Row scales, then column scales, by powers of two: largest entry of each in (1/2, 1]."""
     a = abs(mat)
     r = _power_of_two_scale(np.asarray(a.max(axis=1).todense()).ravel())
-    c = _power_of_two_scale(np.asarray((sp.diags(r) @ a).max(axis=0).todense()).ravel())
+    c = _power_of_two_scale(np.asarray((sp.diags(r, dtype=float) @ a).max(axis=0).todense()).ravel())
     return r, c
 
 
@@ -214,7 +215,7 @@ class _ScaledLU:
 
     def __init__(self, mat: sp.csc_matrix):
         self.r, self.c = _equilibrate(mat)
-        self.scaled = sp.csc_matrix(sp.diags(self.r) @ mat @ sp.diags(self.c))
+        self.scaled = sp.csc_matrix(sp.diags(self.r, dtype=float) @ mat @ sp.diags(self.c, dtype=float))
         try:
             self.lu = spla.splu(self.scaled, permc_spec="COLAMD")
         except RuntimeError as exc:  # "Factor is exactly singular"
