@@ -242,6 +242,21 @@ def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: 
     return H.check_consistency(x0, c_derivs)
 
 
+def _singular_reason(system: MnaSystem, x: np.ndarray, topo) -> str | None:
+    """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements."""
+    from ..dae.kronecker import matrix_rank
+    from ..dae.steady import SteadyResult
+    from .op import _singular_error
+
+    if any(f.severity != "note" and f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path")
+           for f in topo.findings):
+        return None  # the topological reason is among the messages already
+    H = system.jacobians(x, 0.0)[1]
+    rank = matrix_rank(H, what="rank of the DC matrix")
+    err = _singular_error(system, SteadyResult(x, False, singular=True, rank=rank), topo)
+    return str(err)
+
+
 def _messages(rep: IndexReport) -> list[str]:
     out = []
     topo = rep.topology
@@ -262,7 +277,8 @@ def _messages(rep: IndexReport) -> list[str]:
             if f.kind in ("not_applicable", "truncated", "element_note") or (
                     f.severity == "note" and f.kind != "no_dc_path"):
                 continue
-            out.append(f.message)
+            singular = f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path") and f.severity != "note"
+            out.append(f"{f.message} (hint: {f.hint})" if singular and f.hint else f.message)
         if not topo.applicable and topo.not_applicable_reason:
             out.append(topo.not_applicable_reason)
         elif topo.topological_index is not None and rep.index is not None and rep.method == "kronecker" \
@@ -373,6 +389,9 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
         )
     rep.point = point
     rep.messages = _messages(rep)
+    reason = _singular_reason(system, xlin, topo) if rep.regular is False and pencil is not None else None
+    if reason is not None:
+        rep.messages.insert(1, reason)
     if fallback is not None:
         rep.messages.insert(1, f"linearised at {point} because {fallback}")
     if pencil is not None and start_missing is not None:

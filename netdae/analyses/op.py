@@ -137,11 +137,11 @@ def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitE
     elements = _involved_elements(system, np.union1d(undetermined, dependent))
     controlled = [e for e in elements if system.circuit.element(e).kind in
                   ("vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent", "opamp")]
-    text = f"the DC operating point is not unique{evidence}: {_names(system.names[i] for i in undetermined)} " \
+    text = f"no unique DC operating point{evidence}: {_names(system.names[i] for i in undetermined)} " \
         f"{'is' if undetermined.size == 1 else 'are'} undetermined"
     if dependent.size:
         text += f", because {_names(_row_names(system, dependent))} " \
-            f"{'is redundant' if dependent.size == 1 else 'are dependent'}"
+            f"{'depends on the other equations' if dependent.size == 1 else 'are dependent'}"
     text += f"; elements involved: {_names(elements)}"
     hint = ("the controlled sources " + _names(controlled) + " close a loop or cutset whose gains make the "
             "equations dependent: change a gain, or add a resistance that breaks the loop or a path to ground"

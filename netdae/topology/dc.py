@@ -25,8 +25,8 @@ from .text import PATH_LIMIT, name_list, node_phrase, plural, with_inputs
 
 __all__ = ["no_dc_path", "dc_loops", "unfixed_potentials"]
 
-#: What fixes the DC potential of a charge group, in the findings.
-CHARGE_PHRASE = "charge conservation (the total charge on them at t = 0 is zero, or what .ic sets)"
+#: What fixes the DC potential of a charge group, in the findings ({} is "it" or "them").
+CHARGE_PHRASE = "charge conservation (the total charge on {} at t = 0 is zero, or what .ic sets)"
 
 
 def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGroup], np.ndarray, list[NodeGroup]]:
@@ -86,7 +86,8 @@ def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGrou
         if by_charge:
             sources = [e for e in through if ctx.kinds[e] != "capacitor"]
             k = len(names)
-            text = (f"{text}; {plural(k, 'its', 'their')} DC potential follows from {CHARGE_PHRASE}"
+            why = CHARGE_PHRASE.format(plural(k, "it", "them"))
+            text = (f"{text}; {plural(k, 'its', 'their')} DC potential follows from {why}"
                     + (f", provided the DC currents of {name_list(sources)} into {plural(k, 'it', 'them')} add up "
                        "to zero" if sources else ""))
             ctx.add(Finding("no_dc_path", "note", f"DC operating point: {text}", elements, names,

@@ -86,8 +86,8 @@ def dc_singularity_explanation(circuit: Circuit, signal: str | None = None, *, r
     >>> dc_singularity_explanation(c) is None
     True
     >>> c.elements.append(Element("c2", "capacitor", ("x", "b"), 1e-6))
-    >>> print(dc_singularity_explanation(c).message)
-    DC operating point singular: node 'x' has no DC path to ground: only c2 attaches it
+    >>> print(dc_singularity_explanation(c).message)  # a note: the operating point exists all the same
+    DC operating point: node 'x' has no DC path to ground: only c2 attaches it; its DC potential follows from charge conservation (the total charge on it at t = 0 is zero, or what .ic sets)
     """
     return _explain(circuit, DC_KINDS, signal, report, raise_error)
 
