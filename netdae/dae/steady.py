@@ -36,7 +36,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .kronecker import EPS, MatrixRank, matrix_rank
@@ -202,20 +201,23 @@ def _power_of_two_scale(m: np.ndarray) -> np.ndarray:
     return out
 
 
-def _equilibrate(mat: sp.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
+def _equilibrate(pattern: SparsePattern, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row scales, then column scales, by powers of two: largest entry of each in (1/2, 1]."""
-    a = abs(mat)
-    r = _power_of_two_scale(np.asarray(a.max(axis=1).todense()).ravel())
-    c = _power_of_two_scale(np.asarray((sp.diags(r, dtype=float) @ a).max(axis=0).todense()).ravel())
-    return r, c
+    a = np.abs(data)
+    rmax = np.zeros(pattern.n)
+    np.maximum.at(rmax, pattern.rows, a)
+    r = _power_of_two_scale(rmax)
+    cmax = np.zeros(pattern.n)
+    np.maximum.at(cmax, pattern.cols, a * r[pattern.rows])
+    return r, _power_of_two_scale(cmax)
 
 
 class _ScaledLU:
-    """LU of ``diag(r) A diag(c)``, solving ``A x = b``."""
+    """LU of ``diag(r) A diag(c)`` (A given by its data on a pattern), solving ``A x = b``."""
 
-    def __init__(self, mat: sp.csc_matrix):
-        self.r, self.c = _equilibrate(mat)
-        self.scaled = sp.csc_matrix(sp.diags(self.r, dtype=float) @ mat @ sp.diags(self.c, dtype=float))
+    def __init__(self, pattern: SparsePattern, data: np.ndarray):
+        self.r, self.c = _equilibrate(pattern, data)
+        self.scaled = pattern.matrix(data * self.r[pattern.rows] * self.c[pattern.cols])
         try:
             self.lu = spla.splu(self.scaled, permc_spec="COLAMD")
         except RuntimeError as exc:  # "Factor is exactly singular"
@@ -263,6 +265,7 @@ class _Newton:
         self.last_used = 0
         self.last_dx = np.zeros(system.n)
         self.ill_conditioned = False
+        self.last_pivot = float("nan")  # smallest equilibrated pivot of the last factorization
 
     def _residual(self, x, gdiag, scale, state):
         ev = self.system.evaluate(x, self.t, jacobian=True, state=state, source_scale=scale)
@@ -281,15 +284,15 @@ class _Newton:
     def _factor(self, jac):
         """Equilibrated LU; a pivot below the singular threshold is singular (linear) or a failed iteration."""
         self.factorizations += 1
-        mat = self.pattern.matrix(jac)
-        lu = _ScaledLU(mat)
+        lu = _ScaledLU(self.pattern, jac)
+        self.last_pivot = lu.min_pivot
         n = self.system.n
         if lu.min_pivot <= PIVOT_SAFETY * n * EPS:
             if not self.system.linear:
                 raise _IllConditioned()
             if n > RANK_CHECK_LIMIT:
                 raise _Singular(f"smallest pivot {lu.min_pivot:.3g} of the equilibrated matrix")
-            rank = jacobian_rank(mat)
+            rank = jacobian_rank(self.pattern.matrix(jac))
             if rank.deficient:
                 raise _Singular(f"rank {rank.rank} of {n}", rank)
         return lu
@@ -393,19 +396,23 @@ class _ChargeRows(DaeSystem):
 def _judge(newton: _Newton, x) -> tuple[float, MatrixRank | None, bool]:
     """Is the Jacobian of the solved equations singular at x? ``(min_pivot, rank, singular)``.
 
-    The equilibrated LU decides when its smallest pivot is clear; a pivot
+    The equilibrated LU of the last Newton iteration (at a point within the
+    convergence tolerance of x), or else one at x, decides when its smallest
+    pivot is clear; a pivot
     below ``PIVOT_SUSPECT`` is confirmed or refuted by the SVD rank decision
     (up to ``RANK_CHECK_LIMIT`` unknowns, else by ``PIVOT_SAFETY * n * eps``).
     """
     n = newton.system.n
     if n == 0:
         return 1.0, None, False
+    if newton.last_pivot > PIVOT_SUSPECT:  # the last Newton matrix, within the tolerance of x: clear
+        return newton.last_pivot, None, False
     out = newton._residual(x, 0.0, 1.0, None)
     if out is None:
         return float("nan"), None, False
     mat = newton.pattern.matrix(out[2])
     try:
-        pivot = _ScaledLU(mat).min_pivot
+        pivot = _ScaledLU(newton.pattern, out[2]).min_pivot
     except _Singular:
         pivot = 0.0
     if pivot > PIVOT_SUSPECT:
@@ -452,9 +459,9 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     -----
     Each Newton iteration costs one evaluation and one sparse LU of the
     equilibrated Jacobian. A linear system converges in one iteration plus
-    one refinement step. A converged solution costs one more evaluation and
-    LU for the final singularity judgement, plus a dense SVD when the
-    smallest pivot is below ``PIVOT_SUSPECT``.
+    one refinement step. The final singularity judgement reuses the last
+    LU; only when its smallest pivot is below ``PIVOT_SUSPECT`` does it cost
+    one more evaluation and LU at the solution and a dense SVD.
     """
     opts = options or SteadyOptions()
     if charges:
