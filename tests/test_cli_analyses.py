@@ -104,7 +104,8 @@ def test_index_at_t0_and_topological_method(capsys):
 
 @pytest.mark.parametrize("text, words", [
     ("vloop\nV1 a 0 1\nV2 a 0 2\nR1 a 0 1k\n.op\n.end\n", ("v1", "v2", "loop")),
-    ("floating\nV1 a 0 1\nR1 a b 1k\nC1 b c 1u\nR2 c d 1k\nC2 d 0 1u\n.op\n.end\n", ("no DC path",)),
+    ("floating\nV1 a 0 1\nR1 a b 1k\nC1 b c 1u\nG1 0 c a 0 1m\n.op\n.end\n", ("no DC path", "g1")),
+    ("charged\nV1 a 0 1\nR1 a b 1k\nC1 b c 1u\nI1 0 c 1m\n.op\n.end\n", ("no DC operating point", "i1")),
     ("icut\nI1 0 a 1m\nI2 a b 1m\nR1 b 0 1k\n.op\n.end\n", ("i1", "i2", "current source")),
 ])
 def test_singular_circuits_are_explained_in_circuit_terms(tmp_path, capsys, text, words):

@@ -105,6 +105,9 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     names = [sw.source for sw in sweeps]
     opts = steady_options(circuit, **overrides)
 
+    from ..topology import analyze_topology
+
+    topo = analyze_topology(circuit)  # the same at every point (temperature changes no connection)
     sweeps_temp = "temp" in names
     system = None if sweeps_temp else assemble(circuit, mode=MODE_DC)
     x = None
@@ -118,7 +121,7 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         for name, v in zip(names, values):
             if name != "temp":
                 system.sources.set_value(name, v)
-        res = solve_operating_point(system, options=opts, x0=x)
+        res = solve_operating_point(system, options=opts, x0=x, topology=topo)
         iterations += res.iterations
         x = res.x
         rows.append(x.copy())

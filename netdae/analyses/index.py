@@ -18,9 +18,19 @@ circuits, ``H = dphi/dx``):
 Above the dense limit the report rests on the topology alone, says so in
 ``method``, and gives an index only when the theorem applies.
 
+Where the pencil is taken: a linear circuit's pencil is the same at every
+point, so no operating point is computed (the index of a linear circuit
+never depends on one). A nonlinear circuit is linearised at its DC
+operating point (``at="op"``) or at the transient's initial point
+(``at="t0"``); when that point cannot be computed (a singular DC matrix, no
+convergence) the analysis falls back to the transient's initial point and
+then to the point the netlist gives (``.ic``/``.nodeset`` node voltages,
+zero elsewhere), and ``IndexReport.point`` and the messages say which.
+
 Consistency: the transient's initial point (the DC operating point at t0,
 or the ``uic`` values) is checked against the explicit and hidden
 constraints ``z(t0) = -sum N^l theta^(l)(t0)`` of the decoupled form (2.12).
+When that point does not exist the check is skipped and a message says why.
 """
 
 from __future__ import annotations
@@ -33,7 +43,7 @@ import numpy as np
 
 from ..circuit import Circuit, TranAnalysis
 from ..dae.pencil import DENSE_LIMIT, PencilReport, analyze_pencil
-from ..errors import NetdaeError
+from ..errors import CircuitError, ConvergenceError, NetdaeError
 from ..mna import MODE_DC, MODE_TRAN, MnaSystem, assemble
 
 __all__ = ["IndexReport", "analyze_index", "index_of_unknowns", "LABEL_DIFFERENTIAL", "LABEL_ALGEBRAIC"]
@@ -74,7 +84,10 @@ class IndexReport:
         Check of the transient's initial point (when the netlist has ``.tran``).
     at : str
         ``"op"`` (linearised at the DC operating point) or ``"t0"`` (at the
-        initial point of the transient).
+        initial point of the transient): what was asked.
+    point : str
+        Where the pencil was actually taken, in words (a linear circuit needs
+        no point; a fallback when the requested point does not exist).
     messages : list of str
         The diagnosis, most important first.
     pencil : PencilReport or None
@@ -99,6 +112,7 @@ class IndexReport:
     consistency: Any
     at: str
     messages: list[str] = field(default_factory=list)
+    point: str = ""
     pencil: PencilReport | None = None
     system: MnaSystem | None = None
     x: np.ndarray | None = None
@@ -117,6 +131,7 @@ class IndexReport:
             "index": self.index,
             "method": self.method,
             "at": self.at,
+            "point": self.point,
             "n_unknowns": self.n_unknowns,
             "n_dynamic": self.n_dynamic,
             "rank_E": self.rank_E,
@@ -156,15 +171,49 @@ def index_of_unknowns(report: IndexReport) -> np.ndarray:
     return np.array([1 + report.derivative_order.get(nm, 0) for nm in names], dtype=np.int64)
 
 
-def _linearization_point(circuit: Circuit, system: MnaSystem, at: str, x: np.ndarray | None):
-    """The point (x, t) where the pencil is taken, and the transient's initial point."""
+#: How IndexReport.point names each place the pencil can be taken.
+POINT_LINEAR = "linear circuit: the pencil is the same at every point, no operating point needed"
+POINT_OP = "the DC operating point"
+POINT_T0 = "the transient's initial point"
+POINT_GIVEN = "the given point"
+POINT_NETLIST = "the netlist's .ic/.nodeset node voltages (zero elsewhere)"
+
+
+def _netlist_point(system: MnaSystem) -> np.ndarray:
+    """Node voltages from ``.nodeset`` then ``.ic`` (zero elsewhere)."""
+    x = np.zeros(system.n)
+    for values in (system.circuit.nodeset, system.circuit.ic):
+        for node, v in values.items():
+            try:
+                i = system.node_index(node)
+            except KeyError:
+                continue
+            if i >= 0:
+                x[i] = v
+    return x
+
+
+def _linearization_point(circuit: Circuit, system: MnaSystem, at: str, x: np.ndarray | None, topo):
+    """The point where the pencil is taken, its description, and why a fallback was needed."""
     from .op import solve_operating_point
 
     if x is not None:
-        return np.asarray(x, dtype=float)
+        return np.asarray(x, dtype=float), POINT_GIVEN, None
     if system.linear:
-        return np.zeros(system.n)
-    return solve_operating_point(system, transient=(at == "t0")).x
+        return np.zeros(system.n), POINT_LINEAR, None
+    try:
+        return solve_operating_point(system, transient=(at == "t0"), topology=topo).x, \
+            (POINT_T0 if at == "t0" else POINT_OP), None
+    except (CircuitError, ConvergenceError) as exc:
+        why = f"{POINT_T0 if at == 't0' else POINT_OP} cannot be computed ({exc})"
+    card = _transient_card(circuit)
+    if at == "op" and card is not None and not card.uic and circuit.ic:
+        try:
+            tsys = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
+            return solve_operating_point(tsys, transient=True, topology=topo).x, POINT_T0, why
+        except (CircuitError, ConvergenceError):
+            pass
+    return _netlist_point(system), POINT_NETLIST, why
 
 
 def _transient_card(circuit: Circuit) -> TranAnalysis | None:
@@ -182,7 +231,7 @@ def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: 
     if x0 is None:
         if card.uic:
             return None  # the uic start is judged by the transient itself
-        x0 = solve_operating_point(tsys, transient=True).x
+        x0 = solve_operating_point(tsys, transient=True).x  # raises when the start does not exist
     H = pencil.weierstrass
     ev = tsys.evaluate(x0, 0.0, jacobian=False)
     c0 = ev.phi - tsys.jacobians(x0, 0.0)[1] @ x0
@@ -191,6 +240,21 @@ def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: 
         return c0 if k == 0 else tsys.source(0.0, k)
 
     return H.check_consistency(x0, c_derivs)
+
+
+def _singular_reason(system: MnaSystem, x: np.ndarray, topo) -> str | None:
+    """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements."""
+    from ..dae.kronecker import matrix_rank
+    from ..dae.steady import SteadyResult
+    from .op import _singular_error
+
+    if any(f.severity != "note" and f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path")
+           for f in topo.findings):
+        return None  # the topological reason is among the messages already
+    H = system.jacobians(x, 0.0)[1]
+    rank = matrix_rank(H, what="rank of the DC matrix")
+    err = _singular_error(system, SteadyResult(x, False, singular=True, rank=rank), topo)
+    return str(err)
 
 
 def _messages(rep: IndexReport) -> list[str]:
@@ -210,9 +274,11 @@ def _messages(rep: IndexReport) -> list[str]:
         out.append(f"unknowns depending on input derivatives: {shown}" + (" ..." if len(hi) > 8 else ""))
     if topo is not None:
         for f in topo.findings:
-            if f.kind in ("not_applicable", "truncated", "element_note") or f.severity == "note":
+            if f.kind in ("not_applicable", "truncated", "element_note") or (
+                    f.severity == "note" and f.kind != "no_dc_path"):
                 continue
-            out.append(f.message)
+            singular = f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path") and f.severity != "note"
+            out.append(f"{f.message} (hint: {f.hint})" if singular and f.hint else f.message)
         if not topo.applicable and topo.not_applicable_reason:
             out.append(topo.not_applicable_reason)
         elif topo.topological_index is not None and rep.index is not None and rep.method == "kronecker" \
@@ -286,11 +352,9 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
         )
     pencil = None
     xlin = None
+    point, fallback = "", None
     if use_dense and not (topo.singular and system.n == 0):
-        if topo.dc_singular and not system.linear:
-            xlin = np.zeros(system.n) if x is None else x  # no operating point exists; linearise at zero
-        else:
-            xlin = _linearization_point(circuit, system, at, x)
+        xlin, point, fallback = _linearization_point(circuit, system, at, x, topo)
         E, H = system.jacobians(xlin, 0.0)
         pencil = analyze_pencil(E, H, B=system.B.toarray(), names=system.names, tol=tol)
     names = system.names
@@ -306,8 +370,12 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
             unknowns=labels, derivative_order=orders, topology=topo, consistency=None, at=at,
             pencil=pencil, system=system, x=xlin,
         )
+        start_missing = None
         if check_consistency and pencil.regular:
-            rep.consistency = _consistency(circuit, system, pencil, None)
+            try:
+                rep.consistency = _consistency(circuit, system, pencil, None)
+            except (CircuitError, ConvergenceError) as exc:
+                start_missing = str(exc)
     else:
         idx = topo.topological_index if topo.applicable and not topo.singular else None
         sig2 = set(topo.index2_signals) if idx == 2 else set()
@@ -319,7 +387,15 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
             derivative_order={nm: (1 if nm in sig2 else 0) for nm in names}, topology=topo, consistency=None,
             at=at, system=system,
         )
+    rep.point = point
     rep.messages = _messages(rep)
+    reason = _singular_reason(system, xlin, topo) if rep.regular is False and pencil is not None else None
+    if reason is not None:
+        rep.messages.insert(1, reason)
+    if fallback is not None:
+        rep.messages.insert(1, f"linearised at {point} because {fallback}")
+    if pencil is not None and start_missing is not None:
+        rep.messages.append(f"the transient's initial point was not checked for consistency: {start_missing}")
     if rep.method == "topological":
         why = (f"{system.n} unknowns is above the dense limit of {DENSE_LIMIT}" if system.n > DENSE_LIMIT
                else "requested")

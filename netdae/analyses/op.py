@@ -4,8 +4,22 @@ Solves ``phi(x, t0) = 0`` of the MNA system (capacitors open, inductors
 shorted) with :func:`netdae.dae.steady.solve_steady`, honouring ``.nodeset``
 (initial guesses held for a first solve) and, for the operating point of a
 transient, ``.ic`` (nodes held at their values through a 1e10 S conductance,
-as ngspice does). A singular DC matrix is explained in circuit terms by the
-topological analysis when the reason is topological.
+as ngspice does).
+
+Nodes attached to the rest only through capacitors (a *charge group* of the
+topological analysis) have no DC path to ground, so the DC matrix is
+singular and ngspice stops ("singular matrix"); their operating point is
+nevertheless well defined, because their total charge is conserved: netdae
+replaces one current law of each group by "total charge = 0" (unless
+``.ic`` holds a node of the group in a transient's operating point), checks
+that the dropped current law holds (no net DC current into the group), and
+says so in the result's notes.
+
+A singular DC matrix is refused whatever the LU happened to produce: the
+solver judges the equilibrated pivots and, when they are small, the rank by
+an SVD (:func:`netdae.dae.steady.solve_steady`); the refusal names the
+elements, by the topological analysis when the reason is topological, else
+from the null spaces of the matrix.
 """
 
 from __future__ import annotations
@@ -16,12 +30,15 @@ from dataclasses import replace
 import numpy as np
 
 from ..circuit import Circuit
-from ..dae.steady import Forcing, SteadyOptions, SteadyResult, solve_steady
+from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
 from ..mna import MODE_DC, MnaSystem, assemble
 from ..results import Result
 
-__all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result"]
+__all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result", "charge_groups"]
+
+#: Unknowns and elements named in a message about a singular DC matrix.
+NAMED = 8
 
 
 def steady_options(circuit: Circuit, **overrides) -> SteadyOptions:
@@ -52,31 +69,149 @@ def _describe_unknowns(system: MnaSystem, indices, x) -> str:
     return ", ".join(f"{system.names[i]} = {x[i]:.6g}" for i in indices)
 
 
-def _singular_error(system: MnaSystem, res: SteadyResult) -> CircuitError:
-    """The best explanation of a singular DC matrix, in circuit terms."""
-    from ..topology import dc_singularity_explanation
+def _names(items, limit: int = NAMED) -> str:
+    items = list(items)
+    return ", ".join(items[:limit]) + (f" and {len(items) - limit} more" if len(items) > limit else "")
 
-    found = dc_singularity_explanation(system.circuit)
-    if found is not None:
-        return found
-    if res.null_vector is not None:
-        v = np.abs(res.null_vector)
-        involved = [system.names[i] for i in np.flatnonzero(v > 1e-3 * v.max())]
+
+def _support(v: np.ndarray) -> np.ndarray:
+    """Indices carrying the weight of the null vectors (columns of v)."""
+    w = np.abs(v).max(axis=1) if v.ndim == 2 else np.abs(v)
+    return np.flatnonzero(w > 1e-3 * w.max()) if w.size and w.max() > 0 else np.zeros(0, dtype=int)
+
+
+def _row_names(system: MnaSystem, rows) -> list[str]:
+    """Equations by name: the current law of a node, or the equation of an element's branch."""
+    out = []
+    for i in rows:
+        nm = system.names[i]
+        out.append(f"the current law at node '{nm[2:-1]}'" if nm.startswith("v(") else f"the equation of {nm[2:-1]}")
+    return out
+
+
+def _involved_elements(system: MnaSystem, unknowns) -> list[str]:
+    """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes."""
+    names = {system.names[i] for i in unknowns}
+    nodes = {nm[2:-1] for nm in names if nm.startswith("v(")}
+    branches = {nm[2:-1] for nm in names if nm.startswith("i(")}
+    out = []
+    for el in system.circuit.elements:
+        if el.name in branches or nodes.intersection(el.nodes) or branches.intersection(el.controls) \
+                or nodes.intersection(el.controls):
+            out.append(el.name)
+    return out
+
+
+def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitError:
+    """The best explanation of a singular DC matrix, in circuit terms, naming the elements."""
+    from ..topology import analyze_topology, dc_singularity_explanation
+
+    topo = topo if topo is not None else analyze_topology(system.circuit)
+    rank = res.rank
+    evidence = ""
+    if rank is not None:
+        dropped = rank.decision.dropped[0] if rank.decision.dropped else 0.0
+        evidence = (f" (the DC matrix has rank {rank.rank} of {system.n}: smallest singular value {dropped:.3g} "
+                    f"<= tolerance {rank.decision.tol:.3g} of the balanced matrix)")
+    undetermined = _support(rank.right) if rank is not None else (
+        _support(res.null_vector) if res.null_vector is not None else np.zeros(0, dtype=int))
+    signal = system.names[undetermined[0]] if undetermined.size else None
+    found = dc_singularity_explanation(system.circuit, signal, report=topo)
+    if found is not None and not any(f.controlled and f.message == found.message for f in topo.findings):
+        return found  # a certain topological reason
+    if found is not None:  # a structural reason that relies on controlled sources, confirmed numerically
+        text = found.message
+        for prefix in ("DC operating point likely singular (controlled sources): ", "likely singular "):
+            if text.startswith(prefix):
+                text = text[len(prefix):]
+                text = text.split("): ", 1)[1] if prefix == "likely singular " and "): " in text else text
+        return CircuitError(f"DC operating point singular{evidence}: {text}", elements=found.elements,
+                            nodes=found.nodes, hint=found.hint)
+    if not undetermined.size:
         return CircuitError(
-            "the DC operating-point matrix is singular: " + ", ".join(involved[:10])
-            + (" ..." if len(involved) > 10 else "") + " are not determined",
+            "the DC operating-point matrix is singular" + evidence,
             hint="look for a node without DC path to ground, a loop of voltage sources/inductors, "
-            "or a cutset of current sources/capacitors among these unknowns",
+            "or a cutset of current sources/capacitors",
         )
-    return CircuitError(
-        "the DC operating-point matrix is singular",
-        hint="look for a node without DC path to ground, a loop of voltage sources/inductors, "
-        "or a cutset of current sources/capacitors",
-    )
+    dependent = _support(rank.left) if rank is not None else np.zeros(0, dtype=int)
+    elements = _involved_elements(system, np.union1d(undetermined, dependent))
+    controlled = [e for e in elements if system.circuit.element(e).kind in
+                  ("vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent", "opamp")]
+    text = f"no unique DC operating point{evidence}: {_names(system.names[i] for i in undetermined)} " \
+        f"{'is' if undetermined.size == 1 else 'are'} undetermined"
+    if dependent.size:
+        text += f", because {_names(_row_names(system, dependent))} " \
+            f"{'depends on the other equations' if dependent.size == 1 else 'are dependent'}"
+    text += f"; elements involved: {_names(elements)}"
+    hint = ("the controlled sources " + _names(controlled) + " close a loop or cutset whose gains make the "
+            "equations dependent: change a gain, or add a resistance that breaks the loop or a path to ground"
+            if controlled else "look for a node without DC path to ground, a loop of voltage sources/inductors, "
+            "or a cutset of current sources among these elements")
+    return CircuitError(text, elements=tuple(elements), nodes=tuple(
+        system.names[i][2:-1] for i in undetermined if system.names[i].startswith("v(")), hint=hint)
+
+
+def charge_groups(system: MnaSystem, topo, held: np.ndarray | None = None) -> tuple[list[ChargeGroup], list]:
+    """The charge groups of the circuit as rows of the system, skipping groups with a held node.
+
+    Parameters
+    ----------
+    system : MnaSystem
+    topo : TopologyReport
+    held : ndarray of int, optional
+        Unknowns held by ``.ic`` (their group is fixed by the forcing).
+
+    Returns
+    -------
+    groups : list of ChargeGroup
+        Rows (the nodes' current laws) and zero total charge.
+    node_groups : list of NodeGroup
+        The topological groups used, in the same order.
+    """
+    held_set = set(() if held is None else held.tolist())
+    out, used = [], []
+    for grp in topo.charge_groups:
+        rows = np.array([system.node_index(nd) for nd in grp.nodes], dtype=np.int64)
+        rows = rows[rows >= 0]
+        if rows.size and not held_set.intersection(rows.tolist()):
+            out.append(ChargeGroup(rows, 0.0))
+            used.append(grp)
+    return out, used
+
+
+def _charge_note(grp) -> str:
+    k = len(grp.nodes)
+    nodes = ", ".join(f"'{nd}'" for nd in grp.nodes)
+    caps = [e for e in grp.elements]
+    return (f"{'node' if k == 1 else 'nodes'} {nodes} {'has' if k == 1 else 'have'} no DC path to ground "
+            f"(attached only through {_names(caps)}): {'its' if k == 1 else 'their'} operating point follows from "
+            "charge conservation, total charge zero at t = 0")
+
+
+def _check_charge_balance(system: MnaSystem, res: SteadyResult, groups, used, t: float,
+                          opts: SteadyOptions) -> None:
+    """The dropped current law of each charge group must hold: no net DC current into the group."""
+    ev = system.evaluate(res.x, t, jacobian=True)
+    scale = system.pattern.matrix(np.abs(ev.dphi)) @ np.abs(res.x) + np.abs(ev.phi)
+    for grp, ng in zip(groups, used):
+        net = float(ev.phi[grp.rows].sum())
+        if abs(net) > opts.reltol * float(scale[grp.rows].sum()) + opts.abstol * grp.rows.size:
+            sources = [e for e in ng.elements if system.circuit.element(e).kind != "capacitor"]
+            k = len(ng.nodes)
+            raise CircuitError(
+                f"no DC operating point: {_names(sources) or 'the sources'} "
+                f"{'drives' if len(sources) == 1 else 'drive'} a net DC current of {net:.6g} A "
+                f"into {'node' if k == 1 else 'nodes'} {', '.join(repr(n) for n in ng.nodes)}, which "
+                f"{'is' if k == 1 else 'are'} attached to the rest only through {_names(ng.elements)}: "
+                "the charge there grows without bound",
+                elements=ng.elements, nodes=ng.nodes,
+                hint=f"add a resistor from node '{ng.nodes[0]}' to ground, or start the transient with uic",
+            )
 
 
 def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool = False,
-                          options: SteadyOptions | None = None, x0: np.ndarray | None = None) -> SteadyResult:
+                          options: SteadyOptions | None = None, x0: np.ndarray | None = None,
+                          topology=None) -> SteadyResult:
     """Operating point of an assembled circuit.
 
     Parameters
@@ -90,16 +225,21 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
         Defaults from the circuit's ``.options``.
     x0 : ndarray, optional
         Initial guess (continuation in sweeps).
+    topology : TopologyReport, optional
+        The circuit's topological analysis, if already computed.
 
     Returns
     -------
     SteadyResult
-        Converged.
+        Converged; ``notes`` says which node groups were fixed by charge
+        conservation.
 
     Raises
     ------
     CircuitError
-        When the DC matrix is singular, with the topological reason.
+        When the DC matrix is singular (with the topological reason, or the
+        undetermined unknowns and the elements involved), or when a group
+        attached only through capacitors receives a net DC current.
     ConvergenceError
         When Newton, gmin stepping and source stepping all fail; names the
         unknowns that did not settle and their last values.
@@ -108,11 +248,19 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
     opts = options or steady_options(circuit)
     forcing = _node_forcing(system, circuit.ic, ".ic") if transient else None
     nodeset = _node_forcing(system, circuit.nodeset, ".nodeset")
-    res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset)
+    if topology is None:
+        from ..topology import analyze_topology
+
+        topology = analyze_topology(circuit)
+    groups, used = charge_groups(system, topology, None if forcing is None else forcing.index)
+    res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset, charges=groups)
     if res.converged:
+        if groups:
+            _check_charge_balance(system, res, groups, used, t, opts)
+            res.notes = [_charge_note(g) for g in used]
         return res
     if res.singular:
-        raise _singular_error(system, res)
+        raise _singular_error(system, res, topology)
     worst = _describe_unknowns(system, res.worst, res.x)
     raise ConvergenceError(
         f"operating point did not converge after {res.iterations} Newton iterations "
@@ -138,7 +286,7 @@ def op_result(system: MnaSystem, res: SteadyResult, wall: float, opts: SteadyOpt
         },
         message=res.message,
         tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol, "gmin": opts.gmin},
-        notes=list(system.notes),
+        notes=list(system.notes) + list(res.notes),
     )
 
 

@@ -439,7 +439,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         from .op import solve_operating_point
 
         op = solve_operating_point(system, transient=True, options=steady)
-        start = _Start(x=op.x, op_iterations=op.iterations)
+        start = _Start(x=op.x, op_iterations=op.iterations, notes=list(op.notes))
     notes += start.notes
 
     rep = _structure(system, start.x)

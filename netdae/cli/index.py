@@ -66,7 +66,12 @@ def format_report(rep, title: str = "") -> str:
         lines.append(title)
     where = "the DC operating point" if rep.at == "op" else "the transient's initial point"
     idx = "none (singular pencil)" if rep.regular is False else ("unknown" if rep.index is None else str(rep.index))
-    how = f"linearised at {where}" if rep.method == "kronecker" else "circuit structure"
+    if getattr(rep, "point", "").startswith("linear circuit"):
+        where = "no operating point: the circuit is linear"
+    elif getattr(rep, "point", ""):
+        where = rep.point
+    how = (where if where.startswith("no ") else f"linearised at {where}") if rep.method == "kronecker" \
+        else "circuit structure"
     lines.append(f"index: {idx}   method: {rep.method} ({how}), {rep.n_unknowns} unknowns")
     if rep.method == "kronecker":
         lines.append(f"  pencil: {'regular' if rep.regular else 'singular'}; rank E = {rep.rank_E}; "

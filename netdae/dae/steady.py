@@ -38,9 +38,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from .system import KIND_CURRENT, KIND_OTHER, KIND_VOLTAGE, DaeSystem
+from .kronecker import EPS, MatrixRank, matrix_rank
+from .sparse import SparsePattern
+from .system import KIND_CURRENT, KIND_OTHER, KIND_VOLTAGE, DaeSystem, Evaluation
 
-__all__ = ["SteadyOptions", "SteadyResult", "Forcing", "solve_steady"]
+__all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
+           "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
 
 #: gmin stepping starts one factor below this conductance [S] and, when a step
 #: fails, moves back towards it (ngspice's dynamic gmin: OldGmin = 1e-2).
@@ -61,10 +64,23 @@ SOURCE_RAISE_GROWTH = 1.5
 FORCING_CONDUCTANCE = 1e10
 #: Newton iteration limit inside each homotopy step (ngspice's itl3 default... itl1/4 is a fair share).
 HOMOTOPY_MAXITER = 50
-#: A Jacobian whose LU pivots span more than this ratio is treated as a failed
-#: iteration (try the next homotopy), not as a singular circuit: badly scaled
-#: regular Jacobians (1e10 S forcing next to 1e-12 S junctions) reach 1e-22.
-SINGULAR_PIVOT_RATIO = 1e-30
+#: LU pivots are judged on the *equilibrated* Jacobian: every row, then every
+#: column, scaled by a power of two so that its largest entry lies in (1/2, 1]
+#: (so a 1e10 S forcing next to a 1e-12 S junction does not look singular,
+#: and a matrix made singular by element values is not hidden by its scale).
+#: A smallest pivot below ``PIVOT_SUSPECT`` calls for the SVD rank decision
+#: (:func:`jacobian_rank`) when the system has at most ``RANK_CHECK_LIMIT``
+#: unknowns.
+PIVOT_SUSPECT = 1e-6
+#: Above ``RANK_CHECK_LIMIT`` unknowns (or inside the iterations of a
+#: nonlinear solve) a pivot below ``PIVOT_SAFETY * n * eps`` of the
+#: equilibrated matrix counts as singular: n * eps is the rank tolerance of
+#: the index analysis, and partial pivoting leaves the last pivot of a
+#: rank-deficient matrix within a modest factor of it.
+PIVOT_SAFETY = 1e3
+#: Largest system whose suspicious Jacobian is judged by a dense SVD (about
+#: a second at this size with one BLAS thread).
+RANK_CHECK_LIMIT = 1500
 
 
 @dataclass
@@ -119,6 +135,15 @@ class SteadyResult:
         space (which unknowns are undetermined).
     worst : list of int
         Unknowns that moved most (in tolerance units) in the last iteration, worst first.
+    rank : MatrixRank or None
+        For a singular Jacobian judged by the SVD: the rank decision (tolerance,
+        singular values) and both null spaces (``rank.left``: the dependent
+        equations).
+    min_pivot : float
+        Smallest LU pivot of the equilibrated Jacobian at ``x`` (1 = perfectly
+        conditioned diagonal; ``nan`` when not factored).
+    notes : list of str
+        Facts the caller reports with the result (filled by the analysis layer).
     """
 
     x: np.ndarray
@@ -130,14 +155,83 @@ class SteadyResult:
     singular: bool = False
     null_vector: np.ndarray | None = None
     worst: list[int] = field(default_factory=list)
+    rank: MatrixRank | None = None
+    min_pivot: float = float("nan")
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class ChargeGroup:
+    """Equations whose right-hand sides add up to zero at steady state, and their conserved charge.
+
+    When the rows ``rows`` of ``phi`` sum to zero identically (the current
+    laws of a set of nodes attached to the rest only through capacitors:
+    at DC no current enters the set), the steady state is not unique; the
+    total ``sum(q[rows])``, conserved by ``d/dt q = phi``, picks one. The
+    first row's equation is replaced by ``sum(q[rows]) = charge``.
+
+    Attributes
+    ----------
+    rows : ndarray of int
+    charge : float
+    """
+
+    rows: np.ndarray
+    charge: float = 0.0
 
 
 class _Singular(Exception):
-    """SuperLU found the Jacobian exactly singular."""
+    """The Jacobian is singular (exactly, or by the rank decision carried as ``args[1]``)."""
+
+    @property
+    def rank(self) -> MatrixRank | None:
+        return self.args[1] if len(self.args) > 1 else None
 
 
 class _IllConditioned(Exception):
-    """The LU pivots span more than SINGULAR_PIVOT_RATIO: a failed iteration."""
+    """A nonlinear Jacobian with a pivot below the singular threshold: a failed iteration."""
+
+
+def _power_of_two_scale(m: np.ndarray) -> np.ndarray:
+    """``2**-ceil(log2(m))`` for positive entries, 1 elsewhere."""
+    m = np.asarray(m, dtype=float)
+    out = np.ones_like(m)
+    pos = m > 0
+    out[pos] = np.ldexp(1.0, -np.ceil(np.log2(m[pos])).astype(int))
+    return out
+
+
+def _equilibrate(pattern: SparsePattern, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row scales, then column scales, by powers of two: largest entry of each in (1/2, 1]."""
+    a = np.abs(data)
+    rmax = np.zeros(pattern.n)
+    np.maximum.at(rmax, pattern.rows, a)
+    r = _power_of_two_scale(rmax)
+    cmax = np.zeros(pattern.n)
+    np.maximum.at(cmax, pattern.cols, a * r[pattern.rows])
+    return r, _power_of_two_scale(cmax)
+
+
+class _ScaledLU:
+    """LU of ``diag(r) A diag(c)`` (A given by its data on a pattern), solving ``A x = b``."""
+
+    def __init__(self, pattern: SparsePattern, data: np.ndarray):
+        self.r, self.c = _equilibrate(pattern, data)
+        self.scaled = pattern.matrix(data * self.r[pattern.rows] * self.c[pattern.cols])
+        try:
+            self.lu = spla.splu(self.scaled, permc_spec="COLAMD")
+        except RuntimeError as exc:  # "Factor is exactly singular"
+            raise _Singular(str(exc)) from None
+        d = np.abs(self.lu.U.diagonal())
+        self.min_pivot = float(d.min()) if d.size else 1.0
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self.c * self.lu.solve(self.r * b)
+
+
+def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> MatrixRank:
+    """The SVD rank decision of a steady-state Jacobian (see :func:`~netdae.dae.kronecker.matrix_rank`)."""
+    return matrix_rank(mat, what=what)
 
 
 def _tolerances(kinds: np.ndarray, opts: SteadyOptions) -> tuple[np.ndarray, np.ndarray]:
@@ -170,6 +264,8 @@ class _Newton:
         self.factorizations = 0
         self.last_used = 0
         self.last_dx = np.zeros(system.n)
+        self.ill_conditioned = False
+        self.last_pivot = float("nan")  # smallest equilibrated pivot of the last factorization
 
     def _residual(self, x, gdiag, scale, state):
         ev = self.system.evaluate(x, self.t, jacobian=True, state=state, source_scale=scale)
@@ -186,15 +282,19 @@ class _Newton:
         return ev, F, jac
 
     def _factor(self, jac):
+        """Equilibrated LU; a pivot below the singular threshold is singular (linear) or a failed iteration."""
         self.factorizations += 1
-        mat = self.pattern.matrix(jac)
-        try:
-            lu = spla.splu(mat, permc_spec="COLAMD")
-        except RuntimeError as exc:  # "Factor is exactly singular"
-            raise _Singular(str(exc)) from None
-        d = np.abs(lu.U.diagonal())
-        if d.size and d.min() <= SINGULAR_PIVOT_RATIO * d.max():
-            raise _IllConditioned()
+        lu = _ScaledLU(self.pattern, jac)
+        self.last_pivot = lu.min_pivot
+        n = self.system.n
+        if lu.min_pivot <= PIVOT_SAFETY * n * EPS:
+            if not self.system.linear:
+                raise _IllConditioned()
+            if n > RANK_CHECK_LIMIT:
+                raise _Singular(f"smallest pivot {lu.min_pivot:.3g} of the equilibrated matrix")
+            rank = jacobian_rank(self.pattern.matrix(jac))
+            if rank.deficient:
+                raise _Singular(f"rank {rank.rank} of {n}", rank)
         return lu
 
     def _residual_small(self, F, jac, x) -> bool:
@@ -224,6 +324,7 @@ class _Newton:
             try:
                 lu = self._factor(jac)
             except _IllConditioned:
+                self.ill_conditioned = True
                 return x, False
             dx = lu.solve(-F)
             if not np.all(np.isfinite(dx)):
@@ -243,18 +344,88 @@ class _Newton:
         return x, False
 
 
-def _null_vector(system: DaeSystem, x, t) -> np.ndarray | None:
-    """A null vector of dphi/dx at x (dense SVD, only for moderate sizes)."""
-    if system.n > 3000:
-        return None
-    _, H = system.jacobians(x, t)
-    _, s, vt = np.linalg.svd(H.toarray())
-    return vt[-1] if s[-1] <= 1e-12 * max(s[0], 1e-300) else None
+class _ChargeRows(DaeSystem):
+    """``system`` with the first row of each :class:`ChargeGroup` replaced by its charge balance.
+
+    Row ``r`` of a group becomes ``sum(q[rows]) - charge`` (scaled by the
+    source scale, so that source stepping starts from zero charge); its
+    Jacobian row is the sum of the ``dq`` rows of the group, laid out on a
+    pattern that extends the system's by those entries.
+    """
+
+    def __init__(self, system: DaeSystem, groups: list[ChargeGroup]):
+        self.inner = system
+        self.n, self.names, self.kinds, self.linear = system.n, system.names, system.kinds, system.linear
+        old = system.pattern
+        target = np.full(system.n, -1, dtype=np.int64)  # row -> the replaced row of its group
+        self.first = np.array([int(g.rows[0]) for g in groups], dtype=np.int64)
+        self.charge = np.array([float(g.charge) for g in groups])
+        self.label = np.full(system.n, -1, dtype=np.int64)
+        for k, g in enumerate(groups):
+            target[g.rows] = g.rows[0]
+            self.label[g.rows] = k
+        src = np.flatnonzero(target[old.rows] >= 0)  # dq entries that add into a replaced row
+        self.pattern = SparsePattern.from_coo(system.n, [old.rows, target[old.rows[src]]],
+                                              [old.cols, old.cols[src]])
+        self.old_slots = self.pattern.slots(old.rows, old.cols)
+        self.keep = ~np.isin(old.rows, self.first)  # dphi entries of replaced rows are dropped
+        self.src = src
+        self.dst = self.pattern.slots(target[old.rows[src]], old.cols[src])
+        self.member = np.flatnonzero(self.label >= 0)
+
+    def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
+        ev = self.inner.evaluate(x, t, jacobian=jacobian, state=state, source_scale=source_scale)
+        phi = ev.phi.copy()
+        totals = np.bincount(self.label[self.member], weights=ev.q[self.member], minlength=self.first.size)
+        phi[self.first] = totals - source_scale * self.charge
+        dq = dphi = None
+        if ev.dphi is not None:
+            nnz = self.pattern.nnz
+            dq = np.bincount(self.old_slots, weights=ev.dq, minlength=nnz)
+            dphi = np.bincount(self.old_slots[self.keep], weights=ev.dphi[self.keep], minlength=nnz)
+            dphi += np.bincount(self.dst, weights=ev.dq[self.src], minlength=nnz)
+        return Evaluation(q=ev.q, phi=phi, dq=dq, dphi=dphi, limited=ev.limited, state=ev.state, ok=ev.ok)
+
+    def initial_guess(self):
+        return self.inner.initial_guess()
+
+    def initial_state(self):
+        return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
+
+
+def _judge(newton: _Newton, x) -> tuple[float, MatrixRank | None, bool]:
+    """Is the Jacobian of the solved equations singular at x? ``(min_pivot, rank, singular)``.
+
+    The equilibrated LU of the last Newton iteration (at a point within the
+    convergence tolerance of x), or else one at x, decides when its smallest
+    pivot is clear; a pivot
+    below ``PIVOT_SUSPECT`` is confirmed or refuted by the SVD rank decision
+    (up to ``RANK_CHECK_LIMIT`` unknowns, else by ``PIVOT_SAFETY * n * eps``).
+    """
+    n = newton.system.n
+    if n == 0:
+        return 1.0, None, False
+    if newton.last_pivot > PIVOT_SUSPECT:  # the last Newton matrix, within the tolerance of x: clear
+        return newton.last_pivot, None, False
+    out = newton._residual(x, 0.0, 1.0, None)
+    if out is None:
+        return float("nan"), None, False
+    mat = newton.pattern.matrix(out[2])
+    try:
+        pivot = _ScaledLU(newton.pattern, out[2]).min_pivot
+    except _Singular:
+        pivot = 0.0
+    if pivot > PIVOT_SUSPECT:
+        return pivot, None, False
+    if n > RANK_CHECK_LIMIT:
+        return pivot, None, pivot <= PIVOT_SAFETY * n * EPS
+    rank = jacobian_rank(mat)
+    return pivot, rank, rank.deficient
 
 
 def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None, *,
                  options: SteadyOptions | None = None, forcing: Forcing | None = None,
-                 nodeset: Forcing | None = None) -> SteadyResult:
+                 nodeset: Forcing | None = None, charges: list[ChargeGroup] | None = None) -> SteadyResult:
     """Solve ``phi(x, t) = 0``.
 
     Parameters
@@ -271,25 +442,52 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     nodeset : Forcing, optional
         Unknowns held at values for a first solve only, whose solution is the
         initial guess of the free solve (``.nodeset``).
+    charges : list of ChargeGroup, optional
+        Groups of rows whose right-hand sides sum to zero: each group's first
+        equation is replaced by the conservation of its charge. The caller
+        checks that the dropped equation holds at the solution.
 
     Returns
     -------
     SteadyResult
+        ``converged`` only when the Jacobian of the solved equations is
+        nonsingular at the solution: a solution that LU rounding produced
+        from a singular matrix is returned as ``singular`` with the rank
+        decision and null spaces.
 
     Notes
     -----
-    Each Newton iteration costs one evaluation and one sparse LU. A linear
-    system converges in one iteration plus one refinement step.
+    Each Newton iteration costs one evaluation and one sparse LU of the
+    equilibrated Jacobian. A linear system converges in one iteration plus
+    one refinement step. The final singularity judgement reuses the last
+    LU; only when its smallest pivot is below ``PIVOT_SUSPECT`` does it cost
+    one more evaluation and LU at the solution and a dense SVD.
     """
     opts = options or SteadyOptions()
+    if charges:
+        system = _ChargeRows(system, charges)
     x = np.asarray(system.initial_guess() if x0 is None else x0, dtype=float).copy()
     frc = [forcing] if forcing is not None else []
     total_it = total_fact = 0
 
-    def result(x, ok, strategy, message, newton=None, singular=False):
+    def singular_result(x, message, newton, rank=None):
+        if rank is None and system.n <= RANK_CHECK_LIMIT:
+            out = newton._residual(x, 0.0, 1.0, None)
+            rank = jacobian_rank(newton.pattern.matrix(out[2])) if out is not None else None
+        null = rank.right[:, -1] if rank is not None and rank.right.shape[1] else None
+        return SteadyResult(x, False, total_it, total_fact, "newton", message, True, null, [], rank)
+
+    def result(x, ok, strategy, message, newton=None):
         order = [] if newton is None else list(np.argsort(-newton.last_dx)[:5])
-        null = _null_vector(system, x, t) if singular else None
-        return SteadyResult(x, ok, total_it, total_fact, strategy, message, singular, null, order)
+        pivot = float("nan")
+        if ok:
+            pivot, rank, singular = _judge(newton, x)
+            if singular:
+                dec = "" if rank is None else (f": rank {rank.rank} of {system.n}, smallest singular value "
+                                               f"{(rank.decision.dropped or (0.0,))[0]:.3g} <= tolerance "
+                                               f"{rank.decision.tol:.3g}")
+                return singular_result(x, "singular Jacobian at the solution" + dec, newton, rank)
+        return SteadyResult(x, ok, total_it, total_fact, strategy, message, False, None, order, None, pivot)
 
     def run(newton: _Newton, *args, **kw):
         nonlocal total_it, total_fact
@@ -316,7 +514,7 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
             return result(x_new, True, "newton", "converged", newton)
     except _Singular as exc:
         if system.linear:
-            return result(x, False, "newton", f"singular Jacobian ({exc})", newton, singular=True)
+            return singular_result(x, f"singular Jacobian ({exc.args[0]})", newton, exc.rank)
         singular = exc  # a nonlinear Jacobian may be singular at this point only: try the homotopies
     try:
         if opts.gmin_stepping:
@@ -330,7 +528,12 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     except _Singular as exc:
         singular = singular or exc
     if singular is not None:
-        return result(x, False, "newton", f"singular Jacobian ({singular})", newton, singular=True)
+        return singular_result(x, f"singular Jacobian ({singular.args[0]})", newton, singular.rank)
+    if newton.ill_conditioned:  # the iterations met near-singular Jacobians: is the last iterate's singular?
+        _, rank, is_singular = _judge(newton, x_new)
+        if is_singular:
+            return singular_result(x_new, "singular Jacobian (Newton, gmin stepping and source stepping failed)",
+                                   newton, rank)
     return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)", newton)
 
 

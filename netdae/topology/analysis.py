@@ -29,7 +29,8 @@ currents of voltage-type branches and inductors, ``E = diag(A_C C A_C^T, L, 0)``
 - **DC operating point**: capacitors open, inductors shorts. It is singular
   iff there is a loop of voltage sources and inductors or a node set
   without a conducting (resistive, inductive or voltage-source) path to
-  ground.
+  ground. A node set attached only through capacitors (a *charge group*)
+  still has an operating point: its conserved charge fixes it.
 
 Controlled sources, ideal op-amps and transistors are outside the theorem's
 hypotheses: the report says so and gives no index, and findings that rely on
@@ -440,7 +441,8 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
     rep.floating_groups, rep.i_cutsets, pencil_labels = _cut_groups(ctx)
     rep.c_loops, n_c, rep.cv_loops, n_cv, cv_signals = _cv_loops(ctx)
     rep.li_cutsets, li_signals = _li_cutsets(ctx)
-    rep.no_dc_path, dc_labels = no_dc_path(ctx, components(ctx.n, g.u[g.carrying], g.v[g.carrying]))
+    rep.no_dc_path, dc_labels, rep.charge_groups = no_dc_path(ctx, components(ctx.n, g.u[g.carrying],
+                                                                               g.v[g.carrying]))
     if np.any((g.cls == VOLTAGE) & ~g.fixes_voltage):  # ideal op-amps: their outputs fix no voltage
         fixing = g.fixes_voltage | (g.cls == RESISTIVE) | (g.cls == INDUCTIVE)
         rep.floating_groups += unfixed_potentials(ctx, pencil_labels, fixing | (g.cls == CAPACITIVE), dc=False)

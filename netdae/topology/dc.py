@@ -5,6 +5,13 @@ matrix is singular iff there is a loop of voltage-type branches and
 inductors, or a node set that nothing conducting joins to ground; with ideal
 op-amps, also a node set whose potential only op-amp outputs (norators)
 reach.
+
+A node set attached to the rest only through capacitors (and independent
+current sources) is singular at DC but has a well-defined operating point
+all the same: its total charge is conserved (``d/dt`` of it is the sum of
+the currents entering the set, zero at DC), so its value at t = 0 fixes the
+set's potential. Such sets are listed as *charge groups*; the operating
+point replaces one current law of each by the charge balance.
 """
 
 from __future__ import annotations
@@ -12,14 +19,17 @@ from __future__ import annotations
 import numpy as np
 
 from .context import EMPTY, Context, Partition, loops_through
-from .graph import INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE
+from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE
 from .report import Finding, Loop, NodeGroup
 from .text import PATH_LIMIT, name_list, node_phrase, plural, with_inputs
 
 __all__ = ["no_dc_path", "dc_loops", "unfixed_potentials"]
 
+#: What fixes the DC potential of a charge group, in the findings ({} is "it" or "them").
+CHARGE_PHRASE = "charge conservation (the total charge on {} at t = 0 is zero, or what .ic sets)"
 
-def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGroup], np.ndarray]:
+
+def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGroup], np.ndarray, list[NodeGroup]]:
     """Node sets without a conducting path to ground (capacitors and current sources open).
 
     Parameters
@@ -35,21 +45,35 @@ def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGrou
         With the elements that attach each set without conducting.
     labels : ndarray, shape (n,)
         Component labels of the conducting graph.
+    charge_groups : list of NodeGroup
+        The sets (of ``groups``) attached to the rest only through capacitors
+        and independent current sources, at least one capacitor, and no op-amp
+        input: their operating point follows from charge conservation;
+        ``elements`` are the crossing capacitors and current sources.
     """
     g = ctx.g
     conducting = (g.cls == RESISTIVE) | (g.cls == INDUCTIVE) | (g.cls == VOLTAGE)
     part = Partition(ctx, conducting)
     cut = part.cut(g.carrying & ~conducting)
     controlled = cut.count(g.controlled)
+    capacitors = cut.count(g.cls == CAPACITIVE)
+    plain = capacitors + cut.count((g.cls == CURRENT) & ~g.controlled)
+    crossing = cut.count(np.ones(len(g.cls), dtype=bool))
+    nullator = g.cls == NULLATOR
+    sensed = np.bincount(np.concatenate([part.labels[g.u[nullator]], part.labels[g.v[nullator]]]), minlength=ctx.n)
     att_by = part.attachments()
     att_names = ctx.elements_by_label(part.labels[g.attach_node], g.attach_element)
-    groups = []
+    groups, charge_groups = [], []
     for label, idx, names in part.sets():
         through, attached = cut.names.get(label, ()), att_names.get(label, ())
         elements = tuple(ctx.in_netlist_order(through + attached)) if through and attached else through or attached
         grp = NodeGroup(names, elements, controlled=bool(controlled[label]))
         groups.append(grp)
-        if floating_labels[idx[0]] != floating_labels[0] or not elements or not ctx.want("no_dc_path"):
+        grounded = floating_labels[idx[0]] == floating_labels[0]
+        by_charge = grounded and capacitors[label] > 0 and plain[label] == crossing[label] and not sensed[label]
+        if by_charge:
+            charge_groups.append(NodeGroup(names, through))
+        if not grounded or not elements or not ctx.want("no_dc_path"):
             continue  # inside a floating group (reported there), or beyond the listing
         attaching = list(through) + ctx.attachment_phrases(att_by.get(label, EMPTY))
         how = name_list(attaching)
@@ -59,6 +83,17 @@ def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGrou
         else:
             text = (f"{node_phrase(names)} have no DC path to ground: they are attached to the rest of the circuit "
                     f"only through {how}")
+        if by_charge:
+            sources = [e for e in through if ctx.kinds[e] != "capacitor"]
+            k = len(names)
+            why = CHARGE_PHRASE.format(plural(k, "it", "them"))
+            text = (f"{text}; {plural(k, 'its', 'their')} DC potential follows from {why}"
+                    + (f", provided the DC currents of {name_list(sources)} into {plural(k, 'it', 'them')} add up "
+                       "to zero" if sources else ""))
+            ctx.add(Finding("no_dc_path", "note", f"DC operating point: {text}", elements, names,
+                            hint=f"to fix the potential otherwise, add a large resistor (e.g. 1G) from "
+                            f"{node_phrase(names[:1])} to ground, or set it with .ic"))
+            continue
         prefix = ("DC operating point likely singular (controlled sources): " if grp.controlled
                   else "DC operating point singular: ")
         ctx.add(Finding(
@@ -66,7 +101,7 @@ def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGrou
             hint=f"add a large resistor (e.g. 1G) from {node_phrase(names[:1])} to ground, or start the transient "
             "with uic",
         ))
-    return groups, part.labels
+    return groups, part.labels, charge_groups
 
 
 def dc_loops(ctx: Context) -> tuple[list[Loop], int]:

@@ -40,7 +40,9 @@ def _explain(circuit: Circuit, kinds: tuple[str, ...], signal: str | None, repor
     candidates = [f for f in report.findings if f.kind in kinds]
     if not candidates:
         return None
-    best = min(candidates, key=lambda f: (f.controlled, not _mentions(f, signal), kinds.index(f.kind)))
+    # a group that charge conservation fixes (a note) explains the raw DC matrix, but comes last
+    best = min(candidates, key=lambda f: (f.severity == "note", f.controlled, not _mentions(f, signal),
+                                          kinds.index(f.kind)))
     err = CircuitError(best.message, elements=best.elements, nodes=best.nodes, hint=best.hint)
     if raise_error:
         raise err
@@ -84,8 +86,8 @@ def dc_singularity_explanation(circuit: Circuit, signal: str | None = None, *, r
     >>> dc_singularity_explanation(c) is None
     True
     >>> c.elements.append(Element("c2", "capacitor", ("x", "b"), 1e-6))
-    >>> print(dc_singularity_explanation(c).message)
-    DC operating point singular: node 'x' has no DC path to ground: only c2 attaches it
+    >>> print(dc_singularity_explanation(c).message)  # a note: the operating point exists all the same
+    DC operating point: node 'x' has no DC path to ground: only c2 attaches it; its DC potential follows from charge conservation (the total charge on it at t = 0 is zero, or what .ic sets)
     """
     return _explain(circuit, DC_KINDS, signal, report, raise_error)
 

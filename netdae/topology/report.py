@@ -175,7 +175,11 @@ class TopologyReport:
         Loops of inductors and voltage sources with at least one inductor:
         singular at DC, where inductors are shorts.
     no_dc_path : list of NodeGroup
-        Node sets without a DC path to ground (singular operating point).
+        Node sets without a DC path to ground (singular DC matrix).
+    charge_groups : list of NodeGroup
+        Those of ``no_dc_path`` attached only through capacitors (and
+        independent current sources; ``elements``: these crossing elements):
+        the operating point fixes their potential by charge conservation.
     dangling_nodes : list of str
         Nodes with a single element terminal.
     floating_groups : list of NodeGroup
@@ -209,6 +213,7 @@ class TopologyReport:
     li_cutsets: list[Cutset] = field(default_factory=list)
     dc_loops: list[Loop] = field(default_factory=list)
     no_dc_path: list[NodeGroup] = field(default_factory=list)
+    charge_groups: list[NodeGroup] = field(default_factory=list)
     dangling_nodes: list[str] = field(default_factory=list)
     floating_groups: list[NodeGroup] = field(default_factory=list)
     self_loops: list[str] = field(default_factory=list)
@@ -232,6 +237,7 @@ class TopologyReport:
             "li_cutsets": [x.to_dict() for x in self.li_cutsets],
             "dc_loops": [x.to_dict() for x in self.dc_loops],
             "no_dc_path": [x.to_dict() for x in self.no_dc_path],
+            "charge_groups": [x.to_dict() for x in self.charge_groups],
             "floating_nodes": [list(x.nodes) for x in self.floating_groups],
             "floating_groups": [x.to_dict() for x in self.floating_groups],
             "dangling_nodes": list(self.dangling_nodes),

@@ -1,0 +1,68 @@
+"""The structure of a circuit's DAE does not need its operating point.
+
+A linear circuit's pencil ``(E, H)`` is the same at every point, so its index
+is defined whether or not a DC operating point exists; a nonlinear circuit
+whose operating point cannot be computed is linearised at another point,
+and the report says which. The index is checked against SLICOT ag08bd on
+the reference MNA (independent of netdae).
+"""
+
+from __future__ import annotations
+
+import json
+
+import netdae
+from netdae.analyses.index import POINT_LINEAR, POINT_NETLIST, analyze_index
+from netdae.cli import main as cli_main
+from test_topology_helpers import pencil_structure, reference_mna
+
+#: An index-2 RLC circuit: the CV-loop v1-c1-c2 and the LI-cutset {l1, i1} of node c; nodes b and c
+#: have no DC path to ground and i1 charges them, so no DC operating point exists.
+RLC = """rlc with a CV-loop and an LI-cutset
+V1 a 0 SIN(0 1 1k)
+C1 a b 1u
+C2 b 0 2u
+L1 b c 1m
+I1 c 0 1m
+R1 a 0 1k
+.tran 1u 2m
+.end
+"""
+
+
+def test_linear_index_without_operating_point(tmp_path, capsys):
+    circuit = netdae.load(RLC)
+    rep = analyze_index(circuit)
+    E, H, _, _ = reference_mna(circuit)
+    assert (rep.regular, rep.index) == pencil_structure(E, H) == (True, 2)
+    assert rep.point == POINT_LINEAR
+    assert rep.unknowns["v(c)"] == "index2" and rep.unknowns["i(v1)"] == "index2"
+    assert any(m.startswith("the transient's initial point was not checked for consistency: no DC operating "
+                            "point: i1 drives") for m in rep.messages)
+    path = tmp_path / "rlc.cir"
+    path.write_text(RLC)
+    assert cli_main(["index", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "index: 2" in out and "no operating point: the circuit is linear" in out
+    assert cli_main(["index", "--json", str(path)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["index"] == 2 and doc["point"] == POINT_LINEAR
+
+
+def test_nonlinear_circuit_without_operating_point_says_where_it_is_linearised():
+    text = """diode and a charged group
+V1 a 0 1
+D1 a b dmod
+C1 b c 1u
+I1 0 c 1m
+R1 c d 1k
+C2 d 0 1u
+.model dmod D(IS=1e-14)
+.nodeset v(b)=0.4
+.end
+"""
+    rep = analyze_index(netdae.load(text))
+    assert rep.point == POINT_NETLIST and rep.regular
+    assert rep.x[list(rep.system.names).index("v(b)")] == 0.4
+    assert any(m.startswith(f"linearised at {POINT_NETLIST} because the DC operating point cannot be computed "
+                            "(no DC operating point: i1 drives") for m in rep.messages)

@@ -1,0 +1,105 @@
+"""Nodes attached only through capacitors: the operating point by charge conservation.
+
+Such nodes have no DC path to ground, so the DC matrix is singular and
+ngspice stops ("singular matrix"); their total charge at t = 0 is zero, which
+fixes them. Checked against closed forms (capacitive dividers: a series chain
+carries one charge ``Q = V / sum(1/C_k)``) and against ngspice on the
+*compensated* divider, where a resistor ``R_k = tau / C_k`` across every
+capacitor gives a DC path whose resistive divider equals the capacitive one
+for any ``tau`` (ngspice runs; the values must agree to rounding).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.dc import dc_sweep
+from netdae.analyses.index import analyze_index
+from netdae.analyses.op import operating_point
+from netdae.analyses.tran import transient
+from netdae.errors import CircuitError, NgspiceError
+
+#: Linear solves agree with closed forms and with ngspice to rounding.
+REL = 1e-9
+
+
+def _close(a: float, b: float, scale: float) -> bool:
+    return abs(a - b) <= REL * scale
+
+
+def test_capacitive_divider_by_charge_conservation():
+    r = operating_point(netdae.load("divider\nV1 a 0 10\nC1 a b 1u\nC2 b 0 3u\nR1 a 0 1k\n.op\n.end\n"))
+    assert _close(r["v(b)"][0], 10.0 * 1 / (1 + 3), 10.0)
+    assert any("node 'b' has no DC path to ground (attached only through c1, c2)" in n
+               and "charge conservation" in n for n in r.notes)
+
+
+def test_series_chain_carries_one_charge():
+    c1, c2, c3, v = 1e-6, 2.2e-6, 4.7e-7, 5.0
+    text = f"chain\nV1 a 0 {v}\nC1 a b {c1}\nC2 b c {c2}\nC3 c 0 {c3}\n.op\n.end\n"
+    r = operating_point(netdae.load(text))
+    q = v / (1 / c1 + 1 / c2 + 1 / c3)
+    assert _close(r["v(b)"][0], v - q / c1, v) and _close(r["v(c)"][0], q / c3, v)
+    assert sum("charge conservation" in n for n in r.notes) == 2  # two groups, one line each
+
+
+def test_group_with_internal_resistor_and_dc_sweep():
+    text = "grp\nV1 a 0 1\nC1 a b 1u\nR1 b d 1k\nC2 d 0 4u\n.dc V1 0 2 1\n.end\n"
+    circuit = netdae.load(text)
+    res = dc_sweep(circuit, circuit.analyses[0])
+    np.testing.assert_allclose(res["v(b)"], np.array([0.0, 1.0, 2.0]) * 0.2, rtol=0, atol=REL)
+    np.testing.assert_allclose(res["v(d)"], res["v(b)"], rtol=0, atol=REL)
+
+
+def test_transient_starts_from_the_conserved_charge():
+    # the divider follows the source at every instant: v(b) = v(a) C1 / (C1 + C2)
+    text = ("tran\nV1 a 0 PULSE(4 0 1m 1u 1u 1 2)\nC1 a b 1u\nC2 b 0 3u\nR1 a 0 1k\n"
+            ".tran 10u 3m\n.end\n")
+    res = transient(netdae.load(text))
+    assert _close(res["v(b)"][0], 1.0, 4.0)
+    np.testing.assert_allclose(res["v(b)"], res["v(a)"] / 4, rtol=0, atol=1e-6)
+    assert any("charge conservation" in n for n in res.notes)
+
+
+def test_ic_holds_the_group_in_a_transient():
+    # .ic fixes the node (ngspice's rule), so charge conservation does not apply there
+    text = "ic\nV1 a 0 4\nC1 a b 1u\nC2 b 0 3u\n.ic v(b)=2\n.tran 10u 100u\n.end\n"
+    res = transient(netdae.load(text))
+    assert _close(res["v(b)"][0], 2.0, 4.0)
+    assert not any("charge conservation" in n for n in res.notes)
+
+
+def test_net_current_into_the_group_is_refused():
+    with pytest.raises(CircuitError, match=r"no DC operating point: i1 drives a net DC current of .* into node "
+                                           r"'b'.*only through c1, i1") as info:
+        operating_point(netdae.load("q\nV1 a 0 1\nC1 a b 1u\nI1 0 b 1m\nR1 a 0 1\n.op\n.end\n"))
+    assert info.value.elements == ("c1", "i1") and "uic" in info.value.hint
+
+
+def test_zero_net_current_into_the_group_is_fine():
+    r = operating_point(netdae.load("q\nV1 a 0 8\nC1 a b 1u\nC2 b 0 1u\nI1 0 b 1m\nI2 b 0 1m\n.op\n.end\n"))
+    assert _close(r["v(b)"][0], 4.0, 8.0)
+
+
+def test_index_reports_the_charge_group_in_one_line():
+    rep = analyze_index(netdae.load("d\nV1 a 0 SIN(0 1 1k)\nC1 a b 1u\nC2 b 0 3u\nR1 a 0 1k\n.tran 1u 1m\n.end\n"))
+    assert rep.index == 2 and rep.regular
+    lines = [m for m in rep.messages if "charge conservation" in m]
+    assert len(lines) == 1 and "node 'b'" in lines[0]
+
+
+@pytest.mark.ngspice
+def test_compensated_divider_agrees_with_ngspice():
+    from netdae.ngspice import run_ngspice
+
+    c1, c2, c3, v, tau = 1e-6, 2.2e-6, 4.7e-7, 5.0, 1e6
+    caps = f"V1 a 0 {v}\nC1 a b {c1}\nC2 b c {c2}\nC3 c 0 {c3}\n"
+    leaks = f"R1 a b {tau / c1}\nR2 b c {tau / c2}\nR3 c 0 {tau / c3}\n"
+    ours = operating_point(netdae.load("chain\n" + caps + ".op\n.end\n"))
+    theirs = run_ngspice("chain\n" + caps + leaks + ".op\n.end\n").result("op")
+    for name in ("v(b)", "v(c)"):
+        assert _close(float(ours[name][0]), float(theirs[name][0]), v), name
+    with pytest.raises(NgspiceError, match="singular matrix"):  # without the leaks ngspice gives up
+        run_ngspice("chain\n" + caps + ".op\n.end\n").result("op")
