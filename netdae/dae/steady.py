@@ -95,6 +95,10 @@ class SteadyOptions:
     maxiter: int = 100
     gmin_stepping: bool = True
     source_stepping: bool = True
+    #: Judge the Jacobian at the solution by an SVD rank decision when a pivot is small (a
+    #: DC operating point). Off for an implicit-Euler step of a tiny size h, whose matrix
+    #: ``dq/dx / h - dphi/dx`` spans many orders of magnitude while it is regular.
+    judge_singular: bool = True
 
 
 @dataclass
@@ -480,7 +484,7 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     def result(x, ok, strategy, message, newton=None):
         order = [] if newton is None else list(np.argsort(-newton.last_dx)[:5])
         pivot = float("nan")
-        if ok:
+        if ok and opts.judge_singular:
             pivot, rank, singular = _judge(newton, x)
             if singular:
                 dec = "" if rank is None else (f": rank {rank.rank} of {system.n}, smallest singular value "
