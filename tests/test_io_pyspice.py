@@ -32,7 +32,7 @@ def _rc(value=1 @ u_kOhm) -> Circuit:
 
 
 def test_a_pyspice_rc_charges_as_the_closed_form():
-    from netdae.analyses.tran import simulate
+    from netdae import simulate
 
     circuit = from_pyspice(_rc(), ".tran 10u 5m uic")
     assert circuit.title == "RC from PySpice"

@@ -88,7 +88,7 @@ R2 in vee 1k
 
 
 def test_supply_rails_and_internal_nodes_are_left_out_and_named():
-    from netdae.analyses.tran import simulate
+    from netdae import simulate
 
     circuit = load(RAILS)
     result = simulate(circuit)

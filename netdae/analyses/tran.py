@@ -54,7 +54,7 @@ from ..mna import MODE_TRAN, MnaSystem, assemble
 from ..results import STATUS_FAILED, STATUS_OK, Result
 from .index import IndexReport, analyze_index
 
-__all__ = ["transient", "simulate", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
+__all__ = ["transient", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
 
 #: Circuits up to this many unknowns get the dense pencil analysis before a
 #: transient (measured with one BLAS thread: 0.02 s at 100 unknowns, 0.11 s at
@@ -568,23 +568,3 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             "index_report": rep,
         },
     )
-
-
-def simulate(circuit: Circuit | str, **options) -> Result:
-    """Run the circuit's ``.tran`` analysis (see :func:`transient` for the options).
-
-    Parameters
-    ----------
-    circuit : Circuit or str
-        An elaborated circuit or a netlist path/text (:func:`netdae.load`).
-
-    Returns
-    -------
-    Result
-    """
-    if isinstance(circuit, str):
-        from ..netlist import load
-
-        circuit = load(circuit)
-    card = options.pop("card", None)
-    return transient(circuit, card, **options)

@@ -29,28 +29,30 @@ from .lu import refactor as lu_refactor
 from .lu import solve as lu_solve
 from .sources import source_values
 
-# --- the method's constants (see netdae.dae.bdf, where each is explained) ---------
-MAX_ORDER = 5
-ETA_GROW_MIN = 2.0
-ETA_GROW_MAX = 2.0
-ETA_SHRINK_MIN = 0.5
-ETA_SHRINK_MAX = 0.9
-ETA_ERROR_FAIL_MIN = 0.25
-ETA_NEWTON_FAIL = 0.25
-ETA_SAFETY = 0.9
-ERROR_FLOOR = 1e-4
-MAX_NEWTON_FAILURES = 10
-MAX_ERROR_FAILURES = 10
-H0_FRACTION = 1e-3
-H0_ERROR_TARGET = 0.25
-PROBE_FRACTION = 1e-3
-PROBE_MAX_RATIO = 0.02
-PROBE_RETRIES = 3
-BREAKPOINT_STRETCH = 0.1
-ROUNDOFF_ULPS = 16.0
-JUMP_DETECT = 1.0
-ROUNDING_FACTOR = 10.0
-EPS = float(np.finfo(np.float64).eps)
+# the method's constants, owned by netdae.dae.bdf (where each is explained)
+from ..bdf import (  # noqa: E402
+    BREAKPOINT_STRETCH,
+    EPS,
+    ERROR_FLOOR,
+    ETA_ERROR_FAIL_MIN,
+    ETA_GROW_MAX,
+    ETA_GROW_MIN,
+    ETA_NEWTON_FAIL,
+    ETA_SAFETY,
+    ETA_SHRINK_MAX,
+    ETA_SHRINK_MIN,
+    H0_ERROR_TARGET,
+    H0_FRACTION,
+    JUMP_DETECT,
+    MAX_ERROR_FAILURES,
+    MAX_NEWTON_FAILURES,
+    MAX_ORDER,
+    PROBE_FRACTION,
+    PROBE_MAX_RATIO,
+    PROBE_RETRIES,
+    ROUNDING_FACTOR,
+    ROUNDOFF_ULPS,
+)
 #: Unknowns named per recorded jump (the rest are counted).
 JUMP_NAMES = 32
 
