@@ -102,7 +102,14 @@ def _selected(benches, only):
     if not only:
         return benches
     keys = [k.strip() for k in only.split(",") if k.strip()]
-    return [b for b in benches if any(k == b.name or k == b.family or k in b.name for k in keys)]
+    exact = {b.name for b in benches} | {b.family for b in benches}
+
+    def wanted(b, k):
+        # a key naming a circuit or a family selects exactly that (rc_ladder_10000 does not
+        # also select rc_ladder_100000); any other key is a substring of names
+        return (k == b.name or k == b.family) if k in exact else k in b.name
+
+    return [b for b in benches if any(wanted(b, k) for k in keys)]
 
 
 # ------------------------------------------------------------------------------ accuracy
