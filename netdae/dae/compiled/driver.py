@@ -54,52 +54,6 @@ def supports(system, options: dict) -> bool:
     return True
 
 
-def _tolerances(system, n, atol, vntol, abstol):
-    from ..system import KIND_CURRENT, KIND_VOLTAGE
-
-    a = np.asarray(atol, dtype=float)
-    if a.ndim == 1:
-        if a.shape != (n,):
-            raise ValueError(f"atol must be a scalar or have shape ({n},)")
-        vec, label = a.copy(), "per-unknown"
-    elif a.ndim == 0:
-        kinds = np.asarray(system.kinds)
-        vec = np.where(kinds == KIND_VOLTAGE, float(vntol), np.where(kinds == KIND_CURRENT, float(abstol), float(a)))
-        label = float(a)
-    else:
-        raise ValueError("atol must be a scalar or a 1-D array")
-    if np.any(~np.isfinite(vec)) or np.any(vec <= 0.0):
-        raise ValueError("absolute tolerances must be positive and finite")
-    return vec, label
-
-
-def _index_mask(system, n, index, norm):
-    high = np.zeros(n, dtype=np.bool_)
-    mask = np.ones(n)
-    if index is None:
-        return high, mask, 0
-    idx = np.asarray(index)
-    if idx.shape != (n,) or idx.dtype.kind not in "iu" or np.any(idx < 0):
-        raise ValueError(f"index must be a non-negative integer array of shape ({n},)")
-    if np.any(idx > 2):
-        worst = system.names[int(np.argmax(idx))]
-        raise ValueError(
-            f"unknown {worst} has index {int(idx.max())}: the BDF method does not converge for "
-            "index >= 3; solve such (linear) problems through their decoupled (Weierstrass) form"
-        )
-    high = idx >= 2
-    tested = int(np.count_nonzero(~high))
-    if tested == 0:
-        # every unknown is a derivative of the inputs: nothing to error-test, the steps
-        # follow max_step and the breakpoints (as the Python integrator)
-        return high, np.zeros(n), n
-    if tested < n:
-        mask = (~high).astype(float)
-        if norm == NORM_RMS:
-            mask *= math.sqrt(n / tested)
-    return high, mask, n - tested
-
-
 def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=False, **options):
     """Integrate a linear MNA system with the compiled engine (see the module docstring).
 
@@ -117,7 +71,15 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     """
     from ...errors import ConvergenceError
     from ...results import STATUS_FAILED, STATUS_OK
-    from ..bdf import BREAKPOINT_MERGE, IntegrationResult, MAX_ORDER
+    from ..bdf import (
+        BREAKPOINT_MERGE,
+        MAX_ORDER,
+        IntegrationResult,
+        absolute_tolerances,
+        check_arguments,
+        index_mask,
+        save_indices,
+    )
     from ..bdf_kernels import merge_breakpoints
     from ..dense import Interpolant
 
@@ -126,11 +88,6 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     wall0 = time.perf_counter()
     n = int(system.n)
     t0, t_bound = (float(v) for v in t_span)
-    if not (math.isfinite(t0) and math.isfinite(t_bound)) or t_bound <= t0:
-        raise ValueError(f"need finite t0 < t_bound, got t0={t0!r}, t_bound={t_bound!r}")
-    x0 = np.array(x0, dtype=float)
-    if x0.shape != (n,) or not np.all(np.isfinite(x0)):
-        raise ValueError(f"x0 must be a finite array of shape ({n},)")
     rtol = float(options.get("rtol", 1e-3))
     maxord = int(options.get("maxord", MAX_ORDER))
     max_step = float(options.get("max_step", math.inf))
@@ -139,32 +96,16 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     norm_name = options.get("norm", "rms")
     relref_name = options.get("relref", "local")
     max_steps = options.get("max_steps")
-    if not (0.0 < rtol < 1.0):
-        raise ValueError(f"rtol must lie in (0, 1), got {rtol!r}")
-    if not (1 <= maxord <= MAX_ORDER):
-        raise ValueError(f"maxord must be 1..{MAX_ORDER}, got {maxord!r}")
-    if norm_name not in ("rms", "max"):
-        raise ValueError("norm must be 'rms' or 'max'")
-    if relref_name not in ("local", "signal", "mixed"):
-        raise ValueError("relref must be 'local', 'signal' or 'mixed'")
-    if not (max_step > 0.0) or min_step < 0.0 or min_step > max_step:
-        raise ValueError("need 0 <= min_step <= max_step and max_step > 0")
-    if first_step is not None and not (first_step > 0.0):
-        raise ValueError("first_step must be positive")
+    x0 = check_arguments(t0, t_bound, x0, n, rtol=rtol, maxord=maxord, norm=norm_name, relref=relref_name,
+                         max_step=max_step, min_step=min_step, first_step=first_step)
     norm = NORM_MAX if norm_name == "max" else NORM_RMS
     relref = {"local": RELREF_LOCAL, "signal": RELREF_SIGNAL, "mixed": RELREF_MIXED}[relref_name]
     vntol = float(options.get("vntol", 1e-6))
     abstol = float(options.get("abstol", 1e-12))
-    atol, atol_label = _tolerances(system, n, options.get("atol", 1e-6), vntol, abstol)
-    high, mask, excluded = _index_mask(system, n, options.get("index"), norm)
-    save = options.get("save")
-    if save is None:
-        save_idx = np.arange(n, dtype=np.int64)
-    else:
-        s = np.asarray(save)
-        if s.ndim != 1 or s.dtype.kind not in "iu" or (s.size and (s.min() < 0 or s.max() >= n)):
-            raise ValueError(f"save must be a 1-D integer array of unknown positions in [0, {n})")
-        save_idx = s.astype(np.int64)
+    atol, atol_label = absolute_tolerances(system.kinds, n, options.get("atol", 1e-6), vntol, abstol)
+    high, factor, excluded = index_mask(system.names, n, options.get("index"), norm_name)
+    mask = np.ones(n) if factor is None else factor
+    save_idx = save_indices(n, options.get("save"))
     extra = [np.asarray(system.breakpoints(t0, t_bound), dtype=float).ravel()]
     if options.get("breakpoints") is not None:
         extra.append(np.asarray(options["breakpoints"], dtype=float).ravel())
