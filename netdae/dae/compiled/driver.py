@@ -151,10 +151,12 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     # sends the loop back here for a new one)
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
     lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
-    eps0 = 1e-3 * min(1e-3 * (bps[0] - t0), max_step)
-    lu_ok = lu.factor(e_data / eps0 - h_data)
-    if not lu_ok:  # a singular pencil shows in the probe; an identity order keeps the loop well defined
-        lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
+    identity = np.where(pattern.rows == pattern.cols, 1.0, 0.0)
+    eps0 = L.PROBE_FRACTION * min(L.H0_FRACTION * (bps[0] - t0), max_step)
+    if not lu.factor(e_data / eps0 - h_data):
+        # a singular matrix shows again in the loop, which reports it; a plan in the
+        # identity order keeps the loop's arguments defined until then
+        lu.factor(identity)
     swork = np.zeros(n)
     # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
     signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
@@ -192,7 +194,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 else:
                     I[L.I_PIVOTS_FAILED] = 1
                     F[L.F_PIVOT_TAG] = F[L.F_PENDING_TAG]
-                    lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
+                    lu.factor(identity)
             elif status == L.BUFFER_FULL:
                 cap *= 2
                 buf_t = np.resize(buf_t, cap)

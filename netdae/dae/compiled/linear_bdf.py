@@ -61,7 +61,6 @@ F_T = 0           # current time
 F_H = 1           # next step size
 F_HUSED = 2
 F_CJ = 3
-F_CJLAST = 4
 F_LU_TAG = 5      # cj of the current factorisation (nan: none)
 F_RTOL = 6
 F_MAX_STEP = 7
@@ -71,7 +70,6 @@ F_H_MAX = 10
 F_FAIL_T = 11
 F_FAIL_H = 12
 F_LAST_CJ_ATTEMPT = 13
-F_CK = 14
 F_H_REQUEST = 15
 F_RESTART_CAP = 16      # the pending restart's step cap
 F_RESTART_FIXED = 17    # 1.0: the pending restart keeps its cap (a given first step)
@@ -223,6 +221,15 @@ def _fail(F, I, t, h, code, worst):
     I[I_FAIL_WORST] = worst
     F[F_FAIL_T] = t
     F[F_FAIL_H] = h
+
+
+@kernel
+def _restore(P, psi, psi_saved, beta, ns, k):
+    """Undo phase 1 of a failed attempt (IDA's IDARestore): psi and the beta-scaled differences."""
+    psi[:] = psi_saved
+    for i in range(ns, k + 1):
+        for c in range(P.shape[1]):
+            P[i, c] /= beta[i]
 
 
 @kernel
@@ -502,9 +509,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
             ns = I[I_NS]
             psi_saved[:] = psi
             cj, ck = flc_coefficients(h, k, psi_saved, psi, alpha, beta, gamma, sigma)
-            F[F_CJLAST] = F[F_CJ]
             F[F_CJ] = cj
-            F[F_CK] = ck
             if ns <= k:
                 for i in range(ns, k + 1):
                     for c in range(n):
@@ -531,11 +536,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
                 rc = _factor(F, I, cj, 0.0, sysd, lus)
             if rc == FACTOR_NEED_PIVOTS:
                 # undo phase 1 and return for new pivots; the attempt is repeated on the next call
-                psi[:] = psi_saved
-                if ns <= k:
-                    for i in range(ns, k + 1):
-                        for c in range(n):
-                            P[i, c] /= beta[i]
+                _restore(P, psi, psi_saved, beta, ns, k)
                 F[F_H] = h
                 if cj_counted:  # counted again when the attempt is repeated
                     I[I_CJ_CHANGES] -= 1
@@ -583,12 +584,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step,
                         worst = _worst(ee, w)
             if accepted:
                 break
-            # restore (IDARestore)
-            psi[:] = psi_saved
-            if ns <= k:
-                for i in range(ns, k + 1):
-                    for c in range(n):
-                        P[i, c] /= beta[i]
+            _restore(P, psi, psi_saved, beta, ns, k)
             I[I_PHASE] = 1
             if kind == 1:
                 ncf += 1
