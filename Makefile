@@ -27,7 +27,7 @@ $(VPY):
 
 $(STAMP): pyproject.toml | $(VPY)
 	$(VPY) -m pip install -q --upgrade pip
-	$(VPY) -m pip install -q -e '.[test,dev,results]'
+	$(VPY) -m pip install -q -e '.[test,dev,results,models,dask]'
 	@touch $(STAMP)
 
 venv: $(STAMP)
