@@ -381,6 +381,44 @@ def save_indices(n: int, save) -> np.ndarray:
     return s.astype(np.int64)
 
 
+def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, *,
+                state=None) -> tuple[np.ndarray | None, int, int, str]:
+    """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
+
+    The charges are continuous across t (no impulse), so the steps start from
+    ``q(x)``; the inputs are those right of t. Each step is solved by the
+    steady-state solver (damped Newton with device limiting, then gmin and
+    source stepping): after a jump of the inputs the start can be far from
+    the solution (a diode switched on by a step). Index-2 unknowns (``high``)
+    take the second step's value (they carry an impulse in the first).
+
+    Returns
+    -------
+    (x_right, iterations, evaluations, message)
+        ``x_right`` is None when a step did not converge (``message`` says why).
+    """
+    opts = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False)
+    iterations = 0
+    evaluations = 0
+    y = np.asarray(x, dtype=float)
+    ys = []
+    for step in (1, 2):
+        q0 = system.evaluate(y, t + (step - 1) * eps, jacobian=False, state=state).q
+        evaluations += 1
+        res = solve_steady(ImplicitEulerStep(system, q0, eps, t + step * eps), t + step * eps, y, options=opts)
+        iterations += res.iterations
+        evaluations += res.iterations
+        if not res.converged:
+            return None, iterations, evaluations, ("the inputs jump at t, and no values consistent with them "
+                                                   f"right of it were found ({res.message})")
+        y = res.x
+        ys.append(y)
+    out = 2.0 * ys[0] - ys[1]
+    high = np.asarray(high, dtype=bool)
+    out[high] = ys[1][high]
+    return out, iterations, evaluations, ""
+
+
 @dataclass
 class IntegrationResult:
     """Output of :func:`integrate` (and of :meth:`BDF.result`).
@@ -874,41 +912,15 @@ class BDF:
         return x_new, value_jump
 
     def _right_limit(self, x, eps):
-        """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
-
-        The charges are continuous across t (no impulse), so the steps start
-        from ``q(x)``; the inputs are those right of t. Returns None after
-        recording a failure.
-        """
-        t = self.t
-        q0 = self._evaluate(x, t).q
-        y1 = self._euler_solve(x, q0, t + eps, eps)
-        if y1 is None:
-            return None
-        y2 = self._euler_solve(y1, self._evaluate(y1, t + eps).q, t + 2.0 * eps, eps)
-        if y2 is None:
-            return None
-        out = 2.0 * y1 - y2
-        out[self._high] = y2[self._high]
-        return out
-
-    def _euler_solve(self, x_start, q0, t1, eps):
-        """Solve ``(q(y) - q0)/eps = phi(y, t1)`` from ``x_start`` (None after recording a failure).
-
-        The steady-state solver does it (damped Newton with device limiting,
-        then gmin and source stepping): after a jump of the inputs the start
-        can be far from the solution (a diode switched on by a step).
-        """
+        """x(t+) of a nonlinear system (:func:`right_limit`); None after recording a failure."""
         tol = self._tolerances
-        opts = SteadyOptions(reltol=self.rtol, vntol=tol["vntol"], abstol=tol["abstol"], judge_singular=False)
-        res = solve_steady(ImplicitEulerStep(self.system, q0, eps, t1), t1, x_start, options=opts)
-        self.stats["newton_iterations"] += res.iterations
-        self.stats["evaluations"] += res.iterations
-        if not res.converged:
-            self._fail(self.t, eps, "the inputs jump at t, and no values consistent with them right of it "
-                       f"were found ({res.message})", None, self._newton_hint(None))
-            return None
-        return res.x
+        out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
+                                                            tol["vntol"], tol["abstol"], state=self._state)
+        self.stats["newton_iterations"] += iterations
+        self.stats["evaluations"] += evaluations
+        if out is None:
+            self._fail(self.t, eps, message, None, self._newton_hint(None))
+        return out
 
     def _initialise_history(self, h, xp, qp):
         n = self.n

@@ -3,10 +3,17 @@
 :func:`integrate_compiled` takes the same arguments as
 :func:`netdae.dae.bdf.integrate` and returns the same
 :class:`~netdae.dae.bdf.IntegrationResult`, computed by the compiled step
-loop of :mod:`netdae.dae.compiled.linear_bdf`. It serves a linear MNA
-system (constant ``E``, ``H``, ``B`` and the independent sources'
-waveforms, which compile); for anything else it returns ``None`` and the
-caller uses the Python integrator.
+loop of :mod:`netdae.dae.compiled.bdf_loop`. It serves an MNA system whose
+parts all compile: the constant ``E``, ``H``, ``B``, the independent
+sources' waveforms, and device families with a compiled kernel (diode, BJT,
+MOSFET: :mod:`netdae.devices.kernels`); for anything else (a behavioural
+source, a user DAE) it returns ``None`` and the caller uses the Python
+integrator.
+
+The loop returns to Python for what does not belong in it: new pivots when
+a refactorisation meets a degraded pivot (SuperLU), and the right limit of
+a nonlinear system whose inputs jump (the steady-state solver, with its
+gmin and source stepping: :func:`netdae.dae.bdf.right_limit`).
 
 Python is entered once per output chunk: when the output buffers are full
 (they double), and after a bounded number of steps (about
@@ -23,7 +30,7 @@ import time
 
 import numpy as np
 
-from . import linear_bdf as L
+from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
 from .sources import pack_sources
@@ -32,7 +39,7 @@ __all__ = ["integrate_compiled", "supports"]
 
 #: Options the compiled engine implements (any other keyword sends the call to the Python integrator).
 _SUPPORTED = frozenset({"rtol", "atol", "vntol", "abstol", "index", "maxord", "max_step", "min_step",
-                        "first_step", "breakpoints", "save", "norm", "relref", "max_steps"})
+                        "first_step", "breakpoints", "save", "norm", "relref", "max_steps", "newton_maxiter"})
 #: Initial capacity of the output buffers (they double when full).
 BUFFER_START = 1024
 #: Wall time between two returns to Python [s] (progress, Ctrl-C).
@@ -41,9 +48,27 @@ PROGRESS_INTERVAL = 0.1
 FIRST_CHUNK = 64
 
 
+def _family_slot(family) -> int | None:
+    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET), or None."""
+    from ...devices.bjt import BjtFamily
+    from ...devices.diode import DiodeFamily
+    from ...devices.mosfet import MosfetFamily
+
+    for slot, cls in enumerate((DiodeFamily, BjtFamily, MosfetFamily)):
+        if type(family) is cls:
+            return slot
+    return None
+
+
 def supports(system, options: dict) -> bool:
     """True when :func:`integrate_compiled` can run ``system`` with ``options``."""
-    if not getattr(system, "linear", False) or set(options) - _SUPPORTED:
+    if set(options) - _SUPPORTED:
+        return False
+    families = getattr(system, "families", None)
+    if families is None or not hasattr(system, "pattern"):
+        return False
+    slots = [_family_slot(f) for f in families]
+    if None in slots or len(set(slots)) != len(slots):
         return False
     if getattr(system, "sources", None) is None or getattr(system, "B", None) is None:
         return False
@@ -55,7 +80,7 @@ def supports(system, options: dict) -> bool:
 
 
 def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=False, **options):
-    """Integrate a linear MNA system with the compiled engine (see the module docstring).
+    """Integrate an MNA system with the compiled engine (see the module docstring).
 
     Returns
     -------
@@ -72,12 +97,15 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     from ...errors import ConvergenceError
     from ...results import STATUS_FAILED, STATUS_OK
     from ..bdf import (
+        BDF,
         BREAKPOINT_MERGE,
         MAX_ORDER,
+        NEWTON_MAXITER,
         IntegrationResult,
         absolute_tolerances,
         check_arguments,
         index_mask,
+        right_limit,
         save_indices,
     )
     from ..bdf_kernels import merge_breakpoints
@@ -96,6 +124,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     norm_name = options.get("norm", "rms")
     relref_name = options.get("relref", "local")
     max_steps = options.get("max_steps")
+    newton_maxiter = int(options.get("newton_maxiter", NEWTON_MAXITER))
+    if newton_maxiter < 1:
+        raise ValueError("newton_maxiter must be at least 1")
     x0 = check_arguments(t0, t_bound, x0, n, rtol=rtol, maxord=maxord, norm=norm_name, relref=relref_name,
                          max_step=max_step, min_step=min_step, first_step=first_step)
     norm = NORM_MAX if norm_name == "max" else NORM_RMS
@@ -112,6 +143,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     bps = merge_breakpoints(t0, t_bound, np.concatenate(extra), BREAKPOINT_MERGE * (t_bound - t0))
 
     pattern = system.pattern
+    linear = not system.families
     indptr = np.asarray(pattern.indptr, dtype=np.int64)
     indices = np.asarray(pattern.indices, dtype=np.int64)
     e_data = np.array(pattern.data_of(system.E), dtype=float)
@@ -119,6 +151,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     B = system.B.tocoo()
     b_rows, b_cols, b_vals = B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float)
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
+    devd = _pack_families(system)
 
     F = np.zeros(L.N_F)
     I = np.zeros(L.N_I, dtype=np.int64)
@@ -129,37 +162,57 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     F[L.F_H_MIN] = math.inf
     F[L.F_LU_TAG] = math.nan
     F[L.F_LAST_CJ_ATTEMPT] = math.nan
+    F[L.F_RATE] = L.RATE_AFTER_SETUP
     I[L.I_MAXORD] = maxord
     I[L.I_NORM] = norm
     I[L.I_RELREF] = relref
     I[L.I_MAX_STEPS] = 0 if max_steps is None else int(max_steps)
+    I[L.I_NEWTON_MAXITER] = newton_maxiter
+    I[L.I_LINEAR] = 1 if linear else 0
     I[L.I_K] = 1
     I[L.I_EVALUATIONS] = 1       # the evaluation at t0 (as the Python integrator counts it)
-    I[L.I_JAC_EVALUATIONS] = 1
-    P = np.zeros((maxord + 1, n))
-    P[0] = x0
+    I[L.I_JAC_EVALUATIONS] = 1 if linear else 0
+    P = np.zeros((maxord + 1, n if linear else 2 * n))
+    P[0, :n] = x0
+    if not linear:
+        ev0 = system.evaluate(x0, t0, jacobian=False, state=None)
+        if not ev0.ok or not np.all(np.isfinite(ev0.q)) or not np.all(np.isfinite(ev0.phi)):
+            raise ValueError(f"the system evaluation at t0={t0:g} is not finite (check x0)")
+        P[0, n:] = ev0.q
     psi = np.zeros(MAX_ORDER + 1)
     coef = [np.zeros(MAX_ORDER + 1) for _ in range(5)]
     xmax = np.abs(x0)
     w = np.empty(n)
     w_err = np.empty(n)
     set_weights(x0, rtol, atol, relref, xmax, mask, w, w_err)
-    restart_times = np.zeros(bps.size + 1)
     a_data = np.zeros(e_data.size)
     sysd = (indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)
-    # the first pivot order: of the first probe's matrix E / eps - H (any degraded pivot later
-    # sends the loop back here for a new one)
+    # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
+    signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
+    tol = (atol, mask, high, xmax, w, w_err, signs)
+    nnz = e_data.size
+    evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
+           np.abs(e_data))
+    rl_given = np.zeros(n)
+    # u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given
+    ws = (np.zeros(skind.size), *(np.zeros(n) for _ in range(9)), rl_given)
+    # the first pivot order: of the first probe's matrix dq/dx / eps - dphi/dx (any degraded
+    # pivot later sends the loop back here for a new one)
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
     lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
     identity = np.where(pattern.rows == pattern.cols, 1.0, 0.0)
     eps0 = L.PROBE_FRACTION * min(L.H0_FRACTION * (bps[0] - t0), max_step)
-    if not lu.factor(e_data / eps0 - h_data):
+    if linear:
+        first = e_data / eps0 - h_data
+    else:
+        ev = system.evaluate(x0, t0 + eps0, jacobian=True, state=None)
+        first = ev.dq / eps0 - ev.dphi
+    if not (np.all(np.isfinite(first)) and lu.factor(first)):
         # a singular matrix shows again in the loop, which reports it; a plan in the
         # identity order keeps the loop's arguments defined until then
         lu.factor(identity)
     swork = np.zeros(n)
-    # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
-    signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
+    restart_times = np.zeros(bps.size + 1)
     jump_t = np.zeros(bps.size + 1)
     jump_count = np.zeros(bps.size + 1, dtype=np.int64)
     jump_idx = np.zeros((bps.size + 1, L.JUMP_NAMES), dtype=np.int64)
@@ -180,12 +233,13 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     last = time.perf_counter()
     status = L.RUNNING
     interrupted = None
+    failure = None
     try:
         while True:
             tic = time.perf_counter()
-            status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs,
-                           atol, mask, high, xmax, w, w_err, save_idx, restart_times, sysd, lus(), signs,
-                           buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, chunk)
+            rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times)
+            status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd, devd,
+                           lus(), evb, ws, rec, chunk)
             if status == L.NEED_PIVOTS:
                 # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume
                 if lu.factor(a_data):
@@ -195,6 +249,21 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                     I[L.I_PIVOTS_FAILED] = 1
                     F[L.F_PIVOT_TAG] = F[L.F_PENDING_TAG]
                     lu.factor(identity)
+            elif status == L.NEED_RIGHT_LIMIT:
+                # the inputs of a nonlinear system jump: x(t+) by converged implicit-Euler steps
+                eps = float(F[L.F_RL_EPS])
+                x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high, rtol,
+                                                        vntol, abstol)
+                I[L.I_NEWTON] += its
+                I[L.I_EVALUATIONS] += evals
+                if x_right is None:
+                    failure = {"t": float(F[L.F_T]), "h": eps, "worst": None, "hint": BDF._newton_hint(None),
+                               "what": what}
+                    I[L.I_STATUS] = L.FAILED
+                    status = L.FAILED
+                    break
+                rl_given[:] = x_right
+                I[L.I_RL_READY] = 1
             elif status == L.BUFFER_FULL:
                 cap *= 2
                 buf_t = np.resize(buf_t, cap)
@@ -229,13 +298,13 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     }
     tolerances = {"rtol": rtol, "vntol": vntol, "abstol": abstol, "atol": atol_label, "norm": norm_name,
                   "relref": relref_name, "newton_tol": 0.33, "maxord": maxord, "index_excluded": excluded}
-    failure = None
     if status == L.FINISHED:
         message = (f"reached t={t_bound:.9g} in {stats['steps']} steps ({stats['rejected']} rejected, "
                    f"{stats['newton_failures']} Newton failures, {stats['factorizations']} factorizations)")
         code = STATUS_OK
     elif status == L.FAILED:
-        failure = _failure(system, F, I)
+        if failure is None:
+            failure = _failure(system, F, I)
         message = (f"BDF failed: {failure['what']} at t={failure['t']:.9g}, h={failure['h']:.3g}"
                    + (f", worst unknown {failure['worst']}" if failure["worst"] else "")
                    + f" (hint: {failure['hint']})")
@@ -263,6 +332,36 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     return result
 
 
+#: The loop's REASON_* codes as netdae.dae.newton's INFO_* names (the Python integrator's words).
+_REASONS = {L.REASON_SINGULAR: "singular", L.REASON_NONFINITE: "nonfinite", L.REASON_DIVERGED: "diverged",
+            L.REASON_MAXITER: "maxiter", L.REASON_EVALUATION: "evaluation"}
+
+
+def _pack_families(system) -> tuple:
+    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs and MOSFETs.
+
+    An absent family gets empty arrays (its kernel is then skipped).
+    """
+    from ...devices.base import SlotMap
+    from ...devices.kernels import bjt as kb
+    from ...devices.kernels import diode as kd
+    from ...devices.kernels import mosfet as km
+
+    shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE))
+    packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
+    if system.families:
+        slots = SlotMap(system.pattern)
+        for family in system.families:
+            par, idx, vold0 = family.compiled(slots, system.n)
+            packed[_family_slot(family)] = (np.ascontiguousarray(par, dtype=float),
+                                            np.ascontiguousarray(idx, dtype=np.int64),
+                                            np.ascontiguousarray(vold0, dtype=float))
+    out = []
+    for par, idx, vold0 in packed:
+        out += [par, idx, vold0.copy(), vold0.copy(), vold0.copy()]
+    return tuple(out)
+
+
 def _failure(system, F, I) -> dict:
     """The failure record (what, t, h, worst, hint) from the engine's codes."""
     from ..bdf import BDF
@@ -270,7 +369,7 @@ def _failure(system, F, I) -> dict:
     code = int(I[L.I_FAIL_CODE])
     outer, rest = divmod(code, 256) if code >= 256 else (0, code)
     kind, reason = divmod(rest, 16)
-    info = "singular" if reason == L.REASON_SINGULAR else "nonfinite"
+    info = _REASONS.get(reason, "nonfinite")
     what_kind = "Newton failures" if kind == 1 else "error-test failures"
     h = float(F[L.F_FAIL_H])
     if outer == L.FAIL_MIN_STEP:

@@ -1,0 +1,1102 @@
+"""The compiled FLC-BDF step loop of an MNA system ``d/dt q(x) = phi(x, t)``.
+
+This is :class:`netdae.dae.bdf.BDF` (same phases, same constants, same step
+and order decisions) run as one compiled function: the coefficients, the
+predictor, the corrector, the error test, order and step selection,
+breakpoints, order-1 restarts with their derivative probes and right limits,
+and the recording of the output. Python enters it once per output chunk
+(:mod:`netdae.dae.compiled.driver`).
+
+Two correctors, one loop:
+
+- a linear system ``E x' = H x + B u(t)`` (no device families): the exact
+  corrector, one solve with the factorisation of ``cj E - H`` (refactored
+  when ``cj`` changes);
+- a nonlinear one (``q = E x + q_dev(x)``, ``phi = H x + B u + f_dev(x)``):
+  modified Newton on the charge-form corrector
+  ``cj (q(x) - q_pred) + q'_pred - phi(x, t) = 0`` with IDA's rate test,
+  Jacobian reuse across steps while ``cj`` stays within ``DCJ``, one retry
+  with a fresh Jacobian, the device families' limiting (the trial state of
+  the iteration, the accepted state of the step) and the rounding floor of
+  the weights; the history then holds the charges as well as the unknowns.
+
+The device families are the compiled kernels of :mod:`netdae.devices.kernels`
+(diode, BJT, MOSFET), each evaluating all its instances in one loop.
+
+State
+-----
+All state lives in arrays so that a chunk can end and the next one resume
+between two steps: the scalars in ``F`` (floats) and ``I`` (integers),
+indexed by the ``F_*`` and ``I_*`` constants below; the divided differences
+``P`` (maxord + 1, n) for a linear system, (maxord + 1, 2 n) for a nonlinear
+one (unknowns, then charges); the coefficient arrays; the device families'
+limiting states; the output buffers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_LIMIT
+from ...devices.kernels.bjt import eval_bjt
+from ...devices.kernels.diode import eval_diode
+from ...devices.kernels.mosfet import eval_mosfet
+from .control import error_norms, flc_coefficients, landing_step, set_weights, update_differences, weighted_norm
+from . import kernel
+from .lu import STATUS_NONFINITE, STATUS_OK
+from .lu import refactor as lu_refactor
+from .lu import solve as lu_solve
+from .sources import source_values
+
+# the method's constants, owned by netdae.dae.bdf (where each is explained)
+from ..bdf import (  # noqa: E402
+    BREAKPOINT_STRETCH,
+    DCJ,
+    EPCON,
+    EPS,
+    ERROR_FLOOR,
+    ETA_ERROR_FAIL_MIN,
+    ETA_GROW_MAX,
+    ETA_GROW_MIN,
+    ETA_NEWTON_FAIL,
+    ETA_SAFETY,
+    ETA_SHRINK_MAX,
+    ETA_SHRINK_MIN,
+    H0_ERROR_TARGET,
+    H0_FRACTION,
+    JUMP_DETECT,
+    MAX_ERROR_FAILURES,
+    MAX_NEWTON_FAILURES,
+    MAX_ORDER,
+    PROBE_FRACTION,
+    PROBE_MAX_RATIO,
+    PROBE_RETRIES,
+    RATE_AFTER_SETUP,
+    RATE_CJ_CHANGED,
+    ROUNDING_FACTOR,
+    ROUNDOFF_ULPS,
+)
+from ..newton import FRESH_RATE_MAX, RATE_MAX, TINY_CORRECTION  # noqa: E402
+#: Unknowns named per recorded jump (the rest are counted).
+JUMP_NAMES = 32
+
+# --- float scalars F[...] ------------------------------------------------------------
+F_T = 0           # current time
+F_H = 1           # next step size
+F_HUSED = 2
+F_CJ = 3
+F_LU_TAG = 5      # cj of the current factorisation (nan: none)
+F_RTOL = 6
+F_MAX_STEP = 7
+F_MIN_STEP = 8
+F_H_MIN = 9       # statistics
+F_H_MAX = 10
+F_FAIL_T = 11
+F_FAIL_H = 12
+F_LAST_CJ_ATTEMPT = 13
+F_H_REQUEST = 15
+F_RESTART_CAP = 16      # the pending restart's step cap
+F_RESTART_FIXED = 17    # 1.0: the pending restart keeps its cap (a given first step)
+F_PENDING_TAG = 18      # tag of the matrix that needs fresh pivots (a_data holds it)
+F_PIVOT_TAG = 19        # tag of the matrix fresh pivoting found singular
+F_PIVOT_THRESHOLD = 20  # relative pivot threshold of the refactorisations
+F_CJLAST = 21           # cj of the previous attempt (Newton's rate guess)
+F_RATE = 22             # Newton's contraction rate, carried from step to step
+F_RL_EPS = 23           # probe step of a pending right-limit request
+N_F = 24
+
+# --- integer scalars I[...] ----------------------------------------------------------
+I_K = 0
+I_KUSED = 1
+I_NS = 2
+I_PHASE = 3
+I_NST = 4
+I_IBP = 5
+I_GROWTH_FAILED = 6
+I_STATUS = 7
+I_STEPS = 8
+I_REJECTED = 9
+I_NEWTON = 10
+I_NEWTON_FAILURES = 11
+I_FACTORIZATIONS = 12
+I_EVALUATIONS = 13
+I_JAC_EVALUATIONS = 14
+I_CJ_CHANGES = 15
+I_RESTARTS = 16
+I_PROBES = 17
+I_MAX_ORDER_USED = 18
+I_M = 19          # records written
+I_FAIL_CODE = 20
+I_FAIL_WORST = 21
+I_MAXORD = 22
+I_NORM = 23
+I_RELREF = 24
+I_MAX_STEPS = 25  # 0: no limit
+I_NRESTART_TIMES = 26
+I_STARTED = 27          # 0: nothing done; 1: running
+I_PENDING_RESTART = 28  # an order-1 restart (with probes) is due before the next step
+I_PIVOTS_FAILED = 29    # fresh pivoting found the matrix tagged F_PIVOT_TAG singular
+I_NJUMPS = 30           # jumps recorded
+I_NSEGMENTS = 31        # segment starts recorded (restarts and jumps)
+I_NEWTON_MAXITER = 32   # Newton iterations per attempt (nonlinear systems)
+I_HAS_ACC = 33          # the families have an accepted limiting state
+I_HAS_TRY = 34          # the families have a trial limiting state (inside a corrector)
+I_RL_READY = 35         # Python has put the requested right limit into rl_given
+I_HAS_ABSDQ = 36        # absdq holds |dq/dx| of a Jacobian evaluation
+I_LINEAR = 37           # 1: a linear system (exact corrector)
+N_I = 38
+
+# statuses
+RUNNING = 0
+FINISHED = 1
+FAILED = 2
+BUFFER_FULL = 3   # the output buffers are full: grow them and call again
+CHUNK_DONE = 4    # the chunk's step budget is used: call again
+NEED_PIVOTS = 5   # a refactorisation met a degraded pivot: choose new pivots for a_data, call again
+NEED_RIGHT_LIMIT = 6  # a nonlinear system's inputs jump: compute x(t+) (F_RL_EPS) into rl_given, call again
+
+# results of _factor
+FACTOR_OK = 0
+FACTOR_SINGULAR = 1
+FACTOR_NEED_PIVOTS = 2
+FACTOR_NEED_RIGHT_LIMIT = 3
+
+# failure codes
+FAIL_NEWTON = 1          # too many Newton (linear-solve) failures
+FAIL_ERROR = 2           # too many error-test failures
+FAIL_MIN_STEP = 3        # step at min_step and still failing
+FAIL_ROUNDOFF = 4        # step below the roundoff of t
+FAIL_PROBE_SINGULAR = 5  # the probe's matrix E/eps - H is singular
+FAIL_PROBE_NONFINITE = 6
+FAIL_MAX_STEPS = 7
+FAIL_START_NONFINITE = 8
+
+# what failed last inside a step (for messages): the names of netdae.dae.newton's INFO_*
+REASON_SINGULAR = 1
+REASON_NONFINITE = 2
+REASON_DIVERGED = 3
+REASON_MAXITER = 4
+REASON_EVALUATION = 5
+
+# Newton outcomes
+NEWTON_CONVERGED = 0
+NEWTON_FAILED = 1
+NEWTON_PIVOTS = 2
+
+# which limiting state an evaluation uses
+STATE_NONE = 0      # evaluate every device at x (no limiting)
+STATE_ACCEPTED = 1  # limit against the last accepted step's voltages
+STATE_TRIAL = 2     # limit against the corrector's previous iterate (and keep the new voltages)
+
+
+@kernel
+def _matvec_add(indptr, indices, data, x, scale, out):
+    """``out += scale * A x`` for the CSC matrix A."""
+    for j in range(x.size):
+        xj = x[j] * scale
+        if xj != 0.0:
+            for p in range(indptr[j], indptr[j + 1]):
+                out[indices[p]] += data[p] * xj
+
+
+@kernel
+def _phi(t, x, sysd, u, out):
+    """``out = H x + B u(t)``."""
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    out[:] = 0.0
+    _matvec_add(indptr, indices, h_data, x, 1.0, out)
+    if skind.size:
+        source_values(skind, spar, spwl_t, spwl_v, spwl_n, t, u)
+        for e in range(b_rows.size):
+            out[b_rows[e]] += b_vals[e] * u[b_cols[e]]
+
+
+@kernel
+def _factor(F, I, tag, eps, dq, dphi, lus, a_data):
+    """Factor ``tag dq - dphi`` (``dq / eps - dphi`` when eps > 0, tag = 1/eps) in the kept pivot order.
+
+    ``dq``, ``dphi``: the values on the pattern (E and H for a linear system, the
+    evaluated Jacobians for a nonlinear one; at least nnz entries).
+    Returns FACTOR_OK, FACTOR_SINGULAR, or FACTOR_NEED_PIVOTS (then ``a_data`` holds the
+    matrix and F_PENDING_TAG its tag: the caller returns NEED_PIVOTS to Python).
+    """
+    if eps > 0.0:
+        for p in range(a_data.size):
+            a_data[p] = dq[p] / eps - dphi[p]
+    else:
+        for p in range(a_data.size):
+            a_data[p] = tag * dq[p] - dphi[p]
+    F[F_LU_TAG] = math.nan
+    if I[I_PIVOTS_FAILED] != 0 and F[F_PIVOT_TAG] == tag:
+        return FACTOR_SINGULAR
+    b_ptr, b_rows_, b_slots, l_ptr, l_rows, u_ptr, u_rows, perm_r, perm_c, l_data, u_data, lwork, swork = lus
+    status = lu_refactor(b_ptr, b_rows_, b_slots, l_ptr, l_rows, u_ptr, u_rows, a_data, l_data, u_data, lwork,
+                         F[F_PIVOT_THRESHOLD])
+    if status == STATUS_OK:
+        I[I_FACTORIZATIONS] += 1
+        F[F_LU_TAG] = tag
+        return FACTOR_OK
+    if status == STATUS_NONFINITE:
+        return FACTOR_SINGULAR
+    F[F_PENDING_TAG] = tag
+    return FACTOR_NEED_PIVOTS
+
+
+@kernel
+def _solve(lus, b):
+    """Solve in place with the current factorisation."""
+    b_ptr, b_rows_, b_slots, l_ptr, l_rows, u_ptr, u_rows, perm_r, perm_c, l_data, u_data, lwork, swork = lus
+    lu_solve(perm_r, perm_c, l_ptr, l_rows, u_ptr, u_rows, l_data, u_data, b, swork)
+
+
+@kernel
+def _worst(v, w):
+    """The unknown with the largest ``|v w|`` (a NaN first)."""
+    best = -1
+    big = -1.0
+    for i in range(v.size):
+        a = abs(v[i] * w[i])
+        if a != a:
+            return i
+        if a > big:
+            big = a
+            best = i
+    return best
+
+
+@kernel
+def _newton_worst(v, w):
+    """The unknown with the largest ``|v w|``, non-finite values counting as infinite (Newton's choice)."""
+    best = -1
+    big = -1.0
+    for i in range(v.size):
+        a = abs(v[i] * w[i])
+        if not math.isfinite(a):
+            a = math.inf
+        if a > big:
+            big = a
+            best = i
+    return best
+
+
+@kernel
+def _nonfinite_worst(qe, phie, n):
+    """The first unknown whose charge or current is not finite (-1: none)."""
+    for i in range(n):
+        if not (math.isfinite(qe[i]) and math.isfinite(phie[i])):
+            return i
+    return -1
+
+
+@kernel
+def _fail(F, I, t, h, code, worst):
+    I[I_STATUS] = FAILED
+    I[I_FAIL_CODE] = code
+    I[I_FAIL_WORST] = worst
+    F[F_FAIL_T] = t
+    F[F_FAIL_H] = h
+
+
+@kernel
+def _restore(P, psi, psi_saved, beta, ns, k):
+    """Undo phase 1 of a failed attempt (IDA's IDARestore): psi and the beta-scaled differences."""
+    psi[:] = psi_saved
+    for i in range(ns, k + 1):
+        for c in range(P.shape[1]):
+            P[i, c] /= beta[i]
+
+
+@kernel
+def _initialise_history(F, I, P, psi, h, xp, qp):
+    """Order-1 history from the derivatives ``xp`` (and, for a nonlinear system, ``qp``)."""
+    n = xp.size
+    P[1:, :] = 0.0
+    for i in range(n):
+        P[1, i] = h * xp[i]
+    if P.shape[1] > n:
+        for i in range(n):
+            P[1, n + i] = h * qp[i]
+    psi[0] = h
+    I[I_K] = 1
+    I[I_KUSED] = 0
+    F[F_HUSED] = 0.0
+    I[I_NS] = 0
+    I[I_PHASE] = 0
+    I[I_NST] = 0
+    F[F_CJ] = 1.0 / h
+    F[F_RATE] = RATE_AFTER_SETUP
+    I[I_GROWTH_FAILED] = 0
+    F[F_H] = h
+
+
+# ------------------------------------------------------------------ device evaluation
+@kernel
+def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian):
+    """One family's kernel with the chosen limiting state; returns its flags."""
+    if par.shape[0] == 0:
+        return 0
+    if state == STATE_NONE:
+        mode = MODE_EVALUATE
+        vold = vacc
+    elif state == STATE_ACCEPTED:
+        mode = MODE_LIMIT
+        vold = vacc
+    else:
+        mode = MODE_LIMIT
+        vold = vtry
+    if ev == 0:
+        flags, bad = eval_diode(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    elif ev == 1:
+        flags, bad = eval_bjt(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    else:
+        flags, bad = eval_mosfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    if keep:
+        vtry[:, :] = vnew
+    return flags
+
+
+@kernel
+def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
+    """``q(x)``, ``phi(x, t)`` and, with ``jacobian``, dq/dx and dphi/dx, into ``evb``.
+
+    ``state`` chooses the families' limiting (``STATE_*``); ``keep`` stores the
+    limited voltages as the trial state. Counts the evaluation. Returns the
+    families' flags (``FLAG_LIMITED``, ``FLAG_NONFINITE``).
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    for i in range(n):
+        xe[i] = x[i]
+    xe[n] = 0.0
+    qe[:] = 0.0
+    _matvec_add(indptr, indices, e_data, x, 1.0, qe)
+    _phi(t, x, sysd, u, phie)
+    if jacobian:
+        nnz = e_data.size
+        for p in range(nnz):
+            dqe[p] = e_data[p]
+            dphie[p] = h_data[p]
+        dqe[nnz] = 0.0
+        dphie[nnz] = 0.0
+    flags = _family(0, d_par, d_idx, d_vacc, d_vtry, d_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(1, b_par, b_idx, b_vacc, b_vtry, b_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(2, m_par, m_idx, m_vacc, m_vtry, m_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    I[I_EVALUATIONS] += 1
+    if jacobian:
+        I[I_JAC_EVALUATIONS] += 1
+        for p in range(absdq.size):
+            absdq[p] = abs(dqe[p])
+        I[I_HAS_ABSDQ] = 1
+    return flags
+
+
+@kernel
+def _accept_state(I, devd):
+    """The trial limiting state becomes the accepted one (after an accepted step)."""
+    (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
+    if I[I_HAS_TRY] != 0:
+        d_vacc[:, :] = d_vtry
+        b_vacc[:, :] = b_vtry
+        m_vacc[:, :] = m_vtry
+        I[I_HAS_ACC] = 1
+
+
+@kernel
+def _reset_trial(I, devd):
+    """The corrector starts from the accepted limiting state."""
+    (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
+    d_vtry[:, :] = d_vacc
+    b_vtry[:, :] = b_vacc
+    m_vtry[:, :] = m_vacc
+    I[I_HAS_TRY] = I[I_HAS_ACC]
+
+
+@kernel
+def _rounding_floor(x, qp, cj, absdq, indptr, indices, lus, signs, w, w_out, b1, b2):
+    """Weights with every tolerance raised to the corrector's rounding level (see
+    :meth:`netdae.dae.bdf.BDF._rounding_weights`): ``w_out`` from ``w``. ``absdq``:
+    ``|dq/dx|`` on the pattern. Returns True when some weight was lowered."""
+    n = x.size
+    b1[:] = 0.0
+    for j in range(n):
+        xj = abs(x[j])
+        if xj != 0.0:
+            for p in range(indptr[j], indptr[j + 1]):
+                b1[indices[p]] += absdq[p] * xj
+    for i in range(n):
+        b1[i] = (b1[i] * cj + abs(qp[i])) * (ROUNDING_FACTOR * EPS)
+        b2[i] = b1[i] * signs[i]
+    _solve(lus, b1)
+    _solve(lus, b2)
+    low = False
+    for i in range(n):
+        floor = max(abs(b1[i]), abs(b2[i]))
+        w_out[i] = w[i]
+        if floor * w[i] > 1.0:
+            w_out[i] = 1.0 / floor
+            low = True
+    return low
+
+
+# ------------------------------------------------------------------ probes and jumps
+@kernel
+def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
+    """x'(t+) into ``xp``, x''(t+) into ``xpp`` by two implicit-Euler steps of size eps.
+
+    Also the right limit ``xr`` (the two steps extrapolated to eps = 0), the second
+    step's value ``x2``, ``q'(t+)`` into ``qpb`` (nonlinear systems) and, in ``wf``,
+    the weights raised to the probe's rounding level.
+    Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    atol, mask, high, xmax, w, w_err, signs = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    linear = I[I_LINEAR] != 0
+    I[I_PROBES] += 1
+    state = STATE_ACCEPTED if I[I_HAS_ACC] != 0 else STATE_NONE
+    if linear:
+        I[I_EVALUATIONS] += 1
+        I[I_JAC_EVALUATIONS] += 1
+        _phi(t + eps, x, sysd, u, xp)
+        for i in range(n):
+            if not math.isfinite(xp[i]):
+                _fail(F, I, t, eps, FAIL_PROBE_NONFINITE, i)
+                return FACTOR_SINGULAR
+    else:
+        flags = _evaluate(I, t + eps, x, state, False, True, sysd, devd, u, evb)
+        bad = -1
+        for i in range(n):
+            xp[i] = phie[i]
+            if bad < 0 and not math.isfinite(phie[i]):
+                bad = i
+        if flags & FLAG_NONFINITE or bad >= 0:
+            if bad < 0:
+                bad = _nonfinite_worst(qe, phie, n)
+            _fail(F, I, t, eps, FAIL_PROBE_NONFINITE, bad)
+            return FACTOR_SINGULAR
+    rc = FACTOR_OK
+    if linear:
+        if F[F_LU_TAG] != 1.0 / eps:
+            rc = _factor(F, I, 1.0 / eps, eps, e_data, h_data, lus, a_data)
+    else:
+        rc = _factor(F, I, 1.0 / eps, eps, dqe, dphie, lus, a_data)
+    if rc == FACTOR_NEED_PIVOTS:
+        I[I_PROBES] -= 1  # it will be repeated
+        I[I_EVALUATIONS] -= 1
+        I[I_JAC_EVALUATIONS] -= 1
+        return rc
+    if rc == FACTOR_SINGULAR:
+        _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
+        return rc
+    for i in range(n):
+        x2[i] = xp[i]  # phi(x, t + eps), for the rounding floor
+        qpb[i] = xp[i]
+    _solve(lus, xp)
+    for i in range(n):
+        xp[i] /= eps
+        work[i] = x[i] + eps * xp[i]
+    ok1 = True
+    if linear:
+        I[I_EVALUATIONS] += 1
+        _phi(t + 2.0 * eps, work, sysd, u, xpp)
+    else:
+        flags = _evaluate(I, t + 2.0 * eps, work, state, False, False, sysd, devd, u, evb)
+        ok1 = (flags & FLAG_NONFINITE) == 0
+        for i in range(n):
+            xpp[i] = phie[i]
+    if ok1:
+        _solve(lus, xpp)
+    else:
+        for i in range(n):
+            xpp[i] = xp[i] * eps
+    _rounding_floor(x, x2, 1.0 / eps, absdq, indptr, indices, lus, signs, w, wf, b1, b2)
+    for i in range(n):
+        xp1 = xpp[i] / eps
+        xr[i] = work[i] - eps * xp1
+        x2[i] = work[i] + eps * xp1
+        xpp[i] = (xp1 - xp[i]) / eps
+        if not (math.isfinite(xp[i]) and math.isfinite(xpp[i])):
+            _fail(F, I, t, eps, FAIL_PROBE_SINGULAR, -1)
+            return FACTOR_SINGULAR
+        if high[i]:
+            xp[i] = 0.0
+            xpp[i] = 0.0
+    return FACTOR_OK
+
+
+@kernel
+def _record(I, t, k, x, rec):
+    save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times = rec
+    m = I[I_M]
+    buf_t[m] = t
+    buf_k[m] = k
+    for c in range(save.size):
+        buf_x[m, c] = x[save[c]]
+    I[I_M] = m + 1
+
+
+@kernel
+def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, evb, ws, rec):
+    """Continue from the right limit where it differs from ``x`` (see ``BDF._jump``).
+
+    Returns -1 when nothing jumped, else 1 when an unknown that is not index 2 jumped (the
+    inputs' values jumped or the start was inconsistent: the derivatives must be probed
+    again), 0 when only index-2 unknowns did, or FACTOR_NEED_RIGHT_LIMIT when a nonlinear
+    system's right limit must be computed by Python first (``F_RL_EPS``; it comes back in
+    ``rl_given``). On a jump ``x`` becomes the right limit, which is recorded a second time
+    at ``t`` and starts a new segment.
+    """
+    atol, mask, high, xmax, w, w_err, signs = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times = rec
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    big = 0.0
+    value_jump = False
+    for i in range(n):
+        m = abs(xr[i] - x[i]) * wf[i]
+        if m > big or m != m:
+            big = m
+        if m > JUMP_DETECT and not high[i]:
+            value_jump = True
+    if not (big > JUMP_DETECT):
+        return -1
+    if value_jump:
+        if I[I_LINEAR] != 0:
+            # an input value jumped: the index-2 unknowns carry an impulse in the first probe
+            # step, their right limit is the value after the second
+            for i in range(n):
+                if high[i]:
+                    xr[i] = x2[i]
+        else:
+            # a nonlinear system: converged implicit-Euler steps from Python's steady solver
+            if I[I_RL_READY] == 0:
+                F[F_RL_EPS] = eps
+                return FACTOR_NEED_RIGHT_LIMIT
+            I[I_RL_READY] = 0
+            for i in range(n):
+                xr[i] = rl_given[i]
+    j = I[I_NJUMPS]
+    jump_t[j] = t
+    count = 0
+    for i in range(n):
+        if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
+            if count < JUMP_NAMES:
+                jump_idx[j, count] = i
+            count += 1
+    jump_count[j] = count
+    I[I_NJUMPS] = j + 1
+    for i in range(n):
+        x[i] = xr[i]
+        P[0, i] = xr[i]
+    if I[I_LINEAR] == 0:
+        state = STATE_ACCEPTED if I[I_HAS_ACC] != 0 else STATE_NONE
+        _evaluate(I, t, x, state, False, False, sysd, devd, u, evb)
+        for i in range(n):
+            P[0, n + i] = qe[i]
+    set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
+    _record(I, t, 0, x, rec)
+    segments[I[I_NSEGMENTS]] = I[I_M] - 1
+    I[I_NSEGMENTS] += 1
+    return 1 if value_jump else 0
+
+
+@kernel
+def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, rec):
+    """Probe the derivatives at (t, x), continue from the right limit where the solution
+    jumps, and start at order 1 with a step <= cap (returns as _probe, or
+    FACTOR_NEED_RIGHT_LIMIT)."""
+    atol, mask, high, xmax, w, w_err, signs = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    h = cap
+    checked = False
+    retries = 0
+    while True:
+        eps = PROBE_FRACTION * h
+        rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws)
+        if rc != FACTOR_OK:
+            return rc
+        if not checked:
+            checked = True
+            again = _jump(F, I, t, x, eps, P, F[F_RTOL], tol, sysd, devd, evb, ws, rec)
+            if again == FACTOR_NEED_RIGHT_LIMIT:
+                I[I_PROBES] -= 1  # repeated when Python returns the right limit
+                I[I_EVALUATIONS] -= 2
+                I[I_JAC_EVALUATIONS] -= 1
+                return again
+            if again == 1:
+                continue  # derivatives from the right limit
+        if fixed:
+            break
+        curv = weighted_norm(xpp, w_err, I[I_NORM])
+        if curv * cap * cap <= 2.0 * H0_ERROR_TARGET:
+            h_new = cap
+        else:
+            h_new = math.sqrt(2.0 * H0_ERROR_TARGET / curv)
+        h_new = max(h_new, F[F_MIN_STEP])
+        converged = eps <= PROBE_MAX_RATIO * h_new
+        h = h_new
+        retries += 1
+        if converged or retries >= PROBE_RETRIES:
+            break
+    _initialise_history(F, I, P, psi, h, xp, qpb)
+    return FACTOR_OK
+
+
+# ------------------------------------------------------------------ the nonlinear corrector
+@kernel
+def _residual(F, I, t_new, cj, x, jacobian, q_pred, qp_pred, sysd, devd, u, evb, r):
+    """``r = cj (q(x) - q_pred) + q'_pred - phi(x, t_new)`` with the trial limiting state."""
+    xe, qe, phie, dqe, dphie, absdq = evb
+    state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
+    flags = _evaluate(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
+    I[I_HAS_TRY] = 1
+    for i in range(x.size):
+        r[i] = cj * (qe[i] - q_pred[i]) + qp_pred[i] - phie[i]
+    return flags
+
+
+@kernel
+def _newton(F, I, t_new, cj, setup, x_pred, q_pred, qp_pred, weights, sysd, devd, lus, u, evb, x, d, r):
+    """Modified Newton on the corrector (:func:`netdae.dae.newton.newton` with
+    ``jacobian="first"`` when ``setup``, else ``"never"`` with IDA's ``cj`` scaling).
+
+    ``x`` holds the iterate on return. Returns ``(outcome, reason, worst, iterations, rate)``
+    with outcome ``NEWTON_*`` and reason ``REASON_*`` (0 when converged).
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    norm = I[I_NORM]
+    maxiter = I[I_NEWTON_MAXITER]
+    if setup:
+        rate = RATE_AFTER_SETUP
+        scale = 1.0
+    else:
+        rate = RATE_CJ_CHANGED if cj != F[F_CJLAST] else F[F_RATE]
+        scale = 2.0 / (1.0 + cj / F[F_LU_TAG])
+    ss = rate / (1.0 - rate)
+    rate_out = rate
+    old = 0.0
+    have_d = False
+    for i in range(n):
+        x[i] = x_pred[i]
+    need = setup
+    flags = _residual(F, I, t_new, cj, x, need, q_pred, qp_pred, sysd, devd, u, evb, r)
+    for m in range(maxiter):
+        if flags & FLAG_NONFINITE:
+            worst = _nonfinite_worst(qe, phie, n)
+            if worst < 0 and have_d:
+                worst = _newton_worst(d, weights)
+            return NEWTON_FAILED, REASON_EVALUATION, worst, m, rate_out
+        if need:
+            rc = _factor(F, I, cj, 0.0, dqe, dphie, lus, a_data)
+            if rc == FACTOR_NEED_PIVOTS:
+                return NEWTON_PIVOTS, 0, -1, m, rate_out
+            if rc == FACTOR_SINGULAR:
+                return NEWTON_FAILED, REASON_SINGULAR, -1, m, rate_out
+        for i in range(n):
+            d[i] = r[i]
+        _solve(lus, d)
+        if scale != 1.0:
+            for i in range(n):
+                d[i] *= scale
+        have_d = True
+        dn = weighted_norm(d, weights, norm)
+        finite = math.isfinite(dn)
+        for i in range(n):
+            if not math.isfinite(d[i]):
+                finite = False
+        if not finite:
+            return NEWTON_FAILED, REASON_NONFINITE, _newton_worst(d, weights), m + 1, rate_out
+        trusted = True
+        done = dn <= TINY_CORRECTION * EPCON
+        if m == 0:
+            old = dn
+        elif not done:
+            rho = (dn / old) ** (1.0 / m) if old > 0.0 else 0.0
+            if rho > RATE_MAX:
+                for i in range(n):
+                    x[i] -= d[i]
+                return NEWTON_FAILED, REASON_DIVERGED, _newton_worst(d, weights), m + 1, rho
+            rate_out = rho
+            ss = rho / (1.0 - rho)
+            trusted = (not setup) or rho <= FRESH_RATE_MAX
+        for i in range(n):
+            x[i] -= d[i]
+        limited = (flags & FLAG_LIMITED) != 0
+        if not limited and (done or (trusted and ss * dn <= EPCON)):
+            return NEWTON_CONVERGED, 0, _newton_worst(d, weights), m + 1, rate_out
+        need = False
+        if m + 1 < maxiter:
+            flags = _residual(F, I, t_new, cj, x, False, q_pred, qp_pred, sysd, devd, u, evb, r)
+    return NEWTON_FAILED, REASON_MAXITER, _newton_worst(d, weights), maxiter, rate_out
+
+
+@kernel
+def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol, sysd, devd, lus, evb, ws, rec,
+        max_chunk_steps):
+    """Advance the integration until it finishes, fails, fills the buffers or uses the chunk.
+
+    Parameters
+    ----------
+    tol : tuple
+        ``(atol, mask, high, xmax, w, w_err, signs)``: absolute tolerances, the
+        error-test mask and index-2 flags, the largest values so far, the weights,
+        the rounding floor's fixed signs.
+    sysd : tuple
+        The system's linear part: ``(indptr, indices, e_data, h_data, a_data, b_rows,
+        b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it,
+        the work values of the Newton matrix, B in COO, the packed sources).
+    devd : tuple
+        The device families, ``(par, idx, vacc, vtry, vnew)`` each for diodes, BJTs and
+        MOSFETs (empty arrays for an absent family).
+    lus : tuple
+        The LU: the plan's arrays (:meth:`netdae.dae.compiled.lu.LuPlan.refactor_args`,
+        ``perm_r``, ``perm_c``), the factors' values and two work vectors.
+    evb : tuple
+        Evaluation buffers ``(xe, qe, phie, dqe, dphie, absdq)`` (n + 1 and nnz + 1).
+    ws : tuple
+        Work vectors ``(u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given)``.
+    rec : tuple
+        The output: ``(save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments,
+        restart_times)``.
+
+    Returns
+    -------
+    int
+        A status code of this module (RUNNING is never returned).
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    atol, mask, high, xmax, w, w_err, signs = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times = rec
+    xe, qe, phie, dqe, dphie, absdq = evb
+    width = P.shape[1]
+    n = atol.size
+    linear = I[I_LINEAR] != 0
+    maxord = I[I_MAXORD]
+    ee = np.empty(width)
+    pred0 = np.empty(width)
+    pred1 = np.empty(width)
+    r = np.empty(n)
+    d = np.empty(n)
+    xn = np.empty(n)
+    w_newton = np.empty(n)
+    w_se = np.empty(n)
+    rtol = F[F_RTOL]
+    norm = I[I_NORM]
+
+    if I[I_STARTED] == 0:
+        I[I_STARTED] = 1
+        # the record at t0, then the start: an order-1 restart with probed derivatives
+        _record(I, F[F_T], 0, P[0], rec)
+        cap = min(H0_FRACTION * (bps[0] - F[F_T]), F[F_MAX_STEP])
+        I[I_PENDING_RESTART] = 1
+        F[F_RESTART_FIXED] = 1.0 if first_step > 0.0 else 0.0
+        F[F_RESTART_CAP] = first_step if first_step > 0.0 else cap
+
+    chunk = 0
+    while I[I_STATUS] == RUNNING:
+        if I[I_PENDING_RESTART] != 0:
+            if I[I_M] + 1 >= buf_t.size:
+                return BUFFER_FULL  # a jump records a second point
+            x = P[0, :n].copy()
+            rc = _restart_at(F, I, P, psi, F[F_T], x, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, tol,
+                             sysd, devd, lus, evb, ws, rec)
+            if rc == FACTOR_NEED_PIVOTS:
+                return NEED_PIVOTS
+            if rc == FACTOR_NEED_RIGHT_LIMIT:
+                return NEED_RIGHT_LIMIT
+            if rc != FACTOR_OK:
+                return I[I_STATUS]
+            I[I_PENDING_RESTART] = 0
+        if I[I_M] >= buf_t.size:
+            return BUFFER_FULL
+        if chunk >= max_chunk_steps:
+            return CHUNK_DONE
+        chunk += 1
+        # ---------------------------------------------------------------- one step
+        ncf = 0
+        nef = 0
+        t = F[F_T]
+        h = F[F_H]
+        accepted = False
+        reason = 0
+        knew = 0
+        err_k = 0.0
+        err_km1 = 0.0
+        landing = False
+        t_new = t
+        while True:
+            F[F_H_REQUEST] = h
+            ibp = I[I_IBP]
+            h, landing = landing_step(min(h, F[F_MAX_STEP]), bps[ibp] - t, BREAKPOINT_STRETCH, True)
+            # phase 1: coefficients (IDASetCoeffs)
+            k = I[I_K]
+            if h != F[F_HUSED] or k != I[I_KUSED]:
+                I[I_NS] = 0
+            I[I_NS] = min(I[I_NS] + 1, I[I_KUSED] + 2)
+            ns = I[I_NS]
+            psi_saved[:] = psi
+            cj, ck = flc_coefficients(h, k, psi_saved, psi, alpha, beta, gamma, sigma)
+            F[F_CJLAST] = F[F_CJ]
+            F[F_CJ] = cj
+            if ns <= k:
+                for i in range(ns, k + 1):
+                    for c in range(width):
+                        P[i, c] *= beta[i]
+            t_new = bps[ibp] if landing else t + h
+            # phase 2: predict
+            for c in range(width):
+                s = 0.0
+                sp = 0.0
+                for i in range(k + 1):
+                    s += P[i, c]
+                    sp += gamma[i] * P[i, c]
+                pred0[c] = s
+                pred1[c] = sp
+            cj_counted = cj != F[F_LAST_CJ_ATTEMPT]
+            if cj_counted:
+                I[I_CJ_CHANGES] += 1
+                F[F_LAST_CJ_ATTEMPT] = cj
+            # phase 3: the corrector
+            kind = 0  # 0 accepted, 1 newton failure, 2 error failure
+            worst = -1
+            pivots = False
+            w_step = w_err
+            if linear:
+                rc = FACTOR_OK
+                if F[F_LU_TAG] != cj:
+                    rc = _factor(F, I, cj, 0.0, e_data, h_data, lus, a_data)
+                if rc == FACTOR_NEED_PIVOTS:
+                    pivots = True
+                elif rc == FACTOR_SINGULAR:
+                    kind = 1
+                    reason = REASON_SINGULAR
+                else:
+                    # one exact solve: r = E xp_pred - H x_pred - B u(t_new)
+                    _phi(t_new, pred0, sysd, u, r)
+                    for c in range(n):
+                        r[c] = -r[c]
+                    _matvec_add(indptr, indices, e_data, pred1, 1.0, r)
+                    _solve(lus, r)
+                    I[I_EVALUATIONS] += 1
+                    I[I_NEWTON] += 1
+                    for c in range(n):
+                        ee[c] = -r[c]
+            else:
+                q_pred = pred0[n:]
+                qp_pred = pred1[n:]
+                _reset_trial(I, devd)
+                ready = not math.isnan(F[F_LU_TAG])
+                setup = (not ready) or I[I_NST] == 0
+                if not setup:
+                    ratio = cj / F[F_LU_TAG]
+                    setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
+                w_nt = w
+                if I[I_HAS_ABSDQ] != 0 and ready:
+                    if _rounding_floor(pred0[:n], qp_pred, cj, absdq, indptr, indices, lus, signs, w, w_newton,
+                                       b1, b2):
+                        w_nt = w_newton
+                        for i in range(n):
+                            w_se[i] = min(w_err[i], w_newton[i]) if w_newton[i] != w[i] else w_err[i]
+                        w_step = w_se
+                outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, setup, pred0, q_pred, qp_pred, w_nt,
+                                                            sysd, devd, lus, u, evb, xn, d, r)
+                if outcome == NEWTON_FAILED and not setup and reason != REASON_EVALUATION:
+                    # stale Jacobian: retry once with a fresh one at the same step size
+                    I[I_NEWTON_FAILURES] += 1
+                    I[I_NEWTON] += its
+                    _reset_trial(I, devd)
+                    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, True, pred0, q_pred, qp_pred,
+                                                                w_nt, sysd, devd, lus, u, evb, xn, d, r)
+                I[I_NEWTON] += its
+                if outcome == NEWTON_PIVOTS:
+                    pivots = True
+                elif outcome == NEWTON_FAILED:
+                    kind = 1
+                else:
+                    F[F_RATE] = rate
+                    # the charges at the new point, evaluated exactly (no limiting): the
+                    # history must hold q(x_new) itself
+                    flags = _evaluate(I, t_new, xn, STATE_NONE, False, False, sysd, devd, u, evb)
+                    if flags & FLAG_NONFINITE:
+                        kind = 1
+                        reason = REASON_EVALUATION
+                        worst = _nonfinite_worst(qe, phie, n)
+                    else:
+                        for c in range(n):
+                            ee[c] = xn[c] - pred0[c]
+                            ee[n + c] = qe[c] - q_pred[c]
+            if pivots:
+                # undo phase 1 and return for new pivots; the attempt is repeated on the next call
+                _restore(P, psi, psi_saved, beta, ns, k)
+                F[F_CJ] = F[F_CJLAST]
+                F[F_H] = h
+                if cj_counted:  # counted again when the attempt is repeated
+                    I[I_CJ_CHANGES] -= 1
+                    F[F_LAST_CJ_ATTEMPT] = math.nan
+                return NEED_PIVOTS
+            if kind == 0:
+                # phase 4: error test (IDATestError)
+                e0, e1, e2 = error_norms(ee, P, k, w_step, norm, n)
+                err_k = sigma[k] * e0
+                terr_k = (k + 1) * err_k
+                knew = k
+                err_km1 = 0.0
+                if k > 1:
+                    err_km1 = sigma[k - 1] * e1
+                    terr_km1 = k * err_km1
+                    if k > 2:
+                        terr_km2 = (k - 1) * sigma[k - 2] * e2
+                        if max(terr_km1, terr_km2) <= terr_k:
+                            knew = k - 1
+                    elif terr_km1 <= 0.5 * terr_k:
+                        knew = k - 1
+                if ck * e0 <= 1.0:
+                    accepted = True
+                elif not math.isfinite(e0):
+                    kind = 1
+                    reason = REASON_NONFINITE
+                    worst = _worst(ee[:n], w)
+                else:
+                    kind = 2
+                    worst = _worst(ee[:n], w_err)
+                    if worst >= 0 and w_err[worst] == 0.0:
+                        worst = _worst(ee[:n], w)
+            if accepted:
+                break
+            _restore(P, psi, psi_saved, beta, ns, k)
+            I[I_PHASE] = 1
+            if kind == 1:
+                ncf += 1
+                I[I_NEWTON_FAILURES] += 1
+                if ncf >= MAX_NEWTON_FAILURES:
+                    _fail(F, I, t, h, FAIL_NEWTON * 16 + reason, worst)
+                    return FAILED
+                eta = ETA_NEWTON_FAIL
+            else:
+                nef += 1
+                I[I_REJECTED] += 1
+                if h > F[F_HUSED]:
+                    I[I_GROWTH_FAILED] = 1
+                if nef >= MAX_ERROR_FAILURES:
+                    _fail(F, I, t, h, FAIL_ERROR * 16, worst)
+                    return FAILED
+                if nef == 1:
+                    err_knew = err_k if knew == k else err_km1
+                    I[I_K] = knew
+                    eta = ETA_SAFETY * (2.0 * err_knew + ERROR_FLOOR) ** (-1.0 / (knew + 1))
+                    eta = max(ETA_ERROR_FAIL_MIN, min(ETA_SHRINK_MAX, eta))
+                else:
+                    I[I_K] = knew if nef == 2 else 1
+                    eta = ETA_ERROR_FAIL_MIN
+            # reduced step
+            h_new = h * eta
+            code = kind * 16 + (reason if kind == 1 else 0)
+            if h_new < F[F_MIN_STEP]:
+                if h > F[F_MIN_STEP] * (1.0 + 1e-12):
+                    h_new = F[F_MIN_STEP]
+                else:
+                    _fail(F, I, t, h, FAIL_MIN_STEP * 256 + code, worst)
+                    return FAILED
+            elif h_new <= ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)) or t + h_new == t:
+                _fail(F, I, t, h, FAIL_ROUNDOFF * 256 + code, worst)
+                return FAILED
+            if I[I_NST] == 0:
+                psi[0] = h_new
+                for c in range(width):
+                    P[1, c] *= h_new / h
+            h = h_new
+        # phase 5: complete the step (IDACompleteStep)
+        retried = ncf + nef > 0
+        k = I[I_K]
+        I[I_NST] += 1
+        I[I_STEPS] += 1
+        if h < F[F_H_MIN]:
+            F[F_H_MIN] = h
+        if h > F[F_H_MAX]:
+            F[F_H_MAX] = h
+        if k > I[I_MAX_ORDER_USED]:
+            I[I_MAX_ORDER_USED] = k
+        kdiff = k - I[I_KUSED]
+        I[I_KUSED] = k
+        F[F_HUSED] = h
+        # order and step selection
+        if knew == k - 1 or k == maxord:
+            I[I_PHASE] = 1
+        if I[I_PHASE] == 0:
+            if I[I_NST] > 1:
+                I[I_K] = k + 1
+                eta = 2.0
+            else:
+                eta = 1.0
+        else:
+            err_new = err_k
+            if knew == k - 1:
+                I[I_K] = k - 1
+                err_new = err_km1
+            elif k < maxord and I[I_NS] >= k + 2 and kdiff != 1:
+                for c in range(n):
+                    work[c] = ee[c] - P[k + 1, c]
+                err_kp1 = weighted_norm(work, w_err, norm) / (k + 2)
+                terr_k = (k + 1) * err_k
+                terr_kp1 = (k + 2) * err_kp1
+                if k == 1:
+                    if terr_kp1 < 0.5 * terr_k:
+                        I[I_K] = 2
+                        err_new = err_kp1
+                elif k * err_km1 <= min(terr_k, terr_kp1):
+                    I[I_K] = k - 1
+                    err_new = err_km1
+                elif terr_kp1 < terr_k:
+                    I[I_K] = k + 1
+                    err_new = err_kp1
+            tmp = (2.0 * err_new + ERROR_FLOOR) ** (-1.0 / (I[I_K] + 1))
+            if tmp >= ETA_GROW_MIN:
+                eta = min(tmp, ETA_GROW_MAX)
+            elif tmp <= 1.0:
+                eta = max(ETA_SHRINK_MIN, min(tmp, ETA_SHRINK_MAX))
+            else:
+                eta = 1.0
+        if eta > 1.0:
+            if retried or (I[I_GROWTH_FAILED] != 0 and I[I_NS] < k + 2):
+                eta = 1.0
+            else:
+                I[I_GROWTH_FAILED] = 0
+        update_differences(P, ee, k, maxord)
+        F[F_T] = t_new
+        if not linear:
+            _accept_state(I, devd)
+        set_weights(P[0, :n], rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
+        _record(I, t_new, k, P[0], rec)
+        F[F_H] = max(min(h * eta, F[F_MAX_STEP]), F[F_MIN_STEP])
+        if landing and I[I_IBP] == bps.size - 1:
+            I[I_STATUS] = FINISHED
+            return FINISHED
+        if I[I_MAX_STEPS] > 0 and I[I_STEPS] >= I[I_MAX_STEPS]:
+            _fail(F, I, t_new, F[F_H], FAIL_MAX_STEPS * 256, -1)
+            return FAILED
+        if landing:
+            I[I_IBP] += 1
+            # order-1 restart on the breakpoint with probed derivatives
+            I[I_RESTARTS] += 1
+            restart_times[I[I_NRESTART_TIMES]] = t_new
+            I[I_NRESTART_TIMES] += 1
+            h_last = max(h, F[F_H_REQUEST])
+            F[F_RESTART_CAP] = max(min(h_last, F[F_MAX_STEP], bps[I[I_IBP]] - t_new), F[F_MIN_STEP])
+            F[F_RESTART_FIXED] = 0.0
+            I[I_PENDING_RESTART] = 1
+            segments[I[I_NSEGMENTS]] = I[I_M] - 1
+            I[I_NSEGMENTS] += 1
+    return I[I_STATUS]
