@@ -46,7 +46,7 @@ from typing import Callable, Mapping
 
 import numba
 
-__all__ = ["CACHE_DIR", "choose_cache_dir", "kernel"]
+__all__ = ["CACHE_DIR", "choose_cache_dir", "kernel", "allocating_kernel"]
 
 #: numba's environment variable for its cache directory.
 CACHE_ENV = "NUMBA_CACHE_DIR"
@@ -120,9 +120,19 @@ CACHE_DIR = _configure()
 
 
 def kernel(fn: Callable) -> Callable:
-    """Compile ``fn`` as a netdae kernel: ``numba.njit`` with the disk cache.
+    """Compile ``fn`` as a netdae kernel: ``numba.njit`` with the disk cache, no reference counting.
 
     numpy's error model (``x / 0.0`` is inf or nan, not an exception); no
-    fastmath (IEEE semantics kept).
+    fastmath (IEEE semantics kept). Compiled without numba's runtime
+    (``_nrt=False``): a kernel must not allocate (no ``np.empty``, no
+    ``.copy()``: the caller passes work arrays), and in exchange no array
+    passed, unpacked from a tuple or sliced costs a reference-count update
+    (a call, and an atomic instruction for each release, on every array at
+    every call boundary).
     """
-    return numba.njit(fn, cache=CACHE_DIR is not None, error_model="numpy")
+    return numba.njit(_nrt=False, cache=CACHE_DIR is not None, error_model="numpy")(fn)
+
+
+def allocating_kernel(fn: Callable) -> Callable:
+    """As :func:`kernel`, with numba's runtime: for the few kernels that allocate (run once, not per step)."""
+    return numba.njit(cache=CACHE_DIR is not None, error_model="numpy")(fn)

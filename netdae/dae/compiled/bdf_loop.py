@@ -300,9 +300,18 @@ def _fail(F, I, t, h, code, worst):
 
 
 @kernel
+def _copy2(dst, src):
+    """``dst[:, :] = src`` for two 2-D arrays of one shape (no temporary, so no allocation)."""
+    for i in range(dst.shape[0]):
+        for j in range(dst.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+@kernel
 def _restore(P, psi, psi_saved, beta, ns, k):
     """Undo phase 1 of a failed attempt (IDA's IDARestore): psi and the beta-scaled differences."""
-    psi[:] = psi_saved
+    for i in range(psi.size):
+        psi[i] = psi_saved[i]
     for i in range(ns, k + 1):
         for c in range(P.shape[1]):
             P[i, c] /= beta[i]
@@ -353,7 +362,7 @@ def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphi
     else:
         flags, bad = eval_mosfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     if keep:
-        vtry[:, :] = vnew
+        _copy2(vtry, vnew)
     return flags
 
 
@@ -401,9 +410,9 @@ def _accept_state(I, devd):
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
     if I[I_HAS_TRY] != 0:
-        d_vacc[:, :] = d_vtry
-        b_vacc[:, :] = b_vtry
-        m_vacc[:, :] = m_vtry
+        _copy2(d_vacc, d_vtry)
+        _copy2(b_vacc, b_vtry)
+        _copy2(m_vacc, m_vtry)
         I[I_HAS_ACC] = 1
 
 
@@ -412,9 +421,9 @@ def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
-    d_vtry[:, :] = d_vacc
-    b_vtry[:, :] = b_vacc
-    m_vtry[:, :] = m_vacc
+    _copy2(d_vtry, d_vacc)
+    _copy2(b_vtry, b_vacc)
+    _copy2(m_vtry, m_vacc)
     I[I_HAS_TRY] = I[I_HAS_ACC]
 
 
@@ -743,8 +752,8 @@ def _newton(F, I, t_new, cj, setup, x_pred, q_pred, qp_pred, weights, sysd, devd
 
 
 @kernel
-def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol, sysd, devd, lus, evb, ws, rec,
-        max_chunk_steps):
+def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol, sysd, devd, lus, evb, ws, wk,
+        rec, max_chunk_steps):
     """Advance the integration until it finishes, fails, fills the buffers or uses the chunk.
 
     Parameters
@@ -767,6 +776,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         Evaluation buffers ``(xe, qe, phie, dqe, dphie, absdq)`` (n + 1 and nnz + 1).
     ws : tuple
         Work vectors ``(u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given)``.
+    wk : tuple
+        The step's work vectors ``(ee, pred0, pred1, r, d, xn, w_newton, w_se, xs)``
+        (the first three of the history's width, the others n).
     rec : tuple
         The output: ``(save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments,
         restart_times)``.
@@ -785,14 +797,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     n = atol.size
     linear = I[I_LINEAR] != 0
     maxord = I[I_MAXORD]
-    ee = np.empty(width)
-    pred0 = np.empty(width)
-    pred1 = np.empty(width)
-    r = np.empty(n)
-    d = np.empty(n)
-    xn = np.empty(n)
-    w_newton = np.empty(n)
-    w_se = np.empty(n)
+    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs = wk
     rtol = F[F_RTOL]
     norm = I[I_NORM]
 
@@ -810,8 +815,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         if I[I_PENDING_RESTART] != 0:
             if I[I_M] + 1 >= buf_t.size:
                 return BUFFER_FULL  # a jump records a second point
-            x = P[0, :n].copy()
-            rc = _restart_at(F, I, P, psi, F[F_T], x, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, tol,
+            for i in range(n):
+                xs[i] = P[0, i]
+            rc = _restart_at(F, I, P, psi, F[F_T], xs, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, tol,
                              sysd, devd, lus, evb, ws, rec)
             if rc == FACTOR_NEED_PIVOTS:
                 return NEED_PIVOTS
@@ -847,7 +853,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 I[I_NS] = 0
             I[I_NS] = min(I[I_NS] + 1, I[I_KUSED] + 2)
             ns = I[I_NS]
-            psi_saved[:] = psi
+            for i in range(psi.size):
+                psi_saved[i] = psi[i]
             cj, ck = flc_coefficients(h, k, psi_saved, psi, alpha, beta, gamma, sigma)
             F[F_CJLAST] = F[F_CJ]
             F[F_CJ] = cj

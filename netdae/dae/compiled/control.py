@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from . import kernel
 
 __all__ = ["flc_coefficients", "weighted_norm", "error_norms", "update_differences", "landing_step",
            "set_weights", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED"]
@@ -30,7 +30,7 @@ RELREF_MIXED = 2
 MIXED_FLOOR = 0.1
 
 
-@njit(cache=True)
+@kernel
 def flc_coefficients(h, k, psi_old, psi, alpha, beta, gamma, sigma):
     """Coefficients of a step of size ``h`` and order ``k`` (IDA's IDASetCoeffs).
 
@@ -66,7 +66,7 @@ def flc_coefficients(h, k, psi_old, psi, alpha, beta, gamma, sigma):
     return -alpha_s / h, ck
 
 
-@njit(cache=True)
+@kernel
 def weighted_norm(v, w, kind):
     """Weighted RMS (``kind`` 0) or maximum (1) norm of ``v * w``."""
     n = v.size
@@ -88,7 +88,7 @@ def weighted_norm(v, w, kind):
     return math.sqrt(s / n)
 
 
-@njit(cache=True)
+@kernel
 def _norm_sum(ee, P, rows_from, k, w, kind, n):
     """Norm of ``ee + sum_{i=rows_from}^{k} P[i, :n]`` weighted by w."""
     s = 0.0
@@ -111,7 +111,7 @@ def _norm_sum(ee, P, rows_from, k, w, kind, n):
     return math.sqrt(s / n) if n else 0.0
 
 
-@njit(cache=True)
+@kernel
 def error_norms(ee, P, k, w, kind, n):
     """``|ee|``, ``|ee + P[k]|``, ``|ee + P[k] + P[k-1]|`` (as far as k allows; else 0).
 
@@ -124,7 +124,7 @@ def error_norms(ee, P, k, w, kind, n):
     return e0, e1, e2
 
 
-@njit(cache=True)
+@kernel
 def update_differences(P, ee, k, maxord):
     """After an accepted step: ``P[k+1] = ee`` and ``P[j] <- ee + sum_{i=j}^{k} P[i]``, in place."""
     m = ee.size
@@ -138,7 +138,7 @@ def update_differences(P, ee, k, maxord):
             P[j, c] = acc
 
 
-@njit(cache=True)
+@kernel
 def landing_step(h, remaining, stretch, split):
     """Step that lands on a breakpoint ``remaining`` ahead without a sliver: (h, lands)."""
     if h * (1.0 + stretch) >= remaining:
@@ -148,7 +148,7 @@ def landing_step(h, remaining, stretch, split):
     return h, False
 
 
-@njit(cache=True)
+@kernel
 def set_weights(x, rtol, atol, relref, xmax, mask, w, w_err):
     """Error weights ``1 / (rtol |x|_ref + atol)``; ``w_err = w * mask`` (index-2 unknowns out)."""
     for i in range(x.size):

@@ -196,6 +196,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     rl_given = np.zeros(n)
     # u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given
     ws = (np.zeros(skind.size), *(np.zeros(n) for _ in range(9)), rl_given)
+    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs
+    wk = (*(np.zeros(P.shape[1]) for _ in range(3)), *(np.zeros(n) for _ in range(6)))
     # the first pivot order: of the first probe's matrix dq/dx / eps - dphi/dx (any degraded
     # pivot later sends the loop back here for a new one)
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
@@ -239,7 +241,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
             tic = time.perf_counter()
             rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times)
             status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd, devd,
-                           lus(), evb, ws, rec, chunk)
+                           lus(), evb, ws, wk, rec, chunk)
             if status == L.NEED_PIVOTS:
                 # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume
                 if lu.factor(a_data):

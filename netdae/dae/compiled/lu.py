@@ -71,7 +71,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ..sparse import SparsePattern
-from . import kernel
+from . import allocating_kernel, kernel
 
 __all__ = [
     "DEFAULT_PERMC_SPEC",
@@ -256,7 +256,7 @@ def solve_transposed(perm_r, perm_c, l_ptr, l_rows, u_ptr, u_rows, l_data, u_dat
         b[i] = work[perm_r[i]]
 
 
-@kernel
+@allocating_kernel
 def _symbolic(b_ptr, b_rows):
     """Patterns of ``L`` (without diagonal) and ``U`` (diagonal last) of ``B`` without pivoting.
 

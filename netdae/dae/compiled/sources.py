@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from . import kernel
 
 __all__ = ["pack_sources", "source_values", "KIND_DC", "KIND_PULSE", "KIND_SIN", "KIND_EXP",
            "KIND_PWL", "KIND_SFFM", "KIND_AM"]
@@ -84,7 +84,7 @@ def pack_sources(sources) -> tuple:
     return kind, par, pwl_t, pwl_v, pwl_n
 
 
-@njit(cache=True)
+@kernel
 def _pulse(p, t):
     v1, v2, td, tr, tf, pw, per, npulse = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
     time = t - td
@@ -102,7 +102,7 @@ def _pulse(p, t):
     return v2 + (v1 - v2) * (time - top) / tf
 
 
-@njit(cache=True)
+@kernel
 def _sin(p, t):
     vo, va, freq, td, theta, phase = p[0], p[1], p[2], p[3], p[4], p[5]
     tau = t - td
@@ -112,7 +112,7 @@ def _sin(p, t):
     return vo + va * math.sin(_TWO_PI * freq * tau + ph) * math.exp(-tau * theta)
 
 
-@njit(cache=True)
+@kernel
 def _exp(p, t):
     v1, v2, td1, tau1, td2, tau2 = p[0], p[1], p[2], p[3], p[4], p[5]
     if t <= td1:
@@ -123,13 +123,13 @@ def _exp(p, t):
     return v1 + rise + (v1 - v2) * -math.expm1(-(t - td2) / tau2)
 
 
-@njit(cache=True)
+@kernel
 def _sffm(p, t):
     vo, va, fc, mdi, fs, phc, phs = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     return vo + va * math.sin(_TWO_PI * fc * t + phc * _DEG + mdi * math.sin(_TWO_PI * fs * t + phs * _DEG))
 
 
-@njit(cache=True)
+@kernel
 def _am(p, t):
     va, vo, mf, fc, td, phs = p[0], p[1], p[2], p[3], p[4], p[6]
     tau = t - td
@@ -139,12 +139,12 @@ def _am(p, t):
     return va * (vo + math.sin(_TWO_PI * mf * tau + ph)) * math.sin(_TWO_PI * fc * tau + ph)
 
 
-@njit(cache=True)
+@kernel
 def _ulp(a):
     return np.nextafter(a, np.inf) - a
 
 
-@njit(cache=True)
+@kernel
 def _pwl(p, times, values, n, t):
     delay, rep, tstart, period = p[0], p[1], p[2], p[3]
     tau = t - delay
@@ -173,7 +173,7 @@ def _pwl(p, times, values, n, t):
     return values[lo] + (tau - t_lo) / span * (values[li] - values[lo])
 
 
-@njit(cache=True)
+@kernel
 def source_values(kind, par, pwl_t, pwl_v, pwl_n, t, out):
     """u(t) of every source into ``out`` (shape (m,)); no allocation."""
     for j in range(kind.size):

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from ...dae.compiled import kernel
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .junction import depletion, ideal_junction, pnjlim
@@ -62,7 +62,7 @@ IRB_C2 = 2.4317
 IRB_FLOOR = 1e-9
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def transport(vbe, vbc, par, k):
     """Gummel-Poon currents of instance ``k`` at type-normalised (vbe, vbc).
 
@@ -111,7 +111,7 @@ def transport(vbe, vbc, par, k):
     return ic, ib, gm + go, -go - gmu, gpi, gmu, cbe, gbe, cbc, gbc, qb, dqbdve, dqbdvc
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def base_resistance(ib, dib_dvbe, dib_dvbc, qb, dqbdve, dqbdvc, par, k):
     """Base conductance ``gx`` of instance ``k`` and its derivatives to (vbe, vbc) (``BjtFamily.base_resistance``)."""
     rbm = par[k, P_RBM]
@@ -139,19 +139,19 @@ def base_resistance(ib, dib_dvbe, dib_dvbc, qb, dqbdve, dqbdvc, par, k):
     return gx, -gx * gx * drbb_dve, -gx * gx * drbb_dvc
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _depletion_at(v, par, k, col):
     return depletion(v, par[k, col], par[k, col + 1], par[k, col + 2], par[k, col + 3], par[k, col + 4],
                      par[k, col + 5], par[k, col + 6], par[k, col + 7], par[k, col + 8])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _finite(a, b, c, d, e, f):
     return math.isfinite(a) and math.isfinite(b) and math.isfinite(c) and math.isfinite(d) \
         and math.isfinite(e) and math.isfinite(f)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def eval_bjt(x, mode, par, idx, vold, vnew, q, phi, dq, dphi, jacobian):
     """Add every BJT's currents, charges and derivatives (see :mod:`netdae.devices.kernels`)."""
     count = par.shape[0]

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from ...dae.compiled import kernel
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .junction import depletion, ideal_junction, pnjlim
@@ -35,7 +35,7 @@ N_STATE = 1
 BREAKDOWN_LIMIT_MARGIN = 10.0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def diode_limit(vd, vold, par, k):
     """ngspice's diode limiting of instance ``k``: pnjlim, shifted by BV' in deep reverse bias."""
     bv = par[k, P_BV]
@@ -46,7 +46,7 @@ def diode_limit(vd, vold, par, k):
     return pnjlim(vd, vold, par[k, P_VTE], par[k, P_VCRIT])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def diode_current(vd, par, k):
     """Current (GMIN included) and conductance of instance ``k`` at junction voltage ``vd``."""
     isat = par[k, P_ISAT]
@@ -62,7 +62,7 @@ def diode_current(vd, par, k):
     return cd + gmin * vd, gd + gmin
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def eval_diode(x, mode, par, idx, vold, vnew, q, phi, dq, dphi, jacobian):
     """Add every diode's current, charge and derivatives (see :mod:`netdae.devices.kernels`)."""
     count = par.shape[0]

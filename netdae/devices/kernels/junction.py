@@ -13,7 +13,7 @@ round differently in numpy's and the C library's implementations).
 - :func:`pnjlim`, :func:`fetlim`, :func:`limvds`: ngspice's limiting
   (``devsup.c``).
 
-Every function is a numba ``njit`` function with the numpy error model
+Every function is a netdae kernel (:func:`netdae.dae.compiled.kernel`) with the numpy error model
 (a division by zero gives inf or nan, as in the numpy families).
 """
 
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from ...dae.compiled import kernel
 
 from ..junction import (
     _FET_MIDDLE_DOWN,
@@ -39,7 +39,7 @@ from ..junction import (
 __all__ = ["ideal_junction", "depletion", "pnjlim", "fetlim", "limvds"]
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def ideal_junction(v, isat, vte, knee):
     """Junction current and conductance at ``v`` (see :func:`netdae.devices.junction.ideal_junction`).
 
@@ -55,7 +55,7 @@ def ideal_junction(v, isat, vte, knee):
     return isat * em1, isat * (em1 + 1.0) / vte
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def depletion(v, cj0, vj, m, vfc, q_scale, q_fc, czf2, f3, m_over_vj):
     """Depletion charge and capacitance at ``v`` (see :class:`netdae.devices.junction.Depletion`).
 
@@ -73,7 +73,7 @@ def depletion(v, cj0, vj, m, vfc, q_scale, q_fc, czf2, f3, m_over_vj):
     return q_fc + czf2 * dv * (f3 + 0.5 * m_over_vj * (v + vfc)), czf2 * (f3 + m_over_vj * v)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def pnjlim(vnew, vold, vt, vcrit):
     """SPICE's pn-junction limiting of one voltage (see :func:`netdae.devices.junction.pnjlim`).
 
@@ -96,7 +96,7 @@ def pnjlim(vnew, vold, vt, vcrit):
     return vnew, False
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def fetlim(vnew, vold, vto):
     """SPICE's FET gate-voltage limiting of one voltage (see :func:`netdae.devices.junction.fetlim`)."""
     vtsthi = abs(_FET_TWO * (vold - vto)) + _FET_TWO
@@ -121,7 +121,7 @@ def fetlim(vnew, vold, vto):
     return vtemp
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def limvds(vnew, vold):
     """SPICE's drain-source voltage limiting of one voltage (see :func:`netdae.devices.junction.limvds`)."""
     if vold >= _VDS_HIGH:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from ...dae.compiled import kernel
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
 from .junction import depletion, fetlim, limvds, pnjlim
@@ -53,7 +53,7 @@ BULK_KNEE = 3.0
 MAX_EXP_ARG = 709.0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def drain_current(vgs, vds, vbs, beta, lam, vbi, gamma, phi):
     """Level-1 drain current of the mode (``vds >= 0``), see :func:`netdae.devices.mosfet.drain_current`.
 
@@ -86,7 +86,7 @@ def drain_current(vgs, vds, vbs, beta, lam, vbi, gamma, phi):
     return cdrain, gm, gds, -gm * dvon, von, dvon
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _bulk_function(a, phi):
     half = 0.5 * phi
     u1 = min(max(a, -phi), -half)
@@ -96,7 +96,7 @@ def _bulk_function(a, phi):
     return f, df
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def gate_charges(a, b, phi):
     """Charge-conserving intrinsic charges per Cox, see :func:`netdae.devices.mosfet.gate_charges`.
 
@@ -124,7 +124,7 @@ def gate_charges(a, b, phi):
     return p + f, -ps, ps - p, -f, dp_da + df, dp_db, -dps_da, -dps_db, dps_da - dp_da, dps_db - dp_db
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _bulk_diode(v, isat, vt, gmin):
     ev = math.exp(min(MAX_EXP_ARG, v / vt))
     if v <= -BULK_KNEE * vt:
@@ -132,7 +132,7 @@ def _bulk_diode(v, isat, vt, gmin):
     return isat * (ev - 1.0) + gmin * v, isat * ev / vt + gmin
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def mosfet_limit(vgs_x, vds_x, vbs_x, vgs_o, vds_o, vbs_o, von, quiet, par, k):
     """ngspice's MOS1 limiting of instance ``k`` (type-normalised), see ``MosfetFamily.limit``.
 
@@ -162,18 +162,18 @@ def mosfet_limit(vgs_x, vds_x, vbs_x, vgs_o, vds_o, vbs_o, von, quiet, par, k):
     return vgs, vds, vbs
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _depletion_at(v, par, k, col):
     return depletion(v, par[k, col], par[k, col + 1], par[k, col + 2], par[k, col + 3], par[k, col + 4],
                      par[k, col + 5], par[k, col + 6], par[k, col + 7], par[k, col + 8])
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _finite3(a, b, c):
     return math.isfinite(a) and math.isfinite(b) and math.isfinite(c)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def _quiet(x, par, idx, vold):
     """The family's decision: no vgs, vds or vgd moved more than FET_QUIET_STEP since ``vold``."""
     for k in range(par.shape[0]):
@@ -187,7 +187,7 @@ def _quiet(x, par, idx, vold):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def eval_mosfet(x, mode, par, idx, vold, vnew, q, phi, dq, dphi, jacobian):
     """Add every MOSFET's currents, charges and derivatives (see :mod:`netdae.devices.kernels`)."""
     count = par.shape[0]

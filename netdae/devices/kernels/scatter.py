@@ -9,12 +9,12 @@ control ``v = x[p] - x[m]`` lands in the four slots ``(a, p), (a, m), (b, p),
 
 from __future__ import annotations
 
-from numba import njit
+from ...dae.compiled import kernel
 
 __all__ = ["is_zero", "add_current", "add_charge", "add_current_slope", "add_charge_slope"]
 
 
-@njit(cache=True)
+@kernel
 def is_zero(x):
     """True when every entry of ``x`` is zero (a solve from scratch)."""
     for v in x:
@@ -23,21 +23,21 @@ def is_zero(x):
     return True
 
 
-@njit(cache=True)
+@kernel
 def add_current(phi, a, b, i):
     """Current ``i`` from node ``a`` to node ``b`` (extended indices)."""
     phi[a] -= i
     phi[b] += i
 
 
-@njit(cache=True)
+@kernel
 def add_charge(q, a, b, charge):
     """Charge on the ``a`` side of the branch ``(a, b)``."""
     q[a] += charge
     q[b] -= charge
 
 
-@njit(cache=True)
+@kernel
 def add_current_slope(dphi, idx, k, s, g):
     """Derivative ``g`` of a branch current on one control, into slots ``idx[k, s:s + 4]``."""
     dphi[idx[k, s]] -= g
@@ -46,7 +46,7 @@ def add_current_slope(dphi, idx, k, s, g):
     dphi[idx[k, s + 3]] -= g
 
 
-@njit(cache=True)
+@kernel
 def add_charge_slope(dq, idx, k, s, c):
     """Derivative ``c`` of a branch charge on one control, into slots ``idx[k, s:s + 4]``."""
     dq[idx[k, s]] += c
