@@ -108,6 +108,7 @@ class BehaviouralFamily(DeviceFamily):
         return layout.node(leaf.pos), (GND if leaf.neg is None else layout.node(leaf.neg))
 
     def coordinates(self, layout):
+        self._layout = layout  # the compiled kernel's packing resolves its leaves in it
         rows, cols = [], []
         for grp in self.groups:
             n = len(grp.elements)
@@ -138,6 +139,68 @@ class BehaviouralFamily(DeviceFamily):
     def bind(self, slots: SlotMap, n: int) -> None:
         for grp in self.groups:
             grp.stamps.bind(slots, n)
+
+    def compiled(self, slots: SlotMap, n: int) -> tuple:
+        """Pack the family for :func:`netdae.devices.kernels.behavioural.eval_behavioural` (after ``bind``).
+
+        Every expression becomes a tape (:func:`netdae.devices.kernels.tape.compile_tape`).
+
+        Returns
+        -------
+        tuple
+            ``(prog, const, inst, leaf, val, der)`` as described in
+            :mod:`netdae.devices.kernels.behavioural`.
+
+        Raises
+        ------
+        ValueError
+            For an expression the kernel cannot evaluate (the numpy family
+            refuses it too).
+        """
+        from .kernels import behavioural as kb
+        from .kernels.packing import dependence_slots, extended
+        from .kernels.tape import compile_tape
+
+        layout = self._layout
+        count = len(self.elements)
+        inst = np.zeros((count, kb.N_INST), dtype=np.int64)
+        prog: list = []
+        consts: list = []
+        leaf_rows: list = []
+        widest = 1
+        longest = 1
+        for k, el in enumerate(self.elements):
+            ops, args, cvals, leaves = compile_tape(el.expr)
+            plus = layout.node(el.nodes[0])
+            minus = layout.node(el.nodes[1])
+            voltage = el.kind == _VOLTAGE
+            branch = layout.branch(el.name) if voltage else GND
+            out_a, out_b = (branch, GND) if voltage else (plus, minus)
+            inst[k, kb.B_PROG] = len(prog)
+            inst[k, kb.B_LEN] = len(ops)
+            inst[k, kb.B_LEAF] = len(leaf_rows)
+            inst[k, kb.B_NLEAF] = len(leaves)
+            inst[k, kb.B_CONST] = len(consts)
+            inst[k, kb.B_KIND] = kb.KIND_VOLTAGE if voltage else kb.KIND_CURRENT
+            inst[k, kb.B_P], inst[k, kb.B_M], inst[k, kb.B_BR] = extended([plus, minus, branch], n)
+            if voltage:
+                inst[k, kb.B_S_VPM:kb.B_S_VPM + 4] = dependence_slots(slots, [branch], [GND], [plus], [minus])[0]
+                inst[k, kb.B_S_IB:kb.B_S_IB + 4] = dependence_slots(slots, [plus], [minus], [branch], [GND])[0]
+            else:
+                inst[k, kb.B_S_VPM:] = slots.dummy
+            for leaf in leaves:
+                p, m = self._leaf_pair(layout, leaf, el)
+                row = np.zeros(kb.N_LEAF, dtype=np.int64)
+                row[kb.L_P], row[kb.L_M] = extended([p, m], n)
+                row[kb.L_S:kb.L_S + 4] = dependence_slots(slots, [out_a], [out_b], [p], [m])[0]
+                leaf_rows.append(row)
+            prog += [(op, *a) for op, a in zip(ops, args)]
+            consts += cvals
+            widest = max(widest, len(leaves))
+            longest = max(longest, len(ops))
+        return (np.array(prog, dtype=np.int64).reshape(-1, 4), np.array(consts, dtype=float),
+                inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(longest),
+                np.zeros((longest, widest)))
 
     def junction_nodes(self) -> list[tuple[str, str]]:
         return [(el.nodes[0], el.nodes[1]) for el in self.elements if el.kind == _VOLTAGE]
