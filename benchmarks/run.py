@@ -377,7 +377,7 @@ def main(argv=None) -> int:
                 stopped = M.ChildRun(row.sides["ngspice"]["wall"], 0.0, -9, True, "", "")
                 skip["ngspice"] = M.SimRun("ngspice", stopped, False,
                                            f"> {timeout:g} s (not run: the default tolerance already took longer)")
-    only_rows = [] if (args.no_netdae_only or args.only) else netdae_only(workdir, args.quick, reps, timeout, log)
+    only_rows = [] if args.no_netdae_only else netdae_only(workdir, args.quick, reps, timeout, log)
     meta["elapsed"] = time.perf_counter() - t_start
     doc = {"meta": meta, "rows": [asdict(r) for r in rows], "netdae_only": only_rows}
     doc["targets"] = report.targets(doc)

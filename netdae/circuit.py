@@ -37,6 +37,7 @@ ccvs            H       (n+, n-)                     value = transresistance; co
 opamp           E       (out+, out-, in+, in-)       netdae extension: ideal op-amp (nullor)
 bvoltage        B/E     (n+, n-)                     expr: voltage expression
 bcurrent        B/G     (n+, n-)                     expr: current expression
+bcharge         C       (n+, n-)                     expr: charge expression (``C n+ n- Q={expr}``)
 diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...

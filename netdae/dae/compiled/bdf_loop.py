@@ -397,7 +397,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags |= _family(1, b_par, b_idx, b_vacc, b_vtry, b_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(2, m_par, m_idx, m_vacc, m_vtry, m_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     if h_inst.shape[0] > 0:
-        hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, phie, dphie, jacobian)
+        hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
+                                        jacobian)
         flags |= hflags
     I[I_EVALUATIONS] += 1
     if jacobian:

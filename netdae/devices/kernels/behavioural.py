@@ -18,7 +18,8 @@ nodes ``(p, m)`` and the four slots of the source's output on it; ``val``,
 ``der``: float64[R] and float64[R, Lmax], the registers (work arrays, R and
 Lmax the largest tape and leaf count).
 
-Equations: a current source adds ``expr`` from n+ to n-; a voltage source
+Equations: a current source adds ``expr`` from n+ to n-; a charge-defined
+capacitor adds the charge ``expr`` on n+ (``-expr`` on n-); a voltage source
 has the branch equation ``v(n+) - v(n-) - expr = 0`` in the row of its
 branch current ``i``, which flows from n+ to n-.
 """
@@ -32,20 +33,21 @@ import numpy as np
 from ...dae.compiled import kernel
 
 from . import FLAG_NONFINITE
-from .scatter import add_current, add_current_slope
+from .scatter import add_charge, add_charge_slope, add_current, add_current_slope
 from .tape import (
     OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GE, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
     OP_MAX, OP_MIN, OP_MOD, OP_MUL, OP_NE, OP_NEG, OP_NOT, OP_OR, OP_POW, OP_PWR, OP_SELECT, OP_SUB, OP_TIME,
 )
 
 __all__ = ["eval_behavioural", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
-           "B_S_VPM", "B_S_IB", "N_INST", "L_P", "L_M", "L_S", "N_LEAF", "KIND_CURRENT", "KIND_VOLTAGE"]
+           "B_S_VPM", "B_S_IB", "N_INST", "L_P", "L_M", "L_S", "N_LEAF", "KIND_CURRENT", "KIND_VOLTAGE",
+           "KIND_CHARGE"]
 
 B_PROG, B_LEN, B_LEAF, B_NLEAF, B_CONST, B_KIND, B_P, B_M, B_BR, B_S_VPM, B_S_IB = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13
 N_INST = B_S_IB + 4
 L_P, L_M, L_S = 0, 1, 2
 N_LEAF = L_S + 4
-KIND_CURRENT, KIND_VOLTAGE = 0, 1
+KIND_CURRENT, KIND_VOLTAGE, KIND_CHARGE = 0, 1, 2
 
 #: ngspice's PTexp saturation (as netdae.devices.autodiff).
 EXP_ARG_MAX = 227.9559242
@@ -259,8 +261,8 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der):
 
 
 @kernel
-def eval_behavioural(x, t, prog, const, inst, leaf, val, der, phi, dphi, jacobian):
-    """Add every behavioural source's currents and, when ``jacobian``, derivatives.
+def eval_behavioural(x, t, prog, const, inst, leaf, val, der, q, phi, dq, dphi, jacobian):
+    """Add every behavioural source's currents (charges) and, when ``jacobian``, derivatives.
 
     Parameters
     ----------
@@ -270,8 +272,8 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, phi, dphi, jacobia
         Time (the expressions' ``time``).
     prog, const, inst, leaf, val, der
         The packed tapes and work registers (module docstring).
-    phi : float64[n + 1]
-    dphi : float64[nnz + 1]
+    q, phi : float64[n + 1]
+    dq, dphi : float64[nnz + 1]
     jacobian : bool
 
     Returns
@@ -291,7 +293,10 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, phi, dphi, jacobia
             bad = k
         p = inst[k, B_P]
         mi = inst[k, B_M]
-        if inst[k, B_KIND] == KIND_CURRENT:
+        kind = inst[k, B_KIND]
+        if kind == KIND_CHARGE:
+            add_charge(q, p, mi, value)
+        elif kind == KIND_CURRENT:
             add_current(phi, p, mi, value)
         else:
             br = inst[k, B_BR]
@@ -302,8 +307,11 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, phi, dphi, jacobia
                 g = der[m - 1, j]
                 if not math.isfinite(g):
                     g = 0.0
-                add_current_slope(dphi, leaf, l0 + j, L_S, g)
-            if inst[k, B_KIND] == KIND_VOLTAGE:
+                if kind == KIND_CHARGE:
+                    add_charge_slope(dq, leaf, l0 + j, L_S, g)
+                else:
+                    add_current_slope(dphi, leaf, l0 + j, L_S, g)
+            if kind == KIND_VOLTAGE:
                 add_current_slope(dphi, inst, k, B_S_VPM, -1.0)
                 add_current_slope(dphi, inst, k, B_S_IB, 1.0)
     return (FLAG_NONFINITE if bad >= 0 else 0), bad
