@@ -196,10 +196,11 @@ def _with_differences(ng: Result, names: list[str]) -> Result:
 
 
 def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, overrides, wanted, exclude,
-                  ngspice_failed: bool) -> tuple[AnalysisComparison, Result | None]:
+                  ngspice_failed: bool, netdae_results: dict | None = None) -> AnalysisComparison:
+    """One analysis card compared; netdae's result is kept in ``netdae_results`` (the first of its kind)."""
     if ng is None:
         reason = "ngspice failed on the netlist" if ngspice_failed else f"ngspice produced no {kind} result"
-        return AnalysisComparison(kind, tolerance=tol, error=reason), None
+        return AnalysisComparison(kind, tolerance=tol, error=reason)
     try:
         if kind == "ac":
             nd = _netdae_ac_at(circuit, ng.axis, overrides)
@@ -209,7 +210,9 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
         if isinstance(exc, ModuleNotFoundError) and not (exc.name or "").startswith("netdae"):
             raise
         return AnalysisComparison(kind, tolerance=tol, error=_netdae_error(exc),
-                                  ngspice_tolerances=dict(ng.tolerances)), None
+                                  ngspice_tolerances=dict(ng.tolerances))
+    if netdae_results is not None:
+        netdae_results.setdefault(kind, nd)
     ng = _with_differences(ng, nd.names())
     if kind == "tran":
         item = compare_transient(nd, ng, tol=tol, wanted=wanted, exclude=exclude)
@@ -218,7 +221,7 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     item.netdae_tolerances = dict(nd.tolerances)
     item.ngspice_tolerances = {**ng.tolerances, "method": ng.extra.get("method", "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
-    return item, nd
+    return item
 
 
 def _compare_measures(circuit: Circuit, netdae_results: dict[str, Result], ngspice_measures) -> list:
@@ -344,10 +347,8 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
             continue
         ours = [r for r in ng_results if r.analysis == kind]
         ng = ours[occurrence] if occurrence < len(ours) else None
-        item, nd = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,
-                                 comparison.ngspice_error is not None)
-        if nd is not None:
-            netdae_results.setdefault(kind, nd)
+        item = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,
+                             comparison.ngspice_error is not None, netdae_results=netdae_results)
         item.occurrence = occurrence
         comparison.analyses.append(item)
     if not comparison.analyses:
