@@ -237,6 +237,9 @@ def test_ngspice_ac_dc_and_sine_agree_with_the_closed_forms():
     assert dc["v1at"].value == pytest.approx(2.0, rel=1e-6) and dc["iat"].value == pytest.approx(-1.5e-3, rel=1e-6)
     sine = {m.name: m for m in run_ngspice(SINE).measures}
     assert sine["rms"].value == pytest.approx(1.5, rel=1e-4) and sine["pp"].value == pytest.approx(4.0, rel=1e-4)
+    # AVG over ngspice's points inside the window (its 'to' is the first point past TO)
+    assert sine["avg"].value == pytest.approx(0.5, abs=1e-4)
+    assert sine["integ"].value == pytest.approx(0.5 * 1.25e-3 + 2 / (2 * math.pi * 1e3), rel=1e-5)
     # ngspice 39 counts a start on the value as a rise (netdae does not: 2e-3 above)
     assert sine["t2"].value == pytest.approx(1e-3, rel=1e-4)
 

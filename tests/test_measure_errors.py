@@ -93,3 +93,14 @@ def test_run_prints_writes_csv_and_json(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert [m["name"] for m in doc["tran"]["measures"]] == ["thalf", "top", "never"]
     assert doc["measures"]["values"][2]["value"] is None and doc["measures"]["file"] is None
+
+
+def test_check_lists_the_measurements(tmp_path, capsys):
+    path = tmp_path / "m.cir"
+    path.write_text(HEAD + ".meas tran tr TRIG v(out) VAL=0.1 RISE=1 TARG v(out) VAL=0.9 RISE=1\n"
+                    ".meas tran r PARAM='tr*2'\n")
+    assert cli_main(["check", str(path)]) == 0
+    assert "  measures: tr (tran trig v(out) v(out)); r (tran param)" in capsys.readouterr().out
+    assert cli_main(["check", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["measures"][1] == {"name": "r", "analysis": "tran", "function": "param", "signals": []}
