@@ -366,6 +366,8 @@ class Circuit:
     saves : list of str
         Signals named by ``.save``/``.print``/``.probe`` (``"v(out)"``,
         ``"i(v1)"``); empty means all.
+    measures : list of MeasureSpec
+        The ``.meas`` cards in netlist order (:mod:`netdae.measures`).
     params : Params
         Top-level ``.param`` values after evaluation (read-only: change them
         with :meth:`with_params`).
@@ -391,6 +393,7 @@ class Circuit:
     ic: dict[str, float] = field(default_factory=dict)
     nodeset: dict[str, float] = field(default_factory=dict)
     saves: list[str] = field(default_factory=list)
+    measures: list[Any] = field(default_factory=list)
     params: Params = field(default_factory=Params)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     path: str = "<string>"
