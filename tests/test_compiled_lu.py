@@ -419,6 +419,9 @@ def test_cache_key_follows_every_kernel_source(tmp_path):
     assert key == compiled.source_key((a, b)) and len(key) == 16
     (b / "kernel.py").write_text("def eval(): return 2\n")  # a callee changes, the loop's file does not
     assert compiled.source_key((a, b)) != key
+    key = compiled.source_key((a, b))
+    (a / "driver.py").write_text("x = 1\n")  # a module without kernels does not count
+    assert compiled.source_key((a, b), skip={"driver.py"}) == key
     # the engine in use lives in the directory of its own sources' key
     assert Path(compiled.CACHE_DIR).name == compiled.ENGINE_PREFIX + compiled.source_key()
 

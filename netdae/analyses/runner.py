@@ -190,6 +190,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         A circuit that cannot be simulated, a failed operating point; a
         transient that fails mid-way returns a Result with a failure status
         instead.
+    KeyboardInterrupt
+        Ctrl-C during a transient; its ``results`` attribute holds the results
+        of the analyses before it and the transient up to where it stopped
+        (status failed, the message saying so).
 
     Examples
     --------
@@ -214,7 +218,15 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         if kind == "tran":
             from .tran import transient
 
-            res = transient(circuit, card, save=wanted, progress=progress, **options)
+            try:
+                res = transient(circuit, card, save=wanted, progress=progress, **options)
+            except KeyboardInterrupt as exc:
+                # Ctrl-C: hand on every result computed so far, the interrupted transient's last
+                partial = getattr(exc, "partial", None)
+                done = results + ([partial] if partial is not None else [])
+                measure(circuit, done)
+                exc.results = [r.subset(names) for r in done] if wanted != names else done
+                raise
         else:
             if kind == "op":
                 from .op import operating_point

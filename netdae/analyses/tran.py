@@ -491,6 +491,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     unknown_index = np.array([1 + rep.derivative_order.get(nm, 0) for nm in system.names], dtype=np.int64)
     bdf_opts = {"rtol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
 
+    interrupted = None
     if index is not None and index >= 3:
         y0 = (rep.pencil.weierstrass.U1 @ start.q0) if card.uic else rep.pencil.weierstrass.split(x0)[0]
         times, X, dense_kept, stats, message, status = _decoupled(system, rep, start.x, y0, card.tstop, keep,
@@ -501,11 +502,21 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         jumps = []
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
     else:
-        res = integrate(system, (0.0, card.tstop), x0, rtol=rtol, vntol=vntol_, abstol=abstol_,
-                        index=unknown_index, maxord=order, max_step=tmax, save=keep, progress=progress,
-                        relref=RELREF, raise_on_failure=raise_on_failure)
+        try:
+            res = integrate(system, (0.0, card.tstop), x0, rtol=rtol, vntol=vntol_, abstol=abstol_,
+                            index=unknown_index, maxord=order, max_step=tmax, save=keep, progress=progress,
+                            relref=RELREF, raise_on_failure=raise_on_failure)
+        except KeyboardInterrupt as exc:
+            # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
+            res = getattr(exc, "partial", None)
+            if res is None or res.t.size == 0:
+                raise
+            interrupted = exc
         times, X, stats, message, status, failure = res.t, res.x, dict(res.stats), res.message, res.status, \
             res.failure
+        if interrupted is not None:
+            message = f"interrupted at t={times[-1]:.9g} of {card.tstop:.9g} (the results up to there are kept)"
+            status = -1
         dense_kept = res.dense
         jumps = [(t, list(w)) for t, w in res.jumps]
         for tj, who in jumps[:JUMP_NOTES]:
@@ -525,6 +536,8 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         grid = np.arange(card.tstart, card.tstop + 0.5 * card.tstep, card.tstep)
         grid = grid[grid <= card.tstop * (1 + 1e-12)]
         grid[-1] = min(grid[-1], times[-1])
+        if status < 0:
+            grid = grid[grid <= times[-1]]  # a run that stopped early: no extrapolation past its end
         out_t, out_x = grid, np.asarray(dense_kept(grid))
         notes.append(f".options interp: results on the tstep grid ({grid.size} points) from the dense output")
     else:
@@ -546,7 +559,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         **system.describe(),
     }
     kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(requested + list(diffs)))
-    return Result(
+    result = Result(
         "tran",
         axes={"time": out_t},
         signals=_signals(kept_names, requested, out_x, diffs),
@@ -568,3 +581,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             "index_report": rep,
         },
     )
+    if interrupted is not None:
+        interrupted.partial = result
+        raise interrupted
+    return result

@@ -10,6 +10,10 @@ Measurements (``.meas`` cards) are printed as ngspice prints them
 (``name = value``, with ``at=``, ``from= to=`` or ``targ= trig=``), go into the
 JSON (``measures`` of each analysis) and, with ``--out``, into
 ``measures.csv`` (:mod:`netdae.io.measures`).
+
+Ctrl-C during a transient keeps what was computed: the results of the
+analyses before it and the transient up to where it stopped are written and
+printed as usual, then ``netdae run`` exits with status 130.
 """
 
 from __future__ import annotations
@@ -27,6 +31,8 @@ __all__ = ["add_parser", "main", "stems"]
 
 LOG = logging.getLogger("netdae")
 
+#: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
 #: Matrix file formats of ``--export``, by suffix.
 EXPORT_SUFFIXES = (".npz", ".mtx")
 
@@ -138,9 +144,15 @@ def main(args) -> int:
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))
     bar = ProgressBar(enabled=args.verbosity >= 0)
+    interrupted = None
     try:
         results = run(circuit, save=args.save, progress=bar, reltol=args.reltol, abstol=args.abstol,
                       vntol=args.vntol)
+    except KeyboardInterrupt as exc:
+        results = getattr(exc, "results", None)
+        if not results:
+            raise
+        interrupted = exc  # write what was computed, then report the interruption
     finally:
         bar.close()
     out_dir = Path(args.out) if args.out else None
@@ -192,4 +204,7 @@ def main(args) -> int:
         LOG.info("wrote %s", measures_file)
     for path in exported:
         LOG.info("wrote %s", path)
+    if interrupted is not None:
+        LOG.error("interrupted: %s", results[-1].message)
+        return EXIT_INTERRUPTED
     return 0 if all(r.ok for r in results) else 1

@@ -26,7 +26,8 @@ chooses the directory once (:func:`choose_cache_dir`):
 4. ``<tempdir>/netdae-numba-<uid>``;
 
 and uses its subdirectory ``netdae-engine-<key>``, ``<key>`` a hash of the
-source of every module that defines kernels (:func:`source_key`), as
+source of every module that defines kernels or whose constants they read
+(:func:`source_key`), as
 ``NUMBA_CACHE_DIR`` (setting numba's configuration too) before any kernel is
 defined. When none is writable the kernels are compiled without a cache
 (every process compiles again; nothing fails). :data:`CACHE_DIR` records the
@@ -62,8 +63,13 @@ __all__ = ["CACHE_DIR", "choose_cache_dir", "source_key", "kernel", "allocating_
 #: numba's environment variable for its cache directory.
 CACHE_ENV = "NUMBA_CACHE_DIR"
 _PACKAGE_DIR = Path(__file__).resolve().parent
-#: Directories whose modules define kernels (this package and the device kernels).
-_KERNEL_DIRS = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels")
+#: Where the compiled code comes from: the modules defining kernels (this package but its pure-Python
+#: driver and warm-up, the device kernels) and those whose constants the kernels read at compile time
+#: (the integrator's, netdae.dae.bdf and netdae.dae.newton). A file or a directory of modules each.
+_KERNEL_SOURCES = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels", _PACKAGE_DIR.parent / "bdf",
+                   _PACKAGE_DIR.parent / "bdf.py", _PACKAGE_DIR.parent / "newton.py")
+#: Modules of the listed directories that define no kernel (editing them needs no recompilation).
+_NOT_KERNELS = frozenset({"driver.py", "warm.py"})
 #: Prefix of the cache's content-keyed subdirectories.
 ENGINE_PREFIX = "netdae-engine-"
 
@@ -121,14 +127,26 @@ def choose_cache_dir(package_dir: str | os.PathLike, environ: Mapping[str, str],
     return None
 
 
-def source_key(dirs=_KERNEL_DIRS) -> str:
-    """A hash of the sources of every kernel module (``*.py`` in ``dirs``), 16 hex digits.
+def source_key(sources=_KERNEL_SOURCES, skip=_NOT_KERNELS) -> str:
+    """A hash of the compiled code's sources, 16 hex digits.
 
-    Cost: reading about 200 kB, under a millisecond.
+    Parameters
+    ----------
+    sources : sequence of path
+        Files, and directories whose ``*.py`` modules count (missing paths are skipped).
+    skip : set of str
+        Module names in those directories that do not count.
+
+    Notes
+    -----
+    Cost: reading about 300 kB, about a millisecond.
     """
     digest = hashlib.sha256()
-    for d in dirs:
-        for path in sorted(Path(d).glob("*.py")):
+    for src in sources:
+        src = Path(src)
+        files = sorted(p for p in src.glob("*.py") if p.name not in skip) if src.is_dir() else \
+            [src] if src.is_file() else []
+        for path in files:
             digest.update(path.name.encode())
             digest.update(path.read_bytes())
     return digest.hexdigest()[:16]

@@ -295,10 +295,10 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
             if progress is not None and now - last >= PROGRESS_INTERVAL:
                 progress(F[L.F_T], t_bound, int(I[L.I_STEPS]))
                 last = now
+        if progress is not None:
+            progress(F[L.F_T], t_bound, int(I[L.I_STEPS]))
     except KeyboardInterrupt as exc:  # keep what was computed
         interrupted = exc
-    if progress is not None:
-        progress(F[L.F_T], t_bound, int(I[L.I_STEPS]))
 
     m = int(I[L.I_M])
     t = buf_t[:m].copy()

@@ -1,0 +1,153 @@
+"""The compiled engine's costs: start-up, loading the compiled loop, and a step in a warm process.
+
+Usage::
+
+    python benchmarks/engine.py [--reps N] [--only NAMES]
+
+Prints three tables (docs/performance.md quotes them):
+
+1. start-up, each in a fresh process (median of ``--reps``): the interpreter,
+   ``import numpy``, ``import scipy.sparse``, ``import numba``, ``import
+   netdae.analyses.tran``, and the first transient of a process split into
+   the loading of the compiled loop (``load_time``: numba's target
+   initialisation and its cache) and the rest;
+2. the transient of each benchmark circuit in a warm process (the compiled
+   loop loaded; best of ``--reps``): the integrator's time, per accepted step,
+   and the whole ``netdae.simulate`` (operating point and structure analysis
+   included), with the step counts;
+3. ngspice's transient time of the same netlists (``.options acct``), per
+   accepted step, for the ratio.
+
+Times are CPU-bound medians/minima on a shared machine: quote ranges from
+several runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks import circuits as C  # noqa: E402
+from benchmarks import measure as M  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+
+_IMPORTS = {
+    "python -c pass": "pass",
+    "import numpy": "import numpy",
+    "import scipy.sparse": "import scipy.sparse",
+    "import numba": "import numba",
+    "import netdae.analyses.tran": "import netdae.analyses.tran",
+}
+
+_FIRST = """
+import json, sys, time
+t0 = time.perf_counter()
+import netdae
+c = netdae.load(sys.argv[1])
+t1 = time.perf_counter()
+r = netdae.simulate(c)
+t2 = time.perf_counter()
+i = r.stats["integrator"]
+print(json.dumps({"imports_and_read": t1 - t0, "simulate": t2 - t1, "load": i.get("load_time", 0.0),
+                  "integration": i["wall_time"] - i.get("load_time", 0.0)}))
+"""
+
+_WARM = """
+import json, sys, time
+import netdae
+c = netdae.load(sys.argv[1])
+netdae.simulate(c)
+best = None
+for _ in range(int(sys.argv[2])):
+    t0 = time.perf_counter()
+    r = netdae.simulate(c)
+    t1 = time.perf_counter()
+    i = r.stats["integrator"]
+    row = {"simulate": t1 - t0, "integration": i["wall_time"], "steps": r.stats["steps"],
+           "newton": r.stats["newton"], "rejected": r.stats["rejected"]}
+    if best is None or row["integration"] < best["integration"]:
+        best = row
+print(json.dumps(best))
+"""
+
+
+def _child(code: str, *args) -> dict | float:
+    done = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True,
+                          cwd=ROOT, env={**M.CHILD_ENV, **_env()}, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1]) if done.stdout.strip() else 0.0
+
+
+def _env():
+    import os
+
+    return {k: v for k, v in os.environ.items()}
+
+
+def startup(reps: int) -> list[tuple[str, float]]:
+    import time
+
+    rows = []
+    for label, code in _IMPORTS.items():
+        walls = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
+            walls.append(time.perf_counter() - t0)
+        rows.append((label, statistics.median(walls)))
+    firsts = [_child(_FIRST, ROOT / "netlists" / "rc_lowpass.cir") for _ in range(reps)]
+    for key in ("imports_and_read", "load", "integration", "simulate"):
+        rows.append((f"rc_lowpass first transient: {key}", statistics.median(f[key] for f in firsts)))
+    return rows
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--reps", type=int, default=5)
+    p.add_argument("--only", default="", help="comma-separated circuit names (default: the small nonlinear ones)")
+    args = p.parse_args(argv)
+    benches = [C.bridge_rectifier(50), C.voltage_multiplier(4, 50), C.ring_oscillator(11, 50e-9), C.pulse_train(50)]
+    if args.only:
+        keys = args.only.split(",")
+        benches = [b for b in benches if any(k in b.name for k in keys)]
+    print("start-up (fresh processes, median):")
+    for label, value in startup(args.reps):
+        print(f"  {label:<45} {value * 1e3:8.1f} ms")
+    print("\ntransient in a warm process (best integration of the reps) against ngspice's transient time:")
+    print(f"  {'circuit':<22} {'variant':<8} {'steps':>7} {'integr. ms':>10} {'us/step':>8} {'simulate ms':>11}"
+          f" {'ngspice steps':>13} {'ngspice ms':>10} {'us/step':>8} {'ratio':>6}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for bench in benches:
+            for tight in (False, True):
+                d = Path(tmp) / f"{bench.name}-{tight}"
+                d.mkdir()
+                nd_path = d / "netdae.cir"
+                nd_path.write_text(bench.netlist(tight, "netdae"))
+                ng_path = d / "ngspice.cir"
+                ng_path.write_text(bench.netlist(tight, "ngspice"))
+                nd = _child(_WARM, nd_path, args.reps)
+                ng_times = []
+                ng = None
+                for _ in range(args.reps):
+                    ng = M.run_ngspice(ng_path, d, bench.signals, timeout=600)
+                    ng_times.append(ng.stats.get("tran_time", float("nan")))
+                ng_t = min(ng_times)
+                ng_steps = ng.stats.get("steps", 0)
+                ratio = nd["integration"] / ng_t if ng_t else float("nan")
+                print(f"  {bench.name:<22} {'tight' if tight else 'default':<8} {nd['steps']:>7} "
+                      f"{nd['integration'] * 1e3:>10.1f} {nd['integration'] / nd['steps'] * 1e6:>8.2f} "
+                      f"{nd['simulate'] * 1e3:>11.1f} {ng_steps:>13} {ng_t * 1e3:>10.1f} "
+                      f"{ng_t / max(ng_steps, 1) * 1e6:>8.2f} {ratio:>6.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
