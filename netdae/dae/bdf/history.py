@@ -13,8 +13,9 @@ size ``h`` and order ``k`` is described by
 - the fixed leading coefficient ``cj = (sum_{j<=k} 1/j) / h`` and the error
   constant ``ck``.
 
-The formulas are those of :mod:`netdae.dae.bdf_kernels` (``flc_coefficients``,
-``update_differences``); this class owns the arrays they work on.
+The formulas are the compiled kernels of :mod:`netdae.dae.compiled.control`
+(``flc_coefficients``, ``update_differences``), the same the compiled engine
+runs; this class owns the arrays they work on.
 
 References
 ----------
@@ -29,7 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bdf_kernels import differences_from_samples, flc_coefficients, predictor_weights, update_differences
+from ..bdf_kernels import differences_from_samples, predictor_weights
+from ..compiled.control import flc_coefficients, update_differences
 
 __all__ = ["History"]
 
@@ -151,13 +153,8 @@ class History:
         self.ns = min(self.ns + 1, self.kused + 2)
         np.copyto(self.psi_saved, self.psi)
         if k + 1 >= self.ns or not self._valid:
-            c = flc_coefficients(h, k, self.psi)
-            self.psi[: k + 1] = c.psi
-            self.alpha[: k + 1] = c.alpha
-            self.beta[: k + 1] = c.beta
-            self.gamma[: k + 1] = c.gamma
-            self.sigma[: k + 1] = c.sigma
-            self._cj_coef, self.ck = c.cj, c.ck
+            self._cj_coef, self.ck = flc_coefficients(h, k, self.psi, self.psi, self.alpha, self.beta, self.gamma,
+                                                      self.sigma)
             self.W = predictor_weights(self.gamma, k)
             self._valid = True
         self.cjlast = self.cj

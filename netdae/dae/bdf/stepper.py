@@ -4,11 +4,12 @@ It holds the integration's state (time, step, weights, counters, status) and
 strings the parts together into IDA's phases (``IDAStep``): set coefficients
 (:class:`~netdae.dae.bdf.history.History`), predict, correct
 (:mod:`~netdae.dae.bdf.corrector`), test the error and choose order and step
-(:mod:`~netdae.dae.bdf.controller`, on norms from :mod:`netdae.dae.bdf_kernels`), restore and retry on failure, complete
+(:mod:`~netdae.dae.bdf.controller`, on norms from the compiled kernels of
+:mod:`netdae.dae.compiled.control`), restore and retry on failure, complete
 the step, record it (:class:`~netdae.dae.bdf.recorder.Recorder`); restarts
 probe the derivatives and right limits (:mod:`~netdae.dae.bdf.startup`).
 The compiled engine (:mod:`netdae.dae.compiled.bdf_loop`) runs the same
-phases for MNA systems; this driver serves every
+phases on the same kernels for MNA systems; this driver serves every
 ``DaeSystem`` (user DAEs written with ``FunctionDae``, behavioural sources).
 """
 
@@ -19,7 +20,18 @@ import time
 
 import numpy as np
 
-from ..bdf_kernels import error_norms, landing_step, max_norm, merge_breakpoints, wrms
+from ..bdf_kernels import merge_breakpoints
+from ..compiled.control import (
+    NORM_MAX,
+    NORM_RMS,
+    RELREF_LOCAL,
+    RELREF_MIXED,
+    RELREF_SIGNAL,
+    error_norms,
+    landing_step,
+    set_weights,
+    weighted_norm,
+)
 from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
@@ -35,7 +47,6 @@ from .constants import (
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
     MAX_ORDER,
-    MIXED_FLOOR,
     NEWTON_MAXITER,
     PROBE_FRACTION,
     PROBE_MAX_RATIO,
@@ -52,6 +63,8 @@ from .startup import jump_of, probe, right_limit
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF"]
+
+_RELREF = {"local": RELREF_LOCAL, "signal": RELREF_SIGNAL, "mixed": RELREF_MIXED}
 
 
 class BDF:
@@ -190,7 +203,7 @@ class BDF:
         self.min_step = float(min_step)
         self.norm = norm
         self.relref = relref
-        self._normf = max_norm if norm == "max" else wrms
+        self._norm_kind = NORM_MAX if norm == "max" else NORM_RMS
         self.newton_maxiter = int(newton_maxiter)
         self.max_steps = max_steps
         self._linear = bool(getattr(system, "linear", False))
@@ -272,19 +285,11 @@ class BDF:
 
     # ------------------------------------------------------------- helpers
     def _set_weights(self, x):
-        """Error weights at x: ``_w`` for Newton, ``_w_err`` (index-2 unknowns out) for the error test."""
-        w = self._w
-        np.abs(x, out=w)
-        if self.relref == "signal":
-            np.maximum(self._xmax, w, out=self._xmax)
-            w[:] = self._xmax
-        elif self.relref == "mixed":
-            np.maximum(self._xmax, w, out=self._xmax)
-            np.maximum(w, MIXED_FLOOR * self._xmax, out=w)
-        w *= self.rtol
-        w += self._atol
-        np.reciprocal(w, out=w)
-        np.multiply(w, self._mask, out=self._w_err)
+        """Error weights at x (the compiled ``set_weights``): ``_w`` for Newton, ``_w_err`` for the error test."""
+        set_weights(x, self.rtol, self._atol, _RELREF[self.relref], self._xmax, self._mask, self._w, self._w_err)
+
+    def _normf(self, v, w):
+        return weighted_norm(v, w, self._norm_kind)
 
     def _evaluate(self, x, t, jacobian=False):
         ev = self.system.evaluate(x, t, jacobian=jacobian, state=self._state)
@@ -600,7 +605,7 @@ class BDF:
         self._ee = ee
         if self._fixed:
             return True, "", {"knew": k, "err_k": 0.0, "err_km1": 0.0}
-        norms = error_norms(ee[:n], hist.P[:, :n], k, self._w_step_err, self.norm) + (0.0, 0.0)
+        norms = error_norms(ee, hist.P, k, self._w_step_err, self._norm_kind, n)
         test = ctl.error_test(norms, hist.sigma, hist.ck, k)
         info = {"knew": test.knew, "err_k": test.err_k, "err_km1": test.err_km1}
         if test.passed:
