@@ -106,3 +106,11 @@ def test_first_steps():
     assert ctl.first_step_from_curvature(8.0, 10.0, 1.0) == 1.0
     assert ctl.first_step_from_derivative(4.0, 1.0) == 0.125
     assert ctl.first_step_from_derivative(4.0, 0.1) == 0.1
+
+
+def test_reduced_step_is_bounded_by_min_step_and_the_roundoff_of_t():
+    assert ctl.reduced_step(1.0, 0.1, 0.25, 0.0) == (0.1 * 0.25, None)
+    assert ctl.reduced_step(1.0, 0.1, 0.25, 0.05) == (0.05, None)  # clamped once ...
+    assert ctl.reduced_step(1.0, 0.05, 0.25, 0.05) == (None, "min_step")  # ... then a failure
+    assert ctl.reduced_step(1e3, 1e-12, 0.25, 0.0) == (None, "roundoff")  # below 16 ulps of t
+    assert ctl.reduced_step(0.0, 1e-300, 0.25, 0.0)[1] is None  # at t = 0 any positive step advances

@@ -92,3 +92,17 @@ def test_initialise_and_rescale_the_first_step():
     hist.rescale_first_step(0.0025, 0.01)
     np.testing.assert_allclose(hist.P[1], [0.0025, -0.0025, 0.005, 0.00125])
     assert hist.psi[0] == 0.0025
+
+
+def test_sampled_history_is_checked():
+    from netdae.dae.bdf.history import sampled_history
+
+    x0 = np.array([2.0])
+    t, x, h = sampled_history(([0.0, 0.5, 1.0], [[0.0], [1.0], [2.0]]), 1.0, x0, MAXORD)
+    assert h == 0.5 and x.shape == (3, 1)
+    with pytest.raises(ValueError, match="equally spaced"):
+        sampled_history(([0.0, 0.4, 1.0], [[0.0], [1.0], [2.0]]), 1.0, x0, MAXORD)
+    with pytest.raises(ValueError, match="equal x0"):
+        sampled_history(([0.0, 0.5, 1.0], [[0.0], [1.0], [3.0]]), 1.0, x0, MAXORD)
+    with pytest.raises(ValueError, match="times and values"):
+        sampled_history(([1.0], [[2.0]]), 1.0, x0, MAXORD)

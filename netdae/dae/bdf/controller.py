@@ -25,10 +25,11 @@ from .constants import (
     ETA_SHRINK_MIN,
     H0_DERIVATIVE_BOUND,
     H0_ERROR_TARGET,
+    ROUNDOFF_ULPS,
 )
 
 __all__ = ["ErrorTest", "error_test", "raise_test_due", "choose_order", "step_factor", "hold_growth",
-           "error_failure", "first_step_from_curvature", "first_step_from_derivative"]
+           "error_failure", "reduced_step", "first_step_from_curvature", "first_step_from_derivative"]
 
 
 class ErrorTest:
@@ -187,6 +188,34 @@ def error_failure(nef: int, k: int, knew: int, err_k: float, err_km1: float) -> 
         eta = ETA_SAFETY * (2.0 * err_knew + ERROR_FLOOR) ** (-1.0 / (knew + 1))
         return knew, max(ETA_ERROR_FAIL_MIN, min(ETA_SHRINK_MAX, eta))
     return (knew if nef == 2 else 1), ETA_ERROR_FAIL_MIN
+
+
+def reduced_step(t: float, h: float, eta: float, min_step: float) -> tuple[float | None, str | None]:
+    """The step ``h * eta`` after a failed attempt at ``t``, bounded below.
+
+    Returns
+    -------
+    (float or None, str or None)
+        ``(h_new, None)``; ``(min_step, None)`` when ``h * eta`` falls below a
+        ``min_step`` that ``h`` was above; ``(None, "min_step")`` when ``h`` was
+        at ``min_step`` already; ``(None, "roundoff")`` when the step would be
+        below ``ROUNDOFF_ULPS`` ulps of ``t`` (it cannot advance time).
+
+    Examples
+    --------
+    >>> reduced_step(1.0, 0.1, 0.25, 0.0), reduced_step(1.0, 0.1, 0.25, 0.05), reduced_step(1.0, 0.05, 0.25, 0.05)
+    ((0.025, None), (0.05, None), (None, 'min_step'))
+    >>> reduced_step(1.0, 1e-15, 0.25, 0.0)
+    (None, 'roundoff')
+    """
+    h_new = h * eta
+    if h_new < min_step:
+        if h > min_step * (1.0 + 1e-12):
+            return min_step, None
+        return None, "min_step"
+    if h_new <= ROUNDOFF_ULPS * math.ulp(abs(t)) or t + h_new == t:
+        return None, "roundoff"
+    return h_new, None
 
 
 def first_step_from_curvature(curvature: float, cap: float, min_step: float) -> float:

@@ -33,7 +33,7 @@ import numpy as np
 from ..bdf_kernels import differences_from_samples, predictor_weights
 from ..compiled.control import flc_coefficients, update_differences
 
-__all__ = ["History"]
+__all__ = ["History", "sampled_history"]
 
 
 class History:
@@ -184,3 +184,48 @@ class History:
     def update(self, ee: np.ndarray, k: int) -> None:
         """The differences after an accepted step of order ``k`` with correction ``ee`` (shape (width,))."""
         update_differences(self.P, ee, k, self.maxord)
+
+
+def sampled_history(history, t0: float, x0, maxord: int):
+    """Check a caller's history ``(t_hist, x_hist)`` for a start at order ``k`` (:meth:`History.from_samples`).
+
+    Parameters
+    ----------
+    history : (array_like, array_like)
+        ``k + 1`` equally spaced increasing times ending at ``t0`` and the
+        solution there, shape (k + 1, n).
+    t0 : float
+    x0 : ndarray, shape (n,)
+        Must equal the last value.
+    maxord : int
+
+    Returns
+    -------
+    (t_hist, x_hist, h)
+        As float arrays, and the spacing.
+
+    Raises
+    ------
+    ValueError
+        For a malformed history.
+
+    Examples
+    --------
+    >>> t, x, h = sampled_history(([0.0, 0.5, 1.0], [[0.0], [1.0], [2.0]]), 1.0, np.array([2.0]), 5)
+    >>> h, x.shape
+    (0.5, (3, 1))
+    """
+    t_hist, x_hist = history
+    t_hist = np.asarray(t_hist, dtype=float)
+    x_hist = np.asarray(x_hist, dtype=float)
+    k = t_hist.size - 1
+    n = np.asarray(x0).size
+    if not (1 <= k <= maxord) or x_hist.shape != (k + 1, n):
+        raise ValueError(f"history needs 2..{maxord + 1} times and values of shape (times, {n})")
+    steps = np.diff(t_hist)
+    h = float(steps[0])
+    if h <= 0.0 or not np.allclose(steps, h, rtol=1e-10, atol=0.0) or t_hist[-1] != t0:
+        raise ValueError("history times must be equally spaced, increasing and end at t0")
+    if not np.array_equal(x_hist[-1], x0):
+        raise ValueError("the last history value must equal x0")
+    return t_hist, x_hist, h

@@ -52,11 +52,10 @@ from .constants import (
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
     RATE_AFTER_SETUP,
-    ROUNDOFF_ULPS,
 )
 from .corrector import LinearCorrector, NonlinearCorrector, RoundingFloor
 from .failures import Failure, error_hint, failure_record, newton_hint, worst_unknown
-from .history import History
+from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
 from .startup import jump_of, probe, right_limit
@@ -422,19 +421,8 @@ class BDF:
         self.h = h
 
     def _start_from_history(self, history, x0):
-        t_hist, x_hist = history
-        t_hist = np.asarray(t_hist, dtype=float)
-        x_hist = np.asarray(x_hist, dtype=float)
+        t_hist, x_hist, h = sampled_history(history, self.t0, x0, self.maxord)
         k = t_hist.size - 1
-        n = self.n
-        if not (1 <= k <= self.maxord) or x_hist.shape != (k + 1, n):
-            raise ValueError(f"history needs 2..{self.maxord + 1} times and values of shape (times, {n})")
-        steps = np.diff(t_hist)
-        h = float(steps[0])
-        if h <= 0.0 or not np.allclose(steps, h, rtol=1e-10, atol=0.0) or t_hist[-1] != self.t0:
-            raise ValueError("history times must be equally spaced, increasing and end at t0")
-        if not np.array_equal(x_hist[-1], x0):
-            raise ValueError("the last history value must equal x0")
         if self._fixed and (k != self._fixed_order or not math.isclose(h, self._fixed_h, rel_tol=1e-10)):
             raise ValueError("history must have fixed_order + 1 points spaced by fixed_step")
         q_hist = None
@@ -551,24 +539,19 @@ class BDF:
         return eta
 
     def _reduced_step(self, t, h, eta, kind, info):
-        """``h * eta`` bounded by min_step and roundoff, or None after recording a failure."""
-        h_new = h * eta
-        worst = info.get("worst")
-        if h_new < self.min_step:
-            if h > self.min_step * (1.0 + 1e-12):
-                return self.min_step
+        """``h * eta`` bounded by min_step and roundoff (:func:`controller.reduced_step`), or None after a failure."""
+        h_new, limit = ctl.reduced_step(t, h, eta, self.min_step)
+        if limit is None:
+            return h_new
+        failures = "Newton failures" if kind == "newton" else "error-test failures"
+        if limit == "min_step":
             what = (f"step size {h:.3g} at min_step {self.min_step:.3g} and the "
                     + ("Newton iteration fails" if kind == "newton" else "error test fails"))
-            hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
-            self._fail(t, h, what, worst, hint)
-            return None
-        if h_new <= ROUNDOFF_ULPS * np.spacing(abs(t)) or t + h_new == t:
-            what = "step size below the roundoff of t (" + ("Newton failures" if kind == "newton" else
-                                                             "error-test failures") + ")"
-            hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
-            self._fail(t, h, what, worst, hint)
-            return None
-        return h_new
+        else:
+            what = f"step size below the roundoff of t ({failures})"
+        hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
+        self._fail(t, h, what, info.get("worst"), hint)
+        return None
 
     def _attempt(self, t_new):
         """Predict, solve the corrector, test the error.
