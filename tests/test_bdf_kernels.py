@@ -1,59 +1,63 @@
-"""Pure kernels of the FLC-BDF method and its dense output."""
+"""The FLC-BDF method's formulas (the compiled kernels both integrators call), its helpers and dense output."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from netdae.dae.bdf_kernels import (
-    differences_from_samples,
+from netdae.dae.bdf.history import History
+from netdae.dae.bdf_kernels import differences_from_samples, merge_breakpoints, predictor_weights
+from netdae.dae.compiled.control import (
+    NORM_MAX,
+    NORM_RMS,
     error_norms,
     flc_coefficients,
     landing_step,
-    leading_coefficient,
-    merge_breakpoints,
-    predictor_weights,
-    update_differences,
+    set_weights,
+    weighted_norm,
 )
 from netdae.dae.dense import Interpolant
 
 MAXORD = 5
 
 
+def _coefficients(h, k, psi_old):
+    psi = np.array(psi_old, dtype=float)
+    alpha, beta, gamma, sigma = (np.zeros(MAXORD + 1) for _ in range(4))
+    cj, ck = flc_coefficients(h, k, psi, psi, alpha, beta, gamma, sigma)
+    return psi, alpha, beta, gamma, sigma, cj, ck
+
+
 @pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
 def test_constant_step_coefficients_are_the_classical_bdf(k):
     h = 0.3
-    c = flc_coefficients(h, k, [(i + 1) * h for i in range(MAXORD + 1)])
-    np.testing.assert_allclose(c.beta, 1.0)
-    np.testing.assert_allclose(c.psi, [(i + 1) * h for i in range(k + 1)])
-    assert c.cj == pytest.approx(sum(1.0 / j for j in range(1, k + 1)) / h)
-    assert c.cj == pytest.approx(leading_coefficient(h, k))
-    assert c.ck == pytest.approx(1.0 / (k + 1))
-    assert c.sigma[k] == pytest.approx(1.0 / (k + 1))
+    psi, alpha, beta, gamma, sigma, cj, ck = _coefficients(h, k, [(i + 1) * h for i in range(MAXORD + 1)])
+    np.testing.assert_allclose(beta[: k + 1], 1.0)
+    np.testing.assert_allclose(psi[: k + 1], [(i + 1) * h for i in range(k + 1)])
+    assert cj == pytest.approx(sum(1.0 / j for j in range(1, k + 1)) / h)
+    assert ck == pytest.approx(1.0 / (k + 1))
+    assert sigma[k] == pytest.approx(1.0 / (k + 1))
 
 
 def _run_flc_on_polynomial(k, degree, steps, seed=0):
     """March x' = p'(t) with the FLC formulas over variable steps; return max |x - p|."""
     rng = np.random.default_rng(seed)
-    coeffs = rng.normal(size=degree + 1)
-    p = np.polynomial.Polynomial(coeffs)
+    p = np.polynomial.Polynomial(rng.normal(size=degree + 1))
     dp = p.deriv()
     h0 = 0.1
     t = 0.0
-    phi = np.zeros((MAXORD + 1, 1))
-    phi[: k + 1, 0] = differences_from_samples(p(h0 * np.arange(-k, 1))[:, None])[:, 0]
-    psi = [(i + 1) * h0 for i in range(MAXORD + 1)]
+    hist = History(1, 1, MAXORD)
+    hist.from_samples(h0, p(h0 * np.arange(-k, 1))[:, None])
     worst = 0.0
     for h in steps:
-        c = flc_coefficients(h, k, psi)
-        psi[: k + 1] = c.psi
-        phi[: k + 1] *= np.asarray(c.beta)[:, None]
-        x_pred, xp_pred = predictor_weights(c.gamma, k) @ phi[: k + 1, 0]
+        hist.set_coefficients(h)
+        x_pred, xp_pred = hist.predict()[:, 0]
         # corrector for x' = f(t): cj (x - x_pred) + x'_pred = f(t_new)
-        x_new = x_pred + (dp(t + h) - xp_pred) / c.cj
-        update_differences(phi, np.array([x_new - x_pred]), k, MAXORD)
+        x_new = x_pred + (dp(t + h) - xp_pred) / hist.cj
+        hist.accept(h)
+        hist.update(np.array([x_new - x_pred]), k)
         t += h
-        worst = max(worst, abs(x_new - p(t)), abs(phi[0, 0] - p(t)))
+        worst = max(worst, abs(x_new - p(t)), abs(hist.P[0, 0] - p(t)))
     return worst
 
 
@@ -65,20 +69,48 @@ def test_flc_bdf_is_exact_for_polynomials_of_its_order_with_variable_steps(k):
     assert _run_flc_on_polynomial(k, k + 1, steps) > 1e-8
 
 
-def test_error_norms_match_direct_computation():
+@pytest.mark.parametrize("kind", [NORM_RMS, NORM_MAX])
+def test_error_norms_match_direct_computation(kind):
     rng = np.random.default_rng(2)
     n = 7
-    ee = rng.normal(size=n)
-    phi = rng.normal(size=(6, n))
+    ee = rng.normal(size=2 * n)  # only the first n (the unknowns) count
+    P = rng.normal(size=(6, 2 * n))
     w = rng.uniform(1, 2, size=n)
     k = 4
-    got = error_norms(ee, phi, k, w)
-    d1 = ee + phi[k]
-    d2 = d1 + phi[k - 1]
-    expect = [np.sqrt(np.mean((v * w) ** 2)) for v in (ee, d1, d2)]
-    np.testing.assert_allclose(got, expect, rtol=1e-14)
-    assert len(error_norms(ee, phi, 1, w)) == 1 and len(error_norms(ee, phi, 2, w)) == 2
-    np.testing.assert_allclose(error_norms(ee, phi, k, w, "max"), [np.max(np.abs(v * w)) for v in (ee, d1, d2)])
+    d1 = ee[:n] + P[k, :n]
+    d2 = d1 + P[k - 1, :n]
+    direct = ((lambda v: np.sqrt(np.mean((v * w) ** 2))) if kind == NORM_RMS
+              else (lambda v: np.max(np.abs(v * w))))
+    np.testing.assert_allclose(error_norms(ee, P, k, w, kind, n), [direct(v) for v in (ee[:n], d1, d2)],
+                               rtol=1e-14)
+    assert error_norms(ee, P, 1, w, kind, n)[1:] == (0.0, 0.0)
+    assert error_norms(ee, P, 2, w, kind, n)[2] == 0.0
+    assert weighted_norm(ee[:n], w, kind) == pytest.approx(direct(ee[:n]), rel=1e-14)
+
+
+def test_norms_propagate_nan_and_handle_empty_vectors():
+    v = np.array([1.0, np.nan, 2.0])
+    w = np.ones(3)
+    assert np.isnan(weighted_norm(v, w, NORM_RMS)) and np.isnan(weighted_norm(v, w, NORM_MAX))
+    assert weighted_norm(np.empty(0), np.empty(0), NORM_RMS) == 0.0
+
+
+@pytest.mark.parametrize("relref", [0, 1, 2])
+def test_set_weights_matches_the_formula(relref):
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=5)
+    xmax = np.abs(rng.normal(size=5)) * 3
+    atol = np.full(5, 1e-6)
+    mask = np.array([1.0, 1.0, 0.0, 1.0, 1.0])
+    w, w_err, xm = np.empty(5), np.empty(5), xmax.copy()
+    set_weights(x, 1e-3, atol, relref, xm, mask, w, w_err)
+    ref = [np.abs(x), np.maximum(xmax, np.abs(x)), np.maximum(np.abs(x), 0.1 * np.maximum(xmax, np.abs(x)))][relref]
+    np.testing.assert_array_equal(w, 1.0 / (1e-3 * ref + atol))
+    np.testing.assert_array_equal(w_err, w * mask)
+
+
+def test_predictor_weights_rows():
+    np.testing.assert_array_equal(predictor_weights(np.array([0.0, 2.0, 3.0, 9.0]), 2), [[1, 1, 1], [0, 2, 3]])
 
 
 def test_backward_differences_of_samples():

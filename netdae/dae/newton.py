@@ -63,7 +63,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .bdf_kernels import max_norm, wrms
+from .compiled.control import NORM_MAX, NORM_RMS, weighted_norm
 from .compiled.lu import DEFAULT_PERMC_SPEC, PIVOT_REL_THRESHOLD, SparseLU
 from .sparse import SparsePattern
 
@@ -325,7 +325,11 @@ def newton(
         raise ValueError("jacobian must be 'first', 'always' or 'never'")
     if jacobian == "never" and not lu.ready:
         raise ValueError("jacobian='never' needs a factorisation in the cache")
-    normf = max_norm if norm == "max" else wrms
+    kind = NORM_MAX if norm == "max" else NORM_RMS
+
+    def normf(v, w):
+        return weighted_norm(v, w, kind)
+
     rw = residual_weights
     x = np.array(x0, dtype=float)
     ss = rate / (1.0 - rate)

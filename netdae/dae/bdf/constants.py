@@ -1,0 +1,85 @@
+"""The FLC-BDF method's constants: one owner for each (IDA's names in parentheses).
+
+:mod:`netdae.dae.compiled.bdf_loop` imports them from :mod:`netdae.dae.bdf`,
+so both integrators take the same decisions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+#: With relref="mixed" the relative tolerance refers to at least this fraction
+#: of the largest magnitude the unknown has had.
+MIXED_FLOOR = 0.1
+#: Highest order (BDF6 and beyond are not zero-stable).
+MAX_ORDER = 5
+#: Newton iterations per step (IDA's maxcor).
+NEWTON_MAXITER = 4
+#: Newton convergence tolerance as a fraction of the error-test bound 1 (IDA's EPCON).
+EPCON = 0.33
+#: Contraction rate assumed right after a factorisation: rate/(1-rate) = 20 (IDA).
+RATE_AFTER_SETUP = 20.0 / 21.0
+#: Rate assumed when cj changed but the old factorisation is reused: rate/(1-rate) = 100 (IDA).
+RATE_CJ_CHANGED = 100.0 / 101.0
+#: A nonlinear system keeps its factorisation while cj/cj_lu stays in
+#: [(1-DCJ)/(1+DCJ), (1+DCJ)/(1-DCJ)] = [0.6, 1.67] (IDA's dcj).
+DCJ = 0.25
+#: The step grows only when the error allows at least this factor (IDA's eta_max_fx) ...
+ETA_GROW_MIN = 2.0
+#: ... and then by at most this factor (IDA's eta_max).
+ETA_GROW_MAX = 2.0
+#: After an accepted step the step shrinks when the error asks for a factor <= 1,
+#: to between ETA_SHRINK_MIN and ETA_SHRINK_MAX of its size (IDA's eta_min, eta_low).
+ETA_SHRINK_MIN = 0.5
+ETA_SHRINK_MAX = 0.9
+#: Smallest reduction after an error-test failure (IDA's eta_min_ef) ...
+ETA_ERROR_FAIL_MIN = 0.25
+#: ... and the reduction after a Newton failure (IDA's eta_cf).
+ETA_NEWTON_FAIL = 0.25
+#: Safety factor of the step-size formula after an error-test failure.
+ETA_SAFETY = 0.9
+#: Small term keeping the step-size formula finite for a zero error estimate (IDA).
+ERROR_FLOOR = 1e-4
+#: Failures allowed within one step before giving up (IDA's maxncf, maxnef).
+MAX_NEWTON_FAILURES = 10
+MAX_ERROR_FAILURES = 10
+#: First step at t0: at most this fraction of the distance to the first breakpoint (IDA's 0.001 * tout).
+H0_FRACTION = 1e-3
+#: The first order-1 step aims at this fraction of the error-test bound.
+H0_ERROR_TARGET = 0.25
+#: With a caller-given x'(t0): h |x'(t0)|_w <= H0_DERIVATIVE_BOUND (IDA's first-order rule).
+H0_DERIVATIVE_BOUND = 0.5
+#: The implicit-Euler probe for the (re)start derivatives uses this fraction of the step cap ...
+PROBE_FRACTION = 1e-3
+#: ... and is repeated (at most PROBE_RETRIES times) when the step came out smaller
+#: than probe / PROBE_MAX_RATIO (its error estimate needs probe << step).
+PROBE_MAX_RATIO = 0.02
+PROBE_RETRIES = 3
+#: At a (re)start the right limit x(t+) is measured by the probe (two implicit-Euler
+#: steps of size eps, extrapolated to eps = 0). An unknown whose right limit differs
+#: from the value reached by more than JUMP_DETECT tolerances (weighted, with the
+#: tolerances raised to the rounding level of the probe) means the inputs jumped, an
+#: index-2 unknown jumped at a corner, or the start is inconsistent: the method
+#: restarts from the right limit.
+JUMP_DETECT = 1.0
+#: Newton iterations allowed for each implicit-Euler step of the right-limit solve.
+JUMP_NEWTON_MAXITER = 25
+#: A step may be stretched by this fraction to land on a breakpoint.
+BREAKPOINT_STRETCH = 0.1
+#: Breakpoints closer than this fraction of the interval are merged (no sliver steps).
+BREAKPOINT_MERGE = 1e-9
+#: A step smaller than this many ulps of t cannot advance time.
+ROUNDOFF_ULPS = 16.0
+#: The corrector residual ``cj (q(x) - q_pred) + q'_pred - phi`` is computed with an
+#: absolute error of about ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row; a tolerance
+#: below this many times that level, propagated to the unknowns, is not attainable
+#: and is raised to it (see ``BDF._rounding_weights``).
+ROUNDING_FACTOR = 10.0
+EPS = float(np.finfo(float).eps)
+#: Linear systems up to this size form their residual with a dense matrix-vector product.
+DENSE_MATVEC_MAX = 48
+#: Initial capacity of the output buffers (they double when full).
+BUFFER_START = 1024
+#: Least wall time between two progress callbacks [s].
+PROGRESS_INTERVAL = 0.1

@@ -1,0 +1,284 @@
+"""The correctors of the FLC-BDF method and the rounding floor of their tolerances.
+
+A linear system ``E x' = H x + c(t)`` is solved exactly by one solve with the
+factorisation of ``cj E - H`` (:class:`LinearCorrector`); a nonlinear one by
+modified Newton on the charge-form corrector
+``cj (q(x) - q_pred) + q'_pred - phi(x, t) = 0`` (:class:`NonlinearCorrector`,
+IDA's rate test and Jacobian reuse, :func:`netdae.dae.newton.newton`).
+Both report a failure as a dict ``{"info": <newton info code>, "worst": <name or None>}``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..newton import INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, LuCache, newton
+from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
+from .failures import nonfinite_unknown, worst_unknown
+
+__all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector"]
+
+
+class RoundingFloor:
+    """Tolerances raised to the rounding level of the corrector residual.
+
+    The corrector residual holds ``cj (q(x) - q_pred)``: its rounding error
+    ``eps cj |q|`` grows like ``1/h``. An unknown that only such a row fixes
+    (the current of a voltage source driving a capacitor,
+    ``i = cj (q - q_pred) + ...``) carries noise of ``eps |q| / h`` in every
+    Newton correction and in every accepted value. Where that noise reaches
+    the requested tolerance (a current near zero, whose tolerance is
+    ``abstol``) the corrections stop contracting on a converged iterate, the
+    step is cut, and a smaller step only raises the noise: the integration
+    dies with the step size at the roundoff of t. The rounding error of the
+    residual, ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row, propagated to the
+    unknowns through the current factorisation (one solve, two right-hand
+    sides), is a floor below which no tolerance is attainable; the Newton and
+    the error test use it (``ROUNDING_FACTOR`` times it) where it exceeds the
+    requested tolerance. This is the same accuracy limit as the backward
+    error of the corrector (Higham, *Accuracy and Stability of Numerical
+    Algorithms*, 2nd ed., 2002, Section 7.1); where the tolerance is
+    attainable the weights are unchanged.
+
+    Parameters
+    ----------
+    pattern : SparsePattern
+        The Jacobians' pattern.
+    lu : LuCache
+        The factorisation the floor is propagated through.
+    """
+
+    def __init__(self, pattern, lu: LuCache) -> None:
+        self.pattern = pattern
+        self.lu = lu
+        self.abs_dq = None  # |dq/dx| at the last Jacobian evaluation (a CSC matrix)
+        self._signs = None  # fixed +-1 signs and the (n, 2) right-hand sides
+        self._rhs = None
+
+    def keep(self, dq) -> None:
+        """Keep ``|dq/dx|`` of a Jacobian evaluation (``data`` on the pattern)."""
+        if self.abs_dq is None:
+            self.abs_dq = self.pattern.matrix(np.abs(dq))
+        else:
+            np.abs(dq, out=self.abs_dq.data)
+
+    def weights(self, w: np.ndarray, w_err: np.ndarray, x_pred, qp_pred, cj: float):
+        """Newton and error-test weights with every tolerance raised to the rounding level.
+
+        Parameters
+        ----------
+        w, w_err : ndarray, shape (n,)
+            The Newton weights and the error-test weights (zero for untested unknowns).
+        x_pred, qp_pred : ndarray, shape (n,)
+            The predicted unknowns and charge derivatives.
+        cj : float
+
+        Returns
+        -------
+        (w_newton, w_err_step)
+            ``w`` and ``w_err`` themselves when no floor applies (the common
+            case), else new arrays.
+        """
+        lu = self.lu
+        if self.abs_dq is None or not lu.ready:
+            return w, w_err
+        noise = self.abs_dq @ np.abs(x_pred)
+        noise *= cj
+        noise += np.abs(qp_pred)
+        noise *= ROUNDING_FACTOR * EPS
+        # |J^-1| b is out of reach; rounding errors have no fixed sign, so take the
+        # larger response to b and to b with fixed pseudo-random signs (a single
+        # non-negative b can cancel, e.g. across a capacitor between two nodes)
+        rhs = self._rhs
+        n = w.size
+        if rhs is None:
+            rhs = self._rhs = np.empty((n, 2))
+            self._signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
+        rhs[:, 0] = noise
+        np.multiply(noise, self._signs, out=rhs[:, 1])
+        floor = np.abs(lu.solve(rhs)).max(axis=1)
+        low = floor * w > 1.0
+        if not low.any():
+            return w, w_err
+        w = w.copy()
+        w[low] = 1.0 / floor[low]
+        w_err = w_err.copy()
+        w_err[low] = np.minimum(w_err[low], w[low])
+        return w, w_err
+
+
+class LinearCorrector:
+    """The exact corrector of a linear system: one solve with the factorisation of ``cj E - H``.
+
+    Parameters
+    ----------
+    system : DaeSystem
+        With ``source(t)``.
+    lu : LuCache
+        Refactored exactly when ``cj`` changes (its tag is ``cj``).
+    ev : Evaluation
+        An evaluation with Jacobians: ``E = dq``, ``H = dphi`` (constant).
+    stats : dict
+        Counters updated here.
+
+    Notes
+    -----
+    The residual ``E x'_pred - H x_pred - c(t)`` is one product with
+    ``[-H | E]`` (dense below ``DENSE_MATVEC_MAX`` unknowns, where numpy beats
+    the sparse call overhead) and one call of ``system.source``.
+    """
+
+    state_try = None  # no device limiting state
+
+    def __init__(self, system, lu: LuCache, ev, stats: dict) -> None:
+        self.system, self.lu, self.stats = system, lu, stats
+        pattern = system.pattern
+        self.e_data = np.array(ev.dq, dtype=float)
+        self.h_data = np.array(ev.dphi, dtype=float)
+        stacked = sp.hstack([-pattern.matrix(self.h_data), pattern.matrix(self.e_data)]).tocsr()
+        self.residual_op = stacked.toarray() if system.n <= DENSE_MATVEC_MAX else stacked
+
+    def solve(self, t_new: float, pred: np.ndarray, cj: float, w: np.ndarray, check_finite: bool):
+        """x_{n+1} from the prediction ``pred`` (shape (2, n)): ``(True, x_new)`` or ``(False, failure)``.
+
+        A non-finite solution is reported only with ``check_finite`` (the fixed-step
+        mode); otherwise it shows in the error norm (NaN propagates through the weights).
+        """
+        lu = self.lu
+        if lu.tag != cj:
+            if not lu.factor(cj * self.e_data - self.h_data, tag=cj):
+                return False, {"info": INFO_SINGULAR, "worst": None}
+        r = self.residual_op @ pred.reshape(-1)
+        r -= self.system.source(t_new)
+        d = lu.solve(r)
+        st = self.stats
+        st["evaluations"] += 1
+        st["newton_iterations"] += 1
+        st["factorizations"] = lu.factorizations
+        x_new = pred[0] - d
+        if check_finite and not np.all(np.isfinite(x_new)):
+            return False, {"info": INFO_NONFINITE, "worst": worst_unknown(self.system.names, d, w, w)}
+        return True, x_new
+
+
+class NonlinearCorrector:
+    """Modified Newton on the charge-form corrector ``cj (q(x) - q_pred) + q'_pred = phi(x, t)``.
+
+    Parameters
+    ----------
+    system : DaeSystem
+    lu : LuCache
+        The Newton matrix ``cj dq - dphi`` (its tag is the ``cj`` it was made for).
+    floor : RoundingFloor
+        Keeps ``|dq|`` of every Jacobian evaluation.
+    stats : dict
+    maxiter : int
+        Newton iterations per attempt.
+    norm : {"rms", "max"}
+
+    Attributes
+    ----------
+    rate : float
+        The convergence rate carried from step to step (IDA).
+    state_try : object
+        The devices' limiting state of the last attempt (the driver keeps it when the step is accepted).
+
+    Notes
+    -----
+    The factorisation is kept while ``cj / cj_lu`` stays within
+    ``[(1 - DCJ)/(1 + DCJ), (1 + DCJ)/(1 - DCJ)]``; a failure with a stale one
+    is retried once with a fresh Jacobian at the same step size. After
+    Newton the charges are evaluated exactly at the new point (one device
+    pass without Jacobian): the history must hold ``q(x_new)`` itself, or
+    every step injects the linearisation error into the charge of floating
+    node groups.
+    """
+
+    def __init__(self, system, lu: LuCache, floor: RoundingFloor, stats: dict, maxiter: int, norm: str) -> None:
+        self.system, self.lu, self.floor, self.stats = system, lu, floor, stats
+        self.maxiter, self.norm = maxiter, norm
+        self.rate = RATE_AFTER_SETUP
+        self.state_try = None
+
+    def _newton(self, fun, x_pred, cj, cjlast, setup, weights):
+        if setup:
+            rate, jac, scale = RATE_AFTER_SETUP, "first", 1.0
+        else:
+            rate = RATE_CJ_CHANGED if cj != cjlast else self.rate
+            jac, scale = "never", 2.0 / (1.0 + cj / self.lu.tag)
+        return newton(fun, x_pred, self.lu, weights, tol=EPCON, maxiter=self.maxiter,
+                      jacobian=jac, rate=rate, scale=scale, norm=self.norm, tag=cj)
+
+    def solve(self, t_new: float, pred: np.ndarray, cj: float, cjlast: float, fresh: bool, state, w_newton):
+        """Solve the corrector of one attempt.
+
+        Parameters
+        ----------
+        t_new : float
+        pred : ndarray, shape (2, 2 n)
+            ``[x_pred, q_pred; x'_pred, q'_pred]``.
+        cj, cjlast : float
+            Leading coefficient of this attempt and of the previous one.
+        fresh : bool
+            Force a new Jacobian (the first step after a (re)start).
+        state : object
+            The devices' limiting state of the last accepted step.
+        w_newton : ndarray, shape (n,)
+            Weights of the Newton convergence test.
+
+        Returns
+        -------
+        (True, (x_new, q_new)) or (False, failure dict)
+        """
+        n = self.system.n
+        x_pred = pred[0, :n]
+        q_pred = pred[0, n:]
+        qp_pred = pred[1, n:]
+        system = self.system
+        st = self.stats
+        floor = self.floor
+        last = {}
+
+        def fun(x, jacobian):
+            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
+            st["evaluations"] += 1
+            self.state_try = ev.state
+            last["ev"] = ev
+            if jacobian:
+                floor.keep(ev.dq)
+            r = ev.q - q_pred
+            r *= cj
+            r += qp_pred
+            r -= ev.phi
+            if not jacobian:
+                return r, None, ev.ok, ev.limited
+            st["jacobian_evaluations"] += 1
+            return r, cj * ev.dq - ev.dphi, ev.ok, ev.limited
+
+        lu = self.lu
+        self.state_try = state
+        setup = (not lu.ready) or fresh
+        if not setup:
+            ratio = cj / lu.tag
+            setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
+        res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton)
+        if not res.converged and not setup and res.info != INFO_EVALUATION:
+            # stale Jacobian: retry once with a fresh one at the same step size
+            st["newton_failures"] += 1
+            st["newton_iterations"] += res.iterations
+            self.state_try = state
+            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton)
+        st["newton_iterations"] += res.iterations
+        st["factorizations"] = lu.factorizations
+        if not res.converged:
+            worst = system.names[res.worst] if res.worst >= 0 else None
+            if res.info == INFO_EVALUATION and "ev" in last:
+                worst = nonfinite_unknown(system.names, last["ev"]) or worst
+            return False, {"info": res.info, "worst": worst}
+        self.rate = res.rate
+        ev_new = system.evaluate(res.x, t_new, jacobian=False, state=None)
+        st["evaluations"] += 1
+        if not ev_new.ok:
+            return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
+        return True, (res.x, ev_new.q)

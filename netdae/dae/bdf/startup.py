@@ -1,0 +1,217 @@
+"""Starting and restarting the FLC-BDF method: derivative probes, right limits of jumps.
+
+At t0 and after every breakpoint the method restarts at order 1. The
+derivative from the right, x'(t+), is measured by an implicit-Euler *probe*
+of a tiny step ``eps`` (one factorisation of ``dq/eps - dphi``, one solve),
+and x''(t+) by a second probe step with the same factorisation
+(:func:`probe`); the first step then follows from x''
+(:func:`netdae.dae.bdf.controller.first_step_from_curvature`). The probe
+also gives the right limit ``x(t+) = 2 x_1 - x_2``: where it differs from the
+value reached (:func:`jump_of`), the inputs jumped, an index-2 unknown
+jumped at a corner, or the start is inconsistent, and the method continues
+from it; a nonlinear system's right limit is solved to convergence by the
+steady-state solver (:func:`right_limit`, also used by the compiled engine).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..newton import INFO_SINGULAR
+from ..steady import SteadyOptions, solve_steady
+from ..system import DaeSystem, Evaluation
+from .constants import JUMP_DETECT
+from .failures import Failure, newton_hint, nonfinite_unknown
+
+__all__ = ["ImplicitEulerStep", "right_limit", "Probe", "probe", "jump_of"]
+
+
+class ImplicitEulerStep(DaeSystem):
+    """One implicit-Euler step as a steady-state problem: ``phi(x, t) - (q(x) - q0)/h = 0``.
+
+    Parameters
+    ----------
+    system : DaeSystem
+    q0 : ndarray, shape (n,)
+        Charges at the start of the step.
+    h : float
+        Step size.
+    t : float
+        Time at which the inputs are taken (whatever time the solver passes).
+
+    Notes
+    -----
+    Used for consistent values after a jump of the inputs (:class:`BDF`) and
+    for a ``uic`` start (:mod:`netdae.analyses.tran`): as ``h -> 0`` the
+    solution keeps the charges ``q0`` and satisfies the algebraic equations
+    at ``t``.
+    """
+
+    def __init__(self, system: DaeSystem, q0, h: float, t: float):
+        self.inner = system
+        self.q0, self.h, self.t = q0, h, t
+        self.n, self.names, self.kinds, self.pattern = system.n, system.names, system.kinds, system.pattern
+        self.linear = system.linear
+
+    def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0):
+        ev = self.inner.evaluate(x, self.t, jacobian=jacobian, state=state, source_scale=source_scale)
+        return Evaluation(
+            q=ev.q, phi=ev.phi - (ev.q - self.q0) / self.h,
+            dq=ev.dq, dphi=None if ev.dphi is None else ev.dphi - ev.dq / self.h,
+            limited=ev.limited, state=ev.state, ok=ev.ok,
+        )
+
+    def initial_state(self):
+        return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
+
+
+def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, *,
+                state=None) -> tuple[np.ndarray | None, int, int, str]:
+    """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
+
+    The charges are continuous across t (no impulse), so the steps start from
+    ``q(x)``; the inputs are those right of t. Each step is solved by the
+    steady-state solver (damped Newton with device limiting, then gmin and
+    source stepping): after a jump of the inputs the start can be far from
+    the solution (a diode switched on by a step). Index-2 unknowns (``high``)
+    take the second step's value (they carry an impulse in the first).
+
+    Returns
+    -------
+    (x_right, iterations, evaluations, message)
+        ``x_right`` is None when a step did not converge (``message`` says why).
+    """
+    opts = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False)
+    iterations = 0
+    evaluations = 0
+    y = np.asarray(x, dtype=float)
+    ys = []
+    for step in (1, 2):
+        q0 = system.evaluate(y, t + (step - 1) * eps, jacobian=False, state=state).q
+        evaluations += 1
+        res = solve_steady(ImplicitEulerStep(system, q0, eps, t + step * eps), t + step * eps, y, options=opts)
+        iterations += res.iterations
+        evaluations += res.iterations
+        if not res.converged:
+            return None, iterations, evaluations, ("the inputs jump at t, and no values consistent with them "
+                                                   f"right of it were found ({res.message})")
+        y = res.x
+        ys.append(y)
+    out = 2.0 * ys[0] - ys[1]
+    high = np.asarray(high, dtype=bool)
+    out[high] = ys[1][high]
+    return out, iterations, evaluations, ""
+
+
+class Probe:
+    """What a probe measured at a (re)start point.
+
+    Attributes
+    ----------
+    xp, qp, xpp : ndarray, shape (n,)
+        x'(t+), q'(t+) (= phi), x''(t+); the derivatives of index-2 unknowns are zero.
+    x_right : ndarray, shape (n,)
+        The right limit ``2 x_1 - x_2``.
+    x_2 : ndarray, shape (n,)
+        The second Euler step (the right limit of index-2 unknowns when an input value jumps).
+    w_floor : ndarray, shape (n,)
+        The weights with every tolerance raised to the probe's rounding level.
+    """
+
+    __slots__ = ("xp", "qp", "xpp", "x_right", "x_2", "w_floor")
+
+    def __init__(self, xp, qp, xpp, x_right, x_2, w_floor):
+        self.xp, self.qp, self.xpp, self.x_right, self.x_2, self.w_floor = xp, qp, xpp, x_right, x_2, w_floor
+
+
+def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err) -> Probe:
+    """x'(t+), q'(t+), x''(t+) and the right limit x(t+) from two implicit-Euler steps of size ``eps``.
+
+    Each step is one Newton iteration (exact for a linear system; for a
+    nonlinear one the residual at a consistent x is O(eps)). The right limit
+    is the extrapolation of the two steps to eps = 0, ``2 x_1 - x_2`` (error
+    O(eps^2)), returned with ``x_2`` (for index-2 unknowns, which carry an
+    impulse in ``x_1`` when an input value jumps: :func:`jump_of` chooses).
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(x, t, jacobian) -> Evaluation`` (counting evaluations).
+    lu : LuCache
+        Factorises ``dq/eps - dphi`` (tag ``1/eps``).
+    floor : RoundingFloor
+        Keeps ``|dq|`` and gives the weights raised to the probe's rounding level.
+    names : sequence of str
+    t : float
+    x : ndarray, shape (n,)
+    eps : float
+    high : ndarray of bool, shape (n,)
+        Index-2 unknowns.
+    w, w_err : ndarray, shape (n,)
+        The current weights.
+
+    Returns
+    -------
+    Probe
+
+    Raises
+    ------
+    Failure
+        When the Newton matrix is singular or an evaluation is not finite.
+    """
+    ev = evaluate(x, t + eps, True)
+    if not ev.ok or not np.all(np.isfinite(ev.phi)):
+        raise Failure("the system evaluation right after t is not finite", nonfinite_unknown(names, ev),
+                      "the model is undefined at the initial/restart point")
+    if not lu.factor(ev.dq / eps - ev.dphi, tag=1.0 / eps):
+        raise Failure("the Newton matrix (alpha/h) dq/dx - dphi/dx is singular", None, newton_hint(INFO_SINGULAR))
+    floor.keep(ev.dq)
+    xp = lu.solve(ev.phi) / eps
+    x1 = x + eps * xp
+    ev1 = evaluate(x1, t + 2.0 * eps, False)
+    xp1 = lu.solve(ev1.phi) / eps if ev1.ok else xp
+    xpp = (xp1 - xp) / eps
+    if not (np.all(np.isfinite(xp)) and np.all(np.isfinite(xpp))):
+        raise Failure("the derivative estimate at the (re)start is not finite", None, newton_hint(INFO_SINGULAR))
+    x_right, x_2 = x1 - eps * xp1, x1 + eps * xp1
+    qp = np.array(ev.phi, dtype=float)
+    w_floor, _ = floor.weights(w, w_err, x, qp, 1.0 / eps)
+    xp[high] = 0.0
+    xpp[high] = 0.0
+    return Probe(xp, qp, xpp, x_right, x_2, w_floor)
+
+
+def jump_of(x, x_right, x_2, w_floor, high):
+    """Whether the right limit differs from ``x``, and how.
+
+    Parameters
+    ----------
+    x, x_right, x_2 : ndarray, shape (n,)
+        The value reached, the probe's right limit and its second Euler step.
+    w_floor : ndarray, shape (n,)
+        Weights at the probe's rounding level.
+    high : ndarray of bool, shape (n,)
+
+    Returns
+    -------
+    (jumped, value_jump, x_right)
+        ``jumped``: some unknown moved by more than ``JUMP_DETECT`` tolerances;
+        ``value_jump``: one that is not index 2 did (an input value jumped, or
+        the start is inconsistent), then the index-2 unknowns take ``x_2``
+        (they carry an impulse in the first Euler step) in ``x_right``.
+
+    Examples
+    --------
+    >>> x = np.zeros(2); high = np.array([False, True])
+    >>> jump_of(x, np.array([0.0, 5.0]), np.array([0.0, 4.0]), np.ones(2), high)[:2]
+    (True, False)
+    >>> jump_of(x, np.array([3.0, 5.0]), np.array([3.0, 4.0]), np.ones(2), high)[2].tolist()
+    [3.0, 4.0]
+    """
+    moved = np.abs(x_right - x) * w_floor
+    if not moved.max() > JUMP_DETECT:
+        return False, False, x_right
+    value_jump = bool(np.any(moved[~high] > JUMP_DETECT))
+    if value_jump:
+        x_right[high] = x_2[high]
+    return True, value_jump, x_right

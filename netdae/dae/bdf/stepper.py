@@ -1,0 +1,668 @@
+"""The :class:`BDF` driver: IDA's step loop composed of the history, controller, correctors, start-up and recorder.
+
+It holds the integration's state (time, step, weights, counters, status) and
+strings the parts together into IDA's phases (``IDAStep``): set coefficients
+(:class:`~netdae.dae.bdf.history.History`), predict, correct
+(:mod:`~netdae.dae.bdf.corrector`), test the error and choose order and step
+(:mod:`~netdae.dae.bdf.controller`, on norms from the compiled kernels of
+:mod:`netdae.dae.compiled.control`), restore and retry on failure, complete
+the step, record it (:class:`~netdae.dae.bdf.recorder.Recorder`); restarts
+probe the derivatives and right limits (:mod:`~netdae.dae.bdf.startup`).
+The compiled engine (:mod:`netdae.dae.compiled.bdf_loop`) runs the same
+phases on the same kernels for MNA systems; this driver serves every
+``DaeSystem`` (user DAEs written with ``FunctionDae``, behavioural sources).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..bdf_kernels import merge_breakpoints
+from ..compiled.control import (
+    NORM_MAX,
+    NORM_RMS,
+    RELREF_LOCAL,
+    RELREF_MIXED,
+    RELREF_SIGNAL,
+    error_norms,
+    landing_step,
+    set_weights,
+    weighted_norm,
+)
+from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache
+from ...results import STATUS_FAILED, STATUS_OK
+from ..system import DaeSystem
+from . import controller as ctl
+from .arguments import absolute_tolerances, check_arguments, index_mask, save_indices
+from .constants import (
+    BREAKPOINT_MERGE,
+    BREAKPOINT_STRETCH,
+    EPCON,
+    ETA_NEWTON_FAIL,
+    H0_FRACTION,
+    JUMP_DETECT,
+    MAX_ERROR_FAILURES,
+    MAX_NEWTON_FAILURES,
+    MAX_ORDER,
+    NEWTON_MAXITER,
+    PROBE_FRACTION,
+    PROBE_MAX_RATIO,
+    PROBE_RETRIES,
+    RATE_AFTER_SETUP,
+)
+from .corrector import LinearCorrector, NonlinearCorrector, RoundingFloor
+from .failures import Failure, error_hint, failure_record, newton_hint, worst_unknown
+from .history import History, sampled_history
+from .recorder import Recorder
+from .result import IntegrationResult
+from .startup import jump_of, probe, right_limit
+from .statistics import count_step, new_statistics
+
+__all__ = ["BDF"]
+
+_RELREF = {"local": RELREF_LOCAL, "signal": RELREF_SIGNAL, "mixed": RELREF_MIXED}
+
+
+class BDF:
+    """Fixed-leading-coefficient BDF stepper (orders 1..5) for ``d/dt q(x) = phi(x, t)``.
+
+    Parameters
+    ----------
+    system : DaeSystem
+    t0 : float
+    x0 : ndarray, shape (n,)
+        Consistent initial values (the caller computes them).
+    t_bound : float
+        End of the integration (a breakpoint).
+    rtol : float
+        Relative tolerance (SPICE's reltol).
+    atol : float or ndarray, shape (n,)
+        Absolute tolerance of ``KIND_OTHER`` unknowns, or one per unknown
+        (then ``vntol``/``abstol`` are not used).
+    vntol, abstol : float
+        Absolute tolerances of voltages and currents (SPICE defaults).
+    index : array_like of int, shape (n,), optional
+        Per-unknown index: 0/1 differential or index-1 algebraic, 2 index-2.
+        Index-2 unknowns are left out of the error test (not of the Newton norm).
+    maxord : int
+        Highest order, 1..5.
+    max_step, min_step : float
+        Bounds on the step size (SPICE's tmax; needing a step below
+        ``min_step`` is a failure).
+    first_step : float, optional
+        First step size (estimated from x'(t0), x''(t0) and the tolerances
+        otherwise).
+    breakpoints : array_like, optional
+        Times to land on exactly, besides ``system.breakpoints(t0, t_bound)``.
+    xp0 : ndarray, shape (n,), optional
+        x'(t0); estimated by an implicit-Euler probe otherwise.
+    save : array_like of int, optional
+        Unknowns to record (and interpolate); all by default.
+    norm : {"rms", "max"}
+        Weighted RMS norm (IDA) or maximum norm (every unknown within
+        tolerance, as SPICE's per-device truncation-error test).
+    relref : {"local", "signal", "mixed"}
+        What the relative tolerance refers to: the current value
+        ``|x_i(t_n)|`` (IDA: ``w_i = 1 / (rtol |x_i| + atol_i)``), the largest
+        ``|x_i|`` so far (Spectre's ``relref=sigglobal``), or the larger of the
+        current value and ``MIXED_FLOOR`` times the largest so far. With "local"
+        the tolerance of an unknown collapses to its ``atol`` whenever it
+        crosses zero; with SPICE's abstol = 1e-12 A for currents of milliamperes
+        this can force thousands of order-1 steps at a zero crossing (whose
+        local errors then add up). "signal" keeps the tolerance a fraction of
+        the waveform's amplitude but loosens it wherever the waveform is
+        small; "mixed" is local where the waveform is large and floors the
+        tolerance near zero crossings.
+    newton_maxiter : int
+        Newton iterations per step attempt (nonlinear systems).
+    fixed_step : float, optional
+        Constant step without error control (for order studies); with
+        ``fixed_order``.
+    fixed_order : int, optional
+        Order of the fixed-step mode (reached by raising the order one per
+        step, or at once with ``history``).
+    history : tuple (t_hist, x_hist), optional
+        ``k + 1`` equally spaced past times ending at ``t0`` and the solution
+        there (shape (k + 1, n)): start at order ``k`` with this history.
+    permc_spec : str
+        SuperLU column ordering.
+    max_steps : int, optional
+        Give up after this many accepted steps.
+
+    Attributes
+    ----------
+    t : float
+        Current time.
+    x : ndarray, shape (n,)
+        Current solution (a copy).
+    h : float
+        Size of the next step.
+    order : int
+        Order of the next step.
+    status : {"running", "finished", "failed"}
+    message : str
+    stats : dict
+
+    Raises
+    ------
+    ValueError
+        For inconsistent arguments (shapes, tolerances, index >= 3, ...).
+
+    Notes
+    -----
+    Memory: the ``(maxord + 1, n)`` history of the unknowns (and, for a
+    nonlinear system, of the charges), the sparse LU, and the saved
+    components at every step (``save`` limits it).
+    """
+
+
+    def __init__(
+        self,
+        system: DaeSystem,
+        t0: float,
+        x0,
+        t_bound: float,
+        *,
+        rtol: float = 1e-3,
+        atol=1e-6,
+        vntol: float = 1e-6,
+        abstol: float = 1e-12,
+        index=None,
+        maxord: int = MAX_ORDER,
+        max_step: float = math.inf,
+        min_step: float = 0.0,
+        first_step: float | None = None,
+        breakpoints=None,
+        xp0=None,
+        save=None,
+        norm: str = "rms",
+        relref: str = "local",
+        newton_maxiter: int = NEWTON_MAXITER,
+        fixed_step: float | None = None,
+        fixed_order: int | None = None,
+        history=None,
+        permc_spec: str = DEFAULT_PERMC_SPEC,
+        max_steps: int | None = None,
+    ) -> None:
+        wall0 = time.perf_counter()
+        self.system = system
+        n = self.n = int(system.n)
+        self.t0 = float(t0)
+        self.t_bound = float(t_bound)
+        x0 = check_arguments(self.t0, self.t_bound, x0, n, rtol=rtol, maxord=maxord, norm=norm, relref=relref,
+                             max_step=max_step, min_step=min_step, first_step=first_step)
+        if int(newton_maxiter) < 1:
+            raise ValueError("newton_maxiter must be at least 1")
+        self.rtol = float(rtol)
+        self.maxord = int(maxord)
+        self.max_step = float(max_step)
+        self.min_step = float(min_step)
+        self.norm = norm
+        self.relref = relref
+        self._norm_kind = NORM_MAX if norm == "max" else NORM_RMS
+        self.newton_maxiter = int(newton_maxiter)
+        self.max_steps = max_steps
+        self._linear = bool(getattr(system, "linear", False))
+
+        self._atol, atol_label = absolute_tolerances(system.kinds, n, atol, vntol, abstol)
+        self._tolerances = {
+            "rtol": self.rtol, "vntol": float(vntol), "abstol": float(abstol), "atol": atol_label,
+            "norm": norm, "relref": relref, "newton_tol": EPCON, "maxord": self.maxord,
+        }
+        self._high, mask_factor, self._tolerances["index_excluded"] = index_mask(system.names, n, index, norm)
+        self._mask = np.ones(n) if mask_factor is None else mask_factor
+        save_idx = save_indices(n, save)
+        extra = [np.asarray(system.breakpoints(self.t0, self.t_bound), dtype=float).ravel()]
+        if breakpoints is not None:
+            extra.append(np.asarray(breakpoints, dtype=float).ravel())
+        self._breakpoints = merge_breakpoints(self.t0, self.t_bound, np.concatenate(extra),
+                                              BREAKPOINT_MERGE * (self.t_bound - self.t0))
+        self._ibp = 0
+
+        self._fixed = fixed_step is not None
+        if self._fixed:
+            if not (fixed_step > 0.0) or fixed_order is None or not (1 <= fixed_order <= self.maxord):
+                raise ValueError("fixed_step needs a positive step and fixed_order in 1..maxord")
+            self._fixed_order = int(fixed_order)
+            self._fixed_h = float(fixed_step)
+        elif fixed_order is not None:
+            raise ValueError("fixed_order needs fixed_step")
+
+        # the parts: P holds the differences of x (and of q for a nonlinear system)
+        self._hist = History(n, n if self._linear else 2 * n, self.maxord)
+        self.stats = new_statistics()
+        self._rec = Recorder(system.names, save_idx, save is None)
+        self._lu = LuCache(system.pattern, permc_spec=permc_spec)
+        self._floor = RoundingFloor(system.pattern, self._lu)
+        self._corrector = None if self._linear else NonlinearCorrector(
+            system, self._lu, self._floor, self.stats, self.newton_maxiter, norm)
+        # the controller's state between steps
+        self._phase = 0  # 0: start-up (order and step raised after every step), 1: normal
+        self._nst = 0  # steps since the last (re)start
+        self._growth_failed = False
+        self._last_cj_attempt = None
+        self._state = None  # the devices' limiting state at the last accepted point
+        self._ee = None
+        self.h = 0.0
+        self._h_request = 0.0
+        self._w = np.empty(n)
+        self._w_err = np.empty(n)
+        self._w_step_err = self._w_err
+        self._xmax = np.abs(x0)
+        self._failure = None
+        self.status = "running"
+        self.message = ""
+
+        self.t = self.t0
+        if n == 0:
+            # nothing to integrate (a circuit of ideal sources only, or none)
+            self._rec.record(self.t0, x0, 0)
+            self._rec.record(self.t_bound, x0, 0)
+            self.t = self.t_bound
+            self.status = "finished"
+            self.message = f"reached t={self.t_bound:.9g}: the system has no unknowns"
+            return
+        self._set_weights(x0)
+        ev = self._evaluate(x0, self.t0, jacobian=self._linear)
+        if not ev.ok or not np.all(np.isfinite(ev.q)) or not np.all(np.isfinite(ev.phi)):
+            raise ValueError(f"the system evaluation at t0={self.t0:g} is not finite (check x0)")
+        if self._linear:
+            self._corrector = LinearCorrector(system, self._lu, ev, self.stats)
+        P = self._hist.P
+        P[0, :n] = x0
+        if not self._linear:
+            P[0, n:] = ev.q
+        self._rec.record(self.t0, x0, 0)
+        if history is not None:
+            self._start_from_history(history, x0)
+        else:
+            self._start(x0, ev, first_step, xp0)
+        self.stats["wall_time"] = time.perf_counter() - wall0
+
+    # ------------------------------------------------------------- helpers
+    def _set_weights(self, x):
+        """Error weights at x (the compiled ``set_weights``): ``_w`` for Newton, ``_w_err`` for the error test."""
+        set_weights(x, self.rtol, self._atol, _RELREF[self.relref], self._xmax, self._mask, self._w, self._w_err)
+
+    def _normf(self, v, w):
+        return weighted_norm(v, w, self._norm_kind)
+
+    def _evaluate(self, x, t, jacobian=False):
+        ev = self.system.evaluate(x, t, jacobian=jacobian, state=self._state)
+        self.stats["evaluations"] += 1
+        if jacobian:
+            self.stats["jacobian_evaluations"] += 1
+        return ev
+
+    def _fail(self, t, h, what, worst, hint):
+        self.status = "failed"
+        self.message, self._failure = failure_record(t, h, what, worst, hint)
+
+    # Kept as static methods: the compiled engine's driver words its failures with them.
+    _newton_hint = staticmethod(newton_hint)
+    _error_hint = staticmethod(error_hint)
+
+    # --------------------------------------------------------------- (re)start
+    def _start(self, x0, ev0, first_step, xp0):
+        """Derivatives and first step at t0 (order 1)."""
+        cap = min(H0_FRACTION * (self._breakpoints[0] - self.t0), self.max_step)
+        if self._fixed:
+            p = self._probe_or_fail(self.t0, x0, PROBE_FRACTION * self._fixed_h)
+            if p is not None:
+                self._initialise_history(self._fixed_h, p.xp, p.qp)
+            return
+        if xp0 is not None:
+            xp = np.array(xp0, dtype=float)
+            if xp.shape != (self.n,) or not np.all(np.isfinite(xp)):
+                raise ValueError(f"xp0 must be a finite array of shape ({self.n},)")
+            h = first_step
+            if h is None:
+                h = ctl.first_step_from_derivative(self._normf(xp, self._w_err), cap)
+            self._initialise_history(max(h, self.min_step), xp, ev0.phi)
+            return
+        h = first_step if first_step is not None else cap
+        self._restart_at(x0, h, fixed=first_step is not None)
+
+    def _restart_at(self, x, cap, fixed=False):
+        """Probe the derivatives at (t, x) and start at order 1 with a step <= cap.
+
+        The first probe also measures the right limit x(t+); where it differs
+        from ``x`` the method continues from the right limit (:meth:`_jump`).
+        """
+        h = cap
+        checked = False
+        retries = 0
+        while True:
+            eps = PROBE_FRACTION * h
+            p = self._probe_or_fail(self.t, x, eps)
+            if p is None:
+                return
+            if not checked:
+                checked = True
+                jump = self._jump(x, p, eps)
+                if jump is None:
+                    return
+                x, again = jump
+                if again:
+                    continue  # derivatives from the right limit
+            if fixed:
+                break
+            h_new = ctl.first_step_from_curvature(self._normf(p.xpp, self._w_err), cap, self.min_step)
+            converged = eps <= PROBE_MAX_RATIO * h_new
+            h = h_new
+            retries += 1
+            if converged or retries >= PROBE_RETRIES:
+                break
+        self._initialise_history(h, p.xp, p.qp)
+
+    def _probe_or_fail(self, t, x, eps):
+        """:func:`~netdae.dae.bdf.startup.probe` at (t, x); None after recording a failure."""
+        self.stats["probes"] += 1
+        try:
+            return probe(self._evaluate, self._lu, self._floor, self.system.names, t, x, eps, self._high, self._w,
+                         self._w_err)
+        except Failure as f:
+            self._fail(t, eps, f.what, f.worst, f.hint)
+            return None
+
+    def _jump(self, x, p, eps):
+        """Continue from the right limit where it differs from ``x``.
+
+        Returns ``(x_new, reprobe)``, or None after recording a failure.
+        ``x_new`` is ``x`` itself when nothing jumped. Otherwise every unknown
+        takes its right limit (a partial replacement would break the algebraic
+        relations between them), the point is recorded a second time (the left
+        and the right value at the same t, so the dense output never
+        interpolates across the jump) and ``reprobe`` says whether the
+        derivatives must be measured again (an unknown that is not index 2
+        jumped). A nonlinear system's right limit is then recomputed by
+        converged Newton iterations (the one-iteration probe is accurate only
+        near a consistent point).
+        """
+        n = self.n
+        jumped, value_jump, x_right = jump_of(x, p.x_right, p.x_2, p.w_floor, self._high)
+        if not jumped:
+            return x, False
+        if value_jump and not self._linear:
+            x_right = self._right_limit(x, eps)
+            if x_right is None:
+                return None
+        moved = np.abs(x_right - x) * p.w_floor
+        names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
+        P = self._hist.P
+        P[0, :n] = x_right
+        if not self._linear:
+            P[0, n:] = self._evaluate(x_right, self.t).q
+        self._set_weights(x_right)
+        self._rec.jump(self.t, x_right, names)
+        return x_right, value_jump
+
+    def _right_limit(self, x, eps):
+        """x(t+) of a nonlinear system (:func:`~netdae.dae.bdf.startup.right_limit`); None after a failure."""
+        tol = self._tolerances
+        out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
+                                                            tol["vntol"], tol["abstol"], state=self._state)
+        self.stats["newton_iterations"] += iterations
+        self.stats["evaluations"] += evaluations
+        if out is None:
+            self._fail(self.t, eps, message, None, newton_hint(None))
+        return out
+
+    def _initialise_history(self, h, xp, qp):
+        self._hist.initialise(h, xp, None if self._linear else qp)
+        self._phase = 0
+        self._nst = 0
+        if not self._linear:
+            self._corrector.rate = RATE_AFTER_SETUP
+        self._growth_failed = False
+        self.h = h
+
+    def _start_from_history(self, history, x0):
+        t_hist, x_hist, h = sampled_history(history, self.t0, x0, self.maxord)
+        k = t_hist.size - 1
+        if self._fixed and (k != self._fixed_order or not math.isclose(h, self._fixed_h, rel_tol=1e-10)):
+            raise ValueError("history must have fixed_order + 1 points spaced by fixed_step")
+        q_hist = None
+        if not self._linear:
+            q_hist = np.array([self._evaluate(x_hist[i], t_hist[i]).q for i in range(k + 1)])
+        self._hist.from_samples(h, x_hist, q_hist)
+        self._phase = 1
+        self._nst = k
+        self.h = h
+
+    def _restart(self, h_last):
+        """Order-1 restart on a breakpoint: derivatives from the right by a probe."""
+        self.stats["restarts"] += 1
+        self._rec.restart(self.t)
+        x = self._hist.P[0, : self.n].copy()
+        if self._fixed:
+            p = self._probe_or_fail(self.t, x, PROBE_FRACTION * self._fixed_h)
+            if p is not None:
+                self._initialise_history(self._fixed_h, p.xp, p.qp)
+            return
+        cap = max(min(h_last, self.max_step, self._breakpoints[self._ibp] - self.t), self.min_step)
+        self._restart_at(x, cap)
+
+    # ------------------------------------------------------------- properties
+    @property
+    def x(self) -> np.ndarray:
+        """Current solution (a copy), shape (n,)."""
+        return self._hist.P[0, : self.n].copy()
+
+    @property
+    def order(self) -> int:
+        """Order of the next step."""
+        return self._hist.k
+
+    # ------------------------------------------------------------------- step
+    def step(self) -> str | None:
+        """Advance by one accepted step.
+
+        Returns
+        -------
+        str or None
+            ``None`` on success, the failure message otherwise (then
+            ``status == "failed"``).
+
+        Raises
+        ------
+        RuntimeError
+            When called after the integration finished or failed.
+        """
+        if self.status != "running":
+            raise RuntimeError(f"the integration is {self.status}; no further steps")
+        wall = time.perf_counter()
+        self._step_impl()
+        self.stats["wall_time"] += time.perf_counter() - wall
+        return self.message if self.status == "failed" else None
+
+    def _step_impl(self):
+        """One step: the attempt loop of IDA's IDAStep."""
+        hist = self._hist
+        ncf = nef = 0
+        t = self.t
+        h = self._fixed_h if self._fixed else self.h
+        while True:
+            self._h_request = h
+            h, landing = landing_step(min(h, self.max_step), self._breakpoints[self._ibp] - t,
+                                      BREAKPOINT_STRETCH, not self._fixed)
+            hist.set_coefficients(h)
+            t_new = self._breakpoints[self._ibp] if landing else t + h
+            accepted, kind, info = self._attempt(t_new)
+            if accepted:
+                break
+            hist.restore()
+            self._phase = 1
+            if kind == "newton":
+                ncf += 1
+                self.stats["newton_failures"] += 1
+                eta = self._newton_failure(t, h, ncf, info)
+            else:
+                nef += 1
+                self.stats["rejected"] += 1
+                if h > hist.hused:
+                    self._growth_failed = True
+                eta = self._error_failure(t, h, nef, info)
+            if eta is None:
+                return
+            h_new = self._reduced_step(t, h, eta, kind, info)
+            if h_new is None:
+                return
+            if self._nst == 0:
+                # first step after a (re)start: rescale the derivative term (IDA's IDAReset)
+                hist.rescale_first_step(h_new, h)
+            h = h_new
+        self._complete_step(t_new, h, landing, info, ncf + nef > 0)
+
+    def _newton_failure(self, t, h, ncf, info):
+        """Step-size factor after a Newton failure, or None after recording a final failure."""
+        reason = info["info"]
+        if self._fixed:
+            self._fail(t, h, f"Newton iteration failed in fixed-step mode ({reason})", info.get("worst"),
+                       "fixed-step mode cannot reduce the step; choose a smaller fixed_step")
+            return None
+        if ncf >= MAX_NEWTON_FAILURES:
+            self._fail(t, h, f"Newton iteration failed {ncf} times ({reason})", info.get("worst"),
+                       newton_hint(reason))
+            return None
+        return ETA_NEWTON_FAIL
+
+    def _error_failure(self, t, h, nef, info):
+        """Step-size factor (and new order) after an error-test failure, or None after the last one."""
+        if nef >= MAX_ERROR_FAILURES:
+            self._fail(t, h, f"error test failed {nef} times", info.get("worst"), error_hint())
+            return None
+        self._hist.k, eta = ctl.error_failure(nef, self._hist.k, info["knew"], info["err_k"], info["err_km1"])
+        return eta
+
+    def _reduced_step(self, t, h, eta, kind, info):
+        """``h * eta`` bounded by min_step and roundoff (:func:`controller.reduced_step`), or None after a failure."""
+        h_new, limit = ctl.reduced_step(t, h, eta, self.min_step)
+        if limit is None:
+            return h_new
+        failures = "Newton failures" if kind == "newton" else "error-test failures"
+        if limit == "min_step":
+            what = (f"step size {h:.3g} at min_step {self.min_step:.3g} and the "
+                    + ("Newton iteration fails" if kind == "newton" else "error test fails"))
+        else:
+            what = f"step size below the roundoff of t ({failures})"
+        hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
+        self._fail(t, h, what, info.get("worst"), hint)
+        return None
+
+    def _attempt(self, t_new):
+        """Predict, solve the corrector, test the error.
+
+        Returns
+        -------
+        (accepted, kind, info)
+            ``kind`` is ``"newton"`` or ``"error"`` for a failure; ``info`` holds
+            the order proposal and error norms, or the failure details.
+        """
+        n = self.n
+        hist = self._hist
+        k = hist.k
+        pred = hist.predict()
+        cj = hist.cj
+        if cj != self._last_cj_attempt:
+            self.stats["cj_changes"] += 1
+            self._last_cj_attempt = cj
+        self._w_step_err = self._w_err
+        if self._linear:
+            ok, out = self._corrector.solve(t_new, pred, cj, self._w, self._fixed)
+            if not ok:
+                return False, "newton", out
+            ee = out - pred[0]
+        else:
+            w_newton, self._w_step_err = self._floor.weights(self._w, self._w_err, pred[0, :n], pred[1, n:], cj)
+            ok, out = self._corrector.solve(t_new, pred, cj, hist.cjlast, self._nst == 0, self._state, w_newton)
+            if not ok:
+                return False, "newton", out
+            x_new, q_new = out
+            ee = np.empty(2 * n)
+            np.subtract(x_new, pred[0, :n], out=ee[:n])
+            np.subtract(q_new, pred[0, n:], out=ee[n:])
+        self._ee = ee
+        if self._fixed:
+            return True, "", {"knew": k, "err_k": 0.0, "err_km1": 0.0}
+        norms = error_norms(ee, hist.P, k, self._w_step_err, self._norm_kind, n)
+        test = ctl.error_test(norms, hist.sigma, hist.ck, k)
+        info = {"knew": test.knew, "err_k": test.err_k, "err_km1": test.err_km1}
+        if test.passed:
+            return True, "", info
+        if not test.finite:
+            return False, "newton", {"info": INFO_NONFINITE,
+                                     "worst": worst_unknown(self.system.names, ee[:n], self._w, self._w)}
+        info["worst"] = worst_unknown(self.system.names, ee[:n], self._w_err, self._w)
+        return False, "error", info
+
+    def _complete_step(self, t_new, h, landing, info, retried):
+        """Order and step-size selection, history update, recording (IDA's IDACompleteStep)."""
+        hist = self._hist
+        k = hist.k
+        self._nst += 1
+        count_step(self.stats, h, k)
+        kdiff = hist.accept(h)
+        eta = self._select_order_and_step(k, kdiff, info)
+        eta, self._growth_failed = ctl.hold_growth(eta, retried, self._growth_failed, hist.ns, k)
+        hist.update(self._ee, k)
+        self.t = t_new
+        x_new = hist.P[0, : self.n]
+        self._state = self._corrector.state_try
+        self._set_weights(x_new)
+        self._rec.record(t_new, x_new, k)
+        self.h = max(min(h * eta, self.max_step), self.min_step)
+        if landing and self._ibp == self._breakpoints.size - 1:
+            self.status = "finished"
+            self.message = self._success_message()
+            return
+        if self.max_steps is not None and self.stats["steps"] >= self.max_steps:
+            self._fail(t_new, self.h, f"reached max_steps={self.max_steps}", None,
+                       "raise max_steps, or loosen the tolerances")
+            return
+        if landing:
+            self._ibp += 1
+            self._restart(max(h, self._h_request))
+
+    def _select_order_and_step(self, k, kdiff, info):
+        """Order for the next step (set on the history) and the step-size factor eta."""
+        hist = self._hist
+        if self._fixed:
+            if self._nst > 1 and k < self._fixed_order:
+                hist.k = k + 1
+            return 1.0
+        knew = info["knew"]
+        if knew == k - 1 or k == self.maxord:
+            self._phase = 1
+        if self._phase == 0:
+            # start-up: raise the order and double the step after every step but the first
+            if self._nst > 1:
+                hist.k = k + 1
+                return 2.0
+            return 1.0
+        err_new = info["err_k"]
+        if knew == k - 1:
+            hist.k, err_new = k - 1, info["err_km1"]
+        elif ctl.raise_test_due(k, knew, self.maxord, hist.ns, kdiff):
+            n = self.n
+            err_kp1 = self._normf(self._ee[:n] - hist.P[k + 1, :n], self._w_err) / (k + 2)
+            hist.k, err_new = ctl.choose_order(k, info["err_km1"], info["err_k"], err_kp1)
+        return ctl.step_factor(err_new, hist.k)
+
+    # --------------------------------------------------------------- output
+    def result(self) -> IntegrationResult:
+        """The integration so far as an :class:`IntegrationResult`."""
+        stats = dict(self.stats)
+        stats["factorizations"] = self._lu.factorizations
+        status = STATUS_OK if self.status == "finished" else STATUS_FAILED
+        message = self.message or f"stopped at t={self.t:.9g} before t_bound={self.t_bound:.9g}"
+        return self._rec.result(stats=stats, status=status, message=message, tolerances=self._tolerances,
+                                failure=self._failure)
+
+    def _success_message(self):
+        st = self.stats
+        return (f"reached t={self.t_bound:.9g} in {st['steps']} steps ({st['rejected']} rejected, "
+                f"{st['newton_failures']} Newton failures, {self._lu.factorizations} factorizations)")

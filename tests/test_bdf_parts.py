@@ -1,0 +1,119 @@
+"""The integrator's correctors and start-up alone, on small linear systems with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from netdae.dae.bdf import integrate
+from netdae.dae.bdf.corrector import LinearCorrector, RoundingFloor
+from netdae.dae.bdf.failures import Failure, failure_record, worst_unknown
+from netdae.dae.bdf.startup import jump_of, probe
+from netdae.dae.bdf.statistics import new_statistics
+from netdae.dae.newton import LuCache
+from netdae.dae.system import LinearDae
+
+
+def _rc():
+    """C v' = -v/R + i_s, C = 1e-6, R = 1e3, i_s = 1e-3 (v' = 1000 (1 - v))."""
+    return LinearDae([[1e-6]], [[-1e-3]], lambda t, derivative=0: np.array([1e-3 if derivative == 0 else 0.0]))
+
+
+def test_linear_corrector_solves_the_backward_euler_step_exactly():
+    system = _rc()
+    ev = system.evaluate(np.zeros(1), 0.0, jacobian=True)
+    stats = new_statistics()
+    lu = LuCache(system.pattern)
+    corr = LinearCorrector(system, lu, ev, stats)
+    h, v0 = 1e-4, 0.25
+    cj = 1.0 / h
+    pred = np.array([[v0], [0.0]])  # x_pred = v0, x'_pred = 0: the implicit Euler step
+    ok, x = corr.solve(h, pred, cj, np.ones(1), True)
+    assert ok
+    assert x[0] == pytest.approx((v0 + 1000.0 * h) / (1.0 + 1000.0 * h), rel=1e-13)
+    assert stats["newton_iterations"] == 1 and lu.factorizations == 1
+    corr.solve(2 * h, pred, cj, np.ones(1), True)
+    assert lu.factorizations == 1  # same cj: no new factorisation
+
+
+def test_rounding_floor_leaves_attainable_weights_alone():
+    system = _rc()
+    ev = system.evaluate(np.zeros(1), 0.0, jacobian=True)
+    lu = LuCache(system.pattern)
+    floor = RoundingFloor(system.pattern, lu)
+    w, w_err = np.array([1e6]), np.array([1e6])
+    assert floor.weights(w, w_err, np.ones(1), np.ones(1), 1e4) == (w, w_err)  # no factorisation yet
+    floor.keep(ev.dq)
+    lu.factor(1e4 * ev.dq - ev.dphi, tag=1e4)
+    got = floor.weights(w, w_err, np.ones(1), np.ones(1), 1e4)
+    assert got[0] is w and got[1] is w_err
+    # a tolerance of 1e-30 V is below the rounding level: raised to it
+    tiny = np.array([1e30])
+    w2, e2 = floor.weights(tiny, tiny, np.ones(1), np.ones(1), 1e4)
+    assert w2[0] < 1e20 and e2[0] == w2[0] and tiny[0] == 1e30
+
+
+def test_probe_measures_the_derivatives_from_the_right():
+    system = _rc()
+    lu = LuCache(system.pattern)
+    floor = RoundingFloor(system.pattern, lu)
+    stats = new_statistics()
+
+    def evaluate(x, t, jacobian=False):
+        stats["evaluations"] += 1
+        return system.evaluate(x, t, jacobian=jacobian)
+
+    v0, eps = 0.25, 1e-9
+    p = probe(evaluate, lu, floor, system.names, 0.0, np.array([v0]), eps, np.zeros(1, bool), np.ones(1), np.ones(1))
+    assert p.xp[0] == pytest.approx(1000.0 * (1.0 - v0), rel=1e-5)
+    assert p.xpp[0] == pytest.approx(-1000.0 * 1000.0 * (1.0 - v0), rel=1e-4)
+    assert p.x_right[0] == pytest.approx(v0, abs=1e-12)
+    assert p.qp[0] == pytest.approx(1e-6 * 1000.0 * (1.0 - v0))
+    assert stats["evaluations"] == 2
+
+
+def test_probe_reports_a_singular_matrix_as_a_failure():
+    system = LinearDae([[0.0]], [[0.0]])
+    lu = LuCache(system.pattern)
+    with pytest.raises(Failure, match="singular"):
+        probe(lambda x, t, j=False: system.evaluate(x, t, jacobian=j), lu, RoundingFloor(system.pattern, lu),
+              system.names, 0.0, np.zeros(1), 1e-9, np.zeros(1, bool), np.ones(1), np.ones(1))
+
+
+def test_jump_of_takes_the_second_euler_step_for_index2_unknowns_only_on_a_value_jump():
+    x = np.zeros(3)
+    high = np.array([False, False, True])
+    w = np.ones(3)
+    assert jump_of(x, np.full(3, 0.5), np.full(3, 0.5), w, high)[0] is False
+    jumped, value, xr = jump_of(x, np.array([0.0, 0.0, 9.0]), np.array([0.0, 0.0, 7.0]), w, high)
+    assert jumped and not value and xr[2] == 9.0  # only an index-2 unknown moved (a corner)
+    jumped, value, xr = jump_of(x, np.array([2.0, 0.0, 9.0]), np.array([2.0, 0.0, 7.0]), w, high)
+    assert jumped and value and xr.tolist() == [2.0, 0.0, 7.0]
+
+
+def test_failure_words():
+    message, record = failure_record(1.5, 1e-9, "error test failed 10 times", "v(out)", "loosen")
+    assert message == "BDF failed: error test failed 10 times at t=1.5, h=1e-09, worst unknown v(out) (hint: loosen)"
+    assert record == {"t": 1.5, "h": 1e-9, "worst": "v(out)", "hint": "loosen", "what": "error test failed 10 times"}
+    names = ("a", "b", "c")
+    assert worst_unknown(names, np.array([1.0, -3.0, 2.0]), np.ones(3), np.ones(3)) == "b"
+    assert worst_unknown(names, np.array([1.0, 2.0, 3.0]), np.zeros(3), np.array([1.0, 0.0, 0.0])) == "a"
+    assert worst_unknown(names, np.array([1.0, np.nan, 3.0]), np.ones(3), np.ones(3)) == "b"
+
+
+def test_a_function_dae_runs_through_the_parts():
+    """A user DAE (no MNA, no compiled engine): Van der Pol in first-order form."""
+    from netdae.dae.system import FunctionDae
+
+    mu = 1.0
+
+    def phi(x, t):
+        return np.array([x[1], mu * (1.0 - x[0] ** 2) * x[1] - x[0]])
+
+    def dphi(x, t):
+        return np.array([[0.0, 1.0], [-2.0 * mu * x[0] * x[1] - 1.0, mu * (1.0 - x[0] ** 2)]])
+
+    system = FunctionDae(2, lambda x: x.copy(), lambda x: np.eye(2), phi, dphi)
+    res = integrate(system, (0.0, 2.0), np.array([2.0, 0.0]), rtol=1e-6, atol=1e-9)
+    assert res.ok and res.stats["steps"] > 10
+    assert res.stats["factorizations"] <= res.stats["newton_iterations"]
