@@ -74,7 +74,7 @@ ROUNDOFF_ULPS = 16.0
 #: The corrector residual ``cj (q(x) - q_pred) + q'_pred - phi`` is computed with an
 #: absolute error of about ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row; a tolerance
 #: below this many times that level, propagated to the unknowns, is not attainable
-#: and is raised to it (see ``BDF._rounding_weights``).
+#: and is raised to it (see ``RoundingFloor.weights`` in corrector.py).
 ROUNDING_FACTOR = 10.0
 EPS = float(np.finfo(float).eps)
 #: Linear systems up to this size form their residual with a dense matrix-vector product.

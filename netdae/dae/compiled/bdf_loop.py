@@ -435,7 +435,7 @@ def _reset_trial(I, devd):
 @kernel
 def _rounding_floor(x, qp, cj, absdq, indptr, indices, lus, signs, w, w_out, b1, b2):
     """Weights with every tolerance raised to the corrector's rounding level (see
-    :meth:`netdae.dae.bdf.BDF._rounding_weights`): ``w_out`` from ``w``. ``absdq``:
+    :meth:`netdae.dae.bdf.corrector.RoundingFloor.weights`): ``w_out`` from ``w``. ``absdq``:
     ``|dq/dx|`` on the pattern. Returns True when some weight was lowered."""
     n = x.size
     b1[:] = 0.0
