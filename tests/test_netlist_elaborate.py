@@ -39,7 +39,7 @@ def test_r_c_l_fields():
     assert r2.value == 3e3 and r2.params == {}
     assert (c1.kind, c1.value, c1.params) == ("capacitor", pytest.approx(10e-6), {"ic": 1.5, "m": 3.0})
     assert (l1.kind, l1.value, l1.params) == ("inductor", pytest.approx(4.7e-3), {"ic": -2e-3, "nt": 10.0})
-    assert rm.model == "rmod" and rm.params == {"l": 2e-6, "w": 1e-6}
+    assert rm.model == "rmod" and rm.params == {"l": 2e-6, "w": 1e-6, "tc1": 0.01}  # the model's tc1
     assert c.count_by_letter() == {"c": 1, "l": 1, "r": 3}
 
 
@@ -281,10 +281,11 @@ def test_initial_conditions_saves_and_title():
                         ".plot i(r.x1.r1): 'r.x1.r1' is a resistor, which has no branch current"]
 
 
-def test_control_block_is_a_note_naming_its_lines():
-    c = net("R1 a 0 1\n.control\nrun\nplot v(a)\n.endc")
+def test_control_block_commands_become_cards_the_rest_located_notes():
+    c = net("R1 a 0 1\n.control\nrun\nplot v(a)\nshell ls\n.endc")
     (note,) = c.diagnostics
-    assert note.severity == "note" and "lines 3-6" in note.message and note.location.line == 3
+    assert note.severity == "note" and "'shell ls' skipped" in note.message and note.location.line == 6
+    assert c.saves == ["v(a)"]
 
 
 def test_circuit_is_independent_of_spelling_case():
