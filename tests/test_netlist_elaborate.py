@@ -7,6 +7,7 @@ import math
 import pytest
 
 from netdae.circuit import AcAnalysis, DcAnalysis, OpAnalysis, TranAnalysis
+from netdae.errors import NetlistError
 from netdae.netlist import load
 from netdae.netlist.expr import Binary, Const, Current, Time, Voltage, evaluate, transform
 from netdae.netlist.waveforms import Am, Exp, Pulse, Pwl, Sffm, Sin
@@ -319,3 +320,24 @@ def test_local_subcircuits_are_invisible_outside():
 def test_unused_parameters_of_an_instance_are_still_checked():
     with pytest.raises(Exception, match="division by zero"):
         net(".subckt s a\n.param bad={1/0}\nR1 a 0 1\n.ends\nX1 n s")
+
+
+def test_models_no_element_uses_are_not_screened():
+    c = load("t\nV1 a 0 1\nR1 a 0 1\n.model q npn vceo=40 mfg=\"x\"\n.model m nmos level=49\n.end\n")
+    assert c.diagnostics == []
+
+
+def test_control_lines_drop_inline_comments_and_hash_lines():
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\n.control\n# a comment\nop ; the op\nprint v(a) // out\n.endc\n")
+    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis"] and c.saves == ["v(a)"]
+    assert c.diagnostics == []
+
+
+def test_poly_f_h_controls_must_be_voltage_sources():
+    with pytest.raises(NetlistError, match=r"f1: POLY control 'r1' is a resistor, not a voltage source"):
+        load("t\nV1 b 0 1\nR1 b 0 1\nF1 a 0 POLY(1) R1 1 2\nR2 a 0 1\n.end\n")
+
+
+def test_tc_and_tc1_together_are_an_error():
+    with pytest.raises(NetlistError, match=r"tc1 given twice \(tc= sets tc1 and tc2\)"):
+        load("t\nV1 a 0 1\nR1 a 0 1k tc1=0.1 tc=0.2\n.end\n")

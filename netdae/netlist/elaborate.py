@@ -134,6 +134,7 @@ class _Elaborator:
         self.frames: dict[int, _Frame] = {}
         self.refs: dict[int, tuple[tuple, tuple]] = {}
         self.local_initial: list[_Placed] = []
+        self.model_cards: dict[str, ModelCard] = {}
         self.root = self._scope(None, net.top, None)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
@@ -339,28 +340,33 @@ class _Elaborator:
         circuit.diagnostics = self.diagnostics
         return circuit
 
-    @staticmethod
-    def _apply_models(circuit: Circuit) -> None:
-        """Refuse a device model of a level netdae lacks; give R, C, L their model's coefficients."""
-        refused: set[str] = set()
+    def _apply_models(self, circuit: Circuit) -> None:
+        """Check the models elements use, once each; give R, C, L their model's coefficients.
+
+        A device model of a level netdae lacks is refused; parameters ngspice
+        ignores are warned about (models nobody uses are not looked at, as in ngspice).
+        """
+        seen: set[str] = set()
         for el in circuit.elements:
             if el.model is None:
                 continue
             model = circuit.models.get(el.model)
             if model is None:
                 continue
+            if model.name not in seen:
+                self._screen_model(model, self.model_cards[model.name])
             passive = _PASSIVE_MODEL_PARAMS.get(el.kind)
             if passive is not None:
                 for name, value in model.params.items():
                     key = passive.get(name)
                     if key is not None and key not in el.params:
                         el.params[key] = value
-            elif model.name not in refused:
+            elif model.name not in seen:
                 message = unimplemented_level(MODEL_FAMILY_OF_TYPE.get(model.type, ""), model)
                 if message is not None:
                     raise NetlistError(f"{el.name}: {message}", model.locations.get("level", model.location),
                                        hint=OSDI_HINT)
-                refused.add(model.name)
+            seen.add(model.name)
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
@@ -398,15 +404,20 @@ class _Elaborator:
         locations = {k: item.card.location(v[1]) for k, v in item.params.items()}
         if "tnom" in params:
             self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
-        model = Model(p.name, item.type, params, item.card.location(0), locations)
-        self._screen_model(model, item)
-        return model
+        self.model_cards[p.name] = item
+        return Model(p.name, item.type, params, item.card.location(0), locations)
 
     def _screen_model(self, model: Model, item: ModelCard) -> None:
-        """Warn about the parameters ngspice ignores for this model (one located warning each)."""
+        """Warn about the parameters ngspice ignores for this model (one located warning each).
+
+        Raises
+        ------
+        NetlistError
+            A string value or a bare name for a parameter ngspice knows.
+        """
         family = MODEL_FAMILY_OF_TYPE.get(item.type)
-        if family is None:
-            return
+        if family is None or unimplemented_level(family, model) is not None:
+            return  # a level netdae lacks is refused as a whole
         known = NGSPICE_PARAMETERS[family]
         form = DOT_CARDS[".model"]
         first = len(self.diagnostics)
@@ -544,6 +555,11 @@ class _Elaborator:
                         raise error(card, item.expr[1], f"V({name}): no element connects node '{name}'", syntax)
             elif type(n) is ex.Current:
                 target = elements.get(n.element)
+                if item.name[0] in "fh" and (target is None or target.kind != "vsource"):  # F/H POLY controls
+                    what = "names no element" if target is None else f"is a {target.kind}"
+                    raise error(card, item.expr[1], f"POLY control '{n.element}' {what}, not a voltage source "
+                                "(F and H sense the current of a V source)", syntax,
+                                hint="add a 0 V source in series with the branch and name it")
                 if target is None or target.kind not in BRANCH_KINDS:
                     what = "names no element" if target is None else f"names a {target.kind}, which has no branch current"
                     raise error(card, item.expr[1], f"I({n.element}) {what}", syntax,

@@ -177,12 +177,15 @@ def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
             if len(values) > 2:
                 raise error(card, values[2].start, "tc= takes at most 2 values (tc1, tc2)", syntax)
             for label, tok in zip(("tc1", "tc2"), values):
+                if label in params:
+                    raise error(card, key.start, f"{label} given twice (tc= sets tc1 and tc2)", syntax)
                 params[label] = parse_value(card, tok, syntax)
             continue
         if len(values) != 1:
             raise error(card, values[1].start, f"{name}= takes one value", syntax)
         if name in params:
-            raise error(card, key.start, f"parameter '{name}' given twice", syntax)
+            why = " (tc= sets tc1 and tc2)" if name in ("tc1", "tc2") and "tc" in [k.text for k, _ in keywords] else ""
+            raise error(card, key.start, f"parameter '{name}' given twice{why}", syntax)
         params[name] = parse_value(card, values[0], syntax)
     return params
 

@@ -340,7 +340,9 @@ def split_cards(
                 notes.extend(block_notes)
                 control_at = None
             else:
-                control_lines.append((lineno, len(line) - len(line.lstrip()) + 1, stripped))
+                command = re.split(r";|//", stripped, maxsplit=1)[0].rstrip()  # '$' is a variable there
+                if command and command[0] != "#":
+                    control_lines.append((lineno, len(line) - len(line.lstrip()) + 1, command))
             continue
         if ";" in stripped or "$" in stripped or "//" in stripped:
             m = comment(stripped)
