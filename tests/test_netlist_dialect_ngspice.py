@@ -274,3 +274,13 @@ def test_analyses_netdae_lacks_are_refused_in_control_blocks(command, what):
                                            "supported") as exc:
         load(f"t\nV1 in 0 1\nR1 in out 1k\nR2 out 0 1k\n.control\nop\n  {command}\n.endc\n.end\n")
     assert (exc.value.location.line, exc.value.location.column) == (7, 3)
+
+
+def test_model_values_as_bare_expressions(tmp_path):
+    netlist = ".model expressions\n.param isv=1e-14\n.model dm d is=isv*2 n={1 + 0.5}\nV1 1 0 1\nD1 1 2 dm\nR1 2 0 1k\n"
+    c = _op_agrees(netlist, ["v(2)", "i(v1)"], tmp_path)
+    assert c.models["dm"].params == {"is": 2e-14, "n": 1.5}
+    # 'is = isv * 2': ngspice reads is=isv and ignores '* 2' with a warning; netdae refuses the trap
+    with pytest.raises(NetlistError, match=r"the value of 'is' goes on after a blank \('\*'\)") as exc:
+        load(netlist.replace("is=isv*2", "is = isv * 2") + ".end\n")
+    assert (exc.value.location.line, exc.value.location.column) == (3, 22)

@@ -287,9 +287,16 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
                 strings.pop(tok.text, None)
             if value.kind == STRING:
                 strings[tok.text] = (value.text, value.start)
+            elif value.kind == WORD and parse_number(value.text) is None and not IDENT.match(value.text):
+                params[tok.text] = (parse_expr(card, value.text, value.start, ex.PARAM, form), value.start)  # is=isv*2
             else:
                 params[tok.text] = parse_value(card, value, form)
             i += 3
+            if i < n and toks[i].kind == WORD and not IDENT.match(toks[i].text) and not (
+                    i + 1 < n and toks[i + 1].text == "="):
+                raise error(card, toks[i].start, f"the value of '{tok.text}' goes on after a blank "
+                            f"({toks[i].text!r}): ngspice would read only {value.text!r} and ignore the rest", form,
+                            hint=f"write {tok.text}={{...}} with the whole expression in braces")
         else:
             flags[tok.text] = tok.start  # a bare name: ngspice sets a flag parameter (or ignores the name)
             i += 1
