@@ -156,7 +156,7 @@ class _Elaborator:
         """Top-level parameter values given by the caller replace their ``.param`` definitions."""
         for name, value in overrides.items():
             if name not in root.defs or name == TEMPER:
-                known = ", ".join(sorted(root.defs)) or "none"
+                known = ", ".join(sorted(k for k in root.defs if k != TEMPER)) or "none"
                 raise NetlistError(f"params: no top-level .param defines '{name}' (defined: {known})",
                                    hint="only parameters of top-level .param cards can be given")
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
