@@ -284,3 +284,17 @@ def test_model_values_as_bare_expressions(tmp_path):
     with pytest.raises(NetlistError, match=r"the value of 'is' goes on after a blank \('\*'\)") as exc:
         load(netlist.replace("is=isv*2", "is = isv * 2") + ".end\n")
     assert (exc.value.location.line, exc.value.location.column) == (3, 22)
+
+
+def test_ltspice_words_and_ngspice_outputs_on_model_cards(tmp_path):
+    # ngspice ignores mfg (and stops at the undefined word OnSemi: netdae ignores both, with a warning);
+    # 'type' is an output of ngspice's BJT model, which ngspice refuses on a .model card
+    netlist = "ltspice\n.model qm npn(is=1e-15 bf=80 mfg=OnSemi vceo=40)\nV1 c 0 5\nVb b 0 0.7\nQ1 c b 0 qm\n"
+    c = _op_agrees(netlist.replace("mfg=OnSemi", "mfg=\"OnSemi\""), ["i(v1)", "i(vb)"], tmp_path)
+    c = load(netlist + ".op\n.end\n")
+    assert [w.split(" ignored")[0] for w in _warnings(c)] == ["2:34 model qm: parameter mfg=OnSemi",
+                                                               "2:46 model qm: parameter 'vceo' is not a parameter "
+                                                               "of ngspice's bjt model:"]
+    with pytest.raises(NetlistError, match=r"'type' is an output of ngspice's bjt model, not an input") as exc:
+        load(netlist.replace("vceo=40", "type=1") + ".op\n.end\n")
+    assert (exc.value.location.line, exc.value.location.column) == (2, 46)

@@ -18,7 +18,7 @@ Examples
 
 from __future__ import annotations
 
-__all__ = ["NGSPICE_PARAMETERS", "MODEL_FAMILIES", "LEVELS", "level_name"]
+__all__ = ["NGSPICE_PARAMETERS", "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "level_name"]
 
 
 def _names(text: str) -> frozenset:
@@ -47,6 +47,14 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
         "rsh narrow dw short dlr tc1 tc1r tc2 tc2r tce defw w l kf af tnom r res bv_max lf wf ef"),
     "capacitor": _names("cap cj cox cjsw capsw defw w defl l narrow short del tc1 tc2 tnom di thick bv_max c"),
     "inductor": _names("ind tc1 tc2 tnom csect dia length nt mu l"),
+}
+
+#: Names in those tables that are outputs (ngspice reports them, and refuses them on a .model card).
+OUTPUT_ONLY: dict[str, frozenset] = {
+    "diode": _names("cond"),
+    "bjt": _names("type invearlyvoltf invearlyvoltr invrollofff invrolloffr collectorconduct emitterconduct "
+                  "transtimevbcfact excessphasefactor"),
+    "mosfet": _names("type"),
 }
 
 #: The model family of each element kind that uses a model card.

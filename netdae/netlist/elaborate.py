@@ -28,14 +28,14 @@ from collections.abc import Mapping
 
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
                        OpAnalysis, Options, Params, SourceSpec, TranAnalysis)
-from ..devices.model_names import NGSPICE_PARAMETERS
+from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
 from .lines import EXPR, STRING, WORD, no_gc
 from .numbers import parse_number
-from .params import Env, evaluate_val, resolve_behavioural
+from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
 from .statements import Definition, ElementCard, InitialCard, InstanceCard, ModelCard, Netlist, ParamDef
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
@@ -119,6 +119,15 @@ def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
     return tuple(nodes), tuple(elems)
 
 
+def _undefined(env: Env, node: ex.Param) -> bool:
+    """True when no scope defines the parameter ``node`` names."""
+    try:
+        env.value(node.name)
+    except UnknownName:
+        return True
+    return False
+
+
 def _ground(name: str) -> str:
     return "0" if name == "gnd" else name
 
@@ -135,6 +144,7 @@ class _Elaborator:
         self.refs: dict[int, tuple[tuple, tuple]] = {}
         self.local_initial: list[_Placed] = []
         self.model_cards: dict[str, ModelCard] = {}
+        self.model_words: dict[str, dict[str, tuple[str, int]]] = {}
         self.root = self._scope(None, net.top, None)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
@@ -400,8 +410,15 @@ class _Elaborator:
     def _model(self, p: _Placed) -> Model:
         item: ModelCard = p.item
         env = self.env(p.frames)
-        params = {k: evaluate_val(v, env, item.card, f"model parameter '{k}'") for k, v in item.params.items()}
-        locations = {k: item.card.location(v[1]) for k, v in item.params.items()}
+        known = NGSPICE_PARAMETERS.get(MODEL_FAMILY_OF_TYPE.get(item.type, ""), frozenset())
+        params = {}
+        for k, v in item.params.items():
+            if type(v[0]) is ex.Param and k not in known and _undefined(env, v[0]):
+                word = item.card.raw[v[1] : v[1] + len(v[0].name)]
+                self.model_words.setdefault(p.name, {})[k] = (word, v[1])  # LTspice's mfg=OnSemi
+                continue
+            params[k] = evaluate_val(v, env, item.card, f"model parameter '{k}'")
+        locations = {k: item.card.location(v[1]) for k, v in item.params.items() if k in params}
         if "tnom" in params:
             self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
         self.model_cards[p.name] = item
@@ -425,6 +442,18 @@ class _Elaborator:
             self.diagnostics.append(Diagnostic(
                 "warning", f"model {model.name}: parameter '{name}' is not a parameter of ngspice's {family} "
                 "model: ignored, as ngspice ignores it", model.locations.get(name, model.location)))
+        for name, (text, offset) in self.model_words.get(model.name, {}).items():
+            self.diagnostics.append(Diagnostic(
+                "warning", f"model {model.name}: parameter {name}={text} ignored, as ngspice ignores '{name}' (but "
+                f"ngspice 39 stops at the undefined word '{text}': write {name}=\"{text}\")",
+                item.card.location(offset)))
+        outputs = OUTPUT_ONLY.get(family, frozenset())
+        for name in (*item.params, *item.strings, *item.flags):
+            if name in outputs:
+                offset = (item.params.get(name) or item.strings.get(name) or (None, item.flags.get(name)))[1]
+                raise error(item.card, offset, f"'{name}' is an output of ngspice's {family} model, not an input: "
+                            "ngspice 39 stops at it on a .model card", form,
+                            hint="remove it" + (" (the type is the card's npn/pnp/nmos/pmos)" if name == "type" else ""))
         for name, (text, offset) in item.strings.items():
             if name in known:
                 raise error(item.card, offset, f"model parameter '{name}' needs a number, found the string "
