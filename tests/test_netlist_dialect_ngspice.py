@@ -60,7 +60,8 @@ def _tran_agrees(netlist: str, signals: list[str], points: list[int], tmp_path: 
 
 
 def _warnings(circuit) -> list[str]:
-    return [f"{d.location.line}:{d.location.column} {d.message}" for d in circuit.diagnostics if d.severity == "warning"]
+    return [f"{d.location.line}:{d.location.column} {d.message}" for d in circuit.diagnostics
+            if d.severity == "warning"]
 
 
 # ---------------------------------------------------------------------------

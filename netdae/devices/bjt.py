@@ -88,7 +88,8 @@ BJT_PARAMETERS = ParameterTable(
     aliases={"va": "vaf", "ik": "ikf", "c2": "ise", "vb": "var", "c4": "isc", "pe": "vje", "me": "mje",
              "pc": "vjc", "mc": "mjc", "csub": "cjs", "ccs": "cjs", "ps": "vjs", "ms": "mjs", "tref": "tnom",
              "nk": "nkf"},
-    inert=frozenset({"npn", "pnp", "kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max", "te_max"}),
+    inert=frozenset({"npn", "pnp", "kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max",
+                     "te_max"}),
     family="bjt",
 )
 

@@ -133,7 +133,8 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
             continue
         if cmd in _UNSUPPORTED:
             what = UNSUPPORTED_DOT_CARDS[_UNSUPPORTED[cmd]]
-            raise NetlistError(f".control: '{cmd}' ({what}) is not supported by netdae", SourceLocation(file, line, col),
+            raise NetlistError(f".control: '{cmd}' ({what}) is not supported by netdae",
+                               SourceLocation(file, line, col),
                                hint="netdae runs op, dc, ac and tran; remove the command or run the netlist in "
                                     "ngspice")
         if cmd in _STOP:

@@ -451,9 +451,9 @@ class _Elaborator:
         for name in (*item.params, *item.strings, *item.flags):
             if name in outputs:
                 offset = (item.params.get(name) or item.strings.get(name) or (None, item.flags.get(name)))[1]
+                why = " (the type is the card's npn/pnp/nmos/pmos)" if name == "type" else ""
                 raise error(item.card, offset, f"'{name}' is an output of ngspice's {family} model, not an input: "
-                            "ngspice 39 stops at it on a .model card", form,
-                            hint="remove it" + (" (the type is the card's npn/pnp/nmos/pmos)" if name == "type" else ""))
+                            "ngspice 39 stops at it on a .model card", form, hint="remove it" + why)
         for name, (text, offset) in item.strings.items():
             if name in known:
                 raise error(item.card, offset, f"model parameter '{name}' needs a number, found the string "

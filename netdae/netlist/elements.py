@@ -199,7 +199,8 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
     if kind == "resistor" and "r" in params:
         el.value = params.pop("r")
     if (len(positional) == 2 and positional[0].kind == WORD and IDENT.match(positional[0].text)
-            and positional[0].text != "pi" and (positional[1].kind == EXPR or parse_number(positional[1].text) is not None)):
+            and positional[0].text != "pi"
+            and (positional[1].kind == EXPR or parse_number(positional[1].text) is not None)):
         positional.reverse()  # 'R1 a b RMOD 2k': the model name, then the value (ngspice accepts both orders)
     if positional:
         el.value = parse_value(card, positional[0], syntax)
