@@ -14,7 +14,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 OUT    := out
 
-.PHONY: demo test bench validation system-deps venv warm clean
+.PHONY: demo test fuzz bench validation system-deps venv warm clean
 
 $(VPY):
 	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
@@ -44,6 +44,10 @@ demo: system-deps venv warm
 
 test: system-deps venv warm
 	$(VPY) -m pytest -q
+
+# the long fixed-seed fuzzing runs (a few minutes), kept out of make test
+fuzz: venv
+	$(VPY) -m pytest -q -m fuzz tests/test_netlist_fuzz.py
 
 bench: system-deps venv warm
 	$(VPY) benchmarks/run.py --quick

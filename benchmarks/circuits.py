@@ -350,8 +350,11 @@ _D1N4007 = (".model d1n4007 d (is=7.02767n rs=0.0341512 n=1.80803 eg=1.05743 xti
 _D1N4148 = ".model d1n4148 d (is=2.52n rs=0.568 n=1.752 cjo=4p m=0.4 vj=0.75 tt=20n bv=100 ibv=100u)"
 
 
-def bridge_rectifier(cycles: int) -> Bench:
+def bridge_rectifier(cycles: int, *, category: str = "nonlinear") -> Bench:
     """``netlists/bridge_rectifier.cir`` over ``cycles`` mains periods (50 Hz, tstep 50 us).
+
+    ``category="long"`` marks the long run whose target is the whole process
+    (start-up included) rather than the transient alone.
 
     Compared: the output ``v(pos,neg)`` and the bridge input ``v(acs)``. The
     output floats: its common-mode voltage is set only by the diodes'
@@ -368,7 +371,7 @@ def bridge_rectifier(cycles: int) -> Bench:
              "C1 pos neg 470u", "RL pos neg 1k", _D1N4007, _save_line(signals),
              f".tran 50u {num(tstop)}", ".end"]
     return Bench(
-        name=f"bridge_{cycles}cyc", family="bridge_rectifier", category="nonlinear",
+        name=f"bridge_{cycles}cyc", family="bridge_rectifier", category=category,
         text="\n".join(lines) + "\n", signals=signals, unknowns=9, elements=8, tstop=tstop, reference=None,
         reference_kind=f"ngspice reltol {REFERENCE_RELTOL:g}", compare=("v(pos,neg)", "v(acs)"),
     )

@@ -49,6 +49,8 @@ from benchmarks import report  # noqa: E402
 RESULTS = Path(__file__).resolve().parent / "results"
 #: A run longer than this [s] is not repeated (its median would cost minutes; its spread is small).
 LONG_RUN = 30.0
+#: Cycles of the long bridge: ngspice takes at least 2 s on it (the whole-process target of a long run).
+LONG_BRIDGE_CYCLES = 1000
 #: Time limit of the tight reference runs [s].
 REFERENCE_TIMEOUT = 300.0
 
@@ -95,6 +97,7 @@ def suite(quick: bool) -> list[C.Bench]:
         C.rc_mesh(50), C.rc_mesh(100), C.rc_mesh(300),
         C.rlc_line(100), C.rlc_line(1000), C.differentiator(),
         C.bridge_rectifier(50), C.voltage_multiplier(4, 50), C.pulse_train(50), C.ring_oscillator(11, 50e-9),
+        C.bridge_rectifier(LONG_BRIDGE_CYCLES, category="long"),
     ]
 
 
@@ -264,6 +267,8 @@ def netdae_only(workdir: Path, quick: bool, reps: int, timeout: float, log) -> l
     jobs = [
         ("python -c pass (interpreter start)", [py, "-c", "pass"], None),
         ("netdae --help", [M.NETDAE_EXE, "--help"], None),
+        ("netdae run netlists/rc_lowpass.cir (start-up, warm cache)",
+         [M.NETDAE_EXE, "run", str(C.ROOT / "netlists" / "rc_lowpass.cir"), "--out", str(d / "rc_lowpass")], None),
         ("import netdae.analyses.tran", [py, "-c", "import netdae.analyses.tran"], None),
         (f"read + elaborate {2 * sections + 1:,} elements (in-process time)", [py, "-c", load_script, str(big)],
          "reader"),
@@ -359,9 +364,11 @@ def main(argv=None) -> int:
     with_netdae = (args.netdae_reference or ("no" if args.quick else "yes")) == "yes"
     rows = []
     for bench in _selected(suite(args.quick), args.only):
-        refs = _reference_runs(bench, workdir / bench.name, timeout, with_netdae) if bench.reference is None else {}
+        refs = _reference_runs(bench, workdir / bench.name, timeout, with_netdae and bench.category != "long") \
+            if bench.reference is None else {}
         skip = {}
-        for tight in ((False,) if args.no_tight else (False, True)):
+        long_run = bench.category == "long"  # one variant, no netdae reference (minutes at reltol 1e-8)
+        for tight in ((False,) if args.no_tight or long_run else (False, True)):
             row = run_case(Case(bench, tight), workdir, reps, timeout, refs, log, skip)
             row.notes += _reference_notes(bench, refs)
             rows.append(row)
@@ -370,7 +377,7 @@ def main(argv=None) -> int:
                 stopped = M.ChildRun(row.sides["ngspice"]["wall"], 0.0, -9, True, "", "")
                 skip["ngspice"] = M.SimRun("ngspice", stopped, False,
                                            f"> {timeout:g} s (not run: the default tolerance already took longer)")
-    only_rows = [] if (args.no_netdae_only or args.only) else netdae_only(workdir, args.quick, reps, timeout, log)
+    only_rows = [] if args.no_netdae_only else netdae_only(workdir, args.quick, reps, timeout, log)
     meta["elapsed"] = time.perf_counter() - t_start
     doc = {"meta": meta, "rows": [asdict(r) for r in rows], "netdae_only": only_rows}
     doc["targets"] = report.targets(doc)

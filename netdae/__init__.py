@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 from .analyses.runner import run, simulate
 from .circuit import Circuit
+from .measures import Measure
 from .errors import (
     CircuitError,
     ConvergenceError,
@@ -66,6 +67,7 @@ __all__ = [
     "Result",
     "IndexReport",
     "Comparison",
+    "Measure",
     "NetdaeError",
     "NetlistError",
     "CircuitError",

@@ -37,6 +37,7 @@ ccvs            H       (n+, n-)                     value = transresistance; co
 opamp           E       (out+, out-, in+, in-)       netdae extension: ideal op-amp (nullor)
 bvoltage        B/E     (n+, n-)                     expr: voltage expression
 bcurrent        B/G     (n+, n-)                     expr: current expression
+bcharge         C       (n+, n-)                     expr: charge expression (``C n+ n- Q={expr}``)
 diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
@@ -365,6 +366,8 @@ class Circuit:
     saves : list of str
         Signals named by ``.save``/``.print``/``.probe`` (``"v(out)"``,
         ``"i(v1)"``); empty means all.
+    measures : list of MeasureSpec
+        The ``.meas`` cards in netlist order (:mod:`netdae.measures`).
     params : Params
         Top-level ``.param`` values after evaluation (read-only: change them
         with :meth:`with_params`).
@@ -390,6 +393,7 @@ class Circuit:
     ic: dict[str, float] = field(default_factory=dict)
     nodeset: dict[str, float] = field(default_factory=dict)
     saves: list[str] = field(default_factory=list)
+    measures: list[Any] = field(default_factory=list)
     params: Params = field(default_factory=Params)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     path: str = "<string>"

@@ -64,6 +64,9 @@ class Result:
         Things the user should know (translations, changed initial values ...).
     extra : dict
         Analysis-specific data (e.g. the index report used, the operating point).
+    measures : list of Measure
+        The ``.meas`` measurements made on this result, in netlist order
+        (:class:`netdae.measures.Measure`: name, value, status, reason ...).
     """
 
     analysis: str
@@ -76,6 +79,7 @@ class Result:
     dense: Callable[[Any], dict[str, np.ndarray]] | None = None
     notes: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    measures: list[Any] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -287,7 +291,8 @@ class Result:
             ``axes`` (names, primary first), ``signals`` (names), ``values``
             (``{"axes": {name: list}, "signals": {name: list}}`` of lists,
             one entry per point, or None), ``stats`` (numbers, strings and
-            nested dicts of them), ``tolerances``, ``notes``.
+            nested dicts of them), ``tolerances``, ``notes``, ``measures``
+            (one :meth:`netdae.measures.Measure.to_dict` per measurement).
 
         Examples
         --------
@@ -312,6 +317,7 @@ class Result:
             "stats": _json_scalars(self.stats),
             "tolerances": _json_scalars(self.tolerances),
             "notes": list(self.notes),
+            "measures": [m.to_dict() for m in self.measures],
         }
 
     @property

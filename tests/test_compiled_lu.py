@@ -406,3 +406,27 @@ def test_cache_directory_in_use_is_writable():
     probe = Path(compiled.CACHE_DIR) / ".netdae-probe"
     probe.write_text("")
     probe.unlink()
+
+
+def test_cache_key_follows_every_kernel_source(tmp_path):
+    """numba checks only the decorated function's own file: the engine's directory is keyed by all of them."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (a / "loop.py").write_text("def run(): pass\n")
+    (b / "kernel.py").write_text("def eval(): return 1\n")
+    key = compiled.source_key((a, b))
+    assert key == compiled.source_key((a, b)) and len(key) == 16
+    (b / "kernel.py").write_text("def eval(): return 2\n")  # a callee changes, the loop's file does not
+    assert compiled.source_key((a, b)) != key
+    # the engine in use lives in the directory of its own sources' key
+    assert Path(compiled.CACHE_DIR).name == compiled.ENGINE_PREFIX + compiled.source_key()
+
+
+def test_child_processes_share_the_parents_cache_directory():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", "from netdae.dae import compiled; print(compiled.CACHE_DIR)"],
+                          capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == compiled.CACHE_DIR

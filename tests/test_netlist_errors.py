@@ -20,7 +20,6 @@ CASES = [
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
     # dot cards netdae does not implement
     ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
-    ("t\n.meas tran x max v(a)\n", r"\.meas: measurement is not supported", 2, ".meas"),
     ("t\n.noise v(a) v1 dec 10 1 1k\n", r"noise analysis", 2, ".noise"),
     ("t\n.pz a 0 b 0 vol pz\n", r"pole-zero", 2, ".pz"),
     ("t\n.sens v(a)\n", r"sensitivity", 2, ".sens"),

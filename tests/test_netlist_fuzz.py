@@ -185,7 +185,7 @@ def test_parameter_overrides(case, where):
 LONG = settings(SETTINGS, max_examples=10 * EXAMPLES)
 
 
-@pytest.mark.slow
+@pytest.mark.fuzz
 @pytest.mark.parametrize("strategy", [char_netlists, token_netlists, truncated(), mutated(), hierarchies()],
                          ids=["characters", "tokens", "truncated", "mutated", "hierarchies"])
 def test_long_fixed_seed_run(strategy, where):

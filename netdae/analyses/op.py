@@ -136,7 +136,7 @@ def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitE
     dependent = _support(rank.left) if rank is not None else np.zeros(0, dtype=int)
     elements = _involved_elements(system, np.union1d(undetermined, dependent))
     controlled = [e for e in elements if system.circuit.element(e).kind in
-                  ("vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent", "opamp")]
+                  ("vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent", "bcharge", "opamp")]
     text = f"no unique DC operating point{evidence}: {_names(system.names[i] for i in undetermined)} " \
         f"{'is' if undetermined.size == 1 else 'are'} undetermined"
     if dependent.size:

@@ -23,7 +23,7 @@ from ..errors import NetdaeError, NetlistError
 if TYPE_CHECKING:
     from ..results import Result
 
-__all__ = ["run", "simulate", "analysis_name", "unused_options", "option_problem", "check_options",
+__all__ = ["run", "simulate", "measure", "analysis_name", "unused_options", "option_problem", "check_options",
            "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO"]
 
 #: Absolute zero in degrees Celsius: the lowest ``temp``/``tnom``.
@@ -206,6 +206,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to run"
         )
     names = save if save is not None else circuit.saves
+    wanted = _with_measured(names, circuit)
     unused = unused_options(circuit)
     results = []
     for card in circuit.analyses:
@@ -213,7 +214,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         if kind == "tran":
             from .tran import transient
 
-            res = transient(circuit, card, save=names, progress=progress, **options)
+            res = transient(circuit, card, save=wanted, progress=progress, **options)
         else:
             if kind == "op":
                 from .op import operating_point
@@ -229,13 +230,53 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 res = ac_analysis(circuit, card, **options)
             if names:
                 try:
-                    res = res.subset(names)
+                    res = res.subset(wanted)
                 except KeyError as exc:
                     raise NetdaeError(f"cannot save: {exc.args[0]}") from None
         if unused:
             res.notes.append(unused)
         results.append(res)
+    measure(circuit, results)
+    if wanted != names:
+        results = [r.subset(names) for r in results]
     return results
+
+
+def _with_measured(names: list[str] | None, circuit: Circuit) -> list[str] | None:
+    """The signals to keep: ``names`` and, when it is a selection, what the ``.meas`` cards read."""
+    if not names:
+        return names
+    from ..signals import canonical
+
+    have = {canonical(n) for n in names if not n.startswith("@")}
+    extra = []
+    for spec in circuit.measures:
+        for probe in spec.probes():
+            name = probe.signal.name
+            if name not in have:
+                have.add(name)
+                extra.append(name)
+    return list(names) + extra
+
+
+def measure(circuit: Circuit, results: list[Result]) -> None:
+    """Evaluate the circuit's ``.meas`` cards on ``results`` and attach them (``result.measures``).
+
+    Each measurement is made on the first result of its analysis kind and
+    attached to that result; ``PARAM`` measurements go with their card's
+    analysis. Does nothing for a circuit without ``.meas`` cards.
+    """
+    if not circuit.measures:
+        return
+    from .measure import evaluate_measures
+
+    first: dict[str, Result] = {}
+    for res in results:
+        first.setdefault(res.analysis, res)
+    for m in evaluate_measures(circuit.measures, first):
+        target = first.get(m.analysis)
+        if target is not None:
+            target.measures.append(m)
 
 
 def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None = None,
@@ -301,8 +342,13 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)
     from .tran import transient
 
-    return transient(circuit, card, save=save, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord,
-                     initial=initial, max_step=max_step, raise_on_failure=raise_on_failure, progress=progress)
+    names = save if save is not None else circuit.saves
+    wanted = _with_measured(names, circuit)
+    result = transient(circuit, card, save=wanted, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord,
+                       initial=initial, max_step=max_step, raise_on_failure=raise_on_failure, progress=progress)
+    if card is None or card is next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None):
+        measure(circuit, [result])  # the .meas tran cards measure the first .tran
+    return result.subset(names) if wanted != names else result
 
 
 def unused_options(circuit: Circuit) -> str | None:

@@ -67,13 +67,15 @@ def summarize(circuit) -> dict:
         type), ``analyses`` (one dict per analysis), ``options`` (all
         option values, ``extra`` included), ``params`` (top-level
         parameters), ``ic``, ``nodeset``, ``saves``, ``diagnostics`` (dicts
-        with ``severity``, ``message``, ``location``).
+        with ``severity``, ``message``, ``location``); ``measures`` (``name``,
+        ``analysis``, ``function``, ``signals`` of each ``.meas`` card) when
+        there are any.
     """
     kinds: dict[str, int] = {}
     for el in circuit.elements:
         kinds[el.kind] = kinds.get(el.kind, 0) + 1
     options = {f.name: getattr(circuit.options, f.name) for f in dataclasses.fields(circuit.options)}
-    return {
+    summary = {
         "title": circuit.title,
         "path": circuit.path,
         "nodes": list(circuit.nodes),
@@ -92,6 +94,10 @@ def summarize(circuit) -> dict:
             for d in circuit.diagnostics
         ],
     }
+    if circuit.measures:
+        summary["measures"] = [{"name": m.name, "analysis": m.analysis, "function": m.function,
+                                "signals": [p.name for p in m.probes()]} for m in circuit.measures]
+    return summary
 
 
 def _fmt(value) -> str:
@@ -117,7 +123,7 @@ def _analysis_text(a: dict) -> str:
 
 
 _STANDARD = {"title", "path", "nodes", "elements", "kinds", "models", "analyses", "options", "params",
-             "ic", "nodeset", "saves", "diagnostics"}
+             "ic", "nodeset", "saves", "diagnostics", "measures"}
 
 
 def format_summary(summary: dict) -> str:
@@ -145,6 +151,10 @@ def format_summary(summary: dict) -> str:
             lines.append(f"  .{key}: " + " ".join(f"v({n})={_fmt(v)}" for n, v in summary[key].items()))
     if summary["saves"]:
         lines.append("  saves: " + " ".join(summary["saves"]))
+    if summary.get("measures"):
+        lines.append("  measures: " + "; ".join(
+            f"{m['name']} ({m['analysis']} {m['function']}{' ' if m['signals'] else ''}{' '.join(m['signals'])})"
+            for m in summary["measures"]))
     for key, value in summary.items():
         if key in _STANDARD:
             continue

@@ -6,6 +6,10 @@ with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
 the operating point and the statistics of every analysis on stdout (or one
 JSON object with ``--json``: one :meth:`~netdae.results.Result.to_dict` per
 analysis). The analyses' notes and the files written are logged on stderr.
+Measurements (``.meas`` cards) are printed as ngspice prints them
+(``name = value``, with ``at=``, ``from= to=`` or ``targ= trig=``), go into the
+JSON (``measures`` of each analysis) and, with ``--out``, into
+``measures.csv`` (:mod:`netdae.io.measures`).
 """
 
 from __future__ import annotations
@@ -144,6 +148,13 @@ def main(args) -> int:
         out_dir.mkdir(parents=True, exist_ok=True)
     keys = stems(results)
     written = [_write(res, stem, args, out_dir, circuit.title, circuit) for res, stem in zip(results, keys)]
+    measures = [m for res in results for m in res.measures]
+    measures_file = None
+    if out_dir is not None and measures:
+        from ..io.measures import write_measures
+
+        measures_file = str(out_dir / "measures.csv")
+        write_measures(measures_file, measures)
     exported = []
     if args.export:
         from ..io.matrices import export_matrices
@@ -153,6 +164,8 @@ def main(args) -> int:
         doc: dict = {}
         for key, res, files in zip(keys, results, written):
             doc[key] = {**res.to_dict(), "files": files}
+        if measures:
+            doc["measures"] = {"file": measures_file, "values": [m.to_dict() for m in measures]}
         if args.export:
             doc["export"] = exported
         json.dump(doc, sys.stdout, indent=2)
@@ -167,9 +180,16 @@ def main(args) -> int:
             print(f".{res.analysis}: {res.message or 'ok'} ({_stats_line(res)})")
             if res.analysis == "op":
                 print("\n".join(_op_lines(res)))
+            if res.measures:
+                from ..measures import format_measure
+
+                print(f"  Measurements for .{res.analysis}")
+                print("\n".join(format_measure(m) for m in res.measures))
             _log_notes(res.notes)
             for path in files:
                 LOG.info("wrote %s", path)
+    if measures_file is not None:
+        LOG.info("wrote %s", measures_file)
     for path in exported:
         LOG.info("wrote %s", path)
     return 0 if all(r.ok for r in results) else 1

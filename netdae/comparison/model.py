@@ -15,7 +15,7 @@ import numpy as np
 
 from .header import Tolerance
 
-__all__ = ["SignalComparison", "AnalysisComparison", "Comparison", "jsonable"]
+__all__ = ["SignalComparison", "AnalysisComparison", "MeasureComparison", "Comparison", "jsonable"]
 
 
 def jsonable(value: Any) -> Any:
@@ -196,6 +196,50 @@ class AnalysisComparison:
 
 
 @dataclass
+class MeasureComparison:
+    """One ``.meas`` card: netdae's value against ngspice's.
+
+    Measurements are reported, not judged: ngspice prints them with 7
+    significant digits, reads signals on straight lines between its points
+    (netdae on its interpolant), and ngspice 39 cannot make some of them
+    (``DERIV``, ``INTEGRAL``, ``v(a,b)``): a difference here says how the two
+    measurements differ, not that a waveform is wrong.
+
+    Attributes
+    ----------
+    name, analysis : str
+    netdae, ngspice : Measure
+        Each side's measurement (value or failure with its reason).
+    """
+
+    name: str
+    analysis: str
+    netdae: Any
+    ngspice: Any
+
+    @property
+    def difference(self) -> float | None:
+        """netdae's value minus ngspice's (None unless both were made)."""
+        if self.netdae.ok and self.ngspice.ok:
+            return float(self.netdae.value - self.ngspice.value)
+        return None
+
+    @property
+    def relative(self) -> float | None:
+        """``|difference|`` over the larger magnitude of the two (None: not both made, or both zero)."""
+        diff = self.difference
+        if diff is None:
+            return None
+        scale = max(abs(self.netdae.value), abs(self.ngspice.value))
+        return abs(diff) / scale if scale > 0 else 0.0
+
+    def to_dict(self) -> dict:
+        return jsonable({"name": self.name, "analysis": self.analysis, "netdae": self.netdae.to_dict(),
+                         "ngspice": self.ngspice.to_dict(), "difference": self.difference,
+                         "relative": self.relative})
+
+
+@dataclass
 class Comparison:
     """netdae against ngspice on one netlist.
 
@@ -227,6 +271,8 @@ class Comparison:
         Gain of the VCVS that stands for netdae's ideal op-amp in ngspice.
     ngspice_error : str or None
         ngspice failed on the netlist (its message).
+    measures : list of MeasureComparison
+        The ``.meas`` cards, netdae against ngspice (reported, not judged).
     """
 
     source: str
@@ -242,6 +288,7 @@ class Comparison:
     netdae_options: dict[str, Any] = field(default_factory=dict)
     opamp_gain: float = 0.0
     ngspice_error: str | None = None
+    measures: list[MeasureComparison] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
@@ -282,4 +329,5 @@ class Comparison:
             },
             "netdae": {"options": self.netdae_options},
             "analyses": [a.to_dict() for a in self.analyses],
+            "measures": [m.to_dict() for m in self.measures],
         })

@@ -10,9 +10,9 @@ signals only one simulator produced, and notes.
 
 from __future__ import annotations
 
-from .model import AnalysisComparison, Comparison, SignalComparison
+from .model import AnalysisComparison, Comparison, MeasureComparison, SignalComparison
 
-__all__ = ["format_comparison", "format_analysis"]
+__all__ = ["format_comparison", "format_analysis", "format_measures"]
 
 _UNIT_OF_AXIS = {"time": "s", "frequency": "Hz"}
 
@@ -127,4 +127,27 @@ def format_comparison(comparison: Comparison) -> str:
     for item in c.analyses:
         lines.append("")
         lines.append(format_analysis(item))
+    if c.measures:
+        lines.append("")
+        lines.append(format_measures(c.measures))
     return "\n".join(lines) + "\n"
+
+
+def _value(m) -> str:
+    return f"{m.value:.7g}" if m.ok else "failed"
+
+
+def format_measures(items: list[MeasureComparison]) -> str:
+    """The ``.meas`` table: netdae's and ngspice's values, their difference, why one failed."""
+    rows = [["measure", "analysis", "netdae", "ngspice", "difference", "relative"]]
+    notes = []
+    for item in items:
+        diff, rel = item.difference, item.relative
+        rows.append([item.name, item.analysis, _value(item.netdae), _value(item.ngspice),
+                     "" if diff is None else f"{diff:.3e}", "" if rel is None else f"{rel:.3e}"])
+        for side, m in (("netdae", item.netdae), ("ngspice", item.ngspice)):
+            if not m.ok:
+                notes.append(f"  {item.name}: {side} failed: {m.reason}")
+    lines = ["measurements (reported, not judged; ngspice prints 7 significant digits):"]
+    lines += ["  " + line for line in _table(rows, {2, 3, 4, 5})]
+    return "\n".join(lines + notes)

@@ -49,7 +49,7 @@ from ..errors import NetdaeError, NgspiceError
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
 from .header import ANALYSES, Tolerance, parse_header
-from .model import AnalysisComparison, Comparison
+from .model import AnalysisComparison, Comparison, MeasureComparison
 
 __all__ = [
     "compare",
@@ -196,7 +196,8 @@ def _with_differences(ng: Result, names: list[str]) -> Result:
 
 
 def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, overrides, wanted, exclude,
-                  ngspice_failed: bool) -> AnalysisComparison:
+                  ngspice_failed: bool, netdae_results: dict | None = None) -> AnalysisComparison:
+    """One analysis card compared; netdae's result is kept in ``netdae_results`` (the first of its kind)."""
     if ng is None:
         reason = "ngspice failed on the netlist" if ngspice_failed else f"ngspice produced no {kind} result"
         return AnalysisComparison(kind, tolerance=tol, error=reason)
@@ -210,6 +211,8 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
             raise
         return AnalysisComparison(kind, tolerance=tol, error=_netdae_error(exc),
                                   ngspice_tolerances=dict(ng.tolerances))
+    if netdae_results is not None:
+        netdae_results.setdefault(kind, nd)
     ng = _with_differences(ng, nd.names())
     if kind == "tran":
         item = compare_transient(nd, ng, tol=tol, wanted=wanted, exclude=exclude)
@@ -219,6 +222,21 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     item.ngspice_tolerances = {**ng.tolerances, "method": ng.extra.get("method", "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
     return item
+
+
+def _compare_measures(circuit: Circuit, netdae_results: dict[str, Result], ngspice_measures) -> list:
+    """netdae's measurements (on the results it compared) paired with ngspice's, by name."""
+    from ..analyses.measure import evaluate_measures
+    from ..measures import STATUS_FAILED, Measure
+
+    ours = evaluate_measures(circuit.measures, netdae_results)
+    theirs = {m.name: m for m in ngspice_measures}
+    out = []
+    for m in ours:
+        ng = theirs.get(m.name) or Measure(m.name, m.analysis, m.function, None, status=STATUS_FAILED,
+                                           reason="ngspice did not run")
+        out.append(MeasureComparison(m.name, m.analysis, m, ng))
+    return out
 
 
 def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "auto", signals=None,
@@ -304,6 +322,7 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     if gain is not None:
         kwargs["opamp_gain"] = gain
     ng_results: list[Result] = []
+    ng_measures: list = []
     try:
         run = bridge.run_ngspice(text, **kwargs)
     except bridge.BackendUnavailable:
@@ -312,12 +331,14 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
         comparison.ngspice_error = str(exc)
     else:
         ng_results = run.results
+        ng_measures = run.measures
         comparison.ngspice_version, comparison.backend = run.version, run.backend
         comparison.translations = list(run.notes)
         comparison.ngspice_warnings = list(run.warnings)
     if not comparison.ngspice_version:
         comparison.ngspice_version = _version_or_empty(backend)
     seen: dict[str, int] = {}
+    netdae_results: dict[str, Result] = {}
     for card in circuit.analyses:
         kind = analysis_name(card)
         occurrence = seen.get(kind, 0)
@@ -327,12 +348,14 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
         ours = [r for r in ng_results if r.analysis == kind]
         ng = ours[occurrence] if occurrence < len(ours) else None
         item = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,
-                             comparison.ngspice_error is not None)
+                             comparison.ngspice_error is not None, netdae_results=netdae_results)
         item.occurrence = occurrence
         comparison.analyses.append(item)
     if not comparison.analyses:
         raise NetdaeError(f"{source}: the netlist has no {' or '.join('.' + k for k in sorted(wanted_kinds))} "
                           "analysis to compare")
+    if circuit.measures:
+        comparison.measures = _compare_measures(circuit, netdae_results, ng_measures)
     return comparison
 
 

@@ -1,13 +1,18 @@
-"""Behavioural sources: ``B`` (and ``E``/``G`` with ``value=``) voltage and current sources.
+"""Behavioural sources: ``B`` (and ``E``/``G`` with ``value=``) voltage and current sources, and
+charge-defined capacitors.
 
-Syntax: ``Bname n+ n- V={expr}`` (kind ``bvoltage``) or ``Bname n+ n- I={expr}``
-(kind ``bcurrent``), the expression over ``V(node)``, ``V(a, b)``,
-``I(vname)`` and ``time`` (:mod:`netdae.netlist.expr`).
+Syntax: ``Bname n+ n- V={expr}`` (kind ``bvoltage``), ``Bname n+ n- I={expr}``
+(kind ``bcurrent``) or ``Cname n+ n- Q={expr}`` (kind ``bcharge``), the
+expression over ``V(node)``, ``V(a, b)``, ``I(vname)`` and ``time``
+(:mod:`netdae.netlist.expr`).
 
 Equations (signs as ngspice's)
 ------------------------------
 - ``bcurrent``: the current ``expr(x, t)`` flows from n+ through the source
   to n-: ``phi[n+] -= expr``, ``phi[n-] += expr``.
+- ``bcharge``: the charge ``expr(x, t)`` sits on n+ (``-expr`` on n-), as a
+  capacitor's: ``q[n+] += expr``, ``q[n-] -= expr`` (charge form: the current
+  into n+ is its time derivative, so a nonlinear capacitance conserves charge).
 - ``bvoltage``: a branch-current unknown ``i`` (``i(bname)``, from n+
   through the source to n-, as for a V source) with
   ``phi[n+] -= i``, ``phi[n-] += i`` and the branch equation
@@ -42,7 +47,7 @@ from .companion import BranchStamps
 
 __all__ = ["BehaviouralFamily"]
 
-_VOLTAGE, _CURRENT = "bvoltage", "bcurrent"
+_VOLTAGE, _CURRENT, _CHARGE = "bvoltage", "bcurrent", "bcharge"
 #: Index of the ground node in stamp arrays (netdae.mna.layout.GND).
 GND = -1
 
@@ -68,7 +73,7 @@ class BehaviouralFamily(DeviceFamily):
         current (``I(r1)``).
     """
 
-    kinds = frozenset({_VOLTAGE, _CURRENT})
+    kinds = frozenset({_VOLTAGE, _CURRENT, _CHARGE})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)
@@ -82,7 +87,7 @@ class BehaviouralFamily(DeviceFamily):
                 raise CircuitError(f"{where}{el.name}: instance parameters ({names}) of behavioural sources "
                                    "are not supported by netdae", elements=(el.name,))
         self.groups: list[_Group] = []
-        for kind in (_VOLTAGE, _CURRENT):
+        for kind in (_VOLTAGE, _CURRENT, _CHARGE):
             els = [el for el in self.elements if el.kind == kind]
             for idx in group_by_structure([el.expr for el in els]):
                 members = [els[i] for i in idx]
@@ -108,6 +113,7 @@ class BehaviouralFamily(DeviceFamily):
         return layout.node(leaf.pos), (GND if leaf.neg is None else layout.node(leaf.neg))
 
     def coordinates(self, layout):
+        self._layout = layout  # the compiled kernel's packing resolves its leaves in it
         rows, cols = [], []
         for grp in self.groups:
             n = len(grp.elements)
@@ -118,6 +124,12 @@ class BehaviouralFamily(DeviceFamily):
             plus = layout.nodes_of([el.nodes[0] for el in grp.elements])
             minus = layout.nodes_of([el.nodes[1] for el in grp.elements])
             n_leaves = len(controls)
+            if grp.kind == _CHARGE:
+                grp.stamps = BranchStamps(n, controls, [], [(plus, minus)], [], [(0, k) for k in range(n_leaves)])
+                r, c = grp.stamps.coordinates()
+                rows.append(r)
+                cols.append(c)
+                continue
             if grp.kind == _CURRENT:
                 currents = [(plus, minus)]
                 deps = [(0, k) for k in range(n_leaves)]
@@ -139,8 +151,72 @@ class BehaviouralFamily(DeviceFamily):
         for grp in self.groups:
             grp.stamps.bind(slots, n)
 
+    def compiled(self, slots: SlotMap, n: int) -> tuple:
+        """Pack the family for :func:`netdae.devices.kernels.behavioural.eval_behavioural` (after ``bind``).
+
+        Every expression becomes a tape (:func:`netdae.devices.kernels.tape.compile_tape`).
+
+        Returns
+        -------
+        tuple
+            ``(prog, const, inst, leaf, val, der)`` as described in
+            :mod:`netdae.devices.kernels.behavioural`.
+
+        Raises
+        ------
+        ValueError
+            For an expression the kernel cannot evaluate (the numpy family
+            refuses it too).
+        """
+        from .kernels import behavioural as kb
+        from .kernels.packing import dependence_slots, extended
+        from .kernels.tape import compile_tape
+
+        layout = self._layout
+        count = len(self.elements)
+        inst = np.zeros((count, kb.N_INST), dtype=np.int64)
+        prog: list = []
+        consts: list = []
+        leaf_rows: list = []
+        widest = 1
+        longest = 1
+        for k, el in enumerate(self.elements):
+            ops, args, cvals, leaves = compile_tape(el.expr)
+            plus = layout.node(el.nodes[0])
+            minus = layout.node(el.nodes[1])
+            voltage = el.kind == _VOLTAGE
+            branch = layout.branch(el.name) if voltage else GND
+            out_a, out_b = (branch, GND) if voltage else (plus, minus)
+            kind = kb.KIND_VOLTAGE if voltage else kb.KIND_CHARGE if el.kind == _CHARGE else kb.KIND_CURRENT
+            inst[k, kb.B_PROG] = len(prog)
+            inst[k, kb.B_LEN] = len(ops)
+            inst[k, kb.B_LEAF] = len(leaf_rows)
+            inst[k, kb.B_NLEAF] = len(leaves)
+            inst[k, kb.B_CONST] = len(consts)
+            inst[k, kb.B_KIND] = kind
+            inst[k, kb.B_P], inst[k, kb.B_M], inst[k, kb.B_BR] = extended([plus, minus, branch], n)
+            if voltage:
+                inst[k, kb.B_S_VPM:kb.B_S_VPM + 4] = dependence_slots(slots, [branch], [GND], [plus], [minus])[0]
+                inst[k, kb.B_S_IB:kb.B_S_IB + 4] = dependence_slots(slots, [plus], [minus], [branch], [GND])[0]
+            else:
+                inst[k, kb.B_S_VPM:] = slots.dummy
+            for leaf in leaves:
+                p, m = self._leaf_pair(layout, leaf, el)
+                row = np.zeros(kb.N_LEAF, dtype=np.int64)
+                row[kb.L_P], row[kb.L_M] = extended([p, m], n)
+                row[kb.L_S:kb.L_S + 4] = dependence_slots(slots, [out_a], [out_b], [p], [m])[0]
+                leaf_rows.append(row)
+            prog += [(op, *a) for op, a in zip(ops, args)]
+            consts += cvals
+            widest = max(widest, len(leaves))
+            longest = max(longest, len(ops))
+        return (np.array(prog, dtype=np.int64).reshape(-1, 4), np.array(consts, dtype=float),
+                inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(longest),
+                np.zeros((longest, widest)))
+
     def junction_nodes(self) -> list[tuple[str, str]]:
         return [(el.nodes[0], el.nodes[1]) for el in self.elements if el.kind == _VOLTAGE]
+
 
     # -- evaluation --------------------------------------------------------
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
@@ -152,6 +228,10 @@ class BehaviouralFamily(DeviceFamily):
                 value, deriv = grp.exprs.evaluate(v[:n_leaves], t)
                 if not math.isfinite(float(deriv.sum())):
                     deriv = np.where(np.isfinite(deriv), deriv, 0.0)
+                if grp.kind == _CHARGE:
+                    grp.stamps.add(acc, np.empty((0, value.size)), None, value[None, :], deriv, jacobian=jacobian)
+                    ok = ok and math.isfinite(float(value.sum()))
+                    continue
                 if grp.kind == _CURRENT:
                     currents, dcur = value[None, :], deriv
                 else:

@@ -34,6 +34,7 @@ from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
 from .lines import EXPR, STRING, WORD, no_gc
+from .measure import elaborate_measures
 from .numbers import parse_number
 from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
@@ -347,6 +348,9 @@ class _Elaborator:
         self._options(circuit)
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
+        circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value, BRANCH_KINDS)
+        for m in self.net.measures:
+            self.diagnostics.extend(m.card.take_notes())
         circuit.diagnostics = self.diagnostics
         return circuit
 

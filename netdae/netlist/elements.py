@@ -590,6 +590,10 @@ def parse_element(card: Card) -> ElementCard | InstanceCard:
                 hint=f"netdae reads {supported_letters()}; replace it by an equivalent circuit of these")
         raise NetlistError(f"unknown card '{card.text.split(None, 1)[0]}'", card.location(0),
                            hint=f"element names start with one of {supported_letters()}; dot cards with '.'")
+    if letter == "c" and len(toks) > 4 and toks[3].kind == WORD and toks[3].text == "q" and toks[4].text == "=":
+        # ngspice's charge-defined capacitor: Cname n+ n- Q={expr}
+        return ElementCard(toks[0].text, "bcharge", card, _nodes(card, toks, 2, syntax),
+                           expr=_behavioural(card, toks, 5, syntax))
     if letter in "rcl":
         return _two_terminal(card, toks, syntax, {"r": "resistor", "c": "capacitor", "l": "inductor"}[letter])
     if letter == "k":

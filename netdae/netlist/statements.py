@@ -32,6 +32,7 @@ __all__ = [
     "ParamDef",
     "Definition",
     "AnalysisCard",
+    "MeasureCard",
     "Netlist",
 ]
 
@@ -236,6 +237,31 @@ class AnalysisCard:
     args: dict
 
 
+@dataclass(slots=True)
+class MeasureCard:
+    """A ``.meas``/``.measure`` card, parsed (:mod:`netdae.netlist.measure`), nothing evaluated.
+
+    Signals are ``(letter, part, nodes, offset)``: ``("v", "db", ("out",), 17)``
+    for ``vdb(out)``. ``trig``, ``targ`` and ``when`` are dicts with the keys
+    ``probe``, ``value`` (Val), ``other`` (a signal), ``edge``
+    (``"rise"``/``"fall"``/``"cross"``/``""``), ``count`` (-1: LAST), ``td``,
+    ``at``, ``from``, ``to`` (Val or None) and ``offset``.
+    """
+
+    analysis: str
+    name: str
+    function: str
+    card: Card
+    offset: int
+    probe: tuple | None = None
+    trig: dict | None = None
+    targ: dict | None = None
+    when: dict | None = None
+    at: Val | None = None
+    window: dict = field(default_factory=dict)  # td, from, to -> Val
+    expression: tuple | None = None  # (Expr, offset) of PARAM=
+
+
 @dataclass
 class Netlist:
     """A parsed netlist.
@@ -251,6 +277,7 @@ class Netlist:
     temps : list of (Val, Card)
     ic, nodeset : list of (node, Val, offset, Card)
     saves : list of (signal, offset, Card)
+    measures : list of MeasureCard
     globals : dict of str to (Card, offset)
     diagnostics : list of Diagnostic
     files : list of str
@@ -265,6 +292,7 @@ class Netlist:
     ic: list = field(default_factory=list)
     nodeset: list = field(default_factory=list)
     saves: list = field(default_factory=list)
+    measures: list = field(default_factory=list)
     globals: dict = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     files: list[str] = field(default_factory=list)

@@ -152,19 +152,20 @@ DOT_CARDS: dict[str, str] = {
     ".print": ".print [tran|ac|dc|op] signal ...",
     ".probe": ".probe signal ...",
     ".plot": ".plot [tran|ac|dc|op] signal ...",
+    ".meas": ".meas tran|ac|dc name TRIG ... TARG ... | FIND ... | WHEN ... | DERIV ... | "
+             "MIN|MAX|PP|AVG|RMS|INTEG sig [FROM=] [TO=] | PARAM='expr'",
     ".control": ".control ... .endc (skipped)",
     ".end": ".end",
 }
 
 #: Spellings that mean the same dot card.
-DOT_ALIASES = {".option": ".options", ".opt": ".options", ".inc": ".include", ".subcircuit": ".subckt"}
+DOT_ALIASES = {".option": ".options", ".opt": ".options", ".inc": ".include", ".subcircuit": ".subckt",
+               ".measure": ".meas"}
 
 #: Dot cards ngspice knows and netdae does not implement.
 UNSUPPORTED_DOT_CARDS: dict[str, str] = {
     ".four": "Fourier analysis",
     ".fourier": "Fourier analysis",
-    ".meas": "measurement",
-    ".measure": "measurement",
     ".noise": "noise analysis",
     ".pz": "pole-zero analysis",
     ".sens": "sensitivity analysis",

@@ -56,6 +56,7 @@ import numpy as np
 
 from ..errors import NgspiceError
 from ..results import Result
+from .measures import read_measures
 from .translate import (
     OPAMP_GAIN,
     DcSweepCard,
@@ -140,6 +141,9 @@ class NgspiceRun:
         ngspice's output.
     elapsed : float
         Wall time of the run [s].
+    measures : list of Measure
+        ngspice's value (or failure and reason) of every ``.meas`` card, in
+        card order (:func:`netdae.ngspice.measures.read_measures`).
     """
 
     results: list[Result]
@@ -151,6 +155,7 @@ class NgspiceRun:
     stdout: str = ""
     stderr: str = ""
     elapsed: float = 0.0
+    measures: list = field(default_factory=list)
 
     def result(self, analysis: str) -> Result:
         """The first result of an analysis (``"op"``, ``"dc"``, ``"ac"``, ``"tran"``)."""
@@ -255,7 +260,8 @@ def run_ngspice(
         notes += more
     output, used = _run_backend(netlist, backend, limit, notes)
     notes += output.notes
-    errors, warnings = classify_output(output.stderr, output.stdout, strict=strict)
+    measures, rest_out, rest_err = read_measures(netlist, output.stdout, output.stderr)
+    errors, warnings = classify_output(rest_err, rest_out, strict=strict)
     if errors:
         raise NgspiceError(_failure_message(source, errors, strict))
     if output.returncode not in (None, 0):
@@ -285,6 +291,7 @@ def run_ngspice(
         stdout="\n".join(output.stdout),
         stderr="\n".join(output.stderr),
         elapsed=time.perf_counter() - start,
+        measures=measures,
     )
 
 

@@ -9,6 +9,12 @@ killed, so no ngspice process outlives the run. ``SPICE_ASCIIRAWFILE=0`` keeps
 the raw file binary (ngspice's default, full double precision) whatever the
 user's environment says. The raw file is read with
 :func:`netdae.io.raw.read_raw`.
+
+ngspice 39 makes no measurement in batch mode with a raw file ("No .measure
+possible in batch mode (-b) with -r rawfile set!"): a netlist with ``.meas``
+cards is run a second time without ``-r`` (``ngspice -b -n netlist.cir``),
+whose printed output carries the measurements; the note ngspice printed about
+them in the first run is left out.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ import tempfile
 from ..errors import NetdaeError, NgspiceError
 from ..io.raw import read_raw
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
+from .measures import measure_cards
 
 __all__ = ["run", "version", "executable"]
 
@@ -31,6 +38,9 @@ _VERSION = re.compile(r"ngspice-(\S+)")
 #: Seconds allowed for ``ngspice -v``.
 _VERSION_TIMEOUT = 30.0
 _version_cache: dict[str, str] = {}
+#: ngspice's note that it measures nothing with ``-r`` (and its two continuation lines).
+_NO_MEASURE = re.compile(r"no \.measure possible in batch mode|^remove rawfile and use|"
+                         r"^select interactive mode \(optionally", re.I)
 
 
 def executable() -> str:
@@ -95,6 +105,12 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
         with open(circuit, "w", encoding="utf-8") as handle:
             handle.write(netlist)
         done = _run_killable([exe, "-b", "-n", "-r", "out.raw", "netlist.cir"], tmp, env, timeout)
+        stdout, stderr = done.stdout.splitlines(), done.stderr.splitlines()
+        if measure_cards(netlist):
+            again = _run_killable([exe, "-b", "-n", "netlist.cir"], tmp, env, timeout)
+            stderr = [line for line in stderr if not _NO_MEASURE.search(line)]
+            stdout += again.stdout.splitlines()
+            stderr += again.stderr.splitlines()
         results, read_error = [], None
         if os.path.exists(raw):
             try:
@@ -105,8 +121,8 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
             result.extra.pop("source", None)
     return BackendOutput(
         results=results,
-        stdout=done.stdout.splitlines(),
-        stderr=done.stderr.splitlines(),
+        stdout=stdout,
+        stderr=stderr,
         version=ngspice,
         returncode=done.returncode,
         read_error=read_error,

@@ -257,7 +257,15 @@ def translate_for_ngspice(
     lines, origins, notes = self_contained(text, base_dir=base_dir, source=source)
     edits: dict[int, tuple[int, str | None]] = {}
     subckt: list[str] = []
-    for card in _cards(lines):
+    cards = _cards(lines)
+    keywords = {card.keyword for card in cards}
+    if keywords & {".meas", ".measure"} and not keywords & {".save", ".print", ".probe", ".plot"}:
+        end = next(card for card in reversed(cards) if _is_end(card))
+        edits[end.first] = (end.last, ".save all\n" + lines[end.first])
+        first = next(card for card in cards if card.keyword in (".meas", ".measure"))
+        notes.append(f"{origins[first.first]}: '.save all' added: with .meas cards and no .save card, ngspice 39 "
+                     "saves only the vectors the .meas cards name")
+    for card in cards:
         keyword = card.keyword
         where = origins[card.first]
         if keyword == ".subckt" and len(card.tokens) > 1:

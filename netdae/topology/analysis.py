@@ -313,7 +313,7 @@ def _dangling(ctx: Context) -> list[str]:
 
 
 #: Self-loops of these kinds are reported as loops (V-loop, C-loop, DC loop), not here.
-_LOOP_REPORTED = frozenset({"vsource", "vcvs", "ccvs", "bvoltage", "opamp", "inductor", "capacitor"})
+_LOOP_REPORTED = frozenset({"vsource", "vcvs", "ccvs", "bvoltage", "opamp", "inductor", "capacitor", "bcharge"})
 _CURRENT_KINDS = frozenset({"isource", "vccs", "cccs", "bcurrent"})
 
 
@@ -331,6 +331,7 @@ def _self_loops(ctx: Context) -> list[str]:
 
 _KIND_GROUPS = (
     ({"vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent"}, "controlled sources"),
+    ({"bcharge"}, "charge-defined capacitors"),
     ({"opamp"}, "ideal op-amps"),
     ({"bjt", "mosfet"}, "transistors"),
 )

@@ -80,7 +80,8 @@ NULLATOR = 5
 
 #: Element kinds whose behaviour is controlled by other circuit quantities:
 #: the index theorem's hypotheses exclude them.
-CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bjt", "mosfet"})
+CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bcharge", "bjt",
+                              "mosfet"})
 
 #: Diode model parameters whose nonzero value gives the junction a charge
 #: (ngspice names and aliases: depletion CJO/CJ0/CJ, transit time TT).
@@ -115,6 +116,7 @@ KIND_TABLE: dict[str, _Spec] = {
     "opamp": _Spec((4,), ((VOLTAGE, 0, 1), (NULLATOR, 2, 3)), ((2, "input"), (3, "input"))),
     "bvoltage": _Spec((2,), ((VOLTAGE, 0, 1),)),
     "bcurrent": _Spec((2,), ((CURRENT, 0, 1),)),
+    "bcharge": _Spec((2,), ((CAPACITIVE, 0, 1),)),
     "diode": _Spec((2,), ()),  # see _diode_branches
     "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0))),
     "mosfet": _Spec((4,), ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),)),

@@ -25,10 +25,19 @@ chooses the directory once (:func:`choose_cache_dir`):
 3. ``$XDG_CACHE_HOME/netdae/numba`` (``~/.cache/netdae/numba``);
 4. ``<tempdir>/netdae-numba-<uid>``;
 
-and, for 3 and 4, sets ``NUMBA_CACHE_DIR`` (and numba's configuration) to it
-before any kernel is defined. When none is writable the kernels are compiled
-without a cache (every process compiles again; nothing fails).
-:data:`CACHE_DIR` records the choice (``None``: no cache).
+and uses its subdirectory ``netdae-engine-<key>``, ``<key>`` a hash of the
+source of every module that defines kernels (:func:`source_key`), as
+``NUMBA_CACHE_DIR`` (setting numba's configuration too) before any kernel is
+defined. When none is writable the kernels are compiled without a cache
+(every process compiles again; nothing fails). :data:`CACHE_DIR` records the
+choice (``None``: no cache).
+
+Why the key: numba invalidates a cached function when the file that
+defines it changes, not when a function it calls (and inlined) changes in
+another file. The step loop inlines the device kernels and the LU of other
+modules, so an edited kernel would otherwise run as its stale cached copy.
+With the key, any change to the engine's sources selects a new directory
+(the previous ones are removed, best effort).
 
 Examples
 --------
@@ -39,18 +48,24 @@ True
 
 from __future__ import annotations
 
+import hashlib
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Callable, Mapping
 
 import numba
 
-__all__ = ["CACHE_DIR", "choose_cache_dir", "kernel", "allocating_kernel"]
+__all__ = ["CACHE_DIR", "choose_cache_dir", "source_key", "kernel", "allocating_kernel"]
 
 #: numba's environment variable for its cache directory.
 CACHE_ENV = "NUMBA_CACHE_DIR"
 _PACKAGE_DIR = Path(__file__).resolve().parent
+#: Directories whose modules define kernels (this package and the device kernels).
+_KERNEL_DIRS = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels")
+#: Prefix of the cache's content-keyed subdirectories.
+ENGINE_PREFIX = "netdae-engine-"
 
 
 def _writable(path: str) -> bool:
@@ -106,12 +121,48 @@ def choose_cache_dir(package_dir: str | os.PathLike, environ: Mapping[str, str],
     return None
 
 
+def source_key(dirs=_KERNEL_DIRS) -> str:
+    """A hash of the sources of every kernel module (``*.py`` in ``dirs``), 16 hex digits.
+
+    Cost: reading about 200 kB, under a millisecond.
+    """
+    digest = hashlib.sha256()
+    for d in dirs:
+        for path in sorted(Path(d).glob("*.py")):
+            digest.update(path.name.encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _prune(base: str, keep: str) -> None:
+    """Remove the other engine directories under ``base`` (caches of earlier sources; best effort)."""
+    try:
+        entries = os.listdir(base)
+    except OSError:
+        return
+    for name in entries:
+        if name.startswith(ENGINE_PREFIX) and name != keep:
+            shutil.rmtree(os.path.join(base, name), ignore_errors=True)
+
+
 def _configure() -> str | None:
-    path = choose_cache_dir(_PACKAGE_DIR, os.environ)
-    if path is not None and path != os.path.join(os.fspath(_PACKAGE_DIR), "__pycache__"):
-        # numba re-reads its environment before compiling: set both
-        os.environ[CACHE_ENV] = path
-        numba.config.CACHE_DIR = path
+    environ = dict(os.environ)
+    inherited = environ.get(CACHE_ENV, "")
+    if os.path.basename(inherited.rstrip(os.sep)).startswith(ENGINE_PREFIX):
+        # set by a parent netdae process (children inherit the environment): its base
+        environ[CACHE_ENV] = os.path.dirname(inherited.rstrip(os.sep))
+    base = choose_cache_dir(_PACKAGE_DIR, environ)
+    if base is None:
+        return None
+    name = ENGINE_PREFIX + source_key()
+    path = os.path.join(base, name)
+    if not _writable(path):
+        return None
+    if not inherited:
+        _prune(base, name)  # (a directory the user chose is not cleaned)
+    # numba re-reads its environment before compiling: set both
+    os.environ[CACHE_ENV] = path
+    numba.config.CACHE_DIR = path
     return path
 
 

@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_LIMIT
+from ...devices.kernels.behavioural import eval_behavioural
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
@@ -376,7 +377,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     for i in range(n):
@@ -395,6 +396,10 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags = _family(0, d_par, d_idx, d_vacc, d_vtry, d_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(1, b_par, b_idx, b_vacc, b_vtry, b_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(2, m_par, m_idx, m_vacc, m_vtry, m_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    if h_inst.shape[0] > 0:
+        hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
+                                        jacobian)
+        flags |= hflags
     I[I_EVALUATIONS] += 1
     if jacobian:
         I[I_JAC_EVALUATIONS] += 1
@@ -408,7 +413,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
 def _accept_state(I, devd):
     """The trial limiting state becomes the accepted one (after an accepted step)."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
@@ -420,7 +425,7 @@ def _accept_state(I, devd):
 def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew) = devd
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)

@@ -48,13 +48,18 @@ PROGRESS_INTERVAL = 0.1
 FIRST_CHUNK = 64
 
 
+#: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET).
+BEHAVIOURAL_SLOT = 3
+
+
 def _family_slot(family) -> int | None:
-    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET), or None."""
+    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, behavioural), or None."""
+    from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
     from ...devices.mosfet import MosfetFamily
 
-    for slot, cls in enumerate((DiodeFamily, BjtFamily, MosfetFamily)):
+    for slot, cls in enumerate((DiodeFamily, BjtFamily, MosfetFamily, BehaviouralFamily)):
         if type(family) is cls:
             return slot
     return None
@@ -231,7 +236,11 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     buf_x = np.empty((cap, save_idx.size))
     fs = float(first_step) if first_step is not None else 0.0
 
-    chunk = FIRST_CHUNK
+    # a first call of no steps when the loop is not yet loaded in this process: it loads the
+    # machine code from numba's cache (or compiles it), which is timed apart from the integration
+    fresh = not getattr(L.run, "signatures", True)  # (a wrapped loop: no load to time)
+    chunk = 0 if fresh else FIRST_CHUNK
+    load_time = 0.0
     last = time.perf_counter()
     status = L.RUNNING
     interrupted = None
@@ -242,6 +251,12 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
             rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times)
             status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd, devd,
                            lus(), evb, ws, wk, rec, chunk)
+            if fresh:
+                fresh = False
+                load_time = time.perf_counter() - tic
+                chunk = FIRST_CHUNK
+                if status == L.CHUNK_DONE:
+                    continue
             if status == L.NEED_PIVOTS:
                 # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume
                 if lu.factor(a_data):
@@ -296,7 +311,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         "evaluations": int(I[L.I_EVALUATIONS]), "jacobian_evaluations": int(I[L.I_JAC_EVALUATIONS]),
         "cj_changes": int(I[L.I_CJ_CHANGES]), "restarts": int(I[L.I_RESTARTS]), "probes": int(I[L.I_PROBES]),
         "max_order_used": int(I[L.I_MAX_ORDER_USED]), "h_min": float(F[L.F_H_MIN]), "h_max": float(F[L.F_H_MAX]),
-        "wall_time": time.perf_counter() - wall0, "engine": "compiled",
+        "wall_time": time.perf_counter() - wall0, "load_time": load_time, "engine": "compiled",
     }
     tolerances = {"rtol": rtol, "vntol": vntol, "abstol": abstol, "atol": atol_label, "norm": norm_name,
                   "relref": relref_name, "newton_tol": 0.33, "maxord": maxord, "index_excluded": excluded}
@@ -340,10 +355,12 @@ _REASONS = {L.REASON_SINGULAR: "singular", L.REASON_NONFINITE: "nonfinite", L.RE
 
 
 def _pack_families(system) -> tuple:
-    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs and MOSFETs.
+    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs and MOSFETs, then
+    the behavioural sources' ``(prog, const, inst, leaf, val, der)``.
 
     An absent family gets empty arrays (its kernel is then skipped).
     """
+    from ...devices.kernels import behavioural as kbh
     from ...devices.base import SlotMap
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
@@ -351,9 +368,14 @@ def _pack_families(system) -> tuple:
 
     shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE))
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
+    behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
+                   np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))
     if system.families:
         slots = SlotMap(system.pattern)
         for family in system.families:
+            if _family_slot(family) == BEHAVIOURAL_SLOT:
+                behavioural = family.compiled(slots, system.n)
+                continue
             par, idx, vold0 = family.compiled(slots, system.n)
             packed[_family_slot(family)] = (np.ascontiguousarray(par, dtype=float),
                                             np.ascontiguousarray(idx, dtype=np.int64),
@@ -361,7 +383,7 @@ def _pack_families(system) -> tuple:
     out = []
     for par, idx, vold0 in packed:
         out += [par, idx, vold0.copy(), vold0.copy(), vold0.copy()]
-    return tuple(out)
+    return tuple(out) + tuple(behavioural)
 
 
 def _failure(system, F, I) -> dict:

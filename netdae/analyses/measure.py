@@ -1,0 +1,379 @@
+"""Evaluate ``.meas`` measurements on analysis results (pure numerics: nothing printed, nothing read).
+
+:func:`evaluate_measures` takes the elaborated cards
+(:class:`~netdae.measures.MeasureSpec`, from ``circuit.measures``) and the
+results of the analyses they name, and returns one
+:class:`~netdae.measures.Measure` per card, in netlist order. A measurement
+that cannot be made (a crossing that never happens, a time outside the
+analysis, a signal the result does not hold, a ``PARAM`` of a failed
+measurement) is a *failed* measure with the reason, as ngspice prints
+``name = failed``.
+
+How a signal is read between points
+-----------------------------------
+- ``tran``: on the integrator's interpolant (``Result.dense``), not on
+  straight lines between output points. Crossings are bracketed on the
+  accepted steps (each step sampled at its ends and three inner points) and
+  solved on the interpolant to rounding (Brent's method); where the solution
+  jumps (two points at one time: the left value and the right limit) a
+  crossing inside the jump is at that time. ``AVG``, ``RMS`` and ``INTEG``
+  integrate the interpolant with six-point Gauss-Legendre rules per step
+  (exact for the method's polynomials, order <= 5, and their squares);
+  ``MIN``/``MAX`` are refined between samples; ``DERIV`` differentiates the
+  step's polynomial.
+- ``ac`` and ``dc``: straight lines between the analysis points, as ngspice
+  (``vdb``, ``vm``, ``vp`` ... are formed at the points, then interpolated
+  linearly in frequency); integrals are exact for those lines.
+
+Crossings are counted as ngspice counts them: a point is *above* when the
+signal is >= the value, a rise is a change from below to above, a fall from
+above to below; without ``RISE``/``FALL``/``CROSS`` the first crossing of
+either kind counts. ``FROM``, ``TO`` and ``TD`` bound the window (window edges
+are interpolated: ngspice 39 takes ``MIN``, ``MAX`` and ``AVG`` over the points
+inside the window only).
+
+Examples
+--------
+>>> import numpy as np
+>>> from netdae.results import Result
+>>> from netdae.netlist import load
+>>> c = load("t\\nV1 a 0 1\\nR1 a 0 1\\n.dc V1 0 4 1\\n.meas dc x WHEN v(a)=2.5\\n.meas dc y PARAM='x*2'\\n")
+>>> r = Result("dc", axes={"v1": np.arange(5.0)}, signals={"v(a)": np.arange(5.0)})
+>>> [(m.name, m.value) for m in evaluate_measures(c.measures, {"dc": r})]
+[('x', 2.5), ('y', 5.0)]
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Probe
+from ..netlist import expr as ex
+from ..results import Result
+
+__all__ = ["evaluate_measures", "MeasureFailure"]
+
+#: Inner sample points per step of a transient (fractions of the step).
+_INNER = np.array([0.25, 0.5, 0.75])
+#: Gauss-Legendre nodes and weights on [0, 1], six points (exact to degree 11).
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(6)
+_GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
+
+
+class MeasureFailure(Exception):
+    """A measurement that cannot be made; the message is the reason."""
+
+
+# ---------------------------------------------------------------------------
+# a real quantity along the axis
+# ---------------------------------------------------------------------------
+def _part(values: np.ndarray, part: str, analysis: str) -> np.ndarray:
+    if analysis != "ac":
+        return np.asarray(values, dtype=float).real
+    z = np.asarray(values, dtype=complex)
+    if part in ("", "r"):
+        return z.real
+    if part == "i":
+        return z.imag
+    if part == "m":
+        return np.abs(z)
+    if part == "p":
+        return np.angle(z)
+    with np.errstate(divide="ignore"):
+        return 20.0 * np.log10(np.abs(z))
+
+
+class _Trace:
+    """One real quantity: its values at the analysis points and between them."""
+
+    def __init__(self, result: Result, probe: Probe) -> None:
+        self.name = probe.name
+        self.x = np.asarray(result.axis, dtype=float)
+        try:
+            self.y = _part(result[probe.signal.name], probe.part, result.analysis)
+        except KeyError:
+            raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
+                                 "(not saved: add it to .save)") from None
+        self.dense = None
+        if result.analysis == "tran" and result.dense is not None:
+            def dense(t, _r=result, _p=probe):
+                t = np.atleast_1d(np.asarray(t, dtype=float))
+                view = Result("tran", axes={"time": t}, signals=_r.dense(t))
+                return _part(view[_p.signal.name], _p.part, "tran")
+            self.dense = dense
+
+    @property
+    def span(self) -> tuple[float, float]:
+        return float(self.x[0]), float(self.x[-1])
+
+    def at(self, xq) -> np.ndarray:
+        """Values at ``xq`` (left values at a jump)."""
+        xq = np.atleast_1d(np.asarray(xq, dtype=float))
+        if self.dense is not None:
+            return self.dense(xq)
+        return np.interp(xq, self.x, self.y)
+
+    def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """Points in [lo, hi] in order (ends included; for a transient also inner points of every step)."""
+        x, y = self.x, self.y
+        if self.dense is not None and x.size > 1:
+            h = np.diff(x)
+            xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
+            ys = np.empty_like(xs)
+            ys[:, 0] = y[:-1]
+            inner = h > 0
+            if inner.any():
+                ys[inner, 1:] = self.dense(xs[inner, 1:].ravel()).reshape(-1, _INNER.size)
+            ys[~inner, 1:] = y[:-1][~inner, None]
+            x = np.append(xs.ravel(), x[-1])
+            y = np.append(ys.ravel(), y[-1])
+        keep = (x > lo) & (x < hi)
+        ends = self.at([lo, hi])
+        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([[ends[0]], y[keep], [ends[1]]])
+
+    def integral(self, lo: float, hi: float, power: int) -> float:
+        """The integral of ``y**power`` over [lo, hi]."""
+        knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
+        a, b = knots[:-1], knots[1:]
+        if self.dense is not None:
+            nodes = a[:, None] + (b - a)[:, None] * _GL_X[None, :]
+            values = self.dense(nodes.ravel()).reshape(nodes.shape) ** power
+            return float(np.sum((b - a) * (values @ _GL_W)))
+        ya, yb = self.at(a), self.at(b)
+        if power == 1:
+            return float(np.sum((b - a) * (ya + yb) / 2.0))
+        return float(np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0))
+
+    def derivative(self, xq: float) -> float:
+        """The slope at ``xq`` (a transient: of its step's polynomial)."""
+        x = self.x
+        i = int(np.clip(np.searchsorted(x, xq, side="left"), 1, x.size - 1))
+        while i < x.size - 1 and x[i] == x[i - 1]:
+            i += 1
+        a, b = x[i - 1], x[i]
+        if b == a:
+            raise MeasureFailure(f"{self.name} jumps at {xq:g}: no derivative there")
+        if self.dense is None:
+            return float((self.y[i] - self.y[i - 1]) / (b - a))
+        s = 0.5 - 0.5 * np.cos(np.pi * (np.arange(6) + 0.5) / 6)  # Chebyshev points in (0, 1)
+        coef = np.polyfit(s, self.dense(a + (b - a) * s), 5)
+        return float(np.polyval(np.polyder(coef), (xq - a) / (b - a)) / (b - a))
+
+
+# ---------------------------------------------------------------------------
+# crossings
+# ---------------------------------------------------------------------------
+def _root(g, a: float, b: float, ga: float, gb: float) -> float:
+    from scipy.optimize import brentq
+
+    def wrapped(t):
+        return ga if t == a else gb if t == b else float(g(t))
+
+    return float(brentq(wrapped, a, b, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200))
+
+
+def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
+    """Every crossing in [lo, hi]: (axis value, "rise" | "fall")."""
+    xs, ys = trace.samples(lo, hi)
+    d = ys - (other.at(xs) if other is not None else cond.value)
+    above = d >= 0
+    nonzero = np.flatnonzero(d != 0)
+    if nonzero.size and nonzero[0] > 0:  # starting on the value is not a crossing: the side is where it goes
+        above[: nonzero[0]] = above[nonzero[0]]
+    change = np.flatnonzero(above[1:] != above[:-1])
+    dense = trace.dense is not None
+
+    def g(t):
+        value = trace.at([t])[0]
+        return value - (other.at([t])[0] if other is not None else cond.value)
+
+    out = []
+    for k in change:
+        a, b, da, db = xs[k], xs[k + 1], d[k], d[k + 1]
+        kind = "rise" if above[k + 1] else "fall"
+        if a == b:
+            t = a
+        elif kind == "rise" and db == 0:
+            t = b
+        elif kind == "fall" and da == 0:
+            t = a
+        elif dense:
+            t = _root(g, a, b, da, db)
+        else:
+            t = a + (0.0 - da) * (b - a) / (db - da)
+        out.append((float(t), kind))
+    return out
+
+
+def _ordinal(n: int) -> str:
+    return {1: "first", 2: "second", 3: "third"}.get(n, f"{n}th")
+
+
+def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: str) -> float:
+    if cond.at is not None:
+        return cond.at
+    trace = _Trace(result, cond.probe)
+    other = _Trace(result, cond.other) if cond.other is not None else None
+    x0, x1 = trace.span
+    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
+    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
+    if lo > hi:
+        raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
+    events = _crossings(trace, cond, lo, hi, other)
+    wanted = [e for e in events if cond.edge in ("", "cross") or e[1] == cond.edge]
+    target = other.name if other is not None else f"{cond.value:g}"
+    if not wanted:
+        kind = {"rise": "rises through", "fall": "falls through"}.get(cond.edge, "crosses")
+        raise MeasureFailure(f"{clause}: {trace.name} never {kind} {target} in [{lo:g}, {hi:g}]")
+    if cond.count == LAST:
+        return wanted[-1][0]
+    if cond.count > len(wanted):
+        edge = cond.edge or "cross"
+        raise MeasureFailure(f"{clause}: {trace.name} has {len(wanted)} {edge}(s) through {target} in "
+                             f"[{lo:g}, {hi:g}], the {_ordinal(cond.count)} was asked")
+    return wanted[cond.count - 1][0]
+
+
+def _inside(result: Result, x: float, what: str) -> None:
+    x0, x1 = float(result.axis[0]), float(result.axis[-1])
+    fuzz = 1e-12 * max(abs(x0), abs(x1), x1 - x0)
+    if not (x0 - fuzz <= x <= x1 + fuzz):
+        raise MeasureFailure(f"{what}={x:g} is outside the {result.analysis} analysis ({x0:g} to {x1:g})")
+
+
+# ---------------------------------------------------------------------------
+# one measurement
+# ---------------------------------------------------------------------------
+def _window(spec: MeasureSpec, trace: _Trace) -> tuple[float, float]:
+    x0, x1 = trace.span
+    lo = x0 if spec.start is None else max(x0, spec.start)
+    hi = x1 if spec.stop is None else min(x1, spec.stop)
+    if not lo < hi:
+        raise MeasureFailure(f"the window FROM={lo:g} TO={hi:g} holds no part of the analysis ({x0:g} to {x1:g})")
+    return lo, hi
+
+
+def _extreme(trace: _Trace, lo: float, hi: float, sign: float) -> tuple[float, float]:
+    """(value, where) of the largest ``sign * y`` in [lo, hi]."""
+    xs, ys = trace.samples(lo, hi)
+    k = int(np.argmax(sign * ys))
+    best, where = float(ys[k]), float(xs[k])
+    if trace.dense is not None and xs.size > 2:
+        from scipy.optimize import minimize_scalar
+
+        a, b = xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]
+        if b > a:
+            opt = minimize_scalar(lambda t: -sign * trace.at([t])[0], bounds=(a, b), method="bounded",
+                                  options={"xatol": 1e-14 * max(abs(a), abs(b), b - a)})
+            value = -sign * float(opt.fun)
+            if sign * value > sign * best:
+                best, where = value, float(opt.x)
+    return best, where
+
+
+def _measure(spec: MeasureSpec, result: Result) -> Measure:
+    f = spec.function
+    out = Measure(spec.name, spec.analysis, f, None)
+    if f == "trig":
+        trig = _find_crossing(spec, result, spec.trig, "TRIG")
+        targ = _find_crossing(spec, result, spec.targ, "TARG")
+        out.value, out.extra = targ - trig, {"targ": targ, "trig": trig}
+        return out
+    if f == "when":
+        out.value = out.at = _find_crossing(spec, result, spec.when, "WHEN")
+        return out
+    trace = _Trace(result, spec.probe)
+    if f in ("find", "deriv"):
+        if spec.when is not None:
+            x = _find_crossing(spec, result, spec.when, "WHEN")
+        else:
+            x = spec.at
+            _inside(result, x, "AT")
+        out.at = x
+        out.value = float(trace.at([x])[0]) if f == "find" else trace.derivative(x)
+        return out
+    lo, hi = _window(spec, trace)
+    if f in ("min", "max"):
+        out.value, out.at = _extreme(trace, lo, hi, 1.0 if f == "max" else -1.0)
+    elif f == "pp":
+        top, _ = _extreme(trace, lo, hi, 1.0)
+        bottom, _ = _extreme(trace, lo, hi, -1.0)
+        out.value = top - bottom
+    elif f == "integ":
+        out.value = trace.integral(lo, hi, 1)
+    elif f == "avg":
+        out.value = trace.integral(lo, hi, 1) / (hi - lo)
+    else:  # rms
+        out.value = math.sqrt(max(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
+    if f in ("pp", "integ", "avg", "rms"):
+        out.extra = {"from": lo, "to": hi}
+    return out
+
+
+def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
+    def lookup(name: str) -> float:
+        m = done.get(name)
+        if m is not None:
+            if not m.ok:
+                raise MeasureFailure(f"PARAM: measurement '{name}' failed")
+            return m.value
+        return spec.params[name]
+
+    try:
+        value = ex.evaluate(spec.expression, lookup)
+    except ValueError as exc:
+        raise MeasureFailure(f"PARAM: {exc}") from None
+    return Measure(spec.name, spec.analysis, "param", value)
+
+
+def _check_axis(result: Result) -> None:
+    if len(result.axes) > 1:
+        raise MeasureFailure("a nested .dc sweep (two sources) is not measured by netdae")
+    x = np.asarray(result.axis, dtype=float)
+    if x.size < 2:
+        raise MeasureFailure(f"the {result.analysis} result has {x.size} point(s)")
+    if np.any(np.diff(x) < 0):
+        raise MeasureFailure(f"the {result.axis_name} axis decreases (netdae measures increasing sweeps)")
+
+
+def evaluate_measures(specs: list[MeasureSpec], results: Mapping[str, Result]) -> list[Measure]:
+    """Evaluate measurements on results.
+
+    Parameters
+    ----------
+    specs : list of MeasureSpec
+        ``circuit.measures``, in netlist order.
+    results : mapping of str to Result
+        The result each analysis kind is measured on (``"tran"``, ``"ac"``,
+        ``"dc"``); a kind that is missing makes its measurements fail.
+
+    Returns
+    -------
+    list of Measure
+        One per spec, in order; failed ones have ``status == "failed"`` and a
+        ``reason``. Nothing is raised for a measurement that cannot be made.
+    """
+    done: dict[str, Measure] = {}
+    out = []
+    for spec in specs:
+        try:
+            if spec.function == "param":
+                m = _param(spec, done)
+            else:
+                result = results.get(spec.analysis)
+                if result is None:
+                    raise MeasureFailure(f"no {spec.analysis} result to measure")
+                if not result.ok:
+                    raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
+                _check_axis(result)
+                m = _measure(spec, result)
+            if m.value is None or not math.isfinite(m.value):
+                raise MeasureFailure(f"the value is {m.value}")
+        except MeasureFailure as exc:
+            m = Measure(spec.name, spec.analysis, spec.function, None, status=STATUS_FAILED, reason=str(exc))
+        done[spec.name] = m
+        out.append(m)
+    return out

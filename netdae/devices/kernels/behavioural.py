@@ -1,0 +1,317 @@
+"""Behavioural sources as one compiled kernel (the twin of :class:`netdae.devices.behavioral.BehaviouralFamily`).
+
+Every source's expression is a tape (:mod:`netdae.devices.kernels.tape`);
+the kernel runs the tapes of all instances, each register carrying its value
+and its derivatives to the instance's leaves (forward mode), with the rules
+of :mod:`netdae.devices.autodiff` (ngspice's semantics: ``a ** b`` is
+``|a|^b``, ``exp`` saturates at 1e99, ``ln(0) = -1e99`` ...).
+
+Layout (packed by ``BehaviouralFamily.compiled``)
+-------------------------------------------------
+``prog``: int64[M, 4], the instructions ``(op, a, b, c)`` of all tapes one
+after the other; ``const``: float64[C]; ``inst``: int64[N, N_INST], per
+instance the columns ``B_*`` (tape start and length, first leaf and number
+of leaves, first constant, kind, the extended nodes ``n+``, ``n-`` and, for a
+voltage source, its branch unknown, and the two slot quadruples of a voltage
+source's fixed entries); ``leaf``: int64[Lt, N_LEAF], per leaf its control
+nodes ``(p, m)`` and the four slots of the source's output on it; ``val``,
+``der``: float64[R] and float64[R, Lmax], the registers (work arrays, R and
+Lmax the largest tape and leaf count).
+
+Equations: a current source adds ``expr`` from n+ to n-; a charge-defined
+capacitor adds the charge ``expr`` on n+ (``-expr`` on n-); a voltage source
+has the branch equation ``v(n+) - v(n-) - expr = 0`` in the row of its
+branch current ``i``, which flows from n+ to n-.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...dae.compiled import kernel
+
+from . import FLAG_NONFINITE
+from .scatter import add_charge, add_charge_slope, add_current, add_current_slope
+from .tape import (
+    OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GE, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
+    OP_MAX, OP_MIN, OP_MOD, OP_MUL, OP_NE, OP_NEG, OP_NOT, OP_OR, OP_POW, OP_PWR, OP_SELECT, OP_SUB, OP_TIME,
+)
+
+__all__ = ["eval_behavioural", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
+           "B_S_VPM", "B_S_IB", "N_INST", "L_P", "L_M", "L_S", "N_LEAF", "KIND_CURRENT", "KIND_VOLTAGE",
+           "KIND_CHARGE"]
+
+B_PROG, B_LEN, B_LEAF, B_NLEAF, B_CONST, B_KIND, B_P, B_M, B_BR, B_S_VPM, B_S_IB = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13
+N_INST = B_S_IB + 4
+L_P, L_M, L_S = 0, 1, 2
+N_LEAF = L_S + 4
+KIND_CURRENT, KIND_VOLTAGE, KIND_CHARGE = 0, 1, 2
+
+#: ngspice's PTexp saturation (as netdae.devices.autodiff).
+EXP_ARG_MAX = 227.9559242
+EXP_SATURATED = 1e99
+LOG_OF_ZERO = -1e99
+_LN10 = math.log(10.0)
+
+# one-argument functions (the order of tape.FUNCTIONS_1)
+F_SQRT, F_EXP, F_LN, F_LOG10, F_SIN, F_COS, F_TAN, F_ASIN, F_ACOS, F_ATAN, F_SINH, F_COSH = range(12)
+F_TANH, F_ASINH, F_ACOSH, F_ATANH, F_ABS, F_URAMP, F_SGN, F_FLOOR, F_CEIL, F_INT, F_NINT, F_U = range(12, 24)
+
+
+@kernel
+def _exp(u):
+    return EXP_SATURATED if u > EXP_ARG_MAX else math.exp(u)
+
+
+@kernel
+def _ln(u):
+    return LOG_OF_ZERO if u == 0.0 else math.log(u)
+
+
+@kernel
+def _function(f, u):
+    """Value and derivative of one-argument function ``f`` at ``u``; ``has_slope`` False for step-like ones."""
+    if f == F_SQRT:
+        s = math.sqrt(u)
+        return s, 0.5 / s, True
+    if f == F_EXP:
+        e = _exp(u)
+        return e, e, True
+    if f == F_LN:
+        return _ln(u), 1.0 / u, True
+    if f == F_LOG10:
+        return _ln(u) / _LN10, 1.0 / (u * _LN10), True
+    if f == F_SIN:
+        return math.sin(u), math.cos(u), True
+    if f == F_COS:
+        return math.cos(u), -math.sin(u), True
+    if f == F_TAN:
+        c = math.cos(u)
+        return math.tan(u), 1.0 / (c * c), True
+    if f == F_ASIN:
+        return math.asin(u), 1.0 / math.sqrt(1.0 - u * u), True
+    if f == F_ACOS:
+        return math.acos(u), -1.0 / math.sqrt(1.0 - u * u), True
+    if f == F_ATAN:
+        return math.atan(u), 1.0 / (1.0 + u * u), True
+    if f == F_SINH:
+        return math.sinh(u), math.cosh(u), True
+    if f == F_COSH:
+        return math.cosh(u), math.sinh(u), True
+    if f == F_TANH:
+        th = math.tanh(u)
+        return th, 1.0 - th * th, True
+    if f == F_ASINH:
+        return math.asinh(u), 1.0 / math.sqrt(u * u + 1.0), True
+    if f == F_ACOSH:
+        return math.acosh(u), 1.0 / math.sqrt(u * u - 1.0), True
+    if f == F_ATANH:
+        return math.atanh(u), 1.0 / (1.0 - u * u), True
+    if f == F_ABS:
+        return abs(u), np.sign(u), True
+    if f == F_URAMP:
+        return (u if u > 0.0 else 0.0), (1.0 if u > 0.0 else 0.0), True
+    if f == F_SGN:
+        return np.sign(u), 0.0, False
+    if f == F_FLOOR:
+        return np.floor(u), 0.0, False
+    if f == F_CEIL:
+        return np.ceil(u), 0.0, False
+    if f == F_INT:
+        return np.trunc(u), 0.0, False
+    if f == F_NINT:
+        return np.rint(u), 0.0, False
+    # F_U: ngspice's step, u(0) = 0.5
+    return (1.0 if u > 0.0 else (0.0 if u < 0.0 else 0.5)), 0.0, False
+
+
+@kernel
+def _scaled(d, factor):
+    """``d * factor`` with a structural zero kept zero (0 * inf = 0, as autodiff's _scale)."""
+    return 0.0 if d == 0.0 else d * factor
+
+
+@kernel
+def _copy_der(der, dst, src, nl):
+    for j in range(nl):
+        der[dst, j] = der[src, j]
+
+
+@kernel
+def _zero_der(der, dst, nl):
+    for j in range(nl):
+        der[dst, j] = 0.0
+
+
+@kernel
+def _combine(der, dst, a, fa, b, fb, nl):
+    """``der[dst] = fa der[a] + fb der[b]`` with structural zeros kept (fa or fb may be non-finite)."""
+    for j in range(nl):
+        der[dst, j] = _scaled(der[a, j], fa) + _scaled(der[b, j], fb)
+
+
+@kernel
+def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der):
+    """Run one tape: every register's value and derivatives; returns the result register's value."""
+    for r in range(m):
+        op = prog[p0 + r, 0]
+        a = prog[p0 + r, 1]
+        b = prog[p0 + r, 2]
+        c = prog[p0 + r, 3]
+        if op == OP_CONST:
+            val[r] = const[c0 + a]
+            _zero_der(der, r, nl)
+        elif op == OP_TIME:
+            val[r] = t
+            _zero_der(der, r, nl)
+        elif op == OP_LEAF:
+            val[r] = x[leaf[l0 + a, L_P]] - x[leaf[l0 + a, L_M]]
+            _zero_der(der, r, nl)
+            der[r, a] = 1.0
+        elif op == OP_NEG:
+            val[r] = -val[a]
+            for j in range(nl):
+                der[r, j] = -der[a, j]
+        elif op == OP_NOT:
+            val[r] = 1.0 if val[a] == 0.0 else 0.0
+            _zero_der(der, r, nl)
+        elif op == OP_ADD:
+            val[r] = val[a] + val[b]
+            _combine(der, r, a, 1.0, b, 1.0, nl)
+        elif op == OP_SUB:
+            val[r] = val[a] - val[b]
+            _combine(der, r, a, 1.0, b, -1.0, nl)
+        elif op == OP_MUL:
+            val[r] = val[a] * val[b]
+            _combine(der, r, a, val[b], b, val[a], nl)
+        elif op == OP_DIV:
+            qt = val[a] / val[b]
+            val[r] = qt
+            _combine(der, r, a, 1.0 / val[b], b, -qt / val[b], nl)
+        elif op == OP_POW or op == OP_PWR:
+            va = val[a]
+            vb = val[b]
+            absa = abs(va)
+            v = absa ** vb
+            fa = vb * (v / absa if absa != 0.0 else 0.0) * np.sign(va)
+            fb = v * math.log(absa) if absa != 0.0 else 0.0
+            sign = -1.0 if (op == OP_PWR and va < 0.0) else 1.0
+            val[r] = sign * v
+            _combine(der, r, a, sign * fa, b, sign * fb, nl)
+        elif op == OP_CPOW:
+            va = val[a]
+            vb = val[b]
+            v = va ** vb
+            val[r] = v
+            _combine(der, r, a, vb * va ** (vb - 1.0), b, v * (math.log(va) if va > 0.0 else math.nan), nl)
+        elif op == OP_MOD:
+            val[r] = np.fmod(val[a], val[b])
+            _combine(der, r, a, 1.0, b, -np.trunc(val[a] / val[b]), nl)
+        elif op == OP_SELECT:
+            src = b if val[a] != 0.0 else c
+            val[r] = val[src]
+            _copy_der(der, r, src, nl)
+        elif op == OP_MIN or op == OP_MAX:
+            take_b = (val[a] > val[b]) if op == OP_MIN else (val[a] <= val[b])
+            src = b if take_b else a
+            val[r] = val[src]
+            _copy_der(der, r, src, nl)
+        elif op == OP_LIMIT:
+            lo, hi = (b, c) if val[b] <= val[c] else (c, b)
+            src = a
+            if val[a] < val[lo]:
+                src = lo
+            if val[a] > val[hi]:
+                src = hi
+            val[r] = val[src]
+            _copy_der(der, r, src, nl)
+        elif op >= OP_FUNC1:
+            v, slope, has_slope = _function(op - OP_FUNC1, val[a])
+            val[r] = v
+            if has_slope:
+                for j in range(nl):
+                    der[r, j] = _scaled(der[a, j], slope)
+            else:
+                _zero_der(der, r, nl)
+        else:
+            # comparisons and logic: 0/1 without slope
+            va = val[a]
+            vb = val[b]
+            if op == OP_AND:
+                res = va != 0.0 and vb != 0.0
+            elif op == OP_OR:
+                res = va != 0.0 or vb != 0.0
+            elif op == OP_EQ:
+                res = va == vb
+            elif op == OP_NE:
+                res = va != vb
+            elif op == OP_LT:
+                res = va < vb
+            elif op == OP_LE:
+                res = va <= vb
+            elif op == OP_GT:
+                res = va > vb
+            else:  # OP_GE
+                res = va >= vb
+            val[r] = 1.0 if res else 0.0
+            _zero_der(der, r, nl)
+    return val[m - 1]
+
+
+@kernel
+def eval_behavioural(x, t, prog, const, inst, leaf, val, der, q, phi, dq, dphi, jacobian):
+    """Add every behavioural source's currents (charges) and, when ``jacobian``, derivatives.
+
+    Parameters
+    ----------
+    x : float64[n + 1]
+        The extended iterate (``x[n] == 0``).
+    t : float
+        Time (the expressions' ``time``).
+    prog, const, inst, leaf, val, der
+        The packed tapes and work registers (module docstring).
+    q, phi : float64[n + 1]
+    dq, dphi : float64[nnz + 1]
+    jacobian : bool
+
+    Returns
+    -------
+    flags, bad : int, int
+        ``FLAG_NONFINITE`` and the first instance whose value is not finite
+        (-1: none). A non-finite derivative of a finite value enters the
+        Jacobian as 0 (the residual, not the Jacobian, decides convergence).
+    """
+    bad = -1
+    for k in range(inst.shape[0]):
+        nl = inst[k, B_NLEAF]
+        l0 = inst[k, B_LEAF]
+        m = inst[k, B_LEN]
+        value = run_tape(prog, inst[k, B_PROG], m, const, inst[k, B_CONST], x, leaf, l0, nl, t, val, der)
+        if bad < 0 and not math.isfinite(value):
+            bad = k
+        p = inst[k, B_P]
+        mi = inst[k, B_M]
+        kind = inst[k, B_KIND]
+        if kind == KIND_CHARGE:
+            add_charge(q, p, mi, value)
+        elif kind == KIND_CURRENT:
+            add_current(phi, p, mi, value)
+        else:
+            br = inst[k, B_BR]
+            add_current(phi, br, x.size - 1, value - (x[p] - x[mi]))
+            add_current(phi, p, mi, x[br])
+        if jacobian:
+            for j in range(nl):
+                g = der[m - 1, j]
+                if not math.isfinite(g):
+                    g = 0.0
+                if kind == KIND_CHARGE:
+                    add_charge_slope(dq, leaf, l0 + j, L_S, g)
+                else:
+                    add_current_slope(dphi, leaf, l0 + j, L_S, g)
+            if kind == KIND_VOLTAGE:
+                add_current_slope(dphi, inst, k, B_S_VPM, -1.0)
+                add_current_slope(dphi, inst, k, B_S_IB, 1.0)
+    return (FLAG_NONFINITE if bad >= 0 else 0), bad

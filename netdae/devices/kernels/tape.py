@@ -1,0 +1,134 @@
+"""Behavioural expressions as tapes: straight-line programs the compiled kernel runs.
+
+A behavioural source's expression (the tree of :mod:`netdae.netlist.expr`)
+is translated once, when the transient is prepared, into a *tape*: a list of
+instructions ``(op, a, b, c)`` in evaluation order, instruction ``r``
+writing register ``r`` from the registers ``a``, ``b``, ``c`` before it (or,
+for :data:`OP_CONST`, constant ``a``; for :data:`OP_LEAF`, the instance's
+leaf ``a``). The compiled kernel
+(:func:`netdae.devices.kernels.behavioural.eval_behavioural`) runs the tapes
+of all instances with forward-mode differentiation: every register carries a
+value and its derivatives to the instance's leaves, the rules being those of
+:mod:`netdae.devices.autodiff` (which stays the reference; the tests hold
+the two equal).
+
+Nothing is generated as source text and nothing is compiled per netlist: the
+tape is data, so a new expression costs no JIT compilation, and the netlist's
+text is never evaluated.
+
+Examples
+--------
+>>> from netdae.netlist.expr import parse_expression
+>>> ops, args, consts, leaves = compile_tape(parse_expression("2*v(a)+1", context="behavioural"))
+>>> [OP_NAMES[o] for o in ops]
+['const', 'leaf', 'mul', 'const', 'add']
+>>> consts
+[2.0, 1.0]
+"""
+
+from __future__ import annotations
+
+from ...netlist.expr import Binary, Call, Const, Current, Expr, Param, Ternary, Time, Unary, Voltage
+
+__all__ = ["compile_tape", "OP_NAMES", "OP_CONST", "OP_TIME", "OP_LEAF"]
+
+OP_CONST, OP_TIME, OP_LEAF, OP_NEG, OP_NOT = 0, 1, 2, 3, 4
+OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_MOD, OP_AND, OP_OR = 10, 11, 12, 13, 14, 15, 16, 17
+OP_EQ, OP_NE, OP_LT, OP_LE, OP_GT, OP_GE = 18, 19, 20, 21, 22, 23
+OP_SELECT = 30
+#: One-argument functions, in the order of their opcodes from OP_FUNC1.
+FUNCTIONS_1 = ("sqrt", "exp", "ln", "log10", "sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh",
+               "tanh", "asinh", "acosh", "atanh", "abs", "uramp", "sgn", "floor", "ceil", "int", "nint", "u")
+OP_FUNC1 = 40
+OP_MIN, OP_MAX, OP_CPOW, OP_PWR, OP_LIMIT = 70, 71, 72, 73, 74
+
+_BINARY = {"+": OP_ADD, "-": OP_SUB, "*": OP_MUL, "/": OP_DIV, "**": OP_POW, "%": OP_MOD, "&&": OP_AND,
+           "||": OP_OR, "==": OP_EQ, "!=": OP_NE, "<": OP_LT, "<=": OP_LE, ">": OP_GT, ">=": OP_GE}
+_CALLS = {"min": OP_MIN, "max": OP_MAX, "pow": OP_CPOW, "pwr": OP_PWR, "limit": OP_LIMIT}
+_CALLS.update({name: OP_FUNC1 + i for i, name in enumerate(FUNCTIONS_1)})
+
+#: Opcode -> name (for reading tapes).
+OP_NAMES = {OP_CONST: "const", OP_TIME: "time", OP_LEAF: "leaf", OP_NEG: "neg", OP_NOT: "not",
+            OP_SELECT: "select"}
+OP_NAMES.update({code: name for name, code in _CALLS.items()})
+OP_NAMES.update({OP_ADD: "add", OP_SUB: "sub", OP_MUL: "mul", OP_DIV: "div", OP_POW: "pow_abs", OP_MOD: "mod",
+                 OP_AND: "and", OP_OR: "or", OP_EQ: "eq", OP_NE: "ne", OP_LT: "lt", OP_LE: "le", OP_GT: "gt",
+                 OP_GE: "ge"})
+
+
+def compile_tape(tree: Expr) -> tuple[list[int], list[tuple[int, int, int]], list[float], list]:
+    """Translate an expression tree into a tape.
+
+    Parameters
+    ----------
+    tree : Expr
+        An elaborated expression (parameters resolved).
+
+    Returns
+    -------
+    ops : list of int
+        Opcode of each instruction; the last one writes the result.
+    args : list of (int, int, int)
+        Operands: register numbers (constant or leaf numbers for
+        :data:`OP_CONST`, :data:`OP_LEAF`); unused ones are 0.
+    consts : list of float
+    leaves : list of Voltage or Current
+        The circuit quantities, in the order of their leaf numbers (a
+        quantity used twice is one leaf).
+
+    Raises
+    ------
+    ValueError
+        For an unresolved parameter or a function the kernel does not know.
+
+    Notes
+    -----
+    Cost: one pass over the tree; the tape has one instruction per tree node.
+    """
+    ops: list[int] = []
+    args: list[tuple[int, int, int]] = []
+    consts: list[float] = []
+    leaves: list = []
+    leaf_number: dict = {}
+
+    def emit(op: int, a: int = 0, b: int = 0, c: int = 0) -> int:
+        ops.append(op)
+        args.append((a, b, c))
+        return len(ops) - 1
+
+    def visit(node: Expr) -> int:
+        t = type(node)
+        if t is Const:
+            consts.append(float(node.value))
+            return emit(OP_CONST, len(consts) - 1)
+        if t is Time:
+            return emit(OP_TIME)
+        if t is Voltage or t is Current:
+            if node not in leaf_number:
+                leaf_number[node] = len(leaves)
+                leaves.append(node)
+            return emit(OP_LEAF, leaf_number[node])
+        if t is Unary:
+            operand = visit(node.operand)
+            return emit(OP_NEG if node.op == "-" else OP_NOT, operand)
+        if t is Binary:
+            left = visit(node.left)
+            right = visit(node.right)
+            return emit(_BINARY[node.op], left, right)
+        if t is Ternary:
+            cond = visit(node.cond)
+            then = visit(node.then)
+            other = visit(node.other)
+            return emit(OP_SELECT, cond, then, other)
+        if t is Call:
+            code = _CALLS.get(node.func)
+            if code is None:
+                raise ValueError(f"function {node.func}() cannot be evaluated in a behavioural source")
+            regs = [visit(a) for a in node.args]
+            return emit(code, *regs)
+        if t is Param:
+            raise ValueError(f"parameter '{node.name}' was not resolved")
+        raise ValueError(f"cannot evaluate {node!r}")
+
+    visit(tree)
+    return ops, args, consts, leaves

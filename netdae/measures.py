@@ -1,0 +1,220 @@
+"""Measurements (``.meas``/``.measure`` cards): what to measure, and what was measured.
+
+Plain data, no numerics: the reader (:mod:`netdae.netlist.measure`,
+:mod:`netdae.netlist.elaborate`) turns each card into a :class:`MeasureSpec`
+with every number evaluated and every signal checked against the circuit;
+:mod:`netdae.analyses.measure` evaluates the specs on the analyses' results
+and returns one :class:`Measure` per card; :func:`format_measure` prints it as
+ngspice does (``name = value`` and the ``at=``, ``from= to=`` or ``targ= trig=``
+ngspice adds).
+
+Examples
+--------
+>>> m = Measure("trise", "tran", "trig", 2.197e-3, extra={"targ": 2.3e-3, "trig": 1.05e-4})
+>>> format_measure(m)
+'trise               =  2.197000e-03 targ=  2.300000e-03 trig=  1.050000e-04'
+>>> format_measure(Measure("t1", "tran", "when", None, status="failed", reason="v(out) never crosses 2"))
+'t1                  =  failed (v(out) never crosses 2)'
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from .signals import Signal
+
+__all__ = ["Probe", "Condition", "MeasureSpec", "Measure", "format_measure", "FUNCTIONS", "AC_PREFIXES",
+           "LAST", "MEASURE_ANALYSES"]
+
+#: Analyses a measurement can refer to.
+MEASURE_ANALYSES = ("tran", "ac", "dc")
+#: The measurement functions (``TRIG`` covers ``TRIG ... TARG ...``; ``INTEGRAL`` is ``INTEG``).
+FUNCTIONS = ("trig", "find", "when", "deriv", "min", "max", "pp", "avg", "rms", "integ", "param")
+#: ngspice's AC prefixes of ``v(...)``: ``vdb`` dB of the magnitude, ``vm`` magnitude, ``vp`` phase
+#: in radians (as ngspice 39 prints it), ``vr`` real part, ``vi`` imaginary part.
+AC_PREFIXES = {"db": "dB of the magnitude", "m": "magnitude", "p": "phase [rad]", "r": "real part",
+               "i": "imaginary part"}
+#: ``RISE=LAST``, ``FALL=LAST``, ``CROSS=LAST`` (or a bare ``LAST``).
+LAST = -1
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A measured quantity: a signal, for AC maybe through a prefix (``vdb(out)``).
+
+    Attributes
+    ----------
+    signal : Signal
+        ``v(node)``, ``v(a,b)`` or ``i(element)`` (:mod:`netdae.signals`).
+    part : str
+        ``""`` (AC: the real part, as ngspice), or a key of :data:`AC_PREFIXES`.
+    """
+
+    signal: Signal
+    part: str = ""
+
+    @property
+    def name(self) -> str:
+        """As written canonically: ``v(out)``, ``vdb(out)``, ``v(a,b)``."""
+        base = self.signal.name
+        return base[0] + self.part + base[1:] if self.part else base
+
+
+@dataclass(frozen=True)
+class Condition:
+    """Where a quantity meets a value: ``TRIG``/``TARG``/``WHEN`` clauses.
+
+    Attributes
+    ----------
+    probe : Probe or None
+        The quantity (None for ``TRIG AT=t``).
+    value : float or None
+        ``VAL=`` or the number after ``=`` in ``WHEN``.
+    other : Probe or None
+        ``WHEN a=b``: the second quantity (then ``value`` is None).
+    edge : str
+        ``"rise"``, ``"fall"``, ``"cross"`` or ``""`` (the first crossing of any kind).
+    count : int
+        Which crossing, from 1; :data:`LAST` for the last.
+    td : float
+        Crossings before this axis value are not counted.
+    at : float or None
+        ``TRIG AT=t``: the time itself.
+    """
+
+    probe: Probe | None
+    value: float | None = None
+    other: Probe | None = None
+    edge: str = ""
+    count: int = 1
+    td: float = 0.0
+    at: float | None = None
+
+
+@dataclass(frozen=True)
+class MeasureSpec:
+    """One ``.meas`` card, elaborated.
+
+    Attributes
+    ----------
+    name : str
+        Lower case, as ngspice prints it.
+    analysis : str
+        ``"tran"``, ``"ac"`` or ``"dc"``.
+    function : str
+        One of :data:`FUNCTIONS`.
+    probe : Probe or None
+        The measured quantity (``FIND``, ``DERIV``, ``MIN`` ... ``INTEG``).
+    trig, targ : Condition or None
+        ``TRIG ... TARG ...``.
+    when : Condition or None
+        ``WHEN ...`` (alone, or after ``FIND``/``DERIV``).
+    at : float or None
+        ``FIND``/``DERIV ... AT=``.
+    start, stop : float or None
+        ``FROM=``, ``TO=`` (for ``MIN`` ... ``INTEG`` also ``TD=``, folded into ``start``).
+    expression : object or None
+        ``PARAM='...'``: the expression tree (:mod:`netdae.netlist.expr`) whose
+        parameters are earlier measurements or top-level ``.param`` values.
+    params : dict
+        The top-level parameter values a ``PARAM`` expression may use.
+    location : SourceLocation or None
+    text : str
+        The card as written (one line).
+    """
+
+    name: str
+    analysis: str
+    function: str
+    probe: Probe | None = None
+    trig: Condition | None = None
+    targ: Condition | None = None
+    when: Condition | None = None
+    at: float | None = None
+    start: float | None = None
+    stop: float | None = None
+    expression: Any = None
+    params: dict = field(default_factory=dict, compare=False, repr=False)
+    location: Any = None
+    text: str = ""
+
+    def probes(self) -> list[Probe]:
+        """Every quantity the measurement reads."""
+        out = [self.probe] if self.probe is not None else []
+        for cond in (self.trig, self.targ, self.when):
+            if cond is not None:
+                out += [p for p in (cond.probe, cond.other) if p is not None]
+        return out
+
+
+STATUS_OK = "ok"
+STATUS_FAILED = "failed"
+
+
+@dataclass
+class Measure:
+    """The outcome of one measurement.
+
+    Attributes
+    ----------
+    name : str
+    analysis : str
+        ``"tran"``, ``"ac"``, ``"dc"``.
+    function : str
+        One of :data:`FUNCTIONS`.
+    value : float or None
+        None when it failed.
+    status : str
+        ``"ok"`` or ``"failed"``.
+    reason : str
+        Why it failed (empty when ok).
+    at : float or None
+        Where the value was found: the axis value of ``MIN``/``MAX``, the
+        crossing of ``WHEN``/``FIND ... WHEN``, the ``AT=`` of ``FIND``.
+    extra : dict
+        What ngspice prints after the value: ``targ``/``trig`` (``TRIG``),
+        ``from``/``to`` (``AVG``, ``RMS``, ``INTEG``, ``PP``).
+    """
+
+    name: str
+    analysis: str
+    function: str
+    value: float | None
+    status: str = STATUS_OK
+    reason: str = ""
+    at: float | None = None
+    extra: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when the measurement succeeded."""
+        return self.status == STATUS_OK
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: name, analysis, function, value, status, reason, at, and the extras."""
+        def clean(v):
+            return None if v is None or not math.isfinite(v) else float(v)
+
+        return {"name": self.name, "analysis": self.analysis, "function": self.function,
+                "value": clean(self.value), "status": self.status, "reason": self.reason,
+                "at": clean(self.at), **{k: clean(v) for k, v in self.extra.items()}}
+
+
+#: The extras ngspice prints after a value, by function.
+_PRINTED = {"trig": ("targ", "trig"), "min": ("at",), "max": ("at",), "avg": ("from", "to"),
+            "rms": ("from", "to"), "integ": ("from", "to"), "pp": ("from", "to")}
+
+
+def format_measure(m: Measure) -> str:
+    """One line as ngspice prints it: ``name = value`` (``%e``) and its ``at=``/``from= to=``/``targ= trig=``."""
+    head = f"{m.name:<20}="
+    if not m.ok:
+        return f"{head}  failed ({m.reason})" if m.reason else f"{head}  failed"
+    parts = [f"{head} {m.value: e}"]
+    for key in _PRINTED.get(m.function, ()):
+        value = m.at if key == "at" else m.extra.get(key)
+        if value is not None:
+            parts.append(f"{key}= {value: e}")
+    return " ".join(parts)

@@ -1,0 +1,399 @@
+"""``.meas``/``.measure`` cards (ngspice syntax) to :class:`~netdae.netlist.statements.MeasureCard`.
+
+The forms, as ngspice's manual gives them (keywords in any case, values may
+be numbers, ``{expressions}`` or parameter names)::
+
+    .meas tran|ac|dc name TRIG sig VAL=v [TD=t] RISE=n|FALL=n|CROSS=n|LAST  TARG sig VAL=v ...
+    .meas tran|ac|dc name TRIG AT=t TARG sig VAL=v ...
+    .meas tran|ac|dc name FIND sig AT=x
+    .meas tran|ac|dc name FIND sig WHEN sig=v|sig [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=n|LAST]
+    .meas tran|ac|dc name WHEN sig=v|sig [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=n|LAST]
+    .meas tran|ac|dc name DERIV sig AT=x | DERIV sig WHEN ...
+    .meas tran|ac|dc name MIN|MAX|PP|AVG|RMS|INTEG sig [TD=] [FROM=] [TO=]
+    .meas tran|ac|dc name PARAM='expression of earlier measurements'
+
+Signals are ``v(node)``, ``v(a,b)``, ``i(vname)`` and, for ``ac``, ``vdb() vm()
+vp() vr() vi()``. Nothing is evaluated here; errors are located at the token.
+
+Examples
+--------
+>>> from netdae.netlist.lines import split_cards
+>>> _, (card,), _ = split_cards("t\\n.meas tran tr TRIG v(out) VAL=0.1 RISE=1 TARG v(out) VAL=0.9 RISE=1\\n", "x")
+>>> m = parse_measure(card)
+>>> m.name, m.function, m.trig["probe"][:3], m.targ["edge"], m.targ["count"]
+('tr', 'trig', ('v', '', ('out',)), 'rise', 1)
+"""
+
+from __future__ import annotations
+
+from ..errors import NetlistError
+from . import expr as ex
+from .elements import IDENT, error, parse_expr, parse_value
+from .lines import EXPR, PUNCT, WORD, Card, Token
+from .statements import MeasureCard
+
+__all__ = ["parse_measure", "FORM"]
+
+#: The expected form shown in errors.
+FORM = (".meas tran|ac|dc name TRIG sig VAL=v RISE=n|FALL=n|CROSS=n|LAST TARG sig VAL=v ... | "
+        "FIND sig AT=x | FIND sig WHEN sig=v ... | WHEN sig=v [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=] | "
+        "DERIV sig AT=x | MIN|MAX|PP|AVG|RMS|INTEG sig [TD=] [FROM=] [TO=] | PARAM='expr'")
+
+_FUNCTIONS = {"trig": "trig", "delay": "trig", "find": "find", "when": "when", "deriv": "deriv",
+              "derivative": "deriv", "min": "min", "max": "max", "pp": "pp", "avg": "avg", "rms": "rms",
+              "integ": "integ", "integral": "integ", "param": "param"}
+_NOT_SUPPORTED = {"min_at": "MIN_AT", "max_at": "MAX_AT", "err": "ERR", "err1": "ERR1", "err2": "ERR2",
+                  "err3": "ERR3"}
+_PREFIXES = {"v": ("v", ""), "i": ("i", ""), "vdb": ("v", "db"), "vm": ("v", "m"), "vp": ("v", "p"),
+             "vr": ("v", "r"), "vi": ("v", "i")}
+_EDGES = ("rise", "fall", "cross")
+#: Keywords each clause accepts (besides the edges and LAST where crossings are counted).
+_WINDOW = ("td", "from", "to")
+_HINT_FUNCTIONS = "TRIG/TARG, FIND, WHEN, DERIV, MIN, MAX, PP, AVG, RMS, INTEG, PARAM"
+
+
+class _Cursor:
+    """The tokens of one card after the function word, read left to right."""
+
+    def __init__(self, card: Card, toks: list[Token], i: int) -> None:
+        self.card, self.toks, self.i = card, toks, i
+
+    def peek(self, k: int = 0) -> Token | None:
+        j = self.i + k
+        return self.toks[j] if j < len(self.toks) else None
+
+    def take(self) -> Token:
+        tok = self.toks[self.i]
+        self.i += 1
+        return tok
+
+    @property
+    def done(self) -> bool:
+        return self.i >= len(self.toks)
+
+    def end(self) -> int:
+        return len(self.card.text)
+
+    def fail(self, at: int, message: str, hint: str | None = None) -> NetlistError:
+        return error(self.card, at, message, FORM, hint)
+
+    def word_is(self, *words: str) -> bool:
+        tok = self.peek()
+        return tok is not None and tok.kind == WORD and tok.text in words
+
+
+def _probe(cur: _Cursor, analysis: str, what: str) -> tuple:
+    """``v(a)``, ``v(a,b)``, ``i(v1)``, ``vdb(a)`` ... as (letter, part, nodes, offset)."""
+    tok = cur.peek()
+    if tok is None:
+        raise cur.fail(cur.end(), f"missing the signal {what}", hint="write v(node), v(a,b) or i(vname)")
+    if tok.kind != WORD or tok.text not in _PREFIXES or not (cur.peek(1) and cur.peek(1).text == "("):
+        raise cur.fail(tok.start, f"expected a signal {what}, found {tok.text!r}",
+                       hint="write v(node), v(a,b) or i(vname)" + ("; for ac also vdb() vm() vp() vr() vi()"
+                                                                   if analysis == "ac" else ""))
+    letter, part = _PREFIXES[tok.text]
+    if part and analysis != "ac":
+        raise cur.fail(tok.start, f"{tok.text}() is for ac measurements, this is a .meas {analysis}",
+                       hint="use v(node) for tran and dc")
+    cur.i += 2
+    names: list[str] = []
+    while True:
+        t = cur.peek()
+        if t is None:
+            raise cur.fail(tok.start, f"{tok.text}(...): missing ')'")
+        cur.i += 1
+        if t.text == ")" and t.kind == PUNCT:
+            break
+        if t.kind == PUNCT and t.text == ",":
+            continue
+        if t.kind != WORD:
+            raise cur.fail(t.start, f"unexpected {t.text!r} in {tok.text}(...)")
+        names.append("0" if t.text == "gnd" else t.text)
+    limit = 1 if letter == "i" else 2
+    if not names or len(names) > limit:
+        raise cur.fail(tok.start, f"{tok.text}() takes {'one element name' if letter == 'i' else 'one or two nodes'}"
+                       f", got {len(names)}", hint="write v(node), v(a,b) or i(vname)")
+    return letter, part, tuple(names), tok.start
+
+
+def _keyword(cur: _Cursor, allowed: tuple[str, ...], where: str) -> tuple[str, object, int]:
+    """``name=value`` (value a Val, or LAST), or a bare ``LAST``: (name, value, offset)."""
+    tok = cur.take()
+    if tok.kind == WORD and tok.text == "last" and "last" in allowed:
+        return "last", None, tok.start
+    if tok.kind != WORD:
+        raise cur.fail(tok.start, f"unexpected {tok.text!r} in {where}")
+    nxt = cur.peek()
+    if nxt is None or nxt.text != "=":
+        if tok.text in allowed or tok.text in _EDGES + _WINDOW + ("val", "at"):
+            raise cur.fail(nxt.start if nxt is not None else tok.end, f"missing '=' after {tok.text.upper()}",
+                           hint=f"write {tok.text.upper()}=value")
+        raise cur.fail(tok.start, f"unexpected {tok.text!r} in {where}",
+                       hint="keywords here: " + " ".join(k.upper() + ("" if k == "last" else "=") for k in allowed))
+    if tok.text not in allowed:
+        raise cur.fail(tok.start, f"unknown keyword {tok.text.upper()}= in {where}",
+                       hint="keywords here: " + " ".join(k.upper() + ("" if k == "last" else "=") for k in allowed))
+    cur.i += 1
+    val = cur.peek()
+    if val is None or val.kind not in (WORD, EXPR):
+        raise cur.fail(nxt.start, f"missing value after {tok.text.upper()}=")
+    cur.i += 1
+    if tok.text in _EDGES:
+        if val.kind == WORD and val.text == "last":
+            return tok.text, "last", tok.start
+        parsed = parse_value(cur.card, val, FORM, f"{tok.text.upper()} count")
+        if not isinstance(parsed[0], float) or parsed[0] != int(parsed[0]) or parsed[0] < 1:
+            raise cur.fail(val.start, f"{tok.text.upper()}= takes a positive whole number or LAST, got {val.text!r}")
+        return tok.text, int(parsed[0]), tok.start
+    return tok.text, parse_value(cur.card, val, FORM, f"{tok.text.upper()} value"), tok.start
+
+
+def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> dict:
+    """A TRIG/TARG/WHEN clause up to the word ``stop`` (or the end)."""
+    start = cur.peek(-1).start
+    cond: dict = {"probe": None, "value": None, "other": None, "edge": "", "count": 1, "td": None, "at": None,
+                  "from": None, "to": None, "offset": start}
+    when = clause == "WHEN"
+    if clause == "TRIG" and cur.word_is("at"):
+        _, value, _ = _keyword(cur, ("at",), clause)
+        cond["at"] = value
+    else:
+        cond["probe"] = _probe(cur, analysis, f"after {clause}")
+        if when:
+            eq = cur.peek()
+            if eq is None or eq.text != "=":
+                raise cur.fail(eq.start if eq is not None else cur.end(), "missing '=' after the WHEN signal",
+                               hint="write WHEN v(out)=0.5 or WHEN v(a)=v(b)")
+            cur.i += 1
+            nxt = cur.peek()
+            if nxt is None:
+                raise cur.fail(eq.start, "missing the value after WHEN ...=")
+            if nxt.kind == WORD and nxt.text in _PREFIXES and cur.peek(1) is not None and cur.peek(1).text == "(":
+                cond["other"] = _probe(cur, analysis, "after '='")
+            else:
+                cond["value"] = parse_value(cur.card, cur.take(), FORM, "WHEN value")
+    allowed = ("val", "td", "last") + _EDGES + (("from", "to") if when else ())
+    edge_at = None
+    while not cur.done and not cur.word_is(stop or "\0"):
+        key, value, offset = _keyword(cur, allowed, clause)
+        if key in _EDGES or key == "last":
+            if edge_at is not None:
+                raise cur.fail(offset, f"{clause}: more than one of RISE=, FALL=, CROSS=, LAST",
+                               hint="give one of them")
+            edge_at = offset
+            cond["edge"] = "cross" if key == "last" else key
+            cond["count"] = -1 if value in (None, "last") else value
+        else:
+            if key == "val" and when:
+                raise cur.fail(offset, "VAL= does not belong to WHEN", hint="write WHEN v(out)=0.5")
+            slot = "value" if key == "val" else key
+            if cond[slot] is not None:
+                raise cur.fail(offset, f"{key.upper()}= given twice")
+            cond[slot] = value
+    if cond["at"] is None and not when:
+        if cond["value"] is None:
+            raise cur.fail(start, f"{clause} needs VAL=", hint=f"e.g. {clause} v(out) VAL=0.5 RISE=1")
+        if edge_at is None:
+            raise cur.fail(start, f"{clause} needs RISE=, FALL=, CROSS= or LAST (as ngspice)",
+                           hint=f"e.g. {clause} v(out) VAL=0.5 RISE=1")
+    return cond
+
+
+def parse_measure(card: Card) -> MeasureCard:
+    """Parse one ``.meas``/``.measure`` card.
+
+    Raises
+    ------
+    NetlistError
+        At the offending token: a missing or unknown analysis, name or
+        function, a signal of the wrong form (``vdb()`` outside ``ac``), a
+        missing ``=``, an unknown keyword, a clause without ``VAL=`` or
+        without ``RISE=``/``FALL=``/``CROSS=``, a ``TRIG`` without ``TARG``.
+    """
+    toks = card.tokens()
+    cur = _Cursor(card, toks, 1)
+    if cur.done or toks[1].kind != WORD or toks[1].text not in ("tran", "ac", "dc"):
+        at = toks[1].start if len(toks) > 1 else cur.end()
+        found = repr(toks[1].text) if len(toks) > 1 else "nothing"
+        raise cur.fail(at, f"expected the analysis tran, ac or dc, found {found}",
+                       hint="netdae measures transient, ac and dc results (as ngspice's .meas tran|ac|dc)")
+    analysis = toks[1].text
+    if len(toks) < 3 or toks[2].kind != WORD or not IDENT.match(toks[2].text):
+        at = toks[2].start if len(toks) > 2 else cur.end()
+        raise cur.fail(at, "expected the measurement's name after the analysis",
+                       hint="names start with a letter and contain letters, digits and '_'")
+    name = toks[2].text
+    if len(toks) < 4:
+        raise cur.fail(cur.end(), "missing the measurement function", hint=f"one of {_HINT_FUNCTIONS}")
+    head = toks[3]
+    if head.kind != WORD or head.text not in _FUNCTIONS:
+        if head.text in _NOT_SUPPORTED:
+            raise cur.fail(head.start, f"{_NOT_SUPPORTED[head.text]} is not supported by netdae",
+                           hint=f"netdae measures with {_HINT_FUNCTIONS}")
+        raise cur.fail(head.start, f"unknown measurement function {head.text!r}", hint=f"one of {_HINT_FUNCTIONS}")
+    function = _FUNCTIONS[head.text]
+    m = MeasureCard(analysis=analysis, name=name, function=function, card=card, offset=toks[2].start)
+    cur.i = 4
+    if function == "param":
+        eq, val = cur.peek(), cur.peek(1)
+        if eq is None or eq.text != "=":
+            raise cur.fail(eq.start if eq is not None else cur.end(), "missing '=' after PARAM",
+                           hint="write PARAM='expression'")
+        if val is None or val.kind not in (WORD, EXPR):
+            raise cur.fail(eq.start, "missing the expression after PARAM=")
+        body = parse_expr(card, val.text, val.start + (val.kind == EXPR), ex.PARAM, FORM)
+        m.expression = (body, val.start)
+        cur.i += 2
+    elif function == "trig":
+        m.trig = _condition(cur, analysis, "TRIG", "targ")
+        if not cur.word_is("targ"):
+            raise cur.fail(cur.end(), "TRIG without TARG", hint="add TARG sig VAL=v RISE=n")
+        cur.i += 1
+        m.targ = _condition(cur, analysis, "TARG", None)
+    elif function == "when":
+        m.when = _condition(cur, analysis, "WHEN", None)
+    else:
+        m.probe = _probe(cur, analysis, f"after {head.text.upper()}")
+        if function in ("find", "deriv"):
+            if cur.word_is("when"):
+                cur.i += 1
+                m.when = _condition(cur, analysis, "WHEN", None)
+            elif cur.word_is("at"):
+                _, m.at, _ = _keyword(cur, ("at",), head.text.upper())
+            else:
+                tok = cur.peek()
+                raise cur.fail(tok.start if tok is not None else cur.end(),
+                               f"{head.text.upper()} needs AT=x or WHEN ...",
+                               hint=f"e.g. {head.text.upper()} v(out) AT=1m")
+        else:
+            while not cur.done:
+                key, value, offset = _keyword(cur, _WINDOW, head.text.upper())
+                if m.window.get(key) is not None:
+                    raise cur.fail(offset, f"{key.upper()}= given twice")
+                m.window[key] = value
+    if not cur.done:
+        tok = cur.peek()
+        raise cur.fail(tok.start, f"unexpected {tok.text!r} after the measurement")
+    return m
+
+
+# ---------------------------------------------------------------------------
+# elaboration: MeasureCard -> MeasureSpec
+# ---------------------------------------------------------------------------
+def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value, branch_kinds) -> list:
+    """Evaluate and check the measurement cards against the flat circuit.
+
+    Parameters
+    ----------
+    cards : list of MeasureCard
+    circuit : Circuit
+        With its analyses and top-level ``params`` set.
+    nodes, elements : mapping
+        The circuit's node names and elements by name.
+    value : callable
+        ``value(val, card, what) -> float``: a Val evaluated with the top-level parameters.
+    branch_kinds : set of str
+        Element kinds whose current ``i(name)`` is an unknown.
+
+    Returns
+    -------
+    list of MeasureSpec
+
+    Raises
+    ------
+    NetlistError
+        A measurement of an analysis the netlist does not run, a name used
+        twice, a node or element that does not exist, a ``PARAM`` naming
+        something that is neither an earlier measurement nor a top-level
+        ``.param``, a value that cannot be evaluated; each at its token.
+    """
+    from ..analyses.runner import analysis_name
+    from ..measures import Condition, MeasureSpec, Probe
+    from ..signals import Signal
+
+    kinds = {analysis_name(a) for a in circuit.analyses}
+    seen: dict[str, MeasureCard] = {}
+    out = []
+
+    def probe(sig, card) -> Probe:
+        letter, part, names, offset = sig
+        if letter == "i":
+            target = elements.get(names[0])
+            if target is None or target.kind not in branch_kinds:
+                what = "no element" if target is None else f"a {target.kind}, which has no branch current"
+                raise error(card, offset, f"i({names[0]}): '{names[0]}' is {what}", FORM,
+                            hint="i() names a V source, inductor, E/H source or B voltage source "
+                                 "(elements in subcircuits by their full name, e.g. v.x1.v1)")
+            return Probe(Signal("i", names), part)
+        for nd in names:
+            if nd != "0" and nd not in nodes:
+                raise error(card, offset, f"unknown node '{nd}' in a measured signal", FORM,
+                            hint="subcircuit nodes are named hierarchically, e.g. v(x1.mid)")
+        if len(names) == 2 and names[1] == "0":
+            names = names[:1]
+        return Probe(Signal("v", tuple(names)), part)
+
+    def number(val, card, what):
+        return None if val is None else value(val, card, what)
+
+    def condition(c: dict, card) -> Condition:
+        return Condition(probe=probe(c["probe"], card) if c["probe"] else None,
+                         value=number(c["value"], card, "VAL"),
+                         other=probe(c["other"], card) if c["other"] else None,
+                         edge=c["edge"], count=c["count"], td=number(c["td"], card, "TD") or 0.0,
+                         at=number(c["at"], card, "AT"))
+
+    for m in cards:
+        card = m.card
+        if m.name in seen:
+            first = seen[m.name].card
+            raise error(card, m.offset, f"measurement '{m.name}' is defined twice (first at {first.file}:{first.line})",
+                        FORM)
+        if m.analysis not in kinds:
+            raise error(card, card.text.index(m.analysis, len(card.text.split()[0])),
+                        f"no .{m.analysis} card: a .meas {m.analysis} has nothing to measure", FORM,
+                        hint=f"add a .{m.analysis} analysis or change the measurement's analysis")
+        if m.name in circuit.params:
+            card.warn(m.offset, f"measurement '{m.name}' hides the parameter of that name in later PARAM= expressions")
+        start = stop = None
+        expression = None
+        params = {}
+        if m.function == "param":
+            tree, offset = m.expression
+            for node in ex.walk(tree):
+                if isinstance(node, ex.Param) and node.name not in seen and node.name not in circuit.params:
+                    later = " (it is defined later: measurements are evaluated in netlist order)" \
+                        if any(c.name == node.name for c in cards) else ""
+                    raise error(card, offset, f"PARAM: '{node.name}' is neither an earlier measurement nor a "
+                                f"top-level .param{later}", FORM,
+                                hint="PARAM= combines earlier measurements and parameters, e.g. PARAM='tr/2'")
+                if isinstance(node, ex.Call) and node.func not in ex.FUNCTIONS:
+                    raise error(card, offset, f"PARAM: unknown function '{node.func}'", FORM)
+            expression = tree
+            params = dict(circuit.params)
+        window = dict(m.window)
+        if m.when is not None:
+            window.setdefault("from", m.when.get("from"))
+            window.setdefault("to", m.when.get("to"))
+        start = number(window.get("from"), card, "FROM")
+        td = number(window.get("td"), card, "TD")
+        if td is not None:
+            start = td if start is None else max(start, td)
+        stop = number(window.get("to"), card, "TO")
+        if start is not None and stop is not None and stop < start:
+            if m.analysis == "dc":
+                start, stop = stop, start  # as ngspice: a dc window is ordered
+            else:
+                raise error(card, m.offset, f"TO={stop:g} is before FROM={start:g}", FORM)
+        spec = MeasureSpec(
+            name=m.name, analysis=m.analysis, function=m.function,
+            probe=probe(m.probe, card) if m.probe else None,
+            trig=condition(m.trig, card) if m.trig else None,
+            targ=condition(m.targ, card) if m.targ else None,
+            when=condition(m.when, card) if m.when else None,
+            at=number(m.at, card, "AT"), start=start, stop=stop, expression=expression, params=params,
+            location=card.location(0), text=card.raw,
+        )
+        seen[m.name] = m
+        out.append(spec)
+    return out

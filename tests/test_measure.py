@@ -1,0 +1,295 @@
+"""``.meas``: closed forms, measured by netdae and by ngspice on the same netlist.
+
+Every value is checked against its closed form (RC step: 10-90 % rise time
+tau ln 9; RC low-pass: the -3 dB frequency; a sine: average, RMS, peak to
+peak, integral; a resistive divider swept in dc). netdae reads transients on
+its interpolant, so its tolerances are its own (reltol 1e-6 here); ngspice
+reads straight lines between its points and prints 7 digits, so its bounds
+are looser and say why.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.measure import evaluate_measures
+from netdae.analyses.runner import run
+from netdae.netlist import load
+from netdae.results import Result
+
+TAU = 1e-3  # 1k * 1u
+RC_STEP = f"""rc step
+V1 in 0 PULSE(0 1 0 1n 1n 10m 20m)
+R1 in out 1k
+C1 out 0 1u
+.options reltol=1e-6
+.tran 1u 5m
+.meas tran trise TRIG v(out) VAL=0.1 RISE=1 TARG v(out) VAL=0.9 RISE=1
+.meas tran thalf WHEN v(out)=0.5
+.meas tran vat FIND v(out) AT=1m
+.meas tran vmax MAX v(out) FROM=1m TO=2m
+.meas tran area INTEG v(out) FROM=0 TO=5m
+.meas tran slope DERIV v(out) AT=1m
+.measure tran ratio PARAM='trise/thalf'
+.meas tran iat FIND i(v1) WHEN v(out)=0.5
+.end
+"""
+FC = 1 / (2 * math.pi * TAU)
+RC_AC = """rc low-pass
+V1 in 0 DC 0 AC 1
+R1 in out 1k
+C1 out 0 1u
+.ac dec 1000 1 100k
+.meas ac f3db WHEN vdb(out)=-3
+.meas ac phase FIND vp(out) AT={fc}
+.meas ac mag FIND vm(out) AT={fc}
+.meas ac gmax MAX vdb(out)
+.end
+""".format(fc=FC)
+SINE = """sine
+V1 in 0 SIN(0.5 2 1k)
+R1 in 0 1k
+.options reltol=1e-6
+.tran 1u 5m
+.meas tran avg AVG v(in) FROM=1m TO=3m
+.meas tran rms RMS v(in) FROM=1m TO=3m
+.meas tran pp PP v(in) FROM=1m TO=3m
+.meas tran integ INTEG v(in) FROM=1m TO=2.25m
+.meas tran t2 WHEN v(in)=0.5 RISE=2
+.meas tran tlast WHEN v(in)=0.5 FALL=LAST
+.end
+"""
+DIVIDER = """divider
+V1 in 0 0
+R1 in out 1k
+R2 out 0 1k
+.dc V1 0 5 0.1
+.meas dc v1at WHEN v(out)=1
+.meas dc iat FIND i(v1) AT=3
+.meas dc avg AVG v(out)
+.meas dc top MAX v(out) FROM=1 TO=2
+.end
+"""
+
+
+def _measures(text: str) -> dict:
+    return {m.name: m for r in run(text) for m in r.measures}
+
+
+def _rc_exact() -> dict:
+    return {
+        "trise": TAU * math.log(9),
+        "thalf": TAU * math.log(2),
+        "vat": 1 - math.exp(-1),
+        "vmax": 1 - math.exp(-2),
+        "area": 5e-3 - TAU * (1 - math.exp(-5)),
+        "slope": math.exp(-1) / TAU,
+        "ratio": math.log(9) / math.log(2),
+        "iat": -0.5e-3,
+    }
+
+
+def test_rc_step_closed_forms():
+    got = _measures(RC_STEP)
+    for name, exact in _rc_exact().items():
+        assert got[name].ok, got[name].reason
+        # the pulse rises in 1 ns: crossings are late by about half of it (5e-7 of tau)
+        assert got[name].value == pytest.approx(exact, rel=2e-5), name
+    assert got["vmax"].at == pytest.approx(2e-3, rel=1e-9)
+    assert got["trise"].extra["trig"] == pytest.approx(TAU * math.log(1 / 0.9), rel=1e-4)
+
+
+def test_ac_minus_3db_frequency():
+    got = _measures(RC_AC)
+    # |H| = 1/sqrt(1 + (f/fc)^2) = 10^(-3/20); lines between points 0.23 % apart in frequency
+    assert got["f3db"].value == pytest.approx(FC * math.sqrt(10 ** 0.3 - 1), rel=1e-5)
+    assert got["phase"].value == pytest.approx(-math.pi / 4, rel=1e-5)  # radians, as ngspice 39
+    assert got["mag"].value == pytest.approx(1 / math.sqrt(2), rel=1e-5)
+    assert got["gmax"].at == 1.0 and got["gmax"].value == pytest.approx(-10 * math.log10(1 + (1 / FC) ** 2))
+
+
+def test_sine_average_rms_peak_to_peak_integral():
+    got = _measures(SINE)
+    assert got["avg"].value == pytest.approx(0.5, abs=1e-6)
+    assert got["rms"].value == pytest.approx(math.sqrt(0.5 ** 2 + 2 ** 2 / 2), rel=1e-6)
+    assert got["pp"].value == pytest.approx(4.0, rel=1e-6)
+    # over 1.25 periods: 0.5 * 1.25m + the quarter period's 2/(2 pi 1k)
+    assert got["integ"].value == pytest.approx(0.5 * 1.25e-3 + 2 / (2 * math.pi * 1e3), rel=1e-6)
+    assert got["integ"].extra == {"from": pytest.approx(1e-3), "to": pytest.approx(2.25e-3)}
+    # the sine starts on its offset: a start on the value is no crossing, so the rises are at 1m, 2m ...
+    assert got["t2"].value == pytest.approx(2e-3, rel=1e-6)
+    assert got["tlast"].value == pytest.approx(4.5e-3, rel=1e-6)
+
+
+def test_dc_divider():
+    got = _measures(DIVIDER)
+    assert got["v1at"].value == pytest.approx(2.0, rel=1e-12)
+    assert got["iat"].value == pytest.approx(-1.5e-3, rel=1e-12)
+    assert got["avg"].value == pytest.approx(1.25, rel=1e-12)
+    assert (got["top"].value, got["top"].at) == (pytest.approx(1.0), pytest.approx(2.0))
+
+
+# -- on the interpolant, not on the output points ---------------------------------------------
+def _spec(text: str):
+    return load("t\nV1 x 0 1\nR1 x 0 1\n.tran 1 2\n" + text + "\n").measures
+
+
+def _parabola(t_points) -> Result:
+    t = np.asarray(t_points, dtype=float)
+
+    def dense(tq):
+        tq = np.atleast_1d(tq)
+        return {"v(x)": tq ** 2}
+
+    return Result("tran", axes={"time": t}, signals={"v(x)": t ** 2}, dense=dense)
+
+
+def test_crossings_integrals_and_extremes_use_the_interpolant():
+    r = _parabola([0.0, 1.0, 2.0])  # straight lines between these points would be far off
+    specs = _spec(".meas tran w WHEN v(x)=2\n.meas tran a INTEG v(x)\n.meas tran d DERIV v(x) AT=1.5\n"
+                  ".meas tran f FIND v(x) AT=0.5\n.meas tran r RMS v(x)")
+    got = {m.name: m.value for m in evaluate_measures(specs, {"tran": r})}
+    assert got["w"] == pytest.approx(math.sqrt(2), rel=1e-14)
+    assert got["a"] == pytest.approx(8 / 3, rel=1e-14)
+    assert got["d"] == pytest.approx(3.0, rel=1e-10)
+    assert got["f"] == 0.25
+    assert got["r"] == pytest.approx(math.sqrt(32 / 5 / 2), rel=1e-14)
+
+    def bump(tq):
+        tq = np.atleast_1d(tq)
+        return {"v(x)": -(tq - 1.3) ** 2}
+
+    t = np.array([0.0, 1.0, 2.0])
+    r = Result("tran", axes={"time": t}, signals={"v(x)": -(t - 1.3) ** 2}, dense=bump)
+    (m,) = evaluate_measures(_spec(".meas tran m MAX v(x)"), {"tran": r})
+    assert m.at == pytest.approx(1.3, abs=1e-7) and m.value == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_crossing_inside_a_jump_is_at_the_jump():
+    t = np.array([0.0, 1.0, 1.0, 2.0])  # the left value and the right limit at t = 1
+    y = np.array([0.0, 0.0, 1.0, 1.0])
+
+    def dense(tq):
+        tq = np.atleast_1d(tq)
+        return {"v(x)": np.where(tq <= 1.0, 0.0, 1.0)}
+
+    r = Result("tran", axes={"time": t}, signals={"v(x)": y}, dense=dense)
+    (m,) = evaluate_measures(_spec(".meas tran j WHEN v(x)=0.5 RISE=1"), {"tran": r})
+    assert m.value == 1.0
+
+
+# -- failures -------------------------------------------------------------------------------
+def test_failed_measures_say_why():
+    got = _measures(RC_STEP.replace(".end\n", "") + """.meas tran never WHEN v(out)=2
+.meas tran third WHEN v(out)=0.5 RISE=3
+.meas tran late FIND v(out) AT=6m
+.meas tran dep PARAM='never*2'
+.meas tran empty AVG v(out) FROM=6m TO=7m
+.end
+""")
+    assert not got["never"].ok and "never crosses 2" in got["never"].reason and got["never"].value is None
+    assert "has 1 rise(s)" in got["third"].reason and "third" in got["third"].reason
+    assert "outside the tran analysis" in got["late"].reason
+    assert "'never' failed" in got["dep"].reason
+    assert "holds no part of the analysis" in got["empty"].reason
+    assert got["thalf"].ok  # the others are unaffected
+
+
+def test_measured_signals_are_kept_when_save_selects_others():
+    text = DIVIDER.replace(".end", ".save v(in)\n.end")
+    (dc,) = run(text)
+    assert dc.names() == ["v(in)"] and [m.ok for m in dc.measures] == [True] * 4
+
+
+def test_simulate_measures_the_first_tran():
+    r = netdae.simulate(RC_STEP)
+    assert r.measures[0].name == "trise" and r.measures[0].value == pytest.approx(TAU * math.log(9), rel=2e-5)
+
+
+# -- against ngspice ------------------------------------------------------------------------
+@pytest.mark.ngspice
+@pytest.mark.parametrize("backend", ["shared", "subprocess"])
+def test_ngspice_measures_the_same_closed_forms(backend):
+    from netdae.ngspice import run_ngspice
+
+    ng = {m.name: m for m in run_ngspice(RC_STEP, backend=backend).measures}
+    exact = _rc_exact()
+    for name in ("trise", "thalf", "vat", "area", "ratio", "iat"):
+        # ngspice: 7 printed digits and lines between its points (reltol 1e-6 here)
+        assert ng[name].ok and ng[name].value == pytest.approx(exact[name], rel=1e-4), name
+    # MAX over the points inside [1m, 2m] (no interpolated window edge in ngspice 39)
+    assert ng["vmax"].value == pytest.approx(exact["vmax"], rel=1e-3) and ng["vmax"].value <= exact["vmax"]
+    assert not ng["slope"].ok and "deriv" in ng["slope"].reason  # ngspice 39 has no DERIV
+
+
+@pytest.mark.ngspice
+def test_ngspice_ac_dc_and_sine_agree_with_the_closed_forms():
+    from netdae.ngspice import run_ngspice
+
+    ac = {m.name: m for m in run_ngspice(RC_AC).measures}
+    assert ac["f3db"].value == pytest.approx(FC * math.sqrt(10 ** 0.3 - 1), rel=1e-5)
+    assert ac["phase"].value == pytest.approx(-math.pi / 4, rel=1e-5)
+    dc = {m.name: m for m in run_ngspice(DIVIDER).measures}
+    assert dc["v1at"].value == pytest.approx(2.0, rel=1e-6) and dc["iat"].value == pytest.approx(-1.5e-3, rel=1e-6)
+    sine = {m.name: m for m in run_ngspice(SINE).measures}
+    assert sine["rms"].value == pytest.approx(1.5, rel=1e-4) and sine["pp"].value == pytest.approx(4.0, rel=1e-4)
+    # AVG over ngspice's points inside the window (its 'to' is the first point past TO)
+    assert sine["avg"].value == pytest.approx(0.5, abs=1e-4)
+    assert sine["integ"].value == pytest.approx(0.5 * 1.25e-3 + 2 / (2 * math.pi * 1e3), rel=1e-5)
+    # ngspice 39 counts a start on the value as a rise (netdae does not: 2e-3 above)
+    assert sine["t2"].value == pytest.approx(1e-3, rel=1e-4)
+
+
+@pytest.mark.ngspice
+def test_compare_reports_each_measure_against_ngspice():
+    from netdae.comparison import compare, format_comparison
+
+    c = compare(RC_STEP)
+    by = {m.name: m for m in c.measures}
+    assert by["trise"].relative < 1e-5 and by["thalf"].relative < 1e-5  # both near tau ln 9, tau ln 2
+    assert by["slope"].netdae.ok and not by["slope"].ngspice.ok and by["slope"].difference is None
+    text = format_comparison(c)
+    assert "measurements (reported, not judged" in text and "slope: ngspice failed:" in text
+    doc = c.to_dict()
+    assert doc["measures"][0]["name"] == "trise" and doc["measures"][0]["ngspice"]["status"] == "ok"
+    assert c.passed  # the waveforms: '.save all' kept every vector in ngspice
+
+
+# -- ngspice's printed measurements read back (no ngspice needed) ------------------------------
+def test_ngspice_measure_lines_are_read_and_not_taken_for_errors():
+    from netdae.ngspice.measures import read_measures
+    from netdae.ngspice.translate import classify_output
+
+    netlist = ("t\n.meas tran tr TRIG v(a) VAL=1 RISE=1 TARG v(a) VAL=2 RISE=1\n.meas tran w WHEN v(a)=9\n"
+               ".meas tran s INTEGRAL v(a)\n.meas tran p PARAM='w*2'\n.meas tran m MAX v(a)\n"
+               ".meas tran gone FIND v(a,b) AT=1\n.end\n")
+    stdout = ["  Measurements for Transient Analysis", "",
+              "tr                  =  2.197224e-03 targ=  2.302586e-03 trig=  1.053611e-04",
+              "Error: measure  w  when(WHEN) : out of interval",  # printf: stdout in batch mode
+              "\tmeasure 's'  failed", "Error: measure  s  :", "\tno such function as 'integral'",
+              "p                   =   failed", "m                   =  8.645360e-01 at=  1.999050e-03"]
+    stderr = ["Warning: can't parse 'vd': ignored", " .meas tran w when v(a)=9 failed!"]
+    measures, out, err = read_measures(netlist, stdout, stderr)
+    by = {m.name: m for m in measures}
+    assert [m.name for m in measures] == ["tr", "w", "s", "p", "m", "gone"]
+    assert by["tr"].value == 2.197224e-03 and by["tr"].extra == {"targ": 2.302586e-03, "trig": 1.053611e-04}
+    assert by["m"].at == 1.999050e-03 and by["m"].function == "max"
+    assert (by["w"].status, by["w"].reason) == ("failed", "out of interval")
+    assert by["s"].reason == "no such function as 'integral'"
+    assert by["p"].reason == "ngspice printed 'failed'" and by["gone"].reason == "ngspice printed no value"
+    errors, warnings = classify_output(err, out)
+    assert errors == [] and warnings == ["Warning: can't parse 'vd': ignored"]
+
+
+def test_the_bridge_hands_meas_cards_to_ngspice_and_saves_all():
+    from netdae.ngspice import translate_for_ngspice
+
+    text, notes = translate_for_ngspice(RC_STEP)
+    assert ".meas tran trise TRIG v(out) VAL=0.1 RISE=1 TARG v(out) VAL=0.9 RISE=1" in text
+    assert text.endswith(".save all\n.end\n") and any("'.save all' added" in n for n in notes)
+    text, notes = translate_for_ngspice(RC_STEP.replace(".end", ".save v(out)\n.end"))
+    assert ".save all" not in text and not any(".save all" in n for n in notes)
