@@ -37,7 +37,7 @@ def test_check_json_has_the_documented_keys(capsys):
 
 
 def test_summary_lists_diagnostics_and_extra_sections():
-    c = load("t\nR1 a 0 1\n.save v(zz)\n.control\nrun\n.endc\n.dc temp 0 50 25\n.options rshunt=1e9\n.end\n")
+    c = load("t\nR1 a 0 1\n.save v(zz)\n.control\nlet a=1\n.endc\n.dc temp 0 50 25\n.options rshunt=1e9\n.end\n")
     summary = summarize(c)
     assert [d["severity"] for d in summary["diagnostics"]] == ["note", "warning"]
     assert summary["analyses"] == [{"type": "dc", "sweeps": [{"source": "temp", "start": 0.0, "stop": 50.0,

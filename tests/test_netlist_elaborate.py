@@ -7,6 +7,7 @@ import math
 import pytest
 
 from netdae.circuit import AcAnalysis, DcAnalysis, OpAnalysis, TranAnalysis
+from netdae.errors import NetlistError
 from netdae.netlist import load
 from netdae.netlist.expr import Binary, Const, Current, Time, Voltage, evaluate, transform
 from netdae.netlist.waveforms import Am, Exp, Pulse, Pwl, Sffm, Sin
@@ -39,7 +40,7 @@ def test_r_c_l_fields():
     assert r2.value == 3e3 and r2.params == {}
     assert (c1.kind, c1.value, c1.params) == ("capacitor", pytest.approx(10e-6), {"ic": 1.5, "m": 3.0})
     assert (l1.kind, l1.value, l1.params) == ("inductor", pytest.approx(4.7e-3), {"ic": -2e-3, "nt": 10.0})
-    assert rm.model == "rmod" and rm.params == {"l": 2e-6, "w": 1e-6}
+    assert rm.model == "rmod" and rm.params == {"l": 2e-6, "w": 1e-6, "tc1": 0.01}  # the model's tc1
     assert c.count_by_letter() == {"c": 1, "l": 1, "r": 3}
 
 
@@ -281,10 +282,11 @@ def test_initial_conditions_saves_and_title():
                         ".plot i(r.x1.r1): 'r.x1.r1' is a resistor, which has no branch current"]
 
 
-def test_control_block_is_a_note_naming_its_lines():
-    c = net("R1 a 0 1\n.control\nrun\nplot v(a)\n.endc")
+def test_control_block_commands_become_cards_the_rest_located_notes():
+    c = net("R1 a 0 1\n.control\nrun\nplot v(a)\nshell ls\n.endc")
     (note,) = c.diagnostics
-    assert note.severity == "note" and "lines 3-6" in note.message and note.location.line == 3
+    assert note.severity == "note" and "'shell ls' skipped" in note.message and note.location.line == 6
+    assert c.saves == ["v(a)"]
 
 
 def test_circuit_is_independent_of_spelling_case():
@@ -318,3 +320,24 @@ def test_local_subcircuits_are_invisible_outside():
 def test_unused_parameters_of_an_instance_are_still_checked():
     with pytest.raises(Exception, match="division by zero"):
         net(".subckt s a\n.param bad={1/0}\nR1 a 0 1\n.ends\nX1 n s")
+
+
+def test_models_no_element_uses_are_not_screened():
+    c = load("t\nV1 a 0 1\nR1 a 0 1\n.model q npn vceo=40 mfg=\"x\"\n.model m nmos level=49\n.end\n")
+    assert c.diagnostics == []
+
+
+def test_control_lines_drop_inline_comments_and_hash_lines():
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\n.control\n# a comment\nop ; the op\nprint v(a) // out\n.endc\n")
+    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis"] and c.saves == ["v(a)"]
+    assert c.diagnostics == []
+
+
+def test_poly_f_h_controls_must_be_voltage_sources():
+    with pytest.raises(NetlistError, match=r"f1: POLY control 'r1' is a resistor, not a voltage source"):
+        load("t\nV1 b 0 1\nR1 b 0 1\nF1 a 0 POLY(1) R1 1 2\nR2 a 0 1\n.end\n")
+
+
+def test_tc_and_tc1_together_are_an_error():
+    with pytest.raises(NetlistError, match=r"tc1 given twice \(tc= sets tc1 and tc2\)"):
+        load("t\nV1 a 0 1\nR1 a 0 1k tc1=0.1 tc=0.2\n.end\n")

@@ -72,11 +72,12 @@ def test_case_folding_keeps_raw_text():
     assert cards[0].raw == ".include 'Sub/File.CIR'"
 
 
-def test_control_blocks_are_skipped_with_a_note():
+def test_control_blocks_become_cards_or_located_notes():
     text = "t\nR1 a 0 1\n.control\nrun\n+ not a card\nplot v(a)\n.endc\nR2 a 0 2\n"
     _, cards, notes = split_cards(text, "f.cir")
-    assert [c.text for c in cards] == ["r1 a 0 1", "r2 a 0 2"]
-    assert len(notes) == 1 and "lines 3-7" in notes[0].message and notes[0].location.line == 3
+    assert [c.text for c in cards] == ["r1 a 0 1", ".plot v(a)", "r2 a 0 2"]
+    assert str(cards[1].location(1)) == "f.cir:6:1"
+    assert len(notes) == 1 and "'+ not a card' skipped" in notes[0].message and notes[0].location.line == 5
 
 
 def test_included_files_have_no_title_and_ignore_end():
@@ -168,7 +169,7 @@ def test_constant_folding():
     ("gauss(1, 0.1, 3)", "Monte-Carlo", 1),
     ("limit(1, 2)", "Monte-Carlo", 1),
     ("ddt(x)", "not supported", 1),
-    ("temper", "not supported", 1),
+    ("hertz", "not supported", 1),
     ("1 # 2", "unexpected character '#'", 3),
     ("", "empty expression", 1),
 ])

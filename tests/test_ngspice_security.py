@@ -91,8 +91,9 @@ def test_no_netlist_card_makes_ngspice_run_a_command(tmp_path, backend, case):
 def test_skipped_blocks_and_dropped_cards_are_noted(tmp_path):
     marker = tmp_path / "pwned"
     text, _ = _cases(tmp_path, marker)["after .end"]
-    run = run_ngspice(text.replace(".end\n", ".control\nrun\n.endc\n.end\n", 1), backend="subprocess")
-    assert any(".control block" in n and "skipped" in n for n in run.notes)
+    run = run_ngspice(text.replace(".end\n", f".control\nrun\nshell touch {marker}\n.endc\n.end\n", 1),
+                      backend="subprocess")
+    assert any(".control: 'shell touch" in n and "skipped" in n for n in run.notes)
     assert any("after .end" in n and "not passed to ngspice" in n for n in run.notes)
 
 

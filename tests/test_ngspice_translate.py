@@ -66,7 +66,7 @@ def test_control_blocks_are_removed_with_a_note():
     text = "t\nR1 1 0 1k\n.control\nrun\nquit\n.endc\n.op\n.end\n"
     out, notes = translate_for_ngspice(text)
     assert out.splitlines() == ["t", "R1 1 0 1k", ".op", ".end"]
-    assert ".control block (lines 3-6) skipped" in notes[0]
+    assert ".control: 'quit' skipped" in notes[0] and notes[0].startswith("<string>:5:1")
     with pytest.raises(NetlistError, match=".control block without .endc"):
         translate_for_ngspice("t\n.control\nrun\n.end\n")
 

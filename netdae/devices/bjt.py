@@ -88,7 +88,9 @@ BJT_PARAMETERS = ParameterTable(
     aliases={"va": "vaf", "ik": "ikf", "c2": "ise", "vb": "var", "c4": "isc", "pe": "vje", "me": "mje",
              "pc": "vjc", "mc": "mjc", "csub": "cjs", "ccs": "cjs", "ps": "vjs", "ms": "mjs", "tref": "tnom",
              "nk": "nkf"},
-    inert=frozenset({"kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max", "te_max"}),
+    inert=frozenset({"npn", "pnp", "kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max",
+                     "te_max"}),
+    family="bjt",
 )
 
 _INSTANCE = {"area": 1.0, "areab": None, "areac": None, "m": 1.0, "off": 0.0, "temp": None, "dtemp": 0.0,

@@ -85,17 +85,25 @@ class LinearStamps:
 
 
 def _temperature_factor(els: list[Element], temp: float, tnom: float) -> np.ndarray:
-    """``1 + tc1 dT + tc2 dT^2`` per element, ``dT = T - tnom``.
+    """``1 + tc1 dT + tc2 dT^2`` per element, ``dT = T - tnom``; ``1.01^(tce dT)`` when ``tce`` is given.
 
     ``T`` is the instance's ``temp=`` when given (its ``dtemp=`` is then
     ignored, as ngspice does), else the circuit temperature plus ``dtemp=``
-    (``restemp.c``, ``captemp.c``, ``indtemp.c``).
+    (``restemp.c``, ``captemp.c``, ``indtemp.c``). ``tnom`` is the element's
+    model's ``tnom`` when it has one (``params["tnom"]``), else the circuit's;
+    a resistor's ``tce`` (instance or model) replaces the polynomial, as in
+    ngspice's ``restemp.c``.
     """
     tc1 = np.array([el.params.get("tc1", 0.0) for el in els])
     tc2 = np.array([el.params.get("tc2", 0.0) for el in els])
     t = np.array([el.params["temp"] if "temp" in el.params else temp + el.params.get("dtemp", 0.0) for el in els])
-    dt = t - tnom
-    return 1.0 + tc1 * dt + tc2 * dt * dt
+    dt = t - np.array([el.params.get("tnom", tnom) for el in els])
+    factor = 1.0 + tc1 * dt + tc2 * dt * dt
+    if any("tce" in el.params for el in els):
+        has = np.array(["tce" in el.params for el in els])
+        tce = np.array([el.params.get("tce", 0.0) for el in els])
+        factor = np.where(has, 1.01 ** (tce * dt), factor)
+    return factor
 
 
 def _scale(els: list[Element]) -> np.ndarray:

@@ -3,8 +3,14 @@
 Each family declares a :class:`ParameterTable`: the parameters netdae
 implements (with ngspice's defaults and aliases), those that do not change
 the DC, AC or transient solution (noise coefficients, safe-operating-area
-limits) and are accepted, and nothing else: any other parameter is an error
-naming the model and the parameter, never silently ignored.
+limits) and are accepted. A parameter ngspice does not know for the model
+(:data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`: LTspice's ``vceo``,
+``mfg``, a level-1 MOSFET's ``kappa``) is ignored, as ngspice ignores it,
+with a located warning when the circuit is elaborated
+(:func:`ignored_parameters`); a parameter ngspice uses and netdae does not
+implement is an error naming the model and the parameter, and so is a model
+level netdae does not implement (:meth:`ParameterTable.check_level`), before
+any parameter is looked at.
 
 Instances are vectorised by :func:`gather`: one array per parameter, one
 entry per instance, read once when the family is built.
@@ -18,8 +24,14 @@ import numpy as np
 
 from ..circuit import ABSOLUTE_ZERO, Circuit, Element, Model
 from ..errors import CircuitError, NetlistError
+from .model_names import NGSPICE_PARAMETERS, level_name
 
-__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values"]
+__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "ignored_parameters",
+           "unimplemented_level"]
+
+#: What runs a model netdae does not implement.
+OSDI_HINT = ("netdae implements level 1 only; other levels will run as compiled Verilog-A models through OSDI "
+             "(a planned feature): until then, simulate this circuit in ngspice")
 
 
 @dataclass(frozen=True)
@@ -37,15 +49,35 @@ class ParameterTable:
         Alternative spellings (``"cj0"`` -> ``"cjo"``).
     inert : frozenset of str
         Accepted parameters without effect on the solution (noise, SOA).
+    family : str
+        The model family in :data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`
+        (``"diode"``, ``"bjt"``, ``"mosfet"``); names ngspice does not know for
+        it are ignored. Empty: every unknown name is an error.
+    levels : frozenset of int
+        The ``level=`` values netdae implements.
     """
 
     device: str
     defaults: dict[str, float | None]
     aliases: dict[str, str] = field(default_factory=dict)
     inert: frozenset[str] = frozenset()
+    family: str = ""
+    levels: frozenset = frozenset({1})
 
     def canonical(self, name: str) -> str:
         return self.aliases.get(name, name)
+
+    def check_level(self, model: Model) -> None:
+        """Refuse a model whose ``level=`` netdae does not implement.
+
+        Raises
+        ------
+        NetlistError
+            At the level's value, naming the level and what would run it.
+        """
+        message = unimplemented_level(self.family, model)
+        if message is not None:
+            raise NetlistError(message, model.locations.get("level", model.location), hint=OSDI_HINT)
 
     def read(self, model: Model) -> "ModelValues":
         """Values of ``model`` with defaults filled in.
@@ -59,16 +91,22 @@ class ParameterTable:
             non-positive emission coefficient, a temperature below absolute
             zero ...), located at the value.
         """
+        self.check_level(model)
+        known = NGSPICE_PARAMETERS.get(self.family)
         given: dict[str, float] = {}
         for raw, value in model.params.items():
             name = self.canonical(raw.lower())
             if name in self.inert:
                 continue
             if name not in self.defaults:
+                if known is not None and raw.lower() not in known:
+                    continue  # ngspice ignores it too (warned when the circuit was elaborated)
                 where = f"{model.location}: " if model.location else ""
                 raise CircuitError(
-                    f"{where}model {model.name}: parameter '{raw}' of the {self.device} is not supported by netdae",
-                    hint="remove it (netdae would otherwise silently compute something else than ngspice)",
+                    f"{where}model {model.name}: parameter '{raw}' of the {self.device} is used by ngspice but "
+                    "not implemented by netdae",
+                    hint="remove it only if its effect does not matter to you: netdae would compute something "
+                         "else than ngspice",
                 )
             given[name] = float(value)
             _check_value(model, raw, name, float(value), self.device)
@@ -176,3 +214,40 @@ def instance_values(element: Element, allowed: dict[str, float | None], device: 
 def gather(rows: list[dict[str, float]], name: str, default: float = np.nan) -> np.ndarray:
     """One parameter of every instance as an array (``default`` where absent)."""
     return np.array([r.get(name, default) for r in rows], dtype=float)
+
+
+def unimplemented_level(family: str, model: Model) -> str | None:
+    """The message refusing ``model``'s level, or None when netdae implements it (level 1).
+
+    Examples
+    --------
+    >>> unimplemented_level("mosfet", Model("mm", "nmos", {"level": 49.0}))
+    'model mm: MOSFET level 49 (BSIM3 in ngspice) is not implemented by netdae'
+    """
+    level = model.params.get("level", 1.0)
+    if family not in ("diode", "bjt", "mosfet") or level == 1.0:
+        return None
+    device = {"diode": "diode", "bjt": "bipolar transistor", "mosfet": "MOSFET"}[family]
+    shown = f"{level:g}"
+    name = level_name(family, int(level)) if level == int(level) else None
+    what = f"{name} in ngspice" if name else "a level ngspice 39 does not know either"
+    return f"model {model.name}: {device} level {shown} ({what}) is not implemented by netdae"
+
+
+def ignored_parameters(family: str, model: Model) -> list[str]:
+    """Parameters of ``model`` that ngspice 39 does not know for its family, in card order.
+
+    ngspice reports each ("unrecognized parameter (x) - ignored") and simulates
+    without it; netdae does the same. Nothing is listed for a family netdae
+    has no table of, or for a level netdae does not implement (that model is
+    refused as a whole).
+
+    Examples
+    --------
+    >>> ignored_parameters("bjt", Model("q", "npn", {"is": 1e-15, "vceo": 40.0, "mfg": 1.0}))
+    ['vceo', 'mfg']
+    """
+    known = NGSPICE_PARAMETERS.get(family)
+    if known is None or unimplemented_level(family, model) is not None:
+        return []
+    return [name for name in model.params if name.lower() not in known]

@@ -91,7 +91,8 @@ MOS1_PARAMETERS = ParameterTable(
         "fc": 0.5, "nsub": None, "tpg": 1.0, "nss": 0.0, "tnom": None,
     },
     aliases={"vt0": "vto", "uo": "u0", "tref": "tnom"},
-    inert=frozenset({"kf", "af"}),
+    inert=frozenset({"nmos", "pmos", "kf", "af"}),
+    family="mosfet",
 )
 
 _INSTANCE = {"l": None, "w": None, "ad": None, "as": None, "pd": 0.0, "ps": 0.0, "nrd": 1.0, "nrs": 1.0,

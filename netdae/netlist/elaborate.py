@@ -28,15 +28,17 @@ from collections.abc import Mapping
 
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
                        OpAnalysis, Options, Params, SourceSpec, TranAnalysis)
+from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
+from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
 from .lines import EXPR, STRING, WORD, no_gc
 from .measure import elaborate_measures
 from .numbers import parse_number
-from .params import Env, evaluate_val, resolve_behavioural
+from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
-from .statements import Definition, ElementCard, InstanceCard, ModelCard, Netlist, ParamDef
+from .statements import Definition, ElementCard, InitialCard, InstanceCard, ModelCard, Netlist, ParamDef
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
 from .waveforms import WAVEFORMS, Pwl
 
@@ -54,6 +56,21 @@ MODEL_TYPES = {
     "capacitor": ("c",),
     "inductor": ("l",),
 }
+
+#: The model family (:data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`) of each model type.
+MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
+                        "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
+#: Bare names on a .model card that restate its type.
+_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos"})
+#: Model parameters of R, C and L that netdae uses (the others size an element without a value,
+#: and netdae needs the value on the element card); aliases as in ngspice's res.c.
+_PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2", "tc2r": "tc2", "tce": "tce",
+                                      "tnom": "tnom"},
+                         "capacitor": {"tc1": "tc1", "tc2": "tc2", "tnom": "tnom"},
+                         "inductor": {"tc1": "tc1", "tc2": "tc2", "tnom": "tnom"}}
+
+#: The name expressions use for the circuit temperature.
+TEMPER = "temper"
 
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
@@ -103,6 +120,15 @@ def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
     return tuple(nodes), tuple(elems)
 
 
+def _undefined(env: Env, node: ex.Param) -> bool:
+    """True when no scope defines the parameter ``node`` names."""
+    try:
+        env.value(node.name)
+    except UnknownName:
+        return True
+    return False
+
+
 def _ground(name: str) -> str:
     return "0" if name == "gnd" else name
 
@@ -117,16 +143,31 @@ class _Elaborator:
         self.bodies: dict[int, list[_Placed]] = {}
         self.frames: dict[int, _Frame] = {}
         self.refs: dict[int, tuple[tuple, tuple]] = {}
+        self.local_initial: list[_Placed] = []
+        self.model_cards: dict[str, ModelCard] = {}
+        self.model_words: dict[str, dict[str, tuple[str, int]]] = {}
         self.root = self._scope(None, net.top, None)
+        self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
         self.envs: dict[tuple, Env] = {(): self.root}
+
+    @staticmethod
+    def _temper(net: Netlist) -> ParamDef:
+        """``temper``: the circuit temperature of the last ``.temp`` card, else of ``.options temp=``, else 27."""
+        for val, card in reversed(net.temps):
+            return ParamDef(TEMPER, val, card, val[1])
+        for name, value, offset, card in reversed(net.options):
+            if name == "temp" and value is not True and value.kind in (WORD, EXPR):
+                return ParamDef(TEMPER, parse_value(card, value, DOT_CARDS[".options"], "option value"), card,
+                                value.start)
+        return ParamDef(TEMPER, (Options().temp, 0), None, 0)
 
     @staticmethod
     def _override(root: Env, overrides: dict[str, float]) -> None:
         """Top-level parameter values given by the caller replace their ``.param`` definitions."""
         for name, value in overrides.items():
-            if name not in root.defs:
-                known = ", ".join(sorted(root.defs)) or "none"
+            if name not in root.defs or name == TEMPER:
+                known = ", ".join(sorted(k for k in root.defs if k != TEMPER)) or "none"
                 raise NetlistError(f"params: no top-level .param defines '{name}' (defined: {known})",
                                    hint="only parameters of top-level .param cards can be given")
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -172,6 +213,8 @@ class _Elaborator:
             model = item.model[0] if item.model is not None else None
             return _Placed(item, item.name, item.nodes, tuple(_ground(n) for n in nodes), crefs, model,
                            None, (), ())
+        if type(item) is InitialCard:
+            return _Placed(item, item.name, tuple(_ground(e[0]) for e in item.entries), (), (), None, None, (), ())
         return _Placed(item, item.name, getattr(item, "nodes", ()), (), (), None, None, (), ())
 
     def body(self, defn: Definition) -> list[_Placed]:
@@ -247,6 +290,9 @@ class _Elaborator:
             elif kind is InstanceCard:
                 out.append(_Placed(item, f"{prefix}.{b.name}", tuple(map(node, b.nodes)), (), (), None, None,
                                    frames + b.frames, path + b.path))
+            elif kind is InitialCard:
+                out.append(_Placed(item, b.name, tuple(map(node, b.nodes)), (), (), None, None, frames + b.frames,
+                                   path + b.path))
             else:
                 out.append(_Placed(item, f"{prefix}:{b.name}", (), (), (), None, None, frames + b.frames,
                                    path + b.path))
@@ -271,6 +317,9 @@ class _Elaborator:
             if kind is ModelCard:
                 circuit.models[p.name] = self._model(p)
                 continue
+            if kind is InitialCard:
+                self.local_initial.append(p)
+                continue
             el = self._element(p)
             old = elements.get(el.name)
             if old is not None:
@@ -286,6 +335,7 @@ class _Elaborator:
             circuit.elements.append(el)
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
+        self._apply_models(circuit)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
@@ -303,6 +353,34 @@ class _Elaborator:
             self.diagnostics.extend(m.card.take_notes())
         circuit.diagnostics = self.diagnostics
         return circuit
+
+    def _apply_models(self, circuit: Circuit) -> None:
+        """Check the models elements use, once each; give R, C, L their model's coefficients.
+
+        A device model of a level netdae lacks is refused; parameters ngspice
+        ignores are warned about (models nobody uses are not looked at, as in ngspice).
+        """
+        seen: set[str] = set()
+        for el in circuit.elements:
+            if el.model is None:
+                continue
+            model = circuit.models.get(el.model)
+            if model is None:
+                continue
+            if model.name not in seen:
+                self._screen_model(model, self.model_cards[model.name])
+            passive = _PASSIVE_MODEL_PARAMS.get(el.kind)
+            if passive is not None:
+                for name, value in model.params.items():
+                    key = passive.get(name)
+                    if key is not None and key not in el.params:
+                        el.params[key] = value
+            elif model.name not in seen:
+                message = unimplemented_level(MODEL_FAMILY_OF_TYPE.get(model.type, ""), model)
+                if message is not None:
+                    raise NetlistError(f"{el.name}: {message}", model.locations.get("level", model.location),
+                                       hint=OSDI_HINT)
+            seen.add(model.name)
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
@@ -331,16 +409,71 @@ class _Elaborator:
                                hint="give the capacitance a value, or remove the capacitor")
 
     def _top_params(self) -> dict[str, float]:
-        return self.root.all_values()
+        return {name: self.root.value(name) for name in self.root.defs if name != TEMPER}
 
     def _model(self, p: _Placed) -> Model:
         item: ModelCard = p.item
         env = self.env(p.frames)
-        params = {k: evaluate_val(v, env, item.card, f"model parameter '{k}'") for k, v in item.params.items()}
-        locations = {k: item.card.location(v[1]) for k, v in item.params.items()}
+        known = NGSPICE_PARAMETERS.get(MODEL_FAMILY_OF_TYPE.get(item.type, ""), frozenset())
+        params = {}
+        for k, v in item.params.items():
+            if type(v[0]) is ex.Param and k not in known and _undefined(env, v[0]):
+                word = item.card.raw[v[1] : v[1] + len(v[0].name)]
+                self.model_words.setdefault(p.name, {})[k] = (word, v[1])  # LTspice's mfg=OnSemi
+                continue
+            params[k] = evaluate_val(v, env, item.card, f"model parameter '{k}'")
+        locations = {k: item.card.location(v[1]) for k, v in item.params.items() if k in params}
         if "tnom" in params:
             self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
+        self.model_cards[p.name] = item
         return Model(p.name, item.type, params, item.card.location(0), locations)
+
+    def _screen_model(self, model: Model, item: ModelCard) -> None:
+        """Warn about the parameters ngspice ignores for this model (one located warning each).
+
+        Raises
+        ------
+        NetlistError
+            A string value or a bare name for a parameter ngspice knows.
+        """
+        family = MODEL_FAMILY_OF_TYPE.get(item.type)
+        if family is None or unimplemented_level(family, model) is not None:
+            return  # a level netdae lacks is refused as a whole
+        known = NGSPICE_PARAMETERS[family]
+        form = DOT_CARDS[".model"]
+        first = len(self.diagnostics)
+        for name in ignored_parameters(family, model):
+            self.diagnostics.append(Diagnostic(
+                "warning", f"model {model.name}: parameter '{name}' is not a parameter of ngspice's {family} "
+                "model: ignored, as ngspice ignores it", model.locations.get(name, model.location)))
+        for name, (text, offset) in self.model_words.get(model.name, {}).items():
+            self.diagnostics.append(Diagnostic(
+                "warning", f"model {model.name}: parameter {name}={text} ignored, as ngspice ignores '{name}' (but "
+                f"ngspice 39 stops at the undefined word '{text}': write {name}=\"{text}\")",
+                item.card.location(offset)))
+        outputs = OUTPUT_ONLY.get(family, frozenset())
+        for name in (*item.params, *item.strings, *item.flags):
+            if name in outputs:
+                offset = (item.params.get(name) or item.strings.get(name) or (None, item.flags.get(name)))[1]
+                why = " (the type is the card's npn/pnp/nmos/pmos)" if name == "type" else ""
+                raise error(item.card, offset, f"'{name}' is an output of ngspice's {family} model, not an input: "
+                            "ngspice 39 stops at it on a .model card", form, hint="remove it" + why)
+        for name, (text, offset) in item.strings.items():
+            if name in known:
+                raise error(item.card, offset, f"model parameter '{name}' needs a number, found the string "
+                            f'"{text}"', form)
+            self.diagnostics.append(Diagnostic(
+                "warning", f"model {model.name}: string parameter {name}=\"{text}\" ignored, as ngspice "
+                "ignores it", item.card.location(offset)))
+        for name, offset in item.flags.items():
+            if name in _TYPE_FLAGS:
+                continue
+            if name in known:
+                raise error(item.card, offset, f"model parameter '{name}' needs a value ({name}=value)", form)
+            self.diagnostics.append(Diagnostic(
+                "warning", f"model {model.name}: flag '{name}' is not a parameter of ngspice's {family} model: "
+                "ignored, as ngspice ignores it", item.card.location(offset)))
+        self.diagnostics[first:] = sorted(self.diagnostics[first:], key=lambda d: (d.location.line, d.location.column))
 
     @staticmethod
     def _check_temperature(value: float, card, offset: int, what: str) -> None:
@@ -455,6 +588,11 @@ class _Elaborator:
                         raise error(card, item.expr[1], f"V({name}): no element connects node '{name}'", syntax)
             elif type(n) is ex.Current:
                 target = elements.get(n.element)
+                if item.name[0] in "fh" and (target is None or target.kind != "vsource"):  # F/H POLY controls
+                    what = "names no element" if target is None else f"is a {target.kind}"
+                    raise error(card, item.expr[1], f"POLY control '{n.element}' {what}, not a voltage source "
+                                "(F and H sense the current of a V source)", syntax,
+                                hint="add a 0 V source in series with the branch and name it")
                 if target is None or target.kind not in BRANCH_KINDS:
                     what = "names no element" if target is None else f"names a {target.kind}, which has no branch current"
                     raise error(card, item.expr[1], f"I({n.element}) {what}", syntax,
@@ -507,6 +645,10 @@ class _Elaborator:
                     lo = self._value(start, card, "start")
                     hi = self._value(stop, card, "stop")
                     inc = self._value(step, card, "step")
+                    if name == "temp" and TEMPER in self.root.values:
+                        raise error(card, offset, "a .dc temp sweep of a circuit whose values use 'temper': netdae "
+                                    "evaluates 'temper' once, at the circuit temperature", form,
+                                    hint="sweep a parameter instead, or remove 'temper'")
                     if name == "temp":
                         self._check_temperature(lo, card, start[1], "sweep start temperature")
                         self._check_temperature(hi, card, stop[1], "sweep stop temperature")
@@ -563,6 +705,16 @@ class _Elaborator:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
                 target[node] = self._value(val, card, f"initial value of v({node})")
+        for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
+            item: InitialCard = p.item
+            target = circuit.ic if item.name == ".ic" else circuit.nodeset
+            env = self.env(p.frames)
+            for (written, val, offset), node in zip(item.entries, p.nodes):
+                if node != "0" and node not in nodes:
+                    raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
+                                DOT_CARDS[item.name])
+                if node != "0":
+                    target[node] = evaluate_val(val, env, item.card, f"initial value of v({written})")
 
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}

@@ -177,12 +177,15 @@ def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
             if len(values) > 2:
                 raise error(card, values[2].start, "tc= takes at most 2 values (tc1, tc2)", syntax)
             for label, tok in zip(("tc1", "tc2"), values):
+                if label in params:
+                    raise error(card, key.start, f"{label} given twice (tc= sets tc1 and tc2)", syntax)
                 params[label] = parse_value(card, tok, syntax)
             continue
         if len(values) != 1:
             raise error(card, values[1].start, f"{name}= takes one value", syntax)
         if name in params:
-            raise error(card, key.start, f"parameter '{name}' given twice", syntax)
+            why = " (tc= sets tc1 and tc2)" if name in ("tc1", "tc2") and "tc" in [k.text for k, _ in keywords] else ""
+            raise error(card, key.start, f"parameter '{name}' given twice{why}", syntax)
         params[name] = parse_value(card, values[0], syntax)
     return params
 
@@ -195,6 +198,10 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
     el = ElementCard(toks[0].text, kind, card, nodes, params=params)
     if kind == "resistor" and "r" in params:
         el.value = params.pop("r")
+    if (len(positional) == 2 and positional[0].kind == WORD and IDENT.match(positional[0].text)
+            and positional[0].text != "pi"
+            and (positional[1].kind == EXPR or parse_number(positional[1].text) is not None)):
+        positional.reverse()  # 'R1 a b RMOD 2k': the model name, then the value (ngspice accepts both orders)
     if positional:
         el.value = parse_value(card, positional[0], syntax)
         if len(positional) > 1:
@@ -256,6 +263,14 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
         word = tok.text if tok.kind == WORD else None
         if word == "dc":
             j = skip_eq(i + 1)
+            if j < n and toks[j].kind == WORD and (toks[j].text in WAVEFORMS or toks[j].text == "sine"):
+                # 'DC PWL(...)': ngspice reads a DC value of 0 and the function
+                if spec.dc is not None:
+                    raise error(card, tok.start, "DC value given twice", syntax)
+                spec.dc = (0.0, tok.start)
+                i = j
+                first = False
+                continue
             if j >= n or not is_value(toks[j]):
                 raise error(card, toks[j].start if j < n else _end(card), "missing value after 'dc'", syntax)
             if spec.dc is not None:
@@ -279,10 +294,18 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
             if spec.tran is not None:
                 raise error(card, tok.start, "more than one transient function", syntax)
             i = _waveform(card, toks, i, spec, syntax)
-            if kind == "isource" and spec.tran[2]:
-                key = next(iter(spec.tran[2]))
-                raise error(card, spec.tran[2][key][1], f"PWL {key}= is not available on current sources "
-                            "(ngspice 39 rejects it)", syntax, hint="write the repeated or delayed points out")
+            _check_pwl_extras(card, spec, syntax, kind)
+        elif (tok.kind == PUNCT and tok.text == "(" and i + 1 < n and toks[i + 1].kind == WORD
+              and (toks[i + 1].text in WAVEFORMS or toks[i + 1].text == "sine")):
+            # '0v (PULSE 0 1 ...)': a function in parentheses (ngspice accepts it)
+            if spec.tran is not None:
+                raise error(card, toks[i + 1].start, "more than one transient function", syntax)
+            j = _waveform(card, toks, i + 1, spec, syntax)
+            if j >= n or toks[j].text != ")" or toks[j].kind != PUNCT:
+                raise error(card, toks[j].start if j < n else _end(card),
+                            f"expected ')' closing '(' of {toks[i + 1].text.upper()}", syntax)
+            i = j + 1
+            _check_pwl_extras(card, spec, syntax, kind)
         elif word in _UNSUPPORTED_SOURCE:
             raise error(card, tok.start, f"'{word}' ({_UNSUPPORTED_SOURCE[word]}) is not supported by netdae",
                         syntax, hint=f"supported functions: {SOURCE_FUNCTIONS}")
@@ -294,6 +317,13 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
                         hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
         first = False
     return ElementCard(toks[0].text, kind, card, nodes, source=spec)
+
+
+def _check_pwl_extras(card: Card, spec: SourceCard, syntax, kind: str) -> None:
+    if kind == "isource" and spec.tran[2]:
+        key = next(iter(spec.tran[2]))
+        raise error(card, spec.tran[2][key][1], f"PWL {key}= is not available on current sources "
+                    "(ngspice 39 rejects it)", syntax, hint="write the repeated or delayed points out")
 
 
 def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -> int:
@@ -412,9 +442,10 @@ def _poly(card: Card, toks: list[Token], k: int, syntax, letter: str) -> Element
         raise error(card, dim_tok.start, f"POLY dimension must be a positive integer, found {dim_tok.text!r}",
                     syntax)
     dim = int(dim)
-    rest, keywords = split_args(card, toks, k + 4, syntax)
+    rest, keywords = split_args(card, toks, k + 4, syntax, allow_parens=True)
     if keywords:
         raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+    rest = [t for t in rest if t.kind != PUNCT]  # 'POLY(2) (3,0) (4,0) ...': the pairs may be parenthesised
     per_input = 2 if letter in "eg" else 1
     need = dim * per_input
     if len(rest) < need + 1:

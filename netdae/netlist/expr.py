@@ -433,9 +433,10 @@ class _Parser:
             if self.context != BEHAVIOURAL:
                 raise self.error("'time' is only available in behavioural sources (B, E/G value=)", start)
             return Time()
-        if name in ("temper", "hertz"):
-            raise self.error(f"'{name}' is not supported by netdae", start,
-                             hint="use a parameter for the temperature" if name == "temper" else None)
+        if name == "hertz":
+            raise self.error("'hertz' is not supported by netdae", start)
+        if name == "temper":  # the circuit temperature, given its value when the circuit is elaborated
+            return Param(name)
         if name == "pi":
             return Const(math.pi)
         return Param(name)

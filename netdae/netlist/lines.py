@@ -10,8 +10,10 @@ Rules (ngspice 39, ``src/frontend/inpcom.c``):
   the line or follows a blank, a tab or a comma.
 - A line starting with ``+`` continues the previous card (comment lines may
   stand in between).
-- ``.control`` ... ``.endc`` blocks (ngspice scripts) are skipped; each
-  skipped block becomes a note naming its lines.
+- ``.control`` ... ``.endc`` blocks (ngspice scripts) are never run: the
+  commands that ask for an analysis, an output or an option become the
+  equivalent dot cards, every other line a located note
+  (:mod:`netdae.netlist.control`).
 - In the main file ``.end`` ends the netlist: everything after it is
   ignored. ngspice ignores ``.end`` lines inside included files, and so does
   netdae (with a note).
@@ -288,19 +290,23 @@ def split_cards(
         The title line (stripped), None for included files.
     cards : list of Card
     notes : list of Diagnostic
-        Skipped ``.control`` blocks and ignored ``.end`` lines.
+        The lines of ``.control`` blocks not read and ignored ``.end`` lines.
 
     Raises
     ------
     NetlistError
         On a continuation line with nothing to continue, an unterminated
-        ``.control`` block or an ``.endc`` without ``.control``.
+        ``.control`` block, an ``.endc`` without ``.control``, or an analysis
+        netdae does not have in a ``.control`` block (``pz``, ``tf`` ...).
 
     Notes
     -----
-    One pass over the lines; the comment search is one regular-expression
+    The cards a ``.control`` block stands for (:func:`netdae.netlist.control.read_block`)
+    take its place. One pass over the lines; the comment search is one regular-expression
     call per line that contains a comment character.
     """
+    from .control import read_block  # control.py builds Cards: imported here, not at the top (a cycle)
+
     if "\r" in text:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
     lines = text.split("\n")
@@ -329,13 +335,14 @@ def split_cards(
             continue
         if control_at is not None:
             if _is_dot(fold_case(stripped[:5]), ".endc"):
-                notes.append(Diagnostic(
-                    "note",
-                    f".control block (lines {control_at.line}-{lineno}) skipped: "
-                    "netdae does not run ngspice scripts",
-                    control_at,
-                ))
+                block_cards, block_notes = read_block(control_lines, file)
+                cards.extend(block_cards)
+                notes.extend(block_notes)
                 control_at = None
+            else:
+                command = re.split(r";|//", stripped, maxsplit=1)[0].rstrip()  # '$' is a variable there
+                if command and command[0] != "#":
+                    control_lines.append((lineno, len(line) - len(line.lstrip()) + 1, command))
             continue
         if ";" in stripped or "$" in stripped or "//" in stripped:
             m = comment(stripped)
@@ -350,6 +357,7 @@ def split_cards(
                     cards.append(Card("".join(cur_raw), file, cur_spans))
                 cur_raw = None
                 control_at = SourceLocation(file, lineno, line.index(".") + 1)
+                control_lines: list[tuple[int, int, str]] = []
                 continue
             if _is_dot(head, ".endc"):
                 raise NetlistError(".endc without a preceding .control",

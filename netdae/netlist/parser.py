@@ -17,12 +17,13 @@ from .measure import parse_measure
 from .numbers import parse_number
 from .reader import Deck, read_deck
 from .size import MAX_SUBCKT_DEPTH
-from .statements import AnalysisCard, Definition, ElementCard, FuncDef, ModelCard, Netlist, ParamDef
+from .statements import (AnalysisCard, Definition, ElementCard, FuncDef, InitialCard, ModelCard, Netlist,
+                         ParamDef)
 from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, UNSUPPORTED_DOT_CARDS
 
 __all__ = ["parse", "build"]
 
-_IN_SUBCKT = {".param", ".func", ".model", ".subckt", ".ends", ".global"}
+_IN_SUBCKT = {".param", ".func", ".model", ".subckt", ".ends", ".global", ".ic", ".nodeset"}
 _PRINT_TYPES = {"tran", "ac", "dc", "op", "noise", "disto", "tf", "pz", "sens"}
 
 
@@ -106,10 +107,13 @@ def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist
             break
         if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].text == "=":
             break
+        if tok.kind == WORD and tok.text == "optional:":
+            raise error(card, tok.start, "PSpice's 'optional:' ports are not read by ngspice 39, nor by netdae",
+                        form, hint="list every port, and connect it on every instance")
         node = parse_node(card, tok, form)
         if node == "0":
-            raise error(card, tok.start, f"ground '{tok.text}' cannot be a subcircuit port", form,
-                        hint="ground is global: use it inside the subcircuit without a port")
+            card.warn(tok.start, f"port '{tok.text}' is ground: inside the subcircuit it stays ground, and the node "
+                      "an instance connects to it is not connected by the subcircuit (as ngspice does)")
         if node in ports:
             raise error(card, tok.start, f"port '{node}' listed twice", form)
         ports.append(node)
@@ -143,9 +147,11 @@ def _ends(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         raise error(card, 0, ".ends without a matching .subckt", DOT_CARDS[".ends"])
     scope = stack[-1]
     if len(toks) > 1:
-        if toks[1].kind != WORD or toks[1].text != scope.name:
-            raise error(card, toks[1].start, f"'.ends {toks[1].text}' closes .subckt {scope.name} "
-                        f"(opened at line {scope.card.line})", DOT_CARDS[".ends"])
+        if toks[1].kind != WORD:
+            raise error(card, toks[1].start, f"expected a subcircuit name, found {toks[1].text!r}", DOT_CARDS[".ends"])
+        if toks[1].text != scope.name:
+            card.warn(toks[1].start, f"'.ends {toks[1].text}' closes .subckt {scope.name} (opened at "
+                      f"{scope.card.file}:{scope.card.line}); ngspice ignores the name after .ends, and so does netdae")
         if len(toks) > 2:
             raise error(card, toks[2].start, f"unexpected {toks[2].text!r}", DOT_CARDS[".ends"])
     stack.pop()
@@ -175,11 +181,38 @@ def _param(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
             raise error(card, toks[i + 1].start if i + 1 < n else len(card.text),
                         f"expected '=' after parameter name '{tok.text}'", form,
                         hint="write name=value; a value with blanks needs {braces} or 'quotes'")
-        if i + 2 >= n or toks[i + 2].kind not in (WORD, EXPR):
+        end = _value_end(toks, i + 2)
+        if end == i + 2 or toks[i + 2].kind not in (WORD, EXPR, PUNCT) or toks[i + 2].text in ",)=":
             raise error(card, toks[i + 1].start, f"missing value for parameter '{tok.text}'", form)
-        value = parse_value(card, toks[i + 2], form, f"value of '{tok.text}'", numparam=True)
+        if end == i + 3:
+            value = parse_value(card, toks[i + 2], form, f"value of '{tok.text}'", numparam=True)
+        else:
+            # a value written with blanks or parentheses ('.param a = 1 + 2'): the text up to the next name=
+            start, stop = toks[i + 2].start, toks[end - 1].end
+            text = card.text[start:stop]
+            if end < n and any(c in " \t" for c in text):
+                raise error(card, start, f"the value of '{tok.text}' contains blanks and another assignment "
+                            "follows: ngspice would read only the text before the first blank", form,
+                            hint="put the value in {braces} or 'quotes', or the assignment on its own .param card")
+            if any(t.kind == EXPR for t in toks[i + 2 : end]):
+                raise error(card, start, f"bad value of '{tok.text}': braces or quotes around part of it", form,
+                            hint="put the whole value in {braces}")
+            value = (parse_expr(card, text, start, ex.PARAM, form), start)
         stack[-1].params.append(ParamDef(tok.text, value, card, tok.start))
-        i += 3
+        i = end
+
+
+def _value_end(toks: list[Token], i: int) -> int:
+    """Index just after a ``.param`` value starting at token ``i``: before the next ``name =`` or the end."""
+    n = len(toks)
+    j = i
+    while j < n:
+        if j > i and toks[j].kind == WORD and j + 1 < n and toks[j + 1].kind == PUNCT and toks[j + 1].text == "=":
+            break
+        j += 1
+    while j > i + 1 and toks[j - 1].kind == PUNCT and toks[j - 1].text == ",":
+        j -= 1  # '.param a=1, b=2'
+    return j
 
 
 def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
@@ -230,23 +263,50 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
         raise error(card, toks[-1].end if len(toks) > 1 else len(card.text), "expected a model name and type",
                     form)
     name, mtype = toks[1].text, toks[2].text
-    positional, keywords = split_args(card, toks, 3, form, allow_parens=True)
-    stray = [t for t in positional if not (t.kind == PUNCT and t.text in "()")]
-    if stray:
-        raise error(card, stray[0].start, f"expected name=value, found {stray[0].text!r}", form)
-    params = {}
-    for key, values in keywords:
-        if len(values) != 1:
-            raise error(card, values[1].start, f"{key.text}= takes one value", form)
-        if key.text in params:
-            raise error(card, key.start, f"parameter '{key.text}' given twice", form)
-        params[key.text] = parse_value(card, values[0], form)
+    params: dict = {}
+    strings: dict = {}
+    flags: dict = {}
+    i, n = 3, len(toks)
+    while i < n:
+        tok = toks[i]
+        if tok.kind == PUNCT and tok.text in "(),":
+            i += 1
+            continue
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"expected name=value, found {tok.text!r}", form)
+        if i + 1 < n and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
+            if i + 2 >= n or toks[i + 2].kind not in (WORD, EXPR, STRING):
+                raise error(card, toks[i + 1].start, f"missing value after '{tok.text}='", form)
+            value = toks[i + 2]
+            if i + 4 < n and toks[i + 3].text == "," and toks[i + 4].kind in (WORD, EXPR) and not (
+                    i + 5 < n and toks[i + 5].text == "="):
+                raise error(card, toks[i + 4].start, f"{tok.text}= takes one value", form)
+            if tok.text in params or tok.text in strings:
+                card.warn(tok.start, f"model parameter '{tok.text}' given twice: the last value is used "
+                          "(as ngspice does)")
+                params.pop(tok.text, None)
+                strings.pop(tok.text, None)
+            if value.kind == STRING:
+                strings[tok.text] = (value.text, value.start)
+            elif value.kind == WORD and parse_number(value.text) is None and not IDENT.match(value.text):
+                params[tok.text] = (parse_expr(card, value.text, value.start, ex.PARAM, form), value.start)  # is=isv*2
+            else:
+                params[tok.text] = parse_value(card, value, form)
+            i += 3
+            if i < n and toks[i].kind == WORD and not IDENT.match(toks[i].text) and not (
+                    i + 1 < n and toks[i + 1].text == "="):
+                raise error(card, toks[i].start, f"the value of '{tok.text}' goes on after a blank "
+                            f"({toks[i].text!r}): ngspice would read only {value.text!r} and ignore the rest", form,
+                            hint=f"write {tok.text}={{...}} with the whole expression in braces")
+        else:
+            flags[tok.text] = tok.start  # a bare name: ngspice sets a flag parameter (or ignores the name)
+            i += 1
     scope = stack[-1]
     if name in scope.models:
         first = scope.models[name].card
         raise error(card, toks[1].start, f"model '{name}' is defined twice (first at {first.file}:{first.line})",
                     form)
-    model = ModelCard(name, mtype, card, params)
+    model = ModelCard(name, mtype, card, params, strings, flags)
     scope.models[name] = model
     scope.items.append(model)
 
@@ -328,7 +388,12 @@ def _dc(card: Card, toks: list[Token], stack, net: Netlist) -> None:
 def _ic(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     word = DOT_ALIASES.get(toks[0].text, toks[0].text)
     form = DOT_CARDS[word]
-    target = net.ic if word == ".ic" else net.nodeset
+    if stack[-1].name is None:
+        target = net.ic if word == ".ic" else net.nodeset
+    else:  # inside a subcircuit: the body's node names, applied to each instance
+        local = InitialCard(word, card, [])
+        stack[-1].items.append(local)
+        target = local.entries
     i, n = 1, len(toks)
     if n == 1:
         raise error(card, len(card.text), "missing v(node)=value", form)
@@ -341,7 +406,10 @@ def _ic(card: Card, toks: list[Token], stack, net: Netlist) -> None:
         if not ok:
             raise error(card, toks[i].start, f"expected v(node)=value, found {toks[i].text!r}", form)
         node = parse_node(card, toks[i + 2], form)
-        target.append((node, parse_value(card, toks[i + 5], form), toks[i + 2].start, card))
+        if stack[-1].name is None:
+            target.append((node, parse_value(card, toks[i + 5], form), toks[i + 2].start, card))
+        else:
+            target.append((node, parse_value(card, toks[i + 5], form), toks[i + 2].start))
         i += 6
 
 

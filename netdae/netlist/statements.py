@@ -27,6 +27,7 @@ __all__ = [
     "SourceCard",
     "InstanceCard",
     "ModelCard",
+    "InitialCard",
     "FuncDef",
     "ParamDef",
     "Definition",
@@ -110,12 +111,31 @@ class InstanceCard:
 
 @dataclass(slots=True)
 class ModelCard:
-    """A ``.model`` card."""
+    """A ``.model`` card.
+
+    ``strings`` holds string-valued parameters (``mfg="acme"``: name ->
+    (text, offset)), ``flags`` bare names (name -> offset); both are judged
+    when the circuit is elaborated (ngspice ignores the ones it does not know).
+    """
 
     name: str
     type: str
     card: Card
     params: dict  # name -> Val
+    strings: dict = field(default_factory=dict)
+    flags: dict = field(default_factory=dict)
+
+
+@dataclass(slots=True)
+class InitialCard:
+    """An ``.ic`` or ``.nodeset`` card inside a subcircuit: applied to each instance's nodes.
+
+    ``entries`` is a list of (node as written, Val, offset).
+    """
+
+    name: str  # ".ic" or ".nodeset"
+    card: Card
+    entries: list
 
 
 @dataclass(slots=True)
@@ -151,7 +171,7 @@ class Definition:
     params : list of ParamDef
         ``.param`` cards of this body, in order.
     funcs : dict of str to FuncDef
-    items : list of ElementCard, InstanceCard and ModelCard
+    items : list of ElementCard, InstanceCard, ModelCard and InitialCard
         In netlist order.
     models : dict of str to ModelCard
         The models defined directly in this body.

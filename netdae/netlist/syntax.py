@@ -61,7 +61,7 @@ class ElementSyntax:
         return " | ".join(self.forms)
 
 
-_RES_KEYS = frozenset({"tc1", "tc2", "tc", "m", "ac", "temp", "dtemp", "scale", "noisy", "l", "w", "r"})
+_RES_KEYS = frozenset({"tc1", "tc2", "tc", "tce", "m", "ac", "temp", "dtemp", "scale", "noisy", "l", "w", "r"})
 _CAP_KEYS = frozenset({"ic", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tc"})
 _IND_KEYS = frozenset({"ic", "m", "nt", "scale", "temp", "dtemp", "tc1", "tc2", "tc"})
 
@@ -74,7 +74,7 @@ ELEMENTS: dict[str, ElementSyntax] = {
     s.letter: s
     for s in (
         ElementSyntax("r", "resistor", (
-            "Rname n+ n- value [mname] [tc1=a] [tc2=b] [m=mult] [ac=r] [temp=t] [dtemp=dt] "
+            "Rname n+ n- value [mname] [tc1=a] [tc2=b] [tce=e] [m=mult] [ac=r] [temp=t] [dtemp=dt] "
             "[scale=s] [l=len] [w=width] [noisy=0|1]",), _RES_KEYS),
         ElementSyntax("c", "capacitor", (
             "Cname n+ n- value [mname] [ic=v0] [m=mult] [scale=s] [temp=t] [dtemp=dt] [tc1=a] [tc2=b]",),

@@ -12,7 +12,10 @@ ngspice run commands (``shell``) or read and write files.
 netdae never hands ngspice the user's files. :func:`self_contained` reads
 the netlist with netdae's own reader (:func:`netdae.netlist.reader.read_deck`:
 ``.include`` files and ``.lib`` sections expanded in place, ``.control``
-blocks skipped, the main file ended at ``.end``) and writes it back as
+blocks replaced by the dot cards of the commands netdae reads in them
+(:mod:`netdae.netlist.control`: ``op``, ``tran``, ``save``, ``option`` ...;
+never a command that runs anything), the main file ended at ``.end``) and
+writes it back as
 
 - one title line that cannot be taken for a command or a card (a title that
   does not begin with a letter or digit is prefixed with ``netdae:``; the

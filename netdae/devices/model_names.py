@@ -1,0 +1,77 @@
+"""What ngspice 39 knows about model cards: parameter names and levels, as data.
+
+ngspice reads a ``.model`` card against the parameter table of the model's
+type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``res.c``, ``cap.c``,
+``ind.c``); a name that is not in the table is reported ("unrecognized
+parameter (x) - ignored") and the model is used without it. netdae does the
+same (a located warning, see :func:`netdae.devices.modelcard.ignored_parameters`),
+while a name ngspice *uses* and netdae does not implement stays an error:
+netdae would otherwise compute something other than ngspice.
+
+Examples
+--------
+>>> "vceo" in NGSPICE_PARAMETERS["bjt"], "ikf" in NGSPICE_PARAMETERS["diode"]
+(False, True)
+>>> level_name("mosfet", 49)
+'BSIM3'
+"""
+
+from __future__ import annotations
+
+__all__ = ["NGSPICE_PARAMETERS", "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "level_name"]
+
+
+def _names(text: str) -> frozenset:
+    return frozenset(text.split())
+
+
+#: Parameter names of each model family's table in ngspice 39 (``level`` included).
+NGSPICE_PARAMETERS: dict[str, frozenset] = {
+    "diode": _names(
+        "level is js jsw tnom tref rs trs trs1 trs2 n ns tt ttt1 ttt2 cjo cj0 cj vj pb m mj tm1 tm2 cjp cjsw php "
+        "mjsw ikf ik ikr nbv area pj tlev tlevc eg xti cta ctc ctp tpb tvj tphp jtun jtunsw ntun xtitun keg kf af "
+        "fc fcs bv ibv ib tcv cond isr nr fv_max bv_max id_max te_max pd_max rth0 cth0 lm lp wm wp xom xoi xm xp d"),
+    "bjt": _names(
+        "level type npn pnp subs tnom tref is ibe ibc bf nf vaf va ikf ik ise c2 ne br nr var vb ikr isc c4 nc rb "
+        "irb rbm re rc cje vje pe mje me tf xtf vtf itf ptf cjc vjc pc mjc mc xcjc tr cjs csub ccs vjs ps mjs ms "
+        "xtb eg xti fc kf af invearlyvoltf invearlyvoltr invrollofff invrolloffr collectorconduct emitterconduct "
+        "transtimevbcfact excessphasefactor iss ns rco vo gamma qco tlev tlevc tbf1 tbf2 tbr1 tbr2 tikf1 tikf2 "
+        "tikr1 tikr2 tirb1 tirb2 tnc1 tnc2 tne1 tne2 tnf1 tnf2 tnr1 tnr2 trb1 trb trb2 trc1 trc trc2 tre1 tre tre2 "
+        "trm1 trm2 tvaf1 tvaf2 tvar1 tvar2 ctc cte cts tvjc tvje tvjs titf1 titf2 ttf1 ttf2 ttr1 ttr2 tmje1 tmje2 "
+        "tmjc1 tmjc2 tmjs1 tmjs2 tns1 tns2 nkf nk tis1 tis2 tise1 tise2 tisc1 tisc2 tiss1 tiss2 quasimod vg cn d "
+        "vbe_max vbc_max vce_max pd_max ic_max ib_max te_max rth0"),
+    "mosfet": _names(
+        "level type vto vt0 kp gamma phi lambda rd rs cbd cbs is pb cgso cgdo cgbo rsh cj mj cjsw mjsw js tox ld "
+        "u0 uo fc nmos pmos nsub tpg nss tnom kf af"),
+    "resistor": _names(
+        "rsh narrow dw short dlr tc1 tc1r tc2 tc2r tce defw w l kf af tnom r res bv_max lf wf ef"),
+    "capacitor": _names("cap cj cox cjsw capsw defw w defl l narrow short del tc1 tc2 tnom di thick bv_max c"),
+    "inductor": _names("ind tc1 tc2 tnom csect dia length nt mu l"),
+}
+
+#: Names in those tables that are outputs (ngspice reports them, and refuses them on a .model card).
+OUTPUT_ONLY: dict[str, frozenset] = {
+    "diode": _names("cond"),
+    "bjt": _names("type invearlyvoltf invearlyvoltr invrollofff invrolloffr collectorconduct emitterconduct "
+                  "transtimevbcfact excessphasefactor"),
+    "mosfet": _names("type"),
+}
+
+#: The model family of each element kind that uses a model card.
+MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "resistor": "resistor",
+                  "capacitor": "capacitor", "inductor": "inductor"}
+
+#: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
+LEVELS: dict[str, dict[int, str]] = {
+    "diode": {1: "junction diode", 3: "junction diode with geometry"},
+    "bjt": {1: "Gummel-Poon", 4: "VBIC", 6: "Gummel-Poon (extended)", 8: "HICUM/L2", 9: "HICUM/L0"},
+    "mosfet": {1: "Shichman-Hodges", 2: "Grove-Frohman", 3: "semi-empirical", 4: "BSIM1", 5: "BSIM2",
+               6: "MOS6", 8: "BSIM3", 49: "BSIM3", 9: "MOS9", 10: "B4SOI", 58: "B4SOI", 14: "BSIM4", 54: "BSIM4",
+               55: "B3SOI (fully depleted)", 56: "B3SOI (dynamic depletion)", 57: "B3SOI (partially depleted)",
+               60: "SOI3", 68: "HiSIM2", 73: "HiSIM_HV"},
+}
+
+
+def level_name(family: str, level: int) -> str | None:
+    """ngspice's name of a model level (None: a level ngspice 39 does not know)."""
+    return LEVELS.get(family, {}).get(level)

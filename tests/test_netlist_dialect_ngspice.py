@@ -1,0 +1,301 @@
+"""The ngspice dialect as people write it: each construct read by netdae and by ngspice 39, same values.
+
+Every netlist here is run by ngspice (``print`` with 12 digits in a control
+block) and by netdae; operating points agree to 1e-9 relative, transient
+values at ngspice's time points to a fraction of the signal's range.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.errors import NetlistError
+from netdae.netlist import load
+
+pytestmark = pytest.mark.ngspice
+
+RTOL = 1e-9
+
+
+def ngspice_print(netlist: str, names: list[str], tmp_path: Path) -> dict[str, float]:
+    """Run ``netlist`` (no control block) in ngspice and return the printed values of ``names``."""
+    text = netlist.rstrip() + "\n.control\nset numdgt=12\nrun\nprint " + " ".join(names) + "\n.endc\n.end\n"
+    cir = tmp_path / "d.cir"
+    cir.write_text(text)
+    proc = subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    out: dict[str, float] = {}
+    for line in proc.stdout.splitlines():
+        m = re.match(r"\s*(\S+) = (\S+)\s*$", line)
+        if m and m.group(1) in names:
+            out[m.group(1)] = float(m.group(2))
+    assert set(out) == set(names), proc.stdout + proc.stderr
+    return out
+
+
+def _op_agrees(netlist: str, names: list[str], tmp_path: Path) -> netdae.Circuit:
+    ref = ngspice_print(netlist + ".op\n", names, tmp_path)
+    circuit = load(netlist + ".op\n.end\n")
+    result = netdae.run(circuit)[0]
+    for name in names:
+        got = float(result.signals[name][-1])
+        assert abs(got - ref[name]) <= RTOL * abs(ref[name]) + 1e-14, (name, got, ref[name])
+    return circuit
+
+
+def _tran_agrees(netlist: str, signals: list[str], points: list[int], tmp_path: Path, rtol: float) -> None:
+    names = [f"{s}[{k}]" for s in signals for k in points] + [f"time[{k}]" for k in points]
+    ref = ngspice_print(netlist, names, tmp_path)
+    result = [r for r in netdae.run(load(netlist + ".end\n")) if r.analysis == "tran"][0]
+    for s in signals:
+        span = float(np.ptp(result.signals[s])) or 1.0
+        for k in points:
+            got = float(np.ravel(result.dense(ref[f"time[{k}]"])[s])[0])
+            assert abs(got - ref[f"{s}[{k}]"]) <= rtol * span, (s, k, got, ref[f"{s}[{k}]"])
+
+
+def _warnings(circuit) -> list[str]:
+    return [f"{d.location.line}:{d.location.column} {d.message}" for d in circuit.diagnostics
+            if d.severity == "warning"]
+
+
+# ---------------------------------------------------------------------------
+def test_ground_as_a_subcircuit_port_stays_ground_inside(tmp_path):
+    # ngspice 39: inside the body 0 is ground; the node the instance connects to port 0 is not
+    # connected by the body (node 2 floats on R9 and I1: v(2) = 1 V)
+    netlist = ("ground port\n.subckt sub a 0\nR1 a 0 1k\nR2 a b 1k\nR3 b gnd 1k\n.ends\n"
+               "V1 1 0 1\nX1 1 2 sub\nR9 2 0 1k\nI1 0 2 1m\n")
+    c = _op_agrees(netlist, ["v(1)", "v(2)", "v(x1.b)", "i(v1)"], tmp_path)
+    assert any("2:15 .subckt: port '0' is ground" in w for w in _warnings(c))
+
+
+SOURCES = """source value then a function
+VIN 1 0 0v (PULSE 0 1 0 1n 1n 5n 10n)
+V2 2 0 dc 0 pulse(0 2 0 1n 1n 5n 10n)
+V3 3 0 DC PWL(0 2 1n 3)
+V4 4 0 dc 0.5 PWL(0 1 1n 3)
+R1 1 0 1k
+R2 2 0 1k
+R3 3 0 1k
+R4 4 0 1k
+"""
+
+
+def test_source_value_followed_by_a_function(tmp_path):
+    _op_agrees(SOURCES, ["v(1)", "v(2)", "v(3)", "v(4)"], tmp_path)  # DC PWL(...): a DC value of 0
+    _tran_agrees(SOURCES + ".tran 0.1n 12n\n", ["v(1)", "v(2)", "v(3)", "v(4)"], [3, 7, 20, 40], tmp_path, 1e-9)
+
+
+def test_repeated_model_parameter_and_param_values_with_blanks(tmp_path):
+    netlist = ("blanks\n.param a = 1 + 2\n.param b = (a+1)*2 c=5\n.param d = 3 * 2\n"
+               "V1 1 0 {a}\nV2 2 0 {b}\nV3 5 0 {c}\nV4 6 0 {d}\nD1 1 3 dm\nR3 3 0 1k\n"
+               ".model dm d is=1e-12 is=1e-14 n=1\n")
+    c = _op_agrees(netlist, ["v(1)", "v(2)", "v(5)", "v(6)", "v(3)", "i(v1)"], tmp_path)
+    assert c.params == {"a": 3.0, "b": 8.0, "c": 5.0, "d": 6.0}
+    assert any("11:22 .model: model parameter 'is' given twice: the last value is used" in w for w in _warnings(c))
+
+
+def test_ends_name_resistor_model_before_value_and_tce(tmp_path):
+    netlist = ("ends other name\n.subckt sub a b\nR1 a b 1k\n.ends lump\n.model rmod r tc1=0.01 tce=0.5 tnom=20\n"
+               ".model rpoly r tc1=0.01 tc2=1e-4\nV1 1 0 1\nX1 1 0 sub\nR2 1 0 RMOD 2k\nV3 3 0 1\n"
+               "R3 3 0 2k tce=0.3 dtemp=10\nV4 4 0 1\nR4 4 0 2k RMOD dtemp=10\nV5 5 0 1\nR5 5 0 rpoly 3k dtemp=-20\n"
+               "V6 6 0 1\nR6 6 0 rpoly 3k tc1=0.02\n.temp 35\n")
+    c = _op_agrees(netlist, ["i(v1)", "i(v3)", "i(v4)", "i(v5)", "i(v6)"], tmp_path)
+    assert c.element("r2").value == 2e3 and c.element("r2").model == "rmod"
+    assert any("4:7 .ends: '.ends lump' closes .subckt sub" in w for w in _warnings(c))
+
+
+def test_ic_inside_a_subcircuit(tmp_path):
+    netlist = ("ic in subckt\n.subckt rc a\nR1 a b 1k\nC1 b 0 1u\n.ic v(b)=2\n.ends\n"
+               "V1 1 0 0\nX1 1 rc\nX2 1 rc\n.tran 10u 3m uic\n")
+    assert load(netlist).ic == {"x1.b": 2.0, "x2.b": 2.0}
+    _tran_agrees(netlist, ["v(x1.b)", "v(x2.b)"], [5, 30, 60], tmp_path, 2e-3)
+
+
+def test_model_extras_ngspice_ignores_are_located_warnings(tmp_path):
+    netlist = ("model extras\n.param isv=1e-14\n.model dm d (is={isv * 2} n = 1.5 rs= 10 mfg=\"acme\" iave=1 flag)\n"
+               ".model qm npn (is=1e-15 bf=80 vceo=40 icrating=200m mfg=\"nxp\")\n"
+               ".model mm nmos level=1 vto=0.8 kp=1e-4 delta=0.1 eta=0.2 kappa=0.3\n"
+               "V1 1 0 1\nD1 1 2 dm\nR1 2 0 1k\nV2 c 0 5\nVb b 0 0.7\nQ1 c b 0 qm\n"
+               "Vg g 0 3\nM1 c g 0 0 mm w=10u l=1u\n")
+    c = _op_agrees(netlist, ["v(2)", "i(v1)", "i(v2)"], tmp_path)
+    warnings = _warnings(c)
+    expected = ["3:46 model dm: string parameter mfg=\"acme\"", "3:58 model dm: parameter 'iave'",
+                "3:60 model dm: flag 'flag'", "4:36 model qm: parameter 'vceo'", "4:48 model qm: parameter 'icrating'",
+                "4:57 model qm: string parameter mfg=\"nxp\"", "5:46 model mm: parameter 'delta'",
+                "5:54 model mm: parameter 'eta'", "5:64 model mm: parameter 'kappa'"]
+    assert [w.split(" is not")[0].split(" ignored")[0] for w in warnings] == expected
+    for text in expected:
+        assert sum(w.startswith(text) for w in warnings) == 1, (text, warnings)
+
+
+@pytest.mark.parametrize("level, name", [(2, "Grove-Frohman"), (3, "semi-empirical"), (8, "BSIM3"),
+                                         (49, "BSIM3"), (14, "BSIM4"), (54, "BSIM4")])
+def test_unimplemented_mosfet_level_is_refused_by_name(level, name):
+    text = f"t\n.model mm nmos level={level} vto=1 kappa=0.2\nV1 d 0 1\nM1 d d 0 0 mm\n.op\n.end\n"
+    with pytest.raises(NetlistError, match=rf"m1: model mm: MOSFET level {level} \({name} in ngspice\) is not "
+                                            "implemented by netdae") as exc:
+        load(text)
+    assert exc.value.location.line == 2 and "OSDI" in exc.value.hint and "parameter" not in exc.value.message
+
+
+def test_temper_is_the_circuit_temperature(tmp_path):
+    netlist = ("temper\n.param rt={1k*(1+0.01*(temper-27))}\n.temp 50\nV1 1 0 1\nR1 1 0 {rt}\n"
+               "B1 2 0 V=temper\nR2 2 0 1\nR3 3 0 {1k + temper}\nV3 3 0 1\n")
+    _op_agrees(netlist, ["i(v1)", "v(2)", "i(v3)"], tmp_path)
+    with pytest.raises(NetlistError, match="evaluates 'temper' once"):
+        load(netlist + ".dc temp 0 50 10\n.end\n")
+
+
+POLY = """poly sources
+V1 1 0 2
+V2 2 0 3
+V3 3 0 5
+E1 a 0 POLY(2) (1,0) (2,0) 1 2 3 4 5 6
+R1 a 0 1k
+E2 b 0 POLY(2) 1 0 2 0 1 2 3 4 5 6
+R2 b 0 1k
+G3 c 0 POLY(3) 1 0 2 0 3 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20
+R3 c 0 1
+F4 d 0 POLY(2) V1 V2 0.5 1 2 3 4 5
+R4 d 0 1
+H5 e 0 POLY(1) V3 1 2 3 4
+R5 e 0 1
+R11 1 0 1
+R12 2 0 2
+R13 3 0 5
+E6 f 0 POLY(1) 1 0 1 2 3 4
+R6 f 0 1
+G7 g 0 POLY(2) (1, 2) (3, 0) 0 0 0 0 1
+R7 g 0 1
+"""
+
+
+def test_poly_sources_with_ngspice_coefficient_order(tmp_path):
+    # non-symmetric coefficients: x1^2, x1 x2, x2^2 (and for n = 3 all 20 terms up to the cubes) in
+    # ngspice's order; F/H controlled by V-source currents
+    c = _op_agrees(POLY, ["v(a)", "v(b)", "v(c)", "v(d)", "v(e)", "v(f)", "v(g)"], tmp_path)
+    assert {c.element(n).kind for n in ("e1", "f4", "h5")} == {"bvoltage", "bcurrent"}
+
+
+OPAMP_MACRO = """741-style macromodel (POLY(2) of the supplies, gm stage, dominant pole, output buffer)
+.subckt amp inp inn out vcc vee
+rin inp inn 2meg
+egnd 99 0 POLY(2) (vcc,0) (vee,0) 0 0.5 0.5
+g1 99 2 inp inn 100u
+r2 2 99 100meg
+c1 2 99 30p
+eout 5 99 POLY(1) (2,99) 0 1
+vsense 5 out 0
+rload out 99 100k
+fsup vcc vee POLY(2) vsense vsense 1m 0 0 0 0.01
+.ends
+VCC vcc 0 15
+VEE vee 0 -15
+VIN in 0 dc 0.1 sin(0.1 0.2 1k)
+R1 in n 10k
+R2 n out 100k
+X1 0 n out vcc vee amp
+RL out 0 10k
+"""
+
+
+def test_opamp_macromodel_in_the_style_of_ua741(tmp_path):
+    _op_agrees(OPAMP_MACRO, ["v(out)", "v(n)", "i(vcc)", "i(vee)", "v(x1.99)"], tmp_path)
+    _tran_agrees(OPAMP_MACRO + ".tran 10u 2m\n", ["v(out)", "v(n)"], [10, 50, 100], tmp_path, 2e-3)
+
+
+CONTROL = """control block
+V1 in 0 dc 1 ac 1 sin(0 1 1k)
+R1 in out 1k
+C1 out 0 1u
+R2 out 0 {rr}
+.param rr=3k
+.control
+set numdgt=12
+set reltol=1e-6
+save v(out) i(v1)
+op
+print v(out) i(v1)
+let x = 2
+foreach v 1 2
+  tran 1u 1m
+end
+alter r1 2k
+tran 1u 1m
+shell touch pwned
+quit
+.endc
+.end
+"""
+
+
+def test_control_block_commands_are_read_as_cards(tmp_path):
+    c = load(CONTROL)
+    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis"] and c.options.reltol == 1e-6
+    assert c.saves == ["v(out)", "i(v1)"]
+    notes = [(d.location.line, d.message.split(":", 1)[1].split(" skipped")[0].strip())
+             for d in c.diagnostics if d.severity == "note"]
+    assert notes == [(8, "'set numdgt=12'"), (13, "'let x = 2'"), (14, "'foreach v 1 2'"), (15, "'tran 1u 1m'"),
+                     (16, "'end'"), (17, "'alter r1 2k'"), (18, "'tran 1u 1m'"), (19, "'shell touch pwned'"),
+                     (20, "'quit'")]
+    # the same values as ngspice running the block itself
+    cir = tmp_path / "c.cir"
+    cir.write_text(CONTROL)
+    proc = subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    printed = dict(re.findall(r"^(v\(out\)|i\(v1\)) = (\S+)$", proc.stdout, re.M))
+    result = netdae.run(c)[0]
+    assert float(result["v(out)"][0]) == pytest.approx(float(printed["v(out)"]), rel=RTOL)
+    assert float(result["i(v1)"][0]) == pytest.approx(float(printed["i(v1)"]), rel=RTOL)
+
+
+def test_the_bridge_gets_cards_never_a_control_block(tmp_path):
+    from netdae.ngspice import run_ngspice, translate_for_ngspice
+
+    text, notes = translate_for_ngspice(CONTROL)
+    lines = text.splitlines()
+    assert [ln for ln in lines if ln.startswith(".")] == [".param rr=3k", ".options reltol=1e-6",
+                                                            ".save v(out) i(v1)", ".op", ".print v(out) i(v1)",
+                                                            ".end"]
+    assert not any(w in text.lower() for w in (".control", ".endc", "shell", "let ", "alter", "foreach"))
+    run = run_ngspice(CONTROL, backend="subprocess", workdir=tmp_path)
+    assert run.result("op")["v(out)"][0] == pytest.approx(0.75, rel=1e-9)
+    assert not (tmp_path / "pwned").exists()
+
+
+@pytest.mark.parametrize("command, what", [("pz in 0 out 0 vol pz", "pole-zero"),
+                                           ("tf v(out) v1", "transfer-function")])
+def test_analyses_netdae_lacks_are_refused_in_control_blocks(command, what):
+    with pytest.raises(NetlistError, match=rf"\.control: '{command.split()[0]}' \({what} analysis\) is not "
+                                           "supported") as exc:
+        load(f"t\nV1 in 0 1\nR1 in out 1k\nR2 out 0 1k\n.control\nop\n  {command}\n.endc\n.end\n")
+    assert (exc.value.location.line, exc.value.location.column) == (7, 3)
+
+
+def test_model_values_as_bare_expressions(tmp_path):
+    netlist = ".model expressions\n.param isv=1e-14\n.model dm d is=isv*2 n={1 + 0.5}\nV1 1 0 1\nD1 1 2 dm\nR1 2 0 1k\n"
+    c = _op_agrees(netlist, ["v(2)", "i(v1)"], tmp_path)
+    assert c.models["dm"].params == {"is": 2e-14, "n": 1.5}
+    # 'is = isv * 2': ngspice reads is=isv and ignores '* 2' with a warning; netdae refuses the trap
+    with pytest.raises(NetlistError, match=r"the value of 'is' goes on after a blank \('\*'\)") as exc:
+        load(netlist.replace("is=isv*2", "is = isv * 2") + ".end\n")
+    assert (exc.value.location.line, exc.value.location.column) == (3, 22)
+
+
+def test_ltspice_words_and_ngspice_outputs_on_model_cards(tmp_path):
+    # ngspice ignores mfg (and stops at the undefined word OnSemi: netdae ignores both, with a warning);
+    # 'type' is an output of ngspice's BJT model, which ngspice refuses on a .model card
+    netlist = "ltspice\n.model qm npn(is=1e-15 bf=80 mfg=OnSemi vceo=40)\nV1 c 0 5\nVb b 0 0.7\nQ1 c b 0 qm\n"
+    c = _op_agrees(netlist.replace("mfg=OnSemi", "mfg=\"OnSemi\""), ["i(v1)", "i(vb)"], tmp_path)
+    c = load(netlist + ".op\n.end\n")
+    assert [w.split(" ignored")[0] for w in _warnings(c)] == ["2:34 model qm: parameter mfg=OnSemi",
+                                                               "2:46 model qm: parameter 'vceo' is not a parameter "
+                                                               "of ngspice's bjt model:"]
+    with pytest.raises(NetlistError, match=r"'type' is an output of ngspice's bjt model, not an input") as exc:
+        load(netlist.replace("vceo=40", "type=1") + ".op\n.end\n")
+    assert (exc.value.location.line, exc.value.location.column) == (2, 46)
