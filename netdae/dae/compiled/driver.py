@@ -237,7 +237,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     fs = float(first_step) if first_step is not None else 0.0
 
     # a first call of no steps when the loop is not yet loaded in this process: it loads the
-    # machine code from numba's cache (or compiles it), which is timed apart from the integration
+    # machine code from numba's cache (or compiles it). Everything until it returns (numba's
+    # initialisation at the first compiled call above, the packing, the first pivot order, the
+    # load) is timed apart from the integration as load_time
     fresh = not getattr(L.run, "signatures", True)  # (a wrapped loop: no load to time)
     chunk = 0 if fresh else FIRST_CHUNK
     load_time = 0.0
@@ -253,7 +255,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                            lus(), evb, ws, wk, rec, chunk)
             if fresh:
                 fresh = False
-                load_time = time.perf_counter() - tic
+                load_time = time.perf_counter() - wall0
                 chunk = FIRST_CHUNK
                 if status == L.CHUNK_DONE:
                     continue
