@@ -8,7 +8,7 @@ the error names what the card is.
 
 Examples
 --------
->>> ELEMENTS["c"].form
+>>> ELEMENTS["c"].forms[0]
 'Cname n+ n- value [mname] [ic=v0] [m=mult] [scale=s] [temp=t] [dtemp=dt] [tc1=a] [tc2=b]'
 >>> DOT_CARDS[".tran"]
 '.tran tstep tstop [tstart [tmax]] [uic]'
@@ -77,8 +77,8 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Rname n+ n- value [mname] [tc1=a] [tc2=b] [tce=e] [m=mult] [ac=r] [temp=t] [dtemp=dt] "
             "[scale=s] [l=len] [w=width] [noisy=0|1]",), _RES_KEYS),
         ElementSyntax("c", "capacitor", (
-            "Cname n+ n- value [mname] [ic=v0] [m=mult] [scale=s] [temp=t] [dtemp=dt] [tc1=a] [tc2=b]",),
-            _CAP_KEYS),
+            "Cname n+ n- value [mname] [ic=v0] [m=mult] [scale=s] [temp=t] [dtemp=dt] [tc1=a] [tc2=b]",
+            "Cname n+ n- Q={charge expression}"), _CAP_KEYS),
         ElementSyntax("l", "inductor", (
             "Lname n+ n- value [mname] [ic=i0] [m=mult] [nt=n] [scale=s] [temp=t] [dtemp=dt] "
             "[tc1=a] [tc2=b]",), _IND_KEYS),
