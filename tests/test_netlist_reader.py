@@ -104,3 +104,15 @@ def test_parse_keeps_definitions_unevaluated():
     assert stage.ports == ("a", "b") and [d.name for d in stage.defaults] == ["rs", "cs"]
     assert [type(i).__name__ for i in net.top.items] == ["ElementCard", "InstanceCard", "InstanceCard"]
     assert net.files[0].endswith("main.cir") and len(net.files) == 6
+
+
+@pytest.mark.parametrize("end", [".end=", ".end;", ".END\t", ".end = 1"])
+def test_end_followed_by_punctuation_ends_the_netlist(end):
+    """ngspice reads '.end=' as '.end' (found by the mutating fuzzer, where it crashed the parser)."""
+    circuit = load(f"title\nV1 1 0 1\nR1 1 0 1k\n.op\n{end}\nR2 1 0 not-a-value\n")
+    assert sorted(e.name for e in circuit.elements) == ["r1", "v1"]
+
+
+def test_ends_and_endc_are_not_end():
+    with pytest.raises(NetlistError, match="ends"):
+        load("title\nV1 1 0 1\nR1 1 0 1k\n.ends\n.end\n")

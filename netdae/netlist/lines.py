@@ -263,10 +263,16 @@ def _tokenize(card: Card) -> list[Token]:
 
 
 def _is_dot(stripped_lower: str, word: str) -> bool:
-    """True when the line's first word is exactly ``word`` (e.g. ``.end``)."""
-    return stripped_lower.startswith(word) and (
-        len(stripped_lower) == len(word) or stripped_lower[len(word)] in " \t"
-    )
+    """True when the line's first word is ``word`` (e.g. ``.end``), ended by anything but a name character.
+
+    ngspice reads ``.end=`` or ``.end;`` as ``.end`` (and ``.ends``, ``.endc`` as other cards).
+    """
+    if not stripped_lower.startswith(word):
+        return False
+    if len(stripped_lower) == len(word):
+        return True
+    nxt = stripped_lower[len(word)]
+    return not (nxt.isalnum() or nxt in "_.")
 
 
 def split_cards(
