@@ -223,9 +223,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             except KeyboardInterrupt as exc:
                 # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                 partial = getattr(exc, "partial", None)
-                done = results + ([partial] if partial is not None else [])
-                measure(circuit, done)
-                exc.results = [r.subset(names) for r in done] if wanted != names else done
+                exc.results = _finish(circuit, results + ([partial] if partial is not None else []), names, wanted)
                 raise
         else:
             if kind == "op":
@@ -248,10 +246,13 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         if unused:
             res.notes.append(unused)
         results.append(res)
+    return _finish(circuit, results, names, wanted)
+
+
+def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Result]:
+    """Measure ``results`` (the ``.meas`` cards), then keep only the signals asked for."""
     measure(circuit, results)
-    if wanted != names:
-        results = [r.subset(names) for r in results]
-    return results
+    return [r.subset(names) for r in results] if wanted != names else results
 
 
 def _with_measured(names: list[str] | None, circuit: Circuit) -> list[str] | None:

@@ -124,22 +124,19 @@ class BehaviouralFamily(DeviceFamily):
             plus = layout.nodes_of([el.nodes[0] for el in grp.elements])
             minus = layout.nodes_of([el.nodes[1] for el in grp.elements])
             n_leaves = len(controls)
+            on_leaves = [(0, k) for k in range(n_leaves)]
+            currents, current_deps, charges, charge_deps = [], [], [], []
             if grp.kind == _CHARGE:
-                grp.stamps = BranchStamps(n, controls, [], [(plus, minus)], [], [(0, k) for k in range(n_leaves)])
-                r, c = grp.stamps.coordinates()
-                rows.append(r)
-                cols.append(c)
-                continue
-            if grp.kind == _CURRENT:
-                currents = [(plus, minus)]
-                deps = [(0, k) for k in range(n_leaves)]
+                charges, charge_deps = [(plus, minus)], on_leaves
+            elif grp.kind == _CURRENT:
+                currents, current_deps = [(plus, minus)], on_leaves
             else:
                 branch = np.array([layout.branch(el.name) for el in grp.elements], dtype=np.int64)
                 ground = np.full(n, GND, dtype=np.int64)
                 controls += [(plus, minus), (branch, ground)]
                 currents = [(branch, ground), (plus, minus)]
-                deps = [(0, k) for k in range(n_leaves + 1)] + [(1, n_leaves + 1)]
-            grp.stamps = BranchStamps(n, controls, currents, [], deps, [])
+                current_deps = on_leaves + [(0, n_leaves), (1, n_leaves + 1)]
+            grp.stamps = BranchStamps(n, controls, currents, charges, current_deps, charge_deps)
             r, c = grp.stamps.coordinates()
             rows.append(r)
             cols.append(c)
@@ -217,7 +214,6 @@ class BehaviouralFamily(DeviceFamily):
     def junction_nodes(self) -> list[tuple[str, str]]:
         return [(el.nodes[0], el.nodes[1]) for el in self.elements if el.kind == _VOLTAGE]
 
-
     # -- evaluation --------------------------------------------------------
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         ok = True
@@ -228,17 +224,17 @@ class BehaviouralFamily(DeviceFamily):
                 value, deriv = grp.exprs.evaluate(v[:n_leaves], t)
                 if not math.isfinite(float(deriv.sum())):
                     deriv = np.where(np.isfinite(deriv), deriv, 0.0)
+                none = np.empty((0, value.size))
                 if grp.kind == _CHARGE:
-                    grp.stamps.add(acc, np.empty((0, value.size)), None, value[None, :], deriv, jacobian=jacobian)
-                    ok = ok and math.isfinite(float(value.sum()))
-                    continue
-                if grp.kind == _CURRENT:
-                    currents, dcur = value[None, :], deriv
+                    currents, dcur, charges, dchg = none, None, value[None, :], deriv
+                elif grp.kind == _CURRENT:
+                    currents, dcur, charges, dchg = value[None, :], deriv, none, None
                 else:
                     n = value.size
                     currents = np.stack([value - v[n_leaves], v[n_leaves + 1]])
                     dcur = np.concatenate([deriv, -np.ones((1, n)), np.ones((1, n))])
-                grp.stamps.add(acc, currents, dcur, np.empty((0, value.size)), None, jacobian=jacobian)
+                    charges, dchg = none, None
+                grp.stamps.add(acc, currents, dcur, charges, dchg, jacobian=jacobian)
                 ok = ok and math.isfinite(float(value.sum()))
         if not ok:
             acc.ok = False

@@ -67,7 +67,7 @@ _PACKAGE_DIR = Path(__file__).resolve().parent
 #: driver and warm-up, the device kernels) and those whose constants the kernels read at compile time
 #: (the integrator's, netdae.dae.bdf and netdae.dae.newton). A file or a directory of modules each.
 _KERNEL_SOURCES = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels", _PACKAGE_DIR.parent / "bdf",
-                   _PACKAGE_DIR.parent / "bdf.py", _PACKAGE_DIR.parent / "newton.py")
+                   _PACKAGE_DIR.parent / "newton.py")
 #: Modules of the listed directories that define no kernel (editing them needs no recompilation).
 _NOT_KERNELS = frozenset({"driver.py", "warm.py"})
 #: Prefix of the cache's content-keyed subdirectories.

@@ -375,11 +375,12 @@ def _pack_families(system) -> tuple:
     if system.families:
         slots = SlotMap(system.pattern)
         for family in system.families:
-            if _family_slot(family) == BEHAVIOURAL_SLOT:
+            slot = _family_slot(family)
+            if slot == BEHAVIOURAL_SLOT:
                 behavioural = family.compiled(slots, system.n)
                 continue
             par, idx, vold0 = family.compiled(slots, system.n)
-            packed[_family_slot(family)] = (np.ascontiguousarray(par, dtype=float),
+            packed[slot] = (np.ascontiguousarray(par, dtype=float),
                                             np.ascontiguousarray(idx, dtype=np.int64),
                                             np.ascontiguousarray(vold0, dtype=float))
     out = []

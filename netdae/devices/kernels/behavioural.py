@@ -32,6 +32,7 @@ import numpy as np
 
 from ...dae.compiled import kernel
 
+from ..autodiff import EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO  # ngspice's PTexp saturation, PTlog(0)
 from . import FLAG_NONFINITE
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope
 from .tape import (
@@ -49,10 +50,6 @@ L_P, L_M, L_S = 0, 1, 2
 N_LEAF = L_S + 4
 KIND_CURRENT, KIND_VOLTAGE, KIND_CHARGE = 0, 1, 2
 
-#: ngspice's PTexp saturation (as netdae.devices.autodiff).
-EXP_ARG_MAX = 227.9559242
-EXP_SATURATED = 1e99
-LOG_OF_ZERO = -1e99
 _LN10 = math.log(10.0)
 
 # one-argument functions (the order of tape.FUNCTIONS_1)
