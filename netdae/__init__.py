@@ -9,6 +9,8 @@ The public API:
 - :func:`run` -- run every analysis of a netlist (a list of :class:`Result`).
 - :func:`compare` -- run a netlist in netdae and ngspice and compare the
   waveforms (a :class:`Comparison`).
+- :func:`sweep` -- parameter steps and Monte Carlo samples, on all cores or
+  any executor (a :class:`SweepResult`).
 - :func:`from_pyspice` -- a PySpice circuit as a netdae :class:`Circuit`.
 - :func:`plot` -- a result as a matplotlib Figure.
 - the errors: :class:`NetdaeError` and its subclasses :class:`NetlistError`,
@@ -51,6 +53,7 @@ if TYPE_CHECKING:  # imported on first use at run time (they load numpy): see __
     from .netlist import load
     from .plotting import plot
     from .results import Result
+    from .sweeps import SweepResult, sweep
 
 __version__ = "0.1.0"
 
@@ -61,6 +64,8 @@ __all__ = [
     "simulate",
     "run",
     "compare",
+    "sweep",
+    "SweepResult",
     "from_pyspice",
     "plot",
     "Circuit",
@@ -95,6 +100,10 @@ def __getattr__(name: str):
         from .plotting import plot as value
     elif name == "Result":
         from .results import Result as value
+    elif name == "sweep":
+        from .sweeps import sweep as value
+    elif name == "SweepResult":
+        from .sweeps import SweepResult as value
     else:
         raise AttributeError(f"module 'netdae' has no attribute {name!r}")
     globals()[name] = value

@@ -274,6 +274,9 @@ class Options:
         Newton iteration limits for the DC operating point and per time step.
     interp : bool
         ``.options interp``: report transient results on the tstep grid.
+    seed : int or None
+        ``.options seed=``: the seed of the Monte Carlo functions as used
+        (``seed=random`` resolved to the number drawn); None when not given.
     extra : dict
         Every other option as written (lower-case name to value), kept so that
         nothing is silently dropped; the analyses report the ones they ignore.
@@ -291,6 +294,7 @@ class Options:
     itl1: int = 100
     itl4: int = 10
     interp: bool = False
+    seed: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -382,6 +386,15 @@ class Circuit:
         (``netdae.load(..., params=)``, :meth:`with_params`).
     max_elements : int or None
         The size limit the circuit was elaborated with.
+    seed, sample : int
+        The Monte Carlo stream the circuit was elaborated with: the seed
+        (``.options seed=``, a sweep's seed, else 1) and the sample index
+        (0 for a single run); see :mod:`netdae.netlist.montecarlo`.
+    draws : int
+        How many Monte Carlo values were drawn (0: the netlist has no
+        ``gauss``/``agauss``/``unif``/``aunif``/``limit`` in use).
+    steps : list of StepSpec
+        The ``.step`` cards (netdae's extension), in netlist order.
     """
 
     title: str
@@ -400,6 +413,10 @@ class Circuit:
     netlist: Any = field(default=None, repr=False, compare=False)
     overrides: dict[str, float] = field(default_factory=dict)
     max_elements: int | None = None
+    seed: int = 1
+    sample: int = 0
+    draws: int = 0
+    steps: list[Any] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, Params):
@@ -441,9 +458,49 @@ class Circuit:
             raise ValueError("with_params needs a circuit read from a netlist (netdae.load)")
         from .netlist.elaborate import elaborate  # the reader builds circuits; import it only here
 
+        return self.variant(dict(values or {}, **kwargs))
+
+    def variant(self, params: Mapping[str, float] | None = None, *, sample: int | None = None,
+                seed: int | None = None) -> "Circuit":
+        """The same netlist elaborated again: other parameter values, another Monte Carlo sample.
+
+        Parameters
+        ----------
+        params : mapping of str to float, optional
+            New values of top-level ``.param`` parameters (earlier overrides are kept).
+        sample : int, optional
+            The Monte Carlo sample index (default: this circuit's).
+        seed : int, optional
+            The Monte Carlo seed (default: this circuit's).
+
+        Returns
+        -------
+        Circuit
+
+        Raises
+        ------
+        NetlistError
+            As :meth:`with_params`; a sample or seed that is not a
+            non-negative integer.
+        ValueError
+            For a circuit that was not read from a netlist.
+
+        Examples
+        --------
+        >>> from netdae.netlist import load
+        >>> c = load("mc\\nV1 a 0 1\\nR1 a 0 {agauss(1k, 100, 1)}\\n.op\\n")
+        >>> r = [c.variant(sample=k).element("r1").value for k in (0, 1, 1)]
+        >>> r[0] == c.element("r1").value, r[1] == r[2], r[0] != r[1], c.draws
+        (True, True, True, 1)
+        """
+        if self.netlist is None:
+            raise ValueError("a variant needs a circuit read from a netlist (netdae.load)")
+        from .netlist.elaborate import elaborate  # the reader builds circuits; import it only here
+
         merged = dict(self.overrides)
-        merged.update({str(k).lower(): v for k, v in dict(values or {}, **kwargs).items()})
-        return elaborate(self.netlist, params=merged, max_elements=self.max_elements)
+        merged.update({str(k).lower(): v for k, v in (params or {}).items()})
+        return elaborate(self.netlist, params=merged, max_elements=self.max_elements,
+                         sample=self.sample if sample is None else sample, seed=self.seed if seed is None else seed)
 
     def element(self, name: str) -> Element:
         """Element by full name (case-insensitive).

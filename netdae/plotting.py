@@ -303,6 +303,69 @@ def plot(result: Result, *, title: str = "", signals=None, circuit=None, rails: 
     return fig
 
 
+def plot_sweep(result, *, title: str = ""):
+    """A matplotlib Figure of a sweep: measure histograms (Monte Carlo) or a family of curves (steps).
+
+    A Monte Carlo sweep draws one histogram per measurement; a sweep of
+    steps draws each saved waveform of every row (one panel per signal,
+    labelled by the row's values), or, without waveforms, each measurement
+    against the first axis.
+
+    Parameters
+    ----------
+    result : SweepResult
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    NetdaeError
+        When there is nothing to draw (no measure value and no waveform).
+    """
+    from matplotlib.figure import Figure
+
+    from .errors import NetdaeError
+
+    measures = {k: v[np.isfinite(v)] for k, v in result.measures.items() if np.isfinite(v).any()}
+    if result.plan.samples is not None and measures:
+        fig = Figure(figsize=(9, 2.6 * len(measures) + 0.6), layout="constrained")
+        for k, (name, values) in enumerate(measures.items()):
+            ax = fig.add_subplot(len(measures), 1, k + 1)
+            ax.hist(values, bins=max(10, min(60, int(np.sqrt(values.size)) * 2)), color="tab:blue", alpha=0.8)
+            mean, std = float(values.mean()), float(values.std(ddof=1)) if values.size > 1 else 0.0
+            ax.set_title(f"{name}: mean {mean:.5g}, std {std:.3g} ({values.size} samples)", fontsize="medium")
+            ax.set_ylabel("count")
+    elif result.waves:
+        fig = Figure(figsize=(9, 2.6 * len(result.waves) + 0.6), layout="constrained")
+        labels = [", ".join(f"{a.name}={row.point[i]:.4g}" for i, a in enumerate(result.plan.axes))
+                  or f"row {row.index}" for row in result.plan.rows]
+        for k, ((analysis, signal), values) in enumerate(result.waves.items()):
+            ax = fig.add_subplot(len(result.waves), 1, k + 1)
+            axis, grid = result.axes[analysis]
+            ys = np.abs(values) if np.iscomplexobj(values) else values
+            _draw_curves(ax, [(grid, ys[r], labels[r]) for r in range(ys.shape[0])], semilogx=analysis == "ac")
+            ax.set_ylabel(f"|{signal}|" if np.iscomplexobj(values) else signal)
+            engineering_axis(ax.xaxis, unit_of(axis))
+            _legend(ax)
+    elif measures and result.plan.axes:
+        axis = result.plan.axes[0]
+        x = result.params[axis.name]
+        fig = Figure(figsize=(9, 2.6 * len(measures) + 0.6), layout="constrained")
+        for k, name in enumerate(measures):
+            ax = fig.add_subplot(len(measures), 1, k + 1)
+            ax.plot(x, result.measures[name], "o-")
+            ax.set_xlabel(axis.name)
+            ax.set_ylabel(name)
+    else:
+        raise NetdaeError("nothing to plot: the sweep has no measured value and no saved waveform")
+    if title:
+        fig.suptitle(textwrap.fill(title, TITLE_WIDTH), fontsize="medium")
+    return fig
+
+
 def plot_result(result: Result, path: str | Path, *, title: str = "", signals=None, circuit=None,
                 rails: bool = False, internal: bool = False) -> Path:
     """Write an image of ``result`` to ``path`` (PNG, or the format of its suffix) and return the path.

@@ -339,7 +339,7 @@ class Result:
         ImportError
             When pandas is not installed (``pip install 'netdae[results]'``).
         """
-        pd = _optional("pandas", "to_pandas")
+        pd = optional_module("pandas", "Result.to_pandas()")
         frame = pd.DataFrame({name: np.asarray(v) for name, v in self.signals.items()})
         if self.axes:
             index = pd.MultiIndex.from_arrays(list(self.axes.values()), names=list(self.axes)) \
@@ -360,7 +360,7 @@ class Result:
         ImportError
             When xarray is not installed (``pip install 'netdae[results]'``).
         """
-        xr = _optional("xarray", "to_xarray")
+        xr = optional_module("xarray", "Result.to_xarray()")
         dim = self.axis_name
         if dim is None:
             data = {name: ((), np.asarray(v)[0]) for name, v in self.signals.items()}
@@ -415,9 +415,16 @@ def _json_scalars(data: dict) -> dict:
     return out
 
 
-def _optional(module: str, method: str):
+def optional_module(module: str, what: str):
+    """Import an optional dependency of the results (pandas, xarray) or say how to install it.
+
+    Raises
+    ------
+    ImportError
+        Naming ``what`` needs it and the ``results`` extra.
+    """
     try:
         return importlib.import_module(module)
     except ImportError:
-        raise ImportError(f"Result.{method}() needs {module}, which is not installed; install netdae's "
+        raise ImportError(f"{what} needs {module}, which is not installed; install netdae's "
                           f"'results' extra: pip install 'netdae[results]'") from None

@@ -25,7 +25,7 @@ CASES = [
     ("t\n.sens v(a)\n", r"sensitivity", 2, ".sens"),
     ("t\n.disto dec 10 1 1k\n", r"distortion", 2, ".disto"),
     ("t\n.tf v(a) v1\n", r"transfer-function", 2, ".tf"),
-    ("t\n.step param r 1 2 1\n", r"parameter stepping", 2, ".step"),
+    ("t\n.step param r 1 2 1\nV1 a 0 1\n", r"no top-level .param defines .r.", 2, "r", 2),
     ("t\n.foo\n", r"unknown dot card '\.foo'", 2, ".foo"),
     ("t\n.subckt s a\n.tran 1u 1m\n.ends\n", r"\.tran is not allowed inside \.subckt s", 3, ".tran"),
     # structure

@@ -25,6 +25,7 @@ import scipy.sparse.linalg as spla
 from ..circuit import AcAnalysis, Circuit
 from ..errors import CircuitError, NetdaeError
 from ..mna import MODE_DC, assemble
+from ..netlist.steps import grid
 from ..results import Result
 from .op import op_result, solve_operating_point, steady_options
 
@@ -32,8 +33,6 @@ __all__ = ["frequencies", "ac_analysis", "solve_ac", "DENSE_AC_LIMIT"]
 
 #: Up to this many unknowns, all frequencies are solved at once with dense LAPACK.
 DENSE_AC_LIMIT = 64
-#: Relative slack that keeps fstop in the grid despite rounding (ngspice uses reltol-sized slack too).
-FREQ_SLACK = 1e-9
 
 
 def frequencies(card: AcAnalysis) -> np.ndarray:
@@ -66,10 +65,7 @@ def frequencies(card: AcAnalysis) -> np.ndarray:
         return np.linspace(f0, f1, n)
     if f0 <= 0:
         raise NetdaeError(f".ac {card.variation}: fstart must be positive (got {f0:g})")
-    base = 10.0 if card.variation == "dec" else 2.0
-    steps = np.log(f1 / f0) / np.log(base) * n
-    k = np.arange(int(np.floor(steps * (1 + FREQ_SLACK) + FREQ_SLACK)) + 1)
-    return f0 * base ** (k / n)
+    return grid(card.variation, f0, f1, n)
 
 
 def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray) -> np.ndarray:

@@ -120,6 +120,11 @@ class _Trace:
         """Points in [lo, hi] in order (ends included; for a transient also inner points of every step)."""
         x, y = self.x, self.y
         if self.dense is not None and x.size > 1:
+            # only the steps that overlap [lo, hi]
+            first = max(int(np.searchsorted(x, lo, side="right")) - 1, 0)
+            last = min(int(np.searchsorted(x, hi, side="left")) + 1, x.size)
+            x, y = x[first:last], y[first:last]
+        if self.dense is not None and x.size > 1:
             h = np.diff(x)
             xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
             ys = np.empty_like(xs)

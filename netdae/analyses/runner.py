@@ -154,6 +154,16 @@ def _circuit(circuit: Circuit | str | os.PathLike) -> Circuit:
     return load(circuit)
 
 
+def _refuse_steps(circuit: Circuit) -> None:
+    """A netlist with ``.step`` cards is a sweep: say how to run it."""
+    if circuit.steps:
+        first = circuit.steps[0]
+        where = f"{first.location}: " if first.location else ""
+        names = ", ".join(s.name for s in circuit.steps)
+        raise NetdaeError(f"{where}the netlist steps {names} (.step): a sweep, which 'netdae sweep FILE --out DIR' "
+                          "or netdae.sweep() runs; run and simulate run one point")
+
+
 def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
         progress: Callable[[float, float, int], None] | None = None) -> list[Result]:
@@ -203,6 +213,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     (['v(out)'], 3.333333, 'v1')
     """
     circuit = _circuit(circuit)
+    _refuse_steps(circuit)
     options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
     check_options(circuit, **options)
     if not circuit.analyses:
@@ -350,6 +361,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     (['v(out)'], 0.005)
     """
     circuit = _circuit(circuit)
+    _refuse_steps(circuit)
     if initial not in ("consistent", "ngspice"):
         raise ValueError(f"initial must be 'consistent' or 'ngspice', not {initial!r}")
     check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)

@@ -177,14 +177,9 @@ class Interpolant:
         scale = np.where(scale > 0.0, scale, 1.0)
         s = (tq - tpts[i]) / scale
         u = (tau - tpts[i][:, None]) / scale[:, None]
-        weights = np.zeros((tq.size, nodes))
-        for a in range(nodes):
-            la = np.where(valid[:, a], 1.0, 0.0)
-            for b in range(nodes):
-                if a == b:
-                    continue
-                denom = u[:, a] - u[:, b]
-                factor = np.where(valid[:, b] & valid[:, a], (s - u[:, b]) / np.where(denom == 0.0, 1.0, denom), 1.0)
-                la = la * factor
-            weights[:, a] = la
+        # Lagrange weights l_a(s) = prod_{b != a, b valid} (s - u_b) / (u_a - u_b), all (p, a, b) at once
+        both = valid[:, :, None] & valid[:, None, :] & ~np.eye(nodes, dtype=bool)[None]
+        denom = u[:, :, None] - u[:, None, :]
+        factor = np.where(both, (s[:, None, None] - u[:, None, :]) / np.where(both, denom, 1.0), 1.0)
+        weights = np.where(valid, factor.prod(axis=2), 0.0)
         return np.einsum("pj,pjc->pc", weights, xs[idx])

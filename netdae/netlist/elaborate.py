@@ -23,6 +23,7 @@ Parameters are scoped dynamically (:mod:`netdae.netlist.params`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 
@@ -33,8 +34,10 @@ from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_lev
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
-from .lines import EXPR, STRING, WORD, no_gc
+from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
+from .montecarlo import DEFAULT_SEED, Draws, random_seed
+from .steps import StepSpec, step_values
 from .numbers import parse_number
 from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
@@ -71,6 +74,9 @@ _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2",
 
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
+#: Element kinds whose value a .step (or ``values=``) can set directly.
+STEPPABLE_KINDS = frozenset({"resistor", "capacitor", "inductor", "vsource", "isource", "vcvs", "cccs", "vccs",
+                             "ccvs"})
 
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
@@ -134,8 +140,10 @@ def _ground(name: str) -> str:
 
 
 class _Elaborator:
-    def __init__(self, net: Netlist, overrides: dict[str, float], max_elements: int) -> None:
+    def __init__(self, net: Netlist, overrides: dict[str, float], max_elements: int, sample: int = 0,
+                 seed: int | None = None, values: dict[str, float] | None = None) -> None:
         self.net = net
+        self.values = values or {}
         self.overrides = overrides
         self.max_elements = max_elements
         self.globals = {"0", *net.globals}
@@ -147,6 +155,7 @@ class _Elaborator:
         self.model_cards: dict[str, ModelCard] = {}
         self.model_words: dict[str, dict[str, tuple[str, int]]] = {}
         self.root = self._scope(None, net.top, None)
+        self.root.draws = Draws(self._seed(net) if seed is None else seed, sample)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
         self.envs: dict[tuple, Env] = {(): self.root}
@@ -162,11 +171,42 @@ class _Elaborator:
                                 value.start)
         return ParamDef(TEMPER, (Options().temp, 0), None, 0)
 
+    def _seed(self, net: Netlist) -> int:
+        """The seed of the Monte Carlo functions: the last ``.options seed=``, else :data:`DEFAULT_SEED`.
+
+        ``seed=random`` takes a fresh seed from the operating system and says which (a note), so the
+        run can be repeated.
+        """
+        for name, value, offset, card in reversed(net.options):
+            if name != "seed":
+                continue
+            form = DOT_CARDS[".options"]
+            if value is not True and value.kind == WORD and value.text == "random":
+                seed = random_seed()
+                self.diagnostics.append(Diagnostic("note", f"seed=random: the Monte Carlo functions draw with seed "
+                                                   f"{seed} (.options seed={seed} repeats this run)",
+                                                   card.location(offset)))
+                return seed
+            if value is True or value.kind == STRING:
+                raise error(card, offset, "option 'seed' needs a non-negative integer or 'random'", form)
+            number = self._value(parse_value(card, value, form, "option value"), card, "option value")
+            if number != int(number) or number < 0:
+                raise error(card, value.start, f"option 'seed' needs a non-negative integer or 'random', "
+                            f"not {number:g}", form)
+            return int(number)
+        return DEFAULT_SEED
+
     @staticmethod
     def _override(root: Env, overrides: dict[str, float]) -> None:
         """Top-level parameter values given by the caller replace their ``.param`` definitions."""
         for name, value in overrides.items():
-            if name not in root.defs or name == TEMPER:
+            if name == TEMPER:  # the circuit temperature, as .temp would give it
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > ABSOLUTE_ZERO:
+                    raise NetlistError(f"params: temper must be a temperature above {ABSOLUTE_ZERO} degC, "
+                                       f"got {value!r}")
+                root.values[TEMPER] = float(value)
+                continue
+            if name not in root.defs:
                 known = ", ".join(sorted(k for k in root.defs if k != TEMPER)) or "none"
                 raise NetlistError(f"params: no top-level .param defines '{name}' (defined: {known})",
                                    hint="only parameters of top-level .param cards can be given")
@@ -321,6 +361,8 @@ class _Elaborator:
                 self.local_initial.append(p)
                 continue
             el = self._element(p)
+            if el.name in self.values:
+                _set_value(el, self.values[el.name])
             old = elements.get(el.name)
             if old is not None:
                 where = old.location
@@ -339,7 +381,12 @@ class _Elaborator:
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
+        for name in self.values:
+            if name not in elements:
+                raise NetlistError(f"values: no element '{name}' in the circuit",
+                                   hint="name elements in full, e.g. r1 or r.x1.r2 inside subcircuit x1")
         self._analyses(circuit, elements)
+        circuit.steps = self._steps(elements)
         if circuit.analyses and not nodes:
             card = self.net.analyses[0].card
             what = "no elements" if not elements else "no node other than ground"
@@ -352,6 +399,8 @@ class _Elaborator:
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         circuit.diagnostics = self.diagnostics
+        draws = self.root.draws
+        circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
         return circuit
 
     def _apply_models(self, circuit: Circuit) -> None:
@@ -657,6 +706,42 @@ class _Elaborator:
                     sweeps.append(DcSweep(name, lo, hi, inc))
                 circuit.analyses.append(DcAnalysis(sweeps, loc))
 
+    def _steps(self, elements: dict[str, Element]) -> list[StepSpec]:
+        """The ``.step`` cards: what each sets, and its points."""
+        out: list[StepSpec] = []
+        seen: dict[str, Card] = {}
+        for st in self.net.steps:
+            card, form = st.card, DOT_CARDS[".step"]
+            name = st.name
+            if st.keyword_param or (name != "temp" and name not in elements and name in self.root.defs):
+                if name not in self.root.defs or name == TEMPER:
+                    known = ", ".join(sorted(k for k in self.root.defs if k != TEMPER)) or "none"
+                    raise error(card, st.name_offset, f"no top-level .param defines '{name}' (defined: {known})",
+                                form, hint="define it with .param, or step an element or temp")
+                target = "param"
+            elif name == "temp":
+                target = "temp"
+            elif name in elements:
+                el = elements[name]
+                if el.kind not in STEPPABLE_KINDS:
+                    raise error(card, st.name_offset, f"cannot step '{name}', a {el.kind}", form,
+                                hint="step a .param used in its value or model instead; elements stepped "
+                                "directly: R C L, V I (DC value), E F G H (gain)")
+                target = "element"
+            else:
+                raise error(card, st.name_offset, f"no parameter or element '{name}' to step", form,
+                            hint="write .step param NAME ... for a top-level .param; elements by full name")
+            if name in seen:
+                raise error(card, st.name_offset, f"'{name}' is already stepped (line {seen[name].line})", form)
+            seen[name] = card
+            numbers = [self._value(v, card, "step value") for v in st.values]
+            values = step_values(st, numbers)
+            if target == "temp":
+                for v, (_, offset) in zip(values if st.variation == "list" else numbers[:2], st.values):
+                    self._check_temperature(v, card, offset, "step temperature")
+            out.append(StepSpec(target, name, values, card.location(st.name_offset)))
+        return out
+
     def _options(self, circuit: Circuit) -> None:
         opts = Options()
         for name, value, offset, card in self.net.options:
@@ -682,6 +767,8 @@ class _Elaborator:
                 opts.method = _METHODS[word]
             elif name == "interp":
                 opts.interp = True
+            elif name == "seed":
+                opts.seed = self.root.draws.seed  # read (and checked) before the parameters, by _seed
             elif value is True:
                 opts.extra[name] = True
             elif value.kind == EXPR or (value.kind == WORD and parse_number(value.text) is not None):
@@ -691,6 +778,8 @@ class _Elaborator:
         for val, card in self.net.temps:
             opts.temp = self._value(val, card, "temperature")
             self._check_temperature(opts.temp, card, val[1], ".temp")
+        if TEMPER in self.overrides:
+            opts.temp = float(self.overrides[TEMPER])
         circuit.options = opts
 
     def _option_number(self, tok, card) -> float:
@@ -748,8 +837,22 @@ class _Elaborator:
         circuit.saves = list(seen)
 
 
+def _set_value(el: Element, value: float) -> None:
+    """Give an element a stepped value: the value of R C L and the gains, a source's DC value."""
+    if el.kind not in STEPPABLE_KINDS:
+        raise NetlistError(f"values: cannot set the value of '{el.name}', a {el.kind}",
+                           hint="set a .param used in its value or model instead")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise NetlistError(f"values: the value of '{el.name}' must be a finite number, got {value!r}")
+    if el.source is not None:
+        el.source = dataclasses.replace(el.source, dc=float(value))
+    else:
+        el.value = float(value)
+
+
 def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
-              max_elements: int | None = None) -> Circuit:
+              max_elements: int | None = None, sample: int = 0, seed: int | None = None,
+              values: Mapping[str, float] | None = None) -> Circuit:
     """Expand subcircuits, evaluate parameters, and build the flat circuit.
 
     Parameters
@@ -764,6 +867,14 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
         Largest number of elements the expanded circuit may have (default
         :data:`~netdae.netlist.size.DEFAULT_MAX_ELEMENTS`); counted before
         expanding.
+    sample : int
+        The Monte Carlo sample to draw (:mod:`netdae.netlist.montecarlo`).
+    seed : int, optional
+        The Monte Carlo seed (default: ``.options seed=``, else 1).
+    values : mapping of str to float, optional
+        Element values that replace the netlist's, by full element name: the
+        value of R, C, L, the gain of E, F, G, H, the DC value of V and I
+        (what ``.step R1 ...`` sets).
 
     Returns
     -------
@@ -788,5 +899,9 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
     """
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
+    for what, number in (("sample", sample), ("seed", seed)):
+        if number is not None and (isinstance(number, bool) or not isinstance(number, int) or number < 0):
+            raise NetlistError(f"{what}: expected a non-negative integer, got {number!r}")
     with no_gc():
-        return _Elaborator(netlist, overrides, limit).run()
+        return _Elaborator(netlist, overrides, limit, sample, seed,
+                           {str(k).lower(): v for k, v in (values or {}).items()}).run()

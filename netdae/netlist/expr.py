@@ -75,8 +75,9 @@ All nodes are frozen dataclasses (hashable, comparable).
     ``ternary_fcn(c, a, b)`` are written as this node.
 :class:`Call` ``(func: str, args: tuple)``
     A built-in function, see :data:`FUNCTIONS` for the exact meaning of
-    each; before elaboration also a call of a user ``.func`` (elaboration
-    inlines those). ``log`` is written as ``ln`` (both natural),
+    each; a Monte Carlo function (:mod:`netdae.netlist.montecarlo`), drawn
+    through the evaluator's ``call``; before elaboration also a call of a
+    user ``.func`` (elaboration inlines those). ``log`` is written as ``ln`` (both natural),
     ``arctan`` as ``atan``, ``sqr(x)`` as ``x ** 2``.
 
 Examples
@@ -99,6 +100,7 @@ from typing import Callable, Union
 
 from ..errors import NetlistError, SourceLocation
 from .lines import fold_case
+from .montecarlo import RANDOM_FUNCTIONS, is_random_call
 from .numbers import parse_number, scan_param_number
 
 __all__ = [
@@ -272,8 +274,6 @@ FUNCTIONS: dict[str, tuple[int, Callable]] = {
 _ALIASES = {"log": "ln", "arctan": "atan"}
 # functions ngspice knows that netdae rejects, with the reason
 _REJECTED = {
-    "agauss": "a Monte-Carlo function", "gauss": "a Monte-Carlo function",
-    "aunif": "a Monte-Carlo function", "unif": "a Monte-Carlo function",
     "ddt": "a time derivative inside an expression", "sdt": "a time integral inside an expression",
     "table": "a table lookup", "tablef": "a table lookup", "pwl": "an expression PWL",
     "u2": "the ngspice-only ramp u2", "eq0": "ngspice-internal", "ne0": "ngspice-internal",
@@ -477,9 +477,9 @@ class _Parser:
         if name == "sqr":
             self.arity(name, args, 1, start)
             return Binary("**", args[0], Const(2.0))
-        if name == "limit" and len(args) == 2:
-            raise self.error("limit(nominal, variation) is a Monte-Carlo function, not supported by netdae",
-                             start, hint="limit(x, lo, hi) clamps x between lo and hi")
+        if name in RANDOM_FUNCTIONS and not (name == "limit" and len(args) == 3):
+            self.arity(name, args, RANDOM_FUNCTIONS[name], start)
+            return Call(name, tuple(args))
         if name == "pow" and self.context == BEHAVIOURAL or name == "pwr" and self.context == PARAM:
             self.arity(name, args, 2, start)
             return Binary("**", args[0], args[1])
@@ -682,7 +682,7 @@ def _eval(node, lookup, call) -> float:
     if t is Call:
         args = [_eval(a, lookup, call) for a in node.args]
         spec = FUNCTIONS.get(node.func)
-        if spec is None:
+        if spec is None or is_random_call(node.func, len(args)):
             if call is None:
                 raise ValueError(f"unknown function {node.func}()")
             return float(call(node.func, args))
@@ -723,7 +723,7 @@ def fold_constants(node: Expr) -> Expr:
     if isinstance(node, Call):
         args = tuple(fold_constants(a) for a in node.args)
         out = Call(node.func, args)
-        if node.func in FUNCTIONS and all(_is_const(a) for a in args):
+        if node.func in FUNCTIONS and not is_random_call(node.func, len(args)) and all(_is_const(a) for a in args):
             return _try_const(out)
         return out
     return node

@@ -19,6 +19,7 @@ from __future__ import annotations
 from ..circuit import Diagnostic
 from ..errors import NetlistError
 from . import expr as ex
+from .montecarlo import Draws, is_random_call
 from .statements import FuncDef, ParamDef
 
 __all__ = ["Env", "UnknownName", "evaluate_val", "inline_calls", "resolve_behavioural"]
@@ -53,10 +54,12 @@ class Env:
     parameter nobody uses costs nothing.
     """
 
-    __slots__ = ("parent", "defs", "values", "funcs", "_active")
+    __slots__ = ("parent", "defs", "values", "funcs", "_active", "draws")
 
     def __init__(self, parent: "Env | None", funcs: dict[str, FuncDef] | None = None) -> None:
         self.parent = parent
+        #: The sample's random stream (:class:`~netdae.netlist.montecarlo.Draws`), shared by every scope.
+        self.draws: Draws | None = parent.draws if parent is not None else None
         self.defs: dict[str, tuple[ParamDef, Env]] = {}
         self.values: dict[str, float] = {}
         self.funcs = funcs or {}
@@ -123,6 +126,10 @@ class Env:
 
 def _call(env: Env, depth: int):
     def call(name: str, args: list[float]) -> float:
+        if is_random_call(name, len(args)):
+            if env.draws is None:
+                raise ValueError(f"the Monte Carlo function {name}() has no random stream here")
+            return env.draws.draw(name, args)
         if depth >= MAX_CALL_DEPTH:
             raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}'?)")
         f = env.func(name)
@@ -174,7 +181,7 @@ def inline_calls(node: ex.Expr, env: Env, depth: int = 0) -> ex.Expr:
         Wrong argument count or recursion.
     """
     def leaf(m):
-        if type(m) is not ex.Call or m.func in ex.FUNCTIONS:
+        if type(m) is not ex.Call or m.func in ex.FUNCTIONS or is_random_call(m.func, len(m.args)):
             return None
         if depth >= MAX_CALL_DEPTH:
             raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{m.func}'?)")
@@ -215,6 +222,8 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
             return ex.Voltage(pos, neg)
         if t is ex.Current:
             return ex.Current(elem_map[m.element])
+        if t is ex.Call and is_random_call(m.func, len(m.args)):  # drawn once, when the card is elaborated
+            return ex.Const(ex.evaluate(m, env.value, _call(env, 0)))
         return None
 
     try:

@@ -14,6 +14,7 @@ from . import expr as ex
 from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .measure import parse_measure
+from .steps import parse_step
 from .numbers import parse_number
 from .reader import Deck, read_deck
 from .size import MAX_SUBCKT_DEPTH
@@ -475,11 +476,16 @@ def _meas(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.measures.append(parse_measure(card))
 
 
+def _step(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    net.steps.append(parse_step(card, toks))
+
+
 _HANDLERS = {
     ".subckt": _subckt, ".ends": _ends, ".param": _param, ".func": _func, ".model": _model,
     ".global": _global, ".title": _title, ".op": _op, ".tran": _tran, ".ac": _ac, ".dc": _dc,
     ".ic": _ic, ".nodeset": _ic, ".options": _options, ".temp": _temp, ".save": _saves,
     ".print": _saves, ".probe": _saves, ".plot": _saves, ".meas": _meas,
+    ".step": _step,
 }
 
 

@@ -278,6 +278,8 @@ class Netlist:
     ic, nodeset : list of (node, Val, offset, Card)
     saves : list of (signal, offset, Card)
     measures : list of MeasureCard
+    steps : list of StepCard
+        The ``.step`` cards (:mod:`netdae.netlist.steps`).
     globals : dict of str to (Card, offset)
     diagnostics : list of Diagnostic
     files : list of str
@@ -293,6 +295,7 @@ class Netlist:
     nodeset: list = field(default_factory=list)
     saves: list = field(default_factory=list)
     measures: list = field(default_factory=list)
+    steps: list = field(default_factory=list)
     globals: dict = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     files: list[str] = field(default_factory=list)

@@ -154,6 +154,7 @@ DOT_CARDS: dict[str, str] = {
     ".plot": ".plot [tran|ac|dc|op] signal ...",
     ".meas": ".meas tran|ac|dc name TRIG ... TARG ... | FIND ... | WHEN ... | DERIV ... | "
              "MIN|MAX|PP|AVG|RMS|INTEG sig [FROM=] [TO=] | PARAM='expr'",
+    ".step": ".step [lin|dec|oct] [param] name start stop incr|points | .step [param] name list v1 v2 ...",
     ".control": ".control ... .endc (skipped)",
     ".end": ".end",
 }
@@ -174,7 +175,6 @@ UNSUPPORTED_DOT_CARDS: dict[str, str] = {
     ".sp": "S-parameter analysis",
     ".pss": "periodic steady-state analysis",
     ".hb": "harmonic-balance analysis",
-    ".step": "parameter stepping",
     ".if": "conditional netlist",
     ".elseif": "conditional netlist",
     ".else": "conditional netlist",

@@ -51,12 +51,14 @@ References
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 
 from ..circuit import Circuit
 from .context import EMPTY, Context, Partition, loops_through
 from .dc import dc_loops, no_dc_path, unfixed_potentials
-from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, VOLTAGE, build_graph
+from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, VOLTAGE, build_graph, structure_key
 from .kernels import components, on_cycle
 from .report import Cutset, Finding, Loop, NodeGroup, TopologyReport
 from .text import PATH_LIMIT, name_list, node_phrase, plural, with_inputs
@@ -417,6 +419,11 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
 
     Notes
     -----
+    The report is memoised by :func:`~netdae.topology.graph.structure_key`
+    (the last :data:`MEMO_SIZE` structures of up to :data:`MEMO_MAX_ELEMENTS`
+    elements): a circuit that differs from an earlier one only in values gets
+    the same report object, which callers must not modify.
+
     Cost: a few list comprehensions over the elements to build the branch
     arrays, then about ten connected-component, spanning-forest and sort
     operations of :mod:`scipy.sparse.csgraph` and numpy over the arrays,
@@ -435,6 +442,28 @@ def analyze_topology(circuit: Circuit) -> TopologyReport:
     >>> print(rep.cv_loops[0].path())
     0 -v1- a -c1- 0
     """
+    if len(circuit.elements) > MEMO_MAX_ELEMENTS:
+        return _analyze(circuit)
+    key = structure_key(circuit)
+    cached = _MEMO.get(key)
+    if cached is not None:
+        _MEMO.move_to_end(key)
+        return cached
+    rep = _analyze(circuit)
+    _MEMO[key] = rep
+    if len(_MEMO) > MEMO_SIZE:
+        _MEMO.popitem(last=False)
+    return rep
+
+
+#: Reports kept for circuits of the same structure (a sweep's rows, repeated runs).
+MEMO_SIZE = 16
+#: Larger circuits are analysed each time (their keys would hold megabytes).
+MEMO_MAX_ELEMENTS = 20_000
+_MEMO: "OrderedDict[tuple, TopologyReport]" = OrderedDict()
+
+
+def _analyze(circuit: Circuit) -> TopologyReport:
     ctx = Context(build_graph(circuit), MAX_LISTED)
     g = ctx.g
     rep = TopologyReport()

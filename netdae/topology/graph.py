@@ -226,6 +226,32 @@ def _diode_branches(circuit: Circuit, members: np.ndarray, ids: np.ndarray, star
     return tuple(np.array(col, dtype=np.int64) for col in zip(*rows))
 
 
+def structure_key(circuit: Circuit) -> tuple:
+    """Everything :func:`build_graph` reads, as a hashable key.
+
+    Two circuits with equal keys have the same graph and the same topological
+    findings: per element its name, kind, nodes, controls and model, the sign
+    class of an R, C or L value (the value itself when negative, as the
+    findings quote it), and per diode the two model facts the graph uses
+    (series resistance, junction charge). Other values do not enter.
+
+    Notes
+    -----
+    One pass over the elements, O(m); about 1 us per element.
+    """
+    parts = []
+    models = circuit.models
+    for el in circuit.elements:
+        v = el.value
+        if el.kind in ("resistor", "capacitor", "inductor"):
+            v = "nan" if v is None or v != v else (v if v < 0 else ("zero" if v == 0 else "pos"))
+        else:
+            v = None
+        extra = _diode_model(circuit, el) if el.kind == "diode" else None
+        parts.append((el.name, el.kind, el.nodes, el.controls, el.model if el.model in models else None, v, extra))
+    return tuple(circuit.nodes), tuple(parts)
+
+
 def _passive_values(circuit: Circuit, members: np.ndarray) -> np.ndarray:
     """Values of R, C, L elements, NaN where none is given (model-only cards)."""
     els = circuit.elements

@@ -1,0 +1,230 @@
+"""``netdae sweep FILE``: parameter steps and Monte Carlo samples, on all cores or a Dask cluster.
+
+The axes are the netlist's ``.step`` cards and the ``--step NAME=SPEC``
+options (``SPEC``: ``start:stop:incr``, ``dec:points:start:stop``,
+``oct:points:start:stop`` or a comma list ``v1,v2,...``; numbers with SPICE
+suffixes); ``--mc N`` runs N Monte Carlo samples per point. Writes into
+``--out DIR``: ``measures.csv`` and ``measures.json`` (one row per
+simulation, see :mod:`netdae.io.sweep`), ``waveforms.npz`` with
+``--waveforms``, and ``sweep.png`` (measure histograms for Monte Carlo, a
+family of curves for steps). Prints a summary of each measure on stdout.
+
+``--workers N`` local processes (default: the available cores);
+``--scheduler ADDRESS`` runs on a Dask cluster (``tcp://host:8786``; needs
+``pip install 'netdae[dask]'``). Ctrl-C keeps the finished rows: they are
+written, the others marked not run, and the exit status is 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from pathlib import Path
+
+from . import option_value, signal_names
+
+__all__ = ["add_parser", "main", "parse_step"]
+
+LOG = logging.getLogger("netdae")
+EXIT_INTERRUPTED = 130
+
+
+def _number(text: str) -> float:
+    from ..netlist.numbers import parse_number
+
+    value = parse_number(text.strip().lower())
+    if value is None:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
+    return value
+
+
+def parse_step(text: str) -> tuple[str, list[float]]:
+    """An argparse type: ``NAME=SPEC`` as (name, values).
+
+    Examples
+    --------
+    >>> parse_step("R=1k:3k:1k")
+    ('r', [1000.0, 2000.0, 3000.0])
+    >>> parse_step("c1=1n,4.7n")[1]
+    [1e-09, 4.7e-09]
+    >>> [round(v, 3) for v in parse_step("f=dec:2:1:100")[1]]
+    [1.0, 3.162, 10.0, 31.623, 100.0]
+    """
+    from ..netlist.steps import grid
+
+    name, sep, spec = text.partition("=")
+    name = name.strip().lower()
+    if not sep or not name or not spec.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=SPEC (e.g. r1=1k:10k:1k), got {text!r}")
+    parts = [p.strip() for p in spec.split(":")]
+    try:
+        if len(parts) == 1:
+            return name, [_number(v) for v in parts[0].split(",")]
+        if len(parts) == 3:
+            return name, grid("lin", _number(parts[0]), _number(parts[1]), _number(parts[2])).tolist()
+        if len(parts) == 4 and parts[0].lower() in ("dec", "oct", "lin"):
+            kind = parts[0].lower()
+            if kind == "lin":
+                return name, grid("lin", _number(parts[1]), _number(parts[2]), _number(parts[3])).tolist()
+            return name, grid(kind, _number(parts[2]), _number(parts[3]), _number(parts[1])).tolist()
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"{text}: {exc}") from None
+    raise argparse.ArgumentTypeError(f"{text}: expected start:stop:incr, dec:points:start:stop, "
+                                     "oct:points:start:stop or v1,v2,...")
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    return value
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser(
+        "sweep",
+        help="run a netlist over parameter steps and Monte Carlo samples",
+        description="Run the netlist for every combination of its .step cards and --step values, "
+        "optionally with Monte Carlo samples, and write a table of its measurements.",
+    )
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--out", metavar="DIR", required=True, help="write measures.csv/.json and sweep.png into DIR")
+    p.add_argument("--step", metavar="NAME=SPEC", action="append", type=parse_step, default=[],
+                   help="step a top-level .param, an element or temp: start:stop:incr, "
+                   "dec:points:start:stop, oct:points:start:stop or v1,v2,... (repeatable: all combinations)")
+    p.add_argument("--mc", metavar="N", type=_count, help="Monte Carlo samples per point")
+    p.add_argument("--seed", type=_seed, help="Monte Carlo seed (default .options seed=, else 1)")
+    p.add_argument("--meas", metavar="CARD", action="append", default=[],
+                   help="one more .meas card, e.g. 'tran ripple pp v(out) from=5m to=10m' (repeatable)")
+    p.add_argument("--analysis", metavar="NAME", action="append", choices=("op", "dc", "ac", "tran"),
+                   help="run only this analysis of the netlist (repeatable; default all)")
+    p.add_argument("--save", metavar="SIGNALS", type=signal_names,
+                   help="comma-separated signals whose waveforms every row keeps (for --waveforms and the plot)")
+    p.add_argument("--waveforms", action="store_true", help="write the saved waveforms to waveforms.npz")
+    p.add_argument("--no-plot", dest="plot", action="store_false", help="do not write sweep.png")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=_count, help="local worker processes (default: the available cores)")
+    group.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on a Dask cluster (e.g. tcp://127.0.0.1:8786; needs netdae[dask])")
+    p.add_argument("--rtol", "--reltol", dest="reltol", type=option_value("reltol"),
+                   help="relative tolerance, between 0 and 1 (overrides .options reltol)")
+    p.add_argument("--abstol", type=option_value("abstol"), help="absolute current tolerance [A], positive")
+    p.add_argument("--vntol", type=option_value("vntol"), help="absolute voltage tolerance [V], positive")
+    return p
+
+
+def _dask_executor(address: str):
+    """A Dask client's executor, or a NetdaeError saying why there is none."""
+    from ..errors import NetdaeError
+
+    try:
+        from distributed import Client
+    except ImportError:
+        raise NetdaeError("--scheduler needs Dask's 'distributed', which is not installed: "
+                          "pip install 'netdae[dask]'") from None
+    try:
+        client = Client(address, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    return client, client.get_executor()
+
+
+class _Progress:
+    """``[####......] 40/100 rows`` on a terminal, after a second."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled and sys.stderr.isatty()
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled or time.perf_counter() - self.start < 1.0:
+            return
+        filled = int(30 * done / max(total, 1))
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {done}/{total} rows ")
+        sys.stderr.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            sys.stderr.write("\r" + " " * 60 + "\r")
+            sys.stderr.flush()
+
+
+def main(args) -> int:
+    from ..io.sweep import write_sweep
+    from ..netlist import load
+    from ..sweeps import sweep
+
+    circuit = load(args.file)
+    executor, client = None, None
+    if args.scheduler:
+        client, executor = _dask_executor(args.scheduler)
+    bar = _Progress(args.verbosity >= 0)
+    interrupted = False
+    try:
+        result = sweep(circuit, params=dict(args.step) or None, samples=args.mc, seed=args.seed,
+                       analyses=args.analysis, save=args.save, measures=args.meas, executor=executor,
+                       workers=args.workers, reltol=args.reltol, abstol=args.abstol, vntol=args.vntol,
+                       progress=bar)
+    except KeyboardInterrupt as exc:
+        result = getattr(exc, "result", None)
+        if result is None:
+            raise
+        interrupted = True
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    files = write_sweep(out, result, waveforms=args.waveforms)
+    if args.plot:
+        from ..errors import NetdaeError
+        from ..plotting import plot_sweep, save_figure
+
+        try:
+            files.append(str(save_figure(plot_sweep(result, title=circuit.title), out / "sweep.png", dpi=110)))
+        except NetdaeError as exc:
+            LOG.info("note: no plot: %s", exc)
+    summary = result.summary()
+    if args.json:
+        json.dump({"rows": result.rows, "failed": result.failed, "failures": result.failures(), "seed": result.seed,
+                   "summary": summary, "stats": {k: v for k, v in result.stats.items()}, "files": files},
+                  sys.stdout, indent=2, default=float)
+        sys.stdout.write("\n")
+    else:
+        print(circuit.title)
+        print(f"{result.rows} rows ({result.stats['executor']}, {result.stats['workers']} workers, "
+              f"{result.stats['wall_time']:.3g} s); {result.failed} failed; seed {result.seed}")
+        if summary:
+            width = max(len(n) for n in summary)
+            print(f"{'measure':<{width}}  {'count':>6}  {'mean':>12}  {'std':>10}  {'min':>12}  {'max':>12}")
+            for name, s in summary.items():
+                print(f"{name:<{width}}  {s['count']:>6}  {s['mean']:>12.6g}  {s['std']:>10.4g}  "
+                      f"{s['min']:>12.6g}  {s['max']:>12.6g}")
+    for note in result.notes:
+        LOG.warning("%s", note) if "failed" in note else LOG.info("note: %s", note)
+    for path in files:
+        LOG.info("wrote %s", path)
+    if interrupted:
+        LOG.error("interrupted: %d of %d rows finished", result.stats.get("completed", 0), result.rows)
+        return EXIT_INTERRUPTED
+    return 0 if result.failed == 0 else 1

@@ -1,0 +1,127 @@
+"""ngspice's Monte Carlo functions and the random stream of one sample.
+
+The functions (ngspice manual, "Using random param(eters)"), with ``z`` a
+standard normal draw and ``u`` uniform on [-1, 1):
+
+=========================  ===========================================
+``gauss(nom, rvar, sig)``  ``nom + nom * rvar / sig * z``
+``agauss(nom, avar, sig)`` ``nom + avar / sig * z``
+``unif(nom, rvar)``        ``nom + nom * rvar * u``
+``aunif(nom, avar)``       ``nom + avar * u``
+``limit(nom, avar)``       ``nom + avar`` or ``nom - avar``, equally likely
+=========================  ===========================================
+
+(``limit`` with three arguments is the clamp ``limit(x, lo, hi)``.)
+
+Where a draw happens decides what varies together, as the ngspice manual
+describes it: a top-level ``.param`` is evaluated once per sample, so every
+element using it sees the same draw (global variation); a function written
+in an element's value, or in a subcircuit's parameters, is evaluated per
+instance, so each instance draws its own value (mismatch). ngspice 39 itself
+re-draws a top-level ``.param`` at each use (measured); netdae follows the
+manual, which is what makes global variation expressible.
+
+Reproducibility: the draws of sample ``k`` come from a stream seeded with
+``(seed, k)`` (numpy's ``SeedSequence``), so a sample's values depend on the
+seed and its index only, never on which process or in which order samples
+are computed. Within a sample, draws are made in elaboration order, which is
+fixed by the netlist.
+"""
+
+from __future__ import annotations
+
+import secrets
+
+__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "random_seed"]
+
+#: The Monte Carlo functions and their argument counts.
+RANDOM_FUNCTIONS: dict[str, int] = {"gauss": 3, "agauss": 3, "unif": 2, "aunif": 2, "limit": 2}
+
+#: The seed used when the netlist gives no ``.options seed=`` (ngspice's default rndseed is 1 too).
+DEFAULT_SEED = 1
+
+
+def is_random_call(name: str, nargs: int) -> bool:
+    """Whether a call ``name(...)`` with ``nargs`` arguments is a Monte Carlo draw.
+
+    Examples
+    --------
+    >>> is_random_call("agauss", 3), is_random_call("limit", 2), is_random_call("limit", 3)
+    (True, True, False)
+    """
+    arity = RANDOM_FUNCTIONS.get(name)
+    return arity is not None and (name != "limit" or nargs == arity)
+
+
+def random_seed() -> int:
+    """A fresh seed from the operating system (``.options seed=random``)."""
+    return secrets.randbits(31)
+
+
+class Draws:
+    """The random stream of one sample.
+
+    Parameters
+    ----------
+    seed : int
+        The sweep's (or the netlist's) seed, >= 0.
+    sample : int
+        The sample index, >= 0.
+
+    Attributes
+    ----------
+    count : int
+        Draws made so far (0: the circuit has no Monte Carlo function).
+
+    Notes
+    -----
+    The generator is created on the first draw (about 20 us), so a netlist
+    without Monte Carlo functions pays nothing.
+    """
+
+    __slots__ = ("seed", "sample", "count", "_rng")
+
+    def __init__(self, seed: int, sample: int = 0) -> None:
+        self.seed = int(seed)
+        self.sample = int(sample)
+        self.count = 0
+        self._rng = None
+
+    def _generator(self):
+        if self._rng is None:
+            import numpy as np
+
+            self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([self.seed, self.sample])))
+        return self._rng
+
+    def draw(self, name: str, args: list[float]) -> float:
+        """One value of the Monte Carlo function ``name`` at ``args``.
+
+        Raises
+        ------
+        ValueError
+            A wrong argument count, or a sigma that is not positive.
+
+        Examples
+        --------
+        >>> d = Draws(7, 3)
+        >>> a = d.draw("agauss", [1.0, 0.1, 1.0]); b = Draws(7, 3).draw("agauss", [1.0, 0.1, 1.0])
+        >>> a == b, d.count, d.draw("limit", [1.0, 0.5]) in (0.5, 1.5)
+        (True, 1, True)
+        """
+        arity = RANDOM_FUNCTIONS[name]
+        if len(args) != arity:
+            raise ValueError(f"{name}() takes {arity} arguments, got {len(args)}")
+        rng = self._generator()
+        self.count += 1
+        nom, var = args[0], args[1]
+        if arity == 3:
+            sig = args[2]
+            if not sig > 0.0:
+                raise ValueError(f"{name}(): sigma (the third argument) must be positive, got {sig:g}")
+            spread = (nom * var if name == "gauss" else var) / sig
+            return nom + spread * float(rng.standard_normal())
+        u = float(rng.uniform(-1.0, 1.0))
+        if name == "limit":
+            return nom + (var if u >= 0.0 else -var)
+        return nom + (nom * var if name == "unif" else var) * u

@@ -1,0 +1,283 @@
+""":func:`sweep`: parameter steps, corners and Monte Carlo in one call, on any executor.
+
+One seam, three levels of parallelism:
+
+1. in this process (``workers=1``): the netlist is parsed once and each row
+   only elaborated and simulated; the topology analysis is memoised per
+   structure, so rows that change values only analyse it once; the compiled
+   engine is loaded once;
+2. on the local cores (the default when there are enough rows): a
+   :class:`concurrent.futures.ProcessPoolExecutor`. On Linux its workers are
+   forked from this process after the first row has run here, so they start
+   with the engine loaded and compile nothing;
+3. on a cluster: any :class:`concurrent.futures.Executor`, e.g. Dask's
+   ``distributed.Client(...).get_executor()``.
+
+Rows go to the executor in chunks (about four per worker) as tasks of
+:func:`netdae.sweeps.worker.run_rows`, which receives the parsed netlist, not
+its text. A row's values depend only on the netlist, the seed and the row
+(:mod:`netdae.netlist.montecarlo`), so the executor and the number of workers
+never change a result.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+from ..circuit import Circuit
+from ..errors import NetdaeError
+from .plan import Plan, make_plan
+from .result import SweepResult
+from .worker import Job, Outcome, run_rows
+
+__all__ = ["sweep", "add_measures", "CHUNKS_PER_WORKER"]
+
+#: Tasks per worker: enough to balance uneven rows, few enough to keep the overhead per task small.
+CHUNKS_PER_WORKER = 4
+#: Below this many rows per worker, the sweep runs in this process (starting workers costs more).
+MIN_ROWS_PER_WORKER = 4
+
+
+def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
+    """The circuit with more ``.meas`` cards (card text with or without the leading ``.meas``).
+
+    Raises
+    ------
+    NetlistError
+        A card that does not parse or does not fit the circuit (located in ``<measures>``).
+    """
+    from ..netlist.elaborate import elaborate
+    from ..netlist.lines import Card
+    from ..netlist.measure import parse_measure
+
+    cards = []
+    for k, text in enumerate(measures):
+        text = str(text).strip()
+        if not text.lower().startswith(".meas"):
+            text = ".meas " + text
+        cards.append(parse_measure(Card(text, "<measures>", [(0, k + 1, 1)])))
+    if not cards:
+        return circuit
+    net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
+    return elaborate(net, params=circuit.overrides, max_elements=circuit.max_elements, sample=circuit.sample,
+                     seed=circuit.seed)
+
+
+def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
+    """The ``save`` names in canonical spelling, each naming a node or an element of the circuit.
+
+    Raises
+    ------
+    NetdaeError
+        A malformed name, or one naming no node or element (checked once, not per row).
+    """
+    from ..signals import parse_signal
+
+    nodes = set(circuit.nodes) | {"0"}
+    names = {el.name for el in circuit.elements}
+    out = []
+    for text in save:
+        try:
+            sig = parse_signal(text)
+        except ValueError as exc:
+            raise NetdaeError(f"sweep: save: {exc}") from None
+        missing = [n for n in sig.nodes if n not in nodes and "#" not in n]
+        if sig.kind in ("i", "@") and sig.args[0] not in names:
+            missing = [sig.args[0]]
+        if missing:
+            what = "node" if sig.kind == "v" else "element"
+            raise NetdaeError(f"sweep: save: no {what} '{missing[0]}' in the circuit (in {text!r})")
+        out.append(sig.name)
+    return out
+
+
+def _executor(executor: cf.Executor | None, workers: int | None, rows: int) -> tuple[cf.Executor | None, int, str]:
+    """The executor to use (None: this process), its worker count, and its name for the stats."""
+    if executor is not None:
+        if not isinstance(executor, cf.Executor):
+            raise NetdaeError(f"sweep: executor must be a concurrent.futures.Executor, not {type(executor).__name__}")
+        count = getattr(executor, "_max_workers", None) or workers or os.cpu_count() or 1
+        return executor, int(count), type(executor).__name__
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise NetdaeError(f"sweep: workers must be a positive integer, got {workers!r}")
+    if workers is not None:
+        count = workers
+    elif hasattr(os, "sched_getaffinity"):
+        count = len(os.sched_getaffinity(0))
+    else:
+        count = os.cpu_count() or 1
+    count = min(count, max(rows // MIN_ROWS_PER_WORKER, 1))
+    if count <= 1:
+        return None, 1, "serial"
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    return cf.ProcessPoolExecutor(max_workers=count, mp_context=context), count, "ProcessPoolExecutor"
+
+
+def _chunks(rows: list, count: int) -> list[list]:
+    size = max(1, -(-len(rows) // (count * CHUNKS_PER_WORKER)))
+    return [rows[k:k + size] for k in range(0, len(rows), size)]
+
+
+def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable[float] | float] | None = None,
+          samples: int | None = None, seed: int | None = None, analyses: Iterable[str] | None = None,
+          save: Iterable[str] | None = None, measures: Iterable[str] | None = None,
+          executor: cf.Executor | None = None, workers: int | None = None,
+          reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
+          progress: Callable[[int, int], None] | None = None) -> SweepResult:
+    """Run a circuit over parameter steps and Monte Carlo samples.
+
+    Parameters
+    ----------
+    circuit : Circuit, str or path-like
+        An elaborated circuit (:func:`netdae.load`) or a netlist file or text.
+        Its ``.step`` cards are the sweep's axes.
+    params : mapping, optional
+        More axes: a top-level ``.param``, an element (full name) or ``temp``
+        to its values; a name a ``.step`` card steps replaces that card's values.
+        All combinations are run, the first axis outermost.
+    samples : int, optional
+        Monte Carlo samples per point: sample k draws the netlist's
+        ``gauss``/``agauss``/``unif``/``aunif``/``limit`` from the stream ``(seed, k)``.
+    seed : int, optional
+        The Monte Carlo seed (default the netlist's ``.options seed=``, else 1).
+    analyses : iterable of str, optional
+        Which of the netlist's analyses to run (``"op"``, ``"dc"``, ``"ac"``,
+        ``"tran"``; default all).
+    save : iterable of str, optional
+        Signals whose waveforms to keep for every row (``v(out)``, ``i(v1)``),
+        on each analysis's grid (a ``.tran``'s ``tstep`` grid, read from the
+        dense output). Default: none, only measures.
+    measures : iterable of str, optional
+        More ``.meas`` cards (``"tran ripple pp v(out) from=5m to=10m"``),
+        added to the netlist's.
+    executor : concurrent.futures.Executor, optional
+        Where to run the rows (e.g. a Dask ``Client(...).get_executor()``);
+        default: a local process pool over the available cores, or this
+        process when the sweep is small or ``workers=1``.
+    workers : int, optional
+        Local worker processes (default: the available cores).
+    reltol, abstol, vntol : float, optional
+        Tolerances for every row.
+    progress : callable, optional
+        ``progress(done, total)`` after each finished chunk of rows.
+
+    Returns
+    -------
+    SweepResult
+        A failed row is a row with its error message (``result.errors``),
+        never a lost sweep.
+
+    Raises
+    ------
+    NetlistError
+        Bad input in the netlist or in ``measures``.
+    NetdaeError
+        An unknown name to step, no values, a bad sample count or seed,
+        nothing to record (no measure and no ``save``), a netlist without
+        Monte Carlo functions given ``samples``.
+    KeyboardInterrupt
+        Ctrl-C: its ``result`` attribute holds the sweep with the rows
+        finished so far (the others marked not run).
+
+    Examples
+    --------
+    >>> import netdae
+    >>> res = netdae.sweep("netlists/voltage_divider.cir", params={"r2": [1e3, 2e3]},
+    ...                    measures=["dc vout find v(out) at=10"], analyses=["dc"], workers=1)
+    >>> res
+    <SweepResult 2 rows (r2 x2); measures: vout; 0 waveforms; 0 failed>
+    >>> res.measures["vout"].round(4).tolist()
+    [0.9091, 1.6667]
+    """
+    from ..analyses.runner import check_options
+    from ..netlist import load
+
+    t0 = time.perf_counter()
+    if not isinstance(circuit, Circuit):
+        circuit = load(circuit)
+    if circuit.netlist is None:
+        raise NetdaeError("sweep: the circuit must come from a netlist (netdae.load), not be built by hand")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+        raise NetdaeError(f"sweep: seed must be a non-negative integer, got {seed!r}")
+    if measures:
+        circuit = add_measures(circuit, measures)
+    options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
+    try:
+        check_options(circuit, **options)
+    except ValueError as exc:
+        raise NetdaeError(f"sweep: {exc}") from None
+    wanted = None
+    if analyses is not None:
+        wanted = tuple(str(a).lower() for a in analyses)
+        bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran")]
+        if bad:
+            raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac or tran)")
+    save = tuple(_check_save(circuit, save or ()))
+    if not save and not circuit.measures:
+        raise NetdaeError("sweep: nothing to record: give measures (.meas cards or measures=) or save= signals")
+    plan = make_plan(circuit, params, samples)
+    seed = circuit.seed if seed is None else seed
+    if samples is not None and circuit.draws == 0:
+        raise NetdaeError(f"sweep: {samples} Monte Carlo samples asked, but the netlist draws nothing: use gauss, "
+                          "agauss, unif, aunif or limit in a .param or an element value")
+    job = Job(circuit.netlist, dict(circuit.overrides), circuit.max_elements, seed, plan, wanted, save, options)
+    pool, count, name = _executor(executor, workers, len(plan.rows))
+    owned = executor is None and pool is not None
+    outcomes: dict[int, Outcome] = {}
+    try:
+        _run(job, plan, pool, count, outcomes, progress)
+    except KeyboardInterrupt as exc:
+        exc.result = _finish(job, circuit, outcomes, name, count, t0, interrupted=True)
+        raise
+    finally:
+        if owned:
+            pool.shutdown(wait=True, cancel_futures=True)
+    return _finish(job, circuit, outcomes, name, count, t0)
+
+
+def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: dict[int, Outcome],
+         progress: Callable[[int, int], None] | None) -> None:
+    rows = list(plan.rows)
+    total = len(rows)
+    if pool is None:
+        for chunk in _chunks(rows, 1):
+            for o in run_rows(job, chunk):
+                outcomes[o.row] = o
+            if progress is not None:
+                progress(len(outcomes), total)
+        return
+    if isinstance(pool, cf.ProcessPoolExecutor):  # the first row here: forked workers then start warm
+        for o in run_rows(job, rows[:1]):
+            outcomes[o.row] = o
+        rows = rows[1:]
+    futures = {pool.submit(run_rows, job, chunk) for chunk in _chunks(rows, count)}
+    try:
+        for fut in cf.as_completed(futures):
+            for o in fut.result():
+                outcomes[o.row] = o
+            if progress is not None:
+                progress(len(outcomes), total)
+    except BaseException:
+        for fut in futures:
+            fut.cancel()
+        raise
+
+
+def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str, count: int, t0: float,
+            interrupted: bool = False) -> SweepResult:
+    res = SweepResult.collect(job.plan, job.seed, outcomes, [m.name for m in circuit.measures], job.save)
+    res.stats = {"wall_time": time.perf_counter() - t0, "row_seconds": sum(o.seconds for o in outcomes.values()),
+                 "executor": name, "workers": count, "completed": len(outcomes)}
+    if interrupted:
+        res.notes.append(f"interrupted: {len(outcomes)} of {res.rows} rows finished")
+    if res.failed:
+        res.notes.append(f"{res.failed} of {res.rows} rows failed: " +
+                         "; ".join(f"{n} x {why}" for why, n in list(res.failures().items())[:3]))
+    return res

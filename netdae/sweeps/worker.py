@@ -1,0 +1,205 @@
+"""The work of a sweep: run rows, in this process or in a worker, and report each as an :class:`Outcome`.
+
+:func:`run_rows` is the only function an executor calls. It takes a
+:class:`Job` (everything a worker needs, picklable: the parsed netlist, not
+its text, so no worker parses again) and a list of rows, and never raises for
+a row that fails: the failure is the row's outcome.
+
+Waveforms are put on one grid shared by every row so that they stack into
+arrays over (row, point): the ``.tran`` card's ``tstep`` grid from
+``tstart`` to ``tstop`` read from the dense output (exact interpolation, not
+the steps each row happened to take), the ``.ac`` frequencies, the ``.dc``
+sweep points.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..circuit import TranAnalysis
+from ..errors import NetdaeError
+from .plan import Plan, Row
+
+__all__ = ["Job", "Outcome", "run_rows", "tran_grid"]
+
+
+@dataclass(frozen=True)
+class Job:
+    """Everything a worker needs to run rows of a sweep (picklable).
+
+    Parameters
+    ----------
+    netlist : Netlist
+        The parsed netlist (:func:`netdae.netlist.parse`), extra ``.meas`` cards included.
+    overrides : dict
+        Top-level parameter values given before the sweep (``netdae.load(params=)``).
+    max_elements : int or None
+    seed : int
+        The Monte Carlo seed.
+    plan : Plan
+    analyses : tuple of str or None
+        The analyses to run (``"op"``, ``"dc"``, ``"ac"``, ``"tran"``); None: every card.
+    save : tuple of str
+        Signals whose waveforms are kept.
+    options : dict
+        ``reltol``/``abstol``/``vntol`` given by the caller.
+    """
+
+    netlist: Any
+    overrides: dict
+    max_elements: int | None
+    seed: int
+    plan: Plan
+    analyses: tuple[str, ...] | None
+    save: tuple[str, ...]
+    options: dict = field(default_factory=dict)
+
+
+@dataclass
+class Outcome:
+    """What one row produced.
+
+    Attributes
+    ----------
+    row : int
+    measures : dict of str to float
+        NaN for a measurement that failed.
+    reasons : dict of str to str
+        Why a measurement failed (only failed ones).
+    waves : dict of (str, str) to ndarray
+        ``(analysis, signal)`` to values on the analysis's shared grid.
+    axes : dict of str to (str, ndarray)
+        ``analysis`` to its grid ``(name, values)``.
+    error : str or None
+        Why the row failed (an analysis that failed or refused), None when it ran.
+    seconds : float
+        Wall time of the row.
+    """
+
+    row: int
+    measures: dict[str, float] = field(default_factory=dict)
+    reasons: dict[str, str] = field(default_factory=dict)
+    waves: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
+    axes: dict[str, tuple[str, np.ndarray]] = field(default_factory=dict)
+    error: str | None = None
+    seconds: float = 0.0
+
+
+def tran_grid(card: TranAnalysis) -> np.ndarray:
+    """The output grid of a ``.tran`` card: ``tstart`` to ``tstop`` by ``tstep`` (``tstop`` included).
+
+    Examples
+    --------
+    >>> tran_grid(TranAnalysis(1e-3, 5e-3)).round(6).tolist()
+    [0.0, 0.001, 0.002, 0.003, 0.004, 0.005]
+    """
+    span = card.tstop - card.tstart
+    count = max(int(round(span / card.tstep)), 1)
+    return np.linspace(card.tstart, card.tstop, count + 1)
+
+
+def _save_names(job: Job, circuit) -> list[str] | None:
+    """What the runner keeps: the saved signals and what the measures read (None: nothing asked)."""
+    names = list(job.save)
+    if not names:
+        for spec in circuit.measures:
+            for probe in spec.probes():
+                if probe.signal.name not in names:
+                    names.append(probe.signal.name)
+    return names or None
+
+
+def run_row(job: Job, row: Row) -> Outcome:
+    """Elaborate and simulate one row; failures become the outcome's ``error``.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Passed on (the sweep keeps the rows finished before it).
+    """
+    from ..analyses.runner import analysis_name, run
+    from ..netlist.elaborate import elaborate
+
+    t0 = time.perf_counter()
+    out = Outcome(row.index)
+    try:
+        params, values = job.plan.overrides(row)
+        merged = {**job.overrides, **params}
+        circuit = elaborate(job.netlist, params=merged, values=values, max_elements=job.max_elements,
+                            sample=row.sample if row.sample is not None else 0, seed=job.seed)
+        circuit = dataclasses.replace(circuit, steps=[], analyses=[
+            a for a in circuit.analyses if job.analyses is None or analysis_name(a) in job.analyses])
+        results = run(circuit, save=_save_names(job, circuit), **job.options)
+    except NetdaeError as exc:
+        out.error = str(exc)
+        out.seconds = time.perf_counter() - t0
+        return out
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:  # numerics refusing a sample's values
+        out.error = f"{type(exc).__name__}: {exc}"
+        out.seconds = time.perf_counter() - t0
+        return out
+    problems = []
+    for res in results:
+        if not res.ok:
+            problems.append(f"{res.analysis}: {res.message}")
+        for m in res.measures:
+            out.measures[m.name] = float(m.value) if m.ok and m.value is not None else float("nan")
+            if not m.ok:
+                out.reasons[m.name] = m.reason or "failed"
+        _collect_waves(job, circuit, res, out)
+    out.error = "; ".join(problems) or None
+    out.seconds = time.perf_counter() - t0
+    return out
+
+
+def _collect_waves(job: Job, circuit, res, out: Outcome) -> None:
+    """The saved signals of ``res`` on the analysis's shared grid."""
+    if not job.save:
+        return
+    if res.analysis == "tran":
+        card = next(a for a in circuit.analyses if isinstance(a, TranAnalysis))
+        grid = tran_grid(card)
+        if res.dense is None:
+            return
+        grid = grid[grid <= res.t[-1] * (1 + 1e-12)] if res.t.size else grid[:0]
+        values = res.dense(grid) if grid.size else {}
+        axis = ("time", grid)
+    else:
+        values = res.signals
+        axis = (res.axis_name, res.axis) if res.axis_name is not None else ("point", np.zeros(1))
+    out.axes.setdefault(res.analysis, axis)
+    for name in job.save:
+        key = (res.analysis, name)
+        if key in out.waves:
+            continue
+        try:
+            out.waves[key] = np.asarray(res[name] if res.analysis != "tran" else values[_lookup(values, name)])
+        except KeyError:
+            continue
+
+
+def _lookup(values: dict, name: str) -> str:
+    from ..signals import canonical
+
+    if name in values:
+        return name
+    key = canonical(name)
+    if key in values:
+        return key
+    raise KeyError(name)
+
+
+def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
+    """Run ``rows`` of ``job`` one after another (what each executor task does).
+
+    Returns
+    -------
+    list of Outcome
+        One per row, in the order given.
+    """
+    return [run_row(job, row) for row in rows]

@@ -1,0 +1,280 @@
+"""Sweeps: .step cards, netdae.sweep on every executor, Monte Carlo statistics, failures, the CLI."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import multiprocessing
+import re
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.cli import main as cli
+from netdae.errors import NetdaeError, NetlistError
+from netdae.netlist import load
+
+DIVIDER = """divider
+.param r2=1k
+I1 0 a 1m
+R1 a b 1k
+R2 b 0 {r2}
+.dc I1 0 1m 0.5m
+.meas dc vb find v(b) at=1m
+.meas dc va find v(a) at=1m
+"""
+
+
+# -- .step cards -------------------------------------------------------------------------
+@pytest.mark.parametrize("card, target, values", [
+    (".step param r2 1k 3k 1k", "param", [1e3, 2e3, 3e3]),
+    (".step param r2 lin 1k 3k 1k", "param", [1e3, 2e3, 3e3]),
+    (".step lin param r2 3k 1k -1k", "param", [3e3, 2e3, 1e3]),
+    (".step dec param r2 1k 100k 1", "param", [1e3, 1e4, 1e5]),
+    (".step oct param r2 1k 4k 1", "param", [1e3, 2e3, 4e3]),
+    (".step param r2 list 1k 5k 2k", "param", [1e3, 5e3, 2e3]),
+    (".step r1 list 10 20", "element", [10.0, 20.0]),
+    (".step i1 1m 2m 0.5m", "element", [1e-3, 1.5e-3, 2e-3]),
+    (".step temp -40 60 50", "temp", [-40.0, 10.0, 60.0]),
+    (".step r2 list {2*500}", "element", [1e3]),  # no "param": the element R2, not the .param r2
+])
+def test_step_cards(card, target, values):
+    c = load(DIVIDER + card + "\n")
+    (step,) = c.steps
+    assert step.target == target
+    np.testing.assert_allclose(step.values, values, rtol=1e-12)
+
+
+@pytest.mark.parametrize("card, message, token", [
+    (".step param r2 1k 3k -1k", r"does not lead from 1000 to 3000", "1k"),
+    (".step param r2 1k 3k 0", r"does not lead", "1k"),
+    (".step param r2 list", r"at least one value", None),
+    (".step param r2 1k 3k", r"start stop increment \(2 values given\)", None),
+    (".step dec param r2 1k 10k 2.5", r"positive integer", "1k"),
+    (".step param nope 1 2 1", r"no top-level .param defines 'nope' \(defined: r2\)", "nope"),
+    (".step nope 1 2 1", r"no parameter or element 'nope'", "nope"),
+    (".step param temp 1 2 1", r"no top-level .param defines 'temp'", "temp"),
+    (".step temp -300 0 100", r"temperature .*absolute zero|below absolute zero|-273", "-300"),
+])
+def test_bad_step_cards_are_located(card, message, token):
+    text = DIVIDER + card + "\n"
+    with pytest.raises(NetlistError) as exc:
+        load(text)
+    err = exc.value
+    assert re.search(message, err.message), err.message
+    assert err.location.line == 9
+    line = text.split("\n")[8]
+    assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
+
+
+def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
+    c = load(DIVIDER + ".step param r2 list 1k 2k\n")
+    with pytest.raises(NetdaeError, match=r"netdae sweep FILE --out DIR"):
+        netdae.run(c)
+
+
+# -- results against closed forms ---------------------------------------------------------
+def test_nested_steps_match_the_divider_closed_form():
+    c = load(DIVIDER + ".step param r2 list 1k 3k\n.step r1 list 500 1k 2k\n")
+    res = netdae.sweep(c, workers=1)
+    assert res.rows == 6 and res.failed == 0
+    np.testing.assert_array_equal(res.params["r2"], [1e3, 1e3, 1e3, 3e3, 3e3, 3e3])  # first card outermost
+    np.testing.assert_array_equal(res.params["r1"], [500, 1e3, 2e3] * 2)
+    np.testing.assert_allclose(res.measures["vb"], 1e-3 * res.params["r2"], rtol=1e-9)
+    np.testing.assert_allclose(res.measures["va"], 1e-3 * (res.params["r1"] + res.params["r2"]), rtol=1e-9)
+
+
+def test_params_argument_adds_and_replaces_axes_and_temp_steps_the_temperature():
+    c = load(DIVIDER.replace("R1 a b 1k", "R1 a b 1k tc1=0.01") + ".step param r2 list 1k 3k\n")
+    res = netdae.sweep(c, params={"r2": [2e3], "temp": [27.0, 77.0]}, workers=1)
+    assert [a.name for a in res.plan.axes] == ["r2", "temp"]
+    r1 = 1e3 * (1 + 0.01 * (res.params["temp"] - 27.0))
+    np.testing.assert_allclose(res.measures["va"], 1e-3 * (r1 + 2e3), rtol=1e-9)
+
+
+MC = """current into a Monte Carlo resistor
+I1 0 a 1m
+R1 a 0 {agauss(1k, 50, 1)}
+.dc I1 0 1m 0.5m
+.meas dc va find v(a) at=1m
+"""
+
+
+def test_monte_carlo_rows_equal_independent_samples_and_have_the_expected_moments():
+    res = netdae.sweep(MC, samples=300, seed=11, workers=1)
+    va = res.measures["va"]
+    assert res.rows == 300 and res.failed == 0 and res.seed == 11
+    # v = 1 mA * R, R ~ N(1k, 50): mean 1 V, std 0.05 V
+    assert abs(va.mean() - 1.0) < 3 * 0.05 / np.sqrt(300)
+    assert abs(va.std(ddof=1) - 0.05) < 6 * 0.05 / np.sqrt(600)
+    c = load(MC)
+    for k in (0, 7, 299):
+        assert va[k] == pytest.approx(1e-3 * c.variant(sample=k, seed=11).element("r1").value, rel=1e-12)
+
+
+RC = """RC step
+.param c=1u
+V1 in 0 PULSE(0 1 0 1n 1n 1 2)
+R1 in out 1k
+C1 out 0 {c}
+.tran 50u 3m
+.meas tran t63 when v(out)=0.6321205588 rise=1
+"""
+
+
+def test_transient_sweep_measures_the_time_constant_and_keeps_waveforms_on_the_grid():
+    res = netdae.sweep(RC, params={"c": [0.5e-6, 1e-6]}, save=["v(out)"], workers=1, reltol=1e-6)
+    np.testing.assert_allclose(res.measures["t63"], 1e3 * res.params["c"], rtol=2e-4)
+    grid, w = res.waveform("v(out)")
+    assert grid.shape == (61,) and w.shape == (2, 61)
+    tau = 1e3 * res.params["c"][:, None]
+    np.testing.assert_allclose(w, 1 - np.exp(-np.maximum(grid - 1e-9, 0) / tau), atol=2e-4)
+    with pytest.raises(KeyError, match="saved: tran:v\\(out\\)"):
+        res.waveform("v(in)")
+
+
+def _bridge_mc():
+    return """bridge Monte Carlo
+.param rl={agauss(1k, 50, 1)} cf={agauss(100u, 5u, 1)}
+V1 ac 0 DC 12 SIN(0 12 50)
+RS ac acs 1
+D1 acs pos dm
+D2 0 pos dm
+D3 neg acs dm
+D4 neg 0 dm
+C1 pos neg {cf}
+RL pos neg {rl}
+.model dm d(is=7n rs=0.05 n=1.8 cjo=10p tt=100n)
+.tran 100u 40m
+.meas tran ripple pp v(pos,neg) from=20m to=40m
+"""
+
+
+@pytest.fixture(scope="module")
+def serial_bridge():
+    res = netdae.sweep(_bridge_mc(), samples=8, save=["v(pos,neg)"], workers=1)
+    assert res.failed == 0 and np.isfinite(res.waves[("tran", "v(pos,neg)")]).all()
+    assert np.unique(res.measures["ripple"]).size == 8
+    return res
+
+
+def test_process_pool_gives_the_serial_results_bit_for_bit(serial_bridge):
+    ctx = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(2, mp_context=ctx) as pool:
+        res = netdae.sweep(_bridge_mc(), samples=8, save=["v(pos,neg)"], executor=pool)
+    np.testing.assert_array_equal(res.measures["ripple"], serial_bridge.measures["ripple"])
+    np.testing.assert_array_equal(res.waves[("tran", "v(pos,neg)")], serial_bridge.waves[("tran", "v(pos,neg)")])
+    forked = netdae.sweep(_bridge_mc(), samples=8, save=["v(pos,neg)"], workers=2)
+    assert forked.stats["executor"] == "ProcessPoolExecutor"
+    np.testing.assert_array_equal(forked.measures["ripple"], serial_bridge.measures["ripple"])
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_gives_the_serial_results_bit_for_bit(serial_bridge):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) \
+            as cluster, distributed.Client(cluster) as client:
+        res = netdae.sweep(_bridge_mc(), samples=8, save=["v(pos,neg)"], executor=client.get_executor())
+    np.testing.assert_array_equal(res.measures["ripple"], serial_bridge.measures["ripple"])
+    np.testing.assert_array_equal(res.waves[("tran", "v(pos,neg)")], serial_bridge.waves[("tran", "v(pos,neg)")])
+
+
+# -- failures, interruption, bad input ----------------------------------------------------------
+def test_a_measure_that_fails_says_why_in_every_row():
+    text = DIVIDER + ".meas dc never when v(b)=100\n.step param r2 list 1k -1k 2k\n"
+    res = netdae.sweep(text, workers=1)
+    assert res.failed == 0
+    assert np.isnan(res.measures["never"]).all() and all(res.reasons["never"])
+    np.testing.assert_allclose(res.measures["vb"], [1.0, -1.0, 2.0], rtol=1e-9)
+
+
+def test_a_row_that_cannot_run_does_not_lose_the_sweep():
+    text = "zero\n.param r=1k\nV1 a 0 1\nR1 a b {r}\nR2 b 0 1k\n.dc V1 0 1 0.5\n.meas dc ib find i(v1) at=1\n"
+    res = netdae.sweep(text, params={"r": [2e3, 0.0, 1e3]}, workers=1)
+    assert res.failed == 1 and "zero resistance" in res.errors[1] and res.errors[0] is None
+    np.testing.assert_allclose(res.measures["ib"][[0, 2]], [-1 / 3e3, -1 / 2e3], rtol=1e-9)
+    assert np.isnan(res.measures["ib"][1]) and "zero resistance" in res.reasons["ib"][1]
+    assert res.failures() == {res.errors[1]: 1} and "1 of 3 rows failed" in res.notes[0]
+    assert res.table()[1]["error"] == res.errors[1]
+
+
+def test_interrupt_keeps_the_finished_rows():
+    calls = []
+
+    def progress(done, total):
+        calls.append(done)
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt) as exc:
+        netdae.sweep(MC, samples=40, workers=1, progress=progress)
+    res = exc.value.result
+    assert res.stats["completed"] >= 2 and res.failed == 40 - res.stats["completed"]
+    assert np.isfinite(res.measures["va"][:2]).all()
+    assert res.errors[-1].startswith("not run")
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"samples": 5}, r"draws nothing"),
+    ({"params": {"nope": [1]}}, r"'nope' is neither a top-level .param"),
+    ({"params": {"r2": []}}, r"no values"),
+    ({"params": {"r2": ["x"]}}, r"must be numbers"),
+    ({"seed": -1}, r"seed must be a non-negative integer"),
+    ({"save": ["v(zz)"]}, r"no node 'zz'"),
+    ({"analyses": ["noise"]}, r"unknown analysis 'noise'"),
+    ({"workers": 0}, r"workers must be a positive integer"),
+    ({"params": {"r1": [1e3]}, "samples": 0}, r"samples must be a positive integer"),
+])
+def test_bad_sweep_arguments(kwargs, message):
+    with pytest.raises(NetdaeError, match=message):
+        netdae.sweep(DIVIDER, **kwargs)
+
+
+def test_nothing_to_record_and_bad_measures():
+    with pytest.raises(NetdaeError, match="nothing to record"):
+        netdae.sweep("t\nV1 a 0 1\nR1 a 0 1k\n.op\n")
+    with pytest.raises(NetlistError, match="<measures>:1"):
+        netdae.sweep(DIVIDER, measures=["dc x find v(nowhere) at=1m"])
+
+
+def test_tables_and_arrays():
+    res = netdae.sweep(RC, params={"c": [1e-6, 2e-6]}, save=["v(out)"], workers=1)
+    assert repr(res) == "<SweepResult 2 rows (c x2); measures: t63; 1 waveforms; 0 failed>"
+    frame = res.to_pandas()
+    assert list(frame.columns) == ["c", "t63", "error"] and len(frame) == 2
+    ds = res.to_xarray()
+    assert ds["v(out)"].shape == (2, 61) and list(ds["c"].values) == [1e-6, 2e-6]
+    doc = res.to_dict()
+    assert doc["summary"]["t63"]["count"] == 2 and json.dumps(doc)
+
+
+# -- command line ----------------------------------------------------------------------------------
+def test_cli_sweep_writes_the_table_json_and_plot(tmp_path, capsys):
+    path = tmp_path / "mc.cir"
+    path.write_text(MC)
+    status = cli(["sweep", str(path), "--mc", "20", "--seed", "3", "--workers", "1", "--out", str(tmp_path / "o"),
+                  "--step", "i1=1m,2m", "--save", "v(a)", "--waveforms"])
+    assert status == 0
+    out = capsys.readouterr().out
+    assert "40 rows" in out and re.search(r"^va\s+40\s", out, re.M)
+    lines = (tmp_path / "o" / "measures.csv").read_text().splitlines()
+    assert lines[0] == "row,i1,sample,va,error" and len(lines) == 41
+    doc = json.loads((tmp_path / "o" / "measures.json").read_text())
+    assert doc["seed"] == 3 and doc["summary"]["va"]["count"] == 40
+    assert (tmp_path / "o" / "sweep.png").stat().st_size > 0
+    data = np.load(tmp_path / "o" / "waveforms.npz")
+    assert data["dc:v(a)"].shape == (40, 3)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--step", "r1"], "expected NAME=SPEC"),
+    (["--step", "r1=1:2:-1"], "does not lead"),
+    (["--mc", "0"], "positive integer"),
+    (["--seed", "-2"], "non-negative integer"),
+])
+def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):
+    path = tmp_path / "d.cir"
+    path.write_text(DIVIDER)
+    assert cli(["sweep", str(path), "--out", str(tmp_path / "o"), *argv]) == 2
+    assert message in capsys.readouterr().err
