@@ -278,3 +278,38 @@ def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):
     path.write_text(DIVIDER)
     assert cli(["sweep", str(path), "--out", str(tmp_path / "o"), *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+RLC_MC = """series RLC band-pass, Monte Carlo
+.param r={agauss(50, 2.5, 1)} l={agauss(10m, 0.5m, 1)} c={agauss(1u, 0.05u, 1)}
+V1 in 0 DC 0 AC 1
+R1 in a {r}
+L1 a b {l}
+C1 b out {c}
+R2 out 0 50
+.ac dec 50 100 100k
+.meas ac peak max vm(out)
+.meas ac fpk max vm(out)
+.meas ac fhi when vm(out)=0.3535533906 fall=1
+"""
+
+
+def test_linear_ac_rows_solved_together_equal_the_ordinary_path_and_the_closed_form(monkeypatch):
+    import netdae.sweeps.linear as linear
+
+    ordinary = []
+    real = linear.run_row
+    monkeypatch.setattr(linear, "run_row", lambda job, row: ordinary.append(row.index) or real(job, row))
+    res = netdae.sweep(RLC_MC, samples=12, save=["v(out)"], workers=1)
+    assert res.failed == 0
+    assert ordinary == [0, 3, 6, 9]  # the first row of each chunk; the others solved together
+    c = load(RLC_MC)
+    freqs, w = res.waveform("v(out)")
+    for k in (0, 5, 11):
+        one = netdae.run(c.variant(sample=k))[0]
+        np.testing.assert_allclose(w[k], one["v(out)"], rtol=1e-11, atol=1e-15)
+        assert res.measures["fhi"][k] == pytest.approx(one.measures[2].value, rel=1e-12)
+        el = {e.name: e.value for e in c.variant(sample=k).elements}
+        s = 2j * np.pi * freqs
+        closed = el["r2"] / (el["r1"] + el["r2"] + s * el["l1"] + 1 / (s * el["c1"]))
+        np.testing.assert_allclose(w[k], closed, rtol=1e-9)

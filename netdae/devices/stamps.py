@@ -70,11 +70,21 @@ class Triplets:
             return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
         return np.concatenate(self._rows), np.concatenate(self._cols)
 
+    def values(self) -> np.ndarray:
+        """All values added so far, in the order of :meth:`coordinates`."""
+        return np.concatenate(self._vals) if self._vals else np.empty(0)
+
+    def dense(self, n: int, m: int | None = None) -> np.ndarray:
+        """The summed matrix as a dense array, shape (n, m) (m defaults to n); for small systems."""
+        out = np.zeros((n, n if m is None else m))
+        rows, cols = self.coordinates()
+        np.add.at(out, (rows, cols), self.values())
+        return out
+
     def matrix(self, n: int, m: int | None = None) -> sp.csc_matrix:
         """The summed matrix, shape (n, m) (m defaults to n)."""
         m = n if m is None else m
         rows, cols = self.coordinates()
-        vals = np.concatenate(self._vals) if self._vals else np.empty(0)
-        mat = sp.coo_matrix((vals, (rows, cols)), shape=(n, m)).tocsc()
+        mat = sp.coo_matrix((self.values(), (rows, cols)), shape=(n, m)).tocsc()
         mat.sum_duplicates()
         return mat

@@ -20,10 +20,11 @@ from .layout import Layout
 from .sources import MODE_DC, MODE_TRAN, SourceVector
 from .system import MnaSystem
 
-__all__ = ["assemble"]
+__all__ = ["assemble", "group_by_kind"]
 
 
-def _group(circuit: Circuit) -> dict[str, list[Element]]:
+def group_by_kind(circuit: Circuit) -> dict[str, list[Element]]:
+    """The circuit's elements by kind, in netlist order."""
     by_kind: dict[str, list[Element]] = defaultdict(list)
     for el in circuit.elements:
         by_kind[el.kind].append(el)
@@ -75,7 +76,7 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
     """
     if mode not in (MODE_DC, MODE_TRAN):
         raise ValueError(f"mode must be 'dc' or 'tran', not {mode!r}")
-    by_kind = _group(circuit)
+    by_kind = group_by_kind(circuit)
     families = []
     for kind, els in by_kind.items():
         if kind in LINEAR_KINDS:

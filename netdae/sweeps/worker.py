@@ -25,7 +25,7 @@ from ..circuit import TranAnalysis
 from ..errors import NetdaeError
 from .plan import Plan, Row
 
-__all__ = ["Job", "Outcome", "run_rows", "tran_grid"]
+__all__ = ["Job", "Outcome", "run_rows", "run_row", "elaborate_row", "record", "tran_grid"]
 
 
 @dataclass(frozen=True)
@@ -114,6 +114,25 @@ def _save_names(job: Job, circuit) -> list[str] | None:
     return names or None
 
 
+def elaborate_row(job: Job, row: Row):
+    """The circuit of ``row``: its parameter and element values, its Monte Carlo sample, the job's analyses.
+
+    Raises
+    ------
+    NetlistError
+        What the row's values make wrong (a zero resistance ...).
+    """
+    from ..analyses.runner import analysis_name
+    from ..netlist.elaborate import elaborate
+
+    params, values = job.plan.overrides(row)
+    circuit = elaborate(job.netlist, params={**job.overrides, **params}, values=values,
+                        max_elements=job.max_elements, sample=row.sample if row.sample is not None else 0,
+                        seed=job.seed)
+    return dataclasses.replace(circuit, steps=[], analyses=[
+        a for a in circuit.analyses if job.analyses is None or analysis_name(a) in job.analyses])
+
+
 def run_row(job: Job, row: Row) -> Outcome:
     """Elaborate and simulate one row; failures become the outcome's ``error``.
 
@@ -122,27 +141,25 @@ def run_row(job: Job, row: Row) -> Outcome:
     KeyboardInterrupt
         Passed on (the sweep keeps the rows finished before it).
     """
-    from ..analyses.runner import analysis_name, run
-    from ..netlist.elaborate import elaborate
+    from ..analyses.runner import run
 
     t0 = time.perf_counter()
     out = Outcome(row.index)
     try:
-        params, values = job.plan.overrides(row)
-        merged = {**job.overrides, **params}
-        circuit = elaborate(job.netlist, params=merged, values=values, max_elements=job.max_elements,
-                            sample=row.sample if row.sample is not None else 0, seed=job.seed)
-        circuit = dataclasses.replace(circuit, steps=[], analyses=[
-            a for a in circuit.analyses if job.analyses is None or analysis_name(a) in job.analyses])
+        circuit = elaborate_row(job, row)
         results = run(circuit, save=_save_names(job, circuit), **job.options)
     except NetdaeError as exc:
         out.error = str(exc)
-        out.seconds = time.perf_counter() - t0
-        return out
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:  # numerics refusing a sample's values
         out.error = f"{type(exc).__name__}: {exc}"
-        out.seconds = time.perf_counter() - t0
-        return out
+    else:
+        record(job, circuit, results, out)
+    out.seconds = time.perf_counter() - t0
+    return out
+
+
+def record(job: Job, circuit, results, out: Outcome) -> None:
+    """Put the measures, the failures and the saved waveforms of ``results`` into ``out``."""
     problems = []
     for res in results:
         if not res.ok:
@@ -153,8 +170,6 @@ def run_row(job: Job, row: Row) -> Outcome:
                 out.reasons[m.name] = m.reason or "failed"
         _collect_waves(job, circuit, res, out)
     out.error = "; ".join(problems) or None
-    out.seconds = time.perf_counter() - t0
-    return out
 
 
 def _collect_waves(job: Job, circuit, res, out: Outcome) -> None:
@@ -195,11 +210,17 @@ def _lookup(values: dict, name: str) -> str:
 
 
 def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
-    """Run ``rows`` of ``job`` one after another (what each executor task does).
+    """Run ``rows`` of ``job`` (what each executor task does): together when they are AC rows of a
+    linear circuit (:mod:`netdae.sweeps.linear`), else one after another.
 
     Returns
     -------
     list of Outcome
         One per row, in the order given.
     """
+    from .linear import ac_batch
+
+    batched = ac_batch(job, rows)
+    if batched is not None:
+        return batched
     return [run_row(job, row) for row in rows]
