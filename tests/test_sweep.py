@@ -68,10 +68,14 @@ def test_bad_step_cards_are_located(card, message, token):
     assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
 
 
-def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
-    c = load(DIVIDER + ".step param r2 list 1k 2k\n")
+def test_run_and_compare_refuse_a_stepped_netlist_and_name_the_sweep(tmp_path, capsys):
+    text = DIVIDER + ".step param r2 list 1k 2k\n"
     with pytest.raises(NetdaeError, match=r"netdae sweep FILE --out DIR"):
-        netdae.run(c)
+        netdae.run(load(text))
+    path = tmp_path / "s.cir"
+    path.write_text(text)
+    assert cli(["compare", str(path)]) == 2
+    assert re.search(r"s\.cir:9:13: the netlist steps r2 \(\.step\)", capsys.readouterr().err)
 
 
 # -- results against closed forms ---------------------------------------------------------

@@ -272,7 +272,7 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float) -> tuple[float, f
         a, b = xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]
         if b > a:
             opt = minimize_scalar(lambda t: -sign * trace.at([t])[0], bounds=(a, b), method="bounded",
-                                  options={"xatol": 1e-14 * max(abs(a), abs(b), b - a)})
+                                  options={"xatol": 1e-9 * (b - a)})
             value = -sign * float(opt.fun)
             if sign * value > sign * best:
                 best, where = value, float(opt.x)

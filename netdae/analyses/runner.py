@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from ..results import Result
 
 __all__ = ["run", "simulate", "measure", "analysis_name", "unused_options", "option_problem", "check_options",
-           "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO"]
+           "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO", "refuse_steps"]
 
 #: Absolute zero in degrees Celsius: the lowest ``temp``/``tnom``.
 ABSOLUTE_ZERO = -273.15
@@ -154,14 +154,14 @@ def _circuit(circuit: Circuit | str | os.PathLike) -> Circuit:
     return load(circuit)
 
 
-def _refuse_steps(circuit: Circuit) -> None:
+def refuse_steps(circuit: Circuit) -> None:
     """A netlist with ``.step`` cards is a sweep: say how to run it."""
     if circuit.steps:
         first = circuit.steps[0]
         where = f"{first.location}: " if first.location else ""
         names = ", ".join(s.name for s in circuit.steps)
         raise NetdaeError(f"{where}the netlist steps {names} (.step): a sweep, which 'netdae sweep FILE --out DIR' "
-                          "or netdae.sweep() runs; run and simulate run one point")
+                          "or netdae.sweep() runs; run, simulate and compare run one point")
 
 
 def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
@@ -213,7 +213,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     (['v(out)'], 3.333333, 'v1')
     """
     circuit = _circuit(circuit)
-    _refuse_steps(circuit)
+    refuse_steps(circuit)
     options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
     check_options(circuit, **options)
     if not circuit.analyses:
@@ -361,7 +361,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     (['v(out)'], 0.005)
     """
     circuit = _circuit(circuit)
-    _refuse_steps(circuit)
+    refuse_steps(circuit)
     if initial not in ("consistent", "ngspice"):
         raise ValueError(f"initial must be 'consistent' or 'ngspice', not {initial!r}")
     check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)

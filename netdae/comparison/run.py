@@ -44,6 +44,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..analyses.runner import refuse_steps
 from ..circuit import Circuit, TranAnalysis
 from ..errors import NetdaeError, NgspiceError
 from ..results import Result
@@ -302,6 +303,8 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     from ..analyses.runner import analysis_name
 
     circuit, text, source, workdir = _read(netlist)
+
+    refuse_steps(circuit)
     if not circuit.analyses:
         raise NetdaeError(f"{source}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to compare")
     wanted_kinds = set(ANALYSES) if analyses is None else {a.lower().lstrip(".") for a in analyses}
