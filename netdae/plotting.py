@@ -332,12 +332,27 @@ def plot_sweep(result, *, title: str = ""):
     measures = {k: v[np.isfinite(v)] for k, v in result.measures.items() if np.isfinite(v).any()}
     if result.plan.samples is not None and measures:
         fig = Figure(figsize=(9, 2.6 * len(measures) + 0.6), layout="constrained")
-        for k, (name, values) in enumerate(measures.items()):
+        # one histogram per point of the steps (all rows with the same axis values), overlaid
+        points: dict[tuple, list[int]] = {}
+        for row in result.plan.rows:
+            points.setdefault(row.point, []).append(row.index)
+        styles = _styles(min(len(points), MAX_CURVES))
+        for k, name in enumerate(measures):
             ax = fig.add_subplot(len(measures), 1, k + 1)
-            ax.hist(values, bins=max(10, min(60, int(np.sqrt(values.size)) * 2)), color="tab:blue", alpha=0.8)
-            mean, std = float(values.mean()), float(values.std(ddof=1)) if values.size > 1 else 0.0
-            ax.set_title(f"{name}: mean {mean:.5g}, std {std:.3g} ({values.size} samples)", fontsize="medium")
+            column = result.measures[name]
+            ok = column[np.isfinite(column)]
+            bins = np.histogram_bin_edges(ok, bins=max(10, min(60, int(np.sqrt(ok.size / len(points))) * 2)))
+            for (point, rows), style in zip(list(points.items())[:MAX_CURVES], styles):
+                values = column[rows]
+                values = values[np.isfinite(values)]
+                label = ", ".join(f"{a.name}={v:.4g}" for a, v in zip(result.plan.axes, point)) or None
+                ax.hist(values, bins=bins, color=style["color"], alpha=0.8 if len(points) == 1 else 0.5,
+                        label=label)
+            mean, std = float(ok.mean()), float(ok.std(ddof=1)) if ok.size > 1 else 0.0
+            over = " over all points" if len(points) > 1 else ""
+            ax.set_title(f"{name}: mean {mean:.5g}, std {std:.3g}{over} ({ok.size} samples)", fontsize="medium")
             ax.set_ylabel("count")
+            _legend(ax)
     elif result.waves:
         fig = Figure(figsize=(9, 2.6 * len(result.waves) + 0.6), layout="constrained")
         labels = [", ".join(f"{a.name}={row.point[i]:.4g}" for i, a in enumerate(result.plan.axes))

@@ -204,19 +204,17 @@ def test_a_row_that_cannot_run_does_not_lose_the_sweep():
 
 
 def test_interrupt_keeps_the_finished_rows():
-    calls = []
+    from netdae.sweeps.api import SERIAL_CHUNK
 
     def progress(done, total):
-        calls.append(done)
-        if done >= 2:
-            raise KeyboardInterrupt
+        raise KeyboardInterrupt  # Ctrl-C after the first chunk
 
     with pytest.raises(KeyboardInterrupt) as exc:
-        netdae.sweep(MC, samples=40, workers=1, progress=progress)
+        netdae.sweep(MC, samples=SERIAL_CHUNK + 5, workers=1, progress=progress)
     res = exc.value.result
-    assert res.stats["completed"] >= 2 and res.failed == 40 - res.stats["completed"]
-    assert np.isfinite(res.measures["va"][:2]).all()
-    assert res.errors[-1].startswith("not run")
+    assert res.stats["completed"] == SERIAL_CHUNK and res.failed == 5
+    assert np.isfinite(res.measures["va"][:SERIAL_CHUNK]).all() and np.isnan(res.measures["va"][-5:]).all()
+    assert res.errors[-1].startswith("not run") and "interrupted" in res.notes[0]
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -306,7 +304,7 @@ def test_linear_ac_rows_solved_together_equal_the_ordinary_path_and_the_closed_f
     monkeypatch.setattr(linear, "run_row", lambda job, row: ordinary.append(row.index) or real(job, row))
     res = netdae.sweep(RLC_MC, samples=12, save=["v(out)"], workers=1)
     assert res.failed == 0
-    assert ordinary == [0, 3, 6, 9]  # the first row of each chunk; the others solved together
+    assert ordinary == [0]  # the first row of the chunk; the others solved together
     c = load(RLC_MC)
     freqs, w = res.waveform("v(out)")
     for k in (0, 5, 11):
@@ -317,3 +315,15 @@ def test_linear_ac_rows_solved_together_equal_the_ordinary_path_and_the_closed_f
         s = 2j * np.pi * freqs
         closed = el["r2"] / (el["r1"] + el["r2"] + s * el["l1"] + 1 / (s * el["c1"]))
         np.testing.assert_allclose(w[k], closed, rtol=1e-9)
+
+
+def test_plots_draw_a_histogram_per_point_and_a_curve_per_row():
+    from netdae.plotting import plot_sweep
+
+    mc = netdae.sweep(MC, samples=10, params={"i1": [1e-3, 2e-3]}, workers=1)
+    ax = plot_sweep(mc).axes[0]
+    assert ax.get_legend_handles_labels()[1] == ["i1=0.001", "i1=0.002"]
+    assert sum(p.get_height() for p in ax.patches) == 20
+    steps = netdae.sweep(RC, params={"c": [1e-6, 2e-6, 3e-6]}, save=["v(out)"], workers=1)
+    ax = plot_sweep(steps).axes[0]
+    assert [ln.get_label() for ln in ax.get_lines()] == ["c=1e-06", "c=2e-06", "c=3e-06"]

@@ -195,7 +195,8 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     ValueError
         A tolerance out of range.
     NetdaeError
-        No analysis card; a ``save`` name the circuit does not have.
+        No analysis card; a ``save`` name the circuit does not have; ``.step``
+        cards (a sweep: :func:`netdae.sweep`).
     CircuitError, ConvergenceError
         A circuit that cannot be simulated, a failed operating point; a
         transient that fails mid-way returns a Result with a failure status

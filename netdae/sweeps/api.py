@@ -42,6 +42,8 @@ __all__ = ["sweep", "add_measures", "CHUNKS_PER_WORKER"]
 CHUNKS_PER_WORKER = 4
 #: Below this many rows per worker, the sweep runs in this process (starting workers costs more).
 MIN_ROWS_PER_WORKER = 4
+#: Rows per chunk in this process: progress is reported per chunk, linear AC rows are solved per chunk.
+SERIAL_CHUNK = 100
 
 
 def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
@@ -247,7 +249,7 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
     rows = list(plan.rows)
     total = len(rows)
     if pool is None:
-        for chunk in _chunks(rows, 1):
+        for chunk in [rows[k:k + SERIAL_CHUNK] for k in range(0, total, SERIAL_CHUNK)]:
             for o in run_rows(job, chunk):
                 outcomes[o.row] = o
             if progress is not None:
