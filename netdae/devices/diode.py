@@ -125,7 +125,9 @@ def breakdown_voltage(bv, ibv, isat, nbv_vt, vt, reltol):
     x = np.where(iterate, bv - nbv_vt * np.log(1.0 + ibv / isat), bv)
     active = iterate.copy()
     for _ in range(BREAKDOWN_ITERATIONS):
-        x_new = bv - nbv_vt * np.log(ibv / isat + 1.0 - x / vt)
+        # only the iterating entries: on the others x = BV may exceed vt (ibv/isat + 1) (their log would be
+        # of a negative number, and its value is discarded anyway)
+        x_new = bv - nbv_vt * np.log(np.where(active, ibv / isat + 1.0 - x / vt, 1.0))
         x = np.where(active, x_new, x)
         xcbv = isat * (np.exp((bv - x) / nbv_vt) - 1.0 + x / vt)
         active &= ~(np.abs(xcbv - ibv) <= tol)
