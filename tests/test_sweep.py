@@ -327,3 +327,15 @@ def test_plots_draw_a_histogram_per_point_and_a_curve_per_row():
     steps = netdae.sweep(RC, params={"c": [1e-6, 2e-6, 3e-6]}, save=["v(out)"], workers=1)
     ax = plot_sweep(steps).axes[0]
     assert [ln.get_label() for ln in ax.get_lines()] == ["c=1e-06", "c=2e-06", "c=3e-06"]
+
+
+def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("distributed")
+    import netdae.cli.sweep as cli_sweep
+
+    monkeypatch.setattr(cli_sweep, "SCHEDULER_TIMEOUT", 1.0)
+    path = tmp_path / "mc.cir"
+    path.write_text(MC)
+    assert cli(["sweep", str(path), "--mc", "3", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 2
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in capsys.readouterr().err
+    assert not (tmp_path / "measures.csv").exists()

@@ -30,6 +30,8 @@ __all__ = ["add_parser", "main", "parse_step"]
 
 LOG = logging.getLogger("netdae")
 EXIT_INTERRUPTED = 130
+#: Seconds to wait for a Dask scheduler before saying it cannot be reached.
+SCHEDULER_TIMEOUT = 10.0
 
 
 def _number(text: str) -> float:
@@ -140,7 +142,7 @@ def _dask_executor(address: str):
         raise NetdaeError("--scheduler needs Dask's 'distributed', which is not installed: "
                           "pip install 'netdae[dask]'") from None
     try:
-        client = Client(address, timeout="10s")
+        client = Client(address, timeout=f"{SCHEDULER_TIMEOUT}s")
     except (OSError, TimeoutError) as exc:
         raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
     return client, client.get_executor()
