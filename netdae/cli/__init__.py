@@ -200,6 +200,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         LOG.error("interrupted")
         return 130
+    except MemoryError:  # an ordinary limit of the machine, not a bug
+        LOG.error("out of memory (hint: save fewer signals with --save or .save, simulate a shorter interval, "
+                  "or split the circuit)")
+        return EXIT_ERROR
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
         if os.environ.get("NETDAE_DEBUG"):
             raise

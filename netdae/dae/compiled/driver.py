@@ -52,6 +52,17 @@ FIRST_CHUNK = 64
 BEHAVIOURAL_SLOT = 3
 
 
+def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
+    """The output buffers with room for ``cap`` points (the old ones intact when it fails).
+
+    Raises
+    ------
+    MemoryError
+        When the memory for the larger buffers cannot be had.
+    """
+    return np.resize(buf_t, cap), np.resize(buf_k, cap), np.resize(buf_x, (cap, buf_x.shape[1]))
+
+
 def _family_slot(family) -> int | None:
     """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, behavioural), or None."""
     from ...devices.behavioral import BehaviouralFamily
@@ -247,6 +258,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     status = L.RUNNING
     interrupted = None
     failure = None
+    out_of_memory = None  # bytes the output buffers could not grow to
     try:
         while True:
             tic = time.perf_counter()
@@ -284,10 +296,13 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 rl_given[:] = x_right
                 I[L.I_RL_READY] = 1
             elif status == L.BUFFER_FULL:
+                try:
+                    grown = _grow(buf_t, buf_k, buf_x, 2 * cap)
+                except MemoryError:  # keep what was computed; say how to need less
+                    out_of_memory = (2 * cap) * (save_idx.size + 2) * 8
+                    break
                 cap *= 2
-                buf_t = np.resize(buf_t, cap)
-                buf_k = np.resize(buf_k, cap)
-                buf_x = np.resize(buf_x, (cap, save_idx.size))
+                buf_t, buf_k, buf_x = grown
             elif status == L.CHUNK_DONE:
                 spent = time.perf_counter() - tic
                 chunk = int(min(max(chunk * PROGRESS_INTERVAL / max(spent, 1e-6), 16), 1 << 22))
@@ -303,9 +318,10 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         interrupted = exc
 
     m = int(I[L.I_M])
-    t = buf_t[:m].copy()
-    x = buf_x[:m].copy()
-    k = buf_k[:m].copy()
+    if out_of_memory is None:
+        t, x, k = buf_t[:m].copy(), buf_x[:m].copy(), buf_k[:m].copy()
+    else:  # no second copy of what fills the memory
+        t, x, k = buf_t[:m], buf_x[:m], buf_k[:m]
     names = tuple(system.names[i] for i in save_idx)
     stats = {
         "steps": int(I[L.I_STEPS]), "rejected": int(I[L.I_REJECTED]), "newton_iterations": int(I[L.I_NEWTON]),
@@ -327,6 +343,12 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         message = (f"BDF failed: {failure['what']} at t={failure['t']:.9g}, h={failure['h']:.3g}"
                    + (f", worst unknown {failure['worst']}" if failure["worst"] else "")
                    + f" (hint: {failure['hint']})")
+        code = STATUS_FAILED
+    elif out_of_memory is not None:
+        message = (f"stopped at t={F[L.F_T]:.9g} before t_bound={t_bound:.9g}: not enough memory to keep more "
+                   f"output ({m:,} points of {save_idx.size:,} unknowns kept; the next buffer needs "
+                   f"{out_of_memory / 2**20:,.0f} MiB) (hint: save fewer signals (--save, .save) or simulate a "
+                   "shorter interval)")
         code = STATUS_FAILED
     else:
         message = f"stopped at t={F[L.F_T]:.9g} before t_bound={t_bound:.9g}"
