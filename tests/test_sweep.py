@@ -68,14 +68,33 @@ def test_bad_step_cards_are_located(card, message, token):
     assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
 
 
-def test_run_and_compare_refuse_a_stepped_netlist_and_name_the_sweep(tmp_path, capsys):
-    text = DIVIDER + ".step param r2 list 1k 2k\n"
+def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
     with pytest.raises(NetdaeError, match=r"netdae sweep FILE --out DIR"):
-        netdae.run(load(text))
+        netdae.run(load(DIVIDER + ".step param r2 list 1k 2k\n"))
+
+
+@pytest.mark.ngspice
+def test_compare_runs_each_point_in_both_simulators(tmp_path, capsys):
     path = tmp_path / "s.cir"
-    path.write_text(text)
-    assert cli(["compare", str(path)]) == 2
-    assert re.search(r"s\.cir:9:13: the netlist steps r2 \(\.step\)", capsys.readouterr().err)
+    path.write_text(DIVIDER.replace("R2 b 0 {r2}", "R2 b 0 {r2} tc1=0.01") + ".step param r2 list 1k 3k\n"
+                    ".step temp 27 77 50\n.end\n")
+    cmp = netdae.compare(str(path))
+    assert cmp.passed and [p.point for p in cmp.points] == [
+        {"r2": 1e3, "temp": 27.0}, {"r2": 1e3, "temp": 77.0}, {"r2": 3e3, "temp": 27.0}, {"r2": 3e3, "temp": 77.0}]
+    for p in cmp.points:  # the point's own values reached both simulators
+        vb = next(m for m in p.measures if m.name == "vb")
+        expected = 1e-3 * p.point["r2"] * (1 + 0.01 * (p.point["temp"] - 27))
+        assert vb.netdae.value == pytest.approx(expected, rel=1e-9)
+        assert vb.ngspice.value == pytest.approx(expected, rel=1e-6)
+    assert cli(["compare", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "on 4 points of the .step cards: PASS" in out and "== point r2=3000, temp=77" in out
+    path.write_text(DIVIDER + ".step r1 list 1k 2k\n")
+    with pytest.raises(NetdaeError, match=r"steps an element"):
+        netdae.compare(str(path))
+    path.write_text(MC)
+    with pytest.raises(NetdaeError, match=r"draws 1 Monte Carlo value"):
+        netdae.compare(str(path))
 
 
 # -- results against closed forms ---------------------------------------------------------

@@ -69,7 +69,11 @@ def main(args) -> int:
     if args.plot:
         from ..comparison.plot import plot_comparison
 
-        written = str(plot_comparison(comparison, args.plot))
+        drawn = comparison.points[0] if comparison.points else comparison
+        if comparison.points:
+            LOG.info("note: --plot draws the first point of the .step cards (%s)",
+                     ", ".join(f"{k}={v:g}" for k, v in drawn.point.items()))
+        written = str(plot_comparison(drawn, args.plot))
     if args.json:
         doc = comparison.to_dict()
         if written:

@@ -273,6 +273,11 @@ class Comparison:
         ngspice failed on the netlist (its message).
     measures : list of MeasureComparison
         The ``.meas`` cards, netdae against ngspice (reported, not judged).
+    point : dict of str to float
+        For one point of a stepped netlist: the value of each ``.step``.
+    points : list of Comparison
+        For a stepped netlist: one comparison per point (this one then has
+        no analyses of its own); it passes when every point passes.
     """
 
     source: str
@@ -289,10 +294,14 @@ class Comparison:
     opamp_gain: float = 0.0
     ngspice_error: str | None = None
     measures: list[MeasureComparison] = field(default_factory=list)
+    point: dict[str, float] = field(default_factory=dict)
+    points: list["Comparison"] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
-        """True when ngspice ran, every analysis was compared and every judged one passed."""
+        """True when ngspice ran, every analysis was compared and every judged one passed (every point's)."""
+        if self.points:
+            return all(p.passed for p in self.points)
         if self.ngspice_error is not None or not self.analyses:
             return False
         return all(a.passed is not False for a in self.analyses) and any(a.judged for a in self.analyses)
@@ -330,4 +339,6 @@ class Comparison:
             "netdae": {"options": self.netdae_options},
             "analyses": [a.to_dict() for a in self.analyses],
             "measures": [m.to_dict() for m in self.measures],
+            **({"point": self.point} if self.point else {}),
+            **({"points": [p.to_dict() for p in self.points]} if self.points else {}),
         })

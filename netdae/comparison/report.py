@@ -100,8 +100,19 @@ def _tolerance_line(name: str, values: dict) -> str:
 
 
 def format_comparison(comparison: Comparison) -> str:
-    """The whole report as text."""
+    """The whole report as text (a stepped netlist: a verdict, then the report of each point)."""
     c = comparison
+    if c.points:
+        verdict = "PASS" if c.passed else "FAIL"
+        failed = sum(not p.passed for p in c.points)
+        head = [f"{c.title}  ({c.source})",
+                f"netdae vs ngspice on {len(c.points)} points of the .step cards: {verdict}"
+                + (f" ({failed} failed)" if failed else "")]
+        parts = []
+        for p in c.points:
+            label = ", ".join(f"{k}={v:g}" for k, v in p.point.items())
+            parts.append(f"== point {label}\n" + format_comparison(p))
+        return "\n".join(head) + "\n\n" + "\n".join(parts)
     lines = [f"{c.title}  ({c.source})"]
     verdict = "PASS" if c.passed else "FAIL"
     lines.append(f"netdae vs {c.ngspice_version or 'ngspice'}"

@@ -39,7 +39,9 @@ numerically, so the method is left alone.
 
 from __future__ import annotations
 
+import dataclasses
 import os
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -299,10 +301,67 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     Cost: one netdae run and one ngspice run per analysis card, plus one
     dense evaluation of netdae's transient at ngspice's time points.
     """
+    circuit, text, source, workdir = _read(netlist)
+    options = {"tight": tight, "tol": tol, "backend": backend, "signals": signals, "exclude": exclude,
+               "reltol": reltol, "analyses": analyses, "timeout": timeout}
+    if circuit.draws:
+        raise NetdaeError(f"{source}: the netlist draws {circuit.draws} Monte Carlo value(s) (gauss, agauss, unif, "
+                          "aunif, limit): ngspice draws others, so the two runs are different circuits; compare "
+                          "a netlist with fixed values, and the distributions with netdae sweep --mc")
+    if circuit.steps:
+        return _compare_points(circuit, text, source, workdir, options)
+    return _compare_one(circuit, text, source, workdir, **options)
+
+
+#: The end card of a netlist (what follows it is not read).
+_END = re.compile(r"^[ \t]*\.end[ \t]*$", re.IGNORECASE | re.MULTILINE)
+
+
+def point_text(text: str, params: dict[str, float], temp: float | None) -> str:
+    """The netlist with ``.param`` and ``.temp`` cards for one point added before its ``.end``.
+
+    Both simulators take the last definition of a top-level parameter and the
+    last ``.temp``.
+
+    >>> point_text("t\\nR1 a 0 {r}\\n.end\\n", {"r": 2000.0}, 50.0)
+    't\\nR1 a 0 {r}\\n.param r=2000.0\\n.temp 50.0\\n.end\\n'
+    """
+    extra = "".join(f".param {name}={value!r}\n" for name, value in params.items())
+    if temp is not None:
+        extra += f".temp {temp!r}\n"
+    m = _END.search(text)
+    if m is None:
+        return text.rstrip("\n") + "\n" + extra
+    return text[:m.start()] + extra + text[m.start():]
+
+
+def _compare_points(circuit: Circuit, text: str, source: str, workdir: str, options: dict) -> Comparison:
+    """A stepped netlist: one comparison per point of its ``.step`` cards (parameters and temp)."""
+    from ..netlist import load
+    from ..sweeps.plan import make_plan
+
+    plan = make_plan(circuit)
+    for axis in plan.axes:
+        if axis.target == "element":
+            raise NetdaeError(f"{source}: compare runs the points of .step cards of parameters and temp; "
+                              f"'.step {axis.name}' steps an element (step a .param used in its value instead)")
+    parent = Comparison(source=source, title=circuit.title)
+    for row in plan.rows:
+        params = {a.name: v for a, v in zip(plan.axes, row.point) if a.target == "param"}
+        temp = next((v for a, v in zip(plan.axes, row.point) if a.target == "temp"), None)
+        text_k = point_text(text, params, temp)
+        circuit_k = load(text_k, path=None if source == "<string>" else source)
+        one = _compare_one(dataclasses.replace(circuit_k, steps=[]), text_k, source, workdir, **options)
+        one.point = {a.name: v for a, v in zip(plan.axes, row.point)}
+        parent.points.append(one)
+    return parent
+
+
+def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tight, tol, backend, signals, exclude,
+                 reltol, analyses, timeout) -> Comparison:
+    """:func:`compare` of one circuit (not stepped) and the text ngspice runs."""
     from .. import ngspice as bridge
     from ..analyses.runner import analysis_name
-
-    circuit, text, source, workdir = _read(netlist)
 
     refuse_steps(circuit)
     if not circuit.analyses:

@@ -217,6 +217,10 @@ def self_contained(
             title_origin = where
             notes.append(f"{where}: .title card written as the title line (ngspice replaces the title with it)")
             continue
+        if word == ".step":  # netdae's extension: compare hands ngspice one point at a time
+            notes.append(f"{where}: .step (netdae's extension) not passed to ngspice; each point is a netlist "
+                         "of its own")
+            continue
         if word.startswith("."):
             if word not in DOT_CARDS:
                 raise _refuse(card, word, True)
