@@ -299,3 +299,87 @@ def test_the_integration_releases_the_switch_states():
 
     integrate(system, (0.0, 5e-3), np.zeros(system.n), max_step=1e-5)
     assert system.switching.family.held is None
+
+
+def test_dc_sweeps_carry_the_states_from_point_to_point():
+    # as ngspice: each point starts from the previous point's states, so sweeping the control down
+    # keeps the switch on inside the band [0.3, 0.7] (S with VH > 0, and W), and a negative hysteresis
+    # turns it off where the control enters the band from above
+    base = ("dc hysteresis\nV1 c 0 0\nI1 0 d 0\nVs d 0 0\nV2 a 0 1\nR1 a b 1k\nS1 b 0 c 0 smod\n"
+            "R3 a e 1k\nW1 e 0 vs wmod\n.model smod sw vt=0.5 vh={vh} ron=1 roff=1meg\n"
+            ".model wmod csw it=0.5m ih=0.2m ron=1 roff=1meg\n{cards}\n.end\n")
+    on = lambda v: v < 0.01  # noqa: E731
+    # (the sweeps' points 0.01, 0.05, ... 0.97 miss the thresholds 0.3 and 0.7)
+    (up, down) = netdae.run(base.format(vh=0.2, cards=".dc V1 0.01 0.97 0.04\n.dc V1 0.97 0.01 -0.04"))
+    assert [on(v) for v in up["v(b)"]] == [c > 0.7 for c in up.axes["v1"]]
+    assert [on(v) for v in down["v(b)"]] == [c > 0.3 for c in down.axes["v1"]]
+    (neg,) = netdae.run(base.format(vh=-0.2, cards=".dc V1 0.97 0.01 -0.04"))
+    assert [on(v) for v in neg["v(b)"]] == [c > 0.7 for c in neg.axes["v1"]]
+    (w_down,) = netdae.run(base.format(vh=0.2, cards=".dc I1 0.97m 0.01m -0.04m"))
+    assert [on(v) for v in w_down["v(e)"]] == [i > 0.3e-3 for i in w_down.axes["i1"]]
+
+
+# --- against ngspice -------------------------------------------------------------------------------
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("vh, flag, vc", [(0.2, "", 0.5), (0.2, "ON", 0.5), (-0.2, "OFF", 0.5), (0.0, "", 0.5),
+                                          (0.2, "", 1.0), (-0.2, "ON", 0.1)])
+def test_operating_points_agree_with_ngspice(vh, flag, vc):
+    from netdae.ngspice import run_ngspice
+
+    text = DIVIDER.format(vh=vh, flag=flag, vc=vc)
+    ref = run_ngspice(text).result("op")
+    ours = operating_point(load(text))
+    assert ours["v(b)"][0] == pytest.approx(float(ref["v(b)"][0]), rel=1e-6)
+
+
+@pytest.mark.ngspice
+def test_dc_sweep_hysteresis_agrees_with_ngspice():
+    from netdae.ngspice import run_ngspice
+
+    text = DIVIDER.format(vh=0.2, flag="", vc=0).replace(".op", ".dc V1 1 0 -0.04")
+    ref = run_ngspice(text).result("dc")
+    (ours,) = netdae.run(text)
+    np.testing.assert_allclose(ours["v(b)"], np.asarray(ref["v(b)"]), rtol=1e-6)
+
+
+@pytest.mark.ngspice
+def test_rc_switch_agrees_with_ngspice():
+    from netdae.comparison import compare
+
+    result = compare(RC)
+    assert result.ngspice_error is None
+    item = result.analysis("tran", 0)
+    assert item.passed, [(s.name, s.max_rel) for s in item.signals]
+    assert max(s.max_rel for s in item.signals) < 1e-3
+
+
+@pytest.mark.ngspice
+def test_boost_converter_edges_agree_with_ngspice_to_its_step(netlists_dir):
+    """The switch node's edges: netdae's at the located crossings, ngspice's within the step that crosses.
+
+    ngspice decides a switch at the end of each step and applies the new state over the whole
+    step, so its edge lies anywhere in the step whose end first finds the control past the
+    threshold; netdae's starts at the crossing itself (the gate's analytic threshold time).
+    """
+    from netdae.ngspice import run_ngspice
+
+    text = (netlists_dir / "boost_converter.cir").read_text().replace(".save v(out) i(l1) v(gate)", ".save v(sw)")
+    (ours,) = netdae.run(text)
+    ref = run_ngspice(text).result("tran")
+    t_ng, v_ng = np.asarray(ref.t), np.asarray(ref["v(sw)"])
+    # the gate crosses 3 V rising 6 ns after each period starts, 2 V falling 5.016 us after it
+    on = [k * 1e-5 + 6e-9 for k in range(40)]
+    off = [k * 1e-5 + 5.016e-6 for k in range(40)]
+    events = [t for t, _ in ours.extra["events"]]
+    assert events == pytest.approx(sorted(on + off), rel=0, abs=1e-15)
+    for t_sw in off[1:]:
+        k = int(np.searchsorted(t_ng, t_sw))  # ngspice's first point at or after the crossing
+        low, high = v_ng[k - 1], v_ng[k + 3]
+        assert low < 0.5 and high > 4.0
+        assert v_ng[k] > 0.5 * (low + high)  # switched over the whole step [t_ng[k-1], t_ng[k]]
+        assert t_ng[k] - t_ng[k - 1] < 0.5e-9  # its switching instant is uncertain by that step
+        # netdae: still on the switch's side at the crossing, then the 0.2 ns edge
+        at = ours.dense([t_sw - 1e-12, t_sw + 0.5e-9])["v(sw)"]
+        assert at[0] < 0.5 and abs(at[1] - high) < 0.05 * high

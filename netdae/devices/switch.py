@@ -24,7 +24,10 @@ iterate's for S with ``VH > 0``, and otherwise the one ngspice's
 ``CKTstate1`` implies, ``REALLY_OFF`` (so inside the band an S with
 ``VH <= 0`` is on and a W is off, whatever the flag; ngspice 39 does the
 same). A change of conductance asks for another iteration (the "limited"
-flag, ngspice's ``CKTnoncon++``).
+flag, ngspice's ``CKTnoncon++``). In a DC sweep each point starts from the
+states of the previous one (``memory``, :meth:`SwitchFamily.remember`), which
+also replace ``REALLY_OFF`` as the reference: a sweep down shows the
+hysteresis as ngspice's does.
 
 Transient: the state is held through each step (the conductance is constant
 while Newton iterates) and decided between steps at the accepted points, with
@@ -36,7 +39,9 @@ restarts at order 1 from the right limit.
 
 ``held`` (set by the integrators through :class:`SwitchEvents`): the states a
 transient holds; every evaluation then uses them, whatever the ``state``
-argument.
+argument. ``memory`` (set by a DC sweep): the previous point's states. The
+compiled kernel knows ``held`` (its hold flag) but not ``memory``: it serves
+transients only.
 """
 
 from __future__ import annotations
@@ -114,6 +119,8 @@ class SwitchFamily(DeviceFamily):
     ----------
     held : ndarray or None
         The states a transient holds (see the module docstring).
+    memory : ndarray or None
+        The states of the previous point of a DC sweep (None: an operating point of its own).
     """
 
     kinds = frozenset({"vswitch", "cswitch"})
@@ -139,6 +146,7 @@ class SwitchFamily(DeviceFamily):
             self.on[k] = bool(inst.get("on"))
             self.dc_hold[k] = voltage and self.vh[k] > 0.0
         self.held: np.ndarray | None = None
+        self.memory: np.ndarray | None = None
 
     # -- topology ----------------------------------------------------------
     def coordinates(self, layout):
@@ -181,11 +189,18 @@ class SwitchFamily(DeviceFamily):
     def dc_state(self, c: np.ndarray, old: np.ndarray | None) -> np.ndarray:
         """The operating point's states at control ``c`` after the previous iterate's ``old`` (None: none).
 
-        See :func:`netdae.devices.kernels.switch.dc_state`.
+        See :func:`netdae.devices.kernels.switch.dc_state`; in a DC sweep (``memory``)
+        the previous point's states stand for the ON/OFF flags and for ``REALLY_OFF``.
         """
-        first = junction_state(c, self.on, self.vt, self.vh) if old is None else old
-        ref = np.where(self.dc_hold, first, REALLY_OFF)
+        memory = self.memory
+        if old is None:
+            old = junction_state(c, self.on, self.vt, self.vh) if memory is None else memory
+        ref = np.where(self.dc_hold, old, REALLY_OFF if memory is None else memory)
         return decide(c, ref, self.vt, self.vh)
+
+    def remember(self, x_ext: np.ndarray) -> None:
+        """Keep the states at the solution ``x_ext`` of a DC sweep's point for the next point."""
+        self.memory = self.dc_state(self.control(x_ext), None)
 
     def initial_state(self) -> LimitState:
         """SPICE's ``MODEINITJCT``: the ON/OFF flags decide the first iteration."""

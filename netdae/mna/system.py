@@ -117,6 +117,15 @@ class MnaSystem(DaeSystem):
             self._switching = SwitchEvents(family, self.pattern, self.n)
         return self._switching
 
+    def remember_switches(self, x) -> None:
+        """After a point of a DC sweep: the switches start the next point in the states at ``x``."""
+        from ..devices.switch import SwitchFamily
+
+        xe = np.append(np.asarray(x, dtype=float), 0.0)
+        for family in self.families:
+            if isinstance(family, SwitchFamily):
+                family.remember(xe)
+
     # -- linear parts ------------------------------------------------------
     @property
     def E(self) -> sp.csc_matrix:
