@@ -41,6 +41,8 @@ bcharge         C       (n+, n-)                     expr: charge expression (``
 diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
+vswitch         S       (n+, n-, nc+, nc-)           model (sw); params: on or off (1.0 when given)
+cswitch         W       (n+, n-)                     model (csw); controls = (controlling element,); params: on, off
 ==============  ======  ===========================  =========================================
 
 Sign conventions (as ngspice): the current of a voltage source, ``i(v1)``,

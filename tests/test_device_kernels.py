@@ -23,6 +23,7 @@ from netdae.devices.companion import LimitState
 from netdae.devices.diode import DiodeFamily
 from netdae.devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
 from netdae.devices.mosfet import MosfetFamily
+from netdae.devices.switch import SwitchFamily
 from netdae.mna import assemble
 from netdae.netlist import load
 
@@ -447,3 +448,132 @@ def test_mosfet_kernel_jacobians_match_differences(seed):
         if flags & FLAG_NONFINITE:
             continue
         case.jacobians_match_differences(x)
+
+
+# --- switch ---------------------------------------------------------------------------------
+
+def switch_state(vold, initial):
+    return LimitState(vold.T.copy(), initial=initial)
+
+
+def switch_case(text):
+    from netdae.devices.kernels.switch import eval_switch
+    return Case(text, SwitchFamily, eval_switch, switch_state)
+
+
+def random_switches(rng, count=8) -> str:
+    """``count`` S and W switches with random models and flags between five nodes and ground.
+
+    The W switches sense the currents of three 0 V sources; thresholds and hysteresis
+    (positive, zero, negative) within +-1, where the random iterates put the controls.
+    """
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5"]
+    lines = ["random switches", "VA n1 n6 0", "VB n2 n7 0", "VC n3 0 0", "RA n6 0 1", "RB n7 0 1"]
+    for k in range(count):
+        vt = rng.uniform(-0.8, 0.8)
+        vh = rng.choice([0.0, rng.uniform(0.05, 0.4), -rng.uniform(0.05, 0.4)])
+        card = [f"ron={10 ** rng.uniform(-2, 2):.5g}"]
+        if rng.random() < 0.7:
+            card.append(f"roff={10 ** rng.uniform(4, 12):.5g}")
+        flag = rng.choice(["", " on", " off"])
+        a, b = rng.choice(nodes, size=2, replace=False)
+        if rng.random() < 0.5:
+            cp, cm = rng.choice(nodes, size=2, replace=False)
+            lines += [f"S{k} {a} {b} {cp} {cm} sm{k}{flag}", f".model sm{k} sw vt={vt:.5g} vh={vh:.5g} {' '.join(card)}"]
+        else:
+            ctl = rng.choice(["va", "vb", "vc"])
+            lines += [f"W{k} {a} {b} {ctl} wm{k}{flag}", f".model wm{k} csw it={vt:.5g} ih={vh:.5g} {' '.join(card)}"]
+    return "\n".join(lines + [".end", ""])
+
+
+def switch_states(rng, count, hold):
+    """Random switch states (ngspice's four) with the hold flags ``hold`` (0, 1, or None: random)."""
+    flags = rng.integers(0, 2, count) if hold is None else np.full(count, hold)
+    return np.column_stack([rng.integers(0, 4, count).astype(float), flags.astype(float)])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_switch_kernel_equals_the_family_on_random_cards(seed):
+    rng = np.random.default_rng(5000 + seed)
+    case = switch_case(random_switches(rng))
+    count = case.vold0.shape[0]
+    case.compare(np.zeros(case.n), MODE_INITIAL, case.vold0)
+    case.compare(np.zeros(case.n), MODE_EVALUATE, case.vold0)
+    limited = 0
+    for _ in range(12):
+        x = rng.uniform(-1.0, 1.0, case.n) * rng.choice([0.3, 1.0, 3.0])
+        # without history the numpy family has no held state (hold 0); with a state, any mix
+        case.compare(x, MODE_EVALUATE, switch_states(rng, count, 0))
+        case.compare(x, MODE_INITIAL, switch_states(rng, count, None))
+        flags = case.compare(x, MODE_LIMIT, switch_states(rng, count, None))
+        limited += bool(flags & FLAG_LIMITED)
+        case.compare(x, MODE_LIMIT, switch_states(rng, count, None), jacobian=False)
+    assert limited > 0
+
+
+def test_switch_kernel_holds_what_the_family_holds():
+    # a transient's held states (SwitchFamily.held) are the kernel's vold with the hold flag, in every mode
+    rng = np.random.default_rng(5100)
+    case = switch_case(random_switches(rng, count=10))
+    count = case.vold0.shape[0]
+    for _ in range(6):
+        x = rng.uniform(-2.0, 2.0, case.n)
+        held = switch_states(rng, count, 1)
+        case.family.held = held[:, 0].copy()
+        try:
+            for mode in (MODE_EVALUATE, MODE_LIMIT, MODE_INITIAL):
+                xe = case.extended(x)
+                acc, new = case.numpy(xe, mode, switch_states(rng, count, 0))
+                q, phi, dq, dphi, vnew, flags, bad = case.compiled(xe, mode, held)
+                np.testing.assert_array_equal(vnew, new.v.T)
+                close(phi[:-1], acc.phi[:-1], "phi")
+                close(dphi[:-1], acc.dphi[:-1], "dphi")
+                assert flags == 0 and not acc.limited
+        finally:
+            case.family.held = None
+
+
+def test_switch_decisions_equal_the_familys():
+    from netdae.devices import switch as sw
+    from netdae.devices.kernels import switch as ks
+
+    rng = np.random.default_rng(5200)
+    case = switch_case(random_switches(rng, count=12))
+    fam = case.family
+    count = case.vold0.shape[0]
+    for _ in range(20):
+        xe = case.extended(rng.uniform(-1.5, 1.5, case.n))
+        old = switch_states(rng, count, 1)
+        new = np.zeros_like(old)
+        changes = ks.switch_decide(xe, case.par, case.idx, old, new)
+        want = sw.decide(fam.control(xe), old[:, 0], fam.vt, fam.vh)
+        np.testing.assert_array_equal(new[:, 0], want)
+        assert changes == int(np.sum(sw.conducting(want) != sw.conducting(old[:, 0])))
+        # the operating point's decision without history, as the family's
+        for k in range(count):
+            assert ks.dc_state(float(fam.control(xe)[k]), -1.0, case.par, k) == fam.dc_state(fam.control(xe), None)[k]
+
+
+def test_switch_thresholds_and_the_states_past_them():
+    # watch() gives the threshold a state's conductance changes at, switched() the state just past it,
+    # which decide() confirms just beyond the threshold and contradicts just before it
+    from netdae.devices.kernels import switch as ks
+
+    for vh in (0.3, 0.0, -0.3):
+        for s in (ks.REALLY_OFF, ks.REALLY_ON, ks.HYST_OFF, ks.HYST_ON):
+            theta, direction = ks.watch(s, 0.5, vh)
+            past = ks.switched(s, vh)
+            assert ks.conducting(past) != ks.conducting(s)
+            beyond = ks.decide(theta + direction * 1e-9, s, 0.5, vh)
+            assert ks.conducting(beyond) == ks.conducting(past)
+            if vh != 0.0:  # (with VH = 0 the band is one point: just beyond it the state is REALLY_*)
+                assert beyond == past
+            assert ks.conducting(ks.decide(theta - direction * 1e-9, s, 0.5, vh)) == ks.conducting(s)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_switch_kernel_jacobians_match_differences(seed):
+    rng = np.random.default_rng(5300 + seed)
+    case = switch_case(random_switches(rng))
+    for scale in (0.5, 2.0):
+        case.jacobians_match_differences(rng.uniform(-1.0, 1.0, case.n) * scale)

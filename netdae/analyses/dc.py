@@ -90,8 +90,10 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
 
     Notes
     -----
-    One Newton solve per point, warm-started from the previous point. A
-    temperature sweep re-assembles the circuit at each temperature.
+    One Newton solve per point, warm-started from the previous point (switches
+    start from the previous point's states, so a sweep shows their hysteresis,
+    as in ngspice). A temperature sweep re-assembles the circuit at each
+    temperature.
     """
     t_start = time.perf_counter()
     sweeps = list(card.sweeps)
@@ -124,6 +126,7 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         res = solve_operating_point(system, options=opts, x0=x, topology=topo)
         iterations += res.iterations
         x = res.x
+        system.remember_switches(x)
         rows.append(x.copy())
     X = np.array(rows)
     axes = {name: np.array([p[i] for p in points]) for i, name in enumerate(names)}

@@ -500,6 +500,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
                      "(2.12) with the inputs' analytic derivatives)")
         failure = None
         jumps = []
+        events = []
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
     else:
         try:
@@ -525,6 +526,11 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
                          "the right limit are reported at this time")
         if len(jumps) > JUMP_NOTES:
             notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (extra['jumps'])")
+        events = [(t, list(w)) for t, w in res.events]
+        if events:
+            first_t, first_w = events[0]
+            notes.append(f"switches changed at {len(events)} instant(s), located where their controls cross the "
+                         f"thresholds (the first: t={first_t:.6g}, {', '.join(first_w[:5])}; all in extra['events'])")
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax,
                       "index_excluded": res.tolerances.get("index_excluded", 0)}
         if failure is not None and rep.topology is not None:
@@ -578,6 +584,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             "start": {nm: float(v) for nm, v in zip(system.names, start.x)},
             "failure": failure,
             "jumps": jumps,
+            "events": events,
             "index_report": rep,
         },
     )

@@ -1,8 +1,8 @@
 """What ngspice 39 knows about model cards: parameter names and levels, as data.
 
 ngspice reads a ``.model`` card against the parameter table of the model's
-type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``res.c``, ``cap.c``,
-``ind.c``); a name that is not in the table is reported ("unrecognized
+type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``sw.c``, ``csw.c``, ``res.c``,
+``cap.c``, ``ind.c``); a name that is not in the table is reported ("unrecognized
 parameter (x) - ignored") and the model is used without it. netdae does the
 same (a located warning, see :func:`netdae.devices.modelcard.ignored_parameters`),
 while a name ngspice *uses* and netdae does not implement stays an error:
@@ -47,6 +47,8 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
         "rsh narrow dw short dlr tc1 tc1r tc2 tc2r tce defw w l kf af tnom r res bv_max lf wf ef"),
     "capacitor": _names("cap cj cox cjsw capsw defw w defl l narrow short del tc1 tc2 tnom di thick bv_max c"),
     "inductor": _names("ind tc1 tc2 tnom csect dia length nt mu l"),
+    "vswitch": _names("sw vt vh ron roff gon goff"),
+    "cswitch": _names("csw it ih ron roff gon goff"),
 }
 
 #: Names in those tables that are outputs (ngspice reports them, and refuses them on a .model card).
@@ -55,11 +57,13 @@ OUTPUT_ONLY: dict[str, frozenset] = {
     "bjt": _names("type invearlyvoltf invearlyvoltr invrollofff invrolloffr collectorconduct emitterconduct "
                   "transtimevbcfact excessphasefactor"),
     "mosfet": _names("type"),
+    "vswitch": _names("gon goff"),
+    "cswitch": _names("gon goff"),
 }
 
 #: The model family of each element kind that uses a model card.
-MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "resistor": "resistor",
-                  "capacitor": "capacitor", "inductor": "inductor"}
+MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "vswitch": "vswitch", "cswitch": "cswitch",
+                  "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor"}
 
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
 LEVELS: dict[str, dict[int, str]] = {

@@ -121,8 +121,8 @@ NONNEGATIVE = frozenset({
     "is", "js", "isr", "ise", "isc", "iss", "rs", "rsh", "rb", "rbm", "re", "rc", "rd", "cjo", "cje", "cjc",
     "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
 })
-#: Model parameters that must be positive (emission coefficients, junction potentials).
-POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb"})
+#: Model parameters that must be positive (emission coefficients, junction potentials, a switch's resistances).
+POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "ron", "roff"})
 
 
 def _check_value(model: Model, raw: str, name: str, value: float, device: str) -> None:

@@ -11,11 +11,12 @@ from .behavioral import BehaviouralFamily
 from .bjt import BjtFamily
 from .diode import DiodeFamily
 from .mosfet import MosfetFamily
+from .switch import SwitchFamily
 
 __all__ = ["FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, BehaviouralFamily)
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily)
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:

@@ -58,6 +58,9 @@ class MnaSystem(DaeSystem):
     H_ac : scipy.sparse.csc_matrix, shape (n, n)
         Added to dphi/dx by ``.ac`` only (resistors with an ``ac=``
         resistance); all zeros when there is none.
+    switching : SwitchEvents or None
+        The switches' states and events for a transient
+        (:class:`~netdae.devices.switch.SwitchEvents`); None without switches.
     """
 
     def __init__(self, circuit: Circuit, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
@@ -80,6 +83,7 @@ class MnaSystem(DaeSystem):
         self._dq_lin = pattern.data_of(E)
         self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
+        self._switching = None
         self._xext = np.zeros(self.n + 1)
         dense = self.n <= DENSE_MATVEC_MAX
         self._E_mv = E.toarray() if dense else E
@@ -100,6 +104,27 @@ class MnaSystem(DaeSystem):
         else:
             out += self.B @ u
         return out
+
+    @property
+    def switching(self):
+        """The switches' event handling for a transient, or None (no S or W element)."""
+        if self._switching is None:
+            from ..devices.switch import SwitchEvents, SwitchFamily
+
+            family = next((f for f in self.families if isinstance(f, SwitchFamily)), None)
+            if family is None:
+                return None
+            self._switching = SwitchEvents(family, self.pattern, self.n)
+        return self._switching
+
+    def remember_switches(self, x) -> None:
+        """After a point of a DC sweep: the switches start the next point in the states at ``x``."""
+        from ..devices.switch import SwitchFamily
+
+        xe = np.append(np.asarray(x, dtype=float), 0.0)
+        for family in self.families:
+            if isinstance(family, SwitchFamily):
+                family.remember(xe)
 
     # -- linear parts ------------------------------------------------------
     @property

@@ -55,6 +55,8 @@ MODEL_TYPES = {
     "diode": ("d",),
     "bjt": ("npn", "pnp"),
     "mosfet": ("nmos", "pmos"),
+    "vswitch": ("sw",),
+    "cswitch": ("csw",),
     "resistor": ("r", "res"),
     "capacitor": ("c",),
     "inductor": ("l",),
@@ -62,9 +64,10 @@ MODEL_TYPES = {
 
 #: The model family (:data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`) of each model type.
 MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
+                        "sw": "vswitch", "csw": "cswitch",
                         "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
 #: Bare names on a .model card that restate its type.
-_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos"})
+_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "sw", "csw"})
 #: Model parameters of R, C and L that netdae uses (the others size an element without a value,
 #: and netdae needs the value on the element card); aliases as in ngspice's res.c.
 _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2", "tc2r": "tc2", "tce": "tce",
@@ -627,6 +630,10 @@ class _Elaborator:
             if el.kind in ("cccs", "ccvs") and target.kind != need:
                 raise error(card, offset, f"'{written}' is a {target.kind}, not a voltage source "
                             "(F and H sense the current of a V source)", syntax,
+                            hint="add a 0 V source in series with the branch and name it")
+            if el.kind == "cswitch" and target.kind not in BRANCH_KINDS:
+                raise error(card, offset, f"'{written}' is a {target.kind}, which has no branch current (W senses "
+                            "the current of a V source, inductor, E/H source or B voltage source)", syntax,
                             hint="add a 0 V source in series with the branch and name it")
         if el.expr is None:
             return

@@ -1,4 +1,4 @@
-"""Element cards (R C L K V I E F G H B D Q M X) to :class:`ElementCard` / :class:`InstanceCard`.
+"""Element cards (R C L K V I E F G H B D Q M S W X) to :class:`ElementCard` / :class:`InstanceCard`.
 
 One function per element family, all driven by :data:`netdae.netlist.syntax.ELEMENTS`:
 the expected form of a card is the one the error messages show. Values are
@@ -535,6 +535,48 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
     return el
 
 
+def _switch(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
+    """``Sname n+ n- nc+ nc- mname [on|off]`` or ``Wname n+ n- vname mname [on|off]``."""
+    positional, keywords = split_args(card, toks, 1, syntax)
+    if keywords:
+        raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax,
+                    hint="a switch takes its parameters from its .model card (sw or csw)")
+    nodes = 4 if letter == "s" else 2
+    need = nodes + (1 if letter == "w" else 0) + 1
+    words = positional[:need]
+    found = 0
+    for tok in words:
+        if tok.kind != WORD:
+            break
+        found += 1
+    if found < need:
+        at = words[found].start if found < len(words) else _end(card)
+        what = f"{nodes} nodes, the controlling source's name and a model name" if letter == "w" else \
+            f"{nodes} nodes and a model name"
+        raise error(card, at, f"expected {what}", syntax)
+    el = ElementCard(toks[0].text, "vswitch" if letter == "s" else "cswitch", card,
+                     tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:nodes]))
+    if letter == "w":
+        ctl = words[nodes]
+        if parse_number(ctl.text) is not None:
+            raise error(card, ctl.start, f"expected the name of the controlling source, found {ctl.text!r}", syntax)
+        el.controls = ((ctl.text, ctl.start),)
+    model = words[-1]
+    if parse_number(model.text) is not None:
+        raise error(card, model.start, f"expected a model name, found {model.text!r}", syntax)
+    el.model = (model.text, model.start)
+    for tok in positional[need:]:
+        if tok.kind == WORD and tok.text in syntax.flags:
+            if el.flags:
+                raise error(card, tok.start, f"'{tok.text}' after '{next(iter(el.flags))}': give ON or OFF once",
+                            syntax)
+            el.flags[tok.text] = tok.start
+        else:
+            raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
+                        hint="after the model name a switch takes only its initial state, ON or OFF")
+    return el
+
+
 def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceCard:
     words: list[Token] = []
     i = 1
@@ -610,4 +652,6 @@ def parse_element(card: Card) -> ElementCard | InstanceCard:
         return _device(card, toks, syntax, "bjt", 3)
     if letter == "m":
         return _device(card, toks, syntax, "mosfet", 4)
+    if letter in "sw":
+        return _switch(card, toks, syntax, letter)
     return _instance(card, toks, syntax)

@@ -109,14 +109,16 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Mname nd ng ns nb mname [l=len] [w=width] [ad=a] [as=a] [pd=p] [ps=p] [nrd=n] [nrs=n] "
             "[m=mult] [off] [ic=vds,vgs,vbs] [temp=t] [name=value ...]",),
             flags=frozenset({"off"})),
+        ElementSyntax("s", "voltage-controlled switch", ("Sname n+ n- nc+ nc- mname [on|off]",),
+                      flags=frozenset({"on", "off"})),
+        ElementSyntax("w", "current-controlled switch", ("Wname n+ n- vname mname [on|off]",),
+                      flags=frozenset({"on", "off"})),
         ElementSyntax("x", "subcircuit instance", ("Xname n1 n2 ... subname [params:] [name=value ...]",)),
     )
 }
 
 #: Element letters ngspice knows and netdae does not implement.
 UNSUPPORTED_ELEMENTS: dict[str, str] = {
-    "s": "voltage-controlled switch",
-    "w": "current-controlled switch",
     "t": "lossless transmission line",
     "o": "lossy transmission line",
     "u": "uniform distributed RC line",
@@ -187,5 +189,5 @@ UNSUPPORTED_DOT_CARDS: dict[str, str] = {
 
 
 def supported_letters() -> str:
-    """The element letters netdae reads, e.g. ``"R C L K V I E F G H B D Q M X"``."""
+    """The element letters netdae reads, e.g. ``"R C L K V I E F G H B D Q M S W X"``."""
     return " ".join(letter.upper() for letter in ELEMENTS)

@@ -22,7 +22,7 @@ writes it back as
   last ``.title`` card, which would replace the title in ngspice, becomes
   the title line);
 - one line per card, continuation lines joined and comments removed: only
-  element cards of the kinds netdae reads (R C L K V I E F G H B D Q M X)
+  element cards of the kinds netdae reads (R C L K V I E F G H B D Q M S W X)
   and the dot cards of :data:`DOT_CARDS`; anything else, e.g.
   ``.controlfoo``, ``.includex`` or an XSPICE ``A`` device (code models read
   and write files), is a :class:`~netdae.errors.NetlistError` at its

@@ -336,6 +336,7 @@ _KIND_GROUPS = (
     ({"bcharge"}, "charge-defined capacitors"),
     ({"opamp"}, "ideal op-amps"),
     ({"bjt", "mosfet"}, "transistors"),
+    ({"vswitch", "cswitch"}, "switches"),
 )
 
 

@@ -13,7 +13,8 @@ inductive       inductors (of nonzero inductance)
 resistive       resistors; diode junctions and series resistances; the conducting
                 terminal pairs of transistors (collector-emitter, base-emitter,
                 base-collector, substrate-collector; drain-source, drain-bulk,
-                source-bulk)
+                source-bulk); switches (S, W: a resistance RON or ROFF between
+                n+ and n-, marked *controlled*)
 voltage         independent V; and, marked *controlled*: E, H, B with a voltage
                 expression, the output of an ideal op-amp (a norator: its current
                 is free, its voltage is not fixed); an inductor of zero
@@ -28,7 +29,7 @@ constraints (a voltage source across the inputs is a singular loop; the
 virtual ground of an inverting stage puts a capacitor across the source in a
 differentiator) but never connects nodes for cutsets and DC paths.
 
-Terminals that carry no branch current -- the controlling inputs of E and G,
+Terminals that carry no branch current -- the controlling inputs of E, G and S,
 the inputs of an ideal op-amp, a MOSFET gate -- are
 *attachments*: they count as connections of a node (for dangling nodes and
 for the messages) but not as edges. A capacitor of zero capacitance stores no
@@ -81,7 +82,7 @@ NULLATOR = 5
 #: Element kinds whose behaviour is controlled by other circuit quantities:
 #: the index theorem's hypotheses exclude them.
 CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bcharge", "bjt",
-                              "mosfet"})
+                              "mosfet", "vswitch", "cswitch"})
 
 #: Diode model parameters whose nonzero value gives the junction a charge
 #: (ngspice names and aliases: depletion CJO/CJ0/CJ, transit time TT).
@@ -120,6 +121,8 @@ KIND_TABLE: dict[str, _Spec] = {
     "diode": _Spec((2,), ()),  # see _diode_branches
     "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0))),
     "mosfet": _Spec((4,), ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),)),
+    "vswitch": _Spec((4,), ((RESISTIVE, 0, 1),), _CONTROL_INPUTS),
+    "cswitch": _Spec((2,), ((RESISTIVE, 0, 1),)),
     "coupling": _Spec((0,), ()),
 }
 

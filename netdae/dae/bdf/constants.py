@@ -65,6 +65,13 @@ PROBE_RETRIES = 3
 JUMP_DETECT = 1.0
 #: Newton iterations allowed for each implicit-Euler step of the right-limit solve.
 JUMP_NEWTON_MAXITER = 25
+#: After a switching event the right limit is solved with implicit-Euler steps of this
+#: fraction of the probe's step, and at least EVENT_RIGHT_LIMIT_ULPS units in the last place
+#: of t: a switch into a stiff node (RON = 0.05 ohm against a diode's junction capacitance,
+#: picoseconds) starts a transient as fast as the probe's step, which two probe-sized
+#: steps extrapolated to zero would mistake for part of the jump (the charges must stay).
+EVENT_RIGHT_LIMIT_FRACTION = 1e-6
+EVENT_RIGHT_LIMIT_ULPS = 1000.0
 #: A step may be stretched by this fraction to land on a breakpoint.
 BREAKPOINT_STRETCH = 0.1
 #: Breakpoints closer than this fraction of the interval are merged (no sliver steps).

@@ -34,6 +34,8 @@ class Recorder:
         Breakpoints where the method restarted at order 1.
     jumps : list of (float, tuple of str)
         Times where the solution jumped and the unknowns that moved.
+    events : list of (float, tuple of str)
+        Times where switches changed conductance, and which.
 
     Notes
     -----
@@ -51,6 +53,7 @@ class Recorder:
         self.segments: list[int] = [0]
         self.restart_times: list[float] = []
         self.jumps: list[tuple[float, tuple[str, ...]]] = []
+        self.events: list[tuple[float, tuple[str, ...]]] = []
 
     def record(self, t: float, x: np.ndarray, k: int) -> None:
         """Append the point ``(t, x)`` (all n unknowns) reached by a step of order ``k`` (0: a start)."""
@@ -96,5 +99,5 @@ class Recorder:
             t=t, x=x, order=k, names=names, save=self.save.copy(),
             dense=Interpolant(t, k, x, names, segments=np.array(self.segments, dtype=np.int64)),
             stats=stats, status=status, message=message, tolerances=dict(tolerances), failure=failure,
-            restarts=np.array(self.restart_times), jumps=list(self.jumps),
+            restarts=np.array(self.restart_times), jumps=list(self.jumps), events=list(self.events),
         )

@@ -36,7 +36,8 @@ class IntegrationResult:
         ``jacobian_evaluations``, ``cj_changes`` (changes of the Newton-matrix
         coefficient between attempts), ``restarts``, ``probes`` (derivative
         probes at the start and at restarts, one factorisation each),
-        ``max_order_used``, ``h_min``, ``h_max``, ``wall_time`` [s].
+        ``max_order_used``, ``h_min``, ``h_max``, ``events`` (switching events),
+        ``wall_time`` [s].
     status : int
         0 on success, -1 on failure (``netdae.results`` conventions).
     message : str
@@ -55,6 +56,9 @@ class IntegrationResult:
         unknowns that jumped by more than their tolerance. At each such time
         ``t`` holds two equal entries: the value reached from the left, then
         the right limit the method continued from.
+    events : list of (float, tuple of str)
+        Switching events: the times at which switches changed conductance (the
+        method restarted there) and the switches that did.
     """
 
     t: np.ndarray
@@ -70,6 +74,7 @@ class IntegrationResult:
     failure: dict | None = None
     restarts: np.ndarray = field(default_factory=lambda: np.empty(0))
     jumps: list = field(default_factory=list)
+    events: list = field(default_factory=list)
 
     @property
     def ok(self) -> bool:

@@ -80,15 +80,20 @@ def integrate(
         if res is not None:
             return res
     t0, tf = (float(v) for v in t_span)
-    solver = BDF(system, t0, x0, tf, **options)
-    last = time.perf_counter()
-    while solver.status == "running":
-        solver.step()
-        if progress is not None:
-            now = time.perf_counter()
-            if now - last >= PROGRESS_INTERVAL:
-                progress(solver.t, tf, solver.stats["steps"])
-                last = now
+    switching = getattr(system, "switching", None)
+    try:
+        solver = BDF(system, t0, x0, tf, **options)
+        last = time.perf_counter()
+        while solver.status == "running":
+            solver.step()
+            if progress is not None:
+                now = time.perf_counter()
+                if now - last >= PROGRESS_INTERVAL:
+                    progress(solver.t, tf, solver.stats["steps"])
+                    last = now
+    finally:
+        if switching is not None:
+            switching.release()  # the system's evaluations decide the switches again
     if progress is not None:
         progress(solver.t, tf, solver.stats["steps"])
     result = solver.result()

@@ -42,6 +42,8 @@ from .constants import (
     BREAKPOINT_STRETCH,
     EPCON,
     ETA_NEWTON_FAIL,
+    EVENT_RIGHT_LIMIT_FRACTION,
+    EVENT_RIGHT_LIMIT_ULPS,
     H0_FRACTION,
     JUMP_DETECT,
     MAX_ERROR_FAILURES,
@@ -245,6 +247,7 @@ class BDF:
         self._growth_failed = False
         self._last_cj_attempt = None
         self._state = None  # the devices' limiting state at the last accepted point
+        self._event_restart = False  # the pending restart follows a switching event
         self._ee = None
         self.h = 0.0
         self._h_request = 0.0
@@ -266,6 +269,10 @@ class BDF:
             self.message = f"reached t={self.t_bound:.9g}: the system has no unknowns"
             return
         self._set_weights(x0)
+        # switches (netdae.devices.switch.SwitchEvents): held in the states of x0, changed at events
+        self._switching = getattr(system, "switching", None)
+        if self._switching is not None:
+            self._switching.start(x0)
         ev = self._evaluate(x0, self.t0, jacobian=self._linear)
         if not ev.ok or not np.all(np.isfinite(ev.q)) or not np.all(np.isfinite(ev.phi)):
             raise ValueError(f"the system evaluation at t0={self.t0:g} is not finite (check x0)")
@@ -401,7 +408,13 @@ class BDF:
         return x_right, value_jump
 
     def _right_limit(self, x, eps):
-        """x(t+) of a nonlinear system (:func:`~netdae.dae.bdf.startup.right_limit`); None after a failure."""
+        """x(t+) of a nonlinear system (:func:`~netdae.dae.bdf.startup.right_limit`); None after a failure.
+
+        After a switching event the steps are much shorter than the probe's (``EVENT_RIGHT_LIMIT_*``).
+        """
+        if self._event_restart:
+            eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
+                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
                                                             tol["vntol"], tol["abstol"], state=self._state)
@@ -600,32 +613,55 @@ class BDF:
         return False, "error", info
 
     def _complete_step(self, t_new, h, landing, info, retried):
-        """Order and step-size selection, history update, recording (IDA's IDACompleteStep)."""
+        """Order and step-size selection, history update, switching events, recording (IDA's IDACompleteStep).
+
+        Where a switch changes conductance within the step, the step ends at the crossing
+        (the unknowns interpolated there, :meth:`netdae.devices.switch.SwitchEvents.step`) and
+        the method restarts at order 1, as on a breakpoint.
+        """
         hist = self._hist
         k = hist.k
+        t = self.t
         self._nst += 1
         count_step(self.stats, h, k)
         kdiff = hist.accept(h)
         eta = self._select_order_and_step(k, kdiff, info)
         eta, self._growth_failed = ctl.hold_growth(eta, retried, self._growth_failed, hist.ns, k)
         hist.update(self._ee, k)
-        self.t = t_new
+        t_end, event = t_new, False
+        if self._switching is not None:
+            t_end, switched, x_event = self._switching.step(hist.P, k, hist.psi, t, t_new)
+            event = bool(switched)
+            if x_event is not None:
+                n = self.n
+                hist.P[0, :n] = x_event
+                hist.P[0, n:] = self._evaluate(x_event, t_end).q  # switches store no charge
+        self.t = t_end
         x_new = hist.P[0, : self.n]
         self._state = self._corrector.state_try
         self._set_weights(x_new)
-        self._rec.record(t_new, x_new, k)
+        self._rec.record(t_end, x_new, k)
         self.h = max(min(h * eta, self.max_step), self.min_step)
-        if landing and self._ibp == self._breakpoints.size - 1:
+        landed = landing and t_end == t_new
+        if landed and self._ibp == self._breakpoints.size - 1:
             self.status = "finished"
             self.message = self._success_message()
             return
         if self.max_steps is not None and self.stats["steps"] >= self.max_steps:
-            self._fail(t_new, self.h, f"reached max_steps={self.max_steps}", None,
+            self._fail(t_end, self.h, f"reached max_steps={self.max_steps}", None,
                        "raise max_steps, or loosen the tolerances")
             return
-        if landing:
+        if event:
+            self.stats["events"] += 1
+            self._rec.events.append((float(t_end), switched))
+        if landed:
             self._ibp += 1
+            self._event_restart = event
             self._restart(max(h, self._h_request))
+        elif event:
+            self._event_restart = True
+            self._restart(h)
+        self._event_restart = False
 
     def _select_order_and_step(self, k, kdiff, info):
         """Order for the next step (set on the history) and the step-size factor eta."""

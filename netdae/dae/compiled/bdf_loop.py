@@ -21,7 +21,15 @@ Two correctors, one loop:
   the weights; the history then holds the charges as well as the unknowns.
 
 The device families are the compiled kernels of :mod:`netdae.devices.kernels`
-(diode, BJT, MOSFET), each evaluating all its instances in one loop.
+(diode, BJT, MOSFET, switch, behavioural), each evaluating all its instances in one loop.
+
+Switches hold their states through a step; after each accepted step
+:func:`~netdae.devices.kernels.switch.switch_step` decides them at its end
+and, when one would change conductance, cuts the step where its control
+crossed the threshold (located on the step's interpolant): the point is
+recorded there, the switches change, and the method restarts at order 1
+(a jump of the solution then comes from its right limit, as at a breakpoint
+where the inputs jump).
 
 State
 -----
@@ -44,6 +52,8 @@ from ...devices.kernels.behavioural import eval_behavioural
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
+from ...devices.kernels.switch import eval_switch, switch_step
+from .events import EVENT_TOGETHER
 from .control import error_norms, flc_coefficients, landing_step, set_weights, update_differences, weighted_norm
 from . import kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
@@ -65,6 +75,8 @@ from ..bdf import (  # noqa: E402
     ETA_SAFETY,
     ETA_SHRINK_MAX,
     ETA_SHRINK_MIN,
+    EVENT_RIGHT_LIMIT_FRACTION,
+    EVENT_RIGHT_LIMIT_ULPS,
     H0_ERROR_TARGET,
     H0_FRACTION,
     JUMP_DETECT,
@@ -147,7 +159,10 @@ I_HAS_TRY = 34          # the families have a trial limiting state (inside a cor
 I_RL_READY = 35         # Python has put the requested right limit into rl_given
 I_HAS_ABSDQ = 36        # absdq holds |dq/dx| of a Jacobian evaluation
 I_LINEAR = 37           # 1: a linear system (exact corrector)
-N_I = 38
+I_EVENTS = 38           # steps cut (or ended) where switches change conductance
+I_EVENT_RESTART = 39    # the pending restart follows a switching event (a finer right limit)
+I_NEVENTS = 40          # events recorded
+N_I = 41
 
 # statuses
 RUNNING = 0
@@ -360,8 +375,10 @@ def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphi
         flags, bad = eval_diode(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     elif ev == 1:
         flags, bad = eval_bjt(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
-    else:
+    elif ev == 2:
         flags, bad = eval_mosfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    else:
+        flags, bad = eval_switch(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     if keep:
         _copy2(vtry, vnew)
     return flags
@@ -377,7 +394,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew, h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     for i in range(n):
@@ -396,6 +414,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags = _family(0, d_par, d_idx, d_vacc, d_vtry, d_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(1, b_par, b_idx, b_vacc, b_vtry, b_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(2, m_par, m_idx, m_vacc, m_vtry, m_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(3, s_par, s_idx, s_vacc, s_vtry, s_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     if h_inst.shape[0] > 0:
         hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
                                         jacobian)
@@ -413,11 +432,13 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
 def _accept_state(I, devd):
     """The trial limiting state becomes the accepted one (after an accepted step)."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew, h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
         _copy2(m_vacc, m_vtry)
+        _copy2(s_vacc, s_vtry)
         I[I_HAS_ACC] = 1
 
 
@@ -425,10 +446,12 @@ def _accept_state(I, devd):
 def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew, h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)
+    _copy2(s_vtry, s_vacc)
     I[I_HAS_TRY] = I[I_HAS_ACC]
 
 
@@ -549,7 +572,8 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
 
 @kernel
 def _record(I, t, k, x, rec):
-    save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times = rec
+    (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
+     event_t, event_count, event_idx) = rec
     m = I[I_M]
     buf_t[m] = t
     buf_k[m] = k
@@ -571,7 +595,8 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, evb, ws, rec):
     """
     atol, mask, high, xmax, w, w_err, signs = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
-    save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times = rec
+    (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
+     event_t, event_count, event_idx) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     big = 0.0
@@ -595,6 +620,9 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, evb, ws, rec):
             # a nonlinear system: converged implicit-Euler steps from Python's steady solver
             if I[I_RL_READY] == 0:
                 F[F_RL_EPS] = eps
+                if I[I_EVENT_RESTART] != 0:
+                    F[F_RL_EPS] = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
+                                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
                 return FACTOR_NEED_RIGHT_LIMIT
             I[I_RL_READY] = 0
             for i in range(n):
@@ -772,8 +800,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it,
         the work values of the Newton matrix, B in COO, the packed sources).
     devd : tuple
-        The device families, ``(par, idx, vacc, vtry, vnew)`` each for diodes, BJTs and
-        MOSFETs (empty arrays for an absent family).
+        The device families, ``(par, idx, vacc, vtry, vnew)`` each for diodes, BJTs,
+        MOSFETs and switches (empty arrays for an absent family), the switches' work
+        array of crossing times, then the behavioural sources' tapes.
     lus : tuple
         The LU: the plan's arrays (:meth:`netdae.dae.compiled.lu.LuPlan.refactor_args`,
         ``perm_r``, ``perm_c``), the factors' values and two work vectors.
@@ -786,7 +815,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         (the first three of the history's width, the others n).
     rec : tuple
         The output: ``(save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments,
-        restart_times)``.
+        restart_times, event_t, event_count, event_idx)`` (the events: their times and the
+        switches that changed, as the jumps); the loop returns ``BUFFER_FULL`` when any of them
+        may not hold the next step (switching events add restarts, jumps and segments).
 
     Returns
     -------
@@ -796,7 +827,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     atol, mask, high, xmax, w, w_err, signs = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
-    save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times = rec
+    (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
+     event_t, event_count, event_idx) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     width = P.shape[1]
     n = atol.size
@@ -805,6 +837,13 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     ee, pred0, pred1, r, d, xn, w_newton, w_se, xs = wk
     rtol = F[F_RTOL]
     norm = I[I_NORM]
+    s_par = devd[15]
+    s_idx = devd[16]
+    s_vacc = devd[17]
+    s_vtry = devd[18]
+    s_vnew = devd[19]
+    s_tc = devd[20]
+    switches = s_par.shape[0] > 0
 
     if I[I_STARTED] == 0:
         I[I_STARTED] = 1
@@ -817,6 +856,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
 
     chunk = 0
     while I[I_STATUS] == RUNNING:
+        if (I[I_NJUMPS] + 1 >= jump_t.size or I[I_NRESTART_TIMES] + 2 >= restart_times.size
+                or I[I_NSEGMENTS] + 3 >= segments.size or I[I_NEVENTS] + 1 >= event_t.size):
+            return BUFFER_FULL  # a step and a restart add at most one restart, one jump, two segments
         if I[I_PENDING_RESTART] != 0:
             if I[I_M] + 1 >= buf_t.size:
                 return BUFFER_FULL  # a jump records a second point
@@ -831,6 +873,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             if rc != FACTOR_OK:
                 return I[I_STATUS]
             I[I_PENDING_RESTART] = 0
+            I[I_EVENT_RESTART] = 0
         if I[I_M] >= buf_t.size:
             return BUFFER_FULL
         if chunk >= max_chunk_steps:
@@ -1087,19 +1130,59 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             else:
                 I[I_GROWTH_FAILED] = 0
         update_differences(P, ee, k, maxord)
-        F[F_T] = t_new
+        # switching events: the states at the step's end, or the step cut where a control crossed
+        t_end = t_new
+        event = False
+        if switches:
+            # the new states go to s_vtry (every evaluation writes s_vnew; keep=False leaves s_vtry)
+            t_end, nsw = switch_step(P, k, psi, t, t_new, n, s_par, s_idx, s_vacc, s_vtry, s_tc, xe, work)
+            event = nsw > 0
+            if t_end < t_new:
+                for i in range(n):
+                    P[0, i] = work[i]
+                # the charges at the event, exactly (the history holds q(x) itself), in the held states
+                _evaluate(I, t_end, work, STATE_NONE, False, False, sysd, devd, u, evb)
+                for i in range(n):
+                    P[0, n + i] = qe[i]
+        F[F_T] = t_end
         if not linear:
             _accept_state(I, devd)
+        if switches:
+            _copy2(s_vacc, s_vtry)
         set_weights(P[0, :n], rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
-        _record(I, t_new, k, P[0], rec)
+        _record(I, t_end, k, P[0], rec)
         F[F_H] = max(min(h * eta, F[F_MAX_STEP]), F[F_MIN_STEP])
-        if landing and I[I_IBP] == bps.size - 1:
+        landed = landing and t_end == t_new
+        if landed and I[I_IBP] == bps.size - 1:
             I[I_STATUS] = FINISHED
             return FINISHED
         if I[I_MAX_STEPS] > 0 and I[I_STEPS] >= I[I_MAX_STEPS]:
-            _fail(F, I, t_new, F[F_H], FAIL_MAX_STEPS * 256, -1)
+            _fail(F, I, t_end, F[F_H], FAIL_MAX_STEPS * 256, -1)
             return FAILED
-        if landing:
+        if event:
+            I[I_EVENTS] += 1
+            I[I_EVENT_RESTART] = 1
+            j = I[I_NEVENTS]
+            event_t[j] = t_end
+            count = 0
+            for i in range(s_par.shape[0]):
+                if s_tc[i] <= t_end + EVENT_TOGETHER * h:
+                    if count < JUMP_NAMES:
+                        event_idx[j, count] = i
+                    count += 1
+            event_count[j] = count
+            I[I_NEVENTS] = j + 1
+        if event and not landed:
+            # order-1 restart at the event with probed derivatives (and the right limit, where it jumps)
+            I[I_RESTARTS] += 1
+            restart_times[I[I_NRESTART_TIMES]] = t_end
+            I[I_NRESTART_TIMES] += 1
+            F[F_RESTART_CAP] = max(min(h, F[F_MAX_STEP], bps[I[I_IBP]] - t_end), F[F_MIN_STEP])
+            F[F_RESTART_FIXED] = 0.0
+            I[I_PENDING_RESTART] = 1
+            segments[I[I_NSEGMENTS]] = I[I_M] - 1
+            I[I_NSEGMENTS] += 1
+        if landed:
             I[I_IBP] += 1
             # order-1 restart on the breakpoint with probed derivatives
             I[I_RESTARTS] += 1

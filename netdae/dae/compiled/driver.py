@@ -6,14 +6,15 @@
 loop of :mod:`netdae.dae.compiled.bdf_loop`. It serves an MNA system whose
 parts all compile: the constant ``E``, ``H``, ``B``, the independent
 sources' waveforms, and device families with a compiled kernel (diode, BJT,
-MOSFET: :mod:`netdae.devices.kernels`); for anything else (a behavioural
-source, a user DAE) it returns ``None`` and the caller uses the Python
+MOSFET, switch, behavioural source: :mod:`netdae.devices.kernels`); for
+anything else (a user DAE) it returns ``None`` and the caller uses the Python
 integrator.
 
 The loop returns to Python for what does not belong in it: new pivots when
 a refactorisation meets a degraded pivot (SuperLU), and the right limit of
-a nonlinear system whose inputs jump (the steady-state solver, with its
-gmin and source stepping: :func:`netdae.dae.bdf.right_limit`).
+a nonlinear system whose inputs jump or whose switches change (the
+steady-state solver, with its gmin and source stepping:
+:func:`netdae.dae.bdf.right_limit`, with the loop's switch states held).
 
 Python is entered once per output chunk: when the output buffers are full
 (they double), and after a bounded number of steps (about
@@ -48,8 +49,10 @@ PROGRESS_INTERVAL = 0.1
 FIRST_CHUNK = 64
 
 
-#: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET).
-BEHAVIOURAL_SLOT = 3
+#: Position of the switches in the loop's families (after diode, BJT, MOSFET).
+SWITCH_SLOT = 3
+#: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET, switch).
+BEHAVIOURAL_SLOT = 4
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -64,13 +67,14 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 
 
 def _family_slot(family) -> int | None:
-    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, behavioural), or None."""
+    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, switch, behavioural), or None."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
     from ...devices.mosfet import MosfetFamily
+    from ...devices.switch import SwitchFamily
 
-    for slot, cls in enumerate((DiodeFamily, BjtFamily, MosfetFamily, BehaviouralFamily)):
+    for slot, cls in enumerate((DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily)):
         if type(family) is cls:
             return slot
     return None
@@ -167,7 +171,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     B = system.B.tocoo()
     b_rows, b_cols, b_vals = B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float)
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
-    devd = _pack_families(system)
+    switching = getattr(system, "switching", None)
+    devd = _pack_families(system, x0, switching)
 
     F = np.zeros(L.N_F)
     I = np.zeros(L.N_I, dtype=np.int64)
@@ -230,11 +235,14 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         # identity order keeps the loop's arguments defined until then
         lu.factor(identity)
     swork = np.zeros(n)
-    restart_times = np.zeros(bps.size + 1)
-    jump_t = np.zeros(bps.size + 1)
-    jump_count = np.zeros(bps.size + 1, dtype=np.int64)
-    jump_idx = np.zeros((bps.size + 1, L.JUMP_NAMES), dtype=np.int64)
-    segments = np.zeros(2 * bps.size + 3, dtype=np.int64)
+    restart_times = np.zeros(bps.size + 4)
+    jump_t = np.zeros(bps.size + 4)
+    jump_count = np.zeros(bps.size + 4, dtype=np.int64)
+    jump_idx = np.zeros((bps.size + 4, L.JUMP_NAMES), dtype=np.int64)
+    segments = np.zeros(2 * bps.size + 8, dtype=np.int64)
+    event_t = np.zeros(8)
+    event_count = np.zeros(8, dtype=np.int64)
+    event_idx = np.zeros((8, L.JUMP_NAMES), dtype=np.int64)
     I[L.I_NSEGMENTS] = 1  # segments[0] = 0: the start
 
     def lus():
@@ -262,7 +270,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     try:
         while True:
             tic = time.perf_counter()
-            rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times)
+            rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
+                   event_t, event_count, event_idx)
             status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd, devd,
                            lus(), evb, ws, wk, rec, chunk)
             if fresh:
@@ -281,8 +290,11 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                     F[L.F_PIVOT_TAG] = F[L.F_PENDING_TAG]
                     lu.factor(identity)
             elif status == L.NEED_RIGHT_LIMIT:
-                # the inputs of a nonlinear system jump: x(t+) by converged implicit-Euler steps
+                # the inputs of a nonlinear system jump (or its switches changed): x(t+) by converged
+                # implicit-Euler steps, the switches held in the loop's states
                 eps = float(F[L.F_RL_EPS])
+                if switching is not None:
+                    switching.hold(devd[SWITCH_SLOT * 5 + 2])
                 x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high, rtol,
                                                         vntol, abstol)
                 I[L.I_NEWTON] += its
@@ -296,13 +308,26 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 rl_given[:] = x_right
                 I[L.I_RL_READY] = 1
             elif status == L.BUFFER_FULL:
-                try:
-                    grown = _grow(buf_t, buf_k, buf_x, 2 * cap)
-                except MemoryError:  # keep what was computed; say how to need less
-                    out_of_memory = (2 * cap) * (save_idx.size + 2) * 8
-                    break
-                cap *= 2
-                buf_t, buf_k, buf_x = grown
+                if I[L.I_M] + 1 >= cap:
+                    try:
+                        grown = _grow(buf_t, buf_k, buf_x, 2 * cap)
+                    except MemoryError:  # keep what was computed; say how to need less
+                        out_of_memory = (2 * cap) * (save_idx.size + 2) * 8
+                        break
+                    cap *= 2
+                    buf_t, buf_k, buf_x = grown
+                if I[L.I_NJUMPS] + 1 >= jump_t.size:
+                    jump_t = np.resize(jump_t, 2 * jump_t.size)
+                    jump_count = np.resize(jump_count, jump_t.size)
+                    jump_idx = np.resize(jump_idx, (jump_t.size, L.JUMP_NAMES))
+                if I[L.I_NRESTART_TIMES] + 2 >= restart_times.size:
+                    restart_times = np.resize(restart_times, 2 * restart_times.size)
+                if I[L.I_NSEGMENTS] + 3 >= segments.size:
+                    segments = np.resize(segments, 2 * segments.size)
+                if I[L.I_NEVENTS] + 1 >= event_t.size:
+                    event_t = np.resize(event_t, 2 * event_t.size)
+                    event_count = np.resize(event_count, event_t.size)
+                    event_idx = np.resize(event_idx, (event_t.size, L.JUMP_NAMES))
             elif status == L.CHUNK_DONE:
                 spent = time.perf_counter() - tic
                 chunk = int(min(max(chunk * PROGRESS_INTERVAL / max(spent, 1e-6), 16), 1 << 22))
@@ -316,6 +341,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
             progress(F[L.F_T], t_bound, int(I[L.I_STEPS]))
     except KeyboardInterrupt as exc:  # keep what was computed
         interrupted = exc
+    finally:
+        if switching is not None:
+            switching.release()
 
     m = int(I[L.I_M])
     if out_of_memory is None:
@@ -329,6 +357,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         "evaluations": int(I[L.I_EVALUATIONS]), "jacobian_evaluations": int(I[L.I_JAC_EVALUATIONS]),
         "cj_changes": int(I[L.I_CJ_CHANGES]), "restarts": int(I[L.I_RESTARTS]), "probes": int(I[L.I_PROBES]),
         "max_order_used": int(I[L.I_MAX_ORDER_USED]), "h_min": float(F[L.F_H_MIN]), "h_max": float(F[L.F_H_MAX]),
+        "events": int(I[L.I_EVENTS]),
         "wall_time": time.perf_counter() - wall0, "load_time": load_time, "engine": "compiled",
     }
     tolerances = {"rtol": rtol, "vntol": vntol, "abstol": abstol, "atol": atol_label, "norm": norm_name,
@@ -357,11 +386,17 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     for j in range(int(I[L.I_NJUMPS])):
         shown = jump_idx[j, : min(int(jump_count[j]), L.JUMP_NAMES)]
         jumps.append((float(jump_t[j]), tuple(system.names[i] for i in shown)))
+    events = []
+    if switching is not None:
+        switch_names = [el.name for el in switching.family.elements]
+        for j in range(int(I[L.I_NEVENTS])):
+            shown = event_idx[j, : min(int(event_count[j]), L.JUMP_NAMES)]
+            events.append((float(event_t[j]), tuple(switch_names[i] for i in shown)))
     seg = segments[: int(I[L.I_NSEGMENTS])].copy()
     result = IntegrationResult(
         t=t, x=x, order=k, names=names, save=save_idx.copy(), dense=Interpolant(t, k, x, names, segments=seg),
         stats=stats, status=code, message=message, tolerances=tolerances, failure=failure,
-        restarts=restart_times[: int(I[L.I_NRESTART_TIMES])].copy(), jumps=jumps,
+        restarts=restart_times[: int(I[L.I_NRESTART_TIMES])].copy(), jumps=jumps, events=events,
     )
     if interrupted is not None:
         interrupted.partial = result
@@ -378,19 +413,23 @@ _REASONS = {L.REASON_SINGULAR: "singular", L.REASON_NONFINITE: "nonfinite", L.RE
             L.REASON_MAXITER: "maxiter", L.REASON_EVALUATION: "evaluation"}
 
 
-def _pack_families(system) -> tuple:
-    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs and MOSFETs, then
-    the behavioural sources' ``(prog, const, inst, leaf, val, der)``.
+def _pack_families(system, x0, switching) -> tuple:
+    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs and switches,
+    the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
+    val, der)``.
 
-    An absent family gets empty arrays (its kernel is then skipped).
+    An absent family gets empty arrays (its kernel is then skipped). The switches start held in
+    the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
     """
     from ...devices.kernels import behavioural as kbh
     from ...devices.base import SlotMap
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
     from ...devices.kernels import mosfet as km
+    from ...devices.kernels import switch as ksw
 
-    shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE))
+    shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE),
+              (ksw.N_PAR, ksw.N_IDX, ksw.N_STATE))
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
                    np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))
@@ -402,12 +441,15 @@ def _pack_families(system) -> tuple:
                 behavioural = family.compiled(slots, system.n)
                 continue
             par, idx, vold0 = family.compiled(slots, system.n)
+            if slot == SWITCH_SLOT:
+                vold0 = switching.start(x0)
             packed[slot] = (np.ascontiguousarray(par, dtype=float),
                                             np.ascontiguousarray(idx, dtype=np.int64),
                                             np.ascontiguousarray(vold0, dtype=float))
     out = []
     for par, idx, vold0 in packed:
         out += [par, idx, vold0.copy(), vold0.copy(), vold0.copy()]
+    out.append(np.zeros(packed[SWITCH_SLOT][0].shape[0]))
     return tuple(out) + tuple(behavioural)
 
 
