@@ -60,7 +60,7 @@ from .failures import Failure, error_hint, failure_record, newton_hint, worst_un
 from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
-from .startup import jump_of, probe, right_limit
+from .startup import event_right_limit, jump_of, probe, right_limit
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF"]
@@ -415,6 +415,13 @@ class BDF:
         if self._event_restart:
             eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
+            out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,
+                                                             self._w, state=self._state)
+            self.stats["newton_iterations"] += iterations
+            self.stats["evaluations"] += evaluations
+            self.stats["jacobian_evaluations"] += iterations
+            if out is not None:
+                return out
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
                                                             tol["vntol"], tol["abstol"], state=self._state)
