@@ -418,3 +418,19 @@ def test_boost_converter_edges_agree_with_ngspice_to_its_step(netlists_dir):
         # netdae: still on the switch's side at the crossing, then the 0.2 ns edge
         at = ours.dense([t_sw - 1e-12, t_sw + 0.5e-9])["v(sw)"]
         assert at[0] < 0.5 and abs(at[1] - high) < 0.05 * high
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_chattering_switch_stops_the_run_with_a_message(engine, monkeypatch):
+    # without hysteresis the switch's own closing pulls its control back below VT: a sliding mode
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    r = transient(load(RELAXATION.replace("vt=2 vh=1", "vt=2 vh=0")))
+    assert not r.ok
+    assert "switch s1 chatters" in r.message and "VH > 0" in r.message
+    assert r.extra["failure"]["t"] == pytest.approx(transient_first_crossing(), rel=1e-3)
+    assert r.stats["integrator"]["events"] < 200
+
+
+def transient_first_crossing() -> float:
+    """When the relaxation oscillator's capacitor first reaches 2 V (VT), charging from 0 towards 5 V."""
+    return 1e-3 * math.log(5.0 / 3.0)

@@ -61,6 +61,7 @@ from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
 from .startup import event_right_limit, jump_of, probe, right_limit
+from ..compiled.events import CHATTER_EVENTS, chatter_message
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF"]
@@ -248,6 +249,8 @@ class BDF:
         self._last_cj_attempt = None
         self._state = None  # the devices' limiting state at the last accepted point
         self._event_restart = False  # the pending restart follows a switching event
+        self._after_event = False  # the last restart was at a switching event
+        self._chatter = 0  # consecutive events in the first step after an event
         self._ee = None
         self.h = 0.0
         self._h_request = 0.0
@@ -661,6 +664,13 @@ class BDF:
         if event:
             self.stats["events"] += 1
             self._rec.events.append((float(t_end), switched))
+            self._chatter = self._chatter + 1 if (self._nst == 1 and self._after_event) else 0
+            if self._chatter >= CHATTER_EVENTS:
+                what, hint = chatter_message(switched[0])
+                self._fail(t_end, h, what, None, hint)
+                return
+        if landed or event:
+            self._after_event = event
         if landed:
             self._ibp += 1
             self._event_restart = event

@@ -53,7 +53,7 @@ from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.switch import eval_switch, switch_step
-from .events import EVENT_TOGETHER
+from .events import CHATTER_EVENTS, EVENT_TOGETHER
 from .control import (NORM_MAX, error_norms, flc_coefficients, landing_step, set_weights, update_differences,
                       weighted_norm)
 from . import kernel
@@ -165,7 +165,9 @@ I_LINEAR = 37           # 1: a linear system (exact corrector)
 I_EVENTS = 38           # steps cut (or ended) where switches change conductance
 I_EVENT_RESTART = 39    # the pending restart follows a switching event (a finer right limit)
 I_NEVENTS = 40          # events recorded
-N_I = 41
+I_CHATTER = 41          # consecutive events in the first step after an event
+I_AFTER_EVENT = 42      # the last restart was at an event
+N_I = 43
 
 # statuses
 RUNNING = 0
@@ -191,6 +193,7 @@ FAIL_PROBE_SINGULAR = 5  # the probe's matrix E/eps - H is singular
 FAIL_PROBE_NONFINITE = 6
 FAIL_MAX_STEPS = 7
 FAIL_START_NONFINITE = 8
+FAIL_CHATTER = 9         # a switch switches back right after each event (I_FAIL_WORST: the switch)
 
 # what failed last inside a step (for messages): the names of netdae.dae.newton's INFO_*
 REASON_SINGULAR = 1
@@ -1229,6 +1232,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             return FAILED
         if event:
             I[I_EVENTS] += 1
+            # chattering: an event in the first step after an event's restart, again and again
+            I[I_CHATTER] = I[I_CHATTER] + 1 if (I[I_NST] == 1 and I[I_AFTER_EVENT] != 0) else 0
             I[I_EVENT_RESTART] = 1
             j = I[I_NEVENTS]
             event_t[j] = t_end
@@ -1240,6 +1245,11 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     count += 1
             event_count[j] = count
             I[I_NEVENTS] = j + 1
+            if I[I_CHATTER] >= CHATTER_EVENTS:
+                _fail(F, I, t_end, h, FAIL_CHATTER * 256, event_idx[j, 0])
+                return FAILED
+        if landed or event:
+            I[I_AFTER_EVENT] = 1 if event else 0
         if event and not landed:
             # order-1 restart at the event with probed derivatives (and the right limit, where it jumps)
             I[I_RESTARTS] += 1
