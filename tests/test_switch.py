@@ -279,6 +279,41 @@ def test_w_switch_follows_a_source_current():
     assert vb(3.2e-3 + 300e-6) == pytest.approx(1.0 - math.exp(-3.0), abs=2e-3)
 
 
+RELAXATION = """relaxation oscillator
+V1 vdd 0 5
+R1 vdd a 1k
+C1 a 0 1u
+S1 a d a 0 smod
+R2 d 0 100
+.model smod sw vt=2 vh=1 ron=1 roff=1e9
+.ic v(a)=0
+.tran 10u 10m
+.end
+"""
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_switch_controlled_by_its_own_node_oscillates_with_the_analytic_period(engine, monkeypatch):
+    # C1 charges through R1 towards 5 V until v(a) = 3 V (VT + VH), then S1 discharges it through
+    # RON + R2 until v(a) = 1 V (VT - VH): the events are where the solution itself crosses the thresholds
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    r = transient(load(RELAXATION))
+    assert r.ok
+    events = np.array(_instants(r))
+    assert [w for _, w in r.extra["events"]] == [["s1"]] * events.size
+    tau, r_th = 1e-3, 1000.0 * 101.0 / 1101.0
+    v_low = 5.0 * 101.0 / 1101.0
+    first = tau * math.log(5.0 / 2.0)
+    charge = tau * math.log(4.0 / 2.0)
+    discharge = 1e-6 * r_th * math.log((3.0 - v_low) / (1.0 - v_low))
+    assert events[0] == pytest.approx(first, rel=1e-6)
+    assert np.diff(events)[0::2] == pytest.approx(np.full((events.size) // 2, discharge), rel=1e-3)
+    assert np.diff(events)[1::2] == pytest.approx(np.full((events.size - 1) // 2, charge), rel=1e-3)
+    # at each event the control is on its threshold
+    va = np.asarray(r.dense(events)["v(a)"])
+    assert va[0::2] == pytest.approx(3.0, abs=1e-6) and va[1::2] == pytest.approx(1.0, abs=1e-6)
+
+
 def test_engines_agree_on_switching_and_step_counts(monkeypatch):
     text = TRIANGLE.format(vh=0.2).replace("R2 b 0 1meg", "R2 b 0 1meg\nC1 b 0 10n")
     runs = {}
@@ -383,3 +418,19 @@ def test_boost_converter_edges_agree_with_ngspice_to_its_step(netlists_dir):
         # netdae: still on the switch's side at the crossing, then the 0.2 ns edge
         at = ours.dense([t_sw - 1e-12, t_sw + 0.5e-9])["v(sw)"]
         assert at[0] < 0.5 and abs(at[1] - high) < 0.05 * high
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_chattering_switch_stops_the_run_with_a_message(engine, monkeypatch):
+    # without hysteresis the switch's own closing pulls its control back below VT: a sliding mode
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    r = transient(load(RELAXATION.replace("vt=2 vh=1", "vt=2 vh=0")))
+    assert not r.ok
+    assert "switch s1 chatters" in r.message and "VH > 0" in r.message
+    assert r.extra["failure"]["t"] == pytest.approx(transient_first_crossing(), rel=1e-3)
+    assert r.stats["integrator"]["events"] < 200
+
+
+def transient_first_crossing() -> float:
+    """When the relaxation oscillator's capacitor first reaches 2 V (VT), charging from 0 towards 5 V."""
+    return 1e-3 * math.log(5.0 / 3.0)

@@ -22,8 +22,10 @@ writes it back as
   last ``.title`` card, which would replace the title in ngspice, becomes
   the title line);
 - one line per card, continuation lines joined and comments removed: only
-  element cards of the kinds netdae reads (R C L K V I E F G H B D Q M S W X)
-  and the dot cards of :data:`DOT_CARDS`; anything else, e.g.
+  element cards of the kinds netdae reads (R C L K V I E F G H B D Q M S W X;
+  S and W cards must parse as switches, so that a stray ``shell ...`` or
+  ``write ...`` command is refused too) and the dot cards of
+  :data:`DOT_CARDS`; anything else, e.g.
   ``.controlfoo``, ``.includex`` or an XSPICE ``A`` device (code models read
   and write files), is a :class:`~netdae.errors.NetlistError` at its
   location;
@@ -49,6 +51,7 @@ import re
 from dataclasses import dataclass
 
 from ..errors import NetlistError
+from ..netlist.elements import parse_element
 from ..netlist.lines import split_cards
 from ..netlist.reader import STRING_SOURCE, read_deck
 from ..netlist.syntax import ELEMENTS
@@ -226,6 +229,10 @@ def self_contained(
                 raise _refuse(card, word, True)
         elif word[:1] not in ELEMENTS:
             raise _refuse(card, word, False)
+        elif word[:1] in "sw":
+            # a switch card must read as one: ngspice's commands 'shell ...', 'write ...' begin with
+            # these letters (harmless outside a control block, but never handed over)
+            parse_element(card)
         lines.append(card.raw.rstrip())
         origins.append(where)
     lines[0] = _safe_title(title)

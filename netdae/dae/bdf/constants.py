@@ -72,6 +72,11 @@ JUMP_NEWTON_MAXITER = 25
 #: steps extrapolated to zero would mistake for part of the jump (the charges must stay).
 EVENT_RIGHT_LIMIT_FRACTION = 1e-6
 EVENT_RIGHT_LIMIT_ULPS = 1000.0
+#: The right limit after an event is first solved by full Newton on the two implicit-Euler
+#: steps (from the left value; a switch changes a conductance, rarely more), converged when
+#: the last correction is below this fraction of the tolerances (maximum norm); failing that,
+#: by the steady-state solver with its gmin and source stepping.
+EVENT_RIGHT_LIMIT_TOL = 1e-3
 #: A step may be stretched by this fraction to land on a breakpoint.
 BREAKPOINT_STRETCH = 0.1
 #: Breakpoints closer than this fraction of the interval are merged (no sliver steps).

@@ -60,7 +60,8 @@ from .failures import Failure, error_hint, failure_record, newton_hint, worst_un
 from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
-from .startup import jump_of, probe, right_limit
+from .startup import event_right_limit, jump_of, probe, right_limit
+from ..compiled.events import CHATTER_EVENTS, chatter_message
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF"]
@@ -248,6 +249,8 @@ class BDF:
         self._last_cj_attempt = None
         self._state = None  # the devices' limiting state at the last accepted point
         self._event_restart = False  # the pending restart follows a switching event
+        self._after_event = False  # the last restart was at a switching event
+        self._chatter = 0  # consecutive events in the first step after an event
         self._ee = None
         self.h = 0.0
         self._h_request = 0.0
@@ -415,6 +418,13 @@ class BDF:
         if self._event_restart:
             eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
+            out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,
+                                                             self._w, state=self._state)
+            self.stats["newton_iterations"] += iterations
+            self.stats["evaluations"] += evaluations
+            self.stats["jacobian_evaluations"] += iterations
+            if out is not None:
+                return out
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
                                                             tol["vntol"], tol["abstol"], state=self._state)
@@ -654,6 +664,13 @@ class BDF:
         if event:
             self.stats["events"] += 1
             self._rec.events.append((float(t_end), switched))
+            self._chatter = self._chatter + 1 if (self._nst == 1 and self._after_event) else 0
+            if self._chatter >= CHATTER_EVENTS:
+                what, hint = chatter_message(switched[0])
+                self._fail(t_end, h, what, None, hint)
+                return
+        if landed or event:
+            self._after_event = event
         if landed:
             self._ibp += 1
             self._event_restart = event

@@ -53,8 +53,9 @@ from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.switch import eval_switch, switch_step
-from .events import EVENT_TOGETHER
-from .control import error_norms, flc_coefficients, landing_step, set_weights, update_differences, weighted_norm
+from .events import CHATTER_EVENTS, EVENT_TOGETHER
+from .control import (NORM_MAX, error_norms, flc_coefficients, landing_step, set_weights, update_differences,
+                      weighted_norm)
 from . import kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
 from .lu import refactor as lu_refactor
@@ -76,10 +77,12 @@ from ..bdf import (  # noqa: E402
     ETA_SHRINK_MAX,
     ETA_SHRINK_MIN,
     EVENT_RIGHT_LIMIT_FRACTION,
+    EVENT_RIGHT_LIMIT_TOL,
     EVENT_RIGHT_LIMIT_ULPS,
     H0_ERROR_TARGET,
     H0_FRACTION,
     JUMP_DETECT,
+    JUMP_NEWTON_MAXITER,
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
     MAX_ORDER,
@@ -162,7 +165,9 @@ I_LINEAR = 37           # 1: a linear system (exact corrector)
 I_EVENTS = 38           # steps cut (or ended) where switches change conductance
 I_EVENT_RESTART = 39    # the pending restart follows a switching event (a finer right limit)
 I_NEVENTS = 40          # events recorded
-N_I = 41
+I_CHATTER = 41          # consecutive events in the first step after an event
+I_AFTER_EVENT = 42      # the last restart was at an event
+N_I = 43
 
 # statuses
 RUNNING = 0
@@ -188,6 +193,7 @@ FAIL_PROBE_SINGULAR = 5  # the probe's matrix E/eps - H is singular
 FAIL_PROBE_NONFINITE = 6
 FAIL_MAX_STEPS = 7
 FAIL_START_NONFINITE = 8
+FAIL_CHATTER = 9         # a switch switches back right after each event (I_FAIL_WORST: the switch)
 
 # what failed last inside a step (for messages): the names of netdae.dae.newton's INFO_*
 REASON_SINGULAR = 1
@@ -583,7 +589,67 @@ def _record(I, t, k, x, rec):
 
 
 @kernel
-def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, evb, ws, rec):
+def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
+    """x(t+) after a switching event into ``xr``: two implicit-Euler steps of ``eps`` by full Newton.
+
+    The twin of :func:`netdae.dae.bdf.startup.event_right_limit`. Each step solves
+    ``(q(y) - q0) / eps - phi(y, t + k eps) = 0`` from the left value (the switches held,
+    the devices limited against the previous iterate), converged when the last correction is
+    below ``EVENT_RIGHT_LIMIT_TOL`` of the tolerances; ``xr = 2 y1 - y2`` (``y2`` for index-2
+    unknowns). Returns False when a step does not converge (then Python's steady-state solver
+    takes over). Uses ``xp``, ``xpp``, ``b1``, ``qpb`` of ``ws`` as work (the derivatives are
+    probed again after a jump).
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    atol, mask, high, xmax, w, w_err, signs = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    y = xp
+    y1 = xpp
+    q0 = qpb
+    d = b1
+    for i in range(n):
+        y[i] = x[i]
+    start = STATE_ACCEPTED if I[I_HAS_ACC] != 0 else STATE_NONE
+    for step in range(1, 3):
+        _evaluate(I, t + (step - 1) * eps, y, start, False, False, sysd, devd, u, evb)
+        for i in range(n):
+            q0[i] = qe[i]
+        state = start
+        converged = False
+        for _ in range(JUMP_NEWTON_MAXITER):
+            flags = _evaluate(I, t + step * eps, y, state, True, True, sysd, devd, u, evb)
+            I[I_HAS_TRY] = 1
+            state = STATE_TRIAL
+            if flags & FLAG_NONFINITE:
+                return False
+            for i in range(n):
+                d[i] = (qe[i] - q0[i]) / eps - phie[i]
+            if _factor(F, I, 1.0 / eps, eps, dqe, dphie, lus, a_data) != FACTOR_OK:
+                return False
+            _solve(lus, d)
+            I[I_NEWTON] += 1
+            for i in range(n):
+                y[i] -= d[i]
+            dn = weighted_norm(d, w, NORM_MAX)
+            if not math.isfinite(dn):
+                return False
+            if dn <= EVENT_RIGHT_LIMIT_TOL and (flags & FLAG_LIMITED) == 0:
+                converged = True
+                break
+        if not converged:
+            return False
+        if step == 1:
+            for i in range(n):
+                y1[i] = y[i]
+    for i in range(n):
+        xr[i] = y[i] if high[i] else 2.0 * y1[i] - y[i]
+    return True
+
+
+@kernel
+def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     """Continue from the right limit where it differs from ``x`` (see ``BDF._jump``).
 
     Returns -1 when nothing jumped, else 1 when an unknown that is not index 2 jumped (the
@@ -617,16 +683,21 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, evb, ws, rec):
                 if high[i]:
                     xr[i] = x2[i]
         else:
-            # a nonlinear system: converged implicit-Euler steps from Python's steady solver
+            # a nonlinear system: converged implicit-Euler steps (after a switching event by full
+            # Newton here, else or failing that from Python's steady solver)
             if I[I_RL_READY] == 0:
                 F[F_RL_EPS] = eps
+                solved = False
                 if I[I_EVENT_RESTART] != 0:
                     F[F_RL_EPS] = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
-                return FACTOR_NEED_RIGHT_LIMIT
-            I[I_RL_READY] = 0
-            for i in range(n):
-                xr[i] = rl_given[i]
+                    solved = _event_right_limit(F, I, t, x, F[F_RL_EPS], tol, sysd, devd, lus, evb, ws)
+                if not solved:
+                    return FACTOR_NEED_RIGHT_LIMIT
+            else:
+                I[I_RL_READY] = 0
+                for i in range(n):
+                    xr[i] = rl_given[i]
     j = I[I_NJUMPS]
     jump_t[j] = t
     count = 0
@@ -669,7 +740,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
             return rc
         if not checked:
             checked = True
-            again = _jump(F, I, t, x, eps, P, F[F_RTOL], tol, sysd, devd, evb, ws, rec)
+            again = _jump(F, I, t, x, eps, P, F[F_RTOL], tol, sysd, devd, lus, evb, ws, rec)
             if again == FACTOR_NEED_RIGHT_LIMIT:
                 I[I_PROBES] -= 1  # repeated when Python returns the right limit
                 I[I_EVALUATIONS] -= 2
@@ -1161,6 +1232,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             return FAILED
         if event:
             I[I_EVENTS] += 1
+            # chattering: an event in the first step after an event's restart, again and again
+            I[I_CHATTER] = I[I_CHATTER] + 1 if (I[I_NST] == 1 and I[I_AFTER_EVENT] != 0) else 0
             I[I_EVENT_RESTART] = 1
             j = I[I_NEVENTS]
             event_t[j] = t_end
@@ -1172,6 +1245,11 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     count += 1
             event_count[j] = count
             I[I_NEVENTS] = j + 1
+            if I[I_CHATTER] >= CHATTER_EVENTS:
+                _fail(F, I, t_end, h, FAIL_CHATTER * 256, event_idx[j, 0])
+                return FAILED
+        if landed or event:
+            I[I_AFTER_EVENT] = 1 if event else 0
         if event and not landed:
             # order-1 restart at the event with probed derivatives (and the right limit, where it jumps)
             I[I_RESTARTS] += 1

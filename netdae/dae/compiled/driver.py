@@ -470,6 +470,12 @@ def _failure(system, F, I) -> dict:
     elif outer == L.FAIL_ROUNDOFF:
         what = f"step size below the roundoff of t ({what_kind})"
         hint = BDF._newton_hint(info) if kind == 1 else BDF._error_hint()
+    elif outer == L.FAIL_CHATTER:
+        from .events import chatter_message
+
+        family = system.switching.family
+        what, hint = chatter_message(family.elements[int(I[L.I_FAIL_WORST])].name)
+        return {"t": float(F[L.F_FAIL_T]), "h": h, "worst": None, "hint": hint, "what": what}
     elif outer == L.FAIL_MAX_STEPS:
         what = f"reached max_steps={int(I[L.I_MAX_STEPS])}"
         hint = "raise max_steps, or loosen the tolerances"

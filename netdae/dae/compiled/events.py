@@ -26,7 +26,7 @@ import numpy as np
 from . import kernel
 
 __all__ = ["interpolate_column", "interpolate_state", "crossing_time", "CROSSING_SAMPLES", "CROSSING_ITERATIONS",
-           "EVENT_MIN_GAP", "EVENT_TOGETHER"]
+           "EVENT_MIN_GAP", "EVENT_TOGETHER", "CHATTER_EVENTS", "chatter_message"]
 
 #: The interpolant is sampled at this many equal subintervals of the step to bracket the first crossing.
 CROSSING_SAMPLES = 8
@@ -39,6 +39,11 @@ EVENT_MIN_GAP = 1e-6
 #: Crossings within this fraction of the step of the first one happen together (one restart);
 #: a crossing this close to the step's end ends the step there (the step is not cut).
 EVENT_TOGETHER = 1e-9
+#: A switch that switches back in the first step after each of this many consecutive events
+#: chatters (a sliding mode: its control returns across the threshold as soon as it switches,
+#: which no sequence of isolated instants resolves): the integration stops and says so
+#: (ngspice stops with "timestep too small" there).
+CHATTER_EVENTS = 100
 
 
 @kernel
@@ -133,3 +138,12 @@ def crossing_time(P, k, psi, t, t_new, a, b, n, theta, direction):
                 f_hi *= 0.5
             side = -1
     return hi
+
+
+def chatter_message(name: str) -> tuple[str, str]:
+    """The failure's ``what`` and ``hint`` for a chattering switch (Python; both integrators use it)."""
+    what = (f"switch {name} chatters: its control crosses back over the threshold right after each of "
+            f"{CHATTER_EVENTS} switchings (a sliding mode)")
+    hint = ("the switch's own switching moves its control back across the threshold; give its model a "
+            "hysteresis (VH > 0 for S, IH > 0 for W) wider than that move, or slow the control down")
+    return what, hint
