@@ -47,17 +47,36 @@ def scd(y, ref, scored) -> float:
     return -math.log10(err) if err > 0 else math.inf
 
 
-def _ida_segments(resfn, y0, yp0, tol, atol, bps, algebraic=None):
-    """IDA from t = 0 through the corners ``bps`` (its ``tstop`` at each) to ``bps[-1]``."""
+#: CPU seconds a solver may spend on one problem and tolerance before it is stopped.
+CPU_LIMIT = 300.0
+
+
+class OverLimit(Exception):
+    """A run stopped at CPU_LIMIT (the message says where)."""
+
+
+def _ida_segments(resfn, y0, yp0, tol, atol, bps, algebraic=None, correct_yp0=False):
+    """IDA from t = 0 through the corners ``bps`` (its ``tstop`` at each) to ``bps[-1]``.
+
+    ``correct_yp0``: let IDA make the given y'(0) consistent (IDACalcIC) first.
+    """
     import sksundae as sun
 
-    solver = sun.ida.IDA(resfn, rtol=tol, atol=atol, max_num_steps=50_000_000, algebraic_idx=algebraic)
+    extra = {"calc_initcond": "yp0", "calc_init_dt": 1e-3 * bps[0]} if correct_yp0 else {}
+    solver = sun.ida.IDA(resfn, rtol=tol, atol=atol, max_num_steps=50_000_000, algebraic_idx=algebraic, **extra)
     solver.init_step(0.0, np.asarray(y0, dtype=float), np.asarray(yp0, dtype=float))
     out = None
+    cpu0 = time.process_time()
+    t = 0.0
     for b in bps:
-        out = solver.step(b, tstop=b)
-        if not out.success:
-            return None, out.message
+        # output points inside the segment only to check the CPU limit
+        for tt in np.linspace(t, b, 21)[1:]:
+            out = solver.step(float(tt), tstop=b)
+            if not out.success:
+                return None, out.message
+            if time.process_time() - cpu0 > CPU_LIMIT:
+                raise OverLimit(f"stopped at t = {float(tt):.4g} after {CPU_LIMIT:.0f} s of CPU")
+        t = b
     return np.asarray(out.y, dtype=float).ravel(), ""
 
 
@@ -101,8 +120,9 @@ def transamp_ida(tol):
         out[:] = M @ yp - f(t, y)
 
     y0 = np.array([0.0, 3.0, 3.0, 6.0, 3.0, 3.0, 6.0, 0.0])
+    # the Test Set's y'(0), given to 8 digits, made consistent by IDA
     yp0 = np.array([51.338775, 51.338775, 0.0, -24.9757667, -24.9757667, 0.0, -10.00564453, -10.00564453])
-    return _ida_segments(res, y0, yp0, tol, tol, [0.2])
+    return _ida_segments(res, y0, yp0, tol, tol, [0.2], correct_yp0=True)
 
 
 # ---------------------------------------------------------------- ringmod
@@ -358,7 +378,18 @@ def run_netdae(problem, tol):
     """(y at tend in the Test Set's order or None, stats, CPU seconds, message)."""
     circuit = netdae.load(ROOT / "netlists" / problem["netlist"])
     t0 = time.process_time()
-    res = netdae.simulate(circuit, reltol=tol, abstol=tol, vntol=tol)
+    reached = [0.0]
+
+    def progress(t, t_end, steps):
+        reached[0] = t
+        if time.process_time() - t0 > CPU_LIMIT:
+            raise KeyboardInterrupt
+
+    try:
+        res = netdae.simulate(circuit, reltol=tol, abstol=tol, vntol=tol, progress=progress)
+    except KeyboardInterrupt:
+        return None, {}, time.process_time() - t0, (f"stopped at t = {reached[0]:.4g} after {CPU_LIMIT:.0f} s "
+                                                    "of CPU")
     cpu = time.process_time() - t0
     if not res.ok:
         return None, res.stats, cpu, res.message
@@ -378,21 +409,24 @@ def run_ngspice(problem, tol):
     from netdae.ngspice import run_ngspice_file
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu0 = time.process_time()
     try:
         out = run_ngspice_file(ROOT / "netlists" / problem["netlist"],
                                options={"reltol": tol, "abstol": tol, "vntol": tol, "method": "gear"},
-                               timeout=1200)
+                               timeout=CPU_LIMIT)
         tran = [r for r in out.results if r.analysis == "tran"][0]
         y, message = problem["convert"](lambda s: float(tran[s][-1])), ""
     except Exception as exc:  # noqa: BLE001 - reported in the table
-        y, message = None, f"{type(exc).__name__}: {str(exc).splitlines()[0][:80]}"
+        lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+        y, message = None, f"{type(exc).__name__}: {' '.join(lines[1:2] or lines[:1])[:120]}"
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return y, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), message
+    child = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    return y, child + time.process_time() - cpu0, message
 
 
-def _fmt(y, problem, idx=None):
+def _fmt(y, problem, idx=None, message=""):
     if y is None:
-        return "failed"
+        return "not finished" if "stopped at" in message else "failed"
     if idx is None:
         v = scd(y, problem["ref"], problem["scored"])
     else:
@@ -422,8 +456,8 @@ of the inputs; for the pump the charges' absolute tolerance is tol times Cox = 4
 tol volts on the gate, and the index-2 current y9 is out of its error test, as it is out of
 netdae's). **ngspice** 39 runs the same netlist with reltol = abstol = vntol = tol and
 `method=gear`. CPU seconds are process time (ngspice: its child process); the machine has two
-shared cores, so they vary 2-4x with the load. *failed* is a run that stopped before tend
-(the notes say why)."""
+shared cores, so they vary 2-4x with the load. *failed* is a run that stopped before tend,
+*not finished* one stopped after 300 s of CPU (`--limit`); the notes say where."""
 
 INDEX2 = """The charge pump's current y9 = i(vin) is of index 2 (the source drives the gate charge: a loop of
 a voltage source and a capacitance). The Test Set leaves it out of its scd; its digits against the
@@ -450,7 +484,9 @@ def main():
     ap.add_argument("--only", default=None, help="comma-separated problem names")
     ap.add_argument("--skip", default="", help="comma-separated: ida, ngspice")
     ap.add_argument("--write", action="store_true", help="write the tables into docs/validation.md")
+    ap.add_argument("--limit", type=float, default=CPU_LIMIT, help="CPU seconds per solver, problem and tolerance")
     args = ap.parse_args()
+    globals()["CPU_LIMIT"] = args.limit
     tols = [float(v) for v in args.tols.split(",")]
     skip = set(filter(None, args.skip.split(",")))
     rows, index2, notes = [], [], []
@@ -459,7 +495,7 @@ def main():
             continue
         for tol in tols:
             y, stats, cpu, msg = run_netdae(p, tol)
-            steps = f"{stats['steps']} ({stats['rejected']})" if y is not None else "-"
+            steps = f"{stats['steps']} ({stats['rejected']})" if stats else "-"
             if msg:
                 notes.append(f"netdae {name} {tol:g}: {msg[:160]}")
             yi, cpu_i, msg_i = (None, 0.0, "skipped") if "ida" in skip else run_ida(p, tol)
@@ -468,15 +504,17 @@ def main():
             yn, cpu_n, msg_n = (None, 0.0, "skipped") if "ngspice" in skip else run_ngspice(p, tol)
             if msg_n and msg_n != "skipped":
                 notes.append(f"ngspice {name} {tol:g}: {msg_n[:160]}")
-            row = (f"| {name} | {tol:g} | {_fmt(y, p)} | {steps} | {cpu:.2f} | "
-                   f"{'-' if msg_i == 'skipped' else _fmt(yi, p)} | {'-' if msg_i == 'skipped' else f'{cpu_i:.2f}'} | "
-                   f"{'-' if msg_n == 'skipped' else _fmt(yn, p)} | {'-' if msg_n == 'skipped' else f'{cpu_n:.2f}'} |")
+            row = (f"| {name} | {tol:g} | {_fmt(y, p, None, msg)} | {steps} | {cpu:.2f} | "
+                   f"{'-' if msg_i == 'skipped' else _fmt(yi, p, None, msg_i)} | "
+                   f"{'-' if msg_i == 'skipped' else f'{cpu_i:.2f}'} | "
+                   f"{'-' if msg_n == 'skipped' else _fmt(yn, p, None, msg_n)} | "
+                   f"{'-' if msg_n == 'skipped' else f'{cpu_n:.2f}'} |")
             rows.append(row)
             print(row, flush=True)
             if p.get("index2"):
-                index2.append(f"| {name} | {tol:g} | {_fmt(y, p, p['index2'])} | "
-                              f"{'-' if msg_i == 'skipped' else _fmt(yi, p, p['index2'])} | "
-                              f"{'-' if msg_n == 'skipped' else _fmt(yn, p, p['index2'])} |")
+                index2.append(f"| {name} | {tol:g} | {_fmt(y, p, p['index2'], msg)} | "
+                              f"{'-' if msg_i == 'skipped' else _fmt(yi, p, p['index2'], msg_i)} | "
+                              f"{'-' if msg_n == 'skipped' else _fmt(yn, p, p['index2'], msg_n)} |")
     out = ["| problem | tol | netdae scd | netdae steps (rejected) | netdae CPU s | IDA scd | IDA CPU s | "
            "ngspice scd | ngspice CPU s |", "|---|---|---|---|---|---|---|---|---|", *rows]
     if index2:
