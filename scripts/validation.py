@@ -345,6 +345,22 @@ def render(rows, errors, jumps, translated, version, step_lines, plot_names) -> 
     return "\n".join(out) + "\n"
 
 
+TESTSET_BEGIN = "<!-- TESTSET: begin (written by scripts/testset.py --write) -->"
+TESTSET_END = "<!-- TESTSET: end -->"
+
+
+def testset_section(path: Path) -> str:
+    """The Test Set's section of the page as scripts/testset.py last wrote it ("" if none)."""
+    try:
+        old = path.read_text()
+    except OSError:
+        return ""
+    start, end = old.find(TESTSET_BEGIN), old.find(TESTSET_END)
+    if start < 0 or end < start:
+        return ""
+    return "\n" + old[start:end + len(TESTSET_END)] + "\n"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(ROOT / "docs" / "validation.md"), help="the page to write")
@@ -353,7 +369,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     out_path, img = Path(args.out).resolve(), Path(args.img).resolve()
     os.chdir(ROOT)  # netlists are named relative to the checkout in the page
-    paths = sorted(NETLISTS.relative_to(ROOT).glob("*.cir"))
+    # the Test Set's circuits are judged against its published references, not ngspice
+    # (scripts/testset.py writes their section, kept here between the TESTSET markers)
+    paths = sorted(p for p in NETLISTS.relative_to(ROOT).glob("*.cir") if not p.stem.startswith("testset_"))
     if args.only:
         wanted = {n.strip() for n in args.only.split(",")}
         paths = [p for p in paths if p.stem in wanted]
@@ -361,6 +379,7 @@ def main(argv=None) -> int:
     rows, errors, jumps, translated, version = collect(paths, img)
     plot_names = [name for name in PLOTS if (img / f"{name}.png").exists() and any(r.netlist == name for r in rows)]
     text = render(rows, errors, jumps, translated, version, step_control_table(), plot_names)
+    text += testset_section(out_path)
     out_path.write_text(text)
     print(f"wrote {out_path}", file=sys.stderr)
     return 0

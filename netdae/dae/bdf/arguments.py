@@ -125,3 +125,29 @@ def save_indices(n: int, save) -> np.ndarray:
         raise ValueError(f"save must be a 1-D integer array of unknown positions in [0, {n})")
     return s.astype(np.int64)
 
+
+
+def charge_rows(indptr, indices, high: np.ndarray, linear: bool) -> np.ndarray:
+    """Rows whose charge error is tested: those in which an index-2 unknown appears.
+
+    An index-2 unknown (the current of a source in a loop of capacitors) is the time
+    derivative of the charge of the rows it enters, ``i = -dq_r/dt + ...``: it is
+    accurate when that charge is, and the unknowns of the row do not say so when the
+    charge is a nonlinear function of a voltage the source fixes (a MOS gate charge of
+    a driven gate: the voltage is exact, its charge's derivative is what the current
+    carries). These rows' charge errors join the error test (:func:`netdae.dae.compiled.
+    control.charge_weights`). Index-2 rows themselves and linear systems (whose charges
+    ``E x`` are tested through x) have none.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    n = high.size
+    rows = np.zeros(n, dtype=np.bool_)
+    if linear or not high.any():
+        return rows
+    for j in np.flatnonzero(high):
+        rows[np.asarray(indices[indptr[j]:indptr[j + 1]])] = True
+    rows[high] = False
+    return rows

@@ -188,7 +188,11 @@ class NonlinearCorrector:
     -----
     The factorisation is kept while ``cj / cj_lu`` stays within
     ``[(1 - DCJ)/(1 + DCJ), (1 + DCJ)/(1 - DCJ)]``; a failure with a stale one
-    is retried once with a fresh Jacobian at the same step size. After
+    is retried once with a fresh Jacobian at the same step size, and a failure
+    with a fresh one once with full Newton (a Jacobian at every iterate: where a
+    model's slope changes inside the step, as a MOS charge at its threshold, the
+    modified iteration contracts slowly for every step size, and cutting the step
+    would not end). After
     Newton the charges are evaluated exactly at the new point (one device
     pass without Jacobian): the history must hold ``q(x_new)`` itself, or
     every step injects the linearisation error into the charge of floating
@@ -201,7 +205,10 @@ class NonlinearCorrector:
         self.rate = RATE_AFTER_SETUP
         self.state_try = None
 
-    def _newton(self, fun, x_pred, cj, cjlast, setup, weights):
+    def _newton(self, fun, x_pred, cj, cjlast, setup, weights, full=False):
+        if full:
+            return newton(fun, x_pred, self.lu, weights, tol=EPCON, maxiter=self.maxiter, jacobian="always",
+                          rate=RATE_AFTER_SETUP, scale=1.0, norm=self.norm, tag=cj)
         if setup:
             rate, jac, scale = RATE_AFTER_SETUP, "first", 1.0
         else:
@@ -269,6 +276,13 @@ class NonlinearCorrector:
             st["newton_iterations"] += res.iterations
             self.state_try = state
             res = self._newton(fun, x_pred, cj, cjlast, True, w_newton)
+        if not res.converged and res.info not in (INFO_EVALUATION, INFO_SINGULAR):
+            # a fresh Jacobian failed too: full Newton (a model whose slope changes within
+            # the step, as a MOS charge at its threshold) before a smaller step
+            st["newton_failures"] += 1
+            st["newton_iterations"] += res.iterations
+            self.state_try = state
+            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton, full=True)
         st["newton_iterations"] += res.iterations
         st["factorizations"] = lu.factorizations
         if not res.converged:

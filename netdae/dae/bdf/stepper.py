@@ -27,6 +27,9 @@ from ..compiled.control import (
     RELREF_LOCAL,
     RELREF_MIXED,
     RELREF_SIGNAL,
+    charge_error_kp1,
+    charge_error_norms,
+    charge_weights,
     error_norms,
     landing_step,
     set_weights,
@@ -36,7 +39,7 @@ from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
-from .arguments import absolute_tolerances, check_arguments, index_mask, save_indices
+from .arguments import absolute_tolerances, charge_rows, check_arguments, index_mask, save_indices
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -240,6 +243,12 @@ class BDF:
         self._rec = Recorder(system.names, save_idx, save is None)
         self._lu = LuCache(system.pattern, permc_spec=permc_spec)
         self._floor = RoundingFloor(system.pattern, self._lu)
+        # rows whose charge error joins the error test (coupled to index-2 unknowns)
+        self._qrows = charge_rows(system.pattern.indptr, system.pattern.indices, self._high, self._linear)
+        self._wq = np.zeros(n)
+        self._wq_count = 0
+        self._q_pattern = (np.asarray(system.pattern.indptr, dtype=np.int64),
+                           np.asarray(system.pattern.indices, dtype=np.int64))
         self._corrector = None if self._linear else NonlinearCorrector(
             system, self._lu, self._floor, self.stats, self.newton_maxiter, norm)
         # the controller's state between steps
@@ -388,7 +397,7 @@ class BDF:
         and the right value at the same t, so the dense output never
         interpolates across the jump) and ``reprobe`` says whether the
         derivatives must be measured again (an unknown that is not index 2
-        jumped). A nonlinear system's right limit is then recomputed by
+        jumped, or any unknown of a nonlinear system). A nonlinear system's right limit is then recomputed by
         converged Newton iterations (the one-iteration probe is accurate only
         near a consistent point).
         """
@@ -402,13 +411,17 @@ class BDF:
                 return None
         moved = np.abs(x_right - x) * p.w_floor
         names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
+        if not names:
+            return x, False  # the converged right limit is x itself: nothing jumped
         P = self._hist.P
         P[0, :n] = x_right
         if not self._linear:
             P[0, n:] = self._evaluate(x_right, self.t).q
         self._set_weights(x_right)
         self._rec.jump(self.t, x_right, names)
-        return x_right, value_jump
+        # a nonlinear system's history holds q'(t+) = phi(x(t+)): an index-2 unknown that
+        # jumped changes it in the rows it enters (a source current into a gate charge)
+        return x_right, value_jump or not self._linear
 
     def _right_limit(self, x, eps):
         """x(t+) of a nonlinear system (:func:`~netdae.dae.bdf.startup.right_limit`); None after a failure.
@@ -612,6 +625,12 @@ class BDF:
         if self._fixed:
             return True, "", {"knew": k, "err_k": 0.0, "err_km1": 0.0}
         norms = error_norms(ee, hist.P, k, self._w_step_err, self._norm_kind, n)
+        self._wq_count = 0
+        if self._qrows.any() and self._floor.abs_dq is not None:
+            indptr, indices = self._q_pattern
+            self._wq_count = charge_weights(self._qrows, self._floor.abs_dq.data, indptr, indices, self._w, self._wq)
+            qn = charge_error_norms(ee, hist.P, k, self._wq, self._norm_kind, n, self._wq_count)
+            norms = (max(norms[0], qn[0]), max(norms[1], qn[1]), max(norms[2], qn[2]))
         test = ctl.error_test(norms, hist.sigma, hist.ck, k)
         info = {"knew": test.knew, "err_k": test.err_k, "err_km1": test.err_km1}
         if test.passed:
@@ -702,6 +721,9 @@ class BDF:
         elif ctl.raise_test_due(k, knew, self.maxord, hist.ns, kdiff):
             n = self.n
             err_kp1 = self._normf(self._ee[:n] - hist.P[k + 1, :n], self._w_err) / (k + 2)
+            if self._wq_count:
+                err_kp1 = max(err_kp1, charge_error_kp1(self._ee, hist.P, k, self._wq, self._norm_kind, n,
+                                                        self._wq_count) / (k + 2))
             hist.k, err_new = ctl.choose_order(k, info["err_km1"], info["err_k"], err_kp1)
         return ctl.step_factor(err_new, hist.k)
 

@@ -54,8 +54,8 @@ from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.switch import eval_switch, switch_step
 from .events import CHATTER_EVENTS, EVENT_TOGETHER
-from .control import (NORM_MAX, error_norms, flc_coefficients, landing_step, set_weights, update_differences,
-                      weighted_norm)
+from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
+                      landing_step, set_weights, update_differences, weighted_norm)
 from . import kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
 from .lu import refactor as lu_refactor
@@ -167,7 +167,8 @@ I_EVENT_RESTART = 39    # the pending restart follows a switching event (a finer
 I_NEVENTS = 40          # events recorded
 I_CHATTER = 41          # consecutive events in the first step after an event
 I_AFTER_EVENT = 42      # the last restart was at an event
-N_I = 43
+I_RESTART_CHECKED = 43  # the pending restart has checked for a jump (kept across returns to Python)
+N_I = 44
 
 # statuses
 RUNNING = 0
@@ -499,7 +500,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
-    atol, mask, high, xmax, w, w_err, signs = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -601,7 +602,7 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     probed again after a jump).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
-    atol, mask, high, xmax, w, w_err, signs = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -654,12 +655,13 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
 
     Returns -1 when nothing jumped, else 1 when an unknown that is not index 2 jumped (the
     inputs' values jumped or the start was inconsistent: the derivatives must be probed
-    again), 0 when only index-2 unknowns did, or FACTOR_NEED_RIGHT_LIMIT when a nonlinear
+    again) or a nonlinear system's unknowns jumped (its charge derivatives change), 0 when
+    only index-2 unknowns of a linear system did, or FACTOR_NEED_RIGHT_LIMIT when a nonlinear
     system's right limit must be computed by Python first (``F_RL_EPS``; it comes back in
     ``rl_given``). On a jump ``x`` becomes the right limit, which is recorded a second time
     at ``t`` and starts a new segment.
     """
-    atol, mask, high, xmax, w, w_err, signs = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx) = rec
@@ -698,16 +700,24 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
                 I[I_RL_READY] = 0
                 for i in range(n):
                     xr[i] = rl_given[i]
-    j = I[I_NJUMPS]
-    jump_t[j] = t
     count = 0
     for i in range(n):
         if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
-            if count < JUMP_NAMES:
-                jump_idx[j, count] = i
             count += 1
-    jump_count[j] = count
-    I[I_NJUMPS] = j + 1
+    if count == 0 and I[I_EVENT_RESTART] == 0:
+        return -1  # the converged right limit is x itself: nothing jumped (after a switching event the
+        # right limit is still recorded and the derivatives probed again from it: the switch changed phi)
+    j = I[I_NJUMPS]
+    if j < jump_t.size:
+        jump_t[j] = t
+        count = 0
+        for i in range(n):
+            if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
+                if count < JUMP_NAMES:
+                    jump_idx[j, count] = i
+                count += 1
+        jump_count[j] = count
+        I[I_NJUMPS] = j + 1
     for i in range(n):
         x[i] = xr[i]
         P[0, i] = xr[i]
@@ -718,9 +728,12 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
             P[0, n + i] = qe[i]
     set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
     _record(I, t, 0, x, rec)
-    segments[I[I_NSEGMENTS]] = I[I_M] - 1
-    I[I_NSEGMENTS] += 1
-    return 1 if value_jump else 0
+    if I[I_NSEGMENTS] < segments.size:
+        segments[I[I_NSEGMENTS]] = I[I_M] - 1
+        I[I_NSEGMENTS] += 1
+    # a nonlinear system's history holds q'(t+) = phi(x(t+)): an index-2 unknown that
+    # jumped changes it in the rows it enters (a source current into a gate charge)
+    return 1 if (value_jump or I[I_LINEAR] == 0) else 0
 
 
 @kernel
@@ -728,10 +741,12 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     """Probe the derivatives at (t, x), continue from the right limit where the solution
     jumps, and start at order 1 with a step <= cap (returns as _probe, or
     FACTOR_NEED_RIGHT_LIMIT)."""
-    atol, mask, high, xmax, w, w_err, signs = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     h = cap
-    checked = False
+    # a restart repeated after a return to Python for new pivots has checked already
+    # (x is the right limit then): one check per restart, as in the Python driver
+    checked = I[I_RESTART_CHECKED] != 0
     retries = 0
     while True:
         eps = PROBE_FRACTION * h
@@ -746,6 +761,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
                 I[I_EVALUATIONS] -= 2
                 I[I_JAC_EVALUATIONS] -= 1
                 return again
+            I[I_RESTART_CHECKED] = 1
             if again == 1:
                 continue  # derivatives from the right limit
         if fixed:
@@ -762,6 +778,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
         if converged or retries >= PROBE_RETRIES:
             break
     _initialise_history(F, I, P, psi, h, xp, qpb)
+    I[I_RESTART_CHECKED] = 0
     return FACTOR_OK
 
 
@@ -779,9 +796,10 @@ def _residual(F, I, t_new, cj, x, jacobian, q_pred, qp_pred, sysd, devd, u, evb,
 
 
 @kernel
-def _newton(F, I, t_new, cj, setup, x_pred, q_pred, qp_pred, weights, sysd, devd, lus, u, evb, x, d, r):
+def _newton(F, I, t_new, cj, setup, full, x_pred, q_pred, qp_pred, weights, sysd, devd, lus, u, evb, x, d, r):
     """Modified Newton on the corrector (:func:`netdae.dae.newton.newton` with
-    ``jacobian="first"`` when ``setup``, else ``"never"`` with IDA's ``cj`` scaling).
+    ``jacobian="first"`` when ``setup``, else ``"never"`` with IDA's ``cj`` scaling;
+    ``"always"`` when ``full``: a Jacobian at every iterate, the last retry of an attempt).
 
     ``x`` holds the iterate on return. Returns ``(outcome, reason, worst, iterations, rate)``
     with outcome ``NEWTON_*`` and reason ``REASON_*`` (0 when converged).
@@ -791,6 +809,8 @@ def _newton(F, I, t_new, cj, setup, x_pred, q_pred, qp_pred, weights, sysd, devd
     n = x.size
     norm = I[I_NORM]
     maxiter = I[I_NEWTON_MAXITER]
+    if full:
+        setup = True
     if setup:
         rate = RATE_AFTER_SETUP
         scale = 1.0
@@ -849,9 +869,9 @@ def _newton(F, I, t_new, cj, setup, x_pred, q_pred, qp_pred, weights, sysd, devd
         limited = (flags & FLAG_LIMITED) != 0
         if not limited and (done or (trusted and ss * dn <= EPCON)):
             return NEWTON_CONVERGED, 0, _newton_worst(d, weights), m + 1, rate_out
-        need = False
+        need = full
         if m + 1 < maxiter:
-            flags = _residual(F, I, t_new, cj, x, False, q_pred, qp_pred, sysd, devd, u, evb, r)
+            flags = _residual(F, I, t_new, cj, x, need, q_pred, qp_pred, sysd, devd, u, evb, r)
     return NEWTON_FAILED, REASON_MAXITER, _newton_worst(d, weights), maxiter, rate_out
 
 
@@ -863,9 +883,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     Parameters
     ----------
     tol : tuple
-        ``(atol, mask, high, xmax, w, w_err, signs)``: absolute tolerances, the
+        ``(atol, mask, high, xmax, w, w_err, signs, qrows)``: absolute tolerances, the
         error-test mask and index-2 flags, the largest values so far, the weights,
-        the rounding floor's fixed signs.
+        the rounding floor's fixed signs, the rows whose charge error is tested
+        (:func:`netdae.dae.bdf.charge_rows`).
     sysd : tuple
         The system's linear part: ``(indptr, indices, e_data, h_data, a_data, b_rows,
         b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it,
@@ -882,7 +903,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     ws : tuple
         Work vectors ``(u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given)``.
     wk : tuple
-        The step's work vectors ``(ee, pred0, pred1, r, d, xn, w_newton, w_se, xs)``
+        The step's work vectors ``(ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq)``
         (the first three of the history's width, the others n).
     rec : tuple
         The output: ``(save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments,
@@ -896,7 +917,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         A status code of this module (RUNNING is never returned).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
-    atol, mask, high, xmax, w, w_err, signs = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx) = rec
@@ -905,7 +926,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     n = atol.size
     linear = I[I_LINEAR] != 0
     maxord = I[I_MAXORD]
-    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs = wk
+    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq = wk
+    wq_count = 0
     rtol = F[F_RTOL]
     norm = I[I_NORM]
     s_par = devd[15]
@@ -1037,15 +1059,23 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         for i in range(n):
                             w_se[i] = min(w_err[i], w_newton[i]) if w_newton[i] != w[i] else w_err[i]
                         w_step = w_se
-                outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, setup, pred0, q_pred, qp_pred, w_nt,
-                                                            sysd, devd, lus, u, evb, xn, d, r)
+                outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, setup, False, pred0, q_pred, qp_pred,
+                                                            w_nt, sysd, devd, lus, u, evb, xn, d, r)
                 if outcome == NEWTON_FAILED and not setup and reason != REASON_EVALUATION:
                     # stale Jacobian: retry once with a fresh one at the same step size
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, True, pred0, q_pred, qp_pred,
-                                                                w_nt, sysd, devd, lus, u, evb, xn, d, r)
+                    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, True, False, pred0, q_pred,
+                                                                qp_pred, w_nt, sysd, devd, lus, u, evb, xn, d, r)
+                if outcome == NEWTON_FAILED and reason != REASON_EVALUATION and reason != REASON_SINGULAR:
+                    # a fresh Jacobian failed too: full Newton (a model whose slope changes
+                    # within the step, as a MOS charge at its threshold) before a smaller step
+                    I[I_NEWTON_FAILURES] += 1
+                    I[I_NEWTON] += its
+                    _reset_trial(I, devd)
+                    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, True, True, pred0, q_pred,
+                                                                qp_pred, w_nt, sysd, devd, lus, u, evb, xn, d, r)
                 I[I_NEWTON] += its
                 if outcome == NEWTON_PIVOTS:
                     pivots = True
@@ -1076,6 +1106,14 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             if kind == 0:
                 # phase 4: error test (IDATestError)
                 e0, e1, e2 = error_norms(ee, P, k, w_step, norm, n)
+                wq_count = 0
+                if not linear and I[I_HAS_ABSDQ] != 0:
+                    wq_count = charge_weights(qrows, absdq, indptr, indices, w, wq)
+                    if wq_count > 0:
+                        q0, q1, q2 = charge_error_norms(ee, P, k, wq, norm, n, wq_count)
+                        e0 = max(e0, q0)
+                        e1 = max(e1, q1)
+                        e2 = max(e2, q2)
                 err_k = sigma[k] * e0
                 terr_k = (k + 1) * err_k
                 knew = k
@@ -1176,6 +1214,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 for c in range(n):
                     work[c] = ee[c] - P[k + 1, c]
                 err_kp1 = weighted_norm(work, w_err, norm) / (k + 2)
+                if wq_count > 0:
+                    err_kp1 = max(err_kp1, charge_error_kp1(ee, P, k, wq, norm, n, wq_count) / (k + 2))
                 terr_k = (k + 1) * err_k
                 terr_kp1 = (k + 2) * err_kp1
                 if k == 1:

@@ -18,7 +18,8 @@ import math
 import numpy as np
 from . import kernel
 
-__all__ = ["flc_coefficients", "weighted_norm", "error_norms", "update_differences", "landing_step",
+__all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "charge_error_norms",
+           "charge_error_kp1", "update_differences", "landing_step",
            "set_weights", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED"]
 
 NORM_RMS = 0
@@ -122,6 +123,78 @@ def error_norms(ee, P, k, w, kind, n):
     e1 = _norm_sum(ee, P, k, k, w, kind, n) if k >= 2 else 0.0
     e2 = _norm_sum(ee, P, k - 1, k, w, kind, n) if k >= 3 else 0.0
     return e0, e1, e2
+
+
+@kernel
+def charge_weights(qrows, absdq, indptr, indices, w, wq):
+    """Weights of the charge errors of the rows coupled to index-2 unknowns, in volts.
+
+    Row ``r`` with ``qrows[r]`` (a node row in which an index-2 unknown appears, such as
+    the source current of a capacitor-source loop) gets ``wq[r] = w[r] / C_r``,
+    ``C_r = sum_j |dq_r/dx_j|`` from ``absdq`` (``|dq/dx|`` on the CSC pattern
+    ``indptr``, ``indices``): a charge error counts as the voltage error it would make
+    on the row's capacitance. Other rows, and rows without capacitance, get 0.
+    Returns the number of weighted rows.
+    """
+    n = w.size
+    for i in range(n):
+        wq[i] = 0.0
+    for j in range(n):
+        for p in range(indptr[j], indptr[j + 1]):
+            r = indices[p]
+            if qrows[r]:
+                wq[r] += absdq[p]
+    count = 0
+    for i in range(n):
+        if wq[i] > 0.0:
+            wq[i] = w[i] / wq[i]
+            count += 1
+    return count
+
+
+@kernel
+def _charge_sum(ee, P, rows_from, k, sign, wq, kind, n, count):
+    """Norm over the weighted rows of ``ee[n:] + sign * sum_{i=rows_from}^{k} P[i, n:]``."""
+    s = 0.0
+    m = 0.0
+    for j in range(n):
+        if wq[j] == 0.0:
+            continue
+        a = ee[n + j]
+        for i in range(rows_from, k + 1):
+            a += sign * P[i, n + j]
+        a *= wq[j]
+        if kind == NORM_MAX:
+            a = abs(a)
+            if a != a or m != m:
+                m = math.nan
+            elif a > m:
+                m = a
+        else:
+            s += a * a
+    if kind == NORM_MAX:
+        return m
+    return math.sqrt(s / count) if count else 0.0
+
+
+@kernel
+def charge_error_norms(ee, P, k, wq, kind, n, count):
+    """:func:`error_norms` of the charges (columns ``n:``) of the rows weighted by ``wq``
+    (:func:`charge_weights`); ``count`` weighted rows (0: all zero)."""
+    if count == 0:
+        return 0.0, 0.0, 0.0
+    e0 = _charge_sum(ee, P, k + 1, k, 1.0, wq, kind, n, count)
+    e1 = _charge_sum(ee, P, k, k, 1.0, wq, kind, n, count) if k >= 2 else 0.0
+    e2 = _charge_sum(ee, P, k - 1, k, 1.0, wq, kind, n, count) if k >= 3 else 0.0
+    return e0, e1, e2
+
+
+@kernel
+def charge_error_kp1(ee, P, k, wq, kind, n, count):
+    """The charge part of the order-raise estimate: norm of ``ee[n:] - P[k+1, n:]``."""
+    if count == 0:
+        return 0.0
+    return _charge_sum(ee, P, k + 1, k + 1, -1.0, wq, kind, n, count)
 
 
 @kernel

@@ -123,6 +123,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         NEWTON_MAXITER,
         IntegrationResult,
         absolute_tolerances,
+        charge_rows,
         check_arguments,
         index_mask,
         right_limit,
@@ -210,15 +211,17 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     sysd = (indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)
     # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
     signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
-    tol = (atol, mask, high, xmax, w, w_err, signs)
+    # rows whose charge error joins the error test (coupled to index-2 unknowns)
+    qrows = charge_rows(indptr, indices, high, linear)
+    tol = (atol, mask, high, xmax, w, w_err, signs, qrows)
     nnz = e_data.size
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
            np.abs(e_data))
     rl_given = np.zeros(n)
     # u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given
     ws = (np.zeros(skind.size), *(np.zeros(n) for _ in range(9)), rl_given)
-    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs
-    wk = (*(np.zeros(P.shape[1]) for _ in range(3)), *(np.zeros(n) for _ in range(6)))
+    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs, wq
+    wk = (*(np.zeros(P.shape[1]) for _ in range(3)), *(np.zeros(n) for _ in range(7)))
     # the first pivot order: of the first probe's matrix dq/dx / eps - dphi/dx (any degraded
     # pivot later sends the loop back here for a new one)
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
