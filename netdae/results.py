@@ -239,7 +239,7 @@ class Result:
         for raw in names:
             values = self[raw]
             key = raw.strip().lower()
-            out[key if key in self.signals else _canonical_or(key)] = values
+            out[key if key in self.signals else canonical_or(key)] = values
         return replace(self, signals=out)
 
     # -- presentation -------------------------------------------------------------
@@ -378,7 +378,8 @@ _REPR_SIGNALS = 4
 _AXIS_UNITS = {"time": " s", "frequency": " Hz"}
 
 
-def _canonical_or(key: str) -> str:
+def canonical_or(key: str) -> str:
+    """The canonical spelling of a signal name, or the name as given when it does not parse."""
     try:
         return canonical(key)
     except ValueError:

@@ -14,8 +14,8 @@ or whose batch solve fails runs the ordinary path too and gets its message.
 
 from __future__ import annotations
 
-import dataclasses
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -67,6 +67,19 @@ def _matrices(circuit, layout, n: int):
     return E, H, H_ac, b
 
 
+@dataclass
+class _Stamped:
+    """A row ready for the batched solve: its circuit and dense matrices."""
+
+    row: Row
+    circuit: object
+    E: np.ndarray
+    H: np.ndarray
+    H_ac: np.ndarray
+    b: np.ndarray
+    seconds: float
+
+
 def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """The outcomes of ``rows`` from one batched solve, or None when the batch path does not apply.
 
@@ -75,6 +88,7 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     KeyboardInterrupt
         Passed on.
     """
+    from ..analyses.ac import frequencies
     from ..analyses.runner import measure
     from ..results import Result
     from ..topology.graph import structure_key
@@ -91,56 +105,51 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
         return None
     outcomes: dict[int, Outcome] = {rows[0].index: first}
     n, names = system0.n, system0.names
-    batch: list[tuple[Row, object, np.ndarray, np.ndarray, np.ndarray, float]] = []
+    batch: list[_Stamped] = []
     for row in rows[1:]:
         t0 = time.perf_counter()
         try:
             circuit = elaborate_row(job, row)
         except (NetdaeError, ValueError, ArithmeticError):
-            outcomes[row.index] = run_row(job, row)
-            continue
-        from ..analyses.ac import frequencies
-
-        if structure_key(circuit) != key or not np.array_equal(frequencies(circuit.analyses[0]), freqs):
+            circuit = None
+        if (circuit is None or structure_key(circuit) != key
+                or not np.array_equal(frequencies(circuit.analyses[0]), freqs)):
             outcomes[row.index] = run_row(job, row)
             continue
         E, H, H_ac, b = _matrices(circuit, system0.layout, n)
-        batch.append((row, circuit, E, H_ac, b, time.perf_counter() - t0))
-        outcomes[row.index] = None  # placeholder: keeps the order
-        batch[-1] = batch[-1] + (H,)
+        batch.append(_Stamped(row, circuit, E, H, H_ac, b, time.perf_counter() - t0))
     if batch:
-        Hs = np.stack([item[6] for item in batch])
-        sv = np.linalg.svd(Hs, compute_uv=False)
+        sv = np.linalg.svd(np.stack([item.H for item in batch]), compute_uv=False)
         singular = sv[:, -1] <= RANK_TOLERANCE * n * np.finfo(float).eps * sv[:, 0]
-        keep = [item for item, bad in zip(batch, singular) if not bad]
+        keep = []
         for item, bad in zip(batch, singular):
             if bad:
-                outcomes[item[0].index] = run_row(job, item[0])
+                outcomes[item.row.index] = run_row(job, item.row)
+            else:
+                keep.append(item)
         w = 2j * np.pi * freqs
         per = max(1, MAX_BATCH_ENTRIES // max(w.size * n * n, 1))
         for start in range(0, len(keep), per):
             part = keep[start:start + per]
             t0 = time.perf_counter()
-            Es = np.stack([item[2] for item in part])
-            Hs_ac = np.stack([item[3] for item in part])
-            bs = np.stack([item[4] for item in part])
-            mats = w[None, :, None, None] * Es[:, None] - Hs_ac[:, None]
+            mats = w[None, :, None, None] * np.stack([item.E for item in part])[:, None] \
+                - np.stack([item.H_ac for item in part])[:, None]
+            bs = np.stack([item.b for item in part])
             try:
                 X = np.linalg.solve(mats, np.broadcast_to(bs[:, None, :, None], mats.shape[:3] + (1,)))[..., 0]
             except np.linalg.LinAlgError:
                 for item in part:
-                    outcomes[item[0].index] = run_row(job, item[0])
+                    outcomes[item.row.index] = run_row(job, item.row)
                 continue
             share = (time.perf_counter() - t0) / len(part)
             for k, item in enumerate(part):
-                row, circuit, seconds = item[0], item[1], item[5]
                 t1 = time.perf_counter()
                 res = Result("ac", axes={"frequency": freqs},
                              signals={name: X[k, :, i] for i, name in enumerate(names)},
                              stats={"points": int(freqs.size), "batched": len(part)}, message="ok")
-                measure(dataclasses.replace(circuit, steps=[]), [res])
-                out = Outcome(row.index)
-                record(job, circuit, [res], out)
-                out.seconds = seconds + share + time.perf_counter() - t1
-                outcomes[row.index] = out
+                measure(item.circuit, [res])
+                out = Outcome(item.row.index)
+                record(job, item.circuit, [res], out)
+                out.seconds = item.seconds + share + time.perf_counter() - t1
+                outcomes[item.row.index] = out
     return [outcomes[row.index] for row in rows]

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..results import optional_module
+from ..results import canonical_or, optional_module
 from .plan import Plan
 from .worker import Outcome
 
@@ -146,9 +146,7 @@ class SweepResult:
         KeyError
             A signal that was not saved (the message lists the saved ones).
         """
-        from ..signals import canonical
-
-        keys = [k for k in self.waves if k[1] in (signal, _canonical(signal, canonical))
+        keys = [k for k in self.waves if k[1] in (signal, canonical_or(signal))
                 and (analysis is None or k[0] == analysis)]
         if not keys:
             have = ", ".join(f"{a}:{s}" for a, s in self.waves) or "none"
@@ -221,10 +219,3 @@ class SweepResult:
         meas = ", ".join(list(self.measures)[:4]) + (" ..." if len(self.measures) > 4 else "")
         return (f"<SweepResult {self.rows} rows ({what}); measures: {meas or 'none'}; "
                 f"{len(self.waves)} waveforms; {self.failed} failed>")
-
-
-def _canonical(signal: str, canonical) -> str:
-    try:
-        return canonical(signal)
-    except ValueError:
-        return signal

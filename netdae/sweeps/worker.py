@@ -185,28 +185,12 @@ def _collect_waves(job: Job, circuit, res, out: Outcome) -> None:
         values = res.dense(grid) if grid.size else {}
         axis = ("time", grid)
     else:
-        values = res.signals
+        values = {name: res[name] for name in job.save if name in res}  # v(a,b) from the node voltages
         axis = (res.axis_name, res.axis) if res.axis_name is not None else ("point", np.zeros(1))
     out.axes.setdefault(res.analysis, axis)
-    for name in job.save:
-        key = (res.analysis, name)
-        if key in out.waves:
-            continue
-        try:
-            out.waves[key] = np.asarray(res[name] if res.analysis != "tran" else values[_lookup(values, name)])
-        except KeyError:
-            continue
-
-
-def _lookup(values: dict, name: str) -> str:
-    from ..signals import canonical
-
-    if name in values:
-        return name
-    key = canonical(name)
-    if key in values:
-        return key
-    raise KeyError(name)
+    for name in job.save:  # canonical spellings (the sweep checked them), as results key their signals
+        if name in values and (res.analysis, name) not in out.waves:
+            out.waves[(res.analysis, name)] = np.asarray(values[name])
 
 
 def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
