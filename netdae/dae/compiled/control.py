@@ -90,14 +90,22 @@ def weighted_norm(v, w, kind):
 
 
 @kernel
-def _norm_sum(ee, P, rows_from, k, w, kind, n):
-    """Norm of ``ee + sum_{i=rows_from}^{k} P[i, :n]`` weighted by w."""
+def _norm_sum(ee, P, col0, rows_from, k, sign, w, kind, n, count):
+    """Norm of ``ee[col0:col0+n] + sign * sum_{i=rows_from}^{k} P[i, col0:col0+n]`` weighted by w.
+
+    ``count`` is the number of entries the RMS norm averages over: ``n`` for the unknowns
+    (every weight used), the number of non-zero weights for the charges of
+    :func:`charge_weights` (entries with weight 0 are skipped).
+    """
     s = 0.0
     m = 0.0
+    skip = count != n
     for j in range(n):
-        a = ee[j]
+        if skip and w[j] == 0.0:
+            continue
+        a = ee[col0 + j]
         for i in range(rows_from, k + 1):
-            a += P[i, j]
+            a += sign * P[i, col0 + j]
         a *= w[j]
         if kind == NORM_MAX:
             a = abs(a)
@@ -109,7 +117,7 @@ def _norm_sum(ee, P, rows_from, k, w, kind, n):
             s += a * a
     if kind == NORM_MAX:
         return m
-    return math.sqrt(s / n) if n else 0.0
+    return math.sqrt(s / count) if count else 0.0
 
 
 @kernel
@@ -119,9 +127,9 @@ def error_norms(ee, P, k, w, kind, n):
     The local error estimates at orders k, k-1, k-2 (IDA's IDATestError);
     ``P`` holds the predicted differences of the step, columns ``:n`` used.
     """
-    e0 = _norm_sum(ee, P, k + 1, k, w, kind, n)
-    e1 = _norm_sum(ee, P, k, k, w, kind, n) if k >= 2 else 0.0
-    e2 = _norm_sum(ee, P, k - 1, k, w, kind, n) if k >= 3 else 0.0
+    e0 = _norm_sum(ee, P, 0, k + 1, k, 1.0, w, kind, n, n)
+    e1 = _norm_sum(ee, P, 0, k, k, 1.0, w, kind, n, n) if k >= 2 else 0.0
+    e2 = _norm_sum(ee, P, 0, k - 1, k, 1.0, w, kind, n, n) if k >= 3 else 0.0
     return e0, e1, e2
 
 
@@ -153,39 +161,14 @@ def charge_weights(qrows, absdq, indptr, indices, w, wq):
 
 
 @kernel
-def _charge_sum(ee, P, rows_from, k, sign, wq, kind, n, count):
-    """Norm over the weighted rows of ``ee[n:] + sign * sum_{i=rows_from}^{k} P[i, n:]``."""
-    s = 0.0
-    m = 0.0
-    for j in range(n):
-        if wq[j] == 0.0:
-            continue
-        a = ee[n + j]
-        for i in range(rows_from, k + 1):
-            a += sign * P[i, n + j]
-        a *= wq[j]
-        if kind == NORM_MAX:
-            a = abs(a)
-            if a != a or m != m:
-                m = math.nan
-            elif a > m:
-                m = a
-        else:
-            s += a * a
-    if kind == NORM_MAX:
-        return m
-    return math.sqrt(s / count) if count else 0.0
-
-
-@kernel
 def charge_error_norms(ee, P, k, wq, kind, n, count):
     """:func:`error_norms` of the charges (columns ``n:``) of the rows weighted by ``wq``
     (:func:`charge_weights`); ``count`` weighted rows (0: all zero)."""
     if count == 0:
         return 0.0, 0.0, 0.0
-    e0 = _charge_sum(ee, P, k + 1, k, 1.0, wq, kind, n, count)
-    e1 = _charge_sum(ee, P, k, k, 1.0, wq, kind, n, count) if k >= 2 else 0.0
-    e2 = _charge_sum(ee, P, k - 1, k, 1.0, wq, kind, n, count) if k >= 3 else 0.0
+    e0 = _norm_sum(ee, P, n, k + 1, k, 1.0, wq, kind, n, count)
+    e1 = _norm_sum(ee, P, n, k, k, 1.0, wq, kind, n, count) if k >= 2 else 0.0
+    e2 = _norm_sum(ee, P, n, k - 1, k, 1.0, wq, kind, n, count) if k >= 3 else 0.0
     return e0, e1, e2
 
 
@@ -194,7 +177,7 @@ def charge_error_kp1(ee, P, k, wq, kind, n, count):
     """The charge part of the order-raise estimate: norm of ``ee[n:] - P[k+1, n:]``."""
     if count == 0:
         return 0.0
-    return _charge_sum(ee, P, k + 1, k + 1, -1.0, wq, kind, n, count)
+    return _norm_sum(ee, P, n, k + 1, k + 1, -1.0, wq, kind, n, count)
 
 
 @kernel
