@@ -47,7 +47,9 @@ NETDAE_EXE = str(Path(sys.executable).with_name("netdae")) if Path(sys.executabl
     else (shutil.which("netdae") or "netdae")
 #: Environment of every child: one BLAS thread (as netdae's CLI sets it), binary raw files.
 CHILD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-             "SPICE_ASCIIRAWFILE": "0"}
+             "SPICE_ASCIIRAWFILE": "0",
+             # each netdae command in its own process (no warm server): CPU and RSS are its own
+             "NETDAE_SERVER": "0"}
 
 _ACCT = {
     "steps": re.compile(r"^Accepted timepoints\s*=\s*(\d+)", re.M),
@@ -102,12 +104,13 @@ _PY_WRAPPER = ("import os, sys; pid = os.fork()\n"
                "sys.exit(os.waitstatus_to_exitcode(st) & 255)")
 
 
-def run_child(argv: list[str], *, cwd: str | os.PathLike, timeout: float) -> ChildRun:
+def run_child(argv: list[str], *, cwd: str | os.PathLike, timeout: float, env: dict | None = None) -> ChildRun:
     """Run ``argv`` in ``cwd`` and measure its wall time and peak RSS.
 
-    The child runs in its own process group, killed after ``timeout`` seconds.
+    The child runs in its own process group, killed after ``timeout`` seconds;
+    ``env`` adds to (and overrides) :data:`CHILD_ENV`.
     """
-    env = dict(os.environ, **CHILD_ENV)
+    env = {**os.environ, **CHILD_ENV, **(env or {})}
     cwd = Path(cwd)
     out_path, err_path, rss_path = cwd / "child.stdout", cwd / "child.stderr", cwd / "child.maxrss"
     if rss_path.exists():

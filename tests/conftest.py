@@ -13,6 +13,8 @@ import os
 # dense problems here are small and threads only contend on small machines.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+# Commands started by tests run in their own processes (tests/test_server.py tests the server).
+os.environ["NETDAE_SERVER"] = "0"
 
 import shutil
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""The ``netdae`` command line: ``netdae check | index | run | sweep | compare | demo``.
+"""The ``netdae`` command line: ``netdae check | index | run | sweep | compare | demo | server``.
 
 Each subcommand lives in its own module of this package with two functions,
 ``add_parser(subparsers)`` and ``main(args) -> int``. Modules import the
@@ -28,7 +28,7 @@ import sys
 __all__ = ["main", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity"]
 
 #: Subcommands in the order ``--help`` lists them.
-COMMANDS = ("check", "index", "run", "sweep", "compare", "demo")
+COMMANDS = ("check", "index", "run", "sweep", "compare", "demo", "server")
 
 EXIT_OK = 0
 EXIT_FAIL = 1  # the command ran and its verdict is negative (e.g. compare out of tolerance)
@@ -213,5 +213,44 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run() -> None:
-    """Console-script entry point."""
-    sys.exit(main())
+    """Console-script entry point: through a warm netdae server when one runs, else here.
+
+    See :mod:`netdae.server`: a running server for this installation takes the
+    command (same arguments, directory, environment and streams) and saves the
+    start-up; without one the command runs in this process, and a command that
+    loaded the compiled engine then starts a server for the next ones.
+    ``netdae server ...`` itself and ``NETDAE_SERVER=0`` always run here.
+    """
+    argv = sys.argv[1:]
+    path = None
+    _limit_blas_threads()  # before the server key, which covers these variables
+    if not (argv and argv[0] == "server"):
+        from ..server import client
+
+        if client.enabled():
+            path = client.socket_path()
+        if path is not None:
+            try:
+                status = client.forward(argv, path)
+            except client.RunStatus as exc:
+                sys.stderr.write(f"netdae: error: {exc}\n")
+                sys.exit(EXIT_FAIL)
+            if status is not None:
+                sys.exit(status)
+    status = main(argv)
+    if path is not None and "numba" in sys.modules:
+        _start_server(path)
+    sys.exit(status)
+
+
+def _start_server(path: str) -> None:
+    from ..server import client
+
+    try:
+        client.start(path)
+    except OSError:  # no server this time: nothing is lost
+        return
+    if sys.stderr.isatty():
+        minutes = client.idle_seconds() / 60.0
+        sys.stderr.write(f"note: started a netdae server that keeps the engine loaded for the next commands "
+                         f"(it exits after {minutes:g} idle minutes; NETDAE_SERVER=0 turns it off)\n")
