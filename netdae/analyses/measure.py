@@ -58,9 +58,13 @@ __all__ = ["evaluate_measures", "MeasureFailure"]
 
 #: Inner sample points per step of a transient (fractions of the step).
 _INNER = np.array([0.25, 0.5, 0.75])
-#: Gauss-Legendre nodes and weights on [0, 1], six points (exact to degree 11).
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(6)
-_GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
+#: Gauss-Legendre nodes and weights on [0, 1] by power of the integrand: three points are exact
+#: to degree 5 (a step's polynomial), six to degree 11 (its square).
+_GL = {p: (0.5 * (x + 1.0), 0.5 * w) for p, (x, w) in ((1, np.polynomial.legendre.leggauss(3)),
+                                                       (2, np.polynomial.legendre.leggauss(6)))}
+#: Chebyshev points in (0, 1). A transient's dense output is one polynomial of degree at most 5
+#: per step (BDF order <= 5), so its values at these six points give that polynomial exactly.
+_CHEB = 0.5 - 0.5 * np.cos(np.pi * (np.arange(6) + 0.5) / 6)
 
 
 class MeasureFailure(Exception):
@@ -144,13 +148,32 @@ class _Trace:
         knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
         a, b = knots[:-1], knots[1:]
         if self.dense is not None:
-            nodes = a[:, None] + (b - a)[:, None] * _GL_X[None, :]
+            gl_x, gl_w = _GL[power]
+            nodes = a[:, None] + (b - a)[:, None] * gl_x[None, :]
             values = self.dense(nodes.ravel()).reshape(nodes.shape) ** power
-            return float(np.sum((b - a) * (values @ _GL_W)))
+            return float(np.sum((b - a) * (values @ gl_w)))
         ya, yb = self.at(a), self.at(b)
         if power == 1:
             return float(np.sum((b - a) * (ya + yb) / 2.0))
         return float(np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0))
+
+    def polynomials(self, steps: np.ndarray) -> np.ndarray:
+        """The dense output on each step ``[x[i-1], x[i]]`` as a polynomial in ``s = (t - x[i-1]) / h``.
+
+        Parameters
+        ----------
+        steps : ndarray of int, shape (m,)
+            Indices ``i`` of steps of positive length.
+
+        Returns
+        -------
+        ndarray, shape (m, 6)
+            Coefficients, highest power first (``np.polyval``); one dense
+            evaluation for all steps.
+        """
+        a, b = self.x[steps - 1], self.x[steps]
+        values = self.dense((a[:, None] + (b - a)[:, None] * _CHEB[None, :]).ravel()).reshape(-1, _CHEB.size)
+        return np.polyfit(_CHEB, values.T, 5).T
 
     def derivative(self, xq: float) -> float:
         """The slope at ``xq`` (a transient: of its step's polynomial)."""
@@ -163,8 +186,7 @@ class _Trace:
             raise MeasureFailure(f"{self.name} jumps at {xq:g}: no derivative there")
         if self.dense is None:
             return float((self.y[i] - self.y[i - 1]) / (b - a))
-        s = 0.5 - 0.5 * np.cos(np.pi * (np.arange(6) + 0.5) / 6)  # Chebyshev points in (0, 1)
-        coef = np.polyfit(s, self.dense(a + (b - a) * s), 5)
+        coef = self.polynomials(np.array([i]))[0]
         return float(np.polyval(np.polyder(coef), (xq - a) / (b - a)) / (b - a))
 
 
@@ -261,21 +283,41 @@ def _window(spec: MeasureSpec, trace: _Trace) -> tuple[float, float]:
     return lo, hi
 
 
-def _extreme(trace: _Trace, lo: float, hi: float, sign: float) -> tuple[float, float]:
-    """(value, where) of the largest ``sign * y`` in [lo, hi]."""
-    xs, ys = trace.samples(lo, hi)
+def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> tuple[float, float]:
+    """(value, where) of the largest ``sign * y`` in [lo, hi].
+
+    The best of the samples (:meth:`_Trace.samples`, or ``samples``), refined
+    on a transient's dense output: the stationary points of the step
+    polynomials next to it (:meth:`_Trace.polynomials`), each then evaluated on
+    the dense output itself, so the value is always the solution's. Two dense
+    evaluations in all.
+    """
+    xs, ys = trace.samples(lo, hi) if samples is None else samples
     k = int(np.argmax(sign * ys))
     best, where = float(ys[k]), float(xs[k])
-    if trace.dense is not None and xs.size > 2:
-        from scipy.optimize import minimize_scalar
-
-        a, b = xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]
-        if b > a:
-            opt = minimize_scalar(lambda t: -sign * trace.at([t])[0], bounds=(a, b), method="bounded",
-                                  options={"xatol": 1e-9 * (b - a)})
-            value = -sign * float(opt.fun)
-            if sign * value > sign * best:
-                best, where = value, float(opt.x)
+    if trace.dense is None or xs.size <= 2:
+        return best, where
+    a, b = xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]
+    x = trace.x
+    first = max(int(np.searchsorted(x, a, side="right")), 1)
+    last = min(int(np.searchsorted(x, b, side="left")), x.size - 1)
+    steps = np.array([i for i in range(first, last + 1) if x[i] > x[i - 1]], dtype=np.int64)
+    if b <= a or steps.size == 0:
+        return best, where
+    candidates = []
+    for i, coef in zip(steps, trace.polynomials(steps)):
+        t0, h = x[i - 1], x[i] - x[i - 1]
+        s_lo, s_hi = (max(a, t0) - t0) / h, (min(b, x[i]) - t0) / h
+        roots = np.roots(np.polyder(coef)) if np.any(coef[:-1]) else np.empty(0)
+        for r in roots:
+            if abs(r.imag) <= 1e-9 * max(1.0, abs(r.real)) and s_lo < r.real < s_hi:
+                candidates.append(t0 + h * r.real)
+    if candidates:
+        tc = np.asarray(candidates)
+        yc = trace.at(tc)
+        j = int(np.argmax(sign * yc))
+        if sign * yc[j] > sign * best:
+            best, where = float(yc[j]), float(tc[j])
     return best, where
 
 
@@ -304,8 +346,9 @@ def _measure(spec: MeasureSpec, result: Result) -> Measure:
     if f in ("min", "max"):
         out.value, out.at = _extreme(trace, lo, hi, 1.0 if f == "max" else -1.0)
     elif f == "pp":
-        top, _ = _extreme(trace, lo, hi, 1.0)
-        bottom, _ = _extreme(trace, lo, hi, -1.0)
+        samples = trace.samples(lo, hi)
+        top, _ = _extreme(trace, lo, hi, 1.0, samples)
+        bottom, _ = _extreme(trace, lo, hi, -1.0, samples)
         out.value = top - bottom
     elif f == "integ":
         out.value = trace.integral(lo, hi, 1)

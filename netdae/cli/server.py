@@ -62,7 +62,7 @@ def main(args: argparse.Namespace) -> int:
         if client.request("status", path) is not None:
             print(f"a netdae server already runs (socket {path})")
             return 0
-        proc = client.start(path, wait=120.0)
+        proc = client.start(path, wait=600.0)
         if client.request("status", path) is None:
             raise NetdaeError(f"the netdae server did not start (exit status {proc.poll()}); "
                               "commands run in their own processes")

@@ -9,10 +9,11 @@ and x''(t+) by a second probe step with the same factorisation
 also gives the right limit ``x(t+) = 2 x_1 - x_2``: where it differs from the
 value reached (:func:`jump_of`), the inputs jumped, an index-2 unknown
 jumped at a corner, or the start is inconsistent, and the method continues
-from it; a nonlinear system's right limit is solved to convergence by the
-steady-state solver (:func:`right_limit`, also used by the compiled engine),
-after a switching event first by full Newton with much shorter steps
-(:func:`event_right_limit`, the compiled loop's ``_event_right_limit``).
+from it; a nonlinear system's right limit is solved to convergence, first by
+full Newton from the left value (:func:`event_right_limit`, the compiled
+loop's ``_event_right_limit``; after a switching event with much shorter
+steps), failing that by the steady-state solver with its homotopies
+(:func:`right_limit`, also used by the compiled engine).
 """
 
 from __future__ import annotations
@@ -107,14 +108,15 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
 
 def event_right_limit(system: DaeSystem, t: float, x, eps: float, high, lu, weights, *,
                       state=None) -> tuple[np.ndarray | None, int, int]:
-    """x(t+) after a switching event: two implicit-Euler steps of size eps by full Newton, extrapolated.
+    """x(t+) by full Newton: two implicit-Euler steps of size eps, extrapolated (tried first at every jump).
 
     Each step solves ``(q(y) - q0) / eps - phi(y, t + k eps) = 0`` from the left value (the
     devices limited against the previous iterate, from ``state``), converged when the last
     correction is below ``EVENT_RIGHT_LIMIT_TOL`` of the tolerances in the maximum norm
     (``weights``); the result is ``2 y1 - y2`` (``y2`` for the index-2 unknowns ``high``).
-    A switch changes one conductance: from the left value Newton takes a few iterations,
-    where :func:`right_limit`'s steady-state solver (with its homotopies) costs milliseconds.
+    A switch changes one conductance, an input that moves little moves the solution little: from
+    the left value Newton takes a few iterations, where :func:`right_limit`'s steady-state solver
+    (with its homotopies) costs milliseconds.
 
     Returns
     -------

@@ -424,20 +424,25 @@ class BDF:
         return x_right, value_jump or not self._linear
 
     def _right_limit(self, x, eps):
-        """x(t+) of a nonlinear system (:func:`~netdae.dae.bdf.startup.right_limit`); None after a failure.
+        """x(t+) of a nonlinear system; None after a failure.
 
-        After a switching event the steps are much shorter than the probe's (``EVENT_RIGHT_LIMIT_*``).
+        Full Newton on the two implicit-Euler steps first
+        (:func:`~netdae.dae.bdf.startup.event_right_limit`: a few iterations from the left
+        value when the inputs or a switch change little), failing that the steady-state
+        solver with its homotopies (:func:`~netdae.dae.bdf.startup.right_limit`: a diode
+        switched on by a step). After a switching event the steps are much shorter than the
+        probe's (``EVENT_RIGHT_LIMIT_*``).
         """
         if self._event_restart:
             eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
-            out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,
-                                                             self._w, state=self._state)
-            self.stats["newton_iterations"] += iterations
-            self.stats["evaluations"] += evaluations
-            self.stats["jacobian_evaluations"] += iterations
-            if out is not None:
-                return out
+        out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,
+                                                         self._w, state=self._state)
+        self.stats["newton_iterations"] += iterations
+        self.stats["evaluations"] += evaluations
+        self.stats["jacobian_evaluations"] += iterations
+        if out is not None:
+            return out
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
                                                             tol["vntol"], tol["abstol"], state=self._state)

@@ -591,7 +591,7 @@ def _record(I, t, k, x, rec):
 
 @kernel
 def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
-    """x(t+) after a switching event into ``xr``: two implicit-Euler steps of ``eps`` by full Newton.
+    """x(t+) into ``xr``: two implicit-Euler steps of ``eps`` by full Newton (tried first at every jump).
 
     The twin of :func:`netdae.dae.bdf.startup.event_right_limit`. Each step solves
     ``(q(y) - q0) / eps - phi(y, t + k eps) = 0`` from the left value (the switches held,
@@ -685,15 +685,15 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
                 if high[i]:
                     xr[i] = x2[i]
         else:
-            # a nonlinear system: converged implicit-Euler steps (after a switching event by full
-            # Newton here, else or failing that from Python's steady solver)
+            # a nonlinear system: converged implicit-Euler steps, by full Newton here (steps much
+            # shorter than the probe's after a switching event), failing that from Python's steady
+            # solver with its homotopies
             if I[I_RL_READY] == 0:
                 F[F_RL_EPS] = eps
-                solved = False
                 if I[I_EVENT_RESTART] != 0:
                     F[F_RL_EPS] = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
-                    solved = _event_right_limit(F, I, t, x, F[F_RL_EPS], tol, sysd, devd, lus, evb, ws)
+                solved = _event_right_limit(F, I, t, x, F[F_RL_EPS], tol, sysd, devd, lus, evb, ws)
                 if not solved:
                     return FACTOR_NEED_RIGHT_LIMIT
             else:
