@@ -12,6 +12,11 @@ Jacobian ``dphi/dx``, using the homotopies SPICE uses when plain Newton fails:
 3. *source stepping*: every independent source scaled by ``s``, raised
    adaptively from 0 to 1.
 
+For an MNA system of the compiled engine's device families, the first phase
+(plain Newton) runs in compiled code (:mod:`netdae.dae.compiled.steady`, the
+same iteration step for step); where it would stop, this module's solver runs
+from the start.
+
 Convergence follows SPICE: the Newton update is below
 ``reltol * max(|x_k|, |x_k+1|) + atol`` for every unknown (``vntol`` for
 volts, ``abstol`` for amperes), no device limited its junction voltage in the
@@ -507,6 +512,18 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     init = x0 is None
     singular = None
     x_new = x
+    if not frc and nodeset is None and not charges and _compiled(system):
+        # plain Newton in the compiled engine; where it would stop, the Python solver below starts over
+        from .compiled import steady as compiled
+
+        x_c, status, its, facts, pivot = compiled.solve_dc(
+            system, t, x, init=init, maxiter=opts.maxiter, reltol=opts.reltol, x_atol=newton.x_atol,
+            r_atol=newton.r_atol, singular_pivot=PIVOT_SAFETY * system.n * EPS)
+        total_it += its
+        total_fact += facts
+        if status == compiled.CONVERGED:
+            newton.last_pivot = pivot
+            return result(x_c, True, "newton", "converged", newton)
     try:
         if nodeset is not None:
             first = _Newton(system, t, opts, frc + [nodeset])
@@ -539,6 +556,20 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
             return singular_result(x_new, "singular Jacobian (Newton, gmin stepping and source stepping failed)",
                                    newton, rank)
     return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)", newton)
+
+
+def _compiled(system: DaeSystem) -> bool:
+    """Whether plain Newton runs in the compiled engine (an MNA system of its device families;
+    not with ``NETDAE_ENGINE=python``, which keeps every solve in Python)."""
+    if not getattr(system, "families", None):
+        return False
+    from .bdf import _compiled_engine_enabled
+    from .compiled.steady import eligible
+
+    if not _compiled_engine_enabled():
+        return False
+
+    return eligible(system)
 
 
 def _gmin_stepping(newton: _Newton, x, opts: SteadyOptions, run):

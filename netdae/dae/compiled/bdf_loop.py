@@ -47,7 +47,7 @@ import math
 
 import numpy as np
 
-from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_LIMIT
+from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
 from ...devices.kernels.behavioural import eval_behavioural
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
@@ -212,6 +212,7 @@ NEWTON_PIVOTS = 2
 STATE_NONE = 0      # evaluate every device at x (no limiting)
 STATE_ACCEPTED = 1  # limit against the last accepted step's voltages
 STATE_TRIAL = 2     # limit against the corrector's previous iterate (and keep the new voltages)
+STATE_INITIAL = 3   # SPICE's MODEINITJCT: start from the accepted (initial) voltages when x is zero
 
 
 @kernel
@@ -371,6 +372,9 @@ def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphi
         return 0
     if state == STATE_NONE:
         mode = MODE_EVALUATE
+        vold = vacc
+    elif state == STATE_INITIAL:
+        mode = MODE_INITIAL
         vold = vacc
     elif state == STATE_ACCEPTED:
         mode = MODE_LIMIT

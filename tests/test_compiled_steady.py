@@ -1,0 +1,91 @@
+"""The compiled operating-point Newton is the Python solver's first phase, step for step.
+
+For MNA systems of the compiled engine's device families, plain Newton runs in
+``netdae/dae/compiled/steady.py``; ``NETDAE_ENGINE=python`` keeps it in
+``netdae/dae/steady.py``. Both must give the same operating points (within the
+convergence tolerance: the same iterates up to rounding), the same iteration
+counts and strategies, and hand the same circuits to the homotopies.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import NETLISTS
+from netdae.analyses.dc import dc_sweep
+from netdae.analyses.op import operating_point
+from netdae.circuit import DcAnalysis
+from netdae.dae.compiled import steady as compiled
+from netdae.netlist import load
+
+CIRCUITS = ["bridge_rectifier.cir", "ce_amplifier.cir", "cmos_inverter.cir", "diff_pair.cir",
+            "voltage_multiplier.cir", "ring_oscillator.cir", "halfwave_rectifier.cir", "diode_iv.cir",
+            "testset_transamp.cir", "cw_doubler.cir", "vanderpol_mu1.cir"]
+
+HARD = """exponential behavioural diodes: plain Newton overshoots, the homotopies rescue
+V1 a 0 10
+R1 a b 1k
+B1 b 0 I={1e-14*(exp(V(b)/0.025)-1)}
+R2 b c 2k
+B2 c 0 I={1e-12*(exp(V(c)/0.05)-1)}
+.end
+"""
+
+
+@pytest.fixture
+def calls(monkeypatch):
+    """Counts the compiled solves (and checks that the compiled path is the one taken)."""
+    seen = []
+    original = compiled.solve_dc
+
+    def counting(*args, **kw):
+        out = original(*args, **kw)
+        seen.append(out[1])
+        return out
+
+    monkeypatch.setattr(compiled, "solve_dc", counting)
+    return seen
+
+
+def _both(monkeypatch, run):
+    fast = run()
+    monkeypatch.setenv("NETDAE_ENGINE", "python")
+    slow = run()
+    monkeypatch.delenv("NETDAE_ENGINE")
+    return fast, slow
+
+
+def _within_tolerance(a, b, names, reltol=1e-3, vntol=1e-6, abstol=1e-12):
+    for name in names:
+        x, y = float(a[name][0]), float(b[name][0])
+        atol = abstol if name.startswith("i(") else vntol
+        assert abs(x - y) <= reltol * max(abs(x), abs(y)) + atol, (name, x, y)
+
+
+@pytest.mark.parametrize("name", CIRCUITS)
+def test_operating_points_equal_the_python_solver(name, monkeypatch, calls):
+    circuit = load(NETLISTS / name)
+    fast, slow = _both(monkeypatch, lambda: operating_point(circuit))
+    assert calls and calls[0] in (compiled.CONVERGED, compiled.NOT_CONVERGED, compiled.ILL_CONDITIONED)
+    assert fast.stats["strategy"] == slow.stats["strategy"]
+    if calls[0] == compiled.CONVERGED:
+        assert fast.stats["strategy"] == "newton"
+        assert abs(fast.stats["newton"] - slow.stats["newton"]) <= 1  # the same iterates, up to rounding
+    _within_tolerance(fast, slow, slow.signals)
+
+
+def test_where_plain_newton_fails_the_homotopies_take_over(monkeypatch, calls):
+    fast, slow = _both(monkeypatch, lambda: operating_point(load(HARD)))
+    assert calls == [compiled.NOT_CONVERGED] or calls == [compiled.ILL_CONDITIONED]
+    assert fast.stats["strategy"] == slow.stats["strategy"] != "newton"
+    np.testing.assert_array_equal(fast["v(c)"], slow["v(c)"])  # the Python solver ran both from the start
+
+
+def test_a_dc_sweep_equals_the_python_solver(monkeypatch, calls):
+    circuit = load(NETLISTS / "cmos_inverter.cir")
+    card = next(a for a in circuit.analyses if isinstance(a, DcAnalysis))
+    fast, slow = _both(monkeypatch, lambda: dc_sweep(circuit, card))
+    assert len(calls) >= 101 and all(c == compiled.CONVERGED for c in calls)
+    a, b = fast["v(out)"], slow["v(out)"]
+    np.testing.assert_array_less(np.abs(a - b), 1e-3 * np.maximum(np.abs(a), np.abs(b)) + 1e-6)
