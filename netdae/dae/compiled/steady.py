@@ -208,28 +208,30 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
 
     Notes
     -----
-    Cost: packing the system (~0.1-0.5 ms of Python, as a transient's start),
-    one fresh SuperLU pivot order, then compiled iterations of a few
-    microseconds each.
+    Cost: at the first solve of a system, packing it and one fresh SuperLU
+    pivot order (~1 ms of Python, kept with the system); at every solve,
+    packing the sources and a few small arrays (~0.1 ms), then compiled
+    iterations of a few microseconds each.
     """
-    from .driver import _pack_families
-    from .lu import PIVOT_REL_THRESHOLD, SparseLU
+    from .lu import PIVOT_REL_THRESHOLD
     from .sources import pack_sources
 
     n = int(system.n)
     x = np.array(x0, dtype=float)
-    pattern = system.pattern
-    indptr = np.asarray(pattern.indptr, dtype=np.int64)
-    indices = np.asarray(pattern.indices, dtype=np.int64)
-    e_data = np.array(pattern.data_of(system.E), dtype=float)
-    h_data = np.array(pattern.data_of(system.H), dtype=float)
-    B = system.B.tocoo()
-    skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
-    a_data = np.zeros(e_data.size)
-    sysd = (indptr, indices, e_data, h_data, a_data, B.row.astype(np.int64), B.col.astype(np.int64),
-            B.data.astype(float), skind, spar, spwl_t, spwl_v, spwl_n)
-    devd = _pack_families(system, x, None)
-    nnz = e_data.size
+    pack = _PACKS.get(system)
+    fresh = 0
+    if pack is None:
+        pack = _Pack(system, x, t)
+        fresh = 1
+        _PACKS[system] = pack
+    lu = pack.lu
+    if lu.plan is None:
+        return x, NOT_CONVERGED, 0, 0, math.nan
+    skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)  # values may change (.dc)
+    a_data = pack.a_data
+    sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n)
+    devd = tuple(a.copy() if k in _STATES else a for k, a in enumerate(pack.devd))
+    nnz = pack.nnz
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1), np.zeros(nnz))
     F = np.zeros(L.N_F)
     I = np.zeros(L.N_I, dtype=np.int64)
@@ -242,18 +244,6 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     absjx = np.zeros(n)
     swork = np.zeros(n)
     pivot = np.full(1, math.nan)
-    lu = _LUS.get(system)
-    fresh = 0
-    if lu is None:
-        lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
-        # a first pivot order: of the matrix at x0 evaluated without limiting (any later
-        # degraded pivot comes back here); kept with the system for its next solves (.dc)
-        ev = system.evaluate(x, t, jacobian=True, state=None)
-        if not (ev.ok and np.all(np.isfinite(ev.dphi)) and lu.factor(-ev.dphi)):
-            if not lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0)):
-                return x, NOT_CONVERGED, 0, 0, math.nan
-        fresh = 1
-        _LUS[system] = lu
     x_atol = np.ascontiguousarray(x_atol, dtype=float)
     r_atol = np.ascontiguousarray(r_atol, dtype=float)
     while True:
@@ -270,5 +260,36 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     return x, status, int(S[S_ITER]), int(I[L.I_FACTORIZATIONS]) + fresh, float(pivot[0])
 
 
-#: The sparse LU (its pivot order) of each system solved, for its next solves (a .dc sweep's points).
-_LUS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+class _Pack:
+    """A system's arrays for :func:`newton_dc` that do not change between its solves, and its LU.
+
+    The sources are packed at every solve (a ``.dc`` sweep sets their values);
+    the families' limiting states are copied from the initial ones.
+    """
+
+    def __init__(self, system, x, t):
+        from .driver import _pack_families
+        from .lu import PIVOT_REL_THRESHOLD, SparseLU
+
+        pattern = system.pattern
+        e_data = np.array(pattern.data_of(system.E), dtype=float)
+        h_data = np.array(pattern.data_of(system.H), dtype=float)
+        B = system.B.tocoo()
+        self.nnz = e_data.size
+        self.a_data = np.zeros(self.nnz)
+        self.sysd = (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
+                     e_data, h_data, self.a_data, B.row.astype(np.int64), B.col.astype(np.int64),
+                     B.data.astype(float))
+        self.devd = _pack_families(system, x, None)
+        self.lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
+        # a first pivot order: of the matrix at x evaluated without limiting (a degraded pivot
+        # later comes back to Python for a new one)
+        ev = system.evaluate(x, t, jacobian=True, state=None)
+        if not (ev.ok and np.all(np.isfinite(ev.dphi)) and self.lu.factor(-ev.dphi)):
+            self.lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
+
+
+#: Positions of the families' limiting states in ``devd`` (vacc, vtry, vnew of four families).
+_STATES = frozenset(k for k in range(20) if k % 5 >= 2)
+#: The packed arrays and the LU (its pivot order) of each system solved, for its next solves.
+_PACKS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
