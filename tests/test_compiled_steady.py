@@ -1,7 +1,7 @@
 """The compiled operating-point Newton is the Python solver's first phase, step for step.
 
 For MNA systems of the compiled engine's device families, plain Newton runs in
-``netdae/dae/compiled/steady.py``; ``NETDAE_ENGINE=python`` keeps it in
+``netdae/dae/compiled/steady.py`` (called by ``steady_driver.py``); ``NETDAE_ENGINE=python`` keeps it in
 ``netdae/dae/steady.py``. Both must give the same operating points (within the
 convergence tolerance: the same iterates up to rounding), the same iteration
 counts and strategies, and hand the same circuits to the homotopies.
@@ -13,24 +13,17 @@ import numpy as np
 import pytest
 
 from conftest import NETLISTS
+from test_devices_ngspice import HARD  # plain Newton overshoots; the homotopies rescue it
 from netdae.analyses.dc import dc_sweep
 from netdae.analyses.op import operating_point
 from netdae.circuit import DcAnalysis
-from netdae.dae.compiled import steady as compiled
+from netdae.dae.compiled import steady_driver as compiled
 from netdae.netlist import load
 
 CIRCUITS = ["bridge_rectifier.cir", "ce_amplifier.cir", "cmos_inverter.cir", "diff_pair.cir",
             "voltage_multiplier.cir", "ring_oscillator.cir", "halfwave_rectifier.cir", "diode_iv.cir",
             "testset_transamp.cir", "cw_doubler.cir", "vanderpol_mu1.cir"]
 
-HARD = """exponential behavioural diodes: plain Newton overshoots, the homotopies rescue
-V1 a 0 10
-R1 a b 1k
-B1 b 0 I={1e-14*(exp(V(b)/0.025)-1)}
-R2 b c 2k
-B2 c 0 I={1e-12*(exp(V(c)/0.05)-1)}
-.end
-"""
 
 
 @pytest.fixture

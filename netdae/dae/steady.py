@@ -514,7 +514,7 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     x_new = x
     if not frc and nodeset is None and not charges and _compiled(system):
         # plain Newton in the compiled engine; where it would stop, the Python solver below starts over
-        from .compiled import steady as compiled
+        from .compiled import steady_driver as compiled
 
         x_c, status, its, facts, pivot = compiled.solve_dc(
             system, t, x, init=init, maxiter=opts.maxiter, reltol=opts.reltol, x_atol=newton.x_atol,
@@ -564,7 +564,7 @@ def _compiled(system: DaeSystem) -> bool:
     if not getattr(system, "families", None):
         return False
     from .bdf import _compiled_engine_enabled
-    from .compiled.steady import eligible
+    from .compiled.steady_driver import eligible
 
     if not _compiled_engine_enabled():
         return False

@@ -69,7 +69,7 @@ _PACKAGE_DIR = Path(__file__).resolve().parent
 _KERNEL_SOURCES = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels", _PACKAGE_DIR.parent / "bdf",
                    _PACKAGE_DIR.parent / "newton.py")
 #: Modules of the listed directories that define no kernel (editing them needs no recompilation).
-_NOT_KERNELS = frozenset({"driver.py", "warm.py"})
+_NOT_KERNELS = frozenset({"driver.py", "steady_driver.py", "warm.py"})
 #: Prefix of the cache's content-keyed subdirectories.
 ENGINE_PREFIX = "netdae-engine-"
 

@@ -165,12 +165,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
 
     pattern = system.pattern
     linear = not system.families
-    indptr = np.asarray(pattern.indptr, dtype=np.int64)
-    indices = np.asarray(pattern.indices, dtype=np.int64)
-    e_data = np.array(pattern.data_of(system.E), dtype=float)
-    h_data = np.array(pattern.data_of(system.H), dtype=float)
-    B = system.B.tocoo()
-    b_rows, b_cols, b_vals = B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float)
+    indptr, indices, e_data, h_data, b_rows, b_cols, b_vals = pack_matrices(system)
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
     switching = getattr(system, "switching", None)
     devd = _pack_families(system, x0, switching)
@@ -414,6 +409,19 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
 #: The loop's REASON_* codes as netdae.dae.newton's INFO_* names (the Python integrator's words).
 _REASONS = {L.REASON_SINGULAR: "singular", L.REASON_NONFINITE: "nonfinite", L.REASON_DIVERGED: "diverged",
             L.REASON_MAXITER: "maxiter", L.REASON_EVALUATION: "evaluation"}
+
+
+def pack_matrices(system) -> tuple:
+    """The loop's matrices of an MNA system: ``(indptr, indices, e_data, h_data, b_rows, b_cols, b_vals)``.
+
+    ``E`` and ``H`` as values on the system's fixed CSC pattern, ``B`` as
+    coordinates (the inputs' columns).
+    """
+    pattern = system.pattern
+    B = system.B.tocoo()
+    return (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
+            np.array(pattern.data_of(system.E), dtype=float), np.array(pattern.data_of(system.H), dtype=float),
+            B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
 
 
 def _pack_families(system, x0, switching) -> tuple:

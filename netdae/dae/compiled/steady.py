@@ -1,5 +1,8 @@
 """Newton's method for the DC operating point, compiled: the steady-state solver's first phase.
 
+The kernel is here; its Python side (packing, the pivot orders, the call) is
+:mod:`netdae.dae.compiled.steady_driver`.
+
 :func:`netdae.dae.steady.solve_steady` starts with plain Newton (the devices'
 junction limiting, SPICE's convergence test) and turns to gmin and source
 stepping only when it fails. For an MNA system of the compiled engine that
@@ -26,15 +29,12 @@ column scales of their positions.
 from __future__ import annotations
 
 import math
-import weakref
-
-import numpy as np
 
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE
 from . import kernel
 from . import bdf_loop as L
 
-__all__ = ["newton_dc", "solve_dc", "CONVERGED", "NOT_CONVERGED", "NEED_PIVOTS", "ILL_CONDITIONED"]
+__all__ = ["newton_dc", "CONVERGED", "NOT_CONVERGED", "NEED_PIVOTS", "ILL_CONDITIONED", "S_ITER", "S_FIRST", "N_S"]
 
 CONVERGED = 0
 NOT_CONVERGED = 1       # maxiter reached, a non-finite value: the Python solver takes over
@@ -160,136 +160,3 @@ def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, singular_piv
             x[i] = xn
         S[S_SMALL] = 1 if small else 0
     return NOT_CONVERGED
-
-
-def eligible(system) -> bool:
-    """True when :func:`solve_dc` can run ``system``: an MNA system of the compiled engine's families.
-
-    Linear systems (one Newton step), switches (held states) and systems
-    without the compiled engine's data stay with the Python solver.
-    """
-    from .driver import _family_slot
-
-    families = getattr(system, "families", None)
-    if not families or not hasattr(system, "pattern") or getattr(system, "switching", None) is not None:
-        return False
-    if getattr(system, "sources", None) is None or getattr(system, "B", None) is None:
-        return False
-    slots = [_family_slot(f) for f in families]
-    return None not in slots and len(set(slots)) == len(slots) and system.n > 0
-
-
-def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, reltol: float,
-             x_atol: np.ndarray, r_atol: np.ndarray, singular_pivot: float):
-    """Plain Newton on ``phi(x, t) = 0`` in compiled code.
-
-    Parameters
-    ----------
-    system : MnaSystem
-        With :func:`eligible` true.
-    t : float
-    x0 : ndarray, shape (n,)
-    init : bool
-        Start the devices from their initial junction voltages (SPICE's
-        ``MODEINITJCT``, a solve from scratch), else evaluate them at ``x0``.
-    maxiter : int
-    reltol : float
-    x_atol, r_atol : ndarray, shape (n,)
-        Absolute tolerances of the unknowns and of the equations.
-    singular_pivot : float
-        An equilibrated pivot at or below it stops plain Newton (ill-conditioned).
-
-    Returns
-    -------
-    (x, status, iterations, factorizations, pivot)
-        ``status`` is :data:`CONVERGED`, :data:`NOT_CONVERGED` or
-        :data:`ILL_CONDITIONED`; ``pivot`` the smallest equilibrated pivot of the
-        last factorisation (nan: none).
-
-    Notes
-    -----
-    Cost: at the first solve of a system, packing it and one fresh SuperLU
-    pivot order (~1 ms of Python, kept with the system); at every solve,
-    packing the sources and a few small arrays (~0.1 ms), then compiled
-    iterations of a few microseconds each.
-    """
-    from .lu import PIVOT_REL_THRESHOLD
-    from .sources import pack_sources
-
-    n = int(system.n)
-    x = np.array(x0, dtype=float)
-    pack = _PACKS.get(system)
-    fresh = 0
-    if pack is None:
-        pack = _Pack(system, x, t)
-        fresh = 1
-        _PACKS[system] = pack
-    lu = pack.lu
-    if lu.plan is None:
-        return x, NOT_CONVERGED, 0, 0, math.nan
-    skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)  # values may change (.dc)
-    a_data = pack.a_data
-    sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n)
-    devd = tuple(a.copy() if k in _STATES else a for k, a in enumerate(pack.devd))
-    nnz = pack.nnz
-    evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1), np.zeros(nnz))
-    F = np.zeros(L.N_F)
-    I = np.zeros(L.N_I, dtype=np.int64)
-    F[L.F_LU_TAG] = math.nan
-    F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
-    S = np.zeros(N_S, dtype=np.int64)
-    S[S_FIRST] = 1
-    u = np.zeros(skind.size)
-    dx = np.zeros(n)
-    absjx = np.zeros(n)
-    swork = np.zeros(n)
-    pivot = np.full(1, math.nan)
-    x_atol = np.ascontiguousarray(x_atol, dtype=float)
-    r_atol = np.ascontiguousarray(r_atol, dtype=float)
-    while True:
-        plan = lu.plan
-        lus = (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, swork)
-        status = newton_dc(F, I, S, float(t), x, bool(init), int(maxiter), float(reltol), x_atol, r_atol,
-                           float(singular_pivot), sysd, devd, lus, u, evb, dx, absjx, pivot)
-        if status != NEED_PIVOTS:
-            break
-        if not lu.factor(a_data):
-            status = ILL_CONDITIONED
-            break
-        fresh += 1
-    return x, status, int(S[S_ITER]), int(I[L.I_FACTORIZATIONS]) + fresh, float(pivot[0])
-
-
-class _Pack:
-    """A system's arrays for :func:`newton_dc` that do not change between its solves, and its LU.
-
-    The sources are packed at every solve (a ``.dc`` sweep sets their values);
-    the families' limiting states are copied from the initial ones.
-    """
-
-    def __init__(self, system, x, t):
-        from .driver import _pack_families
-        from .lu import PIVOT_REL_THRESHOLD, SparseLU
-
-        pattern = system.pattern
-        e_data = np.array(pattern.data_of(system.E), dtype=float)
-        h_data = np.array(pattern.data_of(system.H), dtype=float)
-        B = system.B.tocoo()
-        self.nnz = e_data.size
-        self.a_data = np.zeros(self.nnz)
-        self.sysd = (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
-                     e_data, h_data, self.a_data, B.row.astype(np.int64), B.col.astype(np.int64),
-                     B.data.astype(float))
-        self.devd = _pack_families(system, x, None)
-        self.lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
-        # a first pivot order: of the matrix at x evaluated without limiting (a degraded pivot
-        # later comes back to Python for a new one)
-        ev = system.evaluate(x, t, jacobian=True, state=None)
-        if not (ev.ok and np.all(np.isfinite(ev.dphi)) and self.lu.factor(-ev.dphi)):
-            self.lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
-
-
-#: Positions of the families' limiting states in ``devd`` (vacc, vtry, vnew of four families).
-_STATES = frozenset(k for k in range(20) if k % 5 >= 2)
-#: The packed arrays and the LU (its pivot order) of each system solved, for its next solves.
-_PACKS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
