@@ -16,7 +16,10 @@ Prints three tables (docs/performance.md quotes them):
    and the whole ``netdae.simulate`` (operating point and structure analysis
    included), with the step counts;
 3. ngspice's transient time of the same netlists (``.options acct``), per
-   accepted step, for the ratio.
+   accepted step, for the ratio;
+4. a ``.dc`` transfer curve of the CMOS inverter (10,001 points) in a warm
+   process (best CPU of the reps) against ngspice's "Total analysis time" of
+   the same netlist (best of the reps).
 
 Times are CPU-bound medians/minima on a shared machine: quote ranges from
 several runs.
@@ -78,6 +81,57 @@ for _ in range(int(sys.argv[2])):
         best = row
 print(json.dumps(best))
 """
+
+
+_DC = """
+import json, sys, time
+import netdae
+from netdae.analyses.dc import dc_sweep
+from netdae.circuit import DcAnalysis
+c = netdae.load(sys.argv[1])
+card = next(a for a in c.analyses if isinstance(a, DcAnalysis))
+dc_sweep(c, card)
+best = None
+for _ in range(int(sys.argv[2])):
+    t0 = time.process_time()
+    r = dc_sweep(c, card)
+    row = {"cpu": time.process_time() - t0, "points": int(r.axis.size), "newton": int(r.stats["newton"])}
+    if best is None or row["cpu"] < best["cpu"]:
+        best = row
+print(json.dumps(best))
+"""
+
+#: The DC sweep: the CMOS inverter's transfer curve, 10,001 points.
+DC_POINTS_STEP = 0.0005
+
+
+def dc_netlist(simulator: str) -> str:
+    """``netlists/cmos_inverter.cir`` with only its ``.dc`` card, 10,001 points (ngspice: ``.options acct``)."""
+    lines = []
+    for line in (ROOT / "netlists" / "cmos_inverter.cir").read_text().splitlines():
+        card = line.strip().lower().split()[:1]
+        if card in ([".tran"], [".op"], [".end"]):
+            continue
+        if card == [".dc"]:
+            parts = line.split()
+            line = " ".join(parts[:4] + [f"{DC_POINTS_STEP:g}"])
+        lines.append(line)
+    lines += [".save v(out)"] + ([".options acct"] if simulator == "ngspice" else []) + [".end"]
+    return "\n".join(lines) + "\n"
+
+
+def dc_sweep(reps: int, tmp: Path) -> tuple[dict, float]:
+    """netdae's best CPU of the DC sweep in a warm process, and ngspice's best analysis time."""
+    nd_path, ng_path = tmp / "dc_netdae.cir", tmp / "dc_ngspice.cir"
+    nd_path.write_text(dc_netlist("netdae"))
+    ng_path.write_text(dc_netlist("ngspice"))
+    nd = _child(_DC, nd_path, reps)
+    exe = M.shutil.which("ngspice") or "ngspice"
+    times = []
+    for _ in range(reps):
+        done = M.run_child([exe, "-b", "-n", "-r", str(tmp / "dc.raw"), str(ng_path)], cwd=tmp, timeout=600)
+        times.append(M.parse_acct(done.stdout + done.stderr).get("analysis_time", float("nan")))
+    return nd, min(times)
 
 
 def _child(code: str, *args) -> dict | float:
@@ -146,6 +200,11 @@ def main(argv=None) -> int:
                       f"{nd['integration'] * 1e3:>10.1f} {nd['integration'] / nd['steps'] * 1e6:>8.2f} "
                       f"{nd['simulate'] * 1e3:>11.1f} {ng_steps:>13} {ng_t * 1e3:>10.1f} "
                       f"{ng_t / max(ng_steps, 1) * 1e6:>8.2f} {ratio:>6.2f}")
+        nd, ng_t = dc_sweep(args.reps, Path(tmp))
+        print("\n.dc transfer curve of the CMOS inverter in a warm process (best CPU) against ngspice's analysis time:")
+        print(f"  netdae {nd['cpu'] * 1e3:.0f} ms for {nd['points']} points ({nd['cpu'] / nd['points'] * 1e6:.0f} us "
+              f"per point, {nd['newton']} Newton iterations); ngspice {ng_t * 1e3:.0f} ms "
+              f"({ng_t / nd['points'] * 1e6:.1f} us per point); ratio {nd['cpu'] / ng_t:.1f}x")
     return 0
 
 

@@ -38,6 +38,7 @@ References
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -560,16 +561,24 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
 
 def _compiled(system: DaeSystem) -> bool:
     """Whether plain Newton runs in the compiled engine (an MNA system of its device families;
-    not with ``NETDAE_ENGINE=python``, which keeps every solve in Python)."""
+    not with ``NETDAE_ENGINE=python``, which keeps every solve in Python). Cheap after a
+    system's first solve (a ``.dc`` sweep asks at every point)."""
     if not getattr(system, "families", None):
         return False
     from .bdf import _compiled_engine_enabled
-    from .compiled.steady_driver import eligible
 
     if not _compiled_engine_enabled():
         return False
+    ok = _ELIGIBLE.get(system)
+    if ok is None:
+        from .compiled.steady_driver import eligible
 
-    return eligible(system)
+        ok = _ELIGIBLE[system] = eligible(system)
+    return ok
+
+
+#: Systems asked about by :func:`_compiled`, and the answer.
+_ELIGIBLE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _gmin_stepping(newton: _Newton, x, opts: SteadyOptions, run):

@@ -13,6 +13,8 @@ import weakref
 import numpy as np
 
 from . import bdf_loop as L
+from .lu import PIVOT_REL_THRESHOLD
+from .sources import pack_sources
 from .steady import CONVERGED, ILL_CONDITIONED, N_S, NEED_PIVOTS, NOT_CONVERGED, S_FIRST, S_ITER, newton_dc
 
 __all__ = ["eligible", "solve_dc", "CONVERGED", "NOT_CONVERGED", "ILL_CONDITIONED"]
@@ -69,9 +71,6 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     packing the sources and a few small arrays (~0.1 ms), then compiled
     iterations of a few microseconds each.
     """
-    from .lu import PIVOT_REL_THRESHOLD
-    from .sources import pack_sources
-
     n = int(system.n)
     x = np.array(x0, dtype=float)
     pack = _PACKS.get(system)
@@ -86,7 +85,10 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)  # values may change (.dc)
     a_data = pack.a_data
     sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n)
-    devd = tuple(a.copy() if k in _STATES else a for k, a in enumerate(pack.devd))
+    devd = list(pack.devd)
+    for k in _STATES:
+        devd[k] = devd[k].copy()
+    devd = tuple(devd)
     nnz = pack.nnz
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1), np.zeros(nnz))
     F = np.zeros(L.N_F)
@@ -125,7 +127,7 @@ class _Pack:
 
     def __init__(self, system, x, t):
         from .driver import _pack_families, pack_matrices
-        from .lu import PIVOT_REL_THRESHOLD, SparseLU
+        from .lu import SparseLU
 
         pattern = system.pattern
         indptr, indices, e_data, h_data, b_rows, b_cols, b_vals = pack_matrices(system)
@@ -142,6 +144,6 @@ class _Pack:
 
 
 #: Positions of the families' limiting states in ``devd`` (vacc, vtry, vnew of four families).
-_STATES = frozenset(k for k in range(20) if k % 5 >= 2)
+_STATES = tuple(k for k in range(20) if k % 5 >= 2)
 #: The packed arrays and the LU (its pivot order) of each system solved, for its next solves.
 _PACKS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
