@@ -171,3 +171,20 @@ def test_interpolant_vectorised_matches_pointwise_and_checks_range():
         f([t[-1] + 1.0])
     with pytest.raises(ValueError, match="no saved component"):
         f(tq, ["d"])
+
+
+def test_compiled_dense_output_is_the_numpy_reference():
+    """The compiled evaluation (``compiled/dense.py``) against the vectorised numpy form, with jumps and
+    segments: the same polynomials to rounding, the left value at a repeated time."""
+    rng = np.random.default_rng(11)
+    steps = rng.uniform(0.05, 0.2, 60)
+    t = np.cumsum(np.concatenate([[0.0], steps]))
+    t = np.insert(t, 30, t[29])  # a jump: t[29] recorded twice (left value, right limit)
+    x = rng.normal(size=(t.size, 4))
+    orders = rng.integers(1, 6, t.size)
+    f = Interpolant(t, orders, x, ("a", "b", "c", "d"), segments=[12, 45])
+    tq = np.concatenate([rng.uniform(t[0], t[-1], 2000), t, [t[29]]])
+    reference = f._evaluate(tq, f.x)
+    np.testing.assert_allclose(f(tq), reference, rtol=1e-12, atol=1e-12 * np.abs(x).max())
+    np.testing.assert_allclose(f(tq, ["c", "a"]), reference[:, [2, 0]], rtol=1e-12, atol=1e-12 * np.abs(x).max())
+    assert f(t[29])[1] == x[29, 1]  # at the jump: the left value

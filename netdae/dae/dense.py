@@ -15,10 +15,12 @@ the solution jumps, the integrator stores two points at the same time, the
 left value and the right limit; at that time the interpolant returns the
 left value, just after it the polynomial through the right limit.
 
-Evaluation is vectorised over the requested times: one ``searchsorted``
-locates every time's step, and the Lagrange weights of all of them are formed
-together (a loop over the at most six interpolation nodes, none over times
-or unknowns).
+Evaluation is a compiled loop over the requested times
+(:func:`netdae.dae.compiled.dense.lagrange_eval`: a binary search for the
+step, the Lagrange weights in scalar arithmetic, as
+:meth:`Interpolant._evaluate_one`); :meth:`Interpolant._evaluate` is the same
+polynomial vectorised in numpy, kept as the reference the tests hold the
+kernel to.
 
 Examples
 --------
@@ -38,10 +40,6 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["Interpolant"]
-
-#: Output times handled per block (bounds the (times, nodes, unknowns) work array).
-BLOCK_TIMES = 65536
-
 
 class Interpolant:
     """Piecewise-polynomial interpolant of a BDF solution.
@@ -71,9 +69,9 @@ class Interpolant:
     """
 
     def __init__(self, t, orders, x, names, segments=None) -> None:
-        self.t = np.asarray(t, dtype=float)
+        self.t = np.ascontiguousarray(t, dtype=float)
         self.orders = np.asarray(orders, dtype=np.int64)
-        self.x = np.asarray(x, dtype=float)
+        self.x = np.ascontiguousarray(x, dtype=float)
         self.names = tuple(names)
         m = self.t.size
         if self.x.shape[0] != m or self.orders.shape != (m,):
@@ -137,14 +135,16 @@ class Interpolant:
                 f"dense output is available on [{self.t[0]:.6g}, {self.t[-1]:.6g}] only; "
                 f"asked for [{tq.min():.6g}, {tq.max():.6g}]"
             )
-        xs = self.x[:, cols]
-        out = np.empty((tq.size, xs.shape[1]))
         if self.t.size == 1:
+            xs = self.x[:, cols]
+            out = np.empty((tq.size, xs.shape[1]))
             out[:] = xs[0]
-        else:
-            for start in range(0, tq.size, BLOCK_TIMES):
-                block = slice(start, start + BLOCK_TIMES)
-                out[block] = self._evaluate(tq[block], xs)
+            return out[0] if scalar else out
+        from .compiled.dense import lagrange_eval
+
+        index = np.arange(self.x.shape[1], dtype=np.int64)[cols]
+        out = np.empty((tq.size, index.size))
+        lagrange_eval(self.t, self.orders, self.x, np.ascontiguousarray(index), np.ascontiguousarray(tq), out)
         return out[0] if scalar else out
 
     def _evaluate_one(self, tq: float, xs: np.ndarray) -> np.ndarray:
