@@ -143,3 +143,20 @@ def test_an_unsafe_socket_directory_is_not_used(tmp_path):
 
 def test_no_server_means_nothing_ran(tmp_path):
     assert client.forward(["run", "x.cir"], str(tmp_path / "none.sock")) is None
+
+
+def test_the_callers_resource_limits_bind_the_worker(server, tmp_path):
+    """``ulimit -f`` of the caller applies to the command run by the server (its output file is cut)."""
+    import resource
+
+    _path, env = server
+
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+
+    args = ["run", str(NETLISTS / "rc_lowpass.cir"), "-q"]
+    limited = _netdae(*args, "--out", str(tmp_path / "limited"), env=env, preexec_fn=small_files)
+    assert limited.returncode == 2 and "file-size limit" in limited.stderr, limited.stderr
+    assert not (tmp_path / "limited" / "tran.csv").exists()  # no truncated file left behind
+    free = _netdae(*args, "--out", str(tmp_path / "free"), env=env)
+    assert free.returncode == 0 and (tmp_path / "free" / "tran.csv").stat().st_size > 4096

@@ -8,9 +8,13 @@ The protocol on a Unix stream socket (private directory, mode 0700):
 1. the client sends one framed JSON request (``kind``: ``run``, ``status`` or
    ``stop``) with its standard input, output and error attached as file
    descriptors (``SCM_RIGHTS``);
-2. for ``run`` the server answers ``P`` and the worker's process id, then ``X``
-   and the exit status (a negative status is the signal that ended the worker);
-   for ``status``/``stop`` one framed JSON answer.
+2. for ``run`` the server answers with the worker's process id, then with its
+   exit status (a negative status is the signal that ended the worker); for
+   ``status``/``stop`` with one framed JSON answer.
+
+The worker takes the caller's arguments, working directory, environment,
+umask, resource limits (``ulimit``) and standard streams; the caller forwards
+its signals to it (Ctrl-C, termination, Ctrl-Z and ``fg``).
 
 A server serves one *key*: a hash of the interpreter, its flags and path, the
 environment variables read at import time (``NUMBA_*``, ``NETDAE_*``,
@@ -31,7 +35,7 @@ import sys
 
 __all__ = [
     "SWITCH", "IDLE_SECONDS", "enabled", "key", "server_dir", "socket_path", "request",
-    "forward", "start", "RunStatus",
+    "forward", "start", "RunStatus", "limits",
 ]
 
 #: Environment variable that turns the server off (``0``, ``no``, ``off``, ``false``).
@@ -221,8 +225,8 @@ def forward(argv: list[str], path: str) -> int | None:
         sock.settimeout(30.0)
         payload = {
             "kind": "run", "argv": list(argv), "cwd": os.getcwd(), "env": dict(os.environ),
-            "umask": _umask(), "stdin": _stream_spec(sys.stdin), "stdout": _stream_spec(sys.stdout),
-            "stderr": _stream_spec(sys.stderr),
+            "umask": _umask(), "limits": limits(), "stdin": _stream_spec(sys.stdin),
+            "stdout": _stream_spec(sys.stdout), "stderr": _stream_spec(sys.stderr),
         }
         try:
             for stream in (sys.stdout, sys.stderr):
@@ -242,10 +246,26 @@ def forward(argv: list[str], path: str) -> int | None:
             except OSError:
                 pass
 
+        def suspend(_signum, _frame):  # Ctrl-Z: stop the worker, then this process as the shell expects
+            try:
+                os.kill(pid, signal.SIGSTOP)
+            except OSError:
+                pass
+            os.kill(os.getpid(), signal.SIGSTOP)
+
+        def resume(_signum, _frame):
+            try:
+                os.kill(pid, signal.SIGCONT)
+            except OSError:
+                pass
+
         for name in _FORWARDED:
             signum = getattr(signal, name, None)
             if signum is not None:
                 previous[signum] = signal.signal(signum, relay)
+        if hasattr(signal, "SIGTSTP"):
+            previous[signal.SIGTSTP] = signal.signal(signal.SIGTSTP, suspend)
+            previous[signal.SIGCONT] = signal.signal(signal.SIGCONT, resume)
         try:
             sock.settimeout(None)
             done, _ = recv_frame(sock)
@@ -260,6 +280,23 @@ def forward(argv: list[str], path: str) -> int | None:
     if status < 0:  # the worker was ended by a signal: end the same way, as a shell expects
         return 128 - status
     return status
+
+
+#: Resource limits a command run through the server keeps (``ulimit``): the worker lowers its own to them.
+LIMITS = ("RLIMIT_AS", "RLIMIT_DATA", "RLIMIT_RSS", "RLIMIT_CPU", "RLIMIT_FSIZE", "RLIMIT_NOFILE",
+          "RLIMIT_STACK", "RLIMIT_CORE", "RLIMIT_NPROC", "RLIMIT_MEMLOCK")
+
+
+def limits() -> dict:
+    """This process's resource limits by name (``resource.getrlimit``), for the worker to take."""
+    import resource
+
+    out = {}
+    for name in LIMITS:
+        which = getattr(resource, name, None)
+        if which is not None:
+            out[name] = list(resource.getrlimit(which))
+    return out
 
 
 def _umask() -> int:

@@ -6,7 +6,7 @@ Process tree: the server (its own session, started by
 forks the *worker*, tells the caller the worker's pid (the caller forwards
 signals to it), waits for the worker or for the caller to go away (then the
 worker gets SIGTERM), and sends the exit status. The worker takes the caller's
-streams, directory, environment and umask and runs
+streams, directory, environment, umask and resource limits and runs
 :func:`netdae.cli.main` on the arguments.
 
 Only one server runs per key (a lock file next to the socket); it binds its
@@ -87,6 +87,7 @@ def _worker(request: dict, fds: list[int]) -> None:
         signal.signal(signal.SIGINT, signal.default_int_handler)
         os.chdir(request["cwd"])
         os.umask(int(request["umask"]))
+        _apply_limits(request.get("limits") or {})
         os.environ.clear()
         os.environ.update(request["env"])
         sys.stdin = _stream(0, request.get("stdin", {}), "r")
@@ -114,6 +115,24 @@ def _worker(request: dict, fds: list[int]) -> None:
             except Exception:  # noqa: BLE001 - a closed pipe: nothing more to say
                 pass
         os._exit(status if isinstance(status, int) and 0 <= status < 256 else 1)
+
+
+def _apply_limits(limits: dict) -> None:
+    """Take the caller's resource limits (lowering only: a process cannot raise a hard limit)."""
+    import resource
+
+    for name, (soft, hard) in limits.items():
+        which = getattr(resource, name, None)
+        if which is None:
+            continue
+        try:
+            cur_soft, cur_hard = resource.getrlimit(which)
+            hard = hard if cur_hard == resource.RLIM_INFINITY or 0 <= hard <= cur_hard else cur_hard
+            soft = soft if hard == resource.RLIM_INFINITY or 0 <= soft <= hard else hard
+            if (soft, hard) != (cur_soft, cur_hard):
+                resource.setrlimit(which, (soft, hard))
+        except (ValueError, OSError):
+            pass
 
 
 def _supervise(conn: socket.socket, listener: socket.socket) -> None:
