@@ -218,16 +218,19 @@ def forward(argv: list[str], path: str) -> int | None:
     RunStatus
         The worker started but the connection ended without its status.
     """
-    sock = _connect(path)
-    if sock is None:
-        return None
-    with sock:
-        sock.settimeout(30.0)
+    try:  # a deleted working directory, an unreadable limit: run here, where the error is reported
         payload = {
             "kind": "run", "argv": list(argv), "cwd": os.getcwd(), "env": dict(os.environ),
             "umask": _umask(), "limits": limits(), "stdin": _stream_spec(sys.stdin),
             "stdout": _stream_spec(sys.stdout), "stderr": _stream_spec(sys.stderr),
         }
+    except (OSError, ValueError):
+        return None
+    sock = _connect(path)
+    if sock is None:
+        return None
+    with sock:
+        sock.settimeout(30.0)
         try:
             for stream in (sys.stdout, sys.stderr):
                 stream.flush()
