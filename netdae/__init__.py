@@ -17,10 +17,9 @@ The public API:
   :class:`CircuitError`, :class:`SingularPencilError`,
   :class:`ConvergenceError`, :class:`NgspiceError`.
 
-``import netdae`` is cheap (no numpy): the names whose modules load the
-numerics (``load``, ``analyze_index``, ``compare``, ``Result``,
-``IndexReport``, ``Comparison``) are imported on first use. Type checkers see
-every name through the static imports below.
+``import netdae`` is cheap (no numpy; the ``netdae`` command's hand-over to a
+running server imports nothing else): every name but the errors is imported
+on first use. Type checkers see every name through the static imports below.
 
 Examples
 --------
@@ -34,9 +33,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .analyses.runner import run, simulate
-from .circuit import Circuit
-from .measures import Measure
 from .errors import (
     CircuitError,
     ConvergenceError,
@@ -46,7 +42,10 @@ from .errors import (
     SingularPencilError,
 )
 
-if TYPE_CHECKING:  # imported on first use at run time (they load numpy): see __getattr__
+if TYPE_CHECKING:  # imported on first use at run time (they load numpy or dataclasses): see __getattr__
+    from .analyses.runner import run, simulate
+    from .circuit import Circuit
+    from .measures import Measure
     from .analyses.index import IndexReport, analyze_index
     from .comparison import Comparison, compare
     from .io.pyspice import from_pyspice
@@ -84,7 +83,15 @@ __all__ = [
 
 def __getattr__(name: str):
     """The heavy public names, imported on first use (PEP 562)."""
-    if name == "load":
+    if name == "run":
+        from .analyses.runner import run as value
+    elif name == "simulate":
+        from .analyses.runner import simulate as value
+    elif name == "Circuit":
+        from .circuit import Circuit as value
+    elif name == "Measure":
+        from .measures import Measure as value
+    elif name == "load":
         from .netlist import load as value
     elif name == "analyze_index":
         from .analyses.index import analyze_index as value

@@ -25,7 +25,7 @@ import math
 import os
 import sys
 
-__all__ = ["main", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity"]
+__all__ = ["main", "parser", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity"]
 
 #: Subcommands in the order ``--help`` lists them.
 COMMANDS = ("check", "index", "run", "sweep", "compare", "demo", "server")
@@ -176,14 +176,24 @@ def _limit_blas_threads() -> None:
         os.environ.setdefault(var, BLAS_THREADS)
 
 
+_PARSER: argparse.ArgumentParser | None = None
+
+
+def parser() -> argparse.ArgumentParser:
+    """:func:`build_parser`'s parser, built once per process (a netdae server builds it before forking)."""
+    global _PARSER
+    if _PARSER is None:
+        _PARSER = build_parser()
+    return _PARSER
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     _limit_blas_threads()
     from ..errors import NetdaeError
 
-    parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args = parser().parse_args(argv)
     except SystemExit as exc:  # --help, --version (0) or a usage error (2), already printed
         return exc.code if isinstance(exc.code, int) else EXIT_ERROR
     _configure_logging(args.verbosity)

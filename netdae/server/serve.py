@@ -47,6 +47,9 @@ def warm_up() -> None:
     import logging
 
     from .. import run
+    from ..cli import parser
+
+    parser()  # the command line's parser, built once for every worker
 
     logging.getLogger("netdae").disabled = True
     try:
