@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -39,6 +40,15 @@ def test_help_loads_no_numerics():
             "print(codes, sorted(m for m in ('numpy', 'scipy', 'numba', 'matplotlib') if m in sys.modules))")
     done = _run("-c", code)
     assert done.stdout.strip().splitlines()[-1] == f"{[0] * (1 + len(COMMANDS))} []"
+
+
+def test_check_and_index_of_a_linear_circuit_load_no_compiled_engine():
+    """The structure of a circuit is read without numba (every family's module is imported)."""
+    code = ("import sys; from netdae.cli import main\n"
+            f"codes = [main(['check', {str(RC)!r}, '-q']), main(['index', {str(RC)!r}, '-q'])]\n"
+            "print(codes, 'numba' in sys.modules)")
+    done = _run("-c", code, env={**os.environ, "NETDAE_SERVER": "0"})
+    assert done.stdout.strip().splitlines()[-1] == "[0, 0] False", done.stderr
 
 
 def test_help_is_fast():

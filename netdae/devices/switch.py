@@ -53,8 +53,7 @@ import numpy as np
 from ..errors import CircuitError
 from .base import Accumulator, DeviceFamily, SlotMap
 from .companion import BranchStamps, LimitState
-from ..dae.compiled.events import EVENT_TOGETHER
-from .kernels import switch as ks
+from .kernels.switch_states import HYST_OFF, HYST_ON, REALLY_OFF, REALLY_ON
 from .modelcard import ParameterTable, instance_values, resolve_model
 
 __all__ = ["SwitchFamily", "SwitchEvents", "SW_PARAMETERS", "CSW_PARAMETERS"]
@@ -74,7 +73,13 @@ _INSTANCE = {"on": None, "off": None}
 #: Ground in stamp arrays (netdae.mna.layout.GND).
 GND = -1
 
-REALLY_OFF, REALLY_ON, HYST_OFF, HYST_ON = ks.REALLY_OFF, ks.REALLY_ON, ks.HYST_OFF, ks.HYST_ON
+
+
+def _kernels():
+    """The compiled switch kernels and their layout (imported on first use: they load numba)."""
+    from .kernels import switch as ks
+
+    return ks
 
 
 def conducting(s: np.ndarray) -> np.ndarray:
@@ -219,6 +224,8 @@ class SwitchFamily(DeviceFamily):
         """
         from .kernels.packing import dependence_slots, extended
 
+        ks = _kernels()
+
         count = len(self.elements)
         par = np.zeros((count, ks.N_PAR))
         par[:, ks.P_GON] = self.gon
@@ -291,6 +298,7 @@ class SwitchEvents:
     """
 
     def __init__(self, family: SwitchFamily, pattern, n: int) -> None:
+        ks = _kernels()
         self.family = family
         self.n = n
         self.par, self.idx, _ = family.compiled(SlotMap(pattern), n)
@@ -304,6 +312,7 @@ class SwitchEvents:
 
     def start(self, x: np.ndarray) -> np.ndarray:
         """Hold the operating point's states at ``x`` (the integration's start); returns ``states``."""
+        ks = _kernels()
         xe = np.append(np.asarray(x, dtype=float), 0.0)
         self.states[:, ks.V_STATE] = self.family.dc_state(self.family.control(xe), None)
         self.states[:, ks.V_HOLD] = 1.0
@@ -312,6 +321,7 @@ class SwitchEvents:
 
     def hold(self, states: np.ndarray) -> None:
         """Hold ``states`` (shape (N, 2), e.g. the compiled loop's) in every evaluation."""
+        ks = _kernels()
         self.states[:] = states
         self.family.held = self.states[:, ks.V_STATE].copy()
 
@@ -332,12 +342,15 @@ class SwitchEvents:
             the interpolated unknowns when the step was cut (else None). The
             held states are updated.
         """
+        ks = _kernels()
         t_end, changes = ks.switch_step(P, int(k), psi, float(t), float(t_new), self.n, self.par, self.idx,
                                         self.states, self._new, self._tcross, self._xe, self._xw)
         self.hold(self._new)
         switched = ()
         if changes:
             self.events += 1
+            from ..dae.compiled.events import EVENT_TOGETHER
+
             limit = t_end + EVENT_TOGETHER * (t_new - t)
             switched = tuple(el.name for el, tc in zip(self.family.elements, self._tcross) if tc <= limit)
         return t_end, switched, (self._xw.copy() if t_end < t_new else None)

@@ -36,12 +36,11 @@ from ...dae.compiled.events import EVENT_MIN_GAP, EVENT_TOGETHER, crossing_time,
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .scatter import add_current, add_current_slope
+from .switch_states import HYST_OFF, HYST_ON, REALLY_OFF, REALLY_ON
 
 __all__ = ["eval_switch", "decide", "junction_state", "dc_state", "watch", "switched", "conducting",
            "switch_decide", "switch_step", "REALLY_OFF", "REALLY_ON", "HYST_OFF", "HYST_ON"]
 
-#: ngspice's four switch states (``swload.c``).
-REALLY_OFF, REALLY_ON, HYST_OFF, HYST_ON = 0.0, 1.0, 2.0, 3.0
 P_GON, P_GOFF, P_VT, P_VH, P_ON, P_DC_HOLD = range(6)
 N_PAR = 6
 I_P, I_M, I_CP, I_CM, S_G = 0, 1, 2, 3, 4
