@@ -5,7 +5,7 @@ installation (:mod:`netdae.server`) and starts one after a command that loaded
 the compiled engine; this subcommand shows, starts or stops it. ``status``
 exits 1 when no server runs, ``start`` waits until the server accepts commands
 (about the time of one small run), ``stop`` ends every server of this user
-(also those of other installations or environments).
+(also those of other installations or environments, and those still warming up).
 """
 
 from __future__ import annotations
@@ -68,9 +68,46 @@ def main(args: argparse.Namespace) -> int:
                               "commands run in their own processes")
         print(f"netdae server started, pid {proc.pid} (socket {path})")
         return 0
-    stopped = 0
-    for sock in _sockets(directory):
-        if client.request("stop", sock) is not None:
-            stopped += 1
+    answered = {sock for sock in _sockets(directory) if client.request("stop", sock) is not None}
+    stopped = len(answered) + _stop_warming(directory, answered)
     print(f"stopped {stopped} netdae server{'s' if stopped != 1 else ''}")
     return 0
+
+
+def _stop_warming(directory: str, stopped: set[str]) -> int:
+    """End the servers still warming up (their lock is held, their socket not yet there); ``stopped``:
+    the sockets whose servers were already asked to stop."""
+    import fcntl
+    import signal
+
+    count = 0
+    try:
+        names = sorted(os.listdir(directory))
+    except OSError:
+        return 0
+    for name in names:
+        path = os.path.join(directory, name)
+        if not name.endswith(".sock.lock") or path[:-len(".lock")] in stopped:
+            continue
+        try:
+            fd = os.open(path, os.O_RDWR)
+        except OSError:
+            continue
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                continue  # nobody holds it: no server for this key
+            except OSError:
+                pass
+            try:
+                pid = int(os.read(fd, 32).decode() or "0")
+                with open(f"/proc/{pid}/cmdline", "rb") as f:
+                    if b"netdae.server.serve" not in f.read():
+                        continue
+                os.kill(pid, signal.SIGTERM)
+                count += 1
+            except (OSError, ValueError):
+                continue
+        finally:
+            os.close(fd)
+    return count

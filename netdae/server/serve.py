@@ -229,6 +229,8 @@ def main(path: str, idle: float) -> None:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:  # another server for this key is starting or running
         return
+    os.ftruncate(lock, 0)
+    os.write(lock, str(os.getpid()).encode())  # for `netdae server stop` while this one warms up
     from ..cli import _limit_blas_threads
 
     _limit_blas_threads()
