@@ -161,15 +161,11 @@ def _run_netdae(circuit: Circuit, card, overrides: dict) -> Result:
 
 def _netdae_ac_at(circuit: Circuit, freqs: np.ndarray, overrides: dict) -> Result:
     """netdae's AC phasors at exactly the given frequencies (ngspice's)."""
-    from ..analyses.ac import solve_ac
-    from ..analyses.op import solve_operating_point, steady_options
-    from ..mna import MODE_DC, assemble
+    from ..analyses.ac import linearize, solve_ac
 
-    system = assemble(circuit, mode=MODE_DC)
-    opts = steady_options(circuit, **overrides)
-    op = solve_operating_point(system, options=opts)
-    E, H = system.jacobians(op.x, 0.0)
-    X = solve_ac(E, H, system.B @ system.sources.ac, freqs)
+    lin = linearize(circuit, **overrides)
+    system, opts = lin.system, lin.options
+    X = solve_ac(lin.E, lin.H_ac, system.B @ system.sources.ac, freqs)
     return Result("ac", axes={"frequency": np.asarray(freqs, dtype=float)},
                   signals={name: X[:, i] for i, name in enumerate(system.names)},
                   tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol})
