@@ -20,8 +20,12 @@ with the port shorted):
     branch current and a branch equation ``v(in+) - v(in-) = u``). Its
     transfer function is a voltage gain.
 
-Every other independent source keeps its small-signal value, zero: V
-sources are shorts, I sources are open.
+Every other independent source keeps its small-signal value, zero: I
+sources are open, V sources are shorts -- except a V source with an AC value
+(``ac mag``), which ngspice's pole-zero analysis removes (an open circuit:
+``vsrcpzld.c`` replaces its branch equation by ``i = 0``, the source being
+taken for the stimulus the port stands for), and so does netdae. (An
+``ac 0`` is not told apart from no ``ac``.)
 
 Poles are the finite eigenvalues of the pencil ``s E - H`` (the natural
 frequencies of the circuit with the input port so closed); zeros are the
@@ -99,7 +103,11 @@ def sort_roots(roots) -> np.ndarray:
     r = np.asarray(roots, dtype=complex)
     if r.size == 0:
         return r
-    return r[np.lexsort((-r.imag, np.abs(r)))]
+    mag = np.abs(r)
+    scale = mag.max()
+    if scale > 0:  # a conjugate pair's magnitudes may differ in the last bits
+        mag = np.round(mag / scale, 9)
+    return r[np.lexsort((-r.imag, mag))]
 
 
 def root_names(kind: str, count: int) -> list[str]:
@@ -145,7 +153,8 @@ def rosenbrock(E, H, b, c) -> tuple[np.ndarray, np.ndarray]:
     return Er, Hr
 
 
-def port_system(E, H, B, names: list[str], node_index, sources: list[str], elements, card: PzAnalysis):
+def port_system(E, H, B, names: list[str], node_index, sources: list[str], elements, card: PzAnalysis,
+                opened=()):
     """The linearisation closed by the card's input port: ``(E, H, b, c, how)``.
 
     Parameters
@@ -163,6 +172,9 @@ def port_system(E, H, B, names: list[str], node_index, sources: list[str], eleme
     elements : iterable of Element
         The circuit's elements (to find a V source across the input port).
     card : PzAnalysis
+    opened : sequence of (str, int)
+        V sources removed (their name and branch): the branch equation
+        becomes ``i = 0``.
 
     Returns
     -------
@@ -175,6 +187,12 @@ def port_system(E, H, B, names: list[str], node_index, sources: list[str], eleme
     E = E.toarray() if sp.issparse(E) else np.asarray(E, dtype=float)
     H = H.toarray() if sp.issparse(H) else np.asarray(H, dtype=float)
     n = E.shape[0]
+    if opened:
+        H = H.copy()
+        for _, k in opened:
+            H[k, :] = 0.0
+            H[k, k] = 1.0
+    gone = {name for name, _ in opened}
 
     def incidence(pos: str, neg: str, size: int) -> np.ndarray:
         v = np.zeros(size)
@@ -190,7 +208,8 @@ def port_system(E, H, B, names: list[str], node_index, sources: list[str], eleme
         how = f"input: a current source driving the port {port} (the port is otherwise open)"
         c = incidence(card.out_pos, card.out_neg, n)
         return E, H, b, c, how
-    across = [el for el in elements if el.kind == "vsource" and set(el.nodes) == {card.in_pos, card.in_neg}]
+    across = [el for el in elements if el.kind == "vsource" and el.name not in gone
+              and set(el.nodes) == {card.in_pos, card.in_neg}]
     if across:
         name = across[0].name
         col = sources.index(name)
@@ -317,8 +336,10 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     if system.n + 1 > DENSE_LIMIT:
         raise CircuitError(f".pz: {system.n} unknowns: the pole-zero analysis is dense (O(n^3)) and takes at most "
                            f"{DENSE_LIMIT - 1}", hint="analyse a smaller sub-circuit")
+    opened = [(el.name, system.layout.branch(el.name)) for el in circuit.elements
+              if el.kind == "vsource" and el.source is not None and el.source.ac_mag != 0.0]
     E, H, b, c, how = port_system(lin.E, lin.H_ac, system.B, list(system.names), system.node_index,
-                                  list(system.sources.names), circuit.elements, card)
+                                  list(system.sources.names), circuit.elements, card, opened)
     added = E.shape[0] > system.n
     try:
         pz = pole_zero(E, H, b, c, what=card.what)
@@ -331,6 +352,9 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
         if roots is not None:
             signals.update({name: np.array([r]) for name, r in zip(root_names(kind, roots.size), roots)})
     notes = list(system.notes) + [how] + pz.notes
+    if opened:
+        notes.append("removed (open), as ngspice's pole-zero analysis removes V sources with an AC value: "
+                     + ", ".join(name for name, _ in opened))
     counts = []
     if pz.poles is not None:
         counts.append(f"{pz.poles.size} finite pole(s), {pz.n_infinite_poles} eigenvalue(s) at infinity removed")
