@@ -65,7 +65,8 @@ from ..errors import CircuitError, SingularPencilError
 from ..results import Result
 from .op import op_result
 
-__all__ = ["PoleZero", "pz_analysis", "pole_zero", "port_system", "rosenbrock", "sort_roots", "root_names",
+__all__ = ["PoleZero", "pz_analysis", "pole_zero", "port_system", "rosenbrock", "sort_roots", "conjugate_symmetric",
+           "root_names",
            "format_root", "INPUT_SOURCE"]
 
 #: Name of the voltage source ``.pz ... vol`` adds across the input port (in messages).
@@ -108,6 +109,32 @@ def sort_roots(roots) -> np.ndarray:
     if scale > 0:  # a conjugate pair's magnitudes may differ in the last bits
         mag = np.round(mag / scale, 9)
     return r[np.lexsort((-r.imag, mag))]
+
+
+def conjugate_symmetric(roots) -> np.ndarray:
+    """The roots of a real polynomial made exactly conjugate-symmetric.
+
+    LAPACK's QZ returns a complex pair of a real pencil as ``alpha_j / beta_j``
+    and ``alpha_{j+1} / beta_{j+1}`` with different ``beta``, so the two
+    differ from conjugates in the last bits; each pair is replaced by the
+    mean of one and the other's conjugate, and its conjugate.
+
+    Examples
+    --------
+    >>> conjugate_symmetric([-1 + 2j, -1.0000000000000002 - 2j, 3]).tolist()
+    [(-1.0000000000000002+2j), (-1.0000000000000002-2j), (3+0j)]
+    """
+    r = np.array(roots, dtype=complex)
+    upper = [k for k in range(r.size) if r[k].imag > 0]
+    lower = [k for k in range(r.size) if r[k].imag < 0]
+    for k in upper:
+        if not lower:
+            break
+        j = min(lower, key=lambda m: abs(r[m] - np.conj(r[k])))
+        lower.remove(j)
+        mean = (r[k] + np.conj(r[j])) / 2
+        r[k], r[j] = mean, np.conj(mean)
+    return r
 
 
 def root_names(kind: str, count: int) -> list[str]:
@@ -267,7 +294,7 @@ def pole_zero(E, H, b, c, *, what: str = "pz") -> PoleZero:
                                   "for every s, so poles are not defined",
                                   hint="look for loops of voltage sources or cutsets of current sources")
     notes += list(spec.notes)
-    poles = sort_roots(spec.eigenvalues) if what in ("pz", "pol") else None
+    poles = sort_roots(conjugate_symmetric(spec.eigenvalues)) if what in ("pz", "pol") else None
     zeros = None
     n_inf_z = 0
     if what in ("pz", "zer"):
@@ -278,7 +305,7 @@ def pole_zero(E, H, b, c, *, what: str = "pz") -> PoleZero:
                 "Rosenbrock system pencil is singular): every s is a zero",
                 hint="the output port does not depend on the input; check the .pz nodes")
         notes += list(zspec.notes)
-        zeros = sort_roots(zspec.eigenvalues)
+        zeros = sort_roots(conjugate_symmetric(zspec.eigenvalues))
         n_inf_z = zspec.n_infinite
     return PoleZero(poles, zeros, spec.n_infinite, n_inf_z, notes)
 

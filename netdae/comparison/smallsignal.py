@@ -5,9 +5,13 @@ deflating each root it finds) and can miss roots or stop early; netdae's roots
 are the finite eigenvalues of two pencils. Roots are therefore matched as
 *sets*, by an optimal one-to-one assignment (:func:`match_roots`): each pair's
 error is ``|a - b|`` over the larger magnitude of the two, floored at
-:data:`ROOT_FLOOR` of the largest root of the analysis (a root at the
-origin, exactly 0 in one simulator and 1e-12 in the other, compares
-absolutely). A root only netdae finds is reported (``only_netdae`` and a
+:data:`ROOT_FLOOR` (1e-12) of the largest root of the analysis (a root at the
+origin, exactly 0 in one simulator and 1e-13 in the other, compares
+absolutely); a root exactly at the origin in one simulator matches one
+within :data:`ORIGIN` (sqrt(eps)) of the largest root in the other, since a
+multiple root at the origin splits by that much in rounding (netdae computes
+a double zero at 0 of a circuit with two coupling capacitors as
+``+-1.3e-5j`` when its largest root is 8.8e10; ngspice finds s = 0 exactly). A root only netdae finds is reported (``only_netdae`` and a
 note saying ngspice missed it) and does not fail the comparison; a root only
 ngspice finds fails it.
 
@@ -28,8 +32,12 @@ from .model import AnalysisComparison, SignalComparison
 
 __all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "match_roots", "compare_pz", "compare_tf"]
 
-#: Roots smaller than this fraction of the analysis's largest root are compared absolutely (sqrt(eps)).
-ROOT_FLOOR = float(np.sqrt(np.finfo(float).eps))
+#: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
+#: the origin computed as 0 by one simulator and 1e-13 by the other; every other root relatively.
+ROOT_FLOOR = 1e-12
+#: A root exactly at the origin in one simulator is matched by one within this fraction of the
+#: largest root in the other (a double root at 0 splits into +-sqrt(eps) of the spectrum's scale).
+ORIGIN = float(np.sqrt(np.finfo(float).eps))
 #: Two roots further apart than this (relative) are not the same root, whatever the assignment says.
 MATCH_LIMIT = 1e-2
 #: ngspice's infinite impedance.
@@ -93,8 +101,10 @@ def compare_pz(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     item = AnalysisComparison("pz", tolerance=tol)
     item.points = 1
     every = np.concatenate([_roots(r, k)[1] for r in (nd, ng) for k in ("pole", "zero")])
-    floor = ROOT_FLOOR * float(np.abs(every).max()) if every.size else ROOT_FLOOR
-    floor = floor if floor > 0 else ROOT_FLOOR
+    top = float(np.abs(every).max()) if every.size else 0.0
+    top = top if top > 0 else 1.0
+    floor = ROOT_FLOOR * top
+    floored: list[str] = []
     signals: list[SignalComparison] = []
     for kind in ("pole", "zero"):
         names_a, a = _roots(nd, kind)
@@ -103,9 +113,12 @@ def compare_pz(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
         for i, j, _ in pairs:
             err = abs(a[i] - b[j])
             scale = max(abs(a[i]), abs(b[j]), floor)
+            if (a[i] == 0 or b[j] == 0) and err <= ORIGIN * top:
+                scale = ORIGIN * top  # a root at the origin: a multiple one splits by sqrt(eps)
+                floored.append(names_a[i])
             passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
             signals.append(SignalComparison(names_a[i], err, err / scale, err, {}, scale,
-                                            "floor" if scale == floor else "magnitude", passed,
+                                            "floor" if scale in (floor, ORIGIN * top) else "magnitude", passed,
                                             netdae=a[i], ngspice=b[j]))
         for i in only_a:
             item.only_netdae.append(names_a[i])
@@ -124,6 +137,10 @@ def compare_pz(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
             item.notes.append(f"{kind}s: netdae {a.size}, ngspice {b.size}, matched {len(pairs)}")
     if not signals and not item.only_netdae:
         item.notes.append("no finite pole or zero in either simulator")
+    if floored:
+        item.notes.append(f"{', '.join(floored)}: at the origin in one simulator; compared absolutely, against "
+                          f"sqrt(eps) of the largest root ({ORIGIN * top:.3g}), since a multiple root at the "
+                          "origin splits by that much in rounding")
     item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
     return item
 
