@@ -121,8 +121,8 @@ def conjugate_symmetric(roots) -> np.ndarray:
 
     Examples
     --------
-    >>> conjugate_symmetric([-1 + 2j, -1.0000000000000002 - 2j, 3]).tolist()
-    [(-1.0000000000000002+2j), (-1.0000000000000002-2j), (3+0j)]
+    >>> conjugate_symmetric([-1 + 2j, -1.5 - 2j, 3]).tolist()
+    [(-1.25+2j), (-1.25-2j), (3+0j)]
     """
     r = np.array(roots, dtype=complex)
     upper = [k for k in range(r.size) if r[k].imag > 0]
