@@ -208,3 +208,18 @@ def test_compare_passes_on_pz():
     item = comparison.analysis("pz")
     assert comparison.passed and item.passed and item.points == 1
     assert [s.name for s in item.signals] and all(s.max_rel < 1e-9 for s in item.signals)
+
+
+def test_command_line_run_and_check(tmp_path, capsys):
+    from netdae.cli import main as cli_main
+
+    path = tmp_path / "rlc.cir"
+    path.write_text(RLC + ".tf v(out) v1\n.save v(out)\n.end\n")
+    assert cli_main(["check", str(path)]) == 0
+    assert "analyses: .pz in 0 out 0 vol pz; .tf v(out) v1" in capsys.readouterr().out
+    assert cli_main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "pole(1) = -5.000000e+02,3.161882e+04" in out and "zero(1) = 0.000000e+00,0.000000e+00" in out
+    assert "transfer_function = " in out
+    assert (tmp_path / "out" / "pz.csv").read_text().startswith("root,re,im\npole(1),")
+    assert (tmp_path / "out" / "tf.csv").exists()
