@@ -71,6 +71,8 @@ __all__ = [
     "AcAnalysis",
     "DcSweep",
     "DcAnalysis",
+    "PzAnalysis",
+    "TfAnalysis",
     "Analysis",
     "Options",
     "Diagnostic",
@@ -252,7 +254,41 @@ class DcAnalysis:
     location: SourceLocation | None = None
 
 
-Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis
+@dataclass(slots=True)
+class PzAnalysis:
+    """``.pz in+ in- out+ out- cur|vol pol|zer|pz`` (pole-zero analysis).
+
+    ``input_type`` is ``"cur"`` (transfer impedance: the output voltage per
+    input current) or ``"vol"`` (voltage gain); ``what`` is ``"pol"``,
+    ``"zer"`` or ``"pz"``. Nodes are elaborated names (``"0"`` for ground).
+    """
+
+    in_pos: str
+    in_neg: str
+    out_pos: str
+    out_neg: str
+    input_type: str = "vol"
+    what: str = "pz"
+    location: SourceLocation | None = None
+
+
+@dataclass(slots=True)
+class TfAnalysis:
+    """``.tf outvar insrc`` (small-signal DC transfer function).
+
+    ``output`` is the canonical signal (``v(out)``, ``v(a,b)``, ``i(vload)``),
+    ``source`` the independent V or I source whose value is the input;
+    ``written`` the output as the card spells it (``v(out,0)``), which names
+    ngspice's output impedance (``output_impedance_at_v(out,0)``).
+    """
+
+    output: str
+    source: str
+    location: SourceLocation | None = None
+    written: str = ""
+
+
+Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | TfAnalysis
 
 
 @dataclass(slots=True)

@@ -17,6 +17,8 @@ which ``netdae index`` lists.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -29,7 +31,7 @@ from ..netlist.steps import grid
 from ..results import Result
 from .op import op_result, solve_operating_point, steady_options
 
-__all__ = ["frequencies", "ac_analysis", "solve_ac", "DENSE_AC_LIMIT"]
+__all__ = ["frequencies", "ac_analysis", "solve_ac", "linearize", "Linearization", "DENSE_AC_LIMIT"]
 
 #: Up to this many unknowns, all frequencies are solved at once with dense LAPACK.
 DENSE_AC_LIMIT = 64
@@ -127,6 +129,62 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray) -
     return out
 
 
+@dataclass
+class Linearization:
+    """A circuit linearised at its DC operating point: what ``.ac``, ``.pz`` and ``.tf`` solve.
+
+    Attributes
+    ----------
+    system : MnaSystem
+        The assembled circuit (DC source values).
+    op : SteadyResult
+        The operating point.
+    options : SteadyOptions
+        The tolerances it was solved with.
+    E : sparse, shape (n, n)
+        ``dq/dx`` at the operating point.
+    H : sparse, shape (n, n)
+        ``dphi/dx`` at the operating point, with the resistors' DC values
+        (what ``.tf`` solves: ``-H`` is the DC matrix).
+    """
+
+    system: Any
+    op: Any
+    options: Any
+    E: sp.spmatrix
+    H: sp.spmatrix
+
+    @property
+    def H_ac(self) -> sp.spmatrix:
+        """``H`` with the resistors' ``ac=`` values (what ``.ac`` and ``.pz`` use)."""
+        return self.H + self.system.H_ac
+
+
+def linearize(circuit: Circuit, **overrides) -> Linearization:
+    """Assemble ``circuit``, solve its DC operating point and linearise there.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    **overrides
+        Operating-point tolerances (``reltol``, ...).
+
+    Returns
+    -------
+    Linearization
+
+    Raises
+    ------
+    CircuitError, ConvergenceError
+        When the operating point cannot be computed.
+    """
+    system = assemble(circuit, mode=MODE_DC)
+    opts = steady_options(circuit, **overrides)
+    op = solve_operating_point(system, options=opts)
+    E, H = system.jacobians(op.x, 0.0)
+    return Linearization(system, op, opts, E, H)
+
+
 def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:
     """Run an ``.ac`` analysis.
 
@@ -148,11 +206,8 @@ def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:
     CircuitError, ConvergenceError
     """
     t0 = time.perf_counter()
-    system = assemble(circuit, mode=MODE_DC)
-    opts = steady_options(circuit, **overrides)
-    op = solve_operating_point(system, options=opts)
-    E, H = system.jacobians(op.x, 0.0)
-    H = H + system.H_ac  # resistors' ac= values
+    lin = linearize(circuit, **overrides)
+    system, op, opts, E, H = lin.system, lin.op, lin.options, lin.E, lin.H_ac  # resistors' ac= values
     b = system.B @ system.sources.ac
     freqs = frequencies(card)
     X = solve_ac(E, H, b, freqs)

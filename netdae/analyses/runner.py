@@ -17,7 +17,7 @@ import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, TranAnalysis
+from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, PzAnalysis, TfAnalysis, TranAnalysis
 from ..errors import NetdaeError, NetlistError
 
 if TYPE_CHECKING:
@@ -134,7 +134,7 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
 
 
 def analysis_name(card: Any) -> str:
-    """``"op"``, ``"dc"``, ``"ac"`` or ``"tran"`` for an analysis card."""
+    """``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"`` or ``"tf"`` for an analysis card."""
     if isinstance(card, OpAnalysis):
         return "op"
     if isinstance(card, DcAnalysis):
@@ -143,6 +143,10 @@ def analysis_name(card: Any) -> str:
         return "ac"
     if isinstance(card, TranAnalysis):
         return "tran"
+    if isinstance(card, PzAnalysis):
+        return "pz"
+    if isinstance(card, TfAnalysis):
+        return "tf"
     raise TypeError(f"not an analysis card: {card!r}")
 
 
@@ -246,11 +250,19 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 from .dc import dc_sweep
 
                 res = dc_sweep(circuit, card, **options)
+            elif kind == "pz":
+                from .pz import pz_analysis
+
+                res = pz_analysis(circuit, card, **options)
+            elif kind == "tf":
+                from .tf import tf_analysis
+
+                res = tf_analysis(circuit, card, **options)
             else:
                 from .ac import ac_analysis
 
                 res = ac_analysis(circuit, card, **options)
-            if names:
+            if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
                 try:
                     res = res.subset(wanted)
                 except KeyError as exc:
@@ -264,7 +276,9 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Result]:
     """Measure ``results`` (the ``.meas`` cards), then keep only the signals asked for."""
     measure(circuit, results)
-    return [r.subset(names) for r in results] if wanted != names else results
+    if wanted == names:
+        return results
+    return [r if r.analysis in ("pz", "tf") else r.subset(names) for r in results]
 
 
 def _with_measured(names: list[str] | None, circuit: Circuit) -> list[str] | None:

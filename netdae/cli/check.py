@@ -117,6 +117,10 @@ def _analysis_text(a: dict) -> str:
         return text + (" uic" if a["uic"] else "")
     if kind == "ac":
         return f".ac {a['variation']} {a['points']} {_fmt(a['fstart'])} {_fmt(a['fstop'])}"
+    if kind == "pz":
+        return f".pz {a['in_pos']} {a['in_neg']} {a['out_pos']} {a['out_neg']} {a['input_type']} {a['what']}"
+    if kind == "tf":
+        return f".tf {a['written'] or a['output']} {a['source']}"
     sweeps = "; ".join(f"{s['source']} {_fmt(s['start'])} to {_fmt(s['stop'])} step {_fmt(s['step'])}"
                        for s in a["sweeps"])
     return f".dc {sweeps}"

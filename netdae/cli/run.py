@@ -1,7 +1,7 @@
 """``netdae run FILE``: run the analyses in a netlist, print a summary, write results.
 
 Writes one file per analysis into ``--out DIR`` (``op.csv``, ``dc.csv``,
-``ac.csv``, ``tran.csv``; a second card of a kind ``tran2.csv`` ...; ``.raw``
+``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``; a second card of a kind ``tran2.csv`` ...; ``.raw``
 with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
 the operating point and the statistics of every analysis on stdout (or one
 JSON object with ``--json``: one :meth:`~netdae.results.Result.to_dict` per
@@ -46,7 +46,7 @@ def _export_path(text: str) -> str:
 def add_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "run",
-        help="run the analyses of a netlist (.op, .dc, .ac, .tran)",
+        help="run the analyses of a netlist (.op, .dc, .ac, .tran, .pz, .tf)",
         description="Run every analysis in the netlist, print a summary and write the results.",
     )
     p.add_argument("file", help="netlist file")
@@ -77,6 +77,16 @@ def _op_lines(result) -> list[str]:
         unit = "V" if name.startswith("v(") else "A"
         lines.append(f"{name:<{width}}  {result.signals[name][0]: .9g} {unit}")
     return lines
+
+
+def _quantity_lines(result) -> list[str]:
+    """A ``.pz`` or ``.tf`` result as ngspice prints it: ``pole(1) = re,im``, ``transfer_function = v``."""
+    if result.analysis == "pz":
+        from ..analyses.pz import format_root
+
+        lines = [format_root(name, complex(v[0])) for name, v in result.signals.items()]
+        return lines or ["(no finite pole or zero)"]
+    return [f"{name} = {float(v[0]):.6e}" for name, v in result.signals.items()]
 
 
 def _stats_line(result) -> str:
@@ -117,7 +127,7 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None)
             path = out_dir / f"{stem}.raw"
             write_raw(path, [res], binary=not args.ascii, title=title)
         files.append(str(path))
-    if args.plot and res.analysis != "op":
+    if args.plot and res.analysis not in ("op", "pz", "tf"):
         from ..plotting import plot_result
 
         path = (out_dir or Path(".")) / f"{stem}.png"
@@ -192,6 +202,8 @@ def main(args) -> int:
             print(f".{res.analysis}: {res.message or 'ok'} ({_stats_line(res)})")
             if res.analysis == "op":
                 print("\n".join(_op_lines(res)))
+            elif res.analysis in ("pz", "tf"):
+                print("\n".join(_quantity_lines(res)))
             if res.measures:
                 from ..measures import format_measure
 

@@ -51,6 +51,7 @@ from ..circuit import Circuit, TranAnalysis
 from ..errors import NetdaeError, NgspiceError
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
+from .smallsignal import compare_pz, compare_tf
 from .header import ANALYSES, Tolerance, parse_header
 from .model import AnalysisComparison, Comparison, MeasureComparison
 
@@ -76,7 +77,10 @@ TIGHT_STEPS_PER_INTERVAL = 1e4
 #: 1e-9 times the noise gain (ngspice runs the differentiator to completion
 #: for gains up to 1e15, see docs/ngspice.md).
 TIGHT_OPAMP_GAIN = 1e9
-_COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac}
+_COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compare_pz, "tf": compare_tf}
+#: ngspice 39 runs the .pz and the .tf cards last to first (measured): netdae's k-th card of these
+#: kinds pairs with ngspice's k-th result from the end.
+_REVERSED_KINDS = frozenset({"pz", "tf"})
 
 
 def _read(netlist) -> tuple[Circuit, str, str, str]:
@@ -161,15 +165,11 @@ def _run_netdae(circuit: Circuit, card, overrides: dict) -> Result:
 
 def _netdae_ac_at(circuit: Circuit, freqs: np.ndarray, overrides: dict) -> Result:
     """netdae's AC phasors at exactly the given frequencies (ngspice's)."""
-    from ..analyses.ac import solve_ac
-    from ..analyses.op import solve_operating_point, steady_options
-    from ..mna import MODE_DC, assemble
+    from ..analyses.ac import linearize, solve_ac
 
-    system = assemble(circuit, mode=MODE_DC)
-    opts = steady_options(circuit, **overrides)
-    op = solve_operating_point(system, options=opts)
-    E, H = system.jacobians(op.x, 0.0)
-    X = solve_ac(E, H, system.B @ system.sources.ac, freqs)
+    lin = linearize(circuit, **overrides)
+    system, opts = lin.system, lin.options
+    X = solve_ac(lin.E, lin.H_ac, system.B @ system.sources.ac, freqs)
     return Result("ac", axes={"frequency": np.asarray(freqs, dtype=float)},
                   signals={name: X[:, i] for i, name in enumerate(system.names)},
                   tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol})
@@ -408,6 +408,8 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
         if kind not in wanted_kinds:
             continue
         ours = [r for r in ng_results if r.analysis == kind]
+        if kind in _REVERSED_KINDS:
+            ours.reverse()
         ng = ours[occurrence] if occurrence < len(ours) else None
         item = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,
                              comparison.ngspice_error is not None, netdae_results=netdae_results)

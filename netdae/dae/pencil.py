@@ -91,6 +91,7 @@ __all__ = [
     "DrazinResult",
     "analyze_pencil",
     "analyze_dae",
+    "finite_eigenvalues",
     "svd_form",
     "weierstrass_form",
     "shift_rank_check",
@@ -764,6 +765,79 @@ def analyze_pencil(
         shift_check=shift,
         warnings=tuple(dec.notes + _structure_warnings(ks, shift)),
     )
+
+
+@dataclass(frozen=True)
+class FiniteSpectrum:
+    """The finite eigenvalues of ``lambda E - H`` and how they were separated from the infinite ones.
+
+    Attributes
+    ----------
+    regular : bool
+        The pencil is regular (otherwise ``eigenvalues`` are those of the
+        regular part and mean little: ``det(lambda E - H)`` vanishes for every
+        lambda).
+    eigenvalues : ndarray of complex
+        The finite eigenvalues, in LAPACK's order.
+    n_infinite : int
+        How many eigenvalues at infinity the staircase deflated.
+    rtol : float
+        The relative tolerance of its rank decisions.
+    margin : float
+        The closest rank decision's margin (ratio of the singular values on
+        either side of the cut; large is clear).
+    notes : tuple of str
+        Close calls re-decided on the unbalanced pencil.
+    """
+
+    regular: bool
+    eigenvalues: np.ndarray
+    n_infinite: int
+    rtol: float
+    margin: float
+    notes: tuple
+
+
+def finite_eigenvalues(E, H, *, tol: float | None = None, balance: bool = True) -> FiniteSpectrum:
+    """The finite eigenvalues of the pencil ``lambda E - H``, the infinite ones removed structurally.
+
+    The staircase (the same rank decisions as :func:`analyze_pencil`: on the
+    balanced pencil, singular values at most ``tol * ||M||_F`` count as zero)
+    deflates every eigenvalue at infinity before QZ sees the pencil, so no
+    threshold on ``|beta|`` decides which QZ eigenvalue is "large"; QZ of the
+    remaining finite part (``E_f`` invertible) gives the eigenvalues.
+
+    Parameters
+    ----------
+    E, H : array_like or sparse, shape (n, n)
+    tol : float, optional
+        Relative rank tolerance (default ``n * eps``).
+    balance : bool
+        Equilibrate first (default).
+
+    Returns
+    -------
+    FiniteSpectrum
+
+    Examples
+    --------
+    The RC low-pass driven by a voltage source (unknowns ``v(in)``,
+    ``v(out)``, ``i(v1)``; R = 1k, C = 1u): one pole at ``-1/RC``, two
+    eigenvalues at infinity:
+
+    >>> E = [[0, 0, 0], [0, 1e-6, 0], [0, 0, 0]]
+    >>> H = [[-1e-3, 1e-3, -1], [1e-3, -1e-3, 0], [1, 0, 0]]
+    >>> spec = finite_eigenvalues(E, H)
+    >>> spec.regular, spec.eigenvalues.real.round(6).tolist(), spec.n_infinite
+    (True, [-1000.0], 2)
+    """
+    dec, rtol = _structure(E, H, tol, balance)
+    ks = dec.ks
+    fe, fh = ks.finite_pencil
+    lam = dec.bal.time_scale * sla.eigvals(fh, fe) if fe.size else np.zeros(0, dtype=complex)
+    return FiniteSpectrum(regular=ks.regular, eigenvalues=np.asarray(lam, dtype=complex),
+                          n_infinite=int(sum(ks.infinite_blocks)), rtol=rtol, margin=float(ks.margin),
+                          notes=tuple(dec.notes))
 
 
 def analyze_dae(system, x, t: float, *, B=None, **options) -> PencilReport:

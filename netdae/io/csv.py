@@ -10,7 +10,12 @@ One header row of column names, then one row per point, comma separated:
 - ac signals are complex and written losslessly as two columns,
   ``re(v(out))`` and ``im(v(out))``;
 - an operating point has no axis: its file is the header and **one row**, a
-  column per signal.
+  column per signal;
+- a ``.pz`` result is one row per root, ``root,re,im`` (``pole(1)``,
+  ``pole(2)`` ..., ``zero(1)`` ...); a ``.tf`` result one row per quantity,
+  ``quantity,value`` (``transfer_function``, ``v1#input_impedance``,
+  ``output_impedance_at_v(out)``), a name holding a comma written in double
+  quotes (``"output_impedance_at_v(a,b)"``).
 
 Numbers are written with Python's ``repr`` (the shortest text that reads back
 as the same double), so :func:`read_csv` returns bit-identical arrays;
@@ -69,6 +74,8 @@ def format_csv(result: Result) -> str:
         When axes and signals have different lengths, an op result has an
         axis, or a name contains a comma or a line break.
     """
+    if result.analysis in ("pz", "tf"):
+        return _format_long(result)
     columns: list[tuple[str, np.ndarray]] = []
     for name, values in result.axes.items():
         values = np.asarray(values)
@@ -147,6 +154,8 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise ResultFileError(f"{source}:1: empty CSV file, expected a header row")
+    if lines[0].strip().lower() in (_PZ_HEADER, _TF_HEADER):
+        return _parse_long(lines, source)
     names = [n.strip().lower() for n in lines[0].split(_SEPARATOR)]
     if len(set(names)) != len(names) or not all(names):
         raise ResultFileError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
@@ -182,6 +191,46 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
             signals[name] = table[:, k].copy()
             k += 1
     return Result(kind, axes=axes, signals=signals, extra={"source": source})
+
+
+_PZ_HEADER = "root,re,im"
+_TF_HEADER = "quantity,value"
+
+
+def _format_long(result: Result) -> str:
+    """A ``.pz`` or ``.tf`` result: one row per root or quantity."""
+    import csv
+    import io
+
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    pz = result.analysis == "pz"
+    out.write((_PZ_HEADER if pz else _TF_HEADER) + "\n")
+    for name, values in result.signals.items():
+        value = np.asarray(values).ravel()
+        if value.size != 1:
+            raise NetdaeError(f"cannot write CSV: {name!r} has {value.size} values, a {result.analysis} result one")
+        v = complex(value[0]) if pz else float(value[0].real)
+        writer.writerow([name, repr(v.real), repr(v.imag)] if pz else [name, repr(v)])
+    return out.getvalue()
+
+
+def _parse_long(lines: list[str], source: str) -> Result:
+    import csv
+
+    pz = lines[0].strip().lower() == _PZ_HEADER
+    signals: dict[str, np.ndarray] = {}
+    for number, row in enumerate(csv.reader(lines[1:]), start=2):
+        if not row:
+            continue
+        if len(row) != (3 if pz else 2):
+            raise ResultFileError(f"{source}:{number}: {len(row)} fields, expected {3 if pz else 2} as in the header")
+        try:
+            value = complex(float(row[1]), float(row[2])) if pz else float(row[1])
+        except ValueError as exc:
+            raise ResultFileError(f"{source}:{number}: not a number ({exc})") from None
+        signals[row[0].strip().lower()] = np.array([value])
+    return Result("pz" if pz else "tf", signals=signals, extra={"source": source})
 
 
 def read_csv(path: str | os.PathLike, *, analysis: str | None = None) -> Result:

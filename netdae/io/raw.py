@@ -76,6 +76,7 @@ __all__ = [
     "parse_raw",
     "format_raw",
     "signal_name",
+    "quantity_name",
     "PLOTNAMES",
     "PLOTNAME_OF",
     "FLAVOURS",
@@ -87,6 +88,8 @@ PLOTNAMES = {
     "transient analysis": "tran",
     "ac analysis": "ac",
     "dc transfer characteristic": "dc",
+    "pole-zero analysis": "pz",
+    "transfer function": "tf",
 }
 #: Plot names written for each analysis (ngspice's spelling).
 PLOTNAME_OF = {
@@ -94,7 +97,11 @@ PLOTNAME_OF = {
     "tran": "Transient Analysis",
     "ac": "AC Analysis",
     "dc": "DC transfer characteristic",
+    "pz": "Pole-Zero Analysis",
+    "tf": "Transfer Function",
 }
+#: Analyses whose plot has no scale: every vector is a result.
+_NO_AXIS = frozenset({"op", "pz", "tf"})
 #: Scale names ngspice writes for a dc sweep (``v(v-sweep)`` in a raw file,
 #: ``v-sweep`` in the shared library) and netdae's name for them.
 _SWEEP_NAMES = {
@@ -157,6 +164,27 @@ def signal_name(name: str, vtype: str) -> str:
         return f"v({key})"
     if vtype == "current":
         return f"i({key})"
+    return key
+
+
+def quantity_name(name: str) -> str:
+    """netdae's name of a ``.pz`` or ``.tf`` vector as ngspice writes or stores it.
+
+    ngspice's raw file wraps them in ``v(...)`` (they are of type voltage);
+    the shared library does not.
+
+    Examples
+    --------
+    >>> quantity_name("v(pole(1))"), quantity_name("zero(2)"), quantity_name("v(output_impedance_at_V(out))")
+    ('pole(1)', 'zero(2)', 'output_impedance_at_v(out)')
+    >>> quantity_name("v(Transfer_function)"), quantity_name("V1#Input_impedance")
+    ('transfer_function', 'v1#input_impedance')
+    """
+    key = name.strip().lower()
+    if key.startswith("v(") and key.endswith(")") and key[2:-1].count("(") == key[2:-1].count(")"):
+        inner = key[2:-1]
+        if inner.startswith(("pole(", "zero(", "transfer_function", "output_impedance")) or "#" in inner:
+            return inner
     return key
 
 
@@ -532,7 +560,7 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
     names = [n.lower() for n in head.names]
     lengths = [table.shape[0] if n is None else min(n, table.shape[0]) for n in head.lengths]
     columns = [table[: lengths[k], k] for k in range(len(names))]
-    n_axes = 0 if analysis == "op" else _count_axes(head.options, names)
+    n_axes = 0 if analysis in _NO_AXIS else _count_axes(head.options, names)
     axes: dict[str, np.ndarray] = {}
     signals: dict[str, np.ndarray] = {}
     types: dict[str, str] = {}
@@ -546,7 +574,7 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
                 column = column.real.copy()
             axes[key] = column
         else:
-            key = signal_name(name, vtype)
+            key = quantity_name(name) if analysis in ("pz", "tf") else signal_name(name, vtype)
             if key in signals:
                 raise ResultFileError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
             signals[key] = column.copy()
@@ -702,7 +730,7 @@ def _pyspice_columns(result: Result, columns: list) -> list:
 def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: bool = False) -> bytes:
     plotname = PLOTNAME_OF.get(result.analysis)
     if plotname is None:
-        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc only)")
+        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf only)")
     if not result.signals and not result.axes:
         raise NetdaeError(f"cannot write an empty '{result.analysis}' result to a raw file")
     known_types = result.extra.get("variable_types", {}) if isinstance(result.extra, dict) else {}
@@ -735,7 +763,10 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
     if pyspice:
         lines.append(f"{_DATA_COLUMNS} : {len(columns)}")
     for k, (name, _, axis) in enumerate(columns):
-        vtype = known_types.get(name) or _vector_type(name, axis)
+        if result.analysis in ("pz", "tf"):  # ngspice writes them as voltages: v(pole(1))
+            name, vtype = f"v({name})", "voltage"
+        else:
+            vtype = known_types.get(name) or _vector_type(name, axis)
         lines.append(f"\t{k}\t{name}\t{vtype}")
     width = 2 if is_complex else 1
     table = np.empty((npoints, len(columns) * width), dtype=_DOUBLE)

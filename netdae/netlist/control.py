@@ -8,7 +8,8 @@ skipped (one located note each):
 =====================================  ======================================
 command                                read as
 =====================================  ======================================
-``op``, ``tran``, ``ac``, ``dc``       ``.op``, ``.tran``, ``.ac``, ``.dc``
+``op``, ``tran``, ``ac``, ``dc``,      ``.op``, ``.tran``, ``.ac``, ``.dc``,
+``pz``, ``tf``                         ``.pz``, ``.tf``
 ``run``                                nothing (netdae runs every analysis)
 ``save``                               ``.save``
 ``print``, ``plot`` (signals only)     ``.print``, ``.plot``
@@ -19,7 +20,7 @@ command                                read as
 option netdae reads)
 =====================================  ======================================
 
-``tf``, ``pz``, ``noise``, ``sens``, ``disto``, ``fourier`` ... are analyses
+``noise``, ``sens``, ``disto``, ``fourier`` ... are analyses
 netdae does not have: a located error names them. Lines inside loops and
 conditionals (``while``, ``repeat``, ``dowhile``, ``foreach``, ``if`` ...
 ``end``), after a command that changes the circuit (``alter``, ``altermod``,
@@ -47,9 +48,9 @@ from .syntax import UNSUPPORTED_DOT_CARDS
 __all__ = ["read_block", "ANALYSIS_COMMANDS", "OPTION_VARIABLES"]
 
 #: Commands read as the dot card of the same name.
-ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc"})
+ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc", "pz", "tf"})
 #: Analyses netdae does not have (refused by name).
-_UNSUPPORTED = {"tf": ".tf", "pz": ".pz", "noise": ".noise", "sens": ".sens", "disto": ".disto",
+_UNSUPPORTED = {"noise": ".noise", "sens": ".sens", "disto": ".disto",
                 "fourier": ".fourier", "four": ".four", "sp": ".sp", "pss": ".pss", "hb": ".hb"}
 #: ``set`` variables that are simulator options netdae reads.
 OPTION_VARIABLES = frozenset({"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom", "itl1", "itl4",
@@ -108,7 +109,7 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
     Raises
     ------
     NetlistError
-        An analysis netdae does not have (``pz``, ``tf`` ...), at the command.
+        An analysis netdae does not have (``noise``, ``sens`` ...), at the command.
     """
     cards: list[Card] = []
     notes: list[Diagnostic] = []
@@ -135,7 +136,7 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
             what = UNSUPPORTED_DOT_CARDS[_UNSUPPORTED[cmd]]
             raise NetlistError(f".control: '{cmd}' ({what}) is not supported by netdae",
                                SourceLocation(file, line, col),
-                               hint="netdae runs op, dc, ac and tran; remove the command or run the netlist in "
+                               hint="netdae runs op, dc, ac, tran, pz and tf; remove the command or run the netlist in "
                                     "ngspice")
         if cmd in _STOP:
             stopped = cmd
@@ -178,5 +179,5 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
                 skip(line, col, text, f"'{name}' is an ngspice front-end variable, not an option netdae reads")
         else:
             skip(line, col, text, "netdae does not run ngspice's control language (it reads op, tran, ac, dc, "
-                 "save, print, plot, wrdata, write, option and set of options)")
+                 "pz, tf, save, print, plot, wrdata, write, option and set of options)")
     return cards, notes

@@ -28,7 +28,7 @@ import math
 from collections.abc import Mapping
 
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
-                       OpAnalysis, Options, Params, SourceSpec, TranAnalysis)
+                       OpAnalysis, Options, Params, PzAnalysis, SourceSpec, TfAnalysis, TranAnalysis)
 from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
@@ -689,6 +689,10 @@ class _Elaborator:
                 if fstop < fstart:
                     raise error(card, args["fstop"][1], f"fstop {fstop:g} is below fstart {fstart:g}", form)
                 circuit.analyses.append(AcAnalysis(args["variation"], int(points), fstart, fstop, loc))
+            elif a.kind == "pz":
+                circuit.analyses.append(self._pz(card, args, form, set(circuit.nodes), loc))
+            elif a.kind == "tf":
+                circuit.analyses.append(self._tf(card, args, form, set(circuit.nodes), elements, loc))
             else:
                 sweeps = []
                 for name, offset, start, stop, step in args["sweeps"]:
@@ -712,6 +716,54 @@ class _Elaborator:
                         raise error(card, step[1], f"step {inc:g} does not lead from {lo:g} to {hi:g}", form)
                     sweeps.append(DcSweep(name, lo, hi, inc))
                 circuit.analyses.append(DcAnalysis(sweeps, loc))
+
+    @staticmethod
+    def _node(card, name: str, offset: int, form: str, nodes: set, what: str) -> str:
+        if name != "0" and name not in nodes:
+            raise error(card, offset, f"{what} '{name}' is not a node of the circuit", form,
+                        hint="name a node an element connects (subcircuit nodes hierarchically, e.g. x1.mid), "
+                             "or 0 for ground")
+        return name
+
+    def _pz(self, card, args: dict, form: str, nodes: set, loc) -> PzAnalysis:
+        """``.pz``: the four nodes exist, neither port is shorted (ngspice's checks)."""
+        names = [self._node(card, n, off, form, nodes, what) for (n, off), what in
+                 zip(args["nodes"], ("input node", "input node", "output node", "output node"))]
+        (_, in_off), _, (_, out_off), _ = args["nodes"]
+        if names[0] == names[1]:
+            raise error(card, in_off, f"the input port is shorted: in+ and in- are both '{names[0]}'", form,
+                        hint="the input port is two different nodes, e.g. .pz in 0 out 0 vol pz")
+        if names[2] == names[3]:
+            raise error(card, out_off, f"the output port is shorted: out+ and out- are both '{names[2]}'", form,
+                        hint="the output port is two different nodes")
+        return PzAnalysis(*names, args["input_type"], args["what"], loc)
+
+    def _tf(self, card, args: dict, form: str, nodes: set, elements: dict, loc) -> TfAnalysis:
+        """``.tf``: an output voltage of existing nodes or a branch current, an independent source as input."""
+        letter, parts, offset = args["output"]
+        if letter == "v":
+            names = [self._node(card, n, off, form, nodes, "output node") for n, off in parts]
+            written = f"v({','.join(names)})"
+            if names[-1] == "0":
+                names.pop()
+            if not names or len(names) == 2 and names[0] == names[1]:
+                raise error(card, offset, "the output voltage is identically zero (both nodes are the same)", form)
+            output = f"v({','.join(names)})"
+        else:
+            (name, off), = parts
+            target = elements.get(name)
+            if target is None or target.kind not in BRANCH_KINDS:
+                what = "names no element" if target is None else f"names a {target.kind}, which has no branch current"
+                raise error(card, off, f"output i({name}) {what}", form,
+                            hint="i() names a V source, inductor, E/H source or B voltage source")
+            output = written = f"i({name})"
+        name, off = args["source"]
+        target = elements.get(name)
+        if target is None or target.kind not in ("vsource", "isource"):
+            what = "names no element" if target is None else f"is a {target.kind}"
+            raise error(card, off, f"input source '{name}' {what}, not an independent V or I source", form,
+                        hint="the input is the value of an independent V or I source of the circuit")
+        return TfAnalysis(output, name, loc, written)
 
     def _steps(self, elements: dict[str, Element]) -> list[StepSpec]:
         """The ``.step`` cards: what each sets, and its points."""

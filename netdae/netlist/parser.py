@@ -80,7 +80,7 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
     if word in UNSUPPORTED_DOT_CARDS:
         raise NetlistError(f"{word}: {UNSUPPORTED_DOT_CARDS[word]} is not supported by netdae",
                            card.location(0),
-                           hint="netdae runs .op, .dc, .ac and .tran; remove the card or run it in ngspice")
+                           hint="netdae runs .op, .dc, .ac, .tran, .pz and .tf; remove the card or run it in ngspice")
     if word not in DOT_CARDS:
         raise NetlistError(f"unknown dot card '{toks[0].text}'", card.location(0),
                            hint="netdae reads " + " ".join(sorted(DOT_CARDS)))
@@ -386,6 +386,64 @@ def _dc(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.analyses.append(AnalysisCard("dc", card, {"sweeps": sweeps}))
 
 
+def _pz(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".pz"]
+    items = [t for t in toks[1:] if not (t.kind == PUNCT and t.text == ",")]
+    nodes = []
+    for k, what in enumerate(("input node in+", "input node in-", "output node out+", "output node out-")):
+        if k >= len(items):
+            raise error(card, len(card.text), f"missing the {what} (four nodes, then cur|vol and pol|zer|pz)",
+                        form, hint="e.g. .pz in 0 out 0 vol pz")
+        nodes.append((parse_node(card, items[k], form), items[k].start))
+    words = []
+    for k, (choices, what) in enumerate(((("cur", "vol"), "the input type"), (("pol", "zer", "pz"), "the analysis"))):
+        if 4 + k >= len(items):
+            raise error(card, len(card.text), f"missing {what} ({'|'.join(choices)})", form,
+                        hint="cur: output voltage over input current; vol: voltage gain; pol: poles only, "
+                             "zer: zeros only, pz: both")
+        tok = items[4 + k]
+        if tok.kind != WORD or tok.text not in choices:
+            raise error(card, tok.start, f"expected {what} {' or '.join(choices)}, found {tok.text!r}", form)
+        words.append(tok.text)
+    if len(items) > 6:
+        raise error(card, items[6].start, f"unexpected {items[6].text!r}", form)
+    net.analyses.append(AnalysisCard("pz", card, {"nodes": nodes, "input_type": words[0], "what": words[1]}))
+
+
+def _tf(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".tf"]
+    hint = "e.g. .tf v(out) vin, .tf v(out,ref) iin or .tf i(vload) vin"
+    n = len(toks)
+    if n < 2:
+        raise error(card, len(card.text), "missing the output variable and the input source", form, hint=hint)
+    tok = toks[1]
+    if tok.kind != WORD or tok.text not in ("v", "i") or n < 3 or toks[2].text != "(":
+        raise error(card, tok.start, f"expected the output v(node), v(node,node) or i(vsource), found {tok.text!r}",
+                    form, hint=hint)
+    j, args = 3, []
+    while j < n and toks[j].text != ")":
+        if toks[j].kind == WORD:
+            args.append((parse_node(card, toks[j], form) if tok.text == "v" else toks[j].text, toks[j].start))
+        elif toks[j].text != ",":
+            raise error(card, toks[j].start, f"unexpected {toks[j].text!r} in the output variable", form, hint=hint)
+        j += 1
+    if j >= n:
+        raise error(card, tok.start, f"unterminated output variable {tok.text}(", form, hint=hint)
+    limit = 2 if tok.text == "v" else 1
+    if not args or len(args) > limit:
+        raise error(card, tok.start, f"{tok.text}(...) takes {'one or two nodes' if limit == 2 else 'one source'}, "
+                    f"found {len(args)}", form, hint=hint)
+    rest = toks[j + 1:]
+    if not rest:
+        raise error(card, len(card.text), "missing the input source (an independent V or I source)", form, hint=hint)
+    if rest[0].kind != WORD or parse_number(rest[0].text) is not None:
+        raise error(card, rest[0].start, f"expected the input source's name, found {rest[0].text!r}", form, hint=hint)
+    if len(rest) > 1:
+        raise error(card, rest[1].start, f"unexpected {rest[1].text!r}", form)
+    net.analyses.append(AnalysisCard("tf", card, {"output": (tok.text, tuple(args), tok.start),
+                                                  "source": (rest[0].text, rest[0].start)}))
+
+
 def _ic(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     word = DOT_ALIASES.get(toks[0].text, toks[0].text)
     form = DOT_CARDS[word]
@@ -482,7 +540,7 @@ def _step(card: Card, toks: list[Token], stack, net: Netlist) -> None:
 
 _HANDLERS = {
     ".subckt": _subckt, ".ends": _ends, ".param": _param, ".func": _func, ".model": _model,
-    ".global": _global, ".title": _title, ".op": _op, ".tran": _tran, ".ac": _ac, ".dc": _dc,
+    ".global": _global, ".title": _title, ".op": _op, ".tran": _tran, ".ac": _ac, ".dc": _dc, ".pz": _pz, ".tf": _tf,
     ".ic": _ic, ".nodeset": _ic, ".options": _options, ".temp": _temp, ".save": _saves,
     ".print": _saves, ".probe": _saves, ".plot": _saves, ".meas": _meas,
     ".step": _step,

@@ -55,7 +55,7 @@ import time
 import numpy as np
 
 from ..errors import NgspiceError
-from ..io.raw import PLOTNAME_OF, signal_name
+from ..io.raw import PLOTNAME_OF, quantity_name, signal_name
 from ..results import Result
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
 from .translate import classify_output
@@ -67,7 +67,7 @@ __all__ = ["run", "version", "library_path"]
 _VECTOR_TYPES = {0: "notype", 1: "time", 2: "frequency", 3: "voltage", 4: "current"}
 #: ngspice names plots ``tran1``, ``ac2`` ...: the analysis is the prefix.
 _PLOT_PREFIX = re.compile(r"^([a-z]+)\d*$")
-_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc"}
+_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc", "pz": "pz", "tf": "tf"}
 _AXIS_OF = {"tran": ("time",), "ac": ("frequency",), "dc": ("v-sweep", "i-sweep", "res-sweep", "temp-sweep")}
 #: Seconds to wait for ngspice's background thread to stop after ``bg_halt``.
 _HALT_WAIT = 10.0
@@ -203,7 +203,7 @@ class _Session:
         analysis = _ANALYSIS_OF_PREFIX.get(match.group(1) if match else "")
         if analysis is None:
             raise NgspiceError(
-                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran)"
+                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran, pz, tf)"
             )
         # ngspice lists the newest vector first: reversed, that is creation
         # order, the order of the raw file.
@@ -217,7 +217,7 @@ class _Session:
                 key = name.lower()
                 axes[key] = data.real.copy() if np.iscomplexobj(data) else data
             else:
-                key = signal_name(name, vtype)
+                key = quantity_name(name) if analysis in ("pz", "tf") else signal_name(name, vtype)
                 signals[key] = data
             types[key] = vtype
         extra = {

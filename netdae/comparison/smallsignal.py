@@ -1,0 +1,179 @@
+"""Compare ``.pz`` and ``.tf`` results: roots as sets, transfer functions value by value.
+
+ngspice's pole-zero search is iterative (Muller's method on the determinant,
+deflating each root it finds) and can miss roots or stop early; netdae's roots
+are the finite eigenvalues of two pencils. Roots are therefore matched as
+*sets*, by an optimal one-to-one assignment (:func:`match_roots`): each pair's
+error is ``|a - b|`` over the larger magnitude of the two, floored at
+:data:`ROOT_FLOOR` (1e-12) of the largest root of the analysis (a root at the
+origin, exactly 0 in one simulator and 1e-13 in the other, compares
+absolutely); a root exactly at the origin in one simulator matches one
+within :data:`ORIGIN` (sqrt(eps)) of the largest root in the other, since a
+multiple root at the origin splits by that much in rounding (netdae computes
+a double zero at 0 of a circuit with two coupling capacitors as
+``+-1.3e-5j`` when its largest root is 8.8e10; ngspice finds s = 0 exactly). A root only netdae finds is reported (``only_netdae`` and a
+note saying ngspice missed it) and does not fail the comparison; a root only
+ngspice finds fails it.
+
+``.tf``: the three numbers are compared as an operating point's values are.
+The output impedance of a current output is not judged when ngspice reports
+1e20 and netdae a finite value: ngspice 39 computes it as
+``1 / max(1e-20, i)``, which is 1e20 for every branch whose current per
+series volt is negative (every passive load); :mod:`netdae.analyses.tf`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..results import Result
+from .header import Tolerance
+from .model import AnalysisComparison, SignalComparison
+
+__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "match_roots", "compare_pz", "compare_tf"]
+
+#: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
+#: the origin computed as 0 by one simulator and 1e-13 by the other; every other root relatively.
+ROOT_FLOOR = 1e-12
+#: A root exactly at the origin in one simulator is matched by one within this fraction of the
+#: largest root in the other (a double root at 0 splits into +-sqrt(eps) of the spectrum's scale).
+ORIGIN = float(np.sqrt(np.finfo(float).eps))
+#: Two roots further apart than this (relative) are not the same root, whatever the assignment says.
+MATCH_LIMIT = 1e-2
+#: ngspice's infinite impedance.
+_INFINITE = 1e20
+
+
+def match_roots(a, b, *, floor: float) -> tuple[list[tuple[int, int, float]], list[int], list[int]]:
+    """Pair the roots of two sets, one to one, minimising the total relative distance.
+
+    Parameters
+    ----------
+    a, b : array_like of complex
+    floor : float
+        Smallest scale of a relative distance (absolute units).
+
+    Returns
+    -------
+    pairs : list of (i, j, relative distance)
+        ``a[i]`` paired with ``b[j]``; pairs further apart than
+        :data:`MATCH_LIMIT` are not pairs.
+    only_a, only_b : list of int
+        Indices left without a partner.
+
+    Examples
+    --------
+    >>> pairs, only_a, only_b = match_roots([-1 + 1j, -1 - 1j, -5], [-1 - 1j, -1 + 1j], floor=1e-9)
+    >>> [(i, j) for i, j, _ in pairs], only_a, only_b
+    ([(0, 1), (1, 0)], [2], [])
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    a = np.asarray(a, dtype=complex)
+    b = np.asarray(b, dtype=complex)
+    if a.size == 0 or b.size == 0:
+        return [], list(range(a.size)), list(range(b.size))
+    scale = np.maximum(np.maximum(np.abs(a)[:, None], np.abs(b)[None, :]), floor)
+    cost = np.abs(a[:, None] - b[None, :]) / scale
+    rows, cols = linear_sum_assignment(cost)
+    pairs = [(int(i), int(j), float(cost[i, j])) for i, j in zip(rows, cols) if cost[i, j] <= MATCH_LIMIT]
+    used_a = {i for i, _, _ in pairs}
+    used_b = {j for _, j, _ in pairs}
+    return pairs, [i for i in range(a.size) if i not in used_a], [j for j in range(b.size) if j not in used_b]
+
+
+def _roots(result: Result, kind: str) -> tuple[list[str], np.ndarray]:
+    names = [n for n in result.signals if n.startswith(kind + "(")]
+    return names, np.array([complex(result.signals[n][0]) for n in names], dtype=complex)
+
+
+def _text(value: complex) -> str:
+    return f"{value.real:.6e},{value.imag:.6e}"
+
+
+def compare_pz(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
+    """Compare poles and zeros as sets (module docstring).
+
+    Each matched root is a :class:`SignalComparison` named as netdae names it
+    (``pole(2)``), with both values; a root ngspice finds and netdae does not
+    is a failed one (``max_rel`` infinite).
+    """
+    item = AnalysisComparison("pz", tolerance=tol)
+    item.points = 1
+    every = np.concatenate([_roots(r, k)[1] for r in (nd, ng) for k in ("pole", "zero")])
+    top = float(np.abs(every).max()) if every.size else 0.0
+    top = top if top > 0 else 1.0
+    floor = ROOT_FLOOR * top
+    floored: list[str] = []
+    signals: list[SignalComparison] = []
+    for kind in ("pole", "zero"):
+        names_a, a = _roots(nd, kind)
+        names_b, b = _roots(ng, kind)
+        pairs, only_a, only_b = match_roots(a, b, floor=floor)
+        for i, j, _ in pairs:
+            err = abs(a[i] - b[j])
+            scale = max(abs(a[i]), abs(b[j]), floor)
+            if (a[i] == 0 or b[j] == 0) and err <= ORIGIN * top:
+                scale = ORIGIN * top  # a root at the origin: a multiple one splits by sqrt(eps)
+                floored.append(names_a[i])
+            passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
+            signals.append(SignalComparison(names_a[i], err, err / scale, err, {}, scale,
+                                            "floor" if scale in (floor, ORIGIN * top) else "magnitude", passed,
+                                            netdae=a[i], ngspice=b[j]))
+        for i in only_a:
+            item.only_netdae.append(names_a[i])
+        if only_a:
+            item.notes.append(f"netdae finds {len(only_a)} {kind}(s) more than ngspice (ngspice's iterative "
+                              "search missed them): " + "; ".join(f"{names_a[i]} = {_text(a[i])}" for i in only_a))
+        for j in only_b:
+            item.only_ngspice.append(names_b[j])
+            signals.append(SignalComparison(f"{names_b[j]} (ngspice only)", float("inf"), float("inf"),
+                                            float("inf"), {}, floor, "floor", None if tol is None else False,
+                                            netdae=None, ngspice=b[j]))
+        if only_b:
+            item.notes.append(f"ngspice finds {kind}(s) netdae does not: "
+                              + "; ".join(f"{names_b[j]} = {_text(b[j])}" for j in only_b))
+        if a.size or b.size:
+            item.notes.append(f"{kind}s: netdae {a.size}, ngspice {b.size}, matched {len(pairs)}")
+    if not signals and not item.only_netdae:
+        item.notes.append("no finite pole or zero in either simulator")
+    if floored:
+        item.notes.append(f"{', '.join(floored)}: at the origin in one simulator; compared absolutely, against "
+                          f"sqrt(eps) of the largest root ({ORIGIN * top:.3g}), since a multiple root at the "
+                          "origin splits by that much in rounding")
+    item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
+    return item
+
+
+def compare_tf(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
+    """Compare the transfer function and the two impedances, value by value.
+
+    Each is a different quantity: its error is relative to the larger
+    magnitude of the two values (no floor across quantities).
+    """
+    from .analyses import select_signals
+
+    item = AnalysisComparison("tf", tolerance=tol)
+    item.points = 1
+    skip = [n for n in nd.names() if n.endswith("#output_impedance") and n in ng.signals
+            and float(ng.signals[n][0]) == _INFINITE and float(nd.signals[n][0]) != _INFINITE]
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
+        nd.names(), ng.names(), wanted, [*exclude, *skip])
+    for n in skip:
+        item.notes.append(f"{n} not judged: ngspice 39 reports 1e20 (it computes 1/max(1e-20, i), infinite for "
+                          f"every branch whose current per series volt is negative); netdae "
+                          f"{float(nd.signals[n][0]):.6g} ohm, the impedance a source in series with the branch "
+                          "sees")
+    if not compared:
+        item.error = "no quantity is produced by both simulators (see only_netdae / only_ngspice)"
+        return item
+    signals = []
+    for name in compared:
+        a, b = float(nd.signals[name][0]), float(ng.signals[name][0])
+        err = abs(a - b)
+        scale = max(abs(a), abs(b)) or 1.0
+        passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
+        signals.append(SignalComparison(name, err, err / scale, err, {}, scale, "magnitude", passed,
+                                        netdae=a, ngspice=b))
+    item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
+    return item
