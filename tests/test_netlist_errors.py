@@ -64,7 +64,7 @@ CASES = [
     ("t\n.func f(x) {x}\n.func f(y) {y}\n", r"function 'f' is defined twice", 3, "f(y)"),
     ("t\n.func f(x) {g(x)}\n.func g(x) {f(x)}\nR1 a 0 {f(1)}\n", r"nested deeper than", 4, "{f(1)}"),
     ("t\n.param p={v(a)}\n", r"circuit reference V\(\.\.\.\) is only allowed in behavioural", 2, "v(a)"),
-    ("t\nR1 a 0 {time}\n", r"'time' is only available in behavioural", 2, "time"),
+    ("t\nV1 a 0 {time}\n", r"'time' is only available in behavioural", 2, "time"),
     # subcircuits
     ("t\nX1 a b nosuch\n", r"x1: unknown subcircuit 'nosuch'", 2, "nosuch"),
     ("t\n.subckt s a b\n.ends\nX1 a s\n", r"subcircuit 's' has 2 port\(s\) \(a b\), the instance connects 1", 4, "s"),

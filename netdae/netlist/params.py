@@ -241,4 +241,13 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
     if ex.depth(tree) > ex.MAX_DEPTH:
         raise NetlistError(f"{_card_name(card)}: expression nested deeper than {ex.MAX_DEPTH} levels after "
                            "expanding .func calls", card.location(offset))
+    for m in ex.walk(tree):
+        if type(m) is ex.Call and m.func in ex.POINT_FUNCTIONS:
+            if any(type(a) is not ex.Const for a in m.args[1:]):
+                raise NetlistError(f"{_card_name(card)}: the points of {m.func}() must be constants (numbers or "
+                                   "parameters), not circuit quantities or time", card.location(offset))
+            try:
+                ex.check_points(m.func, [a.value for a in m.args[1:]])
+            except ValueError as exc:
+                raise NetlistError(f"{_card_name(card)}: {exc}", card.location(offset)) from None
     return tree
