@@ -308,3 +308,41 @@ def test_bad_behavioural_rcl_cards_are_located_errors(card, at, message):
     err = info.value
     assert message in err.message, err.message
     assert (err.location.line, err.location.column) == (3, column(card, at)), err.location
+
+
+MULTIPLIERS = """m on behavioural elements
+V1 in 0 PULSE(0 1 0 1n 1n 1 2)
+R1 in a R={2k*(1+V(a))} m=2
+C1 a 0 C={1u*(1+V(a))} m=2
+R2 in b 1k
+L1 b 0 L={1*(1+1000*I(L1))} m=2
+R3 in c 1k
+R4 c 0 R={1k*(1+V(c))} m=3
+.options reltol=1e-6
+.tran 10u 3m
+.end
+"""
+
+
+@pytest.mark.ngspice
+def test_multipliers_agree_with_ngspice():
+    """m parallel elements: R/m, m C, L/m (measured: within 1.6e-6 of the span)."""
+    (ref,) = ngspice_results(MULTIPLIERS, maxstep=2e-6)
+    res = netdae_result(MULTIPLIERS, "tran")
+    after = np.asarray(ref.axis) > 1e-5
+    dense = res.dense(ref.axis[after])
+    for s in ("v(a)", "v(b)", "v(c)"):
+        got = np.ravel(dense[s])
+        assert np.max(np.abs(got - ref.signals[s][after])) < 1e-5 * float(np.ptp(ref.signals[s])), s
+    # R4 = 1k (1 + v) / 3 from 1 V through 1k: 3v = (1 - v)(1 + v), v = (-3 + sqrt(13)) / 2
+    assert float(res.signals["v(c)"][-1]) == pytest.approx((math.sqrt(13) - 3) / 2, rel=1e-9)
+
+
+def test_behavioural_capacitor_keeps_the_index_of_a_capacitor():
+    """A C={x} across a voltage source is a CV loop: index 2 (its current needs the input's derivative);
+    behind a resistor, index 1."""
+    loop = netdae.analyze_index(load("i\nV1 a 0 SIN(0 1 1k)\nC1 a 0 C={1u*(1+V(a))}\n.tran 1u 1m\n.end\n"))
+    assert loop.index == 2 and loop.unknowns["i(v1)"] == "index2" and loop.unknowns["v(c1#ddt)"] == "index2"
+    rc = netdae.analyze_index(load("i\nV1 in 0 SIN(0 1 1k)\nR1 in a 1k\nC1 a 0 C={1u*(1+V(a))}\n.tran 1u 1m\n"
+                                   ".end\n"))
+    assert rc.index == 1
