@@ -38,6 +38,8 @@ opamp           E       (out+, out-, in+, in-)       netdae extension: ideal op-
 bvoltage        B/E     (n+, n-)                     expr: voltage expression
 bcurrent        B/G     (n+, n-)                     expr: current expression
 bcharge         C       (n+, n-)                     expr: charge expression (``C n+ n- Q={expr}``)
+laplace         E/G     (n+, n-)                     expr: ``Call("laplace", (u, H(s)))``; elaboration replaces it
+                                                     by its state-space block (:mod:`netdae.netlist.laplace`)
 diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...

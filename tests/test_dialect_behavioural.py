@@ -346,3 +346,101 @@ def test_behavioural_capacitor_keeps_the_index_of_a_capacitor():
     rc = netdae.analyze_index(load("i\nV1 in 0 SIN(0 1 1k)\nR1 in a 1k\nC1 a 0 C={1u*(1+V(a))}\n.tran 1u 1m\n"
                                    ".end\n"))
     assert rc.index == 1
+
+
+# --------------------------------------------------------------------------- LAPLACE (netdae's extension)
+LAPLACE = """laplace
+.param tau=1m
+V1 in 0 dc 0 ac 1 PULSE(0 1 0 1n 1n 1 2)
+E1 o1 0 LAPLACE {V(in)} = {1/(1+s*tau)}
+E2 o2 0 LAPLACE {V(in)} {1e12/(s**2 + 2*0.3*1e6*s + 1e12)}
+G3 0 o3 LAPLACE {V(in)} = {(1 + s/1k)/(1 + s/10k)}
+R3 o3 0 1
+E4 o4 0 LAPLACE {2*V(in)} = {3}
+E5 o5 0 LAPLACE {V(in)} = {1/(s*1m)**2/(1 + 1/(s*1m) + 1/(s*1m)**2)}
+.options reltol=1e-6
+"""
+
+
+def _closed_forms(s):
+    return {"v(o1)": 1 / (1 + s * 1e-3), "v(o2)": 1e12 / (s**2 + 0.6e6 * s + 1e12),
+            "v(o3)": (1 + s / 1e3) / (1 + s / 1e4), "v(o4)": 6 + 0 * s, "v(o5)": 1 / ((s * 1e-3)**2 + s * 1e-3 + 1)}
+
+
+def test_laplace_is_a_state_space_block():
+    c = load(LAPLACE + ".op\n.end\n")
+    kinds = {e.name: e.kind for e in c.elements}
+    assert kinds["e1"] == "bvoltage" and kinds["g3"] == "bcurrent" and kinds["e2#g1"] == "vccs"
+    assert [n for n in c.nodes if n.startswith("e2#")] == ["e2#s1", "e2#s2"]
+    assert c.element("e2#c1").value == pytest.approx(1e-6)  # states scaled by the poles' size, 1e6 rad/s
+    assert "e4#s1" not in c.nodes  # a constant H has no state
+    assert any("LAPLACE is netdae's extension" in d.message for d in c.diagnostics)
+
+
+def test_laplace_ac_is_the_transfer_function():
+    res = netdae_result(LAPLACE + ".ac dec 5 10 10meg\n.end\n", "ac")
+    s = 2j * np.pi * np.asarray(res.axis)
+    for name, h in _closed_forms(s).items():
+        np.testing.assert_allclose(res.signals[name], h, rtol=1e-12, err_msg=name)
+
+
+def test_laplace_step_responses():
+    res = netdae_result(LAPLACE + ".tran 0.1u 5m\n.end\n", "tran")
+    t = np.asarray(res.axis)
+    late = t > 1e-7  # after the input's 1 ns edge
+    t = t[late]
+    wn, z = 1e6, 0.3
+    wd = wn * math.sqrt(1 - z * z)
+    steps = {"v(o1)": 1 - np.exp(-t / 1e-3),
+             "v(o2)": 1 - np.exp(-z * wn * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t)),
+             "v(o3)": 1 + 9 * np.exp(-t * 1e4), "v(o4)": 6 + 0 * t,
+             "v(o5)": 1 - np.exp(-t / 2e-3) * (np.cos(t * math.sqrt(3) / 2e-3) + np.sin(t * math.sqrt(3) / 2e-3)
+                                               / math.sqrt(3))}
+    for name, want in steps.items():
+        # the 1 ns ramp delays the response by 0.5 ns: 5e-4 of the 1e6 rad/s resonance's swing
+        np.testing.assert_allclose(res.signals[name][late], want, atol=1e-3, err_msg=name)
+
+
+def test_laplace_index_and_operating_point():
+    """H(0) at DC; the block is an ODE in its states: index 1 (the output source's branch) like an E."""
+    res = netdae_result(LAPLACE.replace("dc 0 ac 1", "dc 0.5 ac 1") + ".op\n.end\n", "op")
+    for name, h in _closed_forms(0.0).items():
+        assert float(res.signals[name][-1]) == pytest.approx(0.5 * h, rel=1e-12), name
+    report = netdae.analyze_index(load(LAPLACE + ".tran 1u 1m\n.end\n"))
+    assert report.index == 1
+
+
+@pytest.mark.ngspice
+def test_laplace_equals_ngspice_s_xfer():
+    """ngspice 39 has no E/G LAPLACE; its XSPICE s_xfer model (an A element, which netdae does not read)
+    realises the same H: .ac equal to rounding."""
+    from netdae.ngspice import batch
+
+    xfer = ("s_xfer\nV1 in 0 dc 0 ac 1\na2 %v(in) %v(o2) filt2\n"
+            ".model filt2 s_xfer(num_coeff=[1e12] den_coeff=[1 0.6e6 1e12] int_ic=[0 0])\n"
+            "a3 %v(in) %v(o3) filt3\n.model filt3 s_xfer(num_coeff=[1e-3 1] den_coeff=[1e-4 1] int_ic=[0])\n"
+            ".ac dec 5 10 10meg\n.end\n")
+    (ref,) = batch.run(xfer, timeout=120).results
+    res = netdae_result(LAPLACE + ".ac dec 5 10 10meg\n.end\n", "ac")
+    for name in ("v(o2)", "v(o3)"):
+        np.testing.assert_allclose(res.signals[name], ref.signals[name], rtol=1e-12, err_msg=name)
+
+
+LAPLACE_ERRORS = [
+    ("E1 o 0 LAPLACE {V(in)} = {s/(1+s)*s}", "LAPLACE", "H(s) is improper: its numerator has degree 2 in s, its "
+     "denominator degree 1"),
+    ("E1 o 0 LAPLACE {V(in)} = {exp(-s*1m)}", "LAPLACE", "exp((-s) * 0.001) is not a rational function of s"),
+    ("E1 o 0 LAPLACE {V(in)} = {1/(1+s*V(in))}", "{1/", "H(s) must be a function of s alone, not of v(in)"),
+    ("E1 o 0 LAPLACE V(in) = {1/(1+s)}", "V(in)", "expected the controlling expression and H(s), each in braces"),
+    ("E1 o 0 LAPLACE {V(in)} = {0/(1+s)} {1}", "{1}", "expected the controlling expression and H(s)"),
+    ("G1 o 0 LAPLACE {V(in)} = {1/(s-s)}", "LAPLACE", "the denominator of H(s) is zero"),
+]
+
+
+@pytest.mark.parametrize("card, at, message", LAPLACE_ERRORS)
+def test_bad_laplace_cards_are_located_errors(card, at, message):
+    with pytest.raises(NetlistError) as info:
+        load(f"t\nV1 in 0 1\n{card}\nR1 o 0 1k\n.op\n.end\n")
+    err = info.value
+    assert message in err.message, err.message
+    assert (err.location.line, err.location.column) == (3, column(card, at)), err.location

@@ -475,6 +475,8 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
         table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
         if table is not None:
             return _table(card, toks, table, syntax, letter)
+        if len(toks) > 3 and toks[3].kind == WORD and toks[3].text == "laplace":
+            return _laplace(card, toks, syntax, letter)
     for tok in toks[3:]:
         if tok.kind == WORD and tok.text in ("laplace", "table", "freq", "and", "or", "nand", "nor", "chebyshev"):
             raise error(card, tok.start, f"the '{tok.text.upper()}' form of {letter.upper()} is not supported "
@@ -597,6 +599,33 @@ def _table(card: Card, toks: list[Token], k: int, syntax, letter: str) -> Elemen
         node = ex.Binary("*", as_expr(mult[0]), node)
     kind = "bvoltage" if letter == "e" else "bcurrent"
     return ElementCard(name, kind, card, nodes, expr=(node, toks[k].start))
+
+
+def _laplace(card: Card, toks: list[Token], syntax, letter: str) -> ElementCard:
+    """``E|G n+ n- LAPLACE {expr} = {H(s)}``: netdae's extension (PSpice's syntax; ngspice 39 has none).
+
+    The card becomes kind ``laplace`` with the expression ``Call("laplace", (u, H))``, ``s``
+    written as :class:`netdae.netlist.expr.Time`; elaboration realises it as a state-space
+    block (:mod:`netdae.netlist.laplace`).
+    """
+    form = f"{letter.upper()}name n+ n- LAPLACE {{expr}} = {{H(s)}}"
+    nodes = _nodes(card, toks, 2, syntax)
+    exprs = [t for t in toks[4:] if not (t.kind == PUNCT and t.text == "=")]
+    if len(exprs) != 2 or any(t.kind != EXPR for t in exprs):
+        bad = next((t for t in exprs if t.kind != EXPR), exprs[2] if len(exprs) > 2 else None)
+        raise error(card, bad.start if bad is not None else _end(card),
+                    "expected the controlling expression and H(s), each in braces, after LAPLACE", form,
+                    hint="e.g. LAPLACE {V(in)} = {1/(1 + s*1m)}")
+    control = parse_expr(card, exprs[0].text, exprs[0].start + 1, ex.BEHAVIOURAL, form)
+    h = parse_expr(card, exprs[1].text, exprs[1].start + 1, ex.BEHAVIOURAL, form)
+    for m in ex.walk(h):
+        if type(m) in (ex.Voltage, ex.Current, ex.Time):
+            raise error(card, exprs[1].start, f"H(s) must be a function of s alone, not of {ex.to_text(m)}", form,
+                        hint="the controlling expression goes in the first braces")
+    h = ex.transform(h, lambda m: ex.Time() if m == ex.Param("s") else None)
+    card.warn(toks[3].start, f"LAPLACE is netdae's extension: ngspice 39 reads no LAPLACE form of "
+              f"{letter.upper()} (compare with an XSPICE s_xfer model)")
+    return ElementCard(toks[0].text, "laplace", card, nodes, expr=(ex.Call("laplace", (control, h)), toks[3].start))
 
 
 def _poly(card: Card, toks: list[Token], k: int, syntax, letter: str) -> ElementCard:

@@ -91,11 +91,13 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Ename n+ n- nc+ nc- gain", "Ename n+ n- value={expr}",
             "Ename n+ n- POLY(n) nc1+ nc1- ... ncn+ ncn- c0 c1 ...",
             "Ename n+ n- TABLE {expr} = (x0, y0) (x1, y1) ...",
+            "Ename n+ n- LAPLACE {expr} = {H(s)}",
             "Ename out+ out- in+ in- OPAMP")),
         ElementSyntax("g", "voltage-controlled current source", (
             "Gname n+ n- nc+ nc- transconductance", "Gname n+ n- value={expr}",
             "Gname n+ n- POLY(n) nc1+ nc1- ... ncn+ ncn- c0 c1 ...",
-            "Gname n+ n- TABLE {expr} = (x0, y0) (x1, y1) ... [m=mult]")),
+            "Gname n+ n- TABLE {expr} = (x0, y0) (x1, y1) ... [m=mult]",
+            "Gname n+ n- LAPLACE {expr} = {H(s)}")),
         ElementSyntax("f", "current-controlled current source", (
             "Fname n+ n- vname gain", "Fname n+ n- POLY(n) v1 ... vn c0 c1 ...")),
         ElementSyntax("h", "current-controlled voltage source", (
