@@ -521,8 +521,14 @@ class Circuit:
         raise KeyError(name)
 
     def count_by_letter(self) -> dict[str, int]:
-        """Number of elements per SPICE letter, e.g. ``{"r": 3, "c": 1}``."""
+        """Number of element cards per SPICE letter, e.g. ``{"r": 3, "c": 1}``.
+
+        The elements netdae adds to realise a card (named ``<card>#...``: the derivative node's
+        charge and resistor of a behavioural C or L, the states of a LAPLACE block) are not counted.
+        """
         counts: dict[str, int] = {}
         for el in self.elements:
+            if "#" in el.name:
+                continue
             counts[el.letter] = counts.get(el.letter, 0) + 1
         return dict(sorted(counts.items()))

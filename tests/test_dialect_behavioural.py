@@ -444,3 +444,8 @@ def test_bad_laplace_cards_are_located_errors(card, at, message):
     err = info.value
     assert message in err.message, err.message
     assert (err.location.line, err.location.column) == (3, column(card, at)), err.location
+
+
+def test_realisation_elements_are_not_counted_as_cards():
+    c = load("t\nV1 in 0 1\nR1 in a 1k\nC1 a 0 C={1u*(1+V(a))}\nE1 o 0 LAPLACE {V(a)} = {1/(1+s)**2}\n.op\n.end\n")
+    assert c.count_by_letter() == {"c": 1, "e": 1, "r": 1, "v": 1}
