@@ -38,6 +38,8 @@ opamp           E       (out+, out-, in+, in-)       netdae extension: ideal op-
 bvoltage        B/E     (n+, n-)                     expr: voltage expression
 bcurrent        B/G     (n+, n-)                     expr: current expression
 bcharge         C       (n+, n-)                     expr: charge expression (``C n+ n- Q={expr}``)
+laplace         E/G     (n+, n-)                     expr: ``Call("laplace", (u, H(s)))``; elaboration replaces it
+                                                     by its state-space block (:mod:`netdae.netlist.laplace`)
 diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
@@ -555,8 +557,14 @@ class Circuit:
         raise KeyError(name)
 
     def count_by_letter(self) -> dict[str, int]:
-        """Number of elements per SPICE letter, e.g. ``{"r": 3, "c": 1}``."""
+        """Number of element cards per SPICE letter, e.g. ``{"r": 3, "c": 1}``.
+
+        The elements netdae adds to realise a card (named ``<card>#...``: the derivative node's
+        charge and resistor of a behavioural C or L, the states of a LAPLACE block) are not counted.
+        """
         counts: dict[str, int] = {}
         for el in self.elements:
+            if "#" in el.name:
+                continue
             counts[el.letter] = counts.get(el.letter, 0) + 1
         return dict(sorted(counts.items()))

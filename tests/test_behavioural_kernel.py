@@ -50,6 +50,13 @@ EXPRESSIONS = [
     "1e-3 * i(vs) * v(a) + 0.5 * time * v(b) - 2 * exp(40 * v(c))",
     "-v(a) * (v(b) - -v(c))",
     "4.25",
+    "pwl(v(a), -1, 0.5, 0, 0, 0.5, 2, 2, 2.5) * v(b) + pwl(time*1e8 + v(c), 0, 0, 1, 1)",
+]
+
+#: E/G TABLE cards (ngspice 39's smoothed, flat-ended table), written between b and c.
+TABLES = [
+    "E1 b c TABLE {2*v(a) + v(c)} = (-1,0.5) (0,0) (0.3,2) (2,2.5)",
+    "G1 b c TABLE {v(a)*v(b)} = (-2,-1m) (-1.5,1m) (2.5,3m) m=2",
 ]
 
 
@@ -124,6 +131,29 @@ def test_kernel_equals_the_numpy_family(expr, kind):
         close(case.dq[:-1], acc.dq[:-1], "dq")
 
 
+@pytest.mark.parametrize("card", TABLES)
+def test_table_kernel_equals_the_numpy_family_and_central_differences(card):
+    text = circuit("0", "V").replace("B1 b c V={0}", card)
+    case = Case(text)
+    rng = np.random.default_rng(11)
+    for trial in range(200):  # many iterates: every segment, corner parabola and flat end is hit
+        xe = np.append(rng.uniform(-2.5, 2.5, case.n), 0.0)
+        acc = case.numpy(xe, 0.0)
+        phi, dphi, flags, _ = case.compiled(xe, 0.0)
+        assert flags == 0 and acc.ok
+        close(phi[:-1], acc.phi[:-1], "phi")
+        close(dphi[:-1], acc.dphi[:-1], "dphi")
+    x = np.append(rng.uniform(0.3, 1.7, case.n), 0.0)
+    H = case.system.pattern.matrix(case.compiled(x, 0.0)[1][:-1]).toarray()
+    fd = np.zeros_like(H)
+    for j in range(case.n):
+        xp, xm = x.copy(), x.copy()
+        xp[j] += 1e-7
+        xm[j] -= 1e-7
+        fd[:, j] = (case.compiled(xp, 0.0, False)[0][:-1] - case.compiled(xm, 0.0, False)[0][:-1]) / 2e-7
+    np.testing.assert_allclose(H, fd, rtol=2e-6, atol=2e-6 * np.abs(H).max())
+
+
 @pytest.mark.parametrize("expr", ["sqrt(v(a))", "ln(v(a))", "1/v(a)", "v(a)**-1.5", "pow(v(a), 0.5)"])
 def test_invalid_values_are_flagged_as_the_family_does(expr):
     """Square root, log of a negative number and division by zero: not finite in both, flagged."""
@@ -162,7 +192,7 @@ def test_jacobian_matches_central_differences(expr):
 def test_tape_shares_repeated_leaves_and_names_every_function():
     ops, args, consts, leaves = compile_tape(parse_expression("v(a)*v(a) + v(a,b)", context="behavioural"))
     assert len(leaves) == 2 and [OP_NAMES[o] for o in ops].count("leaf") == 3
-    assert set(FUNCTIONS_1) <= set(OP_NAMES.values())
+    assert set(FUNCTIONS_1) | {"table", "pwl"} <= set(OP_NAMES.values())
 
 
 def _tran(path: Path, engine: str, monkeypatch):

@@ -64,7 +64,7 @@ CASES = [
     ("t\n.func f(x) {x}\n.func f(y) {y}\n", r"function 'f' is defined twice", 3, "f(y)"),
     ("t\n.func f(x) {g(x)}\n.func g(x) {f(x)}\nR1 a 0 {f(1)}\n", r"nested deeper than", 4, "{f(1)}"),
     ("t\n.param p={v(a)}\n", r"circuit reference V\(\.\.\.\) is only allowed in behavioural", 2, "v(a)"),
-    ("t\nR1 a 0 {time}\n", r"'time' is only available in behavioural", 2, "time"),
+    ("t\nV1 a 0 {time}\n", r"'time' is only available in behavioural", 2, "time"),
     # subcircuits
     ("t\nX1 a b nosuch\n", r"x1: unknown subcircuit 'nosuch'", 2, "nosuch"),
     ("t\n.subckt s a b\n.ends\nX1 a s\n", r"subcircuit 's' has 2 port\(s\) \(a b\), the instance connects 1", 4, "s"),
@@ -109,7 +109,7 @@ CASES = [
     ("t\nE1 a 0 b 0 opamp 3\n", r"unexpected '3' after OPAMP", 2, "3"),
     ("t\nF1 a 0 2\n", r"expected the name of the controlling voltage source", 2, "2"),
     ("t\nV1 x 0 1\nF1 a 0 v1\n", r"missing gain", 3, None),
-    ("t\nE1 a 0 laplace {v(b)} = {1/(1+s)}\n", r"the 'LAPLACE' form of E is not supported", 2, "laplace"),
+    ("t\nE1 a 0 freq {v(b)} = (0, 0, 0)\n", r"the 'FREQ' form of E is not supported", 2, "freq"),
     ("t\nE1 a 0 poly(x) b 0 1\n", r"POLY dimension must be a positive integer", 2, "x"),
     ("t\nE1 a 0 poly(2) b 0 1\n", r"POLY\(2\) needs 4 controlling nodes and at least one coefficient", 2, None),
     ("t\nB1 a 0 X=1\n", r"expected V=\{expr\} or I=\{expr\} after the nodes", 2, "X"),

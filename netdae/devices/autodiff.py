@@ -18,7 +18,8 @@ Derivatives are exact where the function is differentiable; comparisons,
 logical operators, ``u``, ``sgn``, ``int``/``floor``/``ceil``/``nint`` and the
 condition of ``if``/``?:`` contribute zero (the derivative does not see the
 switch), ``min``/``max``/``limit`` pass the derivative of the selected
-argument. Where ngspice returns its ``HUGE`` marker (square root or log of a
+argument, ``table``/``pwl`` the slope of the segment (or of the smoothed corner)
+the argument is in. Where ngspice returns its ``HUGE`` marker (square root or log of a
 negative number, division by zero) the value here is not finite and the
 evaluation is reported as failed.
 
@@ -34,7 +35,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..netlist.expr import Binary, Call, Const, Current, Expr, Param, Ternary, Time, Unary, Voltage
+from ..netlist.expr import (
+    POINT_FUNCTIONS, Binary, Call, Const, Current, Expr, Param, Ternary, Time, Unary, Voltage, pwl_point, table_point,
+)
 
 __all__ = ["structure_key", "leaves", "ExpressionGroup", "group_by_structure"]
 
@@ -240,6 +243,17 @@ def _call(func, args):
         hi, dhi = _select(lo_is_a, b, db, a, da)
         val, d = _select(x < lo, lo, dlo, x, dx)
         return _select(x > hi, hi, dhi, val, d)
+    if func in POINT_FUNCTIONS:
+        (x, dx), points = args[0], args[1:]
+        if any(d is not None for _, d in points):
+            raise ValueError(f"the points of {func}() must be constants")
+        point = table_point if func == "table" else pwl_point
+        table = np.broadcast_arrays(x, *(v for v, _ in points))
+        val = np.empty(table[0].shape)
+        slope = np.empty(table[0].shape)
+        for i in range(val.size):  # a few instances, a few points: the compiled kernel is the fast path
+            val.flat[i], slope.flat[i] = point(float(table[0].flat[i]), [float(p.flat[i]) for p in table[1:]])
+        return val, _scale(dx, slope)
     raise ValueError(f"function {func}() cannot be evaluated in a behavioural source")
 
 

@@ -34,6 +34,7 @@ from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_lev
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import error, parse_value
+from .laplace import LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
 from .montecarlo import DEFAULT_SEED, Draws, random_seed
@@ -380,6 +381,9 @@ class _Elaborator:
             circuit.elements.append(el)
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
+        if any(el.kind == "laplace" for el in circuit.elements):
+            cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind == "laplace"}
+            circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
         self._apply_models(circuit)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
@@ -405,6 +409,33 @@ class _Elaborator:
         draws = self.root.draws
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
         return circuit
+
+    @staticmethod
+    def _realise_laplace(placed: list[Element], elements: dict, nodes: dict, cards: dict) -> list[Element]:
+        """Every E/G LAPLACE element replaced by its state-space block (:mod:`netdae.netlist.laplace`)."""
+        out = []
+        for el in placed:
+            if el.kind != "laplace":
+                out.append(el)
+                continue
+            parts = el.name.split(".")
+            try:
+                block = realise(el, "".join(f"{q}." for q in parts[1:-1]))
+            except LaplaceError as exc:
+                card, offset = cards[el.name]
+                raise error(card, offset, str(exc), f"{parts[-1][0].upper()}name n+ n- LAPLACE {{expr}} = {{H(s)}}",
+                            hint="write H(s) as a ratio of polynomials in s") from None
+            for part in block[1:]:
+                if part.name in elements:
+                    raise NetlistError(f"{parts[-1]}: the internal element name '{part.name}' is taken",
+                                       el.location, hint="rename the element")
+                elements[part.name] = part
+                for n in part.nodes:
+                    if n != "0":
+                        nodes.setdefault(n, None)
+            elements[el.name] = block[0]
+            out.extend(block)
+        return out
 
     def _apply_models(self, circuit: Circuit) -> None:
         """Check the models elements use, once each; give R, C, L their model's coefficients.

@@ -191,13 +191,108 @@ def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
 
 
 # ---------------------------------------------------------------------------
-def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> ElementCard:
+#: A reference to a circuit quantity or time in an element value: the value is behavioural
+#: (ngspice's b_transformation_wanted, without ``temper``, which netdae evaluates once).
+_BEHAVIOURAL_VALUE = re.compile(r"(?<![a-z0-9_.])(?:[vi]\s*\(|time(?![a-z0-9_])|hertz(?![a-z0-9_]))")
+_VALUE_KEY = {"resistor": "r", "capacitor": "c", "inductor": "l"}
+
+
+def _behavioural_value(toks: list[Token], kind: str) -> Token | None:
+    """The ``{expr}``/``'expr'`` value token of an R, C or L card when it refers to V(), I() or time."""
+    key = _VALUE_KEY[kind]
+    for k in range(3, len(toks)):
+        tok = toks[k]
+        if tok.kind != EXPR or _BEHAVIOURAL_VALUE.search(tok.text) is None:
+            continue
+        if k == 3 or (k >= 5 and toks[k - 1].text == "=" and toks[k - 2].kind == WORD and toks[k - 2].text == key):
+            return tok
+    return None
+
+
+def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str,
+                              value: Token) -> list[ElementCard]:
+    """``R|C|L n+ n- [R=|C=|L=]{expr} [m=mult]`` whose value depends on V(), I() or time, as behavioural elements.
+
+    As ngspice 39 reads them (``inp_compat``): a resistor carries the current
+    ``m V(n+, n-) / expr``; a capacitor written ``C={expr}`` the current
+    ``m expr d/dt V(n+, n-)`` and one written ``{expr}`` alone the charge
+    ``m expr`` (as ``Q={expr}``); an inductor has the voltage ``expr / m d/dt I``.
+    The time derivative of the capacitor's voltage (the inductor's current) is an
+    internal node ``<name>#ddt`` (``v(<name>#ddt)``, in V/s or A/s): the charge
+    ``-V(n+, n-)`` (``-I(<name>)``) sits on it and 1 ohm to ground carries it away,
+    so ``v(<name>#ddt)`` is that derivative; the element itself is a behavioural
+    current (R, C) or voltage (L: its branch current is ``i(<name>)``) source.
+    """
+    name = toks[0].text
+    nodes = _nodes(card, toks, 2, syntax)
+    key = _VALUE_KEY[kind]
+    form = f"{name[0].upper()}name n+ n- {key.upper()}={{expr}} [m=mult]" + (
+        " | Cname n+ n- {charge expr} [m=mult]" if kind == "capacitor" else "")
+    mult = None
+    k = 3
+    while k < len(toks):
+        tok = toks[k]
+        if tok is value:
+            k += 1
+            continue
+        if tok.kind == WORD and tok.text == key and k + 2 < len(toks) and toks[k + 1].text == "=" \
+                and toks[k + 2] is value:
+            k += 1
+            continue
+        if tok.kind == PUNCT and tok.text == "=" and k + 1 < len(toks) and toks[k + 1] is value:
+            k += 1
+            continue
+        if tok.kind == WORD and tok.text == "m" and k + 2 < len(toks) and toks[k + 1].text == "=" and mult is None:
+            mult = parse_value(card, toks[k + 2], form, "multiplier m")
+            k += 3
+            continue
+        what = f"parameter '{tok.text}'" if k + 1 < len(toks) and toks[k + 1].text == "=" else repr(tok.text)
+        raise error(card, tok.start, f"unexpected {what}: a {syntax.description} whose value depends on V(), "
+                    "I() or time takes only m=", form,
+                    hint="ngspice 39 turns such an element into behavioural sources, which drop tc1, tc2, ic, "
+                    "temp, scale and model names")
+    expr = parse_expr(card, value.text, value.start + 1, ex.BEHAVIOURAL, form)
+    m = None if mult is None else (ex.Const(mult[0]) if isinstance(mult[0], float) else mult[0])
+
+    def scaled(node):
+        return node if m is None else ex.Binary("*", m, node)
+
+    at = value.start
+    if kind == "resistor":
+        current = ex.Binary("/", ex.Voltage(nodes[0], nodes[1]), expr)
+        return [ElementCard(name, "bcurrent", card, nodes, expr=(scaled(current), at))]
+    k = next(j for j, t in enumerate(toks) if t is value)
+    written_key = k >= 5 and toks[k - 1].text == "=" and toks[k - 2].text == key
+    if kind == "capacitor" and not written_key:
+        # ngspice 39 reads 'C n+ n- {expr}' (no c=) as a charge
+        return [ElementCard(name, "bcharge", card, nodes, expr=(scaled(expr), at))]
+    aux = f"{name}#ddt"
+    if kind == "capacitor":
+        measured = ex.Voltage(nodes[0], nodes[1])
+        main = ElementCard(name, "bcurrent", card, nodes, expr=(scaled(ex.Binary("*", expr, ex.Voltage(aux))), at))
+    else:
+        measured = ex.Current(name)
+        inductance = expr if m is None else ex.Binary("/", expr, m)
+        main = ElementCard(name, "bvoltage", card, nodes, expr=(ex.Binary("*", inductance, ex.Voltage(aux)), at))
+    charge = ElementCard(f"{name}#q", "bcharge", card, (aux, "0"), expr=(ex.Unary("-", measured), at))
+    sink = ElementCard(f"{name}#r", "resistor", card, (aux, "0"), value=(1.0, at))
+    return [main, charge, sink]
+
+
+def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str):
+    value = _behavioural_value(toks, kind)
+    if value is not None:
+        return _behavioural_two_terminal(card, toks, syntax, kind, value)
     nodes = _nodes(card, toks, 2, syntax)
     positional, keywords = split_args(card, toks, 3, syntax)
     params = _keyword_params(card, keywords, syntax, kind)
     el = ElementCard(toks[0].text, kind, card, nodes, params=params)
-    if kind == "resistor" and "r" in params:
-        el.value = params.pop("r")
+    key = _VALUE_KEY[kind]
+    if key in params:
+        if positional and key != "r":
+            raise error(card, positional[0].start, f"{kind} value given twice (as {key}= and {positional[0].text!r})",
+                        syntax)
+        el.value = params.pop(key)
     if (len(positional) == 2 and positional[0].kind == WORD and IDENT.match(positional[0].text)
             and positional[0].text != "pi"
             and (positional[1].kind == EXPR or parse_number(positional[1].text) is not None)):
@@ -376,6 +471,12 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
             nodes = _nodes(card, toks, 2, syntax)
             kind = "bvoltage" if letter == "e" else "bcurrent"
             return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, k + 2, syntax))
+    if letter in "eg":
+        table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
+        if table is not None:
+            return _table(card, toks, table, syntax, letter)
+        if len(toks) > 3 and toks[3].kind == WORD and toks[3].text == "laplace":
+            return _laplace(card, toks, syntax, letter)
     for tok in toks[3:]:
         if tok.kind == WORD and tok.text in ("laplace", "table", "freq", "and", "or", "nand", "nor", "chebyshev"):
             raise error(card, tok.start, f"the '{tok.text.upper()}' form of {letter.upper()} is not supported "
@@ -426,6 +527,105 @@ def _behavioural(card: Card, toks: list[Token], k: int, syntax) -> tuple:
     else:
         text, base = card.text[tok.start:], tok.start
     return parse_expr(card, text, base, ex.BEHAVIOURAL, syntax), tok.start
+
+
+def _table(card: Card, toks: list[Token], k: int, syntax, letter: str) -> ElementCard:
+    """``E|G n+ n- TABLE {expr} = (x0, y0) (x1, y1) ... [m=mult (G)]`` as a behavioural source.
+
+    The pairs may be written with or without parentheses and commas, the ``=``
+    after the expression may be left out, and ``TABLE = {expr}`` is accepted, as
+    ngspice 39 reads them. The source's value is ``table(expr, x0, y0, ...)``
+    (:func:`netdae.netlist.expr.table_point`); a single pair is the constant y0.
+    """
+    name = toks[0].text
+    form = f"{letter.upper()}name n+ n- TABLE {{expr}} = (x0, y0) (x1, y1) ...{' [m=mult]' if letter == 'g' else ''}"
+    if k != 3:
+        hint = ("ngspice 39 reads TABLE after the two output nodes only (the 4-node form "
+                f"{letter.upper()}name n+ n- nc+ nc- TABLE=(...) is LTspice's)") if k == 5 else None
+        raise error(card, toks[k].start, "expected 2 nodes before TABLE", form, hint=hint)
+    nodes = _nodes(card, toks, 2, syntax)
+    j = k + 1
+    if j < len(toks) and toks[j].kind == PUNCT and toks[j].text == "=":
+        j += 1
+    if j >= len(toks) or toks[j].kind != EXPR:
+        at = toks[j].start if j < len(toks) else _end(card)
+        raise error(card, at, "expected the controlling expression in braces after TABLE", form,
+                    hint="write TABLE {V(in)} = ... (ngspice 39 needs the braces or quotes)")
+    ctrl = toks[j]
+    control = parse_expr(card, ctrl.text, ctrl.start + 1, ex.BEHAVIOURAL, form)
+    j += 1
+    if j < len(toks) and toks[j].kind == PUNCT and toks[j].text == "=":
+        j += 1
+    values: list[Token] = []
+    mult = None
+    while j < len(toks):
+        tok = toks[j]
+        if tok.kind == PUNCT and tok.text in "(),":
+            j += 1
+            continue
+        if tok.kind == WORD and j + 1 < len(toks) and toks[j + 1].text == "=":
+            if letter == "g" and tok.text == "m" and mult is None and j + 2 < len(toks):
+                mult = parse_value(card, toks[j + 2], form, "multiplier m")
+                j += 3
+                continue
+            raise error(card, tok.start, f"unexpected parameter '{tok.text}=' in the table", form,
+                        hint="G TABLE takes m=mult after the pairs; E TABLE takes none" if letter == "g" or
+                        tok.text == "m" else None)
+        if mult is not None or tok.kind not in (WORD, EXPR):
+            raise error(card, tok.start, f"unexpected {tok.text!r} after the table", form)
+        values.append(tok)
+        j += 1
+    if not values:
+        raise error(card, _end(card), "TABLE without (x, y) pairs", form)
+    if len(values) % 2:
+        raise error(card, values[-1].start, f"the table needs (x, y) pairs: {values[-1].text!r} has no y value",
+                    form)
+    points = [parse_value(card, t, form, "table value") for t in values]
+    xs = [(v, t) for (v, _), t in zip(points[0::2], values[0::2])]
+    for (x0, _), (x1, t1) in zip(xs, xs[1:]):
+        if isinstance(x0, float) and isinstance(x1, float) and not x1 > x0:
+            raise error(card, t1.start, f"the table's x values must increase strictly: {t1.text} follows "
+                        f"{x0:g}", form, hint="ngspice 39 reads a table whose x values do not increase "
+                        "without a message and computes nonsense with it")
+
+    def as_expr(v):
+        return ex.Const(v) if isinstance(v, float) else v
+
+    if len(points) == 2:  # ngspice 39: a single pair is the constant y0
+        node = as_expr(points[1][0])
+    else:
+        node = ex.Call("table", (control,) + tuple(as_expr(v) for v, _ in points))
+    if mult is not None:
+        node = ex.Binary("*", as_expr(mult[0]), node)
+    kind = "bvoltage" if letter == "e" else "bcurrent"
+    return ElementCard(name, kind, card, nodes, expr=(node, toks[k].start))
+
+
+def _laplace(card: Card, toks: list[Token], syntax, letter: str) -> ElementCard:
+    """``E|G n+ n- LAPLACE {expr} = {H(s)}``: netdae's extension (PSpice's syntax; ngspice 39 has none).
+
+    The card becomes kind ``laplace`` with the expression ``Call("laplace", (u, H))``, ``s``
+    written as :class:`netdae.netlist.expr.Time`; elaboration realises it as a state-space
+    block (:mod:`netdae.netlist.laplace`).
+    """
+    form = f"{letter.upper()}name n+ n- LAPLACE {{expr}} = {{H(s)}}"
+    nodes = _nodes(card, toks, 2, syntax)
+    exprs = [t for t in toks[4:] if not (t.kind == PUNCT and t.text == "=")]
+    if len(exprs) != 2 or any(t.kind != EXPR for t in exprs):
+        bad = next((t for t in exprs if t.kind != EXPR), exprs[2] if len(exprs) > 2 else None)
+        raise error(card, bad.start if bad is not None else _end(card),
+                    "expected the controlling expression and H(s), each in braces, after LAPLACE", form,
+                    hint="e.g. LAPLACE {V(in)} = {1/(1 + s*1m)}")
+    control = parse_expr(card, exprs[0].text, exprs[0].start + 1, ex.BEHAVIOURAL, form)
+    h = parse_expr(card, exprs[1].text, exprs[1].start + 1, ex.BEHAVIOURAL, form)
+    for m in ex.walk(h):
+        if type(m) in (ex.Voltage, ex.Current, ex.Time):
+            raise error(card, exprs[1].start, f"H(s) must be a function of s alone, not of {ex.to_text(m)}", form,
+                        hint="the controlling expression goes in the first braces")
+    h = ex.transform(h, lambda m: ex.Time() if m == ex.Param("s") else None)
+    card.warn(toks[3].start, f"LAPLACE is netdae's extension: ngspice 39 reads no LAPLACE form of "
+              f"{letter.upper()} (compare with an XSPICE s_xfer model)")
+    return ElementCard(toks[0].text, "laplace", card, nodes, expr=(ex.Call("laplace", (control, h)), toks[3].start))
 
 
 def _poly(card: Card, toks: list[Token], k: int, syntax, letter: str) -> ElementCard:
@@ -610,8 +810,14 @@ def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceC
     return InstanceCard(toks[0].text, card, nodes, sub.text, sub.start, params)
 
 
-def parse_element(card: Card) -> ElementCard | InstanceCard:
+def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
     """Parse one element card.
+
+    Returns
+    -------
+    ElementCard, InstanceCard or list of ElementCard
+        A list for an R, C or L whose value depends on V(), I() or time: the
+        behavioural elements that realise it (see ``_behavioural_two_terminal``).
 
     Raises
     ------

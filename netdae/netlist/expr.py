@@ -78,7 +78,10 @@ All nodes are frozen dataclasses (hashable, comparable).
     each; a Monte Carlo function (:mod:`netdae.netlist.montecarlo`), drawn
     through the evaluator's ``call``; before elaboration also a call of a
     user ``.func`` (elaboration inlines those). ``log`` is written as ``ln`` (both natural),
-    ``arctan`` as ``atan``, ``sqr(x)`` as ``x ** 2``.
+    ``arctan`` as ``atan``, ``sqr(x)`` as ``x ** 2``. ``pwl(x, x0, y0, ...)`` (a B source's
+    piecewise-linear function, :func:`pwl_point`) and ``table(x, x0, y0, ...)`` (an E/G
+    ``TABLE`` card, :func:`table_point`; built by the card parser, never parsed from text)
+    take their points as constants after elaboration.
 
 Examples
 --------
@@ -115,6 +118,11 @@ __all__ = [
     "Ternary",
     "Call",
     "FUNCTIONS",
+    "POINT_FUNCTIONS",
+    "TABLE_DOMAIN",
+    "table_point",
+    "pwl_point",
+    "check_points",
     "PARAM",
     "BEHAVIOURAL",
     "parse_expression",
@@ -232,6 +240,133 @@ def _cpow(a: float, b: float) -> float:
     return math.pow(a, b)
 
 
+#: The smoothing domain of a ``TABLE`` corner, as a fraction of the shorter adjacent segment
+#: (ngspice 39's ``input_domain=0.1 fraction=TRUE`` of the XSPICE ``pwl`` model it builds).
+TABLE_DOMAIN = 0.1
+
+
+def check_points(func: str, points) -> None:
+    """Check the points of a ``table``/``pwl`` call: pairs, at least the minimum, x strictly increasing.
+
+    Parameters
+    ----------
+    func : {"table", "pwl"}
+    points : sequence of float
+        ``x0, y0, x1, y1, ...``.
+
+    Raises
+    ------
+    ValueError
+        Naming the first offending point.
+    """
+    if len(points) % 2:
+        raise ValueError(f"{func}: the points must be (x, y) pairs, got {len(points)} number(s)")
+    need = 2 if func == "table" else 4
+    if len(points) < need:
+        raise ValueError(f"{func}: needs at least {need // 2} (x, y) pair{'s' if need > 2 else ''}")
+    xs = points[0::2]
+    for k in range(1, len(xs)):
+        if not xs[k] > xs[k - 1]:
+            raise ValueError(f"{func}: the x values must increase strictly: x{k} = {xs[k]:g} follows "
+                             f"x{k - 1} = {xs[k - 1]:g}")
+
+
+def table_point(x: float, points) -> tuple[float, float]:
+    """Value and slope of ngspice 39's E/G ``TABLE`` at ``x``.
+
+    ngspice 39 realises ``TABLE {expr} = (x0, y0) ... (xn, yn)`` with the XSPICE
+    ``pwl`` code model (``input_domain=0.1 fraction=TRUE limit=TRUE``): the table
+    extended by one point before and after (``x0 - (x1 - x0)``, ``xn + (xn - x(n-1))``)
+    with the end values (``limit``: flat outside the table), linear between the
+    points, and every corner (the end points included) replaced within
+    ``d = 0.1 min(left segment, right segment)`` of its x by the parabola that joins
+    the two slopes (``cm_smooth_corner``). The function is continuous with a
+    continuous slope; at a corner ``xi`` its value is ``yi + (s_right - s_left) d / 4``.
+
+    Parameters
+    ----------
+    x : float
+    points : sequence of float
+        ``x0, y0, x1, y1, ...``: at least two pairs, x strictly increasing
+        (:func:`check_points`). A single pair is a constant, written as such by
+        the parser.
+
+    Returns
+    -------
+    value, slope : float
+    """
+    n = len(points) // 2
+    # the extended table X[0..n+1], Y[0..n+1]
+    def px(i):
+        if i == 0:
+            return 2.0 * points[0] - points[2]
+        if i == n + 1:
+            return 2.0 * points[2 * n - 2] - points[2 * n - 4]
+        return points[2 * i - 2]
+
+    def py(i):
+        return points[2 * min(max(i, 1), n) - 1]
+
+    if x <= 0.5 * (px(0) + px(1)):
+        return py(0), 0.0
+    if x >= 0.5 * (px(n) + px(n + 1)):
+        return py(n + 1), 0.0
+    i = 1
+    while i < n and not x < 0.5 * (px(i) + px(i + 1)):
+        i += 1
+    xc, yc = px(i), py(i)
+    lower, upper = xc - px(i - 1), px(i + 1) - xc
+    s_lower, s_upper = (yc - py(i - 1)) / lower, (py(i + 1) - yc) / upper
+    d = TABLE_DOMAIN * min(lower, upper)
+    if x < xc - d:
+        return yc + (x - xc) * s_lower, s_lower
+    if x < xc + d:
+        a = (s_upper - s_lower) / (4.0 * d)
+        u = x - (xc + d)
+        return yc + s_upper * d + s_upper * u + a * u * u, s_upper + 2.0 * a * u
+    return yc + (x - xc) * s_upper, s_upper
+
+
+def pwl_point(x: float, points) -> tuple[float, float]:
+    """Value and slope of a B source's ``pwl(x, x0, y0, x1, y1, ...)`` at ``x`` (ngspice's ``PTpwl``).
+
+    Linear between the points and continued linearly beyond the first and the
+    last segment; a point's segment is the one to its right (the slope at ``xi``
+    is that of ``[xi, x(i+1)]``), as ngspice's binary search finds it.
+
+    Parameters
+    ----------
+    x : float
+    points : sequence of float
+        ``x0, y0, x1, y1, ...``: at least two pairs, x strictly increasing.
+
+    Returns
+    -------
+    value, slope : float
+    """
+    k0, k1 = 0, len(points) // 2 - 1
+    while k1 - k0 > 1:
+        k = (k0 + k1) // 2
+        if points[2 * k] > x:
+            k1 = k
+        else:
+            k0 = k
+    x0, y0, x1, y1 = points[2 * k0], points[2 * k0 + 1], points[2 * k1], points[2 * k1 + 1]
+    slope = (y1 - y0) / (x1 - x0)
+    return y0 + (x - x0) * slope, slope
+
+
+def _points_function(func: str, point: Callable) -> Callable:
+    def value(x: float, *points: float) -> float:
+        check_points(func, points)
+        return point(x, points)[0]
+    return value
+
+
+#: Functions of a variable number of arguments: ``f(x, x0, y0, x1, y1, ...)``, the points constants.
+POINT_FUNCTIONS = ("table", "pwl")
+
+
 #: Built-in functions after canonicalisation: name -> (arity, scalar function).
 #: Meanings: ``ln`` natural log; ``log10``; ``int`` truncation toward 0;
 #: ``nint`` round half to even; ``u`` unit step (0.5 at 0); ``uramp`` max(x, 0);
@@ -268,6 +403,10 @@ FUNCTIONS: dict[str, tuple[int, Callable]] = {
     "pow": (2, _cpow),
     "pwr": (2, _pwr),
     "limit": (3, _limit),
+    # behavioural only, any even number of points after x (arity -1): table() is the E/G TABLE card's
+    # form (not written by users: the parser refuses the call), pwl() the B-source function
+    "table": (-1, _points_function("table", table_point)),
+    "pwl": (-1, _points_function("pwl", pwl_point)),
 }
 
 # spelling -> canonical name (context independent)
@@ -275,7 +414,8 @@ _ALIASES = {"log": "ln", "arctan": "atan"}
 # functions ngspice knows that netdae rejects, with the reason
 _REJECTED = {
     "ddt": "a time derivative inside an expression", "sdt": "a time integral inside an expression",
-    "table": "a table lookup", "tablef": "a table lookup", "pwl": "an expression PWL",
+    "table": "a table lookup, PSpice's form; ngspice 39 reads it only in PSpice compatibility mode",
+    "tablef": "a table lookup",
     "u2": "the ngspice-only ramp u2", "eq0": "ngspice-internal", "ne0": "ngspice-internal",
     "gt0": "ngspice-internal", "lt0": "ngspice-internal", "ge0": "ngspice-internal",
     "le0": "ngspice-internal",
@@ -479,6 +619,13 @@ class _Parser:
             return Binary("**", args[0], Const(2.0))
         if name in RANDOM_FUNCTIONS and not (name == "limit" and len(args) == 3):
             self.arity(name, args, RANDOM_FUNCTIONS[name], start)
+            return Call(name, tuple(args))
+        if name == "pwl":
+            if self.context != BEHAVIOURAL:
+                raise self.error("pwl() is only available in behavioural sources (B, E/G value=)", start)
+            if len(args) < 5 or len(args) % 2 == 0:
+                raise self.error(f"pwl() takes the input and at least two (x, y) pairs, got {len(args)} "
+                                 "argument(s)", start, hint="write pwl(expr, x0, y0, x1, y1, ...)")
             return Call(name, tuple(args))
         if name == "pow" and self.context == BEHAVIOURAL or name == "pwr" and self.context == PARAM:
             self.arity(name, args, 2, start)

@@ -181,7 +181,8 @@ def inline_calls(node: ex.Expr, env: Env, depth: int = 0) -> ex.Expr:
         Wrong argument count or recursion.
     """
     def leaf(m):
-        if type(m) is not ex.Call or m.func in ex.FUNCTIONS or is_random_call(m.func, len(m.args)):
+        if type(m) is not ex.Call or m.func in ex.FUNCTIONS or m.func == "laplace" or is_random_call(m.func,
+                                                                                                     len(m.args)):
             return None
         if depth >= MAX_CALL_DEPTH:
             raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{m.func}'?)")
@@ -241,4 +242,13 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
     if ex.depth(tree) > ex.MAX_DEPTH:
         raise NetlistError(f"{_card_name(card)}: expression nested deeper than {ex.MAX_DEPTH} levels after "
                            "expanding .func calls", card.location(offset))
+    for m in ex.walk(tree):
+        if type(m) is ex.Call and m.func in ex.POINT_FUNCTIONS:
+            if any(type(a) is not ex.Const for a in m.args[1:]):
+                raise NetlistError(f"{_card_name(card)}: the points of {m.func}() must be constants (numbers or "
+                                   "parameters), not circuit quantities or time", card.location(offset))
+            try:
+                ex.check_points(m.func, [a.value for a in m.args[1:]])
+            except ValueError as exc:
+                raise NetlistError(f"{_card_name(card)}: {exc}", card.location(offset)) from None
     return tree

@@ -61,7 +61,11 @@ def build(deck: Deck) -> Netlist:
         if card.text[0] == ".":
             _dot_card(card, stack, net)
         else:
-            stack[-1].items.append(parse_element(card))
+            item = parse_element(card)
+            if type(item) is list:
+                stack[-1].items.extend(item)
+            else:
+                stack[-1].items.append(item)
             card.forget_tokens()
         if card.notes:
             net.diagnostics.extend(card.take_notes())

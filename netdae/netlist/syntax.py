@@ -62,8 +62,8 @@ class ElementSyntax:
 
 
 _RES_KEYS = frozenset({"tc1", "tc2", "tc", "tce", "m", "ac", "temp", "dtemp", "scale", "noisy", "l", "w", "r"})
-_CAP_KEYS = frozenset({"ic", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tc"})
-_IND_KEYS = frozenset({"ic", "m", "nt", "scale", "temp", "dtemp", "tc1", "tc2", "tc"})
+_CAP_KEYS = frozenset({"ic", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tc", "c"})
+_IND_KEYS = frozenset({"ic", "m", "nt", "scale", "temp", "dtemp", "tc1", "tc2", "tc", "l"})
 
 #: Source functions of V and I cards.
 SOURCE_FUNCTIONS = "PULSE(v1 v2 td tr tf pw per np) | SIN(vo va freq td theta phase) | " \
@@ -90,10 +90,14 @@ ELEMENTS: dict[str, ElementSyntax] = {
         ElementSyntax("e", "voltage-controlled voltage source", (
             "Ename n+ n- nc+ nc- gain", "Ename n+ n- value={expr}",
             "Ename n+ n- POLY(n) nc1+ nc1- ... ncn+ ncn- c0 c1 ...",
+            "Ename n+ n- TABLE {expr} = (x0, y0) (x1, y1) ...",
+            "Ename n+ n- LAPLACE {expr} = {H(s)}",
             "Ename out+ out- in+ in- OPAMP")),
         ElementSyntax("g", "voltage-controlled current source", (
             "Gname n+ n- nc+ nc- transconductance", "Gname n+ n- value={expr}",
-            "Gname n+ n- POLY(n) nc1+ nc1- ... ncn+ ncn- c0 c1 ...")),
+            "Gname n+ n- POLY(n) nc1+ nc1- ... ncn+ ncn- c0 c1 ...",
+            "Gname n+ n- TABLE {expr} = (x0, y0) (x1, y1) ... [m=mult]",
+            "Gname n+ n- LAPLACE {expr} = {H(s)}")),
         ElementSyntax("f", "current-controlled current source", (
             "Fname n+ n- vname gain", "Fname n+ n- POLY(n) v1 ... vn c0 c1 ...")),
         ElementSyntax("h", "current-controlled voltage source", (

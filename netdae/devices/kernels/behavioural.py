@@ -31,13 +31,14 @@ import math
 import numpy as np
 
 from ...dae.compiled import kernel
-
+from ...netlist.expr import TABLE_DOMAIN  # the smoothing domain of a TABLE's corners
 from ..autodiff import EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO  # ngspice's PTexp saturation, PTlog(0)
 from . import FLAG_NONFINITE
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope
 from .tape import (
     OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GE, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
-    OP_MAX, OP_MIN, OP_MOD, OP_MUL, OP_NE, OP_NEG, OP_NOT, OP_OR, OP_POW, OP_PWR, OP_SELECT, OP_SUB, OP_TIME,
+    OP_MAX, OP_MIN, OP_MOD, OP_MUL, OP_NE, OP_NEG, OP_NOT, OP_OR, OP_POW, OP_PWL, OP_PWR, OP_SELECT, OP_SUB,
+    OP_TABLE, OP_TIME,
 )
 
 __all__ = ["eval_behavioural", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
@@ -122,6 +123,64 @@ def _function(f, u):
         return np.rint(u), 0.0, False
     # F_U: ngspice's step, u(0) = 0.5
     return (1.0 if u > 0.0 else (0.0 if u < 0.0 else 0.5)), 0.0, False
+
+
+@kernel
+def _table_x(const, p0, n, i):
+    """x of point ``i`` of the extended table (0 and n + 1 added as ngspice's XSPICE pwl adds them)."""
+    if i == 0:
+        return 2.0 * const[p0] - const[p0 + 2]
+    if i == n + 1:
+        return 2.0 * const[p0 + 2 * n - 2] - const[p0 + 2 * n - 4]
+    return const[p0 + 2 * i - 2]
+
+
+@kernel
+def _table_y(const, p0, n, i):
+    return const[p0 + 2 * min(max(i, 1), n) - 1]
+
+
+@kernel
+def _table(u, const, p0, n):
+    """Value and slope of an E/G TABLE (the twin of :func:`netdae.netlist.expr.table_point`)."""
+    if u <= 0.5 * (_table_x(const, p0, n, 0) + _table_x(const, p0, n, 1)):
+        return _table_y(const, p0, n, 0), 0.0
+    if u >= 0.5 * (_table_x(const, p0, n, n) + _table_x(const, p0, n, n + 1)):
+        return _table_y(const, p0, n, n + 1), 0.0
+    i = 1
+    while i < n and not u < 0.5 * (_table_x(const, p0, n, i) + _table_x(const, p0, n, i + 1)):
+        i += 1
+    xc = _table_x(const, p0, n, i)
+    yc = _table_y(const, p0, n, i)
+    lower = xc - _table_x(const, p0, n, i - 1)
+    upper = _table_x(const, p0, n, i + 1) - xc
+    s_lower = (yc - _table_y(const, p0, n, i - 1)) / lower
+    s_upper = (_table_y(const, p0, n, i + 1) - yc) / upper
+    d = TABLE_DOMAIN * min(lower, upper)
+    if u < xc - d:
+        return yc + (u - xc) * s_lower, s_lower
+    if u < xc + d:
+        a = (s_upper - s_lower) / (4.0 * d)
+        w = u - (xc + d)
+        return yc + s_upper * d + s_upper * w + a * w * w, s_upper + 2.0 * a * w
+    return yc + (u - xc) * s_upper, s_upper
+
+
+@kernel
+def _pwl(u, const, p0, n):
+    """Value and slope of a B source's pwl() (the twin of :func:`netdae.netlist.expr.pwl_point`)."""
+    k0 = 0
+    k1 = n - 1
+    while k1 - k0 > 1:
+        k = (k0 + k1) // 2
+        if const[p0 + 2 * k] > u:
+            k1 = k
+        else:
+            k0 = k
+    x0 = const[p0 + 2 * k0]
+    y0 = const[p0 + 2 * k0 + 1]
+    slope = (const[p0 + 2 * k1 + 1] - y0) / (const[p0 + 2 * k1] - x0)
+    return y0 + (u - x0) * slope, slope
 
 
 @kernel
@@ -224,6 +283,14 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der):
                 src = hi
             val[r] = val[src]
             _copy_der(der, r, src, nl)
+        elif op == OP_TABLE or op == OP_PWL:
+            if op == OP_TABLE:
+                v, slope = _table(val[a], const, c0 + b, c)
+            else:
+                v, slope = _pwl(val[a], const, c0 + b, c)
+            val[r] = v
+            for j in range(nl):
+                der[r, j] = _scaled(der[a, j], slope)
         elif op >= OP_FUNC1:
             v, slope, has_slope = _function(op - OP_FUNC1, val[a])
             val[r] = v

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from ...netlist.expr import Binary, Call, Const, Current, Expr, Param, Ternary, Time, Unary, Voltage
 
-__all__ = ["compile_tape", "OP_NAMES", "OP_CONST", "OP_TIME", "OP_LEAF"]
+__all__ = ["compile_tape", "OP_NAMES", "OP_CONST", "OP_TIME", "OP_LEAF", "OP_TABLE", "OP_PWL"]
 
 OP_CONST, OP_TIME, OP_LEAF, OP_NEG, OP_NOT = 0, 1, 2, 3, 4
 OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_MOD, OP_AND, OP_OR = 10, 11, 12, 13, 14, 15, 16, 17
@@ -41,6 +41,9 @@ FUNCTIONS_1 = ("sqrt", "exp", "ln", "log10", "sin", "cos", "tan", "asin", "acos"
                "tanh", "asinh", "acosh", "atanh", "abs", "uramp", "sgn", "floor", "ceil", "int", "nint", "u")
 OP_FUNC1 = 40
 OP_MIN, OP_MAX, OP_CPOW, OP_PWR, OP_LIMIT = 70, 71, 72, 73, 74
+#: ``table(x, points)``/``pwl(x, points)``: ``(op, x register, first constant, number of pairs)``.
+OP_TABLE, OP_PWL = 75, 76
+_POINTS = {"table": OP_TABLE, "pwl": OP_PWL}
 
 _BINARY = {"+": OP_ADD, "-": OP_SUB, "*": OP_MUL, "/": OP_DIV, "**": OP_POW, "%": OP_MOD, "&&": OP_AND,
            "||": OP_OR, "==": OP_EQ, "!=": OP_NE, "<": OP_LT, "<=": OP_LE, ">": OP_GT, ">=": OP_GE}
@@ -51,6 +54,7 @@ _CALLS.update({name: OP_FUNC1 + i for i, name in enumerate(FUNCTIONS_1)})
 OP_NAMES = {OP_CONST: "const", OP_TIME: "time", OP_LEAF: "leaf", OP_NEG: "neg", OP_NOT: "not",
             OP_SELECT: "select"}
 OP_NAMES.update({code: name for name, code in _CALLS.items()})
+OP_NAMES.update({code: name for name, code in _POINTS.items()})
 OP_NAMES.update({OP_ADD: "add", OP_SUB: "sub", OP_MUL: "mul", OP_DIV: "div", OP_POW: "pow_abs", OP_MOD: "mod",
                  OP_AND: "and", OP_OR: "or", OP_EQ: "eq", OP_NE: "ne", OP_LT: "lt", OP_LE: "le", OP_GT: "gt",
                  OP_GE: "ge"})
@@ -120,6 +124,13 @@ def compile_tape(tree: Expr) -> tuple[list[int], list[tuple[int, int, int]], lis
             then = visit(node.then)
             other = visit(node.other)
             return emit(OP_SELECT, cond, then, other)
+        if t is Call and node.func in _POINTS:
+            x = visit(node.args[0])
+            if any(type(a) is not Const for a in node.args[1:]):
+                raise ValueError(f"the points of {node.func}() must be constants")
+            first = len(consts)
+            consts.extend(float(a.value) for a in node.args[1:])
+            return emit(_POINTS[node.func], x, first, (len(node.args) - 1) // 2)
         if t is Call:
             code = _CALLS.get(node.func)
             if code is None:
