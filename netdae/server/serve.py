@@ -42,8 +42,16 @@ WARM_NETLISTS = (
 )
 
 
+#: Modules the commands import after the analyses (writers, the comparison's own parts; not the
+#: ngspice bridge: a shared library loaded before forking would be shared by every worker).
+WARM_MODULES = ("netdae.cli.run", "netdae.cli.progress", "netdae.cli.check", "netdae.cli.index", "netdae.cli.sweep",
+                "netdae.io.csv", "netdae.io.raw", "netdae.io.files", "netdae.io.sweep", "netdae.comparison",
+                "netdae.sweeps", "netdae.analyses.pz", "netdae.analyses.tf", "netdae.analyses.dc",
+                "netdae.analyses.index", "netdae.topology")
+
+
 def warm_up() -> None:
-    """Import the engine and run :data:`WARM_NETLISTS` (output discarded, errors ignored)."""
+    """Import the engine, run :data:`WARM_NETLISTS` (output discarded, errors ignored), import :data:`WARM_MODULES`."""
     import logging
 
     from .. import run
@@ -55,8 +63,17 @@ def warm_up() -> None:
     try:
         for text in WARM_NETLISTS:
             try:
-                run(text)
+                for result in run(text):
+                    if result.analysis == "tran" and result.dense is not None:
+                        result.dense(result.axis[:3])  # the dense-output kernel
             except Exception:  # noqa: BLE001 - warming is best effort; a real run reports its own errors
+                pass
+        import importlib
+
+        for name in WARM_MODULES:
+            try:
+                importlib.import_module(name)
+            except ImportError:
                 pass
     finally:
         logging.getLogger("netdae").disabled = False
