@@ -11,12 +11,14 @@ from .behavioral import BehaviouralFamily
 from .bjt import BjtFamily
 from .diode import DiodeFamily
 from .mosfet import MosfetFamily
+from .osdi.family import OsdiFamily
 from .switch import SwitchFamily
 
 __all__ = ["FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily)
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily,
+                                            OsdiFamily)
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:

@@ -1,0 +1,184 @@
+"""The device family of OSDI instances: every ``N`` element of a circuit, evaluated in one pass.
+
+Each instance is connected to the MNA system once (:meth:`OsdiFamily.bind`):
+its node mapping points at the global unknowns (ground at the extra slot
+``n`` of the extended iterate, which is 0), its Jacobian pointers at the
+family's scratch arrays (one entry per Jacobian entry of every instance),
+whose values are scattered into the fixed sparsity pattern through
+precomputed slots. :meth:`OsdiFamily.evaluate` copies the iterate into the
+buffer ``eval`` reads, calls ``eval`` and the four ``load_*`` functions of
+every instance, and adds ``-f`` to ``phi`` and ``q`` to ``q`` (OSDI's
+``f(x) + d/dt q(x) = 0`` with ``f`` the currents leaving a node; netdae's
+node rows are the currents entering it).
+
+Internal nodes that survive collapse become internal unknowns named
+``<element>#<node>`` (flow unknowns, the currents of Verilog-A branches
+with a potential contribution, are numbered as internal nodes too, with the
+tolerance of a voltage: a first phase). Limiting is off (the modules'
+``$limit`` passes the iterate through), so the family has no limiting state.
+The evaluation runs through ctypes, a few microseconds per instance; the
+compiled engine does not run it yet (a system with OSDI devices is
+integrated by the Python BDF driver).
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+import re
+
+import numpy as np
+
+from ..base import Accumulator, DeviceFamily, SlotMap
+from . import abi
+from .bind import build
+from .evaluate import eval_flags
+
+__all__ = ["OsdiFamily"]
+
+_NOT_NAME = re.compile(r"[^0-9a-z_]+")
+
+
+class _Calls:
+    """The descriptor's functions of one module, cast once."""
+
+    def __init__(self, descriptor) -> None:
+        self.eval = abi.EVAL(descriptor.eval)
+        self.res_f = abi.LOAD_RESIDUAL(descriptor.load_residual_resist)
+        self.res_q = abi.LOAD_RESIDUAL(descriptor.load_residual_react)
+        self.jac_f = abi.LOAD_JACOBIAN_RESIST(descriptor.load_jacobian_resist)
+        self.jac_q = abi.LOAD_JACOBIAN_REACT(descriptor.load_jacobian_react)
+
+
+class OsdiFamily(DeviceFamily):
+    """Every OSDI instance of a circuit (element kind ``osdi``)."""
+
+    kinds = frozenset({"osdi"})
+
+    def __init__(self, elements, circuit) -> None:
+        super().__init__(elements, circuit)
+        self.models, self.instances = build(circuit, self.elements)
+        self.reps = [inst.node_classes() for inst in self.instances]
+        self._calls: dict[int, _Calls] = {}
+        for inst in self.instances:
+            key = id(inst.module)
+            if key not in self._calls:
+                self._calls[key] = _Calls(inst.module.descriptor)
+
+    # -- topology ----------------------------------------------------------
+    def add_nodes(self, layout) -> None:
+        """Terminals to the circuit's nodes, surviving internal nodes to new unknowns."""
+        self.glob = []
+        for el, inst, reps in zip(self.elements, self.instances, self.reps):
+            mod = inst.module
+            nt = mod.num_terminals
+            g = np.empty(len(mod.nodes), dtype=np.int64)
+            for i, node in enumerate(mod.nodes):
+                r = reps[i]
+                if r < 0:
+                    g[i] = -1
+                elif r < nt:
+                    g[i] = layout.node(el.nodes[r])
+                elif r == i:
+                    g[i] = layout.add_node(f"{el.name}#{_NOT_NAME.sub('_', node.name).strip('_')}", internal=True)
+            for i in range(len(mod.nodes)):
+                if reps[i] >= nt:
+                    g[i] = g[reps[i]]
+            self.glob.append(g)
+
+    def coordinates(self, layout):
+        rows, cols = [], []
+        for inst, g in zip(self.instances, self.glob):
+            jac = inst.module.jacobian
+            rows.append(np.array([g[e.row] for e in jac], dtype=np.int64))
+            cols.append(np.array([g[e.col] for e in jac], dtype=np.int64))
+        self._rows, self._cols = rows, cols
+        if not rows:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.concatenate(rows), np.concatenate(cols)
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        """Connect every instance: node mapping into the extended iterate, Jacobian pointers into scratch."""
+        self.n = n
+        total = sum(len(inst.module.jacobian) for inst in self.instances)
+        self.jr = np.zeros(max(total, 1))
+        self.jc = np.zeros(max(total, 1))
+        self.slots = slots(np.concatenate(self._rows), np.concatenate(self._cols)) if total else np.zeros(0, np.int64)
+        nstates = sum(inst.module.num_states for inst in self.instances)
+        self.prev_state = np.zeros(max(nstates, 1))
+        self.next_state = np.zeros(max(nstates, 1))
+        self.xbuf = np.zeros(n + 1)
+        self.fbuf = np.zeros(n + 1)
+        self.qbuf = np.zeros(n + 1)
+        off = soff = 0
+        for inst, g in zip(self.instances, self.glob):
+            nj, ns = len(inst.module.jacobian), inst.module.num_states
+            mapping = np.where(g < 0, n, g).astype(np.uint32)
+            inst.connect(mapping, self.jr[off:off + nj], self.jc[off:off + nj], np.arange(soff, soff + ns))
+            off += nj
+            soff += ns
+        self.info = abi.OsdiSimInfo()
+        if self.instances:  # the models of one circuit share their simulator parameters (bind.build)
+            self.sim = self.instances[0].model.sim
+            self.info.paras = self.sim.struct
+        self.info.prev_solve = self.xbuf.ctypes.data_as(C.POINTER(C.c_double))
+        self.info.prev_state = self.prev_state.ctypes.data_as(C.POINTER(C.c_double))
+        self.info.next_state = self.next_state.ctypes.data_as(C.POINTER(C.c_double))
+        self._flags = (eval_flags("tran"), eval_flags("tran") & ~(abi.CALC_RESIST_JACOBIAN | abi.CALC_REACT_JACOBIAN))
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        """Terminals joined through the module's resistive Jacobian entries (a DC path, structurally)."""
+        pairs = []
+        for el, inst in zip(self.elements, self.instances):
+            mod = inst.module
+            parent = list(range(len(mod.nodes)))
+
+            def find(i):
+                while parent[i] != i:
+                    i = parent[i]
+                return i
+
+            for e in mod.jacobian:
+                if e.resist and e.row != e.col:
+                    a, b = find(e.row), find(e.col)
+                    if a != b:
+                        parent[max(a, b)] = min(a, b)
+            for t in range(1, mod.num_terminals):
+                for s in range(t):
+                    if find(s) == find(t):
+                        pairs.append((el.nodes[s], el.nodes[t]))
+                        break
+        return pairs
+
+    # -- evaluation --------------------------------------------------------
+    def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        self.xbuf[:] = x
+        self.xbuf[self.n] = 0.0
+        self.fbuf[:] = 0.0
+        self.qbuf[:] = 0.0
+        info = self.info
+        info.abstime = float(t)
+        info.flags = self._flags[0] if jacobian else self._flags[1]
+        if jacobian:
+            self.jr[:] = 0.0
+            self.jc[:] = 0.0
+        fptr, qptr = self.fbuf.ctypes.data, self.qbuf.ctypes.data
+        ref = C.byref(info)
+        for inst in self.instances:
+            calls = self._calls[id(inst.module)]
+            mptr = inst.model.ptr
+            ret = calls.eval(inst.handle, inst.ptr, mptr, ref)
+            if ret & abi.EVAL_RET_FLAG_FATAL:
+                acc.ok = False
+            calls.res_f(inst.ptr, mptr, fptr)
+            calls.res_q(inst.ptr, mptr, qptr)
+            if jacobian:
+                calls.jac_f(inst.ptr, mptr)
+                calls.jac_q(inst.ptr, mptr, 1.0)
+        acc.phi -= self.fbuf
+        acc.q += self.qbuf
+        if jacobian and len(self.slots):
+            acc.add_dphi(self.slots, -self.jr[: len(self.slots)])
+            acc.add_dq(self.slots, self.jc[: len(self.slots)])
+        if not (np.isfinite(self.fbuf).all() and np.isfinite(self.qbuf).all()):
+            acc.ok = False
+        return None
