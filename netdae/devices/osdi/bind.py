@@ -61,7 +61,7 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
     els = [el for el in circuit.elements if el.kind == "osdi"] if elements is None else elements
     modules = circuit_modules(circuit)
     opts = circuit.options
-    sim = SimParameters(tnom=opts.tnom + KELVIN, gmin=opts.gmin, reltol=opts.reltol, abstol=opts.abstol,
+    sim = SimParameters(tnom=opts.tnom, gmin=opts.gmin, reltol=opts.reltol, abstol=opts.abstol,
                         vntol=opts.vntol)
     models: dict[str, OsdiModel] = {}
     instances = []

