@@ -170,3 +170,52 @@ def test_wrong_osdi_version_is_located(tmp_path):
     path = _fake_osdi(tmp_path, 0, 3)
     e = _error(f"t\n.osdi {path}\nV1 a 0 1\nR1 a 0 1k\n")
     assert e.location.line == 2 and "OSDI version 0.3" in e.message
+
+
+# --- the compiled engine ----------------------------------------------------------------------
+
+INVERTER = (f"inv\n.osdi {MOD}/spice/bsim4v8.osdi\nVdd vdd 0 1.2\nVin in 0 PULSE(0 1.2 1n 0.1n 0.1n 2n 5n)\n"
+            "Np out in vdd vdd pch l=0.2u w=2u\nNn out in 0 0 nch l=0.2u w=1u\nCl out 0 20f\n"
+            ".model nch sp_bsim4v8 type=1 vth0=0.45\n.model pch sp_bsim4v8 type=-1 vth0=-0.45\n.tran 10p 8n\n")
+
+
+def test_compiled_kernel_equals_the_family():
+    from netdae.devices.base import Accumulator, SlotMap
+    from netdae.devices.kernels.osdi import eval_osdi
+    from netdae.devices.osdi.family import OsdiFamily
+    from netdae.mna import assemble
+
+    system = assemble(netdae.load(INVERTER))
+    fam = next(f for f in system.families if isinstance(f, OsdiFamily))
+    n, nnz = system.n, system.pattern.nnz
+    packed = fam.compiled(SlotMap(system.pattern), n)
+    rng = np.random.default_rng(7)
+    for jacobian in (True, False):
+        for _ in range(4):
+            x = np.append(rng.uniform(-0.3, 1.5, n), 0.0)
+            acc = Accumulator(n, nnz)
+            fam.evaluate(x, 2e-9, acc, None, jacobian)
+            q, phi, dq, dphi = np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1)
+            flags, bad = eval_osdi(x, 2e-9, *packed, q, phi, dq, dphi, jacobian)
+            assert (flags, bad) == (0, -1)
+            assert np.array_equal(q, acc.q) and np.array_equal(phi, acc.phi)
+            if jacobian:
+                assert np.array_equal(dq, acc.dq) and np.array_equal(dphi, acc.dphi)
+
+
+@pytest.mark.parametrize("netlist", ["inverter", "diode"])
+def test_compiled_engine_equals_the_python_integrator(monkeypatch, netlist):
+    text = INVERTER if netlist == "inverter" else (
+        f"d\n.osdi {MOD}/spice/diode.osdi\nV1 in 0 SIN(0 2 1meg)\nR1 in a 100\nN1 a k dm\nC1 k 0 1n\nR2 k 0 1k\n"
+        ".model dm sp_diode is=1e-14 n=1.2 rs=5 cjo=2p tt=1n\n.tran 1n 3u\n")
+    compiled = netdae.simulate(netdae.load(text))
+    monkeypatch.setenv("NETDAE_ENGINE", "python")
+    python = netdae.simulate(netdae.load(text))
+    assert compiled.ok and python.ok
+    assert compiled.stats["integrator"].get("engine") == "compiled"
+    assert python.stats["integrator"].get("engine") != "compiled"
+    steps_c, steps_p = compiled.stats["steps"], python.stats["steps"]
+    assert abs(steps_c - steps_p) <= 0.05 * steps_p
+    node = "v(out)" if netlist == "inverter" else "v(k)"
+    t = np.linspace(0.0, compiled.axis[-1], 400)
+    assert np.abs(np.interp(t, compiled.axis, compiled[node]) - np.interp(t, python.axis, python[node])).max() < 2e-3

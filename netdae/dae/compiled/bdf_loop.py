@@ -52,6 +52,7 @@ from ...devices.kernels.behavioural import eval_behavioural
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
+from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
 from .events import CHATTER_EVENTS, EVENT_TOGETHER
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
@@ -402,7 +403,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     for i in range(n):
@@ -426,6 +428,10 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
         hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
                                         jacobian)
         flags |= hflags
+    if o_inst.shape[0] > 0:
+        oflags, obad = eval_osdi(xe, t, o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr,
+                                 o_jc, qe, phie, dqe, dphie, jacobian)
+        flags |= oflags
     I[I_EVALUATIONS] += 1
     if jacobian:
         I[I_JAC_EVALUATIONS] += 1
@@ -440,7 +446,8 @@ def _accept_state(I, devd):
     """The trial limiting state becomes the accepted one (after an accepted step)."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
@@ -454,7 +461,8 @@ def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)
@@ -894,7 +902,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     devd : tuple
         The device families, ``(par, idx, vacc, vtry, vnew)`` each for diodes, BJTs,
         MOSFETs and switches (empty arrays for an absent family), the switches' work
-        array of crossing times, then the behavioural sources' tapes.
+        array of crossing times, then the behavioural sources' tapes, then the OSDI
+        devices' arrays (:func:`netdae.devices.kernels.osdi.eval_osdi`).
     lus : tuple
         The LU: the plan's arrays (:meth:`netdae.dae.compiled.lu.LuPlan.refactor_args`,
         ``perm_r``, ``perm_c``), the factors' values and two work vectors.

@@ -125,6 +125,44 @@ class OsdiFamily(DeviceFamily):
         self.info.next_state = self.next_state.ctypes.data_as(C.POINTER(C.c_double))
         self._flags = (eval_flags("tran"), eval_flags("tran") & ~(abi.CALC_RESIST_JACOBIAN | abi.CALC_REACT_JACOBIAN))
 
+    def compiled(self, slots: SlotMap, n: int) -> tuple:
+        """Pack the family for :func:`netdae.devices.kernels.osdi.eval_osdi` (after ``bind``).
+
+        Returns
+        -------
+        tuple
+            ``(inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc)``: the
+            family's own buffers (the instances hold their addresses) and the
+            function addresses of its modules.
+        """
+        from ..kernels import osdi as ko
+
+        modules: dict[int, int] = {}
+        fns = []
+        inst = np.zeros((len(self.instances), ko.N_INST), dtype=np.int64)
+        off = 0
+        for k, i in enumerate(self.instances):
+            d = i.module.descriptor
+            row = modules.get(id(i.module))
+            if row is None:
+                row = modules[id(i.module)] = len(fns)
+                fns.append((d.eval, d.load_residual_resist, d.load_residual_react, d.load_jacobian_resist,
+                            d.load_jacobian_react))
+            nj = len(i.module.jacobian)
+            inst[k] = (i.handle, i.ptr, i.model.ptr, row, off, off + nj)
+            off += nj
+        info_i = np.zeros(ko.INFO_WORDS, dtype=np.int64)
+        if self.instances:
+            sim = self.sim
+            info_i[:4] = [C.addressof(sim.names), C.addressof(sim.vals), C.addressof(sim.names_str),
+                          C.addressof(sim.vals_str)]
+        info_i[ko.W_PREV_SOLVE] = self.xbuf.ctypes.data
+        info_i[ko.W_PREV_STATE] = self.prev_state.ctypes.data
+        info_i[ko.W_NEXT_STATE] = self.next_state.ctypes.data
+        self._info_words = info_i  # the kernel's OsdiSimInfo (kept alive with the family)
+        return (inst, np.array(fns, dtype=np.int64).reshape(-1, ko.N_FNS), np.asarray(self.slots, dtype=np.int64),
+                info_i, info_i.view(np.float64), self.xbuf, self.fbuf, self.qbuf, self.jr[:off], self.jc[:off])
+
     def junction_nodes(self) -> list[tuple[str, str]]:
         """Terminals joined through the module's resistive Jacobian entries (a DC path, structurally)."""
         pairs = []
