@@ -85,8 +85,8 @@ def compile_va(source: str, *, location: SourceLocation | None = None, cache_dir
     if os.path.isfile(target):
         return target
     partial = target + f".{os.getpid()}.part"
-    proc = subprocess.run([vb.OPENVAF_CMD, os.path.abspath(source), "-o", partial], capture_output=True, text=True, timeout=timeout,
-                          cwd=os.path.dirname(os.path.abspath(source)))
+    proc = subprocess.run([vb.OPENVAF_CMD, os.path.abspath(source), "-o", partial], capture_output=True, text=True,
+                          timeout=timeout, cwd=os.path.dirname(os.path.abspath(source)))
     if proc.returncode != 0 or not os.path.isfile(partial):
         text = (proc.stderr or proc.stdout).strip()
         raise NetlistError(f"openvaf-r could not compile {source}:\n{text}", location,
