@@ -253,3 +253,9 @@ def test_bsim4_inverter_equals_vacask(tmp_path):
     theirs = _crossings(np.asarray(ref.axis), np.asarray(ref["out"]), 0.6)
     assert len(theirs) == 3 and len(ours) == 3
     assert np.abs(ours - theirs).max() < 2e-12  # the 0.6 V crossings agree to 2 ps (edges of 0.1 ns)
+
+
+def test_m_is_the_multiplicity():
+    v = _op(f"m\n.osdi {MOD}/resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k m=2\nN2 out 0 rm r=1k\n"
+            ".model rm resistor\n.op\n")
+    assert v["v(out)"] == pytest.approx(2.0 / 3.0, rel=1e-9)  # two 1k in parallel above 1k

@@ -47,6 +47,14 @@ def _module_of(el: Element, circuit: Circuit, modules: dict[str, OsdiModule]) ->
     return mod
 
 
+def _instance_params(mod: OsdiModule, params: dict) -> dict:
+    """ngspice's ``m=`` is OpenVAF's ``$mfactor`` when the module has no parameter ``m`` of its own."""
+    if "m" in params and mod.parameter("m") is None and mod.parameter("$mfactor") is not None:
+        params = dict(params)
+        params["$mfactor"] = params.pop("m")
+    return params
+
+
 def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict[str, OsdiModel], list[OsdiInstance]]:
     """The OSDI models (by ``.model`` name) and one instance per element (default: every ``N`` element).
 
@@ -72,8 +80,8 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
             card = circuit.models[el.model]
             model = models[el.model] = OsdiModel(mod, card.name, {**card.params, **card.strings}, sim=sim,
                                                  location=card.location, locations=card.locations)
-        instances.append(OsdiInstance(model, el.name, el.params, temperature=opts.temp + KELVIN,
-                                      location=el.location))
+        instances.append(OsdiInstance(model, el.name, _instance_params(mod, el.params),
+                                      temperature=opts.temp + KELVIN, location=el.location))
     return models, instances
 
 
