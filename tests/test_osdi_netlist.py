@@ -259,3 +259,28 @@ def test_m_is_the_multiplicity():
     v = _op(f"m\n.osdi {MOD}/resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k m=2\nN2 out 0 rm r=1k\n"
             ".model rm resistor\n.op\n")
     assert v["v(out)"] == pytest.approx(2.0 / 3.0, rel=1e-9)  # two 1k in parallel above 1k
+
+
+@pytest.mark.parametrize("temp, tnom", [(75, ""), (-20, "tnom=50")])
+def test_osdi_diode_follows_temperature_like_netdae_diode(temp, tnom):
+    """.temp reaches setup_instance (kelvin) and tnom the model: ngspice's diode in both forms agrees."""
+    params = f"is=1e-14 n=1.2 rs=5 eg=1.11 xti=3 {tnom}"
+    body = f".temp {temp}\nV1 in 0 1\nR1 in a 1k\n{{d}}\n{{m}}\n.op\n"
+    osdi = _op(f"d\n.osdi {MOD}/spice/diode.osdi\n" + body.format(d="N1 a 0 dm", m=f".model dm sp_diode {params}"))
+    ref = _op("d\n" + body.format(d="D1 a 0 dm", m=f".model dm d {params}"))
+    assert osdi["v(a)"] == pytest.approx(ref["v(a)"], abs=1e-6)
+
+
+def test_flow_unknown_is_the_branch_current_of_the_element():
+    """A Verilog-A inductor's current (a flow unknown) is ``i(n1)``, as an L card's is ``i(l1)``."""
+    body = "V1 in 0 PULSE(0 1 0 1n 1n 5u 10u)\nR1 in a 10\n{l}\n.tran 10n 10u\n"
+    a = netdae.simulate(netdae.load(f"rl\n.osdi {MOD}/inductor.osdi\n.model lm inductor\n"
+                                    + body.format(l="N1 a 0 lm l=1m")))
+    b = netdae.simulate(netdae.load("rl\n" + body.format(l="L1 a 0 1m")))
+    assert "i(n1)" in a.names() and a.ok and b.ok
+    t = np.linspace(0, 10e-6, 201)
+    tau = 1e-3 / 10
+    exact = np.where(t < 5e-6, 0.1 * (1 - np.exp(-t / tau)),
+                     0.1 * (1 - math.exp(-5e-6 / tau)) * np.exp(-(t - 5e-6) / tau))
+    assert np.abs(np.interp(t, a.axis, a["i(n1)"]) - np.interp(t, b.axis, b["i(l1)"])).max() < 1e-9
+    assert np.abs(np.interp(t, a.axis, a["i(n1)"]) - exact).max() < 2e-4 * 0.1 + 1e-6

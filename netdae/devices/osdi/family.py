@@ -12,9 +12,9 @@ every instance, and adds ``-f`` to ``phi`` and ``q`` to ``q`` (OSDI's
 node rows are the currents entering it).
 
 Internal nodes that survive collapse become internal unknowns named
-``<element>#<node>`` (flow unknowns, the currents of Verilog-A branches
-with a potential contribution, are numbered as internal nodes too, with the
-tolerance of a voltage: a first phase). Limiting is off (the modules'
+``<element>#<node>``; flow unknowns (the currents of Verilog-A branches with
+a potential contribution, such as an inductor's) become branch currents,
+``i(<element>)`` when the module has one, ``i(<element>#<branch>)`` otherwise. Limiting is off (the modules'
 ``$limit`` passes the iterate through), so the family has no limiting state.
 The evaluation runs through ctypes, a few microseconds per instance; the
 compiled engine does not run it yet (a system with OSDI devices is
@@ -36,6 +36,13 @@ from .evaluate import eval_flags
 __all__ = ["OsdiFamily"]
 
 _NOT_NAME = re.compile(r"[^0-9a-z_]+")
+
+
+def _name(node: str) -> str:
+    """A module's node name as part of an unknown's name: ``flow(br)`` -> ``br``."""
+    if node.startswith("flow(") and node.endswith(")"):
+        node = node[5:-1]
+    return _NOT_NAME.sub("_", node).strip("_") or "node"
 
 
 class _Calls:
@@ -66,24 +73,34 @@ class OsdiFamily(DeviceFamily):
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
-        """Terminals to the circuit's nodes, surviving internal nodes to new unknowns."""
+        """Terminals to the circuit's nodes, surviving internal potentials to new node unknowns."""
         self.glob = []
         for el, inst, reps in zip(self.elements, self.instances, self.reps):
             mod = inst.module
             nt = mod.num_terminals
-            g = np.empty(len(mod.nodes), dtype=np.int64)
+            g = np.full(len(mod.nodes), -2, dtype=np.int64)  # -2: a flow unknown, numbered in add_branches
             for i, node in enumerate(mod.nodes):
                 r = reps[i]
                 if r < 0:
                     g[i] = -1
                 elif r < nt:
                     g[i] = layout.node(el.nodes[r])
-                elif r == i:
-                    g[i] = layout.add_node(f"{el.name}#{_NOT_NAME.sub('_', node.name).strip('_')}", internal=True)
-            for i in range(len(mod.nodes)):
-                if reps[i] >= nt:
-                    g[i] = g[reps[i]]
+                elif r == i and not node.is_flow:
+                    g[i] = layout.add_node(f"{el.name}#{_name(node.name)}", internal=True)
             self.glob.append(g)
+
+    def add_branches(self, layout) -> None:
+        """Surviving flow unknowns (currents of Verilog-A branches) to branch currents: ``i(<element>)``
+        for a module with one, ``i(<element>#<branch>)`` otherwise."""
+        for el, inst, reps, g in zip(self.elements, self.instances, self.reps, self.glob):
+            mod = inst.module
+            flows = [i for i, node in enumerate(mod.nodes) if node.is_flow and reps[i] == i]
+            for i in flows:
+                name = el.name if len(flows) == 1 else f"{el.name}#{_name(mod.nodes[i].name)}"
+                g[i] = layout.add_branch(name)
+            for i in range(len(mod.nodes)):
+                if reps[i] >= mod.num_terminals:
+                    g[i] = g[reps[i]]
 
     def coordinates(self, layout):
         rows, cols = [], []
