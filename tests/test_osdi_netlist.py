@@ -284,3 +284,14 @@ def test_flow_unknown_is_the_branch_current_of_the_element():
                      0.1 * (1 - math.exp(-5e-6 / tau)) * np.exp(-(t - 5e-6) / tau))
     assert np.abs(np.interp(t, a.axis, a["i(n1)"]) - np.interp(t, b.axis, b["i(l1)"])).max() < 1e-9
     assert np.abs(np.interp(t, a.axis, a["i(n1)"]) - exact).max() < 2e-4 * 0.1 + 1e-6
+
+
+def test_ac_and_dc_analyses_of_osdi_devices():
+    results = netdae.run(netdae.load(
+        f"rc\n.osdi {MOD}/resistor.osdi\n.osdi {MOD}/capacitor.osdi\nV1 in 0 DC 0 AC 1\nN1 in out rm r=1k\n"
+        "N2 out 0 cm c=1n\n.model rm resistor\n.model cm capacitor\n.ac dec 5 1k 10meg\n.dc V1 0 1 0.5\n"))
+    ac = next(r for r in results if r.analysis == "ac")
+    f = np.asarray(ac.axis)
+    assert np.abs(np.asarray(ac["v(out)"]) - 1 / (1 + 2j * np.pi * f * 1e-6)).max() < 1e-12
+    dc = next(r for r in results if r.analysis == "dc")
+    assert np.allclose(dc["v(out)"], [0.0, 0.5, 1.0], atol=1e-12)
