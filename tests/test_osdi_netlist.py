@@ -142,11 +142,22 @@ def test_model_type_that_no_library_defines():
     assert "resistor" in e.expected
 
 
-def test_terminal_count_must_match_the_module():
-    e = _error(f"t\n.osdi {MOD}/spice/bsim4v8.osdi\nV1 a 0 1\nN1 a 0 a nch\n.model nch sp_bsim4v8 type=1\n")
+def test_more_nodes_than_terminals_is_an_error():
+    e = _error(f"t\n.osdi {MOD}/spice/bsim4v8.osdi\nV1 a 0 1\nN1 a 0 a 0 a nch\n.model nch sp_bsim4v8 type=1\n")
     assert e.location.line == 4
-    assert "4 terminals (d, g, s, b), the instance connects 3 nodes" in e.message
+    assert "4 terminals (d, g, s, b), the instance connects 5 nodes" in e.message
     assert e.expected == "n1 d g s b nch [name=value ...]" and "bsim4v8.osdi" in e.message
+
+
+def test_fewer_nodes_leave_the_last_terminals_unconnected():
+    """BSIM-BULK's fifth terminal is thermal: an instance of four nodes leaves it to the model (collapsed)."""
+    ids = []
+    for vg in (0.3, 0.6, 1.2):
+        v = _op(f"bb\n.osdi {MOD}/bsimbulk106.osdi\nVd d 0 1.2\nVg g 0 {vg}\nN1 d g 0 0 nch l=0.2u w=1u\n"
+                ".model nch bsimbulk type=1\n.op\n")
+        assert "v(n1#t)" not in v
+        ids.append(-v["i(vd)"])
+    assert 0 < ids[0] < ids[1] < ids[2] and ids[2] > 1e-5
 
 
 def test_unknown_model_parameter_is_located_at_the_parameter():

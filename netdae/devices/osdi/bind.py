@@ -3,7 +3,8 @@
 A netlist loads libraries with ``.osdi file.osdi`` (or ``pre_osdi`` in a
 ``.control`` block); a ``.model name module [params]`` card whose type is a
 module of a loaded library makes an OSDI model, and ``Nname n1 n2 ... name
-[params]`` an instance of it, connecting exactly the module's terminals.
+[params]`` an instance of it, connecting the module's terminals in order
+(fewer nodes leave the last terminals unconnected, as in ngspice and VACASK).
 :func:`build` creates the :class:`~.instance.OsdiModel` and
 :class:`~.instance.OsdiInstance` objects (one model per ``.model`` card
 used); :func:`check_circuit` does so once when the netlist is elaborated, so
@@ -40,10 +41,11 @@ def _module_of(el: Element, circuit: Circuit, modules: dict[str, OsdiModule]) ->
                            expected=f"an OSDI module name: {loaded}",
                            hint="load the compiled model with '.osdi file.osdi' (or 'pre_osdi file.osdi' in .control)")
     nt = mod.num_terminals
-    if len(el.nodes) != nt:
+    if len(el.nodes) > nt:
         raise NetlistError(f"{el.name}: model {model.name} is OSDI module {mod.name} ({mod.library.path}) with {nt} "
                            f"terminals ({', '.join(mod.terminals)}), the instance connects {len(el.nodes)} nodes",
-                           el.location, expected=f"{el.name} {' '.join(mod.terminals)} {model.name} [name=value ...]")
+                           el.location, expected=f"{el.name} {' '.join(mod.terminals)} {model.name} [name=value ...]",
+                           hint="fewer nodes leave the last terminals unconnected, more are an error")
     return mod
 
 
@@ -81,7 +83,7 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
             model = models[el.model] = OsdiModel(mod, card.name, {**card.params, **card.strings}, sim=sim,
                                                  location=card.location, locations=card.locations)
         instances.append(OsdiInstance(model, el.name, _instance_params(mod, el.params),
-                                      temperature=opts.temp + KELVIN, location=el.location))
+                                      temperature=opts.temp + KELVIN, connected=len(el.nodes), location=el.location))
     return models, instances
 
 

@@ -77,7 +77,7 @@ class OsdiFamily(DeviceFamily):
         self.glob = []
         for el, inst, reps in zip(self.elements, self.instances, self.reps):
             mod = inst.module
-            nt = mod.num_terminals
+            nt = inst.connected
             g = np.full(len(mod.nodes), -2, dtype=np.int64)  # -2: a flow unknown, numbered in add_branches
             for i, node in enumerate(mod.nodes):
                 r = reps[i]
@@ -99,7 +99,7 @@ class OsdiFamily(DeviceFamily):
                 name = el.name if len(flows) == 1 else f"{el.name}#{_name(mod.nodes[i].name)}"
                 g[i] = layout.add_branch(name)
             for i in range(len(mod.nodes)):
-                if reps[i] >= mod.num_terminals:
+                if reps[i] >= inst.connected:
                     g[i] = g[reps[i]]
 
     def coordinates(self, layout):
@@ -197,7 +197,7 @@ class OsdiFamily(DeviceFamily):
                     a, b = find(e.row), find(e.col)
                     if a != b:
                         parent[max(a, b)] = min(a, b)
-            for t in range(1, mod.num_terminals):
+            for t in range(1, inst.connected):
                 for s in range(t):
                     if find(s) == find(t):
                         pairs.append((el.nodes[s], el.nodes[t]))

@@ -226,6 +226,10 @@ class OsdiInstance(_ParameterHolder):
         ``.model`` card).
     temperature : float
         Kelvin.
+    connected : int, optional
+        Terminals the instance connects (default: all); the module's last
+        terminals beyond these are left unconnected and become internal nodes
+        (BSIM-BULK's thermal terminal ``t``), as ngspice and VACASK treat them.
     location, locations : optional
         For messages.
 
@@ -236,12 +240,14 @@ class OsdiInstance(_ParameterHolder):
     """
 
     def __init__(self, model: OsdiModel, name: str, params: dict | None = None, *, temperature: float = 27.0 + KELVIN,
-                 location: SourceLocation | None = None, locations: dict | None = None) -> None:
+                 connected: int | None = None, location: SourceLocation | None = None,
+                 locations: dict | None = None) -> None:
         self.model = model
         self.module = module = model.module
         self.name = name
         self.location = location
         self.temperature = temperature
+        self.connected = module.num_terminals if connected is None else int(connected)
         self._keep: list = []
         d = module.descriptor
         self.memory = _buffer(d.instance_size)
@@ -258,7 +264,7 @@ class OsdiInstance(_ParameterHolder):
             _store(ptr, p, value, self._keep, name, module, loc)
         info = abi.OsdiInitInfo()
         abi.SETUP_INSTANCE(d.setup_instance)(self.handle, self.ptr, model.ptr, float(temperature),
-                                             module.num_terminals, C.byref(model.sim.struct), C.byref(info))
+                                             self.connected, C.byref(model.sim.struct), C.byref(info))
         _check_init(info, module, name, location)
         self.mapping: np.ndarray | None = None
 
@@ -280,9 +286,10 @@ class OsdiInstance(_ParameterHolder):
     def node_classes(self) -> np.ndarray:
         """int64[num_nodes]: each node's representative after collapse (-1: ground).
 
-        Terminals represent themselves; an internal node merged with a
-        terminal is represented by the terminal, merged internal nodes by the
-        lowest-numbered one, a node collapsed to ground by -1.
+        Connected terminals represent themselves; an internal node (or an
+        unconnected terminal) merged with a terminal is represented by the
+        terminal, merged internal nodes by the lowest-numbered one, a node
+        collapsed to ground by -1.
 
         Raises
         ------
@@ -290,7 +297,7 @@ class OsdiInstance(_ParameterHolder):
             Two terminals collapse into one another (a short between two
             circuit nodes, which netdae does not model by merging nodes).
         """
-        nt = self.module.num_terminals
+        nt = self.connected
         parent = list(range(len(self.module.nodes)))
         GROUND = len(parent)
         parent.append(GROUND)
