@@ -191,27 +191,69 @@ INVERTER = (f"inv\n.osdi {MOD}/spice/bsim4v8.osdi\nVdd vdd 0 1.2\nVin in 0 PULSE
 
 
 def test_compiled_kernel_equals_the_family():
+    """In every mode: at x, limiting against a state (BSIM4 limits its junctions), from scratch."""
     from netdae.devices.base import Accumulator, SlotMap
+    from netdae.devices.companion import LimitState
+    from netdae.devices.kernels import MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
     from netdae.devices.kernels.osdi import eval_osdi
     from netdae.devices.osdi.family import OsdiFamily
     from netdae.mna import assemble
 
     system = assemble(netdae.load(INVERTER))
     fam = next(f for f in system.families if isinstance(f, OsdiFamily))
-    n, nnz = system.n, system.pattern.nnz
+    n, nnz, ns = system.n, system.pattern.nnz, fam.nstates
+    assert ns > 0
     packed = fam.compiled(SlotMap(system.pattern), n)
     rng = np.random.default_rng(7)
-    for jacobian in (True, False):
-        for _ in range(4):
-            x = np.append(rng.uniform(-0.3, 1.5, n), 0.0)
-            acc = Accumulator(n, nnz)
-            fam.evaluate(x, 2e-9, acc, None, jacobian)
-            q, phi, dq, dphi = np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1)
-            flags, bad = eval_osdi(x, 2e-9, *packed, q, phi, dq, dphi, jacobian)
-            assert (flags, bad) == (0, -1)
-            assert np.array_equal(q, acc.q) and np.array_equal(phi, acc.phi)
-            if jacobian:
-                assert np.array_equal(dq, acc.dq) and np.array_equal(dphi, acc.dphi)
+    limited = 0
+    for mode in (MODE_EVALUATE, MODE_LIMIT, MODE_INITIAL):
+        for jacobian in (True, False):
+            for trial in range(4):
+                x = np.append(rng.uniform(-0.3, 1.5, n), 0.0)
+                if mode == MODE_INITIAL and trial % 2 == 0:
+                    x[:] = 0.0
+                vold = rng.uniform(-0.5, 1.0, ns) if mode != MODE_INITIAL else fam.initial_state().v[0].copy()
+                state = {MODE_EVALUATE: None, MODE_LIMIT: LimitState(vold[None, :].copy()),
+                         MODE_INITIAL: fam.initial_state()}[mode]
+                acc = Accumulator(n, nnz)
+                new_state = fam.evaluate(x, 2e-9, acc, state, jacobian)
+                q, phi, dq, dphi = np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1)
+                vnew = np.zeros(ns)
+                flags, bad = eval_osdi(x, 2e-9, mode, vold.copy(), vnew, *packed, q, phi, dq, dphi, jacobian)
+                assert bad == -1 and bool(flags & 1) == acc.limited
+                limited += acc.limited
+                assert np.array_equal(q, acc.q) and np.array_equal(phi, acc.phi)
+                if jacobian:
+                    assert np.array_equal(dq, acc.dq) and np.array_equal(dphi, acc.dphi)
+                if new_state is not None:
+                    assert np.array_equal(vnew, new_state.v[0])
+    assert limited > 0
+
+
+def test_limiting_makes_the_operating_point_of_an_osdi_diode_plain_newton():
+    """ngspice's diode as Verilog-A limits its junction as netdae's D does: a few Newton iterations."""
+    res = {}
+    for kind, card in (("osdi", f".osdi {MOD}/spice/diode.osdi\n.model dm sp_diode is=1e-14\nN1 a 0 dm"),
+                       ("own", ".model dm d is=1e-14\nD1 a 0 dm")):
+        r = operating_point(netdae.load(f"d\n{card}\nV1 in 0 5\nR1 in a 1\n.op\n"))
+        assert r.ok and r.stats["strategy"] == "newton" and r.stats["newton"] < 15
+        res[kind] = float(r["v(a)"][0])
+    assert res["osdi"] == pytest.approx(res["own"], abs=1e-5)
+
+
+def test_limiting_functions_a_module_asks_for(tmp_path):
+    """A Verilog-A diode calling $limit(V, "pnjlim", ...): netdae supplies SPICE's pnjlim."""
+    va = tmp_path / "limd.va"
+    va.write_text('`include "disciplines.vams"\n`include "constants.vams"\nmodule limd(a, c);\n'
+                  "inout a, c; electrical a, c;\nparameter real is = 1e-14 from (0:inf);\nreal vd, vt, vcrit;\n"
+                  "analog begin\nvt = $vt; vcrit = vt * ln(vt / (`M_SQRT2 * is));\n"
+                  'vd = $limit(V(a, c), "pnjlim", vt, vcrit);\nI(a, c) <+ is * (exp(vd / vt) - 1.0);\n'
+                  "end\nendmodule\n")
+    lib = compile_va(str(va), cache_dir=str(tmp_path))
+    r = operating_point(netdae.load(f"d\n.osdi {lib}\n.model dm limd\nV1 in 0 5\nR1 in a 1\nN1 a 0 dm\n.op\n"))
+    ref = operating_point(netdae.load("d\n.model dm d is=1e-14\nV1 in 0 5\nR1 in a 1\nD1 a 0 dm\n.op\n"))
+    assert r.stats["newton"] == ref.stats["newton"]
+    assert float(r["v(a)"][0]) == pytest.approx(float(ref["v(a)"][0]), abs=1e-6)
 
 
 @pytest.mark.parametrize("netlist", ["inverter", "diode"])
@@ -259,7 +301,7 @@ def test_bsim4_inverter_equals_vacask(tmp_path):
         pytest.skip(f"VACASK did not run here: {proc.stderr.strip()[-200:]}")
     ref = read_raw(tmp_path / "tran1.raw")[0]
     r = netdae.simulate(netdae.load(INVERTER))
-    assert float(r["v(out)"][0]) == pytest.approx(float(ref["out"][0]), abs=1e-9)
+    assert float(r["v(out)"][0]) == pytest.approx(float(ref["out"][0]), abs=1e-6)  # Newton tolerances
     ours = _crossings(np.asarray(r.axis), np.asarray(r["v(out)"]), 0.6)
     theirs = _crossings(np.asarray(ref.axis), np.asarray(ref["out"]), 0.6)
     assert len(theirs) == 3 and len(ours) == 3

@@ -447,6 +447,7 @@ def _pack_families(system, x0, switching) -> tuple:
     osdi = (np.zeros((0, ko.N_INST), dtype=np.int64), np.zeros((0, ko.N_FNS), dtype=np.int64),
             np.zeros(0, dtype=np.int64), info, info.view(np.float64), np.zeros(1), np.zeros(1), np.zeros(1),
             np.zeros(0), np.zeros(0))
+    osdi_states = 1
     if system.families:
         slots = SlotMap(system.pattern)
         for family in system.families:
@@ -456,6 +457,7 @@ def _pack_families(system, x0, switching) -> tuple:
                 continue
             if slot == OSDI_SLOT:
                 osdi = family.compiled(slots, system.n)
+                osdi_states = max(1, family.nstates)
                 continue
             par, idx, vold0 = family.compiled(slots, system.n)
             if slot == SWITCH_SLOT:
@@ -467,7 +469,9 @@ def _pack_families(system, x0, switching) -> tuple:
     for par, idx, vold0 in packed:
         out += [par, idx, vold0.copy(), vold0.copy(), vold0.copy()]
     out.append(np.zeros(packed[SWITCH_SLOT][0].shape[0]))
-    return tuple(out) + tuple(behavioural) + tuple(osdi)
+    # the OSDI modules' limiting states (accepted, trial, new): none before the first accepted step
+    return (tuple(out) + tuple(behavioural) + tuple(osdi)
+            + tuple(np.zeros(osdi_states) for _ in range(3)))
 
 
 def _failure(system, F, I) -> dict:

@@ -9,8 +9,16 @@ a C function type (:func:`call_eval`, :func:`call_load`,
 arguments, not constants, so the compiled code is cached on disk like every
 other kernel and serves any module loaded in any process.
 
-    flags, bad = eval_osdi(x, t, inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc,
-                           q, phi, dq, dphi, jacobian)
+    flags, bad = eval_osdi(x, t, mode, vold, vnew, inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf,
+                           jr, jc, q, phi, dq, dphi, jacobian)
+
+- ``mode``, ``vold``, ``vnew``: as for every family kernel: ``MODE_EVALUATE``
+  evaluates at ``x``; ``MODE_LIMIT`` lets the modules limit (``$limit``)
+  against their state vector ``vold`` (the limited values of the previous
+  iteration), the residuals continued linearly to ``x`` with the modules'
+  limiting right-hand sides; ``MODE_INITIAL`` starts from the modules' initial
+  values (``INIT_LIM``) when ``x`` is zero, else evaluates at ``x``. The
+  modules write their new state into ``vnew`` (float64[S], S >= 1);
 
 - ``inst``: int64[N, N_INST]: per instance its handle, the addresses of its
   instance and model data, its module's row in ``fns`` and the range of its
@@ -27,9 +35,8 @@ other kernel and serves any module loaded in any process.
   hold (node mapping, Jacobian pointers set by ``OsdiFamily.bind``).
 
 The kernel ADDS ``-f`` to ``phi``, ``q`` to ``q`` and, when ``jacobian``,
-``-df/dx`` and ``dq/dx`` through ``slots``; flags bit 1 marks a non-finite
-value or a module's fatal error. No limiting (the modules' ``$limit`` passes
-the iterate through).
+``-df/dx`` and ``dq/dx`` through ``slots``; flags bit 0 marks a module that
+limited, bit 1 a non-finite value or a module's fatal error.
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ from numba import types
 from numba.extending import intrinsic
 
 from ...dae.compiled import kernel
-from . import FLAG_NONFINITE
+from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_INITIAL, MODE_LIMIT
 
 __all__ = ["eval_osdi", "call_eval", "call_load", "call_jacobian_resist", "call_jacobian_react",
            "N_INST", "N_FNS", "INFO_WORDS"]
@@ -50,8 +57,8 @@ __all__ = ["eval_osdi", "call_eval", "call_load", "call_jacobian_resist", "call_
 I_HANDLE, I_INST, I_MODEL, I_MODULE, I_JAC0, I_JAC1 = range(6)
 N_INST = 6
 # fns columns
-F_EVAL, F_RES_RESIST, F_RES_REACT, F_JAC_RESIST, F_JAC_REACT = range(5)
-N_FNS = 5
+F_EVAL, F_RES_RESIST, F_RES_REACT, F_JAC_RESIST, F_JAC_REACT, F_LIM_RESIST, F_LIM_REACT = range(7)
+N_FNS = 7
 # OsdiSimInfo as 8-byte words: paras (4 pointers), abstime, prev_solve, prev_state, next_state, flags,
 # history_ctx, query_past_state
 W_ABSTIME, W_PREV_SOLVE, W_PREV_STATE, W_NEXT_STATE, W_FLAGS = 4, 5, 6, 7, 8
@@ -59,6 +66,10 @@ INFO_WORDS = 11
 #: eval() flags: both residuals and Jacobians, a transient (abi.CALC_* | abi.ANALYSIS_TRAN)
 FLAGS_JACOBIAN = 1 | 2 | 4 | 8 | 8192
 FLAGS_RESIDUAL = 1 | 2 | 8192
+#: ENABLE_LIM | CALC_RESIST_LIM_RHS | CALC_REACT_LIM_RHS, and with INIT_LIM
+FLAGS_LIMIT = 256 | 64 | 128
+FLAGS_LIMIT_INITIAL = FLAGS_LIMIT | 512
+EVAL_RET_FLAG_LIM = 1
 EVAL_RET_FLAG_FATAL = 2
 
 _PTR = ir.IntType(8).as_pointer()
@@ -123,16 +134,30 @@ def call_jacobian_react(typingctx, addr, inst, model, alpha):
 
 
 @kernel
-def eval_osdi(x, t, inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc, q, phi, dq, dphi, jacobian):
+def eval_osdi(x, t, mode, vold, vnew, inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc, q, phi, dq, dphi,
+              jacobian):
     """Every OSDI instance at the extended iterate ``x``; adds into ``q``, ``phi``, ``dq``, ``dphi``."""
     n1 = x.size
+    zero = True
     for i in range(n1):
         xbuf[i] = x[i]
         fbuf[i] = 0.0
         qbuf[i] = 0.0
+        if x[i] != 0.0:
+            zero = False
+    lim = 0
+    if mode == MODE_LIMIT:
+        lim = FLAGS_LIMIT
+    elif mode == MODE_INITIAL and zero:
+        lim = FLAGS_LIMIT_INITIAL
+    # a state a module does not write this time keeps its value (ngspice updates the states in place)
+    for i in range(vnew.size):
+        vnew[i] = vold[i] if mode == MODE_LIMIT else 0.0
     info_f[W_ABSTIME] = t
     info_i[W_PREV_SOLVE] = xbuf.ctypes.data
-    info_i[W_FLAGS] = FLAGS_JACOBIAN if jacobian else FLAGS_RESIDUAL
+    info_i[W_PREV_STATE] = vold.ctypes.data
+    info_i[W_NEXT_STATE] = vnew.ctypes.data
+    info_i[W_FLAGS] = (FLAGS_JACOBIAN if jacobian else FLAGS_RESIDUAL) | lim
     if jacobian:
         for e in range(jr.size):
             jr[e] = 0.0
@@ -151,8 +176,13 @@ def eval_osdi(x, t, inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc, 
             flags |= FLAG_NONFINITE
             if bad < 0:
                 bad = k
+        if ret & EVAL_RET_FLAG_LIM:
+            flags |= FLAG_LIMITED
         call_load(fns[m, F_RES_RESIST], ip, mp, fptr)
         call_load(fns[m, F_RES_REACT], ip, mp, qptr)
+        if lim != 0:
+            call_load(fns[m, F_LIM_RESIST], ip, mp, fptr)
+            call_load(fns[m, F_LIM_REACT], ip, mp, qptr)
         if jacobian:
             call_jacobian_resist(fns[m, F_JAC_RESIST], ip, mp)
             call_jacobian_react(fns[m, F_JAC_REACT], ip, mp, 1.0)

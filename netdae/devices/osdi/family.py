@@ -14,11 +14,13 @@ node rows are the currents entering it).
 Internal nodes that survive collapse become internal unknowns named
 ``<element>#<node>``; flow unknowns (the currents of Verilog-A branches with
 a potential contribution, such as an inductor's) become branch currents,
-``i(<element>)`` when the module has one, ``i(<element>#<branch>)`` otherwise. Limiting is off (the modules'
-``$limit`` passes the iterate through), so the family has no limiting state.
-The evaluation runs through ctypes, a few microseconds per instance; the
-compiled engine does not run it yet (a system with OSDI devices is
-integrated by the Python BDF driver).
+``i(<element>)`` when the module has one, ``i(<element>#<branch>)`` otherwise.
+Modules with limiting states (``$limit``) limit in Newton iterations as SPICE
+devices do: the family's state is the modules' state vector (the limited
+values of the previous iteration), ``INIT_LIM`` starts a solve from scratch.
+The evaluation runs through ctypes, a few microseconds per instance; its
+compiled twin, for the compiled transient engine, is
+:func:`netdae.devices.kernels.osdi.eval_osdi`.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import re
 import numpy as np
 
 from ..base import Accumulator, DeviceFamily, SlotMap
+from ..companion import LimitState
 from . import abi
 from .bind import build
 from .evaluate import eval_flags
@@ -36,6 +39,10 @@ from .evaluate import eval_flags
 __all__ = ["OsdiFamily"]
 
 _NOT_NAME = re.compile(r"[^0-9a-z_]+")
+#: eval() flags of limiting against the previous iteration (with the limiting right-hand sides) ...
+LIMIT_AGAINST = abi.ENABLE_LIM | abi.CALC_RESIST_LIM_RHS | abi.CALC_REACT_LIM_RHS
+#: ... and of a solve from scratch (the modules' initial values: SPICE's MODEINITJCT).
+LIMIT_INITIAL = LIMIT_AGAINST | abi.INIT_LIM
 
 
 def _name(node: str) -> str:
@@ -54,6 +61,8 @@ class _Calls:
         self.res_q = abi.LOAD_RESIDUAL(descriptor.load_residual_react)
         self.jac_f = abi.LOAD_JACOBIAN_RESIST(descriptor.load_jacobian_resist)
         self.jac_q = abi.LOAD_JACOBIAN_REACT(descriptor.load_jacobian_react)
+        self.lim_f = abi.LOAD_RESIDUAL(descriptor.load_limit_rhs_resist)
+        self.lim_q = abi.LOAD_RESIDUAL(descriptor.load_limit_rhs_react)
 
 
 class OsdiFamily(DeviceFamily):
@@ -120,7 +129,7 @@ class OsdiFamily(DeviceFamily):
         self.jr = np.zeros(max(total, 1))
         self.jc = np.zeros(max(total, 1))
         self.slots = slots(np.concatenate(self._rows), np.concatenate(self._cols)) if total else np.zeros(0, np.int64)
-        nstates = sum(inst.module.num_states for inst in self.instances)
+        self.nstates = nstates = sum(inst.module.num_states for inst in self.instances)
         self.prev_state = np.zeros(max(nstates, 1))
         self.next_state = np.zeros(max(nstates, 1))
         self.xbuf = np.zeros(n + 1)
@@ -150,7 +159,8 @@ class OsdiFamily(DeviceFamily):
         tuple
             ``(inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc)``: the
             family's own buffers (the instances hold their addresses) and the
-            function addresses of its modules.
+            function addresses of its modules. The limiting state vectors
+            (``vold``, ``vnew``: float64[max(1, S)]) are the caller's.
         """
         from ..kernels import osdi as ko
 
@@ -164,7 +174,7 @@ class OsdiFamily(DeviceFamily):
             if row is None:
                 row = modules[id(i.module)] = len(fns)
                 fns.append((d.eval, d.load_residual_resist, d.load_residual_react, d.load_jacobian_resist,
-                            d.load_jacobian_react))
+                            d.load_jacobian_react, d.load_limit_rhs_resist, d.load_limit_rhs_react))
             nj = len(i.module.jacobian)
             inst[k] = (i.handle, i.ptr, i.model.ptr, row, off, off + nj)
             off += nj
@@ -205,27 +215,60 @@ class OsdiFamily(DeviceFamily):
         return pairs
 
     # -- evaluation --------------------------------------------------------
+    def initial_state(self) -> LimitState | None:
+        """SPICE's ``MODEINITJCT`` for the modules that limit (``INIT_LIM``); None without states."""
+        if not self.nstates:
+            return None
+        return LimitState(np.zeros((1, self.nstates)), initial=True)
+
+    def _limit_mode(self, x, state) -> int:
+        """The eval flags of limiting: none (at x), against ``state``, or the modules' initial values."""
+        if state is None or not self.nstates:
+            self.next_state[:] = 0.0
+            return 0
+        self.prev_state[: self.nstates] = state.v[0]
+        if state.initial:
+            self.next_state[:] = 0.0
+            return LIMIT_INITIAL if not np.any(x[: self.n]) else 0
+        # a state a module does not write this time keeps its value (ngspice updates the states in place)
+        self.prev_state[: self.nstates] = state.v[0]
+        self.next_state[: self.nstates] = state.v[0]
+        return LIMIT_AGAINST
+
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        """Every instance at ``x``; with a limiting state, the modules limit (``$limit``) against it.
+
+        Where a module limited, its residuals are continued linearly from the
+        limited point to ``x`` with the module's limiting right-hand sides
+        (``f(v_lim) + J (x - v_lim)``: SPICE's companion model), and the
+        evaluation is marked limited (another Newton iteration).
+        """
         self.xbuf[:] = x
         self.xbuf[self.n] = 0.0
         self.fbuf[:] = 0.0
         self.qbuf[:] = 0.0
+        lim = self._limit_mode(x, state)
         info = self.info
         info.abstime = float(t)
-        info.flags = self._flags[0] if jacobian else self._flags[1]
+        info.flags = (self._flags[0] if jacobian else self._flags[1]) | lim
         if jacobian:
             self.jr[:] = 0.0
             self.jc[:] = 0.0
         fptr, qptr = self.fbuf.ctypes.data, self.qbuf.ctypes.data
         ref = C.byref(info)
+        limited = 0
         for inst in self.instances:
             calls = self._calls[id(inst.module)]
             mptr = inst.model.ptr
             ret = calls.eval(inst.handle, inst.ptr, mptr, ref)
             if ret & abi.EVAL_RET_FLAG_FATAL:
                 acc.ok = False
+            limited |= ret & abi.EVAL_RET_FLAG_LIM
             calls.res_f(inst.ptr, mptr, fptr)
             calls.res_q(inst.ptr, mptr, qptr)
+            if lim:
+                calls.lim_f(inst.ptr, mptr, fptr)
+                calls.lim_q(inst.ptr, mptr, qptr)
             if jacobian:
                 calls.jac_f(inst.ptr, mptr)
                 calls.jac_q(inst.ptr, mptr, 1.0)
@@ -236,4 +279,8 @@ class OsdiFamily(DeviceFamily):
             acc.add_dq(self.slots, self.jc[: len(self.slots)])
         if not (np.isfinite(self.fbuf).all() and np.isfinite(self.qbuf).all()):
             acc.ok = False
-        return None
+        if limited:
+            acc.limited = True
+        if state is None or not self.nstates:
+            return None
+        return LimitState(self.next_state[None, : self.nstates].copy())

@@ -8,8 +8,7 @@ length, description, units) and Jacobian entries (with their resistive and
 reactive flags). The module's messages (``$strobe``, ``$display``, errors of
 its setup) reach netdae through ``osdi_log``, which the loader sets to a
 callback that records them (:func:`drain_messages`); modules that call
-``$limit`` get pass-through limiting functions (no limiting: netdae
-evaluates at the iterate).
+``$limit`` get SPICE's limiting functions (:mod:`.limits`).
 
 This module is an I/O edge: it reads files. Everything wrong with the file is
 a :class:`~netdae.errors.NetlistError` naming the file and what was expected.
@@ -203,7 +202,6 @@ def _log(handle, msg, lvl):  # called from C: must never raise
 
 
 _LOG_CALLBACK = abi.LOG_FUNCTION(_log)
-_LIMIT_PASS = abi.LIMIT_FUNCTION(lambda init, check, vnew, vold: vnew)
 
 
 def register_handle(name: str) -> int:
@@ -305,9 +303,11 @@ def _install_callbacks(lib: C.CDLL) -> None:
         pass
     n = _u32(lib, "OSDI_LIM_TABLE_LEN")
     if n:
+        from .limits import limit_function_address  # numba: only for modules that limit
+
         table = (abi.OsdiLimFunction * n).in_dll(lib, "OSDI_LIM_TABLE")
         for entry in table:
-            entry.func_ptr = C.cast(_LIMIT_PASS, C.c_void_p).value
+            entry.func_ptr, _ = limit_function_address(_text(entry.name), entry.num_args)
 
 
 def _read_module(d, library: OsdiLibrary) -> OsdiModule:
