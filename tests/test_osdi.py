@@ -287,3 +287,21 @@ def test_setup_flags_are_the_published_values():
     # a guard on the transcription of the header: the values the modules were compiled against
     assert (abi.CALC_RESIST_RESIDUAL, abi.CALC_REACT_JACOBIAN, abi.ANALYSIS_TRAN) == (1, 8, 8192)
     assert ctypes.sizeof(abi.descriptor_type(0, 5)) == 360 and ctypes.sizeof(abi.descriptor_type(0, 4)) == 312
+
+
+def test_command_line_lists_modules_and_parameters(capsys):
+    import json
+
+    from netdae.cli import main
+
+    assert main(["osdi", "spice/bsim4v8.osdi"]) == 0
+    out = capsys.readouterr().out
+    assert "module sp_bsim4v8(d, g, s, b)" in out and "limiting states: 9" in out
+    assert main(["osdi", str(DATA / "nd_diode.va").replace(".va", ".osdi")]) == 2  # not compiled there
+    capsys.readouterr()
+    assert main(["osdi", compile_va(str(DATA / "nd_diode.va")), "--params", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    params = {p["name"]: p for p in info["modules"][0]["parameter_list"]}
+    assert info["version"] == "0.5" and info["modules"][0]["terminals"] == ["a", "c"]
+    assert params["is"]["default"] == 1e-14 and params["tag"]["default"] == "none"
+    assert params["nonlinear_cap"]["type"] == "int"
