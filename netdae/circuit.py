@@ -199,6 +199,8 @@ class Model:
     location : SourceLocation or None
     locations : dict of str to SourceLocation
         Where each parameter's value is written (for messages about a value).
+    strings : dict of str to str
+        String-valued parameters (``version="4.8"``); only OSDI models use them.
     """
 
     name: str
@@ -206,6 +208,7 @@ class Model:
     params: dict[str, float] = field(default_factory=dict)
     location: SourceLocation | None = None
     locations: dict[str, SourceLocation] = field(default_factory=dict)
+    strings: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(slots=True)
@@ -433,6 +436,8 @@ class Circuit:
     draws : int
         How many Monte Carlo values were drawn (0: the netlist has no
         ``gauss``/``agauss``/``unif``/``aunif``/``limit`` in use).
+    osdi_files : list of (str, SourceLocation)
+        OSDI libraries the netlist loads (``.osdi``, ``pre_osdi``), paths resolved.
     steps : list of StepSpec
         The ``.step`` cards (netdae's extension), in netlist order.
     """
@@ -457,6 +462,7 @@ class Circuit:
     sample: int = 0
     draws: int = 0
     steps: list[Any] = field(default_factory=list)
+    osdi_files: list[tuple[str, SourceLocation | None]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, Params):

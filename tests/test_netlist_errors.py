@@ -195,7 +195,7 @@ def test_element_errors_show_the_expected_form_and_a_hint():
     assert err.hint and str(err).startswith("<string>:2:7: c1: missing capacitance (expected: Cname n+ n- value")
     with pytest.raises(NetlistError) as exc:
         load("t\nT1 a 0 b 0 z0=50 td=1n\n")
-    assert "netdae reads R C L K V I E G F H B D Q M S W X" in exc.value.hint
+    assert "netdae reads R C L K V I E G F H B D Q M S W N X" in exc.value.hint
 
 
 def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""The ``netdae`` command line: ``netdae check | index | run | sweep | compare | demo | server``.
+"""The ``netdae`` command line: ``netdae check | index | run | sweep | compare | demo | osdi | server``.
 
 Each subcommand lives in its own module of this package with two functions,
 ``add_parser(subparsers)`` and ``main(args) -> int``. Modules import the
@@ -28,7 +28,7 @@ import sys
 __all__ = ["main", "parser", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity"]
 
 #: Subcommands in the order ``--help`` lists them.
-COMMANDS = ("check", "index", "run", "sweep", "compare", "demo", "server")
+COMMANDS = ("check", "index", "run", "sweep", "compare", "demo", "osdi", "server")
 
 EXIT_OK = 0
 EXIT_FAIL = 1  # the command ran and its verdict is negative (e.g. compare out of tolerance)

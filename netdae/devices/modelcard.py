@@ -30,8 +30,9 @@ __all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance
            "unimplemented_level"]
 
 #: What runs a model netdae does not implement.
-OSDI_HINT = ("netdae implements level 1 only; other levels will run as compiled Verilog-A models through OSDI "
-             "(a planned feature): until then, simulate this circuit in ngspice")
+OSDI_HINT = ("netdae implements level 1 only; other levels run as compiled Verilog-A models through OSDI: "
+             "'.osdi file.osdi', an N element and '.model name <module> ...' (netdae[models] bundles BSIM3, "
+             "BSIM4, BSIM-BULK, PSP; docs/devices.md), or simulate this circuit in ngspice")
 
 
 @dataclass(frozen=True)

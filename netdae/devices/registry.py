@@ -13,10 +13,12 @@ from .diode import DiodeFamily
 from .mosfet import MosfetFamily
 from .switch import SwitchFamily
 
-__all__ = ["FAMILIES", "family_for"]
+__all__ = ["FAMILIES", "LAZY_FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
 FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily)
+#: Families imported when a circuit has their kind (ctypes and the OSDI loader only for N elements).
+LAZY_FAMILIES = {"osdi": ("netdae.devices.osdi.family", "OsdiFamily")}
 
 
 def family_for(kind: str) -> type[DeviceFamily] | None:
@@ -24,4 +26,9 @@ def family_for(kind: str) -> type[DeviceFamily] | None:
     for fam in FAMILIES:
         if kind in fam.kinds:
             return fam
+    lazy = LAZY_FAMILIES.get(kind)
+    if lazy is not None:
+        import importlib
+
+        return getattr(importlib.import_module(lazy[0]), lazy[1])
     return None

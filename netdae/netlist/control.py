@@ -168,6 +168,8 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
                 skip(line, col, text, f"netdae does not write the file '{parts[0]}'", f"read as '.save {parts[1]}'")
             else:
                 skip(line, col, text, "netdae does not write ngspice's output files")
+        elif cmd == "pre_osdi":
+            cards.append(_card("osdi " + rest, file, line, col + len(text) - len(rest) - 5))
         elif cmd in ("option", "options", "opt"):
             cards.append(_card("options " + rest, file, line, col + len(text) - len(rest) - 8))
         elif cmd == "set":

@@ -385,6 +385,7 @@ class _Elaborator:
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind == "laplace"}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
         self._apply_models(circuit)
+        circuit.osdi_files = list(net.osdi)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
@@ -400,6 +401,9 @@ class _Elaborator:
             raise error(card, 0, f"the circuit has {what}: nothing to simulate",
                         hint="connect elements between nodes and ground (0)")
         self._options(circuit)
+        if circuit.osdi_files or any(el.kind == "osdi" for el in circuit.elements):
+            from ..devices.osdi.bind import check_circuit  # loads the libraries (ctypes): only when used
+            check_circuit(circuit)
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
         circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value, BRANCH_KINDS)
@@ -509,7 +513,9 @@ class _Elaborator:
         if "tnom" in params:
             self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
         self.model_cards[p.name] = item
-        return Model(p.name, item.type, params, item.card.location(0), locations)
+        strings = {k: text for k, (text, _) in item.strings.items()}
+        locations.update({k: item.card.location(offset) for k, (_, offset) in item.strings.items()})
+        return Model(p.name, item.type, params, item.card.location(0), locations, strings)
 
     def _screen_model(self, model: Model, item: ModelCard) -> None:
         """Warn about the parameters ngspice ignores for this model (one located warning each).

@@ -810,6 +810,32 @@ def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceC
     return InstanceCard(toks[0].text, card, nodes, sub.text, sub.start, params)
 
 
+def _osdi_device(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    """``Nname n1 n2 ... mname [name=value ...]``: the node count is the OSDI module's (checked later)."""
+    words: list[Token] = []
+    i = 1
+    while i < len(toks):
+        tok = toks[i]
+        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].text == "=":
+            break
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"unexpected {tok.text!r}: expected node names and a model name", syntax)
+        words.append(tok)
+        i += 1
+    if len(words) < 2:
+        raise error(card, _end(card), "expected at least one node and a model name", syntax)
+    positional, keywords = split_args(card, toks, i, syntax)
+    if positional:
+        raise error(card, positional[0].start, f"unexpected {positional[0].text!r} among the parameters", syntax,
+                    hint="instance parameters are written name=value")
+    params = _keyword_params(card, keywords, syntax, "osdi")
+    model = words[-1]
+    if parse_number(model.text) is not None:
+        raise error(card, model.start, f"expected a model name, found {model.text!r}", syntax)
+    nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:-1])
+    return ElementCard(toks[0].text, "osdi", card, nodes, model=(model.text, model.start), params=params)
+
+
 def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
     """Parse one element card.
 
@@ -860,4 +886,6 @@ def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
         return _device(card, toks, syntax, "mosfet", 4)
     if letter in "sw":
         return _switch(card, toks, syntax, letter)
+    if letter == "n":
+        return _osdi_device(card, toks, syntax)
     return _instance(card, toks, syntax)

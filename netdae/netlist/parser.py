@@ -55,7 +55,7 @@ def build(deck: Deck) -> Netlist:
     """Parse the cards of a :class:`~netdae.netlist.reader.Deck`."""
     top = Definition(None)
     net = Netlist(title=deck.title, path=deck.path, top=top, diagnostics=list(deck.notes),
-                  files=list(deck.files))
+                  files=list(deck.files), osdi=list(deck.osdi))
     stack = [top]
     for card in deck.cards:
         if card.text[0] == ".":

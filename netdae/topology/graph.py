@@ -14,7 +14,9 @@ resistive       resistors; diode junctions and series resistances; the conductin
                 terminal pairs of transistors (collector-emitter, base-emitter,
                 base-collector, substrate-collector; drain-source, drain-bulk,
                 source-bulk); switches (S, W: a resistance RON or ROFF between
-                n+ and n-, marked *controlled*)
+                n+ and n-, marked *controlled*); the terminals of an OSDI device
+                (``N``: compiled Verilog-A), each joined to the first, marked
+                *controlled* (what the module conducts or stores is not read here)
 voltage         independent V; and, marked *controlled*: E, H, B with a voltage
                 expression, the output of an ideal op-amp (a norator: its current
                 is free, its voltage is not fixed); an inductor of zero
@@ -82,7 +84,9 @@ NULLATOR = 5
 #: Element kinds whose behaviour is controlled by other circuit quantities:
 #: the index theorem's hypotheses exclude them.
 CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bcharge", "bjt",
-                              "mosfet", "vswitch", "cswitch"})
+                              "mosfet", "vswitch", "cswitch", "osdi"})
+#: Most terminals an OSDI device may have in the topological analysis.
+OSDI_MAX_TERMINALS = 16
 
 #: Diode model parameters whose nonzero value gives the junction a charge
 #: (ngspice names and aliases: depletion CJO/CJ0/CJ, transit time TT).
@@ -124,11 +128,14 @@ KIND_TABLE: dict[str, _Spec] = {
     "vswitch": _Spec((4,), ((RESISTIVE, 0, 1),), _CONTROL_INPUTS),
     "cswitch": _Spec((2,), ((RESISTIVE, 0, 1),)),
     "coupling": _Spec((0,), ()),
+    "osdi": _Spec(tuple(range(1, OSDI_MAX_TERMINALS + 1)),
+                  tuple((RESISTIVE, 0, k) for k in range(1, OSDI_MAX_TERMINALS))),
 }
 
 #: Kinds whose first two terminals form one branch (a self-loop when they coincide).
 TWO_TERMINAL_BRANCH_KINDS = frozenset(
-    k for k, s in KIND_TABLE.items() if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet")
+    k for k, s in KIND_TABLE.items()
+    if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet", "osdi")
 ) | {"diode"}
 
 

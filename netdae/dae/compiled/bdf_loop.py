@@ -52,6 +52,7 @@ from ...devices.kernels.behavioural import eval_behavioural
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.mosfet import eval_mosfet
+from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
 from .events import CHATTER_EVENTS, EVENT_TOGETHER
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
@@ -406,7 +407,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     for i in range(n):
@@ -430,6 +432,21 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
         hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
                                         jacobian)
         flags |= hflags
+    if o_inst.shape[0] > 0:
+        if state == STATE_NONE:
+            omode, ovold = MODE_EVALUATE, o_vacc
+        elif state == STATE_INITIAL:
+            omode, ovold = MODE_INITIAL, o_vacc
+        elif state == STATE_ACCEPTED:
+            omode, ovold = MODE_LIMIT, o_vacc
+        else:
+            omode, ovold = MODE_LIMIT, o_vtry
+        oflags, obad = eval_osdi(xe, t, omode, ovold, o_vnew, o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf,
+                                 o_fbuf, o_qbuf, o_jr, o_jc, qe, phie, dqe, dphie, jacobian)
+        if keep:
+            for i in range(o_vnew.size):
+                o_vtry[i] = o_vnew[i]
+        flags |= oflags
     I[I_EVALUATIONS] += 1
     if jacobian:
         I[I_JAC_EVALUATIONS] += 1
@@ -444,12 +461,15 @@ def _accept_state(I, devd):
     """The trial limiting state becomes the accepted one (after an accepted step)."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
         _copy2(m_vacc, m_vtry)
         _copy2(s_vacc, s_vtry)
+        for i in range(o_vacc.size):
+            o_vacc[i] = o_vtry[i]
         I[I_HAS_ACC] = 1
 
 
@@ -458,11 +478,14 @@ def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der) = devd
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)
     _copy2(s_vtry, s_vacc)
+    for i in range(o_vtry.size):
+        o_vtry[i] = o_vacc[i]
     I[I_HAS_TRY] = I[I_HAS_ACC]
 
 
@@ -898,7 +921,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     devd : tuple
         The device families, ``(par, idx, vacc, vtry, vnew)`` each for diodes, BJTs,
         MOSFETs and switches (empty arrays for an absent family), the switches' work
-        array of crossing times, then the behavioural sources' tapes.
+        array of crossing times, then the behavioural sources' tapes, then the OSDI
+        devices' arrays (:func:`netdae.devices.kernels.osdi.eval_osdi`) and their
+        limiting states ``(vacc, vtry, vnew)``.
     lus : tuple
         The LU: the plan's arrays (:meth:`netdae.dae.compiled.lu.LuPlan.refactor_args`,
         ``perm_r``, ``perm_c``), the factors' values and two work vectors.

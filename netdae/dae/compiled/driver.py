@@ -27,6 +27,7 @@ Ctrl-C is honoured. An interrupted run keeps what it computed: the
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import numpy as np
@@ -53,6 +54,8 @@ FIRST_CHUNK = 64
 SWITCH_SLOT = 3
 #: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET, switch).
 BEHAVIOURAL_SLOT = 4
+#: Position of the OSDI devices in the loop's families (last).
+OSDI_SLOT = 5
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -67,14 +70,17 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 
 
 def _family_slot(family) -> int | None:
-    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, switch, behavioural), or None."""
+    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, switch, behavioural, OSDI), or None."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
     from ...devices.mosfet import MosfetFamily
     from ...devices.switch import SwitchFamily
 
-    for slot, cls in enumerate((DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily)):
+    osdi = sys.modules.get("netdae.devices.osdi.family")  # imported only by circuits with N elements
+    classes = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily,
+               osdi.OsdiFamily if osdi is not None else None)
+    for slot, cls in enumerate(classes):
         if type(family) is cls:
             return slot
     return None
@@ -427,7 +433,7 @@ def pack_matrices(system) -> tuple:
 def _pack_families(system, x0, switching) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
-    val, der)``.
+    val, der)``, then the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`).
 
     An absent family gets empty arrays (its kernel is then skipped). The switches start held in
     the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
@@ -437,6 +443,7 @@ def _pack_families(system, x0, switching) -> tuple:
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
     from ...devices.kernels import mosfet as km
+    from ...devices.kernels import osdi as ko
     from ...devices.kernels import switch as ksw
 
     shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE),
@@ -444,12 +451,21 @@ def _pack_families(system, x0, switching) -> tuple:
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
                    np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))
+    info = np.zeros(ko.INFO_WORDS, dtype=np.int64)
+    osdi = (np.zeros((0, ko.N_INST), dtype=np.int64), np.zeros((0, ko.N_FNS), dtype=np.int64),
+            np.zeros(0, dtype=np.int64), info, info.view(np.float64), np.zeros(1), np.zeros(1), np.zeros(1),
+            np.zeros(0), np.zeros(0))
+    osdi_states = 1
     if system.families:
         slots = SlotMap(system.pattern)
         for family in system.families:
             slot = _family_slot(family)
             if slot == BEHAVIOURAL_SLOT:
                 behavioural = family.compiled(slots, system.n)
+                continue
+            if slot == OSDI_SLOT:
+                osdi = family.compiled(slots, system.n)
+                osdi_states = max(1, family.nstates)
                 continue
             par, idx, vold0 = family.compiled(slots, system.n)
             if slot == SWITCH_SLOT:
@@ -461,7 +477,9 @@ def _pack_families(system, x0, switching) -> tuple:
     for par, idx, vold0 in packed:
         out += [par, idx, vold0.copy(), vold0.copy(), vold0.copy()]
     out.append(np.zeros(packed[SWITCH_SLOT][0].shape[0]))
-    return tuple(out) + tuple(behavioural)
+    # the OSDI modules' limiting states (accepted, trial, new): none before the first accepted step
+    return (tuple(out) + tuple(behavioural) + tuple(osdi)
+            + tuple(np.zeros(osdi_states) for _ in range(3)))
 
 
 def _failure(system, F, I) -> dict:

@@ -86,7 +86,7 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     a_data = pack.a_data
     sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n)
     devd = list(pack.devd)
-    for k in _STATES:
+    for k in (*_STATES, *range(len(devd) - _OSDI_STATES, len(devd))):
         devd[k] = devd[k].copy()
     devd = tuple(devd)
     nnz = pack.nnz
@@ -145,5 +145,7 @@ class _Pack:
 
 #: Positions of the families' limiting states in ``devd`` (vacc, vtry, vnew of four families).
 _STATES = tuple(k for k in range(20) if k % 5 >= 2)
+#: The OSDI devices' limiting states (accepted, trial, new) end ``devd``.
+_OSDI_STATES = 3
 #: The packed arrays and the LU (its pivot order) of each system solved, for its next solves.
 _PACKS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

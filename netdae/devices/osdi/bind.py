@@ -1,0 +1,92 @@
+"""Binding a circuit's ``N`` elements to OSDI modules, models and instances.
+
+A netlist loads libraries with ``.osdi file.osdi`` (or ``pre_osdi`` in a
+``.control`` block); a ``.model name module [params]`` card whose type is a
+module of a loaded library makes an OSDI model, and ``Nname n1 n2 ... name
+[params]`` an instance of it, connecting the module's terminals in order
+(fewer nodes leave the last terminals unconnected, as in ngspice and VACASK).
+:func:`build` creates the :class:`~.instance.OsdiModel` and
+:class:`~.instance.OsdiInstance` objects (one model per ``.model`` card
+used); :func:`check_circuit` does so once when the netlist is elaborated, so
+that every mistake is a located :class:`~netdae.errors.NetlistError` before
+anything is simulated.
+"""
+
+from __future__ import annotations
+
+from ...circuit import Circuit, Element
+from ...errors import NetlistError
+from .instance import KELVIN, OsdiInstance, OsdiModel, SimParameters
+from .library import OsdiModule, load_library
+
+__all__ = ["circuit_modules", "build", "check_circuit"]
+
+
+def circuit_modules(circuit: Circuit) -> dict[str, OsdiModule]:
+    """Every module of the circuit's OSDI libraries by name (the first library defining a name wins)."""
+    modules: dict[str, OsdiModule] = {}
+    for path, location in circuit.osdi_files:
+        for name, mod in load_library(path, location).modules.items():
+            modules.setdefault(name, mod)
+    return modules
+
+
+def _module_of(el: Element, circuit: Circuit, modules: dict[str, OsdiModule]) -> OsdiModule:
+    model = circuit.models[el.model]
+    mod = modules.get(model.type)
+    if mod is None:
+        loaded = ", ".join(sorted(modules)) or "none (no .osdi card)"
+        raise NetlistError(f"{el.name}: model {model.name} is of type '{model.type}', which is not a module of a "
+                           f"loaded OSDI library", model.location or el.location,
+                           expected=f"an OSDI module name: {loaded}",
+                           hint="load the compiled model with '.osdi file.osdi' (or 'pre_osdi file.osdi' in .control)")
+    nt = mod.num_terminals
+    if len(el.nodes) > nt:
+        raise NetlistError(f"{el.name}: model {model.name} is OSDI module {mod.name} ({mod.library.path}) with {nt} "
+                           f"terminals ({', '.join(mod.terminals)}), the instance connects {len(el.nodes)} nodes",
+                           el.location, expected=f"{el.name} {' '.join(mod.terminals)} {model.name} [name=value ...]",
+                           hint="fewer nodes leave the last terminals unconnected, more are an error")
+    return mod
+
+
+def _instance_params(mod: OsdiModule, params: dict) -> dict:
+    """ngspice's ``m=`` is OpenVAF's ``$mfactor`` when the module has no parameter ``m`` of its own."""
+    if "m" in params and mod.parameter("m") is None and mod.parameter("$mfactor") is not None:
+        params = dict(params)
+        params["$mfactor"] = params.pop("m")
+    return params
+
+
+def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict[str, OsdiModel], list[OsdiInstance]]:
+    """The OSDI models (by ``.model`` name) and one instance per element (default: every ``N`` element).
+
+    Raises
+    ------
+    NetlistError
+        A library missing or of another OSDI version, a model type that is
+        no loaded module, a terminal count that differs from the module's,
+        an unknown parameter or one of the wrong type, values the module's
+        setup rejects.
+    """
+    els = [el for el in circuit.elements if el.kind == "osdi"] if elements is None else elements
+    modules = circuit_modules(circuit)
+    opts = circuit.options
+    sim = SimParameters(tnom=opts.tnom, gmin=opts.gmin, reltol=opts.reltol, abstol=opts.abstol,
+                        vntol=opts.vntol)
+    models: dict[str, OsdiModel] = {}
+    instances = []
+    for el in els:
+        mod = _module_of(el, circuit, modules)
+        model = models.get(el.model)
+        if model is None:
+            card = circuit.models[el.model]
+            model = models[el.model] = OsdiModel(mod, card.name, {**card.params, **card.strings}, sim=sim,
+                                                 location=card.location, locations=card.locations)
+        instances.append(OsdiInstance(model, el.name, _instance_params(mod, el.params),
+                                      temperature=opts.temp + KELVIN, connected=len(el.nodes), location=el.location))
+    return models, instances
+
+
+def check_circuit(circuit: Circuit) -> None:
+    """Load the circuit's OSDI libraries and set up every model and instance once (raising what is wrong)."""
+    build(circuit)

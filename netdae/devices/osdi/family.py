@@ -1,0 +1,286 @@
+"""The device family of OSDI instances: every ``N`` element of a circuit, evaluated in one pass.
+
+Each instance is connected to the MNA system once (:meth:`OsdiFamily.bind`):
+its node mapping points at the global unknowns (ground at the extra slot
+``n`` of the extended iterate, which is 0), its Jacobian pointers at the
+family's scratch arrays (one entry per Jacobian entry of every instance),
+whose values are scattered into the fixed sparsity pattern through
+precomputed slots. :meth:`OsdiFamily.evaluate` copies the iterate into the
+buffer ``eval`` reads, calls ``eval`` and the four ``load_*`` functions of
+every instance, and adds ``-f`` to ``phi`` and ``q`` to ``q`` (OSDI's
+``f(x) + d/dt q(x) = 0`` with ``f`` the currents leaving a node; netdae's
+node rows are the currents entering it).
+
+Internal nodes that survive collapse become internal unknowns named
+``<element>#<node>``; flow unknowns (the currents of Verilog-A branches with
+a potential contribution, such as an inductor's) become branch currents,
+``i(<element>)`` when the module has one, ``i(<element>#<branch>)`` otherwise.
+Modules with limiting states (``$limit``) limit in Newton iterations as SPICE
+devices do: the family's state is the modules' state vector (the limited
+values of the previous iteration), ``INIT_LIM`` starts a solve from scratch.
+The evaluation runs through ctypes, a few microseconds per instance; its
+compiled twin, for the compiled transient engine, is
+:func:`netdae.devices.kernels.osdi.eval_osdi`.
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+import re
+
+import numpy as np
+
+from ..base import Accumulator, DeviceFamily, SlotMap
+from ..companion import LimitState
+from . import abi
+from .bind import build
+from .evaluate import eval_flags
+
+__all__ = ["OsdiFamily"]
+
+_NOT_NAME = re.compile(r"[^0-9a-z_]+")
+#: eval() flags of limiting against the previous iteration (with the limiting right-hand sides) ...
+LIMIT_AGAINST = abi.ENABLE_LIM | abi.CALC_RESIST_LIM_RHS | abi.CALC_REACT_LIM_RHS
+#: ... and of a solve from scratch (the modules' initial values: SPICE's MODEINITJCT).
+LIMIT_INITIAL = LIMIT_AGAINST | abi.INIT_LIM
+
+
+def _name(node: str) -> str:
+    """A module's node name as part of an unknown's name: ``flow(br)`` -> ``br``."""
+    if node.startswith("flow(") and node.endswith(")"):
+        node = node[5:-1]
+    return _NOT_NAME.sub("_", node).strip("_") or "node"
+
+
+class _Calls:
+    """The descriptor's functions of one module, cast once."""
+
+    def __init__(self, descriptor) -> None:
+        self.eval = abi.EVAL(descriptor.eval)
+        self.res_f = abi.LOAD_RESIDUAL(descriptor.load_residual_resist)
+        self.res_q = abi.LOAD_RESIDUAL(descriptor.load_residual_react)
+        self.jac_f = abi.LOAD_JACOBIAN_RESIST(descriptor.load_jacobian_resist)
+        self.jac_q = abi.LOAD_JACOBIAN_REACT(descriptor.load_jacobian_react)
+        self.lim_f = abi.LOAD_RESIDUAL(descriptor.load_limit_rhs_resist)
+        self.lim_q = abi.LOAD_RESIDUAL(descriptor.load_limit_rhs_react)
+
+
+class OsdiFamily(DeviceFamily):
+    """Every OSDI instance of a circuit (element kind ``osdi``)."""
+
+    kinds = frozenset({"osdi"})
+
+    def __init__(self, elements, circuit) -> None:
+        super().__init__(elements, circuit)
+        self.models, self.instances = build(circuit, self.elements)
+        self.reps = [inst.node_classes() for inst in self.instances]
+        self._calls: dict[int, _Calls] = {}
+        for inst in self.instances:
+            key = id(inst.module)
+            if key not in self._calls:
+                self._calls[key] = _Calls(inst.module.descriptor)
+
+    # -- topology ----------------------------------------------------------
+    def add_nodes(self, layout) -> None:
+        """Terminals to the circuit's nodes, surviving internal potentials to new node unknowns."""
+        self.glob = []
+        for el, inst, reps in zip(self.elements, self.instances, self.reps):
+            mod = inst.module
+            nt = inst.connected
+            g = np.full(len(mod.nodes), -2, dtype=np.int64)  # -2: a flow unknown, numbered in add_branches
+            for i, node in enumerate(mod.nodes):
+                r = reps[i]
+                if r < 0:
+                    g[i] = -1
+                elif r < nt:
+                    g[i] = layout.node(el.nodes[r])
+                elif r == i and not node.is_flow:
+                    g[i] = layout.add_node(f"{el.name}#{_name(node.name)}", internal=True)
+            self.glob.append(g)
+
+    def add_branches(self, layout) -> None:
+        """Surviving flow unknowns (currents of Verilog-A branches) to branch currents: ``i(<element>)``
+        for a module with one, ``i(<element>#<branch>)`` otherwise."""
+        for el, inst, reps, g in zip(self.elements, self.instances, self.reps, self.glob):
+            mod = inst.module
+            flows = [i for i, node in enumerate(mod.nodes) if node.is_flow and reps[i] == i]
+            for i in flows:
+                name = el.name if len(flows) == 1 else f"{el.name}#{_name(mod.nodes[i].name)}"
+                g[i] = layout.add_branch(name)
+            for i in range(len(mod.nodes)):
+                if reps[i] >= inst.connected:
+                    g[i] = g[reps[i]]
+
+    def coordinates(self, layout):
+        rows, cols = [], []
+        for inst, g in zip(self.instances, self.glob):
+            jac = inst.module.jacobian
+            rows.append(np.array([g[e.row] for e in jac], dtype=np.int64))
+            cols.append(np.array([g[e.col] for e in jac], dtype=np.int64))
+        self._rows, self._cols = rows, cols
+        if not rows:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.concatenate(rows), np.concatenate(cols)
+
+    def bind(self, slots: SlotMap, n: int) -> None:
+        """Connect every instance: node mapping into the extended iterate, Jacobian pointers into scratch."""
+        self.n = n
+        total = sum(len(inst.module.jacobian) for inst in self.instances)
+        self.jr = np.zeros(max(total, 1))
+        self.jc = np.zeros(max(total, 1))
+        self.slots = slots(np.concatenate(self._rows), np.concatenate(self._cols)) if total else np.zeros(0, np.int64)
+        self.nstates = nstates = sum(inst.module.num_states for inst in self.instances)
+        self.prev_state = np.zeros(max(nstates, 1))
+        self.next_state = np.zeros(max(nstates, 1))
+        self.xbuf = np.zeros(n + 1)
+        self.fbuf = np.zeros(n + 1)
+        self.qbuf = np.zeros(n + 1)
+        off = soff = 0
+        for inst, g in zip(self.instances, self.glob):
+            nj, ns = len(inst.module.jacobian), inst.module.num_states
+            mapping = np.where(g < 0, n, g).astype(np.uint32)
+            inst.connect(mapping, self.jr[off:off + nj], self.jc[off:off + nj], np.arange(soff, soff + ns))
+            off += nj
+            soff += ns
+        self.info = abi.OsdiSimInfo()
+        if self.instances:  # the models of one circuit share their simulator parameters (bind.build)
+            self.sim = self.instances[0].model.sim
+            self.info.paras = self.sim.struct
+        self.info.prev_solve = self.xbuf.ctypes.data_as(C.POINTER(C.c_double))
+        self.info.prev_state = self.prev_state.ctypes.data_as(C.POINTER(C.c_double))
+        self.info.next_state = self.next_state.ctypes.data_as(C.POINTER(C.c_double))
+        self._flags = (eval_flags("tran"), eval_flags("tran") & ~(abi.CALC_RESIST_JACOBIAN | abi.CALC_REACT_JACOBIAN))
+
+    def compiled(self, slots: SlotMap, n: int) -> tuple:
+        """Pack the family for :func:`netdae.devices.kernels.osdi.eval_osdi` (after ``bind``).
+
+        Returns
+        -------
+        tuple
+            ``(inst, fns, slots, info_i, info_f, xbuf, fbuf, qbuf, jr, jc)``: the
+            family's own buffers (the instances hold their addresses) and the
+            function addresses of its modules. The limiting state vectors
+            (``vold``, ``vnew``: float64[max(1, S)]) are the caller's.
+        """
+        from ..kernels import osdi as ko
+
+        modules: dict[int, int] = {}
+        fns = []
+        inst = np.zeros((len(self.instances), ko.N_INST), dtype=np.int64)
+        off = 0
+        for k, i in enumerate(self.instances):
+            d = i.module.descriptor
+            row = modules.get(id(i.module))
+            if row is None:
+                row = modules[id(i.module)] = len(fns)
+                fns.append((d.eval, d.load_residual_resist, d.load_residual_react, d.load_jacobian_resist,
+                            d.load_jacobian_react, d.load_limit_rhs_resist, d.load_limit_rhs_react))
+            nj = len(i.module.jacobian)
+            inst[k] = (i.handle, i.ptr, i.model.ptr, row, off, off + nj)
+            off += nj
+        info_i = np.zeros(ko.INFO_WORDS, dtype=np.int64)
+        if self.instances:
+            sim = self.sim
+            info_i[:4] = [C.addressof(sim.names), C.addressof(sim.vals), C.addressof(sim.names_str),
+                          C.addressof(sim.vals_str)]
+        info_i[ko.W_PREV_SOLVE] = self.xbuf.ctypes.data
+        info_i[ko.W_PREV_STATE] = self.prev_state.ctypes.data
+        info_i[ko.W_NEXT_STATE] = self.next_state.ctypes.data
+        self._info_words = info_i  # the kernel's OsdiSimInfo (kept alive with the family)
+        return (inst, np.array(fns, dtype=np.int64).reshape(-1, ko.N_FNS), np.asarray(self.slots, dtype=np.int64),
+                info_i, info_i.view(np.float64), self.xbuf, self.fbuf, self.qbuf, self.jr[:off], self.jc[:off])
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        """Terminals joined through the module's resistive Jacobian entries (a DC path, structurally)."""
+        pairs = []
+        for el, inst in zip(self.elements, self.instances):
+            mod = inst.module
+            parent = list(range(len(mod.nodes)))
+
+            def find(i):
+                while parent[i] != i:
+                    i = parent[i]
+                return i
+
+            for e in mod.jacobian:
+                if e.resist and e.row != e.col:
+                    a, b = find(e.row), find(e.col)
+                    if a != b:
+                        parent[max(a, b)] = min(a, b)
+            for t in range(1, inst.connected):
+                for s in range(t):
+                    if find(s) == find(t):
+                        pairs.append((el.nodes[s], el.nodes[t]))
+                        break
+        return pairs
+
+    # -- evaluation --------------------------------------------------------
+    def initial_state(self) -> LimitState | None:
+        """SPICE's ``MODEINITJCT`` for the modules that limit (``INIT_LIM``); None without states."""
+        if not self.nstates:
+            return None
+        return LimitState(np.zeros((1, self.nstates)), initial=True)
+
+    def _limit_mode(self, x, state) -> int:
+        """The eval flags of limiting: none (at x), against ``state``, or the modules' initial values."""
+        if state is None or not self.nstates:
+            self.next_state[:] = 0.0
+            return 0
+        self.prev_state[: self.nstates] = state.v[0]
+        if state.initial:
+            self.next_state[:] = 0.0
+            return LIMIT_INITIAL if not np.any(x[: self.n]) else 0
+        # a state a module does not write this time keeps its value (ngspice updates the states in place)
+        self.prev_state[: self.nstates] = state.v[0]
+        self.next_state[: self.nstates] = state.v[0]
+        return LIMIT_AGAINST
+
+    def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        """Every instance at ``x``; with a limiting state, the modules limit (``$limit``) against it.
+
+        Where a module limited, its residuals are continued linearly from the
+        limited point to ``x`` with the module's limiting right-hand sides
+        (``f(v_lim) + J (x - v_lim)``: SPICE's companion model), and the
+        evaluation is marked limited (another Newton iteration).
+        """
+        self.xbuf[:] = x
+        self.xbuf[self.n] = 0.0
+        self.fbuf[:] = 0.0
+        self.qbuf[:] = 0.0
+        lim = self._limit_mode(x, state)
+        info = self.info
+        info.abstime = float(t)
+        info.flags = (self._flags[0] if jacobian else self._flags[1]) | lim
+        if jacobian:
+            self.jr[:] = 0.0
+            self.jc[:] = 0.0
+        fptr, qptr = self.fbuf.ctypes.data, self.qbuf.ctypes.data
+        ref = C.byref(info)
+        limited = 0
+        for inst in self.instances:
+            calls = self._calls[id(inst.module)]
+            mptr = inst.model.ptr
+            ret = calls.eval(inst.handle, inst.ptr, mptr, ref)
+            if ret & abi.EVAL_RET_FLAG_FATAL:
+                acc.ok = False
+            limited |= ret & abi.EVAL_RET_FLAG_LIM
+            calls.res_f(inst.ptr, mptr, fptr)
+            calls.res_q(inst.ptr, mptr, qptr)
+            if lim:
+                calls.lim_f(inst.ptr, mptr, fptr)
+                calls.lim_q(inst.ptr, mptr, qptr)
+            if jacobian:
+                calls.jac_f(inst.ptr, mptr)
+                calls.jac_q(inst.ptr, mptr, 1.0)
+        acc.phi -= self.fbuf
+        acc.q += self.qbuf
+        if jacobian and len(self.slots):
+            acc.add_dphi(self.slots, -self.jr[: len(self.slots)])
+            acc.add_dq(self.slots, self.jc[: len(self.slots)])
+        if not (np.isfinite(self.fbuf).all() and np.isfinite(self.qbuf).all()):
+            acc.ok = False
+        if limited:
+            acc.limited = True
+        if state is None or not self.nstates:
+            return None
+        return LimitState(self.next_state[None, : self.nstates].copy())

