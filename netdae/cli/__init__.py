@@ -234,7 +234,10 @@ def run() -> None:
     argv = sys.argv[1:]
     path = None
     _limit_blas_threads()  # before the server key, which covers these variables
-    if not (argv and argv[0] == "server"):
+    from ..server import wanted
+
+    # --help, --version and `netdae server` run here; so does everything when the server is off
+    if argv and not argv[0].startswith("-") and argv[0] != "server" and wanted():
         from ..server import client
 
         if client.enabled():

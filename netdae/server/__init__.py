@@ -24,3 +24,14 @@ mechanism as Mercurial's ``chg`` and Gradle's daemon.
 
 ``NETDAE_SERVER=0`` turns it off; ``netdae server status|start|stop`` manages it.
 """
+
+import os as _os
+
+#: Environment variable that turns the server off (``0``, ``no``, ``off``, ``false``).
+SWITCH = "NETDAE_SERVER"
+
+
+def wanted(env=None) -> bool:
+    """Whether the environment lets commands go through a server (cheap: no imports)."""
+    env = _os.environ if env is None else env
+    return env.get(SWITCH, "1").strip().lower() not in ("0", "no", "off", "false")

@@ -38,8 +38,7 @@ __all__ = [
     "forward", "start", "RunStatus", "limits",
 ]
 
-#: Environment variable that turns the server off (``0``, ``no``, ``off``, ``false``).
-SWITCH = "NETDAE_SERVER"
+from . import SWITCH, wanted
 #: Seconds a server waits for a command before it exits (``NETDAE_SERVER_IDLE``).
 IDLE_SECONDS = 900.0
 #: Environment variables that change what an import does: part of the key.
@@ -56,10 +55,9 @@ class RunStatus(Exception):
 
 def enabled(env: dict | None = None) -> bool:
     """Whether commands may go through a server on this platform and environment."""
-    env = os.environ if env is None else env
     if os.name != "posix" or not hasattr(socket, "AF_UNIX") or not hasattr(socket, "send_fds"):
         return False
-    return env.get(SWITCH, "1").strip().lower() not in ("0", "no", "off", "false")
+    return wanted(env)
 
 
 def server_dir(env: dict | None = None) -> str | None:
