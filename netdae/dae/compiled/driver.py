@@ -430,6 +430,14 @@ def pack_matrices(system) -> tuple:
             B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
 
 
+def limiting_states(devd: tuple) -> tuple[int, ...]:
+    """Positions in :func:`_pack_families`'s ``devd`` of the limiting states (``vacc``, ``vtry``,
+    ``vnew`` of the diodes, BJTs, MOSFETs and switches, then of the OSDI devices, which end it):
+    what a new solve from the initial state must copy rather than share."""
+    return (*(5 * slot + k for slot in range(SWITCH_SLOT + 1) for k in (2, 3, 4)),
+            *range(len(devd) - 3, len(devd)))
+
+
 def _pack_families(system, x0, switching) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,

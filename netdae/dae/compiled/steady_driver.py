@@ -86,7 +86,7 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     a_data = pack.a_data
     sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n)
     devd = list(pack.devd)
-    for k in (*_STATES, *range(len(devd) - _OSDI_STATES, len(devd))):
+    for k in pack.states:
         devd[k] = devd[k].copy()
     devd = tuple(devd)
     nnz = pack.nnz
@@ -126,7 +126,7 @@ class _Pack:
     """
 
     def __init__(self, system, x, t):
-        from .driver import _pack_families, pack_matrices
+        from .driver import _pack_families, limiting_states, pack_matrices
         from .lu import SparseLU
 
         pattern = system.pattern
@@ -135,6 +135,7 @@ class _Pack:
         self.a_data = np.zeros(self.nnz)
         self.sysd = (indptr, indices, e_data, h_data, self.a_data, b_rows, b_cols, b_vals)
         self.devd = _pack_families(system, x, None)
+        self.states = limiting_states(self.devd)
         self.lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
         # a first pivot order: of the matrix at x evaluated without limiting (a degraded pivot
         # later comes back to Python for a new one)
@@ -143,9 +144,5 @@ class _Pack:
             self.lu.factor(np.where(pattern.rows == pattern.cols, 1.0, 0.0))
 
 
-#: Positions of the families' limiting states in ``devd`` (vacc, vtry, vnew of four families).
-_STATES = tuple(k for k in range(20) if k % 5 >= 2)
-#: The OSDI devices' limiting states (accepted, trial, new) end ``devd``.
-_OSDI_STATES = 3
 #: The packed arrays and the LU (its pivot order) of each system solved, for its next solves.
 _PACKS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
