@@ -70,14 +70,18 @@ def frequencies(card: AcAnalysis) -> np.ndarray:
     return grid(card.variation, f0, f1, n)
 
 
-def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray) -> np.ndarray:
-    """Phasors X(f) solving ``(j 2 pi f E - H) X = b`` for every frequency.
+def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, delays=()) -> np.ndarray:
+    """Phasors X(f) solving ``(j 2 pi f E - H + sum (1 - exp(-j 2 pi f tau)) D_tau) X = b`` for every frequency.
 
     Parameters
     ----------
     E, H : sparse, shape (n, n)
+        ``H`` the DC Jacobian (transmission lines joining their ports).
     b : ndarray of complex, shape (n,)
     freqs : ndarray, shape (m,)
+    delays : sequence of (float, sparse (n, n))
+        The transmission lines' couplings by delay (:meth:`netdae.mna.system.Delays.by_delay`):
+        at frequency f a line's far port arrives as ``exp(-j 2 pi f tau) D x``.
 
     Returns
     -------
@@ -100,6 +104,8 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray) -
     if n <= DENSE_AC_LIMIT:
         Ed, Hd = E.toarray(), H.toarray()
         mats = w[:, None, None] * Ed[None] - Hd[None]
+        for tau, D in delays:
+            mats = mats + (1.0 - np.exp(-w * tau))[:, None, None] * D.toarray()[None]
         try:
             return np.linalg.solve(mats, np.broadcast_to(b, (w.size, n))[..., None])[..., 0]
         except np.linalg.LinAlgError:
@@ -108,8 +114,12 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray) -
     H = sp.csc_matrix(H, dtype=complex)
     out = np.empty((w.size, n), dtype=complex)
     perm = None
+    delays = [(tau, sp.csc_matrix(D, dtype=complex)) for tau, D in delays]
     for k, wk in enumerate(w):
-        A = (wk * E - H).tocsc()
+        A = wk * E - H
+        for tau, D in delays:
+            A = A + (1.0 - np.exp(-wk * tau)) * D
+        A = A.tocsc()
         try:
             if perm is None:
                 lu = spla.splu(A, permc_spec="COLAMD")
@@ -144,8 +154,9 @@ class Linearization:
     E : sparse, shape (n, n)
         ``dq/dx`` at the operating point.
     H : sparse, shape (n, n)
-        ``dphi/dx`` at the operating point, with the resistors' DC values
-        (what ``.tf`` solves: ``-H`` is the DC matrix).
+        ``dphi/dx`` at the operating point, with the resistors' DC values and
+        the transmission lines joining their ports (what ``.tf`` solves: ``-H``
+        is the DC matrix).
     """
 
     system: Any
@@ -153,6 +164,12 @@ class Linearization:
     options: Any
     E: sp.spmatrix
     H: sp.spmatrix
+
+    @property
+    def delays(self) -> list:
+        """The transmission lines' couplings by delay, for :func:`solve_ac` (empty without lines)."""
+        d = self.system.delays
+        return d.by_delay() if d is not None else []
 
     @property
     def H_ac(self) -> sp.spmatrix:
@@ -181,7 +198,7 @@ def linearize(circuit: Circuit, **overrides) -> Linearization:
     system = assemble(circuit, mode=MODE_DC)
     opts = steady_options(circuit, **overrides)
     op = solve_operating_point(system, options=opts)
-    E, H = system.jacobians(op.x, 0.0)
+    E, H = system.steady_form().jacobians(op.x, 0.0)
     return Linearization(system, op, opts, E, H)
 
 
@@ -210,7 +227,7 @@ def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:
     system, op, opts, E, H = lin.system, lin.op, lin.options, lin.E, lin.H_ac  # resistors' ac= values
     b = system.B @ system.sources.ac
     freqs = frequencies(card)
-    X = solve_ac(E, H, b, freqs)
+    X = solve_ac(E, H, b, freqs, lin.delays)
     notes = list(system.notes)
     if not np.any(system.sources.ac):
         notes.append("no source has an AC value (ac mag [phase]): every phasor is zero")

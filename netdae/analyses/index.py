@@ -232,6 +232,7 @@ def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: 
         if card.uic:
             return None  # the uic start is judged by the transient itself
         x0 = solve_operating_point(tsys, transient=True).x  # raises when the start does not exist
+    tsys.start_delays(x0)  # transmission lines hold the start's waves
     H = pencil.weierstrass
     ev = tsys.evaluate(x0, 0.0, jacobian=False)
     c0 = ev.phi - tsys.jacobians(x0, 0.0)[1] @ x0

@@ -245,6 +245,7 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
         unknowns that did not settle and their last values.
     """
     circuit = system.circuit
+    system = system.steady_form()  # transmission lines join their ports at DC
     opts = options or steady_options(circuit)
     forcing = _node_forcing(system, circuit.ic, ".ic") if transient else None
     nodeset = _node_forcing(system, circuit.nodeset, ".nodeset")

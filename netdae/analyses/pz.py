@@ -360,6 +360,12 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     t0 = time.perf_counter()
     lin = linearize(circuit, **overrides)
     system = lin.system
+    if system.delays is not None:
+        lines = sorted({el.name for el in circuit.elements if el.kind == "tline"})
+        raise CircuitError(f".pz: the transmission lines {', '.join(lines[:5])} make the transfer function "
+                           "transcendental (exp(-s td)): it has no finite set of poles and zeros",
+                           elements=tuple(lines), hint="use .ac for the frequency response, or replace the "
+                           "line by an LC ladder")
     if system.n + 1 > DENSE_LIMIT:
         raise CircuitError(f".pz: {system.n} unknowns: the pole-zero analysis is dense (O(n^3)) and takes at most "
                            f"{DENSE_LIMIT - 1}", hint="analyse a smaller sub-circuit")

@@ -363,6 +363,23 @@ def _decoupled(system: MnaSystem, rep: IndexReport, x_start: np.ndarray, y0: np.
 
 
 # -- the analysis ---------------------------------------------------------------------
+def _check_delays(system: MnaSystem) -> None:
+    """Transmission lines need the compiled engine (it keeps the delayed solution at hand).
+
+    Raises
+    ------
+    CircuitError
+        With ``NETDAE_ENGINE=python``.
+    """
+    from ..dae.bdf.run import _compiled_engine_enabled
+
+    if not _compiled_engine_enabled():
+        lines = sorted({el.name for el in system.circuit.elements if el.kind == "tline"})
+        raise CircuitError(f"transmission lines ({', '.join(lines[:5])}) run in the compiled engine only, and "
+                           "NETDAE_ENGINE=python asks for the Python integrator", elements=tuple(lines),
+                           hint="unset NETDAE_ENGINE (or set it to 'compiled')")
+
+
 def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[str] | None = None,
               reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
               maxord: int | None = None, initial: str = "consistent", max_step: float | None = None,
@@ -434,6 +451,11 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
 
     system = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
     notes = list(system.notes)
+    if system.delays is not None:
+        _check_delays(system)
+        # a step never reaches past the shortest line delay: the wave a step needs has left
+        # the other port before the step began (an accepted point, interpolated)
+        tmax = min(tmax, float(system.delays.tau.min()))
     if card.uic:
         start = _uic_start(system)
     else:
@@ -442,6 +464,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         op = solve_operating_point(system, transient=True, options=steady)
         start = _Start(x=op.x, op_iterations=op.iterations, notes=list(op.notes))
     notes += start.notes
+    system.start_delays(start.x, uic=card.uic)
 
     rep = _structure(system, start.x)
     index = rep.index

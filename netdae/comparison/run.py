@@ -169,7 +169,7 @@ def _netdae_ac_at(circuit: Circuit, freqs: np.ndarray, overrides: dict) -> Resul
 
     lin = linearize(circuit, **overrides)
     system, opts = lin.system, lin.options
-    X = solve_ac(lin.E, lin.H_ac, system.B @ system.sources.ac, freqs)
+    X = solve_ac(lin.E, lin.H_ac, system.B @ system.sources.ac, freqs, lin.delays)
     return Result("ac", axes={"frequency": np.asarray(freqs, dtype=float)},
                   signals={name: X[:, i] for i, name in enumerate(system.names)},
                   tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol})

@@ -31,7 +31,7 @@ semi-definite for passive circuits, and the DC matrix is ``-H``.
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -43,15 +43,27 @@ from .stamps import Triplets
 if TYPE_CHECKING:
     from ..mna.layout import Layout
 
-__all__ = ["LinearStamps", "stamp_linear", "capacitances", "conductances", "inductances", "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE"]
+__all__ = ["LinearStamps", "stamp_linear", "capacitances", "conductances", "inductances", "branch_names",
+           "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE", "TLINE_BRANCHES"]
 
 #: Kinds whose current is an MNA unknown.
 BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "opamp", "bvoltage"})
 
 #: Kinds stamped here (constant matrices).
 LINEAR_KINDS = frozenset(
-    {"resistor", "capacitor", "inductor", "coupling", "vsource", "isource", "vcvs", "vccs", "cccs", "ccvs", "opamp"}
+    {"resistor", "capacitor", "inductor", "coupling", "vsource", "isource", "vcvs", "vccs", "cccs", "ccvs", "opamp",
+     "tline"}
 )
+
+#: The suffixes of a transmission line's two port currents (ngspice's names: ``t1#i1``, ``t1#i2``).
+TLINE_BRANCHES = ("#i1", "#i2")
+
+
+def branch_names(el: Element) -> tuple[str, ...]:
+    """The branch-current unknowns a linear element adds, by name (none for most kinds)."""
+    if el.kind == "tline":
+        return tuple(el.name + suffix for suffix in TLINE_BRANCHES)
+    return (el.name,) if el.kind in BRANCH_KINDS else ()
 
 #: ngspice replaces a resistance of exactly zero by 1 milliohm (with a warning); so does netdae.
 ZERO_RESISTANCE = 1e-3
@@ -74,6 +86,13 @@ class LinearStamps:
     H_ac : Triplets
         What ``.ac`` adds to dphi/dx: resistors with an ``ac=`` resistance
         conduct ``m / (ac factor scale)`` there instead of ``m / (R factor scale)``.
+    D : Triplets
+        The transmission lines' couplings: ``phi += D x(t - tau)`` in a transient
+        (the wave arriving at each port), ``D x`` at DC.
+    delay_rows, delay_tau : list of int, list of float
+        The rows of ``D`` and each one's delay.
+    delay_ic : list of float
+        Each row's wave at the start of a ``uic`` transient (from the lines' ``ic=``).
     """
 
     E: Triplets
@@ -82,6 +101,10 @@ class LinearStamps:
     sources: list[Element]
     notes: list[str]
     H_ac: Triplets
+    D: Triplets = field(default_factory=Triplets)
+    delay_rows: list = field(default_factory=list)
+    delay_tau: list = field(default_factory=list)
+    delay_ic: list = field(default_factory=list)
 
 
 def _temperature_factor(els: list[Element], temp: float, tnom: float) -> np.ndarray:
@@ -313,6 +336,33 @@ def _stamp_ccvs(els, layout, st: LinearStamps):
     st.H.add(k, j, -_values(els))
 
 
+def _stamp_tlines(els, layout, st: LinearStamps):
+    """Lossless lines by the method of characteristics (ngspice's TRA).
+
+    With ``i1``, ``i2`` the currents entering the line at its ports and
+    ``v1``, ``v2`` the port voltages, the line is
+    ``v1 - z0 i1 = (v2 + z0 i2)(t - td)`` and ``v2 - z0 i2 = (v1 + z0 i1)(t - td)``:
+    each branch row is a resistance z0 (here, in H) behind the wave that left
+    the other port a delay ago (``D``, applied to the delayed solution).
+    """
+    for port, (pos, neg, other_pos, other_neg) in enumerate(((0, 1, 2, 3), (2, 3, 0, 1))):
+        a = layout.nodes_of([el.nodes[pos] for el in els])
+        b = layout.nodes_of([el.nodes[neg] for el in els])
+        c = layout.nodes_of([el.nodes[other_pos] for el in els])
+        d = layout.nodes_of([el.nodes[other_neg] for el in els])
+        k = np.array([layout.branch(el.name + TLINE_BRANCHES[port]) for el in els], dtype=np.int64)
+        j = np.array([layout.branch(el.name + TLINE_BRANCHES[1 - port]) for el in els], dtype=np.int64)
+        z0 = np.array([el.params["z0"] for el in els])
+        st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=-1.0)
+        st.H.add(k, k, -z0)
+        st.D.add(np.concatenate([k, k, k]), np.concatenate([c, d, j]), np.concatenate([-np.ones(len(els)),
+                                                                                       np.ones(len(els)), -z0]))
+        st.delay_rows.extend(k.tolist())
+        st.delay_tau.extend(el.params["td"] for el in els)
+        v, i = ("v2", "i2") if port == 0 else ("v1", "i1")
+        st.delay_ic.extend(-(el.params.get(v, 0.0) + el.params["z0"] * el.params.get(i, 0.0)) for el in els)
+
+
 def stamp_linear(circuit: Circuit, layout: Layout, by_kind: dict[str, list[Element]]) -> LinearStamps:
     """Stamp every linear element of ``circuit``.
 
@@ -365,4 +415,6 @@ def stamp_linear(circuit: Circuit, layout: Layout, by_kind: dict[str, list[Eleme
         _stamp_cccs(get("cccs"), layout, st)
     if get("ccvs"):
         _stamp_ccvs(get("ccvs"), layout, st)
+    if get("tline"):
+        _stamp_tlines(get("tline"), layout, st)
     return st

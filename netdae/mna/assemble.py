@@ -13,12 +13,12 @@ from collections import defaultdict
 from ..circuit import Circuit, Element
 from ..dae.sparse import SparsePattern
 from ..devices.base import SlotMap
-from ..devices.linear import BRANCH_KINDS, LINEAR_KINDS, stamp_linear
+from ..devices.linear import LINEAR_KINDS, branch_names, stamp_linear
 from ..devices.registry import family_for
 from ..errors import CircuitError
 from .layout import Layout
 from .sources import MODE_DC, MODE_TRAN, SourceVector
-from .system import MnaSystem
+from .system import Delays, MnaSystem
 
 __all__ = ["assemble", "group_by_kind"]
 
@@ -98,15 +98,16 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
     for fam in families:
         fam.add_nodes(layout)
     for el in circuit.elements:
-        if el.kind in BRANCH_KINDS and family_for(el.kind) is None:
-            layout.add_branch(el.name)
+        if family_for(el.kind) is None:
+            for name in branch_names(el):
+                layout.add_branch(name)
     for fam in families:
         fam.add_branches(layout)
 
     stamps = stamp_linear(circuit, layout, by_kind)
     n = layout.n
-    rows = [stamps.E.coordinates()[0], stamps.H.coordinates()[0]]
-    cols = [stamps.E.coordinates()[1], stamps.H.coordinates()[1]]
+    rows = [stamps.E.coordinates()[0], stamps.H.coordinates()[0], stamps.D.coordinates()[0]]
+    cols = [stamps.E.coordinates()[1], stamps.H.coordinates()[1], stamps.D.coordinates()[1]]
     for fam in families:
         r, c = fam.coordinates(layout)
         keep = (r >= 0) & (c >= 0)
@@ -128,4 +129,5 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
         pattern,
         stamps.notes,
         stamps.H_ac.matrix(n),
+        delays=Delays.of(stamps, n) if stamps.delay_rows else None,
     )

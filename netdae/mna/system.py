@@ -13,7 +13,9 @@ directly (``E x' = H x + c(t)``, the form of the lecture notes (2.8)).
 
 from __future__ import annotations
 
-from typing import Any
+import copy
+from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -25,7 +27,15 @@ from ..devices.base import Accumulator, DeviceFamily
 from .layout import Layout
 from .sources import SourceVector
 
-__all__ = ["MnaSystem"]
+__all__ = ["MnaSystem", "Delays", "MAX_DELAYED_BREAKPOINTS", "DELAY_DEPTH"]
+
+#: Most breakpoints the transmission lines' delays add to a transient (the sources' corners
+#: carried along the lines and their reflections); past it the error control finds the rest.
+MAX_DELAYED_BREAKPOINTS = 50_000
+#: Passes along the lines a source's corner is followed as a breakpoint (the direct wave, its
+#: reflection back and the second arrival, and one more): later reflections are weaker by the
+#: product of the ports' reflection coefficients, and the error control sees their corners.
+DELAY_DEPTH = 4
 
 #: ``B`` (or, for a large circuit, ``B`` restricted to its non-zero rows) is
 #: kept dense when it has at most this many entries: ``c = B u`` then costs one
@@ -36,6 +46,72 @@ DENSE_SOURCE_ENTRIES = 4096
 #: matrices: at this size a dense product (about 1 us) beats scipy's sparse
 #: one (about 4 us of call overhead each).
 DENSE_MATVEC_MAX = 64
+
+
+@dataclass
+class Delays:
+    """The transmission lines of a circuit: ``phi[rows] += (D x)(t - tau)`` in a transient.
+
+    Each row is a line's port equation; ``(D x)[row]`` is minus the wave that
+    leaves the line's other port (``-(v + z0 i)``), which arrives ``tau``
+    later. At DC the delayed solution is the solution itself, so the steady
+    state solves ``phi = (H + D) x + B u`` (:meth:`MnaSystem.steady_form`);
+    in ``.ac`` the coupling is ``exp(-j w tau) D``.
+
+    Attributes
+    ----------
+    D : scipy.sparse.csr_matrix, shape (n, n)
+        Non-zero only in ``rows``.
+    rows : ndarray of int64, shape (R,)
+    tau : ndarray, shape (R,)
+        Each row's delay [s], positive.
+    ic : ndarray, shape (R,)
+        Each row's wave before a ``uic`` transient starts (the lines' ``ic=``).
+    """
+
+    D: sp.csr_matrix
+    rows: np.ndarray
+    tau: np.ndarray
+    ic: np.ndarray
+
+    @classmethod
+    def of(cls, stamps, n: int) -> "Delays":
+        """From :class:`~netdae.devices.linear.LinearStamps` with lines."""
+        return cls(stamps.D.matrix(n).tocsr(), np.asarray(stamps.delay_rows, dtype=np.int64),
+                   np.asarray(stamps.delay_tau, dtype=float), np.asarray(stamps.delay_ic, dtype=float))
+
+    def waves(self, x: np.ndarray) -> np.ndarray:
+        """``(D x)[rows]``: the waves the rows receive when ``x`` is their delayed solution, shape (R,)."""
+        return self.D[self.rows] @ np.asarray(x, dtype=float)
+
+    def by_delay(self) -> list[tuple[float, sp.csr_matrix]]:
+        """``[(tau, D_tau)]``: the coupling split by distinct delay (for ``.ac``)."""
+        out = []
+        for tau in np.unique(self.tau):
+            keep = np.zeros(self.D.shape[0])
+            keep[self.rows[self.tau == tau]] = 1.0
+            out.append((float(tau), sp.diags(keep) @ self.D))
+        return out
+
+    def breakpoints(self, corners: np.ndarray, t0: float, t1: float) -> tuple[np.ndarray, bool]:
+        """The corners (and the start) carried along the lines: ``c + a sum of up to`` :data:`DELAY_DEPTH`
+        ``delays`` in [t0, t1].
+
+        Returns the sorted points and whether :data:`MAX_DELAYED_BREAKPOINTS` cut the set short.
+        """
+        taus = np.unique(self.tau)
+        points = np.unique(np.concatenate([[t0], np.asarray(corners, dtype=float)]))
+        frontier = points
+        for _ in range(DELAY_DEPTH):
+            if not frontier.size:
+                break
+            new = (frontier[:, None] + taus[None, :]).ravel()
+            new = np.setdiff1d(new[new <= t1], points)
+            points = np.union1d(points, new)
+            frontier = new
+            if points.size > MAX_DELAYED_BREAKPOINTS:
+                return points[:MAX_DELAYED_BREAKPOINTS], True
+        return points, False
 
 
 class MnaSystem(DaeSystem):
@@ -61,11 +137,20 @@ class MnaSystem(DaeSystem):
     switching : SwitchEvents or None
         The switches' states and events for a transient
         (:class:`~netdae.devices.switch.SwitchEvents`); None without switches.
+    delays : Delays or None
+        The transmission lines (None without T elements; the transient form:
+        :meth:`steady_form` is the DC one).
+    delay_start : ndarray or None
+        The lines' waves before the transient's start (:meth:`start_delays`).
+    delay_history : callable or None
+        ``history(tq) -> waves`` of the rows at times ``tq`` (shape (R,)) after the
+        start, set by the integrator while it runs; None: the start's waves.
     """
 
     def __init__(self, circuit: Circuit, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
                  B: sp.csc_matrix, sources: SourceVector, families: list[DeviceFamily],
-                 pattern: SparsePattern, notes: list[str], H_ac: sp.csc_matrix | None = None):
+                 pattern: SparsePattern, notes: list[str], H_ac: sp.csc_matrix | None = None,
+                 delays: Delays | None = None):
         self.circuit = circuit
         self.layout = layout
         self.n = layout.n
@@ -80,6 +165,11 @@ class MnaSystem(DaeSystem):
         self.linear = not families
         self.notes = notes
         self.H_ac = H_ac if H_ac is not None else sp.csc_matrix((self.n, self.n))
+        self.delays = delays
+        self.delay_start: np.ndarray | None = None
+        self.delay_history: Callable[[np.ndarray], np.ndarray] | None = None
+        self._delay_t0 = 0.0
+        self._steady = None
         self._dq_lin = pattern.data_of(E)
         self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
@@ -140,12 +230,64 @@ class MnaSystem(DaeSystem):
     def source(self, t: float, derivative: int = 0) -> np.ndarray:
         """``c(t) = B u(t)`` or its time derivative, shape (n,)."""
         u = self.sources.values(t, derivative)
-        if self._b_full is not None:
-            return self._b_full @ u
-        return self._add_sources(np.zeros(self.n), u)
+        c = self._b_full @ u if self._b_full is not None else self._add_sources(np.zeros(self.n), u)
+        if self.delays is not None:
+            if derivative == 0:
+                c[self.delays.rows] += self.delayed_waves(t)
+            elif np.any(t - self.delays.tau > self._delay_t0):
+                from ..errors import CircuitError
+
+                raise CircuitError("the derivatives of a transmission line's delayed waves are not available "
+                                   "here (a linear circuit of index 3 or more solved by decoupling)",
+                                   hint="transmission lines run with the BDF integrator")
+        return c
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
-        return self.sources.breakpoints(t0, t1)
+        corners = self.sources.breakpoints(t0, t1)
+        if self.delays is None:
+            return corners
+        return self.delays.breakpoints(corners, t0, t1)[0]
+
+    # -- transmission lines ----------------------------------------------------
+    def steady_form(self) -> "MnaSystem":
+        """The system whose steady states are the circuit's DC ones (itself without lines).
+
+        A line at DC joins its ports (its delayed solution is the solution):
+        the copy solves ``phi = (H + D) x + B u`` on the same pattern and
+        unknowns, and has no delays. Made once and kept.
+        """
+        if self.delays is None:
+            return self
+        if self._steady is None:
+            s = copy.copy(self)
+            s._H = (self._H + self.delays.D).tocsc()
+            s._dphi_lin = self.pattern.data_of(s._H)
+            s._H_mv = s._H.toarray() if self.n <= DENSE_MATVEC_MAX else s._H
+            s._acc = Accumulator(self.n, self.pattern.nnz) if self.families else None
+            s._xext = np.zeros(self.n + 1)
+            s.delays = None
+            s._steady = s
+            self._steady = s
+        return self._steady
+
+    def start_delays(self, x0: np.ndarray, t0: float = 0.0, *, uic: bool = False) -> None:
+        """Fix the lines' waves before ``t0``: those of the solution ``x0`` (the operating point),
+        or with ``uic`` the lines' ``ic=`` values (zero when not given), as ngspice starts them."""
+        if self.delays is None:
+            return
+        self.delay_start = self.delays.ic.copy() if uic else self.delays.waves(x0)
+        self._delay_t0 = float(t0)
+        self.delay_history = None
+
+    def delayed_waves(self, t: float) -> np.ndarray:
+        """The waves the lines' rows receive at time ``t``, shape (R,)."""
+        d = self.delays
+        out = self.delay_start.copy() if self.delay_start is not None else np.zeros(d.rows.size)
+        tq = t - d.tau
+        after = tq > self._delay_t0
+        if self.delay_history is not None and after.any():
+            out[after] = self.delay_history(tq)[after]
+        return out
 
     def initial_state(self) -> Any:
         """Limiting state of every family for a solve from scratch (SPICE's MODEINITJCT).
@@ -166,6 +308,8 @@ class MnaSystem(DaeSystem):
         if self.sources.m:
             u = self.sources.values(t)
             self._add_sources(phi, u if source_scale == 1.0 else source_scale * u)
+        if self.delays is not None:
+            phi[self.delays.rows] += self.delayed_waves(t)
         if not self.families:
             return Evaluation(
                 q=q, phi=phi,

@@ -610,6 +610,36 @@ class _Elaborator:
                 item.card.location(item.params["dtemp"][1])))
         if el.kind == "coupling" and not -1.0 <= el.value <= 1.0:
             raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
+        if el.kind == "tline":
+            self._check_tline(el, item)
+
+    def _check_tline(self, el: Element, item: ElementCard) -> None:
+        """z0 > 0 and the delay (``td=``, else ``nl / f`` with ngspice's nl = 0.25) positive."""
+        syntax, at = ELEMENTS["t"], lambda key: item.params[key][1]
+        if not el.params["z0"] > 0.0:
+            raise error(item.card, at("z0"), f"characteristic impedance z0={el.params['z0']:g}: must be positive",
+                        syntax)
+        if "td" in el.params:
+            if not el.params["td"] > 0.0:
+                raise error(item.card, at("td"), f"delay td={el.params['td']:g}: must be positive", syntax)
+            for key in ("f", "nl"):
+                if key in el.params:
+                    self.diagnostics.append(Diagnostic(
+                        "warning", f"{item.name}: {key}= ignored, td= gives the delay (as in ngspice)",
+                        item.card.location(at(key))))
+                    del el.params[key]
+        else:
+            for key in ("f", "nl"):
+                if key in el.params and not el.params[key] > 0.0:
+                    raise error(item.card, at(key), f"{key}={el.params[key]:g}: must be positive", syntax)
+            el.params["td"] = el.params.pop("nl", 0.25) / el.params.pop("f")
+        for key in ("rel", "abs"):
+            if key in el.params:
+                self.diagnostics.append(Diagnostic(
+                    "warning", f"{item.name}: {key}= ignored: ngspice's breakpoint control of the line's "
+                    "slope; netdae places a breakpoint at every delayed corner of the sources",
+                    item.card.location(at(key))))
+                del el.params[key]
 
     def _model_name(self, p: _Placed, item: ElementCard) -> str:
         if p.bound is not None:

@@ -1,4 +1,4 @@
-"""Element cards (R C L K V I E F G H B D Q M S W X) to :class:`ElementCard` / :class:`InstanceCard`.
+"""Element cards (R C L K V I E F G H B D Q M S W T N X) to :class:`ElementCard` / :class:`InstanceCard`.
 
 One function per element family, all driven by :data:`netdae.netlist.syntax.ELEMENTS`:
 the expected form of a card is the one the error messages show. Values are
@@ -777,6 +777,42 @@ def _switch(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -
     return el
 
 
+#: The transmission line's ``ic=`` values, in ngspice's order.
+TLINE_IC = ("v1", "i1", "v2", "i2")
+
+
+def _tline(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    """``Tname p1+ p1- p2+ p2- z0=.. td=..|f=.. [nl=..] [ic=v1,i1,v2,i2]`` (ngspice's TRA)."""
+    for k in range(1, min(5, len(toks) - 1)):  # a keyword where a node should be
+        if toks[k].kind == WORD and toks[k + 1].kind == PUNCT and toks[k + 1].text == "=":
+            raise error(card, toks[k].start, f"expected 4 nodes, found {k - 1}", syntax)
+    nodes = _nodes(card, toks, 4, syntax)
+    positional, keywords = split_args(card, toks, 5, syntax)
+    if positional:
+        raise error(card, positional[0].start, f"unexpected {positional[0].text!r}", syntax,
+                    hint="a transmission line takes z0=, td= (or f= [nl=]) and ic= as name=value")
+    ics = [(key, values) for key, values in keywords if key.text == "ic"]
+    for key, values in ics:
+        if len(values) > len(TLINE_IC):
+            raise error(card, values[len(TLINE_IC)].start, "ic= takes at most 4 values (v1, i1, v2, i2)", syntax)
+    params = _keyword_params(card, [(k, v) for k, v in keywords if k.text != "ic"], syntax, "tline")
+    if "zo" in params:
+        if "z0" in params:
+            raise error(card, params["zo"][1], "z0 given twice (zo= is z0=)", syntax)
+        params["z0"] = params.pop("zo")
+    for key, values in ics:
+        if any(label in params for label in TLINE_IC):
+            raise error(card, key.start, "ic= given twice", syntax)
+        for label, tok in zip(TLINE_IC, values):
+            params[label] = parse_value(card, tok, syntax)
+    if "z0" not in params:
+        raise error(card, _end(card), "the characteristic impedance z0= is missing", syntax)
+    if "td" not in params and "f" not in params:
+        raise error(card, _end(card), "the delay is missing: give td= (or f= with nl=, the length in "
+                    "wavelengths at f, 0.25 when omitted)", syntax)
+    return ElementCard(toks[0].text, "tline", card, nodes, params=params)
+
+
 def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceCard:
     words: list[Token] = []
     i = 1
@@ -888,4 +924,6 @@ def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
         return _switch(card, toks, syntax, letter)
     if letter == "n":
         return _osdi_device(card, toks, syntax)
+    if letter == "t":
+        return _tline(card, toks, syntax)
     return _instance(card, toks, syntax)

@@ -117,6 +117,10 @@ ELEMENTS: dict[str, ElementSyntax] = {
                       flags=frozenset({"on", "off"})),
         ElementSyntax("w", "current-controlled switch", ("Wname n+ n- vname mname [on|off]",),
                       flags=frozenset({"on", "off"})),
+        ElementSyntax("t", "lossless transmission line", (
+            "Tname p1+ p1- p2+ p2- z0=impedance td=delay [ic=v1,i1,v2,i2]",
+            "Tname p1+ p1- p2+ p2- z0=impedance f=frequency [nl=length] [ic=v1,i1,v2,i2]"),
+            keywords=frozenset({"z0", "zo", "td", "f", "nl", "ic", "rel", "abs"})),
         ElementSyntax("n", "OSDI (compiled Verilog-A) device", (
             "Nname n1 n2 ... mname [name=value ...]",)),
         ElementSyntax("x", "subcircuit instance", ("Xname n1 n2 ... subname [params:] [name=value ...]",)),
@@ -125,7 +129,6 @@ ELEMENTS: dict[str, ElementSyntax] = {
 
 #: Element letters ngspice knows and netdae does not implement.
 UNSUPPORTED_ELEMENTS: dict[str, str] = {
-    "t": "lossless transmission line",
     "o": "lossy transmission line",
     "u": "uniform distributed RC line",
     "y": "single lossy transmission line (TXL)",

@@ -48,7 +48,7 @@ def _linear_ac(job: Job, row: Row):
         system = assemble(circuit)
     except NetdaeError:
         return None
-    if system.families or system.n > DENSE_AC_LIMIT or system.n == 0:
+    if system.families or system.delays is not None or system.n > DENSE_AC_LIMIT or system.n == 0:
         return None
     return circuit, system, frequencies(cards[0])
 

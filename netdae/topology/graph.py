@@ -128,6 +128,9 @@ KIND_TABLE: dict[str, _Spec] = {
     "vswitch": _Spec((4,), ((RESISTIVE, 0, 1),), _CONTROL_INPUTS),
     "cswitch": _Spec((2,), ((RESISTIVE, 0, 1),)),
     "coupling": _Spec((0,), ()),
+    # a lossless line's ports: in the transient each is a resistance z0 in series with the
+    # delayed wave (an input); at DC the line joins the ports (both views have this topology)
+    "tline": _Spec((4,), ((RESISTIVE, 0, 1), (RESISTIVE, 2, 3))),
     "osdi": _Spec(tuple(range(1, OSDI_MAX_TERMINALS + 1)),
                   tuple((RESISTIVE, 0, k) for k in range(1, OSDI_MAX_TERMINALS))),
 }
@@ -135,7 +138,7 @@ KIND_TABLE: dict[str, _Spec] = {
 #: Kinds whose first two terminals form one branch (a self-loop when they coincide).
 TWO_TERMINAL_BRANCH_KINDS = frozenset(
     k for k, s in KIND_TABLE.items()
-    if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet", "osdi")
+    if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet", "osdi", "tline")
 ) | {"diode"}
 
 

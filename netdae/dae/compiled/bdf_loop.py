@@ -55,6 +55,7 @@ from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
 from .events import CHATTER_EVENTS, EVENT_TOGETHER
+from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
                       landing_step, set_weights, update_differences, weighted_norm)
 from . import kernel
@@ -228,14 +229,18 @@ def _matvec_add(indptr, indices, data, x, scale, out):
 
 @kernel
 def _phi(t, x, sysd, u, out):
-    """``out = H x + B u(t)``."""
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    """``out = H x + B u(t)``, plus the transmission lines' delayed waves."""
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     out[:] = 0.0
     _matvec_add(indptr, indices, h_data, x, 1.0, out)
     if skind.size:
         source_values(skind, spar, spwl_t, spwl_v, spwl_n, t, u)
         for e in range(b_rows.size):
             out[b_rows[e]] += b_vals[e] * u[b_cols[e]]
+    dl_rows, dl_tau, dl_w0, dl_t0, dl_I, dl_t, dl_k, dl_x, dl_seg, dl_col0 = dl
+    if dl_rows.size:
+        add_delayed(t, dl_rows, dl_tau, dl_w0, dl_t0, dl_t, dl_k, dl_x, dl_col0, dl_I[I_M], dl_seg,
+                    dl_I[I_NSEGMENTS], out)
 
 
 @kernel
@@ -404,7 +409,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     limited voltages as the trial state. Counts the evaluation. Returns the
     families' flags (``FLAG_LIMITED``, ``FLAG_NONFINITE``).
     """
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
@@ -526,7 +531,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     the weights raised to the probe's rounding level.
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
@@ -607,12 +612,14 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
 @kernel
 def _record(I, t, k, x, rec):
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
-     event_t, event_count, event_idx) = rec
+     event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
     m = I[I_M]
     buf_t[m] = t
     buf_k[m] = k
     for c in range(save.size):
         buf_x[m, c] = x[save[c]]
+    if w_ptr.size > 1:
+        record_waves(x, w_ptr, w_idx, w_val, save.size, buf_x, m)
     I[I_M] = m + 1
 
 
@@ -628,7 +635,7 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     takes over). Uses ``xp``, ``xpp``, ``b1``, ``qpb`` of ``ws`` as work (the derivatives are
     probed again after a jump).
     """
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
@@ -691,7 +698,7 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
-     event_t, event_count, event_idx) = rec
+     event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     big = 0.0
@@ -831,7 +838,7 @@ def _newton(F, I, t_new, cj, setup, full, x_pred, q_pred, qp_pred, weights, sysd
     ``x`` holds the iterate on return. Returns ``(outcome, reason, worst, iterations, rate)``
     with outcome ``NEWTON_*`` and reason ``REASON_*`` (0 when converged).
     """
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     norm = I[I_NORM]
@@ -945,11 +952,11 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     int
         A status code of this module (RUNNING is never returned).
     """
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     atol, mask, high, xmax, w, w_err, signs, qrows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
-     event_t, event_count, event_idx) = rec
+     event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     width = P.shape[1]
     n = atol.size

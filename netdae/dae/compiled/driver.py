@@ -210,6 +210,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     set_weights(x0, rtol, atol, relref, xmax, mask, w, w_err)
     a_data = np.zeros(e_data.size)
     sysd = (indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)
+    delays = pack_delays(system)
+    ns = save_idx.size
     # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
     signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
     # rows whose charge error joins the error test (coupled to index-2 unknowns)
@@ -256,7 +258,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     cap = BUFFER_START
     buf_t = np.empty(cap)
     buf_k = np.zeros(cap, dtype=np.int8)
-    buf_x = np.empty((cap, save_idx.size))
+    buf_x = np.empty((cap, ns + delays[0].size))  # the saved unknowns, then the lines' waves
     fs = float(first_step) if first_step is not None else 0.0
 
     # a first call of no steps when the loop is not yet loaded in this process: it loads the
@@ -275,8 +277,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         while True:
             tic = time.perf_counter()
             rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
-                   event_t, event_count, event_idx)
-            status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd, devd,
+                   event_t, event_count, event_idx, *delays[4:])
+            sysd_c = (*sysd, delay_args(delays, I, buf_t, buf_k, buf_x, segments, ns))
+            status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd_c, devd,
                            lus(), evb, ws, wk, rec, chunk)
             if fresh:
                 fresh = False
@@ -299,8 +302,14 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 eps = float(F[L.F_RL_EPS])
                 if switching is not None:
                     switching.hold(devd[SWITCH_SLOT * 5 + 2])
-                x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high, rtol,
-                                                        vntol, abstol)
+                if delays[0].size:
+                    system.delay_history = _history(buf_t, buf_k, buf_x, segments, I, ns)
+                try:
+                    x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high,
+                                                            rtol, vntol, abstol)
+                finally:
+                    if delays[0].size:
+                        system.delay_history = None
                 I[L.I_NEWTON] += its
                 I[L.I_EVALUATIONS] += evals
                 if x_right is None:
@@ -351,9 +360,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
 
     m = int(I[L.I_M])
     if out_of_memory is None:
-        t, x, k = buf_t[:m].copy(), buf_x[:m].copy(), buf_k[:m].copy()
+        t, x, k = buf_t[:m].copy(), buf_x[:m, :ns].copy(), buf_k[:m].copy()
     else:  # no second copy of what fills the memory
-        t, x, k = buf_t[:m], buf_x[:m], buf_k[:m]
+        t, x, k = buf_t[:m], buf_x[:m, :ns], buf_k[:m]
     names = tuple(system.names[i] for i in save_idx)
     stats = {
         "steps": int(I[L.I_STEPS]), "rejected": int(I[L.I_REJECTED]), "newton_iterations": int(I[L.I_NEWTON]),
@@ -428,6 +437,53 @@ def pack_matrices(system) -> tuple:
     return (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
             np.array(pattern.data_of(system.E), dtype=float), np.array(pattern.data_of(system.H), dtype=float),
             B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
+
+
+def pack_delays(system) -> tuple:
+    """The transmission lines' arrays: ``(rows, tau, w0, t0, w_ptr, w_idx, w_val)``.
+
+    The delayed rows, their delays, the waves before the start ``t0``
+    (:meth:`~netdae.mna.system.MnaSystem.start_delays`) and the rows of ``D``
+    as CSR (what the loop records as the waves). Empty arrays without lines.
+    """
+    d = getattr(system, "delays", None)
+    if d is None:
+        return (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), 0.0, np.zeros(1, dtype=np.int64),
+                np.zeros(0, dtype=np.int64), np.zeros(0))
+    rows = d.D[d.rows].tocsr()
+    rows.sort_indices()
+    w0 = system.delay_start if system.delay_start is not None else np.zeros(d.rows.size)
+    return (d.rows.astype(np.int64), np.asarray(d.tau, dtype=float), np.asarray(w0, dtype=float),
+            float(system._delay_t0), rows.indptr.astype(np.int64), rows.indices.astype(np.int64),
+            rows.data.astype(float))
+
+
+def delay_args(delays: tuple, I, buf_t, buf_k, buf_x, segments, col0: int) -> tuple:
+    """The loop's ``dl`` (the last member of ``sysd``): the lines' arrays and the buffers their
+    waves are recorded in (columns from ``col0``), which change when the buffers grow."""
+    rows, tau, w0, t0 = delays[:4]
+    return (rows, tau, w0, float(t0), I, buf_t, buf_k, buf_x, segments, int(col0))
+
+
+def no_delays(I) -> tuple:
+    """A ``dl`` without lines (the operating-point Newton's)."""
+    return delay_args(pack_delays(None), I, np.zeros(1), np.zeros(1, dtype=np.int8), np.zeros((1, 1)),
+                      np.zeros(1, dtype=np.int64), 0)
+
+
+def _history(buf_t, buf_k, buf_x, segments, I, col0: int):
+    """``history(tq)`` of the recorded waves so far, for the Python right limit (the loop's rule)."""
+    from ..dense import Interpolant
+
+    m = int(I[L.I_M])
+    nw = buf_x.shape[1] - col0
+    ip = Interpolant(buf_t[:m].copy(), buf_k[:m].astype(np.int64), buf_x[:m, col0:].copy(),
+                     [f"w{r}" for r in range(nw)], segments=segments[: int(I[L.I_NSEGMENTS])].copy())
+
+    def history(tq):
+        return np.diagonal(ip(np.asarray(tq, dtype=float))).copy()
+
+    return history
 
 
 def limiting_states(devd: tuple) -> tuple[int, ...]:

@@ -100,7 +100,7 @@ def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, singular_piv
     Counts iterations in ``S[S_ITER]`` and evaluations and factorisations in ``I``;
     ``pivot[0]`` is the smallest equilibrated pivot of the last factorisation.
     """
-    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n = sysd
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     r_scale = dx  # work for the pivot judgement (dx is set after it)

@@ -33,6 +33,8 @@ def eligible(system) -> bool:
         return False
     if getattr(system, "sources", None) is None or getattr(system, "B", None) is None:
         return False
+    if getattr(system, "delays", None) is not None:  # a transient's lines (the steady form has none)
+        return False
     slots = [_family_slot(f) for f in families]
     return None not in slots and len(set(slots)) == len(slots) and system.n > 0
 
@@ -71,6 +73,8 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     packing the sources and a few small arrays (~0.1 ms), then compiled
     iterations of a few microseconds each.
     """
+    from .driver import no_delays
+
     n = int(system.n)
     x = np.array(x0, dtype=float)
     pack = _PACKS.get(system)
@@ -84,7 +88,6 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
         return x, NOT_CONVERGED, 0, 0, math.nan
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)  # values may change (.dc)
     a_data = pack.a_data
-    sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n)
     devd = list(pack.devd)
     for k in pack.states:
         devd[k] = devd[k].copy()
@@ -93,6 +96,7 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1), np.zeros(nnz))
     F = np.zeros(L.N_F)
     I = np.zeros(L.N_I, dtype=np.int64)
+    sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n, no_delays(I))
     F[L.F_LU_TAG] = math.nan
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
     S = np.zeros(N_S, dtype=np.int64)
