@@ -67,6 +67,38 @@ def _check_source(circuit: Circuit, name: str) -> None:
         )
 
 
+def _compiled_sweep(system, circuit: Circuit, names: list[str], points: list[tuple], opts, topo):
+    """``fast(x, p) -> (X, iterations, stop)``: points from ``p`` on by the compiled sweep, or None.
+
+    It applies where every point's solve would be plain Newton in the compiled engine
+    (:func:`netdae.dae.steady.solve_steady`'s first phase): an eligible nonlinear system,
+    no ``.nodeset``, no group of nodes attached only through capacitors. The first point
+    and any point plain Newton does not clearly solve (no convergence, a small pivot)
+    go through :func:`~netdae.analyses.op.solve_operating_point` as before, so the
+    results, failures and messages are those of the point-by-point sweep.
+    """
+    from ..dae.steady import EPS, PIVOT_SAFETY, PIVOT_SUSPECT, _compiled, _tolerances
+    from .op import charge_groups
+
+    system = system.steady_form()
+    if circuit.nodeset or not _compiled(system):
+        return None
+    if charge_groups(system, topo, None)[0]:
+        return None
+    from ..dae.compiled.steady_driver import sweep_points
+
+    cols = np.array([system.sources.names.index(nm) for nm in names], dtype=np.int64)
+    values = np.array(points, dtype=float)
+    x_atol, r_atol = _tolerances(system.kinds, opts)
+
+    def fast(x, p):
+        return sweep_points(system, values, cols, x, p, maxiter=opts.maxiter, reltol=opts.reltol,
+                            x_atol=x_atol, r_atol=r_atol, singular_pivot=PIVOT_SAFETY * system.n * EPS,
+                            clear_pivot=PIVOT_SUSPECT)
+
+    return fast
+
+
 def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     """Run a ``.dc`` sweep.
 
@@ -115,7 +147,19 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     x = None
     rows = []
     iterations = 0
-    for values in points:
+    fast = None if sweeps_temp else _compiled_sweep(system, circuit, names, points, opts, topo)
+    p = 0
+    while p < len(points):
+        values = points[p]
+        if fast is not None and x is not None:
+            # the following points in one compiled call, until one needs the full solver
+            X, its, stop = fast(x, p)
+            rows.extend(X[p:stop])
+            iterations += int(its[p:stop].sum())
+            if stop > p:
+                x = X[stop - 1].copy()
+                p = stop
+                continue
         if sweeps_temp:
             temp = values[names.index("temp")]
             system = assemble(replace(circuit, options=replace(circuit.options, temp=temp)), mode=MODE_DC)
@@ -128,6 +172,7 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         x = res.x
         system.remember_switches(x)
         rows.append(x.copy())
+        p += 1
     X = np.array(rows)
     axes = {name: np.array([p[i] for p in points]) for i, name in enumerate(names)}
     return Result(

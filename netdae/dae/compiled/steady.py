@@ -34,7 +34,7 @@ from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE
 from . import kernel
 from . import bdf_loop as L
 
-__all__ = ["newton_dc", "CONVERGED", "NOT_CONVERGED", "NEED_PIVOTS", "ILL_CONDITIONED", "S_ITER", "S_FIRST", "N_S"]
+__all__ = ["newton_dc", "sweep_dc", "CONVERGED", "NOT_CONVERGED", "NEED_PIVOTS", "ILL_CONDITIONED", "S_ITER", "S_FIRST", "N_S"]
 
 CONVERGED = 0
 NOT_CONVERGED = 1       # maxiter reached, a non-finite value: the Python solver takes over
@@ -160,3 +160,46 @@ def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, singular_piv
             x[i] = xn
         S[S_SMALL] = 1 if small else 0
     return NOT_CONVERGED
+
+
+@kernel
+def sweep_dc(F, I, S, x, X, its, values, cols, p0, maxiter, reltol, x_atol, r_atol, singular_pivot, clear_pivot,
+             threshold, sysd, devd, lus, u, evb, dx, absjx, pivot):
+    """A ``.dc`` sweep's points ``p0, p0 + 1, ...`` by plain Newton, each from the previous solution.
+
+    Point ``p`` sets the swept sources' DC values (``spar[cols[s], 0] = values[p, s]``),
+    runs :func:`newton_dc` from ``x`` and stores the solution in ``X[p]`` and its
+    iterations in ``its[p]``. It stops at the first point whose solve is not clear,
+    which Python then solves in full (homotopies, the singularity judgement): not
+    converged, ill-conditioned, or converged with a smallest equilibrated pivot at or
+    below ``clear_pivot`` (the judgement's threshold for a closer look).
+
+    Returns
+    -------
+    (status, p)
+        ``CONVERGED`` with ``p = len(values)`` when every point is done; else the
+        status of point ``p`` (``NEED_PIVOTS``: ``a_data`` holds its matrix; call again
+        with ``p0 = p`` after new pivots, the state ``S`` resumes the solve).
+    """
+    spar = sysd[9]
+    for p in range(p0, values.shape[0]):
+        if S[S_FIRST] != 0 and S[S_ITER] == 0:  # a fresh point (not a resumed one)
+            for s in range(cols.size):
+                spar[cols[s], 0] = values[p, s]
+        status = newton_dc(F, I, S, 0.0, x, False, maxiter, reltol, x_atol, r_atol, singular_pivot, sysd, devd,
+                           lus, u, evb, dx, absjx, pivot)
+        if status != CONVERGED:
+            return status, p
+        if not pivot[0] > clear_pivot:
+            return ILL_CONDITIONED, p
+        for i in range(x.size):
+            X[p, i] = x[i]
+        its[p] = S[S_ITER]
+        # the next point starts afresh (a new Newton solve from this solution)
+        S[S_ITER] = 0
+        S[S_SMALL] = 0
+        S[S_FIRST] = 1
+        F[L.F_LU_TAG] = math.nan
+        F[L.F_PIVOT_THRESHOLD] = threshold
+        pivot[0] = math.nan
+    return CONVERGED, values.shape[0]
