@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import NetlistError, SourceLocation
+from ..errors import SourceLocation
 from .elements import error, parse_value
 from .lines import PUNCT, WORD, Card, Token
 from .numbers import parse_number
