@@ -27,6 +27,61 @@ R2 b 0 {r2}
 
 
 # -- .step cards -------------------------------------------------------------------------
+CE = """CE stage
+VCC vcc 0 10
+RB vcc b 470k
+RC vcc c 2k
+Q1 c b 0 mod1
+D1 c x dmod
+RX x 0 1meg
+.model mod1 NPN(bf=100 is=1e-14)
+.model dmod D(is=1e-14)
+.op
+"""
+
+
+@pytest.mark.parametrize("card, name, values", [
+    (".step NPN mod1(VAF) list 20 50 100", "mod1(vaf)", [20.0, 50.0, 100.0]),
+    (".step mod1(bf) 50 150 50", "mod1(bf)", [50.0, 100.0, 150.0]),
+    (".step list npn mod1(vaf) 30", "mod1(vaf)", [30.0]),
+    (".step dec D dmod(is) 1e-15 1e-13 1", "dmod(is)", [1e-15, 1e-14, 1e-13]),
+    (".step mod1:vaf list 40", "mod1(vaf)", [40.0]),  # Xyce's spelling
+])
+def test_model_parameter_steps(card, name, values):
+    c = load(CE + card + "\n")
+    (step,) = c.steps
+    assert (step.target, step.name) == ("model", name)
+    np.testing.assert_allclose(step.values, values, rtol=1e-12)
+
+
+def test_a_stepped_model_parameter_equals_the_card_written_with_it():
+    res = netdae.sweep(CE + ".step NPN mod1(VAF) list 20 100\n", save=["v(c)"])
+    _, v = res.waveform("v(c)")
+    for k, vaf in enumerate((20, 100)):
+        (op,) = netdae.run(CE.replace("is=1e-14)", f"is=1e-14 vaf={vaf})", 1))
+        assert v[k, 0] == op["v(c)"][0]
+    res = netdae.sweep(CE, params={"dmod(is)": [1e-15, 1e-13]}, save=["v(x)"])
+    _, v = res.waveform("v(x)")
+    for k, isat in enumerate((1e-15, 1e-13)):
+        (op,) = netdae.run(CE.replace("D(is=1e-14)", f"D(is={isat})"))
+        assert v[k, 0] == op["v(x)"][0]
+
+
+@pytest.mark.parametrize("card, message, token", [
+    (".step NPN nomod(vaf) 1 2 1", r"no model 'nomod' to step \(models: dmod, mod1\)", "nomod"),
+    (".step PNP mod1(vaf) 1 2 1", r"model 'mod1' is of type 'npn', not 'pnp'", "mod1"),
+    (".step mod1(vbx) 1 2 1", r"model 'mod1' \(npn\) has no parameter 'vbx'", "mod1"),
+    (".step NPN mod1 1 2 1", r"expected MODEL\(PARAM\) after the model type", "mod1"),
+    (".step mod1(vaf 1 2 1", r"expected MODEL\(PARAM\)", "("),
+])
+def test_bad_model_parameter_steps_are_located(card, message, token):
+    text = CE + card + "\n"
+    with pytest.raises(NetlistError) as exc:
+        load(text)
+    err = exc.value
+    assert re.search(message, err.message), err.message
+    line = text.split("\n")[err.location.line - 1]
+    assert err.location.column == line.index(token, 6) + 1, str(err)
 @pytest.mark.parametrize("card, target, values", [
     (".step param r2 1k 3k 1k", "param", [1e3, 2e3, 3e3]),
     (".step param r2 lin 1k 3k 1k", "param", [1e3, 2e3, 3e3]),

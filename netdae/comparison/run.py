@@ -342,9 +342,10 @@ def _compare_points(circuit: Circuit, text: str, source: str, workdir: str, opti
 
     plan = make_plan(circuit)
     for axis in plan.axes:
-        if axis.target == "element":
+        if axis.target in ("element", "model"):
+            what = "an element" if axis.target == "element" else "a model parameter"
             raise NetdaeError(f"{source}: compare runs the points of .step cards of parameters and temp; "
-                              f"'.step {axis.name}' steps an element (step a .param used in its value instead)")
+                              f"'.step {axis.name}' steps {what} (step a .param used in its value instead)")
     parent = Comparison(source=source, title=circuit.title)
     for row in plan.rows:
         params = {a.name: v for a, v in zip(plan.axes, row.point) if a.target == "param"}

@@ -38,7 +38,7 @@ from .laplace import LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
 from .montecarlo import DEFAULT_SEED, Draws, random_seed
-from .steps import StepSpec, step_values
+from .steps import StepSpec, model_parameter, step_values
 from .numbers import parse_number
 from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
@@ -390,11 +390,14 @@ class _Elaborator:
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
         for name in self.values:
-            if name not in elements:
+            mp = model_parameter(name)
+            if mp is not None:
+                self._check_model_parameter(circuit, mp[0], mp[1], None)
+            elif name not in elements:
                 raise NetlistError(f"values: no element '{name}' in the circuit",
                                    hint="name elements in full, e.g. r1 or r.x1.r2 inside subcircuit x1")
         self._analyses(circuit, elements)
-        circuit.steps = self._steps(elements)
+        circuit.steps = self._steps(elements, circuit)
         if circuit.analyses and not nodes:
             card = self.net.analyses[0].card
             what = "no elements" if not elements else "no node other than ground"
@@ -509,6 +512,10 @@ class _Elaborator:
                 self.model_words.setdefault(p.name, {})[k] = (word, v[1])  # LTspice's mfg=OnSemi
                 continue
             params[k] = evaluate_val(v, env, item.card, f"model parameter '{k}'")
+        for key, value in self.values.items():  # stepped model parameters (.step NPN 2N2222(VAF) ...)
+            mp = model_parameter(key)
+            if mp is not None and mp[0] == p.name:
+                params[mp[1]] = _stepped_number(key, value)
         locations = {k: item.card.location(v[1]) for k, v in item.params.items() if k in params}
         if "tnom" in params:
             self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
@@ -832,14 +839,46 @@ class _Elaborator:
                         hint="the input is the value of an independent V or I source of the circuit")
         return TfAnalysis(output, name, loc, written)
 
-    def _steps(self, elements: dict[str, Element]) -> list[StepSpec]:
+    def _check_model_parameter(self, circuit: Circuit, model: str, param: str, where) -> None:
+        """A stepped model parameter names a top-level model and a parameter ngspice knows for its type.
+
+        Raises
+        ------
+        NetlistError
+            At ``where`` (``(card, offset, declared type)``), or unlocated for ``values=``.
+        """
+        def fail(message, hint=None):
+            if where is None:
+                return NetlistError(f"values: {message}", hint=hint)
+            return error(where[0], where[1], message, DOT_CARDS[".step"], hint=hint)
+
+        mod = circuit.models.get(model)
+        if mod is None:
+            known = ", ".join(sorted(circuit.models)) or "none"
+            raise fail(f"no model '{model}' to step (models: {known})",
+                       hint="step a top-level .model's parameter as MODEL(PARAM)")
+        if where is not None and where[2] is not None and where[2] != mod.type:
+            raise fail(f"model '{model}' is of type '{mod.type}', not '{where[2]}'")
+        family = MODEL_FAMILY_OF_TYPE.get(mod.type)
+        known = NGSPICE_PARAMETERS.get(family or "", frozenset())
+        if known and param not in known:
+            raise fail(f"model '{model}' ({mod.type}) has no parameter '{param}'",
+                       hint=f"ngspice's {family} model parameters, e.g. {', '.join(sorted(known)[:12])} ...")
+        if param in OUTPUT_ONLY.get(family or "", ()):
+            raise fail(f"'{param}' is an output of ngspice's {family} model, not a parameter to set")
+
+    def _steps(self, elements: dict[str, Element], circuit: Circuit) -> list[StepSpec]:
         """The ``.step`` cards: what each sets, and its points."""
         out: list[StepSpec] = []
         seen: dict[str, Card] = {}
         for st in self.net.steps:
             card, form = st.card, DOT_CARDS[".step"]
             name = st.name
-            if st.keyword_param or (name != "temp" and name not in elements and name in self.root.defs):
+            mp = model_parameter(name)
+            if mp is not None:
+                self._check_model_parameter(circuit, mp[0], mp[1], (card, st.name_offset, st.model_type))
+                target = "model"
+            elif st.keyword_param or (name != "temp" and name not in elements and name in self.root.defs):
                 if name not in self.root.defs or name == TEMPER:
                     known = ", ".join(sorted(k for k in self.root.defs if k != TEMPER)) or "none"
                     raise error(card, st.name_offset, f"no top-level .param defines '{name}' (defined: {known})",
@@ -856,7 +895,8 @@ class _Elaborator:
                 target = "element"
             else:
                 raise error(card, st.name_offset, f"no parameter or element '{name}' to step", form,
-                            hint="write .step param NAME ... for a top-level .param; elements by full name")
+                            hint="write .step param NAME ... for a top-level .param; elements by full name; "
+                            "a model parameter as MODEL(PARAM)")
             if name in seen:
                 raise error(card, st.name_offset, f"'{name}' is already stepped (line {seen[name].line})", form)
             seen[name] = card
@@ -961,6 +1001,18 @@ class _Elaborator:
                                                    card.location(offset)))
             seen.setdefault(text, None)
         circuit.saves = list(seen)
+
+
+def _stepped_number(name: str, value) -> float:
+    """A stepped value given through ``values=``: a finite number.
+
+    Raises
+    ------
+    NetlistError
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise NetlistError(f"values: the value of '{name}' must be a finite number, got {value!r}")
+    return float(value)
 
 
 def _set_value(el: Element, value: float) -> None:

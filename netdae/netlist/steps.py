@@ -8,6 +8,8 @@ Forms (case-insensitive; the variation word may come before or after the name)::
     .step R1 1k 10k 1k                        an element's value (R, C, L; a V/I source's DC
                                               value; an E/F/G/H gain)
     .step temp -40 125 15                     the circuit temperature
+    .step NPN 2N2222(VAF) 50 100 25           a model parameter (LTspice's form; the model
+                                              type word is optional; Xyce's 2N2222:VAF too)
 
 Several ``.step`` cards nest: the points are all combinations, the last card
 varying fastest. ngspice has no ``.step``; ``netdae compare`` runs each point
@@ -24,17 +26,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import NetlistError, SourceLocation
+from ..errors import SourceLocation
 from .elements import error, parse_value
 from .lines import PUNCT, WORD, Card, Token
 from .numbers import parse_number
 from .syntax import DOT_CARDS
 
-__all__ = ["StepCard", "StepSpec", "parse_step", "grid", "GRID_SLACK", "VARIATIONS"]
+__all__ = ["StepCard", "StepSpec", "parse_step", "model_parameter", "grid", "GRID_SLACK", "VARIATIONS"]
 
 #: Relative slack that keeps the stop value in a grid despite rounding.
 GRID_SLACK = 1e-9
 VARIATIONS = ("lin", "dec", "oct", "list")
+#: Model type words that may stand before a stepped model parameter (LTspice: ``.step NPN Q(BF) ...``).
+MODEL_TYPE_WORDS = frozenset({"npn", "pnp", "d", "nmos", "pmos", "njf", "pjf", "nmf", "pmf", "sw", "csw", "r", "c",
+                              "l"})
 
 
 @dataclass
@@ -47,6 +52,7 @@ class StepCard:
     name_offset: int
     variation: str
     values: list  # Val
+    model_type: str | None = None  # the type word before a model parameter (LTspice: NPN)
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,9 +61,10 @@ class StepSpec:
 
     Parameters
     ----------
-    target : {"param", "element", "temp"}
+    target : {"param", "element", "model", "temp"}
     name : str
-        The top-level parameter, the element's full name, or ``"temp"``.
+        The top-level parameter, the element's full name, ``"model(param)"``
+        (see :func:`model_parameter`), or ``"temp"``.
     values : tuple of float
     location : SourceLocation or None
     """
@@ -101,6 +108,28 @@ def parse_step(card: Card, toks: list[Token]) -> StepCard:
         i += 1
     if name_tok is None:
         raise error(card, len(card.text), "missing the name of what to step", form)
+    name, model_type = name_tok.text, None
+    # a model parameter: [type] MODEL ( PARAM ) as LTspice writes it, or MODEL:PARAM as Xyce does
+    if (i < len(words) and words[i].kind == WORD and parse_number(words[i].text) is None and i + 1 < len(words)
+            and words[i + 1].kind == PUNCT and words[i + 1].text == "("):
+        model_type, name_tok = name_tok.text, words[i]
+        i += 1
+    if i < len(words) and words[i].kind == PUNCT and words[i].text == "(":
+        if not (i + 2 < len(words) and words[i + 1].kind == WORD and words[i + 2].text == ")"):
+            raise error(card, words[i].start, "expected MODEL(PARAM): a model's name and one of its parameters "
+                        "in parentheses", form)
+        name = f"{name_tok.text}({words[i + 1].text})"
+        i += 3
+    elif ":" in name and not keyword_param:
+        model, _, param = name.partition(":")
+        if not model or not param:
+            raise error(card, name_tok.start, f"expected MODEL:PARAM, found {name!r}", form)
+        name = f"{model}({param})"
+    elif model_type is not None:
+        raise error(card, name_tok.start, "expected MODEL(PARAM) after the model type", form)
+    elif (name in MODEL_TYPE_WORDS and not keyword_param and i < len(words) and words[i].kind == WORD
+          and parse_number(words[i].text) is None and words[i].text not in VARIATIONS):
+        raise error(card, words[i].start, "expected MODEL(PARAM) after the model type", form)
     if i < len(words) and words[i].kind == WORD and words[i].text in VARIATIONS:
         if variation is not None:
             raise error(card, words[i].start, f"a second variation word '{words[i].text}'", form)
@@ -115,7 +144,15 @@ def parse_step(card: Card, toks: list[Token]) -> StepCard:
         at = words[i + 3].start if len(values) > 3 else len(card.text)
         what = "start stop points" if variation in ("dec", "oct") else "start stop increment"
         raise error(card, at, f"expected {what} ({len(values)} value{'s' if len(values) != 1 else ''} given)", form)
-    return StepCard(card, keyword_param, name_tok.text, name_tok.start, variation, values)
+    return StepCard(card, keyword_param, name, name_tok.start, variation, values, model_type)
+
+
+def model_parameter(name: str) -> tuple[str, str] | None:
+    """``("2n2222", "vaf")`` for a stepped model parameter's name ``"2n2222(vaf)"``, else None."""
+    if name.endswith(")") and "(" in name:
+        model, _, param = name[:-1].partition("(")
+        return model, param
+    return None
 
 
 def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from ..circuit import Circuit
 from ..errors import NetdaeError
 from ..netlist.elaborate import STEPPABLE_KINDS
-from ..netlist.steps import StepSpec
+from ..netlist.steps import StepSpec, model_parameter
 
 __all__ = ["Axis", "Row", "Plan", "make_plan", "MAX_ROWS"]
 
@@ -32,9 +32,9 @@ class Axis:
 
     Parameters
     ----------
-    target : {"param", "element", "temp"}
+    target : {"param", "element", "model", "temp"}
     name : str
-        Top-level parameter, element full name, or ``"temp"``.
+        Top-level parameter, element full name, ``"model(param)"``, or ``"temp"``.
     values : tuple of float
     """
 
@@ -76,7 +76,7 @@ class Plan:
         params: dict[str, float] = {}
         values: dict[str, float] = {}
         for axis, v in zip(self.axes, row.point):
-            if axis.target == "element":
+            if axis.target in ("element", "model"):
                 values[axis.name] = v
             else:
                 params["temper" if axis.target == "temp" else axis.name] = v
@@ -84,9 +84,15 @@ class Plan:
 
 
 def _target(circuit: Circuit, name: str) -> str:
-    """What ``name`` sets: a top-level parameter, ``temp``, or an element."""
+    """What ``name`` sets: a top-level parameter, ``temp``, an element, or a model parameter (``model(param)``)."""
     if name in circuit.params:
         return "param"
+    mp = model_parameter(name)
+    if mp is not None:
+        if mp[0] not in circuit.models:
+            known = ", ".join(sorted(circuit.models)) or "none"
+            raise NetdaeError(f"sweep: no model '{mp[0]}' for '{name}' (models: {known})")
+        return "model"
     if name == "temp":
         return "temp"
     try:
