@@ -11,7 +11,6 @@ q and phi.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

@@ -365,16 +365,16 @@ def test_amplifier_transient_agrees_with_ngspice(kind):
     _passes(c, "tran", 1e-3)
 
 
-COLPITTS = """JFET Colpitts oscillator
+COLPITTS = """JFET Colpitts oscillator (common gate), started from rest by uic
 VDD vdd 0 12
-L1 vdd d 10u ic=0
+L1 vdd d 10u
 C1 d s 1n
 C2 s 0 1n
 RS s 0 2.2k
 J1 d 0 s jm
-RL d 0 20k
+RL vdd d 20k
 .model jm njf (vto=-2 beta=2m lambda=0.01 cgs=5p cgd=2p is=1e-14 rd=5 rs=5)
-.tran 5n 20u
+.tran 5n 10u uic
 .end
 """
 
@@ -383,6 +383,7 @@ RL d 0 20k
 def test_colpitts_oscillator_transient_agrees_with_ngspice():
     from netdae.comparison import compare
 
-    c = compare(COLPITTS, tight=True, tol={"tran": 1e-2})
-    worst = _passes(c, "tran", 1e-2)
-    assert worst < 1e-2
+    c = compare(COLPITTS, tight=True, tol={"tran": 5e-3})
+    _passes(c, "tran", 5e-3)
+    # it oscillates: the drain swings over volts (2.25 MHz, 22 periods), not a settled bias point
+    assert next(s for s in c.analysis("tran").signals if s.name == "v(d)").scale > 5.0
