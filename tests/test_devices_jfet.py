@@ -275,6 +275,10 @@ def test_unimplemented_parameter_and_bad_instance_values_are_circuit_errors():
         assemble(load("t\nJ1 d g 0 jm -2\nVD d 0 1\n.model jm njf\n.end\n"))
     with pytest.raises(CircuitError, match=r"PB = VTO = 1"):
         assemble(load("t\nJ1 d g 0 jm\nVD d 0 1\n.model jm njf vto=1 pb=1 b=0.5\n.end\n"))
+    # with B = 1 the square law needs no doping-tail factor: PB = VTO is fine
+    x = held("vto=0.2 pb=0.2 beta=1m", 0.4, 3.0)
+    cd = closed_channel(0.4, 3.0, 0.2, 1e-3, 0.0, 1.0, 1.0)
+    assert x["i(vd)"] == pytest.approx(-(cd - closed_junction(-2.6, 1e-14, vt_at(27.0))), rel=1e-10)
 
 
 def test_noise_parameters_are_accepted_and_unknown_ones_warned():

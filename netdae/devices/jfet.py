@@ -146,8 +146,8 @@ class JfetFamily(DeviceFamily):
     ------
     CircuitError
         Missing or mistyped model, unsupported parameter, a non-positive
-        area or multiplier, ``PB = VTO`` (the doping-tail factor divides by
-        their difference).
+        area or multiplier, ``PB = VTO`` with ``B != 1`` (the doping-tail
+        factor divides by their difference).
     """
 
     kinds = frozenset({"jfet"})
@@ -209,7 +209,9 @@ class JfetFamily(DeviceFamily):
         self.beta = beta_t * scale
         self.lam = g("lambda")
         self.b = g("b")
-        self.bfac = (1.0 - self.b) / (g("pb") - g("vto"))
+        # B = 1 is the square law whatever PB - VTO is (ngspice's 0/0 when PB = VTO would be nan)
+        tail = self.b != 1.0
+        self.bfac = np.where(tail, (1.0 - self.b) / np.where(tail, g("pb") - g("vto"), 1.0), 0.0)
         cgs, pb_t = scale_junction(g("cgs"), GRADING, g("pb"), tnom, temp)
         cgd, _ = scale_junction(g("cgd"), GRADING, g("pb"), tnom, temp)
         self.pb = pb_t
