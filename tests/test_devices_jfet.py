@@ -244,6 +244,14 @@ def test_instance_syntax_area_off_ic_temp():
     assert j2.params == {"area": 3.0, "dtemp": 5.0}
 
 
+def test_uic_notes_that_the_instance_initial_conditions_only_start_newton():
+    import netdae
+
+    r = netdae.simulate(load("t\nVDD vdd 0 12\nRD vdd d 1k\nJ1 d 0 0 jm ic=5,0\nC1 d 0 1n\n.model jm njf\n"
+                             ".tran 1n 1u uic\n.end\n"))
+    assert any(n.startswith("uic: device initial conditions of j1 are not used") for n in r.notes), r.notes
+
+
 @pytest.mark.parametrize("text, pattern, column_text", [
     ("t\nJ1 d g s jm\n.model jm njf level=2 vto=-1\n.end\n",
      r"j1: model jm: JFET level 2 \(Parker-Skellern in ngspice\) is not implemented by netdae", "2"),
