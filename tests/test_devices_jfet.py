@@ -399,3 +399,26 @@ def test_colpitts_oscillator_transient_agrees_with_ngspice():
     _passes(c, "tran", 5e-3)
     # it oscillates: the drain swings over volts (2.25 MHz, 22 periods), not a settled bias point
     assert next(s for s in c.analysis("tran").signals if s.name == "v(d)").scale > 5.0
+
+
+@pytest.mark.ngspice
+def test_forward_gate_capacitance_beyond_fc_agrees_with_ngspice():
+    # the gate forward-biased above FC PB (FC = 0.99 is limited to 0.95, as ngspice does): the
+    # linearly extrapolated depletion capacitance sets the .ac response of the gate node
+    from netdae.comparison import compare
+
+    text = """forward-biased JFET gate
+IG 0 g DC 1m AC 1
+RG g 0 100k
+VD d 0 5
+J1 d g 0 jm
+.model jm njf vto=-2 beta=1m cgs=20p cgd=10p pb=0.6 fc=0.99 is=1e-14 rs=50
+.op
+.ac dec 10 1meg 10g
+.end
+"""
+    c = compare(text, tight=True, tol={"op": 1e-6, "ac": 1e-5})
+    _passes(c, "op", 1e-6)
+    _passes(c, "ac", 1e-5)
+    x = op(text)
+    assert x["v(g)"] - x["v(j1#source)"] > 0.95 * 0.6
