@@ -43,6 +43,7 @@ laplace         E/G     (n+, n-)                     expr: ``Call("laplace", (u,
 diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
+jfet            J       (d, g, s)                    model; params: area, off, icvds, icvgs, temp, dtemp, m
 vswitch         S       (n+, n-, nc+, nc-)           model (sw); params: on or off (1.0 when given)
 cswitch         W       (n+, n-)                     model (csw); controls = (controlling element,); params: on, off
 ==============  ======  ===========================  =========================================

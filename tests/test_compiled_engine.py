@@ -127,13 +127,13 @@ def test_compiled_engine_closed_form_rc():
 
 NONLINEAR = [p for p in sorted(NETLISTS.glob("*.cir")) if p.stem in {
     "halfwave_rectifier", "bridge_rectifier", "cw_doubler", "voltage_multiplier", "ring_oscillator_notox",
-    "cmos_inverter", "ce_amplifier", "diff_pair",
+    "cmos_inverter", "ce_amplifier", "diff_pair", "jfet_amplifier",
 }]
 
 
 @pytest.mark.parametrize("path", NONLINEAR, ids=lambda p: p.stem)
 def test_compiled_nonlinear_engine_matches_the_python_integrator(path, monkeypatch):
-    """Diodes, BJTs and MOSFETs in the compiled loop: the Python integrator's method, step for step.
+    """Diodes, BJTs, MOSFETs and JFETs in the compiled loop: the Python integrator's method, step for step.
 
     The device kernels equal the numpy families to rounding; on a switching circuit
     rounding can change a Newton iteration's count, so the step counts may drift apart

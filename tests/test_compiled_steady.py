@@ -22,7 +22,7 @@ from netdae.netlist import load
 
 CIRCUITS = ["bridge_rectifier.cir", "ce_amplifier.cir", "cmos_inverter.cir", "diff_pair.cir",
             "voltage_multiplier.cir", "ring_oscillator.cir", "halfwave_rectifier.cir", "diode_iv.cir",
-            "testset_transamp.cir", "cw_doubler.cir", "vanderpol_mu1.cir"]
+            "testset_transamp.cir", "cw_doubler.cir", "vanderpol_mu1.cir", "jfet_amplifier.cir"]
 
 
 

@@ -11,7 +11,6 @@ q and phi.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from netdae.devices.base import Accumulator, SlotMap
 from netdae.devices.bjt import BjtFamily
 from netdae.devices.companion import LimitState
 from netdae.devices.diode import DiodeFamily
+from netdae.devices.jfet import JfetFamily
 from netdae.devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
 from netdae.devices.mosfet import MosfetFamily
 from netdae.devices.switch import SwitchFamily
@@ -443,6 +443,82 @@ def test_mosfet_kernel_jacobians_match_differences(seed):
     rng = np.random.default_rng(4000 + seed)
     case = mosfet_case(random_mosfets(rng))
     for scale in (0.5, 1.5, 4.0):
+        x = rng.uniform(-1.0, 1.0, case.n) * scale
+        *_, flags, _ = case.compiled(case.extended(x), MODE_EVALUATE, case.vold0)
+        if flags & FLAG_NONFINITE:
+            continue
+        case.jacobians_match_differences(x)
+
+
+# --- JFET -----------------------------------------------------------------------------------
+
+def jfet_case(text):
+    from netdae.devices.kernels.jfet import eval_jfet
+    return Case(text, JfetFamily, eval_jfet, diode_state)
+
+
+def random_jfets(rng, count=6) -> str:
+    """``count`` N- and P-channel JFETs with random cards between five nodes and ground."""
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5"]
+    lines = ["random jfets"]
+
+    def maybe(p, text):
+        return [text] if rng.random() < p else []
+
+    for k in range(count):
+        d, g, s = rng.choice(nodes, size=3, replace=rng.random() < 0.2)
+        kind = rng.choice(["njf", "pjf"])
+        card = maybe(0.8, f"vto={rng.uniform(-4, 0.5):.4g}") + maybe(0.7, f"beta={10 ** rng.uniform(-5, -2):.4g}")
+        card += maybe(0.6, f"lambda={rng.uniform(0, 0.1):.4g}") + maybe(0.6, f"b={rng.uniform(0.3, 1.5):.4g}")
+        card += maybe(0.4, f"rd={rng.uniform(1, 100):.4g}") + maybe(0.4, f"rs={rng.uniform(1, 100):.4g}")
+        card += maybe(0.5, f"cgs={10 ** rng.uniform(-13, -11):.4g}") + maybe(0.5, f"cgd={10 ** rng.uniform(-13, -11):.4g}")
+        card += maybe(0.5, f"is={10 ** rng.uniform(-16, -10):.4g}") + maybe(0.4, f"pb={rng.uniform(0.5, 1.2):.4g}")
+        card += maybe(0.4, f"fc={rng.uniform(0.1, 0.99):.4g}")
+        card += maybe(0.3, f"tcv={rng.uniform(-3e-3, 3e-3):.4g}") + maybe(0.2, f"vtotc={rng.uniform(-3e-3, 3e-3):.4g}")
+        card += maybe(0.3, f"bex={rng.uniform(-2, 0):.4g}") + maybe(0.2, f"betatce={rng.uniform(-1, 0):.4g}")
+        card += maybe(0.3, f"xti={rng.uniform(1, 4):.4g}") + maybe(0.2, f"tnom={rng.uniform(0, 60):.4g}")
+        inst = f"J{k} {d} {g} {s} jm{k}"
+        inst += f" {rng.uniform(0.5, 3):.4g}" if rng.random() < 0.5 else ""
+        inst += f" m={rng.integers(1, 4)}" if rng.random() < 0.3 else ""
+        inst += f" temp={rng.uniform(-40, 125):.5g}" if rng.random() < 0.3 else ""
+        inst += " off" if rng.random() < 0.15 else ""
+        lines += [inst, f".model jm{k} {kind} ({' '.join(card)})"]
+    return "\n".join(lines + [".end", ""])
+
+
+@pytest.mark.parametrize("path", netlists_with("J"), ids=lambda p: p.stem)
+def test_jfet_kernel_equals_the_family_on_the_netlists(path):
+    case = jfet_case(path.read_text())
+    rng = np.random.default_rng(6)
+    assert exercise(case, rng, scales(0.3, 1.0, 3.0, 15.0), scales(0.3, 1.0, 5.0))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_jfet_kernel_equals_the_family_on_random_cards(seed):
+    rng = np.random.default_rng(6000 + seed)
+    case = jfet_case(random_jfets(rng))
+    # cutoff, linear, saturation, both modes, forward gate junctions, fetlim and pnjlim steps, overflow
+    exercise(case, rng, scales(0.2, 0.6, 1.0, 3.0, 10.0, 50.0), scales(0.2, 0.6, 3.0, 20.0), draws=10)
+
+
+def test_jfet_kernel_limits_small_and_large_steps():
+    rng = np.random.default_rng(6100)
+    case = jfet_case(random_jfets(rng, count=8))
+    limited = {}
+    for _ in range(30):
+        x0 = rng.uniform(-4, 4, case.n)
+        *_, vold, _, _ = case.compiled(case.extended(x0), MODE_EVALUATE, case.vold0)
+        for step in (0.01, 0.2, 3.0, 12.0):
+            flags = case.compare(x0 + rng.uniform(-step, step, case.n), MODE_LIMIT, vold)
+            limited[step] = limited.get(step, 0) + bool(flags & FLAG_LIMITED)
+    assert limited[12.0] > 0 and limited[0.01] < limited[12.0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_jfet_kernel_jacobians_match_differences(seed):
+    rng = np.random.default_rng(6200 + seed)
+    case = jfet_case(random_jfets(rng))
+    for scale in (0.3, 1.5, 5.0):
         x = rng.uniform(-1.0, 1.0, case.n) * scale
         *_, flags, _ = case.compiled(case.extended(x), MODE_EVALUATE, case.vold0)
         if flags & FLAG_NONFINITE:

@@ -25,7 +25,7 @@ REL, ABS = 1e-6, 1e-9
 DEVICE_NETLISTS = [
     "halfwave_rectifier.cir", "bridge_rectifier.cir", "cw_doubler.cir", "ce_amplifier.cir", "diff_pair.cir",
     "cmos_inverter.cir", "ring_oscillator.cir", "ring_oscillator_notox.cir", "vanderpol_mu1.cir",
-    "vanderpol_mu10.cir",
+    "vanderpol_mu10.cir", "jfet_amplifier.cir",
 ]
 
 
@@ -144,6 +144,33 @@ r6 vdd d6 20k
 .end
 """
 
+JFETS = """JFETs: both types, reverse mode, forward gate, B, area and m, off, series resistances, temperature
+vdd vdd 0 12
+j1 d1 g1 s1 jn
+vg1 g1 0 -0.4
+rd1 vdd d1 3.3k
+rs1 s1 0 470
+j2 d2 g2 s2 jp 2 m=3 temp=70
+vg2 g2 0 0.3
+rd2 d2 0 1.5k
+rs2 vdd s2 820
+j3 d3 g3 s3 jn2
+v3 d3 0 0.6
+vg3 g3 0 0.2
+r3 s3 vdd 10k
+j4 d4 g4 0 jn off
+r4 vdd d4 10k
+r4g d4 g4 1meg
+j5 d5 d5 s5 jn2 area=0.5 dtemp=-40
+r5 vdd d5 5k
+r5s s5 0 100
+.model jn njf vto=-1.8 beta=1.4m lambda=0.01 rd=15 rs=12 is=2e-14 b=0.75 pb=0.85 tcv=2.2m bex=-1.3
+.model jp pjf vto=-2.2 beta=0.9m lambda=0.02 rd=5 is=1e-13 xti=2 eg=1.2 vtotc=1.5m betatce=-0.4 tnom=40
+.model jn2 njf vto=-0.9 beta=3m b=1.3 pb=0.7 is=5e-12
+.options temp=45
+.end
+"""
+
 BEHAVIOURAL = """behavioural sources: B, E and G with value=, functions, I(), ternary
 V1 a 0 2
 R1 a b 1k
@@ -165,7 +192,8 @@ R7 k 0 10k
 """
 
 
-@pytest.mark.parametrize("text", [DIODES, BJTS, MOSFETS, BEHAVIOURAL], ids=["diodes", "bjts", "mosfets", "behavioural"])
+@pytest.mark.parametrize("text", [DIODES, BJTS, MOSFETS, JFETS, BEHAVIOURAL],
+                         ids=["diodes", "bjts", "mosfets", "jfets", "behavioural"])
 def test_operating_point_of_device_corner_cases(text):
     assert_op_agrees(text)
 

@@ -14,7 +14,7 @@ CASES = [
     ("t\nO1 a 0 b 0 lmod\n", r"o1: element type 'O' \(lossy transmission line\) is not supported", 2, "O1"),
     ("t\nU1 a b 0 rcmod l=1u\n", r"'U' \(uniform distributed RC line\)", 2, "U1"),
     ("t\nY1 a 0 b 0 ymod\n", r"'Y' \(single lossy transmission line", 2, "Y1"),
-    ("t\nJ1 d g s jm\n", r"'J' \(JFET\)", 2, "J1"),
+    ("t\nZ1 d g s zm\n", r"'Z' \(MESFET\)", 2, "Z1"),
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
     # dot cards netdae does not implement
     ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
@@ -194,7 +194,7 @@ def test_element_errors_show_the_expected_form_and_a_hint():
     assert err.hint and str(err).startswith("<string>:2:7: c1: missing capacitance (expected: Cname n+ n- value")
     with pytest.raises(NetlistError) as exc:
         load("t\nO1 a 0 b 0 lmod\n")
-    assert "netdae reads R C L K V I E G F H B D Q M S W T N X" in exc.value.hint
+    assert "netdae reads R C L K V I E G F H B D Q M J S W T N X" in exc.value.hint
 
 
 def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):

@@ -1,7 +1,7 @@
 """What ngspice 39 knows about model cards: parameter names and levels, as data.
 
 ngspice reads a ``.model`` card against the parameter table of the model's
-type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``sw.c``, ``csw.c``, ``res.c``,
+type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``jfet.c``, ``sw.c``, ``csw.c``, ``res.c``,
 ``cap.c``, ``ind.c``); a name that is not in the table is reported ("unrecognized
 parameter (x) - ignored") and the model is used without it. netdae does the
 same (a located warning, see :func:`netdae.devices.modelcard.ignored_parameters`),
@@ -43,6 +43,9 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
     "mosfet": _names(
         "level type vto vt0 kp gamma phi lambda rd rs cbd cbs is pb cgso cgdo cgbo rsh cj mj cjsw mjsw js tox ld "
         "u0 uo fc nmos pmos nsub tpg nss tnom kf af"),
+    "jfet": _names(
+        "level type njf pjf vt0 vto beta lambda rd gd rs gs cgs cgd pb is fc b tnom tcv vtotc bex betatce xti eg "
+        "kf af nlev gdsnoi area"),
     "resistor": _names(
         "rsh narrow dw short dlr tc1 tc1r tc2 tc2r tce defw w l kf af tnom r res bv_max lf wf ef"),
     "capacitor": _names("cap cj cox cjsw capsw defw w defl l narrow short del tc1 tc2 tnom di thick bv_max c"),
@@ -57,12 +60,13 @@ OUTPUT_ONLY: dict[str, frozenset] = {
     "bjt": _names("type invearlyvoltf invearlyvoltr invrollofff invrolloffr collectorconduct emitterconduct "
                   "transtimevbcfact excessphasefactor"),
     "mosfet": _names("type"),
+    "jfet": _names("type gd gs"),
     "vswitch": _names("gon goff"),
     "cswitch": _names("gon goff"),
 }
 
 #: The model family of each element kind that uses a model card.
-MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "vswitch": "vswitch", "cswitch": "cswitch",
+MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vswitch": "vswitch", "cswitch": "cswitch",
                   "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor"}
 
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
@@ -73,6 +77,7 @@ LEVELS: dict[str, dict[int, str]] = {
                6: "MOS6", 8: "BSIM3", 49: "BSIM3", 9: "MOS9", 10: "B4SOI", 58: "B4SOI", 14: "BSIM4", 54: "BSIM4",
                55: "B3SOI (fully depleted)", 56: "B3SOI (dynamic depletion)", 57: "B3SOI (partially depleted)",
                60: "SOI3", 68: "HiSIM2", 73: "HiSIM_HV"},
+    "jfet": {1: "Shichman-Hodges", 2: "Parker-Skellern"},
 }
 
 

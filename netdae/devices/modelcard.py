@@ -52,7 +52,7 @@ class ParameterTable:
         Accepted parameters without effect on the solution (noise, SOA).
     family : str
         The model family in :data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`
-        (``"diode"``, ``"bjt"``, ``"mosfet"``); names ngspice does not know for
+        (``"diode"``, ``"bjt"``, ``"mosfet"``, ``"jfet"``); names ngspice does not know for
         it are ignored. Empty: every unknown name is an error.
     levels : frozenset of int
         The ``level=`` values netdae implements.
@@ -120,7 +120,7 @@ class ParameterTable:
 #: rather than as a later convergence failure or a silently odd result.
 NONNEGATIVE = frozenset({
     "is", "js", "isr", "ise", "isc", "iss", "rs", "rsh", "rb", "rbm", "re", "rc", "rd", "cjo", "cje", "cjc",
-    "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
+    "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "cgs", "cgd", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
 })
 #: Model parameters that must be positive (emission coefficients, junction potentials, a switch's resistances).
 POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "ron", "roff"})
@@ -226,9 +226,9 @@ def unimplemented_level(family: str, model: Model) -> str | None:
     'model mm: MOSFET level 49 (BSIM3 in ngspice) is not implemented by netdae'
     """
     level = model.params.get("level", 1.0)
-    if family not in ("diode", "bjt", "mosfet") or level == 1.0:
+    if family not in ("diode", "bjt", "mosfet", "jfet") or level == 1.0:
         return None
-    device = {"diode": "diode", "bjt": "bipolar transistor", "mosfet": "MOSFET"}[family]
+    device = {"diode": "diode", "bjt": "bipolar transistor", "mosfet": "MOSFET", "jfet": "JFET"}[family]
     shown = f"{level:g}"
     name = level_name(family, int(level)) if level == int(level) else None
     what = f"{name} in ngspice" if name else "a level ngspice 39 does not know either"

@@ -10,13 +10,15 @@ from .base import DeviceFamily
 from .behavioral import BehaviouralFamily
 from .bjt import BjtFamily
 from .diode import DiodeFamily
+from .jfet import JfetFamily
 from .mosfet import MosfetFamily
 from .switch import SwitchFamily
 
 __all__ = ["FAMILIES", "LAZY_FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
-FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily)
+FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, JfetFamily, SwitchFamily,
+                                            BehaviouralFamily)
 #: Families imported when a circuit has their kind (ctypes and the OSDI loader only for N elements).
 LAZY_FAMILIES = {"osdi": ("netdae.devices.osdi.family", "OsdiFamily")}
 

@@ -56,6 +56,7 @@ MODEL_TYPES = {
     "diode": ("d",),
     "bjt": ("npn", "pnp"),
     "mosfet": ("nmos", "pmos"),
+    "jfet": ("njf", "pjf"),
     "vswitch": ("sw",),
     "cswitch": ("csw",),
     "resistor": ("r", "res"),
@@ -65,10 +66,11 @@ MODEL_TYPES = {
 
 #: The model family (:data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`) of each model type.
 MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
+                        "njf": "jfet", "pjf": "jfet",
                         "sw": "vswitch", "csw": "cswitch",
                         "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
 #: Bare names on a .model card that restate its type.
-_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "sw", "csw"})
+_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw"})
 #: Model parameters of R, C and L that netdae uses (the others size an element without a value,
 #: and netdae needs the value on the element card); aliases as in ngspice's res.c.
 _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2", "tc2r": "tc2", "tce": "tce",
@@ -551,7 +553,7 @@ class _Elaborator:
         for name in (*item.params, *item.strings, *item.flags):
             if name in outputs:
                 offset = (item.params.get(name) or item.strings.get(name) or (None, item.flags.get(name)))[1]
-                why = " (the type is the card's npn/pnp/nmos/pmos)" if name == "type" else ""
+                why = " (the type is the card's npn/pnp/nmos/pmos/njf/pjf)" if name == "type" else ""
                 raise error(item.card, offset, f"'{name}' is an output of ngspice's {family} model, not an input: "
                             "ngspice 39 stops at it on a .model card", form, hint="remove it" + why)
         for name, (text, offset) in item.strings.items():

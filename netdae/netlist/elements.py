@@ -1,4 +1,4 @@
-"""Element cards (R C L K V I E F G H B D Q M S W T N X) to :class:`ElementCard` / :class:`InstanceCard`.
+"""Element cards (R C L K V I E F G H B D Q M J S W T N X) to :class:`ElementCard` / :class:`InstanceCard`.
 
 One function per element family, all driven by :data:`netdae.netlist.syntax.ELEMENTS`:
 the expected form of a card is the one the error messages show. Values are
@@ -165,8 +165,9 @@ def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
             known = " ".join(sorted(syntax.keywords))
             raise error(card, key.start, f"unknown parameter '{name}' for a {syntax.description}", syntax,
                         hint=f"known parameters: {known}")
-        if name in ("ic",) and kind in ("bjt", "mosfet"):
-            labels = ("icvbe", "icvce") if kind == "bjt" else ("icvds", "icvgs", "icvbs")
+        if name in ("ic",) and kind in ("bjt", "mosfet", "jfet"):
+            labels = {"bjt": ("icvbe", "icvce"), "mosfet": ("icvds", "icvgs", "icvbs"),
+                      "jfet": ("icvds", "icvgs")}[kind]
             if len(values) > len(labels):
                 raise error(card, values[len(labels)].start, f"ic= takes at most {len(labels)} values "
                             f"({', '.join(labels)})", syntax)
@@ -727,7 +728,7 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
     el.nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:count])
     el.model = (words[count].text, words[count].start)
     extra = words[count + 1 :]
-    if kind == "diode" and extra:
+    if kind in ("diode", "jfet") and extra:
         el.params["area"] = parse_value(card, extra[0], syntax, "area")
         extra = extra[1:]
     if extra:
@@ -920,6 +921,8 @@ def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
         return _device(card, toks, syntax, "bjt", 3)
     if letter == "m":
         return _device(card, toks, syntax, "mosfet", 4)
+    if letter == "j":
+        return _device(card, toks, syntax, "jfet", 3)
     if letter in "sw":
         return _switch(card, toks, syntax, letter)
     if letter == "n":

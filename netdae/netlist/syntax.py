@@ -113,6 +113,9 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Mname nd ng ns nb mname [l=len] [w=width] [ad=a] [as=a] [pd=p] [ps=p] [nrd=n] [nrs=n] "
             "[m=mult] [off] [ic=vds,vgs,vbs] [temp=t] [name=value ...]",),
             flags=frozenset({"off"})),
+        ElementSyntax("j", "JFET", (
+            "Jname nd ng ns mname [area] [off] [ic=vds,vgs] [temp=t] [dtemp=dt] [m=mult] [name=value ...]",),
+            flags=frozenset({"off"})),
         ElementSyntax("s", "voltage-controlled switch", ("Sname n+ n- nc+ nc- mname [on|off]",),
                       flags=frozenset({"on", "off"})),
         ElementSyntax("w", "current-controlled switch", ("Wname n+ n- vname mname [on|off]",),
@@ -133,7 +136,6 @@ UNSUPPORTED_ELEMENTS: dict[str, str] = {
     "u": "uniform distributed RC line",
     "y": "single lossy transmission line (TXL)",
     "p": "coupled multiconductor transmission line",
-    "j": "JFET",
     "z": "MESFET",
     "a": "XSPICE code model",
 }
@@ -198,5 +200,5 @@ UNSUPPORTED_DOT_CARDS: dict[str, str] = {
 
 
 def supported_letters() -> str:
-    """The element letters netdae reads, e.g. ``"R C L K V I E F G H B D Q M S W X"``."""
+    """The element letters netdae reads, e.g. ``"R C L K V I E G F H B D Q M J S W N X"``."""
     return " ".join(letter.upper() for letter in ELEMENTS)

@@ -22,7 +22,7 @@ writes it back as
   last ``.title`` card, which would replace the title in ngspice, becomes
   the title line);
 - one line per card, continuation lines joined and comments removed: only
-  element cards of the kinds netdae reads (R C L K V I E F G H B D Q M S W X;
+  element cards of the kinds netdae reads (R C L K V I E F G H B D Q M J S W N X;
   S and W cards must parse as switches, so that a stray ``shell ...`` or
   ``write ...`` command is refused too) and the dot cards of
   :data:`DOT_CARDS`; anything else, e.g.

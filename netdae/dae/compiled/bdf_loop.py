@@ -21,7 +21,7 @@ Two correctors, one loop:
   the weights; the history then holds the charges as well as the unknowns.
 
 The device families are the compiled kernels of :mod:`netdae.devices.kernels`
-(diode, BJT, MOSFET, switch, behavioural), each evaluating all its instances in one loop.
+(diode, BJT, MOSFET, JFET, switch, behavioural), each evaluating all its instances in one loop.
 
 Switches hold their states through a step; after each accepted step
 :func:`~netdae.devices.kernels.switch.switch_step` decides them at its end
@@ -51,6 +51,7 @@ from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE
 from ...devices.kernels.behavioural import eval_behavioural
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
+from ...devices.kernels.jfet import eval_jfet
 from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
@@ -394,6 +395,8 @@ def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphi
         flags, bad = eval_bjt(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     elif ev == 2:
         flags, bad = eval_mosfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    elif ev == 3:
+        flags, bad = eval_jfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     else:
         flags, bad = eval_switch(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     if keep:
@@ -411,7 +414,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
+     s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
@@ -432,7 +436,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags = _family(0, d_par, d_idx, d_vacc, d_vtry, d_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(1, b_par, b_idx, b_vacc, b_vtry, b_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(2, m_par, m_idx, m_vacc, m_vtry, m_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
-    flags |= _family(3, s_par, s_idx, s_vacc, s_vtry, s_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(3, j_par, j_idx, j_vacc, j_vtry, j_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(4, s_par, s_idx, s_vacc, s_vtry, s_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     if h_inst.shape[0] > 0:
         hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
                                         jacobian)
@@ -465,13 +470,15 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
 def _accept_state(I, devd):
     """The trial limiting state becomes the accepted one (after an accepted step)."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
+     s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
         _copy2(m_vacc, m_vtry)
+        _copy2(j_vacc, j_vtry)
         _copy2(s_vacc, s_vtry)
         for i in range(o_vacc.size):
             o_vacc[i] = o_vtry[i]
@@ -482,12 +489,14 @@ def _accept_state(I, devd):
 def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
-     m_par, m_idx, m_vacc, m_vtry, m_vnew, s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
+     s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)
+    _copy2(j_vtry, j_vacc)
     _copy2(s_vtry, s_vacc)
     for i in range(o_vtry.size):
         o_vtry[i] = o_vacc[i]
@@ -927,7 +936,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         the work values of the Newton matrix, B in COO, the packed sources).
     devd : tuple
         The device families, ``(par, idx, vacc, vtry, vnew)`` each for diodes, BJTs,
-        MOSFETs and switches (empty arrays for an absent family), the switches' work
+        MOSFETs, JFETs and switches (empty arrays for an absent family), the switches' work
         array of crossing times, then the behavioural sources' tapes, then the OSDI
         devices' arrays (:func:`netdae.devices.kernels.osdi.eval_osdi`) and their
         limiting states ``(vacc, vtry, vnew)``.
@@ -966,12 +975,12 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     wq_count = 0
     rtol = F[F_RTOL]
     norm = I[I_NORM]
-    s_par = devd[15]
-    s_idx = devd[16]
-    s_vacc = devd[17]
-    s_vtry = devd[18]
-    s_vnew = devd[19]
-    s_tc = devd[20]
+    s_par = devd[20]
+    s_idx = devd[21]
+    s_vacc = devd[22]
+    s_vtry = devd[23]
+    s_vnew = devd[24]
+    s_tc = devd[25]
     switches = s_par.shape[0] > 0
 
     if I[I_STARTED] == 0:

@@ -6,7 +6,7 @@
 loop of :mod:`netdae.dae.compiled.bdf_loop`. It serves an MNA system whose
 parts all compile: the constant ``E``, ``H``, ``B``, the independent
 sources' waveforms, and device families with a compiled kernel (diode, BJT,
-MOSFET, switch, behavioural source: :mod:`netdae.devices.kernels`); for
+MOSFET, JFET, switch, behavioural source: :mod:`netdae.devices.kernels`); for
 anything else (a user DAE) it returns ``None`` and the caller uses the Python
 integrator.
 
@@ -50,12 +50,12 @@ PROGRESS_INTERVAL = 0.1
 FIRST_CHUNK = 64
 
 
-#: Position of the switches in the loop's families (after diode, BJT, MOSFET).
-SWITCH_SLOT = 3
-#: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET, switch).
-BEHAVIOURAL_SLOT = 4
+#: Position of the switches in the loop's families (after diode, BJT, MOSFET, JFET).
+SWITCH_SLOT = 4
+#: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET, JFET, switch).
+BEHAVIOURAL_SLOT = 5
 #: Position of the OSDI devices in the loop's families (last).
-OSDI_SLOT = 5
+OSDI_SLOT = 6
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -70,15 +70,17 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 
 
 def _family_slot(family) -> int | None:
-    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, switch, behavioural, OSDI), or None."""
+    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, JFET, switch, behavioural, OSDI),
+    or None."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
+    from ...devices.jfet import JfetFamily
     from ...devices.mosfet import MosfetFamily
     from ...devices.switch import SwitchFamily
 
     osdi = sys.modules.get("netdae.devices.osdi.family")  # imported only by circuits with N elements
-    classes = (DiodeFamily, BjtFamily, MosfetFamily, SwitchFamily, BehaviouralFamily,
+    classes = (DiodeFamily, BjtFamily, MosfetFamily, JfetFamily, SwitchFamily, BehaviouralFamily,
                osdi.OsdiFamily if osdi is not None else None)
     for slot, cls in enumerate(classes):
         if type(family) is cls:
@@ -488,14 +490,14 @@ def _history(buf_t, buf_k, buf_x, segments, I, col0: int):
 
 def limiting_states(devd: tuple) -> tuple[int, ...]:
     """Positions in :func:`_pack_families`'s ``devd`` of the limiting states (``vacc``, ``vtry``,
-    ``vnew`` of the diodes, BJTs, MOSFETs and switches, then of the OSDI devices, which end it):
+    ``vnew`` of the diodes, BJTs, MOSFETs, JFETs and switches, then of the OSDI devices, which end it):
     what a new solve from the initial state must copy rather than share."""
     return (*(5 * slot + k for slot in range(SWITCH_SLOT + 1) for k in (2, 3, 4)),
             *range(len(devd) - 3, len(devd)))
 
 
 def _pack_families(system, x0, switching) -> tuple:
-    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs and switches,
+    """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs, JFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
     val, der)``, then the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`).
 
@@ -506,12 +508,13 @@ def _pack_families(system, x0, switching) -> tuple:
     from ...devices.base import SlotMap
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
+    from ...devices.kernels import jfet as kj
     from ...devices.kernels import mosfet as km
     from ...devices.kernels import osdi as ko
     from ...devices.kernels import switch as ksw
 
     shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE),
-              (ksw.N_PAR, ksw.N_IDX, ksw.N_STATE))
+              (kj.N_PAR, kj.N_IDX, kj.N_STATE), (ksw.N_PAR, ksw.N_IDX, ksw.N_STATE))
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
                    np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))

@@ -2,7 +2,7 @@
 
 Each kernel is the compiled twin of a numpy family's ``evaluate``
 (:mod:`netdae.devices.diode`, :mod:`~netdae.devices.bjt`,
-:mod:`~netdae.devices.mosfet`, which stay the reference), for the compiled
+:mod:`~netdae.devices.mosfet`, :mod:`~netdae.devices.jfet`, which stay the reference), for the compiled
 Newton loop. The interface, the same for every family::
 
     flags, bad = eval_<family>(x, mode, par, idx, vold, vnew, q, phi, dq, dphi, jacobian)
