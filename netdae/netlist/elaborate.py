@@ -130,6 +130,15 @@ def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
     return tuple(nodes), tuple(elems)
 
 
+def _first_bin(name: str, models: Mapping) -> ModelCard | None:
+    """The first card ``name.<digits>`` among ``models`` (a binned model's family), or None."""
+    head = name + "."
+    for key, card in models.items():
+        if key.startswith(head) and key[len(head):].isdigit():
+            return card
+    return None
+
+
 def _undefined(env: Env, node: ex.Param) -> bool:
     """True when no scope defines the parameter ``node`` names."""
     try:
@@ -329,6 +338,10 @@ class _Elaborator:
                     elif model in own_models:
                         bound = own_models[model]
                         model = f"{prefix}:{model}"
+                    elif own_models and kind is ElementCard and b.item.kind == "mosfet":
+                        binned = _first_bin(model, own_models)
+                        if binned is not None:  # nch.1, nch.2 ... of this subcircuit (BSIM binning)
+                            bound, model = binned, f"{prefix}:{model}"
                 out.append(_Placed(item, elem(b.name), tuple(map(node, b.nodes)), tuple(map(node, b.refs)),
                                    tuple(map(elem, b.crefs)), model, bound, frames + b.frames, path + b.path))
             elif kind is InstanceCard:
@@ -384,8 +397,8 @@ class _Elaborator:
         if any(el.kind == "laplace" for el in circuit.elements):
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind == "laplace"}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
-        self._apply_models(circuit)
         circuit.osdi_files = list(net.osdi)
+        self._apply_models(circuit)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
@@ -447,9 +460,14 @@ class _Elaborator:
         A device model of a level netdae lacks is refused; parameters ngspice
         ignores are warned about (models nobody uses are not looked at, as in ngspice).
         """
+        models = circuit.models
+        if any(el.kind == "mosfet" and (el.model not in models or models[el.model].params.get("level", 1.0) != 1.0)
+               for el in circuit.elements):
+            from ..devices.osdi.spice_mos import map_mosfets  # BSIM3/BSIM4 cards: the bundled OSDI modules
+            self.diagnostics.extend(map_mosfets(circuit))
         seen: set[str] = set()
         for el in circuit.elements:
-            if el.model is None:
+            if el.model is None or el.kind == "osdi":
                 continue
             model = circuit.models.get(el.model)
             if model is None:
@@ -616,6 +634,8 @@ class _Elaborator:
             mcard = p.bound
         else:
             mcard = self.net.top.models.get(p.model)
+            if mcard is None and item.kind == "mosfet":
+                mcard = _first_bin(p.model, self.net.top.models)  # binned: the bin is chosen with the models
             if mcard is None:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
