@@ -398,6 +398,7 @@ class _Elaborator:
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind == "laplace"}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
         circuit.osdi_files = list(net.osdi)
+        self._options(circuit)  # (BSIM binning and sizes read .options scale and wnflag)
         self._apply_models(circuit)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
@@ -413,7 +414,6 @@ class _Elaborator:
             what = "no elements" if not elements else "no node other than ground"
             raise error(card, 0, f"the circuit has {what}: nothing to simulate",
                         hint="connect elements between nodes and ground (0)")
-        self._options(circuit)
         if circuit.osdi_files or any(el.kind == "osdi" for el in circuit.elements):
             from ..devices.osdi.bind import check_circuit  # loads the libraries (ctypes): only when used
             check_circuit(circuit)

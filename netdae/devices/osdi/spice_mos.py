@@ -58,6 +58,8 @@ __all__ = ["ModuleMap", "MAPS", "mapped", "bin_number", "bins_of", "select_bin",
 BIN_TOLERANCE = 1e-9
 #: The bounds a binned card must give (``lmin lmax wmin wmax``).
 BIN_BOUNDS = ("lmin", "lmax", "wmin", "wmax")
+#: Instance sizes ``.options scale`` multiplies (ngspice's ``b4par.c``, ``b3par.c``), by the power of scale.
+SCALED = {"l": 1, "w": 1, "ad": 2, "as": 2, "pd": 1, "ps": 1}
 #: Instance values ngspice uses that the OSDI modules cannot take, and what they do in ngspice.
 UNSUPPORTED_INSTANCE = {
     "off": "ngspice starts the operating point's Newton with this device's voltages at 0",
@@ -278,8 +280,11 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list) -> Model:
     return Model(card.name, m.module, params, card.location, locations)
 
 
-def _instance_params(m: ModuleMap, el: Element, module, notes: list) -> dict:
+def _instance_params(m: ModuleMap, el: Element, module, notes: list, scale: float = 1.0) -> dict:
     """The element's parameters in the module's names (those the module lacks warned about).
+
+    Sizes are multiplied by ``.options scale`` as ngspice's ``b4par.c`` does
+    (:data:`SCALED`).
 
     Raises
     ------
@@ -287,6 +292,7 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list) -> dict:
         A name ngspice does not know for the model (ngspice stops at it).
     """
     out = {}
+    scale = float(scale)
     for raw, value in el.params.items():
         if raw in UNSUPPORTED_INSTANCE:
             what = "ic=" if raw.startswith("ic") else raw
@@ -301,7 +307,7 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list) -> dict:
                                         "[pd=..] [ps=..] [nrd=..] [nrs=..] [m=..] [name=value ...]",
                                hint=f"'netdae osdi {m.library} --params' lists the module's instance parameters "
                                     "(names prefixed instance_ are written without the prefix)")
-        out[name] = value
+        out[name] = value * scale ** SCALED.get(raw, 0)
     return out
 
 
@@ -360,7 +366,7 @@ def map_mosfets(circuit: Circuit) -> list[Diagnostic]:
                                     card.location))
             done[el.model] = (m, module)
         el.kind = "osdi"
-        el.params = _instance_params(m, el, module, notes)
+        el.params = _instance_params(m, el, module, notes, circuit.options.extra.get("scale", 1.0))
     return notes
 
 
