@@ -261,3 +261,36 @@ def test_ring_oscillator_period_equals_ngspice():
     # measured: periods 952.413 ps vs 952.431 ps (2e-5), crossings within 0.06 ps after three periods
     assert abs(np.diff(a)[-1] - period) < 1e-4 * period
     assert np.max(np.abs(a - b)) < 1e-3 * period
+
+
+#: BSIM4 features reached through instance and model parameters: (instance parameters, model parameters).
+FEATURES = {
+    "stress (nf, sa, sb, sd)": ("nf=3 sa=0.5u sb=0.6u sd=0.3u", "saref=1u sbref=1u ku0=-2e-8 kvth0=5e-9 dmcg=1e-7"),
+    "sd by default (2 dmcg)": ("nf=2 sa=1u sb=1u", "saref=1u sbref=1u ku0=-2e-8 kvth0=5e-9 dmcg=2e-7"),
+    "geometry, rgeomod": ("nf=2 geomod=1 rgeomod=1", "rsh=10 dmcg=1e-7 dmci=1e-7"),
+    "body resistors": ("rbodymod=1 rbdb=100 rbsb=100", "rbpb=50 rbps=50 rbpd=50"),
+    "gate resistance": ("rgatemod=1", "rshg=5 xrcrg1=12 xrcrg2=1"),
+    "bias-dependent rds": ("", "rdsmod=1 rdswmin=50 rdw=100 rsw=100"),
+    "gate tunnelling": ("", "igcmod=1 igbmod=1 aigc=0.01 bigc=0.001 cigc=0.07 aigbacc=0.01 aigbinv=0.01"),
+    "gidl": ("", "agidl=1e-9 bgidl=2e9 cgidl=0.5 egidl=0.8"),
+    "mobmod, capmod, diomod": ("", "mobmod=2 capmod=1 diomod=2"),
+    "temperature": ("", "tnom=25 ute=-1.3 kt1=-0.1 at=3e4"),
+}
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("feature", list(FEATURES))
+def test_bsim4_features_equal_ngspice(feature):
+    inst, model = FEATURES[feature]
+    cards = CARDS.replace("+ pbsw=0.8\n.model pch", f"+ pbsw=0.8 {model}\n.model pch", 1)
+    assert model in cards
+    text = (f"features\n.temp 60\nVdd vdd 0 1.2\nVg g 0 dc 0.9 ac 1\nR1 vdd d 2k\n"
+            f"M1 d g s 0 nch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u {inst}\nRs s 0 50\n{cards}"
+            ".op\n.ac dec 5 1k 100g\n.end\n")
+    op, ac = netdae.run(text, **TIGHT)
+    ref_op, ref_ac = ngspice(text, "op"), ngspice(text, "ac")
+    for name in ("v(d)", "v(s)"):
+        assert_close(op[name], ref_op[name], 1e-9, 1e-12, name)  # measured: 6e-13 V at most
+    gain, ref = ac["v(d)"], ref_ac["v(d)"]
+    assert np.max(np.abs(gain - ref) / np.abs(ref)) < 1e-9  # measured: 2e-13 at most
