@@ -198,6 +198,15 @@ def test_inverter_operating_points_equal_ngspice(vin):
 
 @needs_vacask
 @pytest.mark.ngspice
+def test_the_modules_gmin_is_ngspices():
+    text = inverter(0.0).replace(".op", ".options gmin=1e-10\n.op")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    assert float(ref["i(vdd)"][0]) == pytest.approx(-1.2e-10, rel=1e-3)  # gmin across the off NMOS
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "i(vdd)")
+
+
+@needs_vacask
+@pytest.mark.ngspice
 def test_common_source_stage_binned_cards_and_bsim3_equal_ngspice():
     text = (f"cs\nVdd vdd 0 1.2\nVg g 0 0.7\nR1 vdd d 5k\nM1 d g 0 0 {NMOS}\nM2 d2 g 0 0 bn l=0.5u w=4u nf=2\n"
             "R2 vdd d2 2k\nM3 d3 g3 0 0 b3 l=0.5u w=5u\nVg3 g3 0 1.2\nR3 vdd d3 5k\n"
