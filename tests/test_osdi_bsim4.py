@@ -173,6 +173,14 @@ def test_an_instance_no_bin_holds_is_a_located_error(instance, words):
         assert w in str(err.value)
 
 
+@needs_vacask
+@pytest.mark.parametrize("option", ["scale=abc", "scale", "scale=-1", "wnflag=x"])
+def test_a_bad_size_option_is_a_located_error(option):
+    with pytest.raises(NetlistError) as err:
+        netdae.load(f"t\n.options {option}\nVdd d 0 1\nM1 d d 0 0 nch l=0.5u w=4u nf=2\n{BINS}.op\n")
+    assert err.value.location.line == 4 and f"option '{option.split('=')[0]}'" in str(err.value)
+
+
 def test_bins_of_level_one_cards_are_refused():
     with pytest.raises(NetlistError) as err:
         netdae.load("t\nVdd d 0 1\nM1 d d 0 0 mm l=1u w=1u\n.model mm.1 nmos vto=0.5\n.op\n")
@@ -208,8 +216,8 @@ def test_the_modules_gmin_is_ngspices():
 @needs_vacask
 @pytest.mark.ngspice
 def test_common_source_stage_binned_cards_and_bsim3_equal_ngspice():
-    text = (f"cs\nVdd vdd 0 1.2\nVg g 0 0.7\nR1 vdd d 5k\nM1 d g 0 0 {NMOS}\nM2 d2 g 0 0 bn l=0.5u w=4u nf=2\n"
-            "R2 vdd d2 2k\nM3 d3 g3 0 0 b3 l=0.5u w=5u\nVg3 g3 0 1.2\nR3 vdd d3 5k\n"
+    text = (f"cs\nVdd vdd 0 1.2\nVg g 0 0.7\nR1 vdd d 5k\nM1 d g 0 0 {NMOS}\nM2 d2 g 0 0 bn l=0.5u w=4u nf=2 m=2\n"
+            "R2 vdd d2 2k\nM3 d3 g3 0 0 b3 l=0.5u w=5u m=3\nVg3 g3 0 1.2\nR3 vdd d3 5k\n"
             f"{CARDS}{BINS.replace('nch.', 'bn.')}"
             ".model b3 nmos level=49 tox=9n vth0=0.6 u0=450 rdsw=200\n.op\n.end\n")
     ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")

@@ -45,13 +45,14 @@ Examples
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from ...circuit import Circuit, Diagnostic, Element, Model
 from ...errors import NetlistError
 from .tools import EXTRA_HINT
 
-__all__ = ["ModuleMap", "MAPS", "mapped", "bin_number", "bins_of", "select_bin", "map_mosfets",
+__all__ = ["ModuleMap", "MAPS", "mapped", "bin_number", "bins_of", "select_bin", "map_mosfets", "option",
            "BIN_TOLERANCE"]
 
 #: ngspice's binning tolerance on the bounds (``inpgmod.c``, ``is_equal``) [m].
@@ -138,7 +139,7 @@ def mapped(model: Model | None) -> ModuleMap | None:
     if model is None or model.type not in ("nmos", "pmos"):
         return None
     level = model.params.get("level", 1.0)
-    return MAPS.get(int(level)) if level == int(level) else None
+    return MAPS.get(int(level)) if math.isfinite(level) and level == int(level) else None
 
 
 def bin_number(candidate: str, name: str) -> int | None:
@@ -175,10 +176,9 @@ def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
                            expected=f"{el.name} nd ng ns nb {written} l=<length> w=<width> ...",
                            hint="ngspice selects a bin by the instance's l and w (lmin <= l <= lmax, "
                                 "wmin <= w <= wmax)")
-    opts = circuit.options.extra
-    scale = float(opts.get("scale", 1.0))
+    scale = option(circuit, "scale", 1.0, el)
     nf = el.params.get("nf", 1.0)
-    flag = el.params.get("wnflag", opts.get("wnflag", 0.0)) if "nf" in el.params else 0.0
+    flag = el.params.get("wnflag", option(circuit, "wnflag", 0.0, el)) if "nf" in el.params else 0.0
     length = el.params["l"] * scale
     width = el.params["w"] / (nf if flag else 1.0) * scale
     for name in candidates:
@@ -196,6 +196,25 @@ def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
                        f"({ranges}{' ...' if len(candidates) > 6 else ''})", el.location,
                        expected="l and w within one bin's lmin..lmax and wmin..wmax",
                        hint="check the instance's l and w and their unit suffixes (ngspice stops here too)")
+
+
+def option(circuit: Circuit, name: str, default: float, el: Element) -> float:
+    """A numeric ``.options`` value netdae keeps unread (``scale``, ``wnflag``), or ``default``.
+
+    ``el`` is the element that reads it (the error's location).
+
+    Raises
+    ------
+    NetlistError
+        The option is given without a number (or, for ``scale``, not > 0).
+    """
+    value = circuit.options.extra.get(name, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or \
+            (name == "scale" and value <= 0):
+        raise NetlistError(f"{el.name}: option '{name}' needs a {'positive ' if name == 'scale' else ''}number, "
+                           f"found {value!r}", el.location, expected=f".options {name}=<number>",
+                           hint=f"ngspice reads {name} for the sizes and the bin of BSIM3/BSIM4 devices")
+    return float(value)
 
 
 def _fmt_range(card: Model, what: str) -> str:
@@ -366,7 +385,7 @@ def map_mosfets(circuit: Circuit) -> list[Diagnostic]:
                                     card.location))
             done[el.model] = (m, module)
         el.kind = "osdi"
-        el.params = _instance_params(m, el, module, notes, circuit.options.extra.get("scale", 1.0))
+        el.params = _instance_params(m, el, module, notes, option(circuit, "scale", 1.0, el))
     return notes
 
 
