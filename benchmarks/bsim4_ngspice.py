@@ -37,11 +37,11 @@ import measure as M  # noqa: E402
 
 #: A 130 nm-like card pair (BSIM4's defaults and a handful of parameters), as tests/test_osdi_bsim4.py.
 CARDS = """.model nch nmos level=54 version=4.8 toxe=2.5n toxp=2.0n toxm=2.5n vth0=0.42 k1=0.55 u0=0.03 vsat=1.1e5
-+ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cj=1.2e-3 cjsw=1.5e-10 cjswg=2e-10 mj=0.4 mjsw=0.3
-+ pbsw=0.8
++ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.2e-3 cjsws=1.5e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8
 .model pch pmos level=54 version=4.8 toxe=2.6n toxp=2.1n toxm=2.6n vth0=-0.40 k1=0.50 u0=0.01 vsat=0.9e5
-+ rdsw=300 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cj=1.3e-3 cjsw=1.6e-10 cjswg=2e-10 mj=0.4 mjsw=0.3
-+ pbsw=0.8"""
++ rdsw=300 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.3e-3 cjsws=1.6e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8"""
 
 
 def ring(stages: int, stop: str) -> str:

