@@ -94,6 +94,15 @@ def test_a_bsim3_card_runs_through_the_bsim3_module():
 
 
 @needs_vacask
+def test_bare_words_on_a_card_are_warned_about():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 foo pmos nmos vth0=0.4\n.op\n")
+    warned = {(d.location.column, d.message.split(":")[1].strip()) for d in c.diagnostics if d.severity == "warning"}
+    assert warned == {(26, "flag 'foo' is not a parameter of ngspice's BSIM4 model"),
+                      (30, "flag 'pmos' contradicts the card's type nmos")}
+    assert c.models["nch"].params["type"] == 1
+
+
+@needs_vacask
 def test_other_versions_warn_and_unknown_ones_are_refused():
     c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 version=4.5\n.op\n")
     assert any("BSIM4v5" in w for w in warnings_of(c))

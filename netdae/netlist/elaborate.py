@@ -464,7 +464,9 @@ class _Elaborator:
         if any(el.kind == "mosfet" and (el.model not in models or models[el.model].params.get("level", 1.0) != 1.0)
                for el in circuit.elements):
             from ..devices.osdi.spice_mos import map_mosfets  # BSIM3/BSIM4 cards: the bundled OSDI modules
-            self.diagnostics.extend(map_mosfets(circuit))
+            flags = {name: [(flag, card.card.location(offset)) for flag, offset in card.flags.items()]
+                     for name, card in self.model_cards.items() if card.flags}
+            self.diagnostics.extend(map_mosfets(circuit, flags))
         seen: set[str] = set()
         for el in circuit.elements:
             if el.model is None or el.kind == "osdi":

@@ -330,12 +330,14 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, scale: floa
     return out
 
 
-def map_mosfets(circuit: Circuit) -> list[Diagnostic]:
+def map_mosfets(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]:
     """Rewrite the circuit's BSIM3/BSIM4 ``M`` elements as OSDI elements of the bundled modules (in place).
 
     Elements naming a binned model get their bin first (:func:`select_bin`);
     each card used is translated once, the bundled library added to
-    ``circuit.osdi_files``.
+    ``circuit.osdi_files``. ``flags`` maps a model's name to the bare words
+    on its card, with their locations (``nmos`` and ``pmos`` restate the
+    type; any other is ignored with a warning, as ngspice ignores it).
 
     Returns
     -------
@@ -380,6 +382,13 @@ def map_mosfets(circuit: Circuit) -> list[Diagnostic]:
                 libraries.add(path)
                 circuit.osdi_files.append((path, card.location))
             circuit.models[el.model] = _model_card(m, card, module, notes)
+            for flag, where in (flags or {}).get(el.model, ()):
+                if flag not in ("nmos", "pmos"):
+                    _warn(notes, f"model {card.name}: flag '{flag}' is not a parameter of ngspice's {m.name} model: "
+                          "ignored, as ngspice ignores it", where)
+                elif flag != card.type:
+                    _warn(notes, f"model {card.name}: flag '{flag}' contradicts the card's type {card.type}: netdae "
+                          f"runs it as {card.type}", where)
             notes.append(Diagnostic("note", f"model {card.name}: {card.type} level {int(card.params['level'])} "
                                     f"({m.name}) runs as the OSDI module {m.module} ({m.library} of netdae[models])",
                                     card.location))
