@@ -309,6 +309,7 @@ FEATURES = {
     "stress (nf, sa, sb, sd)": ("nf=3 sa=0.5u sb=0.6u sd=0.3u", "saref=1u sbref=1u ku0=-2e-8 kvth0=5e-9 dmcg=1e-7"),
     "sd by default (2 dmcg)": ("nf=2 sa=1u sb=1u", "saref=1u sbref=1u ku0=-2e-8 kvth0=5e-9 dmcg=2e-7"),
     "geometry, rgeomod": ("nf=2 geomod=1 rgeomod=1", "rsh=10 dmcg=1e-7 dmci=1e-7"),
+    "sheet resistance, nrd, nrs": ("nrd=2 nrs=3", "rsh=20"),
     "body resistors": ("rbodymod=1 rbdb=100 rbsb=100", "rbpb=50 rbps=50 rbpd=50"),
     "gate resistance": ("rgatemod=1", "rshg=5 xrcrg1=12 xrcrg2=1"),
     "bias-dependent rds": ("", "rdsmod=1 rdswmin=50 rdw=100 rsw=100"),
