@@ -86,6 +86,21 @@ def test_an_m_element_with_a_bsim4_card_becomes_an_instance_of_the_bundled_modul
 
 
 @needs_vacask
+def test_check_and_index_show_the_device(tmp_path, capsys):
+    from netdae.cli import main as cli_main
+
+    path = tmp_path / "inv.cir"
+    path.write_text(inverter(0.6))
+    assert cli_main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "elements (4): M 2, V 2" in out and "models: nch (sp_bsim4v8), pch (sp_bsim4v8)" in out
+    assert "note: model nch: nmos level 54 (BSIM4) runs as the OSDI module sp_bsim4v8" in out
+    assert cli_main(["index", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "index: 2" in out and "i(vdd)" in out  # the gate capacitances: supply currents of index 2
+
+
+@needs_vacask
 def test_a_bsim3_card_runs_through_the_bsim3_module():
     c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch l=1u w=1u nqsmod=0\n"
                     ".model nch nmos level=49 version=3.3.0 tox=9n vth0=0.6\n.op\n")
