@@ -254,14 +254,42 @@ def test_the_modules_gmin_is_ngspices():
 
 @needs_vacask
 @pytest.mark.ngspice
-def test_common_source_stage_binned_cards_and_bsim3_equal_ngspice():
+def test_common_source_stage_binned_cards_bins_in_a_subcircuit_and_bsim3_equal_ngspice():
     text = (f"cs\nVdd vdd 0 1.2\nVg g 0 0.7\nR1 vdd d 5k\nM1 d g 0 0 {NMOS}\nM2 d2 g 0 0 bn l=0.5u w=4u nf=2 m=2\n"
             "R2 vdd d2 2k\nM3 d3 g3 0 0 b3 l=0.5u w=5u m=3\nVg3 g3 0 1.2\nR3 vdd d3 5k\n"
             f"{CARDS}{BINS.replace('nch.', 'bn.')}"
-            ".model b3 nmos level=49 tox=9n vth0=0.6 u0=450 rdsw=200\n.op\n.end\n")
+            ".model b3 nmos level=49 tox=9n vth0=0.6 u0=450 rdsw=200\n"
+            "X1 vdd g d4 sub\n.subckt sub vdd g d\nR1 vdd d 3k\nM1 d g 0 0 pp l=0.2u w=1u\n"
+            ".model pp.1 nmos level=54 lmin=0.05u lmax=0.3u wmin=0.1u wmax=10u vth0=0.3\n"
+            ".model pp.2 nmos level=54 lmin=0.3u lmax=1u wmin=0.1u wmax=10u vth0=0.5\n.ends\n.op\n.end\n")
     ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
-    for name in ("v(d)", "v(d2)", "v(d3)", "i(vdd)"):
+    for name in ("v(d)", "v(d2)", "v(d3)", "v(d4)", "i(vdd)"):
         assert_close(ours[name], ref[name], 1e-6, 1e-9 if name[0] == "v" else 1e-15, name)
+
+
+BSIM3_CARDS = """
+.model n3 nmos level=49 version=3.3 tox=4n vth0=0.45 u0=400 vsat=1e5 rdsw=200 k1=0.5 cgso=2e-10 cgdo=2e-10
++ cj=1e-3 cjsw=1e-10 mj=0.4 mjsw=0.3 capmod=3
+.model p3 pmos level=8 tox=4n vth0=-0.45 u0=120 vsat=0.8e5 rdsw=400 k1=0.5 cgso=2e-10 cgdo=2e-10
++ cj=1.1e-3 cjsw=1.1e-10 mj=0.4 mjsw=0.3 capmod=3
+"""
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_bsim3_inverter_transfer_curve_and_gain_equal_ngspice():
+    base = ("bsim3 inverter\nVdd vdd 0 1.5\nVin in 0 dc 0.7 ac 1\nM1 out in 0 0 n3 l=0.18u w=1u ad=0.5p as=0.5p "
+            "pd=3u ps=3u\nM2 out in vdd vdd p3 l=0.18u w=2u ad=1p as=1p pd=4u ps=4u\nC1 out 0 5f\n" + BSIM3_CARDS)
+    c = netdae.load(base + ".op\n.end\n")
+    assert not warnings_of(c) and {c.models[m].type for m in ("n3", "p3")} == {"sp_bsim3v3"}
+    text = base + ".dc vin 0 1.5 0.02\n.end\n"
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "dc")
+    assert_close(ours["v(out)"], ref["v(out)"], 1e-6, 1e-8, "transfer curve")
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "supply current")
+    text = base + ".ac dec 10 1k 100g\n.end\n"
+    ours, ref = netdae.run(text, **TIGHT)[0]["v(out)"], ngspice(text, "ac")["v(out)"]
+    assert abs(ref[0]) > 2.0
+    assert np.max(np.abs(ours - ref) / np.abs(ref)) < 1e-9
 
 
 @needs_vacask
