@@ -131,12 +131,13 @@ def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
 
 
 def _first_bin(name: str, models: Mapping) -> ModelCard | None:
-    """The first card ``name.<digits>`` among ``models`` (a binned model's family), or None."""
+    """The first binned card of ``name`` among ``models`` (``name.1`` ...: BSIM binning), or None."""
     head = name + "."
-    for key, card in models.items():
-        if key.startswith(head) and key[len(head):].isdigit():
-            return card
-    return None
+    if not any(key.startswith(head) for key in models):
+        return None
+    from ..devices.osdi.spice_mos import first_bin  # the binning rules' owner (imported only for bins)
+
+    return first_bin(name, models)
 
 
 def _undefined(env: Env, node: ex.Param) -> bool:

@@ -52,7 +52,7 @@ from ...circuit import Circuit, Diagnostic, Element, Model
 from ...errors import NetlistError
 from .tools import EXTRA_HINT
 
-__all__ = ["ModuleMap", "MAPS", "mapped", "bin_number", "bins_of", "select_bin", "map_mosfets", "option",
+__all__ = ["ModuleMap", "MAPS", "mapped", "bin_number", "first_bin", "select_bin", "map_mosfets", "option",
            "BIN_TOLERANCE"]
 
 #: ngspice's binning tolerance on the bounds (``inpgmod.c``, ``is_equal``) [m].
@@ -150,9 +150,9 @@ def bin_number(candidate: str, name: str) -> int | None:
     return int(tail) if tail.isdigit() and tail.isascii() else None
 
 
-def bins_of(name: str, names) -> list[str]:
-    """The binned cards of ``name`` among ``names``, in their order."""
-    return [n for n in names if bin_number(n, name) is not None]
+def first_bin(name: str, models):
+    """The first value of ``models`` (a mapping, in its order) whose key is a bin of ``name``, or None."""
+    return next((card for key, card in models.items() if bin_number(key, name) is not None), None)
 
 
 def _in_range(value: float, low: float, high: float) -> bool:
@@ -402,7 +402,7 @@ def _families(circuit: Circuit) -> dict[str, list[str]]:
     """Binned model names grouped by the name instances write (``nch.3`` under ``nch``), in card order."""
     out: dict[str, list[str]] = {}
     for name in circuit.models:
-        base, dot, tail = name.rpartition(".")
-        if dot and tail.isdigit() and tail.isascii() and base:
+        base = name.rpartition(".")[0]
+        if base and bin_number(name, base) is not None:
             out.setdefault(base, []).append(name)
     return out
