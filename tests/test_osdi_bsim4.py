@@ -380,3 +380,27 @@ def test_bsim4_features_equal_ngspice(feature):
         assert_close(op[name], ref_op[name], 1e-9, 1e-12, name)  # measured: 6e-13 V at most
     gain, ref = ac["v(d)"], ref_ac["v(d)"]
     assert np.max(np.abs(gain - ref) / np.abs(ref)) < 1e-9  # measured: 2e-13 at most
+
+
+def crossings(t, v, level=0.6):
+    """The times ``v`` crosses ``level`` either way (linear interpolation between points)."""
+    s = v - level
+    k = np.nonzero(np.sign(s[:-1]) != np.sign(s[1:]))[0]
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_inverter_chain_crossing_times_equal_ngspice():
+    lines = ["bsim4 inverter chain", "Vdd vdd 0 1.2", "Vin n0 0 PULSE(0 1.2 50p 20p 20p 300p 700p)"]
+    for i in range(4):
+        lines += [f"Mn{i} n{i + 1} n{i} 0 0 {NMOS}", f"Mp{i} n{i + 1} n{i} vdd vdd {PMOS}", f"C{i} n{i + 1} 0 3f"]
+    text = "\n".join(lines + [CARDS, ".tran 1p 1.5n", ".end"]) + "\n"
+    tol = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-14}
+    ours = netdae.run(text, **tol)[0]
+    ref = ngspice(text, "tran", method="gear", **tol)
+    for node in ("v(n1)", "v(n4)"):
+        a, b = crossings(ours.t, ours[node]), crossings(ref.t, ref[node])
+        assert len(a) == len(b) == 4
+        # measured: within 0.016 ps (n1) and 0.008 ps (n4), stage delays of 50-90 ps
+        assert np.max(np.abs(a - b)) < 0.1e-12, (node, a - b)
