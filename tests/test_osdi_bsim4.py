@@ -118,6 +118,37 @@ def test_bare_words_on_a_card_are_warned_about():
 
 
 @needs_vacask
+def test_non_quasi_static_modes_are_warned_about():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch trnqsmod=1\nM2 d d 0 0 nch\n"
+                    ".model nch nmos level=54 acnqsmod=1 trnqsmod=0\n.op\n")
+    warned = [d for d in c.diagnostics if d.severity == "warning"]
+    assert [(d.location.line, d.message.split(":")[1].strip()) for d in warned] == [
+        (5, "acnqsmod=1"), (3, "trnqsmod=1")]
+    assert all(".ac results differ from ngspice's" in d.message for d in warned)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_transient_nqs_equals_ngspice_and_its_ac_is_what_the_warning_says():
+    def stage(inst):
+        return (f"nqs\nVdd vdd 0 1.2\nVg g 0 dc 0.9 ac 1\nR1 vdd d 2k\nM1 d g s 0 nch l=1u w=2u ad=1p as=1p "
+                f"pd=4u ps=4u {inst}\nRs s 0 50\n{CARDS}.ac dec 2 1k 1000g\n.end\n")
+    quasi, nqs = netdae.run(stage(""), **TIGHT)[0]["v(d)"], netdae.run(stage("trnqsmod=1"), **TIGHT)[0]["v(d)"]
+    ref = ngspice(stage("trnqsmod=1"), "ac")["v(d)"]
+    assert np.max(np.abs(quasi - ref) / np.abs(ref)) < 1e-9  # ngspice's .ac stays quasi-static
+    assert np.max(np.abs(nqs - ref) / np.abs(ref)) > 0.5  # netdae's takes the NQS charge node (measured: 0.88)
+    lines = ["chain", "Vdd vdd 0 1.2", "Vin n0 0 PULSE(0 1.2 50p 20p 20p 300p 700p)"]
+    for i in range(3):
+        lines += [f"Mn{i} n{i + 1} n{i} 0 0 {NMOS} trnqsmod=1", f"Mp{i} n{i + 1} n{i} vdd vdd {PMOS} trnqsmod=1",
+                  f"C{i} n{i + 1} 0 3f"]
+    text = "\n".join(lines + [CARDS, ".tran 1p 1.5n", ".end"]) + "\n"
+    tol = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-14}
+    ours, ref = netdae.run(text, **tol)[0], ngspice(text, "tran", method="gear", **tol)
+    a, b = crossings(ours.t, ours["v(n3)"]), crossings(ref.t, ref["v(n3)"])
+    assert len(a) == len(b) == 4 and np.max(np.abs(a - b)) < 0.1e-12  # measured: 0.01 ps
+
+
+@needs_vacask
 def test_other_versions_warn_and_unknown_ones_are_refused():
     c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 version=4.5\n.op\n")
     assert any("BSIM4v5" in w for w in warnings_of(c))

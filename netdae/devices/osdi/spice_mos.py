@@ -52,7 +52,7 @@ from ...circuit import Circuit, Diagnostic, Element, Model
 from ...errors import NetlistError
 from .tools import EXTRA_HINT
 
-__all__ = ["ModuleMap", "MAPS", "mapped", "bin_number", "first_bin", "select_bin", "map_mosfets", "option",
+__all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "bin_number", "first_bin", "select_bin", "map_mosfets", "option",
            "BIN_TOLERANCE"]
 
 #: ngspice's binning tolerance on the bounds (``inpgmod.c``, ``is_equal``) [m].
@@ -61,6 +61,10 @@ BIN_TOLERANCE = 1e-9
 BIN_BOUNDS = ("lmin", "lmax", "wmin", "wmax")
 #: Instance sizes ``.options scale`` multiplies (ngspice's ``b4par.c``, ``b3par.c``), by the power of scale.
 SCALED = {"l": 1, "w": 1, "ad": 2, "as": 2, "pd": 1, "ps": 1}
+#: Why a non-quasi-static selector is warned about (measured for BSIM4: docs/devices.md).
+NQS_NOTE = ("ngspice's .ac takes the non-quasi-static effect from acnqsmod alone, with small-signal formulas "
+            "of its own (a transient NQS mode leaves its .ac quasi-static); netdae's .ac linearises the module's "
+            "equations, so .ac results differ from ngspice's at high frequency (transients agree)")
 #: Instance values ngspice uses that the OSDI modules cannot take, and what they do in ngspice.
 UNSUPPORTED_INSTANCE = {
     "off": "ngspice starts the operating point's Newton with this device's voltages at 0",
@@ -95,6 +99,8 @@ class ModuleMap:
         ngspice model names the module spells differently (or takes as instance defaults).
     module_only : frozenset of str
         Parameters of the module that ngspice 39 does not know (ignored, as ngspice ignores them).
+    nqs : frozenset of str
+        The non-quasi-static selectors, whose ``.ac`` results differ from ngspice's (:data:`NQS_NOTE`).
     """
 
     name: str
@@ -106,6 +112,7 @@ class ModuleMap:
     instance_names: dict[str, str] = field(default_factory=dict)
     model_names: dict[str, str] = field(default_factory=dict)
     module_only: frozenset = frozenset()
+    nqs: frozenset = frozenset()
 
     def version_of(self, model: Model) -> str | None:
         """The version as ngspice reads it (the card's text; None: not given)."""
@@ -123,12 +130,14 @@ _BSIM4 = ModuleMap(
         "min rbdb rbsb rbpb rbps rbpd xgw ngcon trnqsmod acnqsmod rbodymod rgatemod geomod rgeomod")},
     model_names={"rgeomod": "instance_rgeomod"},
     module_only=frozenset("type dtemp mult_i mult_q mult_fn ketac lketac wketac pketac".split()),
+    nqs=frozenset({"trnqsmod", "acnqsmod"}),
 )
 _BSIM3 = ModuleMap(
     "BSIM3", (8, 49), "spice/bsim3v3.osdi", "sp_bsim3v3", "3.3",
     versions={"3.0": "BSIM3v0", "3.1": "BSIM3v1", "3.2": "BSIM3v32"},
     instance_names={"m": "$mfactor", **_instance_renames("nqsmod acnqsmod")},
     module_only=frozenset({"type"}),
+    nqs=frozenset({"nqsmod", "acnqsmod"}),
 )
 #: The ngspice MOSFET levels netdae runs through OSDI, by level.
 MAPS: dict[int, ModuleMap] = {level: m for m in (_BSIM4, _BSIM3) for level in m.levels}
@@ -290,6 +299,8 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list) -> Model:
             _warn(notes, f"model {card.name}: parameter '{raw}' is {why} {m.name} model: ignored, as ngspice "
                   "ignores it", loc)
             continue
+        if raw in m.nqs and value:
+            _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
         params[name] = value
         locations[name] = loc
     for raw, text in card.strings.items():
@@ -326,6 +337,8 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, scale: floa
                                         "[pd=..] [ps=..] [nrd=..] [nrs=..] [m=..] [name=value ...]",
                                hint=f"'netdae osdi {m.library} --params' lists the module's instance parameters "
                                     "(names prefixed instance_ are written without the prefix)")
+        if raw in m.nqs and value:
+            _warn(notes, f"{el.name}: {raw}={value:g}: {NQS_NOTE}", el.location)
         out[name] = value * scale ** SCALED.get(raw, 0)
     return out
 
