@@ -435,3 +435,45 @@ def test_inverter_chain_crossing_times_equal_ngspice():
         assert len(a) == len(b) == 4
         # measured: within 0.016 ps (n1) and 0.008 ps (n4), stage delays of 50-90 ps
         assert np.max(np.abs(a - b)) < 0.1e-12, (node, a - b)
+
+
+#: A PDK's way of writing it: subcircuit wrappers with geometry expressions, bins numbered from .0 inside them,
+#: ``.option scale``, blanks around ``=``, a statistical parameter in a card.
+PDK = """pdk-style wrapper
+.option scale=1e-6
+.param mc_dvt=0.01
+Vdd vdd 0 1.2
+Vin in 0 0.6
+X1 out in 0 0 nfet_01v2 l=0.13 w=1 nf=1
+X2 out in vdd vdd pfet_01v2 l=0.13 w=2 nf=2
+.subckt nfet_01v2 d g s b l=1 w=1 nf=1
+.param wf={w/nf}
+Mmain d g s b nfet_01v2__model l={l} w={w} nf={nf} ad={int((nf+1)/2)*wf*0.29} as={int((nf+2)/2)*wf*0.29}
++ pd={2*int((nf+1)/2)*(wf+0.29)} ps={2*int((nf+2)/2)*(wf+0.29)} nrd={0.29/w} nrs={0.29/w} sa=0 sb=0 sd=0
+.model nfet_01v2__model.0 nmos level = 54 version = 4.8 lmin = 0.1e-6 lmax = 0.5e-6 wmin = 0.3e-6 wmax = 5e-6
++ toxe = 2.5e-9 vth0 = {0.42+mc_dvt} k1 = 0.55 u0 = 0.03 vsat = 1.1e5 rdsw = 150 rsh = 5 cjs = 1.2e-3 cgso = 2.5e-10 cgdo = 2.5e-10
+.model nfet_01v2__model.1 nmos level = 54 version = 4.8 lmin = 0.5e-6 lmax = 5e-6 wmin = 0.3e-6 wmax = 5e-6
++ toxe = 2.5e-9 vth0 = 0.47 k1 = 0.55 u0 = 0.03 vsat = 1.1e5
+.ends
+.subckt pfet_01v2 d g s b l=1 w=1 nf=1
+Mmain d g s b pfet_01v2__model l={l} w={w} nf={nf} ad={w*0.29} as={w*0.29} pd={2*(w+0.29)} ps={2*(w+0.29)}
+.model pfet_01v2__model.0 pmos level = 54 version = 4.8 lmin = 0.1e-6 lmax = 5e-6 wmin = 0.3e-6 wmax = 5e-6
++ toxe = 2.6e-9 vth0 = -0.40 k1 = 0.5 u0 = 0.01 vsat = 0.9e5 rdsw = 300 cjs = 1.3e-3 cgso = 2.5e-10 cgdo = 2.5e-10
+.ends
+.dc vin 0 1.2 0.05
+.end
+"""
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_pdk_style_wrapper_with_scale_and_bins_equals_ngspice():
+    c = netdae.load(PDK)
+    assert [(e.name, e.model) for e in c.elements if e.kind == "osdi"] == [
+        ("m.x1.mmain", "x1:nfet_01v2__model.0"), ("m.x2.mmain", "x2:pfet_01v2__model.0")]
+    assert not warnings_of(c)
+    ours, ref = netdae.run(PDK, **TIGHT)[0], ngspice(PDK, "dc")
+    assert_close(ours["v(out)"], ref["v(out)"], 1e-6, 1e-8, "transfer curve")  # measured: 1.6e-10 V
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "supply current")
+    longer = PDK.replace("X1 out in 0 0 nfet_01v2 l=0.13", "X1 out in 0 0 nfet_01v2 l=0.8")
+    assert netdae.load(longer).element("m.x1.mmain").model == "x1:nfet_01v2__model.1"
