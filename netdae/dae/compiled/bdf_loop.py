@@ -88,7 +88,6 @@ from ..bdf import (  # noqa: E402
     JUMP_NEWTON_MAXITER,
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
-    MAX_ORDER,
     PROBE_FRACTION,
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
@@ -979,7 +978,6 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     s_idx = devd[21]
     s_vacc = devd[22]
     s_vtry = devd[23]
-    s_vnew = devd[24]
     s_tc = devd[25]
     switches = s_par.shape[0] > 0
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from . import kernel
 
 __all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "charge_error_norms",
