@@ -122,7 +122,7 @@ def channel_current(u, w, beta, lam, b, bfac):
     --------
     >>> i, gu, gw = channel_current(np.array([1.0, 1.0]), np.array([3.0, 0.5]), 1e-3, 0.0, 1.0, 0.0)
     >>> (i * 1e3).tolist(), (gu * 1e3).tolist(), (gw * 1e3).tolist()  # saturation, linear
-    [[1.0, 0.75], [2.0, 1.0], [0.0, 1.0]]
+    ([1.0, 0.75], [2.0, 1.0], [0.0, 1.0])
     """
     p = beta * (1.0 + lam * w)
     on = u > 0.0

@@ -20,6 +20,7 @@ straddles one.
 from __future__ import annotations
 
 from . import kernel
+from .dense import lagrange_weight, locate
 
 __all__ = ["delayed_wave", "add_delayed", "record_waves"]
 
@@ -41,15 +42,7 @@ def delayed_wave(tq, col, t, orders, x, m, segments, nseg):
     """
     if m == 1:
         return x[0, col]
-    lo = 0
-    hi = m
-    while lo < hi:  # searchsorted(t[:m], tq, side="left")
-        mid = (lo + hi) // 2
-        if t[mid] < tq:
-            lo = mid + 1
-        else:
-            hi = mid
-    i = min(max(lo, 1), m - 1)
+    i = locate(t, m, tq)
     # the start of the segment of point i - 1: the last listed start, or a repeated time
     a = 0
     b = nseg
@@ -70,19 +63,9 @@ def delayed_wave(tq, col, t, orders, x, m, segments, nseg):
     if t[i] == t[i - 1]:
         return x[i - 1, col]
     k = min(k, i - start)
-    ti = t[i]
-    scale = ti - t[i - 1]
-    s = (tq - ti) / scale
     out = 0.0
     for p in range(k + 1):
-        up = (t[i - p] - ti) / scale
-        w = 1.0
-        for q in range(k + 1):
-            if q != p:
-                uq = (t[i - q] - ti) / scale
-                d = up - uq
-                w *= (s - uq) / (d if d != 0.0 else 1.0)
-        out += w * x[i - p, col]
+        out += lagrange_weight(t, i, k, p, tq) * x[i - p, col]
     return out
 
 

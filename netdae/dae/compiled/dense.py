@@ -12,7 +12,43 @@ from __future__ import annotations
 
 from . import kernel
 
-__all__ = ["lagrange_eval"]
+__all__ = ["lagrange_eval", "lagrange_weight", "locate"]
+
+
+@kernel
+def locate(t, m, v):
+    """The step of ``t[:m]`` (m >= 2) that covers ``v``: ``searchsorted(t[:m], v, "left")`` within [1, m - 1]."""
+    lo = 0
+    hi = m
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return min(max(lo, 1), m - 1)
+
+
+@kernel
+def lagrange_weight(t, i, k, a, v):
+    """The weight of the point ``i - a`` in the polynomial through the points ``i - k .. i`` of ``t``, at ``v``.
+
+    Times are taken relative to ``t[i]`` in units of the step ``t[i] - t[i - 1]`` (1 for a
+    repeated time), which keeps the products well scaled.
+    """
+    ti = t[i]
+    scale = ti - t[i - 1]
+    if not scale > 0.0:
+        scale = 1.0
+    s = (v - ti) / scale
+    ua = (t[i - a] - ti) / scale
+    w = 1.0
+    for b in range(k + 1):
+        if b != a:
+            ub = (t[i - b] - ti) / scale
+            d = ua - ub
+            w *= (s - ub) / (d if d != 0.0 else 1.0)
+    return w
 
 
 @kernel
@@ -30,34 +66,13 @@ def lagrange_eval(t, orders, x, cols, tq, out):
     tq : ndarray, shape (p,)
     out : ndarray, shape (p, nc)
     """
-    m = t.size
-    last = m - 1
     for p in range(tq.size):
         v = tq[p]
-        lo = 0
-        hi = m
-        while lo < hi:  # searchsorted(t, v, side="left")
-            mid = (lo + hi) // 2
-            if t[mid] < v:
-                lo = mid + 1
-            else:
-                hi = mid
-        i = min(max(lo, 1), last)
+        i = locate(t, t.size, v)
         k = orders[i]
-        ti = t[i]
-        scale = ti - t[i - 1]
-        if not scale > 0.0:
-            scale = 1.0
-        s = (v - ti) / scale
         for c in range(cols.size):
             out[p, c] = 0.0
         for a in range(k + 1):
-            ua = (t[i - a] - ti) / scale
-            w = 1.0
-            for b in range(k + 1):
-                if b != a:
-                    ub = (t[i - b] - ti) / scale
-                    d = ua - ub
-                    w *= (s - ub) / (d if d != 0.0 else 1.0)
+            w = lagrange_weight(t, i, k, a, v)
             for c in range(cols.size):
                 out[p, c] += w * x[i - a, cols[c]]

@@ -73,53 +73,24 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     packing the sources and a few small arrays (~0.1 ms), then compiled
     iterations of a few microseconds each.
     """
-    from .driver import no_delays
-
-    n = int(system.n)
     x = np.array(x0, dtype=float)
-    pack = _PACKS.get(system)
-    fresh = 0
-    if pack is None:
-        pack = _Pack(system, x, t)
-        fresh = 1
-        _PACKS[system] = pack
+    pack, fresh = _pack(system, x, t)
     lu = pack.lu
     if lu.plan is None:
         return x, NOT_CONVERGED, 0, 0, math.nan
-    skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)  # values may change (.dc)
-    a_data = pack.a_data
-    devd = list(pack.devd)
-    for k in pack.states:
-        devd[k] = devd[k].copy()
-    devd = tuple(devd)
-    nnz = pack.nnz
-    evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1), np.zeros(nnz))
-    F = np.zeros(L.N_F)
-    I = np.zeros(L.N_I, dtype=np.int64)
-    sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n, no_delays(I))
-    F[L.F_LU_TAG] = math.nan
-    F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
-    S = np.zeros(N_S, dtype=np.int64)
-    S[S_FIRST] = 1
-    u = np.zeros(skind.size)
-    dx = np.zeros(n)
-    absjx = np.zeros(n)
-    swork = np.zeros(n)
-    pivot = np.full(1, math.nan)
+    w = _Work(system, pack)
     x_atol = np.ascontiguousarray(x_atol, dtype=float)
     r_atol = np.ascontiguousarray(r_atol, dtype=float)
     while True:
-        plan = lu.plan
-        lus = (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, swork)
-        status = newton_dc(F, I, S, float(t), x, bool(init), int(maxiter), float(reltol), x_atol, r_atol,
-                           float(singular_pivot), sysd, devd, lus, u, evb, dx, absjx, pivot)
+        status = newton_dc(w.F, w.I, w.S, float(t), x, bool(init), int(maxiter), float(reltol), x_atol, r_atol,
+                           float(singular_pivot), w.sysd, w.devd, w.lus(), w.u, w.evb, w.dx, w.absjx, w.pivot)
         if status != NEED_PIVOTS:
             break
-        if not lu.factor(a_data):
+        if not lu.factor(pack.a_data):
             status = ILL_CONDITIONED
             break
         fresh += 1
-    return x, status, int(S[S_ITER]), int(I[L.I_FACTORIZATIONS]) + fresh, float(pivot[0])
+    return x, status, int(w.S[S_ITER]), int(w.I[L.I_FACTORIZATIONS]) + fresh, float(w.pivot[0])
 
 
 def sweep_points(system, values: np.ndarray, columns: np.ndarray, x0: np.ndarray, p0: int, *, maxiter: int,
@@ -156,51 +127,70 @@ def sweep_points(system, values: np.ndarray, columns: np.ndarray, x0: np.ndarray
     One compiled call for the whole sweep (a few microseconds per point on small
     circuits) where a Python solve per point costs about 0.1 ms of bookkeeping.
     """
-    from .driver import no_delays
-
-    n = int(system.n)
     values = np.ascontiguousarray(values, dtype=float)
     x = np.array(x0, dtype=float)
-    pack = _PACKS.get(system)
-    if pack is None:
-        pack = _Pack(system, x, 0.0)
-        _PACKS[system] = pack
-    lu = pack.lu
-    X = np.zeros((values.shape[0], n))
+    pack, _ = _pack(system, x, 0.0)
+    X = np.zeros((values.shape[0], int(system.n)))
     its = np.zeros(values.shape[0], dtype=np.int64)
-    if lu.plan is None:
+    if pack.lu.plan is None:
         return X, its, p0
-    skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
-    devd = list(pack.devd)
-    for k in pack.states:
-        devd[k] = devd[k].copy()
-    devd = tuple(devd)
-    nnz = pack.nnz
-    evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1), np.zeros(nnz))
-    F = np.zeros(L.N_F)
-    I = np.zeros(L.N_I, dtype=np.int64)
-    sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n, no_delays(I))
-    F[L.F_LU_TAG] = math.nan
-    F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
-    S = np.zeros(N_S, dtype=np.int64)
-    S[S_FIRST] = 1
-    u = np.zeros(skind.size)
-    dx = np.zeros(n)
-    absjx = np.zeros(n)
-    swork = np.zeros(n)
-    pivot = np.full(1, math.nan)
+    w = _Work(system, pack)
     cols = np.ascontiguousarray(columns, dtype=np.int64)
+    x_atol = np.ascontiguousarray(x_atol, dtype=float)
+    r_atol = np.ascontiguousarray(r_atol, dtype=float)
     p = p0
     while True:
-        plan = lu.plan
-        lus = (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, swork)
-        status, p = sweep_dc(F, I, S, x, X, its, values, cols, p, int(maxiter), float(reltol),
-                             np.ascontiguousarray(x_atol, dtype=float), np.ascontiguousarray(r_atol, dtype=float),
-                             float(singular_pivot), float(clear_pivot), PIVOT_REL_THRESHOLD, sysd, devd, lus, u,
-                             evb, dx, absjx, pivot)
-        if status != NEED_PIVOTS or not lu.factor(pack.a_data):
+        status, p = sweep_dc(w.F, w.I, w.S, x, X, its, values, cols, p, int(maxiter), float(reltol), x_atol, r_atol,
+                             float(singular_pivot), float(clear_pivot), PIVOT_REL_THRESHOLD, w.sysd, w.devd, w.lus(),
+                             w.u, w.evb, w.dx, w.absjx, w.pivot)
+        if status != NEED_PIVOTS or not pack.lu.factor(pack.a_data):
             break
     return X, its, int(p)
+
+
+def _pack(system, x, t) -> tuple["_Pack", int]:
+    """The system's kept :class:`_Pack` (made at its first solve: then 1, the fresh pivot order)."""
+    pack = _PACKS.get(system)
+    if pack is not None:
+        return pack, 0
+    pack = _PACKS[system] = _Pack(system, x, t)
+    return pack, 1
+
+
+class _Work:
+    """The arrays of one solve (or one sweep): the sources packed now (a ``.dc`` sweep sets their values),
+    the families' limiting states copied from the initial ones, the loop's scalars and work arrays."""
+
+    def __init__(self, system, pack: "_Pack"):
+        from .driver import no_delays
+
+        n = int(system.n)
+        skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
+        devd = list(pack.devd)
+        for k in pack.states:
+            devd[k] = devd[k].copy()
+        self.devd = tuple(devd)
+        nnz = pack.nnz
+        self.evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
+                    np.zeros(nnz))
+        self.F = np.zeros(L.N_F)
+        self.I = np.zeros(L.N_I, dtype=np.int64)
+        self.sysd = (*pack.sysd, skind, spar, spwl_t, spwl_v, spwl_n, no_delays(self.I))
+        self.F[L.F_LU_TAG] = math.nan
+        self.F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
+        self.S = np.zeros(N_S, dtype=np.int64)
+        self.S[S_FIRST] = 1
+        self.u = np.zeros(skind.size)
+        self.dx = np.zeros(n)
+        self.absjx = np.zeros(n)
+        self.swork = np.zeros(n)
+        self.pivot = np.full(1, math.nan)
+        self._lu = pack.lu
+
+    def lus(self) -> tuple:
+        """The LU's arrays in its current pivot order (new after a ``NEED_PIVOTS``)."""
+        lu, plan = self._lu, self._lu.plan
+        return (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, self.swork)
 
 
 class _Pack:
