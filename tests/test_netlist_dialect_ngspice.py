@@ -306,3 +306,49 @@ def test_ltspice_words_and_ngspice_outputs_on_model_cards(tmp_path):
     with pytest.raises(NetlistError, match=r"'type' is an output of ngspice's bjt model, not an input") as exc:
         load(netlist.replace("vceo=40", "type=1") + ".op\n.end\n")
     assert (exc.value.location.line, exc.value.location.column) == (2, 46)
+
+
+# ---------------------------------------------------------------------------
+# constructs of ngspice's own example and test netlists (scripts/corpus.py)
+
+def test_width_and_csparam_cards_are_skipped_with_a_note(tmp_path):
+    # .width shapes ngspice's printed output, .csparam feeds its control script: neither changes the circuit
+    netlist = "output cards\n.width out=256\n.csparam rl=2k\nV1 1 0 2\nR1 1 2 1k\nR2 2 0 3k\n"
+    c = _op_agrees(netlist, ["v(2)", "i(v1)"], tmp_path)
+    notes = [(d.location.line, d.message.split(":")[0]) for d in c.diagnostics if d.severity == "note"]
+    assert notes == [(2, ".width skipped"), (3, ".csparam skipped")]
+
+
+def test_distortion_inputs_of_a_source_are_skipped(tmp_path):
+    # DISTOF1/DISTOF2 [mag [phase]] only feed .disto; the DC, AC and SIN parts read as ngspice reads them
+    netlist = ("distof\nV1 1 0 DC 0.5 AC 1 SIN 0 1 1K 0 0 DISTOF1 0.1 DISTOF2 0.2 90\nR1 1 2 1k\nC1 2 0 1u\n"
+               ".tran 10u 2m\n")
+    _tran_agrees(netlist, ["v(2)"], [50, 100], tmp_path, 2e-3)
+    c = _op_agrees(netlist.replace(".tran 10u 2m\n", ""), ["v(2)", "i(v1)"], tmp_path)
+    assert c.element("v1").source.ac_mag == 1.0
+    assert [w.split(":", 2)[-1].strip().split(" skipped")[0] for w in _warnings(c)] == \
+        ["'distof1'", "'distof2'"]
+
+
+def test_print_functions_spice2_forms_and_branch_vectors_keep_the_signal(tmp_path):
+    # .print ac vdb(2) db(v(2)) abs(i(v1)) and ngspice's vector name v1#branch: the signals inside are kept
+    netlist = ("outputs\nV1 1 0 1\nR1 1 2 1k\nR2 2 0 1k\n.dc V1 0 1 0.5\n.print dc vdb(2) db(v(1)) abs(i(v1))\n"
+               ".save v1#branch v(2)\n")
+    ref = ngspice_print(netlist + ".op\n", ["v(2)", "v1#branch"], tmp_path)
+    c = load(netlist + ".end\n")
+    assert c.saves == ["v(2)", "v(1)", "i(v1)"]
+    dc = netdae.run(c)[0]
+    assert dc.names() == ["v(2)", "v(1)", "i(v1)"]
+    assert abs(dc["v(2)"][-1] - ref["v(2)"]) <= RTOL * abs(ref["v(2)"])
+    assert abs(dc["i(v1)"][-1] - ref["v1#branch"]) <= RTOL * abs(ref["v1#branch"])
+
+
+def test_outputs_netdae_does_not_compute_are_left_out_and_the_analyses_run(tmp_path):
+    # ngspice's device quantities, .probe vd()/p() and names that are no node: a warning each, not a refusal
+    netlist = ("outputs\nV1 1 0 1\nR1 1 2 1k\nR2 2 0 1k\n.save @v1[dc] v(2)\n.probe vd(r1) p(r2) alli\n")
+    c = _op_agrees(netlist, ["v(2)"], tmp_path)
+    assert c.saves == ["v(2)"]
+    assert [w.split(": ", 1)[0] for w in _warnings(c)] == ["5:7 .save @v1[dc]", "6:8 .probe vd(r1)",
+                                                             "6:15 .probe p(r2)", "6:21 .probe alli"]
+    assert all(w.endswith("(not kept)") for w in _warnings(c))
+    assert netdae.run(c)[0].names() == ["v(2)"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from netdae.cli import main as cli_main
-from netdae.errors import NetlistError
+import netdae
+from netdae.errors import NetdaeError, NetlistError
 from netdae.netlist import load
 
 # (netlist, message regex, line, the text the column must point at [, its occurrence in the line])
@@ -131,7 +132,19 @@ CASES = [
     ("t\nV1 a 0 dc 1 dc 2\n", r"DC value given twice", 2, "dc", 2),
     ("t\nV1 a 0 sin(0 1) pulse(0 1)\n", r"more than one transient function", 2, "pulse"),
     ("t\nV1 a 0 trnoise(1n 1n 0 0)\n", r"'trnoise' \(transient noise\) is not supported", 2, "trnoise"),
-    ("t\nV1 a 0 distof1 1\n", r"'distof1' \(distortion input\) is not supported", 2, "distof1"),
+    # what ngspice's own example netlists use and netdae does not have, named
+    ("t\nM1 d g s vd\n.model vd vdmos\n", r"model vd is a VDMOS \(ngspice's power MOSFET, three nodes\), which "
+     r"netdae does not implement", 2, "vd"),
+    ("t\nM1 d g 0 tj tc irf thermal\n.model irf vdmos\n", r"a self-heating VDMOS .* with thermal nodes "
+     r"\('thermal'\) is not supported", 2, "thermal"),
+    ("t\nD1 1 0 tj dm thermal\n.model dm d\n", r"a self-heating diode with thermal nodes \('thermal'\) is not "
+     r"supported", 2, "thermal"),
+    ("t\nQ1 c b 0 s tj qm\n.model qm npn\n", r"five nodes \(collector base emitter substrate and a thermal node: "
+     r"ngspice's self-heating VBIC or HICUM\) are not supported", 2, "tj"),
+    ("t\nB1 1 0 V=v(2)*2 tc1=1m\n", r"tc1= on a B source \(temperature coefficient\) is not supported", 2, "tc1"),
+    ("t\nB1 1 0 V=(v(2)>1) | (v(2)<0)\n", r"'\|' \(PSpice's logical or\) is not supported by netdae", 2, "|"),
+    ("t\n.param p={(1>0) & (2>1)}\n", r"'&' \(PSpice's logical and\) is not supported by netdae", 2, "&"),
+    ("t\nB1 1 0 V=~(v(2)>1)\n", r"'~' \(PSpice's logical not\) is not supported by netdae", 2, "~"),
     # analyses and control cards
     ("t\n.tran 1u\n", r"expected tstep and tstop, found 1 value", 2, None),
     ("t\n.tran 0 1m\n", r"tstep must be > 0, got 0", 2, "0"),
@@ -185,6 +198,14 @@ def test_error_message_line_and_column(case):
     assert __import__("re").search(pattern, err.message), err.message
     assert (err.location.file, err.location.line) == ("<string>", line), str(err)
     assert err.location.column == _column(netlist, line, token, *occ), str(err)
+
+
+def test_analyses_skipped_in_a_control_loop_are_named():
+    c = load("t\nR1 a 0 1\nV1 a 0 1\n.control\nrepeat 2\n  op\nend\n.endc\n")
+    with pytest.raises(NetdaeError, match=r"nothing to run \(the .control block's analyses are not read: 'op' at "
+                                          r"<string>:6:3 was skipped because netdae does not run control-language "
+                                          r"loops and conditionals"):
+        netdae.run(c)
 
 
 def test_element_errors_show_the_expected_form_and_a_hint():

@@ -904,12 +904,17 @@ class _Elaborator:
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
         for signal, offset, card in self.net.saves:
+            if signal.endswith("#branch") and "(" not in signal:
+                signal = f"i({signal[:-len('#branch')]})"  # ngspice's vector name of a branch current
             text = signal
             problem = None
             if "(" in signal:
                 head, args = signal[:-1].split("(", 1)
                 parts = [_ground(a) for a in args.split(",")]
-                if head == "v":
+                if head not in ("v", "i"):
+                    problem = (f"{head}() is an ngspice .probe quantity (vd: a voltage across a device, p: its "
+                               "power) that netdae does not compute")
+                elif head == "v":
                     if len(parts) == 2 and parts[1] == "0":
                         parts = parts[:1]
                     text = f"v({','.join(parts)})"
@@ -926,9 +931,13 @@ class _Elaborator:
                 text = f"v({_ground(signal)})"
                 if _ground(signal) not in nodes:
                     problem = f"no node '{signal}'"
+            else:
+                problem = "netdae does not compute ngspice's device quantities @device[param]"
             if problem is not None:
-                self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem}",
-                                                   card.location(offset)))
+                # ngspice skips an output it cannot make too; the analyses run without it
+                self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem} "
+                                                   "(not kept)", card.location(offset)))
+                continue
             seen.setdefault(text, None)
         circuit.saves = list(seen)
 

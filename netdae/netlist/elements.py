@@ -336,8 +336,9 @@ def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
 
 _SOURCE_WORDS = set(WAVEFORMS) | {"sine", "dc", "ac"}
 _UNSUPPORTED_SOURCE = {"trnoise": "transient noise", "trrandom": "random transient source",
-                       "distof1": "distortion input", "distof2": "distortion input",
                        "external": "external source", "portnum": "RF port"}
+#: Inputs of ngspice's distortion analysis: ``DISTOF1 [mag [phase]]``, read and skipped (no .disto in netdae).
+_DISTORTION_INPUTS = ("distof1", "distof2")
 
 
 def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> ElementCard:
@@ -348,7 +349,8 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
 
     def is_value(t: Token) -> bool:
         return t.kind == EXPR or (t.kind == WORD and t.text not in _SOURCE_WORDS
-                                  and t.text not in _UNSUPPORTED_SOURCE and t.text not in ("r", "td"))
+                                  and t.text not in _UNSUPPORTED_SOURCE and t.text not in ("r", "td")
+                                  and t.text not in _DISTORTION_INPUTS)
 
     def skip_eq(j: int) -> int:
         return j + 1 if j < n and toks[j].kind == PUNCT and toks[j].text == "=" else j
@@ -401,6 +403,16 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
                             f"expected ')' closing '(' of {toks[i + 1].text.upper()}", syntax)
             i = j + 1
             _check_pwl_extras(card, spec, syntax, kind)
+        elif word in _DISTORTION_INPUTS:
+            j = skip_eq(i + 1)
+            count = 0
+            while j < n and count < 2 and is_value(toks[j]):
+                parse_value(card, toks[j], syntax, f"{word} value")
+                j += 1
+                count += 1
+            card.warn(tok.start, f"'{word}' skipped: an input of ngspice's distortion analysis (.disto), which "
+                                 "netdae does not have")
+            i = j
         elif word in _UNSUPPORTED_SOURCE:
             raise error(card, tok.start, f"'{word}' ({_UNSUPPORTED_SOURCE[word]}) is not supported by netdae",
                         syntax, hint=f"supported functions: {SOURCE_FUNCTIONS}")
@@ -444,6 +456,8 @@ def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -
     else:
         while j < n and (toks[j].kind == EXPR or (toks[j].kind == WORD and toks[j].text not in _SOURCE_WORDS
                                                    and toks[j].text not in ("r", "td")
+                                                   and toks[j].text not in _UNSUPPORTED_SOURCE
+                                                   and toks[j].text not in _DISTORTION_INPUTS
                                                    and not (j + 1 < n and toks[j + 1].text == "="))):
             vals.append(parse_value(card, toks[j], syntax, f"{kind.upper()} parameter"))
             j += 1
@@ -696,12 +710,23 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
     return out
 
 
+#: Instance parameters ngspice 39's B source takes after its expression.
+_B_INSTANCE = {"tc1": "temperature coefficient", "tc2": "temperature coefficient", "temp": "instance temperature",
+               "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier"}
+
+
 def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
     nodes = _nodes(card, toks, 2, syntax)
     if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
         at = toks[3].start if len(toks) > 3 else _end(card)
         raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
     kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
+    for k in range(6, len(toks) - 1):
+        if toks[k].kind == WORD and toks[k].text in _B_INSTANCE and toks[k + 1].kind == PUNCT \
+                and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"):
+            raise error(card, toks[k].start, f"{toks[k].text}= on a B source ({_B_INSTANCE[toks[k].text]}) is "
+                        "not supported by netdae", syntax,
+                        hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
     return ElementCard(toks[0].text, kind, card, nodes, expr=_behavioural(card, toks, 5, syntax))
 
 
@@ -716,7 +741,17 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
         else:
             words.append(tok)
     el = ElementCard(toks[0].text, kind, card, params=params, flags=flags)
+    thermal = next((t for t in words if t.kind == WORD and t.text == "thermal"), None)
+    if thermal is not None and kind in ("diode", "mosfet"):
+        what = "VDMOS (power MOSFET, .model ... vdmos)" if kind == "mosfet" else "diode"
+        raise error(card, thermal.start, f"a self-heating {what} with thermal nodes ('thermal') is not supported "
+                    "by netdae", syntax, hint="remove the thermal nodes and 'thermal' to simulate it without "
+                    "self-heating" + (", once netdae has VDMOS" if kind == "mosfet" else ""))
     if kind == "bjt":
+        el.positional = words
+        return el
+    if kind == "mosfet" and len(words) == count and all(t.kind == WORD for t in words):
+        # three nodes and a model is ngspice 39's VDMOS; judged when the models are known (parser._settle)
         el.positional = words
         return el
     if len(words) < count + 1 or any(t.kind != WORD for t in words[: count + 1]):

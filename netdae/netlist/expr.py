@@ -428,6 +428,8 @@ _NAME = re.compile(r"[a-z_][a-z0-9_.]*")
 _SPICE_RUN = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[ed][+-]?\d+)?[a-z0-9_\u00b5]*", re.ASCII)
 _WS = re.compile(r"\s*")
 _DIGITS = "0123456789"
+#: PSpice's single-character logical operators, with ngspice's spelling.
+_PSPICE_LOGIC = {"&": ("and", "&&"), "|": ("or", "||"), "~": ("not", "!")}
 
 _NUM, _ID, _OPER, _END = "num", "id", "op", "end"
 
@@ -470,6 +472,10 @@ class _Parser:
             return
         m = _OP.match(text, pos)
         if m is None:
+            if c in _PSPICE_LOGIC:
+                spelled, ours = _PSPICE_LOGIC[c]
+                raise self.error(f"'{c}' (PSpice's logical {spelled}) is not supported by netdae, nor by ngspice 39 "
+                                 "outside its PSpice compatibility mode", hint=f"write '{ours}'")
             raise self.error(f"unexpected character {c!r} in expression")
         op = m.group()
         self.kind, self.value, self.pos = _OPER, ("!=" if op == "<>" else "**" if op == "^" else op), m.end()
