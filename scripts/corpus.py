@@ -116,7 +116,7 @@ def scan(path: Path, _seen: set | None = None, _top: bool = True) -> dict:
     """What a netlist file and the files it includes hold, read as text."""
     seen = _seen if _seen is not None else set()
     info = {"analysis": False, "control": False, "a": 0, "u_digital": 0, "cider": [], "rf": [], "pss": False,
-            "compact": [], "missing": [], "lines": 0}
+            "compact": [], "missing": [], "lines": 0, "includes": []}
     try:
         raw = path.read_bytes()
     except OSError:
@@ -178,12 +178,15 @@ def scan(path: Path, _seen: set | None = None, _top: bool = True) -> dict:
                     info["missing"].append(target)
                     continue
                 candidate = alt
-            if candidate.resolve() in seen or candidate.is_dir():
+            if candidate.is_dir():
+                continue
+            info["includes"].append(str(candidate.resolve()))
+            if candidate.resolve() in seen:
                 continue
             sub = scan(candidate, seen, _top=False)
             for key in ("a", "u_digital"):
                 info[key] += sub[key]
-            for key in ("cider", "rf", "compact", "missing"):
+            for key in ("cider", "rf", "compact", "missing", "includes"):
                 info[key] += sub[key]
             info["pss"] |= sub["pss"]
             continue
@@ -335,7 +338,40 @@ def _limits(cpu: float, memory_gb: float):
     return apply
 
 
-def run_one(path: Path, compare: bool, timeout: float, memory_gb: float) -> dict:
+#: ngspice's batch output when it rejects a netlist (not a plot it cannot draw in batch mode).
+NGSPICE_REJECTS = re.compile(r"Error on line|fatal error in ngspice|Simulation interrupted due to error|"
+                             r"unknown device type|unimplemented control card|unrecognized analysis type|"
+                             r"Error: no such function|Undefined parameter", re.IGNORECASE)
+
+
+def ngspice_verdict(path: Path, timeout: float) -> str | None:
+    """ngspice's first complaint about a netlist it rejects (``ngspice -b``), None when it runs it."""
+    try:
+        proc = subprocess.run(["ngspice", "-b", path.name], cwd=path.parent, capture_output=True, text=True,
+                              timeout=timeout, stdin=subprocess.DEVNULL, errors="replace")
+    except subprocess.TimeoutExpired:
+        return None
+    except OSError as exc:
+        return f"ngspice did not start: {exc}"
+    lines = (proc.stdout + "\n" + proc.stderr).splitlines()
+    for k, line in enumerate(lines):
+        if NGSPICE_REJECTS.search(line):
+            detail = " ".join(x.strip() for x in lines[k:k + 3] if x.strip())
+            return detail[:300]
+    return None
+
+
+def run_one(path: Path, compare: bool, timeout: float, memory_gb: float, check_ngspice: bool = False) -> dict:
+    """One netlist in a child process; with ``check_ngspice`` a refusal is checked against ngspice 39."""
+    rec = _run_one(path, compare, timeout, memory_gb)
+    if check_ngspice and rec.get("outcome") in ("refused", "internal", "run_failed"):
+        verdict = ngspice_verdict(path, min(timeout, 60))
+        if verdict:
+            rec["ngspice_rejects"] = verdict
+    return rec
+
+
+def _run_one(path: Path, compare: bool, timeout: float, memory_gb: float) -> dict:
     """One netlist in a child process under a CPU and a wall-clock limit."""
     env = dict(os.environ, NETDAE_SERVER="0", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
                PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
@@ -435,6 +471,8 @@ def classify(rec: dict, rel: str = "") -> tuple[str, str]:
             return "incomplete", "missing file " + os.path.basename(m.group(1).replace("\\", "/"))
         if rel in REVIEWED:
             return "invalid", REVIEWED[rel]
+        if rec.get("ngspice_rejects"):
+            return "ngspice_rejects", feature(rec["ngspice_rejects"])
         if NAMED.search(msg):
             return "refused_named", feature(msg)
         return "refused_unclear", feature(msg)
@@ -444,9 +482,9 @@ def classify(rec: dict, rel: str = "") -> tuple[str, str]:
 
 
 CATEGORY_ORDER = ["runs", "refused_named", "refused_unclear", "run_failed", "no_analysis", "timeout", "internal",
-                  "crash", "out_of_scope", "incomplete", "invalid", "not_netlist"]
+                  "crash", "out_of_scope", "incomplete", "invalid", "ngspice_rejects", "not_netlist"]
 #: Categories outside the in-scope count.
-NOT_COUNTED = ("out_of_scope", "incomplete", "invalid", "not_netlist")
+NOT_COUNTED = ("out_of_scope", "incomplete", "invalid", "ngspice_rejects", "not_netlist")
 CATEGORY_TEXT = {
     "runs": "runs (read, elaborated, every analysis finished)",
     "refused_named": "refused, naming the unsupported feature",
@@ -459,6 +497,7 @@ CATEGORY_TEXT = {
     "out_of_scope": "out of scope",
     "incomplete": "incomplete in the corpus (a file it includes is missing)",
     "invalid": "a deliberately invalid netlist (ngspice reports the error too; reviewed by hand)",
+    "ngspice_rejects": "refused by netdae and rejected by ngspice 39 too (newer ngspice or invalid; --check-ngspice)",
     "not_netlist": "not a top-level netlist (include/library file)",
 }
 
@@ -507,7 +546,8 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None) -> s
                        ("run_failed", "Simulation failures"),
                        ("internal", "Internal errors"),
                        ("incomplete", "Incomplete in the corpus"),
-                       ("invalid", "Deliberately invalid")):
+                       ("invalid", "Deliberately invalid"),
+                       ("ngspice_rejects", "Rejected by ngspice 39 too")):
         b = summary["buckets"].get(cat)
         if not b:
             continue
@@ -539,6 +579,9 @@ def main(argv=None) -> int:
     parser.add_argument("--json", help="write every file's record here")
     parser.add_argument("--markdown", help="write the tables here")
     parser.add_argument("--docs", help="put the tables into this page between the CORPUS markers")
+    parser.add_argument("--check-ngspice", action="store_true",
+                        help="run ngspice -b on every netlist netdae refuses: one ngspice 39 rejects too is not "
+                             "counted in scope")
     parser.add_argument("--records", help="summarise the records of an earlier --json file instead of running")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -561,10 +604,18 @@ def main(argv=None) -> int:
         files = [p for p in files if any(s in str(p.relative_to(root)) for s in args.only)]
     records: dict[str, dict] = {}
     to_run = []
+    infos = {p: scan(p) for p in files}
+    included_by: dict[str, str] = {}
+    for p, info in infos.items():
+        for target in info["includes"]:
+            if target != str(p.resolve()):
+                included_by.setdefault(target, str(p.relative_to(root)))
     for p in files:
         rel = str(p.relative_to(root))
-        info = scan(p)
+        info = infos[p]
         decided = static_class(info)
+        if str(p.resolve()) in included_by and (decided is None or decided[0] != "not_netlist"):
+            decided = ("not_netlist", "included by another netlist")
         if decided:
             records[rel] = {"outcome": decided[0], "reason": decided[1]}
         else:
@@ -572,7 +623,7 @@ def main(argv=None) -> int:
     print(f"{len(files)} files, {len(to_run)} to run", file=sys.stderr)
     t0 = time.perf_counter()
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = {pool.submit(run_one, p, args.compare, args.timeout, args.memory): rel for rel, p in to_run}
+        futures = {pool.submit(run_one, p, args.compare, args.timeout, args.memory, args.check_ngspice): rel for rel, p in to_run}
         for k, fut in enumerate(concurrent.futures.as_completed(futures), 1):
             rel = futures[fut]
             records[rel] = fut.result()

@@ -352,3 +352,11 @@ def test_outputs_netdae_does_not_compute_are_left_out_and_the_analyses_run(tmp_p
                                                              "6:15 .probe p(r2)", "6:21 .probe alli"]
     assert all(w.endswith("(not kept)") for w in _warnings(c))
     assert netdae.run(c)[0].names() == ["v(2)"]
+
+
+def test_braces_and_quotes_inside_a_behavioural_expression(tmp_path):
+    # ngspice reads {...} and '...' inside a B expression as groups, circuit references and time included
+    netlist = ("groups\n.param k=3 td=1m\nV1 1 0 2\n.func f1(y) = {y*k}\nB1 2 0 V={v(1)*k} + 'k*2'\nR1 2 0 1k\n"
+               "B2 3 0 I=v(1) > 1 ? {f1(v(1)-1)} : 0\nR2 3 0 1k\n"
+               "B3 4 0 V=ternary_fcn(time < 'td', 0, {v(1)})\nR3 4 0 1k\n")
+    _op_agrees(netlist, ["v(2)", "v(3)", "v(4)"], tmp_path)

@@ -442,6 +442,9 @@ class _Parser:
         self.context = context
         self.locate = locate
         self.pos = 0
+        #: Inside {...} or '...' of a behavioural expression: ngspice reads circuit references there too.
+        self.behavioural_group = False
+        self.quoted = False
         self.kind = self.value = None
         self.start = 0
         self.advance()
@@ -469,6 +472,11 @@ class _Parser:
         m = _NAME.match(text, pos)
         if m is not None:
             self.kind, self.value, self.pos = _ID, m.group(), m.end()
+            return
+        if c == "'":
+            # 'expr' inside an expression is a group, as {expr} is (ngspice's numparam quotes)
+            self.quoted = not self.quoted
+            self.kind, self.value, self.pos = _OPER, "{" if self.quoted else "}", pos + 1
             return
         m = _OP.match(text, pos)
         if m is None:
@@ -555,11 +563,12 @@ class _Parser:
             self.expect(")")
             return node
         if kind == _OPER and value == "{":
-            saved = self.context
+            saved, saved_group = self.context, self.behavioural_group
+            self.behavioural_group = saved_group or saved == BEHAVIOURAL
             self.context = PARAM
             self.advance()
             node = self.expr()
-            self.context = saved
+            self.context, self.behavioural_group = saved, saved_group
             self.expect("}")
             return node
         if kind == _ID:
@@ -576,7 +585,7 @@ class _Parser:
 
     def name(self, name: str, start: int) -> Expr:
         if name == "time":
-            if self.context != BEHAVIOURAL:
+            if self.context != BEHAVIOURAL and not self.behavioural_group:
                 raise self.error("'time' is only available in behavioural sources (B, E/G value=)", start)
             return Time()
         if name == "hertz":
@@ -588,7 +597,7 @@ class _Parser:
         return Param(name)
 
     def branch_reference(self, which: str, start: int) -> Expr:
-        if self.context != BEHAVIOURAL:
+        if self.context != BEHAVIOURAL and not self.behavioural_group:
             raise self.error(f"circuit reference {which.upper()}(...) is only allowed in behavioural "
                              "sources (B, E/G value=)", start,
                              hint="element values and parameters are numbers fixed before simulation")
