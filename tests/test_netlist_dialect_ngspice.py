@@ -360,3 +360,10 @@ def test_braces_and_quotes_inside_a_behavioural_expression(tmp_path):
                "B2 3 0 I=v(1) > 1 ? {f1(v(1)-1)} : 0\nR2 3 0 1k\n"
                "B3 4 0 V=ternary_fcn(time < 'td', 0, {v(1)})\nR3 4 0 1k\n")
     _op_agrees(netlist, ["v(2)", "v(3)", "v(4)"], tmp_path)
+
+
+def test_controlled_source_value_without_equals_sign(tmp_path):
+    # E/G n+ n- VALUE {expr}: ngspice 39 reads the braces after VALUE without '='
+    netlist = "value\nV1 1 0 2\nE1 2 0 VALUE { V(1)*3 }\nR1 2 0 1k\nG1 3 0 value {v(1)*1m}\nR3 3 0 1k\n"
+    c = _op_agrees(netlist, ["v(2)", "v(3)", "i(e1)"], tmp_path)
+    assert [c.element(n).kind for n in ("e1", "g1")] == ["bvoltage", "bcurrent"]

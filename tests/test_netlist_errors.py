@@ -144,6 +144,12 @@ CASES = [
     ("t\nB1 1 0 V=v(2)*2 tc1=1m\n", r"tc1= on a B source \(temperature coefficient\) is not supported", 2, "tc1"),
     ("t\nB1 1 0 V=(v(2)>1) | (v(2)<0)\n", r"'\|' \(PSpice's logical or\) is not supported by netdae", 2, "|"),
     ("t\n.param p={(1>0) & (2>1)}\n", r"'&' \(PSpice's logical and\) is not supported by netdae", 2, "&"),
+    ("t\nS1 1 0 2 0 sm\n.model sm vswitch(ron=1)\n", r"model 'sm' is of type 'vswitch', PSpice's voltage-controlled "
+     r"switch \(ngspice's sw\), which netdae does not support", 2, "sm"),
+    ("t\nQ1 c b 0 qp\n.model qp ako:q350 pnp(bf=50)\n.model q350 pnp\n", r"model 'qp' is a PSpice AKO model "
+     r"\('a kind of' q350\), which netdae does not support", 2, "qp"),
+    ("t\n.func f(x) = {x*v(a)}\n", r"circuit reference V\(...\) in a .func body \(a function of the circuit's voltages, "
+     r"currents or time, for B sources\) is not supported", 2, "v(a)"),
     ("t\nB1 1 0 V=~(v(2)>1)\n", r"'~' \(PSpice's logical not\) is not supported by netdae", 2, "~"),
     # analyses and control cards
     ("t\n.tran 1u\n", r"expected tstep and tstop, found 1 value", 2, None),

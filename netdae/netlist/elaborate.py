@@ -67,6 +67,9 @@ MODEL_TYPES = {
 MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
                         "sw": "vswitch", "csw": "cswitch",
                         "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
+#: PSpice's model types that ngspice names otherwise.
+_PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
+                       "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
 #: Bare names on a .model card that restate its type.
 _TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "sw", "csw"})
 #: Model parameters of R, C and L that netdae uses (the others size an element without a value,
@@ -620,6 +623,16 @@ class _Elaborator:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
         allowed = MODEL_TYPES.get(item.kind)
+        if allowed is not None and mcard.type not in allowed and mcard.type in _PSPICE_MODEL_TYPES:
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
+                        f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "
+                        "outside its PSpice compatibility mode)", ELEMENTS[item.name[0]],
+                        hint=f"write a {' or '.join(allowed)} model")
+        if allowed is not None and mcard.type.startswith("ako:"):
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is a PSpice AKO model ('a kind of' "
+                        f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "
+                        "compatibility mode)", ELEMENTS[item.name[0]],
+                        hint=f"copy the parameters of {mcard.type[4:]} into a {' or '.join(allowed)} model")
         if allowed is not None and mcard.type not in allowed:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', a "
                         f"{ELEMENTS[item.name[0]].description} needs {' or '.join(allowed)}",

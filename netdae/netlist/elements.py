@@ -479,12 +479,15 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
     # behavioural form: value= (vol= for E, cur= for G)
     keys = {"e": ("value", "vol"), "g": ("value", "cur")}.get(letter, ())
     for k, tok in enumerate(toks):
-        if tok.kind == WORD and tok.text in keys and k + 1 < len(toks) and toks[k + 1].text == "=":
+        # value={expr}, and value {expr} without '=' (ngspice 39 reads both)
+        if tok.kind == WORD and tok.text in keys and k + 1 < len(toks) and (
+                toks[k + 1].text == "=" or (k == 3 and toks[k + 1].kind == EXPR)):
             if k != 3:
                 raise error(card, tok.start, f"expected 2 nodes before '{tok.text}='", syntax)
             nodes = _nodes(card, toks, 2, syntax)
             kind = "bvoltage" if letter == "e" else "bcurrent"
-            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, k + 2, syntax))
+            start = k + 2 if toks[k + 1].text == "=" else k + 1
+            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, start, syntax))
     if letter in "eg":
         table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
         if table is not None:

@@ -258,7 +258,16 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         text, base = body_tok.text, body_tok.start + 1
     else:
         text, base = card.text[body_tok.start:], body_tok.start
-    body = parse_expr(card, text, base, ex.PARAM, form)
+    try:
+        body = parse_expr(card, text, base, ex.PARAM, form)
+    except NetlistError as exc:
+        if "is only allowed in behavioural" not in exc.message:
+            raise
+        # ngspice expands a .func like a macro, so its body may read the circuit where a B source calls it
+        raise NetlistError(f"{exc.message.split(' is only allowed')[0]} in a .func body (a function of the "
+                           "circuit's voltages, currents or time, for B sources) is not supported by netdae",
+                           exc.location, expected=form,
+                           hint="write the expression into the B source, or pass V(...) as an argument") from None
     scope = stack[-1]
     if name in scope.funcs:
         first = scope.funcs[name].card
