@@ -367,3 +367,19 @@ def test_controlled_source_value_without_equals_sign(tmp_path):
     netlist = "value\nV1 1 0 2\nE1 2 0 VALUE { V(1)*3 }\nR1 2 0 1k\nG1 3 0 value {v(1)*1m}\nR3 3 0 1k\n"
     c = _op_agrees(netlist, ["v(2)", "v(3)", "i(e1)"], tmp_path)
     assert [c.element(n).kind for n in ("e1", "g1")] == ["bvoltage", "bcurrent"]
+
+
+def test_resistance_from_the_model(tmp_path):
+    # R n+ n- mname [l= w=]: (l - 2 short)/(w - 2 narrow) rsh, else the model's r, as ngspice 39 computes it
+    netlist = ("model resistors\nV1 1 0 1\nR1 1 0 rt\n.model rt r r=1000 tc1=2m\nR2 1 0 rs l=11u w=2u\n"
+               ".model rs r rsh=1000 narrow=0.5u short=1u\nR3 1 0 rs\n.temp 50\n")
+    ref = ngspice_print(netlist + ".op\n", ["@r1[resistance]", "@r2[resistance]", "@r3[resistance]", "i(v1)"],
+                        tmp_path)
+    c = load(netlist + ".op\n.end\n")
+    for name in ("r1", "r2", "r3"):
+        assert abs(c.element(name).value - ref[f"@{name}[resistance]"]) <= RTOL * ref[f"@{name}[resistance]"]
+    assert c.element("r1").params["tc1"] == 2e-3
+    op = netdae.run(c)[0]
+    assert abs(op["i(v1)"][0] - ref["i(v1)"]) <= RTOL * abs(ref["i(v1)"])
+    with pytest.raises(NetlistError, match=r"r1: model rt gives the resistance as an instance parameter"):
+        load(netlist.replace("r=1000", "resistance=1000") + ".op\n.end\n")

@@ -465,12 +465,45 @@ class _Elaborator:
                     key = passive.get(name)
                     if key is not None and key not in el.params:
                         el.params[key] = value
+                if el.kind == "resistor" and el.value is None:
+                    el.value = self._resistance_from_model(el, model)
             elif model.name not in seen:
                 message = unimplemented_level(MODEL_FAMILY_OF_TYPE.get(model.type, ""), model)
                 if message is not None:
                     raise NetlistError(f"{el.name}: {message}", model.locations.get("level", model.location),
                                        hint=OSDI_HINT)
             seen.add(model.name)
+
+    def _resistance_from_model(self, el: Element, model) -> float:
+        """The resistance of ``Rname n+ n- mname [l=] [w=]``, as ngspice 39's resistor computes it.
+
+        ``(l - 2 short) / (w - 2 narrow) * rsh`` when ``l * w * rsh > 0`` (``l`` and ``w`` from the
+        instance, else the model's ``l`` and ``w``/``defw``, else 10 um), else the model's ``r``
+        (``res``), else 1 milliohm with a warning (``REStemp``/``RESsetup`` of ngspice's res
+        device). The model's tc1, tc2 and tce then apply as to any resistor.
+        """
+        mp = model.params
+        if "resistance" in mp:
+            raise NetlistError(f"{el.name}: model {model.name} gives the resistance as an instance parameter "
+                               "(ngspice's instance defaults on a .model card), which netdae does not support",
+                               model.locations.get("resistance", model.location), hint=f"write r= on {model.name}")
+        length = el.params.get("l", mp.get("l", 10e-6))
+        width = el.params.get("w", mp.get("w", mp.get("defw", 10e-6)))
+        rsh = mp.get("rsh", 0.0)
+        if length * width * rsh > 0.0:
+            short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
+            value = (length - 2 * short) / (width - 2 * narrow) * rsh
+        elif "r" in mp or "res" in mp:
+            value = mp.get("r", mp.get("res"))
+        else:
+            self.diagnostics.append(Diagnostic("warning", f"{el.name}: model {model.name} gives no resistance (no "
+                                               "r=, no rsh with l and w): 1 milliohm, as ngspice sets",
+                                               el.location))
+            value = 1e-3
+        if not value > 0.0 or not math.isfinite(value):
+            raise NetlistError(f"{el.name}: model {model.name} gives the resistance {value:g} (from rsh, l, w, "
+                               "short and narrow)", el.location, hint="the resistance must be positive")
+        return value
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
