@@ -383,3 +383,14 @@ def test_resistance_from_the_model(tmp_path):
     assert abs(op["i(v1)"][0] - ref["i(v1)"]) <= RTOL * abs(ref["i(v1)"])
     with pytest.raises(NetlistError, match=r"r1: model rt gives the resistance as an instance parameter"):
         load(netlist.replace("r=1000", "resistance=1000") + ".op\n.end\n")
+
+
+def test_u2_and_the_comparisons_with_zero_in_b_sources(tmp_path):
+    # ngspice's u2 (0, x, then 1) and eq0 ne0 gt0 lt0 ge0 le0 (1 when true), as its B sources read them
+    lines = ["zero tests", "Va a 0 -0.5", "Vb b 0 0.5", "Vc c 0 2", "Vz z 0 0"]
+    names = []
+    for k, (fn, node) in enumerate([(f, n) for f in ("u2", "eq0", "ne0", "gt0", "lt0", "ge0", "le0")
+                                    for n in ("a", "b", "c", "z")]):
+        lines += [f"B{k} o{k} 0 V={fn}(v({node}))", f"R{k} o{k} 0 1k"]
+        names.append(f"v(o{k})")
+    _op_agrees("\n".join(lines) + "\n", names, tmp_path)

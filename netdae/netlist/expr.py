@@ -416,10 +416,9 @@ _REJECTED = {
     "ddt": "a time derivative inside an expression", "sdt": "a time integral inside an expression",
     "table": "a table lookup, PSpice's form; ngspice 39 reads it only in PSpice compatibility mode",
     "tablef": "a table lookup",
-    "u2": "the ngspice-only ramp u2", "eq0": "ngspice-internal", "ne0": "ngspice-internal",
-    "gt0": "ngspice-internal", "lt0": "ngspice-internal", "ge0": "ngspice-internal",
-    "le0": "ngspice-internal",
 }
+#: ngspice's comparisons with zero (1 when true, else 0), read as the comparison.
+_ZERO_TESTS = {"eq0": "==", "ne0": "!=", "gt0": ">", "lt0": "<", "ge0": ">=", "le0": "<="}
 #: Names that cannot be parameters (``pi`` is the constant 3.14159...).
 RESERVED = frozenset({"time", "temper", "hertz", "pi"})
 
@@ -632,6 +631,12 @@ class _Parser:
         if name == "sqr":
             self.arity(name, args, 1, start)
             return Binary("**", args[0], Const(2.0))
+        if name in _ZERO_TESTS:
+            self.arity(name, args, 1, start)
+            return Binary(_ZERO_TESTS[name], args[0], Const(0.0))
+        if name == "u2":  # ngspice's ramp clipped at 1: 0 below 0, x up to 1, then 1
+            self.arity(name, args, 1, start)
+            return Call("min", (Call("max", (args[0], Const(0.0))), Const(1.0)))
         if name in RANDOM_FUNCTIONS and not (name == "limit" and len(args) == 3):
             self.arity(name, args, RANDOM_FUNCTIONS[name], start)
             return Call(name, tuple(args))
