@@ -394,3 +394,13 @@ def test_u2_and_the_comparisons_with_zero_in_b_sources(tmp_path):
         lines += [f"B{k} o{k} 0 V={fn}(v({node}))", f"R{k} o{k} 0 1k"]
         names.append(f"v(o{k})")
     _op_agrees("\n".join(lines) + "\n", names, tmp_path)
+
+
+def test_ddt_in_a_b_source(tmp_path):
+    # ddt(x): the exact derivative (a node holding it) where ngspice differentiates numerically; 0 at the
+    # operating point in both
+    netlist = ("ddt\nV1 1 0 SIN(0.5 1 1k)\nR1 1 2 1k\nC1 2 0 100n\nB1 3 0 V=ddt(V(2))*1m + 0.25\nR3 3 0 1k\n"
+               "B2 4 0 I=2*ddt(V(1)*V(1))*1u\nR4 4 0 1k\n.tran 1u 2m 0 0.2u\n")
+    _tran_agrees(netlist, ["v(3)", "v(4)"], [500, 2000, 4000], tmp_path, 5e-3)
+    c = _op_agrees(netlist.replace(".tran 1u 2m 0 0.2u\n", ""), ["v(3)", "v(4)"], tmp_path)
+    assert {el.name for el in c.elements} >= {"b1#ddt1#q", "b1#ddt1#r", "b2#ddt1#q"}

@@ -875,6 +875,47 @@ def _osdi_device(card: Card, toks: list[Token], syntax: ElementSyntax) -> Elemen
 
 
 def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
+    """Parse one element card (:func:`_parse_element`), its ``ddt()`` calls realised (:func:`realise_ddt`)."""
+    parsed = _parse_element(card)
+    if isinstance(parsed, InstanceCard):
+        return parsed
+    items = parsed if isinstance(parsed, list) else [parsed]
+    if not any(item.expr is not None and any(isinstance(n, ex.Call) and n.func == "ddt" for n in ex.walk(item.expr[0]))
+               for item in items):
+        return parsed
+    out: list[ElementCard] = []
+    for item in items:
+        out.extend(realise_ddt(item))
+    return out
+
+
+def realise_ddt(item: ElementCard) -> list[ElementCard]:
+    """An element whose expression calls ``ddt(x)``, with each call replaced by the voltage of a node holding dx/dt.
+
+    Each call gets an internal node ``<name>#ddt<k>`` carrying the charge ``-x``
+    (a ``bcharge`` to ground) and 1 ohm to ground: its current law says
+    ``v = dx/dt``, and at an operating point ``v = 0`` (ngspice's ``ddt`` is 0
+    there too). The same construction as the behavioural capacitor's.
+    """
+    if item.expr is None:
+        return [item]
+    at = item.expr[1]
+    extra: list[ElementCard] = []
+
+    def visit(node):
+        if isinstance(node, ex.Call) and node.func == "ddt":
+            inner = ex.rebuild(node.args[0], visit)
+            aux = f"{item.name}#ddt{len(extra) // 2 + 1}"
+            extra.append(ElementCard(f"{aux}#q", "bcharge", item.card, (aux, "0"), expr=(ex.Unary("-", inner), at)))
+            extra.append(ElementCard(f"{aux}#r", "resistor", item.card, (aux, "0"), value=(1.0, at)))
+            return ex.Voltage(aux)
+        return None
+
+    item.expr = (ex.rebuild(item.expr[0], visit), at)
+    return [item, *extra]
+
+
+def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
     """Parse one element card.
 
     Returns

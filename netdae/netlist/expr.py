@@ -413,7 +413,7 @@ FUNCTIONS: dict[str, tuple[int, Callable]] = {
 _ALIASES = {"log": "ln", "arctan": "atan"}
 # functions ngspice knows that netdae rejects, with the reason
 _REJECTED = {
-    "ddt": "a time derivative inside an expression", "sdt": "a time integral inside an expression",
+    "ddt": "a time derivative outside a behavioural source", "sdt": "a time integral inside an expression",
     "table": "a table lookup, PSpice's form; ngspice 39 reads it only in PSpice compatibility mode",
     "tablef": "a table lookup",
 }
@@ -623,6 +623,10 @@ class _Parser:
                 args.append(self.expr())
         self.expect(")")
         name = _ALIASES.get(name, name)
+        if name == "ddt" and (self.context == BEHAVIOURAL or self.behavioural_group):
+            # realised by the element reader as a node holding the derivative (elements.realise_ddt)
+            self.arity(name, args, 1, start)
+            return Call(name, tuple(args))
         if name in _REJECTED:
             raise self.error(f"function {name}() ({_REJECTED[name]}) is not supported by netdae", start)
         if name in ("if", "ternary_fcn"):
@@ -725,6 +729,22 @@ def depth(node: Expr) -> int:
         elif t is Call:
             stack.extend((a, d + 1) for a in n.args)
     return best
+
+
+def rebuild(node: Expr, visit: Callable[[Expr], Expr | None]) -> Expr:
+    """The tree with every node ``visit`` returns a replacement for replaced (bottom-up otherwise)."""
+    replaced = visit(node)
+    if replaced is not None:
+        return replaced
+    if isinstance(node, Binary):
+        return Binary(node.op, rebuild(node.left, visit), rebuild(node.right, visit))
+    if isinstance(node, Unary):
+        return Unary(node.op, rebuild(node.operand, visit))
+    if isinstance(node, Ternary):
+        return Ternary(rebuild(node.cond, visit), rebuild(node.then, visit), rebuild(node.other, visit))
+    if isinstance(node, Call):
+        return Call(node.func, tuple(rebuild(a, visit) for a in node.args))
+    return node
 
 
 def walk(node: Expr):
