@@ -454,6 +454,8 @@ REVIEWED = {
                                                           "(ngspice reports it)",
     "examples/inductive-systems/positive-definite-2.cir": "an inductance matrix that is not positive definite "
                                                           "(ngspice reports it)",
+    "tests/regression/misc/empty-1.cir": "a circuit without elements (ngspice's edge-case test; netdae says there "
+                                         "is nothing to simulate)",
 }
 
 
@@ -480,6 +482,8 @@ def classify(rec: dict, rel: str = "") -> tuple[str, str]:
         return "refused_unclear", feature(msg)
     if out == "runs":
         return "runs", rec.get("compare", "")
+    if out == "run_failed" and NAMED.search(rec.get("message", "")):
+        return "refused_named", feature(rec["message"])
     return out, feature(rec.get("message", "")) if out not in ("timeout",) else rec.get("message", "")
 
 

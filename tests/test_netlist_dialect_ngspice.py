@@ -404,3 +404,12 @@ def test_ddt_in_a_b_source(tmp_path):
     _tran_agrees(netlist, ["v(3)", "v(4)"], [500, 2000, 4000], tmp_path, 5e-3)
     c = _op_agrees(netlist.replace(".tran 1u 2m 0 0.2u\n", ""), ["v(3)", "v(4)"], tmp_path)
     assert {el.name for el in c.elements} >= {"b1#ddt1#q", "b1#ddt1#r", "b2#ddt1#q"}
+
+
+def test_temperature_coefficients_of_b_sources_and_behavioural_resistors(tmp_path):
+    # B ... tc1= tc2=: the value times 1 + tc1 dT + tc2 dT^2; a resistor written R={expr} keeps its tc1, tc2
+    # (ngspice 39 hands them to the B source it makes, which scales the resistance)
+    netlist = ("tc\n.temp 77\n.options tnom=20\nV1 1 0 dc=10\nV9 9 0 0\nB2 2 0 I=v(1)*1m tc1=2m tc2=10u\nR2 2 0 1k\n"
+               "B3 3 0 V=v(1) tc2=-30u\nR3 3 0 1k\nR4 1 4 R={1k + v(9)} tc1=1m\nV4 4 0 0\n")
+    c = _op_agrees(netlist, ["v(2)", "v(3)", "i(v4)"], tmp_path)
+    assert c.element("b2").params == {}

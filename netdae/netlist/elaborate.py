@@ -79,6 +79,8 @@ _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2",
                          "capacitor": {"tc1": "tc1", "tc2": "tc2", "tnom": "tnom"},
                          "inductor": {"tc1": "tc1", "tc2": "tc2", "tnom": "tnom"}}
 
+#: The temperature (C) from which ngspice 39's B sources measure their tc1 and tc2 (300.15 K, not tnom).
+ASRC_REFERENCE_TEMPERATURE = 27.0
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
 #: Element kinds whose value a .step (or ``values=``) can set directly.
@@ -492,6 +494,10 @@ class _Elaborator:
         rsh = mp.get("rsh", 0.0)
         if length * width * rsh > 0.0:
             short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
+            if width - 2 * narrow <= 0.0:
+                raise NetlistError(f"{el.name}: model {model.name} leaves no width (w - 2 narrow = "
+                                   f"{width - 2 * narrow:g} m), so its resistance is not finite",
+                                   el.location, hint="give w greater than 2 narrow, or a value")
             value = (length - 2 * short) / (width - 2 * narrow) * rsh
         elif "r" in mp or "res" in mp:
             value = mp.get("r", mp.get("res"))
@@ -629,10 +635,26 @@ class _Elaborator:
             node_map = dict(zip(nodes_written, p.refs))
             elem_map = dict(zip(tuple(c for c, _ in item.controls) + elems_written, p.crefs))
             el.expr = resolve_behavioural(item.expr[0], env, card, item.expr[1], node_map, elem_map)
+            if el.kind in ("bvoltage", "bcurrent") and ("tc1" in el.params or "tc2" in el.params):
+                el.expr = self._temperature_scaled(el, env, card)
         if item.controls:
             el.controls = p.crefs[: len(item.controls)]
         self._check_value(el, item)
         return el
+
+    def _temperature_scaled(self, el: Element, env, card) -> ex.Expr:
+        """A B source's expression times ``1 + tc1 dT + tc2 dT^2`` (divided by it with ``reciproctc``).
+
+        ``dT`` is the circuit temperature minus 27 C, as ngspice 39's ASRC device scales its
+        value (``asrcload.c`` measures from 300.15 K whatever ``tnom`` is); ngspice gives a
+        resistor whose value is an expression, turned into a B source, ``reciproctc=1``:
+        its resistance is scaled.
+        """
+        temper = evaluate_val((ex.Param(TEMPER), 0), env, card, "temper")
+        dt = temper - ASRC_REFERENCE_TEMPERATURE
+        factor = 1.0 + el.params.pop("tc1", 0.0) * dt + el.params.pop("tc2", 0.0) * dt * dt
+        reciprocal = el.params.pop("reciproctc", 0.0) != 0.0
+        return ex.Binary("/" if reciprocal else "*", el.expr, ex.Const(factor))
 
     def _check_value(self, el: Element, item: ElementCard) -> None:
         if el.kind == "resistor" and el.value == 0.0:

@@ -229,6 +229,7 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
     form = f"{name[0].upper()}name n+ n- {key.upper()}={{expr}} [m=mult]" + (
         " | Cname n+ n- {charge expr} [m=mult]" if kind == "capacitor" else "")
     mult = None
+    coefficients: dict = {}
     k = 3
     while k < len(toks):
         tok = toks[k]
@@ -246,11 +247,17 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
             mult = parse_value(card, toks[k + 2], form, "multiplier m")
             k += 3
             continue
+        if (kind == "resistor" and tok.kind == WORD and tok.text in ("tc1", "tc2") and k + 2 < len(toks)
+                and toks[k + 1].text == "=" and tok.text not in coefficients):
+            # ngspice 39 hands them to the B source it makes of the resistor, which scales the resistance
+            coefficients[tok.text] = parse_value(card, toks[k + 2], form, tok.text)
+            k += 3
+            continue
         what = f"parameter '{tok.text}'" if k + 1 < len(toks) and toks[k + 1].text == "=" else repr(tok.text)
         raise error(card, tok.start, f"unexpected {what}: a {syntax.description} whose value depends on V(), "
                     "I() or time takes only m=", form,
-                    hint="ngspice 39 turns such an element into behavioural sources, which drop tc1, tc2, ic, "
-                    "temp, scale and model names")
+                    hint="ngspice 39 turns such an element into behavioural sources, which drop ic, temp, "
+                    "scale and model names (and tc1, tc2 but on a resistor)")
     expr = parse_expr(card, value.text, value.start + 1, ex.BEHAVIOURAL, form)
     m = None if mult is None else (ex.Const(mult[0]) if isinstance(mult[0], float) else mult[0])
 
@@ -260,7 +267,8 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
     at = value.start
     if kind == "resistor":
         current = ex.Binary("/", ex.Voltage(nodes[0], nodes[1]), expr)
-        return [ElementCard(name, "bcurrent", card, nodes, expr=(scaled(current), at))]
+        params = {**coefficients, "reciproctc": (1.0, at)} if coefficients else {}
+        return [ElementCard(name, "bcurrent", card, nodes, params=params, expr=(scaled(current), at))]
     k = next(j for j, t in enumerate(toks) if t is value)
     written_key = k >= 5 and toks[k - 1].text == "=" and toks[k - 2].text == key
     if kind == "capacitor" and not written_key:
@@ -534,15 +542,16 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
                        controls=((positional[0].text, positional[0].start),))
 
 
-def _behavioural(card: Card, toks: list[Token], k: int, syntax) -> tuple:
-    """The behavioural expression starting at token ``k`` (to the end of the card)."""
-    if k >= len(toks):
-        raise error(card, _end(card), "missing expression", syntax)
+def _behavioural(card: Card, toks: list[Token], k: int, syntax, end: int | None = None) -> tuple:
+    """The behavioural expression from token ``k`` to the end of the card (or up to token ``end``)."""
+    end = len(toks) if end is None else end
+    if k >= end:
+        raise error(card, _end(card) if end == len(toks) else toks[end].start, "missing expression", syntax)
     tok = toks[k]
-    if tok.kind == EXPR and k == len(toks) - 1:
+    if tok.kind == EXPR and k == end - 1:
         text, base = tok.text, tok.start + 1
     else:
-        text, base = card.text[tok.start:], tok.start
+        text, base = card.text[tok.start:toks[end].start if end < len(toks) else None], tok.start
     return parse_expr(card, text, base, ex.BEHAVIOURAL, syntax), tok.start
 
 
@@ -713,7 +722,8 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
     return out
 
 
-#: Instance parameters ngspice 39's B source takes after its expression.
+#: Instance parameters ngspice 39's B source takes after its expression (netdae reads tc1 and tc2: the value times
+#: ``1 + tc1 (T - 27) + tc2 (T - 27)^2``, ``_Elaborator._temperature_scaled``).
 _B_INSTANCE = {"tc1": "temperature coefficient", "tc2": "temperature coefficient", "temp": "instance temperature",
                "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier"}
 
@@ -724,13 +734,27 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
         at = toks[3].start if len(toks) > 3 else _end(card)
         raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
     kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
-    for k in range(6, len(toks) - 1):
+    params: dict = {}
+    end = len(toks)
+    k = 6
+    while k < len(toks) - 1:
         if toks[k].kind == WORD and toks[k].text in _B_INSTANCE and toks[k + 1].kind == PUNCT \
-                and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"):
-            raise error(card, toks[k].start, f"{toks[k].text}= on a B source ({_B_INSTANCE[toks[k].text]}) is "
-                        "not supported by netdae", syntax,
-                        hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
-    return ElementCard(toks[0].text, kind, card, nodes, expr=_behavioural(card, toks, 5, syntax))
+                and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"
+                                                 or toks[k - 1].kind == EXPR or k > end):
+            word = toks[k].text
+            if word not in ("tc1", "tc2"):
+                raise error(card, toks[k].start, f"{word}= on a B source ({_B_INSTANCE[word]}) is not supported "
+                            "by netdae", syntax,
+                            hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
+            if k + 2 >= len(toks):
+                raise error(card, toks[k + 1].start, f"missing value after '{word}='", syntax)
+            end = min(end, k)
+            params[word] = parse_value(card, toks[k + 2], syntax, word)
+            k += 3
+            continue
+        k += 1
+    expr = _behavioural(card, toks, 5, syntax, end)
+    return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
 
 def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, count: int) -> ElementCard:
