@@ -524,22 +524,36 @@ def summarize(records: dict[str, dict]) -> dict:
             "compared": dict(compared)}
 
 
-def render(summary: dict, records: dict, command: str, ngspice: str | None) -> str:
+def render(summary: dict, records: dict, command: str, ngspice: str | None, baseline: dict | None = None,
+           baseline_label: str = "before") -> str:
+    """The Markdown section: outcomes (next to a baseline's when given), the in-scope fraction, the buckets."""
     cats = summary["categories"]
+    if baseline is not None:
+        return _render_with_baseline(summary, records, command, ngspice, baseline, baseline_label)
     lines = ["## Public netlists", "",
-             "How many of ngspice's own example and test netlists netdae reads and runs "
-             f"({summary['files']} files with a netlist's suffix under `examples/` and `tests/` of ngspice's "
-             "sources). Measured with", "", f"    {command}", "",
-             "Each file is first classified from its text (with the files it includes); the rest are read, "
-             "elaborated and run by netdae in a process of their own under a time limit"
-             + (", then compared with " + ngspice if ngspice else "") + ".", "",
+             "How many of ngspice's own example and test netlists netdae reads, runs and agrees on: "
+             f"{summary['files']} files with a netlist's suffix (`.cir .sp .net .spi .spice .ckt .deck .inc .lib "
+             ".mod .sub .cmd .txt`) under `examples/` and `tests/` of ngspice's sources (`git archive HEAD "
+             "examples tests` of the ngspice repository, unpacked outside netdae's tree as CORPUS). Measured with",
+             "", f"    {command}", "",
+             "Each file is first classified from its text and the files it includes: not a top-level netlist (no "
+             "analysis card or command, or included by another file), out of scope (XSPICE code models, digital "
+             "U devices, CIDER numerical devices, S-parameters and RF ports, PSS, BSIM/SOI/HiSIM/PSP MOSFET levels, "
+             "which netdae runs only through OSDI), or incomplete (a file it includes is not in the corpus). "
+             "The rest are read, elaborated and run by netdae (`netdae.load`, then every analysis; "
+             "`NETDAE_SERVER=0`), each in a process of its own under a CPU and wall-clock limit"
+             + (", and compared with " + ngspice + " (`netdae.compare`, the netlist's own tolerances, else 1e-3 of "
+                "each signal's scale)" if ngspice else "") + ". A refusal is *named* when its message says which "
+             "feature netdae lacks; with `--check-ngspice` a netlist netdae refuses and ngspice 39 rejects too "
+             "(a newer ngspice's feature, or a deliberately broken test) is not counted in scope. In scope is "
+             "everything else.", "",
              "| outcome | files |", "|---|---:|"]
     for cat in CATEGORY_ORDER:
         if cats.get(cat):
             lines.append(f"| {CATEGORY_TEXT[cat]} | {cats[cat]} |")
     frac = summary["run_fraction"]
-    lines += ["", f"In scope (top-level, complete, not out of scope): {summary['in_scope']}; "
-              f"run: {summary['runs']} ({100 * frac:.0f} %)." if frac is not None else ""]
+    lines += ["", f"In scope: {summary['in_scope']}; run: {summary['runs']} ({100 * frac:.0f} %)."
+              if frac is not None else ""]
     if summary["compared"]:
         c = summary["compared"]
         judged = c.get("agrees", 0) + c.get("disagrees", 0)
@@ -560,7 +574,29 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None) -> s
         lines += ["", f"### {title}", "", "| reason | files |", "|---|---:|"]
         for key, n in sorted(b.items(), key=lambda kv: (-kv[1], kv[0])):
             lines.append(f"| {key.replace('|', '/')} | {n} |")
+    for verdict, title in (("disagrees", "Disagreements with ngspice"), ("ngspice_failed", "ngspice failed"),
+                           ("error", "Comparison errors")):
+        rows = [(rel, rec.get("compare_message", "")) for rel, rec in records.items()
+                if rec.get("category") == "runs" and rec.get("compare") == verdict]
+        if rows:
+            lines += ["", f"### {title}", "", "| netlist | worst |", "|---|---|"]
+            lines += [f"| {rel} | {msg.replace('|', '/')[:160]} |" for rel, msg in rows]
     return "\n".join(lines) + "\n"
+
+
+def _render_with_baseline(summary, records, command, ngspice, baseline, label) -> str:
+    text = render(summary, records, command, ngspice)
+    head, sep, rest = text.partition("| outcome | files |\n|---|---:|\n")
+    table = [f"| outcome | {label} | now |", "|---|---:|---:|"]
+    for cat in CATEGORY_ORDER:
+        a, b = baseline["categories"].get(cat, 0), summary["categories"].get(cat, 0)
+        if a or b:
+            table.append(f"| {CATEGORY_TEXT[cat]} | {a} | {b} |")
+    rest = rest[rest.index("\n\n"):]  # drop the one-column table
+    frac = baseline["run_fraction"]
+    before = (f"{label}: in scope {baseline['in_scope']}, run {baseline['runs']} ({100 * frac:.0f} %); "
+              if frac is not None else "")
+    return head + "\n".join(table) + "\n\n" + before + rest.lstrip("\n")
 
 
 def write_docs(page: Path, section: str) -> None:
@@ -589,20 +625,30 @@ def main(argv=None) -> int:
                         help="run ngspice -b on every netlist netdae refuses: one ngspice 39 rejects too is not "
                              "counted in scope")
     parser.add_argument("--records", help="summarise the records of an earlier --json file instead of running")
+    parser.add_argument("--baseline", help="an earlier --json file whose outcomes are shown next to these")
+    parser.add_argument("--baseline-label", default="before", help="the column title of --baseline")
+    parser.add_argument("--command", help="the measuring command shown in the report (with --records)")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
         print(json.dumps(work(args.worker, args.compare, args.timeout)))
         return 0
+    baseline = None
+    if args.baseline:
+        baseline = summarize(json.loads(Path(args.baseline).read_text())["files"])
     if args.records:
-        records = json.loads(Path(args.records).read_text())["files"]
+        data = json.loads(Path(args.records).read_text())
+        records = data["files"]
         summary = summarize(records)
-        text = render(summary, records, "python scripts/corpus.py " + " ".join(argv or sys.argv[1:]), None)
+        command = args.command or data.get("command") or "python scripts/corpus.py " + " ".join(argv or sys.argv[1:])
+        text = render(summary, records, command, data.get("ngspice"), baseline, args.baseline_label)
         print(text)
         if args.markdown:
             Path(args.markdown).write_text(text)
         if args.json:
-            Path(args.json).write_text(json.dumps({"summary": summary, "files": records}, indent=1))
+            Path(args.json).write_text(json.dumps({**data, "summary": summary, "files": records}, indent=1))
+        if args.docs:
+            write_docs(Path(args.docs), text)
         return 0
     root = Path(args.corpus).resolve()
     files = sorted(p for p in root.rglob("*") if p.is_file() and p.suffix.lower() in SUFFIXES)
@@ -649,10 +695,11 @@ def main(argv=None) -> int:
     shown = [a for a in (argv if argv is not None else sys.argv[1:])]
     shown = ["CORPUS" if a == args.corpus else a for a in shown]
     command = "python scripts/corpus.py " + " ".join(shown)
-    text = render(summary, records, command, ngspice)
+    text = render(summary, records, command, ngspice, baseline, args.baseline_label)
     print(text)
     if args.json:
-        Path(args.json).write_text(json.dumps({"summary": summary, "files": records}, indent=1))
+        Path(args.json).write_text(json.dumps({"command": command, "ngspice": ngspice, "summary": summary,
+                                               "files": records}, indent=1))
     if args.markdown:
         Path(args.markdown).write_text(text)
     if args.docs:

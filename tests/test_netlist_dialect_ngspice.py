@@ -413,3 +413,13 @@ def test_temperature_coefficients_of_b_sources_and_behavioural_resistors(tmp_pat
                "B3 3 0 V=v(1) tc2=-30u\nR3 3 0 1k\nR4 1 4 R={1k + v(9)} tc1=1m\nV4 4 0 0\n")
     c = _op_agrees(netlist, ["v(2)", "v(3)", "i(v4)"], tmp_path)
     assert c.element("b2").params == {}
+
+
+def test_mosfet_geometry_on_the_model_card_is_the_instances_default(tmp_path):
+    # ngspice 39 reads l= w= (ad as pd ps nrd nrs) on a MOSFET .model card as the default of its instances
+    netlist = ("geometry defaults\nVd d 0 2\nVg g 0 2\nM1 d g 0 0 nm\nM2 d g s2 0 nm w=20u\nVs2 s2 0 0\n"
+               ".model nm nmos level=1 kp=50u vto=0.7 l=3u w=9u\n")
+    c = _op_agrees(netlist, ["i(vd)", "i(vs2)"], tmp_path)
+    got = (c.element("m1").params["w"], c.element("m1").params["l"], c.element("m2").params["w"])
+    assert np.allclose(got, (9e-6, 3e-6, 20e-6), rtol=1e-12, atol=0)
+    assert not _warnings(c)

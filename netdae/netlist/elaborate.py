@@ -67,6 +67,8 @@ MODEL_TYPES = {
 MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
                         "sw": "vswitch", "csw": "cswitch",
                         "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
+#: Instance parameters ngspice 39 takes from a .model card as the default of every instance that does not give them.
+INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
 #: PSpice's model types that ngspice names otherwise.
 _PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
                        "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
@@ -469,7 +471,11 @@ class _Elaborator:
                         el.params[key] = value
                 if el.kind == "resistor" and el.value is None:
                     el.value = self._resistance_from_model(el, model)
-            elif model.name not in seen:
+            else:
+                for name in INSTANCE_DEFAULTS.get(MODEL_FAMILY_OF_TYPE.get(model.type, ""), ()):
+                    if name in model.params and name not in el.params:
+                        el.params[name] = model.params[name]
+            if passive is None and model.name not in seen:
                 message = unimplemented_level(MODEL_FAMILY_OF_TYPE.get(model.type, ""), model)
                 if message is not None:
                     raise NetlistError(f"{el.name}: {message}", model.locations.get("level", model.location),
@@ -574,6 +580,8 @@ class _Elaborator:
         form = DOT_CARDS[".model"]
         first = len(self.diagnostics)
         for name in ignored_parameters(family, model):
+            if name in INSTANCE_DEFAULTS.get(family, ()):
+                continue  # a default for the instances (_apply_models)
             self.diagnostics.append(Diagnostic(
                 "warning", f"model {model.name}: parameter '{name}' is not a parameter of ngspice's {family} "
                 "model: ignored, as ngspice ignores it", model.locations.get(name, model.location)))
