@@ -560,6 +560,12 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None, base
         lines += [f"Compared with ngspice: {c.get('agrees', 0)} agree, {c.get('disagrees', 0)} disagree"
                   + (f" ({100 * c.get('agrees', 0) / judged:.0f} % agree)" if judged else "")
                   + f", ngspice failed on {c.get('ngspice_failed', 0)}, comparison error {c.get('error', 0)}."]
+    named = summary["buckets"].get("refused_named", {})
+    if named:
+        families = Counter()
+        for key, n in named.items():
+            families[_family(key)] += n
+        lines += ["", "Named refusals by kind: " + ", ".join(f"{k} {n}" for k, n in families.most_common()) + "."]
     for cat, title in (("out_of_scope", "Out of scope, by reason"),
                        ("refused_named", "Refused, by the feature named"),
                        ("refused_unclear", "Refused with an unclear message"),
@@ -584,6 +590,16 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None, base
     return "\n".join(lines) + "\n"
 
 
+def _family(bucket: str) -> str:
+    """What kind of feature a named refusal lacks: a device model, an analysis, or a netlist construct."""
+    b = bucket.lower()
+    if any(w in b for w in ("element type", " level ", "vdmos", "five nodes", "thermal", "excess phase")):
+        return "device models or elements"
+    if "analys" in b or ".control" in b:
+        return "analyses and ngspice's control language"
+    return "netlist constructs"
+
+
 def _render_with_baseline(summary, records, command, ngspice, baseline, label) -> str:
     text = render(summary, records, command, ngspice)
     head, sep, rest = text.partition("| outcome | files |\n|---|---:|\n")
@@ -594,8 +610,9 @@ def _render_with_baseline(summary, records, command, ngspice, baseline, label) -
             table.append(f"| {CATEGORY_TEXT[cat]} | {a} | {b} |")
     rest = rest[rest.index("\n\n"):]  # drop the one-column table
     frac = baseline["run_fraction"]
-    before = (f"{label}: in scope {baseline['in_scope']}, run {baseline['runs']} ({100 * frac:.0f} %); "
-              if frac is not None else "")
+    before = (f"The first column is the same corpus read by netdae before the reader changes this measurement "
+              f"led to (static classes and ngspice's verdicts as now): in scope {baseline['in_scope']}, run "
+              f"{baseline['runs']} ({100 * frac:.0f} %). " if frac is not None else "")
     return head + "\n".join(table) + "\n\n" + before + rest.lstrip("\n")
 
 
