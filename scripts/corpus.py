@@ -323,6 +323,10 @@ def work(path: str, compare: bool, timeout: float) -> dict:
                             s = max(bad, key=lambda s: s.max_rel)
                             worst.append(f"{item.analysis}: {s.name} max rel err {s.max_rel:.2g}")
                 rec["compare_message"] = "; ".join(worst)[:600]
+                if not cmp.passed:
+                    # ngspice's step control at the netlist's tolerances, or the models? (compare --tight)
+                    tight = netdae.compare(path, timeout=timeout, tight=True)
+                    rec["compare_tight"] = "agrees" if tight.passed and not tight.ngspice_error else "disagrees"
         except Exception as exc:  # noqa: BLE001
             rec["compare"] = "error"
             rec["compare_message"] = f"{type(exc).__name__}: {_message(exc)}"
@@ -519,6 +523,8 @@ def summarize(records: dict[str, dict]) -> dict:
     in_scope = sum(n for c, n in cats.items() if c not in NOT_COUNTED)
     runs = cats["runs"]
     compared = Counter(r.get("compare") for r in records.values() if r.get("category") == "runs" and r.get("compare"))
+    compared["agrees_tight"] = sum(1 for r in records.values() if r.get("category") == "runs"
+                                   and r.get("compare") == "disagrees" and r.get("compare_tight") == "agrees")
     return {"files": len(records), "categories": dict(cats), "buckets": {c: dict(b) for c, b in buckets.items()},
             "in_scope": in_scope, "runs": runs, "run_fraction": runs / in_scope if in_scope else None,
             "compared": dict(compared)}
@@ -559,7 +565,10 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None, base
         judged = c.get("agrees", 0) + c.get("disagrees", 0)
         lines += [f"Compared with ngspice: {c.get('agrees', 0)} agree, {c.get('disagrees', 0)} disagree"
                   + (f" ({100 * c.get('agrees', 0) / judged:.0f} % agree)" if judged else "")
-                  + f", ngspice failed on {c.get('ngspice_failed', 0)}, comparison error {c.get('error', 0)}."]
+                  + f", ngspice failed on {c.get('ngspice_failed', 0)}, comparison error {c.get('error', 0)}. "
+                  f"Of the disagreements {c.get('agrees_tight', 0)} agree with both simulators at tight settings "
+                  "(`netdae compare --tight`: the difference was ngspice's step control); the rest are listed "
+                  "below."]
     named = summary["buckets"].get("refused_named", {})
     if named:
         families = Counter()
@@ -582,11 +591,11 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None, base
             lines.append(f"| {key.replace('|', '/')} | {n} |")
     for verdict, title in (("disagrees", "Disagreements with ngspice"), ("ngspice_failed", "ngspice failed"),
                            ("error", "Comparison errors")):
-        rows = [(rel, rec.get("compare_message", "")) for rel, rec in records.items()
+        rows = [(rel, rec.get("compare_message", ""), rec.get("compare_tight", "")) for rel, rec in records.items()
                 if rec.get("category") == "runs" and rec.get("compare") == verdict]
         if rows:
-            lines += ["", f"### {title}", "", "| netlist | worst |", "|---|---|"]
-            lines += [f"| {rel} | {msg.replace('|', '/')[:160]} |" for rel, msg in rows]
+            lines += ["", f"### {title}", "", "| netlist | worst | tight |", "|---|---|---|"]
+            lines += [f"| {rel} | {msg.replace('|', '/')[:160]} | {tight} |" for rel, msg, tight in rows]
     return "\n".join(lines) + "\n"
 
 
