@@ -349,16 +349,25 @@ TESTSET_BEGIN = "<!-- TESTSET: begin (written by scripts/testset.py --write) -->
 TESTSET_END = "<!-- TESTSET: end -->"
 
 
-def testset_section(path: Path) -> str:
-    """The Test Set's section of the page as scripts/testset.py last wrote it ("" if none)."""
+CORPUS_BEGIN = "<!-- CORPUS: begin (written by scripts/corpus.py --docs) -->"
+CORPUS_END = "<!-- CORPUS: end -->"
+
+
+def kept_section(path: Path, begin: str = TESTSET_BEGIN, end_marker: str = TESTSET_END) -> str:
+    """A section of the page another script wrote between its markers ("" if none)."""
     try:
         old = path.read_text()
     except OSError:
         return ""
-    start, end = old.find(TESTSET_BEGIN), old.find(TESTSET_END)
+    start, end = old.find(begin), old.find(end_marker)
     if start < 0 or end < start:
         return ""
-    return "\n" + old[start:end + len(TESTSET_END)] + "\n"
+    return "\n" + old[start:end + len(end_marker)] + "\n"
+
+
+def testset_section(path: Path) -> str:
+    """The Test Set's section of the page as scripts/testset.py last wrote it ("" if none)."""
+    return kept_section(path)
 
 
 def main(argv=None) -> int:
@@ -380,6 +389,7 @@ def main(argv=None) -> int:
     plot_names = [name for name in PLOTS if (img / f"{name}.png").exists() and any(r.netlist == name for r in rows)]
     text = render(rows, errors, jumps, translated, version, step_control_table(), plot_names)
     text += testset_section(out_path)
+    text += kept_section(out_path, CORPUS_BEGIN, CORPUS_END)  # scripts/corpus.py --docs writes it
     out_path.write_text(text)
     print(f"wrote {out_path}", file=sys.stderr)
     return 0

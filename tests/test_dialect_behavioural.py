@@ -290,8 +290,8 @@ def test_constant_values_stay_ordinary_elements():
 
 
 BEHAVIOURAL_ERRORS = [
-    ("R1 a 0 R={V(a)*1k} tc1=1m", "tc1", "unexpected parameter 'tc1': a resistor whose value depends on V(), I() or "
-     "time takes only m="),
+    ("C1 a 0 C={V(a)*1u} tc1=1m", "tc1", "unexpected parameter 'tc1': a capacitor whose value depends on V(), I() "
+     "or time takes only m="),
     ("C1 a 0 C={V(a)*1u} ic=0", "ic", "unexpected parameter 'ic'"),
     ("L1 a 0 {1m*(1+I(V1))} lmod", "lmod", "unexpected 'lmod'"),
     ("R1 a 0 R={hertz*V(a)}", "hertz", "'hertz' is not supported by netdae"),

@@ -46,7 +46,7 @@ def test_summary_lists_diagnostics_and_extra_sections():
     text = format_summary(summary)
     assert "  findings:\n    loop of voltage sources: v1 v2" in text
     assert "rshunt=1e+09" in text and ".dc temp 0 to 50 step 25" in text
-    assert text.endswith("<string>:3:7: warning: .save v(zz): no node 'zz'")
+    assert text.endswith("<string>:3:7: warning: .save v(zz): no node 'zz' (not kept)")
 
 
 def test_check_on_every_example_netlist(capsys):

@@ -306,3 +306,120 @@ def test_ltspice_words_and_ngspice_outputs_on_model_cards(tmp_path):
     with pytest.raises(NetlistError, match=r"'type' is an output of ngspice's bjt model, not an input") as exc:
         load(netlist.replace("vceo=40", "type=1") + ".op\n.end\n")
     assert (exc.value.location.line, exc.value.location.column) == (2, 46)
+
+
+# ---------------------------------------------------------------------------
+# constructs of ngspice's own example and test netlists (scripts/corpus.py)
+
+def test_width_and_csparam_cards_are_skipped_with_a_note(tmp_path):
+    # .width shapes ngspice's printed output, .csparam feeds its control script: neither changes the circuit
+    netlist = "output cards\n.width out=256\n.csparam rl=2k\nV1 1 0 2\nR1 1 2 1k\nR2 2 0 3k\n"
+    c = _op_agrees(netlist, ["v(2)", "i(v1)"], tmp_path)
+    notes = [(d.location.line, d.message.split(":")[0]) for d in c.diagnostics if d.severity == "note"]
+    assert notes == [(2, ".width skipped"), (3, ".csparam skipped")]
+
+
+def test_distortion_inputs_of_a_source_are_skipped(tmp_path):
+    # DISTOF1/DISTOF2 [mag [phase]] only feed .disto; the DC, AC and SIN parts read as ngspice reads them
+    netlist = ("distof\nV1 1 0 DC 0.5 AC 1 SIN 0 1 1K 0 0 DISTOF1 0.1 DISTOF2 0.2 90\nR1 1 2 1k\nC1 2 0 1u\n"
+               ".tran 10u 2m\n")
+    _tran_agrees(netlist, ["v(2)"], [50, 100], tmp_path, 2e-3)
+    c = _op_agrees(netlist.replace(".tran 10u 2m\n", ""), ["v(2)", "i(v1)"], tmp_path)
+    assert c.element("v1").source.ac_mag == 1.0
+    assert [w.split(":", 2)[-1].strip().split(" skipped")[0] for w in _warnings(c)] == \
+        ["'distof1'", "'distof2'"]
+
+
+def test_print_functions_spice2_forms_and_branch_vectors_keep_the_signal(tmp_path):
+    # .print ac vdb(2) db(v(2)) abs(i(v1)) and ngspice's vector name v1#branch: the signals inside are kept
+    netlist = ("outputs\nV1 1 0 1\nR1 1 2 1k\nR2 2 0 1k\n.dc V1 0 1 0.5\n.print dc vdb(2) db(v(1)) abs(i(v1))\n"
+               ".save v1#branch v(2)\n")
+    ref = ngspice_print(netlist + ".op\n", ["v(2)", "v1#branch"], tmp_path)
+    c = load(netlist + ".end\n")
+    assert c.saves == ["v(2)", "v(1)", "i(v1)"]
+    dc = netdae.run(c)[0]
+    assert dc.names() == ["v(2)", "v(1)", "i(v1)"]
+    assert abs(dc["v(2)"][-1] - ref["v(2)"]) <= RTOL * abs(ref["v(2)"])
+    assert abs(dc["i(v1)"][-1] - ref["v1#branch"]) <= RTOL * abs(ref["v1#branch"])
+
+
+def test_outputs_netdae_does_not_compute_are_left_out_and_the_analyses_run(tmp_path):
+    # ngspice's device quantities, .probe vd()/p() and names that are no node: a warning each, not a refusal
+    netlist = ("outputs\nV1 1 0 1\nR1 1 2 1k\nR2 2 0 1k\n.save @v1[dc] v(2)\n.probe vd(r1) p(r2) alli\n")
+    c = _op_agrees(netlist, ["v(2)"], tmp_path)
+    assert c.saves == ["v(2)"]
+    assert [w.split(": ", 1)[0] for w in _warnings(c)] == ["5:7 .save @v1[dc]", "6:8 .probe vd(r1)",
+                                                             "6:15 .probe p(r2)", "6:21 .probe alli"]
+    assert all(w.endswith("(not kept)") for w in _warnings(c))
+    assert netdae.run(c)[0].names() == ["v(2)"]
+
+
+def test_braces_and_quotes_inside_a_behavioural_expression(tmp_path):
+    # ngspice reads {...} and '...' inside a B expression as groups, circuit references and time included
+    netlist = ("groups\n.param k=3 td=1m\nV1 1 0 2\n.func f1(y) = {y*k}\nB1 2 0 V={v(1)*k} + 'k*2'\nR1 2 0 1k\n"
+               "B2 3 0 I=v(1) > 1 ? {f1(v(1)-1)} : 0\nR2 3 0 1k\n"
+               "B3 4 0 V=ternary_fcn(time < 'td', 0, {v(1)})\nR3 4 0 1k\n")
+    _op_agrees(netlist, ["v(2)", "v(3)", "v(4)"], tmp_path)
+
+
+def test_controlled_source_value_without_equals_sign(tmp_path):
+    # E/G n+ n- VALUE {expr}: ngspice 39 reads the braces after VALUE without '='
+    netlist = "value\nV1 1 0 2\nE1 2 0 VALUE { V(1)*3 }\nR1 2 0 1k\nG1 3 0 value {v(1)*1m}\nR3 3 0 1k\n"
+    c = _op_agrees(netlist, ["v(2)", "v(3)", "i(e1)"], tmp_path)
+    assert [c.element(n).kind for n in ("e1", "g1")] == ["bvoltage", "bcurrent"]
+
+
+def test_resistance_from_the_model(tmp_path):
+    # R n+ n- mname [l= w=]: (l - 2 short)/(w - 2 narrow) rsh, else the model's r, as ngspice 39 computes it
+    netlist = ("model resistors\nV1 1 0 1\nR1 1 0 rt\n.model rt r r=1000 tc1=2m\nR2 1 0 rs l=11u w=2u\n"
+               ".model rs r rsh=1000 narrow=0.5u short=1u\nR3 1 0 rs\n.temp 50\n")
+    ref = ngspice_print(netlist + ".op\n", ["@r1[resistance]", "@r2[resistance]", "@r3[resistance]", "i(v1)"],
+                        tmp_path)
+    c = load(netlist + ".op\n.end\n")
+    for name in ("r1", "r2", "r3"):
+        assert abs(c.element(name).value - ref[f"@{name}[resistance]"]) <= RTOL * ref[f"@{name}[resistance]"]
+    assert c.element("r1").params["tc1"] == 2e-3
+    op = netdae.run(c)[0]
+    assert abs(op["i(v1)"][0] - ref["i(v1)"]) <= RTOL * abs(ref["i(v1)"])
+    with pytest.raises(NetlistError, match=r"r1: model rt gives the resistance as an instance parameter"):
+        load(netlist.replace("r=1000", "resistance=1000") + ".op\n.end\n")
+
+
+def test_u2_and_the_comparisons_with_zero_in_b_sources(tmp_path):
+    # ngspice's u2 (0, x, then 1) and eq0 ne0 gt0 lt0 ge0 le0 (1 when true), as its B sources read them
+    lines = ["zero tests", "Va a 0 -0.5", "Vb b 0 0.5", "Vc c 0 2", "Vz z 0 0"]
+    names = []
+    for k, (fn, node) in enumerate([(f, n) for f in ("u2", "eq0", "ne0", "gt0", "lt0", "ge0", "le0")
+                                    for n in ("a", "b", "c", "z")]):
+        lines += [f"B{k} o{k} 0 V={fn}(v({node}))", f"R{k} o{k} 0 1k"]
+        names.append(f"v(o{k})")
+    _op_agrees("\n".join(lines) + "\n", names, tmp_path)
+
+
+def test_ddt_in_a_b_source(tmp_path):
+    # ddt(x): the exact derivative (a node holding it) where ngspice differentiates numerically; 0 at the
+    # operating point in both
+    netlist = ("ddt\nV1 1 0 SIN(0.5 1 1k)\nR1 1 2 1k\nC1 2 0 100n\nB1 3 0 V=ddt(V(2))*1m + 0.25\nR3 3 0 1k\n"
+               "B2 4 0 I=2*ddt(V(1)*V(1))*1u\nR4 4 0 1k\n.tran 1u 2m 0 0.2u\n")
+    _tran_agrees(netlist, ["v(3)", "v(4)"], [500, 2000, 4000], tmp_path, 5e-3)
+    c = _op_agrees(netlist.replace(".tran 1u 2m 0 0.2u\n", ""), ["v(3)", "v(4)"], tmp_path)
+    assert {el.name for el in c.elements} >= {"b1#ddt1#q", "b1#ddt1#r", "b2#ddt1#q"}
+
+
+def test_temperature_coefficients_of_b_sources_and_behavioural_resistors(tmp_path):
+    # B ... tc1= tc2=: the value times 1 + tc1 dT + tc2 dT^2; a resistor written R={expr} keeps its tc1, tc2
+    # (ngspice 39 hands them to the B source it makes, which scales the resistance)
+    netlist = ("tc\n.temp 77\n.options tnom=20\nV1 1 0 dc=10\nV9 9 0 0\nB2 2 0 I=v(1)*1m tc1=2m tc2=10u\nR2 2 0 1k\n"
+               "B3 3 0 V=v(1) tc2=-30u\nR3 3 0 1k\nR4 1 4 R={1k + v(9)} tc1=1m\nV4 4 0 0\n")
+    c = _op_agrees(netlist, ["v(2)", "v(3)", "i(v4)"], tmp_path)
+    assert c.element("b2").params == {}
+
+
+def test_mosfet_geometry_on_the_model_card_is_the_instances_default(tmp_path):
+    # ngspice 39 reads l= w= (ad as pd ps nrd nrs) on a MOSFET .model card as the default of its instances
+    netlist = ("geometry defaults\nVd d 0 2\nVg g 0 2\nM1 d g 0 0 nm\nM2 d g s2 0 nm w=20u\nVs2 s2 0 0\n"
+               ".model nm nmos level=1 kp=50u vto=0.7 l=3u w=9u\n")
+    c = _op_agrees(netlist, ["i(vd)", "i(vs2)"], tmp_path)
+    got = (c.element("m1").params["w"], c.element("m1").params["l"], c.element("m2").params["w"])
+    assert np.allclose(got, (9e-6, 3e-6, 20e-6), rtol=1e-12, atol=0)
+    assert not _warnings(c)

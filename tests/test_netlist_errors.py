@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from netdae.cli import main as cli_main
-from netdae.errors import NetlistError
+import netdae
+from netdae.errors import NetdaeError, NetlistError
 from netdae.netlist import load
 
 # (netlist, message regex, line, the text the column must point at [, its occurrence in the line])
@@ -87,7 +88,7 @@ CASES = [
     ("t\nM1 d g 0 0 mm\n.model mm nmos level=2 kappa=0.1\n",
      r"m1: model mm: MOSFET level 2 \(Grove-Frohman in ngspice\) is not implemented by netdae", 3, "2"),
     ("t\n.model\n", r"expected a model name and type", 2, None),
-    ("t\nR1 a 0 rmod\n.model rmod r\n", r"'rmod' is a model: an element value computed from a model", 2, "rmod"),
+    ("t\nC1 a 0 cmod\n.model cmod c\n", r"'cmod' is a model: an element value computed from a model", 2, "cmod"),
     # references
     ("t\nR1 a 0 1\nr1 b 0 2\n", r"r1: duplicate element name 'r1' \(first defined at <string>:2\)", 3, "r1"),
     ("t\nL1 a 0 1m\nR2 b 0 1\nK1 L1 R2 0.5\n", r"'r2' is not an inductor name", 4, "R2"),
@@ -114,7 +115,7 @@ CASES = [
     ("t\nB1 a 0 X=1\n", r"expected V=\{expr\} or I=\{expr\} after the nodes", 2, "X"),
     ("t\nB1 a 0 V=\n", r"missing expression", 2, None),
     ("t\nB1 a 0 V=v(a)+\n", r"b1: expression ends where a value is expected", 2, None),
-    ("t\nB1 a 0 V=ddt(v(a))\n", r"ddt\(\) .* is not supported", 2, "ddt"),
+    ("t\n.param p={ddt(1)}\n", r"ddt\(\) \(a time derivative outside a behavioural source\) is not supported", 2, "ddt"),
     ("t\nB1 a 0 V=v(a,b,c)\n", r"malformed V\(\.\.\.\) reference", 2, "v(a,b,c)"),
     # independent sources and waveforms
     ("t\nV1 a 0 pulse(1)\n", r"PULSE needs at least 2 parameters \(v1 v2\), got 1", 2, "pulse"),
@@ -130,7 +131,26 @@ CASES = [
     ("t\nV1 a 0 dc 1 dc 2\n", r"DC value given twice", 2, "dc", 2),
     ("t\nV1 a 0 sin(0 1) pulse(0 1)\n", r"more than one transient function", 2, "pulse"),
     ("t\nV1 a 0 trnoise(1n 1n 0 0)\n", r"'trnoise' \(transient noise\) is not supported", 2, "trnoise"),
-    ("t\nV1 a 0 distof1 1\n", r"'distof1' \(distortion input\) is not supported", 2, "distof1"),
+    # what ngspice's own example netlists use and netdae does not have, named
+    ("t\nM1 d g s vd\n.model vd vdmos\n", r"model vd is a VDMOS \(ngspice's power MOSFET, three nodes\), which "
+     r"netdae does not implement", 2, "vd"),
+    ("t\nM1 d g 0 tj tc irf thermal\n.model irf vdmos\n", r"a self-heating VDMOS .* with thermal nodes "
+     r"\('thermal'\) is not supported", 2, "thermal"),
+    ("t\nD1 1 0 tj dm thermal\n.model dm d\n", r"a self-heating diode with thermal nodes \('thermal'\) is not "
+     r"supported", 2, "thermal"),
+    ("t\nQ1 c b 0 s tj qm\n.model qm npn\n", r"five nodes \(collector base emitter substrate and a thermal node: "
+     r"ngspice's self-heating VBIC or HICUM\) are not supported", 2, "tj"),
+    ("t\nB1 1 0 V=v(2)*2 tc1=1m temp=50\n", r"temp= on a B source \(instance temperature\) is not supported", 2,
+     "temp"),
+    ("t\nB1 1 0 V=(v(2)>1) | (v(2)<0)\n", r"'\|' \(PSpice's logical or\) is not supported by netdae", 2, "|"),
+    ("t\n.param p={(1>0) & (2>1)}\n", r"'&' \(PSpice's logical and\) is not supported by netdae", 2, "&"),
+    ("t\nS1 1 0 2 0 sm\n.model sm vswitch(ron=1)\n", r"model 'sm' is of type 'vswitch', PSpice's voltage-controlled "
+     r"switch \(ngspice's sw\), which netdae does not support", 2, "sm"),
+    ("t\nQ1 c b 0 qp\n.model qp ako:q350 pnp(bf=50)\n.model q350 pnp\n", r"model 'qp' is a PSpice AKO model "
+     r"\('a kind of' q350\), which netdae does not support", 2, "qp"),
+    ("t\n.func f(x) = {x*v(a)}\n", r"circuit reference V\(...\) in a .func body \(a function of the circuit's voltages, "
+     r"currents or time, for B sources\) is not supported", 2, "v(a)"),
+    ("t\nB1 1 0 V=~(v(2)>1)\n", r"'~' \(PSpice's logical not\) is not supported by netdae", 2, "~"),
     # analyses and control cards
     ("t\n.tran 1u\n", r"expected tstep and tstop, found 1 value", 2, None),
     ("t\n.tran 0 1m\n", r"tstep must be > 0, got 0", 2, "0"),
@@ -184,6 +204,14 @@ def test_error_message_line_and_column(case):
     assert __import__("re").search(pattern, err.message), err.message
     assert (err.location.file, err.location.line) == ("<string>", line), str(err)
     assert err.location.column == _column(netlist, line, token, *occ), str(err)
+
+
+def test_analyses_skipped_in_a_control_loop_are_named():
+    c = load("t\nR1 a 0 1\nV1 a 0 1\n.control\nrepeat 2\n  op\nend\n.endc\n")
+    with pytest.raises(NetdaeError, match=r"nothing to run \(the .control block's analyses are not read: 'op' at "
+                                          r"<string>:6:3 was skipped because netdae does not run control-language "
+                                          r"loops and conditionals"):
+        netdae.run(c)
 
 
 def test_element_errors_show_the_expected_form_and_a_hint():

@@ -226,6 +226,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     if not circuit.analyses:
         raise NetdaeError(
             f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to run"
+            + _skipped_analyses(circuit)
         )
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
@@ -273,6 +274,21 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             res.notes.append(unused)
         results.append(res)
     return _finish(circuit, results, names, wanted)
+
+
+def _skipped_analyses(circuit: Circuit) -> str:
+    """Why the analysis commands of a ``.control`` block were not read ("" when it has none)."""
+    from ..netlist.control import ANALYSIS_COMMANDS
+
+    for diag in circuit.diagnostics:
+        if diag.message.startswith(".control: '"):
+            command = diag.message[len(".control: '"):].split("'", 1)[0]
+            word = command.split()[0].lower() if command.split() else ""
+            if word in ANALYSIS_COMMANDS:
+                why = diag.message.split(": ", 2)[-1]
+                return (f" (the .control block's analyses are not read: '{command}' at {diag.location} was skipped "
+                        f"because {why}; netdae does not run ngspice's control language)")
+    return ""
 
 
 def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Result]:

@@ -364,6 +364,9 @@ def compare_ac(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     if not _signals_or_error(item, compared):
         return item
     f = ng.axis
+    if f is None or f.size == 0:
+        item.error = "ngspice's AC analysis has no frequency points (nothing to compare)"
+        return item
     if nd.axis is None or nd.axis.size != f.size or not np.array_equal(nd.axis, f):
         item.error = "netdae's phasors are not at ngspice's frequencies"
         return item

@@ -69,6 +69,11 @@ MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfe
                         "njf": "jfet", "pjf": "jfet",
                         "sw": "vswitch", "csw": "cswitch",
                         "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
+#: Instance parameters ngspice 39 takes from a .model card as the default of every instance that does not give them.
+INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
+#: PSpice's model types that ngspice names otherwise.
+_PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
+                       "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
 #: Bare names on a .model card that restate its type.
 _TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw"})
 #: Model parameters of R, C and L that netdae uses (the others size an element without a value,
@@ -78,6 +83,8 @@ _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2",
                          "capacitor": {"tc1": "tc1", "tc2": "tc2", "tnom": "tnom"},
                          "inductor": {"tc1": "tc1", "tc2": "tc2", "tnom": "tnom"}}
 
+#: The temperature (C) from which ngspice 39's B sources measure their tc1 and tc2 (300.15 K, not tnom).
+ASRC_REFERENCE_TEMPERATURE = 27.0
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
 #: Element kinds whose value a .step (or ``values=``) can set directly.
@@ -488,12 +495,53 @@ class _Elaborator:
                     key = passive.get(name)
                     if key is not None and key not in el.params:
                         el.params[key] = value
-            elif model.name not in seen:
+                if el.kind == "resistor" and el.value is None:
+                    el.value = self._resistance_from_model(el, model)
+            else:
+                for name in INSTANCE_DEFAULTS.get(MODEL_FAMILY_OF_TYPE.get(model.type, ""), ()):
+                    if name in model.params and name not in el.params:
+                        el.params[name] = model.params[name]
+            if passive is None and model.name not in seen:
                 message = unimplemented_level(MODEL_FAMILY_OF_TYPE.get(model.type, ""), model)
                 if message is not None:
                     raise NetlistError(f"{el.name}: {message}", model.locations.get("level", model.location),
                                        hint=OSDI_HINT)
             seen.add(model.name)
+
+    def _resistance_from_model(self, el: Element, model) -> float:
+        """The resistance of ``Rname n+ n- mname [l=] [w=]``, as ngspice 39's resistor computes it.
+
+        ``(l - 2 short) / (w - 2 narrow) * rsh`` when ``l * w * rsh > 0`` (``l`` and ``w`` from the
+        instance, else the model's ``l`` and ``w``/``defw``, else 10 um), else the model's ``r``
+        (``res``), else 1 milliohm with a warning (``REStemp``/``RESsetup`` of ngspice's res
+        device). The model's tc1, tc2 and tce then apply as to any resistor.
+        """
+        mp = model.params
+        if "resistance" in mp:
+            raise NetlistError(f"{el.name}: model {model.name} gives the resistance as an instance parameter "
+                               "(ngspice's instance defaults on a .model card), which netdae does not support",
+                               model.locations.get("resistance", model.location), hint=f"write r= on {model.name}")
+        length = el.params.get("l", mp.get("l", 10e-6))
+        width = el.params.get("w", mp.get("w", mp.get("defw", 10e-6)))
+        rsh = mp.get("rsh", 0.0)
+        if length * width * rsh > 0.0:
+            short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
+            if width - 2 * narrow <= 0.0:
+                raise NetlistError(f"{el.name}: model {model.name} leaves no width (w - 2 narrow = "
+                                   f"{width - 2 * narrow:g} m), so its resistance is not finite",
+                                   el.location, hint="give w greater than 2 narrow, or a value")
+            value = (length - 2 * short) / (width - 2 * narrow) * rsh
+        elif "r" in mp or "res" in mp:
+            value = mp.get("r", mp.get("res"))
+        else:
+            self.diagnostics.append(Diagnostic("warning", f"{el.name}: model {model.name} gives no resistance (no "
+                                               "r=, no rsh with l and w): 1 milliohm, as ngspice sets",
+                                               el.location))
+            value = 1e-3
+        if not value > 0.0 or not math.isfinite(value):
+            raise NetlistError(f"{el.name}: model {model.name} gives the resistance {value:g} (from rsh, l, w, "
+                               "short and narrow)", el.location, hint="the resistance must be positive")
+        return value
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
@@ -562,6 +610,8 @@ class _Elaborator:
         form = DOT_CARDS[".model"]
         first = len(self.diagnostics)
         for name in ignored_parameters(family, model):
+            if name in INSTANCE_DEFAULTS.get(family, ()):
+                continue  # a default for the instances (_apply_models)
             self.diagnostics.append(Diagnostic(
                 "warning", f"model {model.name}: parameter '{name}' is not a parameter of ngspice's {family} "
                 "model: ignored, as ngspice ignores it", model.locations.get(name, model.location)))
@@ -623,10 +673,26 @@ class _Elaborator:
             node_map = dict(zip(nodes_written, p.refs))
             elem_map = dict(zip(tuple(c for c, _ in item.controls) + elems_written, p.crefs))
             el.expr = resolve_behavioural(item.expr[0], env, card, item.expr[1], node_map, elem_map)
+            if el.kind in ("bvoltage", "bcurrent") and ("tc1" in el.params or "tc2" in el.params):
+                el.expr = self._temperature_scaled(el, env, card)
         if item.controls:
             el.controls = p.crefs[: len(item.controls)]
         self._check_value(el, item)
         return el
+
+    def _temperature_scaled(self, el: Element, env, card) -> ex.Expr:
+        """A B source's expression times ``1 + tc1 dT + tc2 dT^2`` (divided by it with ``reciproctc``).
+
+        ``dT`` is the circuit temperature minus 27 C, as ngspice 39's ASRC device scales its
+        value (``asrcload.c`` measures from 300.15 K whatever ``tnom`` is); ngspice gives a
+        resistor whose value is an expression, turned into a B source, ``reciproctc=1``:
+        its resistance is scaled.
+        """
+        temper = evaluate_val((ex.Param(TEMPER), 0), env, card, "temper")
+        dt = temper - ASRC_REFERENCE_TEMPERATURE
+        factor = 1.0 + el.params.pop("tc1", 0.0) * dt + el.params.pop("tc2", 0.0) * dt * dt
+        reciprocal = el.params.pop("reciproctc", 0.0) != 0.0
+        return ex.Binary("/" if reciprocal else "*", el.expr, ex.Const(factor))
 
     def _check_value(self, el: Element, item: ElementCard) -> None:
         if el.kind == "resistor" and el.value == 0.0:
@@ -682,6 +748,16 @@ class _Elaborator:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
         allowed = MODEL_TYPES.get(item.kind)
+        if allowed is not None and mcard.type not in allowed and mcard.type in _PSPICE_MODEL_TYPES:
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
+                        f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "
+                        "outside its PSpice compatibility mode)", ELEMENTS[item.name[0]],
+                        hint=f"write a {' or '.join(allowed)} model")
+        if allowed is not None and mcard.type.startswith("ako:"):
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is a PSpice AKO model ('a kind of' "
+                        f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "
+                        "compatibility mode)", ELEMENTS[item.name[0]],
+                        hint=f"copy the parameters of {mcard.type[4:]} into a {' or '.join(allowed)} model")
         if allowed is not None and mcard.type not in allowed:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', a "
                         f"{ELEMENTS[item.name[0]].description} needs {' or '.join(allowed)}",
@@ -999,12 +1075,17 @@ class _Elaborator:
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
         for signal, offset, card in self.net.saves:
+            if signal.endswith("#branch") and "(" not in signal:
+                signal = f"i({signal[:-len('#branch')]})"  # ngspice's vector name of a branch current
             text = signal
             problem = None
             if "(" in signal:
                 head, args = signal[:-1].split("(", 1)
                 parts = [_ground(a) for a in args.split(",")]
-                if head == "v":
+                if head not in ("v", "i"):
+                    problem = (f"{head}() is an ngspice .probe quantity (vd: a voltage across a device, p: its "
+                               "power) that netdae does not compute")
+                elif head == "v":
                     if len(parts) == 2 and parts[1] == "0":
                         parts = parts[:1]
                     text = f"v({','.join(parts)})"
@@ -1021,9 +1102,13 @@ class _Elaborator:
                 text = f"v({_ground(signal)})"
                 if _ground(signal) not in nodes:
                     problem = f"no node '{signal}'"
+            else:
+                problem = "netdae does not compute ngspice's device quantities @device[param]"
             if problem is not None:
-                self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem}",
-                                                   card.location(offset)))
+                # ngspice skips an output it cannot make too; the analyses run without it
+                self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem} "
+                                                   "(not kept)", card.location(offset)))
+                continue
             seen.setdefault(text, None)
         circuit.saves = list(seen)
 

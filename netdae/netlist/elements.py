@@ -230,6 +230,7 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
     form = f"{name[0].upper()}name n+ n- {key.upper()}={{expr}} [m=mult]" + (
         " | Cname n+ n- {charge expr} [m=mult]" if kind == "capacitor" else "")
     mult = None
+    coefficients: dict = {}
     k = 3
     while k < len(toks):
         tok = toks[k]
@@ -247,11 +248,17 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
             mult = parse_value(card, toks[k + 2], form, "multiplier m")
             k += 3
             continue
+        if (kind == "resistor" and tok.kind == WORD and tok.text in ("tc1", "tc2") and k + 2 < len(toks)
+                and toks[k + 1].text == "=" and tok.text not in coefficients):
+            # ngspice 39 hands them to the B source it makes of the resistor, which scales the resistance
+            coefficients[tok.text] = parse_value(card, toks[k + 2], form, tok.text)
+            k += 3
+            continue
         what = f"parameter '{tok.text}'" if k + 1 < len(toks) and toks[k + 1].text == "=" else repr(tok.text)
         raise error(card, tok.start, f"unexpected {what}: a {syntax.description} whose value depends on V(), "
                     "I() or time takes only m=", form,
-                    hint="ngspice 39 turns such an element into behavioural sources, which drop tc1, tc2, ic, "
-                    "temp, scale and model names")
+                    hint="ngspice 39 turns such an element into behavioural sources, which drop ic, temp, "
+                    "scale and model names (and tc1, tc2 but on a resistor)")
     expr = parse_expr(card, value.text, value.start + 1, ex.BEHAVIOURAL, form)
     m = None if mult is None else (ex.Const(mult[0]) if isinstance(mult[0], float) else mult[0])
 
@@ -261,7 +268,8 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
     at = value.start
     if kind == "resistor":
         current = ex.Binary("/", ex.Voltage(nodes[0], nodes[1]), expr)
-        return [ElementCard(name, "bcurrent", card, nodes, expr=(scaled(current), at))]
+        params = {**coefficients, "reciproctc": (1.0, at)} if coefficients else {}
+        return [ElementCard(name, "bcurrent", card, nodes, params=params, expr=(scaled(current), at))]
     k = next(j for j, t in enumerate(toks) if t is value)
     written_key = k >= 5 and toks[k - 1].text == "=" and toks[k - 2].text == key
     if kind == "capacitor" and not written_key:
@@ -337,8 +345,9 @@ def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
 
 _SOURCE_WORDS = set(WAVEFORMS) | {"sine", "dc", "ac"}
 _UNSUPPORTED_SOURCE = {"trnoise": "transient noise", "trrandom": "random transient source",
-                       "distof1": "distortion input", "distof2": "distortion input",
                        "external": "external source", "portnum": "RF port"}
+#: Inputs of ngspice's distortion analysis: ``DISTOF1 [mag [phase]]``, read and skipped (no .disto in netdae).
+_DISTORTION_INPUTS = ("distof1", "distof2")
 
 
 def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> ElementCard:
@@ -349,7 +358,8 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
 
     def is_value(t: Token) -> bool:
         return t.kind == EXPR or (t.kind == WORD and t.text not in _SOURCE_WORDS
-                                  and t.text not in _UNSUPPORTED_SOURCE and t.text not in ("r", "td"))
+                                  and t.text not in _UNSUPPORTED_SOURCE and t.text not in ("r", "td")
+                                  and t.text not in _DISTORTION_INPUTS)
 
     def skip_eq(j: int) -> int:
         return j + 1 if j < n and toks[j].kind == PUNCT and toks[j].text == "=" else j
@@ -402,6 +412,16 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
                             f"expected ')' closing '(' of {toks[i + 1].text.upper()}", syntax)
             i = j + 1
             _check_pwl_extras(card, spec, syntax, kind)
+        elif word in _DISTORTION_INPUTS:
+            j = skip_eq(i + 1)
+            count = 0
+            while j < n and count < 2 and is_value(toks[j]):
+                parse_value(card, toks[j], syntax, f"{word} value")
+                j += 1
+                count += 1
+            card.warn(tok.start, f"'{word}' skipped: an input of ngspice's distortion analysis (.disto), which "
+                                 "netdae does not have")
+            i = j
         elif word in _UNSUPPORTED_SOURCE:
             raise error(card, tok.start, f"'{word}' ({_UNSUPPORTED_SOURCE[word]}) is not supported by netdae",
                         syntax, hint=f"supported functions: {SOURCE_FUNCTIONS}")
@@ -445,6 +465,8 @@ def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -
     else:
         while j < n and (toks[j].kind == EXPR or (toks[j].kind == WORD and toks[j].text not in _SOURCE_WORDS
                                                    and toks[j].text not in ("r", "td")
+                                                   and toks[j].text not in _UNSUPPORTED_SOURCE
+                                                   and toks[j].text not in _DISTORTION_INPUTS
                                                    and not (j + 1 < n and toks[j + 1].text == "="))):
             vals.append(parse_value(card, toks[j], syntax, f"{kind.upper()} parameter"))
             j += 1
@@ -466,12 +488,15 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
     # behavioural form: value= (vol= for E, cur= for G)
     keys = {"e": ("value", "vol"), "g": ("value", "cur")}.get(letter, ())
     for k, tok in enumerate(toks):
-        if tok.kind == WORD and tok.text in keys and k + 1 < len(toks) and toks[k + 1].text == "=":
+        # value={expr}, and value {expr} without '=' (ngspice 39 reads both)
+        if tok.kind == WORD and tok.text in keys and k + 1 < len(toks) and (
+                toks[k + 1].text == "=" or (k == 3 and toks[k + 1].kind == EXPR)):
             if k != 3:
                 raise error(card, tok.start, f"expected 2 nodes before '{tok.text}='", syntax)
             nodes = _nodes(card, toks, 2, syntax)
             kind = "bvoltage" if letter == "e" else "bcurrent"
-            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, k + 2, syntax))
+            start = k + 2 if toks[k + 1].text == "=" else k + 1
+            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, start, syntax))
     if letter in "eg":
         table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
         if table is not None:
@@ -518,15 +543,16 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
                        controls=((positional[0].text, positional[0].start),))
 
 
-def _behavioural(card: Card, toks: list[Token], k: int, syntax) -> tuple:
-    """The behavioural expression starting at token ``k`` (to the end of the card)."""
-    if k >= len(toks):
-        raise error(card, _end(card), "missing expression", syntax)
+def _behavioural(card: Card, toks: list[Token], k: int, syntax, end: int | None = None) -> tuple:
+    """The behavioural expression from token ``k`` to the end of the card (or up to token ``end``)."""
+    end = len(toks) if end is None else end
+    if k >= end:
+        raise error(card, _end(card) if end == len(toks) else toks[end].start, "missing expression", syntax)
     tok = toks[k]
-    if tok.kind == EXPR and k == len(toks) - 1:
+    if tok.kind == EXPR and k == end - 1:
         text, base = tok.text, tok.start + 1
     else:
-        text, base = card.text[tok.start:], tok.start
+        text, base = card.text[tok.start:toks[end].start if end < len(toks) else None], tok.start
     return parse_expr(card, text, base, ex.BEHAVIOURAL, syntax), tok.start
 
 
@@ -697,13 +723,39 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
     return out
 
 
+#: Instance parameters ngspice 39's B source takes after its expression (netdae reads tc1 and tc2: the value times
+#: ``1 + tc1 (T - 27) + tc2 (T - 27)^2``, ``_Elaborator._temperature_scaled``).
+_B_INSTANCE = {"tc1": "temperature coefficient", "tc2": "temperature coefficient", "temp": "instance temperature",
+               "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier"}
+
+
 def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
     nodes = _nodes(card, toks, 2, syntax)
     if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
         at = toks[3].start if len(toks) > 3 else _end(card)
         raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
     kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
-    return ElementCard(toks[0].text, kind, card, nodes, expr=_behavioural(card, toks, 5, syntax))
+    params: dict = {}
+    end = len(toks)
+    k = 6
+    while k < len(toks) - 1:
+        if toks[k].kind == WORD and toks[k].text in _B_INSTANCE and toks[k + 1].kind == PUNCT \
+                and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"
+                                                 or toks[k - 1].kind == EXPR or k > end):
+            word = toks[k].text
+            if word not in ("tc1", "tc2"):
+                raise error(card, toks[k].start, f"{word}= on a B source ({_B_INSTANCE[word]}) is not supported "
+                            "by netdae", syntax,
+                            hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
+            if k + 2 >= len(toks):
+                raise error(card, toks[k + 1].start, f"missing value after '{word}='", syntax)
+            end = min(end, k)
+            params[word] = parse_value(card, toks[k + 2], syntax, word)
+            k += 3
+            continue
+        k += 1
+    expr = _behavioural(card, toks, 5, syntax, end)
+    return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
 
 def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, count: int) -> ElementCard:
@@ -717,7 +769,17 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
         else:
             words.append(tok)
     el = ElementCard(toks[0].text, kind, card, params=params, flags=flags)
+    thermal = next((t for t in words if t.kind == WORD and t.text == "thermal"), None)
+    if thermal is not None and kind in ("diode", "mosfet"):
+        what = "VDMOS (power MOSFET, .model ... vdmos)" if kind == "mosfet" else "diode"
+        raise error(card, thermal.start, f"a self-heating {what} with thermal nodes ('thermal') is not supported "
+                    "by netdae", syntax, hint="remove the thermal nodes and 'thermal' to simulate it without "
+                    "self-heating" + (", once netdae has VDMOS" if kind == "mosfet" else ""))
     if kind == "bjt":
+        el.positional = words
+        return el
+    if kind == "mosfet" and len(words) == count and all(t.kind == WORD for t in words):
+        # three nodes and a model is ngspice 39's VDMOS; judged when the models are known (parser._settle)
         el.positional = words
         return el
     if len(words) < count + 1 or any(t.kind != WORD for t in words[: count + 1]):
@@ -874,6 +936,47 @@ def _osdi_device(card: Card, toks: list[Token], syntax: ElementSyntax) -> Elemen
 
 
 def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
+    """Parse one element card (:func:`_parse_element`), its ``ddt()`` calls realised (:func:`realise_ddt`)."""
+    parsed = _parse_element(card)
+    if isinstance(parsed, InstanceCard):
+        return parsed
+    items = parsed if isinstance(parsed, list) else [parsed]
+    if not any(item.expr is not None and any(isinstance(n, ex.Call) and n.func == "ddt" for n in ex.walk(item.expr[0]))
+               for item in items):
+        return parsed
+    out: list[ElementCard] = []
+    for item in items:
+        out.extend(realise_ddt(item))
+    return out
+
+
+def realise_ddt(item: ElementCard) -> list[ElementCard]:
+    """An element whose expression calls ``ddt(x)``, with each call replaced by the voltage of a node holding dx/dt.
+
+    Each call gets an internal node ``<name>#ddt<k>`` carrying the charge ``-x``
+    (a ``bcharge`` to ground) and 1 ohm to ground: its current law says
+    ``v = dx/dt``, and at an operating point ``v = 0`` (ngspice's ``ddt`` is 0
+    there too). The same construction as the behavioural capacitor's.
+    """
+    if item.expr is None:
+        return [item]
+    at = item.expr[1]
+    extra: list[ElementCard] = []
+
+    def visit(node):
+        if isinstance(node, ex.Call) and node.func == "ddt":
+            inner = ex.rebuild(node.args[0], visit)
+            aux = f"{item.name}#ddt{len(extra) // 2 + 1}"
+            extra.append(ElementCard(f"{aux}#q", "bcharge", item.card, (aux, "0"), expr=(ex.Unary("-", inner), at)))
+            extra.append(ElementCard(f"{aux}#r", "resistor", item.card, (aux, "0"), value=(1.0, at)))
+            return ex.Voltage(aux)
+        return None
+
+    item.expr = (ex.rebuild(item.expr[0], visit), at)
+    return [item, *extra]
+
+
+def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
     """Parse one element card.
 
     Returns

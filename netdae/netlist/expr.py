@@ -413,13 +413,12 @@ FUNCTIONS: dict[str, tuple[int, Callable]] = {
 _ALIASES = {"log": "ln", "arctan": "atan"}
 # functions ngspice knows that netdae rejects, with the reason
 _REJECTED = {
-    "ddt": "a time derivative inside an expression", "sdt": "a time integral inside an expression",
+    "ddt": "a time derivative outside a behavioural source", "sdt": "a time integral inside an expression",
     "table": "a table lookup, PSpice's form; ngspice 39 reads it only in PSpice compatibility mode",
     "tablef": "a table lookup",
-    "u2": "the ngspice-only ramp u2", "eq0": "ngspice-internal", "ne0": "ngspice-internal",
-    "gt0": "ngspice-internal", "lt0": "ngspice-internal", "ge0": "ngspice-internal",
-    "le0": "ngspice-internal",
 }
+#: ngspice's comparisons with zero (1 when true, else 0), read as the comparison.
+_ZERO_TESTS = {"eq0": "==", "ne0": "!=", "gt0": ">", "lt0": "<", "ge0": ">=", "le0": "<="}
 #: Names that cannot be parameters (``pi`` is the constant 3.14159...).
 RESERVED = frozenset({"time", "temper", "hertz", "pi"})
 
@@ -428,6 +427,8 @@ _NAME = re.compile(r"[a-z_][a-z0-9_.]*")
 _SPICE_RUN = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[ed][+-]?\d+)?[a-z0-9_\u00b5]*", re.ASCII)
 _WS = re.compile(r"\s*")
 _DIGITS = "0123456789"
+#: PSpice's single-character logical operators, with ngspice's spelling.
+_PSPICE_LOGIC = {"&": ("and", "&&"), "|": ("or", "||"), "~": ("not", "!")}
 
 _NUM, _ID, _OPER, _END = "num", "id", "op", "end"
 
@@ -440,6 +441,9 @@ class _Parser:
         self.context = context
         self.locate = locate
         self.pos = 0
+        #: Inside {...} or '...' of a behavioural expression: ngspice reads circuit references there too.
+        self.behavioural_group = False
+        self.quoted = False
         self.kind = self.value = None
         self.start = 0
         self.advance()
@@ -468,8 +472,17 @@ class _Parser:
         if m is not None:
             self.kind, self.value, self.pos = _ID, m.group(), m.end()
             return
+        if c == "'":
+            # 'expr' inside an expression is a group, as {expr} is (ngspice's numparam quotes)
+            self.quoted = not self.quoted
+            self.kind, self.value, self.pos = _OPER, "{" if self.quoted else "}", pos + 1
+            return
         m = _OP.match(text, pos)
         if m is None:
+            if c in _PSPICE_LOGIC:
+                spelled, ours = _PSPICE_LOGIC[c]
+                raise self.error(f"'{c}' (PSpice's logical {spelled}) is not supported by netdae, nor by ngspice 39 "
+                                 "outside its PSpice compatibility mode", hint=f"write '{ours}'")
             raise self.error(f"unexpected character {c!r} in expression")
         op = m.group()
         self.kind, self.value, self.pos = _OPER, ("!=" if op == "<>" else "**" if op == "^" else op), m.end()
@@ -549,11 +562,12 @@ class _Parser:
             self.expect(")")
             return node
         if kind == _OPER and value == "{":
-            saved = self.context
+            saved, saved_group = self.context, self.behavioural_group
+            self.behavioural_group = saved_group or saved == BEHAVIOURAL
             self.context = PARAM
             self.advance()
             node = self.expr()
-            self.context = saved
+            self.context, self.behavioural_group = saved, saved_group
             self.expect("}")
             return node
         if kind == _ID:
@@ -570,7 +584,7 @@ class _Parser:
 
     def name(self, name: str, start: int) -> Expr:
         if name == "time":
-            if self.context != BEHAVIOURAL:
+            if self.context != BEHAVIOURAL and not self.behavioural_group:
                 raise self.error("'time' is only available in behavioural sources (B, E/G value=)", start)
             return Time()
         if name == "hertz":
@@ -582,7 +596,7 @@ class _Parser:
         return Param(name)
 
     def branch_reference(self, which: str, start: int) -> Expr:
-        if self.context != BEHAVIOURAL:
+        if self.context != BEHAVIOURAL and not self.behavioural_group:
             raise self.error(f"circuit reference {which.upper()}(...) is only allowed in behavioural "
                              "sources (B, E/G value=)", start,
                              hint="element values and parameters are numbers fixed before simulation")
@@ -609,6 +623,10 @@ class _Parser:
                 args.append(self.expr())
         self.expect(")")
         name = _ALIASES.get(name, name)
+        if name == "ddt" and (self.context == BEHAVIOURAL or self.behavioural_group):
+            # realised by the element reader as a node holding the derivative (elements.realise_ddt)
+            self.arity(name, args, 1, start)
+            return Call(name, tuple(args))
         if name in _REJECTED:
             raise self.error(f"function {name}() ({_REJECTED[name]}) is not supported by netdae", start)
         if name in ("if", "ternary_fcn"):
@@ -617,6 +635,12 @@ class _Parser:
         if name == "sqr":
             self.arity(name, args, 1, start)
             return Binary("**", args[0], Const(2.0))
+        if name in _ZERO_TESTS:
+            self.arity(name, args, 1, start)
+            return Binary(_ZERO_TESTS[name], args[0], Const(0.0))
+        if name == "u2":  # ngspice's ramp clipped at 1: 0 below 0, x up to 1, then 1
+            self.arity(name, args, 1, start)
+            return Call("min", (Call("max", (args[0], Const(0.0))), Const(1.0)))
         if name in RANDOM_FUNCTIONS and not (name == "limit" and len(args) == 3):
             self.arity(name, args, RANDOM_FUNCTIONS[name], start)
             return Call(name, tuple(args))
@@ -705,6 +729,22 @@ def depth(node: Expr) -> int:
         elif t is Call:
             stack.extend((a, d + 1) for a in n.args)
     return best
+
+
+def rebuild(node: Expr, visit: Callable[[Expr], Expr | None]) -> Expr:
+    """The tree with every node ``visit`` returns a replacement for replaced (bottom-up otherwise)."""
+    replaced = visit(node)
+    if replaced is not None:
+        return replaced
+    if isinstance(node, Binary):
+        return Binary(node.op, rebuild(node.left, visit), rebuild(node.right, visit))
+    if isinstance(node, Unary):
+        return Unary(node.op, rebuild(node.operand, visit))
+    if isinstance(node, Ternary):
+        return Ternary(rebuild(node.cond, visit), rebuild(node.then, visit), rebuild(node.other, visit))
+    if isinstance(node, Call):
+        return Call(node.func, tuple(rebuild(a, visit) for a in node.args))
+    return node
 
 
 def walk(node: Expr):

@@ -9,6 +9,7 @@ resistor's nodes is a model or a parameter). Nothing is evaluated here.
 
 from __future__ import annotations
 
+from ..circuit import Diagnostic
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
@@ -20,7 +21,7 @@ from .reader import Deck, read_deck
 from .size import MAX_SUBCKT_DEPTH
 from .statements import (AnalysisCard, Definition, ElementCard, FuncDef, InitialCard, ModelCard, Netlist,
                          ParamDef)
-from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, UNSUPPORTED_DOT_CARDS
+from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, IGNORED_DOT_CARDS, UNSUPPORTED_DOT_CARDS
 
 __all__ = ["parse", "build"]
 
@@ -85,6 +86,10 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
         raise NetlistError(f"{word}: {UNSUPPORTED_DOT_CARDS[word]} is not supported by netdae",
                            card.location(0),
                            hint="netdae runs .op, .dc, .ac, .tran, .pz and .tf; remove the card or run it in ngspice")
+    if word in IGNORED_DOT_CARDS:
+        net.diagnostics.append(Diagnostic("note", f"{word} skipped: it sets {IGNORED_DOT_CARDS[word]}",
+                                          card.location(0)))
+        return
     if word not in DOT_CARDS:
         raise NetlistError(f"unknown dot card '{toks[0].text}'", card.location(0),
                            hint="netdae reads " + " ".join(sorted(DOT_CARDS)))
@@ -253,7 +258,16 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         text, base = body_tok.text, body_tok.start + 1
     else:
         text, base = card.text[body_tok.start:], body_tok.start
-    body = parse_expr(card, text, base, ex.PARAM, form)
+    try:
+        body = parse_expr(card, text, base, ex.PARAM, form)
+    except NetlistError as exc:
+        if "is only allowed in behavioural" not in exc.message:
+            raise
+        # ngspice expands a .func like a macro, so its body may read the circuit where a B source calls it
+        raise NetlistError(f"{exc.message.split(' is only allowed')[0]} in a .func body (a function of the "
+                           "circuit's voltages, currents or time, for B sources) is not supported by netdae",
+                           exc.location, expected=form,
+                           hint="write the expression into the B source, or pass V(...) as an argument") from None
     scope = stack[-1]
     if name in scope.funcs:
         first = scope.funcs[name].card
@@ -504,6 +518,13 @@ def _temp(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.temps.append((vals[0], card))
 
 
+#: ngspice's functions of a vector that .print and .plot accept around a signal.
+_OUTPUT_FUNCTIONS = frozenset({"db", "mag", "abs", "ph", "phase", "cph", "real", "re", "imag", "im", "norm",
+                               "deriv", "group_delay"})
+#: SPICE2's AC print forms: magnitude, phase, real and imaginary part, decibels of v() and i().
+_AC_PRINT_FORMS = frozenset({"vm", "vp", "vr", "vi", "vdb", "im", "ip", "ir", "ii", "idb"})
+
+
 def _saves(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     word = toks[0].text
     i, n = 1, len(toks)
@@ -516,6 +537,22 @@ def _saves(card: Card, toks: list[Token], stack, net: Netlist) -> None:
             continue
         if tok.kind != WORD:
             raise error(card, tok.start, f"expected a signal, found {tok.text!r}", DOT_CARDS.get(word))
+        head = tok.text
+        if (head in _OUTPUT_FUNCTIONS and i + 3 < n and toks[i + 1].text == "(" and toks[i + 2].kind == WORD
+                and toks[i + 3].text == "("):
+            # db(v(out)), abs(i(vc)): the signal inside is what is kept (the function only shapes printing)
+            end = i + 4
+            while end < n and toks[end].text != ")":
+                end += 1
+            if end + 1 >= n or toks[end + 1].text != ")":
+                raise error(card, tok.start, f"malformed signal {tok.text}(...)", DOT_CARDS.get(word))
+            card.warn(tok.start, f"{head}(...): netdae keeps the signal inside; {head}() is ngspice's "
+                                 "presentation of it")
+            toks = toks[:i] + toks[i + 2:end + 1] + toks[end + 2:]
+            n = len(toks)
+            continue
+        if head in _AC_PRINT_FORMS and i + 1 < n and toks[i + 1].text == "(":
+            head = head[0]  # vdb(out), vm(out), ip(v1): SPICE2's AC print forms of v() and i()
         if i + 1 < n and toks[i + 1].text == "(":
             j = i + 2
             args = []
@@ -527,7 +564,7 @@ def _saves(card: Card, toks: list[Token], stack, net: Netlist) -> None:
                 j += 1
             if j >= n or not args:
                 raise error(card, tok.start, f"malformed signal {tok.text}(...)", DOT_CARDS.get(word))
-            net.saves.append((f"{tok.text}({','.join(args)})", tok.start, card))
+            net.saves.append((f"{head}({','.join(args)})", tok.start, card))
             i = j + 1
         else:
             net.saves.append((tok.text, tok.start, card))
@@ -559,14 +596,30 @@ def _settle(scope: Definition) -> None:
             continue
         if item.kind == "bjt":
             _settle_bjt(item, scope)
+        elif item.kind == "mosfet" and item.positional is not None:
+            _settle_three_node_mosfet(item, scope)
         elif item.kind in ("resistor", "capacitor", "inductor") and item.model is None:
             value = item.value[0] if item.value is not None else None
-            if isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+            if item.kind == "resistor" and isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+                # 'R1 a b rmod [l= w=]': the resistance comes from the model (elaborate.resistance_from_model)
+                item.model, item.value = (value.name, item.value[1]), None
+            elif isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
                 raise error(item.card, item.value[1], f"'{value.name}' is a model: an element value computed "
                             "from a model (semiconductor R/C) is not supported by netdae",
                             ELEMENTS[item.name[0]], hint="give the value after the nodes, then the model name")
     for sub in scope.subckts.values():
         _settle(sub)
+
+
+def _settle_three_node_mosfet(el: ElementCard, scope: Definition) -> None:
+    """An M card of three nodes and a model: ngspice 39's VDMOS when the model is one, else a missing node."""
+    words, card, syntax = el.positional, el.card, ELEMENTS["m"]
+    found = scope.lookup_model(words[3].text)
+    if found is not None and found[0].type == "vdmos":
+        raise error(card, words[3].start, f"model {words[3].text} is a VDMOS (ngspice's power MOSFET, three nodes), "
+                    "which netdae does not implement", syntax,
+                    hint="netdae's MOSFETs take four nodes (drain gate source bulk) and an nmos/pmos model")
+    raise error(card, len(card.text), "expected 4 nodes and a model name, found 4 node(s) and no model", syntax)
 
 
 def _settle_bjt(el: ElementCard, scope: Definition) -> None:
@@ -580,6 +633,10 @@ def _settle_bjt(el: ElementCard, scope: Definition) -> None:
         count = 3
     elif len(words) > 4 and names[4] is not None and scope.lookup_model(names[4]) is not None:
         count = 4
+    elif len(words) > 5 and names[5] is not None and scope.lookup_model(names[5]) is not None:
+        raise error(card, words[4].start, "five nodes (collector base emitter substrate and a thermal node: "
+                    "ngspice's self-heating VBIC or HICUM) are not supported by netdae", syntax,
+                    hint="netdae's bipolar transistors take 3 or 4 nodes and a Gummel-Poon model")
     else:
         tried = f"'{names[3]}'" + (f" or '{names[4]}'" if len(words) > 4 and names[4] else "")
         raise error(card, words[3].start, f"no model {tried} defined", syntax,

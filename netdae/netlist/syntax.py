@@ -25,6 +25,7 @@ __all__ = [
     "DOT_CARDS",
     "DOT_ALIASES",
     "UNSUPPORTED_DOT_CARDS",
+    "IGNORED_DOT_CARDS",
     "SOURCE_FUNCTIONS",
     "supported_letters",
 ]
@@ -178,6 +179,12 @@ DOT_CARDS: dict[str, str] = {
 DOT_ALIASES = {".option": ".options", ".opt": ".options", ".inc": ".include", ".subcircuit": ".subckt",
                ".measure": ".meas"}
 
+#: Dot cards that only shape ngspice's own output or its control script: read and skipped with a note.
+IGNORED_DOT_CARDS: dict[str, str] = {
+    ".width": "the width of ngspice's printed output",
+    ".csparam": "parameters for ngspice's control script (the circuit does not use them)",
+}
+
 #: Dot cards ngspice knows and netdae does not implement.
 UNSUPPORTED_DOT_CARDS: dict[str, str] = {
     ".four": "Fourier analysis",
@@ -193,8 +200,6 @@ UNSUPPORTED_DOT_CARDS: dict[str, str] = {
     ".else": "conditional netlist",
     ".endif": "conditional netlist",
     ".data": "data table",
-    ".csparam": "control-script parameter",
-    ".width": "output width",
     ".spiceinit": "ngspice initialisation",
 }
 

@@ -54,7 +54,7 @@ from ..errors import NetlistError
 from ..netlist.elements import parse_element
 from ..netlist.lines import split_cards
 from ..netlist.reader import STRING_SOURCE, read_deck
-from ..netlist.syntax import ELEMENTS
+from ..netlist.syntax import ELEMENTS, IGNORED_DOT_CARDS
 
 __all__ = ["DOT_CARDS", "Origin", "self_contained"]
 
@@ -223,6 +223,9 @@ def self_contained(
         if word == ".step":  # netdae's extension: compare hands ngspice one point at a time
             notes.append(f"{where}: .step (netdae's extension) not passed to ngspice; each point is a netlist "
                          "of its own")
+            continue
+        if word in IGNORED_DOT_CARDS:  # netdae's reader skips them; the control block they serve is not handed over
+            notes.append(f"{where}: {word} not passed to ngspice (it sets {IGNORED_DOT_CARDS[word]})")
             continue
         if word.startswith("."):
             if word not in DOT_CARDS:
