@@ -385,6 +385,27 @@ def test_resistance_from_the_model(tmp_path):
         load(netlist.replace("r=1000", "resistance=1000") + ".op\n.end\n")
 
 
+def test_capacitance_from_the_model(tmp_path):
+    # C n+ n- mname l= [w=]: cj (w - narrow)(l - short) + 2 cjsw ((l - short) + (w - narrow)), cj from di/thick,
+    # narrow and short from del, the model's cap; ngspice's @c[capacitance] includes the tc1 factor
+    netlist = ("model capacitors\nV1 1 0 DC 0 AC 1\nR1 1 2 1k\nC1 2 0 ca l=10u w=10u\nC2 2 0 cb l=20u w=5u\n"
+               "C3 2 0 cc l=30u\nC4 2 0 cd\nC5 2 0 ca l=10u\n"
+               ".model ca c cj=1e-4 cjsw=1e-10 defw=1u narrow=0.1u short=0.3u\n"
+               ".model cb c thick=10n di=3.9 del=0.2u\n.model cc c cj=2e-4 cjsw=1e-10 w=2u tc1=0.01\n"
+               ".model cd c cap=2p cj=1\n.temp 50\n")
+    names = [f"@c{k}[capacitance]" for k in range(1, 6)]
+    ref = ngspice_print(netlist + ".op\n", names, tmp_path)
+    c = load(netlist + ".op\n.end\n")
+    for k in range(1, 6):
+        el = c.element(f"c{k}")
+        factor = 1.0 + el.params.get("tc1", 0.0) * (50.0 - 27.0)
+        want = ref[f"@c{k}[capacitance]"]
+        assert abs(el.value * factor - want) <= RTOL * want, (k, el.value * factor, want)
+        assert "l" not in el.params and "w" not in el.params
+    with pytest.raises(NetlistError, match=r"c1: model ca gives the capacitance -"):
+        load(netlist.replace("C1 2 0 ca l=10u w=10u", "C1 2 0 ca l=0.1u w=0.05u") + ".op\n.end\n")
+
+
 def test_u2_and_the_comparisons_with_zero_in_b_sources(tmp_path):
     # ngspice's u2 (0, x, then 1) and eq0 ne0 gt0 lt0 ge0 le0 (1 when true), as its B sources read them
     lines = ["zero tests", "Va a 0 -0.5", "Vb b 0 0.5", "Vc c 0 2", "Vz z 0 0"]

@@ -88,7 +88,7 @@ CASES = [
     ("t\nM1 d g 0 0 mm\n.model mm nmos level=2 kappa=0.1\n",
      r"m1: model mm: MOSFET level 2 \(Grove-Frohman in ngspice\) is not implemented by netdae", 3, "2"),
     ("t\n.model\n", r"expected a model name and type", 2, None),
-    ("t\nC1 a 0 cmod\n.model cmod c\n", r"'cmod' is a model: an element value computed from a model", 2, "cmod"),
+    ("t\nL1 a 0 lmod\n.model lmod l\n", r"'lmod' is a model: an inductance computed from a model", 2, "lmod"),
     # references
     ("t\nR1 a 0 1\nr1 b 0 2\n", r"r1: duplicate element name 'r1' \(first defined at <string>:2\)", 3, "r1"),
     ("t\nL1 a 0 1m\nR2 b 0 1\nK1 L1 R2 0.5\n", r"'r2' is not an inductor name", 4, "R2"),

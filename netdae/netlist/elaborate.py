@@ -497,6 +497,8 @@ class _Elaborator:
                         el.params[key] = value
                 if el.kind == "resistor" and el.value is None:
                     el.value = self._resistance_from_model(el, model)
+                elif el.kind == "capacitor" and el.value is None:
+                    el.value = _capacitance_from_model(el, model)
             else:
                 for name in INSTANCE_DEFAULTS.get(MODEL_FAMILY_OF_TYPE.get(model.type, ""), ()):
                     if name in model.params and name not in el.params:
@@ -1111,6 +1113,43 @@ class _Elaborator:
                 continue
             seen.setdefault(text, None)
         circuit.saves = list(seen)
+
+
+def _capacitance_from_model(el: Element, model) -> float:
+    """The capacitance of ``Cname n+ n- mname [l=] [w=]``, as ngspice 39's capacitor computes it.
+
+    The model's ``cap`` when given, else ``cj (w - narrow)(l - short) + 2 cjsw ((l - short) +
+    (w - narrow))`` (``captemp.c``), with ``cj`` (``cox``) from ``di eps0 / thick`` (``thick`` alone:
+    silicon dioxide, 3.9 eps0) when not given, ``narrow`` and ``short`` twice ``del`` when not
+    given, ``w`` from the instance else the model's ``defw`` (``w``) else 10 um, and ``l`` from the
+    instance else 0 (ngspice uses no default length here). The model's tc1, tc2 then apply as to
+    any capacitor; ``l`` and ``w`` are consumed.
+
+    Raises
+    ------
+    NetlistError
+        A negative capacitance (the geometry smaller than ``narrow`` or ``short``).
+    """
+    mp = model.params
+    first = lambda *names, default=0.0: next((mp[n] for n in names if n in mp), default)  # noqa: E731
+    if "cap" in mp:
+        value = mp["cap"]
+    else:
+        cj = first("cj", "cox", default=None)
+        if cj is None:
+            eps0 = 8.854187817e-12  # ngspice 39's CONSTepsZero
+            thick = mp.get("thick", 0.0)
+            cj = (mp["di"] * eps0 if "di" in mp else 3.9 * eps0) / thick if thick > 0.0 else 0.0
+        delta = mp.get("del", 0.0)
+        width = el.params.get("w", first("defw", "w", default=10e-6)) - mp.get("narrow", 2.0 * delta)
+        length = el.params.get("l", 0.0) - mp.get("short", 2.0 * delta)
+        value = cj * width * length + first("cjsw", "capsw") * 2.0 * (length + width)
+    el.params.pop("l", None)
+    el.params.pop("w", None)
+    if not (value >= 0.0 and math.isfinite(value)):
+        raise NetlistError(f"{el.name}: model {model.name} gives the capacitance {value:g} (from cj, cjsw, l, w, "
+                           "short and narrow)", el.location, hint="the capacitance must not be negative")
+    return float(value)
 
 
 def _stepped_number(name: str, value) -> float:

@@ -600,13 +600,14 @@ def _settle(scope: Definition) -> None:
             _settle_three_node_mosfet(item, scope)
         elif item.kind in ("resistor", "capacitor", "inductor") and item.model is None:
             value = item.value[0] if item.value is not None else None
-            if item.kind == "resistor" and isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
-                # 'R1 a b rmod [l= w=]': the resistance comes from the model (elaborate.resistance_from_model)
+            if item.kind != "inductor" and isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+                # 'R1 a b rmod [l= w=]', 'C1 a b cmod l= [w=]': the value comes from the model
+                # (elaborate: _resistance_from_model, _capacitance_from_model)
                 item.model, item.value = (value.name, item.value[1]), None
             elif isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
-                raise error(item.card, item.value[1], f"'{value.name}' is a model: an element value computed "
-                            "from a model (semiconductor R/C) is not supported by netdae",
-                            ELEMENTS[item.name[0]], hint="give the value after the nodes, then the model name")
+                raise error(item.card, item.value[1], f"'{value.name}' is a model: an inductance computed "
+                            "from a model (ngspice's ind, csect, length, nt, mu) is not supported by netdae",
+                            ELEMENTS["l"], hint="give the value after the nodes, then the model name")
     for sub in scope.subckts.values():
         _settle(sub)
 

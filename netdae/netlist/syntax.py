@@ -63,7 +63,7 @@ class ElementSyntax:
 
 
 _RES_KEYS = frozenset({"tc1", "tc2", "tc", "tce", "m", "ac", "temp", "dtemp", "scale", "noisy", "l", "w", "r"})
-_CAP_KEYS = frozenset({"ic", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tc", "c"})
+_CAP_KEYS = frozenset({"ic", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tc", "c", "l", "w"})
 _IND_KEYS = frozenset({"ic", "m", "nt", "scale", "temp", "dtemp", "tc1", "tc2", "tc", "l"})
 
 #: Source functions of V and I cards.
@@ -79,6 +79,7 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "[scale=s] [l=len] [w=width] [noisy=0|1]",), _RES_KEYS),
         ElementSyntax("c", "capacitor", (
             "Cname n+ n- value [mname] [ic=v0] [m=mult] [scale=s] [temp=t] [dtemp=dt] [tc1=a] [tc2=b]",
+            "Cname n+ n- mname l=len [w=width] ... (the capacitance from the model's cj, cjsw)",
             "Cname n+ n- Q={charge expression}"), _CAP_KEYS),
         ElementSyntax("l", "inductor", (
             "Lname n+ n- value [mname] [ic=i0] [m=mult] [nt=n] [scale=s] [temp=t] [dtemp=dt] "
