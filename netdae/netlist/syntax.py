@@ -79,7 +79,6 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "[scale=s] [l=len] [w=width] [noisy=0|1]",), _RES_KEYS),
         ElementSyntax("c", "capacitor", (
             "Cname n+ n- value [mname] [ic=v0] [m=mult] [scale=s] [temp=t] [dtemp=dt] [tc1=a] [tc2=b]",
-            "Cname n+ n- mname l=len [w=width] ... (the capacitance from the model's cj, cjsw)",
             "Cname n+ n- Q={charge expression}"), _CAP_KEYS),
         ElementSyntax("l", "inductor", (
             "Lname n+ n- value [mname] [ic=i0] [m=mult] [nt=n] [scale=s] [temp=t] [dtemp=dt] "
