@@ -21,7 +21,7 @@ from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, PzAnalysis, T
 from ..errors import NetdaeError, NetlistError
 
 if TYPE_CHECKING:
-    from ..results import Result
+    from ..results import canonical_or, Result
 
 __all__ = ["run", "simulate", "measure", "analysis_name", "unused_options", "option_problem", "check_options",
            "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO", "refuse_steps"]
@@ -227,6 +227,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         )
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
+    from ..results import canonical_or
+    from .quantities import add_quantities, plan_quantities
+
+    computed_from, quantities = plan_quantities(circuit, wanted)
     unused = unused_options(circuit)
     results = []
     for card in circuit.analyses:
@@ -235,7 +239,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             from .tran import transient
 
             try:
-                res = transient(circuit, card, save=wanted, progress=progress, **options)
+                res = transient(circuit, card, save=computed_from, progress=progress, **options)
             except KeyboardInterrupt as exc:
                 # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                 partial = getattr(exc, "partial", None)
@@ -262,11 +266,12 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 from .ac import ac_analysis
 
                 res = ac_analysis(circuit, card, **options)
-            if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
-                try:
-                    res = res.subset(wanted)
-                except KeyError as exc:
-                    raise NetdaeError(f"cannot save: {exc.args[0]}") from None
+        absent = add_quantities(circuit, res, quantities)
+        if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
+            try:
+                res = res.subset([n for n in wanted if canonical_or(n) not in absent])
+            except KeyError as exc:
+                raise NetdaeError(f"cannot save: {exc.args[0]}") from None
         if unused:
             res.notes.append(unused)
         results.append(res)

@@ -309,7 +309,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     """
     from ..analyses.runner import analysis_name
     from ..measures import Condition, MeasureSpec, Probe
-    from ..signals import Signal
+    from ..signals import Signal, device_quantity
 
     kinds = {analysis_name(a) for a in circuit.analyses}
     seen: dict[str, MeasureCard] = {}
@@ -319,10 +319,11 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         letter, part, names, offset = sig
         if letter == "i":
             target = elements.get(names[0])
-            if target is None or target.kind not in branch_kinds:
-                what = "no element" if target is None else f"a {target.kind}, which has no branch current"
+            if target is None or (target.kind not in branch_kinds
+                                  and device_quantity(Signal("i", names), target.kind) is None):
+                what = "no element" if target is None else f"a {target.kind}, whose current netdae does not compute"
                 raise error(card, offset, f"i({names[0]}): '{names[0]}' is {what}", FORM,
-                            hint="i() names a V source, inductor, E/H source or B voltage source "
+                            hint="i() names an R, C, V source, inductor, E/H source or B voltage source "
                                  "(elements in subcircuits by their full name, e.g. v.x1.v1)")
             return Probe(Signal("i", names), part)
         for nd in names:
