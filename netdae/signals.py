@@ -29,7 +29,7 @@ import re
 from dataclasses import dataclass
 
 __all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS",
-           "DEVICE_QUANTITIES", "device_quantity"]
+           "DEVICE_QUANTITIES", "device_quantity", "signal_unit"]
 
 #: Node names that mean ground (ngspice accepts ``gnd`` for ``0``).
 GROUND_NAMES = frozenset({"0", "gnd"})
@@ -182,6 +182,22 @@ def device_quantity(sig: Signal, kind: str) -> str | None:
         raise ValueError(f"{sig.name}: '{name}' is a {kind}, which has no quantity '{param}' in netdae"
                          + (f"; it has {offer}" if offer else "; netdae computes no quantities of it"))
     return param
+
+
+def signal_unit(name: str) -> str:
+    """The unit of a signal: ``"V"``, ``"A"``, ``"W"`` (powers ``@d[p]``), or ``""`` when unknown.
+
+    >>> signal_unit("v(out)"), signal_unit("i(r1)"), signal_unit("@r1[p]"), signal_unit("@i1[v]")
+    ('V', 'A', 'W', 'V')
+    """
+    try:
+        sig = parse_signal(name)
+    except ValueError:
+        return ""
+    if sig.kind == "@":
+        q = sig.args[1]
+        return "W" if q == "p" else "V" if q.startswith("v") else "A" if q.startswith("i") else ""
+    return "V" if sig.kind == "v" else "A"
 
 
 def canonical(text: str) -> str:

@@ -125,6 +125,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
     o = circuit.options
     ac = result.analysis == "ac"
     missing = []
+    base = result.dense  # the integrator's own output (the derivatives are taken on it)
     for item in quantities:
         el, q = item.element, item.quantity
         if ac and q == "p":
@@ -138,7 +139,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
             values = i if q == "i" else v * i
         elif el.kind == "capacitor":
             c = float(capacitances([el], o.temp, o.tnom)[0])
-            i = c * _derivative(result, el, v)
+            i = c * _derivative(result, base, el, v)
             values = i if q == "i" else v * i
         elif el.kind == "inductor":
             values = result.signals[f"i({el.name})"] * v
@@ -149,7 +150,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
             values = -v if q == "v" else v * _source_current(result, el)
         result.signals[item.name] = np.asarray(values) + np.zeros(result.points, dtype=np.result_type(values))
         if result.dense is not None and result.analysis == "tran":
-            result.dense = _dense_with(result.dense, circuit, item, float(result.t[-1] - result.t[0]) or 1.0)
+            result.dense = _dense_with(result.dense, base, circuit, item, (float(result.t[0]), float(result.t[-1])))
     return missing
 
 
@@ -172,11 +173,11 @@ def _voltage(result: Result, el: Element):
     return np.asarray(va - vb)
 
 
-def _derivative(result: Result, el: Element, v: np.ndarray) -> np.ndarray:
+def _derivative(result: Result, dense, el: Element, v: np.ndarray) -> np.ndarray:
     """d/dt of ``v(n+) - v(n-)`` at the result's points: 0 at DC, j w in .ac, the dense output's in .tran."""
     if result.analysis == "ac":
         return 2j * np.pi * result.axes["frequency"] * v
-    if result.analysis != "tran" or result.dense is None:
+    if result.analysis != "tran" or dense is None:
         return np.zeros_like(v, dtype=float)
     t = result.t
     steps = np.diff(t)
@@ -187,8 +188,8 @@ def _derivative(result: Result, el: Element, v: np.ndarray) -> np.ndarray:
     hh = np.where(back, h_left, h_right)
     hh = np.where(np.isfinite(hh), hh, 0.0)
     sign = np.where(back, -1.0, 1.0)
-    f1 = _dense_voltage(result.dense, el, t + sign * hh)
-    f2 = _dense_voltage(result.dense, el, t + 2 * sign * hh)
+    f1 = _dense_voltage(dense, el, t + sign * hh)
+    f2 = _dense_voltage(dense, el, t + 2 * sign * hh)
     f0 = v
     with np.errstate(divide="ignore", invalid="ignore"):
         d = -sign * (3.0 * f0 - 4.0 * f1 + f2) / (2.0 * hh)
@@ -201,20 +202,25 @@ def _dense_voltage(dense, el: Element, t: np.ndarray) -> np.ndarray:
     return (y[f"v({a})"] if a != "0" else 0.0) - (y[f"v({b})"] if b != "0" else 0.0)
 
 
-def _dense_with(dense, circuit: Circuit, item: Quantity, span: float):
-    """The dense output extended by ``item`` (for ``.meas`` on transients; central differences there)."""
+def _dense_with(dense, base, circuit: Circuit, item: Quantity, span: tuple[float, float]):
+    """``dense`` extended by ``item`` (for ``.meas`` on transients).
+
+    A capacitor's current there is the central difference of ``base`` (one-sided at the ends).
+    """
+    t0, t1 = span
 
     def extended(t):
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         y = dense(tt)
         probe = Result("tran", axes={"time": tt}, signals=dict(y))
         if item.element.kind == "capacitor":
-            h = _DIFF_FRACTION * 1e-3 * span
-            probe.signals[item.name] = 0.0
+            h = _DIFF_FRACTION * 1e-3 * ((t1 - t0) or 1.0)
+            lo, hi = np.maximum(tt - h, t0), np.minimum(tt + h, t1)
             c = float(capacitances([item.element], circuit.options.temp, circuit.options.tnom)[0])
-            dv = (_dense_voltage(dense, item.element, tt + h) - _dense_voltage(dense, item.element, tt - h)) / (2 * h)
-            v = _voltage(probe, item.element)
-            y[item.name] = c * dv if item.quantity == "i" else c * dv * v
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dv = (_dense_voltage(base, item.element, hi) - _dense_voltage(base, item.element, lo)) / (hi - lo)
+            i = c * np.where(hi > lo, dv, 0.0)
+            y[item.name] = i if item.quantity == "i" else i * _voltage(probe, item.element)
             return y
         add_quantities(circuit, probe, [item])
         y[item.name] = probe.signals[item.name]

@@ -21,7 +21,7 @@ from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, PzAnalysis, T
 from ..errors import NetdaeError, NetlistError
 
 if TYPE_CHECKING:
-    from ..results import canonical_or, Result
+    from ..results import Result
 
 __all__ = ["run", "simulate", "measure", "analysis_name", "unused_options", "option_problem", "check_options",
            "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO", "refuse_steps"]
