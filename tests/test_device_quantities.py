@@ -107,3 +107,22 @@ def test_vocabulary():
     for kind, quantities in DEVICE_QUANTITIES.items():
         for q in quantities:
             assert device_quantity(parse_signal(f"@x[{q}]"), kind) == q
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("backend", ["subprocess", "shared"])
+def test_compare_asks_ngspice_for_the_quantities(backend):
+    from netdae.comparison.run import compare
+    from netdae.ngspice.shared import library_path
+
+    if backend == "shared" and library_path() is None:
+        pytest.skip("ngspice's shared library is not installed")
+    deck = ("rc\nv1 in 0 dc 1 pulse(1 2 1m 1u)\nr1 in out 1k\nc1 out 0 1u\nr2 out 0 2k\n"
+            ".save v(out) i(r1) i(c1) @r2[p] @v1[p]\n.op\n.tran 20u 3m\n.end\n")
+    cmp = compare(deck, backend=backend)
+    for item in cmp.analyses:
+        names = {s.name for s in item.signals}
+        assert {"i(r1)", "@r2[p]", "@v1[p]"} <= names, (item.analysis, names)
+        if item.analysis == "tran":
+            assert "i(c1)" in names
+        assert item.passed, item.analysis

@@ -10,7 +10,8 @@ its points, once the analysis has run:
 - a capacitor's current ``C d(v(n+) - v(n-))/dt``: 0 in ``op`` and ``dc``,
   ``j w C v`` in ``.ac``, and in a transient the derivative of the
   integrator's dense output at each time point, taken on the step that ends
-  there (the derivative the BDF formula gave that step);
+  there (the derivative the BDF formula gave that step), and linear between
+  the points in the result's ``dense``;
 - inductors' and voltage sources' currents are unknowns; their powers
   ``v i``, the power the element absorbs (as ngspice, sources included);
 - an independent current source's voltage ``v(n-) - v(n+)`` (ngspice's
@@ -34,7 +35,7 @@ from ..signals import device_quantity, parse_signal
 
 __all__ = ["Quantity", "plan_quantities", "add_quantities"]
 
-#: Relative size of the backward differences on the dense output (of the step ending at each point).
+#: Size of the one-sided differences on the dense output, relative to the step ending at each point.
 _DIFF_FRACTION = 1e-4
 
 
@@ -150,7 +151,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
             values = -v if q == "v" else v * _source_current(result, el)
         result.signals[item.name] = np.asarray(values) + np.zeros(result.points, dtype=np.result_type(values))
         if result.dense is not None and result.analysis == "tran":
-            result.dense = _dense_with(result.dense, base, circuit, item, (float(result.t[0]), float(result.t[-1])))
+            result.dense = _dense_with(result.dense, circuit, item, result.t, result.signals[item.name])
     return missing
 
 
@@ -202,26 +203,22 @@ def _dense_voltage(dense, el: Element, t: np.ndarray) -> np.ndarray:
     return (y[f"v({a})"] if a != "0" else 0.0) - (y[f"v({b})"] if b != "0" else 0.0)
 
 
-def _dense_with(dense, base, circuit: Circuit, item: Quantity, span: tuple[float, float]):
-    """``dense`` extended by ``item`` (for ``.meas`` on transients).
+def _dense_with(dense, circuit: Circuit, item: Quantity, times: np.ndarray, values: np.ndarray):
+    """``dense`` extended by ``item`` (for ``.meas`` and comparisons between the time points).
 
-    A capacitor's current there is the central difference of ``base`` (one-sided at the ends).
+    A capacitor's current (and power) between the points is interpolated linearly between its
+    values at the points (the steps' BDF derivatives): the derivative of the interpolant inside
+    a step is an order less accurate than the interpolant, and right after a breakpoint, where
+    the step restarts at order 1, it is constant over the step.
     """
-    t0, t1 = span
 
     def extended(t):
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         y = dense(tt)
-        probe = Result("tran", axes={"time": tt}, signals=dict(y))
         if item.element.kind == "capacitor":
-            h = _DIFF_FRACTION * 1e-3 * ((t1 - t0) or 1.0)
-            lo, hi = np.maximum(tt - h, t0), np.minimum(tt + h, t1)
-            c = float(capacitances([item.element], circuit.options.temp, circuit.options.tnom)[0])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                dv = (_dense_voltage(base, item.element, hi) - _dense_voltage(base, item.element, lo)) / (hi - lo)
-            i = c * np.where(hi > lo, dv, 0.0)
-            y[item.name] = i if item.quantity == "i" else i * _voltage(probe, item.element)
+            y[item.name] = np.interp(tt, times, values)
             return y
+        probe = Result("tran", axes={"time": tt}, signals=dict(y))
         add_quantities(circuit, probe, [item])
         y[item.name] = probe.signals[item.name]
         return y

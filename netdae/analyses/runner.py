@@ -267,6 +267,9 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
                 res = ac_analysis(circuit, card, **options)
         absent = add_quantities(circuit, res, quantities)
+        if quantities and kind == "tran":  # it kept what the quantities are computed from
+            res.notes = [n for n in res.notes if not n.startswith("saved: ")]
+            res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
         if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
             try:
                 res = res.subset([n for n in wanted if canonical_or(n) not in absent])
