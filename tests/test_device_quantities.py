@@ -126,3 +126,12 @@ def test_compare_asks_ngspice_for_the_quantities(backend):
         if item.analysis == "tran":
             assert "i(c1)" in names
         assert item.passed, item.analysis
+
+
+def test_simulate_and_sweep_keep_quantities():
+    deck = "rc\nv1 in 0 dc 1\nr1 in out 1k\nc1 out 0 1u ic=0\n.param rr=1k\nr2 out 0 {rr}\n.tran 20u 2m uic\n.end\n"
+    r = netdae.simulate(deck, save=["v(out)", "i(c1)", "@r2[p]"])
+    assert r.names() == ["v(out)", "i(c1)", "@r2[p]"]
+    np.testing.assert_allclose(r["@r2[p]"], r["v(out)"] ** 2 / 1e3, rtol=1e-12)
+    sw = netdae.sweep(deck.replace(".tran 20u 2m uic", ".op"), params={"rr": [1e3, 3e3]}, save=["@r2[i]"])
+    np.testing.assert_allclose(np.ravel(sw.waveform("@r2[i]")[1]), [0.5e-3, 0.25e-3], rtol=1e-12)

@@ -392,8 +392,15 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
 
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
-    result = transient(circuit, card, save=wanted, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord,
-                       initial=initial, max_step=max_step, raise_on_failure=raise_on_failure, progress=progress)
+    from .quantities import add_quantities, plan_quantities
+
+    computed_from, quantities = plan_quantities(circuit, wanted)
+    result = transient(circuit, card, save=computed_from, reltol=reltol, abstol=abstol, vntol=vntol,
+                       maxord=maxord, initial=initial, max_step=max_step, raise_on_failure=raise_on_failure,
+                       progress=progress)
+    if quantities:
+        add_quantities(circuit, result, quantities)
+        result = result.subset(wanted)
     if card is None or card is next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None):
         measure(circuit, [result])  # the .meas tran cards measure the first .tran
     return result.subset(names) if wanted != names else result
