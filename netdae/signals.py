@@ -45,7 +45,8 @@ DEVICE_QUANTITIES: dict[str, dict[str, str]] = {
     "capacitor": {"i": "current from n+ through the capacitor to n-", "p": "power absorbed"},
     "inductor": {"i": "current from n+ through the inductor to n-", "p": "power absorbed"},
     "vsource": {"i": "current from n+ through the source to n-", "p": "power absorbed"},
-    "isource": {"v": "voltage from n- to n+", "p": "power absorbed"},
+    "isource": {"v": "voltage from n- to n+", "p": "power absorbed",
+                "current": "its current, from n+ through the source to n-"},
 }
 
 #: Two-terminal kinds whose ``i(name)`` is a device quantity (not an unknown).

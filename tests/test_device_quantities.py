@@ -135,3 +135,20 @@ def test_simulate_and_sweep_keep_quantities():
     np.testing.assert_allclose(r["@r2[p]"], r["v(out)"] ** 2 / 1e3, rtol=1e-12)
     sw = netdae.sweep(deck.replace(".tran 20u 2m uic", ".op"), params={"rr": [1e3, 3e3]}, save=["@r2[i]"])
     np.testing.assert_allclose(np.ravel(sw.waveform("@r2[i]")[1]), [0.5e-3, 0.25e-3], rtol=1e-12)
+
+
+@pytest.mark.ngspice
+def test_savecurrents_gives_ngspice_vectors():
+    from netdae.ngspice import run_ngspice
+
+    deck = ("sc\nv1 in 0 2\nr1 in out 1k\nc1 out 0 1u\nl1 out mid 1m\nr2 mid 0 3k\ni1 out 0 1m\n"
+            ".options savecurrents\n.op\n.end\n")
+    ours = netdae.run(deck)[0]
+    theirs = run_ngspice(deck, backend="subprocess").result("op")
+    at = sorted(n for n in theirs.names() if n.startswith("@"))
+    assert at == sorted(n for n in ours.names() if n.startswith("@"))
+    assert at == ["@c1[i]", "@i1[current]", "@l1[i]", "@r1[i]", "@r2[i]"]
+    assert ours["@l1[i]"][0] == pytest.approx(ours["v(mid)"][0] / 3e3, rel=1e-12)
+    for name in at:
+        assert ours[name][0] == pytest.approx(theirs[name][0], rel=1e-9, abs=1e-15), name
+    assert not any("savecurrents" in n for n in ours.notes)

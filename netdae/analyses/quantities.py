@@ -33,7 +33,10 @@ from ..errors import CircuitError
 from ..results import Result
 from ..signals import device_quantity, parse_signal
 
-__all__ = ["Quantity", "plan_quantities", "add_quantities"]
+__all__ = ["Quantity", "plan_quantities", "add_quantities", "saved_currents", "SAVECURRENTS"]
+
+#: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).
+SAVECURRENTS = {"resistor": "i", "capacitor": "i", "inductor": "i", "isource": "current"}
 
 #: Size of the one-sided differences on the dense output, relative to the step ending at each point.
 _DIFF_FRACTION = 1e-4
@@ -112,6 +115,14 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
     return out, quantities
 
 
+def saved_currents(circuit: Circuit) -> list[Quantity]:
+    """The currents ``.options savecurrents`` saves: ``@r1[i]``, ``@c1[i]``, ``@l1[i]``, ``@i1[current]``."""
+    if not circuit.options.extra.get("savecurrents"):
+        return []
+    return [Quantity(f"@{el.name}[{SAVECURRENTS[el.kind]}]", el, SAVECURRENTS[el.kind])
+            for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name]
+
+
 def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity]) -> list[str]:
     """Compute ``quantities`` from ``result``'s signals and add them to it (in place).
 
@@ -143,12 +154,14 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
             i = c * _derivative(result, base, el, v)
             values = i if q == "i" else v * i
         elif el.kind == "inductor":
-            values = result.signals[f"i({el.name})"] * v
+            i = result.signals[f"i({el.name})"]
+            values = i if q == "i" else v * i
         elif el.kind == "vsource":
             i = result.signals[f"i({el.name})"]
             values = i if q == "i" else v * i
         else:  # isource: ngspice's voltage is v(n-) - v(n+), its power v(n+) - v(n-) times the current
-            values = -v if q == "v" else v * _source_current(result, el)
+            values = -v if q == "v" else _source_current(result, el) if q == "current" \
+                else v * _source_current(result, el)
         result.signals[item.name] = np.asarray(values) + np.zeros(result.points, dtype=np.result_type(values))
         if result.dense is not None and result.analysis == "tran":
             result.dense = _dense_with(result.dense, circuit, item, result.t, result.signals[item.name])

@@ -53,7 +53,7 @@ def _count(v: float) -> bool:
 
 
 #: Options kept in ``Options.extra`` that netdae's devices read (the MOSFET defaults).
-USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas"})
+USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas", "savecurrents"})
 
 #: The options netdae uses, with their valid values: name -> (test, what is expected).
 OPTION_RANGES: dict[str, tuple[Callable[[float], bool], str]] = {
@@ -228,9 +228,11 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
     from ..results import canonical_or
-    from .quantities import add_quantities, plan_quantities
+    from .quantities import add_quantities, plan_quantities, saved_currents
 
     computed_from, quantities = plan_quantities(circuit, wanted)
+    if not names:
+        quantities = saved_currents(circuit)  # every unknown is kept: what they are computed from too
     unused = unused_options(circuit)
     results = []
     for card in circuit.analyses:
