@@ -152,3 +152,15 @@ def test_savecurrents_gives_ngspice_vectors():
     for name in at:
         assert ours[name][0] == pytest.approx(theirs[name][0], rel=1e-9, abs=1e-15), name
     assert not any("savecurrents" in n for n in ours.notes)
+
+
+def test_measurements_of_quantities():
+    deck = ("rc\nv1 in 0 dc 0 pulse(0 1 0 1n)\nr1 in out 1k\nc1 out 0 1u\n.tran 20u 3m\n"
+            ".meas tran pmax max @r1[p] from=0.1m\n.meas tran ic find i(c1) at=1m\n.end\n")
+    for save in (None, ["v(out)"]):
+        tran = netdae.run(deck, save=save)[0]
+        got = {m.name: m.value for m in tran.measures}
+        assert got["ic"] == pytest.approx(1e-3 * np.exp(-1.0), rel=2e-3)
+        assert got["pmax"] == pytest.approx(1e-3 * np.exp(-0.2), rel=2e-3)  # i^2 R at t = 0.1 ms
+    with pytest.raises(netdae.NetlistError, match=r"'r1' is a resistor, which has no quantity 'zz'"):
+        netdae.load(deck.replace("@r1[p]", "@r1[zz]"))

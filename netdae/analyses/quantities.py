@@ -33,7 +33,8 @@ from ..errors import CircuitError
 from ..results import Result
 from ..signals import device_quantity, parse_signal
 
-__all__ = ["Quantity", "plan_quantities", "add_quantities", "saved_currents", "SAVECURRENTS"]
+__all__ = ["Quantity", "plan_quantities", "add_quantities", "saved_currents", "measured_quantities",
+           "SAVECURRENTS"]
 
 #: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).
 SAVECURRENTS = {"resistor": "i", "capacitor": "i", "inductor": "i", "isource": "current"}
@@ -121,6 +122,12 @@ def saved_currents(circuit: Circuit) -> list[Quantity]:
         return []
     return [Quantity(f"@{el.name}[{SAVECURRENTS[el.kind]}]", el, SAVECURRENTS[el.kind])
             for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name]
+
+
+def measured_quantities(circuit: Circuit) -> list[Quantity]:
+    """The device quantities the circuit's ``.meas`` cards read (``i(c1)``, ``@r1[p]``)."""
+    names = list(dict.fromkeys(probe.signal.name for spec in circuit.measures for probe in spec.probes()))
+    return plan_quantities(circuit, names)[1]
 
 
 def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity]) -> list[str]:

@@ -228,11 +228,11 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
     from ..results import canonical_or
-    from .quantities import add_quantities, plan_quantities, saved_currents
+    from .quantities import add_quantities, measured_quantities, plan_quantities, saved_currents
 
     computed_from, quantities = plan_quantities(circuit, wanted)
-    if not names:
-        quantities = saved_currents(circuit)  # every unknown is kept: what they are computed from too
+    if not names:  # every unknown is kept: what the quantities are computed from too
+        quantities = saved_currents(circuit) + measured_quantities(circuit)
     unused = unused_options(circuit)
     results = []
     for card in circuit.analyses:
@@ -394,15 +394,18 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
 
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
-    from .quantities import add_quantities, plan_quantities
+    from .quantities import add_quantities, measured_quantities, plan_quantities
 
     computed_from, quantities = plan_quantities(circuit, wanted)
+    if not names:
+        quantities = measured_quantities(circuit)
     result = transient(circuit, card, save=computed_from, reltol=reltol, abstol=abstol, vntol=vntol,
                        maxord=maxord, initial=initial, max_step=max_step, raise_on_failure=raise_on_failure,
                        progress=progress)
     if quantities:
         add_quantities(circuit, result, quantities)
-        result = result.subset(wanted)
+        if names:
+            result = result.subset(wanted)
     if card is None or card is next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None):
         measure(circuit, [result])  # the .meas tran cards measure the first .tran
     return result.subset(names) if wanted != names else result
