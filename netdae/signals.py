@@ -28,13 +28,29 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-__all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS"]
+__all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS",
+           "DEVICE_QUANTITIES", "device_quantity", "signal_unit"]
 
 #: Node names that mean ground (ngspice accepts ``gnd`` for ``0``).
 GROUND_NAMES = frozenset({"0", "gnd"})
 
 #: The forms a signal name may take, for error messages.
 SIGNAL_FORMS = "v(node), v(node1,node2), i(element), @device[param], or a bare node name"
+
+#: The device quantities netdae computes, per element kind, with ngspice's
+#: names (``@r1[i]``) and their meaning; ``i(r1)`` is ``@r1[i]`` for the
+#: two-terminal elements without a branch current of their own.
+DEVICE_QUANTITIES: dict[str, dict[str, str]] = {
+    "resistor": {"i": "current from n+ through the resistor to n-", "p": "power dissipated"},
+    "capacitor": {"i": "current from n+ through the capacitor to n-", "p": "power absorbed"},
+    "inductor": {"i": "current from n+ through the inductor to n-", "p": "power absorbed"},
+    "vsource": {"i": "current from n+ through the source to n-", "p": "power absorbed"},
+    "isource": {"v": "voltage from n- to n+", "p": "power absorbed",
+                "current": "its current, from n+ through the source to n-"},
+}
+
+#: Two-terminal kinds whose ``i(name)`` is a device quantity (not an unknown).
+_CURRENT_QUANTITY_KINDS = frozenset({"resistor", "capacitor"})
 
 _NAME = r"[^\s(),\[\]@]+"
 _CALL = re.compile(rf"([vi])\(\s*({_NAME})\s*(?:,\s*({_NAME})\s*)?\)")
@@ -119,6 +135,70 @@ def parse_signal(text: str) -> Signal:
     if _BARE.fullmatch(s):
         return Signal("v", (_node(s),))
     raise ValueError(f"bad signal name {text!r} (expected {SIGNAL_FORMS})")
+
+
+def device_quantity(sig: Signal, kind: str) -> str | None:
+    """The device quantity a current or ``@`` signal of an element of ``kind`` asks for.
+
+    Parameters
+    ----------
+    sig : Signal
+        ``i(name)`` or ``@name[param]``.
+    kind : str
+        The element's kind (:mod:`netdae.circuit`).
+
+    Returns
+    -------
+    str or None
+        The quantity (``"i"``, ``"p"``, ...) to compute after the analysis;
+        None for ``i(name)`` of an element whose current is an unknown
+        (voltage sources, inductors, ...).
+
+    Raises
+    ------
+    ValueError
+        For a quantity the element does not have (the message names the
+        element and the quantities it has).
+
+    Examples
+    --------
+    >>> device_quantity(parse_signal("i(r1)"), "resistor")
+    'i'
+    >>> device_quantity(parse_signal("@R1[P]"), "resistor")
+    'p'
+    >>> device_quantity(parse_signal("i(v1)"), "vsource") is None
+    True
+    """
+    name = sig.args[0]
+    have = DEVICE_QUANTITIES.get(kind, {})
+    if sig.kind == "i":
+        if kind in _CURRENT_QUANTITY_KINDS:
+            return "i"
+        return None
+    if sig.kind != "@":
+        raise ValueError(f"{sig.name} is not a device quantity")
+    param = sig.args[1]
+    if param not in have:
+        offer = ", ".join(f"@{name}[{q}] ({what})" for q, what in have.items())
+        raise ValueError(f"{sig.name}: '{name}' is a {kind}, which has no quantity '{param}' in netdae"
+                         + (f"; it has {offer}" if offer else "; netdae computes no quantities of it"))
+    return param
+
+
+def signal_unit(name: str) -> str:
+    """The unit of a signal: ``"V"``, ``"A"``, ``"W"`` (powers ``@d[p]``), or ``""`` when unknown.
+
+    >>> signal_unit("v(out)"), signal_unit("i(r1)"), signal_unit("@r1[p]"), signal_unit("@i1[v]")
+    ('V', 'A', 'W', 'V')
+    """
+    try:
+        sig = parse_signal(name)
+    except ValueError:
+        return ""
+    if sig.kind == "@":
+        q = sig.args[1]
+        return "W" if q == "p" else "V" if q.startswith("v") else "A" if q.startswith("i") else ""
+    return "V" if sig.kind == "v" else "A"
 
 
 def canonical(text: str) -> str:

@@ -31,7 +31,7 @@ CASES = [
     (".meas tran x PARAM='y*2'", r"PARAM: 'y' is neither an earlier measurement nor a top-level \.param", "'y*2'"),
     (".meas tran x PARAM='later*2'\n.meas tran later WHEN v(out)=0.5", r"it is defined later", "'later*2'"),
     (".meas tran x FIND v(nowhere) AT=1m", r"unknown node 'nowhere'", "v(nowhere)"),
-    (".meas tran x FIND i(r1) AT=1m", r"i\(r1\): 'r1' is a resistor, which has no branch current", "i(r1)"),
+    (".meas tran x FIND i(r9) AT=1m", r"i\(r9\): 'r9' is no element", "i(r9)"),
     (".meas tran x TRIG v(out) VAL=0.1 RISE=1", r"TRIG without TARG", None),
     (".meas tran x TRIG v(out) VAL=0.1 TARG v(out) VAL=0.9 RISE=1", r"TRIG needs RISE=, FALL=, CROSS= or LAST",
      "trig"),

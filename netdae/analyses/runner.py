@@ -53,7 +53,7 @@ def _count(v: float) -> bool:
 
 
 #: Options kept in ``Options.extra`` that netdae's devices read (the MOSFET defaults).
-USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas"})
+USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas", "savecurrents"})
 #: Those BSIM3/BSIM4 ``M`` elements read (sizes, bin selection: :mod:`netdae.devices.osdi.spice_mos`).
 BSIM_OPTIONS = frozenset({"scale", "wnflag"})
 
@@ -230,6 +230,12 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         )
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
+    from ..results import canonical_or
+    from .quantities import add_quantities, measured_quantities, plan_quantities, saved_currents
+
+    computed_from, quantities = plan_quantities(circuit, wanted)
+    if not names:  # every unknown is kept: what the quantities are computed from too
+        quantities = saved_currents(circuit) + measured_quantities(circuit)
     unused = unused_options(circuit)
     results = []
     for card in circuit.analyses:
@@ -238,7 +244,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             from .tran import transient
 
             try:
-                res = transient(circuit, card, save=wanted, progress=progress, **options)
+                res = transient(circuit, card, save=computed_from, progress=progress, **options)
             except KeyboardInterrupt as exc:
                 # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                 partial = getattr(exc, "partial", None)
@@ -265,11 +271,15 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 from .ac import ac_analysis
 
                 res = ac_analysis(circuit, card, **options)
-            if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
-                try:
-                    res = res.subset(wanted)
-                except KeyError as exc:
-                    raise NetdaeError(f"cannot save: {exc.args[0]}") from None
+        absent = add_quantities(circuit, res, quantities)
+        if quantities and kind == "tran":  # it kept what the quantities are computed from
+            res.notes = [n for n in res.notes if not n.startswith("saved: ")]
+            res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
+        if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
+            try:
+                res = res.subset([n for n in wanted if canonical_or(n) not in absent])
+            except KeyError as exc:
+                raise NetdaeError(f"cannot save: {exc.args[0]}") from None
         if unused:
             res.notes.append(unused)
         results.append(res)
@@ -402,8 +412,18 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
 
     names = save if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
-    result = transient(circuit, card, save=wanted, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord,
-                       initial=initial, max_step=max_step, raise_on_failure=raise_on_failure, progress=progress)
+    from .quantities import add_quantities, measured_quantities, plan_quantities
+
+    computed_from, quantities = plan_quantities(circuit, wanted)
+    if not names:
+        quantities = measured_quantities(circuit)
+    result = transient(circuit, card, save=computed_from, reltol=reltol, abstol=abstol, vntol=vntol,
+                       maxord=maxord, initial=initial, max_step=max_step, raise_on_failure=raise_on_failure,
+                       progress=progress)
+    if quantities:
+        add_quantities(circuit, result, quantities)
+        if names:
+            result = result.subset(wanted)
     if card is None or card is next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None):
         measure(circuit, [result])  # the .meas tran cards measure the first .tran
     return result.subset(names) if wanted != names else result

@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 
 from . import option_value, signal_names
+from ..signals import signal_unit
 
 __all__ = ["add_parser", "main", "stems"]
 
@@ -74,7 +75,7 @@ def _op_lines(result) -> list[str]:
     width = max((len(n) for n in names), default=4)
     lines = [f"{'signal':<{width}}  value"]
     for name in names:
-        unit = "V" if name.startswith("v(") else "A"
+        unit = signal_unit(name)
         lines.append(f"{name:<{width}}  {result.signals[name][0]: .9g} {unit}")
     return lines
 

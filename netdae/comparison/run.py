@@ -184,9 +184,16 @@ def _netdae_error(exc: BaseException) -> str:
 def _with_differences(ng: Result, names: list[str]) -> Result:
     """ngspice's result with the differences ``v(a,b)`` netdae reports, formed from ``v(a)`` and ``v(b)``.
 
-    ngspice writes the nodes of a saved ``v(a,b)`` separately.
+    ngspice writes the nodes of a saved ``v(a,b)`` separately, and names the
+    current netdae calls ``i(r1)`` (a resistor's, a capacitor's) ``@r1[i]``.
     """
     missing = [n for n in names if n not in ng.signals and n.startswith("v(") and "," in n]
+    currents = {n: f"@{n[2:-1]}[i]" for n in names if n.startswith("i(") and n not in ng.signals}
+    currents = {n: at for n, at in currents.items() if at in ng.signals}  # i(r1) is ngspice's @r1[i]
+    if currents:
+        signals = {k: v for k, v in ng.signals.items() if k not in currents.values()}
+        signals.update({n: ng.signals[at] for n, at in currents.items()})
+        ng = replace(ng, signals=signals)
     if not missing:
         return ng
     extra = {}

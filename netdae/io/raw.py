@@ -154,8 +154,12 @@ def signal_name(name: str, vtype: str) -> str:
     ('i(l.xa.x1.l1)', 'v(xa.x1.mid)')
     >>> signal_name("V(OUT)", "voltage"), signal_name("@r1[i]", "current")
     ('v(out)', '@r1[i]')
+    >>> signal_name("i(@R1[i])", "current")  # ngspice -b wraps device quantities
+    '@r1[i]'
     """
     key = name.strip().lower()
+    if key[:3] in ("i(@", "v(@") and key.endswith(")"):
+        return key[2:-1]
     if key.startswith("@") or (len(key) > 3 and key[1] == "(" and key.endswith(")")):
         return key
     if key.endswith("#branch"):

@@ -1096,16 +1096,16 @@ class _Elaborator:
                     target = elements.get(parts[0]) if len(parts) == 1 else None
                     if target is None:
                         problem = f"no element '{parts[0]}'"
-                    elif target.kind not in BRANCH_KINDS:
-                        problem = f"'{parts[0]}' is a {target.kind}, which has no branch current"
+                    elif target.kind not in BRANCH_KINDS and target.kind not in ("resistor", "capacitor"):
+                        problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
             elif signal == "all":
                 continue
-            elif signal[0] != "@":
+            elif signal[0] == "@":
+                problem = _device_quantity_problem(signal, elements)
+            else:
                 text = f"v({_ground(signal)})"
                 if _ground(signal) not in nodes:
                     problem = f"no node '{signal}'"
-            else:
-                problem = "netdae does not compute ngspice's device quantities @device[param]"
             if problem is not None:
                 # ngspice skips an output it cannot make too; the analyses run without it
                 self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem} "
@@ -1162,6 +1162,23 @@ def _stepped_number(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise NetlistError(f"values: the value of '{name}' must be a finite number, got {value!r}")
     return float(value)
+
+def _device_quantity_problem(signal: str, elements: dict) -> str | None:
+    """Why ``@device[param]`` names nothing netdae computes (None when it does)."""
+    from ..signals import device_quantity, parse_signal
+
+    try:
+        sig = parse_signal(signal)
+    except ValueError as exc:
+        return str(exc)
+    target = elements.get(sig.args[0])
+    if target is None:
+        return f"no device '{sig.args[0]}'"
+    try:
+        device_quantity(sig, target.kind)
+    except ValueError as exc:
+        return str(exc)
+    return None
 
 
 def _set_value(el: Element, value: float) -> None:

@@ -87,9 +87,18 @@ def _probe(cur: _Cursor, analysis: str, what: str) -> tuple:
     tok = cur.peek()
     if tok is None:
         raise cur.fail(cur.end(), f"missing the signal {what}", hint="write v(node), v(a,b) or i(vname)")
+    if tok.kind == WORD and tok.text.startswith("@"):  # a device quantity, @r1[p]
+        from ..signals import parse_signal
+
+        try:
+            sig = parse_signal(tok.text)
+        except ValueError as exc:
+            raise cur.fail(tok.start, str(exc)) from None
+        cur.i += 1
+        return "@", "", sig.args, tok.start
     if tok.kind != WORD or tok.text not in _PREFIXES or not (cur.peek(1) and cur.peek(1).text == "("):
         raise cur.fail(tok.start, f"expected a signal {what}, found {tok.text!r}",
-                       hint="write v(node), v(a,b) or i(vname)" + ("; for ac also vdb() vm() vp() vr() vi()"
+                       hint="write v(node), v(a,b), i(vname) or @device[param]" + ("; for ac also vdb() vm() vp() vr() vi()"
                                                                    if analysis == "ac" else ""))
     letter, part = _PREFIXES[tok.text]
     if part and analysis != "ac":
@@ -309,7 +318,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     """
     from ..analyses.runner import analysis_name
     from ..measures import Condition, MeasureSpec, Probe
-    from ..signals import Signal
+    from ..signals import Signal, device_quantity
 
     kinds = {analysis_name(a) for a in circuit.analyses}
     seen: dict[str, MeasureCard] = {}
@@ -317,12 +326,22 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
 
     def probe(sig, card) -> Probe:
         letter, part, names, offset = sig
+        if letter == "@":
+            target = elements.get(names[0])
+            if target is None:
+                raise error(card, offset, f"@{names[0]}[{names[1]}]: there is no device '{names[0]}'", FORM)
+            try:
+                device_quantity(Signal("@", names), target.kind)
+            except ValueError as exc:
+                raise error(card, offset, str(exc), FORM) from None
+            return Probe(Signal("@", names), part)
         if letter == "i":
             target = elements.get(names[0])
-            if target is None or target.kind not in branch_kinds:
-                what = "no element" if target is None else f"a {target.kind}, which has no branch current"
+            if target is None or (target.kind not in branch_kinds
+                                  and device_quantity(Signal("i", names), target.kind) is None):
+                what = "no element" if target is None else f"a {target.kind}, whose current netdae does not compute"
                 raise error(card, offset, f"i({names[0]}): '{names[0]}' is {what}", FORM,
-                            hint="i() names a V source, inductor, E/H source or B voltage source "
+                            hint="i() names an R, C, V source, inductor, E/H source or B voltage source "
                                  "(elements in subcircuits by their full name, e.g. v.x1.v1)")
             return Probe(Signal("i", names), part)
         for nd in names:

@@ -297,6 +297,13 @@ def translate_for_ngspice(
                 f"{where}: {card.tokens[0]} couples {pairs} inductors (a netdae extension): written as "
                 f"{pairs * (pairs - 1) // 2} K cards, one per pair, with the same coupling factor"
             )
+        elif keyword in (".save", ".print", ".probe", ".plot") and card.first not in edits:
+            text = "\n".join(lines[card.first:card.last + 1])
+            new = _DEVICE_CURRENT.sub(lambda m: f"@{m.group(1)}[i]", text)
+            if new != text:
+                edits[card.first] = (card.last, new)
+                notes.append(f"{where}: {keyword} i(R or C) written as @name[i] (ngspice names the currents of "
+                             "resistors and capacitors so; netdae compares them as i(name))")
         elif _is_options(card):
             new, removed = _strip_options(card)
             if removed:
@@ -304,6 +311,10 @@ def translate_for_ngspice(
                 for name, token in removed:
                     notes.append(f"{where}: .options {token} removed: {_STRIPPED_OPTIONS[name]}")
     return _apply(lines, edits), notes
+
+
+#: ``i(r1)``/``i(c1)`` in an output card: ngspice names these currents ``@r1[i]``.
+_DEVICE_CURRENT = re.compile(r"\b[iI]\(\s*([rRcC][^\s(),]*)\s*\)")
 
 
 def _split_coupling(tokens: list[str]) -> str:
