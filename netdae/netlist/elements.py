@@ -965,14 +965,14 @@ def realise_ddt(item: ElementCard) -> list[ElementCard]:
 
     def visit(node):
         if isinstance(node, ex.Call) and node.func == "ddt":
-            inner = ex.rebuild(node.args[0], visit)
+            inner = ex.transform(node.args[0], visit)
             aux = f"{item.name}#ddt{len(extra) // 2 + 1}"
             extra.append(ElementCard(f"{aux}#q", "bcharge", item.card, (aux, "0"), expr=(ex.Unary("-", inner), at)))
             extra.append(ElementCard(f"{aux}#r", "resistor", item.card, (aux, "0"), value=(1.0, at)))
             return ex.Voltage(aux)
         return None
 
-    item.expr = (ex.rebuild(item.expr[0], visit), at)
+    item.expr = (ex.transform(item.expr[0], visit), at)
     return [item, *extra]
 
 

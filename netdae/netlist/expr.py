@@ -731,22 +731,6 @@ def depth(node: Expr) -> int:
     return best
 
 
-def rebuild(node: Expr, visit: Callable[[Expr], Expr | None]) -> Expr:
-    """The tree with every node ``visit`` returns a replacement for replaced (bottom-up otherwise)."""
-    replaced = visit(node)
-    if replaced is not None:
-        return replaced
-    if isinstance(node, Binary):
-        return Binary(node.op, rebuild(node.left, visit), rebuild(node.right, visit))
-    if isinstance(node, Unary):
-        return Unary(node.op, rebuild(node.operand, visit))
-    if isinstance(node, Ternary):
-        return Ternary(rebuild(node.cond, visit), rebuild(node.then, visit), rebuild(node.other, visit))
-    if isinstance(node, Call):
-        return Call(node.func, tuple(rebuild(a, visit) for a in node.args))
-    return node
-
-
 def walk(node: Expr):
     """Yield every node of a tree (pre-order)."""
     stack = [node]
