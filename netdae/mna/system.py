@@ -67,12 +67,20 @@ class Delays:
         Each row's delay [s], positive.
     ic : ndarray, shape (R,)
         Each row's wave before a ``uic`` transient starts (the lines' ``ic=``).
+    W : scipy.sparse.csr_matrix, shape (R, n)
+        ``D``'s delayed rows (sorted indices): ``W x`` are the waves (what the compiled loop records).
     """
 
     D: sp.csr_matrix
     rows: np.ndarray
     tau: np.ndarray
     ic: np.ndarray
+    W: sp.csr_matrix = None
+
+    def __post_init__(self) -> None:
+        if self.W is None:
+            self.W = self.D[self.rows].tocsr()
+            self.W.sort_indices()
 
     @classmethod
     def of(cls, stamps, n: int) -> "Delays":
@@ -82,7 +90,7 @@ class Delays:
 
     def waves(self, x: np.ndarray) -> np.ndarray:
         """``(D x)[rows]``: the waves the rows receive when ``x`` is their delayed solution, shape (R,)."""
-        return self.D[self.rows] @ np.asarray(x, dtype=float)
+        return self.W @ np.asarray(x, dtype=float)
 
     def by_delay(self) -> list[tuple[float, sp.csr_matrix]]:
         """``[(tau, D_tau)]``: the coupling split by distinct delay (for ``.ac``)."""

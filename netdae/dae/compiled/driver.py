@@ -452,8 +452,7 @@ def pack_delays(system) -> tuple:
     if d is None:
         return (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), 0.0, np.zeros(1, dtype=np.int64),
                 np.zeros(0, dtype=np.int64), np.zeros(0))
-    rows = d.D[d.rows].tocsr()
-    rows.sort_indices()
+    rows = d.W
     w0 = system.delay_start if system.delay_start is not None else np.zeros(d.rows.size)
     return (d.rows.astype(np.int64), np.asarray(d.tau, dtype=float), np.asarray(w0, dtype=float),
             float(system._delay_t0), rows.indptr.astype(np.int64), rows.indices.astype(np.int64),
