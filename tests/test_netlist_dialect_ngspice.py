@@ -444,3 +444,40 @@ def test_mosfet_geometry_on_the_model_card_is_the_instances_default(tmp_path):
     got = (c.element("m1").params["w"], c.element("m1").params["l"], c.element("m2").params["w"])
     assert np.allclose(got, (9e-6, 3e-6, 20e-6), rtol=1e-12, atol=0)
     assert not _warnings(c)
+
+
+def test_instance_values_replace_a_subcircuits_own_params(tmp_path):
+    # ngspice 39: 'X ... rint=7' sets the body's '.param rint=5' too (examples/various/alterparam.sp)
+    netlist = ("local params\n.subckt subr in out rint1=6\n.param rint=5\n.param rint2='rint+3'\n"
+               "R0 in out 'rint'\nR1 in out 'rint1'\nR2 in out 'rint2'\n.ends\n"
+               "Xr 2 0 subr rint=7 rint1=9\nV2 2 0 1\n")
+    _op_agrees(netlist, ["i(v2)"], tmp_path)
+    result = netdae.run(load(netlist + ".op\n.end\n"))[0]
+    assert float(result.signals["i(v2)"][-1]) == pytest.approx(-(1 / 7 + 1 / 9 + 1 / 10), rel=1e-12)
+    with pytest.raises(NetlistError, match=r"has no parameter 'rin' \(its parameters: rint, rint1, rint2\)"):
+        load(netlist.replace("rint=7", "rin=7") + ".op\n.end\n")
+
+
+def test_min_and_max_of_one_argument_compare_with_one(tmp_path):
+    # ngspice 39's parameter evaluator reads a missing second operand of min/max as 1
+    netlist = ("one argument\n.param a='max(-3)' b='min(7)' c='max(2.5)' d='min(-7)'\n"
+               "V1 1 0 {a}\nR1 1 0 1\nV2 2 0 {b}\nR2 2 0 1\nV3 3 0 {c}\nR3 3 0 1\nV4 4 0 {d}\nR4 4 0 1\n")
+    c = _op_agrees(netlist, ["v(1)", "v(2)", "v(3)", "v(4)"], tmp_path)
+    assert c.params["a"] == 1.0 and c.params["b"] == 1.0 and c.params["c"] == 2.5 and c.params["d"] == -7.0
+    assert sum("with one argument: read as" in w for w in _warnings(c)) == 4
+    with pytest.raises(NetlistError, match=r"max\(\) takes 2 arguments, got 1"):
+        load("b\nV1 1 0 1\nB1 2 0 V=max(v(1))\nR1 2 0 1\n.op\n.end\n")
+
+
+def test_parenthesised_element_value_and_a_dos_end_of_file_mark(tmp_path):
+    netlist = "paren\n.param rl=100\nV1 1 0 1\nR1 1 0 R = (rl*2)\n"
+    _op_agrees(netlist, ["i(v1)"], tmp_path)
+    circuit = load("paren\nV1 1 0 1\nR1 1 0 2k\n.op\n.end\n\x1a\n")
+    assert [el.name for el in circuit.elements] == ["v1", "r1"]
+
+
+def test_probe_entries_ngspice_cannot_read_are_warned_and_ignored():
+    circuit = load("probes\nV1 1 0 1\nR1 1 2 1k\nR2 2 0 1k\n.probe (xyz) v(2)\n.probe i(r1)\n.op\n.end\n")
+    assert circuit.saves == ["v(2)", "i(r1)"]
+    assert any("5:8 .probe: entry ignored, as ngspice ignores it: expected a signal, found '('" in w
+               for w in _warnings(circuit))

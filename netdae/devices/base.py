@@ -158,3 +158,7 @@ class DeviceFamily:
     def junction_nodes(self) -> list[tuple[str, str]]:
         """Pairs of nodes joined by a conducting path at DC (for topology)."""
         return []
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        """Instants in [t0, t1] where the family's equations are not smooth in time (default: none)."""
+        return np.empty(0)

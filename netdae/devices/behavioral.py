@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from ..netlist.expr import Current
+from ..netlist.expr import Current, Time, time_corners, walk
 from .autodiff import ExpressionGroup, group_by_structure
 from .base import Accumulator, DeviceFamily, SlotMap
 from .companion import BranchStamps
@@ -210,6 +210,15 @@ class BehaviouralFamily(DeviceFamily):
         return (np.array(prog, dtype=np.int64).reshape(-1, 4), np.array(consts, dtype=float),
                 inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(longest),
                 np.zeros((longest, widest)))
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        """Where an expression jumps or kinks in ``time`` (``time < 1m ? a : b``, ``u(time - td)``):
+        :func:`netdae.netlist.expr.time_corners` of every expression that reads ``time``."""
+        out: list[float] = []
+        for el in self.elements:
+            if any(type(n) is Time for n in walk(el.expr)):
+                out.extend(time_corners(el.expr, t0, t1))
+        return np.unique(np.asarray(out, dtype=float))
 
     def junction_nodes(self) -> list[tuple[str, str]]:
         return [(el.nodes[0], el.nodes[1]) for el in self.elements if el.kind == _VOLTAGE]

@@ -252,6 +252,9 @@ class MnaSystem(DaeSystem):
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         corners = self.sources.breakpoints(t0, t1)
+        extra = [f.breakpoints(t0, t1) for f in self.families]
+        if any(e.size for e in extra):
+            corners = np.union1d(corners, np.concatenate(extra))
         if self.delays is None:
             return corners
         return self.delays.breakpoints(corners, t0, t1)[0]

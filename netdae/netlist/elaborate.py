@@ -248,7 +248,12 @@ class _Elaborator:
                 else:
                     env.define(d, env)
         for p in defn.params:
-            env.define(p, env, self.diagnostics)
+            if frame is not None and p.name in frame.inst.params:
+                # ngspice: the instance's value replaces the body's .param of that name too
+                val = frame.inst.params[p.name]
+                env.define(ParamDef(p.name, val, frame.inst.card, val[1]), parent)
+            else:
+                env.define(p, env, self.diagnostics)
         return env
 
     def env(self, frames: tuple) -> Env:
@@ -314,9 +319,10 @@ class _Elaborator:
         frame = self.frames.get(id(inst))
         if frame is None:
             declared = {d.name for d in sub.defaults}
+            local = {p.name for p in sub.params}
             for name, val in inst.params.items():
-                if name not in declared:
-                    known = ", ".join(sorted(declared)) or "none"
+                if name not in declared and name not in local:
+                    known = ", ".join(sorted(declared | local)) or "none"
                     raise error(inst.card, val[1], f"subcircuit '{sub.name}' has no parameter '{name}' "
                                 f"(its parameters: {known})", ELEMENTS["x"])
             frame = self.frames[id(inst)] = _Frame(inst, sub)

@@ -38,7 +38,8 @@ def error(card: Card, offset: int, message: str, syntax: ElementSyntax | str | N
 def parse_expr(card: Card, text: str, base: int, context: str, syntax=None) -> ex.Expr:
     """Parse expression ``text`` found at offset ``base`` of ``card``; errors name the card."""
     try:
-        return ex.parse_expression(text, context=context, locate=lambda o: card.location(base + o))
+        return ex.parse_expression(text, context=context, locate=lambda o: card.location(base + o),
+                                   warn=lambda o, message: card.warn(base + o, message))
     except NetlistError as exc:
         name = card.text.split(None, 1)[0]
         expected = syntax.form if isinstance(syntax, ElementSyntax) else syntax
@@ -115,6 +116,10 @@ def split_args(card: Card, toks: list[Token], start: int, syntax, *, allow_paren
         if tok.kind == WORD and i + 1 < n and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
             values = []
             j = i + 2
+            if j < n and toks[j].kind == PUNCT and toks[j].text == "(":
+                # name=(expression): ngspice reads a parenthesised value as an expression
+                toks = _paren_group(card, toks, j)
+                n = len(toks)
             if j >= n or toks[j].kind not in (WORD, EXPR):
                 raise error(card, toks[i + 1].start, f"missing value after '{tok.text}='", syntax)
             values.append(toks[j])
@@ -136,6 +141,18 @@ def split_args(card: Card, toks: list[Token], start: int, syntax, *, allow_paren
         positional.append(tok)
         i += 1
     return positional, keywords
+
+
+def _paren_group(card: Card, toks: list[Token], j: int) -> list[Token]:
+    """``toks`` with the balanced group opening at ``toks[j]`` (a ``(``) replaced by one expression token."""
+    depth = 0
+    for k in range(j, len(toks)):
+        if toks[k].kind == PUNCT:
+            depth += {"(": 1, ")": -1}.get(toks[k].text, 0)
+            if depth == 0:
+                s, e = toks[j].start, toks[k].start
+                return [*toks[:j], Token(card.text[s + 1 : e], EXPR, s, e + 1), *toks[k + 1:]]
+    return toks
 
 
 def _end(card: Card) -> int:
@@ -289,6 +306,8 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
 
 
 def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str):
+    if len(toks) > 5 and toks[4].text == "=" and toks[5].kind == PUNCT and toks[5].text == "(":
+        toks = _paren_group(card, toks, 5)  # R = (expression): ngspice's parenthesised value
     value = _behavioural_value(toks, kind)
     if value is not None:
         return _behavioural_two_terminal(card, toks, syntax, kind, value)

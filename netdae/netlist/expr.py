@@ -132,6 +132,7 @@ __all__ = [
     "walk",
     "to_text",
     "depth",
+    "time_corners",
     "RESERVED",
     "MAX_DEPTH",
 ]
@@ -436,10 +437,12 @@ _NUM, _ID, _OPER, _END = "num", "id", "op", "end"
 class _Parser:
     """Precedence-climbing parser over one expression text."""
 
-    def __init__(self, text: str, context: str, locate: Callable[[int], SourceLocation | None]):
+    def __init__(self, text: str, context: str, locate: Callable[[int], SourceLocation | None],
+                 warn: Callable[[int, str], None] | None = None):
         self.text = text
         self.context = context
         self.locate = locate
+        self.warn = warn
         self.pos = 0
         #: Inside {...} or '...' of a behavioural expression: ngspice reads circuit references there too.
         self.behavioural_group = False
@@ -651,6 +654,11 @@ class _Parser:
                 raise self.error(f"pwl() takes the input and at least two (x, y) pairs, got {len(args)} "
                                  "argument(s)", start, hint="write pwl(expr, x0, y0, x1, y1, ...)")
             return Call(name, tuple(args))
+        if name in ("min", "max") and len(args) == 1 and self.context == PARAM and self.warn is not None:
+            # ngspice's parameter evaluator reads a missing second operand of min/max as 1
+            self.warn(start, f"{name}() with one argument: read as {name}(x, 1), as ngspice 39 reads it "
+                             f"in parameter expressions")
+            args.append(Const(1.0))
         if name == "pow" and self.context == BEHAVIOURAL or name == "pwr" and self.context == PARAM:
             self.arity(name, args, 2, start)
             return Binary("**", args[0], args[1])
@@ -674,6 +682,7 @@ def parse_expression(
     *,
     context: str = PARAM,
     locate: Callable[[int], SourceLocation | None] | None = None,
+    warn: Callable[[int, str], None] | None = None,
 ) -> Expr:
     """Parse an expression into a tree.
 
@@ -685,6 +694,10 @@ def parse_expression(
         Which ngspice evaluator's rules apply (see the module docstring).
     locate : callable, optional
         Maps an offset in ``text`` to a :class:`SourceLocation` for errors.
+    warn : callable, optional
+        ``warn(offset, message)`` receives ngspice's lenient readings that
+        are accepted with a warning (``max(x)`` in a parameter expression is
+        ``max(x, 1)``); without it they are errors.
 
     Returns
     -------
@@ -703,7 +716,7 @@ def parse_expression(
     """
     locate = locate or (lambda offset: None)
     try:
-        tree = _Parser(fold_case(text), context, locate).parse()
+        tree = _Parser(fold_case(text), context, locate, warn).parse()
     except RecursionError:
         tree = None
     if tree is None or depth(tree) > MAX_DEPTH:
@@ -730,6 +743,118 @@ def depth(node: Expr) -> int:
             stack.extend((a, d + 1) for a in n.args)
     return best
 
+
+
+# ---------------------------------------------------------------- corners in time
+#: Comparisons: their value jumps where the two sides cross.
+_COMPARISONS = frozenset({"==", "!=", "<", "<=", ">", ">="})
+#: Functions of one argument that jump (u, sgn) or kink (abs, uramp) where it is zero.
+_ZERO_CORNERS = frozenset({"u", "sgn", "abs", "uramp"})
+#: Functions that jump where their argument is an integer (nint: a half-integer).
+_STAIRS = {"floor": 0.0, "ceil": 0.0, "int": 0.0, "nint": 0.5}
+
+
+def _affine(node) -> tuple[float, float] | None:
+    """``(a, b)`` when ``node`` is ``a*time + b`` with constant a, b (else None)."""
+    t = type(node)
+    if t is Const:
+        return 0.0, node.value
+    if t is Time:
+        return 1.0, 0.0
+    if t is Unary and node.op == "-":
+        inner = _affine(node.operand)
+        return None if inner is None else (-inner[0], -inner[1])
+    if t is Binary and node.op in ("+", "-", "*", "/"):
+        left, right = _affine(node.left), _affine(node.right)
+        if left is None or right is None:
+            return None
+        if node.op == "+":
+            return left[0] + right[0], left[1] + right[1]
+        if node.op == "-":
+            return left[0] - right[0], left[1] - right[1]
+        if node.op == "*":
+            if left[0] == 0.0:
+                return left[1] * right[0], left[1] * right[1]
+            if right[0] == 0.0:
+                return right[1] * left[0], right[1] * left[1]
+            return None
+        if right[0] == 0.0 and right[1] != 0.0:
+            return left[0] / right[1], left[1] / right[1]
+    return None
+
+
+def time_corners(node: Expr, t0: float, t1: float, limit: int = 10_000) -> list[float]:
+    """Instants in [t0, t1] where a behavioural expression jumps or kinks in ``time``.
+
+    Found structurally, where the quantities that meet are affine in ``time``
+    with constant coefficients: the crossings of a comparison (``time < 1m``,
+    ``time*2 >= tdel``), the zeros of the arguments of ``u``, ``sgn``,
+    ``abs`` and ``uramp``, the crossings of ``min``/``max``/``limit``
+    arguments, the points of ``pwl(time, ...)``, and the steps of ``floor``,
+    ``ceil``, ``int``, ``nint`` and ``%`` (at most ``limit`` of them). A
+    corner of a quantity that depends on the circuit (``v(a) > 1``) is not a
+    time corner: the step control meets it.
+
+    Parameters
+    ----------
+    node : Expr
+        An elaborated tree (parameters replaced by constants).
+    t0, t1 : float
+        The interval.
+    limit : int
+        Largest number of corners one periodic function contributes.
+
+    Returns
+    -------
+    list of float
+        Unsorted, possibly repeated.
+
+    Notes
+    -----
+    One pass over the tree; the affine test is repeated on subtrees
+    (quadratic in the depth of nested sums, which are shallow).
+    """
+    out: list[float] = []
+
+    def crossing(a, b) -> None:  # where a(t) == b(t)
+        if a is not None and b is not None and a[0] != b[0]:
+            out.append((b[1] - a[1]) / (a[0] - b[0]))
+
+    def stairs(a, period: float, offset: float) -> None:  # where a(t) = offset + k period
+        if a is None or a[0] == 0.0 or not period > 0.0:
+            return
+        lo, hi = sorted((a[0] * t0 + a[1], a[0] * t1 + a[1]))
+        first, last = math.ceil((lo - offset) / period), math.floor((hi - offset) / period)
+        if 0 <= last - first < limit:
+            out.extend(((offset + k * period) - a[1]) / a[0] for k in range(first, last + 1))
+
+    for n in walk(node):
+        t = type(n)
+        if t is Binary:
+            if n.op in _COMPARISONS:
+                crossing(_affine(n.left), _affine(n.right))
+            elif n.op == "%" and type(n.right) is Const:
+                stairs(_affine(n.left), abs(n.right.value), 0.0)
+        elif t is Ternary:
+            crossing(_affine(n.cond), (0.0, 0.0))
+        elif t is Call:
+            args = n.args
+            if n.func in _ZERO_CORNERS and len(args) == 1:
+                crossing(_affine(args[0]), (0.0, 0.0))
+            elif n.func in _STAIRS and len(args) == 1:
+                stairs(_affine(args[0]), 1.0, _STAIRS[n.func])
+            elif n.func in ("min", "max") and len(args) == 2:
+                crossing(_affine(args[0]), _affine(args[1]))
+            elif n.func == "limit" and len(args) == 3:
+                x = _affine(args[0])
+                crossing(x, _affine(args[1]))
+                crossing(x, _affine(args[2]))
+            elif n.func == "pwl" and len(args) >= 3:
+                x = _affine(args[0])
+                for point in args[1::2]:
+                    if type(point) is Const:
+                        crossing(x, (0.0, point.value))
+    return [c for c in out if t0 <= c <= t1 and math.isfinite(c)]
 
 def walk(node: Expr):
     """Yield every node of a tree (pre-order)."""

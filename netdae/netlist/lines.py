@@ -315,6 +315,8 @@ def split_cards(
 
     if "\r" in text:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
+    if text.rstrip().endswith("\x1a"):  # a DOS end-of-file mark (Ctrl-Z) after the last card
+        text = text.rstrip().rstrip("\x1a")
     lines = text.split("\n")
     if lines and lines[0].startswith("\ufeff"):
         lines[0] = lines[0][1:]

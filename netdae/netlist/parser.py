@@ -525,7 +525,37 @@ _OUTPUT_FUNCTIONS = frozenset({"db", "mag", "abs", "ph", "phase", "cph", "real",
 _AC_PRINT_FORMS = frozenset({"vm", "vp", "vr", "vi", "vdb", "im", "ip", "ir", "ii", "idb"})
 
 
+def _entry_end(toks: list[Token], i: int) -> int:
+    """The index after the output entry starting at ``toks[i]``: a word, ``word(...)`` or ``(...)``."""
+    n = len(toks)
+    j = i + 1 if toks[i].kind == WORD else i
+    if j < n and toks[j].text == "(":
+        depth = 0
+        while j < n:
+            depth += {"(": 1, ")": -1}.get(toks[j].text, 0)
+            j += 1
+            if depth == 0:
+                break
+        return j
+    return max(j, i + 1)
+
+
 def _saves(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    if toks[0].text != ".probe":
+        _save_entries(card, toks, net)
+        return
+    # ngspice warns about a .probe entry it cannot read and ignores it: so does netdae, entry by entry
+    i, n = 1, len(toks)
+    while i < n:
+        end = _entry_end(toks, i)
+        try:
+            _save_entries(card, [toks[0], *toks[i:end]], net)
+        except NetlistError as exc:
+            card.warn(toks[i].start, f"entry ignored, as ngspice ignores it: {exc.message.split(': ', 1)[-1]}")
+        i = end
+
+
+def _save_entries(card: Card, toks: list[Token], net: Netlist) -> None:
     word = toks[0].text
     i, n = 1, len(toks)
     if word in (".print", ".plot") and i < n and toks[i].kind == WORD and toks[i].text in _PRINT_TYPES:

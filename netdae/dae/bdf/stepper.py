@@ -532,7 +532,7 @@ class BDF:
                                       BREAKPOINT_STRETCH, not self._fixed)
             hist.set_coefficients(h)
             t_new = self._breakpoints[self._ibp] if landing else t + h
-            accepted, kind, info = self._attempt(t_new)
+            accepted, kind, info = self._attempt(t_new, landing)
             if accepted:
                 break
             hist.restore()
@@ -594,8 +594,13 @@ class BDF:
         self._fail(t, h, what, info.get("worst"), hint)
         return None
 
-    def _attempt(self, t_new):
+    def _attempt(self, t_new, landing=False):
         """Predict, solve the corrector, test the error.
+
+        A step ``landing`` on a breakpoint evaluates the equations just before
+        it (``nextafter(t_new, -inf)``): the inputs from the left, as the step
+        sees them; an expression of time that jumps there takes its right
+        value at the restart.
 
         Returns
         -------
@@ -612,14 +617,15 @@ class BDF:
             self.stats["cj_changes"] += 1
             self._last_cj_attempt = cj
         self._w_step_err = self._w_err
+        t_ev = np.nextafter(t_new, -np.inf) if landing else t_new
         if self._linear:
-            ok, out = self._corrector.solve(t_new, pred, cj, self._w, self._fixed)
+            ok, out = self._corrector.solve(t_ev, pred, cj, self._w, self._fixed)
             if not ok:
                 return False, "newton", out
             ee = out - pred[0]
         else:
             w_newton, self._w_step_err = self._floor.weights(self._w, self._w_err, pred[0, :n], pred[1, n:], cj)
-            ok, out = self._corrector.solve(t_new, pred, cj, hist.cjlast, self._nst == 0, self._state, w_newton)
+            ok, out = self._corrector.solve(t_ev, pred, cj, hist.cjlast, self._nst == 0, self._state, w_newton)
             if not ok:
                 return False, "newton", out
             x_new, q_new = out

@@ -1047,6 +1047,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     for c in range(width):
                         P[i, c] *= beta[i]
             t_new = bps[ibp] if landing else t + h
+            # a step landing on a breakpoint sees the inputs from the left (an expression of time
+            # that jumps there, time < 1m ? a : b, takes its right value only at the restart)
+            t_ev = np.nextafter(t_new, -np.inf) if landing else t_new
             # phase 2: predict
             for c in range(width):
                 s = 0.0
@@ -1076,7 +1079,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     reason = REASON_SINGULAR
                 else:
                     # one exact solve: r = E xp_pred - H x_pred - B u(t_new)
-                    _phi(t_new, pred0, sysd, u, r)
+                    _phi(t_ev, pred0, sysd, u, r)
                     for c in range(n):
                         r[c] = -r[c]
                     _matvec_add(indptr, indices, e_data, pred1, 1.0, r)
@@ -1102,14 +1105,14 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         for i in range(n):
                             w_se[i] = min(w_err[i], w_newton[i]) if w_newton[i] != w[i] else w_err[i]
                         w_step = w_se
-                outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, setup, False, pred0, q_pred, qp_pred,
+                outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, setup, False, pred0, q_pred, qp_pred,
                                                             w_nt, sysd, devd, lus, u, evb, xn, d, r)
                 if outcome == NEWTON_FAILED and not setup and reason != REASON_EVALUATION:
                     # stale Jacobian: retry once with a fresh one at the same step size
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, True, False, pred0, q_pred,
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, False, pred0, q_pred,
                                                                 qp_pred, w_nt, sysd, devd, lus, u, evb, xn, d, r)
                 if outcome == NEWTON_FAILED and reason != REASON_EVALUATION and reason != REASON_SINGULAR:
                     # a fresh Jacobian failed too: full Newton (a model whose slope changes
@@ -1117,7 +1120,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, True, True, pred0, q_pred,
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, True, pred0, q_pred,
                                                                 qp_pred, w_nt, sysd, devd, lus, u, evb, xn, d, r)
                 I[I_NEWTON] += its
                 if outcome == NEWTON_PIVOTS:
@@ -1128,7 +1131,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     F[F_RATE] = rate
                     # the charges at the new point, evaluated exactly (no limiting): the
                     # history must hold q(x_new) itself
-                    flags = _evaluate(I, t_new, xn, STATE_NONE, False, False, sysd, devd, u, evb)
+                    flags = _evaluate(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
                     if flags & FLAG_NONFINITE:
                         kind = 1
                         reason = REASON_EVALUATION
