@@ -18,7 +18,7 @@ import pytest
 import netdae
 from netdae.analyses.op import operating_point
 from netdae.analyses.tran import transient
-from netdae.errors import CircuitError, NetlistError
+from netdae.errors import NetlistError
 from netdae.mna import MODE_TRAN, assemble
 from netdae.netlist import load
 
