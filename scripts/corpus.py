@@ -250,8 +250,13 @@ def _message(exc: BaseException) -> str:
     return " ".join(str(exc).split())[:600]
 
 
-def work(path: str, compare: bool, timeout: float) -> dict:
-    """Read, run and (optionally) compare one netlist; a plain dict of what happened."""
+def work(path: str, compare: bool, timeout: float, emit=None) -> dict:
+    """Read, run and (optionally) compare one netlist; a plain dict of what happened.
+
+    ``emit(record)``, when given, receives the record of a netlist that ran
+    before its comparison starts (the worker prints it: a comparison stopped
+    by the time limit leaves the run's outcome behind).
+    """
     os.environ["NETDAE_SERVER"] = "0"
     import netdae
     from netdae.errors import CircuitError, ConvergenceError, NetdaeError, NetlistError
@@ -306,6 +311,8 @@ def work(path: str, compare: bool, timeout: float) -> dict:
     rec["outcome"] = "runs"
     if compare and not circuit.steps:
         rec["stage"] = "compare"
+        if emit is not None:  # what ran is known even if the comparison runs out of time
+            emit(dict(rec, compare="timeout", compare_message="the comparison ran out of time"))
         try:
             cmp = netdae.compare(path, timeout=timeout)
             if cmp.ngspice_error:
@@ -393,13 +400,25 @@ def _run_one(path: Path, compare: bool, timeout: float, memory_gb: float) -> dic
             out, err = proc.communicate(timeout=wall)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, 9)
-            proc.communicate()
-            return {"outcome": "timeout", "message": f"no answer within {wall:.0f} s (wall clock)",
-                    "wall_s": round(time.perf_counter() - t0, 1)}
+            out, _ = proc.communicate()
+            wall_s = round(time.perf_counter() - t0, 1)
+            return _last_record(out, wall_s) or {"outcome": "timeout", "wall_s": wall_s,
+                                                 "message": f"no answer within {wall:.0f} s (wall clock)"}
     except OSError as exc:
         return {"outcome": "crash", "message": str(exc)}
     wall_s = round(time.perf_counter() - t0, 1)
-    for line in reversed(out.splitlines()):
+    rec = _last_record(out, wall_s)
+    if rec is not None:
+        return rec
+    if proc.returncode in (-9, -24) or proc.returncode == 137 or "CPU time limit" in err:
+        return {"outcome": "timeout", "message": f"CPU time limit (signal {-proc.returncode})", "wall_s": wall_s}
+    tail = " ".join(err.strip().splitlines()[-3:])[-400:]
+    return {"outcome": "crash", "message": f"exit status {proc.returncode}: {tail}", "wall_s": wall_s}
+
+
+def _last_record(out: str, wall_s: float) -> dict | None:
+    """The last JSON record a worker printed (its final one, or the run's before a comparison), or None."""
+    for line in reversed((out or "").splitlines()):
         if line.startswith("{"):
             try:
                 rec = json.loads(line)
@@ -407,10 +426,7 @@ def _run_one(path: Path, compare: bool, timeout: float, memory_gb: float) -> dic
                 break
             rec["wall_s"] = wall_s
             return rec
-    if proc.returncode in (-9, -24) or proc.returncode == 137 or "CPU time limit" in err:
-        return {"outcome": "timeout", "message": f"CPU time limit (signal {-proc.returncode})", "wall_s": wall_s}
-    tail = " ".join(err.strip().splitlines()[-3:])[-400:]
-    return {"outcome": "crash", "message": f"exit status {proc.returncode}: {tail}", "wall_s": wall_s}
+    return None
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -565,7 +581,8 @@ def render(summary: dict, records: dict, command: str, ngspice: str | None, base
         judged = c.get("agrees", 0) + c.get("disagrees", 0)
         lines += [f"Compared with ngspice: {c.get('agrees', 0)} agree, {c.get('disagrees', 0)} disagree"
                   + (f" ({100 * c.get('agrees', 0) / judged:.0f} % agree)" if judged else "")
-                  + f", ngspice failed on {c.get('ngspice_failed', 0)}, comparison error {c.get('error', 0)}. "
+                  + f", ngspice failed on {c.get('ngspice_failed', 0)}, comparison error {c.get('error', 0)}"
+                  + (f", the comparison ran out of time on {c['timeout']}" if c.get("timeout") else "") + ". "
                   f"Of the disagreements {c.get('agrees_tight', 0)} agree with both simulators at tight settings "
                   "(`netdae compare --tight`: the difference was ngspice's step control); the rest are listed "
                   "below."]
@@ -657,7 +674,8 @@ def main(argv=None) -> int:
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        print(json.dumps(work(args.worker, args.compare, args.timeout)))
+        print(json.dumps(work(args.worker, args.compare, args.timeout,
+                              emit=lambda rec: print(json.dumps(rec), flush=True))))
         return 0
     baseline = None
     if args.baseline:

@@ -59,3 +59,15 @@ def test_feature_buckets_name_the_feature():
         ("out_of_scope", "compact MOSFET models (BSIM, found by the reader)")
     assert module.classify({"outcome": "refused", "message": "x.cir:2:1: r1: unexpected 'foo'"})[0] == \
         "refused_unclear"
+
+
+def test_a_comparison_out_of_time_keeps_the_run():
+    # the worker prints the run's record before comparing; a comparison killed by the limit leaves it
+    module = _corpus_module()
+    printed = []
+    rec = module.work(str(ROOT / "netlists" / "rc_lowpass.cir"), True, 60.0, emit=printed.append)
+    assert rec["outcome"] == "runs" and rec["compare"] in ("agrees", "disagrees", "ngspice_failed")
+    assert printed == [dict(printed[0], outcome="runs", compare="timeout")]
+    out = "progress text\n" + json.dumps(printed[0]) + "\n"
+    assert module._last_record(out, 1.5) == dict(printed[0], wall_s=1.5)
+    assert module._last_record("Traceback ...\n", 1.5) is None
