@@ -158,3 +158,21 @@ class DeviceFamily:
     def junction_nodes(self) -> list[tuple[str, str]]:
         """Pairs of nodes joined by a conducting path at DC (for topology)."""
         return []
+
+    def quantities(self, x: np.ndarray, dxdt: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """ngspice's named device quantities of every instance at solutions ``x`` (``@q1[gm]`` ...).
+
+        Parameters
+        ----------
+        x : ndarray, shape (T, n + 1)
+            Extended solutions (``x[:, n] == 0`` is ground), one row per point.
+        dxdt : ndarray, shape (T, n + 1), optional
+            Their time derivatives (a transient): the charges' currents are
+            added to the terminal currents. None: a DC solution.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (T, N)
+            :data:`netdae.signals.DEVICE_QUANTITIES` of the family's kind.
+        """
+        raise NotImplementedError(f"{type(self).__name__} computes no device quantities")
