@@ -331,3 +331,17 @@ def test_compare_asks_ngspice_for_device_quantities():
         assert item.passed, item.analysis
     # a capacitance is floored by capacitances, a conductance by conductances
     assert [signal_kind(n) for n in ("@q1[cpi]", "@q1[gm]", "@q1[ic]", "@j1[vgs]")] == ["F", "S", "i", "v"]
+
+
+@pytest.mark.ngspice
+def test_savecurrents_saves_the_terminal_currents_as_ngspice():
+    from netdae.ngspice import run_ngspice
+
+    deck = OP_DECK.replace(".op", ".options savecurrents\n.op")
+    ours = netdae.run(deck)[0]
+    theirs = run_ngspice(deck, backend="subprocess").result("op")
+    at = sorted(n for n in theirs.names() if n.startswith("@"))
+    assert at == sorted(n for n in ours.names() if n.startswith("@"))
+    assert {"@q1[is]", "@d1[id]", "@m2[ig]", "@j1[igd]"} <= set(at)
+    for name in at:
+        assert ours[name][0] == pytest.approx(theirs[name][0], rel=2e-6, abs=1e-17), name

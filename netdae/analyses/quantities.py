@@ -49,7 +49,9 @@ __all__ = ["Quantity", "plan_quantities", "add_quantities", "saved_currents", "m
            "SAVECURRENTS"]
 
 #: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).
-SAVECURRENTS = {"resistor": "i", "capacitor": "i", "inductor": "i", "isource": "current"}
+SAVECURRENTS = {"resistor": ("i",), "capacitor": ("i",), "inductor": ("i",), "isource": ("current",),
+                "bjt": ("ic", "ie", "ib", "is"), "diode": ("id",), "mosfet": ("id", "is", "ig", "ib"),
+                "jfet": ("id", "is", "ig", "igd")}
 
 #: Size of the one-sided differences on the dense output, relative to the step ending at each point.
 _DIFF_FRACTION = 1e-4
@@ -164,11 +166,13 @@ def _family_of(system, el: Element):
 
 
 def saved_currents(circuit: Circuit) -> list[Quantity]:
-    """The currents ``.options savecurrents`` saves: ``@r1[i]``, ``@c1[i]``, ``@l1[i]``, ``@i1[current]``."""
+    """The currents ``.options savecurrents`` saves: ``@r1[i]``, ``@c1[i]``, ``@l1[i]``, ``@i1[current]``, ``@d1[id]``,
+    ``@q1[ic]`` ... (:data:`SAVECURRENTS`)."""
     if not circuit.options.extra.get("savecurrents"):
         return []
-    return [Quantity(f"@{el.name}[{SAVECURRENTS[el.kind]}]", el, SAVECURRENTS[el.kind])
-            for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name]
+    return [Quantity(f"@{el.name}[{q}]", el, q)
+            for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name
+            for q in SAVECURRENTS[el.kind]]
 
 
 def measured_quantities(circuit: Circuit) -> list[Quantity]:
