@@ -29,7 +29,7 @@ vee vee 0 -5
 vin in 0 0.7
 rc vcc c 1k
 q1 c in 0 qn
-.model qn npn is=1e-15 bf=100 vaf=50 cje=1p cjc=0.5p tf=1n rb=10 xcjc=0.8
+.model qn npn is=1e-15 bf=100 vaf=50 cje=1p cjc=0.5p tf=1n rb=10 xcjc=0.8 re=2 rc=20
 vp vp 0 -0.66
 rcp c2 vee 1k
 q2 c2 vp 0 qp
@@ -40,7 +40,10 @@ rd dd 0 10k
 m1 md g 0 0 nm w=10u l=1u
 vg g 0 2
 rdm vcc md 2k
-.model nm nmos vto=0.7 kp=1e-4 lambda=0.02 tox=20n cgso=1e-10 cgdo=2e-10 cgbo=1e-10 cbd=1f cbs=1f
+.model nm nmos vto=0.7 kp=1e-4 lambda=0.02 tox=20n cgso=1e-10 cgdo=2e-10 cgbo=1e-10 cbd=1f cbs=1f rd=20 rs=10
+m4 0 g4 ms4 0 nm w=10u l=1u
+vg4 g4 0 3
+rs4 vcc ms4 5k
 m3 md3 g 0 vee nb w=10u l=1u
 rdm3 vcc md3 50k
 .model nb nmos vto=0.7 kp=1e-4 gamma=0.4 lambda=0.02
@@ -50,7 +53,7 @@ rdp mpd 0 5k
 .model pm pmos vto=-0.8 kp=5e-5 lambda=0.03
 j1 jd 0 0 nj
 rj vcc jd 1k
-.model nj njf vto=-2 beta=1e-3 lambda=0.01 cgs=1p cgd=1p
+.model nj njf vto=-2 beta=1e-3 lambda=0.01 cgs=1p cgd=1p rd=10 rs=5
 j2 jd2 0 0 pj
 rj2 jd2 vee 1k
 .model pj pjf vto=-2 beta=1e-3 lambda=0.01
@@ -59,7 +62,7 @@ rj2 jd2 vee 1k
 """
 
 DEVICES = {"q1": "bjt", "q2": "bjt", "d1": "diode", "m1": "mosfet", "m2": "mosfet", "m3": "mosfet",
-           "j1": "jfet", "j2": "jfet"}
+           "m4": "mosfet", "j1": "jfet", "j2": "jfet"}
 
 
 def every_quantity(devices=DEVICES):
@@ -134,6 +137,7 @@ def test_operating_point_against_ngspice():
     # no TOX); PMOS and PJF quantities are type-normalised as ngspice's
     assert ours["@m2[vgs]"][0] > 0 and ours["@m2[id]"][0] > 0 and ours["@m2[von]"][0] < 0
     assert ours["@q2[ic]"][0] < 0 < ours["@q2[vbe]"][0]
+    assert ours["@m4[vds]"][0] < 0 < ours["@m4[gm]"][0]  # reverse mode: gm of the mode
 
 
 DC_DECK = """dc quantities
@@ -345,3 +349,30 @@ def test_savecurrents_saves_the_terminal_currents_as_ngspice():
     assert {"@q1[is]", "@d1[id]", "@m2[ig]", "@j1[igd]"} <= set(at)
     for name in at:
         assert ours[name][0] == pytest.approx(theirs[name][0], rel=2e-6, abs=1e-17), name
+
+
+@pytest.mark.ngspice
+def test_temperature_sweep_and_subcircuit_devices_against_ngspice():
+    from netdae.ngspice import run_ngspice
+
+    deck = """t
+.subckt amp in out vcc
+q1 out in 0 qn
+rc vcc out 1k
+.ends
+.model qn npn is=1e-15 bf=100 xti=3 eg=1.11
+vcc vcc 0 5
+vin in 0 0.7
+x1 in out vcc amp
+d1 in 0 dm
+.model dm d is=1e-14
+.save @q.x1.q1[ic] @q.x1.q1[gm] @q.x1.q1[vbc] @d1[id] @d1[gd]
+.dc temp 0 50 25
+.end
+"""
+    ours = netdae.run(deck)[0]
+    theirs = run_ngspice(deck, backend="subprocess").result("dc")
+    assert ours.names() == ["@q.x1.q1[ic]", "@q.x1.q1[gm]", "@q.x1.q1[vbc]", "@d1[id]", "@d1[gd]"]
+    assert ours["@d1[id]"][2] > 10 * ours["@d1[id]"][0]  # each point at its own temperature
+    for name in ours.names():
+        np.testing.assert_allclose(ours[name], theirs[name], rtol=1e-5, err_msg=name)
