@@ -196,6 +196,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
     missing = []
     base = result.dense  # the integrator's own output (the derivatives are taken on it)
     devices: dict[str, dict[str, np.ndarray]] = {}  # element -> its quantities (a family's at once)
+    systems: dict = {}  # the assembled circuit, once per call
     for item in quantities:
         el, q = item.element, item.quantity
         if el.kind in NONLINEAR_QUANTITY_KINDS:
@@ -205,7 +206,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
                                     "(the .op gives it)")
                 continue
             if el.name not in devices:
-                devices.update(_device_values(circuit, result, base, el))
+                devices.update(_device_values(circuit, result, base, el, systems))
             values = devices[el.name][q]
         elif ac and q == "p":
             missing.append(item.name)
@@ -237,15 +238,18 @@ def _linear_values(circuit: Circuit, result: Result, base, el: Element, q: str, 
     return i if q == "i" else v * i
 
 
-def _device_values(circuit: Circuit, result: Result, dense, el: Element) -> dict[str, dict[str, np.ndarray]]:
+def _device_values(circuit: Circuit, result: Result, dense, el: Element,
+                   systems: dict) -> dict[str, dict[str, np.ndarray]]:
     """The quantities of every device of ``el``'s family at the result's points, by element name.
 
     One pass of the family per chunk of points; a ``.dc temp`` sweep assembles the circuit at each
-    point's temperature.
+    point's temperature. ``systems`` keeps the assembled circuit between the families.
     """
     temps = result.axes.get("temp") if result.analysis == "dc" else None
     if temps is None:
-        system = _system(circuit)
+        system = systems.get(None)
+        if system is None:
+            system = systems[None] = _system(circuit)
         fam, _ = _family_of(system, el)
         values = _family_values(system, fam, result, dense, slice(None))
     else:
