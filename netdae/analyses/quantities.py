@@ -134,6 +134,8 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
         item = Quantity(sig.name, el, q)
         if el.kind in NONLINEAR_QUANTITY_KINDS:
             system = _system(circuit) if system is None else system
+            if el.kind == "osdi":
+                _check_opvar(system, el, sig.name, q)
             item = replace(item, voltages=_device_voltages(system, el))
         quantities.append(item)
         out += [n for n in item.needs() if n not in out]
@@ -143,8 +145,20 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
 def _device_voltages(system, el: Element) -> tuple[str, ...]:
     """The node voltages (``v(q1#base)`` ...) one nonlinear device's equations read."""
     fam, k = _family_of(system, el)
-    nodes = np.concatenate([fam.stamps.ctrl_p[:, k], fam.stamps.ctrl_m[:, k]])
-    return tuple(dict.fromkeys(system.names[int(i)] for i in nodes if i >= 0))
+    return tuple(system.names[int(i)] for i in fam.read_unknowns(k) if i >= 0)
+
+
+def _check_opvar(system, el: Element, name: str, q: str) -> None:
+    """Refuse a name that is no operating-point variable of an OSDI device's module (listing those it has)."""
+    fam, k = _family_of(system, el)
+    have = fam.quantity_names(k)
+    if q not in have:
+        module = fam.instances[k].module.name
+        offer = " ".join(f"@{el.name}[{v}]" for v in have)
+        raise CircuitError(f"{name}: '{el.name}' is an instance of the OSDI module {module}, which has no "
+                           f"operating-point variable '{q}'"
+                           + (f"; it has {offer}" if offer else "; the module declares none"),
+                           elements=(el.name,))
 
 
 def _system(circuit: Circuit, temp: float | None = None):
@@ -265,8 +279,7 @@ def _device_values(circuit: Circuit, result: Result, dense, el: Element,
 def _family_values(system, fam, result: Result, dense, points: slice) -> dict[str, np.ndarray]:
     """``fam.quantities`` at the result's points (shape (T, N) each), from the node voltages it reads."""
     n = system.n
-    columns = np.unique(np.concatenate([fam.stamps.ctrl_p.ravel(), fam.stamps.ctrl_m.ravel()]))
-    columns = [int(c) for c in columns if c >= 0 and system.names[int(c)] in result.signals]
+    columns = [int(c) for c in fam.read_unknowns() if c >= 0 and system.names[int(c)] in result.signals]
     names = [system.names[c] for c in columns]
     count = len(np.zeros(result.points)[points])
     x = np.zeros((count, n + 1))
@@ -277,7 +290,7 @@ def _family_values(system, fam, result: Result, dense, points: slice) -> dict[st
         dxdt = np.zeros_like(x)
         f0 = x[:, columns]
         dxdt[:, columns] = _time_derivative(result, f0, lambda t: np.stack([dense(t)[m] for m in names], axis=-1))
-    size = max(1, len(fam.elements) * fam.stamps.ctrl_p.shape[0])
+    size = max(1, len(fam.elements) * len(columns))
     chunk = max(1, _CHUNK_VALUES // size)
     pieces = [fam.quantities(x[i:i + chunk], None if dxdt is None else dxdt[i:i + chunk])
               for i in range(0, count, chunk)]

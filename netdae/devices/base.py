@@ -159,6 +159,15 @@ class DeviceFamily:
         """Pairs of nodes joined by a conducting path at DC (for topology)."""
         return []
 
+    def read_unknowns(self, k: int | None = None) -> np.ndarray:
+        """The unknowns (indices, ground -1 included) the equations of instance ``k`` read (None: of every one).
+
+        By default the nodes of the family's control voltages (``self.stamps``).
+        """
+        st = self.stamps
+        cols = slice(None) if k is None else k
+        return np.unique(np.concatenate([np.ravel(st.ctrl_p[:, cols]), np.ravel(st.ctrl_m[:, cols])]))
+
     def quantities(self, x: np.ndarray, dxdt: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """ngspice's named device quantities of every instance at solutions ``x`` (``@q1[gm]`` ...).
 
