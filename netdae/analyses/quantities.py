@@ -17,9 +17,10 @@ its points, once the analysis has run:
 - an independent current source's voltage ``v(n-) - v(n+)`` (ngspice's
   sign: the voltage it drives its current against) and its absorbed power.
 
-The nonlinear devices (diodes, bipolar transistors, MOSFETs, JFETs) give
-ngspice's operating-point quantities (``@d1[id]``, ``@q1[gm]``, ``@m1[cgs]``
-...): their family (:meth:`netdae.devices.base.DeviceFamily.quantities`)
+The nonlinear devices (diodes, bipolar transistors, MOSFETs, JFETs, and OSDI
+devices with their modules' operating-point variables) give ngspice's
+operating-point quantities (``@d1[id]``, ``@q1[gm]``, ``@m1[cgs]`` ...): their
+family (:meth:`netdae.devices.base.DeviceFamily.quantities`)
 evaluates its own equations at the result's solutions, every instance and
 every point in one vectorised pass (in chunks of points), from the node
 voltages of the device, internal nodes included (a transient keeps those it
@@ -277,23 +278,33 @@ def _device_values(circuit: Circuit, result: Result, dense, el: Element,
 
 
 def _family_values(system, fam, result: Result, dense, points: slice) -> dict[str, np.ndarray]:
-    """``fam.quantities`` at the result's points (shape (T, N) each), from the node voltages it reads."""
+    """``fam.quantities`` at the result's points (shape (T, N) each), from the node voltages it reads.
+
+    The solutions are built a chunk of points at a time (at most :data:`_CHUNK_VALUES` values per
+    chunk and per instance-unknown product), so that a long transient of a large circuit needs no
+    (points x unknowns) matrix.
+    """
     n = system.n
     columns = [int(c) for c in fam.read_unknowns() if c >= 0 and system.names[int(c)] in result.signals]
     names = [system.names[c] for c in columns]
     count = len(np.zeros(result.points)[points])
-    x = np.zeros((count, n + 1))
-    for c, name in zip(columns, names):
-        x[:, c] = np.asarray(result.signals[name], dtype=float)[points]
-    dxdt = None
+    values = np.zeros((count, len(columns)))
+    for j, name in enumerate(names):
+        values[:, j] = np.asarray(result.signals[name], dtype=float)[points]
+    rates = None
     if result.analysis == "tran" and dense is not None and names:
-        dxdt = np.zeros_like(x)
-        f0 = x[:, columns]
-        dxdt[:, columns] = _time_derivative(result, f0, lambda t: np.stack([dense(t)[m] for m in names], axis=-1))
-    size = max(1, len(fam.elements) * len(columns))
-    chunk = max(1, _CHUNK_VALUES // size)
-    pieces = [fam.quantities(x[i:i + chunk], None if dxdt is None else dxdt[i:i + chunk])
-              for i in range(0, count, chunk)]
+        rates = _time_derivative(result, values, lambda t: np.stack([dense(t)[m] for m in names], axis=-1))
+    chunk = max(1, _CHUNK_VALUES // max(len(fam.elements) * max(len(columns), 1), n + 1))
+    pieces = []
+    for i in range(0, count, chunk):
+        part = slice(i, min(i + chunk, count))
+        x = np.zeros((part.stop - part.start, n + 1))
+        x[:, columns] = values[part]
+        dxdt = None
+        if rates is not None:
+            dxdt = np.zeros_like(x)
+            dxdt[:, columns] = rates[part]
+        pieces.append(fam.quantities(x, dxdt))
     return {q: np.concatenate([piece[q] for piece in pieces]) for q in pieces[0]}
 
 
