@@ -29,7 +29,7 @@ import re
 from dataclasses import dataclass
 
 __all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS",
-           "DEVICE_QUANTITIES", "device_quantity", "signal_unit"]
+           "DEVICE_QUANTITIES", "QUANTITY_UNITS", "NONLINEAR_QUANTITY_KINDS", "device_quantity", "signal_unit"]
 
 #: Node names that mean ground (ngspice accepts ``gnd`` for ``0``).
 GROUND_NAMES = frozenset({"0", "gnd"})
@@ -37,9 +37,17 @@ GROUND_NAMES = frozenset({"0", "gnd"})
 #: The forms a signal name may take, for error messages.
 SIGNAL_FORMS = "v(node), v(node1,node2), i(element), @device[param], or a bare node name"
 
-#: The device quantities netdae computes, per element kind, with ngspice's
-#: names (``@r1[i]``) and their meaning; ``i(r1)`` is ``@r1[i]`` for the
-#: two-terminal elements without a branch current of their own.
+#: The device quantities netdae computes, per element kind, with ngspice 39's
+#: names (``@r1[i]``, ``@q1[gm]``) and their meaning; ``i(r1)`` is ``@r1[i]`` for
+#: the two-terminal elements without a branch current of their own. The
+#: nonlinear devices' signs are ngspice's: a diode's and a bipolar
+#: transistor's currents flow into the terminal (a PNP's ``ic`` is negative in
+#: the active region), a MOSFET's and a JFET's currents and voltages are
+#: *type-normalised* (for a PMOS or PJF they are those of the equivalent
+#: N-channel device: ``@m1[vgs]`` is ``v(s) - v(g)``, ``@m1[id]`` the current
+#: flowing out of the drain), and so are a bipolar transistor's ``vbe`` and
+#: ``vbc``. Their conductances and capacitances are small-signal values at
+#: the solution.
 DEVICE_QUANTITIES: dict[str, dict[str, str]] = {
     "resistor": {"i": "current from n+ through the resistor to n-", "p": "power dissipated"},
     "capacitor": {"i": "current from n+ through the capacitor to n-", "p": "power absorbed"},
@@ -47,7 +55,63 @@ DEVICE_QUANTITIES: dict[str, dict[str, str]] = {
     "vsource": {"i": "current from n+ through the source to n-", "p": "power absorbed"},
     "isource": {"v": "voltage from n- to n+", "p": "power absorbed",
                 "current": "its current, from n+ through the source to n-"},
+    "diode": {
+        "vd": "junction voltage (behind RS)", "id": "current from anode to cathode (charge current included)",
+        "c": "the same as id", "gd": "junction conductance", "cd": "junction capacitance (depletion and TT)",
+        "charge": "junction charge", "p": "power, vd id + id^2 RS",
+    },
+    "bjt": {
+        "ic": "collector current (into the terminal)", "ib": "base current (into the terminal)",
+        "ie": "emitter current (into the terminal)", "is": "substrate current (out of the terminal, as ngspice)",
+        "vbe": "internal base-emitter voltage (type-normalised)",
+        "vbc": "internal base-collector voltage (type-normalised)",
+        "gm": "transconductance", "gpi": "input conductance (base-emitter)",
+        "gmu": "feedback conductance (base-collector)", "go": "output conductance",
+        "gx": "conductance of the base resistance", "cpi": "base-emitter capacitance (depletion and TF)",
+        "cmu": "internal base-collector capacitance", "cbx": "external base to collector capacitance",
+        "csub": "substrate capacitance", "qbe": "base-emitter charge", "qbc": "base-collector charge",
+        "qbx": "external base-collector charge", "qsub": "substrate charge",
+    },
+    "mosfet": {
+        "id": "drain current (type-normalised)", "is": "source current (type-normalised)",
+        "ig": "gate current (type-normalised; charge currents)", "ib": "bulk current (type-normalised)",
+        "ibd": "bulk-drain junction current", "ibs": "bulk-source junction current",
+        "vgs": "gate-source voltage (type-normalised)", "vds": "drain-source voltage (type-normalised)",
+        "vbs": "bulk-source voltage (type-normalised)", "vbd": "bulk-drain voltage (type-normalised)",
+        "von": "threshold voltage", "vdsat": "saturation voltage",
+        "gm": "transconductance", "gds": "output conductance", "gmb": "bulk transconductance",
+        "gmbs": "the same as gmb", "gbd": "bulk-drain junction conductance",
+        "gbs": "bulk-source junction conductance", "cbd": "bulk-drain junction capacitance",
+        "cbs": "bulk-source junction capacitance", "cgs": "gate-source capacitance (overlap included)",
+        "cgd": "gate-drain capacitance (overlap included)", "cgb": "gate-bulk capacitance (overlap included)",
+    },
+    "jfet": {
+        "id": "drain current (type-normalised)", "ig": "gate current (type-normalised)",
+        "is": "source current (type-normalised)", "igd": "gate-drain current (type-normalised)",
+        "vgs": "gate-source voltage (type-normalised)", "vgd": "gate-drain voltage (type-normalised)",
+        "gm": "transconductance", "gds": "output conductance", "ggs": "gate-source junction conductance",
+        "ggd": "gate-drain junction conductance", "qgs": "gate-source junction charge",
+        "qgd": "gate-drain junction charge",
+    },
 }
+
+#: The unit of each device quantity name (the same name has the same unit in every kind).
+QUANTITY_UNITS: dict[str, str] = {
+    "i": "A", "p": "W", "v": "V", "current": "A", "vd": "V", "id": "A", "c": "A", "gd": "S", "cd": "F",
+    "charge": "C", "ic": "A", "ib": "A", "ie": "A", "is": "A", "vbe": "V", "vbc": "V", "gm": "S", "gpi": "S",
+    "gmu": "S", "go": "S", "gx": "S", "cpi": "F", "cmu": "F", "cbx": "F", "csub": "F", "qbe": "C", "qbc": "C",
+    "qbx": "C", "qsub": "C", "ig": "A", "ibd": "A", "ibs": "A", "vgs": "V", "vds": "V", "vbs": "V", "vbd": "V",
+    "von": "V", "vdsat": "V", "gds": "S", "gmb": "S", "gmbs": "S", "gbd": "S", "gbs": "S", "cbd": "F",
+    "cbs": "F", "cgs": "F", "cgd": "F", "cgb": "F", "igd": "A", "vgd": "V", "ggs": "S", "ggd": "S",
+    "qgs": "C", "qgd": "C",
+}
+
+#: How messages name a kind (else by the kind itself).
+_KIND_NAMES = {"bjt": "bipolar transistor", "mosfet": "MOSFET", "jfet": "JFET"}
+
+#: Kinds whose quantities are values at a solution of the nonlinear device equations (an OSDI
+#: device's are its module's operating-point variables, ``@m1[gm]`` of a BSIM4).
+NONLINEAR_QUANTITY_KINDS = frozenset({"diode", "bjt", "mosfet", "jfet", "osdi"})
 
 #: Two-terminal kinds whose ``i(name)`` is a device quantity (not an unknown).
 _CURRENT_QUANTITY_KINDS = frozenset({"resistor", "capacitor"})
@@ -178,18 +242,26 @@ def device_quantity(sig: Signal, kind: str) -> str | None:
     if sig.kind != "@":
         raise ValueError(f"{sig.name} is not a device quantity")
     param = sig.args[1]
+    if kind == "osdi":  # its module's operating-point variables (checked when the module is loaded)
+        return param
     if param not in have:
-        offer = ", ".join(f"@{name}[{q}] ({what})" for q, what in have.items())
-        raise ValueError(f"{sig.name}: '{name}' is a {kind}, which has no quantity '{param}' in netdae"
+        if len(have) > 5:
+            offer = " ".join(f"@{name}[{q}]" for q in have)
+        else:
+            offer = ", ".join(f"@{name}[{q}] ({what})" for q, what in have.items())
+        raise ValueError(f"{sig.name}: '{name}' is a {_KIND_NAMES.get(kind, kind)}, which has no quantity '{param}' "
+                         "in netdae"
                          + (f"; it has {offer}" if offer else "; netdae computes no quantities of it"))
     return param
 
 
 def signal_unit(name: str) -> str:
-    """The unit of a signal: ``"V"``, ``"A"``, ``"W"`` (powers ``@d[p]``), or ``""`` when unknown.
+    """The unit of a signal: ``"V"``, ``"A"``, ``"W"`` (powers ``@d[p]``), ``"S"``, ``"F"``, ``"C"`` or ``""``.
 
     >>> signal_unit("v(out)"), signal_unit("i(r1)"), signal_unit("@r1[p]"), signal_unit("@i1[v]")
     ('V', 'A', 'W', 'V')
+    >>> signal_unit("@q1[gm]"), signal_unit("@m1[cgs]"), signal_unit("@d1[charge]"), signal_unit("@x1[zz]")
+    ('S', 'F', 'C', '')
     """
     try:
         sig = parse_signal(name)
@@ -197,7 +269,9 @@ def signal_unit(name: str) -> str:
         return ""
     if sig.kind == "@":
         q = sig.args[1]
-        return "W" if q == "p" else "V" if q.startswith("v") else "A" if q.startswith("i") else ""
+        if q in QUANTITY_UNITS:
+            return QUANTITY_UNITS[q]
+        return "V" if q.startswith("v") else "A" if q.startswith("i") else ""
     return "V" if sig.kind == "v" else "A"
 
 

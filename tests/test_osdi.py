@@ -288,6 +288,7 @@ def test_command_line_lists_modules_and_parameters(capsys):
     assert main(["osdi", "spice/bsim4v8.osdi"]) == 0
     out = capsys.readouterr().out
     assert "module sp_bsim4v8(d, g, s, b)" in out and "limiting states: 9" in out
+    assert "operating-point variables (@name[var]): gmbs, gm, gds, vdsat, vth, id," in out  # @m1[gm] ...
     assert main(["osdi", str(DATA / "nd_diode.va").replace(".va", ".osdi")]) == 2  # not compiled there
     capsys.readouterr()
     assert main(["osdi", compile_va(str(DATA / "nd_diode.va")), "--params", "--json"]) == 0

@@ -17,13 +17,26 @@ its points, once the analysis has run:
 - an independent current source's voltage ``v(n-) - v(n+)`` (ngspice's
   sign: the voltage it drives its current against) and its absorbed power.
 
+The nonlinear devices (diodes, bipolar transistors, MOSFETs, JFETs, and OSDI
+devices with their modules' operating-point variables) give ngspice's
+operating-point quantities (``@d1[id]``, ``@q1[gm]``, ``@m1[cgs]`` ...): their
+family (:meth:`netdae.devices.base.DeviceFamily.quantities`)
+evaluates its own equations at the result's solutions, every instance and
+every point in one vectorised pass (in chunks of points), from the node
+voltages of the device, internal nodes included (a transient keeps those it
+needs). In a transient the terminal currents include the charges' currents,
+``dQ/dv dv/dt`` with ``dv/dt`` the integrator's derivative at each point, as
+for a capacitor; between the points the quantities are interpolated
+linearly. They are not offered in ``.ac`` (they are the operating point's:
+ask the ``.op``).
+
 Powers are real quantities and are not offered in ``.ac``.
 :data:`netdae.signals.DEVICE_QUANTITIES` lists the names.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -31,16 +44,20 @@ from ..circuit import Circuit, Element
 from ..devices.linear import capacitances, conductances
 from ..errors import CircuitError
 from ..results import Result
-from ..signals import device_quantity, parse_signal
+from ..signals import NONLINEAR_QUANTITY_KINDS, device_quantity, parse_signal
 
 __all__ = ["Quantity", "plan_quantities", "add_quantities", "saved_currents", "measured_quantities",
            "SAVECURRENTS"]
 
 #: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).
-SAVECURRENTS = {"resistor": "i", "capacitor": "i", "inductor": "i", "isource": "current"}
+SAVECURRENTS = {"resistor": ("i",), "capacitor": ("i",), "inductor": ("i",), "isource": ("current",),
+                "bjt": ("ic", "ie", "ib", "is"), "diode": ("id",), "mosfet": ("id", "is", "ig", "ib"),
+                "jfet": ("id", "is", "ig", "igd")}
 
 #: Size of the one-sided differences on the dense output, relative to the step ending at each point.
 _DIFF_FRACTION = 1e-4
+#: Points per pass of a nonlinear family (bounds the temporaries: points x instances x controls).
+_CHUNK_VALUES = 1 << 18
 
 
 @dataclass(frozen=True)
@@ -50,9 +67,13 @@ class Quantity:
     name: str
     element: Element
     quantity: str
+    #: The node voltages a nonlinear device's quantities are computed from (internal nodes included).
+    voltages: tuple[str, ...] = ()
 
     def needs(self) -> list[str]:
         """The signals (node voltages, branch currents) it is computed from."""
+        if self.element.kind in NONLINEAR_QUANTITY_KINDS:
+            return list(self.voltages)
         a, b = self.element.nodes[:2]
         volts = [f"v({n})" for n in (a, b) if n != "0"]
         if self.element.kind in ("inductor", "vsource"):
@@ -86,6 +107,7 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
         return names, []
     out: list[str] = []
     quantities: list[Quantity] = []
+    system = None
     for raw in names:
         try:
             sig = parse_signal(raw)
@@ -111,17 +133,61 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
             out.append(raw)
             continue
         item = Quantity(sig.name, el, q)
+        if el.kind in NONLINEAR_QUANTITY_KINDS:
+            system = _system(circuit) if system is None else system
+            if el.kind == "osdi":
+                _check_opvar(system, el, sig.name, q)
+            item = replace(item, voltages=_device_voltages(system, el))
         quantities.append(item)
         out += [n for n in item.needs() if n not in out]
     return out, quantities
 
 
+def _device_voltages(system, el: Element) -> tuple[str, ...]:
+    """The node voltages (``v(q1#base)`` ...) one nonlinear device's equations read."""
+    fam, k = _family_of(system, el)
+    return tuple(system.names[int(i)] for i in fam.read_unknowns(k) if i >= 0)
+
+
+def _check_opvar(system, el: Element, name: str, q: str) -> None:
+    """Refuse a name that is no operating-point variable of an OSDI device's module (listing those it has)."""
+    fam, k = _family_of(system, el)
+    have = fam.quantity_names(k)
+    if q not in have:
+        module = fam.instances[k].module.name
+        offer = " ".join(f"@{el.name}[{v}]" for v in have)
+        raise CircuitError(f"{name}: '{el.name}' is an instance of the OSDI module {module}, which has no "
+                           f"operating-point variable '{q}'"
+                           + (f"; it has {offer}" if offer else "; the module declares none"),
+                           elements=(el.name,))
+
+
+def _system(circuit: Circuit, temp: float | None = None):
+    """The circuit's MNA system (its families and unknowns); at the temperature ``temp`` if given."""
+    from ..mna.assemble import assemble
+
+    if temp is not None:
+        circuit = replace(circuit, options=replace(circuit.options, temp=temp))
+    return assemble(circuit)
+
+
+def _family_of(system, el: Element):
+    """The family that evaluates ``el`` and its instance index."""
+    for fam in system.families:
+        for k, other in enumerate(fam.elements):
+            if other.name == el.name:
+                return fam, k
+    raise CircuitError(f"{el.name}: not a nonlinear device of the circuit", elements=(el.name,))
+
+
 def saved_currents(circuit: Circuit) -> list[Quantity]:
-    """The currents ``.options savecurrents`` saves: ``@r1[i]``, ``@c1[i]``, ``@l1[i]``, ``@i1[current]``."""
+    """The currents ``.options savecurrents`` saves: ``@r1[i]``, ``@c1[i]``, ``@l1[i]``, ``@i1[current]``, ``@d1[id]``,
+    ``@q1[ic]`` ... (:data:`SAVECURRENTS`)."""
     if not circuit.options.extra.get("savecurrents"):
         return []
-    return [Quantity(f"@{el.name}[{SAVECURRENTS[el.kind]}]", el, SAVECURRENTS[el.kind])
-            for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name]
+    return [Quantity(f"@{el.name}[{q}]", el, q)
+            for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name
+            for q in SAVECURRENTS[el.kind]]
 
 
 def measured_quantities(circuit: Circuit) -> list[Quantity]:
@@ -141,38 +207,105 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
     """
     if not quantities or result.analysis in ("pz", "tf"):
         return []
-    o = circuit.options
     ac = result.analysis == "ac"
     missing = []
     base = result.dense  # the integrator's own output (the derivatives are taken on it)
+    devices: dict[str, dict[str, np.ndarray]] = {}  # element -> its quantities (a family's at once)
+    systems: dict = {}  # the assembled circuit, once per call
     for item in quantities:
         el, q = item.element, item.quantity
-        if ac and q == "p":
+        if el.kind in NONLINEAR_QUANTITY_KINDS:
+            if ac:
+                missing.append(item.name)
+                result.notes.append(f"{item.name}: a device's operating-point quantity, not in .ac results "
+                                    "(the .op gives it)")
+                continue
+            if el.name not in devices:
+                devices.update(_device_values(circuit, result, base, el, systems))
+            values = devices[el.name][q]
+        elif ac and q == "p":
             missing.append(item.name)
             result.notes.append(f"{item.name}: powers are real quantities, not in .ac results")
             continue
-        v = _voltage(result, el)
-        if el.kind == "resistor":
-            g = float(conductances([el], o.temp, o.tnom, ac=ac)[0])
-            i = g * v
-            values = i if q == "i" else v * i
-        elif el.kind == "capacitor":
-            c = float(capacitances([el], o.temp, o.tnom)[0])
-            i = c * _derivative(result, base, el, v)
-            values = i if q == "i" else v * i
-        elif el.kind == "inductor":
-            i = result.signals[f"i({el.name})"]
-            values = i if q == "i" else v * i
-        elif el.kind == "vsource":
-            i = result.signals[f"i({el.name})"]
-            values = i if q == "i" else v * i
-        else:  # isource: ngspice's voltage is v(n-) - v(n+), its power v(n+) - v(n-) times the current
-            values = -v if q == "v" else _source_current(result, el) if q == "current" \
-                else v * _source_current(result, el)
+        else:
+            values = _linear_values(circuit, result, base, el, q, ac)
         result.signals[item.name] = np.asarray(values) + np.zeros(result.points, dtype=np.result_type(values))
         if result.dense is not None and result.analysis == "tran":
             result.dense = _dense_with(result.dense, circuit, item, result.t, result.signals[item.name])
     return missing
+
+
+def _linear_values(circuit: Circuit, result: Result, base, el: Element, q: str, ac: bool):
+    """Quantity ``q`` of the linear element ``el`` at the result's points."""
+    o = circuit.options
+    v = _voltage(result, el)
+    if el.kind == "resistor":
+        g = float(conductances([el], o.temp, o.tnom, ac=ac)[0])
+        i = g * v
+    elif el.kind == "capacitor":
+        c = float(capacitances([el], o.temp, o.tnom)[0])
+        i = c * _derivative(result, base, el, v)
+    elif el.kind in ("inductor", "vsource"):
+        i = result.signals[f"i({el.name})"]
+    else:  # isource: ngspice's voltage is v(n-) - v(n+), its power v(n+) - v(n-) times the current
+        return -v if q == "v" else _source_current(result, el) if q == "current" \
+            else v * _source_current(result, el)
+    return i if q == "i" else v * i
+
+
+def _device_values(circuit: Circuit, result: Result, dense, el: Element,
+                   systems: dict) -> dict[str, dict[str, np.ndarray]]:
+    """The quantities of every device of ``el``'s family at the result's points, by element name.
+
+    One pass of the family per chunk of points; a ``.dc temp`` sweep assembles the circuit at each
+    point's temperature. ``systems`` keeps the assembled circuit between the families.
+    """
+    temps = result.axes.get("temp") if result.analysis == "dc" else None
+    if temps is None:
+        system = systems.get(None)
+        if system is None:
+            system = systems[None] = _system(circuit)
+        fam, _ = _family_of(system, el)
+        values = _family_values(system, fam, result, dense, slice(None))
+    else:
+        parts = []
+        for p, temp in enumerate(np.asarray(temps, dtype=float)):
+            system = _system(circuit, temp=float(temp))
+            fam, _ = _family_of(system, el)
+            parts.append(_family_values(system, fam, result, None, slice(p, p + 1)))
+        values = {q: np.concatenate([part[q] for part in parts]) for q in parts[0]}
+    return {other.name: {q: v[:, k] for q, v in values.items()} for k, other in enumerate(fam.elements)}
+
+
+def _family_values(system, fam, result: Result, dense, points: slice) -> dict[str, np.ndarray]:
+    """``fam.quantities`` at the result's points (shape (T, N) each), from the node voltages it reads.
+
+    The solutions are built a chunk of points at a time (at most :data:`_CHUNK_VALUES` values per
+    chunk and per instance-unknown product), so that a long transient of a large circuit needs no
+    (points x unknowns) matrix.
+    """
+    n = system.n
+    columns = [int(c) for c in fam.read_unknowns() if c >= 0 and system.names[int(c)] in result.signals]
+    names = [system.names[c] for c in columns]
+    count = len(np.zeros(result.points)[points])
+    values = np.zeros((count, len(columns)))
+    for j, name in enumerate(names):
+        values[:, j] = np.asarray(result.signals[name], dtype=float)[points]
+    rates = None
+    if result.analysis == "tran" and dense is not None and names:
+        rates = _time_derivative(result, values, lambda t: np.stack([dense(t)[m] for m in names], axis=-1))
+    chunk = max(1, _CHUNK_VALUES // max(len(fam.elements) * max(len(columns), 1), n + 1))
+    pieces = []
+    for i in range(0, count, chunk):
+        part = slice(i, min(i + chunk, count))
+        x = np.zeros((part.stop - part.start, n + 1))
+        x[:, columns] = values[part]
+        dxdt = None
+        if rates is not None:
+            dxdt = np.zeros_like(x)
+            dxdt[:, columns] = rates[part]
+        pieces.append(fam.quantities(x, dxdt))
+    return {q: np.concatenate([piece[q] for piece in pieces]) for q in pieces[0]}
 
 
 def _source_current(result: Result, el: Element) -> np.ndarray:
@@ -200,6 +333,15 @@ def _derivative(result: Result, dense, el: Element, v: np.ndarray) -> np.ndarray
         return 2j * np.pi * result.axes["frequency"] * v
     if result.analysis != "tran" or dense is None:
         return np.zeros_like(v, dtype=float)
+    return _time_derivative(result, v, lambda t: _dense_voltage(dense, el, t))
+
+
+def _time_derivative(result: Result, f0: np.ndarray, probe) -> np.ndarray:
+    """d/dt at a transient's points of values ``f0`` (shape (T,) or (T, K)), ``probe(t)`` on the dense output.
+
+    The one-sided second-order difference on the step that ends at each point (the derivative the
+    BDF formula gave that step), forward at the start.
+    """
     t = result.t
     steps = np.diff(t)
     h = _DIFF_FRACTION * np.where(steps > 0, steps, np.inf)
@@ -209,9 +351,10 @@ def _derivative(result: Result, dense, el: Element, v: np.ndarray) -> np.ndarray
     hh = np.where(back, h_left, h_right)
     hh = np.where(np.isfinite(hh), hh, 0.0)
     sign = np.where(back, -1.0, 1.0)
-    f1 = _dense_voltage(dense, el, t + sign * hh)
-    f2 = _dense_voltage(dense, el, t + 2 * sign * hh)
-    f0 = v
+    f1 = probe(t + sign * hh)
+    f2 = probe(t + 2 * sign * hh)
+    shape = (-1,) + (1,) * (np.ndim(f0) - 1)
+    hh, sign = hh.reshape(shape), sign.reshape(shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         d = -sign * (3.0 * f0 - 4.0 * f1 + f2) / (2.0 * hh)
     return np.where(hh > 0, d, 0.0)
@@ -226,8 +369,8 @@ def _dense_voltage(dense, el: Element, t: np.ndarray) -> np.ndarray:
 def _dense_with(dense, circuit: Circuit, item: Quantity, times: np.ndarray, values: np.ndarray):
     """``dense`` extended by ``item`` (for ``.meas`` and comparisons between the time points).
 
-    A capacitor's current (and power) between the points is interpolated linearly between its
-    values at the points (the steps' BDF derivatives): the derivative of the interpolant inside
+    A capacitor's current (and power), and a nonlinear device's quantities, are interpolated
+    linearly between their values at the points (the steps' BDF derivatives): the derivative of the interpolant inside
     a step is an order less accurate than the interpolant, and right after a breakpoint, where
     the step restarts at order 1, it is constant over the step.
     """
@@ -235,7 +378,7 @@ def _dense_with(dense, circuit: Circuit, item: Quantity, times: np.ndarray, valu
     def extended(t):
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         y = dense(tt)
-        if item.element.kind == "capacitor":
+        if item.element.kind == "capacitor" or item.element.kind in NONLINEAR_QUANTITY_KINDS:
             y[item.name] = np.interp(tt, times, values)
             return y
         probe = Result("tran", axes={"time": tt}, signals=dict(y))

@@ -49,6 +49,8 @@ def describe_library(path: str, module: str | None = None, params: bool = False)
                             for a, b in mod.collapsible],
             "parameters": len(mod.parameters),
             "limiting_states": mod.num_states,
+            # the device quantities an instance gives (@m1[gm] ...)
+            "operating_point_variables": [p.name for p in mod.params if p.kind == "opvar"],
         }
         if params:
             defaults = OsdiModel(mod, f"{mod.name}-defaults").defaults()
@@ -72,6 +74,8 @@ def main(args) -> int:
         if m["collapsible"]:
             print("  collapsible: " + ", ".join(f"{a}-{b}" for a, b in m["collapsible"]))
         print(f"  parameters: {m['parameters']}; limiting states: {m['limiting_states']}")
+        if m["operating_point_variables"]:
+            print("  operating-point variables (@name[var]): " + ", ".join(m["operating_point_variables"]))
         for p in m.get("parameter_list", []):
             alias = f" ({', '.join(p['aliases'])})" if p["aliases"] else ""
             units = f" [{p['units']}]" if p["units"] else ""

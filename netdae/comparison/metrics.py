@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..signals import signal_unit
+
 __all__ = [
     "ABSOLUTE_FLOOR",
     "FLOOR_FRACTION",
@@ -58,7 +60,9 @@ __all__ = [
 #: Smallest scale per kind of signal: ngspice's default absolute tolerances,
 #: ``vntol`` = 1 uV for node voltages and ``abstol`` = 1 pA for currents; a
 #: signal below them is noise to both simulators.
-ABSOLUTE_FLOOR = {"v": 1e-6, "i": 1e-12, "other": 1e-12}
+ABSOLUTE_FLOOR = {"v": 1e-6, "i": 1e-12, "other": 1e-12,
+                  # device quantities in other units (@q1[gm], @m1[cgs], @d1[charge], @r1[p])
+                  "S": 1e-12, "F": 1e-18, "C": 1e-21, "W": 1e-15}
 #: A signal's scale is at least this fraction of the largest scale of its kind
 #: in the same analysis: an error of 1e-3 of one percent of the circuit's swing
 #: (1e-5 of the swing) is below what either simulator resolves at its default
@@ -71,14 +75,23 @@ JUMP_WINDOW_FRACTION = 0.02
 
 
 def signal_kind(name: str) -> str:
-    """``"v"`` for ``v(...)``, ``"i"`` for ``i(...)``, ``"other"`` otherwise.
+    """``"v"`` for ``v(...)``, ``"i"`` for ``i(...)``, a device quantity's by its unit, ``"other"`` otherwise.
+
+    A device quantity in volts or amperes is a ``"v"`` or ``"i"``; the other
+    units (``"S"``, ``"F"``, ``"C"``, ``"W"``) are kinds of their own, so
+    that a capacitance's scale is not floored by a current's.
 
     Examples
     --------
-    >>> signal_kind("v(out)"), signal_kind("i(l1)"), signal_kind("@r1[i]")
-    ('v', 'i', 'other')
+    >>> signal_kind("v(out)"), signal_kind("i(l1)"), signal_kind("@r1[i]"), signal_kind("@q1[gm]")
+    ('v', 'i', 'i', 'S')
+    >>> signal_kind("@m1[vgs]"), signal_kind("@x1[zz]"), signal_kind("time")
+    ('v', 'other', 'other')
     """
     head = name[:2].lower()
+    if name.startswith("@"):
+        unit = signal_unit(name)
+        return {"V": "v", "A": "i"}.get(unit, unit if unit in ABSOLUTE_FLOOR else "other")
     return {"v(": "v", "i(": "i"}.get(head, "other")
 
 

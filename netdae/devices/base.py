@@ -162,3 +162,30 @@ class DeviceFamily:
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         """Instants in [t0, t1] where the family's equations are not smooth in time (default: none)."""
         return np.empty(0)
+
+    def read_unknowns(self, k: int | None = None) -> np.ndarray:
+        """The unknowns (indices, ground -1 included) the equations of instance ``k`` read (None: of every one).
+
+        By default the nodes of the family's control voltages (``self.stamps``).
+        """
+        st = self.stamps
+        cols = slice(None) if k is None else k
+        return np.unique(np.concatenate([np.ravel(st.ctrl_p[:, cols]), np.ravel(st.ctrl_m[:, cols])]))
+
+    def quantities(self, x: np.ndarray, dxdt: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """ngspice's named device quantities of every instance at solutions ``x`` (``@q1[gm]`` ...).
+
+        Parameters
+        ----------
+        x : ndarray, shape (T, n + 1)
+            Extended solutions (``x[:, n] == 0`` is ground), one row per point.
+        dxdt : ndarray, shape (T, n + 1), optional
+            Their time derivatives (a transient): the charges' currents are
+            added to the terminal currents. None: a DC solution.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (T, N)
+            :data:`netdae.signals.DEVICE_QUANTITIES` of the family's kind.
+        """
+        raise NotImplementedError(f"{type(self).__name__} computes no device quantities")

@@ -303,16 +303,21 @@ class BjtFamily(DeviceFamily):
     def transport(self, vbe, vbc):
         """Gummel-Poon currents and their derivatives at type-normalised (vbe, vbc).
 
+        The voltages have the instances on their last axis (shape (N,) or
+        (T, N)).
+
         Returns
         -------
         dict of ndarray
             ``ic, ib`` and ``dic_dvbe, dic_dvbc, dib_dvbe, dib_dvbc``, plus the
-            intermediate ``cbe, gbe, cbc, gbc, qb, dqbdve, dqbdvc`` the charges use.
+            intermediate ``cbe, gbe, cbc, gbc, qb, dqbdve, dqbdvc`` the charges use
+            and ngspice's small-signal ``gm, go, gpi, gmu`` (per unit m).
         """
-        n = vbe.size
-        i4, g4 = ideal_junction(np.concatenate([vbe, vbe, vbc, vbc]), self.j_isat, self.j_vte, self.j_knee)
-        cbe, cben, cbc, cbcn = i4[:n], i4[n:2 * n], i4[2 * n:3 * n], i4[3 * n:]
-        gbe, gben, gbc, gbcn = g4[:n], g4[n:2 * n], g4[2 * n:3 * n], g4[3 * n:]
+        n = vbe.shape[-1]
+        i4, g4 = ideal_junction(np.concatenate([vbe, vbe, vbc, vbc], axis=-1), self.j_isat, self.j_vte,
+                                self.j_knee)
+        cbe, cben, cbc, cbcn = (i4[..., j * n:(j + 1) * n] for j in range(4))
+        gbe, gben, gbc, gbcn = (g4[..., j * n:(j + 1) * n] for j in range(4))
         cben, gben = cben + self.gmin * vbe, gben + self.gmin
         cbcn, gbcn = cbcn + self.gmin * vbc, gbcn + self.gmin
         q1 = 1.0 / (1.0 - self.inv_vaf * vbc - self.inv_var * vbe)
@@ -341,6 +346,7 @@ class BjtFamily(DeviceFamily):
             "ic": ict - cbc / self.br - cbcn, "ib": cbe / self.bf + cben + cbc / self.br + cbcn,
             "dic_dvbe": gm + go, "dic_dvbc": -go - gmu, "dib_dvbe": gpi, "dib_dvbc": gmu,
             "cbe": cbe, "gbe": gbe, "cbc": cbc, "gbc": gbc, "qb": qb, "dqbdve": dqbdve, "dqbdvc": dqbdvc,
+            "gm": gm, "go": go, "gpi": gpi, "gmu": gmu,
         }
 
     def base_resistance(self, tr) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -374,17 +380,19 @@ class BjtFamily(DeviceFamily):
         gx = np.where(nz, 1.0 / np.where(nz, rbb, 1.0), 0.0)
         return gx, -gx * gx * drbb_dve, -gx * gx * drbb_dvc
 
-    def charges(self, vbe, vbc, vbx, vsub, tr) -> None:
+    def charges(self, vbe, vbc, vbx, vsub, tr, q=None, dq=None) -> None:
         """Junction charges (qbe, qbc, qbx, qsub) and their derivatives, type-normalised.
 
-        Written into ``self._q`` (4, N) and ``self._dq`` (5, N): dqbe/dvbe,
-        dqbe/dvbc, dqbc/dvbc, dqbx/dvbx, dqsub/dvsub.
+        Written into ``q`` (4, N) and ``dq`` (5, N), by default ``self._q``
+        and ``self._dq``: dqbe/dvbe, dqbe/dvbc, dqbc/dvbc, dqbx/dvbx,
+        dqsub/dvsub (with voltages of shape (T, N): (4, T, N) and (5, T, N)).
         """
-        q, dq = self._q, self._dq
-        n = vbe.size
-        qj, cj = self.depletion(np.concatenate([vbe, vbc, vbx, vsub]))
-        q[:] = qj.reshape(4, n)
-        cj = cj.reshape(4, n)
+        q = self._q if q is None else q
+        dq = self._dq if dq is None else dq
+        n = vbe.shape[-1]
+        qj, cj = self.depletion(np.concatenate([vbe, vbc, vbx, vsub], axis=-1))
+        q[:] = np.moveaxis(qj.reshape(qj.shape[:-1] + (4, n)), -2, 0)
+        cj = np.moveaxis(cj.reshape(cj.shape[:-1] + (4, n)), -2, 0)
         dq[0] = cj[0]
         dq[1] = 0.0
         dq[2] = cj[1]
@@ -409,6 +417,54 @@ class BjtFamily(DeviceFamily):
         q[0] += self.tf * np.where(tf_on, cbe_mod, cbe)
         dq[0] += self.tf * np.where(tf_on, gbe_mod, gbe)
         dq[1] = np.where(tf_on, geqcb, 0.0)
+
+    def quantities(self, x, dxdt=None):
+        """ngspice's bipolar quantities (``@q1[ic]``, ``@q1[gm]`` ...) at solutions ``x``, shape (T, N) each.
+
+        Currents flow into the terminals, with their real sign (a PNP's
+        ``ic`` is negative when it conducts), in a transient with the
+        charges' currents; ``is`` is the substrate current out of the
+        substrate terminal (ngspice's sign), so ``ic + ib + ie - is = 0``.
+        ``vbe``, ``vbc`` are the internal junction voltages, type-normalised;
+        ``gm, gpi, gmu, go`` ngspice's small-signal conductances of the
+        transport model (:meth:`transport`), ``gx`` the base resistance's
+        (:meth:`base_resistance`), ``cpi, cmu, cbx, csub`` the charges'
+        derivatives and ``qbe, qbc, qbx, qsub`` the charges (type-normalised),
+        all times the multiplier m.
+        """
+        v = self.stamps.voltages_at(x)
+        tp, ttp, m = self.type, self.ttype, self.mult
+        vbe, vbc, vbx, vsub = tp * v[_VBE], tp * v[_VBC], tp * v[_VBX], ttp * v[_VSUB]
+        shape = (4,) + vbe.shape
+        with np.errstate(all="ignore"):
+            tr = self.transport(vbe, vbc)
+            q, dq = np.zeros(shape), np.zeros((5,) + vbe.shape)
+            if self.has_charge:
+                self.charges(vbe, vbc, vbx, vsub, tr, q, dq)
+            q, dq = q * m, dq * m
+            if self.rb_varies:
+                gx = m * self.base_resistance(tr)[0]
+            else:
+                gx = np.broadcast_to(self._dcur[5], vbe.shape)
+        i_c = self._tm * tr["ic"]  # collector to emitter, inside
+        i_b = self._tm * tr["ib"]  # internal base to emitter
+        i_sub = self._ttm_gmin * vsub  # substrate to the collector (vertical) or base (lateral)
+        if dxdt is not None and self.has_charge:
+            # dq (m included) is also the derivative of the real charges to the real voltages
+            dq_be, dq_bc, dq_bx, dq_sub = self.stamps.charge_rates(dq, self.stamps.voltages_at(dxdt))
+        else:
+            dq_be = dq_bc = dq_bx = dq_sub = 0.0
+        vertical = self.ttype * self.type > 0
+        sub = i_sub + dq_sub
+        ic = i_c - dq_bc - dq_bx - np.where(vertical, sub, 0.0)
+        ib = i_b + dq_be + dq_bc + dq_bx - np.where(vertical, 0.0, sub)
+        ie = -(i_c + i_b + dq_be)
+        return {
+            "ic": ic, "ib": ib, "ie": ie, "is": -sub, "vbe": vbe, "vbc": vbc,
+            "gm": m * tr["gm"], "gpi": m * tr["gpi"], "gmu": m * tr["gmu"], "go": m * tr["go"], "gx": gx,
+            "cpi": dq[0], "cmu": dq[2], "cbx": dq[3], "csub": dq[4],
+            "qbe": q[0], "qbc": q[1], "qbx": q[2], "qsub": q[3],
+        }
 
     def compiled(self, slots: SlotMap, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pack the family for :func:`netdae.devices.kernels.bjt.eval_bjt` (after ``bind``).

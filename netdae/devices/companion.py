@@ -131,6 +131,30 @@ class BranchStamps:
         """
         return x_ext[self.ctrl_p] - x_ext[self.ctrl_m]
 
+    def voltages_at(self, x_ext: np.ndarray) -> np.ndarray:
+        """Control voltages at many solutions: ``x_ext`` of shape (T, n + 1) gives (nc, T, N).
+
+        For a family's device quantities (:meth:`~netdae.devices.base.DeviceFamily.quantities`),
+        not the Newton iteration; ``x_ext[:, -1] == 0`` is ground.
+        """
+        x = np.atleast_2d(x_ext)
+        return np.moveaxis(x[:, self.ctrl_p] - x[:, self.ctrl_m], 1, 0)
+
+    def charge_rates(self, dcharges: np.ndarray, rates: np.ndarray) -> np.ndarray:
+        """``dQ_j/dt = sum_k dQ_j/dv_k dv_k/dt`` of every charge branch, shape (nq, T, N).
+
+        Parameters
+        ----------
+        dcharges : ndarray, shape (len(charge_deps), T, N)
+            The charges' derivatives, in the order of ``charge_deps``.
+        rates : ndarray, shape (nc, T, N)
+            The controls' time derivatives (:meth:`voltages_at` of ``dx/dt``).
+        """
+        out = np.zeros((self.chg_a.shape[0],) + rates.shape[1:])
+        for d, (j, k) in enumerate(self.charge_deps):
+            out[j] += dcharges[d] * rates[k]
+        return out
+
     def linearise(self, values: np.ndarray, derivs: np.ndarray, deps: np.ndarray, summation: np.ndarray,
                   delta: np.ndarray) -> np.ndarray:
         """``values + sum_k d(values)/dv_k * delta_k`` (the companion-model continuation)."""

@@ -280,6 +280,28 @@ class DiodeFamily(DeviceFamily):
             return self.tt * cd + qdep, self.tt * gd + cdep
         return qdep, cdep
 
+    def quantities(self, x, dxdt=None):
+        """ngspice's diode quantities (``@d1[id]`` ...) at solutions ``x``, shape (T, N) each.
+
+        ``vd`` is the junction voltage, behind RS; ``id`` (and its alias ``c``)
+        the current from anode to cathode, in a transient with the charge's
+        current ``cd dvd/dt``; ``gd`` and ``cd`` the junction's conductance and
+        capacitance (:meth:`current`, :meth:`charge`); ``p`` the power of the
+        diode with its series resistance, ``vd id + id^2 RS`` (as ngspice 39).
+        """
+        vd = self.stamps.voltages_at(x)[0]
+        with np.errstate(all="ignore"):
+            cd, gd = self.current(vd)
+            if self.has_charge:
+                q, c = self.charge(vd, cd, gd)
+            else:
+                q, c = np.zeros_like(vd), np.zeros_like(vd)
+        i = cd
+        if dxdt is not None and self.has_charge:
+            i = cd + self.stamps.charge_rates(c[None], self.stamps.voltages_at(dxdt))[0]
+        rs = np.where(self.gs > 0.0, 1.0 / np.where(self.gs > 0.0, self.gs, 1.0), 0.0)
+        return {"vd": vd, "id": i, "c": i, "gd": gd, "cd": c, "charge": q, "p": i * (vd + i * rs)}
+
     def compiled(self, slots: SlotMap, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pack the family for :func:`netdae.devices.kernels.diode.eval_diode` (after ``bind``).
 

@@ -302,12 +302,48 @@ class JfetFamily(DeviceFamily):
 
     def gate_junctions(self, vgs: np.ndarray, vgd: np.ndarray):
         """Gate-source and gate-drain junction currents and conductances (GMIN included)."""
-        v = np.concatenate([vgs, vgd])
+        v = np.concatenate([vgs, vgd], axis=-1)
         i, gj = ideal_junction(v, self.j_isat, self.j_vt, self.j_knee)
         i = i + self.j_gmin * v
         gj = gj + self.j_gmin
-        n = vgs.size
-        return i[:n], gj[:n], i[n:], gj[n:]
+        n = vgs.shape[-1]
+        return i[..., :n], gj[..., :n], i[..., n:], gj[..., n:]
+
+    def quantities(self, x, dxdt=None):
+        """ngspice's JFET quantities (``@j1[id]``, ``@j1[gm]`` ...) at solutions ``x``, shape (T, N) each.
+
+        As ngspice, currents and voltages are type-normalised (a PJF gives
+        those of the equivalent NJF) and the currents flow into the
+        terminals (``id + ig + is = 0``), in a transient with the gate
+        charges' currents; ``igd`` is the gate-drain junction's current
+        (with its charge's). ``gm`` and ``gds`` are the derivatives of the
+        channel current of the mode (:func:`channel_current`), ``ggs``,
+        ``ggd`` the gate junctions' conductances, ``qgs``, ``qgd`` their
+        depletion charges.
+        """
+        v = self.stamps.voltages_at(x)
+        tp = self.type
+        vgs, vgd = tp * v[_VGS], tp * v[_VGD]
+        vds = vgs - vgd
+        fwd = vds >= 0.0
+        n = vgs.shape[-1]
+        with np.errstate(all="ignore"):
+            cdrain, _, _ = self.drain_current(vgs, vgd)
+            _, gm, gds = channel_current(np.where(fwd, vgs, vgd) - self.vto, np.abs(vds), self.beta, self.lam,
+                                         self.b, self.bfac)
+            igs, ggs, igd, ggd = self.gate_junctions(vgs, vgd)
+            qj, cj = self.depletion(np.concatenate([vgs, vgd], axis=-1))
+        rate_gs = rate_gd = 0.0
+        if dxdt is not None and self.has_charge:
+            dq = np.stack([cj[..., :n], cj[..., n:]])
+            rate_gs, rate_gd = tp * self.stamps.charge_rates(dq, self.stamps.voltages_at(dxdt))
+        i_gd = igd + rate_gd
+        i_g = igs + rate_gs + i_gd
+        i_d = cdrain - i_gd
+        return {
+            "id": i_d, "ig": i_g, "is": -(i_d + i_g), "igd": i_gd, "vgs": vgs, "vgd": vgd,
+            "gm": gm, "gds": gds, "ggs": ggs, "ggd": ggd, "qgs": qj[..., :n], "qgd": qj[..., n:],
+        }
 
     def compiled(self, slots: SlotMap, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pack the family for :func:`netdae.devices.kernels.jfet.eval_jfet` (after ``bind``).

@@ -529,17 +529,68 @@ class MosfetFamily(DeviceFamily):
         start = self.initial_state()
         return par, idx, np.column_stack([start.v.T, start.extra])
 
+    def quantities(self, x, dxdt=None):
+        """ngspice's MOSFET quantities (``@m1[id]``, ``@m1[gm]`` ...) at solutions ``x``, shape (T, N) each.
+
+        As ngspice's MOS1, currents and voltages are type-normalised (a PMOS
+        gives those of the equivalent NMOS); ``von`` and ``vdsat``, the
+        threshold and saturation voltages (``max(vgs - von, 0)`` of the
+        mode), have their real sign. The currents flow into the terminals
+        (``id + ig + ib + is = 0``), in a transient with the charges'
+        currents (:meth:`charges`). ``gm, gds, gmbs`` are the derivatives of
+        the channel current of the mode (:func:`drain_current`), ``gbd, gbs``,
+        ``cbd, cbs`` the bulk junctions', and ``cgs, cgd, cgb`` the
+        derivatives ``-dQg/dVs``, ``-dQg/dVd``, ``-dQg/dVb`` of netdae's gate
+        charge (overlaps included).
+        """
+        v = self.stamps.voltages_at(x)
+        tp = self.type
+        vgs, vds, vbs = tp * v[_VGS], tp * v[_VDS], tp * v[_VBS]
+        vgd, vbd = vgs - vds, vbs - vds
+        fwd = vds >= 0.0
+
+        def select(a, b):
+            return np.where(fwd, a, b)
+
+        n = vgs.shape[-1]
+        q, dq = np.zeros((3,) + vgs.shape), np.zeros((9,) + vgs.shape)
+        with np.errstate(all="ignore"):
+            cdrain, gm, gds, gmbs, von, dvon = drain_current(select(vgs, vgd), np.abs(vds), select(vbs, vbd),
+                                                             self.beta, self.lam, self.vbi_n, self.gamma, self.phi)
+            ibs, gbs, ibd, gbd = self.bulk_diodes(vbs, vbd)
+            cj = np.zeros(vgs.shape[:-1] + (2 * n,))
+            for dep in (self.dep_bottom, self.dep_side):
+                if dep.active:
+                    cj = cj + dep(np.concatenate([vbs, vbd], axis=-1))[1]
+            if self.has_charge:
+                self.charges(vgs, vds, vbs, vgd, vbd, fwd, select, von, dvon, q, dq)
+        rate_g = rate_d = rate_b = 0.0
+        if dxdt is not None and self.has_charge:
+            # the real charges are tp q and their derivatives to the real voltages dq
+            rate_g, rate_d, rate_b = tp * self.stamps.charge_rates(dq, self.stamps.voltages_at(dxdt))
+        i_d = select(cdrain, -cdrain) - ibd + rate_d
+        i_g = rate_g + np.zeros_like(vgs)
+        i_b = ibd + ibs + rate_b
+        return {
+            "id": i_d, "is": -(i_d + i_g + i_b), "ig": i_g, "ib": i_b, "ibd": ibd, "ibs": ibs,
+            "vgs": vgs, "vds": vds, "vbs": vbs, "vbd": vbd,
+            "von": tp * von, "vdsat": tp * np.maximum(select(vgs, vgd) - von, 0.0),
+            "gm": gm, "gds": gds, "gmb": gmbs, "gmbs": gmbs, "gbd": gbd, "gbs": gbs,
+            "cbd": cj[..., n:], "cbs": cj[..., :n],
+            "cgs": dq[0] + dq[1] + dq[2], "cgd": -dq[1], "cgb": -dq[2],
+        }
+
     def bulk_diodes(self, vbs, vbd):
         """Bulk-source and bulk-drain diode currents and conductances (GMIN included)."""
-        v = np.concatenate([vbs, vbd])
+        v = np.concatenate([vbs, vbd], axis=-1)
         vt = self.vt2
         rev = v <= -_BULK_KNEE * vt
         ev = np.exp(np.minimum(MAX_EXP_ARG, v / vt))
         isat = self.isat_sd
         i = np.where(rev, -isat, isat * (ev - 1.0)) + self.gmin * v
         g = np.where(rev, 0.0, isat * ev / vt) + self.gmin
-        n = vbs.size
-        return i[:n], g[:n], i[n:], g[n:]
+        n = vbs.shape[-1]
+        return i[..., :n], g[..., :n], i[..., n:], g[..., n:]
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
@@ -585,26 +636,29 @@ class MosfetFamily(DeviceFamily):
                 acc.ok = False
         return LimitState(vn, extra=von)
 
-    def charges(self, vgs, vds, vbs, vgd, vbd, fwd, select, von, dvon) -> None:
+    def charges(self, vgs, vds, vbs, vgd, vbd, fwd, select, von, dvon, q=None, dq=None) -> None:
         """Node charges (q_g, q_d, q_b) referred to the source, and their derivatives to (vgs, vds, vbs).
 
-        Type-normalised, written into ``self._q`` (3, N) and ``self._dq``
-        (9, N, row-major: charge, control); see the module docstring.
+        Type-normalised, written into ``q`` (3, N) and ``dq`` (9, N, row-major:
+        charge, control), by default ``self._q`` and ``self._dq`` (with
+        voltages of shape (T, N): (3, T, N) and (9, T, N)); see the module
+        docstring.
         """
-        q, dq = self._q, self._dq
-        dq[:] = self._dq_overlap
+        q = self._q if q is None else q
+        dq = self._dq if dq is None else dq
+        dq[:] = self._dq_overlap.reshape(self._dq_overlap.shape[:1] + (1,) * (dq.ndim - 2) + (-1,))
         vgb = vgs - vbs
         np.multiply(self.cgso, vgs, out=q[0])
         q[0] += self.cgdo * vgd + self.cgbo * vgb
         np.multiply(-self.cgdo, vgd, out=q[1])
         np.multiply(-self.cgbo, vgb, out=q[2])
-        n = vbs.size
+        n = vbs.shape[-1]
         vb = None
         for dep in (self.dep_bottom, self.dep_side):
             if dep.active:
-                vb = np.concatenate([vbs, vbd]) if vb is None else vb
+                vb = np.concatenate([vbs, vbd], axis=-1) if vb is None else vb
                 qj, cj = dep(vb)
-                qbs, qbd, cbs, cbd = qj[:n], qj[n:], cj[:n], cj[n:]
+                qbs, qbd, cbs, cbd = qj[..., :n], qj[..., n:], cj[..., :n], cj[..., n:]
                 q[1] -= qbd
                 q[2] += qbd + qbs
                 dq[4] += cbd
@@ -628,7 +682,7 @@ class MosfetFamily(DeviceFamily):
         d_ab = d_a_all + d_b_all
         d3 = -d_ab * dvon
         ctrl = cox * np.stack([d_ab, select(-d_b_all, -d_a_all - d3), d3], axis=1)  # (charge, control, N)
-        dq3 = dq.reshape(3, 3, -1)
+        dq3 = dq.reshape((3, 3) + dq.shape[1:])
         dq3[0] += ctrl[0]
         dq3[1] += ctrl[1]
         # bulk: qb_int = -(qg_int + qd_int + qs_int)

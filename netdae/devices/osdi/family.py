@@ -214,6 +214,51 @@ class OsdiFamily(DeviceFamily):
                         break
         return pairs
 
+    # -- device quantities ---------------------------------------------------
+    def read_unknowns(self, k: int | None = None) -> np.ndarray:
+        """The unknowns instance ``k`` (None: every instance) connects to (ground -1 included)."""
+        globs = self.glob if k is None else [self.glob[k]]
+        return np.unique(np.concatenate([g for g in globs] or [np.zeros(0, np.int64)]))
+
+    def quantity_names(self, k: int) -> tuple[str, ...]:
+        """The operating-point variables (Verilog-A ``(*desc=...*)`` op-vars) of instance ``k``'s module."""
+        return tuple(p.name for p in self.instances[k].module.params if p.kind == "opvar" and not p.length
+                     and p.type in ("real", "int"))
+
+    def quantities(self, x, dxdt=None):
+        """The modules' operating-point variables (``@m1[gm]`` of a BSIM4 ...) at solutions ``x``.
+
+        Every instance is evaluated at each point (``eval`` with ``CALC_OP``,
+        as for ngspice's ``.op`` output) and its op-vars are read from its
+        instance data; a variable another instance's module lacks is NaN
+        there. Shape (T, N) each; ``dxdt`` is not used (the modules compute
+        their op-vars from the voltages).
+        """
+        x = np.atleast_2d(x)
+        count = len(self.instances)
+        names = list(dict.fromkeys(q for k in range(count) for q in self.quantity_names(k)))
+        out = {q: np.full((x.shape[0], count), np.nan) for q in names}
+        reads = []
+        for k, inst in enumerate(self.instances):
+            model = inst.model
+            flags = abi.ACCESS_FLAG_INSTANCE
+            params = {p.name: p for p in inst.module.params}
+            reads.append([(q, model._access(inst.ptr, model.ptr, params[q].id, flags),
+                           C.c_double if params[q].type == "real" else C.c_int32) for q in self.quantity_names(k)])
+        info = self.info
+        info.abstime = 0.0
+        info.flags = eval_flags("dc", operating_point=True)
+        self.next_state[:] = 0.0
+        ref = C.byref(info)
+        for p, row in enumerate(x):
+            self.xbuf[:] = row
+            self.xbuf[self.n] = 0.0
+            for k, inst in enumerate(self.instances):
+                self._calls[id(inst.module)].eval(inst.handle, inst.ptr, inst.model.ptr, ref)
+                for q, address, ctype in reads[k]:
+                    out[q][p, k] = ctype.from_address(address).value
+        return out
+
     # -- evaluation --------------------------------------------------------
     def initial_state(self) -> LimitState | None:
         """SPICE's ``MODEINITJCT`` for the modules that limit (``INIT_LIM``); None without states."""
