@@ -1138,6 +1138,8 @@ class _Elaborator:
                         problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
             elif signal == "all":
                 continue
+            elif signal.startswith(("onoise_", "inoise_")):
+                pass  # a noise vector: the .noise results keep it (netdae.analyses.noise)
             elif signal[0] == "@":
                 problem = _device_quantity_problem(signal, elements)
             else:
