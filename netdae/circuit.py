@@ -530,8 +530,6 @@ class Circuit:
         """
         if self.netlist is None:
             raise ValueError("with_params needs a circuit read from a netlist (netdae.load)")
-        from .netlist.elaborate import elaborate  # the reader builds circuits; import it only here
-
         return self.variant(dict(values or {}, **kwargs))
 
     def variant(self, params: Mapping[str, float] | None = None, *, sample: int | None = None,
