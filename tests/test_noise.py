@@ -189,6 +189,9 @@ def test_command_line_writes_spectra_and_totals(tmp_path):
     totals = read_csv(tmp_path / "o" / "noise_total.csv")
     assert totals.analysis == "noise" and set(totals.extra["totals"]) == {"onoise_total", "inoise_total"}
     assert read_csv(tmp_path / "o" / "noise.csv").analysis == "noise"
+    out = subprocess.run([sys.executable, "-m", "netdae", "check", str(net)], capture_output=True, text=True,
+                         env={**os.environ, "NETDAE_SERVER": "0"})
+    assert out.returncode == 0 and ".noise v(out) v1 dec 5 1 1000" in out.stdout, out.stdout + out.stderr
 
 
 # -- bad input ----------------------------------------------------------------------------------------------------------
@@ -314,10 +317,14 @@ def test_diode_series_resistance_noise_differs_from_ngspice_with_area_deliberate
 
 
 @pytest.mark.ngspice
-def test_compare_passes():
+def test_compare_passes_and_pairs_cards_as_ngspice_runs_them():
     from netdae.comparison import compare
 
     item = compare(RC).analyses[0]
     assert item.analysis == "noise" and item.passed and item.points == 51
     names = {s.name for s in item.signals}
     assert {"onoise_spectrum", "inoise_spectrum", "onoise_total", "inoise_total", "onoise_r1_thermal"} <= names
+    # ngspice 39 runs .noise cards last to first: each card is paired with its own result
+    two = RC.replace(".end", ".noise v(in,out) V1 lin 3 10 30\n.end")
+    first, second = compare(two).analyses
+    assert first.passed and second.passed and (first.points, second.points) == (51, 3)
