@@ -129,6 +129,11 @@ def test_power_law_integration_is_exact_for_power_laws():
         density = 3e-17 * f ** k
         exact = 3e-17 * (math.log(1e4) if k == -1 else (1e4 ** (k + 1) - 1) / (k + 1))
         assert integrate_power_law(density[:, None], f).sum() == pytest.approx(exact, rel=1e-12)
+    # a steep rise from nothing (a density at ngspice's floor, 1e-38) at 1 GHz stays finite (ngspice's
+    # exponentials overflow there): the power law through the floor and 1e-18
+    g = np.array([1e9, 1.2589e9])
+    piece = integrate_power_law(np.array([[0.0], [1e-18]]), g)[0, 0]
+    assert np.isfinite(piece) and 0 < piece < 1e-18 * (g[1] - g[0])
 
 
 def test_summary_points_and_single_frequency():

@@ -113,14 +113,16 @@ def integrate_power_law(density: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     d_lnf = np.diff(lnf)[:, None]
     k = np.diff(lnd, axis=0) / d_lnf
     hi_f, lo_f = lnf[1:, None], lnf[:-1, None]
+    top = np.exp(lnd[1:])  # the upper point's density (floored as its logarithm)
+    k1 = k + 1.0
     with np.errstate(over="ignore", invalid="ignore"):
-        x = lnd[1:] - k * hi_f
-        a = np.where(x > 700.0, np.exp(700.0) * (1.0 + x - 700.0), np.exp(np.minimum(x, 700.0)))
-        k1 = k + 1.0
-        safe = np.where(np.abs(k1) < _LOG, 1.0, k1)
-        power = a * (np.exp(k1 * hi_f) - np.exp(k1 * lo_f)) / safe
+        # ngspice's a (f1^(k+1) - f0^(k+1)) / (k+1) with a = S1 / f1^k, written S1 f1 (1 - (f0/f1)^(k+1)) / (k+1):
+        # equal where ngspice's is finite, and finite where its exponentials would overflow (a steep
+        # rise from a density at the floor)
+        power = top * np.exp(hi_f) * -np.expm1(k1 * (lo_f - hi_f)) / np.where(np.abs(k1) < _LOG, 1.0, k1)
+        logarithmic = np.exp(lnd[1:] - k * hi_f) * (hi_f - lo_f)
     pieces = np.where(np.abs(k) < _FLAT, density[1:] * np.diff(f)[:, None],
-                      np.where(np.abs(k1) < _LOG, a * (hi_f - lo_f), power))
+                      np.where(np.abs(k1) < _LOG, logarithmic, power))
     return pieces
 
 
