@@ -3,8 +3,9 @@
 This is what ``netdae run FILE``, :func:`netdae.run` and
 :func:`netdae.simulate` do: check the options (the netlist's ``.options``
 and the caller's overrides) against their valid ranges, dispatch each
-``.op``, ``.dc``, ``.ac`` and ``.tran`` card of the circuit to its analysis
-and collect the :class:`~netdae.results.Result` objects.
+``.op``, ``.dc``, ``.ac``, ``.tran``, ``.pz``, ``.tf`` and ``.noise`` card of
+the circuit to its analysis and collect the :class:`~netdae.results.Result`
+objects.
 
 The module imports no numerics at load time, so the command line can use
 :func:`option_problem` to check its arguments without loading numpy.
@@ -185,7 +186,8 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     save : list of str, optional
         Signals to keep in every result (``v(out)``, ``v(a,b)``, ``i(v1)``);
         default: the netlist's ``.save``/``.print``/``.probe`` signals, or
-        every unknown.
+        every unknown. Noise vectors (``onoise_spectrum``, ``onoise_q1`` ...)
+        select a ``.noise`` result's densities (all without them).
     reltol, abstol, vntol : float, optional
         Tolerances for every analysis (default: the netlist's ``.options``,
         else SPICE's 1e-3, 1e-12 A, 1e-6 V).
