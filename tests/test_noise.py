@@ -325,8 +325,13 @@ def test_diode_series_resistance_noise_differs_from_ngspice_with_area_deliberate
 def test_compare_passes_and_pairs_cards_as_ngspice_runs_them():
     from netdae.comparison import compare
 
-    item = compare(RC).analyses[0]
+    from netdae.comparison.plot import comparison_figure
+
+    comparison = compare(RC)
+    item = comparison.analyses[0]
     assert item.analysis == "noise" and item.passed and item.points == 51
+    fig = comparison_figure(comparison)  # densities drawn over decades; the totals have no curve
+    assert fig.axes[0].get_xscale() == "log" and "onoise" in fig.axes[0].get_title() + fig.axes[2].get_title()
     names = {s.name for s in item.signals}
     assert {"onoise_spectrum", "inoise_spectrum", "onoise_total", "inoise_total", "onoise_r1_thermal"} <= names
     # ngspice 39 runs .noise cards last to first: each card is paired with its own result
