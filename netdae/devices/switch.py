@@ -247,9 +247,10 @@ class SwitchFamily(DeviceFamily):
 
         One generator per switch (``swnoise.c``, ``cswnoise.c``), named by the
         switch alone: ``4 k T`` times RON's or ROFF's conductance, the one of
-        the state the operating point's evaluation decides (ngspice 39 takes
-        RON's for a switch OFF inside its hysteresis band, whose state number is
-        not 0; netdae takes the conductance the small-signal matrix has).
+        the state the operating point's evaluation decides, which the
+        small-signal matrix has too (ngspice 39 takes RON's for every state
+        number but 0, an OFF switch inside its hysteresis band included, while
+        its AC matrix has ROFF's whatever the state).
         """
         g = np.where(conducting(self.dc_state(self.control(x), None)), self.gon, self.goff)
         names = [el.name for el in self.elements]
