@@ -142,6 +142,9 @@ def test_summary_points_and_single_frequency():
     assert any("every 3-th frequency" in n for n in res.notes)
     single = noise_of("t\nV1 in 0 dc 0 ac 1\nR1 in out 1k\nC1 out 0 1u\n.noise v(out) v1 lin 1 100 100\n")
     assert single.axis.tolist() == [100.0] and single.extra["totals"] == {}  # ngspice writes no integrated noise
+    for sweep in ("lin 1 100 200", "lin 5 100 100", "dec 3 100 100"):
+        single = noise_of(f"t\nV1 in 0 dc 0 ac 1\nR1 in out 1k\nC1 out 0 1u\n.noise v(out) v1 {sweep}\n")
+        assert single.axis.tolist() == [100.0] and single.extra["totals"] == {}, sweep
 
 
 def test_behavioural_sources_are_noiseless_and_switches_are_resistors():

@@ -176,8 +176,8 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, **overrides) -> Result
         A/sqrt(Hz)] (with ``pts_per_summary``, each generator's and device's
         output density first, ngspice's names); ``extra["totals"]`` the
         integrated noise ``{"onoise_total": V, "inoise_total": V or A, ...}``
-        as ngspice's "Integrated Noise" plot (empty when fstart == fstop, as
-        ngspice writes none), ``extra["contributions"]`` each device's
+        as ngspice's "Integrated Noise" plot (empty at a single frequency,
+        fstart == fstop or ``lin`` with one point, as ngspice writes none), ``extra["contributions"]`` each device's
         ``onoise_total`` and share of the output noise power,
         ``extra["input_unit"]`` ``"V"`` or ``"A"``, ``extra["op"]`` the
         operating point.
@@ -195,7 +195,9 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, **overrides) -> Result
     system = lin.system
     n = system.n
     sources = collect_noise_sources(system, lin.op.x)
-    freqs = frequencies(card)
+    # one frequency when fstart == fstop, or lin with one point (ngspice then writes no integrated noise)
+    single = card.fstart == card.fstop or (card.variation == "lin" and card.points == 1)
+    freqs = np.array([card.fstart]) if single else frequencies(card)
     # the output selector and the input's unit AC column
     c = np.zeros(n)
     for node, sign in ((card.output, 1.0), (card.reference, -1.0)):
@@ -239,7 +241,7 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, **overrides) -> Result
     out_int = pieces.sum(axis=0)
     in_int = (pieces * gain_sq_inv[1:, None]).sum(axis=0)
     totals: dict[str, float] = {}
-    if card.fstart != card.fstop:
+    if not single:
         if card.summary:
             for name, idx in groups:
                 for k in idx:
