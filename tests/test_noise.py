@@ -341,3 +341,21 @@ def test_compare_passes_and_pairs_cards_as_ngspice_runs_them():
     two = RC.replace(".end", ".noise v(in,out) V1 lin 3 10 30\n.end")
     first, second = compare(two).analyses
     assert first.passed and second.passed and (first.points, second.points) == (51, 3)
+
+
+def test_compare_noise_at_the_frequencies_both_have():
+    from netdae.comparison.header import Tolerance
+    from netdae.comparison.smallsignal import compare_noise
+    from netdae.results import Result
+
+    f = np.array([1.0, 10.0, 100.0, 1000.0])
+    nd = Result("noise", axes={"frequency": f}, signals={"onoise_spectrum": 1e-9 / np.sqrt(f)},
+                extra={"totals": {"onoise_total": 2e-8, "inoise_total": 1.0}})
+    ng = Result("noise", axes={"frequency": f[::2]}, signals={"onoise_spectrum": 1e-9 / np.sqrt(f[::2]) * (1 + 1e-4)},
+                extra={"totals": {"onoise_total": 2e-8 * (1 + 2e-3), "inoise_total": 1.0}})
+    item = compare_noise(nd, ng, tol=Tolerance(1e-3))
+    assert item.points == 2 and any("at the 2 frequencies both have" in n for n in item.notes)
+    by_name = {s.name: s for s in item.signals}
+    assert by_name["onoise_spectrum"].passed and by_name["onoise_spectrum"].max_rel == pytest.approx(1e-4, rel=1e-3)
+    assert not by_name["onoise_total"].passed and by_name["inoise_total"].passed
+    assert not item.passed

@@ -158,13 +158,16 @@ def _instances(sources) -> list[tuple[str, list[int]]]:
     return list(groups.items())
 
 
-def noise_analysis(circuit: Circuit, card: NoiseAnalysis, **overrides) -> Result:
+def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overrides) -> Result:
     """Run a ``.noise`` analysis.
 
     Parameters
     ----------
     circuit : Circuit
     card : NoiseAnalysis
+    freqs : array_like, optional
+        Frequencies to use instead of the card's grid (increasing; the
+        comparison with ngspice passes ngspice's own).
     **overrides
         Operating-point tolerances (``reltol``, ...).
 
@@ -197,7 +200,11 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, **overrides) -> Result
     sources = collect_noise_sources(system, lin.op.x)
     # one frequency when fstart == fstop, or lin with one point (ngspice then writes no integrated noise)
     single = card.fstart == card.fstop or (card.variation == "lin" and card.points == 1)
-    freqs = np.array([card.fstart]) if single else frequencies(card)
+    if freqs is not None:
+        freqs = np.asarray(freqs, dtype=float)
+        single = single or freqs.size == 1
+    else:
+        freqs = np.array([card.fstart]) if single else frequencies(card)
     # the output selector and the input's unit AC column
     c = np.zeros(n)
     for node, sign in ((card.output, 1.0), (card.reference, -1.0)):

@@ -215,6 +215,10 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     try:
         if kind == "ac":
             nd = _netdae_ac_at(circuit, ng.axis, overrides)
+        elif kind == "noise" and card.summary <= 1 and ng.axis is not None and ng.axis.size:
+            from ..analyses.noise import noise_analysis
+
+            nd = noise_analysis(circuit, card, freqs=ng.axis, **overrides)  # ngspice's grid: its integration too
         else:
             nd = _run_netdae(circuit, card, overrides)
     except (NetdaeError, ModuleNotFoundError) as exc:

@@ -192,8 +192,9 @@ def compare_tf(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
 def compare_noise(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
     """Compare noise spectral densities at ngspice's frequencies, then the integrated totals.
 
-    Both results must hold the same frequencies (netdae runs the card's
-    grid, which is ngspice's). A density's error at each frequency is
+    The densities are compared at the frequencies both results hold (the
+    comparison runs netdae on ngspice's grid; a note says when some are
+    left out). A density's error at each frequency is
     ``|a - b| / max(a, b, floor)``, ``floor = NOISE_DYNAMIC_RANGE`` times
     its peak; a total's is relative to the larger of the two values.
     """
@@ -210,15 +211,29 @@ def compare_noise(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None,
         item.error = "no noise density or total is produced by both simulators (see only_netdae / only_ngspice)"
         return item
     f, fa = ng.axis, nd.axis
-    if compared and (f is None or fa is None or f.size != fa.size or not np.allclose(fa, f, rtol=1e-9, atol=0.0)):
-        item.error = (f"the frequencies differ: netdae {0 if fa is None else fa.size} point(s), ngspice "
-                      f"{0 if f is None else f.size}")
-        return item
+    ia = ib = None
+    if compared:
+        if f is None or fa is None:
+            item.error = "a noise result has no frequency axis"
+            return item
+        # the frequencies both have (the same grid, unless ngspice's own differs at its end)
+        pos = np.clip(np.searchsorted(fa, f), 0, max(fa.size - 1, 0))
+        near = np.clip(pos - 1, 0, None)
+        pos = np.where(np.abs(fa[near] - f) < np.abs(fa[pos] - f), near, pos)
+        same = np.isclose(fa[pos], f, rtol=1e-9, atol=0.0)
+        if not same.any():
+            item.error = f"no frequency in common: netdae {fa.size} point(s), ngspice {f.size}"
+            return item
+        ia, ib = pos[same], np.flatnonzero(same)
+        if ib.size != f.size or ia.size != fa.size:
+            item.notes.append(f"densities compared at the {ib.size} frequencies both have (netdae {fa.size}, "
+                              f"ngspice {f.size})")
+        f = f[ib]
     signals = []
     if compared:
         item.points = int(f.size)
         item.curves = {"axis": f, "start": 0,
-                       "values": {n: (np.asarray(nd.signals[n], float), np.asarray(ng.signals[n], float))
+                       "values": {n: (np.asarray(nd.signals[n], float)[ia], np.asarray(ng.signals[n], float)[ib])
                                   for n in compared}}
     for name in compared:
         a, b = item.curves["values"][name]
