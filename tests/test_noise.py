@@ -359,3 +359,11 @@ def test_compare_noise_at_the_frequencies_both_have():
     assert by_name["onoise_spectrum"].passed and by_name["onoise_spectrum"].max_rel == pytest.approx(1e-4, rel=1e-3)
     assert not by_name["onoise_total"].passed and by_name["inoise_total"].passed
     assert not item.passed
+
+
+def test_sweep_records_the_integrated_noise_per_row():
+    res = netdae.sweep("rc\nV1 in 0 dc 0 ac 1\nR1 in out {r}\nC1 out 0 1n\n.param r=1k\n"
+                       ".noise v(out) v1 dec 20 1 1e12\n", params={"r": [1e3, 4e3]}, workers=1)
+    # kT/C whatever R is; the input-referred noise grows as sqrt(R)
+    np.testing.assert_allclose(res.measures["onoise_total"] ** 2, K * T / 1e-9, rtol=2e-3)
+    assert res.measures["inoise_total"][1] / res.measures["inoise_total"][0] == pytest.approx(2.0, rel=2e-3)
