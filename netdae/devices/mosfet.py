@@ -392,7 +392,8 @@ class MosfetFamily(DeviceFamily):
         self.cox = g("cox") * leff * m * w
         # flicker noise: KF / (W m Leff Cox^2), Cox per area of TOX = 1e-7 m when TOX is not given (mos1noi.c)
         cox_area = np.where(g("cox") == 0.0, EPS_OX / NOISE_TOX, g("cox"))
-        self.flicker_scale = g("kf") / (w * m * leff * cox_area * cox_area)
+        kf, size = g("kf"), w * m * leff * cox_area * cox_area
+        self.flicker_scale = np.where(kf != 0.0, kf / np.where(size != 0.0, size, 1.0), 0.0)
         self.af = g("af")
         # series resistances (ngspice: RD/RS when given, else RSH times squares)
         self.gd = self._series(g("rd"), g("rd_given"), g("rsh"), g("nrd"), m)
