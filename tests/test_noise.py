@@ -367,3 +367,9 @@ def test_sweep_records_the_integrated_noise_per_row():
     # kT/C whatever R is; the input-referred noise grows as sqrt(R)
     np.testing.assert_allclose(res.measures["onoise_total"] ** 2, K * T / 1e-9, rtol=2e-3)
     assert res.measures["inoise_total"][1] / res.measures["inoise_total"][0] == pytest.approx(2.0, rel=2e-3)
+
+
+def test_a_resistor_model_without_noise_area_is_refused():
+    with pytest.raises(CircuitError, match=r":3:1: r1: model rm leaves no noise area"):
+        noise_of("t\nI1 0 a dc 1m ac 1\nR1 a 0 1k rm l=1u w=2u\n.model rm r kf=1e-20 short=1u\n"
+                 ".noise v(a) i1 dec 1 1 10\n")

@@ -229,10 +229,17 @@ def resistor_noise(els: list[Element], circuit: Circuit, layout: Layout, x: np.n
             length = el.params.get("l", mp.get("l", 10e-6))
             width = el.params.get("w", mp.get("w", mp.get("defw", 10e-6)))
             short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
+            if kf[k] != 0.0 and not (length - 2 * short > 0.0 and width - 2 * narrow > 0.0):
+                where = f"{el.location}: " if el.location else ""
+                raise CircuitError(f"{where}{el.name}: model {model.name} leaves no noise area (l - 2 short = "
+                                   f"{length - 2 * short:g} m, w - 2 narrow = {width - 2 * narrow:g} m) for its "
+                                   "flicker noise", elements=(el.name,), hint="give l and w above 2 short and 2 narrow")
             area[k] = (length - 2 * short) ** mp.get("lf", 1.0) * (width - 2 * narrow) ** mp.get("wf", 1.0)
+    m_safe = np.where(m != 0.0, m, 1.0)
+    coefficient = np.where(kf != 0.0, m * flicker(kf, current / m_safe, af) / area, 0.0)
     return noise_sources([el.name for el in els], [
         ("_thermal", a, b, thermal(g, 1.0) * temp, 0.0, 1.0),
-        ("_1overf", a, b, 0.0, m * flicker(kf, current / m, af) / area, ef),
+        ("_1overf", a, b, 0.0, coefficient, ef),
     ])
 
 
