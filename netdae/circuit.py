@@ -76,6 +76,7 @@ __all__ = [
     "DcAnalysis",
     "PzAnalysis",
     "TfAnalysis",
+    "NoiseAnalysis",
     "Analysis",
     "Options",
     "Diagnostic",
@@ -100,6 +101,9 @@ class SourceSpec:
         when the card gives only a transient function or nothing.
     ac_mag, ac_phase : float
         AC small-signal magnitude and phase in degrees (``ac 1 0``).
+    ac_given : bool
+        The card gives an AC value (``ac 0`` included): ngspice's noise input
+        must have one.
     tran : Waveform or None
         The transient function (PULSE, SIN, EXP, PWL, SFFM, AM), see
         :mod:`netdae.netlist.waveforms`; ``None`` for a constant source.
@@ -117,6 +121,7 @@ class SourceSpec:
     ac_mag: float = 0.0
     ac_phase: float = 0.0
     tran: Any = None  # netdae.netlist.waveforms.Waveform
+    ac_given: bool = False
 
     def dc_value(self) -> float:
         """Value used by ``.op`` and ``.dc``."""
@@ -294,7 +299,29 @@ class TfAnalysis:
     written: str = ""
 
 
-Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | TfAnalysis
+@dataclass(slots=True)
+class NoiseAnalysis:
+    """``.noise v(out[,ref]) src dec|oct|lin points fstart fstop [pts_per_summary]`` (small-signal noise).
+
+    ``output``/``reference`` are the output nodes (``"0"`` for ground),
+    ``source`` the independent V or I source the input noise is referred to;
+    ``variation``, ``points``, ``fstart``, ``fstop`` the frequency grid as
+    ``.ac``'s; ``summary`` ngspice's ``pts_per_summary`` (0: not given; else
+    the per-generator contributions are kept, at every ``summary``-th point).
+    """
+
+    output: str
+    reference: str
+    source: str
+    variation: str
+    points: int
+    fstart: float
+    fstop: float
+    summary: int = 0
+    location: SourceLocation | None = None
+
+
+Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | TfAnalysis | NoiseAnalysis
 
 
 @dataclass(slots=True)
@@ -503,8 +530,6 @@ class Circuit:
         """
         if self.netlist is None:
             raise ValueError("with_params needs a circuit read from a netlist (netdae.load)")
-        from .netlist.elaborate import elaborate  # the reader builds circuits; import it only here
-
         return self.variant(dict(values or {}, **kwargs))
 
     def variant(self, params: Mapping[str, float] | None = None, *, sample: int | None = None,

@@ -240,6 +240,28 @@ def _plot_sweep(fig, result: Result, names: list[str]) -> int:
     return left
 
 
+def _plot_noise(fig, result: Result, names: list[str]) -> int:
+    """Noise densities on log-log axes: the output's (and each device's), then the input-referred one."""
+    unit = "A" if result.extra.get("input_unit") == "A" else "V"
+    groups = [("output noise", "V/\u221aHz", [n for n in names if n.startswith("onoise")]),
+              ("input noise", f"{unit}/\u221aHz", [n for n in names if n.startswith("inoise")])]
+    groups = [g for g in groups if g[2]]
+    axes = np.atleast_1d(fig.subplots(max(len(groups), 1), 1, sharex=True))
+    x = result.axis
+    left = 0
+    for ax, (label, unit_text, group) in zip(axes, groups):
+        curves = [(x, np.asarray(result.signals[n], dtype=float), n) for n in group]
+        shown = curves[:MAX_CURVES]
+        for (cx, cy, name), style in zip(shown, _styles(len(shown))):
+            ax.loglog(cx, np.where(cy > 0, cy, np.nan), label=name, linewidth=1.2, **style)
+        left += len(curves) - len(shown)
+        ax.set_ylabel(f"{label} [{unit_text}]")
+        ax.grid(True, which="both", alpha=0.3)
+        _legend(ax)
+    axes[-1].set_xlabel("frequency [Hz]")
+    return left
+
+
 def plot(result: Result, *, title: str = "", signals=None, circuit=None, rails: bool = False,
          internal: bool = False):
     """A matplotlib Figure of ``result`` (not saved, not shown: a notebook displays it).
@@ -282,17 +304,24 @@ def plot(result: Result, *, title: str = "", signals=None, circuit=None, rails: 
 
     from .errors import NetdaeError
 
-    if result.analysis not in ("tran", "ac", "dc") or result.axis is None:
-        raise NetdaeError(f"cannot plot a '{result.analysis}' result: it has no axis (tran, ac and dc have one)")
+    if result.analysis not in ("tran", "ac", "dc", "noise") or result.axis is None:
+        raise NetdaeError(f"cannot plot a '{result.analysis}' result: it has no axis (tran, ac, dc and noise have "
+                          "one)")
     if signals:
         result = result.subset(signals)
     names, left_out = _choose(result, signals, circuit, rails, internal)
     if not names:
         raise NetdaeError(f"nothing to plot: the {result.analysis} result has no signal to draw"
                           + (f" (left out: {'; '.join(left_out)})" if left_out else ""))
-    panels = 2 if result.analysis == "ac" else len({n[:2] if n[:2] in ("v(", "i(") else "" for n in names})
+    if result.analysis == "noise":
+        panels = len({n[:6] for n in names})
+    else:
+        panels = 2 if result.analysis == "ac" else len({n[:2] if n[:2] in ("v(", "i(") else "" for n in names})
     fig = Figure(figsize=(9, 2.0 + 2.6 * panels), layout="constrained")
-    more = _plot_ac(fig, result, names) if result.analysis == "ac" else _plot_sweep(fig, result, names)
+    if result.analysis == "noise":
+        more = _plot_noise(fig, result, names)
+    else:
+        more = _plot_ac(fig, result, names) if result.analysis == "ac" else _plot_sweep(fig, result, names)
     if more:
         left_out.append(f"{more} more curve{'s' * (more > 1)} (at most {MAX_CURVES} per panel)")
     heading = [textwrap.fill(title, TITLE_WIDTH)] if title else []

@@ -41,7 +41,7 @@ class Result:
     Parameters
     ----------
     analysis : str
-        ``"op"``, ``"dc"``, ``"ac"`` or ``"tran"``.
+        ``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"``, ``"tf"`` or ``"noise"``.
     axes : dict of str to ndarray
         Sweep axes in order, primary first (``{"time": t}``; for a two-source
         ``.dc`` sweep ``{"v1": ..., "v2": ...}`` with one entry per point);
@@ -318,6 +318,8 @@ class Result:
             "tolerances": _json_scalars(self.tolerances),
             "notes": list(self.notes),
             "measures": [m.to_dict() for m in self.measures],
+            **({"totals": _json_scalars(self.extra["totals"])} if isinstance(self.extra, dict)
+               and self.extra.get("totals") else {}),
         }
 
     @property

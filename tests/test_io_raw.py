@@ -314,8 +314,10 @@ def test_command_and_option_lines_are_kept_not_executed():
     "text, message",
     [
         (b"", "no plot"),
-        (b"Title: t\nPlotname: Noise Spectral Density Curves\nFlags: real\nNo. Variables: 1\nNo. Points: 0\n"
+        (b"Title: t\nPlotname: Distortion - 2nd harmonic\nFlags: real\nNo. Variables: 1\nNo. Points: 0\n"
          b"Variables:\n\t0\tfrequency\tfrequency\nBinary:\n", "not an analysis netdae reads"),
+        (b"Title: t\nPlotname: Integrated Noise\nFlags: real\nNo. Variables: 1\nNo. Points: 1\n"
+         b"Variables:\n\t0\tv(onoise_total)\tvoltage\nValues:\n 0\t1e-9\n", "does not follow a noise analysis"),
         (b"Title: t\nPlotname: AC Analysis\nFlags: complex\nNo. Variables: 2\nNo. Points: 1\n"
          b"Variables:\n\t0\tfrequency\tfrequency\n", "variable lines"),
         (b"Title: t\nPlotname: Operating Point\nFlags: real\nNo. Variables: x\n", "expected a count"),

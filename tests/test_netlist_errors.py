@@ -19,7 +19,7 @@ CASES = [
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
     # dot cards netdae does not implement
     ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
-    ("t\n.noise v(a) v1 dec 10 1 1k\n", r"noise analysis", 2, ".noise"),
+    ("t\nR1 a 0 1\n.noise v(a) v1 dec 10 1 1k\n", r"\.noise: input source 'v1' names no element", 3, "v1"),
     ("t\nR1 a b 1\nR2 b 0 1\n.pz a 0 c 0 vol pz\n", r"\.pz: output node 'c' is not a node", 4, "c"),
     ("t\n.sens v(a)\n", r"sensitivity", 2, ".sens"),
     ("t\n.disto dec 10 1 1k\n", r"distortion", 2, ".disto"),

@@ -298,7 +298,7 @@ def test_interrupt_keeps_the_finished_rows():
     ({"params": {"r2": ["x"]}}, r"must be numbers"),
     ({"seed": -1}, r"seed must be a non-negative integer"),
     ({"save": ["v(zz)"]}, r"no node 'zz'"),
-    ({"analyses": ["noise"]}, r"unknown analysis 'noise'"),
+    ({"analyses": ["sens"]}, r"unknown analysis 'sens'"),
     ({"workers": 0}, r"workers must be a positive integer"),
     ({"params": {"r1": [1e3]}, "samples": 0}, r"samples must be a positive integer"),
 ])

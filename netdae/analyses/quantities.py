@@ -205,7 +205,7 @@ def add_quantities(circuit: Circuit, result: Result, quantities: list[Quantity])
         The quantities this result cannot have (powers in ``.ac``), noted in
         ``result.notes``.
     """
-    if not quantities or result.analysis in ("pz", "tf"):
+    if not quantities or result.analysis in ("pz", "tf", "noise"):
         return []
     ac = result.analysis == "ac"
     missing = []

@@ -3,8 +3,9 @@
 This is what ``netdae run FILE``, :func:`netdae.run` and
 :func:`netdae.simulate` do: check the options (the netlist's ``.options``
 and the caller's overrides) against their valid ranges, dispatch each
-``.op``, ``.dc``, ``.ac`` and ``.tran`` card of the circuit to its analysis
-and collect the :class:`~netdae.results.Result` objects.
+``.op``, ``.dc``, ``.ac``, ``.tran``, ``.pz``, ``.tf`` and ``.noise`` card of
+the circuit to its analysis and collect the :class:`~netdae.results.Result`
+objects.
 
 The module imports no numerics at load time, so the command line can use
 :func:`option_problem` to check its arguments without loading numpy.
@@ -17,7 +18,8 @@ import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from ..circuit import AcAnalysis, Circuit, DcAnalysis, OpAnalysis, PzAnalysis, TfAnalysis, TranAnalysis
+from ..circuit import AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, TfAnalysis, \
+    TranAnalysis
 from ..errors import NetdaeError, NetlistError
 
 if TYPE_CHECKING:
@@ -136,7 +138,7 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
 
 
 def analysis_name(card: Any) -> str:
-    """``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"`` or ``"tf"`` for an analysis card."""
+    """``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"``, ``"tf"`` or ``"noise"`` for an analysis card."""
     if isinstance(card, OpAnalysis):
         return "op"
     if isinstance(card, DcAnalysis):
@@ -149,6 +151,8 @@ def analysis_name(card: Any) -> str:
         return "pz"
     if isinstance(card, TfAnalysis):
         return "tf"
+    if isinstance(card, NoiseAnalysis):
+        return "noise"
     raise TypeError(f"not an analysis card: {card!r}")
 
 
@@ -182,7 +186,8 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     save : list of str, optional
         Signals to keep in every result (``v(out)``, ``v(a,b)``, ``i(v1)``);
         default: the netlist's ``.save``/``.print``/``.probe`` signals, or
-        every unknown.
+        every unknown. Noise vectors (``onoise_spectrum``, ``onoise_q1`` ...)
+        select a ``.noise`` result's densities (all without them).
     reltol, abstol, vntol : float, optional
         Tolerances for every analysis (default: the netlist's ``.options``,
         else SPICE's 1e-3, 1e-12 A, 1e-6 V).
@@ -225,13 +230,19 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     check_options(circuit, **options)
     if not circuit.analyses:
         raise NetdaeError(
-            f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to run"
+            f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac, .tran, .pz, .tf or .noise); nothing "
+            "to run"
             + _skipped_analyses(circuit)
         )
     names = save if save is not None else circuit.saves
-    wanted = _with_measured(names, circuit)
     from ..results import canonical_or
+    from .noise import is_noise_name
     from .quantities import add_quantities, measured_quantities, plan_quantities, saved_currents
+
+    noise_names = [n for n in names or () if is_noise_name(n)]  # only noise results have them
+    if noise_names:
+        names = [n for n in names if not is_noise_name(n)]
+    wanted = _with_measured(names, circuit)
 
     computed_from, quantities = plan_quantities(circuit, wanted)
     if not names:  # every unknown is kept: what the quantities are computed from too
@@ -267,6 +278,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 from .tf import tf_analysis
 
                 res = tf_analysis(circuit, card, **options)
+            elif kind == "noise":
+                from .noise import noise_analysis
+
+                res = noise_analysis(circuit, card, **options)
             else:
                 from .ac import ac_analysis
 
@@ -275,7 +290,9 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         if quantities and kind == "tran":  # it kept what the quantities are computed from
             res.notes = [n for n in res.notes if not n.startswith("saved: ")]
             res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
-        if names and kind not in ("pz", "tf"):  # their quantities are not signals to select
+        if kind == "noise":
+            res = _noise_subset(res, noise_names)
+        elif names and kind not in ("pz", "tf"):  # their quantities are not signals to select
             try:
                 res = res.subset([n for n in wanted if canonical_or(n) not in absent])
             except KeyError as exc:
@@ -306,7 +323,25 @@ def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Resu
     measure(circuit, results)
     if wanted == names:
         return results
-    return [r if r.analysis in ("pz", "tf") else r.subset(names) for r in results]
+    return [r if r.analysis in ("pz", "tf", "noise") else r.subset(names) for r in results]
+
+
+def _noise_subset(res: Result, names: list[str]) -> Result:
+    """A noise result with the noise vectors ``.save``/``.print`` name (all when they name none).
+
+    Raises
+    ------
+    NetdaeError
+        A noise vector the result does not have (``onoise_r1`` without a summary).
+    """
+    wanted = [n for n in names if n.strip().lower() not in res.extra.get("totals", {})]
+    if not wanted:
+        return res
+    try:
+        return res.subset(wanted)
+    except KeyError as exc:
+        raise NetdaeError(f"cannot save: {exc.args[0]} (the per-device noise vectors need pts_per_summary on the "
+                          ".noise card)") from None
 
 
 def _with_measured(names: list[str] | None, circuit: Circuit) -> list[str] | None:

@@ -121,6 +121,10 @@ def _analysis_text(a: dict) -> str:
         return f".pz {a['in_pos']} {a['in_neg']} {a['out_pos']} {a['out_neg']} {a['input_type']} {a['what']}"
     if kind == "tf":
         return f".tf {a['written'] or a['output']} {a['source']}"
+    if kind == "noise":
+        out = f"v({a['output']})" if a["reference"] == "0" else f"v({a['output']},{a['reference']})"
+        text = f".noise {out} {a['source']} {a['variation']} {a['points']} {_fmt(a['fstart'])} {_fmt(a['fstop'])}"
+        return text + (f" {a['summary']}" if a["summary"] else "")
     sweeps = "; ".join(f"{s['source']} {_fmt(s['start'])} to {_fmt(s['stop'])} step {_fmt(s['step'])}"
                        for s in a["sweeps"])
     return f".dc {sweeps}"

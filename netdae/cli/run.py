@@ -1,8 +1,9 @@
 """``netdae run FILE``: run the analyses in a netlist, print a summary, write results.
 
 Writes one file per analysis into ``--out DIR`` (``op.csv``, ``dc.csv``,
-``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``; a second card of a kind ``tran2.csv`` ...; ``.raw``
-with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
+``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``, ``noise.csv`` and the
+integrated noise ``noise_total.csv``; a second card of a kind ``tran2.csv``
+...; ``.raw`` with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
 the operating point and the statistics of every analysis on stdout (or one
 JSON object with ``--json``: one :meth:`~netdae.results.Result.to_dict` per
 analysis). The analyses' notes and the files written are logged on stderr.
@@ -47,7 +48,7 @@ def _export_path(text: str) -> str:
 def add_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "run",
-        help="run the analyses of a netlist (.op, .dc, .ac, .tran, .pz, .tf)",
+        help="run the analyses of a netlist (.op, .dc, .ac, .tran, .pz, .tf, .noise)",
         description="Run every analysis in the netlist, print a summary and write the results.",
     )
     p.add_argument("file", help="netlist file")
@@ -122,6 +123,12 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None)
 
             path = out_dir / f"{stem}.csv"
             write_csv(path, res)
+            if res.analysis == "noise" and res.extra.get("totals"):
+                from ..io.csv import write_noise_totals
+
+                files.append(str(path))
+                path = out_dir / f"{stem}_total.csv"
+                write_noise_totals(path, res.extra["totals"])
         else:
             from ..io.raw import write_raw
 
@@ -205,6 +212,8 @@ def main(args) -> int:
                 print("\n".join(_op_lines(res)))
             elif res.analysis in ("pz", "tf"):
                 print("\n".join(_quantity_lines(res)))
+            elif res.analysis == "noise":
+                print("\n".join(f"{name} = {value:.6e}" for name, value in res.extra.get("totals", {}).items()))
             if res.measures:
                 from ..measures import format_measure
 

@@ -43,7 +43,7 @@ _DPI = 110
 #: so exact agreement stays on the log axis.
 _RELATIVE_FLOOR = 1e-18
 #: Units of the x axis by analysis.
-_X_UNITS = {"tran": "s", "ac": "Hz"}
+_X_UNITS = {"tran": "s", "ac": "Hz", "noise": "Hz"}
 
 
 def _panels(comparison: Comparison) -> list[tuple[AnalysisComparison, str]]:
@@ -51,7 +51,8 @@ def _panels(comparison: Comparison) -> list[tuple[AnalysisComparison, str]]:
     for item in comparison.analyses:
         if item.analysis == "op" or not item.curves:
             continue
-        for sig in item.signals[:MAX_SIGNALS_PER_ANALYSIS]:
+        drawn = [sig for sig in item.signals if sig.name in item.curves.get("values", {})]  # not .noise totals
+        for sig in drawn[:MAX_SIGNALS_PER_ANALYSIS]:
             chosen.append((item, sig.name))
     return chosen[:MAX_PAIRS]
 
@@ -139,7 +140,8 @@ def comparison_figure(comparison: Comparison):
 
     chosen = _panels(comparison)
     if not chosen:
-        raise NetdaeError(f"{comparison.source}: nothing to plot: no .tran, .ac or .dc analysis was compared")
+        raise NetdaeError(f"{comparison.source}: nothing to plot: no .tran, .ac, .dc or .noise analysis was "
+                          "compared")
     fig = Figure(figsize=(9, 1.2 + 3.6 * len(chosen)), layout="constrained")
     axes = fig.subplots(2 * len(chosen), 1, gridspec_kw={"height_ratios": [2, 1] * len(chosen)}, squeeze=False)
     axes = axes[:, 0]
@@ -153,6 +155,11 @@ def comparison_figure(comparison: Comparison):
         top.set_title(f".{item.analysis} {name}: max error {sig.max_rel:.3g} of its scale"
                       + (" (after the initial jump)" if item.window else ""), fontsize="medium")
         bottom.set_xlabel(_xlabel(item))
+        if item.analysis == "noise":  # densities over decades of frequency
+            for ax in (top, bottom):
+                ax.set_xscale("log")
+            if np.all(np.asarray(item.curves["values"][name][1]) > 0):
+                top.set_yscale("log")
         unit = _X_UNITS.get(item.analysis) or unit_of(item.axis or "")
         for ax in (top, bottom):
             engineering_axis(ax.xaxis, unit)

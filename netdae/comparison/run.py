@@ -51,7 +51,7 @@ from ..circuit import Circuit, TranAnalysis
 from ..errors import NetdaeError, NgspiceError
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
-from .smallsignal import compare_pz, compare_tf
+from .smallsignal import compare_noise, compare_pz, compare_tf
 from .header import ANALYSES, Tolerance, parse_header
 from .model import AnalysisComparison, Comparison, MeasureComparison
 
@@ -77,10 +77,11 @@ TIGHT_STEPS_PER_INTERVAL = 1e4
 #: 1e-9 times the noise gain (ngspice runs the differentiator to completion
 #: for gains up to 1e15, see docs/ngspice.md).
 TIGHT_OPAMP_GAIN = 1e9
-_COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compare_pz, "tf": compare_tf}
-#: ngspice 39 runs the .pz and the .tf cards last to first (measured): netdae's k-th card of these
+_COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compare_pz, "tf": compare_tf,
+              "noise": compare_noise}
+#: ngspice 39 runs the .pz, .tf and .noise cards last to first (measured): netdae's k-th card of these
 #: kinds pairs with ngspice's k-th result from the end.
-_REVERSED_KINDS = frozenset({"pz", "tf"})
+_REVERSED_KINDS = frozenset({"pz", "tf", "noise"})
 
 
 def _read(netlist) -> tuple[Circuit, str, str, str]:
@@ -214,6 +215,10 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     try:
         if kind == "ac":
             nd = _netdae_ac_at(circuit, ng.axis, overrides)
+        elif kind == "noise" and card.summary <= 1 and ng.axis is not None and ng.axis.size:
+            from ..analyses.noise import noise_analysis
+
+            nd = noise_analysis(circuit, card, freqs=ng.axis, **overrides)  # ngspice's grid: its integration too
         else:
             nd = _run_netdae(circuit, card, overrides)
     except (NetdaeError, ModuleNotFoundError) as exc:

@@ -1,4 +1,4 @@
-"""Compare ``.pz`` and ``.tf`` results: roots as sets, transfer functions value by value.
+"""Compare ``.pz``, ``.tf`` and ``.noise`` results: roots as sets, numbers value by value, noise spectra.
 
 ngspice's pole-zero search is iterative (Muller's method on the determinant,
 deflating each root it finds) and can miss roots or stop early; netdae's roots
@@ -20,6 +20,12 @@ The output impedance of a current output is not judged when ngspice reports
 1e20 and netdae a finite value: ngspice 39 computes it as
 ``1 / max(1e-20, i)``, which is 1e20 for every branch whose current per
 series volt is negative (every passive load); :mod:`netdae.analyses.tf`.
+
+``.noise``: every spectral density both produce (``onoise_spectrum``,
+``inoise_spectrum``, and with a summary each generator's) at ngspice's
+frequencies, relative to the larger density at each frequency floored at
+:data:`NOISE_DYNAMIC_RANGE` of the signal's peak; then every integrated
+total (``onoise_total`` ...) relative to the larger of the two values.
 """
 
 from __future__ import annotations
@@ -30,7 +36,8 @@ from ..results import Result
 from .header import Tolerance
 from .model import AnalysisComparison, SignalComparison
 
-__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "match_roots", "compare_pz", "compare_tf"]
+__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf",
+           "compare_noise"]
 
 #: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
 #: the origin computed as 0 by one simulator and 1e-13 by the other; every other root relatively.
@@ -40,6 +47,9 @@ ROOT_FLOOR = 1e-12
 ORIGIN = float(np.sqrt(np.finfo(float).eps))
 #: Two roots further apart than this (relative) are not the same root, whatever the assignment says.
 MATCH_LIMIT = 1e-2
+#: A noise density's error is relative to the larger density at its frequency, floored at this
+#: fraction of the signal's peak (the same floor as the AC phasors').
+NOISE_DYNAMIC_RANGE = 1e-9
 #: ngspice's infinite impedance.
 _INFINITE = 1e20
 
@@ -174,6 +184,75 @@ def compare_tf(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
         scale = max(abs(a), abs(b)) or 1.0
         passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
         signals.append(SignalComparison(name, err, err / scale, err, {}, scale, "magnitude", passed,
+                                        netdae=a, ngspice=b))
+    item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
+    return item
+
+
+def compare_noise(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
+    """Compare noise spectral densities at ngspice's frequencies, then the integrated totals.
+
+    The densities are compared at the frequencies both results hold (the
+    comparison runs netdae on ngspice's grid; a note says when some are
+    left out). A density's error at each frequency is
+    ``|a - b| / max(a, b, floor)``, ``floor = NOISE_DYNAMIC_RANGE`` times
+    its peak; a total's is relative to the larger of the two values.
+    """
+    from .analyses import select_signals
+
+    item = AnalysisComparison("noise", tolerance=tol, axis="frequency")
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
+        nd.names(), ng.names(), wanted, exclude)
+    totals_a, totals_b = nd.extra.get("totals", {}), ng.extra.get("totals", {})
+    common = [k for k in totals_a if k in totals_b and k not in exclude]
+    item.only_netdae += [k for k in totals_a if k not in totals_b]
+    item.only_ngspice += [k for k in totals_b if k not in totals_a]
+    if not compared and not common:
+        item.error = "no noise density or total is produced by both simulators (see only_netdae / only_ngspice)"
+        return item
+    f, fa = ng.axis, nd.axis
+    ia = ib = None
+    if compared:
+        if f is None or fa is None:
+            item.error = "a noise result has no frequency axis"
+            return item
+        # the frequencies both have (the same grid, unless ngspice's own differs at its end)
+        pos = np.clip(np.searchsorted(fa, f), 0, max(fa.size - 1, 0))
+        near = np.clip(pos - 1, 0, None)
+        pos = np.where(np.abs(fa[near] - f) < np.abs(fa[pos] - f), near, pos)
+        same = np.isclose(fa[pos], f, rtol=1e-9, atol=0.0)
+        if not same.any():
+            item.error = f"no frequency in common: netdae {fa.size} point(s), ngspice {f.size}"
+            return item
+        ia, ib = pos[same], np.flatnonzero(same)
+        if ib.size != f.size or ia.size != fa.size:
+            item.notes.append(f"densities compared at the {ib.size} frequencies both have (netdae {fa.size}, "
+                              f"ngspice {f.size})")
+        f = f[ib]
+    signals = []
+    if compared:
+        item.points = int(f.size)
+        item.curves = {"axis": f, "start": 0,
+                       "values": {n: (np.asarray(nd.signals[n], float)[ia], np.asarray(ng.signals[n], float)[ib])
+                                  for n in compared}}
+    for name in compared:
+        a, b = item.curves["values"][name]
+        floor = max(NOISE_DYNAMIC_RANGE * float(max(np.max(np.abs(a)), np.max(np.abs(b)))), 1e-300)
+        scale = np.maximum(np.maximum(np.abs(a), np.abs(b)), floor)
+        err = np.abs(a - b)
+        rel = err / scale
+        k = int(np.argmax(rel))
+        passed = None if tol is None else bool(np.all(err <= tol.rel * scale + (tol.abs or 0.0)))
+        signals.append(SignalComparison(name, float(err.max()), float(rel[k]), float(np.sqrt(np.mean(rel ** 2))),
+                                        {"frequency": float(f[k])}, float(scale[k]),
+                                        "floor" if scale[k] == floor else "magnitude", passed,
+                                        netdae=float(a[k]), ngspice=float(b[k])))
+    for name in common:
+        a, b = float(totals_a[name]), float(totals_b[name])
+        err = abs(a - b)
+        scale = max(abs(a), abs(b)) or 1.0
+        passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
+        signals.append(SignalComparison(name, err, err / scale, err / scale, {}, scale, "magnitude", passed,
                                         netdae=a, ngspice=b))
     item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
     return item

@@ -18,6 +18,8 @@ Life cycle (driven by :func:`netdae.mna.assemble`)
    positions in the Jacobian ``data`` arrays.
 5. ``evaluate(x, t, acc, state, jacobian)`` adds contributions to ``acc``
    and returns the family's new limiting state (or ``None``).
+6. ``noise(x, temp)`` (``.noise`` only, after ``bind``): the family's noise
+   current generators at the operating point ``x``, as :class:`NoiseSources`.
 
 Sign convention: as in :mod:`netdae.devices.linear`, node rows of ``phi`` are
 the currents *entering* the node and node rows of ``q`` the charges stored on
@@ -27,13 +29,15 @@ to node b through the device adds ``-i`` to ``phi[a]`` and ``+i`` to ``phi[b]``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 
 from ..dae.sparse import SparsePattern
 
-__all__ = ["Accumulator", "SlotMap", "DeviceFamily"]
+__all__ = ["Accumulator", "SlotMap", "DeviceFamily", "NoiseSources", "noise_sources", "thermal", "shot",
+           "flicker"]
 
 
 class SlotMap:
@@ -115,6 +119,122 @@ class Accumulator:
         self.dphi += np.bincount(slots, weights=values, minlength=self.nnz + 1)
 
 
+def thermal(conductance, temp: float) -> np.ndarray:
+    """Thermal noise of a conductance at ``temp`` [K]: ``4 k T G`` [A^2/Hz] (ngspice's ``THERMNOISE``)."""
+    from .junction import BOLTZMANN
+
+    return 4.0 * BOLTZMANN * temp * np.asarray(conductance, dtype=float)
+
+
+def shot(current) -> np.ndarray:
+    """Shot noise of a DC current: ``2 q |I|`` [A^2/Hz] (ngspice's ``SHOTNOISE``)."""
+    from .junction import CHARGE
+
+    return 2.0 * CHARGE * np.abs(np.asarray(current, dtype=float))
+
+
+#: The smallest number ngspice takes the logarithm of (``N_MINLOG``): flicker noise of a zero current.
+NOISE_MINLOG = 1e-38
+
+
+def flicker(kf, current, af) -> np.ndarray:
+    """``kf |I|^af`` [A^2/Hz at 1 Hz], as ngspice raises the current (``exp(af ln(max(|I|, 1e-38)))``)."""
+    i = np.maximum(np.abs(np.asarray(current, dtype=float)), NOISE_MINLOG)
+    return np.asarray(kf, dtype=float) * np.exp(np.asarray(af, dtype=float) * np.log(i))
+
+
+@dataclass
+class NoiseSources:
+    """Noise current generators at an operating point, one entry per generator.
+
+    A generator is a current noise source between two unknowns (node
+    indices, -1 for ground) whose power spectral density at frequency f is
+    ``white + coefficient / f**exponent`` [A^2/Hz]: thermal and shot noise are
+    white, flicker noise the second term. Generators are in ngspice's order
+    (instance by instance, each instance's generators as ngspice names them).
+
+    Attributes
+    ----------
+    element : list of str
+        The instance each generator belongs to.
+    suffix : list of str
+        ngspice's name of the generator within its instance (``"_rs"``,
+        ``"_id"``, ``"_1overf"``, ``"_thermal"``; ``""`` for an instance
+        with a single generator, a switch).
+    pos, neg : ndarray of int
+        The two unknowns the current flows between.
+    white, coefficient, exponent : ndarray
+        The spectral density's parts.
+    """
+
+    element: list[str] = field(default_factory=list)
+    suffix: list[str] = field(default_factory=list)
+    pos: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    neg: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    white: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    coefficient: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    exponent: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __len__(self) -> int:
+        return len(self.element)
+
+    def density(self, freqs) -> np.ndarray:
+        """The generators' spectral densities [A^2/Hz], shape (len(freqs), len(self))."""
+        f = np.asarray(freqs, dtype=float)[:, None]
+        with np.errstate(divide="ignore"):
+            return self.white[None, :] + self.coefficient[None, :] / f ** self.exponent[None, :]
+
+    @staticmethod
+    def concatenate(parts: list["NoiseSources"]) -> "NoiseSources":
+        """The generators of several families, in order."""
+        out = NoiseSources()
+        for p in parts:
+            out.element += p.element
+            out.suffix += p.suffix
+        for name in ("pos", "neg", "white", "coefficient", "exponent"):
+            arrays = [getattr(p, name) for p in parts]
+            setattr(out, name, np.concatenate(arrays) if arrays else getattr(out, name))
+        return out
+
+
+def noise_sources(names, generators) -> NoiseSources:
+    """Generators of N instances, instance by instance.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The N instance names.
+    generators : list of tuple
+        ``(suffix, pos, neg, white, coefficient, exponent)`` per kind of
+        generator, in ngspice's order; the arrays (or scalars) have one entry
+        per instance.
+
+    Returns
+    -------
+    NoiseSources
+
+    Examples
+    --------
+    >>> ns = noise_sources(["d1", "d2"], [("_rs", [1, 2], [0, 0], [1.0, 2.0], 0.0, 1.0),
+    ...                                   ("_id", [1, 2], [-1, -1], [3.0, 4.0], 0.0, 1.0)])
+    >>> [e + s for e, s in zip(ns.element, ns.suffix)], ns.white.tolist()
+    (['d1_rs', 'd1_id', 'd2_rs', 'd2_id'], [1.0, 3.0, 2.0, 4.0])
+    """
+    count, kinds = len(names), len(generators)
+    if count == 0 or kinds == 0:
+        return NoiseSources()
+
+    def column(k: int, dtype) -> np.ndarray:
+        return np.stack([np.broadcast_to(np.asarray(g[k], dtype=dtype), (count,)) for g in generators],
+                        axis=1).ravel()
+
+    return NoiseSources(
+        element=[name for name in names for _ in range(kinds)],
+        suffix=[g[0] for _ in range(count) for g in generators],
+        pos=column(1, np.int64), neg=column(2, np.int64), white=column(3, float),
+        coefficient=column(4, float), exponent=column(5, float))
+
+
 class DeviceFamily:
     """Base class of a vectorised nonlinear device family.
 
@@ -189,3 +309,28 @@ class DeviceFamily:
             :data:`netdae.signals.DEVICE_QUANTITIES` of the family's kind.
         """
         raise NotImplementedError(f"{type(self).__name__} computes no device quantities")
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """The noise generators of every instance at the operating point (``.noise``).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n + 1,)
+            The extended operating point (``x[n] == 0`` is ground).
+        temp : float
+            The circuit temperature [K] (ngspice's thermal and shot noise use
+            it, not an instance's own temperature).
+
+        Raises
+        ------
+        CircuitError
+            For a family without a noise model (the default): naming the
+            first instance and where it is written.
+        """
+        from ..errors import CircuitError
+
+        el = self.elements[0]
+        where = f"{el.location}: " if getattr(el, "location", None) else ""
+        raise CircuitError(f"{where}{el.name}: netdae has no noise model for a {el.kind} element, so .noise "
+                           "cannot run", elements=(el.name,),
+                           hint="remove the .noise card, or simulate this circuit's noise in ngspice")

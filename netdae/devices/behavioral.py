@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import CircuitError
 from ..netlist.expr import Current, Time, time_corners, walk
 from .autodiff import ExpressionGroup, group_by_structure
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap
 from .companion import BranchStamps
 
 __all__ = ["BehaviouralFamily"]
@@ -74,6 +74,10 @@ class BehaviouralFamily(DeviceFamily):
     """
 
     kinds = frozenset({_VOLTAGE, _CURRENT, _CHARGE})
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """No generator: a behavioural source is noiseless, as ngspice's B source (it has no noise routine)."""
+        return NoiseSources()
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

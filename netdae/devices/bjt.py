@@ -55,7 +55,10 @@ iteration from a zero iterate starts at ``vbe = vcrit``, ``vbc = 0``
 
 Not implemented (rejected with an error): excess phase PTF, quasi-saturation
 (RCO ...), ISS/NS, IBE/IBC, temperature coefficients (TLEV ...).
-Accepted without effect: noise (KF, AF) and SOA limits; the instance
+Noise (``.noise``, :meth:`BjtFamily.noise`, ngspice's ``bjtnoise.c``): thermal
+noise of RC, RB (the bias-dependent ``1/gx``) and RE, shot noise of ``ic``
+and ``ib``, flicker noise ``KF |ib|^AF / f`` (times m). Accepted without
+effect: SOA limits; the instance
 ``icvbe``/``icvce``, which ngspice uses only for the first iterate of a
 ``uic`` transient.
 """
@@ -67,7 +70,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, shot, thermal
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
@@ -171,6 +174,7 @@ class BjtFamily(DeviceFamily):
             for key in ("ise", "isc"):
                 if row[key] > LEAK_AS_FACTOR:
                     row[key] *= row["is"]
+            row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             rows.append(row)
         self._setup(rows)
 
@@ -185,6 +189,7 @@ class BjtFamily(DeviceFamily):
         area_bc = np.where(vertical, areab, areac)
         area_sub = np.where(vertical, areac, areab)
         self.mult = g("mult")
+        self.kf, self.af = g("kf"), g("af")
         self.vt = thermal_voltage(temp)
         factlog = saturation_exponent(g("eg"), g("xti"), tnom, temp)
         bfactor = np.exp(np.log(temp / tnom) * g("xtb"))
@@ -521,6 +526,34 @@ class BjtFamily(DeviceFamily):
             idx[:, kb.S_CHG + 4 * j:kb.S_CHG + 4 * j + 4] = dependence_slots(
                 slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
         return par, idx, self.initial_state().v.T.copy()
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """ngspice's Gummel-Poon noise (``bjtnoise.c``) at the operating point ``x`` (extended).
+
+        Generators: ``_rc``, ``_rb``, ``_re`` thermal noise of the collector,
+        base (its bias-dependent conductance ``gx``) and emitter resistances
+        (each between its outer and internal node); ``_ic`` shot noise of the
+        collector current (internal collector to internal emitter); ``_ib``
+        shot noise and ``_1overf`` flicker noise ``m KF |ib|^AF / f`` of the
+        base current of one device (internal base to internal emitter). ``m`` multiplies
+        every generator, as ngspice's.
+        """
+        v = self.stamps.voltages(x)
+        tr = self.transport(self.type * v[_VBE], self.type * v[_VBC])
+        if self.rb_varies:
+            gx = self.base_resistance(tr)[0]
+        else:
+            gx = np.where(self.rb > 0.0, 1.0 / np.where(self.rb > 0.0, self.rb, 1.0), 0.0)
+        m = self.mult
+        names = [el.name for el in self.elements]
+        return noise_sources(names, [
+            ("_rc", self.ci, self.c, thermal(self.gc, temp), 0.0, 1.0),
+            ("_rb", self.bi, self.b, thermal(m * gx, temp), 0.0, 1.0),
+            ("_re", self.ei, self.e, thermal(self.ge, temp), 0.0, 1.0),
+            ("_ic", self.ci, self.ei, shot(m * tr["ic"]), 0.0, 1.0),
+            ("_ib", self.bi, self.ei, shot(m * tr["ib"]), 0.0, 1.0),
+            ("_1overf", self.bi, self.ei, 0.0, m * flicker(self.kf, tr["ib"], self.af), 1.0),
+        ])
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)

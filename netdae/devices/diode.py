@@ -33,8 +33,10 @@ Newton: ``pnjlim`` on ``vd`` with ``vcrit = vte ln(vte / (sqrt 2 Is))``,
 in the breakdown region on ``-(vd + BV')`` with ``NBV vt``; the first
 iteration from a zero iterate starts at ``vcrit`` (0 for ``off``).
 
-Accepted without effect: noise (``KF``, ``AF``) and safe-operating-area
-limits (``FV_MAX`` ...). The instance ``ic`` is only used by ngspice for
+Noise (``.noise``, :meth:`DiodeFamily.noise`, ngspice's ``dionoise.c``):
+thermal noise of RS, shot noise ``2 q |id|`` of the junction current and
+flicker noise ``KF m |id/m|^AF / f``. Accepted without effect:
+safe-operating-area limits (``FV_MAX`` ...). The instance ``ic`` is only used by ngspice for
 the first iterate of a ``uic`` transient and does not change any solution.
 Any other parameter (sidewall, tunnelling, recombination, IKF/IKR, level 3,
 temperature coefficients) is rejected with an error.
@@ -47,7 +49,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, shot, thermal
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import (
     EPSMIN,
@@ -177,6 +179,7 @@ class DiodeFamily(DeviceFamily):
                 if row[key] <= 0.0:
                     raise CircuitError(f"{el.name}: {key if key == 'area' else 'm'} must be positive",
                                        elements=(el.name,))
+            row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             rows.append(row)
         self._setup(rows, opts.reltol)
 
@@ -203,6 +206,8 @@ class DiodeFamily(DeviceFamily):
         self.bv = np.where(self.has_bv, breakdown_voltage(np.where(self.has_bv, bv, 0.0), g("mult") * g("ibv"),
                                                           self.isat, self.vtebrk, self.vt, reltol), 0.0)
         self.off = g("off") != 0.0
+        self.mult = g("mult")
+        self.kf, self.af = g("kf"), g("af")
         self.has_rs = bool(np.any(self.gs > 0.0))
         self.any_bv = bool(np.any(self.has_bv))
         self.has_tt = bool(np.any(self.tt != 0.0))
@@ -337,6 +342,22 @@ class DiodeFamily(DeviceFamily):
         idx[:, kd.S_R:kd.S_R + 4] = dependence_slots(slots, self.anode, self.inner, self.anode, self.inner,
                                                             where=self.gs > 0.0)
         return par, idx, self.initial_state().v.T.copy()
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """ngspice's diode noise (``dionoise.c``) at the operating point ``x`` (extended).
+
+        Generators, each between two nodes: ``_rs`` thermal noise of the series
+        resistance (anode to internal node), ``_id`` shot noise ``2 q |id|`` and
+        ``_1overf`` flicker noise ``KF m |id/m|^AF / f`` of the junction current
+        ``id`` (GMIN included, as ngspice's), internal node to cathode.
+        """
+        cd, _ = self.current(x[self.inner] - x[self.cathode])
+        names = [el.name for el in self.elements]
+        return noise_sources(names, [
+            ("_rs", self.inner, self.anode, thermal(self.gs, temp), 0.0, 1.0),
+            ("_id", self.inner, self.cathode, shot(cd), 0.0, 1.0),
+            ("_1overf", self.inner, self.cathode, 0.0, self.mult * flicker(self.kf, cd / self.mult, self.af), 1.0),
+        ])
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)

@@ -51,8 +51,13 @@ Newton (``jfetload.c``): ``pnjlim`` on vgs and on vgd (``vt``,
 against ``VTO_t``; the first iteration from a zero iterate starts at
 ``vgs = vgd = -1`` (0 for ``off``).
 
-Accepted without effect: noise (``KF``, ``AF``, ``NLEV``, ``GDSNOI``); the
-instance ``ic=vds,vgs``, which ngspice uses only for the first iterate of a
+Noise (``.noise``, :meth:`JfetFamily.noise`, ngspice's ``jfetnoi.c``): thermal
+noise of RD and RS, channel thermal noise ``4 k T (2/3) |gm|`` (``NLEV < 3``,
+ngspice's default 2) or, with ``NLEV = 3``, ``4 k T (2/3) beta vgst
+(1 + a + a^2)/(1 + a) GDSNOI`` (``a = 1 - vds/vgst`` in the linear region, 0
+in saturation), and flicker noise ``m KF |id|^AF / f`` (``id`` of one
+device: the channel current less the gate-drain junction's). Accepted
+without effect: the instance ``ic=vds,vgs``, which ngspice uses only for the first iterate of a
 ``uic`` transient.
 """
 
@@ -63,7 +68,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, thermal
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, fetlim, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
@@ -85,6 +90,8 @@ JFET_PARAMETERS = ParameterTable(
 
 #: Instance parameters and their defaults (None: absent unless given).
 _INSTANCE = {"area": None, "m": 1.0, "off": 0.0, "icvds": None, "icvgs": None, "temp": None, "dtemp": 0.0}
+#: ngspice's default NLEV: the channel's thermal noise from gm (NLEV = 3: from the bias).
+NOISE_LEVEL = 2.0
 #: ngspice limits FC to 0.95 (with a warning) and grades the gate junctions with 1/2.
 FC_MAX = 0.95
 GRADING = 0.5
@@ -180,6 +187,8 @@ class JfetFamily(DeviceFamily):
             row["area"] = inst.get("area", mv["area"])
             row["mult"] = inst["m"]
             row["off"] = inst["off"]
+            for key, default in (("kf", 0.0), ("af", 1.0), ("nlev", NOISE_LEVEL), ("gdsnoi", 1.0)):
+                row[key] = model.params.get(key, default)
             for key, shown in (("area", "area"), ("mult", "m")):
                 if not row[key] > 0.0:
                     raise CircuitError(f"{where}{el.name}: {shown} = {row[key]:g} must be positive",
@@ -222,6 +231,8 @@ class JfetFamily(DeviceFamily):
         self.gd = self._conductance(g("rd"), scale)
         self.gs = self._conductance(g("rs"), scale)
         self.off = g("off") != 0.0
+        self.mult = g("mult")
+        self.kf, self.af, self.nlev, self.gdsnoi = g("kf"), g("af"), g("nlev"), g("gdsnoi")
         self.j_isat = np.tile(self.isat, 2)
         self.j_vt = np.tile(self.vt, 2)
         self.j_knee = np.tile(self.knee, 2)
@@ -385,6 +396,39 @@ class JfetFamily(DeviceFamily):
             idx[:, kj.S_CHG + 4 * j:kj.S_CHG + 4 * j + 4] = dependence_slots(
                 slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
         return par, idx, self.initial_state().v.T.copy()
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """ngspice's JFET noise (``jfetnoi.c``) at the operating point ``x`` (extended).
+
+        Generators: ``_rd``, ``_rs`` thermal noise of the drain and source
+        resistances (outer to internal node); ``_id`` the channel's thermal
+        noise and ``_1overf`` flicker noise ``m KF |id|^AF / f``, internal
+        drain to internal source. The channel's noise conductance is
+        ``(2/3) |gm|`` (``gm`` the derivative of the channel current to the
+        mode's gate voltage; NLEV < 3) or ngspice's NLEV = 3 expression, taken
+        as 0 where that is negative (below threshold, where ngspice's is).
+        """
+        v = self.stamps.voltages(x)
+        vgs, vgd = self.type * v[:2]
+        vds = vgs - vgd
+        fwd = vds >= 0.0
+        with np.errstate(all="ignore"):
+            _, di_du, _ = channel_current(np.where(fwd, vgs, vgd) - self.vto, np.abs(vds), self.beta, self.lam,
+                                          self.b, self.bfac)
+            cdrain = self.drain_current(vgs, vgd)[0]
+            igd = self.gate_junctions(vgs, vgd)[2]
+            vgst = vgs - self.vto
+            alpha = np.where(vgst >= vds, 1.0 - vds / np.where(vgst != 0.0, vgst, 1.0), 0.0)
+            level3 = 2.0 / 3.0 * self.beta * vgst * (1.0 + alpha + alpha * alpha) / (1.0 + alpha) * self.gdsnoi
+        channel = np.where(self.nlev < 3.0, 2.0 / 3.0 * np.abs(di_du), np.maximum(level3, 0.0))
+        m = self.mult
+        names = [el.name for el in self.elements]
+        return noise_sources(names, [
+            ("_rd", self.di, self.d, thermal(self.gd, temp), 0.0, 1.0),
+            ("_rs", self.si, self.s, thermal(self.gs, temp), 0.0, 1.0),
+            ("_id", self.di, self.si, thermal(channel, temp), 0.0, 1.0),
+            ("_1overf", self.di, self.si, 0.0, m * flicker(self.kf, (cdrain - igd) / m, self.af), 1.0),
+        ])
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)

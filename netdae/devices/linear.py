@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from ..mna.layout import Layout
 
 __all__ = ["LinearStamps", "stamp_linear", "capacitances", "conductances", "inductances", "branch_names",
+           "resistor_noise",
            "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE", "TLINE_BRANCHES"]
 
 #: Kinds whose current is an MNA unknown.
@@ -177,6 +178,69 @@ def conductances(els: list[Element], temp: float, tnom: float, *, ac: bool = Fal
         r = np.array([el.params.get("ac", v) for el, v in zip(els, r)], dtype=float)
     r = np.where(r == 0.0, ZERO_RESISTANCE, r)
     return _multiplier(els) / (r * _temperature_factor(els, temp, tnom) * _scale(els))
+
+
+def resistor_noise(els: list[Element], circuit: Circuit, layout: Layout, x: np.ndarray):
+    """The resistors' noise generators at the operating point (``.noise``), as ngspice 39's ``resnoise.c``.
+
+    Per resistor, between its nodes: ``_thermal``, ``4 k T G`` with ``G`` the
+    DC conductance (:func:`conductances`: m, scale, temperature coefficients;
+    ``ac=`` is not used) and ``T`` the circuit temperature plus the
+    instance's ``dtemp=`` (ngspice ignores dtemp, and uses the circuit
+    temperature, when ``temp=`` is given); ``_1overf``,
+    ``m KF |I/m|^AF / (A f^EF)`` with ``I = G v`` and the model's KF (0),
+    AF (1), EF (1), ``A = (l - 2 short)^LF (w - 2 narrow)^WF`` when the
+    instance gives ``l=`` or ``w=`` (else 1). Resistors with ``noisy=0`` are
+    noiseless, and so are netdae's own internal resistors (named with ``#``).
+
+    Parameters
+    ----------
+    els : list of Element
+        The circuit's resistors.
+    circuit : Circuit
+    layout : Layout
+    x : ndarray, shape (n + 1,)
+        The extended operating point.
+
+    Returns
+    -------
+    NoiseSources
+    """
+    from .base import flicker, noise_sources, thermal
+    from .junction import KELVIN
+
+    els = [el for el in els if el.params.get("noisy", 1.0) != 0.0 and "#" not in el.name]
+    if not els:
+        return noise_sources([], [])
+    o = circuit.options
+    g = conductances(els, o.temp, o.tnom)
+    a, b = _two_nodes(els, layout)
+    current = g * (x[a] - x[b])
+    m = _multiplier(els)
+    temp = np.array([o.temp + (0.0 if "temp" in el.params else el.params.get("dtemp", 0.0)) for el in els]) + KELVIN
+    kf, af, ef, area = (np.zeros(len(els)), np.ones(len(els)), np.ones(len(els)), np.ones(len(els)))
+    for k, el in enumerate(els):
+        model = circuit.models.get(el.model) if el.model is not None else None
+        if model is None:
+            continue
+        mp = model.params
+        kf[k], af[k], ef[k] = mp.get("kf", 0.0), mp.get("af", 1.0), mp.get("ef", 1.0)
+        if "l" in el.params or "w" in el.params:
+            length = el.params.get("l", mp.get("l", 10e-6))
+            width = el.params.get("w", mp.get("w", mp.get("defw", 10e-6)))
+            short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
+            if kf[k] != 0.0 and not (length - 2 * short > 0.0 and width - 2 * narrow > 0.0):
+                where = f"{el.location}: " if el.location else ""
+                raise CircuitError(f"{where}{el.name}: model {model.name} leaves no noise area (l - 2 short = "
+                                   f"{length - 2 * short:g} m, w - 2 narrow = {width - 2 * narrow:g} m) for its "
+                                   "flicker noise", elements=(el.name,), hint="give l and w above 2 short and 2 narrow")
+            area[k] = (length - 2 * short) ** mp.get("lf", 1.0) * (width - 2 * narrow) ** mp.get("wf", 1.0)
+    m_safe = np.where(m != 0.0, m, 1.0)
+    coefficient = np.where(kf != 0.0, m * flicker(kf, current / m_safe, af) / area, 0.0)
+    return noise_sources([el.name for el in els], [
+        ("_thermal", a, b, thermal(g, 1.0) * temp, 0.0, 1.0),
+        ("_1overf", a, b, 0.0, coefficient, ef),
+    ])
 
 
 def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):

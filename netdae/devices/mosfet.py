@@ -50,6 +50,11 @@ junction capacitances and ``PB`` by
 :func:`~netdae.devices.junction.scale_junction`. With TOX and no KP:
 ``KP = U0 Cox 1e-4``; with NSUB: PHI, GAMMA and VTO as ngspice derives them.
 
+Noise (``.noise``, :meth:`MosfetFamily.noise`, ngspice 39's ``mos1noi.c``):
+thermal noise of RD and RS, channel thermal noise ``4 k T (2/3) |gm|``
+and flicker noise ``KF |id|^AF / (f W m Leff Cox^2)`` (``Cox`` of
+``TOX = 1e-7`` m when TOX is not given; ngspice 39's MOS1 has no NLEV).
+
 Newton: ngspice's ``fetlim`` on vgs (or vgd in reverse mode) against the
 previous threshold, ``limvds`` on vds, ``pnjlim`` on vbs (or vbd); the first
 iteration from a zero iterate starts at ``vbs = -1``, ``vgs = VTO(T)``,
@@ -63,7 +68,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, thermal
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import (
     CHARGE,
@@ -114,6 +119,8 @@ CM2_TO_M2 = 1e-4
 PHI_MIN = 0.1
 WORKFUNCTION_METAL = 3.2
 WORKFUNCTION_SI = 3.25
+#: The oxide thickness ngspice's MOS1 noise assumes when TOX is not given [m].
+NOISE_TOX = 1e-7
 #: ngspice's cap on exp() arguments of the bulk diodes.
 MAX_EXP_ARG = 709.0
 #: fetlim and limvds leave every step of at most this size unchanged [V] (devsup.c: their
@@ -285,6 +292,7 @@ class MosfetFamily(DeviceFamily):
             row["mult"] = inst["m"]
             row["temp"] = inst.get("temp", opts.temp + inst["dtemp"]) + KELVIN
             row["leff"] = row["l"] - 2.0 * row["ld"]
+            row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             if row["leff"] <= 0.0:
                 raise CircuitError(f"{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not positive",
                                    elements=(el.name,))
@@ -382,6 +390,11 @@ class MosfetFamily(DeviceFamily):
         self.cgdo = g("cgdo") * m * w
         self.cgbo = g("cgbo") * m * leff
         self.cox = g("cox") * leff * m * w
+        # flicker noise: KF / (W m Leff Cox^2), Cox per area of TOX = 1e-7 m when TOX is not given (mos1noi.c)
+        cox_area = np.where(g("cox") == 0.0, EPS_OX / NOISE_TOX, g("cox"))
+        kf, size = g("kf"), w * m * leff * cox_area * cox_area
+        self.flicker_scale = np.where(kf != 0.0, kf / np.where(size != 0.0, size, 1.0), 0.0)
+        self.af = g("af")
         # series resistances (ngspice: RD/RS when given, else RSH times squares)
         self.gd = self._series(g("rd"), g("rd_given"), g("rsh"), g("nrd"), m)
         self.gs = self._series(g("rs"), g("rs_given"), g("rsh"), g("nrs"), m)
@@ -591,6 +604,33 @@ class MosfetFamily(DeviceFamily):
         g = np.where(rev, 0.0, isat * ev / vt) + self.gmin
         n = vbs.shape[-1]
         return i[..., :n], g[..., :n], i[..., n:], g[..., n:]
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """ngspice 39's level-1 MOSFET noise (``mos1noi.c``) at the operating point ``x`` (extended).
+
+        Generators: ``_rd``, ``_rs`` thermal noise of the drain and source
+        resistances (outer to internal node); ``_id`` channel thermal noise
+        ``4 k T (2/3) |gm|`` and ``_1overf`` flicker noise
+        ``KF |id|^AF / (f W m Leff Cox^2)``, internal drain to internal source,
+        ``id`` being ngspice's ``MOS1cd``: the channel current in the drain's
+        direction minus the bulk-drain junction current.
+        """
+        v = self.stamps.voltages(x)
+        vgs, vds, vbs = self.type * v[:3]
+        vgd, vbd = vgs - vds, vbs - vds
+        fwd = vds >= 0.0
+        with np.errstate(all="ignore"):
+            cdrain, gm, *_ = drain_current(np.where(fwd, vgs, vgd), np.abs(vds), np.where(fwd, vbs, vbd),
+                                           self.beta, self.lam, self.vbi_n, self.gamma, self.phi)
+            ibd = self.bulk_diodes(vbs, vbd)[2]
+        cd = np.where(fwd, cdrain, -cdrain) - ibd
+        names = [el.name for el in self.elements]
+        return noise_sources(names, [
+            ("_rd", self.di, self.d, thermal(self.gd, temp), 0.0, 1.0),
+            ("_rs", self.si, self.s, thermal(self.gs, temp), 0.0, 1.0),
+            ("_id", self.di, self.si, thermal(2.0 / 3.0 * np.abs(gm), temp), 0.0, 1.0),
+            ("_1overf", self.di, self.si, 0.0, flicker(self.flicker_scale, cd, self.af), 1.0),
+        ])
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)

@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, noise_sources, thermal
 from .companion import BranchStamps, LimitState
 from .kernels.switch_states import HYST_OFF, HYST_ON, REALLY_OFF, REALLY_ON
 from .modelcard import ParameterTable, instance_values, resolve_model
@@ -241,6 +241,20 @@ class SwitchFamily(DeviceFamily):
         idx[:, ks.I_CM] = extended(self.cm, n)
         idx[:, ks.S_G:ks.S_G + 4] = dependence_slots(slots, self.plus, self.minus, self.plus, self.minus)
         return par, idx, self.initial_state().v.T.copy()
+
+    def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
+        """Thermal noise of each switch's conductance at the operating point ``x`` (extended).
+
+        One generator per switch (``swnoise.c``, ``cswnoise.c``), named by the
+        switch alone: ``4 k T`` times RON's or ROFF's conductance, the one of
+        the state the operating point's evaluation decides, which the
+        small-signal matrix has too (ngspice 39 takes RON's for every state
+        number but 0, an OFF switch inside its hysteresis band included, while
+        its AC matrix has ROFF's whatever the state).
+        """
+        g = np.where(conducting(self.dc_state(self.control(x), None)), self.gon, self.goff)
+        names = [el.name for el in self.elements]
+        return noise_sources(names, [("", self.plus, self.minus, thermal(g, temp), 0.0, 1.0)])
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         count = len(self.elements)

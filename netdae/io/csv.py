@@ -15,7 +15,11 @@ One header row of column names, then one row per point, comma separated:
   ``pole(2)`` ..., ``zero(1)`` ...); a ``.tf`` result one row per quantity,
   ``quantity,value`` (``transfer_function``, ``v1#input_impedance``,
   ``output_impedance_at_v(out)``), a name holding a comma written in double
-  quotes (``"output_impedance_at_v(a,b)"``).
+  quotes (``"output_impedance_at_v(a,b)"``);
+- a ``.noise`` result is its spectral densities against frequency (real); its
+  integrated noise goes into a file of its own, one row per total,
+  ``total,value`` (:func:`write_noise_totals`), read back as a ``noise``
+  result whose ``extra["totals"]`` holds them.
 
 Numbers are written with Python's ``repr`` (the shortest text that reads back
 as the same double), so :func:`read_csv` returns bit-identical arrays;
@@ -50,7 +54,7 @@ from ..errors import NetdaeError, ResultFileError
 from ..results import Result
 from .files import write_bytes
 
-__all__ = ["write_csv", "read_csv", "format_csv", "parse_csv"]
+__all__ = ["write_csv", "read_csv", "format_csv", "parse_csv", "format_noise_totals", "write_noise_totals"]
 
 _SEPARATOR = ","
 
@@ -156,6 +160,9 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
         raise ResultFileError(f"{source}:1: empty CSV file, expected a header row")
     if lines[0].strip().lower() in (_PZ_HEADER, _TF_HEADER):
         return _parse_long(lines, source)
+    if lines[0].strip().lower() == _TOTALS_HEADER:
+        res = _parse_long([_TF_HEADER] + lines[1:], source)
+        return Result("noise", extra={"source": source, "totals": {k: float(v[0]) for k, v in res.signals.items()}})
     names = [n.strip().lower() for n in lines[0].split(_SEPARATOR)]
     if len(set(names)) != len(names) or not all(names):
         raise ResultFileError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
@@ -195,6 +202,30 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
 
 _PZ_HEADER = "root,re,im"
 _TF_HEADER = "quantity,value"
+_TOTALS_HEADER = "total,value"
+
+
+def format_noise_totals(totals: dict) -> str:
+    """A noise result's integrated noise as CSV: ``total,value``, one row per total.
+
+    >>> print(format_noise_totals({"onoise_total": 5.8e-08, "inoise_total": 2.2e-07}), end="")
+    total,value
+    onoise_total,5.8e-08
+    inoise_total,2.2e-07
+    """
+    lines = [_TOTALS_HEADER] + [f"{name},{float(value)!r}" for name, value in totals.items()]
+    return "\n".join(lines) + "\n"
+
+
+def write_noise_totals(path: str | os.PathLike, totals: dict) -> None:
+    """Write :func:`format_noise_totals` to ``path`` (whole or not at all).
+
+    Raises
+    ------
+    OutputFileError
+        When the file cannot be written.
+    """
+    write_bytes(path, format_noise_totals(totals).encode("utf-8"))
 
 
 def _format_long(result: Result) -> str:
@@ -270,12 +301,12 @@ def _layout(names: list[str], analysis: str | None, source: str) -> tuple[str, i
         if names[0] == "time":
             analysis = "tran"
         elif names[0] == "frequency":
-            analysis = "ac"
+            analysis = "ac" if any(n.startswith(("re(", "im(")) for n in names[1:]) or len(names) == 1 else "noise"
         elif leading == 0:
             analysis = "op"
         else:
             analysis = "dc"
-    if analysis in ("tran", "ac"):
+    if analysis in ("tran", "ac", "noise"):
         return analysis, 1
     if analysis == "op":
         return analysis, 0
@@ -283,4 +314,4 @@ def _layout(names: list[str], analysis: str | None, source: str) -> tuple[str, i
         if leading == 0:
             raise NetdaeError(f"{source}:1: a dc result needs its swept source(s) first, e.g. 'v1'")
         return analysis, leading
-    raise NetdaeError(f"{source}: unknown analysis {analysis!r} (op, dc, ac, tran)")
+    raise NetdaeError(f"{source}: unknown analysis {analysis!r} (op, dc, ac, tran, noise)")

@@ -82,6 +82,8 @@ __all__ = [
     "FLAVOURS",
 ]
 
+#: What a plot of integrated noise is read as before it joins its spectra's result (``extra["totals"]``).
+_NOISE_TOTALS = "noise_total"
 #: ngspice plot names and the netdae analysis each one holds.
 PLOTNAMES = {
     "operating point": "op",
@@ -90,6 +92,8 @@ PLOTNAMES = {
     "dc transfer characteristic": "dc",
     "pole-zero analysis": "pz",
     "transfer function": "tf",
+    "noise spectral density curves": "noise",
+    "integrated noise": _NOISE_TOTALS,
 }
 #: Plot names written for each analysis (ngspice's spelling).
 PLOTNAME_OF = {
@@ -99,6 +103,7 @@ PLOTNAME_OF = {
     "dc": "DC transfer characteristic",
     "pz": "Pole-Zero Analysis",
     "tf": "Transfer Function",
+    "noise": "Noise Spectral Density Curves",
 }
 #: Analyses whose plot has no scale: every vector is a result.
 _NO_AXIS = frozenset({"op", "pz", "tf"})
@@ -172,9 +177,10 @@ def signal_name(name: str, vtype: str) -> str:
 
 
 def quantity_name(name: str) -> str:
-    """netdae's name of a ``.pz`` or ``.tf`` vector as ngspice writes or stores it.
+    """netdae's name of a ``.pz``, ``.tf`` or ``.noise`` vector as ngspice writes or stores it.
 
-    ngspice's raw file wraps them in ``v(...)`` (they are of type voltage);
+    ngspice's raw file wraps them in ``v(...)`` (they are of type voltage;
+    an integrated input noise in ``i(...)`` when the input is a current);
     the shared library does not.
 
     Examples
@@ -183,11 +189,14 @@ def quantity_name(name: str) -> str:
     ('pole(1)', 'zero(2)', 'output_impedance_at_v(out)')
     >>> quantity_name("v(Transfer_function)"), quantity_name("V1#Input_impedance")
     ('transfer_function', 'v1#input_impedance')
+    >>> quantity_name("v(onoise_total)"), quantity_name("i(inoise_total_r1)"), quantity_name("onoise_spectrum")
+    ('onoise_total', 'inoise_total_r1', 'onoise_spectrum')
     """
     key = name.strip().lower()
-    if key.startswith("v(") and key.endswith(")") and key[2:-1].count("(") == key[2:-1].count(")"):
+    if key.startswith(("v(", "i(")) and key.endswith(")") and key[2:-1].count("(") == key[2:-1].count(")"):
         inner = key[2:-1]
-        if inner.startswith(("pole(", "zero(", "transfer_function", "output_impedance")) or "#" in inner:
+        if inner.startswith(("pole(", "zero(", "transfer_function", "output_impedance", "onoise_", "inoise_")) \
+                or "#" in inner:
             return inner
     return key
 
@@ -419,7 +428,14 @@ def parse_raw(data: bytes, source: str = "<bytes>", *, partial: bool = False) ->
             table, notes = _binary_table(reader, head)
         else:
             table, notes = _ascii_table(reader, head)
-        results.append(_to_result(head, table, notes, source))
+        res = _to_result(head, table, notes, source)
+        if res.analysis == _NOISE_TOTALS:
+            if not results or results[-1].analysis != "noise" or "totals" in results[-1].extra:
+                raise ResultFileError(f"{source}: plot '{head.plotname}' does not follow a noise analysis's "
+                                      "spectral densities")
+            results[-1].extra["totals"] = {k: float(v[0]) for k, v in res.signals.items()}
+            continue
+        results.append(res)
     if not results:
         raise ResultFileError(f"{source}: not a readable ngspice raw file: no plot in it")
     return results
@@ -564,7 +580,7 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
     names = [n.lower() for n in head.names]
     lengths = [table.shape[0] if n is None else min(n, table.shape[0]) for n in head.lengths]
     columns = [table[: lengths[k], k] for k in range(len(names))]
-    n_axes = 0 if analysis in _NO_AXIS else _count_axes(head.options, names)
+    n_axes = 0 if analysis in _NO_AXIS or analysis == _NOISE_TOTALS else _count_axes(head.options, names)
     axes: dict[str, np.ndarray] = {}
     signals: dict[str, np.ndarray] = {}
     types: dict[str, str] = {}
@@ -578,7 +594,7 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
                 column = column.real.copy()
             axes[key] = column
         else:
-            key = quantity_name(name) if analysis in ("pz", "tf") else signal_name(name, vtype)
+            key = quantity_name(name) if analysis in ("pz", "tf", "noise", _NOISE_TOTALS) else signal_name(name, vtype)
             if key in signals:
                 raise ResultFileError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
             signals[key] = column.copy()
@@ -712,7 +728,27 @@ def format_raw(
         title = title.replace("Warning", "warning")
         preamble = f"Circuit: {title}\n\nDoing analysis at TEMP = {temp:f} and TNOM = {tnom:f}\n\n"
         return preamble.encode("utf-8") + _format_plot(results[0], binary, title, date, pyspice=True)
-    return b"".join(_format_plot(r, binary, title, date) for r in results)
+    return b"".join(_format_plot(r, binary, title, date) + _format_noise_totals(r, binary, title, date)
+                    for r in results)
+
+
+def _noise_unit_types(result: Result) -> tuple[str, str]:
+    """The input noise's vector types (density, integrated) of a noise result: a V or an I source's."""
+    unit = result.extra.get("input_unit") if isinstance(result.extra, dict) else None
+    if unit is None:  # a result read back: the types it was written with
+        unit = "A" if result.extra.get("variable_types", {}).get("inoise_spectrum") == "current-density" else "V"
+    return ("current-density", "current") if unit == "A" else ("voltage-density", "voltage")
+
+
+def _format_noise_totals(result: Result, binary: bool, title: str, date: str) -> bytes:
+    """ngspice's "Integrated Noise" plot after a noise result's spectra (nothing without totals)."""
+    totals = result.extra.get("totals") if result.analysis == "noise" and isinstance(result.extra, dict) else None
+    if not totals:
+        return b""
+    types = {name: ("voltage" if name.startswith("onoise") else _noise_unit_types(result)[1]) for name in totals}
+    plot = Result("noise", signals={name: np.array([value]) for name, value in totals.items()},
+                  extra={"variable_types": types, "plotname": "Integrated Noise"})
+    return _format_plot(plot, binary, title, date)
 
 
 def _pyspice_columns(result: Result, columns: list) -> list:
@@ -733,8 +769,12 @@ def _pyspice_columns(result: Result, columns: list) -> list:
 
 def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: bool = False) -> bytes:
     plotname = PLOTNAME_OF.get(result.analysis)
+    totals = result.analysis == "noise" and not result.axes  # the integrated noise of _format_noise_totals
+    if totals:
+        plotname = "Integrated Noise"
     if plotname is None:
-        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf only)")
+        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf, noise "
+                          "only)")
     if not result.signals and not result.axes:
         raise NetdaeError(f"cannot write an empty '{result.analysis}' result to a raw file")
     known_types = result.extra.get("variable_types", {}) if isinstance(result.extra, dict) else {}
@@ -769,6 +809,11 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
     for k, (name, _, axis) in enumerate(columns):
         if result.analysis in ("pz", "tf"):  # ngspice writes them as voltages: v(pole(1))
             name, vtype = f"v({name})", "voltage"
+        elif totals:  # v(onoise_total), i(inoise_total) for a current input
+            vtype = known_types[name]
+            name = f"{'i' if vtype == 'current' else 'v'}({name})"
+        elif result.analysis == "noise" and not axis:  # densities: V/sqrt(Hz), the input's V or A/sqrt(Hz)
+            vtype = _noise_unit_types(result)[0] if name.startswith("inoise") else "voltage-density"
         else:
             vtype = known_types.get(name) or _vector_type(name, axis)
         lines.append(f"\t{k}\t{name}\t{vtype}")

@@ -28,7 +28,7 @@ import math
 from collections.abc import Mapping
 
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
-                       OpAnalysis, Options, Params, PzAnalysis, SourceSpec, TfAnalysis, TranAnalysis)
+                       NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SourceSpec, TfAnalysis, TranAnalysis)
 from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
@@ -780,6 +780,7 @@ class _Elaborator:
             spec.dc = evaluate_val(src.dc, env, card, "DC value")
         if src.ac_mag is not None:
             spec.ac_mag = evaluate_val(src.ac_mag, env, card, "AC magnitude")
+            spec.ac_given = True
         if src.ac_phase is not None:
             spec.ac_phase = evaluate_val(src.ac_phase, env, card, "AC phase")
         if src.tran is not None:
@@ -876,6 +877,8 @@ class _Elaborator:
                 circuit.analyses.append(self._pz(card, args, form, set(circuit.nodes), loc))
             elif a.kind == "tf":
                 circuit.analyses.append(self._tf(card, args, form, set(circuit.nodes), elements, loc))
+            elif a.kind == "noise":
+                circuit.analyses.append(self._noise(card, args, form, set(circuit.nodes), elements, loc))
             else:
                 sweeps = []
                 for name, offset, start, stop, step in args["sweeps"]:
@@ -975,6 +978,41 @@ class _Elaborator:
                        hint=f"ngspice's {family} model parameters, e.g. {', '.join(sorted(known)[:12])} ...")
         if param in OUTPUT_ONLY.get(family or "", ()):
             raise fail(f"'{param}' is an output of ngspice's {family} model, not a parameter to set")
+
+    def _noise(self, card, args: dict, form: str, nodes: set, elements: dict, loc) -> NoiseAnalysis:
+        """``.noise``: output nodes of the circuit, an independent source with an AC value, a valid grid."""
+        names = [self._node(card, n, off, form, nodes, "output node") for n, off in args["nodes"]]
+        output, reference = names[0], names[1] if len(names) == 2 else "0"
+        if output == reference:
+            raise error(card, args["nodes"][0][1], f"the output voltage v({output},{reference}) is identically zero "
+                        "(both nodes are the same)", form)
+        name, off = args["source"]
+        target = elements.get(name)
+        if target is None or target.kind not in ("vsource", "isource"):
+            what = "names no element" if target is None else f"is a {target.kind}"
+            raise error(card, off, f"input source '{name}' {what}, not an independent V or I source", form,
+                        hint="the input noise is referred to an independent V or I source of the circuit")
+        if target.source is None or not target.source.ac_given:
+            raise error(card, off, f"input source '{name}' has no AC value: ngspice refuses it as the noise input",
+                        form, hint=f"give {name} an AC value, e.g. '{name} ... ac 1'")
+        points = self._value(args["points"], card, "points")
+        fstart = self._value(args["fstart"], card, "fstart")
+        fstop = self._value(args["fstop"], card, "fstop")
+        if points < 1 or points != int(points):
+            raise error(card, args["points"][1], f"points must be a positive integer, got {points:g}", form)
+        if not fstart > 0:
+            raise error(card, args["fstart"][1], f"fstart must be > 0, got {fstart:g}", form,
+                        hint="noise densities are computed at positive frequencies (flicker noise grows as 1/f)")
+        if fstop < fstart:
+            raise error(card, args["fstop"][1], f"fstop {fstop:g} is below fstart {fstart:g}", form)
+        summary = 0.0
+        if "summary" in args:
+            summary = self._value(args["summary"], card, "pts_per_summary")
+            if summary < 0 or summary != int(summary):
+                raise error(card, args["summary"][1], f"pts_per_summary must be a non-negative integer, got "
+                            f"{summary:g}", form)
+        return NoiseAnalysis(output, reference, name, args["variation"], int(points), fstart, fstop, int(summary),
+                             loc)
 
     def _steps(self, elements: dict[str, Element], circuit: Circuit) -> list[StepSpec]:
         """The ``.step`` cards: what each sets, and its points."""
@@ -1106,6 +1144,8 @@ class _Elaborator:
                         problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
             elif signal == "all":
                 continue
+            elif signal.startswith(("onoise_", "inoise_")):
+                pass  # a noise vector: the .noise results keep it (netdae.analyses.noise)
             elif signal[0] == "@":
                 problem = _device_quantity_problem(signal, elements)
             else:

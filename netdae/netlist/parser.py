@@ -85,7 +85,8 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
     if word in UNSUPPORTED_DOT_CARDS:
         raise NetlistError(f"{word}: {UNSUPPORTED_DOT_CARDS[word]} is not supported by netdae",
                            card.location(0),
-                           hint="netdae runs .op, .dc, .ac, .tran, .pz and .tf; remove the card or run it in ngspice")
+                           hint="netdae runs .op, .dc, .ac, .tran, .pz, .tf and .noise; remove the card or run it in "
+                                "ngspice")
     if word in IGNORED_DOT_CARDS:
         net.diagnostics.append(Diagnostic("note", f"{word} skipped: it sets {IGNORED_DOT_CARDS[word]}",
                                           card.location(0)))
@@ -462,6 +463,47 @@ def _tf(card: Card, toks: list[Token], stack, net: Netlist) -> None:
                                                   "source": (rest[0].text, rest[0].start)}))
 
 
+def _noise(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".noise"]
+    hint = "e.g. .noise v(out) vin dec 10 1 1meg, or .noise v(out,ref) iin lin 100 1k 100k 10"
+    n = len(toks)
+    if n < 2:
+        raise error(card, len(card.text), "missing the output voltage v(out[,ref])", form, hint=hint)
+    tok = toks[1]
+    if tok.kind != WORD or tok.text != "v" or n < 3 or toks[2].text != "(":
+        raise error(card, tok.start, f"expected the output voltage v(node) or v(node,ref), found {tok.text!r}",
+                    form, hint=hint)
+    j, nodes = 3, []
+    while j < n and toks[j].text != ")":
+        if toks[j].kind == WORD:
+            nodes.append((parse_node(card, toks[j], form), toks[j].start))
+        elif toks[j].text != ",":
+            raise error(card, toks[j].start, f"unexpected {toks[j].text!r} in the output voltage", form, hint=hint)
+        j += 1
+    if j >= n:
+        raise error(card, tok.start, "unterminated output voltage v(", form, hint=hint)
+    if not nodes or len(nodes) > 2:
+        raise error(card, tok.start, f"v(...) takes one or two nodes, found {len(nodes)}", form, hint=hint)
+    rest = toks[j + 1:]
+    if not rest:
+        raise error(card, len(card.text), "missing the input source (an independent V or I source)", form, hint=hint)
+    if rest[0].kind != WORD or parse_number(rest[0].text) is not None:
+        raise error(card, rest[0].start, f"expected the input source's name, found {rest[0].text!r}", form, hint=hint)
+    if len(rest) < 2 or rest[1].text not in ("dec", "oct", "lin"):
+        raise error(card, rest[1].start if len(rest) > 1 else len(card.text),
+                    "expected the sweep type dec, oct or lin", form, hint=hint)
+    vals = _values(card, rest, 2, form)
+    if len(vals) not in (3, 4):
+        raise error(card, vals[4][1] if len(vals) > 4 else len(card.text),
+                    f"expected points, fstart, fstop and optionally pts_per_summary, found {len(vals)} value(s)",
+                    form, hint=hint)
+    args = {"nodes": nodes, "source": (rest[0].text, rest[0].start), "variation": rest[1].text,
+            "points": vals[0], "fstart": vals[1], "fstop": vals[2]}
+    if len(vals) == 4:
+        args["summary"] = vals[3]
+    net.analyses.append(AnalysisCard("noise", card, args))
+
+
 def _ic(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     word = DOT_ALIASES.get(toks[0].text, toks[0].text)
     form = DOT_CARDS[word]
@@ -612,6 +654,7 @@ def _step(card: Card, toks: list[Token], stack, net: Netlist) -> None:
 _HANDLERS = {
     ".subckt": _subckt, ".ends": _ends, ".param": _param, ".func": _func, ".model": _model,
     ".global": _global, ".title": _title, ".op": _op, ".tran": _tran, ".ac": _ac, ".dc": _dc, ".pz": _pz, ".tf": _tf,
+    ".noise": _noise,
     ".ic": _ic, ".nodeset": _ic, ".options": _options, ".temp": _temp, ".save": _saves,
     ".print": _saves, ".probe": _saves, ".plot": _saves, ".meas": _meas,
     ".step": _step,

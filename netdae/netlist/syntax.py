@@ -160,6 +160,7 @@ DOT_CARDS: dict[str, str] = {
     ".tran": ".tran tstep tstop [tstart [tmax]] [uic]",
     ".pz": ".pz in+ in- out+ out- cur|vol pol|zer|pz",
     ".tf": ".tf v(out[,ref])|i(vsrc) vsrc|isrc",
+    ".noise": ".noise v(out[,ref]) vsrc|isrc dec|oct|lin points fstart fstop [pts_per_summary]",
     ".ic": ".ic v(node)=value ...",
     ".nodeset": ".nodeset v(node)=value ...",
     ".options": ".options name[=value] ...",
@@ -189,7 +190,6 @@ IGNORED_DOT_CARDS: dict[str, str] = {
 UNSUPPORTED_DOT_CARDS: dict[str, str] = {
     ".four": "Fourier analysis",
     ".fourier": "Fourier analysis",
-    ".noise": "noise analysis",
     ".sens": "sensitivity analysis",
     ".disto": "distortion analysis",
     ".sp": "S-parameter analysis",

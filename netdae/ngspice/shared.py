@@ -67,8 +67,8 @@ __all__ = ["run", "version", "library_path"]
 _VECTOR_TYPES = {0: "notype", 1: "time", 2: "frequency", 3: "voltage", 4: "current"}
 #: ngspice names plots ``tran1``, ``ac2`` ...: the analysis is the prefix.
 _PLOT_PREFIX = re.compile(r"^([a-z]+)\d*$")
-_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc", "pz": "pz", "tf": "tf"}
-_AXIS_OF = {"tran": ("time",), "ac": ("frequency",), "dc": ("v-sweep", "i-sweep", "res-sweep", "temp-sweep")}
+_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc", "pz": "pz", "tf": "tf", "noise": "noise"}
+_AXIS_OF = {"tran": ("time",), "ac": ("frequency",), "noise": ("frequency",), "dc": ("v-sweep", "i-sweep", "res-sweep", "temp-sweep")}
 #: Seconds to wait for ngspice's background thread to stop after ``bg_halt``.
 _HALT_WAIT = 10.0
 #: Polling interval while waiting for the halted thread [s].
@@ -196,14 +196,23 @@ class _Session:
         """The plots of this run, oldest first, as Results."""
         plots = [p for p in self._strings(self.api.ngSpice_AllPlots()) if p != "const"]
         title = netlist.splitlines()[0].strip() if netlist.strip() else ""
-        return [self._plot(plot, title) for plot in reversed(plots)]
+        results: list[Result] = []
+        for plot in reversed(plots):
+            res = self._plot(plot, title)
+            if res.analysis == "noise" and not res.axes:  # noise2 ...: the integrated noise of the plot before
+                if results and results[-1].analysis == "noise" and "totals" not in results[-1].extra:
+                    results[-1].extra["totals"] = {k: float(v[0]) for k, v in res.signals.items()}
+                    continue
+                raise NgspiceError(f"ngspice plot '{plot}' (integrated noise) does not follow its noise spectra")
+            results.append(res)
+        return results
 
     def _plot(self, plot: str, title: str) -> Result:
         match = _PLOT_PREFIX.match(plot)
         analysis = _ANALYSIS_OF_PREFIX.get(match.group(1) if match else "")
         if analysis is None:
             raise NgspiceError(
-                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran, pz, tf)"
+                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran, pz, tf, noise)"
             )
         # ngspice lists the newest vector first: reversed, that is creation
         # order, the order of the raw file.
@@ -217,7 +226,7 @@ class _Session:
                 key = name.lower()
                 axes[key] = data.real.copy() if np.iscomplexobj(data) else data
             else:
-                key = quantity_name(name) if analysis in ("pz", "tf") else signal_name(name, vtype)
+                key = quantity_name(name) if analysis in ("pz", "tf", "noise") else signal_name(name, vtype)
                 signals[key] = data
             types[key] = vtype
         extra = {

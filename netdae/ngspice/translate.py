@@ -266,7 +266,7 @@ def translate_for_ngspice(
         notes.append(f"{origins[first.first]}: '.save all' added: with .meas cards and no .save card, ngspice 39 "
                      "saves only the vectors the .meas cards name")
     saves = [card for card in cards if card.keyword == ".save"]
-    analyses = [card for card in cards if card.keyword in (".pz", ".tf")]
+    analyses = [card for card in cards if card.keyword in (".pz", ".tf", ".noise")]
     if saves and analyses and not any(t.lower() == "all" for card in saves for t in card.tokens[1:]):
         end = next(card for card in reversed(cards) if _is_end(card))
         old = edits.get(end.first, (end.last, lines[end.first]))

@@ -28,7 +28,6 @@ import multiprocessing
 import os
 import time
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
 
 from ..circuit import Circuit
 from ..errors import NetdaeError
@@ -151,7 +150,9 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         The Monte Carlo seed (default the netlist's ``.options seed=``, else 1).
     analyses : iterable of str, optional
         Which of the netlist's analyses to run (``"op"``, ``"dc"``, ``"ac"``,
-        ``"tran"``; default all).
+        ``"tran"``, ``"noise"``; default all). A ``.noise`` card's integrated
+        noise is recorded as the measures ``onoise_total`` and
+        ``inoise_total`` (the first card's).
     save : iterable of str, optional
         Signals whose waveforms to keep for every row (``v(out)``, ``i(v1)``),
         on each analysis's grid (a ``.tran``'s ``tstep`` grid, read from the
@@ -218,11 +219,12 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     wanted = None
     if analyses is not None:
         wanted = tuple(str(a).lower() for a in analyses)
-        bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran")]
+        bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran", "noise")]
         if bad:
-            raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac or tran)")
+            raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac, tran or noise)")
     save = tuple(_check_save(circuit, save or ()))
-    if not save and not circuit.measures:
+    noise = any(type(a).__name__ == "NoiseAnalysis" for a in circuit.analyses) and (wanted is None or "noise" in wanted)
+    if not save and not circuit.measures and not noise:
         raise NetdaeError("sweep: nothing to record: give measures (.meas cards or measures=) or save= signals")
     plan = make_plan(circuit, params, samples)
     seed = circuit.seed if seed is None else seed

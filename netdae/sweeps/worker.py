@@ -168,6 +168,10 @@ def record(job: Job, circuit, results, out: Outcome) -> None:
             out.measures[m.name] = float(m.value) if m.ok and m.value is not None else float("nan")
             if not m.ok:
                 out.reasons[m.name] = m.reason or "failed"
+        if res.analysis == "noise":  # the integrated noise: measures of the row (the first .noise card's)
+            for name in ("onoise_total", "inoise_total"):
+                if name in res.extra.get("totals", {}):
+                    out.measures.setdefault(name, float(res.extra["totals"][name]))
         _collect_waves(job, circuit, res, out)
     out.error = "; ".join(problems) or None
 

@@ -80,6 +80,22 @@ class OsdiFamily(DeviceFamily):
             if key not in self._calls:
                 self._calls[key] = _Calls(inst.module.descriptor)
 
+    def noise(self, x, temp):
+        """Refused: netdae does not evaluate the OSDI modules' noise contributions.
+
+        Raises
+        ------
+        CircuitError
+            Naming the first instance and where it is written.
+        """
+        from ...errors import CircuitError
+
+        el = self.elements[0]
+        where = f"{el.location}: " if el.location else ""
+        raise CircuitError(f"{where}{el.name}: .noise of OSDI (compiled Verilog-A) devices is not supported by "
+                           "netdae (it does not evaluate the modules' noise sources)", elements=(el.name,),
+                           hint="simulate this circuit's noise in ngspice, or replace the device by a built-in one")
+
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
         """Terminals to the circuit's nodes, surviving internal potentials to new node unknowns."""
