@@ -47,7 +47,7 @@ test: system-deps venv warm
 
 # the long fixed-seed fuzzing runs (a few minutes), kept out of make test
 fuzz: venv
-	$(VPY) -m pytest -q -m fuzz tests/test_netlist_fuzz.py
+	$(VPY) -m pytest -q -m fuzz tests/test_netlist_fuzz.py tests/test_random_circuits.py
 
 bench: system-deps venv warm
 	$(VPY) benchmarks/run.py --quick
