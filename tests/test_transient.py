@@ -7,6 +7,8 @@ tolerance ``reltol*|x| + atol``, the scale the integrator controls.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -347,3 +349,13 @@ def test_tiny_abstol_still_integrates_the_rectifier():
     for name in ("v(in)", "v(out)", "i(v1)"):
         err = np.abs(dense[name] - ref[name]).max() / np.ptp(ref[name]) / 1e-4
         assert err < 20, (name, err)
+
+
+def test_an_unstable_linear_circuit_fails_naming_its_growing_eigenvalue():
+    # a negative conductance (g1) beats r1: v grows as exp(900 t) from the pulse's kick and overflows
+    text = ("negative resistance\nV1 in 0 PULSE(0 1 1m 1u 1u 1m 1)\nR0 in n1 1meg\nC1 n1 0 1u\nR1 n1 0 10k\n"
+            "G1 n1 0 n1 0 -1m\n.tran 1m 2\n.end\n")
+    res = netdae.simulate(netdae.load(text))
+    assert res.status < 0
+    lam = float(re.search(r"the eigenvalue (\S+) 1/s in the right half-plane", res.message).group(1))
+    assert lam == pytest.approx((1e-3 - 1e-4 - 1e-6) / 1e-6, rel=1e-3)

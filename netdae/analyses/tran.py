@@ -238,6 +238,28 @@ def _correction_note(system: MnaSystem, x_old: np.ndarray, x_new: np.ndarray, wh
 
 
 # -- structure ----------------------------------------------------------------------
+#: Growth ``Re(lambda) t`` beyond which a linear circuit's failure is put down to its instability
+#: (e^30 = 1e13: the solution has left every scale the tolerances were set for).
+UNSTABLE_GROWTH = 30.0
+
+
+def _instability(rep, span: float) -> str:
+    """A failure note for a linear circuit that is unstable: its pencil has eigenvalues with positive real part.
+
+    Empty when no finite eigenvalue ``lambda`` grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``.
+    """
+    eig = rep.finite_eigenvalues
+    if eig is None or not np.size(eig) or span <= 0.0:
+        return ""
+    worst = eig[np.argmax(np.real(eig))]
+    if np.real(worst) * span <= UNSTABLE_GROWTH:
+        return ""
+    where = f"{np.real(worst):.4g}" + (f" +- {abs(np.imag(worst)):.4g}j" if np.imag(worst) != 0.0 else "")
+    return (f" (the circuit is unstable: its pencil has the eigenvalue {where} 1/s in the right half-plane, so "
+            f"its solution grows as exp({np.real(worst):.4g} t), by e^{np.real(worst) * span:.0f} up to "
+            "this time; look for a controlled source whose gain makes the circuit active)")
+
+
 def _structure(system: MnaSystem, x0: np.ndarray) -> IndexReport | None:
     """Index report at the start (dense when small, else topological)."""
     method = "auto" if system.n <= TRAN_PENCIL_LIMIT else "topological"
@@ -561,6 +583,8 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             reasons = [f.message for f in rep.topology.findings if f.severity in ("error", "warning")]
             if reasons:
                 message += f" (circuit structure: {reasons[0]})"
+        if failure is not None and system.linear:
+            message += _instability(rep, times[-1] - card.tstart)
 
     if o.interp:
         grid = np.arange(card.tstart, card.tstop + 0.5 * card.tstep, card.tstep)
