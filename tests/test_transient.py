@@ -14,7 +14,7 @@ import pytest
 
 import netdae
 from netdae.analyses.tran import transient
-from netdae.errors import CircuitError, NetdaeError
+from netdae.errors import NetdaeError
 
 TWO_PI = 2 * np.pi
 
