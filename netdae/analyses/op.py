@@ -76,6 +76,8 @@ def _names(items, limit: int = NAMED) -> str:
 
 def _support(v: np.ndarray) -> np.ndarray:
     """Indices carrying the weight of the null vectors (columns of v)."""
+    if v.size == 0:
+        return np.zeros(0, dtype=int)
     w = np.abs(v).max(axis=1) if v.ndim == 2 else np.abs(v)
     return np.flatnonzero(w > 1e-3 * w.max()) if w.size and w.max() > 0 else np.zeros(0, dtype=int)
 
@@ -260,9 +262,16 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
             _check_charge_balance(system, res, groups, used, t, opts)
             res.notes = [_charge_note(g) for g in used]
         return res
-    if res.singular:
+    if res.singular and not (res.rank is not None and res.rank.right.size == 0 and not system.linear):
         raise _singular_error(system, res, topology)
     worst = _describe_unknowns(system, res.worst, res.x)
+    if res.singular:  # singular at an iterate only (a device law of zero slope there): no convergence
+        raise ConvergenceError(
+            "operating point not found: Newton met a singular Jacobian on the way (a device law with zero "
+            "slope at an iterate) and gmin and source stepping failed; the Jacobian at the values it "
+            "started from is regular" + (f" (last values: {worst})" if worst else ""),
+            worst=system.names[res.worst[0]] if res.worst else None,
+            hint="give .nodeset values close to the expected solution, or an .ic for the transient")
     raise ConvergenceError(
         f"operating point did not converge after {res.iterations} Newton iterations "
         f"(plain Newton, gmin stepping, source stepping); last values: {worst}",

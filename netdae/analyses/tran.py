@@ -572,6 +572,11 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
                          "the right limit are reported at this time")
         if len(jumps) > JUMP_NOTES:
             notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (extra['jumps'])")
+        if stats.get("impasses"):
+            notes.append(f"Newton failed on every step size at {stats['impasses']} instant(s): the solution continued "
+                         "from implicit-Euler steps right of each solved by the steady-state solver (damped Newton, "
+                         "limiting, gmin and source stepping), recorded as a jump (an impasse: the circuit snaps "
+                         "to another state, as a latch or a trigger with feedback does)")
         events = [(t, list(w)) for t, w in res.events]
         if events:
             first_t, first_w = events[0]

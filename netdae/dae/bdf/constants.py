@@ -43,6 +43,9 @@ ETA_SAFETY = 0.9
 ERROR_FLOOR = 1e-4
 #: Failures allowed within one step before giving up (IDA's maxncf, maxnef).
 MAX_NEWTON_FAILURES = 10
+#: Impasse restarts at one t after the attempts failed on every step size (each from implicit-Euler
+#: steps ten times longer than the last; BDF._impasse, the compiled loop's _impasse).
+IMPASSE_TRIES = 4
 MAX_ERROR_FAILURES = 10
 #: First step at t0: at most this fraction of the distance to the first breakpoint (IDA's 0.001 * tout).
 H0_FRACTION = 1e-3

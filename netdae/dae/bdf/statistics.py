@@ -18,13 +18,15 @@ def new_statistics() -> dict:
         ``factorizations``, ``evaluations``, ``jacobian_evaluations``,
         ``cj_changes`` (changes of the Newton-matrix coefficient between
         attempts), ``restarts``, ``probes``, ``max_order_used``, ``h_min``,
-        ``h_max``, ``events`` (steps ended where switches change), ``wall_time`` [s].
+        ``h_max``, ``events`` (steps ended where switches change), ``impasses`` (instants
+        where Newton failed on every step size and the solution jumped to the steady-state
+        solver's implicit-Euler steps right of them), ``wall_time`` [s].
     """
     return {
         "steps": 0, "rejected": 0, "newton_iterations": 0, "newton_failures": 0,
         "factorizations": 0, "evaluations": 0, "jacobian_evaluations": 0, "cj_changes": 0,
         "restarts": 0, "probes": 0, "max_order_used": 0, "h_min": math.inf, "h_max": 0.0,
-        "events": 0, "wall_time": 0.0,
+        "events": 0, "impasses": 0, "wall_time": 0.0,
     }
 
 

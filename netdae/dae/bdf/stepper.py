@@ -47,6 +47,7 @@ from .constants import (
     ETA_NEWTON_FAIL,
     EVENT_RIGHT_LIMIT_FRACTION,
     EVENT_RIGHT_LIMIT_ULPS,
+    IMPASSE_TRIES,
     H0_FRACTION,
     JUMP_DETECT,
     MAX_ERROR_FAILURES,
@@ -258,6 +259,8 @@ class BDF:
         self._last_cj_attempt = None
         self._state = None  # the devices' limiting state at the last accepted point
         self._event_restart = False  # the pending restart follows a switching event
+        self._impasse_t = math.nan  # the last t where Newton failed on every step size (an impasse)
+        self._impasse_tries = 0
         self._after_event = False  # the last restart was at a switching event
         self._chatter = 0  # consecutive events in the first step after an event
         self._ee = None
@@ -566,10 +569,58 @@ class BDF:
                        "fixed-step mode cannot reduce the step; choose a smaller fixed_step")
             return None
         if ncf >= MAX_NEWTON_FAILURES:
+            if reason != "evaluation" and self._impasse(t):
+                return None  # continued from the jump: the step loop goes on from there
             self._fail(t, h, f"Newton iteration failed {ncf} times ({reason})", info.get("worst"),
                        newton_hint(reason))
             return None
         return ETA_NEWTON_FAIL
+
+    def _impasse(self, t) -> bool:
+        """After the attempts from t failed on every step size: continue from the solution right of t.
+
+        Newton failed, or the error test down to the rounding of t, in a nonlinear
+        system: no solution near the last one exists, or one faster than t can
+        resolve (an impasse: the circuit snaps to another state, as a latch or a
+        transistor without capacitances does). Two implicit-Euler steps of the step
+        the attempts began with, solved by the steady-state solver with its homotopies
+        (:func:`right_limit`), give the state right of t; it is recorded as a jump and
+        the method restarts there at order 1. Failing again right after, up to
+        ``IMPASSE_TRIES`` times at one t with steps ten times longer each. Returns
+        False (nothing changed) when that solve fails too, or for a linear system.
+        """
+        if self._linear:
+            return False
+        if self._impasse_t == t:
+            if self._impasse_tries >= IMPASSE_TRIES:
+                return False
+            self._impasse_tries += 1  # still failing right after the jump: a ten times longer step
+        else:
+            self._impasse_t, self._impasse_tries = t, 1
+        n = self.n
+        x = self._hist.P[0, :n].copy()
+        eps = max(self.h * 10.0 ** (self._impasse_tries - 1),
+                  EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        tol = self._tolerances
+        out, iterations, evaluations, _ = right_limit(self.system, t, x, eps, self._high, self.rtol,
+                                                      tol["vntol"], tol["abstol"], state=self._state)
+        self.stats["newton_iterations"] += iterations
+        self.stats["evaluations"] += evaluations
+        if out is None:
+            return False
+        moved = np.abs(out - x) * self._w
+        names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
+        P = self._hist.P
+        P[0, :n] = out
+        P[0, n:] = self._evaluate(out, t).q
+        self._set_weights(out)
+        if names:
+            self._rec.jump(t, out, names)
+        self.stats["impasses"] += 1
+        self.stats["restarts"] += 1
+        self._rec.restart(t)
+        self._restart_at(out, max(self.h, self.min_step))
+        return self.status != "failed"
 
     def _error_failure(self, t, h, nef, info):
         """Step-size factor (and new order) after an error-test failure, or None after the last one."""
@@ -590,6 +641,8 @@ class BDF:
                     + ("Newton iteration fails" if kind == "newton" else "error test fails"))
         else:
             what = f"step size below the roundoff of t ({failures})"
+        if (kind == "error" or info.get("info") != "evaluation") and self._impasse(t):
+            return None  # continued from the jump
         hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
         self._fail(t, h, what, info.get("worst"), hint)
         return None

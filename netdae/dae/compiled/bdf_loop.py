@@ -82,6 +82,7 @@ from ..bdf import (  # noqa: E402
     EVENT_RIGHT_LIMIT_FRACTION,
     EVENT_RIGHT_LIMIT_TOL,
     EVENT_RIGHT_LIMIT_ULPS,
+    IMPASSE_TRIES,
     H0_ERROR_TARGET,
     H0_FRACTION,
     JUMP_DETECT,
@@ -123,7 +124,8 @@ F_PIVOT_THRESHOLD = 20  # relative pivot threshold of the refactorisations
 F_CJLAST = 21           # cj of the previous attempt (Newton's rate guess)
 F_RATE = 22             # Newton's contraction rate, carried from step to step
 F_RL_EPS = 23           # probe step of a pending right-limit request
-N_F = 24
+F_IMPASSE_T = 24        # the last t where Newton failures on every step size asked for a jump (impasse)
+N_F = 25
 
 # --- integer scalars I[...] ----------------------------------------------------------
 I_K = 0
@@ -170,7 +172,9 @@ I_NEVENTS = 40          # events recorded
 I_CHATTER = 41          # consecutive events in the first step after an event
 I_AFTER_EVENT = 42      # the last restart was at an event
 I_RESTART_CHECKED = 43  # the pending restart has checked for a jump (kept across returns to Python)
-N_I = 44
+I_IMPASSE = 44          # 1: the pending restart continues from the right limit Python solved (an impasse)
+I_IMPASSE_TRIES = 45    # impasse restarts at F_IMPASSE_T so far
+N_I = 46
 
 # statuses
 RUNNING = 0
@@ -327,6 +331,36 @@ def _fail(F, I, t, h, code, worst):
     I[I_FAIL_WORST] = worst
     F[F_FAIL_T] = t
     F[F_FAIL_H] = h
+
+
+@kernel
+def _impasse(F, I, t):
+    """After the attempts from t failed on every step size (Newton, or the error test down to the
+    rounding of t) in a nonlinear system: ask Python once per t for two implicit-Euler steps of the
+    step the attempts began with, solved by its steady-state solver with its homotopies, and
+    restart from them (recorded as a jump). No solution near the last one exists there, or one
+    faster than t can resolve: an impasse, where the circuit snaps to another state (a latch, a
+    trigger with feedback, a transistor without capacitances). Failing again right after, up to
+    IMPASSE_TRIES times at one t with steps ten times longer each. True when the request is made
+    (the recorded failure stands when Python finds no such steps)."""
+    if I[I_LINEAR] != 0:
+        return False
+    if F[F_IMPASSE_T] == t:
+        if I[I_IMPASSE_TRIES] >= IMPASSE_TRIES:
+            return False
+        I[I_IMPASSE_TRIES] += 1  # still failing right after the jump: a ten times longer step
+    else:
+        I[I_IMPASSE_TRIES] = 1
+    I[I_STATUS] = RUNNING
+    F[F_IMPASSE_T] = t
+    F[F_RL_EPS] = max(F[F_H] * 10.0 ** (I[I_IMPASSE_TRIES] - 1),
+                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+    I[I_IMPASSE] = 1
+    I[I_PENDING_RESTART] = 1
+    I[I_RESTART_CHECKED] = 0
+    F[F_RESTART_FIXED] = 0.0
+    F[F_RESTART_CAP] = F[F_H]
+    return True
 
 
 @kernel
@@ -749,6 +783,23 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     if count == 0 and I[I_EVENT_RESTART] == 0:
         return -1  # the converged right limit is x itself: nothing jumped (after a switching event the
         # right limit is still recorded and the derivatives probed again from it: the switch changed phi)
+    _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec)
+    # a nonlinear system's history holds q'(t+) = phi(x(t+)): an index-2 unknown that
+    # jumped changes it in the rows it enters (a source current into a gate charge)
+    return 1 if (value_jump or I[I_LINEAR] == 0) else 0
+
+
+@kernel
+def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
+    """Continue from the right limit ``xr`` (in ``ws``) at ``t``: record the unknowns that jump,
+    make it ``x`` and the history's value (and charges), record it a second time at ``t`` and
+    start a new segment."""
+    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
+     event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
     j = I[I_NJUMPS]
     if j < jump_t.size:
         jump_t[j] = t
@@ -773,9 +824,6 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     if I[I_NSEGMENTS] < segments.size:
         segments[I[I_NSEGMENTS]] = I[I_M] - 1
         I[I_NSEGMENTS] += 1
-    # a nonlinear system's history holds q'(t+) = phi(x(t+)): an index-2 unknown that
-    # jumped changes it in the rows it enters (a source current into a gate charge)
-    return 1 if (value_jump or I[I_LINEAR] == 0) else 0
 
 
 @kernel
@@ -1000,6 +1048,15 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 return BUFFER_FULL  # a jump records a second point
             for i in range(n):
                 xs[i] = P[0, i]
+            if I[I_IMPASSE] != 0 and I[I_RL_READY] != 0:
+                # Newton failed on every step size from t: continue from the solution of the
+                # implicit-Euler steps Python's steady-state solver found right of t (a jump)
+                I[I_IMPASSE] = 0
+                I[I_RL_READY] = 0
+                for i in range(n):
+                    xr[i] = rl_given[i]
+                _continue_from(F, I, F[F_T], xs, P, rtol, tol, sysd, devd, evb, ws, rec)
+                I[I_RESTART_CHECKED] = 1
             rc = _restart_at(F, I, P, psi, F[F_T], xs, F[F_RESTART_CAP], F[F_RESTART_FIXED] != 0.0, tol,
                              sysd, devd, lus, evb, ws, rec)
             if rc == FACTOR_NEED_PIVOTS:
@@ -1193,6 +1250,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 I[I_NEWTON_FAILURES] += 1
                 if ncf >= MAX_NEWTON_FAILURES:
                     _fail(F, I, t, h, FAIL_NEWTON * 16 + reason, worst)
+                    if reason != REASON_EVALUATION and _impasse(F, I, t):
+                        return NEED_RIGHT_LIMIT
                     return FAILED
                 eta = ETA_NEWTON_FAIL
             else:
@@ -1222,6 +1281,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     return FAILED
             elif h_new <= ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)) or t + h_new == t:
                 _fail(F, I, t, h, FAIL_ROUNDOFF * 256 + code, worst)
+                if (kind == 2 or reason != REASON_EVALUATION) and _impasse(F, I, t):
+                    return NEED_RIGHT_LIMIT
                 return FAILED
             if I[I_NST] == 0:
                 psi[0] = h_new

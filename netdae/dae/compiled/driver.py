@@ -180,6 +180,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
 
     F = np.zeros(L.N_F)
     I = np.zeros(L.N_I, dtype=np.int64)
+    F[L.F_IMPASSE_T] = np.nan  # no impasse yet (t0 included)
     F[L.F_T] = t0
     F[L.F_RTOL] = rtol
     F[L.F_MAX_STEP] = max_step
@@ -275,6 +276,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     interrupted = None
     failure = None
     out_of_memory = None  # bytes the output buffers could not grow to
+    impasses: list[float] = []  # where Newton failed on every step size and the solution jumped
     try:
         while True:
             tic = time.perf_counter()
@@ -315,11 +317,16 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 I[L.I_NEWTON] += its
                 I[L.I_EVALUATIONS] += evals
                 if x_right is None:
-                    failure = {"t": float(F[L.F_T]), "h": eps, "worst": None, "hint": BDF._newton_hint(None),
-                               "what": what}
+                    if I[L.I_IMPASSE] != 0:  # no jump found either: the Newton failure stands
+                        failure = _failure(system, F, I)
+                    else:
+                        failure = {"t": float(F[L.F_T]), "h": eps, "worst": None,
+                                   "hint": BDF._newton_hint(None), "what": what}
                     I[L.I_STATUS] = L.FAILED
                     status = L.FAILED
                     break
+                if I[L.I_IMPASSE] != 0:
+                    impasses.append(float(F[L.F_T]))
                 rl_given[:] = x_right
                 I[L.I_RL_READY] = 1
             elif status == L.BUFFER_FULL:
@@ -372,7 +379,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         "evaluations": int(I[L.I_EVALUATIONS]), "jacobian_evaluations": int(I[L.I_JAC_EVALUATIONS]),
         "cj_changes": int(I[L.I_CJ_CHANGES]), "restarts": int(I[L.I_RESTARTS]), "probes": int(I[L.I_PROBES]),
         "max_order_used": int(I[L.I_MAX_ORDER_USED]), "h_min": float(F[L.F_H_MIN]), "h_max": float(F[L.F_H_MAX]),
-        "events": int(I[L.I_EVENTS]),
+        "events": int(I[L.I_EVENTS]), "impasses": len(impasses),
         "wall_time": time.perf_counter() - wall0, "load_time": load_time, "engine": "compiled",
     }
     tolerances = {"rtol": rtol, "vntol": vntol, "abstol": abstol, "atol": atol_label, "norm": norm_name,

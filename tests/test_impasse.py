@@ -1,0 +1,64 @@
+"""Impasse points: where a circuit's algebraic solution ends and it snaps to another state.
+
+A current ramp into a node whose current-voltage law is N-shaped, ``i = v^3 - 3 v``
+(a resistor and a cubic B source), with no capacitance: ``v`` follows the root of
+``v^3 - 3 v = I(t)`` on its branch until ``I = 2``, where the branch ``v < -1`` ends
+(the fold at ``v = -1``); no solution is near there any more, and the circuit jumps to
+the other branch, ``v = 2``. A BDF method sees Newton fail on every step size at the
+fold. netdae then solves two implicit-Euler steps right of it with its steady-state
+solver (damped Newton, limiting, gmin and source stepping), records the jump and
+restarts there: ngspice's behaviour on such circuits (it steps over the fold), with the
+jump stated. Checked against the roots of the cubic, in both integrators.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import netdae
+
+FOLD = """N-shaped conductance driven by a current ramp
+I1 0 n PWL(0 -3 1 3)
+R1 n 0 1
+B1 n 0 I = v(n)*v(n)*v(n) - 4*v(n)
+.nodeset v(n)=-2
+.tran 1m 1
+.end
+"""
+T_FOLD = 5.0 / 6.0  # I(t) = -3 + 6 t reaches the fold's current 2
+
+
+def branch_root(current: float, lower: bool) -> float:
+    """The real root of v^3 - 3 v = current on the lower (v < -1) or upper (v > 1) branch."""
+    roots = np.roots([1.0, 0.0, -3.0, -current])
+    real = roots[np.abs(roots.imag) < 1e-9].real
+    return float(real.min() if lower else real.max())
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_the_solution_jumps_at_the_fold_and_follows_the_other_branch(engine, monkeypatch):
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    res = netdae.simulate(netdae.load(FOLD), reltol=1e-6)
+    assert res.ok, res.message
+    assert res.stats["integrator"]["impasses"] >= 1
+    assert any("impasse" in note for note in res.notes)
+    jumps = [t for t, names in res.extra["jumps"] if "v(n)" in names and t > 0.5]
+    assert jumps and abs(jumps[0] - T_FOLD) < 1e-3  # where Newton can no longer follow the branch
+    t = np.array([0.1, 0.4, 0.8, 0.9, 0.95, 1.0])
+    v = res.dense(t)["v(n)"]
+    expect = [branch_root(-3.0 + 6.0 * tk, lower=tk < jumps[0]) for tk in t]
+    np.testing.assert_allclose(v, expect, rtol=1e-4)
+
+
+def test_an_operating_point_newton_cannot_reach_is_a_convergence_error_not_a_singular_matrix():
+    # -1 A into (v - 1)^2 >= 0 has no solution; Newton's iterates meet the zero slope at v = 1, where
+    # the Jacobian is singular, but it is regular where they start: no singular circuit, no convergence
+    with pytest.raises(netdae.ConvergenceError, match="singular Jacobian on the way .* give .nodeset"):
+        netdae.run(netdae.load("no solution\nI1 0 n -1\nB1 n 0 I = (v(n)-1)*(v(n)-1)\n.op\n.end\n"))
+
+
+def test_a_smooth_circuit_has_no_impasse():
+    res = netdae.simulate(netdae.load(FOLD.replace("PWL(0 -3 1 3)", "PWL(0 -3 1 1.9)")), reltol=1e-6)
+    assert res.ok and res.stats["integrator"]["impasses"] == 0
