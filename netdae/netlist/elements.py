@@ -774,7 +774,7 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
         what = "VDMOS (power MOSFET, .model ... vdmos)" if kind == "mosfet" else "diode"
         raise error(card, thermal.start, f"a self-heating {what} with thermal nodes ('thermal') is not supported "
                     "by netdae", syntax, hint="remove the thermal nodes and 'thermal' to simulate it without "
-                    "self-heating" + (", once netdae has VDMOS" if kind == "mosfet" else ""))
+                    "self-heating")
     if kind == "bjt":
         el.positional = words
         return el
