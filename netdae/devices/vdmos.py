@@ -183,6 +183,15 @@ def _logcosh(x):
     return ax + np.log1p(np.exp(-2.0 * ax)) - math.log(2.0)
 
 
+def _log1p_square(x):
+    """``ln(1 + x^2)`` without overflow."""
+    ax = np.abs(x)
+    big = ax > 1.0
+    inv = 1.0 / np.where(big, ax, 1.0)
+    small = np.where(big, 0.0, ax)
+    return np.where(big, 2.0 * np.log(np.where(big, ax, 1.0)) + np.log1p(inv * inv), np.log1p(small * small))
+
+
 def gate_drain_charge(v, s, y, a):
     """ngspice's gate-drain capacitance at ``v`` (vgd) and its exact charge integral from 0.
 
@@ -208,7 +217,7 @@ def gate_drain_charge(v, s, y, a):
     lin = a == 0.0
     a_safe = np.where(lin, 1.0, a)
     f_pos = _logcosh(av) / a_safe
-    f_neg = v * np.arctan(av) - np.log1p(av * av) / (2.0 * a_safe)
+    f_neg = v * np.arctan(av) - _log1p_square(av) / (2.0 * a_safe)
     f = np.where(lin, 0.0, np.where(pos, f_pos, f_neg))
     c = s * np.where(pos, np.tanh(av), np.arctan(av)) + y
     return y * v + s * f, c

@@ -93,7 +93,13 @@ def gate_drain_charge(v, s, y, a):
     c = s * math.atan(av) + y
     if a == 0.0:
         return y * v, c
-    return y * v + s * (v * math.atan(av) - math.log1p(av * av) / (2.0 * a)), c
+    ax = abs(av)
+    if ax > 1.0:
+        inv = 1.0 / ax
+        lsq = 2.0 * math.log(ax) + math.log1p(inv * inv)
+    else:
+        lsq = math.log1p(ax * ax)
+    return y * v + s * (v * math.atan(av) - lsq / (2.0 * a)), c
 
 
 @kernel
