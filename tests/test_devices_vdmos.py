@@ -144,6 +144,10 @@ def test_gate_drain_capacitance_is_ngspices_and_its_charge_integrates_it():
     cn = gate_drain_charge(-fine, s, y, a)[1]
     trapn = -np.concatenate([[0.0], np.cumsum((cn[1:] + cn[:-1]) / 2 * np.diff(fine))])
     np.testing.assert_allclose(qn[::1000], trapn[::1000], rtol=1e-8, atol=1e-20)
+    # near vgd = 0 the charge keeps its relative accuracy (q = s A v^2 / 2 with y = 0), on both sides
+    tiny = np.array([-1e-7, -1e-9, 1e-9, 1e-7])
+    qt, _ = gate_drain_charge(tiny, s, 0.0, a)
+    np.testing.assert_allclose(qt, s * a * tiny ** 2 / 2, rtol=1e-6)
     # A = 0: a constant capacitance y; large |A v| does not overflow
     q0, c0 = gate_drain_charge(np.array([-2.0, 3.0]), s, y, 0.0)
     np.testing.assert_allclose(c0, y) and np.testing.assert_allclose(q0, [-2 * y, 3 * y])

@@ -177,10 +177,17 @@ def channel_current(vgs, vds, von, beta, lam, theta, ksub, shift, mtr):
     return np.where(fwd, i, -i), np.where(fwd, di_dvgs, -di_dvgs), np.where(fwd, di_dvds, -di_dvds)
 
 
+#: Below this |A vgd|, ln(cosh) is computed as ln(1 + 2 sinh^2(x/2)) (relative accuracy near 0), above as
+#: |x| - ln 2 + ln(1 + exp(-2|x|)) (no overflow).
+_LOGCOSH_SWITCH = 1.0
+
+
 def _logcosh(x):
-    """``ln(cosh(x))`` without overflow."""
+    """``ln(cosh(x))`` without overflow, to relative accuracy near 0."""
     ax = np.abs(x)
-    return ax + np.log1p(np.exp(-2.0 * ax)) - math.log(2.0)
+    big = ax > _LOGCOSH_SWITCH
+    half = np.sinh(np.where(big, 0.0, ax) * 0.5)
+    return np.where(big, ax + np.log1p(np.exp(-2.0 * ax)) - math.log(2.0), np.log1p(2.0 * half * half))
 
 
 def _log1p_square(x):

@@ -46,6 +46,8 @@ N_IDX = S_CHG + 4 * N_CHG_DEPS
 V_GS, V_DS, V_D = 0, 1, 2
 N_STATE = 3
 _LOG2 = math.log(2.0)
+#: As netdae.devices.vdmos: ln(cosh x) from sinh below this |x|, from exp above.
+LOGCOSH_SWITCH = 1.0
 
 
 @kernel
@@ -89,7 +91,12 @@ def gate_drain_charge(v, s, y, a):
         if a == 0.0:
             return y * v, c
         ax = abs(av)
-        return y * v + s * ((ax + math.log1p(math.exp(-2.0 * ax)) - _LOG2) / a), c
+        if ax > LOGCOSH_SWITCH:
+            lc = ax + math.log1p(math.exp(-2.0 * ax)) - _LOG2
+        else:
+            half = math.sinh(ax * 0.5)
+            lc = math.log1p(2.0 * half * half)
+        return y * v + s * (lc / a), c
     c = s * math.atan(av) + y
     if a == 0.0:
         return y * v, c
