@@ -617,12 +617,20 @@ VDMOS_INSTANCE_PARAMETERS = frozenset({"icvds", "icvgs", "m", "temp", "dtemp"})
 
 
 def _settle_three_node_mosfet(el: ElementCard, scope: Definition) -> None:
-    """An M card of three nodes and a model: ngspice 39's VDMOS when the model is one, else a missing node.
+    """An M card of three nodes and a model: ngspice 39's VDMOS when the model is one, else a missing node
+    (five nodes and a VDMOS model: its self-heating form, refused).
 
     A VDMOS takes the instance parameters ``m``, ``off``, ``ic=vds,vgs`` (``icvds``, ``icvgs``),
     ``temp`` and ``dtemp``; the MOSFET's geometry and a third ``ic=`` value are refused at the word.
     """
     words, card, syntax = el.positional, el.card, ELEMENTS["m"]
+    if len(words) == 6:
+        found = scope.lookup_model(words[5].text)
+        if found is not None and found[0].type == "vdmos":
+            raise error(card, words[3].start, f"five nodes (drain gate source and the thermal nodes tj tcase of "
+                        f"ngspice's self-heating VDMOS, model {words[5].text}) are not supported by netdae", syntax,
+                        hint="remove the thermal nodes to simulate it without self-heating")
+        raise error(card, words[5].start, f"unexpected {words[5].text!r}", syntax)
     found = scope.lookup_model(words[3].text)
     if found is None or found[0].type != "vdmos":
         raise error(card, len(card.text), "expected 4 nodes and a model name, found 4 node(s) and no model", syntax)
