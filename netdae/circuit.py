@@ -44,6 +44,7 @@ diode           D       (anode, cathode)             model; params: area, ic, of
 bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
 mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
 jfet            J       (d, g, s)                    model; params: area, off, icvds, icvgs, temp, dtemp, m
+vdmos           M       (d, g, s)                    model (vdmos); params: m, off, icvds, icvgs, temp, dtemp
 vswitch         S       (n+, n-, nc+, nc-)           model (sw); params: on or off (1.0 when given)
 cswitch         W       (n+, n-)                     model (csw); controls = (controlling element,); params: on, off
 ==============  ======  ===========================  =========================================

@@ -24,7 +24,7 @@ FILES = {
     "bsim.cir": "bsim\nV1 d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54\n.op\n.end\n",
     "missing.cir": "missing\n.include nowhere.inc\nV1 a 0 1\nR1 a 0 1\n.op\n.end\n",
     "mesfet.cir": "mesfet\nV1 d 0 1\nZ1 d 0 0 zm\n.model zm nmf\n.op\n.end\n",
-    "vdmos.cir": "vdmos\nV1 d 0 1\nM1 d d 0 vm\n.model vm vdmos\n.op\n.end\n",
+    "vdmos.cir": "vdmos\nV1 d 0 1\nM1 d d 0 tj tc vm thermal\n.model vm vdmos\n.op\n.end\n",
     "loops.cir": "loop\nV1 a 0 1\nR1 a 0 1k\n.control\nrepeat 2\n  op\nend\n.endc\n.end\n",
 }
 

@@ -24,6 +24,7 @@ from netdae.devices.jfet import JfetFamily
 from netdae.devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
 from netdae.devices.mosfet import MosfetFamily
 from netdae.devices.switch import SwitchFamily
+from netdae.devices.vdmos import VdmosFamily
 from netdae.mna import assemble
 from netdae.netlist import load
 
@@ -125,12 +126,15 @@ def close(got, want, name):
     assert np.all(err <= tol), f"{name}[{worst}]: kernel {got.flat[worst]!r}, numpy {want.flat[worst]!r}"
 
 
-def netlists_with(letter: str) -> list[Path]:
-    """Example netlists with at least one element card starting with ``letter``."""
+def netlists_with(letter: str, model: str | None = None, without: str | None = None) -> list[Path]:
+    """Example netlists with at least one element card starting with ``letter`` (and a ``.model`` of
+    type ``model``, or none of type ``without``)."""
     out = []
     for path in sorted(NETLISTS.glob("*.cir")):
-        cards = [ln for ln in path.read_text().splitlines()[1:] if ln[:1].upper() == letter]
-        if cards:
+        lines = path.read_text().lower().splitlines()[1:]
+        cards = [ln for ln in lines if ln[:1] == letter.lower()]
+        types = {ln.replace("(", " ").split()[2] for ln in lines if ln.startswith(".model") and len(ln.split()) > 2}
+        if cards and (model is None or model in types) and (without is None or without not in types):
             out.append(path)
     return out
 
@@ -408,7 +412,7 @@ def random_mosfets(rng, count=6) -> str:
     return "\n".join(lines + [".end", ""])
 
 
-@pytest.mark.parametrize("path", netlists_with("M"), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", netlists_with("M", without="vdmos"), ids=lambda p: p.stem)
 def test_mosfet_kernel_equals_the_family_on_the_netlists(path):
     case = mosfet_case(path.read_text())
     rng = np.random.default_rng(3)
@@ -518,6 +522,91 @@ def test_jfet_kernel_limits_small_and_large_steps():
 def test_jfet_kernel_jacobians_match_differences(seed):
     rng = np.random.default_rng(6200 + seed)
     case = jfet_case(random_jfets(rng))
+    for scale in (0.3, 1.5, 5.0):
+        x = rng.uniform(-1.0, 1.0, case.n) * scale
+        *_, flags, _ = case.compiled(case.extended(x), MODE_EVALUATE, case.vold0)
+        if flags & FLAG_NONFINITE:
+            continue
+        case.jacobians_match_differences(x)
+
+
+# --- VDMOS ----------------------------------------------------------------------------------
+
+def vdmos_case(text):
+    from netdae.devices.kernels.vdmos import eval_vdmos
+    return Case(text, VdmosFamily, eval_vdmos, diode_state)
+
+
+def random_vdmos(rng, count=6) -> str:
+    """``count`` n- and p-channel VDMOS with random cards between five nodes and ground."""
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5"]
+    lines = ["random vdmos"]
+
+    def maybe(p, text):
+        return [text] if rng.random() < p else []
+
+    for k in range(count):
+        d, g, s = rng.choice(nodes, size=3, replace=rng.random() < 0.2)
+        card = maybe(0.4, "pchan") + maybe(0.8, f"vto={rng.uniform(-1, 4):.4g}")
+        card += maybe(0.8, f"kp={10 ** rng.uniform(-2, 1.5):.4g}") + maybe(0.6, f"lambda={rng.uniform(0, 0.05):.4g}")
+        card += maybe(0.3, f"theta={rng.uniform(0, 0.2):.4g}") + maybe(0.4, f"mtriode={rng.uniform(0.5, 2):.4g}")
+        card += maybe(0.5, f"ksubthres={rng.uniform(0.02, 0.3):.4g}") + maybe(0.3, f"subshift={rng.uniform(-0.3, 0.3):.4g}")
+        card += maybe(0.5, f"rd={10 ** rng.uniform(-3, 0):.4g}") + maybe(0.5, f"rs={10 ** rng.uniform(-3, 0):.4g}")
+        card += maybe(0.4, f"rg={rng.uniform(0.5, 10):.4g}") + maybe(0.3, f"rb={10 ** rng.uniform(-3, 0):.4g}")
+        card += maybe(0.4, f"rq={rng.uniform(0.01, 1):.4g} vq={rng.uniform(0.5, 5):.4g}")
+        card += maybe(0.3, f"rds={10 ** rng.uniform(3, 7):.4g}")
+        card += maybe(0.6, f"cgdmax={10 ** rng.uniform(-10, -8.5):.4g} cgdmin={10 ** rng.uniform(-12, -10.5):.4g}")
+        card += maybe(0.5, f"a={rng.uniform(0.1, 1):.4g}") + maybe(0.6, f"cgs={10 ** rng.uniform(-10, -8):.4g}")
+        card += maybe(0.6, f"cjo={10 ** rng.uniform(-11, -9):.4g}") + maybe(0.4, f"vj={rng.uniform(0.5, 1.2):.4g}")
+        card += maybe(0.4, f"m={rng.uniform(0.2, 0.9):.4g}") + maybe(0.4, f"fc={rng.uniform(0.1, 0.99):.4g}")
+        card += maybe(0.5, f"is={10 ** rng.uniform(-14, -9):.4g}") + maybe(0.4, f"n={rng.uniform(1, 1.8):.4g}")
+        card += maybe(0.4, f"tt={10 ** rng.uniform(-9, -7):.4g}")
+        card += maybe(0.4, f"bv={rng.uniform(3, 60):.4g} ibv={10 ** rng.uniform(-6, -3):.4g}")
+        card += maybe(0.2, f"nbv={rng.uniform(1, 3):.4g}")
+        card += maybe(0.3, f"tcvth={rng.uniform(-5e-3, 5e-3):.4g}") + maybe(0.3, f"mu={rng.uniform(-2, 0):.4g}")
+        card += maybe(0.2, f"texp0={rng.uniform(0.5, 2):.4g}") + maybe(0.2, f"trs1={rng.uniform(0, 5e-3):.4g}")
+        card += maybe(0.2, f"tksubthres1={rng.uniform(0, 5e-3):.4g}") + maybe(0.2, f"tnom={rng.uniform(0, 60):.4g}")
+        inst = f"M{k} {d} {g} {s} vm{k}"
+        inst += f" m={rng.integers(1, 4)}" if rng.random() < 0.3 else ""
+        inst += f" temp={rng.uniform(-40, 125):.5g}" if rng.random() < 0.3 else ""
+        inst += " off" if rng.random() < 0.15 else ""
+        inst += f" ic={rng.uniform(-5, 5):.3g},{rng.uniform(-5, 5):.3g}" if rng.random() < 0.15 else ""
+        lines += [inst, f".model vm{k} vdmos ({' '.join(card)})"]
+    return "\n".join(lines + [".end", ""])
+
+
+@pytest.mark.parametrize("path", netlists_with("M", model="vdmos"), ids=lambda p: p.stem)
+def test_vdmos_kernel_equals_the_family_on_the_netlists(path):
+    case = vdmos_case(path.read_text())
+    rng = np.random.default_rng(7)
+    assert exercise(case, rng, scales(0.3, 1.0, 3.0, 15.0), scales(0.3, 1.0, 5.0))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_vdmos_kernel_equals_the_family_on_random_cards(seed):
+    rng = np.random.default_rng(7000 + seed)
+    case = vdmos_case(random_vdmos(rng))
+    # subthreshold, triode, saturation, both modes, the body diode forward and in breakdown, overflow
+    exercise(case, rng, scales(0.2, 0.6, 1.0, 3.0, 10.0, 50.0), scales(0.2, 0.6, 3.0, 20.0), draws=10)
+
+
+def test_vdmos_kernel_limits_small_and_large_steps():
+    rng = np.random.default_rng(7100)
+    case = vdmos_case(random_vdmos(rng, count=8))
+    limited = {}
+    for _ in range(30):
+        x0 = rng.uniform(-4, 6, case.n)
+        *_, vold, _, _ = case.compiled(case.extended(x0), MODE_EVALUATE, case.vold0)
+        for step in (0.01, 0.2, 3.0, 12.0):
+            flags = case.compare(x0 + rng.uniform(-step, step, case.n), MODE_LIMIT, vold)
+            limited[step] = limited.get(step, 0) + bool(flags & FLAG_LIMITED)
+    assert limited[12.0] > 0 and limited[0.01] < limited[12.0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_vdmos_kernel_jacobians_match_differences(seed):
+    rng = np.random.default_rng(7200 + seed)
+    case = vdmos_case(random_vdmos(rng))
     for scale in (0.3, 1.5, 5.0):
         x = rng.uniform(-1.0, 1.0, case.n) * scale
         *_, flags, _ = case.compiled(case.extended(x), MODE_EVALUATE, case.vold0)

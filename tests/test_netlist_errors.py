@@ -132,8 +132,8 @@ CASES = [
     ("t\nV1 a 0 sin(0 1) pulse(0 1)\n", r"more than one transient function", 2, "pulse"),
     ("t\nV1 a 0 trnoise(1n 1n 0 0)\n", r"'trnoise' \(transient noise\) is not supported", 2, "trnoise"),
     # what ngspice's own example netlists use and netdae does not have, named
-    ("t\nM1 d g s vd\n.model vd vdmos\n", r"model vd is a VDMOS \(ngspice's power MOSFET, three nodes\), which "
-     r"netdae does not implement", 2, "vd"),
+    ("t\nM1 d g s b vd\n.model vd vdmos\n", r"model 'vd' is a VDMOS \(power MOSFET\): its M card has three "
+     r"nodes", 2, "vd"),
     ("t\nM1 d g 0 tj tc irf thermal\n.model irf vdmos\n", r"a self-heating VDMOS .* with thermal nodes "
      r"\('thermal'\) is not supported", 2, "thermal"),
     ("t\nD1 1 0 tj dm thermal\n.model dm d\n", r"a self-heating diode with thermal nodes \('thermal'\) is not "

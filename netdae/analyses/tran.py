@@ -191,7 +191,7 @@ def _uic_start(system: MnaSystem) -> _Start:
             if b >= 0:
                 q0[b] -= dq
     ignored = [el.name for el in circuit.elements if (el.kind in ("diode", "bjt", "mosfet") and "ic" in el.params)
-               or (el.kind == "jfet" and ("icvds" in el.params or "icvgs" in el.params))]
+               or (el.kind in ("jfet", "vdmos") and ("icvds" in el.params or "icvgs" in el.params))]
     if ignored:
         notes.append(f"uic: device initial conditions of {', '.join(ignored[:5])} are not used; the devices start "
                      "from their node voltages")

@@ -64,7 +64,7 @@ from .junction import (
 )
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
-__all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage"]
+__all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage", "junction_limit", "junction_current"]
 
 DIODE_PARAMETERS = ParameterTable(
     "diode (level 1)",
@@ -136,6 +136,66 @@ def breakdown_voltage(bv, ibv, isat, nbv_vt, vt, reltol):
         if not np.any(active):
             break
     return np.where(iterate, x, xbv)
+
+
+def junction_limit(vd, vold, vte, vcrit_, has_bv, bv, vtebrk, any_bv=True):
+    """ngspice's limiting of a diode junction with breakdown (``dioload.c``), vectorised.
+
+    ``pnjlim`` on ``vd``; where BV is given and ``vd < min(0, -BV' + 10 NBV vt)``,
+    ``pnjlim`` on ``-(vd + BV')`` with ``NBV vt`` instead.
+
+    Parameters
+    ----------
+    vd, vold : ndarray
+        The iterate's and the previous iteration's junction voltages.
+    vte, vcrit_ : ndarray
+        ``N vt`` and the critical voltage.
+    has_bv : ndarray of bool
+        Where a breakdown voltage is given.
+    bv, vtebrk : ndarray
+        ``BV'`` (:func:`breakdown_voltage`) and ``NBV vt``.
+    any_bv : bool
+        ``has_bv.any()``, precomputed by the caller.
+
+    Returns
+    -------
+    v : ndarray
+        The limited voltages.
+    changed : ndarray of bool or None
+        Where they changed (None: nowhere).
+    """
+    vf, cf = pnjlim(vd, vold, vte, vcrit_)
+    if not any_bv:
+        return vf, cf
+    in_breakdown = has_bv & (vd < np.minimum(0.0, -bv + _BREAKDOWN_LIMIT_MARGIN * vtebrk))
+    if not in_breakdown.any():
+        return vf, cf
+    vb, cb = pnjlim(-(vd + bv), -(vold + bv), vtebrk, vcrit_)
+    no = np.zeros(vd.shape, dtype=bool)
+    changed = np.where(in_breakdown, no if cb is None else cb, no if cf is None else cf)
+    return np.where(in_breakdown, -(vb + bv), vf), (changed if changed.any() else None)
+
+
+def junction_current(vd, isat, vte, knee, has_bv, bv, vtebrk, gmin, any_bv=True):
+    """A diode junction's current (GMIN included) and conductance with breakdown (``dioload.c``).
+
+    ``Is (exp(vd/vte) - 1)`` above ``knee = -3 vte``, ngspice's reverse cubic
+    below (:func:`~netdae.devices.junction.ideal_junction`), and where BV is
+    given, below both ``-BV'`` and the knee, ``-Is exp(-(BV' + vd)/(NBV vt))``;
+    plus ``GMIN vd``.
+
+    Returns
+    -------
+    cd, gd : ndarray
+    """
+    cd, gd = ideal_junction(vd, isat, vte, knee)
+    if any_bv:
+        brk = has_bv & (vd < -bv) & (vd < knee)
+        if brk.any():
+            evrev = np.exp(np.where(brk, -(bv + vd) / vtebrk, 0.0))
+            cd = np.where(brk, -isat * evrev, cd)
+            gd = np.where(brk, isat * evrev / vtebrk, gd)
+    return cd + gmin * vd, gd + gmin
 
 
 class DiodeFamily(DeviceFamily):
@@ -256,27 +316,12 @@ class DiodeFamily(DeviceFamily):
 
         Returns the limited voltages and where they changed (None: nowhere).
         """
-        vf, cf = pnjlim(vd, vold, self.vte, self.vcrit)
-        if not self.any_bv:
-            return vf, cf
-        in_breakdown = self.has_bv & (vd < np.minimum(0.0, -self.bv + _BREAKDOWN_LIMIT_MARGIN * self.vtebrk))
-        if not in_breakdown.any():
-            return vf, cf
-        vb, cb = pnjlim(-(vd + self.bv), -(vold + self.bv), self.vtebrk, self.vcrit)
-        no = np.zeros(vd.shape, dtype=bool)
-        changed = np.where(in_breakdown, no if cb is None else cb, no if cf is None else cf)
-        return np.where(in_breakdown, -(vb + self.bv), vf), (changed if changed.any() else None)
+        return junction_limit(vd, vold, self.vte, self.vcrit, self.has_bv, self.bv, self.vtebrk, self.any_bv)
 
     def current(self, vd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Diode current (GMIN included) and conductance at junction voltage ``vd``."""
-        cd, gd = ideal_junction(vd, self.isat, self.vte, self.knee)
-        if self.any_bv:
-            brk = self.has_bv & (vd < -self.bv) & (vd < self.knee)
-            if brk.any():
-                evrev = np.exp(np.where(brk, -(self.bv + vd) / self.vtebrk, 0.0))
-                cd = np.where(brk, -self.isat * evrev, cd)
-                gd = np.where(brk, self.isat * evrev / self.vtebrk, gd)
-        return cd + self.gmin * vd, gd + self.gmin
+        return junction_current(vd, self.isat, self.vte, self.knee, self.has_bv, self.bv, self.vtebrk, self.gmin,
+                                self.any_bv)
 
     def charge(self, vd: np.ndarray, cd: np.ndarray, gd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Junction charge ``TT id + qdep(vd)`` and its derivative."""

@@ -51,6 +51,7 @@ __all__ = [
     "pnjlim",
     "fetlim",
     "limvds",
+    "fet_mode_limit",
 ]
 
 #: Elementary charge [C] (ngspice's CHARGE, CODATA 2014).
@@ -373,3 +374,37 @@ def limvds(vnew, vold):
                     np.where(vnew < _VDS_HIGH, np.maximum(vnew, _VDS_FLOOR), vnew))
     low = np.where(vnew > vold, np.minimum(vnew, _VDS_UP), np.maximum(vnew, _VDS_DOWN))
     return np.where(vold >= _VDS_HIGH, high, low)
+
+
+def fet_mode_limit(vgs_x, vds_x, vgs_o, vds_o, von):
+    """SPICE's MOSFET limiting of (vgs, vds) in the mode of the previous iteration, vectorised.
+
+    Normal mode last time (``vds_o >= 0``): ``fetlim`` on vgs, then
+    ``limvds`` on vds; reverse mode: ``fetlim`` on vgd, then ``-limvds(-vds)``
+    (``mos1load.c``, ``vdmosload.c``). Type-normalised voltages.
+
+    Parameters
+    ----------
+    vgs_x, vds_x : ndarray
+        The iterate's gate-source and drain-source voltages.
+    vgs_o, vds_o : ndarray
+        Those of the previous iteration (limited).
+    von : ndarray
+        The threshold voltage ``fetlim`` limits around.
+
+    Returns
+    -------
+    vgs, vds : ndarray
+        The limited voltages (the iterate's own where nothing was limited).
+    """
+    vgd_x = vgs_x - vds_x
+    vgdo = vgs_o - vds_o
+    # normal mode last time: limit vgs, then vds
+    g1 = fetlim(vgs_x, vgs_o, von)
+    d1 = limvds(np.where(g1 != vgs_x, g1 - vgd_x, vds_x), vds_o)
+    # reverse mode last time: limit vgd, then -vds
+    gd2 = fetlim(vgd_x, vgdo, von)
+    d2 = -limvds(-np.where(gd2 != vgd_x, vgs_x - gd2, vds_x), -vds_o)
+    g2 = np.where((gd2 != vgd_x) | (d2 != vds_x), gd2 + d2, vgs_x)
+    forward_old = vds_o >= 0.0
+    return np.where(forward_old, g1, g2), np.where(forward_old, d1, d2)

@@ -1,7 +1,7 @@
 """What ngspice 39 knows about model cards: parameter names and levels, as data.
 
 ngspice reads a ``.model`` card against the parameter table of the model's
-type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``jfet.c``, ``sw.c``, ``csw.c``, ``res.c``,
+type and level (``dio.c``, ``bjt.c``, ``mos1.c``, ``jfet.c``, ``vdmos.c``, ``sw.c``, ``csw.c``, ``res.c``,
 ``cap.c``, ``ind.c``); a name that is not in the table is reported ("unrecognized
 parameter (x) - ignored") and the model is used without it. netdae does the
 same (a located warning, see :func:`netdae.devices.modelcard.ignored_parameters`),
@@ -46,6 +46,12 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
     "jfet": _names(
         "level type njf pjf vt0 vto beta lambda rd gd rs gs cgs cgd pb is fc b tnom tcv vtotc bex betatce xti eg "
         "kf af nlev gdsnoi area"),
+    # vdmos.c; 'pchan' and 'nchan' are read by ngspice's reader (inp_vdmos_model), not the table
+    "vdmos": _names(
+        "vto vth0 kp phi lambda theta rd rs rg tnom kf af vdmosn vdmosp vdmos rq vq mtriode tcvth vtotc mu bex "
+        "texp0 texp1 trd1 trd2 trg1 trg2 trs1 trs2 trb1 trb2 subshift ksubthres tksubthres1 tksubthres2 bv ibv nbv "
+        "rds rb n tt eg xti is vj cjo m fc cgdmin cgdmax a cgs rthjc rthca cthj vgs_max vgd_max vds_max vgsr_max "
+        "vgdr_max pd_max id_max idr_max te_max rth_ext derating pchan nchan"),
     "resistor": _names(
         "rsh narrow dw short dlr tc1 tc1r tc2 tc2r tce defw w l kf af tnom r res bv_max lf wf ef"),
     "capacitor": _names("cap cj cox cjsw capsw defw w defl l narrow short del tc1 tc2 tnom di thick bv_max c"),
@@ -61,12 +67,13 @@ OUTPUT_ONLY: dict[str, frozenset] = {
                   "transtimevbcfact excessphasefactor"),
     "mosfet": _names("type"),
     "jfet": _names("type gd gs"),
+    "vdmos": _names("type"),
     "vswitch": _names("gon goff"),
     "cswitch": _names("gon goff"),
 }
 
 #: The model family of each element kind that uses a model card.
-MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vswitch": "vswitch", "cswitch": "cswitch",
+MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos", "vswitch": "vswitch", "cswitch": "cswitch",
                   "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor"}
 
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).

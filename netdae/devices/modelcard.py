@@ -53,7 +53,7 @@ class ParameterTable:
         Accepted parameters without effect on the solution (noise, SOA).
     family : str
         The model family in :data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`
-        (``"diode"``, ``"bjt"``, ``"mosfet"``, ``"jfet"``); names ngspice does not know for
+        (``"diode"``, ``"bjt"``, ``"mosfet"``, ``"jfet"``, ``"vdmos"``); names ngspice does not know for
         it are ignored. Empty: every unknown name is an error.
     levels : frozenset of int
         The ``level=`` values netdae implements.
@@ -121,7 +121,8 @@ class ParameterTable:
 #: rather than as a later convergence failure or a silently odd result.
 NONNEGATIVE = frozenset({
     "is", "js", "isr", "ise", "isc", "iss", "rs", "rsh", "rb", "rbm", "re", "rc", "rd", "cjo", "cje", "cjc",
-    "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "cgs", "cgd", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
+    "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "cgs", "cgd", "cgdmin", "cgdmax",
+    "rg", "rds", "rq", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
 })
 #: Model parameters that must be positive (emission coefficients, junction potentials, a switch's resistances).
 POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "ron", "roff"})

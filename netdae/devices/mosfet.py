@@ -77,8 +77,7 @@ from .junction import (
     REFTEMP,
     Depletion,
     energy_gap,
-    fetlim,
-    limvds,
+    fet_mode_limit,
     pb_factor,
     pnjlim,
     scale_junction,
@@ -474,16 +473,7 @@ class MosfetFamily(DeviceFamily):
         if quiet:
             vgs, vds = vgs_x, vds_x
         else:
-            # normal mode last time: limit vgs, then vds
-            g1 = fetlim(vgs_x, vgs_o, von)
-            d1 = limvds(np.where(g1 != vgs_x, g1 - vgd_x, vds_x), vds_o)
-            # reverse mode last time: limit vgd, then -vds
-            gd2 = fetlim(vgd_x, vgdo, von)
-            d2 = -limvds(-np.where(gd2 != vgd_x, vgs_x - gd2, vds_x), -vds_o)
-            g2 = np.where((gd2 != vgd_x) | (d2 != vds_x), gd2 + d2, vgs_x)
-            forward_old = vds_o >= 0.0
-            vgs = np.where(forward_old, g1, g2)
-            vds = np.where(forward_old, d1, d2)
+            vgs, vds = fet_mode_limit(vgs_x, vds_x, vgs_o, vds_o, von)
         # bulk junction on the side that is the source now
         n = vbs_x.size
         vb_l, _ = pnjlim(np.concatenate([vbs_x, vbs_x - vds_x]), np.concatenate([vbs_o, vbs_o - vds_o]),

@@ -13,12 +13,13 @@ from .diode import DiodeFamily
 from .jfet import JfetFamily
 from .mosfet import MosfetFamily
 from .switch import SwitchFamily
+from .vdmos import VdmosFamily
 
 __all__ = ["FAMILIES", "LAZY_FAMILIES", "family_for"]
 
 #: Nonlinear device families, in evaluation order.
 FAMILIES: tuple[type[DeviceFamily], ...] = (DiodeFamily, BjtFamily, MosfetFamily, JfetFamily, SwitchFamily,
-                                            BehaviouralFamily)
+                                            BehaviouralFamily, VdmosFamily)
 #: Families imported when a circuit has their kind (ctypes and the OSDI loader only for N elements).
 LAZY_FAMILIES = {"osdi": ("netdae.devices.osdi.family", "OsdiFamily")}
 

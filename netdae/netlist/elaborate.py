@@ -57,6 +57,7 @@ MODEL_TYPES = {
     "bjt": ("npn", "pnp"),
     "mosfet": ("nmos", "pmos"),
     "jfet": ("njf", "pjf"),
+    "vdmos": ("vdmos",),
     "vswitch": ("sw",),
     "cswitch": ("csw",),
     "resistor": ("r", "res"),
@@ -66,7 +67,7 @@ MODEL_TYPES = {
 
 #: The model family (:data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`) of each model type.
 MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
-                        "njf": "jfet", "pjf": "jfet",
+                        "njf": "jfet", "pjf": "jfet", "vdmos": "vdmos",
                         "sw": "vswitch", "csw": "cswitch",
                         "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
 #: Instance parameters ngspice 39 takes from a .model card as the default of every instance that does not give them.
@@ -75,7 +76,9 @@ INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
 _PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
                        "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
 #: Bare names on a .model card that restate its type.
-_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw"})
+_TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw", "pchan", "nchan"})
+#: LTspice's annotations on a VDMOS card (datasheet figures and the maker), which ngspice's reader drops.
+VDMOS_ANNOTATIONS = frozenset({"vds", "ron", "qg", "mfg"})
 #: Model parameters of R, C and L that netdae uses (the others size an element without a value,
 #: and netdae needs the value on the element card); aliases as in ngspice's res.c.
 _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2", "tc2r": "tc2", "tce": "tce",
@@ -585,7 +588,12 @@ class _Elaborator:
         env = self.env(p.frames)
         known = NGSPICE_PARAMETERS.get(MODEL_FAMILY_OF_TYPE.get(item.type, ""), frozenset())
         params = {}
+        vdmos = item.type == "vdmos"
+        if vdmos and "pchan" in item.flags:
+            params["pchan"] = 1.0  # ngspice's reader: 'pchan' after 'vdmos' makes a p-channel VDMOS
         for k, v in item.params.items():
+            if vdmos and k in VDMOS_ANNOTATIONS:
+                continue
             if type(v[0]) is ex.Param and k not in known and _undefined(env, v[0]):
                 word = item.card.raw[v[1] : v[1] + len(v[0].name)]
                 self.model_words.setdefault(p.name, {})[k] = (word, v[1])  # LTspice's mfg=OnSemi
@@ -596,11 +604,13 @@ class _Elaborator:
             if mp is not None and mp[0] == p.name:
                 params[mp[1]] = _stepped_number(key, value)
         locations = {k: item.card.location(v[1]) for k, v in item.params.items() if k in params}
+        if "pchan" in params:
+            locations["pchan"] = item.card.location(item.flags["pchan"])
         if "tnom" in params:
             self._check_temperature(params["tnom"], item.card, item.params["tnom"][1], "tnom")
         self.model_cards[p.name] = item
-        strings = {k: text for k, (text, _) in item.strings.items()}
-        locations.update({k: item.card.location(offset) for k, (_, offset) in item.strings.items()})
+        strings = {k: text for k, (text, _) in item.strings.items() if not (vdmos and k in VDMOS_ANNOTATIONS)}
+        locations.update({k: item.card.location(offset) for k, (_, offset) in item.strings.items() if k in strings})
         return Model(p.name, item.type, params, item.card.location(0), locations, strings)
 
     def _screen_model(self, model: Model, item: ModelCard) -> None:
@@ -629,6 +639,7 @@ class _Elaborator:
                 f"ngspice 39 stops at the undefined word '{text}': write {name}=\"{text}\")",
                 item.card.location(offset)))
         outputs = OUTPUT_ONLY.get(family, frozenset())
+        dropped = VDMOS_ANNOTATIONS if family == "vdmos" else frozenset()
         for name in (*item.params, *item.strings, *item.flags):
             if name in outputs:
                 offset = (item.params.get(name) or item.strings.get(name) or (None, item.flags.get(name)))[1]
@@ -636,6 +647,8 @@ class _Elaborator:
                 raise error(item.card, offset, f"'{name}' is an output of ngspice's {family} model, not an input: "
                             "ngspice 39 stops at it on a .model card", form, hint="remove it" + why)
         for name, (text, offset) in item.strings.items():
+            if name in dropped:
+                continue
             if name in known:
                 raise error(item.card, offset, f"model parameter '{name}' needs a number, found the string "
                             f'"{text}"', form)
@@ -766,6 +779,10 @@ class _Elaborator:
                         f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "
                         "compatibility mode)", ELEMENTS[item.name[0]],
                         hint=f"copy the parameters of {mcard.type[4:]} into a {' or '.join(allowed)} model")
+        if item.kind == "mosfet" and mcard.type == "vdmos":
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is a VDMOS (power MOSFET): its M card "
+                        "has three nodes (drain gate source)", ELEMENTS["m"],
+                        hint="remove the bulk node, or use an nmos/pmos model")
         if allowed is not None and mcard.type not in allowed:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', a "
                         f"{ELEMENTS[item.name[0]].description} needs {' or '.join(allowed)}",

@@ -793,12 +793,13 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
         what = "VDMOS (power MOSFET, .model ... vdmos)" if kind == "mosfet" else "diode"
         raise error(card, thermal.start, f"a self-heating {what} with thermal nodes ('thermal') is not supported "
                     "by netdae", syntax, hint="remove the thermal nodes and 'thermal' to simulate it without "
-                    "self-heating" + (", once netdae has VDMOS" if kind == "mosfet" else ""))
+                    "self-heating")
     if kind == "bjt":
         el.positional = words
         return el
-    if kind == "mosfet" and len(words) == count and all(t.kind == WORD for t in words):
-        # three nodes and a model is ngspice 39's VDMOS; judged when the models are known (parser._settle)
+    if kind == "mosfet" and len(words) in (count, count + 2) and all(t.kind == WORD for t in words):
+        # three nodes and a model is ngspice 39's VDMOS, five nodes and a model its self-heating form;
+        # judged when the models are known (parser._settle)
         el.positional = words
         return el
     if len(words) < count + 1 or any(t.kind != WORD for t in words[: count + 1]):

@@ -685,15 +685,38 @@ def _settle(scope: Definition) -> None:
         _settle(sub)
 
 
+#: Instance parameters of a VDMOS M card (``ic=vds,vgs`` gives the first two; ``off`` is a flag).
+VDMOS_INSTANCE_PARAMETERS = frozenset({"icvds", "icvgs", "m", "temp", "dtemp"})
+
+
 def _settle_three_node_mosfet(el: ElementCard, scope: Definition) -> None:
-    """An M card of three nodes and a model: ngspice 39's VDMOS when the model is one, else a missing node."""
+    """An M card of three nodes and a model: ngspice 39's VDMOS when the model is one, else a missing node
+    (five nodes and a VDMOS model: its self-heating form, refused).
+
+    A VDMOS takes the instance parameters ``m``, ``off``, ``ic=vds,vgs`` (``icvds``, ``icvgs``),
+    ``temp`` and ``dtemp``; the MOSFET's geometry and a third ``ic=`` value are refused at the word.
+    """
     words, card, syntax = el.positional, el.card, ELEMENTS["m"]
+    if len(words) == 6:
+        found = scope.lookup_model(words[5].text)
+        if found is not None and found[0].type == "vdmos":
+            raise error(card, words[3].start, f"five nodes (drain gate source and the thermal nodes tj tcase of "
+                        f"ngspice's self-heating VDMOS, model {words[5].text}) are not supported by netdae", syntax,
+                        hint="remove the thermal nodes to simulate it without self-heating")
+        raise error(card, words[5].start, f"unexpected {words[5].text!r}", syntax)
     found = scope.lookup_model(words[3].text)
-    if found is not None and found[0].type == "vdmos":
-        raise error(card, words[3].start, f"model {words[3].text} is a VDMOS (ngspice's power MOSFET, three nodes), "
-                    "which netdae does not implement", syntax,
-                    hint="netdae's MOSFETs take four nodes (drain gate source bulk) and an nmos/pmos model")
-    raise error(card, len(card.text), "expected 4 nodes and a model name, found 4 node(s) and no model", syntax)
+    if found is None or found[0].type != "vdmos":
+        raise error(card, len(card.text), "expected 4 nodes and a model name, found 4 node(s) and no model", syntax)
+    for name, value in el.params.items():
+        if name not in VDMOS_INSTANCE_PARAMETERS:
+            what = "a third ic= value (vbs)" if name == "icvbs" else f"'{name}'"
+            raise error(card, value[1], f"{what} is not an instance parameter of a VDMOS (power MOSFET, "
+                        f"model {words[3].text})", syntax,
+                        hint="a VDMOS takes " + " ".join(f"{k}=" for k in ("m", "ic", "temp", "dtemp")) + " and off")
+    el.kind = "vdmos"
+    el.nodes = tuple("0" if t.text == "gnd" else t.text for t in words[:3])
+    el.model = (words[3].text, words[3].start)
+    el.positional = None
 
 
 def _settle_bjt(el: ElementCard, scope: Definition) -> None:

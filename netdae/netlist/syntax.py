@@ -112,7 +112,8 @@ ELEMENTS: dict[str, ElementSyntax] = {
             flags=frozenset({"off"})),
         ElementSyntax("m", "MOSFET", (
             "Mname nd ng ns nb mname [l=len] [w=width] [ad=a] [as=a] [pd=p] [ps=p] [nrd=n] [nrs=n] "
-            "[m=mult] [off] [ic=vds,vgs,vbs] [temp=t] [name=value ...]",),
+            "[m=mult] [off] [ic=vds,vgs,vbs] [temp=t] [name=value ...]",
+            "Mname nd ng ns vdmos_model [m=mult] [off] [ic=vds,vgs] [temp=t] [dtemp=dt]"),
             flags=frozenset({"off"})),
         ElementSyntax("j", "JFET", (
             "Jname nd ng ns mname [area] [off] [ic=vds,vgs] [temp=t] [dtemp=dt] [m=mult] [name=value ...]",),

@@ -35,11 +35,12 @@ __all__ = ["main", "warm_up"]
 WARM_NETLISTS = (
     "* linear\nV1 in 0 PULSE(0 1 1u 1u 1u 5u 10u) AC 1\nR1 in out 1k\nC1 out 0 1n\nL1 out o2 1u\nR2 o2 0 50\n"
     ".tran 0.1u 20u\n.ac dec 5 1k 1meg\n.op\n.end\n",
-    "* diode, bjt, mosfet, jfet, behavioural\nV1 in 0 SIN(0 5 1k)\nD1 in a dmod\nC1 a 0 1u\nR1 a 0 1k\n"
+    "* diode, bjt, mosfet, jfet, vdmos, behavioural\nV1 in 0 SIN(0 5 1k)\nD1 in a dmod\nC1 a 0 1u\nR1 a 0 1k\n"
     "Q1 c b 0 qmod\nRb a b 100k\nRc vcc c 1k\nVcc vcc 0 5\nM1 d a 0 0 nmod\nRd vcc d 1k\n"
-    "J1 vcc a s jmod\nRs s 0 1k\n"
+    "J1 vcc a s jmod\nRs s 0 1k\nM2 vcc a p vmod\nRp p 0 1k\n"
     "B1 e 0 V=V(a)*0.5\nRe e 0 1k\n.model dmod d(is=1e-14 cjo=1p)\n.model qmod npn(bf=100 cje=1p)\n"
     ".model nmod nmos(level=1 vto=1 kp=1e-4 cgso=1e-12)\n.model jmod njf(vto=-2 beta=1m cgs=1p)\n"
+    ".model vmod vdmos(vto=2 kp=1 cgs=1n cgdmax=1n cgdmin=0.1n cjo=1n rd=10m rg=2)\n"
     ".tran 10u 1m\n.end\n",
 )
 

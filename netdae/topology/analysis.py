@@ -335,7 +335,7 @@ _KIND_GROUPS = (
     ({"vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent"}, "controlled sources"),
     ({"bcharge"}, "charge-defined capacitors"),
     ({"opamp"}, "ideal op-amps"),
-    ({"bjt", "mosfet", "jfet"}, "transistors"),
+    ({"bjt", "mosfet", "jfet", "vdmos"}, "transistors"),
     ({"vswitch", "cswitch"}, "switches"),
 )
 

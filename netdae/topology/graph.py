@@ -13,7 +13,8 @@ inductive       inductors (of nonzero inductance)
 resistive       resistors; diode junctions and series resistances; the conducting
                 terminal pairs of transistors (collector-emitter, base-emitter,
                 base-collector, substrate-collector; drain-source, drain-bulk,
-                source-bulk; a JFET's drain-source, gate-source, gate-drain); switches (S, W: a resistance RON or ROFF between
+                source-bulk; a JFET's drain-source, gate-source, gate-drain; a VDMOS's
+                drain-source: channel, body diode, RDS); switches (S, W: a resistance RON or ROFF between
                 n+ and n-, marked *controlled*); the terminals of an OSDI device
                 (``N``: compiled Verilog-A), each joined to the first, marked
                 *controlled* (what the module conducts or stores is not read here)
@@ -84,7 +85,7 @@ NULLATOR = 5
 #: Element kinds whose behaviour is controlled by other circuit quantities:
 #: the index theorem's hypotheses exclude them.
 CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bcharge", "bjt",
-                              "mosfet", "jfet", "vswitch", "cswitch", "osdi"})
+                              "mosfet", "jfet", "vdmos", "vswitch", "cswitch", "osdi"})
 #: Most terminals an OSDI device may have in the topological analysis.
 OSDI_MAX_TERMINALS = 16
 
@@ -126,6 +127,7 @@ KIND_TABLE: dict[str, _Spec] = {
     "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0))),
     "mosfet": _Spec((4,), ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),)),
     "jfet": _Spec((3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0))),
+    "vdmos": _Spec((3,), ((RESISTIVE, 0, 2),), ((1, "gate"),)),
     "vswitch": _Spec((4,), ((RESISTIVE, 0, 1),), _CONTROL_INPUTS),
     "cswitch": _Spec((2,), ((RESISTIVE, 0, 1),)),
     "coupling": _Spec((0,), ()),

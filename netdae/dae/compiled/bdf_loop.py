@@ -21,7 +21,7 @@ Two correctors, one loop:
   the weights; the history then holds the charges as well as the unknowns.
 
 The device families are the compiled kernels of :mod:`netdae.devices.kernels`
-(diode, BJT, MOSFET, JFET, switch, behavioural), each evaluating all its instances in one loop.
+(diode, BJT, MOSFET, JFET, switch, behavioural, VDMOS), each evaluating all its instances in one loop.
 
 Switches hold their states through a step; after each accepted step
 :func:`~netdae.devices.kernels.switch.switch_step` decides them at its end
@@ -55,6 +55,7 @@ from ...devices.kernels.jfet import eval_jfet
 from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
+from ...devices.kernels.vdmos import eval_vdmos
 from .events import CHATTER_EVENTS, EVENT_TOGETHER
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
@@ -430,6 +431,8 @@ def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphi
         flags, bad = eval_mosfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     elif ev == 3:
         flags, bad = eval_jfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    elif ev == 7:
+        flags, bad = eval_vdmos(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     else:
         flags, bad = eval_switch(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     if keep:
@@ -450,7 +453,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
-     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
+     v_par, v_idx, v_vacc, v_vtry, v_vnew) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     for i in range(n):
@@ -471,6 +475,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags |= _family(2, m_par, m_idx, m_vacc, m_vtry, m_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(3, j_par, j_idx, j_vacc, j_vtry, j_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(4, s_par, s_idx, s_vacc, s_vtry, s_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(7, v_par, v_idx, v_vacc, v_vtry, v_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     if h_inst.shape[0] > 0:
         hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
                                         jacobian)
@@ -506,13 +511,15 @@ def _accept_state(I, devd):
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
-     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
+     v_par, v_idx, v_vacc, v_vtry, v_vnew) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
         _copy2(m_vacc, m_vtry)
         _copy2(j_vacc, j_vtry)
         _copy2(s_vacc, s_vtry)
+        _copy2(v_vacc, v_vtry)
         for i in range(o_vacc.size):
             o_vacc[i] = o_vtry[i]
         I[I_HAS_ACC] = 1
@@ -525,12 +532,14 @@ def _reset_trial(I, devd):
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der,
-     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew) = devd
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
+     v_par, v_idx, v_vacc, v_vtry, v_vnew) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)
     _copy2(j_vtry, j_vacc)
     _copy2(s_vtry, s_vacc)
+    _copy2(v_vtry, v_vacc)
     for i in range(o_vtry.size):
         o_vtry[i] = o_vacc[i]
     I[I_HAS_TRY] = I[I_HAS_ACC]
@@ -986,7 +995,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         MOSFETs, JFETs and switches (empty arrays for an absent family), the switches' work
         array of crossing times, then the behavioural sources' tapes, then the OSDI
         devices' arrays (:func:`netdae.devices.kernels.osdi.eval_osdi`) and their
-        limiting states ``(vacc, vtry, vnew)``.
+        limiting states ``(vacc, vtry, vnew)``, then the VDMOS transistors' ``(par, idx, vacc,
+        vtry, vnew)``.
     lus : tuple
         The LU: the plan's arrays (:meth:`netdae.dae.compiled.lu.LuPlan.refactor_args`,
         ``perm_r``, ``perm_c``), the factors' values and two work vectors.

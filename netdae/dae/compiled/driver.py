@@ -6,7 +6,7 @@
 loop of :mod:`netdae.dae.compiled.bdf_loop`. It serves an MNA system whose
 parts all compile: the constant ``E``, ``H``, ``B``, the independent
 sources' waveforms, and device families with a compiled kernel (diode, BJT,
-MOSFET, JFET, switch, behavioural source: :mod:`netdae.devices.kernels`); for
+MOSFET, JFET, switch, behavioural source, VDMOS: :mod:`netdae.devices.kernels`); for
 anything else (a user DAE) it returns ``None`` and the caller uses the Python
 integrator.
 
@@ -54,8 +54,12 @@ FIRST_CHUNK = 64
 SWITCH_SLOT = 4
 #: Position of the behavioural sources in the loop's families (after diode, BJT, MOSFET, JFET, switch).
 BEHAVIOURAL_SLOT = 5
-#: Position of the OSDI devices in the loop's families (last).
+#: Position of the OSDI devices in the loop's families (after the behavioural sources).
 OSDI_SLOT = 6
+#: Position of the VDMOS transistors in the loop's families (last; their arrays end ``devd``).
+VDMOS_SLOT = 7
+#: Arrays of one family of the standard interface in ``devd``: ``(par, idx, vacc, vtry, vnew)``.
+_FAMILY_ARRAYS = 5
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -70,18 +74,19 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 
 
 def _family_slot(family) -> int | None:
-    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, JFET, switch, behavioural, OSDI),
-    or None."""
+    """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, JFET, switch, behavioural, OSDI,
+    VDMOS), or None."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
     from ...devices.jfet import JfetFamily
     from ...devices.mosfet import MosfetFamily
     from ...devices.switch import SwitchFamily
+    from ...devices.vdmos import VdmosFamily
 
     osdi = sys.modules.get("netdae.devices.osdi.family")  # imported only by circuits with N elements
     classes = (DiodeFamily, BjtFamily, MosfetFamily, JfetFamily, SwitchFamily, BehaviouralFamily,
-               osdi.OsdiFamily if osdi is not None else None)
+               osdi.OsdiFamily if osdi is not None else None, VdmosFamily)
     for slot, cls in enumerate(classes):
         if type(family) is cls:
             return slot
@@ -496,16 +501,18 @@ def _history(buf_t, buf_k, buf_x, segments, I, col0: int):
 
 def limiting_states(devd: tuple) -> tuple[int, ...]:
     """Positions in :func:`_pack_families`'s ``devd`` of the limiting states (``vacc``, ``vtry``,
-    ``vnew`` of the diodes, BJTs, MOSFETs, JFETs and switches, then of the OSDI devices, which end it):
-    what a new solve from the initial state must copy rather than share."""
-    return (*(5 * slot + k for slot in range(SWITCH_SLOT + 1) for k in (2, 3, 4)),
-            *range(len(devd) - 3, len(devd)))
+    ``vnew`` of the diodes, BJTs, MOSFETs, JFETs and switches, of the OSDI devices, and of the VDMOS
+    transistors, which end it): what a new solve from the initial state must copy rather than share."""
+    end = len(devd) - _FAMILY_ARRAYS
+    return (*(_FAMILY_ARRAYS * slot + k for slot in range(SWITCH_SLOT + 1) for k in (2, 3, 4)),
+            *range(end - 3, end), *(end + k for k in (2, 3, 4)))
 
 
 def _pack_families(system, x0, switching) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs, JFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
-    val, der)``, then the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`).
+    val, der)``, then the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`)
+    and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors.
 
     An absent family gets empty arrays (its kernel is then skipped). The switches start held in
     the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
@@ -518,10 +525,12 @@ def _pack_families(system, x0, switching) -> tuple:
     from ...devices.kernels import mosfet as km
     from ...devices.kernels import osdi as ko
     from ...devices.kernels import switch as ksw
+    from ...devices.kernels import vdmos as kv
 
     shapes = ((kd.N_PAR, kd.N_IDX, kd.N_STATE), (kb.N_PAR, kb.N_IDX, kb.N_STATE), (km.N_PAR, km.N_IDX, km.N_STATE),
               (kj.N_PAR, kj.N_IDX, kj.N_STATE), (ksw.N_PAR, ksw.N_IDX, ksw.N_STATE))
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
+    vdmos = (np.zeros((0, kv.N_PAR)), np.zeros((0, kv.N_IDX), dtype=np.int64), np.zeros((0, kv.N_STATE)))
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
                    np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))
     info = np.zeros(ko.INFO_WORDS, dtype=np.int64)
@@ -543,16 +552,21 @@ def _pack_families(system, x0, switching) -> tuple:
             par, idx, vold0 = family.compiled(slots, system.n)
             if slot == SWITCH_SLOT:
                 vold0 = switching.start(x0)
-            packed[slot] = (np.ascontiguousarray(par, dtype=float),
-                                            np.ascontiguousarray(idx, dtype=np.int64),
-                                            np.ascontiguousarray(vold0, dtype=float))
+            arrays = (np.ascontiguousarray(par, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
+                      np.ascontiguousarray(vold0, dtype=float))
+            if slot == VDMOS_SLOT:
+                vdmos = arrays
+            else:
+                packed[slot] = arrays
     out = []
     for par, idx, vold0 in packed:
         out += [par, idx, vold0.copy(), vold0.copy(), vold0.copy()]
     out.append(np.zeros(packed[SWITCH_SLOT][0].shape[0]))
     # the OSDI modules' limiting states (accepted, trial, new): none before the first accepted step
+    par, idx, vold0 = vdmos
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
-            + tuple(np.zeros(osdi_states) for _ in range(3)))
+            + tuple(np.zeros(osdi_states) for _ in range(3))
+            + (par, idx, vold0.copy(), vold0.copy(), vold0.copy()))
 
 
 def _failure(system, F, I) -> dict:

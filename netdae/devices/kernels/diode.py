@@ -22,7 +22,7 @@ from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .junction import depletion, ideal_junction, pnjlim
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
 
-__all__ = ["eval_diode", "diode_limit", "diode_current"]
+__all__ = ["eval_diode", "diode_limit", "diode_current", "junction_limit", "junction_current"]
 
 P_ISAT, P_VTE, P_VCRIT, P_KNEE, P_GMIN, P_HAS_BV, P_BV, P_VTEBRK, P_TT, P_GS, P_CHARGE, P_DEP = range(12)
 #: The depletion coefficients take nine columns from P_DEP.
@@ -36,30 +36,43 @@ BREAKDOWN_LIMIT_MARGIN = 10.0
 
 
 @kernel
+def junction_limit(vd, vold, vte, vcrit, has_bv, bv, vtebrk):
+    """A diode junction's limiting with breakdown (see :func:`netdae.devices.diode.junction_limit`).
+
+    Returns
+    -------
+    (v, changed) : (float, bool)
+    """
+    if has_bv and vd < min(0.0, -bv + BREAKDOWN_LIMIT_MARGIN * vtebrk):
+        vb, changed = pnjlim(-(vd + bv), -(vold + bv), vtebrk, vcrit)
+        return -(vb + bv), changed
+    return pnjlim(vd, vold, vte, vcrit)
+
+
+@kernel
+def junction_current(vd, isat, vte, knee, has_bv, bv, vtebrk, gmin):
+    """A diode junction's current (GMIN included) and conductance (see
+    :func:`netdae.devices.diode.junction_current`)."""
+    if has_bv and vd < -bv and vd < knee:
+        evrev = math.exp(-(bv + vd) / vtebrk)
+        cd, gd = -isat * evrev, isat * evrev / vtebrk
+    else:
+        cd, gd = ideal_junction(vd, isat, vte, knee)
+    return cd + gmin * vd, gd + gmin
+
+
+@kernel
 def diode_limit(vd, vold, par, k):
     """ngspice's diode limiting of instance ``k``: pnjlim, shifted by BV' in deep reverse bias."""
-    bv = par[k, P_BV]
-    vtebrk = par[k, P_VTEBRK]
-    if par[k, P_HAS_BV] != 0.0 and vd < min(0.0, -bv + BREAKDOWN_LIMIT_MARGIN * vtebrk):
-        vb, changed = pnjlim(-(vd + bv), -(vold + bv), vtebrk, par[k, P_VCRIT])
-        return -(vb + bv), changed
-    return pnjlim(vd, vold, par[k, P_VTE], par[k, P_VCRIT])
+    return junction_limit(vd, vold, par[k, P_VTE], par[k, P_VCRIT], par[k, P_HAS_BV] != 0.0, par[k, P_BV],
+                          par[k, P_VTEBRK])
 
 
 @kernel
 def diode_current(vd, par, k):
     """Current (GMIN included) and conductance of instance ``k`` at junction voltage ``vd``."""
-    isat = par[k, P_ISAT]
-    knee = par[k, P_KNEE]
-    bv = par[k, P_BV]
-    if par[k, P_HAS_BV] != 0.0 and vd < -bv and vd < knee:
-        vtebrk = par[k, P_VTEBRK]
-        evrev = math.exp(-(bv + vd) / vtebrk)
-        cd, gd = -isat * evrev, isat * evrev / vtebrk
-    else:
-        cd, gd = ideal_junction(vd, isat, par[k, P_VTE], knee)
-    gmin = par[k, P_GMIN]
-    return cd + gmin * vd, gd + gmin
+    return junction_current(vd, par[k, P_ISAT], par[k, P_VTE], par[k, P_KNEE], par[k, P_HAS_BV] != 0.0,
+                            par[k, P_BV], par[k, P_VTEBRK], par[k, P_GMIN])
 
 
 @kernel

@@ -11,7 +11,7 @@ round differently in numpy's and the C library's implementations).
 - :func:`depletion`: the depletion charge and capacitance from the
   coefficients a :class:`~netdae.devices.junction.Depletion` precomputes;
 - :func:`pnjlim`, :func:`fetlim`, :func:`limvds`: ngspice's limiting
-  (``devsup.c``).
+  (``devsup.c``), and :func:`fet_mode_limit`, the MOSFETs' use of the last two.
 
 Every function is a netdae kernel (:func:`netdae.dae.compiled.kernel`) with the numpy error model
 (a division by zero gives inf or nan, as in the numpy families).
@@ -36,7 +36,7 @@ from ..junction import (
     _VDS_UP,
 )
 
-__all__ = ["ideal_junction", "depletion", "pnjlim", "fetlim", "limvds"]
+__all__ = ["ideal_junction", "depletion", "pnjlim", "fetlim", "limvds", "fet_mode_limit"]
 
 
 @kernel
@@ -133,3 +133,22 @@ def limvds(vnew, vold):
     if vnew > vold:
         return min(vnew, _VDS_UP)
     return max(vnew, _VDS_DOWN)
+
+
+@kernel
+def fet_mode_limit(vgs_x, vds_x, vgs_o, vds_o, von):
+    """SPICE's MOSFET limiting of (vgs, vds) (see :func:`netdae.devices.junction.fet_mode_limit`).
+
+    Returns
+    -------
+    (vgs, vds) : (float, float)
+    """
+    vgd_x = vgs_x - vds_x
+    if vds_o >= 0.0:
+        vgs = fetlim(vgs_x, vgs_o, von)
+        vds = limvds(vgs - vgd_x if vgs != vgs_x else vds_x, vds_o)
+        return vgs, vds
+    gd2 = fetlim(vgd_x, vgs_o - vds_o, von)
+    vds = -limvds(-(vgs_x - gd2 if gd2 != vgd_x else vds_x), -vds_o)
+    vgs = gd2 + vds if (gd2 != vgd_x or vds != vds_x) else vgs_x
+    return vgs, vds

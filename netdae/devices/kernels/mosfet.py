@@ -24,7 +24,7 @@ import math
 from ...dae.compiled import kernel
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
-from .junction import depletion, fetlim, limvds, pnjlim
+from .junction import depletion, fet_mode_limit, pnjlim
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
 
 __all__ = ["eval_mosfet", "drain_current", "gate_charges", "mosfet_limit"]
@@ -143,16 +143,10 @@ def mosfet_limit(vgs_x, vds_x, vbs_x, vgs_o, vds_o, vbs_o, von, quiet, par, k):
     -------
     (vgs, vds, vbs) : tuple of float
     """
-    vgd_x = vgs_x - vds_x
     if quiet:
         vgs, vds = vgs_x, vds_x
-    elif vds_o >= 0.0:
-        vgs = fetlim(vgs_x, vgs_o, von)
-        vds = limvds(vgs - vgd_x if vgs != vgs_x else vds_x, vds_o)
     else:
-        gd2 = fetlim(vgd_x, vgs_o - vds_o, von)
-        vds = -limvds(-(vgs_x - gd2 if gd2 != vgd_x else vds_x), -vds_o)
-        vgs = gd2 + vds if (gd2 != vgd_x or vds != vds_x) else vgs_x
+        vgs, vds = fet_mode_limit(vgs_x, vds_x, vgs_o, vds_o, von)
     vt = par[k, P_VT]
     if vds >= 0.0:
         vbs, _ = pnjlim(vbs_x, vbs_o, vt, par[k, P_VCRIT_S])
