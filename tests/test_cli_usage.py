@@ -166,3 +166,14 @@ def test_compare_timeout_is_passed_on(monkeypatch, capsys):
     assert seen == {"timeout": 2.5, "signals": ["v(out)"], "exclude": ["i(v1)"]}
     status, _, _ = cli(capsys, "compare", RC)
     assert status == 0 and seen["timeout"] is None
+
+
+def test_run_shows_the_netlists_warnings(capsys, tmp_path):
+    # what reading noted (a parameter read as ngspice reads it, a signal left out) reaches the user of run
+    cir = tmp_path / "w.cir"
+    cir.write_text("warned\n.param a='max(-3)'\nV1 1 0 {a}\nR1 1 0 1\n.save v(1) @r9[i]\n.op\n.end\n")
+    for flag in ((), ("-q",)):
+        status, out, err = cli(capsys, "run", cir, *flag)
+        assert status == 0 and "v(1)   1 V" in out
+        assert f"netdae: warning: {cir}:2:11: .param: max() with one argument: read as max(x, 1)" in err
+        assert f"netdae: warning: {cir}:5:12: .save @r9[i]: no device 'r9' (not kept)" in err

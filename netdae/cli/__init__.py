@@ -44,6 +44,16 @@ LOG = logging.getLogger("netdae")
 LEVELS = {-1: logging.WARNING, 0: logging.INFO, 1: logging.DEBUG}
 
 
+def log_diagnostics(circuit) -> None:
+    """Log what reading a netlist noted: its warnings as warnings (shown with ``-q`` too), its notes as notes."""
+    for d in circuit.diagnostics:
+        where = f"{d.location}: " if d.location else ""
+        if d.severity == "warning":
+            LOG.warning("%s%s", where, d.message)
+        else:
+            LOG.info("%snote: %s", where, d.message)
+
+
 class _StderrHandler(logging.StreamHandler):
     """Writes to the current ``sys.stderr`` after flushing stdout, so both streams keep their order."""
 

@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import option_value, signal_names
+from . import log_diagnostics, option_value, signal_names
 from ..signals import signal_unit
 
 __all__ = ["add_parser", "main", "stems"]
@@ -159,6 +159,7 @@ def main(args) -> int:
 
     t0 = time.perf_counter()
     circuit = load(args.file)
+    log_diagnostics(circuit)
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))
     bar = ProgressBar(enabled=args.verbosity >= 0)

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import option_value, signal_names
+from . import log_diagnostics, option_value, signal_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -176,6 +176,7 @@ def main(args) -> int:
     from ..sweeps import sweep
 
     circuit = load(args.file)
+    log_diagnostics(circuit)
     executor, client = None, None
     if args.scheduler:
         client, executor = _dask_executor(args.scheduler)
