@@ -46,7 +46,7 @@ import scipy.sparse.linalg as spla
 
 from .kronecker import EPS, MatrixRank, default_rtol, matrix_rank, rank_decision
 from .sparse import SparsePattern
-from .system import KIND_CURRENT, KIND_OTHER, KIND_VOLTAGE, DaeSystem, Evaluation
+from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
            "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
