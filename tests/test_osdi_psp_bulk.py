@@ -139,6 +139,31 @@ def test_bsim_bulk_inverter_with_the_default_cards():
         assert r.ok and np.all(np.diff(np.asarray(r["v(out)"])) <= 1e-6)
 
 
+def test_bsim_bulk_self_heating_holds_the_dissipated_power():
+    """With shmod=1 the thermal terminal is a node whose potential is the temperature rise: the
+    dissipated power through the thermal resistance rth0 / W (rth0 = 0.1 K m / W). Left unconnected
+    (four nodes) it is an internal node; connected (five nodes) an external resistance is in parallel.
+    At DC each transistor dissipates its channel current times its drain-source voltage
+    (measured: equal to 1e-6)."""
+    t = Tech("bsimbulk106.osdi", "bsimbulk", "0.2u", TECHS["bsimbulk"].cards + " shmod=1 rth0=0.1")
+    r = netdae.run(netdae.load(t.inverter(0.0, f".dc Vin 0 {VDD} 0.1")))[0]
+    assert r.ok
+    current, out = -np.asarray(r["i(vdd)"]), np.asarray(r["v(out)"])
+    for name, power, width in (("v(nn#t)", current * out, 1e-6), ("v(np#t)", current * (VDD - out), 2e-6)):
+        rise = np.asarray(r[name])
+        assert rise.max() > 0.1  # kelvin
+        assert np.allclose(rise, power * 0.1 / width, rtol=1e-4, atol=1e-9)
+    text = (f"thermal terminals\n{t.models()}Vdd vdd 0 {VDD}\nVin in 0 0.6\n"
+            f"Np out in vdd vdd tp pch l={t.length} w=2u\nNn out in 0 0 tn nch l={t.length} w=1u\n"
+            "Rtp tp 0 1k\nRtn tn 0 1k\n.op\n")
+    v = {name: float(x[0]) for name, x in operating_point(netdae.load(text)).signals.items()}
+    assert "v(nn#t)" not in v
+    current = -v["i(vdd)"]
+    for node, power, width in (("v(tn)", current * v["v(out)"], 1e-6), ("v(tp)", current * (VDD - v["v(out)"]), 2e-6)):
+        rth = 0.1 / width
+        assert v[node] == pytest.approx(power * rth * 1e3 / (rth + 1e3), rel=1e-4)
+
+
 # --- 2. device Jacobians ------------------------------------------------------------------------
 
 
