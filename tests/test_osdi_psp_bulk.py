@@ -4,7 +4,8 @@ ngspice 39 cannot run these models (it reads OSDI 0.3 only), so the oracles
 are self-consistency and physics: an inverter's DC transfer curve (monotone,
 rails reached, the supply current peaking where the output crosses half the
 supply) with the current law checked at every solution by evaluating the MNA
-system there; the OSDI family's Jacobians against central differences of its
+system there; BSIM-BULK's default cards, and its self-heating node against
+the dissipated power through its thermal resistance; the OSDI family's Jacobians against central differences of its
 own currents and charges at several bias points; a five-stage ring
 oscillator whose period converges as reltol shrinks, whose node charges
 balance the integrated node currents over a period (the integrated current
