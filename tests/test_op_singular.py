@@ -191,3 +191,38 @@ def test_voltage_loop_through_a_controlled_source_names_it():
         operating_point(c)
     assert set(info.value.elements) == {"v1", "e1"}
     assert "resistance in series" in info.value.hint
+
+
+def _inverter_dc_matrix(g_p, g_n, slope=3e-12):
+    """The DC matrix of a compact-model inverter (BSIM-BULK's, Vin = 0.25 V, L = 0.5 um): 1e3 S contact
+    resistances around the channels ``g_p``, ``g_n`` and 1e-12 S gate slopes of the off transistor.
+    Unknowns v(vdd), v(in), v(out), v(p.di), v(p.si), v(n.di), v(n.si), i(vdd), i(vin)."""
+    g = 1e3
+    return np.array([
+        [-g, 0, 0, 0, g, 0, 0, -1, 0],
+        [0, 0, 0, 0, 0, 0, 0, 0, -1],
+        [0, 0, -2 * g, g, 0, g, 0, 0, 0],
+        [-slope / 4, -slope, g, -g - g_p, g_p, 0, 0, 0, 0],
+        [g, slope, 0, g_p, -g - g_p, 0, 0, 0, 0],
+        [0, -slope, g, 0, 0, -g - g_n, g_n, 0, 0],
+        [0, slope, 0, 0, 0, g_n, -g - g_n, 0, 0],
+        [1, 0, 0, 0, 0, 0, 0, 0, 0],
+        [0, 1, 0, 0, 0, 0, 0, 0, 0],
+    ], dtype=float)
+
+
+def test_a_regular_matrix_that_balancing_misjudges_is_regular():
+    """Ward's balancing pulls the 1e-12 S gate slopes toward one and hides a 2.7e-5 S channel behind
+    the Frobenius norm; the max-equilibrated matrix (whose singular values the rank decision then
+    reads) shows it regular, while an exactly floating output stays singular."""
+    from netdae.dae.kronecker import matrix_rank
+    from netdae.dae.steady import jacobian_rank
+
+    regular = _inverter_dc_matrix(2.65e-5, 5.2e-13)
+    assert np.linalg.cond(regular) < 1e12  # regular: the output's only path is the p channel
+    assert matrix_rank(regular).deficient  # the balanced decision alone misjudges it
+    assert not jacobian_rank(regular).deficient
+    floating = _inverter_dc_matrix(0.0, 0.0)  # no channel: v(out) and both drains are undetermined
+    rank = jacobian_rank(floating)
+    assert rank.deficient and rank.right.shape[1] == 1
+    assert np.allclose(np.abs(rank.right[[2, 3, 5], 0]), np.abs(rank.right[2, 0]))

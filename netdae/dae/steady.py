@@ -44,9 +44,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from .kronecker import EPS, MatrixRank, matrix_rank
+from .kronecker import EPS, MatrixRank, default_rtol, matrix_rank, rank_decision
 from .sparse import SparsePattern
-from .system import KIND_CURRENT, KIND_OTHER, KIND_VOLTAGE, DaeSystem, Evaluation
+from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
            "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
@@ -240,8 +240,44 @@ class _ScaledLU:
 
 
 def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> MatrixRank:
-    """The SVD rank decision of a steady-state Jacobian (see :func:`~netdae.dae.kronecker.matrix_rank`)."""
-    return matrix_rank(mat, what=what)
+    """The SVD rank decision of a steady-state Jacobian.
+
+    First as the index analysis decides it (:func:`~netdae.dae.kronecker.matrix_rank`,
+    Ward's balancing). A deficient verdict is checked on the max-equilibrated
+    matrix too (every row, then every column, scaled by a power of two so
+    that its largest entry lies in (1/2, 1], as the LU pivots are judged):
+    when its singular values all exceed the same relative tolerance
+    (``n * eps * ||.||_F``), the matrix is regular, since a diagonal scaling
+    changes no entry's relative rounding error, and that verdict is returned
+    (with empty null spaces). Ward's balancing brings every significant entry
+    toward one; next to the 1e3 S contact resistances of a compact MOS model,
+    the 1e-12 S gate slopes of an off transistor pull it to a scaling whose
+    Frobenius norm hides a regular matrix (a BSIM-BULK inverter's DC matrix).
+
+    Parameters
+    ----------
+    mat : ndarray or sparse matrix, shape (n, n)
+    what : str
+        Description kept in the decision.
+
+    Returns
+    -------
+    MatrixRank
+    """
+    rank = matrix_rank(mat, what=what)
+    if not rank.deficient:
+        return rank
+    a = mat.toarray() if hasattr(mat, "toarray") else np.array(mat, dtype=float)
+    n = a.shape[0]
+    r = _power_of_two_scale(np.abs(a).max(axis=1))
+    c = _power_of_two_scale(np.abs(r[:, None] * a).max(axis=0))
+    scaled = r[:, None] * a * c[None, :]
+    sigma = np.linalg.svd(scaled, compute_uv=False)
+    decision = rank_decision(sigma, default_rtol(n) * float(np.linalg.norm(scaled)), what + " (max-equilibrated)",
+                             a.shape)
+    if decision.rank == n:
+        return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
+    return rank
 
 
 def _tolerances(kinds: np.ndarray, opts: SteadyOptions) -> tuple[np.ndarray, np.ndarray]:
@@ -484,6 +520,9 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
         if rank is None and system.n <= RANK_CHECK_LIMIT:
             out = newton._residual(x, 0.0, 1.0, None)
             rank = jacobian_rank(newton.pattern.matrix(out[2])) if out is not None else None
+            if rank is not None and not rank.deficient:  # singular at an iterate only: Newton failed at x
+                return result(x, False, "newton", f"no convergence ({message}; regular at the last iterate)",
+                              newton)
         null = rank.right[:, -1] if rank is not None and rank.right.shape[1] else None
         return SteadyResult(x, False, total_it, total_fact, "newton", message, True, null, [], rank)
 
