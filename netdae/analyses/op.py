@@ -262,16 +262,9 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
             _check_charge_balance(system, res, groups, used, t, opts)
             res.notes = [_charge_note(g) for g in used]
         return res
-    if res.singular and not (res.rank is not None and res.rank.right.size == 0 and not system.linear):
+    if res.singular:
         raise _singular_error(system, res, topology)
     worst = _describe_unknowns(system, res.worst, res.x)
-    if res.singular:  # singular at an iterate only (a device law of zero slope there): no convergence
-        raise ConvergenceError(
-            "operating point not found: Newton met a singular Jacobian on the way (a device law with zero "
-            "slope at an iterate) and gmin and source stepping failed; the Jacobian at the values it "
-            "started from is regular" + (f" (last values: {worst})" if worst else ""),
-            worst=system.names[res.worst[0]] if res.worst else None,
-            hint="give .nodeset values close to the expected solution, or an .ic for the transient")
     raise ConvergenceError(
         f"operating point did not converge after {res.iterations} Newton iterations "
         f"(plain Newton, gmin stepping, source stepping); last values: {worst}",

@@ -520,9 +520,9 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
         if rank is None and system.n <= RANK_CHECK_LIMIT:
             out = newton._residual(x, 0.0, 1.0, None)
             rank = jacobian_rank(newton.pattern.matrix(out[2])) if out is not None else None
-            if rank is not None and not rank.deficient:  # singular at an iterate only: Newton failed at x
-                return result(x, False, "newton", f"no convergence ({message}; regular at the last iterate)",
-                              newton)
+        if rank is not None and not rank.deficient and not system.linear:
+            # singular at an iterate only (a device law of zero slope there): Newton failed at x
+            return result(x, False, "newton", f"no convergence ({message}; regular at the last iterate)", newton)
         null = rank.right[:, -1] if rank is not None and rank.right.shape[1] else None
         return SteadyResult(x, False, total_it, total_fact, "newton", message, True, null, [], rank)
 
