@@ -619,7 +619,7 @@ class BDF:
         self.stats["impasses"] += 1
         self.stats["restarts"] += 1
         self._rec.restart(t)
-        self._restart_at(out, max(self.h, self.min_step))
+        self._restart_at(out, max(eps, self.min_step))  # never a probe below the rounding of t
         return self.status != "failed"
 
     def _error_failure(self, t, h, nef, info):

@@ -360,7 +360,7 @@ def _impasse(F, I, t):
     I[I_PENDING_RESTART] = 1
     I[I_RESTART_CHECKED] = 0
     F[F_RESTART_FIXED] = 0.0
-    F[F_RESTART_CAP] = F[F_H]
+    F[F_RESTART_CAP] = F[F_RL_EPS]  # never a probe below the rounding of t
     return True
 
 

@@ -282,6 +282,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     failure = None
     out_of_memory = None  # bytes the output buffers could not grow to
     impasses: list[float] = []  # where Newton failed on every step size and the solution jumped
+    pivoted_tag = None  # the matrix (its tag) new pivots were chosen for on the last return
+    stalled, stalled_at = 0, -1  # returns for pivots or right limits since the step count last moved
     try:
         while True:
             tic = time.perf_counter()
@@ -296,9 +298,30 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 chunk = FIRST_CHUNK
                 if status == L.CHUNK_DONE:
                     continue
+            if status in (L.NEED_PIVOTS, L.NEED_RIGHT_LIMIT) and int(I[L.I_STEPS]) == stalled_at:
+                stalled += 1
+                if stalled > MAX_RETURNS_WITHOUT_STEP:
+                    # new pivots or right limits asked for again and again without a step: stop, do not hang
+                    failure = {"t": float(F[L.F_T]), "h": float(F[L.F_H]), "worst": None,
+                               "hint": "loosen the tolerances or give the circuit's fastest nodes some capacitance",
+                               "what": f"no step after {stalled} restarts (the matrices of the restart's probes are "
+                                       "near-singular)"}
+                    I[L.I_STATUS] = L.FAILED
+                    status = L.FAILED
+                    break
+            else:
+                stalled, stalled_at = 0, int(I[L.I_STEPS])
+            repivoted, pivoted_tag = pivoted_tag, None
             if status == L.NEED_PIVOTS:
-                # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume
-                if lu.factor(a_data):
+                # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume; the same
+                # matrix degraded again right after its new pivots is near-singular: judged singular (the
+                # attempt then fails and the step is cut), never asked for again and again
+                pivoted_tag = float(F[L.F_PENDING_TAG])
+                if repivoted == pivoted_tag:
+                    I[L.I_PIVOTS_FAILED] = 1
+                    F[L.F_PIVOT_TAG] = F[L.F_PENDING_TAG]
+                    lu.factor(identity)
+                elif lu.factor(a_data):
                     I[L.I_FACTORIZATIONS] += 1
                     F[L.F_LU_TAG] = F[L.F_PENDING_TAG]
                 else:
@@ -567,6 +590,10 @@ def _pack_families(system, x0, switching) -> tuple:
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
             + tuple(np.zeros(osdi_states) for _ in range(3))
             + (par, idx, vold0.copy(), vold0.copy(), vold0.copy()))
+
+
+#: Returns to Python for new pivots or a right limit without a step in between before the run stops.
+MAX_RETURNS_WITHOUT_STEP = 50
 
 
 def _failure(system, F, I) -> dict:
