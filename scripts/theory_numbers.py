@@ -242,7 +242,7 @@ def main() -> int:
         r = netdae.simulate(circuit, **opts)
         err = np.abs(r["v(out)"] - exact(r.t))
         s = r.stats
-        print(f"{label}: {r.message}; index {r.extra['index']}, index2 {r.extra['index2']}, "
+        print(f"{label}: {r.message}; index {r.transient.index}, index2 {r.transient.index2}, "
               f"excluded from the error test: {r.tolerances['index_excluded']}")
         print(f"  steps {s['steps']}, rejected {s['rejected']}, newton {s['newton']}, "
               f"factorizations {s['factorizations']}, max order {s['integrator']['max_order_used']}, "
