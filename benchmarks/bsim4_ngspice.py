@@ -96,7 +96,7 @@ def main() -> None:
             p_ng = period(ng.time, ng.signals["v(n0)"])
             print(f"{n:>6} {min(cpu_us):>7.3f}-{max(cpu_us):<8.3f} {min(cpu_ng):>7.3f}-{max(cpu_ng):<8.3f} "
                   f"{min(ratios):>5.2f}-{max(ratios):<5.2f} {res.stats['steps']:>5}/{ng.stats['steps']:<5} "
-                  f"{res.stats['newton']:>5}/{ng.stats['newton']:<5} {p_us * 1e9:>11.4f} ns {p_ng * 1e9:>12.4f} ns")
+                  f"{res.stats['newton_iterations']:>5}/{ng.stats['newton']:<5} {p_us * 1e9:>11.4f} ns {p_ng * 1e9:>12.4f} ns")
 
 
 if __name__ == "__main__":

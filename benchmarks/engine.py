@@ -76,7 +76,7 @@ for _ in range(int(sys.argv[2])):
     t1 = time.perf_counter()
     i = r.stats["integrator"]
     row = {"simulate": t1 - t0, "integration": i["wall_time"], "steps": r.stats["steps"],
-           "newton": r.stats["newton"], "rejected": r.stats["rejected"]}
+           "newton": r.stats["newton_iterations"], "rejected": r.stats["rejected"]}
     if best is None or row["integration"] < best["integration"]:
         best = row
 print(json.dumps(best))
@@ -95,7 +95,7 @@ best = None
 for _ in range(int(sys.argv[2])):
     t0 = time.process_time()
     r = dc_sweep(c, card)
-    row = {"cpu": time.process_time() - t0, "points": int(r.axis.size), "newton": int(r.stats["newton"])}
+    row = {"cpu": time.process_time() - t0, "points": int(r.axis.size), "newton": int(r.stats["newton_iterations"])}
     if best is None or row["cpu"] < best["cpu"]:
         best = row
 print(json.dumps(best))

@@ -179,7 +179,7 @@ def run_netdae(netlist: Path, workdir: Path, signals, *, timeout: float) -> SimR
         last = (child.stderr.strip().splitlines() or ["no output"])[-1]
         return SimRun("netdae", child, False, f"exit {child.returncode}: {last}")
     s = tran.get("stats", {})
-    stats = {"steps": s.get("steps"), "rejected": s.get("rejected"), "newton": s.get("newton"),
+    stats = {"steps": s.get("steps"), "rejected": s.get("rejected"), "newton": s.get("newton_iterations"),
              "factorizations": s.get("factorizations"), "analysis_time": s.get("wall_time"),
              "integration_time": _integration_time(s.get("integrator") or {}),
              "load_time": (s.get("integrator") or {}).get("load_time"),

@@ -89,12 +89,12 @@ def main() -> None:
             if ref is None:  # VACASK's operating point of a long odd ring can fail (its homotopy)
                 why = " ".join(line for line in (proc.stdout + proc.stderr).splitlines()
                                if "fail" in line.lower())[:60]
-                print(f"{n:>6} {t_us:>10.3f} {'-':>10} {'-':>6} {res.stats['steps']:>6} {res.stats['newton']:>6} "
+                print(f"{n:>6} {t_us:>10.3f} {'-':>10} {'-':>6} {res.stats['steps']:>6} {res.stats['newton_iterations']:>6} "
                       f"{p_us * 1e9:>11.4f} ns  VACASK: {why or 'no result'}")
                 continue
             p_vac = period(np.asarray(ref.axis), np.asarray(ref["n1"]))
             print(f"{n:>6} {t_us:>10.3f} {t_vac:>10.3f} {t_us / t_vac:>6.2f} {res.stats['steps']:>6} "
-                  f"{res.stats['newton']:>6} {p_us * 1e9:>11.4f} ns {p_vac * 1e9:>11.4f} ns")
+                  f"{res.stats['newton_iterations']:>6} {p_us * 1e9:>11.4f} ns {p_vac * 1e9:>11.4f} ns")
 
 
 if __name__ == "__main__":

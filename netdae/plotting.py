@@ -242,7 +242,7 @@ def _plot_sweep(fig, result: Result, names: list[str]) -> int:
 
 def _plot_noise(fig, result: Result, names: list[str]) -> int:
     """Noise densities on log-log axes: the output's (and each device's), then the input-referred one."""
-    unit = "A" if result.extra.get("input_unit") == "A" else "V"
+    unit = "A" if (result.noise is not None and result.noise.input_unit == "A") else "V"
     groups = [("output noise", "V/\u221aHz", [n for n in names if n.startswith("onoise")]),
               ("input noise", f"{unit}/\u221aHz", [n for n in names if n.startswith("inoise")])]
     groups = [g for g in groups if g[2]]

@@ -21,14 +21,18 @@ from __future__ import annotations
 
 import html
 import importlib
+import types
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
 
 from .signals import canonical, parse_signal
+from .metadata import LEGACY_EXTRA, NoiseInfo, Provenance, TransientInfo
+from .stats import Statistics
 
-__all__ = ["Result", "STATUS_OK", "STATUS_FAILED"]
+__all__ = ["Result", "Statistics", "STATUS_OK", "STATUS_FAILED"]
 
 STATUS_OK = 0
 STATUS_FAILED = -1
@@ -48,9 +52,12 @@ class Result:
         empty for ``op``.
     signals : dict of str to ndarray
         Signal name to values, one per point (shape ``(m,)``; ``(1,)`` for op).
-    stats : dict
-        Work counters and timings (``steps``, ``rejected``, ``newton``,
-        ``factorizations``, ``wall_time`` ...).
+    stats : Statistics
+        Work counters and timings (``steps``, ``rejected``,
+        ``newton_iterations``, ``factorizations``, ``wall_time`` ...), one
+        vocabulary for every analysis (:class:`netdae.stats.Statistics`, a
+        read-only mapping of its set fields). A mapping given here is checked
+        against that vocabulary and converted.
     status : int
         0 on success, negative on failure.
     message : str
@@ -62,24 +69,85 @@ class Result:
         (transient only), evaluable at any time in the computed range.
     notes : list of str
         Things the user should know (translations, changed initial values ...).
-    extra : dict
-        Analysis-specific data (e.g. the index report used, the operating point).
     measures : list of Measure
         The ``.meas`` measurements made on this result, in netlist order
         (:class:`netdae.measures.Measure`: name, value, status, reason ...).
+    operating_point : Result, optional
+        The operating point a small-signal analysis (``ac``, ``pz``, ``tf``,
+        ``noise``) linearised at.
+    poles, zeros : ndarray, optional
+        The poles and zeros of ``pz`` (complex; None when not asked for).
+    card : object, optional
+        The analysis card run (``tf``, ``noise``).
+    transient : TransientInfo, optional
+        Index, initial correction, jumps and events of a transient
+        (:class:`netdae.metadata.TransientInfo`).
+    noise : NoiseInfo, optional
+        Integrated noise and contributions of ``noise``
+        (:class:`netdae.metadata.NoiseInfo`).
+    source : Provenance, optional
+        Where a result read from a file or from ngspice came from
+        (:class:`netdae.metadata.Provenance`); None for netdae's own results.
+
+    Notes
+    -----
+    The former untyped ``extra`` dict is gone; :attr:`extra` remains for a
+    transition as a read-only view of the typed fields under the old keys
+    that warns (:class:`DeprecationWarning`).
     """
 
     analysis: str
     axes: dict[str, np.ndarray] = field(default_factory=dict)
     signals: dict[str, np.ndarray] = field(default_factory=dict)
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: Statistics = field(default_factory=Statistics)
     status: int = STATUS_OK
     message: str = ""
     tolerances: dict[str, float] = field(default_factory=dict)
     dense: Callable[[Any], dict[str, np.ndarray]] | None = None
     notes: list[str] = field(default_factory=list)
-    extra: dict[str, Any] = field(default_factory=dict)
     measures: list[Any] = field(default_factory=list)
+    operating_point: "Result | None" = None
+    poles: np.ndarray | None = None
+    zeros: np.ndarray | None = None
+    card: Any = None
+    transient: TransientInfo | None = None
+    noise: NoiseInfo | None = None
+    source: Provenance | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.stats, Statistics):
+            self.stats = Statistics.from_counts(self.stats)
+
+    @property
+    def noise_totals(self) -> dict[str, float]:
+        """The integrated noise of a ``noise`` result (``noise.totals``); empty when there is none.
+
+        Examples
+        --------
+        >>> Result("noise", noise=NoiseInfo(totals={"onoise_total": 1e-6})).noise_totals
+        {'onoise_total': 1e-06}
+        >>> Result("op").noise_totals
+        {}
+        """
+        return self.noise.totals if self.noise is not None else {}
+
+    @property
+    def extra(self) -> types.MappingProxyType:
+        """Deprecated: a read-only view of the typed fields under the former ``extra`` keys.
+
+        ``extra["op"]`` is :attr:`operating_point`, ``extra["totals"]`` is
+        ``noise.totals``, ``extra["jumps"]`` is ``transient.jumps``,
+        ``extra["source"]`` is ``source.path`` ... (:data:`netdae.metadata.LEGACY_EXTRA`).
+        """
+        warnings.warn("Result.extra is deprecated: use the typed fields (operating_point, poles, zeros, card, "
+                      "transient, noise, source)", DeprecationWarning, stacklevel=2)
+        view: dict[str, Any] = {}
+        for key, (attr, name) in LEGACY_EXTRA.items():
+            holder = getattr(self, attr)
+            value = holder if name is None else getattr(holder, name, None)
+            if holder is not None and (value is not None or attr in ("transient", "noise")):
+                view[key] = value
+        return types.MappingProxyType(view)
 
     @property
     def ok(self) -> bool:
@@ -314,12 +382,12 @@ class Result:
             "signals": self.names(),
             "values": {"axes": {k: _json_values(v) for k, v in self.axes.items()},
                        "signals": {k: _json_values(v) for k, v in self.signals.items()}} if values else None,
-            "stats": _json_scalars(self.stats),
+            "stats": _json_scalars(self.stats.to_dict()),
             "tolerances": _json_scalars(self.tolerances),
             "notes": list(self.notes),
             "measures": [m.to_dict() for m in self.measures],
-            **({"totals": _json_scalars(self.extra["totals"])} if isinstance(self.extra, dict)
-               and self.extra.get("totals") else {}),
+            **({"totals": _json_scalars(self.noise.totals)} if self.noise is not None and self.noise.totals
+               else {}),
         }
 
     @property

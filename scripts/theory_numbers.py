@@ -242,9 +242,9 @@ def main() -> int:
         r = netdae.simulate(circuit, **opts)
         err = np.abs(r["v(out)"] - exact(r.t))
         s = r.stats
-        print(f"{label}: {r.message}; index {r.extra['index']}, index2 {r.extra['index2']}, "
+        print(f"{label}: {r.message}; index {r.transient.index}, index2 {r.transient.index2}, "
               f"excluded from the error test: {r.tolerances['index_excluded']}")
-        print(f"  steps {s['steps']}, rejected {s['rejected']}, newton {s['newton']}, "
+        print(f"  steps {s['steps']}, rejected {s['rejected']}, newton {s['newton_iterations']}, "
               f"factorizations {s['factorizations']}, max order {s['integrator']['max_order_used']}, "
               f"h_min {s['integrator']['h_min']:.3g}, h_max {s['integrator']['h_max']:.3g}")
         print(f"  v(out): first values {r['v(out)'][:3].tolist()}; max |error| {err.max():.3g} V "

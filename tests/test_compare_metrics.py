@@ -32,6 +32,7 @@ from netdae.comparison.metrics import (
 )
 from netdae.comparison.model import Comparison
 from netdae.errors import NetdaeError
+from netdae.metadata import TransientInfo
 from netdae.results import Result
 
 W = 2 * math.pi * 50.0  # 50 Hz
@@ -48,14 +49,14 @@ def irregular_times(n=4001, seed=1):
     return t / t[-1] * T_END
 
 
-def netdae_result(funcs: dict, t_own: np.ndarray, extra=None, status=0) -> Result:
+def netdae_result(funcs: dict, t_own: np.ndarray, transient=None, status=0) -> Result:
     """A transient Result whose dense output evaluates ``funcs`` exactly."""
     return Result(
         "tran",
         axes={"time": t_own},
         signals={name: f(t_own) for name, f in funcs.items()},
         dense=lambda t: {name: f(np.asarray(t)) for name, f in funcs.items()},
-        extra=extra or {},
+        transient=transient,
         status=status,
         message="" if status >= 0 else "step size too small at t=0.05",
     )
@@ -178,8 +179,8 @@ def test_transient_initial_jump_excluded_and_reported():
     t_ng = irregular_times()
     consistent = lambda t: -0.628 * np.cos(W * t)  # noqa: E731
     nd = netdae_result({"v(out)": consistent, "v(in)": lambda t: np.sin(W * t)}, np.linspace(0, T_END, 201),
-                       extra={"initial_correction": {"reason": "hidden constraints",
-                                                     "changed": {"v(out)": [0.0, -0.628]}}})
+                       transient=TransientInfo(initial_correction={"reason": "hidden constraints",
+                                                                   "changed": {"v(out)": [0.0, -0.628]}}))
     ng_out = lambda t: np.where(t == 0.0, 0.0, consistent(t))  # noqa: E731  ngspice starts at its op
     ng = ngspice_result({"v(out)": ng_out, "v(in)": lambda t: np.sin(W * t)}, t_ng)
     item = compare_transient(nd, ng, tol=Tolerance(1e-3))

@@ -141,9 +141,9 @@ def test_names_axes_and_metadata(ngspice_files):
     assert results["op"].axes == {}
     assert results["op"]["v(out)"].shape == (1,)
     assert np.iscomplexobj(results["ac"]["v(out)"]) and not np.iscomplexobj(results["ac"].axis)
-    assert results["tran"].extra["plotname"] == "Transient Analysis"
-    assert results["tran"].extra["title"].startswith("raw reader test")
-    assert results["tran"].extra["variable_types"]["i(l.xa.xb.l1)"] == "current"
+    assert results["tran"].source.plotname == "Transient Analysis"
+    assert results["tran"].source.title.startswith("raw reader test")
+    assert results["tran"].source.variable_types["i(l.xa.xb.l1)"] == "current"
     # ngspice 39 leaves the imaginary part of the ac scale uninitialised
     assert any("imaginary part" in n for n in results["ac"].notes)
 
@@ -229,7 +229,7 @@ def test_round_trip_is_exact(binary):
         for key in a.signals:
             assert np.iscomplexobj(a.signals[key]) == np.iscomplexobj(b.signals[key])
             np.testing.assert_array_equal(a.signals[key], b.signals[key])
-        assert b.extra["title"] == "round trip"
+        assert b.source.title == "round trip"
 
 
 def test_write_raw_and_read_raw_use_files(tmp_path):
@@ -305,8 +305,8 @@ def test_command_and_option_lines_are_kept_not_executed():
         "Command: version 39\nOption: reltol = 1e-06\nVariables:\n\t0\tout\tvoltage\nValues:\n 0\t2.5\n"
     )
     result = parse_raw(text.encode())[0]
-    assert result.extra["commands"] == ["version 39"]
-    assert result.extra["options"] == ["reltol = 1e-06"]
+    assert result.source.commands == ["version 39"]
+    assert result.source.options == ["reltol = 1e-06"]
     assert result.signals == {"v(out)": np.array([2.5])}  # a bare node name of type voltage
 
 
@@ -409,7 +409,7 @@ def test_pyspice_s_raw_file_parser_reads_the_pyspice_flavour(monkeypatch, analys
         np.testing.assert_array_equal(raw.variables[name].data, values)
     # and netdae reads its own PySpice flavour back, the temperatures included
     (again,) = parse_raw(data, "pyspice.raw")
-    assert again.extra["temp"] == 50 and again.extra["circuit"] == "warning: written by netdae"
+    assert again.source.temp == 50 and again.source.circuit == "warning: written by netdae"
     for name, values in result.signals.items():
         np.testing.assert_array_equal(again.signals[name], values)
 

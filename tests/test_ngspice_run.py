@@ -72,7 +72,7 @@ def test_divider_operating_point_by_hand(backend):
     np.testing.assert_allclose(op["v(out)"], [0.75], rtol=1e-14)  # 1 V * 3k / 4k
     np.testing.assert_allclose(op["i(v1)"], [-1 / 4000], rtol=1e-14)  # into the + node: negative
     assert run.backend == backend and re.fullmatch(r"ngspice-\d+", run.version)
-    assert op.extra["ngspice_version"] == run.version and op.extra["backend"] == backend
+    assert op.source.ngspice_version == run.version and op.source.backend == backend
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -208,7 +208,7 @@ def test_several_netlists_in_one_process_do_not_leak_state():
     assert again.t.tobytes() == first.t.tobytes() == fresh.t.tobytes()
     assert again["v(out)"].tobytes() == fresh["v(out)"].tobytes()
     assert divider["v(out)"][0] == pytest.approx(0.75, rel=1e-14)
-    assert again.extra["plot"] == "tran1"  # earlier plots were destroyed
+    assert again.source.plot == "tran1"  # earlier plots were destroyed
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

@@ -34,9 +34,9 @@ def test_rc_lowpass_density_and_kt_over_c():
     # the gain from V1 is the same low-pass: the input-referred density is R's own
     np.testing.assert_allclose(res["inoise_spectrum"], np.sqrt(4 * K * T * r), rtol=1e-12)
     # the integrated output noise is kT/C (the band reaches far above the corner 159 kHz)
-    total = res.extra["totals"]["onoise_total"]
+    total = res.noise_totals["onoise_total"]
     assert total ** 2 == pytest.approx(K * T / c, rel=2e-3)
-    assert res.extra["contributions"]["r1"]["share"] == pytest.approx(1.0)
+    assert res.noise.contributions["r1"]["share"] == pytest.approx(1.0)
 
 
 def test_divider_is_the_parallel_resistance():
@@ -47,8 +47,8 @@ def test_divider_is_the_parallel_resistance():
     gain = r2 / (r1 + r2)
     np.testing.assert_allclose(res["inoise_spectrum"], math.sqrt(4 * K * T * rp) / gain, rtol=1e-12)
     # white noise over 1k..5k: sqrt(4 k T Rp (5k - 1k))
-    assert res.extra["totals"]["onoise_total"] == pytest.approx(math.sqrt(4 * K * T * rp * 4e3), rel=1e-12)
-    assert res.extra["input_unit"] == "V"
+    assert res.noise_totals["onoise_total"] == pytest.approx(math.sqrt(4 * K * T * rp * 4e3), rel=1e-12)
+    assert res.noise.input_unit == "V"
 
 
 def test_temperature_and_dtemp_of_resistors():
@@ -59,7 +59,7 @@ def test_temperature_and_dtemp_of_resistors():
     np.testing.assert_allclose(res["onoise_spectrum"], math.sqrt(4 * K * T * 1e3), rtol=1e-12)
     # an I source input: the input-referred noise is a current, 1/|Z| of the output's
     np.testing.assert_allclose(res["inoise_spectrum"], res["onoise_spectrum"] / 1e3, rtol=1e-12)
-    assert res.extra["input_unit"] == "A"
+    assert res.noise.input_unit == "A"
 
 
 def test_noiseless_resistor_and_flicker_of_a_resistor_model():
@@ -78,7 +78,7 @@ def test_noiseless_resistor_and_flicker_of_a_resistor_model():
 def test_diode_shot_and_flicker_noise():
     res = noise_of("d\nI1 0 a dc 1m ac 1\nD1 a 0 dm\n.model dm d is=1e-14 n=1.2 kf=1e-15 af=1.3\n"
                    ".noise v(a) i1 dec 3 1 1meg 1\n")
-    vd = float(res.extra["op"]["v(a)"][0])  # the operating point the analysis linearised at
+    vd = float(res.operating_point["v(a)"][0])  # the operating point the analysis linearised at
     vte = 1.2 * K * T / Q
     i = 1e-14 * (math.exp(vd / vte) - 1) + 1e-12 * vd  # 1 mA to Newton's accuracy
     assert i == pytest.approx(1e-3, rel=1e-3)
@@ -97,8 +97,8 @@ def test_bjt_collector_shot_noise_dominates_a_common_emitter_stage():
     res = noise_of("ce\nVCC vcc 0 5\nVB b 0 dc 0.65 ac 1\nRC vcc c 1k\nQ1 c b 0 qm\n.model qm npn is=1e-15 bf=100\n"
                    ".noise v(c) vb dec 1 10 100 1\n")
     vt = K * T / Q
-    vbe = float(res.extra["op"]["v(b)"][0])
-    vbc = vbe - float(res.extra["op"]["v(c)"][0])  # about -4 V: the reverse cubic, ngspice's
+    vbe = float(res.operating_point["v(b)"][0])
+    vbc = vbe - float(res.operating_point["v(c)"][0])  # about -4 V: the reverse cubic, ngspice's
     cbe = 1e-15 * math.expm1(vbe / vt)
     cbc = -1e-15 * (1 + (3 * vt / (math.e * vbc)) ** 3)
     ic = cbe - cbc - cbc / 1.0 - 1e-12 * vbc  # BR = 1, GMIN across b-c
@@ -141,10 +141,10 @@ def test_summary_points_and_single_frequency():
     np.testing.assert_allclose(res.axis, np.geomspace(1.0, 1e3, 31)[::3], rtol=1e-12)
     assert any("every 3-th frequency" in n for n in res.notes)
     single = noise_of("t\nV1 in 0 dc 0 ac 1\nR1 in out 1k\nC1 out 0 1u\n.noise v(out) v1 lin 1 100 100\n")
-    assert single.axis.tolist() == [100.0] and single.extra["totals"] == {}  # ngspice writes no integrated noise
+    assert single.axis.tolist() == [100.0] and single.noise_totals == {}  # ngspice writes no integrated noise
     for sweep in ("lin 1 100 200", "lin 5 100 100", "dec 3 100 100"):
         single = noise_of(f"t\nV1 in 0 dc 0 ac 1\nR1 in out 1k\nC1 out 0 1u\n.noise v(out) v1 {sweep}\n")
-        assert single.axis.tolist() == [100.0] and single.extra["totals"] == {}, sweep
+        assert single.axis.tolist() == [100.0] and single.noise_totals == {}, sweep
 
 
 def test_behavioural_sources_are_noiseless_and_switches_are_resistors():
@@ -176,7 +176,7 @@ def test_save_print_csv_raw_and_control_block(tmp_path):
     assert res.names() == ["onoise_spectrum"] and op.names() == ["v(out)"]
     write_raw(tmp_path / "n.raw", [res], binary=False)
     (back,) = read_raw(tmp_path / "n.raw")
-    assert back.analysis == "noise" and back.extra["totals"] == res.extra["totals"]
+    assert back.analysis == "noise" and back.noise_totals == res.noise_totals
     np.testing.assert_array_equal(back["onoise_spectrum"], res["onoise_spectrum"])
     assert read_csv  # the CSV side: test_command_line_writes_spectra_and_totals
 
@@ -195,7 +195,7 @@ def test_command_line_writes_spectra_and_totals(tmp_path):
     from netdae.io.csv import read_csv
 
     totals = read_csv(tmp_path / "o" / "noise_total.csv")
-    assert totals.analysis == "noise" and set(totals.extra["totals"]) == {"onoise_total", "inoise_total"}
+    assert totals.analysis == "noise" and set(totals.noise_totals) == {"onoise_total", "inoise_total"}
     assert read_csv(tmp_path / "o" / "noise.csv").analysis == "noise"
     out = subprocess.run([sys.executable, "-m", "netdae", "check", str(net)], capture_output=True, text=True,
                          env={**os.environ, "NETDAE_SERVER": "0"})
@@ -307,9 +307,9 @@ def test_matches_ngspice(text):
         a, b = ours[name], theirs[name]
         floor = 1e-9 * np.max(np.abs(b))
         assert np.all(np.abs(a - b) <= 1e-6 * np.maximum(np.abs(b), floor)), name
-    assert set(ours.extra["totals"]) == set(theirs.extra["totals"])
-    for name, value in theirs.extra["totals"].items():
-        assert ours.extra["totals"][name] == pytest.approx(value, rel=1e-6, abs=1e-30), name
+    assert set(ours.noise_totals) == set(theirs.noise_totals)
+    for name, value in theirs.noise_totals.items():
+        assert ours.noise_totals[name] == pytest.approx(value, rel=1e-6, abs=1e-30), name
 
 
 @pytest.mark.ngspice
@@ -346,13 +346,14 @@ def test_compare_passes_and_pairs_cards_as_ngspice_runs_them():
 def test_compare_noise_at_the_frequencies_both_have():
     from netdae.comparison.header import Tolerance
     from netdae.comparison.smallsignal import compare_noise
+    from netdae.metadata import NoiseInfo
     from netdae.results import Result
 
     f = np.array([1.0, 10.0, 100.0, 1000.0])
     nd = Result("noise", axes={"frequency": f}, signals={"onoise_spectrum": 1e-9 / np.sqrt(f)},
-                extra={"totals": {"onoise_total": 2e-8, "inoise_total": 1.0}})
+                noise=NoiseInfo(totals={"onoise_total": 2e-8, "inoise_total": 1.0}))
     ng = Result("noise", axes={"frequency": f[::2]}, signals={"onoise_spectrum": 1e-9 / np.sqrt(f[::2]) * (1 + 1e-4)},
-                extra={"totals": {"onoise_total": 2e-8 * (1 + 2e-3), "inoise_total": 1.0}})
+                noise=NoiseInfo(totals={"onoise_total": 2e-8 * (1 + 2e-3), "inoise_total": 1.0}))
     item = compare_noise(nd, ng, tol=Tolerance(1e-3))
     assert item.points == 2 and any("at the 2 frequencies both have" in n for n in item.notes)
     by_name = {s.name: s for s in item.signals}

@@ -47,8 +47,8 @@ R3 b 0 500
 
 def test_rc_lowpass_pole_and_no_zero():
     res = pz_of(RC)
-    assert close(res.extra["poles"], [-1 / (R * C)])
-    assert res.extra["zeros"].size == 0
+    assert close(res.poles, [-1 / (R * C)])
+    assert res.zeros.size == 0
     assert res.names() == ["pole(1)"]
     assert np.iscomplexobj(res["pole(1)"])
 
@@ -56,8 +56,8 @@ def test_rc_lowpass_pole_and_no_zero():
 def test_rlc_bandpass_closed_form():
     res = pz_of(RLC)
     expected = np.roots([1, 1 / (R * C), 1 / (L * C)])
-    assert close(res.extra["poles"], expected, 1e-12)
-    assert np.all(np.abs(res.extra["zeros"]) <= 1e-9 * np.abs(expected).max())
+    assert close(res.poles, expected, 1e-12)
+    assert np.all(np.abs(res.zeros) <= 1e-9 * np.abs(expected).max())
     assert res.names() == ["pole(1)", "pole(2)", "zero(1)"]
     assert res["pole(1)"][0].imag > 0 and res["pole(2)"][0] == np.conj(res["pole(1)"][0])
 
@@ -65,7 +65,7 @@ def test_rlc_bandpass_closed_form():
 def test_twin_t_notch_zeros_on_the_imaginary_axis():
     res = pz_of(TWIN_T)
     w0 = 1 / (R * C)
-    poles, zeros = res.extra["poles"], res.extra["zeros"]
+    poles, zeros = res.poles, res.zeros
     assert close(poles, [w0 * (-2 + np.sqrt(3)), w0 * (-2 - np.sqrt(3)), -w0])
     assert close(zeros, [1j * w0, -1j * w0, -w0])
 
@@ -74,21 +74,21 @@ def test_cur_opens_the_port_vol_shorts_it():
     body = "R0 in 0 1k\nR1 in out 1k\nL1 out 0 1m\nC1 out 0 1u\n"
     vol = pz_of(f"p\n{body}.pz in 0 out 0 vol pol\n")
     cur = pz_of(f"p\n{body}.pz in 0 out 0 cur pol\n")
-    assert close(vol.extra["poles"], np.roots([1, 1 / (R * C), 1 / (L * C)]))
-    assert close(cur.extra["poles"], np.roots([1, 1 / (2 * R * C), 1 / (L * C)]))
-    assert vol.extra["zeros"] is None and vol.names() == ["pole(1)", "pole(2)"]
+    assert close(vol.poles, np.roots([1, 1 / (R * C), 1 / (L * C)]))
+    assert close(cur.poles, np.roots([1, 1 / (2 * R * C), 1 / (L * C)]))
+    assert vol.zeros is None and vol.names() == ["pole(1)", "pole(2)"]
     zer = pz_of(f"p\n{body}.pz in 0 out 0 cur zer\n")
-    assert zer.extra["poles"] is None and zer.names() == ["zero(1)"]
+    assert zer.poles is None and zer.names() == ["zero(1)"]
 
 
 def test_an_ac_voltage_source_is_removed_as_in_ngspice():
     # V1 has an AC value: ngspice's pole-zero analysis opens it, so with a current input R1 dangles
     res = pz_of("w\nV1 in 0 dc 0 ac 1\nR1 in out 1k\nL1 out 0 1m\nC1 out 0 1u\n.pz in 0 out 0 cur pz\n")
-    assert close(res.extra["poles"], [1j / np.sqrt(L * C), -1j / np.sqrt(L * C)])
+    assert close(res.poles, [1j / np.sqrt(L * C), -1j / np.sqrt(L * C)])
     assert any("removed (open)" in n and "v1" in n for n in res.notes)
     # without an AC value it is a short: R1 damps the tank
     res = pz_of("w\nV1 in 0 dc 0\nR1 in out 1k\nL1 out 0 1m\nC1 out 0 1u\n.pz in 0 out 0 vol pol\n")
-    assert close(res.extra["poles"], np.roots([1, 1 / (R * C), 1 / (L * C)]))
+    assert close(res.poles, np.roots([1, 1 / (R * C), 1 / (L * C)]))
 
 
 def test_poles_equal_the_finite_qz_eigenvalues_of_the_full_pencil():
@@ -102,7 +102,7 @@ def test_poles_equal_the_finite_qz_eigenvalues_of_the_full_pencil():
     qz = alpha[finite] / beta[finite]
     # the circuit as is (V1 a short) versus .pz's port: same poles here (V1 has an AC value and is removed,
     # then the vol port shorts in-0 again)
-    assert close(pz_of(TWIN_T).extra["poles"], qz, 1e-8)
+    assert close(pz_of(TWIN_T).poles, qz, 1e-8)
 
 
 def test_pole_zero_of_a_state_space_system():

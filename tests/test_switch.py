@@ -195,8 +195,8 @@ def test_rc_load_follows_the_switch_time_constants(engine, monkeypatch):
     assert r.ok
     # the control ramps 0 -> 1 in 1 us from 1 ms and back from 3.001 ms: it crosses vt = 0.5 at
     t_on, t_off = 1e-3 + 0.5e-6, 3.001e-3 + 0.5e-6
-    assert r.extra["events"] == [(pytest.approx(t_on, rel=1e-12), ["s1"]), (pytest.approx(t_off, rel=1e-12), ["s1"])]
-    assert [t for t, _ in r.extra["jumps"]] == [t for t, _ in r.extra["events"]]  # v(b) jumps at each
+    assert r.transient.events == [(pytest.approx(t_on, rel=1e-12), ["s1"]), (pytest.approx(t_off, rel=1e-12), ["s1"])]
+    assert [t for t, _ in r.transient.jumps] == [t for t, _ in r.transient.events]  # v(b) jumps at each
     assert r.stats["integrator"]["events"] == 2
     v_inf = 1000.0 / 2001.0
     tau_on = 1e-6 * (1001.0 * 1000.0 / 2001.0)
@@ -217,7 +217,7 @@ def test_rc_load_follows_the_switch_time_constants(engine, monkeypatch):
 
 def _instants(r) -> list[float]:
     """The switching instants of a transient."""
-    return [t for t, _ in r.extra["events"]]
+    return [t for t, _ in r.transient.events]
 
 
 TRIANGLE = """hysteresis on a triangle
@@ -300,7 +300,7 @@ def test_a_switch_controlled_by_its_own_node_oscillates_with_the_analytic_period
     r = transient(load(RELAXATION))
     assert r.ok
     events = np.array(_instants(r))
-    assert [w for _, w in r.extra["events"]] == [["s1"]] * events.size
+    assert [w for _, w in r.transient.events] == [["s1"]] * events.size
     tau, r_th = 1e-3, 1000.0 * 101.0 / 1101.0
     v_low = 5.0 * 101.0 / 1101.0
     first = tau * math.log(5.0 / 2.0)
@@ -407,7 +407,7 @@ def test_boost_converter_edges_agree_with_ngspice_to_its_step(netlists_dir):
     # the gate crosses 3 V rising 6 ns after each period starts, 2 V falling 5.016 us after it
     on = [k * 1e-5 + 6e-9 for k in range(40)]
     off = [k * 1e-5 + 5.016e-6 for k in range(40)]
-    events = [t for t, _ in ours.extra["events"]]
+    events = [t for t, _ in ours.transient.events]
     assert events == pytest.approx(sorted(on + off), rel=0, abs=1e-15)
     for t_sw in off[1:]:
         k = int(np.searchsorted(t_ng, t_sw))  # ngspice's first point at or after the crossing
@@ -427,7 +427,7 @@ def test_a_chattering_switch_stops_the_run_with_a_message(engine, monkeypatch):
     r = transient(load(RELAXATION.replace("vt=2 vh=1", "vt=2 vh=0")))
     assert not r.ok
     assert "switch s1 chatters" in r.message and "VH > 0" in r.message
-    assert r.extra["failure"]["t"] == pytest.approx(transient_first_crossing(), rel=1e-3)
+    assert r.transient.failure["t"] == pytest.approx(transient_first_crossing(), rel=1e-3)
     assert r.stats["integrator"]["events"] < 200
 
 

@@ -60,7 +60,7 @@ def test_output_current_of_the_input_source_and_infinite_impedance():
 def test_nonlinear_diode_small_signal_resistance():
     text = "d\nV1 in 0 5\nR1 in a 1k\nD1 a 0 dm\n.model dm d is=1e-14 n=1\n.tf v(a) v1\n"
     (res,) = netdae.run(text)
-    vd = float(res.extra["op"]["v(a)"][0])
+    vd = float(res.operating_point["v(a)"][0])
     vt = 1.380649e-23 * 300.15 / 1.602176634e-19  # kT/q at 27 C
     gd = 1e-14 / vt * np.exp(vd / vt)
     rd = 1 / (gd + 1e-12)  # gmin in parallel, as ngspice's diode

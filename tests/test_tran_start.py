@@ -69,7 +69,7 @@ def test_pwl_step_jumps_and_is_reported_on_both_sides(rtol):
     assert at.size == 2
     np.testing.assert_allclose(r["v(a)"][at], [0.0, 1.0], atol=1e-12)
     np.testing.assert_allclose(r["i(v1)"][at], [0.0, -1e-3], rtol=1e-9, atol=1e-15)
-    assert [tj for tj, _ in r.extra["jumps"]] == [1e-3]
+    assert [tj for tj, _ in r.transient.jumps] == [1e-3]
     assert any("t=0.001: the solution jumps" in n for n in r.notes)
     # v(b) = 1 - exp(-(t - 1m)/RC) after the step, in tolerance units
     after = t > 1e-3
@@ -116,7 +116,7 @@ def test_diode_pulse_from_zero_with_uic_matches_ngspice():
     r = run(DIODE_PULSE_UIC)
     assert r.ok, r.message
     # the uic start is consistent at t = 0 itself: no jump at t = 0
-    assert r.axes["time"][1] > 0.0 and r.extra["jumps"] == []
+    assert r.axes["time"][1] > 0.0 and r.transient.jumps == []
     cmp = netdae.compare(DIODE_PULSE_UIC, tol=2e-3, signals=["v(b)"], analyses=["tran"])
     assert cmp.passed, "\n".join(format_analysis(a) for a in cmp.analyses)
 

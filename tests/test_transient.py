@@ -152,8 +152,8 @@ R1 a 0 1k
     t = r.t
     w = TWO_PI * 1e3
     exact = -(1e-6 * w * np.cos(w * t) + 1e-3 * np.sin(w * t))
-    assert r.extra["index"] == 2 and "i(v1)" in r.extra["index2"]
-    assert r.extra["initial_correction"] is not None  # the OP has i(v1) = 0, the true value is -C w
+    assert r.transient.index == 2 and "i(v1)" in r.transient.index2
+    assert r.transient.initial_correction is not None  # the OP has i(v1) = 0, the true value is -C w
     assert r["i(v1)"][0] == pytest.approx(exact[0], rel=1e-9)
     assert peak_units(r["i(v1)"] - exact, exact, 1e-3) < 5
     assert r.stats["steps"] < 2000  # no step-size collapse
@@ -179,7 +179,7 @@ R1 b 0 500
     vb = amp * (np.cos(w * t) + w * tau * np.sin(w * t) - np.exp(-t / tau))
     dvb = amp * (-w * np.sin(w * t) + w * w * tau * np.cos(w * t) + np.exp(-t / tau) / tau)
     i_v1 = -C1 * (w * np.cos(w * t) - dvb)
-    assert "i(v1)" in r.extra["index2"]
+    assert "i(v1)" in r.transient.index2
     assert peak_units(r["v(b)"] - vb, vb, 1e-5) < 20
     assert peak_units(r["i(v1)"] - i_v1, i_v1, 1e-5) < 50
 
@@ -195,8 +195,8 @@ L2 a 0 5m
 """
     # LI-cutset {I1, L1... }: node a joins the rest only through I1, L1 and L2 -> v(a) depends on I1'
     r = run(text)
-    assert r.extra["index"] == 2
-    assert "v(a)" in r.extra["index2"]
+    assert r.transient.index == 2
+    assert "v(a)" in r.transient.index2
     t = r.t
     # currents: i1 + i2 = I(t) (KCL at a), L1 i1' + R i1 = L2 i2'  ->  (L1 + L2) i1' + R i1 = L2 I'
     L1, L2, R, w, A = 10e-3, 5e-3, 100.0, TWO_PI * 2e3, 1e-3
@@ -215,7 +215,7 @@ def test_differentiator_closed_form_and_convergence():
         r = transient(c, reltol=rtol)
         t = r.t
         exact = -(10e-3 / 100) * TWO_PI * 1e3 * np.cos(TWO_PI * 1e3 * t)
-        assert r.extra["index"] == 2 and r.extra["index2"] == ["v(out)"]
+        assert r.transient.index == 2 and r.transient.index2 == ["v(out)"]
         errs.append(np.max(np.abs(r["v(out)"] - exact)))
         assert r.stats["steps"] < 1500
     assert errs[0] / 0.628 < 2e-3
@@ -226,7 +226,7 @@ def test_differentiator_ngspice_start_keeps_the_jump():
     r = transient(netdae.load("netlists/differentiator.cir"), initial="ngspice")
     assert r["v(out)"][0] == 0.0
     assert r["v(out)"][1] == pytest.approx(-0.6283185, rel=1e-3)
-    assert r.extra["initial_correction"] is None
+    assert r.transient.initial_correction is None
 
 
 # --- index 3 and 4: cascaded ideal differentiators ---------------------------------------------
@@ -241,7 +241,7 @@ def cascade(k: int, source: str) -> str:
 @pytest.mark.parametrize("k", [2, 3])
 def test_cascaded_differentiators_index_k_plus_1(k):
     r = run(cascade(k, "SIN(0 1 1k)"))
-    assert r.extra["index"] == k + 1
+    assert r.transient.index == k + 1
     t = r.t
     w, g = TWO_PI * 1e3, 100e-3 / 1e3  # each stage multiplies by -(L/R) d/dt
     # (-g d/dt)^k sin(w t)
@@ -249,18 +249,18 @@ def test_cascaded_differentiators_index_k_plus_1(k):
     exact = (-g * w) ** k * phase(w * t)
     out = r[f"v(n{k})"]
     assert np.max(np.abs(out - exact)) <= 1e-6 * np.max(np.abs(exact))
-    assert not r.extra["impulses"]
+    assert not r.transient.impulses
 
 
 def test_cascade_with_pulse_warns_about_impulses():
     """The PULSE's slope jumps at its corners: the second and third derivatives contain deltas there."""
     r = run(cascade(2, "PULSE(0 1 0.5m 0.1m 0.1m 0.5m 2m)"))
-    assert r.extra["index"] == 3
+    assert r.transient.index == 3
     corners = ["t=0.0005:", "t=0.0006:", "t=0.0011:", "t=0.0012:"]
-    assert [w.split()[0] for w in r.extra["impulses"]] == corners
-    assert all("derivative of order 1" in w and "v(n2)" in w for w in r.extra["impulses"])
+    assert [w.split()[0] for w in r.transient.impulses] == corners
+    assert all("derivative of order 1" in w and "v(n2)" in w for w in r.transient.impulses)
     r3 = run(cascade(3, "PULSE(0 1 0.5m 0.1m 0.1m 0.5m 2m)"))
-    assert "v(n2)" in r3.extra["impulses"][0] and "v(n3)" in r3.extra["impulses"][0]
+    assert "v(n2)" in r3.transient.impulses[0] and "v(n3)" in r3.transient.impulses[0]
 
 
 def test_single_differentiator_of_a_pulse_has_steps_not_impulses():
@@ -268,7 +268,7 @@ def test_single_differentiator_of_a_pulse_has_steps_not_impulses():
     with open("netlists/differentiator.cir") as fh:
         text = fh.read().replace("SIN(0 1 1k)", "PULSE(0 1 0.5m 0.1m 0.1m 0.5m 2m)")
     r = run(text)
-    assert r.extra["index"] == 2 and r.extra["impulses"] == []
+    assert r.transient.index == 2 and r.transient.impulses == []
     mid_rise = r.dense(np.array([0.55e-3, 0.85e-3]))["v(out)"]
     np.testing.assert_allclose(mid_rise, [-1e-4 * 1e4, 0.0], atol=1e-6)
 

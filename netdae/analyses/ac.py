@@ -28,7 +28,7 @@ from ..circuit import AcAnalysis, Circuit
 from ..errors import CircuitError, NetdaeError
 from ..mna import MODE_DC, assemble
 from ..netlist.steps import grid
-from ..results import Result
+from ..results import Result, Statistics
 from .op import op_result, solve_operating_point, steady_options
 
 __all__ = ["frequencies", "ac_analysis", "solve_ac", "linearize", "Linearization", "DENSE_AC_LIMIT"]
@@ -216,7 +216,7 @@ def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:
     -------
     Result
         ``analysis == "ac"``, axis ``frequency`` [Hz], complex phasors per
-        unknown; ``extra["op"]`` holds the operating point.
+        unknown; ``operating_point`` holds the operating point.
 
     Raises
     ------
@@ -235,10 +235,10 @@ def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:
         "ac",
         axes={"frequency": freqs},
         signals={name: X[:, i] for i, name in enumerate(system.names)},
-        stats={"points": int(freqs.size), "wall_time": time.perf_counter() - t0,
-               "newton": op.iterations, **system.describe()},
+        stats=Statistics(points=int(freqs.size), wall_time=time.perf_counter() - t0,
+                         newton_iterations=op.iterations, **system.describe()),
         message="ok",
         tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol},
         notes=notes,
-        extra={"op": op_result(system, op, 0.0, opts)},
+        operating_point=op_result(system, op, 0.0, opts),
     )

@@ -16,7 +16,7 @@ import numpy as np
 from ..circuit import Circuit, DcAnalysis, DcSweep
 from ..errors import CircuitError, NetdaeError
 from ..mna import MODE_DC, assemble
-from ..results import Result
+from ..results import Result, Statistics
 from .op import solve_operating_point, steady_options
 
 __all__ = ["sweep_values", "dc_sweep"]
@@ -179,8 +179,8 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         "dc",
         axes=axes,
         signals={name: X[:, i] for i, name in enumerate(system.names)},
-        stats={"points": len(points), "newton": iterations, "wall_time": time.perf_counter() - t_start,
-               **system.describe()},
+        stats=Statistics(points=len(points), newton_iterations=iterations,
+                         wall_time=time.perf_counter() - t_start, **system.describe()),
         message="ok",
         tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol},
         notes=list(system.notes),

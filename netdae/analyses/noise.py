@@ -33,7 +33,7 @@ generator's output density ``onoise_<device><_source>`` and each device's
 total ``onoise_<device>`` (V/sqrt(Hz)), at every ``pts_per_summary``-th
 point only (so does ngspice), and the per-generator totals
 ``onoise_total_<device><_source>`` / ``inoise_total_...``. Each device's
-share of ``onoise_total`` is always kept (``extra["contributions"]``) and
+share of ``onoise_total`` is always kept (``noise.contributions``) and
 the largest are named in the notes.
 """
 
@@ -45,7 +45,8 @@ import numpy as np
 
 from ..circuit import Circuit, NoiseAnalysis
 from ..errors import CircuitError
-from ..results import Result
+from ..metadata import NoiseInfo
+from ..results import Result, Statistics
 from .op import op_result
 
 __all__ = ["noise_analysis", "integrate_power_law", "collect_noise_sources", "NOISE_MINGAIN", "NOISE_MINLOG",
@@ -177,13 +178,13 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overr
         ``analysis == "noise"``, axis ``frequency`` [Hz], real signals
         ``onoise_spectrum`` [V/sqrt(Hz)] and ``inoise_spectrum`` [V or
         A/sqrt(Hz)] (with ``pts_per_summary``, each generator's and device's
-        output density first, ngspice's names); ``extra["totals"]`` the
+        output density first, ngspice's names); ``noise`` (:class:`netdae.metadata.NoiseInfo`): ``totals`` the
         integrated noise ``{"onoise_total": V, "inoise_total": V or A, ...}``
         as ngspice's "Integrated Noise" plot (empty at a single frequency,
-        fstart == fstop or ``lin`` with one point, as ngspice writes none), ``extra["contributions"]`` each device's
+        fstart == fstop or ``lin`` with one point, as ngspice writes none), ``contributions`` each device's
         ``onoise_total`` and share of the output noise power,
-        ``extra["input_unit"]`` ``"V"`` or ``"A"``, ``extra["op"]`` the
-        operating point.
+        ``input_unit`` ``"V"`` or ``"A"``; ``operating_point`` the
+        operating point, ``card`` the ``.noise`` card.
 
     Raises
     ------
@@ -283,11 +284,11 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overr
         "noise",
         axes={"frequency": freqs[keep]},
         signals=signals,
-        stats={"points": int(keep.size), "wall_time": time.perf_counter() - t0, "newton": lin.op.iterations,
-               "generators": len(sources), **system.describe()},
+        stats=Statistics(points=int(keep.size), wall_time=time.perf_counter() - t0,
+                         newton_iterations=lin.op.iterations, generators=len(sources), **system.describe()),
         message="ok",
         tolerances={"reltol": lin.options.reltol, "vntol": lin.options.vntol, "abstol": lin.options.abstol},
         notes=notes,
-        extra={"op": op_result(system, lin.op, 0.0, lin.options), "card": card, "totals": totals,
-               "contributions": contributions, "input_unit": input_unit},
+        operating_point=op_result(system, lin.op, 0.0, lin.options), card=card,
+        noise=NoiseInfo(totals=totals, contributions=contributions, input_unit=input_unit),
     )

@@ -33,7 +33,7 @@ from ..circuit import Circuit
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
 from ..mna import MODE_DC, MnaSystem, assemble
-from ..results import Result
+from ..results import Result, Statistics
 
 __all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result", "charge_groups"]
 
@@ -280,13 +280,8 @@ def op_result(system: MnaSystem, res: SteadyResult, wall: float, opts: SteadyOpt
     return Result(
         "op",
         signals=signals,
-        stats={
-            "newton": res.iterations,
-            "factorizations": res.factorizations,
-            "strategy": res.strategy,
-            "wall_time": wall,
-            **system.describe(),
-        },
+        stats=Statistics(newton_iterations=res.iterations, factorizations=res.factorizations,
+                         strategy=res.strategy, wall_time=wall, **system.describe()),
         message=res.message,
         tolerances={"reltol": opts.reltol, "vntol": opts.vntol, "abstol": opts.abstol, "gmin": opts.gmin},
         notes=list(system.notes) + list(res.notes),

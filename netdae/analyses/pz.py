@@ -62,7 +62,7 @@ import scipy.sparse as sp
 
 from ..circuit import Circuit, Element, PzAnalysis
 from ..errors import CircuitError, SingularPencilError
-from ..results import Result
+from ..results import Result, Statistics
 from .op import op_result
 
 __all__ = ["PoleZero", "pz_analysis", "pole_zero", "port_system", "rosenbrock", "sort_roots", "conjugate_symmetric",
@@ -344,8 +344,8 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     Result
         ``analysis == "pz"``, no axis; one complex signal per root named as
         ngspice names them (``pole(1)``, ``pole(2)`` ..., ``zero(1)`` ...), each
-        of one point; ``extra["poles"]``, ``extra["zeros"]`` (arrays, None when
-        not asked for), ``extra["op"]`` the operating point.
+        of one point; ``poles``, ``zeros`` (arrays, None when not asked for),
+        ``operating_point`` the operating point.
 
     Raises
     ------
@@ -398,12 +398,12 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     return Result(
         "pz",
         signals=signals,
-        stats={"poles": None if pz.poles is None else int(pz.poles.size),
-               "zeros": None if pz.zeros is None else int(pz.zeros.size),
-               "wall_time": wall, "newton": lin.op.iterations, **system.describe()},
+        stats=Statistics(poles=None if pz.poles is None else int(pz.poles.size),
+                         zeros=None if pz.zeros is None else int(pz.zeros.size),
+                         wall_time=wall, newton_iterations=lin.op.iterations, **system.describe()),
         message="ok",
         tolerances={"reltol": lin.options.reltol, "vntol": lin.options.vntol, "abstol": lin.options.abstol},
         notes=notes,
-        extra={"op": op_result(system, lin.op, 0.0, lin.options), "poles": pz.poles, "zeros": pz.zeros,
-               "card": card},
+        operating_point=op_result(system, lin.op, 0.0, lin.options), poles=pz.poles, zeros=pz.zeros,
+        card=card,
     )

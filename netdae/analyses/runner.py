@@ -334,7 +334,7 @@ def _noise_subset(res: Result, names: list[str]) -> Result:
     NetdaeError
         A noise vector the result does not have (``onoise_r1`` without a summary).
     """
-    wanted = [n for n in names if n.strip().lower() not in res.extra.get("totals", {})]
+    wanted = [n for n in names if n.strip().lower() not in res.noise_totals]
     if not wanted:
         return res
     try:
@@ -418,7 +418,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     -------
     Result
         ``analysis == "tran"``, axis ``time``, ``dense(t) -> dict``; see
-        :func:`netdae.analyses.tran.transient` for ``extra``.
+        :func:`netdae.analyses.tran.transient` for ``transient``.
 
     Raises
     ------

@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 
 from ..circuit import Circuit, TfAnalysis
 from ..errors import CircuitError
-from ..results import Result
+from ..results import Result, Statistics
 from ..signals import parse_signal
 from .op import op_result
 
@@ -150,8 +150,8 @@ def tf_analysis(circuit: Circuit, card: TfAnalysis, **overrides) -> Result:
     -------
     Result
         ``analysis == "tf"``, no axis, three real signals of one point named
-        as ngspice names them (:func:`tf_names`); ``extra["op"]`` the
-        operating point.
+        as ngspice names them (:func:`tf_names`); ``operating_point`` the
+        operating point, ``card`` the ``.tf`` card.
 
     Raises
     ------
@@ -209,9 +209,10 @@ def tf_analysis(circuit: Circuit, card: TfAnalysis, **overrides) -> Result:
     return Result(
         "tf",
         signals={name: np.array([value]) for name, value in zip(names, (tf, z_in, z_out))},
-        stats={"wall_time": time.perf_counter() - t0, "newton": lin.op.iterations, **system.describe()},
+        stats=Statistics(wall_time=time.perf_counter() - t0, newton_iterations=lin.op.iterations,
+                         **system.describe()),
         message="ok",
         tolerances={"reltol": lin.options.reltol, "vntol": lin.options.vntol, "abstol": lin.options.abstol},
         notes=notes,
-        extra={"op": op_result(system, lin.op, 0.0, lin.options), "card": card},
+        operating_point=op_result(system, lin.op, 0.0, lin.options), card=card,
     )

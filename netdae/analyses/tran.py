@@ -1,6 +1,6 @@
 """Transient analysis (``.tran tstep tstop [tstart [tmax]] [uic]``) that respects the index.
 
-The steps, each visible in the result's notes and ``extra``:
+The steps, each visible in the result's notes and ``transient`` (:class:`netdae.metadata.TransientInfo`):
 
 1. **Start**: the DC operating point at t = 0 with the sources' values at
    t = 0 and ``.ic`` nodes held (ngspice's rule); with ``uic``, no operating
@@ -40,7 +40,7 @@ from __future__ import annotations
 import re
 import time
 from dataclasses import dataclass, field, replace
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
@@ -51,7 +51,8 @@ from ..dae.system import LinearDae
 from ..devices.linear import capacitances
 from ..errors import CircuitError, NetdaeError, SingularPencilError
 from ..mna import MODE_TRAN, MnaSystem, assemble
-from ..results import STATUS_FAILED, STATUS_OK, Result
+from ..metadata import TransientInfo
+from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from .index import IndexReport, analyze_index
 
 __all__ = ["transient", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
@@ -68,7 +69,7 @@ JUMP_PROBE = 1e-9
 #: A derivative jump is reported when it exceeds this fraction of the input's scale.
 JUMP_TOLERANCE = 1e-6
 #: Jumps of the solution (inputs that jump, index-2 unknowns at corners) noted one by one
-#: up to this many; the rest are counted (all are in ``extra["jumps"]``).
+#: up to this many; the rest are counted (all are in ``transient.jumps``).
 JUMP_NOTES = 3
 #: ngspice's default largest step is (tstop - tstart) / TMAX_DIVISOR (or tstep if smaller).
 TMAX_DIVISOR = 50.0
@@ -354,7 +355,7 @@ def _decoupled(system: MnaSystem, rep: IndexReport, x_start: np.ndarray, y0: np.
         return wf.nilpotent_from_inputs(np.moveaxis(stack, 2, 1))  # (n_inf, m)
 
     atol_x = np.where(system.kinds == 0, bdf_opts["vntol"], bdf_opts["abstol"])
-    stats: dict[str, Any] = {}
+    stats: Statistics = Statistics()
     if nf:
         V1 = np.abs(wf.V1)
         atol_y = np.min(np.where(V1 > 0, atol_x[:, None] / np.maximum(V1, 1e-300), np.inf), axis=0)
@@ -366,14 +367,14 @@ def _decoupled(system: MnaSystem, rep: IndexReport, x_start: np.ndarray, y0: np.
         times = res.t
         ys = res.x.T
         y_dense = res.dense
-        stats = dict(res.stats)
+        stats = Statistics.from_counts(res.stats)
         status, message = res.status, res.message
     else:
         grid = np.arange(0.0, tstop, bdf_opts["max_step"])
         times = np.union1d(np.append(grid, tstop), system.breakpoints(0.0, tstop))
         ys = np.zeros((0, times.size))
         y_dense = None
-        stats = {"steps": 0, "rejected": 0, "newton_iterations": 0, "factorizations": 0}
+        stats = Statistics(steps=0, rejected=0, newton_iterations=0, factorizations=0)
         status, message = STATUS_OK, f"no dynamic states: the solution is algebraic in the inputs ({times.size} points)"
     x = (wf.combine(ys, z_at(times)) if nf else wf.V2 @ z_at(times)).T  # (m, n)
 
@@ -437,10 +438,11 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     -------
     Result
         ``analysis == "tran"``, axis ``time``, ``dense(t) -> dict``;
-        ``extra``: ``index`` (int), ``index_method``, ``index2`` (unknowns),
-        ``initial_correction`` (``{"reason", "changed": {name: [old, new]}}``
-        or None), ``impulses`` (warnings), ``start`` (the values at t0 before
-        correction).
+        ``transient`` (:class:`netdae.metadata.TransientInfo`): ``index``,
+        ``index_method``, ``index2`` (unknowns), ``initial_correction``
+        (``{"reason", "changed": {name: [old, new]}}`` or None), ``impulses``
+        (warnings), ``start`` (the values at t0 before correction),
+        ``failure``, ``jumps``, ``events``.
 
     Raises
     ------
@@ -559,7 +561,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             if res is None or res.t.size == 0:
                 raise
             interrupted = exc
-        times, X, stats, message, status, failure = res.t, res.x, dict(res.stats), res.message, res.status, \
+        times, X, stats, message, status, failure = res.t, res.x, Statistics.from_counts(res.stats), res.message, res.status, \
             res.failure
         if interrupted is not None:
             message = f"interrupted at t={times[-1]:.9g} of {card.tstop:.9g} (the results up to there are kept)"
@@ -571,7 +573,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
                          f"{' and more' if len(who) > 5 else ''}); both the value from the left and "
                          "the right limit are reported at this time")
         if len(jumps) > JUMP_NOTES:
-            notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (extra['jumps'])")
+            notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (transient.jumps)")
         if stats.get("impasses"):
             notes.append(f"Newton failed on every step size at {stats['impasses']} instant(s): the solution continued "
                          "from implicit-Euler steps right of each solved by the steady-state solver (damped Newton, "
@@ -581,7 +583,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         if events:
             first_t, first_w = events[0]
             notes.append(f"switches changed at {len(events)} instant(s), located where their controls cross the "
-                         f"thresholds (the first: t={first_t:.6g}, {', '.join(first_w[:5])}; all in extra['events'])")
+                         f"thresholds (the first: t={first_t:.6g}, {', '.join(first_w[:5])}; all in transient.events)")
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax,
                       "index_excluded": res.tolerances.get("index_excluded", 0)}
         if failure is not None and rep.topology is not None:
@@ -606,17 +608,12 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     def dense(t):
         return _signals(kept_names, requested, np.atleast_2d(np.asarray(dense_kept(np.atleast_1d(t)))), diffs)
 
-    stats_out = {
-        "steps": stats.get("steps", 0),
-        "rejected": stats.get("rejected", 0),
-        "newton": stats.get("newton_iterations", 0),
-        "factorizations": stats.get("factorizations", 0),
-        "points": int(out_t.size),
-        "op_newton": start.op_iterations,
-        "integrator": stats,
-        "wall_time": time.perf_counter() - t_wall,
-        **system.describe(),
-    }
+    integrator = Statistics.from_counts(stats)
+    stats_out = Statistics(
+        steps=integrator.steps or 0, rejected=integrator.rejected or 0,
+        newton_iterations=integrator.newton_iterations or 0, factorizations=integrator.factorizations or 0,
+        points=int(out_t.size), op_newton_iterations=start.op_iterations, integrator=integrator,
+        wall_time=time.perf_counter() - t_wall, **system.describe())
     kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(requested + list(diffs)))
     result = Result(
         "tran",
@@ -628,18 +625,10 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         tolerances=tolerances,
         dense=dense,
         notes=notes + [f"saved: {kept_note}"],
-        extra={
-            "index": index,
-            "index_method": rep.method,
-            "index2": index2,
-            "initial_correction": correction,
-            "impulses": impulses,
-            "start": {nm: float(v) for nm, v in zip(system.names, start.x)},
-            "failure": failure,
-            "jumps": jumps,
-            "events": events,
-            "index_report": rep,
-        },
+        transient=TransientInfo(
+            index=index, index_method=rep.method, index2=index2, initial_correction=correction,
+            impulses=impulses, start={nm: float(v) for nm, v in zip(system.names, start.x)},
+            failure=failure, jumps=jumps, events=events, index_report=rep),
     )
     if interrupted is not None:
         interrupted.partial = result

@@ -74,10 +74,7 @@ def main(args) -> int:
         counts[res.analysis] = counts.get(res.analysis, 0) + 1
         stem = res.analysis if counts[res.analysis] == 1 else f"{res.analysis}{counts[res.analysis]}"
         print(f".{res.analysis}: {res.message}")
-        for key in ("steps", "rejected", "newton", "factorizations", "points", "wall_time"):
-            if key in res.stats:
-                value = res.stats[key]
-                print(f"  {key}: {value:.3g} s" if key == "wall_time" else f"  {key}: {value}")
+        print(f"  {res.stats.summary()}")
         for note in res.notes:
             print(f"  note: {note}")
         csv_path = out / f"{stem}.csv"

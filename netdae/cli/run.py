@@ -91,15 +91,6 @@ def _quantity_lines(result) -> list[str]:
     return [f"{name} = {float(v[0]):.6e}" for name, v in result.signals.items()]
 
 
-def _stats_line(result) -> str:
-    s = result.stats
-    keys = ("points", "steps", "rejected", "newton", "factorizations", "strategy")
-    parts = [f"{k}={s[k]}" for k in keys if k in s]
-    if "wall_time" in s:
-        parts.append(f"wall={s['wall_time']:.3g}s")
-    return ", ".join(parts)
-
-
 def stems(results) -> list[str]:
     """File stems (and JSON keys) of results: the analysis, numbered from its second card on.
 
@@ -123,12 +114,12 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None)
 
             path = out_dir / f"{stem}.csv"
             write_csv(path, res)
-            if res.analysis == "noise" and res.extra.get("totals"):
+            if res.analysis == "noise" and res.noise_totals:
                 from ..io.csv import write_noise_totals
 
                 files.append(str(path))
                 path = out_dir / f"{stem}_total.csv"
-                write_noise_totals(path, res.extra["totals"])
+                write_noise_totals(path, res.noise_totals)
         else:
             from ..io.raw import write_raw
 
@@ -208,13 +199,13 @@ def main(args) -> int:
         print(circuit.title)
         for res, files in zip(results, written):
             print()
-            print(f".{res.analysis}: {res.message or 'ok'} ({_stats_line(res)})")
+            print(f".{res.analysis}: {res.message or 'ok'} ({res.stats.summary()})")
             if res.analysis == "op":
                 print("\n".join(_op_lines(res)))
             elif res.analysis in ("pz", "tf"):
                 print("\n".join(_quantity_lines(res)))
             elif res.analysis == "noise":
-                print("\n".join(f"{name} = {value:.6e}" for name, value in res.extra.get("totals", {}).items()))
+                print("\n".join(f"{name} = {value:.6e}" for name, value in res.noise_totals.items()))
             if res.measures:
                 from ..measures import format_measure
 

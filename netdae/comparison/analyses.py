@@ -150,7 +150,7 @@ def _jump_reason(nd: Result, t0: float, t_from: float, t_end: float) -> str:
         f"on ({share:.2g} % of the interval): an inconsistent initial value decays (a jump at the start); "
         f"the metrics are computed from t = {t_from:.6g} s"
     )
-    correction = nd.extra.get("initial_correction")
+    correction = nd.transient.initial_correction if nd.transient is not None else None
     if correction:
         base += f"; netdae computed consistent initial values: {_correction_text(correction)}"
     return base
@@ -276,7 +276,7 @@ def _either_side_of_jumps(nd: Result, t: np.ndarray, a: dict, b: dict) -> int:
     threshold, for one, is already switched when the hysteresis is not
     positive). Returns how many points were affected.
     """
-    times = [float(tj) for tj, _ in (nd.extra.get("jumps") or [])]
+    times = [float(tj) for tj, _ in (nd.transient.jumps if nd.transient is not None else [])]
     if not times or t.size == 0:
         return 0
     own_t = np.asarray(nd.axes.get("time", ()), dtype=float)

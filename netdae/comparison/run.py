@@ -234,7 +234,7 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     else:
         item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude)
     item.netdae_tolerances = dict(nd.tolerances)
-    item.ngspice_tolerances = {**ng.tolerances, "method": ng.extra.get("method", "trap")}
+    item.ngspice_tolerances = {**ng.tolerances, "method": (ng.source.method if ng.source is not None and ng.source.method else "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
     return item
 

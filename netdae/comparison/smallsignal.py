@@ -203,7 +203,7 @@ def compare_noise(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None,
     item = AnalysisComparison("noise", tolerance=tol, axis="frequency")
     compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
         nd.names(), ng.names(), wanted, exclude)
-    totals_a, totals_b = nd.extra.get("totals", {}), ng.extra.get("totals", {})
+    totals_a, totals_b = nd.noise_totals, ng.noise_totals
     common = [k for k in totals_a if k in totals_b and k not in exclude]
     item.only_netdae += [k for k in totals_a if k not in totals_b]
     item.only_ngspice += [k for k in totals_b if k not in totals_a]

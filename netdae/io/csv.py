@@ -19,7 +19,7 @@ One header row of column names, then one row per point, comma separated:
 - a ``.noise`` result is its spectral densities against frequency (real); its
   integrated noise goes into a file of its own, one row per total,
   ``total,value`` (:func:`write_noise_totals`), read back as a ``noise``
-  result whose ``extra["totals"]`` holds them.
+  result whose ``noise.totals`` holds them.
 
 Numbers are written with Python's ``repr`` (the shortest text that reads back
 as the same double), so :func:`read_csv` returns bit-identical arrays;
@@ -51,6 +51,7 @@ import os
 import numpy as np
 
 from ..errors import NetdaeError, ResultFileError
+from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from .files import write_bytes
 
@@ -162,7 +163,8 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
         return _parse_long(lines, source)
     if lines[0].strip().lower() == _TOTALS_HEADER:
         res = _parse_long([_TF_HEADER] + lines[1:], source)
-        return Result("noise", extra={"source": source, "totals": {k: float(v[0]) for k, v in res.signals.items()}})
+        return Result("noise", source=Provenance(path=source),
+                      noise=NoiseInfo(totals={k: float(v[0]) for k, v in res.signals.items()}))
     names = [n.strip().lower() for n in lines[0].split(_SEPARATOR)]
     if len(set(names)) != len(names) or not all(names):
         raise ResultFileError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
@@ -197,7 +199,7 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
         else:
             signals[name] = table[:, k].copy()
             k += 1
-    return Result(kind, axes=axes, signals=signals, extra={"source": source})
+    return Result(kind, axes=axes, signals=signals, source=Provenance(path=source))
 
 
 _PZ_HEADER = "root,re,im"
@@ -261,7 +263,7 @@ def _parse_long(lines: list[str], source: str) -> Result:
         except ValueError as exc:
             raise ResultFileError(f"{source}:{number}: not a number ({exc})") from None
         signals[row[0].strip().lower()] = np.array([value])
-    return Result("pz" if pz else "tf", signals=signals, extra={"source": source})
+    return Result("pz" if pz else "tf", signals=signals, source=Provenance(path=source))
 
 
 def read_csv(path: str | os.PathLike, *, analysis: str | None = None) -> Result:

@@ -67,6 +67,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import NetdaeError, ResultFileError
+from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from .files import write_bytes
 
@@ -82,7 +83,7 @@ __all__ = [
     "FLAVOURS",
 ]
 
-#: What a plot of integrated noise is read as before it joins its spectra's result (``extra["totals"]``).
+#: What a plot of integrated noise is read as before it joins its spectra's result (``noise.totals``).
 _NOISE_TOTALS = "noise_total"
 #: ngspice plot names and the netdae analysis each one holds.
 PLOTNAMES = {
@@ -394,10 +395,12 @@ def parse_raw(data: bytes, source: str = "<bytes>", *, partial: bool = False) ->
     Returns
     -------
     list of Result
-        One per plot, in file order. ``extra`` holds ``title``, ``date``,
-        ``plotname``, ``flags``, ``commands`` and ``options`` (the
+        One per plot, in file order. ``source``
+        (:class:`netdae.metadata.Provenance`) holds ``path``, ``title``,
+        ``date``, ``plotname``, ``flags``, ``commands`` and ``options`` (the
         ``Command:``/``Option:`` lines, never executed), ``variable_types``
-        (signal name to ngspice's type) and ``points_announced``.
+        (signal name to ngspice's type), ``points_announced`` and the rest of
+        the header; a noise result's integrated noise is in ``noise.totals``.
 
     Raises
     ------
@@ -430,10 +433,10 @@ def parse_raw(data: bytes, source: str = "<bytes>", *, partial: bool = False) ->
             table, notes = _ascii_table(reader, head)
         res = _to_result(head, table, notes, source)
         if res.analysis == _NOISE_TOTALS:
-            if not results or results[-1].analysis != "noise" or "totals" in results[-1].extra:
+            if not results or results[-1].analysis != "noise" or results[-1].noise is not None:
                 raise ResultFileError(f"{source}: plot '{head.plotname}' does not follow a noise analysis's "
                                       "spectral densities")
-            results[-1].extra["totals"] = {k: float(v[0]) for k, v in res.signals.items()}
+            results[-1].noise = NoiseInfo(totals={k: float(v[0]) for k, v in res.signals.items()})
             continue
         results.append(res)
     if not results:
@@ -599,25 +602,16 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
                 raise ResultFileError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
             signals[key] = column.copy()
         types[key] = vtype
-    extra = {
-        "title": head.title,
-        "date": head.date,
-        "plotname": head.plotname,
-        "flags": list(head.flags),
-        "commands": list(head.commands),
-        "options": list(head.options),
-        "dimensions": head.dimensions,
-        **({"circuit": head.circuit} if head.circuit is not None else {}),
-        **({"temp": head.temperatures[0], "tnom": head.temperatures[1]} if head.temperatures else {}),
-        "variable_types": types,
-        "points_announced": head.npoints,
-        "source": source,
-    }
     if head.unknown:
-        extra["unknown_header_lines"] = list(head.unknown)
         notes.append(f"{head.plotname}: header lines netdae does not know were kept in "
-                     f"extra['unknown_header_lines']: {head.unknown}")
-    return Result(analysis, axes=axes, signals=signals, notes=notes, extra=extra)
+                     f"source.unknown_header_lines: {head.unknown}")
+    prov = Provenance(
+        path=source, title=head.title, date=head.date, plotname=head.plotname, flags=list(head.flags),
+        commands=list(head.commands), options=list(head.options), dimensions=head.dimensions,
+        circuit=head.circuit, temp=head.temperatures[0] if head.temperatures else None,
+        tnom=head.temperatures[1] if head.temperatures else None, variable_types=types,
+        points_announced=head.npoints, unknown_header_lines=list(head.unknown) if head.unknown else None)
+    return Result(analysis, axes=axes, signals=signals, notes=notes, source=prov)
 
 
 def _count_axes(options: list[str], names: list[str]) -> int:
@@ -732,22 +726,27 @@ def format_raw(
                     for r in results)
 
 
+def _variable_types(result: Result) -> dict[str, str]:
+    """The vector types a result was read with (empty for netdae's own results)."""
+    return (result.source.variable_types or {}) if result.source is not None else {}
+
+
 def _noise_unit_types(result: Result) -> tuple[str, str]:
     """The input noise's vector types (density, integrated) of a noise result: a V or an I source's."""
-    unit = result.extra.get("input_unit") if isinstance(result.extra, dict) else None
+    unit = result.noise.input_unit if result.noise is not None else None
     if unit is None:  # a result read back: the types it was written with
-        unit = "A" if result.extra.get("variable_types", {}).get("inoise_spectrum") == "current-density" else "V"
+        unit = "A" if _variable_types(result).get("inoise_spectrum") == "current-density" else "V"
     return ("current-density", "current") if unit == "A" else ("voltage-density", "voltage")
 
 
 def _format_noise_totals(result: Result, binary: bool, title: str, date: str) -> bytes:
     """ngspice's "Integrated Noise" plot after a noise result's spectra (nothing without totals)."""
-    totals = result.extra.get("totals") if result.analysis == "noise" and isinstance(result.extra, dict) else None
+    totals = result.noise_totals if result.analysis == "noise" else None
     if not totals:
         return b""
     types = {name: ("voltage" if name.startswith("onoise") else _noise_unit_types(result)[1]) for name in totals}
     plot = Result("noise", signals={name: np.array([value]) for name, value in totals.items()},
-                  extra={"variable_types": types, "plotname": "Integrated Noise"})
+                  source=Provenance(variable_types=types, plotname="Integrated Noise"))
     return _format_plot(plot, binary, title, date)
 
 
@@ -777,7 +776,7 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
                           "only)")
     if not result.signals and not result.axes:
         raise NetdaeError(f"cannot write an empty '{result.analysis}' result to a raw file")
-    known_types = result.extra.get("variable_types", {}) if isinstance(result.extra, dict) else {}
+    known_types = _variable_types(result)
     columns = [(name, np.asarray(v), True) for name, v in result.axes.items()]
     columns += [(name, np.asarray(v), False) for name, v in result.signals.items()]
     npoints = len(columns[0][1])

@@ -47,6 +47,7 @@ array([0.5])
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import shutil
 import time
@@ -55,6 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import NgspiceError
+from ..metadata import Provenance
 from ..results import Result
 from .measures import read_measures
 from .translate import (
@@ -125,8 +127,8 @@ class NgspiceRun:
     results : list of Result
         One per analysis, in the order ngspice ran them. Each carries the
         notes below, ``tolerances`` (ngspice's defaults overridden by the
-        netlist's ``.options``) and ``extra["ngspice_version"]``,
-        ``extra["backend"]``, ``extra["method"]``.
+        netlist's ``.options``) and ``source`` (:class:`netdae.metadata.Provenance`) with
+        ``ngspice_version``, ``backend`` and ``method``.
     version : str
         ``"ngspice-39"``.
     backend : str
@@ -280,7 +282,8 @@ def run_ngspice(
     for result in results:
         result.notes = [*notes, *(f"ngspice: {w}" for w in warnings), *result.notes]
         result.tolerances = dict(tolerances)
-        result.extra.update(ngspice_version=output.version, backend=used, method=method or "trap")
+        result.source = dataclasses.replace(result.source or Provenance(), ngspice_version=output.version,
+                                            backend=used, method=method or "trap")
     return NgspiceRun(
         results=results,
         version=output.version,

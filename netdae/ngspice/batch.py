@@ -20,6 +20,7 @@ them in the first run is left out.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import re
 import shutil
@@ -118,7 +119,8 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
             except NetdaeError as exc:
                 read_error = str(exc)
         for result in results:
-            result.extra.pop("source", None)
+            if result.source is not None:  # the temporary raw file is gone
+                result.source = dataclasses.replace(result.source, path=None)
     return BackendOutput(
         results=results,
         stdout=stdout,

@@ -56,6 +56,7 @@ import numpy as np
 
 from ..errors import NgspiceError
 from ..io.raw import PLOTNAME_OF, quantity_name, signal_name
+from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
 from .translate import classify_output
@@ -200,8 +201,8 @@ class _Session:
         for plot in reversed(plots):
             res = self._plot(plot, title)
             if res.analysis == "noise" and not res.axes:  # noise2 ...: the integrated noise of the plot before
-                if results and results[-1].analysis == "noise" and "totals" not in results[-1].extra:
-                    results[-1].extra["totals"] = {k: float(v[0]) for k, v in res.signals.items()}
+                if results and results[-1].analysis == "noise" and results[-1].noise is None:
+                    results[-1].noise = NoiseInfo(totals={k: float(v[0]) for k, v in res.signals.items()})
                     continue
                 raise NgspiceError(f"ngspice plot '{plot}' (integrated noise) does not follow its noise spectra")
             results.append(res)
@@ -229,13 +230,8 @@ class _Session:
                 key = quantity_name(name) if analysis in ("pz", "tf", "noise") else signal_name(name, vtype)
                 signals[key] = data
             types[key] = vtype
-        extra = {
-            "title": title,
-            "plotname": PLOTNAME_OF[analysis],
-            "plot": plot,
-            "variable_types": types,
-        }
-        return Result(analysis, axes=axes, signals=signals, extra=extra)
+        source = Provenance(title=title, plotname=PLOTNAME_OF[analysis], plot=plot, variable_types=types)
+        return Result(analysis, axes=axes, signals=signals, source=source)
 
     def _vector(self, name: str) -> tuple[str, np.ndarray]:
         info = self.api.ngGet_Vec_Info(name.encode("utf-8"))

@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterable, Mapping
 
 from ..circuit import Circuit
 from ..errors import NetdaeError
+from ..stats import Statistics
 from .plan import Plan, make_plan
 from .result import SweepResult
 from .worker import Job, Outcome, run_rows
@@ -277,8 +278,8 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
 def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str, count: int, t0: float,
             interrupted: bool = False) -> SweepResult:
     res = SweepResult.collect(job.plan, job.seed, outcomes, [m.name for m in circuit.measures], job.save)
-    res.stats = {"wall_time": time.perf_counter() - t0, "row_seconds": sum(o.seconds for o in outcomes.values()),
-                 "executor": name, "workers": count, "completed": len(outcomes)}
+    res.stats = Statistics(wall_time=time.perf_counter() - t0, row_seconds=sum(o.seconds for o in outcomes.values()),
+                           executor=name, workers=count, completed=len(outcomes))
     if interrupted:
         res.notes.append(f"interrupted: {len(outcomes)} of {res.rows} rows finished")
     if res.failed:

@@ -90,7 +90,7 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """
     from ..analyses.ac import frequencies
     from ..analyses.runner import measure
-    from ..results import Result
+    from ..results import Result, Statistics
     from ..topology.graph import structure_key
 
     if len(rows) < 2:
@@ -146,7 +146,7 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
                 t1 = time.perf_counter()
                 res = Result("ac", axes={"frequency": freqs},
                              signals={name: X[k, :, i] for i, name in enumerate(names)},
-                             stats={"points": int(freqs.size), "batched": len(part)}, message="ok")
+                             stats=Statistics(points=int(freqs.size), batched=len(part)), message="ok")
                 measure(item.circuit, [res])
                 out = Outcome(item.row.index)
                 record(job, item.circuit, [res], out)

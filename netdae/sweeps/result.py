@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..results import canonical_or, optional_module
+from ..stats import Statistics
 from .plan import Plan
 from .worker import Outcome
 
@@ -41,9 +42,9 @@ class SweepResult:
         analysis's grid (NaN past the end of a row that stopped early).
     axes : dict of str to (str, ndarray)
         The grid of each analysis with waveforms: ``(name, values)``.
-    stats : dict
-        ``wall_time``, ``cpu_seconds`` (the rows' own wall times summed),
-        ``executor``, ``workers``, ``completed``.
+    stats : Statistics
+        ``wall_time``, ``row_seconds`` (the rows' own wall times summed),
+        ``executor``, ``workers``, ``completed`` (:class:`netdae.stats.Statistics`).
     notes : list of str
     """
 
@@ -56,7 +57,7 @@ class SweepResult:
     errors: list[str | None] = field(default_factory=list)
     waves: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
     axes: dict[str, tuple[str, np.ndarray]] = field(default_factory=dict)
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: Statistics = field(default_factory=Statistics)
     notes: list[str] = field(default_factory=list)
 
     @classmethod

@@ -170,8 +170,8 @@ def record(job: Job, circuit, results, out: Outcome) -> None:
                 out.reasons[m.name] = m.reason or "failed"
         if res.analysis == "noise":  # the integrated noise: measures of the row (the first .noise card's)
             for name in ("onoise_total", "inoise_total"):
-                if name in res.extra.get("totals", {}):
-                    out.measures.setdefault(name, float(res.extra["totals"][name]))
+                if name in res.noise_totals:
+                    out.measures.setdefault(name, float(res.noise_totals[name]))
         _collect_waves(job, circuit, res, out)
     out.error = "; ".join(problems) or None
 
