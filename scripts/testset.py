@@ -451,15 +451,16 @@ INTRO = """## The Test Set's circuits
 
 The circuit problems of the Test Set for IVP Solvers (Mazzia, Magherini et al., University of Bari,
 release 2.4) written as netlists from the Test Set's equations (`netlists/testset_*.cir`: the
-transistor amplifier, the ring modulator, the NAND gate and the charge pump; each header gives the
-formulation, the unknowns' correspondence and the published reference). They are judged against
+transistor amplifier, the ring modulator, the NAND gate, the charge pump and the two-bit adding unit;
+each header gives the formulation, the unknowns' correspondence and the published reference). They are judged against
 the Test Set's reference solution at tend, not against ngspice. Regenerate this section with
 
     python scripts/testset.py --write
 
 **Measure.** The Test Set's own (its `report.f`): scd = -log10 of the largest relative error at
 tend over the components it scores (transamp and ringmod all; nand y5; pump y1..y8, of which only
-y1 has a non-zero reference), at rtol = atol = tol. netdae runs the netlist with reltol = abstol =
+y1 has a non-zero reference; tba its outputs v(49), v(130), v(148);
+no IDA formulation of tba), at rtol = atol = tol. netdae runs the netlist with reltol = abstol =
 vntol = tol. **IDA** (SUNDIALS through scikit-sundae) runs the Test Set's formulation written in
 Python in the script (`M(y) y' = f(y, t)`, rtol = atol = tol, stopped with `tstop` at every corner
 of the inputs; for the pump the charges' absolute tolerance is tol times Cox = 4 pF, the charge of
