@@ -100,3 +100,46 @@ def test_both_engines_take_the_same_decisions_on_the_charge_pump(monkeypatch):
     assert a.stats["integrator"]["engine"] == "compiled"
     assert abs(a.stats["steps"] - b.stats["steps"]) <= max(2, 0.05 * b.stats["steps"])
     assert a["i(vin)"][-1] == pytest.approx(b["i(vin)"][-1], rel=1e-3)
+
+
+def _tba_u0():
+    """The Test Set's U(0) of tba as the netlist's .ic holds it: {node number: volts}."""
+    circuit = netdae.load(ROOT / "netlists" / testset.PROBLEMS["tba"]["netlist"])
+    ic = {}
+    for ln in (ROOT / "netlists" / "testset_tba.cir").read_text().splitlines():
+        if ln.startswith((".ic", "+ v(")):
+            for item in ln.split()[1:]:
+                name, value = item.split("=")
+                if name[2:-1].isdigit():
+                    ic[int(name[2:-1])] = float(value)
+    return circuit, ic
+
+
+def test_two_bit_adding_unit_starts_in_the_test_sets_steady_state():
+    # the Test Set's U(0) is the steady state of its equations at t = 0 (inputs low, y' = 0):
+    # netdae's node equations (currents leaving each node) vanish there, every gate, every
+    # transistor and junction of the netlist against the Test Set's published values. The
+    # currents are up to 15 A (1 V on the 8e-4 ohm source resistances of the scaled problem);
+    # U(0) is given to 15 digits, its own residual is within 1e-7 of them
+    from netdae.mna import MODE_TRAN, assemble
+
+    circuit, ic = _tba_u0()
+    assert sorted(ic) == list(range(1, 176))
+    system = assemble(circuit, mode=MODE_TRAN, tstep=0.5, tstop=320.0)
+    x = np.zeros(system.n)
+    fixed = {"v(vdd)": 5.0, "v(vbb)": -2.5}
+    for i, name in enumerate(system.names):
+        if name in fixed:
+            x[i] = fixed[name]
+        elif name.startswith("v(") and name[2:-1].isdigit():
+            x[i] = ic[int(name[2:-1])]
+    ev = system.evaluate(x, 0.0, jacobian=False)
+    rows = [i for i, name in enumerate(system.names) if name.startswith("v(") and name[2:-1].isdigit()]
+    assert len(rows) == 175
+    phi = np.asarray(ev.phi)[rows]
+    assert np.all(np.isfinite(phi))
+    assert np.max(np.abs(phi)) <= 1e-6
+    # and a perturbation of one node's value shows: the test can fail
+    x[system.names.index("v(18)")] += 1e-3
+    phi = np.asarray(system.evaluate(x, 0.0, jacobian=False).phi)[rows]
+    assert np.max(np.abs(phi)) > 1.0
