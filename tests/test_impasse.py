@@ -44,7 +44,7 @@ def test_the_solution_jumps_at_the_fold_and_follows_the_other_branch(engine, mon
     assert res.ok, res.message
     assert res.stats["integrator"]["impasses"] >= 1
     assert any("impasse" in note for note in res.notes)
-    jumps = [t for t, names in res.extra["jumps"] if "v(n)" in names and t > 0.5]
+    jumps = [t for t, names in res.transient.jumps if "v(n)" in names and t > 0.5]
     assert jumps and abs(jumps[0] - T_FOLD) < 1e-3  # where Newton can no longer follow the branch
     t = np.array([0.1, 0.4, 0.8, 0.9, 0.95, 1.0])
     v = res.dense(t)["v(n)"]
