@@ -353,6 +353,13 @@ def pump_from(get):
     return np.array([qg, _PUMP["cs"] * v2, qs, _PUMP["cd"] * v3, qd, v1, v2, v3, i])
 
 
+def netlist_path(problem: dict) -> Path:
+    """A problem's netlist: in ``netlists/`` (runnable in ngspice, in the example set), or where it says
+    (tba, which ngspice 39 refuses (a sqrt of a negative value while it reads it) and which does not
+    reach tend yet, lives in ``tests/data/``)."""
+    return ROOT / problem.get("where", "netlists") / problem["netlist"]
+
+
 # ---------------------------------------------------------------- tba
 #: The Test Set's reference at t = 320 of the three outputs it scores (y(224), y(305), y(323)).
 TBA_REF = [0.2040419147264534, 0.4997238455712048e1, 0.2038985905095614]
@@ -375,7 +382,7 @@ PROBLEMS = {
     "pump": dict(netlist="testset_pump.cir", ref=PUMP_REF, scored=range(8), ida=pump_ida,
                  signals=["v(1)", "v(2)", "v(3)", "i(vin)"], convert=pump_from, index2=[8]),
     # the Test Set's formulation (350 equations) is not written here for IDA
-    "tba": dict(netlist="testset_tba.cir", ref=TBA_REF, scored=range(3), ida=None,
+    "tba": dict(netlist="testset_tba.cir", where="tests/data", ref=TBA_REF, scored=range(3), ida=None,
                 signals=["v(49)", "v(130)", "v(148)"]),
 }
 for _p in PROBLEMS.values():
@@ -384,7 +391,7 @@ for _p in PROBLEMS.values():
 
 def run_netdae(problem, tol):
     """(y at tend in the Test Set's order or None, stats, CPU seconds, message)."""
-    circuit = netdae.load(ROOT / "netlists" / problem["netlist"])
+    circuit = netdae.load(netlist_path(problem))
     t0 = time.process_time()
     reached = [0.0]
 
@@ -421,7 +428,7 @@ def run_ngspice(problem, tol):
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu0 = time.process_time()
     try:
-        out = run_ngspice_file(ROOT / "netlists" / problem["netlist"],
+        out = run_ngspice_file(netlist_path(problem),
                                options={"reltol": tol, "abstol": tol, "vntol": tol, "method": "gear"},
                                timeout=CPU_LIMIT)
         tran = [r for r in out.results if r.analysis == "tran"][0]

@@ -30,7 +30,7 @@ TOL = 1e-7
 
 def _run(name, tol=TOL):
     p = testset.PROBLEMS[name]
-    res = netdae.simulate(netdae.load(ROOT / "netlists" / p["netlist"]), reltol=tol, abstol=tol, vntol=tol)
+    res = netdae.simulate(netdae.load(testset.netlist_path(p)), reltol=tol, abstol=tol, vntol=tol)
     assert res.ok, res.message
     return p, res, p["convert"](lambda s: float(res[s][-1]))
 
@@ -104,9 +104,9 @@ def test_both_engines_take_the_same_decisions_on_the_charge_pump(monkeypatch):
 
 def _tba_u0():
     """The Test Set's U(0) of tba as the netlist's .ic holds it: {node number: volts}."""
-    circuit = netdae.load(ROOT / "netlists" / testset.PROBLEMS["tba"]["netlist"])
+    circuit = netdae.load(testset.netlist_path(testset.PROBLEMS["tba"]))
     ic = {}
-    for ln in (ROOT / "netlists" / "testset_tba.cir").read_text().splitlines():
+    for ln in testset.netlist_path(testset.PROBLEMS["tba"]).read_text().splitlines():
         if ln.startswith((".ic", "+ v(")):
             for item in ln.split()[1:]:
                 name, value = item.split("=")

@@ -235,6 +235,29 @@ def noise_sources(names, generators) -> NoiseSources:
         coefficient=column(4, float), exponent=column(5, float))
 
 
+def series_nodes(layout, elements, outer: np.ndarray, conductance, suffix: str) -> np.ndarray:
+    """The node behind each instance's series resistance: ``<name>#<suffix>`` where the
+    conductance is positive (a new internal node of ``layout``), else the terminal itself.
+
+    Parameters
+    ----------
+    layout : Layout
+    elements : list of Element
+    outer : ndarray of int, shape (N,)
+        The terminals' node indices.
+    conductance : array_like, shape (N,)
+        The series conductances (0: no resistance, the terminal is used directly).
+    suffix : str
+        The internal node's name after ``#`` (ngspice's: ``drain``, ``source``, ``base`` ...).
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+    """
+    return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if g > 0.0 else node
+                     for el, g, node in zip(elements, conductance, outer)], dtype=np.int64)
+
+
 class DeviceFamily:
     """Base class of a vectorised nonlinear device family.
 

@@ -70,7 +70,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, shot, thermal
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, shot, thermal
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
@@ -249,13 +249,9 @@ class BjtFamily(DeviceFamily):
         self.e = layout.nodes_of([el.nodes[2] for el in els])
         self.s = layout.nodes_of([el.nodes[3] if len(el.nodes) == 4 else "0" for el in els])
 
-        def inner(outer, conductance, suffix):
-            return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if gval > 0.0 else node
-                             for el, gval, node in zip(els, conductance, outer)], dtype=np.int64)
-
-        self.ci = inner(self.c, self.gc, "collcx")
-        self.bi = inner(self.b, self.rb, "base")
-        self.ei = inner(self.e, self.ge, "emitter")
+        self.ci = series_nodes(layout, els, self.c, self.gc, "collcx")
+        self.bi = series_nodes(layout, els, self.b, self.rb, "base")
+        self.ei = series_nodes(layout, els, self.e, self.ge, "emitter")
         self.sub_con = np.where(self.ttype * self.type > 0, self.ci, self.bi)
 
     def coordinates(self, layout):

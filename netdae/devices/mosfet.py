@@ -68,7 +68,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, thermal
+from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, thermal
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import (
     CHARGE,
@@ -415,12 +415,8 @@ class MosfetFamily(DeviceFamily):
         els = self.elements
         self.d, self.g, self.s, self.b = (layout.nodes_of([el.nodes[i] for el in els]) for i in range(4))
 
-        def inner(outer, conductance, suffix):
-            return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if gval > 0.0 else node
-                             for el, gval, node in zip(els, conductance, outer)], dtype=np.int64)
-
-        self.di = inner(self.d, self.gd, "drain")
-        self.si = inner(self.s, self.gs, "source")
+        self.di = series_nodes(layout, els, self.d, self.gd, "drain")
+        self.si = series_nodes(layout, els, self.s, self.gs, "source")
 
     def coordinates(self, layout):
         controls = [(self.g, self.si), (self.di, self.si), (self.b, self.si), (self.d, self.di),

@@ -74,7 +74,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError, NetlistError
-from .base import Accumulator, DeviceFamily, SlotMap
+from .base import Accumulator, DeviceFamily, SlotMap, series_nodes
 from .companion import BranchStamps, LimitState, starting_voltages
 from .diode import breakdown_voltage, junction_current, junction_limit
 from .junction import EPSMIN, KELVIN, Depletion, fet_mode_limit, saturation_exponent, scale_junction, \
@@ -374,14 +374,10 @@ class VdmosFamily(DeviceFamily):
         els = self.elements
         self.d, self.g, self.s = (layout.nodes_of([el.nodes[i] for el in els]) for i in range(3))
 
-        def inner(outer, conductance, suffix):
-            return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if gval > 0.0 else node
-                             for el, gval, node in zip(els, conductance, outer)], dtype=np.int64)
-
-        self.di = inner(self.d, self.gd0, "drain")
-        self.gi = inner(self.g, self.gg, "gate")
-        self.si = inner(self.s, self.gs, "source")
-        self.bi = inner(self.s, self.gb, "body")
+        self.di = series_nodes(layout, els, self.d, self.gd0, "drain")
+        self.gi = series_nodes(layout, els, self.g, self.gg, "gate")
+        self.si = series_nodes(layout, els, self.s, self.gs, "source")
+        self.bi = series_nodes(layout, els, self.s, self.gb, "body")
 
     def _controls(self):
         return [(self.gi, self.si), (self.di, self.si), (self.bi, self.d), (self.d, self.di), (self.s, self.si),

@@ -282,7 +282,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     failure = None
     out_of_memory = None  # bytes the output buffers could not grow to
     impasses: list[float] = []  # where Newton failed on every step size and the solution jumped
-    pivoted_tag = None  # the matrix (its tag) new pivots were chosen for on the last return
+    pivoted_tag = None  # (tag, steps): the matrix new pivots were chosen for on the last return
     stalled, stalled_at = 0, -1  # returns for pivots or right limits since the step count last moved
     try:
         while True:
@@ -316,8 +316,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 # a degraded pivot: new pivots for the matrix in a_data (SuperLU), then resume; the same
                 # matrix degraded again right after its new pivots is near-singular: judged singular (the
                 # attempt then fails and the step is cut), never asked for again and again
-                pivoted_tag = float(F[L.F_PENDING_TAG])
-                if repivoted == pivoted_tag:
+                pivoted_tag = (float(F[L.F_PENDING_TAG]), int(I[L.I_STEPS]))
+                if repivoted == pivoted_tag:  # the same matrix, no step in between
                     I[L.I_PIVOTS_FAILED] = 1
                     F[L.F_PIVOT_TAG] = F[L.F_PENDING_TAG]
                     lu.factor(identity)
