@@ -216,8 +216,8 @@ def gate_drain_charge(v, s, y, a):
     Examples
     --------
     >>> q, c = gate_drain_charge(np.array([-1e9, 0.0, 1e9]), 1.0, 2.0, 1.0)
-    >>> np.round(c, 12).tolist()  # y - s pi/2, y, y + s
-    [0.429203673205, 2.0, 3.0]
+    >>> np.round(c, 8).tolist()  # y - s pi/2, y, y + s (far from vgd = 0)
+    [0.42920367, 2.0, 3.0]
     """
     av = a * v
     pos = v > 0.0
