@@ -429,25 +429,27 @@ def _pz(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.analyses.append(AnalysisCard("pz", card, {"nodes": nodes, "input_type": words[0], "what": words[1]}))
 
 
-def _tf(card: Card, toks: list[Token], stack, net: Netlist) -> None:
-    form = DOT_CARDS[".tf"]
-    hint = "e.g. .tf v(out) vin, .tf v(out,ref) iin or .tf i(vload) vin"
+def _output_and_source(card: Card, toks: list[Token], form: str, hint: str, kinds: tuple, expected: str,
+                       what: str) -> tuple[Token, list, list[Token]]:
+    """The output ``v(n[,m])`` (or ``i(source)`` when ``"i"`` is in ``kinds``) at ``toks[1]``, then an input
+    source's name (``.tf``, ``.noise``).
+
+    Returns the output's head token, its arguments as ``(name, offset)`` (nodes read as nodes) and the
+    tokens from the source's name on. Errors are located; ``expected`` and ``what`` name the output.
+    """
     n = len(toks)
-    if n < 2:
-        raise error(card, len(card.text), "missing the output variable and the input source", form, hint=hint)
     tok = toks[1]
-    if tok.kind != WORD or tok.text not in ("v", "i") or n < 3 or toks[2].text != "(":
-        raise error(card, tok.start, f"expected the output v(node), v(node,node) or i(vsource), found {tok.text!r}",
-                    form, hint=hint)
+    if tok.kind != WORD or tok.text not in kinds or n < 3 or toks[2].text != "(":
+        raise error(card, tok.start, f"expected {expected}, found {tok.text!r}", form, hint=hint)
     j, args = 3, []
     while j < n and toks[j].text != ")":
         if toks[j].kind == WORD:
             args.append((parse_node(card, toks[j], form) if tok.text == "v" else toks[j].text, toks[j].start))
         elif toks[j].text != ",":
-            raise error(card, toks[j].start, f"unexpected {toks[j].text!r} in the output variable", form, hint=hint)
+            raise error(card, toks[j].start, f"unexpected {toks[j].text!r} in the {what}", form, hint=hint)
         j += 1
     if j >= n:
-        raise error(card, tok.start, f"unterminated output variable {tok.text}(", form, hint=hint)
+        raise error(card, tok.start, f"unterminated {what} {tok.text}(", form, hint=hint)
     limit = 2 if tok.text == "v" else 1
     if not args or len(args) > limit:
         raise error(card, tok.start, f"{tok.text}(...) takes {'one or two nodes' if limit == 2 else 'one source'}, "
@@ -457,6 +459,17 @@ def _tf(card: Card, toks: list[Token], stack, net: Netlist) -> None:
         raise error(card, len(card.text), "missing the input source (an independent V or I source)", form, hint=hint)
     if rest[0].kind != WORD or parse_number(rest[0].text) is not None:
         raise error(card, rest[0].start, f"expected the input source's name, found {rest[0].text!r}", form, hint=hint)
+    return tok, args, rest
+
+
+def _tf(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".tf"]
+    hint = "e.g. .tf v(out) vin, .tf v(out,ref) iin or .tf i(vload) vin"
+    n = len(toks)
+    if n < 2:
+        raise error(card, len(card.text), "missing the output variable and the input source", form, hint=hint)
+    tok, args, rest = _output_and_source(card, toks, form, hint, ("v", "i"),
+                                         "the output v(node), v(node,node) or i(vsource)", "output variable")
     if len(rest) > 1:
         raise error(card, rest[1].start, f"unexpected {rest[1].text!r}", form)
     net.analyses.append(AnalysisCard("tf", card, {"output": (tok.text, tuple(args), tok.start),
@@ -469,26 +482,8 @@ def _noise(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     n = len(toks)
     if n < 2:
         raise error(card, len(card.text), "missing the output voltage v(out[,ref])", form, hint=hint)
-    tok = toks[1]
-    if tok.kind != WORD or tok.text != "v" or n < 3 or toks[2].text != "(":
-        raise error(card, tok.start, f"expected the output voltage v(node) or v(node,ref), found {tok.text!r}",
-                    form, hint=hint)
-    j, nodes = 3, []
-    while j < n and toks[j].text != ")":
-        if toks[j].kind == WORD:
-            nodes.append((parse_node(card, toks[j], form), toks[j].start))
-        elif toks[j].text != ",":
-            raise error(card, toks[j].start, f"unexpected {toks[j].text!r} in the output voltage", form, hint=hint)
-        j += 1
-    if j >= n:
-        raise error(card, tok.start, "unterminated output voltage v(", form, hint=hint)
-    if not nodes or len(nodes) > 2:
-        raise error(card, tok.start, f"v(...) takes one or two nodes, found {len(nodes)}", form, hint=hint)
-    rest = toks[j + 1:]
-    if not rest:
-        raise error(card, len(card.text), "missing the input source (an independent V or I source)", form, hint=hint)
-    if rest[0].kind != WORD or parse_number(rest[0].text) is not None:
-        raise error(card, rest[0].start, f"expected the input source's name, found {rest[0].text!r}", form, hint=hint)
+    _, nodes, rest = _output_and_source(card, toks, form, hint, ("v",),
+                                        "the output voltage v(node) or v(node,ref)", "output voltage")
     if len(rest) < 2 or rest[1].text not in ("dec", "oct", "lin"):
         raise error(card, rest[1].start if len(rest) > 1 else len(card.text),
                     "expected the sweep type dec, oct or lin", form, hint=hint)
