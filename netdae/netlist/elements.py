@@ -116,10 +116,6 @@ def split_args(card: Card, toks: list[Token], start: int, syntax, *, allow_paren
         if tok.kind == WORD and i + 1 < n and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
             values = []
             j = i + 2
-            if j < n and toks[j].kind == PUNCT and toks[j].text == "(":
-                # name=(expression): ngspice reads a parenthesised value as an expression
-                toks = _paren_group(card, toks, j)
-                n = len(toks)
             if j >= n or toks[j].kind not in (WORD, EXPR):
                 raise error(card, toks[i + 1].start, f"missing value after '{tok.text}='", syntax)
             values.append(toks[j])
