@@ -404,7 +404,6 @@ class BDF:
         converged Newton iterations (the one-iteration probe is accurate only
         near a consistent point).
         """
-        n = self.n
         jumped, value_jump, x_right = jump_of(x, p.x_right, p.x_2, p.w_floor, self._high)
         if not jumped:
             return x, False
@@ -416,15 +415,21 @@ class BDF:
         names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
         if not names:
             return x, False  # the converged right limit is x itself: nothing jumped
+        self._continue_from(x_right, names)
+        # a nonlinear system's history holds q'(t+) = phi(x(t+)): an index-2 unknown that
+        # jumped changes it in the rows it enters (a source current into a gate charge)
+        return x_right, value_jump or not self._linear
+
+    def _continue_from(self, x_right, names):
+        """Make ``x_right`` the history's value at t (and its charges), record the unknowns ``names`` jumping."""
+        n = self.n
         P = self._hist.P
         P[0, :n] = x_right
         if not self._linear:
             P[0, n:] = self._evaluate(x_right, self.t).q
         self._set_weights(x_right)
-        self._rec.jump(self.t, x_right, names)
-        # a nonlinear system's history holds q'(t+) = phi(x(t+)): an index-2 unknown that
-        # jumped changes it in the rows it enters (a source current into a gate charge)
-        return x_right, value_jump or not self._linear
+        if names:
+            self._rec.jump(self.t, x_right, names)
 
     def _right_limit(self, x, eps):
         """x(t+) of a nonlinear system; None after a failure.
@@ -609,13 +614,7 @@ class BDF:
         if out is None:
             return False
         moved = np.abs(out - x) * self._w
-        names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
-        P = self._hist.P
-        P[0, :n] = out
-        P[0, n:] = self._evaluate(out, t).q
-        self._set_weights(out)
-        if names:
-            self._rec.jump(t, out, names)
+        self._continue_from(out, tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT)))
         self.stats["impasses"] += 1
         self.stats["restarts"] += 1
         self._rec.restart(t)
