@@ -18,36 +18,40 @@ Naming scheme (as ngspice prints it)
 
 Element kinds
 -------------
-``kind`` names the element family (the first letter alone is ambiguous: an
-``E`` card can be a linear VCVS, a behavioural source or a netdae ideal op-amp):
+``kind`` names the element kind (the first letter alone is ambiguous: an
+``E`` card can be a linear VCVS, a behavioural source or a netdae ideal op-amp).
+What each kind is (letters, terminals, branch currents, family, topology) is
+defined once, in :mod:`netdae.kinds`; the fields of :class:`Element` each uses:
 
-==============  ======  ===========================  =========================================
-kind            letter  nodes                        fields used
-==============  ======  ===========================  =========================================
-resistor        R       (n+, n-)                     value [ohm]; params: tc1, tc2, m, ...
-capacitor       C       (n+, n-)                     value [F]; params: ic, m
-inductor        L       (n+, n-)                     value [H]; params: ic, m
-coupling        K       ()                           value = k; controls = inductor names
-vsource         V       (n+, n-)                     source
-isource         I       (n+, n-)                     source
-vcvs            E       (n+, n-, nc+, nc-)           value = gain
-vccs            G       (n+, n-, nc+, nc-)           value = transconductance
-cccs            F       (n+, n-)                     value = gain; controls = (vsource,)
-ccvs            H       (n+, n-)                     value = transresistance; controls = (vsource,)
-opamp           E       (out+, out-, in+, in-)       netdae extension: ideal op-amp (nullor)
-bvoltage        B/E     (n+, n-)                     expr: voltage expression
-bcurrent        B/G     (n+, n-)                     expr: current expression
-bcharge         C       (n+, n-)                     expr: charge expression (``C n+ n- Q={expr}``)
-laplace         E/G     (n+, n-)                     expr: ``Call("laplace", (u, H(s)))``; elaboration replaces it
-                                                     by its state-space block (:mod:`netdae.netlist.laplace`)
-diode           D       (anode, cathode)             model; params: area, ic, off, temp, m
-bjt             Q       (c, b, e[, substrate])       model; params: area, ic, off, temp, m
-mosfet          M       (d, g, s, b)                 model; params: w, l, ad, as, pd, ps, m, ...
-jfet            J       (d, g, s)                    model; params: area, off, icvds, icvgs, temp, dtemp, m
-vdmos           M       (d, g, s)                    model (vdmos); params: m, off, icvds, icvgs, temp, dtemp
-vswitch         S       (n+, n-, nc+, nc-)           model (sw); params: on or off (1.0 when given)
-cswitch         W       (n+, n-)                     model (csw); controls = (controlling element,); params: on, off
-==============  ======  ===========================  =========================================
+==============  =========================================
+kind            fields used
+==============  =========================================
+resistor        value [ohm]; params: tc1, tc2, m, ...
+capacitor       value [F]; params: ic, m
+inductor        value [H]; params: ic, m
+coupling        value = k; controls = inductor names
+vsource         source
+isource         source
+vcvs            value = gain
+vccs            value = transconductance
+cccs            value = gain; controls = (vsource,)
+ccvs            value = transresistance; controls = (vsource,)
+opamp           netdae extension: ideal op-amp (nullor)
+bvoltage        expr: voltage expression
+bcurrent        expr: current expression
+bcharge         expr: charge expression (``C n+ n- Q={expr}``)
+laplace         expr: ``Call("laplace", (u, H(s)))``; elaboration replaces it
+                by its state-space block (:mod:`netdae.netlist.laplace`)
+diode           model; params: area, ic, off, temp, m
+bjt             model; params: area, icvbe, icvce, off, temp, m
+mosfet          model; params: w, l, ad, as, pd, ps, m, icvds, icvgs, icvbs, ...
+jfet            model; params: area, off, icvds, icvgs, temp, dtemp, m
+vdmos           model (vdmos); params: m, off, icvds, icvgs, temp, dtemp
+vswitch         model (sw); params: on or off (1.0 when given)
+cswitch         model (csw); controls = (controlling element,); params: on, off
+tline           params: z0, td (or f and nl)
+osdi            model (of a loaded OSDI module); params: the module's instance parameters
+==============  =========================================
 
 Sign conventions (as ngspice): the current of a voltage source, ``i(v1)``,
 flows from its + node through the source to its - node; a current source

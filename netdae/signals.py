@@ -28,6 +28,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from .kinds import KINDS
+
 __all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS",
            "DEVICE_QUANTITIES", "QUANTITY_UNITS", "NONLINEAR_QUANTITY_KINDS", "device_quantity", "signal_unit"]
 
@@ -38,62 +40,10 @@ GROUND_NAMES = frozenset({"0", "gnd"})
 SIGNAL_FORMS = "v(node), v(node1,node2), i(element), @device[param], or a bare node name"
 
 #: The device quantities netdae computes, per element kind, with ngspice 39's
-#: names (``@r1[i]``, ``@q1[gm]``) and their meaning; ``i(r1)`` is ``@r1[i]`` for
-#: the two-terminal elements without a branch current of their own. The
-#: nonlinear devices' signs are ngspice's: a diode's and a bipolar
-#: transistor's currents flow into the terminal (a PNP's ``ic`` is negative in
-#: the active region), a MOSFET's and a JFET's currents and voltages are
-#: *type-normalised* (for a PMOS or PJF they are those of the equivalent
-#: N-channel device: ``@m1[vgs]`` is ``v(s) - v(g)``, ``@m1[id]`` the current
-#: flowing out of the drain), and so are a bipolar transistor's ``vbe`` and
-#: ``vbc``. Their conductances and capacitances are small-signal values at
-#: the solution.
-DEVICE_QUANTITIES: dict[str, dict[str, str]] = {
-    "resistor": {"i": "current from n+ through the resistor to n-", "p": "power dissipated"},
-    "capacitor": {"i": "current from n+ through the capacitor to n-", "p": "power absorbed"},
-    "inductor": {"i": "current from n+ through the inductor to n-", "p": "power absorbed"},
-    "vsource": {"i": "current from n+ through the source to n-", "p": "power absorbed"},
-    "isource": {"v": "voltage from n- to n+", "p": "power absorbed",
-                "current": "its current, from n+ through the source to n-"},
-    "diode": {
-        "vd": "junction voltage (behind RS)", "id": "current from anode to cathode (charge current included)",
-        "c": "the same as id", "gd": "junction conductance", "cd": "junction capacitance (depletion and TT)",
-        "charge": "junction charge", "p": "power, vd id + id^2 RS",
-    },
-    "bjt": {
-        "ic": "collector current (into the terminal)", "ib": "base current (into the terminal)",
-        "ie": "emitter current (into the terminal)", "is": "substrate current (out of the terminal, as ngspice)",
-        "vbe": "internal base-emitter voltage (type-normalised)",
-        "vbc": "internal base-collector voltage (type-normalised)",
-        "gm": "transconductance", "gpi": "input conductance (base-emitter)",
-        "gmu": "feedback conductance (base-collector)", "go": "output conductance",
-        "gx": "conductance of the base resistance", "cpi": "base-emitter capacitance (depletion and TF)",
-        "cmu": "internal base-collector capacitance", "cbx": "external base to collector capacitance",
-        "csub": "substrate capacitance", "qbe": "base-emitter charge", "qbc": "base-collector charge",
-        "qbx": "external base-collector charge", "qsub": "substrate charge",
-    },
-    "mosfet": {
-        "id": "drain current (type-normalised)", "is": "source current (type-normalised)",
-        "ig": "gate current (type-normalised; charge currents)", "ib": "bulk current (type-normalised)",
-        "ibd": "bulk-drain junction current", "ibs": "bulk-source junction current",
-        "vgs": "gate-source voltage (type-normalised)", "vds": "drain-source voltage (type-normalised)",
-        "vbs": "bulk-source voltage (type-normalised)", "vbd": "bulk-drain voltage (type-normalised)",
-        "von": "threshold voltage", "vdsat": "saturation voltage",
-        "gm": "transconductance", "gds": "output conductance", "gmb": "bulk transconductance",
-        "gmbs": "the same as gmb", "gbd": "bulk-drain junction conductance",
-        "gbs": "bulk-source junction conductance", "cbd": "bulk-drain junction capacitance",
-        "cbs": "bulk-source junction capacitance", "cgs": "gate-source capacitance (overlap included)",
-        "cgd": "gate-drain capacitance (overlap included)", "cgb": "gate-bulk capacitance (overlap included)",
-    },
-    "jfet": {
-        "id": "drain current (type-normalised)", "ig": "gate current (type-normalised)",
-        "is": "source current (type-normalised)", "igd": "gate-drain current (type-normalised)",
-        "vgs": "gate-source voltage (type-normalised)", "vgd": "gate-drain voltage (type-normalised)",
-        "gm": "transconductance", "gds": "output conductance", "ggs": "gate-source junction conductance",
-        "ggd": "gate-drain junction conductance", "qgs": "gate-source junction charge",
-        "qgd": "gate-drain junction charge",
-    },
-}
+#: names (``@r1[i]``, ``@q1[gm]``) and their meaning: a view of the kinds'
+#: definitions (``ElementKind.quantities``, :mod:`netdae.kinds`, which states
+#: their sign conventions).
+DEVICE_QUANTITIES: dict[str, dict[str, str]] = {k.name: dict(k.quantities) for k in KINDS.values() if k.quantities}
 
 #: The unit of each device quantity name (the same name has the same unit in every kind).
 QUANTITY_UNITS: dict[str, str] = {
@@ -106,15 +56,9 @@ QUANTITY_UNITS: dict[str, str] = {
     "qgs": "C", "qgd": "C",
 }
 
-#: How messages name a kind (else by the kind itself).
-_KIND_NAMES = {"bjt": "bipolar transistor", "mosfet": "MOSFET", "jfet": "JFET"}
-
 #: Kinds whose quantities are values at a solution of the nonlinear device equations (an OSDI
 #: device's are its module's operating-point variables, ``@m1[gm]`` of a BSIM4).
-NONLINEAR_QUANTITY_KINDS = frozenset({"diode", "bjt", "mosfet", "jfet", "osdi"})
-
-#: Two-terminal kinds whose ``i(name)`` is a device quantity (not an unknown).
-_CURRENT_QUANTITY_KINDS = frozenset({"resistor", "capacitor"})
+NONLINEAR_QUANTITY_KINDS = frozenset(k.name for k in KINDS.values() if k.solved_quantities)
 
 _NAME = r"[^\s(),\[\]@]+"
 _CALL = re.compile(rf"([vi])\(\s*({_NAME})\s*(?:,\s*({_NAME})\s*)?\)")
@@ -234,22 +178,21 @@ def device_quantity(sig: Signal, kind: str) -> str | None:
     True
     """
     name = sig.args[0]
+    spec = KINDS[kind]
     have = DEVICE_QUANTITIES.get(kind, {})
     if sig.kind == "i":
-        if kind in _CURRENT_QUANTITY_KINDS:
-            return "i"
-        return None
+        return "i" if spec.current_is_quantity else None
     if sig.kind != "@":
         raise ValueError(f"{sig.name} is not a device quantity")
     param = sig.args[1]
-    if kind == "osdi":  # its module's operating-point variables (checked when the module is loaded)
+    if spec.module_quantities:  # its module's operating-point variables (checked when the module is loaded)
         return param
     if param not in have:
         if len(have) > 5:
             offer = " ".join(f"@{name}[{q}]" for q in have)
         else:
             offer = ", ".join(f"@{name}[{q}] ({what})" for q, what in have.items())
-        raise ValueError(f"{sig.name}: '{name}' is a {_KIND_NAMES.get(kind, kind)}, which has no quantity '{param}' "
+        raise ValueError(f"{sig.name}: '{name}' is a {spec.summary}, which has no quantity '{param}' "
                          "in netdae"
                          + (f"; it has {offer}" if offer else "; netdae computes no quantities of it"))
     return param

@@ -17,7 +17,7 @@ import pytest
 
 import netdae
 from netdae.analyses.op import operating_point
-from netdae.devices.linear import LINEAR_KINDS
+from netdae.kinds import STAMPED_KINDS
 
 from conftest import NETLISTS
 
@@ -27,7 +27,7 @@ REL = 1e-9
 
 
 def _linear(path) -> bool:
-    return all(el.kind in LINEAR_KINDS for el in netdae.load(path).elements)
+    return all(el.kind in STAMPED_KINDS for el in netdae.load(path).elements)
 
 
 LINEAR = [p for p in sorted(NETLISTS.glob("*.cir")) if _linear(p)]

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..circuit import Circuit, DcAnalysis, DcSweep
 from ..errors import CircuitError, NetdaeError
+from ..kinds import KINDS
 from ..mna import MODE_DC, assemble
 from ..results import Result, Statistics
 from .op import solve_operating_point, steady_options
@@ -60,9 +61,9 @@ def _check_source(circuit: Circuit, name: str) -> None:
         el = circuit.element(name)
     except KeyError:
         raise CircuitError(f".dc: there is no source named '{name}'", elements=(name,)) from None
-    if el.kind not in ("vsource", "isource"):
+    if not KINDS[el.kind].independent:
         raise CircuitError(
-            f".dc: '{name}' is a {el.kind}; netdae sweeps independent V and I sources and temp",
+            f".dc: '{name}' is {KINDS[el.kind].noun}; netdae sweeps independent V and I sources and temp",
             elements=(name,),
         )
 

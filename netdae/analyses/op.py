@@ -32,10 +32,14 @@ import numpy as np
 from ..circuit import Circuit
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
+from ..kinds import KINDS
 from ..mna import MODE_DC, MnaSystem, assemble
 from ..results import Result, Statistics
 
 __all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result", "charge_groups"]
+
+#: The kinds whose gains can make the DC equations dependent (named in the hint of a singular operating point).
+_SOURCE_GROUPS = ("controlled sources", "charge-defined capacitors", "ideal op-amps")
 
 #: Unknowns and elements named in a message about a singular DC matrix.
 NAMED = 8
@@ -137,8 +141,7 @@ def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitE
         )
     dependent = _support(rank.left) if rank is not None else np.zeros(0, dtype=int)
     elements = _involved_elements(system, np.union1d(undetermined, dependent))
-    controlled = [e for e in elements if system.circuit.element(e).kind in
-                  ("vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent", "bcharge", "opamp")]
+    controlled = [e for e in elements if KINDS[system.circuit.element(e).kind].group in _SOURCE_GROUPS]
     text = f"no unique DC operating point{evidence}: {_names(system.names[i] for i in undetermined)} " \
         f"{'is' if undetermined.size == 1 else 'are'} undetermined"
     if dependent.size:

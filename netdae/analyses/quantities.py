@@ -43,16 +43,16 @@ import numpy as np
 from ..circuit import Circuit, Element
 from ..devices.linear import capacitances, conductances
 from ..errors import CircuitError
+from ..kinds import KINDS
 from ..results import Result
 from ..signals import NONLINEAR_QUANTITY_KINDS, device_quantity, parse_signal
 
 __all__ = ["Quantity", "plan_quantities", "add_quantities", "saved_currents", "measured_quantities",
            "SAVECURRENTS"]
 
-#: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).
-SAVECURRENTS = {"resistor": ("i",), "capacitor": ("i",), "inductor": ("i",), "isource": ("current",),
-                "bjt": ("ic", "ie", "ib", "is"), "diode": ("id",), "mosfet": ("id", "is", "ig", "ib"),
-                "jfet": ("id", "is", "ig", "igd")}
+#: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39): a
+#: view of the kinds' definitions (``ElementKind.saved_currents``, :mod:`netdae.kinds`).
+SAVECURRENTS = {k.name: k.saved_currents for k in KINDS.values() if k.saved_currents}
 
 #: Size of the one-sided differences on the dense output, relative to the step ending at each point.
 _DIFF_FRACTION = 1e-4

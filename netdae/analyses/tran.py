@@ -50,6 +50,7 @@ from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import LinearDae
 from ..devices.linear import capacitances
 from ..errors import CircuitError, NetdaeError, SingularPencilError
+from ..kinds import KINDS
 from ..mna import MODE_TRAN, MnaSystem, assemble
 from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
@@ -191,8 +192,7 @@ def _uic_start(system: MnaSystem) -> _Start:
                 q0[a] += dq
             if b >= 0:
                 q0[b] -= dq
-    ignored = [el.name for el in circuit.elements if (el.kind in ("diode", "bjt", "mosfet") and "ic" in el.params)
-               or (el.kind in ("jfet", "vdmos") and ("icvds" in el.params or "icvgs" in el.params))]
+    ignored = [el.name for el in circuit.elements if any(p in el.params for p in KINDS[el.kind].device_ic)]
     if ignored:
         notes.append(f"uic: device initial conditions of {', '.join(ignored[:5])} are not used; the devices start "
                      "from their node voltages")

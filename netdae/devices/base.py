@@ -30,7 +30,7 @@ to node b through the device adds ``-i`` to ``phi[a]`` and ``+i`` to ``phi[b]``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -258,16 +258,27 @@ def series_nodes(layout, elements, outer: np.ndarray, conductance, suffix: str) 
                      for el, g, node in zip(elements, conductance, outer)], dtype=np.int64)
 
 
+class _KindsOf:
+    """``Family.kinds``: the element kinds whose definition (:mod:`netdae.kinds`) names this family."""
+
+    def __get__(self, obj, cls) -> frozenset[str]:
+        from ..kinds import KINDS
+
+        ref = f"{cls.__module__}:{cls.__qualname__}"
+        return frozenset(k.name for k in KINDS.values() if k.family == ref)
+
+
 class DeviceFamily:
     """Base class of a vectorised nonlinear device family.
 
-    Subclasses set :attr:`kinds` and implement the hooks. ``x`` passed to
+    Subclasses implement the hooks; the element kinds they evaluate name them
+    in their definitions (``ElementKind.family``, :mod:`netdae.kinds`). ``x`` passed to
     :meth:`evaluate` is *extended*: ``x[n] == 0`` is the ground potential, so
     node index -1 reads ground directly.
     """
 
-    #: Element kinds this family handles.
-    kinds: ClassVar[frozenset[str]] = frozenset()
+    #: Element kinds this family evaluates (read from their definitions).
+    kinds = _KindsOf()
 
     def __init__(self, elements, circuit) -> None:
         self.elements = list(elements)

@@ -73,7 +73,6 @@ class BehaviouralFamily(DeviceFamily):
         current (``I(r1)``).
     """
 
-    kinds = frozenset({_VOLTAGE, _CURRENT, _CHARGE})
 
     def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
         """No generator: a behavioural source is noiseless, as ngspice's B source (it has no noise routine)."""

@@ -137,7 +137,6 @@ class BjtFamily(DeviceFamily):
         Missing or mistyped model, unsupported parameter or level.
     """
 
-    kinds = frozenset({"bjt"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -64,7 +64,8 @@ from .junction import (
 )
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
-__all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage", "junction_limit", "junction_current"]
+__all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage", "junction_limit", "junction_current",
+           "diode_structure", "diode_branches"]
 
 DIODE_PARAMETERS = ParameterTable(
     "diode (level 1)",
@@ -198,6 +199,45 @@ def junction_current(vd, isat, vte, knee, has_bv, bv, vtebrk, gmin, any_bv=True)
     return cd + gmin * vd, gd + gmin
 
 
+def diode_structure(values) -> tuple[bool, bool]:
+    """What a diode's model makes of its structure: (series resistance, junction charge).
+
+    Parameters
+    ----------
+    values : mapping
+        The model's values (:meth:`ParameterTable.read` of :data:`DIODE_PARAMETERS`).
+
+    Returns
+    -------
+    (bool, bool)
+        RS > 0: an internal node ``<name>#internal`` between RS and the
+        junction; CJO or TT nonzero: the junction stores charge.
+    """
+    return values["rs"] > 0.0, values["cjo"] != 0.0 or values["tt"] != 0.0
+
+
+def diode_branches(circuit, el) -> tuple[tuple[int, int | str, int | str], ...]:
+    """The topological analysis's branches of one diode (its kind's ``topology`` hook, :mod:`netdae.kinds`).
+
+    Returns
+    -------
+    tuple of (class, a, b)
+        ``a``/``b`` a position in ``el.nodes`` or the suffix of an internal
+        node: the series resistance (anode to ``#internal``) when RS > 0, the
+        junction (resistive), and its charge (capacitive) when it has one.
+    """
+    from ..kinds import CAPACITIVE, RESISTIVE
+
+    model = circuit.models.get(el.model) if el.model else None
+    series, charge = diode_structure(DIODE_PARAMETERS.read(model)) if model is not None else (False, False)
+    junction: int | str = "#internal" if series else 0
+    branches: list[tuple[int, int | str, int | str]] = [(RESISTIVE, 0, junction)] if series else []
+    branches.append((RESISTIVE, junction, 1))
+    if charge:
+        branches.append((CAPACITIVE, junction, 1))
+    return tuple(branches)
+
+
 class DiodeFamily(DeviceFamily):
     """All diodes of a circuit, evaluated in one vectorised pass.
 
@@ -213,7 +253,6 @@ class DiodeFamily(DeviceFamily):
         Missing or mistyped model, unsupported parameter, level other than 1.
     """
 
-    kinds = frozenset({"diode"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)
@@ -240,6 +279,7 @@ class DiodeFamily(DeviceFamily):
                     raise CircuitError(f"{el.name}: {key if key == 'area' else 'm'} must be positive",
                                        elements=(el.name,))
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
+            row["series"] = float(diode_structure(mv)[0])
             rows.append(row)
         self._setup(rows, opts.reltol)
 
@@ -257,8 +297,8 @@ class DiodeFamily(DeviceFamily):
         fc = g("fc")
         self.depletion = Depletion(cj, np.where(fc * vj > 1.0, 1.0 / fc, vj), grading, fc)
         self.tt = g("tt")
-        rs = g("rs")
-        self.gs = np.where(rs > 0.0, area / np.where(rs > 0.0, rs, 1.0), 0.0)
+        rs, series = g("rs"), g("series") != 0.0
+        self.gs = np.where(series, area / np.where(series, rs, 1.0), 0.0)
         bv = g("bv")
         self.has_bv = np.isfinite(bv)
         self.vtebrk = g("nbv") * self.vt

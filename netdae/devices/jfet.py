@@ -157,7 +157,6 @@ class JfetFamily(DeviceFamily):
         factor divides by their difference).
     """
 
-    kinds = frozenset({"jfet"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -38,33 +38,23 @@ import numpy as np
 
 from ..circuit import Circuit, Element
 from ..errors import CircuitError
+from ..kinds import KINDS
 from .stamps import Triplets
+
+#: The transmission line's two port currents (ngspice's names: ``t1#i1``, ``t1#i2``).
+_TLINE = KINDS["tline"].currents
 
 if TYPE_CHECKING:
     from ..mna.layout import Layout
 
 __all__ = ["LinearStamps", "stamp_linear", "capacitances", "conductances", "inductances", "branch_names",
-           "resistor_noise",
-           "BRANCH_KINDS", "LINEAR_KINDS", "ZERO_RESISTANCE", "TLINE_BRANCHES"]
-
-#: Kinds whose current is an MNA unknown.
-BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "opamp", "bvoltage"})
-
-#: Kinds stamped here (constant matrices).
-LINEAR_KINDS = frozenset(
-    {"resistor", "capacitor", "inductor", "coupling", "vsource", "isource", "vcvs", "vccs", "cccs", "ccvs", "opamp",
-     "tline"}
-)
-
-#: The suffixes of a transmission line's two port currents (ngspice's names: ``t1#i1``, ``t1#i2``).
-TLINE_BRANCHES = ("#i1", "#i2")
+           "resistor_noise", "ZERO_RESISTANCE"]
 
 
 def branch_names(el: Element) -> tuple[str, ...]:
-    """The branch-current unknowns a linear element adds, by name (none for most kinds)."""
-    if el.kind == "tline":
-        return tuple(el.name + suffix for suffix in TLINE_BRANCHES)
-    return (el.name,) if el.kind in BRANCH_KINDS else ()
+    """The branch-current unknowns an element adds, by name (its kind's ``currents``; none for most kinds)."""
+    return tuple(el.name + suffix for suffix in KINDS[el.kind].currents)
+
 
 #: ngspice replaces a resistance of exactly zero by 1 milliohm (with a warning); so does netdae.
 ZERO_RESISTANCE = 1e-3
@@ -414,8 +404,8 @@ def _stamp_tlines(els, layout, st: LinearStamps):
         b = layout.nodes_of([el.nodes[neg] for el in els])
         c = layout.nodes_of([el.nodes[other_pos] for el in els])
         d = layout.nodes_of([el.nodes[other_neg] for el in els])
-        k = np.array([layout.branch(el.name + TLINE_BRANCHES[port]) for el in els], dtype=np.int64)
-        j = np.array([layout.branch(el.name + TLINE_BRANCHES[1 - port]) for el in els], dtype=np.int64)
+        k = np.array([layout.branch(el.name + _TLINE[port]) for el in els], dtype=np.int64)
+        j = np.array([layout.branch(el.name + _TLINE[1 - port]) for el in els], dtype=np.int64)
         z0 = np.array([el.params["z0"] for el in els])
         st.H.add_incidence(a, b, k, row_sign=1.0, col_sign=-1.0)
         st.H.add(k, k, -z0)

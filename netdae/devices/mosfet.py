@@ -264,7 +264,6 @@ class MosfetFamily(DeviceFamily):
         non-positive effective channel length, PHI <= 0, NSUB below ni.
     """
 
-    kinds = frozenset({"mosfet"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -128,7 +128,6 @@ class SwitchFamily(DeviceFamily):
         The states of the previous point of a DC sweep (None: an operating point of its own).
     """
 
-    kinds = frozenset({"vswitch", "cswitch"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -243,7 +243,6 @@ class VdmosFamily(DeviceFamily):
         negative resistances or capacitances (:data:`~netdae.devices.modelcard.NONNEGATIVE`).
     """
 
-    kinds = frozenset({"vdmos"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -13,9 +13,10 @@ from collections import defaultdict
 from ..circuit import Circuit, Element
 from ..dae.sparse import SparsePattern
 from ..devices.base import SlotMap
-from ..devices.linear import LINEAR_KINDS, branch_names, stamp_linear
+from ..devices.linear import branch_names, stamp_linear
 from ..devices.registry import family_for
 from ..errors import CircuitError
+from ..kinds import KINDS
 from .layout import Layout
 from .sources import MODE_DC, MODE_TRAN, SourceVector
 from .system import Delays, MnaSystem
@@ -79,7 +80,8 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
     by_kind = group_by_kind(circuit)
     families = []
     for kind, els in by_kind.items():
-        if kind in LINEAR_KINDS:
+        spec = KINDS.get(kind)
+        if spec is not None and spec.stamped:
             continue
         fam_cls = family_for(kind)
         if fam_cls is None:
@@ -89,7 +91,7 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
                 elements=[el.name for el in els],
             )
         if not any(isinstance(f, fam_cls) for f in families):
-            families.append(fam_cls([e for e in circuit.elements if e.kind in fam_cls.kinds], circuit))
+            families.append(fam_cls([e for e in circuit.elements if family_for(e.kind) is fam_cls], circuit))
 
     layout = Layout.from_nodes(circuit.nodes)
     for el in circuit.elements:  # nodes appearing only in elements (defensive)

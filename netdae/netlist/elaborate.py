@@ -32,6 +32,7 @@ from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, 
 from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
+from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS
 from . import expr as ex
 from .elements import error, parse_value
 from .laplace import LaplaceError, realise
@@ -46,30 +47,8 @@ from .statements import Definition, ElementCard, InitialCard, InstanceCard, Mode
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
 from .waveforms import WAVEFORMS, Pwl
 
-__all__ = ["elaborate", "BRANCH_KINDS", "MODEL_TYPES"]
+__all__ = ["elaborate"]
 
-#: Element kinds whose branch current is an unknown (what ``I(name)`` may name).
-BRANCH_KINDS = frozenset({"vsource", "inductor", "vcvs", "ccvs", "bvoltage", "opamp"})
-
-#: Model types each device kind accepts.
-MODEL_TYPES = {
-    "diode": ("d",),
-    "bjt": ("npn", "pnp"),
-    "mosfet": ("nmos", "pmos"),
-    "jfet": ("njf", "pjf"),
-    "vdmos": ("vdmos",),
-    "vswitch": ("sw",),
-    "cswitch": ("csw",),
-    "resistor": ("r", "res"),
-    "capacitor": ("c",),
-    "inductor": ("l",),
-}
-
-#: The model family (:data:`~netdae.devices.model_names.NGSPICE_PARAMETERS`) of each model type.
-MODEL_FAMILY_OF_TYPE = {"d": "diode", "npn": "bjt", "pnp": "bjt", "nmos": "mosfet", "pmos": "mosfet",
-                        "njf": "jfet", "pjf": "jfet", "vdmos": "vdmos",
-                        "sw": "vswitch", "csw": "cswitch",
-                        "r": "resistor", "res": "resistor", "c": "capacitor", "l": "inductor"}
 #: Instance parameters ngspice 39 takes from a .model card as the default of every instance that does not give them.
 INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
 #: PSpice's model types that ngspice names otherwise.
@@ -90,10 +69,6 @@ _PASSIVE_MODEL_PARAMS = {"resistor": {"tc1": "tc1", "tc1r": "tc1", "tc2": "tc2",
 ASRC_REFERENCE_TEMPERATURE = 27.0
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
-#: Element kinds whose value a .step (or ``values=``) can set directly.
-STEPPABLE_KINDS = frozenset({"resistor", "capacitor", "inductor", "vsource", "isource", "vcvs", "cccs", "vccs",
-                             "ccvs"})
-
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
 _METHODS = {"gear": "gear", "trap": "trap", "trapezoidal": "trap"}
@@ -441,7 +416,7 @@ class _Elaborator:
             check_circuit(circuit)
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
-        circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value, BRANCH_KINDS)
+        circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value, BRANCH_CURRENT_KINDS)
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         circuit.diagnostics = self.diagnostics
@@ -509,11 +484,11 @@ class _Elaborator:
                 elif el.kind == "capacitor" and el.value is None:
                     el.value = _capacitance_from_model(el, model)
             else:
-                for name in INSTANCE_DEFAULTS.get(MODEL_FAMILY_OF_TYPE.get(model.type, ""), ()):
+                for name in INSTANCE_DEFAULTS.get(KIND_OF_MODEL_TYPE.get(model.type, ""), ()):
                     if name in model.params and name not in el.params:
                         el.params[name] = model.params[name]
             if passive is None and model.name not in seen:
-                message = unimplemented_level(MODEL_FAMILY_OF_TYPE.get(model.type, ""), model)
+                message = unimplemented_level(KIND_OF_MODEL_TYPE.get(model.type, ""), model)
                 if message is not None:
                     raise NetlistError(f"{el.name}: {message}", model.locations.get("level", model.location),
                                        hint=OSDI_HINT)
@@ -586,7 +561,7 @@ class _Elaborator:
     def _model(self, p: _Placed) -> Model:
         item: ModelCard = p.item
         env = self.env(p.frames)
-        known = NGSPICE_PARAMETERS.get(MODEL_FAMILY_OF_TYPE.get(item.type, ""), frozenset())
+        known = NGSPICE_PARAMETERS.get(KIND_OF_MODEL_TYPE.get(item.type, ""), frozenset())
         params = {}
         vdmos = item.type == "vdmos"
         if vdmos and "pchan" in item.flags:
@@ -621,7 +596,7 @@ class _Elaborator:
         NetlistError
             A string value or a bare name for a parameter ngspice knows.
         """
-        family = MODEL_FAMILY_OF_TYPE.get(item.type)
+        family = KIND_OF_MODEL_TYPE.get(item.type)
         if family is None or unimplemented_level(family, model) is not None:
             return  # a level netdae lacks is refused as a whole
         known = NGSPICE_PARAMETERS[family]
@@ -819,23 +794,24 @@ class _Elaborator:
         item: ElementCard = p.item
         card = item.card
         syntax = ELEMENTS[item.name[0]]
+        senses = KINDS[el.kind].senses
         for (written, offset), full in zip(item.controls, el.controls):
             target = elements.get(full)
-            need = "inductor" if el.kind == "coupling" else "vsource"
             if target is None:
                 hint = ("a controlling element must be in the same subcircuit as the element it controls"
                         if p.path else None)
                 raise error(card, offset, f"'{written}' names no element (looked for '{full}')", syntax, hint=hint)
-            if el.kind == "coupling" and target.kind != "inductor":
-                raise error(card, offset, f"'{written}' is a {target.kind}, not an inductor", syntax)
-            if el.kind in ("cccs", "ccvs") and target.kind != need:
-                raise error(card, offset, f"'{written}' is a {target.kind}, not a voltage source "
-                            "(F and H sense the current of a V source)", syntax,
-                            hint="add a 0 V source in series with the branch and name it")
-            if el.kind == "cswitch" and target.kind not in BRANCH_KINDS:
-                raise error(card, offset, f"'{written}' is a {target.kind}, which has no branch current (W senses "
+            what = KINDS[target.kind].noun
+            if senses == "branch" and target.kind not in BRANCH_CURRENT_KINDS:
+                raise error(card, offset, f"'{written}' is {what}, which has no branch current (W senses "
                             "the current of a V source, inductor, E/H source or B voltage source)", syntax,
                             hint="add a 0 V source in series with the branch and name it")
+            if senses in KINDS and target.kind != senses:
+                sensed = KINDS[senses]
+                raise error(card, offset, f"'{written}' is {what}, not {sensed.noun}"
+                            + (f" ({KINDS[el.kind].summary}s sense the current of {sensed.noun})"
+                               if sensed.currents else ""), syntax,
+                            hint="add a 0 V source in series with the branch and name it" if sensed.currents else None)
         if el.expr is None:
             return
         for n in ex.walk(el.expr):
@@ -850,7 +826,7 @@ class _Elaborator:
                     raise error(card, item.expr[1], f"POLY control '{n.element}' {what}, not a voltage source "
                                 "(F and H sense the current of a V source)", syntax,
                                 hint="add a 0 V source in series with the branch and name it")
-                if target is None or target.kind not in BRANCH_KINDS:
+                if target is None or target.kind not in BRANCH_CURRENT_KINDS:
                     what = "names no element" if target is None else f"names a {target.kind}, which has no branch current"
                     raise error(card, item.expr[1], f"I({n.element}) {what}", syntax,
                                 hint="I() names a V source, inductor, E/H source or B voltage source")
@@ -901,8 +877,8 @@ class _Elaborator:
                 for name, offset, start, stop, step in args["sweeps"]:
                     if name != "temp":
                         target = elements.get(name)
-                        if target is None or target.kind not in ("vsource", "isource"):
-                            what = "no element" if target is None else f"a {target.kind}"
+                        if target is None or not KINDS[target.kind].independent:
+                            what = "no element" if target is None else KINDS[target.kind].noun
                             raise error(card, offset, f"sweep source '{name}' is {what}", form,
                                         hint="netdae sweeps V or I sources, or temp")
                     lo = self._value(start, card, "start")
@@ -955,15 +931,15 @@ class _Elaborator:
         else:
             (name, off), = parts
             target = elements.get(name)
-            if target is None or target.kind not in BRANCH_KINDS:
+            if target is None or target.kind not in BRANCH_CURRENT_KINDS:
                 what = "names no element" if target is None else f"names a {target.kind}, which has no branch current"
                 raise error(card, off, f"output i({name}) {what}", form,
                             hint="i() names a V source, inductor, E/H source or B voltage source")
             output = written = f"i({name})"
         name, off = args["source"]
         target = elements.get(name)
-        if target is None or target.kind not in ("vsource", "isource"):
-            what = "names no element" if target is None else f"is a {target.kind}"
+        if target is None or not KINDS[target.kind].independent:
+            what = "names no element" if target is None else f"is {KINDS[target.kind].noun}"
             raise error(card, off, f"input source '{name}' {what}, not an independent V or I source", form,
                         hint="the input is the value of an independent V or I source of the circuit")
         return TfAnalysis(output, name, loc, written)
@@ -988,7 +964,7 @@ class _Elaborator:
                        hint="step a top-level .model's parameter as MODEL(PARAM)")
         if where is not None and where[2] is not None and where[2] != mod.type:
             raise fail(f"model '{model}' is of type '{mod.type}', not '{where[2]}'")
-        family = MODEL_FAMILY_OF_TYPE.get(mod.type)
+        family = KIND_OF_MODEL_TYPE.get(mod.type)
         known = NGSPICE_PARAMETERS.get(family or "", frozenset())
         if known and param not in known:
             raise fail(f"model '{model}' ({mod.type}) has no parameter '{param}'",
@@ -1005,8 +981,8 @@ class _Elaborator:
                         "(both nodes are the same)", form)
         name, off = args["source"]
         target = elements.get(name)
-        if target is None or target.kind not in ("vsource", "isource"):
-            what = "names no element" if target is None else f"is a {target.kind}"
+        if target is None or not KINDS[target.kind].independent:
+            what = "names no element" if target is None else f"is {KINDS[target.kind].noun}"
             raise error(card, off, f"input source '{name}' {what}, not an independent V or I source", form,
                         hint="the input noise is referred to an independent V or I source of the circuit")
         if target.source is None or not target.source.ac_given:
@@ -1157,7 +1133,7 @@ class _Elaborator:
                     target = elements.get(parts[0]) if len(parts) == 1 else None
                     if target is None:
                         problem = f"no element '{parts[0]}'"
-                    elif target.kind not in BRANCH_KINDS and target.kind not in ("resistor", "capacitor"):
+                    elif target.kind not in BRANCH_CURRENT_KINDS and not KINDS[target.kind].current_is_quantity:
                         problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
             elif signal == "all":
                 continue

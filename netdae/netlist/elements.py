@@ -12,6 +12,7 @@ import re
 import sys
 
 from ..errors import NetlistError
+from ..kinds import KINDS
 from . import expr as ex
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
 from .numbers import ignored_text, parse_number
@@ -178,9 +179,8 @@ def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
             known = " ".join(sorted(syntax.keywords))
             raise error(card, key.start, f"unknown parameter '{name}' for a {syntax.description}", syntax,
                         hint=f"known parameters: {known}")
-        if name in ("ic",) and kind in ("bjt", "mosfet", "jfet"):
-            labels = {"bjt": ("icvbe", "icvce"), "mosfet": ("icvds", "icvgs", "icvbs"),
-                      "jfet": ("icvds", "icvgs")}[kind]
+        labels = KINDS[kind].device_ic if kind in KINDS else ()
+        if name == "ic" and len(labels) > 1:  # a transistor's ic= list names its terminal voltages
             if len(values) > len(labels):
                 raise error(card, values[len(labels)].start, f"ic= takes at most {len(labels)} values "
                             f"({', '.join(labels)})", syntax)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from ..circuit import Circuit
 from ..errors import NetdaeError
-from ..netlist.elaborate import STEPPABLE_KINDS
+from ..kinds import STEPPABLE_KINDS
 from ..netlist.steps import StepSpec, model_parameter
 
 __all__ = ["Axis", "Row", "Plan", "make_plan", "MAX_ROWS"]

@@ -56,6 +56,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ..circuit import Circuit
+from ..kinds import GROUPS, KINDS
 from .context import EMPTY, Context, Partition, loops_through
 from .dc import dc_loops, no_dc_path, unfixed_potentials
 from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, VOLTAGE, build_graph, structure_key
@@ -314,39 +315,26 @@ def _dangling(ctx: Context) -> list[str]:
     return list(ctx.node_arr[dangling])
 
 
-#: Self-loops of these kinds are reported as loops (V-loop, C-loop, DC loop), not here.
-_LOOP_REPORTED = frozenset({"vsource", "vcvs", "ccvs", "bvoltage", "opamp", "inductor", "capacitor", "bcharge"})
-_CURRENT_KINDS = frozenset({"isource", "vccs", "cccs", "bcurrent"})
-
-
 def _self_loops(ctx: Context) -> list[str]:
     g = ctx.g
     for k, i in g.self_loops:
-        kind, name, node = g.element_kinds[k], ctx.elems[k], ctx.nodes[i]
-        if kind in _LOOP_REPORTED or not ctx.want("self_loop"):
+        spec, name, node = KINDS[g.element_kinds[k]], ctx.elems[k], ctx.nodes[i]
+        # shorted sources, capacitors and inductors are reported as loops (V-loop, C-loop, DC loop), not here
+        if spec.loop_reported or not ctx.want("self_loop"):
             continue
-        effect = "its current has no effect" if kind in _CURRENT_KINDS else "it carries no current"
+        effect = "its current has no effect" if spec.drives_current else "it carries no current"
         ctx.add(Finding("self_loop", "note", f"{name} is shorted: both of its terminals are on node '{node}', so "
                         f"{effect}", (name,), (node,)))
     return [ctx.elems[k] for k, _ in g.self_loops]
 
 
-_KIND_GROUPS = (
-    ({"vcvs", "vccs", "cccs", "ccvs", "bvoltage", "bcurrent"}, "controlled sources"),
-    ({"bcharge"}, "charge-defined capacitors"),
-    ({"opamp"}, "ideal op-amps"),
-    ({"bjt", "mosfet", "jfet", "vdmos"}, "transistors"),
-    ({"vswitch", "cswitch"}, "switches"),
-)
-
-
 def _applicability(ctx: Context) -> tuple[bool, str | None]:
     violations = ctx.g.hypothesis_violations
     parts = []
-    for group, label in _KIND_GROUPS:
-        names = [e for e, why in violations if why in group]
+    for group in GROUPS:
+        names = [e for e, why in violations if why == group]
         if names:
-            parts.append(f"{label} {name_list(names)}")
+            parts.append(f"{group} {name_list(names)}")
     negative = [e for e, why in violations if why.startswith("negative")]
     if negative:
         parts.append(f"negative element values ({name_list(negative)})")

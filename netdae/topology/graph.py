@@ -60,8 +60,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..circuit import GROUND, Circuit, Element
+from ..circuit import GROUND, Circuit
 from ..errors import CircuitError
+from ..kinds import (CAPACITIVE, CONTROLLED_KINDS, CURRENT, INDUCTIVE, KINDS, NULLATOR, RESISTIVE, ROLES, VOLTAGE,
+                     resolve)
 
 __all__ = [
     "CAPACITIVE",
@@ -76,73 +78,9 @@ __all__ = [
     "build_graph",
 ]
 
-CAPACITIVE, INDUCTIVE, RESISTIVE, VOLTAGE, CURRENT = 0, 1, 2, 3, 4
-#: The input port of an ideal op-amp (a nullator: zero voltage, zero current). It
-#: takes part in the voltage constraints of loops but carries no current, so it
-#: never connects nodes for cutsets or DC paths.
-NULLATOR = 5
-
-#: Element kinds whose behaviour is controlled by other circuit quantities:
-#: the index theorem's hypotheses exclude them.
-CONTROLLED_KINDS = frozenset({"vcvs", "vccs", "cccs", "ccvs", "opamp", "bvoltage", "bcurrent", "bcharge", "bjt",
-                              "mosfet", "jfet", "vdmos", "vswitch", "cswitch", "osdi"})
-#: Most terminals an OSDI device may have in the topological analysis.
-OSDI_MAX_TERMINALS = 16
-
-#: Diode model parameters whose nonzero value gives the junction a charge
-#: (ngspice names and aliases: depletion CJO/CJ0/CJ, transit time TT).
-DIODE_CHARGE_PARAMS = ("cjo", "cj0", "cj", "tt")
-
-
-@dataclass(frozen=True, slots=True)
-class _Spec:
-    """How one element kind maps to branches: (class, terminal, terminal) and attachments."""
-
-    node_counts: tuple[int, ...]
-    branches: tuple[tuple[int, int, int], ...]
-    attachments: tuple[tuple[int, str], ...] = ()
-
-
-#: Kinds of attachment (terminals that carry no branch current).
-ROLES = ("controlling input", "input", "gate")
-
-_CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
-
-#: Element kind -> branches and attachments (terminal positions in ``Element.nodes``).
-KIND_TABLE: dict[str, _Spec] = {
-    "resistor": _Spec((2,), ((RESISTIVE, 0, 1),)),
-    "capacitor": _Spec((2,), ((CAPACITIVE, 0, 1),)),
-    "inductor": _Spec((2,), ((INDUCTIVE, 0, 1),)),
-    "vsource": _Spec((2,), ((VOLTAGE, 0, 1),)),
-    "isource": _Spec((2,), ((CURRENT, 0, 1),)),
-    "vcvs": _Spec((4,), ((VOLTAGE, 0, 1),), _CONTROL_INPUTS),
-    "vccs": _Spec((4,), ((CURRENT, 0, 1),), _CONTROL_INPUTS),
-    "cccs": _Spec((2,), ((CURRENT, 0, 1),)),
-    "ccvs": _Spec((2,), ((VOLTAGE, 0, 1),)),
-    "opamp": _Spec((4,), ((VOLTAGE, 0, 1), (NULLATOR, 2, 3)), ((2, "input"), (3, "input"))),
-    "bvoltage": _Spec((2,), ((VOLTAGE, 0, 1),)),
-    "bcurrent": _Spec((2,), ((CURRENT, 0, 1),)),
-    "bcharge": _Spec((2,), ((CAPACITIVE, 0, 1),)),
-    "diode": _Spec((2,), ()),  # see _diode_branches
-    "bjt": _Spec((3, 4), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0))),
-    "mosfet": _Spec((4,), ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),)),
-    "jfet": _Spec((3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0))),
-    "vdmos": _Spec((3,), ((RESISTIVE, 0, 2),), ((1, "gate"),)),
-    "vswitch": _Spec((4,), ((RESISTIVE, 0, 1),), _CONTROL_INPUTS),
-    "cswitch": _Spec((2,), ((RESISTIVE, 0, 1),)),
-    "coupling": _Spec((0,), ()),
-    # a lossless line's ports: in the transient each is a resistance z0 in series with the
-    # delayed wave (an input); at DC the line joins the ports (both views have this topology)
-    "tline": _Spec((4,), ((RESISTIVE, 0, 1), (RESISTIVE, 2, 3))),
-    "osdi": _Spec(tuple(range(1, OSDI_MAX_TERMINALS + 1)),
-                  tuple((RESISTIVE, 0, k) for k in range(1, OSDI_MAX_TERMINALS))),
-}
-
-#: Kinds whose first two terminals form one branch (a self-loop when they coincide).
-TWO_TERMINAL_BRANCH_KINDS = frozenset(
-    k for k, s in KIND_TABLE.items()
-    if s.branches and s.branches[0][1:] == (0, 1) and k not in ("bjt", "mosfet", "jfet", "osdi", "tline")
-) | {"diode"}
+#: The kinds in a fixed order: a kind's code in the graph is its position here.
+_ORDER = tuple(KINDS)
+_OPAMP = _ORDER.index("opamp")
 
 
 @dataclass(frozen=True)
@@ -216,29 +154,21 @@ class CircuitGraph:
         return m
 
 
-def _diode_model(circuit: Circuit, el: Element) -> tuple[bool, bool]:
-    """(has a series resistance, has junction charge) from the diode's model card."""
-    model = circuit.models.get(el.model) if el.model else None
-    if model is None:
-        return False, False
-    charge = any(model.params.get(p, 0.0) != 0.0 for p in DIODE_CHARGE_PARAMS)
-    return model.params.get("rs", 0.0) > 0.0, charge
-
-
-def _diode_branches(circuit: Circuit, members: np.ndarray, ids: np.ndarray, start: np.ndarray,
+def _model_branches(circuit: Circuit, branches_of, members: np.ndarray, ids: np.ndarray, start: np.ndarray,
                     index: dict[str, int]) -> tuple[np.ndarray, ...]:
-    """Branches (u, v, class, element) of the diodes ``members``; creates their internal nodes."""
+    """Branches (u, v, class, element) of ``members`` from their kind's topology hook; creates internal nodes."""
     rows = []
     for k in members.tolist():
         el = circuit.elements[k]
-        anode, cathode = int(ids[start[k]]), int(ids[start[k] + 1])
-        series, charge = _diode_model(circuit, el)
-        junction = index.setdefault(f"{el.name}#internal", len(index)) if series else anode
-        if series:
-            rows.append((anode, junction, RESISTIVE, k))
-        rows.append((junction, cathode, RESISTIVE, k))
-        if charge:
-            rows.append((junction, cathode, CAPACITIVE, k))
+
+        def node(t):
+            if isinstance(t, str):
+                return index.setdefault(el.name + t, len(index))
+            return int(ids[start[k] + t])
+
+        rows += [(node(a), node(b), c, k) for c, a, b in branches_of(circuit, el)]
+    if not rows:
+        return tuple(np.zeros(0, dtype=np.int64) for _ in range(4))
     return tuple(np.array(col, dtype=np.int64) for col in zip(*rows))
 
 
@@ -248,8 +178,9 @@ def structure_key(circuit: Circuit) -> tuple:
     Two circuits with equal keys have the same graph and the same topological
     findings: per element its name, kind, nodes, controls and model, the sign
     class of an R, C or L value (the value itself when negative, as the
-    findings quote it), and per diode the two model facts the graph uses
-    (series resistance, junction charge). Other values do not enter.
+    findings quote it), and the branches of a kind whose branches depend on
+    its model (a diode's series resistance and junction charge). Other values
+    do not enter.
 
     Notes
     -----
@@ -259,11 +190,12 @@ def structure_key(circuit: Circuit) -> tuple:
     models = circuit.models
     for el in circuit.elements:
         v = el.value
-        if el.kind in ("resistor", "capacitor", "inductor"):
+        spec = KINDS.get(el.kind)
+        if spec is not None and spec.passive:
             v = "nan" if v is None or v != v else (v if v < 0 else ("zero" if v == 0 else "pos"))
         else:
             v = None
-        extra = _diode_model(circuit, el) if el.kind == "diode" else None
+        extra = resolve(spec.topology)(circuit, el) if spec is not None and spec.topology else None
         parts.append((el.name, el.kind, el.nodes, el.controls, el.model if el.model in models else None, v, extra))
     return tuple(circuit.nodes), tuple(parts)
 
@@ -275,18 +207,18 @@ def _passive_values(circuit: Circuit, members: np.ndarray) -> np.ndarray:
 
 
 def _check(circuit: Circuit, kinds: list[str], counts: np.ndarray) -> np.ndarray:
-    """Kind codes (indices into :data:`KIND_TABLE`); raise for an unknown kind or a wrong node count."""
-    unknown = set(kinds).difference(KIND_TABLE)
+    """Kind codes (positions in :data:`netdae.kinds.KINDS`); raise for an unknown kind or a wrong node count."""
+    unknown = set(kinds).difference(KINDS)
     if unknown:
         el = next(el for el in circuit.elements if el.kind in unknown)
         raise CircuitError(
             f"{el.name}: element kind '{el.kind}' is unknown to the topological analysis",
             elements=(el.name,),
-            hint=f"known kinds: {', '.join(sorted(KIND_TABLE))}",
+            hint=f"known kinds: {', '.join(sorted(KINDS))}",
         )
-    kind_code = {k: i for i, k in enumerate(KIND_TABLE)}
+    kind_code = {k: i for i, k in enumerate(_ORDER)}
     code = np.fromiter((kind_code[k] for k in kinds), dtype=np.int64, count=len(kinds))
-    for kind, spec in KIND_TABLE.items():
+    for kind, spec in KINDS.items():
         bad = np.flatnonzero((code == kind_code[kind]) & ~np.isin(counts, spec.node_counts))
         if len(bad):
             el = circuit.elements[bad[0]]
@@ -337,23 +269,23 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
     notes: list[tuple[int, str]] = []
     violations: list[tuple[int, str]] = []
     loops_k = []
-    for kind_index, (kind, spec) in enumerate(KIND_TABLE.items()):
+    for kind_index, (kind, spec) in enumerate(KINDS.items()):
         members = np.flatnonzero(code == kind_index)
         if len(members) == 0:
             continue
-        controlled = kind in CONTROLLED_KINDS
+        controlled = spec.controlled
         if controlled:
-            violations += [(int(k), kind) for k in members]
+            violations += [(int(k), spec.group or kind) for k in members]
         keep, cls = members, None
-        if kind in ("resistor", "capacitor", "inductor"):
+        if spec.passive:
             value = _passive_values(circuit, members)
             violations += [(int(k), f"negative value {x:g}") for k, x in zip(members, value) if x < 0.0]
             zero = value == 0.0
-            if kind == "capacitor":
+            if spec.first_class == CAPACITIVE:
                 notes += [(int(k), "zero capacitance: stores no charge, left out of the analysis")
                           for k in members[zero]]
                 keep = members[~zero]
-            elif kind == "inductor":
+            elif spec.first_class == INDUCTIVE:
                 notes += [(int(k), "zero inductance: its equation is v = 0, analysed as a 0 V source")
                           for k in members[zero]]
                 cls = np.where(zero, VOLTAGE, INDUCTIVE)
@@ -365,19 +297,19 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
             bcls.append(np.full(len(have), c) if cls is None else cls[with_terminals])
             bctl.append(np.full(len(have), controlled))
             bel.append(have)
-        if kind == "diode":
-            du, dv, dc, de = _diode_branches(circuit, members, ids, start, index)
+        if spec.topology is not None:
+            du, dv, dc, de = _model_branches(circuit, resolve(spec.topology), members, ids, start, index)
             bu.append(du)
             bv.append(dv)
             bcls.append(dc)
-            bctl.append(np.zeros(len(de), dtype=bool))
+            bctl.append(np.full(len(de), controlled))
             bel.append(de)
         for pos, role in spec.attachments:
             present = members[counts[members] > pos]
             an.append(ids[start[present] + pos])
             ae.append(present)
             arole.append(np.full(len(present), ROLES.index(role)))
-        if kind in TWO_TERMINAL_BRANCH_KINDS:
+        if spec.self_loop:
             loops_k.append(members[ids[start[members]] == ids[start[members] + 1]])
 
     n = len(index)
@@ -388,7 +320,7 @@ def build_graph(circuit: Circuit) -> CircuitGraph:
     loops_k = np.sort(cat(loops_k))
     names = tuple(el.name for el in els)
     cls, element = cat(bcls, np.int8), cat(bel)
-    norator = (cls == VOLTAGE) & (code[element] == list(KIND_TABLE).index("opamp"))
+    norator = (cls == VOLTAGE) & (code[element] == _OPAMP)
     return CircuitGraph(
         node_names=tuple(node_names),
         u=cat(bu),

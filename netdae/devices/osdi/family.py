@@ -68,7 +68,6 @@ class _Calls:
 class OsdiFamily(DeviceFamily):
     """Every OSDI instance of a circuit (element kind ``osdi``)."""
 
-    kinds = frozenset({"osdi"})
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)
