@@ -9,6 +9,7 @@ singularity of the DC matrix, dependence on source derivatives.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from netdae.circuit import GROUND, Circuit, Element, Model
 
@@ -125,3 +126,18 @@ def derivative_dependent(E: np.ndarray, H: np.ndarray, B: np.ndarray, names: lis
     x2 = np.linalg.solve(s2 * E - H, B)
     m1 = (x2 - x1) / (s2 - s1)
     return {names[i] for i in np.flatnonzero(np.abs(m1).max(axis=1) > 1e-6)}
+
+
+def test_finding_vocabulary_is_closed():
+    """A finding's kind and severity are enums; a value outside the vocabulary is refused."""
+    import json
+
+    from netdae.topology.report import Finding, FindingKind, Severity
+
+    f = Finding("cv_loop", "warning", "m")
+    assert f.kind is FindingKind.CV_LOOP and f.severity is Severity.WARNING
+    assert f.kind == "cv_loop" and json.loads(json.dumps(f.to_dict()))["severity"] == "warning"
+    with pytest.raises(ValueError):
+        Finding("cv-loop", "warning", "m")
+    with pytest.raises(ValueError):
+        Finding("cv_loop", "fatal", "m")

@@ -3,12 +3,41 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 
-__all__ = ["Loop", "Cutset", "NodeGroup", "Finding", "TopologyReport", "SEVERITIES"]
+__all__ = ["Loop", "Cutset", "NodeGroup", "Finding", "FindingKind", "Severity", "TopologyReport", "SEVERITIES"]
 
-#: Severities, most serious first: "error" (the DAE is singular), "warning"
-#: (index 2, singular DC operating point, a dangling node), "note".
-SEVERITIES = ("error", "warning", "note")
+
+class Severity(StrEnum):
+    """How serious a finding is (a ``str``: compares and serialises as its value)."""
+
+    #: The DAE is singular.
+    ERROR = "error"
+    #: Index 2, a singular DC operating point, a dangling node.
+    WARNING = "warning"
+    NOTE = "note"
+
+
+#: Severities, most serious first.
+SEVERITIES = tuple(Severity)
+
+
+class FindingKind(StrEnum):
+    """What a finding is about (a ``str``: compares and serialises as its value)."""
+
+    V_LOOP = "v_loop"
+    I_CUTSET = "i_cutset"
+    FLOATING = "floating"
+    CV_LOOP = "cv_loop"
+    LI_CUTSET = "li_cutset"
+    C_LOOP = "c_loop"
+    DC_LOOP = "dc_loop"
+    NO_DC_PATH = "no_dc_path"
+    DANGLING = "dangling"
+    SELF_LOOP = "self_loop"
+    NOT_APPLICABLE = "not_applicable"
+    ELEMENT_NOTE = "element_note"
+    TRUNCATED = "truncated"
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,12 +139,11 @@ class Finding:
 
     Attributes
     ----------
-    kind : str
-        ``v_loop``, ``i_cutset``, ``floating``, ``cv_loop``, ``li_cutset``,
-        ``c_loop``, ``dc_loop``, ``no_dc_path``, ``dangling``, ``self_loop``,
-        ``not_applicable``, ``element_note``, ``truncated``.
-    severity : str
-        One of :data:`SEVERITIES`.
+    kind : FindingKind
+        Given as the enum or its value (``"v_loop"``); another value raises
+        ``ValueError``.
+    severity : Severity
+        Given as the enum or its value (``"error"``).
     message : str
         What a circuit engineer would say.
     elements, nodes : tuple of str
@@ -128,8 +156,8 @@ class Finding:
         What the user might do.
     """
 
-    kind: str
-    severity: str
+    kind: FindingKind
+    severity: Severity
     message: str
     elements: tuple[str, ...] = ()
     nodes: tuple[str, ...] = ()
@@ -137,13 +165,17 @@ class Finding:
     controlled: bool = False
     hint: str | None = None
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", FindingKind(self.kind))
+        object.__setattr__(self, "severity", Severity(self.severity))
+
     def __str__(self) -> str:
         return f"{self.severity}: {self.message}"
 
     def to_dict(self) -> dict:
         return {
-            "kind": self.kind,
-            "severity": self.severity,
+            "kind": self.kind.value,
+            "severity": self.severity.value,
             "message": self.message,
             "elements": list(self.elements),
             "nodes": list(self.nodes),
