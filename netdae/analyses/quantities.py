@@ -43,7 +43,7 @@ import numpy as np
 from ..circuit import Circuit, Element
 from ..devices.linear import capacitances, conductances
 from ..errors import CircuitError
-from ..kinds import KINDS
+from ..kinds import BRANCH_CURRENT_KINDS, KINDS
 from ..results import Result
 from ..signals import NONLINEAR_QUANTITY_KINDS, device_quantity, parse_signal
 
@@ -76,7 +76,7 @@ class Quantity:
             return list(self.voltages)
         a, b = self.element.nodes[:2]
         volts = [f"v({n})" for n in (a, b) if n != "0"]
-        if self.element.kind in ("inductor", "vsource"):
+        if self.element.kind in BRANCH_CURRENT_KINDS:  # its current is an unknown
             return [f"i({self.element.name})"] + (volts if self.quantity == "p" else [])
         return volts
 
@@ -245,7 +245,7 @@ def _linear_values(circuit: Circuit, result: Result, base, el: Element, q: str, 
     elif el.kind == "capacitor":
         c = float(capacitances([el], o.temp, o.tnom)[0])
         i = c * _derivative(result, base, el, v)
-    elif el.kind in ("inductor", "vsource"):
+    elif el.kind in BRANCH_CURRENT_KINDS:
         i = result.signals[f"i({el.name})"]
     else:  # isource: ngspice's voltage is v(n-) - v(n+), its power v(n+) - v(n-) times the current
         return -v if q == "v" else _source_current(result, el) if q == "current" \

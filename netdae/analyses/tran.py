@@ -48,7 +48,7 @@ from ..circuit import Circuit, TranAnalysis
 from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import LinearDae
-from ..devices.linear import capacitances
+from ..devices.linear import add_initial_charges, initial_currents
 from ..errors import CircuitError, NetdaeError, SingularPencilError
 from ..kinds import KINDS
 from ..mna import MODE_TRAN, MnaSystem, assemble
@@ -175,23 +175,9 @@ def _uic_start(system: MnaSystem) -> _Start:
             raise CircuitError(f".ic names node '{node}', which is not in the circuit", nodes=(node,)) from None
         if i >= 0:
             x[i] = v
-    lay = system.layout
-    inductors = [el for el in circuit.elements if el.kind == "inductor" and "ic" in el.params]
-    for el in inductors:
-        x[lay.branch(el.name)] = el.params["ic"]
+    initial_currents(circuit, system.layout, x)
     q0 = system.evaluate(x, 0.0, jacobian=False).q.copy()
-    caps = [el for el in circuit.elements if el.kind == "capacitor" and "ic" in el.params]
-    if caps:
-        cval = capacitances(caps, circuit.options.temp, circuit.options.tnom)
-        for el, c in zip(caps, cval):
-            a, b = lay.node(el.nodes[0]), lay.node(el.nodes[1])
-            va = x[a] if a >= 0 else 0.0
-            vb = x[b] if b >= 0 else 0.0
-            dq = c * (el.params["ic"] - (va - vb))
-            if a >= 0:
-                q0[a] += dq
-            if b >= 0:
-                q0[b] -= dq
+    add_initial_charges(circuit, system.layout, x, q0)
     ignored = [el.name for el in circuit.elements if any(p in el.params for p in KINDS[el.kind].device_ic)]
     if ignored:
         notes.append(f"uic: device initial conditions of {', '.join(ignored[:5])} are not used; the devices start "

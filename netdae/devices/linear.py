@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     from ..mna.layout import Layout
 
 __all__ = ["LinearStamps", "stamp_linear", "capacitances", "conductances", "inductances", "branch_names",
-           "resistor_noise", "ZERO_RESISTANCE"]
+           "resistor_noise", "initial_currents", "add_initial_charges", "ZERO_RESISTANCE"]
 
 
 def branch_names(el: Element) -> tuple[str, ...]:
@@ -258,6 +258,47 @@ def inductances(els: list[Element], temp: float, tnom: float) -> np.ndarray:
     ``K`` sees (``M = k sqrt(L1 L2)``); the branch law uses ``L / m``.
     """
     return _values(els) * _temperature_factor(els, temp, tnom) * _scale(els)
+
+
+def initial_currents(circuit: Circuit, layout: Layout, x: np.ndarray) -> None:
+    """Set the branch currents of inductors with ``ic=`` in ``x`` (ngspice's ``uic`` state).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        The unknowns, changed in place.
+    """
+    for el in circuit.elements:
+        if el.kind == "inductor" and "ic" in el.params:
+            x[layout.branch(el.name)] = el.params["ic"]
+
+
+def add_initial_charges(circuit: Circuit, layout: Layout, x: np.ndarray, q: np.ndarray) -> None:
+    """Give capacitors with ``ic=`` their initial charge (ngspice's ``uic`` state).
+
+    ``q`` holds the charges of the state ``x``; each capacitor's charge
+    ``C (ic - v)`` beyond what its node voltages ``v`` give is added to the
+    charges of its two nodes, so the transient starts with the capacitor at
+    ``ic`` whatever its nodes' voltages.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+    q : ndarray, shape (n,)
+        The charges at ``x``, changed in place.
+    """
+    caps = [el for el in circuit.elements if el.kind == "capacitor" and "ic" in el.params]
+    if not caps:
+        return
+    for el, c in zip(caps, capacitances(caps, circuit.options.temp, circuit.options.tnom)):
+        a, b = layout.node(el.nodes[0]), layout.node(el.nodes[1])
+        va = x[a] if a >= 0 else 0.0
+        vb = x[b] if b >= 0 else 0.0
+        dq = c * (el.params["ic"] - (va - vb))
+        if a >= 0:
+            q[a] += dq
+        if b >= 0:
+            q[b] -= dq
 
 
 def _stamp_capacitors(els, layout, st: LinearStamps, temp, tnom):
