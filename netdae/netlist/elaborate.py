@@ -44,7 +44,7 @@ from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
 from .statements import Definition, ElementCard, InitialCard, InstanceCard, ModelCard, Netlist, ParamDef
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
-from .waveforms import WAVEFORMS, Pwl
+from .waveforms import WAVEFORMS, Pwl, RandomSource
 
 __all__ = ["elaborate", "BRANCH_KINDS", "MODEL_TYPES"]
 
@@ -688,7 +688,7 @@ class _Elaborator:
         if p.model is not None:
             el.model = self._model_name(p, item)
         if item.source is not None:
-            el.source = self._source(item, env)
+            el.source = self._source(item, env, el.name)
         if item.expr is not None:
             nodes_written, elems_written = self.refs[id(item)]
             node_map = dict(zip(nodes_written, p.refs))
@@ -789,7 +789,7 @@ class _Elaborator:
                         ELEMENTS[item.name[0]])
         return p.model
 
-    def _source(self, item: ElementCard, env: Env) -> SourceSpec:
+    def _source(self, item: ElementCard, env: Env, name: str) -> SourceSpec:
         src = item.source
         card = item.card
         spec = SourceSpec()
@@ -809,6 +809,10 @@ class _Elaborator:
                         raise ValueError(f"PWL needs time-value pairs, got {len(args)} number(s)")
                     extra = {k: evaluate_val(v, env, card, f"PWL {k}=") for k, v in extras.items()}
                     spec.tran = Pwl(args[0::2], args[1::2], repeat=extra.get("r"), delay=extra.get("td", 0.0))
+                elif issubclass(WAVEFORMS[kind], RandomSource):
+                    # ngspice adds the DC value to the random function; its stream is the source's own
+                    spec.tran = WAVEFORMS[kind](*args, dc=spec.dc or 0.0, key=self.root.draws.source_key(name),
+                                                name=name, location=card.location(offset))
                 else:
                     spec.tran = WAVEFORMS[kind](*args)
             except ValueError as exc:
