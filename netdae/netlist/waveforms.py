@@ -98,6 +98,8 @@ CORNER_RTOL = 1e-12
 
 #: A PWL time within this many ulps of a point is on the point (ngspice's AlmostEqualUlps).
 _PWL_EQUAL_ULPS = 3
+#: Longest PWL whose points the scalar kernel reads as Python lists.
+_PWL_LIST_POINTS = 4096
 
 _TWO_PI = 2.0 * math.pi
 _DEG = math.pi / 180.0
@@ -744,8 +746,13 @@ class Pwl(Waveform):
 
     def _scalar_params(self) -> tuple:
         t0 = float(self.times[self.start])
-        return (self.times.tolist(), self.values.tolist(), self.delay, self.repeat is not None, t0,
-                float(self.times[-1]) - t0)
+        # Python lists index fastest; a long list (a noise realisation) stays an array, which bisect
+        # reads as well, rather than costing 32 bytes a point as Python floats
+        if self.times.size <= _PWL_LIST_POINTS:
+            times, values = self.times.tolist(), self.values.tolist()
+        else:
+            times, values = self.times, self.values
+        return (times, values, self.delay, self.repeat is not None, t0, float(self.times[-1]) - t0)
 
     @staticmethod
     def _value_scalar(p, t):
@@ -804,7 +811,10 @@ class Pwl(Waveform):
         return np.concatenate(out)
 
     def __repr__(self) -> str:
-        pts = " ".join(f"{a:g} {b:g}" for a, b in zip(self.times, self.values))
+        shown = 8 if self.times.size > 16 else self.times.size
+        pts = " ".join(f"{a:g} {b:g}" for a, b in zip(self.times[:shown], self.values[:shown]))
+        if shown < self.times.size:
+            pts += f" ... ({self.times.size} points)"
         extra = (f", r={self.repeat:g}" if self.repeat is not None else "") + (
             f", td={self.delay:g}" if self.delay else "")
         return f"Pwl({pts}{extra})"
