@@ -340,3 +340,11 @@ def test_ngspice_reads_the_sources_and_its_variance_agrees_with_the_closed_form(
     held = np.interp(grid[:-1] + 0.5 * nt, ng.t, ng.signals["v(r)"])
     lo, hi = _chi2_bounds(held.size)
     assert lo < np.var(held, ddof=1) / 0.5**2 < hi
+
+
+def test_a_noise_current_source_reports_its_realisation_as_its_current():
+    text = "t\nI1 0 a dc 1m trnoise(1m 1u)\nR1 a 0 1k\n.tran 1u 20u\n.save v(a) @i1[current]\n.end\n"
+    result = netdae.simulate(netdae.load(text))
+    current = result.signals["@i1[current]"]
+    assert np.std(current) > 1e-4
+    assert np.allclose(result.signals["v(a)"], 1e3 * current, rtol=0, atol=1e-9)
