@@ -8,6 +8,7 @@ variance, distribution, spectrum or dwell time fails them.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -227,10 +228,19 @@ def test_realisations_are_reproducible_and_keyed_by_seed_and_name():
 
 
 def test_too_many_samples_are_refused_where_the_source_is_written():
-    circuit = netdae.load("t\nR1 a 0 1\nV1 a 0 dc 0 trnoise(1m 1p)\n.tran 1n 1m\n.end\n")
-    with pytest.raises(NetlistError, match=r"<string>:3:\d+: v1: TRNOISE NT=1e-12 s up to TSTOP=0.001 s needs "
+    # at load, for the netlist's own .tran cards (so netdae check says it too)
+    with pytest.raises(NetlistError, match=r"<string>:3:13: v1: TRNOISE NT=1e-12 s up to TSTOP=0.001 s needs "
                                            r"1,000,000,002 points.*hint: NT = 1e-12 s is 1e\+09 times smaller"):
-        netdae.simulate(circuit)
+        netdae.load("t\nR1 a 0 1\nV1 a 0 dc 0 trnoise(1m 1p)\n.tran 1n 1m\n.end\n")
+    with pytest.raises(NetlistError, match=r"<string>:2:8: v1: TRRANDOM TS=1e-15 s up to TSTOP=1 s"):
+        netdae.load("t\nV1 a 0 trrandom(1 1f)\nR1 a 0 1\n.tran 1n 1\n.end\n")
+    with pytest.raises(NetlistError, match=r"<string>:2:8: i1: TRNOISE RTSCAPT=1e-12 s, RTSEMT=1e-12 s"):
+        netdae.load("t\nI1 a 0 trnoise 0 0 0 0 1 1p 1p\nR1 a 0 1\n.tran 1n 1\n.end\n")
+    # and for a transient run with another card
+    circuit = netdae.load("t\nR1 a 0 1\nV1 a 0 dc 0 trnoise(1m 1p)\n.tran 1n 1n\n.end\n")
+    card = dataclasses.replace(circuit.analyses[0], tstop=1e-3)
+    with pytest.raises(NetlistError, match=r"<string>:3:13: v1: TRNOISE NT=1e-12 s up to TSTOP=0.001 s"):
+        netdae.simulate(circuit, card=card)
     with pytest.raises(NetlistError, match=f"more than the {MAX_RANDOM_POINTS:,}"):
         Trrandom(1, 1e-12).resolved(1e-9, 1.0)
     with pytest.raises(NetlistError, match="RTSCAPT=1e-12 s, RTSEMT=1e-12 s"):

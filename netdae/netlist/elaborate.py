@@ -430,6 +430,7 @@ class _Elaborator:
                 raise NetlistError(f"values: no element '{name}' in the circuit",
                                    hint="name elements in full, e.g. r1 or r.x1.r2 inside subcircuit x1")
         self._analyses(circuit, elements)
+        self._check_random_sources(circuit)
         circuit.steps = self._steps(elements, circuit)
         if circuit.analyses and not nodes:
             card = self.net.analyses[0].card
@@ -448,6 +449,16 @@ class _Elaborator:
         draws = self.root.draws
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
         return circuit
+
+    @staticmethod
+    def _check_random_sources(circuit: Circuit) -> None:
+        """Every TRNOISE/TRRANDOM realisation fits for each ``.tran`` card (else its located error)."""
+        tstops = sorted({a.tstop for a in circuit.analyses if isinstance(a, TranAnalysis) and a.tstop > 0})
+        for el in circuit.elements:
+            wave = el.source.tran if el.source is not None else None
+            if isinstance(wave, RandomSource):
+                for tstop in tstops:
+                    wave.check_size(tstop)
 
     @staticmethod
     def _realise_laplace(placed: list[Element], elements: dict, nodes: dict, cards: dict) -> list[Element]:

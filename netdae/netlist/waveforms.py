@@ -910,6 +910,18 @@ class RandomSource(Waveform):
         """Times (non-decreasing, a time twice at a jump) and values, without the DC part."""
         raise NotImplementedError
 
+    def check_size(self, tstop: float) -> None:
+        """Refuse a transient to ``tstop`` whose realisation would need too many points.
+
+        Raises
+        ------
+        NetlistError
+            (a ``ValueError``) Located at the function, with a hint; the
+            telegraph's count is its expected one (:meth:`resolved` checks
+            the drawn one).
+        """
+        raise NotImplementedError
+
     def _check_count(self, count: int, what: str, hint: str) -> None:
         if count > MAX_RANDOM_POINTS:
             from ..errors import NetlistError
@@ -1033,15 +1045,41 @@ class Trnoise(RandomSource):
     def _start(self):
         return 0.0, 0.0
 
-    def _realise(self, rng, tstop):
+    def _values(self) -> tuple[float, ...]:
+        """The seven parameters, 0 for those not given (NAMP 0 with NALPHA 0, as ngspice reads it)."""
         na, nt, nalpha, namp, rtsam, capt, emt = (0.0 if v is None else v for v in self.given)
-        if nalpha == 0.0:
-            namp = 0.0
-        if nt > 0.0 and (na > 0.0 or namp > 0.0):
-            n = int(math.floor(tstop / nt)) + 2  # the interval holding tstop closed
-            self._check_count(n, f"NT={nt:g} s up to TSTOP={tstop:g} s",
-                              f"NT = {nt:g} s is {tstop / nt:.3g} times smaller than TSTOP; a larger NT or a "
-                              "shorter transient")
+        return na, nt, nalpha, namp if nalpha != 0.0 else 0.0, rtsam, capt, emt
+
+    def _samples(self, tstop: float) -> int:
+        """Number of white/1f samples up to ``tstop`` (0: no such noise); refuses too many."""
+        na, nt, nalpha, namp = self._values()[:4]
+        if not (nt > 0.0 and (na > 0.0 or namp > 0.0)):
+            return 0
+        n = int(math.floor(min(tstop / nt, 1e18))) + 2  # the interval holding tstop closed
+        self._check_count(n, f"NT={nt:g} s up to TSTOP={tstop:g} s",
+                          f"NT = {nt:g} s is {tstop / nt:.3g} times smaller than TSTOP; a larger NT or a "
+                          "shorter transient")
+        return n
+
+    def _switch_check(self, tstop: float):
+        """The check of a telegraph's point count (a function of the count)."""
+        capt, emt = self._values()[5:]
+
+        def check(count):
+            self._check_count(count, f"RTSCAPT={capt:g} s, RTSEMT={emt:g} s up to TSTOP={tstop:g} s",
+                              "longer capture and emission times or a shorter transient")
+        return check
+
+    def check_size(self, tstop: float) -> None:
+        n = self._samples(tstop)
+        rtsam, capt, emt = self._values()[4:]
+        if rtsam > 0.0:  # the expected number of points of the telegraph
+            self._switch_check(tstop)(int(min(4.0 * tstop / (capt + emt), 1e18)) + n)
+
+    def _realise(self, rng, tstop):
+        na, nt, nalpha, namp, rtsam, capt, emt = self._values()
+        n = self._samples(tstop)
+        if n:
             times = np.arange(n) * nt
             values = np.zeros(n)
             if na > 0.0:
@@ -1052,10 +1090,7 @@ class Trnoise(RandomSource):
         else:
             times, values = np.zeros(1), np.zeros(1)
         if rtsam > 0.0:
-            def check(count):
-                self._check_count(count, f"RTSCAPT={capt:g} s, RTSEMT={emt:g} s up to TSTOP={tstop:g} s",
-                                  "longer capture and emission times or a shorter transient")
-
+            check = self._switch_check(tstop)
             switches = _telegraph(rng, tstop, capt, emt, check)
             check(2 * switches.size + times.size)
             times, values = _add_telegraph(times, values, switches, rtsam)
@@ -1118,15 +1153,26 @@ class Trrandom(RandomSource):
     def _start(self):
         return self._arg(2, 0.0), self._arg(4, 0.0)
 
-    def _realise(self, rng, tstop):
-        kind, ts = int(self.given[0]), self.given[1]
-        td, p1, p2 = self._arg(2, 0.0), self._arg(3, 1.0), self._arg(4, 0.0)
+    def _draws(self, tstop: float) -> int:
+        """Number of values drawn up to ``tstop``; refuses too many."""
+        ts, td = self.given[1], self._arg(2, 0.0)
         if td >= tstop:
-            return np.zeros(1), np.full(1, p2)
-        n = int(math.floor((tstop - td) / ts)) + 1  # draws k = 0 .. n-1 hold on (td + k ts, td + (k+1) ts]
+            return 0
+        n = int(math.floor(min((tstop - td) / ts, 1e18))) + 1  # draw k holds on (td + k ts, td + (k+1) ts]
         self._check_count(2 * n, f"TS={ts:g} s up to TSTOP={tstop:g} s",
                           f"TS = {ts:g} s is {(tstop - td) / ts:.3g} times smaller than TSTOP - TD; a larger TS or a "
                           "shorter transient")
+        return n
+
+    def check_size(self, tstop: float) -> None:
+        self._draws(tstop)
+
+    def _realise(self, rng, tstop):
+        kind, ts = int(self.given[0]), self.given[1]
+        td, p1, p2 = self._arg(2, 0.0), self._arg(3, 1.0), self._arg(4, 0.0)
+        n = self._draws(tstop)
+        if n == 0:
+            return np.zeros(1), np.full(1, p2)
         if kind == 1:
             draws = p1 * rng.uniform(-1.0, 1.0, n) + p2
         elif kind == 2:
