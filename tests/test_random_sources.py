@@ -358,3 +358,15 @@ def test_a_noise_current_source_reports_its_realisation_as_its_current():
     current = result.signals["@i1[current]"]
     assert np.std(current) > 1e-4
     assert np.allclose(result.signals["v(a)"], 1e3 * current, rtol=0, atol=1e-9)
+
+
+def test_a_long_realisation_alone_in_its_bank_takes_the_scalar_kernel_exactly():
+    from netdae.netlist.waveforms import SourceBank
+
+    pwl = _realisation("V1 a 0 trnoise(1m 1u 0 0 1m 5u 5u)\nR1 a 0 1", "v1", 1e-6, 1e-2)
+    assert pwl.times.size > 4096
+    bank = SourceBank([pwl])
+    assert bank._scalar  # one PWL: the scalar kernel, reading the points as arrays
+    rng = np.random.default_rng(4)
+    times = np.concatenate([rng.uniform(0, 1.1e-2, 300), pwl.times[::97]])
+    assert np.array_equal(np.array([bank.values(float(t))[0] for t in times]), pwl.value(times))
