@@ -370,3 +370,17 @@ def test_a_long_realisation_alone_in_its_bank_takes_the_scalar_kernel_exactly():
     rng = np.random.default_rng(4)
     times = np.concatenate([rng.uniform(0, 1.1e-2, 300), pwl.times[::97]])
     assert np.array_equal(np.array([bank.values(float(t))[0] for t in times]), pwl.value(times))
+
+
+def test_both_engines_take_the_same_steps_on_noise(monkeypatch):
+    text = ("rc\nV1 in 0 dc 0 trnoise(1m 1u 1 1m 1m 5u 5u)\nR1 in out 1k\nC1 out 0 1n\nI2 0 out trrandom(2 3u 0 1u)\n"
+            ".tran 1u 100u\n.end\n")
+    runs = {}
+    for engine in ("compiled", "python"):
+        monkeypatch.setenv("NETDAE_ENGINE", engine)
+        runs[engine] = netdae.simulate(netdae.load(text))
+    a, b = runs["compiled"], runs["python"]
+    assert a.stats.integrator.steps == b.stats.integrator.steps > 100
+    t = np.linspace(0, 1e-4, 1001)
+    va, vb = a.dense(t)["v(out)"], b.dense(t)["v(out)"]
+    assert np.max(np.abs(va - vb)) <= 1e-6 * np.max(np.abs(va))
