@@ -333,6 +333,7 @@ def test_compare_refuses_the_transient_of_a_random_source():
 # -- ngspice --------------------------------------------------------------------------------------------
 @pytest.mark.ngspice
 def test_ngspice_reads_the_sources_and_its_variance_agrees_with_the_closed_form():
+    """ngspice 39 draws other values at every run (it is not seeded by the netlist): its statistics are tested."""
     from netdae.ngspice import run_ngspice
 
     na, nt, tstop = 1e-3, 1e-6, 0.01
