@@ -110,7 +110,7 @@ class SourceSpec:
         The card gives an AC value (``ac 0`` included): ngspice's noise input
         must have one.
     tran : Waveform or None
-        The transient function (PULSE, SIN, EXP, PWL, SFFM, AM), see
+        The transient function (PULSE, SIN, EXP, PWL, SFFM, AM, TRNOISE, TRRANDOM), see
         :mod:`netdae.netlist.waveforms`; ``None`` for a constant source.
 
     Notes
@@ -120,6 +120,9 @@ class SourceSpec:
     - ``.op`` and ``.dc``: the DC value when given, else the transient function at t = 0.
     - operating point before ``.tran`` and the transient itself: the transient
       function at time t when given, else the DC value (0 when absent).
+
+    A random function (TRNOISE, TRRANDOM: :class:`~netdae.netlist.waveforms.RandomSource`)
+    carries the DC value itself, as ngspice adds it to the random value.
     """
 
     dc: float | None = None

@@ -78,7 +78,7 @@ class Result:
     poles, zeros : ndarray, optional
         The poles and zeros of ``pz`` (complex; None when not asked for).
     card : object, optional
-        The analysis card run (``tf``, ``noise``).
+        The analysis card run (``tf``, ``noise``, ``pz``, ``tran``).
     transient : TransientInfo, optional
         Index, initial correction, jumps and events of a transient
         (:class:`netdae.metadata.TransientInfo`).

@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..circuit import Circuit, Element
+from ..circuit import Circuit, Element, TranAnalysis
 from ..devices.linear import capacitances, conductances
 from ..errors import CircuitError
 from ..kinds import BRANCH_CURRENT_KINDS, KINDS
@@ -248,8 +248,8 @@ def _linear_values(circuit: Circuit, result: Result, base, el: Element, q: str, 
     elif el.kind in BRANCH_CURRENT_KINDS:
         i = result.signals[f"i({el.name})"]
     else:  # isource: ngspice's voltage is v(n-) - v(n+), its power v(n+) - v(n-) times the current
-        return -v if q == "v" else _source_current(result, el) if q == "current" \
-            else v * _source_current(result, el)
+        return -v if q == "v" else _source_current(circuit, result, el) if q == "current" \
+            else v * _source_current(circuit, result, el)
     return i if q == "i" else v * i
 
 
@@ -308,11 +308,16 @@ def _family_values(system, fam, result: Result, dense, points: slice) -> dict[st
     return {q: np.concatenate([piece[q] for piece in pieces]) for q in pieces[0]}
 
 
-def _source_current(result: Result, el: Element) -> np.ndarray:
+def _source_current(circuit: Circuit, result: Result, el: Element) -> np.ndarray:
     """An independent current source's value at the result's points (DC value, swept value, waveform)."""
     if result.analysis == "tran" and el.source.tran is not None:
         wave = el.source.tran
-        return np.array([float(wave.value(float(t))) for t in result.t])
+        card = result.card if result.card is not None else next(
+            (a for a in circuit.analyses if isinstance(a, TranAnalysis)), None)
+        if not wave.is_resolved and card is not None:
+            # the transient's own waveform: its step/stop defaults, a random source's realisation
+            wave = wave.resolved(card.tstep, card.tstop)
+        return np.asarray(wave.value(np.asarray(result.t, dtype=float)), dtype=float)
     if result.analysis == "dc" and el.name in result.axes:
         return np.asarray(result.axes[el.name], dtype=float)
     if result.analysis == "tran":

@@ -611,6 +611,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         tolerances=tolerances,
         dense=dense,
         notes=notes + [f"saved: {kept_note}"],
+        card=card,
         transient=TransientInfo(
             index=index, index_method=rep.method, index2=index2, initial_correction=correction,
             impulses=impulses, start={nm: float(v) for nm, v in zip(system.names, start.x)},

@@ -325,6 +325,34 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     return _compare_one(circuit, text, source, workdir, **options)
 
 
+def refuse_random_sources(circuit: Circuit, kinds: set[str], source: str) -> None:
+    """Refuse a transient comparison of a netlist with TRNOISE or TRRANDOM sources.
+
+    Their values are random: netdae and ngspice draw different sequences, so
+    the waveforms cannot agree point by point (their statistics can; see
+    docs/ngspice.md). The other analyses see the sources' DC values and are
+    compared as usual.
+
+    Raises
+    ------
+    NetdaeError
+        When ``kinds`` holds ``tran``, the circuit has a ``.tran`` card and a
+        random source.
+    """
+    from ..netlist.waveforms import RandomSource
+
+    if "tran" not in kinds or not any(isinstance(a, TranAnalysis) for a in circuit.analyses):
+        return
+    noisy = [el.name for el in circuit.elements
+             if el.source is not None and isinstance(el.source.tran, RandomSource)]
+    if noisy:
+        shown = ", ".join(noisy[:5]) + (f" and {len(noisy) - 5} more" if len(noisy) > 5 else "")
+        raise NetdaeError(f"{source}: {shown} draw(s) random values (TRNOISE, TRRANDOM): ngspice draws another "
+                          "sequence, so the .tran waveforms cannot agree point by point; compare the other analyses "
+                          "(analyses= of netdae.compare, or the netlist without its .tran card: they see the DC "
+                          "values), and the transients by their statistics (docs/ngspice.md)")
+
+
 #: The end card of a netlist (what follows it is not read).
 _END = re.compile(r"^[ \t]*\.end[ \t]*$", re.IGNORECASE | re.MULTILINE)
 
@@ -382,6 +410,7 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
     wanted_kinds = set(ANALYSES) if analyses is None else {a.lower().lstrip(".") for a in analyses}
     if not wanted_kinds <= set(ANALYSES):
         raise NetdaeError(f"unknown analysis in {sorted(wanted_kinds - set(ANALYSES))}; choose from {', '.join(ANALYSES)}")
+    refuse_random_sources(circuit, wanted_kinds, source)
     header = parse_header(text, source=source)
     tight = header.tight if tight is None else bool(tight)
     tolerances, tol_source = _tolerances(tol, header)

@@ -45,7 +45,7 @@ from .params import Env, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
 from .statements import Definition, ElementCard, InitialCard, InstanceCard, ModelCard, Netlist, ParamDef
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
-from .waveforms import WAVEFORMS, Pwl
+from .waveforms import WAVEFORMS, Pwl, RandomSource
 
 __all__ = ["elaborate"]
 
@@ -405,6 +405,7 @@ class _Elaborator:
                 raise NetlistError(f"values: no element '{name}' in the circuit",
                                    hint="name elements in full, e.g. r1 or r.x1.r2 inside subcircuit x1")
         self._analyses(circuit, elements)
+        self._check_random_sources(circuit)
         circuit.steps = self._steps(elements, circuit)
         if circuit.analyses and not nodes:
             card = self.net.analyses[0].card
@@ -423,6 +424,16 @@ class _Elaborator:
         draws = self.root.draws
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
         return circuit
+
+    @staticmethod
+    def _check_random_sources(circuit: Circuit) -> None:
+        """Every TRNOISE/TRRANDOM realisation fits for each ``.tran`` card (else its located error)."""
+        tstops = sorted({a.tstop for a in circuit.analyses if isinstance(a, TranAnalysis) and a.tstop > 0})
+        for el in circuit.elements:
+            wave = el.source.tran if el.source is not None else None
+            if isinstance(wave, RandomSource):
+                for tstop in tstops:
+                    wave.check_size(tstop)
 
     @staticmethod
     def _realise_laplace(placed: list[Element], elements: dict, nodes: dict, cards: dict) -> list[Element]:
@@ -663,7 +674,7 @@ class _Elaborator:
         if p.model is not None:
             el.model = self._model_name(p, item)
         if item.source is not None:
-            el.source = self._source(item, env)
+            el.source = self._source(item, env, el.name)
         if item.expr is not None:
             nodes_written, elems_written = self.refs[id(item)]
             node_map = dict(zip(nodes_written, p.refs))
@@ -764,7 +775,7 @@ class _Elaborator:
                         ELEMENTS[item.name[0]])
         return p.model
 
-    def _source(self, item: ElementCard, env: Env) -> SourceSpec:
+    def _source(self, item: ElementCard, env: Env, name: str) -> SourceSpec:
         src = item.source
         card = item.card
         spec = SourceSpec()
@@ -784,6 +795,10 @@ class _Elaborator:
                         raise ValueError(f"PWL needs time-value pairs, got {len(args)} number(s)")
                     extra = {k: evaluate_val(v, env, card, f"PWL {k}=") for k, v in extras.items()}
                     spec.tran = Pwl(args[0::2], args[1::2], repeat=extra.get("r"), delay=extra.get("td", 0.0))
+                elif issubclass(WAVEFORMS[kind], RandomSource):
+                    # ngspice adds the DC value to the random function; its stream is the source's own
+                    spec.tran = WAVEFORMS[kind](*args, dc=spec.dc or 0.0, key=self.root.draws.source_key(name),
+                                                name=name, location=card.location(offset))
                 else:
                     spec.tran = WAVEFORMS[kind](*args)
             except ValueError as exc:

@@ -359,8 +359,7 @@ def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
 
 
 _SOURCE_WORDS = set(WAVEFORMS) | {"sine", "dc", "ac"}
-_UNSUPPORTED_SOURCE = {"trnoise": "transient noise", "trrandom": "random transient source",
-                       "external": "external source", "portnum": "RF port"}
+_UNSUPPORTED_SOURCE = {"external": "external source", "portnum": "RF port"}
 #: Inputs of ngspice's distortion analysis: ``DISTOF1 [mag [phase]]``, read and skipped (no .disto in netdae).
 _DISTORTION_INPUTS = ("distof1", "distof2")
 

@@ -26,13 +26,19 @@ Reproducibility: the draws of sample ``k`` come from a stream seeded with
 seed and its index only, never on which process or in which order samples
 are computed. Within a sample, draws are made in elaboration order, which is
 fixed by the netlist.
+
+The transient noise sources (``TRNOISE``, ``TRRANDOM``) draw from streams of
+their own, one per source, keyed by ``(seed, sample)`` and the source's full
+name (:meth:`Draws.source_key`): a source's noise does not change when other
+sources or Monte Carlo functions are added, and differs between samples.
 """
 
 from __future__ import annotations
 
+import hashlib
 import secrets
 
-__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "random_seed"]
+__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "random_seed", "generator"]
 
 #: The Monte Carlo functions and their argument counts.
 RANDOM_FUNCTIONS: dict[str, int] = {"gauss": 3, "agauss": 3, "unif": 2, "aunif": 2, "limit": 2}
@@ -51,6 +57,29 @@ def is_random_call(name: str, nargs: int) -> bool:
     """
     arity = RANDOM_FUNCTIONS.get(name)
     return arity is not None and (name != "limit" or nargs == arity)
+
+
+#: Tag of the transient noise sources' streams in their keys (so that no key equals a sample's).
+_SOURCE_STREAM = 0x7472_6E6F
+
+
+def generator(key):
+    """The random generator of the stream ``key`` (numpy's ``SeedSequence`` of it, PCG64).
+
+    Parameters
+    ----------
+    key : sequence of int
+        Non-negative integers: ``(seed, sample)`` for a sample's Monte Carlo
+        draws, :meth:`Draws.source_key` for a noise source.
+
+    Examples
+    --------
+    >>> float(generator((1, 0)).standard_normal()) == float(generator([1, 0]).standard_normal())
+    True
+    """
+    import numpy as np
+
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(k) for k in key])))
 
 
 def random_seed() -> int:
@@ -89,10 +118,33 @@ class Draws:
 
     def _generator(self):
         if self._rng is None:
-            import numpy as np
-
-            self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([self.seed, self.sample])))
+            self._rng = generator((self.seed, self.sample))
         return self._rng
+
+    def source_key(self, name: str) -> tuple[int, ...]:
+        """The key of the random stream of the noise source ``name`` in this sample.
+
+        Parameters
+        ----------
+        name : str
+            The source's full lower-case name (``"v1"``, ``"v.x1.vn"``).
+
+        Returns
+        -------
+        tuple of int
+            ``(seed, sample, tag, h)`` with ``h`` a 64-bit hash of the name
+            (BLAKE2b: the same in every process, unlike Python's ``hash``).
+
+        Examples
+        --------
+        >>> d = Draws(7, 3)
+        >>> d.source_key("v1") == Draws(7, 3).source_key("v1"), d.source_key("v1") == d.source_key("v2")
+        (True, False)
+        >>> d.count
+        0
+        """
+        digest = hashlib.blake2b(name.encode("utf-8"), digest_size=8).digest()
+        return (self.seed, self.sample, _SOURCE_STREAM, int.from_bytes(digest, "little"))
 
     def draw(self, name: str, args: list[float]) -> float:
         """One value of the Monte Carlo function ``name`` at ``args``.

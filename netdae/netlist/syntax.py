@@ -69,7 +69,8 @@ _IND_KEYS = frozenset({"ic", "m", "nt", "scale", "temp", "dtemp", "tc1", "tc2", 
 #: Source functions of V and I cards.
 SOURCE_FUNCTIONS = "PULSE(v1 v2 td tr tf pw per np) | SIN(vo va freq td theta phase) | " \
     "EXP(v1 v2 td1 tau1 td2 tau2) | PWL(t1 v1 t2 v2 ...) [r=trep] [td=delay] | " \
-    "SFFM(vo va fc mdi fs phasec phases) | AM(va vo mf fc td phasec phases)"
+    "SFFM(vo va fc mdi fs phasec phases) | AM(va vo mf fc td phasec phases) | " \
+    "TRNOISE(na nt nalpha namp rtsam rtscapt rtsemt) | TRRANDOM(type ts td param1 param2)"
 
 ELEMENTS: dict[str, ElementSyntax] = {
     s.letter: s

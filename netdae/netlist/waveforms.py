@@ -1,20 +1,22 @@
-"""Transient source functions: PULSE, SIN, EXP, PWL, SFFM, AM, exactly as ngspice.
+"""Transient source functions: PULSE, SIN, EXP, PWL, SFFM, AM, TRNOISE, TRRANDOM, as ngspice.
 
 Each waveform is built from the numbers written on the card (``None`` for a
 parameter not given). Several ngspice defaults depend on the ``.tran`` step
 TSTEP and stop time TSTOP; :meth:`Waveform.resolved` fills them in:
 
-=====  ============================================  =====================================
-kind   parameters (ngspice order)                    defaults (a 0 counts as "not given"*)
-=====  ============================================  =====================================
-PULSE  v1 v2 td tr tf pw per np                      td 0; tr*, tf* TSTEP; pw*, per* TSTOP;
-                                                     np (number of pulses) 0 = unlimited
-SIN    vo va freq td theta phase                     freq* 1/TSTOP; td, theta, phase 0
-EXP    v1 v2 td1 tau1 td2 tau2                       td1*, tau1*, tau2* TSTEP; td2* td1+TSTEP
-SFFM   vo va fc mdi fs phasec phases                 fc*, fs* 1/TSTOP; mdi, phases 0
-AM     va vo mf fc td phasec phases                  mf* 1/TSTOP; fc, td, phases 0
-PWL    t1 v1 t2 v2 ... [r=trep] [td=delay]           no repeat, no delay
-=====  ============================================  =====================================
+========  ============================================  =====================================
+kind      parameters (ngspice order)                    defaults (a 0 counts as "not given"*)
+========  ============================================  =====================================
+PULSE     v1 v2 td tr tf pw per np                      td 0; tr*, tf* TSTEP; pw*, per* TSTOP;
+                                                        np (number of pulses) 0 = unlimited
+SIN       vo va freq td theta phase                     freq* 1/TSTOP; td, theta, phase 0
+EXP       v1 v2 td1 tau1 td2 tau2                       td1*, tau1*, tau2* TSTEP; td2* td1+TSTEP
+SFFM      vo va fc mdi fs phasec phases                 fc*, fs* 1/TSTOP; mdi, phases 0
+AM        va vo mf fc td phasec phases                  mf* 1/TSTOP; fc, td, phases 0
+PWL       t1 v1 t2 v2 ... [r=trep] [td=delay]           no repeat, no delay
+TRNOISE   na nt nalpha namp rtsam rtscapt rtsemt        all 0 (no such part)
+TRRANDOM  type ts td param1 param2                      td 0, param1 1, param2 0
+========  ============================================  =====================================
 
 Formulas (time ``t``; phases in degrees) as in ngspice 39 ``vsrcload.c``:
 
@@ -36,6 +38,11 @@ Formulas (time ``t``; phases in degrees) as in ngspice 39 ``vsrcload.c``:
   the first value is taken at that instant. With ``r=trep`` the part from
   the point at ``trep`` to the last point repeats for ever (``trep`` must be
   one of the time points); at the end of the list the repeat starts at once.
+
+- TRNOISE, TRRANDOM (:class:`RandomSource`): random functions drawn once
+  for the whole transient from the source's seeded stream, and returned by
+  ``resolved`` as the PWL of their realisation (:class:`Trnoise`,
+  :class:`Trrandom`; the card's DC value is added, as ngspice does).
 
 :meth:`Waveform.derivative` gives exact derivatives of any order (closed
 forms; SFFM by the Leibniz recurrence of sin/cos of the phase), and at a
@@ -75,6 +82,11 @@ __all__ = [
     "Pwl",
     "Sffm",
     "Am",
+    "RandomSource",
+    "Trnoise",
+    "Trrandom",
+    "flicker_noise",
+    "MAX_RANDOM_POINTS",
     "WAVEFORMS",
     "SourceBank",
 ]
@@ -86,6 +98,8 @@ CORNER_RTOL = 1e-12
 
 #: A PWL time within this many ulps of a point is on the point (ngspice's AlmostEqualUlps).
 _PWL_EQUAL_ULPS = 3
+#: Longest PWL whose points the scalar kernel reads as Python lists.
+_PWL_LIST_POINTS = 4096
 
 _TWO_PI = 2.0 * math.pi
 _DEG = math.pi / 180.0
@@ -617,6 +631,19 @@ class Am(Waveform):
 
 
 # ---------------------------------------------------------------------------
+def _count_before(times: np.ndarray, x: np.ndarray, side: str) -> np.ndarray:
+    """Per entry of ``x``: how many points of its row of ``times`` are before it.
+
+    ``times`` holds one sorted row per source (one row: shared by every
+    entry of ``x``, else one row per entry); ``side="left"`` counts the
+    points ``< x``, ``"right"`` those ``<= x``. Binary searches, so a
+    sampled noise source of millions of points costs O(log n) per value.
+    """
+    if times.shape[0] == 1:
+        return np.searchsorted(times[0], x, side=side)
+    return np.array([np.searchsorted(row, v, side=side) for row, v in zip(times, x)], dtype=np.int64)
+
+
 class Pwl(Waveform):
     """``PWL(t1 v1 t2 v2 ...) [r=trep] [td=delay]``: piecewise linear.
 
@@ -705,7 +732,7 @@ class Pwl(Waveform):
         values = np.broadcast_to(values, times.shape)
         n = times.shape[1]
         tol = _PWL_EQUAL_ULPS * np.spacing(np.abs(tau))
-        left = np.count_nonzero(times < (tau - tol)[:, None], axis=1)  # first point not before tau
+        left = _count_before(P[0], tau - tol, "left")  # first point not before tau
         rows = np.arange(tau.size)
         li = np.minimum(left, n - 1)
         on_point = (left < n) & (times[rows, li] <= tau + tol)
@@ -719,8 +746,13 @@ class Pwl(Waveform):
 
     def _scalar_params(self) -> tuple:
         t0 = float(self.times[self.start])
-        return (self.times.tolist(), self.values.tolist(), self.delay, self.repeat is not None, t0,
-                float(self.times[-1]) - t0)
+        # Python lists index fastest; a long list (a noise realisation) stays an array, which bisect
+        # reads as well, rather than costing 32 bytes a point as Python floats
+        if self.times.size <= _PWL_LIST_POINTS:
+            times, values = self.times.tolist(), self.values.tolist()
+        else:
+            times, values = self.times, self.values
+        return (times, values, self.delay, self.repeat is not None, t0, float(self.times[-1]) - t0)
 
     @staticmethod
     def _value_scalar(p, t):
@@ -750,7 +782,7 @@ class Pwl(Waveform):
         if order > 1:
             return np.zeros(tau.size)
         n = times.shape[1]
-        j = np.count_nonzero(times <= (tau + CORNER_RTOL * scale)[:, None], axis=1) - 1
+        j = _count_before(P[0], tau + CORNER_RTOL * scale, "right") - 1
         rows = np.arange(tau.size)
         valid = (j >= 0) & (j < n - 1)
         jj = np.clip(j, 0, max(n - 2, 0))
@@ -779,15 +811,387 @@ class Pwl(Waveform):
         return np.concatenate(out)
 
     def __repr__(self) -> str:
-        pts = " ".join(f"{a:g} {b:g}" for a, b in zip(self.times, self.values))
+        shown = 8 if self.times.size > 16 else self.times.size
+        pts = " ".join(f"{a:g} {b:g}" for a, b in zip(self.times[:shown], self.values[:shown]))
+        if shown < self.times.size:
+            pts += f" ... ({self.times.size} points)"
         extra = (f", r={self.repeat:g}" if self.repeat is not None else "") + (
             f", td={self.delay:g}" if self.delay else "")
         return f"Pwl({pts}{extra})"
 
 
+# ---------------------------------------------------------------------------
+#: Most points a random source keeps for one transient: its realisation is drawn once for the
+#: whole run and kept (16 bytes a point, twice: the reference and the compiled engine's copy),
+#: and every point is a breakpoint, so a time step.
+MAX_RANDOM_POINTS = 4_000_000
+
+
+class RandomSource(Waveform):
+    """Base of TRNOISE and TRRANDOM: a random function, drawn once per transient.
+
+    Parameters
+    ----------
+    *args : float or None
+        The numbers written on the card, in ngspice's order.
+    dc : float
+        The card's DC value: ngspice adds it to the random function.
+    key : sequence of int
+        The key of the source's random stream
+        (:meth:`netdae.netlist.montecarlo.Draws.source_key`).
+    name : str
+        The source's name, for messages.
+    location : SourceLocation or None
+        Where the function is written, for messages.
+
+    Notes
+    -----
+    :meth:`resolved` draws the realisation over ``[0, TSTOP]`` from the
+    stream ``key`` and returns it as a :class:`Pwl` (sample instants and
+    jumps are its points, so they are breakpoints), which both engines then
+    evaluate as any PWL source: the same key and TSTOP give the same
+    realisation in every process. Unresolved, the value is known up to the
+    start of the randomness (``value(0.0)``: the operating point).
+    """
+
+    def __init__(self, *args: float | None, dc: float = 0.0, key: Sequence[int] = (1, 0), name: str = "",
+                 location=None) -> None:
+        super().__init__(*args)
+        self.dc = float(dc)
+        self.key = tuple(int(k) for k in key)
+        self.name = name
+        self.location = location
+
+    def _start(self) -> tuple[float, float]:
+        """(time up to which the value is fixed, that value without the DC part)."""
+        raise NotImplementedError
+
+    def value(self, t):
+        """Value at time(s) ``t`` up to the start of the randomness (else: resolve first).
+
+        Raises
+        ------
+        ValueError
+            For a time after that start (the value there is drawn by :meth:`resolved`).
+        """
+        tt, shape = _as_times(t)
+        until, start = self._start()
+        if tt.size and float(np.max(tt)) > until:
+            raise ValueError(f"{self.kind.upper()}: the value at t={float(np.max(tt)):g} is random, drawn for a "
+                             "transient; call resolved(tstep, tstop) first")
+        return _shape_out(np.full(tt.shape, self.dc + start), shape)
+
+    def resolved(self, tstep: float, tstop: float) -> "Pwl":
+        """The realisation over ``[0, tstop]`` as a PWL (its last value holds after it).
+
+        Parameters
+        ----------
+        tstep, tstop : float
+            The ``.tran`` step and stop time [s], both > 0.
+
+        Returns
+        -------
+        Pwl
+
+        Raises
+        ------
+        NetlistError
+            (a ``ValueError``) When the realisation would need more than
+            :data:`MAX_RANDOM_POINTS` points; located at the function.
+        """
+        from .montecarlo import generator
+
+        if not (tstep > 0 and tstop > 0):
+            raise ValueError(f"tstep and tstop must be > 0, got {tstep}, {tstop}")
+        times, values = self._realise(generator(self.key), float(tstop))
+        return Pwl(times, values + self.dc)
+
+    def _realise(self, rng, tstop: float) -> tuple[np.ndarray, np.ndarray]:
+        """Times (non-decreasing, a time twice at a jump) and values, without the DC part."""
+        raise NotImplementedError
+
+    def check_size(self, tstop: float) -> None:
+        """Refuse a transient to ``tstop`` whose realisation would need too many points.
+
+        Raises
+        ------
+        NetlistError
+            (a ``ValueError``) Located at the function, with a hint; the
+            telegraph's count is its expected one (:meth:`resolved` checks
+            the drawn one).
+        """
+        raise NotImplementedError
+
+    def _check_count(self, count: int, what: str, hint: str) -> None:
+        if count > MAX_RANDOM_POINTS:
+            from ..errors import NetlistError
+
+            label = f"{self.name}: " if self.name else ""
+            raise NetlistError(f"{label}{self.kind.upper()} {what} needs {count:,} points, more than the "
+                               f"{MAX_RANDOM_POINTS:,} netdae keeps for one source", self.location,
+                               hint=hint + "; the realisation is drawn for the whole transient and kept, and "
+                               "every point is a time step")
+
+    def __eq__(self, other) -> bool:
+        return Waveform.__eq__(self, other) and (self.dc, self.key) == (other.dc, other.key)
+
+    __hash__ = None
+
+
+def flicker_noise(rng, n: int, alpha: float, amplitude: float) -> np.ndarray:
+    """``n`` samples of 1/f^alpha noise by Kasdin's filter on white noise.
+
+    White noise ``w_k`` of rms ``amplitude`` goes through the causal filter
+    with the coefficients of ``(1 - z^-1)^(-alpha/2)``: ``h_0 = 1``,
+    ``h_k = h_(k-1) (alpha/2 + k - 1) / k``; the convolution is computed with
+    FFTs zero-padded to at least ``2n - 1`` points (a linear convolution, no
+    wrap-around). The output's spectrum is
+    ``amplitude^2 / |2 sin(pi f dt)|^alpha`` per sample (two-sided, f in
+    cycles per sample), so 1/f^alpha well below the Nyquist frequency
+    (N. J. Kasdin, Proc. IEEE 83(5), 1995, the method of ngspice's
+    generator).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    n : int
+        Number of samples, >= 1.
+    alpha : float
+        Exponent, in (0, 2].
+    amplitude : float
+        rms of the white innovations.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> x = flicker_noise(rng, 8, 2.0, 1.0)   # alpha = 2: h_k = 1, a random walk
+    >>> w = np.random.default_rng(0).standard_normal(8)
+    >>> bool(np.allclose(x, np.cumsum(w)))
+    True
+    """
+    from scipy import fft
+
+    w = amplitude * rng.standard_normal(n)
+    h = np.ones(n)
+    if n > 1:
+        k = np.arange(1, n, dtype=float)
+        h[1:] = np.cumprod((0.5 * alpha + k - 1.0) / k)
+    m = fft.next_fast_len(2 * n - 1, real=True)
+    return fft.irfft(fft.rfft(h, m) * fft.rfft(w, m), m)[:n]
+
+
+def _telegraph(rng, tstop: float, capture: float, emission: float, check) -> np.ndarray:
+    """Switching instants of a random telegraph signal from 0 up to the first one after ``tstop``.
+
+    The signal starts low; low and high dwell times are exponential with means
+    ``capture`` and ``emission``, drawn in pairs (a capture, an emission).
+    """
+    chunk = int(min(max(16.0, 1.2 * tstop / (capture + emission) + 16.0), MAX_RANDOM_POINTS))
+    parts, t, count = [], 0.0, 0
+    while t <= tstop:
+        dwell = np.empty(2 * chunk)
+        dwell[0::2] = rng.exponential(capture, chunk)
+        dwell[1::2] = rng.exponential(emission, chunk)
+        s = t + np.cumsum(dwell)
+        parts.append(s)
+        count += s.size
+        t = float(s[-1])
+        if t <= tstop:
+            check(2 * count)
+    s = np.concatenate(parts)
+    return s[: int(np.searchsorted(s, tstop, side="right")) + 1]
+
+
+class Trnoise(RandomSource):
+    """``TRNOISE(NA NT [NALPHA [NAMP [RTSAM [RTSCAPT [RTSEMT]]]]])``: ngspice's transient noise.
+
+    The sum of
+
+    - white noise: gaussian samples of rms ``NA`` every ``NT`` (the sample at
+      t = 0 is 0), linearly interpolated;
+    - 1/f^NALPHA noise on the same instants: :func:`flicker_noise` with
+      amplitude ``NAMP``, minus its first sample (ngspice reads ``NAMP`` only
+      when ``NALPHA`` is not 0);
+    - random telegraph noise: 0, then ``RTSAM`` after an exponential time of
+      mean ``RTSCAPT`` (capture), back to 0 after one of mean ``RTSEMT``
+      (emission), and so on;
+
+    plus the card's DC value. Each part is drawn in that order from the
+    source's stream; the value at a jump of the telegraph is its left value.
+    """
+
+    kind = "trnoise"
+    names = ("na", "nt", "nalpha", "namp", "rtsam", "rtscapt", "rtsemt")
+
+    def _check(self) -> None:
+        na, nt, nalpha, namp, rtsam, capt, emt = (0.0 if v is None else v for v in self.given)
+        for i in (0, 1, 3, 4):
+            v = self.given[i]
+            if v is not None and v < 0:
+                raise ValueError(f"TRNOISE {self.names[i].upper()} must be >= 0, got {v:g}")
+        if not 0.0 <= nalpha <= 2.0:
+            raise ValueError(f"TRNOISE NALPHA (the 1/f exponent) must be in [0, 2], got {nalpha:g}")
+        if nt == 0.0 and (na > 0.0 or (nalpha > 0.0 and namp > 0.0)):
+            raise ValueError("TRNOISE NT (the sampling interval) is 0: ngspice then draws no white or 1/f noise; "
+                             "give NT > 0")
+        if rtsam > 0.0 and not (capt > 0.0 and emt > 0.0):
+            raise ValueError(f"TRNOISE RTSCAPT and RTSEMT (mean capture and emission times) must be > 0 with "
+                             f"RTSAM = {rtsam:g}, got {capt:g} and {emt:g}")
+
+    def _start(self):
+        return 0.0, 0.0
+
+    def _values(self) -> tuple[float, ...]:
+        """The seven parameters, 0 for those not given (NAMP 0 with NALPHA 0, as ngspice reads it)."""
+        na, nt, nalpha, namp, rtsam, capt, emt = (0.0 if v is None else v for v in self.given)
+        return na, nt, nalpha, namp if nalpha != 0.0 else 0.0, rtsam, capt, emt
+
+    def _samples(self, tstop: float) -> int:
+        """Number of white/1f samples up to ``tstop`` (0: no such noise); refuses too many."""
+        na, nt, nalpha, namp = self._values()[:4]
+        if not (nt > 0.0 and (na > 0.0 or namp > 0.0)):
+            return 0
+        n = int(math.floor(min(tstop / nt, 1e18))) + 2  # the interval holding tstop closed
+        self._check_count(n, f"NT={nt:g} s up to TSTOP={tstop:g} s",
+                          f"NT = {nt:g} s is {tstop / nt:.3g} times smaller than TSTOP; a larger NT or a "
+                          "shorter transient")
+        return n
+
+    def _switch_check(self, tstop: float):
+        """The check of a telegraph's point count (a function of the count)."""
+        capt, emt = self._values()[5:]
+
+        def check(count):
+            self._check_count(count, f"RTSCAPT={capt:g} s, RTSEMT={emt:g} s up to TSTOP={tstop:g} s",
+                              "longer capture and emission times or a shorter transient")
+        return check
+
+    def check_size(self, tstop: float) -> None:
+        n = self._samples(tstop)
+        rtsam, capt, emt = self._values()[4:]
+        if rtsam > 0.0:  # the expected number of points of the telegraph
+            self._switch_check(tstop)(int(min(4.0 * tstop / (capt + emt), 1e18)) + n)
+
+    def _realise(self, rng, tstop):
+        na, nt, nalpha, namp, rtsam, capt, emt = self._values()
+        n = self._samples(tstop)
+        if n:
+            times = np.arange(n) * nt
+            values = np.zeros(n)
+            if na > 0.0:
+                values[1:] = na * rng.standard_normal(n - 1)
+            if namp > 0.0:
+                flick = flicker_noise(rng, n, nalpha, namp)
+                values[1:] += flick[1:] - flick[0]
+        else:
+            times, values = np.zeros(1), np.zeros(1)
+        if rtsam > 0.0:
+            check = self._switch_check(tstop)
+            switches = _telegraph(rng, tstop, capt, emt, check)
+            check(2 * switches.size + times.size)
+            times, values = _add_telegraph(times, values, switches, rtsam)
+        return times, values
+
+
+def _add_telegraph(times: np.ndarray, values: np.ndarray, switches: np.ndarray,
+                   amplitude: float) -> tuple[np.ndarray, np.ndarray]:
+    """A PWL's points plus a telegraph signal starting low and switching at ``switches``."""
+    after = np.where(np.arange(switches.size) % 2 == 0, amplitude, 0.0)
+    before = amplitude - after
+    base = np.interp(switches, times, values)
+    keep = ~np.isin(times, switches)
+    level = np.where(np.searchsorted(switches, times[keep], side="right") % 2 == 1, amplitude, 0.0)
+    t = np.concatenate([times[keep], switches, switches])
+    v = np.concatenate([values[keep] + level, base + before, base + after])
+    rank = np.concatenate([np.zeros(int(keep.sum())), np.zeros(switches.size), np.ones(switches.size)])
+    order = np.lexsort((rank, t))
+    return t[order], v[order]
+
+
+class Trrandom(RandomSource):
+    """``TRRANDOM(TYPE TS [TD [PARAM1 [PARAM2]]])``: ngspice's random value held for TS.
+
+    ``PARAM2`` up to ``TD``, then a new draw every ``TS`` (the first at TD,
+    taking effect just after it), held: a step function whose value at a
+    jump is its left value. Distributions (defaults PARAM1 = 1, PARAM2 = 0):
+
+    ====  ===========  ===================================================
+    TYPE  name         value
+    ====  ===========  ===================================================
+    1     uniform      PARAM2 + PARAM1 * u, u uniform on [-1, 1)
+    2     gaussian     PARAM2 + PARAM1 * z, z standard normal
+    3     exponential  PARAM2 + an exponential draw of mean PARAM1
+    4     poisson      PARAM2 + a Poisson draw of mean (lambda) PARAM1
+    ====  ===========  ===================================================
+
+    plus the card's DC value.
+    """
+
+    kind = "trrandom"
+    names = ("type", "ts", "td", "param1", "param2")
+
+    def _check(self) -> None:
+        kind, ts, td, p1 = self.given[0], self.given[1], self._arg(2, 0.0), self._arg(3, 1.0)
+        if kind not in (1.0, 2.0, 3.0, 4.0):
+            raise ValueError(f"TRRANDOM TYPE must be 1 (uniform), 2 (gaussian), 3 (exponential) or 4 (poisson), "
+                             f"got {kind:g}")
+        if ts is None or not ts > 0.0:
+            raise ValueError(f"TRRANDOM TS (the time a value is held) must be > 0, got {ts:g}")
+        if td < 0.0:
+            raise ValueError(f"TRRANDOM TD (the delay) must be >= 0, got {td:g}")
+        if kind == 2.0 and p1 < 0.0:
+            raise ValueError(f"TRRANDOM type 2: PARAM1 (the standard deviation) must be >= 0, got {p1:g}")
+        if kind == 3.0 and not p1 > 0.0:
+            raise ValueError(f"TRRANDOM type 3: PARAM1 (the mean) must be > 0, got {p1:g}")
+        if kind == 4.0 and p1 < 0.0:
+            raise ValueError(f"TRRANDOM type 4: PARAM1 (lambda, the mean) must be >= 0, got {p1:g}")
+
+    def _start(self):
+        return self._arg(2, 0.0), self._arg(4, 0.0)
+
+    def _draws(self, tstop: float) -> int:
+        """Number of values drawn up to ``tstop``; refuses too many."""
+        ts, td = self.given[1], self._arg(2, 0.0)
+        if td >= tstop:
+            return 0
+        n = int(math.floor(min((tstop - td) / ts, 1e18))) + 1  # draw k holds on (td + k ts, td + (k+1) ts]
+        self._check_count(2 * n, f"TS={ts:g} s up to TSTOP={tstop:g} s",
+                          f"TS = {ts:g} s is {(tstop - td) / ts:.3g} times smaller than TSTOP - TD; a larger TS or a "
+                          "shorter transient")
+        return n
+
+    def check_size(self, tstop: float) -> None:
+        self._draws(tstop)
+
+    def _realise(self, rng, tstop):
+        kind, ts = int(self.given[0]), self.given[1]
+        td, p1, p2 = self._arg(2, 0.0), self._arg(3, 1.0), self._arg(4, 0.0)
+        n = self._draws(tstop)
+        if n == 0:
+            return np.zeros(1), np.full(1, p2)
+        if kind == 1:
+            draws = p1 * rng.uniform(-1.0, 1.0, n) + p2
+        elif kind == 2:
+            draws = p1 * rng.standard_normal(n) + p2
+        elif kind == 3:
+            draws = rng.exponential(p1, n) + p2
+        else:
+            draws = rng.poisson(p1, n) + p2
+        jumps = td + np.arange(n) * ts
+        times = np.repeat(jumps, 2)
+        values = np.empty(2 * n)
+        values[0::2] = np.concatenate([[p2], draws[:-1]])
+        values[1::2] = draws
+        return times, values
+
+
 #: Waveform classes by the name written on a card.
 WAVEFORMS: dict[str, type[Waveform]] = {
-    cls.kind: cls for cls in (Pulse, Sin, Exp, Pwl, Sffm, Am)
+    cls.kind: cls for cls in (Pulse, Sin, Exp, Pwl, Sffm, Am, Trnoise, Trrandom)
 }
 
 
