@@ -291,6 +291,7 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "cmu": "internal base-collector capacitance", "cbx": "external base to collector capacitance",
         "csub": "substrate capacitance", "qbe": "base-emitter charge", "qbc": "base-collector charge",
         "qbx": "external base-collector charge", "qsub": "substrate charge",
+        "p": "power absorbed: each terminal's current times its voltage",
     },
     "mosfet": {
         "id": "drain current (type-normalised)", "is": "source current (type-normalised)",
@@ -304,6 +305,7 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "gbs": "bulk-source junction conductance", "cbd": "bulk-drain junction capacitance",
         "cbs": "bulk-source junction capacitance", "cgs": "gate-source capacitance (overlap included)",
         "cgd": "gate-drain capacitance (overlap included)", "cgb": "gate-bulk capacitance (overlap included)",
+        "p": "power absorbed: each terminal's current times its voltage",
     },
     "jfet": {
         "id": "drain current (type-normalised)", "ig": "gate current (type-normalised)",
@@ -312,6 +314,7 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "gm": "transconductance", "gds": "output conductance", "ggs": "gate-source junction conductance",
         "ggd": "gate-drain junction conductance", "qgs": "gate-source junction charge",
         "qgd": "gate-drain junction charge",
+        "p": "power absorbed: each terminal's current times its voltage",
     },
 }
 #: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).

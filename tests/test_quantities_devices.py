@@ -64,6 +64,14 @@ rj2 jd2 vee 1k
 
 DEVICES = {"q1": "bjt", "q2": "bjt", "d1": "diode", "m1": "mosfet", "m2": "mosfet", "m3": "mosfet",
            "m4": "mosfet", "j1": "jfet", "j2": "jfet"}
+#: ngspice 39's power of a P-channel MOS1 or JFET is its type-normalised currents times the real
+#: node voltages: the negative of the power the device absorbs, which netdae reports.
+P_CHANNEL_POWER = ("@m2[p]", "@j2[p]")
+
+
+def ngspice_value(name, value):
+    """ngspice's value of ``name`` in netdae's convention (the P-channel powers' sign)."""
+    return -value if name in P_CHANNEL_POWER else value
 
 
 def every_quantity(devices=DEVICES):
@@ -132,13 +140,37 @@ def test_operating_point_against_ngspice():
     theirs = run_ngspice(deck, backend="subprocess").result("op")
     assert sorted(ours.names()) == sorted(names)
     for name in names:
-        ref = float(theirs[name][0])
+        ref = ngspice_value(name, float(theirs[name][0]))
         assert ours[name][0] == pytest.approx(ref, rel=2e-6, abs=1e-17), name
+
     # m3 has a body effect: its gate charge depends on vbs, ngspice's Meyer capacitances do not (none here:
     # no TOX); PMOS and PJF quantities are type-normalised as ngspice's
     assert ours["@m2[vgs]"][0] > 0 and ours["@m2[id]"][0] > 0 and ours["@m2[von]"][0] < 0
     assert ours["@q2[ic]"][0] < 0 < ours["@q2[vbe]"][0]
     assert ours["@m4[vds]"][0] < 0 < ours["@m4[gm]"][0]  # reverse mode: gm of the mode
+
+
+def test_powers_balance():
+    """Tellegen: the powers every element absorbs sum to zero; the devices' (both polarities) are positive."""
+    ckt = netdae.load(OP_DECK)
+    names = [f"@{el.name}[p]" for el in ckt.elements if "p" in DEVICE_QUANTITIES.get(el.kind, {})]
+    op = netdae.run(OP_DECK, save=names)[0]
+    powers = np.array([op[n][0] for n in names])
+    assert abs(powers.sum()) <= 1e-10 * np.abs(powers).sum()  # the operating point's residual
+    assert min(op[f"@{d}[p]"][0] for d in DEVICES) > 0.0
+
+
+def test_powers_balance_in_a_transient():
+    """With the charges' currents: sources, resistors, capacitor and devices balance at every point."""
+    deck = OP_DECK.replace("vin in 0 0.7", "vin in 0 sin(0.7 0.02 1meg)").replace(
+        ".op", "cl c 0 2p\n.tran 5n 2u")
+    ckt = netdae.load(deck)
+    names = [f"@{el.name}[p]" for el in ckt.elements if "p" in DEVICE_QUANTITIES.get(el.kind, {})]
+    tr = netdae.run(deck, save=names)[0]
+    powers = np.array([tr[n] for n in names])
+    scale = np.abs(powers).sum(axis=0)
+    # the capacitors' and charges' currents are BDF derivatives at the points: a balance to the tolerance
+    assert np.max(np.abs(powers.sum(axis=0)) / scale) < 1e-4
 
 
 DC_DECK = """dc quantities

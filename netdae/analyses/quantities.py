@@ -144,9 +144,12 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
 
 
 def _device_voltages(system, el: Element) -> tuple[str, ...]:
-    """The node voltages (``v(q1#base)`` ...) one nonlinear device's equations read."""
+    """The node voltages one nonlinear device's quantities read: its equations' (``v(q1#base)`` ...) and its
+    terminals' (the power)."""
     fam, k = _family_of(system, el)
-    return tuple(system.names[int(i)] for i in fam.read_unknowns(k) if i >= 0)
+    read = [system.names[int(i)] for i in fam.read_unknowns(k) if i >= 0]
+    terminals = [f"v({nd})" for nd in el.nodes if system.node_index(nd) >= 0]
+    return tuple(dict.fromkeys(read + terminals))
 
 
 def _check_opvar(system, el: Element, name: str, q: str) -> None:

@@ -430,7 +430,10 @@ class BjtFamily(DeviceFamily):
         transport model (:meth:`transport`), ``gx`` the base resistance's
         (:meth:`base_resistance`), ``cpi, cmu, cbx, csub`` the charges'
         derivatives and ``qbe, qbc, qbx, qsub`` the charges (type-normalised),
-        all times the multiplier m.
+        all times the multiplier m; ``p`` the power the terminals deliver to
+        the device, the sum of each terminal's current times its voltage
+        (series resistances included; in a transient with the charges'
+        currents).
         """
         v = self.stamps.voltages_at(x)
         tp, ttp, m = self.type, self.ttype, self.mult
@@ -459,8 +462,12 @@ class BjtFamily(DeviceFamily):
         ic = i_c - dq_bc - dq_bx - np.where(vertical, sub, 0.0)
         ib = i_b + dq_be + dq_bc + dq_bx - np.where(vertical, 0.0, sub)
         ie = -(i_c + i_b + dq_be)
+        xx = np.atleast_2d(x)
+        ve = xx[:, self.e]
+        # the power the terminals deliver to the device (series resistances included)
+        p = ic * (xx[:, self.c] - ve) + ib * (xx[:, self.b] - ve) - sub * (xx[:, self.s] - ve)
         return {
-            "ic": ic, "ib": ib, "ie": ie, "is": -sub, "vbe": vbe, "vbc": vbc,
+            "ic": ic, "ib": ib, "ie": ie, "is": -sub, "p": p, "vbe": vbe, "vbc": vbc,
             "gm": m * tr["gm"], "gpi": m * tr["gpi"], "gmu": m * tr["gmu"], "go": m * tr["go"], "gx": gx,
             "cpi": dq[0], "cmu": dq[2], "cbx": dq[3], "csub": dq[4],
             "qbe": q[0], "qbc": q[1], "qbx": q[2], "qsub": q[3],

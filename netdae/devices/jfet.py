@@ -325,7 +325,9 @@ class JfetFamily(DeviceFamily):
         (with its charge's). ``gm`` and ``gds`` are the derivatives of the
         channel current of the mode (:func:`channel_current`), ``ggs``,
         ``ggd`` the gate junctions' conductances, ``qgs``, ``qgd`` their
-        depletion charges.
+        depletion charges; ``p`` the power the terminals deliver to the
+        device (each terminal's current times its voltage, series
+        resistances included).
         """
         v = self.stamps.voltages_at(x)
         tp = self.type
@@ -346,8 +348,12 @@ class JfetFamily(DeviceFamily):
         i_gd = igd + rate_gd
         i_g = igs + rate_gs + i_gd
         i_d = cdrain - i_gd
+        xx = np.atleast_2d(x)
+        vs = xx[:, self.s]
+        # the power the terminals deliver (type-normalised currents times real voltages, times the type)
+        p = tp * (i_d * (xx[:, self.d] - vs) + i_g * (xx[:, self.g] - vs))
         return {
-            "id": i_d, "ig": i_g, "is": -(i_d + i_g), "igd": i_gd, "vgs": vgs, "vgd": vgd,
+            "id": i_d, "ig": i_g, "is": -(i_d + i_g), "igd": i_gd, "p": p, "vgs": vgs, "vgd": vgd,
             "gm": gm, "gds": gds, "ggs": ggs, "ggd": ggd, "qgs": qj[..., :n], "qgd": qj[..., n:],
         }
 

@@ -539,7 +539,9 @@ class MosfetFamily(DeviceFamily):
         the channel current of the mode (:func:`drain_current`), ``gbd, gbs``,
         ``cbd, cbs`` the bulk junctions', and ``cgs, cgd, cgb`` the
         derivatives ``-dQg/dVs``, ``-dQg/dVd``, ``-dQg/dVb`` of netdae's gate
-        charge (overlaps included).
+        charge (overlaps included); ``p`` the power the terminals deliver to
+        the device (each terminal's current times its voltage, series
+        resistances included).
         """
         v = self.stamps.voltages_at(x)
         tp = self.type
@@ -569,8 +571,12 @@ class MosfetFamily(DeviceFamily):
         i_d = select(cdrain, -cdrain) - ibd + rate_d
         i_g = rate_g + np.zeros_like(vgs)
         i_b = ibd + ibs + rate_b
+        xx = np.atleast_2d(x)
+        vs = xx[:, self.s]
+        # the power the terminals deliver (type-normalised currents times real voltages, times the type)
+        p = tp * (i_d * (xx[:, self.d] - vs) + i_g * (xx[:, self.g] - vs) + i_b * (xx[:, self.b] - vs))
         return {
-            "id": i_d, "is": -(i_d + i_g + i_b), "ig": i_g, "ib": i_b, "ibd": ibd, "ibs": ibs,
+            "id": i_d, "is": -(i_d + i_g + i_b), "ig": i_g, "ib": i_b, "ibd": ibd, "ibs": ibs, "p": p,
             "vgs": vgs, "vds": vds, "vbs": vbs, "vbd": vbd,
             "von": tp * von, "vdsat": tp * np.maximum(select(vgs, vgd) - von, 0.0),
             "gm": gm, "gds": gds, "gmb": gmbs, "gmbs": gmbs, "gbd": gbd, "gbs": gbs,
