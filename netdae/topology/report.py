@@ -8,7 +8,14 @@ from enum import StrEnum
 __all__ = ["Loop", "Cutset", "NodeGroup", "Finding", "FindingKind", "Severity", "TopologyReport", "SEVERITIES"]
 
 
-class Severity(StrEnum):
+class _Vocabulary(StrEnum):
+    """A closed vocabulary of strings: compares, serialises and prints (also in lists) as its value."""
+
+    def __repr__(self) -> str:
+        return repr(self.value)
+
+
+class Severity(_Vocabulary):
     """How serious a finding is (a ``str``: compares and serialises as its value)."""
 
     #: The DAE is singular.
@@ -22,7 +29,7 @@ class Severity(StrEnum):
 SEVERITIES = tuple(Severity)
 
 
-class FindingKind(StrEnum):
+class FindingKind(_Vocabulary):
     """What a finding is about (a ``str``: compares and serialises as its value)."""
 
     V_LOOP = "v_loop"
