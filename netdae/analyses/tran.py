@@ -151,6 +151,35 @@ def _save_request(system: MnaSystem, names: list[str]) -> tuple[np.ndarray, list
     return keep_arr, requested, {name: (pos.get(a, -1), pos.get(b, -1)) for name, (a, b) in diffs.items()}
 
 
+def _streamable(system: MnaSystem, options, integrate_options: dict) -> bool:
+    """True when the result's points are the compiled engine's accepted points, as they come."""
+    from ..dae.bdf.run import _compiled_engine_enabled
+    from ..dae.compiled.driver import supports
+
+    return (not options.interp and _compiled_engine_enabled()
+            and supports(system, {**integrate_options, "output": None}))
+
+
+def _blocks(output: Callable[[int, Result], str | None], tstart: float, kept_names, requested,
+            diffs) -> Callable:
+    """The integrator's ``output(start, t, x)`` that hands ``output`` the result's next points as a Result
+    (the points before ``tstart`` left out, as the result leaves them out)."""
+    first = []  # the integrator's position of the result's first point, once known
+
+    def accepted(start: int, t: np.ndarray, x: np.ndarray) -> str | None:
+        sel = t >= tstart
+        if not sel.any():
+            return None
+        head = int(np.argmax(sel))  # the times grow: the points kept are the block's tail
+        if not first:
+            first.append(start + head)
+        block = Result("tran", axes={"time": t[head:].copy()},
+                       signals=_signals(kept_names, requested, x[head:].copy(), diffs))
+        return output(start + head - first[0], block)
+
+    return accepted
+
+
 def _signals(kept_names, requested, values: np.ndarray, diffs) -> dict[str, np.ndarray]:
     pos = {nm: k for k, nm in enumerate(kept_names)}
     out = {nm: values[:, pos[nm]] for nm in requested}
@@ -407,7 +436,8 @@ def _check_delays(system: MnaSystem) -> None:
 def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[str] | None = None,
               reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
               maxord: int | None = None, initial: str = "consistent", max_step: float | None = None,
-              raise_on_failure: bool = False, progress: Callable | None = None) -> Result:
+              raise_on_failure: bool = False, progress: Callable | None = None,
+              output: Callable[[int, Result], str | None] | None = None) -> Result:
     """Run a transient analysis.
 
     Parameters
@@ -433,6 +463,17 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         failed result.
     progress : callable, optional
         ``progress(t, tstop, steps)``, called a few times per second.
+    output : callable, optional
+        ``output(start, block) -> str | None``: the result's points as they
+        are computed, each ``block`` a ``tran`` Result holding the points from
+        position ``start`` on (axis ``time`` and the same signals as the
+        returned Result, equal to its rows; a block may repeat points of the
+        one before when a Ctrl-C interrupted that call), called about ten
+        times per second of computation and once at the end, also when the run
+        fails or is interrupted; a text returned stops the run with that
+        reason (the result then ends there, failed). Only where the result's
+        points are the integrator's accepted points (the compiled engine,
+        without ``.options interp``, index <= 2); otherwise never called.
 
     Returns
     -------
@@ -551,10 +592,13 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         events = []
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
     else:
+        opts = dict(rtol=rtol, vntol=vntol_, abstol=abstol_, index=unknown_index, maxord=order, max_step=tmax,
+                    save=keep, relref=RELREF)
+        if output is not None and _streamable(system, o, opts):
+            opts["output"] = _blocks(output, card.tstart, kept_names, requested, diffs)
         try:
-            res = integrate(system, (0.0, card.tstop), x0, rtol=rtol, vntol=vntol_, abstol=abstol_,
-                            index=unknown_index, maxord=order, max_step=tmax, save=keep, progress=progress,
-                            relref=RELREF, raise_on_failure=raise_on_failure)
+            res = integrate(system, (0.0, card.tstop), x0, progress=progress, raise_on_failure=raise_on_failure,
+                            **opts)
         except KeyboardInterrupt as exc:
             # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
             res = getattr(exc, "partial", None)
