@@ -37,6 +37,7 @@ dense output). Integration method: netdae integrates with BDF (ngspice's
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from dataclasses import dataclass, field, replace
@@ -55,7 +56,7 @@ from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from .index import IndexReport, analyze_index
 
-__all__ = ["transient", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
+__all__ = ["transient", "output_size", "physical_memory", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
 
 #: Circuits up to this many unknowns get the dense pencil analysis before a
 #: transient (measured with one BLAS thread: 0.02 s at 100 unknowns, 0.11 s at
@@ -71,6 +72,10 @@ JUMP_TOLERANCE = 1e-6
 #: Jumps of the solution (inputs that jump, index-2 unknowns at corners) noted one by one
 #: up to this many; the rest are counted (all are in ``transient.jumps``).
 JUMP_NOTES = 3
+#: A transient whose output needs more than this fraction of the machine's memory at its fewest
+#: points is refused (it could not finish); above ADVISE_FRACTION it runs with a warning.
+REFUSE_FRACTION = 1.0
+ADVISE_FRACTION = 0.25
 #: ngspice's default largest step is (tstop - tstart) / TMAX_DIVISOR (or tstep if smaller).
 TMAX_DIVISOR = 50.0
 #: The relative tolerance refers to an unknown's present magnitude, but to at
@@ -149,6 +154,55 @@ def _save_request(system: MnaSystem, names: list[str]) -> tuple[np.ndarray, list
     keep_arr = np.array(sorted(keep), dtype=np.int64)
     pos = {system.names[i]: k for k, i in enumerate(keep_arr)}
     return keep_arr, requested, {name: (pos.get(a, -1), pos.get(b, -1)) for name, (a, b) in diffs.items()}
+
+
+def physical_memory() -> int | None:
+    """The machine's physical memory in bytes (None where the system does not say)."""
+    import os
+
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
+    """The fewest points a transient records and the bytes its output then needs at least.
+
+    The integrator never steps further than ``tmax``, so it records at least
+    ``ceil(tstop / tmax) + 1`` points (usually many more: steps shrink at
+    every corner of the inputs), each a time, an order byte and the
+    ``saved`` unknowns as doubles; a lower bound, not a forecast.
+
+    >>> output_size(100_000, 1e-3, 1e-9)  # every node of 100,000 at 1e6 points at least
+    (1000001, 800009000009)
+    """
+    points = int(math.ceil(tstop / tmax)) + 1
+    return points, points * (8 * (saved + 1) + 1)
+
+
+def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float) -> str | None:
+    """Refuse a transient whose output cannot fit in memory; a warning when it fills much of it.
+
+    Raises
+    ------
+    NetdaeError
+        When the fewest points the run records need more than the machine's memory.
+    """
+    memory = physical_memory()
+    if not memory:
+        return None
+    points, size = output_size(saved, card.tstop, tmax)
+    if size <= ADVISE_FRACTION * memory:
+        return None
+    what = (f"keeping {saved:,} of {total:,} unknowns at {points:,} points or more (tstop/tmax = "
+            f"{card.tstop:g}/{tmax:g}) needs at least {size / 2**30:,.1f} GiB of memory, this machine has "
+            f"{memory / 2**30:,.1f} GiB")
+    hint = "save only the signals you need (--save v(out),i(v1) or a .save card), or a larger tstep or tmax"
+    if size > REFUSE_FRACTION * memory:
+        where = f"{card.location}: " if card.location is not None else ""
+        raise NetdaeError(f"{where}.tran: {what}: the run cannot finish (hint: {hint})")
+    return f"warning: {what} (hint: {hint})"
 
 
 def _streamable(system: MnaSystem, options, integrate_options: dict) -> bool:
@@ -517,6 +571,11 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
 
     system = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
     notes = list(system.notes)
+    names_req = save if save is not None else circuit.saves
+    keep, requested, diffs = _save_request(system, names_req)
+    size_warning = _check_size(keep.size, system.n, card, tmax)
+    if size_warning is not None:
+        notes.append(size_warning)
     if system.delays is not None:
         _check_delays(system)
         # a step never reaches past the shortest line delay: the wave a step needs has left
@@ -574,8 +633,6 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
     notes += [f"warning: {w}" for w in impulses]
 
-    names_req = save if save is not None else circuit.saves
-    keep, requested, diffs = _save_request(system, names_req)
     kept_names = [system.names[i] for i in keep]
     unknown_index = np.array([1 + rep.derivative_order.get(nm, 0) for nm in system.names], dtype=np.int64)
     bdf_opts = {"rtol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}

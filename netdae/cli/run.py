@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import EXIT_ERROR, log_diagnostics, option_value, signal_names
+from . import log_diagnostics, option_value, signal_names
 from ..signals import signal_unit
 
 __all__ = ["add_parser", "main", "stems"]
@@ -137,8 +137,10 @@ def _finish_stream(res, stream) -> bool:
     if stream is None or not stream.opened:
         return False
     stream.close()
-    if stream.error is not None:
-        return True  # the run stopped there: the file keeps its points, the error is reported
+    if stream.error is not None:  # the run stopped there; the file keeps its points
+        from ..errors import OutputFileError
+
+        raise OutputFileError(stream.path, stream.failure())
     if stream.points != res.points or stream.names != list(res.axes) + list(res.signals):
         LOG.debug("%s: the streamed points differ from the result's; written whole", stream.path)
         return False
@@ -224,9 +226,12 @@ def main(args) -> int:
     finally:
         bar.close()
     keys = stems(results)
-    written = [_write(res, stem, args, out_dir, circuit.title, circuit, streams.get(position))
-               for position, (res, stem) in enumerate(zip(results, keys))]
-    broken = [s for s in streams.values() if s.error is not None]
+    try:
+        written = [_write(res, stem, args, out_dir, circuit.title, circuit, streams.get(position))
+                   for position, (res, stem) in enumerate(zip(results, keys))]
+    finally:
+        _close_streams(streams)  # those a failed write left open
+
     measures = [m for res in results for m in res.measures]
     measures_file = None
     if out_dir is not None and measures:
@@ -275,13 +280,9 @@ def main(args) -> int:
         LOG.info("wrote %s", measures_file)
     for path in exported:
         LOG.info("wrote %s", path)
-    for stream in broken:
-        LOG.error("%s", stream.stop_reason())
     if interrupted is not None:
         LOG.error("interrupted: %s", results[-1].message)
         return EXIT_INTERRUPTED
-    if broken:
-        return EXIT_ERROR
     return 0 if all(r.ok for r in results) else 1
 
 

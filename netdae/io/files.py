@@ -243,9 +243,13 @@ class StreamedFile:
 
     def stop_reason(self) -> str:
         """What the run is told when the file takes no more points."""
+        return f"cannot write {self.path}: {self.failure()}"
+
+    def failure(self) -> str:
+        """Why the file took no more points, and what it holds."""
         where = (f"it holds the {self.points:,} points up to {self.last:.9g}" if self.last is not None
-                 else "it holds no point")
-        return f"cannot write {self.path}: {self.error} ({where})"
+                 else "nothing was left")
+        return f"{self.error} ({where})"
 
     def close(self) -> None:
         """Patch the header's count and flush the file to the disk (nothing when it was never created).
@@ -270,9 +274,14 @@ class StreamedFile:
             handle.close()
 
     def _failed(self, exc: OSError) -> str:
-        """Cut the file back to its last complete point and keep why (the run is then told to stop)."""
+        """Cut the file back to its last complete point and keep why (the run is then told to stop);
+        a file that holds no point is removed."""
         self.error = reason_of(exc)
-        if self._handle is not None:
+        if self._handle is not None and self.points == 0:
+            self._handle.close()
+            self._handle = None
+            _remove(self.path)
+        elif self._handle is not None:
             try:
                 self._handle.truncate(self._end)
             except OSError:
