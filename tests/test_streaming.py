@@ -198,6 +198,30 @@ def test_a_file_killed_mid_run_is_refused_unless_read_partially(tmp_path):
     assert cut.points == points - 1
 
 
+def test_a_bounded_run_keeps_only_its_last_points_in_memory_and_all_in_the_file(tmp_path, monkeypatch):
+    from netdae.cli import main
+    from netdae.dae.compiled import driver
+
+    netlist = NETLIST.replace(".meas tran vmax max v(out)\n", "")  # nothing needs the dense output
+    monkeypatch.setattr(driver, "WINDOW_BYTES", 64 * 8 * 5)  # 64 points of time and 3 signals
+    full = _full_tran(netlist)
+    circuit = netdae.load(netlist)
+    stream = RawStream(tmp_path / "bounded.raw", title=circuit.title, date="today")
+    tran = run(circuit, output=lambda position, start, block: stream.write(start, block), bounded=True)[1]
+    stream.close()
+    assert tran.ok and tran.points <= 64 < full.points == tran.stats.points == stream.points
+    assert any(f"holds the last {tran.points:,} of the {full.points:,} points" in n for n in tran.notes)
+    np.testing.assert_array_equal(tran["v(in,out)"], full["v(in,out)"][-tran.points:])
+    assert (tmp_path / "bounded.raw").read_bytes() == format_raw(full, title=circuit.title, date="today")
+    # netdae run bounds its memory (no .meas, no --plot, no --json) and writes every point
+    path = tmp_path / "rc.cir"
+    path.write_text(netlist)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--format", "raw"]) == 0
+    (back,) = read_raw(tmp_path / "out" / "tran.raw")
+    np.testing.assert_array_equal(back.t, full.t)
+    np.testing.assert_array_equal(back["i(v1)"], full["i(v1)"])
+
+
 def test_transients_that_are_not_their_integrators_points_are_written_whole(tmp_path):
     interp = NETLIST.replace(".op\n", ".options interp\n")
     quantities = NETLIST.replace(".save v(out)", ".save i(r1) v(out)")

@@ -177,7 +177,7 @@ def refuse_steps(circuit: Circuit) -> None:
 def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
         progress: Callable[[float, float, int], None] | None = None,
-        output: Callable[[int, int, Result], str | None] | None = None) -> list[Result]:
+        output: Callable[[int, int, Result], str | None] | None = None, bounded: bool = False) -> list[Result]:
     """Run every analysis of a circuit, in netlist order.
 
     Parameters
@@ -203,6 +203,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         transients whose result is their integrator's accepted points and
         holds no device quantity (``i(r1)``, ``@q1[gm]``, computed after the
         run); the others are never streamed.
+    bounded : bool
+        With ``output``: a streamed transient keeps only its last points in
+        memory (``bounded`` of :func:`netdae.analyses.tran.transient`) unless
+        a ``.meas`` card needs them all.
 
     Returns
     -------
@@ -266,7 +270,8 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
             stream = None if output is None or quantities else _stream(output, position, names, wanted)
             try:
-                res = transient(circuit, card, save=computed_from, progress=progress, output=stream, **options)
+                res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
+                                bounded=bounded and not circuit.measures, **options)
             except KeyboardInterrupt as exc:
                 # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                 partial = getattr(exc, "partial", None)

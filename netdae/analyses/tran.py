@@ -175,7 +175,7 @@ def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
     ``saved`` unknowns as doubles; a lower bound, not a forecast.
 
     >>> output_size(100_000, 1e-3, 1e-9)  # every node of 100,000 at 1e6 points at least
-    (1000001, 800009000009)
+    (1000001, 800009800009)
     """
     points = int(math.ceil(tstop / tmax)) + 1
     return points, points * (8 * (saved + 1) + 1)
@@ -215,9 +215,9 @@ def _streamable(system: MnaSystem, options, integrate_options: dict) -> bool:
 
 
 def _blocks(output: Callable[[int, Result], str | None], tstart: float, kept_names, requested,
-            diffs) -> Callable:
+            diffs, streamed: list[int]) -> Callable:
     """The integrator's ``output(start, t, x)`` that hands ``output`` the result's next points as a Result
-    (the points before ``tstart`` left out, as the result leaves them out)."""
+    (the points before ``tstart`` left out, as the result leaves them out); ``streamed[0]`` counts them."""
     first = []  # the integrator's position of the result's first point, once known
 
     def accepted(start: int, t: np.ndarray, x: np.ndarray) -> str | None:
@@ -229,7 +229,9 @@ def _blocks(output: Callable[[int, Result], str | None], tstart: float, kept_nam
             first.append(start + head)
         block = Result("tran", axes={"time": t[head:].copy()},
                        signals=_signals(kept_names, requested, x[head:].copy(), diffs))
-        return output(start + head - first[0], block)
+        position = start + head - first[0]
+        streamed[0] = max(streamed[0], position + block.points)
+        return output(position, block)
 
     return accepted
 
@@ -491,7 +493,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
               reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
               maxord: int | None = None, initial: str = "consistent", max_step: float | None = None,
               raise_on_failure: bool = False, progress: Callable | None = None,
-              output: Callable[[int, Result], str | None] | None = None) -> Result:
+              output: Callable[[int, Result], str | None] | None = None, bounded: bool = False) -> Result:
     """Run a transient analysis.
 
     Parameters
@@ -528,6 +530,13 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         reason (the result then ends there, failed). Only where the result's
         points are the integrator's accepted points (the compiled engine,
         without ``.options interp``, index <= 2); otherwise never called.
+    bounded : bool
+        With ``output`` called: keep only the last points in memory (tens of
+        MiB; :data:`netdae.dae.compiled.driver.WINDOW_BYTES`), for a caller
+        that needs every point only in what ``output`` wrote. The result then
+        holds the last points, its dense output covers those, ``stats.points``
+        counts all of them and a note says so. No effect on a circuit with
+        transmission lines (the integrator reads their past waves).
 
     Returns
     -------
@@ -638,6 +647,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     bdf_opts = {"rtol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
 
     interrupted = None
+    streamed = [0]  # points handed to output
     if index is not None and index >= 3:
         y0 = (rep.pencil.weierstrass.U1 @ start.q0) if card.uic else rep.pencil.weierstrass.split(x0)[0]
         times, X, dense_kept, stats, message, status = _decoupled(system, rep, start.x, y0, card.tstop, keep,
@@ -652,7 +662,8 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         opts = dict(rtol=rtol, vntol=vntol_, abstol=abstol_, index=unknown_index, maxord=order, max_step=tmax,
                     save=keep, relref=RELREF)
         if output is not None and _streamable(system, o, opts):
-            opts["output"] = _blocks(output, card.tstart, kept_names, requested, diffs)
+            opts["output"] = _blocks(output, card.tstart, kept_names, requested, diffs, streamed)
+            opts["window"] = bounded
         try:
             res = integrate(system, (0.0, card.tstop), x0, progress=progress, raise_on_failure=raise_on_failure,
                             **opts)
@@ -709,11 +720,16 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     def dense(t):
         return _signals(kept_names, requested, np.atleast_2d(np.asarray(dense_kept(np.atleast_1d(t)))), diffs)
 
+    points = int(out_t.size)
+    if streamed[0] > points:  # a bounded run: the points before these went to output only
+        notes.append(f"memory: the result holds the last {points:,} of the {streamed[0]:,} points (all of them "
+                     "went to the output file as they were computed)")
+        points = streamed[0]
     integrator = Statistics.from_counts(stats)
     stats_out = Statistics(
         steps=integrator.steps or 0, rejected=integrator.rejected or 0,
         newton_iterations=integrator.newton_iterations or 0, factorizations=integrator.factorizations or 0,
-        points=int(out_t.size), op_newton_iterations=start.op_iterations, integrator=integrator,
+        points=points, op_newton_iterations=start.op_iterations, integrator=integrator,
         wall_time=time.perf_counter() - t_wall, **system.describe())
     kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(requested + list(diffs)))
     result = Result(

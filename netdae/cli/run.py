@@ -141,7 +141,7 @@ def _finish_stream(res, stream) -> bool:
         from ..errors import OutputFileError
 
         raise OutputFileError(stream.path, stream.failure())
-    if stream.points != res.points or stream.names != list(res.axes) + list(res.signals):
+    if stream.points != (res.stats.points or res.points) or stream.names != list(res.axes) + list(res.signals):
         LOG.debug("%s: the streamed points differ from the result's; written whole", stream.path)
         return False
     if not res.ok:
@@ -213,7 +213,7 @@ def main(args) -> int:
     interrupted = None
     try:
         results = run(circuit, save=args.save, progress=bar, reltol=args.reltol, abstol=args.abstol,
-                      vntol=args.vntol, output=output if out_dir is not None else None)
+                      vntol=args.vntol, output=output if out_dir is not None else None, bounded=not (args.plot or args.json))
     except KeyboardInterrupt as exc:
         results = getattr(exc, "results", None)
         if not results:
