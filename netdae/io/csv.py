@@ -203,7 +203,9 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
             inner = name[3:-1]
             if k + 1 >= len(names) or names[k + 1] != f"im({inner})":
                 raise NetdaeError(f"{source}:1: column {name!r} is not followed by 'im({inner})'")
-            signals[inner] = table[:, k] + 1j * table[:, k + 1]
+            value = np.empty(table.shape[0], dtype=np.complex128)  # re + 1j * im would lose a -0.0 imaginary part
+            value.real, value.imag = table[:, k], table[:, k + 1]
+            signals[inner] = value
             k += 2
         elif name.startswith("im(") and name.endswith(")"):
             raise NetdaeError(f"{source}:1: column {name!r} is not preceded by 're({name[3:-1]})'")
