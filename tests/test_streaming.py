@@ -250,3 +250,32 @@ def test_a_save_set_too_large_for_the_memory_is_refused_before_the_run(tmp_path,
     circuit = netdae.load(str(path))
     card = circuit.analyses[0]
     assert "warning: keeping 2 of 202" in tran_module._check_size(2, 202, card, 1e-9)
+
+
+def test_a_block_cut_short_by_ctrl_c_is_written_again_whole(tmp_path, monkeypatch):
+    import netdae.io.files as files
+    from netdae.results import Result
+
+    t = np.linspace(0.0, 1e-3, 50)
+    whole = Result("tran", axes={"time": t}, signals={"v(out)": np.sin(t * 1e4)})
+    real = files._write_all
+    calls = []
+
+    def interrupted(handle, data):
+        calls.append(len(data))
+        if len(calls) == 3:  # the header, the first block, then half of the second: Ctrl-C
+            real(handle, data[: len(data) // 2])
+            raise KeyboardInterrupt
+        real(handle, data)
+
+    monkeypatch.setattr(files, "_write_all", interrupted)
+    stream = RawStream(tmp_path / "tran.raw", date="today")
+    for start, stop in ((0, 20), (20, 50), (10, 50)):  # the driver hands the second block on again
+        try:
+            stream.write(start, Result("tran", axes={"time": t[start:stop]},
+                                       signals={"v(out)": whole["v(out)"][start:stop]}))
+        except KeyboardInterrupt:
+            pass
+    stream.close()
+    assert len(calls) == 5 and stream.points == 50  # and the count patched by close
+    assert (tmp_path / "tran.raw").read_bytes() == format_raw(whole, date="today")

@@ -185,7 +185,8 @@ class StreamedFile:
         self.names: list[str] = []
         self.error: str | None = None
         self._handle: BinaryIO | None = None
-        self._end = 0  # bytes up to the end of the last complete point
+        self._end = 0  # bytes up to the end of the last complete point (0: the header is not written yet)
+        self._head = b""
         self._count_at: int | None = None  # where the header's count is patched
 
     @property
@@ -222,17 +223,22 @@ class StreamedFile:
         if skip:
             block = _tail(block, skip)
         if self._handle is None:
-            header, self._count_at, self.names = self._header(block)
+            self._head, self._count_at, self.names = self._header(block)
             try:
                 self._handle = open(self.path, "wb", buffering=0)  # each write goes to the system at once
-                _write_all(self._handle, header)
             except OSError as exc:
                 return self._failed(exc)
-            self._end = len(header)
         elif list(block.axes) + list(block.signals) != self.names:
             raise ValueError(f"{self.path}: a block's columns differ from the file's")
         data = self._rows(block, self.points)
         try:
+            # from the end of the last complete point: what a Ctrl-C cut short is written again
+            if self._handle.tell() != self._end:
+                self._handle.truncate(self._end)
+                self._handle.seek(self._end)
+            if self._end == 0:
+                _write_all(self._handle, self._head)
+                self._end = len(self._head)
             _write_all(self._handle, data)
         except OSError as exc:
             return self._failed(exc)
