@@ -279,3 +279,17 @@ def test_a_block_cut_short_by_ctrl_c_is_written_again_whole(tmp_path, monkeypatc
     stream.close()
     assert len(calls) == 5 and stream.points == 50  # and the count patched by close
     assert (tmp_path / "tran.raw").read_bytes() == format_raw(whole, date="today")
+
+
+def test_a_bounded_run_is_sized_against_the_disk_not_the_memory(tmp_path, monkeypatch):
+    import netdae.analyses.tran as tran_module
+
+    netlist = NETLIST.replace(".meas tran vmax max v(out)\n", "")
+    monkeypatch.setattr(tran_module, "physical_memory", lambda: 1)  # no memory at all
+    with pytest.raises(NetdaeError, match="of memory, this machine has"):
+        netdae.run(netlist)
+    points, size = tran_module.output_size(3, 20e-3, 1e-6)  # v(out), i(v1) and v(in) kept
+    with pytest.raises(NetdaeError, match=rf"at {points:,} points or more .* of disk space for its file"):
+        run(netdae.load(netlist), output=lambda *args: None, bounded=True, room=size - 1)
+    tran = run(netdae.load(netlist), output=lambda *args: None, bounded=True, room=4 * size)[1]
+    assert tran.ok and tran.stats.points > points // 2

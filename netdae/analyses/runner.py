@@ -177,7 +177,8 @@ def refuse_steps(circuit: Circuit) -> None:
 def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
         progress: Callable[[float, float, int], None] | None = None,
-        output: Callable[[int, int, Result], str | None] | None = None, bounded: bool = False) -> list[Result]:
+        output: Callable[[int, int, Result], str | None] | None = None, bounded: bool = False,
+        room: int | None = None) -> list[Result]:
     """Run every analysis of a circuit, in netlist order.
 
     Parameters
@@ -207,6 +208,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         With ``output``: a streamed transient keeps only its last points in
         memory (``bounded`` of :func:`netdae.analyses.tran.transient`) unless
         a ``.meas`` card needs them all.
+    room : int, optional
+        With ``bounded``: the bytes free where ``output`` writes, against
+        which a bounded transient's size is checked before it runs (instead
+        of the memory).
 
     Returns
     -------
@@ -271,7 +276,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             stream = None if output is None or quantities else _stream(output, position, names, wanted)
             try:
                 res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
-                                bounded=bounded and not circuit.measures, **options)
+                                bounded=bounded and not circuit.measures, room=room, **options)
             except KeyboardInterrupt as exc:
                 # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                 partial = getattr(exc, "partial", None)

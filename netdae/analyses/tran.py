@@ -181,25 +181,30 @@ def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
     return points, points * (8 * (saved + 1) + 1)
 
 
-def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float) -> str | None:
-    """Refuse a transient whose output cannot fit in memory; a warning when it fills much of it.
+def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: int | None = None) -> str | None:
+    """Refuse a transient whose output cannot fit; a warning when it fills much of the room it has.
+
+    The room is the machine's memory, or with ``room`` (a run that keeps
+    only its last points in memory and writes all to a file) the free space
+    where the file goes.
 
     Raises
     ------
     NetdaeError
-        When the fewest points the run records need more than the machine's memory.
+        When the fewest points the run records need more than that room.
     """
-    memory = physical_memory()
-    if not memory:
+    capacity = physical_memory() if room is None else room
+    if not capacity:
         return None
     points, size = output_size(saved, card.tstop, tmax)
-    if size <= ADVISE_FRACTION * memory:
+    if size <= ADVISE_FRACTION * capacity:
         return None
+    has = (f"of memory, this machine has {capacity / 2**30:,.1f} GiB" if room is None
+           else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
     what = (f"keeping {saved:,} of {total:,} unknowns at {points:,} points or more (tstop/tmax = "
-            f"{card.tstop:g}/{tmax:g}) needs at least {size / 2**30:,.1f} GiB of memory, this machine has "
-            f"{memory / 2**30:,.1f} GiB")
+            f"{card.tstop:g}/{tmax:g}) needs at least {size / 2**30:,.1f} GiB {has}")
     hint = "save only the signals you need (--save v(out),i(v1) or a .save card), or a larger tstep or tmax"
-    if size > REFUSE_FRACTION * memory:
+    if size > REFUSE_FRACTION * capacity:
         where = f"{card.location}: " if card.location is not None else ""
         raise NetdaeError(f"{where}.tran: {what}: the run cannot finish (hint: {hint})")
     return f"warning: {what} (hint: {hint})"
@@ -493,7 +498,8 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
               reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
               maxord: int | None = None, initial: str = "consistent", max_step: float | None = None,
               raise_on_failure: bool = False, progress: Callable | None = None,
-              output: Callable[[int, Result], str | None] | None = None, bounded: bool = False) -> Result:
+              output: Callable[[int, Result], str | None] | None = None, bounded: bool = False,
+              room: int | None = None) -> Result:
     """Run a transient analysis.
 
     Parameters
@@ -537,6 +543,12 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         holds the last points, its dense output covers those, ``stats.points``
         counts all of them and a note says so. No effect on a circuit with
         transmission lines (the integrator reads their past waves).
+    room : int, optional
+        With ``bounded``: the bytes free where ``output`` writes (its disk).
+        Before the run, the output's size at its fewest points (one per
+        largest step) is checked against the machine's memory, or for a
+        bounded run against ``room`` (no check without it): a run that cannot
+        fit is refused, one that fills more than a quarter of it warned about.
 
     Returns
     -------
@@ -551,7 +563,8 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     Raises
     ------
     NetdaeError
-        No ``.tran`` card, ``method=trap``, an unknown save name.
+        No ``.tran`` card, ``method=trap``, an unknown save name, an output
+        that cannot fit in memory (or, bounded, in ``room``) at its fewest points.
     CircuitError, SingularPencilError, ConvergenceError
         A circuit that cannot be simulated (singular pencil, a nonlinear
         circuit of index >= 3, an operating point that does not converge).
@@ -582,7 +595,9 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     notes = list(system.notes)
     names_req = save if save is not None else circuit.saves
     keep, requested, diffs = _save_request(system, names_req)
-    size_warning = _check_size(keep.size, system.n, card, tmax)
+    fits_memory = bounded and output is not None and system.delays is None and _streamable(system, o, {})
+    size_warning = None if fits_memory and room is None else \
+        _check_size(keep.size, system.n, card, tmax, room if fits_memory else None)
     if size_warning is not None:
         notes.append(size_warning)
     if system.delays is not None:

@@ -126,6 +126,18 @@ def _stream(args, path: Path, title: str):
     return RawStream(path, binary=not args.ascii, title=title)
 
 
+def _free_space(folder: Path | None) -> int | None:
+    """Bytes free for a user in ``folder`` (None without one, or when the system does not say)."""
+    if folder is None:
+        return None
+    import shutil
+
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return None
+
+
 def _finish_stream(res, stream) -> bool:
     """Close a transient's streamed file; True when it holds the result (else it is written whole).
 
@@ -213,7 +225,8 @@ def main(args) -> int:
     interrupted = None
     try:
         results = run(circuit, save=args.save, progress=bar, reltol=args.reltol, abstol=args.abstol,
-                      vntol=args.vntol, output=output if out_dir is not None else None, bounded=not (args.plot or args.json))
+                      vntol=args.vntol, output=output if out_dir is not None else None,
+                      bounded=not (args.plot or args.json), room=_free_space(out_dir))
     except KeyboardInterrupt as exc:
         results = getattr(exc, "results", None)
         if not results:
