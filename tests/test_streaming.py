@@ -293,3 +293,17 @@ def test_a_bounded_run_is_sized_against_the_disk_not_the_memory(tmp_path, monkey
         run(netdae.load(netlist), output=lambda *args: None, bounded=True, room=size - 1)
     tran = run(netdae.load(netlist), output=lambda *args: None, bounded=True, room=4 * size)[1]
     assert tran.ok and tran.stats.points > points // 2
+
+
+def test_an_ascii_file_killed_inside_a_number_drops_that_point(tmp_path):
+    from netdae.results import Result
+
+    t = np.linspace(0.0, 1e-3, 7)
+    stream = RawStream(tmp_path / "tran.raw", binary=False, date="today")
+    stream.write(0, Result("tran", axes={"time": t}, signals={"v(out)": np.sqrt(t + 1.0)}))
+    killed = (tmp_path / "tran.raw").read_bytes()[:-5]  # mid-way through the last value, count not patched
+    stream.close()
+    with pytest.raises(NetdaeError, match="announces 0 points, the file holds 6 complete points"):
+        parse_raw(killed, "killed")
+    (prefix,) = parse_raw(killed, "killed", partial=True)
+    np.testing.assert_array_equal(prefix["v(out)"], np.sqrt(t + 1.0)[:6])

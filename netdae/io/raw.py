@@ -566,6 +566,8 @@ def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]
     if npoints != head.npoints or len(tokens) % per_point:
         if match is not None and npoints < head.npoints:
             raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows", first_line)
+        if npoints and not len(tokens) % per_point and not text.endswith("\n"):
+            npoints -= 1  # a file cut inside the last point's last number: that number may be short
         notes.append(reader.incomplete(head, npoints, first_line))
     grid = np.asarray(tokens[: npoints * per_point], dtype=object).reshape(npoints, per_point)
     try:
