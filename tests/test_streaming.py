@@ -307,3 +307,20 @@ def test_an_ascii_file_killed_inside_a_number_drops_that_point(tmp_path):
         parse_raw(killed, "killed")
     (prefix,) = parse_raw(killed, "killed", partial=True)
     np.testing.assert_array_equal(prefix["v(out)"], np.sqrt(t + 1.0)[:6])
+
+
+def test_output_memory_exhausted_leaves_a_valid_file_of_what_was_computed(tmp_path, monkeypatch, caplog):
+    from netdae.cli import main
+    from netdae.dae.compiled import driver
+
+    def no_memory(*args):
+        raise MemoryError
+
+    monkeypatch.setattr(driver, "_grow", no_memory)
+    path = tmp_path / "rc.cir"
+    path.write_text(NETLIST.replace(" 20m 1m", " 20m"))  # its .meas keeps every point in memory: they cannot grow
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--format", "raw"]) == 1
+    (part,) = read_raw(tmp_path / "out" / "tran.raw")
+    assert 0 < part.points <= driver.BUFFER_START and part.t[-1] < 20e-3
+    message = next(r.getMessage() for r in caplog.records if "tran.raw holds the" in r.getMessage())
+    assert "not enough memory to keep more output" in message and "--save" in message
