@@ -151,7 +151,7 @@ def test_a_step_failure_leaves_a_valid_file_and_the_log_says_where_it_ends(tmp_p
     (part,) = read_raw(tmp_path / "out" / "tran.raw")
     assert 1e-3 <= part.t[-1] < 20e-3
     message = next(r.getMessage() for r in caplog.records if "tran.raw holds the" in r.getMessage())
-    assert f"holds the {part.points} points up to t={part.t[-1]:.9g}" in message
+    assert f"holds the {part.points:,} points up to t={part.t[-1]:.9g}" in message
     assert "max_steps=3000" in message
     monkeypatch.setattr(tran_module, "integrate", real)
     full = _full_tran(NETLIST)

@@ -157,7 +157,8 @@ def _finish_stream(res, stream) -> bool:
         LOG.debug("%s: the streamed points differ from the result's; written whole", stream.path)
         return False
     if not res.ok:
-        LOG.warning("%s holds the %d points up to t=%.9g: %s", stream.path, stream.points, stream.last, res.message)
+        LOG.warning("%s holds the %s points up to t=%.9g: %s", stream.path, f"{stream.points:,}", stream.last,
+                    res.message)
     return True
 
 
