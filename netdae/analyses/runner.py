@@ -176,7 +176,9 @@ def refuse_steps(circuit: Circuit) -> None:
 
 def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
-        progress: Callable[[float, float, int], None] | None = None) -> list[Result]:
+        progress: Callable[[float, float, int], None] | None = None,
+        output: Callable[[int, int, Result], str | None] | None = None, bounded: bool = False,
+        room: int | None = None) -> list[Result]:
     """Run every analysis of a circuit, in netlist order.
 
     Parameters
@@ -193,6 +195,23 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         else SPICE's 1e-3, 1e-12 A, 1e-6 V).
     progress : callable, optional
         ``progress(t, tstop, steps)`` for transients, called a few times per second.
+    output : callable, optional
+        ``output(position, start, block) -> str | None``: a transient's points
+        as they are computed (``position`` the card's among the analyses;
+        ``start`` and ``block`` as for :func:`netdae.analyses.tran.transient`,
+        the block holding the signals of the returned result, in its order);
+        a text returned stops the transient with that reason. Only for the
+        transients whose result is their integrator's accepted points and
+        holds no device quantity (``i(r1)``, ``@q1[gm]``, computed after the
+        run); the others are never streamed.
+    bounded : bool
+        With ``output``: a streamed transient keeps only its last points in
+        memory (``bounded`` of :func:`netdae.analyses.tran.transient`) unless
+        a ``.meas`` card needs them all.
+    room : int, optional
+        With ``bounded``: the bytes free where ``output`` writes, against
+        which a bounded transient's size is checked before it runs (instead
+        of the memory).
 
     Returns
     -------
@@ -249,13 +268,15 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         quantities = saved_currents(circuit) + measured_quantities(circuit)
     unused = unused_options(circuit)
     results = []
-    for card in circuit.analyses:
+    for position, card in enumerate(circuit.analyses):
         kind = analysis_name(card)
         if kind == "tran":
             from .tran import transient
 
+            stream = None if output is None or quantities else _stream(output, position, names, wanted)
             try:
-                res = transient(circuit, card, save=computed_from, progress=progress, **options)
+                res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
+                                bounded=bounded and not circuit.measures, room=room, **options)
             except KeyboardInterrupt as exc:
                 # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                 partial = getattr(exc, "partial", None)
@@ -301,6 +322,23 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             res.notes.append(unused)
         results.append(res)
     return _finish(circuit, results, names, wanted)
+
+
+def _stream(output: Callable, position: int, names, wanted) -> Callable:
+    """A transient's ``output(start, block)`` handing on each block as :func:`run` returns the result:
+    the signals selected as :func:`run` and :func:`_finish` select them (a transient without quantities)."""
+
+    def block_out(start: int, block: Result) -> str | None:
+        if names:
+            try:
+                block = block.subset(wanted)
+                if wanted != names:
+                    block = block.subset(names)
+            except KeyError:  # the result's own selection says what is missing, after the run
+                return None
+        return output(position, start, block)
+
+    return block_out
 
 
 def _skipped_analyses(circuit: Circuit) -> str:

@@ -37,6 +37,7 @@ dense output). Integration method: netdae integrates with BDF (ngspice's
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from dataclasses import dataclass, field, replace
@@ -56,7 +57,7 @@ from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from .index import IndexReport, analyze_index
 
-__all__ = ["transient", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
+__all__ = ["transient", "output_size", "physical_memory", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
 
 #: Circuits up to this many unknowns get the dense pencil analysis before a
 #: transient (measured with one BLAS thread: 0.02 s at 100 unknowns, 0.11 s at
@@ -72,6 +73,10 @@ JUMP_TOLERANCE = 1e-6
 #: Jumps of the solution (inputs that jump, index-2 unknowns at corners) noted one by one
 #: up to this many; the rest are counted (all are in ``transient.jumps``).
 JUMP_NOTES = 3
+#: A transient whose output needs more than this fraction of the machine's memory at its fewest
+#: points is refused (it could not finish); above ADVISE_FRACTION it runs with a warning.
+REFUSE_FRACTION = 1.0
+ADVISE_FRACTION = 0.25
 #: ngspice's default largest step is (tstop - tstart) / TMAX_DIVISOR (or tstep if smaller).
 TMAX_DIVISOR = 50.0
 #: The relative tolerance refers to an unknown's present magnitude, but to at
@@ -150,6 +155,91 @@ def _save_request(system: MnaSystem, names: list[str]) -> tuple[np.ndarray, list
     keep_arr = np.array(sorted(keep), dtype=np.int64)
     pos = {system.names[i]: k for k, i in enumerate(keep_arr)}
     return keep_arr, requested, {name: (pos.get(a, -1), pos.get(b, -1)) for name, (a, b) in diffs.items()}
+
+
+def physical_memory() -> int | None:
+    """The machine's physical memory in bytes (None where the system does not say)."""
+    import os
+
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
+    """The fewest points a transient records and the bytes its output then needs at least.
+
+    The integrator never steps further than ``tmax``, so it records at least
+    ``ceil(tstop / tmax) + 1`` points (usually many more: steps shrink at
+    every corner of the inputs), each a time, an order byte and the
+    ``saved`` unknowns as doubles; a lower bound, not a forecast.
+
+    >>> output_size(100_000, 1e-3, 1e-9)  # every node of 100,000 at 1e6 points at least
+    (1000001, 800009800009)
+    """
+    points = int(math.ceil(tstop / tmax)) + 1
+    return points, points * (8 * (saved + 1) + 1)
+
+
+def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: int | None = None) -> str | None:
+    """Refuse a transient whose output cannot fit; a warning when it fills much of the room it has.
+
+    The room is the machine's memory, or with ``room`` (a run that keeps
+    only its last points in memory and writes all to a file) the free space
+    where the file goes.
+
+    Raises
+    ------
+    NetdaeError
+        When the fewest points the run records need more than that room.
+    """
+    capacity = physical_memory() if room is None else room
+    if not capacity:
+        return None
+    points, size = output_size(saved, card.tstop, tmax)
+    if size <= ADVISE_FRACTION * capacity:
+        return None
+    has = (f"of memory, this machine has {capacity / 2**30:,.1f} GiB" if room is None
+           else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
+    what = (f"keeping {saved:,} of {total:,} unknowns at {points:,} points or more (tstop/tmax = "
+            f"{card.tstop:g}/{tmax:g}) needs at least {size / 2**30:,.1f} GiB {has}")
+    hint = "save only the signals you need (--save v(out),i(v1) or a .save card), or a larger tstep or tmax"
+    if size > REFUSE_FRACTION * capacity:
+        where = f"{card.location}: " if card.location is not None else ""
+        raise NetdaeError(f"{where}.tran: {what}: the run cannot finish (hint: {hint})")
+    return f"warning: {what} (hint: {hint})"
+
+
+def _streamable(system: MnaSystem, options, integrate_options: dict) -> bool:
+    """True when the result's points are the compiled engine's accepted points, as they come."""
+    from ..dae.bdf.run import _compiled_engine_enabled
+    from ..dae.compiled.driver import supports
+
+    return (not options.interp and _compiled_engine_enabled()
+            and supports(system, {**integrate_options, "output": None}))
+
+
+def _blocks(output: Callable[[int, Result], str | None], tstart: float, kept_names, requested,
+            diffs, streamed: list[int]) -> Callable:
+    """The integrator's ``output(start, t, x)`` that hands ``output`` the result's next points as a Result
+    (the points before ``tstart`` left out, as the result leaves them out); ``streamed[0]`` counts them."""
+    first = []  # the integrator's position of the result's first point, once known
+
+    def accepted(start: int, t: np.ndarray, x: np.ndarray) -> str | None:
+        sel = t >= tstart
+        if not sel.any():
+            return None
+        head = int(np.argmax(sel))  # the times grow: the points kept are the block's tail
+        if not first:
+            first.append(start + head)
+        block = Result("tran", axes={"time": t[head:].copy()},
+                       signals=_signals(kept_names, requested, x[head:].copy(), diffs))
+        position = start + head - first[0]
+        streamed[0] = max(streamed[0], position + block.points)
+        return output(position, block)
+
+    return accepted
 
 
 def _signals(kept_names, requested, values: np.ndarray, diffs) -> dict[str, np.ndarray]:
@@ -393,7 +483,9 @@ def _check_delays(system: MnaSystem) -> None:
 def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[str] | None = None,
               reltol: float | None = None, abstol: float | None = None, vntol: float | None = None,
               maxord: int | None = None, initial: str = "consistent", max_step: float | None = None,
-              raise_on_failure: bool = False, progress: Callable | None = None) -> Result:
+              raise_on_failure: bool = False, progress: Callable | None = None,
+              output: Callable[[int, Result], str | None] | None = None, bounded: bool = False,
+              room: int | None = None) -> Result:
     """Run a transient analysis.
 
     Parameters
@@ -419,6 +511,30 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         failed result.
     progress : callable, optional
         ``progress(t, tstop, steps)``, called a few times per second.
+    output : callable, optional
+        ``output(start, block) -> str | None``: the result's points as they
+        are computed, each ``block`` a ``tran`` Result holding the points from
+        position ``start`` on (axis ``time`` and the same signals as the
+        returned Result, equal to its rows; a block may repeat points of the
+        one before when a Ctrl-C interrupted that call), called about ten
+        times per second of computation and once at the end, also when the run
+        fails or is interrupted; a text returned stops the run with that
+        reason (the result then ends there, failed). Only where the result's
+        points are the integrator's accepted points (the compiled engine,
+        without ``.options interp``, index <= 2); otherwise never called.
+    bounded : bool
+        With ``output`` called: keep only the last points in memory (tens of
+        MiB; :data:`netdae.dae.compiled.driver.WINDOW_BYTES`), for a caller
+        that needs every point only in what ``output`` wrote. The result then
+        holds the last points, its dense output covers those, ``stats.points``
+        counts all of them and a note says so. No effect on a circuit with
+        transmission lines (the integrator reads their past waves).
+    room : int, optional
+        With ``bounded``: the bytes free where ``output`` writes (its disk).
+        Before the run, the output's size at its fewest points (one per
+        largest step) is checked against the machine's memory, or for a
+        bounded run against ``room`` (no check without it): a run that cannot
+        fit is refused, one that fills more than a quarter of it warned about.
 
     Returns
     -------
@@ -433,7 +549,8 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     Raises
     ------
     NetdaeError
-        No ``.tran`` card, ``method=trap``, an unknown save name.
+        No ``.tran`` card, ``method=trap``, an unknown save name, an output
+        that cannot fit in memory (or, bounded, in ``room``) at its fewest points.
     CircuitError, SingularPencilError, ConvergenceError
         A circuit that cannot be simulated (singular pencil, a nonlinear
         circuit of index >= 3, an operating point that does not converge).
@@ -462,6 +579,13 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
 
     system = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
     notes = list(system.notes)
+    names_req = save if save is not None else circuit.saves
+    keep, requested, diffs = _save_request(system, names_req)
+    fits_memory = bounded and output is not None and system.delays is None and _streamable(system, o, {})
+    size_warning = None if fits_memory and room is None else \
+        _check_size(keep.size, system.n, card, tmax, room if fits_memory else None)
+    if size_warning is not None:
+        notes.append(size_warning)
     if system.delays is not None:
         _check_delays(system)
         # a step never reaches past the shortest line delay: the wave a step needs has left
@@ -519,13 +643,12 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
     notes += [f"warning: {w}" for w in impulses]
 
-    names_req = save if save is not None else circuit.saves
-    keep, requested, diffs = _save_request(system, names_req)
     kept_names = [system.names[i] for i in keep]
     unknown_index = np.array([1 + rep.derivative_order.get(nm, 0) for nm in system.names], dtype=np.int64)
     bdf_opts = {"rtol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
 
     interrupted = None
+    streamed = [0]  # points handed to output
     if index is not None and index >= 3:
         y0 = (rep.pencil.weierstrass.U1 @ start.q0) if card.uic else rep.pencil.weierstrass.split(x0)[0]
         times, X, dense_kept, stats, message, status = _decoupled(system, rep, start.x, y0, card.tstop, keep,
@@ -537,10 +660,14 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         events = []
         tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
     else:
+        opts = dict(rtol=rtol, vntol=vntol_, abstol=abstol_, index=unknown_index, maxord=order, max_step=tmax,
+                    save=keep, relref=RELREF)
+        if output is not None and _streamable(system, o, opts):
+            opts["output"] = _blocks(output, card.tstart, kept_names, requested, diffs, streamed)
+            opts["window"] = bounded
         try:
-            res = integrate(system, (0.0, card.tstop), x0, rtol=rtol, vntol=vntol_, abstol=abstol_,
-                            index=unknown_index, maxord=order, max_step=tmax, save=keep, progress=progress,
-                            relref=RELREF, raise_on_failure=raise_on_failure)
+            res = integrate(system, (0.0, card.tstop), x0, progress=progress, raise_on_failure=raise_on_failure,
+                            **opts)
         except KeyboardInterrupt as exc:
             # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
             res = getattr(exc, "partial", None)
@@ -594,11 +721,16 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     def dense(t):
         return _signals(kept_names, requested, np.atleast_2d(np.asarray(dense_kept(np.atleast_1d(t)))), diffs)
 
+    points = int(out_t.size)
+    if streamed[0] > points:  # a bounded run: the points before these went to output only
+        notes.append(f"memory: the result holds the last {points:,} of the {streamed[0]:,} points (all of them "
+                     "went to the output file as they were computed)")
+        points = streamed[0]
     integrator = Statistics.from_counts(stats)
     stats_out = Statistics(
         steps=integrator.steps or 0, rejected=integrator.rejected or 0,
         newton_iterations=integrator.newton_iterations or 0, factorizations=integrator.factorizations or 0,
-        points=int(out_t.size), op_newton_iterations=start.op_iterations, integrator=integrator,
+        points=points, op_newton_iterations=start.op_iterations, integrator=integrator,
         wall_time=time.perf_counter() - t_wall, **system.describe())
     kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(requested + list(diffs)))
     result = Result(

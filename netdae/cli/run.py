@@ -15,6 +15,14 @@ JSON (``measures`` of each analysis) and, with ``--out``, into
 Ctrl-C during a transient keeps what was computed: the results of the
 analyses before it and the transient up to where it stopped are written and
 printed as usual, then ``netdae run`` exits with status 130.
+
+With ``--out``, a transient's file (``tran.raw`` or ``tran.csv``) is written
+while the run goes on (:class:`~netdae.io.raw.RawStream`,
+:class:`~netdae.io.csv.CsvStream`): a run that stops (Ctrl-C, a failed step,
+a full disk) leaves the points it computed in a valid file, and the log says
+where and why it ends. A transient whose result is not its integrator's
+points (``.options interp``, index 3, device quantities such as ``i(r1)``)
+is written whole when it ends, as every other analysis.
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ import logging
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 from . import log_diagnostics, option_value, signal_names
 from ..signals import signal_unit
@@ -106,9 +115,58 @@ def stems(results) -> list[str]:
     return out
 
 
-def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None) -> list[str]:
+def _stream(args, path: Path, title: str):
+    """The streamed file of a transient (raw or CSV, as ``--format`` asks)."""
+    if args.format == "csv":
+        from ..io.csv import CsvStream
+
+        return CsvStream(path)
+    from ..io.raw import RawStream
+
+    return RawStream(path, binary=not args.ascii, title=title)
+
+
+def _free_space(folder: Path | None) -> int | None:
+    """Bytes free for a user in ``folder`` (None without one, or when the system does not say)."""
+    if folder is None:
+        return None
+    import shutil
+
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return None
+
+
+def _finish_stream(res, stream) -> bool:
+    """Close a transient's streamed file; True when it holds the result (else it is written whole).
+
+    Raises
+    ------
+    OutputFileError
+        When the file cannot be completed.
+    """
+    if stream is None or not stream.opened:
+        return False
+    stream.close()
+    if stream.error is not None:  # the run stopped there; the file keeps its points
+        from ..errors import OutputFileError
+
+        raise OutputFileError(stream.path, stream.failure())
+    if stream.points != (res.stats.points or res.points) or stream.names != list(res.axes) + list(res.signals):
+        LOG.debug("%s: the streamed points differ from the result's; written whole", stream.path)
+        return False
+    if not res.ok:
+        LOG.warning("%s holds the %s points up to t=%.9g: %s", stream.path, f"{stream.points:,}", stream.last,
+                    res.message)
+    return True
+
+
+def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None, stream=None) -> list[str]:
     files = []
-    if out_dir is not None:
+    if out_dir is not None and _finish_stream(res, stream):
+        files.append(stream.path)
+    elif out_dir is not None:
         if args.format == "csv":
             from ..io.csv import write_csv
 
@@ -144,7 +202,7 @@ def _log_notes(notes) -> None:
 
 
 def main(args) -> int:
-    from ..analyses.runner import run
+    from ..analyses.runner import analysis_name, run
     from ..netlist import load
     from .progress import ProgressBar
 
@@ -154,22 +212,40 @@ def main(args) -> int:
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))
     bar = ProgressBar(enabled=args.verbosity >= 0)
-    interrupted = None
-    try:
-        results = run(circuit, save=args.save, progress=bar, reltol=args.reltol, abstol=args.abstol,
-                      vntol=args.vntol)
-    except KeyboardInterrupt as exc:
-        results = getattr(exc, "results", None)
-        if not results:
-            raise
-        interrupted = exc  # write what was computed, then report the interruption
-    finally:
-        bar.close()
     out_dir = Path(args.out) if args.out else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
+    streams: dict = {}  # a transient's position among the analyses -> its streamed file
+
+    def output(position: int, start: int, block) -> str | None:
+        if position not in streams:
+            stem = stems([SimpleNamespace(analysis=analysis_name(card)) for card in circuit.analyses])[position]
+            streams[position] = _stream(args, out_dir / f"{stem}.{args.format}", circuit.title)
+        return streams[position].write(start, block)
+
+    interrupted = None
+    try:
+        results = run(circuit, save=args.save, progress=bar, reltol=args.reltol, abstol=args.abstol,
+                      vntol=args.vntol, output=output if out_dir is not None else None,
+                      bounded=not (args.plot or args.json), room=_free_space(out_dir))
+    except KeyboardInterrupt as exc:
+        results = getattr(exc, "results", None)
+        if not results:
+            _close_streams(streams)
+            raise
+        interrupted = exc  # write what was computed, then report the interruption
+    except BaseException:
+        _close_streams(streams)  # what was written stays a valid file
+        raise
+    finally:
+        bar.close()
     keys = stems(results)
-    written = [_write(res, stem, args, out_dir, circuit.title, circuit) for res, stem in zip(results, keys)]
+    try:
+        written = [_write(res, stem, args, out_dir, circuit.title, circuit, streams.get(position))
+                   for position, (res, stem) in enumerate(zip(results, keys))]
+    finally:
+        _close_streams(streams)  # those a failed write left open
+
     measures = [m for res in results for m in res.measures]
     measures_file = None
     if out_dir is not None and measures:
@@ -222,3 +298,14 @@ def main(args) -> int:
         LOG.error("interrupted: %s", results[-1].message)
         return EXIT_INTERRUPTED
     return 0 if all(r.ok for r in results) else 1
+
+
+def _close_streams(streams: dict) -> None:
+    """Complete the streamed files of a run that ends with an error (their points stay readable)."""
+    from ..errors import OutputFileError
+
+    for stream in streams.values():
+        try:
+            stream.close()
+        except OutputFileError as exc:
+            LOG.error("%s", exc)

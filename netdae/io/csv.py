@@ -53,9 +53,10 @@ import numpy as np
 from ..errors import NetdaeError, ResultFileError
 from ..metadata import NoiseInfo, Provenance
 from ..results import Result
-from .files import write_bytes
+from .files import StreamedFile, write_bytes
 
-__all__ = ["write_csv", "read_csv", "format_csv", "parse_csv", "format_noise_totals", "write_noise_totals"]
+__all__ = ["write_csv", "read_csv", "format_csv", "parse_csv", "format_noise_totals", "write_noise_totals",
+           "CsvStream"]
 
 _SEPARATOR = ","
 
@@ -81,6 +82,19 @@ def format_csv(result: Result) -> str:
     """
     if result.analysis in ("pz", "tf"):
         return _format_long(result)
+    columns = _columns(result)
+    header = _SEPARATOR.join(name for name, _ in columns)
+    return "\n".join([header, *_rows(columns)]) + "\n"
+
+
+def _rows(columns: list[tuple[str, np.ndarray]]) -> list[str]:
+    """One text row per point."""
+    table = np.column_stack([values.astype(np.float64) for _, values in columns])
+    return [_SEPARATOR.join(map(repr, row)) for row in table.tolist()]
+
+
+def _columns(result: Result) -> list[tuple[str, np.ndarray]]:
+    """The columns ``(name, values)`` of a result with an axis or an op (checked, see :func:`format_csv`)."""
     columns: list[tuple[str, np.ndarray]] = []
     for name, values in result.axes.items():
         values = np.asarray(values)
@@ -106,10 +120,7 @@ def format_csv(result: Result) -> str:
                 f"cannot write CSV: {name!r} has shape {values.shape}, expected ({length},) "
                 f"like {columns[0][0]!r}"
             )
-    header = _SEPARATOR.join(name for name, _ in columns)
-    table = np.column_stack([values.astype(np.float64) for _, values in columns])
-    rows = [_SEPARATOR.join(map(repr, row)) for row in table.tolist()]
-    return "\n".join([header, *rows]) + "\n"
+    return columns
 
 
 def write_csv(path: str | os.PathLike, result: Result) -> None:
@@ -192,7 +203,9 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
             inner = name[3:-1]
             if k + 1 >= len(names) or names[k + 1] != f"im({inner})":
                 raise NetdaeError(f"{source}:1: column {name!r} is not followed by 'im({inner})'")
-            signals[inner] = table[:, k] + 1j * table[:, k + 1]
+            value = np.empty(table.shape[0], dtype=np.complex128)  # re + 1j * im would lose a -0.0 imaginary part
+            value.real, value.imag = table[:, k], table[:, k + 1]
+            signals[inner] = value
             k += 2
         elif name.startswith("im(") and name.endswith(")"):
             raise NetdaeError(f"{source}:1: column {name!r} is not preceded by 're({name[3:-1]})'")
@@ -317,3 +330,34 @@ def _layout(names: list[str], analysis: str | None, source: str) -> tuple[str, i
             raise NetdaeError(f"{source}:1: a dc result needs its swept source(s) first, e.g. 'v1'")
         return analysis, leading
     raise NetdaeError(f"{source}: unknown analysis {analysis!r} (op, dc, ac, tran, noise)")
+
+
+class CsvStream(StreamedFile):
+    """A CSV file written while the run computes its points.
+
+    The header row is written with the first points, then every block's
+    rows at once; a completed run's file equals :func:`write_csv`'s of the same
+    result, byte for byte. A run that stopped leaves the rows computed; a
+    process killed while writing may leave a last row cut short, which
+    :func:`read_csv` refuses naming its line.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> t = np.linspace(0.0, 1e-3, 5)
+    >>> path = os.path.join(tempfile.mkdtemp(), "tran.csv")
+    >>> stream = CsvStream(path)
+    >>> for start in (0, 3):
+    ...     stream.write(start, Result("tran", axes={"time": t[start:start + 3]},
+    ...                                signals={"v(out)": t[start:start + 3] * 1e3}))
+    >>> stream.close()
+    >>> open(path).read() == format_csv(Result("tran", axes={"time": t}, signals={"v(out)": t * 1e3}))
+    True
+    """
+
+    def _header(self, block: Result) -> tuple[bytes, None, list[str]]:
+        header = _SEPARATOR.join(name for name, _ in _columns(block)) + "\n"
+        return header.encode("utf-8"), None, list(block.axes) + list(block.signals)
+
+    def _rows(self, block: Result, first: int) -> bytes:
+        return "".join(row + "\n" for row in _rows(_columns(block))).encode("utf-8")

@@ -1,7 +1,8 @@
-"""Output files written whole or not at all.
+"""Output files written whole or not at all, and result files written as the run goes on.
 
 Every file netdae writes (raw, CSV, matrix exports, plots) goes through
-:func:`atomic_output`: the bytes go to a temporary file in the target's own
+:func:`atomic_output`, except a transient's result file streamed while the
+run computes it (:class:`StreamedFile`, below): the bytes go to a temporary file in the target's own
 directory, which is flushed to the disk and renamed over the target only when
 everything was written. A write that fails (the disk is full, the file-size
 limit of ``ulimit -f`` is reached, the directory is read-only) removes the
@@ -32,7 +33,7 @@ from typing import BinaryIO, Iterator
 
 from ..errors import OutputFileError
 
-__all__ = ["atomic_output", "write_bytes", "reason_of"]
+__all__ = ["atomic_output", "write_bytes", "reason_of", "StreamedFile"]
 
 #: Plain words for the operating system's reasons a write fails.
 _REASONS = {
@@ -146,3 +147,176 @@ def _remove(temporary: str) -> None:
         os.unlink(temporary)
     except OSError:
         pass  # already gone, or the directory itself vanished
+
+
+class StreamedFile:
+    """A result file written point by point while the run that computes the points goes on.
+
+    The one exception to whole-or-nothing: a long transient's file holds what
+    was computed however the run ends. The file is created under its own name
+    when the first points arrive (an earlier file of that name is replaced
+    then), each block of points is appended and handed to the operating
+    system at once (a killed process leaves every block written before), and
+    :meth:`close` patches the header (a raw file's point count) and flushes
+    the file to the disk. A write that fails (the disk is full, the file-size
+    limit) cuts the file back to its last complete point, keeps it, and
+    records why in :attr:`error`; later blocks are refused with that reason.
+
+    Subclasses format: :meth:`_header` (the bytes before the first point and
+    where the count to patch is) and :meth:`_rows`.
+
+    Attributes
+    ----------
+    path : str
+    points : int
+        Points written.
+    last : float or None
+        The axis value of the last point written.
+    names : list of str
+        The columns, fixed by the first block.
+    error : str or None
+        Why the file stopped taking points (``"the disk is full"``).
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = os.fspath(path)
+        self.points = 0
+        self.last: float | None = None
+        self.names: list[str] = []
+        self.error: str | None = None
+        self._handle: BinaryIO | None = None
+        self._end = 0  # bytes up to the end of the last complete point (0: the header is not written yet)
+        self._head = b""
+        self._count_at: int | None = None  # where the header's count is patched
+
+    @property
+    def opened(self) -> bool:
+        """True once the file was created (its first points arrived)."""
+        return self._handle is not None or self.points > 0 or self.error is not None
+
+    def write(self, start: int, block) -> str | None:
+        """Append the points of ``block`` (a Result) from position ``start`` on.
+
+        Points already written (``start`` below :attr:`points`, a block handed
+        over again after an interrupted call) are skipped.
+
+        Returns
+        -------
+        str or None
+            Why the file takes no more points (the run should stop), or None.
+
+        Raises
+        ------
+        ValueError
+            For a block that leaves a gap after the points written, or whose
+            columns differ from the first block's (a caller's error).
+        """
+        if self.error is not None:
+            return self.stop_reason()
+        skip = self.points - start
+        if skip < 0:
+            raise ValueError(f"{self.path}: points {self.points} to {start - 1} were never handed over")
+        axis = block.axis
+        count = (0 if axis is None else axis.size) - skip
+        if count <= 0:
+            return None
+        if skip:
+            block = _tail(block, skip)
+        if self._handle is None:
+            self._head, self._count_at, self.names = self._header(block)
+            try:
+                self._handle = open(self.path, "wb", buffering=0)  # each write goes to the system at once
+            except OSError as exc:
+                return self._failed(exc)
+        elif list(block.axes) + list(block.signals) != self.names:
+            raise ValueError(f"{self.path}: a block's columns differ from the file's")
+        data = self._rows(block, self.points)
+        try:
+            # from the end of the last complete point: what a Ctrl-C cut short is written again
+            if self._handle.tell() != self._end:
+                self._handle.truncate(self._end)
+                self._handle.seek(self._end)
+            if self._end == 0:
+                _write_all(self._handle, self._head)
+                self._end = len(self._head)
+            _write_all(self._handle, data)
+        except OSError as exc:
+            return self._failed(exc)
+        self._end += len(data)
+        self.points += count
+        self.last = float(block.axis[-1])
+        return None
+
+    def stop_reason(self) -> str:
+        """What the run is told when the file takes no more points."""
+        return f"cannot write {self.path}: {self.failure()}"
+
+    def failure(self) -> str:
+        """Why the file took no more points, and what it holds."""
+        where = (f"it holds the {self.points:,} points up to {self.last:.9g}" if self.last is not None
+                 else "nothing was left")
+        return f"{self.error} ({where})"
+
+    def close(self) -> None:
+        """Patch the header's count and flush the file to the disk (nothing when it was never created).
+
+        Raises
+        ------
+        OutputFileError
+            When the file cannot be completed (its points stay, :attr:`error` says why).
+        """
+        handle, self._handle = self._handle, None
+        if handle is None:
+            return
+        try:
+            if self._count_at is not None:
+                handle.seek(self._count_at)
+                _write_all(handle, self._count(self.points))
+            os.fsync(handle.fileno())
+        except OSError as exc:
+            self.error = self.error or reason_of(exc)
+            raise OutputFileError(self.path, self.error, exc.errno) from None
+        finally:
+            handle.close()
+
+    def _failed(self, exc: OSError) -> str:
+        """Cut the file back to its last complete point and keep why (the run is then told to stop);
+        a file that holds no point is removed."""
+        self.error = reason_of(exc)
+        if self._handle is not None and self.points == 0:
+            self._handle.close()
+            self._handle = None
+            _remove(self.path)
+        elif self._handle is not None:
+            try:
+                self._handle.truncate(self._end)
+            except OSError:
+                pass  # the file system refuses even that: read_raw tells a cut point from a complete one
+        return self.stop_reason()
+
+    def _header(self, block) -> tuple[bytes, int | None, list[str]]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _rows(self, block, first: int) -> bytes:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _count(self, points: int) -> bytes:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+def _write_all(handle, data: bytes) -> None:
+    """Write all of ``data`` to an unbuffered file (a write may take only a part)."""
+    view = memoryview(data)
+    while view:
+        done = handle.write(view)
+        if not done:
+            raise OSError(_errno.EIO, "nothing written")
+        view = view[done:]
+
+
+def _tail(block, skip: int):
+    """A Result of the points of ``block`` from ``skip`` on."""
+    from dataclasses import replace
+
+    return replace(block, axes={k: v[skip:] for k, v in block.axes.items()},
+                   signals={k: v[skip:] for k, v in block.signals.items()})

@@ -69,7 +69,7 @@ import numpy as np
 from ..errors import NetdaeError, ResultFileError
 from ..metadata import NoiseInfo, Provenance
 from ..results import Result
-from .files import write_bytes
+from .files import StreamedFile, write_bytes
 
 __all__ = [
     "read_raw",
@@ -81,6 +81,8 @@ __all__ = [
     "PLOTNAMES",
     "PLOTNAME_OF",
     "FLAVOURS",
+    "RawStream",
+    "COUNT_WIDTH",
 ]
 
 #: What a plot of integrated noise is read as before it joins its spectra's result (``noise.totals``).
@@ -135,6 +137,11 @@ _DOUBLE = np.dtype("<f8")
 #: (ngspice itself writes 16, ``%.15e``, which is not always exact).
 _ASCII_FORMAT = "%.16e"
 _DATE_FORMAT = "%a %b %d %H:%M:%S  %Y"  # ngspice's datestring()
+#: The header line of a plot's point count.
+_POINTS_LABEL = "No. Points: "
+#: Characters the point count is written in, left-aligned and padded with blanks (ngspice reserves 8),
+#: so that the count of a file written while the run goes on is patched in place when it ends.
+COUNT_WIDTH = 20
 
 
 def signal_name(name: str, vtype: str) -> str:
@@ -559,6 +566,8 @@ def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]
     if npoints != head.npoints or len(tokens) % per_point:
         if match is not None and npoints < head.npoints:
             raise reader.error(f"plot '{head.plotname}' is incomplete and another plot follows", first_line)
+        if npoints and not len(tokens) % per_point and not text.endswith("\n"):
+            npoints -= 1  # a file cut inside the last point's last number: that number may be short
         notes.append(reader.incomplete(head, npoints, first_line))
     grid = np.asarray(tokens[: npoints * per_point], dtype=object).reshape(npoints, per_point)
     try:
@@ -711,9 +720,7 @@ def format_raw(
         results = [results]
     if flavour not in FLAVOURS:
         raise NetdaeError(f"unknown raw file flavour {flavour!r} (one of {', '.join(FLAVOURS)})")
-    if date is None:
-        date = _dt.datetime.now().strftime(_DATE_FORMAT)
-    title = " ".join(title.split())
+    title, date = _title_and_date(title, date)
     if flavour == "pyspice":
         if not binary:
             raise NetdaeError("PySpice reads binary raw files only: write the 'pyspice' flavour with binary=True")
@@ -724,6 +731,13 @@ def format_raw(
         return preamble.encode("utf-8") + _format_plot(results[0], binary, title, date, pyspice=True)
     return b"".join(_format_plot(r, binary, title, date) + _format_noise_totals(r, binary, title, date)
                     for r in results)
+
+
+def _title_and_date(title: str, date: str | None) -> tuple[str, str]:
+    """The ``Title:`` (on one line) and ``Date:`` (now, as ngspice writes it, by default) of a file."""
+    if date is None:
+        date = _dt.datetime.now().strftime(_DATE_FORMAT)
+    return " ".join(title.split()), date
 
 
 def _variable_types(result: Result) -> dict[str, str]:
@@ -767,6 +781,18 @@ def _pyspice_columns(result: Result, columns: list) -> list:
 
 
 def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: bool = False) -> bytes:
+    head, columns = _plot_header(result, binary, title, date, pyspice)
+    return head + _plot_rows(columns, binary)
+
+
+def _plot_header(result: Result, binary: bool, title: str, date: str, pyspice: bool = False,
+                 npoints: int | None = None) -> tuple[bytes, list]:
+    """A plot's header up to and including ``Binary:``/``Values:``, and its columns ``(name, values, axis)``.
+
+    ``npoints`` is the count announced (default: the result's own); it is
+    written left-aligned in a field of :data:`COUNT_WIDTH` characters, so
+    that a file written while the run goes on has its count patched in place.
+    """
     plotname = PLOTNAME_OF.get(result.analysis)
     totals = result.analysis == "noise" and not result.axes  # the integrated noise of _format_noise_totals
     if totals:
@@ -779,12 +805,12 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
     known_types = _variable_types(result)
     columns = [(name, np.asarray(v), True) for name, v in result.axes.items()]
     columns += [(name, np.asarray(v), False) for name, v in result.signals.items()]
-    npoints = len(columns[0][1])
+    length = len(columns[0][1])
     for name, values, _ in columns:
-        if values.ndim != 1 or len(values) != npoints:
+        if values.ndim != 1 or len(values) != length:
             raise NetdaeError(
                 f"cannot write '{result.analysis}' result: {name!r} has shape {values.shape}, "
-                f"expected ({npoints},) like {columns[0][0]!r}"
+                f"expected ({length},) like {columns[0][0]!r}"
             )
         if any(c.isspace() for c in name) or not name:
             raise NetdaeError(f"cannot write a vector named {name!r} to a raw file (no blanks allowed)")
@@ -798,7 +824,7 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
         f"Plotname: {plotname}",
         f"Flags: {'complex' if is_complex else 'real'}",
         f"No. Variables: {len(columns)}",
-        f"No. Points: {npoints}",
+        f"{_POINTS_LABEL}{length if npoints is None else npoints:<{COUNT_WIDTH}}",
     ]
     if len(result.axes) > 1 and not pyspice:
         lines.append(f"Option: {_AXES_OPTION} = ( {' '.join(result.axes)} )")
@@ -816,6 +842,18 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
         else:
             vtype = known_types.get(name) or _vector_type(name, axis)
         lines.append(f"\t{k}\t{name}\t{vtype}")
+    lines.append("Binary:" if binary else "Values:")
+    return ("\n".join(lines) + "\n").encode("utf-8"), columns
+
+
+def _plot_rows(columns: list, binary: bool, first: int = 0) -> bytes:
+    """The data of a plot's points (``columns`` as :func:`_plot_header` returns them), numbered from ``first``.
+
+    The rows of consecutive blocks of points, each numbered from where the
+    last ended, join to the rows of all of them.
+    """
+    npoints = len(columns[0][1])
+    is_complex = any(np.iscomplexobj(v) for _, v, _ in columns)
     width = 2 if is_complex else 1
     table = np.empty((npoints, len(columns) * width), dtype=_DOUBLE)
     for k, (_, values, _) in enumerate(columns):
@@ -825,16 +863,14 @@ def _format_plot(result: Result, binary: bool, title: str, date: str, pyspice: b
         else:
             table[:, k] = values
     if binary:
-        lines.append("Binary:")
-        return ("\n".join(lines) + "\n").encode("utf-8") + table.tobytes()
-    lines.append("Values:")
+        return table.tobytes()
     body = []
     for i in range(npoints):
         cells = [_ASCII_FORMAT % x for x in table[i]]
         if is_complex:
             cells = [f"{cells[2 * k]},{cells[2 * k + 1]}" for k in range(len(columns))]
-        body.append(f" {i}\t" + "".join(f"\t{c}\n" for c in cells))
-    return ("\n".join(lines) + "\n" + "\n".join(body) + "\n").encode("utf-8")
+        body.append(f" {first + i}\t" + "".join(f"\t{c}\n" for c in cells) + "\n")
+    return ("".join(body) if body else ("\n" if first == 0 else "")).encode("utf-8")
 
 
 def write_raw(
@@ -867,3 +903,62 @@ def write_raw(
     """
     write_bytes(path, format_raw(results, binary=binary, title=title, date=date, flavour=flavour,
                                  temp=temp, tnom=tnom))
+
+
+class RawStream(StreamedFile):
+    """One plot of a raw file written while the run computes its points.
+
+    The header is written with the first points, announcing 0 points (as
+    ngspice does while it runs); every block's rows follow at once, and
+    :meth:`~netdae.io.files.StreamedFile.close` patches the count in place.
+    A completed run's file equals :func:`write_raw`'s of the same result,
+    byte for byte (with the same ``date``); a run that stopped (Ctrl-C, a
+    failed step, a full disk) leaves a valid file of the points computed; a
+    process killed while it runs leaves a file that announces 0 points, which
+    :func:`read_raw` refuses with both counts unless ``partial=True``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file (replaced when the first points arrive).
+    binary : bool
+        Little-endian doubles, or ascii ``Values:`` (as :func:`format_raw`).
+    title : str
+        The ``Title:`` line.
+    date : str, optional
+        The ``Date:`` line; when the stream is made, by default.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 1e-3, 5)
+    >>> whole = Result("tran", axes={"time": t}, signals={"v(out)": t * 1e3})
+    >>> path = os.path.join(tempfile.mkdtemp(), "tran.raw")
+    >>> stream = RawStream(path, title="demo", date="today")
+    >>> for start in (0, 2):  # two blocks of points, as a run hands them over
+    ...     stream.write(start, Result("tran", axes={"time": t[start:start + 3]},
+    ...                                signals={"v(out)": t[start:start + 3] * 1e3}))
+    >>> stream.close()
+    >>> open(path, "rb").read() == format_raw(whole, title="demo", date="today")
+    True
+    """
+
+    def __init__(self, path: str | os.PathLike, *, binary: bool = True, title: str = "netdae",
+                 date: str | None = None) -> None:
+        super().__init__(path)
+        self.binary = binary
+        self.title, self.date = _title_and_date(title, date)
+
+    def _header(self, block: Result) -> tuple[bytes, int, list[str]]:
+        head, _ = _plot_header(block, self.binary, self.title, self.date, npoints=0)
+        count_at = head.index(_POINTS_LABEL.encode()) + len(_POINTS_LABEL)
+        return head, count_at, list(block.axes) + list(block.signals)
+
+    def _rows(self, block: Result, first: int) -> bytes:
+        columns = [(name, np.asarray(v), True) for name, v in block.axes.items()]
+        columns += [(name, np.asarray(v), False) for name, v in block.signals.items()]
+        return _plot_rows(columns, self.binary, first)
+
+    def _count(self, points: int) -> bytes:
+        return f"{points:<{COUNT_WIDTH}}".encode()

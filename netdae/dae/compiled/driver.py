@@ -22,6 +22,15 @@ Python is entered once per output chunk: when the output buffers are full
 Ctrl-C is honoured. An interrupted run keeps what it computed: the
 ``KeyboardInterrupt`` propagates with the partial result attached as its
 ``partial`` attribute.
+
+The accepted points can also leave the driver as they are computed: an
+``output(start, t, x)`` callback receives, at every return to Python and once
+when the run ends (finished, failed, interrupted or out of memory), the points
+recorded since its previous call (``start`` the position of the first of them
+in the run, ``t`` their times, ``x`` the saved unknowns, views valid during the
+call). It is where a caller writes a long transient to a file while it runs;
+the driver itself writes nothing. A callback that returns a text stops the run
+there, the text being the reason (a full disk).
 """
 
 from __future__ import annotations
@@ -41,11 +50,15 @@ __all__ = ["integrate_compiled", "supports"]
 
 #: Options the compiled engine implements (any other keyword sends the call to the Python integrator).
 _SUPPORTED = frozenset({"rtol", "atol", "vntol", "abstol", "index", "maxord", "max_step", "min_step",
-                        "first_step", "breakpoints", "save", "norm", "relref", "max_steps", "newton_maxiter"})
+                        "first_step", "breakpoints", "save", "norm", "relref", "max_steps", "newton_maxiter",
+                        "output", "window"})
 #: Initial capacity of the output buffers (they double when full).
 BUFFER_START = 1024
 #: Wall time between two returns to Python [s] (progress, Ctrl-C).
 PROGRESS_INTERVAL = 0.1
+#: Bytes of output a bounded run keeps in memory at most (``window``), and the fewest points.
+WINDOW_BYTES = 32 * 2**20
+WINDOW_MIN = 16
 #: Steps of the first chunk (later chunks are sized from the measured rate).
 FIRST_CHUNK = 64
 
@@ -114,6 +127,24 @@ def supports(system, options: dict) -> bool:
 
 def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=False, **options):
     """Integrate an MNA system with the compiled engine (see the module docstring).
+
+    Parameters
+    ----------
+    system, t_span, x0, progress, raise_on_failure
+        As for :func:`netdae.dae.bdf.integrate`.
+    **options
+        As for :class:`netdae.dae.bdf.BDF` (the subset in ``_SUPPORTED``), and
+        ``output``: ``output(start, t, x) -> str | None``, called with the
+        accepted points recorded since its previous call (``start``: the
+        position of ``t[0]`` among all points; ``t`` shape (m,), ``x`` shape
+        (m, len(save)): views of the output buffers, valid during the call) at
+        every return of the loop to Python and once when the run ends however
+        it ends; a text returned stops the run with that reason. And
+        ``window``: with ``output``, ``True`` keeps only the last points in
+        memory (at most :data:`WINDOW_BYTES` of them, at least
+        :data:`WINDOW_MIN`): the result then holds those (its dense output
+        covers them), ``output`` has had them all. Ignored for a system with
+        transmission lines (the loop reads their recorded waves).
 
     Returns
     -------
@@ -263,7 +294,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         plan = lu.plan
         return (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, swork)
 
-    cap = BUFFER_START
+    window = bool(options.get("window")) and options.get("output") is not None and delays[0].size == 0
+    cap = max(WINDOW_MIN, min(BUFFER_START, WINDOW_BYTES // (8 * (ns + 2)))) if window else BUFFER_START
     buf_t = np.empty(cap)
     buf_k = np.zeros(cap, dtype=np.int8)
     buf_x = np.empty((cap, ns + delays[0].size))  # the saved unknowns, then the lines' waves
@@ -281,6 +313,33 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     interrupted = None
     failure = None
     out_of_memory = None  # bytes the output buffers could not grow to
+    output = options.get("output")
+    sent = 0  # points of the buffers handed to output so far
+    dropped = 0  # points a bounded run (window) no longer holds, before the buffers' first
+    stopped_by_output = None  # the reason output gave to stop
+
+    def send() -> str | None:
+        """Hand the points recorded since the last call to ``output``."""
+        nonlocal sent
+        m_now = int(I[L.I_M])
+        if output is None or m_now == sent:
+            return None
+        reason = output(dropped + sent, buf_t[sent:m_now], buf_x[sent:m_now, :ns])
+        sent = m_now
+        return reason
+
+    def slide() -> None:
+        """A bounded run's full buffers: the points handed over leave them, but the last one."""
+        nonlocal sent, dropped
+        m_now = int(I[L.I_M])
+        d = m_now - 1
+        buf_t[0], buf_k[0], buf_x[0] = buf_t[d], buf_k[d], buf_x[d]
+        kept = [0] + [int(j) - d for j in segments[: int(I[L.I_NSEGMENTS])] if j > d]
+        segments[: len(kept)] = kept
+        I[L.I_NSEGMENTS] = len(kept)
+        I[L.I_M] = 1
+        sent -= d
+        dropped += d
     impasses: list[float] = []  # where Newton failed on every step size and the solution jumped
     pivoted_tag = None  # (tag, steps): the matrix new pivots were chosen for on the last return
     stalled, stalled_at = 0, -1  # returns for pivots or right limits since the step count last moved
@@ -358,7 +417,12 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 rl_given[:] = x_right
                 I[L.I_RL_READY] = 1
             elif status == L.BUFFER_FULL:
-                if I[L.I_M] + 1 >= cap:
+                if window and I[L.I_M] + 1 >= cap:
+                    stopped_by_output = send()
+                    if stopped_by_output is not None:
+                        break
+                    slide()
+                elif I[L.I_M] + 1 >= cap:
                     try:
                         grown = _grow(buf_t, buf_k, buf_x, 2 * cap)
                     except MemoryError:  # keep what was computed; say how to need less
@@ -383,6 +447,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 chunk = int(min(max(chunk * PROGRESS_INTERVAL / max(spent, 1e-6), 16), 1 << 22))
             else:
                 break
+            stopped_by_output = send()
+            if stopped_by_output is not None:
+                break
             now = time.perf_counter()
             if progress is not None and now - last >= PROGRESS_INTERVAL:
                 progress(F[L.F_T], t_bound, int(I[L.I_STEPS]))
@@ -394,6 +461,11 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     finally:
         if switching is not None:
             switching.release()
+    if stopped_by_output is None:
+        try:
+            stopped_by_output = send()  # the rest (a run that ended, failed or was interrupted in a chunk)
+        except KeyboardInterrupt as exc:
+            interrupted = interrupted or exc
 
     m = int(I[L.I_M])
     if out_of_memory is None:
@@ -428,6 +500,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                    f"output ({m:,} points of {save_idx.size:,} unknowns kept; the next buffer needs "
                    f"{out_of_memory / 2**20:,.0f} MiB) (hint: save fewer signals (--save, .save) or simulate a "
                    "shorter interval)")
+        code = STATUS_FAILED
+    elif stopped_by_output is not None:
+        message = f"stopped at t={F[L.F_T]:.9g} before t_bound={t_bound:.9g}: {stopped_by_output}"
         code = STATUS_FAILED
     else:
         message = f"stopped at t={F[L.F_T]:.9g} before t_bound={t_bound:.9g}"
