@@ -240,10 +240,10 @@ _DEFINITIONS = (
                 group="transistors", device_ic=("icvds", "icvgs")),
     ElementKind("vswitch", "s", "voltage-controlled switch", "(n+, n-, nc+, nc-)", (4,), _two(RESISTIVE),
                 _CONTROL_INPUTS, model_types=("sw",), family="netdae.devices.switch:SwitchFamily", controlled=True,
-                group="switches", self_loop=True),
+                group="switches", self_loop=True, solved_quantities=True),
     ElementKind("cswitch", "w", "current-controlled switch", "(n+, n-)", (2,), _two(RESISTIVE),
                 model_types=("csw",), family="netdae.devices.switch:SwitchFamily", controlled=True, senses="branch",
-                group="switches", self_loop=True),
+                group="switches", self_loop=True, solved_quantities=True),
     # a lossless line's ports: in the transient each is a resistance z0 in series with the delayed wave (an
     # input); at DC the line joins the ports (both views have this topology)
     ElementKind("tline", "t", "lossless transmission line", "(p1+, p1-, p2+, p2-)", (4,),
@@ -316,6 +316,8 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "qgd": "gate-drain junction charge",
         "p": "power absorbed: each terminal's current times its voltage",
     },
+    "vswitch": {"i": "current from n+ through the switch to n-", "p": "power absorbed"},
+    "cswitch": {"i": "current from n+ through the switch to n-", "p": "power absorbed"},
 }
 #: The quantities ``.options savecurrents`` adds to a result that keeps every unknown (as ngspice 39).
 _SAVECURRENTS = {"resistor": ("i",), "capacitor": ("i",), "inductor": ("i",), "isource": ("current",),

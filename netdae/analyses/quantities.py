@@ -298,6 +298,16 @@ def _family_values(system, fam, result: Result, dense, points: slice) -> dict[st
     if result.analysis == "tran" and dense is not None and names:
         rates = _time_derivative(result, values, lambda t: np.stack([dense(t)[m] for m in names], axis=-1))
     chunk = max(1, _CHUNK_VALUES // max(len(fam.elements) * max(len(columns), 1), n + 1))
+    position = {c: j for j, c in enumerate(columns)}
+
+    def column(unknowns):
+        out = np.zeros((count, len(unknowns)))
+        for j, c in enumerate(np.asarray(unknowns).tolist()):
+            if c >= 0:
+                out[:, j] = values[:, position[c]]
+        return out
+
+    states = fam.point_states(column, _jump_rows(result, points)) if count else None
     pieces = []
     for i in range(0, count, chunk):
         part = slice(i, min(i + chunk, count))
@@ -307,8 +317,20 @@ def _family_values(system, fam, result: Result, dense, points: slice) -> dict[st
         if rates is not None:
             dxdt = np.zeros_like(x)
             dxdt[:, columns] = rates[part]
-        pieces.append(fam.quantities(x, dxdt))
+        pieces.append(fam.quantities(x, dxdt) if states is None else fam.quantities(x, dxdt, states=states[part]))
     return {q: np.concatenate([piece[q] for piece in pieces]) for q in pieces[0]}
+
+
+def _jump_rows(result: Result, points: slice) -> dict[int, tuple[str, ...]] | None:
+    """A transient's rows (of ``points``) that are the left limit of a jump, to the elements switched there."""
+    if result.analysis != "tran":
+        return None
+    t = np.asarray(result.t, dtype=float)[points]
+    events = result.transient.events if result.transient is not None else []
+    rows = {}
+    for k in np.flatnonzero(t[:-1] == t[1:]).tolist():
+        rows[k] = tuple(name for te, names in events if te == t[k] for name in names)
+    return rows
 
 
 def _source_current(circuit: Circuit, result: Result, el: Element) -> np.ndarray:

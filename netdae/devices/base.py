@@ -326,6 +326,25 @@ class DeviceFamily:
         cols = slice(None) if k is None else k
         return np.unique(np.concatenate([np.ravel(st.ctrl_p[:, cols]), np.ravel(st.ctrl_m[:, cols])]))
 
+    def point_states(self, column, jumps) -> np.ndarray | None:
+        """The states the family's quantities depend on along a sequence of solutions (None: none).
+
+        A family whose equations depend on more than the solution (a switch's
+        hysteresis) gives them here, walking the points in order; the result
+        is passed to :meth:`quantities` as ``states``.
+
+        Parameters
+        ----------
+        column : callable
+            ``column(unknowns)``: the values of the unknowns (indices, -1 for
+            ground) at every point, shape (T, len(unknowns)).
+        jumps : dict of int to tuple of str, or None
+            A transient's rows that are the left limit of a jump (the next row
+            is its right limit, at the same time), to the elements that
+            switched there.
+        """
+        return None
+
     def quantities(self, x: np.ndarray, dxdt: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """ngspice's named device quantities of every instance at solutions ``x`` (``@q1[gm]`` ...).
 

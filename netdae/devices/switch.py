@@ -104,6 +104,13 @@ def decide(c, ref, vt, vh) -> np.ndarray:
     return np.where(c > hi, REALLY_ON, np.where(c < lo, REALLY_OFF, band))
 
 
+def switched(s, vh) -> np.ndarray:
+    """The states just past the threshold after states ``s`` (vectorised :func:`netdae.devices.kernels.switch.switched`)."""
+    flipped = np.where(s == REALLY_OFF, HYST_ON, np.where(s == HYST_OFF, REALLY_ON,
+                                                          np.where(s == REALLY_ON, HYST_OFF, REALLY_OFF)))
+    return np.where(vh > 0.0, np.where(conducting(s), REALLY_OFF, REALLY_ON), flipped)
+
+
 class SwitchFamily(DeviceFamily):
     """All S and W switches of a circuit, evaluated in one vectorised pass.
 
@@ -240,6 +247,55 @@ class SwitchFamily(DeviceFamily):
         idx[:, ks.I_CM] = extended(self.cm, n)
         idx[:, ks.S_G:ks.S_G + 4] = dependence_slots(slots, self.plus, self.minus, self.plus, self.minus)
         return par, idx, self.initial_state().v.T.copy()
+
+    def read_unknowns(self, k: int | None = None) -> np.ndarray:
+        """The switched branch's nodes and the control's unknowns (nodes, or the sensed branch current)."""
+        cols = slice(None) if k is None else k
+        return np.unique(np.concatenate([np.ravel(a[cols]) for a in (self.plus, self.minus, self.cp, self.cm)]))
+
+    def point_states(self, column, jumps):
+        """The switches' states along a sequence of solutions (a ``.dc`` sweep's points, a transient's).
+
+        The first point's are the operating point's (:meth:`dc_state`); each
+        later point's follow from the previous point's by the hysteresis
+        (:func:`decide`), as the integrator decides them at its accepted
+        points. At a switching event the transient records the left and the
+        right limit at one time: the left keeps the states of the step before,
+        the right takes the switched states of the switches named by the event
+        (the integrator's rule: past the threshold, whatever rounding left the
+        control at), the others' unchanged conductance.
+        """
+        c = column(self.cp) - column(self.cm)
+        names = np.array([el.name for el in self.elements], dtype=object)
+        jumps = jumps or {}
+        states = np.empty(c.shape)
+        s = self.dc_state(c[0], None)
+        for k in range(c.shape[0]):
+            if k == 0 or k in jumps:
+                pass
+            elif k - 1 in jumps:
+                new = decide(c[k], s, self.vt, self.vh)
+                named = np.isin(names, list(jumps[k - 1]))
+                same = conducting(new) == conducting(s)
+                s = np.where(named & same, switched(s, self.vh), np.where(~named & ~same, s, new))
+            else:
+                s = decide(c[k], s, self.vt, self.vh)
+            states[k] = s
+        return states
+
+    def quantities(self, x, dxdt=None, states=None):
+        """ngspice's switch quantities ``@s1[i]`` and ``@s1[p]`` at solutions ``x``, shape (T, N) each.
+
+        ``i`` is the current from n+ through the switch to n- (RON's or ROFF's
+        conductance, by ``states`` (:meth:`point_states`; None: each point's
+        operating-point state), times the voltage), ``p`` the power it absorbs.
+        """
+        xx = np.atleast_2d(x)
+        if states is None:
+            states = self.dc_state((xx[:, self.cp] - xx[:, self.cm]), None)
+        v = xx[:, self.plus] - xx[:, self.minus]
+        i = np.where(conducting(states), self.gon, self.goff) * v
+        return {"i": i, "p": v * i}
 
     def noise(self, x: np.ndarray, temp: float) -> NoiseSources:
         """Thermal noise of each switch's conductance at the operating point ``x`` (extended).
