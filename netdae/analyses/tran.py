@@ -9,8 +9,11 @@ The steps, each visible in the result's notes and ``transient`` (:class:`netdae.
    ngspice does.
 2. **Structure**: the pencil of the linearisation at the start
    (:func:`netdae.analyses.index.analyze_index`; dense up to
-   :data:`TRAN_PENCIL_LIMIT` unknowns, topological above) gives the index and
-   which unknowns depend on input derivatives (index 2).
+   :data:`TRAN_PENCIL_LIMIT` unknowns, topological above, and topological
+   too where the topological statement is exact and gives index 0 or 1: a
+   circuit of R, L, C, diodes and independent sources with positive values,
+   no CV-loop and no LI-cutset, whose index no value can change) gives the
+   index and which unknowns depend on input derivatives (index 2).
 3. **Consistent initial values**: an index-2 circuit whose inputs change at
    t0 (the differentiator driven by a sine) has hidden constraints the DC
    operating point violates; netdae replaces the nilpotent part of the start
@@ -337,9 +340,18 @@ def _instability(rep, span: float) -> str:
             "this time; look for a controlled source whose gain makes the circuit active)")
 
 
-def _structure(system: MnaSystem, x0: np.ndarray) -> IndexReport | None:
-    """Index report at the start (dense when small, else topological)."""
-    method = "auto" if system.n <= TRAN_PENCIL_LIMIT else "topological"
+def _structure(system: MnaSystem, x0: np.ndarray, uic: bool) -> IndexReport | None:
+    """Index report at the start: topological when the topological statement is exact for the circuit and
+    gives index 0 or 1 (the dense analysis could only confirm it), or above the dense limit; else dense.
+
+    A linear ``uic`` start keeps the dense analysis: its consistent values come from the Weierstrass form.
+    """
+    from ..topology import analyze_topology
+
+    topo = analyze_topology(system.circuit)  # memoised by structure: a sweep's rows share it
+    idx = topo.topological_index
+    exact = topo.applicable and not topo.singular and idx is not None and idx <= 1 and not (uic and system.linear)
+    method = "topological" if exact or system.n > TRAN_PENCIL_LIMIT else "auto"
     rep = analyze_index(system, x=x0, method=method, check_consistency=False)
     if rep.regular is False:
         from ..topology import pencil_singularity_explanation
@@ -601,7 +613,7 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     notes += start.notes
     system.start_delays(start.x, uic=card.uic)
 
-    rep = _structure(system, start.x)
+    rep = _structure(system, start.x, card.uic)
     index = rep.index
     index2 = [nm for nm, d in rep.derivative_order.items() if d >= 1]
     if index is not None and index >= 3 and not system.linear:
