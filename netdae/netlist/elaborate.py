@@ -122,7 +122,7 @@ def _first_bin(name: str, models: Mapping) -> ModelCard | None:
     head = name + "."
     if not any(key.startswith(head) for key in models):
         return None
-    from ..devices.osdi.spice_mos import first_bin  # the binning rules' owner (imported only for bins)
+    from ..devices.osdi.spice_models import first_bin  # the binning rules' owner (imported only for bins)
 
     return first_bin(name, models)
 
@@ -134,6 +134,22 @@ def _undefined(env: Env, node: ex.Param) -> bool:
     except UnknownName:
         return True
     return False
+
+
+def _may_run_as_port(el: Element, models: Mapping) -> bool:
+    """The element may be one that :func:`netdae.devices.osdi.spice_models.map_devices` rewrites.
+
+    A kind that only runs through a port, a node count beyond the kind's (a
+    VBIC's thermal node), a model of a level other than 1, or a model name
+    without a card (BSIM bins).
+    """
+    spec = KINDS[el.kind]
+    if spec.runs_as is not None or len(el.nodes) not in spec.node_counts:
+        return True
+    if not spec.model_types or el.model is None:
+        return False
+    model = models.get(el.model)
+    return model is None or model.params.get("level", 1.0) != 1.0
 
 
 def _ground(name: str) -> str:
@@ -458,12 +474,11 @@ class _Elaborator:
         ignores are warned about (models nobody uses are not looked at, as in ngspice).
         """
         models = circuit.models
-        if any(el.kind == "mosfet" and (el.model not in models or models[el.model].params.get("level", 1.0) != 1.0)
-               for el in circuit.elements):
-            from ..devices.osdi.spice_mos import map_mosfets  # BSIM3/BSIM4 cards: the bundled OSDI modules
+        if any(_may_run_as_port(el, models) for el in circuit.elements):
+            from ..devices.osdi.spice_models import map_devices  # ngspice's models as the bundled OSDI ports
             flags = {name: [(flag, card.card.location(offset)) for flag, offset in card.flags.items()]
                      for name, card in self.model_cards.items() if card.flags}
-            self.diagnostics.extend(map_mosfets(circuit, flags))
+            self.diagnostics.extend(map_devices(circuit, flags))
         seen: set[str] = set()
         for el in circuit.elements:
             if el.model is None or el.kind == "osdi":
