@@ -141,6 +141,12 @@ def test_names_ngspice_ignores_are_warned_about_at_their_place():
     assert warning.location is not None and warning.location.line == 5
 
 
+def test_a_vbic_excess_phase_delay_is_warned_about():
+    circuit = netdae.load(vbic("npn", extra="td=2e-11"))
+    assert any("td=2e-11: the excess-phase delay" in w for w in warnings_of(circuit))
+    assert not warnings_of(netdae.load(vbic("npn")))
+
+
 def test_mos6_ps_is_the_models_parameter_not_the_source_perimeter():
     circuit = netdae.load(mosfet(6, "nmos", inst="l=2u w=10u ps=20u").replace("uo=600", "uo=600 ps=0.1"))
     m1 = circuit.element("m1")

@@ -136,6 +136,9 @@ class ModuleMap:
         Parameters of the module that ngspice 39 does not know (ignored, as ngspice ignores them).
     nqs : frozenset of str
         The non-quasi-static selectors, whose ``.ac`` results differ from ngspice's (:data:`NQS_NOTE`).
+    differs : dict of str to str
+        Model parameters whose effect the module computes otherwise than ngspice 39 (measured), with
+        what differs: a non-zero value is warned about.
     defaults : dict of str to float
         ngspice's defaults of model parameters whose module default differs (written when not given).
     thermal : tuple of (str, str) or None
@@ -164,6 +167,7 @@ class ModuleMap:
     model_names: dict[str, str] = field(default_factory=dict)
     module_only: frozenset = frozenset()
     nqs: frozenset = frozenset()
+    differs: dict[str, str] = field(default_factory=dict)
     defaults: dict[str, float] = field(default_factory=dict)
     thermal: tuple[str, str] | None = None
     unheated: dict[str, float] = field(default_factory=dict)
@@ -222,6 +226,8 @@ _VBIC = ModuleMap("VBIC", "bjt", (4,), "vbic_1p3_4t.osdi", "vbic13_4t",
                                         "sw_noise sw_et avcx1 avcx2 mcx tavcx qnibeir abk bbk ibk0 vpte tcrth tcvef "
                                         "tcver".split()),
                   defaults={"rci": 0.1, "rbi": 0.1, "rbp": 0.1, "hrcf": 1.0},
+                  differs={"td": "the excess-phase delay is VBIC 1.3's network in the module and computed otherwise "
+                                 "by ngspice 39: transients and .ac near 1/td differ from ngspice's"},
                   thermal=("vbic_1p3_5t.osdi", "vbic13_5t"), unheated={"sw_et": 0}, area_as_m=True,
                   form="{name} nc nb ne [ns [nt]] model [area] [m=..] [dtemp=..]")
 #: The ngspice models netdae runs through OSDI, by (element kind, level).
@@ -408,6 +414,8 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Mo
             continue
         if raw in m.nqs and value:
             _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
+        if raw in m.differs and value:
+            _warn(notes, f"model {card.name}: {raw}={value:g}: {m.differs[raw]}", loc)
         params[name_in] = value
         locations[name_in] = loc
     for raw, text in card.strings.items():
