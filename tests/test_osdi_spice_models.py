@@ -183,6 +183,13 @@ def test_mesa_levels_are_refused_naming_the_level():
     assert err.value.location.line == 5
 
 
+def test_hfet_cards_are_refused_by_name():
+    with pytest.raises(NetlistError, match=r"model 'hf' is of type 'nhfet', ngspice's N-channel HFET .* not "
+                                           "implemented by netdae") as err:
+        netdae.load("t\nVd d 0 1\nZ1 d 0 0 hf\n.model hf nhfet\n.op\n.end\n")
+    assert err.value.location.line == 3
+
+
 def test_a_thermal_node_on_a_gummel_poon_model_is_refused():
     with pytest.raises(NetlistError, match="5 nodes .* need a self-heating model") as err:
         netdae.load("t\nVc c 0 1\nQ1 c b 0 0 t qg\n.model qg npn\n.op\n.end\n")

@@ -54,6 +54,9 @@ INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
 #: PSpice's model types that ngspice names otherwise.
 _PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
                        "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
+#: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
+_UNIMPLEMENTED_MODEL_TYPES = {"nhfet": "ngspice's N-channel HFET (heterostructure FET)",
+                              "phfet": "ngspice's P-channel HFET (heterostructure FET)"}
 #: Bare names on a .model card that restate its type.
 _TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw", "pchan", "nchan"})
 #: LTspice's annotations on a VDMOS card (datasheet figures and the maker), which ngspice's reader drops.
@@ -764,6 +767,10 @@ class _Elaborator:
                         f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "
                         "outside its PSpice compatibility mode)", ELEMENTS[item.name[0]],
                         hint=f"write a {' or '.join(allowed)} model")
+        if allowed is not None and mcard.type not in allowed and mcard.type in _UNIMPLEMENTED_MODEL_TYPES:
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
+                        f"{_UNIMPLEMENTED_MODEL_TYPES[mcard.type]}, which is not implemented by netdae",
+                        ELEMENTS[item.name[0]], hint=f"netdae runs {' or '.join(allowed)} models on this card")
         if allowed is not None and mcard.type.startswith("ako:"):
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is a PSpice AKO model ('a kind of' "
                         f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "
