@@ -183,6 +183,22 @@ def test_mesa_levels_are_refused_naming_the_level():
     assert err.value.location.line == 5
 
 
+def test_mos3_and_mos9_cards_need_nsub():
+    for level in (3, 9):
+        with pytest.raises(NetlistError, match=f"MOS{level}.* without nsub") as err:
+            netdae.load(mosfet(level, "nmos").replace(" nsub=1e15", ""))
+        assert err.value.location.line == 5
+
+
+def test_sizes_follow_options_scale_as_in_ngspice():
+    """MOS2 and MOS3 multiply l, w (and ad, as by its square) by .options scale; ngspice's MOS6 and MOS9 do not."""
+    for level, factor in ((2, 1e-6), (3, 1e-6), (6, 1.0), (9, 1.0)):
+        circuit = netdae.load(mosfet(level, "nmos", inst="l=2 w=10 ad=20").replace(".op", ".options scale=1e-6\n.op"))
+        m1 = circuit.element("m1")
+        assert (m1.params["l"], m1.params["w"], m1.params["ad"]) == pytest.approx(
+            (2 * factor, 10 * factor, 20 * factor ** 2), rel=1e-15)
+
+
 def test_hfet_cards_are_refused_by_name():
     with pytest.raises(NetlistError, match=r"model 'hf' is of type 'nhfet', ngspice's N-channel HFET .* not "
                                            "implemented by netdae") as err:

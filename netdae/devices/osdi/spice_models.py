@@ -136,6 +136,9 @@ class ModuleMap:
         Parameters of the module that ngspice 39 does not know (ignored, as ngspice ignores them).
     nqs : frozenset of str
         The non-quasi-static selectors, whose ``.ac`` results differ from ngspice's (:data:`NQS_NOTE`).
+    needs : dict of str to str
+        Model parameters the module cannot do without although ngspice can, with why: a card without
+        one is a located error (rather than a module evaluating to NaN).
     differs : dict of str to str
         Model parameters whose effect the module computes otherwise than ngspice 39 (measured), with
         what differs: a non-zero value is warned about.
@@ -167,6 +170,7 @@ class ModuleMap:
     model_names: dict[str, str] = field(default_factory=dict)
     module_only: frozenset = frozenset()
     nqs: frozenset = frozenset()
+    needs: dict[str, str] = field(default_factory=dict)
     differs: dict[str, str] = field(default_factory=dict)
     defaults: dict[str, float] = field(default_factory=dict)
     thermal: tuple[str, str] | None = None
@@ -206,14 +210,19 @@ _BSIM3 = ModuleMap(
     nqs=frozenset({"nqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [name=value ...]",
 )
 _MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
+#: Measured: the MOS3/MOS9 ports evaluate to NaN without nsub (ngspice's mos3temp.c then leaves the
+#: depletion-width coefficient at 0; the ports compute it from nsub = 0).
+_NSUB = {"nsub": "the bundled port of this model computes its depletion-layer width from nsub and evaluates to "
+                 "NaN without it (ngspice 39 then takes the width coefficient as 0)"}
 _MOS2 = ModuleMap("MOS2", "mosfet", (2,), "spice/mos2.osdi", "sp_mos2", instance_names={"m": "$mfactor"},
-                  module_only=frozenset({"type", "nlev", "gdsnoi"}), form=_MOS_SIZES)
-_MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"},
-                  module_only=frozenset({"type", "nlev", "gdsnoi"}), form=_MOS_SIZES)
+                  module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
+_MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, needs=_NSUB,
+                  module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
 _MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance_names={"m": "$mfactor"},
-                  model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}), form=_MOS_SIZES)
-_MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"},
-                  module_only=frozenset({"type"}), form=_MOS_SIZES)
+                  model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
+                  form=_MOS_SIZES)  # mos6par.c: no .options scale
+_MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, needs=_NSUB,
+                  module_only=frozenset({"type"}), form=_MOS_SIZES)  # mos9par.c: no .options scale
 _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
                    instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
                    form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
@@ -392,6 +401,12 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Mo
                                         f"{', '.join(sorted(m.versions))})")
         _warn(notes, f"model {card.name}: version {version} runs ngspice's {runs}; netdae runs {m.name} "
               f"{m.implemented} ({m.module}): results can differ from ngspice's", where)
+    for name, why in m.needs.items():
+        if name not in card.params:
+            raise NetlistError(f"model {card.name}: {_describe(m, card)} without {name}: {why}", card.location,
+                               expected=f".model {card.name} {card.type} level={int(level_of(card))} {name}=<value> ...",
+                               hint=f"give {name} (ngspice's {m.name} computes phi, gamma and vto from it when they "
+                                    "are not given: write those too to keep ngspice's values)")
     known = m.known(int(level_of(card)))
     params: dict[str, object] = {"type": 1 if card.type == KINDS[m.kind].model_types[0] else -1}
     params.update(m.defaults)
@@ -465,7 +480,8 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
                 f"not an instance parameter of ngspice's {m.name} model (ngspice 39 stops at it too)"),
                 el.location, expected=form,
                 hint=(f"'netdae osdi {m.library} --params' lists the module's instance parameters"
-                      + (" (names prefixed instance_ are written without the prefix)" if m.scaled else "")))
+                      + (" (names prefixed instance_ are written without the prefix)"
+                         if any(v.startswith("instance_") for v in m.instance_names.values()) else "")))
         if raw in m.nqs and value:
             _warn(notes, f"{el.name}: {raw}={value:g}: {NQS_NOTE}", el.location)
         factor = scale ** SCALED.get(raw, 0) if m.scaled else 1.0
