@@ -147,6 +147,12 @@ def test_a_vbic_excess_phase_delay_is_warned_about():
     assert not warnings_of(netdae.load(vbic("npn")))
 
 
+def test_a_vbic_away_from_tnom_is_warned_about():
+    hot = netdae.load(vbic("npn").replace(".op", ".options temp=80\n.op"))
+    assert sum("away from tnom" in w for w in warnings_of(hot)) == 1
+    assert not any("away from tnom" in w for w in warnings_of(netdae.load(vbic("npn"))))
+
+
 def test_mos6_ps_is_the_models_parameter_not_the_source_perimeter():
     circuit = netdae.load(mosfet(6, "nmos", inst="l=2u w=10u ps=20u").replace("uo=600", "uo=600 ps=0.1"))
     m1 = circuit.element("m1")

@@ -136,6 +136,9 @@ class ModuleMap:
         Parameters of the module that ngspice 39 does not know (ignored, as ngspice ignores them).
     nqs : frozenset of str
         The non-quasi-static selectors, whose ``.ac`` results differ from ngspice's (:data:`NQS_NOTE`).
+    off_tnom : str or None
+        What differs from ngspice 39 when the device's temperature is not the card's ``tnom``
+        (measured): warned about once per card; None: nothing.
     needs : dict of str to str
         Model parameters the module cannot do without although ngspice can, with why: a card without
         one is a located error (rather than a module evaluating to NaN).
@@ -170,6 +173,7 @@ class ModuleMap:
     model_names: dict[str, str] = field(default_factory=dict)
     module_only: frozenset = frozenset()
     nqs: frozenset = frozenset()
+    off_tnom: str | None = None
     needs: dict[str, str] = field(default_factory=dict)
     differs: dict[str, str] = field(default_factory=dict)
     defaults: dict[str, float] = field(default_factory=dict)
@@ -237,6 +241,9 @@ _VBIC = ModuleMap("VBIC", "bjt", (4,), "vbic_1p3_4t.osdi", "vbic13_4t",
                   defaults={"rci": 0.1, "rbi": 0.1, "rbp": 0.1, "hrcf": 1.0},
                   differs={"td": "the excess-phase delay is VBIC 1.3's network in the module and computed otherwise "
                                  "by ngspice 39: transients and .ac near 1/td differ from ngspice's"},
+                  off_tnom="ngspice 39's VBIC gives very different currents away from tnom (at 150 degC: 0.95 A "
+                           "against the VBIC temperature mapping's 1.2 mA, docs/devices.md); netdae runs the module's "
+                           "mapping",
                   thermal=("vbic_1p3_5t.osdi", "vbic13_5t"), unheated={"sw_et": 0}, area_as_m=True,
                   form="{name} nc nb ne [ns [nt]] model [area] [m=..] [dtemp=..]")
 #: The ngspice models netdae runs through OSDI, by (element kind, level).
@@ -531,6 +538,7 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
     done: dict[tuple[str, bool], tuple[ModuleMap, object, str]] = {}
     libraries = {path for path, _ in circuit.osdi_files}
     originals: dict[str, Model] = {}
+    warned: set = set()
     for el in circuit.elements:
         if el.model is None or not KINDS[el.kind].model_types:
             continue
@@ -580,6 +588,13 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
             notes.append(Diagnostic("note", f"model {card.name}: {_describe(m, card)} runs as the OSDI module "
                                     f"{module.name} ({library} of netdae[models])", card.location))
             done[key] = (m, module, name)
+        if m.off_tnom is not None and key not in warned and (
+                "dtemp" in el.params or "dtemp" in card.params or
+                abs(circuit.options.temp - card.params.get("tnom", circuit.options.tnom)) > 1e-9):
+            warned.add(key)
+            _warn(notes, f"{el.name}: model {card.name} at {circuit.options.temp:g} degC"
+                  f"{' plus dtemp' if 'dtemp' in el.params or 'dtemp' in card.params else ''}, tnom "
+                  f"{card.params.get('tnom', circuit.options.tnom):g}: {m.off_tnom}", el.location)
         scale = option(circuit, "scale", 1.0, el) if m.scaled else 1.0
         el.params = _instance_params(m, el, module, notes, int(level_of(card)), scale)
         if not thermal:
