@@ -78,8 +78,8 @@ OUTPUT_ONLY: dict[str, frozenset] = {
 }
 
 #: The model family of each element kind that uses a model card.
-MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos", "mesfet": "mesfet",
-                  "vswitch": "vswitch", "cswitch": "cswitch",
+MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos",
+                  "mesfet": "mesfet", "vswitch": "vswitch", "cswitch": "cswitch",
                   "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor"}
 
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).

@@ -20,7 +20,8 @@ from .statements import ElementCard, InstanceCard, SourceCard, Val
 from .syntax import ELEMENTS, SOURCE_FUNCTIONS, UNSUPPORTED_ELEMENTS, ElementSyntax, supported_letters
 from .waveforms import WAVEFORMS
 
-__all__ = ["parse_element", "parse_value", "parse_expr", "parse_node", "error", "split_args", "IDENT", "UNLABELLED_AREA"]
+__all__ = ["parse_element", "parse_value", "parse_expr", "parse_node", "error", "split_args", "IDENT",
+           "UNLABELLED_AREA"]
 
 #: A bare word that can name a parameter.
 IDENT = re.compile(r"[a-z_][a-z0-9_.]*\Z")

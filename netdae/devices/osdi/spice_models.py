@@ -411,7 +411,8 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Mo
     for name, why in m.needs.items():
         if name not in card.params:
             raise NetlistError(f"model {card.name}: {_describe(m, card)} without {name}: {why}", card.location,
-                               expected=f".model {card.name} {card.type} level={int(level_of(card))} {name}=<value> ...",
+                               expected=f".model {card.name} {card.type} level={int(level_of(card))} "
+                                        f"{name}=<value> ...",
                                hint=f"give {name} (ngspice's {m.name} computes phi, gamma and vto from it when they "
                                     "are not given: write those too to keep ngspice's values)")
     known = m.known(int(level_of(card)))
