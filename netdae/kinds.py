@@ -14,7 +14,9 @@ Adding an element kind
 ----------------------
 1. Add its :class:`ElementKind` to :data:`KINDS` (the fields say what each
    consumer needs; ``family`` names its device family as ``"module:Class"``,
-   or ``stamped=True`` for a constant stamp in :mod:`netdae.devices.linear`).
+   or ``stamped=True`` for a constant stamp in :mod:`netdae.devices.linear`;
+   or ``runs_as="osdi"`` for an ngspice model run by a bundled compiled
+   module, with its row in :mod:`netdae.devices.osdi.spice_models`).
 2. Write its family (:class:`netdae.devices.base.DeviceFamily`, with
    ``kinds`` naming this kind) and its compiled kernel, or its stamp.
 3. Teach the reader its card (:mod:`netdae.netlist.elements`).
@@ -125,6 +127,11 @@ class ElementKind:
     senses : str or None
         The kind of element its controls name (``"branch"``: any kind in
         :data:`BRANCH_CURRENT_KINDS`).
+    runs_as : str or None
+        The kind elaboration rewrites every element of this kind into
+        (``"osdi"``: an ngspice model netdae runs as a bundled compiled
+        module, :mod:`netdae.devices.osdi.spice_models`); such a kind has
+        neither a stamp nor a family of its own.
     """
 
     name: str
@@ -151,6 +158,7 @@ class ElementKind:
     module_quantities: bool = False
     independent: bool = False
     senses: str | None = None
+    runs_as: str | None = None
 
     @property
     def noun(self) -> str:
@@ -235,6 +243,10 @@ _DEFINITIONS = (
     ElementKind("jfet", "j", "JFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 model_types=("njf", "pjf"), family="netdae.devices.jfet:JfetFamily", controlled=True,
                 group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs")),
+    # ngspice's MESFET (Z cards): elaboration maps it to the bundled port of ngspice's model (an osdi element)
+    ElementKind("mesfet", "z", "MESFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
+                model_types=("nmf", "pmf"), controlled=True, group="transistors", device_ic=("icvds", "icvgs"),
+                runs_as="osdi"),
     ElementKind("vdmos", "m", "power MOSFET (VDMOS)", "(d, g, s)", (3,), ((RESISTIVE, 0, 2),), ((1, "gate"),),
                 model_types=("vdmos",), family="netdae.devices.vdmos:VdmosFamily", controlled=True,
                 group="transistors", device_ic=("icvds", "icvgs")),

@@ -11,6 +11,8 @@ q and phi.
 
 from __future__ import annotations
 
+import re
+
 from pathlib import Path
 
 import numpy as np
@@ -128,10 +130,13 @@ def close(got, want, name):
 
 def netlists_with(letter: str, model: str | None = None, without: str | None = None) -> list[Path]:
     """Example netlists with at least one element card starting with ``letter`` (and a ``.model`` of
-    type ``model``, or none of type ``without``)."""
+    type ``model``, or none of type ``without``); netlists whose cards run as compiled ports of ngspice's
+    models (a ``level=`` other than 1: netdae.devices.osdi.spice_models) are not the families'."""
     out = []
     for path in sorted(NETLISTS.glob("*.cir")):
         lines = path.read_text().lower().splitlines()[1:]
+        if any(re.search(r"\blevel\s*=\s*(?!1\b)\d", ln) for ln in lines if ln.startswith((".model", "+"))):
+            continue
         cards = [ln for ln in lines if ln[:1] == letter.lower()]
         types = {ln.replace("(", " ").split()[2] for ln in lines if ln.startswith(".model") and len(ln.split()) > 2}
         if cards and (model is None or model in types) and (without is None or without not in types):

@@ -253,8 +253,6 @@ def test_uic_notes_that_the_instance_initial_conditions_only_start_newton():
 
 
 @pytest.mark.parametrize("text, pattern, column_text", [
-    ("t\nJ1 d g s jm\n.model jm njf level=2 vto=-1\n.end\n",
-     r"j1: model jm: JFET level 2 \(Parker-Skellern in ngspice\) is not implemented by netdae", "2"),
     ("t\nJ1 d g s jm\n.model jm njf level=3\n.end\n", r"JFET level 3 \(a level ngspice 39 does not know", "3"),
     ("t\nJ1 d g s jm\n.model jm npn\n.end\n", r"model 'jm' is of type 'npn', a JFET needs njf or pjf", "jm"),
     ("t\nJ1 d g s\n.end\n", r"expected 3 nodes and a model name", None),

@@ -52,9 +52,14 @@ def test_index_agrees_with_header_slycot_and_topology(path):
     else:
         # SLICOT's balancing can misjudge a rank when capacitances span many decades
         # (voltage_multiplier.cir: 10 uF pumping capacitors beside 4 pF junctions);
-        # then netdae must agree with one of its answers and with the topology
+        # then netdae must agree with one of its answers and with the topology, where the topology
+        # applies (not to a compiled device: vbic_stage.cir, whose VBIC has internal nodes without
+        # charge beside farad-scale couplings, and the header's index)
         assert (rep.index, rep.n_dynamic) in (scaled, unscaled)
-        assert topo.applicable and not topo.singular and topo.topological_index == rep.index
+        if topo.applicable:
+            assert not topo.singular and topo.topological_index == rep.index
+        else:
+            assert any(el.kind == "osdi" for el in circuit.elements) and rep.index == header.expected_index
     if topo.applicable and not topo.singular:
         assert topo.topological_index == rep.index
     # every index-2 unknown the topology names is index-2 numerically too

@@ -134,8 +134,8 @@ def test_model_extras_ngspice_ignores_are_located_warnings(tmp_path):
         assert sum(w.startswith(text) for w in warnings) == 1, (text, warnings)
 
 
-@pytest.mark.parametrize("level, name", [(2, "Grove-Frohman"), (3, "semi-empirical"), (4, "BSIM1"),
-                                         (9, "MOS9"), (68, "HiSIM2")])
+@pytest.mark.parametrize("level, name", [(4, "BSIM1"), (5, "BSIM2"), (60, "SOI3"),
+                                         (68, "HiSIM2")])
 def test_unimplemented_mosfet_level_is_refused_by_name(level, name):
     text = f"t\n.model mm nmos level={level} vto=1 kappa=0.2\nV1 d 0 1\nM1 d d 0 0 mm\n.op\n.end\n"
     with pytest.raises(NetlistError, match=rf"m1: model mm: MOSFET level {level} \({name} in ngspice\) is not "

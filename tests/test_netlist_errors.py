@@ -15,7 +15,8 @@ CASES = [
     ("t\nO1 a 0 b 0 lmod\n", r"o1: element type 'O' \(lossy transmission line\) is not supported", 2, "O1"),
     ("t\nU1 a b 0 rcmod l=1u\n", r"'U' \(uniform distributed RC line\)", 2, "U1"),
     ("t\nY1 a 0 b 0 ymod\n", r"'Y' \(single lossy transmission line", 2, "Y1"),
-    ("t\nZ1 d g s zm\n", r"'Z' \(MESFET\)", 2, "Z1"),
+    ("t\nZ1 d g s zm\n.model zm nmf level=2\n", r"z1: model zm: MESFET level 2 \(MESA in ngspice\) is not "
+     r"implemented by netdae", 3, "2"),
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
     # dot cards netdae does not implement
     ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
@@ -85,8 +86,8 @@ CASES = [
     ("t\nD1 a 0 dm\n.model dm d is\n", r"model parameter 'is' needs a value", 3, "is"),
     ("t\nD1 a 0 dm\n.model dm d is=\"big\"\n", r"model parameter 'is' needs a number, found the string", 3,
      '"big"'),
-    ("t\nM1 d g 0 0 mm\n.model mm nmos level=2 kappa=0.1\n",
-     r"m1: model mm: MOSFET level 2 \(Grove-Frohman in ngspice\) is not implemented by netdae", 3, "2"),
+    ("t\nM1 d g 0 0 mm\n.model mm nmos level=4 kappa=0.1\n",
+     r"m1: model mm: MOSFET level 4 \(BSIM1 in ngspice\) is not implemented by netdae", 3, "4"),
     ("t\n.model\n", r"expected a model name and type", 2, None),
     ("t\nL1 a 0 lmod\n.model lmod l\n", r"'lmod' is a model: an inductance computed from a model", 2, "lmod"),
     # references
@@ -150,8 +151,8 @@ CASES = [
      r"\('thermal'\) is not supported", 2, "thermal"),
     ("t\nD1 1 0 tj dm thermal\n.model dm d\n", r"a self-heating diode with thermal nodes \('thermal'\) is not "
      r"supported", 2, "thermal"),
-    ("t\nQ1 c b 0 s tj qm\n.model qm npn\n", r"five nodes \(collector base emitter substrate and a thermal node: "
-     r"ngspice's self-heating VBIC or HICUM\) are not supported", 2, "tj"),
+    ("t\nQ1 c b 0 s tj qm\n.model qm npn\n", r"q1: 5 nodes \(with a thermal node\) need a self-heating model; "
+     r"model qm is npn level 1", 2, "Q1"),
     ("t\nB1 1 0 V=v(2)*2 tc1=1m temp=50\n", r"temp= on a B source \(instance temperature\) is not supported", 2,
      "temp"),
     ("t\nB1 1 0 V=(v(2)>1) | (v(2)<0)\n", r"'\|' \(PSpice's logical or\) is not supported by netdae", 2, "|"),
@@ -234,7 +235,7 @@ def test_element_errors_show_the_expected_form_and_a_hint():
     assert err.hint and str(err).startswith("<string>:2:7: c1: missing capacitance (expected: Cname n+ n- value")
     with pytest.raises(NetlistError) as exc:
         load("t\nO1 a 0 b 0 lmod\n")
-    assert "netdae reads R C L K V I E G F H B D Q M J S W T N X" in exc.value.hint
+    assert "netdae reads R C L K V I E G F H B D Q M J Z S W T N X" in exc.value.hint
 
 
 def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):

@@ -56,7 +56,8 @@ def _count(v: float) -> bool:
 
 #: Options kept in ``Options.extra`` that netdae's devices read (the MOSFET defaults).
 USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas", "savecurrents"})
-#: Those BSIM3/BSIM4 ``M`` elements read (sizes, bin selection: :mod:`netdae.devices.osdi.spice_mos`).
+#: Those the M elements run as bundled ports read (BSIM3, BSIM4, MOS2, MOS3 sizes; BSIM bins):
+#: :mod:`netdae.devices.osdi.spice_models`.
 BSIM_OPTIONS = frozenset({"scale", "wnflag"})
 
 #: The options netdae uses, with their valid values: name -> (test, what is expected).

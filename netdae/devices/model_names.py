@@ -18,7 +18,8 @@ Examples
 
 from __future__ import annotations
 
-__all__ = ["NGSPICE_PARAMETERS", "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "level_name"]
+__all__ = ["NGSPICE_PARAMETERS", "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "LEVEL_PARAMETERS", "level_name",
+           "level_parameters"]
 
 
 def _names(text: str) -> frozenset:
@@ -58,6 +59,9 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
     "inductor": _names("ind tc1 tc2 tnom csect dia length nt mu l"),
     "vswitch": _names("sw vt vh ron roff gon goff"),
     "cswitch": _names("csw it ih ron roff gon goff"),
+    # mes.c (level 1, Statz; the levels 2-4, MESA, have tables of their own)
+    "mesfet": _names("level type nmf pmf vt0 vto alpha beta lambda b rd gd rs gs cgs cgd pb is fc depl_cap vcrit "
+                     "kf af"),
 }
 
 #: Names in those tables that are outputs (ngspice reports them, and refuses them on a .model card).
@@ -70,10 +74,12 @@ OUTPUT_ONLY: dict[str, frozenset] = {
     "vdmos": _names("type"),
     "vswitch": _names("gon goff"),
     "cswitch": _names("gon goff"),
+    "mesfet": _names("type gd gs depl_cap vcrit"),
 }
 
 #: The model family of each element kind that uses a model card.
-MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos", "vswitch": "vswitch", "cswitch": "cswitch",
+MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos",
+                  "mesfet": "mesfet", "vswitch": "vswitch", "cswitch": "cswitch",
                   "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor"}
 
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
@@ -85,9 +91,50 @@ LEVELS: dict[str, dict[int, str]] = {
                55: "B3SOI (fully depleted)", 56: "B3SOI (dynamic depletion)", 57: "B3SOI (partially depleted)",
                60: "SOI3", 68: "HiSIM2", 73: "HiSIM_HV"},
     "jfet": {1: "Shichman-Hodges", 2: "Parker-Skellern"},
+    "mesfet": {1: "Statz", 2: "MESA", 3: "MESA", 4: "MESA"},
+}
+
+#: The model and instance parameter names (``devhelp``: "in" and "inout") of the
+#: ngspice 39 models whose tables differ from their family's level 1, by
+#: (family, level); ``level`` (read by ngspice's reader) is among the model names.
+LEVEL_PARAMETERS: dict[tuple[str, int], tuple[frozenset, frozenset]] = {
+    ("mosfet", 2): (_names(
+        "level vto vt0 kp gamma phi lambda rd rs cbd cbs is pb cgso cgdo cgbo rsh cj mj cjsw mjsw js tox ld u0 uo fc "
+        "nmos pmos nsub tpg nss delta uexp ucrit vmax xj neff nfs tnom kf af"),
+        _names("m l w ad as pd ps nrd nrs off icvds icvgs icvbs temp dtemp ic sens_l sens_w")),
+    ("mosfet", 3): (_names(
+        "level nmos pmos vto vt0 kp gamma phi rd rs cbd cbs is pb cgso cgdo cgbo rsh cj mj cjsw mjsw js tox ld xl wd "
+        "xw delvto delvt0 u0 uo fc nsub tpg nss vmax xj nfs xd alpha eta delta input_delta theta kappa tnom kf af"),
+        _names("m l w ad as pd ps nrd nrs off icvds icvgs icvbs ic temp dtemp sens_l sens_w")),
+    ("mosfet", 6): (_names(
+        "level vto vt0 kv nv kc nc nvth ps gamma gamma1 sigma phi lambda lambda0 lambda1 rd rs cbd cbs is pb cgso "
+        "cgdo cgbo rsh cj mj cjsw mjsw js ld tox u0 uo fc nmos pmos tpg nsub nss tnom"),
+        _names("l w m ad as pd ps nrd nrs off icvds icvgs icvbs temp dtemp ic sens_l sens_w")),
+    ("mosfet", 9): (_names(
+        "level nmos pmos vto vt0 kp gamma phi rd rs cbd cbs is pb cgso cgdo cgbo rsh cj mj cjsw mjsw js tox ld xl wd "
+        "xw delvto delvt0 u0 uo fc nsub tpg nss vmax xj nfs xd alpha eta delta input_delta theta kappa tnom kf af"),
+        _names("m l w ad as pd ps nrd nrs off icvds icvgs icvbs ic temp dtemp sens_l sens_w")),
+    ("jfet", 2): (_names(
+        "level njf pjf acgam af beta cds cgd cgs delta hfeta hfe1 hfe2 hfg1 hfg2 mvst mxi fc ibd is kf lambda lfgam "
+        "lfg1 lfg2 n p vbi pb q rd rs taud taug vbd ver vst vt0 vto xc xi z hfgam tnom"),
+        _names("off ic area m icvds icvgs temp dtemp")),
+    ("bjt", 4): (_names(
+        "level npn pnp tnom tref rcx rci vo gamm hrcf rbx rbi re rs rbp is nf nr fc cbeo cje pe me aje cbco cjc qco "
+        "cjep pc mc ajc cjcp ps ms ajs ibei wbe nei iben nen ibci nci ibcn ncn avc1 avc2 isp wsp nfp ibeip ibenp "
+        "ibcip ncip ibcnp ncnp vef ver ikf ikr ikp tf qtf xtf vtf itf tr td kfn afn bfn xre xrb xrbi xrc xrci xrs "
+        "xvo ea eaie eaic eais eane eanc eans xis xii xin tnf tavc rth cth vrt art ccso qbm nkf xikf xrcx xrbx xrbp "
+        "isrr xisr dear eap vbbe nbbe ibbe tvbbe1 tvbbe2 tnbbe ebbe dtemp vers vref vbe_max vbc_max vce_max"),
+        _names("area off ic icvbe icvce temp dtemp m")),
+    ("mesfet", 1): (NGSPICE_PARAMETERS["mesfet"] - OUTPUT_ONLY["mesfet"],
+                    _names("area m off icvds icvgs")),
 }
 
 
 def level_name(family: str, level: int) -> str | None:
     """ngspice's name of a model level (None: a level ngspice 39 does not know)."""
     return LEVELS.get(family, {}).get(level)
+
+
+def level_parameters(family: str, level: int) -> tuple[frozenset, frozenset] | None:
+    """ngspice 39's model and instance parameter names of one model level (None: not tabulated here)."""
+    return LEVEL_PARAMETERS.get((family, level))

@@ -54,6 +54,9 @@ INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
 #: PSpice's model types that ngspice names otherwise.
 _PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
                        "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
+#: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
+_UNIMPLEMENTED_MODEL_TYPES = {"nhfet": "ngspice's N-channel HFET (heterostructure FET)",
+                              "phfet": "ngspice's P-channel HFET (heterostructure FET)"}
 #: Bare names on a .model card that restate its type.
 _TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw", "pchan", "nchan"})
 #: LTspice's annotations on a VDMOS card (datasheet figures and the maker), which ngspice's reader drops.
@@ -122,7 +125,7 @@ def _first_bin(name: str, models: Mapping) -> ModelCard | None:
     head = name + "."
     if not any(key.startswith(head) for key in models):
         return None
-    from ..devices.osdi.spice_mos import first_bin  # the binning rules' owner (imported only for bins)
+    from ..devices.osdi.spice_models import first_bin  # the binning rules' owner (imported only for bins)
 
     return first_bin(name, models)
 
@@ -134,6 +137,22 @@ def _undefined(env: Env, node: ex.Param) -> bool:
     except UnknownName:
         return True
     return False
+
+
+def _may_run_as_port(el: Element, models: Mapping) -> bool:
+    """The element may be one that :func:`netdae.devices.osdi.spice_models.map_devices` rewrites.
+
+    A kind that only runs through a port, a node count beyond the kind's (a
+    VBIC's thermal node), a model of a level other than 1, or a model name
+    without a card (BSIM bins).
+    """
+    spec = KINDS[el.kind]
+    if spec.runs_as is not None or len(el.nodes) not in spec.node_counts:
+        return True
+    if not spec.model_types or el.model is None:
+        return False
+    model = models.get(el.model)
+    return model is None or model.params.get("level", 1.0) != 1.0
 
 
 def _ground(name: str) -> str:
@@ -469,12 +488,11 @@ class _Elaborator:
         ignores are warned about (models nobody uses are not looked at, as in ngspice).
         """
         models = circuit.models
-        if any(el.kind == "mosfet" and (el.model not in models or models[el.model].params.get("level", 1.0) != 1.0)
-               for el in circuit.elements):
-            from ..devices.osdi.spice_mos import map_mosfets  # BSIM3/BSIM4 cards: the bundled OSDI modules
+        if any(_may_run_as_port(el, models) for el in circuit.elements):
+            from ..devices.osdi.spice_models import map_devices  # ngspice's models as the bundled OSDI ports
             flags = {name: [(flag, card.card.location(offset)) for flag, offset in card.flags.items()]
                      for name, card in self.model_cards.items() if card.flags}
-            self.diagnostics.extend(map_mosfets(circuit, flags))
+            self.diagnostics.extend(map_devices(circuit, flags))
         seen: set[str] = set()
         for el in circuit.elements:
             if el.model is None or el.kind == "osdi":
@@ -760,6 +778,10 @@ class _Elaborator:
                         f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "
                         "outside its PSpice compatibility mode)", ELEMENTS[item.name[0]],
                         hint=f"write a {' or '.join(allowed)} model")
+        if allowed is not None and mcard.type not in allowed and mcard.type in _UNIMPLEMENTED_MODEL_TYPES:
+            raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
+                        f"{_UNIMPLEMENTED_MODEL_TYPES[mcard.type]}, which is not implemented by netdae",
+                        ELEMENTS[item.name[0]], hint=f"netdae runs {' or '.join(allowed)} models on this card")
         if allowed is not None and mcard.type.startswith("ako:"):
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is a PSpice AKO model ('a kind of' "
                         f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "

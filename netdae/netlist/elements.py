@@ -20,7 +20,8 @@ from .statements import ElementCard, InstanceCard, SourceCard, Val
 from .syntax import ELEMENTS, SOURCE_FUNCTIONS, UNSUPPORTED_ELEMENTS, ElementSyntax, supported_letters
 from .waveforms import WAVEFORMS
 
-__all__ = ["parse_element", "parse_value", "parse_expr", "parse_node", "error", "split_args", "IDENT"]
+__all__ = ["parse_element", "parse_value", "parse_expr", "parse_node", "error", "split_args", "IDENT",
+           "UNLABELLED_AREA"]
 
 #: A bare word that can name a parameter.
 IDENT = re.compile(r"[a-z_][a-z0-9_.]*\Z")
@@ -202,6 +203,10 @@ def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
             raise error(card, key.start, f"parameter '{name}' given twice{why}", syntax)
         params[name] = parse_value(card, values[0], syntax)
     return params
+
+
+#: The key of a Z card's unlabelled area (``Z1 d g s zm 2``), which ngspice 39's reader drops for a MES model.
+UNLABELLED_AREA = "area#unlabelled"
 
 
 # ---------------------------------------------------------------------------
@@ -805,8 +810,9 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
     el.nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:count])
     el.model = (words[count].text, words[count].start)
     extra = words[count + 1 :]
-    if kind in ("diode", "jfet") and extra:
-        el.params["area"] = parse_value(card, extra[0], syntax, "area")
+    if kind in ("diode", "jfet", "mesfet") and extra:
+        # ngspice's Z reader gives an unlabelled area to MESA/HFET models only (judged with the model)
+        el.params[UNLABELLED_AREA if kind == "mesfet" else "area"] = parse_value(card, extra[0], syntax, "area")
         extra = extra[1:]
     if extra:
         raise error(card, extra[0].start, f"unexpected {extra[0].text!r}", syntax)
@@ -1041,6 +1047,8 @@ def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]
         return _device(card, toks, syntax, "mosfet", 4)
     if letter == "j":
         return _device(card, toks, syntax, "jfet", 3)
+    if letter == "z":
+        return _device(card, toks, syntax, "mesfet", 3)
     if letter in "sw":
         return _switch(card, toks, syntax, letter)
     if letter == "n":

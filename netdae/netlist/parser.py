@@ -726,9 +726,7 @@ def _settle_bjt(el: ElementCard, scope: Definition) -> None:
     elif len(words) > 4 and names[4] is not None and scope.lookup_model(names[4]) is not None:
         count = 4
     elif len(words) > 5 and names[5] is not None and scope.lookup_model(names[5]) is not None:
-        raise error(card, words[4].start, "five nodes (collector base emitter substrate and a thermal node: "
-                    "ngspice's self-heating VBIC or HICUM) are not supported by netdae", syntax,
-                    hint="netdae's bipolar transistors take 3 or 4 nodes and a Gummel-Poon model")
+        count = 5  # c b e s and the thermal node of ngspice's self-heating VBIC (judged with the model)
     else:
         tried = f"'{names[3]}'" + (f" or '{names[4]}'" if len(words) > 4 and names[4] else "")
         raise error(card, words[3].start, f"no model {tried} defined", syntax,

