@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -156,6 +158,30 @@ def test_charge_history_only_for_the_rows_a_device_stores_charge_in():
     other = np.asarray(system.pattern.rows) != b
     assert np.array_equal(dq[other], e[other])
     assert charge_columns(system, linear=True)[0].size == 0
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).resolve().parent.parent / "netlists").glob("*.cir")),
+                         ids=lambda p: p.stem)
+def test_rows_outside_the_charge_rows_have_the_constant_dq_of_e(path):
+    # what the correction form relies on, for every device family of the example netlists: a row
+    # no family names keeps dq/dx = E at any x (and q = E x)
+    from netdae import load
+    from netdae.mna import MODE_TRAN, assemble
+
+    system = assemble(load(path), mode=MODE_TRAN, tstep=1e-6, tstop=1e-3)
+    if system.linear:
+        return
+    rows = system.nonlinear_charge_rows()
+    other = ~np.isin(np.asarray(system.pattern.rows), rows)
+    keep = np.ones(system.n, dtype=bool)
+    keep[rows] = False
+    e = system.pattern.data_of(system.E)
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        x = rng.uniform(-2.0, 2.0, size=system.n)
+        ev = system.evaluate(x, 1e-4, jacobian=True)
+        assert np.array_equal(ev.dq[other], e[other])
+        assert np.allclose(ev.q[keep], (system.E @ x)[keep], rtol=1e-12, atol=1e-300)
 
 
 def test_correction_form_rows_solve_the_same_corrector_as_the_charge_form():
