@@ -405,6 +405,8 @@ def run_netdae(problem, tol):
     except KeyboardInterrupt:
         return None, {}, time.process_time() - t0, (f"stopped at t = {reached[0]:.4g} after {CPU_LIMIT:.0f} s "
                                                     "of CPU")
+    except netdae.NetdaeError as exc:  # a start it cannot make consistent: a failure of the row
+        return None, {}, time.process_time() - t0, f"{type(exc).__name__}: {exc}"
     cpu = time.process_time() - t0
     if not res.ok:
         return None, res.stats, cpu, res.message
@@ -475,7 +477,7 @@ tol volts on the gate, and the index-2 current y9 is out of its error test, as i
 netdae's). **ngspice** 39 runs the same netlist with reltol = abstol = vntol = tol and
 `method=gear`. CPU seconds are process time (ngspice: its child process); the machine has two
 shared cores, so they vary 2-4x with the load. *failed* is a run that stopped before tend,
-*not finished* one stopped after 300 s of CPU (`--limit`); the notes say where."""
+*not finished* one stopped after {limit:.0f} s of CPU (`--limit`); the notes say where."""
 
 INDEX2 = """The charge pump's current y9 = i(vin) is of index 2 (the source drives the gate charge: a loop of
 a voltage source and a capacitance). The Test Set leaves it out of its scd; its digits against the
@@ -487,7 +489,7 @@ about 5.2 digits against it):"""
 def write_section(path: Path, tables: str) -> None:
     """Put the Test Set's section into the page between the markers (replacing the old one)."""
     text = path.read_text()
-    block = f"{BEGIN}\n\n{INTRO}\n\n{tables}\n\n{END}"
+    block = f"{BEGIN}\n\n{INTRO.format(limit=CPU_LIMIT)}\n\n{tables}\n\n{END}"
     start, end = text.find(BEGIN), text.find(END)
     if start >= 0 and end > start:
         text = text[:start] + block + text[end + len(END):]

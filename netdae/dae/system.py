@@ -201,6 +201,24 @@ class DaeSystem:
         """``c(t)`` (or its ``derivative``-th time derivative) of ``phi = H x + c(t)``."""
         raise NotImplementedError
 
+    # -- nonlinear systems with a constant part of dq/dx -------------------------
+    def nonlinear_charge_rows(self) -> np.ndarray | None:
+        """Rows whose charge may be a nonlinear function of x; ``None``: every row (the default).
+
+        A system that knows them returns the sorted row indices; every other
+        row ``r`` then has the charge ``q_r(x) = (E x)_r`` with the constant
+        :attr:`E`, and ``dq/dx`` equals ``E`` in that row. The BDF integrator
+        keeps a charge history for the listed rows only and writes the
+        corrector of the others in correction form, ``cj E (x - x_pred) +
+        E x'_pred``, whose rounding error does not grow like ``1/h``
+        (docs/integrator.md, "Charge form"). Not used for a linear system.
+
+        Returns
+        -------
+        ndarray of int64, shape (m,), or None
+        """
+        return None
+
     # -- conveniences built on evaluate --------------------------------------
     def jacobians(self, x: np.ndarray, t: float) -> tuple[sp.csc_matrix, sp.csc_matrix]:
         """``(dq/dx, dphi/dx)`` at (x, t) as CSC matrices: the pencil (E, H)."""

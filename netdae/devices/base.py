@@ -298,6 +298,17 @@ class DeviceFamily:
         """Precompute the slots and extended row indices (called once)."""
         raise NotImplementedError
 
+    def charge_rows(self) -> np.ndarray:
+        """The rows (unknowns; ground -1 may appear) to which the family adds charges and their derivatives.
+
+        Called after :meth:`coordinates`. Every other row of ``q`` and ``dq/dx`` is left to the
+        linear stamps (``E``), which the integrator relies on
+        (:meth:`netdae.dae.system.DaeSystem.nonlinear_charge_rows`). By default the rows of the
+        family's charge branches (``self.stamps``, a
+        :class:`~netdae.devices.companion.BranchStamps`).
+        """
+        return self.stamps.charge_rows()
+
     def initial_state(self) -> Any:
         """Limiting state before the first Newton iteration (``None`` if unused)."""
         return None

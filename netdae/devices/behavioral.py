@@ -151,6 +151,11 @@ class BehaviouralFamily(DeviceFamily):
         for grp in self.groups:
             grp.stamps.bind(slots, n)
 
+    def charge_rows(self) -> np.ndarray:
+        """The rows of the charge sources' terminals (``Q`` groups; the other groups store no charge)."""
+        rows = [grp.stamps.charge_rows() for grp in self.groups]
+        return np.unique(np.concatenate(rows)) if rows else np.empty(0, dtype=np.int64)
+
     def compiled(self, slots: SlotMap, n: int) -> tuple:
         """Pack the family for :func:`netdae.devices.kernels.behavioural.eval_behavioural` (after ``bind``).
 

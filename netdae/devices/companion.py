@@ -109,6 +109,10 @@ class BranchStamps:
         r2, c2 = self._entries(self.chg_a, self.chg_b, self.charge_deps)
         return np.concatenate([r1.ravel(), r2.ravel()]), np.concatenate([c1.ravel(), c2.ravel()])
 
+    def charge_rows(self) -> np.ndarray:
+        """The rows the charge branches write (their charges and derivatives), ground (-1) included, sorted."""
+        return np.unique(np.concatenate([self.chg_a.ravel(), self.chg_b.ravel()]))
+
     def bind(self, slots: SlotMap, n: int) -> None:
         """Precompute extended rows and Jacobian slots (once, after the pattern is fixed)."""
         self._cur_rows = Accumulator.rows(np.concatenate([self.cur_a, self.cur_b]).ravel(), n)

@@ -182,6 +182,7 @@ class MnaSystem(DaeSystem):
         self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._switching = None
+        self._charge_rows: np.ndarray | None = None
         self._xext = np.zeros(self.n + 1)
         dense = self.n <= DENSE_MATVEC_MAX
         self._E_mv = E.toarray() if dense else E
@@ -258,6 +259,19 @@ class MnaSystem(DaeSystem):
         if self.delays is None:
             return corners
         return self.delays.breakpoints(corners, t0, t1)[0]
+
+    def nonlinear_charge_rows(self) -> np.ndarray:
+        """The rows to which a device family adds charges (sorted); every other row's charge is ``E x``.
+
+        Structural: the rows of the families' charge branches (a junction's
+        depletion charge, a MOS gate charge, a ``Q`` source), whatever their
+        values. Linear capacitors and inductors stamp ``E`` only. Computed once.
+        """
+        if self._charge_rows is None:
+            parts = [np.asarray(f.charge_rows(), dtype=np.int64) for f in self.families]
+            rows = np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.int64)
+            self._charge_rows = rows[rows >= 0]
+        return self._charge_rows
 
     # -- transmission lines ----------------------------------------------------
     def steady_form(self) -> "MnaSystem":

@@ -127,8 +127,41 @@ def save_indices(n: int, save) -> np.ndarray:
 
 
 
-def charge_rows(indptr, indices, high: np.ndarray, linear: bool) -> np.ndarray:
-    """Rows whose charge error is tested: those in which an index-2 unknown appears.
+def charge_columns(system, linear: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The rows whose charges have a history of their own, and each row's column in it.
+
+    A nonlinear system keeps the charges of the rows
+    :meth:`~netdae.dae.system.DaeSystem.nonlinear_charge_rows` names (every row
+    when it names none) in columns ``n, n + 1, ...`` of the history, in that
+    order; the corrector of the other rows is written with the constant ``E``
+    in correction form. A linear system keeps no charges.
+
+    Returns
+    -------
+    (rows, column)
+        ``rows``: int64, shape (m,), sorted; ``column``: int64, shape (n,),
+        the position of row ``r`` among ``rows`` (-1 for a row without charge history).
+
+    Raises
+    ------
+    ValueError
+        When the system names rows outside ``0..n-1``.
+    """
+    n = int(system.n)
+    if linear:
+        rows = np.empty(0, dtype=np.int64)
+    else:
+        given = system.nonlinear_charge_rows() if hasattr(system, "nonlinear_charge_rows") else None
+        rows = np.arange(n, dtype=np.int64) if given is None else np.unique(np.asarray(given, dtype=np.int64))
+        if rows.size and (rows[0] < 0 or rows[-1] >= n):
+            raise ValueError(f"nonlinear_charge_rows must be row indices in [0, {n})")
+    column = np.full(n, -1, dtype=np.int64)
+    column[rows] = np.arange(rows.size, dtype=np.int64)
+    return rows, column
+
+
+def charge_rows(indptr, indices, high: np.ndarray, column: np.ndarray) -> np.ndarray:
+    """Rows whose charge error is tested: those with a charge history in which an index-2 unknown appears.
 
     An index-2 unknown (the current of a source in a loop of capacitors) is the time
     derivative of the charge of the rows it enters, ``i = -dq_r/dt + ...``: it is
@@ -136,18 +169,28 @@ def charge_rows(indptr, indices, high: np.ndarray, linear: bool) -> np.ndarray:
     charge is a nonlinear function of a voltage the source fixes (a MOS gate charge of
     a driven gate: the voltage is exact, its charge's derivative is what the current
     carries). These rows' charge errors join the error test (:func:`netdae.dae.compiled.
-    control.charge_weights`). Index-2 rows themselves and linear systems (whose charges
-    ``E x`` are tested through x) have none.
+    control.charge_weights`). Index-2 rows themselves and rows without a charge history
+    (``column`` -1: a linear system, or a row whose charge is ``E x``, tested through x)
+    have none.
+
+    Parameters
+    ----------
+    indptr, indices : ndarray
+        The CSC pattern.
+    high : ndarray of bool, shape (n,)
+        Index-2 unknowns.
+    column : ndarray of int64, shape (n,)
+        Each row's column in the charge history (:func:`charge_columns`).
 
     Returns
     -------
-    ndarray of bool, shape (n,)
+    ndarray of int64, shape (n,)
+        The tested row's column in the charge history, -1 for the other rows.
     """
     n = high.size
     rows = np.zeros(n, dtype=np.bool_)
-    if linear or not high.any():
-        return rows
-    for j in np.flatnonzero(high):
-        rows[np.asarray(indices[indptr[j]:indptr[j + 1]])] = True
-    rows[high] = False
-    return rows
+    if high.any():
+        for j in np.flatnonzero(high):
+            rows[np.asarray(indices[indptr[j]:indptr[j + 1]])] = True
+        rows[high] = False
+    return np.where(rows & (column >= 0), column, -1).astype(np.int64)

@@ -2,9 +2,11 @@
 
 A linear system ``E x' = H x + c(t)`` is solved exactly by one solve with the
 factorisation of ``cj E - H`` (:class:`LinearCorrector`); a nonlinear one by
-modified Newton on the charge-form corrector
-``cj (q(x) - q_pred) + q'_pred - phi(x, t) = 0`` (:class:`NonlinearCorrector`,
-IDA's rate test and Jacobian reuse, :func:`netdae.dae.newton.newton`).
+modified Newton on the corrector (:class:`NonlinearCorrector`, IDA's rate test
+and Jacobian reuse, :func:`netdae.dae.newton.newton`), written per row: in
+charge form ``cj (q(x) - q_pred) + q'_pred - phi(x, t) = 0`` where the charge is
+nonlinear (the history holds those charges), in correction form
+``cj E (x - x_pred) + E x'_pred - phi(x, t) = 0`` where ``dq/dx = E`` is constant.
 Both report a failure as a dict ``{"info": <newton info code>, "worst": <name or None>}``.
 """
 
@@ -23,18 +25,23 @@ __all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector"]
 class RoundingFloor:
     """Tolerances raised to the rounding level of the corrector residual.
 
-    The corrector residual holds ``cj (q(x) - q_pred)``: its rounding error
-    ``eps cj |q|`` grows like ``1/h``. An unknown that only such a row fixes
+    The charge-form rows of the corrector residual hold ``cj (q(x) - q_pred)``:
+    its rounding error ``eps cj |q|`` grows like ``1/h``. An unknown that only such a row fixes
     (the current of a voltage source driving a capacitor,
     ``i = cj (q - q_pred) + ...``) carries noise of ``eps |q| / h`` in every
     Newton correction and in every accepted value. Where that noise reaches
     the requested tolerance (a current near zero, whose tolerance is
     ``abstol``) the corrections stop contracting on a converged iterate, the
     step is cut, and a smaller step only raises the noise: the integration
-    dies with the step size at the roundoff of t. The rounding error of the
-    residual, ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row, propagated to the
-    unknowns through the current factorisation (one solve, two right-hand
-    sides), is a floor below which no tolerance is attainable; the Newton and
+    dies with the step size at the roundoff of t. The correction-form rows,
+    ``cj E (x - x_pred) + E x'_pred``, subtract no charges, but x itself is
+    known only to ``eps |x|``: a resolution of ``eps cj |E| |x|`` of the
+    residual, the same ``1/h`` level for such a current (``i = cj C (v - v_pred)
+    + C v'_pred`` with ``v`` exact to ``eps |v|``). The rounding error of the
+    residual, ``eps (cj |dq/dx| |x| + |q'_pred|)`` per row (``|E| |x'_pred|``
+    for ``|q'_pred|`` in a correction-form row), propagated to the unknowns
+    through the current factorisation (one solve, two right-hand sides), is a
+    floor below which no tolerance is attainable; the Newton and
     the error test use it (``ROUNDING_FACTOR`` times it) where it exceeds the
     requested tolerance. This is the same accuracy limit as the backward
     error of the corrector (Higham, *Accuracy and Stability of Numerical
@@ -63,16 +70,25 @@ class RoundingFloor:
         else:
             np.abs(dq, out=self.abs_dq.data)
 
-    def weights(self, w: np.ndarray, w_err: np.ndarray, x_pred, qp_pred, cj: float):
+    def weights(self, w: np.ndarray, w_err: np.ndarray, x_pred, qp_pred, cj: float, xp_pred=None, column=None):
         """Newton and error-test weights with every tolerance raised to the rounding level.
 
         Parameters
         ----------
         w, w_err : ndarray, shape (n,)
             The Newton weights and the error-test weights (zero for untested unknowns).
-        x_pred, qp_pred : ndarray, shape (n,)
-            The predicted unknowns and charge derivatives.
+        x_pred : ndarray, shape (n,)
+            The predicted unknowns.
+        qp_pred : ndarray, shape (m,)
+            The predicted derivatives of the charges of the charge-form rows (all ``n``
+            rows without ``column``).
         cj : float
+        xp_pred : ndarray, shape (n,), optional
+            The predicted derivatives of the unknowns (with ``column``).
+        column : ndarray of int64, shape (n,), optional
+            Each row's column among the charges (-1: a correction-form row;
+            :func:`~netdae.dae.bdf.arguments.charge_columns`). None: every row in charge form
+            (the probes' implicit-Euler steps).
 
         Returns
         -------
@@ -85,7 +101,13 @@ class RoundingFloor:
             return w, w_err
         noise = self.abs_dq @ np.abs(x_pred)
         noise *= cj
-        noise += np.abs(qp_pred)
+        if column is None:
+            noise += np.abs(qp_pred)
+        else:
+            charged = column >= 0
+            noise[charged] += np.abs(qp_pred)[column[charged]]
+            if not charged.all():
+                noise[~charged] += (self.abs_dq @ np.abs(xp_pred))[~charged]
         noise *= ROUNDING_FACTOR * EPS
         # |J^-1| b is out of reach; rounding errors have no fixed sign, so take the
         # larger response to b and to b with fixed pseudo-random signs (a single
@@ -163,7 +185,20 @@ class LinearCorrector:
 
 
 class NonlinearCorrector:
-    """Modified Newton on the charge-form corrector ``cj (q(x) - q_pred) + q'_pred = phi(x, t)``.
+    """Modified Newton on the corrector ``cj (q(x) - q_pred) + q'_pred = phi(x, t)``, row by row in charge
+    or correction form.
+
+    Rows whose charge is nonlinear (``rows``) are solved in charge form from the
+    charges' own history, so the discretisation conserves their linear
+    invariants; every other row, whose charge is ``(E x)_r`` with the constant
+    ``E``, in IDA's correction form ``cj E (x - x_pred) + E x'_pred = phi(x, t)``
+    with ``x'_pred`` from the unknowns' history. The two are equal in exact
+    arithmetic. The charge form rounds at ``eps cj |q|``, growing like ``1/h``,
+    and its charge history, updated apart from the unknowns', perturbs
+    ``q'_pred`` by ``eps |q| / psi``, which changes with every step size (a large
+    charge on a floating capacitor, a small step where a junction turns on);
+    the correction form's arithmetic rounds at ``eps |E| |x'|`` and it keeps no
+    second history (the resolution of x itself is :class:`RoundingFloor`'s).
 
     Parameters
     ----------
@@ -176,6 +211,9 @@ class NonlinearCorrector:
     maxiter : int
         Newton iterations per attempt.
     norm : {"rms", "max"}
+    rows : ndarray of int64, shape (m,), optional
+        The charge-form rows (:func:`~netdae.dae.bdf.arguments.charge_columns`); every row
+        when None. With fewer than ``n``, ``system.E`` is the constant ``dq/dx`` of the others.
 
     Attributes
     ----------
@@ -199,11 +237,18 @@ class NonlinearCorrector:
     node groups.
     """
 
-    def __init__(self, system, lu: LuCache, floor: RoundingFloor, stats: dict, maxiter: int, norm: str) -> None:
+    def __init__(self, system, lu: LuCache, floor: RoundingFloor, stats: dict, maxiter: int, norm: str,
+                 rows=None) -> None:
         self.system, self.lu, self.floor, self.stats = system, lu, floor, stats
         self.maxiter, self.norm = maxiter, norm
         self.rate = RATE_AFTER_SETUP
         self.state_try = None
+        n = system.n
+        self.rows = np.arange(n, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+        # E on the pattern (CSC): E v sums in the compiled loop's order
+        pattern = system.pattern
+        self.e_matrix = None if self.rows.size == n else pattern.matrix(np.array(pattern.data_of(system.E),
+                                                                                 dtype=float))
 
     def _newton(self, fun, x_pred, cj, cjlast, setup, weights, full=False):
         if full:
@@ -223,8 +268,8 @@ class NonlinearCorrector:
         Parameters
         ----------
         t_new : float
-        pred : ndarray, shape (2, 2 n)
-            ``[x_pred, q_pred; x'_pred, q'_pred]``.
+        pred : ndarray, shape (2, n + m)
+            ``[x_pred, q_pred; x'_pred, q'_pred]``, the charges of the ``m`` charge-form rows.
         cj, cjlast : float
             Leading coefficient of this attempt and of the previous one.
         fresh : bool
@@ -237,14 +282,18 @@ class NonlinearCorrector:
         Returns
         -------
         (True, (x_new, q_new)) or (False, failure dict)
+            ``q_new``: the charges of the charge-form rows at ``x_new``, shape (m,).
         """
         n = self.system.n
         x_pred = pred[0, :n]
+        xp_pred = pred[1, :n]
         q_pred = pred[0, n:]
         qp_pred = pred[1, n:]
         system = self.system
         st = self.stats
         floor = self.floor
+        rows = self.rows
+        e_matrix = self.e_matrix
         last = {}
 
         def fun(x, jacobian):
@@ -254,9 +303,20 @@ class NonlinearCorrector:
             last["ev"] = ev
             if jacobian:
                 floor.keep(ev.dq)
-            r = ev.q - q_pred
-            r *= cj
-            r += qp_pred
+            if e_matrix is None:
+                r = ev.q - q_pred
+                r *= cj
+                r += qp_pred
+            else:
+                # correction form cj E (x - x_pred) + E x'_pred, charge form in the charge rows
+                v = x - x_pred
+                v *= cj
+                v += xp_pred
+                r = e_matrix @ v
+                rq = ev.q[rows] - q_pred
+                rq *= cj
+                rq += qp_pred
+                r[rows] = rq
             r -= ev.phi
             if not jacobian:
                 return r, None, ev.ok, ev.limited
@@ -295,4 +355,4 @@ class NonlinearCorrector:
         st["evaluations"] += 1
         if not ev_new.ok:
             return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
-        return True, (res.x, ev_new.q)
+        return True, (res.x, ev_new.q if e_matrix is None else ev_new.q[rows])

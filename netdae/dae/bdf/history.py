@@ -2,8 +2,9 @@
 
 The notation is that of DASSL and IDA [1]_ [2]_. A solution component's
 history is kept as *modified divided differences* ``phi_j`` (row ``j`` of the
-``(maxord + 1, width)`` array ``P``; ``width`` is ``n`` for a linear system,
-``2 n`` for a nonlinear one, whose charges have their own history). A step of
+``(maxord + 1, width)`` array ``P``; ``width`` is ``n + m``: the ``n`` unknowns,
+then the charges of the ``m`` rows whose charge is nonlinear, which have a
+history of their own; ``m = 0`` for a linear system). A step of
 size ``h`` and order ``k`` is described by
 
 - ``psi_i = t_{n+1} - t_{n-i}`` (``psi_0 = h``),
@@ -44,7 +45,8 @@ class History:
     n : int
         Number of unknowns.
     width : int
-        Columns of the history: ``n`` (unknowns only) or ``2 n`` (unknowns, then charges).
+        Columns of the history: ``n + m``, the unknowns, then the charges of ``m`` rows
+        (:func:`~netdae.dae.bdf.arguments.charge_columns`; ``m = 0``: unknowns only).
     maxord : int
         Highest order.
 
@@ -98,8 +100,8 @@ class History:
         h : float
             First step.
         xp : ndarray, shape (n,)
-        qp : ndarray, shape (n,), optional
-            Only for a history that holds charges.
+        qp : ndarray, shape (m,), optional
+            The charges' derivatives (a history that holds charges).
         """
         n = self.n
         self.P[1:] = 0.0
@@ -122,7 +124,7 @@ class History:
         h : float
             Their spacing.
         x_hist : ndarray, shape (k + 1, n)
-        q_hist : ndarray, shape (k + 1, n), optional
+        q_hist : ndarray, shape (k + 1, m), optional
             The charges there (a history with charges).
         """
         k = x_hist.shape[0] - 1

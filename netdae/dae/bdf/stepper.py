@@ -39,7 +39,7 @@ from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
-from .arguments import absolute_tolerances, charge_rows, check_arguments, index_mask, save_indices
+from .arguments import absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask, save_indices
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -238,20 +238,23 @@ class BDF:
         elif fixed_order is not None:
             raise ValueError("fixed_order needs fixed_step")
 
-        # the parts: P holds the differences of x (and of q for a nonlinear system)
-        self._hist = History(n, n if self._linear else 2 * n, self.maxord)
+        # the parts: P holds the differences of x, then of the charges of the rows whose charge
+        # is nonlinear (every row of a system that does not say; none of a linear system)
+        self._crows, self._qcol = charge_columns(system, self._linear)
+        self._hist = History(n, n + self._crows.size, self.maxord)
         self.stats = new_statistics()
         self._rec = Recorder(system.names, save_idx, save is None)
         self._lu = LuCache(system.pattern, permc_spec=permc_spec)
         self._floor = RoundingFloor(system.pattern, self._lu)
-        # rows whose charge error joins the error test (coupled to index-2 unknowns)
-        self._qrows = charge_rows(system.pattern.indptr, system.pattern.indices, self._high, self._linear)
-        self._wq = np.zeros(n)
+        # rows whose charge error joins the error test (coupled to index-2 unknowns): their columns
+        self._qrows = charge_rows(system.pattern.indptr, system.pattern.indices, self._high, self._qcol)
+        self._q_tested = bool((self._qrows >= 0).any())
+        self._wq = np.zeros(self._crows.size)
         self._wq_count = 0
         self._q_pattern = (np.asarray(system.pattern.indptr, dtype=np.int64),
                            np.asarray(system.pattern.indices, dtype=np.int64))
         self._corrector = None if self._linear else NonlinearCorrector(
-            system, self._lu, self._floor, self.stats, self.newton_maxiter, norm)
+            system, self._lu, self._floor, self.stats, self.newton_maxiter, norm, self._crows)
         # the controller's state between steps
         self._phase = 0  # 0: start-up (order and step raised after every step), 1: normal
         self._nst = 0  # steps since the last (re)start
@@ -296,7 +299,7 @@ class BDF:
         P = self._hist.P
         P[0, :n] = x0
         if not self._linear:
-            P[0, n:] = ev.q
+            P[0, n:] = ev.q[self._crows]
         self._rec.record(self.t0, x0, 0)
         if history is not None:
             self._start_from_history(history, x0)
@@ -426,7 +429,7 @@ class BDF:
         P = self._hist.P
         P[0, :n] = x_right
         if not self._linear:
-            P[0, n:] = self._evaluate(x_right, self.t).q
+            P[0, n:] = self._evaluate(x_right, self.t).q[self._crows]
         self._set_weights(x_right)
         if names:
             self._rec.jump(self.t, x_right, names)
@@ -461,7 +464,7 @@ class BDF:
         return out
 
     def _initialise_history(self, h, xp, qp):
-        self._hist.initialise(h, xp, None if self._linear else qp)
+        self._hist.initialise(h, xp, None if self._linear else qp[self._crows])
         self._phase = 0
         self._nst = 0
         if not self._linear:
@@ -476,7 +479,7 @@ class BDF:
             raise ValueError("history must have fixed_order + 1 points spaced by fixed_step")
         q_hist = None
         if not self._linear:
-            q_hist = np.array([self._evaluate(x_hist[i], t_hist[i]).q for i in range(k + 1)])
+            q_hist = np.array([self._evaluate(x_hist[i], t_hist[i]).q[self._crows] for i in range(k + 1)])
         self._hist.from_samples(h, x_hist, q_hist)
         self._phase = 1
         self._nst = k
@@ -676,12 +679,13 @@ class BDF:
                 return False, "newton", out
             ee = out - pred[0]
         else:
-            w_newton, self._w_step_err = self._floor.weights(self._w, self._w_err, pred[0, :n], pred[1, n:], cj)
+            w_newton, self._w_step_err = self._floor.weights(self._w, self._w_err, pred[0, :n], pred[1, n:], cj,
+                                                             pred[1, :n], self._qcol)
             ok, out = self._corrector.solve(t_ev, pred, cj, hist.cjlast, self._nst == 0, self._state, w_newton)
             if not ok:
                 return False, "newton", out
             x_new, q_new = out
-            ee = np.empty(2 * n)
+            ee = np.empty(pred.shape[1])
             np.subtract(x_new, pred[0, :n], out=ee[:n])
             np.subtract(q_new, pred[0, n:], out=ee[n:])
         self._ee = ee
@@ -689,7 +693,7 @@ class BDF:
             return True, "", {"knew": k, "err_k": 0.0, "err_km1": 0.0}
         norms = error_norms(ee, hist.P, k, self._w_step_err, self._norm_kind, n)
         self._wq_count = 0
-        if self._qrows.any() and self._floor.abs_dq is not None:
+        if self._q_tested and self._floor.abs_dq is not None:
             indptr, indices = self._q_pattern
             self._wq_count = charge_weights(self._qrows, self._floor.abs_dq.data, indptr, indices, self._w, self._wq)
             qn = charge_error_norms(ee, hist.P, k, self._wq, self._norm_kind, n, self._wq_count)
@@ -727,7 +731,7 @@ class BDF:
             if x_event is not None:
                 n = self.n
                 hist.P[0, :n] = x_event
-                hist.P[0, n:] = self._evaluate(x_event, t_end).q  # switches store no charge
+                hist.P[0, n:] = self._evaluate(x_event, t_end).q[self._crows]  # switches store no charge
         self.t = t_end
         x_new = hist.P[0, : self.n]
         self._state = self._corrector.state_try

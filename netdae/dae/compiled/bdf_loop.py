@@ -13,12 +13,16 @@ Two correctors, one loop:
   corrector, one solve with the factorisation of ``cj E - H`` (refactored
   when ``cj`` changes);
 - a nonlinear one (``q = E x + q_dev(x)``, ``phi = H x + B u + f_dev(x)``):
-  modified Newton on the charge-form corrector
-  ``cj (q(x) - q_pred) + q'_pred - phi(x, t) = 0`` with IDA's rate test,
+  modified Newton on the corrector, in charge form
+  ``cj (q(x) - q_pred) + q'_pred - phi(x, t) = 0`` in the rows where a device
+  family stores charge and in IDA's correction form
+  ``cj E (x - x_pred) + E x'_pred - phi(x, t) = 0`` in the others (see
+  :class:`netdae.dae.bdf.corrector.NonlinearCorrector`), with IDA's rate test,
   Jacobian reuse across steps while ``cj`` stays within ``DCJ``, one retry
   with a fresh Jacobian, the device families' limiting (the trial state of
   the iteration, the accepted state of the step) and the rounding floor of
-  the weights; the history then holds the charges as well as the unknowns.
+  the weights; the history then holds the charges of those rows as well as
+  the unknowns.
 
 The device families are the compiled kernels of :mod:`netdae.devices.kernels`
 (diode, BJT, MOSFET, JFET, switch, behavioural, VDMOS), each evaluating all its instances in one loop.
@@ -36,9 +40,9 @@ State
 All state lives in arrays so that a chunk can end and the next one resume
 between two steps: the scalars in ``F`` (floats) and ``I`` (integers),
 indexed by the ``F_*`` and ``I_*`` constants below; the divided differences
-``P`` (maxord + 1, n) for a linear system, (maxord + 1, 2 n) for a nonlinear
-one (unknowns, then charges); the coefficient arrays; the device families'
-limiting states; the output buffers.
+``P`` (maxord + 1, n + m): the unknowns, then the charges of the ``m`` rows
+where a device family stores charge (``m = 0`` for a linear system); the
+coefficient arrays; the device families' limiting states; the output buffers.
 """
 
 from __future__ import annotations
@@ -383,15 +387,14 @@ def _restore(P, psi, psi_saved, beta, ns, k):
 
 
 @kernel
-def _initialise_history(F, I, P, psi, h, xp, qp):
-    """Order-1 history from the derivatives ``xp`` (and, for a nonlinear system, ``qp``)."""
+def _initialise_history(F, I, P, psi, h, xp, qp, crows):
+    """Order-1 history from the derivatives ``xp`` (and ``qp`` of the charges of the rows ``crows``)."""
     n = xp.size
     P[1:, :] = 0.0
     for i in range(n):
         P[1, i] = h * xp[i]
-    if P.shape[1] > n:
-        for i in range(n):
-            P[1, n + i] = h * qp[i]
+    for c in range(crows.size):
+        P[1, n + c] = h * qp[crows[c]]
     psi[0] = h
     I[I_K] = 1
     I[I_KUSED] = 0
@@ -546,19 +549,32 @@ def _reset_trial(I, devd):
 
 
 @kernel
-def _rounding_floor(x, qp, cj, absdq, indptr, indices, lus, signs, w, w_out, b1, b2):
+def _rounding_floor(x, xp, qp, cj, qcol, every, absdq, indptr, indices, lus, signs, w, w_out, b1, b2):
     """Weights with every tolerance raised to the corrector's rounding level (see
     :meth:`netdae.dae.bdf.corrector.RoundingFloor.weights`): ``w_out`` from ``w``. ``absdq``:
-    ``|dq/dx|`` on the pattern. Returns True when some weight was lowered."""
-    n = x.size
+    ``|dq/dx|`` on the pattern. Row ``i`` is in charge form when ``every`` or ``qcol[i] >= 0``
+    (``|q'_pred|`` is ``qp`` indexed by row when ``every``, by ``qcol`` otherwise), else in
+    correction form (``|E| |xp|`` in its place, ``xp`` the predicted derivatives). Returns True
+    when some weight was lowered."""
+    n = w.size
     b1[:] = 0.0
+    b2[:] = 0.0
     for j in range(n):
         xj = abs(x[j])
-        if xj != 0.0:
-            for p in range(indptr[j], indptr[j + 1]):
-                b1[indices[p]] += absdq[p] * xj
+        xpj = 0.0 if every else abs(xp[j])
+        for p in range(indptr[j], indptr[j + 1]):
+            i = indices[p]
+            if xj != 0.0:
+                b1[i] += absdq[p] * xj
+            if xpj != 0.0 and qcol[i] < 0:
+                b2[i] += absdq[p] * xpj
     for i in range(n):
-        b1[i] = (b1[i] * cj + abs(qp[i])) * (ROUNDING_FACTOR * EPS)
+        if every:
+            b1[i] = (b1[i] * cj + abs(qp[i])) * (ROUNDING_FACTOR * EPS)
+        elif qcol[i] >= 0:
+            b1[i] = (b1[i] * cj + abs(qp[qcol[i]])) * (ROUNDING_FACTOR * EPS)
+        else:
+            b1[i] = (b1[i] * cj + b2[i]) * (ROUNDING_FACTOR * EPS)
         b2[i] = b1[i] * signs[i]
     _solve(lus, b1)
     _solve(lus, b2)
@@ -583,7 +599,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -645,7 +661,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     else:
         for i in range(n):
             xpp[i] = xp[i] * eps
-    _rounding_floor(x, x2, 1.0 / eps, absdq, indptr, indices, lus, signs, w, wf, b1, b2)
+    _rounding_floor(x, x, x2, 1.0 / eps, qcol, True, absdq, indptr, indices, lus, signs, w, wf, b1, b2)
     for i in range(n):
         xp1 = xpp[i] / eps
         xr[i] = work[i] - eps * xp1
@@ -687,7 +703,7 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     probed again after a jump).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -746,7 +762,7 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     ``rl_given``). On a jump ``x`` becomes the right limit, which is recorded a second time
     at ``t`` and starts a new segment.
     """
-    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -803,7 +819,7 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
     """Continue from the right limit ``xr`` (in ``ws``) at ``t``: record the unknowns that jump,
     make it ``x`` and the history's value (and charges), record it a second time at ``t`` and
     start a new segment."""
-    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -826,8 +842,8 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
     if I[I_LINEAR] == 0:
         state = STATE_ACCEPTED if I[I_HAS_ACC] != 0 else STATE_NONE
         _evaluate(I, t, x, state, False, False, sysd, devd, u, evb)
-        for i in range(n):
-            P[0, n + i] = qe[i]
+        for c in range(crows.size):
+            P[0, n + c] = qe[crows[c]]
     set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
     _record(I, t, 0, x, rec)
     if I[I_NSEGMENTS] < segments.size:
@@ -840,7 +856,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     """Probe the derivatives at (t, x), continue from the right limit where the solution
     jumps, and start at order 1 with a step <= cap (returns as _probe, or
     FACTOR_NEED_RIGHT_LIMIT)."""
-    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     h = cap
     # a restart repeated after a return to Python for new pivots has checked already
@@ -876,31 +892,49 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
         retries += 1
         if converged or retries >= PROBE_RETRIES:
             break
-    _initialise_history(F, I, P, psi, h, xp, qpb)
+    _initialise_history(F, I, P, psi, h, xp, qpb, crows)
     I[I_RESTART_CHECKED] = 0
     return FACTOR_OK
 
 
 # ------------------------------------------------------------------ the nonlinear corrector
 @kernel
-def _residual(F, I, t_new, cj, x, jacobian, q_pred, qp_pred, sysd, devd, u, evb, r):
-    """``r = cj (q(x) - q_pred) + q'_pred - phi(x, t_new)`` with the trial limiting state."""
+def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, evb, r, v):
+    """The corrector's residual at ``x`` with the trial limiting state: ``cj (q(x) - q_pred) +
+    q'_pred - phi(x, t_new)`` in the rows ``crows`` (charge form, the charges ``pred0[n:]``,
+    ``pred1[n:]`` predicted from their own history), ``cj E (x - x_pred) + E x'_pred -
+    phi(x, t_new)`` in the others (correction form, ``dq/dx = E`` constant there; ``v`` is work)."""
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    m = crows.size
     state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
     flags = _evaluate(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
     I[I_HAS_TRY] = 1
-    for i in range(x.size):
-        r[i] = cj * (qe[i] - q_pred[i]) + qp_pred[i] - phie[i]
+    if m == n:
+        for i in range(n):
+            r[i] = cj * (qe[i] - pred0[n + i]) + pred1[n + i] - phie[i]
+        return flags
+    for j in range(n):
+        v[j] = (x[j] - pred0[j]) * cj + pred1[j]
+    r[:] = 0.0
+    _matvec_add(indptr, indices, e_data, v, 1.0, r)
+    for c in range(m):
+        i = crows[c]
+        r[i] = (qe[i] - pred0[n + c]) * cj + pred1[n + c]
+    for i in range(n):
+        r[i] -= phie[i]
     return flags
 
 
 @kernel
-def _newton(F, I, t_new, cj, setup, full, x_pred, q_pred, qp_pred, weights, sysd, devd, lus, u, evb, x, d, r):
+def _newton(F, I, t_new, cj, setup, full, x_pred, xp_pred, crows, weights, sysd, devd, lus, u, evb, x, d, r, v):
     """Modified Newton on the corrector (:func:`netdae.dae.newton.newton` with
     ``jacobian="first"`` when ``setup``, else ``"never"`` with IDA's ``cj`` scaling;
     ``"always"`` when ``full``: a Jacobian at every iterate, the last retry of an attempt).
 
-    ``x`` holds the iterate on return. Returns ``(outcome, reason, worst, iterations, rate)``
+    ``x_pred``, ``xp_pred``: the prediction (the unknowns, then the charges of the rows ``crows``:
+    :func:`_residual`). ``x`` holds the iterate on return. Returns ``(outcome, reason, worst, iterations, rate)``
     with outcome ``NEWTON_*`` and reason ``REASON_*`` (0 when converged).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
@@ -923,7 +957,7 @@ def _newton(F, I, t_new, cj, setup, full, x_pred, q_pred, qp_pred, weights, sysd
     for i in range(n):
         x[i] = x_pred[i]
     need = setup
-    flags = _residual(F, I, t_new, cj, x, need, q_pred, qp_pred, sysd, devd, u, evb, r)
+    flags = _residual(F, I, t_new, cj, x, need, x_pred, xp_pred, crows, sysd, devd, u, evb, r, v)
     for m in range(maxiter):
         if flags & FLAG_NONFINITE:
             worst = _nonfinite_worst(qe, phie, n)
@@ -970,7 +1004,7 @@ def _newton(F, I, t_new, cj, setup, full, x_pred, q_pred, qp_pred, weights, sysd
             return NEWTON_CONVERGED, 0, _newton_worst(d, weights), m + 1, rate_out
         need = full
         if m + 1 < maxiter:
-            flags = _residual(F, I, t_new, cj, x, need, q_pred, qp_pred, sysd, devd, u, evb, r)
+            flags = _residual(F, I, t_new, cj, x, need, x_pred, xp_pred, crows, sysd, devd, u, evb, r, v)
     return NEWTON_FAILED, REASON_MAXITER, _newton_worst(d, weights), maxiter, rate_out
 
 
@@ -982,10 +1016,12 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     Parameters
     ----------
     tol : tuple
-        ``(atol, mask, high, xmax, w, w_err, signs, qrows)``: absolute tolerances, the
-        error-test mask and index-2 flags, the largest values so far, the weights,
-        the rounding floor's fixed signs, the rows whose charge error is tested
-        (:func:`netdae.dae.bdf.charge_rows`).
+        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)``: absolute tolerances,
+        the error-test mask and index-2 flags, the largest values so far, the weights,
+        the rounding floor's fixed signs, the charge columns of the rows whose charge error
+        is tested (-1: not tested; :func:`netdae.dae.bdf.charge_rows`), the charge-form rows
+        and each row's column among them (-1: correction form;
+        :func:`netdae.dae.bdf.charge_columns`).
     sysd : tuple
         The system's linear part: ``(indptr, indices, e_data, h_data, a_data, b_rows,
         b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it,
@@ -1005,8 +1041,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     ws : tuple
         Work vectors ``(u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given)``.
     wk : tuple
-        The step's work vectors ``(ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq)``
-        (the first three of the history's width, the others n).
+        The step's work vectors ``(ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq, vw)``
+        (the first three of the history's width, ``wq`` of the number of charge columns,
+        the others n).
     rec : tuple
         The output: ``(save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments,
         restart_times, event_t, event_count, event_idx)`` (the events: their times and the
@@ -1019,7 +1056,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         A status code of this module (RUNNING is never returned).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1028,7 +1065,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     n = atol.size
     linear = I[I_LINEAR] != 0
     maxord = I[I_MAXORD]
-    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq = wk
+    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq, vw = wk
     wq_count = 0
     rtol = F[F_RTOL]
     norm = I[I_NORM]
@@ -1166,29 +1203,29 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
                 w_nt = w
                 if I[I_HAS_ABSDQ] != 0 and ready:
-                    if _rounding_floor(pred0[:n], qp_pred, cj, absdq, indptr, indices, lus, signs, w, w_newton,
-                                       b1, b2):
+                    if _rounding_floor(pred0[:n], pred1[:n], qp_pred, cj, qcol, False, absdq, indptr, indices, lus,
+                                       signs, w, w_newton, b1, b2):
                         w_nt = w_newton
                         for i in range(n):
                             w_se[i] = min(w_err[i], w_newton[i]) if w_newton[i] != w[i] else w_err[i]
                         w_step = w_se
-                outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, setup, False, pred0, q_pred, qp_pred,
-                                                            w_nt, sysd, devd, lus, u, evb, xn, d, r)
+                outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, setup, False, pred0, pred1, crows,
+                                                            w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                 if outcome == NEWTON_FAILED and not setup and reason != REASON_EVALUATION:
                     # stale Jacobian: retry once with a fresh one at the same step size
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, False, pred0, q_pred,
-                                                                qp_pred, w_nt, sysd, devd, lus, u, evb, xn, d, r)
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, False, pred0, pred1,
+                                                                crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                 if outcome == NEWTON_FAILED and reason != REASON_EVALUATION and reason != REASON_SINGULAR:
                     # a fresh Jacobian failed too: full Newton (a model whose slope changes
                     # within the step, as a MOS charge at its threshold) before a smaller step
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, True, pred0, q_pred,
-                                                                qp_pred, w_nt, sysd, devd, lus, u, evb, xn, d, r)
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, True, pred0, pred1,
+                                                                crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                 I[I_NEWTON] += its
                 if outcome == NEWTON_PIVOTS:
                     pivots = True
@@ -1206,7 +1243,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     else:
                         for c in range(n):
                             ee[c] = xn[c] - pred0[c]
-                            ee[n + c] = qe[c] - q_pred[c]
+                        for c in range(crows.size):
+                            ee[n + c] = qe[crows[c]] - q_pred[c]
             if pivots:
                 # undo phase 1 and return for new pivots; the attempt is repeated on the next call
                 _restore(P, psi, psi_saved, beta, ns, k)
@@ -1370,8 +1408,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     P[0, i] = work[i]
                 # the charges at the event, exactly (the history holds q(x) itself), in the held states
                 _evaluate(I, t_end, work, STATE_NONE, False, False, sysd, devd, u, evb)
-                for i in range(n):
-                    P[0, n + i] = qe[i]
+                for c in range(crows.size):
+                    P[0, n + c] = qe[crows[c]]
         F[F_T] = t_end
         if not linear:
             _accept_state(I, devd)

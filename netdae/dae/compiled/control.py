@@ -136,38 +136,40 @@ def error_norms(ee, P, k, w, kind, n):
 def charge_weights(qrows, absdq, indptr, indices, w, wq):
     """Weights of the charge errors of the rows coupled to index-2 unknowns, in volts.
 
-    Row ``r`` with ``qrows[r]`` (a node row in which an index-2 unknown appears, such as
-    the source current of a capacitor-source loop) gets ``wq[r] = w[r] / C_r``,
-    ``C_r = sum_j |dq_r/dx_j|`` from ``absdq`` (``|dq/dx|`` on the CSC pattern
-    ``indptr``, ``indices``): a charge error counts as the voltage error it would make
-    on the row's capacitance. Other rows, and rows without capacitance, get 0.
-    Returns the number of weighted rows.
+    Row ``r`` with ``qrows[r] = c >= 0`` (a node row in which an index-2 unknown appears,
+    such as the source current of a capacitor-source loop, whose charge is column ``c``
+    of the charge history) gets ``wq[c] = w[r] / C_r``, ``C_r = sum_j |dq_r/dx_j|`` from
+    ``absdq`` (``|dq/dx|`` on the CSC pattern ``indptr``, ``indices``): a charge error
+    counts as the voltage error it would make on the row's capacitance. Other columns,
+    and rows without capacitance, get 0. Returns the number of weighted columns.
     """
     n = w.size
-    for i in range(n):
-        wq[i] = 0.0
+    for c in range(wq.size):
+        wq[c] = 0.0
     for j in range(n):
         for p in range(indptr[j], indptr[j + 1]):
-            r = indices[p]
-            if qrows[r]:
-                wq[r] += absdq[p]
+            c = qrows[indices[p]]
+            if c >= 0:
+                wq[c] += absdq[p]
     count = 0
     for i in range(n):
-        if wq[i] > 0.0:
-            wq[i] = w[i] / wq[i]
+        c = qrows[i]
+        if c >= 0 and wq[c] > 0.0:
+            wq[c] = w[i] / wq[c]
             count += 1
     return count
 
 
 @kernel
 def charge_error_norms(ee, P, k, wq, kind, n, count):
-    """:func:`error_norms` of the charges (columns ``n:``) of the rows weighted by ``wq``
-    (:func:`charge_weights`); ``count`` weighted rows (0: all zero)."""
+    """:func:`error_norms` of the charges (columns ``n:`` of the history, one per entry of
+    ``wq``) weighted by ``wq`` (:func:`charge_weights`); ``count`` weighted columns (0: all zero)."""
     if count == 0:
         return 0.0, 0.0, 0.0
-    e0 = _norm_sum(ee, P, n, k + 1, k, 1.0, wq, kind, n, count)
-    e1 = _norm_sum(ee, P, n, k, k, 1.0, wq, kind, n, count) if k >= 2 else 0.0
-    e2 = _norm_sum(ee, P, n, k - 1, k, 1.0, wq, kind, n, count) if k >= 3 else 0.0
+    m = wq.size
+    e0 = _norm_sum(ee, P, n, k + 1, k, 1.0, wq, kind, m, count)
+    e1 = _norm_sum(ee, P, n, k, k, 1.0, wq, kind, m, count) if k >= 2 else 0.0
+    e2 = _norm_sum(ee, P, n, k - 1, k, 1.0, wq, kind, m, count) if k >= 3 else 0.0
     return e0, e1, e2
 
 
@@ -176,7 +178,7 @@ def charge_error_kp1(ee, P, k, wq, kind, n, count):
     """The charge part of the order-raise estimate: norm of ``ee[n:] - P[k+1, n:]``."""
     if count == 0:
         return 0.0
-    return _norm_sum(ee, P, n, k + 1, k + 1, -1.0, wq, kind, n, count)
+    return _norm_sum(ee, P, n, k + 1, k + 1, -1.0, wq, kind, wq.size, count)
 
 
 @kernel

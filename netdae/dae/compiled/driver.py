@@ -167,6 +167,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         NEWTON_MAXITER,
         IntegrationResult,
         absolute_tolerances,
+        charge_columns,
         charge_rows,
         check_arguments,
         index_mask,
@@ -234,13 +235,15 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     I[L.I_K] = 1
     I[L.I_EVALUATIONS] = 1       # the evaluation at t0 (as the Python integrator counts it)
     I[L.I_JAC_EVALUATIONS] = 1 if linear else 0
-    P = np.zeros((maxord + 1, n if linear else 2 * n))
+    # the history: the unknowns, then the charges of the rows where a device family stores charge
+    crows, qcol = charge_columns(system, linear)
+    P = np.zeros((maxord + 1, n + crows.size))
     P[0, :n] = x0
     if not linear:
         ev0 = system.evaluate(x0, t0, jacobian=False, state=None)
         if not ev0.ok or not np.all(np.isfinite(ev0.q)) or not np.all(np.isfinite(ev0.phi)):
             raise ValueError(f"the system evaluation at t0={t0:g} is not finite (check x0)")
-        P[0, n:] = ev0.q
+        P[0, n:] = ev0.q[crows]
     psi = np.zeros(MAX_ORDER + 1)
     coef = [np.zeros(MAX_ORDER + 1) for _ in range(5)]
     xmax = np.abs(x0)
@@ -253,17 +256,18 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     ns = save_idx.size
     # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
     signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
-    # rows whose charge error joins the error test (coupled to index-2 unknowns)
-    qrows = charge_rows(indptr, indices, high, linear)
-    tol = (atol, mask, high, xmax, w, w_err, signs, qrows)
+    # rows whose charge error joins the error test (coupled to index-2 unknowns): their charge columns
+    qrows = charge_rows(indptr, indices, high, qcol)
+    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)
     nnz = e_data.size
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
            np.abs(e_data))
     rl_given = np.zeros(n)
     # u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given
     ws = (np.zeros(skind.size), *(np.zeros(n) for _ in range(9)), rl_given)
-    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs, wq
-    wk = (*(np.zeros(P.shape[1]) for _ in range(3)), *(np.zeros(n) for _ in range(7)))
+    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs (n), wq (the charge columns), vw (n)
+    wk = (*(np.zeros(P.shape[1]) for _ in range(3)), *(np.zeros(n) for _ in range(6)), np.zeros(crows.size),
+          np.zeros(n))
     # the first pivot order: of the first probe's matrix dq/dx / eps - dphi/dx (any degraded
     # pivot later sends the loop back here for a new one)
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD

@@ -137,6 +137,12 @@ class OsdiFamily(DeviceFamily):
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         return np.concatenate(rows), np.concatenate(cols)
 
+    def charge_rows(self) -> np.ndarray:
+        """The rows of the modules' reactive Jacobian entries (their residuals ``q`` are written there)."""
+        rows = [g[e.row] for inst, g in zip(self.instances, self.glob) for e in inst.module.jacobian
+                if e.react or e.react_const]
+        return np.unique(np.asarray(rows, dtype=np.int64))
+
     def bind(self, slots: SlotMap, n: int) -> None:
         """Connect every instance: node mapping into the extended iterate, Jacobian pointers into scratch."""
         self.n = n
