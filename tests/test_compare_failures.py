@@ -128,3 +128,24 @@ def test_compare_signature_is_explicit_and_documented():
     assert sig.parameters["timeout"].default is None
     for name in sig.parameters:
         assert f"{name} :" in netdae.compare.__doc__, name
+
+
+@pytest.mark.ngspice
+def test_several_dc_and_ac_cards_pair_with_their_own_results():
+    """ngspice 39 runs several .dc (and .ac) cards last to first: each card is compared with its own sweep."""
+    from netdae.comparison import compare
+
+    deck = """two sweeps each
+v1 a 0 dc 1 ac 1
+r1 a b 1k
+c1 b 0 1u
+r2 b 0 2k
+.dc v1 0 1 0.5
+.dc v1 0 1 0.1
+.ac dec 2 1 1k
+.ac dec 5 1 1k
+.end
+"""
+    items = compare(deck).analyses
+    assert [(i.analysis, i.points) for i in items] == [("dc", 3), ("dc", 11), ("ac", 7), ("ac", 16)]
+    assert all(i.passed for i in items)

@@ -79,9 +79,10 @@ TIGHT_STEPS_PER_INTERVAL = 1e4
 TIGHT_OPAMP_GAIN = 1e9
 _COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compare_pz, "tf": compare_tf,
               "noise": compare_noise}
-#: ngspice 39 runs the .pz, .tf and .noise cards last to first (measured): netdae's k-th card of these
-#: kinds pairs with ngspice's k-th result from the end.
-_REVERSED_KINDS = frozenset({"pz", "tf", "noise"})
+#: ngspice 39 runs several .ac, .dc, .pz, .tf or .noise cards last to first (measured; .control
+#: commands become cards in the deck ngspice runs): netdae's k-th card of these kinds pairs with
+#: ngspice's k-th result from the end.
+_REVERSED_KINDS = frozenset({"ac", "dc", "pz", "tf", "noise"})
 
 
 def _read(netlist) -> tuple[Circuit, str, str, str]:
