@@ -149,3 +149,13 @@ r2 b 0 2k
     items = compare(deck).analyses
     assert [(i.analysis, i.points) for i in items] == [("dc", 3), ("dc", 11), ("ac", 7), ("ac", 16)]
     assert all(i.passed for i in items)
+
+
+@pytest.mark.ngspice
+def test_dc_sweep_whose_stop_ngspice_drops_is_compared_at_its_points():
+    """ngspice adds the step repeatedly: `.dc v1 0 60 0.1` ends at 59.9 there (600 points), at 60 in netdae."""
+    from netdae.comparison import compare
+
+    item = compare("t\nv1 a 0 1\nr1 a b 1k\nr2 b 0 2k\n.dc v1 0 60 0.1\n.end\n").analyses[0]
+    assert item.passed and item.points == 600 and item.error is None
+    assert any("leaves out 1 of netdae's" in n for n in item.notes)

@@ -309,12 +309,40 @@ def _sweep_point(axes: dict[str, np.ndarray], k: int) -> dict[str, float]:
     return {name: float(values[k]) for name, values in axes.items()}
 
 
+def _same_point(a: float, b: float, span: float) -> bool:
+    return abs(a - b) <= 1e-9 * max(abs(a), abs(b)) + 1e-12 * max(span, 1.0)
+
+
+def _common_points(mine: dict[str, np.ndarray], theirs: dict[str, np.ndarray]) -> np.ndarray | None:
+    """netdae's sweep points at ngspice's, in order (None: some point of ngspice's is not netdae's).
+
+    ngspice adds its step repeatedly and drops a stop value the accumulated
+    rounding passed (``dc vd 0 60 0.1``: 600 points); netdae computes each
+    point and keeps it.
+    """
+    names = list(theirs)
+    if any(n not in mine for n in names):
+        return None
+    spans = {n: float(np.ptp(theirs[n])) if theirs[n].size else 0.0 for n in names}
+    take, k, count = [], 0, mine[names[0]].size
+    for j in range(theirs[names[0]].size):
+        while k < count and not all(_same_point(mine[n][k], theirs[n][j], spans[n]) for n in names):
+            k += 1
+        if k == count:
+            return None
+        take.append(k)
+        k += 1
+    return np.array(take, dtype=np.int64)
+
+
 def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=()) -> AnalysisComparison:
     """Compare two DC sweeps point by point.
 
     The scale is the larger of the two ranges over the sweep, floored per
     kind; the RMS is over the points. The sweep points must agree (ngspice's
-    outer axis of a nested sweep is rebuilt by the bridge).
+    outer axis of a nested sweep is rebuilt by the bridge), or ngspice's be
+    netdae's without the stop values its accumulated step passed (compared
+    at ngspice's points, with a note).
     """
     item = AnalysisComparison("dc", tolerance=tol, axis=", ".join(ng.axes) or None)
     compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
@@ -322,7 +350,15 @@ def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     if not _signals_or_error(item, compared):
         return item
     m = ng.axis.size if ng.axis is not None else 0
-    if nd.axis is None or nd.axis.size != m:
+    take = None
+    if nd.axis is not None and nd.axis.size > m > 0:
+        take = _common_points(nd.axes, ng.axes)
+    if take is not None:
+        item.notes.append(f"compared at ngspice's {m} points: its sweep leaves out {nd.axis.size - m} of netdae's "
+                          "(it adds the step repeatedly and drops a stop value the rounding passed)")
+        nd = Result("dc", axes={n: np.asarray(v)[take] for n, v in nd.axes.items()},
+                    signals={n: np.asarray(nd.signals[n])[take] for n in compared})
+    elif nd.axis is None or nd.axis.size != m:
         item.error = (f"the sweeps differ: netdae has {0 if nd.axis is None else nd.axis.size} points, "
                       f"ngspice {m}")
         return item

@@ -49,6 +49,7 @@ import numpy as np
 from ..analyses.runner import refuse_steps
 from ..circuit import Circuit, TranAnalysis
 from ..errors import NetdaeError, NgspiceError
+from ..ngspice import RUNS_LAST_TO_FIRST
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
 from .smallsignal import compare_noise, compare_pz, compare_tf
@@ -79,10 +80,6 @@ TIGHT_STEPS_PER_INTERVAL = 1e4
 TIGHT_OPAMP_GAIN = 1e9
 _COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compare_pz, "tf": compare_tf,
               "noise": compare_noise}
-#: ngspice 39 runs several .ac, .dc, .pz, .tf or .noise cards last to first (measured; .control
-#: commands become cards in the deck ngspice runs): netdae's k-th card of these kinds pairs with
-#: ngspice's k-th result from the end.
-_REVERSED_KINDS = frozenset({"ac", "dc", "pz", "tf", "noise"})
 
 
 def _read(netlist) -> tuple[Circuit, str, str, str]:
@@ -451,7 +448,7 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
         if kind not in wanted_kinds:
             continue
         ours = [r for r in ng_results if r.analysis == kind]
-        if kind in _REVERSED_KINDS:
+        if kind in RUNS_LAST_TO_FIRST:  # netdae's k-th card of the kind pairs with ngspice's k-th from the end
             ours.reverse()
         ng = ours[occurrence] if occurrence < len(ours) else None
         item = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,

@@ -82,6 +82,7 @@ __all__ = [
     "ngspice_version",
     "translate_for_ngspice",
     "override_options",
+    "RUNS_LAST_TO_FIRST",
 ]
 
 #: How to install what this module needs on Debian/Ubuntu.
@@ -92,6 +93,9 @@ BACKENDS = ("auto", "shared", "subprocess")
 DEFAULT_TIMEOUT = 300.0
 #: Error lines quoted in an NgspiceError (ngspice can print hundreds).
 _MAX_ERROR_LINES = 12
+#: ngspice 39 runs several cards of these analyses last to first (measured; the analysis commands of
+#: a ``.control`` block reach it as cards): its k-th result of such a kind is the k-th card from the end.
+RUNS_LAST_TO_FIRST = frozenset({"ac", "dc", "pz", "tf", "noise"})
 #: ``DBL_EPSILON * 1e3``: ngspice's tolerance for the end of a dc sweep.
 _SWEEP_END_TOLERANCE = np.finfo(float).eps * 1e3
 
@@ -403,7 +407,7 @@ def _name_dc_axes(results: list[Result], cards: list[DcSweepCard], notes: list[s
             f"{len(dc_results)} dc results but {len(cards)} .dc cards: dc axes keep ngspice's names (v-sweep ...)"
         )
         return
-    for result, card in zip(dc_results, cards):
+    for result, card in zip(dc_results, reversed(cards)):  # ngspice ran the cards last to first
         (old_name, inner), *_ = result.axes.items()
         axes = {card.sources[0]: inner}
         if len(card.sources) == 2:
