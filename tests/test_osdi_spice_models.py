@@ -122,6 +122,20 @@ def test_vbic_nodes_select_the_module_and_its_self_heating():
     assert model.params["type"] == -1
 
 
+def test_bjt_level_9_is_vbic_as_in_ngspice():
+    """ngspice 39 reads npn level=9 as VBIC (its showmod lists VBIC models): the same module and solution."""
+    four = netdae.run(vbic("npn"), **TIGHT)[0]
+    nine = netdae.run(vbic("npn").replace("level=4", "level=9"), **TIGHT)[0]
+    assert netdae.load(vbic("npn").replace("level=4", "level=9")).models["qm"].type == "vbic13_4t"
+    assert nine["i(vc)"][0] == four["i(vc)"][0] and nine["i(vb)"][0] == four["i(vb)"][0]
+
+
+def test_a_hicum_card_with_a_thermal_node_is_refused_naming_its_level():
+    text = vbic("npn", inst="Q1 c b 0 0 t qm").replace("level=4 " + VBIC, "level=8")
+    with pytest.raises(NetlistError, match=r"level 8 \(HICUM/L2 in ngspice\) is not implemented by netdae"):
+        netdae.load(text)
+
+
 def test_one_vbic_card_serves_instances_with_and_without_the_thermal_node():
     text = vbic("npn", inst="Q1 c b 0 0 t qm\nQ2 c b 0 0 qm", extra="rth=100")
     circuit = netdae.load(text)

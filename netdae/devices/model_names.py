@@ -85,7 +85,7 @@ MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "j
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
 LEVELS: dict[str, dict[int, str]] = {
     "diode": {1: "junction diode", 3: "junction diode with geometry"},
-    "bjt": {1: "Gummel-Poon", 4: "VBIC", 6: "Gummel-Poon (extended)", 8: "HICUM/L2", 9: "HICUM/L0"},
+    "bjt": {1: "Gummel-Poon", 4: "VBIC", 6: "Gummel-Poon (extended)", 8: "HICUM/L2", 9: "VBIC"},
     "mosfet": {1: "Shichman-Hodges", 2: "Grove-Frohman", 3: "semi-empirical", 4: "BSIM1", 5: "BSIM2",
                6: "MOS6", 8: "BSIM3", 49: "BSIM3", 9: "MOS9", 10: "B4SOI", 58: "B4SOI", 14: "BSIM4", 54: "BSIM4",
                55: "B3SOI (fully depleted)", 56: "B3SOI (dynamic depletion)", 57: "B3SOI (partially depleted)",
@@ -128,6 +128,8 @@ LEVEL_PARAMETERS: dict[tuple[str, int], tuple[frozenset, frozenset]] = {
     ("mesfet", 1): (NGSPICE_PARAMETERS["mesfet"] - OUTPUT_ONLY["mesfet"],
                     _names("area m off icvds icvgs")),
 }
+#: ngspice 39 reads BJT level 9 as VBIC too (its ``inpdomod.c``; measured: ``showmod`` lists VBIC models).
+LEVEL_PARAMETERS[("bjt", 9)] = LEVEL_PARAMETERS[("bjt", 4)]
 
 
 def level_name(family: str, level: int) -> str | None:

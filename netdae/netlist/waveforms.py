@@ -1040,7 +1040,9 @@ class Trnoise(RandomSource):
                              "give NT > 0")
         if rtsam > 0.0 and not (capt > 0.0 and emt > 0.0):
             raise ValueError(f"TRNOISE RTSCAPT and RTSEMT (mean capture and emission times) must be > 0 with "
-                             f"RTSAM = {rtsam:g}, got {capt:g} and {emt:g}")
+                             f"RTSAM = {rtsam:g}, got {capt:g} and {emt:g}: ngspice 39 accepts zero times and then "
+                             "switches its telegraph at every time step (an artefact of its step size, not a noise); "
+                             "netdae refuses them: give both times, or RTSAM = 0")
 
     def _start(self):
         return 0.0, 0.0

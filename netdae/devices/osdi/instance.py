@@ -123,9 +123,15 @@ def _check_init(info: abi.OsdiInitInfo, module: OsdiModule, who: str, location) 
     if info.num_errors:
         _libc_free(C.cast(info.errors, C.c_void_p))
     if problems or info.flags & abi.EVAL_RET_FLAG_FATAL:
+        from .library import drain_messages
+
+        said = [text.strip() for _, _, text in drain_messages() if text.strip()][-3:]
         raise NetlistError(f"{who}: OSDI module {module.name} ({module.library.path}) rejected its parameters: "
-                           + ("; ".join(problems) or "fatal error"), location,
-                           hint="see the module's messages (netdae.devices.osdi.drain_messages())")
+                           + ("; ".join(problems) or "fatal error")
+                           + (f" (the module says: {' | '.join(said)})" if said else ""), location,
+                           hint="check that parameter's value on the card (the range is the module's Verilog-A "
+                                "source's); a card written for ngspice's built-in model can hold values its "
+                                "Verilog-A port refuses")
 
 
 def _node_name(module: OsdiModule, i: int) -> str:

@@ -232,7 +232,7 @@ _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", 
                    form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
 _MES = ModuleMap("MES (Statz)", "mesfet", (1,), "spice/mes1.osdi", "sp_mes1", instance_names={"m": "$mfactor"},
                  module_only=frozenset({"type"}), form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [m=..]")
-_VBIC = ModuleMap("VBIC", "bjt", (4,), "vbic_1p3_4t.osdi", "vbic13_4t",
+_VBIC = ModuleMap("VBIC", "bjt", (4, 9), "vbic_1p3_4t.osdi", "vbic13_4t",
                   instance_names={"m": "$mfactor", "dtemp": "trise"},
                   model_names={"dtemp": "trise"},
                   module_only=frozenset("type scale shrink tmin tmax tminclip tmaxclip gmin pnjmaxi maxexp dta trise "
@@ -506,6 +506,12 @@ def _check_nodes(el: Element, card: Model, m: ModuleMap | None) -> None:
     """Refuse a node count the element's model cannot take (a thermal node on a model without one)."""
     if len(el.nodes) in KINDS[el.kind].node_counts or (m is not None and m.thermal is not None):
         return
+    from ..modelcard import unimplemented_level
+
+    refused = unimplemented_level(el.kind, card) if m is None else None
+    if refused is not None:  # the level itself is what netdae lacks
+        raise NetlistError(f"{el.name}: {refused}", el.location,
+                           hint="ngspice's levels that run here: 1 (Gummel-Poon) and 4 (VBIC, with the thermal node)")
     what = f"{card.type} level {level_of(card):g}"
     raise NetlistError(f"{el.name}: {len(el.nodes)} nodes (with a thermal node) need a self-heating model; "
                        f"model {card.name} is {what}", el.location,
