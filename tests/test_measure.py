@@ -293,3 +293,15 @@ def test_the_bridge_hands_meas_cards_to_ngspice_and_saves_all():
     assert text.endswith(".save all\n.end\n") and any("'.save all' added" in n for n in notes)
     text, notes = translate_for_ngspice(RC_STEP.replace(".end", ".save v(out)\n.end"))
     assert ".save all" not in text and not any(".save all" in n for n in notes)
+
+
+def test_param_measure_calls_user_functions():
+    """A PARAM= expression may call .func definitions, as a .param can (ngspice's examples/measure/func_cap.sp)."""
+    deck = ("t\nv1 a 0 1\nr1 a 0 1k\n.func icap(a,b,c,d) '2*a*sqrt(b*c*d)'\n.tran 1n 10n\n"
+            ".meas tran cap param='icap(1,2,3,4)'\n.meas tran twice param='2*cap'\n.end\n")
+    res = netdae.run(deck)[0]
+    values = {m.name: m.value for m in res.measures}
+    assert values["cap"] == pytest.approx(2 * math.sqrt(24), rel=1e-15)
+    assert values["twice"] == pytest.approx(4 * math.sqrt(24), rel=1e-15)
+    with pytest.raises(netdae.NetlistError, match=r"PARAM: unknown function 'nothere'"):
+        netdae.load(deck.replace("icap(1,2,3,4)", "nothere(1)"))

@@ -436,7 +436,8 @@ class _Elaborator:
             check_circuit(circuit)
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
-        circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value, BRANCH_CURRENT_KINDS)
+        circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value,
+                                              BRANCH_CURRENT_KINDS, functions=self.root)
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         circuit.diagnostics = self.diagnostics

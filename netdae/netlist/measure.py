@@ -30,6 +30,7 @@ from ..errors import NetlistError
 from . import expr as ex
 from .elements import IDENT, error, parse_expr, parse_value
 from .lines import EXPR, PUNCT, WORD, Card, Token
+from .params import UnknownName, inline_calls
 from .statements import MeasureCard
 
 __all__ = ["parse_measure", "FORM"]
@@ -289,7 +290,8 @@ def parse_measure(card: Card) -> MeasureCard:
 # ---------------------------------------------------------------------------
 # elaboration: MeasureCard -> MeasureSpec
 # ---------------------------------------------------------------------------
-def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value, branch_kinds) -> list:
+def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value, branch_kinds,
+                       functions=None) -> list:
     """Evaluate and check the measurement cards against the flat circuit.
 
     Parameters
@@ -303,6 +305,9 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         ``value(val, card, what) -> float``: a Val evaluated with the top-level parameters.
     branch_kinds : set of str
         Element kinds whose current ``i(name)`` is an unknown.
+    functions : Env, optional
+        The top-level scope whose ``.func`` definitions ``PARAM=`` expressions
+        may call (expanded here, as in ``.param``).
 
     Returns
     -------
@@ -379,6 +384,14 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         params = {}
         if m.function == "param":
             tree, offset = m.expression
+            if functions is not None:
+                try:
+                    tree = inline_calls(tree, functions)
+                except UnknownName as exc:
+                    raise error(card, offset, f"PARAM: unknown function '{exc.name}'", FORM,
+                                hint="define it with .func") from None
+                except ValueError as exc:
+                    raise error(card, offset, f"PARAM: {exc}", FORM) from None
             for node in ex.walk(tree):
                 if isinstance(node, ex.Param) and node.name not in seen and node.name not in circuit.params:
                     later = " (it is defined later: measurements are evaluated in netlist order)" \
