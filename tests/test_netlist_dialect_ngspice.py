@@ -7,6 +7,7 @@ values at ngspice's time points to a fraction of the signal's range.
 
 from __future__ import annotations
 
+import math
 import re
 import subprocess
 from pathlib import Path
@@ -383,6 +384,20 @@ def test_resistance_from_the_model(tmp_path):
     assert abs(op["i(v1)"][0] - ref["i(v1)"]) <= RTOL * abs(ref["i(v1)"])
     with pytest.raises(NetlistError, match=r"r1: model rt gives the resistance as an instance parameter"):
         load(netlist.replace("r=1000", "resistance=1000") + ".op\n.end\n")
+
+
+def test_resistance_of_zero_width_is_an_open_circuit(tmp_path):
+    # w = 2 narrow: ngspice 39's resistance is infinite (showmod: inf) and the branch carries nothing
+    netlist = "zero width\nV1 1 0 1\nVr 1 2 0\nR1 2 0 rn l=11u w=2u\n.model rn r rsh=1000 narrow=1u\nR2 1 0 1k\n"
+    ref = ngspice_print(netlist + ".op\n", ["i(vr)", "i(v1)"], tmp_path)
+    c = load(netlist + ".op\n.end\n")
+    assert c.element("r1").value == math.inf
+    assert any("leaves no width" in d.message and d.severity == "warning" for d in c.diagnostics)
+    op = netdae.run(c)[0]
+    assert op["i(vr)"][0] == ref["i(vr)"] == 0.0
+    assert abs(op["i(v1)"][0] - ref["i(v1)"]) <= RTOL * abs(ref["i(v1)"])
+    with pytest.raises(NetlistError, match=r"r1: model rn leaves a negative width"):
+        load(netlist.replace("narrow=1u", "narrow=1.5u") + ".op\n.end\n")
 
 
 def test_capacitance_from_the_model(tmp_path):

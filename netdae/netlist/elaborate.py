@@ -542,10 +542,15 @@ class _Elaborator:
         rsh = mp.get("rsh", 0.0)
         if length * width * rsh > 0.0:
             short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
-            if width - 2 * narrow <= 0.0:
-                raise NetlistError(f"{el.name}: model {model.name} leaves no width (w - 2 narrow = "
-                                   f"{width - 2 * narrow:g} m), so its resistance is not finite",
-                                   el.location, hint="give w greater than 2 narrow, or a value")
+            if width - 2 * narrow == 0.0:  # ngspice 39: an infinite resistance, an open circuit
+                self.diagnostics.append(Diagnostic(
+                    "warning", f"{el.name}: model {model.name} leaves no width (w - 2 narrow = 0): its resistance "
+                    "is infinite, an open circuit, as in ngspice", el.location))
+                return math.inf
+            if width - 2 * narrow < 0.0:
+                raise NetlistError(f"{el.name}: model {model.name} leaves a negative width (w - 2 narrow = "
+                                   f"{width - 2 * narrow:g} m)", el.location,
+                                   hint="give w greater than 2 narrow, or a value")
             value = (length - 2 * short) / (width - 2 * narrow) * rsh
         elif "r" in mp or "res" in mp:
             value = mp.get("r", mp.get("res"))
