@@ -31,7 +31,7 @@ __all__ = ["Probe", "Condition", "MeasureSpec", "Measure", "format_measure", "FU
 #: Analyses a measurement can refer to.
 MEASURE_ANALYSES = ("tran", "ac", "dc")
 #: The measurement functions (``TRIG`` covers ``TRIG ... TARG ...``; ``INTEGRAL`` is ``INTEG``).
-FUNCTIONS = ("trig", "find", "when", "deriv", "min", "max", "pp", "avg", "rms", "integ", "param")
+FUNCTIONS = ("trig", "find", "when", "deriv", "min", "max", "min_at", "max_at", "pp", "avg", "rms", "integ", "param")
 #: ngspice's AC prefixes of ``v(...)``: ``vdb`` dB of the magnitude, ``vm`` magnitude, ``vp`` phase
 #: in radians (as ngspice 39 prints it), ``vr`` real part, ``vi`` imaginary part.
 AC_PREFIXES = {"db": "dB of the magnitude", "m": "magnitude", "p": "phase [rad]", "r": "real part",
@@ -203,7 +203,8 @@ class Measure:
 
 
 #: The extras ngspice prints after a value, by function.
-_PRINTED = {"trig": ("targ", "trig"), "min": ("at",), "max": ("at",), "avg": ("from", "to"),
+_PRINTED = {"trig": ("targ", "trig"), "min": ("at",), "max": ("at",), "min_at": ("with",), "max_at": ("with",),
+            "avg": ("from", "to"),
             "rms": ("from", "to"), "integ": ("from", "to"), "pp": ("from", "to")}
 
 

@@ -11,6 +11,7 @@ are looser and say why.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -305,3 +306,16 @@ def test_param_measure_calls_user_functions():
     assert values["twice"] == pytest.approx(4 * math.sqrt(24), rel=1e-15)
     with pytest.raises(netdae.NetlistError, match=r"PARAM: unknown function 'nothere'"):
         netdae.load(deck.replace("icap(1,2,3,4)", "nothere(1)"))
+
+
+def test_min_at_and_max_at_give_where_the_extreme_is():
+    """ngspice's MIN_AT/MAX_AT: the time of the extreme, printed 'with=' its value (a sine: T/4 and 3T/4)."""
+    deck = ("t\nv1 a 0 sin(0 1 1k)\nr1 a 0 1k\n.tran 10u 2m\n.meas tran tmx max_at v(a)\n"
+            ".meas tran tmn min_at v(a) from=0.5m to=1.5m\n.end\n")
+    res = netdae.run(deck)[0]
+    by = {m.name: m for m in res.measures}
+    assert by["tmx"].value == pytest.approx(0.25e-3, abs=1e-9) and by["tmx"].extra["with"] == pytest.approx(1, abs=1e-6)
+    assert by["tmn"].value == pytest.approx(0.75e-3, abs=1e-9) and by["tmn"].extra["with"] == pytest.approx(-1, abs=1e-6)
+    from netdae.measures import format_measure
+
+    assert re.match(r"tmx\s+=\s+2\.500000e-04 with=\s+1\.000000e\+00", format_measure(by["tmx"]))

@@ -39,7 +39,7 @@ CASES = [
     (".meas tran x WHEN v(out)=0.5 RISE=0", r"RISE= takes a positive whole number or LAST", "0"),
     (".meas tran x WHEN v(out)=0.5 RISE=1 FALL=1", r"more than one of RISE=, FALL=, CROSS=, LAST", "fall"),
     (".meas tran x FOURIER v(out)", r"unknown measurement function 'fourier'", "fourier"),
-    (".meas tran x MIN_AT v(out)", r"MIN_AT is not supported by netdae", "min_at"),
+    (".meas tran x ERR v(out)", r"ERR is not supported by netdae", "err"),
     (".meas tran x FIND v(out)", r"FIND needs AT=x or WHEN", None),
     (".meas tran x FIND out AT=1m", r"expected a signal after FIND, found 'out'", "out"),
     (".meas tran x MAX v(out) extra", r"unexpected 'extra'", "extra"),

@@ -345,6 +345,9 @@ def _measure(spec: MeasureSpec, result: Result) -> Measure:
     lo, hi = _window(spec, trace)
     if f in ("min", "max"):
         out.value, out.at = _extreme(trace, lo, hi, 1.0 if f == "max" else -1.0)
+    elif f in ("min_at", "max_at"):  # ngspice's MIN_AT/MAX_AT: where the extremum is, "with" its value
+        value, out.at = _extreme(trace, lo, hi, 1.0 if f == "max_at" else -1.0)
+        out.value, out.extra = out.at, {"with": value}
     elif f == "pp":
         samples = trace.samples(lo, hi)
         top, _ = _extreme(trace, lo, hi, 1.0, samples)

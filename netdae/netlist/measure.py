@@ -38,19 +38,18 @@ __all__ = ["parse_measure", "FORM"]
 #: The expected form shown in errors.
 FORM = (".meas tran|ac|dc name TRIG sig VAL=v RISE=n|FALL=n|CROSS=n|LAST TARG sig VAL=v ... | "
         "FIND sig AT=x | FIND sig WHEN sig=v ... | WHEN sig=v [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=] | "
-        "DERIV sig AT=x | MIN|MAX|PP|AVG|RMS|INTEG sig [TD=] [FROM=] [TO=] | PARAM='expr'")
+        "DERIV sig AT=x | MIN|MAX|MIN_AT|MAX_AT|PP|AVG|RMS|INTEG sig [TD=] [FROM=] [TO=] | PARAM='expr'")
 
 _FUNCTIONS = {"trig": "trig", "delay": "trig", "find": "find", "when": "when", "deriv": "deriv",
               "derivative": "deriv", "min": "min", "max": "max", "pp": "pp", "avg": "avg", "rms": "rms",
-              "integ": "integ", "integral": "integ", "param": "param"}
-_NOT_SUPPORTED = {"min_at": "MIN_AT", "max_at": "MAX_AT", "err": "ERR", "err1": "ERR1", "err2": "ERR2",
-                  "err3": "ERR3"}
+              "integ": "integ", "integral": "integ", "param": "param", "min_at": "min_at", "max_at": "max_at"}
+_NOT_SUPPORTED = {"err": "ERR", "err1": "ERR1", "err2": "ERR2", "err3": "ERR3"}
 _PREFIXES = {"v": ("v", ""), "i": ("i", ""), "vdb": ("v", "db"), "vm": ("v", "m"), "vp": ("v", "p"),
              "vr": ("v", "r"), "vi": ("v", "i")}
 _EDGES = ("rise", "fall", "cross")
 #: Keywords each clause accepts (besides the edges and LAST where crossings are counted).
 _WINDOW = ("td", "from", "to")
-_HINT_FUNCTIONS = "TRIG/TARG, FIND, WHEN, DERIV, MIN, MAX, PP, AVG, RMS, INTEG, PARAM"
+_HINT_FUNCTIONS = "TRIG/TARG, FIND, WHEN, DERIV, MIN, MAX, MIN_AT, MAX_AT, PP, AVG, RMS, INTEG, PARAM"
 
 
 class _Cursor:
