@@ -496,3 +496,20 @@ def test_probe_entries_ngspice_cannot_read_are_warned_and_ignored():
     assert circuit.saves == ["v(2)", "i(r1)"]
     assert any("5:8 .probe: entry ignored, as ngspice ignores it: expected a signal, found '('" in w
                for w in _warnings(circuit))
+
+
+def test_an_unused_subcircuit_with_an_unreadable_card_is_ignored_as_ngspice_ignores_it(tmp_path):
+    # ngspice reads the cards of the subcircuits it expands only: one never instantiated can hold a card
+    # it (and netdae) cannot read; used, the same card is the error it always was
+    text = ("unused\n.subckt bad a b\nR1 a b 1k 2k 3k\n.ends\n.subckt good a b\nR1 a b 1k\n.ends\n"
+            "V1 1 0 1\nX1 1 0 {sub}\n.op\n.end\n")
+    ok = tmp_path / "ok.cir"
+    ok.write_text(text.format(sub="good"))
+    assert subprocess.run(["ngspice", "-b", str(ok)], capture_output=True, text=True, timeout=60).returncode == 0
+    c = load(str(ok))
+    warned = [d for d in c.diagnostics if d.severity == "warning" and ".subckt bad is never used" in d.message]
+    assert len(warned) == 1 and warned[0].location.line == 3
+    assert netdae.run(c)[0]["i(v1)"][0] == pytest.approx(-1e-3, rel=1e-12)
+    with pytest.raises(NetlistError, match=r"r1: expected a model name after the value, found '2k'") as info:
+        load(text.format(sub="bad"))
+    assert info.value.location.line == 3

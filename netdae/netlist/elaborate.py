@@ -179,6 +179,7 @@ class _Elaborator:
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
         self.envs: dict[tuple, Env] = {(): self.root}
+        self._used: set[int] = set()  # the subcircuit definitions instantiated (by id)
 
     @staticmethod
     def _temper(net: Netlist) -> ParamDef:
@@ -301,8 +302,22 @@ class _Elaborator:
         self.bodies[key] = out
         return out
 
+    def _unused_errors(self, scope: Definition) -> None:
+        """Warn of the unreadable cards of subcircuits never instantiated (ngspice never reads them)."""
+        for sub in scope.subckts.values():
+            if sub.errors and id(sub) not in self._used:
+                first = sub.errors[0]
+                more = f" (and {len(sub.errors) - 1} more)" if len(sub.errors) > 1 else ""
+                self.diagnostics.append(Diagnostic(
+                    "warning", f".subckt {sub.name} is never used, so its card that cannot be read is ignored, "
+                    f"as ngspice ignores it{more}: {first.message}", first.location))
+            self._unused_errors(sub)
+
     def _instantiate(self, x: _Placed, sub: Definition) -> list[_Placed]:
         inst: InstanceCard = x.item
+        if sub.errors:
+            raise sub.errors[0]
+        self._used.add(id(sub))
         for f in x.frames:
             if f.sub is sub:
                 chain = " -> ".join([fr.sub.name for fr in x.frames[x.frames.index(f):]] + [sub.name])
@@ -440,6 +455,7 @@ class _Elaborator:
                                               BRANCH_CURRENT_KINDS, functions=self.root)
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
+        self._unused_errors(self.net.top)
         circuit.diagnostics = self.diagnostics
         draws = self.root.draws
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count

@@ -62,7 +62,14 @@ def build(deck: Deck) -> Netlist:
         if card.text[0] == ".":
             _dot_card(card, stack, net)
         else:
-            item = parse_element(card)
+            try:
+                item = parse_element(card)
+            except NetlistError as exc:
+                if stack[-1].name is None:
+                    raise
+                stack[-1].errors.append(exc)  # raised if the subcircuit is used (ngspice reads only those)
+                card.forget_tokens()
+                continue
             if type(item) is list:
                 stack[-1].items.extend(item)
             else:

@@ -180,6 +180,10 @@ class Definition:
     parent : Definition or None
     card : Card or None
         The ``.subckt`` card.
+    errors : list of NetlistError
+        Element cards of this body that cannot be read: raised when the
+        subcircuit is instantiated; a subcircuit never instantiated keeps
+        them as a warning (ngspice reads only the subcircuits it expands).
     """
 
     name: str | None
@@ -192,6 +196,7 @@ class Definition:
     subckts: dict = field(default_factory=dict)
     parent: "Definition | None" = None
     card: Card | None = None
+    errors: list = field(default_factory=list)
 
     def lookup_model(self, name: str) -> "tuple[ModelCard, Definition] | None":
         """The model a card in this body means by ``name`` (innermost first)."""
