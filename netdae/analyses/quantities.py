@@ -326,11 +326,10 @@ def _jump_rows(result: Result, points: slice) -> dict[int, tuple[str, ...]] | No
     if result.analysis != "tran":
         return None
     t = np.asarray(result.t, dtype=float)[points]
-    events = result.transient.events if result.transient is not None else []
-    rows = {}
-    for k in np.flatnonzero(t[:-1] == t[1:]).tolist():
-        rows[k] = tuple(name for te, names in events if te == t[k] for name in names)
-    return rows
+    switched: dict[float, tuple[str, ...]] = {}
+    for te, names in (result.transient.events if result.transient is not None else []):
+        switched[te] = switched.get(te, ()) + tuple(names)
+    return {k: switched.get(float(t[k]), ()) for k in np.flatnonzero(t[:-1] == t[1:]).tolist()}
 
 
 def _source_current(circuit: Circuit, result: Result, el: Element) -> np.ndarray:

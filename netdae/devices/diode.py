@@ -279,7 +279,7 @@ class DiodeFamily(DeviceFamily):
                     raise CircuitError(f"{el.name}: {key if key == 'area' else 'm'} must be positive",
                                        elements=(el.name,))
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
-            row["series"] = float(diode_structure(mv)[0])
+            row["series"], row["charge"] = (float(fact) for fact in diode_structure(mv))
             rows.append(row)
         self._setup(rows, opts.reltol)
 
@@ -311,7 +311,7 @@ class DiodeFamily(DeviceFamily):
         self.has_rs = bool(np.any(self.gs > 0.0))
         self.any_bv = bool(np.any(self.has_bv))
         self.has_tt = bool(np.any(self.tt != 0.0))
-        self.has_charge = self.depletion.active or self.has_tt
+        self.has_charge = bool(np.any(g("charge") != 0.0))  # the topology's fact too (diode_branches)
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
