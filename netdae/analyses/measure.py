@@ -65,6 +65,8 @@ _GL = {p: (0.5 * (x + 1.0), 0.5 * w) for p, (x, w) in ((1, np.polynomial.legendr
 #: Chebyshev points in (0, 1). A transient's dense output is one polynomial of degree at most 5
 #: per step (BDF order <= 5), so its values at these six points give that polynomial exactly.
 _CHEB = 0.5 - 0.5 * np.cos(np.pi * (np.arange(6) + 0.5) / 6)
+#: Values at _CHEB -> coefficients (highest power first) of the degree-5 interpolant: its Vandermonde inverse.
+_CHEB_FIT = np.linalg.inv(np.vander(_CHEB, 6))
 
 
 class MeasureFailure(Exception):
@@ -173,7 +175,7 @@ class _Trace:
         """
         a, b = self.x[steps - 1], self.x[steps]
         values = self.dense((a[:, None] + (b - a)[:, None] * _CHEB[None, :]).ravel()).reshape(-1, _CHEB.size)
-        return np.polyfit(_CHEB, values.T, 5).T
+        return values @ _CHEB_FIT.T
 
     def derivative(self, xq: float) -> float:
         """The slope at ``xq`` (a transient: of its step's polynomial)."""

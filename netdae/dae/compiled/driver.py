@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import weakref
 
 import numpy as np
 
@@ -309,7 +310,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     # machine code from numba's cache (or compiles it). Everything until it returns (numba's
     # initialisation at the first compiled call above, the packing, the first pivot order, the
     # load) is timed apart from the integration as load_time
-    fresh = not getattr(L.run, "signatures", True)  # (a wrapped loop: no load to time)
+    fresh = not _LOADED and not getattr(L.run, "signatures", True)  # (a wrapped loop: no load to time)
     chunk = 0 if fresh else FIRST_CHUNK
     load_time = 0.0
     last = time.perf_counter()
@@ -355,6 +356,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
             sysd_c = (*sysd, delay_args(delays, I, buf_t, buf_k, buf_x, segments, ns))
             status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd_c, devd,
                            lus(), evb, ws, wk, rec, chunk)
+            if not _LOADED:
+                _loaded()
             if fresh:
                 fresh = False
                 load_time = time.perf_counter() - wall0
@@ -546,13 +549,58 @@ def pack_matrices(system) -> tuple:
     """The loop's matrices of an MNA system: ``(indptr, indices, e_data, h_data, b_rows, b_cols, b_vals)``.
 
     ``E`` and ``H`` as values on the system's fixed CSC pattern, ``B`` as
-    coordinates (the inputs' columns).
+    coordinates (the inputs' columns). Packed once per system (:func:`_packed`)
+    and shared by its operating point and its transient: the loops only read them.
     """
-    pattern = system.pattern
-    B = system.B.tocoo()
-    return (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
-            np.array(pattern.data_of(system.E), dtype=float), np.array(pattern.data_of(system.H), dtype=float),
-            B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
+    return _packed(system).matrices
+
+
+class _Packed:
+    """What the compiled loops read of a system and never change: its matrices and its families'
+    compiled arrays (:meth:`DeviceFamily.compiled`, in slot order), made at the first need."""
+
+    __slots__ = ("matrices", "families", "__weakref__")
+
+    def __init__(self, system):
+        from ...devices.base import SlotMap
+
+        pattern = system.pattern
+        e = getattr(system, "_dq_lin", None)  # an MnaSystem keeps E and H on its pattern already
+        h = getattr(system, "_dphi_lin", None)
+        B = system.B.tocoo()
+        self.matrices = (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
+                         np.array(pattern.data_of(system.E) if e is None else e, dtype=float),
+                         np.array(pattern.data_of(system.H) if h is None else h, dtype=float),
+                         B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
+        self.families = []
+        if system.families:
+            slots = SlotMap(pattern)
+            self.families = [(_family_slot(f), f, f.compiled(slots, system.n)) for f in system.families]
+
+
+#: The loop has run in this process (its machine code is loaded: no first call of no steps).
+_LOADED = False
+
+
+def _loaded() -> None:
+    """Remember that the loop is loaded (asking numba for its signatures costs about 0.3 ms a run)."""
+    global _LOADED
+    _LOADED = True
+
+
+#: Each system's :class:`_Packed` (kept while the system lives).
+_PACKED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _packed(system) -> _Packed:
+    """The system's :class:`_Packed`, made at the first call."""
+    try:
+        packed = _PACKED.get(system)
+    except TypeError:  # not weakly referenceable: pack every time
+        return _Packed(system)
+    if packed is None:
+        packed = _PACKED[system] = _Packed(system)
+    return packed
 
 
 def pack_delays(system) -> tuple:
@@ -620,7 +668,6 @@ def _pack_families(system, x0, switching) -> tuple:
     the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
     """
     from ...devices.kernels import behavioural as kbh
-    from ...devices.base import SlotMap
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
     from ...devices.kernels import jfet as kj
@@ -641,17 +688,15 @@ def _pack_families(system, x0, switching) -> tuple:
             np.zeros(0), np.zeros(0))
     osdi_states = 1
     if system.families:
-        slots = SlotMap(system.pattern)
-        for family in system.families:
-            slot = _family_slot(family)
+        for slot, family, compiled in _packed(system).families:
             if slot == BEHAVIOURAL_SLOT:
-                behavioural = family.compiled(slots, system.n)
+                behavioural = compiled
                 continue
             if slot == OSDI_SLOT:
-                osdi = family.compiled(slots, system.n)
+                osdi = compiled
                 osdi_states = max(1, family.nstates)
                 continue
-            par, idx, vold0 = family.compiled(slots, system.n)
+            par, idx, vold0 = compiled
             if slot == SWITCH_SLOT:
                 vold0 = switching.start(x0)
             arrays = (np.ascontiguousarray(par, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
