@@ -109,8 +109,8 @@ def test_current_source_sign_and_voltage_source_branch():
 
 def test_current_reference_and_time():
     text = "t\nV1 a 0 1\nVX a b 0\nR1 b 0 500\nB1 c 0 V={1k*I(vx)*sin(time)}\nR2 c 0 1k\n.end\n"
-    system = assemble(load(text))
-    x = np.array([float(operating_point(system.circuit)[n][0]) for n in system.names])
+    system = assemble(circuit := load(text))
+    x = np.array([float(operating_point(circuit)[n][0]) for n in system.names])
     ev = system.evaluate(x, 0.3)
     row = system.names.index("i(b1)")
     # branch equation: v(c) - 1k * i(vx) * sin(t)
@@ -121,8 +121,8 @@ def test_jacobian_of_a_circuit_with_both_kinds():
     text = ("t\nV1 a 0 1.2\nR1 a b 1k\nB1 b 0 I={1m*tanh(2*V(b)) + 0.1m*V(a,b)**2}\n"
             "VS c d 0\nR2 d 0 2k\nB2 c 0 V={exp(V(b)) + 100*I(vs)*V(b)}\n"
             "B3 e 0 V={V(c)*V(c)/(1+V(b))}\nR3 e 0 1k\nG1 0 f value={V(e)*1m}\nR4 f 0 1k\n.end\n")
-    system = assemble(load(text))
-    sol = operating_point(system.circuit)
+    system = assemble(circuit := load(text))
+    sol = operating_point(circuit)
     x = np.array([float(sol[n][0]) for n in system.names]) + 1e-2 * np.sin(np.arange(system.n))
     assert_jacobians_match(system, x, rtol=1e-6)
 

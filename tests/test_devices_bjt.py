@@ -98,8 +98,8 @@ def test_pnp_is_a_mirrored_npn():
 @pytest.mark.parametrize("kind", ["npn", "pnp"])
 def test_jacobians_are_derivatives_of_q_and_phi(vb, vcc, kind):
     sign = 1.0 if kind == "npn" else -1.0
-    system = assemble(load(KITCHEN.format(vcc=sign * vcc, vb=sign * vb, vs="0", kind=kind)))
-    ckt_op = operating_point(system.circuit)
+    system = assemble(circuit := load(KITCHEN.format(vcc=sign * vcc, vb=sign * vb, vs="0", kind=kind)))
+    ckt_op = operating_point(circuit)
     x = np.array([float(ckt_op[name][0]) for name in system.names])
     x += 1e-3 * np.sin(np.arange(system.n))  # off the solution, so every term contributes
     assert_jacobians_match(system, x, rtol=2e-6)

@@ -157,8 +157,8 @@ J2 s g d jm temp=80
 @pytest.mark.parametrize("kind", ["njf", "pjf"])
 def test_jacobians_are_derivatives_of_q_and_phi(vg, vdd, kind):
     sign = 1.0 if kind == "njf" else -1.0
-    system = assemble(load(KITCHEN.format(vdd=sign * vdd, vg=sign * vg, vto=-2.0, kind=kind)))
-    ckt_op = operating_point(system.circuit)
+    system = assemble(circuit := load(KITCHEN.format(vdd=sign * vdd, vg=sign * vg, vto=-2.0, kind=kind)))
+    ckt_op = operating_point(circuit)
     x = np.array([float(ckt_op[name][0]) for name in system.names])
     x += 1e-3 * np.sin(np.arange(system.n))  # off the solution, so every term contributes
     assert_jacobians_match(system, x, rtol=2e-6)

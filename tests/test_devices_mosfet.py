@@ -113,8 +113,8 @@ def test_source_and_drain_are_interchangeable():
 @pytest.mark.parametrize("kind,vto", [("nmos", 0.7), ("pmos", -0.7)])
 def test_jacobians_are_derivatives_of_q_and_phi(vin, vdd, vb, kind, vto):
     s = 1.0 if kind == "nmos" else -1.0
-    system = assemble(load(PAIR.format(vdd=s * vdd, vin=s * vin, rd="10k", vb=s * vb, kind=kind, vto=vto)))
-    sol = operating_point(system.circuit)
+    system = assemble(circuit := load(PAIR.format(vdd=s * vdd, vin=s * vin, rd="10k", vb=s * vb, kind=kind, vto=vto)))
+    sol = operating_point(circuit)
     x = np.array([float(sol[name][0]) for name in system.names])
     x += 1e-3 * np.cos(np.arange(system.n))
     assert_jacobians_match(system, x, rtol=2e-6)
@@ -180,8 +180,8 @@ def test_device_charges_sum_to_zero():
             "RS s 9 1k\n.model mm nmos vto=0.7 kp=80u gamma=0.45 tox=10n cgso=0.2n cgdo=0.2n cgbo=0.1n cj=0.5m "
             "cjsw=0.3n\n.end\n")
     for vd, vg, vb in ((2.0, 3.0, -1.0), (-1.0, 1.5, -2.0), (0.5, -1.0, -0.5)):
-        system = assemble(load(text.format(vd=vd, vg=vg, vb=vb)))
-        sol = operating_point(system.circuit)
+        system = assemble(circuit := load(text.format(vd=vd, vg=vg, vb=vb)))
+        sol = operating_point(circuit)
         x = np.array([float(sol[name][0]) for name in system.names])
         q = system.evaluate(x, 0.0).q
         nodes = [system.names.index(f"v({n})") for n in ("d", "g", "s", "b")]

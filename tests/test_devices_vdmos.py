@@ -118,9 +118,9 @@ M2 s g d vm temp=70
 @pytest.mark.parametrize("pchan", [False, True])
 def test_jacobians_are_derivatives_of_q_and_phi(vg, vdd, pchan):
     sign = -1.0 if pchan else 1.0
-    system = assemble(load(KITCHEN.format(vdd=sign * vdd, vg=sign * vg, vto=sign * 3.0,
+    system = assemble(circuit := load(KITCHEN.format(vdd=sign * vdd, vg=sign * vg, vto=sign * 3.0,
                                           flag="pchan" if pchan else "")))
-    ckt_op = operating_point(system.circuit)
+    ckt_op = operating_point(circuit)
     x = np.array([float(ckt_op[name][0]) for name in system.names])
     x += 1e-3 * np.sin(np.arange(system.n))  # off the solution, so every term contributes
     assert_jacobians_match(system, x, rtol=2e-6)

@@ -260,7 +260,7 @@ def test_ring_oscillator_period_converges_and_charge_is_conserved(tech):
     assert np.all(np.abs(p - p[-1]) < 1e-3 * p[-1])
     assert abs(p[-1] - p[-2]) < 2e-5 * p[-1]  # the 1e-6 period within 2e-5 of the 1e-5 one
     # charges over the last full period of the finest run
-    system = assemble(netdae.load(text))
+    system = assemble(circuit := netdae.load(text))
     X = _states(system, r)
     i0 = int(np.searchsorted(t, up[-2])) - 1  # the window holds both crossings
     i1 = int(np.searchsorted(t, up[-1]))
@@ -283,7 +283,7 @@ def test_ring_oscillator_period_converges_and_charge_is_conserved(tech):
         assert abs(back) <= 5e-4 * swing, (system.names[k], back / swing)  # its value one period later
     # the supply delivers the charge of every load capacitor's rising edge at least
     drawn = -np.trapezoid(np.asarray(r["i(vdd)"])[span], tt)
-    cl = float(system.circuit.element("c0").value)
+    cl = float(circuit.element("c0").value)
     assert drawn >= 5 * cl * np.ptp(v[span]) * (1 - 1e-3)  # measured: 1.55 (PSP103), 2.15 (BSIM-BULK) times
 
 

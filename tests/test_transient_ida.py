@@ -13,8 +13,9 @@ import pytest
 
 import netdae
 from netdae.analyses.op import solve_operating_point
+from netdae.analyses.prepared import prepare
 from netdae.analyses.tran import transient
-from netdae.mna import MODE_TRAN, assemble
+from netdae.mna import MODE_TRAN
 
 sun = pytest.importorskip("sksundae")
 
@@ -34,8 +35,9 @@ TSTOP = 200e-6
 @pytest.fixture(scope="module")
 def problem():
     circuit = netdae.load(CLIPPER)
-    system = assemble(circuit, mode=MODE_TRAN, tstep=1e-6, tstop=TSTOP)
-    x0 = solve_operating_point(system, transient=True).x
+    prepared = prepare(circuit, mode=MODE_TRAN, tstep=1e-6, tstop=TSTOP)
+    system = prepared.system
+    x0 = solve_operating_point(prepared, transient=True).x
     pattern = system.pattern
 
     def resfn(t, y, yp, res):

@@ -26,10 +26,11 @@ import scipy.sparse.linalg as spla
 
 from ..circuit import AcAnalysis, Circuit
 from ..errors import CircuitError, NetdaeError
-from ..mna import MODE_DC, assemble
+from ..mna import MODE_DC
 from ..netlist.steps import grid
 from ..results import Result, Statistics
 from .op import op_result, solve_operating_point, steady_options
+from .prepared import prepare
 
 __all__ = ["frequencies", "ac_analysis", "solve_ac", "linearize", "Linearization", "DENSE_AC_LIMIT"]
 
@@ -145,8 +146,8 @@ class Linearization:
 
     Attributes
     ----------
-    system : MnaSystem
-        The assembled circuit (DC source values).
+    prepared : Prepared
+        The circuit and its system (DC source values).
     op : SteadyResult
         The operating point.
     options : SteadyOptions
@@ -159,11 +160,16 @@ class Linearization:
         is the DC matrix).
     """
 
-    system: Any
+    prepared: Any
     op: Any
     options: Any
     E: sp.spmatrix
     H: sp.spmatrix
+
+    @property
+    def system(self):
+        """The assembled circuit (DC source values): ``prepared.system``."""
+        return self.prepared.system
 
     @property
     def delays(self) -> list:
@@ -195,11 +201,11 @@ def linearize(circuit: Circuit, **overrides) -> Linearization:
     CircuitError, ConvergenceError
         When the operating point cannot be computed.
     """
-    system = assemble(circuit, mode=MODE_DC)
+    prepared = prepare(circuit, mode=MODE_DC)
     opts = steady_options(circuit, **overrides)
-    op = solve_operating_point(system, options=opts)
-    E, H = system.steady_form().jacobians(op.x, 0.0)
-    return Linearization(system, op, opts, E, H)
+    op = solve_operating_point(prepared, options=opts)
+    E, H = prepared.system.steady_form().jacobians(op.x, 0.0)
+    return Linearization(prepared, op, opts, E, H)
 
 
 def ac_analysis(circuit: Circuit, card: AcAnalysis, **overrides) -> Result:

@@ -17,6 +17,7 @@ from ..circuit import Circuit, DcAnalysis, DcSweep
 from ..errors import CircuitError, NetdaeError
 from ..kinds import KINDS
 from ..mna import MODE_DC, assemble
+from .prepared import prepare
 from ..results import Result, Statistics
 from .op import solve_operating_point, steady_options
 
@@ -140,11 +141,11 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     names = [sw.source for sw in sweeps]
     opts = steady_options(circuit, **overrides)
 
-    from ..topology import analyze_topology
-
-    topo = analyze_topology(circuit)  # the same at every point (temperature changes no connection)
     sweeps_temp = "temp" in names
-    system = None if sweeps_temp else assemble(circuit, mode=MODE_DC)
+    base = prepare(circuit, mode=MODE_DC)
+    topo = base.topology  # the same at every point (temperature changes no connection)
+    prepared = None if sweeps_temp else base
+    system = None if sweeps_temp else base.system
     x = None
     rows = []
     iterations = 0
@@ -163,12 +164,14 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
                 continue
         if sweeps_temp:
             temp = values[names.index("temp")]
-            system = assemble(replace(circuit, options=replace(circuit.options, temp=temp)), mode=MODE_DC)
+            at_temp = replace(circuit, options=replace(circuit.options, temp=temp))
+            system = assemble(at_temp, mode=MODE_DC)
+            prepared = base.with_system(system, at_temp)
             x = None if x is None or x.size != system.n else x
         for name, v in zip(names, values):
             if name != "temp":
                 system.sources.set_value(name, v)
-        res = solve_operating_point(system, options=opts, x0=x, topology=topo)
+        res = solve_operating_point(prepared, options=opts, x0=x)
         iterations += res.iterations
         x = res.x
         system.remember_switches(x)

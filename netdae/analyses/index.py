@@ -45,6 +45,7 @@ from ..circuit import Circuit, TranAnalysis
 from ..dae.pencil import DENSE_LIMIT, PencilReport, analyze_pencil
 from ..errors import CircuitError, ConvergenceError, NetdaeError
 from ..mna import MODE_DC, MODE_TRAN, MnaSystem, assemble
+from .prepared import Prepared, prepare
 
 __all__ = ["IndexReport", "analyze_index", "index_of_unknowns", "LABEL_DIFFERENTIAL", "LABEL_ALGEBRAIC"]
 
@@ -179,10 +180,10 @@ POINT_GIVEN = "the given point"
 POINT_NETLIST = "the netlist's .ic/.nodeset node voltages (zero elsewhere)"
 
 
-def _netlist_point(system: MnaSystem) -> np.ndarray:
+def _netlist_point(circuit: Circuit, system: MnaSystem) -> np.ndarray:
     """Node voltages from ``.nodeset`` then ``.ic`` (zero elsewhere)."""
     x = np.zeros(system.n)
-    for values in (system.circuit.nodeset, system.circuit.ic):
+    for values in (circuit.nodeset, circuit.ic):
         for node, v in values.items():
             try:
                 i = system.node_index(node)
@@ -193,45 +194,52 @@ def _netlist_point(system: MnaSystem) -> np.ndarray:
     return x
 
 
-def _linearization_point(circuit: Circuit, system: MnaSystem, at: str, x: np.ndarray | None, topo):
+def _linearization_point(prepared: Prepared, at: str, x: np.ndarray | None):
     """The point where the pencil is taken, its description, and why a fallback was needed."""
     from .op import solve_operating_point
 
+    circuit, system = prepared.circuit, prepared.system
     if x is not None:
         return np.asarray(x, dtype=float), POINT_GIVEN, None
     if system.linear:
         return np.zeros(system.n), POINT_LINEAR, None
     try:
-        return solve_operating_point(system, transient=(at == "t0"), topology=topo).x, \
+        return solve_operating_point(prepared, transient=(at == "t0")).x, \
             (POINT_T0 if at == "t0" else POINT_OP), None
     except (CircuitError, ConvergenceError) as exc:
         why = f"{POINT_T0 if at == 't0' else POINT_OP} cannot be computed ({exc})"
     card = _transient_card(circuit)
     if at == "op" and card is not None and not card.uic and circuit.ic:
         try:
-            tsys = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
-            return solve_operating_point(tsys, transient=True, topology=topo).x, POINT_T0, why
+            tran = prepared.with_system(assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop))
+            return solve_operating_point(tran, transient=True).x, POINT_T0, why
         except (CircuitError, ConvergenceError):
             pass
-    return _netlist_point(system), POINT_NETLIST, why
+    return _netlist_point(circuit, system), POINT_NETLIST, why
 
 
 def _transient_card(circuit: Circuit) -> TranAnalysis | None:
     return next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None)
 
 
-def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: np.ndarray | None):
-    """Check the transient's starting point against the constraints of the decoupled form."""
+def _consistency(prepared: Prepared, pencil: PencilReport, x0: np.ndarray | None):
+    """Check the transient's starting point against the constraints of the decoupled form.
+
+    The transient's system is ``prepared``'s when it is in transient mode, else assembled.
+    """
+    circuit = prepared.circuit
     card = _transient_card(circuit)
     if card is None or pencil is None or pencil.weierstrass is None:
         return None
     from .op import solve_operating_point
 
-    tsys = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
+    tran = prepared if prepared.system.sources.mode == MODE_TRAN else \
+        prepared.with_system(assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop))
+    tsys = tran.system
     if x0 is None:
         if card.uic:
             return None  # the uic start is judged by the transient itself
-        x0 = solve_operating_point(tsys, transient=True).x  # raises when the start does not exist
+        x0 = solve_operating_point(tran, transient=True).x  # raises when the start does not exist
     tsys.start_delays(x0)  # transmission lines hold the start's waves
     H = pencil.weierstrass
     ev = tsys.evaluate(x0, 0.0, jacobian=False)
@@ -243,18 +251,19 @@ def _consistency(circuit: Circuit, system: MnaSystem, pencil: PencilReport, x0: 
     return H.check_consistency(x0, c_derivs)
 
 
-def _singular_reason(system: MnaSystem, x: np.ndarray, topo) -> str | None:
+def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
     """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements."""
     from ..dae.kronecker import matrix_rank
     from ..dae.steady import SteadyResult
     from .op import _singular_error
 
+    system, topo = prepared.system, prepared.topology
     if any(f.severity != "note" and f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path")
            for f in topo.findings):
         return None  # the topological reason is among the messages already
     H = system.jacobians(x, 0.0)[1]
     rank = matrix_rank(H, what="rank of the DC matrix")
-    err = _singular_error(system, SteadyResult(x, False, singular=True, rank=rank), topo)
+    err = _singular_error(prepared.circuit, system, SteadyResult(x, False, singular=True, rank=rank), topo)
     return str(err)
 
 
@@ -298,14 +307,15 @@ def _messages(rep: IndexReport) -> list[str]:
     return out
 
 
-def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | None = None,
+def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | None = None,
                   x: np.ndarray | None = None, method: str = "auto", check_consistency: bool = True) -> IndexReport:
     """The structure of a circuit's DAE and the reasons for it.
 
     Parameters
     ----------
-    circuit : Circuit or MnaSystem
-        An elaborated circuit (or an already assembled system).
+    circuit : Circuit or Prepared
+        An elaborated circuit (or one already assembled:
+        :func:`~netdae.analyses.prepared.prepare`; its topology is reused).
     at : {"op", "t0"}
         Linearise at the DC operating point (``.op`` source values) or at the
         initial point of the transient (source values at t0, ``.ic`` applied).
@@ -329,22 +339,20 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
     CircuitError, ConvergenceError
         When the operating point cannot be computed.
     """
-    from ..topology import analyze_topology
-
     t_start = time.perf_counter()
     if at not in ("op", "t0"):
         raise NetdaeError(f"--at must be 'op' or 't0', not {at!r}")
     if method not in ("auto", "kronecker", "topological"):
         raise NetdaeError(f"method must be auto, kronecker or topological, not {method!r}")
-    if isinstance(circuit, MnaSystem):
-        system, circuit = circuit, circuit.circuit
+    if isinstance(circuit, Prepared):
+        prepared = circuit
     else:
         card = _transient_card(circuit)
         if at == "t0" and card is None:
             raise NetdaeError("--at t0 needs a .tran card (the initial point of a transient)")
-        system = (assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop) if at == "t0"
-                  else assemble(circuit, mode=MODE_DC))
-    topo = analyze_topology(circuit)
+        prepared = (prepare(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop) if at == "t0"
+                    else prepare(circuit, mode=MODE_DC))
+    circuit, system, topo = prepared.circuit, prepared.system, prepared.topology
     use_dense = method == "kronecker" or (method == "auto" and system.n <= DENSE_LIMIT)
     if method == "kronecker" and system.n > DENSE_LIMIT:
         raise NetdaeError(
@@ -355,7 +363,7 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
     xlin = None
     point, fallback = "", None
     if use_dense and not (topo.singular and system.n == 0):
-        xlin, point, fallback = _linearization_point(circuit, system, at, x, topo)
+        xlin, point, fallback = _linearization_point(prepared, at, x)
         E, H = system.jacobians(xlin, 0.0)
         pencil = analyze_pencil(E, H, B=system.B.toarray(), names=system.names, tol=tol)
     names = system.names
@@ -374,7 +382,7 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
         start_missing = None
         if check_consistency and pencil.regular:
             try:
-                rep.consistency = _consistency(circuit, system, pencil, None)
+                rep.consistency = _consistency(prepared, pencil, None)
             except (CircuitError, ConvergenceError) as exc:
                 start_missing = str(exc)
     else:
@@ -390,7 +398,7 @@ def analyze_index(circuit: Circuit | MnaSystem, *, at: str = "op", tol: float | 
         )
     rep.point = point
     rep.messages = _messages(rep)
-    reason = _singular_reason(system, xlin, topo) if rep.regular is False and pencil is not None else None
+    reason = _singular_reason(prepared, xlin) if rep.regular is False and pencil is not None else None
     if reason is not None:
         rep.messages.insert(1, reason)
     if fallback is not None:

@@ -127,8 +127,9 @@ def integrate_power_law(density: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     return pieces
 
 
-def collect_noise_sources(system, x: np.ndarray):
-    """Every noise generator of an assembled circuit at its operating point ``x``.
+def collect_noise_sources(prepared, x: np.ndarray):
+    """Every noise generator of a prepared circuit (:class:`~netdae.analyses.prepared.Prepared`) at its
+    operating point ``x``.
 
     Resistors first (:func:`~netdae.devices.linear.resistor_noise`), then each
     nonlinear family's (:meth:`~netdae.devices.base.DeviceFamily.noise`).
@@ -142,7 +143,7 @@ def collect_noise_sources(system, x: np.ndarray):
     from ..devices.junction import KELVIN
     from ..devices.linear import resistor_noise
 
-    circuit = system.circuit
+    circuit, system = prepared.circuit, prepared.system
     xe = np.append(np.asarray(x, dtype=float), 0.0)
     temp = circuit.options.temp + KELVIN
     resistors = [el for el in circuit.elements if el.kind == "resistor"]
@@ -198,7 +199,7 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overr
     lin = linearize(circuit, **overrides)
     system = lin.system
     n = system.n
-    sources = collect_noise_sources(system, lin.op.x)
+    sources = collect_noise_sources(lin.prepared, lin.op.x)
     # one frequency when fstart == fstop, or lin with one point (ngspice then writes no integrated noise)
     single = card.fstart == card.fstop or (card.variation == "lin" and card.points == 1)
     if freqs is not None:

@@ -33,8 +33,9 @@ from ..circuit import Circuit
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
 from ..kinds import KINDS
-from ..mna import MODE_DC, MnaSystem, assemble
+from ..mna import MODE_DC, MnaSystem
 from ..results import Result, Statistics
+from .prepared import Prepared, prepare
 
 __all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result", "charge_groups"]
 
@@ -95,24 +96,26 @@ def _row_names(system: MnaSystem, rows) -> list[str]:
     return out
 
 
-def _involved_elements(system: MnaSystem, unknowns) -> list[str]:
+def _involved_elements(circuit: Circuit, system: MnaSystem, unknowns) -> list[str]:
     """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes."""
     names = {system.names[i] for i in unknowns}
     nodes = {nm[2:-1] for nm in names if nm.startswith("v(")}
     branches = {nm[2:-1] for nm in names if nm.startswith("i(")}
     out = []
-    for el in system.circuit.elements:
+    for el in circuit.elements:
         if el.name in branches or nodes.intersection(el.nodes) or branches.intersection(el.controls) \
                 or nodes.intersection(el.controls):
             out.append(el.name)
     return out
 
 
-def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitError:
-    """The best explanation of a singular DC matrix, in circuit terms, naming the elements."""
-    from ..topology import analyze_topology, dc_singularity_explanation
+def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> CircuitError:
+    """The best explanation of a singular DC matrix, in circuit terms, naming the elements.
 
-    topo = topo if topo is not None else analyze_topology(system.circuit)
+    ``system`` is the circuit's steady form, ``topo`` its topological analysis.
+    """
+    from ..topology import dc_singularity_explanation
+
     rank = res.rank
     evidence = ""
     if rank is not None:
@@ -122,7 +125,7 @@ def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitE
     undetermined = _support(rank.right) if rank is not None else (
         _support(res.null_vector) if res.null_vector is not None else np.zeros(0, dtype=int))
     signal = system.names[undetermined[0]] if undetermined.size else None
-    found = dc_singularity_explanation(system.circuit, signal, report=topo)
+    found = dc_singularity_explanation(circuit, signal, report=topo)
     if found is not None and not any(f.controlled and f.message == found.message for f in topo.findings):
         return found  # a certain topological reason
     if found is not None:  # a structural reason that relies on controlled sources, confirmed numerically
@@ -140,8 +143,8 @@ def _singular_error(system: MnaSystem, res: SteadyResult, topo=None) -> CircuitE
             "or a cutset of current sources/capacitors",
         )
     dependent = _support(rank.left) if rank is not None else np.zeros(0, dtype=int)
-    elements = _involved_elements(system, np.union1d(undetermined, dependent))
-    controlled = [e for e in elements if KINDS[system.circuit.element(e).kind].group in _SOURCE_GROUPS]
+    elements = _involved_elements(circuit, system, np.union1d(undetermined, dependent))
+    controlled = [e for e in elements if KINDS[circuit.element(e).kind].group in _SOURCE_GROUPS]
     text = f"no unique DC operating point{evidence}: {_names(system.names[i] for i in undetermined)} " \
         f"{'is' if undetermined.size == 1 else 'are'} undetermined"
     if dependent.size:
@@ -193,7 +196,7 @@ def _charge_note(grp) -> str:
             "charge conservation, total charge zero at t = 0")
 
 
-def _check_charge_balance(system: MnaSystem, res: SteadyResult, groups, used, t: float,
+def _check_charge_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult, groups, used, t: float,
                           opts: SteadyOptions) -> None:
     """The dropped current law of each charge group must hold: no net DC current into the group."""
     ev = system.evaluate(res.x, t, jacobian=True)
@@ -201,7 +204,7 @@ def _check_charge_balance(system: MnaSystem, res: SteadyResult, groups, used, t:
     for grp, ng in zip(groups, used):
         net = float(ev.phi[grp.rows].sum())
         if abs(net) > opts.reltol * float(scale[grp.rows].sum()) + opts.abstol * grp.rows.size:
-            sources = [e for e in ng.elements if system.circuit.element(e).kind != "capacitor"]
+            sources = [e for e in ng.elements if circuit.element(e).kind != "capacitor"]
             k = len(ng.nodes)
             raise CircuitError(
                 f"no DC operating point: {_names(sources) or 'the sources'} "
@@ -214,14 +217,16 @@ def _check_charge_balance(system: MnaSystem, res: SteadyResult, groups, used, t:
             )
 
 
-def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool = False,
-                          options: SteadyOptions | None = None, x0: np.ndarray | None = None,
-                          topology=None) -> SteadyResult:
+def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool = False,
+                          options: SteadyOptions | None = None, x0: np.ndarray | None = None) -> SteadyResult:
     """Operating point of an assembled circuit.
 
     Parameters
     ----------
-    system : MnaSystem
+    prepared : Prepared
+        The circuit, its system (:func:`~netdae.analyses.prepared.prepare`)
+        and its topology (which fixes the groups of nodes attached only
+        through capacitors, and explains a singular matrix).
     t : float
         Time at which sources are evaluated (0 for the start of a transient).
     transient : bool
@@ -230,8 +235,6 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
         Defaults from the circuit's ``.options``.
     x0 : ndarray, optional
         Initial guess (continuation in sweeps).
-    topology : TopologyReport, optional
-        The circuit's topological analysis, if already computed.
 
     Returns
     -------
@@ -249,24 +252,21 @@ def solve_operating_point(system: MnaSystem, *, t: float = 0.0, transient: bool 
         When Newton, gmin stepping and source stepping all fail; names the
         unknowns that did not settle and their last values.
     """
-    circuit = system.circuit
-    system = system.steady_form()  # transmission lines join their ports at DC
+    circuit = prepared.circuit
+    system = prepared.system.steady_form()  # transmission lines join their ports at DC
+    topology = prepared.topology
     opts = options or steady_options(circuit)
     forcing = _node_forcing(system, circuit.ic, ".ic") if transient else None
     nodeset = _node_forcing(system, circuit.nodeset, ".nodeset")
-    if topology is None:
-        from ..topology import analyze_topology
-
-        topology = analyze_topology(circuit)
     groups, used = charge_groups(system, topology, None if forcing is None else forcing.index)
     res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset, charges=groups)
     if res.converged:
         if groups:
-            _check_charge_balance(system, res, groups, used, t, opts)
+            _check_charge_balance(circuit, system, res, groups, used, t, opts)
             res.notes = [_charge_note(g) for g in used]
         return res
     if res.singular:
-        raise _singular_error(system, res, topology)
+        raise _singular_error(circuit, system, res, topology)
     worst = _describe_unknowns(system, res.worst, res.x)
     raise ConvergenceError(
         f"operating point did not converge after {res.iterations} Newton iterations "
@@ -321,8 +321,8 @@ def operating_point(circuit: Circuit, **overrides) -> Result:
     (2.5, -0.0025)
     """
     t0 = time.perf_counter()
-    system = assemble(circuit, mode=MODE_DC)
+    prepared = prepare(circuit, mode=MODE_DC)
     opts = steady_options(circuit, **overrides)
-    res = solve_operating_point(system, options=opts)
-    return op_result(system, res, time.perf_counter() - t0, opts)
+    res = solve_operating_point(prepared, options=opts)
+    return op_result(prepared.system, res, time.perf_counter() - t0, opts)
 

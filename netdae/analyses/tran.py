@@ -55,10 +55,11 @@ from ..dae.system import LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
 from ..errors import CircuitError, NetdaeError, SingularPencilError
 from ..kinds import KINDS
-from ..mna import MODE_TRAN, MnaSystem, assemble
+from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from .index import IndexReport, analyze_index
+from .prepared import Prepared, prepare
 
 __all__ = ["transient", "output_size", "physical_memory", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
 
@@ -256,9 +257,9 @@ def _signals(kept_names, requested, values: np.ndarray, diffs) -> dict[str, np.n
 
 
 # -- the start --------------------------------------------------------------------
-def _uic_start(system: MnaSystem) -> _Start:
+def _uic_start(prepared: Prepared) -> _Start:
     """ngspice's ``uic`` state: .ic node voltages (else 0), element ic= for C and L."""
-    circuit = system.circuit
+    circuit, system = prepared.circuit, prepared.system
     x = np.zeros(system.n)
     notes = []
     for node, v in circuit.ic.items():
@@ -340,23 +341,21 @@ def _instability(rep, span: float) -> str:
             "this time; look for a controlled source whose gain makes the circuit active)")
 
 
-def _structure(system: MnaSystem, x0: np.ndarray, uic: bool) -> IndexReport | None:
+def _structure(prepared: Prepared, x0: np.ndarray, uic: bool) -> IndexReport | None:
     """Index report at the start: topological when the topological statement is exact for the circuit and
     gives index 0 or 1 (the dense analysis could only confirm it), or above the dense limit; else dense.
 
     A linear ``uic`` start keeps the dense analysis: its consistent values come from the Weierstrass form.
     """
-    from ..topology import analyze_topology
-
-    topo = analyze_topology(system.circuit)  # memoised by structure: a sweep's rows share it
+    system, topo = prepared.system, prepared.topology
     idx = topo.topological_index
     exact = topo.applicable and not topo.singular and idx is not None and idx <= 1 and not (uic and system.linear)
     method = "topological" if exact or system.n > TRAN_PENCIL_LIMIT else "auto"
-    rep = analyze_index(system, x=x0, method=method, check_consistency=False)
+    rep = analyze_index(prepared, x=x0, method=method, check_consistency=False)
     if rep.regular is False:
         from ..topology import pencil_singularity_explanation
 
-        why = pencil_singularity_explanation(system.circuit)
+        why = pencil_singularity_explanation(prepared.circuit)
         if why is not None:
             raise SingularPencilError(why.message, elements=why.elements, nodes=why.nodes, hint=why.hint)
         raise SingularPencilError(
@@ -475,7 +474,7 @@ def _decoupled(system: MnaSystem, rep: IndexReport, x_start: np.ndarray, y0: np.
 
 
 # -- the analysis ---------------------------------------------------------------------
-def _check_delays(system: MnaSystem) -> None:
+def _check_delays(prepared: Prepared) -> None:
     """Transmission lines need the compiled engine (it keeps the delayed solution at hand).
 
     Raises
@@ -486,7 +485,7 @@ def _check_delays(system: MnaSystem) -> None:
     from ..dae.bdf.run import _compiled_engine_enabled
 
     if not _compiled_engine_enabled():
-        lines = sorted({el.name for el in system.circuit.elements if el.kind == "tline"})
+        lines = sorted({el.name for el in prepared.circuit.elements if el.kind == "tline"})
         raise CircuitError(f"transmission lines ({', '.join(lines[:5])}) run in the compiled engine only, and "
                            "NETDAE_ENGINE=python asks for the Python integrator", elements=tuple(lines),
                            hint="unset NETDAE_ENGINE (or set it to 'compiled')")
@@ -568,6 +567,64 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         circuit of index >= 3, an operating point that does not converge).
     """
     t_wall = time.perf_counter()
+    settings = _settings(circuit, card, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord,
+                         max_step=max_step, initial=initial)
+    card = settings.card
+    prepared = prepare(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
+    system = prepared.system
+    saved = _saved(prepared, save)
+    notes = list(system.notes)
+    fits_memory = bounded and output is not None and system.delays is None and _streamable(system, circuit.options, {})
+    size_warning = None if fits_memory and room is None else \
+        _check_size(saved.keep.size, system.n, card, settings.tmax, room if fits_memory else None)
+    if size_warning is not None:
+        notes.append(size_warning)
+    settings = _line_delays(prepared, settings)
+    start = _start(prepared, settings)
+    notes += start.notes
+    system.start_delays(start.x, uic=card.uic)
+    rep = _structure(prepared, start.x, card.uic)
+    notes += _index_notes(prepared, rep)
+    x0, correction, more = _consistent_start(prepared, start, rep, settings)
+    notes += more
+    impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
+    notes += [f"warning: {w}" for w in impulses]
+    if rep.index is not None and rep.index >= 3:
+        run = _decoupled_run(prepared, rep, start, x0, saved, settings, progress)
+    else:
+        run = _integrated_run(prepared, rep, x0, saved, settings, progress, output, bounded, raise_on_failure)
+    notes += run.notes
+    result = _result(prepared, settings, saved, start, rep, run, correction, impulses, notes, t_wall)
+    if run.interrupted is not None:
+        run.interrupted.partial = result
+        raise run.interrupted
+    return result
+
+
+# -- the pipeline's steps and records -----------------------------------------------
+@dataclass(frozen=True)
+class _Settings:
+    """What the card, the options and the caller ask of the run (checked)."""
+
+    card: TranAnalysis
+    rtol: float
+    vntol: float
+    abstol: float
+    order: int
+    tmax: float
+    steady: SteadyOptions
+    initial: str
+
+
+def _settings(circuit: Circuit, card: TranAnalysis | None, *, reltol, abstol, vntol, maxord, max_step,
+              initial: str) -> _Settings:
+    """The run's settings from the card, ``.options`` and the caller's overrides.
+
+    Raises
+    ------
+    NetdaeError
+        No ``.tran`` card, ``method=trap``, a bad ``initial``, ``tstep``/``tstop``/``tstart`` or ``maxord``.
+    """
     card = _card(circuit, card)
     _check_method(circuit)
     if initial not in ("consistent", "ngspice"):
@@ -588,35 +645,58 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     if tmax is None or tmax <= 0.0:
         tmax = min(card.tstep, (card.tstop - card.tstart) / TMAX_DIVISOR)
     steady = SteadyOptions(reltol=rtol, vntol=vntol_, abstol=abstol_, gmin=o.gmin, maxiter=o.itl1)
+    return _Settings(card, rtol, vntol_, abstol_, order, tmax, steady, initial)
 
-    system = assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop)
-    notes = list(system.notes)
-    names_req = save if save is not None else circuit.saves
-    keep, requested, diffs = _save_request(system, names_req)
-    fits_memory = bounded and output is not None and system.delays is None and _streamable(system, o, {})
-    size_warning = None if fits_memory and room is None else \
-        _check_size(keep.size, system.n, card, tmax, room if fits_memory else None)
-    if size_warning is not None:
-        notes.append(size_warning)
-    if system.delays is not None:
-        _check_delays(system)
-        # a step never reaches past the shortest line delay: the wave a step needs has left
-        # the other port before the step began (an accepted point, interpolated)
-        tmax = min(tmax, float(system.delays.tau.min()))
-    if card.uic:
-        start = _uic_start(system)
-    else:
-        from .op import solve_operating_point
 
-        op = solve_operating_point(system, transient=True, options=steady)
-        start = _Start(x=op.x, op_iterations=op.iterations, notes=list(op.notes))
-    notes += start.notes
-    system.start_delays(start.x, uic=card.uic)
+@dataclass(frozen=True)
+class _Saved:
+    """The signals the result keeps: unknowns kept, names asked for, and differences ``v(a,b)``."""
 
-    rep = _structure(system, start.x, card.uic)
-    index = rep.index
-    index2 = [nm for nm, d in rep.derivative_order.items() if d >= 1]
+    keep: np.ndarray
+    requested: list
+    diffs: dict
+    kept_names: list
+    asked: list | None
+
+
+def _saved(prepared: Prepared, save: list[str] | None) -> _Saved:
+    """The caller's ``save`` (else the netlist's ``.save``/``.print``/``.probe``, else every unknown)."""
+    asked = save if save is not None else prepared.circuit.saves
+    keep, requested, diffs = _save_request(prepared.system, asked)
+    return _Saved(keep, requested, diffs, [prepared.system.names[i] for i in keep], asked)
+
+
+def _line_delays(prepared: Prepared, settings: _Settings) -> _Settings:
+    """With transmission lines: checked for the engine, and no step past the shortest delay (the wave a
+    step needs has left the other port before the step began: an accepted point, interpolated)."""
+    system = prepared.system
+    if system.delays is None:
+        return settings
+    _check_delays(prepared)
+    return replace(settings, tmax=min(settings.tmax, float(system.delays.tau.min())))
+
+
+def _start(prepared: Prepared, settings: _Settings) -> _Start:
+    """The values at t = 0: ngspice's ``uic`` state, else the operating point with ``.ic`` held."""
+    if settings.card.uic:
+        return _uic_start(prepared)
+    from .op import solve_operating_point
+
+    op = solve_operating_point(prepared, transient=True, options=settings.steady)
+    return _Start(x=op.x, op_iterations=op.iterations, notes=list(op.notes))
+
+
+def _index_notes(prepared: Prepared, rep: IndexReport) -> list[str]:
+    """What the structure means for the run; a nonlinear circuit of index >= 3 is refused.
+
+    Raises
+    ------
+    CircuitError
+        Index >= 3 in a nonlinear circuit.
+    """
+    system, index = prepared.system, rep.index
     if index is not None and index >= 3 and not system.linear:
+        index2 = [nm for nm, d in rep.derivative_order.items() if d >= 1]
         raise CircuitError(
             f"the circuit has index {index} (unknowns {', '.join(index2[:6])} depend on derivatives of the "
             f"inputs up to order {index - 1}); BDF does not converge beyond index 2 and netdae solves index >= 3 "
@@ -624,144 +704,185 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
             hint="replace an ideal element in the chain (e.g. give an op-amp a finite gain) to lower the index",
         )
     if index is None and rep.method == "topological":
-        notes.append(f"index not determined ({system.n} unknowns, above the dense limit of {TRAN_PENCIL_LIMIT} "
-                     "for a transient, and the topological statement does not apply): every unknown is error-tested")
+        return [f"index not determined ({system.n} unknowns, above the dense limit of {TRAN_PENCIL_LIMIT} "
+                "for a transient, and the topological statement does not apply): every unknown is error-tested"]
+    return []
 
+
+def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
+                      settings: _Settings) -> tuple[np.ndarray, dict | None, list[str]]:
+    """``(x0, correction, notes)``: the start made consistent with the ``uic`` charges, or with the hidden
+    constraints of an index-2 circuit whose inputs change at t0 (unless ``initial="ngspice"``)."""
+    system, card = prepared.system, settings.card
     x0 = start.x.copy()
-    correction = None
     if card.uic:
-        x0 = _consistent_from_charges(system, start, rep, card.tstop, steady)
+        x0 = _consistent_from_charges(system, start, rep, card.tstop, settings.steady)
         text, detail = _correction_note(system, start.x, x0, "uic: algebraic unknowns made consistent with the "
                                         "initial capacitor voltages and inductor currents")
         if detail:
-            notes.append(text)
-            correction = {"reason": "uic", "changed": detail}
-    elif rep.pencil is not None and rep.pencil.weierstrass is not None and (index or 0) >= 2:
-        check = rep.pencil.weierstrass.check_consistency(start.x, _c_derivatives(system, start.x, 0.0))
-        if not check.consistent:
-            if initial == "consistent":
-                x0 = start.x.copy()
-                changed = list(check.affected)
-                x0[changed] = check.x_consistent[changed]  # the rest moved by rounding only
-                text, detail = _correction_note(
-                    system, start.x, x0,
-                    "initial values made consistent (the DC operating point violates hidden constraints because "
-                    "the inputs change at t0)")
-                notes.append(text + ("" if system.linear else " (from the linearisation at the operating point)"))
-                correction = {"reason": "hidden constraints", "changed": detail}
-            else:
-                notes.append("initial values kept as ngspice does although they violate hidden constraints: "
-                             "expect a jump in the first step")
-    impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
-    notes += [f"warning: {w}" for w in impulses]
+            return x0, {"reason": "uic", "changed": detail}, [text]
+        return x0, None, []
+    if not (rep.pencil is not None and rep.pencil.weierstrass is not None and (rep.index or 0) >= 2):
+        return x0, None, []
+    check = rep.pencil.weierstrass.check_consistency(start.x, _c_derivatives(system, start.x, 0.0))
+    if check.consistent:
+        return x0, None, []
+    if settings.initial != "consistent":
+        return x0, None, ["initial values kept as ngspice does although they violate hidden constraints: "
+                          "expect a jump in the first step"]
+    changed = list(check.affected)
+    x0[changed] = check.x_consistent[changed]  # the rest moved by rounding only
+    text, detail = _correction_note(
+        system, start.x, x0,
+        "initial values made consistent (the DC operating point violates hidden constraints because "
+        "the inputs change at t0)")
+    text += "" if system.linear else " (from the linearisation at the operating point)"
+    return x0, {"reason": "hidden constraints", "changed": detail}, [text]
 
-    kept_names = [system.names[i] for i in keep]
+
+@dataclass
+class _Run:
+    """What the integration gave: the points, the dense output of the kept unknowns, how it went."""
+
+    times: np.ndarray
+    X: np.ndarray
+    dense: Callable
+    stats: Statistics
+    message: str
+    status: int
+    failure: dict | None
+    tolerances: dict
+    jumps: list = field(default_factory=list)
+    events: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    streamed: int = 0
+    interrupted: BaseException | None = None
+
+
+def _decoupled_run(prepared: Prepared, rep: IndexReport, start: _Start, x0: np.ndarray, saved: _Saved,
+                   settings: _Settings, progress) -> _Run:
+    """A linear circuit of index >= 3 through its Weierstrass form (:func:`_decoupled`)."""
+    card = settings.card
+    wf = rep.pencil.weierstrass
+    y0 = (wf.U1 @ start.q0) if card.uic else wf.split(x0)[0]
+    bdf_opts = {"rtol": settings.rtol, "vntol": settings.vntol, "abstol": settings.abstol,
+                "maxord": settings.order, "max_step": settings.tmax}
+    times, X, dense, stats, message, status = _decoupled(prepared.system, rep, start.x, y0, card.tstop,
+                                                         saved.keep, bdf_opts, progress)
+    note = (f"index {rep.index}: solved through the Weierstrass form (finite part by BDF, nilpotent part by "
+            "(2.12) with the inputs' analytic derivatives)")
+    tolerances = {"reltol": settings.rtol, "vntol": settings.vntol, "abstol": settings.abstol,
+                  "maxord": settings.order, "max_step": settings.tmax}
+    return _Run(times, X, dense, stats, message, status, None, tolerances, notes=[note])
+
+
+def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved: _Saved, settings: _Settings,
+                    progress, output, bounded: bool, raise_on_failure: bool) -> _Run:
+    """Index <= 2 by the variable-order BDF, the index-2 unknowns out of the error test; a Ctrl-C keeps
+    what was integrated (the run's ``interrupted``)."""
+    system, card = prepared.system, settings.card
     unknown_index = np.array([1 + rep.derivative_order.get(nm, 0) for nm in system.names], dtype=np.int64)
-    bdf_opts = {"rtol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
-
-    interrupted = None
+    opts = dict(rtol=settings.rtol, vntol=settings.vntol, abstol=settings.abstol, index=unknown_index,
+                maxord=settings.order, max_step=settings.tmax, save=saved.keep, relref=RELREF)
     streamed = [0]  # points handed to output
-    if index is not None and index >= 3:
-        y0 = (rep.pencil.weierstrass.U1 @ start.q0) if card.uic else rep.pencil.weierstrass.split(x0)[0]
-        times, X, dense_kept, stats, message, status = _decoupled(system, rep, start.x, y0, card.tstop, keep,
-                                                                  bdf_opts, progress)
-        notes.append(f"index {index}: solved through the Weierstrass form (finite part by BDF, nilpotent part by "
-                     "(2.12) with the inputs' analytic derivatives)")
-        failure = None
-        jumps = []
-        events = []
-        tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax}
-    else:
-        opts = dict(rtol=rtol, vntol=vntol_, abstol=abstol_, index=unknown_index, maxord=order, max_step=tmax,
-                    save=keep, relref=RELREF)
-        if output is not None and _streamable(system, o, opts):
-            opts["output"] = _blocks(output, card.tstart, kept_names, requested, diffs, streamed)
-            opts["window"] = bounded
-        try:
-            res = integrate(system, (0.0, card.tstop), x0, progress=progress, raise_on_failure=raise_on_failure,
-                            **opts)
-        except KeyboardInterrupt as exc:
-            # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
-            res = getattr(exc, "partial", None)
-            if res is None or res.t.size == 0:
-                raise
-            interrupted = exc
-        times, X, stats, message, status, failure = res.t, res.x, Statistics.from_counts(res.stats), res.message, res.status, \
-            res.failure
-        if interrupted is not None:
-            message = f"interrupted at t={times[-1]:.9g} of {card.tstop:.9g} (the results up to there are kept)"
-            status = -1
-        dense_kept = res.dense
-        jumps = [(t, list(w)) for t, w in res.jumps]
-        for tj, who in jumps[:JUMP_NOTES]:
-            notes.append(f"t={tj:.6g}: the solution jumps ({', '.join(who[:5])}"
-                         f"{' and more' if len(who) > 5 else ''}); both the value from the left and "
-                         "the right limit are reported at this time")
-        if len(jumps) > JUMP_NOTES:
-            notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (transient.jumps)")
-        if stats.get("impasses"):
-            notes.append(f"Newton failed on every step size at {stats['impasses']} instant(s): the solution continued "
-                         "from implicit-Euler steps right of each solved by the steady-state solver (damped Newton, "
-                         "limiting, gmin and source stepping), recorded as a jump (an impasse: the circuit snaps "
-                         "to another state, as a latch or a trigger with feedback does)")
-        events = [(t, list(w)) for t, w in res.events]
-        if events:
-            first_t, first_w = events[0]
-            notes.append(f"switches changed at {len(events)} instant(s), located where their controls cross the "
-                         f"thresholds (the first: t={first_t:.6g}, {', '.join(first_w[:5])}; all in transient.events)")
-        tolerances = {"reltol": rtol, "vntol": vntol_, "abstol": abstol_, "maxord": order, "max_step": tmax,
-                      "index_excluded": res.tolerances.get("index_excluded", 0)}
-        if failure is not None and rep.topology is not None:
-            reasons = [f.message for f in rep.topology.findings if f.severity in ("error", "warning")]
-            if reasons:
-                message += f" (circuit structure: {reasons[0]})"
-        if failure is not None and system.linear:
-            message += _instability(rep, times[-1] - card.tstart)
+    if output is not None and _streamable(system, prepared.circuit.options, opts):
+        opts["output"] = _blocks(output, card.tstart, saved.kept_names, saved.requested, saved.diffs, streamed)
+        opts["window"] = bounded
+    interrupted = None
+    try:
+        res = integrate(system, (0.0, card.tstop), x0, progress=progress, raise_on_failure=raise_on_failure,
+                        **opts)
+    except KeyboardInterrupt as exc:
+        # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
+        res = getattr(exc, "partial", None)
+        if res is None or res.t.size == 0:
+            raise
+        interrupted = exc
+    message, status = res.message, res.status
+    if interrupted is not None:
+        message = f"interrupted at t={res.t[-1]:.9g} of {card.tstop:.9g} (the results up to there are kept)"
+        status = -1
+    stats = Statistics.from_counts(res.stats)
+    jumps = [(t, list(w)) for t, w in res.jumps]
+    events = [(t, list(w)) for t, w in res.events]
+    notes = []
+    for tj, who in jumps[:JUMP_NOTES]:
+        notes.append(f"t={tj:.6g}: the solution jumps ({', '.join(who[:5])}"
+                     f"{' and more' if len(who) > 5 else ''}); both the value from the left and "
+                     "the right limit are reported at this time")
+    if len(jumps) > JUMP_NOTES:
+        notes.append(f"the solution jumps at {len(jumps) - JUMP_NOTES} more times (transient.jumps)")
+    if stats.get("impasses"):
+        notes.append(f"Newton failed on every step size at {stats['impasses']} instant(s): the solution continued "
+                     "from implicit-Euler steps right of each solved by the steady-state solver (damped Newton, "
+                     "limiting, gmin and source stepping), recorded as a jump (an impasse: the circuit snaps "
+                     "to another state, as a latch or a trigger with feedback does)")
+    if events:
+        first_t, first_w = events[0]
+        notes.append(f"switches changed at {len(events)} instant(s), located where their controls cross the "
+                     f"thresholds (the first: t={first_t:.6g}, {', '.join(first_w[:5])}; all in transient.events)")
+    tolerances = {"reltol": settings.rtol, "vntol": settings.vntol, "abstol": settings.abstol,
+                  "maxord": settings.order, "max_step": settings.tmax,
+                  "index_excluded": res.tolerances.get("index_excluded", 0)}
+    if res.failure is not None and rep.topology is not None:
+        reasons = [f.message for f in rep.topology.findings if f.severity in ("error", "warning")]
+        if reasons:
+            message += f" (circuit structure: {reasons[0]})"
+    if res.failure is not None and system.linear:
+        message += _instability(rep, res.t[-1] - card.tstart)
+    return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
+                streamed[0], interrupted)
 
+
+def _result(prepared: Prepared, settings: _Settings, saved: _Saved, start: _Start, rep: IndexReport, run: _Run,
+            correction: dict | None, impulses: list[str], notes: list[str], t_wall: float) -> Result:
+    """The ``tran`` Result: the points from ``tstart`` on (or the ``interp`` grid), the dense output of the
+    saved signals, the statistics and what the structure and the start said."""
+    system, card, o = prepared.system, settings.card, prepared.circuit.options
+    notes = list(notes)
     if o.interp:
         grid = np.arange(card.tstart, card.tstop + 0.5 * card.tstep, card.tstep)
         grid = grid[grid <= card.tstop * (1 + 1e-12)]
-        grid[-1] = min(grid[-1], times[-1])
-        if status < 0:
-            grid = grid[grid <= times[-1]]  # a run that stopped early: no extrapolation past its end
-        out_t, out_x = grid, np.asarray(dense_kept(grid))
+        grid[-1] = min(grid[-1], run.times[-1])
+        if run.status < 0:
+            grid = grid[grid <= run.times[-1]]  # a run that stopped early: no extrapolation past its end
+        out_t, out_x = grid, np.asarray(run.dense(grid))
         notes.append(f".options interp: results on the tstep grid ({grid.size} points) from the dense output")
     else:
-        sel = times >= card.tstart
-        out_t, out_x = times[sel], X[sel]
+        sel = run.times >= card.tstart
+        out_t, out_x = run.times[sel], run.X[sel]
+    kept_names, requested, diffs = saved.kept_names, saved.requested, saved.diffs
+    dense_kept = run.dense
 
     def dense(t):
         return _signals(kept_names, requested, np.atleast_2d(np.asarray(dense_kept(np.atleast_1d(t)))), diffs)
 
     points = int(out_t.size)
-    if streamed[0] > points:  # a bounded run: the points before these went to output only
-        notes.append(f"memory: the result holds the last {points:,} of the {streamed[0]:,} points (all of them "
+    if run.streamed > points:  # a bounded run: the points before these went to output only
+        notes.append(f"memory: the result holds the last {points:,} of the {run.streamed:,} points (all of them "
                      "went to the output file as they were computed)")
-        points = streamed[0]
-    integrator = Statistics.from_counts(stats)
+        points = run.streamed
+    integrator = Statistics.from_counts(run.stats)
     stats_out = Statistics(
         steps=integrator.steps or 0, rejected=integrator.rejected or 0,
         newton_iterations=integrator.newton_iterations or 0, factorizations=integrator.factorizations or 0,
         points=points, op_newton_iterations=start.op_iterations, integrator=integrator,
         wall_time=time.perf_counter() - t_wall, **system.describe())
-    kept_note = ("all unknowns" if names_req in (None, []) else ", ".join(requested + list(diffs)))
-    result = Result(
+    kept_note = ("all unknowns" if saved.asked in (None, []) else ", ".join(requested + list(diffs)))
+    index2 = [nm for nm, d in rep.derivative_order.items() if d >= 1]
+    return Result(
         "tran",
         axes={"time": out_t},
         signals=_signals(kept_names, requested, out_x, diffs),
         stats=stats_out,
-        status=STATUS_OK if status >= 0 else STATUS_FAILED,
-        message=message,
-        tolerances=tolerances,
+        status=STATUS_OK if run.status >= 0 else STATUS_FAILED,
+        message=run.message,
+        tolerances=run.tolerances,
         dense=dense,
         notes=notes + [f"saved: {kept_note}"],
         card=card,
         transient=TransientInfo(
-            index=index, index_method=rep.method, index2=index2, initial_correction=correction,
+            index=rep.index, index_method=rep.method, index2=index2, initial_correction=correction,
             impulses=impulses, start={nm: float(v) for nm, v in zip(system.names, start.x)},
-            failure=failure, jumps=jumps, events=events, index_report=rep),
+            failure=run.failure, jumps=run.jumps, events=run.events, index_report=rep),
     )
-    if interrupted is not None:
-        interrupted.partial = result
-        raise interrupted
-    return result

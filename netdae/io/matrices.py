@@ -30,9 +30,11 @@ __all__ = ["matrices_of", "export_matrices", "load_npz_matrices"]
 def matrices_of(circuit) -> dict:
     """E, H, B (CSC), names, sources, u_dc and, if nonlinear, the operating point."""
     from ..analyses.op import solve_operating_point
-    from ..mna import MODE_DC, assemble
+    from ..analyses.prepared import prepare
+    from ..mna import MODE_DC
 
-    system = assemble(circuit, mode=MODE_DC)
+    prepared = prepare(circuit, mode=MODE_DC)
+    system = prepared.system
     out = {
         "names": list(system.names),
         "sources": list(system.sources.names),
@@ -43,7 +45,7 @@ def matrices_of(circuit) -> dict:
     if system.linear:
         out["E"], out["H"] = system.E, system.H
     else:
-        op = solve_operating_point(system)
+        op = solve_operating_point(prepared)
         out["E"], out["H"] = system.jacobians(op.x, 0.0)
         out["x_op"] = op.x
     return out

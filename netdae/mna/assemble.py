@@ -121,7 +121,6 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
         fam.bind(slots, n)
     sources = SourceVector(stamps.sources, mode, tstep, tstop)
     return MnaSystem(
-        circuit,
         layout,
         stamps.E.matrix(n),
         stamps.H.matrix(n),

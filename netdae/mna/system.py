@@ -20,7 +20,6 @@ from typing import Any, Callable
 import numpy as np
 import scipy.sparse as sp
 
-from ..circuit import Circuit
 from ..dae.sparse import SparsePattern
 from ..dae.system import DaeSystem, Evaluation
 from ..devices.base import Accumulator, DeviceFamily
@@ -126,10 +125,12 @@ class MnaSystem(DaeSystem):
     """MNA equations of a circuit.
 
     Build with :func:`netdae.mna.assemble`; see that function for parameters.
+    The system knows its equations and unknowns, not the circuit they came
+    from: an analysis that needs both holds a
+    :class:`~netdae.analyses.prepared.Prepared`.
 
     Attributes
     ----------
-    circuit : Circuit
     layout : Layout
         Unknown numbering (``layout.nodes``, ``layout.branches``).
     sources : SourceVector
@@ -155,11 +156,10 @@ class MnaSystem(DaeSystem):
         start, set by the integrator while it runs; None: the start's waves.
     """
 
-    def __init__(self, circuit: Circuit, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
+    def __init__(self, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
                  B: sp.csc_matrix, sources: SourceVector, families: list[DeviceFamily],
                  pattern: SparsePattern, notes: list[str], H_ac: sp.csc_matrix | None = None,
                  delays: Delays | None = None):
-        self.circuit = circuit
         self.layout = layout
         self.n = layout.n
         self.names = layout.names
