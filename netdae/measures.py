@@ -21,12 +21,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 from .signals import Signal
 
 __all__ = ["Probe", "Condition", "MeasureSpec", "Measure", "format_measure", "FUNCTIONS", "AC_PREFIXES",
-           "LAST", "MEASURE_ANALYSES"]
+           "LAST", "MEASURE_ANALYSES", "MeasureStatus"]
 
 #: Analyses a measurement can refer to.
 MEASURE_ANALYSES = ("tran", "ac", "dc")
@@ -149,8 +150,19 @@ class MeasureSpec:
         return out
 
 
-STATUS_OK = "ok"
-STATUS_FAILED = "failed"
+class MeasureStatus(StrEnum):
+    """Whether a measurement gave a value (a ``str``: compares, prints and serialises as its value,
+    ngspice's words)."""
+
+    OK = "ok"
+    FAILED = "failed"
+
+    def __repr__(self) -> str:
+        return repr(self.value)
+
+
+STATUS_OK = MeasureStatus.OK
+STATUS_FAILED = MeasureStatus.FAILED
 
 
 @dataclass
@@ -166,8 +178,8 @@ class Measure:
         One of :data:`FUNCTIONS`.
     value : float or None
         None when it failed.
-    status : str
-        ``"ok"`` or ``"failed"``.
+    status : MeasureStatus
+        ``"ok"`` or ``"failed"`` (a text given is checked against the vocabulary).
     reason : str
         Why it failed (empty when ok).
     at : float or None
@@ -182,10 +194,13 @@ class Measure:
     analysis: str
     function: str
     value: float | None
-    status: str = STATUS_OK
+    status: MeasureStatus = STATUS_OK
     reason: str = ""
     at: float | None = None
     extra: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.status = MeasureStatus(self.status)
 
     @property
     def ok(self) -> bool:

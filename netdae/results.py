@@ -23,6 +23,7 @@ import html
 import importlib
 import types
 import warnings
+from enum import IntEnum
 from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
@@ -32,10 +33,25 @@ from .signals import canonical, parse_signal
 from .metadata import LEGACY_EXTRA, NoiseInfo, Provenance, TransientInfo
 from .stats import Statistics
 
-__all__ = ["Result", "Statistics", "STATUS_OK", "STATUS_FAILED"]
+__all__ = ["Result", "Statistics", "Status", "STATUS_OK", "STATUS_FAILED"]
 
-STATUS_OK = 0
-STATUS_FAILED = -1
+
+class Status(IntEnum):
+    """How an analysis ended: a closed vocabulary that is an ``int`` (compares, sorts and
+    serialises as its value; a failed or interrupted analysis is negative).
+
+    Examples
+    --------
+    >>> Status.FAILED < 0, Status(0) is Status.OK, int(Status.FAILED)
+    (True, True, -1)
+    """
+
+    OK = 0
+    FAILED = -1
+
+
+STATUS_OK = Status.OK
+STATUS_FAILED = Status.FAILED
 
 
 @dataclass
@@ -115,6 +131,7 @@ class Result:
     source: Provenance | None = None
 
     def __post_init__(self):
+        self.status = Status(self.status)
         if not isinstance(self.stats, Statistics):
             self.stats = Statistics.from_counts(self.stats)
 
