@@ -285,6 +285,60 @@ def _window(spec: MeasureSpec, trace: _Trace) -> tuple[float, float]:
     return lo, hi
 
 
+#: Points per step where :func:`_peaks` looks for the largest value before Newton refines it.
+_PEAK_GRID = np.linspace(0.0, 1.0, 33)
+
+
+def _peaks(coef: np.ndarray, s_lo: np.ndarray, s_hi: np.ndarray, sign: float) -> tuple[np.ndarray, np.ndarray]:
+    """The largest ``sign * p(s)`` of each step polynomial on ``(s_lo, s_hi)``, where ``p' = 0`` inside.
+
+    Parameters
+    ----------
+    coef : ndarray, shape (m, d + 1)
+        Coefficients, highest power first (:meth:`_Trace.polynomials`).
+    s_lo, s_hi : ndarray, shape (m,)
+        The part of each step in the window, in ``s`` in [0, 1].
+    sign : float
+        +1 for a maximum, -1 for a minimum.
+
+    Returns
+    -------
+    s : ndarray, shape (m,)
+        The best of 33 points, refined by Newton on ``p'`` (quadratic
+        convergence to rounding from there; kept only where it is better).
+    inside : ndarray of bool, shape (m,)
+        Where ``s`` lies strictly inside ``(s_lo, s_hi)`` (an extreme at an
+        end is among the samples already).
+
+    Notes
+    -----
+    Vectorised over the steps: about 30 us where a polynomial root finder per
+    step cost about 150 us each.
+    """
+    d1 = coef[:, :-1] * np.arange(coef.shape[1] - 1, 0, -1)[None, :]
+    d2 = d1[:, :-1] * np.arange(d1.shape[1] - 1, 0, -1)[None, :]
+
+    def horner(c, s):
+        out = np.zeros_like(s) + c[:, :1]
+        for k in range(1, c.shape[1]):
+            out = out * s + c[:, k:k + 1]
+        return out
+
+    width = s_hi - s_lo
+    grid = s_lo[:, None] + width[:, None] * _PEAK_GRID[None, :]
+    best = np.argmax(sign * horner(coef, grid), axis=1)
+    start = grid[np.arange(grid.shape[0]), best]
+    s = start
+    for _ in range(8):
+        with np.errstate(all="ignore"):
+            step = horner(d1, s[:, None])[:, 0] / horner(d2, s[:, None])[:, 0]
+        s = np.clip(s - np.where(np.isfinite(step), step, 0.0), s_lo, s_hi)
+    # Newton gone astray (a flat or degenerate peak): the grid's best stands
+    worse = sign * horner(coef, s[:, None])[:, 0] < sign * horner(coef, start[:, None])[:, 0]
+    s = np.where(worse, start, s)
+    return s, (s > s_lo) & (s < s_hi)
+
+
 def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> tuple[float, float]:
     """(value, where) of the largest ``sign * y`` in [lo, hi].
 
@@ -306,16 +360,11 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
     steps = np.array([i for i in range(first, last + 1) if x[i] > x[i - 1]], dtype=np.int64)
     if b <= a or steps.size == 0:
         return best, where
-    candidates = []
-    for i, coef in zip(steps, trace.polynomials(steps)):
-        t0, h = x[i - 1], x[i] - x[i - 1]
-        s_lo, s_hi = (max(a, t0) - t0) / h, (min(b, x[i]) - t0) / h
-        roots = np.roots(np.polyder(coef)) if np.any(coef[:-1]) else np.empty(0)
-        for r in roots:
-            if abs(r.imag) <= 1e-9 * max(1.0, abs(r.real)) and s_lo < r.real < s_hi:
-                candidates.append(t0 + h * r.real)
-    if candidates:
-        tc = np.asarray(candidates)
+    t0, h = x[steps - 1], x[steps] - x[steps - 1]
+    s_lo, s_hi = (np.maximum(a, t0) - t0) / h, (np.minimum(b, x[steps]) - t0) / h
+    s, inside = _peaks(trace.polynomials(steps), s_lo, s_hi, sign)
+    if inside.any():
+        tc = (t0 + h * s)[inside]
         yc = trace.at(tc)
         j = int(np.argmax(sign * yc))
         if sign * yc[j] > sign * best:
