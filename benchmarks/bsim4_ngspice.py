@@ -1,8 +1,13 @@
-"""netdae (BSIM4 through OSDI) against ngspice (its built-in BSIM4) on ring oscillators, in the same run.
+"""netdae (BSIM4 through OSDI) against ngspice (its built-in BSIM4) on ring oscillators and inverter chains,
+in the same run.
 
 Usage::
 
-    python benchmarks/bsim4_ngspice.py [--stages 5,11,21,51] [--stop 20n] [--reps 3]
+    python benchmarks/bsim4_ngspice.py [--circuit ring|chain] [--stages 5,11,21,51] [--stop 20n] [--reps 3]
+
+``--circuit chain``: N inverters in a row driven by a 1.2 V pulse (20 ps edges, 1 ns period), each stage
+loaded by 2 fF; printed instead of the period: the delay from the input's 0.6 V crossings to the last
+stage's (mean over the edges after the first period).
 
 Needs the optional extra ``netdae[models]`` and ngspice. Each ring (N
 inverters of ``M`` elements with ``level=54`` cards, 2 fF loads, started by
@@ -54,6 +59,30 @@ def ring(stages: int, stop: str) -> str:
     return "\n".join(lines + [CARDS, ".ic v(n0)=0", f".tran 10p {stop}", ".save v(n0)", ".end"]) + "\n"
 
 
+def chain(stages: int, stop: str) -> str:
+    """The inverter chain, in the dialect both simulators read."""
+    lines = [f"bsim4 inverter chain {stages}", ".options acct num_threads=1", "Vdd vdd 0 1.2",
+             "Vin n0 0 pulse(0 1.2 0.1n 20p 20p 0.48n 1n)"]
+    for i in range(stages):
+        a, b = f"n{i}", f"n{i + 1}"
+        lines += [f"Mn{i} {b} {a} 0 0 nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u",
+                  f"Mp{i} {b} {a} vdd vdd pch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u", f"C{i} {b} 0 2f"]
+    return "\n".join(lines + [CARDS, f".tran 10p {stop}", f".save v(n0) v(n{stages})", ".end"]) + "\n"
+
+
+def crossings(t: np.ndarray, v: np.ndarray, level: float = 0.6) -> np.ndarray:
+    """Times where ``v`` crosses ``level`` (either way), linearly interpolated."""
+    k = np.flatnonzero((v[:-1] - level) * (v[1:] - level) < 0)
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+
+def delay(t: np.ndarray, vin: np.ndarray, vout: np.ndarray, after: float = 1e-9) -> float:
+    """Mean delay from each input crossing after ``after`` to the output's next crossing."""
+    cin, cout = crossings(t, vin), crossings(t, vout)
+    out = [cout[np.searchsorted(cout, c)] - c for c in cin[cin > after] if np.searchsorted(cout, c) < cout.size]
+    return float(np.mean(out)) if out else float("nan")
+
+
 def period(t: np.ndarray, v: np.ndarray, level: float = 0.6) -> float:
     """Mean period from the rising crossings of ``level`` after the first."""
     k = np.flatnonzero((v[:-1] < level) & (v[1:] >= level))
@@ -65,24 +94,27 @@ def main() -> None:
     import netdae
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--circuit", choices=("ring", "chain"), default="ring")
     ap.add_argument("--stages", default="5,11,21,51")
     ap.add_argument("--stop", default="20n")
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--timeout", type=float, default=600.0)
     args = ap.parse_args()
+    what = "period" if args.circuit == "ring" else "delay"
     print(f"{'stages':>6} {'netdae CPU [s]':>16} {'ngspice CPU [s]':>16} {'ratio':>11} {'steps':>11} "
-          f"{'newton':>11} {'period netdae':>14} {'period ngspice':>15}")
+          f"{'newton':>11} {what + ' netdae':>14} {what + ' ngspice':>15}")
     with tempfile.TemporaryDirectory() as work:
         for n in (int(s) for s in args.stages.split(",")):
-            text = ring(n, args.stop)
-            path = Path(work) / f"ring{n}.cir"
+            text = ring(n, args.stop) if args.circuit == "ring" else chain(n, args.stop)
+            path = Path(work) / f"{args.circuit}{n}.cir"
             path.write_text(text)
+            saved = ["v(n0)"] if args.circuit == "ring" else ["v(n0)", f"v(n{n})"]
             netdae.simulate(netdae.load(text))  # compiles or loads the engine
             ours, theirs = [], []
             for _ in range(args.reps):  # alternating
-                ng = M.run_ngspice(path, Path(work), ["v(n0)"], timeout=args.timeout)
+                ng = M.run_ngspice(path, Path(work), saved, timeout=args.timeout)
                 if not ng.ok:
-                    raise SystemExit(f"ngspice failed on the {n}-stage ring: {ng.message}")
+                    raise SystemExit(f"ngspice failed on the {n}-stage {args.circuit}: {ng.message}")
                 theirs.append(ng)
                 circuit = netdae.load(text)
                 t0 = time.process_time()
@@ -92,8 +124,12 @@ def main() -> None:
             cpu_ng = [r.stats["analysis_time"] for r in theirs]
             res, ng = ours[-1][1], theirs[-1]
             ratios = [a / b for a, b in zip(cpu_us, cpu_ng)]
-            p_us = period(np.asarray(res.t), np.asarray(res["v(n0)"]))
-            p_ng = period(ng.time, ng.signals["v(n0)"])
+            if args.circuit == "ring":
+                p_us = period(np.asarray(res.t), np.asarray(res["v(n0)"]))
+                p_ng = period(ng.time, ng.signals["v(n0)"])
+            else:
+                p_us = delay(np.asarray(res.t), np.asarray(res["v(n0)"]), np.asarray(res[f"v(n{n})"]))
+                p_ng = delay(ng.time, ng.signals["v(n0)"], ng.signals[f"v(n{n})"])
             print(f"{n:>6} {min(cpu_us):>7.3f}-{max(cpu_us):<8.3f} {min(cpu_ng):>7.3f}-{max(cpu_ng):<8.3f} "
                   f"{min(ratios):>5.2f}-{max(ratios):<5.2f} {res.stats['steps']:>5}/{ng.stats['steps']:<5} "
                   f"{res.stats['newton_iterations']:>5}/{ng.stats['newton']:<5} {p_us * 1e9:>11.4f} ns {p_ng * 1e9:>12.4f} ns")

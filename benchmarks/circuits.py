@@ -479,6 +479,30 @@ def bsim4_ring_oscillator(stages: int, tstop: float) -> Bench:
     )
 
 
+def bsim4_inverter_chain(stages: int, tstop: float) -> Bench:
+    """A chain of ``stages`` BSIM4 inverters driven by a 1.2 V pulse (20 ps edges, 1 ns period), 2 fF per stage.
+
+    Needs ``netdae[models]`` on netdae's side; ngspice runs its built-in BSIM4
+    in one thread, as for :func:`bsim4_ring_oscillator`. Reference: ngspice at reltol 1e-8.
+    """
+    if stages < 1:
+        raise ValueError("an inverter chain needs at least one stage")
+    signals = ("v(n1)", f"v(n{stages + 1})")
+    lines = [f"BSIM4 inverter chain, {stages} stages", ".options num_threads=1", "VDD vdd 0 1.2",
+             "VIN n1 0 PULSE(0 1.2 0.1n 20p 20p 0.48n 1n)"]
+    for k in range(1, stages + 1):
+        a, b = f"n{k}", f"n{k + 1}"
+        lines += [f"MN{k} {b} {a} 0 0 nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u",
+                  f"MP{k} {b} {a} vdd vdd pch l=0.13u w=2u ad=1p as=1p pd=4u ps=4u",
+                  f"C{k} {b} 0 2f"]
+    lines += [_BSIM4_MODELS, _save_line(signals), f".tran 0.01n {num(tstop)}", ".end"]
+    return Bench(
+        name=f"bsim4_chain_{stages}st", family="bsim4_inverter_chain", category="nonlinear",
+        text="\n".join(lines) + "\n", signals=signals, unknowns=stages + 4, elements=3 * stages + 2, tstop=tstop,
+        reference=None, reference_kind=f"ngspice reltol {REFERENCE_RELTOL:g}",
+    )
+
+
 #: Generator of each family, by name (for ``--only``).
 GENERATORS = {
     "rc_ladder": rc_ladder,
@@ -490,4 +514,5 @@ GENERATORS = {
     "pulse_train": pulse_train,
     "ring_oscillator": ring_oscillator,
     "bsim4_ring_oscillator": bsim4_ring_oscillator,
+    "bsim4_inverter_chain": bsim4_inverter_chain,
 }

@@ -94,14 +94,14 @@ def suite(quick: bool) -> list[C.Bench]:
         return [
             C.rc_ladder(1000), C.rc_ladder(10000), C.rc_mesh(50), C.rlc_line(100), C.differentiator(),
             C.bridge_rectifier(5), C.voltage_multiplier(4, 5), C.pulse_train(5), C.ring_oscillator(5, 10e-9),
-        ] + ([C.bsim4_ring_oscillator(5, 10e-9)] if bsim4 else [])
+        ] + ([C.bsim4_ring_oscillator(5, 10e-9), C.bsim4_inverter_chain(5, 10e-9)] if bsim4 else [])
     return [
         C.rc_ladder(1000), C.rc_ladder(10000), C.rc_ladder(100000),
         C.rc_mesh(50), C.rc_mesh(100), C.rc_mesh(300),
         C.rlc_line(100), C.rlc_line(1000), C.differentiator(),
         C.bridge_rectifier(50), C.voltage_multiplier(4, 50), C.pulse_train(50), C.ring_oscillator(11, 50e-9),
         C.bridge_rectifier(LONG_BRIDGE_CYCLES, category="long"),
-    ] + ([C.bsim4_ring_oscillator(11, 20e-9)] if bsim4 else [])
+    ] + ([C.bsim4_ring_oscillator(11, 20e-9), C.bsim4_inverter_chain(11, 20e-9)] if bsim4 else [])
 
 
 def _selected(benches, only):
