@@ -23,7 +23,7 @@ import numpy as np
 from ..newton import INFO_SINGULAR
 from ..steady import SteadyOptions, solve_steady
 from ..system import DaeSystem, Evaluation
-from .constants import EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_NEWTON_MAXITER
+from .constants import EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP, JUMP_NEWTON_MAXITER
 from .failures import Failure, newton_hint, nonfinite_unknown
 
 __all__ = ["ImplicitEulerStep", "right_limit", "event_right_limit", "Probe", "probe", "jump_of"]
@@ -231,16 +231,21 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err) -
     return Probe(xp, qp, xpp, x_right, x_2, w_floor)
 
 
-def jump_of(x, x_right, x_2, w_floor, high):
+def jump_of(x, x_right, x_2, w_floor, high, *, first_step: bool = True):
     """Whether the right limit differs from ``x``, and how.
 
     Parameters
     ----------
     x, x_right, x_2 : ndarray, shape (n,)
-        The value reached, the probe's right limit and its second Euler step.
+        The value reached, the probe's right limit and its second Euler step
+        (the first is their mean).
     w_floor : ndarray, shape (n,)
         Weights at the probe's rounding level.
     high : ndarray of bool, shape (n,)
+    first_step : bool
+        An unknown that is not index 2 jumps only where the probe's first Euler
+        step carries the move (:data:`JUMP_FIRST_STEP`); False after a switching
+        event (every move counts; the right limit is solved again).
 
     Returns
     -------
@@ -249,6 +254,8 @@ def jump_of(x, x_right, x_2, w_floor, high):
         ``value_jump``: one that is not index 2 did (an input value jumped, or
         the start is inconsistent), then the index-2 unknowns take ``x_2``
         (they carry an impulse in the first Euler step) in ``x_right``.
+        Without a value jump the unknowns that are not index 2 keep ``x``
+        (the extrapolation's error, not a jump, moved them).
 
     Examples
     --------
@@ -257,11 +264,24 @@ def jump_of(x, x_right, x_2, w_floor, high):
     (True, False)
     >>> jump_of(x, np.array([3.0, 5.0]), np.array([3.0, 4.0]), np.ones(2), high)[2].tolist()
     [3.0, 4.0]
+
+    A move the second step repeats is the extrapolation's error, not a jump:
+
+    >>> jump_of(x, np.array([-5e-6, 0.0]), np.array([1.5e-5, 0.0]), np.full(2, 1e6), high)[0]
+    False
     """
     moved = np.abs(x_right - x) * w_floor
     if not moved.max() > JUMP_DETECT:
         return False, False, x_right
-    value_jump = bool(np.any(moved[~high] > JUMP_DETECT))
+    beyond = moved > JUMP_DETECT
+    if first_step:
+        x_1 = 0.5 * (x_right + x_2)
+        beyond &= high | (np.abs(x_2 - x_1) <= JUMP_FIRST_STEP * np.abs(x_1 - x))
+    value_jump = bool(np.any(beyond[~high]))
     if value_jump:
         x_right[high] = x_2[high]
+    elif first_step:
+        x_right[~high] = x[~high]
+        if not np.any(beyond):
+            return False, False, x_right
     return True, value_jump, x_right

@@ -91,6 +91,7 @@ from ..bdf import (  # noqa: E402
     H0_ERROR_TARGET,
     H0_FRACTION,
     JUMP_DETECT,
+    JUMP_FIRST_STEP,
     JUMP_NEWTON_MAXITER,
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
@@ -768,16 +769,27 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
+    # an unknown that is not index 2 jumps where the probe's first Euler step carries the move
+    # (JUMP_FIRST_STEP; x1 is the mean of xr and x2); after a switching event every move counts
+    first_step = I[I_EVENT_RESTART] == 0
     big = 0.0
     value_jump = False
     for i in range(n):
         m = abs(xr[i] - x[i]) * wf[i]
+        if first_step and not high[i] and m > JUMP_DETECT:
+            x1 = 0.5 * (xr[i] + x2[i])
+            if abs(x2[i] - x1) > JUMP_FIRST_STEP * abs(x1 - x[i]):
+                m = 0.0  # the extrapolation's error, not a jump
         if m > big or m != m:
             big = m
         if m > JUMP_DETECT and not high[i]:
             value_jump = True
     if not (big > JUMP_DETECT):
         return -1
+    if first_step and not value_jump:
+        for i in range(n):
+            if not high[i]:
+                xr[i] = x[i]  # only index-2 unknowns move
     if value_jump:
         if I[I_LINEAR] != 0:
             # an input value jumped: the index-2 unknowns carry an impulse in the first probe
