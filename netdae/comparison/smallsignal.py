@@ -32,11 +32,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..circuit import ABSOLUTE_ZERO
 from ..results import Result
 from .header import Tolerance
 from .model import AnalysisComparison, SignalComparison
 
-__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf",
+__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf", "compare_sens",
            "compare_noise"]
 
 #: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
@@ -254,5 +255,76 @@ def compare_noise(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None,
         passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
         signals.append(SignalComparison(name, err, err / scale, err / scale, {}, scale, "magnitude", passed,
                                         netdae=a, ngspice=b))
+    item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
+    return item
+
+
+def _sens_floor(values: dict[str, float], sens: dict[str, float]) -> tuple[float, dict[str, float]]:
+    """The largest output change per relative parameter change, and each parameter's floor.
+
+    ``M = max_p |p S_p|`` is in the output's unit; a sensitivity error
+    ``dS_p`` changes the predicted output by ``p dS_p`` for a relative change
+    of ``p``, so ``dS_p`` is judged against ``max(|S_p|, M / |p|)`` (``M``
+    alone for a parameter whose value is zero, stepped absolutely).
+    """
+    top = max((abs(values.get(n, 0.0) * s) for n, s in sens.items() if np.isfinite(s)), default=0.0)
+    return top, {n: (top / abs(v) if v else top) for n, v in values.items()}
+
+
+def compare_sens(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, exclude=(),
+                 circuit=None) -> AnalysisComparison:
+    """Compare sensitivities parameter by parameter (each at ngspice's frequencies for the AC one).
+
+    Each sensitivity has its parameter's unit: its error is relative to the
+    larger magnitude of the two values, floored at ``M / |p|``
+    (:func:`_sens_floor`; ngspice's one-sided differences leave about 1e-6
+    of the largest effect in sensitivities that are zero). A parameter
+    netdae does not compute (NaN, its note says why) is listed as
+    ngspice-only and does not fail the comparison; one ngspice does not list
+    is netdae-only.
+    """
+    from ..analyses.sens import sens_parameters
+    from .analyses import select_signals
+
+    ac = nd.axes.get("frequency") is not None
+    item = AnalysisComparison("sens", tolerance=tol, axis="frequency" if ac else None)
+    computed = [n for n in nd.names() if np.all(np.isfinite(nd.signals[n]))]
+    compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(computed, ng.names(), wanted,
+                                                                               exclude)
+    uncomputed = [n for n in item.only_ngspice if n in nd.signals]
+    if uncomputed:
+        item.notes.append(f"not computed by netdae (its notes say why), not judged: {', '.join(uncomputed)}")
+    if not compared:
+        item.error = "no sensitivity is produced by both simulators (see only_netdae / only_ngspice)"
+        return item
+    values = {}
+    if circuit is not None:
+        values = {p.name: p.base + (-ABSOLUTE_ZERO if p.kelvin else 0.0)
+                  for p in sens_parameters(circuit, ac)[0]}
+    if ac:
+        fa, fb = nd.axes["frequency"], ng.axes.get("frequency")
+        if fb is None or fa.size != fb.size or not np.allclose(fa, fb, rtol=1e-9, atol=0.0):
+            item.error = "the two sensitivities are not at the same frequencies"
+            return item
+    item.points = int(ng.signals[compared[0]].size)
+    a_all = {n: np.asarray(nd.signals[n], dtype=complex) for n in compared}
+    b_all = {n: np.asarray(ng.signals[n], dtype=complex) for n in compared}
+    signals = []
+    floors = [_sens_floor(values, {n: abs(a_all[n][k]) for n in compared})[1] for k in range(item.points)]
+    for name in compared:
+        a, b = a_all[name], b_all[name]
+        err = np.abs(a - b)
+        floor = np.array([f.get(name, 0.0) for f in floors])
+        scale = np.maximum(np.maximum(np.abs(a), np.abs(b)), floor)
+        scale[scale == 0.0] = 1.0
+        rel = err / scale
+        k = int(np.argmax(rel))
+        passed = None if tol is None else bool(np.all((err <= tol.rel * scale)
+                                                      | (tol.abs is not None and err <= (tol.abs or 0.0))))
+        at = {"frequency": float(ng.axes["frequency"][k])} if ac else {}
+        signals.append(SignalComparison(name, float(err[k]), float(rel[k]), float(np.sqrt(np.mean(err ** 2))), at,
+                                        float(scale[k]), "floor" if scale[k] == floor[k] else "magnitude", passed,
+                                        netdae=float(a[k].real if not ac else abs(a[k])),
+                                        ngspice=float(b[k].real if not ac else abs(b[k]))))
     item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
     return item
