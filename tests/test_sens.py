@@ -1,0 +1,235 @@
+"""Sensitivity analysis (``.sens``): closed forms, ngspice's golden values, re-solved operating points, ngspice 39.
+
+Errors are in tolerance units: ``|netdae - reference| / (tol * scale) <= 1``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.op import operating_point
+from netdae.analyses.sens import _perturbed, sens_analysis, sens_parameters
+from netdae.circuit import SensAnalysis
+from netdae.comparison.smallsignal import _sens_floor
+from netdae.errors import NetlistError
+
+CORPUS = Path("/work/corpus/tests")
+SENS_DIR = CORPUS / "regression" / "sens"
+DIFFPAIR = CORPUS / "sensitivity" / "diffpair.cir"
+#: netdae's own sensitivities are exact to rounding for linear elements (central differences, O(h^2)).
+EXACT = 1e-8
+#: ngspice's golden values are its one-sided differences (1e-6 relative) printed to 7-16 digits.
+GOLDEN = 1e-5
+
+DIODE = """* diode sensitivity
+v1 1 0 dc 5 ac 1
+r1 1 2 1k
+d1 2 3 dm
+r2 3 0 100
+.model dm d(is=1e-14 rs=10 cjo=1p tt=1n n=1.2)
+.sens v(3)
+.end
+"""
+
+
+def _sens(text: str, index: int = 0):
+    circuit = netdae.load(text)
+    cards = [c for c in circuit.analyses if isinstance(c, SensAnalysis)]
+    return circuit, sens_analysis(circuit, cards[index])
+
+
+def _units(value, reference, tol, scale=None) -> float:
+    scale = max(abs(reference), abs(value)) if scale is None else scale
+    return abs(value - reference) / (tol * scale)
+
+
+# -- closed forms ----------------------------------------------------------------------------------------
+def test_divider_closed_form():
+    v, r1, r2 = 3.0, 1e3, 2.2e3
+    _, res = _sens(f"* divider\nv1 1 0 {v}\nr1 1 2 {r1}\nr2 2 0 {r2}\n.sens v(2)\n.end\n")
+    expected = {"v1": r2 / (r1 + r2), "r1": -v * r2 / (r1 + r2) ** 2, "r2": v * r1 / (r1 + r2) ** 2,
+                "r1_m": v * r2 * r1 / (r1 + r2) ** 2, "r2_scale": v * r1 * r2 / (r1 + r2) ** 2}
+    for name, ref in expected.items():
+        assert _units(float(res.signals[name][0]), ref, EXACT) <= 1, name
+    assert res.analysis == "sens" and not res.axes
+
+
+def test_branch_current_output_and_difference():
+    _, res = _sens("* i\nv1 1 0 2\nr1 1 2 1k\nr2 2 0 3k\n.sens i(v1)\n.end\n")
+    # i(v1) = -v / (r1 + r2): d/dr1 = v / (r1 + r2)^2
+    assert _units(float(res.signals["r1"][0]), 2.0 / 4e3 ** 2, EXACT) <= 1
+    _, res = _sens("* d\nv1 1 0 2\nr1 1 2 1k\nr2 2 0 3k\n.sens v(1,2)\n.end\n")
+    assert _units(float(res.signals["r2"][0]), -2.0 * 1e3 / 4e3 ** 2, EXACT) <= 1
+
+
+def test_ac_closed_form_rc():
+    """sens-ac-1's closed forms: v = I / (1/R + sC) at 1 MHz."""
+    _, res = _sens("* rc\ni1 0 1 dc 1.27 ac 42m\nr1 1 0 1k\nc1 1 0 100p\n.sens v(1) ac lin 1 1e6 1.1e6\n.end\n")
+    s = 2j * math.pi * 1e6
+    expected = {"i1_acmag": 1 / (s * 100e-12 + 1e-3), "r1": 42e-3 / (1 + s * 100e-12 * 1e3) ** 2,
+                "c1": -42e-3 * s / (s * 100e-12 + 1e-3) ** 2, "i1": 0.0}
+    for name, ref in expected.items():
+        got = complex(res.signals[name][0])
+        assert abs(got - ref) <= EXACT * max(abs(ref), 1e-30), name
+    assert res.axes["frequency"].tolist() == [1e6]
+
+
+# -- ngspice's regression suite: the golden values its files state ---------------------------------------
+_LET = re.compile(r"^let\s+(\w+)\s*=\s*(.+)$", re.M)
+_COMPLEX = re.compile(r"^\(([^,]+),([^,]+)\)$")
+
+
+def _golden(path: Path) -> dict[str, complex]:
+    from netdae.netlist.numbers import parse_number
+
+    out = {}
+    for name, text in _LET.findall(path.read_text()):
+        text = text.replace(" ", "").lower()
+        m = _COMPLEX.match(text)
+        if m:
+            re_, im = parse_number(m.group(1)), parse_number(m.group(2))
+            if re_ is not None and im is not None:
+                out[name] = complex(re_, im)
+        elif (value := parse_number(text)) is not None:
+            out[name] = complex(value)
+    return {k: v for k, v in out.items() if k not in ("total_count", "fail_count")}
+
+
+@pytest.mark.skipif(not SENS_DIR.is_dir(), reason="ngspice's regression suite is not here")
+@pytest.mark.parametrize("name", ["sens-dc-1.cir", "sens-dc-2.cir", "sens-ac-2.cir"])
+def test_ngspice_regression_golden(name):
+    path = SENS_DIR / name
+    gold = _golden(path)
+    assert len(gold) >= 5
+    circuit = netdae.load(path)
+    card, = [c for c in circuit.analyses if isinstance(c, SensAnalysis)]
+    res = sens_analysis(circuit, card)
+    for key, ref in gold.items():
+        got = complex(res.signals[key][0])
+        assert abs(got - ref) <= GOLDEN * abs(ref), (key, got, ref)
+
+
+def test_control_command_reads_as_card():
+    circuit = netdae.load("* c\ni1 0 1 dc=42mA\nr1 1 0 1k\n.control\nsens v(1) dc\n.endc\n.end\n")
+    card, = circuit.analyses
+    assert isinstance(card, SensAnalysis) and card.output == "v(1)" and not card.is_ac
+    circuit = netdae.load("* c\ni1 0 1 dc=1 ac 1\nr1 1 0 1k\n.control\nsens v(1) ac dec 10 1k 1meg\n.endc\n.end\n")
+    card, = circuit.analyses
+    assert (card.variation, card.points, card.fstart, card.fstop) == ("dec", 10, 1e3, 1e6)
+
+
+# -- nonlinear devices: the operating point re-solved with the parameter changed --------------------------
+@pytest.mark.parametrize("name", ["d1:is", "d1:n", "d1:rs", "d1_area", "d1_m", "d1_temp", "d1:tnom", "r1"])
+def test_diode_against_resolved_operating_point(name):
+    circuit, res = _sens(DIODE)
+    p = {q.name: q for q in sens_parameters(circuit)[0]}[name]
+    h = 1e-4 * ((p.base + 273.15) if p.kelvin else abs(p.base))
+    plus = operating_point(_perturbed(circuit, p, p.base + h))["v(3)"][0]
+    minus = operating_point(_perturbed(circuit, p, p.base - h))["v(3)"][0]
+    reference = (plus - minus) / (2 * h)
+    # the re-solved points carry Newton's tolerance (reltol 1e-3 of ~1e-6 V steps): judged at 1e-4
+    assert _units(float(res.signals[name][0]), reference, 1e-4) <= 1, (name, reference)
+
+
+def test_unimplemented_parameters_are_nan_with_a_note():
+    _, res = _sens(DIODE)
+    assert math.isnan(float(res.signals["d1:ntun"][0]))
+    assert any("d1:ntun" in n and "does not implement" in n for n in res.notes)
+    assert float(res.signals["d1:bv_max"][0]) == 0.0
+
+
+# -- a BJT differential pair against the values ngspice's test suite stores -------------------------------
+def _diffpair_reference() -> dict[str, float]:
+    text = (DIFFPAIR.with_suffix(".out")).read_text()
+    out = {}
+    lines = text.splitlines()
+    for k, line in enumerate(lines):
+        if line.startswith("Index") and k + 2 < len(lines) and lines[k + 2].startswith("0\t"):
+            names = line.split()[1:]
+            values = lines[k + 2].split()[1:]
+            out.update({n: float(v) for n, v in zip(names, values)})
+    return out
+
+
+@pytest.mark.skipif(not DIFFPAIR.is_file(), reason="ngspice's test suite is not here")
+def test_bjt_diffpair_against_ngspice_reference():
+    """ngspice 39 crashes on a BJT's sensitivity; its test suite stores an earlier ngspice's output.
+
+    ``q1:rb``/``q2:rb`` are left out: with ``irb=0`` the base resistance is a plain series resistor, so its
+    sensitivity equals that of ``rs1``/``rs2`` in series (netdae's does to 1e-5; the stored value is 10 %
+    away from the stored ``rs1``).
+    """
+    reference = _diffpair_reference()
+    circuit = netdae.load(DIFFPAIR)
+    card, = [c for c in circuit.analyses if isinstance(c, SensAnalysis)]
+    res = sens_analysis(circuit, card)
+    got = {n: float(v[0]) for n, v in res.signals.items() if np.isfinite(v[0])}
+    values = {p.name: p.base + (273.15 if p.kelvin else 0.0) for p in sens_parameters(circuit)[0]}
+    _, floors = _sens_floor(values, got)
+    common = [n for n in reference if n in got and n not in ("q1:rb", "q2:rb")]
+    assert len(common) > 60
+    for name in common:
+        scale = max(abs(got[name]), abs(reference[name]), floors.get(name, 0.0))
+        assert _units(got[name], reference[name], 1e-3, scale) <= 1, (name, got[name], reference[name])
+    assert _units(got["q1:rb"], got["rs1"], 1e-4) <= 1
+
+
+# -- ngspice 39 itself ------------------------------------------------------------------------------------
+def _ngspice():
+    from netdae.ngspice import available
+
+    return available()
+
+
+@pytest.mark.skipif(not _ngspice(), reason="ngspice is not installed")
+def test_compare_diode_with_ngspice(tmp_path):
+    path = tmp_path / "diode.cir"
+    path.write_text(DIODE)
+    cmp = netdae.compare(path)
+    item, = [a for a in cmp.analyses if a.analysis == "sens"]
+    assert item.error is None and item.passed, [(s.name, s.max_rel) for s in item.signals if not s.passed]
+    names = {s.name for s in item.signals}
+    assert {"d1:is", "d1:n", "r1", "v1"} <= names
+
+
+@pytest.mark.skipif(not _ngspice(), reason="ngspice is not installed")
+@pytest.mark.parametrize("name", ["sens-dc-1.cir", "sens-dc-2.cir", "sens-ac-1.cir", "sens-ac-2.cir"])
+def test_compare_regression_files(name):
+    if not SENS_DIR.is_dir():
+        pytest.skip("ngspice's regression suite is not here")
+    cmp = netdae.compare(SENS_DIR / name)
+    item, = [a for a in cmp.analyses if a.analysis == "sens"]
+    assert item.error is None and item.passed
+
+
+# -- bad input --------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("card, where, words", [
+    (".sens", 6, "missing the output"),
+    (".sens v(9)", 9, "output node"),
+    (".sens i(r1)", 9, "no branch current"),
+    (".sens v(1) foo", 12, "expected dc, ac"),
+    (".sens v(1) dc 3", 15, "after dc"),
+    (".sens v(1) ac foo 1 2 3", 15, "sweep type"),
+    (".sens v(1) ac dec 10 1k", 24, "expected points, fstart and fstop"),
+    (".sens v(1) ac dec 0 1k 1meg", 19, "positive integer"),
+    (".sens v(1) ac dec 10 1meg 1k", 27, "below fstart"),
+])
+def test_bad_cards_are_located(card, where, words):
+    text = f"* bad\nv1 1 0 1\nr1 1 0 1k\n{card}\n.end\n"
+    with pytest.raises(NetlistError) as info:
+        netdae.load(text)
+    err = info.value
+    assert words in str(err)
+    assert err.location is not None and err.location.line == 4
+    assert err.location.column == where
+
+
+def test_run_prints_nothing_from_numerics(capsys):
+    netdae.run("* d\nv1 1 0 1\nr1 1 2 1k\nr2 2 0 1k\n.sens v(2)\n.end\n")
+    assert capsys.readouterr().out == ""
