@@ -306,7 +306,7 @@ def compare_sens(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, 
     compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(computed, ng.names(), wanted,
                                                                                [*exclude, *wrong])
     if wrong:
-        item.notes.append(f"not judged, ngspice 39 computes them wrong (NGSPICE_WRONG_SENS): "
+        item.notes.append("not judged, ngspice 39 computes them wrong (NGSPICE_WRONG_SENS): "
                           + ", ".join(f"{n} netdae {complex(nd.signals[n][0]).real:.6g} ngspice "
                                       f"{complex(ng.signals[n][0]).real:.6g}" for n in wrong))
     uncomputed = [n for n in item.only_ngspice if n in nd.signals]
