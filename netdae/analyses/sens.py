@@ -130,6 +130,7 @@ _LINEAR = {
     "vcvs": (("_gain", "value", False),), "vccs": (("_gain", "value", False),),
     "cccs": (("_gain", "value", False),), "ccvs": (("_gain", "value", False),),
 }
+_INERT = "noise and safe-operating-area parameters"
 _DEVICE_TABLES = {"diode": ("diode", "DIODE_PARAMETERS"), "bjt": ("bjt", "BJT_PARAMETERS"),
                   "mosfet": ("mosfet", "MOS1_PARAMETERS"), "jfet": ("jfet", "JFET_PARAMETERS")}
 
@@ -176,13 +177,8 @@ def _canonical(table, name: str) -> str:
 
 
 def _model_parameters(circuit: Circuit, el: Element, ac: bool) -> list[SensParameter]:
-    model = circuit.models.get(el.model or "")
+    model = circuit.models[el.model]
     family = el.kind
-    if model is None:
-        return [SensParameter(el.name, el.name, "absent", why=f"its model '{el.model}' is not defined")]
-    if family == "mosfet" and int(model.params.get("level", 1.0)) != 1:
-        return [SensParameter(f"{el.name}:*", el.name, "absent",
-                              why="netdae computes the sensitivities of level-1 MOSFETs only")]
     table = _table(family)
     spelling = _NGSPICE_SPELLING.get(family, {})
     back = {v: k for k, v in spelling.items()}
@@ -200,19 +196,19 @@ def _model_parameters(circuit: Circuit, el: Element, ac: bool) -> list[SensParam
     for key in names:
         shown = f"{el.name}:{spelling.get(key, key)}"
         if key in table.inert:
-            out.append(SensParameter(shown, el.name, "inert", why="a noise or safe-operating-area parameter"))
+            out.append(SensParameter(shown, el.name, "inert", why=_INERT))
             continue
         if key not in table.defaults:
-            out.append(SensParameter(shown, el.name, "absent", why=f"netdae's {table.device} does not implement "
-                                     f"'{spelling.get(key, key)}'"))
+            out.append(SensParameter(shown, el.name, "absent", why=f"not implemented by netdae's {table.device}"))
             continue
         base = given.get(key, table.defaults[key])
         if base is None:
             base = temp_defaults.get(key)
-        if base is None and key == "rbm":
-            base = given.get("rb", table.defaults["rb"])
+        if base is None and key in ("rbm", "nbv"):  # their defaults: rb, n
+            other = "rb" if key == "rbm" else "n"
+            base = given.get(other, table.defaults[other])
         if base is None:
-            out.append(SensParameter(shown, el.name, "absent", why=f"'{key}' has no value in model {model.name}"))
+            out.append(SensParameter(shown, el.name, "absent", why="no value in the model and no default"))
             continue
         out.append(SensParameter(shown, el.name, f"model:{key}", float(base), kelvin=key == "tnom"))
     for key in _LISTED_INSTANCE[family]:
@@ -274,14 +270,14 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                     continue
                 name = el.name + suffix
                 if how == "inert":
-                    out.append(SensParameter(name, el.name, how, why="a noise or safe-operating-area parameter"))
+                    out.append(SensParameter(name, el.name, how, why=_INERT))
                 elif how == "geometry":
                     if el.model is None:
                         out.append(SensParameter(name, el.name, "inert",
-                                                 why="without a model the geometry does not enter the value"))
+                                                 why="geometry of an element without a model"))
                     else:
                         out.append(SensParameter(name, el.name, "absent", why="the value is computed from the "
-                                                 f"model {el.model} once, when the circuit is read"))
+                                                 "model once, when the circuit is read"))
                 elif how == "value":
                     out.append(SensParameter(name, el.name, how, float(el.value if el.value is not None else 0.0)))
                 elif how.startswith("param:"):
@@ -295,10 +291,17 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                 else:  # source_m
                     out.append(SensParameter(name, el.name, how, 1.0))
         elif el.kind in _LISTED_INSTANCE:
+            model = circuit.models.get(el.model or "")
+            if model is None or el.kind == "mosfet" and int(model.params.get("level", 1.0)) != 1:
+                where = f"{el.location}: " if el.location else ""
+                notes.append(f"{where}{el.name}: netdae computes the sensitivities of level-1 MOSFETs only "
+                             "(ngspice lists this one's parameters)")
+                continue
             out.extend(_model_parameters(circuit, el, ac))
         else:
-            notes.append(f"{el.name}: netdae computes no sensitivity of {el.kind} parameters (ngspice may list "
-                         "some)")
+            where = f"{el.location}: " if el.location else ""
+            notes.append(f"{where}{el.name}: netdae computes no sensitivity of {el.kind} parameters (ngspice may "
+                         "list some)")
     out.sort(key=lambda p: p.name)
     return out, notes
 
@@ -450,14 +453,14 @@ def sens_analysis(circuit: Circuit, card: SensAnalysis, **overrides) -> Result:
         w = lu.solve(c, trans="T")
     base = None
     signals: dict[str, np.ndarray] = {}
-    absent: list[str] = []
-    inert: list[str] = []
+    absent: dict[str, list[str]] = {}
+    inert: dict[str, list[str]] = {}
     for p in params:
         if p.how in ("inert", "absent"):
             shape = freqs.size if ac else 1
             value = 0.0 if p.how == "inert" else math.nan
             signals[p.name] = np.full(shape, value, dtype=complex if ac else float)
-            (inert if p.how == "inert" else absent).append(f"{p.name} ({p.why})")
+            (inert if p.how == "inert" else absent).setdefault(p.why, []).append(p.name)
             continue
         h, central = _step(p)
         try:
@@ -470,12 +473,12 @@ def sens_analysis(circuit: Circuit, card: SensAnalysis, **overrides) -> Result:
                     base = _evaluate(circuit, x, system.names, ac)
                 minus, width = base, h
         except _Structural:
-            absent.append(f"{p.name} (changing it changes the circuit's unknowns: an internal node appears or "
-                          "vanishes; ngspice keeps the nodes it set up)")
+            absent.setdefault("changing it changes the circuit's unknowns: an internal node appears or vanishes; "
+                              "ngspice keeps the nodes it set up", []).append(p.name)
             signals[p.name] = np.full(freqs.size if ac else 1, math.nan, dtype=complex if ac else float)
             continue
         except (CircuitError, NetdaeError, ValueError) as exc:
-            absent.append(f"{p.name} (the circuit cannot be built with it changed: {exc})")
+            absent.setdefault(f"the circuit cannot be built with it changed: {exc}", []).append(p.name)
             signals[p.name] = np.full(freqs.size if ac else 1, math.nan, dtype=complex if ac else float)
             continue
         if not ac:
@@ -490,10 +493,11 @@ def sens_analysis(circuit: Circuit, card: SensAnalysis, **overrides) -> Result:
                 dY = 2j * math.pi * f * dE - dH
                 vals[i] = W[i] @ (db - dY @ X[i])
             signals[p.name] = vals
-    if inert:
-        notes.append(f"sensitivity 0 (no effect on the solution, as in ngspice): {', '.join(inert)}")
-    if absent:
-        notes.append(f"not computed (NaN): {'; '.join(absent)}")
+    at = f"{card.location}: " if card.location else ""
+    for why, names in inert.items():
+        notes.append(f"{at}sensitivity 0, {why} (no effect on the solution; ngspice's is 0 too): {', '.join(names)}")
+    for why, names in absent.items():
+        notes.append(f"{at}not computed (NaN), {why}: {', '.join(names)}")
     return Result(
         "sens",
         axes={"frequency": freqs} if ac else {},
