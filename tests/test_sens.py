@@ -234,3 +234,21 @@ def test_bad_cards_are_located(card, where, words):
 def test_run_prints_nothing_from_numerics(capsys):
     netdae.run("* d\nv1 1 0 1\nr1 1 2 1k\nr2 2 0 1k\n.sens v(2)\n.end\n")
     assert capsys.readouterr().out == ""
+
+
+@pytest.mark.skipif(not _ngspice(), reason="ngspice is not installed")
+def test_compare_through_raw_files():
+    if not SENS_DIR.is_dir():
+        pytest.skip("ngspice's regression suite is not here")
+    cmp = netdae.compare(SENS_DIR / "sens-ac-2.cir", backend="subprocess")
+    item, = [a for a in cmp.analyses if a.analysis == "sens"]
+    assert item.passed and {"v1_acmag", "c2", "l3", "r1_ac"} <= {s.name for s in item.signals}
+
+
+def test_bridge_keeps_ngspice_away_from_a_bjt_sensitivity_and_a_second_card():
+    from netdae.ngspice import translate_for_ngspice
+
+    text, notes = translate_for_ngspice("* q\nvcc 2 0 5\nq1 2 1 0 qm\nrb 2 1 100k\n.model qm npn\n.sens v(2)\n.end\n")
+    assert ".sens" not in text.lower() and any("segmentation fault" in n for n in notes)
+    text, notes = translate_for_ngspice("* r\nv1 1 0 1\nr1 1 0 1k\n.sens i(v1)\n.sens v(1) ac lin 1 1 1\n.end\n")
+    assert text.lower().count(".sens") == 1 and any("second sensitivity" in n for n in notes)
