@@ -71,7 +71,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..circuit import ABSOLUTE_ZERO, AcAnalysis, Circuit, Element, SensAnalysis
+from ..devices.model_names import SENS_AC_ONLY, SENS_MODEL_PARAMETERS, SENS_SPELLING
 from ..errors import CircuitError, NetdaeError
+from ..kinds import KINDS
 from ..results import Result, Statistics
 from ..signals import parse_signal
 from .op import op_result
@@ -84,55 +86,7 @@ RELATIVE_STEP = 1e-6
 ABSOLUTE_STEP = 1e-6
 _KELVIN = -ABSOLUTE_ZERO
 
-#: The model parameters ngspice 39 lists for every instance whatever the model gives (DC),
-#: in ngspice's spelling; given parameters are listed too.
-_LISTED_MODEL = {
-    "diode": ("af", "area", "bv_max", "cth0", "eg", "fc", "fcs", "fv_max", "ibv", "id_max", "is", "isr", "keg",
-              "m", "mjsw", "n", "nbv", "nr", "ns", "ntun", "pd_max", "php", "rs", "te_max", "tnom", "vj", "xoi",
-              "xom", "xti", "xtitun"),
-    # ngspice 39 stops with a segmentation fault on a BJT's sensitivity: these are the parameters an
-    # earlier ngspice lists (tests/sensitivity/diffpair.out of its test suite).
-    "bjt": ("bf", "br", "eg", "fc", "is", "nc", "ne", "nf", "nr", "rb", "rbm", "tnom", "vaf", "xti"),
-    "mosfet": ("fc", "is", "kp", "mj", "mjsw", "pb", "phi", "tnom", "vto"),
-    "jfet": ("af", "b", "beta", "eg", "fc", "gdsnoi", "is", "pb", "tnom", "vt0", "xti"),
-}
-#: Model parameters ngspice lists only in the AC sensitivity (they enter the charges alone).
-_AC_ONLY = {
-    "diode": frozenset({"cjo", "tt"}),
-    "bjt": frozenset({"cje", "vje", "mje", "tf", "xtf", "vtf", "itf", "ptf", "cjc", "vjc", "mjc", "xcjc", "tr",
-                      "cjs", "vjs", "mjs"}),
-    "mosfet": frozenset({"cbd", "cbs", "cgso", "cgdo", "cgbo", "cj", "cjsw"}),
-    "jfet": frozenset({"cgs", "cgd"}),
-}
-#: ngspice's spelling of a parameter netdae names otherwise.
-_NGSPICE_SPELLING = {"jfet": {"vto": "vt0"}}
-#: Instance parameters ngspice lists (as ``q1_area``).
-_LISTED_INSTANCE = {
-    "diode": ("area", "m", "temp"),
-    "bjt": ("area", "areab", "areac", "m", "temp"),
-    "mosfet": ("l", "m", "nrd", "nrs", "temp", "w"),
-    "jfet": ("area", "m", "temp"),
-}
-#: Parameters of the linear elements ngspice lists: (suffix, what, ac_only); what is how netdae
-#: perturbs it: "value", "param:<key>", "dc", "ac", "source_m", "inert", "geometry".
-_LINEAR = {
-    "resistor": (("", "value", False), ("_m", "param:m", False), ("_scale", "param:scale", False),
-                 ("_l", "geometry", False), ("_w", "geometry", False), ("_bv_max", "inert", False),
-                 (":bv_max", "inert", False), (":ef", "inert", False), (":lf", "inert", False),
-                 (":wf", "inert", False), ("_ac", "param:ac", True)),
-    "capacitor": (("", "value", True), ("_m", "param:m", False), ("_scale", "param:scale", False),
-                  ("_w", "geometry", True), ("_bv_max", "inert", False), (":bv_max", "inert", False)),
-    "inductor": (("", "value", True), ("_m", "param:m", False), ("_scale", "param:scale", False),
-                 (":mu", "geometry", True)),
-    "coupling": (("", "value", True),),
-    "vsource": (("", "dc", False), ("_acmag", "ac", True)),
-    "isource": (("", "dc", False), ("_acmag", "ac", True), ("_m", "source_m", False)),
-    "vcvs": (("_gain", "value", False),), "vccs": (("_gain", "value", False),),
-    "cccs": (("_gain", "value", False),), "ccvs": (("_gain", "value", False),),
-}
 _INERT = "noise and safe-operating-area parameters"
-_DEVICE_TABLES = {"diode": ("diode", "DIODE_PARAMETERS"), "bjt": ("bjt", "BJT_PARAMETERS"),
-                  "mosfet": ("mosfet", "MOS1_PARAMETERS"), "jfet": ("jfet", "JFET_PARAMETERS")}
 
 
 @dataclass(frozen=True)
@@ -166,10 +120,11 @@ class SensParameter:
 
 
 def _table(kind: str):
+    """The :class:`~netdae.devices.modelcard.ParameterTable` of a device kind (``ElementKind.parameters``)."""
     import importlib
 
-    module, attr = _DEVICE_TABLES[kind]
-    return getattr(importlib.import_module(f"..devices.{module}", __package__), attr)
+    module, attr = KINDS[kind].parameters.split(":")
+    return getattr(importlib.import_module(module), attr)
 
 
 def _canonical(table, name: str) -> str:
@@ -180,14 +135,14 @@ def _model_parameters(circuit: Circuit, el: Element, ac: bool) -> list[SensParam
     model = circuit.models[el.model]
     family = el.kind
     table = _table(family)
-    spelling = _NGSPICE_SPELLING.get(family, {})
+    spelling = SENS_SPELLING.get(family, {})
     back = {v: k for k, v in spelling.items()}
     given = {_canonical(table, k): v for k, v in model.params.items()}
-    names = [_canonical(table, back.get(n, n)) for n in _LISTED_MODEL[family]]
+    names = [_canonical(table, back.get(n, n)) for n in SENS_MODEL_PARAMETERS[family]]
     for key in given:
         if key in names or key == "level" or key in table.inert and key not in names:
             continue
-        if key in _AC_ONLY[family] and not ac:
+        if key in SENS_AC_ONLY[family] and not ac:
             continue
         if key in table.defaults:
             names.append(key)
@@ -211,8 +166,8 @@ def _model_parameters(circuit: Circuit, el: Element, ac: bool) -> list[SensParam
             out.append(SensParameter(shown, el.name, "absent", why="no value in the model and no default"))
             continue
         out.append(SensParameter(shown, el.name, f"model:{key}", float(base), kelvin=key == "tnom"))
-    for key in _LISTED_INSTANCE[family]:
-        out.append(_instance_parameter(circuit, el, key))
+    for suffix, _, _ in KINDS[family].sens:
+        out.append(_instance_parameter(circuit, el, suffix[1:]))
     return out
 
 
@@ -264,8 +219,9 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
     out: list[SensParameter] = []
     notes: list[str] = []
     for el in circuit.elements:
-        if el.kind in _LINEAR:
-            for suffix, how, ac_only in _LINEAR[el.kind]:
+        kind = KINDS[el.kind]
+        if kind.sens and kind.parameters is None:
+            for suffix, how, ac_only in kind.sens:
                 if ac_only and not ac:
                     continue
                 name = el.name + suffix
@@ -290,7 +246,7 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                     out.append(SensParameter(name, el.name, how, float(el.source.ac_mag)))
                 else:  # source_m
                     out.append(SensParameter(name, el.name, how, 1.0))
-        elif el.kind in _LISTED_INSTANCE:
+        elif kind.parameters is not None:
             model = circuit.models.get(el.model or "")
             if model is None or el.kind == "mosfet" and int(model.params.get("level", 1.0)) != 1:
                 where = f"{el.location}: " if el.location else ""

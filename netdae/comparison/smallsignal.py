@@ -38,7 +38,7 @@ from .header import Tolerance
 from .model import AnalysisComparison, SignalComparison
 
 __all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf", "compare_sens",
-           "compare_noise", "NGSPICE_WRONG_SENS", "NGSPICE_BROKEN_AC_SENS"]
+           "compare_noise", "NGSPICE_WRONG_SENS"]
 
 #: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
 #: the origin computed as 0 by one simulator and 1e-13 by the other; every other root relatively.
@@ -278,9 +278,16 @@ def _sens_floor(values: dict[str, float], sens: dict[str, float]) -> tuple[float
 NGSPICE_WRONG_SENS = {"diode": (":area", "_m", ":rs", "_area", "_temp")}
 
 
-#: Element kinds with which ngspice 39's AC sensitivity disagrees with its own ``.ac`` (measured: a
-#: forward-biased diode, a MOSFET amplifier); netdae's ``<source>_acmag`` equals the AC transfer.
-NGSPICE_BROKEN_AC_SENS = frozenset({"diode", "bjt", "mosfet", "jfet"})
+def _broken_ac_sens(kind: str) -> bool:
+    """ngspice 39's AC sensitivity disagrees with its own ``.ac`` on a circuit with this kind of element.
+
+    Measured on a forward-biased diode and a MOSFET amplifier: every semiconductor device whose model
+    parameters the sensitivity changes (``ElementKind.parameters``); netdae's ``<source>_acmag`` equals
+    the AC transfer.
+    """
+    from ..kinds import KINDS
+
+    return KINDS[kind].parameters is not None
 
 
 def _wrong_in_ngspice(circuit) -> list[str]:
@@ -305,14 +312,14 @@ def compare_sens(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, 
     from .analyses import select_signals
 
     ac = nd.axes.get("frequency") is not None
-    devices = sorted({el.kind for el in circuit.elements if el.kind in NGSPICE_BROKEN_AC_SENS}) if circuit else []
+    devices = sorted({el.kind for el in circuit.elements if _broken_ac_sens(el.kind)}) if circuit else []
     unjudged = ac and bool(devices)
     item = AnalysisComparison("sens", tolerance=None if unjudged else tol, axis="frequency" if ac else None)
     if unjudged:
         tol = None
         item.notes.append(f"not judged: ngspice 39's AC sensitivity of a circuit with these devices ({', '.join(devices)}) "
                           "evaluates them away from the operating point (on a forward-biased diode its "
-                          "v1_acmag is 1.4e-10 V/V where its own .ac gives 0.09 V/V: NGSPICE_BROKEN_AC_SENS)")
+                          "v1_acmag is 1.4e-10 V/V where its own .ac gives 0.09 V/V)")
     computed = [n for n in nd.names() if np.all(np.isfinite(nd.signals[n]))]
     wrong = [n for n in _wrong_in_ngspice(circuit) if n in ng.signals and n in computed]
     compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(computed, ng.names(), wanted,
