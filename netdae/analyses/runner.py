@@ -252,7 +252,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     check_options(circuit, **options)
     if not circuit.analyses:
         raise NetdaeError(
-            f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac, .tran, .pz, .tf or .noise); nothing "
+            f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac, .tran, .pz, .tf, .noise or .sens); nothing "
             "to run"
             + _skipped_analyses(circuit)
         )

@@ -1,7 +1,7 @@
 """``netdae run FILE``: run the analyses in a netlist, print a summary, write results.
 
 Writes one file per analysis into ``--out DIR`` (``op.csv``, ``dc.csv``,
-``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``, ``noise.csv`` and the
+``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``, ``sens.csv``, ``noise.csv`` and the
 integrated noise ``noise_total.csv``; a second card of a kind ``tran2.csv``
 ...; ``.raw`` with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
 the operating point and the statistics of every analysis on stdout (or one
@@ -287,7 +287,8 @@ def main(args) -> int:
     if args.json:
         doc: dict = {}
         for key, res, files in zip(keys, results, written):
-            doc[key] = {**res.to_dict(), "files": files}
+            every = True if res.analysis == "sens" else None  # a sensitivity's values are few: always in
+            doc[key] = {**res.to_dict(values=every), "files": files}
         if measures:
             doc["measures"] = {"file": measures_file, "values": [m.to_dict() for m in measures]}
         if args.export:

@@ -37,8 +37,8 @@ from ..results import Result
 from .header import Tolerance
 from .model import AnalysisComparison, SignalComparison
 
-__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf", "compare_sens",
-           "compare_noise", "NGSPICE_WRONG_SENS"]
+__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf",
+           "compare_sens", "compare_noise", "NGSPICE_WRONG_SENS"]
 
 #: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
 #: the origin computed as 0 by one simulator and 1e-13 by the other; every other root relatively.
@@ -317,7 +317,8 @@ def compare_sens(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, 
     item = AnalysisComparison("sens", tolerance=None if unjudged else tol, axis="frequency" if ac else None)
     if unjudged:
         tol = None
-        item.notes.append(f"not judged: ngspice 39's AC sensitivity of a circuit with these devices ({', '.join(devices)}) "
+        item.notes.append("not judged: ngspice 39's AC sensitivity of a circuit with these devices "
+                          f"({', '.join(devices)}) "
                           "evaluates them away from the operating point (on a forward-biased diode its "
                           "v1_acmag is 1.4e-10 V/V where its own .ac gives 0.09 V/V)")
     computed = [n for n in nd.names() if np.all(np.isfinite(nd.signals[n]))]

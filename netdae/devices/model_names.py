@@ -18,7 +18,8 @@ Examples
 
 from __future__ import annotations
 
-__all__ = ["NGSPICE_PARAMETERS", "SENS_MODEL_PARAMETERS", "SENS_AC_ONLY", "SENS_SPELLING", "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "LEVEL_PARAMETERS", "level_name",
+__all__ = ["NGSPICE_PARAMETERS", "SENS_MODEL_PARAMETERS", "SENS_AC_ONLY", "SENS_SPELLING",
+           "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "LEVEL_PARAMETERS", "level_name",
            "level_parameters"]
 
 

@@ -822,8 +822,8 @@ def _plot_header(result: Result, binary: bool, title: str, date: str, pyspice: b
     if totals:
         plotname = "Integrated Noise"
     if plotname is None:
-        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf, noise "
-                          "only)")
+        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf, noise, "
+                          "sens only)")
     if not result.signals and not result.axes:
         raise NetdaeError(f"cannot write an empty '{result.analysis}' result to a raw file")
     known_types = _variable_types(result)

@@ -92,8 +92,8 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
     if word in UNSUPPORTED_DOT_CARDS:
         raise NetlistError(f"{word}: {UNSUPPORTED_DOT_CARDS[word]} is not supported by netdae",
                            card.location(0),
-                           hint="netdae runs .op, .dc, .ac, .tran, .pz, .tf, .noise and .sens; remove the card or run it in "
-                                "ngspice")
+                           hint="netdae runs .op, .dc, .ac, .tran, .pz, .tf, .noise and .sens; remove the card or run it "
+                                "in ngspice")
     if word in IGNORED_DOT_CARDS:
         net.diagnostics.append(Diagnostic("note", f"{word} skipped: it sets {IGNORED_DOT_CARDS[word]}",
                                           card.location(0)))
