@@ -22,7 +22,7 @@ from netdae.errors import NetlistError
 CORPUS = Path("/work/corpus/tests")
 SENS_DIR = CORPUS / "regression" / "sens"
 DIFFPAIR = CORPUS / "sensitivity" / "diffpair.cir"
-#: netdae's own sensitivities are exact to rounding for linear elements (central differences, O(h^2)).
+#: netdae's sensitivities of linear elements: no truncation error, the rounding of the difference (eps / h, 1e-10).
 EXACT = 1e-8
 #: ngspice's golden values are its one-sided differences (1e-6 relative) printed to 7-16 digits.
 GOLDEN = 1e-5
@@ -125,16 +125,79 @@ def test_control_command_reads_as_card():
 
 
 # -- nonlinear devices: the operating point re-solved with the parameter changed --------------------------
-@pytest.mark.parametrize("name", ["d1:is", "d1:n", "d1:rs", "d1_area", "d1_m", "d1_temp", "d1:tnom", "r1"])
-def test_diode_against_resolved_operating_point(name):
-    circuit, res = _sens(DIODE)
+MOSFET = """* common source
+vdd 3 0 5
+vg 1 0 1.5
+rd 3 2 10k
+m1 2 1 0 0 nm w=20u l=2u
+.model nm nmos(level=1 vto=0.7 kp=1e-4 lambda=0.02 gamma=0.4 rd=5 rs=5)
+.sens v(2)
+.end
+"""
+BJT = """* common emitter
+vcc 3 0 5
+vb 4 0 0.7
+rb 4 1 1k
+rc 3 2 2k
+q1 2 1 0 qm area=1.5
+.model qm npn(bf=120 is=2e-16 vaf=60 rb=50 re=2 ikf=0.05)
+.sens v(2)
+.end
+"""
+JFET = """* jfet
+vdd 3 0 10
+vg 1 0 -0.5
+rd 3 2 2k
+j1 2 1 0 jm
+.model jm njf(vto=-2 beta=2e-4 lambda=0.01 rd=10 rs=10)
+.sens v(2)
+.end
+"""
+RESOLVED = [(DIODE, "v(3)", ["d1:is", "d1:n", "d1:rs", "d1_area", "d1_m", "d1_temp", "d1:tnom", "r1"]),
+            (MOSFET, "v(2)", ["m1:kp", "m1:vto", "m1:lambda", "m1:phi", "m1_w", "m1_l", "m1_m", "m1_temp", "vg"]),
+            (BJT, "v(2)", ["q1:bf", "q1:is", "q1:vaf", "q1:rb", "q1:ikf", "q1_area", "q1_m", "q1_temp", "rb"]),
+            (JFET, "v(2)", ["j1:beta", "j1:vt0", "j1_area", "j1_temp", "rd"])]
+
+
+@pytest.mark.parametrize("text, output, name", [(t, o, n) for t, o, names in RESOLVED for n in names])
+def test_devices_against_resolved_operating_point(text, output, name):
+    """Each sensitivity against the operating point re-solved with the parameter changed by 1e-4 of it."""
+    circuit, res = _sens(text)
     p = {q.name: q for q in sens_parameters(circuit)[0]}[name]
     h = 1e-4 * ((p.base + 273.15) if p.kelvin else abs(p.base))
-    plus = operating_point(_perturbed(circuit, p, p.base + h))["v(3)"][0]
-    minus = operating_point(_perturbed(circuit, p, p.base - h))["v(3)"][0]
+    plus = operating_point(_perturbed(circuit, p, p.base + h), reltol=1e-9)[output][0]
+    minus = operating_point(_perturbed(circuit, p, p.base - h), reltol=1e-9)[output][0]
     reference = (plus - minus) / (2 * h)
-    # the re-solved points carry Newton's tolerance (reltol 1e-3 of ~1e-6 V steps): judged at 1e-4
-    assert _units(float(res.signals[name][0]), reference, 1e-4) <= 1, (name, reference)
+    got = float(res.signals[name][0])
+    # a sensitivity that is nearly zero (a JFET's temperature: only its gate leakage moves) is judged on the
+    # scale of the largest effect, M / |p| (as compare judges it)
+    values = {q.name: q.base + (273.15 if q.kelvin else 0.0) for q in sens_parameters(circuit)[0]}
+    _, floors = _sens_floor(values, {n: float(v[0]) for n, v in res.signals.items() if np.isfinite(v[0])})
+    scale = max(abs(got), abs(reference), floors[name])
+    # central differences of h = 1e-4 relative: truncation about 1e-8 of the curvature; judged at 1e-5
+    assert _units(got, reference, 1e-5, scale) <= 1, (name, got, reference)
+
+
+def test_ac_sensitivity_of_a_diode_stage_against_its_own_ac():
+    """v1_acmag is the AC transfer; a charge parameter (cjo, tt) leaves the operating point alone, so its
+    sensitivity is the difference of two .ac runs."""
+    from netdae.analyses.ac import ac_analysis
+    from netdae.circuit import AcAnalysis
+
+    text = DIODE.replace(".sens v(3)", ".sens v(3) ac dec 1 1k 1g")
+    circuit, res = _sens(text)
+    grid = AcAnalysis("dec", 1, 1e3, 1e9)
+    base = ac_analysis(circuit, grid)["v(3)"]
+    assert np.max(np.abs(res.signals["v1_acmag"] - base) / np.abs(base)) < 1e-9  # rounding: eps / 1e-6
+    params = {q.name: q for q in sens_parameters(circuit, ac=True)[0]}
+    for name in ("d1:cjo", "d1:tt"):
+        p = params[name]
+        h = 1e-3 * p.base  # the reference's own rounding grows as eps / h: measured 8e-8 at 1e-3, 1.5e-6 at 1e-4
+        plus = ac_analysis(_perturbed(circuit, p, p.base + h), grid)["v(3)"]
+        minus = ac_analysis(_perturbed(circuit, p, p.base - h), grid)["v(3)"]
+        reference = (plus - minus) / (2 * h)
+        scale = np.max(np.abs(reference))
+        assert np.max(np.abs(res.signals[name] - reference)) <= 1e-5 * scale, name
 
 
 def test_unimplemented_parameters_are_nan_with_a_note():

@@ -25,11 +25,12 @@ stamp and device evaluation at ``x``: the circuit is assembled with the
 parameter at ``p +- h`` and evaluated at the fixed ``x`` (one owner of every
 stamp and device equation; no second model of them). ``h`` is
 :data:`RELATIVE_STEP` times ``|p|`` (a temperature's in kelvin), central
-differences, so the truncation error is ``O(h^2)``, about ``1e-12``
-relative: exact to rounding for the linear elements (their residual is
-linear in ``1/R``, ``C``, a source value...), and far below ngspice's own
-one-sided difference (``1e-6`` relative, so its values differ from the
-exact ones by about ``1e-6`` relative). A parameter that is zero is stepped
+differences: the truncation error is ``O(h^2)``, about ``1e-12``
+relative, none for the linear elements (their residual is linear in
+``1/R``, ``C``, a source value...), and the rounding of the difference
+about ``eps / h``, 1e-10 relative (measured on a divider and an RC against
+their closed forms: 1.7e-10 and 6e-11). ngspice's own one-sided difference
+leaves about ``1e-6`` relative. A parameter that is zero is stepped
 forward by :data:`ABSOLUTE_STEP`, as ngspice steps it.
 
 Which parameters, and their names (ngspice 39, measured):
