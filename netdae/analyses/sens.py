@@ -76,8 +76,8 @@ from ..devices.model_names import SENS_AC_ONLY, SENS_MODEL_PARAMETERS, SENS_SPEL
 from ..errors import CircuitError, NetdaeError
 from ..kinds import KINDS
 from ..results import Result, Statistics
-from ..signals import parse_signal
 from .op import op_result
+from .tf import output_selector
 
 __all__ = ["sens_analysis", "sens_parameters", "SensParameter", "RELATIVE_STEP", "ABSOLUTE_STEP"]
 
@@ -334,18 +334,6 @@ def _step(p: SensParameter) -> tuple[float, bool]:
     return RELATIVE_STEP * abs(p.base), True
 
 
-def _output_vector(system, sig) -> np.ndarray:
-    out = np.zeros(system.n)
-    if sig.kind == "v":
-        for node, sign in zip(sig.args, (1.0, -1.0)):
-            k = system.node_index(node)
-            if k >= 0:
-                out[k] += sign
-    else:
-        out[system.layout.branch(sig.args[0])] = 1.0
-    return out
-
-
 def sens_analysis(circuit: Circuit, card: SensAnalysis, **overrides) -> Result:
     """Run a ``.sens`` analysis.
 
@@ -379,7 +367,7 @@ def sens_analysis(circuit: Circuit, card: SensAnalysis, **overrides) -> Result:
         raise CircuitError(".sens: netdae computes no sensitivity of a circuit with transmission lines",
                            hint="simulate the sensitivity in ngspice")
     x = lin.op.x
-    c = _output_vector(system, parse_signal(card.output))
+    c, _ = output_selector(system, card.output)
     params, notes = sens_parameters(circuit, card.is_ac)
     notes = list(system.notes) + notes
     ac = card.is_ac
