@@ -344,3 +344,56 @@ def test_cli_table_json_csv_and_raw(tmp_path, capsys):
     assert back.analysis == "sens" and back.axes["frequency"].tolist() == [1e6, 2e6]
     s = 2j * math.pi * 2e6
     assert complex(back.signals["i1_acmag"][1]) == pytest.approx(1 / (s * 100e-12 + 1e-3), rel=1e-9)
+
+
+LINEAR_AC = """* linear kinds
+v1 1 0 dc 2 ac 1
+i1 0 2 dc 1m ac 0.5
+r1 1 2 1k
+c1 2 0 1n
+l1 2 3 1u
+r2 3 0 2k
+e1 4 0 2 0 2
+r4 4 5 1k
+g1 5 0 2 0 1m
+r5 5 6 1k
+f1 6 0 v1 3
+r6 6 3 1k
+h1 7 0 v1 10
+r7 7 3 1k
+l2 8 0 1u
+r8 8 3 1k
+k1 l1 l2 0.5
+.sens v(7) ac dec 2 1k 1meg
+.end
+"""
+
+
+@pytest.mark.parametrize("name", ["k1", "l1", "l1_m", "c1", "r1", "r1_ac", "e1_gain", "g1_gain", "f1_gain",
+                                  "h1_gain", "i1_acmag", "v1_acmag"])
+def test_linear_ac_against_ac_runs(name):
+    """Every linear kind's AC sensitivity against two .ac runs with the parameter changed (K included)."""
+    from netdae.analyses.ac import ac_analysis
+    from netdae.circuit import AcAnalysis
+
+    circuit, res = _sens(LINEAR_AC)
+    p = {q.name: q for q in sens_parameters(circuit, ac=True)[0]}[name]
+    grid = AcAnalysis("dec", 2, 1e3, 1e6)
+    h = 1e-4 * abs(p.base)
+    reference = (ac_analysis(_perturbed(circuit, p, p.base + h), grid)["v(7)"]
+                 - ac_analysis(_perturbed(circuit, p, p.base - h), grid)["v(7)"]) / (2 * h)
+    assert np.max(np.abs(res.signals[name] - reference)) <= 1e-7 * np.max(np.abs(reference)), name
+
+
+@pytest.mark.skipif(not _ngspice(), reason="ngspice is not installed")
+def test_compare_linear_ac_over_frequencies(tmp_path):
+    """Without the K element ngspice 39's AC sensitivities are judged, its resistors' values at the first
+    frequency only; with it none is."""
+    path = tmp_path / "lin.cir"
+    path.write_text("\n".join(line for line in LINEAR_AC.splitlines() if not line.startswith("k1")) + "\n")
+    item, = [a for a in netdae.compare(path).analyses if a.analysis == "sens"]
+    assert item.passed and item.points == 7 and len(item.signals) > 50
+    assert any("first frequency only" in n and "r1" in n for n in item.notes)
+    path.write_text(LINEAR_AC)
+    item, = [a for a in netdae.compare(path).analyses if a.analysis == "sens"]
+    assert item.passed is None and any("unreliable" in n for n in item.notes)

@@ -74,7 +74,7 @@ import scipy.sparse.linalg as spla
 from ..circuit import ABSOLUTE_ZERO, AcAnalysis, Circuit, Element, SensAnalysis
 from ..devices.model_names import SENS_AC_ONLY, SENS_MODEL_PARAMETERS, SENS_SPELLING
 from ..errors import CircuitError, NetdaeError
-from ..kinds import KINDS
+from ..kinds import KINDS, resolve
 from ..results import Result, Statistics
 from .op import op_result
 from .tf import output_selector
@@ -122,10 +122,7 @@ class SensParameter:
 
 def _table(kind: str):
     """The :class:`~netdae.devices.modelcard.ParameterTable` of a device kind (``ElementKind.parameters``)."""
-    import importlib
-
-    module, attr = KINDS[kind].parameters.split(":")
-    return getattr(importlib.import_module(module), attr)
+    return resolve(KINDS[kind].parameters)
 
 
 def _canonical(table, name: str) -> str:
@@ -184,9 +181,9 @@ def _instance_parameter(circuit: Circuit, el: Element, key: str) -> SensParamete
         return SensParameter(f"{el.name}_{key}", el.name, f"param:{key}", float(p.get(key, default)))
     if key in ("areab", "areac"):
         return SensParameter(f"{el.name}_{key}", el.name, f"param:{key}", float(p.get(key, p.get("area", 1.0))))
-    if key == "area" and "area" not in p:
+    if key == "area" and "area" not in p:  # the model's area where it has one (diodes, JFETs), else 1
         model = circuit.models.get(el.model or "")
-        area = model.params.get("area", 1.0) if model is not None and el.kind == "diode" else 1.0
+        area = model.params.get("area", 1.0) if model is not None else 1.0
         return SensParameter(f"{el.name}_area", el.name, "param:area", float(area))
     default = {"m": 1.0, "nrd": 1.0, "nrs": 1.0, "area": 1.0}[key]
     return SensParameter(f"{el.name}_{key}", el.name, f"param:{key}", float(p.get(key, default)))
