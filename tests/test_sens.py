@@ -397,3 +397,22 @@ def test_compare_linear_ac_over_frequencies(tmp_path):
     path.write_text(LINEAR_AC)
     item, = [a for a in netdae.compare(path).analyses if a.analysis == "sens"]
     assert item.passed is None and any("unreliable" in n for n in item.notes)
+
+
+@pytest.mark.skipif(not _ngspice(), reason="ngspice is not installed")
+@pytest.mark.parametrize("ac", [False, True])
+def test_names_are_ngspices(ac):
+    """netdae lists exactly the parameters ngspice 39 lists, for every kind it computes (BJTs aside: ngspice 39
+    crashes on them), with bare models and with given parameters."""
+    from netdae.ngspice import run_ngspice
+
+    text = ("* names\nv1 1 0 5 ac 1\ni1 0 2 1m ac 1\nr1 1 2 1k\nd1 2 0 dm\n.model dm d\nd2 2 4 dg\nr4 4 0 1k\n"
+            ".model dg d(rs=5 cjo=1p tt=1n bv=20)\nvdd 3 0 5\nm1 3 2 0 0 nm\n.model nm nmos\n"
+            "m2 3 2 9 0 ng w=5u\nr9 9 0 1k\n.model ng nmos(vto=0.6 lambda=0.01 cgso=1e-10)\n"
+            "vg 5 0 -1\nrj 6 0 1k\nj1 6 5 0 jm\n.model jm njf\nc1 2 0 1n\nl1 2 7 1u\nr7 7 0 1k\n"
+            "e1 8 0 2 0 2\nr8 8 0 1k\n"
+            + (".sens v(2) ac lin 1 1k 1k\n" if ac else ".sens v(2)\n") + ".end\n")
+    circuit = netdae.load(text)
+    mine = {p.name for p in sens_parameters(circuit, ac)[0]}
+    theirs = set(run_ngspice(text).result("sens").signals)
+    assert mine == theirs, (sorted(mine - theirs), sorted(theirs - mine))

@@ -72,10 +72,10 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
 #: (tests/sensitivity/diffpair.out of its test suite).
 SENS_MODEL_PARAMETERS: dict[str, tuple[str, ...]] = {
     "diode": ("af", "area", "bv_max", "cth0", "eg", "fc", "fcs", "fv_max", "ibv", "id_max", "is", "isr", "keg",
-              "m", "mjsw", "n", "nbv", "nr", "ns", "ntun", "pd_max", "php", "rs", "te_max", "tnom", "vj", "xoi",
+              "m", "mjsw", "n", "nbv", "nr", "ns", "ntun", "pd_max", "php", "te_max", "tnom", "vj", "xoi",
               "xom", "xti", "xtitun"),
     "bjt": ("bf", "br", "eg", "fc", "is", "nc", "ne", "nf", "nr", "rb", "rbm", "tnom", "vaf", "xti"),
-    "mosfet": ("fc", "is", "kp", "mj", "mjsw", "pb", "phi", "tnom", "vto"),
+    "mosfet": ("fc", "is", "kp", "mj", "mjsw", "pb", "phi", "tnom"),
     "jfet": ("af", "b", "beta", "eg", "fc", "gdsnoi", "is", "pb", "tnom", "vt0", "xti"),
 }
 #: Given model parameters the sensitivity analysis lists in its AC form alone (they enter the charges only).
