@@ -416,3 +416,10 @@ def test_names_are_ngspices(ac):
     mine = {p.name for p in sens_parameters(circuit, ac)[0]}
     theirs = set(run_ngspice(text).result("sens").signals)
     assert mine == theirs, (sorted(mine - theirs), sorted(theirs - mine))
+
+
+def test_saves_and_measures_leave_the_sensitivities_whole():
+    dc, sens = netdae.run("* m\nv1 1 0 1\nr1 1 2 1k\nr2 2 0 1k\n.dc v1 0 1 0.5\n.sens v(2)\n"
+                          ".meas dc x find v(2) at=1\n.save v(2)\n.end\n")
+    assert dc.names() == ["v(2)"] and dc.measures[0].value == pytest.approx(0.5)
+    assert _units(float(sens.signals["r2"][0]), 1.0 * 1e3 / 2e3 ** 2, EXACT) <= 1 and "v1" in sens.signals

@@ -368,7 +368,7 @@ def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Resu
     measure(circuit, results)
     if wanted == names:
         return results
-    return [r if r.analysis in ("pz", "tf", "noise") else r.subset(names) for r in results]
+    return [r if r.analysis in ("pz", "tf", "noise", "sens") else r.subset(names) for r in results]
 
 
 def _noise_subset(res: Result, names: list[str]) -> Result:
