@@ -430,11 +430,9 @@ def sens_analysis(circuit: Circuit, card: SensAnalysis, **overrides) -> Result:
             dE = (plus.E - minus.E) / width
             dH = (plus.H - minus.H) / width
             db = (plus.b - minus.b) / width
-            vals = np.empty(freqs.size, dtype=complex)
-            for i, f in enumerate(freqs):
-                dY = 2j * math.pi * f * dE - dH
-                vals[i] = W[i] @ (db - dY @ X[i])
-            signals[p.name] = vals
+            # w_f . (db - (j w_f dE - dH) X_f) for every frequency f at once
+            rhs = db[:, None] - (2j * math.pi * freqs) * (dE @ X.T) + dH @ X.T
+            signals[p.name] = np.einsum("fn,nf->f", W, rhs)
     at = f"{card.location}: " if card.location else ""
     for why, names in inert.items():
         notes.append(f"{at}sensitivity 0, {why} (no effect on the solution; ngspice's is 0 too): {', '.join(names)}")
