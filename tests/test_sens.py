@@ -423,3 +423,17 @@ def test_saves_and_measures_leave_the_sensitivities_whole():
                           ".meas dc x find v(2) at=1\n.save v(2)\n.end\n")
     assert dc.names() == ["v(2)"] and dc.measures[0].value == pytest.approx(0.5)
     assert _units(float(sens.signals["r2"][0]), 1.0 * 1e3 / 2e3 ** 2, EXACT) <= 1 and "v1" in sens.signals
+
+
+@pytest.mark.skipif(not _ngspice(), reason="ngspice is not installed")
+@pytest.mark.parametrize("text", [
+    "* i out\nv1 1 0 3\nr1 1 2 1k\nr2 2 0 2k\nd1 2 0 dm\n.model dm d(is=1e-12 n=1.5)\n.sens i(v1)\n.end\n",
+    "* v diff\nv1 1 0 3\nr1 1 2 1k\nr2 2 3 2k\nr3 3 0 500\n.sens v(2,3)\n.end\n",
+    "* subckt\n.subckt div a b\nr1 a b 1k\nr2 b 0 2k\nd1 b 0 dm\n.ends\n.model dm d(is=1e-14)\nv1 1 0 5\n"
+    "x1 1 2 div\nrl 2 0 10k\n.sens v(2)\n.end\n",
+])
+def test_compare_outputs_and_subcircuits(tmp_path, text):
+    path = tmp_path / "c.cir"
+    path.write_text(text)
+    item, = [a for a in netdae.compare(path).analyses if a.analysis == "sens"]
+    assert item.passed, [(s.name, s.max_rel) for s in item.signals if not s.passed]
