@@ -77,6 +77,7 @@ __all__ = [
     "OpAnalysis",
     "TranAnalysis",
     "AcAnalysis",
+    "SensAnalysis",
     "DcSweep",
     "DcAnalysis",
     "PzAnalysis",
@@ -329,7 +330,32 @@ class NoiseAnalysis:
     location: SourceLocation | None = None
 
 
-Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | TfAnalysis | NoiseAnalysis
+@dataclass(slots=True)
+class SensAnalysis:
+    """``.sens outvar [dc]`` or ``.sens outvar ac dec|oct|lin points fstart fstop`` (sensitivity).
+
+    ``output`` is the canonical signal (``v(out)``, ``v(a,b)``, ``i(vsrc)``),
+    ``written`` as the card spells it. ``variation`` is ``None`` for the DC
+    sensitivity; for the AC one ``variation``, ``points``, ``fstart`` and
+    ``fstop`` are the frequency grid as ``.ac``'s.
+    """
+
+    output: str
+    location: SourceLocation | None = None
+    written: str = ""
+    variation: str | None = None
+    points: int = 0
+    fstart: float = 0.0
+    fstop: float = 0.0
+
+    @property
+    def is_ac(self) -> bool:
+        """True for the AC sensitivity."""
+        return self.variation is not None
+
+
+Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | TfAnalysis | NoiseAnalysis | \
+    SensAnalysis
 
 
 @dataclass(slots=True)

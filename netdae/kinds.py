@@ -132,6 +132,20 @@ class ElementKind:
         (``"osdi"``: an ngspice model netdae runs as a bundled compiled
         module, :mod:`netdae.devices.osdi.spice_models`); such a kind has
         neither a stamp nor a family of its own.
+    sens : tuple of (str, str, bool)
+        The parameters ngspice 39's sensitivity analysis lists for an element
+        of this kind, as ``(suffix, how, ac_only)``: the name is the
+        element's plus ``suffix`` (``"_m"``, ``":bv_max"``, ``""`` for its
+        value), ``how`` what :mod:`netdae.analyses.sens` changes (``"value"``,
+        ``"param:<key>"``, ``"dc"``, ``"ac"``, ``"source_m"``; ``"inert"``
+        and ``"geometry"`` change nothing), ``ac_only`` listed by the AC
+        sensitivity alone. For a semiconductor device the instance parameters
+        (``("_area", "param:area", False)``); its model's come from
+        :data:`~netdae.devices.model_names.SENS_MODEL_PARAMETERS`.
+    parameters : str or None
+        ``"module:attribute"`` of the device's
+        :class:`~netdae.devices.modelcard.ParameterTable` (a semiconductor
+        device whose model parameters the sensitivity analysis changes).
     """
 
     name: str
@@ -159,6 +173,8 @@ class ElementKind:
     independent: bool = False
     senses: str | None = None
     runs_as: str | None = None
+    sens: tuple[tuple[str, str, bool], ...] = ()
+    parameters: str | None = None
 
     @property
     def noun(self) -> str:
@@ -187,6 +203,18 @@ class ElementKind:
 
 
 _PASSIVE = frozenset({"resistor", "capacitor", "inductor"})
+#: Sensitivity parameters (``ElementKind.sens``), measured with ngspice 39.
+_SENS_R = (("", "value", False), ("_m", "param:m", False), ("_scale", "param:scale", False), ("_l", "geometry", False),
+           ("_w", "geometry", False), ("_bv_max", "inert", False), (":bv_max", "inert", False),
+           (":ef", "inert", False), (":lf", "inert", False), (":wf", "inert", False), ("_ac", "param:ac", True))
+_SENS_C = (("", "value", True), ("_m", "param:m", False), ("_scale", "param:scale", False), ("_w", "geometry", True),
+           ("_bv_max", "inert", False), (":bv_max", "inert", False))
+_SENS_L = (("", "value", True), ("_m", "param:m", False), ("_scale", "param:scale", False), (":mu", "geometry", True))
+_SENS_GAIN = (("_gain", "value", False),)
+
+
+def _sens_instance(*keys: str) -> tuple[tuple[str, str, bool], ...]:
+    return tuple((f"_{k}", f"param:{k}", False) for k in keys)
 _CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
 #: Most terminals an OSDI device may have in the topological analysis.
 OSDI_MAX_TERMINALS = 16
@@ -198,25 +226,30 @@ def _two(cls: int) -> tuple[tuple[int, int, int], ...]:
 
 _DEFINITIONS = (
     ElementKind("resistor", "r", "resistor", "(n+, n-)", (2,), _two(RESISTIVE), stamped=True,
-                model_types=("r", "res"), self_loop=True, steppable=True, current_is_quantity=True),
+                model_types=("r", "res"), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_R),
     ElementKind("capacitor", "c", "capacitor", "(n+, n-)", (2,), _two(CAPACITIVE), stamped=True,
-                model_types=("c",), self_loop=True, steppable=True, current_is_quantity=True),
+                model_types=("c",), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_C),
     ElementKind("inductor", "l", "inductor", "(n+, n-)", (2,), _two(INDUCTIVE), currents=("",), stamped=True,
-                model_types=("l",), self_loop=True, steppable=True),
-    ElementKind("coupling", "k", "mutual inductance", "()", (0,), stamped=True, senses="inductor"),
+                model_types=("l",), self_loop=True, steppable=True, sens=_SENS_L),
+    ElementKind("coupling", "k", "mutual inductance", "()", (0,), stamped=True, senses="inductor",
+                sens=(("", "value", True),)),
     ElementKind("vsource", "v", "voltage source", "(n+, n-)", (2,), _two(VOLTAGE), currents=("",), stamped=True,
-                independent=True, self_loop=True, steppable=True),
+                independent=True, self_loop=True, steppable=True, sens=(("", "dc", False), ("_acmag", "ac", True))),
     ElementKind("isource", "i", "current source", "(n+, n-)", (2,), _two(CURRENT), stamped=True, independent=True,
-                self_loop=True, steppable=True),
+                self_loop=True, steppable=True,
+                sens=(("", "dc", False), ("_acmag", "ac", True), ("_m", "source_m", False))),
     ElementKind("vcvs", "e", "voltage-controlled voltage source", "(n+, n-, nc+, nc-)", (4,), _two(VOLTAGE),
                 _CONTROL_INPUTS, currents=("",), stamped=True, controlled=True, group="controlled sources",
-                self_loop=True, steppable=True),
+                self_loop=True, steppable=True, sens=_SENS_GAIN),
     ElementKind("vccs", "g", "voltage-controlled current source", "(n+, n-, nc+, nc-)", (4,), _two(CURRENT),
-                _CONTROL_INPUTS, stamped=True, controlled=True, group="controlled sources", self_loop=True, steppable=True),
+                _CONTROL_INPUTS, stamped=True, controlled=True, group="controlled sources", self_loop=True,
+                steppable=True, sens=_SENS_GAIN),
     ElementKind("cccs", "f", "current-controlled current source", "(n+, n-)", (2,), _two(CURRENT), stamped=True,
-                senses="vsource", controlled=True, group="controlled sources", self_loop=True, steppable=True),
+                senses="vsource", controlled=True, group="controlled sources", self_loop=True, steppable=True,
+                sens=_SENS_GAIN),
     ElementKind("ccvs", "h", "current-controlled voltage source", "(n+, n-)", (2,), _two(VOLTAGE), currents=("",),
-                stamped=True, senses="vsource", controlled=True, group="controlled sources", self_loop=True, steppable=True),
+                stamped=True, senses="vsource", controlled=True, group="controlled sources", self_loop=True,
+                steppable=True, sens=_SENS_GAIN),
     ElementKind("opamp", "e", "ideal op-amp (nullor)", "(out+, out-, in+, in-)", (4,),
                 ((VOLTAGE, 0, 1), (NULLATOR, 2, 3)), ((2, "input"), (3, "input")), currents=("",), stamped=True,
                 controlled=True, group="ideal op-amps", self_loop=True),
@@ -231,18 +264,24 @@ _DEFINITIONS = (
                 group="charge-defined capacitors", self_loop=True),
     ElementKind("diode", "d", "diode", "(anode, cathode)", (2,), model_types=("d",),
                 family="netdae.devices.diode:DiodeFamily", topology="netdae.devices.diode:diode_branches",
-                self_loop=True, solved_quantities=True, device_ic=("ic",)),
+                self_loop=True, solved_quantities=True, device_ic=("ic",), sens=_sens_instance("area", "m", "temp"),
+                parameters="netdae.devices.diode:DIODE_PARAMETERS"),
     ElementKind("bjt", "q", "bipolar transistor", "(c, b, e[, substrate])", (3, 4),
                 ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0)),
                 model_types=("npn", "pnp"), family="netdae.devices.bjt:BjtFamily", controlled=True,
-                group="transistors", solved_quantities=True, device_ic=("icvbe", "icvce")),
+                group="transistors", solved_quantities=True, device_ic=("icvbe", "icvce"),
+                sens=_sens_instance("area", "areab", "areac", "m", "temp"),
+                parameters="netdae.devices.bjt:BJT_PARAMETERS"),
     ElementKind("mosfet", "m", "MOSFET", "(d, g, s, b)", (4,),
                 ((RESISTIVE, 0, 2), (RESISTIVE, 0, 3), (RESISTIVE, 2, 3)), ((1, "gate"),),
                 model_types=("nmos", "pmos"), family="netdae.devices.mosfet:MosfetFamily", controlled=True,
-                group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs", "icvbs")),
+                group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs", "icvbs"),
+                sens=_sens_instance("l", "m", "nrd", "nrs", "temp", "w"),
+                parameters="netdae.devices.mosfet:MOS1_PARAMETERS"),
     ElementKind("jfet", "j", "JFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 model_types=("njf", "pjf"), family="netdae.devices.jfet:JfetFamily", controlled=True,
-                group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs")),
+                group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs"),
+                sens=_sens_instance("area", "m", "temp"), parameters="netdae.devices.jfet:JFET_PARAMETERS"),
     # ngspice's MESFET (Z cards): elaboration maps it to the bundled port of ngspice's model (an osdi element)
     ElementKind("mesfet", "z", "MESFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 model_types=("nmf", "pmf"), controlled=True, group="transistors", device_ic=("icvds", "icvgs"),

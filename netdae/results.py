@@ -61,7 +61,7 @@ class Result:
     Parameters
     ----------
     analysis : str
-        ``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"``, ``"tf"`` or ``"noise"``.
+        ``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"``, ``"tf"``, ``"noise"`` or ``"sens"``.
     axes : dict of str to ndarray
         Sweep axes in order, primary first (``{"time": t}``; for a two-source
         ``.dc`` sweep ``{"v1": ..., "v2": ...}`` with one entry per point);

@@ -167,6 +167,8 @@ _ALLOWED_TABLES = {
     ("netdae/devices/model_names.py", "MODEL_FAMILIES"),
     ("netdae/devices/model_names.py", "LEVELS"),
     ("netdae/devices/model_names.py", "LEVEL_PARAMETERS"),
+    ("netdae/devices/model_names.py", "SENS_MODEL_PARAMETERS"),  # ngspice 39's sensitivity lists, by family
+    ("netdae/devices/model_names.py", "SENS_AC_ONLY"),
     ("netdae/netlist/elaborate.py", "_PASSIVE_MODEL_PARAMS"),  # R, C, L model parameters (ngspice's res.c ...)
     ("netdae/netlist/elements.py", "_VALUE_KEY"),  # the value keyword of R, C, L cards
     ("netdae/netlist/syntax.py", "ELEMENTS"),  # the card syntax per letter

@@ -270,7 +270,7 @@ def test_the_bridge_gets_cards_never_a_control_block(tmp_path):
 
 
 @pytest.mark.parametrize("command, what", [("disto dec 10 1 1k", "distortion"),
-                                           ("sens v(out)", "sensitivity")])
+                                           ("fourier 1k v(out)", "Fourier")])
 def test_analyses_netdae_lacks_are_refused_in_control_blocks(command, what):
     with pytest.raises(NetlistError, match=rf"\.control: '{command.split()[0]}' \({what} analysis\) is not "
                                            "supported") as exc:
@@ -280,8 +280,9 @@ def test_analyses_netdae_lacks_are_refused_in_control_blocks(command, what):
 
 def test_pz_tf_and_noise_commands_are_read_as_cards():
     c = load("t\nV1 in 0 1 ac 1\nR1 in out 1k\nR2 out 0 1k\nC1 out 0 1u\n.control\nop\n  pz in 0 out 0 cur pol\n"
-             "  tf v(out) v1\n  noise v(out) v1 dec 10 1 1k\n.endc\n.end\n")
-    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis", "PzAnalysis", "TfAnalysis", "NoiseAnalysis"]
+             "  tf v(out) v1\n  noise v(out) v1 dec 10 1 1k\n  sens v(out) dc\n.endc\n.end\n")
+    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis", "PzAnalysis", "TfAnalysis", "NoiseAnalysis",
+                                                      "SensAnalysis"]
     assert (c.analyses[1].location.line, c.analyses[1].location.column) == (8, 3)
 
 

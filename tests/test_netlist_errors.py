@@ -22,7 +22,7 @@ CASES = [
     ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
     ("t\nR1 a 0 1\n.noise v(a) v1 dec 10 1 1k\n", r"\.noise: input source 'v1' names no element", 3, "v1"),
     ("t\nR1 a b 1\nR2 b 0 1\n.pz a 0 c 0 vol pz\n", r"\.pz: output node 'c' is not a node", 4, "c"),
-    ("t\n.sens v(a)\n", r"sensitivity", 2, ".sens"),
+    ("t\nR1 b 0 1\n.sens v(a)\n", r"\.sens: output node 'a'", 3, "a"),
     ("t\n.disto dec 10 1 1k\n", r"distortion", 2, ".disto"),
     ("t\nR1 a 0 1\n.tf v(a) v1\n", r"\.tf: input source 'v1' names no element", 3, "v1"),
     ("t\n.step param r 1 2 1\nV1 a 0 1\n", r"no top-level .param defines .r.", 2, "r", 2),

@@ -3,7 +3,7 @@
 This is what ``netdae run FILE``, :func:`netdae.run` and
 :func:`netdae.simulate` do: check the options (the netlist's ``.options``
 and the caller's overrides) against their valid ranges, dispatch each
-``.op``, ``.dc``, ``.ac``, ``.tran``, ``.pz``, ``.tf`` and ``.noise`` card of
+``.op``, ``.dc``, ``.ac``, ``.tran``, ``.pz``, ``.tf``, ``.noise`` and ``.sens`` card of
 the circuit to its analysis and collect the :class:`~netdae.results.Result`
 objects.
 
@@ -18,8 +18,8 @@ import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from ..circuit import AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, TfAnalysis, \
-    TranAnalysis
+from ..circuit import AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, SensAnalysis, \
+    TfAnalysis, TranAnalysis
 from ..errors import NetdaeError, NetlistError
 
 if TYPE_CHECKING:
@@ -139,7 +139,7 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
 
 
 def analysis_name(card: Any) -> str:
-    """``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"``, ``"tf"`` or ``"noise"`` for an analysis card."""
+    """``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"pz"``, ``"tf"``, ``"noise"`` or ``"sens"`` for an analysis card."""
     if isinstance(card, OpAnalysis):
         return "op"
     if isinstance(card, DcAnalysis):
@@ -154,6 +154,8 @@ def analysis_name(card: Any) -> str:
         return "tf"
     if isinstance(card, NoiseAnalysis):
         return "noise"
+    if isinstance(card, SensAnalysis):
+        return "sens"
     raise TypeError(f"not an analysis card: {card!r}")
 
 
@@ -250,7 +252,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     check_options(circuit, **options)
     if not circuit.analyses:
         raise NetdaeError(
-            f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac, .tran, .pz, .tf or .noise); nothing "
+            f"{circuit.path}: the netlist has no analysis card (.op, .dc, .ac, .tran, .pz, .tf, .noise or .sens); nothing "
             "to run"
             + _skipped_analyses(circuit)
         )
@@ -304,6 +306,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 from .noise import noise_analysis
 
                 res = noise_analysis(circuit, card, **options)
+            elif kind == "sens":
+                from .sens import sens_analysis
+
+                res = sens_analysis(circuit, card, **options)
             else:
                 from .ac import ac_analysis
 
@@ -314,7 +320,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
         if kind == "noise":
             res = _noise_subset(res, noise_names)
-        elif names and kind not in ("pz", "tf"):  # their quantities are not signals to select
+        elif names and kind not in ("pz", "tf", "sens"):  # their quantities are not signals to select
             try:
                 res = res.subset([n for n in wanted if canonical_or(n) not in absent])
             except KeyError as exc:
@@ -362,7 +368,7 @@ def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Resu
     measure(circuit, results)
     if wanted == names:
         return results
-    return [r if r.analysis in ("pz", "tf", "noise") else r.subset(names) for r in results]
+    return [r if r.analysis in ("pz", "tf", "noise", "sens") else r.subset(names) for r in results]
 
 
 def _noise_subset(res: Result, names: list[str]) -> Result:

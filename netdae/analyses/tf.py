@@ -46,7 +46,7 @@ from ..results import Result, Statistics
 from ..signals import parse_signal
 from .op import op_result
 
-__all__ = ["tf_analysis", "transfer", "INFINITE_IMPEDANCE", "tf_names"]
+__all__ = ["tf_analysis", "transfer", "INFINITE_IMPEDANCE", "tf_names", "output_selector"]
 
 #: What ngspice reports for an infinite impedance (and netdae with it).
 INFINITE_IMPEDANCE = 1e20
@@ -70,6 +70,35 @@ def tf_names(card: TfAnalysis) -> tuple[str, str, str]:
     else:
         last = f"output_impedance_at_{out}"
     return "transfer_function", f"{card.source}#input_impedance", last
+
+
+def output_selector(system, output: str) -> tuple[np.ndarray, int | None]:
+    """The vector ``c`` with ``c . x`` the output of ``.tf`` or ``.sens``, and the output's branch.
+
+    Parameters
+    ----------
+    system : MnaSystem
+    output : str
+        ``v(a)``, ``v(a,b)`` or ``i(x)`` (canonical).
+
+    Returns
+    -------
+    c : ndarray, shape (n,)
+        ``e_a - e_b`` (ground left out) or ``e_k`` of the branch current.
+    branch : int or None
+        The branch of a current output.
+    """
+    sig = parse_signal(output)
+    c = np.zeros(system.n)
+    if sig.kind == "v":
+        for node, sign in zip(sig.args, (1.0, -1.0)):
+            k = system.node_index(node)
+            if k >= 0:
+                c[k] += sign
+        return c, None
+    branch = system.layout.branch(sig.args[0])
+    c[branch] = 1.0
+    return c, branch
 
 
 def _impedance(current: float) -> float:
@@ -166,18 +195,8 @@ def tf_analysis(circuit: Circuit, card: TfAnalysis, **overrides) -> Result:
     src = circuit.element(card.source)
     col = list(system.sources.names).index(card.source)
     b = np.asarray(system.B[:, [col]].toarray()).ravel()
-    n = system.n
     sig = parse_signal(card.output)
-    out = np.zeros(n)
-    out_branch = None
-    if sig.kind == "v":
-        for node, sign in zip(sig.args, (1.0, -1.0)):
-            k = system.node_index(node)
-            if k >= 0:
-                out[k] += sign
-    else:
-        out_branch = system.layout.branch(sig.args[0])
-        out[out_branch] = 1.0
+    out, out_branch = output_selector(system, card.output)
     if src.kind == "vsource":
         kind, index = "v", system.layout.branch(src.name)
     else:

@@ -125,6 +125,11 @@ def _analysis_text(a: dict) -> str:
         out = f"v({a['output']})" if a["reference"] == "0" else f"v({a['output']},{a['reference']})"
         text = f".noise {out} {a['source']} {a['variation']} {a['points']} {_fmt(a['fstart'])} {_fmt(a['fstop'])}"
         return text + (f" {a['summary']}" if a["summary"] else "")
+    if kind == "sens":
+        text = f".sens {a['written'] or a['output']}"
+        if a["variation"] is None:
+            return text + " dc"
+        return text + f" ac {a['variation']} {a['points']} {_fmt(a['fstart'])} {_fmt(a['fstop'])}"
     sweeps = "; ".join(f"{s['source']} {_fmt(s['start'])} to {_fmt(s['stop'])} step {_fmt(s['step'])}"
                        for s in a["sweeps"])
     return f".dc {sweeps}"

@@ -1,7 +1,7 @@
 """``netdae run FILE``: run the analyses in a netlist, print a summary, write results.
 
 Writes one file per analysis into ``--out DIR`` (``op.csv``, ``dc.csv``,
-``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``, ``noise.csv`` and the
+``ac.csv``, ``tran.csv``, ``pz.csv``, ``tf.csv``, ``sens.csv``, ``noise.csv`` and the
 integrated noise ``noise_total.csv``; a second card of a kind ``tran2.csv``
 ...; ``.raw`` with ``--format raw``), optional PNG plots (``--plot``), and prints a table of
 the operating point and the statistics of every analysis on stdout (or one
@@ -57,7 +57,7 @@ def _export_path(text: str) -> str:
 def add_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "run",
-        help="run the analyses of a netlist (.op, .dc, .ac, .tran, .pz, .tf, .noise)",
+        help="run the analyses of a netlist (.op, .dc, .ac, .tran, .pz, .tf, .noise, .sens)",
         description="Run every analysis in the netlist, print a summary and write the results.",
     )
     p.add_argument("file", help="netlist file")
@@ -98,6 +98,32 @@ def _quantity_lines(result) -> list[str]:
         lines = [format_root(name, complex(v[0])) for name, v in result.signals.items()]
         return lines or ["(no finite pole or zero)"]
     return [f"{name} = {float(v[0]):.6e}" for name, v in result.signals.items()]
+
+
+def _sens_lines(result) -> list[str]:
+    """A ``.sens`` result as a table: one row per parameter (per frequency for the AC sensitivity)."""
+    names = list(result.signals)
+    if not names:
+        return ["(no parameter)"]
+    width = max(len("parameter"), *(len(n) for n in names))
+    freqs = result.axes.get("frequency")
+    if freqs is None:
+        lines = [f"{'parameter':<{width}}  d out / d parameter"]
+        for name in names:
+            v = float(result.signals[name][0])
+            lines.append(f"{name:<{width}}  " + ("not computed" if v != v else f"{v: .6e}"))
+        return lines
+    lines = []
+    for i, f in enumerate(freqs):
+        lines.append(f"frequency = {f:.6e} Hz")
+        lines.append(f"{'parameter':<{width}}  {'real':>13}  {'imaginary':>13}  {'magnitude':>13}")
+        for name in names:
+            v = complex(result.signals[name][i])
+            if v != v:
+                lines.append(f"{name:<{width}}  not computed")
+            else:
+                lines.append(f"{name:<{width}}  {v.real: .6e}  {v.imag: .6e}  {abs(v): .6e}")
+    return lines
 
 
 def stems(results) -> list[str]:
@@ -184,7 +210,7 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None,
             path = out_dir / f"{stem}.raw"
             write_raw(path, [res], binary=not args.ascii, title=title)
         files.append(str(path))
-    if args.plot and res.analysis not in ("op", "pz", "tf"):
+    if args.plot and res.analysis not in ("op", "pz", "tf", "sens"):
         from ..plotting import plot_result
 
         path = (out_dir or Path(".")) / f"{stem}.png"
@@ -261,7 +287,8 @@ def main(args) -> int:
     if args.json:
         doc: dict = {}
         for key, res, files in zip(keys, results, written):
-            doc[key] = {**res.to_dict(), "files": files}
+            every = True if res.analysis == "sens" else None  # a sensitivity's values are few: always in
+            doc[key] = {**res.to_dict(values=every), "files": files}
         if measures:
             doc["measures"] = {"file": measures_file, "values": [m.to_dict() for m in measures]}
         if args.export:
@@ -282,6 +309,8 @@ def main(args) -> int:
                 print("\n".join(_quantity_lines(res)))
             elif res.analysis == "noise":
                 print("\n".join(f"{name} = {value:.6e}" for name, value in res.noise_totals.items()))
+            elif res.analysis == "sens":
+                print("\n".join(_sens_lines(res)))
             if res.measures:
                 from ..measures import format_measure
 

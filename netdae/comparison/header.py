@@ -43,12 +43,13 @@ from ..errors import NetdaeError
 
 __all__ = ["Tolerance", "NetlistHeader", "parse_header", "read_header", "ANALYSES"]
 
-ANALYSES = ("op", "dc", "ac", "tran", "pz", "tf", "noise")
+ANALYSES = ("op", "dc", "ac", "tran", "pz", "tf", "noise", "sens")
 #: Words naming an analysis in a tolerance statement.
 _ANALYSIS_WORDS = {
     ".op": "op", "op": "op", ".dc": "dc", "dc": "dc", ".ac": "ac", "ac": "ac",
     ".tran": "tran", "tran": "tran", "transient": "tran", "transients": "tran",
     ".pz": "pz", "pz": "pz", ".tf": "tf", "tf": "tf", ".noise": "noise", "noise": "noise",
+    ".sens": "sens", "sens": "sens",
 }
 _KEY = re.compile(r"^\*\s?([a-z][a-z ]*[a-z]):\s*(.*)$", re.I)
 _CONTINUATION = re.compile(r"^\*\s{2,}(\S.*)$")

@@ -74,7 +74,10 @@ def format_analysis(item: AnalysisComparison) -> str:
         right = set(range(1, len(header) - 2))
         lines += ["  " + line for line in _table(rows, right)]
         floored = [s.name for s in item.signals if s.scale_from == "floor"]
-        if floored:
+        if floored and item.analysis == "sens":
+            lines.append("  scale floored at the largest effect M = max |p dout/dp| over |p| (a sensitivity whose "
+                         f"parameter moves the output little): {', '.join(floored)}")
+        elif floored:
             lines.append(f"  scale floored (signal smaller than 1 % of its kind's largest): {', '.join(floored)}")
         if item.window:
             worst_whole = max(item.signals, key=lambda s: s.whole["max_rel"] if s.whole else 0.0)

@@ -52,7 +52,7 @@ from ..errors import NetdaeError, NgspiceError
 from ..ngspice import RUNS_LAST_TO_FIRST
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
-from .smallsignal import compare_noise, compare_pz, compare_tf
+from .smallsignal import compare_noise, compare_pz, compare_sens, compare_tf
 from .header import ANALYSES, Tolerance, parse_header
 from .model import AnalysisComparison, Comparison, MeasureComparison
 
@@ -79,7 +79,7 @@ TIGHT_STEPS_PER_INTERVAL = 1e4
 #: for gains up to 1e15, see docs/ngspice.md).
 TIGHT_OPAMP_GAIN = 1e9
 _COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compare_pz, "tf": compare_tf,
-              "noise": compare_noise}
+              "noise": compare_noise, "sens": compare_sens}
 
 
 def _read(netlist) -> tuple[Circuit, str, str, str]:
@@ -207,6 +207,9 @@ def _with_differences(ng: Result, names: list[str]) -> Result:
 def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, overrides, wanted, exclude,
                   ngspice_failed: bool, netdae_results: dict | None = None) -> AnalysisComparison:
     """One analysis card compared; netdae's result is kept in ``netdae_results`` (the first of its kind)."""
+    if ng is None and kind == "sens" and not ngspice_failed:  # removed by the bridge: its notes say why
+        return AnalysisComparison(kind, tolerance=None, notes=["not judged: ngspice 39 did not run this .sens card "
+                                                               "(the bridge removed it; see its notes)"])
     if ng is None:
         reason = "ngspice failed on the netlist" if ngspice_failed else f"ngspice produced no {kind} result"
         return AnalysisComparison(kind, tolerance=tol, error=reason)
@@ -230,7 +233,8 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     if kind == "tran":
         item = compare_transient(nd, ng, tol=tol, wanted=wanted, exclude=exclude)
     else:
-        item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude)
+        extra = {"circuit": circuit} if kind == "sens" else {}
+        item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude, **extra)
     item.netdae_tolerances = dict(nd.tolerances)
     item.ngspice_tolerances = {**ng.tolerances, "method": (ng.source.method if ng.source is not None and ng.source.method else "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]

@@ -18,7 +18,8 @@ Examples
 
 from __future__ import annotations
 
-__all__ = ["NGSPICE_PARAMETERS", "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "LEVEL_PARAMETERS", "level_name",
+__all__ = ["NGSPICE_PARAMETERS", "SENS_MODEL_PARAMETERS", "SENS_AC_ONLY", "SENS_SPELLING",
+           "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "LEVEL_PARAMETERS", "level_name",
            "level_parameters"]
 
 
@@ -65,6 +66,29 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
 }
 
 #: Names in those tables that are outputs (ngspice reports them, and refuses them on a .model card).
+#: The model parameters ngspice 39's sensitivity analysis lists for every instance of a family whatever its
+#: model gives (measured; a given parameter is listed too), in ngspice's spelling. ngspice 39 stops with
+#: a segmentation fault on a BJT's sensitivity: the BJT's are those an earlier ngspice lists
+#: (tests/sensitivity/diffpair.out of its test suite).
+SENS_MODEL_PARAMETERS: dict[str, tuple[str, ...]] = {
+    "diode": ("af", "area", "bv_max", "cth0", "eg", "fc", "fcs", "fv_max", "ibv", "id_max", "is", "isr", "keg",
+              "m", "mjsw", "n", "nbv", "nr", "ns", "ntun", "pd_max", "php", "te_max", "tnom", "vj", "xoi",
+              "xom", "xti", "xtitun"),
+    "bjt": ("bf", "br", "eg", "fc", "is", "nc", "ne", "nf", "nr", "rb", "rbm", "tnom", "vaf", "xti"),
+    "mosfet": ("fc", "is", "kp", "mj", "mjsw", "pb", "phi", "tnom"),
+    "jfet": ("af", "b", "beta", "eg", "fc", "gdsnoi", "is", "pb", "tnom", "vt0", "xti"),
+}
+#: Given model parameters the sensitivity analysis lists in its AC form alone (they enter the charges only).
+SENS_AC_ONLY: dict[str, frozenset] = {
+    "diode": frozenset({"cjo", "tt"}),
+    "bjt": frozenset({"cje", "vje", "mje", "tf", "xtf", "vtf", "itf", "ptf", "cjc", "vjc", "mjc", "xcjc", "tr",
+                      "cjs", "vjs", "mjs"}),
+    "mosfet": frozenset({"cbd", "cbs", "cgso", "cgdo", "cgbo", "cj", "cjsw"}),
+    "jfet": frozenset({"cgs", "cgd"}),
+}
+#: ngspice's spelling in a sensitivity's name of a parameter netdae's table names otherwise.
+SENS_SPELLING: dict[str, dict[str, str]] = {"jfet": {"vto": "vt0"}}
+
 OUTPUT_ONLY: dict[str, frozenset] = {
     "diode": _names("cond"),
     "bjt": _names("type invearlyvoltf invearlyvoltr invrollofff invrolloffr collectorconduct emitterconduct "

@@ -78,6 +78,7 @@ __all__ = [
     "format_raw",
     "signal_name",
     "quantity_name",
+    "sens_name",
     "PLOTNAMES",
     "PLOTNAME_OF",
     "FLAVOURS",
@@ -97,6 +98,7 @@ PLOTNAMES = {
     "transfer function": "tf",
     "noise spectral density curves": "noise",
     "integrated noise": _NOISE_TOTALS,
+    "sensitivity analysis": "sens",
 }
 #: Plot names written for each analysis (ngspice's spelling).
 PLOTNAME_OF = {
@@ -107,6 +109,7 @@ PLOTNAME_OF = {
     "pz": "Pole-Zero Analysis",
     "tf": "Transfer Function",
     "noise": "Noise Spectral Density Curves",
+    "sens": "Sensitivity Analysis",
 }
 #: Analyses whose plot has no scale: every vector is a result.
 _NO_AXIS = frozenset({"op", "pz", "tf"})
@@ -181,6 +184,20 @@ def signal_name(name: str, vtype: str) -> str:
         return f"v({key})"
     if vtype == "current":
         return f"i({key})"
+    return key
+
+
+def sens_name(name: str) -> str:
+    """netdae's name of a sensitivity vector as ngspice writes (``v(r1_m)``) or stores (``R1_m``) it.
+
+    Examples
+    --------
+    >>> sens_name("v(d1:is)"), sens_name("R1_m"), sens_name("v1_acmag")
+    ('d1:is', 'r1_m', 'v1_acmag')
+    """
+    key = name.strip().lower()
+    if key.startswith("v(") and key.endswith(")"):
+        return key[2:-1]
     return key
 
 
@@ -593,6 +610,8 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
     lengths = [table.shape[0] if n is None else min(n, table.shape[0]) for n in head.lengths]
     columns = [table[: lengths[k], k] for k in range(len(names))]
     n_axes = 0 if analysis in _NO_AXIS or analysis == _NOISE_TOTALS else _count_axes(head.options, names)
+    if analysis == "sens":  # a DC sensitivity has no scale, an AC one its frequency
+        n_axes = int(bool(names) and names[0] == "frequency")
     axes: dict[str, np.ndarray] = {}
     signals: dict[str, np.ndarray] = {}
     types: dict[str, str] = {}
@@ -606,7 +625,12 @@ def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) 
                 column = column.real.copy()
             axes[key] = column
         else:
-            key = quantity_name(name) if analysis in ("pz", "tf", "noise", _NOISE_TOTALS) else signal_name(name, vtype)
+            if analysis == "sens":
+                key = sens_name(name)
+            elif analysis in ("pz", "tf", "noise", _NOISE_TOTALS):
+                key = quantity_name(name)
+            else:
+                key = signal_name(name, vtype)
             if key in signals:
                 raise ResultFileError(f"{source}: plot '{head.plotname}' has two vectors named {key!r}")
             signals[key] = column.copy()
@@ -798,8 +822,8 @@ def _plot_header(result: Result, binary: bool, title: str, date: str, pyspice: b
     if totals:
         plotname = "Integrated Noise"
     if plotname is None:
-        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf, noise "
-                          "only)")
+        raise NetdaeError(f"cannot write a '{result.analysis}' result to a raw file (op, tran, ac, dc, pz, tf, noise, "
+                          "sens only)")
     if not result.signals and not result.axes:
         raise NetdaeError(f"cannot write an empty '{result.analysis}' result to a raw file")
     known_types = _variable_types(result)

@@ -9,7 +9,7 @@ skipped (one located note each):
 command                                read as
 =====================================  ======================================
 ``op``, ``tran``, ``ac``, ``dc``,      ``.op``, ``.tran``, ``.ac``, ``.dc``,
-``pz``, ``tf``, ``noise``              ``.pz``, ``.tf``, ``.noise``
+``pz``, ``tf``, ``noise``, ``sens``    ``.pz``, ``.tf``, ``.noise``, ``.sens``
 ``run``                                nothing (netdae runs every analysis)
 ``save``                               ``.save``
 ``print``, ``plot`` (signals only)     ``.print``, ``.plot``
@@ -20,7 +20,7 @@ command                                read as
 option netdae reads)
 =====================================  ======================================
 
-``sens``, ``disto``, ``fourier`` ... are analyses
+``disto``, ``fourier`` ... are analyses
 netdae does not have: a located error names them. Lines inside loops and
 conditionals (``while``, ``repeat``, ``dowhile``, ``foreach``, ``if`` ...
 ``end``), after a command that changes the circuit (``alter``, ``altermod``,
@@ -48,9 +48,9 @@ from .syntax import UNSUPPORTED_DOT_CARDS
 __all__ = ["read_block", "ANALYSIS_COMMANDS", "OPTION_VARIABLES"]
 
 #: Commands read as the dot card of the same name.
-ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc", "pz", "tf", "noise"})
+ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
 #: Analyses netdae does not have (refused by name).
-_UNSUPPORTED = {"sens": ".sens", "disto": ".disto",
+_UNSUPPORTED = {"disto": ".disto",
                 "fourier": ".fourier", "four": ".four", "sp": ".sp", "pss": ".pss", "hb": ".hb"}
 #: ``set`` variables that are simulator options netdae reads.
 OPTION_VARIABLES = frozenset({"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom", "itl1", "itl4",
@@ -109,7 +109,7 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
     Raises
     ------
     NetlistError
-        An analysis netdae does not have (``sens``, ``disto`` ...), at the command.
+        An analysis netdae does not have (``disto``, ``fourier`` ...), at the command.
     """
     cards: list[Card] = []
     notes: list[Diagnostic] = []
@@ -136,7 +136,7 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
             what = UNSUPPORTED_DOT_CARDS[_UNSUPPORTED[cmd]]
             raise NetlistError(f".control: '{cmd}' ({what}) is not supported by netdae",
                                SourceLocation(file, line, col),
-                               hint="netdae runs op, dc, ac, tran, pz, tf and noise; remove the command or run the "
+                               hint="netdae runs op, dc, ac, tran, pz, tf, noise and sens; remove the command or run the "
                                     "netlist in ngspice")
         if cmd in _STOP:
             stopped = cmd
@@ -181,5 +181,5 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
                 skip(line, col, text, f"'{name}' is an ngspice front-end variable, not an option netdae reads")
         else:
             skip(line, col, text, "netdae does not run ngspice's control language (it reads op, tran, ac, dc, "
-                 "pz, tf, noise, save, print, plot, wrdata, write, option and set of options)")
+                 "pz, tf, noise, sens, save, print, plot, wrdata, write, option and set of options)")
     return cards, notes

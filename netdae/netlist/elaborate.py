@@ -28,7 +28,8 @@ import math
 from collections.abc import Mapping
 
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
-                       NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SourceSpec, TfAnalysis, TranAnalysis)
+                       NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis, SourceSpec, TfAnalysis,
+                       TranAnalysis)
 from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
@@ -915,20 +916,14 @@ class _Elaborator:
                     raise error(card, args["tmax"][1], f"tmax must be > 0, got {tmax:g}", form)
                 circuit.analyses.append(TranAnalysis(v["tstep"], v["tstop"], tstart, tmax, args["uic"], loc))
             elif a.kind == "ac":
-                points = self._value(args["points"], card, "points")
-                fstart = self._value(args["fstart"], card, "fstart")
-                fstop = self._value(args["fstop"], card, "fstop")
-                if points < 1 or points != int(points):
-                    raise error(card, args["points"][1], f"points must be a positive integer, got {points:g}", form)
-                if fstart <= 0 and args["variation"] != "lin" or fstart < 0:
-                    raise error(card, args["fstart"][1], f"fstart must be > 0, got {fstart:g}", form)
-                if fstop < fstart:
-                    raise error(card, args["fstop"][1], f"fstop {fstop:g} is below fstart {fstart:g}", form)
-                circuit.analyses.append(AcAnalysis(args["variation"], int(points), fstart, fstop, loc))
+                points, fstart, fstop = self._sweep(card, args, form)
+                circuit.analyses.append(AcAnalysis(args["variation"], points, fstart, fstop, loc))
             elif a.kind == "pz":
                 circuit.analyses.append(self._pz(card, args, form, set(circuit.nodes), loc))
             elif a.kind == "tf":
                 circuit.analyses.append(self._tf(card, args, form, set(circuit.nodes), elements, loc))
+            elif a.kind == "sens":
+                circuit.analyses.append(self._sens(card, args, form, set(circuit.nodes), elements, loc))
             elif a.kind == "noise":
                 circuit.analyses.append(self._noise(card, args, form, set(circuit.nodes), elements, loc))
             else:
@@ -976,8 +971,11 @@ class _Elaborator:
                         hint="the output port is two different nodes")
         return PzAnalysis(*names, args["input_type"], args["what"], loc)
 
-    def _tf(self, card, args: dict, form: str, nodes: set, elements: dict, loc) -> TfAnalysis:
-        """``.tf``: an output voltage of existing nodes or a branch current, an independent source as input."""
+    def _output(self, card, args: dict, form: str, nodes: set, elements: dict) -> tuple[str, str]:
+        """The output of ``.tf`` and ``.sens``: a voltage of existing nodes or a branch current.
+
+        Returns the canonical signal and the signal as written.
+        """
         letter, parts, offset = args["output"]
         if letter == "v":
             names = [self._node(card, n, off, form, nodes, "output node") for n, off in parts]
@@ -995,6 +993,11 @@ class _Elaborator:
                 raise error(card, off, f"output i({name}) {what}", form,
                             hint="i() names a V source, inductor, E/H source or B voltage source")
             output = written = f"i({name})"
+        return output, written
+
+    def _tf(self, card, args: dict, form: str, nodes: set, elements: dict, loc) -> TfAnalysis:
+        """``.tf``: an output voltage of existing nodes or a branch current, an independent source as input."""
+        output, written = self._output(card, args, form, nodes, elements)
         name, off = args["source"]
         target = elements.get(name)
         if target is None or not KINDS[target.kind].independent:
@@ -1002,6 +1005,27 @@ class _Elaborator:
             raise error(card, off, f"input source '{name}' {what}, not an independent V or I source", form,
                         hint="the input is the value of an independent V or I source of the circuit")
         return TfAnalysis(output, name, loc, written)
+
+    def _sens(self, card, args: dict, form: str, nodes: set, elements: dict, loc) -> SensAnalysis:
+        """``.sens``: the output as ``.tf``'s; the AC sweep checked as ``.ac``'s."""
+        output, written = self._output(card, args, form, nodes, elements)
+        if "variation" not in args:
+            return SensAnalysis(output, loc, written)
+        points, fstart, fstop = self._sweep(card, args, form)
+        return SensAnalysis(output, loc, written, args["variation"], points, fstart, fstop)
+
+    def _sweep(self, card, args: dict, form: str) -> tuple[int, float, float]:
+        """The frequency sweep of ``.ac`` and ``.sens ... ac``: points, fstart, fstop, checked."""
+        points = self._value(args["points"], card, "points")
+        fstart = self._value(args["fstart"], card, "fstart")
+        fstop = self._value(args["fstop"], card, "fstop")
+        if points < 1 or points != int(points):
+            raise error(card, args["points"][1], f"points must be a positive integer, got {points:g}", form)
+        if fstart <= 0 and args["variation"] != "lin" or fstart < 0:
+            raise error(card, args["fstart"][1], f"fstart must be > 0, got {fstart:g}", form)
+        if fstop < fstart:
+            raise error(card, args["fstop"][1], f"fstop {fstop:g} is below fstart {fstart:g}", form)
+        return int(points), fstart, fstop
 
     def _check_model_parameter(self, circuit: Circuit, model: str, param: str, where) -> None:
         """A stepped model parameter names a top-level model and a parameter ngspice knows for its type.

@@ -92,8 +92,8 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
     if word in UNSUPPORTED_DOT_CARDS:
         raise NetlistError(f"{word}: {UNSUPPORTED_DOT_CARDS[word]} is not supported by netdae",
                            card.location(0),
-                           hint="netdae runs .op, .dc, .ac, .tran, .pz, .tf and .noise; remove the card or run it in "
-                                "ngspice")
+                           hint="netdae runs .op, .dc, .ac, .tran, .pz, .tf, .noise and .sens; remove the card or run it "
+                                "in ngspice")
     if word in IGNORED_DOT_CARDS:
         net.diagnostics.append(Diagnostic("note", f"{word} skipped: it sets {IGNORED_DOT_CARDS[word]}",
                                           card.location(0)))
@@ -436,13 +436,13 @@ def _pz(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.analyses.append(AnalysisCard("pz", card, {"nodes": nodes, "input_type": words[0], "what": words[1]}))
 
 
-def _output_and_source(card: Card, toks: list[Token], form: str, hint: str, kinds: tuple, expected: str,
-                       what: str) -> tuple[Token, list, list[Token]]:
-    """The output ``v(n[,m])`` (or ``i(source)`` when ``"i"`` is in ``kinds``) at ``toks[1]``, then an input
-    source's name (``.tf``, ``.noise``).
+def _output(card: Card, toks: list[Token], form: str, hint: str, kinds: tuple, expected: str,
+            what: str) -> tuple[Token, list, list[Token]]:
+    """The output ``v(n[,m])`` (or ``i(source)`` when ``"i"`` is in ``kinds``) at ``toks[1]`` (``.tf``,
+    ``.noise``, ``.sens``).
 
     Returns the output's head token, its arguments as ``(name, offset)`` (nodes read as nodes) and the
-    tokens from the source's name on. Errors are located; ``expected`` and ``what`` name the output.
+    tokens after it. Errors are located; ``expected`` and ``what`` name the output.
     """
     n = len(toks)
     tok = toks[1]
@@ -461,7 +461,16 @@ def _output_and_source(card: Card, toks: list[Token], form: str, hint: str, kind
     if not args or len(args) > limit:
         raise error(card, tok.start, f"{tok.text}(...) takes {'one or two nodes' if limit == 2 else 'one source'}, "
                     f"found {len(args)}", form, hint=hint)
-    rest = toks[j + 1:]
+    return tok, args, toks[j + 1:]
+
+
+def _output_and_source(card: Card, toks: list[Token], form: str, hint: str, kinds: tuple, expected: str,
+                       what: str) -> tuple[Token, list, list[Token]]:
+    """The output (:func:`_output`), then an input source's name (``.tf``, ``.noise``).
+
+    Returns the output's head token, its arguments and the tokens from the source's name on.
+    """
+    tok, args, rest = _output(card, toks, form, hint, kinds, expected, what)
     if not rest:
         raise error(card, len(card.text), "missing the input source (an independent V or I source)", form, hint=hint)
     if rest[0].kind != WORD or parse_number(rest[0].text) is not None:
@@ -481,6 +490,33 @@ def _tf(card: Card, toks: list[Token], stack, net: Netlist) -> None:
         raise error(card, rest[1].start, f"unexpected {rest[1].text!r}", form)
     net.analyses.append(AnalysisCard("tf", card, {"output": (tok.text, tuple(args), tok.start),
                                                   "source": (rest[0].text, rest[0].start)}))
+
+
+def _sens(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".sens"]
+    hint = "e.g. .sens v(out), .sens v(out,ref) dc, .sens i(vsrc) or .sens v(out) ac dec 10 1k 1meg"
+    if len(toks) < 2:
+        raise error(card, len(card.text), "missing the output variable", form, hint=hint)
+    tok, args, rest = _output(card, toks, form, hint, ("v", "i"), "the output v(node), v(node,node) or i(vsource)",
+                              "output variable")
+    found = {"output": (tok.text, tuple(args), tok.start)}
+    if rest and rest[0].text == "dc":
+        rest = rest[1:]
+        if rest:
+            raise error(card, rest[0].start, f"unexpected {rest[0].text!r} after dc", form, hint=hint)
+    elif rest:
+        if rest[0].text != "ac":
+            raise error(card, rest[0].start, f"expected dc, ac or the end of the card, found {rest[0].text!r}", form,
+                        hint=hint)
+        if len(rest) < 2 or rest[1].text not in ("dec", "oct", "lin"):
+            raise error(card, rest[1].start if len(rest) > 1 else len(card.text),
+                        "expected the sweep type dec, oct or lin after ac", form, hint=hint)
+        vals = _values(card, rest, 2, form)
+        if len(vals) != 3:
+            raise error(card, vals[3][1] if len(vals) > 3 else len(card.text),
+                        f"expected points, fstart and fstop, found {len(vals)} value(s)", form, hint=hint)
+        found.update(variation=rest[1].text, points=vals[0], fstart=vals[1], fstop=vals[2])
+    net.analyses.append(AnalysisCard("sens", card, found))
 
 
 def _noise(card: Card, toks: list[Token], stack, net: Netlist) -> None:
@@ -656,6 +692,7 @@ def _step(card: Card, toks: list[Token], stack, net: Netlist) -> None:
 _HANDLERS = {
     ".subckt": _subckt, ".ends": _ends, ".param": _param, ".func": _func, ".model": _model,
     ".global": _global, ".title": _title, ".op": _op, ".tran": _tran, ".ac": _ac, ".dc": _dc, ".pz": _pz, ".tf": _tf,
+    ".sens": _sens,
     ".noise": _noise,
     ".ic": _ic, ".nodeset": _ic, ".options": _options, ".temp": _temp, ".save": _saves,
     ".print": _saves, ".probe": _saves, ".plot": _saves, ".meas": _meas,

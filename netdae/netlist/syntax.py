@@ -165,6 +165,7 @@ DOT_CARDS: dict[str, str] = {
     ".pz": ".pz in+ in- out+ out- cur|vol pol|zer|pz",
     ".tf": ".tf v(out[,ref])|i(vsrc) vsrc|isrc",
     ".noise": ".noise v(out[,ref]) vsrc|isrc dec|oct|lin points fstart fstop [pts_per_summary]",
+    ".sens": ".sens v(out[,ref])|i(vsrc) [dc] | .sens v(out[,ref])|i(vsrc) ac dec|oct|lin points fstart fstop",
     ".ic": ".ic v(node)=value ...",
     ".nodeset": ".nodeset v(node)=value ...",
     ".options": ".options name[=value] ...",
@@ -194,7 +195,6 @@ IGNORED_DOT_CARDS: dict[str, str] = {
 UNSUPPORTED_DOT_CARDS: dict[str, str] = {
     ".four": "Fourier analysis",
     ".fourier": "Fourier analysis",
-    ".sens": "sensitivity analysis",
     ".disto": "distortion analysis",
     ".sp": "S-parameter analysis",
     ".pss": "periodic steady-state analysis",

@@ -278,7 +278,7 @@ def run_ngspice(
     if not output.results:
         raise NgspiceError(
             f"ngspice produced no results for {source}: the netlist has no analysis card "
-            "(.op, .dc, .ac, .tran, .pz, .tf or .noise)"
+            "(.op, .dc, .ac, .tran, .pz, .tf, .noise or .sens)"
         )
     results = output.results
     _name_dc_axes(results, dc_sweeps(netlist), notes)

@@ -62,7 +62,7 @@ __all__ = ["DOT_CARDS", "Origin", "self_contained"]
 #: makes ngspice read a file or run a command (``.title`` becomes the title
 #: line; ``.include``, ``.lib`` and ``.control`` never reach ngspice).
 DOT_CARDS = frozenset(
-    ".param .func .subckt .ends .model .global .op .dc .ac .tran .pz .tf .noise .ic .nodeset .options .option .opt "
+    ".param .func .subckt .ends .model .global .op .dc .ac .tran .pz .tf .noise .sens .ic .nodeset .options .option .opt "
     ".temp .save .print .plot .probe .meas .measure".split()
 )
 #: Title prefix when the title could be read by ngspice as a command or a card.

@@ -55,7 +55,7 @@ import time
 import numpy as np
 
 from ..errors import NgspiceError
-from ..io.raw import PLOTNAME_OF, quantity_name, signal_name
+from ..io.raw import PLOTNAME_OF, quantity_name, sens_name, signal_name
 from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
@@ -68,8 +68,9 @@ __all__ = ["run", "version", "library_path"]
 _VECTOR_TYPES = {0: "notype", 1: "time", 2: "frequency", 3: "voltage", 4: "current"}
 #: ngspice names plots ``tran1``, ``ac2`` ...: the analysis is the prefix.
 _PLOT_PREFIX = re.compile(r"^([a-z]+)\d*$")
-_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc", "pz": "pz", "tf": "tf", "noise": "noise"}
-_AXIS_OF = {"tran": ("time",), "ac": ("frequency",), "noise": ("frequency",), "dc": ("v-sweep", "i-sweep", "res-sweep", "temp-sweep")}
+_ANALYSIS_OF_PREFIX = {"op": "op", "tran": "tran", "ac": "ac", "dc": "dc", "pz": "pz", "tf": "tf", "noise": "noise",
+                       "sens": "sens"}
+_AXIS_OF = {"tran": ("time",), "ac": ("frequency",), "noise": ("frequency",), "sens": ("frequency",), "dc": ("v-sweep", "i-sweep", "res-sweep", "temp-sweep")}
 #: Seconds to wait for ngspice's background thread to stop after ``bg_halt``.
 _HALT_WAIT = 10.0
 #: Polling interval while waiting for the halted thread [s].
@@ -213,7 +214,7 @@ class _Session:
         analysis = _ANALYSIS_OF_PREFIX.get(match.group(1) if match else "")
         if analysis is None:
             raise NgspiceError(
-                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran, pz, tf, noise)"
+                f"ngspice plot '{plot}' is not an analysis netdae reads (it reads: op, dc, ac, tran, pz, tf, noise, sens)"
             )
         # ngspice lists the newest vector first: reversed, that is creation
         # order, the order of the raw file.
@@ -227,7 +228,10 @@ class _Session:
                 key = name.lower()
                 axes[key] = data.real.copy() if np.iscomplexobj(data) else data
             else:
-                key = quantity_name(name) if analysis in ("pz", "tf", "noise") else signal_name(name, vtype)
+                if analysis == "sens":
+                    key = sens_name(name)
+                else:
+                    key = quantity_name(name) if analysis in ("pz", "tf", "noise") else signal_name(name, vtype)
                 signals[key] = data
             types[key] = vtype
         source = Provenance(title=title, plotname=PLOTNAME_OF[analysis], plot=plot, variable_types=types)

@@ -266,16 +266,25 @@ def translate_for_ngspice(
         notes.append(f"{origins[first.first]}: '.save all' added: with .meas cards and no .save card, ngspice 39 "
                      "saves only the vectors the .meas cards name")
     saves = [card for card in cards if card.keyword == ".save"]
-    analyses = [card for card in cards if card.keyword in (".pz", ".tf", ".noise")]
+    analyses = [card for card in cards if card.keyword in (".pz", ".tf", ".noise", ".sens")]
     if saves and analyses and not any(t.lower() == "all" for card in saves for t in card.tokens[1:]):
         end = next(card for card in reversed(cards) if _is_end(card))
         old = edits.get(end.first, (end.last, lines[end.first]))
         edits[end.first] = (old[0], ".save all\n" + old[1])
         notes.append(f"{origins[analyses[0].first]}: '.save all' added: with .save cards, ngspice 39 saves no "
                      f"{analyses[0].keyword} result ('no data saved for ... analysis; analysis not run')")
+    bjt = any(card.keyword[:1] == "q" for card in cards)
+    sens_seen = False
     for card in cards:
         keyword = card.keyword
         where = origins[card.first]
+        if keyword == ".sens" and (bjt or sens_seen):
+            edits[card.first] = (card.last, None)
+            why = ("stops with a segmentation fault computing the sensitivity of a circuit with a bipolar "
+                   "transistor" if bjt else "corrupts its memory and aborts running a second sensitivity analysis")
+            notes.append(f"{where}: .sens removed: ngspice 39 {why} (measured); netdae computes it alone")
+            continue
+        sens_seen = sens_seen or keyword == ".sens"
         if keyword == ".subckt" and len(card.tokens) > 1:
             subckt.append(card.tokens[1].lower())
         elif keyword == ".ends" and subckt:

@@ -50,7 +50,7 @@ WARM_NETLISTS = (
 WARM_MODULES = ("netdae.cli.run", "netdae.cli.progress", "netdae.cli.check", "netdae.cli.index", "netdae.cli.sweep",
                 "netdae.io.csv", "netdae.io.raw", "netdae.io.files", "netdae.io.sweep", "netdae.comparison",
                 "netdae.sweeps", "netdae.analyses.pz", "netdae.analyses.tf", "netdae.analyses.noise",
-                "netdae.analyses.dc", "netdae.analyses.index", "netdae.topology")
+                "netdae.analyses.sens", "netdae.analyses.dc", "netdae.analyses.index", "netdae.topology")
 
 
 def warm_up() -> None:
