@@ -190,6 +190,8 @@ _PASSIVE = frozenset({"resistor", "capacitor", "inductor"})
 _CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
 #: Most terminals an OSDI device may have in the topological analysis.
 OSDI_MAX_TERMINALS = 16
+#: Most conductors of a coupled line (ngspice 39's CPL holds at most 8, ``MAX_CP_TX_LINES``).
+MAX_CPL_CONDUCTORS = 8
 
 
 def _two(cls: int) -> tuple[tuple[int, int, int], ...]:
@@ -265,6 +267,13 @@ _DEFINITIONS = (
                 tuple((RESISTIVE, 0, k) for k in range(1, OSDI_MAX_TERMINALS)),
                 family="netdae.devices.osdi.family:OsdiFamily", controlled=True, group="compiled devices", solved_quantities=True,
                 module_quantities=True),
+    # ngspice's lossy lines: elaboration replaces each by its sections (netdae.netlist.lossy); never assembled.
+    # At DC each is a path between its ports (the sections' series resistances), which the sections show.
+    ElementKind("ltra", "o", "lossy transmission line (LTRA)", "(p1+, p1-, p2+, p2-)", (4,), model_types=("ltra",)),
+    ElementKind("txl", "y", "single lossy transmission line (TXL)", "(in, ref1, out, ref2)", (4,),
+                model_types=("txl",)),
+    ElementKind("cpl", "py", "coupled multiconductor line (CPL)", "(in1 .. inN, ref1, out1 .. outN, ref2)",
+                tuple(range(4, 2 * MAX_CPL_CONDUCTORS + 3, 2)), model_types=("cpl",)),
     # E/G LAPLACE: elaboration replaces it by its state-space block (netdae.netlist.laplace); never assembled
     ElementKind("laplace", "eg", "Laplace-transfer source", "(n+, n-)", (2,)),
 )

@@ -236,11 +236,15 @@ class MnaSystem(DaeSystem):
         """Constant part of dphi/dx (all of it for a linear circuit)."""
         return self._H
 
-    def source(self, t: float, derivative: int = 0) -> np.ndarray:
-        """``c(t) = B u(t)`` or its time derivative, shape (n,)."""
+    def source(self, t: float, derivative: int = 0, *, waves: bool = True) -> np.ndarray:
+        """``c(t) = B u(t)`` or its time derivative, shape (n,).
+
+        With transmission lines the delayed waves are part of ``c`` (``waves=False``: the
+        independent sources' part alone).
+        """
         u = self.sources.values(t, derivative)
         c = self._b_full @ u if self._b_full is not None else self._add_sources(np.zeros(self.n), u)
-        if self.delays is not None:
+        if self.delays is not None and waves:
             if derivative == 0:
                 c[self.delays.rows] += self.delayed_waves(t)
             elif np.any(t - self.delays.tau > self._delay_t0):
