@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..circuit import AcAnalysis, Element, NoiseAnalysis, TranAnalysis
+from ..circuit import AcAnalysis, Element, NoiseAnalysis, SourceSpec, TranAnalysis
 
 __all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "LineParameters", "LossyLineError", "line_parameters", "resolution", "section_count", "realise",
            "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "DC_STEP", "MAX_SECTIONS",
@@ -123,7 +123,7 @@ class LineParameters:
     length : float
     form : str
         ``"lc"`` (sections of lossless lines), ``"rc"`` (a ladder without inductance),
-        ``"rg"`` (the exact T network) or ``"ladder"`` (coupled lines).
+        ``"rg"`` (the exact T network) or ``"modal"`` (coupled lines).
     """
 
     kind: str
@@ -145,6 +145,22 @@ class LineParameters:
         if not self.l.any() or not self.c.any():
             return 0.0
         return self.length * math.sqrt(max(float(np.max(np.linalg.eigvals(self.l @ self.c).real)), 0.0))
+
+    @property
+    def reflection(self) -> float:
+        """What the whole line's losses reflect when lumped in one place, ``R len / (2 z0) + G len z0 / 2``.
+
+        For coupled lines the largest over the modes (:func:`modes`), with the losses seen by
+        each mode, ``T_v^-1 R T_v^-T`` and ``T_v^T G T_v`` (invariant under the modes' scaling).
+        """
+        if self.form == "lc":
+            z0 = self.impedance
+            return self.length * (float(self.r[0, 0]) / (2.0 * z0) + float(self.g[0, 0]) * z0 / 2.0)
+        tv, lm, cm = modes(self.l, self.c)
+        inv = np.linalg.inv(tv)
+        z0 = np.sqrt(lm / cm)
+        rm, gm = np.diag(inv @ self.r @ inv.T), np.diag(tv.T @ self.g @ tv)
+        return self.length * float(np.max(rm / (2.0 * z0) + gm * z0 / 2.0))
 
     @property
     def impedance(self) -> float:
@@ -291,7 +307,7 @@ def line_parameters(el: Element, model) -> tuple[LineParameters, list[tuple[str,
                                  "positive)")
     if mats["g"].any() and not _definite(mats["g"], strict=False):
         raise LossyLineError("the g matrix is not positive semi-definite", "g")
-    return LineParameters("cpl", np.diag(diag), mats["l"], mats["g"], mats["c"], length, "ladder"), notes
+    return LineParameters("cpl", np.diag(diag), mats["l"], mats["g"], mats["c"], length, "modal"), notes
 
 
 def _triangle(name: str, values, n: int) -> np.ndarray:
@@ -364,17 +380,17 @@ def section_count(p: LineParameters, scale: float | None) -> tuple[int, int]:
     need = [1.0]
     if tot["g"] > 0 and tot["r"] > 0:
         need.append(math.sqrt(tot["r"] * tot["g"]) / DC_STEP)
-    fraction = SECTION_FRACTION if p.form == "lc" else LADDER_FRACTION
-    if p.form == "lc":
-        z0 = p.impedance
+    fraction = LADDER_FRACTION if p.form == "rc" else SECTION_FRACTION
+    if p.form in ("lc", "modal"):
         if tot["r"] == 0 and tot["g"] == 0:
             return 1, 1  # lossless: one exact line
-        need.append(tot["r"] / (2.0 * z0 * LUMP_REFLECTION) + tot["g"] * z0 / (2.0 * LUMP_REFLECTION))
+        need.append(p.reflection / LUMP_REFLECTION)
     if scale is not None:
-        need.append(p.delay / (fraction * scale))
+        if p.form == "rc":
+            need.append(p.delay / (fraction * scale))
         diffusion = max(float(np.max(np.diag(p.r))) * p.length, 0.0) * float(np.max(np.diag(p.c))) * p.length
         need.append(math.sqrt(diffusion / (fraction * scale)))
-    elif p.form == "ladder" or p.form == "rc":
+    elif p.form == "rc":
         need.append(2.0)
     wanted = int(math.ceil(max(need) - 1e-9))
     return min(wanted, MAX_SECTIONS), wanted
@@ -403,7 +419,7 @@ def realise(el: Element, p: LineParameters, n: int) -> tuple[list[Element], list
     prefix = "".join(f"{q}." for q in parts[1:-1])
     made = _Builder(el, f"{prefix}{own}#")
     if p.kind == "cpl":
-        _ladder(made, p, n)
+        _modal(made, p, n)
     elif p.form == "rg":
         _rg(made, p)
     elif p.form == "rc":
@@ -491,35 +507,85 @@ def _rg(made: _Builder, p: LineParameters) -> None:
     del rb  # an RG line's reference: the first port's (as for every ladder of this module)
 
 
-def _ladder(made: _Builder, p: LineParameters, n: int) -> None:
-    """Coupled lines: per section and conductor ``R_ii/n`` and ``L_ii/n``, coupled; C and G lumped at the joints."""
+def modes(l: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The propagation modes of coupled lossless lines: ``T_v``, the modes' ``L_m``, ``C_m``.
+
+    With ``C = K K^T`` (Cholesky) and ``K^T L K = Q diag(lambda) Q^T``, the voltages
+    ``v = T_v v_m`` and currents ``i = T_v^-T i_m`` with ``T_v = K^-T Q`` (columns scaled to
+    a largest entry of 1) decouple the lines: ``L_m = T_v^-1 L T_v^-T`` and ``C_m = T_v^T C T_v``
+    are diagonal (returned as their diagonals).
+    """
+    k = np.linalg.cholesky(c)
+    _, q = np.linalg.eigh(k.T @ l @ k)
+    tv = np.linalg.solve(k.T, q)
+    tv = tv / np.max(np.abs(tv), axis=0)
+    inv = np.linalg.inv(tv)
+    return tv, np.diag(inv @ l @ inv.T).copy(), np.diag(tv.T @ c @ tv).copy()
+
+
+def _transform(made: _Builder, tag: str, phys: list[str], modal: list[str], tv: np.ndarray) -> None:
+    """An ideal multiport transformer: ``v(phys) = T_v v(modal)``, ``i_modal = T_v^T i_phys``.
+
+    Per conductor a 0 V source senses the current entering from the physical node and a chain
+    of VCVSs (one per mode) sets its voltage; per mode CCCSs inject ``sum_i T_v[i, m] i_i``
+    into the modal node. The power entering one side leaves the other.
+    """
+    m = len(phys)
+    senses = []
+    for i in range(m):
+        top = made.node(f"s{tag}_{i + 1}")
+        senses.append(made.add(f"v{tag}_{i + 1}", "vsource", (phys[i], top), source=SourceSpec(dc=0.0)).name)
+        for k in range(m):
+            gain = float(tv[i, k])
+            if gain == 0.0 and k < m - 1:
+                continue
+            below = "0" if k == m - 1 else made.node(f"e{tag}_{i + 1}_{k + 1}")
+            made.add(f"e{tag}_{i + 1}_{k + 1}", "vcvs", (top, below, modal[k], "0"), gain)
+            top = below
+    for k in range(m):
+        for i in range(m):
+            gain = float(tv[i, k])
+            if gain != 0.0:
+                made.add(f"f{tag}_{k + 1}_{i + 1}", "cccs", ("0", modal[k]), gain, controls=(senses[i],))
+
+
+def _modal(made: _Builder, p: LineParameters, n: int) -> None:
+    """Coupled lines: per section one lossless line per mode (:func:`modes`) between two ideal
+    transformers, the losses lumped in the conductors at the joints (half at the ends)."""
     nodes = made.el.nodes
     m = p.conductors
-    ins, outs = nodes[:m], nodes[m + 1: 2 * m + 1]
+    ins, outs = list(nodes[:m]), list(nodes[m + 1: 2 * m + 1])
+    tv, lm, cm = modes(p.l, p.c)
+    z0, td = np.sqrt(lm / cm), p.length * np.sqrt(lm * cm) / n
     d = p.length / n
-    joints = [list(ins)] + [[made.node(f"j{i + 1}_{k}") for i in range(m)] for k in range(1, n)] + [list(outs)]
+    here = ins
     for k in range(n + 1):
         weight = 0.5 if k in (0, n) else 1.0
+        after = outs if k == n else [made.node(f"j{i + 1}_{k}") for i in range(m)]
         for i in range(m):
-            total_c = float(p.c[i].sum())
-            total_g = float(p.g[i].sum())
-            made.shunt(f"{i + 1}_{k}", joints[k][i], "0", weight * total_g * d, weight * total_c * d)
-            for j in range(i + 1, m):
-                cij, gij = -float(p.c[i, j]), -float(p.g[i, j])
-                if cij != 0:
-                    made.add(f"c{i + 1}_{j + 1}_{k}", "capacitor", (joints[k][i], joints[k][j]), weight * cij * d)
-                if gij != 0:
-                    made.add(f"g{i + 1}_{j + 1}_{k}", "resistor", (joints[k][i], joints[k][j]), 1.0 / (weight * gij * d))
+            made.add(f"r{i + 1}_{k}", "resistor", (here[i], after[i]), weight * float(p.r[i, i]) * d)
+        _shunts(made, str(k), after, p.g * weight * d, None)
         if k == n:
             break
-        inductors = []
+        left = [made.node(f"x{i + 1}_{k + 1}") for i in range(m)]
+        right = [made.node(f"y{i + 1}_{k + 1}") for i in range(m)]
+        _transform(made, f"a{k + 1}", after, left, tv)
         for i in range(m):
-            mid = made.node(f"m{i + 1}_{k + 1}")
-            made.add(f"r{i + 1}_{k + 1}", "resistor", (joints[k][i], mid), float(p.r[i, i]) * d)
-            inductors.append(made.add(f"l{i + 1}_{k + 1}", "inductor", (mid, joints[k + 1][i]), float(p.l[i, i]) * d))
-        for i in range(m):
-            for j in range(i + 1, m):
-                kij = float(p.l[i, j]) / math.sqrt(float(p.l[i, i]) * float(p.l[j, j]))
-                if kij != 0:
-                    made.add(f"k{i + 1}_{j + 1}_{k + 1}", "coupling", (), kij,
-                             controls=(inductors[i].name, inductors[j].name))
+            made.add(f"t{i + 1}_{k + 1}", "tline", (left[i], "0", right[i], "0"),
+                     params={"z0": float(z0[i]), "td": float(td[i])})
+        here = [made.node(f"h{i + 1}_{k + 1}") for i in range(m)]
+        _transform(made, f"b{k + 1}", here, right, tv)
+
+
+def _shunts(made: _Builder, tag: str, at: list[str], g: np.ndarray, c: np.ndarray | None) -> None:
+    """Maxwell matrices lumped at nodes: conductor i to ground ``sum_j M_ij``, i to j ``-M_ij``."""
+    m = len(at)
+    for i in range(m):
+        made.shunt(f"{i + 1}_{tag}", at[i], "0", float(g[i].sum()), float(c[i].sum()) if c is not None else 0.0)
+        for j in range(i + 1, m):
+            gij = -float(g[i, j])
+            cij = -float(c[i, j]) if c is not None else 0.0
+            if gij != 0:
+                made.add(f"g{i + 1}_{j + 1}_{tag}", "resistor", (at[i], at[j]), 1.0 / gij)
+            if cij != 0:
+                made.add(f"c{i + 1}_{j + 1}_{tag}", "capacitor", (at[i], at[j]), cij)
