@@ -899,7 +899,8 @@ def _tline(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
 
 #: The element kind of each lossy line's card letter (a Y card with a CPL model becomes a ``cpl``
 #: when the model is known, as ngspice 39 reads it).
-_LOSSY_KINDS = {"o": "ltra", "y": "txl", "p": "cpl"}
+_LOSSY_KINDS = {letter: spec.name for spec in reversed(KINDS.values()) if spec.realised_by == "netdae.netlist.lossy"
+                for letter in spec.letters}
 
 
 def _lossy_line(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:

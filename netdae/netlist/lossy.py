@@ -32,7 +32,7 @@ At DC every form is the line's series resistance between its ports with its shun
 conductance (exact when ``G = 0``, which all of ngspice's LTRA forms but RG have).
 
 The number of sections (:func:`section_count`) follows from the line and the circuit's
-finest time scale (:func:`resolution`: a transient's ``min(tstep, tmax, (tstop - tstart)/50)``,
+finest time scale (:func:`resolution`: a transient's ``min(tstep, (tstop - tstart)/50)``,
 ``1 / (2 pi fstop)`` of an ``.ac`` or ``.noise``): a section's delay ``td / n`` and its
 diffusion time ``R C len^2 / n^2`` are at most :data:`SECTION_FRACTION` (a ladder:
 :data:`LADDER_FRACTION`) of that scale, a lump reflects at most :data:`LUMP_REFLECTION`,
@@ -55,13 +55,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..circuit import AcAnalysis, Element, NoiseAnalysis, SourceSpec, TranAnalysis
+from ..kinds import KINDS
 
 __all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "LineParameters", "LossyLineError", "line_parameters", "resolution", "section_count", "realise",
            "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "DC_STEP", "MAX_SECTIONS",
            "CPL_MIN_RESISTANCE", "TXL_RC_RATIO"]
 
 #: The element kinds this module realises.
-LINE_KINDS = frozenset({"ltra", "txl", "cpl"})
+LINE_KINDS = frozenset(k for k, spec in KINDS.items() if spec.realised_by == __name__)
 #: The model cards' forms, for messages.
 MODEL_FORMS = {
     "ltra": ".model mname ltra r=ohm/len l=H/len g=S/len c=F/len len=length [rel= abs= nocontrol steplimit "
@@ -348,15 +349,14 @@ def _definite(m: np.ndarray, *, strict: bool) -> bool:
 def resolution(analyses) -> float | None:
     """The finest time scale of a circuit's analyses [s] (None: DC only).
 
-    A transient's ``min(tstep, tmax, (tstop - tstart) / 50)``, an ``.ac``'s or ``.noise``'s
+    A transient's ``min(tstep, (tstop - tstart) / 50)`` (its printing step; ``tmax`` caps the
+    integrator's steps, not the signals' content), an ``.ac``'s or ``.noise``'s
     ``1 / (2 pi fstop)``.
     """
     scales = []
     for a in analyses:
         if isinstance(a, TranAnalysis):
             t = min(a.tstep, (a.tstop - a.tstart) / 50.0) if a.tstop > a.tstart else a.tstep
-            if a.tmax:
-                t = min(t, a.tmax)
             if t > 0:
                 scales.append(t)
         elif isinstance(a, (AcAnalysis, NoiseAnalysis)) and a.fstop > 0:
@@ -386,7 +386,8 @@ def section_count(p: LineParameters, scale: float | None) -> tuple[int, int]:
             return 1, 1  # lossless: one exact line
         need.append(p.reflection / LUMP_REFLECTION)
     if scale is not None:
-        if p.form == "rc":
+        if p.form == "rc" or p.reflection > LUMP_REFLECTION:
+            # lumps a half wavelength apart reflect together: keep that frequency above the signals'
             need.append(p.delay / (fraction * scale))
         diffusion = max(float(np.max(np.diag(p.r))) * p.length, 0.0) * float(np.max(np.diag(p.c))) * p.length
         need.append(math.sqrt(diffusion / (fraction * scale)))
