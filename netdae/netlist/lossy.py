@@ -524,30 +524,38 @@ def modes(l: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     return tv, np.diag(inv @ l @ inv.T).copy(), np.diag(tv.T @ c @ tv).copy()
 
 
-def _transform(made: _Builder, tag: str, phys: list[str], modal: list[str], tv: np.ndarray) -> None:
+def _transform(made: _Builder, tag: str, phys: list[str], modal: list[str], tv: np.ndarray, *,
+               port: bool) -> None:
     """An ideal multiport transformer: ``v(phys) = T_v v(modal)``, ``i_modal = T_v^T i_phys``.
 
-    Per conductor a 0 V source senses the current entering from the physical node and a chain
-    of VCVSs (one per mode) sets its voltage; per mode CCCSs inject ``sum_i T_v[i, m] i_i``
-    into the modal node. The power entering one side leaves the other.
+    On one side a 0 V source per line senses the current and a chain of VCVSs sets the voltage;
+    on the other CCCSs carry the transformed currents. Next to a port (``port``) the VCVSs
+    are on the modal side, so that the port's node sees only currents (a capacitor the
+    circuit puts there closes no loop of voltage sources); inside the line they are on the
+    physical side, so that every joint has a path to ground. The power entering one side
+    leaves the other.
     """
     m = len(phys)
+    if port:  # v(modal) = T_v^-1 v(phys); the physical nodes draw (T_v^-T i_modal)
+        setters, takers, gains = modal, phys, np.linalg.inv(tv)
+    else:  # v(phys) = T_v v(modal); the modal nodes receive T_v^T i_phys
+        setters, takers, gains = phys, modal, tv
     senses = []
-    for i in range(m):
-        top = made.node(f"s{tag}_{i + 1}")
-        senses.append(made.add(f"v{tag}_{i + 1}", "vsource", (phys[i], top), source=SourceSpec(dc=0.0)).name)
-        for k in range(m):
-            gain = float(tv[i, k])
-            if gain == 0.0 and k < m - 1:
+    for a in range(m):
+        top = made.node(f"s{tag}_{a + 1}")
+        senses.append(made.add(f"v{tag}_{a + 1}", "vsource", (setters[a], top), source=SourceSpec(dc=0.0)).name)
+        for b in range(m):
+            gain = float(gains[a, b])
+            if gain == 0.0 and b < m - 1:
                 continue
-            below = "0" if k == m - 1 else made.node(f"e{tag}_{i + 1}_{k + 1}")
-            made.add(f"e{tag}_{i + 1}_{k + 1}", "vcvs", (top, below, modal[k], "0"), gain)
+            below = "0" if b == m - 1 else made.node(f"e{tag}_{a + 1}_{b + 1}")
+            made.add(f"e{tag}_{a + 1}_{b + 1}", "vcvs", (top, below, takers[b], "0"), gain)
             top = below
-    for k in range(m):
-        for i in range(m):
-            gain = float(tv[i, k])
-            if gain != 0.0:
-                made.add(f"f{tag}_{k + 1}_{i + 1}", "cccs", ("0", modal[k]), gain, controls=(senses[i],))
+    for b in range(m):
+        for a in range(m):
+            gain = float(gains[a, b])
+            if gain != 0.0:  # the current the setter side draws, delivered to (drawn from) the taker
+                made.add(f"f{tag}_{b + 1}_{a + 1}", "cccs", (takers[b], "0"), -gain, controls=(senses[a],))
 
 
 def _modal(made: _Builder, p: LineParameters, n: int) -> None:
@@ -570,12 +578,12 @@ def _modal(made: _Builder, p: LineParameters, n: int) -> None:
             break
         left = [made.node(f"x{i + 1}_{k + 1}") for i in range(m)]
         right = [made.node(f"y{i + 1}_{k + 1}") for i in range(m)]
-        _transform(made, f"a{k + 1}", after, left, tv)
+        _transform(made, f"a{k + 1}", after, left, tv, port=k == 0)
         for i in range(m):
             made.add(f"t{i + 1}_{k + 1}", "tline", (left[i], "0", right[i], "0"),
                      params={"z0": float(z0[i]), "td": float(td[i])})
         here = [made.node(f"h{i + 1}_{k + 1}") for i in range(m)]
-        _transform(made, f"b{k + 1}", here, right, tv)
+        _transform(made, f"b{k + 1}", here, right, tv, port=k == n - 1)
 
 
 def _shunts(made: _Builder, tag: str, at: list[str], g: np.ndarray, c: np.ndarray | None) -> None:
