@@ -22,23 +22,26 @@ topology, the index analysis, ``.op``, ``.ac`` and the transient need nothing ne
 * **an RG line** (LTRA ``l = c = 0``): exact at every frequency, as one T network
   (series arms ``Zc tanh(gamma len / 2)``, shunt ``Zc / sinh(gamma len)``,
   ``gamma = sqrt(R G)``, ``Zc = sqrt(R / G)``).
-* **coupled lines** (CPL): a ladder of ``n`` sections; per section and conductor a
-  series resistance ``R_ii len / n`` and inductance ``L_ii len / n``, the inductances of a
-  section coupled pairwise (``K = L_ij / sqrt(L_ii L_jj)``), and the Maxwell capacitance
-  (and conductance) matrices lumped trapezoidally at the section joints: conductor ``i``
-  to ground ``sum_j C_ij``, between ``i`` and ``j`` ``-C_ij``.
+* **coupled lines** (CPL): their propagation modes (:func:`modes`): per section one
+  lossless line per mode between two ideal multiport transformers (:func:`_transform`),
+  the conductors' series resistances ``R_ii len / n`` and the conductance matrix (Maxwell
+  form: conductor ``i`` to ground ``sum_j G_ij``, between ``i`` and ``j`` ``-G_ij``) lumped
+  trapezoidally at the joints; the capacitance and inductance are all in the modal lines.
 
 At DC every form is the line's series resistance between its ports with its shunt
 conductance (exact when ``G = 0``, which all of ngspice's LTRA forms but RG have).
 
 The number of sections (:func:`section_count`) follows from the line and the circuit's
 finest time scale (:func:`resolution`: a transient's ``min(tstep, (tstop - tstart)/50)``,
-``1 / (2 pi fstop)`` of an ``.ac`` or ``.noise``): a section's delay ``td / n`` and its
-diffusion time ``R C len^2 / n^2`` are at most :data:`SECTION_FRACTION` (a ladder:
-:data:`LADDER_FRACTION`) of that scale, a lump reflects at most :data:`LUMP_REFLECTION`,
-and ``sqrt(R G) len / n`` is at most :data:`DC_STEP`; at most :data:`MAX_SECTIONS`.
-The internal nodes are ``<line>#u<k>``, ``<line>#w<k>``, ``<line>#j<i>_<k>`` and ``<line>#m<i>_<k>``, the
-internal elements ``<line>#...``, named like the line (``x1.o1#u3`` inside ``x1``).
+``1 / (2 pi fstop)`` of an ``.ac`` or ``.noise``): a section's lumped losses reflect at most
+:data:`LUMP_REFLECTION` (:attr:`LineParameters.reflection`, per mode for coupled lines);
+when the whole line's would reflect more, the section delay ``td / n`` is at most
+:data:`SECTION_FRACTION` of the scale (lumps half a wavelength apart reflect together); an
+RC ladder's delay and diffusion time ``R C len^2 / n^2`` at most :data:`LADDER_FRACTION`;
+``sqrt(R G) len / n`` at most :data:`DC_STEP`; at most :data:`MAX_SECTIONS`.
+The internal nodes are ``<line>#<tag>`` (``u``, ``w``: a single line's joints; ``j``, ``h``,
+``x``, ``y``, ``s``, ``e``: a coupled line's joints, modal ports and transformer chains), the
+internal elements ``<line>#...``, named like the line (nodes ``x1.o1#u3`` inside ``x1``).
 
 Examples
 --------
@@ -75,12 +78,13 @@ MODEL_FORMS = {
 NUMERICAL_CONTROLS = {"ltra": frozenset({"rel", "abs", "nocontrol", "steplimit", "nosteplimit", "lininterp",
                                          "quadinterp", "mixedinterp", "truncnr", "truncdontcut", "compactrel",
                                          "compactabs"})}
-#: Largest section delay (and diffusion time) of a line of lossless sections with lumped
-#: losses, as a fraction of the circuit's time scale (:func:`resolution`).
+#: Largest section delay of a line of lossless sections whose lumped losses reflect more than
+#: :data:`LUMP_REFLECTION` in all, and its sections' diffusion time, as a fraction of the
+#: circuit's time scale (:func:`resolution`).
 SECTION_FRACTION = 0.25
-#: The same for the ladders (RC lines, coupled lines): their sections are lumped, so finer.
+#: The same for an RC line's ladder (its sections are lumped: finer).
 LADDER_FRACTION = 0.1
-#: Largest reflection of one lumped series resistance, ``R len / (2 n z0)``.
+#: Largest reflection of one section's lumped losses, ``(R len / (2 z0) + G len z0 / 2) / n``.
 LUMP_REFLECTION = 0.02
 #: Largest ``sqrt(R G) len / n`` (the DC attenuation per section, trapezoidal error ~ its square / 12).
 DC_STEP = 0.1
@@ -497,7 +501,7 @@ def _rc(made: _Builder, p: LineParameters, n: int) -> None:
 
 def _rg(made: _Builder, p: LineParameters) -> None:
     """The RG line's exact T network."""
-    a, ra, b, rb = made.el.nodes
+    a, ra, b, _ = made.el.nodes  # the shunt returns to the first port's reference
     R, G = float(p.r[0, 0]) * p.length, float(p.g[0, 0]) * p.length
     gamma, zc = math.sqrt(R * G), math.sqrt(R / G)
     mid = made.node("m")
@@ -505,7 +509,6 @@ def _rg(made: _Builder, p: LineParameters) -> None:
     made.add("r1", "resistor", (a, mid), arm)
     made.add("r2", "resistor", (mid, b), arm)
     made.add("g", "resistor", (mid, ra), zc / math.sinh(gamma))
-    del rb  # an RG line's reference: the first port's (as for every ladder of this module)
 
 
 def modes(l: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
