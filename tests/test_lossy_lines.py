@@ -228,3 +228,22 @@ def test_corpus_against_ngspice(name, bound):
     assert tran.error is None and tran.points > 100
     worst = max(sig.max_abs / (TOL * sig.scale) for sig in tran.signals)
     assert worst < bound, worst
+
+
+def test_rg_line_is_its_exact_t_network():
+    """LTRA with l = c = 0 (ngspice's RG form): cosh/sinh of sqrt(R G) len, exactly."""
+    r, g, length, rl = 3.0, 0.02, 5.0, 20.0
+    ckt = netdae.load(f"t\nV1 a 0 1\nO1 a 0 b 0 rgm\nRl b 0 {rl}\n.model rgm ltra r={r} g={g} l=0 c=0 len={length}\n"
+                      ".op\n.end\n")
+    op = netdae.run(ckt)[0]
+    gl, zc = math.sqrt(r * g) * length, math.sqrt(r / g)
+    assert op["v(b)"][0] == pytest.approx(1.0 / (math.cosh(gl) + zc * math.sinh(gl) / rl), rel=1e-12)
+
+
+def test_a_y_card_with_a_cpl_model_is_one_conductor():
+    """ngspice 39 reads Y with a CPL model as a one-conductor P: the same line as the TXL model."""
+    model = "r=5 l=300n g=0 c=100p length=0.5"
+    base = "t\nV1 a 0 ac 1\nRs a b 50\nY1 b 0 c 0 m\nRl c 0 200\n.model m {} " + model + "\n.ac lin 4 1meg 1g\n.end\n"
+    as_cpl, as_txl = (_ac(base.format(t), FREQS, "c") for t in ("cpl", "txl"))
+    assert netdae.load(base.format("cpl")).element("y1#t1_1").kind == "tline"  # the modal form
+    assert np.max(np.abs(as_cpl - as_txl)) < 2 * TOL * np.max(np.abs(as_txl))
