@@ -110,20 +110,28 @@ def test_txl_ac_is_the_exact_two_port(g):
     assert err < 2 * TOL, err
 
 
-def test_cpl_ac_is_the_exact_multiport():
-    """Two coupled lines, conductor 1 driven through 50 ohm, all ends terminated: the chain matrix."""
+@pytest.mark.parametrize("length, g", [(0.3048, 0.0), (3.048, 0.01)])
+def test_cpl_ac_is_the_exact_multiport(length, g):
+    """Two coupled lines, conductor 1 driven through 50 ohm, all ends terminated: the chain matrix.
+
+    The short lossless-conductance line is one section; the long one with a conductance matrix
+    has sections whose inner joints lump the losses in the modes.
+    """
     R = np.diag([0.5, 0.5])
     L = np.array([[247.3e-9, 31.65e-9], [31.65e-9, 247.3e-9]])
     C = np.array([[31.4e-12, -2.45e-12], [-2.45e-12, 31.4e-12]])
-    length, rs, rl = 0.3048, 50.0, 100.0
+    G = np.array([[g, -0.2 * g], [-0.2 * g, g]])
+    rs, rl = 50.0, 100.0
     text = ("t\nV1 a 0 ac 1\nR1 a v1 50\nR2 v2 0 50\nP1 v1 v2 0 v3 v4 0 pm\nR3 v3 0 100\nR4 v4 0 100\n"
-            ".model pm cpl r=0.5 0 0.5 l=247.3e-9 31.65e-9 247.3e-9 g=0 0 0 c=31.4e-12 -2.45e-12 31.4e-12 "
-            f"length={length}\n.ac lin 4 1meg 1g\n.end\n")
+            f".model pm cpl r=0.5 0 0.5 l=247.3e-9 31.65e-9 247.3e-9 g={g} {-0.2 * g} {g} "
+            f"c=31.4e-12 -2.45e-12 31.4e-12 length={length}\n.ac lin 4 1meg 1g\n.end\n")
+    sections = sum(el.kind == "tline" for el in netdae.load(text).elements) // 2
+    assert (sections > 1) == (length > 1)
     got = np.array([_ac(text, FREQS, node) for node in ("v3", "v4")]).T
     exact = []
     for f in FREQS:
         s = 2j * math.pi * f
-        phi = _chain(s, R + s * L, s * C, length)
+        phi = _chain(s, R + s * L, G + s * C, length)
         p11, p12, p21, p22 = phi[:2, :2], phi[:2, 2:], phi[2:, :2], phi[2:, 2:]
         gl = np.eye(2) / rl
         a = p11 + p12 @ gl + rs * (p21 + p22 @ gl)

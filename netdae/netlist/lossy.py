@@ -23,10 +23,12 @@ topology, the index analysis, ``.op``, ``.ac`` and the transient need nothing ne
   (series arms ``Zc tanh(gamma len / 2)``, shunt ``Zc / sinh(gamma len)``,
   ``gamma = sqrt(R G)``, ``Zc = sqrt(R / G)``).
 * **coupled lines** (CPL): their propagation modes (:func:`modes`): per section one
-  lossless line per mode between two ideal multiport transformers (:func:`_transform`),
-  the conductors' series resistances ``R_ii len / n`` and the conductance matrix (Maxwell
-  form: conductor ``i`` to ground ``sum_j G_ij``, between ``i`` and ``j`` ``-G_ij``) lumped
-  trapezoidally at the joints; the capacitance and inductance are all in the modal lines.
+  lossless line per mode, ideal multiport transformers (:func:`_transform`) at the two
+  ends, the conductors' series resistances ``R_ii len / n`` and the conductance matrix
+  lumped trapezoidally: half at the ends in the conductors (Maxwell form: conductor ``i``
+  to ground ``sum_j G_ij``, between ``i`` and ``j`` ``-G_ij``), whole at the inner joints
+  in the modes (:func:`_modal_lump`); the capacitance and inductance are all in the modal
+  lines.
 
 At DC every form is the line's series resistance between its ports with its shunt
 conductance (exact when ``G = 0``, which all of ngspice's LTRA forms but RG have).
@@ -562,31 +564,60 @@ def _transform(made: _Builder, tag: str, phys: list[str], modal: list[str], tv: 
 
 
 def _modal(made: _Builder, p: LineParameters, n: int) -> None:
-    """Coupled lines: per section one lossless line per mode (:func:`modes`) between two ideal
-    transformers, the losses lumped in the conductors at the joints (half at the ends)."""
+    """Coupled lines: per section one lossless line per mode (:func:`modes`); the losses lumped
+    at the joints, half at the ends (in the conductors, before the transformers that lead to the
+    modes) and whole inside (in the modes: ``T_v^-1 R T_v^-T`` in series, ``T_v^T G T_v`` shunt,
+    :func:`_modal_lump`, which is the two transformers and the conductors' lump between them)."""
     nodes = made.el.nodes
     m = p.conductors
     ins, outs = list(nodes[:m]), list(nodes[m + 1: 2 * m + 1])
     tv, lm, cm = modes(p.l, p.c)
+    u = np.linalg.inv(tv)
+    rm, gm = u @ p.r @ u.T, tv.T @ p.g @ tv
     z0, td = np.sqrt(lm / cm), p.length * np.sqrt(lm * cm) / n
     d = p.length / n
-    here = ins
-    for k in range(n + 1):
-        weight = 0.5 if k in (0, n) else 1.0
-        after = outs if k == n else [made.node(f"j{i + 1}_{k}") for i in range(m)]
+    first = [made.node(f"j{i + 1}_0") for i in range(m)]
+    for i in range(m):
+        made.add(f"r{i + 1}_0", "resistor", (ins[i], first[i]), 0.5 * float(p.r[i, i]) * d)
+    _shunts(made, "0", first, 0.5 * p.g * d, None)
+    left = [made.node(f"x{i + 1}_1") for i in range(m)]
+    _transform(made, "a", first, left, tv, port=True)
+    for k in range(1, n + 1):
+        right = [made.node(f"y{i + 1}_{k}") for i in range(m)]
         for i in range(m):
-            made.add(f"r{i + 1}_{k}", "resistor", (here[i], after[i]), weight * float(p.r[i, i]) * d)
-        _shunts(made, str(k), after, p.g * weight * d, None)
+            made.add(f"t{i + 1}_{k}", "tline", (left[i], "0", right[i], "0"),
+                     params={"z0": float(z0[i]), "td": float(td[i])})
         if k == n:
             break
         left = [made.node(f"x{i + 1}_{k + 1}") for i in range(m)]
-        right = [made.node(f"y{i + 1}_{k + 1}") for i in range(m)]
-        _transform(made, f"a{k + 1}", after, left, tv, port=k == 0)
-        for i in range(m):
-            made.add(f"t{i + 1}_{k + 1}", "tline", (left[i], "0", right[i], "0"),
-                     params={"z0": float(z0[i]), "td": float(td[i])})
-        here = [made.node(f"h{i + 1}_{k + 1}") for i in range(m)]
-        _transform(made, f"b{k + 1}", here, right, tv, port=k == n - 1)
+        _modal_lump(made, str(k), right, left, rm * d, gm * d)
+    last = [made.node(f"h{i + 1}_{n}") for i in range(m)]
+    _transform(made, "b", last, right, tv, port=True)
+    for i in range(m):
+        made.add(f"r{i + 1}_{n}", "resistor", (last[i], outs[i]), 0.5 * float(p.r[i, i]) * d)
+    _shunts(made, str(n), outs, 0.5 * p.g * d, None)
+
+
+def _modal_lump(made: _Builder, tag: str, a: list[str], b: list[str], rm: np.ndarray, gm: np.ndarray) -> None:
+    """A series resistance matrix from ``a`` to ``b`` (0 V sensing sources and CCVS chains:
+    ``v(a_i) - v(b_i) = sum_k rm[i, k] i_k``) and a shunt conductance matrix at ``b`` (VCCSs)."""
+    m = len(a)
+    senses = []
+    tops = []
+    for i in range(m):
+        top = made.node(f"s{tag}_{i + 1}")
+        senses.append(made.add(f"v{tag}_{i + 1}", "vsource", (a[i], top), source=SourceSpec(dc=0.0)).name)
+        tops.append(top)
+    for i in range(m):
+        top = tops[i]
+        ks = [k for k in range(m) if rm[i, k] != 0.0] or [i]
+        for n_k, k in enumerate(ks):
+            below = b[i] if n_k == len(ks) - 1 else made.node(f"r{tag}_{i + 1}_{k + 1}")
+            made.add(f"h{tag}_{i + 1}_{k + 1}", "ccvs", (top, below), float(rm[i, k]), controls=(senses[k],))
+            top = below
+        for k in range(m):
+            if gm[i, k] != 0.0:
+                made.add(f"g{tag}_{i + 1}_{k + 1}", "vccs", (b[i], "0", b[k], "0"), float(gm[i, k]))
 
 
 def _shunts(made: _Builder, tag: str, at: list[str], g: np.ndarray, c: np.ndarray | None) -> None:
