@@ -50,6 +50,8 @@ vdmos           model (vdmos); params: m, off, icvds, icvgs, temp, dtemp
 vswitch         model (sw); params: on or off (1.0 when given)
 cswitch         model (csw); controls = (controlling element,); params: on, off
 tline           params: z0, td (or f and nl)
+ltra, txl, cpl  model; params: len (Y, P cards); elaboration replaces each by
+                its sections (:mod:`netdae.netlist.lossy`)
 osdi            model (of a loaded OSDI module); params: the module's instance parameters
 ==============  =========================================
 
@@ -216,6 +218,8 @@ class Model:
         Where each parameter's value is written (for messages about a value).
     strings : dict of str to str
         String-valued parameters (``version="4.8"``); only OSDI models use them.
+    vectors : dict of str to tuple of float
+        Parameters given several numbers (a CPL's matrices, as upper triangles).
     """
 
     name: str
@@ -224,6 +228,7 @@ class Model:
     location: SourceLocation | None = None
     locations: dict[str, SourceLocation] = field(default_factory=dict)
     strings: dict[str, str] = field(default_factory=dict)
+    vectors: dict[str, tuple[float, ...]] = field(default_factory=dict)
 
 
 @dataclass(slots=True)

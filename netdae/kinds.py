@@ -110,6 +110,9 @@ class ElementKind:
         ``values=``) can set directly.
     quantities : dict of str to str
         The device quantities netdae computes (``@r1[p]``), name to meaning.
+    realised_by : str or None
+        The module that replaces an element of this kind, while elaborating, by
+        elements of other kinds (the kind is never assembled).
     saved_currents : tuple of str
         The quantities ``.options savecurrents`` adds (as ngspice 39).
     current_is_quantity : bool
@@ -175,6 +178,7 @@ class ElementKind:
     runs_as: str | None = None
     sens: tuple[tuple[str, str, bool], ...] = ()
     parameters: str | None = None
+    realised_by: str | None = None
 
     @property
     def noun(self) -> str:
@@ -218,6 +222,12 @@ def _sens_instance(*keys: str) -> tuple[tuple[str, str, bool], ...]:
 _CONTROL_INPUTS = ((2, "controlling input"), (3, "controlling input"))
 #: Most terminals an OSDI device may have in the topological analysis.
 OSDI_MAX_TERMINALS = 16
+#: Most conductors of a coupled line (ngspice 39's CPL holds at most 8, ``MAX_CP_TX_LINES``).
+MAX_CPL_CONDUCTORS = 8
+
+
+#: The module that realises the lossy lines.
+_LINES = "netdae.netlist.lossy"
 
 
 def _two(cls: int) -> tuple[tuple[int, int, int], ...]:
@@ -304,8 +314,16 @@ _DEFINITIONS = (
                 tuple((RESISTIVE, 0, k) for k in range(1, OSDI_MAX_TERMINALS)),
                 family="netdae.devices.osdi.family:OsdiFamily", controlled=True, group="compiled devices", solved_quantities=True,
                 module_quantities=True),
+    # ngspice's lossy lines: elaboration replaces each by its sections (netdae.netlist.lossy); never assembled.
+    # At DC each is a path between its ports (the sections' series resistances), which the sections show.
+    ElementKind("ltra", "o", "lossy transmission line (LTRA)", "(p1+, p1-, p2+, p2-)", (4,), model_types=("ltra",),
+                realised_by=_LINES),
+    ElementKind("txl", "y", "single lossy transmission line (TXL)", "(in, ref1, out, ref2)", (4,),
+                model_types=("txl",), realised_by=_LINES),
+    ElementKind("cpl", "py", "coupled multiconductor line (CPL)", "(in1 .. inN, ref1, out1 .. outN, ref2)",
+                tuple(range(4, 2 * MAX_CPL_CONDUCTORS + 3, 2)), model_types=("cpl",), realised_by=_LINES),
     # E/G LAPLACE: elaboration replaces it by its state-space block (netdae.netlist.laplace); never assembled
-    ElementKind("laplace", "eg", "Laplace-transfer source", "(n+, n-)", (2,)),
+    ElementKind("laplace", "eg", "Laplace-transfer source", "(n+, n-)", (2,), realised_by="netdae.netlist.laplace"),
 )
 
 #: The device quantities netdae computes, per element kind, with ngspice 39's

@@ -57,8 +57,9 @@ CIRCUITS = {
 #: Kinds that elaboration maps to compiled modules of the optional extra netdae[models].
 NEEDS_MODELS = {k for k, spec in KINDS.items() if spec.runs_as == "osdi"}
 #: Kinds without a card of their own here: an OSDI device needs a compiled module
-#: (tests/test_osdi*.py); LAPLACE is replaced by its state-space block while elaborating.
-NOT_HERE = {"osdi", "laplace"}
+#: (tests/test_osdi*.py); LAPLACE and the lossy lines are replaced by other elements while elaborating
+#: (tests/test_dialect_behavioural.py, tests/test_lossy_lines.py).
+NOT_HERE = {"osdi"} | {k for k, spec in KINDS.items() if spec.realised_by}
 
 
 def _circuit(kind):
@@ -93,7 +94,7 @@ def test_every_consumer_sees_the_kind(kind):
 @pytest.mark.parametrize("kind", sorted(KINDS))
 def test_each_kind_is_evaluated_by_a_stamp_or_a_family(kind):
     spec = KINDS[kind]
-    if kind == "laplace" or spec.runs_as is not None:
+    if spec.realised_by is not None or spec.runs_as is not None:
         assert not spec.stamped and spec.family is None
         return
     assert spec.stamped != (spec.family is not None)
@@ -169,6 +170,8 @@ _ALLOWED_TABLES = {
     ("netdae/devices/model_names.py", "LEVEL_PARAMETERS"),
     ("netdae/devices/model_names.py", "SENS_MODEL_PARAMETERS"),  # ngspice 39's sensitivity lists, by family
     ("netdae/devices/model_names.py", "SENS_AC_ONLY"),
+    ("netdae/devices/model_names.py", "FLAG_PARAMETERS"),
+    ("netdae/netlist/lossy.py", "MODEL_FORMS"),  # the .model forms of ngspice's line models, by model type
     ("netdae/netlist/elaborate.py", "_PASSIVE_MODEL_PARAMS"),  # R, C, L model parameters (ngspice's res.c ...)
     ("netdae/netlist/elements.py", "_VALUE_KEY"),  # the value keyword of R, C, L cards
     ("netdae/netlist/syntax.py", "ELEMENTS"),  # the card syntax per letter

@@ -12,9 +12,9 @@ from netdae.netlist import load
 # (netlist, message regex, line, the text the column must point at [, its occurrence in the line])
 CASES = [
     # elements netdae does not implement
-    ("t\nO1 a 0 b 0 lmod\n", r"o1: element type 'O' \(lossy transmission line\) is not supported", 2, "O1"),
+    ("t\nO1 a 0 b 0 lmod\n", r"o1: undefined model 'lmod'", 2, "lmod"),
     ("t\nU1 a b 0 rcmod l=1u\n", r"'U' \(uniform distributed RC line\)", 2, "U1"),
-    ("t\nY1 a 0 b 0 ymod\n", r"'Y' \(single lossy transmission line", 2, "Y1"),
+    ("t\nA1 a b amod\n", r"'A' \(XSPICE code model\)", 2, "A1"),
     ("t\nZ1 d g s zm\n.model zm nmf level=2\n", r"z1: model zm: MESFET level 2 \(MESA in ngspice\) is not "
      r"implemented by netdae", 3, "2"),
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
@@ -234,8 +234,8 @@ def test_element_errors_show_the_expected_form_and_a_hint():
     assert err.expected.startswith("Cname n+ n- value [mname] [ic=v0]")
     assert err.hint and str(err).startswith("<string>:2:7: c1: missing capacitance (expected: Cname n+ n- value")
     with pytest.raises(NetlistError) as exc:
-        load("t\nO1 a 0 b 0 lmod\n")
-    assert "netdae reads R C L K V I E G F H B D Q M J Z S W T N X" in exc.value.hint
+        load("t\nU1 a b 0 rcmod l=1u\n")
+    assert "netdae reads R C L K V I E G F H B D Q M J Z S W T O Y P N X" in exc.value.hint
 
 
 def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):

@@ -380,10 +380,12 @@ def _one_sided(system: MnaSystem, tb: float, m: int, eps: float) -> tuple[np.nda
     The right limit is ``c^(m)(tb)`` (waveform derivatives are one-sided from
     the right at corners); the left one is extrapolated linearly from
     ``tb - eps`` with the next derivative, so a smooth input shows no jump
-    (error O(eps^2)).
+    (error O(eps^2)). The independent sources only: the transmission lines'
+    delayed waves are known once the run has computed them (their corners are
+    the sources' carried along the lines, among the breakpoints already).
     """
-    left = system.source(tb - eps, m) + eps * system.source(tb - eps, m + 1)
-    return left, system.source(tb, m)
+    left = system.source(tb - eps, m, waves=False) + eps * system.source(tb - eps, m + 1, waves=False)
+    return left, system.source(tb, m, waves=False)
 
 
 def _impulses(system: MnaSystem, rep: IndexReport, t0: float, tstop: float) -> list[str]:

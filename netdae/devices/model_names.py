@@ -19,7 +19,7 @@ Examples
 from __future__ import annotations
 
 __all__ = ["NGSPICE_PARAMETERS", "SENS_MODEL_PARAMETERS", "SENS_AC_ONLY", "SENS_SPELLING",
-           "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVELS", "LEVEL_PARAMETERS", "level_name",
+           "OUTPUT_ONLY", "MODEL_FAMILIES", "VECTOR_PARAMETERS", "FLAG_PARAMETERS", "LEVELS", "LEVEL_PARAMETERS", "level_name",
            "level_parameters"]
 
 
@@ -60,6 +60,11 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
     "inductor": _names("ind tc1 tc2 tnom csect dia length nt mu l"),
     "vswitch": _names("sw vt vh ron roff gon goff"),
     "cswitch": _names("csw it ih ron roff gon goff"),
+    # ltra.c, txl.c, cpl.c: the lossy lines (netdae.netlist.lossy); 'ltra', 'txl', 'cpl' restate the type
+    "ltra": _names("ltra r l g c len rel abs nocontrol steplimit nosteplimit lininterp quadinterp mixedinterp "
+                   "truncnr truncdontcut compactrel compactabs"),
+    "txl": _names("txl r l g c length"),
+    "cpl": _names("cpl r l g c length"),
     # mes.c (level 1, Statz; the levels 2-4, MESA, have tables of their own)
     "mesfet": _names("level type nmf pmf vt0 vto alpha beta lambda b rd gd rs gs cgs cgd pb is fc depl_cap vcrit "
                      "kf af"),
@@ -104,7 +109,18 @@ OUTPUT_ONLY: dict[str, frozenset] = {
 #: The model family of each element kind that uses a model card.
 MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos",
                   "mesfet": "mesfet", "vswitch": "vswitch", "cswitch": "cswitch",
-                  "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor"}
+                  "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor",
+                  "ltra": "ltra", "txl": "txl", "cpl": "cpl"}
+
+#: Model parameters that are flags (given bare, no value), by model family.
+FLAG_PARAMETERS: dict[str, frozenset] = {
+    "ltra": _names("ltra nocontrol steplimit nosteplimit lininterp quadinterp mixedinterp truncnr truncdontcut"),
+    "txl": _names("txl"),
+    "cpl": _names("cpl"),
+}
+
+#: Model parameters ngspice reads as vectors (several numbers after the name), by model type.
+VECTOR_PARAMETERS: dict[str, frozenset] = {"cpl": _names("r l g c")}
 
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
 LEVELS: dict[str, dict[int, str]] = {

@@ -104,10 +104,16 @@ class Delays:
         """The corners (and the start) carried along the lines: ``c + a sum of up to`` :data:`DELAY_DEPTH`
         ``delays`` in [t0, t1].
 
+        Lines that share one delay are followed further, as many passes more as there are of
+        them (a lossy line's sections, :mod:`netdae.netlist.lossy`, are a cascade of equal lines a
+        corner crosses one after another): ``c + k tau`` for ``k`` up to :data:`DELAY_DEPTH`
+        times their number.
+
         Returns the sorted points and whether :data:`MAX_DELAYED_BREAKPOINTS` cut the set short.
         """
-        taus = np.unique(self.tau)
+        taus, counts = np.unique(self.tau, return_counts=True)
         points = np.unique(np.concatenate([[t0], np.asarray(corners, dtype=float)]))
+        start = points
         frontier = points
         for _ in range(DELAY_DEPTH):
             if not frontier.size:
@@ -116,6 +122,15 @@ class Delays:
             new = np.setdiff1d(new[new <= t1], points)
             points = np.union1d(points, new)
             frontier = new
+            if points.size > MAX_DELAYED_BREAKPOINTS:
+                return points[:MAX_DELAYED_BREAKPOINTS], True
+        for tau, count in zip(taus, counts):
+            passes = DELAY_DEPTH * (int(count) // 2)  # two rows per line
+            if passes <= DELAY_DEPTH:
+                continue
+            k = np.arange(DELAY_DEPTH + 1, passes + 1)
+            chain = (start[:, None] + tau * k[None, :]).ravel()
+            points = np.union1d(points, chain[chain <= t1])
             if points.size > MAX_DELAYED_BREAKPOINTS:
                 return points[:MAX_DELAYED_BREAKPOINTS], True
         return points, False
@@ -236,11 +251,15 @@ class MnaSystem(DaeSystem):
         """Constant part of dphi/dx (all of it for a linear circuit)."""
         return self._H
 
-    def source(self, t: float, derivative: int = 0) -> np.ndarray:
-        """``c(t) = B u(t)`` or its time derivative, shape (n,)."""
+    def source(self, t: float, derivative: int = 0, *, waves: bool = True) -> np.ndarray:
+        """``c(t) = B u(t)`` or its time derivative, shape (n,).
+
+        With transmission lines the delayed waves are part of ``c`` (``waves=False``: the
+        independent sources' part alone).
+        """
         u = self.sources.values(t, derivative)
         c = self._b_full @ u if self._b_full is not None else self._add_sources(np.zeros(self.n), u)
-        if self.delays is not None:
+        if self.delays is not None and waves:
             if derivative == 0:
                 c[self.delays.rows] += self.delayed_waves(t)
             elif np.any(t - self.delays.tau > self._delay_t0):

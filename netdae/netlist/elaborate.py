@@ -30,11 +30,12 @@ from collections.abc import Mapping
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
                        NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis, SourceSpec, TfAnalysis,
                        TranAnalysis)
-from ..devices.model_names import NGSPICE_PARAMETERS, OUTPUT_ONLY
+from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
 from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS
 from . import expr as ex
+from . import lossy
 from .elements import error, parse_value
 from .laplace import LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
@@ -394,6 +395,7 @@ class _Elaborator:
         elements: dict[str, Element] = {}
         nodes: dict[str, None] = {}
         pending: list[tuple[Element, _Placed]] = []
+        lines: list[tuple[Element, _Placed]] = []
         for p in placed:
             item = p.item
             kind = type(item)
@@ -420,6 +422,8 @@ class _Elaborator:
                     nodes[n] = None
             if el.controls or el.expr is not None:
                 pending.append((el, p))
+            if el.kind in lossy.LINE_KINDS:
+                lines.append((el, p))
             circuit.elements.append(el)
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
@@ -440,6 +444,9 @@ class _Elaborator:
                 raise NetlistError(f"values: no element '{name}' in the circuit",
                                    hint="name elements in full, e.g. r1 or r.x1.r2 inside subcircuit x1")
         self._analyses(circuit, elements)
+        if any(el.kind in lossy.LINE_KINDS for el in circuit.elements):
+            cards = {el.name: p.item for el, p in lines}
+            self._realise_lines(circuit, elements, cards)
         self._check_random_sources(circuit)
         circuit.steps = self._steps(elements, circuit)
         if circuit.analyses and not nodes:
@@ -498,6 +505,83 @@ class _Elaborator:
             elements[el.name] = block[0]
             out.extend(block)
         return out
+
+    def _realise_lines(self, circuit: Circuit, elements: dict, cards: dict) -> None:
+        """Every lossy line (O, Y, P) replaced by its sections (:mod:`netdae.netlist.lossy`).
+
+        The number of sections follows from the circuit's analyses (their finest time
+        scale); the internal nodes and elements are named after the line.
+
+        Raises
+        ------
+        NetlistError
+            A model the line cannot take, located at the model's parameter (or the card's ``len=``).
+        """
+        scale = lossy.resolution(circuit.analyses)
+        warned: set[str] = set()
+        out: list[Element] = []
+        nodes = set(circuit.nodes)
+        for el in circuit.elements:
+            if el.kind not in lossy.LINE_KINDS:
+                out.append(el)
+                continue
+            item = cards[el.name]
+            model = circuit.models[el.model]
+            try:
+                if el.kind == "txl" and model.type == "cpl":
+                    el.kind = "cpl"  # ngspice 39 reads a Y card with a CPL model as a one-conductor CPL
+                line, notes = lossy.line_parameters(el, model)
+            except lossy.LossyLineError as exc:
+                if exc.on_card:
+                    where = item.card.location(item.params[exc.param][1])
+                else:
+                    where = model.locations.get(exc.param, model.location) if exc.param else model.location
+                raise NetlistError(f"{el.name}: model {model.name}: {exc}", where,
+                                   expected=lossy.MODEL_FORMS[model.type],
+                                   hint=exc.hint) from None
+            controls = sorted(lossy.NUMERICAL_CONTROLS.get(model.type, frozenset()) & (
+                set(model.params) | set(self.model_cards[model.name].flags)))
+            if controls and model.name not in warned:
+                warned.add(model.name)
+                self.diagnostics.append(Diagnostic(
+                    "warning", f"model {model.name}: {', '.join(controls)} ignored: they steer ngspice's "
+                    "convolution of the line, not the line (netdae's sections and error control replace them)",
+                    model.locations.get(controls[0], model.location)))
+            for message, param in notes:
+                self.diagnostics.append(Diagnostic("warning", f"{el.name}: model {model.name}: {message}",
+                                                   model.locations.get(param, model.location) if param
+                                                   else model.location))
+            refs = [el.nodes[len(el.nodes) // 2 - 1], el.nodes[-1]] if el.kind != "ltra" else []
+            for ref in refs:
+                if ref != "0":
+                    self.diagnostics.append(Diagnostic(
+                        "warning", f"{el.name}: reference node '{ref}' is not ground: ngspice 39 reads and ignores "
+                        "a TXL's or CPL's reference nodes (the line is referenced to ground), and so does netdae",
+                        el.location))
+            if refs:
+                el.nodes = tuple("0" if k in (len(el.nodes) // 2 - 1, len(el.nodes) - 1) else n
+                                 for k, n in enumerate(el.nodes))
+            n, wanted = lossy.section_count(line, scale)
+            if wanted > n:
+                self.diagnostics.append(Diagnostic(
+                    "warning", f"{el.name}: the line would need {wanted} sections at the analyses' time scale; "
+                    f"netdae uses {n} (its most), so its waveforms are coarser than the stated accuracy",
+                    el.location))
+            parts, inner = lossy.realise(el, line, n)
+            del elements[el.name]
+            for part in parts:
+                if part.name in elements:
+                    raise NetlistError(f"{el.name}: the internal element name '{part.name}' is taken",
+                                       part.location, hint="rename the element")
+                elements[part.name] = part
+            for node in inner:
+                if node in nodes:
+                    raise NetlistError(f"{el.name}: the internal node name '{node}' is taken", el.location,
+                                       hint="rename the node")
+                nodes.add(node)
+                circuit.nodes.append(node)
+            out.extend(parts)
+        circuit.elements = out
 
     def _apply_models(self, circuit: Circuit) -> None:
         """Check the models elements use, once each; give R, C, L their model's coefficients.
@@ -630,7 +714,10 @@ class _Elaborator:
             mp = model_parameter(key)
             if mp is not None and mp[0] == p.name:
                 params[mp[1]] = _stepped_number(key, value)
+        vectors = {k: tuple(evaluate_val(v, env, item.card, f"model parameter '{k}'") for v in vals)
+                   for k, vals in item.vectors.items()}
         locations = {k: item.card.location(v[1]) for k, v in item.params.items() if k in params}
+        locations.update({k: item.card.location(vals[0][1]) for k, vals in item.vectors.items()})
         if "pchan" in params:
             locations["pchan"] = item.card.location(item.flags["pchan"])
         if "tnom" in params:
@@ -638,7 +725,7 @@ class _Elaborator:
         self.model_cards[p.name] = item
         strings = {k: text for k, (text, _) in item.strings.items() if not (vdmos and k in VDMOS_ANNOTATIONS)}
         locations.update({k: item.card.location(offset) for k, (_, offset) in item.strings.items() if k in strings})
-        return Model(p.name, item.type, params, item.card.location(0), locations, strings)
+        return Model(p.name, item.type, params, item.card.location(0), locations, strings, vectors)
 
     def _screen_model(self, model: Model, item: ModelCard) -> None:
         """Warn about the parameters ngspice ignores for this model (one located warning each).
@@ -683,7 +770,7 @@ class _Elaborator:
                 "warning", f"model {model.name}: string parameter {name}=\"{text}\" ignored, as ngspice "
                 "ignores it", item.card.location(offset)))
         for name, offset in item.flags.items():
-            if name in _TYPE_FLAGS:
+            if name in _TYPE_FLAGS or name in FLAG_PARAMETERS.get(family, ()):
                 continue
             if name in known:
                 raise error(item.card, offset, f"model parameter '{name}' needs a value ({name}=value)", form)
@@ -796,6 +883,8 @@ class _Elaborator:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
         allowed = MODEL_TYPES.get(item.kind)
+        if item.kind == "txl":
+            allowed = allowed + MODEL_TYPES["cpl"]  # a Y card reads a CPL model as one conductor (ngspice 39)
         if allowed is not None and mcard.type not in allowed and mcard.type in _PSPICE_MODEL_TYPES:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
                         f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "

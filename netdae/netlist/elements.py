@@ -1,4 +1,4 @@
-"""Element cards (R C L K V I E F G H B D Q M J S W T N X) to :class:`ElementCard` / :class:`InstanceCard`.
+"""Element cards (R C L K V I E F G H B D Q M J S W T O Y P N X) to :class:`ElementCard` / :class:`InstanceCard`.
 
 One function per element family, all driven by :data:`netdae.netlist.syntax.ELEMENTS`:
 the expected form of a card is the one the error messages show. Values are
@@ -12,7 +12,7 @@ import re
 import sys
 
 from ..errors import NetlistError
-from ..kinds import KINDS
+from ..kinds import KINDS, MAX_CPL_CONDUCTORS
 from . import expr as ex
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
 from .numbers import ignored_text, parse_number
@@ -897,6 +897,71 @@ def _tline(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
     return ElementCard(toks[0].text, "tline", card, nodes, params=params)
 
 
+#: The element kind of each lossy line's card letter (a Y card with a CPL model becomes a ``cpl``
+#: when the model is known, as ngspice 39 reads it).
+_LOSSY_KINDS = {letter: spec.name for spec in reversed(KINDS.values()) if spec.realised_by == "netdae.netlist.lossy"
+                for letter in spec.letters}
+
+
+def _lossy_line(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
+    """``O``, ``Y`` and ``P`` cards: ngspice's lossy lines (LTRA, TXL, CPL), nodes and model name.
+
+    An O card has four nodes; a Y card four (the references are read and, as in ngspice
+    39, not used: the line is referenced to ground); a P card ``2 N + 2`` for N
+    conductors, N counted as ngspice counts it (the words before ``len=``, less the
+    two references and the model, halved). Y and P take ``len=`` (P also
+    ``length=``), which overrides the model's length; the line itself is made by
+    :mod:`netdae.netlist.lossy` when the model is known.
+    """
+    words: list[Token] = []
+    i = 1
+    while i < len(toks):
+        tok = toks[i]
+        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
+            break
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"unexpected {tok.text!r}: expected node names and a model name", syntax)
+        words.append(tok)
+        i += 1
+    _, keywords = split_args(card, toks, i, syntax)
+    if letter == "p":
+        if len(words) < 5 or len(words) % 2 == 0:
+            at = words[-1].start if words else _end(card)
+            raise error(card, at, f"expected N input nodes, a reference, N output nodes, a reference and a model "
+                        f"name (an odd number of words, at least 5), found {len(words)} word(s)", syntax,
+                        hint="P1 in1 in2 0 out1 out2 0 mymodel: two conductors")
+        count = len(words) - 1
+        if count // 2 - 1 > MAX_CPL_CONDUCTORS:
+            raise error(card, words[0].start, f"{count // 2 - 1} conductors: ngspice 39's CPL holds at most "
+                        f"{MAX_CPL_CONDUCTORS}", syntax)
+    else:
+        count = 4
+        if len(words) != 5:
+            at = words[5].start if len(words) > 5 else _end(card)
+            found = min(len(words), 4)
+            raise error(card, at, f"expected 4 nodes and a model name, found {found} node(s)"
+                        f"{' and no model' if len(words) < 5 else ' and more words'}", syntax)
+    model = words[count]
+    if parse_number(model.text) is not None:
+        raise error(card, model.start, f"expected a model name, found {model.text!r}", syntax)
+    params = {}
+    for key, values in keywords:
+        if key.text not in syntax.keywords:
+            what = ("an LTRA line takes no instance parameters here: its initial conditions (ic=, v1= ...) "
+                    "are not supported by netdae" if letter == "o" else f"'{key.text}=' is not a parameter of "
+                    f"{'a Y' if letter == 'y' else 'a P'} card")
+            raise error(card, key.start, f"unexpected parameter '{key.text}'", syntax,
+                        hint=what if letter == "o" else "give the line's length as len=")
+        if len(values) != 1:
+            raise error(card, (values[1] if len(values) > 1 else key).start, f"{key.text}= takes one value", syntax)
+        if "len" in params:
+            raise error(card, key.start, "the length is given twice", syntax)
+        params["len"] = parse_value(card, values[0], syntax, "length")
+    nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:count])
+    return ElementCard(toks[0].text, _LOSSY_KINDS[letter], card, nodes, model=(model.text, model.start),
+                       params=params)
+
+
 def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceCard:
     words: list[Token] = []
     i = 1
@@ -1055,4 +1120,6 @@ def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]
         return _osdi_device(card, toks, syntax)
     if letter == "t":
         return _tline(card, toks, syntax)
+    if letter in _LOSSY_KINDS:
+        return _lossy_line(card, toks, syntax, letter)
     return _instance(card, toks, syntax)

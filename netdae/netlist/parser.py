@@ -10,6 +10,7 @@ resistor's nodes is a model or a parameter). Nothing is evaluated here.
 from __future__ import annotations
 
 from ..circuit import Diagnostic
+from ..devices.model_names import VECTOR_PARAMETERS
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
@@ -293,6 +294,7 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
     params: dict = {}
     strings: dict = {}
     flags: dict = {}
+    vectors: dict = {}
     i, n = 3, len(toks)
     while i < n:
         tok = toks[i]
@@ -320,6 +322,18 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
             else:
                 params[tok.text] = parse_value(card, value, form)
             i += 3
+            if tok.text in VECTOR_PARAMETERS.get(mtype, ()):
+                # ngspice's vector parameters (a CPL's matrices): the numbers up to the next name=
+                more = [params[tok.text]]
+                while i < n and toks[i].kind in (WORD, EXPR) and not (i + 1 < n and toks[i + 1].text == "="):
+                    more.append(parse_value(card, toks[i], form))
+                    i += 1
+                while i < n and toks[i].kind == PUNCT and toks[i].text in "(),":
+                    i += 1
+                if len(more) > 1:
+                    del params[tok.text]
+                    vectors[tok.text] = more
+                continue
             if i < n and toks[i].kind == WORD and not IDENT.match(toks[i].text) and not (
                     i + 1 < n and toks[i + 1].text == "="):
                 raise error(card, toks[i].start, f"the value of '{tok.text}' goes on after a blank "
@@ -333,7 +347,7 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
         first = scope.models[name].card
         raise error(card, toks[1].start, f"model '{name}' is defined twice (first at {first.file}:{first.line})",
                     form)
-    model = ModelCard(name, mtype, card, params, strings, flags)
+    model = ModelCard(name, mtype, card, params, strings, flags, vectors)
     scope.models[name] = model
     scope.items.append(model)
 

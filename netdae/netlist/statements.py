@@ -116,6 +116,8 @@ class ModelCard:
     ``strings`` holds string-valued parameters (``mfg="acme"``: name ->
     (text, offset)), ``flags`` bare names (name -> offset); both are judged
     when the circuit is elaborated (ngspice ignores the ones it does not know).
+    ``vectors`` holds the parameters given several numbers (a CPL's ``r= l=
+    g= c=`` matrices, ``VECTOR_PARAMETERS``): name -> list of Val.
     """
 
     name: str
@@ -124,6 +126,7 @@ class ModelCard:
     params: dict  # name -> Val
     strings: dict = field(default_factory=dict)
     flags: dict = field(default_factory=dict)
+    vectors: dict = field(default_factory=dict)  # name -> list of Val (a CPL's matrices)
 
 
 @dataclass(slots=True)

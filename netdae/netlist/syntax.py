@@ -130,6 +130,14 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Tname p1+ p1- p2+ p2- z0=impedance td=delay [ic=v1,i1,v2,i2]",
             "Tname p1+ p1- p2+ p2- z0=impedance f=frequency [nl=length] [ic=v1,i1,v2,i2]"),
             keywords=frozenset({"z0", "zo", "td", "f", "nl", "ic", "rel", "abs"})),
+        ElementSyntax("o", "lossy transmission line (LTRA)", ("Oname p1+ p1- p2+ p2- ltra_model",)),
+        ElementSyntax("y", "single lossy transmission line (TXL)", (
+            "Yname in ref1 out ref2 txl_model [len=length]",
+            "Yname in ref1 out ref2 cpl_model [len=length]  (one conductor of a CPL model)"),
+            keywords=frozenset({"len"})),
+        ElementSyntax("p", "coupled multiconductor transmission line (CPL)", (
+            "Pname in1 ... inN ref1 out1 ... outN ref2 cpl_model [len=length]",),
+            keywords=frozenset({"len", "length"})),
         ElementSyntax("n", "OSDI (compiled Verilog-A) device", (
             "Nname n1 n2 ... mname [name=value ...]",)),
         ElementSyntax("x", "subcircuit instance", ("Xname n1 n2 ... subname [params:] [name=value ...]",)),
@@ -138,10 +146,7 @@ ELEMENTS: dict[str, ElementSyntax] = {
 
 #: Element letters ngspice knows and netdae does not implement.
 UNSUPPORTED_ELEMENTS: dict[str, str] = {
-    "o": "lossy transmission line",
     "u": "uniform distributed RC line",
-    "y": "single lossy transmission line (TXL)",
-    "p": "coupled multiconductor transmission line",
     "a": "XSPICE code model",
 }
 
