@@ -66,7 +66,7 @@ PROBE_RETRIES = 3
 #: index-2 unknown jumped at a corner, or the start is inconsistent: the method
 #: restarts from the right limit.
 JUMP_DETECT = 1.0
-#: ... and only when the probe's first Euler step carries it: a jump of an unknown that is not
+#: ... and, in a linear system, only when the probe's first Euler step carries it: a jump of an unknown that is not
 #: index 2 moves it by the jump in the first step and by about eps x' in the second, where a
 #: continuous solution moves by comparable amounts in both (the extrapolation's O(eps^2 x'')
 #: error then passes JUMP_DETECT only because x'' is large: an RC node at the corner of a

@@ -408,7 +408,7 @@ class BDF:
         near a consistent point).
         """
         jumped, value_jump, x_right = jump_of(x, p.x_right, p.x_2, p.w_floor, self._high,
-                                              first_step=not self._event_restart)
+                                              first_step=self._linear and not self._event_restart)
         if not jumped:
             return x, False
         if value_jump and not self._linear:

@@ -769,9 +769,10 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
-    # an unknown that is not index 2 jumps where the probe's first Euler step carries the move
-    # (JUMP_FIRST_STEP; x1 is the mean of xr and x2); after a switching event every move counts
-    first_step = I[I_EVENT_RESTART] == 0
+    # an unknown of a linear system that is not index 2 jumps where the probe's first Euler step
+    # carries the move (JUMP_FIRST_STEP; x1 is the mean of xr and x2); after a switching event, and
+    # in a nonlinear system (a fast mode's boundary layer), every move counts
+    first_step = I[I_EVENT_RESTART] == 0 and I[I_LINEAR] != 0
     big = 0.0
     value_jump = False
     for i in range(n):
