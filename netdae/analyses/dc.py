@@ -17,7 +17,7 @@ from ..circuit import Circuit, DcAnalysis, DcSweep
 from ..errors import CircuitError, NetdaeError
 from ..kinds import KINDS
 from ..mna import MODE_DC, assemble
-from .prepared import prepare
+from .prepared import Prepared, prepare
 from ..results import Result, Statistics
 from .op import solve_operating_point, steady_options
 
@@ -142,10 +142,13 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     opts = steady_options(circuit, **overrides)
 
     sweeps_temp = "temp" in names
-    base = prepare(circuit, mode=MODE_DC)
-    topo = base.topology  # the same at every point (temperature changes no connection)
-    prepared = None if sweeps_temp else base
-    system = None if sweeps_temp else base.system
+    if sweeps_temp:  # assembled at every temperature; the topology is the same at every point
+        from ..topology import analyze_topology
+
+        prepared, system, topo = None, None, analyze_topology(circuit)
+    else:
+        prepared = prepare(circuit, mode=MODE_DC)
+        system, topo = prepared.system, prepared.topology
     x = None
     rows = []
     iterations = 0
@@ -166,7 +169,7 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
             temp = values[names.index("temp")]
             at_temp = replace(circuit, options=replace(circuit.options, temp=temp))
             system = assemble(at_temp, mode=MODE_DC)
-            prepared = base.with_system(system, at_temp)
+            prepared = Prepared.known(at_temp, system, topo)
             x = None if x is None or x.size != system.n else x
         for name, v in zip(names, values):
             if name != "temp":

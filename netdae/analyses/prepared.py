@@ -57,15 +57,20 @@ class Prepared:
 
         return analyze_topology(self.circuit)
 
-    def with_system(self, system: MnaSystem, circuit: Circuit | None = None) -> "Prepared":
-        """Another system of the same circuit (its steady form), or of the circuit with other values
-        and the same connections (``circuit``: a temperature sweep's point); the topology is shared."""
-        if system is self.system and circuit is None:
-            return self
-        out = Prepared(self.circuit if circuit is None else circuit, system)
-        if "topology" in self.__dict__:
-            out.__dict__["topology"] = self.__dict__["topology"]
+    @classmethod
+    def known(cls, circuit: Circuit, system: MnaSystem, topology) -> "Prepared":
+        """A prepared circuit whose topology is already at hand (the same connections as another's)."""
+        out = cls(circuit, system)
+        out.__dict__["topology"] = topology
         return out
+
+    def with_system(self, system: MnaSystem) -> "Prepared":
+        """Another system of the same circuit (its steady form, its transient form); the topology is shared."""
+        if system is self.system:
+            return self
+        if "topology" in self.__dict__:
+            return Prepared.known(self.circuit, system, self.__dict__["topology"])
+        return Prepared(self.circuit, system)
 
 
 def prepare(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = None,

@@ -115,6 +115,17 @@ def _shape_out(values: np.ndarray, shape: tuple):
     return float(out) if shape == () else out
 
 
+
+def _check_span(tstep: float, tstop: float) -> None:
+    """The ``.tran`` step and stop time a waveform is resolved for must be positive.
+
+    Raises
+    ------
+    ValueError
+    """
+    if not (tstep > 0 and tstop > 0):
+        raise ValueError(f"tstep and tstop must be > 0, got {tstep}, {tstop}")
+
 class Waveform:
     """Base class: a transient function with ngspice's parameters and defaults.
 
@@ -184,8 +195,7 @@ class Waveform:
         -------
         Waveform
         """
-        if not (tstep > 0 and tstop > 0):
-            raise ValueError(f"tstep and tstop must be > 0, got {tstep}, {tstop}")
+        _check_span(tstep, tstop)
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new.tstep, new.tstop = float(tstep), float(tstop)
@@ -901,8 +911,7 @@ class RandomSource(Waveform):
         """
         from .montecarlo import generator
 
-        if not (tstep > 0 and tstop > 0):
-            raise ValueError(f"tstep and tstop must be > 0, got {tstep}, {tstop}")
+        _check_span(tstep, tstop)
         times, values = self._realise(generator(self.key), float(tstop))
         return Pwl(times, values + self.dc)
 
