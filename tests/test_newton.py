@@ -191,3 +191,99 @@ def test_arguments_are_checked():
         newton(fun, np.zeros(2), LuCache(pat), W, tol=0.33, jacobian="sometimes")
     with pytest.raises(ValueError):
         newton(fun, np.zeros(2), LuCache(pat), W, tol=0.33, jacobian="never")
+
+
+# ------------------------------------------------------------------ the stopping rules
+def test_spice_test_accepts_only_a_small_update_and_a_small_residual():
+    """SPICE's rule: the accepted iterate's last update is within reltol * max(|x_k|, |x_k+1|) + atol, and the
+    residual there within reltol of its terms plus r_atol; one more iteration than the update alone needs."""
+    from netdae.dae.newton import SpiceTest
+
+    pat, fun = circle_line()
+    reltol, atol = 1e-3, np.array([1e-9, 1e-9])
+    seen = []
+
+    def watched(v, jac):
+        seen.append(np.array(v))
+        return fun(v, jac)
+
+    stop = SpiceTest(pat, reltol, atol, np.array([1e-12, 1e-12]))
+    res = newton(watched, np.array([3.0, 1.0]), LuCache(pat), np.ones(2), maxiter=20, jacobian="always", stop=stop)
+    assert res.converged and res.info == INFO_CONVERGED
+    x_prev, x = seen[-2], seen[-1]
+    assert np.array_equal(res.x, x)  # the accepted iterate is the last evaluated one
+    assert np.all(np.abs(x - x_prev) <= reltol * np.maximum(np.abs(x), np.abs(x_prev)) + atol)
+    r = fun(x, False)[0]
+    j = np.abs(np.array([[2 * x[0], 2 * x[1]], [1.0, -1.0]])) @ np.abs(x)
+    assert np.all(np.abs(r) <= reltol * j + 1e-12)
+    assert np.allclose(res.x, np.sqrt(2.0), rtol=10 * reltol ** 2)  # quadratic: error ~ (last update)^2
+    assert stop.last_dx.max() <= 1.0  # |dx| / tolerance of the last update
+
+
+def test_spice_test_never_accepts_a_limited_iterate():
+    """A device that limited its junction voltage in the last evaluation keeps the iteration going."""
+    from netdae.dae.newton import SpiceTest
+
+    pat = dense_pattern(1)
+
+    def fun(v, jac):  # x = 1, reporting limiting at every evaluation
+        return v - 1.0, (np.ones(1) if jac else None), True, True
+
+    stop = SpiceTest(pat, 1e-3, np.array([1e-9]), np.array([1e-12]))
+    res = newton(fun, np.array([5.0]), LuCache(pat), np.ones(1), maxiter=6, jacobian="always", stop=stop)
+    assert not res.converged and res.info == INFO_MAXITER and res.iterations == 6
+    assert float(res.x[0]) == 1.0
+
+
+def test_spice_test_of_a_linear_system_refines_once_then_judges_the_residual():
+    from netdae.dae.newton import SpiceTest
+
+    a = np.array([[4.0, 1.0], [1.0, 3.0]])
+    b = np.array([1.0, 2.0])
+    pat = SparsePattern.from_matrices(a)
+    evals = []
+
+    def fun(v, jac):
+        evals.append(jac)
+        return a @ v - b, (a[pat.rows, pat.cols] if jac else None), True, False
+
+    stop = SpiceTest(pat, 1e-3, np.full(2, 1e-9), np.full(2, 1e-12), linear=True)
+    res = newton(fun, np.zeros(2), LuCache(pat), np.ones(2), maxiter=3, jacobian="first", stop=stop)
+    assert res.converged
+    assert len(evals) == 3 and evals.count(True) == 1  # one factorisation, one refinement, one residual check
+    assert np.allclose(res.x, np.linalg.solve(a, b), rtol=1e-14)
+
+
+def test_rate_test_is_the_default_rule():
+    """newton() without a rule and with RateTest(tol) give the same iterates (IDA's test)."""
+    from netdae.dae.newton import RateTest
+
+    pat, fun = circle_line()
+    x0 = np.array([2.0, 1.0])
+    w = np.array([1e3, 1e3])
+    a = newton(fun, x0, LuCache(pat), w, tol=0.33, maxiter=10, jacobian="always")
+    b = newton(fun, x0, LuCache(pat), w, maxiter=10, jacobian="always", stop=RateTest(0.33, fresh=True))
+    assert a.converged and b.converged
+    assert np.array_equal(a.x, b.x) and a.iterations == b.iterations and a.rate == b.rate
+
+
+# ------------------------------------------------------------------ the homotopies over it
+def test_homotopies_reach_the_plain_newton_solution():
+    """gmin stepping and source stepping are continuations to the same root that plain Newton finds."""
+    import netdae
+    from netdae.dae.steady import GminStepping, SourceStepping, SteadyOptions, _Newton
+    from netdae.mna import assemble
+
+    ckt = netdae.load("t\nV1 a 0 5\nR1 a b 1k\nD1 b 0 dm\nD2 b c dm\nR2 c 0 2k\n.model dm d is=1e-14 n=1.2\n.op\n.end\n")
+    system = assemble(ckt)
+    opts = SteadyOptions()
+    plain = _Newton(system, 0.0, opts, [])
+    x_p, ok = plain.solve(system.initial_guess(), init=True)
+    assert ok
+    for homotopy in (GminStepping(opts.gmin), SourceStepping(opts.gmin)):
+        nt = _Newton(system, 0.0, opts, [])
+        x_h, ok = homotopy(nt, system.initial_guess())
+        assert ok, homotopy.name
+        tol = opts.reltol * np.abs(x_p) + nt.x_atol
+        assert np.all(np.abs(x_h - x_p) <= tol), homotopy.name
+        assert nt.iterations > plain.iterations  # a continuation takes several solves

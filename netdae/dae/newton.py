@@ -12,13 +12,28 @@ Two pieces, usable by any solver that works on a :class:`SparsePattern`:
   callback with three Jacobian policies: ``"always"`` (full Newton, as the
   operating point uses it), ``"first"`` (factor at the starting point, then
   keep the matrix: modified Newton) and ``"never"`` (reuse the factorisation
-  in the cache, as the BDF does while convergence is good). Convergence is
-  decided by the rate test of IDA [1]_: with the contraction rate
-  ``rho`` estimated from successive corrections,
+  in the cache, as the BDF does while convergence is good). Optional Armijo
+  backtracking on the residual norm damps the full Newton iteration.
+
+It is netdae's one Newton iteration: the BDF corrector and the steady state
+(:mod:`netdae.dae.steady`, whose gmin and source stepping are homotopies
+over it) differ only in the *stopping rule* they pass:
+
+- :class:`RateTest` (the default), the rate test of IDA [1]_: with the
+  contraction rate ``rho`` estimated from successive corrections,
   ``rho / (1 - rho) * |dx| <= tol`` in a weighted norm; with a Jacobian
   evaluated in the same solve the estimate is trusted only for
-  ``rho <= 0.25`` (near the root Newton converges quadratically). Optional
-  Armijo backtracking on the residual norm damps the full Newton iteration.
+  ``rho <= 0.25`` (near the root Newton converges quadratically);
+- :class:`SpiceTest`, the test of SPICE [3]_: the last update is below
+  ``reltol * max(|x_k|, |x_k+1|) + atol`` for every unknown, no device
+  limited a junction voltage, and every equation's residual is below
+  ``reltol`` times the magnitude of the terms that make it up plus its
+  absolute tolerance.
+
+A rule is asked twice per iteration: :meth:`StoppingRule.at_point` after an
+evaluation, before the linear solve (SPICE decides there, with the residual
+of the new iterate), and :meth:`StoppingRule.after_update` after the
+correction (IDA decides there, from the correction's norm).
 
 The residual callback
 ---------------------
@@ -52,13 +67,16 @@ References
    Section 2.1 (modified Newton, ``cj`` scaling of stale corrections).
 .. [2] C. T. Kelley, *Solving Nonlinear Equations with Newton's Method*,
    SIAM 2003, Chapter 1.7 (Armijo line search).
+.. [3] L. W. Nagel, *SPICE2: A computer program to simulate semiconductor
+   circuits*, UCB/ERL M520, 1975 (the convergence test with limiting).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from enum import StrEnum
+from typing import Callable, Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -71,6 +89,10 @@ __all__ = [
     "DEFAULT_PERMC_SPEC",
     "LuCache",
     "NewtonResult",
+    "NewtonInfo",
+    "StoppingRule",
+    "RateTest",
+    "SpiceTest",
     "newton",
     "INFO_CONVERGED",
     "INFO_DIVERGED",
@@ -94,12 +116,31 @@ ARMIJO_C = 1e-4
 #: Step-length reduction per backtracking trial.
 BACKTRACK_FACTOR = 0.5
 
-INFO_CONVERGED = "converged"
-INFO_DIVERGED = "diverged"
-INFO_MAXITER = "maxiter"
-INFO_EVALUATION = "evaluation"
-INFO_SINGULAR = "singular"
-INFO_NONFINITE = "nonfinite"
+
+
+class NewtonInfo(StrEnum):
+    """How a Newton iteration ended (compares equal to its lower-case name)."""
+
+    #: The stopping rule accepted the iterate.
+    CONVERGED = "converged"
+    #: The contraction rate exceeded :data:`RATE_MAX`.
+    DIVERGED = "diverged"
+    #: The iteration limit was reached (or the rule refused the final iterate).
+    MAXITER = "maxiter"
+    #: The residual callback reported ``ok=False``.
+    EVALUATION = "evaluation"
+    #: The matrix could not be factored.
+    SINGULAR = "singular"
+    #: A non-finite correction.
+    NONFINITE = "nonfinite"
+
+
+INFO_CONVERGED = NewtonInfo.CONVERGED
+INFO_DIVERGED = NewtonInfo.DIVERGED
+INFO_MAXITER = NewtonInfo.MAXITER
+INFO_EVALUATION = NewtonInfo.EVALUATION
+INFO_SINGULAR = NewtonInfo.SINGULAR
+INFO_NONFINITE = NewtonInfo.NONFINITE
 
 
 class LuCache:
@@ -217,15 +258,12 @@ class NewtonResult:
     iterations : int
         Linear solves performed.
     rate : float
-        Contraction-rate estimate after the iteration: measured from the
-        corrections when two or more were taken, otherwise the ``rate`` the
-        caller assumed. Pass it back for the next solve (IDA carries it from
-        step to step).
-    info : str
-        ``"converged"``, ``"diverged"`` (rate above 0.9), ``"maxiter"``,
-        ``"evaluation"`` (the callback reported ``ok=False``), ``"singular"``
-        (the matrix could not be factored) or ``"nonfinite"`` (a non-finite
-        correction).
+        Contraction-rate estimate of a :class:`RateTest` after the iteration:
+        measured from the corrections when two or more were taken, otherwise
+        the ``rate`` the caller assumed. Pass it back for the next solve (IDA
+        carries it from step to step). NaN under other rules.
+    info : NewtonInfo
+        How the iteration ended.
     correction_norm : float
         Weighted norm of the last correction.
     worst : int
@@ -238,7 +276,7 @@ class NewtonResult:
     converged: bool
     iterations: int
     rate: float
-    info: str
+    info: NewtonInfo
     correction_norm: float
     worst: int
     evaluations: int
@@ -252,13 +290,158 @@ def _worst(d, w) -> int:
     return int(np.argmax(s))
 
 
+class StoppingRule(Protocol):
+    """When a Newton iteration has converged: the part of :func:`newton` that differs between its users.
+
+    A rule keeps the state of one solve; :func:`newton` calls :meth:`begin`
+    first.
+    """
+
+    #: Contraction-rate estimate reported in :attr:`NewtonResult.rate`.
+    rate: float
+
+    def begin(self) -> None:
+        """Forget the previous solve."""
+
+    def at_point(self, m: int, x: np.ndarray, r: np.ndarray, jac, limited: bool) -> bool | None:
+        """After the evaluation at iterate ``m``, before its solve (``jac``: None when not evaluated).
+
+        Returns True (``x`` is the solution), False (stop: not converged) or
+        None (go on).
+        """
+
+    def after_update(self, m: int, x: np.ndarray, x_new: np.ndarray, d: np.ndarray, dn: float,
+                     limited: bool) -> NewtonInfo | None:
+        """After correction ``m`` (``x_new = x - d``, ``dn`` its weighted norm).
+
+        Returns :attr:`NewtonInfo.CONVERGED` (accept ``x_new``),
+        :attr:`NewtonInfo.DIVERGED` (stop) or None (go on).
+        """
+
+
+class RateTest:
+    """IDA's rate-based stopping test (``idaNlsConvTest``) for the BDF corrector.
+
+    Parameters
+    ----------
+    tol : float
+        Convergence when ``rate / (1 - rate) * |dx| <= tol`` (weighted norm;
+        the BDF uses 0.33 of its error-test bound, as IDA).
+    rate : float
+        Contraction rate assumed after the first correction (before one can
+        be measured): IDA uses 20/21 after a new factorisation and carries
+        the measured rate from step to step.
+    fresh : bool
+        The Jacobian is evaluated in this solve: a measured rate is trusted
+        only below :data:`FRESH_RATE_MAX`.
+    linear : bool
+        ``F`` is affine and the factorisation its exact Jacobian: the first
+        correction is the solution (unless a device limited).
+    """
+
+    def __init__(self, tol: float, *, rate: float = 20.0 / 21.0, fresh: bool = False, linear: bool = False) -> None:
+        self.tol, self.assumed, self.fresh, self.linear = float(tol), float(rate), fresh, linear
+        self.begin()
+
+    def begin(self) -> None:
+        self.rate = self.assumed
+        self._ss = self.assumed / (1.0 - self.assumed)
+        self._first = 0.0
+
+    def at_point(self, m, x, r, jac, limited):
+        return None
+
+    def after_update(self, m, x, x_new, d, dn, limited):
+        trusted = True
+        # a correction at the roundoff level converges at once (its rate means nothing)
+        done = dn <= TINY_CORRECTION * self.tol
+        if m == 0:
+            self._first = dn
+        elif not done:
+            rho = (dn / self._first) ** (1.0 / m) if self._first > 0.0 else 0.0
+            if rho > RATE_MAX:
+                self.rate = rho
+                return NewtonInfo.DIVERGED
+            self.rate = rho
+            self._ss = rho / (1.0 - rho)
+            trusted = not self.fresh or rho <= FRESH_RATE_MAX
+        if limited:
+            return None
+        if self.linear or done or (trusted and self._ss * dn <= self.tol):
+            return NewtonInfo.CONVERGED
+        return None
+
+
+class SpiceTest:
+    """SPICE's stopping test for the operating point [3]_.
+
+    Converged at an iterate ``x_k+1`` when the update that reached it was
+    below ``reltol * max(|x_k|, |x_k+1|) + x_atol`` for every unknown, no
+    device limited in the evaluation at ``x_k+1``, and every equation's
+    residual is below ``reltol * (|J| |x_k+1|) + r_atol`` (the magnitude of
+    the terms that make the equation up).
+
+    Parameters
+    ----------
+    pattern : SparsePattern
+        Pattern of the Jacobian values passed with each residual.
+    reltol : float
+    x_atol, r_atol : ndarray, shape (n,)
+        Absolute tolerances of the unknowns and of the equations.
+    linear : bool
+        The equations are affine: the first update solves them; one more
+        (a refinement with the same factorisation) and the residual test at
+        its result decide, whatever the updates' sizes.
+
+    Attributes
+    ----------
+    last_dx : ndarray, shape (n,)
+        ``|dx| / tolerance`` of the last update (for naming the unknowns that
+        did not settle).
+    """
+
+    def __init__(self, pattern: SparsePattern, reltol: float, x_atol: np.ndarray, r_atol: np.ndarray, *,
+                 linear: bool = False) -> None:
+        self.pattern, self.reltol, self.x_atol, self.r_atol = pattern, float(reltol), x_atol, r_atol
+        self.linear = linear
+        self.rate = math.nan
+        self.last_dx = np.zeros(pattern.n)
+        self.begin()
+
+    def begin(self) -> None:
+        self._small = False
+        self._jac = None
+
+    def residual_small(self, r: np.ndarray, jac: np.ndarray, x: np.ndarray) -> bool:
+        """Every equation's residual within ``reltol`` of its terms' magnitude plus its tolerance."""
+        p = self.pattern
+        scale = np.bincount(p.rows, weights=np.abs(jac) * np.abs(x[p.cols]), minlength=p.n)
+        return bool(np.all(np.abs(r) <= self.reltol * scale + self.r_atol))
+
+    def at_point(self, m, x, r, jac, limited):
+        if jac is not None:
+            self._jac = jac  # a linear system's is evaluated once (modified Newton): it stays exact
+        if self.linear:
+            return self.residual_small(r, self._jac, x) if m >= 2 else None
+        if self._small and not limited and self.residual_small(r, self._jac, x):
+            return True
+        return None
+
+    def after_update(self, m, x, x_new, d, dn, limited):
+        tol = self.reltol * np.maximum(np.abs(x), np.abs(x_new)) + self.x_atol
+        ad = np.abs(d)
+        self._small = bool(np.all(ad <= tol))
+        self.last_dx = ad / tol
+        return None
+
+
 def newton(
     fun: Callable,
     x0: np.ndarray,
     lu: LuCache,
     weights: np.ndarray,
     *,
-    tol: float,
+    tol: float = 1.0,
     maxiter: int = 4,
     jacobian: str = "first",
     rate: float = 20.0 / 21.0,
@@ -268,6 +451,7 @@ def newton(
     max_backtracks: int = 0,
     residual_weights: np.ndarray | None = None,
     tag=None,
+    stop: StoppingRule | None = None,
 ) -> NewtonResult:
     """Solve ``F(x) = 0`` by (modified, optionally damped) Newton iteration.
 
@@ -279,25 +463,18 @@ def newton(
     x0 : ndarray, shape (n,)
         Starting point (not modified).
     lu : LuCache
-        Factorisation to use or refresh.
+        Factorisation to use or refresh (any object with ``factor(data,
+        tag) -> bool``, ``solve(b)`` and ``ready``).
     weights : ndarray, shape (n,)
-        Weights of the convergence norm, ``1 / (rtol |x| + atol)``; zero
-        leaves an unknown out of the test.
-    tol : float
-        Convergence when ``rate / (1 - rate) * |dx| <= tol`` (weighted norm;
-        the BDF uses 0.33 of its error-test bound, as IDA).
+        Weights of the correction norm, ``1 / (rtol |x| + atol)``; zero
+        leaves an unknown out of the rate test.
+    tol, rate, linear
+        The default stopping rule's (:class:`RateTest`); ignored with ``stop``.
     maxiter : int
         Largest number of linear solves.
     jacobian : {"first", "always", "never"}
         Evaluate and factor the Jacobian at the first iterate only (modified
         Newton), at every iterate (full Newton), or never (use ``lu`` as it is).
-    rate : float
-        Contraction rate assumed for the test after the first correction
-        (before a rate can be measured): IDA uses 20/21 after a new
-        factorisation and carries the measured rate from step to step.
-    linear : bool
-        ``F`` is affine and ``lu`` holds its exact Jacobian: one solve gives
-        the solution, which is accepted without a second evaluation.
     scale : float
         Factor on every correction: ``2 / (1 + cj / cj_lu)`` makes a
         factorisation made for another ``cj`` a better approximation (IDA).
@@ -310,6 +487,9 @@ def newton(
         Weights of the residual norm in the line search (default ones).
     tag : object, optional
         Tag stored with factorisations made here.
+    stop : StoppingRule, optional
+        When the iteration has converged (default: ``RateTest(tol, rate=rate,
+        fresh=jacobian != "never", linear=linear)``).
 
     Returns
     -------
@@ -325,6 +505,9 @@ def newton(
         raise ValueError("jacobian must be 'first', 'always' or 'never'")
     if jacobian == "never" and not lu.ready:
         raise ValueError("jacobian='never' needs a factorisation in the cache")
+    if stop is None:
+        stop = RateTest(tol, rate=rate, fresh=jacobian != "never", linear=linear)
+    stop.begin()
     kind = NORM_MAX if norm == "max" else NORM_RMS
 
     def normf(v, w):
@@ -332,9 +515,6 @@ def newton(
 
     rw = residual_weights
     x = np.array(x0, dtype=float)
-    ss = rate / (1.0 - rate)
-    rate_out = rate
-    old = 0.0
     dn = math.inf
     d = None
     nev = 0
@@ -343,19 +523,26 @@ def newton(
         need = jacobian == "always" or (jacobian == "first" and it == 0)
         return fun(xv, need), need
 
+    def result(xv, converged, m, info):
+        return NewtonResult(xv, converged, m, stop.rate, info, dn, _worst(d, weights), nev)
+
     (r, jac, ok, limited), need = evaluate(x, 0)
     nev += 1
     for m in range(maxiter):
         if not ok:
-            return NewtonResult(x, False, m, rate_out, INFO_EVALUATION, dn, _worst(d, weights), nev)
+            return result(x, False, m, NewtonInfo.EVALUATION)
+        verdict = stop.at_point(m, x, r, jac, limited)
+        if verdict is not None:
+            return result(x, verdict, m, NewtonInfo.CONVERGED if verdict else NewtonInfo.MAXITER)
         if need and not lu.factor(jac, tag):
-            return NewtonResult(x, False, m, rate_out, INFO_SINGULAR, dn, -1, nev)
+            d = None
+            return result(x, False, m, NewtonInfo.SINGULAR)
         d = lu.solve(r)
         if scale != 1.0:
             d *= scale
         dn = normf(d, weights)
         if not math.isfinite(dn) or not np.all(np.isfinite(d)):
-            return NewtonResult(x, False, m + 1, rate_out, INFO_NONFINITE, dn, _worst(d, weights), nev)
+            return result(x, False, m + 1, NewtonInfo.NONFINITE)
         if max_backtracks:
             f0 = normf(r, rw) if rw is not None else float(np.linalg.norm(r))
             lam = 1.0
@@ -370,23 +557,9 @@ def newton(
             x_new = xt
         else:
             x_new = x - d
-        # convergence test on the full correction (IDA's idaNlsConvTest)
-        trusted = True
-        # a correction at the roundoff level converges at once (its rate means nothing)
-        done = dn <= TINY_CORRECTION * tol
-        if m == 0:
-            old = dn
-        elif not done:
-            rho = (dn / old) ** (1.0 / m) if old > 0.0 else 0.0
-            if rho > RATE_MAX:
-                return NewtonResult(x_new, False, m + 1, rho, INFO_DIVERGED, dn, _worst(d, weights), nev)
-            rate_out = rho
-            ss = rho / (1.0 - rho)
-            trusted = jacobian == "never" or rho <= FRESH_RATE_MAX
-        if linear and not limited:
-            return NewtonResult(x_new, True, m + 1, rate_out, INFO_CONVERGED, dn, _worst(d, weights), nev)
-        if not limited and (done or (trusted and ss * dn <= tol)):
-            return NewtonResult(x_new, True, m + 1, rate_out, INFO_CONVERGED, dn, _worst(d, weights), nev)
+        verdict = stop.after_update(m, x, x_new, d, dn, limited)
+        if verdict is not None:
+            return result(x_new, verdict == NewtonInfo.CONVERGED, m + 1, verdict)
         x = x_new
         if m + 1 < maxiter:
             if max_backtracks:
@@ -394,4 +567,4 @@ def newton(
             else:
                 (r, jac, ok, limited), need = evaluate(x, m + 1)
                 nev += 1
-    return NewtonResult(x, False, maxiter, rate_out, INFO_MAXITER, dn, _worst(d, weights), nev)
+    return result(x, False, maxiter, NewtonInfo.MAXITER)

@@ -12,6 +12,12 @@ Jacobian ``dphi/dx``, using the homotopies SPICE uses when plain Newton fails:
 3. *source stepping*: every independent source scaled by ``s``, raised
    adaptively from 0 to 1.
 
+Each Newton solve is netdae's one Newton iteration
+(:func:`netdae.dae.newton.newton`) under SPICE's stopping test
+(:class:`~netdae.dae.newton.SpiceTest`), on the engine's sparse LU of the
+equilibrated Jacobian; the homotopies are objects over it
+(:class:`GminStepping`, :class:`SourceStepping`).
+
 For an MNA system of the compiled engine's device families, the first phase
 (plain Newton) runs in compiled code (:mod:`netdae.dae.compiled.steady`, the
 same iteration step for step); where it would stop, this module's solver runs
@@ -38,18 +44,20 @@ References
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from .kronecker import EPS, MatrixRank, default_rtol, matrix_rank, rank_decision
+from .newton import LuCache, SpiceTest, newton
 from .sparse import SparsePattern
 from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
-           "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
+           "Homotopy", "GminStepping", "SourceStepping", "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
 
 #: gmin stepping starts one factor below this conductance [S] and, when a step
 #: fails, moves back towards it (ngspice's dynamic gmin: OldGmin = 1e-2).
@@ -222,21 +230,84 @@ def _equilibrate(pattern: SparsePattern, data: np.ndarray) -> tuple[np.ndarray, 
     return r, _power_of_two_scale(cmax)
 
 
-class _ScaledLU:
-    """LU of ``diag(r) A diag(c)`` (A given by its data on a pattern), solving ``A x = b``."""
+def _min_pivot(lu: LuCache) -> float:
+    """Smallest pivot of a factorisation in the cache (1 for an empty matrix)."""
+    piv = lu.lu.pivots()
+    return float(piv.min()) if piv.size else 1.0
 
-    def __init__(self, pattern: SparsePattern, data: np.ndarray):
-        self.r, self.c = _equilibrate(pattern, data)
-        self.scaled = pattern.matrix(data * self.r[pattern.rows] * self.c[pattern.cols])
-        try:
-            self.lu = spla.splu(self.scaled, permc_spec="COLAMD")
-        except RuntimeError as exc:  # "Factor is exactly singular"
-            raise _Singular(str(exc)) from None
-        d = np.abs(self.lu.U.diagonal())
-        self.min_pivot = float(d.min()) if d.size else 1.0
+
+class _EquilibratedLU:
+    """The engine's LU (:class:`~netdae.dae.newton.LuCache`) of ``diag(r) A diag(c)``, solving ``A x = b``.
+
+    ``A`` is given by its values on a pattern; ``r`` and ``c`` scale every
+    row, then every column, by a power of two so that its largest entry lies
+    in (1/2, 1] (:func:`_equilibrate`). The pivot order is kept from one
+    Newton iteration to the next and refreshed when a pivot degrades.
+    :meth:`factor` judges the smallest equilibrated pivot: at or below
+    ``PIVOT_SAFETY * n * eps`` a linear system's matrix is singular (raises
+    :class:`_Singular`, after the SVD rank decision up to
+    ``RANK_CHECK_LIMIT`` unknowns) and a nonlinear one's is ill-conditioned
+    (a failed iteration: returns False and sets :attr:`ill_conditioned`).
+
+    Attributes
+    ----------
+    min_pivot : float
+        Smallest equilibrated pivot of the last factorisation (nan: none).
+    ill_conditioned : bool
+        A factorisation met an ill-conditioned nonlinear Jacobian.
+    factorizations : int
+        Factorisations attempted.
+    """
+
+    def __init__(self, pattern: SparsePattern, *, linear: bool) -> None:
+        self.pattern = pattern
+        self.linear = linear
+        self.cache = LuCache(pattern, permc_spec="COLAMD")
+        self.r = self.c = None
+        self.min_pivot = float("nan")
+        self.ill_conditioned = False
+        self.factorizations = 0
+
+    @property
+    def ready(self) -> bool:
+        return self.cache.ready
+
+    def factor(self, data: np.ndarray, tag=None) -> bool:
+        """Factor the equilibrated matrix and judge its pivots (see the class notes). Raises _Singular."""
+        self.factorizations += 1
+        self.min_pivot = float("nan")
+        if not np.all(np.isfinite(data)):
+            return False
+        pat = self.pattern
+        self.r, self.c = _equilibrate(pat, data)
+        if not self.cache.factor(data * self.r[pat.rows] * self.c[pat.cols]):
+            raise _Singular("Factor is exactly singular")
+        self.min_pivot = _min_pivot(self.cache)
+        n = pat.n
+        if self.min_pivot <= PIVOT_SAFETY * n * EPS:
+            if not self.linear:
+                self.ill_conditioned = True
+                return False
+            if n > RANK_CHECK_LIMIT:
+                raise _Singular(f"smallest pivot {self.min_pivot:.3g} of the equilibrated matrix")
+            rank = jacobian_rank(pat.matrix(data))
+            if rank.deficient:
+                raise _Singular(f"rank {rank.rank} of {n}", rank)
+        return True
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        return self.c * self.lu.solve(self.r * b)
+        return self.c * self.cache.solve(self.r * b)
+
+
+def _equilibrated_pivot(pattern: SparsePattern, data: np.ndarray) -> float:
+    """Smallest pivot of a fresh equilibrated LU of ``data`` (0: exactly singular or not finite)."""
+    if not np.all(np.isfinite(data)):
+        return 0.0
+    r, c = _equilibrate(pattern, data)
+    lu = LuCache(pattern, permc_spec="COLAMD")
+    if not lu.factor(data * r[pattern.rows] * c[pattern.cols]):
+        return 0.0
+    return _min_pivot(lu)
 
 
 def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> MatrixRank:
@@ -294,7 +365,23 @@ def _tolerances(kinds: np.ndarray, opts: SteadyOptions) -> tuple[np.ndarray, np.
 
 
 class _Newton:
-    """Newton iterations on phi(x, t) = 0 for one homotopy parameter set."""
+    """The steady state's Newton problem: ``phi(x, t) = 0`` at one homotopy parameter set per solve.
+
+    Each :meth:`solve` runs netdae's one Newton iteration
+    (:func:`netdae.dae.newton.newton`: full Newton, SPICE's stopping test
+    :class:`~netdae.dae.newton.SpiceTest`) on ``phi`` plus the homotopy's
+    conductance ``gdiag`` from every voltage unknown to ground, with the
+    sources scaled by ``scale`` and the forced unknowns held by
+    ``FORCING_CONDUCTANCE``; the LU is the engine's, equilibrated
+    (:class:`_EquilibratedLU`), its pivot order kept across solves.
+
+    Attributes
+    ----------
+    iterations, factorizations : int
+        Totals over all solves.
+    last_used : int
+        Iterations of the last solve (the gmin schedule adapts to it).
+    """
 
     def __init__(self, system: DaeSystem, t: float, opts: SteadyOptions, forcing: list[Forcing]):
         self.system = system
@@ -306,12 +393,26 @@ class _Newton:
         if self.volt.size == 0:  # generic DAE: regularise every unknown
             self.volt = np.arange(system.n)
         self.x_atol, self.r_atol = _tolerances(system.kinds, opts)
+        self.weights = 1.0 / self.x_atol
+        self.lu = _EquilibratedLU(self.pattern, linear=system.linear)
+        self.stop = SpiceTest(self.pattern, opts.reltol, self.x_atol, self.r_atol, linear=system.linear)
         self.iterations = 0
-        self.factorizations = 0
         self.last_used = 0
-        self.last_dx = np.zeros(system.n)
-        self.ill_conditioned = False
         self.last_pivot = float("nan")  # smallest equilibrated pivot of the last factorization
+
+    @property
+    def factorizations(self) -> int:
+        return self.lu.factorizations
+
+    @property
+    def ill_conditioned(self) -> bool:
+        """A Newton iteration met an ill-conditioned Jacobian."""
+        return self.lu.ill_conditioned
+
+    @property
+    def last_dx(self) -> np.ndarray:
+        """``|dx| / tolerance`` of the last update, shape (n,)."""
+        return self.stop.last_dx
 
     def _residual(self, x, gdiag, scale, state):
         ev = self.system.evaluate(x, self.t, jacobian=True, state=state, source_scale=scale)
@@ -327,67 +428,35 @@ class _Newton:
             jac[self.pattern.diag[frc.index]] -= frc.conductance
         return ev, F, jac
 
-    def _factor(self, jac):
-        """Equilibrated LU; a pivot below the singular threshold is singular (linear) or a failed iteration."""
-        self.factorizations += 1
-        lu = _ScaledLU(self.pattern, jac)
-        self.last_pivot = lu.min_pivot
-        n = self.system.n
-        if lu.min_pivot <= PIVOT_SAFETY * n * EPS:
-            if not self.system.linear:
-                raise _IllConditioned()
-            if n > RANK_CHECK_LIMIT:
-                raise _Singular(f"smallest pivot {lu.min_pivot:.3g} of the equilibrated matrix")
-            rank = jacobian_rank(self.pattern.matrix(jac))
-            if rank.deficient:
-                raise _Singular(f"rank {rank.rank} of {n}", rank)
-        return lu
-
-    def _residual_small(self, F, jac, x) -> bool:
-        absj = self.pattern.matrix(np.abs(jac))
-        scale = absj @ np.abs(x)
-        return bool(np.all(np.abs(F) <= self.opts.reltol * scale + self.r_atol))
-
     def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None, init=False) -> tuple[np.ndarray, bool]:
         """Iterate from x; returns (x, converged). Raises _Singular.
 
         ``init`` starts the devices from their initial junction voltages
         (SPICE's MODEINITJCT), for a solve from scratch; otherwise they are
-        evaluated at x (continuation from a previous solution).
+        evaluated at x (continuation from a previous solution). A linear
+        system is solved by one iteration and one refinement with the same
+        factorisation, accepted when its residual is small.
         """
         maxiter = self.opts.maxiter if maxiter is None else maxiter
-        state = self.system.initial_state() if init and hasattr(self.system, "initial_state") else None
-        small_step = False
-        x = np.array(x, dtype=float)
-        for _ in range(maxiter):
-            out = self._residual(x, gdiag, scale, state)
+        linear = self.system.linear
+        state = [self.system.initial_state() if init and hasattr(self.system, "initial_state") else None]
+
+        def fun(xv, jacobian):
+            out = self._residual(xv, gdiag, scale, state[0])
             if out is None:
-                return x, False
+                return None, None, False, False
             ev, F, jac = out
-            if small_step and not ev.limited and self._residual_small(F, jac, x):
-                return x, True
-            self.iterations += 1
-            try:
-                lu = self._factor(jac)
-            except _IllConditioned:
-                self.ill_conditioned = True
-                return x, False
-            dx = lu.solve(-F)
-            if not np.all(np.isfinite(dx)):
-                return x, False
-            x_new = x + dx
-            tol = self.opts.reltol * np.maximum(np.abs(x), np.abs(x_new)) + self.x_atol
-            small_step = bool(np.all(np.abs(dx) <= tol))
-            self.last_dx = np.abs(dx) / tol
-            x = x_new
-            state = ev.state
-            if self.system.linear:
-                # one Newton step solves a linear system; refine once and check the residual
-                F = self._residual(x, gdiag, scale, None)[1]
-                x = x + lu.solve(-F)
-                ev, F, jac = self._residual(x, gdiag, scale, None)
-                return x, self._residual_small(F, jac, x)
-        return x, False
+            state[0] = ev.state
+            return F, jac, True, bool(ev.limited)
+
+        res = newton(fun, x, self.lu, self.weights, maxiter=3 if linear else maxiter,
+                     jacobian="first" if linear else "always", stop=self.stop)
+        used = min(res.iterations, 1) if linear else res.iterations
+        self.iterations += used
+        self.last_used = used
+        if math.isfinite(self.lu.min_pivot):
+            self.last_pivot = self.lu.min_pivot
+        return res.x, res.converged
 
 
 class _ChargeRows(DaeSystem):
@@ -457,10 +526,7 @@ def _judge(newton: _Newton, x) -> tuple[float, MatrixRank | None, bool]:
     if out is None:
         return float("nan"), None, False
     mat = newton.pattern.matrix(out[2])
-    try:
-        pivot = _ScaledLU(newton.pattern, out[2]).min_pivot
-    except _Singular:
-        pivot = 0.0
+    pivot = _equilibrated_pivot(newton.pattern, out[2])
     if pivot > PIVOT_SUSPECT:
         return pivot, None, False
     if n > RANK_CHECK_LIMIT:
@@ -514,20 +580,26 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
         system = _ChargeRows(system, charges)
     x = np.asarray(system.initial_guess() if x0 is None else x0, dtype=float).copy()
     frc = [forcing] if forcing is not None else []
-    total_it = total_fact = 0
+    newton = _Newton(system, t, opts, frc)
+    solvers = [newton]  # every Newton problem of this solve, for the totals
+    compiled_work = [0, 0]  # iterations and factorizations of the compiled plain Newton
 
-    def singular_result(x, message, newton, rank=None):
+    def totals():
+        return (sum(s.iterations for s in solvers) + compiled_work[0],
+                sum(s.factorizations for s in solvers) + compiled_work[1])
+
+    def singular_result(x, message, rank=None):
         if rank is None and system.n <= RANK_CHECK_LIMIT:
             out = newton._residual(x, 0.0, 1.0, None)
             rank = jacobian_rank(newton.pattern.matrix(out[2])) if out is not None else None
         if rank is not None and not rank.deficient and not system.linear:
             # singular at an iterate only (a device law of zero slope there): Newton failed at x
-            return result(x, False, "newton", f"no convergence ({message}; regular at the last iterate)", newton)
+            return result(x, False, "newton", f"no convergence ({message}; regular at the last iterate)")
         null = rank.right[:, -1] if rank is not None and rank.right.shape[1] else None
-        return SteadyResult(x, False, total_it, total_fact, "newton", message, True, null, [], rank)
+        return SteadyResult(x, False, *totals(), "newton", message, True, null, [], rank)
 
-    def result(x, ok, strategy, message, newton=None):
-        order = [] if newton is None else list(np.argsort(-newton.last_dx)[:5])
+    def result(x, ok, strategy, message):
+        order = list(np.argsort(-newton.last_dx)[:5])
         pivot = float("nan")
         if ok and opts.judge_singular:
             pivot, rank, singular = _judge(newton, x)
@@ -535,20 +607,9 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
                 dec = "" if rank is None else (f": rank {rank.rank} of {system.n}, smallest singular value "
                                                f"{(rank.decision.dropped or (0.0,))[0]:.3g} <= tolerance "
                                                f"{rank.decision.tol:.3g}")
-                return singular_result(x, "singular Jacobian at the solution" + dec, newton, rank)
-        return SteadyResult(x, ok, total_it, total_fact, strategy, message, False, None, order, None, pivot)
+                return singular_result(x, "singular Jacobian at the solution" + dec, rank)
+        return SteadyResult(x, ok, *totals(), strategy, message, False, None, order, None, pivot)
 
-    def run(newton: _Newton, *args, **kw):
-        nonlocal total_it, total_fact
-        try:
-            return newton.solve(*args, **kw)
-        finally:
-            total_it += newton.iterations
-            total_fact += newton.factorizations
-            newton.last_used = newton.iterations
-            newton.iterations = newton.factorizations = 0
-
-    newton = _Newton(system, t, opts, frc)
     init = x0 is None
     singular = None
     x_new = x
@@ -559,43 +620,41 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
         x_c, status, its, facts, pivot = compiled.solve_dc(
             system, t, x, init=init, maxiter=opts.maxiter, reltol=opts.reltol, x_atol=newton.x_atol,
             r_atol=newton.r_atol, singular_pivot=PIVOT_SAFETY * system.n * EPS)
-        total_it += its
-        total_fact += facts
+        compiled_work[:] = its, facts
         if status == compiled.CONVERGED:
             newton.last_pivot = pivot
-            return result(x_c, True, "newton", "converged", newton)
+            return result(x_c, True, "newton", "converged")
     try:
         if nodeset is not None:
             first = _Newton(system, t, opts, frc + [nodeset])
-            x_ns, ok = run(first, x, init=init)
+            solvers.append(first)
+            x_ns, ok = first.solve(x, init=init)
             if ok:
                 x, init = x_ns, False
-        x_new, ok = run(newton, x, init=init)
+        x_new, ok = newton.solve(x, init=init)
         if ok:
-            return result(x_new, True, "newton", "converged", newton)
+            return result(x_new, True, "newton", "converged")
     except _Singular as exc:
         if system.linear:
-            return singular_result(x, f"singular Jacobian ({exc.args[0]})", newton, exc.rank)
+            return singular_result(x, f"singular Jacobian ({exc.args[0]})", exc.rank)
         singular = exc  # a nonlinear Jacobian may be singular at this point only: try the homotopies
+    homotopies = [h for h, on in ((GminStepping(opts.gmin), opts.gmin_stepping),
+                                  (SourceStepping(opts.gmin), opts.source_stepping)) if on]
     try:
-        if opts.gmin_stepping:
-            x_g, ok = _gmin_stepping(newton, x, opts, run)
+        for homotopy in homotopies:
+            x_h, ok = homotopy(newton, x)
             if ok:
-                return result(x_g, True, "gmin stepping", "converged with gmin stepping", newton)
-        if opts.source_stepping:
-            x_s, ok = _source_stepping(newton, x, opts, run)
-            if ok:
-                return result(x_s, True, "source stepping", "converged with source stepping", newton)
+                return result(x_h, True, homotopy.name, f"converged with {homotopy.name}")
     except _Singular as exc:
         singular = singular or exc
     if singular is not None:
-        return singular_result(x, f"singular Jacobian ({singular.args[0]})", newton, singular.rank)
+        return singular_result(x, f"singular Jacobian ({singular.args[0]})", singular.rank)
     if newton.ill_conditioned:  # the iterations met near-singular Jacobians: is the last iterate's singular?
         _, rank, is_singular = _judge(newton, x_new)
         if is_singular:
             return singular_result(x_new, "singular Jacobian (Newton, gmin stepping and source stepping failed)",
-                                   newton, rank)
-    return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)", newton)
+                                   rank)
+    return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)")
 
 
 def _compiled(system: DaeSystem) -> bool:
@@ -620,7 +679,21 @@ def _compiled(system: DaeSystem) -> bool:
 _ELIGIBLE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _gmin_stepping(newton: _Newton, x, opts: SteadyOptions, run):
+class Homotopy(Protocol):
+    """A continuation from an easy problem to ``phi(x, t) = 0``, each of its solutions starting the next solve.
+
+    ``homotopy(newton, x) -> (x, converged)`` drives the Newton problem's
+    parameters (its conductance to ground ``gdiag``, its source scale); it
+    may raise ``_Singular``. ``name`` is reported as the solve's strategy.
+    """
+
+    name: str
+
+    def __call__(self, newton: _Newton, x: np.ndarray) -> tuple[np.ndarray, bool]: ...
+
+
+@dataclass(frozen=True)
+class GminStepping:
     """Adaptive gmin homotopy (ngspice's dynamic gmin).
 
     Starts at ``GMIN_ANCHOR / factor``; after a success the conductance falls
@@ -628,63 +701,89 @@ def _gmin_stepping(newton: _Newton, x, opts: SteadyOptions, run):
     factor shrinks to its fourth root and the conductance restarts from the
     last converged value (initially the anchor) divided by it, so a first
     failure *raises* the conductance towards the anchor. Ends with a solve
-    without conductance from the solution at ``opts.gmin``.
+    without conductance from the solution at ``gmin``.
+
+    Parameters
+    ----------
+    gmin : float
+        The last conductance of the schedule [S].
     """
-    factor = GMIN_FACTOR_START
-    g_old = GMIN_ANCHOR
-    gdiag = g_old / factor
-    x_ok = np.asarray(x, dtype=float)
-    fresh = True  # nothing converged yet: start the devices from scratch
-    while True:
-        x_new, ok = run(newton, x_ok, gdiag=gdiag, maxiter=HOMOTOPY_MAXITER, init=fresh)
-        if ok:
-            x_ok, fresh = x_new, False
-            if gdiag <= opts.gmin:
-                break
-            used = newton.last_used
-            if used <= HOMOTOPY_MAXITER // 4:
-                factor = min(factor * np.sqrt(factor), GMIN_FACTOR_MAX)
-            elif used > 3 * HOMOTOPY_MAXITER // 4:
-                factor = np.sqrt(factor)
-            g_old = gdiag
-            gdiag = max(gdiag / factor, opts.gmin)
-        else:
-            factor = np.sqrt(np.sqrt(factor))
-            if factor < GMIN_FACTOR_MIN:
-                return x_ok, False
-            gdiag = g_old / factor
-    return run(newton, x_ok)
+
+    gmin: float
+    name: str = "gmin stepping"
+
+    def __call__(self, newton: _Newton, x: np.ndarray) -> tuple[np.ndarray, bool]:
+        factor = GMIN_FACTOR_START
+        g_old = GMIN_ANCHOR
+        gdiag = g_old / factor
+        x_ok = np.asarray(x, dtype=float)
+        fresh = True  # nothing converged yet: start the devices from scratch
+        while True:
+            x_new, ok = newton.solve(x_ok, gdiag=gdiag, maxiter=HOMOTOPY_MAXITER, init=fresh)
+            if ok:
+                x_ok, fresh = x_new, False
+                if gdiag <= self.gmin:
+                    break
+                used = newton.last_used
+                if used <= HOMOTOPY_MAXITER // 4:
+                    factor = min(factor * np.sqrt(factor), GMIN_FACTOR_MAX)
+                elif used > 3 * HOMOTOPY_MAXITER // 4:
+                    factor = np.sqrt(factor)
+                g_old = gdiag
+                gdiag = max(gdiag / factor, self.gmin)
+            else:
+                factor = np.sqrt(np.sqrt(factor))
+                if factor < GMIN_FACTOR_MIN:
+                    return x_ok, False
+                gdiag = g_old / factor
+        return newton.solve(x_ok)
 
 
-def _source_stepping(newton: _Newton, x, opts: SteadyOptions, run):
-    """Adaptive ramp of every independent source from 0 to 1."""
-    x0, ok = run(newton, np.zeros_like(x), scale=0.0, init=True)
-    if not ok:
-        x0, ok = _gmin_at_scale(newton, x0, opts, run, 0.0)
+@dataclass(frozen=True)
+class SourceStepping:
+    """Adaptive ramp of every independent source from 0 to 1.
+
+    The zero-source start is solved by plain Newton, or else by a gmin ramp
+    from ``GMIN_START`` down to ``gmin`` at zero sources; then the source
+    scale rises by ``SOURCE_RAISE_START``, growing by
+    ``SOURCE_RAISE_GROWTH`` after a success and divided by ten after a
+    failure (down to ``SOURCE_RAISE_MIN``).
+
+    Parameters
+    ----------
+    gmin : float
+        The last conductance of the zero-source gmin ramp [S].
+    """
+
+    gmin: float
+    name: str = "source stepping"
+
+    def __call__(self, newton: _Newton, x: np.ndarray) -> tuple[np.ndarray, bool]:
+        x0, ok = newton.solve(np.zeros_like(x), scale=0.0, init=True)
         if not ok:
-            return x0, False
-    done, raise_ = 0.0, SOURCE_RAISE_START
-    cur = x0
-    while done < 1.0:
-        s = min(1.0, done + raise_)
-        x_new, ok = run(newton, cur, scale=s, maxiter=HOMOTOPY_MAXITER)
-        if ok:
-            done, cur = s, x_new
-            raise_ *= SOURCE_RAISE_GROWTH
-        else:
-            raise_ /= 10.0
-            if raise_ < SOURCE_RAISE_MIN:
+            x0, ok = self._gmin_at_zero(newton, x0)
+            if not ok:
+                return x0, False
+        done, raise_ = 0.0, SOURCE_RAISE_START
+        cur = x0
+        while done < 1.0:
+            s = min(1.0, done + raise_)
+            x_new, ok = newton.solve(cur, scale=s, maxiter=HOMOTOPY_MAXITER)
+            if ok:
+                done, cur = s, x_new
+                raise_ *= SOURCE_RAISE_GROWTH
+            else:
+                raise_ /= 10.0
+                if raise_ < SOURCE_RAISE_MIN:
+                    return cur, False
+        return cur, True
+
+    def _gmin_at_zero(self, newton: _Newton, x: np.ndarray) -> tuple[np.ndarray, bool]:
+        gdiag = GMIN_START
+        cur = x
+        while gdiag > self.gmin:
+            cur, ok = newton.solve(cur, gdiag=gdiag, scale=0.0, maxiter=HOMOTOPY_MAXITER)
+            if not ok:
                 return cur, False
-    return cur, True
-
-
-def _gmin_at_scale(newton: _Newton, x, opts, run, scale):
-    """gmin stepping at a fixed source scale (used for the zero-source start)."""
-    gdiag = GMIN_START
-    cur = x
-    while gdiag > opts.gmin:
-        cur, ok = run(newton, cur, gdiag=gdiag, scale=scale, maxiter=HOMOTOPY_MAXITER)
-        if not ok:
-            return cur, False
-        gdiag /= GMIN_FACTOR_START
-    return run(newton, cur, scale=scale)
+            gdiag /= GMIN_FACTOR_START
+        return newton.solve(cur, scale=0.0)

@@ -10,7 +10,7 @@ from ...errors import ConvergenceError
 from ..system import DaeSystem
 from .constants import PROGRESS_INTERVAL
 from .result import IntegrationResult
-from .stepper import BDF
+from .stepper import BDF, RunState
 
 __all__ = ["integrate"]
 
@@ -84,7 +84,7 @@ def integrate(
     try:
         solver = BDF(system, t0, x0, tf, **options)
         last = time.perf_counter()
-        while solver.status == "running":
+        while solver.status == RunState.RUNNING:
             solver.step()
             if progress is not None:
                 now = time.perf_counter()

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time
+from enum import StrEnum
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from ..compiled.control import (
     set_weights,
     weighted_norm,
 )
-from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache
+from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache, NewtonInfo
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
@@ -68,10 +69,18 @@ from .startup import event_right_limit, jump_of, probe, right_limit
 from ..compiled.events import CHATTER_EVENTS, chatter_message
 from .statistics import count_step, new_statistics
 
-__all__ = ["BDF"]
+__all__ = ["BDF", "RunState"]
 
 _RELREF = {"local": RELREF_LOCAL, "signal": RELREF_SIGNAL, "mixed": RELREF_MIXED}
 
+
+
+class RunState(StrEnum):
+    """Where an integration stands (compares equal to its lower-case name)."""
+
+    RUNNING = "running"
+    FINISHED = "finished"
+    FAILED = "failed"
 
 class BDF:
     """Fixed-leading-coefficient BDF stepper (orders 1..5) for ``d/dt q(x) = phi(x, t)``.
@@ -149,7 +158,7 @@ class BDF:
         Size of the next step.
     order : int
         Order of the next step.
-    status : {"running", "finished", "failed"}
+    status : RunState
     message : str
     stats : dict
 
@@ -274,7 +283,7 @@ class BDF:
         self._w_step_err = self._w_err
         self._xmax = np.abs(x0)
         self._failure = None
-        self.status = "running"
+        self.status = RunState.RUNNING
         self.message = ""
 
         self.t = self.t0
@@ -283,7 +292,7 @@ class BDF:
             self._rec.record(self.t0, x0, 0)
             self._rec.record(self.t_bound, x0, 0)
             self.t = self.t_bound
-            self.status = "finished"
+            self.status = RunState.FINISHED
             self.message = f"reached t={self.t_bound:.9g}: the system has no unknowns"
             return
         self._set_weights(x0)
@@ -323,7 +332,7 @@ class BDF:
         return ev
 
     def _fail(self, t, h, what, worst, hint):
-        self.status = "failed"
+        self.status = RunState.FAILED
         self.message, self._failure = failure_record(t, h, what, worst, hint)
 
     # Kept as static methods: the compiled engine's driver words its failures with them.
@@ -518,19 +527,19 @@ class BDF:
         -------
         str or None
             ``None`` on success, the failure message otherwise (then
-            ``status == "failed"``).
+            ``status == RunState.FAILED``).
 
         Raises
         ------
         RuntimeError
             When called after the integration finished or failed.
         """
-        if self.status != "running":
+        if self.status != RunState.RUNNING:
             raise RuntimeError(f"the integration is {self.status}; no further steps")
         wall = time.perf_counter()
         self._step_impl()
         self.stats["wall_time"] += time.perf_counter() - wall
-        return self.message if self.status == "failed" else None
+        return self.message if self.status == RunState.FAILED else None
 
     def _step_impl(self):
         """One step: the attempt loop of IDA's IDAStep."""
@@ -578,7 +587,7 @@ class BDF:
                        "fixed-step mode cannot reduce the step; choose a smaller fixed_step")
             return None
         if ncf >= MAX_NEWTON_FAILURES:
-            if reason != "evaluation" and self._impasse(t):
+            if reason != NewtonInfo.EVALUATION and self._impasse(t):
                 return None  # continued from the jump: the step loop goes on from there
             self._fail(t, h, f"Newton iteration failed {ncf} times ({reason})", info.get("worst"),
                        newton_hint(reason))
@@ -623,7 +632,7 @@ class BDF:
         self.stats["restarts"] += 1
         self._rec.restart(t)
         self._restart_at(out, max(eps, self.min_step))  # never a probe below the rounding of t
-        return self.status != "failed"
+        return self.status != RunState.FAILED
 
     def _error_failure(self, t, h, nef, info):
         """Step-size factor (and new order) after an error-test failure, or None after the last one."""
@@ -644,7 +653,7 @@ class BDF:
                     + ("Newton iteration fails" if kind == "newton" else "error test fails"))
         else:
             what = f"step size below the roundoff of t ({failures})"
-        if (kind == "error" or info.get("info") != "evaluation") and self._impasse(t):
+        if (kind == "error" or info.get("info") != NewtonInfo.EVALUATION) and self._impasse(t):
             return None  # continued from the jump
         hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
         self._fail(t, h, what, info.get("worst"), hint)
@@ -741,7 +750,7 @@ class BDF:
         self.h = max(min(h * eta, self.max_step), self.min_step)
         landed = landing and t_end == t_new
         if landed and self._ibp == self._breakpoints.size - 1:
-            self.status = "finished"
+            self.status = RunState.FINISHED
             self.message = self._success_message()
             return
         if self.max_steps is not None and self.stats["steps"] >= self.max_steps:
@@ -800,7 +809,7 @@ class BDF:
         """The integration so far as an :class:`IntegrationResult`."""
         stats = dict(self.stats)
         stats["factorizations"] = self._lu.factorizations
-        status = STATUS_OK if self.status == "finished" else STATUS_FAILED
+        status = STATUS_OK if self.status == RunState.FINISHED else STATUS_FAILED
         message = self.message or f"stopped at t={self.t:.9g} before t_bound={self.t_bound:.9g}"
         return self._rec.result(stats=stats, status=status, message=message, tolerances=self._tolerances,
                                 failure=self._failure)

@@ -45,6 +45,7 @@ import numpy as np
 from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
+from ..newton import NewtonInfo
 from .sources import pack_sources
 
 __all__ = ["integrate_compiled", "supports"]
@@ -541,8 +542,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
 
 
 #: The loop's REASON_* codes as netdae.dae.newton's INFO_* names (the Python integrator's words).
-_REASONS = {L.REASON_SINGULAR: "singular", L.REASON_NONFINITE: "nonfinite", L.REASON_DIVERGED: "diverged",
-            L.REASON_MAXITER: "maxiter", L.REASON_EVALUATION: "evaluation"}
+_REASONS = {L.REASON_SINGULAR: NewtonInfo.SINGULAR, L.REASON_NONFINITE: NewtonInfo.NONFINITE,
+            L.REASON_DIVERGED: NewtonInfo.DIVERGED, L.REASON_MAXITER: NewtonInfo.MAXITER,
+            L.REASON_EVALUATION: NewtonInfo.EVALUATION}
 
 
 def pack_matrices(system) -> tuple:
@@ -727,7 +729,7 @@ def _failure(system, F, I) -> dict:
     code = int(I[L.I_FAIL_CODE])
     outer, rest = divmod(code, 256) if code >= 256 else (0, code)
     kind, reason = divmod(rest, 16)
-    info = _REASONS.get(reason, "nonfinite")
+    info = _REASONS.get(reason, NewtonInfo.NONFINITE)
     what_kind = "Newton failures" if kind == 1 else "error-test failures"
     h = float(F[L.F_FAIL_H])
     if outer == L.FAIL_MIN_STEP:
@@ -748,7 +750,7 @@ def _failure(system, F, I) -> dict:
         hint = "raise max_steps, or loosen the tolerances"
     elif code == L.FAIL_PROBE_SINGULAR:
         what = "the Newton matrix (alpha/h) dq/dx - dphi/dx is singular"
-        hint = BDF._newton_hint("singular")
+        hint = BDF._newton_hint(NewtonInfo.SINGULAR)
     elif code == L.FAIL_PROBE_NONFINITE:
         what = "the system evaluation right after t is not finite"
         hint = "the model is undefined at the initial/restart point"

@@ -558,6 +558,12 @@ class SparseLU:
                 kern(*args, self._l, self._u, y[:, k], self._w)
         return y
 
+    def pivots(self) -> np.ndarray:
+        """Magnitudes of the pivots of the current factorisation, shape (n,), in elimination order."""
+        if not self._ok:
+            raise RuntimeError("no factorisation: call factor() first")
+        return np.abs(self._u[self.plan.u_ptr[1:] - 1])
+
     def factors(self) -> tuple[sp.csc_matrix, sp.csc_matrix]:
         """``L`` (with its unit diagonal) and ``U`` as CSC matrices of the permuted matrix."""
         if not self._ok:
