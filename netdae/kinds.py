@@ -2,18 +2,19 @@
 
 An :class:`~netdae.circuit.Element` names its kind by a string (``"resistor"``,
 ``"diode"``, ..., the values of :class:`Kind`). What a kind *is* lives here,
-once: its card letters, its terminals, the branch-current unknowns it adds, whether constant stamps or a
-nonlinear device family evaluate it, whether it is controlled by other circuit
-quantities, the model types it accepts, its branches for the topological
-analysis, and how the reports group it. The reader, the elaboration, the
+once: its card letters, its terminals, the branch-current unknowns it adds,
+whether constant stamps or a nonlinear device family evaluate it, whether it
+is controlled by other circuit quantities, the model types it accepts, its
+branches for the topological analysis, what it stores, and how the reports
+group it. The reader, the elaboration, the
 assembly, the topology, the index analysis, the operating point and the
 transient read the views below (:func:`kind_of`, :data:`BRANCH_CURRENT_KINDS`,
 ...) instead of keeping tables of their own, and compare an element's kind
 with a :class:`Kind` member (``el.kind == Kind.RESISTOR``), never with a
 string literal: what a consumer needs to know about a kind (whether it is an
-independent source, holds charge, is realised by another module ...) is a
-field of its :class:`ElementKind`, and a test for one kind names it through
-:class:`Kind`, so that a misspelt kind fails at import.
+independent source, what it stores, whether another module realises it ...)
+is a field of its :class:`ElementKind`, and a test for one kind names it
+through :class:`Kind`, so that a misspelt kind fails at import.
 
 Adding an element kind
 ----------------------
