@@ -1,27 +1,38 @@
 """The element kinds: one definition per kind, read by every part of netdae.
 
 An :class:`~netdae.circuit.Element` names its kind by a string (``"resistor"``,
-``"diode"``, ...). What a kind *is* lives here, once: its card letters, its
-terminals, the branch-current unknowns it adds, whether constant stamps or a
-nonlinear device family evaluate it, whether it is controlled by other circuit
-quantities, the model types it accepts, its branches for the topological
-analysis, and how the reports group it. The reader, the elaboration, the
+``"diode"``, ..., the values of :class:`Kind`). What a kind *is* lives here,
+once: its card letters, its terminals, the branch-current unknowns it adds,
+whether constant stamps or a nonlinear device family evaluate it, whether it
+is controlled by other circuit quantities, the model types it accepts, its
+branches for the topological analysis, what it stores, and how the reports
+group it. The reader, the elaboration, the
 assembly, the topology, the index analysis, the operating point and the
 transient read the views below (:func:`kind_of`, :data:`BRANCH_CURRENT_KINDS`,
-...) instead of keeping tables of their own.
+...) instead of keeping tables of their own, and compare an element's kind
+with a :class:`Kind` member (``el.kind == Kind.RESISTOR``), never with a
+string literal: what a consumer needs to know about a kind (whether it is an
+independent source, what it stores, whether another module realises it ...)
+is a field of its :class:`ElementKind`, and a test for one kind names it
+through :class:`Kind`, so that a misspelt kind fails at import.
 
 Adding an element kind
 ----------------------
-1. Add its :class:`ElementKind` to :data:`KINDS` (the fields say what each
-   consumer needs; ``family`` names its device family as ``"module:Class"``,
-   or ``stamped=True`` for a constant stamp in :mod:`netdae.devices.linear`;
-   or ``runs_as="osdi"`` for an ngspice model run by a bundled compiled
-   module, with its row in :mod:`netdae.devices.osdi.spice_models`).
+1. Add its :class:`ElementKind` to :data:`KINDS` and its member to
+   :class:`Kind` (the fields say what each consumer needs; ``family`` names
+   its device family as ``"module:Class"``, or ``stamped=True`` for a
+   constant stamp in :mod:`netdae.devices.linear`; or ``runs_as="osdi"``
+   for an ngspice model run by a bundled compiled module, with its row in
+   :mod:`netdae.devices.osdi.spice_models`). A fact a consumer needs about
+   the kind is a field here, read there; code about this kind alone compares
+   with its :class:`Kind` member.
 2. Write its family (:class:`netdae.devices.base.DeviceFamily`, with
    ``kinds`` naming this kind) and its compiled kernel, or its stamp.
 3. Teach the reader its card (:mod:`netdae.netlist.elements`).
 4. ``tests/test_kinds.py`` checks that every consumer sees every kind (a
-   family or a stamp, topology branches, model types).
+   family or a stamp, topology branches, model types), that :class:`Kind`
+   and :data:`KINDS` name the same kinds, and that no module outside this one
+   compares a kind with a string literal.
 
 Branch classes (the topological analysis)
 -----------------------------------------
@@ -35,14 +46,15 @@ substrate) is left out.
 
 from __future__ import annotations
 
+import enum
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 __all__ = [
-    "CAPACITIVE", "INDUCTIVE", "RESISTIVE", "VOLTAGE", "CURRENT", "NULLATOR", "BRANCH_CLASSES", "ROLES",
-    "ElementKind", "KINDS", "kind_of", "resolve",
+    "CAPACITIVE", "INDUCTIVE", "RESISTIVE", "VOLTAGE", "CURRENT", "NULLATOR", "BRANCH_CLASSES", "ROLES", "STORES",
+    "Kind", "ElementKind", "KINDS", "kind_of", "resolve",
     "BRANCH_CURRENT_KINDS", "STAMPED_KINDS", "CONTROLLED_KINDS", "STEPPABLE_KINDS", "MODEL_TYPES", "KIND_OF_MODEL_TYPE",
     "GROUPS",
 ]
@@ -52,6 +64,47 @@ CAPACITIVE, INDUCTIVE, RESISTIVE, VOLTAGE, CURRENT, NULLATOR = 0, 1, 2, 3, 4, 5
 BRANCH_CLASSES = ("capacitive", "inductive", "resistive", "voltage", "current", "nullator")
 #: Kinds of attachment (terminals that carry no branch current).
 ROLES = ("controlling input", "input", "gate")
+#: What an element may store (:attr:`ElementKind.stores`).
+STORES = ("charge", "flux", "junction charge")
+
+class Kind(enum.StrEnum):
+    """The element kinds by name, for code about one kind (``el.kind == Kind.RESISTOR``).
+
+    A member equals its kind's string (``Kind.RESISTOR == "resistor"``), so
+    ``Element.kind`` stays a plain string; a misspelt member fails at import
+    where a misspelt string would silently compare false. One member per kind
+    of :data:`KINDS` (``tests/test_kinds.py`` checks).
+    """
+
+    RESISTOR = "resistor"
+    CAPACITOR = "capacitor"
+    INDUCTOR = "inductor"
+    COUPLING = "coupling"
+    VSOURCE = "vsource"
+    ISOURCE = "isource"
+    VCVS = "vcvs"
+    VCCS = "vccs"
+    CCCS = "cccs"
+    CCVS = "ccvs"
+    OPAMP = "opamp"
+    BVOLTAGE = "bvoltage"
+    BCURRENT = "bcurrent"
+    BCHARGE = "bcharge"
+    DIODE = "diode"
+    BJT = "bjt"
+    MOSFET = "mosfet"
+    JFET = "jfet"
+    MESFET = "mesfet"
+    VDMOS = "vdmos"
+    VSWITCH = "vswitch"
+    CSWITCH = "cswitch"
+    TLINE = "tline"
+    OSDI = "osdi"
+    LTRA = "ltra"
+    TXL = "txl"
+    CPL = "cpl"
+    LAPLACE = "laplace"
+
 
 #: The report groups of kinds outside the topological index theorem's hypotheses.
 GROUPS = ("controlled sources", "charge-defined capacitors", "ideal op-amps", "transistors", "switches",
@@ -101,6 +154,16 @@ class ElementKind:
     self_loop : bool
         The first two terminals form one branch, which is shorted when they
         coincide.
+    stores : str or None
+        What an element of this kind stores (one of :data:`STORES`), as the topology's findings and
+        the operating point's charge balance name it: ``"charge"`` (a
+        capacitor, its branch capacitive: open at DC, and a node set attached
+        only through such elements keeps its charge), ``"flux"`` (an
+        inductor, its branch inductive: a short at DC), ``"junction charge"``
+        (a device whose model may give it a junction capacitance, a
+        capacitive branch from ``topology``: a capacitor in a loop of
+        capacitors and sources), None (nothing, or charges the topology
+        does not show: a transistor's).
     device_ic : tuple of str
         Initial-condition parameters of a semiconductor device (used by
         ngspice's ``uic`` only, not by netdae's start); a transistor's
@@ -166,6 +229,7 @@ class ElementKind:
     model_types: tuple[str, ...] = ()
     topology: str | None = None
     self_loop: bool = False
+    stores: str | None = None
     device_ic: tuple[str, ...] = ()
     steppable: bool = False
     quantities: dict[str, str] = field(default_factory=dict, compare=False)
@@ -238,9 +302,10 @@ _DEFINITIONS = (
     ElementKind("resistor", "r", "resistor", "(n+, n-)", (2,), _two(RESISTIVE), stamped=True,
                 model_types=("r", "res"), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_R),
     ElementKind("capacitor", "c", "capacitor", "(n+, n-)", (2,), _two(CAPACITIVE), stamped=True,
-                model_types=("c",), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_C),
+                model_types=("c",), self_loop=True, stores="charge", steppable=True, current_is_quantity=True,
+                sens=_SENS_C),
     ElementKind("inductor", "l", "inductor", "(n+, n-)", (2,), _two(INDUCTIVE), currents=("",), stamped=True,
-                model_types=("l",), self_loop=True, steppable=True, sens=_SENS_L),
+                model_types=("l",), self_loop=True, stores="flux", steppable=True, sens=_SENS_L),
     ElementKind("coupling", "k", "mutual inductance", "()", (0,), stamped=True, senses="inductor",
                 sens=(("", "value", True),)),
     ElementKind("vsource", "v", "voltage source", "(n+, n-)", (2,), _two(VOLTAGE), currents=("",), stamped=True,
@@ -271,11 +336,11 @@ _DEFINITIONS = (
                 self_loop=True),
     ElementKind("bcharge", "c", "charge-defined capacitor", "(n+, n-)", (2,), _two(CAPACITIVE),
                 family="netdae.devices.behavioral:BehaviouralFamily", controlled=True,
-                group="charge-defined capacitors", self_loop=True),
+                group="charge-defined capacitors", self_loop=True, stores="charge"),
     ElementKind("diode", "d", "diode", "(anode, cathode)", (2,), model_types=("d",),
                 family="netdae.devices.diode:DiodeFamily", topology="netdae.devices.diode:diode_branches",
-                self_loop=True, solved_quantities=True, device_ic=("ic",), sens=_sens_instance("area", "m", "temp"),
-                parameters="netdae.devices.diode:DIODE_PARAMETERS"),
+                self_loop=True, stores="junction charge", solved_quantities=True, device_ic=("ic",),
+                sens=_sens_instance("area", "m", "temp"), parameters="netdae.devices.diode:DIODE_PARAMETERS"),
     ElementKind("bjt", "q", "bipolar transistor", "(c, b, e[, substrate])", (3, 4),
                 ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0)),
                 model_types=("npn", "pnp"), family="netdae.devices.bjt:BjtFamily", controlled=True,

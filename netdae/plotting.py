@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .kinds import Kind
 from .results import Result
 
 __all__ = ["plot", "plot_result", "save_figure", "hidden_signals", "magnitude_db", "engineering_axis", "unit_of",
@@ -65,7 +66,7 @@ def _rails(circuit, result: Result) -> set[str]:
     swept = set(result.axes)
     edges = []
     for el in getattr(circuit, "elements", ()):
-        if el.kind != "vsource" or el.source is None or el.name in swept:
+        if el.kind != Kind.VSOURCE or el.source is None or el.name in swept:
             continue
         constant = el.source.ac_mag == 0.0 if result.analysis == "ac" else el.source.tran is None
         if constant:

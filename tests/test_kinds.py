@@ -3,7 +3,7 @@
 Each kind is read from a netlist card, assembled (by its stamp or its family),
 put into the topological graph and analysed; the definitions' views agree
 with what those consumers do; and no module outside the definitions keeps a
-table of kinds of its own.
+table of kinds of its own or compares a kind with a string literal.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from netdae.analyses.tran import transient
 from netdae.devices.base import DeviceFamily
 from netdae.devices.model_names import NGSPICE_PARAMETERS
 from netdae.devices.registry import family_for
-from netdae.kinds import (BRANCH_CURRENT_KINDS, CAPACITIVE, KIND_OF_MODEL_TYPE, KINDS, RESISTIVE, STAMPED_KINDS,
-                          resolve)
+from netdae.kinds import (BRANCH_CURRENT_KINDS, CAPACITIVE, INDUCTIVE, KIND_OF_MODEL_TYPE, KINDS, RESISTIVE,
+                          STAMPED_KINDS, STORES, Kind, resolve)
 from netdae.mna import assemble
 from netdae.netlist.syntax import ELEMENTS
 from netdae.topology.graph import build_graph, structure_key
@@ -195,3 +195,86 @@ def test_no_module_keeps_a_table_of_kinds_of_its_own():
 
 def test_families_resolve_lazily():
     assert resolve("netdae.devices.diode:DiodeFamily") is family_for("diode")
+
+
+def test_kind_names_every_kind():
+    """One Kind member per kind of KINDS, named after it, equal to its string."""
+    assert {str(k) for k in Kind} == set(KINDS)
+    for k in Kind:
+        assert k.name == k.value.upper() and k == k.value and f"{k}" == k.value
+        assert KINDS[k] is KINDS[k.value]
+
+
+def test_what_a_kind_stores_agrees_with_its_branches():
+    """stores: "charge" for a capacitive branch of its own, "flux" for an inductive one, a junction's by its hook."""
+    for spec in KINDS.values():
+        assert spec.stores is None or spec.stores in STORES, spec.name
+        assert (spec.stores == "charge") == (spec.first_class == CAPACITIVE), spec.name
+        assert (spec.stores == "flux") == (spec.first_class == INDUCTIVE), spec.name
+        if spec.stores == "junction charge":
+            assert spec.topology is not None, spec.name
+
+
+#: Comparisons with a string that spells a kind but names no element kind, by (module, string): the other side
+#: of such a comparison reads no kind (one that does is reported whatever the module).
+_NOT_KINDS = {
+    ("netdae/netlist/elements.py", "laplace"): "the LAPLACE keyword of an E/G card",
+    ("netdae/netlist/elements.py", "opamp"): "the OPAMP keyword of an E card",
+    ("netdae/netlist/params.py", "laplace"): "the laplace() of an expression, which only E/G LAPLACE takes",
+    ("netdae/ngspice/translate.py", "opamp"): "the OPAMP word of an E card, before netdae's reader",
+}
+
+
+def _kind_strings(node: ast.expr) -> set[str]:
+    """The kind names a comparison operand spells as string literals (alone or in a tuple, list or set)."""
+    items = node.elts if isinstance(node, (ast.Tuple, ast.List, ast.Set)) else [node]
+    return {n.value for n in items if isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value in KINDS}
+
+
+def _reads_kind(node: ast.expr) -> bool:
+    """The operand reads a kind: a name or attribute that says kind or family (``el.kind``, ``ctx.kinds[e]``)."""
+    words = [n.id for n in ast.walk(node) if isinstance(n, ast.Name)]
+    words += [n.attr for n in ast.walk(node) if isinstance(n, ast.Attribute)]
+    return any("kind" in w.lower() or "family" in w.lower() for w in words)
+
+
+def kind_string_comparisons(source: str, rel: str) -> tuple[list[str], set]:
+    """The comparisons of ``source`` against kind names written as strings, and the allowed ones it used."""
+    found, used = [], set()
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Compare):
+            continue
+        operands = [node.left, *node.comparators]
+        for k, side in enumerate(operands):
+            names = _kind_strings(side)
+            if not names:
+                continue
+            others = operands[:k] + operands[k + 1:]
+            allowed = {(rel, name) for name in names} <= _NOT_KINDS.keys()
+            if any(_reads_kind(o) for o in others) or not allowed:
+                found.append(f"{rel}:{node.lineno}: {ast.unparse(node)}")
+            else:
+                used |= {(rel, name) for name in names}
+    return found, used
+
+
+def test_the_comparison_scan_finds_kind_strings():
+    found, _ = kind_string_comparisons(
+        "a = el.kind == 'resistor'\nb = ctx.kinds[e] in ('capacitor', 'x')\nc = family not in ('diode', 'bjt')\n"
+        "d = 'mosfet' != item.kind\ne = el.kind == Kind.RESISTOR\nf = tok.text == 'laplace'\n"
+        "g = toks[3].kind == 'laplace'\nh = el.kind == 'tran'\n", "netdae/netlist/elements.py")
+    assert [f.split(":")[1] for f in found] == ["1", "2", "3", "4", "7"]
+
+
+def test_no_module_compares_against_kind_strings():
+    """Code outside netdae/kinds.py reads a field of the kind, or compares with a Kind member (never a string)."""
+    found, used = [], set()
+    for path in sorted(ROOT.rglob("*.py")):
+        rel = path.relative_to(ROOT.parent).as_posix()
+        if rel == "netdae/kinds.py":
+            continue
+        more, allowed = kind_string_comparisons(path.read_text(), rel)
+        found += more
+        used |= allowed
+    assert not found, "compare with a Kind member or read a field of netdae.kinds:\n" + "\n".join(found)
+    assert used == _NOT_KINDS.keys()  # no stale exception

@@ -89,3 +89,14 @@ R1 out 0 1k
     assert no_rs.topological_index == 2
     assert no_rs.cv_loops[0].elements == ("v1", "d1", "c1")
     assert "d1 (junction capacitance)" in no_rs.findings[0].message
+
+
+def test_charge_defined_capacitor_is_a_capacitor_in_loops_and_charge_groups():
+    """A C card with Q={...} (kind bcharge) stores charge: a capacitor of a CV loop, no source of a charge group."""
+    loop = analyze_topology(load("q loop\nV1 a 0 1\nC1 a 0 Q={1n*v(a)}\n.op\n.end\n"))
+    cv = next(f for f in loop.findings if f.kind == "cv_loop")
+    assert "of the voltage source v1 and the capacitor c1 fixes" in cv.message
+    assert cv.signals == ("i(v1)",)  # c1 has no branch current
+    group = analyze_topology(load("q group\nV1 a 0 1\nR1 a b 1k\nC1 b c Q={1n*v(b,c)}\nC2 c 0 1n\n.op\n.end\n"))
+    dc = next(f for f in group.findings if f.kind == "no_dc_path")
+    assert dc.nodes == ("c",) and "charge conservation" in dc.message and "DC currents" not in dc.message

@@ -45,6 +45,7 @@ import numpy as np
 
 from ..circuit import Circuit, NoiseAnalysis
 from ..errors import CircuitError
+from ..kinds import Kind
 from ..metadata import NoiseInfo
 from ..results import Result, Statistics
 from .op import op_result
@@ -146,7 +147,7 @@ def collect_noise_sources(prepared, x: np.ndarray):
     circuit, system = prepared.circuit, prepared.system
     xe = np.append(np.asarray(x, dtype=float), 0.0)
     temp = circuit.options.temp + KELVIN
-    resistors = [el for el in circuit.elements if el.kind == "resistor"]
+    resistors = [el for el in circuit.elements if el.kind == Kind.RESISTOR]
     parts = [resistor_noise(resistors, circuit, system.layout, xe)]
     parts += [fam.noise(xe, temp) for fam in system.families]
     return NoiseSources.concatenate(parts)
@@ -229,7 +230,7 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overr
                            "or undefined noise source)", hint="check the operating point of the circuit")
     gain_sq_inv = 1.0 / np.maximum(np.abs(gain) ** 2, NOISE_MINGAIN)
     onoise = density.sum(axis=1)
-    input_unit = "V" if circuit.element(card.source).kind == "vsource" else "A"
+    input_unit = "V" if circuit.element(card.source).kind == Kind.VSOURCE else "A"
     groups = _instances(sources)
 
     # the spectra (with a summary: every generator and device first, every summary-th point)

@@ -204,7 +204,7 @@ def _check_charge_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult
     for grp, ng in zip(groups, used):
         net = float(ev.phi[grp.rows].sum())
         if abs(net) > opts.reltol * float(scale[grp.rows].sum()) + opts.abstol * grp.rows.size:
-            sources = [e for e in ng.elements if circuit.element(e).kind != "capacitor"]
+            sources = [e for e in ng.elements if KINDS[circuit.element(e).kind].stores != "charge"]
             k = len(ng.nodes)
             raise CircuitError(
                 f"no DC operating point: {_names(sources) or 'the sources'} "

@@ -62,6 +62,7 @@ import scipy.sparse as sp
 
 from ..circuit import Circuit, Element, PzAnalysis
 from ..errors import CircuitError, SingularPencilError
+from ..kinds import Kind
 from ..results import Result, Statistics
 from .op import op_result
 
@@ -235,7 +236,7 @@ def port_system(E, H, B, names: list[str], node_index, sources: list[str], eleme
         how = f"input: a current source driving the port {port} (the port is otherwise open)"
         c = incidence(card.out_pos, card.out_neg, n)
         return E, H, b, c, how
-    across = [el for el in elements if el.kind == "vsource" and el.name not in gone
+    across = [el for el in elements if el.kind == Kind.VSOURCE and el.name not in gone
               and set(el.nodes) == {card.in_pos, card.in_neg}]
     if across:
         name = across[0].name
@@ -361,7 +362,7 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     lin = linearize(circuit, **overrides)
     system = lin.system
     if system.delays is not None:
-        lines = sorted({el.name for el in circuit.elements if el.kind == "tline"})
+        lines = sorted({el.name for el in circuit.elements if el.kind == Kind.TLINE})
         raise CircuitError(f".pz: the transmission lines {', '.join(lines[:5])} make the transfer function "
                            "transcendental (exp(-s td)): it has no finite set of poles and zeros",
                            elements=tuple(lines), hint="use .ac for the frequency response, or replace the "
@@ -370,7 +371,7 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
         raise CircuitError(f".pz: {system.n} unknowns: the pole-zero analysis is dense (O(n^3)) and takes at most "
                            f"{DENSE_LIMIT - 1}", hint="analyse a smaller sub-circuit")
     opened = [(el.name, system.layout.branch(el.name)) for el in circuit.elements
-              if el.kind == "vsource" and el.source is not None and el.source.ac_mag != 0.0]
+              if el.kind == Kind.VSOURCE and el.source is not None and el.source.ac_mag != 0.0]
     E, H, b, c, how = port_system(lin.E, lin.H_ac, system.B, list(system.names), system.node_index,
                                   list(system.sources.names), circuit.elements, card, opened)
     added = E.shape[0] > system.n

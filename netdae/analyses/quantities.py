@@ -43,7 +43,7 @@ import numpy as np
 from ..circuit import Circuit, Element, TranAnalysis
 from ..devices.linear import capacitances, conductances
 from ..errors import CircuitError
-from ..kinds import BRANCH_CURRENT_KINDS, KINDS
+from ..kinds import BRANCH_CURRENT_KINDS, KINDS, Kind
 from ..results import Result
 from ..signals import NONLINEAR_QUANTITY_KINDS, device_quantity, parse_signal
 
@@ -135,7 +135,7 @@ def plan_quantities(circuit: Circuit, names: list[str] | None) -> tuple[list[str
         item = Quantity(sig.name, el, q)
         if el.kind in NONLINEAR_QUANTITY_KINDS:
             system = _system(circuit) if system is None else system
-            if el.kind == "osdi":
+            if el.kind == Kind.OSDI:
                 _check_opvar(system, el, sig.name, q)
             item = replace(item, voltages=_device_voltages(system, el))
         quantities.append(item)
@@ -242,10 +242,10 @@ def _linear_values(circuit: Circuit, result: Result, base, el: Element, q: str, 
     """Quantity ``q`` of the linear element ``el`` at the result's points."""
     o = circuit.options
     v = _voltage(result, el)
-    if el.kind == "resistor":
+    if el.kind == Kind.RESISTOR:
         g = float(conductances([el], o.temp, o.tnom, ac=ac)[0])
         i = g * v
-    elif el.kind == "capacitor":
+    elif el.kind == Kind.CAPACITOR:
         c = float(capacitances([el], o.temp, o.tnom)[0])
         i = c * _derivative(result, base, el, v)
     elif el.kind in BRANCH_CURRENT_KINDS:
@@ -407,7 +407,7 @@ def _dense_with(dense, circuit: Circuit, item: Quantity, times: np.ndarray, valu
     def extended(t):
         tt = np.atleast_1d(np.asarray(t, dtype=float))
         y = dense(tt)
-        if item.element.kind == "capacitor" or item.element.kind in NONLINEAR_QUANTITY_KINDS:
+        if item.element.kind == Kind.CAPACITOR or item.element.kind in NONLINEAR_QUANTITY_KINDS:
             y[item.name] = np.interp(tt, times, values)
             return y
         probe = Result("tran", axes={"time": tt}, signals=dict(y))

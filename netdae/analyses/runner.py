@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from ..circuit import AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, SensAnalysis, \
     TfAnalysis, TranAnalysis
 from ..errors import NetdaeError, NetlistError
+from ..kinds import Kind
 
 if TYPE_CHECKING:
     from ..results import Result
@@ -528,7 +529,7 @@ def unused_options(circuit: Circuit) -> str | None:
     """
     o = circuit.options
     used = USED_EXTRA_OPTIONS
-    if any(el.kind == "osdi" and el.letter == "m" for el in circuit.elements):
+    if any(el.kind == Kind.OSDI and el.letter == "m" for el in circuit.elements):
         used = used | BSIM_OPTIONS
     names = sorted(name for name in o.extra if name not in used)
     if o.chgtol != type(o)().chgtol:

@@ -74,7 +74,7 @@ import scipy.sparse.linalg as spla
 from ..circuit import ABSOLUTE_ZERO, AcAnalysis, Circuit, Element, SensAnalysis
 from ..devices.model_names import SENS_AC_ONLY, SENS_MODEL_PARAMETERS, SENS_SPELLING
 from ..errors import CircuitError, NetdaeError
-from ..kinds import KINDS, resolve
+from ..kinds import KINDS, Kind, resolve
 from ..results import Result, Statistics
 from .op import op_result
 from .tf import output_selector
@@ -246,7 +246,7 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                     out.append(SensParameter(name, el.name, how, 1.0))
         elif kind.parameters is not None:
             model = circuit.models.get(el.model or "")
-            if model is None or el.kind == "mosfet" and int(model.params.get("level", 1.0)) != 1:
+            if model is None or el.kind == Kind.MOSFET and int(model.params.get("level", 1.0)) != 1:
                 where = f"{el.location}: " if el.location else ""
                 notes.append(f"{where}{el.name}: netdae computes the sensitivities of level-1 MOSFETs only "
                              "(ngspice lists this one's parameters)")

@@ -42,6 +42,7 @@ import scipy.sparse.linalg as spla
 
 from ..circuit import Circuit, TfAnalysis
 from ..errors import CircuitError
+from ..kinds import Kind
 from ..results import Result, Statistics
 from ..signals import parse_signal
 from .op import op_result
@@ -197,12 +198,12 @@ def tf_analysis(circuit: Circuit, card: TfAnalysis, **overrides) -> Result:
     b = np.asarray(system.B[:, [col]].toarray()).ravel()
     sig = parse_signal(card.output)
     out, out_branch = output_selector(system, card.output)
-    if src.kind == "vsource":
+    if src.kind == Kind.VSOURCE:
         kind, index = "v", system.layout.branch(src.name)
     else:
         kind, index = "i", (system.node_index(src.nodes[0]), system.node_index(src.nodes[1]))
     notes = list(system.notes)
-    if sig.kind == "i" and circuit.element(sig.args[0]).kind == "opamp":
+    if sig.kind == "i" and circuit.element(sig.args[0]).kind == Kind.OPAMP:
         raise CircuitError(f".tf: the output i({sig.args[0]}) is an ideal op-amp's output current, whose branch "
                            "equation is the op-amp's input constraint: no series impedance is defined",
                            elements=(sig.args[0],), hint="measure a V source (0 V) in series with the output")

@@ -54,7 +54,7 @@ from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
 from ..errors import CircuitError, NetdaeError, SingularPencilError
-from ..kinds import KINDS
+from ..kinds import KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
@@ -487,7 +487,7 @@ def _check_delays(prepared: Prepared) -> None:
     from ..dae.bdf.run import _compiled_engine_enabled
 
     if not _compiled_engine_enabled():
-        lines = sorted({el.name for el in prepared.circuit.elements if el.kind == "tline"})
+        lines = sorted({el.name for el in prepared.circuit.elements if el.kind == Kind.TLINE})
         raise CircuitError(f"transmission lines ({', '.join(lines[:5])}) run in the compiled engine only, and "
                            "NETDAE_ENGINE=python asks for the Python integrator", elements=tuple(lines),
                            hint="unset NETDAE_ENGINE (or set it to 'compiled')")

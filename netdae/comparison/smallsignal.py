@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..circuit import ABSOLUTE_ZERO
+from ..kinds import KINDS, Kind
 from ..results import Result
 from .header import Tolerance
 from .model import AnalysisComparison, SignalComparison
@@ -287,16 +288,14 @@ def _broken_ac_sens(kind: str) -> bool:
     factor, and the other sensitivities are 2e-3 away from its own ``.ac`` at 1 MHz on a circuit whose
     sensitivities netdae matches to 1e-9 against ``.ac`` runs with each parameter changed).
     """
-    from ..kinds import KINDS
-
-    return KINDS[kind].parameters is not None or kind == "coupling"
+    return KINDS[kind].parameters is not None or kind == Kind.COUPLING
 
 
 def _first_frequency_only(circuit, names: list[str]) -> list[str]:
     """The resistors' values among ``names``: ngspice 39's AC sensitivity to them is 0 after the first frequency."""
     if circuit is None:
         return []
-    resistors = {el.name for el in circuit.elements if el.kind == "resistor"}
+    resistors = {el.name for el in circuit.elements if el.kind == Kind.RESISTOR}
     return [n for n in names if n in resistors]
 
 

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..circuit import Circuit, Element
 from ..errors import CircuitError
-from ..kinds import KINDS
+from ..kinds import KINDS, Kind
 from .stamps import Triplets
 
 #: The transmission line's two port currents (ngspice's names: ``t1#i1``, ``t1#i2``).
@@ -269,7 +269,7 @@ def initial_currents(circuit: Circuit, layout: Layout, x: np.ndarray) -> None:
         The unknowns, changed in place.
     """
     for el in circuit.elements:
-        if el.kind == "inductor" and "ic" in el.params:
+        if el.kind == Kind.INDUCTOR and "ic" in el.params:
             x[layout.branch(el.name)] = el.params["ic"]
 
 
@@ -287,7 +287,7 @@ def add_initial_charges(circuit: Circuit, layout: Layout, x: np.ndarray, q: np.n
     q : ndarray, shape (n,)
         The charges at ``x``, changed in place.
     """
-    caps = [el for el in circuit.elements if el.kind == "capacitor" and "ic" in el.params]
+    caps = [el for el in circuit.elements if el.kind == Kind.CAPACITOR and "ic" in el.params]
     if not caps:
         return
     for el, c in zip(caps, capacitances(caps, circuit.options.temp, circuit.options.tnom)):
@@ -334,7 +334,7 @@ def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit, inductors:
         names = list(el.controls)
         inductors = [circuit.element(nm) for nm in names]
         for ind in inductors:
-            if ind.kind != "inductor":
+            if ind.kind != Kind.INDUCTOR:
                 raise CircuitError(f"{el.name}: {ind.name} is not an inductor", elements=(el.name, ind.name))
         for i in range(len(inductors)):
             for j in range(i + 1, len(inductors)):

@@ -24,7 +24,8 @@ import numpy as np
 
 from ..circuit import ABSOLUTE_ZERO, Circuit, Element, Model
 from ..errors import CircuitError, NetlistError
-from .model_names import NGSPICE_PARAMETERS, level_name
+from ..kinds import KINDS
+from .model_names import LEVELS, NGSPICE_PARAMETERS, level_name
 
 __all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "ignored_parameters",
            "unimplemented_level"]
@@ -222,19 +223,24 @@ def gather(rows: list[dict[str, float]], name: str, default: float = np.nan) -> 
 def unimplemented_level(family: str, model: Model) -> str | None:
     """The message refusing ``model``'s level, or None when netdae implements it (level 1).
 
+    ``family`` is the element kind of the model's type. A kind that ngspice
+    models at several levels (:data:`~netdae.devices.model_names.LEVELS`) and
+    netdae evaluates by a device family of its own (``ElementKind.family``)
+    runs level 1; the other levels are refused.
+
     Examples
     --------
     >>> unimplemented_level("mosfet", Model("mm", "nmos", {"level": 49.0}))
     'model mm: MOSFET level 49 (BSIM3 in ngspice) is not implemented by netdae'
     """
     level = model.params.get("level", 1.0)
-    if family not in ("diode", "bjt", "mosfet", "jfet") or level == 1.0:
-        return None
-    device = {"diode": "diode", "bjt": "bipolar transistor", "mosfet": "MOSFET", "jfet": "JFET"}[family]
+    spec = KINDS.get(family)
+    if spec is None or spec.family is None or family not in LEVELS or level == 1.0:
+        return None  # no levels, or no family of netdae's own (the MESFET runs as a compiled module), or level 1
     shown = f"{level:g}"
     name = level_name(family, int(level)) if level == int(level) else None
     what = f"{name} in ngspice" if name else "a level ngspice 39 does not know either"
-    return f"model {model.name}: {device} level {shown} ({what}) is not implemented by netdae"
+    return f"model {model.name}: {spec.summary} level {shown} ({what}) is not implemented by netdae"
 
 
 def ignored_parameters(family: str, model: Model) -> list[str]:

@@ -51,6 +51,7 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
+from ..kinds import Kind
 from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, noise_sources, thermal
 from .companion import BranchStamps, LimitState
 from .kernels.switch_states import HYST_OFF, HYST_ON, REALLY_OFF, REALLY_ON
@@ -144,7 +145,7 @@ class SwitchFamily(DeviceFamily):
         self.on = np.zeros(count, dtype=bool)
         self.dc_hold = np.zeros(count, dtype=bool)
         for k, el in enumerate(self.elements):
-            voltage = el.kind == "vswitch"
+            voltage = el.kind == Kind.VSWITCH
             model = resolve_model(el, circuit, ("sw",) if voltage else ("csw",))
             mv = (SW_PARAMETERS if voltage else CSW_PARAMETERS).read(model)
             inst = instance_values(el, _INSTANCE, "switch")
@@ -166,7 +167,7 @@ class SwitchFamily(DeviceFamily):
         self.minus = layout.nodes_of([el.nodes[1] for el in els])
         cp, cm = [], []
         for el in els:
-            if el.kind == "vswitch":
+            if el.kind == Kind.VSWITCH:
                 cp.append(layout.node(el.nodes[2]))
                 cm.append(layout.node(el.nodes[3]))
                 continue

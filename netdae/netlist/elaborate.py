@@ -33,11 +33,11 @@ from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, 
 from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
-from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS
+from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS, Kind
 from . import expr as ex
 from . import lossy
 from .elements import error, parse_value
-from .laplace import LaplaceError, realise
+from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
 from .montecarlo import DEFAULT_SEED, Draws, random_seed
@@ -368,7 +368,7 @@ class _Elaborator:
                     elif model in own_models:
                         bound = own_models[model]
                         model = f"{prefix}:{model}"
-                    elif own_models and kind is ElementCard and b.item.kind == "mosfet":
+                    elif own_models and kind is ElementCard and b.item.kind == Kind.MOSFET:
                         binned = _first_bin(model, own_models)
                         if binned is not None:  # nch.1, nch.2 ... of this subcircuit (BSIM binning)
                             bound, model = binned, f"{prefix}:{model}"
@@ -427,8 +427,8 @@ class _Elaborator:
             circuit.elements.append(el)
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
-        if any(el.kind == "laplace" for el in circuit.elements):
-            cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind == "laplace"}
+        if any(el.kind in LAPLACE_KINDS for el in circuit.elements):
+            cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind in LAPLACE_KINDS}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
         circuit.osdi_files = list(net.osdi)
         self._options(circuit)  # (BSIM binning and sizes read .options scale and wnflag)
@@ -454,7 +454,7 @@ class _Elaborator:
             what = "no elements" if not elements else "no node other than ground"
             raise error(card, 0, f"the circuit has {what}: nothing to simulate",
                         hint="connect elements between nodes and ground (0)")
-        if circuit.osdi_files or any(el.kind == "osdi" for el in circuit.elements):
+        if circuit.osdi_files or any(el.kind == Kind.OSDI for el in circuit.elements):
             from ..devices.osdi.bind import check_circuit  # loads the libraries (ctypes): only when used
             check_circuit(circuit)
         self._initial(circuit, nodes)
@@ -484,7 +484,7 @@ class _Elaborator:
         """Every E/G LAPLACE element replaced by its state-space block (:mod:`netdae.netlist.laplace`)."""
         out = []
         for el in placed:
-            if el.kind != "laplace":
+            if el.kind not in LAPLACE_KINDS:
                 out.append(el)
                 continue
             parts = el.name.split(".")
@@ -528,8 +528,8 @@ class _Elaborator:
             item = cards[el.name]
             model = circuit.models[el.model]
             try:
-                if el.kind == "txl" and model.type == "cpl":
-                    el.kind = "cpl"  # ngspice 39 reads a Y card with a CPL model as a one-conductor CPL
+                if el.kind == Kind.TXL and model.type in MODEL_TYPES[Kind.CPL]:
+                    el.kind = Kind.CPL.value  # ngspice 39 reads a Y card with a CPL model as a one-conductor CPL
                 line, notes = lossy.line_parameters(el, model)
             except lossy.LossyLineError as exc:
                 if exc.on_card:
@@ -551,7 +551,7 @@ class _Elaborator:
                 self.diagnostics.append(Diagnostic("warning", f"{el.name}: model {model.name}: {message}",
                                                    model.locations.get(param, model.location) if param
                                                    else model.location))
-            refs = [el.nodes[len(el.nodes) // 2 - 1], el.nodes[-1]] if el.kind != "ltra" else []
+            refs = [el.nodes[len(el.nodes) // 2 - 1], el.nodes[-1]] if el.kind != Kind.LTRA else []
             for ref in refs:
                 if ref != "0":
                     self.diagnostics.append(Diagnostic(
@@ -597,7 +597,7 @@ class _Elaborator:
             self.diagnostics.extend(map_devices(circuit, flags))
         seen: set[str] = set()
         for el in circuit.elements:
-            if el.model is None or el.kind == "osdi":
+            if el.model is None or el.kind == Kind.OSDI:
                 continue
             model = circuit.models.get(el.model)
             if model is None:
@@ -610,9 +610,9 @@ class _Elaborator:
                     key = passive.get(name)
                     if key is not None and key not in el.params:
                         el.params[key] = value
-                if el.kind == "resistor" and el.value is None:
+                if el.kind == Kind.RESISTOR and el.value is None:
                     el.value = self._resistance_from_model(el, model)
-                elif el.kind == "capacitor" and el.value is None:
+                elif el.kind == Kind.CAPACITOR and el.value is None:
                     el.value = _capacitance_from_model(el, model)
             else:
                 for name in INSTANCE_DEFAULTS.get(KIND_OF_MODEL_TYPE.get(model.type, ""), ()):
@@ -667,7 +667,7 @@ class _Elaborator:
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
-        zero_caps = [el for el in elements if el.kind == "capacitor" and el.value == 0.0]
+        zero_caps = [el for el in elements if el.kind == Kind.CAPACITOR and el.value == 0.0]
         if not zero_caps:
             return
         only_zero: dict[str, Element] = {}
@@ -676,7 +676,7 @@ class _Elaborator:
                 if n != "0":
                     only_zero.setdefault(n, el)
         for el in elements:
-            if el.kind == "capacitor" and el.value == 0.0:
+            if el.kind == Kind.CAPACITOR and el.value == 0.0:
                 continue
             for n in el.nodes:
                 only_zero.pop(n, None)
@@ -699,7 +699,7 @@ class _Elaborator:
         env = self.env(p.frames)
         known = NGSPICE_PARAMETERS.get(KIND_OF_MODEL_TYPE.get(item.type, ""), frozenset())
         params = {}
-        vdmos = item.type == "vdmos"
+        vdmos = item.type in MODEL_TYPES[Kind.VDMOS]
         if vdmos and "pchan" in item.flags:
             params["pchan"] = 1.0  # ngspice's reader: 'pchan' after 'vdmos' makes a p-channel VDMOS
         for k, v in item.params.items():
@@ -753,7 +753,7 @@ class _Elaborator:
                 f"ngspice 39 stops at the undefined word '{text}': write {name}=\"{text}\")",
                 item.card.location(offset)))
         outputs = OUTPUT_ONLY.get(family, frozenset())
-        dropped = VDMOS_ANNOTATIONS if family == "vdmos" else frozenset()
+        dropped = VDMOS_ANNOTATIONS if family == Kind.VDMOS else frozenset()
         for name in (*item.params, *item.strings, *item.flags):
             if name in outputs:
                 offset = (item.params.get(name) or item.strings.get(name) or (None, item.flags.get(name)))[1]
@@ -808,7 +808,7 @@ class _Elaborator:
             node_map = dict(zip(nodes_written, p.refs))
             elem_map = dict(zip(tuple(c for c, _ in item.controls) + elems_written, p.crefs))
             el.expr = resolve_behavioural(item.expr[0], env, card, item.expr[1], node_map, elem_map)
-            if el.kind in ("bvoltage", "bcurrent") and ("tc1" in el.params or "tc2" in el.params):
+            if el.kind in (Kind.BVOLTAGE, Kind.BCURRENT) and ("tc1" in el.params or "tc2" in el.params):
                 el.expr = self._temperature_scaled(el, env, card)
         if item.controls:
             el.controls = p.crefs[: len(item.controls)]
@@ -830,18 +830,18 @@ class _Elaborator:
         return ex.Binary("/" if reciprocal else "*", el.expr, ex.Const(factor))
 
     def _check_value(self, el: Element, item: ElementCard) -> None:
-        if el.kind == "resistor" and el.value == 0.0:
+        if el.kind == Kind.RESISTOR and el.value == 0.0:
             raise error(item.card, item.value[1], "zero resistance", ELEMENTS["r"],
                         hint="use a 0 V voltage source for a short circuit")
-        if el.kind == "resistor" and el.params.get("ac", 1.0) == 0.0:
+        if el.kind == Kind.RESISTOR and el.params.get("ac", 1.0) == 0.0:
             raise error(item.card, item.params["ac"][1], "zero AC resistance (ac=0)", ELEMENTS["r"])
         if "temp" in el.params and "dtemp" in el.params:
             self.diagnostics.append(Diagnostic(
                 "warning", f"{item.name}: instance temperature temp= given, dtemp= ignored (as ngspice does)",
                 item.card.location(item.params["dtemp"][1])))
-        if el.kind == "coupling" and not -1.0 <= el.value <= 1.0:
+        if el.kind == Kind.COUPLING and not -1.0 <= el.value <= 1.0:
             raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
-        if el.kind == "tline":
+        if el.kind == Kind.TLINE:
             self._check_tline(el, item)
 
     def _check_tline(self, el: Element, item: ElementCard) -> None:
@@ -877,14 +877,14 @@ class _Elaborator:
             mcard = p.bound
         else:
             mcard = self.net.top.models.get(p.model)
-            if mcard is None and item.kind == "mosfet":
+            if mcard is None and item.kind == Kind.MOSFET:
                 mcard = _first_bin(p.model, self.net.top.models)  # binned: the bin is chosen with the models
             if mcard is None:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
         allowed = MODEL_TYPES.get(item.kind)
-        if item.kind == "txl":
-            allowed = allowed + MODEL_TYPES["cpl"]  # a Y card reads a CPL model as one conductor (ngspice 39)
+        if item.kind == Kind.TXL:
+            allowed = allowed + MODEL_TYPES[Kind.CPL]  # a Y card reads a CPL model as one conductor (ngspice 39)
         if allowed is not None and mcard.type not in allowed and mcard.type in _PSPICE_MODEL_TYPES:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
                         f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "
@@ -899,7 +899,7 @@ class _Elaborator:
                         f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "
                         "compatibility mode)", ELEMENTS[item.name[0]],
                         hint=f"copy the parameters of {mcard.type[4:]} into a {' or '.join(allowed)} model")
-        if item.kind == "mosfet" and mcard.type == "vdmos":
+        if item.kind == Kind.MOSFET and mcard.type in MODEL_TYPES[Kind.VDMOS]:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is a VDMOS (power MOSFET): its M card "
                         "has three nodes (drain gate source)", ELEMENTS["m"],
                         hint="remove the bulk node, or use an nmos/pmos model")
@@ -970,7 +970,7 @@ class _Elaborator:
                         raise error(card, item.expr[1], f"V({name}): no element connects node '{name}'", syntax)
             elif type(n) is ex.Current:
                 target = elements.get(n.element)
-                if item.name[0] in "fh" and (target is None or target.kind != "vsource"):  # F/H POLY controls
+                if item.name[0] in "fh" and (target is None or target.kind != Kind.VSOURCE):  # F/H POLY controls
                     what = "names no element" if target is None else f"is a {target.kind}"
                     raise error(card, item.expr[1], f"POLY control '{n.element}' {what}, not a voltage source "
                                 "(F and H sense the current of a V source)", syntax,

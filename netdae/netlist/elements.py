@@ -12,7 +12,7 @@ import re
 import sys
 
 from ..errors import NetlistError
-from ..kinds import KINDS, MAX_CPL_CONDUCTORS
+from ..kinds import KINDS, MAX_CPL_CONDUCTORS, Kind
 from . import expr as ex
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
 from .numbers import ignored_text, parse_number
@@ -246,7 +246,7 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
     nodes = _nodes(card, toks, 2, syntax)
     key = _VALUE_KEY[kind]
     form = f"{name[0].upper()}name n+ n- {key.upper()}={{expr}} [m=mult]" + (
-        " | Cname n+ n- {charge expr} [m=mult]" if kind == "capacitor" else "")
+        " | Cname n+ n- {charge expr} [m=mult]" if kind == Kind.CAPACITOR else "")
     mult = None
     coefficients: dict = {}
     k = 3
@@ -266,7 +266,7 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
             mult = parse_value(card, toks[k + 2], form, "multiplier m")
             k += 3
             continue
-        if (kind == "resistor" and tok.kind == WORD and tok.text in ("tc1", "tc2") and k + 2 < len(toks)
+        if (kind == Kind.RESISTOR and tok.kind == WORD and tok.text in ("tc1", "tc2") and k + 2 < len(toks)
                 and toks[k + 1].text == "=" and tok.text not in coefficients):
             # ngspice 39 hands them to the B source it makes of the resistor, which scales the resistance
             coefficients[tok.text] = parse_value(card, toks[k + 2], form, tok.text)
@@ -284,17 +284,17 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
         return node if m is None else ex.Binary("*", m, node)
 
     at = value.start
-    if kind == "resistor":
+    if kind == Kind.RESISTOR:
         current = ex.Binary("/", ex.Voltage(nodes[0], nodes[1]), expr)
         params = {**coefficients, "reciproctc": (1.0, at)} if coefficients else {}
         return [ElementCard(name, "bcurrent", card, nodes, params=params, expr=(scaled(current), at))]
     k = next(j for j, t in enumerate(toks) if t is value)
     written_key = k >= 5 and toks[k - 1].text == "=" and toks[k - 2].text == key
-    if kind == "capacitor" and not written_key:
+    if kind == Kind.CAPACITOR and not written_key:
         # ngspice 39 reads 'C n+ n- {expr}' (no c=) as a charge
         return [ElementCard(name, "bcharge", card, nodes, expr=(scaled(expr), at))]
     aux = f"{name}#ddt"
-    if kind == "capacitor":
+    if kind == Kind.CAPACITOR:
         measured = ex.Voltage(nodes[0], nodes[1])
         main = ElementCard(name, "bcurrent", card, nodes, expr=(scaled(ex.Binary("*", expr, ex.Voltage(aux))), at))
     else:
@@ -338,7 +338,7 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
     if el.value is None:
         what = {"resistor": "resistance", "capacitor": "capacitance", "inductor": "inductance"}[kind]
         raise error(card, _end(card), f"missing {what}", syntax,
-                    hint=f"give the {what} after the two nodes, e.g. {'1k' if kind == 'resistor' else '1u'}")
+                    hint=f"give the {what} after the two nodes, e.g. {'1k' if kind == Kind.RESISTOR else '1u'}")
     return el
 
 
@@ -455,7 +455,7 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
 
 
 def _check_pwl_extras(card: Card, spec: SourceCard, syntax, kind: str) -> None:
-    if kind == "isource" and spec.tran[2]:
+    if kind == Kind.ISOURCE and spec.tran[2]:
         key = next(iter(spec.tran[2]))
         raise error(card, spec.tran[2][key][1], f"PWL {key}= is not available on current sources "
                     "(ngspice 39 rejects it)", syntax, hint="write the repeated or delayed points out")
@@ -789,15 +789,15 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
             words.append(tok)
     el = ElementCard(toks[0].text, kind, card, params=params, flags=flags)
     thermal = next((t for t in words if t.kind == WORD and t.text == "thermal"), None)
-    if thermal is not None and kind in ("diode", "mosfet"):
-        what = "VDMOS (power MOSFET, .model ... vdmos)" if kind == "mosfet" else "diode"
+    if thermal is not None and kind in (Kind.DIODE, Kind.MOSFET):
+        what = "VDMOS (power MOSFET, .model ... vdmos)" if kind == Kind.MOSFET else "diode"
         raise error(card, thermal.start, f"a self-heating {what} with thermal nodes ('thermal') is not supported "
                     "by netdae", syntax, hint="remove the thermal nodes and 'thermal' to simulate it without "
                     "self-heating")
-    if kind == "bjt":
+    if kind == Kind.BJT:
         el.positional = words
         return el
-    if kind == "mosfet" and len(words) in (count, count + 2) and all(t.kind == WORD for t in words):
+    if kind == Kind.MOSFET and len(words) in (count, count + 2) and all(t.kind == WORD for t in words):
         # three nodes and a model is ngspice 39's VDMOS, five nodes and a model its self-heating form;
         # judged when the models are known (parser._settle)
         el.positional = words
@@ -810,9 +810,9 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
     el.nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:count])
     el.model = (words[count].text, words[count].start)
     extra = words[count + 1 :]
-    if kind in ("diode", "jfet", "mesfet") and extra:
+    if kind in (Kind.DIODE, Kind.JFET, Kind.MESFET) and extra:
         # ngspice's Z reader gives an unlabelled area to MESA/HFET models only (judged with the model)
-        el.params[UNLABELLED_AREA if kind == "mesfet" else "area"] = parse_value(card, extra[0], syntax, "area")
+        el.params[UNLABELLED_AREA if kind == Kind.MESFET else "area"] = parse_value(card, extra[0], syntax, "area")
         extra = extra[1:]
     if extra:
         raise error(card, extra[0].start, f"unexpected {extra[0].text!r}", syntax)

@@ -38,9 +38,13 @@ import math
 import numpy as np
 
 from ..circuit import Element
+from ..kinds import KINDS
 from . import expr as ex
 
-__all__ = ["rational", "time_scale", "realise", "LaplaceError"]
+__all__ = ["LAPLACE_KINDS", "rational", "time_scale", "realise", "LaplaceError"]
+
+#: The element kinds this module realises (``ElementKind.realised_by``): E/G LAPLACE.
+LAPLACE_KINDS = frozenset(k for k, spec in KINDS.items() if spec.realised_by == __name__)
 
 
 class LaplaceError(ValueError):

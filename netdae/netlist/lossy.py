@@ -60,7 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..circuit import AcAnalysis, Element, NoiseAnalysis, SourceSpec, TranAnalysis
-from ..kinds import KINDS
+from ..kinds import KINDS, Kind
 
 __all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "LineParameters", "LossyLineError", "line_parameters", "resolution", "section_count", "realise",
            "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "DC_STEP", "MAX_SECTIONS",
@@ -231,7 +231,7 @@ def line_parameters(el: Element, model) -> tuple[LineParameters, list[tuple[str,
         definite (``l``, ``c``) or semi-definite (``g``), or with mutual resistances.
     """
     notes: list[tuple[str, str | None]] = []
-    if el.kind == "ltra":
+    if el.kind == Kind.LTRA:
         if "len" not in model.params:
             raise LossyLineError("the line's length len= is missing (ngspice 39: 'lossy line length must be "
                                  "given')", None, hint="add len=<length> to the .model card (r, l, g, c are per "
@@ -260,7 +260,7 @@ def line_parameters(el: Element, model) -> tuple[LineParameters, list[tuple[str,
             raise LossyLineError("a line with c but neither l nor r has no LTRA form in ngspice 39", "r")
         form = "rg" if l == 0 and c == 0 else "rc" if l == 0 else "lc"
         return LineParameters("ltra", _one(r), _one(l), _one(g), _one(c), length, form), notes
-    if el.kind == "txl":
+    if el.kind == Kind.TXL:
         vals = {}
         for name in ("r", "g", "l", "c", "length"):
             vals[name] = _scalar(model, name, required=True)
@@ -425,7 +425,7 @@ def realise(el: Element, p: LineParameters, n: int) -> tuple[list[Element], list
     own = parts[-1]
     prefix = "".join(f"{q}." for q in parts[1:-1])
     made = _Builder(el, f"{prefix}{own}#")
-    if p.kind == "cpl":
+    if p.kind == Kind.CPL:
         _modal(made, p, n)
     elif p.form == "rg":
         _rg(made, p)

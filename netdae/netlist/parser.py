@@ -12,6 +12,7 @@ from __future__ import annotations
 from ..circuit import Diagnostic
 from ..devices.model_names import VECTOR_PARAMETERS
 from ..errors import NetlistError
+from ..kinds import KINDS, MODEL_TYPES, Kind
 from . import expr as ex
 from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
@@ -720,13 +721,14 @@ def _settle(scope: Definition) -> None:
     for item in scope.items:
         if not isinstance(item, ElementCard):
             continue
-        if item.kind == "bjt":
+        if item.kind == Kind.BJT:
             _settle_bjt(item, scope)
-        elif item.kind == "mosfet" and item.positional is not None:
+        elif item.kind == Kind.MOSFET and item.positional is not None:
             _settle_three_node_mosfet(item, scope)
-        elif item.kind in ("resistor", "capacitor", "inductor") and item.model is None:
+        elif KINDS[item.kind].passive and item.model is None:
             value = item.value[0] if item.value is not None else None
-            if item.kind != "inductor" and isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+            if (item.kind != Kind.INDUCTOR and isinstance(value, ex.Param)
+                    and scope.lookup_model(value.name) is not None):
                 # 'R1 a b rmod [l= w=]', 'C1 a b cmod l= [w=]': the value comes from the model
                 # (elaborate: _resistance_from_model, _capacitance_from_model)
                 item.model, item.value = (value.name, item.value[1]), None
@@ -752,13 +754,13 @@ def _settle_three_node_mosfet(el: ElementCard, scope: Definition) -> None:
     words, card, syntax = el.positional, el.card, ELEMENTS["m"]
     if len(words) == 6:
         found = scope.lookup_model(words[5].text)
-        if found is not None and found[0].type == "vdmos":
+        if found is not None and found[0].type in MODEL_TYPES[Kind.VDMOS]:
             raise error(card, words[3].start, f"five nodes (drain gate source and the thermal nodes tj tcase of "
                         f"ngspice's self-heating VDMOS, model {words[5].text}) are not supported by netdae", syntax,
                         hint="remove the thermal nodes to simulate it without self-heating")
         raise error(card, words[5].start, f"unexpected {words[5].text!r}", syntax)
     found = scope.lookup_model(words[3].text)
-    if found is None or found[0].type != "vdmos":
+    if found is None or found[0].type not in MODEL_TYPES[Kind.VDMOS]:
         raise error(card, len(card.text), "expected 4 nodes and a model name, found 4 node(s) and no model", syntax)
     for name, value in el.params.items():
         if name not in VDMOS_INSTANCE_PARAMETERS:
@@ -766,7 +768,7 @@ def _settle_three_node_mosfet(el: ElementCard, scope: Definition) -> None:
             raise error(card, value[1], f"{what} is not an instance parameter of a VDMOS (power MOSFET, "
                         f"model {words[3].text})", syntax,
                         hint="a VDMOS takes " + " ".join(f"{k}=" for k in ("m", "ic", "temp", "dtemp")) + " and off")
-    el.kind = "vdmos"
+    el.kind = Kind.VDMOS.value
     el.nodes = tuple("0" if t.text == "gnd" else t.text for t in words[:3])
     el.model = (words[3].text, words[3].start)
     el.positional = None

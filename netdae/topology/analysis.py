@@ -56,7 +56,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ..circuit import Circuit
-from ..kinds import GROUPS, KINDS
+from ..kinds import GROUPS, KINDS, Kind
 from .context import EMPTY, Context, Partition, loops_through
 from .dc import dc_loops, no_dc_path, unfixed_potentials
 from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, VOLTAGE, build_graph, structure_key
@@ -71,6 +71,8 @@ __all__ = ["analyze_topology", "MAX_LISTED"]
 MAX_LISTED = 100
 
 _SEVERITY_ORDER = {"error": 0, "warning": 1, "note": 2}
+#: What the capacitors of a loop store (:attr:`netdae.kinds.ElementKind.stores`): a capacitor's charge, a junction's.
+_CHARGED = ("charge", "junction charge")
 
 # ---------------------------------------------------------------- singular structures
 
@@ -107,7 +109,7 @@ def _v_loops(ctx: Context) -> tuple[list[Loop], int]:
                     f"({lp.path(PATH_LIMIT)}): the op-amp holds its inputs at one potential, so one voltage "
                     "constraint of the loop is redundant, and the source voltages around it must add up to zero")
         else:
-            sources = [f"the output of op-amp {e}" if ctx.kinds[e] == "opamp" else e for e in sources]
+            sources = [f"the output of op-amp {e}" if ctx.kinds[e] == Kind.OPAMP else e for e in sources]
             text = (f"the voltage sources {name_list(sources)} form a loop ({lp.path(PATH_LIMIT)}): the current "
                     "circulating in it is undetermined, and the source voltages around it must add up to zero")
         if lp.controlled:
@@ -222,9 +224,9 @@ def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]
     for lp, _ in cv_loops:
         ctx.want("cv_loop")
         plain, opamps = ctx.split(lp)
-        vs = [e for e in plain if ctx.kinds[e] not in ("capacitor", "diode")]
-        cs = [e if ctx.kinds[e] == "capacitor" else f"{e} (junction capacitance)"
-              for e in plain if ctx.kinds[e] in ("capacitor", "diode")]
+        vs = [e for e in plain if ctx.stores[e] not in _CHARGED]
+        cs = [e if ctx.stores[e] == "charge" else f"{e} (junction capacitance)"
+              for e in plain if ctx.stores[e] in _CHARGED]
         signals = tuple(f"i({e})" for e in vs + opamps)
         op_signals += [f"i({e})" for e in opamps]
         what = with_inputs(vs, opamps, "the voltage source", "the voltage sources",
@@ -270,8 +272,8 @@ def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:
         signals += sig
         if not ctx.want("li_cutset"):
             continue
-        ls = [e for e in cs.elements if ctx.kinds[e] == "inductor"]
-        srcs = [e for e in cs.elements if ctx.kinds[e] != "inductor"]
+        ls = [e for e in cs.elements if ctx.stores[e] == "flux"]
+        srcs = [e for e in cs.elements if ctx.stores[e] != "flux"]
         many = len(names) > 1
         head = (f"{node_phrase(names)} {'are' if many else 'is'} connected to the rest of the circuit only through "
                 f"{plural(len(ls), 'the inductor', 'the inductors')} {name_list(ls)}")

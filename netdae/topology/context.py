@@ -7,6 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..kinds import KINDS
 from .graph import NULLATOR, ROLES, CircuitGraph
 from .kernels import components, fundamental_cycle, group_by, spanning_forest
 from .report import Finding, Loop
@@ -57,6 +58,11 @@ class Context:
     @cached_property
     def kinds(self) -> dict[str, str]:
         return dict(zip(self.elems, self.g.element_kinds))
+
+    @cached_property
+    def stores(self) -> dict[str, str | None]:
+        """What each element stores (:attr:`netdae.kinds.ElementKind.stores`), by name."""
+        return {e: KINDS[k].stores for e, k in zip(self.elems, self.g.element_kinds)}
 
     @cached_property
     def controlled_names(self) -> frozenset[str]:

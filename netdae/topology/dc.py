@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kinds import Kind
 from .context import EMPTY, Context, Partition, loops_through
 from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE
 from .report import Finding, Loop, NodeGroup
@@ -84,7 +85,7 @@ def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGrou
             text = (f"{node_phrase(names)} have no DC path to ground: they are attached to the rest of the circuit "
                     f"only through {how}")
         if by_charge:
-            sources = [e for e in through if ctx.kinds[e] != "capacitor"]
+            sources = [e for e in through if ctx.stores[e] != "charge"]
             k = len(names)
             why = CHARGE_PHRASE.format(plural(k, "it", "them"))
             text = (f"{text}; {plural(k, 'its', 'their')} DC potential follows from {why}"
@@ -127,8 +128,8 @@ def dc_loops(ctx: Context) -> tuple[list[Loop], int]:
         if len(lp.elements) == 1:
             what = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): at DC its current"
         else:
-            ls = [e for e in plain if ctx.kinds[e] == "inductor"]
-            vs = [e for e in plain if ctx.kinds[e] != "inductor"]
+            ls = [e for e in plain if ctx.stores[e] == "flux"]
+            vs = [e for e in plain if ctx.stores[e] != "flux"]
             with_v = f" with {with_inputs(vs, opamps, 'the source', 'the sources')}" if vs or opamps else ""
             what = (f"at DC the inductors are shorts, and {name_list(ls)} {plural(len(ls), 'forms', 'form')} a loop"
                     f"{with_v} "
@@ -176,7 +177,7 @@ def unfixed_potentials(ctx: Context, reported: np.ndarray, fixing: np.ndarray, d
         kind = "no_dc_path" if dc else "floating"
         if not ctx.want(kind):
             continue
-        how = [f"the output of op-amp {e}" if ctx.kinds[e] == "opamp" else e for e in grp.elements]
+        how = [f"the output of op-amp {e}" if ctx.kinds[e] == Kind.OPAMP else e for e in grp.elements]
         k = len(names)
         text = (f"the potential of {node_phrase(names)} is not fixed{' at DC' if dc else ''}: only {name_list(how)} "
                 f"{plural(len(how), 'attaches', 'attach')} {plural(k, 'it', 'them')}, and the output of an ideal "

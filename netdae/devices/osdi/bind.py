@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from ...circuit import Circuit, Element
 from ...errors import NetlistError
+from ...kinds import Kind
 from .instance import KELVIN, OsdiInstance, OsdiModel, SimParameters
 from .library import OsdiModule, load_library
 
@@ -68,7 +69,7 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
         an unknown parameter or one of the wrong type, values the module's
         setup rejects.
     """
-    els = [el for el in circuit.elements if el.kind == "osdi"] if elements is None else elements
+    els = [el for el in circuit.elements if el.kind == Kind.OSDI] if elements is None else elements
     modules = circuit_modules(circuit)
     opts = circuit.options
     sim = SimParameters(tnom=opts.tnom, gmin=opts.gmin, reltol=opts.reltol, abstol=opts.abstol,

@@ -69,7 +69,7 @@ from dataclasses import dataclass, field
 
 from ...circuit import Circuit, Diagnostic, Element, Model
 from ...errors import NetlistError
-from ...kinds import KIND_OF_MODEL_TYPE, KINDS
+from ...kinds import KIND_OF_MODEL_TYPE, KINDS, Kind
 from ...netlist.elements import UNLABELLED_AREA
 from ..model_names import level_name, level_parameters
 from .tools import EXTRA_HINT
@@ -550,7 +550,7 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
         if el.model is None or not KINDS[el.kind].model_types:
             continue
         if el.model not in circuit.models and el.model not in originals:
-            if el.kind != "mosfet":
+            if el.kind != Kind.MOSFET:
                 continue
             if families is None:
                 families = _families(circuit)
