@@ -22,7 +22,11 @@ zeros of ``.pz`` and the analysis card are fields of the result itself.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+
+if TYPE_CHECKING:
+    from .dae.bdf.failures import IntegrationFailure
 
 __all__ = ["TransientInfo", "NoiseInfo", "Provenance", "LEGACY_EXTRA"]
 
@@ -47,8 +51,9 @@ class TransientInfo:
         unknown).
     start : dict of str to float
         The values at t0 before correction.
-    failure : dict or None
-        Where and why a failed run stopped (``t``, ...).
+    failure : IntegrationFailure or None
+        Where and why a failed run stopped (:class:`netdae.dae.bdf.failures.IntegrationFailure`:
+        ``t``, ``h``, ``what``, ``worst``, ``hint``; ``as_dict()`` for JSON).
     jumps : list of (float, list of str)
         Times the solution jumps and the unknowns that jump.
     events : list of (float, list of str)
@@ -63,7 +68,7 @@ class TransientInfo:
     initial_correction: dict | None = None
     impulses: list[str] = field(default_factory=list)
     start: dict[str, float] = field(default_factory=dict)
-    failure: dict | None = None
+    failure: IntegrationFailure | None = None
     jumps: list = field(default_factory=list)
     events: list = field(default_factory=list)
     index_report: Any = None

@@ -320,10 +320,11 @@ def test_min_step_failure_names_time_step_and_unknown():
     res = integrate(dae, (0.0, 2e-3), np.array([0.0, -c * 1e3]), rtol=1e-3, min_step=1e-9)
     assert not res.ok
     f = res.failure
-    assert f["worst"] == "i(v1)" and abs(f["t"] - 1e-3) < 1e-5 and f["h"] <= 4e-9
-    assert "min_step" in res.message and f"t={f['t']:.9g}" in res.message and "i(v1)" in res.message
+    assert f.worst == "i(v1)" and abs(f.t - 1e-3) < 1e-5 and f.h <= 4e-9
+    assert "min_step" in res.message and f"t={f.t:.9g}" in res.message and "i(v1)" in res.message
+    assert res.message == f.message
     # the solution up to the failure is kept
-    assert res.t[-1] == pytest.approx(f["t"]) and res.dense(5e-4).shape == (2,)
+    assert res.t[-1] == pytest.approx(f.t) and res.dense(5e-4).shape == (2,)
 
 
 def test_kinds_decide_default_absolute_tolerances_for_a_ladder():

@@ -306,8 +306,8 @@ def test_model_undefined_beyond_a_time_fails_with_time_step_and_unknown():
     res = integrate(dae, (0.0, 1.0), np.array([1.0, 1.0]), rtol=1e-4)
     assert not res.ok
     f = res.failure
-    assert f["t"] == pytest.approx(0.5, abs=1e-6) and f["h"] < 1e-5 and f["worst"] == "v(a)"
-    assert "not finite" in f["hint"]
+    assert f.t == pytest.approx(0.5, abs=1e-6) and f.h < 1e-5 and f.worst == "v(a)"
+    assert "not finite" in f.hint
     assert "t=0.5" in res.message and "v(a)" in res.message
     with pytest.raises(ConvergenceError) as err:
         integrate(dae, (0.0, 1.0), np.array([1.0, 1.0]), rtol=1e-4, raise_on_failure=True)

@@ -96,7 +96,11 @@ def test_jump_of_takes_the_second_euler_step_for_index2_unknowns_only_on_a_value
 def test_failure_words():
     message, record = failure_record(1.5, 1e-9, "error test failed 10 times", "v(out)", "loosen")
     assert message == "BDF failed: error test failed 10 times at t=1.5, h=1e-09, worst unknown v(out) (hint: loosen)"
-    assert record == {"t": 1.5, "h": 1e-9, "worst": "v(out)", "hint": "loosen", "what": "error test failed 10 times"}
+    assert record.as_dict() == {"t": 1.5, "h": 1e-9, "worst": "v(out)", "hint": "loosen",
+                                "what": "error test failed 10 times"}
+    assert record.message == message
+    err = record.error()
+    assert (err.t, err.h, err.worst, err.hint) == (1.5, 1e-9, "v(out)", "loosen")
     names = ("a", "b", "c")
     assert worst_unknown(names, np.array([1.0, -3.0, 2.0]), np.ones(3), np.ones(3)) == "b"
     assert worst_unknown(names, np.array([1.0, 2.0, 3.0]), np.zeros(3), np.array([1.0, 0.0, 0.0])) == "a"

@@ -104,7 +104,7 @@ def test_engine_choice_and_failure_messages(monkeypatch):
     x0 = np.zeros(system.n)
     assert not supports(system, {"xp0": x0})  # an option the compiled engine does not implement
     res = integrate_compiled(system, (0.0, card.tstop), x0, max_steps=10)
-    assert not res.ok and res.failure["what"] == "reached max_steps=10"
+    assert not res.ok and res.failure.what == "reached max_steps=10"
     assert res.t.size == 11 and res.stats["steps"] == 10
     with pytest.raises(ValueError, match="rtol"):
         integrate_compiled(system, (0.0, card.tstop), x0, rtol=2.0)
@@ -184,6 +184,6 @@ def test_compiled_nonlinear_failure_reports_as_the_python_integrator(monkeypatch
     comp = integrate_compiled(system, (0.0, card.tstop), x0, max_steps=25)
     monkeypatch.setenv("NETDAE_ENGINE", "python")
     ref = bdf_module.integrate(system, (0.0, card.tstop), x0, max_steps=25)
-    assert not comp.ok and comp.failure["what"] == ref.failure["what"] == "reached max_steps=25"
+    assert not comp.ok and comp.failure.what == ref.failure.what == "reached max_steps=25"
     assert comp.t.size == ref.t.size
     np.testing.assert_allclose(comp.x, ref.x, rtol=1e-6, atol=1e-9)

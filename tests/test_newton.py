@@ -235,25 +235,6 @@ def test_spice_test_never_accepts_a_limited_iterate():
     assert float(res.x[0]) == 1.0
 
 
-def test_spice_test_of_a_linear_system_refines_once_then_judges_the_residual():
-    from netdae.dae.newton import SpiceTest
-
-    a = np.array([[4.0, 1.0], [1.0, 3.0]])
-    b = np.array([1.0, 2.0])
-    pat = SparsePattern.from_matrices(a)
-    evals = []
-
-    def fun(v, jac):
-        evals.append(jac)
-        return a @ v - b, (a[pat.rows, pat.cols] if jac else None), True, False
-
-    stop = SpiceTest(pat, 1e-3, np.full(2, 1e-9), np.full(2, 1e-12), linear=True)
-    res = newton(fun, np.zeros(2), LuCache(pat), np.ones(2), maxiter=3, jacobian="first", stop=stop)
-    assert res.converged
-    assert len(evals) == 3 and evals.count(True) == 1  # one factorisation, one refinement, one residual check
-    assert np.allclose(res.x, np.linalg.solve(a, b), rtol=1e-14)
-
-
 def test_rate_test_is_the_default_rule():
     """newton() without a rule and with RateTest(tol) give the same iterates (IDA's test)."""
     from netdae.dae.newton import RateTest

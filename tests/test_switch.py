@@ -427,7 +427,7 @@ def test_a_chattering_switch_stops_the_run_with_a_message(engine, monkeypatch):
     r = transient(load(RELAXATION.replace("vt=2 vh=1", "vt=2 vh=0")))
     assert not r.ok
     assert "switch s1 chatters" in r.message and "VH > 0" in r.message
-    assert r.transient.failure["t"] == pytest.approx(transient_first_crossing(), rel=1e-3)
+    assert r.transient.failure.t == pytest.approx(transient_first_crossing(), rel=1e-3)
     assert r.stats["integrator"]["events"] < 200
 
 

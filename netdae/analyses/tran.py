@@ -44,7 +44,7 @@ import math
 import re
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -60,6 +60,10 @@ from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from .index import IndexReport, analyze_index
 from .prepared import Prepared, prepare
+
+
+if TYPE_CHECKING:
+    from ..dae.bdf.failures import IntegrationFailure
 
 __all__ = ["transient", "output_size", "physical_memory", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
 
@@ -752,7 +756,7 @@ class _Run:
     stats: Statistics
     message: str
     status: int
-    failure: dict | None
+    failure: IntegrationFailure | None
     tolerances: dict
     jumps: list = field(default_factory=list)
     events: list = field(default_factory=list)

@@ -388,10 +388,6 @@ class SpiceTest:
     reltol : float
     x_atol, r_atol : ndarray, shape (n,)
         Absolute tolerances of the unknowns and of the equations.
-    linear : bool
-        The equations are affine: the first update solves them; one more
-        (a refinement with the same factorisation) and the residual test at
-        its result decide, whatever the updates' sizes.
 
     Attributes
     ----------
@@ -400,30 +396,21 @@ class SpiceTest:
         did not settle).
     """
 
-    def __init__(self, pattern: SparsePattern, reltol: float, x_atol: np.ndarray, r_atol: np.ndarray, *,
-                 linear: bool = False) -> None:
+    def __init__(self, pattern: SparsePattern, reltol: float, x_atol: np.ndarray, r_atol: np.ndarray) -> None:
         self.pattern, self.reltol, self.x_atol, self.r_atol = pattern, float(reltol), x_atol, r_atol
-        self.linear = linear
         self.rate = math.nan
         self.last_dx = np.zeros(pattern.n)
         self.begin()
 
     def begin(self) -> None:
         self._small = False
-        self._jac = None
 
     def residual_small(self, r: np.ndarray, jac: np.ndarray, x: np.ndarray) -> bool:
         """Every equation's residual within ``reltol`` of its terms' magnitude plus its tolerance."""
-        p = self.pattern
-        scale = np.bincount(p.rows, weights=np.abs(jac) * np.abs(x[p.cols]), minlength=p.n)
-        return bool(np.all(np.abs(r) <= self.reltol * scale + self.r_atol))
+        return bool(np.all(np.abs(r) <= self.reltol * self.pattern.row_magnitudes(jac, x) + self.r_atol))
 
     def at_point(self, m, x, r, jac, limited):
-        if jac is not None:
-            self._jac = jac  # a linear system's is evaluated once (modified Newton): it stays exact
-        if self.linear:
-            return self.residual_small(r, self._jac, x) if m >= 2 else None
-        if self._small and not limited and self.residual_small(r, self._jac, x):
+        if self._small and not limited and jac is not None and self.residual_small(r, jac, x):
             return True
         return None
 

@@ -126,6 +126,10 @@ class SparsePattern:
         """A zero ``data`` array."""
         return np.zeros(self.nnz)
 
+    def row_magnitudes(self, data: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """``|A| |x|``, shape (n,): the magnitude of the terms that make up each row of ``A x``."""
+        return np.bincount(self.rows, weights=np.abs(data) * np.abs(x[self.cols]), minlength=self.n)
+
     def matrix(self, data: np.ndarray) -> sp.csc_matrix:
         """A CSC matrix sharing this pattern (``data`` is not copied)."""
         return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))

@@ -52,7 +52,6 @@ from typing import Protocol
 import numpy as np
 
 from .kronecker import EPS, MatrixRank, default_rtol, matrix_rank, rank_decision
-from .newton import LuCache, SpiceTest, newton
 from .sparse import SparsePattern
 from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
@@ -206,10 +205,6 @@ class _Singular(Exception):
         return self.args[1] if len(self.args) > 1 else None
 
 
-class _IllConditioned(Exception):
-    """A nonlinear Jacobian with a pivot below the singular threshold: a failed iteration."""
-
-
 def _power_of_two_scale(m: np.ndarray) -> np.ndarray:
     """``2**-ceil(log2(m))`` for positive entries, 1 elsewhere."""
     m = np.asarray(m, dtype=float)
@@ -230,51 +225,82 @@ def _equilibrate(pattern: SparsePattern, data: np.ndarray) -> tuple[np.ndarray, 
     return r, _power_of_two_scale(cmax)
 
 
-def _min_pivot(lu: LuCache) -> float:
-    """Smallest pivot of a factorisation in the cache (1 for an empty matrix)."""
-    piv = lu.lu.pivots()
-    return float(piv.min()) if piv.size else 1.0
+def _check_pivot(pattern: SparsePattern, data: np.ndarray, min_pivot: float, linear: bool) -> bool:
+    """Judge the smallest equilibrated pivot of a factorisation of ``data``: False for an ill-conditioned
+    nonlinear Jacobian (a failed iteration); raises :class:`_Singular` for a singular linear one."""
+    n = pattern.n
+    if min_pivot > PIVOT_SAFETY * n * EPS:
+        return True
+    if not linear:
+        return False
+    if n > RANK_CHECK_LIMIT:
+        raise _Singular(f"smallest pivot {min_pivot:.3g} of the equilibrated matrix")
+    rank = jacobian_rank(pattern.matrix(data))
+    if rank.deficient:
+        raise _Singular(f"rank {rank.rank} of {n}", rank)
+    return True
+
+
+class _FreshLU:
+    """One fresh SuperLU factorisation of ``diag(r) A diag(c)``, solving ``A x = b``.
+
+    For a matrix factored once (a linear system's steady state, the
+    singularity judgement at a solution): SuperLU's own factors, in the pivot
+    order the engine's LU would take from it too. ``r`` and ``c`` scale every
+    row, then every column, by a power of two so that its largest entry lies
+    in (1/2, 1] (:func:`_equilibrate`). Raises :class:`_Singular` when
+    SuperLU finds the matrix exactly singular.
+    """
+
+    def __init__(self, pattern: SparsePattern, data: np.ndarray):
+        import scipy.sparse.linalg as spla
+
+        self.r, self.c = _equilibrate(pattern, data)
+        scaled = pattern.matrix(data * self.r[pattern.rows] * self.c[pattern.cols])
+        try:
+            self.lu = spla.splu(scaled, permc_spec="COLAMD")
+        except RuntimeError as exc:  # "Factor is exactly singular"
+            raise _Singular(str(exc)) from None
+        d = np.abs(self.lu.U.diagonal())
+        self.min_pivot = float(d.min()) if d.size else 1.0
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self.c * self.lu.solve(self.r * b)
 
 
 class _EquilibratedLU:
-    """The engine's LU (:class:`~netdae.dae.newton.LuCache`) of ``diag(r) A diag(c)``, solving ``A x = b``.
+    """The engine's LU (:class:`~netdae.dae.newton.LuCache`) of ``diag(r) A diag(c)`` for Newton iterations.
 
-    ``A`` is given by its values on a pattern; ``r`` and ``c`` scale every
-    row, then every column, by a power of two so that its largest entry lies
-    in (1/2, 1] (:func:`_equilibrate`). The pivot order is kept from one
-    Newton iteration to the next and refreshed when a pivot degrades.
+    ``A`` is given by its values on a pattern, scaled as in :class:`_FreshLU`;
+    the pivot order is kept from one iteration to the next (and from one
+    homotopy solve to the next) and refreshed when a pivot degrades.
     :meth:`factor` judges the smallest equilibrated pivot: at or below
-    ``PIVOT_SAFETY * n * eps`` a linear system's matrix is singular (raises
-    :class:`_Singular`, after the SVD rank decision up to
-    ``RANK_CHECK_LIMIT`` unknowns) and a nonlinear one's is ill-conditioned
-    (a failed iteration: returns False and sets :attr:`ill_conditioned`).
+    ``PIVOT_SAFETY * n * eps`` the (nonlinear) Jacobian is ill-conditioned: a
+    failed iteration (returns False and sets :attr:`ill_conditioned`).
 
     Attributes
     ----------
     min_pivot : float
         Smallest equilibrated pivot of the last factorisation (nan: none).
     ill_conditioned : bool
-        A factorisation met an ill-conditioned nonlinear Jacobian.
-    factorizations : int
-        Factorisations attempted.
+        A factorisation met an ill-conditioned Jacobian.
     """
 
-    def __init__(self, pattern: SparsePattern, *, linear: bool) -> None:
+    def __init__(self, pattern: SparsePattern) -> None:
+        from .newton import LuCache  # the engine's LU (numba): not imported by `netdae check` / `index`
+
         self.pattern = pattern
-        self.linear = linear
         self.cache = LuCache(pattern, permc_spec="COLAMD")
         self.r = self.c = None
         self.min_pivot = float("nan")
         self.ill_conditioned = False
-        self.factorizations = 0
 
     @property
     def ready(self) -> bool:
         return self.cache.ready
 
     def factor(self, data: np.ndarray, tag=None) -> bool:
-        """Factor the equilibrated matrix and judge its pivots (see the class notes). Raises _Singular."""
-        self.factorizations += 1
+        """Factor the equilibrated matrix and judge its pivots. Raises _Singular when exactly singular."""
         self.min_pivot = float("nan")
         if not np.all(np.isfinite(data)):
             return False
@@ -282,32 +308,15 @@ class _EquilibratedLU:
         self.r, self.c = _equilibrate(pat, data)
         if not self.cache.factor(data * self.r[pat.rows] * self.c[pat.cols]):
             raise _Singular("Factor is exactly singular")
-        self.min_pivot = _min_pivot(self.cache)
-        n = pat.n
-        if self.min_pivot <= PIVOT_SAFETY * n * EPS:
-            if not self.linear:
-                self.ill_conditioned = True
-                return False
-            if n > RANK_CHECK_LIMIT:
-                raise _Singular(f"smallest pivot {self.min_pivot:.3g} of the equilibrated matrix")
-            rank = jacobian_rank(pat.matrix(data))
-            if rank.deficient:
-                raise _Singular(f"rank {rank.rank} of {n}", rank)
+        piv = self.cache.lu.pivots()
+        self.min_pivot = float(piv.min()) if piv.size else 1.0
+        if not _check_pivot(pat, data, self.min_pivot, False):
+            self.ill_conditioned = True
+            return False
         return True
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         return self.c * self.cache.solve(self.r * b)
-
-
-def _equilibrated_pivot(pattern: SparsePattern, data: np.ndarray) -> float:
-    """Smallest pivot of a fresh equilibrated LU of ``data`` (0: exactly singular or not finite)."""
-    if not np.all(np.isfinite(data)):
-        return 0.0
-    r, c = _equilibrate(pattern, data)
-    lu = LuCache(pattern, permc_spec="COLAMD")
-    if not lu.factor(data * r[pattern.rows] * c[pattern.cols]):
-        return 0.0
-    return _min_pivot(lu)
 
 
 def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> MatrixRank:
@@ -373,7 +382,9 @@ class _Newton:
     conductance ``gdiag`` from every voltage unknown to ground, with the
     sources scaled by ``scale`` and the forced unknowns held by
     ``FORCING_CONDUCTANCE``; the LU is the engine's, equilibrated
-    (:class:`_EquilibratedLU`), its pivot order kept across solves.
+    (:class:`_EquilibratedLU`), its pivot order kept across solves. A linear
+    system is not iterated: one factorisation (:class:`_FreshLU`), the solve
+    and one refinement, accepted when the residual is small.
 
     Attributes
     ----------
@@ -394,25 +405,13 @@ class _Newton:
             self.volt = np.arange(system.n)
         self.x_atol, self.r_atol = _tolerances(system.kinds, opts)
         self.weights = 1.0 / self.x_atol
-        self.lu = _EquilibratedLU(self.pattern, linear=system.linear)
-        self.stop = SpiceTest(self.pattern, opts.reltol, self.x_atol, self.r_atol, linear=system.linear)
+        self._lu = self._stop = None  # made at the first nonlinear solve
         self.iterations = 0
+        self.factorizations = 0
         self.last_used = 0
         self.last_pivot = float("nan")  # smallest equilibrated pivot of the last factorization
-
-    @property
-    def factorizations(self) -> int:
-        return self.lu.factorizations
-
-    @property
-    def ill_conditioned(self) -> bool:
-        """A Newton iteration met an ill-conditioned Jacobian."""
-        return self.lu.ill_conditioned
-
-    @property
-    def last_dx(self) -> np.ndarray:
-        """``|dx| / tolerance`` of the last update, shape (n,)."""
-        return self.stop.last_dx
+        self.last_dx = np.zeros(system.n)  # |dx| / tolerance of the last update
+        self.ill_conditioned = False  # an iteration met an ill-conditioned Jacobian
 
     def _residual(self, x, gdiag, scale, state):
         ev = self.system.evaluate(x, self.t, jacobian=True, state=state, source_scale=scale)
@@ -428,18 +427,27 @@ class _Newton:
             jac[self.pattern.diag[frc.index]] -= frc.conductance
         return ev, F, jac
 
+    def _residual_small(self, F, jac, x) -> bool:
+        return bool(np.all(np.abs(F) <= self.opts.reltol * self.pattern.row_magnitudes(jac, x) + self.r_atol))
+
     def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None, init=False) -> tuple[np.ndarray, bool]:
         """Iterate from x; returns (x, converged). Raises _Singular.
 
         ``init`` starts the devices from their initial junction voltages
         (SPICE's MODEINITJCT), for a solve from scratch; otherwise they are
-        evaluated at x (continuation from a previous solution). A linear
-        system is solved by one iteration and one refinement with the same
-        factorisation, accepted when its residual is small.
+        evaluated at x (continuation from a previous solution).
         """
+        if self.system.linear:
+            return self._solve_linear(np.array(x, dtype=float), gdiag, scale)
+        from .newton import SpiceTest, newton
+
+        if self._lu is None:
+            self._lu = _EquilibratedLU(self.pattern)
+            self._stop = SpiceTest(self.pattern, self.opts.reltol, self.x_atol, self.r_atol)
+        lu = self._lu
         maxiter = self.opts.maxiter if maxiter is None else maxiter
-        linear = self.system.linear
         state = [self.system.initial_state() if init and hasattr(self.system, "initial_state") else None]
+        counted = lu.cache.factorizations
 
         def fun(xv, jacobian):
             out = self._residual(xv, gdiag, scale, state[0])
@@ -449,14 +457,38 @@ class _Newton:
             state[0] = ev.state
             return F, jac, True, bool(ev.limited)
 
-        res = newton(fun, x, self.lu, self.weights, maxiter=3 if linear else maxiter,
-                     jacobian="first" if linear else "always", stop=self.stop)
-        used = min(res.iterations, 1) if linear else res.iterations
-        self.iterations += used
-        self.last_used = used
-        if math.isfinite(self.lu.min_pivot):
-            self.last_pivot = self.lu.min_pivot
+        try:
+            res = newton(fun, x, lu, self.weights, maxiter=maxiter, jacobian="always", stop=self._stop)
+        finally:
+            self.factorizations += lu.cache.factorizations - counted
+            self.ill_conditioned |= lu.ill_conditioned
+        if math.isfinite(lu.min_pivot):
+            self.last_pivot = lu.min_pivot
+        self.iterations += res.iterations
+        self.last_used = res.iterations
+        self.last_dx = self._stop.last_dx
         return res.x, res.converged
+
+    def _solve_linear(self, x, gdiag, scale) -> tuple[np.ndarray, bool]:
+        """One factorisation (:class:`_FreshLU`, judged), the solve, one refinement, the residual test."""
+        out = self._residual(x, gdiag, scale, None)
+        if out is None:
+            return x, False
+        _, F, jac = out
+        self.iterations += 1
+        self.last_used = 1
+        self.factorizations += 1
+        lu = _FreshLU(self.pattern, jac)
+        self.last_pivot = lu.min_pivot
+        _check_pivot(self.pattern, jac, lu.min_pivot, True)
+        dx = lu.solve(-F)
+        if not np.all(np.isfinite(dx)):
+            return x, False
+        x_new = x + dx
+        self.last_dx = np.abs(dx) / (self.opts.reltol * np.maximum(np.abs(x), np.abs(x_new)) + self.x_atol)
+        x = x_new + lu.solve(-self._residual(x_new, gdiag, scale, None)[1])
+        _, F, jac = self._residual(x, gdiag, scale, None)
+        return x, self._residual_small(F, jac, x)
 
 
 class _ChargeRows(DaeSystem):
@@ -526,7 +558,10 @@ def _judge(newton: _Newton, x) -> tuple[float, MatrixRank | None, bool]:
     if out is None:
         return float("nan"), None, False
     mat = newton.pattern.matrix(out[2])
-    pivot = _equilibrated_pivot(newton.pattern, out[2])
+    try:
+        pivot = _FreshLU(newton.pattern, out[2]).min_pivot
+    except _Singular:
+        pivot = 0.0
     if pivot > PIVOT_SUSPECT:
         return pivot, None, False
     if n > RANK_CHECK_LIMIT:

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
+
 import numpy as np
 
 from ..newton import INFO_EVALUATION, INFO_SINGULAR
 
-__all__ = ["Failure", "worst_unknown", "nonfinite_unknown", "newton_hint", "error_hint", "failure_record"]
+__all__ = ["Failure", "IntegrationFailure", "worst_unknown", "nonfinite_unknown", "newton_hint", "error_hint",
+           "failure_record"]
 
 
 class Failure(Exception):
@@ -64,9 +67,50 @@ def error_hint() -> str:
             "an inconsistent initial value, or an index-2 unknown not marked in `index`")
 
 
-def failure_record(t: float, h: float, what: str, worst, hint: str) -> tuple[str, dict]:
-    """The failure message and record (``t``, ``h``, ``worst``, ``hint``, ``what``) of ``IntegrationResult``."""
-    text = f"BDF failed: {what} at t={t:.9g}, h={h:.3g}"
-    if worst:
-        text += f", worst unknown {worst}"
-    return text + f" (hint: {hint})", {"t": float(t), "h": float(h), "worst": worst, "hint": hint, "what": what}
+@dataclass(frozen=True, slots=True)
+class IntegrationFailure:
+    """Where and why an integration stopped (``IntegrationResult.failure``, ``TransientInfo.failure``).
+
+    Attributes
+    ----------
+    t : float
+        Time reached.
+    h : float
+        Step size of the failed attempt.
+    what : str
+        What failed.
+    worst : str or None
+        The unknown to blame.
+    hint : str
+        What the user can do.
+    """
+
+    t: float
+    h: float
+    what: str
+    worst: str | None
+    hint: str
+
+    @property
+    def message(self) -> str:
+        """``BDF failed: <what> at t=..., h=..., worst unknown ... (hint: ...)``."""
+        text = f"BDF failed: {self.what} at t={self.t:.9g}, h={self.h:.3g}"
+        if self.worst:
+            text += f", worst unknown {self.worst}"
+        return text + f" (hint: {self.hint})"
+
+    def error(self):
+        """The :class:`~netdae.errors.ConvergenceError` that reports it."""
+        from ...errors import ConvergenceError
+
+        return ConvergenceError(self.what, t=self.t, h=self.h, worst=self.worst, hint=self.hint)
+
+    def as_dict(self) -> dict:
+        """The fields as a plain dict (for JSON)."""
+        return asdict(self)
+
+
+def failure_record(t: float, h: float, what: str, worst, hint: str) -> tuple[str, IntegrationFailure]:
+    """The failure message and record of ``IntegrationResult``."""
+    rec = IntegrationFailure(float(t), float(h), what, worst, hint)
+    return rec.message, rec

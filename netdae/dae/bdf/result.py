@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..dense import Interpolant
+
+
+if TYPE_CHECKING:
+    from .failures import IntegrationFailure
 
 __all__ = ["IntegrationResult"]
 
@@ -46,8 +51,8 @@ class IntegrationResult:
         ``rtol``, ``vntol``, ``abstol``, ``atol`` (or ``"per-unknown"``),
         ``norm``, ``relref``, ``newton_tol``, ``index_excluded`` (number of
         unknowns left out of the error test), ``maxord``.
-    failure : dict or None
-        ``t``, ``h``, ``worst``, ``hint``, ``what`` of a failure.
+    failure : IntegrationFailure or None
+        Where and why a failed run stopped (``t``, ``h``, ``what``, ``worst``, ``hint``).
     restarts : ndarray, shape (r,)
         Breakpoints at which the method restarted at order 1.
     jumps : list of (float, tuple of str)
@@ -71,7 +76,7 @@ class IntegrationResult:
     status: int
     message: str
     tolerances: dict
-    failure: dict | None = None
+    failure: IntegrationFailure | None = None
     restarts: np.ndarray = field(default_factory=lambda: np.empty(0))
     jumps: list = field(default_factory=list)
     events: list = field(default_factory=list)

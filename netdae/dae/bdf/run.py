@@ -98,7 +98,7 @@ def integrate(
         progress(solver.t, tf, solver.stats["steps"])
     result = solver.result()
     if raise_on_failure and not result.ok:
-        f = result.failure or {}
-        raise ConvergenceError(f.get("what", result.message), t=f.get("t"), h=f.get("h"),
-                               worst=f.get("worst"), hint=f.get("hint"))
+        if result.failure is None:
+            raise ConvergenceError(result.message)
+        raise result.failure.error()
     return result

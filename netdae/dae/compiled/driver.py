@@ -45,6 +45,7 @@ import numpy as np
 from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
+from ..bdf.failures import IntegrationFailure
 from ..newton import NewtonInfo
 from .sources import pack_sources
 
@@ -369,10 +370,10 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 stalled += 1
                 if stalled > MAX_RETURNS_WITHOUT_STEP:
                     # new pivots or right limits asked for again and again without a step: stop, do not hang
-                    failure = {"t": float(F[L.F_T]), "h": float(F[L.F_H]), "worst": None,
-                               "hint": "loosen the tolerances or give the circuit's fastest nodes some capacitance",
-                               "what": f"no step after {stalled} restarts (the matrices of the restart's probes are "
-                                       "near-singular)"}
+                    failure = IntegrationFailure(
+                        float(F[L.F_T]), float(F[L.F_H]),
+                        f"no step after {stalled} restarts (the matrices of the restart's probes are near-singular)",
+                        None, "loosen the tolerances or give the circuit's fastest nodes some capacitance")
                     I[L.I_STATUS] = L.FAILED
                     status = L.FAILED
                     break
@@ -415,8 +416,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                     if I[L.I_IMPASSE] != 0:  # no jump found either: the Newton failure stands
                         failure = _failure(system, F, I)
                     else:
-                        failure = {"t": float(F[L.F_T]), "h": eps, "worst": None,
-                                   "hint": BDF._newton_hint(None), "what": what}
+                        failure = IntegrationFailure(float(F[L.F_T]), eps, what, None, BDF._newton_hint(None))
                     I[L.I_STATUS] = L.FAILED
                     status = L.FAILED
                     break
@@ -499,9 +499,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     elif status == L.FAILED:
         if failure is None:
             failure = _failure(system, F, I)
-        message = (f"BDF failed: {failure['what']} at t={failure['t']:.9g}, h={failure['h']:.3g}"
-                   + (f", worst unknown {failure['worst']}" if failure["worst"] else "")
-                   + f" (hint: {failure['hint']})")
+        message = failure.message
         code = STATUS_FAILED
     elif out_of_memory is not None:
         message = (f"stopped at t={F[L.F_T]:.9g} before t_bound={t_bound:.9g}: not enough memory to keep more "
@@ -535,9 +533,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         interrupted.partial = result
         raise interrupted
     if raise_on_failure and not result.ok:
-        f = result.failure or {}
-        raise ConvergenceError(f.get("what", result.message), t=f.get("t"), h=f.get("h"),
-                               worst=f.get("worst"), hint=f.get("hint"))
+        if result.failure is None:
+            raise ConvergenceError(result.message)
+        raise result.failure.error()
     return result
 
 
@@ -722,7 +720,7 @@ def _pack_families(system, x0, switching) -> tuple:
 MAX_RETURNS_WITHOUT_STEP = 50
 
 
-def _failure(system, F, I) -> dict:
+def _failure(system, F, I) -> IntegrationFailure:
     """The failure record (what, t, h, worst, hint) from the engine's codes."""
     from ..bdf import BDF
 
@@ -744,7 +742,7 @@ def _failure(system, F, I) -> dict:
 
         family = system.switching.family
         what, hint = chatter_message(family.elements[int(I[L.I_FAIL_WORST])].name)
-        return {"t": float(F[L.F_FAIL_T]), "h": h, "worst": None, "hint": hint, "what": what}
+        return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, None, hint)
     elif outer == L.FAIL_MAX_STEPS:
         what = f"reached max_steps={int(I[L.I_MAX_STEPS])}"
         hint = "raise max_steps, or loosen the tolerances"
@@ -762,4 +760,4 @@ def _failure(system, F, I) -> dict:
         hint = BDF._error_hint()
     wi = int(I[L.I_FAIL_WORST])
     worst = system.names[wi] if 0 <= wi < system.n else None
-    return {"t": float(F[L.F_FAIL_T]), "h": h, "worst": worst, "hint": hint, "what": what}
+    return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, worst, hint)
