@@ -268,6 +268,24 @@ class _FreshLU:
         return self.c * self.lu.solve(self.r * b)
 
 
+def _lu_cache(system: DaeSystem):
+    """The engine's LU kept for ``system``'s Newton iterations: its pivot order serves the next solves too
+    (a ``.dc`` sweep's points, the homotopies' steps), chosen afresh only where a pivot degrades."""
+    from .newton import LuCache  # the engine's LU (numba): not imported by `netdae check` / `index`
+
+    try:
+        cache = _LU_CACHES.get(system)
+    except TypeError:  # a system that cannot be weakly referenced: a cache of this solve's own
+        return LuCache(system.pattern, permc_spec="COLAMD")
+    if cache is None or cache.pattern is not system.pattern:
+        cache = _LU_CACHES[system] = LuCache(system.pattern, permc_spec="COLAMD")
+    return cache
+
+
+#: The LU of each system solved by Newton iterations (its pivot order), for its next solves.
+_LU_CACHES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 class _EquilibratedLU:
     """The engine's LU (:class:`~netdae.dae.newton.LuCache`) of ``diag(r) A diag(c)`` for Newton iterations.
 
@@ -286,11 +304,9 @@ class _EquilibratedLU:
         A factorisation met an ill-conditioned Jacobian.
     """
 
-    def __init__(self, pattern: SparsePattern) -> None:
-        from .newton import LuCache  # the engine's LU (numba): not imported by `netdae check` / `index`
-
-        self.pattern = pattern
-        self.cache = LuCache(pattern, permc_spec="COLAMD")
+    def __init__(self, system: DaeSystem) -> None:
+        self.pattern = system.pattern
+        self.cache = _lu_cache(system)
         self.r = self.c = None
         self.min_pivot = float("nan")
         self.ill_conditioned = False
@@ -442,7 +458,7 @@ class _Newton:
         from .newton import SpiceTest, newton
 
         if self._lu is None:
-            self._lu = _EquilibratedLU(self.pattern)
+            self._lu = _EquilibratedLU(self.system)
             self._stop = SpiceTest(self.pattern, self.opts.reltol, self.x_atol, self.r_atol)
         lu = self._lu
         maxiter = self.opts.maxiter if maxiter is None else maxiter
