@@ -33,6 +33,7 @@ import numpy as np
 
 from .kinds import Kind
 from .results import Result
+from .signals import parse_signal
 
 __all__ = ["plot", "plot_result", "save_figure", "hidden_signals", "magnitude_db", "engineering_axis", "unit_of",
            "MAX_CURVES", "MAGNITUDE_FLOOR"]
@@ -57,8 +58,11 @@ _SWEEP_UNITS = {"v": "V", "i": "A", "r": "Ω"}
 
 def _is_internal(name: str) -> bool:
     """A signal of an internal device node (``v(d1#internal)``, ``v(q1:collector)``)."""
-    inner = name[2:-1] if name[:2] in ("v(", "i(") and name.endswith(")") else name
-    return name.startswith("v(") and ("#" in inner or ":" in inner)
+    try:
+        sig = parse_signal(name)
+    except ValueError:
+        return False
+    return sig.kind == "v" and name.startswith("v(") and any("#" in n or ":" in n for n in sig.nodes)
 
 
 def _rails(circuit, result: Result) -> set[str]:

@@ -91,16 +91,16 @@ def _row_names(system: MnaSystem, rows) -> list[str]:
     """Equations by name: the current law of a node, or the equation of an element's branch."""
     out = []
     for i in rows:
-        nm = system.names[i]
-        out.append(f"the current law at node '{nm[2:-1]}'" if nm.startswith("v(") else f"the equation of {nm[2:-1]}")
+        what, name = system.layout.target(int(i))
+        out.append(f"the current law at node '{name}'" if what == "node" else f"the equation of {name}")
     return out
 
 
 def _involved_elements(circuit: Circuit, system: MnaSystem, unknowns) -> list[str]:
     """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes."""
-    names = {system.names[i] for i in unknowns}
-    nodes = {nm[2:-1] for nm in names if nm.startswith("v(")}
-    branches = {nm[2:-1] for nm in names if nm.startswith("i(")}
+    targets = [system.layout.target(int(i)) for i in unknowns]
+    nodes = {name for what, name in targets if what == "node"}
+    branches = {name for what, name in targets if what == "branch"}
     out = []
     for el in circuit.elements:
         if el.name in branches or nodes.intersection(el.nodes) or branches.intersection(el.controls) \
@@ -155,8 +155,9 @@ def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo
             "equations dependent: change a gain, or add a resistance that breaks the loop or a path to ground"
             if controlled else "look for a node without DC path to ground, a loop of voltage sources/inductors, "
             "or a cutset of current sources among these elements")
-    return CircuitError(text, elements=tuple(elements), nodes=tuple(
-        system.names[i][2:-1] for i in undetermined if system.names[i].startswith("v(")), hint=hint)
+    targets = [system.layout.target(int(i)) for i in undetermined]
+    return CircuitError(text, elements=tuple(elements), nodes=tuple(name for what, name in targets if what == "node"),
+                        hint=hint)
 
 
 def charge_groups(system: MnaSystem, topo, held: np.ndarray | None = None) -> tuple[list[ChargeGroup], list]:

@@ -67,7 +67,7 @@ def tf_names(card: TfAnalysis) -> tuple[str, str, str]:
     """
     out = card.written or card.output
     if out.startswith("i("):
-        last = f"{out[2:-1]}#output_impedance"
+        last = f"{parse_signal(out).args[0]}#output_impedance"
     else:
         last = f"output_impedance_at_{out}"
     return "transfer_function", f"{card.source}#input_impedance", last

@@ -50,6 +50,7 @@ from ..analyses.runner import refuse_steps
 from ..circuit import Circuit, TranAnalysis
 from ..errors import NetdaeError, NgspiceError
 from ..ngspice import RUNS_LAST_TO_FIRST
+from ..signals import parse_signal
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
 from .smallsignal import compare_noise, compare_pz, compare_sens, compare_tf
@@ -187,7 +188,7 @@ def _with_differences(ng: Result, names: list[str]) -> Result:
     current netdae calls ``i(r1)`` (a resistor's, a capacitor's) ``@r1[i]``.
     """
     missing = [n for n in names if n not in ng.signals and n.startswith("v(") and "," in n]
-    currents = {n: f"@{n[2:-1]}[i]" for n in names if n.startswith("i(") and n not in ng.signals}
+    currents = {n: f"@{parse_signal(n).args[0]}[i]" for n in names if n.startswith("i(") and n not in ng.signals}
     currents = {n: at for n, at in currents.items() if at in ng.signals}  # i(r1) is ngspice's @r1[i]
     if currents:
         signals = {k: v for k, v in ng.signals.items() if k not in currents.values()}

@@ -98,6 +98,18 @@ class Layout:
     def has_branch(self, element: str) -> bool:
         return element in self._branch_index
 
+    def target(self, i: int) -> tuple[str, str]:
+        """What unknown ``i`` is: ``("node", name)`` (its potential) or ``("branch", element)`` (its current).
+
+        Examples
+        --------
+        >>> lay = Layout.from_nodes(["a", "b"]); _ = lay.add_branch("v1")
+        >>> lay.target(1), lay.target(2)
+        (('node', 'b'), ('branch', 'v1'))
+        """
+        k = len(self.nodes)
+        return ("node", self.nodes[i]) if i < k else ("branch", self.branches[i - k])
+
     @property
     def n(self) -> int:
         """Number of unknowns."""

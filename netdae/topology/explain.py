@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from ..circuit import Circuit
 from ..errors import CircuitError
+from ..signals import parse_signal
 from .analysis import analyze_topology
 from .report import Finding, TopologyReport
 
@@ -27,11 +28,15 @@ def _mentions(f: Finding, signal: str | None) -> bool:
     if not signal:
         return False
     s = signal.strip().lower()
-    if s.startswith("v(") and s.endswith(")"):
-        return s[2:-1] in f.nodes
-    if s.startswith("i(") and s.endswith(")"):
-        return s[2:-1] in f.elements
-    return s in f.nodes or s in f.elements
+    if not s.startswith(("v(", "i(")):  # a bare name: a node or an element
+        return s in f.nodes or s in f.elements
+    try:
+        sig = parse_signal(s)
+    except ValueError:
+        return False
+    if sig.kind == "v":
+        return len(sig.nodes) == 1 and sig.nodes[0] in f.nodes
+    return sig.args[0] in f.elements
 
 
 def _explain(circuit: Circuit, kinds: tuple[str, ...], signal: str | None, report: TopologyReport | None,
