@@ -469,6 +469,7 @@ class _Elaborator:
         circuit.diagnostics = self.diagnostics
         draws = self.root.draws
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
+        circuit.uses_temper = TEMPER in self.root.values
         return circuit
 
     @staticmethod
@@ -1065,10 +1066,6 @@ class _Elaborator:
                     lo = self._value(start, card, "start")
                     hi = self._value(stop, card, "stop")
                     inc = self._value(step, card, "step")
-                    if name == "temp" and TEMPER in self.root.values:
-                        raise error(card, offset, "a .dc temp sweep of a circuit whose values use 'temper': netdae "
-                                    "evaluates 'temper' once, at the circuit temperature", form,
-                                    hint="sweep a parameter instead, or remove 'temper'")
                     if name == "temp":
                         self._check_temperature(lo, card, start[1], "sweep start temperature")
                         self._check_temperature(hi, card, stop[1], "sweep stop temperature")
