@@ -503,6 +503,10 @@ class Circuit:
     draws : int
         How many Monte Carlo values were drawn (0: the netlist has no
         ``gauss``/``agauss``/``unif``/``aunif``/``limit`` in use).
+    uses_temper : bool
+        Some value of the circuit was computed from ``temper`` (the circuit
+        temperature): at another temperature the netlist elaborates to other
+        values (a ``.dc temp`` sweep elaborates it again at each point).
     osdi_files : list of (str, SourceLocation)
         OSDI libraries the netlist loads (``.osdi``, ``pre_osdi``), paths resolved.
     steps : list of StepSpec
@@ -528,6 +532,7 @@ class Circuit:
     seed: int = 1
     sample: int = 0
     draws: int = 0
+    uses_temper: bool = False
     steps: list[Any] = field(default_factory=list)
     osdi_files: list[tuple[str, SourceLocation | None]] = field(default_factory=list)
 

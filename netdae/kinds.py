@@ -103,6 +103,7 @@ class Kind(enum.StrEnum):
     LTRA = "ltra"
     TXL = "txl"
     CPL = "cpl"
+    URC = "urc"
     LAPLACE = "laplace"
 
 
@@ -387,6 +388,9 @@ _DEFINITIONS = (
                 model_types=("txl",), realised_by=_LINES),
     ElementKind("cpl", "py", "coupled multiconductor line (CPL)", "(in1 .. inN, ref1, out1 .. outN, ref2)",
                 tuple(range(4, 2 * MAX_CPL_CONDUCTORS + 3, 2)), model_types=("cpl",), realised_by=_LINES),
+    # ngspice's uniform RC line: elaboration replaces it by ngspice's lumped network (netdae.netlist.urc)
+    ElementKind("urc", "u", "uniform distributed RC line (URC)", "(n1, n2, ref)", (3,), model_types=("urc",),
+                realised_by="netdae.netlist.urc"),
     # E/G LAPLACE: elaboration replaces it by its state-space block (netdae.netlist.laplace); never assembled
     ElementKind("laplace", "eg", "Laplace-transfer source", "(n+, n-)", (2,), realised_by="netdae.netlist.laplace"),
 )

@@ -149,8 +149,24 @@ def test_temper_is_the_circuit_temperature(tmp_path):
     netlist = ("temper\n.param rt={1k*(1+0.01*(temper-27))}\n.temp 50\nV1 1 0 1\nR1 1 0 {rt}\n"
                "B1 2 0 V=temper\nR2 2 0 1\nR3 3 0 {1k + temper}\nV3 3 0 1\n")
     _op_agrees(netlist, ["i(v1)", "v(2)", "i(v3)"], tmp_path)
-    with pytest.raises(NetlistError, match="evaluates 'temper' once"):
-        load(netlist + ".dc temp 0 50 10\n.end\n")
+
+
+def test_a_temperature_sweep_evaluates_temper_at_every_point():
+    """ngspice's regression tests temper-2/-3: values written with 'temper' follow a .dc temp sweep.
+
+    Closed forms: r = 1000 + temper gives -v/i - 1000 = temper; two diodes at one voltage, one with
+    is = 1e-12 * temper and one with is = 1e-12 (the same temperature scaling otherwise), carry
+    currents whose ratio is temper, up to the gmin (1e-12 S) each junction has in parallel: a relative
+    2 gmin v / i with v < 1 V.
+    """
+    (res,) = netdae.run(load("t\n.model rt r r='1000 + temper'\nV1 1 0 5\nR1 1 0 rt\n.dc temp 10 100 10\n.end\n"))
+    temps = res.axis
+    assert np.allclose(temps, np.arange(10.0, 101.0, 10.0), rtol=0, atol=1e-12)
+    assert np.allclose(-res["v(1)"] / res["i(v1)"] - 1000.0, temps, rtol=1e-12)
+    (res,) = netdae.run(load("t\n.model dt d is='1e-12 * temper'\n.model df d is=1e-12\nV1 1 0 5\nR1 1 2 5k\n"
+                             "Dt 2 3 dt\nVt 3 0 0\nDf 2 4 df\nVf 4 0 0\n.dc temp 10 100 10\n.end\n"))
+    bound = 2 * 1e-12 * 1.0 / np.abs(res["i(vf)"]).min()
+    assert np.allclose(res["i(vt)"] / res["i(vf)"], res.axis, rtol=bound, atol=0)
 
 
 POLY = """poly sources

@@ -13,7 +13,8 @@ from netdae.netlist import load
 CASES = [
     # elements netdae does not implement
     ("t\nO1 a 0 b 0 lmod\n", r"o1: undefined model 'lmod'", 2, "lmod"),
-    ("t\nU1 a b 0 rcmod l=1u\n", r"'U' \(uniform distributed RC line\)", 2, "U1"),
+    ("t\nU1 a b 0 rcmod l=1u\n", r"u1: undefined model 'rcmod'", 2, "rcmod"),
+    ("t\nU1 NAND(2) a b c dly\n", r"u1: a U element with '\(' here is a PSpice digital primitive", 2, "("),
     ("t\nA1 a b amod\n", r"'A' \(XSPICE code model\)", 2, "A1"),
     ("t\nZ1 d g s zm\n.model zm nmf level=2\n", r"z1: model zm: MESFET level 2 \(MESA in ngspice\) is not "
      r"implemented by netdae", 3, "2"),
@@ -234,8 +235,8 @@ def test_element_errors_show_the_expected_form_and_a_hint():
     assert err.expected.startswith("Cname n+ n- value [mname] [ic=v0]")
     assert err.hint and str(err).startswith("<string>:2:7: c1: missing capacitance (expected: Cname n+ n- value")
     with pytest.raises(NetlistError) as exc:
-        load("t\nU1 a b 0 rcmod l=1u\n")
-    assert "netdae reads R C L K V I E G F H B D Q M J Z S W T O Y P N X" in exc.value.hint
+        load("t\nA1 a b amod\n")
+    assert "netdae reads R C L K V I E G F H B D Q M J Z S W T O Y P U N X" in exc.value.hint
 
 
 def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):

@@ -127,7 +127,8 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     One Newton solve per point, warm-started from the previous point (switches
     start from the previous point's states, so a sweep shows their hysteresis,
     as in ngspice). A temperature sweep re-assembles the circuit at each
-    temperature.
+    temperature; a circuit whose values use ``temper`` is elaborated again there
+    (:meth:`~netdae.circuit.Circuit.variant`), as ngspice re-evaluates them.
     """
     t_start = time.perf_counter()
     sweeps = list(card.sweeps)
@@ -167,7 +168,12 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
                 continue
         if sweeps_temp:
             temp = values[names.index("temp")]
-            at_temp = replace(circuit, options=replace(circuit.options, temp=temp))
+            if circuit.uses_temper:  # its values follow the temperature (ngspice re-evaluates 'temper' too)
+                from ..netlist.elaborate import TEMPER
+
+                at_temp = circuit.variant({TEMPER: temp})
+            else:
+                at_temp = replace(circuit, options=replace(circuit.options, temp=temp))
             system = assemble(at_temp, mode=MODE_DC)
             prepared = Prepared.known(at_temp, system, topo)
             x = None if x is None or x.size != system.n else x

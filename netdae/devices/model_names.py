@@ -65,6 +65,8 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
                    "truncnr truncdontcut compactrel compactabs"),
     "txl": _names("txl r l g c length"),
     "cpl": _names("cpl r l g c length"),
+    # urc.c: the uniform RC line (netdae.netlist.urc); 'urc' restates the type
+    "urc": _names("urc k fmax rperl cperl isperl rsperl"),
     # mes.c (level 1, Statz; the levels 2-4, MESA, have tables of their own)
     "mesfet": _names("level type nmf pmf vt0 vto alpha beta lambda b rd gd rs gs cgs cgd pb is fc depl_cap vcrit "
                      "kf af"),
@@ -110,13 +112,14 @@ OUTPUT_ONLY: dict[str, frozenset] = {
 MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos",
                   "mesfet": "mesfet", "vswitch": "vswitch", "cswitch": "cswitch",
                   "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor",
-                  "ltra": "ltra", "txl": "txl", "cpl": "cpl"}
+                  "ltra": "ltra", "txl": "txl", "cpl": "cpl", "urc": "urc"}
 
 #: Model parameters that are flags (given bare, no value), by model family.
 FLAG_PARAMETERS: dict[str, frozenset] = {
     "ltra": _names("ltra nocontrol steplimit nosteplimit lininterp quadinterp mixedinterp truncnr truncdontcut"),
     "txl": _names("txl"),
     "cpl": _names("cpl"),
+    "urc": _names("urc"),
 }
 
 #: Model parameters ngspice reads as vectors (several numbers after the name), by model type.

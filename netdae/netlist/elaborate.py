@@ -35,7 +35,7 @@ from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_lev
 from ..errors import NetlistError
 from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS, Kind
 from . import expr as ex
-from . import lossy
+from . import lossy, urc
 from .elements import error, parse_value
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
@@ -433,6 +433,8 @@ class _Elaborator:
         circuit.osdi_files = list(net.osdi)
         self._options(circuit)  # (BSIM binning and sizes read .options scale and wnflag)
         self._apply_models(circuit)
+        if any(el.kind == Kind.URC for el in circuit.elements):
+            self._realise_urc(circuit, elements, nodes)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
@@ -467,6 +469,7 @@ class _Elaborator:
         circuit.diagnostics = self.diagnostics
         draws = self.root.draws
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
+        circuit.uses_temper = TEMPER in self.root.values
         return circuit
 
     @staticmethod
@@ -505,6 +508,42 @@ class _Elaborator:
             elements[el.name] = block[0]
             out.extend(block)
         return out
+
+    @staticmethod
+    def _realise_urc(circuit: Circuit, elements: dict, nodes: dict) -> None:
+        """Every URC line (U) replaced by ngspice's lumped network (:mod:`netdae.netlist.urc`).
+
+        Raises
+        ------
+        NetlistError
+            A model the line cannot take (located at its parameter), or a part's name that is taken.
+        """
+        out: list[Element] = []
+        for el in circuit.elements:
+            if el.kind != Kind.URC:
+                out.append(el)
+                continue
+            model = circuit.models[el.model]
+            try:
+                parts, inner, diodes = urc.realise(el, model)
+            except urc.UrcError as exc:
+                if exc.param is None:
+                    raise NetlistError(f"{el.name}: {exc}", el.location,
+                                       expected=ELEMENTS["u"].form) from None
+                raise NetlistError(f"{el.name}: model {model.name}: {exc}",
+                                   model.locations.get(exc.param, model.location)) from None
+            if diodes is not None:
+                circuit.models[diodes.name] = diodes
+            del elements[el.name]
+            for part in parts:
+                if part.name in elements:
+                    raise NetlistError(f"{el.name}: the internal element name '{part.name}' is taken", el.location,
+                                       hint="rename the element")
+                elements[part.name] = part
+            for n in inner:
+                nodes.setdefault(n, None)
+            out.extend(parts)
+        circuit.elements = out
 
     def _realise_lines(self, circuit: Circuit, elements: dict, cards: dict) -> None:
         """Every lossy line (O, Y, P) replaced by its sections (:mod:`netdae.netlist.lossy`).
@@ -1027,10 +1066,6 @@ class _Elaborator:
                     lo = self._value(start, card, "start")
                     hi = self._value(stop, card, "stop")
                     inc = self._value(step, card, "step")
-                    if name == "temp" and TEMPER in self.root.values:
-                        raise error(card, offset, "a .dc temp sweep of a circuit whose values use 'temper': netdae "
-                                    "evaluates 'temper' once, at the circuit temperature", form,
-                                    hint="sweep a parameter instead, or remove 'temper'")
                     if name == "temp":
                         self._check_temperature(lo, card, start[1], "sweep start temperature")
                         self._check_temperature(hi, card, stop[1], "sweep stop temperature")

@@ -962,6 +962,48 @@ def _lossy_line(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
                        params=params)
 
 
+def _urc(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    """``Uname n1 n2 ref mname l=length [n=lumps]``: ngspice's uniform RC line (made by :mod:`netdae.netlist.urc`).
+
+    A U card of another form (PSpice's digital primitives, ``U1 NAND(2) ...``, which
+    ngspice reads only in its PSpice compatibility mode, as XSPICE code models) is
+    refused by name.
+    """
+    words: list[Token] = []
+    i = 1
+    while i < len(toks):
+        tok = toks[i]
+        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
+            break
+        if tok.kind != WORD:
+            raise error(card, tok.start, f"{toks[0].text}: a U element with {tok.text!r} here is a PSpice digital "
+                        "primitive, which netdae does not support (nor does ngspice 39 outside its PSpice "
+                        "compatibility mode)", syntax, hint="netdae's U element is the uniform RC line")
+        words.append(tok)
+        i += 1
+    if len(words) != 4:
+        at = words[4].start if len(words) > 4 else _end(card)
+        raise error(card, at, f"expected 3 nodes and a model name, found {len(words)} word(s)", syntax)
+    model = words[3]
+    if parse_number(model.text) is not None:
+        raise error(card, model.start, f"expected a model name, found {model.text!r}", syntax)
+    _, keywords = split_args(card, toks, i, syntax)
+    params = {}
+    for key, values in keywords:
+        if key.text not in syntax.keywords:
+            raise error(card, key.start, f"unexpected parameter '{key.text}'", syntax,
+                        hint="a URC line takes its length l= and its number of lumps n=")
+        if len(values) != 1:
+            raise error(card, (values[1] if len(values) > 1 else key).start, f"{key.text}= takes one value", syntax)
+        if key.text in params:
+            raise error(card, key.start, f"{key.text}= is given twice", syntax)
+        params[key.text] = parse_value(card, values[0], syntax, "length" if key.text == "l" else "number of lumps")
+    if "l" not in params:
+        raise error(card, _end(card), "the line's length l= is missing", syntax)
+    nodes = tuple(_GROUND_ALIASES.get(t.text) or sys.intern(t.text) for t in words[:3])
+    return ElementCard(toks[0].text, Kind.URC.value, card, nodes, model=(model.text, model.start), params=params)
+
+
 def _instance(card: Card, toks: list[Token], syntax: ElementSyntax) -> InstanceCard:
     words: list[Token] = []
     i = 1
@@ -1122,4 +1164,6 @@ def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]
         return _tline(card, toks, syntax)
     if letter in _LOSSY_KINDS:
         return _lossy_line(card, toks, syntax, letter)
+    if letter == "u":
+        return _urc(card, toks, syntax)
     return _instance(card, toks, syntax)

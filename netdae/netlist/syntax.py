@@ -138,6 +138,8 @@ ELEMENTS: dict[str, ElementSyntax] = {
         ElementSyntax("p", "coupled multiconductor transmission line (CPL)", (
             "Pname in1 ... inN ref1 out1 ... outN ref2 cpl_model [len=length]",),
             keywords=frozenset({"len", "length"})),
+        ElementSyntax("u", "uniform distributed RC line (URC)", ("Uname n1 n2 ref urc_model l=length [n=lumps]",),
+                      keywords=frozenset({"l", "n"})),
         ElementSyntax("n", "OSDI (compiled Verilog-A) device", (
             "Nname n1 n2 ... mname [name=value ...]",)),
         ElementSyntax("x", "subcircuit instance", ("Xname n1 n2 ... subname [params:] [name=value ...]",)),
@@ -146,7 +148,6 @@ ELEMENTS: dict[str, ElementSyntax] = {
 
 #: Element letters ngspice knows and netdae does not implement.
 UNSUPPORTED_ELEMENTS: dict[str, str] = {
-    "u": "uniform distributed RC line",
     "a": "XSPICE code model",
 }
 
