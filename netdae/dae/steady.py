@@ -233,18 +233,27 @@ def _equilibrate(pattern: SparsePattern, data: np.ndarray) -> tuple[np.ndarray, 
 
 def _check_pivot(pattern: SparsePattern, data: np.ndarray, min_pivot: float, linear: bool) -> bool:
     """Judge the smallest equilibrated pivot of a factorisation of ``data``: False for an ill-conditioned
-    nonlinear Jacobian (a failed iteration); raises :class:`_Singular` for a singular linear one."""
+    nonlinear Jacobian (a failed iteration); raises :class:`_Singular` for a singular linear one.
+
+    A pivot at or below ``PIVOT_SAFETY * n * eps`` is confirmed by the SVD rank decision
+    (:func:`jacobian_rank`) up to ``RANK_CHECK_LIMIT`` unknowns, in a Newton iteration too: a regular
+    Jacobian can have such a pivot, as where a node reaches ground only through the 1e-12 S gmin of
+    reverse-biased junctions next to a 1 S resistor (a pivot of 1e-12 against a threshold of
+    8 * 1e3 * eps at eight unknowns), and refusing it would stop every iteration there.
+    """
     n = pattern.n
     if min_pivot > PIVOT_SAFETY * n * EPS:
         return True
-    if not linear:
-        return False
     if n > RANK_CHECK_LIMIT:
+        if not linear:
+            return False
         raise _Singular(f"smallest pivot {min_pivot:.3g} of the equilibrated matrix")
     rank = jacobian_rank(pattern.matrix(data))
-    if rank.deficient:
-        raise _Singular(f"rank {rank.rank} of {n}", rank)
-    return True
+    if not rank.deficient:
+        return True
+    if not linear:
+        return False
+    raise _Singular(f"rank {rank.rank} of {n}", rank)
 
 
 class _FreshLU:
