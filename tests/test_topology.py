@@ -211,13 +211,29 @@ def test_controlled_voltage_loop_is_labelled_likely():
 
 
 def test_controlled_current_cutset_is_labelled_likely():
+    # g1's controlling voltage v(a) crosses the set's boundary: g1 may be a conductance that fixes v(a)
     rep = analyze_topology(circuit(
         mk("v1", "vsource", ("b", "0"), 1.0), mk("r1", "resistor", ("b", "0"), 1.0),
-        mk("g1", "vccs", ("a", "0", "b", "0"), 1e-3), mk("i1", "isource", ("0", "a"), 1e-3)))
+        mk("g1", "vccs", ("a", "0", "a", "b"), 1e-3), mk("i1", "isource", ("0", "a"), 1e-3)))
     assert [(c.nodes, c.elements, c.controlled) for c in rep.i_cutsets] == [(("a",), ("g1", "i1"), True)]
     f = finding(rep, "i_cutset")
     assert f.severity == "warning" and f.message.startswith("likely singular (controlled sources)")
     assert not rep.singular
+
+
+@pytest.mark.parametrize("controls", [("b", "0"), ("a", "c")], ids=["outside", "inside"])
+def test_controlled_current_cutset_blind_to_the_set_is_singular(controls):
+    # g1 reads a voltage outside the set {a, c}, or one across two of its nodes: a common shift of the
+    # set's potential changes no current into it, so the potential is undetermined whatever the gain
+    rep = analyze_topology(circuit(
+        mk("v1", "vsource", ("b", "0"), 1.0), mk("r1", "resistor", ("b", "0"), 1.0),
+        mk("r2", "resistor", ("a", "c"), 1.0),
+        mk("g1", "vccs", ("a", "0", *controls), 1e-3), mk("i1", "isource", ("0", "c"), 1e-3)))
+    assert [(c.nodes, c.elements, c.controlled) for c in rep.i_cutsets] == [(("a", "c"), ("g1", "i1"), False)]
+    f = finding(rep, "i_cutset")
+    assert f.severity == "error" and f.message.startswith("singular: nodes 'a' and 'c'")
+    assert "whose controlling voltages do not change with their potential" in f.message
+    assert rep.singular
 
 
 # ---------------------------------------------------------------- singular structures

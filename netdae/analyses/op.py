@@ -30,10 +30,12 @@ from dataclasses import replace
 import numpy as np
 
 from ..circuit import Circuit
+from ..devices.autodiff import leaves
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
 from ..kinds import KINDS
 from ..mna import MODE_DC, MnaSystem
+from ..netlist.expr import Voltage
 from ..results import Result, Statistics
 from .prepared import Prepared, prepare
 
@@ -160,6 +162,37 @@ def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo
                         hint=hint)
 
 
+def _not_finite_error(circuit: Circuit, system: MnaSystem, res: SteadyResult) -> ConvergenceError:
+    """The solve stopped where the circuit's equations are not finite: which equations, which elements, where."""
+    rows = res.not_finite
+    where = ("at the initial guess, before any Newton iteration" if res.iterations == 0 else
+             f"at the iterate reached after {res.iterations} Newton iterations")
+    text = f"operating point: the circuit equations are not finite {where}"
+    shown = list(rows)
+    if rows.size:
+        elements = _involved_elements(circuit, system, rows)
+        text += f" ({_names(_row_names(system, rows))}; elements there: {_names(elements)})"
+        for name in elements:  # the voltages these elements read
+            el = circuit.element(name)
+            read = [*el.nodes, *el.controls]
+            if el.expr is not None:
+                read += [n for leaf in leaves(el.expr) if isinstance(leaf, Voltage) for n in (leaf.pos, leaf.neg)]
+            for node in read:
+                try:
+                    i = system.node_index(node) if node else -1
+                except KeyError:  # an element name among the controls
+                    continue
+                if i >= 0 and i not in shown:
+                    shown.append(i)
+    text += (", so Newton, gmin stepping and source stepping stopped"
+             + (f"; values there: {_describe_unknowns(system, shown[:2 * NAMED], res.x)}" if shown else ""))
+    return ConvergenceError(
+        text, worst=system.names[rows[0]] if rows.size else None,
+        hint="an expression of these elements divides by zero, or takes the square root or logarithm of a "
+        "negative number, at these values (or a model overflows); a .nodeset that avoids such values helps",
+    )
+
+
 def charge_groups(system: MnaSystem, topo, held: np.ndarray | None = None) -> tuple[list[ChargeGroup], list]:
     """The charge groups of the circuit as rows of the system, skipping groups with a held node.
 
@@ -268,6 +301,8 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
         return res
     if res.singular:
         raise _singular_error(circuit, system, res, topology)
+    if res.not_finite is not None:
+        raise _not_finite_error(circuit, system, res)
     worst = _describe_unknowns(system, res.worst, res.x)
     raise ConvergenceError(
         f"operating point did not converge after {res.iterations} Newton iterations "

@@ -161,6 +161,11 @@ class SteadyResult:
         conditioned diagonal; ``nan`` when not factored).
     notes : list of str
         Facts the caller reports with the result (filled by the analysis layer).
+    not_finite : ndarray of int or None
+        When the last solve stopped because the equations could not be
+        evaluated (a non-finite residual or Jacobian entry, ``Evaluation.ok``
+        false) at ``x``: the rows that were not finite there (empty when the
+        system reported the failure without a non-finite row).
     """
 
     x: np.ndarray
@@ -175,6 +180,7 @@ class SteadyResult:
     rank: MatrixRank | None = None
     min_pivot: float = float("nan")
     notes: list[str] = field(default_factory=list)
+    not_finite: np.ndarray | None = None
 
 
 @dataclass
@@ -227,18 +233,27 @@ def _equilibrate(pattern: SparsePattern, data: np.ndarray) -> tuple[np.ndarray, 
 
 def _check_pivot(pattern: SparsePattern, data: np.ndarray, min_pivot: float, linear: bool) -> bool:
     """Judge the smallest equilibrated pivot of a factorisation of ``data``: False for an ill-conditioned
-    nonlinear Jacobian (a failed iteration); raises :class:`_Singular` for a singular linear one."""
+    nonlinear Jacobian (a failed iteration); raises :class:`_Singular` for a singular linear one.
+
+    A pivot at or below ``PIVOT_SAFETY * n * eps`` is confirmed by the SVD rank decision
+    (:func:`jacobian_rank`) up to ``RANK_CHECK_LIMIT`` unknowns, in a Newton iteration too: a regular
+    Jacobian can have such a pivot, as where a node reaches ground only through the 1e-12 S gmin of
+    reverse-biased junctions next to a 1 S resistor (a pivot of 1e-12 against a threshold of
+    8 * 1e3 * eps at eight unknowns), and refusing it would stop every iteration there.
+    """
     n = pattern.n
     if min_pivot > PIVOT_SAFETY * n * EPS:
         return True
-    if not linear:
-        return False
     if n > RANK_CHECK_LIMIT:
+        if not linear:
+            return False
         raise _Singular(f"smallest pivot {min_pivot:.3g} of the equilibrated matrix")
     rank = jacobian_rank(pattern.matrix(data))
-    if rank.deficient:
-        raise _Singular(f"rank {rank.rank} of {n}", rank)
-    return True
+    if not rank.deficient:
+        return True
+    if not linear:
+        return False
+    raise _Singular(f"rank {rank.rank} of {n}", rank)
 
 
 class _FreshLU:
@@ -428,10 +443,12 @@ class _Newton:
         self.last_pivot = float("nan")  # smallest equilibrated pivot of the last factorization
         self.last_dx = np.zeros(system.n)  # |dx| / tolerance of the last update
         self.ill_conditioned = False  # an iteration met an ill-conditioned Jacobian
+        self.not_finite = None  # rows not finite where the last solve could not evaluate its iterate (x, rows)
 
     def _residual(self, x, gdiag, scale, state):
         ev = self.system.evaluate(x, self.t, jacobian=True, state=state, source_scale=scale)
         if not ev.ok:
+            self.not_finite = (np.array(x, dtype=float), _non_finite_rows(self.pattern, ev))
             return None
         F = ev.phi.copy()
         jac = ev.dphi.copy()
@@ -462,6 +479,7 @@ class _Newton:
             self._stop = SpiceTest(self.pattern, self.opts.reltol, self.x_atol, self.r_atol)
         lu = self._lu
         maxiter = self.opts.maxiter if maxiter is None else maxiter
+        self.not_finite = None
         state = [self.system.initial_state() if init and hasattr(self.system, "initial_state") else None]
         counted = lu.cache.factorizations
 
@@ -487,6 +505,7 @@ class _Newton:
 
     def _solve_linear(self, x, gdiag, scale) -> tuple[np.ndarray, bool]:
         """One factorisation (:class:`_FreshLU`, judged), the solve, one refinement, the residual test."""
+        self.not_finite = None
         out = self._residual(x, gdiag, scale, None)
         if out is None:
             return x, False
@@ -554,6 +573,15 @@ class _ChargeRows(DaeSystem):
 
     def initial_state(self):
         return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
+
+
+def _non_finite_rows(pattern: SparsePattern, ev: Evaluation) -> np.ndarray:
+    """Rows of an evaluation whose residual or Jacobian entries are not finite."""
+    bad = ~np.isfinite(ev.phi)
+    for data in (ev.dphi, ev.dq):
+        if data is not None:
+            bad[pattern.rows[~np.isfinite(data)]] = True
+    return np.flatnonzero(bad)
 
 
 def _judge(newton: _Newton, x) -> tuple[float, MatrixRank | None, bool]:
@@ -705,6 +733,12 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
         if is_singular:
             return singular_result(x_new, "singular Jacobian (Newton, gmin stepping and source stepping failed)",
                                    rank)
+    if newton.not_finite is not None:  # the last solve could not evaluate its iterate: say so, with where
+        x_bad, rows = newton.not_finite
+        out = result(x_bad, False, "newton", "the equations are not finite at the iterate (Newton, gmin stepping "
+                     "and source stepping stopped there)")
+        out.not_finite = rows
+        return out
     return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)")
 
 

@@ -19,9 +19,14 @@ logical operators, ``u``, ``sgn``, ``int``/``floor``/``ceil``/``nint`` and the
 condition of ``if``/``?:`` contribute zero (the derivative does not see the
 switch), ``min``/``max``/``limit`` pass the derivative of the selected
 argument, ``table``/``pwl`` the slope of the segment (or of the smoothed corner)
-the argument is in. Where ngspice returns its ``HUGE`` marker (square root or log of a
-negative number, division by zero) the value here is not finite and the
-evaluation is reported as failed.
+the argument is in. A division ``a / b`` moves its denominator away from zero
+by ngspice's fudge (``DIVISION_FUDGE``: ``b + f`` for ``b >= 0``, ``b - f``
+below) and differentiates as ``(a' b - a b') / (b**2 + f)``, as ngspice's
+derivative tree does: at ``0 / 0`` (an expression of node voltages at the
+zero initial guess) the value and its derivatives are zero, not undefined.
+Where ngspice returns its ``HUGE`` marker (square root or log of a negative
+number) the value here is not finite and the evaluation is reported as
+failed.
 
 Nothing is evaluated with Python's ``eval``: each evaluation walks the
 shared tree once per group (never once per instance), applying numpy
@@ -46,6 +51,9 @@ EXP_ARG_MAX = 227.9559242
 EXP_SATURATED = 1e99
 #: ngspice's PTlog(0).
 LOG_OF_ZERO = -1e99
+#: ngspice's PTfudge_factor (``gmin * 1e-20`` at the default gmin of 1e-12): what a division adds to a
+#: non-negative denominator (subtracts from a negative one), and to the ``b**2`` of its derivative.
+DIVISION_FUDGE = 1e-32
 
 
 def structure_key(node: Expr) -> tuple:
@@ -155,8 +163,9 @@ def _binary(op, a, da, b, db):
     if op == "*":
         return a * b, _add(_scale(da, b), _scale(db, a))
     if op == "/":
-        q = a / b
-        return q, _add(_scale(da, 1.0 / b), _scale(db, -q / b))
+        q = a / (b + np.where(b >= 0.0, DIVISION_FUDGE, -DIVISION_FUDGE))
+        square = b * b + DIVISION_FUDGE
+        return q, _add(_scale(da, b / square), _scale(db, -a / square))
     if op == "**":
         return _power(a, da, b, db)
     if op == "%":

@@ -59,7 +59,7 @@ from ..circuit import Circuit
 from ..kinds import GROUPS, KINDS, Kind
 from .context import EMPTY, Context, Partition, loops_through
 from .dc import dc_loops, no_dc_path, unfixed_potentials
-from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, VOLTAGE, build_graph, structure_key
+from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE, build_graph, structure_key
 from .kernels import components, on_cycle
 from .report import Cutset, Finding, Loop, NodeGroup, TopologyReport
 from .text import PATH_LIMIT, name_list, node_phrase, plural, with_inputs
@@ -166,9 +166,21 @@ def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset], np.ndarray
     for label, idx, names in part_x.sets():
         if part.labels[idx[0]] != part.labels[0] or label not in cut_x.names:
             continue  # already singular through independent sources, or floating
-        cs = Cutset(names, cut_x.names[label], controlled=True)
+        blind = _blind_to(ctx, part_x.labels, label, cut_x.names[label])
+        cs = Cutset(names, cut_x.names[label], controlled=not blind)
         cutsets.append(cs)
-        if ctx.want("i_cutset"):
+        if ctx.want("i_cutset") and blind:
+            k = len(names)
+            ctx.add(Finding(
+                "i_cutset", "error",
+                f"singular: {node_phrase(names)} {plural(k, 'is', 'are')} connected to the rest of the circuit "
+                f"only through the current-type sources {name_list(cs.elements)}, whose controlling voltages "
+                f"do not change with {plural(k, 'its', 'their')} potential: that potential is undetermined, and "
+                f"the source currents into {plural(k, 'it', 'them')} must add up to zero",
+                cs.elements, names,
+                hint="give these nodes a path to ground that is not only current sources (a large resistor will do)",
+            ))
+        elif ctx.want("i_cutset"):
             k = len(names)
             ctx.add(Finding(
                 "i_cutset", "warning",
@@ -179,6 +191,37 @@ def _cut_groups(ctx: Context) -> tuple[list[NodeGroup], list[Cutset], np.ndarray
                 hint="give these nodes a path to ground that is not only current sources",
             ))
     return floating, cutsets, part.labels
+
+
+def _blind_to(ctx: Context, labels: np.ndarray, label: int, sources: tuple[str, ...]) -> bool:
+    """Whether nothing in the circuit changes with the common potential of the node set ``label``.
+
+    The set is cut off by the current-type ``sources``. Shifting the potential of all its nodes
+    together changes no branch voltage inside or outside it, hence no current, unless an element
+    reads a voltage across its boundary. True (the potential is certainly undetermined, at DC and
+    in the pencil) when every controlled source of the cut is a VCCS or a CCCS (a sensed current
+    does not change either), every voltage read at a node of the set (attachments: controlling
+    inputs, op-amp inputs, gates) is a VCCS's or VCVS's controlling pair that lies wholly inside
+    the set, and the circuit has no behavioural source (whose expressions the graph does not
+    read). False otherwise: a controlling voltage across the boundary may make the source a
+    conductance that fixes the potential.
+    """
+    g = ctx.g
+    kinds = g.element_kinds
+    if any(kind in (Kind.BCURRENT, Kind.BVOLTAGE) for kind in kinds):
+        return False
+    for name in sources:
+        kind = kinds[ctx.elem_index[name]]
+        if KINDS[kind].controlled and kind not in (Kind.VCCS, Kind.CCCS):
+            return False
+    control = g.attach_role == ROLES.index("controlling input")
+    for a in np.flatnonzero(labels[g.attach_node] == label):
+        k = g.attach_element[a]
+        if not control[a] or kinds[k] not in (Kind.VCCS, Kind.VCVS):
+            return False
+        if not np.all(labels[g.attach_node[(g.attach_element == k) & control]] == label):
+            return False
+    return True
 
 
 def _floating_finding(ctx: Context, grp: NodeGroup, has_branches: bool, att: np.ndarray) -> Finding:

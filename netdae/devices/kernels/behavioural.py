@@ -32,11 +32,13 @@ import numpy as np
 
 from ...dae.compiled import kernel
 from ...netlist.expr import TABLE_DOMAIN  # the smoothing domain of a TABLE's corners
-from ..autodiff import EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO  # ngspice's PTexp saturation, PTlog(0)
+from ..autodiff import (  # ngspice's PTexp saturation, PTlog(0), PTdivide's fudge
+    DIVISION_FUDGE, EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO,
+)
 from . import FLAG_NONFINITE
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope
 from .tape import (
-    OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GE, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
+    OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
     OP_MAX, OP_MIN, OP_MOD, OP_MUL, OP_NE, OP_NEG, OP_NOT, OP_OR, OP_POW, OP_PWL, OP_PWR, OP_SELECT, OP_SUB,
     OP_TABLE, OP_TIME,
 )
@@ -242,10 +244,12 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der):
         elif op == OP_MUL:
             val[r] = val[a] * val[b]
             _combine(der, r, a, val[b], b, val[a], nl)
-        elif op == OP_DIV:
-            qt = val[a] / val[b]
-            val[r] = qt
-            _combine(der, r, a, 1.0 / val[b], b, -qt / val[b], nl)
+        elif op == OP_DIV:  # ngspice's fudged division (netdae.devices.autodiff: DIVISION_FUDGE)
+            va = val[a]
+            vb = val[b]
+            square = vb * vb + DIVISION_FUDGE
+            val[r] = va / (vb + (DIVISION_FUDGE if vb >= 0.0 else -DIVISION_FUDGE))
+            _combine(der, r, a, vb / square, b, -va / square, nl)
         elif op == OP_POW or op == OP_PWR:
             va = val[a]
             vb = val[b]
