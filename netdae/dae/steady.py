@@ -94,6 +94,10 @@ PIVOT_SAFETY = 1e3
 #: Largest system whose suspicious Jacobian is judged by a dense SVD (about
 #: a second at this size with one BLAS thread).
 RANK_CHECK_LIMIT = 1500
+#: Inside the iterations of a nonlinear solve, where a small pivot can recur at
+#: every iteration, the SVD confirms it up to this size only (a few
+#: milliseconds each); above it the pivot alone stops the iteration.
+ITERATION_RANK_CHECK_LIMIT = 300
 
 
 @dataclass
@@ -236,15 +240,16 @@ def _check_pivot(pattern: SparsePattern, data: np.ndarray, min_pivot: float, lin
     nonlinear Jacobian (a failed iteration); raises :class:`_Singular` for a singular linear one.
 
     A pivot at or below ``PIVOT_SAFETY * n * eps`` is confirmed by the SVD rank decision
-    (:func:`jacobian_rank`) up to ``RANK_CHECK_LIMIT`` unknowns, in a Newton iteration too: a regular
-    Jacobian can have such a pivot, as where a node reaches ground only through the 1e-12 S gmin of
+    (:func:`jacobian_rank`) up to ``RANK_CHECK_LIMIT`` unknowns, in a Newton iteration too (up to
+    ``ITERATION_RANK_CHECK_LIMIT``, since it may recur at every iteration): a regular Jacobian can
+    have such a pivot, as where a node reaches ground only through the 1e-12 S gmin of
     reverse-biased junctions next to a 1 S resistor (a pivot of 1e-12 against a threshold of
     8 * 1e3 * eps at eight unknowns), and refusing it would stop every iteration there.
     """
     n = pattern.n
     if min_pivot > PIVOT_SAFETY * n * EPS:
         return True
-    if n > RANK_CHECK_LIMIT:
+    if n > (RANK_CHECK_LIMIT if linear else ITERATION_RANK_CHECK_LIMIT):
         if not linear:
             return False
         raise _Singular(f"smallest pivot {min_pivot:.3g} of the equilibrated matrix")
