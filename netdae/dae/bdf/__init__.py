@@ -150,7 +150,6 @@ from .constants import (
     BREAKPOINT_STRETCH,
     BUFFER_START,
     DCJ,
-    JACOBIAN_MAX_AGE,
     DENSE_MATVEC_MAX,
     EPCON,
     EPS,

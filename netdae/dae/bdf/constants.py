@@ -25,12 +25,6 @@ RATE_CJ_CHANGED = 100.0 / 101.0
 #: A nonlinear system keeps its factorisation while cj/cj_lu stays in
 #: [(1-DCJ)/(1+DCJ), (1+DCJ)/(1-DCJ)] = [0.6, 1.67] (IDA's dcj).
 DCJ = 0.25
-#: ... and for at most this many accepted steps (CVODE's msbp): a Jacobian kept while the step size
-#: stays put (a slow input ramp through a stiff nonlinear circuit) contracts ever more slowly, and the
-#: iterates Newton accepts (within EPCON of the bound) carry errors that the history passes on; an
-#: unknown that differentiates them (the gate current of a VDMOS whose gate-drain capacitance changes
-#: with the drain voltage) then fails the error test on every step size (docs/integrator.md).
-JACOBIAN_MAX_AGE = 20
 #: The step grows only when the error allows at least this factor (IDA's eta_max_fx) ...
 ETA_GROW_MIN = 2.0
 #: ... and then by at most this factor (IDA's eta_max).

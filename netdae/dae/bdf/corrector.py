@@ -16,8 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..newton import INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, LuCache, newton
-from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, JACOBIAN_MAX_AGE, RATE_AFTER_SETUP, RATE_CJ_CHANGED, \
-    ROUNDING_FACTOR
+from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
 from .failures import nonfinite_unknown, worst_unknown
 
 __all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector"]
@@ -226,8 +225,7 @@ class NonlinearCorrector:
     Notes
     -----
     The factorisation is kept while ``cj / cj_lu`` stays within
-    ``[(1 - DCJ)/(1 + DCJ), (1 + DCJ)/(1 - DCJ)]`` and for fewer than ``JACOBIAN_MAX_AGE``
-    accepted steps (``stats["steps"]`` against ``jacobian_step``); a failure with a stale one
+    ``[(1 - DCJ)/(1 + DCJ), (1 + DCJ)/(1 - DCJ)]``; a failure with a stale one
     is retried once with a fresh Jacobian at the same step size, and a failure
     with a fresh one once with full Newton (a Jacobian at every iterate: where a
     model's slope changes inside the step, as a MOS charge at its threshold, the
@@ -245,8 +243,6 @@ class NonlinearCorrector:
         self.maxiter, self.norm = maxiter, norm
         self.rate = RATE_AFTER_SETUP
         self.state_try = None
-        #: accepted steps when a new Jacobian was last asked for
-        self.jacobian_step = 0
         n = system.n
         self.rows = np.arange(n, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
         # E on the pattern (CSC): E v sums in the compiled loop's order
@@ -329,18 +325,15 @@ class NonlinearCorrector:
 
         lu = self.lu
         self.state_try = state
-        setup = (not lu.ready) or fresh or st["steps"] - self.jacobian_step >= JACOBIAN_MAX_AGE
+        setup = (not lu.ready) or fresh
         if not setup:
             ratio = cj / lu.tag
             setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
-        if setup:
-            self.jacobian_step = st["steps"]
         res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton)
         if not res.converged and not setup and res.info != INFO_EVALUATION:
             # stale Jacobian: retry once with a fresh one at the same step size
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            self.jacobian_step = st["steps"]
             self.state_try = state
             res = self._newton(fun, x_pred, cj, cjlast, True, w_newton)
         if not res.converged and res.info not in (INFO_EVALUATION, INFO_SINGULAR):

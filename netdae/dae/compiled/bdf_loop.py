@@ -18,8 +18,7 @@ Two correctors, one loop:
   family stores charge and in IDA's correction form
   ``cj E (x - x_pred) + E x'_pred - phi(x, t) = 0`` in the others (see
   :class:`netdae.dae.bdf.corrector.NonlinearCorrector`), with IDA's rate test,
-  Jacobian reuse across steps while ``cj`` stays within ``DCJ`` and for fewer
-  than ``JACOBIAN_MAX_AGE`` accepted steps (``I_JAC_STEP``), one retry
+  Jacobian reuse across steps while ``cj`` stays within ``DCJ``, one retry
   with a fresh Jacobian, the device families' limiting (the trial state of
   the iteration, the accepted state of the step) and the rounding floor of
   the weights; the history then holds the charges of those rows as well as
@@ -75,7 +74,6 @@ from .sources import source_values
 from ..bdf import (  # noqa: E402
     BREAKPOINT_STRETCH,
     DCJ,
-    JACOBIAN_MAX_AGE,
     EPCON,
     EPS,
     ERROR_FLOOR,
@@ -182,8 +180,7 @@ I_AFTER_EVENT = 42      # the last restart was at an event
 I_RESTART_CHECKED = 43  # the pending restart has checked for a jump (kept across returns to Python)
 I_IMPASSE = 44          # 1: the pending restart continues from the right limit Python solved (an impasse)
 I_IMPASSE_TRIES = 45    # impasse restarts at F_IMPASSE_T so far
-I_JAC_STEP = 46         # accepted steps when the corrector last asked for a new Jacobian
-N_I = 47
+N_I = 46
 
 # statuses
 RUNNING = 0
@@ -1213,12 +1210,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 qp_pred = pred1[n:]
                 _reset_trial(I, devd)
                 ready = not math.isnan(F[F_LU_TAG])
-                setup = (not ready) or I[I_NST] == 0 or I[I_STEPS] - I[I_JAC_STEP] >= JACOBIAN_MAX_AGE
+                setup = (not ready) or I[I_NST] == 0
                 if not setup:
                     ratio = cj / F[F_LU_TAG]
                     setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
-                if setup:
-                    I[I_JAC_STEP] = I[I_STEPS]
                 w_nt = w
                 if I[I_HAS_ABSDQ] != 0 and ready:
                     if _rounding_floor(pred0[:n], pred1[:n], qp_pred, cj, qcol, False, absdq, indptr, indices, lus,
@@ -1233,7 +1228,6 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     # stale Jacobian: retry once with a fresh one at the same step size
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
-                    I[I_JAC_STEP] = I[I_STEPS]
                     _reset_trial(I, devd)
                     outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, False, pred0, pred1,
                                                                 crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
