@@ -166,6 +166,43 @@ def test_rounding_noise_does_not_steer_the_balancing():
     assert eig_error(rep.finite_eigenvalues, -1.0 - np.arange(nf)) / EIG_RTOL < 1
 
 
+#: The linearisation of a CMOS oscillator at its transient start (supply at 0 V, every BSIM
+#: transistor off; ngspice's examples/soa/nic_soa.cir): unknowns v(bias), v(ra), v(net99), v(net95),
+#: v(net93), v(vdd), v(lc), v(p001), v(p002), i(v39), i(l1), i(l2). The gate capacitances chain the
+#: supply node to ground (a CV loop with V39: index 2); the transistors add capacitances of 1e-24 to
+#: 1e-21 F and conductances of 1e-11 S next to 1e-13 F and 0.1 S.
+_OSCILLATOR_START_E = [
+    (0, 0, 2.589e-13), (0, 1, -1.483e-14), (1, 0, -1.57e-14), (1, 1, 6.994e-14), (1, 2, -6.933e-22),
+    (1, 3, -5.512e-14), (2, 1, -1.198e-21), (2, 2, 3.589e-13), (2, 3, -4.344e-14), (2, 5, -3.155e-13),
+    (3, 1, -5.512e-14), (3, 2, -4.344e-14), (3, 3, 1.537e-13), (3, 4, -5.512e-14), (3, 5, 2.864e-21),
+    (4, 3, -5.512e-14), (4, 4, 5.512e-14), (5, 2, -3.155e-13), (5, 3, -3.983e-24), (5, 5, 3.155e-13),
+    (6, 6, 1.8e-09), (10, 10, 1.49e-05), (11, 11, 0.0014)]
+_OSCILLATOR_START_H = [
+    (0, 0, -2.347e-05), (1, 0, 5.041e-18), (1, 1, -0.0002609), (1, 2, 1.486e-11), (1, 3, 7.647e-24),
+    (2, 1, 1.486e-11), (2, 2, -2.632e-05), (2, 3, -7.647e-24), (2, 5, 1.529e-11), (3, 3, -9.706e-12),
+    (3, 4, 2.773e-12), (3, 5, 6.933e-12), (4, 3, 2.773e-12), (4, 4, -0.1), (4, 6, 0.1), (5, 2, 1.529e-11),
+    (5, 3, 6.933e-12), (5, 5, -2.222e-11), (5, 9, -1.0), (6, 4, 0.1), (6, 6, -0.1), (6, 7, 2.5e-05),
+    (6, 10, -1.0), (7, 6, 2.5e-05), (7, 7, -2.5e-05), (7, 11, -1.0), (8, 8, -1.818), (8, 10, 1.0),
+    (9, 5, 1.0), (10, 6, 1.0), (10, 8, -1.0), (11, 7, 1.0)]
+
+
+def test_balancing_stretched_by_tiny_device_entries_is_decided_unbalanced_too():
+    """Balanced, the oscillator's pencil spans 16 decades and a singular value of its CV loop's chain
+    was dropped (index 3 was reported); the unbalanced decision is clear (margin ~600) and agrees
+    with SLICOT: index 2, the supply current the only index-2 unknown."""
+    E, H = np.zeros((12, 12)), np.zeros((12, 12))
+    for M, entries in ((E, _OSCILLATOR_START_E), (H, _OSCILLATOR_START_H)):
+        for i, j, v in entries:
+            M[i, j] = v
+    oracle = ag08bd_structure(E, H)
+    rep = analyze_pencil(E, H)
+    assert rep.infinite_blocks == oracle["infe"] == (2, 1, 1)
+    assert rep.index == index_from_infe(oracle["infe"]) == 2
+    assert rep.n_dynamic == oracle["nfz"]
+    assert [int(d) for d in rep.derivative_order] == [0] * 9 + [1, 0, 0]
+    assert any("reporting the unbalanced one" in w for w in rep.warnings), rep.warnings
+
+
 def test_shift_check_on_a_singular_pencil():
     E, H, _ = structured_pencil(0, 4, (2, 1))
     n = E.shape[0]

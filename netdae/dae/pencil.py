@@ -119,6 +119,17 @@ N_SHIFTS = 3
 #: re-decided on the unbalanced pencil, and the clearer of the two is reported.
 MARGIN_RETRY = 10.0
 
+#: A balanced pencil whose significant entries still span more than this many
+#: decades is decided again on the unbalanced pencil too (the clearer of the two
+#: is reported when the two differ): a rank tolerance of ``n eps`` of its norm cannot tell its
+#: smallest entries from rounding. Balancing fitted to tiny entries that are not
+#: rounding noise (a MOS model's capacitances of 1e-24 F next to 1e-13 F and
+#: conductances of 1e-11 S next to 0.1 S, at zero bias) stretched a CMOS
+#: oscillator's pencil over 16 decades and dropped a singular value of its CV
+#: loop's chain (index 3) that the unbalanced pencil keeps with a margin of 600
+#: (index 2; tests/test_pencil_oracle.py).
+SPREAD_RETRY = 12.0
+
 #: The Drazin cross-check forms (mu E - H)^-1 E, whose rounding grows with the
 #: condition number of mu E - H: its rank tolerance is this factor times rtol.
 DRAZIN_SAFETY = 1e3
@@ -181,18 +192,27 @@ def _decide(E, H, bal: Balancing, rtol: float) -> _Decided:
 
 
 def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
-    """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call."""
+    """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call or a balanced
+    pencil still spread over more than ``SPREAD_RETRY`` decades (there the unbalanced structure is reported
+    only when it differs and is clearer: where the two agree the balanced one gives the better eigenvalues)."""
     E, H, bal, _, _, rtol = _prepare(E, H, tol, balance)
     best = _decide(E, H, bal, rtol)
-    if bal.applied and best.ks.margin < MARGIN_RETRY:
+    close = best.ks.margin < MARGIN_RETRY
+    stretched = bal.spread_after > SPREAD_RETRY
+    if bal.applied and (close or stretched):
         plain = _decide(E, H, balance_pencil(E, H, enabled=False), rtol)
+        differ = plain.ks.summary() != best.ks.summary()
+        if not (close or differ):
+            return best, rtol
         chosen = plain if plain.ks.margin > best.ks.margin else best
+        why = ("the closest rank decision on the balanced pencil" if close
+               else f"the balanced pencil spans {bal.spread_after:.1f} decades; its closest rank decision")
         note = (
-            f"the closest rank decision on the balanced pencil had margin {best.ks.margin:.3g}; decided again "
+            f"{why} had margin {best.ks.margin:.3g}; decided again "
             f"on the unbalanced pencil (margin {plain.ks.margin:.3g}); reporting the "
             f"{'unbalanced' if chosen is plain else 'balanced'} one"
         )
-        if plain.ks.summary() != best.ks.summary():
+        if differ:
             note += (
                 f"; they disagree: balanced {best.ks.summary()}, unbalanced {plain.ks.summary()} "
                 "(regular, infinite blocks, right and left minimal indices)"
