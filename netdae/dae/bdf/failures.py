@@ -15,14 +15,8 @@ __all__ = ["Failure", "IntegrationFailure", "worst_unknown", "nonfinite_unknown"
 class Failure(Exception):
     """A numerical failure found by a part of the integrator, for the driver to record.
 
-    Attributes
-    ----------
-    what : str
-        What failed.
-    worst : str or None
-        The unknown to blame.
-    hint : str
-        What the user can do.
+    ``what``, ``worst`` and ``hint`` are those of the :class:`IntegrationFailure` the
+    driver makes of it, with the time and step size it knows.
     """
 
     def __init__(self, what: str, worst, hint: str) -> None:
