@@ -903,6 +903,28 @@ _LOSSY_KINDS = {letter: spec.name for spec in reversed(KINDS.values()) if spec.r
                 for letter in spec.letters}
 
 
+def _leading_words(card: Card, toks: list[Token], syntax: ElementSyntax, message, hint: str | None = None
+                   ) -> tuple[list[Token], int]:
+    """The words after the element name up to the first ``name=`` (nodes and a model name), and where they end.
+
+    Raises
+    ------
+    NetlistError
+        At a token that is not a word, with ``message(token)``.
+    """
+    words: list[Token] = []
+    i = 1
+    while i < len(toks):
+        tok = toks[i]
+        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
+            break
+        if tok.kind != WORD:
+            raise error(card, tok.start, message(tok), syntax, hint=hint)
+        words.append(tok)
+        i += 1
+    return words, i
+
+
 def _lossy_line(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
     """``O``, ``Y`` and ``P`` cards: ngspice's lossy lines (LTRA, TXL, CPL), nodes and model name.
 
@@ -913,16 +935,8 @@ def _lossy_line(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
     ``length=``), which overrides the model's length; the line itself is made by
     :mod:`netdae.netlist.lossy` when the model is known.
     """
-    words: list[Token] = []
-    i = 1
-    while i < len(toks):
-        tok = toks[i]
-        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
-            break
-        if tok.kind != WORD:
-            raise error(card, tok.start, f"unexpected {tok.text!r}: expected node names and a model name", syntax)
-        words.append(tok)
-        i += 1
+    words, i = _leading_words(card, toks, syntax, lambda tok: f"unexpected {tok.text!r}: expected node names and "
+                              "a model name")
     _, keywords = split_args(card, toks, i, syntax)
     if letter == "p":
         if len(words) < 5 or len(words) % 2 == 0:
@@ -969,18 +983,10 @@ def _urc(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
     ngspice reads only in its PSpice compatibility mode, as XSPICE code models) is
     refused by name.
     """
-    words: list[Token] = []
-    i = 1
-    while i < len(toks):
-        tok = toks[i]
-        if tok.kind == WORD and i + 1 < len(toks) and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
-            break
-        if tok.kind != WORD:
-            raise error(card, tok.start, f"{toks[0].text}: a U element with {tok.text!r} here is a PSpice digital "
-                        "primitive, which netdae does not support (nor does ngspice 39 outside its PSpice "
-                        "compatibility mode)", syntax, hint="netdae's U element is the uniform RC line")
-        words.append(tok)
-        i += 1
+    words, i = _leading_words(card, toks, syntax, lambda tok: (
+        f"a U element with {tok.text!r} here is a PSpice digital primitive, which netdae does not "
+        "support (nor does ngspice 39 outside its PSpice compatibility mode)"),
+        hint="netdae's U element is the uniform RC line")
     if len(words) != 4:
         at = words[4].start if len(words) > 4 else _end(card)
         raise error(card, at, f"expected 3 nodes and a model name, found {len(words)} word(s)", syntax)
