@@ -565,6 +565,9 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                                    el.location, expected=f"a .model card named {written}")
             el.model = select_bin(el, circuit, candidates)
         card = originals.get(el.model) or circuit.models[el.model]
+        if el.kind == Kind.MESFET and level_of(card) in MESA_LEVELS:
+            _to_mesa(el, card, notes, warned)  # ngspice's MESA: netdae's own family
+            continue
         m = mapped(card)
         _check_nodes(el, card, m)
         if m is None:
@@ -611,6 +614,27 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
         el.kind = "osdi"
         el.model = name
     return notes
+
+
+#: The MESFET levels netdae evaluates with a family of its own (:mod:`netdae.devices.mesa`).
+MESA_LEVELS = (2.0,)
+
+
+def _to_mesa(el: Element, card: Model, notes: list, warned: set) -> None:
+    """Give a Z element of a MESA model the ``mesa`` kind (its family reads the card), warning as ngspice does.
+
+    ngspice's MESA runs the N channel only ("Only nmf model type supported, set to nmf"), and its Z reader
+    gives the unlabelled area to MESA, which has no area parameter: both are warned once and ignored.
+    """
+    if card.type == "pmf" and ("pmf", card.name) not in warned:
+        warned.add(("pmf", card.name))
+        _warn(notes, f"model {card.name}: ngspice's MESA supports the nmf type only: it runs this pmf model as nmf, "
+              "and so does netdae", card.location)
+    if UNLABELLED_AREA in el.params:
+        value = el.params.pop(UNLABELLED_AREA)
+        _warn(notes, f"{el.name}: the area {value:g} is ignored: ngspice's MESA model has no area parameter",
+              el.location)
+    el.kind = Kind.MESA.value
 
 
 def _refuse(el: Element, card: Model) -> None:
