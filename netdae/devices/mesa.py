@@ -58,8 +58,9 @@ Temperature: ``Ts``, ``Td`` the instance's ``ts``, ``td`` (Celsius), else ``.opt
 Ts/TETA0) + TETA1/Ts``, ``LAMBDA(T) = LAMBDA (1 - Ts/TLAMBDA)``, ``MU(T) = MU (Ts/TMU)^XTM0`` (with
 ``MU1``, ``MU2``: ``1/(1/MU(T) + 1/(MU1 (TMU/Ts)^XTM1 + MU2 (TMU/Ts)^XTM2))``).
 
-``m`` multiplies every current, conductance and charge. The unlabelled area of a Z card is ignored
-by ngspice's MESA (it has no area parameter); netdae ignores it too. ``KS`` (sidegating through the
+``m`` multiplies every current, conductance and charge (ngspice leaves it off the right-hand side of the
+charges' far nodes ``#gs``, ``#gd`` in a transient; netdae scales them consistently). An area on the Z
+card is refused, as ngspice 39 stops at it (MESA has no area parameter). ``KS`` (sidegating through the
 source node's absolute voltage) is refused when non-zero.
 """
 
@@ -104,10 +105,9 @@ MESA_PARAMETERS = ParameterTable(
     family="mesa",
 )
 
-#: Instance parameters and their defaults (None: absent unless given); ``area``: ngspice's reader gives
-#: the unlabelled area to MESA, which has no such parameter and ignores it.
+#: Instance parameters and their defaults (None: absent unless given).
 _INSTANCE = {"l": 1e-6, "w": 20e-6, "m": 1.0, "off": 0.0, "icvds": None, "icvgs": None, "td": None, "ts": None,
-             "dtemp": 0.0, "area": None}
+             "dtemp": 0.0}
 _INIT_V = -1.0
 
 # controls: vgs, vgd (limited), vgs'', vgd'' (the charges' branches), then the five series resistors
@@ -118,6 +118,14 @@ _CURRENT_DEPS = [(_ID, _VGS), (_ID, _VGD), (_IGS, _VGS), (_IGD, _VGD), (_IRD, _V
 _CHARGE_DEPS = [(0, _VGSPP), (0, _VGS), (0, _VGD), (1, _VGDPP), (1, _VGS), (1, _VGD)]
 #: The complex step of the derivatives [V]: far below rounding of any bias.
 _STEP = 1e-30
+#: The gate charges' quadrature: where it starts (this many ``ETA vt`` below VTO(T)), its panels and
+#: their Gauss-Legendre points (abscissae in units of a panel's width from the start, and weights).
+_OFF_DEPTH = 40.0
+_PANELS = 24
+_NODES = 4
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(_NODES)
+_ABSCISSAE = (np.arange(_PANELS)[:, None] + 0.5 * (_GL_X + 1.0)).ravel()
+_WEIGHTS = np.tile(0.5 * _GL_W, _PANELS)
 
 
 def mesa2_channel(vg, w, p):
@@ -312,6 +320,7 @@ class MesaFamily(DeviceFamily):
             "lambda": g("lambda") * (1.0 - ts / g("tlambda")), "wl_eps_d": width * length * EPS_GAAS / d,
             "cf": 0.5 * EPS_GAAS * width,
         }
+        self._columns = {k: np.asarray(v)[:, None] for k, v in self.channel.items()}
         self.off = g("off") != 0.0
         self.lim_vt = np.concatenate([self.vtes, self.vted])
         self.lim_vcrit = np.concatenate([self.vcrits, self.vcritd])
@@ -365,14 +374,41 @@ class MesaFamily(DeviceFamily):
         return v, bool(np.any(v != vn))
 
     # -- the model ---------------------------------------------------------
-    def _channel(self, vgs, vgd):
-        """Current d'->s' (one device, no AG) and the capacitances (cgs, cgd) at (vgs, vgd), any dtype."""
+    def _channel(self, vgs, vgd, p=None):
+        """Current d'->s' (one device, no AG) and the capacitances (cgs, cgd) at (vgs, vgd), any dtype.
+
+        ``p``: the constants shaped to broadcast with the voltages (default :attr:`channel`).
+        """
         vds = vgs - vgd
         inverse = vds.real < 0.0
         vg = np.where(inverse, vgd, vgs)
         w = np.where(inverse, -vds, vds)
-        i, cgs, cgd = mesa2_channel(vg, w, self.channel)
+        i, cgs, cgd = mesa2_channel(vg, w, self.channel if p is None else p)
         return np.where(inverse, -i, i), np.where(inverse, cgd, cgs), np.where(inverse, cgs, cgd)
+
+    def _gate_charges(self, vgs, vgd, vgspp, vgdpp):
+        """The channel's gate charges: ngspice's capacitances integrated along the gate voltage (any dtype).
+
+        ``qgs = CF vgs'' + int Cch_gs du`` from deep below threshold (where the channel's share of the
+        capacitance is below ``exp(-40)`` of its scale) to ``vgs''`` with the gate alone moving (``vds`` and
+        the offsets ``vgs - vgs''``, ``vgd - vgd''`` held), the same for ``qgd``; composite Gauss-Legendre
+        (:data:`_PANELS` panels of :data:`_NODES` points).
+        """
+        p = self.channel
+        col = self._columns
+        vds = vgs - vgd
+        low = self.vto - _OFF_DEPTH * p["eta"] * p["vt"] - np.abs(p["sigma0"]) * np.abs(vds.real)
+        out = []
+        for branch, (far, here, ahead) in enumerate(((vgspp, vgs, -vds), (vgdpp, vgd, vds))):
+            shift = here - far  # the branch's control less the charge's own voltage (RI, RF)
+            start = np.minimum(low - shift.real - np.maximum(ahead.real, 0.0), far.real)
+            width = (far - start) / _PANELS
+            u = start[..., None] + width[..., None] * _ABSCISSAE
+            gs_u = u + (shift if branch == 0 else shift + vds)[..., None]
+            _, cgs, cgd = self._channel(gs_u, gs_u - vds[..., None], col)
+            c = (cgs if branch == 0 else cgd) - col["cf"]
+            out.append(p["cf"] * far + width * (c * _WEIGHTS).sum(axis=-1))
+        return out[0], out[1]
 
     def _diodes(self, vgs, vgd):
         igs = gate_diode(vgs, self.csatfs, self.ggrwl, self.vtes, self.vts, self.dl) + self.gmin * vgs
@@ -413,12 +449,33 @@ class MesaFamily(DeviceFamily):
         out["gds"] = np.where(fwd, -out["cd_vgd"], -out["cd_vgs"])
         return out
 
+    def charges(self, vgs, vgd, vgspp, vgdpp):
+        """The gate charges (one device) and their derivatives to (vgs'', vgs, vgd) and (vgd'', vgs, vgd).
+
+        Returns
+        -------
+        qgs, qgd : ndarray
+        dqgs, dqgd : tuple of three ndarray
+        """
+        h = _STEP
+        args = [np.asarray(a, dtype=float) + 0j for a in (vgs, vgd, vgspp, vgdpp)]
+        with np.errstate(all="ignore"):
+            qgs, qgd = self._gate_charges(*args)
+            slopes = []
+            for k in range(4):
+                stepped = list(args)
+                stepped[k] = stepped[k] + 1j * h
+                a, b = self._gate_charges(*stepped)
+                slopes.append((a.imag / h, b.imag / h))
+        return (qgs.real, qgd.real, (slopes[2][0], slopes[0][0], slopes[1][0]),
+                (slopes[3][1], slopes[0][1], slopes[1][1]))
+
     def quantities(self, x, dxdt=None):
         """ngspice's MESA quantities (``@z1[cd]``, ``@z1[gm]`` ...) at solutions ``x``, shape (T, N) each.
 
-        ``cd`` is ngspice's drain current (channel less gate-drain diode, as ``@z1[cd]``), ``cg`` the
-        gate current, ``cs`` the source current (``-(cd + cg)``), all into the device, for one device
-        times ``m``; ``gm``, ``gds`` the mode's derivatives of the channel current, ``ggs``, ``ggd`` the
+        ``cd`` is ngspice's drain current (channel less gate-drain diode, as ``@z1[cd]``: without
+        AG's term, which the terminal current carries), ``cg`` the gate current, ``cs`` ``-(cd + cg)``,
+        all into the device, times ``m``; ``gm``, ``gds`` the mode's derivatives of the channel current, ``ggs``, ``ggd`` the
         diodes' conductances, ``cgs``, ``cgdq`` ngspice's gate capacitances (what ngspice prints as
         ``@z1[qgs]``, ``@z1[qgd]`` after an operating point), ``qgs``, ``qgd`` netdae's gate charges.
         """
@@ -426,17 +483,18 @@ class MesaFamily(DeviceFamily):
         vgs, vgd = v[_VGS], v[_VGD]
         r = self.dc(vgs, vgd)
         m = self.mult
-        cd = (r["ich"] - r["igd"]) * m
+        cd = (r["cdrain"] - r["igd"]) * m  # ngspice's cd: without AG's term
         cg = (r["igs"] + r["igd"]) * m
+        qgs, qgd, dqs, dqd = self.charges(vgs, vgd, v[_VGSPP], v[_VGDPP])
         if dxdt is not None:
             dv = self.stamps.voltages_at(dxdt)
-            i_qgs = (r["cgs"] * dv[_VGSPP] + (r["cgs_vgs"] * dv[_VGS] + r["cgs_vgd"] * dv[_VGD]) * v[_VGSPP]) * m
-            i_qgd = (r["cgd"] * dv[_VGDPP] + (r["cgd_vgs"] * dv[_VGS] + r["cgd_vgd"] * dv[_VGD]) * v[_VGDPP]) * m
+            i_qgs = (dqs[0] * dv[_VGSPP] + dqs[1] * dv[_VGS] + dqs[2] * dv[_VGD]) * m
+            i_qgd = (dqd[0] * dv[_VGDPP] + dqd[1] * dv[_VGS] + dqd[2] * dv[_VGD]) * m
             cg = cg + i_qgs + i_qgd
             cd = cd - i_qgd
         return {"cd": cd, "cg": cg, "cs": -(cd + cg), "vgs": vgs, "vgd": vgd, "gm": r["gm"] * m,
                 "gds": r["gds"] * m, "ggs": r["ggs"] * m, "ggd": r["ggd"] * m, "cgs": r["cgs"] * m,
-                "cgdq": r["cgd"] * m, "qgs": r["cgs"] * v[_VGSPP] * m, "qgd": r["cgd"] * v[_VGDPP] * m}
+                "cgdq": r["cgd"] * m, "qgs": qgs * m, "qgd": qgd * m}
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
@@ -468,9 +526,9 @@ class MesaFamily(DeviceFamily):
             # the charges' far ends: vgs'' and vgd'' (equal to the limited vgs, vgd without RI, RF)
             vspp = np.where(self.gi > 0.0, v[_VGSPP], vgs)
             vdpp = np.where(self.gf > 0.0, v[_VGDPP], vgd)
-            q = np.stack([r["cgs"] * vspp * m, r["cgd"] * vdpp * m])
-            dq = np.stack([r["cgs"] * m, r["cgs_vgs"] * vspp * m, r["cgs_vgd"] * vspp * m,
-                           r["cgd"] * m, r["cgd_vgs"] * vdpp * m, r["cgd_vgd"] * vdpp * m])
+            qgs, qgd, dqs, dqd = self.charges(vgs, vgd, vspp, vdpp)
+            q = np.stack([qgs * m, qgd * m])
+            dq = np.stack([dqs[0] * m, dqs[1] * m, dqs[2] * m, dqd[0] * m, dqd[1] * m, dqd[2] * m])
             delta = None
             if changed:
                 acc.limited = True
