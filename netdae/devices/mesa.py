@@ -77,7 +77,8 @@ from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN, fetlim, pnjlim
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
-__all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "gate_diode", "EPS_GAAS"]
+__all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "gate_diode", "EPS_GAAS", "NS_FLOOR", "STEP",
+           "OFF_DEPTH", "QUAD_PANELS", "QUAD_ABSCISSAE", "QUAD_WEIGHTS"]
 
 #: GaAs's permittivity as ngspice writes it [F/m].
 EPS_GAAS = 12.244 * 8.85418e-12
@@ -117,15 +118,15 @@ _CURRENT_DEPS = [(_ID, _VGS), (_ID, _VGD), (_IGS, _VGS), (_IGD, _VGD), (_IRD, _V
                  (_IRG, _VRG), (_IRI, _VRI), (_IRF, _VRF)]
 _CHARGE_DEPS = [(0, _VGSPP), (0, _VGS), (0, _VGD), (1, _VGDPP), (1, _VGS), (1, _VGD)]
 #: The complex step of the derivatives [V]: far below rounding of any bias.
-_STEP = 1e-30
+STEP = 1e-30
 #: The gate charges' quadrature: where it starts (this many ``ETA vt`` below VTO(T)), its panels and
 #: their Gauss-Legendre points (abscissae in units of a panel's width from the start, and weights).
-_OFF_DEPTH = 40.0
-_PANELS = 24
-_NODES = 4
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(_NODES)
-_ABSCISSAE = (np.arange(_PANELS)[:, None] + 0.5 * (_GL_X + 1.0)).ravel()
-_WEIGHTS = np.tile(0.5 * _GL_W, _PANELS)
+OFF_DEPTH = 40.0
+QUAD_PANELS = 24
+QUAD_NODES = 4
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(QUAD_NODES)
+QUAD_ABSCISSAE = (np.arange(QUAD_PANELS)[:, None] + 0.5 * (_GL_X + 1.0)).ravel()
+QUAD_WEIGHTS = np.tile(0.5 * _GL_W, QUAD_PANELS)
 
 
 def mesa2_channel(vg, w, p):
@@ -392,22 +393,22 @@ class MesaFamily(DeviceFamily):
         ``qgs = CF vgs'' + int Cch_gs du`` from deep below threshold (where the channel's share of the
         capacitance is below ``exp(-40)`` of its scale) to ``vgs''`` with the gate alone moving (``vds`` and
         the offsets ``vgs - vgs''``, ``vgd - vgd''`` held), the same for ``qgd``; composite Gauss-Legendre
-        (:data:`_PANELS` panels of :data:`_NODES` points).
+        (:data:`QUAD_PANELS` panels of :data:`QUAD_NODES` points).
         """
         p = self.channel
         col = self._columns
         vds = vgs - vgd
-        low = self.vto - _OFF_DEPTH * p["eta"] * p["vt"] - np.abs(p["sigma0"]) * np.abs(vds.real)
+        low = self.vto - OFF_DEPTH * p["eta"] * p["vt"] - np.abs(p["sigma0"]) * np.abs(vds.real)
         out = []
         for branch, (far, here, ahead) in enumerate(((vgspp, vgs, -vds), (vgdpp, vgd, vds))):
             shift = here - far  # the branch's control less the charge's own voltage (RI, RF)
             start = np.minimum(low - shift.real - np.maximum(ahead.real, 0.0), far.real)
-            width = (far - start) / _PANELS
-            u = start[..., None] + width[..., None] * _ABSCISSAE
+            width = (far - start) / QUAD_PANELS
+            u = start[..., None] + width[..., None] * QUAD_ABSCISSAE
             gs_u = u + (shift if branch == 0 else shift + vds)[..., None]
             _, cgs, cgd = self._channel(gs_u, gs_u - vds[..., None], col)
             c = (cgs if branch == 0 else cgd) - col["cf"]
-            out.append(p["cf"] * far + width * (c * _WEIGHTS).sum(axis=-1))
+            out.append(p["cf"] * far + width * (c * QUAD_WEIGHTS).sum(axis=-1))
         return out[0], out[1]
 
     def _diodes(self, vgs, vgd):
@@ -427,7 +428,7 @@ class MesaFamily(DeviceFamily):
         """
         vgs = np.asarray(vgs, dtype=float)
         vgd = np.asarray(vgd, dtype=float)
-        h = _STEP
+        h = STEP
         with np.errstate(all="ignore"):
             i0, cs0, cd0 = self._channel(vgs, vgd)
             i1, cs1, cd1 = self._channel(vgs + 1j * h, vgd + 0j)
@@ -457,7 +458,7 @@ class MesaFamily(DeviceFamily):
         qgs, qgd : ndarray
         dqgs, dqgd : tuple of three ndarray
         """
-        h = _STEP
+        h = STEP
         args = [np.asarray(a, dtype=float) + 0j for a in (vgs, vgd, vgspp, vgdpp)]
         with np.errstate(all="ignore"):
             qgs, qgd = self._gate_charges(*args)
@@ -495,6 +496,44 @@ class MesaFamily(DeviceFamily):
         return {"cd": cd, "cg": cg, "cs": -(cd + cg), "vgs": vgs, "vgd": vgd, "gm": r["gm"] * m,
                 "gds": r["gds"] * m, "ggs": r["ggs"] * m, "ggd": r["ggd"] * m, "cgs": r["cgs"] * m,
                 "cgdq": r["cgd"] * m, "qgs": qgs * m, "qgd": qgd * m}
+
+    def compiled(self, slots: SlotMap, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pack the family for :func:`netdae.devices.kernels.mesa.eval_mesa` (after ``bind``).
+
+        Returns
+        -------
+        par : ndarray, shape (N, kernels.mesa.N_PAR)
+        idx : ndarray of int64, shape (N, kernels.mesa.N_IDX)
+        vold0 : ndarray, shape (N, 2)
+            The initial state's (vgs, vgd) (:meth:`initial_state`).
+        """
+        from .kernels import mesa as km
+        from .kernels.packing import dependence_slots, extended
+
+        count = len(self.elements)
+        par = np.zeros((count, km.N_PAR))
+        for col, key in enumerate(km.CHANNEL_KEYS):
+            par[:, col] = self.channel[key]
+        cols = {
+            km.P_MULT: self.mult, km.P_CSATFS: self.csatfs, km.P_CSATFD: self.csatfd, km.P_GGRWL: self.ggrwl,
+            km.P_VTES: self.vtes, km.P_VTED: self.vted, km.P_VTS: self.vts, km.P_VTD: self.vtd, km.P_DEL: self.dl,
+            km.P_AG: self.ag, km.P_GMIN: self.gmin, km.P_VCRITS: self.vcrits, km.P_VCRITD: self.vcritd,
+            km.P_GD: self.gd, km.P_GS: self.gs, km.P_GG: self.gg, km.P_GI: self.gi, km.P_GF: self.gf,
+        }
+        for col, values in cols.items():
+            par[:, col] = values
+        idx = np.zeros((count, km.N_IDX), dtype=np.int64)
+        for col, nodes in ((km.I_D, self.d), (km.I_G, self.g), (km.I_S, self.s), (km.I_DP, self.di),
+                           (km.I_SP, self.si), (km.I_GP, self.gi_node), (km.I_SPP, self.sii), (km.I_DPP, self.dii)):
+            idx[:, col] = extended(nodes, n)
+        st = self.stamps
+        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
+            idx[:, km.S_CUR + 4 * j:km.S_CUR + 4 * j + 4] = dependence_slots(
+                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
+        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
+            idx[:, km.S_CHG + 4 * j:km.S_CHG + 4 * j + 4] = dependence_slots(
+                slots, st.chg_a[out], st.chg_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
+        return par, idx, self.initial_state().v.T.copy()
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
         v = self.stamps.voltages(x)
