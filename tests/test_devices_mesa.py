@@ -72,6 +72,15 @@ def test_operating_point_quantities_agree_with_ngspice(vgs, vds, temp):
 
 
 @ngspice
+@pytest.mark.parametrize("inst", ["l=0.8u w=15u ts=60 td=75", "l=0.8u w=15u dtemp=30", "l=2u w=40u off"])
+def test_instance_temperatures_and_sizes_agree_with_ngspice(inst):
+    text = held(0.35, 0.9, inst=inst)
+    ours, theirs = netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES)
+    for n in QUANTITIES:
+        assert ours[n] == pytest.approx(theirs[n], rel=2e-6), n
+
+
+@ngspice
 def test_multiplier_scales_everything():
     text = held(0.4, 1.0, inst="l=0.8u w=15u m=3")
     ours, theirs = netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES)

@@ -169,6 +169,7 @@ _ALLOWED_TABLES = {
     ("netdae/devices/model_names.py", "MODEL_FAMILIES"),
     ("netdae/devices/model_names.py", "LEVELS"),
     ("netdae/devices/model_names.py", "LEVEL_PARAMETERS"),
+    ("netdae/devices/model_names.py", "LEVEL_TABLES"),  # the parameter table of a (family, level): MESA
     ("netdae/devices/model_names.py", "SENS_MODEL_PARAMETERS"),  # ngspice 39's sensitivity lists, by family
     ("netdae/devices/model_names.py", "SENS_AC_ONLY"),
     ("netdae/devices/model_names.py", "FLAG_PARAMETERS"),
