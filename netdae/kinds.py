@@ -95,6 +95,7 @@ class Kind(enum.StrEnum):
     MOSFET = "mosfet"
     JFET = "jfet"
     MESFET = "mesfet"
+    MESA = "mesa"
     VDMOS = "vdmos"
     VSWITCH = "vswitch"
     CSWITCH = "cswitch"
@@ -362,6 +363,11 @@ _DEFINITIONS = (
     ElementKind("mesfet", "z", "MESFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 model_types=("nmf", "pmf"), controlled=True, group="transistors", device_ic=("icvds", "icvgs"),
                 runs_as="osdi"),
+    # a MESFET whose model is ngspice's MESA (level 2): map_devices gives its Z card this kind; the model types
+    # stay the MESFET's (a card's type names the mesfet kind)
+    ElementKind("mesa", "z", "MESFET (MESA)", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
+                family="netdae.devices.mesa:MesaFamily", controlled=True, group="transistors", solved_quantities=True,
+                device_ic=("icvds", "icvgs"), parameters="netdae.devices.mesa:MESA_PARAMETERS"),
     ElementKind("vdmos", "m", "power MOSFET (VDMOS)", "(d, g, s)", (3,), ((RESISTIVE, 0, 2),), ((1, "gate"),),
                 model_types=("vdmos",), family="netdae.devices.vdmos:VdmosFamily", controlled=True,
                 group="transistors", device_ic=("icvds", "icvgs")),
@@ -453,6 +459,16 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "ggd": "gate-drain junction conductance", "qgs": "gate-source junction charge",
         "qgd": "gate-drain junction charge",
         "p": "power absorbed: each terminal's current times its voltage",
+    },
+    "mesa": {
+        "cd": "drain current (into the terminal; channel less gate-drain diode, charge currents included)",
+        "cg": "gate current (into the terminal)", "cs": "source current (into the terminal)",
+        "vgs": "internal gate-source voltage", "vgd": "internal gate-drain voltage",
+        "gm": "transconductance (of the mode)", "gds": "output conductance (of the mode)",
+        "ggs": "gate-source diode conductance", "ggd": "gate-drain diode conductance",
+        "cgs": "gate-source capacitance (what ngspice prints as qgs after .op)",
+        "cgdq": "gate-drain capacitance (what ngspice prints as qgd after .op)",
+        "qgs": "gate-source charge (netdae's charge form)", "qgd": "gate-drain charge (netdae's charge form)",
     },
     "vswitch": {"i": "current from n+ through the switch to n-", "p": "power absorbed"},
     "cswitch": {"i": "current from n+ through the switch to n-", "p": "power absorbed"},

@@ -53,6 +53,7 @@ CIRCUITS = {
     "cswitch": "Vs a 0 1\nR1 a b 1k\nWdut b 0 Vs wm\n.model wm csw it=0.1m\n",
     "tline": "Vs a 0 1\nR1 a b 50\nTdut b 0 c 0 z0=50 td=1n\nR2 c 0 50\n",
     "mesfet": "Vd d 0 3\nVg g 0 -0.5\nZdut d g 0 zm\n.model zm nmf vto=-2 beta=1m\n",
+    "mesa": "Vd d 0 3\nVg g 0 0.2\nZdut d g 0 zm l=1u w=10u\n.model zm nmf level=2 vto=0.1 rd=20 rs=20\n",
 }
 #: Kinds that elaboration maps to compiled modules of the optional extra netdae[models].
 NEEDS_MODELS = {k for k, spec in KINDS.items() if spec.runs_as == "osdi"}
@@ -168,6 +169,7 @@ _ALLOWED_TABLES = {
     ("netdae/devices/model_names.py", "MODEL_FAMILIES"),
     ("netdae/devices/model_names.py", "LEVELS"),
     ("netdae/devices/model_names.py", "LEVEL_PARAMETERS"),
+    ("netdae/devices/model_names.py", "LEVEL_TABLES"),  # the parameter table of a (family, level): MESA
     ("netdae/devices/model_names.py", "SENS_MODEL_PARAMETERS"),  # ngspice 39's sensitivity lists, by family
     ("netdae/devices/model_names.py", "SENS_AC_ONLY"),
     ("netdae/devices/model_names.py", "FLAG_PARAMETERS"),

@@ -198,8 +198,9 @@ def test_an_unlabelled_mesfet_area_is_ignored_as_ngspice_ignores_it():
 
 def test_mesa_levels_are_refused_naming_the_level():
     with pytest.raises(NetlistError) as err:
-        netdae.load(mesfet("nmf", level="level=2 "))
-    assert "MESFET level 2 (MESA in ngspice) is not implemented by netdae" in str(err.value)
+        netdae.load(mesfet("nmf", level="level=3 "))
+    assert "MESFET level 3 (MESA in ngspice) is not implemented by netdae" in str(err.value)
+    assert "level 2 (MESA) with a device family of its own" in err.value.hint
     assert err.value.location.line == 5
 
 

@@ -19,7 +19,7 @@ Examples
 from __future__ import annotations
 
 __all__ = ["NGSPICE_PARAMETERS", "SENS_MODEL_PARAMETERS", "SENS_AC_ONLY", "SENS_SPELLING",
-           "OUTPUT_ONLY", "MODEL_FAMILIES", "VECTOR_PARAMETERS", "FLAG_PARAMETERS", "LEVELS", "LEVEL_PARAMETERS", "level_name",
+           "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVEL_TABLES", "table_of", "VECTOR_PARAMETERS", "FLAG_PARAMETERS", "LEVELS", "LEVEL_PARAMETERS", "level_name",
            "level_parameters"]
 
 
@@ -70,7 +70,29 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
     # mes.c (level 1, Statz; the levels 2-4, MESA, have tables of their own)
     "mesfet": _names("level type nmf pmf vt0 vto alpha beta lambda b rd gd rs gs cgs cgd pb is fc depl_cap vcrit "
                      "kf af"),
+    # mesa.c: the MESA MESFET (Z cards of level 2, 3, 4; :func:`table_of` chooses it by level)
+    "mesa": _names("level type nmf pmf vt0 vto lambda lambdahf beta vs rd rs rg ri rf rdi rsi phib phib1 tphib "
+                   "astar ggr del xchi tggr n eta m mc alpha sigma0 vsigmat vsigma mu theta mu1 mu2 d nd du ndu th "
+                   "ndelta delta tc tvto alphat tlambda teta0 teta1 tmu xtm0 xtm1 xtm2 ks vsg tf flo delfo ag rtc1 "
+                   "rtc2 zeta nmax gamma epsi cas cbs gd gs vcrit"),
 }
+
+#: The parameter table of a (family, level) whose table is not its family's (ngspice's MESA for the
+#: MESFET levels 2-4).
+LEVEL_TABLES: dict[tuple[str, int], str] = {("mesfet", 2): "mesa", ("mesfet", 3): "mesa", ("mesfet", 4): "mesa"}
+
+
+def table_of(family: str, level: float) -> str:
+    """The name of the parameter table (a key of :data:`NGSPICE_PARAMETERS`) of a family's model level.
+
+    Examples
+    --------
+    >>> table_of("mesfet", 2.0), table_of("mesfet", 1.0), table_of("bjt", 4.0)
+    ('mesa', 'mesfet', 'bjt')
+    """
+    if level == int(level):
+        return LEVEL_TABLES.get((family, int(level)), family)
+    return family
 
 #: Names in those tables that are outputs (ngspice reports them, and refuses them on a .model card).
 #: The model parameters ngspice 39's sensitivity analysis lists for every instance of a family whatever its
@@ -106,6 +128,7 @@ OUTPUT_ONLY: dict[str, frozenset] = {
     "vswitch": _names("gon goff"),
     "cswitch": _names("gon goff"),
     "mesfet": _names("type gd gs depl_cap vcrit"),
+    "mesa": _names("type gd gs vcrit"),
 }
 
 #: The model family of each element kind that uses a model card.
@@ -171,6 +194,9 @@ LEVEL_PARAMETERS: dict[tuple[str, int], tuple[frozenset, frozenset]] = {
     ("mesfet", 1): (NGSPICE_PARAMETERS["mesfet"] - OUTPUT_ONLY["mesfet"],
                     _names("area m off icvds icvgs")),
 }
+for _level in (2, 3, 4):
+    LEVEL_PARAMETERS[("mesfet", _level)] = (NGSPICE_PARAMETERS["mesa"] - OUTPUT_ONLY["mesa"],
+                                            _names("l w m off icvds icvgs td ts dtemp"))
 #: ngspice 39 reads BJT level 9 as VBIC too (its ``inpdomod.c``; measured: ``showmod`` lists VBIC models).
 LEVEL_PARAMETERS[("bjt", 9)] = LEVEL_PARAMETERS[("bjt", 4)]
 

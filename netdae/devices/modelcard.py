@@ -25,7 +25,7 @@ import numpy as np
 from ..circuit import ABSOLUTE_ZERO, Circuit, Element, Model
 from ..errors import CircuitError, NetlistError
 from ..kinds import KINDS
-from .model_names import LEVELS, NGSPICE_PARAMETERS, level_name
+from .model_names import LEVELS, NGSPICE_PARAMETERS, level_name, table_of
 
 __all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "ignored_parameters",
            "unimplemented_level"]
@@ -256,7 +256,7 @@ def ignored_parameters(family: str, model: Model) -> list[str]:
     >>> ignored_parameters("bjt", Model("q", "npn", {"is": 1e-15, "vceo": 40.0, "mfg": 1.0}))
     ['vceo', 'mfg']
     """
-    known = NGSPICE_PARAMETERS.get(family)
+    known = NGSPICE_PARAMETERS.get(table_of(family, model.params.get("level", 1.0)))
     if known is None or unimplemented_level(family, model) is not None:
         return []
     return [name for name in model.params if name.lower() not in known]

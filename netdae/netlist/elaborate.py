@@ -30,7 +30,7 @@ from collections.abc import Mapping
 from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
                        NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis, SourceSpec, TfAnalysis,
                        TranAnalysis)
-from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY
+from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY, table_of
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
 from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS, Kind
@@ -777,7 +777,8 @@ class _Elaborator:
         family = KIND_OF_MODEL_TYPE.get(item.type)
         if family is None or unimplemented_level(family, model) is not None:
             return  # a level netdae lacks is refused as a whole
-        known = NGSPICE_PARAMETERS[family]
+        table = table_of(family, model.params.get("level", 1.0))
+        known = NGSPICE_PARAMETERS[table]
         form = DOT_CARDS[".model"]
         first = len(self.diagnostics)
         for name in ignored_parameters(family, model):
@@ -791,7 +792,7 @@ class _Elaborator:
                 "warning", f"model {model.name}: parameter {name}={text} ignored, as ngspice ignores '{name}' (but "
                 f"ngspice 39 stops at the undefined word '{text}': write {name}=\"{text}\")",
                 item.card.location(offset)))
-        outputs = OUTPUT_ONLY.get(family, frozenset())
+        outputs = OUTPUT_ONLY.get(table, frozenset())
         dropped = VDMOS_ANNOTATIONS if family == Kind.VDMOS else frozenset()
         for name in (*item.params, *item.strings, *item.flags):
             if name in outputs:

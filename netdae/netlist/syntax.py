@@ -121,7 +121,9 @@ ELEMENTS: dict[str, ElementSyntax] = {
             "Jname nd ng ns mname [area] [off] [ic=vds,vgs] [temp=t] [dtemp=dt] [m=mult] [name=value ...]",),
             flags=frozenset({"off"})),
         ElementSyntax("z", "MESFET", (
-            "Zname nd ng ns mname [area] [off] [ic=vds,vgs] [m=mult]",), flags=frozenset({"off"})),
+            "Zname nd ng ns mname [area] [off] [ic=vds,vgs] [m=mult]",
+            "Zname nd ng ns mesa_model [off] [l=L] [w=W] [m=mult] [ic=vds,vgs] [td=T] [ts=T] [dtemp=dT]"),
+            flags=frozenset({"off"})),
         ElementSyntax("s", "voltage-controlled switch", ("Sname n+ n- nc+ nc- mname [on|off]",),
                       flags=frozenset({"on", "off"})),
         ElementSyntax("w", "current-controlled switch", ("Wname n+ n- vname mname [on|off]",),

@@ -72,8 +72,10 @@ SWITCH_SLOT = 4
 BEHAVIOURAL_SLOT = 5
 #: Position of the OSDI devices in the loop's families (after the behavioural sources).
 OSDI_SLOT = 6
-#: Position of the VDMOS transistors in the loop's families (last; their arrays end ``devd``).
+#: Position of the VDMOS transistors in the loop's families (their arrays follow the OSDI devices' states).
 VDMOS_SLOT = 7
+#: Position of the MESA MESFETs in the loop's families (last; their arrays end ``devd``).
+MESA_SLOT = 8
 #: Arrays of one family of the standard interface in ``devd``: ``(par, idx, vacc, vtry, vnew)``.
 _FAMILY_ARRAYS = 5
 
@@ -91,18 +93,19 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 
 def _family_slot(family) -> int | None:
     """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, JFET, switch, behavioural, OSDI,
-    VDMOS), or None."""
+    VDMOS, MESA), or None."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
     from ...devices.jfet import JfetFamily
+    from ...devices.mesa import MesaFamily
     from ...devices.mosfet import MosfetFamily
     from ...devices.switch import SwitchFamily
     from ...devices.vdmos import VdmosFamily
 
     osdi = sys.modules.get("netdae.devices.osdi.family")  # imported only by circuits with N elements
     classes = (DiodeFamily, BjtFamily, MosfetFamily, JfetFamily, SwitchFamily, BehaviouralFamily,
-               osdi.OsdiFamily if osdi is not None else None, VdmosFamily)
+               osdi.OsdiFamily if osdi is not None else None, VdmosFamily, MesaFamily)
     for slot, cls in enumerate(classes):
         if type(family) is cls:
             return slot
@@ -652,17 +655,20 @@ def _history(buf_t, buf_k, buf_x, segments, I, col0: int):
 def limiting_states(devd: tuple) -> tuple[int, ...]:
     """Positions in :func:`_pack_families`'s ``devd`` of the limiting states (``vacc``, ``vtry``,
     ``vnew`` of the diodes, BJTs, MOSFETs, JFETs and switches, of the OSDI devices, and of the VDMOS
-    transistors, which end it): what a new solve from the initial state must copy rather than share."""
-    end = len(devd) - _FAMILY_ARRAYS
+    transistors and the MESA MESFETs, which end it): what a new solve from the initial state must copy
+    rather than share."""
+    end = len(devd) - 2 * _FAMILY_ARRAYS
     return (*(_FAMILY_ARRAYS * slot + k for slot in range(SWITCH_SLOT + 1) for k in (2, 3, 4)),
-            *range(end - 3, end), *(end + k for k in (2, 3, 4)))
+            *range(end - 3, end), *(end + k for k in (2, 3, 4)),
+            *(end + _FAMILY_ARRAYS + k for k in (2, 3, 4)))
 
 
 def _pack_families(system, x0, switching) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs, JFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
     val, der)``, then the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`)
-    and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors.
+    and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors and of the MESA
+    MESFETs.
 
     An absent family gets empty arrays (its kernel is then skipped). The switches start held in
     the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
@@ -671,6 +677,7 @@ def _pack_families(system, x0, switching) -> tuple:
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
     from ...devices.kernels import jfet as kj
+    from ...devices.kernels import mesa as kz
     from ...devices.kernels import mosfet as km
     from ...devices.kernels import osdi as ko
     from ...devices.kernels import switch as ksw
@@ -680,6 +687,7 @@ def _pack_families(system, x0, switching) -> tuple:
               (kj.N_PAR, kj.N_IDX, kj.N_STATE), (ksw.N_PAR, ksw.N_IDX, ksw.N_STATE))
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
     vdmos = (np.zeros((0, kv.N_PAR)), np.zeros((0, kv.N_IDX), dtype=np.int64), np.zeros((0, kv.N_STATE)))
+    mesa = (np.zeros((0, kz.N_PAR)), np.zeros((0, kz.N_IDX), dtype=np.int64), np.zeros((0, kz.N_STATE)))
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
                    np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))
     info = np.zeros(ko.INFO_WORDS, dtype=np.int64)
@@ -703,6 +711,8 @@ def _pack_families(system, x0, switching) -> tuple:
                       np.ascontiguousarray(vold0, dtype=float))
             if slot == VDMOS_SLOT:
                 vdmos = arrays
+            elif slot == MESA_SLOT:
+                mesa = arrays
             else:
                 packed[slot] = arrays
     out = []
@@ -711,9 +721,11 @@ def _pack_families(system, x0, switching) -> tuple:
     out.append(np.zeros(packed[SWITCH_SLOT][0].shape[0]))
     # the OSDI modules' limiting states (accepted, trial, new): none before the first accepted step
     par, idx, vold0 = vdmos
+    zpar, zidx, zvold0 = mesa
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
             + tuple(np.zeros(osdi_states) for _ in range(3))
-            + (par, idx, vold0.copy(), vold0.copy(), vold0.copy()))
+            + (par, idx, vold0.copy(), vold0.copy(), vold0.copy())
+            + (zpar, zidx, zvold0.copy(), zvold0.copy(), zvold0.copy()))
 
 
 #: Returns to Python for new pivots or a right limit without a step in between before the run stops.

@@ -565,6 +565,9 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                                    el.location, expected=f"a .model card named {written}")
             el.model = select_bin(el, circuit, candidates)
         card = originals.get(el.model) or circuit.models[el.model]
+        if el.kind == Kind.MESFET and level_of(card) in MESA_LEVELS:
+            _to_mesa(el, card, notes, warned)  # ngspice's MESA: netdae's own family
+            continue
         m = mapped(card)
         _check_nodes(el, card, m)
         if m is None:
@@ -613,17 +616,56 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
     return notes
 
 
+#: The MESFET levels netdae evaluates with a family of its own (:mod:`netdae.devices.mesa`).
+MESA_LEVELS = (2.0,)
+#: The Z card of a MESA model.
+MESA_FORM = "{name} nd ng ns mname [off] [l=L] [w=W] [m=M] [ic=vds,vgs] [td=T] [ts=T] [dtemp=dT]"
+
+
+def _to_mesa(el: Element, card: Model, notes: list, warned: set) -> None:
+    """Give a Z element of a MESA model the ``mesa`` kind (its family reads the card), warning as ngspice does.
+
+    ngspice's MESA runs the N channel only ("Only nmf model type supported, set to nmf": warned once);
+    its Z reader gives an unlabelled area to MESA, which has no area parameter, and stops (refused here
+    too), as it does at any other name MESA does not know.
+
+    Raises
+    ------
+    NetlistError
+        An area, or an instance parameter ngspice's MESA does not have.
+    """
+    if card.type == "pmf" and ("pmf", card.name) not in warned:
+        warned.add(("pmf", card.name))
+        _warn(notes, f"model {card.name}: ngspice's MESA supports the nmf type only: it runs this pmf model as nmf, "
+              "and so does netdae", card.location)
+    if UNLABELLED_AREA in el.params:
+        raise NetlistError(f"{el.name}: an area ({el.params[UNLABELLED_AREA]:g}) on the card of a MESA model: "
+                           "ngspice's reader gives it to the model, which has no area parameter (ngspice 39 stops "
+                           "at it: 'no such parameter on this device')", el.location,
+                           expected=MESA_FORM.format(name=el.name), hint="size a MESA device with l= and w=")
+    allowed = level_parameters(Kind.MESFET.value, int(level_of(card)))[1]
+    for raw in el.params:
+        if raw not in allowed:
+            raise NetlistError(f"{el.name}: '{raw}' is not an instance parameter of ngspice's MESA model (ngspice 39 "
+                               "stops at it too)", el.location, expected=MESA_FORM.format(name=el.name),
+                               hint="MESA's instance parameters: " + " ".join(sorted(allowed)))
+    el.kind = Kind.MESA.value
+
+
 def _refuse(el: Element, card: Model) -> None:
     """The located error of an element whose kind runs only through a port and whose level has none."""
     spec = KINDS[el.kind]
     level = level_of(card)
     named = level_name(spec.name, int(level)) if math.isfinite(level) and level == int(level) else None
-    levels = ", ".join(f"{lv}" for (kind, lv) in MAPS if kind == spec.name)
+    ported = ", ".join(f"{lv}" for (kind, lv) in MAPS if kind == spec.name)
+    own = [f"{lv:g}" for lv in MESA_LEVELS] if el.kind == Kind.MESFET else []
+    hint = f"netdae runs ngspice's {spec.summary} level {ported} through netdae[models]"
+    if own:
+        hint += f" and level {', '.join(own)} (MESA) with a device family of its own"
     raise NetlistError(f"{el.name}: model {card.name}: {spec.summary} level {level:g} "
                        f"({named + ' in ngspice' if named else 'a level ngspice 39 does not know either'}) is not "
                        f"implemented by netdae", card.locations.get("level", card.location),
-                       expected=f"a {spec.summary} model of level {levels}",
-                       hint=f"netdae runs ngspice's {spec.summary} level {levels} through netdae[models]")
+                       expected=f"a {spec.summary} model of level {', '.join([ported, *own])}", hint=hint)
 
 
 def _families(circuit: Circuit) -> dict[str, list[str]]:
