@@ -40,7 +40,7 @@ import numpy as np
 
 from .base import Accumulator, SlotMap
 
-__all__ = ["BranchStamps", "LimitState", "starting_voltages"]
+__all__ = ["BranchStamps", "LimitState", "GateJunctionLimits", "starting_voltages"]
 
 # row/column order of the four Jacobian entries of one (output, control) pair:
 # (a, p), (a, m), (b, p), (b, m)
@@ -230,6 +230,40 @@ class LimitState:
         self.v = v
         self.initial = initial
         self.extra = extra
+
+
+class GateJunctionLimits:
+    """Newton support of the FETs whose limiting state is their two gate junctions' voltages (JFET, MESA).
+
+    A family using it sets ``elements`` (nodes ``(d, g, s, ...)``), ``off`` (shape (N,)),
+    and, for the gate-source junctions then the gate-drain ones (shape (2N,)), ``lim_vt``
+    (``N vt``), ``lim_vcrit`` (the critical voltages) and ``lim_vto`` (VTO at the device
+    temperature). The state is ``(vgs, vgd)``, shape (2, N).
+    """
+
+    #: SPICE's ``MODEINITJCT`` voltage of both gate junctions [V] (0 for ``off`` devices).
+    INITIAL_GATE_VOLTAGE = -1.0
+
+    def junction_nodes(self) -> list[tuple[str, str]]:
+        pairs = []
+        for el in self.elements:
+            d, g, s = el.nodes[:3]
+            pairs += [(d, s), (g, s), (g, d)]
+        return pairs
+
+    def initial_state(self) -> LimitState:
+        """SPICE's ``MODEINITJCT``: vgs = vgd = -1 (0 for ``off``)."""
+        start = np.where(self.off, 0.0, self.INITIAL_GATE_VOLTAGE)
+        return LimitState(np.stack([start, start]), initial=True)
+
+    def limit(self, vn: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, bool]:
+        """ngspice's limiting of (vgs, vgd): pnjlim (``N vt``, each junction's vcrit), then fetlim against VTO(T)."""
+        from .junction import fetlim, pnjlim
+
+        flat_old = vold.ravel()
+        v, _ = pnjlim(vn.ravel(), flat_old, self.lim_vt, self.lim_vcrit)
+        v = fetlim(v, flat_old, self.lim_vto).reshape(vn.shape)
+        return v, bool(np.any(v != vn))
 
 
 def starting_voltages(state: LimitState | None, x_ext: np.ndarray,

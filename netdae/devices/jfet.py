@@ -69,8 +69,8 @@ import numpy as np
 
 from ..errors import CircuitError
 from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, thermal
-from .companion import BranchStamps, LimitState, starting_voltages
-from .junction import KELVIN, Depletion, fetlim, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
+from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_voltages
+from .junction import KELVIN, Depletion, ideal_junction, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
@@ -99,7 +99,6 @@ GRADING = 0.5
 BETATCE_BASE = 1.01
 #: ngspice's reverse-bias knee of the gate junctions (3 vt) and MODEINITJCT's vgs = vgd [V].
 _REVERSE_KNEE = 3.0
-_INIT_V = -1.0
 
 # controls: vgs, vgd (type-normalised internally), the two series resistors
 _VGS, _VGD, _VRD, _VRS = range(4)
@@ -146,7 +145,7 @@ def channel_current(u, w, beta, lam, b, bfac):
     return i, di_du, di_dw
 
 
-class JfetFamily(DeviceFamily):
+class JfetFamily(GateJunctionLimits, DeviceFamily):
     """All level-1 JFETs of a circuit, evaluated in one vectorised pass.
 
     Raises
@@ -233,7 +232,7 @@ class JfetFamily(DeviceFamily):
         self.mult = g("mult")
         self.kf, self.af, self.nlev, self.gdsnoi = g("kf"), g("af"), g("nlev"), g("gdsnoi")
         self.j_isat = np.tile(self.isat, 2)
-        self.j_vt = np.tile(self.vt, 2)
+        self.j_vt = self.lim_vt = np.tile(self.vt, 2)
         self.j_knee = np.tile(self.knee, 2)
         self.j_gmin = np.tile(self.gmin_m, 2)
         self.lim_vcrit = np.tile(self.vcrit, 2)
@@ -272,25 +271,6 @@ class JfetFamily(DeviceFamily):
         self._q = np.zeros((rows, count))
         self._dq = np.zeros((rows, count))
 
-    def junction_nodes(self) -> list[tuple[str, str]]:
-        pairs = []
-        for el in self.elements:
-            d, g, s = el.nodes
-            pairs += [(d, s), (g, s), (g, d)]
-        return pairs
-
-    # -- Newton support ----------------------------------------------------
-    def initial_state(self) -> LimitState:
-        """SPICE's ``MODEINITJCT``: vgs = vgd = -1 (0 for ``off``)."""
-        start = np.where(self.off, 0.0, _INIT_V)
-        return LimitState(np.stack([start, start]), initial=True)
-
-    def limit(self, vn: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, bool]:
-        """ngspice's JFET limiting of (vgs, vgd), type-normalised: pnjlim, then fetlim against VTO(T)."""
-        flat_old = vold.ravel()
-        v, _ = pnjlim(vn.ravel(), flat_old, self.j_vt, self.lim_vcrit)
-        v = fetlim(v, flat_old, self.lim_vto).reshape(vn.shape)
-        return v, bool(np.any(v != vn))
 
     def drain_current(self, vgs: np.ndarray, vgd: np.ndarray):
         """Channel current (drain to source) and its derivatives to vgs and vgd, type-normalised.

@@ -73,8 +73,8 @@ import numpy as np
 from ..circuit import Model
 from ..errors import CircuitError, NetlistError
 from .base import Accumulator, DeviceFamily, SlotMap, series_nodes
-from .companion import BranchStamps, LimitState, starting_voltages
-from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN, fetlim, pnjlim
+from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_voltages
+from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
 __all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "gate_diode", "EPS_GAAS", "NS_FLOOR", "STEP",
@@ -109,7 +109,6 @@ MESA_PARAMETERS = ParameterTable(
 #: Instance parameters and their defaults (None: absent unless given).
 _INSTANCE = {"l": 1e-6, "w": 20e-6, "m": 1.0, "off": 0.0, "icvds": None, "icvgs": None, "td": None, "ts": None,
              "dtemp": 0.0}
-_INIT_V = -1.0
 
 # controls: vgs, vgd (limited), vgs'', vgd'' (the charges' branches), then the five series resistors
 _VGS, _VGD, _VGSPP, _VGDPP, _VRD, _VRS, _VRG, _VRI, _VRF = range(9)
@@ -218,7 +217,7 @@ def _read_params(model: Model) -> dict:
     return out
 
 
-class MesaFamily(DeviceFamily):
+class MesaFamily(GateJunctionLimits, DeviceFamily):
     """All MESA (level 2) MESFETs of a circuit, evaluated in one vectorised pass.
 
     Raises
@@ -354,25 +353,6 @@ class MesaFamily(DeviceFamily):
         for j, gr in zip(range(4, 9), (self.gd, self.gs, self.gg, self.gi, self.gf)):
             self._dcur[j] = gr
 
-    def junction_nodes(self) -> list[tuple[str, str]]:
-        pairs = []
-        for el in self.elements:
-            d, g, s = el.nodes
-            pairs += [(d, s), (g, s), (g, d)]
-        return pairs
-
-    # -- Newton support ----------------------------------------------------
-    def initial_state(self) -> LimitState:
-        """SPICE's ``MODEINITJCT``: vgs = vgd = -1 (0 for ``off``)."""
-        start = np.where(self.off, 0.0, _INIT_V)
-        return LimitState(np.stack([start, start]), initial=True)
-
-    def limit(self, vn: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, bool]:
-        """ngspice's MESA limiting of (vgs, vgd): pnjlim (``N vt``, vcrit of each diode), then fetlim against VTO(T)."""
-        flat_old = vold.ravel()
-        v, _ = pnjlim(vn.ravel(), flat_old, self.lim_vt, self.lim_vcrit)
-        v = fetlim(v, flat_old, self.lim_vto).reshape(vn.shape)
-        return v, bool(np.any(v != vn))
 
     # -- the model ---------------------------------------------------------
     def _channel(self, vgs, vgd, p=None):
