@@ -191,6 +191,8 @@ def test_arguments_are_checked():
         newton(fun, np.zeros(2), LuCache(pat), W, tol=0.33, jacobian="sometimes")
     with pytest.raises(ValueError):
         newton(fun, np.zeros(2), LuCache(pat), W, tol=0.33, jacobian="never")
+    with pytest.raises(ValueError, match="tol"):  # no tolerance and no stopping rule: no silent default
+        newton(fun, np.zeros(2), LuCache(pat), W, jacobian="always")
 
 
 # ------------------------------------------------------------------ the stopping rules

@@ -428,7 +428,7 @@ def newton(
     lu: LuCache,
     weights: np.ndarray,
     *,
-    tol: float = 1.0,
+    tol: float | None = None,
     maxiter: int = 4,
     jacobian: str = "first",
     rate: float = 20.0 / 21.0,
@@ -455,7 +455,10 @@ def newton(
     weights : ndarray, shape (n,)
         Weights of the correction norm, ``1 / (rtol |x| + atol)``; zero
         leaves an unknown out of the rate test.
-    tol, rate, linear
+    tol : float, optional
+        The default stopping rule's tolerance (:class:`RateTest`): required
+        without ``stop``, ignored with it.
+    rate, linear
         The default stopping rule's (:class:`RateTest`); ignored with ``stop``.
     maxiter : int
         Largest number of linear solves.
@@ -482,6 +485,12 @@ def newton(
     -------
     NewtonResult
 
+    Raises
+    ------
+    ValueError
+        ``jacobian`` not one of the three, ``"never"`` without a
+        factorisation, or neither ``tol`` nor ``stop`` given.
+
     Notes
     -----
     Cost per iteration: one callback, one triangular solve, a few vector
@@ -493,6 +502,8 @@ def newton(
     if jacobian == "never" and not lu.ready:
         raise ValueError("jacobian='never' needs a factorisation in the cache")
     if stop is None:
+        if tol is None:
+            raise ValueError("newton() needs tol (the default RateTest's) or a stopping rule")
         stop = RateTest(tol, rate=rate, fresh=jacobian != "never", linear=linear)
     stop.begin()
     kind = NORM_MAX if norm == "max" else NORM_RMS

@@ -249,15 +249,15 @@ def _check_pivot(pattern: SparsePattern, data: np.ndarray, min_pivot: float, lin
     n = pattern.n
     if min_pivot > PIVOT_SAFETY * n * EPS:
         return True
-    if n > (RANK_CHECK_LIMIT if linear else ITERATION_RANK_CHECK_LIMIT):
-        if not linear:
-            return False
-        raise _Singular(f"smallest pivot {min_pivot:.3g} of the equilibrated matrix")
-    rank = jacobian_rank(pattern.matrix(data))
-    if not rank.deficient:
+    # the SVD's decision where it is affordable, else the small pivot's
+    rank = jacobian_rank(pattern.matrix(data)) \
+        if n <= (RANK_CHECK_LIMIT if linear else ITERATION_RANK_CHECK_LIMIT) else None
+    if rank is not None and not rank.deficient:
         return True
     if not linear:
         return False
+    if rank is None:
+        raise _Singular(f"smallest pivot {min_pivot:.3g} of the equilibrated matrix")
     raise _Singular(f"rank {rank.rank} of {n}", rank)
 
 

@@ -484,11 +484,10 @@ class BjtFamily(DeviceFamily):
             The initial state's (vbe, vbc, vsub) (:meth:`initial_state`).
         """
         from .kernels import bjt as kb
-        from .kernels.packing import dependence_slots, depletion_columns, extended
+        from .kernels.packing import columns, dependence_blocks, depletion_columns, node_columns
 
         count = len(self.elements)
-        par = np.zeros((count, kb.N_PAR))
-        cols = {
+        par = columns(count, kb.N_PAR, {
             kb.P_TYPE: self.type, kb.P_TTYPE: self.ttype, kb.P_M: self.mult, kb.P_TM: self._tm,
             kb.P_TTM_GMIN: self._ttm_gmin, kb.P_GMIN: self.gmin,
             kb.P_INV_VAF: self.inv_vaf, kb.P_INV_VAR: self.inv_var, kb.P_INV_IKF: self.inv_ikf,
@@ -499,9 +498,7 @@ class BjtFamily(DeviceFamily):
             kb.P_CHARGE_FAMILY: self.has_charge, kb.P_TF_FAMILY: self.has_tf, kb.P_TF: self.tf, kb.P_TR: self.tr,
             kb.P_XTF: self.xtf, kb.P_OVTF: self.ovtf, kb.P_ITF: self.itf,
             kb.P_QSIGN: self.type * self.mult, kb.P_QSIGN_SUB: self.ttype * self.mult,
-        }
-        for col, values in cols.items():
-            par[:, col] = values
+        })
         # the four junction currents: isat, N vt, knee of cbe, cben, cbc, cbcn
         for j, base in enumerate((kb.P_IS_BE, kb.P_ISE, kb.P_IS_BC, kb.P_ISC)):
             part = slice(j * count, (j + 1) * count)
@@ -513,20 +510,15 @@ class BjtFamily(DeviceFamily):
                                     if self.has_nkf else kb.ROLLOFF_SQRT)
         for j, base in enumerate((kb.P_DEP_BE, kb.P_DEP_BC, kb.P_DEP_BX, kb.P_DEP_SUB)):
             par[:, base:base + 9] = depletion_columns(self.depletion, slice(j * count, (j + 1) * count))
-        idx = np.zeros((count, kb.N_IDX), dtype=np.int64)
-        for col, nodes in ((kb.I_C, self.c), (kb.I_B, self.b), (kb.I_E, self.e), (kb.I_S, self.s),
-                           (kb.I_CI, self.ci), (kb.I_BI, self.bi), (kb.I_EI, self.ei), (kb.I_SC, self.sub_con)):
-            idx[:, col] = extended(nodes, n)
+        idx = node_columns(count, kb.N_IDX, {
+            kb.I_C: self.c, kb.I_B: self.b, kb.I_E: self.e, kb.I_S: self.s, kb.I_CI: self.ci, kb.I_BI: self.bi,
+            kb.I_EI: self.ei, kb.I_SC: self.sub_con}, n)
         st = self.stamps
-        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
-            idx[:, kb.S_CUR + 4 * j:kb.S_CUR + 4 * j + 4] = dependence_slots(
-                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
-        charged = np.full(count, self.has_charge)
-        charge_nodes = [(self.bi, self.ei), (self.bi, self.ci), (self.b, self.ci), (self.s, self.sub_con)]
-        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
-            a, b = charge_nodes[out]
-            idx[:, kb.S_CHG + 4 * j:kb.S_CHG + 4 * j + 4] = dependence_slots(
-                slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
+        controls = list(zip(st.ctrl_p, st.ctrl_m))
+        dependence_blocks(idx, kb.S_CUR, slots, _CURRENT_DEPS, list(zip(st.cur_a, st.cur_b)), controls)
+        dependence_blocks(idx, kb.S_CHG, slots, _CHARGE_DEPS, [(self.bi, self.ei), (self.bi, self.ci),
+                                                                (self.b, self.ci), (self.s, self.sub_con)],
+                          controls, where=np.full(count, self.has_charge))
         return par, idx, self.initial_state().v.T.copy()
 
     def noise(self, x: np.ndarray, temp: float) -> NoiseSources:

@@ -403,26 +403,15 @@ class DiodeFamily(DeviceFamily):
             The initial state's junction voltages (:meth:`initial_state`).
         """
         from .kernels import diode as kd
-        from .kernels.packing import dependence_slots, depletion_columns, extended
+        from .kernels.packing import columns, dependence_slots, depletion_columns, node_columns
 
         count = len(self.elements)
-        par = np.zeros((count, kd.N_PAR))
-        par[:, kd.P_ISAT] = self.isat
-        par[:, kd.P_VTE] = self.vte
-        par[:, kd.P_VCRIT] = self.vcrit
-        par[:, kd.P_KNEE] = self.knee
-        par[:, kd.P_GMIN] = self.gmin
-        par[:, kd.P_HAS_BV] = self.has_bv
-        par[:, kd.P_BV] = self.bv
-        par[:, kd.P_VTEBRK] = self.vtebrk
-        par[:, kd.P_TT] = self.tt
-        par[:, kd.P_GS] = self.gs
-        par[:, kd.P_CHARGE] = self.has_charge
+        par = columns(count, kd.N_PAR, {
+            kd.P_ISAT: self.isat, kd.P_VTE: self.vte, kd.P_VCRIT: self.vcrit, kd.P_KNEE: self.knee,
+            kd.P_GMIN: self.gmin, kd.P_HAS_BV: self.has_bv, kd.P_BV: self.bv, kd.P_VTEBRK: self.vtebrk,
+            kd.P_TT: self.tt, kd.P_GS: self.gs, kd.P_CHARGE: self.has_charge})
         par[:, kd.P_DEP:kd.P_DEP + 9] = depletion_columns(self.depletion)
-        idx = np.zeros((count, kd.N_IDX), dtype=np.int64)
-        idx[:, kd.I_A] = extended(self.anode, n)
-        idx[:, kd.I_I] = extended(self.inner, n)
-        idx[:, kd.I_K] = extended(self.cathode, n)
+        idx = node_columns(count, kd.N_IDX, {kd.I_A: self.anode, kd.I_I: self.inner, kd.I_K: self.cathode}, n)
         idx[:, kd.S_J:kd.S_J + 4] = dependence_slots(slots, self.inner, self.cathode, self.inner, self.cathode)
         idx[:, kd.S_R:kd.S_R + 4] = dependence_slots(slots, self.anode, self.inner, self.anode, self.inner,
                                                             where=self.gs > 0.0)

@@ -348,34 +348,24 @@ class JfetFamily(GateJunctionLimits, DeviceFamily):
             The initial state's (vgs, vgd) (:meth:`initial_state`).
         """
         from .kernels import jfet as kj
-        from .kernels.packing import dependence_slots, depletion_columns, extended
+        from .kernels.packing import columns, dependence_blocks, depletion_columns, node_columns
 
         count = len(self.elements)
-        par = np.zeros((count, kj.N_PAR))
-        cols = {
+        par = columns(count, kj.N_PAR, {
             kj.P_TYPE: self.type, kj.P_VT: self.vt, kj.P_VCRIT: self.vcrit, kj.P_ISAT: self.isat,
             kj.P_KNEE: self.knee, kj.P_GMIN: self.gmin_m, kj.P_VTO: self.vto, kj.P_BETA: self.beta,
             kj.P_LAMBDA: self.lam, kj.P_B: self.b, kj.P_BFAC: self.bfac, kj.P_GD: self.gd, kj.P_GS: self.gs,
             kj.P_CHARGE_FAMILY: self.has_charge,
-        }
-        for col, values in cols.items():
-            par[:, col] = values
+        })
         par[:, kj.P_DEP_GS:kj.P_DEP_GS + 9] = depletion_columns(self.depletion, slice(0, count))
         par[:, kj.P_DEP_GD:kj.P_DEP_GD + 9] = depletion_columns(self.depletion, slice(count, 2 * count))
-        idx = np.zeros((count, kj.N_IDX), dtype=np.int64)
-        for col, nodes in ((kj.I_D, self.d), (kj.I_G, self.g), (kj.I_S, self.s), (kj.I_DI, self.di),
-                           (kj.I_SI, self.si)):
-            idx[:, col] = extended(nodes, n)
+        idx = node_columns(count, kj.N_IDX, {
+            kj.I_D: self.d, kj.I_G: self.g, kj.I_S: self.s, kj.I_DI: self.di, kj.I_SI: self.si}, n)
         st = self.stamps
-        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
-            idx[:, kj.S_CUR + 4 * j:kj.S_CUR + 4 * j + 4] = dependence_slots(
-                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
-        charged = np.full(count, self.has_charge)
-        charge_nodes = [(self.g, self.si), (self.g, self.di)]
-        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
-            a, b = charge_nodes[out]
-            idx[:, kj.S_CHG + 4 * j:kj.S_CHG + 4 * j + 4] = dependence_slots(
-                slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
+        controls = list(zip(st.ctrl_p, st.ctrl_m))
+        dependence_blocks(idx, kj.S_CUR, slots, _CURRENT_DEPS, list(zip(st.cur_a, st.cur_b)), controls)
+        dependence_blocks(idx, kj.S_CHG, slots, _CHARGE_DEPS, [(self.g, self.si), (self.g, self.di)], controls,
+                          where=np.full(count, self.has_charge))
         return par, idx, self.initial_state().v.T.copy()
 
     def noise(self, x: np.ndarray, temp: float) -> NoiseSources:

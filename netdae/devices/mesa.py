@@ -488,31 +488,23 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
             The initial state's (vgs, vgd) (:meth:`initial_state`).
         """
         from .kernels import mesa as km
-        from .kernels.packing import dependence_slots, extended
+        from .kernels.packing import columns, dependence_blocks, node_columns
 
         count = len(self.elements)
-        par = np.zeros((count, km.N_PAR))
-        for col, key in enumerate(km.CHANNEL_KEYS):
-            par[:, col] = self.channel[key]
-        cols = {
+        par = columns(count, km.N_PAR, {
+            **{col: self.channel[key] for col, key in enumerate(km.CHANNEL_KEYS)},
             km.P_MULT: self.mult, km.P_CSATFS: self.csatfs, km.P_CSATFD: self.csatfd, km.P_GGRWL: self.ggrwl,
             km.P_VTES: self.vtes, km.P_VTED: self.vted, km.P_VTS: self.vts, km.P_VTD: self.vtd, km.P_DEL: self.dl,
             km.P_AG: self.ag, km.P_GMIN: self.gmin, km.P_VCRITS: self.vcrits, km.P_VCRITD: self.vcritd,
             km.P_GD: self.gd, km.P_GS: self.gs, km.P_GG: self.gg, km.P_GI: self.gi, km.P_GF: self.gf,
-        }
-        for col, values in cols.items():
-            par[:, col] = values
-        idx = np.zeros((count, km.N_IDX), dtype=np.int64)
-        for col, nodes in ((km.I_D, self.d), (km.I_G, self.g), (km.I_S, self.s), (km.I_DP, self.di),
-                           (km.I_SP, self.si), (km.I_GP, self.gi_node), (km.I_SPP, self.sii), (km.I_DPP, self.dii)):
-            idx[:, col] = extended(nodes, n)
+        })
+        idx = node_columns(count, km.N_IDX, {
+            km.I_D: self.d, km.I_G: self.g, km.I_S: self.s, km.I_DP: self.di, km.I_SP: self.si,
+            km.I_GP: self.gi_node, km.I_SPP: self.sii, km.I_DPP: self.dii}, n)
         st = self.stamps
-        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
-            idx[:, km.S_CUR + 4 * j:km.S_CUR + 4 * j + 4] = dependence_slots(
-                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
-        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
-            idx[:, km.S_CHG + 4 * j:km.S_CHG + 4 * j + 4] = dependence_slots(
-                slots, st.chg_a[out], st.chg_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
+        controls = list(zip(st.ctrl_p, st.ctrl_m))
+        dependence_blocks(idx, km.S_CUR, slots, _CURRENT_DEPS, list(zip(st.cur_a, st.cur_b)), controls)
+        dependence_blocks(idx, km.S_CHG, slots, _CHARGE_DEPS, list(zip(st.chg_a, st.chg_b)), controls)
         return par, idx, self.initial_state().v.T.copy()
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):

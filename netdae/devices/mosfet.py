@@ -491,11 +491,10 @@ class MosfetFamily(DeviceFamily):
             The initial state's (vgs, vds, vbs) and threshold (:meth:`initial_state`).
         """
         from .kernels import mosfet as km
-        from .kernels.packing import dependence_slots, depletion_columns, extended
+        from .kernels.packing import columns, dependence_blocks, depletion_columns, node_columns
 
         count = len(self.elements)
-        par = np.zeros((count, km.N_PAR))
-        cols = {
+        par = columns(count, km.N_PAR, {
             km.P_TYPE: self.type, km.P_BETA: self.beta, km.P_LAMBDA: self.lam, km.P_VBI: self.vbi_n,
             km.P_GAMMA: self.gamma, km.P_PHI: self.phi, km.P_VT: self.vt, km.P_ISAT_S: self.isat_s,
             km.P_ISAT_D: self.isat_d, km.P_VCRIT_S: self.vcrit_s, km.P_VCRIT_D: self.vcrit_d, km.P_GMIN: self.gmin,
@@ -503,27 +502,20 @@ class MosfetFamily(DeviceFamily):
             km.P_GD: self.gd, km.P_GS: self.gs, km.P_CHARGE_FAMILY: self.has_charge,
             km.P_BOTTOM_FAMILY: self.dep_bottom.active, km.P_SIDE_FAMILY: self.dep_side.active,
             km.P_COX_FAMILY: self.has_cox,
-        }
-        for col, values in cols.items():
-            par[:, col] = values
+        })
         source, drain = slice(0, count), slice(count, 2 * count)
         for col, dep, part in ((km.P_DEP_BS, self.dep_bottom, source), (km.P_DEP_BD, self.dep_bottom, drain),
                                (km.P_DEP_SS, self.dep_side, source), (km.P_DEP_SD, self.dep_side, drain)):
             par[:, col:col + 9] = depletion_columns(dep, part)
-        idx = np.zeros((count, km.N_IDX), dtype=np.int64)
-        for col, nodes in ((km.I_D, self.d), (km.I_G, self.g), (km.I_S, self.s), (km.I_B, self.b),
-                           (km.I_DI, self.di), (km.I_SI, self.si)):
-            idx[:, col] = extended(nodes, n)
+        idx = node_columns(count, km.N_IDX, {
+            km.I_D: self.d, km.I_G: self.g, km.I_S: self.s, km.I_B: self.b, km.I_DI: self.di,
+            km.I_SI: self.si}, n)
         st = self.stamps
-        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
-            idx[:, km.S_CUR + 4 * j:km.S_CUR + 4 * j + 4] = dependence_slots(
-                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl])
-        charged = np.full(count, self.has_charge)
-        charge_nodes = [(self.g, self.si), (self.di, self.si), (self.b, self.si)]
-        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
-            a, b = charge_nodes[out]
-            idx[:, km.S_CHG + 4 * j:km.S_CHG + 4 * j + 4] = dependence_slots(
-                slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
+        controls = list(zip(st.ctrl_p, st.ctrl_m))
+        dependence_blocks(idx, km.S_CUR, slots, _CURRENT_DEPS, list(zip(st.cur_a, st.cur_b)), controls)
+        dependence_blocks(idx, km.S_CHG, slots, _CHARGE_DEPS, [(self.g, self.si), (self.di, self.si),
+                                                                (self.b, self.si)], controls,
+                          where=np.full(count, self.has_charge))
         start = self.initial_state()
         return par, idx, np.column_stack([start.v.T, start.extra])
 

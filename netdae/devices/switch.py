@@ -229,23 +229,16 @@ class SwitchFamily(DeviceFamily):
         vold0 : ndarray, shape (N, kernels.switch.N_STATE)
             The initial state (:meth:`initial_state`), not held.
         """
-        from .kernels.packing import dependence_slots, extended
+        from .kernels.packing import columns, dependence_slots, node_columns
 
         ks = _kernels()
 
         count = len(self.elements)
-        par = np.zeros((count, ks.N_PAR))
-        par[:, ks.P_GON] = self.gon
-        par[:, ks.P_GOFF] = self.goff
-        par[:, ks.P_VT] = self.vt
-        par[:, ks.P_VH] = self.vh
-        par[:, ks.P_ON] = self.on
-        par[:, ks.P_DC_HOLD] = self.dc_hold
-        idx = np.zeros((count, ks.N_IDX), dtype=np.int64)
-        idx[:, ks.I_P] = extended(self.plus, n)
-        idx[:, ks.I_M] = extended(self.minus, n)
-        idx[:, ks.I_CP] = extended(self.cp, n)
-        idx[:, ks.I_CM] = extended(self.cm, n)
+        par = columns(count, ks.N_PAR, {
+            ks.P_GON: self.gon, ks.P_GOFF: self.goff, ks.P_VT: self.vt, ks.P_VH: self.vh, ks.P_ON: self.on,
+            ks.P_DC_HOLD: self.dc_hold})
+        idx = node_columns(count, ks.N_IDX, {ks.I_P: self.plus, ks.I_M: self.minus, ks.I_CP: self.cp,
+                                             ks.I_CM: self.cm}, n)
         idx[:, ks.S_G:ks.S_G + 4] = dependence_slots(slots, self.plus, self.minus, self.plus, self.minus)
         return par, idx, self.initial_state().v.T.copy()
 

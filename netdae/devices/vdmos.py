@@ -453,11 +453,10 @@ class VdmosFamily(DeviceFamily):
             The initial state's (vgs, vds, vd) (:meth:`initial_state`).
         """
         from .kernels import vdmos as kv
-        from .kernels.packing import dependence_slots, depletion_columns, extended
+        from .kernels.packing import columns, dependence_blocks, depletion_columns, node_columns
 
         count = len(self.elements)
-        par = np.zeros((count, kv.N_PAR))
-        cols = {
+        par = columns(count, kv.N_PAR, {
             kv.P_TYPE: self.type, kv.P_VON: self.von, kv.P_BETA: self.beta, kv.P_LAMBDA: self.lam,
             kv.P_THETA: self.theta, kv.P_KSUB: self.ksub, kv.P_SHIFT: self.shift, kv.P_MTR: self.mtr,
             kv.P_GD0: self.gd0, kv.P_QS: self.qs, kv.P_RD0: self.rd0, kv.P_RQ: self.rq, kv.P_VQ: self.vq,
@@ -466,25 +465,18 @@ class VdmosFamily(DeviceFamily):
             kv.P_ISAT: self.isat, kv.P_VTE: self.vte, kv.P_KNEE: self.knee, kv.P_VCRIT: self.vcrit,
             kv.P_HAS_BV: self.has_bv, kv.P_BV: self.bv, kv.P_VTEBRK: self.vtebrk, kv.P_TT: self.tt,
             kv.P_CHARGE_FAMILY: self.has_charge, kv.P_QS_FAMILY: self.has_qs,
-        }
-        for col, values in cols.items():
-            par[:, col] = values
+        })
         par[:, kv.P_DEP:kv.P_DEP + 9] = depletion_columns(self.depletion)
-        idx = np.zeros((count, kv.N_IDX), dtype=np.int64)
-        for col, nodes in ((kv.I_D, self.d), (kv.I_G, self.g), (kv.I_S, self.s), (kv.I_DI, self.di),
-                           (kv.I_GI, self.gi), (kv.I_SI, self.si), (kv.I_BI, self.bi)):
-            idx[:, col] = extended(nodes, n)
+        idx = node_columns(count, kv.N_IDX, {
+            kv.I_D: self.d, kv.I_G: self.g, kv.I_S: self.s, kv.I_DI: self.di, kv.I_GI: self.gi,
+            kv.I_SI: self.si, kv.I_BI: self.bi}, n)
         st = self.stamps
-        for j, (out, ctrl) in enumerate(_CURRENT_DEPS):
-            present = np.full(count, j < len(self._deps()))
-            idx[:, kv.S_CUR + 4 * j:kv.S_CUR + 4 * j + 4] = dependence_slots(
-                slots, st.cur_a[out], st.cur_b[out], st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=present)
-        charged = np.full(count, self.has_charge)
-        charge_nodes = self._charge_nodes()
-        for j, (out, ctrl) in enumerate(_CHARGE_DEPS):
-            a, b = charge_nodes[out]
-            idx[:, kv.S_CHG + 4 * j:kv.S_CHG + 4 * j + 4] = dependence_slots(
-                slots, a, b, st.ctrl_p[ctrl], st.ctrl_m[ctrl], where=charged)
+        controls = list(zip(st.ctrl_p, st.ctrl_m))
+        present = len(self._deps())
+        dependence_blocks(idx, kv.S_CUR, slots, _CURRENT_DEPS, list(zip(st.cur_a, st.cur_b)), controls,
+                          where=[np.full(count, j < present) for j in range(len(_CURRENT_DEPS))])
+        dependence_blocks(idx, kv.S_CHG, slots, _CHARGE_DEPS, self._charge_nodes(), controls,
+                          where=np.full(count, self.has_charge))
         return par, idx, self.initial_state().v.T.copy()
 
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
