@@ -369,3 +369,27 @@ def test_a_netlist_needing_the_bundled_models_names_the_extra(tmp_path, without_
     with pytest.raises(NetlistError) as err:
         netdae.load(str(net))
     assert err.value.location.line == 2 and "netdae[models]" in str(err.value)
+
+
+_VDMOS = ("vdmos\n.osdi {mod}/spice/vdmos.osdi\nVG g 0 7\nVD d 0 2\n{inst}\n"
+          ".model pw sp_vdmos type=1 vdmos=1 vto=4 kp=5.9 lambda=0.001 theta=0.015 rd=61m rs=18m rds=1e7 "
+          "tcvth=-0.0065 mu=-1.27 texp0=1.5 rthjc=0.02 cthj=1e-3 rthca=1000\n.dc vd 1 4 1\n.end\n")
+
+
+def test_a_terminal_collapsed_into_ground_may_be_wired_to_ground():
+    """sp_vdmos without self-heating merges its thermal terminals into ground: wired to ground that shorts
+    nothing (it was refused as a short); it must equal the heated module held at the same temperature."""
+    def current(inst):
+        res = netdae.run(netdae.load(_VDMOS.format(mod=MOD, inst=inst)))[0]
+        assert res.ok, res.message
+        return res["i(vd)"]
+
+    cold = current("N1 d g 0 0 0 pw thermal_enabled=0")
+    held = current("N1 d g 0 t tc pw thermal_enabled=1\nVT t 0 27\nVTC tc 0 27")  # the module's t is in degC
+    np.testing.assert_allclose(cold, held, rtol=1e-6)  # Newton stops within 1e-3 of reltol
+    assert np.all(np.abs(cold) > 1.0)
+
+
+def test_a_terminal_collapsed_into_ground_but_wired_elsewhere_is_a_short():
+    with pytest.raises(NetlistError, match="shorts t and ground"):
+        netdae.run(netdae.load(_VDMOS.format(mod=MOD, inst="N1 d g 0 tj 0 pw thermal_enabled=0\nRT tj 0 1")))

@@ -72,7 +72,7 @@ class OsdiFamily(DeviceFamily):
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)
         self.models, self.instances = build(circuit, self.elements)
-        self.reps = [inst.node_classes() for inst in self.instances]
+        self.reps = [inst.node_classes(el.nodes) for el, inst in zip(self.elements, self.instances)]
         self._calls: dict[int, _Calls] = {}
         for inst in self.instances:
             key = id(inst.module)

@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from ...circuit import GROUND as GROUND_NODE
 from ...errors import NetlistError, SourceLocation
 from . import abi
 from .library import OsdiModule, OsdiParam, register_handle
@@ -289,7 +290,7 @@ class OsdiInstance(_ParameterHolder):
                             dtype=np.uint8) if d.num_collapsible else np.zeros(0, np.uint8)
         return raw.astype(bool)
 
-    def node_classes(self) -> np.ndarray:
+    def node_classes(self, wired=None) -> np.ndarray:
         """int64[num_nodes]: each node's representative after collapse (-1: ground).
 
         Connected terminals represent themselves; an internal node (or an
@@ -297,11 +298,22 @@ class OsdiInstance(_ParameterHolder):
         terminal, merged internal nodes by the lowest-numbered one, a node
         collapsed to ground by -1.
 
+        Parameters
+        ----------
+        wired : sequence of str, optional
+            The circuit node of each connected terminal (ground ``"0"``). A
+            collapse between terminals wired to the same node, or of a
+            terminal wired to ground into ground, shorts nothing and is
+            taken (e.g. the thermal terminal of a module whose self-heating
+            is off, wired to ground); without ``wired`` every collapse
+            between terminals is refused.
+
         Raises
         ------
         NetlistError
-            Two terminals collapse into one another (a short between two
-            circuit nodes, which netdae does not model by merging nodes).
+            Two terminals on different circuit nodes collapse into one
+            another (a short between two circuit nodes, which netdae does
+            not model by merging nodes).
         """
         nt = self.connected
         parent = list(range(len(self.module.nodes)))
@@ -314,13 +326,17 @@ class OsdiInstance(_ParameterHolder):
                 i = parent[i]
             return i
 
+        def circuit_node(i):
+            return GROUND_NODE if i == GROUND else None if wired is None else wired[i]
+
         for (a, b), on in zip(self.module.collapsible, self.collapsed()):
             if not on:
                 continue
             ra, rb = find(a), find(GROUND if b is None else b)
             if ra == rb:
                 continue
-            if (ra < nt or ra == GROUND) and (rb < nt or rb == GROUND):
+            if (ra < nt or ra == GROUND) and (rb < nt or rb == GROUND) and (
+                    circuit_node(ra) is None or circuit_node(ra) != circuit_node(rb)):
                 raise NetlistError(f"{self.name}: OSDI module {self.module.name} shorts "
                                    f"{_node_name(self.module, ra)} and {_node_name(self.module, rb)}",
                                    self.location, expected="terminals that stay distinct nodes",
