@@ -14,7 +14,7 @@ import json
 import logging
 import sys
 
-from . import option_value, positive_float, signal_names
+from . import add_ngbehavior, option_value, positive_float, signal_names
 
 __all__ = ["add_parser", "main"]
 
@@ -31,6 +31,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "frequencies, DC per sweep point, the operating point per unknown.",
     )
     p.add_argument("file", help="netlist file")
+    add_ngbehavior(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
     p.add_argument("--plot", metavar="PNG", help="write both waveforms and their difference to PNG")
     p.add_argument("--tight", action=argparse.BooleanOptionalAction, default=None,
@@ -64,6 +65,7 @@ def main(args) -> int:
         exclude=args.exclude,
         reltol=args.reltol,
         timeout=args.timeout,
+        behavior=args.ngbehavior,
     )
     written = None
     if args.plot:

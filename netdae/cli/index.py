@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from . import positive_float
+from . import add_ngbehavior, positive_float
 
 __all__ = ["add_parser", "main", "format_report"]
 
@@ -30,6 +30,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "states, which unknowns depend on input derivatives, and the topological reasons.",
     )
     p.add_argument("file", help="netlist file")
+    add_ngbehavior(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--at", choices=("op", "t0"), default="op",
                    help="linearise at the DC operating point (default) or at the transient's initial point")
@@ -115,7 +116,7 @@ def main(args) -> int:
     from ..analyses.index import analyze_index
     from ..netlist import load
 
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     rep = analyze_index(circuit, at=args.at, tol=args.tol, method=args.method)
     if args.json:
         json.dump(rep.to_dict(), sys.stdout, indent=2)

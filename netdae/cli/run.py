@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, signal_names
 from ..signals import signal_unit
 
 __all__ = ["add_parser", "main", "stems"]
@@ -61,6 +61,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         description="Run every analysis in the netlist, print a summary and write the results.",
     )
     p.add_argument("file", help="netlist file")
+    add_ngbehavior(p)
     p.add_argument("--out", metavar="DIR", help="write one file per analysis into DIR")
     p.add_argument("--format", choices=("csv", "raw"), default="csv",
                    help="result file format: csv (default) or ngspice raw (binary)")
@@ -233,7 +234,7 @@ def main(args) -> int:
     from .progress import ProgressBar
 
     t0 = time.perf_counter()
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, signal_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -106,6 +106,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "optionally with Monte Carlo samples, and write a table of its measurements.",
     )
     p.add_argument("file", help="netlist file")
+    add_ngbehavior(p)
     p.add_argument("--out", metavar="DIR", required=True, help="write measures.csv/.json and sweep.png into DIR")
     p.add_argument("--step", metavar="NAME=SPEC", action="append", type=parse_step, default=[],
                    help="step a top-level .param, an element or temp: start:stop:incr, "
@@ -175,7 +176,7 @@ def main(args) -> int:
     from ..netlist import load
     from ..sweeps import sweep
 
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
     executor, client = None, None
     if args.scheduler:
