@@ -301,6 +301,22 @@ def _logic_edits(card: Card) -> list[tuple[int, int, str]]:
 
 
 _WORD = r"(?<![a-z0-9_.])"
+_VALUE_WORD = re.compile(r"(?<![a-z0-9_.])(value|cur)(?![a-z0-9_])")
+_TABLE_CALL = re.compile(r"(?<![a-z0-9_.])table\(")
+
+
+def _table_edits(card: Card) -> list[tuple[int, int, str]]:
+    """PSpice's ``TABLE(x, x0, y0, ...)`` in an E/G ``VALUE`` expression as ngspice's ``pwl(...)`` (replace_table).
+
+    ngspice moves each call to a B source of its own driving a new node and reads that node's
+    voltage in its place: the same value; netdae calls ``pwl`` in place.
+    """
+    text = card.text
+    m = _VALUE_WORD.search(text)
+    if text[0] not in "eg" or m is None or (m.group(1) == "cur" and text[0] != "g"):
+        return []
+    return [(t.start(), t.end(), "pwl(") for t in _TABLE_CALL.finditer(text, m.end())]
+
 _TEMP_NAMES = re.compile(_WORD + r"(t_abs|t_rel_global|t_measured)(?=\s*=)")
 _TEMP_RENAMES = {"t_abs": "temp", "t_rel_global": "dtemp", "t_measured": "tnom"}
 _LEVEL = re.compile(_WORD + r"level\s*=\s*(\d+)(?![0-9.e])")
@@ -347,7 +363,8 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
     """The PSpice translations of ngspice 39's ``pspice_compat`` on one file's cards.
 
     Text translations (each located at the characters it replaces): ``&`` ``|`` ``~`` as
-    ``&&`` ``||`` ``!``; in ``.model`` cards ``T_ABS``/``T_REL_GLOBAL``/``T_MEASURED`` as
+    ``&&`` ``||`` ``!``; ``TABLE(...)`` in the ``VALUE`` of E and G cards as ``pwl(...)``;
+    in ``.model`` cards ``T_ABS``/``T_REL_GLOBAL``/``T_MEASURED`` as
     ``temp``/``dtemp``/``tnom``, the PSpice levels of MOSFET and BJT models as ngspice's,
     ``LPNP`` as a lateral PNP and ``DEV=``/``LOT=`` tolerances removed; ``.distribution``
     cards dropped; the parameters ``temp``, ``vt`` and ``gmin`` defined before the cards
@@ -382,7 +399,7 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
             notes.append(Diagnostic("note", ".distribution dropped: PSpice's Monte-Carlo distribution (as ngspice's "
                                     "PSpice mode does)", card.location(0)))
             continue
-        edits = _logic_edits(card)
+        edits = _logic_edits(card) + _table_edits(card)
         if text.startswith(".model"):
             edits += _model_edits(card)
         out.append(_rewrite(card, edits) if edits else card)
