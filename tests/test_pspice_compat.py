@@ -298,3 +298,19 @@ def test_the_deck_for_ngspice_is_read_in_the_mode_but_not_translated():
     deck = read_deck(LOGIC, behavior="psa", translate=False)
     assert any("~(~v(9)&v(8))" in c.text for c in deck.cards) and deck.behavior.ngspice_value == "psa"
     assert parse_behavior("ps").ngspice_value == "psa" and parse_behavior("lt").ngspice_value == "lt"
+
+
+def test_functions_and_params_commas():
+    text = ("t\n.subckt s a params: x=1, y={max(2, 3)}\nR1 a 0 {x + y + stp(1) + pwrs(-2, 2) + pwr(-2, 2)}\n.ends\n"
+            "X1 1 s params: x=3, y=4\nV1 1 0 1\n.op\n")
+    assert load(text, behavior="psa").element("r.x1.r1").value == 3 + 4 + 1 - 4 + 4  # pwr as pow in the mode
+    with pytest.raises(NetlistError):
+        load(text, behavior="")
+
+
+@pytest.mark.ngspice
+def test_functions_agree_with_ngspice():
+    # (ngspice's parameters know no u(), so stp() only in the B source)
+    text = ("t\nV1 1 0 {pwr(-2, 2) + pwrs(-2, 3)}\nR1 1 0 1\nV3 3 0 -2\nR3 3 0 1\n"
+            "B2 2 0 V=pwr(-3, 2) + pwrs(v(3), 2) + stp(v(3) + 3)\nR2 2 0 1\n.op\n")
+    assert _agree(text, "psa", analysis="op") < 1.0

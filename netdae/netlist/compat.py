@@ -305,6 +305,31 @@ _VALUE_WORD = re.compile(r"(?<![a-z0-9_.])(value|cur)(?![a-z0-9_])")
 _TABLE_CALL = re.compile(r"(?<![a-z0-9_.])table\(")
 
 
+_PWR_CALL = re.compile(r"(?<![a-z0-9_.])pwr(?=\s*\()")
+
+
+def _function_edits(card: Card) -> list[tuple[int, int, str]]:
+    """``pwr(x, a)`` as ``pow(x, a)``: ngspice's PSpice mode defines ``.func pwr(x, a) {pow(x, a)}``."""
+    return [(m.start(), m.end(), "pow") for m in _PWR_CALL.finditer(card.text)]
+
+
+def _params_comma_edits(card: Card) -> list[tuple[int, int, str]]:
+    """Commas between the ``params:`` of ``.subckt`` and X cards as blanks (outside braces), as ngspice's mode."""
+    text = card.text
+    if not (text.startswith(".subckt") or text[0] == "x"):
+        return []
+    at = text.find("params:")
+    if at < 0:
+        return []
+    edits, depth = [], 0
+    for i in range(at + 7, len(text)):
+        c = text[i]
+        depth += (c == "{") - (c == "}")
+        if c == "," and depth == 0:
+            edits.append((i, i + 1, " "))
+    return edits
+
+
 def _table_edits(card: Card) -> list[tuple[int, int, str]]:
     """PSpice's ``TABLE(x, x0, y0, ...)`` in an E/G ``VALUE`` expression as ngspice's ``pwl(...)`` (replace_table).
 
@@ -354,8 +379,11 @@ def _synthetic(text: str, near: Card) -> Card:
     return card
 
 
-#: The parameters ngspice's PSpice mode defines at the start of the translated cards and of every subcircuit.
-PREDEFINED = (".param temp = 'temper'", ".param vt = '(temper + 273.15) * 8.6173303e-5'", ".param gmin = 1e-12")
+#: The parameters ngspice's PSpice mode defines at the start of the translated cards and of every subcircuit
+#: (the first two), and the functions it defines that netdae has no built-in for (``limit``, ``if``, ``int`` are
+#: netdae's own, with the same meaning; ``pwr`` is read as ``pow``, :func:`_function_edits`).
+PREDEFINED = (".param temp = 'temper'", ".param vt = '(temper + 273.15) * 8.6173303e-5'", ".param gmin = 1e-12",
+              ".func pwrs(x, a) {sgn(x) * pow(x, a)}", ".func stp(x) {u(x)}")
 
 
 def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = True
@@ -364,11 +392,12 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
 
     Text translations (each located at the characters it replaces): ``&`` ``|`` ``~`` as
     ``&&`` ``||`` ``!``; ``TABLE(...)`` in the ``VALUE`` of E and G cards as ``pwl(...)``;
+    ``pwr(`` as ``pow(``; commas between ``params:`` as blanks;
     in ``.model`` cards ``T_ABS``/``T_REL_GLOBAL``/``T_MEASURED`` as
     ``temp``/``dtemp``/``tnom``, the PSpice levels of MOSFET and BJT models as ngspice's,
     ``LPNP`` as a lateral PNP and ``DEV=``/``LOT=`` tolerances removed; ``.distribution``
-    cards dropped; the parameters ``temp``, ``vt`` and ``gmin`` defined before the cards
-    (and ``temp``, ``vt`` at the start of each subcircuit). Every card is marked
+    cards dropped; the parameters ``temp``, ``vt`` and ``gmin`` and the functions ``pwrs``
+    and ``stp`` defined before the cards (and ``temp``, ``vt`` at the start of each subcircuit). Every card is marked
     (``Card.compat``) for the translations that need the parsed netlist.
 
     Parameters
@@ -377,7 +406,7 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
         One file's cards, before its includes are expanded.
     behavior : Behavior
     predefine : bool
-        Define ``temp``, ``vt`` and ``gmin`` before the cards. ngspice does it once per
+        Define ``temp``, ``vt``, ``gmin``, ``pwrs`` and ``stp`` before the cards. ngspice does it once per
         translated text (the whole deck in ``psa``, each included file in ``ps``); netdae
         once per netlist, in the first file translated (the values are the same).
 
@@ -399,7 +428,7 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
             notes.append(Diagnostic("note", ".distribution dropped: PSpice's Monte-Carlo distribution (as ngspice's "
                                     "PSpice mode does)", card.location(0)))
             continue
-        edits = _logic_edits(card) + _table_edits(card)
+        edits = _logic_edits(card) + _table_edits(card) + _function_edits(card) + _params_comma_edits(card)
         if text.startswith(".model"):
             edits += _model_edits(card)
         out.append(_rewrite(card, edits) if edits else card)
