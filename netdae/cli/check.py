@@ -36,8 +36,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
                     "2 on a netlist error.",
     )
     p.add_argument("file", help="netlist file")
-    add_ngbehavior(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    add_ngbehavior(p)
     return p
 
 

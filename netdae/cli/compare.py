@@ -31,7 +31,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "frequencies, DC per sweep point, the operating point per unknown.",
     )
     p.add_argument("file", help="netlist file")
-    add_ngbehavior(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
     p.add_argument("--plot", metavar="PNG", help="write both waveforms and their difference to PNG")
     p.add_argument("--tight", action=argparse.BooleanOptionalAction, default=None,
@@ -50,6 +49,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="signals to leave out, e.g. 'v(minus)'")
     p.add_argument("--timeout", metavar="SECONDS", type=positive_float,
                    help="give up on ngspice after SECONDS (default: 300)")
+    add_ngbehavior(p)
     return p
 
 

@@ -30,7 +30,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "states, which unknowns depend on input derivatives, and the topological reasons.",
     )
     p.add_argument("file", help="netlist file")
-    add_ngbehavior(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--at", choices=("op", "t0"), default="op",
                    help="linearise at the DC operating point (default) or at the transient's initial point")
@@ -38,6 +37,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "(default n*eps)")
     p.add_argument("--method", choices=("auto", "kronecker", "topological"), default="auto",
                    help="auto: dense Kronecker analysis up to the dense limit, topological above")
+    add_ngbehavior(p)
     return p
 
 

@@ -61,7 +61,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
         description="Run every analysis in the netlist, print a summary and write the results.",
     )
     p.add_argument("file", help="netlist file")
-    add_ngbehavior(p)
     p.add_argument("--out", metavar="DIR", help="write one file per analysis into DIR")
     p.add_argument("--format", choices=("csv", "raw"), default="csv",
                    help="result file format: csv (default) or ngspice raw (binary)")
@@ -78,6 +77,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--export", metavar="PATH", type=_export_path,
                    help="write the matrices E, H, B of the (linearised) MNA system: PATH.npz, or "
                    "PATH's stem .E.mtx .H.mtx .B.mtx .names.txt (MatrixMarket) for a .mtx path")
+    add_ngbehavior(p)
     return p
 
 

@@ -106,7 +106,6 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "optionally with Monte Carlo samples, and write a table of its measurements.",
     )
     p.add_argument("file", help="netlist file")
-    add_ngbehavior(p)
     p.add_argument("--out", metavar="DIR", required=True, help="write measures.csv/.json and sweep.png into DIR")
     p.add_argument("--step", metavar="NAME=SPEC", action="append", type=parse_step, default=[],
                    help="step a top-level .param, an element or temp: start:stop:incr, "
@@ -130,6 +129,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="relative tolerance, between 0 and 1 (overrides .options reltol)")
     p.add_argument("--abstol", type=option_value("abstol"), help="absolute current tolerance [A], positive")
     p.add_argument("--vntol", type=option_value("vntol"), help="absolute voltage tolerance [V], positive")
+    add_ngbehavior(p)
     return p
 
 

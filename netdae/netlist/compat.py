@@ -442,6 +442,8 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
 #: ngspice's defaults for a PSpice switch model's missing parameters (``pspice_compat``): PSpice's.
 SWITCH_DEFAULTS = {"vswitch": {"von": 1.0, "voff": 0.0, "ron": 1.0, "roff": 1.0e6},
                    "iswitch": {"ion": 1.0, "ioff": 0.0, "ron": 1.0, "roff": 1.0e6}}
+#: Per PSpice switch model: its PSpice parameters, ngspice's own switch parameters, and ngspice's model type.
+SWITCH_FORMS = {"vswitch": (("von", "voff"), ("vt", "vh"), "sw"), "iswitch": (("ion", "ioff"), ("it", "ih"), "csw")}
 #: The XSPICE code models' resistance limits: pswitch keeps r_on >= 1 mOhm and r_off <= 1 TOhm, aswitch r_on >= 1 mOhm.
 R_ON_MIN, PSWITCH_R_OFF_MAX = 1.0e-3, 1.0e12
 #: pswitch's control-port input resistance (``r_cntl_in``, its default).
@@ -457,10 +459,10 @@ def switch_form(mtype: str, params) -> str | None:
     ``"smooth"`` (PSpice's: ``von``/``voff``, ``ion``/``ioff``) or None (neither: ngspice's
     "Bad switch model").
     """
-    v = "v" if mtype == "vswitch" else "i"
-    if f"{v}t" in params or f"{v}h" in params:
-        return "sw" if v == "v" else "csw"
-    if f"{v}on" in params or f"{v}off" in params:
+    smooth, native, ngspice_type = SWITCH_FORMS[mtype]
+    if any(k in params for k in native):
+        return ngspice_type
+    if any(k in params for k in smooth):
         return "smooth"
     return None
 
@@ -498,7 +500,7 @@ def realise_switch(el: Element, mtype: str, params: dict) -> list[Element]:
     v_out = ex.Voltage(d, s)
     const = ex.Const
     r_on = max(p["ron"], R_ON_MIN)
-    if mtype == "vswitch":
+    if "von" in defaults:  # vswitch
         on, off = p["von"], p["voff"]
         if abs(on - off) < PSWITCH_MIN_SPAN:
             on, off = on + 0.001, off - 0.001

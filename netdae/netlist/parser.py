@@ -19,7 +19,7 @@ from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .measure import parse_measure
 from .steps import parse_step
 from .numbers import parse_number
-from .compat import SWITCH_DEFAULTS, switch_form
+from .compat import SWITCH_DEFAULTS, SWITCH_FORMS, switch_form
 from .reader import Deck, read_deck
 from .size import MAX_SUBCKT_DEPTH
 from .statements import (AnalysisCard, Definition, ElementCard, FuncDef, InitialCard, ModelCard, Netlist,
@@ -403,9 +403,9 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
     if card.compat and mtype in SWITCH_DEFAULTS:
         form_kind = switch_form(mtype, params)
         if form_kind is None:
-            raise error(card, toks[2].start, f"a PSpice {mtype} model needs {'von/voff' if mtype == 'vswitch' else 'ion/ioff'} "
-                        f"(PSpice's switch) or {'vt/vh' if mtype == 'vswitch' else 'it/ih'} (ngspice's), as ngspice's "
-                        "PSpice mode reads it ('Bad switch model')", form)
+            smooth, native, _ = SWITCH_FORMS[mtype]
+            raise error(card, toks[2].start, f"a PSpice {mtype} model needs {'/'.join(smooth)} (PSpice's switch) or "
+                        f"{'/'.join(native)} (ngspice's), as ngspice's PSpice mode reads it ('Bad switch model')", form)
         if form_kind != "smooth":
             mtype = form_kind  # ngspice's own switch: .model name sw (vt= vh= ron= roff=)
     scope = stack[-1]
