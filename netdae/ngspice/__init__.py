@@ -275,6 +275,11 @@ def run_ngspice(
         netlist, more = override_options(netlist, **options)
         notes += more
     ngbehavior = mode.ngspice_value if mode is not None else None
+    if ngbehavior is not None and mode.all or (ngbehavior is not None and ngbehavior != mode.value):
+        # ngspice 39 translates all cards but the first after the title (pspice_compat_a starts at its
+        # successor): a comment stands there, as the '*.include' line of an include does in ngspice's own deck
+        title, _, rest = netlist.partition("\n")
+        netlist = f"{title}\n* netdae: the card ngspice's all-files compatibility mode does not translate\n{rest}"
     if ngbehavior is not None:
         notes.append(f"ngspice run with 'set ngbehavior={ngbehavior}'" + (
             f" (the netlist's {mode.value} with 'a': netdae hands ngspice one file, its includes expanded, so the "
