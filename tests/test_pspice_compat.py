@@ -223,6 +223,11 @@ def test_switch_models_outside_the_mode_and_bad_ones():
     with pytest.raises(NetlistError, match="needs von/voff") as info:
         load(VSWITCH.replace("von=0.7 voff=0.3 ", ""), behavior="psa")
     assert info.value.location.line == 6
+    with pytest.raises(NetlistError, match="roff=-1: a resistance") as info:
+        load(VSWITCH.replace("roff=1e5", "roff=-1"), behavior="psa")
+    assert info.value.location.line == 6
+    with pytest.raises(NetlistError, match="ion equals ioff"):
+        load(ISWITCH.replace("ion=2m", "ion=0"), behavior="psa")
 
 
 ISWITCH = """iswitch

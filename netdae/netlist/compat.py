@@ -492,9 +492,22 @@ def realise_switch(el: Element, mtype: str, params: dict) -> list[Element]:
         ``"vswitch"`` or ``"iswitch"``.
     params : dict
         The model's evaluated parameters.
+
+    Returns
+    -------
+    list of Element
+        The behavioural current (named as the card) first.
+
+    Raises
+    ------
+    ValueError
+        ``RON`` or ``ROFF`` not positive, or ``ION`` equal to ``IOFF`` (the message says which).
     """
     defaults = SWITCH_DEFAULTS[mtype]
     p = {k: params.get(k, v) for k, v in defaults.items()}
+    for key in ("ron", "roff"):
+        if not (p[key] > 0.0 and math.isfinite(p[key])):
+            raise ValueError(f"{key}={p[key]:g}: a resistance of PSpice's switch must be positive and finite")
     common = dict(location=el.location, instance_path=el.instance_path)
     d, s = el.nodes[0], el.nodes[1]
     v_out = ex.Voltage(d, s)
@@ -520,7 +533,7 @@ def realise_switch(el: Element, mtype: str, params: dict) -> list[Element]:
     r_off = p["roff"]
     if on == off:
         raise ValueError("ion equals ioff: the switch has no transition (ngspice's aswitch: 'CONTROL voltage delta "
-                         "less than 1.0e-12')")
+                         "less than 1.0e-12'); give them different values")
     x = ex.Current(el.controls[0])
     k = math.log(r_off / r_on) / (on - off)
     # ln r = ln ron + k (on - x), clamped to [ln ron, ln roff]: the conductance exp(-ln r)

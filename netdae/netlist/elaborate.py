@@ -532,7 +532,8 @@ class _Elaborator:
                 parts = realise_switch(el, model.type, model.params)
             except ValueError as exc:
                 raise NetlistError(f"{el.name}: model {model.name}: {exc}", model.location,
-                                   hint="give ion and ioff different values") from None
+                                   expected=".model mname vswitch (von= voff= ron= roff=) | .model mname iswitch "
+                                   "(ion= ioff= ron= roff=)") from None
             for part in parts[1:]:
                 if part.name in elements:
                     raise NetlistError(f"{el.name}: the internal element name '{part.name}' is taken",
