@@ -343,3 +343,13 @@ def test_a_vendor_library_in_ps_mode_from_spiceinit_agrees_with_ngspice(tmp_path
     assert any("'set noaskquit' ignored" in n for n in notes)
     assert circuit.models["qa"].params["bf"] == 200.0 and circuit.models["qa"].params["is"] == 1e-15
     assert _agree(str(main), None, tight=True) < 1.0  # (tight: the switched RC edge at ngspice's default steps is off by 0.5 %)
+
+
+def test_command_line_option(tmp_path, capsys):
+    from netdae.cli import main
+
+    netlist = tmp_path / "logic.cir"
+    netlist.write_text(LOGIC.replace("{v8}", "1").replace("{v9}", "0"))
+    assert main(["check", str(netlist), "--ngbehavior", "psa"]) == 0
+    assert main(["check", str(netlist)]) != 0
+    assert "logical not" in capsys.readouterr().err
