@@ -272,6 +272,12 @@ def test_model_translations():
     assert cards["q2"].type == "pnp" and cards["q2"].params["subs"][0] == -1
 
 
+def test_bracketed_substrate_node():
+    text = "t\nV1 c 0 5\nV2 b 0 0.7\nQ1 c b 0 [sub] qq 2\nRS sub 0 1k\n.model qq npn\n.op\n"
+    q = load(text, behavior="psa").element("q1")
+    assert q.nodes == ("c", "b", "0", "sub") and q.params["area"] == 2.0
+
+
 TABLE = "table\nV1 1 0 {x}\nE1 2 0 VALUE={TABLE(V(1), 0, 0, 1, 2, 2, 3)}\nR2 2 0 1k\n.op\n"
 
 

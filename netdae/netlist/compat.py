@@ -330,6 +330,20 @@ def _params_comma_edits(card: Card) -> list[tuple[int, int, str]]:
     return edits
 
 
+def _substrate_edits(card: Card) -> list[tuple[int, int, str]]:
+    """PSpice's substrate node in brackets (``Q1 c b e [s] model``) without them, as ngspice's mode reads it."""
+    text = card.text
+    if text[0] != "q":
+        return []
+    words = list(re.finditer(r"\S+", text))
+    if len(words) < 5 or not words[4].group().startswith("["):
+        return []
+    close = text.find("]", words[4].start())
+    if close < 0:
+        return []
+    return [(words[4].start(), words[4].start() + 1, " "), (close, close + 1, " ")]
+
+
 def _table_edits(card: Card) -> list[tuple[int, int, str]]:
     """PSpice's ``TABLE(x, x0, y0, ...)`` in an E/G ``VALUE`` expression as ngspice's ``pwl(...)`` (replace_table).
 
@@ -392,7 +406,8 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
 
     Text translations (each located at the characters it replaces): ``&`` ``|`` ``~`` as
     ``&&`` ``||`` ``!``; ``TABLE(...)`` in the ``VALUE`` of E and G cards as ``pwl(...)``;
-    ``pwr(`` as ``pow(``; commas between ``params:`` as blanks;
+    ``pwr(`` as ``pow(``; commas between ``params:`` as blanks; a Q card's ``[substrate]``
+    node without its brackets;
     in ``.model`` cards ``T_ABS``/``T_REL_GLOBAL``/``T_MEASURED`` as
     ``temp``/``dtemp``/``tnom``, the PSpice levels of MOSFET and BJT models as ngspice's,
     ``LPNP`` as a lateral PNP and ``DEV=``/``LOT=`` tolerances removed; ``.distribution``
@@ -428,7 +443,8 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
             notes.append(Diagnostic("note", ".distribution dropped: PSpice's Monte-Carlo distribution (as ngspice's "
                                     "PSpice mode does)", card.location(0)))
             continue
-        edits = _logic_edits(card) + _table_edits(card) + _function_edits(card) + _params_comma_edits(card)
+        edits = (_logic_edits(card) + _table_edits(card) + _function_edits(card) + _params_comma_edits(card)
+                 + _substrate_edits(card))
         if text.startswith(".model"):
             edits += _model_edits(card)
         out.append(_rewrite(card, edits) if edits else card)
