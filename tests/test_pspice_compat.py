@@ -168,6 +168,15 @@ def test_ako_model_is_a_copy_with_the_changes():
                                                                                    "vaf": 80.0, "ikf": 0.1}
 
 
+def test_ako_chains_and_subcircuits():
+    text = (".model a ako:b npn(bf=1)\n.model b ako:c npn(vaf=2)\n.model c npn(is=3)\n"
+            ".subckt s c b e\n.model d ako:c npn(bf=4)\nQ1 c b e d\n.ends\nX1 1 2 0 s\nV1 1 0 1\nV2 2 0 0.5\n"
+            "Q2 1 2 0 a\n.op\n")
+    c = load("t\n" + text, behavior="psa")
+    assert {k: c.models["a"].params[k] for k in ("bf", "vaf", "is")} == {"bf": 1.0, "vaf": 2.0, "is": 3.0}
+    assert {k: c.models["x1:d"].params[k] for k in ("bf", "is")} == {"bf": 4.0, "is": 3.0}
+
+
 def test_ako_errors_are_located():
     with pytest.raises(NetlistError, match="no model 'qnone'") as info:
         load(AKO.replace("ako:qbase", "ako:qnone"), behavior="psa")

@@ -106,7 +106,7 @@ def _resolve_ako(scope: Definition, top: Definition) -> None:
     parameter's location becomes the ``ako:`` word of the new card.
     """
     for model in list(scope.models.values()):
-        if model.type.startswith("ako:") and model.card.compat:
+        if model.type.startswith("ako:") and model.card.compat and scope.models.get(model.name) is model:
             _ako_model(model, scope, top, ())
     for sub in scope.subckts.values():
         _resolve_ako(sub, top)
