@@ -317,7 +317,7 @@ def test_the_ngspice_start_up_file_sets_only_the_mode():
 def test_the_deck_for_ngspice_is_read_in_the_mode_but_not_translated():
     deck = read_deck(LOGIC, behavior="psa", translate=False)
     assert any("~(~v(9)&v(8))" in c.text for c in deck.cards) and deck.behavior.ngspice_value == "psa"
-    assert parse_behavior("ps").ngspice_value == "psa" and parse_behavior("lt").ngspice_value == "lt"
+    assert parse_behavior("ps").ngspice_value == "psa" and parse_behavior("lt").ngspice_value == "lta"
 
 
 def test_functions_and_params_commas():
@@ -368,3 +368,39 @@ def test_command_line_option(tmp_path, capsys):
     assert main(["check", str(netlist), "--ngbehavior", "psa"]) == 0
     assert main(["check", str(netlist)]) != 0
     assert "logical not" in capsys.readouterr().err
+
+
+# --- LTspice's mode ---------------------------------------------------------------------------------------------
+
+LTSPICE = ("lt\nV1 1 0 0\nB1 2 0 V=uplim(v(1), 3, 0.5) + dnlim(v(1), -3, 0.5)\nR2 2 0 1k noiseless\n"
+           "B3 3 0 V=uplim_tanh(v(1), 2, 0.25) + dnlim_tanh(v(1), -2, 0.25)\nR3 3 0 1k\n.backanno\n.dc V1 -5 5 0.25\n")
+
+
+def _uplim(x, pos, z):
+    return min(x, pos - z) + (1 - (min(max(0, x - pos + z), 2 * z) / 2 / z - 1) ** 2) * z
+
+
+def _dnlim(x, neg, z):
+    return max(x, neg + z) - (1 - (min(max(0, -x + neg + z), 2 * z) / 2 / z - 1) ** 2) * z
+
+
+def test_ltspice_functions_and_cards():
+    c = load(LTSPICE, behavior="lta")
+    assert c.element("r2").params["noisy"] == 0.0
+    assert any(".backanno dropped" in d.message for d in c.diagnostics)
+    (res,) = netdae.run(c)
+    x = np.asarray(res.axis)
+    np.testing.assert_allclose(res["v(2)"], [_uplim(v, 3, 0.5) + _dnlim(v, -3, 0.5) for v in x], rtol=1e-12, atol=1e-15)
+    with pytest.raises(NetlistError, match="uplim"):
+        load(LTSPICE.replace(".backanno\n", ""), behavior="ps")
+
+
+def test_ltspice_ideal_diode_is_refused_by_name():
+    with pytest.raises(NetlistError, match="sidiode") as info:
+        load("t\n.model dd d(ron=1 roff=1e6 vfwd=0.7)\nD1 1 0 dd\nV1 1 0 1\n.op\n", behavior="lta")
+    assert (info.value.location.line, info.value.location.column) == (2, 19)
+
+
+@pytest.mark.ngspice
+def test_ltspice_functions_agree_with_ngspice():
+    assert _agree(LTSPICE, "lta", analysis="dc") < 1.0

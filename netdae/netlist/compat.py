@@ -9,6 +9,7 @@ netdae never executes a ``.spiceinit`` (it is a control-language script): it rea
 ngspice's ``set_compat_mode`` reads it: each two-letter code anywhere in it sets a flag
 (``ps`` PSpice, ``lt`` LTspice, ``a`` the whole netlist; ``hs``, ``xs``, ``ki``, ``eg``,
 ``spe``, ``s3``, ``ll``, ``mc``: modes netdae knows by name and does not translate for).
+Of LTspice's mode netdae does the functions and cards of :func:`translate_ltspice`.
 
 Scope (ngspice 39): in ``ps`` the translations apply to the cards of included files only
 (``.include``, and ``.lib`` which this mode reads as ``.include``); with ``a`` (``psa``) to the
@@ -40,7 +41,8 @@ from ..kinds import Kind
 from . import expr as ex
 from .lines import Card, fold_case
 
-__all__ = ["Behavior", "parse_behavior", "read_spiceinit", "find_behavior", "translate_cards", "realise_switch",
+__all__ = ["Behavior", "parse_behavior", "read_spiceinit", "find_behavior", "translate_cards", "translate_ltspice",
+           "realise_switch",
            "SPICEINIT", "MODE_HINT"]
 
 #: The start-up file ngspice reads from the working directory (else from the home directory).
@@ -83,6 +85,10 @@ class Behavior:
         """True when ngspice translates PSpice idioms in the cards of this file (``main``: the netlist itself)."""
         return self.pspice and (self.all or not main)
 
+    def translates_ltspice(self, *, main: bool) -> bool:
+        """True when ngspice translates LTspice idioms in the cards of this file (the same scope rule)."""
+        return self.ltspice and (self.all or not main)
+
     @property
     def reads_lib_as_include(self) -> bool:
         """ngspice 39 reads every ``.lib`` card as ``.include`` in its PSpice and LTspice modes."""
@@ -94,9 +100,10 @@ class Behavior:
 
         The deck netdae hands ngspice is one file, its includes expanded in place
         (:mod:`netdae.ngspice.deck`), so ngspice's ``ps`` would translate nothing; with ``psa``
-        it translates the cards of the included files as ``ps`` does, and the main file's too.
+        it translates the cards of the included files as ``ps`` does, and the main file's too
+        (``lt`` alike).
         """
-        return self.value + "a" if self.pspice and not self.all else self.value
+        return self.value + "a" if (self.pspice or self.ltspice) and not self.all else self.value
 
     def describe(self) -> str:
         """The mode in words, e.g. ``"ngbehavior=ltpsa (PSpice, LTspice, all)"``."""
@@ -450,6 +457,61 @@ def translate_cards(cards: list[Card], behavior: Behavior, *, predefine: bool = 
         out.append(_rewrite(card, edits) if edits else card)
         if text.startswith(".subckt"):
             out.extend(_synthetic(t, card) for t in PREDEFINED[:2])
+    return out, notes
+
+
+# --- LTspice's mode ----------------------------------------------------------------------------------------------
+
+#: The functions ngspice's LTspice mode defines (``ltspice_compat``): soft limits.
+LTSPICE_FUNCTIONS = (
+    ".func uplim(x, pos, z) {min(x, pos - z) + (1 - (min(max(0, x - pos + z), 2 * z) / 2 / z - 1)**2) * z}",
+    ".func dnlim(x, neg, z) {max(x, neg + z) - (1 - (min(max(0, -x + neg + z), 2 * z) / 2 / z - 1)**2) * z}",
+    ".func uplim_tanh(x, pos, z) {min(x, pos - z) + tanh(max(0, x - pos + z) / z) * z}",
+    ".func dnlim_tanh(x, neg, z) {max(x, neg + z) - tanh(max(0, neg + z - x) / z) * z}")
+#: Diode model parameters of LTspice's ideal diode, which ngspice's LTspice mode runs as its XSPICE ``sidiode``.
+SIDIODE_PARAMETERS = ("roff", "ron", "rrev", "vfwd", "vrev", "revepsilon", "epsilon", "revilimit", "ilimit")
+_NOISELESS = re.compile(r"(?<=\s)noiseless(?=\s|$)")
+_DIODE_MODEL = re.compile(r"\.model\s+\S+\s+d(?![a-z0-9_])")
+
+
+def translate_ltspice(cards: list[Card], *, predefine: bool = True) -> tuple[list[Card], list[Diagnostic]]:
+    """The translations of ngspice 39's ``ltspice_compat`` netdae does, on one file's cards.
+
+    The functions ``uplim``, ``dnlim``, ``uplim_tanh``, ``dnlim_tanh`` defined before the cards
+    (once per netlist, ``predefine``); ``.backanno`` dropped; ``noiseless`` on an R card read as
+    ``noisy=0``. A diode model with LTspice's ideal-diode parameters (ngspice runs it as its
+    XSPICE ``sidiode``) is refused by name.
+
+    Raises
+    ------
+    NetlistError
+        A diode model with ``ron``, ``roff``, ``vfwd`` ... (:data:`SIDIODE_PARAMETERS`).
+    """
+    out: list[Card] = []
+    notes: list[Diagnostic] = []
+    if not cards:
+        return out, notes
+    if predefine:
+        out.extend(_synthetic(text, cards[0]) for text in LTSPICE_FUNCTIONS)
+    for card in cards:
+        text = card.text
+        if text.startswith(".backanno"):
+            notes.append(Diagnostic("note", ".backanno dropped (LTspice's annotation, as ngspice's LTspice mode "
+                                    "does)", card.location(0)))
+            continue
+        if text[0] == "r":
+            m = _NOISELESS.search(text)
+            if m is not None:
+                card = _rewrite(card, [(m.start(), m.end(), "noisy=0")])
+        elif _DIODE_MODEL.match(text):
+            found = next((m for name in SIDIODE_PARAMETERS
+                          if (m := re.search(rf"(?<![a-z0-9_]){name}\s*=", text)) is not None), None)
+            if found is not None:
+                raise NetlistError(f"{text.split()[1]}: a diode model with LTspice's ideal-diode parameters "
+                                   f"('{found.group().rstrip('= ')}'), which ngspice's LTspice mode runs as its XSPICE "
+                                   "sidiode code model: not supported by netdae", card.location(found.start()),
+                                   hint="model the diode with ngspice's diode parameters (is, n, rs ...)")
+        out.append(card)
     return out, notes
 
 

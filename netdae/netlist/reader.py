@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 from ..circuit import Diagnostic
 from ..errors import NetlistError, SourceLocation
-from .compat import Behavior, find_behavior, parse_behavior, translate_cards
+from .compat import Behavior, find_behavior, parse_behavior, translate_cards, translate_ltspice
 from .lines import EXPR, STRING, WORD, Card, split_cards
 from .numbers import MICRO
 
@@ -62,8 +62,8 @@ class Deck:
         ngspice's compatibility mode the netlist is read in (:mod:`netdae.netlist.compat`).
     translate : bool
         Whether the mode's PSpice translations were applied (False: the deck for ngspice).
-    predefined : bool
-        Whether the mode's parameters ``temp``, ``vt``, ``gmin`` are defined (once per netlist).
+    predefined : set of str
+        The modes (``"ps"``, ``"lt"``) whose parameters and functions are defined (once per netlist).
     """
 
     title: str
@@ -74,7 +74,7 @@ class Deck:
     osdi: list = field(default_factory=list)
     behavior: Behavior | None = None
     translate: bool = True
-    predefined: bool = False
+    predefined: set = field(default_factory=set)
 
 
 def _first_word(card: Card) -> str:
@@ -182,17 +182,27 @@ def read_deck(source, *, path: str | None = None, behavior=None, translate: bool
     deck = Deck(title=title or "", path=display, notes=mode_notes + list(notes), files=[display], behavior=mode,
                 translate=translate)
     if mode is not None and translate:
-        if mode.ltspice or mode.others:
-            names = ["LTspice" if mode.ltspice else None] + [c for c in mode.others]
+        if mode.others:
             deck.notes.append(Diagnostic("note", f"{mode.describe()}: netdae does not do the translations of the "
-                                         f"{', '.join(n for n in names if n)} mode (only PSpice's)", mode.location))
-        if mode.translates(main=True):
-            cards, more = translate_cards(cards, mode)
-            deck.notes.extend(more)
-            deck.predefined = True
+                                         f"{', '.join(mode.others)} mode", mode.location))
+        cards = _translate(cards, deck, main=True)
     root_key = (os.path.realpath(display) if display != STRING_SOURCE else STRING_SOURCE, None)
     deck.cards = _expand(cards, base, [root_key], [display], deck)
     return deck
+
+
+def _translate(cards: list[Card], deck: Deck, *, main: bool) -> list[Card]:
+    """One file's cards after the translations of the deck's compatibility mode in scope for it."""
+    mode = deck.behavior
+    if mode.translates_ltspice(main=main):
+        cards, more = translate_ltspice(cards, predefine="lt" not in deck.predefined)
+        deck.notes.extend(more)
+        deck.predefined.add("lt")
+    if mode.translates(main=main):
+        cards, more = translate_cards(cards, mode, predefine="ps" not in deck.predefined)
+        deck.notes.extend(more)
+        deck.predefined.add("ps")
+    return cards
 
 
 def _arguments(card: Card) -> list[tuple[str, str, int]]:
@@ -308,10 +318,8 @@ def _include(card: Card, at: int, target: str, section: str | None, chain: list,
     mode = deck.behavior
     _, cards, notes = split_cards(text, target, title=False, pspice=bool(mode and mode.pspice))
     deck.notes.extend(notes)
-    if mode is not None and deck.translate and mode.translates(main=False):
-        cards, more = translate_cards(cards, mode, predefine=not deck.predefined)
-        deck.notes.extend(more)
-        deck.predefined = True
+    if mode is not None and deck.translate:
+        cards = _translate(cards, deck, main=False)
     if target not in deck.files:
         deck.files.append(target)
     if section is not None:

@@ -228,6 +228,10 @@ def self_contained(
             notes.append(f"{where}: .step (netdae's extension) not passed to ngspice; each point is a netlist "
                          "of its own")
             continue
+        if word == ".backanno" and deck.behavior is not None and deck.behavior.ltspice:
+            notes.append(f"{where}: .backanno not passed to ngspice (LTspice's annotation, which ngspice's LTspice "
+                         "mode comments out)")
+            continue
         if word in IGNORED_DOT_CARDS:  # netdae's reader skips them; the control block they serve is not handed over
             notes.append(f"{where}: {word} not passed to ngspice (it sets {IGNORED_DOT_CARDS[word]})")
             continue
