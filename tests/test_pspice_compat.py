@@ -287,6 +287,13 @@ def test_bracketed_substrate_node():
     assert q.nodes == ("c", "b", "0", "sub") and q.params["area"] == 2.0
 
 
+@pytest.mark.ngspice
+def test_model_tolerances_and_substrate_agree_with_ngspice():
+    text = ("t\nV1 c 0 5\nV2 b 0 0.7\nQ1 c b 0 [sub] qq 2\nRS sub 0 1k\nI1 0 a 1m\nD1 a 0 dd\n"
+            ".model qq npn(is=1e-16 bf=120 dev=5% lot=10%)\n.model dd d(is=1e-14 n=1.5 dev=5%)\n.op\n")
+    assert _agree(text, "psa", analysis="op") < 1.0
+
+
 TABLE = "table\nV1 1 0 {x}\nE1 2 0 VALUE={TABLE(V(1), 0, 0, 1, 2, 2, 3)}\nR2 2 0 1k\n.op\n"
 
 
