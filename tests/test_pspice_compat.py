@@ -110,6 +110,9 @@ def test_a_translated_card_keeps_its_locations():
     with pytest.raises(NetlistError) as info:
         parse(text, behavior="psa")
     assert (info.value.location.line, info.value.location.column) == (3, 17)
+    with pytest.raises(NetlistError) as info:  # on a continuation line, after insertions on both lines
+        parse("t\n.param a=1\n.param b={a&a|a\n+  + a&a ) }\n", behavior="psa")
+    assert (info.value.location.line, info.value.location.column) == (4, 10)
 
 
 def test_ps_translates_included_files_only(tmp_path):
