@@ -155,7 +155,7 @@ def test_compare_timeout_is_passed_on(monkeypatch, capsys):
         passed = True
 
     def fake(netlist, *, tight=None, tol=None, backend="auto", signals=None, exclude=(), reltol=None,
-             analyses=None, timeout=None):
+             analyses=None, timeout=None, behavior=None):
         seen.update(timeout=timeout, signals=signals, exclude=exclude)
         return Done()
 

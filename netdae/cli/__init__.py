@@ -148,6 +148,14 @@ def positive_float(text: str) -> float:
     return value
 
 
+def add_ngbehavior(p: argparse.ArgumentParser) -> None:
+    """The ``--ngbehavior VALUE`` option: ngspice's compatibility mode (:func:`netdae.load`'s ``behavior``)."""
+    p.add_argument("--ngbehavior", metavar="VALUE", default=None,
+                   help="ngspice's compatibility mode, as 'set ngbehavior=VALUE' in .spiceinit selects it: psa "
+                        "(PSpice's idioms in every file), ps (in included files); '' for none (default: the "
+                        "set ngbehavior line of the .spiceinit next to the netlist, else in the working directory)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every available subcommand registered."""
     from .. import __version__

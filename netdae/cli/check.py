@@ -19,6 +19,8 @@ import argparse
 import dataclasses
 import json
 
+from . import add_ngbehavior
+
 __all__ = ["add_parser", "main", "summarize", "format_summary", "topology_lines"]
 
 #: Options shown in the text summary even at their default values.
@@ -35,6 +37,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("file", help="netlist file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    add_ngbehavior(p)
     return p
 
 
@@ -193,7 +196,7 @@ def main(args) -> int:
     from ..netlist import load
     from ..topology import analyze_topology
 
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     summary = summarize(circuit)
     topo = analyze_topology(circuit)
     summary["topology"] = topology_lines(topo)

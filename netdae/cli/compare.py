@@ -14,7 +14,7 @@ import json
 import logging
 import sys
 
-from . import option_value, positive_float, signal_names
+from . import add_ngbehavior, option_value, positive_float, signal_names
 
 __all__ = ["add_parser", "main"]
 
@@ -49,6 +49,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="signals to leave out, e.g. 'v(minus)'")
     p.add_argument("--timeout", metavar="SECONDS", type=positive_float,
                    help="give up on ngspice after SECONDS (default: 300)")
+    add_ngbehavior(p)
     return p
 
 
@@ -64,6 +65,7 @@ def main(args) -> int:
         exclude=args.exclude,
         reltol=args.reltol,
         timeout=args.timeout,
+        behavior=args.ngbehavior,
     )
     written = None
     if args.plot:

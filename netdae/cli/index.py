@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from . import positive_float
+from . import add_ngbehavior, positive_float
 
 __all__ = ["add_parser", "main", "format_report"]
 
@@ -37,6 +37,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "(default n*eps)")
     p.add_argument("--method", choices=("auto", "kronecker", "topological"), default="auto",
                    help="auto: dense Kronecker analysis up to the dense limit, topological above")
+    add_ngbehavior(p)
     return p
 
 
@@ -115,7 +116,7 @@ def main(args) -> int:
     from ..analyses.index import analyze_index
     from ..netlist import load
 
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     rep = analyze_index(circuit, at=args.at, tol=args.tol, method=args.method)
     if args.json:
         json.dump(rep.to_dict(), sys.stdout, indent=2)

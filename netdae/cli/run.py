@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, signal_names
 from ..signals import signal_unit
 
 __all__ = ["add_parser", "main", "stems"]
@@ -77,6 +77,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--export", metavar="PATH", type=_export_path,
                    help="write the matrices E, H, B of the (linearised) MNA system: PATH.npz, or "
                    "PATH's stem .E.mtx .H.mtx .B.mtx .names.txt (MatrixMarket) for a .mtx path")
+    add_ngbehavior(p)
     return p
 
 
@@ -233,7 +234,7 @@ def main(args) -> int:
     from .progress import ProgressBar
 
     t0 = time.perf_counter()
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, signal_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -129,6 +129,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="relative tolerance, between 0 and 1 (overrides .options reltol)")
     p.add_argument("--abstol", type=option_value("abstol"), help="absolute current tolerance [A], positive")
     p.add_argument("--vntol", type=option_value("vntol"), help="absolute voltage tolerance [V], positive")
+    add_ngbehavior(p)
     return p
 
 
@@ -175,7 +176,7 @@ def main(args) -> int:
     from ..netlist import load
     from ..sweeps import sweep
 
-    circuit = load(args.file)
+    circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
     executor, client = None, None
     if args.scheduler:

@@ -83,7 +83,7 @@ _COMPARERS = {"op": compare_op, "dc": compare_dc, "ac": compare_ac, "pz": compar
               "noise": compare_noise, "sens": compare_sens}
 
 
-def _read(netlist) -> tuple[Circuit, str, str, str]:
+def _read(netlist, behavior=None) -> tuple[Circuit, str, str, str]:
     """(circuit, text, source name, working directory) of what the caller gave."""
     from ..netlist import load
 
@@ -96,10 +96,17 @@ def _read(netlist) -> tuple[Circuit, str, str, str]:
             )
         return netlist, _read_file(path), path, os.path.dirname(os.path.abspath(path))
     if isinstance(netlist, str) and "\n" in netlist:
-        return load(netlist), netlist, "<string>", os.getcwd()
+        return load(netlist, behavior=behavior), netlist, "<string>", os.getcwd()
     path = os.fspath(netlist)
     text = _read_file(path)
-    return load(path), text, path, os.path.dirname(os.path.abspath(path))
+    return load(path, behavior=behavior), text, path, os.path.dirname(os.path.abspath(path))
+
+
+def _behavior(circuit: Circuit):
+    """The compatibility mode the circuit was read in (``""``: none), for ngspice and re-reads."""
+    net = circuit.netlist
+    mode = getattr(net, "behavior", None) if net is not None else None
+    return mode if mode is not None else ""
 
 
 def _read_file(path: str) -> str:
@@ -258,7 +265,8 @@ def _compare_measures(circuit: Circuit, netdae_results: dict[str, Result], ngspi
 
 
 def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "auto", signals=None,
-            exclude=(), reltol: float | None = None, analyses=None, timeout: float | None = None) -> Comparison:
+            exclude=(), reltol: float | None = None, analyses=None, timeout: float | None = None,
+            behavior: str | None = None) -> Comparison:
     """Run a netlist in netdae and in ngspice and compare every analysis.
 
     Parameters
@@ -294,6 +302,10 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
         killed, or the shared library's thread halted) and the comparison
         fails with ``ngspice_error`` saying so. Default
         :data:`netdae.ngspice.DEFAULT_TIMEOUT`; ``math.inf`` for no limit.
+    behavior : str, optional
+        ngspice's compatibility mode (``"psa"`` ...; :func:`netdae.load`), default: the
+        ``.spiceinit`` next to the netlist, else in the working directory; a Circuit keeps the
+        mode it was loaded in. ngspice runs in the same mode.
 
     Returns
     -------
@@ -316,7 +328,7 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     Cost: one netdae run and one ngspice run per analysis card, plus one
     dense evaluation of netdae's transient at ngspice's time points.
     """
-    circuit, text, source, workdir = _read(netlist)
+    circuit, text, source, workdir = _read(netlist, behavior)
     options = {"tight": tight, "tol": tol, "backend": backend, "signals": signals, "exclude": exclude,
                "reltol": reltol, "analyses": analyses, "timeout": timeout}
     if circuit.draws:
@@ -394,7 +406,7 @@ def _compare_points(circuit: Circuit, text: str, source: str, workdir: str, opti
         params = {a.name: v for a, v in zip(plan.axes, row.point) if a.target == "param"}
         temp = next((v for a, v in zip(plan.axes, row.point) if a.target == "temp"), None)
         text_k = point_text(text, params, temp)
-        circuit_k = load(text_k, path=None if source == "<string>" else source)
+        circuit_k = load(text_k, path=None if source == "<string>" else source, behavior=_behavior(circuit))
         one = _compare_one(dataclasses.replace(circuit_k, steps=[]), text_k, source, workdir, **options)
         one.point = {a.name: v for a, v in zip(plan.axes, row.point)}
         parent.points.append(one)
@@ -425,7 +437,7 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
                             ngspice_options=dict(ng_options), netdae_options=dict(nd_overrides),
                             opamp_gain=gain if gain is not None else bridge.OPAMP_GAIN)
     kwargs = {"backend": backend, "workdir": workdir, "source": source, "options": ng_options or None,
-              "timeout": bridge.check_timeout(timeout)}
+              "timeout": bridge.check_timeout(timeout), "behavior": _behavior(circuit)}
     if gain is not None:
         kwargs["opamp_gain"] = gain
     ng_results: list[Result] = []

@@ -48,7 +48,7 @@ __all__ = ["load", "parse", "elaborate"]
 
 
 def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Mapping[str, float] | None = None,
-         max_elements: int | None = None) -> Circuit:
+         max_elements: int | None = None, behavior: str | None = None) -> Circuit:
     """Read, parse and elaborate a netlist.
 
     Parameters
@@ -67,6 +67,11 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Ma
         Refuse a netlist whose expanded circuit would have more elements
         (default 500,000, about 1 GB while elaborating); the count is
         estimated from the subcircuit definitions before anything is expanded.
+    behavior : str, optional
+        ngspice's compatibility mode, as ``set ngbehavior=`` gives it (``"psa"``: PSpice's
+        idioms translated in every file, ``"ps"``: in included files only; ``""``: none).
+        Default: the ``set ngbehavior`` line of the ``.spiceinit`` next to the netlist, else
+        in the working directory (nothing else in that file is read; docs/netlist.md).
 
     Returns
     -------
@@ -77,4 +82,4 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Ma
     NetlistError
         Anything wrong in the netlist, with its location.
     """
-    return elaborate(parse(path_or_text, path=path), params=params, max_elements=max_elements)
+    return elaborate(parse(path_or_text, path=path, behavior=behavior), params=params, max_elements=max_elements)

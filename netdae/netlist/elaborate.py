@@ -37,6 +37,7 @@ from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES
 from . import expr as ex
 from . import lossy, urc
 from .elements import error, parse_value
+from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
@@ -56,6 +57,8 @@ INSTANCE_DEFAULTS = {"mosfet": ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs")}
 #: PSpice's model types that ngspice names otherwise.
 _PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's sw)",
                        "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
+#: The PSpice switch model each switch kind runs in ngspice's PSpice mode (:func:`netdae.netlist.compat.realise_switch`).
+_PSPICE_SWITCHES = {Kind.VSWITCH: "vswitch", Kind.CSWITCH: "iswitch"}
 #: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
 _UNIMPLEMENTED_MODEL_TYPES = {"nhfet": "ngspice's N-channel HFET (heterostructure FET)",
                               "phfet": "ngspice's P-channel HFET (heterostructure FET)"}
@@ -430,6 +433,9 @@ class _Elaborator:
         if any(el.kind in LAPLACE_KINDS for el in circuit.elements):
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind in LAPLACE_KINDS}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
+        if any(el.kind in _PSPICE_SWITCHES and circuit.models.get(el.model) is not None
+               and circuit.models[el.model].type == _PSPICE_SWITCHES[el.kind] for el in circuit.elements):
+            circuit.elements = self._realise_pspice_switches(circuit, elements)
         circuit.osdi_files = list(net.osdi)
         self._options(circuit)  # (BSIM binning and sizes read .options scale and wnflag)
         self._apply_models(circuit)
@@ -507,6 +513,34 @@ class _Elaborator:
                         nodes.setdefault(n, None)
             elements[el.name] = block[0]
             out.extend(block)
+        return out
+
+    @staticmethod
+    def _realise_pspice_switches(circuit: Circuit, elements: dict) -> list[Element]:
+        """Every S/W element of a PSpice switch model replaced as ngspice's PSpice mode runs it.
+
+        (:func:`netdae.netlist.compat.realise_switch`: a behavioural current with the
+        resistance law of ngspice's XSPICE ``pswitch``/``aswitch``.)
+        """
+        out = []
+        for el in circuit.elements:
+            model = circuit.models.get(el.model) if el.kind in _PSPICE_SWITCHES else None
+            if model is None or model.type != _PSPICE_SWITCHES[el.kind]:
+                out.append(el)
+                continue
+            try:
+                parts = realise_switch(el, model.type, model.params)
+            except ValueError as exc:
+                raise NetlistError(f"{el.name}: model {model.name}: {exc}", model.location,
+                                   expected=".model mname vswitch (von= voff= ron= roff=) | .model mname iswitch "
+                                   "(ion= ioff= ron= roff=)") from None
+            for part in parts[1:]:
+                if part.name in elements:
+                    raise NetlistError(f"{el.name}: the internal element name '{part.name}' is taken",
+                                       el.location, hint="rename the element")
+                elements[part.name] = part
+            elements[el.name] = parts[0]
+            out.extend(parts)
         return out
 
     @staticmethod
@@ -925,11 +959,14 @@ class _Elaborator:
         allowed = MODEL_TYPES.get(item.kind)
         if item.kind == Kind.TXL:
             allowed = allowed + MODEL_TYPES[Kind.CPL]  # a Y card reads a CPL model as one conductor (ngspice 39)
+        if (allowed is not None and mcard.type == _PSPICE_SWITCHES.get(item.kind) and item.card.compat
+                and mcard.card.compat):
+            return p.model  # PSpice's switch in ngspice's PSpice mode: realised by _realise_pspice_switches
         if allowed is not None and mcard.type not in allowed and mcard.type in _PSPICE_MODEL_TYPES:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
                         f"{_PSPICE_MODEL_TYPES[mcard.type]}, which netdae does not support (nor does ngspice 39 "
                         "outside its PSpice compatibility mode)", ELEMENTS[item.name[0]],
-                        hint=f"write a {' or '.join(allowed)} model")
+                        hint=f"write a {' or '.join(allowed)} model, or {MODE_HINT}")
         if allowed is not None and mcard.type not in allowed and mcard.type in _UNIMPLEMENTED_MODEL_TYPES:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is of type '{mcard.type}', "
                         f"{_UNIMPLEMENTED_MODEL_TYPES[mcard.type]}, which is not implemented by netdae",
@@ -938,7 +975,8 @@ class _Elaborator:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is a PSpice AKO model ('a kind of' "
                         f"{mcard.type[4:]}), which netdae does not support (nor does ngspice 39 outside its PSpice "
                         "compatibility mode)", ELEMENTS[item.name[0]],
-                        hint=f"copy the parameters of {mcard.type[4:]} into a {' or '.join(allowed)} model")
+                        hint=f"copy the parameters of {mcard.type[4:]} into a {' or '.join(allowed)} model, or "
+                        f"{MODE_HINT}")
         if item.kind == Kind.MOSFET and mcard.type in MODEL_TYPES[Kind.VDMOS]:
             raise error(item.card, item.model[1], f"model '{item.model[0]}' is a VDMOS (power MOSFET): its M card "
                         "has three nodes (drain gate source)", ELEMENTS["m"],

@@ -484,8 +484,10 @@ class _Parser:
         if m is None:
             if c in _PSPICE_LOGIC:
                 spelled, ours = _PSPICE_LOGIC[c]
+                from .compat import MODE_HINT  # (compat builds expressions: imported when needed)
+
                 raise self.error(f"'{c}' (PSpice's logical {spelled}) is not supported by netdae, nor by ngspice 39 "
-                                 "outside its PSpice compatibility mode", hint=f"write '{ours}'")
+                                 "outside its PSpice compatibility mode", hint=f"write '{ours}', or {MODE_HINT}")
             raise self.error(f"unexpected character {c!r} in expression")
         op = m.group()
         self.kind, self.value, self.pos = _OPER, ("!=" if op == "<>" else "**" if op == "^" else op), m.end()

@@ -50,6 +50,8 @@ _LOWER = str.maketrans("ABCDEFGHIJKLMNOPQRSTUVWXYZ", "abcdefghijklmnopqrstuvwxyz
 # End-of-line comment starts: ';' anywhere, '//' anywhere, '$' at the start
 # or after a blank, tab or comma (outside .control blocks, as ngspice).
 _COMMENT = re.compile(r";|//|(?:^|(?<=[ \t,]))\$")
+#: The same in ngspice's PSpice mode, where '$' starts no comment (ngspice 39's ``inp_stripcomments_line``).
+_COMMENT_PSPICE = re.compile(r";|//")
 
 # Characters that need the full tokenizer.
 _SPECIAL = re.compile(r"""[=(),{}'"]""")
@@ -128,9 +130,12 @@ class Card:
     notes : list of Diagnostic or None
         Warnings found while parsing the card (a number read only in part),
         collected by the parser with :meth:`take_notes`.
+    compat : bool
+        True when the card is in the scope of ngspice's PSpice compatibility
+        mode (:mod:`netdae.netlist.compat`).
     """
 
-    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes")
+    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat")
 
     def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
         self.raw = raw
@@ -140,6 +145,8 @@ class Card:
         self.spans = spans
         self._tokens: list[Token] | None = None
         self.notes: list[Diagnostic] | None = None
+        #: True when ngspice's PSpice compatibility mode translates this card (:mod:`netdae.netlist.compat`).
+        self.compat = False
 
     def warn(self, offset: int, message: str) -> None:
         """Record a located warning about this card (its name prefixes ``message``)."""
@@ -276,7 +283,7 @@ def _is_dot(stripped_lower: str, word: str) -> bool:
 
 
 def split_cards(
-    text: str, file: str, *, title: bool = True
+    text: str, file: str, *, title: bool = True, pspice: bool = False
 ) -> tuple[str | None, list[Card], list[Diagnostic]]:
     """Split netlist text into its title and logical cards.
 
@@ -289,6 +296,8 @@ def split_cards(
     title : bool
         True for the main file (first line is the title, ``.end`` ends the
         netlist); False for included files.
+    pspice : bool
+        ngspice's PSpice compatibility mode: ``$`` starts no comment.
 
     Returns
     -------
@@ -333,7 +342,7 @@ def split_cards(
     cur_spans: list[tuple[int, int, int]] = []
     cur_len = 0
     control_at = None
-    comment = _COMMENT.search
+    comment = (_COMMENT_PSPICE if pspice else _COMMENT).search
 
     for index in range(start, len(lines)):
         line = lines[index]
@@ -352,7 +361,7 @@ def split_cards(
                 if command and command[0] != "#":
                     control_lines.append((lineno, len(line) - len(line.lstrip()) + 1, command))
             continue
-        if ";" in stripped or "$" in stripped or "//" in stripped:
+        if ";" in stripped or ("$" in stripped and not pspice) or "//" in stripped:
             m = comment(stripped)
             if m is not None:
                 stripped = stripped[: m.start()].rstrip()

@@ -19,6 +19,7 @@ from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .measure import parse_measure
 from .steps import parse_step
 from .numbers import parse_number
+from .compat import SWITCH_DEFAULTS, SWITCH_FORMS, switch_form
 from .reader import Deck, read_deck
 from .size import MAX_SUBCKT_DEPTH
 from .statements import (AnalysisCard, Definition, ElementCard, FuncDef, InitialCard, ModelCard, Netlist,
@@ -31,7 +32,7 @@ _IN_SUBCKT = {".param", ".func", ".model", ".subckt", ".ends", ".global", ".ic",
 _PRINT_TYPES = {"tran", "ac", "dc", "op", "noise", "disto", "tf", "pz", "sens"}
 
 
-def parse(source, *, path: str | None = None) -> Netlist:
+def parse(source, *, path: str | None = None, behavior=None) -> Netlist:
     """Read and parse a netlist (no evaluation, no subcircuit expansion).
 
     Parameters
@@ -40,6 +41,10 @@ def parse(source, *, path: str | None = None) -> Netlist:
         A file name or the netlist text (see :func:`netdae.netlist.load`).
     path : str, optional
         Name of the text for locations and relative includes.
+    behavior : str, optional
+        ngspice's compatibility mode (``set ngbehavior=`` value; ``""``: none); default: the
+        ``.spiceinit`` next to the netlist or in the working directory
+        (:func:`netdae.netlist.reader.read_deck`).
 
     Returns
     -------
@@ -51,14 +56,14 @@ def parse(source, *, path: str | None = None) -> Netlist:
         Any syntax error, located at its token.
     """
     with no_gc():
-        return build(read_deck(source, path=path))
+        return build(read_deck(source, path=path, behavior=behavior))
 
 
 def build(deck: Deck) -> Netlist:
     """Parse the cards of a :class:`~netdae.netlist.reader.Deck`."""
     top = Definition(None)
     net = Netlist(title=deck.title, path=deck.path, top=top, diagnostics=list(deck.notes),
-                  files=list(deck.files), osdi=list(deck.osdi))
+                  files=list(deck.files), osdi=list(deck.osdi), behavior=deck.behavior)
     stack = [top]
     for card in deck.cards:
         if card.text[0] == ".":
@@ -82,8 +87,60 @@ def build(deck: Deck) -> Netlist:
     if len(stack) > 1:
         raise NetlistError(f".subckt {stack[-1].name}: no matching .ends", stack[-1].card.location(0),
                            expected=DOT_CARDS[".ends"], hint="close the definition with '.ends'")
+    _resolve_ako(top, top)
     _settle(top)
     return net
+
+
+#: Every model type name netdae knows (an AKO card may restate its base's).
+MODEL_TYPE_NAMES = frozenset(t for types in MODEL_TYPES.values() for t in types)
+
+
+def _resolve_ako(scope: Definition, top: Definition) -> None:
+    """PSpice's AKO models (``.model new ako:base [type] (changes)``) as copies of their base.
+
+    ngspice's PSpice mode (``ako_model``) looks the base up in the same subcircuit, then at
+    the top level, and appends the changes to a copy of its parameters (the last value of a
+    parameter wins); the type, when given, must be the base's. Only cards in the mode's scope
+    are resolved; the others stay AKO models, which elaboration refuses by name. A base
+    parameter's location becomes the ``ako:`` word of the new card.
+    """
+    for model in list(scope.models.values()):
+        if model.type.startswith("ako:") and model.card.compat and scope.models.get(model.name) is model:
+            _ako_model(model, scope, top, ())
+    for sub in scope.subckts.values():
+        _resolve_ako(sub, top)
+
+
+def _ako_model(model: ModelCard, scope: Definition, top: Definition, chain: tuple) -> ModelCard:
+    card = model.card
+    at = max(card.text.find("ako:"), 0)
+    base_name = model.type[4:]
+    form = ".model mname ako:base type (name=value ...)"
+    if model.name in chain:
+        raise error(card, at, "AKO models refer to each other in a cycle: " + " -> ".join(chain + (model.name,)), form)
+    base = scope.models.get(base_name) or top.models.get(base_name)
+    if base is None:
+        raise error(card, at + 4, f"no model '{base_name}' for this AKO model in {'.subckt ' + scope.name if scope.name else 'the netlist'} "
+                    "or at the top level (ngspice: 'no model found')", form,
+                    hint=f"define .model {base_name} in the same subcircuit or at the top level")
+    if base.type.startswith("ako:"):
+        base = _ako_model(base, scope if base_name in scope.models else top, top, chain + (model.name,))
+    stated = [f for f in model.flags if f in MODEL_TYPE_NAMES]
+    if stated and stated[0] != base.type:
+        raise error(card, model.flags[stated[0]], f"type '{stated[0]}' differs from the type '{base.type}' of its base "
+                    f"model '{base_name}' (ngspice: 'Original and new type for AKO model disagree')", form,
+                    hint=f"write {base.type}")
+    params = {k: (v[0], at) for k, v in base.params.items()}
+    params.update(model.params)
+    strings = {k: (v[0], at) for k, v in base.strings.items()} | model.strings
+    flags = {k: at for k in base.flags} | {k: v for k, v in model.flags.items() if k not in MODEL_TYPE_NAMES}
+    vectors = {k: [(v[0], at) for v in vals] for k, vals in base.vectors.items()} | model.vectors
+    new = ModelCard(model.name, base.type, card, params, strings, flags, vectors)
+    owner = scope if scope.models.get(model.name) is model else top
+    owner.models[model.name] = new
+    owner.items[owner.items.index(model)] = new
+    return new
 
 
 # ---------------------------------------------------------------------------
@@ -343,6 +400,14 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
         else:
             flags[tok.text] = tok.start  # a bare name: ngspice sets a flag parameter (or ignores the name)
             i += 1
+    if card.compat and mtype in SWITCH_DEFAULTS:
+        form_kind = switch_form(mtype, params)
+        if form_kind is None:
+            smooth, native, _ = SWITCH_FORMS[mtype]
+            raise error(card, toks[2].start, f"a PSpice {mtype} model needs {'/'.join(smooth)} (PSpice's switch) or "
+                        f"{'/'.join(native)} (ngspice's), as ngspice's PSpice mode reads it ('Bad switch model')", form)
+        if form_kind != "smooth":
+            mtype = form_kind  # ngspice's own switch: .model name sw (vt= vh= ron= roff=)
     scope = stack[-1]
     if name in scope.models:
         first = scope.models[name].card

@@ -15,6 +15,11 @@ Rules (as ngspice):
   which is skipped where it stands (it is read only through a ``.lib file
   section`` reference).
 - An include cycle is an error naming the chain of files.
+- In ngspice's PSpice or LTspice compatibility mode (``set ngbehavior=...``,
+  :mod:`netdae.netlist.compat`) every ``.lib`` card is read as ``.include``
+  (ngspice 39 reads no library sections there), ``$`` starts no comment in
+  the PSpice mode, and the PSpice translations apply to the cards of the
+  included files (``ps``) or of every file (``psa``).
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from dataclasses import dataclass, field
 
 from ..circuit import Diagnostic
 from ..errors import NetlistError, SourceLocation
+from .compat import Behavior, find_behavior, parse_behavior, translate_cards, translate_ltspice
 from .lines import EXPR, STRING, WORD, Card, split_cards
 from .numbers import MICRO
 
@@ -52,6 +58,12 @@ class Deck:
         The OSDI libraries ``.osdi`` cards (and ``pre_osdi`` commands) load,
         resolved against the directory of the file naming them, else among the
         models ``netdae[models]`` bundles; the cards themselves are not passed on.
+    behavior : Behavior or None
+        ngspice's compatibility mode the netlist is read in (:mod:`netdae.netlist.compat`).
+    translate : bool
+        Whether the mode's PSpice translations were applied (False: the deck for ngspice).
+    predefined : set of str
+        The modes (``"ps"``, ``"lt"``) whose parameters and functions are defined (once per netlist).
     """
 
     title: str
@@ -60,6 +72,9 @@ class Deck:
     notes: list[Diagnostic] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     osdi: list = field(default_factory=list)
+    behavior: Behavior | None = None
+    translate: bool = True
+    predefined: set = field(default_factory=set)
 
 
 def _first_word(card: Card) -> str:
@@ -108,7 +123,23 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
         raise NetlistError(f"{what} name {display!r} contains a NUL character", location) from None
 
 
-def read_deck(source, *, path: str | None = None) -> Deck:
+def resolve_behavior(behavior, base: str) -> tuple[Behavior | None, list]:
+    """The compatibility mode a netlist is read in, and the notes about where it came from.
+
+    ``behavior`` None: the ``.spiceinit`` next to the netlist or in the working directory
+    (:func:`netdae.netlist.compat.find_behavior`); a string: that ``ngbehavior`` value (``""``:
+    no mode, no file read); a :class:`Behavior`: itself.
+    """
+    if behavior is None:
+        return find_behavior(base)
+    if isinstance(behavior, Behavior):
+        return behavior, []
+    if isinstance(behavior, str):
+        return parse_behavior(behavior), []
+    raise TypeError(f"behavior must be an ngbehavior value (str), not {type(behavior).__name__}")
+
+
+def read_deck(source, *, path: str | None = None, behavior=None, translate: bool = True) -> Deck:
     """Read a netlist and everything it includes.
 
     Parameters
@@ -119,6 +150,13 @@ def read_deck(source, *, path: str | None = None) -> Deck:
     path : str, optional
         For text: the name used in locations and whose directory resolves
         relative includes.
+    behavior : str or Behavior, optional
+        ngspice's compatibility mode (an ``ngbehavior`` value such as ``"psa"``; ``""``: none);
+        default: the ``set ngbehavior`` of the ``.spiceinit`` next to the netlist, else in the
+        working directory (:func:`resolve_behavior`).
+    translate : bool
+        False: read in the mode (``.lib`` as ``.include``, ``$``) without translating the
+        cards (the deck handed to ngspice, which translates them itself).
 
     Returns
     -------
@@ -138,12 +176,33 @@ def read_deck(source, *, path: str | None = None) -> Deck:
         display = path if path is not None else STRING_SOURCE
     else:
         raise TypeError(f"source must be a file name or netlist text, not {type(source).__name__}")
-    title, cards, notes = split_cards(text, display, title=True)
-    deck = Deck(title=title or "", path=display, notes=list(notes), files=[display])
     base = os.path.dirname(display) if display != STRING_SOURCE else ""
+    mode, mode_notes = resolve_behavior(behavior, base)
+    title, cards, notes = split_cards(text, display, title=True, pspice=bool(mode and mode.pspice))
+    deck = Deck(title=title or "", path=display, notes=mode_notes + list(notes), files=[display], behavior=mode,
+                translate=translate)
+    if mode is not None and translate:
+        if mode.others:
+            deck.notes.append(Diagnostic("note", f"{mode.describe()}: netdae does not do the translations of the "
+                                         f"{', '.join(mode.others)} mode", mode.location))
+        cards = _translate(cards, deck, main=True)
     root_key = (os.path.realpath(display) if display != STRING_SOURCE else STRING_SOURCE, None)
     deck.cards = _expand(cards, base, [root_key], [display], deck)
     return deck
+
+
+def _translate(cards: list[Card], deck: Deck, *, main: bool) -> list[Card]:
+    """One file's cards after the translations of the deck's compatibility mode in scope for it."""
+    mode = deck.behavior
+    if mode.translates_ltspice(main=main):
+        cards, more = translate_ltspice(cards, predefine="lt" not in deck.predefined)
+        deck.notes.extend(more)
+        deck.predefined.add("lt")
+    if mode.translates(main=main):
+        cards, more = translate_cards(cards, mode, predefine="ps" not in deck.predefined)
+        deck.notes.extend(more)
+        deck.predefined.add("ps")
+    return cards
 
 
 def _arguments(card: Card) -> list[tuple[str, str, int]]:
@@ -192,6 +251,15 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             continue
         word = _first_word(card)
         if word in (".include", ".inc"):
+            name, at = _file_argument(card, 1, "file name")
+            out.extend(_include(card, at, _resolve(base, name), None, chain, shown, deck))
+        elif word == ".lib" and deck.behavior is not None and deck.behavior.reads_lib_as_include:
+            args = _arguments(card)[1:]
+            if len(args) != 1:
+                raise NetlistError(f".lib: in ngspice's compatibility mode {deck.behavior.describe()} every .lib card "
+                                   "is read as '.include file' (ngspice 39 reads no library sections there)",
+                                   card.location(0), expected=".lib filename",
+                                   hint="include the file with .include, or leave the compatibility mode")
             name, at = _file_argument(card, 1, "file name")
             out.extend(_include(card, at, _resolve(base, name), None, chain, shown, deck))
         elif word == ".lib":
@@ -247,8 +315,11 @@ def _include(card: Card, at: int, target: str, section: str | None, chain: list,
         raise NetlistError("include cycle: " + " -> ".join(loop), card.location(at),
                            hint="remove the .include/.lib that closes the cycle")
     text = _read_text(target, card.location(at), "library file" if section else "include file")
-    _, cards, notes = split_cards(text, target, title=False)
+    mode = deck.behavior
+    _, cards, notes = split_cards(text, target, title=False, pspice=bool(mode and mode.pspice))
     deck.notes.extend(notes)
+    if mode is not None and deck.translate:
+        cards = _translate(cards, deck, main=False)
     if target not in deck.files:
         deck.files.append(target)
     if section is not None:

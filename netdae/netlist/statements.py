@@ -293,6 +293,8 @@ class Netlist:
     files : list of str
     osdi : list of (str, SourceLocation)
         OSDI libraries to load (``.osdi`` cards, ``pre_osdi`` commands), paths resolved.
+    behavior : Behavior or None
+        ngspice's compatibility mode the netlist was read in (:mod:`netdae.netlist.compat`).
     """
 
     title: str
@@ -310,3 +312,4 @@ class Netlist:
     diagnostics: list[Diagnostic] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     osdi: list = field(default_factory=list)
+    behavior: object = None

@@ -57,6 +57,7 @@ import numpy as np
 
 from ..errors import NgspiceError
 from ..metadata import Provenance
+from ..netlist.reader import resolve_behavior
 from ..results import Result
 from .measures import read_measures
 from .translate import (
@@ -211,6 +212,7 @@ def run_ngspice(
     opamp_gain: float = OPAMP_GAIN,
     strict: bool = True,
     source: str = "<string>",
+    behavior=None,
 ) -> NgspiceRun:
     """Run a netlist in ngspice and return its results as netdae Results.
 
@@ -239,6 +241,12 @@ def run_ngspice(
         depends on them.
     source : str
         Name of the netlist in messages.
+    behavior : str, optional
+        ngspice's compatibility mode (``set ngbehavior=`` value, ``""``: none); default: the
+        ``.spiceinit`` next to the netlist (in ``workdir``), else in the working directory, as
+        netdae reads it (:func:`netdae.netlist.compat.find_behavior`). ngspice runs in it: the
+        backends set ``ngbehavior`` (nothing else of the user's file), with ``a`` added to a
+        PSpice mode without it (:attr:`netdae.netlist.compat.Behavior.ngspice_value`).
 
     Returns
     -------
@@ -260,11 +268,23 @@ def run_ngspice(
     limit = None if seconds == float("inf") else seconds
     start = time.perf_counter()
     base_dir = os.fspath(workdir) if workdir is not None else os.getcwd()
-    netlist, notes = translate_for_ngspice(text, opamp_gain=opamp_gain, base_dir=base_dir, source=source)
+    mode, _ = resolve_behavior(behavior, base_dir)
+    netlist, notes = translate_for_ngspice(text, opamp_gain=opamp_gain, base_dir=base_dir, source=source,
+                                           behavior=mode if mode is not None else "")
     if options:
         netlist, more = override_options(netlist, **options)
         notes += more
-    output, used = _run_backend(netlist, backend, limit, notes)
+    ngbehavior = mode.ngspice_value if mode is not None else None
+    if ngbehavior is not None and mode.all or (ngbehavior is not None and ngbehavior != mode.value):
+        # ngspice 39 translates all cards but the first after the title (pspice_compat_a starts at its
+        # successor): a comment stands there, as the '*.include' line of an include does in ngspice's own deck
+        title, _, rest = netlist.partition("\n")
+        netlist = f"{title}\n* netdae: the card ngspice's all-files compatibility mode does not translate\n{rest}"
+    if ngbehavior is not None:
+        notes.append(f"ngspice run with 'set ngbehavior={ngbehavior}'" + (
+            f" (the netlist's {mode.value} with 'a': netdae hands ngspice one file, its includes expanded, so the "
+            "main file's cards are translated too)" if ngbehavior != mode.value else ""))
+    output, used = _run_backend(netlist, backend, limit, notes, ngbehavior)
     notes += output.notes
     measures, rest_out, rest_err = read_measures(netlist, output.stdout, output.stderr)
     errors, warnings = classify_output(rest_err, rest_out, strict=strict)
@@ -351,19 +371,20 @@ def _check_backend(backend: str) -> None:
         raise NgspiceError(f"unknown ngspice backend {backend!r}; choose one of {', '.join(BACKENDS)}")
 
 
-def _run_backend(netlist: str, backend: str, timeout: float | None, notes: list[str]) -> tuple[BackendOutput, str]:
+def _run_backend(netlist: str, backend: str, timeout: float | None, notes: list[str],
+                 ngbehavior: str | None = None) -> tuple[BackendOutput, str]:
     from . import batch, shared
 
     if backend == "subprocess":
-        return batch.run(netlist, timeout=timeout), "subprocess"
+        return batch.run(netlist, timeout=timeout, ngbehavior=ngbehavior), "subprocess"
     try:
-        return shared.run(netlist, timeout=timeout), "shared"
+        return shared.run(netlist, timeout=timeout, ngbehavior=ngbehavior), "shared"
     except BackendUnavailable as exc:
         if backend == "shared":
             raise
         reason = str(exc)
     try:
-        output = batch.run(netlist, timeout=timeout)
+        output = batch.run(netlist, timeout=timeout, ngbehavior=ngbehavior)
     except BackendUnavailable as exc:
         raise NgspiceError(
             f"ngspice cannot be run: {reason}; and {exc}. Install it with: {INSTALL_HINT}"

@@ -3,7 +3,9 @@
 The netlist and the raw file live in a fresh private temporary directory,
 which is also ngspice's working directory and ``HOME``, so that nothing
 ngspice writes lands elsewhere. ``-n`` keeps the user's ``.spiceinit`` out
-(the system ``spinit`` is still read, as the shared library does). ngspice
+(the system ``spinit`` is still read, as the shared library does); in a
+compatibility mode netdae writes a private ``.spiceinit`` holding only ``set
+ngbehavior=...`` there instead (:func:`spiceinit`). ngspice
 runs in a session of its own: on a timeout the whole process group is
 killed, so no ngspice process outlives the run. ``SPICE_ASCIIRAWFILE=0`` keeps
 the raw file binary (ngspice's default, full double precision) whatever the
@@ -75,7 +77,7 @@ def version() -> str:
     return _version_cache[exe]
 
 
-def run(netlist: str, *, timeout: float | None) -> BackendOutput:
+def run(netlist: str, *, timeout: float | None, ngbehavior: str | None = None) -> BackendOutput:
     """Run a netlist with the ngspice executable in batch mode.
 
     Parameters
@@ -84,6 +86,10 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
         The (translated) netlist.
     timeout : float or None
         Seconds before ngspice is killed (None: no limit).
+    ngbehavior : str, optional
+        ngspice's compatibility mode: a private ``.spiceinit`` holding only ``set
+        ngbehavior=...`` is written in the run's directory (also its ``HOME``) and read
+        instead of ``-n``.
 
     Returns
     -------
@@ -105,10 +111,15 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
         raw = os.path.join(tmp, "out.raw")
         with open(circuit, "w", encoding="utf-8") as handle:
             handle.write(netlist)
-        done = _run_killable([exe, "-b", "-n", "-r", "out.raw", "netlist.cir"], tmp, env, timeout)
+        init = ["-n"]
+        if ngbehavior is not None:
+            with open(os.path.join(tmp, ".spiceinit"), "w", encoding="utf-8") as handle:
+                handle.write(spiceinit(ngbehavior))
+            init = []
+        done = _run_killable([exe, "-b", *init, "-r", "out.raw", "netlist.cir"], tmp, env, timeout)
         stdout, stderr = done.stdout.splitlines(), done.stderr.splitlines()
         if measure_cards(netlist):
-            again = _run_killable([exe, "-b", "-n", "netlist.cir"], tmp, env, timeout)
+            again = _run_killable([exe, "-b", *init, "netlist.cir"], tmp, env, timeout)
             stderr = [line for line in stderr if not _NO_MEASURE.search(line)]
             stdout += again.stdout.splitlines()
             stderr += again.stderr.splitlines()
@@ -129,6 +140,19 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
         returncode=done.returncode,
         read_error=read_error,
     )
+
+
+def spiceinit(ngbehavior: str) -> str:
+    """The private start-up file that selects ngspice's compatibility mode (and nothing else).
+
+    Raises
+    ------
+    NgspiceError
+        A value that is not letters and digits (it is written into a command).
+    """
+    if not re.fullmatch(r"[a-z0-9]+", ngbehavior):
+        raise NgspiceError(f"ngbehavior value {ngbehavior!r} is not letters and digits")
+    return f"* netdae: ngspice's compatibility mode (the user's .spiceinit is not read)\nset ngbehavior={ngbehavior}\n"
 
 
 def _run_killable(argv: list[str], cwd: str, env: dict, timeout: float | None) -> subprocess.CompletedProcess:

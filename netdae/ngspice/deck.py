@@ -165,7 +165,7 @@ def _after_end(text: str, last_line: int, source: str) -> tuple[int, int] | None
 
 
 def self_contained(
-    text: str, *, base_dir: str | os.PathLike | None = None, source: str = STRING_SOURCE
+    text: str, *, base_dir: str | os.PathLike | None = None, source: str = STRING_SOURCE, behavior=None
 ) -> tuple[list[str], list[Origin], list[str]]:
     """The netlist as the self-contained text netdae hands to ngspice.
 
@@ -178,6 +178,10 @@ def self_contained(
         netlist's directory); the current directory by default.
     source : str
         Name of the netlist in locations and notes.
+    behavior : str or Behavior, optional
+        ngspice's compatibility mode (:func:`netdae.netlist.reader.read_deck`): the cards are
+        read in it (``.lib`` as ``.include``, ``$``) but not translated (ngspice, run in the same
+        mode, translates them itself).
 
     Returns
     -------
@@ -205,7 +209,7 @@ def self_contained(
     path = source if source != STRING_SOURCE else None
     if base_dir is not None and (path is None or not os.path.isabs(path)):
         path = os.path.join(os.fspath(base_dir), os.path.basename(source))
-    deck = read_deck(text, path=path)
+    deck = read_deck(text, path=path, behavior=behavior, translate=False)
     main = deck.path
     lines: list[str] = [""]
     origins: list[Origin] = [Origin(main, 1, 1)]
@@ -223,6 +227,10 @@ def self_contained(
         if word == ".step":  # netdae's extension: compare hands ngspice one point at a time
             notes.append(f"{where}: .step (netdae's extension) not passed to ngspice; each point is a netlist "
                          "of its own")
+            continue
+        if word == ".backanno" and deck.behavior is not None and deck.behavior.ltspice:
+            notes.append(f"{where}: .backanno not passed to ngspice (LTspice's annotation, which ngspice's LTspice "
+                         "mode comments out)")
             continue
         if word in IGNORED_DOT_CARDS:  # netdae's reader skips them; the control block they serve is not handed over
             notes.append(f"{where}: {word} not passed to ngspice (it sets {IGNORED_DOT_CARDS[word]})")

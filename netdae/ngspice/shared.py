@@ -30,6 +30,10 @@ Each run then takes place with a fresh private temporary directory as the
 current directory (anything ngspice writes, e.g. a BSIM model check's log,
 lands there and is removed). The current directory is a property of the
 process: it is changed only while the lock is held and restored at once.
+A run in one of ngspice's compatibility modes sets the variable ``ngbehavior``
+by command before its circuit is loaded (what a ``.spiceinit`` holding ``set
+ngbehavior=...`` would have set; ngspice reads it for every circuit it loads)
+and unsets it afterwards.
 
 The library is a process-wide singleton with global state, so runs are
 serialised by a lock and each one starts clean: ``destroy all`` (every plot
@@ -59,6 +63,7 @@ from ..io.raw import PLOTNAME_OF, quantity_name, sens_name, signal_name
 from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
+from .batch import spiceinit
 from .translate import classify_output
 
 __all__ = ["run", "version", "library_path"]
@@ -133,9 +138,17 @@ class _Session:
 
     # -- a run ---------------------------------------------------------------
 
-    def run(self, netlist: str, timeout: float | None) -> BackendOutput:
+    def run(self, netlist: str, timeout: float | None, ngbehavior: str | None = None) -> BackendOutput:
         with tempfile.TemporaryDirectory(prefix=_TMP_PREFIX) as private, _inside(private):
-            return self._run(netlist, timeout)
+            if ngbehavior is None:
+                return self._run(netlist, timeout)
+            spiceinit(ngbehavior)  # (checks the value)
+            self.command(f"set ngbehavior={ngbehavior}")  # what the private .spiceinit would set
+            try:
+                return self._run(netlist, timeout)
+            finally:
+                if self.library.exit_status is None:
+                    self.command("unset ngbehavior")
 
     def _run(self, netlist: str, timeout: float | None) -> BackendOutput:
         lib = self.library
@@ -379,7 +392,7 @@ def version() -> str:
         return _get_session().version
 
 
-def run(netlist: str, *, timeout: float | None) -> BackendOutput:
+def run(netlist: str, *, timeout: float | None, ngbehavior: str | None = None) -> BackendOutput:
     """Run a netlist in the shared library.
 
     Parameters
@@ -388,6 +401,10 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
         The (translated) netlist.
     timeout : float or None
         Seconds before the background thread is halted (None: no limit).
+    ngbehavior : str, optional
+        ngspice's compatibility mode for this run: the variable the private ``.spiceinit``
+        of :func:`netdae.ngspice.batch.spiceinit` sets, set by command before the circuit is
+        loaded (the library read its start-up file once, when it was loaded) and unset after.
 
     Returns
     -------
@@ -403,6 +420,6 @@ def run(netlist: str, *, timeout: float | None) -> BackendOutput:
     """
     with _lock:
         session = _get_session()
-        output = session.run(netlist, timeout)
+        output = session.run(netlist, timeout, ngbehavior)
         output.notes, session.pyspice_notes = session.pyspice_notes, []
         return output

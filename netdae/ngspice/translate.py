@@ -209,6 +209,7 @@ def translate_for_ngspice(
     opamp_gain: float = OPAMP_GAIN,
     base_dir: str | os.PathLike | None = None,
     source: str = "<string>",
+    behavior=None,
 ) -> tuple[str, list[str]]:
     """Make a netdae netlist runnable by ngspice, saying what was changed.
 
@@ -223,6 +224,9 @@ def translate_for_ngspice(
         netlist's directory); the current directory by default.
     source : str
         Name of the netlist for error messages.
+    behavior : str or Behavior, optional
+        ngspice's compatibility mode the netlist is read in
+        (:func:`netdae.ngspice.deck.self_contained`).
 
     Returns
     -------
@@ -254,7 +258,7 @@ def translate_for_ngspice(
     """
     if not opamp_gain > 0:
         raise NgspiceError(f"opamp_gain must be positive, got {opamp_gain!r}")
-    lines, origins, notes = self_contained(text, base_dir=base_dir, source=source)
+    lines, origins, notes = self_contained(text, base_dir=base_dir, source=source, behavior=behavior)
     edits: dict[int, tuple[int, str | None]] = {}
     subckt: list[str] = []
     cards = _cards(lines)
