@@ -32,6 +32,14 @@ pytestmark = pytest.mark.ngspice
 #: Transient node voltages: largest error as a share of each signal's range (ngspice's step control is the limit
 #: at the tight settings too, as for the random linear circuits of tests/test_random_circuits.py).
 TRAN_RTOL = 1e-2
+#: ... or, for a signal whose largest error sits on a sharp edge, its RMS error as a share of its range: where a
+#: bipolar transistor's stored charge runs out 20 ns after the input's fall (seed 3, circuit 57), v(n4) rises
+#: 0.12 V within nanoseconds; at the compared settings ngspice is 2.5 % of the range off at the edge (netdae
+#: 0.1 %), and both agree to 1e-5 V there at reltol 1e-8 (ngspice with a 0.2 ns maximum step). The other kind of
+#: edge is ngspice's own: from an operating point with inputs constant until 0.2 us (seed 4, circuit 44, two
+#: level-1 MOSFETs) ngspice's first steps dip 7 mV off the equilibrium and come back within 2 ns, where netdae
+#: stays on it (16 % of that signal's range; RMS 1.04e-3 of it).
+TRAN_RMS_RTOL = 2e-3
 
 MODELS = """.model dx d (is=1e-14 n=1.05 rs=10 cjo=2p vj=0.7 m=0.4 tt=5n bv=50 ibv=1e-6)
 .model qn npn (is=1e-16 bf=100 br=2 vaf=80 rb=50 re=1 rc=10 cje=1p cjc=0.5p tf=0.3n tr=10n)
@@ -103,7 +111,8 @@ def _compare_all(seed: int, count: int) -> dict[str, int]:
             if item.error:
                 problems.append((item.analysis, item.error))
             elif item.analysis == "tran":
-                bad = [(s.name, s.max_rel) for s in item.signals if s.name.startswith("v(") and s.max_rel > TRAN_RTOL]
+                bad = [(s.name, s.max_rel, s.rms / s.scale) for s in item.signals if s.name.startswith("v(")
+                       and s.max_rel > TRAN_RTOL and s.rms > TRAN_RMS_RTOL * s.scale]
                 problems += [("tran", bad)] if bad else []
             elif item.passed is False:
                 problems.append((item.analysis, [(s.name, s.max_rel) for s in item.signals if s.passed is False]))
