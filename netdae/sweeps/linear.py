@@ -1,19 +1,37 @@
 """Rows of a linear circuit's ``.ac`` sweep solved together.
 
-When every row of a chunk has the same structure (:func:`netdae.topology.graph.structure_key`),
-the circuit is linear and small (at most :data:`~netdae.analyses.ac.DENSE_AC_LIMIT`
-unknowns) and its only analyses are ``.ac``, each row costs its elaboration
-(the Monte Carlo draws) and its linear stamps on the layout of the first row;
-the phasors of all rows at all frequencies come from one batched dense solve
-of ``(j w E_r - H_r) X = B_r U_r``. The first row of a chunk runs the ordinary
-analysis (operating point included), so that a circuit the ordinary path
-refuses is refused the same way; a later row whose DC matrix is numerically
-singular (:data:`RANK_TOLERANCE`), whose structure or frequency grid differs,
-or whose batch solve fails runs the ordinary path too and gets its message.
+When the circuit is linear and small (at most :data:`~netdae.analyses.ac.DENSE_AC_LIMIT`
+unknowns) and its only analyses are ``.ac``, the rows of a chunk are solved
+in one batched dense solve of ``(j w E_r - H_r) X = B_r U_r`` over all rows
+and frequencies. The first row of a chunk runs the ordinary analysis
+(operating point included), so that a circuit the ordinary path refuses is
+refused the same way. The other rows get their matrices in one of two ways:
+
+- **replayed** (most rows): the first row's elaboration is recorded
+  (:class:`~netdae.netlist.params.Trace`) and repeated for each row's
+  sample and parameter values (:class:`~netdae.netlist.params.Replay`: the
+  same evaluations, the same draws from the sample's stream), which gives
+  every element field that depends on the row. Each element whose field
+  varies adds ``s_r * D`` to the first row's matrices, ``D`` its stamp's
+  change (:func:`netdae.devices.linear.stamp_linear` of that element alone)
+  and ``s_r`` the field's relative change when the stamp is proportional to
+  the field (a capacitance, a gain, an AC magnitude) or to its reciprocal (a
+  resistance), found by stamping it at 1, 2 and 4 times its value; all rows'
+  matrices are then one matrix product;
+- **elaborated**: a row whose replay cannot be shown equivalent (an
+  evaluation that differs from the recorded one in what it does, an
+  analysis card, model or measure value that changes, a field whose stamp
+  is neither proportional nor reciprocal, a zero or sign change, an element
+  with a field the trace did not see) is elaborated and stamped on its own.
+
+A row whose DC matrix is numerically singular (:data:`RANK_TOLERANCE`),
+whose structure or frequency grid differs, or whose batch solve fails runs
+the ordinary path and gets its message.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -21,6 +39,7 @@ import numpy as np
 
 from ..circuit import AcAnalysis
 from ..errors import NetdaeError
+from ..kinds import Kind
 from .plan import Row
 from .worker import Job, Outcome, elaborate_row, record, run_row
 
@@ -30,15 +49,17 @@ __all__ = ["ac_batch", "RANK_TOLERANCE", "MAX_BATCH_ENTRIES"]
 RANK_TOLERANCE = 1e3
 #: Largest number of complex matrix entries one batched solve holds (about 320 MB).
 MAX_BATCH_ENTRIES = 20_000_000
+#: The stamp laws of a field: its stamp changes in proportion to the field or to its reciprocal.
+PROPORTIONAL, RECIPROCAL = "proportional", "reciprocal"
 
 
-def _linear_ac(job: Job, row: Row):
+def _linear_ac(job: Job, row: Row, trace=None):
     """``(circuit, system, frequencies)`` when the batch path applies to ``job``, else None."""
     from ..analyses.ac import DENSE_AC_LIMIT, frequencies
     from ..mna import assemble
 
     try:
-        circuit = elaborate_row(job, row)
+        circuit = elaborate_row(job, row, trace=trace)
     except (NetdaeError, ValueError, ArithmeticError):
         return None
     cards = circuit.analyses
@@ -53,18 +74,188 @@ def _linear_ac(job: Job, row: Row):
     return circuit, system, frequencies(cards[0])
 
 
-def _matrices(circuit, layout, n: int):
-    """Dense E, H (with the resistors' ``ac=`` values), B U_ac of a row on the first row's layout."""
-    from ..devices.linear import stamp_linear
-    from ..mna.assemble import group_by_kind
+def _dense(st, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Dense E, H, H_ac (H with the resistors' ``ac=`` values) and B U_ac of linear stamps."""
     from ..mna.sources import SourceVector
 
-    st = stamp_linear(circuit, layout, group_by_kind(circuit))
     E = st.E.dense(n)
     H = st.H.dense(n)
     H_ac = H + st.H_ac.dense(n)
-    b = st.B.dense(n, len(st.sources)) @ SourceVector(st.sources).ac
+    b = st.B.dense(n, len(st.sources)) @ SourceVector(st.sources).ac if st.sources else np.zeros(n, complex)
     return E, H, H_ac, b
+
+
+def _matrices(circuit, layout, n: int):
+    """Dense E, H, H_ac, B U_ac of a row on the first row's layout."""
+    from ..devices.linear import stamp_linear
+    from ..mna.assemble import group_by_kind
+
+    return _dense(stamp_linear(circuit, layout, group_by_kind(circuit)), n)
+
+
+# -- replayed rows -----------------------------------------------------------------------------
+def _fields(el) -> dict[tuple, float]:
+    """The numeric fields of an element a trace can bind, by key (``("value",)``, ``("param", k)`` ...)."""
+    out: dict[tuple, float] = {}
+    if el.value is not None:
+        out[("value",)] = el.value
+    for k, v in el.params.items():
+        out[("param", k)] = v
+    if el.source is not None:
+        if el.source.dc is not None:
+            out[("dc",)] = el.source.dc
+        out[("ac_mag",)] = el.source.ac_mag
+        out[("ac_phase",)] = el.source.ac_phase
+    return out
+
+
+def _with_field(el, key: tuple, value: float):
+    """A copy of ``el`` with the field ``key`` set to ``value``."""
+    if key[0] == "value":
+        return dataclasses.replace(el, value=value)
+    if key[0] == "param":
+        return dataclasses.replace(el, params={**el.params, key[1]: value})
+    return dataclasses.replace(el, source=dataclasses.replace(el.source, **{key[0]: value}))
+
+
+class _Values:
+    """Every row's element fields from the first row's recorded elaboration.
+
+    Parameters
+    ----------
+    job : Job
+    trace : Trace
+        The first row's elaboration.
+    circuit : Circuit
+        The first row's circuit.
+    row : Row
+        The first row.
+    """
+
+    def __init__(self, job: Job, trace, circuit, row: Row) -> None:
+        from ..netlist.params import INFO, OTHER, Replay
+
+        self.job = job
+        self.replay = Replay(trace, job.seed)
+        self.nominal = [e.value for e in trace.events]
+        self.checked = [k for k, e in enumerate(trace.events) if e.role == OTHER]
+        bound = {e.role: k for k, e in enumerate(trace.events) if e.role not in (INFO, OTHER)}
+        _, stepped = job.plan.overrides(row)
+        self.fields: list[tuple[str, tuple]] = []  # (element, key)
+        self.source: list[tuple[str, int]] = []    # ("event", k) or ("step", element)
+        self.trusted: set[str] = set()             # elements whose every field is known per row
+        for el in circuit.elements:
+            fields = _fields(el)
+            known = True
+            for key, value in fields.items():
+                step_key = ("dc",) if el.source is not None else ("value",)
+                if el.name in stepped and key == step_key:
+                    where = ("step", el.name)
+                elif (el.name, *key) in bound and self.nominal[bound[(el.name, *key)]] == value:
+                    where = ("event", bound[(el.name, *key)])
+                else:
+                    known = False
+                    continue
+                self.fields.append((el.name, key))
+                self.source.append(where)
+            if known:
+                self.trusted.add(el.name)
+        self.f0 = np.array([_fields(circuit.element(name))[key] for name, key in self.fields])
+
+    def row(self, row: Row) -> np.ndarray | None:
+        """The fields of ``row`` (in :attr:`fields` order), or None when its replay is not the recorded one."""
+        from ..netlist.params import ReplayMismatch
+
+        params, stepped = self.job.plan.overrides(row)
+        try:
+            events = self.replay.values(row.sample if row.sample is not None else 0,
+                                        {**self.job.overrides, **params})
+        except (NetdaeError, ReplayMismatch, ValueError, ArithmeticError):
+            return None
+        nominal = self.nominal
+        if any(events[k] != nominal[k] for k in self.checked):
+            return None
+        return np.array([events[where[1]] if where[0] == "event" else float(stepped[where[1]])
+                         for where in self.source])
+
+
+@dataclass
+class _Law:
+    """How the matrices of a circuit change with one element field."""
+
+    column: int
+    law: str
+    delta: np.ndarray  # the stamp at twice the field minus the stamp at the field, flattened
+
+
+def _law(circuit, layout, n: int, el, key: tuple, value: float) -> tuple[str, np.ndarray] | None:
+    """The stamp law of ``el``'s field ``key`` at ``value`` and the stamp's change at twice it (None: neither)."""
+    from ..devices.linear import stamp_linear
+
+    def stamp(v):
+        return np.concatenate([np.ravel(m) for m in _dense(stamp_linear(circuit, layout, {el.kind: [_with_field(
+            el, key, v)]}), n)]).astype(complex)
+
+    try:
+        c1, c2, c4 = stamp(value), stamp(2.0 * value), stamp(4.0 * value)
+    except (NetdaeError, ValueError, ArithmeticError):
+        return None
+    d1, d2 = c2 - c1, c4 - c2
+    if np.array_equal(d2, 2.0 * d1):
+        return PROPORTIONAL, d1
+    if np.array_equal(d1, 2.0 * d2):
+        return RECIPROCAL, d1
+    return None
+
+
+class _LinearMap:
+    """Every replayed row's dense matrices as the first row's plus a matrix product."""
+
+    def __init__(self, values: _Values, circuit, layout, n: int, base) -> None:
+        self.values, self.circuit, self.layout, self.n = values, circuit, layout, n
+        self.base = np.concatenate([np.ravel(m) for m in base]).astype(complex)
+        coupled = {name for el in circuit.elements if el.kind == Kind.COUPLING for name in el.controls}
+        self.blocked = coupled | {el.name for el in circuit.elements if el.kind == Kind.COUPLING}
+        self.laws: dict[int, _Law | None] = {}
+
+    def _law(self, j: int) -> _Law | None:
+        if j not in self.laws:
+            name, key = self.values.fields[j]
+            v0 = float(self.values.f0[j])
+            law = None
+            if name in self.values.trusted and name not in self.blocked and v0 != 0.0:
+                found = _law(self.circuit, self.layout, self.n, self.circuit.element(name), key, v0)
+                if found is not None:
+                    law = _Law(j, *found)
+            self.laws[j] = law
+        return self.laws[j]
+
+    def matrices(self, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(ok, M)``: which rows of the fields ``F`` (rows x fields) the map covers, and their matrices.
+
+        ``M`` has shape (covered rows, 3 n^2 + n): E, H, H_ac, B U_ac flattened.
+        """
+        f0 = self.values.f0
+        ok = np.ones(F.shape[0], dtype=bool)
+        scale_cols, laws = [], []
+        for j in np.flatnonzero(np.any(F != f0[None, :], axis=0)):
+            law = self._law(int(j))
+            moved = F[:, j] != f0[j]
+            if law is None:
+                ok &= ~moved
+                continue
+            v0 = f0[j]
+            v = F[:, j]
+            ok &= (v != 0.0) & (np.sign(v) == np.sign(v0))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s = (v - v0) / v0 if law.law == PROPORTIONAL else 2.0 * (1.0 - v0 / v)
+            scale_cols.append(np.where(moved, s, 0.0))
+            laws.append(law)
+        M = np.broadcast_to(self.base, (int(ok.sum()), self.base.size))
+        if laws:
+            S = np.stack(scale_cols, axis=1)[ok]
+            M = M + S @ np.stack([law.delta for law in laws])
+        return ok, M
 
 
 @dataclass
@@ -80,6 +271,33 @@ class _Stamped:
     seconds: float
 
 
+def _replayed(job: Job, rows: list[Row], values: _Values | None, linear: _LinearMap | None, circuit0, n: int):
+    """The rows the linear map covers as :class:`_Stamped` (one shared circuit), and the others."""
+    if values is None or linear is None or not rows:
+        return [], rows
+    t0 = time.perf_counter()
+    fields, got, rest = [], [], []
+    for row in rows:
+        f = values.row(row)
+        if f is None:
+            rest.append(row)
+        else:
+            fields.append(f)
+            got.append(row)
+    if not got:
+        return [], rest
+    ok, M = linear.matrices(np.array(fields).reshape(len(got), len(values.fields)))
+    nn = n * n
+    share = (time.perf_counter() - t0) / len(rows)
+    out = []
+    for row, m in zip([r for r, good in zip(got, ok) if good], M):
+        out.append(_Stamped(row, circuit0, m[:nn].real.reshape(n, n), m[nn:2 * nn].real.reshape(n, n),
+                            m[2 * nn:3 * nn].real.reshape(n, n), m[3 * nn:], share))
+    rest.extend(r for r, good in zip(got, ok) if not good)
+    rest.sort(key=lambda r: r.index)
+    return out, rest
+
+
 def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """The outcomes of ``rows`` from one batched solve, or None when the batch path does not apply.
 
@@ -90,12 +308,14 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """
     from ..analyses.ac import frequencies
     from ..analyses.runner import measure
+    from ..netlist.params import Trace
     from ..results import Result, Statistics
     from ..topology.graph import structure_key
 
     if len(rows) < 2:
         return None
-    probe = _linear_ac(job, rows[0])
+    trace = Trace()
+    probe = _linear_ac(job, rows[0], trace)
     if probe is None:
         return None
     circuit0, system0, freqs = probe
@@ -105,8 +325,12 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
         return None
     outcomes: dict[int, Outcome] = {rows[0].index: first}
     n, names = system0.n, system0.names
-    batch: list[_Stamped] = []
-    for row in rows[1:]:
+    values = linear = None
+    if trace.broken is None and not any(a.target in ("temp", "model") for a in job.plan.axes):
+        values = _Values(job, trace, circuit0, rows[0])
+        linear = _LinearMap(values, circuit0, system0.layout, n, _matrices(circuit0, system0.layout, n))
+    batch, rest = _replayed(job, rows[1:], values, linear, circuit0, n)
+    for row in rest:
         t0 = time.perf_counter()
         try:
             circuit = elaborate_row(job, row)
