@@ -32,6 +32,7 @@ the ordinary path and gets its message.
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 from dataclasses import dataclass
 
@@ -47,7 +48,7 @@ __all__ = ["ac_batch", "RANK_TOLERANCE", "MAX_BATCH_ENTRIES"]
 
 #: A row whose DC matrix has sigma_min <= RANK_TOLERANCE * n * eps * sigma_max goes the ordinary way.
 RANK_TOLERANCE = 1e3
-#: Largest number of complex matrix entries one batched solve holds (about 320 MB).
+#: Largest number of complex solution entries one batched solve holds (about 320 MB).
 MAX_BATCH_ENTRIES = 20_000_000
 #: The stamp laws of a field: its stamp changes in proportion to the field or to its reciprocal.
 PROPORTIONAL, RECIPROCAL = "proportional", "reciprocal"
@@ -298,6 +299,45 @@ def _replayed(job: Job, rows: list[Row], values: _Values | None, linear: _Linear
     return out, rest
 
 
+@dataclass
+class _Prepared:
+    """What every chunk of a sweep's linear AC rows shares (built from the sweep's first row)."""
+
+    circuit: object
+    system: object
+    freqs: np.ndarray
+    key: object
+    values: _Values | None
+    linear: _LinearMap | None
+    lock: threading.Lock = dataclasses.field(default_factory=threading.Lock)  # the replay's scopes are reused
+
+
+#: What this process prepared per sweep (``Job.token``; None: the batch path does not apply), the last few.
+_PREPARED: dict[str, _Prepared | None] = {}
+#: How many sweeps' preparations a process keeps.
+KEEP_PREPARED = 4
+
+
+def _prepare(job: Job, row: Row) -> tuple[_Prepared | None, Outcome | None]:
+    """The shared part of the batch path from ``row`` and that row's ordinary outcome (None: no batch path)."""
+    from ..netlist.params import Trace
+    from ..topology.graph import structure_key
+
+    trace = Trace()
+    probe = _linear_ac(job, row, trace)
+    if probe is None:
+        return None, None
+    circuit, system, freqs = probe
+    first = run_row(job, row)  # the ordinary path: the operating point and its checks
+    if first.error is not None:
+        return None, None
+    values = linear = None
+    if trace.broken is None and not any(a.target in ("temp", "model") for a in job.plan.axes):
+        values = _Values(job, trace, circuit, row)
+        linear = _LinearMap(values, circuit, system.layout, system.n, _matrices(circuit, system.layout, system.n))
+    return _Prepared(circuit, system, freqs, structure_key(circuit), values, linear), first
+
+
 def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """The outcomes of ``rows`` from one batched solve, or None when the batch path does not apply.
 
@@ -308,28 +348,29 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """
     from ..analyses.ac import frequencies
     from ..analyses.runner import measure
-    from ..netlist.params import Trace
+    from ..dae.compiled.batch import shifted_solves
     from ..results import Result, Statistics
     from ..topology.graph import structure_key
 
-    if len(rows) < 2:
-        return None
-    trace = Trace()
-    probe = _linear_ac(job, rows[0], trace)
-    if probe is None:
-        return None
-    circuit0, system0, freqs = probe
-    key = structure_key(circuit0)
-    first = run_row(job, rows[0])  # the ordinary path: the operating point and its checks
-    if first.error is not None:
-        return None
-    outcomes: dict[int, Outcome] = {rows[0].index: first}
-    n, names = system0.n, system0.names
-    values = linear = None
-    if trace.broken is None and not any(a.target in ("temp", "model") for a in job.plan.axes):
-        values = _Values(job, trace, circuit0, rows[0])
-        linear = _LinearMap(values, circuit0, system0.layout, n, _matrices(circuit0, system0.layout, n))
-    batch, rest = _replayed(job, rows[1:], values, linear, circuit0, n)
+    outcomes: dict[int, Outcome] = {}
+    prep = _PREPARED.get(job.token) if job.token else None
+    if prep is None:
+        if len(rows) < 2 or job.token in _PREPARED:
+            return None
+        prep, first = _prepare(job, rows[0])
+        if job.token:
+            while len(_PREPARED) >= KEEP_PREPARED:
+                del _PREPARED[next(iter(_PREPARED))]
+            _PREPARED[job.token] = prep
+        if prep is None:
+            return None
+        outcomes[rows[0].index] = first
+        rows_left = rows[1:]
+    else:
+        rows_left = rows
+    circuit0, freqs, key, n, names = prep.circuit, prep.freqs, prep.key, prep.system.n, prep.system.names
+    with prep.lock:
+        batch, rest = _replayed(job, rows_left, prep.values, prep.linear, circuit0, n)
     for row in rest:
         t0 = time.perf_counter()
         try:
@@ -340,7 +381,7 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
                 or not np.array_equal(frequencies(circuit.analyses[0]), freqs)):
             outcomes[row.index] = run_row(job, row)
             continue
-        E, H, H_ac, b = _matrices(circuit, system0.layout, n)
+        E, H, H_ac, b = _matrices(circuit, prep.system.layout, n)
         batch.append(_Stamped(row, circuit, E, H, H_ac, b, time.perf_counter() - t0))
     if batch:
         sv = np.linalg.svd(np.stack([item.H for item in batch]), compute_uv=False)
@@ -352,21 +393,22 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
             else:
                 keep.append(item)
         w = 2j * np.pi * freqs
-        per = max(1, MAX_BATCH_ENTRIES // max(w.size * n * n, 1))
+        per = max(1, MAX_BATCH_ENTRIES // max(w.size * n, 1))
+        A, x = np.empty((n, n), dtype=complex), np.empty(n, dtype=complex)
         for start in range(0, len(keep), per):
             part = keep[start:start + per]
             t0 = time.perf_counter()
-            mats = w[None, :, None, None] * np.stack([item.E for item in part])[:, None] \
-                - np.stack([item.H_ac for item in part])[:, None]
-            bs = np.stack([item.b for item in part])
-            try:
-                X = np.linalg.solve(mats, np.broadcast_to(bs[:, None, :, None], mats.shape[:3] + (1,)))[..., 0]
-            except np.linalg.LinAlgError:
-                for item in part:
+            X = np.empty((len(part), w.size, n), dtype=complex)
+            singular = np.zeros(len(part), dtype=np.int64)
+            shifted_solves(np.stack([item.E for item in part]), np.stack([item.H_ac for item in part]),
+                           np.stack([item.b for item in part]).astype(complex), w, A, x, X, singular)
+            for item, bad in zip(part, singular):
+                if bad:
                     outcomes[item.row.index] = run_row(job, item.row)
-                continue
             share = (time.perf_counter() - t0) / len(part)
             for k, item in enumerate(part):
+                if singular[k]:
+                    continue
                 t1 = time.perf_counter()
                 res = Result("ac", axes={"frequency": freqs},
                              signals={name: X[k, :, i] for i, name in enumerate(names)},

@@ -48,6 +48,9 @@ class Job:
         Signals whose waveforms are kept.
     options : dict
         ``reltol``/``abstol``/``vntol`` given by the caller.
+    token : str
+        Unique to one sweep: what a process keeps between the sweep's tasks
+        (:mod:`netdae.sweeps.linear`) is found by it ("": keep nothing).
     """
 
     netlist: Any
@@ -58,6 +61,7 @@ class Job:
     analyses: tuple[str, ...] | None
     save: tuple[str, ...]
     options: dict = field(default_factory=dict)
+    token: str = ""
 
 
 @dataclass
