@@ -3,9 +3,14 @@
 When the circuit is linear and small (at most :data:`~netdae.analyses.ac.DENSE_AC_LIMIT`
 unknowns) and its only analyses are ``.ac``, the rows of a chunk are solved
 in one batched dense solve of ``(j w E_r - H_r) X = B_r U_r`` over all rows
-and frequencies. The first row of a chunk runs the ordinary analysis
-(operating point included), so that a circuit the ordinary path refuses is
-refused the same way. The other rows get their matrices in one of two ways:
+and frequencies (:func:`netdae.dae.shifted.shifted_solves`: one generalized
+Schur form per row, then triangular solves for all rows and frequencies at
+once) and measured together (:func:`netdae.analyses.measure.evaluate_measure_rows`;
+a ``Result`` per row only when waveforms are saved). The sweep's first row
+runs the ordinary analysis (operating point included), so that a circuit the
+ordinary path refuses is refused the same way; what it prepares is kept for
+the sweep's later chunks in the process (by ``Job.token``). The other rows
+get their matrices in one of two ways:
 
 - **replayed** (most rows): the first row's elaboration is recorded
   (:class:`~netdae.netlist.params.Trace`) and repeated for each row's
@@ -234,7 +239,9 @@ class _LinearMap:
     def matrices(self, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(ok, M)``: which rows of the fields ``F`` (rows x fields) the map covers, and their matrices.
 
-        ``M`` has shape (covered rows, 3 n^2 + n): E, H, H_ac, B U_ac flattened.
+        ``M`` has shape (covered rows, 3 n^2 + n): E, H, H_ac, B U_ac flattened. Each row's
+        matrices are the reference row's plus its fields' changes added in field order, the same
+        arithmetic whatever other rows are computed with it (a field that does not move adds zero).
         """
         f0 = self.values.f0
         ok = np.ones(F.shape[0], dtype=bool)
@@ -253,9 +260,8 @@ class _LinearMap:
             scale_cols.append(np.where(moved, s, 0.0))
             laws.append(law)
         M = np.broadcast_to(self.base, (int(ok.sum()), self.base.size))
-        if laws:
-            S = np.stack(scale_cols, axis=1)[ok]
-            M = M + S @ np.stack([law.delta for law in laws])
+        for scale, law in zip(scale_cols, laws):
+            M = M + scale[ok][:, None] * law.delta[None, :]
         return ok, M
 
 
@@ -297,6 +303,27 @@ def _replayed(job: Job, rows: list[Row], values: _Values | None, linear: _Linear
     rest.extend(r for r, good in zip(got, ok) if not good)
     rest.sort(key=lambda r: r.index)
     return out, rest
+
+
+def _measured(job: Job, circuit, freqs: np.ndarray, names, X: np.ndarray) -> list[Outcome]:
+    """The outcomes of rows of ``circuit`` from their phasors ``X`` (rows, frequencies, unknowns), measured
+    together (:func:`netdae.analyses.measure.evaluate_measure_rows`); only measures, no waveforms."""
+    from ..analyses.measure import evaluate_measure_rows
+    from ..results import Result
+
+    res = Result("ac", axes={"frequency": freqs}, signals={name: X[:, :, i] for i, name in enumerate(names)},
+                 message="ok")
+    outs = []
+    for r, ms in enumerate(evaluate_measure_rows(circuit.measures, {"ac": res}, X.shape[0])):
+        out = Outcome(-1)
+        for m in ms:
+            if m.analysis != "ac":  # as the runner attaches measures: to a result of their analysis
+                continue
+            out.measures[m.name] = float(m.value) if m.ok and m.value is not None else float("nan")
+            if not m.ok:
+                out.reasons[m.name] = m.reason or "failed"
+        outs.append(out)
+    return outs
 
 
 @dataclass
@@ -348,7 +375,7 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     """
     from ..analyses.ac import frequencies
     from ..analyses.runner import measure
-    from ..dae.compiled.batch import shifted_solves
+    from ..dae.shifted import shifted_solves
     from ..results import Result, Statistics
     from ..topology.graph import structure_key
 
@@ -357,17 +384,17 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     if prep is None:
         if len(rows) < 2 or job.token in _PREPARED:
             return None
-        prep, first = _prepare(job, rows[0])
+        first_row = job.plan.rows[0]  # the same reference row in every process and chunk
+        prep, first = _prepare(job, first_row)
         if job.token:
             while len(_PREPARED) >= KEEP_PREPARED:
                 del _PREPARED[next(iter(_PREPARED))]
             _PREPARED[job.token] = prep
         if prep is None:
             return None
-        outcomes[rows[0].index] = first
-        rows_left = rows[1:]
-    else:
-        rows_left = rows
+        if any(row.index == first_row.index for row in rows):
+            outcomes[first_row.index] = first
+    rows_left = [row for row in rows if row.index not in outcomes]
     circuit0, freqs, key, n, names = prep.circuit, prep.freqs, prep.key, prep.system.n, prep.system.names
     with prep.lock:
         batch, rest = _replayed(job, rows_left, prep.values, prep.linear, circuit0, n)
@@ -394,21 +421,28 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
                 keep.append(item)
         w = 2j * np.pi * freqs
         per = max(1, MAX_BATCH_ENTRIES // max(w.size * n, 1))
-        A, x = np.empty((n, n), dtype=complex), np.empty(n, dtype=complex)
         for start in range(0, len(keep), per):
             part = keep[start:start + per]
             t0 = time.perf_counter()
-            X = np.empty((len(part), w.size, n), dtype=complex)
-            singular = np.zeros(len(part), dtype=np.int64)
-            shifted_solves(np.stack([item.E for item in part]), np.stack([item.H_ac for item in part]),
-                           np.stack([item.b for item in part]).astype(complex), w, A, x, X, singular)
+            X, singular = shifted_solves(np.stack([item.E for item in part]), np.stack([item.H_ac for item in part]),
+                                         np.stack([item.b for item in part]), w)
             for item, bad in zip(part, singular):
                 if bad:
                     outcomes[item.row.index] = run_row(job, item.row)
             share = (time.perf_counter() - t0) / len(part)
-            for k, item in enumerate(part):
-                if singular[k]:
-                    continue
+            good = [k for k, item in enumerate(part) if not singular[k]]
+            shared = [k for k in good if part[k].circuit is circuit0]
+            if shared and not job.save:  # one measurement of all rows of the first row's circuit
+                t1 = time.perf_counter()
+                for k, out in zip(shared, _measured(job, circuit0, freqs, names, X[shared])):
+                    out.row = part[k].row.index
+                    outcomes[out.row] = out
+                each = (time.perf_counter() - t1) / len(shared)
+                for k in shared:
+                    outcomes[part[k].row.index].seconds = part[k].seconds + share + each
+                good = sorted(set(good) - set(shared))
+            for k in good:
+                item = part[k]
                 t1 = time.perf_counter()
                 res = Result("ac", axes={"frequency": freqs},
                              signals={name: X[k, :, i] for i, name in enumerate(names)},
