@@ -249,3 +249,28 @@ def test_measure_interpolation_is_numpy_interp(xq):
     assert np.array_equal(_interp(xq, x, y), np.array([np.interp(xq, x, row) for row in y]))
     per = np.resize(np.asarray(xq), 4)
     assert np.array_equal(_interp(per, x, y, per_row=True), np.array([np.interp(q, x, r) for q, r in zip(per, y)]))
+
+
+def test_a_row_whose_structure_changes_takes_the_ordinary_path(monkeypatch):
+    # a resistance that changes sign changes the structure (the topology reads the sign of R C L values)
+    text = """sign change
+V1 in 0 AC 1
+R1 in out 1k
+R2 out 0 {aunif(0.5k, 1k)}
+C1 out 0 1u
+.ac dec 10 1 100k
+.meas ac g find vm(out) at=100
+"""
+    from netdae.netlist.montecarlo import Draws
+
+    def r2(seed, k):
+        return Draws(seed, k).draw("aunif", [500.0, 1000.0])
+
+    seed = next(s for s in range(1, 100) if r2(s, 0) > 0 and min(r2(s, k) for k in range(8)) < 0)
+    negative = [k for k in range(8) if r2(seed, k) < 0]
+    ordinary = _ordinary(monkeypatch, text, samples=8, seed=seed)
+    seen = _spy(monkeypatch)
+    batched = netdae.sweep(text, samples=8, seed=seed, workers=1)
+    _same(batched, ordinary)
+    assert set(negative) <= set(seen["ordinary"]) and set(negative) <= set(seen["elaborated"])
+    assert len(seen["ordinary"]) == len(negative) + 1  # and the reference row

@@ -97,7 +97,10 @@ def _part(values: np.ndarray, part: str, analysis: str) -> np.ndarray:
 
 
 class _Trace:
-    """One real quantity: its values at the analysis points and between them."""
+    """One real quantity of a transient with dense output: its values at the steps and between them.
+
+    (Results without dense output are read on straight lines by :class:`_Lines`.)
+    """
 
     def __init__(self, result: Result, probe: Probe) -> None:
         self.name = probe.name
@@ -107,13 +110,11 @@ class _Trace:
         except KeyError:
             raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
                                  "(not saved: add it to .save)") from None
-        self.dense = None
-        if result.analysis == "tran" and result.dense is not None:
-            def dense(t, _r=result, _p=probe):
-                t = np.atleast_1d(np.asarray(t, dtype=float))
-                view = Result("tran", axes={"time": t}, signals=_r.dense(t))
-                return _part(view[_p.signal.name], _p.part, "tran")
-            self.dense = dense
+        def dense(t, _r=result, _p=probe):
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+            view = Result("tran", axes={"time": t}, signals=_r.dense(t))
+            return _part(view[_p.signal.name], _p.part, "tran")
+        self.dense = dense
 
     @property
     def span(self) -> tuple[float, float]:
@@ -121,20 +122,17 @@ class _Trace:
 
     def at(self, xq) -> np.ndarray:
         """Values at ``xq`` (left values at a jump)."""
-        xq = np.atleast_1d(np.asarray(xq, dtype=float))
-        if self.dense is not None:
-            return self.dense(xq)
-        return np.interp(xq, self.x, self.y)
+        return self.dense(np.atleast_1d(np.asarray(xq, dtype=float)))
 
     def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """Points in [lo, hi] in order (ends included; for a transient also inner points of every step)."""
+        """Points in [lo, hi] in order (ends included, and inner points of every step)."""
         x, y = self.x, self.y
-        if self.dense is not None and x.size > 1:
+        if x.size > 1:
             # only the steps that overlap [lo, hi]
             first = max(int(np.searchsorted(x, lo, side="right")) - 1, 0)
             last = min(int(np.searchsorted(x, hi, side="left")) + 1, x.size)
             x, y = x[first:last], y[first:last]
-        if self.dense is not None and x.size > 1:
+        if x.size > 1:
             h = np.diff(x)
             xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
             ys = np.empty_like(xs)
@@ -153,15 +151,10 @@ class _Trace:
         """The integral of ``y**power`` over [lo, hi]."""
         knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
         a, b = knots[:-1], knots[1:]
-        if self.dense is not None:
-            gl_x, gl_w = _GL[power]
-            nodes = a[:, None] + (b - a)[:, None] * gl_x[None, :]
-            values = self.dense(nodes.ravel()).reshape(nodes.shape) ** power
-            return float(np.sum((b - a) * (values @ gl_w)))
-        ya, yb = self.at(a), self.at(b)
-        if power == 1:
-            return float(np.sum((b - a) * (ya + yb) / 2.0))
-        return float(np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0))
+        gl_x, gl_w = _GL[power]
+        nodes = a[:, None] + (b - a)[:, None] * gl_x[None, :]
+        values = self.dense(nodes.ravel()).reshape(nodes.shape) ** power
+        return float(np.sum((b - a) * (values @ gl_w)))
 
     def polynomials(self, steps: np.ndarray) -> np.ndarray:
         """The dense output on each step ``[x[i-1], x[i]]`` as a polynomial in ``s = (t - x[i-1]) / h``.
@@ -182,7 +175,7 @@ class _Trace:
         return values @ _CHEB_FIT.T
 
     def derivative(self, xq: float) -> float:
-        """The slope at ``xq`` (a transient: of its step's polynomial)."""
+        """The slope at ``xq``: of its step's polynomial."""
         x = self.x
         i = int(np.clip(np.searchsorted(x, xq, side="left"), 1, x.size - 1))
         while i < x.size - 1 and x[i] == x[i - 1]:
@@ -190,8 +183,6 @@ class _Trace:
         a, b = x[i - 1], x[i]
         if b == a:
             raise MeasureFailure(f"{self.name} jumps at {xq:g}: no derivative there")
-        if self.dense is None:
-            return float((self.y[i] - self.y[i - 1]) / (b - a))
         coef = self.polynomials(np.array([i]))[0]
         return float(np.polyval(np.polyder(coef), (xq - a) / (b - a)) / (b - a))
 
@@ -217,7 +208,6 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
     if nonzero.size and nonzero[0] > 0:  # starting on the value is not a crossing: the side is where it goes
         above[: nonzero[0]] = above[nonzero[0]]
     change = np.flatnonzero(above[1:] != above[:-1])
-    dense = trace.dense is not None
 
     def g(t):
         value = trace.at([t])[0]
@@ -233,10 +223,8 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
             t = b
         elif kind == "fall" and da == 0:
             t = a
-        elif dense:
-            t = _root(g, a, b, da, db)
         else:
-            t = a + (0.0 - da) * (b - a) / (db - da)
+            t = _root(g, a, b, da, db)
         out.append((float(t), kind))
     return out
 
@@ -364,7 +352,7 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
     xs, ys = trace.samples(lo, hi) if samples is None else samples
     k = int(np.argmax(sign * ys))
     best, where = float(ys[k]), float(xs[k])
-    if trace.dense is None or xs.size <= 2:
+    if xs.size <= 2:
         return best, where
     a, b = xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]
     x = trace.x
@@ -386,6 +374,7 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
 
 
 def _measure(spec: MeasureSpec, result: Result) -> Measure:
+    """One measurement of a transient with dense output (:func:`_measure_rows` reads the others)."""
     f = spec.function
     out = Measure(spec.name, spec.analysis, f, None)
     if f == "trig":

@@ -474,6 +474,8 @@ class _Elaborator:
         self._unused_errors(self.net.top)
         circuit.diagnostics = self.diagnostics
         draws = self.root.draws
+        if self.trace is not None:
+            self.trace.finish(draws)
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
         circuit.uses_temper = TEMPER in self.root.values
         return circuit

@@ -356,6 +356,11 @@ class Trace:
             self.depth -= 1
             self._drawn = event.draws = env.draws.count if env.draws is not None else 0
 
+    def finish(self, draws: Draws) -> None:
+        """End the recording: a draw made after the last evaluation breaks the trace too."""
+        if draws.count != self._drawn and self.broken is None:
+            self.broken = "a Monte Carlo function is evaluated outside a parameter or value"
+
     def bind(self, role: tuple) -> None:
         """The last evaluation became the element field ``role``."""
         if self.events:
