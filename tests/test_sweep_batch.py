@@ -55,7 +55,7 @@ X2 out 0 shunt
 .meas ac ratio param='peak/avgm'
 """
 
-#: Controlled sources whose gains are drawn, and a stepped parameter.
+#: Controlled sources whose gains are drawn, a stepped parameter, a supply whose DC value is drawn.
 CONTROLLED = """controlled sources
 .param ge={agauss(2, 0.1, 1)} gg={agauss(1m, 50u, 1)} gf={aunif(3, 0.2)} gh={agauss(100, 5, 1)}
 .param rl=1k
@@ -72,6 +72,8 @@ F1 0 o V2 {gf}
 R4 o 0 1k
 H1 h 0 V2 {gh}
 L1 h o 1m
+V3 d 0 DC {agauss(5, 0.1, 1)}
+R5 d o 10k
 .ac dec 10 1k 1meg
 .meas ac vo max vm(o)
 .meas ac fo when vm(o)=0.5 fall=1

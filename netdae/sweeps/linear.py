@@ -115,6 +115,10 @@ def _fields(el) -> dict[tuple, float]:
     return out
 
 
+#: A source's fields that elaboration leaves at these values when its card does not give them.
+_SOURCE_DEFAULTS = {("ac_mag",): 0.0, ("ac_phase",): 0.0}
+
+
 def _with_field(el, key: tuple, value: float):
     """A copy of ``el`` with the field ``key`` set to ``value``."""
     if key[0] == "value":
@@ -159,6 +163,8 @@ class _Values:
                     where = ("step", el.name)
                 elif (el.name, *key) in bound and self.nominal[bound[(el.name, *key)]] == value:
                     where = ("event", bound[(el.name, *key)])
+                elif (el.name, *key) not in bound and _SOURCE_DEFAULTS.get(key) == value:
+                    continue  # not on the card: the same in every row
                 else:
                     known = False
                     continue
@@ -166,6 +172,10 @@ class _Values:
                 self.source.append(where)
             if known:
                 self.trusted.add(el.name)
+        used = {where[1] for where in self.source if where[0] == "event"}
+        # a value bound to a field the circuit no longer has as it was (a realised element, a field
+        # rewritten after elaboration) must not move
+        self.checked += sorted(k for k in bound.values() if k not in used)
         self.f0 = np.array([_fields(circuit.element(name))[key] for name, key in self.fields])
 
     def row(self, row: Row) -> np.ndarray | None:
