@@ -276,3 +276,11 @@ C1 out 0 1u
     _same(batched, ordinary)
     assert set(negative) <= set(seen["ordinary"]) and set(negative) <= set(seen["elaborated"])
     assert len(seen["ordinary"]) == len(negative) + 1  # and the reference row
+
+
+@pytest.mark.parametrize("key", [(0, 0), (1, 5), (2**31, 7), (2**32 - 1, 2**32 - 1), (2**32, 3), (5, 2**40)])
+def test_the_sample_stream_is_numpys_seed_sequence_of_the_key(key):
+    from netdae.netlist.montecarlo import generator
+
+    ref = np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key))))
+    assert np.array_equal(generator(key).standard_normal(5), ref.standard_normal(5))

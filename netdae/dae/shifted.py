@@ -73,15 +73,24 @@ def shifted_solves(E: np.ndarray, H: np.ndarray, b: np.ndarray, s: np.ndarray) -
             continue
         S[r], P[r], Z[r] = s_r, p_r, z
         c[r] = q.conj().T @ b[r]
-    Y = np.empty((m, s.size, n), dtype=complex)
+    # back substitution, component by component over all pencils and shifts: arrays (m, f), in place
+    Pt = np.ascontiguousarray(P.transpose(1, 2, 0))[..., None]  # (n, n, m, 1)
+    St = np.ascontiguousarray(S.transpose(1, 2, 0))[..., None]
+    Y = np.empty((n, m, s.size), dtype=complex)
+    term = np.empty((m, s.size), dtype=complex)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         for i in range(n - 1, -1, -1):
-            acc = np.repeat(c[:, None, i], s.size, axis=1)
+            acc = Y[i]
+            acc[...] = c[:, i, None]
             for j in range(i + 1, n):
-                acc -= (s[None, :] * P[:, None, i, j] - S[:, None, i, j]) * Y[:, :, j]
-            pivot = s[None, :] * P[:, None, i, i] - S[:, None, i, i]
-            failed |= np.any(pivot == 0, axis=1)
-            Y[:, :, i] = acc / pivot
-        X = Y @ Z.transpose(0, 2, 1)
+                np.multiply(s, Pt[i, j], out=term)
+                np.subtract(term, St[i, j], out=term)
+                np.multiply(term, Y[j], out=term)
+                np.subtract(acc, term, out=acc)
+            np.multiply(s, Pt[i, i], out=term)
+            np.subtract(term, St[i, i], out=term)
+            failed |= np.any(term == 0, axis=1)
+            np.divide(acc, term, out=acc)
+        X = np.matmul(Y.transpose(1, 2, 0), Z.transpose(0, 2, 1))
     failed |= ~np.all(np.isfinite(X), axis=(1, 2))
     return X, failed

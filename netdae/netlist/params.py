@@ -397,9 +397,11 @@ class Replay:
         for k, event in enumerate(trace.events):
             env = self._copy(event.env)
             kind = event.what[0]
-            constant = kind == "val" and type(event.what[1][0]) is float
-            if not constant:
-                self._steps.append((k, kind, env, event))
+            if kind == "val" and type(event.what[1][0]) is float:
+                continue  # a constant
+            self._steps.append((k, env, event.what, event.draws, event.error))
+        self._envs = list(self._scopes.values())
+        self._recorded = [e.value for e in trace.events]
         self.draws = trace.events[-1].draws if trace.events else 0
 
     def _copy(self, env: Env) -> Env:
@@ -440,26 +442,24 @@ class Replay:
             not, or the draws differ in number).
         """
         draws = Draws(self.seed, sample)
-        for env in self._scopes.values():
+        for env in self._envs:
             env.values = {}
             env.draws = draws
         if self._root is not None:
-            self._root.values = {**self.trace.initial, **(params or {})}
-        out: list[float | None] = [e.value for e in self.trace.events]
-        for k, kind, env, event in self._steps:
+            self._root.values = {**self.trace.initial, **params} if params else dict(self.trace.initial)
+        out: list[float | None] = self._recorded.copy()
+        for k, env, what, drawn, error in self._steps:
             try:
-                value = evaluate_val(event.what[1], env, event.what[2], event.what[3]) if kind == "val" \
-                    else env.value(event.what[1])
+                out[k] = evaluate_val(what[1], env, what[2], what[3]) if what[0] == "val" else env.value(what[1])
             except Exception as exc:
-                if event.error is not None and isinstance(exc, event.error):
+                if error is not None and isinstance(exc, error):
                     out[k] = None
                     continue
                 raise
-            if event.error is not None:
+            if error is not None:
                 raise ReplayMismatch(f"an evaluation that failed when recorded succeeds in sample {sample}")
-            if draws.count != event.draws:
+            if draws.count != drawn:
                 raise ReplayMismatch(f"sample {sample} draws in another place than the recorded elaboration")
-            out[k] = value
         if draws.count != self.draws:
             raise ReplayMismatch(f"sample {sample} draws {draws.count} values, the recorded elaboration "
                                  f"{self.draws}")
