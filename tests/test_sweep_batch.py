@@ -22,16 +22,17 @@ from netdae.netlist.params import Replay, Trace
 #: Relative agreement asked of the batched measures with the ordinary path's.
 RTOL = 1e-12
 
-#: Every Monte Carlo function, global (.param) and per instance (element values, subcircuit parameters).
+#: Every Monte Carlo function, global (.param) and per instance (element values, subcircuit parameters), a .func.
 MC_ALL = """band-pass with every Monte Carlo function
 .param rg={agauss(1k, 50, 1)} cg={gauss(100n, 0.05, 1)} lg={unif(10m, 0.1)}
+.func half(x) {x/2}
 .subckt shunt a b rv=1k
 R1 a m {rv}
 C1 m b {aunif(100n, 5n)}
 .ends
 V1 in 0 DC 0 AC 1
 R1 in a {rg}
-L1 a b {lg}
+L1 a b {half(2*lg)}
 C1 b out {cg}
 R2 out 0 {limit(500, 50)}
 X1 out 0 shunt rv={agauss(2k, 100, 1)}
@@ -284,3 +285,26 @@ def test_the_sample_stream_is_numpys_seed_sequence_of_the_key(key):
 
     ref = np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key))))
     assert np.array_equal(generator(key).standard_normal(5), ref.standard_normal(5))
+
+
+@pytest.mark.parametrize("coupling", ["K1 L1 L2 0.9", "* uncoupled"])
+def test_coupled_inductors_and_ac_resistances_equal_the_ordinary_path(monkeypatch, coupling):
+    # a coupled inductor's stamp is not its own (M = k sqrt(L1 L2)): rows where it moves are elaborated again;
+    # the ac= resistance is what .ac sees (H_ac), replayed
+    text = f"""transformer
+V1 in 0 AC 1
+R1 in a 50 ac={{agauss(60, 3, 1)}}
+L1 a 0 {{agauss(1m, 50u, 1)}}
+L2 b 0 4m
+{coupling}
+R3 a b 10k
+R2 b 0 {{agauss(1k, 50, 1)}}
+.ac dec 10 100 1meg
+.meas ac vb max vm(b)
+.meas ac fb max_at vm(b)
+"""
+    ordinary = _ordinary(monkeypatch, text, samples=8)
+    seen = _spy(monkeypatch)
+    batched = netdae.sweep(text, samples=8, workers=1)
+    _same(batched, ordinary)
+    assert len(seen["elaborated"]) == (8 if coupling.startswith("K") else 1) and seen["ordinary"] == [0]
