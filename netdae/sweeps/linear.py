@@ -9,8 +9,9 @@ once) and measured together (:func:`netdae.analyses.measure.evaluate_measure_row
 a ``Result`` per row only when waveforms are saved). The sweep's first row
 runs the ordinary analysis (operating point included), so that a circuit the
 ordinary path refuses is refused the same way; what it prepares is kept for
-the sweep's later chunks in the process (by ``Job.token``). The other rows
-get their matrices in one of two ways:
+the sweep's later chunks in the process (by ``Job.token``; a worker process
+prepares from the same first row). The other rows get their matrices in one
+of two ways:
 
 - **replayed** (most rows): the first row's elaboration is recorded
   (:class:`~netdae.netlist.params.Trace`) and repeated for each row's
@@ -21,8 +22,9 @@ get their matrices in one of two ways:
   change (:func:`netdae.devices.linear.stamp_linear` of that element alone)
   and ``s_r`` the field's relative change when the stamp is proportional to
   the field (a capacitance, a gain, an AC magnitude) or to its reciprocal (a
-  resistance), found by stamping it at 1, 2 and 4 times its value; all rows'
-  matrices are then one matrix product;
+  resistance), found by stamping it at 1, 2 and 4 times its value; the changes
+  are added in field order, so a row's matrices do not depend on the other rows
+  of its chunk (the same numbers whatever the chunking and the workers);
 - **elaborated**: a row whose replay cannot be shown equivalent (an
   evaluation that differs from the recorded one in what it does, an
   analysis card, model or measure value that changes, a field whose stamp
