@@ -308,3 +308,20 @@ R2 b 0 {{agauss(1k, 50, 1)}}
     batched = netdae.sweep(text, samples=8, workers=1)
     _same(batched, ordinary)
     assert len(seen["elaborated"]) == (8 if coupling.startswith("K") else 1) and seen["ordinary"] == [0]
+
+
+def test_an_element_with_two_moving_fields_is_elaborated_again(monkeypatch):
+    # the value and the multiplier of R2 both drawn: the stamp is m / R, the changes multiply
+    text = """two fields
+V1 in 0 AC 1
+R1 in out 1k
+R2 out 0 {agauss(1k, 50, 1)} m={aunif(2, 0.5)}
+C1 out 0 1u
+.ac dec 10 1 100k
+.meas ac g find vm(out) at=100
+"""
+    ordinary = _ordinary(monkeypatch, text, samples=6)
+    seen = _spy(monkeypatch)
+    batched = netdae.sweep(text, samples=6, workers=1)
+    _same(batched, ordinary)
+    assert len(seen["elaborated"]) == 6 and seen["ordinary"] == [0]

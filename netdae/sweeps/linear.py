@@ -258,7 +258,14 @@ class _LinearMap:
         f0 = self.values.f0
         ok = np.ones(F.shape[0], dtype=bool)
         scale_cols, laws = [], []
-        for j in np.flatnonzero(np.any(F != f0[None, :], axis=0)):
+        moving = np.any(F != f0[None, :], axis=0)
+        owners: dict[str, list[int]] = {}
+        for j in np.flatnonzero(moving):
+            owners.setdefault(self.values.fields[j][0], []).append(int(j))
+        for cols in owners.values():  # two fields of one element: their changes multiply, they do not add
+            if len(cols) > 1:
+                ok &= np.sum(F[:, cols] != f0[cols], axis=1) <= 1
+        for j in np.flatnonzero(moving):
             law = self._law(int(j))
             moved = F[:, j] != f0[j]
             if law is None:
