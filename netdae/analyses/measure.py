@@ -21,9 +21,13 @@ How a signal is read between points
   (exact for the method's polynomials, order <= 5, and their squares);
   ``MIN``/``MAX`` are refined between samples; ``DERIV`` differentiates the
   step's polynomial.
-- ``ac`` and ``dc``: straight lines between the analysis points, as ngspice
-  (``vdb``, ``vm``, ``vp`` ... are formed at the points, then interpolated
-  linearly in frequency); integrals are exact for those lines.
+- ``ac`` and ``dc`` (any result without dense output): straight lines
+  between the analysis points, as ngspice (``vdb``, ``vm``, ``vp`` ... are
+  formed at the points, then interpolated linearly in frequency); integrals
+  are exact for those lines. These are evaluated for many rows at once
+  (:func:`evaluate_measure_rows`: the signals of a sweep's rows stacked,
+  shape (rows, points)); one result is the case of one row, so a sweep's
+  batched measures and a single run's are the same code.
 
 Crossings are counted as ngspice counts them: a point is *above* when the
 signal is >= the value, a rise is a change from below to above, a fall from
@@ -54,7 +58,7 @@ from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Pro
 from ..netlist import expr as ex
 from ..results import Result
 
-__all__ = ["evaluate_measures", "MeasureFailure"]
+__all__ = ["evaluate_measures", "evaluate_measure_rows", "MeasureFailure"]
 
 #: Inner sample points per step of a transient (fractions of the step).
 _INNER = np.array([0.25, 0.5, 0.75])
@@ -93,7 +97,10 @@ def _part(values: np.ndarray, part: str, analysis: str) -> np.ndarray:
 
 
 class _Trace:
-    """One real quantity: its values at the analysis points and between them."""
+    """One real quantity of a transient with dense output: its values at the steps and between them.
+
+    (Results without dense output are read on straight lines by :class:`_Lines`.)
+    """
 
     def __init__(self, result: Result, probe: Probe) -> None:
         self.name = probe.name
@@ -103,13 +110,11 @@ class _Trace:
         except KeyError:
             raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
                                  "(not saved: add it to .save)") from None
-        self.dense = None
-        if result.analysis == "tran" and result.dense is not None:
-            def dense(t, _r=result, _p=probe):
-                t = np.atleast_1d(np.asarray(t, dtype=float))
-                view = Result("tran", axes={"time": t}, signals=_r.dense(t))
-                return _part(view[_p.signal.name], _p.part, "tran")
-            self.dense = dense
+        def dense(t, _r=result, _p=probe):
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+            view = Result("tran", axes={"time": t}, signals=_r.dense(t))
+            return _part(view[_p.signal.name], _p.part, "tran")
+        self.dense = dense
 
     @property
     def span(self) -> tuple[float, float]:
@@ -117,20 +122,17 @@ class _Trace:
 
     def at(self, xq) -> np.ndarray:
         """Values at ``xq`` (left values at a jump)."""
-        xq = np.atleast_1d(np.asarray(xq, dtype=float))
-        if self.dense is not None:
-            return self.dense(xq)
-        return np.interp(xq, self.x, self.y)
+        return self.dense(np.atleast_1d(np.asarray(xq, dtype=float)))
 
     def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """Points in [lo, hi] in order (ends included; for a transient also inner points of every step)."""
+        """Points in [lo, hi] in order (ends included, and inner points of every step)."""
         x, y = self.x, self.y
-        if self.dense is not None and x.size > 1:
+        if x.size > 1:
             # only the steps that overlap [lo, hi]
             first = max(int(np.searchsorted(x, lo, side="right")) - 1, 0)
             last = min(int(np.searchsorted(x, hi, side="left")) + 1, x.size)
             x, y = x[first:last], y[first:last]
-        if self.dense is not None and x.size > 1:
+        if x.size > 1:
             h = np.diff(x)
             xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
             ys = np.empty_like(xs)
@@ -149,15 +151,10 @@ class _Trace:
         """The integral of ``y**power`` over [lo, hi]."""
         knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
         a, b = knots[:-1], knots[1:]
-        if self.dense is not None:
-            gl_x, gl_w = _GL[power]
-            nodes = a[:, None] + (b - a)[:, None] * gl_x[None, :]
-            values = self.dense(nodes.ravel()).reshape(nodes.shape) ** power
-            return float(np.sum((b - a) * (values @ gl_w)))
-        ya, yb = self.at(a), self.at(b)
-        if power == 1:
-            return float(np.sum((b - a) * (ya + yb) / 2.0))
-        return float(np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0))
+        gl_x, gl_w = _GL[power]
+        nodes = a[:, None] + (b - a)[:, None] * gl_x[None, :]
+        values = self.dense(nodes.ravel()).reshape(nodes.shape) ** power
+        return float(np.sum((b - a) * (values @ gl_w)))
 
     def polynomials(self, steps: np.ndarray) -> np.ndarray:
         """The dense output on each step ``[x[i-1], x[i]]`` as a polynomial in ``s = (t - x[i-1]) / h``.
@@ -178,7 +175,7 @@ class _Trace:
         return values @ _CHEB_FIT.T
 
     def derivative(self, xq: float) -> float:
-        """The slope at ``xq`` (a transient: of its step's polynomial)."""
+        """The slope at ``xq``: of its step's polynomial."""
         x = self.x
         i = int(np.clip(np.searchsorted(x, xq, side="left"), 1, x.size - 1))
         while i < x.size - 1 and x[i] == x[i - 1]:
@@ -186,8 +183,6 @@ class _Trace:
         a, b = x[i - 1], x[i]
         if b == a:
             raise MeasureFailure(f"{self.name} jumps at {xq:g}: no derivative there")
-        if self.dense is None:
-            return float((self.y[i] - self.y[i - 1]) / (b - a))
         coef = self.polynomials(np.array([i]))[0]
         return float(np.polyval(np.polyder(coef), (xq - a) / (b - a)) / (b - a))
 
@@ -213,7 +208,6 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
     if nonzero.size and nonzero[0] > 0:  # starting on the value is not a crossing: the side is where it goes
         above[: nonzero[0]] = above[nonzero[0]]
     change = np.flatnonzero(above[1:] != above[:-1])
-    dense = trace.dense is not None
 
     def g(t):
         value = trace.at([t])[0]
@@ -229,10 +223,8 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
             t = b
         elif kind == "fall" and da == 0:
             t = a
-        elif dense:
-            t = _root(g, a, b, da, db)
         else:
-            t = a + (0.0 - da) * (b - a) / (db - da)
+            t = _root(g, a, b, da, db)
         out.append((float(t), kind))
     return out
 
@@ -360,7 +352,7 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
     xs, ys = trace.samples(lo, hi) if samples is None else samples
     k = int(np.argmax(sign * ys))
     best, where = float(ys[k]), float(xs[k])
-    if trace.dense is None or xs.size <= 2:
+    if xs.size <= 2:
         return best, where
     a, b = xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]
     x = trace.x
@@ -382,6 +374,7 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
 
 
 def _measure(spec: MeasureSpec, result: Result) -> Measure:
+    """One measurement of a transient with dense output (:func:`_measure_rows` reads the others)."""
     f = spec.function
     out = Measure(spec.name, spec.analysis, f, None)
     if f == "trig":
@@ -421,6 +414,212 @@ def _measure(spec: MeasureSpec, result: Result) -> Measure:
         out.value = math.sqrt(max(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
     if f in ("pp", "integ", "avg", "rms"):
         out.extra = {"from": lo, "to": hi}
+    return out
+
+
+# ---------------------------------------------------------------------------
+# results without dense output: straight lines between the points, for many rows at once
+# ---------------------------------------------------------------------------
+def _interp(xq, x: np.ndarray, y: np.ndarray, per_row: bool = False) -> np.ndarray:
+    """``np.interp(xq, x, row)`` for every row of ``y`` (shape (rows, points)), with numpy's arithmetic.
+
+    ``xq`` is shared by the rows (shape (q,): the result has shape (rows, q))
+    or, with ``per_row``, one point per row (shape (rows,): the result too).
+    Outside the axis the end values; at a point its value; else
+    ``slope * (xq - x[j]) + y[j]``, the slope ``(y[j+1] - y[j]) / (x[j+1] - x[j])``,
+    as numpy's ``interp`` computes them.
+    """
+    xq = np.asarray(xq, dtype=float)
+    j = np.clip(np.searchsorted(x, xq, side="right") - 1, 0, x.size - 2)
+    if per_row:
+        r = np.arange(y.shape[0])
+        y0, y1, first, last = y[r, j], y[r, j + 1], y[:, 0], y[:, -1]
+    else:
+        y0, y1, first, last = y[:, j], y[:, j + 1], y[:, :1], y[:, -1:]
+    x0 = x[j]
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        out = (y1 - y0) / (x[j + 1] - x0) * (xq - x0) + y0
+    out = np.where(xq == x0, y0, out)
+    out = np.where(xq < x[0], first, out)
+    return np.where(xq >= x[-1], last, out)
+
+
+class _Lines:
+    """One real quantity of one or many rows on straight lines between the points of the axis."""
+
+    def __init__(self, result: Result, probe: Probe) -> None:
+        self.name = probe.name
+        self.x = np.asarray(result.axis, dtype=float)
+        try:
+            self.y = np.atleast_2d(_part(result[probe.signal.name], probe.part, result.analysis))
+        except KeyError:
+            raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
+                                 "(not saved: add it to .save)") from None
+
+    @property
+    def span(self) -> tuple[float, float]:
+        return float(self.x[0]), float(self.x[-1])
+
+    def at(self, xq, per_row: bool = False) -> np.ndarray:
+        """Values at ``xq``: shape (rows, q), or (rows,) with one point per row (``per_row``)."""
+        return _interp(xq, self.x, self.y, per_row)
+
+    def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """The points in [lo, hi], ends included: axis (s,), values (rows, s)."""
+        x = self.x
+        keep = (x > lo) & (x < hi)
+        ends = self.at([lo, hi])
+        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([ends[:, :1], self.y[:, keep], ends[:, 1:]],
+                                                                     axis=1)
+
+    def integral(self, lo: float, hi: float, power: int) -> np.ndarray:
+        """The integral of ``y**power`` over [lo, hi] of each row (exact for the lines)."""
+        knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
+        a, b = knots[:-1], knots[1:]
+        ya, yb = self.at(a), self.at(b)
+        if power == 1:
+            return np.sum((b - a) * (ya + yb) / 2.0, axis=1)
+        return np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0, axis=1)
+
+    def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
+        """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
+        x = self.x
+        i = np.clip(np.searchsorted(x, xq, side="left"), 1, x.size - 1)
+        while True:
+            same = (i < x.size - 1) & (x[i] == x[i - 1])
+            if not same.any():
+                break
+            i = i + same
+        a, b = x[i - 1], x[i]
+        rows = np.arange(self.y.shape[0])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slope = (self.y[rows, i] - self.y[rows, i - 1]) / (b - a)
+        reasons = [f"{self.name} jumps at {q:g}: no derivative there" if jump else None
+                   for q, jump in zip(np.atleast_1d(xq).tolist(), (b == a).tolist())]
+        return slope, reasons
+
+
+def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: str,
+                   rows: int) -> tuple[np.ndarray, list]:
+    """Each row's crossing asked by ``cond`` (NaN where it fails) and why a row has none (None: it has).
+
+    Crossings are counted as in the module docstring: ``above`` is ``y >= value``,
+    points on the value before the first point off it take that point's side.
+
+    Raises
+    ------
+    MeasureFailure
+        What fails for every row (an empty window, a signal not in the result).
+    """
+    if cond.at is not None:
+        return np.full(rows, float(cond.at)), [None] * rows
+    trace = _Lines(result, cond.probe)
+    other = _Lines(result, cond.other) if cond.other is not None else None
+    x0, x1 = trace.span
+    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
+    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
+    if lo > hi:
+        raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
+    xs, ys = trace.samples(lo, hi)
+    d = ys - (other.at(xs) if other is not None else cond.value)
+    first = np.argmax(d != 0, axis=1)  # before the first point off the value, the side it goes to
+    above = np.take_along_axis(d >= 0, np.maximum(np.arange(d.shape[1])[None, :], first[:, None]), axis=1)
+    rise = above[:, 1:]
+    change = rise != above[:, :-1]
+    wanted = change & rise if cond.edge == "rise" else change & ~rise if cond.edge == "fall" else change
+    counts = wanted.sum(axis=1)
+    if cond.count == LAST:
+        k = wanted.shape[1] - 1 - np.argmax(wanted[:, ::-1], axis=1)
+    else:
+        k = np.argmax(np.cumsum(wanted, axis=1) >= cond.count, axis=1)
+    r = np.arange(d.shape[0])
+    a, b, da, db, up = xs[k], xs[k + 1], d[r, k], d[r, k + 1], rise[r, k]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = a + (0.0 - da) * (b - a) / (db - da)
+    t = np.where(a == b, a, np.where(up & (db == 0), b, np.where(~up & (da == 0), a, t)))
+    target = other.name if other is not None else f"{cond.value:g}"
+    kind = {"rise": "rises through", "fall": "falls through"}.get(cond.edge, "crosses")
+    reasons: list = []
+    for n in counts.tolist():
+        if n == 0:
+            reasons.append(f"{clause}: {trace.name} never {kind} {target} in [{lo:g}, {hi:g}]")
+        elif cond.count != LAST and cond.count > n:
+            reasons.append(f"{clause}: {trace.name} has {n} {cond.edge or 'cross'}(s) through {target} in "
+                           f"[{lo:g}, {hi:g}], the {_ordinal(cond.count)} was asked")
+        else:
+            reasons.append(None)
+    return np.where([why is None for why in reasons], t, np.nan), reasons
+
+
+def _extreme_rows(trace: _Lines, sign: float, samples) -> tuple[np.ndarray, np.ndarray]:
+    """(value, where) of the largest ``sign * y`` among the samples of each row."""
+    xs, ys = samples
+    k = np.argmax(sign * ys, axis=1)
+    return ys[np.arange(ys.shape[0]), k], xs[k]
+
+
+def _measure_rows(spec: MeasureSpec, result: Result, rows: int) -> list[Measure]:
+    """One measurement of every row of a result without dense output (signals shaped (rows, points)).
+
+    Raises
+    ------
+    MeasureFailure
+        What fails for every row.
+    """
+    f = spec.function
+    at = None
+    extra: dict = {}
+    reasons: list = [None] * rows
+    if f == "trig":
+        trig, why_trig = _crossing_rows(spec, result, spec.trig, "TRIG", rows)
+        targ, why_targ = _crossing_rows(spec, result, spec.targ, "TARG", rows)
+        value, extra = targ - trig, {"targ": targ, "trig": trig}
+        reasons = [a or b for a, b in zip(why_trig, why_targ)]
+    elif f == "when":
+        value, reasons = _crossing_rows(spec, result, spec.when, "WHEN", rows)
+        at = value
+    else:
+        trace = _Lines(result, spec.probe)
+        if f in ("find", "deriv"):
+            if spec.when is not None:
+                at, reasons = _crossing_rows(spec, result, spec.when, "WHEN", rows)
+            else:
+                _inside(result, spec.at, "AT")
+                at = np.full(rows, float(spec.at))
+            if f == "find":
+                value = trace.at(at, per_row=True)
+            else:
+                value, why = trace.derivative(at)
+                reasons = [a or b for a, b in zip(reasons, why)]
+        else:
+            lo, hi = _window(spec, trace)
+            if f in ("min", "max"):
+                value, at = _extreme_rows(trace, 1.0 if f == "max" else -1.0, trace.samples(lo, hi))
+            elif f in ("min_at", "max_at"):
+                top, at = _extreme_rows(trace, 1.0 if f == "max_at" else -1.0, trace.samples(lo, hi))
+                value, extra = at, {"with": top}
+            elif f == "pp":
+                samples = trace.samples(lo, hi)
+                value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
+            elif f == "integ":
+                value = trace.integral(lo, hi, 1)
+            elif f == "avg":
+                value = trace.integral(lo, hi, 1) / (hi - lo)
+            else:  # rms
+                value = np.sqrt(np.maximum(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
+            if f in ("pp", "integ", "avg", "rms"):
+                extra = {"from": lo, "to": hi}
+    out = []
+    for r in range(rows):
+        if reasons[r] is not None:
+            out.append(Measure(spec.name, spec.analysis, f, None, status=STATUS_FAILED, reason=reasons[r]))
+            continue
+        m = Measure(spec.name, spec.analysis, f, float(value[r]))
+        if at is not None:
+            m.at = float(at[r])
+        if extra:
+            m.extra = {k: float(v) if np.ndim(v) == 0 else float(v[r]) for k, v in extra.items()}
+        out.append(m)
     return out
 
 
@@ -467,12 +666,39 @@ def evaluate_measures(specs: list[MeasureSpec], results: Mapping[str, Result]) -
         One per spec, in order; failed ones have ``status == "failed"`` and a
         ``reason``. Nothing is raised for a measurement that cannot be made.
     """
-    done: dict[str, Measure] = {}
+    return [ms[0] for ms in _evaluate(specs, results, None)]
+
+
+def evaluate_measure_rows(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int) -> list[list[Measure]]:
+    """Evaluate measurements on results that hold many rows (a sweep's rows solved together).
+
+    Parameters
+    ----------
+    specs : list of MeasureSpec
+    results : mapping of str to Result
+        As for :func:`evaluate_measures`, each result without dense output
+        (ac, dc) and its signals of shape (rows, points).
+    rows : int
+
+    Returns
+    -------
+    list of list of Measure
+        Per row, one measure per spec in order: what :func:`evaluate_measures`
+        gives on that row's result alone (the same code).
+    """
+    per_spec = _evaluate(specs, results, rows)
+    return [[ms[r] for ms in per_spec] for r in range(rows)]
+
+
+def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int | None) -> list[list[Measure]]:
+    """Per spec, the measure of each row (``rows`` None: one result of one row, dense output allowed)."""
+    count = 1 if rows is None else rows
+    done: list[dict[str, Measure]] = [{} for _ in range(count)]
     out = []
     for spec in specs:
         try:
             if spec.function == "param":
-                m = _param(spec, done)
+                ms = [_param_or_failure(spec, d) for d in done]
             else:
                 result = results.get(spec.analysis)
                 if result is None:
@@ -480,11 +706,29 @@ def evaluate_measures(specs: list[MeasureSpec], results: Mapping[str, Result]) -
                 if not result.ok:
                     raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
                 _check_axis(result)
-                m = _measure(spec, result)
-            if m.value is None or not math.isfinite(m.value):
-                raise MeasureFailure(f"the value is {m.value}")
+                if rows is None and result.analysis == "tran" and result.dense is not None:
+                    ms = [_measure(spec, result)]
+                else:
+                    ms = _measure_rows(spec, result, count)
+            ms = [_finite(m) for m in ms]
         except MeasureFailure as exc:
-            m = Measure(spec.name, spec.analysis, spec.function, None, status=STATUS_FAILED, reason=str(exc))
-        done[spec.name] = m
-        out.append(m)
+            ms = [Measure(spec.name, spec.analysis, spec.function, None, status=STATUS_FAILED, reason=str(exc))
+                  for _ in range(count)]
+        for d, m in zip(done, ms):
+            d[spec.name] = m
+        out.append(ms)
     return out
+
+
+def _param_or_failure(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
+    try:
+        return _param(spec, done)
+    except MeasureFailure as exc:
+        return Measure(spec.name, spec.analysis, spec.function, None, status=STATUS_FAILED, reason=str(exc))
+
+
+def _finite(m: Measure) -> Measure:
+    """``m``, or its failure when its value is not a finite number."""
+    if m.ok and (m.value is None or not math.isfinite(m.value)):
+        return Measure(m.name, m.analysis, m.function, None, status=STATUS_FAILED, reason=f"the value is {m.value}")
+    return m

@@ -44,7 +44,7 @@ from .measure import elaborate_measures
 from .montecarlo import DEFAULT_SEED, Draws, random_seed
 from .steps import StepSpec, model_parameter, step_values
 from .numbers import parse_number
-from .params import Env, UnknownName, evaluate_val, resolve_behavioural
+from .params import Env, Trace, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
 from .statements import Definition, ElementCard, InitialCard, InstanceCard, ModelCard, Netlist, ParamDef
 from .syntax import DOT_CARDS, ELEMENTS, SOURCE_FUNCTIONS
@@ -166,7 +166,8 @@ def _ground(name: str) -> str:
 
 class _Elaborator:
     def __init__(self, net: Netlist, overrides: dict[str, float], max_elements: int, sample: int = 0,
-                 seed: int | None = None, values: dict[str, float] | None = None) -> None:
+                 seed: int | None = None, values: dict[str, float] | None = None,
+                 trace: Trace | None = None) -> None:
         self.net = net
         self.values = values or {}
         self.overrides = overrides
@@ -183,6 +184,9 @@ class _Elaborator:
         self.root.draws = Draws(self._seed(net) if seed is None else seed, sample)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
+        self.trace = trace
+        if trace is not None:
+            trace.start(self.root)
         self.envs: dict[tuple, Env] = {(): self.root}
         self._used: set[int] = set()  # the subcircuit definitions instantiated (by id)
 
@@ -265,7 +269,9 @@ class _Elaborator:
             parent = self.env(frames[:-1])
             frame = frames[-1]
             env = self._scope(parent, frame.sub, frame)
+            self._informative(True)
             env.all_values()  # every parameter of the instance is evaluated, used or not (as ngspice)
+            self._informative(False)
             self.envs[frames] = env
         return env
 
@@ -474,6 +480,8 @@ class _Elaborator:
         self._unused_errors(self.net.top)
         circuit.diagnostics = self.diagnostics
         draws = self.root.draws
+        if self.trace is not None:
+            self.trace.finish(draws)
         circuit.seed, circuit.sample, circuit.draws = draws.seed, draws.sample, draws.count
         circuit.uses_temper = TEMPER in self.root.values
         return circuit
@@ -765,7 +773,20 @@ class _Elaborator:
                                hint="give the capacitance a value, or remove the capacitor")
 
     def _top_params(self) -> dict[str, float]:
-        return {name: self.root.value(name) for name in self.root.defs if name != TEMPER}
+        self._informative(True)
+        out = {name: self.root.value(name) for name in self.root.defs if name != TEMPER}
+        self._informative(False)
+        return out
+
+    def _informative(self, on: bool) -> None:
+        """Evaluations from now on only report (``on``): a :class:`Trace` need not repeat them exactly."""
+        if self.trace is not None:
+            self.trace.informative(on)
+
+    def _bind(self, *role) -> None:
+        """The last evaluation became the element field ``role`` (for a :class:`Trace`)."""
+        if self.trace is not None:
+            self.trace.bind(role)
 
     def _model(self, p: _Placed) -> Model:
         item: ModelCard = p.item
@@ -864,10 +885,16 @@ class _Elaborator:
         card = item.card
         kind = item.kind
         env = self.env(p.frames) if p.frames else self.root
-        value = evaluate_val(item.value, env, card) if item.value is not None else None
+        value = None
+        if item.value is not None:
+            value = evaluate_val(item.value, env, card)
+            self._bind(p.name, "value")
         el = Element(p.name, kind, p.nodes, value=value, location=card.location(0), instance_path=p.path)
         if item.params:
-            el.params = {k: evaluate_val(v, env, card, f"parameter '{k}'") for k, v in item.params.items()}
+            el.params = {}
+            for k, v in item.params.items():
+                el.params[k] = evaluate_val(v, env, card, f"parameter '{k}'")
+                self._bind(p.name, "param", k)
             if "temp" in el.params:
                 self._check_temperature(el.params["temp"], card, item.params["temp"][1], "instance temperature")
         if item.flags:
@@ -993,11 +1020,14 @@ class _Elaborator:
         spec = SourceSpec()
         if src.dc is not None:
             spec.dc = evaluate_val(src.dc, env, card, "DC value")
+            self._bind(name, "dc")
         if src.ac_mag is not None:
             spec.ac_mag = evaluate_val(src.ac_mag, env, card, "AC magnitude")
+            self._bind(name, "ac_mag")
             spec.ac_given = True
         if src.ac_phase is not None:
             spec.ac_phase = evaluate_val(src.ac_phase, env, card, "AC phase")
+            self._bind(name, "ac_phase")
         if src.tran is not None:
             kind, vals, extras, offset = src.tran
             args = [evaluate_val(v, env, card, f"{kind.upper()} parameter") for v in vals]
@@ -1481,7 +1511,7 @@ def _set_value(el: Element, value: float) -> None:
 
 def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
               max_elements: int | None = None, sample: int = 0, seed: int | None = None,
-              values: Mapping[str, float] | None = None) -> Circuit:
+              values: Mapping[str, float] | None = None, trace: Trace | None = None) -> Circuit:
     """Expand subcircuits, evaluate parameters, and build the flat circuit.
 
     Parameters
@@ -1504,6 +1534,10 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
         Element values that replace the netlist's, by full element name: the
         value of R, C, L, the gain of E, F, G, H, the DC value of V and I
         (what ``.step R1 ...`` sets).
+    trace : Trace, optional
+        Filled with the elaboration's parameter evaluations and what each
+        became (:class:`~netdae.netlist.params.Trace`), so that other samples'
+        values can be computed without elaborating again (sweeps).
 
     Returns
     -------
@@ -1533,4 +1567,4 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
             raise NetlistError(f"{what}: expected a non-negative integer, got {number!r}")
     with no_gc():
         return _Elaborator(netlist, overrides, limit, sample, seed,
-                           {str(k).lower(): v for k, v in (values or {}).items()}).run()
+                           {str(k).lower(): v for k, v in (values or {}).items()}, trace).run()

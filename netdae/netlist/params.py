@@ -22,7 +22,8 @@ from . import expr as ex
 from .montecarlo import Draws, is_random_call
 from .statements import FuncDef, ParamDef
 
-__all__ = ["Env", "UnknownName", "evaluate_val", "inline_calls", "resolve_behavioural"]
+__all__ = ["Env", "UnknownName", "evaluate_val", "inline_calls", "resolve_behavioural", "Trace", "Replay",
+           "ReplayMismatch", "INFO", "OTHER"]
 
 #: Deepest nesting of user-function calls before netdae calls it recursion.
 MAX_CALL_DEPTH = 64
@@ -54,12 +55,14 @@ class Env:
     parameter nobody uses costs nothing.
     """
 
-    __slots__ = ("parent", "defs", "values", "funcs", "_active", "draws")
+    __slots__ = ("parent", "defs", "values", "funcs", "_active", "draws", "trace")
 
     def __init__(self, parent: "Env | None", funcs: dict[str, FuncDef] | None = None) -> None:
         self.parent = parent
         #: The sample's random stream (:class:`~netdae.netlist.montecarlo.Draws`), shared by every scope.
         self.draws: Draws | None = parent.draws if parent is not None else None
+        #: The elaboration's :class:`Trace` when it is recorded (shared by every scope), else None.
+        self.trace: Trace | None = parent.trace if parent is not None else None
         self.defs: dict[str, tuple[ParamDef, Env]] = {}
         self.values: dict[str, float] = {}
         self.funcs = funcs or {}
@@ -85,6 +88,12 @@ class Env:
         NetlistError
             Its definition fails to evaluate or depends on itself.
         """
+        trace = self.trace
+        if trace is not None and trace.depth == 0:
+            return trace.record(self, ("name", name), lambda: self._lookup(name))
+        return self._lookup(name)
+
+    def _lookup(self, name: str) -> float:
         env: Env | None = self
         while env is not None:
             v = env.values.get(name)
@@ -150,6 +159,13 @@ def evaluate_val(val, env: Env, card, what: str = "value") -> float:
         At the value's token: unknown parameter or function, division by
         zero, domain error, non-finite result.
     """
+    trace = env.trace
+    if trace is not None and trace.depth == 0:
+        return trace.record(env, ("val", val, card, what), lambda: _evaluate_val(val, env, card, what))
+    return _evaluate_val(val, env, card, what)
+
+
+def _evaluate_val(val, env: Env, card, what: str) -> float:
     value, offset = val
     if type(value) is float:
         return value
@@ -252,3 +268,199 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
             except ValueError as exc:
                 raise NetlistError(f"{_card_name(card)}: {exc}", card.location(offset)) from None
     return tree
+
+
+# -- a recorded elaboration, repeated for other samples -------------------------------------------
+#: Role of a traced evaluation that only reports or checks (every parameter of an instance, the
+#: top-level parameters of ``Circuit.params``): its value goes into nothing a simulation reads.
+INFO = "info"
+#: Role of a traced evaluation nobody claimed (model parameters, analysis cards, measures ...).
+OTHER = "other"
+
+
+class ReplayMismatch(Exception):
+    """A replayed elaboration that does not follow the recorded one (a draw in another place)."""
+
+
+class _Event:
+    """One top-level evaluation of a traced elaboration."""
+
+    __slots__ = ("what", "env", "value", "error", "role", "draws")
+
+    def __init__(self, what: tuple, env: Env, role) -> None:
+        self.what = what
+        self.env = env
+        self.value: float | None = None
+        self.error: type | None = None
+        self.role = role
+        self.draws = 0  # the sample's draw count after this evaluation
+
+
+class Trace:
+    """The top-level parameter evaluations of one elaboration, in order, with what each value became.
+
+    An elaboration given a trace (``elaborate(..., trace=)``) records every
+    evaluation that is not part of another one: a value on a card
+    (:func:`evaluate_val`) or a parameter asked for by name (:meth:`Env.value`).
+    Parameters are evaluated lazily and memoised, so repeating these
+    evaluations in the same order, in fresh scopes with another sample's
+    random stream (:class:`Replay`), makes the same draws in the same order as
+    elaborating that sample would: the draws of sample ``k`` stay those of
+    :class:`~netdae.netlist.montecarlo.Draws` ``(seed, k)``, the one owner of
+    the stream. Each evaluation has a *role*: the element field it became
+    (``(element, "value")``, ``(element, "param", name)``, ``(element, "dc")``,
+    ``(element, "ac_mag")``, ``(element, "ac_phase")``), :data:`INFO`, or
+    :data:`OTHER`.
+
+    Attributes
+    ----------
+    events : list
+        The evaluations in order.
+    broken : str or None
+        Why the elaboration cannot be replayed (a draw made outside a
+        parameter evaluation, e.g. in a behavioural expression), else None.
+    initial : dict of str to float
+        The top-level parameter values given before the first evaluation.
+    """
+
+    __slots__ = ("events", "depth", "broken", "initial", "_role", "_drawn")
+
+    def __init__(self) -> None:
+        self.events: list[_Event] = []
+        self.depth = 0
+        self.broken: str | None = None
+        self.initial: dict[str, float] = {}
+        self._role = OTHER
+        self._drawn = 0
+
+    def start(self, root: Env) -> None:
+        """Attach to the top-level scope ``root`` after its given values are set."""
+        root.trace = self
+        self.initial = dict(root.values)
+
+    def record(self, env: Env, what: tuple, evaluate) -> float:
+        """Evaluate ``evaluate()`` as one top-level evaluation in ``env`` and record it."""
+        drawn = env.draws.count if env.draws is not None else 0
+        if drawn != self._drawn and self.broken is None:
+            self.broken = "a Monte Carlo function is evaluated outside a parameter or value"
+        event = _Event(what, env, self._role)
+        self.events.append(event)
+        self.depth += 1
+        try:
+            event.value = evaluate()
+            return event.value
+        except Exception as exc:
+            event.error = type(exc)
+            raise
+        finally:
+            self.depth -= 1
+            self._drawn = event.draws = env.draws.count if env.draws is not None else 0
+
+    def finish(self, draws: Draws) -> None:
+        """End the recording: a draw made after the last evaluation breaks the trace too."""
+        if draws.count != self._drawn and self.broken is None:
+            self.broken = "a Monte Carlo function is evaluated outside a parameter or value"
+
+    def bind(self, role: tuple) -> None:
+        """The last evaluation became the element field ``role``."""
+        if self.events:
+            self.events[-1].role = role
+
+    def informative(self, on: bool) -> None:
+        """Mark the evaluations from now on as :data:`INFO` (``on``) or :data:`OTHER`."""
+        self._role = INFO if on else OTHER
+
+
+class Replay:
+    """A :class:`Trace` repeated for other samples and other top-level parameter values.
+
+    Parameters
+    ----------
+    trace : Trace
+        A complete trace (``trace.broken`` None).
+    seed : int
+        The Monte Carlo seed.
+
+    Notes
+    -----
+    The scopes are copied once (their definitions, the functions, the
+    parents); each :meth:`values` call resets their memoised values and
+    evaluates only the events that are not constants.
+    """
+
+    def __init__(self, trace: Trace, seed: int) -> None:
+        self.trace = trace
+        self.seed = int(seed)
+        self._scopes: dict[int, Env] = {}
+        self._root: Env | None = None
+        self._steps = []
+        for k, event in enumerate(trace.events):
+            env = self._copy(event.env)
+            kind = event.what[0]
+            if kind == "val" and type(event.what[1][0]) is float:
+                continue  # a constant
+            self._steps.append((k, env, event.what, event.draws, event.error))
+        self._envs = list(self._scopes.values())
+        self._recorded = [e.value for e in trace.events]
+        self.draws = trace.events[-1].draws if trace.events else 0
+
+    def _copy(self, env: Env) -> Env:
+        new = self._scopes.get(id(env))
+        if new is not None:
+            return new
+        parent = self._copy(env.parent) if env.parent is not None else None
+        new = Env(parent, env.funcs)
+        new.trace = None
+        self._scopes[id(env)] = new
+        if parent is None:
+            self._root = new
+        new.defs = {name: (pdef, self._copy(where)) for name, (pdef, where) in env.defs.items()}
+        return new
+
+    def values(self, sample: int, params: dict[str, float] | None = None) -> list[float | None]:
+        """The value of every recorded evaluation when elaborating ``sample`` with the top-level ``params``.
+
+        Parameters
+        ----------
+        sample : int
+            The Monte Carlo sample.
+        params : dict of str to float, optional
+            Top-level parameter values replacing those given to the traced
+            elaboration (names the trace's elaboration was given).
+
+        Returns
+        -------
+        list of float or None
+            In event order (None where the recorded evaluation failed too).
+
+        Raises
+        ------
+        NetlistError
+            An evaluation fails for this sample (a sigma that is not positive ...).
+        ReplayMismatch
+            The evaluations do not follow the recorded ones (one fails that did
+            not, or the draws differ in number).
+        """
+        draws = Draws(self.seed, sample)
+        for env in self._envs:
+            env.values = {}
+            env.draws = draws
+        if self._root is not None:
+            self._root.values = {**self.trace.initial, **params} if params else dict(self.trace.initial)
+        out: list[float | None] = self._recorded.copy()
+        for k, env, what, drawn, error in self._steps:
+            try:
+                out[k] = evaluate_val(what[1], env, what[2], what[3]) if what[0] == "val" else env.value(what[1])
+            except Exception as exc:
+                if error is not None and isinstance(exc, error):
+                    out[k] = None
+                    continue
+                raise
+            if error is not None:
+                raise ReplayMismatch(f"an evaluation that failed when recorded succeeds in sample {sample}")
+            if draws.count != drawn:
+                raise ReplayMismatch(f"sample {sample} draws in another place than the recorded elaboration")
+        if draws.count != self.draws:
+            raise ReplayMismatch(f"sample {sample} draws {draws.count} values, the recorded elaboration "
+                                 f"{self.draws}")
+        return out

@@ -26,6 +26,7 @@ import concurrent.futures as cf
 import dataclasses
 import multiprocessing
 import os
+import secrets
 import time
 from collections.abc import Callable, Iterable, Mapping
 
@@ -232,7 +233,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if samples is not None and circuit.draws == 0:
         raise NetdaeError(f"sweep: {samples} Monte Carlo samples asked, but the netlist draws nothing: use gauss, "
                           "agauss, unif, aunif or limit in a .param or an element value")
-    job = Job(circuit.netlist, dict(circuit.overrides), circuit.max_elements, seed, plan, wanted, save, options)
+    job = Job(circuit.netlist, dict(circuit.overrides), circuit.max_elements, seed, plan, wanted, save, options,
+              secrets.token_hex(8))
     pool, count, name = _executor(executor, workers, len(plan.rows))
     owned = executor is None and pool is not None
     outcomes: dict[int, Outcome] = {}

@@ -48,6 +48,9 @@ class Job:
         Signals whose waveforms are kept.
     options : dict
         ``reltol``/``abstol``/``vntol`` given by the caller.
+    token : str
+        Unique to one sweep: what a process keeps between the sweep's tasks
+        (:mod:`netdae.sweeps.linear`) is found by it ("": keep nothing).
     """
 
     netlist: Any
@@ -58,6 +61,7 @@ class Job:
     analyses: tuple[str, ...] | None
     save: tuple[str, ...]
     options: dict = field(default_factory=dict)
+    token: str = ""
 
 
 @dataclass
@@ -114,8 +118,10 @@ def _save_names(job: Job, circuit) -> list[str] | None:
     return names or None
 
 
-def elaborate_row(job: Job, row: Row):
+def elaborate_row(job: Job, row: Row, trace=None):
     """The circuit of ``row``: its parameter and element values, its Monte Carlo sample, the job's analyses.
+
+    ``trace``, a :class:`~netdae.netlist.params.Trace`, records the elaboration (:mod:`netdae.sweeps.linear`).
 
     Raises
     ------
@@ -128,7 +134,7 @@ def elaborate_row(job: Job, row: Row):
     params, values = job.plan.overrides(row)
     circuit = elaborate(job.netlist, params={**job.overrides, **params}, values=values,
                         max_elements=job.max_elements, sample=row.sample if row.sample is not None else 0,
-                        seed=job.seed)
+                        seed=job.seed, trace=trace)
     return dataclasses.replace(circuit, steps=[], analyses=[
         a for a in circuit.analyses if job.analyses is None or analysis_name(a) in job.analyses])
 
