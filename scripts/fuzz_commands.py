@@ -65,6 +65,8 @@ ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_SOURCES = (ROOT / "netlists", ROOT / "tests" / "data", Path("/work/corpus"))
 NETLIST_SUFFIXES = frozenset({".cir", ".sp", ".net", ".spi", ".spice", ".ckt", ".deck"})
 COMMANDS = ("run", "check", "index")
+#: Arguments a command gets besides the file (and ``--out DIR`` for run and sweep); ``--commands`` may name these too.
+EXTRA_ARGUMENTS = {"sweep": ["--workers", "1", "--no-plot"]}
 
 #: Bad numbers and expressions a value or parameter is set to.
 BAD_VALUES = ("0", "-1", "-1e-3", "1e300", "-1e300", "1e-300", "{0/0}", "{sqrt(-1)}", "{log(0)}", "{1/0}",
@@ -588,7 +590,8 @@ def main(argv=None) -> int:
             path = tmp / f"mutant{number:04d}.cir"
             path.write_text("\n".join(mutant) + "\n")
             for cmd in commands:
-                argv = [cmd, str(path)] + (["--out", str(tmp / "out")] if cmd == "run" else [])
+                argv = [cmd, str(path)] + EXTRA_ARGUMENTS.get(cmd, []) + (
+                    ["--out", str(tmp / "out")] if cmd in ("run", "sweep") else [])
                 rec = run_command(argv, tmp, args.cpu, args.memory_gb, args.spawn)
                 rec.update(number=number, source=str(base), mutation=done)
                 counts[rec["verdict"]] += 1

@@ -7,6 +7,8 @@ a tiny netlist and checks the exit status, the location and what was expected.
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 import netdae
@@ -63,3 +65,63 @@ def test_waveform_started_before_zero_through_the_api(tmp_path):
     with pytest.raises(NetlistError) as info:
         netdae.run(circuit)
     assert info.value.location.line == 2 and "v1" in info.value.message
+
+
+RLC = """rlc
+v1 in 0 dc 1
+r1 in a {r}
+l1 a out {l}
+c1 out 0 {c}
+g1 0 out a 0 {g}
+.op
+.end
+"""
+VALUES = {"r": "20", "l": "10m", "c": "1u", "g": "1m"}
+
+
+@pytest.mark.parametrize("command", ["run", "index", "check"])
+@pytest.mark.parametrize("element,value,shown", [
+    ("c", "1e308", "1e+308"), ("c", "1e-300", "1e-300"), ("r", "{1/1e-300}", "1e+300"), ("r", "1e-200", "1e-200"),
+    ("l", "-1e160", "-1e+160"), ("g", "1e300", "1e+300"),
+])
+def test_element_value_beyond_the_matrices_range(capsys, tmp_path, command, element, value, shown):
+    """A stamped value the dense analyses would overflow on (squared, or inverted for a resistor) is refused at its card."""
+    values = dict(VALUES, **{element: value})
+    status, err, path = _cli(capsys, tmp_path, RLC.format(**values), command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err and "Warning" not in err
+    line = 1 + ["r", "l", "c", "g"].index(element) + 2
+    column = RLC.splitlines()[line - 1].index("{") + 1
+    assert f"{path}:{line}:{column}: {element}1: value {shown} is outside the magnitudes netdae's matrices hold " \
+           "(1e-150 to 1e+150" in err
+    assert f"expected: {element.upper()}name n+ n-" in err
+
+
+def test_element_values_at_the_range_ends_run(capsys, tmp_path):
+    values = dict(VALUES, c="1e-150", l="1e150")
+    status, err, _ = _cli(capsys, tmp_path, RLC.format(**values), "run", "-q")
+    assert status == 0, err
+
+
+DIODE_MODEL = """diode with a model parameter out of range
+v1 in 0 dc 0.6
+r1 in a 1k
+d1 a 0 dm
+.model dm d is=1e-14 cjo=1e300
+{analysis}
+.end
+"""
+
+
+@pytest.mark.parametrize("command,analysis,what", [
+    ("index", ".op", "the index analysis"), ("run", ".pz a 0 a 0 vol pz", ".pz"),
+])
+def test_linearised_entries_beyond_the_dense_range(capsys, tmp_path, command, analysis, what):
+    """A model parameter out of range makes a linearisation the dense analyses cannot hold: refused by name."""
+    status, err, _ = _cli(capsys, tmp_path, DIODE_MODEL.format(analysis=analysis), command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err and "Warning" not in err
+    found = re.search(rf"{re.escape(what)}: the circuit linearised at its operating point has entries of magnitude "
+                      r"(\S+) \(above 1e\+150", err)
+    assert found and float(found.group(1)) >= 1e300, err  # cjo itself, and more at forward bias
+    assert "in the equations of v(a)" in err and "hint: a device model parameter out of range" in err

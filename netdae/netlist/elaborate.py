@@ -27,9 +27,9 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
-from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
-                       NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis, SourceSpec, TfAnalysis,
-                       TranAnalysis)
+from ..circuit import (ABSOLUTE_ZERO, STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic,
+                       Element, Model, NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis,
+                       SourceSpec, TfAnalysis, TranAnalysis)
 from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY, table_of
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
@@ -870,6 +870,14 @@ class _Elaborator:
         return ex.Binary("/" if reciprocal else "*", el.expr, ex.Const(factor))
 
     def _check_value(self, el: Element, item: ElementCard) -> None:
+        definition = KINDS[el.kind]
+        if (definition.stamped and not definition.independent and isinstance(el.value, float) and el.value != 0.0
+                and not STAMP_MAGNITUDES[0] <= abs(el.value) <= STAMP_MAGNITUDES[1]):
+            low, high = STAMP_MAGNITUDES
+            raise error(item.card, item.value[1], f"value {el.value:g} is outside the magnitudes netdae's matrices "
+                        f"hold ({low:g} to {high:g}, or 0 where the element allows it)",
+                        ELEMENTS.get(item.name[0]), hint="a value this large or this small is usually a typo "
+                        "or a runaway expression; check its unit suffix and its parameters")
         if el.kind == Kind.RESISTOR and el.value == 0.0:
             raise error(item.card, item.value[1], "zero resistance", ELEMENTS["r"],
                         hint="use a 0 V voltage source for a short circuit")
