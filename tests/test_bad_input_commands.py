@@ -125,3 +125,22 @@ def test_linearised_entries_beyond_the_dense_range(capsys, tmp_path, command, an
                       r"(\S+) \(above 1e\+150", err)
     assert found and float(found.group(1)) >= 1e300, err  # cjo itself, and more at forward bias
     assert "in the equations of v(a)" in err and "hint: a device model parameter out of range" in err
+
+
+@pytest.mark.parametrize("card,token,what,shown", [
+    ("v1 in 0 dc -1e300", "-1e300", "DC value", "-1e+300"), ("v1 in 0 dc 1 ac 1e300", "1e300", "AC magnitude", "1e+300"),
+    ("v1 in 0 pulse(0 1e300 0 1n 1n 1u 2u)", "1e300", "PULSE parameter", "1e+300"),
+    ("i1 0 in sin(0 1 {1e160})", "{1e160}", "SIN parameter", "1e+160"),
+])
+@pytest.mark.parametrize("command", ["run", "index"])
+def test_source_value_beyond_the_solvers_range(capsys, tmp_path, command, card, token, what, shown):
+    """A source value of 1e300 overflows every residual it enters: refused at the number."""
+    text = f"huge source\n{card}\nr1 in 0 1k\n.op\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err and "Warning" not in err
+    column = card.index(token) + 1
+    name = card.split()[0]
+    assert f"{path}:2:{column}: {name}: {what} {shown} is beyond the magnitudes netdae's solvers hold (up to 1e+150)" \
+           in err
+    assert "expected: PULSE(v1 v2 td tr tf pw per np) | SIN(" in err

@@ -957,20 +957,32 @@ class _Elaborator:
                         ELEMENTS[item.name[0]])
         return p.model
 
+    @staticmethod
+    def _source_number(value: float, card, offset: int, what: str) -> float:
+        """A source's value or waveform parameter, refused beyond ``STAMP_MAGNITUDES[1]`` (the solution's scale)."""
+        if abs(value) > STAMP_MAGNITUDES[1]:
+            raise error(card, offset, f"{what} {value:g} is beyond the magnitudes netdae's solvers hold "
+                        f"(up to {STAMP_MAGNITUDES[1]:g})", SOURCE_FUNCTIONS,
+                        hint="a value this large is usually a typo or a runaway expression; check its unit "
+                             "suffix and its parameters")
+        return value
+
     def _source(self, item: ElementCard, env: Env, name: str) -> SourceSpec:
         src = item.source
         card = item.card
         spec = SourceSpec()
         if src.dc is not None:
-            spec.dc = evaluate_val(src.dc, env, card, "DC value")
+            spec.dc = self._source_number(evaluate_val(src.dc, env, card, "DC value"), card, src.dc[1], "DC value")
         if src.ac_mag is not None:
-            spec.ac_mag = evaluate_val(src.ac_mag, env, card, "AC magnitude")
+            spec.ac_mag = self._source_number(evaluate_val(src.ac_mag, env, card, "AC magnitude"), card,
+                                              src.ac_mag[1], "AC magnitude")
             spec.ac_given = True
         if src.ac_phase is not None:
             spec.ac_phase = evaluate_val(src.ac_phase, env, card, "AC phase")
         if src.tran is not None:
             kind, vals, extras, offset = src.tran
-            args = [evaluate_val(v, env, card, f"{kind.upper()} parameter") for v in vals]
+            args = [self._source_number(evaluate_val(v, env, card, f"{kind.upper()} parameter"), card, v[1],
+                                        f"{kind.upper()} parameter") for v in vals]
             try:
                 if kind == "pwl":
                     if len(args) < 2 or len(args) % 2:
