@@ -180,7 +180,9 @@ def m_model(lines, rng):
         new = text[:p.start(2)] + bad + text[p.end(2):]
         what = f"{p.group(1)}={bad}"
     else:
-        name = rng.choice(("level", "is", "bf", "vto", "tox", "cjo", "rs", "n", "tnom", "kp", "beta", "m"))
+        name = rng.choice(("level", "is", "bf", "br", "vto", "tox", "cjo", "cje", "rs", "rb", "n", "tnom", "kp",
+                           "beta", "m", "vj", "fc", "tt", "bv", "ibv", "lambda", "gamma", "phi", "nsub", "uo",
+                           "vaf", "ikf", "eg", "xti", "kf", "af", "ron", "roff", "vt", "vh", "it", "ih"))
         new = text.rstrip(")") + (" " if text.endswith(")") else " ") + f"{name}={bad}" + (")" if text.endswith(")") else "")
         what = f"added {name}={bad}"
     return _replace(lines, k, new), f"line {k + 1}: {words[1]} {what}"
@@ -289,7 +291,7 @@ def m_add_analysis(lines, rng):
         f".sens v({n})", f".sens i({v})", f".sens v({n}) ac dec 5 1 1k",
         f".pz {n} 0 {n} 0 vol pz", f".pz {n} 0 {n} 0 cur pol", f".pz {n} 0 {n} {n} vol zer",
         f".dc {src} 0 1 0.1", f".dc {src} 1 0 0.1", f".dc {src} 0 1 0", f".dc {src} 0 1 -0.1", f".dc {src} 0 1e9 1e-3",
-        f".dc temp -300 100 50", ".dc temp 27 27 0",
+        ".dc temp -300 100 50", ".dc temp 27 27 0",
         ".tran 1n 10n", ".tran 10n 1n", ".tran 0 1u", ".tran 1n 0", ".tran -1n 1u", ".tran 1n 1u 2u",
         ".tran 1n 1u 0 1e-30", ".tran 1p 1", ".tran 1n 1u uic",
         f".four 1k v({n})", f".four 0 v({n})", f".four -1 v({n})", ".four 1k v(nosuchnode)",
@@ -312,11 +314,11 @@ def m_directive(lines, rng):
         ".meas tran fzm max v(nosuchnode)", ".meas tran fzm avg v(1) from=1 to=0", ".meas ac fzm max vdb(nosuch)",
         f".meas tran fzm when v({n})=1e300", f".meas tran fzm trig v({n}) val=0 rise=1000 targ v({n}) val=1 fall=1",
         f".meas dc fzm find v({n}) at=-1e300", f".meas tran fzm integ v({n}) from=0 to=0",
-        f".meas tran fzm param='1/0'", f".meas op fzm find v({n})", ".meas tran fzm deriv v(nosuch) at=0",
+        ".meas tran fzm param='1/0'", f".meas op fzm find v({n})", ".meas tran fzm deriv v(nosuch) at=0",
         ".save junk", ".save v(nosuch) i(nosuch) @nosuch[x]", f".save v({n},nosuch)", ".save @r1[zz]", ".save all @",
         ".print tran v(nosuch)", ".probe i(nosuch)",
         f".step param {p} 1 1e9 1", f".step param {p} 1 0 1", f".step param {p} 1 2 0", f".step param {p} list",
-        f".step dec param {p} 0 1 10", f".step {v} 0 1 0.5", f".step temp -300 0 100",
+        f".step dec param {p} 0 1 10", f".step {v} 0 1 0.5", ".step temp -300 0 100",
         ".options reltol=0", ".options reltol=-1", ".options abstol=1e300", ".options gmin=-1", ".options gmin=0",
         ".options method=junk", ".options maxord=0", ".options maxord=99", ".options itl1=0", ".options itl4=-1",
         ".options temp=-300", ".options tnom=-274", ".options vntol=0", ".options chgtol=-1", ".options trtol=0",
@@ -522,7 +524,6 @@ def warm_up() -> None:
     """Import the command line and load the compiled engine once, so that every forked child starts warm."""
     import netdae
     import netdae.cli  # noqa: F401
-    from netdae.cli import main  # noqa: F401
 
     text = "warm\nv1 1 0 pulse(0 1 0 1n 1n 1u 2u)\nr1 1 2 1k\nc1 2 0 1n\nd1 2 0 dmod\n.model dmod d\n" \
            ".tran 10n 1u\n.ac dec 2 1 1k\n.end\n"

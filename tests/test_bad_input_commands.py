@@ -7,6 +7,7 @@ a tiny netlist and checks the exit status, the location and what was expected.
 
 from __future__ import annotations
 
+import math
 import re
 
 import pytest
@@ -144,3 +145,48 @@ def test_source_value_beyond_the_solvers_range(capsys, tmp_path, command, card, 
     assert f"{path}:2:{column}: {name}: {what} {shown} is beyond the magnitudes netdae's solvers hold (up to 1e+150)" \
            in err
     assert "expected: PULSE(v1 v2 td tr tf pw per np) | SIN(" in err
+
+
+GRID = """grid too large
+v1 in 0 dc 1 ac 1
+r1 in out {{rv}}
+c1 out 0 1n
+.param rv=1k
+{card}
+.end
+"""
+
+
+@pytest.mark.parametrize("card,message", [
+    (".step param rv 1 1e9 1", ":6:16: .step: the sweep would have 1,000,000,001 points"),
+    (".dc v1 0 1e9 1e-3", ".dc v1: the sweep would have 1,000,000,000,001 points"),
+    (".dc v1 0 1 1e-6 temp 0 100 1e-4", ".dc v1 temp: the sweep would have 1,000,002,000,001 points"),
+    (".ac lin 1e12 1 1k", ".ac lin: the sweep would have 1,000,000,000,000 points"),
+    (".ac dec 1e9 1 1k", ".ac dec: the sweep would have 3,000,000,004 points"),
+    (".noise v(out) v1 oct 1e9 1 1k", ".ac oct: the sweep would have 9,965,784,"),  # log2(1000) 1e9 + 1
+])
+def test_sweep_grid_beyond_the_limit(capsys, tmp_path, card, message):
+    """A grid of billions of points is refused before it is built (it would take the machine's memory)."""
+    status, err, path = _cli(capsys, tmp_path, GRID.format(card=card), "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert message in err and "more than netdae's limit of 10,000,000 (check the increment" in err
+    count = int(re.search(r"would have ([\d,]+) points", err).group(1).replace(",", ""))
+    if "oct" in card:  # log2(1000) octaves of 1e9 points, within the grid's rounding slack
+        assert abs(count - (math.log2(1000.0) * 1e9 + 1)) <= 1e-9 * count + 2
+    if card.startswith(".step"):
+        assert f"{path}:6:16" in err
+
+
+def test_sweep_command_step_beyond_the_limit(capsys, tmp_path):
+    path = tmp_path / "g.cir"
+    path.write_text(GRID.format(card=".op"))
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--step", "rv=1:1e9:1"]) == EXIT_ERROR
+    assert "rv=1:1e9:1: the sweep would have 1,000,000,001 points" in capsys.readouterr().err
+
+
+def test_grid_at_the_limit():
+    from netdae.netlist.steps import MAX_GRID_POINTS, grid
+
+    assert grid("lin", 1.0, float(MAX_GRID_POINTS), 1.0).size == MAX_GRID_POINTS
+    with pytest.raises(ValueError, match="10,000,001 points"):
+        grid("lin", 0.0, float(MAX_GRID_POINTS), 1.0)
