@@ -190,3 +190,32 @@ def test_grid_at_the_limit():
     assert grid("lin", 1.0, float(MAX_GRID_POINTS), 1.0).size == MAX_GRID_POINTS
     with pytest.raises(ValueError, match="10,000,001 points"):
         grid("lin", 0.0, float(MAX_GRID_POINTS), 1.0)
+
+
+@pytest.mark.parametrize("values,message", [
+    ({"r1": 0.0}, "values: zero resistance for 'r1'"),
+    ({"c1": 1e-300}, "values: the value 1e-300 of 'c1' is outside the magnitudes netdae's matrices hold"),
+    ({"v1": 1e300}, "values: the DC value 1e+300 of 'v1' is beyond the magnitudes netdae's solvers hold"),
+])
+def test_stepped_element_values_are_checked_as_written_ones(tmp_path, values, message):
+    """A value given by a sweep (values=, .step, --step) meets the rules of one written on the card."""
+    from netdae.netlist import parse
+    from netdae.netlist.elaborate import elaborate
+
+    path = tmp_path / "g.cir"
+    path.write_text(GRID.format(card=".op").replace("{rv}", "1k"))
+    with pytest.raises(NetlistError) as info:
+        elaborate(parse(str(path)), values=values)
+    assert info.value.message.startswith(message)
+    line = {"r1": 3, "c1": 4, "v1": 2}[next(iter(values))]
+    assert info.value.location.line == line
+
+
+def test_sweep_row_with_a_zero_resistance_fails_by_name(capsys, tmp_path):
+    path = tmp_path / "g.cir"
+    path.write_text(GRID.format(card=".dc v1 0 1 0.5").replace("{rv}", "1k"))
+    status = main(["sweep", str(path), "--out", str(tmp_path / "o"), "--step", "r1=0,1k", "--no-plot",
+                   "--meas", "dc vo find v(out) at=1"])
+    err = capsys.readouterr().err
+    assert status != 3 and "bug in netdae" not in err
+    assert "1 of 2 rows failed" in err and f"{path}:3:1: values: zero resistance for 'r1'" in err

@@ -1455,10 +1455,21 @@ def _set_value(el: Element, value: float) -> None:
                            hint="set a .param used in its value or model instead")
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise NetlistError(f"values: the value of '{el.name}' must be a finite number, got {value!r}")
+    value = float(value)
+    low, high = STAMP_MAGNITUDES
     if el.source is not None:
-        el.source = dataclasses.replace(el.source, dc=float(value))
-    else:
-        el.value = float(value)
+        if abs(value) > high:
+            raise NetlistError(f"values: the DC value {value:g} of '{el.name}' is beyond the magnitudes netdae's "
+                               f"solvers hold (up to {high:g})", el.location)
+        el.source = dataclasses.replace(el.source, dc=value)
+        return
+    if el.kind == Kind.RESISTOR and value == 0.0:
+        raise NetlistError(f"values: zero resistance for '{el.name}'", el.location,
+                           hint="use a 0 V voltage source for a short circuit")
+    if value != 0.0 and not low <= abs(value) <= high:
+        raise NetlistError(f"values: the value {value:g} of '{el.name}' is outside the magnitudes netdae's "
+                           f"matrices hold ({low:g} to {high:g}, or 0 where the element allows it)", el.location)
+    el.value = value
 
 
 def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
