@@ -219,3 +219,15 @@ def test_sweep_row_with_a_zero_resistance_fails_by_name(capsys, tmp_path):
     err = capsys.readouterr().err
     assert status != 3 and "bug in netdae" not in err
     assert "1 of 2 rows failed" in err and f"{path}:3:1: values: zero resistance for 'r1'" in err
+
+
+@pytest.mark.parametrize("card,token", [(".nodeset v(out)=-1e300", "-1e300"), (".ic v(out)={1e200}", "{1e200}")])
+def test_initial_value_beyond_the_solvers_range(capsys, tmp_path, card, token):
+    text = GRID.format(card=f".tran 1n 1u\n{card}").replace("{rv}", "1k")
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert "Warning" not in err and "bug in netdae" not in err
+    what = card.split()[0]
+    assert f"{path}:7:{card.index(token) + 1}: {what}: initial value " in err
+    assert "is beyond the magnitudes netdae's solvers hold (up to 1e+150)" in err
+    assert f"expected: {what} v(node)=value" in err

@@ -1321,13 +1321,23 @@ class _Elaborator:
         self.diagnostics.extend(card.take_notes())
         return self._value(val, card, "option value")
 
+    @staticmethod
+    def _initial_number(value: float, card, offset: int, what: str) -> float:
+        """An ``.ic``/``.nodeset`` voltage, refused beyond ``STAMP_MAGNITUDES[1]`` (as a source's value)."""
+        if abs(value) > STAMP_MAGNITUDES[1]:
+            raise error(card, offset, f"initial value {value:g} is beyond the magnitudes netdae's solvers hold "
+                        f"(up to {STAMP_MAGNITUDES[1]:g})", DOT_CARDS[what],
+                        hint="a value this large is usually a typo or a runaway expression")
+        return value
+
     def _initial(self, circuit: Circuit, nodes: dict) -> None:
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
             for node, val, offset, card in entries:
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
-                target[node] = self._value(val, card, f"initial value of v({node})")
+                target[node] = self._initial_number(self._value(val, card, f"initial value of v({node})"), card,
+                                                    val[1], what)
         for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
             item: InitialCard = p.item
             target = circuit.ic if item.name == ".ic" else circuit.nodeset
@@ -1337,7 +1347,9 @@ class _Elaborator:
                     raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
                                 DOT_CARDS[item.name])
                 if node != "0":
-                    target[node] = evaluate_val(val, env, item.card, f"initial value of v({written})")
+                    target[node] = self._initial_number(
+                        evaluate_val(val, env, item.card, f"initial value of v({written})"), item.card, val[1],
+                        item.name)
 
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
