@@ -298,7 +298,7 @@ def m_add_analysis(lines, rng):
         f".tran 1u 1m\n.four 1k 0 v({n})",
     ]
     card = rng.choice(cards)
-    return lines + card.split("\n"), f"appended '{card}'"
+    return _append(lines, card), f"appended '{card}'"
 
 
 def m_directive(lines, rng):
@@ -328,7 +328,7 @@ def m_directive(lines, rng):
         f".global {n}", ".end",
     ]
     card = rng.choice(cards)
-    return lines + [card], f"appended '{card}'"
+    return _append(lines, card), f"appended '{card}'"
 
 
 def m_source(lines, rng):
@@ -352,6 +352,12 @@ def _replace(lines, k, new):
     return lines[:k] + [new] + lines[k + 1:]
 
 
+def _append(lines, cards: str):
+    """``cards`` (lines separated by newlines) added before the top-level ``.end`` (what follows it is not read)."""
+    end = next((k for k in range(len(lines) - 1, 0, -1) if lines[k].strip().lower() == ".end"), len(lines))
+    return lines[:end] + cards.split("\n") + lines[end:]
+
+
 #: The mutation operators and their weights.
 MUTATIONS = {
     "value": (m_value, 4), "model": (m_model, 2), "swap": (m_swap, 1), "float": (m_float, 1),
@@ -373,8 +379,6 @@ def mutate(lines: list[str], rng: random.Random, rounds: int) -> tuple[list[str]
                 lines, what = out
                 done.append(f"{name}: {what}")
                 break
-    if not any(line.strip().lower() == ".end" for line in lines[-2:]):
-        pass
     return lines, done
 
 
