@@ -39,6 +39,10 @@ mutation, command, exit status, stderr, the traceback taken with
 
     NETDAE_SERVER=0 NETDAE_DEBUG=1 python -m netdae run OUT/failures/NNNN.cir --out /tmp/x
 
+The forked children share the parent's imported modules, so do not edit the
+source tree while a campaign runs (a child importing a changed module next to
+unchanged ones reports an ``ImportError`` that is not netdae's).
+
 This is a measurement run by hand (a few minutes to an hour), not part of the
 test suite; the classes it found are pinned by ``tests/test_bad_input_commands.py``.
 """
