@@ -231,3 +231,21 @@ def test_initial_value_beyond_the_solvers_range(capsys, tmp_path, card, token):
     assert f"{path}:7:{card.index(token) + 1}: {what}: initial value " in err
     assert "is beyond the magnitudes netdae's solvers hold (up to 1e+150)" in err
     assert f"expected: {what} v(node)=value" in err
+
+
+@pytest.mark.parametrize("card,token", [
+    ("m1 out in 0 0 nm w=1e308 l=1u", "1e308"), ("m1 out in 0 0 nm w=10u l={1e200}", "{1e200}"),
+    ("d1 out 0 dm area=-1e300", "-1e300"),
+])
+def test_instance_parameter_beyond_the_solvers_range(capsys, tmp_path, card, token):
+    """A device's instance parameter of 1e308 overflowed the device's setup: refused at the number."""
+    text = ("huge geometry\nvdd vdd 0 5\nvin in 0 2\nr1 vdd out 10k\n"
+            f"{card}\n.model nm nmos level=1 vto=1 kp=20u\n.model dm d\n.op\n.end\n")
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == EXIT_ERROR, err
+    assert "Warning" not in err and "bug in netdae" not in err
+    name = card.split()[0]
+    key = card[:card.index(token)].split()[-1].rstrip("=")
+    assert f"{path}:5:{card.index(token) + 1}: {name}: parameter {key}=" in err
+    assert "is beyond the magnitudes netdae's solvers hold (up to 1e+150)" in err
+    assert f"expected: {name[0].upper()}name" in err

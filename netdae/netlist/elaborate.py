@@ -834,6 +834,12 @@ class _Elaborator:
         el = Element(p.name, kind, p.nodes, value=value, location=card.location(0), instance_path=p.path)
         if item.params:
             el.params = {k: evaluate_val(v, env, card, f"parameter '{k}'") for k, v in item.params.items()}
+            for k, v in el.params.items():
+                if isinstance(v, float) and abs(v) > STAMP_MAGNITUDES[1]:
+                    raise error(card, item.params[k][1], f"parameter {k}={v:g} is beyond the magnitudes netdae's "
+                                f"solvers hold (up to {STAMP_MAGNITUDES[1]:g})", ELEMENTS.get(item.name[0]),
+                                hint="a value this large is usually a typo or a runaway expression; check its "
+                                     "unit suffix")
             if "temp" in el.params:
                 self._check_temperature(el.params["temp"], card, item.params["temp"][1], "instance temperature")
         if item.flags:
