@@ -249,3 +249,13 @@ def test_instance_parameter_beyond_the_solvers_range(capsys, tmp_path, card, tok
     assert f"{path}:5:{card.index(token) + 1}: {name}: parameter {key}=" in err
     assert "is beyond the magnitudes netdae's solvers hold (up to 1e+150)" in err
     assert f"expected: {name[0].upper()}name" in err
+
+
+def test_sens_with_a_family_without_model_sensitivities(capsys, tmp_path):
+    """.sens on a MESA MESFET: its model parameters are not differentiated, and a note says so (was a KeyError)."""
+    text = ("mesa sens\nvds 1 0 2\nvgs 2 0 0\nz1 1 2 0 mm l=1u w=10u\n.model mm nmf level=2\n"
+            ".sens i(vds)\n.end\n")
+    status, err, path = _cli(capsys, tmp_path, text, "run")
+    assert status == 0, err
+    assert "bug in netdae" not in err
+    assert f"{path}:4:1: z1: netdae computes no sensitivities to the model parameters of a mesa" in err
