@@ -73,6 +73,7 @@ from .errors import SourceLocation
 __all__ = [
     "GROUND",
     "ABSOLUTE_ZERO",
+    "STAMP_MAGNITUDES",
     "Element",
     "SourceSpec",
     "Model",
@@ -96,6 +97,12 @@ GROUND = "0"
 
 #: Absolute zero in degrees Celsius (ngspice's ``CONSTCtoK``): every temperature must lie above it.
 ABSOLUTE_ZERO = -273.15
+
+#: The magnitudes a matrix entry of a circuit may have, and so a stamped element's value (a resistance,
+#: capacitance, inductance, gain): the dense analyses (norms, balancing, SVDs of the pencil) square
+#: entries, and a resistance of 1e-300 is a conductance of 1e300, so values beyond 1e150 either way
+#: overflow or vanish there.
+STAMP_MAGNITUDES = (1e-150, 1e150)
 
 
 @dataclass(slots=True)

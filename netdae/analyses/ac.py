@@ -27,7 +27,7 @@ import scipy.sparse.linalg as spla
 from ..circuit import AcAnalysis, Circuit
 from ..errors import CircuitError, NetdaeError
 from ..mna import MODE_DC
-from ..netlist.steps import grid
+from ..netlist.steps import check_grid_size, grid
 from ..results import Result, Statistics
 from .op import op_result, solve_operating_point, steady_options
 from .prepared import prepare
@@ -62,13 +62,15 @@ def frequencies(card: AcAnalysis) -> np.ndarray:
         raise NetdaeError(f".ac: the number of points must be at least 1 (got {n})")
     if f1 < f0:
         raise NetdaeError(f".ac: fstop ({f1:g}) is below fstart ({f0:g})")
-    if card.variation == "lin":
-        if n == 1:
-            return np.array([f0])
-        return np.linspace(f0, f1, n)
-    if f0 <= 0:
-        raise NetdaeError(f".ac {card.variation}: fstart must be positive (got {f0:g})")
-    return grid(card.variation, f0, f1, n)
+    try:
+        if card.variation == "lin":
+            check_grid_size(n)
+            return np.array([f0]) if n == 1 else np.linspace(f0, f1, n)
+        if f0 <= 0:
+            raise NetdaeError(f".ac {card.variation}: fstart must be positive (got {f0:g})")
+        return grid(card.variation, f0, f1, n)
+    except ValueError as exc:  # more points than a grid may have
+        raise NetdaeError(f".ac {card.variation}: {exc}") from None
 
 
 def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, delays=()) -> np.ndarray:

@@ -17,6 +17,7 @@ from ..circuit import Circuit, DcAnalysis, DcSweep
 from ..errors import CircuitError, NetdaeError
 from ..kinds import KINDS
 from ..mna import MODE_DC, assemble
+from ..netlist.steps import check_grid_size
 from .prepared import Prepared, prepare
 from ..results import Result, Statistics
 from .op import solve_operating_point, steady_options
@@ -51,6 +52,10 @@ def sweep_values(sw: DcSweep) -> np.ndarray:
         raise NetdaeError(
             f".dc {sw.source}: the step {sw.step:g} points away from stop {sw.stop:g} (start {sw.start:g})"
         )
+    try:
+        check_grid_size(np.floor(count + STEP_SLACK) + 1)
+    except ValueError as exc:
+        raise NetdaeError(f".dc {sw.source}: {exc}") from None
     k = np.arange(int(np.floor(count + STEP_SLACK)) + 1)
     return sw.start + k * sw.step
 
@@ -135,6 +140,10 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     for sw in sweeps:
         _check_source(circuit, sw.source)
     grids = [sweep_values(sw) for sw in sweeps]
+    try:
+        check_grid_size(float(np.prod([g.size for g in grids], dtype=float)))
+    except ValueError as exc:
+        raise NetdaeError(f".dc {' '.join(sw.source for sw in sweeps)}: {exc}") from None
     if len(sweeps) == 1:
         points = [(v,) for v in grids[0]]
     else:

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..circuit import Circuit, TranAnalysis
+from ..circuit import STAMP_MAGNITUDES, Circuit, TranAnalysis
 from ..dae.pencil import DENSE_LIMIT, PencilReport, analyze_pencil
 from ..errors import CircuitError, ConvergenceError, NetdaeError
 from ..mna import MODE_DC, MODE_TRAN, MnaSystem, assemble
@@ -307,6 +307,52 @@ def _messages(rep: IndexReport) -> list[str]:
     return out
 
 
+def check_magnitudes(E, H, names, what: str) -> None:
+    """Refuse a linearised circuit whose matrices the dense analyses cannot hold.
+
+    Parameters
+    ----------
+    E, H : sparse or ndarray, shape (n, n)
+        The charge and right-hand-side Jacobians at the linearisation point.
+    names : sequence of str
+        The unknowns' names (rows).
+    what : str
+        The analysis, for the message (``".pz"``, ``"the index analysis"``).
+
+    Raises
+    ------
+    CircuitError
+        When an entry is not finite or larger than ``STAMP_MAGNITUDES[1]``
+        (the dense analyses square entries: norms, balancing, SVDs), naming
+        the unknowns whose rows hold them. Element values are checked when
+        the netlist is read; such entries come from device models (a model
+        parameter out of range, e.g. a junction capacitance of 1e300) or an
+        operating point far outside any device's range.
+    """
+    limit = STAMP_MAGNITUDES[1]
+    rows: set[int] = set()
+    largest = 0.0
+    for M in (E, H):
+        coo = M.tocoo() if hasattr(M, "tocoo") else None
+        r, v = (coo.row, coo.data) if coo is not None else (np.nonzero(np.asarray(M))[0], np.asarray(M)[np.nonzero(
+            np.asarray(M))])
+        bad = ~np.isfinite(v) | (np.abs(v) > limit)
+        if bad.any():
+            rows.update(int(i) for i in r[bad])
+            largest = max(largest, float(np.max(np.abs(v[bad]))))
+    if rows:
+        unknowns = [names[i] for i in sorted(rows)]
+        size = "non-finite" if not np.isfinite(largest) else f"of magnitude {largest:.3g}"
+        raise CircuitError(
+            f"{what}: the circuit linearised at its operating point has entries {size} (above {limit:g}, which the "
+            f"dense analysis cannot square) in the equations of {', '.join(unknowns[:6])}"
+            + (" ..." if len(unknowns) > 6 else ""),
+            nodes=tuple(unknowns),
+            hint="a device model parameter out of range (a junction capacitance or current of 1e300, say) "
+                 "or an operating point far outside the devices' range; check the models of the devices "
+                 "at these nodes")
+
+
 def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | None = None,
                   x: np.ndarray | None = None, method: str = "auto", check_consistency: bool = True) -> IndexReport:
     """The structure of a circuit's DAE and the reasons for it.
@@ -365,6 +411,7 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
     if use_dense and not (topo.singular and system.n == 0):
         xlin, point, fallback = _linearization_point(prepared, at, x)
         E, H = system.jacobians(xlin, 0.0)
+        check_magnitudes(E, H, system.names, "the index analysis")
         pencil = analyze_pencil(E, H, B=system.B.toarray(), names=system.names, tol=tol)
     names = system.names
     if pencil is not None:

@@ -357,6 +357,7 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     """
     from ..dae.pencil import DENSE_LIMIT
     from .ac import linearize
+    from .index import check_magnitudes
 
     t0 = time.perf_counter()
     lin = linearize(circuit, **overrides)
@@ -375,6 +376,7 @@ def pz_analysis(circuit: Circuit, card: PzAnalysis, **overrides) -> Result:
     E, H, b, c, how = port_system(lin.E, lin.H_ac, system.B, list(system.names), system.node_index,
                                   list(system.sources.names), circuit.elements, card, opened)
     added = E.shape[0] > system.n
+    check_magnitudes(lin.E, lin.H_ac, list(system.names), ".pz")
     try:
         pz = pole_zero(E, H, b, c, what=card.what)
     except SingularPencilError as exc:

@@ -251,6 +251,11 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                 notes.append(f"{where}{el.name}: netdae computes the sensitivities of level-1 MOSFETs only "
                              "(ngspice lists this one's parameters)")
                 continue
+            if el.kind not in SENS_MODEL_PARAMETERS:
+                where = f"{el.location}: " if el.location else ""
+                notes.append(f"{where}{el.name}: netdae computes no sensitivities to the model parameters of a "
+                             f"{el.kind} (ngspice lists them)")
+                continue
             out.extend(_model_parameters(circuit, el, ac))
         else:
             where = f"{el.location}: " if el.location else ""

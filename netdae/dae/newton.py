@@ -285,7 +285,8 @@ class NewtonResult:
 def _worst(d, w) -> int:
     if d is None or d.size == 0:
         return -1
-    s = np.abs(d * w)
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverging correction: non-finite is the answer
+        s = np.abs(d * w)
     s[~np.isfinite(s)] = np.inf
     return int(np.argmax(s))
 

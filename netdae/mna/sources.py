@@ -15,11 +15,35 @@ from __future__ import annotations
 import numpy as np
 
 from ..circuit import Element
+from ..errors import NetlistError
 
 __all__ = ["SourceVector", "MODE_DC", "MODE_TRAN"]
 
 MODE_DC = "dc"
 MODE_TRAN = "tran"
+
+
+def _check_dc_values(sources: list[Element]) -> None:
+    """Refuse a source whose ``.op``/``.dc`` value (its waveform at t = 0) waits for ``.tran`` defaults.
+
+    Raises
+    ------
+    NetlistError
+        At the source's card: a waveform started before t = 0 by a negative
+        delay, with a parameter left to its TSTEP/TSTOP default and no DC value.
+    """
+    for el in sources:
+        spec = el.source
+        if spec.dc is None and spec.tran is not None and not spec.tran.determined_at(0.0):
+            kind = spec.tran.kind.upper()
+            raise NetlistError(
+                f"{el.name}: the {kind} starts before t = 0 (a negative delay), so its value at t = 0, which "
+                ".op and .dc use, depends on parameters left to their .tran step/stop defaults (absent or 0)",
+                el.location,
+                expected=f"a DC value ('dc v0') or every {kind} parameter written",
+                hint=f"add 'dc 0' (or the value the operating point should see) to {el.name}, or write the "
+                     f"{kind}'s remaining parameters",
+            )
 
 
 class SourceVector:
@@ -45,6 +69,7 @@ class SourceVector:
             [s.ac_mag * np.exp(1j * np.deg2rad(s.ac_phase)) for s in specs], dtype=complex
         ).reshape(m)
         if mode == MODE_DC:
+            _check_dc_values(sources)
             self.u0 = np.array([s.dc_value() for s in specs], dtype=float).reshape(m)
             self.timed = np.empty(0, dtype=np.int64)
             self.bank = None

@@ -27,9 +27,9 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
-from ..circuit import (ABSOLUTE_ZERO, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic, Element, Model,
-                       NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis, SourceSpec, TfAnalysis,
-                       TranAnalysis)
+from ..circuit import (ABSOLUTE_ZERO, STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic,
+                       Element, Model, NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis,
+                       SourceSpec, TfAnalysis, TranAnalysis)
 from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY, table_of
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
@@ -895,6 +895,12 @@ class _Elaborator:
             for k, v in item.params.items():
                 el.params[k] = evaluate_val(v, env, card, f"parameter '{k}'")
                 self._bind(p.name, "param", k)
+            for k, v in el.params.items():
+                if isinstance(v, float) and abs(v) > STAMP_MAGNITUDES[1]:
+                    raise error(card, item.params[k][1], f"parameter {k}={v:g} is beyond the magnitudes netdae's "
+                                f"solvers hold (up to {STAMP_MAGNITUDES[1]:g})", ELEMENTS.get(item.name[0]),
+                                hint="a value this large is usually a typo or a runaway expression; check its "
+                                     "unit suffix")
             if "temp" in el.params:
                 self._check_temperature(el.params["temp"], card, item.params["temp"][1], "instance temperature")
         if item.flags:
@@ -931,6 +937,14 @@ class _Elaborator:
         return ex.Binary("/" if reciprocal else "*", el.expr, ex.Const(factor))
 
     def _check_value(self, el: Element, item: ElementCard) -> None:
+        definition = KINDS[el.kind]
+        if (definition.stamped and not definition.independent and isinstance(el.value, float) and el.value != 0.0
+                and not STAMP_MAGNITUDES[0] <= abs(el.value) <= STAMP_MAGNITUDES[1]):
+            low, high = STAMP_MAGNITUDES
+            raise error(item.card, item.value[1], f"value {el.value:g} is outside the magnitudes netdae's matrices "
+                        f"hold ({low:g} to {high:g}, or 0 where the element allows it)",
+                        ELEMENTS.get(item.name[0]), hint="a value this large or this small is usually a typo "
+                        "or a runaway expression; check its unit suffix and its parameters")
         if el.kind == Kind.RESISTOR and el.value == 0.0:
             raise error(item.card, item.value[1], "zero resistance", ELEMENTS["r"],
                         hint="use a 0 V voltage source for a short circuit")
@@ -1014,15 +1028,26 @@ class _Elaborator:
                         ELEMENTS[item.name[0]])
         return p.model
 
+    @staticmethod
+    def _source_number(value: float, card, offset: int, what: str) -> float:
+        """A source's value or waveform parameter, refused beyond ``STAMP_MAGNITUDES[1]`` (the solution's scale)."""
+        if abs(value) > STAMP_MAGNITUDES[1]:
+            raise error(card, offset, f"{what} {value:g} is beyond the magnitudes netdae's solvers hold "
+                        f"(up to {STAMP_MAGNITUDES[1]:g})", SOURCE_FUNCTIONS,
+                        hint="a value this large is usually a typo or a runaway expression; check its unit "
+                             "suffix and its parameters")
+        return value
+
     def _source(self, item: ElementCard, env: Env, name: str) -> SourceSpec:
         src = item.source
         card = item.card
         spec = SourceSpec()
         if src.dc is not None:
-            spec.dc = evaluate_val(src.dc, env, card, "DC value")
+            spec.dc = self._source_number(evaluate_val(src.dc, env, card, "DC value"), card, src.dc[1], "DC value")
             self._bind(name, "dc")
         if src.ac_mag is not None:
-            spec.ac_mag = evaluate_val(src.ac_mag, env, card, "AC magnitude")
+            spec.ac_mag = self._source_number(evaluate_val(src.ac_mag, env, card, "AC magnitude"), card,
+                                              src.ac_mag[1], "AC magnitude")
             self._bind(name, "ac_mag")
             spec.ac_given = True
         if src.ac_phase is not None:
@@ -1030,7 +1055,8 @@ class _Elaborator:
             self._bind(name, "ac_phase")
         if src.tran is not None:
             kind, vals, extras, offset = src.tran
-            args = [evaluate_val(v, env, card, f"{kind.upper()} parameter") for v in vals]
+            args = [self._source_number(evaluate_val(v, env, card, f"{kind.upper()} parameter"), card, v[1],
+                                        f"{kind.upper()} parameter") for v in vals]
             try:
                 if kind == "pwl":
                     if len(args) < 2 or len(args) % 2:
@@ -1369,13 +1395,23 @@ class _Elaborator:
         self.diagnostics.extend(card.take_notes())
         return self._value(val, card, "option value")
 
+    @staticmethod
+    def _initial_number(value: float, card, offset: int, what: str) -> float:
+        """An ``.ic``/``.nodeset`` voltage, refused beyond ``STAMP_MAGNITUDES[1]`` (as a source's value)."""
+        if abs(value) > STAMP_MAGNITUDES[1]:
+            raise error(card, offset, f"initial value {value:g} is beyond the magnitudes netdae's solvers hold "
+                        f"(up to {STAMP_MAGNITUDES[1]:g})", DOT_CARDS[what],
+                        hint="a value this large is usually a typo or a runaway expression")
+        return value
+
     def _initial(self, circuit: Circuit, nodes: dict) -> None:
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
             for node, val, offset, card in entries:
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
-                target[node] = self._value(val, card, f"initial value of v({node})")
+                target[node] = self._initial_number(self._value(val, card, f"initial value of v({node})"), card,
+                                                    val[1], what)
         for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
             item: InitialCard = p.item
             target = circuit.ic if item.name == ".ic" else circuit.nodeset
@@ -1385,7 +1421,9 @@ class _Elaborator:
                     raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
                                 DOT_CARDS[item.name])
                 if node != "0":
-                    target[node] = evaluate_val(val, env, item.card, f"initial value of v({written})")
+                    target[node] = self._initial_number(
+                        evaluate_val(val, env, item.card, f"initial value of v({written})"), item.card, val[1],
+                        item.name)
 
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
@@ -1503,10 +1541,21 @@ def _set_value(el: Element, value: float) -> None:
                            hint="set a .param used in its value or model instead")
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise NetlistError(f"values: the value of '{el.name}' must be a finite number, got {value!r}")
+    value = float(value)
+    low, high = STAMP_MAGNITUDES
     if el.source is not None:
-        el.source = dataclasses.replace(el.source, dc=float(value))
-    else:
-        el.value = float(value)
+        if abs(value) > high:
+            raise NetlistError(f"values: the DC value {value:g} of '{el.name}' is beyond the magnitudes netdae's "
+                               f"solvers hold (up to {high:g})", el.location)
+        el.source = dataclasses.replace(el.source, dc=value)
+        return
+    if el.kind == Kind.RESISTOR and value == 0.0:
+        raise NetlistError(f"values: zero resistance for '{el.name}'", el.location,
+                           hint="use a 0 V voltage source for a short circuit")
+    if value != 0.0 and not low <= abs(value) <= high:
+        raise NetlistError(f"values: the value {value:g} of '{el.name}' is outside the magnitudes netdae's "
+                           f"matrices hold ({low:g} to {high:g}, or 0 where the element allows it)", el.location)
+    el.value = value
 
 
 def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,

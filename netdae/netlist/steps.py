@@ -36,6 +36,10 @@ __all__ = ["StepCard", "StepSpec", "parse_step", "model_parameter", "grid", "GRI
 
 #: Relative slack that keeps the stop value in a grid despite rounding.
 GRID_SLACK = 1e-9
+#: The most points a sweep grid may have (`.step`, `.dc`, `.ac`, `.noise`, `--step`): ten million points
+#: are 80 MB per saved signal, and a card that asks for more is almost always a typo (a step of 1e-9
+#: where 1e-3 was meant); building its grid alone would take the machine's memory.
+MAX_GRID_POINTS = 10_000_000
 VARIATIONS = ("lin", "dec", "oct", "list")
 #: Model type words that may stand before a stepped model parameter (LTspice: ``.step NPN Q(BF) ...``).
 MODEL_TYPE_WORDS = frozenset({"npn", "pnp", "d", "nmos", "pmos", "njf", "pjf", "nmf", "pmf", "sw", "csw", "r", "c",
@@ -155,6 +159,14 @@ def model_parameter(name: str) -> tuple[str, str] | None:
     return None
 
 
+def check_grid_size(count: float) -> None:
+    """Refuse a sweep of more than :data:`MAX_GRID_POINTS` points (``ValueError``, before anything is allocated)."""
+    if not count <= MAX_GRID_POINTS:
+        shown = f"{count:,.0f}" if math.isfinite(count) else "infinitely many"
+        raise ValueError(f"the sweep would have {shown} points, more than netdae's limit of {MAX_GRID_POINTS:,} "
+                         "(check the increment or the number of points)")
+
+
 def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:
     """The points of a linear or logarithmic sweep, as SPICE makes them.
 
@@ -176,7 +188,7 @@ def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:
     ValueError
         A zero increment or one of the wrong sign; a logarithmic sweep with a
         non-positive start or stop, stop below start, or a point count that is
-        not a positive integer.
+        not a positive integer; more than :data:`MAX_GRID_POINTS` points.
 
     Examples
     --------
@@ -191,6 +203,7 @@ def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:
         if step == 0 or (stop - start) * step < 0:
             raise ValueError(f"the increment {step:g} does not lead from {start:g} to {stop:g}")
         count = math.floor((stop - start) / step * (1 + GRID_SLACK) + GRID_SLACK) + 1
+        check_grid_size(count)
         return start + step * np.arange(count)
     if variation not in ("dec", "oct"):
         raise ValueError(f"unknown variation {variation!r} (lin, dec or oct)")
@@ -203,7 +216,9 @@ def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:
         raise ValueError(f"stop ({stop:g}) is below start ({start:g})")
     base = 10.0 if variation == "dec" else 2.0
     steps = math.log(stop / start) / math.log(base) * step
-    k = np.arange(math.floor(steps * (1 + GRID_SLACK) + GRID_SLACK) + 1)
+    count = math.floor(steps * (1 + GRID_SLACK) + GRID_SLACK) + 1
+    check_grid_size(count)
+    k = np.arange(count)
     return start * base ** (k / step)
 
 

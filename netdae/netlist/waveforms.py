@@ -183,6 +183,15 @@ class Waveform:
         """True when every parameter has a value (see :meth:`resolved`)."""
         return self._P is not None
 
+    def determined_at(self, t: float) -> bool:
+        """True when the value at time ``t`` does not wait for the TSTEP/TSTOP defaults.
+
+        Always true once resolved; before, true up to the waveform's start
+        (a negative delay moves that start before t = 0, and then even the
+        value at t = 0 depends on defaults such as PULSE's period).
+        """
+        return self._P is not None or t <= self._safe_until()
+
     def resolved(self, tstep: float, tstop: float) -> "Waveform":
         """A copy with ngspice's TSTEP/TSTOP-dependent defaults filled in.
 
@@ -232,7 +241,8 @@ class Waveform:
         ValueError
             When the waveform is not resolved and a value at ``t`` depends
             on TSTEP/TSTOP (values up to the start of the waveform do not,
-            so ``value(0.0)`` always works).
+            so ``value(0.0)`` works unless a negative delay starts the
+            waveform before t = 0: :meth:`determined_at`).
         """
         tt, shape = _as_times(t)
         if self._P is None:

@@ -1,0 +1,261 @@
+"""Bad input after the reader: every command answers with a located error, never an internal one.
+
+The classes here were found by ``scripts/fuzz_commands.py`` (mutated netlists
+that read but mean something wrong); each runs the command line in process on
+a tiny netlist and checks the exit status, the location and what was expected.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+import netdae
+from netdae.cli import EXIT_ERROR, main
+from netdae.errors import NetlistError
+
+PULSE_BEFORE_ZERO = """negative pulse delay
+v1 in 0 pulse(0 1 -1 1n 1n 1u 0)
+r1 in 0 1k
+{analysis}
+.end
+"""
+
+
+def _cli(capsys, tmp_path, text, *argv):
+    path = tmp_path / "bad.cir"
+    path.write_text(text)
+    status = main([argv[0], str(path), *argv[1:]])
+    _, err = capsys.readouterr()
+    return status, err, path
+
+
+@pytest.mark.parametrize("command", ["run", "index"])
+@pytest.mark.parametrize("analysis", [".op", ".dc v1 0 1 0.5"])
+def test_waveform_started_before_zero_needs_a_dc_value(capsys, tmp_path, command, analysis):
+    """A negative delay moves a PULSE's start before t = 0: its .op value waits for .tran defaults."""
+    status, err, path = _cli(capsys, tmp_path, PULSE_BEFORE_ZERO.format(analysis=analysis), command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err
+    assert f"{path}:2:1: v1: the PULSE starts before t = 0 (a negative delay)" in err
+    assert "expected: a DC value ('dc v0') or every PULSE parameter written" in err
+    assert "hint: add 'dc 0'" in err
+
+
+def test_waveform_started_before_zero_with_a_dc_value_runs(capsys, tmp_path):
+    """The DC value is what .op uses, so a written one settles it (ngspice's rule)."""
+    text = PULSE_BEFORE_ZERO.replace("v1 in 0 pulse", "v1 in 0 dc 0.25 pulse").format(analysis=".op")
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    result = netdae.run(netdae.load(text))[0]
+    assert result.signals["v(in)"][0] == pytest.approx(0.25)
+
+
+def test_waveform_determined_at_zero_unless_started_before():
+    from netdae.netlist.waveforms import Pulse
+
+    assert Pulse(0, 1, 0).determined_at(0.0)
+    assert not Pulse(0, 1, -1).determined_at(0.0)
+    assert Pulse(0, 1, -1).resolved(1e-9, 1e-6).determined_at(0.0)
+
+
+def test_waveform_started_before_zero_through_the_api(tmp_path):
+    circuit = netdae.load(PULSE_BEFORE_ZERO.format(analysis=".op"), path=str(tmp_path / "p.cir"))
+    with pytest.raises(NetlistError) as info:
+        netdae.run(circuit)
+    assert info.value.location.line == 2 and "v1" in info.value.message
+
+
+RLC = """rlc
+v1 in 0 dc 1
+r1 in a {r}
+l1 a out {l}
+c1 out 0 {c}
+g1 0 out a 0 {g}
+.op
+.end
+"""
+VALUES = {"r": "20", "l": "10m", "c": "1u", "g": "1m"}
+
+
+@pytest.mark.parametrize("command", ["run", "index", "check"])
+@pytest.mark.parametrize("element,value,shown", [
+    ("c", "1e308", "1e+308"), ("c", "1e-300", "1e-300"), ("r", "{1/1e-300}", "1e+300"), ("r", "1e-200", "1e-200"),
+    ("l", "-1e160", "-1e+160"), ("g", "1e300", "1e+300"),
+])
+def test_element_value_beyond_the_matrices_range(capsys, tmp_path, command, element, value, shown):
+    """A stamped value the dense analyses would overflow on (squared, or inverted for a resistor) is refused at its card."""
+    values = dict(VALUES, **{element: value})
+    status, err, path = _cli(capsys, tmp_path, RLC.format(**values), command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err and "Warning" not in err
+    line = 1 + ["r", "l", "c", "g"].index(element) + 2
+    column = RLC.splitlines()[line - 1].index("{") + 1
+    assert f"{path}:{line}:{column}: {element}1: value {shown} is outside the magnitudes netdae's matrices hold " \
+           "(1e-150 to 1e+150" in err
+    assert f"expected: {element.upper()}name n+ n-" in err
+
+
+def test_element_values_at_the_range_ends_run(capsys, tmp_path):
+    values = dict(VALUES, c="1e-150", l="1e150")
+    status, err, _ = _cli(capsys, tmp_path, RLC.format(**values), "run", "-q")
+    assert status == 0, err
+
+
+DIODE_MODEL = """diode with a model parameter out of range
+v1 in 0 dc 0.6
+r1 in a 1k
+d1 a 0 dm
+.model dm d is=1e-14 cjo=1e300
+{analysis}
+.end
+"""
+
+
+@pytest.mark.parametrize("command,analysis,what", [
+    ("index", ".op", "the index analysis"), ("run", ".pz a 0 a 0 vol pz", ".pz"),
+])
+def test_linearised_entries_beyond_the_dense_range(capsys, tmp_path, command, analysis, what):
+    """A model parameter out of range makes a linearisation the dense analyses cannot hold: refused by name."""
+    status, err, _ = _cli(capsys, tmp_path, DIODE_MODEL.format(analysis=analysis), command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err and "Warning" not in err
+    found = re.search(rf"{re.escape(what)}: the circuit linearised at its operating point has entries of magnitude "
+                      r"(\S+) \(above 1e\+150", err)
+    assert found and float(found.group(1)) >= 1e300, err  # cjo itself, and more at forward bias
+    assert "in the equations of v(a)" in err and "hint: a device model parameter out of range" in err
+
+
+@pytest.mark.parametrize("card,token,what,shown", [
+    ("v1 in 0 dc -1e300", "-1e300", "DC value", "-1e+300"), ("v1 in 0 dc 1 ac 1e300", "1e300", "AC magnitude", "1e+300"),
+    ("v1 in 0 pulse(0 1e300 0 1n 1n 1u 2u)", "1e300", "PULSE parameter", "1e+300"),
+    ("i1 0 in sin(0 1 {1e160})", "{1e160}", "SIN parameter", "1e+160"),
+])
+@pytest.mark.parametrize("command", ["run", "index"])
+def test_source_value_beyond_the_solvers_range(capsys, tmp_path, command, card, token, what, shown):
+    """A source value of 1e300 overflows every residual it enters: refused at the number."""
+    text = f"huge source\n{card}\nr1 in 0 1k\n.op\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, command, "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err and "Warning" not in err
+    column = card.index(token) + 1
+    name = card.split()[0]
+    assert f"{path}:2:{column}: {name}: {what} {shown} is beyond the magnitudes netdae's solvers hold (up to 1e+150)" \
+           in err
+    assert "expected: PULSE(v1 v2 td tr tf pw per np) | SIN(" in err
+
+
+GRID = """grid too large
+v1 in 0 dc 1 ac 1
+r1 in out {{rv}}
+c1 out 0 1n
+.param rv=1k
+{card}
+.end
+"""
+
+
+@pytest.mark.parametrize("card,message", [
+    (".step param rv 1 1e9 1", ":6:16: .step: the sweep would have 1,000,000,001 points"),
+    (".dc v1 0 1e9 1e-3", ".dc v1: the sweep would have 1,000,000,000,001 points"),
+    (".dc v1 0 1 1e-6 temp 0 100 1e-4", ".dc v1 temp: the sweep would have 1,000,002,000,001 points"),
+    (".ac lin 1e12 1 1k", ".ac lin: the sweep would have 1,000,000,000,000 points"),
+    (".ac dec 1e9 1 1k", ".ac dec: the sweep would have 3,000,000,004 points"),
+    (".noise v(out) v1 oct 1e9 1 1k", ".ac oct: the sweep would have 9,965,784,"),  # log2(1000) 1e9 + 1
+])
+def test_sweep_grid_beyond_the_limit(capsys, tmp_path, card, message):
+    """A grid of billions of points is refused before it is built (it would take the machine's memory)."""
+    status, err, path = _cli(capsys, tmp_path, GRID.format(card=card), "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert message in err and "more than netdae's limit of 10,000,000 (check the increment" in err
+    count = int(re.search(r"would have ([\d,]+) points", err).group(1).replace(",", ""))
+    if "oct" in card:  # log2(1000) octaves of 1e9 points, within the grid's rounding slack
+        assert abs(count - (math.log2(1000.0) * 1e9 + 1)) <= 1e-9 * count + 2
+    if card.startswith(".step"):
+        assert f"{path}:6:16" in err
+
+
+def test_sweep_command_step_beyond_the_limit(capsys, tmp_path):
+    path = tmp_path / "g.cir"
+    path.write_text(GRID.format(card=".op"))
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--step", "rv=1:1e9:1"]) == EXIT_ERROR
+    assert "rv=1:1e9:1: the sweep would have 1,000,000,001 points" in capsys.readouterr().err
+
+
+def test_grid_at_the_limit():
+    from netdae.netlist.steps import MAX_GRID_POINTS, grid
+
+    assert grid("lin", 1.0, float(MAX_GRID_POINTS), 1.0).size == MAX_GRID_POINTS
+    with pytest.raises(ValueError, match="10,000,001 points"):
+        grid("lin", 0.0, float(MAX_GRID_POINTS), 1.0)
+
+
+@pytest.mark.parametrize("values,message", [
+    ({"r1": 0.0}, "values: zero resistance for 'r1'"),
+    ({"c1": 1e-300}, "values: the value 1e-300 of 'c1' is outside the magnitudes netdae's matrices hold"),
+    ({"v1": 1e300}, "values: the DC value 1e+300 of 'v1' is beyond the magnitudes netdae's solvers hold"),
+])
+def test_stepped_element_values_are_checked_as_written_ones(tmp_path, values, message):
+    """A value given by a sweep (values=, .step, --step) meets the rules of one written on the card."""
+    from netdae.netlist import parse
+    from netdae.netlist.elaborate import elaborate
+
+    path = tmp_path / "g.cir"
+    path.write_text(GRID.format(card=".op").replace("{rv}", "1k"))
+    with pytest.raises(NetlistError) as info:
+        elaborate(parse(str(path)), values=values)
+    assert info.value.message.startswith(message)
+    line = {"r1": 3, "c1": 4, "v1": 2}[next(iter(values))]
+    assert info.value.location.line == line
+
+
+def test_sweep_row_with_a_zero_resistance_fails_by_name(capsys, tmp_path):
+    path = tmp_path / "g.cir"
+    path.write_text(GRID.format(card=".dc v1 0 1 0.5").replace("{rv}", "1k"))
+    status = main(["sweep", str(path), "--out", str(tmp_path / "o"), "--step", "r1=0,1k", "--no-plot",
+                   "--meas", "dc vo find v(out) at=1"])
+    err = capsys.readouterr().err
+    assert status != 3 and "bug in netdae" not in err
+    assert "1 of 2 rows failed" in err and f"{path}:3:1: values: zero resistance for 'r1'" in err
+
+
+@pytest.mark.parametrize("card,token", [(".nodeset v(out)=-1e300", "-1e300"), (".ic v(out)={1e200}", "{1e200}")])
+def test_initial_value_beyond_the_solvers_range(capsys, tmp_path, card, token):
+    text = GRID.format(card=f".tran 1n 1u\n{card}").replace("{rv}", "1k")
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert "Warning" not in err and "bug in netdae" not in err
+    what = card.split()[0]
+    assert f"{path}:7:{card.index(token) + 1}: {what}: initial value " in err
+    assert "is beyond the magnitudes netdae's solvers hold (up to 1e+150)" in err
+    assert f"expected: {what} v(node)=value" in err
+
+
+@pytest.mark.parametrize("card,token", [
+    ("m1 out in 0 0 nm w=1e308 l=1u", "1e308"), ("m1 out in 0 0 nm w=10u l={1e200}", "{1e200}"),
+    ("d1 out 0 dm area=-1e300", "-1e300"),
+])
+def test_instance_parameter_beyond_the_solvers_range(capsys, tmp_path, card, token):
+    """A device's instance parameter of 1e308 overflowed the device's setup: refused at the number."""
+    text = ("huge geometry\nvdd vdd 0 5\nvin in 0 2\nr1 vdd out 10k\n"
+            f"{card}\n.model nm nmos level=1 vto=1 kp=20u\n.model dm d\n.op\n.end\n")
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == EXIT_ERROR, err
+    assert "Warning" not in err and "bug in netdae" not in err
+    name = card.split()[0]
+    key = card[:card.index(token)].split()[-1].rstrip("=")
+    assert f"{path}:5:{card.index(token) + 1}: {name}: parameter {key}=" in err
+    assert "is beyond the magnitudes netdae's solvers hold (up to 1e+150)" in err
+    assert f"expected: {name[0].upper()}name" in err
+
+
+def test_sens_with_a_family_without_model_sensitivities(capsys, tmp_path):
+    """.sens on a MESA MESFET: its model parameters are not differentiated, and a note says so (was a KeyError)."""
+    text = ("mesa sens\nvds 1 0 2\nvgs 2 0 0\nz1 1 2 0 mm l=1u w=10u\n.model mm nmf level=2\n"
+            ".sens i(vds)\n.end\n")
+    status, err, path = _cli(capsys, tmp_path, text, "run")
+    assert status == 0, err
+    assert "bug in netdae" not in err
+    assert f"{path}:4:1: z1: netdae computes no sensitivities to the model parameters of a mesa" in err
