@@ -224,8 +224,12 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err) -
     if not (np.all(np.isfinite(xp)) and np.all(np.isfinite(xpp))):
         raise Failure("the derivative estimate at the (re)start is not finite", None, newton_hint(INFO_SINGULAR))
     x_right, x_2 = x1 - eps * xp1, x1 + eps * xp1
-    qp = np.array(ev.phi, dtype=float)
-    w_floor, _ = floor.weights(w, w_err, x, qp, 1.0 / eps)
+    w_floor, _ = floor.weights(w, w_err, x, np.asarray(ev.phi, dtype=float), 1.0 / eps)
+    # q'(t+) = dq/dx x'(t+), the charge rate of the first Euler step, not phi(x, t + eps): the
+    # two differ by dphi/dx (x_1 - x) where x is not consistent, as an index-2 current's right
+    # limit after a corner of the inputs, and the charge history must hold the rate the step solved
+    pat = floor.pattern
+    qp = np.bincount(pat.indices, weights=ev.dq * np.repeat(xp, np.diff(pat.indptr)), minlength=x.size)
     xp[high] = 0.0
     xpp[high] = 0.0
     return Probe(xp, qp, xpp, x_right, x_2, w_floor)

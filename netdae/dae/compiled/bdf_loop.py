@@ -601,7 +601,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     """x'(t+) into ``xp``, x''(t+) into ``xpp`` by two implicit-Euler steps of size eps.
 
     Also the right limit ``xr`` (the two steps extrapolated to eps = 0), the second
-    step's value ``x2``, ``q'(t+)`` into ``qpb`` (nonlinear systems) and, in ``wf``,
+    step's value ``x2``, ``q'(t+) = dq/dx x'(t+)`` into ``qpb`` (nonlinear systems) and, in ``wf``,
     the weights raised to the probe's rounding level.
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
@@ -654,6 +654,11 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     for i in range(n):
         xp[i] /= eps
         work[i] = x[i] + eps * xp[i]
+    if not linear:
+        # q'(t+) = dq/dx x'(t+), the charge rate of the first Euler step (startup.probe)
+        for i in range(n):
+            qpb[i] = 0.0
+        _matvec_add(indptr, indices, dqe, xp, 1.0, qpb)
     ok1 = True
     if linear:
         I[I_EVALUATIONS] += 1
