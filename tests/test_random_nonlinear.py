@@ -129,8 +129,8 @@ def _compare_all(seed: int, count: int) -> dict[str, int]:
 
 #: Seed 11, circuit 47 at its own tight tolerances: at the input's first corner (a breakpoint, 0.2 us) the
 #: restart's right limit moves i(vin), the current of the loop of vin and m2's gate overlap capacitance (index 2); the
-#: charge history of node in must take the charge rate of the probe's Euler step, dq/dx x'(t+), not
-#: phi(x(t+)), which holds that current (5 times the capacitive current there): the error test on the
+#: charge history of node in must take phi with the index-2 unknowns of the probe's first Euler step, not
+#: phi at the right limit, which holds that current (5 times the capacitive current there): the error test on the
 #: node's charge then failed down to steps of 1e-17 s.
 CORNER = """random nonlinear circuit 47
 vdd vdd 0 dc 5
