@@ -119,6 +119,15 @@ N_SHIFTS = 3
 #: re-decided on the unbalanced pencil, and the clearer of the two is reported.
 MARGIN_RETRY = 10.0
 
+#: A structure whose closest rank decision has a margin below this factor is
+#: decided again on the unbalanced pencil too, which is reported only when the two
+#: differ and it is clearer: balancing that equalises a pencil dominated by
+#: conductances (0.1 S) can bring a MOS overlap capacitance's (8e-16 F) singular
+#: value of a staircase step within 16 times the tolerance of rounding (index 3),
+#: where the unbalanced pencil keeps it with a margin of 5e9 (index 2, as with ten
+#: times the capacitance on both; tests/test_pencil.py).
+MARGIN_CHECK = 100.0
+
 #: A balanced pencil whose significant entries still span more than this many
 #: decades is decided again on the unbalanced pencil too (the clearer of the two
 #: is reported when the two differ): a rank tolerance of ``n eps`` of its norm cannot tell its
@@ -192,20 +201,23 @@ def _decide(E, H, bal: Balancing, rtol: float) -> _Decided:
 
 
 def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
-    """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call or a balanced
-    pencil still spread over more than ``SPREAD_RETRY`` decades (there the unbalanced structure is reported
-    only when it differs and is clearer: where the two agree the balanced one gives the better eigenvalues)."""
+    """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call (margin below
+    ``MARGIN_RETRY``: the clearer of the two is reported), a doubtful one (below ``MARGIN_CHECK``) or a
+    balanced pencil still spread over more than ``SPREAD_RETRY`` decades (in these two the unbalanced structure
+    is reported only when it differs and is clearer: where the two agree the balanced one gives the better
+    eigenvalues)."""
     E, H, bal, _, _, rtol = _prepare(E, H, tol, balance)
     best = _decide(E, H, bal, rtol)
     close = best.ks.margin < MARGIN_RETRY
     stretched = bal.spread_after > SPREAD_RETRY
-    if bal.applied and (close or stretched):
+    doubtful = best.ks.margin < MARGIN_CHECK
+    if bal.applied and (close or stretched or doubtful):
         plain = _decide(E, H, balance_pencil(E, H, enabled=False), rtol)
         differ = plain.ks.summary() != best.ks.summary()
         if not (close or differ):
             return best, rtol
         chosen = plain if plain.ks.margin > best.ks.margin else best
-        why = ("the closest rank decision on the balanced pencil" if close
+        why = ("the closest rank decision on the balanced pencil" if (close or not stretched)
                else f"the balanced pencil spans {bal.spread_after:.1f} decades; its closest rank decision")
         note = (
             f"{why} had margin {best.ks.margin:.3g}; decided again "

@@ -174,7 +174,7 @@ class Probe:
         self.xp, self.qp, self.xpp, self.x_right, self.x_2, self.w_floor = xp, qp, xpp, x_right, x_2, w_floor
 
 
-def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err) -> Probe:
+def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *, after_jump: bool = False) -> Probe:
     """x'(t+), q'(t+), x''(t+) and the right limit x(t+) from two implicit-Euler steps of size ``eps``.
 
     Each step is one Newton iteration (exact for a linear system; for a
@@ -199,6 +199,10 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err) -
         Index-2 unknowns.
     w, w_err : ndarray, shape (n,)
         The current weights.
+    after_jump : bool
+        ``x`` is a right limit just taken: q'(t+) is then ``phi`` linearised at the index-2 unknowns
+        of the first Euler step ``x_1``, not at their right limit, which need not be consistent
+        with the derivatives (after a corner of the inputs).
 
     Returns
     -------
@@ -226,6 +230,12 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err) -
     x_right, x_2 = x1 - eps * xp1, x1 + eps * xp1
     qp = np.array(ev.phi, dtype=float)
     w_floor, _ = floor.weights(w, w_err, x, qp, 1.0 / eps)
+    if after_jump:
+        # phi with the index-2 unknowns the first Euler step solved, not their right limit, which
+        # need not be consistent (an index-2 current's right limit after a corner of the inputs)
+        pat = floor.pattern
+        move = np.where(high, eps * xp, 0.0)
+        qp += np.bincount(pat.indices, weights=ev.dphi * np.repeat(move, np.diff(pat.indptr)), minlength=x.size)
     xp[high] = 0.0
     xpp[high] = 0.0
     return Probe(xp, qp, xpp, x_right, x_2, w_floor)

@@ -369,9 +369,10 @@ class BDF:
         h = cap
         checked = False
         retries = 0
+        jumped = False
         while True:
             eps = PROBE_FRACTION * h
-            p = self._probe_or_fail(self.t, x, eps)
+            p = self._probe_or_fail(self.t, x, eps, jumped)
             if p is None:
                 return
             if not checked:
@@ -381,6 +382,7 @@ class BDF:
                     return
                 x, again = jump
                 if again:
+                    jumped = True
                     continue  # derivatives from the right limit
             if fixed:
                 break
@@ -392,12 +394,12 @@ class BDF:
                 break
         self._initialise_history(h, p.xp, p.qp)
 
-    def _probe_or_fail(self, t, x, eps):
+    def _probe_or_fail(self, t, x, eps, after_jump=False):
         """:func:`~netdae.dae.bdf.startup.probe` at (t, x); None after recording a failure."""
         self.stats["probes"] += 1
         try:
             return probe(self._evaluate, self._lu, self._floor, self.system.names, t, x, eps, self._high, self._w,
-                         self._w_err)
+                         self._w_err, after_jump=after_jump and not self._linear)
         except Failure as f:
             self._fail(t, eps, f.what, f.worst, f.hint)
             return None

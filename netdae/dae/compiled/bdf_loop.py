@@ -597,12 +597,13 @@ def _rounding_floor(x, xp, qp, cj, qcol, every, absdq, indptr, indices, lus, sig
 
 # ------------------------------------------------------------------ probes and jumps
 @kernel
-def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
+def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
     """x'(t+) into ``xp``, x''(t+) into ``xpp`` by two implicit-Euler steps of size eps.
 
     Also the right limit ``xr`` (the two steps extrapolated to eps = 0), the second
-    step's value ``x2``, ``q'(t+)`` into ``qpb`` (nonlinear systems) and, in ``wf``,
-    the weights raised to the probe's rounding level.
+    step's value ``x2``, ``q'(t+) = phi(x, t + eps)`` into ``qpb`` (nonlinear systems; ``after_jump``
+    with the index-2 unknowns of the first Euler step, see ``startup.probe``) and, in ``wf``, the
+    weights raised to the probe's rounding level.
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
@@ -654,6 +655,12 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     for i in range(n):
         xp[i] /= eps
         work[i] = x[i] + eps * xp[i]
+    if after_jump and not linear:
+        # q'(t+) = phi with the index-2 unknowns the first Euler step solved (startup.probe)
+        for j in range(n):
+            if high[j]:
+                for p in range(indptr[j], indptr[j + 1]):
+                    qpb[indices[p]] += dphie[p] * eps * xp[j]
     ok1 = True
     if linear:
         I[I_EVALUATIONS] += 1
@@ -882,9 +889,10 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     # (x is the right limit then): one check per restart, as in the Python driver
     checked = I[I_RESTART_CHECKED] != 0
     retries = 0
+    jumped = False
     while True:
         eps = PROBE_FRACTION * h
-        rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws)
+        rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, jumped)
         if rc != FACTOR_OK:
             return rc
         if not checked:
@@ -897,6 +905,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
                 return again
             I[I_RESTART_CHECKED] = 1
             if again == 1:
+                jumped = True
                 continue  # derivatives from the right limit
         if fixed:
             break
