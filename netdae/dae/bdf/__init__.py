@@ -176,7 +176,6 @@ from .constants import (
     MAX_ORDER,
     MIXED_FLOOR,
     NEWTON_MAXITER,
-    NEWTON_VERIFY,
     PROBE_FRACTION,
     PROBE_MAX_RATIO,
     PROBE_RETRIES,

@@ -18,11 +18,6 @@ MAX_ORDER = 5
 NEWTON_MAXITER = 4
 #: Newton convergence tolerance as a fraction of the error-test bound 1 (IDA's EPCON).
 EPCON = 0.33
-#: A converged corrector iterate is verified: the correction its own residual asks for (one solve with
-#: the factorisation at hand) must stay within this fraction of the error-test bound, Newton's own
-#: tolerance; else the attempt counts as a Newton failure (NonlinearCorrector, the compiled loop's
-#: _verified_newton).
-NEWTON_VERIFY = EPCON
 #: Contraction rate assumed right after a factorisation: rate/(1-rate) = 20 (IDA).
 RATE_AFTER_SETUP = 20.0 / 21.0
 #: Rate assumed when cj changed but the old factorisation is reused: rate/(1-rate) = 100 (IDA).

@@ -15,12 +15,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-import dataclasses
-
-from ..compiled.control import NORM_MAX, NORM_RMS, weighted_norm
-from ..newton import INFO_EVALUATION, INFO_MAXITER, INFO_NONFINITE, INFO_SINGULAR, LuCache, newton
-from .constants import (DCJ, DENSE_MATVEC_MAX, EPCON, EPS, NEWTON_VERIFY, RATE_AFTER_SETUP, RATE_CJ_CHANGED,
-                        ROUNDING_FACTOR)
+from ..newton import INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, LuCache, newton
+from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
 from .failures import nonfinite_unknown, worst_unknown
 
 __all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector"]
@@ -300,7 +296,13 @@ class NonlinearCorrector:
         e_matrix = self.e_matrix
         last = {}
 
-        def residual(ev, x):
+        def fun(x, jacobian):
+            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
+            st["evaluations"] += 1
+            self.state_try = ev.state
+            last["ev"] = ev
+            if jacobian:
+                floor.keep(ev.dq)
             if e_matrix is None:
                 r = ev.q - q_pred
                 r *= cj
@@ -316,62 +318,31 @@ class NonlinearCorrector:
                 rq += qp_pred
                 r[rows] = rq
             r -= ev.phi
-            return r
-
-        def fun(x, jacobian):
-            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
-            st["evaluations"] += 1
-            self.state_try = ev.state
-            last["ev"] = ev
-            if jacobian:
-                floor.keep(ev.dq)
-            r = residual(ev, x)
             if not jacobian:
                 return r, None, ev.ok, ev.limited
             st["jacobian_evaluations"] += 1
             return r, cj * ev.dq - ev.dphi, ev.ok, ev.limited
 
         lu = self.lu
-        norm = NORM_MAX if self.norm == "max" else NORM_RMS
-
-        def attempt(setup, full=False):
-            """Newton, an iterate it accepted after one correction verified (the compiled loop's
-            ``_verified_newton``): the correction its residual asks for with the factorisation at
-            hand must be within NEWTON_VERIFY of the tolerances, else the attempt fails."""
-            self.state_try = state
-            res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton, full=full)
-            if not res.converged:
-                return res
-            ev = system.evaluate(res.x, t_new, jacobian=False, state=None)
-            st["evaluations"] += 1
-            last["ev"] = ev
-            if not ev.ok:
-                return dataclasses.replace(res, converged=False, info=INFO_EVALUATION, worst=-1)
-            if res.iterations > 1:
-                return res  # the rate was measured on this attempt's own iterates
-            d = lu.solve(residual(ev, res.x)) * (2.0 / (1.0 + cj / lu.tag))
-            dn = weighted_norm(d, w_newton, norm)
-            if not dn <= NEWTON_VERIFY:
-                worst = int(np.argmax(np.where(np.isfinite(d * w_newton), np.abs(d * w_newton), np.inf)))
-                return dataclasses.replace(res, converged=False, info=INFO_MAXITER, worst=worst)
-            return res
-
+        self.state_try = state
         setup = (not lu.ready) or fresh
         if not setup:
             ratio = cj / lu.tag
             setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
-        res = attempt(setup)
+        res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton)
         if not res.converged and not setup and res.info != INFO_EVALUATION:
             # stale Jacobian: retry once with a fresh one at the same step size
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            res = attempt(True)
+            self.state_try = state
+            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton)
         if not res.converged and res.info not in (INFO_EVALUATION, INFO_SINGULAR):
             # a fresh Jacobian failed too: full Newton (a model whose slope changes within
             # the step, as a MOS charge at its threshold) before a smaller step
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            res = attempt(True, full=True)
+            self.state_try = state
+            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton, full=True)
         st["newton_iterations"] += res.iterations
         st["factorizations"] = lu.factorizations
         if not res.converged:
@@ -380,5 +351,8 @@ class NonlinearCorrector:
                 worst = nonfinite_unknown(system.names, last["ev"]) or worst
             return False, {"info": res.info, "worst": worst}
         self.rate = res.rate
-        ev_new = last["ev"]
+        ev_new = system.evaluate(res.x, t_new, jacobian=False, state=None)
+        st["evaluations"] += 1
+        if not ev_new.ok:
+            return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
         return True, (res.x, ev_new.q if e_matrix is None else ev_new.q[rows])

@@ -96,7 +96,6 @@ from ..bdf import (  # noqa: E402
     JUMP_NEWTON_MAXITER,
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
-    NEWTON_VERIFY,
     PROBE_FRACTION,
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
@@ -934,25 +933,17 @@ def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, 
     q'_pred - phi(x, t_new)`` in the rows ``crows`` (charge form, the charges ``pred0[n:]``,
     ``pred1[n:]`` predicted from their own history), ``cj E (x - x_pred) + E x'_pred -
     phi(x, t_new)`` in the others (correction form, ``dq/dx = E`` constant there; ``v`` is work)."""
-    state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
-    flags = _evaluate(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
-    I[I_HAS_TRY] = 1
-    _assemble_residual(cj, x, pred0, pred1, crows, sysd, evb, r, v)
-    return flags
-
-
-@kernel
-def _assemble_residual(cj, x, pred0, pred1, crows, sysd, evb, r, v):
-    """The corrector's residual at ``x`` from the charges and currents of an evaluation there
-    (``qe``, ``phie`` of ``evb``): the second half of :func:`_residual`."""
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     m = crows.size
+    state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
+    flags = _evaluate(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
+    I[I_HAS_TRY] = 1
     if m == n:
         for i in range(n):
             r[i] = cj * (qe[i] - pred0[n + i]) + pred1[n + i] - phie[i]
-        return
+        return flags
     for j in range(n):
         v[j] = (x[j] - pred0[j]) * cj + pred1[j]
     r[:] = 0.0
@@ -962,6 +953,7 @@ def _assemble_residual(cj, x, pred0, pred1, crows, sysd, evb, r, v):
         r[i] = (qe[i] - pred0[n + c]) * cj + pred1[n + c]
     for i in range(n):
         r[i] -= phie[i]
+    return flags
 
 
 @kernel
@@ -1043,45 +1035,6 @@ def _newton(F, I, t_new, cj, setup, full, x_pred, xp_pred, crows, weights, sysd,
         if m + 1 < maxiter:
             flags = _residual(F, I, t_new, cj, x, need, x_pred, xp_pred, crows, sysd, devd, u, evb, r, v)
     return NEWTON_FAILED, REASON_MAXITER, _newton_worst(d, weights), maxiter, rate_out
-
-
-@kernel
-def _verified_newton(F, I, t_new, cj, setup, full, x_pred, xp_pred, crows, weights, sysd, devd, lus, u, evb, x, d,
-                     r, v):
-    """:func:`_newton`, an iterate it accepted after one correction verified: the devices evaluated
-    exactly at ``x`` (no limiting; the charges the history keeps, evaluated for every converged
-    iterate), the corrector's residual there, and the correction it asks for with the factorisation
-    at hand, scaled as Newton's. Above ``NEWTON_VERIFY`` of the tolerances (the norm of Newton's
-    test) ``x`` is not a solution: the rate test trusted a contraction rate carried from earlier
-    steps that this attempt never measured (a stale Jacobian's iterates contract at a rate of their
-    own: an algebraic node group whose currents no longer balance, its correction diluted by the
-    RMS over the other unknowns). After two or more corrections the rate is this attempt's own
-    and is trusted as before. The attempt then
-    fails as Newton (``REASON_MAXITER``), and the caller's retries follow (a fresh Jacobian, full
-    Newton, a smaller step). Returns as :func:`_newton`; on success ``evb`` holds the evaluation at
-    ``x``."""
-    outcome, reason, worst, its, rate = _newton(F, I, t_new, cj, setup, full, x_pred, xp_pred, crows, weights,
-                                                sysd, devd, lus, u, evb, x, d, r, v)
-    if outcome != NEWTON_CONVERGED:
-        return outcome, reason, worst, its, rate
-    xe, qe, phie, dqe, dphie, absdq = evb
-    n = x.size
-    flags = _evaluate(I, t_new, x, STATE_NONE, False, False, sysd, devd, u, evb)
-    if flags & FLAG_NONFINITE:
-        return NEWTON_FAILED, REASON_EVALUATION, _nonfinite_worst(qe, phie, n), its, rate
-    if its > 1:
-        return outcome, reason, worst, its, rate  # the rate was measured on this attempt's own iterates
-    _assemble_residual(cj, x, x_pred, xp_pred, crows, sysd, evb, r, v)
-    for i in range(n):
-        d[i] = r[i]
-    _solve(lus, d)
-    scale = 2.0 / (1.0 + cj / F[F_LU_TAG])
-    for i in range(n):
-        d[i] *= scale
-    dn = weighted_norm(d, weights, I[I_NORM])
-    if not dn <= NEWTON_VERIFY:
-        return NEWTON_FAILED, REASON_MAXITER, _newton_worst(d, weights), its, rate
-    return outcome, reason, worst, its, rate
 
 
 @kernel
@@ -1285,14 +1238,14 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         for i in range(n):
                             w_se[i] = min(w_err[i], w_newton[i]) if w_newton[i] != w[i] else w_err[i]
                         w_step = w_se
-                outcome, reason, worst, its, rate = _verified_newton(F, I, t_ev, cj, setup, False, pred0, pred1, crows,
+                outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, setup, False, pred0, pred1, crows,
                                                             w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                 if outcome == NEWTON_FAILED and not setup and reason != REASON_EVALUATION:
                     # stale Jacobian: retry once with a fresh one at the same step size
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _verified_newton(F, I, t_ev, cj, True, False, pred0, pred1,
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, False, pred0, pred1,
                                                                 crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                 if outcome == NEWTON_FAILED and reason != REASON_EVALUATION and reason != REASON_SINGULAR:
                     # a fresh Jacobian failed too: full Newton (a model whose slope changes
@@ -1300,7 +1253,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _verified_newton(F, I, t_ev, cj, True, True, pred0, pred1,
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, True, pred0, pred1,
                                                                 crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                 I[I_NEWTON] += its
                 if outcome == NEWTON_PIVOTS:
@@ -1309,12 +1262,18 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     kind = 1
                 else:
                     F[F_RATE] = rate
-                    # the charges at the new point, evaluated exactly (no limiting) by the
-                    # verification: the history must hold q(x_new) itself
-                    for c in range(n):
-                        ee[c] = xn[c] - pred0[c]
-                    for c in range(crows.size):
-                        ee[n + c] = qe[crows[c]] - q_pred[c]
+                    # the charges at the new point, evaluated exactly (no limiting): the
+                    # history must hold q(x_new) itself
+                    flags = _evaluate(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
+                    if flags & FLAG_NONFINITE:
+                        kind = 1
+                        reason = REASON_EVALUATION
+                        worst = _nonfinite_worst(qe, phie, n)
+                    else:
+                        for c in range(n):
+                            ee[c] = xn[c] - pred0[c]
+                        for c in range(crows.size):
+                            ee[n + c] = qe[crows[c]] - q_pred[c]
             if pivots:
                 # undo phase 1 and return for new pivots; the attempt is repeated on the next call
                 _restore(P, psi, psi_saved, beta, ns, k)
