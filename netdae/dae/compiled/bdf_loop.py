@@ -132,7 +132,8 @@ F_CJLAST = 21           # cj of the previous attempt (Newton's rate guess)
 F_RATE = 22             # Newton's contraction rate, carried from step to step
 F_RL_EPS = 23           # probe step of a pending right-limit request
 F_IMPASSE_T = 24        # the last t where Newton failures on every step size asked for a jump (impasse)
-N_F = 25
+F_RESTART_H = 25        # the probe step a restart stopped at to ask for new pivots (0: start at the cap)
+N_F = 26
 
 # --- integer scalars I[...] ----------------------------------------------------------
 I_K = 0
@@ -178,7 +179,7 @@ I_EVENT_RESTART = 39    # the pending restart follows a switching event (a finer
 I_NEVENTS = 40          # events recorded
 I_CHATTER = 41          # consecutive events in the first step after an event
 I_AFTER_EVENT = 42      # the last restart was at an event
-I_RESTART_CHECKED = 43  # the pending restart has checked for a jump (kept across returns to Python)
+I_RESTART_CHECKED = 43  # the pending restart checked for a jump: 1; found one: 2 (kept across returns to Python)
 I_IMPASSE = 44          # 1: the pending restart continues from the right limit Python solved (an impasse)
 I_IMPASSE_TRIES = 45    # impasse restarts at F_IMPASSE_T so far
 N_I = 46
@@ -365,6 +366,7 @@ def _impasse(F, I, t):
     I[I_IMPASSE] = 1
     I[I_PENDING_RESTART] = 1
     I[I_RESTART_CHECKED] = 0
+    F[F_RESTART_H] = 0.0
     F[F_RESTART_FIXED] = 0.0
     F[F_RESTART_CAP] = F[F_RL_EPS]  # never a probe below the rounding of t
     return True
@@ -888,11 +890,18 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     # a restart repeated after a return to Python for new pivots has checked already
     # (x is the right limit then): one check per restart, as in the Python driver
     checked = I[I_RESTART_CHECKED] != 0
+    if checked and F[F_RESTART_H] > 0.0:
+        # ... and resumes with the probe that asked for them: starting again from the cap would
+        # factor the first probe's matrix again, whose pivots the new ones replaced, and two probe
+        # matrices of very different steps (a corner of a stiff circuit) would take turns asking
+        h = F[F_RESTART_H]
     retries = 0
-    jumped = False
+    jumped = I[I_RESTART_CHECKED] == 2  # resumed after a jump found here: the probe's charge rate as after it
     while True:
         eps = PROBE_FRACTION * h
         rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, jumped)
+        if rc == FACTOR_NEED_PIVOTS:
+            F[F_RESTART_H] = h
         if rc != FACTOR_OK:
             return rc
         if not checked:
@@ -906,6 +915,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
             I[I_RESTART_CHECKED] = 1
             if again == 1:
                 jumped = True
+                I[I_RESTART_CHECKED] = 2
                 continue  # derivatives from the right limit
         if fixed:
             break
@@ -922,6 +932,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
             break
     _initialise_history(F, I, P, psi, h, xp, qpb, crows)
     I[I_RESTART_CHECKED] = 0
+    F[F_RESTART_H] = 0.0
     return FACTOR_OK
 
 

@@ -1,0 +1,148 @@
+"""Recovery of the compiled transient where bipolar gates switch and where a restart's probes need new pivots.
+
+Two failures of ngspice's public examples, each on a small circuit of the same kind:
+
+- A one-bit full adder of nine bipolar NAND gates (the gate of ngspice's 4-bit adder,
+  ``examples/digital/compare/adder_bip.cir``). In each gate's output stage Q4's internal base,
+  its emitter and its collector are joined only by the junction capacitances: their common
+  mode has no capacitance and is fixed by the balance of the currents into the group. An
+  iterate accepted after one Newton correction on a contraction rate carried from earlier
+  steps leaves that balance 2 mA off (the stale Jacobian's correction, diluted by the RMS over
+  the other unknowns, passes); on the 4-bit adder the error grows until Newton fails on every
+  step size. A known limitation (docs/integrator.md, "Known limitations"): its test here is
+  an expected failure.
+- CMOS inverters into two coupled lossy lines (as ``examples/TransmissionLines/cpl2_2_line.sp``):
+  at a restart two probes of very different steps needed different pivot orders and took
+  turns asking for them ("no step after 51 restarts"). A restart now resumes with the probe
+  that asked (docs/integrator.md, "Impasse points").
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.mna import assemble
+from netdae.netlist import load
+
+ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
+
+NAND_ADDER = """one-bit full adder of bipolar NAND gates
+.SUBCKT NAND 1 2 3 4
+Q1 9 5 1 QMOD
+D1CLAMP 0 1 DMOD
+Q2 9 5 2 QMOD
+D2CLAMP 0 2 DMOD
+RB 4 5 4K
+R1 4 6 1.6K
+Q3 6 9 8 QMOD
+R2 8 0 1K
+RC 4 7 130
+Q4 7 6 10 QMOD
+DVBEDROP 10 3 DMOD
+Q5 3 8 0 QMOD
+.ENDS NAND
+.SUBCKT ONEBIT 1 2 3 4 5 6
+X1 1 2 7 6 NAND
+X2 1 7 8 6 NAND
+X3 2 7 9 6 NAND
+X4 8 9 10 6 NAND
+X5 3 10 11 6 NAND
+X6 3 11 12 6 NAND
+X7 10 11 13 6 NAND
+X8 12 13 4 6 NAND
+X9 11 7 5 6 NAND
+.ENDS ONEBIT
+.MODEL DMOD D
+.MODEL QMOD NPN(BF=75 RB=100 CJE=1PF CJC=3PF)
+VCC 99 0 DC 5V
+VA 1 0 PULSE(0 3 0 10NS 10NS 10NS 50NS)
+VB 2 0 PULSE(0 3 0 10NS 10NS 20NS 100NS)
+VC 3 0 PULSE(0 3 0 10NS 10NS 40NS 200NS)
+X1 1 2 3 4 5 99 ONEBIT
+RS 4 0 1K
+RCO 5 0 1K
+.TRAN 1NS 400NS
+.END
+"""
+
+LINES = """CMOS inverters into two coupled lossy lines, capacitive loads
+M1 out1 in 0 0 nm W=18u L=1u
+M2 out1 in vdd vdd pm W=36u L=1u
+M3 out2 inb 0 0 nm W=18u L=1u
+M4 out2 inb vdd vdd pm W=36u L=1u
+C1 out1 0 0.02p
+C2 out2 0 0.02p
+P1 out1 out2 0 far1 far2 0 LINE
+C3 far1 0 0.01p
+C4 far2 0 0.01p
+VDD vdd 0 DC 5
+VIN in 0 PULSE(0 5 10N 0.2N 0.2N 10N 40N)
+VINB inb 0 DC 0
+.MODEL LINE CPL R=0.2 0 0.2 L=9.13e-9 3.3e-9 9.13e-9 G=0 0 0 C=3.65e-13 -9e-14 3.65e-13 length=12
+.MODEL nm NMOS VTO=0.8 KP=48U GAMMA=0.30 PHI=0.55 LAMBDA=0 CGSO=0 CGDO=0 CJ=0 CJSW=0 TOX=18000N
+.MODEL pm PMOS VTO=-0.8 KP=21U GAMMA=0.45 PHI=0.61 LAMBDA=0 CGSO=0 CGDO=0 CJ=0 CJSW=0 TOX=18000N
+.TRAN 0.2N 30N
+.save v(out1) v(out2) v(far1) v(far2)
+.END
+"""
+
+
+@pytest.mark.xfail(strict=True, reason="an iterate accepted after one correction on a carried rate is not "
+                   "verified (docs/integrator.md, Known limitations)")
+def test_the_gates_output_stages_balance_their_currents_at_every_accepted_point():
+    r = netdae.simulate(NAND_ADDER)
+    assert r.ok, r.message
+    system = assemble(load(NAND_ADDER))
+    names = list(system.names)
+    groups = []
+    for name in names:
+        if name.endswith(".q4#base)"):
+            gate = name[len("v(q."):-len(".q4#base)")]
+            groups.append([names.index(name), names.index(f"v({gate}.10)"), names.index(f"v({gate}.7)")])
+    assert len(groups) == 9
+    x = np.column_stack([np.asarray(r[name], dtype=float) for name in names])
+    worst = 0.0
+    for t, xi in zip(r.t, x):
+        phi = system.evaluate(xi, float(t), jacobian=False).phi
+        worst = max(worst, max(abs(phi[g].sum()) for g in groups))
+    # the currents into a group without capacitance sum to zero at a solution; the stages carry
+    # up to about 30 mA (RC = 130 ohm from 5 V). Measured 2.05e-3 A (4.5e-4 A with the accepted
+    # iterates verified)
+    assert worst < 1e-3, worst
+
+
+@ngspice
+def test_the_gate_adder_agrees_with_ngspice():
+    from netdae.comparison import compare
+
+    c = compare(NAND_ADDER, tol={"tran": 2e-2})
+    assert c.ngspice_error is None, c.ngspice_error
+    a = c.analysis("tran")
+    assert a.error is None and a.points > 100
+    outputs = [s for s in a.signals if s.name in ("v(4)", "v(5)")]
+    assert len(outputs) == 2
+    # logic levels 0.2-3.6 V switching in a few ns: the outputs' worst error is at an edge, where a
+    # small shift in time is a large difference in value; their RMS error is a few mV
+    for s in outputs:
+        assert s.max_rel < 5e-2 and s.rms < 2e-2, (s.name, s.max_rel, s.rms)
+
+
+def test_a_restart_whose_probes_need_different_pivots_goes_on():
+    r = netdae.simulate(LINES)
+    assert r.ok, r.message
+    t = np.asarray(r.t)
+    far1 = np.asarray(r["v(far1)"])
+    far2 = np.asarray(r["v(far2)"])
+    # closed forms: the lines' DC path carries no current into the capacitive loads, so 9 ns after
+    # an edge the far ends sit near the driver's rail (v(far2) is never driven; measured: v(far1)
+    # within 14 mV of 0 V before the falling edge)
+    high = (t > 19.0e-9) & (t < 20.0e-9)
+    low_after = t > 29.0e-9
+    assert np.abs(far1[high]).max() < 3e-2
+    assert np.abs(far1[low_after] - 5.0).max() < 3e-2
+    assert np.abs(far2[t > 5e-9] - 5.0).max() < 1.0  # crosstalk from line 1 only (measured 0.63 V)
+    assert np.abs(far2[low_after] - 5.0).max() < 3e-2
