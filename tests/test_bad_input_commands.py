@@ -259,3 +259,20 @@ def test_sens_with_a_family_without_model_sensitivities(capsys, tmp_path):
     assert status == 0, err
     assert "bug in netdae" not in err
     assert f"{path}:4:1: z1: netdae computes no sensitivities to the model parameters of a mesa" in err
+
+
+@pytest.mark.parametrize("option", ["gmin=1e300", "abstol=1e300", "vntol=1e200", "chgtol=1e151"])
+def test_option_beyond_the_solvers_range(capsys, tmp_path, option):
+    """A tolerance or gmin of 1e300 enters every residual and weight: refused, naming the file and the option."""
+    text = f"options\nv1 in 0 1\nr1 in out 1k\nd1 out 0 dm\n.model dm d\n.options {option}\n.op\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err
+    name = option.split("=")[0]
+    assert f"{path}: .options {name}=" in err and f"expected: {name}: a positive" in err and "up to 1e150" in err
+
+
+def test_option_at_the_range_end_runs(capsys, tmp_path):
+    text = "options\nv1 in 0 1\nr1 in out 1k\nd1 out 0 dm\n.model dm d\n.options gmin=1e-3\n.op\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err

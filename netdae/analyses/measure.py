@@ -233,16 +233,28 @@ def _ordinal(n: int) -> str:
     return {1: "first", 2: "second", 3: "third"}.get(n, f"{n}th")
 
 
+def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[float, float]) -> tuple[float, float]:
+    """Where a condition is looked for: after its TD, within FROM/TO for a WHEN clause, inside ``span``.
+
+    Raises
+    ------
+    MeasureFailure
+        The window is empty.
+    """
+    x0, x1 = span
+    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
+    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
+    if lo > hi:
+        raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
+    return lo, hi
+
+
 def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: str) -> float:
     if cond.at is not None:
         return cond.at
     trace = _Trace(result, cond.probe)
     other = _Trace(result, cond.other) if cond.other is not None else None
-    x0, x1 = trace.span
-    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
-    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
-    if lo > hi:
-        raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
+    lo, hi = _search_window(spec, cond, clause, trace.span)
     events = _crossings(trace, cond, lo, hi, other)
     wanted = [e for e in events if cond.edge in ("", "cross") or e[1] == cond.edge]
     target = other.name if other is not None else f"{cond.value:g}"
@@ -515,11 +527,7 @@ def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: s
         return np.full(rows, float(cond.at)), [None] * rows
     trace = _Lines(result, cond.probe)
     other = _Lines(result, cond.other) if cond.other is not None else None
-    x0, x1 = trace.span
-    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
-    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
-    if lo > hi:
-        raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
+    lo, hi = _search_window(spec, cond, clause, trace.span)
     xs, ys = trace.samples(lo, hi)
     d = ys - (other.at(xs) if other is not None else cond.value)
     first = np.argmax(d != 0, axis=1)  # before the first point off the value, the side it goes to

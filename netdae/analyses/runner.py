@@ -18,8 +18,8 @@ import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from ..circuit import AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, SensAnalysis, \
-    TfAnalysis, TranAnalysis
+from ..circuit import STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, \
+    SensAnalysis, TfAnalysis, TranAnalysis
 from ..errors import NetdaeError, NetlistError
 from ..kinds import Kind
 
@@ -34,7 +34,7 @@ ABSOLUTE_ZERO = -273.15
 
 
 def _positive(v: float) -> bool:
-    return math.isfinite(v) and v > 0.0
+    return math.isfinite(v) and 0.0 < v <= STAMP_MAGNITUDES[1]  # beyond, residuals and weights overflow
 
 
 def _fraction(v: float) -> bool:
@@ -64,16 +64,16 @@ BSIM_OPTIONS = frozenset({"scale", "wnflag"})
 #: The options netdae uses, with their valid values: name -> (test, what is expected).
 OPTION_RANGES: dict[str, tuple[Callable[[float], bool], str]] = {
     "reltol": (_fraction, "a relative tolerance between 0 and 1 (exclusive), e.g. 1e-3"),
-    "abstol": (_positive, "a positive current tolerance in amperes, e.g. 1e-12"),
-    "vntol": (_positive, "a positive voltage tolerance in volts, e.g. 1e-6"),
-    "chgtol": (_positive, "a positive charge tolerance in coulombs, e.g. 1e-14"),
-    "gmin": (_positive, "a positive conductance in siemens, e.g. 1e-12"),
+    "abstol": (_positive, "a positive current tolerance in amperes up to 1e150, e.g. 1e-12"),
+    "vntol": (_positive, "a positive voltage tolerance in volts up to 1e150, e.g. 1e-6"),
+    "chgtol": (_positive, "a positive charge tolerance in coulombs up to 1e150, e.g. 1e-14"),
+    "gmin": (_positive, "a positive conductance in siemens up to 1e150, e.g. 1e-12"),
     "temp": (_temperature, f"a temperature in degC above absolute zero ({ABSOLUTE_ZERO})"),
     "tnom": (_temperature, f"a temperature in degC above absolute zero ({ABSOLUTE_ZERO})"),
     "maxord": (_order, "a BDF order from 1 to 5"),
     "itl1": (_count, "a positive number of Newton iterations"),
     "itl4": (_count, "a positive number of Newton iterations"),
-    "max_step": (_positive, "a positive time step in seconds"),
+    "max_step": (_positive, "a positive time step in seconds up to 1e150"),
 }
 
 

@@ -375,7 +375,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                     # new pivots or right limits asked for again and again without a step: stop, do not hang
                     failure = IntegrationFailure(
                         float(F[L.F_T]), float(F[L.F_H]),
-                        f"no step after {stalled} restarts (the matrices of the restart's probes are near-singular)",
+                        f"no step after {stalled} returns for new pivots or a right limit (the restart's matrices "
+                        "lose their pivots again at once, or its right limit does not settle)",
                         None, "loosen the tolerances or give the circuit's fastest nodes some capacitance")
                     I[L.I_STATUS] = L.FAILED
                     status = L.FAILED
