@@ -146,3 +146,36 @@ def test_a_restart_whose_probes_need_different_pivots_goes_on():
     assert np.abs(far1[low_after] - 5.0).max() < 3e-2
     assert np.abs(far2[t > 5e-9] - 5.0).max() < 1.0  # crosstalk from line 1 only (measured 0.63 V)
     assert np.abs(far2[low_after] - 5.0).max() < 3e-2
+
+
+_LOGIC = """logic b source
+vin in 0 pulse(0 1 1u 1u 1u 2u 6u)
+b1 out 0 v={OUT}
+r1 out 0 1k
+b2 o2 0 v={O2}
+r2 o2 x 1k
+c2 x 0 1n
+.tran 10n 12u
+.end
+"""
+
+
+def test_a_behavioural_source_jumping_with_the_state_is_named_with_a_way_around():
+    """A B source whose value jumps where its input crosses a level (state-dependent, not a breakpoint): the
+    transient stops, and the message names the source, why, and what runs instead."""
+    text = _LOGIC.replace("{OUT}", "{v(in) > 0.5 ? 1 : 0}").replace("{O2}",
+                                                                      "{(v(in) > 0.3) && (v(out) < 0.5) ? 2 : 0}")
+    res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]
+    assert not res.ok
+    assert "b2's value jumps where a comparison" in res.message
+    assert "tanh" in res.message and "S/W switch" in res.message
+
+
+def test_the_smooth_form_of_that_source_runs_and_keeps_its_law():
+    text = _LOGIC.replace("{OUT}", "{0.5+0.5*tanh((v(in)-0.5)/0.01)}").replace(
+        "{O2}", "{2*(0.5+0.5*tanh((v(in)-0.3)/0.01))*(0.5+0.5*tanh((0.5-v(out))/0.01))}")
+    res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]
+    assert res.ok, res.message
+    vin, out = res["v(in)"], res["v(out)"]
+    # algebraic, so it holds at every step to the integrator's tolerance: reltol (1e-3) of its 1 V swing
+    np.testing.assert_allclose(out, 0.5 + 0.5 * np.tanh((vin - 0.5) / 0.01), rtol=0, atol=1e-3)

@@ -836,8 +836,27 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
             message += f" (circuit structure: {reasons[0]})"
     if res.failure is not None and system.linear:
         message += _instability(rep, res.t[-1] - card.tstart)
+    if res.failure is not None and res.failure.worst:
+        message += _jumping_source(prepared.circuit, res.failure.worst)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
+
+
+def _jumping_source(circuit, worst: str) -> str:
+    """What to say when the failure's worst unknown belongs to a behavioural source whose value jumps
+    with the circuit's state (a comparison of voltages in its expression), else ``""``."""
+    from ..netlist.expr import jumps_with_state
+
+    for el in circuit.elements:
+        if el.kind not in (Kind.BVOLTAGE, Kind.BCURRENT) or el.expr is None:
+            continue
+        own = {f"i({el.name})"} | {f"v({node})" for node in el.nodes if node != "0"}
+        if worst in own and jumps_with_state(el.expr):
+            return (f" ({el.name}'s value jumps where a comparison of the circuit's voltages or currents in its "
+                    "expression changes: netdae's transient does not yet step across such a jump; write it as a "
+                    "smooth function (e.g. tanh of the difference over a small scale) or as an S/W switch, whose "
+                    "thresholds netdae locates)")
+    return ""
 
 
 def _result(prepared: Prepared, settings: _Settings, saved: _Saved, start: _Start, rep: IndexReport, run: _Run,

@@ -130,6 +130,7 @@ __all__ = [
     "transform",
     "fold_constants",
     "walk",
+    "jumps_with_state",
     "to_text",
     "depth",
     "time_corners",
@@ -754,6 +755,33 @@ _COMPARISONS = frozenset({"==", "!=", "<", "<=", ">", ">="})
 _ZERO_CORNERS = frozenset({"u", "sgn", "abs", "uramp"})
 #: Functions that jump where their argument is an integer (nint: a half-integer).
 _STAIRS = {"floor": 0.0, "ceil": 0.0, "int": 0.0, "nint": 0.5}
+
+
+def jumps_with_state(node: Expr) -> bool:
+    """True when the expression's value can jump as the circuit's voltages or currents move.
+
+    A comparison, a ternary's condition, or a jumping function (``u``, ``sgn``, ``floor``, ``ceil``,
+    ``int``, ``nint``) whose operands read ``V(...)`` or ``I(...)``. Such a jump is not at a time
+    known in advance (:func:`time_corners` finds those of ``time``): the transient meets it as an
+    algebraic unknown that jumps between two steps.
+
+    Examples
+    --------
+    >>> b = lambda text: parse_expression(text, context=BEHAVIOURAL)
+    >>> jumps_with_state(b("v(a) > 0.5 ? 1 : 0")), jumps_with_state(b("time > 1u ? 1 : 0"))
+    (True, False)
+    """
+    def reads_state(n) -> bool:
+        return any(isinstance(m, (Voltage, Current)) for m in walk(n))
+
+    for n in walk(node):
+        if isinstance(n, Binary) and n.op in _COMPARISONS and reads_state(n):
+            return True
+        if isinstance(n, Ternary) and reads_state(n.cond):
+            return True
+        if isinstance(n, Call) and (n.func in ("u", "sgn") or n.func in _STAIRS) and any(map(reads_state, n.args)):
+            return True
+    return False
 
 
 def _affine(node) -> tuple[float, float] | None:
