@@ -263,13 +263,22 @@ def test_sens_with_a_family_without_model_sensitivities(capsys, tmp_path):
 
 @pytest.mark.parametrize("option", ["gmin=1e300", "abstol=1e300", "vntol=1e200", "chgtol=1e151"])
 def test_option_beyond_the_solvers_range(capsys, tmp_path, option):
-    """A tolerance or gmin of 1e300 enters every residual and weight: refused, naming the file and the option."""
+    """A tolerance or gmin of 1e300 enters every residual and weight: refused at its number on the card."""
     text = f"options\nv1 in 0 1\nr1 in out 1k\nd1 out 0 dm\n.model dm d\n.options {option}\n.op\n.end\n"
     status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
     assert status == EXIT_ERROR, err
     assert "bug in netdae" not in err
-    name = option.split("=")[0]
-    assert f"{path}: .options {name}=" in err and f"expected: {name}: a positive" in err and "up to 1e150" in err
+    name, value = option.split("=")
+    column = len(".options ") + len(name) + 2  # 1-based column of the value
+    assert f"{path}:6:{column}: .options: option '{name}' = {float(value):g} is beyond the magnitudes" in err, err
+    assert "up to 1e+150" in err and "expected: .options" in err
+
+
+def test_option_override_beyond_the_solvers_range():
+    """The same limit for a value the caller gives (the API's overrides), named with what is expected."""
+    from netdae.analyses.runner import option_problem
+
+    assert "up to 1e150" in option_problem("gmin", 1e300) and option_problem("gmin", 1e-3) is None
 
 
 def test_option_at_the_range_end_runs(capsys, tmp_path):

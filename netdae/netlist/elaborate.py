@@ -1364,6 +1364,11 @@ class _Elaborator:
                     number = int(number)
                 elif name not in ("temp", "tnom") and number <= 0:
                     raise error(card, value.start, f"option '{name}' must be > 0", form)
+                elif name not in ("temp", "tnom") and number > STAMP_MAGNITUDES[1]:
+                    raise error(card, value.start, f"option '{name}' = {number:g} is beyond the magnitudes netdae's "
+                                f"solvers hold (up to {STAMP_MAGNITUDES[1]:g})", form,
+                                hint="a tolerance or conductance this large enters every residual and weight and "
+                                     "overflows them; check its unit suffix")
                 elif name in ("temp", "tnom"):
                     self._check_temperature(number, card, value.start, f"option {name}")
                 setattr(opts, name, number)
