@@ -22,7 +22,7 @@ import math
 from ...dae.compiled import kernel
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
-from .junction import depletion, fetlim, ideal_junction, pnjlim
+from .junction import depletion, gate_junction_limit, ideal_junction
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
 
 __all__ = ["eval_jfet", "channel_current", "drain_current", "jfet_limit"]
@@ -86,11 +86,10 @@ def _gate_junction(v, par, k):
 
 @kernel
 def jfet_limit(vgs_x, vgd_x, vgs_o, vgd_o, par, k):
-    """ngspice's JFET limiting of instance ``k``: pnjlim, then fetlim against VTO(T) (``JfetFamily.limit``)."""
-    vt, vcrit, vto = par[k, P_VT], par[k, P_VCRIT], par[k, P_VTO]
-    vgs, _ = pnjlim(vgs_x, vgs_o, vt, vcrit)
-    vgd, _ = pnjlim(vgd_x, vgd_o, vt, vcrit)
-    return fetlim(vgs, vgs_o, vto), fetlim(vgd, vgd_o, vto)
+    """ngspice's JFET limiting of instance ``k``: both gate junctions with one ``vt`` and ``vcrit``
+    (``JfetFamily.limit``)."""
+    vt, vcrit = par[k, P_VT], par[k, P_VCRIT]
+    return gate_junction_limit(vgs_x, vgd_x, vgs_o, vgd_o, vt, vcrit, vt, vcrit, par[k, P_VTO])
 
 
 @kernel

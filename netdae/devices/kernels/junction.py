@@ -11,7 +11,8 @@ round differently in numpy's and the C library's implementations).
 - :func:`depletion`: the depletion charge and capacitance from the
   coefficients a :class:`~netdae.devices.junction.Depletion` precomputes;
 - :func:`pnjlim`, :func:`fetlim`, :func:`limvds`: ngspice's limiting
-  (``devsup.c``), and :func:`fet_mode_limit`, the MOSFETs' use of the last two.
+  (``devsup.c``), :func:`fet_mode_limit`, the MOSFETs' use of the last two, and
+  :func:`gate_junction_limit`, the JFETs' and MESA's use of the first two.
 
 Every function is a netdae kernel (:func:`netdae.dae.compiled.kernel`) with the numpy error model
 (a division by zero gives inf or nan, as in the numpy families).
@@ -36,7 +37,7 @@ from ..junction import (
     _VDS_UP,
 )
 
-__all__ = ["ideal_junction", "depletion", "pnjlim", "fetlim", "limvds", "fet_mode_limit"]
+__all__ = ["ideal_junction", "depletion", "pnjlim", "fetlim", "limvds", "fet_mode_limit", "gate_junction_limit"]
 
 
 @kernel
@@ -119,6 +120,21 @@ def fetlim(vnew, vold, vto):
     if vnew <= vtemp:
         return vold + vtstlo if delv > vtstlo else vnew
     return vtemp
+
+
+@kernel
+def gate_junction_limit(vgs_x, vgd_x, vgs_o, vgd_o, vt_s, vcrit_s, vt_d, vcrit_d, vto):
+    """A FET's gate junctions limited as SPICE's JFET and MESA do: pnjlim on each junction (its own
+    ``N vt`` and ``vcrit``), then fetlim against VTO (see
+    :meth:`netdae.devices.companion.GateJunctionLimits.limit`).
+
+    Returns
+    -------
+    (vgs, vgd) : (float, float)
+    """
+    vgs, _ = pnjlim(vgs_x, vgs_o, vt_s, vcrit_s)
+    vgd, _ = pnjlim(vgd_x, vgd_o, vt_d, vcrit_d)
+    return fetlim(vgs, vgs_o, vto), fetlim(vgd, vgd_o, vto)
 
 
 @kernel

@@ -25,7 +25,7 @@ from ...dae.compiled import kernel
 from ..mesa import NS_FLOOR, OFF_DEPTH, QUAD_ABSCISSAE, QUAD_PANELS, QUAD_WEIGHTS, STEP
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
-from .junction import fetlim, pnjlim
+from .junction import gate_junction_limit
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
 
 __all__ = ["eval_mesa", "CHANNEL_KEYS", "mesa_dc", "mesa_charges"]
@@ -184,11 +184,9 @@ def mesa_charges(vgs, vgd, vgspp, vgdpp, par, k):
 
 @kernel
 def _mesa_limit(vgs_x, vgd_x, vgs_o, vgd_o, par, k):
-    """ngspice's MESA limiting (``MesaFamily.limit``): pnjlim with ``N vt``, then fetlim against VTO(T)."""
-    vgs, _ = pnjlim(vgs_x, vgs_o, par[k, P_VTES], par[k, P_VCRITS])
-    vgd, _ = pnjlim(vgd_x, vgd_o, par[k, P_VTED], par[k, P_VCRITD])
-    vto = par[k, P_VTO]
-    return fetlim(vgs, vgs_o, vto), fetlim(vgd, vgd_o, vto)
+    """ngspice's MESA limiting (``MesaFamily.limit``): each gate junction with its own ``N vt`` and ``vcrit``."""
+    return gate_junction_limit(vgs_x, vgd_x, vgs_o, vgd_o, par[k, P_VTES], par[k, P_VCRITS], par[k, P_VTED],
+                               par[k, P_VCRITD], par[k, P_VTO])
 
 
 @kernel
