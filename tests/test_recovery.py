@@ -160,15 +160,41 @@ c2 x 0 1n
 """
 
 
-def test_a_behavioural_source_jumping_with_the_state_is_named_with_a_way_around():
+def test_a_behavioural_source_jumping_with_the_state_is_named_with_a_way_around(monkeypatch):
     """A B source whose value jumps where its input crosses a level (state-dependent, not a breakpoint): the
-    transient stops, and the message names the source, why, and what runs instead."""
+    Python integrator stops, and the message names the source, why, and what runs instead."""
+    monkeypatch.setenv("NETDAE_ENGINE", "python")
     text = _LOGIC.replace("{OUT}", "{v(in) > 0.5 ? 1 : 0}").replace("{O2}",
                                                                       "{(v(in) > 0.3) && (v(out) < 0.5) ? 2 : 0}")
     res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]
     assert not res.ok
     assert "b2's value jumps where a comparison" in res.message
-    assert "tanh" in res.message and "S/W switch" in res.message
+    assert "compiled engine" in res.message and "tanh" in res.message and "S/W switch" in res.message
+
+
+def test_the_compiled_engine_steps_across_that_source_at_the_located_crossings():
+    """The same logic in the compiled engine: its comparisons held through each step, their changes
+    located on the interpolant of the input's edges (linear in time, so exactly), the gate's pulse
+    between v(in) crossing 0.3 and the output changing, its RC load the exponentials of that pulse."""
+    text = _LOGIC.replace("{OUT}", "{v(in) > 0.5 ? 1 : 0}").replace("{O2}",
+                                                                      "{(v(in) > 0.3) && (v(out) < 0.5) ? 2 : 0}")
+    res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]
+    assert res.ok, res.message
+    events = [(t, tuple(names)) for t, names in res.transient.events]
+    # rising edges at 1.3 us (b2 on) and 1.5 us (b1; b2 off once out has jumped), falling edges at
+    # 4.5 us (b1 off: b2 on, v(in) still above 0.3) and 4.7 us (b2 off), then again 6 us later
+    # (b2's change at 1.5 us follows b1's as a second event just after it, once out has jumped; the
+    # instants carry the Newton tolerance of v(in), 1e-8 V on a 1e6 V/s edge)
+    times = np.array([t for t, _ in events])
+    edges = np.array([1.3e-6, 1.5e-6, 4.5e-6, 4.7e-6, 7.3e-6, 7.5e-6, 10.5e-6, 10.7e-6])
+    assert np.abs(times[:, None] - edges[None, :]).min(axis=0).max() < 1e-13
+    assert np.abs(times[:, None] - edges[None, :]).min(axis=1).max() < 1e-13
+    assert {names for _, names in events} <= {("b1",), ("b2",), ("b1", "b2")}
+    # v(x): the 2 V pulse of 0.2 us through 1k into 1n (tau = 1 us), then the decay
+    vx = lambda t: float(res.dense(t)["v(x)"][0])  # noqa: E731
+    top = 2.0 * (1.0 - np.exp(-0.2))
+    assert vx(1.5e-6) == pytest.approx(top, rel=2e-3)
+    assert vx(2.5e-6) == pytest.approx(top * np.exp(-1.0), rel=2e-3)
 
 
 def test_the_smooth_form_of_that_source_runs_and_keeps_its_law():

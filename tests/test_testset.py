@@ -61,8 +61,10 @@ def test_charge_pump_index_2_current_reaches_the_reference():
     p, res, y = _run("pump")
     assert testset.scd(y, p["ref"], p["scored"]) >= 10.0
     assert testset.scd(y, p["ref"], p["index2"]) >= 5.0
-    # every input corner restarts the method: 4 per period, 10 periods (the last is tend)
-    assert res.stats["integrator"]["restarts"] == 39
+    # every input corner restarts the method: 4 per period, 10 periods (the last is tend); the MOS
+    # charges' comparisons are not held (a charge is continuous: its regions meet), so no events
+    integ = res.stats["integrator"]
+    assert integ["events"] == 0 and integ["restarts"] == 39
 
 
 @pytest.mark.slow
@@ -99,7 +101,8 @@ def test_ring_modulator_reaches_the_reference():
 @pytest.mark.slow
 def test_both_engines_take_the_same_decisions_on_the_charge_pump(monkeypatch):
     """The full-Newton retry, the charge error test of the index-2 rows and the probe after an
-    index-2 jump are written in both engines: the same steps, to a few per cent."""
+    index-2 jump are written in both engines: the same steps, to a few per cent. (Neither holds
+    the comparisons of the MOS charges' regions: a charge is continuous.)"""
     p = testset.PROBLEMS["pump"]
     out = {}
     for engine in ("compiled", "python"):

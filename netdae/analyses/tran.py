@@ -825,8 +825,9 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
                      "to another state, as a latch or a trigger with feedback does)")
     if events:
         first_t, first_w = events[0]
-        notes.append(f"switches changed at {len(events)} instant(s), located where their controls cross the "
-                     f"thresholds (the first: t={first_t:.6g}, {', '.join(first_w[:5])}; all in transient.events)")
+        notes.append(f"switches or behavioural sources' comparisons changed at {len(events)} instant(s), located "
+                     f"where their controls cross the thresholds (the first: t={first_t:.6g}, "
+                     f"{', '.join(first_w[:5])}; all in transient.events)")
     tolerances = {"reltol": settings.rtol, "vntol": settings.vntol, "abstol": settings.abstol,
                   "maxord": settings.order, "max_step": settings.tmax,
                   "index_excluded": res.tolerances.get("index_excluded", 0)}
@@ -836,15 +837,16 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
             message += f" (circuit structure: {reasons[0]})"
     if res.failure is not None and system.linear:
         message += _instability(rep, res.t[-1] - card.tstart)
-    if res.failure is not None and res.failure.worst:
+    if res.failure is not None and res.failure.worst and res.stats.get("engine") != "compiled":
         message += _jumping_source(prepared.circuit, res.failure.worst)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
 
 
 def _jumping_source(circuit, worst: str) -> str:
-    """What to say when the failure's worst unknown belongs to a behavioural source whose value jumps
-    with the circuit's state (a comparison of voltages in its expression), else ``""``."""
+    """What to say when the Python integrator's failure's worst unknown belongs to a behavioural source
+    whose value jumps with the circuit's state (a comparison of voltages in its expression), else ``""``
+    (the compiled engine holds such comparisons and locates their changes as events)."""
     from ..netlist.expr import jumps_with_state
 
     for el in circuit.elements:
@@ -853,9 +855,9 @@ def _jumping_source(circuit, worst: str) -> str:
         own = {f"i({el.name})"} | {f"v({node})" for node in el.nodes if node != "0"}
         if worst in own and jumps_with_state(el.expr):
             return (f" ({el.name}'s value jumps where a comparison of the circuit's voltages or currents in its "
-                    "expression changes: netdae's transient does not yet step across such a jump; write it as a "
-                    "smooth function (e.g. tanh of the difference over a small scale) or as an S/W switch, whose "
-                    "thresholds netdae locates)")
+                    "expression changes: the Python integrator does not step across such a jump; run the compiled "
+                    "engine (unset NETDAE_ENGINE), which locates it as an event, or write it as a smooth function "
+                    "(e.g. tanh of the difference over a small scale) or as an S/W switch)")
     return ""
 
 

@@ -164,8 +164,9 @@ class BehaviouralFamily(DeviceFamily):
         Returns
         -------
         tuple
-            ``(prog, const, inst, leaf, val, der)`` as described in
-            :mod:`netdae.devices.kernels.behavioural`.
+            ``(prog, const, inst, leaf, val, der, lock)`` as described in
+            :mod:`netdae.devices.kernels.behavioural` (``lock`` a template
+            with the hold flag 0: copy it per analysis).
 
         Raises
         ------
@@ -175,7 +176,7 @@ class BehaviouralFamily(DeviceFamily):
         """
         from .kernels import behavioural as kb
         from .kernels.packing import dependence_slots, extended
-        from .kernels.tape import compile_tape
+        from .kernels.tape import compile_tape, count_locked
 
         layout = self._layout
         count = len(self.elements)
@@ -185,8 +186,13 @@ class BehaviouralFamily(DeviceFamily):
         leaf_rows: list = []
         widest = 1
         longest = 1
+        slots_used = 0
         for k, el in enumerate(self.elements):
             ops, args, cvals, leaves = compile_tape(el.expr)
+            inst[k, kb.B_LOCK] = slots_used
+            # a charge is continuous: its comparisons select between regions that meet (not held)
+            inst[k, kb.B_NLOCK] = count_locked(ops, args) if el.kind != _CHARGE else 0
+            slots_used += inst[k, kb.B_NLOCK]
             plus = layout.node(el.nodes[0])
             minus = layout.node(el.nodes[1])
             voltage = el.kind == _VOLTAGE
@@ -204,7 +210,7 @@ class BehaviouralFamily(DeviceFamily):
                 inst[k, kb.B_S_VPM:kb.B_S_VPM + 4] = dependence_slots(slots, [branch], [GND], [plus], [minus])[0]
                 inst[k, kb.B_S_IB:kb.B_S_IB + 4] = dependence_slots(slots, [plus], [minus], [branch], [GND])[0]
             else:
-                inst[k, kb.B_S_VPM:] = slots.dummy
+                inst[k, kb.B_S_VPM:kb.B_S_IB + 4] = slots.dummy
             for leaf in leaves:
                 p, m = self._leaf_pair(layout, leaf, el)
                 row = np.zeros(kb.N_LEAF, dtype=np.int64)
@@ -217,7 +223,7 @@ class BehaviouralFamily(DeviceFamily):
             longest = max(longest, len(ops))
         return (np.array(prog, dtype=np.int64).reshape(-1, 4), np.array(consts, dtype=float),
                 inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(longest),
-                np.zeros((longest, widest)))
+                np.zeros((longest, widest)), np.zeros((kb.N_LOCK_ROWS, slots_used + 1)))
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         """Where an expression jumps or kinks in ``time`` (``time < 1m ? a : b``, ``u(time - td)``):

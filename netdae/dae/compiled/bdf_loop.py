@@ -52,7 +52,7 @@ import math
 import numpy as np
 
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
-from ...devices.kernels.behavioural import eval_behavioural
+from ...devices.kernels.behavioural import eval_behavioural, lock_changed, lock_flip, lock_record, lock_step
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.jfet import eval_jfet
@@ -61,7 +61,7 @@ from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
 from ...devices.kernels.mesa import eval_mesa
 from ...devices.kernels.vdmos import eval_vdmos
-from .events import CHATTER_EVENTS, EVENT_TOGETHER
+from .events import CHATTER_EVENTS, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
                       landing_step, set_weights, update_differences, weighted_norm)
@@ -461,7 +461,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
      v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
@@ -487,8 +487,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags |= _family(7, v_par, v_idx, v_vacc, v_vtry, v_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(8, z_par, z_idx, z_vacc, z_vtry, z_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     if h_inst.shape[0] > 0:
-        hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, qe, phie, dqe, dphie,
-                                        jacobian)
+        hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, qe, phie, dqe,
+                                        dphie, jacobian)
         flags |= hflags
     if o_inst.shape[0] > 0:
         if state == STATE_NONE:
@@ -520,7 +520,7 @@ def _accept_state(I, devd):
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
      v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew) = devd
     if I[I_HAS_TRY] != 0:
@@ -542,7 +542,7 @@ def _reset_trial(I, devd):
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
-     h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
      v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew) = devd
     _copy2(d_vtry, d_vacc)
@@ -1114,9 +1114,17 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     s_vtry = devd[23]
     s_tc = devd[25]
     switches = s_par.shape[0] > 0
+    h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw = devd[26:34]
+    locks = h_lock.shape[1] > 1  # behavioural sources with comparisons of the state
 
     if I[I_STARTED] == 0:
         I[I_STARTED] = 1
+        if locks:
+            # the behavioural sources' comparisons held from here on, in their outcomes at t0
+            for i in range(n):
+                xe[i] = P[0, i]
+            xe[n] = 0.0
+            lock_record(xe, F[F_T], h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock)
         # the record at t0, then the start: an order-1 restart with probed derivatives
         _record(I, F[F_T], 0, P[0], rec)
         cap = min(H0_FRACTION * (bps[0] - F[F_T]), F[F_MAX_STEP])
@@ -1436,19 +1444,33 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 I[I_GROWTH_FAILED] = 0
         update_differences(P, ee, k, maxord)
         # switching events: the states at the step's end, or the step cut where a control crossed
+        # (a switch's threshold, or a behavioural source's comparison of the state)
         t_end = t_new
-        event = False
+        nsw = 0
+        nlock = 0
         if switches:
             # the new states go to s_vtry (every evaluation writes s_vnew; keep=False leaves s_vtry)
             t_end, nsw = switch_step(P, k, psi, t, t_new, n, s_par, s_idx, s_vacc, s_vtry, s_tc, xe, work)
-            event = nsw > 0
-            if t_end < t_new:
-                for i in range(n):
-                    P[0, i] = work[i]
-                # the charges at the event, exactly (the history holds q(x) itself), in the held states
-                _evaluate(I, t_end, work, STATE_NONE, False, False, sysd, devd, u, evb)
-                for c in range(crows.size):
-                    P[0, n + c] = qe[crows[c]]
+        if locks:
+            t_lock, nlock = lock_step(P, k, psi, t, t_new, t_end, n, h_prog, h_const, h_inst, h_leaf, h_val, h_der,
+                                      h_lock, h_xw)
+            if nlock > 0 and t_lock < t_end:
+                # a comparison changes first: the switches keep their conductance to there
+                if nsw > 0:
+                    _copy2(s_vtry, s_vacc)
+                    nsw = 0
+                t_end = t_lock
+                interpolate_state(P, k, psi, t_end - t_new, n, work)
+        event = nsw > 0 or nlock > 0
+        if t_end < t_new:
+            for i in range(n):
+                P[0, i] = work[i]
+            # the charges at the event, exactly (the history holds q(x) itself), in the held states
+            _evaluate(I, t_end, work, STATE_NONE, False, False, sysd, devd, u, evb)
+            for c in range(crows.size):
+                P[0, n + c] = qe[crows[c]]
+        if nlock > 0:
+            lock_flip(h_lock, t_end + EVENT_TOGETHER * h)
         F[F_T] = t_end
         if not linear:
             _accept_state(I, devd)
@@ -1472,11 +1494,19 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             j = I[I_NEVENTS]
             event_t[j] = t_end
             count = 0
-            for i in range(s_par.shape[0]):
-                if s_tc[i] <= t_end + EVENT_TOGETHER * h:
-                    if count < JUMP_NAMES:
-                        event_idx[j, count] = i
-                    count += 1
+            if nsw > 0:
+                for i in range(s_par.shape[0]):
+                    if s_tc[i] <= t_end + EVENT_TOGETHER * h:
+                        if count < JUMP_NAMES:
+                            event_idx[j, count] = i
+                        count += 1
+            # the behavioural sources that changed, numbered after the switches
+            if nlock > 0:
+                for i in range(h_inst.shape[0]):
+                    if lock_changed(h_inst, h_lock, i, t_end + EVENT_TOGETHER * h):
+                        if count < JUMP_NAMES:
+                            event_idx[j, count] = s_par.shape[0] + i
+                        count += 1
             event_count[j] = count
             I[I_NEVENTS] = j + 1
             if I[I_CHATTER] >= CHATTER_EVENTS:

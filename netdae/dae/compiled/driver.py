@@ -522,11 +522,11 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         shown = jump_idx[j, : min(int(jump_count[j]), L.JUMP_NAMES)]
         jumps.append((float(jump_t[j]), tuple(system.names[i] for i in shown)))
     events = []
-    if switching is not None:
-        switch_names = [el.name for el in switching.family.elements]
+    if int(I[L.I_NEVENTS]):
+        event_names = _event_elements(system)
         for j in range(int(I[L.I_NEVENTS])):
             shown = event_idx[j, : min(int(event_count[j]), L.JUMP_NAMES)]
-            events.append((float(event_t[j]), tuple(switch_names[i] for i in shown)))
+            events.append((float(event_t[j]), tuple(event_names[i] for i in shown)))
     seg = segments[: int(I[L.I_NSEGMENTS])].copy()
     result = IntegrationResult(
         t=t, x=x, order=k, names=names, save=save_idx.copy(), dense=Interpolant(t, k, x, names, segments=seg),
@@ -667,8 +667,8 @@ def limiting_states(devd: tuple) -> tuple[int, ...]:
 def _pack_families(system, x0, switching) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs, JFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
-    val, der)``, then the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`)
-    and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors and of the MESA
+    val, der, lock, xw)`` (``lock`` copied, its outcomes not held; ``xw`` work of length n + 1), then
+    the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`) and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors and of the MESA
     MESFETs.
 
     An absent family gets empty arrays (its kernel is then skipped). The switches start held in
@@ -690,7 +690,8 @@ def _pack_families(system, x0, switching) -> tuple:
     vdmos = (np.zeros((0, kv.N_PAR)), np.zeros((0, kv.N_IDX), dtype=np.int64), np.zeros((0, kv.N_STATE)))
     mesa = (np.zeros((0, kz.N_PAR)), np.zeros((0, kz.N_IDX), dtype=np.int64), np.zeros((0, kz.N_STATE)))
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
-                   np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)))
+                   np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)),
+                   np.zeros((kbh.N_LOCK_ROWS, 1)))
     info = np.zeros(ko.INFO_WORDS, dtype=np.int64)
     osdi = (np.zeros((0, ko.N_INST), dtype=np.int64), np.zeros((0, ko.N_FNS), dtype=np.int64),
             np.zeros(0, dtype=np.int64), info, info.view(np.float64), np.zeros(1), np.zeros(1), np.zeros(1),
@@ -723,10 +724,24 @@ def _pack_families(system, x0, switching) -> tuple:
     # the OSDI modules' limiting states (accepted, trial, new): none before the first accepted step
     par, idx, vold0 = vdmos
     zpar, zidx, zvold0 = mesa
+    # the locked outcomes: a fresh copy per analysis, not held (a transient's loop holds them at its start),
+    # and the work vector of their event location
+    behavioural = (*behavioural[:6], behavioural[6].copy(), np.zeros(system.n + 1))
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
             + tuple(np.zeros(osdi_states) for _ in range(3))
             + (par, idx, vold0.copy(), vold0.copy(), vold0.copy())
             + (zpar, zidx, zvold0.copy(), zvold0.copy(), zvold0.copy()))
+
+
+def _event_elements(system) -> list[str]:
+    """Names of what the loop's events number: the switches, then the behavioural sources."""
+    from ...devices.behavioral import BehaviouralFamily
+
+    names = [el.name for el in system.switching.family.elements] if system.switching is not None else []
+    for family in system.families:
+        if type(family) is BehaviouralFamily:
+            names += [el.name for el in family.elements]
+    return names
 
 
 #: Returns to Python for new pivots or a right limit without a step in between before the run stops.
@@ -753,8 +768,10 @@ def _failure(system, F, I) -> IntegrationFailure:
     elif outer == L.FAIL_CHATTER:
         from .events import chatter_message
 
-        family = system.switching.family
-        what, hint = chatter_message(family.elements[int(I[L.I_FAIL_WORST])].name)
+        names = _event_elements(system)
+        k = int(I[L.I_FAIL_WORST])
+        switch_count = len(system.switching.family.elements) if system.switching is not None else 0
+        what, hint = chatter_message(names[k], behavioural=k >= switch_count)
         return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, None, hint)
     elif outer == L.FAIL_MAX_STEPS:
         what = f"reached max_steps={int(I[L.I_MAX_STEPS])}"

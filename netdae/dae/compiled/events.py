@@ -140,8 +140,15 @@ def crossing_time(P, k, psi, t, t_new, a, b, n, theta, direction):
     return hi
 
 
-def chatter_message(name: str) -> tuple[str, str]:
-    """The failure's ``what`` and ``hint`` for a chattering switch (Python; both integrators use it)."""
+def chatter_message(name: str, behavioural: bool = False) -> tuple[str, str]:
+    """The failure's ``what`` and ``hint`` for a chattering switch or behavioural source's comparison
+    (Python; both integrators use it)."""
+    if behavioural:
+        what = (f"behavioural source {name} chatters: a comparison in its expression changes back right after "
+                f"each of {CHATTER_EVENTS} changes (a sliding mode)")
+        hint = ("the source's own jump moves the operands of its comparison back across; give the comparison "
+                "a hysteresis (positive feedback, or an S switch with VH > 0) or slow its input down")
+        return what, hint
     what = (f"switch {name} chatters: its control crosses back over the threshold right after each of "
             f"{CHATTER_EVENTS} switchings (a sliding mode)")
     hint = ("the switch's own switching moves its control back across the threshold; give its model a "

@@ -16,6 +16,14 @@ Nothing is generated as source text and nothing is compiled per netlist: the
 tape is data, so a new expression costs no JIT compilation, and the netlist's
 text is never evaluated.
 
+*Locked* instructions: a comparison (``<``, ``<=``, ``>``, ``>=``) or a
+function that jumps (``u``, ``sgn``, ``floor``, ``ceil``, ``int``, ``nint``)
+whose operands read the circuit's voltages or currents has ``c = 1``
+(:data:`LOCKED`). Its outcome is a discrete value that the transient holds
+through each step and changes only at events located between steps
+(:func:`netdae.devices.kernels.behavioural.lock_step`), as a switch's state;
+``==`` and ``!=`` are not locked (they hold only at isolated points).
+
 Examples
 --------
 >>> from netdae.netlist.expr import parse_expression
@@ -30,7 +38,8 @@ from __future__ import annotations
 
 from ...netlist.expr import Binary, Call, Const, Current, Expr, Param, Ternary, Time, Unary, Voltage
 
-__all__ = ["compile_tape", "OP_NAMES", "OP_CONST", "OP_TIME", "OP_LEAF", "OP_TABLE", "OP_PWL"]
+__all__ = ["compile_tape", "OP_NAMES", "OP_CONST", "OP_TIME", "OP_LEAF", "OP_TABLE", "OP_PWL", "LOCKED",
+           "count_locked"]
 
 OP_CONST, OP_TIME, OP_LEAF, OP_NEG, OP_NOT = 0, 1, 2, 3, 4
 OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_MOD, OP_AND, OP_OR = 10, 11, 12, 13, 14, 15, 16, 17
@@ -43,6 +52,12 @@ OP_FUNC1 = 40
 OP_MIN, OP_MAX, OP_CPOW, OP_PWR, OP_LIMIT = 70, 71, 72, 73, 74
 #: ``table(x, points)``/``pwl(x, points)``: ``(op, x register, first constant, number of pairs)``.
 OP_TABLE, OP_PWL = 75, 76
+#: The third operand of a locked instruction (see the module docstring).
+LOCKED = 1
+#: Comparisons whose outcome is locked when they read the circuit's state.
+_LOCKED_BINARY = frozenset({"<", "<=", ">", ">="})
+#: Functions of one argument whose value jumps (locked when their argument reads the state).
+_LOCKED_CALLS = frozenset({"u", "sgn", "floor", "ceil", "int", "nint"})
 _POINTS = {"table": OP_TABLE, "pwl": OP_PWL}
 
 _BINARY = {"+": OP_ADD, "-": OP_SUB, "*": OP_MUL, "/": OP_DIV, "**": OP_POW, "%": OP_MOD, "&&": OP_AND,
@@ -88,16 +103,20 @@ def compile_tape(tree: Expr) -> tuple[list[int], list[tuple[int, int, int]], lis
     Notes
     -----
     Cost: one pass over the tree; the tape has one instruction per tree node.
+    A comparison or jumping function of the circuit's state is marked
+    :data:`LOCKED` in its third operand.
     """
     ops: list[int] = []
     args: list[tuple[int, int, int]] = []
     consts: list[float] = []
     leaves: list = []
     leaf_number: dict = {}
+    stateful: list[bool] = []  # per register: reads V(...) or I(...)
 
-    def emit(op: int, a: int = 0, b: int = 0, c: int = 0) -> int:
+    def emit(op: int, a: int = 0, b: int = 0, c: int = 0, state: bool = False) -> int:
         ops.append(op)
         args.append((a, b, c))
+        stateful.append(state)
         return len(ops) - 1
 
     def visit(node: Expr) -> int:
@@ -111,35 +130,56 @@ def compile_tape(tree: Expr) -> tuple[list[int], list[tuple[int, int, int]], lis
             if node not in leaf_number:
                 leaf_number[node] = len(leaves)
                 leaves.append(node)
-            return emit(OP_LEAF, leaf_number[node])
+            return emit(OP_LEAF, leaf_number[node], state=True)
         if t is Unary:
             operand = visit(node.operand)
-            return emit(OP_NEG if node.op == "-" else OP_NOT, operand)
+            return emit(OP_NEG if node.op == "-" else OP_NOT, operand, state=stateful[operand])
         if t is Binary:
             left = visit(node.left)
             right = visit(node.right)
-            return emit(_BINARY[node.op], left, right)
+            state = stateful[left] or stateful[right]
+            locked = LOCKED if state and node.op in _LOCKED_BINARY else 0
+            return emit(_BINARY[node.op], left, right, locked, state=state)
         if t is Ternary:
             cond = visit(node.cond)
             then = visit(node.then)
             other = visit(node.other)
-            return emit(OP_SELECT, cond, then, other)
+            return emit(OP_SELECT, cond, then, other, state=stateful[cond] or stateful[then] or stateful[other])
         if t is Call and node.func in _POINTS:
             x = visit(node.args[0])
             if any(type(a) is not Const for a in node.args[1:]):
                 raise ValueError(f"the points of {node.func}() must be constants")
             first = len(consts)
             consts.extend(float(a.value) for a in node.args[1:])
-            return emit(_POINTS[node.func], x, first, (len(node.args) - 1) // 2)
+            return emit(_POINTS[node.func], x, first, (len(node.args) - 1) // 2, state=stateful[x])
         if t is Call:
             code = _CALLS.get(node.func)
             if code is None:
                 raise ValueError(f"function {node.func}() cannot be evaluated in a behavioural source")
             regs = [visit(a) for a in node.args]
-            return emit(code, *regs)
+            state = any(stateful[r] for r in regs)
+            if node.func in _LOCKED_CALLS and state:
+                return emit(code, regs[0], 0, LOCKED, state=True)
+            return emit(code, *regs, state=state)
         if t is Param:
             raise ValueError(f"parameter '{node.name}' was not resolved")
         raise ValueError(f"cannot evaluate {node!r}")
 
     visit(tree)
     return ops, args, consts, leaves
+
+
+def count_locked(ops: list[int], args: list[tuple[int, int, int]]) -> int:
+    """How many instructions of a tape are locked (its comparisons and jumps of the circuit's state).
+
+    Examples
+    --------
+    >>> from netdae.netlist.expr import parse_expression
+    >>> count_locked(*compile_tape(parse_expression("v(a) > 0.3 ? 2 : time < 1u", context="behavioural"))[:2])
+    1
+    """
+    return sum(1 for op, a in zip(ops, args) if a[2] == LOCKED and (op in _LOCKABLE))
+
+
+#: Opcodes that can be locked (the third operand of the others means something else).
+_LOCKABLE = frozenset({_BINARY[o] for o in _LOCKED_BINARY} | {_CALLS[f] for f in _LOCKED_CALLS})

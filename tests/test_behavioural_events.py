@@ -1,0 +1,151 @@
+"""Behavioural sources whose value jumps with the circuit's state: comparisons held, changes located.
+
+A comparison of voltages or currents (``V={v(in) > 0.3 ? 2 : 0}``) or a jumping
+function of them (``u``, ``sgn``, ``floor`` ...) makes a behavioural source's
+value jump where its operands cross. The compiled transient holds each such
+outcome through a step and, after the step, locates where it changed on the
+step's interpolant: the step ends there, the outcome changes and the method
+restarts at order 1 from the right limit (``netdae.devices.kernels.behavioural``).
+The closed forms: a comparator on a sine switches at the sine's analytic
+crossings and its RC load follows exponentials from those instants; a
+comparator with positive feedback and an RC (the astable multivibrator)
+oscillates with the period ``2 RC ln((1 + beta)/(1 - beta))``; a staircase
+``floor`` of a ramp steps at the integers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from netdae.analyses.op import operating_point
+from netdae.analyses.tran import transient
+from netdae.netlist import load
+
+COMPARATOR = """comparator on a sine driving an RC
+V1 in 0 SIN(0 1 1k)
+B1 out 0 V={v(in) > 0.3 ? 2 : 0}
+R1 out c 1k
+C1 c 0 100n
+.tran 1u 2m
+.end
+"""
+
+ASTABLE = """astable multivibrator: a comparator with positive feedback and an RC
+B1 out 0 V={{v(p) > v(n) ? 5 : -5}}
+R1 out p 10k
+R2 p 0 10k
+R3 out n 10k
+C1 n 0 10n
+.ic v(n)=0
+.tran 1u 2m uic
+{options}
+.end
+"""
+
+
+@pytest.fixture(autouse=True)
+def _compiled(monkeypatch):
+    monkeypatch.setenv("NETDAE_ENGINE", "compiled")
+
+
+def _instants(r) -> list[float]:
+    return [t for t, _ in r.transient.events]
+
+
+def test_a_comparator_switches_at_the_analytic_crossings_and_its_load_follows_the_exponentials():
+    r = transient(load(COMPARATOR))
+    assert r.ok, r.message
+    w = 2 * math.pi * 1e3
+    up, down = math.asin(0.3) / w, (math.pi - math.asin(0.3)) / w
+    expected = [up, down, up + 1e-3, down + 1e-3]
+    assert _instants(r) == pytest.approx(expected, rel=1e-6)  # the crossings of the sine's interpolant
+    assert [names for _, names in r.transient.events] == [["b1"]] * 4
+    # the output holds its value through every step and jumps only at the events (both limits recorded)
+    out = r.v("out")
+    assert set(np.unique(out)) == {0.0, 2.0}
+    # v(c): 2 (1 - exp(-(t - up)/tau)) while the output is high, then the decay from its value at `down`
+    tau = 1e-4
+    t = np.linspace(up, down, 50)[1:-1]
+    high = 2.0 * (1.0 - np.exp(-(t - up) / tau))
+    np.testing.assert_allclose(r.dense(t)["v(c)"], high, atol=5e-3 * 2.0)
+    t = np.linspace(down, up + 1e-3, 50)[1:-1]
+    at_down = 2.0 * (1.0 - math.exp(-(down - up) / tau))
+    np.testing.assert_allclose(r.dense(t)["v(c)"], at_down * np.exp(-(t - down) / tau), atol=5e-3 * 2.0)
+
+
+@pytest.mark.parametrize("rtol", [1e-3, 1e-6])
+def test_an_astable_multivibrator_oscillates_with_the_analytic_period(rtol):
+    # the comparator's inputs are algebraic (p is a divider of out): held through each step, the
+    # comparison changes where v(n) meets v(p) = beta * v(out), and the right limit flips the output
+    options = f".options reltol={rtol} abstol=1e-15 vntol=1e-12" if rtol < 1e-3 else ""
+    r = transient(load(ASTABLE.format(options=options)))
+    assert r.ok, r.message
+    beta, rc = 0.5, 1e-4
+    events = np.array(_instants(r))
+    assert events.size == 18
+    # the instants within a few tolerances (they carry v(n)'s integration error through its slope)
+    assert events[0] == pytest.approx(rc * math.log(1.0 / (1.0 - beta)), rel=3 * rtol)
+    half = rc * math.log((1.0 + beta) / (1.0 - beta))
+    np.testing.assert_allclose(np.diff(events), half, rtol=3 * rtol)
+    # at each event v(n) is on the threshold +-beta * 5 V of the held output (to the interpolant's rounding)
+    vn = np.asarray(r.dense(events)["v(n)"])
+    np.testing.assert_allclose(np.abs(vn), beta * 5.0, rtol=1e-9)
+
+
+def test_a_staircase_of_a_ramp_steps_at_the_integers():
+    text = ("staircase\nV1 in 0 PWL(0 0 3.5m 3.5)\nB1 out 0 V={floor(v(in)) + u(v(in) - 2.5)}\n"
+            "R1 out 0 1k\n.tran 10u 3.5m\n.end\n")
+    r = transient(load(text))
+    assert r.ok, r.message
+    assert _instants(r) == pytest.approx([1e-3, 2e-3, 2.5e-3, 3e-3], rel=1e-9)
+    t = np.array([0.5e-3, 1.5e-3, 2.2e-3, 2.7e-3, 3.2e-3])
+    np.testing.assert_array_equal(r.dense(t)["v(out)"], [0.0, 1.0, 2.0, 3.0, 4.0])
+
+
+def test_the_operating_point_evaluates_the_comparison_from_the_solution():
+    # an operating point holds nothing: the comparison follows the iterate (and a transient after it starts there)
+    c = load("op\nV1 in 0 0.5\nB1 out 0 V={v(in) > 0.3 ? 2 : 0}\nR1 out 0 1k\n.op\n.end\n")
+    assert operating_point(c).v("out") == pytest.approx(2.0)
+    c = load("op\nV1 in 0 0.2\nB1 out 0 V={v(in) > 0.3 ? 2 : 0}\nR1 out 0 1k\n.op\n.end\n")
+    assert operating_point(c).v("out") == pytest.approx(0.0)
+
+
+def test_a_comparison_that_undoes_itself_stops_the_run_naming_the_source():
+    # out drives n through the RC towards the opposite of its sign: a sliding mode at v(n) = 0
+    text = ("bang-bang\nB1 out 0 V={v(n) > 0 ? -1 : 1}\nR1 out n 1k\nC1 n 0 1u\n.ic v(n)=-0.5\n"
+            ".tran 10u 5m uic\n.end\n")
+    r = transient(load(text))
+    assert not r.ok
+    assert "behavioural source b1 chatters" in r.message and "hysteresis" in r.message
+    # v(n) rises from -0.5 towards 1 with tau = 1 ms and reaches 0 at tau ln 3
+    assert r.transient.failure.t == pytest.approx(1e-3 * math.log(1.5 / 1.0), rel=1e-3)
+
+
+def test_a_continuous_piecewise_law_is_a_corner_not_an_event():
+    # the regions meet (a half-wave rectifier's law): no event, the law holds at every point
+    text = ("corner\nV1 in 0 SIN(0.2 1 1k)\nB1 out 0 V={v(in) > 0 ? v(in) : 0}\nR1 out 0 1k\n"
+            ".tran 1u 2m\n.end\n")
+    r = transient(load(text))
+    assert r.ok, r.message
+    # the first change ends its step (an event); found continuous, the comparison is free from then on
+    w = 2 * math.pi * 1e3
+    assert _instants(r) == pytest.approx([(math.pi + math.asin(0.2)) / w], rel=1e-6)
+    # (within the Newton tolerance of the algebraic unknowns, vntol = 1e-6 V, and its interpolation at the event)
+    np.testing.assert_allclose(r.v("out"), np.maximum(r.v("in"), 0.0), rtol=0, atol=1e-5)
+
+
+def test_a_held_branch_undefined_past_its_region_is_evaluated_from_the_point():
+    # v^1.5 held past v(in) = 0 is not finite: the step is computed with the point's outcome, the
+    # change counts as a corner (the law meets 0 there), and the law holds at every point
+    text = ("sqrt\nV1 in 0 SIN(0.2 1 1k)\nB1 out 0 V={v(in) > 0 ? v(in)*sqrt(v(in)) : 0}\nR1 out 0 1k\n"
+            ".tran 1u 2m\n.end\n")
+    r = transient(load(text))
+    assert r.ok, r.message
+    assert len(r.transient.events) == 1
+    # (two tolerances, reltol 1e-3 of the value, and 1e-4 V near the corner, where the Newton iterates
+    # accepted at the kink carry 5e-5 V, as they did before the comparisons were held)
+    vin = np.maximum(r.v("in"), 0.0)
+    np.testing.assert_allclose(r.v("out"), vin * np.sqrt(vin), rtol=2e-3, atol=1e-4)
