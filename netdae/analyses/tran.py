@@ -813,6 +813,10 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
     events = [(t, list(w)) for t, w in res.events]
     notes = []
     for tj, who in jumps[:JUMP_NOTES]:
+        if not who:  # an event whose right limit moved no unknown beyond its tolerance
+            notes.append(f"t={tj:.6g}: both the value from the left and the right limit are reported at this "
+                         "time (no unknown jumps there beyond its tolerance)")
+            continue
         notes.append(f"t={tj:.6g}: the solution jumps ({', '.join(who[:5])}"
                      f"{' and more' if len(who) > 5 else ''}); both the value from the left and "
                      "the right limit are reported at this time")

@@ -262,8 +262,54 @@ def compare_transient(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=N
                          "at": {"time": float(t[whole.worst])}}
         signals.append(sig)
     item.signals = _sorted(signals)
+    at_events = _at_events(nd, t, [sig for sig in signals if sig.passed is False])
+    if at_events:
+        item.notes.append(at_events)
     item.error = failed
     return item
+
+
+#: A difference is at an event when it lies within this many of ngspice's steps after it.
+EVENT_STEPS = 2
+
+
+def _at_events(nd: Result, t: np.ndarray, failed: list[SignalComparison]) -> str:
+    """A note when the failed signals' largest differences follow netdae's located events, else ``""``.
+
+    netdae places a switch's change, or a behavioural source's comparison's, at the
+    instant its control crosses (located on the step's interpolant); ngspice changes it at
+    the first of its time points that sees the crossing, so its edge comes up to one of its
+    steps late and the two waveforms differ there by the edge's height. A failed signal's
+    worst point counts when it lies within :data:`EVENT_STEPS` of ngspice's steps after an
+    event.
+    """
+    events = [float(te) for te, _ in (nd.transient.events if nd.transient is not None else [])]
+    if not events or not failed or t.size < 2:
+        return ""
+    times = np.asarray(events)
+    names = []
+    lags = []
+    for sig in failed:
+        tw = sig.at["time"]
+        before = times[times <= tw]
+        if before.size == 0:
+            continue
+        te = float(before[-1])
+        k = int(np.searchsorted(t, te, side="right"))
+        if k >= t.size:
+            continue
+        reach = t[min(k + EVENT_STEPS - 1, t.size - 1)]
+        if tw <= reach:
+            names.append(sig.name)
+            lags.append(float(t[k] - te))
+    if not names:
+        return ""
+    who = {w for _, ws in nd.transient.events for w in ws}
+    return (f"the largest differences of {', '.join(names[:5])}{' ...' if len(names) > 5 else ''} follow "
+            f"netdae's located changes of {', '.join(sorted(who)[:5])} (switches or behavioural comparisons, "
+            f"{len(events)} event(s)): netdae changes them where the control crosses, ngspice at its first "
+            f"time point after the crossing (there up to {max(lags):.3g} s later), so its edges lag by up to "
+            "a step; compare --tight narrows the lag")
 
 
 def _either_side_of_jumps(nd: Result, t: np.ndarray, a: dict, b: dict) -> int:
