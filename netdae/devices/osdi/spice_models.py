@@ -239,11 +239,15 @@ _VBIC = ModuleMap("VBIC", "bjt", (4, 9), "vbic_1p3_4t.osdi", "vbic13_4t",
                                         "sw_noise sw_et avcx1 avcx2 mcx tavcx qnibeir abk bbk ibk0 vpte tcrth tcvef "
                                         "tcver".split()),
                   defaults={"rci": 0.1, "rbi": 0.1, "rbp": 0.1, "hrcf": 1.0},
-                  differs={"td": "the excess-phase delay is VBIC 1.3's network in the module and computed otherwise "
-                                 "by ngspice 39: transients and .ac near 1/td differ from ngspice's"},
-                  off_tnom="ngspice 39's VBIC gives very different currents away from tnom (at 150 degC: 0.95 A "
-                           "against the VBIC temperature mapping's 1.2 mA, docs/devices.md); netdae runs the module's "
-                           "mapping",
+                  differs={"td": "the excess-phase delay is VBIC 1.3's network in the module (nodes xf1, xf2); "
+                                 "ngspice 39 reads td but none of its VBIC equations uses it (excess phase came "
+                                 "with ngspice 43), so transients and .ac near 1/td differ from ngspice 39's, "
+                                 "whose results are those of td=0 (docs/devices.md)"},
+                  off_tnom="ngspice 39's VBIC is evaluated away from tnom with its parameters mapped to the device "
+                           "temperature but the thermal voltage of tnom (its vbicload.c, fixed in ngspice 41): "
+                           "currents far too large (at 150 degC, tnom 27: 12.7 mA against VBIC's 0.69 mA at "
+                           "Vbe = Vce = 0.6 V, docs/devices.md); netdae runs VBIC's temperature mapping, which "
+                           "ngspice 39 gives when tnom is the device temperature",
                   thermal=("vbic_1p3_5t.osdi", "vbic13_5t"), unheated={"sw_et": 0}, area_as_m=True,
                   form="{name} nc nb ne [ns [nt]] model [area] [m=..] [dtemp=..]")
 #: The ngspice models netdae runs through OSDI, by (element kind, level).
