@@ -1152,15 +1152,20 @@ class _Elaborator:
             else:
                 sweeps = []
                 for name, offset, start, stop, step in args["sweeps"]:
+                    target = None
                     if name != "temp":
                         target = elements.get(name)
-                        if target is None or not KINDS[target.kind].independent:
+                        resistor = target is not None and target.kind == Kind.RESISTOR
+                        if target is None or not (KINDS[target.kind].independent or resistor):
                             what = "no element" if target is None else KINDS[target.kind].noun
                             raise error(card, offset, f"sweep source '{name}' is {what}", form,
-                                        hint="netdae sweeps V or I sources, or temp")
+                                        hint="netdae sweeps V or I sources, resistors, or temp")
                     lo = self._value(start, card, "start")
                     hi = self._value(stop, card, "stop")
                     inc = self._value(step, card, "step")
+                    if target is not None and target.kind == Kind.RESISTOR and lo * hi <= 0:
+                        raise error(card, start[1], f"a resistance sweep from {lo:g} to {hi:g} reaches 0 ohm", form,
+                                    hint="sweep a resistance of one sign; a short circuit is a 0 V source")
                     if name == "temp":
                         self._check_temperature(lo, card, start[1], "sweep start temperature")
                         self._check_temperature(hi, card, stop[1], "sweep stop temperature")
