@@ -575,3 +575,38 @@ def test_duplicate_element_names_are_refused_as_ngspice_refuses_them(text, line,
     with pytest.raises(NetlistError, match=message) as exc:
         load(text)
     assert exc.value.location.line == line and "does not parse the circuit" in exc.value.message
+
+
+# --------------------------------------------------------------------------- ADMS levels and unread subcircuits
+@pytest.mark.parametrize("nodes", ["c b 0", "c b 0 s", "c b 0 s dt"])
+@pytest.mark.parametrize("level, name", [(7, "HICUM/L0"), (6, "Mextram 504")])
+def test_adms_bjt_levels_are_refused_by_name_whatever_the_node_count(nodes, level, name):
+    # ngspice's reader gives BJT levels 6 and 7 to its ADMS models (bjt504t, hicum0); ngspice 39's standard
+    # build has neither and refuses the card ("Unable to find definition of given model")
+    from netdae.errors import NgspiceError
+
+    text = (f"adms\nV1 b 0 0.7\nV2 c 0 1\nV3 s 0 0\nX1 c b s dt sub\n.subckt sub c b s dt\nq1 {nodes} qm\n"
+            f".model qm npn level={level} is=1e-16\n.ends\n.op\n.end\n")
+    with pytest.raises(NgspiceError, match="Unable to find definition of given model"):
+        _ngspice_bridge(text)
+    with pytest.raises(NetlistError, match=rf"q\.x1\.q1: model x1:qm: bipolar transistor level {level} \({name}, "
+                                           r"ngspice's ADMS model, which ngspice 39 does not include either\) is "
+                                           "not implemented by netdae"):
+        load(text)
+
+
+def test_an_unused_subcircuit_whose_model_is_defined_nowhere_is_ignored_as_ngspice_ignores_it():
+    # ngspice's hic0_gum.sp includes a library whose last subcircuit calls a model defined only inside the
+    # other subcircuits; ngspice never expands it, so it never looks for the model
+    text = ("unused\nV1 1 0 1\nR1 1 0 2k\n.subckt lone c b e s dt\nq1 c b e s dt qnowhere\n.ends\n"
+            ".subckt used a b\nR1 a b 1k\n.ends\nX1 1 0 used\n.op\n.end\n")
+    ref = next(r for r in _ngspice_bridge(text) if r.analysis == "op")
+    circuit = load(text)
+    got = netdae.run(circuit)[0]
+    assert float(got.signals["i(v1)"][-1]) == pytest.approx(float(ref.signals["i(v1)"][-1]), rel=RTOL)
+    assert float(got.signals["i(v1)"][-1]) == pytest.approx(-1.5e-3, rel=1e-12)
+    assert any(w.startswith("5:10 .subckt lone is never used") and "no model 's', 'dt' or 'qnowhere' defined" in w
+               for w in _warnings(circuit)), _warnings(circuit)
+    with pytest.raises(NetlistError, match="no model 's', 'dt' or 'qnowhere' defined") as exc:
+        load(text.replace("X1 1 0 used", "X2 1 0 1 0 0 lone"))
+    assert exc.value.location.line == 5

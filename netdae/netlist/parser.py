@@ -782,27 +782,47 @@ _HANDLERS = {
 
 # ---------------------------------------------------------------------------
 def _settle(scope: Definition) -> None:
-    """Resolve what needs the models of the whole netlist (lexical lookup)."""
+    """Resolve what needs the models of the whole netlist (lexical lookup).
+
+    A card of a subcircuit that cannot be resolved (a ``Q`` card whose model is defined nowhere
+    in its scope) is kept as one of the subcircuit's errors, raised only if the subcircuit is
+    instantiated: ngspice reads only the subcircuits it expands (a library file may hold a
+    subcircuit whose model is defined only inside others, as ngspice's HICUM/L0 cards do).
+    """
+    broken = []
     for item in scope.items:
         if not isinstance(item, ElementCard):
             continue
-        if item.kind == Kind.BJT:
-            _settle_bjt(item, scope)
-        elif item.kind == Kind.MOSFET and item.positional is not None:
-            _settle_three_node_mosfet(item, scope)
-        elif KINDS[item.kind].passive and item.model is None:
-            value = item.value[0] if item.value is not None else None
-            if (item.kind != Kind.INDUCTOR and isinstance(value, ex.Param)
-                    and scope.lookup_model(value.name) is not None):
-                # 'R1 a b rmod [l= w=]', 'C1 a b cmod l= [w=]': the value comes from the model
-                # (elaborate: _resistance_from_model, _capacitance_from_model)
-                item.model, item.value = (value.name, item.value[1]), None
-            elif isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
-                raise error(item.card, item.value[1], f"'{value.name}' is a model: an inductance computed "
-                            "from a model (ngspice's ind, csect, length, nt, mu) is not supported by netdae",
-                            ELEMENTS["l"], hint="give the value after the nodes, then the model name")
+        try:
+            _settle_card(item, scope)
+        except NetlistError as exc:
+            if scope.name is None:
+                raise
+            scope.errors.append(exc)
+            broken.append(item)
+    if broken:
+        scope.items = [item for item in scope.items if all(item is not b for b in broken)]
     for sub in scope.subckts.values():
         _settle(sub)
+
+
+def _settle_card(item: ElementCard, scope: Definition) -> None:
+    """Resolve one element card against the models its scope sees (:func:`_settle`)."""
+    if item.kind == Kind.BJT:
+        _settle_bjt(item, scope)
+    elif item.kind == Kind.MOSFET and item.positional is not None:
+        _settle_three_node_mosfet(item, scope)
+    elif KINDS[item.kind].passive and item.model is None:
+        value = item.value[0] if item.value is not None else None
+        if (item.kind != Kind.INDUCTOR and isinstance(value, ex.Param)
+                and scope.lookup_model(value.name) is not None):
+            # 'R1 a b rmod [l= w=]', 'C1 a b cmod l= [w=]': the value comes from the model
+            # (elaborate: _resistance_from_model, _capacitance_from_model)
+            item.model, item.value = (value.name, item.value[1]), None
+        elif isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+            raise error(item.card, item.value[1], f"'{value.name}' is a model: an inductance computed "
+                        "from a model (ngspice's ind, csect, length, nt, mu) is not supported by netdae",
+                        ELEMENTS["l"], hint="give the value after the nodes, then the model name")
 
 
 #: Instance parameters of a VDMOS M card (``ic=vds,vgs`` gives the first two; ``off`` is a flag).
@@ -853,7 +873,8 @@ def _settle_bjt(el: ElementCard, scope: Definition) -> None:
     elif len(words) > 5 and names[5] is not None and scope.lookup_model(names[5]) is not None:
         count = 5  # c b e s and the thermal node of ngspice's self-heating VBIC (judged with the model)
     else:
-        tried = f"'{names[3]}'" + (f" or '{names[4]}'" if len(words) > 4 and names[4] else "")
+        tried = [f"'{name}'" for name in names[3:6] if name]
+        tried = ", ".join(tried[:-1]) + " or " + tried[-1] if len(tried) > 1 else tried[0]
         raise error(card, words[3].start, f"no model {tried} defined", syntax,
                     hint="define it with .model mname npn|pnp (...)")
     el.nodes = tuple("0" if n == "gnd" else n for n in names[:count])
