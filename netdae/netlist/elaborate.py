@@ -137,19 +137,33 @@ def _duplicate(el: Element, placed: _Placed, earlier: _Placed) -> NetlistError:
                  f"{where.file}:{where.line}); {NGSPICE_DUPLICATE}", hint="element names must be unique")
 
 
-def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
-    """Node and element names an element's expression refers to, as written."""
+def _expr_refs(item: ElementCard, defn: Definition) -> tuple[tuple, tuple]:
+    """Node and element names an element's expression refers to, as written.
+
+    The bodies of the ``.func`` functions it calls (``defn``: the definition the card is in, whose
+    functions and its parents' it sees) count as written on the card: ngspice expands a call in
+    place, so ``.func f(x) 'v(mid)*x'`` called in a subcircuit reads that instance's node ``mid``.
+    """
     if item.expr is None:
         return (), ()
     nodes: dict[str, None] = {}
     elems: dict[str, None] = {}
-    for n in ex.walk(item.expr[0]):
-        if type(n) is ex.Voltage:
-            nodes[n.pos] = None
-            if n.neg is not None:
-                nodes[n.neg] = None
-        elif type(n) is ex.Current:
-            elems[n.element] = None
+    seen: set[str] = set()
+    trees = [item.expr[0]]
+    while trees:
+        for n in ex.walk(trees.pop()):
+            t = type(n)
+            if t is ex.Voltage:
+                nodes[n.pos] = None
+                if n.neg is not None:
+                    nodes[n.neg] = None
+            elif t is ex.Current:
+                elems[n.element] = None
+            elif t is ex.Call and n.func not in ex.FUNCTIONS and n.func not in seen:
+                seen.add(n.func)
+                func = defn.lookup_func(n.func)
+                if func is not None:
+                    trees.append(func.body)
     return tuple(nodes), tuple(elems)
 
 
@@ -304,14 +318,14 @@ class _Elaborator:
         return env
 
     # -- expansion ----------------------------------------------------------
-    def _fresh(self, item) -> _Placed:
+    def _fresh(self, item, defn: Definition) -> _Placed:
         if type(item) is ElementCard:
             if item.expr is None and not item.controls:
                 return _Placed(item, item.name, item.nodes, (), (),
                                item.model[0] if item.model is not None else None, None, (), ())
             refs = self.refs.get(id(item))
             if refs is None:
-                refs = _expr_refs(item)
+                refs = _expr_refs(item, defn)
                 self.refs[id(item)] = refs
             nodes, elems = refs
             crefs = tuple(c for c, _ in item.controls) + elems
@@ -329,7 +343,7 @@ class _Elaborator:
         if cached is not None:
             return cached
         out: list[_Placed] = []
-        stack = [self._fresh(item) for item in reversed(defn.items)]
+        stack = [self._fresh(item, defn) for item in reversed(defn.items)]
         while stack:
             p = stack.pop()
             if type(p.item) is InstanceCard:

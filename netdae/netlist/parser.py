@@ -14,7 +14,8 @@ from ..devices.model_names import VECTOR_PARAMETERS
 from ..errors import NetlistError
 from ..kinds import KINDS, MODEL_TYPES, Kind
 from . import expr as ex
-from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
+from .elements import (IDENT, circuit_function_calls, error, parse_element, parse_expr, parse_node, parse_value,
+                       split_args)
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .measure import parse_measure
 from .steps import parse_step
@@ -65,12 +66,13 @@ def build(deck: Deck) -> Netlist:
     net = Netlist(title=deck.title, path=deck.path, top=top, diagnostics=list(deck.notes),
                   files=list(deck.files), osdi=list(deck.osdi), behavior=deck.behavior)
     stack = [top]
+    calls = circuit_function_calls(card for card in deck.cards if card.text[0] == ".")
     for card in deck.cards:
         if card.text[0] == ".":
             _dot_card(card, stack, net)
         else:
             try:
-                item = parse_element(card)
+                item = parse_element(card, calls)
             except NetlistError as exc:
                 if stack[-1].name is None:
                     raise
@@ -325,22 +327,26 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         text, base = body_tok.text, body_tok.start + 1
     else:
         text, base = card.text[body_tok.start:], body_tok.start
+    circuit = False
     try:
         body = parse_expr(card, text, base, ex.PARAM, form)
     except NetlistError as exc:
-        if "is only allowed in behavioural" not in exc.message:
+        if "is only allowed in behavioural" not in exc.message and "'time' is only available" not in exc.message:
             raise
-        # ngspice expands a .func like a macro, so its body may read the circuit where a B source calls it
-        raise NetlistError(f"{exc.message.split(' is only allowed')[0]} in a .func body (a function of the "
-                           "circuit's voltages, currents or time, for B sources) is not supported by netdae",
-                           exc.location, expected=form,
-                           hint="write the expression into the B source, or pass V(...) as an argument") from None
+        # ngspice expands a .func like a macro, so its body may read the circuit where a behavioural
+        # expression calls it: such a body is read by the behavioural rules it is expanded into
+        body = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
+        circuit = True
+        for node in ex.walk(body):
+            if type(node) is ex.Call and node.func == "ddt":
+                raise error(card, base, "ddt() in a .func body is not supported by netdae", form,
+                            hint="write ddt(...) into the B source and pass it to the function as an argument")
     scope = stack[-1]
     if name in scope.funcs:
         first = scope.funcs[name].card
         raise error(card, toks[1].start, f"function '{name}' is defined twice (first at {first.file}:"
                     f"{first.line})", form)
-    scope.funcs[name] = FuncDef(name, tuple(args), body, card)
+    scope.funcs[name] = FuncDef(name, tuple(args), body, card, circuit)
 
 
 def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
