@@ -10,12 +10,15 @@ beyond the ends, every corner rounded by a parabola within a tenth of the shorte
 segment. A B source's ``pwl(x, x0, y0, ...)`` is ngspice's ``PTpwl``: linear, extrapolated
 beyond the ends. ``R={expr}``, ``C={expr}``, ``L={expr}`` whose expression uses ``V()``,
 ``I()`` or ``time`` become behavioural sources (``inp_compat``): ``i = V/R``, ``i = C dV/dt``,
-``v = L dI/dt``; ``C n+ n- {expr}`` without ``C=`` is a charge.
+``v = L dI/dt``; ``C n+ n- {expr}`` without ``C=`` is a charge. A ``.func`` whose body reads the
+circuit (``V()``, ``I()``, ``time``) is expanded where a behavioural expression calls it, its node and
+element names those of the calling card (ngspice 39's macro expansion).
 """
 
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -449,3 +452,106 @@ def test_bad_laplace_cards_are_located_errors(card, at, message):
 def test_realisation_elements_are_not_counted_as_cards():
     c = load("t\nV1 in 0 1\nR1 in a 1k\nC1 a 0 C={1u*(1+V(a))}\nE1 o 0 LAPLACE {V(a)} = {1/(1+s)**2}\n.op\n.end\n")
     assert c.count_by_letter() == {"c": 1, "e": 1, "r": 1, "v": 1}
+
+
+# --------------------------------------------------------------------------- .func reading the circuit
+# ngspice's regression test func-1: a .func body may read node voltages and branch currents; a call
+# in a B source expands it in place, the arguments replacing the parameters of the body but never a
+# name inside V() or I(): with a node p and an argument p, 'v(p)+p' is node p's voltage plus the argument
+CIRCUIT_FUNC = """circuit .func
+vnp p 0 102
+vnn n 0 101
+vp 1 0 105
+rp 1 0 1
+.func bar2(p) 'v(p)+p'
+.func baz1(n,vp) 'n+i(vp)+vp'
+.func baz2(p,n) {v(p)+p+v(n)}
+.func twice(x) = '2*bar2(x)'
+.func gain(x) 'v(in)*x + v(mid)'
+B1 o1 0 V = bar2(17.0)
+B2 o2 0 V = baz1(17.0, 10000)
+B3 o3 0 V = baz2(1000.0, 1e20)
+B4 o4 0 V = twice(1) + 1
+E5 o5 0 value = {baz2(1, 2)}
+G6 0 o6 cur = {bar2(0)/1k}
+R6 o6 0 1k
+X1 in o7 stage
+V2 in 0 3
+.subckt stage in out
+R1 in mid 1k
+R2 mid 0 2k
+B1 out 0 V = gain(10)
+.ends
+R7 mid 0 1k
+V3 mid2 0 9
+"""
+CIRCUIT_FUNC_SIGNALS = ["v(o1)", "v(o2)", "v(o3)", "v(o4)", "v(o5)", "v(o6)", "v(o7)"]
+
+
+def test_circuit_functions_equal_the_closed_form():
+    res = netdae_result(CIRCUIT_FUNC + ".op\n.end\n", "op")
+    got = {s: float(res.signals[s][-1]) for s in CIRCUIT_FUNC_SIGNALS}
+    # i(vp) = -105 A (105 V across 1 ohm, the current into vp's + terminal); x1's mid is 2 V (3 V over 1k, 2k),
+    # not the top-level node mid the stage never sees
+    want = {"v(o1)": 119.0, "v(o2)": 17 - 105 + 10000, "v(o3)": 102 + 1000 + 101, "v(o4)": 2 * 103 + 1,
+            "v(o5)": 102 + 1 + 101, "v(o6)": 102.0, "v(o7)": 3 * 10 + 2}
+    for s, v in want.items():
+        assert got[s] == pytest.approx(v, rel=1e-12), s
+
+
+@pytest.mark.ngspice
+def test_circuit_functions_agree_with_ngspice():
+    text = CIRCUIT_FUNC + ".op\n.end\n"
+    ref = next(r for r in ngspice_results(text) if r.analysis == "op")
+    res = netdae_result(text, "op")
+    for s in CIRCUIT_FUNC_SIGNALS:
+        assert float(res.signals[s][-1]) == pytest.approx(float(ref.signals[s][-1]), rel=1e-9), s
+
+
+@pytest.mark.ngspice
+def test_a_circuit_function_of_time_agrees_with_ngspice():
+    text = ("time .func\nV1 p 0 SIN(0 1 1k)\nR1 p 0 1k\n.func ramp(x) 'v(p)*time*x'\nB1 o 0 V = ramp(1k)\n"
+            "R2 o 0 1k\n.tran 10u 2m\n.end\n")
+    ref = next(r for r in ngspice_results(text, reltol=1e-6) if r.analysis == "tran")
+    res = netdae_result(text, "tran")
+    t = np.asarray(ref.axis)
+    got = np.ravel(res.dense(t)["v(o)"])
+    # closed form: sin(2 pi 1k t) t 1k, of amplitude up to 2 over the run
+    np.testing.assert_allclose(got, np.sin(2e3 * np.pi * t) * t * 1e3, rtol=0, atol=2e-3 * 2)
+    np.testing.assert_allclose(got, ref.signals["v(o)"], rtol=0, atol=2e-3 * 2)
+
+
+@pytest.mark.parametrize("card, line, what", [
+    (".param y = bar2(1)\nV2 q 0 {y}\n", 3, "parameter 'y'"),
+    ("V2 q 0 {bar2(1)}\n", 3, "DC value"),
+])
+@pytest.mark.ngspice
+def test_a_circuit_function_where_a_number_is_needed_is_refused_as_ngspice_refuses_it(card, line, what):
+    from netdae.errors import NgspiceError
+
+    text = f"t\n.func bar2(p) 'v(p)+p'\n{card}R1 q 0 1k\nV1 p 0 2\n.op\n.end\n"
+    with pytest.raises(NgspiceError):  # ngspice 39: "Undefined parameter [v]", the expression cannot be evaluated
+        ngspice_results(text)
+    pattern = (rf"cannot evaluate {re.escape(what)}: function bar2\(\) reads the circuit \(v\(p\), \.func at "
+               r"<string>:2\): ngspice 39 expands it only into behavioural expressions")
+    with pytest.raises(NetlistError, match=pattern) as info:
+        load(text)
+    assert info.value.location.line == line
+
+
+@pytest.mark.ngspice
+def test_an_rcl_value_calling_a_circuit_function_is_behavioural_as_in_ngspice():
+    # ngspice expands the call before it looks for V(), I() or time in the value: R = 2 (v(p) + 1) = 6 ohm
+    text = ("t\n.func bar2(p) 'v(p)+p'\n.func via(x) 'bar2(x)'\nR2 q 0 {2*bar2(1)}\nV2 q 0 1\n"
+            "R3 r 0 R={via(2)}\nV3 r 0 1\nV1 p 0 2\n.op\n.end\n")
+    ref = next(r for r in ngspice_results(text) if r.analysis == "op")
+    res = netdae_result(text, "op")
+    for s, want in (("i(v2)", -1 / 6), ("i(v3)", -1 / 4)):
+        assert float(res.signals[s][-1]) == pytest.approx(want, rel=1e-12), s
+        assert float(res.signals[s][-1]) == pytest.approx(float(ref.signals[s][-1]), rel=1e-9), s
+
+
+def test_ddt_in_a_function_body_is_refused_at_the_function():
+    with pytest.raises(NetlistError, match=r"ddt\(\) in a \.func body is not supported by netdae") as info:
+        load("t\n.func d(x) 'ddt(v(a))*x'\nV1 a 0 1\nB1 o 0 V = d(2)\nR1 o 0 1\n.op\n.end\n")
+    assert info.value.location.line == 2

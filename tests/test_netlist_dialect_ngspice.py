@@ -530,3 +530,83 @@ def test_an_unused_subcircuit_with_an_unreadable_card_is_ignored_as_ngspice_igno
     with pytest.raises(NetlistError, match=r"r1: expected a model name after the value, found '2k'") as info:
         load(text.format(sub="bad"))
     assert info.value.location.line == 3
+
+
+# --------------------------------------------------------------------------- duplicate names
+def _ngspice_bridge(text: str):
+    """ngspice 39's results of ``text`` through netdae's bridge (``ngspice -b``)."""
+    from netdae.ngspice import run_ngspice
+
+    return run_ngspice(text, backend="subprocess").results
+
+
+_SAME_NAME = ("same name\nV1 1 0 1\nxa 1 2 sa\nxa 1 3 sb\nR2 2 0 1k\nR3 3 0 1k\n"
+              ".subckt sa p q\nr1 p n 1k\nr2 n q 1k\n.ends\n.subckt sb p q\n{sb}\n.ends\n.op\n.end\n")
+
+
+def test_instances_of_one_name_whose_elements_differ_are_both_kept_as_in_ngspice():
+    # ngspice 39 expands both xa cards (r.xa.r1, r.xa.r2, r.xa.r5, r.xa.r6): their internal nodes xa.n are one node
+    text = _SAME_NAME.format(sb="r5 p n 3k\nr6 n q 2k")
+    ref = next(r for r in _ngspice_bridge(text) if r.analysis == "op")
+    got = netdae.run(load(text))[0]
+    for name in ("v(2)", "v(3)", "v(xa.n)", "i(v1)"):
+        assert float(got.signals[name][-1]) == pytest.approx(float(ref.signals[name][-1]), rel=RTOL), name
+    # closed form: xa.n joins 1k and 3k from node 1 and 2k to ground (1k+1k) and 3k to ground (2k+1k)
+    g_in, g_out = 1 / 1e3 + 1 / 3e3, 1 / 2e3 + 1 / 3e3
+    assert float(got.signals["v(xa.n)"][-1]) == pytest.approx(g_in / (g_in + g_out), rel=1e-12)
+
+
+@pytest.mark.parametrize("text, line, message", [
+    (_SAME_NAME.format(sb="r1 p q 3k"), 4,
+     r"xa: duplicate element name 'r.xa.r1': two subcircuit instances are named 'xa' \(at <string>:3, subcircuit "
+     r"sa, and here, subcircuit sb\) and both contain an element 'r1'; ngspice 39 refuses it too"),
+    ("dup\nV1 1 0 1\nR1 1 2 1k\nR1 2 0 3k\n.op\n.end\n", 4,
+     r"r1: duplicate element name 'r1' \(first defined at <string>:3\); ngspice 39 refuses it too"),
+    ("dup\nV1 1 0 1\nx1 1 0 s\n.subckt s a b\nr1 a b 1\nr1 a 0 2\n.ends\n.op\n.end\n", 6,
+     r"r1: duplicate element name 'r.x1.r1' \(first defined at <string>:5\); ngspice 39 refuses it too"),
+])
+def test_duplicate_element_names_are_refused_as_ngspice_refuses_them(text, line, message):
+    # ngspice 39 prints "device already exists, existing one being used" but then does not parse the circuit
+    # ("Simulation interrupted due to error!", "circuit not parsed"): no analysis of it runs, in batch mode or not
+    from netdae.errors import NgspiceError
+
+    with pytest.raises(NgspiceError, match="device already exists"):
+        _ngspice_bridge(text)
+    with pytest.raises(NetlistError, match=message) as exc:
+        load(text)
+    assert exc.value.location.line == line and "does not parse the circuit" in exc.value.message
+
+
+# --------------------------------------------------------------------------- ADMS levels and unread subcircuits
+@pytest.mark.parametrize("nodes", ["c b 0", "c b 0 s", "c b 0 s dt"])
+@pytest.mark.parametrize("level, name", [(7, "HICUM/L0"), (6, "Mextram 504")])
+def test_adms_bjt_levels_are_refused_by_name_whatever_the_node_count(nodes, level, name):
+    # ngspice's reader gives BJT levels 6 and 7 to its ADMS models (bjt504t, hicum0); ngspice 39's standard
+    # build has neither and refuses the card ("Unable to find definition of given model")
+    from netdae.errors import NgspiceError
+
+    text = (f"adms\nV1 b 0 0.7\nV2 c 0 1\nV3 s 0 0\nX1 c b s dt sub\n.subckt sub c b s dt\nq1 {nodes} qm\n"
+            f".model qm npn level={level} is=1e-16\n.ends\n.op\n.end\n")
+    with pytest.raises(NgspiceError, match="Unable to find definition of given model"):
+        _ngspice_bridge(text)
+    with pytest.raises(NetlistError, match=rf"q\.x1\.q1: model x1:qm: bipolar transistor level {level} \({name}, "
+                                           r"ngspice's ADMS model, which ngspice 39 does not include either\) is "
+                                           "not implemented by netdae"):
+        load(text)
+
+
+def test_an_unused_subcircuit_whose_model_is_defined_nowhere_is_ignored_as_ngspice_ignores_it():
+    # ngspice's hic0_gum.sp includes a library whose last subcircuit calls a model defined only inside the
+    # other subcircuits; ngspice never expands it, so it never looks for the model
+    text = ("unused\nV1 1 0 1\nR1 1 0 2k\n.subckt lone c b e s dt\nq1 c b e s dt qnowhere\n.ends\n"
+            ".subckt used a b\nR1 a b 1k\n.ends\nX1 1 0 used\n.op\n.end\n")
+    ref = next(r for r in _ngspice_bridge(text) if r.analysis == "op")
+    circuit = load(text)
+    got = netdae.run(circuit)[0]
+    assert float(got.signals["i(v1)"][-1]) == pytest.approx(float(ref.signals["i(v1)"][-1]), rel=RTOL)
+    assert float(got.signals["i(v1)"][-1]) == pytest.approx(-1.5e-3, rel=1e-12)
+    assert any(w.startswith("5:10 .subckt lone is never used") and "no model 's', 'dt' or 'qnowhere' defined" in w
+               for w in _warnings(circuit)), _warnings(circuit)
+    with pytest.raises(NetlistError, match="no model 's', 'dt' or 'qnowhere' defined") as exc:
+        load(text.replace("X1 1 0 used", "X2 1 0 1 0 0 lone"))
+    assert exc.value.location.line == 5

@@ -162,8 +162,9 @@ CASES = [
      r"switch \(ngspice's sw\), which netdae does not support", 2, "sm"),
     ("t\nQ1 c b 0 qp\n.model qp ako:q350 pnp(bf=50)\n.model q350 pnp\n", r"model 'qp' is a PSpice AKO model "
      r"\('a kind of' q350\), which netdae does not support", 2, "qp"),
-    ("t\n.func f(x) = {x*v(a)}\n", r"circuit reference V\(...\) in a .func body \(a function of the circuit's voltages, "
-     r"currents or time, for B sources\) is not supported", 2, "v(a)"),
+    ("t\n.func f(x) = {x*v(a)}\nR1 a 0 1\n.param p = f(2)\n", r"\.param: cannot evaluate parameter 'p': function "
+     r"f\(\) reads the circuit \(v\(a\), \.func at <string>:2\)", 4, "f(2)"),
+    ("t\n.func f(x) = {x*ddt(v(a))}\n", r"ddt\(\) in a \.func body is not supported by netdae", 2, "x*ddt"),
     ("t\nB1 1 0 V=~(v(2)>1)\n", r"'~' \(PSpice's logical not\) is not supported by netdae", 2, "~"),
     # analyses and control cards
     ("t\n.tran 1u\n", r"expected tstep and tstop, found 1 value", 2, None),

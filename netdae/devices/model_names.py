@@ -19,7 +19,7 @@ Examples
 from __future__ import annotations
 
 __all__ = ["NGSPICE_PARAMETERS", "SENS_MODEL_PARAMETERS", "SENS_AC_ONLY", "SENS_SPELLING",
-           "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVEL_TABLES", "table_of", "VECTOR_PARAMETERS", "FLAG_PARAMETERS", "LEVELS", "LEVEL_PARAMETERS", "level_name",
+           "OUTPUT_ONLY", "MODEL_FAMILIES", "LEVEL_TABLES", "table_of", "VECTOR_PARAMETERS", "FLAG_PARAMETERS", "LEVELS", "ADMS_LEVELS", "LEVEL_PARAMETERS", "level_name", "level_words",
            "level_parameters"]
 
 
@@ -151,13 +151,20 @@ VECTOR_PARAMETERS: dict[str, frozenset] = {"cpl": _names("r l g c")}
 #: Model levels ngspice 39 knows, with their names (``level=`` on the model card).
 LEVELS: dict[str, dict[int, str]] = {
     "diode": {1: "junction diode", 3: "junction diode with geometry"},
-    "bjt": {1: "Gummel-Poon", 4: "VBIC", 6: "Gummel-Poon (extended)", 8: "HICUM/L2", 9: "VBIC"},
+    "bjt": {1: "Gummel-Poon", 4: "VBIC", 8: "HICUM/L2", 9: "VBIC"},
     "mosfet": {1: "Shichman-Hodges", 2: "Grove-Frohman", 3: "semi-empirical", 4: "BSIM1", 5: "BSIM2",
                6: "MOS6", 8: "BSIM3", 49: "BSIM3", 9: "MOS9", 10: "B4SOI", 58: "B4SOI", 14: "BSIM4", 54: "BSIM4",
                55: "B3SOI (fully depleted)", 56: "B3SOI (dynamic depletion)", 57: "B3SOI (partially depleted)",
                60: "SOI3", 68: "HiSIM2", 73: "HiSIM_HV"},
     "jfet": {1: "Shichman-Hodges", 2: "Parker-Skellern"},
     "mesfet": {1: "Statz", 2: "MESA", 3: "MESA", 4: "MESA"},
+}
+
+#: Levels ngspice's reader gives to models built from Verilog-A by ADMS (``inpdomod.c``: BJT level 6
+#: ``bjt504t``, level 7 ``hicum0``), present only in an ngspice configured with ``--enable-adms``:
+#: ngspice 39's standard build refuses such a card ("Unable to find definition of given model").
+ADMS_LEVELS: dict[str, dict[int, str]] = {
+    "bjt": {6: "Mextram 504", 7: "HICUM/L0"},
 }
 
 #: The model and instance parameter names (``devhelp``: "in" and "inout") of the
@@ -204,6 +211,28 @@ LEVEL_PARAMETERS[("bjt", 9)] = LEVEL_PARAMETERS[("bjt", 4)]
 def level_name(family: str, level: int) -> str | None:
     """ngspice's name of a model level (None: a level ngspice 39 does not know)."""
     return LEVELS.get(family, {}).get(level)
+
+
+def level_words(family: str, level: float) -> str:
+    """What a ``level=`` value is in ngspice, for a refusal: its name, an ADMS model, or unknown.
+
+    Examples
+    --------
+    >>> level_words("mosfet", 49)
+    'BSIM3 in ngspice'
+    >>> level_words("bjt", 7)
+    "HICUM/L0, ngspice's ADMS model, which ngspice 39 does not include either"
+    >>> level_words("bjt", 3)
+    'a level ngspice 39 does not know either'
+    """
+    whole = level == int(level) if level == level and abs(level) != float("inf") else False
+    name = level_name(family, int(level)) if whole else None
+    if name:
+        return f"{name} in ngspice"
+    adms = ADMS_LEVELS.get(family, {}).get(int(level)) if whole else None
+    if adms:
+        return f"{adms}, ngspice's ADMS model, which ngspice 39 does not include either"
+    return "a level ngspice 39 does not know either"
 
 
 def level_parameters(family: str, level: int) -> tuple[frozenset, frozenset] | None:

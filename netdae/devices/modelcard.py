@@ -25,7 +25,7 @@ import numpy as np
 from ..circuit import ABSOLUTE_ZERO, Circuit, Element, Model
 from ..errors import CircuitError, NetlistError
 from ..kinds import KINDS
-from .model_names import LEVELS, NGSPICE_PARAMETERS, level_name, table_of
+from .model_names import LEVELS, NGSPICE_PARAMETERS, level_words, table_of
 
 __all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "ignored_parameters",
            "unimplemented_level"]
@@ -237,10 +237,7 @@ def unimplemented_level(family: str, model: Model) -> str | None:
     spec = KINDS.get(family)
     if spec is None or spec.family is None or family not in LEVELS or level == 1.0:
         return None  # no levels, or no family of netdae's own (the MESFET runs as a compiled module), or level 1
-    shown = f"{level:g}"
-    name = level_name(family, int(level)) if level == int(level) else None
-    what = f"{name} in ngspice" if name else "a level ngspice 39 does not know either"
-    return f"model {model.name}: {spec.summary} level {shown} ({what}) is not implemented by netdae"
+    return f"model {model.name}: {spec.summary} level {level:g} ({level_words(family, level)}) is not implemented by netdae"
 
 
 def ignored_parameters(family: str, model: Model) -> list[str]:

@@ -109,19 +109,61 @@ class _Placed:
         self.path = path
 
 
-def _expr_refs(item: ElementCard) -> tuple[tuple, tuple]:
-    """Node and element names an element's expression refers to, as written."""
+NGSPICE_DUPLICATE = ("ngspice 39 refuses it too: it reports 'device already exists' and does not parse the "
+                     "circuit, so no analysis runs")
+
+
+def _duplicate(el: Element, placed: _Placed, earlier: _Placed) -> NetlistError:
+    """The error for a second element named like an earlier one (``earlier``: the first one's card).
+
+    When the name comes from two subcircuit instances of the same name (``xrcv 3 4 vcc bjtdrvr``
+    and ``xrcv 3 4 vcc dioload``, both with an element ``d1``), the error is placed on the second
+    instance card and names both instances: that is the cause, as ngspice's ``d.xrcv.d1`` is.
+    Where the instances' elements do not collide, ngspice and netdae keep both instances, and
+    nodes of the same name inside them are one node.
+    """
+    for depth, (a, b) in enumerate(zip(earlier.frames, placed.frames)):
+        if a.inst is not b.inst:
+            instance = ".".join(placed.path[:depth + 1])
+            one, two = a.inst, b.inst
+            at = one.card.location(0)
+            return error(two.card, 0, f"duplicate element name '{el.name}': two subcircuit instances are named "
+                         f"'{instance}' (at {at.file}:{at.line}, subcircuit {a.sub.name}, and here, "
+                         f"subcircuit {b.sub.name}) and both contain an element "
+                         f"'{placed.item.card.text.split(None, 1)[0].lower()}'; {NGSPICE_DUPLICATE}",
+                         hint="give each subcircuit instance its own name")
+    where = earlier.item.card.location(0)
+    return error(placed.item.card, 0, f"duplicate element name '{el.name}' (first defined at "
+                 f"{where.file}:{where.line}); {NGSPICE_DUPLICATE}", hint="element names must be unique")
+
+
+def _expr_refs(item: ElementCard, defn: Definition) -> tuple[tuple, tuple]:
+    """Node and element names an element's expression refers to, as written.
+
+    The bodies of the ``.func`` functions it calls (``defn``: the definition the card is in, whose
+    functions and its parents' it sees) count as written on the card: ngspice expands a call in
+    place, so ``.func f(x) 'v(mid)*x'`` called in a subcircuit reads that instance's node ``mid``.
+    """
     if item.expr is None:
         return (), ()
     nodes: dict[str, None] = {}
     elems: dict[str, None] = {}
-    for n in ex.walk(item.expr[0]):
-        if type(n) is ex.Voltage:
-            nodes[n.pos] = None
-            if n.neg is not None:
-                nodes[n.neg] = None
-        elif type(n) is ex.Current:
-            elems[n.element] = None
+    seen: set[str] = set()
+    trees = [item.expr[0]]
+    while trees:
+        for n in ex.walk(trees.pop()):
+            t = type(n)
+            if t is ex.Voltage:
+                nodes[n.pos] = None
+                if n.neg is not None:
+                    nodes[n.neg] = None
+            elif t is ex.Current:
+                elems[n.element] = None
+            elif t is ex.Call and n.func not in ex.FUNCTIONS and n.func not in seen:
+                seen.add(n.func)
+                func = defn.lookup_func(n.func)
+                if func is not None:
+                    trees.append(func.body)
     return tuple(nodes), tuple(elems)
 
 
@@ -276,14 +318,14 @@ class _Elaborator:
         return env
 
     # -- expansion ----------------------------------------------------------
-    def _fresh(self, item) -> _Placed:
+    def _fresh(self, item, defn: Definition) -> _Placed:
         if type(item) is ElementCard:
             if item.expr is None and not item.controls:
                 return _Placed(item, item.name, item.nodes, (), (),
                                item.model[0] if item.model is not None else None, None, (), ())
             refs = self.refs.get(id(item))
             if refs is None:
-                refs = _expr_refs(item)
+                refs = _expr_refs(item, defn)
                 self.refs[id(item)] = refs
             nodes, elems = refs
             crefs = tuple(c for c, _ in item.controls) + elems
@@ -301,7 +343,7 @@ class _Elaborator:
         if cached is not None:
             return cached
         out: list[_Placed] = []
-        stack = [self._fresh(item) for item in reversed(defn.items)]
+        stack = [self._fresh(item, defn) for item in reversed(defn.items)]
         while stack:
             p = stack.pop()
             if type(p.item) is InstanceCard:
@@ -402,6 +444,7 @@ class _Elaborator:
         circuit = Circuit(title=net.title, path=net.path, netlist=net, overrides=dict(self.overrides),
                           max_elements=self.max_elements)
         elements: dict[str, Element] = {}
+        first: dict[str, _Placed] = {}
         nodes: dict[str, None] = {}
         pending: list[tuple[Element, _Placed]] = []
         lines: list[tuple[Element, _Placed]] = []
@@ -422,10 +465,9 @@ class _Elaborator:
                 _set_value(el, self.values[el.name])
             old = elements.get(el.name)
             if old is not None:
-                where = old.location
-                raise error(item.card, 0, f"duplicate element name '{el.name}' (first defined at "
-                            f"{where.file}:{where.line})", hint="element names must be unique")
+                raise _duplicate(el, p, first[el.name])
             elements[el.name] = el
+            first[el.name] = p
             for n in el.nodes:
                 if n != "0" and n not in nodes:
                     nodes[n] = None

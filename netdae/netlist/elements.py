@@ -216,12 +216,47 @@ _BEHAVIOURAL_VALUE = re.compile(r"(?<![a-z0-9_.])(?:[vi]\s*\(|time(?![a-z0-9_])|
 _VALUE_KEY = {"resistor": "r", "capacitor": "c", "inductor": "l"}
 
 
-def _behavioural_value(toks: list[Token], kind: str) -> Token | None:
-    """The ``{expr}``/``'expr'`` value token of an R, C or L card when it refers to V(), I() or time."""
+def circuit_function_calls(cards) -> "re.Pattern | None":
+    """A pattern matching calls of the ``.func`` functions among ``cards`` whose bodies read the circuit.
+
+    ngspice expands ``.func`` calls in the text before it decides whether an R, C or L value is
+    behavioural, so ``R1 a b {2*f(1)}`` with ``.func f(x) 'v(p)+x'`` is a behavioural resistor; a
+    function that calls such a function reads the circuit too. None when no function does.
+    """
+    bodies = {}
+    for card in cards:
+        m = _FUNC_CARD.match(card.text)
+        if m is not None:
+            bodies[m.group(1).lower()] = m.group(2).lower()
+    reading = {name for name, body in bodies.items() if _BEHAVIOURAL_VALUE.search(body)}
+    while True:
+        calls = _calls_of(reading)
+        more = {name for name, body in bodies.items() if name not in reading and calls is not None
+                and calls.search(body)}
+        if not more:
+            return calls
+        reading |= more
+
+
+_FUNC_CARD = re.compile(r"\.func\s+([a-z_][a-z0-9_]*)\s*\([^)]*\)(.*)$", re.IGNORECASE | re.DOTALL)
+
+
+def _calls_of(names) -> "re.Pattern | None":
+    if not names:
+        return None
+    return re.compile(r"(?<![a-z0-9_.])(?:" + "|".join(sorted(map(re.escape, names))) + r")\s*\(")
+
+
+def _behavioural_value(toks: list[Token], kind: str, calls: "re.Pattern | None" = None) -> Token | None:
+    """The ``{expr}``/``'expr'`` value token of an R, C or L card when it refers to V(), I() or time.
+
+    ``calls`` matches calls of the ``.func`` functions that read the circuit (:func:`circuit_function_calls`).
+    """
     key = _VALUE_KEY[kind]
     for k in range(3, len(toks)):
         tok = toks[k]
-        if tok.kind != EXPR or _BEHAVIOURAL_VALUE.search(tok.text) is None:
+        if tok.kind != EXPR or (_BEHAVIOURAL_VALUE.search(tok.text) is None
+                                and (calls is None or calls.search(tok.text) is None)):
             continue
         if k == 3 or (k >= 5 and toks[k - 1].text == "=" and toks[k - 2].kind == WORD and toks[k - 2].text == key):
             return tok
@@ -306,10 +341,10 @@ def _behavioural_two_terminal(card: Card, toks: list[Token], syntax: ElementSynt
     return [main, charge, sink]
 
 
-def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str):
+def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, calls=None):
     if len(toks) > 5 and toks[4].text == "=" and toks[5].kind == PUNCT and toks[5].text == "(":
         toks = _paren_group(card, toks, 5)  # R = (expression): ngspice's parenthesised value
-    value = _behavioural_value(toks, kind)
+    value = _behavioural_value(toks, kind, calls)
     if value is not None:
         return _behavioural_two_terminal(card, toks, syntax, kind, value)
     nodes = _nodes(card, toks, 2, syntax)
@@ -1069,9 +1104,13 @@ def _osdi_device(card: Card, toks: list[Token], syntax: ElementSyntax) -> Elemen
     return ElementCard(toks[0].text, "osdi", card, nodes, model=(model.text, model.start), params=params)
 
 
-def parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
-    """Parse one element card (:func:`_parse_element`), its ``ddt()`` calls realised (:func:`realise_ddt`)."""
-    parsed = _parse_element(card)
+def parse_element(card: Card, calls: "re.Pattern | None" = None) -> ElementCard | InstanceCard | list[ElementCard]:
+    """Parse one element card (:func:`_parse_element`), its ``ddt()`` calls realised (:func:`realise_ddt`).
+
+    ``calls`` matches calls of the netlist's ``.func`` functions that read the circuit
+    (:func:`circuit_function_calls`): an R, C or L value calling one is behavioural.
+    """
+    parsed = _parse_element(card, calls)
     if isinstance(parsed, InstanceCard):
         return parsed
     items = parsed if isinstance(parsed, list) else [parsed]
@@ -1110,7 +1149,7 @@ def realise_ddt(item: ElementCard) -> list[ElementCard]:
     return [item, *extra]
 
 
-def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]:
+def _parse_element(card: Card, calls=None) -> ElementCard | InstanceCard | list[ElementCard]:
     """Parse one element card.
 
     Returns
@@ -1143,7 +1182,8 @@ def _parse_element(card: Card) -> ElementCard | InstanceCard | list[ElementCard]
         return ElementCard(toks[0].text, "bcharge", card, _nodes(card, toks, 2, syntax),
                            expr=_behavioural(card, toks, 5, syntax))
     if letter in "rcl":
-        return _two_terminal(card, toks, syntax, {"r": "resistor", "c": "capacitor", "l": "inductor"}[letter])
+        return _two_terminal(card, toks, syntax, {"r": "resistor", "c": "capacitor", "l": "inductor"}[letter],
+                             calls)
     if letter == "k":
         return _coupling(card, toks, syntax)
     if letter in "vi":

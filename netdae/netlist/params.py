@@ -142,12 +142,23 @@ def _call(env: Env, depth: int):
         if depth >= MAX_CALL_DEPTH:
             raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}'?)")
         f = env.func(name)
+        if f.circuit:
+            raise ValueError(circuit_function_message(f))
         if len(args) != len(f.args):
             raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
         local = Env(env)
         local.values.update(zip(f.args, args))
         return ex.evaluate(f.body, local.value, _call(local, depth + 1))
     return call
+
+
+def circuit_function_message(f: FuncDef) -> str:
+    """Why a ``.func`` whose body reads the circuit has no value where a number is needed."""
+    ref = next(n for n in ex.walk(f.body) if type(n) in (ex.Voltage, ex.Current, ex.Time))
+    where = f.card.location(0)
+    return (f"function {f.name}() reads the circuit ({ex.to_text(ref)}, .func at {where.file}:{where.line}): "
+            "ngspice 39 expands it only into behavioural expressions (B sources, E/G value=, an R, C or L "
+            "value, which it makes behavioural) and has no value where a number is needed")
 
 
 def evaluate_val(val, env: Env, card, what: str = "value") -> float:
@@ -228,6 +239,10 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
         if t is ex.Param:
             return ex.Const(env.value(m.name))
         if t is ex.Voltage:
+            for name in (m.pos, m.neg):
+                if name is not None and name not in node_map:  # read by a .func the card's scope cannot see
+                    raise ValueError(f"node '{name}' of {ex.to_text(m)} comes from a .func body defined outside "
+                                     "the subcircuit that calls it: define the function where it is called")
             pos = node_map[m.pos]
             neg = node_map[m.neg] if m.neg is not None else "0"
             if pos == neg:
@@ -238,6 +253,9 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
                 return ex.Unary("-", ex.Voltage(neg, None))
             return ex.Voltage(pos, neg)
         if t is ex.Current:
+            if m.element not in elem_map:
+                raise ValueError(f"element '{m.element}' of {ex.to_text(m)} comes from a .func body defined "
+                                 "outside the subcircuit that calls it: define the function where it is called")
             return ex.Current(elem_map[m.element])
         if t is ex.Call and is_random_call(m.func, len(m.args)):  # drawn once, when the card is elaborated
             return ex.Const(ex.evaluate(m, env.value, _call(env, 0)))

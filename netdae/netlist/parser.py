@@ -14,7 +14,8 @@ from ..devices.model_names import VECTOR_PARAMETERS
 from ..errors import NetlistError
 from ..kinds import KINDS, MODEL_TYPES, Kind
 from . import expr as ex
-from .elements import IDENT, error, parse_element, parse_expr, parse_node, parse_value, split_args
+from .elements import (IDENT, circuit_function_calls, error, parse_element, parse_expr, parse_node, parse_value,
+                       split_args)
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .measure import parse_measure
 from .steps import parse_step
@@ -65,12 +66,13 @@ def build(deck: Deck) -> Netlist:
     net = Netlist(title=deck.title, path=deck.path, top=top, diagnostics=list(deck.notes),
                   files=list(deck.files), osdi=list(deck.osdi), behavior=deck.behavior)
     stack = [top]
+    calls = circuit_function_calls(card for card in deck.cards if card.text[0] == ".")
     for card in deck.cards:
         if card.text[0] == ".":
             _dot_card(card, stack, net)
         else:
             try:
-                item = parse_element(card)
+                item = parse_element(card, calls)
             except NetlistError as exc:
                 if stack[-1].name is None:
                     raise
@@ -325,22 +327,26 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         text, base = body_tok.text, body_tok.start + 1
     else:
         text, base = card.text[body_tok.start:], body_tok.start
+    circuit = False
     try:
         body = parse_expr(card, text, base, ex.PARAM, form)
     except NetlistError as exc:
-        if "is only allowed in behavioural" not in exc.message:
+        if "is only allowed in behavioural" not in exc.message and "'time' is only available" not in exc.message:
             raise
-        # ngspice expands a .func like a macro, so its body may read the circuit where a B source calls it
-        raise NetlistError(f"{exc.message.split(' is only allowed')[0]} in a .func body (a function of the "
-                           "circuit's voltages, currents or time, for B sources) is not supported by netdae",
-                           exc.location, expected=form,
-                           hint="write the expression into the B source, or pass V(...) as an argument") from None
+        # ngspice expands a .func like a macro, so its body may read the circuit where a behavioural
+        # expression calls it: such a body is read by the behavioural rules it is expanded into
+        body = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
+        circuit = True
+        for node in ex.walk(body):
+            if type(node) is ex.Call and node.func == "ddt":
+                raise error(card, base, "ddt() in a .func body is not supported by netdae", form,
+                            hint="write ddt(...) into the B source and pass it to the function as an argument")
     scope = stack[-1]
     if name in scope.funcs:
         first = scope.funcs[name].card
         raise error(card, toks[1].start, f"function '{name}' is defined twice (first at {first.file}:"
                     f"{first.line})", form)
-    scope.funcs[name] = FuncDef(name, tuple(args), body, card)
+    scope.funcs[name] = FuncDef(name, tuple(args), body, card, circuit)
 
 
 def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
@@ -782,27 +788,47 @@ _HANDLERS = {
 
 # ---------------------------------------------------------------------------
 def _settle(scope: Definition) -> None:
-    """Resolve what needs the models of the whole netlist (lexical lookup)."""
+    """Resolve what needs the models of the whole netlist (lexical lookup).
+
+    A card of a subcircuit that cannot be resolved (a ``Q`` card whose model is defined nowhere
+    in its scope) is kept as one of the subcircuit's errors, raised only if the subcircuit is
+    instantiated: ngspice reads only the subcircuits it expands (a library file may hold a
+    subcircuit whose model is defined only inside others, as ngspice's HICUM/L0 cards do).
+    """
+    broken = []
     for item in scope.items:
         if not isinstance(item, ElementCard):
             continue
-        if item.kind == Kind.BJT:
-            _settle_bjt(item, scope)
-        elif item.kind == Kind.MOSFET and item.positional is not None:
-            _settle_three_node_mosfet(item, scope)
-        elif KINDS[item.kind].passive and item.model is None:
-            value = item.value[0] if item.value is not None else None
-            if (item.kind != Kind.INDUCTOR and isinstance(value, ex.Param)
-                    and scope.lookup_model(value.name) is not None):
-                # 'R1 a b rmod [l= w=]', 'C1 a b cmod l= [w=]': the value comes from the model
-                # (elaborate: _resistance_from_model, _capacitance_from_model)
-                item.model, item.value = (value.name, item.value[1]), None
-            elif isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
-                raise error(item.card, item.value[1], f"'{value.name}' is a model: an inductance computed "
-                            "from a model (ngspice's ind, csect, length, nt, mu) is not supported by netdae",
-                            ELEMENTS["l"], hint="give the value after the nodes, then the model name")
+        try:
+            _settle_card(item, scope)
+        except NetlistError as exc:
+            if scope.name is None:
+                raise
+            scope.errors.append(exc)
+            broken.append(item)
+    if broken:
+        scope.items = [item for item in scope.items if all(item is not b for b in broken)]
     for sub in scope.subckts.values():
         _settle(sub)
+
+
+def _settle_card(item: ElementCard, scope: Definition) -> None:
+    """Resolve one element card against the models its scope sees (:func:`_settle`)."""
+    if item.kind == Kind.BJT:
+        _settle_bjt(item, scope)
+    elif item.kind == Kind.MOSFET and item.positional is not None:
+        _settle_three_node_mosfet(item, scope)
+    elif KINDS[item.kind].passive and item.model is None:
+        value = item.value[0] if item.value is not None else None
+        if (item.kind != Kind.INDUCTOR and isinstance(value, ex.Param)
+                and scope.lookup_model(value.name) is not None):
+            # 'R1 a b rmod [l= w=]', 'C1 a b cmod l= [w=]': the value comes from the model
+            # (elaborate: _resistance_from_model, _capacitance_from_model)
+            item.model, item.value = (value.name, item.value[1]), None
+        elif isinstance(value, ex.Param) and scope.lookup_model(value.name) is not None:
+            raise error(item.card, item.value[1], f"'{value.name}' is a model: an inductance computed "
+                        "from a model (ngspice's ind, csect, length, nt, mu) is not supported by netdae",
+                        ELEMENTS["l"], hint="give the value after the nodes, then the model name")
 
 
 #: Instance parameters of a VDMOS M card (``ic=vds,vgs`` gives the first two; ``off`` is a flag).
@@ -853,7 +879,8 @@ def _settle_bjt(el: ElementCard, scope: Definition) -> None:
     elif len(words) > 5 and names[5] is not None and scope.lookup_model(names[5]) is not None:
         count = 5  # c b e s and the thermal node of ngspice's self-heating VBIC (judged with the model)
     else:
-        tried = f"'{names[3]}'" + (f" or '{names[4]}'" if len(words) > 4 and names[4] else "")
+        tried = [f"'{name}'" for name in names[3:6] if name]
+        tried = ", ".join(tried[:-1]) + " or " + tried[-1] if len(tried) > 1 else tried[0]
         raise error(card, words[3].start, f"no model {tried} defined", syntax,
                     hint="define it with .model mname npn|pnp (...)")
     el.nodes = tuple("0" if n == "gnd" else n for n in names[:count])

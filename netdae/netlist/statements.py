@@ -143,12 +143,20 @@ class InitialCard:
 
 @dataclass(slots=True)
 class FuncDef:
-    """A ``.func name(args) = {body}`` card."""
+    """A ``.func name(args) = {body}`` card.
+
+    ``circuit`` is True when the body reads the circuit (``V(...)``, ``I(...)``, ``time``): ngspice
+    expands such a function into the behavioural expression that calls it, where the body's node
+    and element names are those of the calling card (``v(p)`` is node ``p`` even when ``p`` is also
+    an argument's name); it has no value where only numbers are allowed (``.param``, an element's
+    value).
+    """
 
     name: str
     args: tuple
     body: Expr
     card: Card
+    circuit: bool = False
 
 
 @dataclass(slots=True)
@@ -208,6 +216,16 @@ class Definition:
             model = scope.models.get(name)
             if model is not None:
                 return model, scope
+            scope = scope.parent
+        return None
+
+    def lookup_func(self, name: str) -> "FuncDef | None":
+        """The ``.func`` a card in this body means by ``name`` (innermost first)."""
+        scope: Definition | None = self
+        while scope is not None:
+            func = scope.funcs.get(name)
+            if func is not None:
+                return func
             scope = scope.parent
         return None
 

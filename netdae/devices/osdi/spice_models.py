@@ -71,7 +71,7 @@ from ...circuit import Circuit, Diagnostic, Element, Model
 from ...errors import NetlistError
 from ...kinds import KIND_OF_MODEL_TYPE, KINDS, Kind
 from ...netlist.elements import UNLABELLED_AREA
-from ..model_names import level_name, level_parameters
+from ..model_names import level_parameters, level_words
 from .tools import EXTRA_HINT
 
 __all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "bin_number", "first_bin", "select_bin", "map_devices",
@@ -660,14 +660,13 @@ def _refuse(el: Element, card: Model) -> None:
     """The located error of an element whose kind runs only through a port and whose level has none."""
     spec = KINDS[el.kind]
     level = level_of(card)
-    named = level_name(spec.name, int(level)) if math.isfinite(level) and level == int(level) else None
     ported = ", ".join(f"{lv}" for (kind, lv) in MAPS if kind == spec.name)
     own = [f"{lv:g}" for lv in MESA_LEVELS] if el.kind == Kind.MESFET else []
     hint = f"netdae runs ngspice's {spec.summary} level {ported} through netdae[models]"
     if own:
         hint += f" and level {', '.join(own)} (MESA) with a device family of its own"
     raise NetlistError(f"{el.name}: model {card.name}: {spec.summary} level {level:g} "
-                       f"({named + ' in ngspice' if named else 'a level ngspice 39 does not know either'}) is not "
+                       f"({level_words(spec.name, level)}) is not "
                        f"implemented by netdae", card.locations.get("level", card.location),
                        expected=f"a {spec.summary} model of level {', '.join([ported, *own])}", hint=hint)
 
