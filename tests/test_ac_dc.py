@@ -104,5 +104,8 @@ def test_dc_sweep_rejects_unknown_and_non_source():
     ckt = circuit(mk("v1", "vsource", ("a", "0"), 1.0), mk("r1", "resistor", ("a", "0"), 1e3))
     with pytest.raises(CircuitError, match="no source named 'vx'"):
         dc_sweep(ckt, DcAnalysis([DcSweep("vx", 0.0, 1.0, 0.5)]))
-    with pytest.raises(CircuitError, match="resistor"):
+    with pytest.raises(CircuitError, match="resistance sweep of r1 from 0 to 1 reaches 0 ohm"):
         dc_sweep(ckt, DcAnalysis([DcSweep("r1", 0.0, 1.0, 0.5)]))
+    ckt = circuit(mk("v1", "vsource", ("a", "0"), 1.0), mk("c1", "capacitor", ("a", "0"), 1e-9))
+    with pytest.raises(CircuitError, match="'c1' is a capacitor"):
+        dc_sweep(ckt, DcAnalysis([DcSweep("c1", 1e-9, 2e-9, 1e-9)]))

@@ -65,7 +65,8 @@ def sweep_values(sw: DcSweep) -> np.ndarray:
     return sw.start + k * sw.step
 
 
-def _check_source(circuit: Circuit, name: str) -> None:
+def _check_source(circuit: Circuit, sw: DcSweep) -> None:
+    name = sw.source
     if name == "temp":
         return
     try:
@@ -77,6 +78,9 @@ def _check_source(circuit: Circuit, name: str) -> None:
             f".dc: '{name}' is {KINDS[el.kind].noun}; netdae sweeps independent V and I sources, resistors and temp",
             elements=(name,),
         )
+    if el.kind == Kind.RESISTOR and sw.start * sw.stop <= 0:
+        raise CircuitError(f".dc: the resistance sweep of {name} from {sw.start:g} to {sw.stop:g} reaches 0 ohm",
+                           elements=(name,), hint="sweep a resistance of one sign; a short circuit is a 0 V source")
 
 
 
@@ -168,7 +172,7 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     t_start = time.perf_counter()
     sweeps = list(card.sweeps)
     for sw in sweeps:
-        _check_source(circuit, sw.source)
+        _check_source(circuit, sw)
     grids = [sweep_values(sw) for sw in sweeps]
     try:
         check_grid_size(float(np.prod([g.size for g in grids], dtype=float)))
