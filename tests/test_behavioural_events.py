@@ -5,7 +5,9 @@ function of them (``u``, ``sgn``, ``floor`` ...) makes a behavioural source's
 value jump where its operands cross. The compiled transient holds each such
 outcome through a step and, after the step, locates where it changed on the
 step's interpolant: the step ends there, the outcome changes and the method
-restarts at order 1 from the right limit (``netdae.devices.kernels.behavioural``).
+restarts at order 1 from the right limit (``netdae.devices.kernels.behavioural``;
+the Python integrator through :class:`netdae.devices.behavioral.BehaviouralEvents`,
+every test here runs in both).
 The closed forms: a comparator on a sine switches at the sine's analytic
 crossings and its RC load follows exponentials from those instants; a
 comparator with positive feedback and an RC (the astable multivibrator)
@@ -46,9 +48,11 @@ C1 n 0 10n
 """
 
 
-@pytest.fixture(autouse=True)
-def _compiled(monkeypatch):
-    monkeypatch.setenv("NETDAE_ENGINE", "compiled")
+@pytest.fixture(autouse=True, params=["compiled", "python"])
+def _engine(request, monkeypatch):
+    """Both integrators hold the comparisons (the Python one through the compiled tape kernel)."""
+    monkeypatch.setenv("NETDAE_ENGINE", request.param)
+    return request.param
 
 
 def _instants(r) -> list[float]:

@@ -160,22 +160,25 @@ c2 x 0 1n
 """
 
 
-def test_a_behavioural_source_jumping_with_the_state_is_named_with_a_way_around(monkeypatch):
-    """A B source whose value jumps where its input crosses a level (state-dependent, not a breakpoint): the
-    Python integrator stops, and the message names the source, why, and what runs instead."""
-    monkeypatch.setenv("NETDAE_ENGINE", "python")
-    text = _LOGIC.replace("{OUT}", "{v(in) > 0.5 ? 1 : 0}").replace("{O2}",
-                                                                      "{(v(in) > 0.3) && (v(out) < 0.5) ? 2 : 0}")
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_behavioural_source_jumping_with_the_state_is_named_with_a_way_around(engine, monkeypatch):
+    """A B source whose held branch is undefined past the change it jumps at (sqrt of the compared
+    voltage): the transient stops, and the message names the source, why, and what runs instead."""
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    text = ("sqrt jump\nV1 in 0 SIN(0 1 1k)\nB1 out 0 V={v(in) > 0 ? sqrt(v(in)) : -1}\nR1 out 0 1k\n"
+            ".tran 1u 2m\n.end\n")
     res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]
     assert not res.ok
-    assert "b2's value jumps where a comparison" in res.message
-    assert "compiled engine" in res.message and "tanh" in res.message and "S/W switch" in res.message
+    assert "b1's value jumps where a comparison" in res.message and "undefined past the change" in res.message
+    assert "tanh" in res.message and "S/W switch" in res.message
 
 
-def test_the_compiled_engine_steps_across_that_source_at_the_located_crossings():
-    """The same logic in the compiled engine: its comparisons held through each step, their changes
-    located on the interpolant of the input's edges (linear in time, so exactly), the gate's pulse
-    between v(in) crossing 0.3 and the output changing, its RC load the exponentials of that pulse."""
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_both_engines_step_across_sources_jumping_with_the_state_at_the_located_crossings(engine, monkeypatch):
+    """Logic written as B sources: their comparisons held through each step, their changes located on
+    the interpolant of the input's edges (linear in time, so exactly), the gate's pulse between v(in)
+    crossing 0.3 and the output changing, its RC load the exponentials of that pulse."""
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
     text = _LOGIC.replace("{OUT}", "{v(in) > 0.5 ? 1 : 0}").replace("{O2}",
                                                                       "{(v(in) > 0.3) && (v(out) < 0.5) ? 2 : 0}")
     res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]

@@ -841,16 +841,16 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
             message += f" (circuit structure: {reasons[0]})"
     if res.failure is not None and system.linear:
         message += _instability(rep, res.t[-1] - card.tstart)
-    if res.failure is not None and res.failure.worst and res.stats.get("engine") != "compiled":
+    if res.failure is not None and res.failure.worst:
         message += _jumping_source(prepared.circuit, res.failure.worst)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
 
 
 def _jumping_source(circuit, worst: str) -> str:
-    """What to say when the Python integrator's failure's worst unknown belongs to a behavioural source
-    whose value jumps with the circuit's state (a comparison of voltages in its expression), else ``""``
-    (the compiled engine holds such comparisons and locates their changes as events)."""
+    """What to say when the failure's worst unknown belongs to a behavioural source whose value jumps with
+    the circuit's state (a comparison of voltages in its expression), else ``""``: both integrators hold
+    such comparisons and locate their changes as events, so a failure there has a reason of its own."""
     from ..netlist.expr import jumps_with_state
 
     for el in circuit.elements:
@@ -859,9 +859,11 @@ def _jumping_source(circuit, worst: str) -> str:
         own = {f"i({el.name})"} | {f"v({node})" for node in el.nodes if node != "0"}
         if worst in own and jumps_with_state(el.expr):
             return (f" ({el.name}'s value jumps where a comparison of the circuit's voltages or currents in its "
-                    "expression changes: the Python integrator does not step across such a jump; run the compiled "
-                    "engine (unset NETDAE_ENGINE), which locates it as an event, or write it as a smooth function "
-                    "(e.g. tanh of the difference over a small scale) or as an S/W switch)")
+                    "expression changes; netdae holds such comparisons through each step and locates their changes, "
+                    "but not where the held branch is undefined past the change (a sqrt or log of the compared "
+                    "quantity) or where the comparison flips on rounding noise (a difference of large, nearly equal "
+                    "terms): write it as a smooth function (e.g. tanh of the difference over a small scale) or as "
+                    "an S/W switch)")
     return ""
 
 

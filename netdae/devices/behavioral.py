@@ -45,7 +45,7 @@ from .autodiff import ExpressionGroup, group_by_structure
 from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap
 from .companion import BranchStamps
 
-__all__ = ["BehaviouralFamily"]
+__all__ = ["BehaviouralFamily", "BehaviouralEvents"]
 
 _VOLTAGE, _CURRENT, _CHARGE = "bvoltage", "bcurrent", "bcharge"
 #: Index of the ground node in stamp arrays (netdae.mna.layout.GND).
@@ -150,6 +150,17 @@ class BehaviouralFamily(DeviceFamily):
     def bind(self, slots: SlotMap, n: int) -> None:
         for grp in self.groups:
             grp.stamps.bind(slots, n)
+        self._slots, self._n = slots, n
+        self._packed = None
+        #: The locked outcomes a transient holds (``kernels.behavioural``'s ``lock``), or None: every
+        #: evaluation then runs the compiled kernel with them (set by :class:`BehaviouralEvents`).
+        self.held = None
+
+    def packed(self) -> tuple:
+        """The arrays of :meth:`compiled` for the slots of the last :meth:`bind` (packed once)."""
+        if self._packed is None:
+            self._packed = self.compiled(self._slots, self._n)
+        return self._packed
 
     def charge_rows(self) -> np.ndarray:
         """The rows of the charge sources' terminals (``Q`` groups; the other groups store no charge)."""
@@ -239,6 +250,8 @@ class BehaviouralFamily(DeviceFamily):
 
     # -- evaluation --------------------------------------------------------
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
+        if getattr(self, "held", None) is not None:
+            return self._evaluate_held(x, t, acc, jacobian)
         ok = True
         with np.errstate(all="ignore"):
             for grp in self.groups:
@@ -262,3 +275,94 @@ class BehaviouralFamily(DeviceFamily):
         if not ok:
             acc.ok = False
         return None
+
+    def _evaluate_held(self, x, t, acc: Accumulator, jacobian) -> None:
+        """Every source through the compiled kernel with the held outcomes (a transient's step)."""
+        from .kernels.behavioural import eval_behavioural
+
+        prog, const, inst, leaf, val, der, _ = self.packed()
+        xe = np.asarray(x, dtype=float)  # extended (ground last), as every family receives it
+        if xe.size != acc.n + 1:
+            raise ValueError(f"expected the extended unknowns ({acc.n + 1} values), got {xe.size}")
+        flags, bad = eval_behavioural(xe, float(t), prog, const, inst, leaf, val, der, self.held, acc.q, acc.phi,
+                                      acc.dq, acc.dphi, bool(jacobian))
+        if bad >= 0:
+            acc.ok = False
+
+
+class BehaviouralEvents:
+    """A transient's held comparisons of behavioural sources: their outcomes and the events that change them.
+
+    The twin of :class:`netdae.devices.switch.SwitchEvents` for the comparisons of the circuit's state in
+    behavioural expressions (:mod:`netdae.devices.kernels.behavioural`, "Locked outcomes"): the Python
+    ``BDF`` driver calls :meth:`start`, after every accepted step :meth:`step`, and :meth:`flip` once the
+    step's end is recorded; while held, the family evaluates through the compiled kernel.
+
+    Parameters
+    ----------
+    family : BehaviouralFamily
+        Bound (its slots known).
+    n : int
+        Number of unknowns.
+    """
+
+    def __init__(self, family: BehaviouralFamily, n: int) -> None:
+        self.family = family
+        self.n = n
+        prog, const, inst, leaf, val, der, lock = family.packed()
+        self.lock = lock.copy()
+        self._xw = np.zeros(n + 1)
+        self.events = 0
+
+    @staticmethod
+    def of(family: BehaviouralFamily, n: int) -> "BehaviouralEvents | None":
+        """The events of ``family``, or None when none of its sources compares the circuit's state."""
+        return BehaviouralEvents(family, n) if family.packed()[6].shape[1] > 1 else None
+
+    def start(self, x: np.ndarray, t: float) -> None:
+        """Hold the outcomes at ``x`` at ``t`` (the integration's start)."""
+        from .kernels.behavioural import lock_record
+
+        prog, const, inst, leaf, val, der, _ = self.family.packed()
+        lock_record(np.append(np.asarray(x, dtype=float), 0.0), float(t), prog, const, inst, leaf, val, der,
+                    self.lock)
+        self.family.held = self.lock
+
+    def hold(self, lock: np.ndarray) -> None:
+        """Hold ``lock`` (e.g. the compiled loop's) in every evaluation."""
+        self.lock[:] = lock
+        self.family.held = self.lock
+
+    def release(self) -> None:
+        """Stop holding: evaluations decide the outcomes again (as an operating point does)."""
+        self.family.held = None
+
+    def step(self, P: np.ndarray, k: int, psi: np.ndarray, t: float, t_new: float,
+             t_cap: float) -> tuple[float, tuple[str, ...]]:
+        """After an accepted step: the first change of an outcome in ``(t, t_cap]`` (see ``lock_step``).
+
+        Returns
+        -------
+        (t_end, changed)
+            ``t_end``: the change's time, or ``t_cap``; ``changed``: the sources whose outcomes change
+            there (empty: none). Call :meth:`flip` after the point at ``t_end`` is evaluated.
+        """
+        from ..dae.compiled.events import EVENT_TOGETHER
+        from .kernels.behavioural import lock_changed, lock_step
+
+        prog, const, inst, leaf, val, der, _ = self.family.packed()
+        t_end, count = lock_step(P, int(k), psi, float(t), float(t_new), float(t_cap), self.n, prog, const, inst,
+                                 leaf, val, der, self.lock, self._xw)
+        if not count:
+            return t_cap, ()
+        self._limit = t_end + EVENT_TOGETHER * (t_new - t)
+        changed = tuple(el.name for i, el in enumerate(self.family.elements)
+                        if lock_changed(inst, self.lock, i, self._limit))
+        return t_end, changed
+
+    def flip(self) -> None:
+        """The outcomes :meth:`step` found changing take their new values."""
+        from .kernels.behavioural import lock_flip
+
+        lock_flip(self.lock, self._limit)
+        self.events += 1

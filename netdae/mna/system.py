@@ -197,6 +197,7 @@ class MnaSystem(DaeSystem):
         self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._switching = None
+        self._behavioural_events = False  # not looked for yet (None: there are none)
         self._charge_rows: np.ndarray | None = None
         self._xext = np.zeros(self.n + 1)
         dense = self.n <= DENSE_MATVEC_MAX
@@ -230,6 +231,17 @@ class MnaSystem(DaeSystem):
                 return None
             self._switching = SwitchEvents(family, self.pattern, self.n)
         return self._switching
+
+    @property
+    def behavioural_events(self):
+        """The held comparisons of behavioural sources for a transient
+        (:class:`~netdae.devices.behavioral.BehaviouralEvents`), or None (no source compares the state)."""
+        if self._behavioural_events is False:
+            from ..devices.behavioral import BehaviouralEvents, BehaviouralFamily
+
+            family = next((f for f in self.families if isinstance(f, BehaviouralFamily)), None)
+            self._behavioural_events = None if family is None else BehaviouralEvents.of(family, self.n)
+        return self._behavioural_events
 
     def remember_switches(self, x) -> None:
         """After a point of a DC sweep: the switches start the next point in the states at ``x``."""

@@ -81,6 +81,7 @@ def integrate(
             return res
     t0, tf = (float(v) for v in t_span)
     switching = getattr(system, "switching", None)
+    locks = getattr(system, "behavioural_events", None)
     try:
         solver = BDF(system, t0, x0, tf, **options)
         last = time.perf_counter()
@@ -94,6 +95,8 @@ def integrate(
     finally:
         if switching is not None:
             switching.release()  # the system's evaluations decide the switches again
+        if locks is not None:
+            locks.release()  # and the behavioural sources' comparisons
     if progress is not None:
         progress(solver.t, tf, solver.stats["steps"])
     result = solver.result()

@@ -66,7 +66,7 @@ from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
 from .startup import event_right_limit, jump_of, probe, right_limit
-from ..compiled.events import CHATTER_EVENTS, chatter_message
+from ..compiled.events import CHATTER_EVENTS, chatter_message, interpolate_state
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF", "RunState"]
@@ -300,6 +300,10 @@ class BDF:
         self._switching = getattr(system, "switching", None)
         if self._switching is not None:
             self._switching.start(x0)
+        # behavioural sources' comparisons of the state (netdae.devices.behavioral.BehaviouralEvents): the same
+        self._locks = getattr(system, "behavioural_events", None)
+        if self._locks is not None:
+            self._locks.start(x0, self.t0)
         ev = self._evaluate(x0, self.t0, jacobian=self._linear)
         if not ev.ok or not np.all(np.isfinite(ev.q)) or not np.all(np.isfinite(ev.phi)):
             raise ValueError(f"the system evaluation at t0={self.t0:g} is not finite (check x0)")
@@ -736,14 +740,30 @@ class BDF:
         eta = self._select_order_and_step(k, kdiff, info)
         eta, self._growth_failed = ctl.hold_growth(eta, retried, self._growth_failed, hist.ns, k)
         hist.update(self._ee, k)
-        t_end, event = t_new, False
+        t_end, event, switched, x_event = t_new, False, (), None
         if self._switching is not None:
+            held_before = self._switching.states.copy()
             t_end, switched, x_event = self._switching.step(hist.P, k, hist.psi, t, t_new)
-            event = bool(switched)
-            if x_event is not None:
-                n = self.n
-                hist.P[0, :n] = x_event
-                hist.P[0, n:] = self._evaluate(x_event, t_end).q[self._crows]  # switches store no charge
+        changed = ()
+        if self._locks is not None:
+            t_lock, changed = self._locks.step(hist.P, k, hist.psi, t, t_new, t_end)
+            if changed and t_lock < t_end:
+                # a comparison changes first: the switches keep their states to there
+                if switched or x_event is not None:
+                    self._switching.hold(held_before)
+                    switched = ()
+                t_end = t_lock
+                x_event = np.zeros(self.n)
+                interpolate_state(hist.P, k, hist.psi, t_end - t_new, self.n, x_event)
+        switched = tuple(switched) + tuple(changed)
+        event = bool(switched)
+        if x_event is not None:
+            n = self.n
+            hist.P[0, :n] = x_event
+            # the charges at the event, exactly, in the held states and outcomes
+            hist.P[0, n:] = self._evaluate(x_event, t_end).q[self._crows]
+        if changed:
+            self._locks.flip()
         self.t = t_end
         x_new = hist.P[0, : self.n]
         self._state = self._corrector.state_try
@@ -764,7 +784,7 @@ class BDF:
             self._rec.events.append((float(t_end), switched))
             self._chatter = self._chatter + 1 if (self._nst == 1 and self._after_event) else 0
             if self._chatter >= CHATTER_EVENTS:
-                what, hint = chatter_message(switched[0])
+                what, hint = chatter_message(switched[0], behavioural=switched[0] in changed)
                 self._fail(t_end, h, what, None, hint)
                 return
         if landed or event:

@@ -78,6 +78,9 @@ VDMOS_SLOT = 7
 MESA_SLOT = 8
 #: Arrays of one family of the standard interface in ``devd``: ``(par, idx, vacc, vtry, vnew)``.
 _FAMILY_ARRAYS = 5
+#: Position in ``devd`` of the behavioural sources' locked outcomes (after the five families of the standard
+#: interface, the switches' crossing times and the behavioural sources' prog, const, inst, leaf, val, der).
+LOCK_ARRAY = 5 * _FAMILY_ARRAYS + 1 + 6
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -219,6 +222,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     indptr, indices, e_data, h_data, b_rows, b_cols, b_vals = pack_matrices(system)
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
     switching = getattr(system, "switching", None)
+    locks = getattr(system, "behavioural_events", None)
     devd = _pack_families(system, x0, switching)
 
     F = np.zeros(L.N_F)
@@ -406,6 +410,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 eps = float(F[L.F_RL_EPS])
                 if switching is not None:
                     switching.hold(devd[SWITCH_SLOT * 5 + 2])
+                if locks is not None:
+                    locks.hold(devd[LOCK_ARRAY])  # the behavioural sources' comparisons as the loop holds them
                 if delays[0].size:
                     system.delay_history = _history(buf_t, buf_k, buf_x, segments, I, ns)
                 try:
@@ -473,6 +479,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     finally:
         if switching is not None:
             switching.release()
+        if locks is not None:
+            locks.release()
     if stopped_by_output is None:
         try:
             stopped_by_output = send()  # the rest (a run that ended, failed or was interrupted in a chunk)
