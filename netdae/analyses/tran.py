@@ -742,6 +742,8 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
         system, start.x, x0,
         "initial values made consistent (the DC operating point violates hidden constraints because "
         "the inputs change at t0)")
+    if not detail:  # moved by rounding only (below 1e-9 of each value): nothing to report
+        return x0, None, []
     text += "" if system.linear else " (from the linearisation at the operating point)"
     return x0, {"reason": "hidden constraints", "changed": detail}, [text]
 
