@@ -169,3 +169,36 @@ def test_compare_names_ngspices_late_edges_at_the_located_events():
     assert "v(c)" in note and "b1" in note
     lag = float(note.split("there up to ")[1].split(" s later")[0])
     assert 0.0 < lag <= 1e-6  # at most ngspice's step (its tmax is tstep = 1 us)
+
+
+MASKED = """a comparison masked by another (&&)
+V1 in 0 SIN(-0.062 1.244 20000)
+V2 ref 0 PULSE(0 1 1.165e-05 5.000e-08 5.000e-08 1.346e-05 5.000e-05)
+B1 out 0 V={(v(in) > 0.271) && (v(ref) < 0.5) ? 2.853 : -0.376}
+R1 out x 1k
+C1 x 0 1u
+.tran 5.000e-07 1.500e-04
+.end
+"""
+
+
+def test_a_comparison_masked_by_another_changes_without_an_event_and_stays_held():
+    # while ref is high the output does not depend on v(in) > 0.271: that comparison's changes are masked
+    # (no event), but its outcome follows, so that it counts again once ref is low (it used to be set free
+    # there as a "corner", and the next crossing with ref low then jumped inside a step: the run stopped)
+    r = transient(load(MASKED))
+    assert r.ok, r.message
+    w = 2 * math.pi * 2e4
+    a = math.asin((0.271 + 0.062) / 1.244)
+    rise = [(a + 2 * math.pi * k) / w for k in range(3)]
+    fall = [(math.pi - a + 2 * math.pi * k) / w for k in range(3)]
+    ref_up = [1.165e-5 + 2.5e-8 + 5e-5 * k for k in range(3)]
+    ref_down = [1.165e-5 + 5e-8 + 1.346e-5 + 2.5e-8 + 5e-5 * k for k in range(3)]
+    def law(t):
+        return 2.853 if (math.sin(w * t) * 1.244 - 0.062 > 0.271 and not any(u < t < d for u, d in zip(ref_up, ref_down))) else -0.376
+    # an event exactly where the law's value changes, and only there
+    changes = [t for t in sorted(rise + fall + ref_up + ref_down) if t < 1.5e-4 and law(t - 1e-9) != law(t + 1e-9)]
+    assert _instants(r) == pytest.approx(changes, rel=0, abs=1e-9)  # the sine's interpolant: 2e-10 s
+    t = np.linspace(1e-7, 1.5e-4, 301)
+    keep = np.min(np.abs(t[:, None] - np.array(changes)[None, :]), axis=1) > 1e-8
+    np.testing.assert_allclose(r.dense(t[keep])["v(out)"], [law(tk) for tk in t[keep]], rtol=0, atol=1e-12)

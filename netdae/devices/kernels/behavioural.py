@@ -48,7 +48,10 @@ is a corner, not a jump: the step ends there as at a jump (past it the held
 branch was extrapolated), but its outcomes are not held from then on (row
 ``LOCK_HELD`` NaN) and the error test sees the later corners, as without
 locks (restarting at every corner cost the Test Set's NAND gate 1.4 of its 6
-digits at 1e-4).
+digits at 1e-4). A change that leaves the value as it was, at the change and
+at the step's end, is *masked* (``(v(a) > 1) && (v(b) < 0.5)`` while v(b) is
+high): the outcome changes without an event and stays held, since a later
+change of the other operand may make it count.
 """
 
 from __future__ import annotations
@@ -481,27 +484,35 @@ def _value(x, t, k, prog, const, inst, leaf, val, der, lock, lockmode):
                     inst[k, B_NLEAF], t, val, der, lock, inst[k, B_LOCK], lockmode)
 
 
-@kernel
-def _is_corner(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
-    """Whether instance ``k``'s value is continuous where its outcomes change at ``hi`` (a corner, not a jump).
+#: How a located change of outcomes acts on the source's value (:func:`_classify`).
+CHANGE_JUMP, CHANGE_CORNER, CHANGE_MASKED = 0, 1, 2
 
-    Its change there (held against new outcomes) is compared with the difference the new outcomes make at
-    ``t_cap``: a jump keeps its size, a corner's difference grows from zero with the distance from it.
+
+@kernel
+def _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+    """How instance ``k``'s value takes the change of its outcomes at ``hi``: ``CHANGE_*``.
+
+    Its value with the held and with the new outcomes is compared at ``hi`` and at ``t_cap``: equal at
+    both, the change is *masked* (``a > b && c``, ``c`` false: the value does not depend on it now); a
+    jump keeps its size; a corner's difference grows from zero with the distance from the change
+    (at most ``CORNER_RATIO`` of its value at ``t_cap`` there, or ``CORNER_REL`` of the value).
     """
     interpolate_state(P, kord, psi, hi - t_new, n, xw)
     xw[n] = 0.0
     held = _value(xw, hi, k, prog, const, inst, leaf, val, der, lock, LOCK_USE)
     free = _value(xw, hi, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
     if not math.isfinite(held):
-        return True  # the held branch is undefined past the change: evaluated from the point from now on
+        return CHANGE_CORNER  # the held branch is undefined past the change: evaluated from the point from now on
     step = abs(free - held)
-    if step <= CORNER_REL * (abs(free) + abs(held)):
-        return True
     interpolate_state(P, kord, psi, t_cap - t_new, n, xw)
     xw[n] = 0.0
     end = abs(_value(xw, t_cap, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
               - _value(xw, t_cap, k, prog, const, inst, leaf, val, der, lock, LOCK_USE))
-    return step <= CORNER_RATIO * end
+    if step == 0.0 and end == 0.0:
+        return CHANGE_MASKED
+    if step <= CORNER_REL * (abs(free) + abs(held)) or step <= CORNER_RATIO * end:
+        return CHANGE_CORNER
+    return CHANGE_JUMP
 
 
 @kernel
@@ -594,7 +605,14 @@ def lock_step(P, kord, psi, t, t_new, t_cap, n, prog, const, inst, leaf, val, de
         _changed_at(P, kord, psi, hi, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw)
         for s in range(s0, s0 + nk):
             lock[LOCK_NEXT, s] = lock[LOCK_PROBED, s]
-        if _is_corner(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+        change = _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw)
+        if change == CHANGE_MASKED:
+            # the value does not depend on the changed outcomes now: they change without an event
+            for s in range(s0, s0 + nk):
+                if not math.isnan(lock[LOCK_HELD, s]):
+                    lock[LOCK_HELD, s] = lock[LOCK_NEXT, s]
+            continue
+        if change == CHANGE_CORNER:
             # the source's value is continuous there (a piecewise law's regions meet): the step still ends
             # at the change (past it the held branch was extrapolated), but from then on the changed
             # outcomes are evaluated from the point (NaN held), the error test seeing the corners
