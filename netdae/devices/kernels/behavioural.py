@@ -90,6 +90,8 @@ LOCK_FREE, LOCK_USE, LOCK_PROBE = 0, 1, 2
 #: there, or by at most this fraction of the difference the new outcomes make at the step's end.
 CORNER_REL = 1e-9
 CORNER_RATIO = 1e-3
+#: Where the classification of a change looks just past it: this fraction of the rest of the step.
+PAST_FRACTION = 1e-2
 L_P, L_M, L_S = 0, 1, 2
 N_LEAF = L_S + 4
 KIND_CURRENT, KIND_VOLTAGE, KIND_CHARGE = 0, 1, 2
@@ -492,10 +494,12 @@ CHANGE_JUMP, CHANGE_CORNER, CHANGE_MASKED = 0, 1, 2
 def _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
     """How instance ``k``'s value takes the change of its outcomes at ``hi``: ``CHANGE_*``.
 
-    Its value with the held and with the new outcomes is compared at ``hi`` and at ``t_cap``: equal at
-    both, the change is *masked* (``a > b && c``, ``c`` false: the value does not depend on it now); a
-    jump keeps its size; a corner's difference grows from zero with the distance from the change
-    (at most ``CORNER_RATIO`` of its value at ``t_cap`` there, or ``CORNER_REL`` of the value).
+    Its value with the held and with the new outcomes is compared at ``hi`` and just past it
+    (``PAST_FRACTION`` of the rest of the step, before another outcome of the source is likely to move):
+    equal at both, the change is *masked* (``a > b && c``, ``c`` false: the value does not depend on it
+    now); a jump keeps its size; a corner's difference grows from zero with the distance from the change
+    (at ``hi`` at most ``CORNER_RATIO`` of its growth over the rest of the step, extrapolated from the
+    probe past it, or ``CORNER_REL`` of the value).
     """
     interpolate_state(P, kord, psi, hi - t_new, n, xw)
     xw[n] = 0.0
@@ -504,13 +508,15 @@ def _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val
     if not math.isfinite(held):
         return CHANGE_CORNER  # the held branch is undefined past the change: evaluated from the point from now on
     step = abs(free - held)
-    interpolate_state(P, kord, psi, t_cap - t_new, n, xw)
+    # just past the change (a fraction of the rest of the step: before the source's other outcomes move)
+    past = hi + PAST_FRACTION * (t_cap - hi)
+    interpolate_state(P, kord, psi, past - t_new, n, xw)
     xw[n] = 0.0
-    end = abs(_value(xw, t_cap, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
-              - _value(xw, t_cap, k, prog, const, inst, leaf, val, der, lock, LOCK_USE))
-    if step == 0.0 and end == 0.0:
+    after = abs(_value(xw, past, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
+                - _value(xw, past, k, prog, const, inst, leaf, val, der, lock, LOCK_USE))
+    if step == 0.0 and after == 0.0:
         return CHANGE_MASKED
-    if step <= CORNER_REL * (abs(free) + abs(held)) or step <= CORNER_RATIO * end:
+    if step <= CORNER_REL * (abs(free) + abs(held)) or step <= CORNER_RATIO * after / PAST_FRACTION:
         return CHANGE_CORNER
     return CHANGE_JUMP
 
@@ -534,6 +540,41 @@ def _changed_at(P, kord, psi, tau, t_new, n, k, prog, const, inst, leaf, val, de
     interpolate_state(P, kord, psi, tau - t_new, n, xw)
     xw[n] = 0.0
     return _probe(xw, tau, k, prog, const, inst, leaf, val, der, lock)
+
+
+#: Masked changes of one source followed within a step before its search stops (the rest: next step).
+MASKED_CHANGES = 4
+
+
+@kernel
+def _first_change(P, kord, psi, start, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+    """The first time in ``[start, t_cap]`` where instance ``k``'s outcomes differ from the held ones.
+
+    Its outcomes at ``t_cap`` differ; those at ``start`` are checked first (a cascade after an event:
+    ``start`` itself), then :data:`~netdae.dae.compiled.events.CROSSING_SAMPLES` samples bracket the change
+    and bisection narrows it to the roundoff of the time.
+    """
+    if _changed_at(P, kord, psi, start, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+        return start
+    lo = start
+    hi = t_cap
+    for i in range(1, CROSSING_SAMPLES):
+        tau = start + (t_cap - start) * i / CROSSING_SAMPLES
+        if _changed_at(P, kord, psi, tau, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+            hi = tau
+            break
+        lo = tau
+    for _ in range(CROSSING_ITERATIONS):
+        if hi - lo <= 4.0 * (np.nextafter(abs(hi), np.inf) - abs(hi)):
+            break
+        mid = 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            break
+        if _changed_at(P, kord, psi, mid, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+            hi = mid
+        else:
+            lo = mid
+    return hi
 
 
 @kernel
@@ -579,53 +620,39 @@ def lock_step(P, kord, psi, t, t_new, t_cap, n, prog, const, inst, leaf, val, de
         s0 = inst[k, B_LOCK]
         for s in range(s0, s0 + nk):
             lock[LOCK_TIME, s] = math.inf
-        if not _changed_at(P, kord, psi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
-            continue
-        lo = t
-        hi = t_cap
-        if _changed_at(P, kord, psi, t, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
-            hi = t  # changed at the step's start already (a cascade after an event)
-        else:
-            for i in range(1, CROSSING_SAMPLES):
-                tau = t + (t_cap - t) * i / CROSSING_SAMPLES
-                if _changed_at(P, kord, psi, tau, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
-                    hi = tau
-                    break
-                lo = tau
-            for _ in range(CROSSING_ITERATIONS):
-                if hi - lo <= 4.0 * (np.nextafter(abs(hi), np.inf) - abs(hi)):
-                    break
-                mid = 0.5 * (lo + hi)
-                if not (lo < mid < hi):
-                    break
-                if _changed_at(P, kord, psi, mid, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
-                    hi = mid
-                else:
-                    lo = mid
-        _changed_at(P, kord, psi, hi, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw)
-        for s in range(s0, s0 + nk):
-            lock[LOCK_NEXT, s] = lock[LOCK_PROBED, s]
-        change = _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw)
-        if change == CHANGE_MASKED:
-            # the value does not depend on the changed outcomes now: they change without an event
+        start = t
+        for _ in range(MASKED_CHANGES):
+            if not _changed_at(P, kord, psi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
+                break
+            hi = _first_change(P, kord, psi, start, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock,
+                               xw)
+            _changed_at(P, kord, psi, hi, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw)
             for s in range(s0, s0 + nk):
-                if not math.isnan(lock[LOCK_HELD, s]):
-                    lock[LOCK_HELD, s] = lock[LOCK_NEXT, s]
-            continue
-        if change == CHANGE_CORNER:
-            # the source's value is continuous there (a piecewise law's regions meet): the step still ends
-            # at the change (past it the held branch was extrapolated), but from then on the changed
-            # outcomes are evaluated from the point (NaN held), the error test seeing the corners
+                lock[LOCK_NEXT, s] = lock[LOCK_PROBED, s]
+            change = _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw)
+            if change == CHANGE_MASKED:
+                # the value does not depend on the changed outcomes now: they change without an event, and
+                # the search goes on from there (another outcome of the source may change later in the step)
+                for s in range(s0, s0 + nk):
+                    if not math.isnan(lock[LOCK_HELD, s]):
+                        lock[LOCK_HELD, s] = lock[LOCK_NEXT, s]
+                start = hi
+                continue
+            if change == CHANGE_CORNER:
+                # the source's value is continuous there (a piecewise law's regions meet): the step still ends
+                # at the change (past it the held branch was extrapolated), but from then on the changed
+                # outcomes are evaluated from the point (NaN held), the error test seeing the corners
+                for s in range(s0, s0 + nk):
+                    if lock[LOCK_NEXT, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
+                        lock[LOCK_NEXT, s] = math.nan
+            tc = max(hi, t + EVENT_MIN_GAP * h)
             for s in range(s0, s0 + nk):
                 if lock[LOCK_NEXT, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
-                    lock[LOCK_NEXT, s] = math.nan
-        tc = max(hi, t + EVENT_MIN_GAP * h)
-        for s in range(s0, s0 + nk):
-            if lock[LOCK_NEXT, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
-                lock[LOCK_TIME, s] = tc
-        found += 1
-        if tc < t_ev:
-            t_ev = tc
+                    lock[LOCK_TIME, s] = tc
+            found += 1
+            if tc < t_ev:
+                t_ev = tc
+            break
     if found == 0:
         return t_cap, 0
     if t_cap - t_ev <= EVENT_TOGETHER * h or not t_ev > t:
