@@ -219,25 +219,23 @@ class Definition:
             scope = scope.parent
         return None
 
-    def lookup_func(self, name: str) -> "FuncDef | None":
-        """The ``.func`` a card in this body means by ``name`` (innermost first)."""
+    def _innermost(self, table: str, name: str):
+        """``name`` in the ``table`` (``funcs``, ``subckts``) of this body or the nearest enclosing one."""
         scope: Definition | None = self
         while scope is not None:
-            func = scope.funcs.get(name)
-            if func is not None:
-                return func
+            found = getattr(scope, table).get(name)
+            if found is not None:
+                return found
             scope = scope.parent
         return None
 
+    def lookup_func(self, name: str) -> "FuncDef | None":
+        """The ``.func`` a card in this body means by ``name`` (innermost first)."""
+        return self._innermost("funcs", name)
+
     def lookup_subckt(self, name: str) -> "Definition | None":
         """The subcircuit an instance in this body means by ``name`` (innermost first)."""
-        scope: Definition | None = self
-        while scope is not None:
-            sub = scope.subckts.get(name)
-            if sub is not None:
-                return sub
-            scope = scope.parent
-        return None
+        return self._innermost("subckts", name)
 
     @property
     def path(self) -> str:
