@@ -38,8 +38,10 @@ The number of sections (:func:`section_count`) follows from the line and the cir
 finest time scale (:func:`resolution`: a transient's ``min(tstep, (tstop - tstart)/50)``,
 ``1 / (2 pi fstop)`` of an ``.ac`` or ``.noise``): a section's lumped losses reflect at most
 :data:`LUMP_REFLECTION` (:attr:`LineParameters.reflection`, per mode for coupled lines);
-when the whole line's would reflect more, the section delay ``td / n`` is at most
-:data:`SECTION_FRACTION` of the scale (lumps half a wavelength apart reflect together); an
+at a time scale, when the whole line's would reflect more, the section delay ``td / n`` is at
+most :data:`SECTION_FRACTION` of the scale (the lumps' echoes merge into the line's; lumps
+half a wavelength apart reflect together), and when less, either that or a section's lumps
+reflect at most :data:`LUMP_ECHO` (their echoes stand alone), whichever takes fewer; an
 RC ladder's delay and diffusion time ``R C len^2 / n^2`` at most :data:`LADDER_FRACTION`;
 ``sqrt(R G) len / n`` at most :data:`DC_STEP`; at most :data:`MAX_SECTIONS`.
 The internal nodes are ``<line>#<tag>`` (``u``, ``w``: a single line's joints; ``j``, ``h``,
@@ -65,7 +67,7 @@ from ..kinds import KINDS, Kind
 
 __all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "NGSPICE_FORMS", "LineParameters", "LossyLineError",
            "line_parameters", "resolution", "section_count", "realise", "realisation_note",
-           "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "DC_STEP", "MAX_SECTIONS",
+           "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "LUMP_ECHO", "DC_STEP", "MAX_SECTIONS",
            "CPL_MIN_RESISTANCE", "TXL_RC_RATIO"]
 
 #: The element kinds this module realises.
@@ -83,8 +85,8 @@ NUMERICAL_CONTROLS = {"ltra": frozenset({"rel", "abs", "nocontrol", "steplimit",
                                          "quadinterp", "mixedinterp", "truncnr", "truncdontcut", "compactrel",
                                          "compactabs"})}
 #: Largest section delay of a line of lossless sections whose lumped losses reflect more than
-#: :data:`LUMP_REFLECTION` in all, and its sections' diffusion time, as a fraction of the
-#: circuit's time scale (:func:`resolution`).
+#: :data:`LUMP_REFLECTION` in all (less: unless its lumps reflect at most :data:`LUMP_ECHO`),
+#: and its sections' diffusion time, as a fraction of the circuit's time scale (:func:`resolution`).
 SECTION_FRACTION = 0.25
 #: The same for an RC line's ladder (its sections are lumped: finer; at 0.1 a ladder driven through
 #: 50 ohm by a step of four time scales erred by 0.8 of the tolerance 1e-3 at its near end, at
@@ -92,6 +94,13 @@ SECTION_FRACTION = 0.25
 LADDER_FRACTION = 0.025
 #: Largest reflection of one section's lumped losses, ``(R len / (2 z0) + G len z0 / 2) / n``.
 LUMP_REFLECTION = 0.02
+#: Largest reflection of one section's lumped losses on a line whose losses reflect at most
+#: :data:`LUMP_REFLECTION` in all, when the section's delay is longer than
+#: :data:`SECTION_FRACTION` of the time scale: an edge then leaves one echo per lump, about a
+#: fifth of its reflection, and the line's error is that echo, first order in ``1 / n``
+#: (two coupled low-loss lines, ``R len / (2 z0) = 0.009``: 1.9e-3, 6.2e-4, 2.9e-4, 1.4e-4 of
+#: the step at 1, 3, 6, 12 sections; 5e-4 keeps it near 1e-4).
+LUMP_ECHO = 5e-4
 #: Largest ``sqrt(R G) len / n`` (the DC attenuation per section, trapezoidal error ~ its square / 12).
 DC_STEP = 0.1
 #: Most sections of one line (a line that needs more gets this many and a warning).
@@ -397,8 +406,14 @@ def section_count(p: LineParameters, scale: float | None) -> tuple[int, int]:
         need.append(p.reflection / LUMP_REFLECTION)
     if scale is not None:
         if p.form == "rc" or p.reflection > LUMP_REFLECTION:
-            # lumps a half wavelength apart reflect together: keep that frequency above the signals'
+            # sections short against the time scale: the lumps' echoes merge into the line's own,
+            # and lumps a half wavelength apart, which reflect together, stay above the signals'
+            # frequencies (the steps, at most a section's delay, follow the scale too)
             need.append(p.delay / (fraction * scale))
+        else:
+            # a low-loss line: either that, or sections so long that each lump's echo of an edge
+            # stands alone (about a fifth of its reflection), each lump reflecting at most LUMP_ECHO
+            need.append(min(p.delay / (fraction * scale), p.reflection / LUMP_ECHO))
         diffusion = max(float(np.max(np.diag(p.r))) * p.length, 0.0) * float(np.max(np.diag(p.c))) * p.length
         need.append(math.sqrt(diffusion / (fraction * scale)))
     elif p.form == "rc":
