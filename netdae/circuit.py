@@ -417,11 +417,16 @@ class Options:
 
 @dataclass(slots=True)
 class Diagnostic:
-    """A note or warning about the netlist that is not an error."""
+    """A note or warning about the netlist that is not an error.
+
+    ``in_results``: the analyses repeat the message among their results' notes (what a
+    comparison with ngspice should know, e.g. how a lossy line was realised).
+    """
 
     severity: str  # "note" or "warning"
     message: str
     location: SourceLocation | None = None
+    in_results: bool = False
 
     def __str__(self) -> str:
         where = f"{self.location}: " if self.location else ""

@@ -874,7 +874,7 @@ def _result(prepared: Prepared, settings: _Settings, saved: _Saved, start: _Star
     """The ``tran`` Result: the points from ``tstart`` on (or the ``interp`` grid), the dense output of the
     saved signals, the statistics and what the structure and the start said."""
     system, card, o = prepared.system, settings.card, prepared.circuit.options
-    notes = list(notes)
+    notes = [d.message for d in prepared.circuit.diagnostics if d.in_results] + list(notes)
     if o.interp:
         grid = np.arange(card.tstart, card.tstop + 0.5 * card.tstep, card.tstep)
         grid = grid[grid <= card.tstop * (1 + 1e-12)]

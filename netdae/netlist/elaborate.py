@@ -642,6 +642,7 @@ class _Elaborator:
         """
         scale = lossy.resolution(circuit.analyses)
         warned: set[str] = set()
+        realised: dict[str, list] = {}
         out: list[Element] = []
         nodes = set(circuit.nodes)
         for el in circuit.elements:
@@ -690,6 +691,7 @@ class _Elaborator:
                     "warning", f"{el.name}: the line would need {wanted} sections at the analyses' time scale; "
                     f"netdae uses {n} (its most), so its waveforms are coarser than the stated accuracy",
                     el.location))
+            realised.setdefault(line.kind, []).append((el.name, line, n))
             parts, inner = lossy.realise(el, line, n)
             del elements[el.name]
             for part in parts:
@@ -705,6 +707,8 @@ class _Elaborator:
                 circuit.nodes.append(node)
             out.extend(parts)
         circuit.elements = out
+        for kind, lines in realised.items():
+            self.diagnostics.append(Diagnostic("note", lossy.realisation_note(kind, lines), in_results=True))
 
     def _apply_models(self, circuit: Circuit) -> None:
         """Check the models elements use, once each; give R, C, L their model's coefficients.

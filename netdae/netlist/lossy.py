@@ -13,8 +13,9 @@ topology, the index analysis, ``.op``, ``.ac`` and the transient need nothing ne
 * **a single line with inductance** (LTRA ``l > 0``, TXL): ``n`` lossless lines (``tline``,
   exact delays ``td / n``, ``z0 = sqrt(L/C)``) with the losses lumped between them by the
   trapezoidal rule: a series resistance ``R len / n`` and a shunt conductance
-  ``G len / n`` at each of the ``n - 1`` joints, half of each at the two ends. The
-  wave delay is exact; the lumping is second order in ``1/n``. A lossless line is one
+  ``G len / n`` at each of the ``n - 1`` joints, half of each at the two ends, each joint
+  symmetric (half its shunt on either side of its resistance). The wave delay is exact; the
+  lumping is second order in ``1/n``. A lossless line is one
   ``tline``.
 * **an RC line** (LTRA ``l = 0``; TXL with ``r / l > 1.6e10``, which ngspice 39 itself turns
   into an RC network and so ignores ``l``): a ladder of ``n`` series resistances with the
@@ -27,7 +28,7 @@ topology, the index analysis, ``.op``, ``.ac`` and the transient need nothing ne
   ends, the conductors' series resistances ``R_ii len / n`` and the conductance matrix
   lumped trapezoidally: half at the ends in the conductors (Maxwell form: conductor ``i``
   to ground ``sum_j G_ij``, between ``i`` and ``j`` ``-G_ij``), whole at the inner joints
-  in the modes (:func:`_modal_lump`); the capacitance and inductance are all in the modal
+  in the modes, each joint symmetric (:func:`_modal_lump`); the capacitance and inductance are all in the modal
   lines.
 
 At DC every form is the line's series resistance between its ports with its shunt
@@ -37,8 +38,10 @@ The number of sections (:func:`section_count`) follows from the line and the cir
 finest time scale (:func:`resolution`: a transient's ``min(tstep, (tstop - tstart)/50)``,
 ``1 / (2 pi fstop)`` of an ``.ac`` or ``.noise``): a section's lumped losses reflect at most
 :data:`LUMP_REFLECTION` (:attr:`LineParameters.reflection`, per mode for coupled lines);
-when the whole line's would reflect more, the section delay ``td / n`` is at most
-:data:`SECTION_FRACTION` of the scale (lumps half a wavelength apart reflect together); an
+at a time scale, when the whole line's would reflect more, the section delay ``td / n`` is at
+most :data:`SECTION_FRACTION` of the scale (the lumps' echoes merge into the line's; lumps
+half a wavelength apart reflect together), and when less, either that or a section's lumps
+reflect at most :data:`LUMP_ECHO` (their echoes stand alone), whichever takes fewer; an
 RC ladder's delay and diffusion time ``R C len^2 / n^2`` at most :data:`LADDER_FRACTION`;
 ``sqrt(R G) len / n`` at most :data:`DC_STEP`; at most :data:`MAX_SECTIONS`.
 The internal nodes are ``<line>#<tag>`` (``u``, ``w``: a single line's joints; ``j``, ``h``,
@@ -62,8 +65,9 @@ import numpy as np
 from ..circuit import AcAnalysis, Element, NoiseAnalysis, SourceSpec, TranAnalysis
 from ..kinds import KINDS, Kind
 
-__all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "LineParameters", "LossyLineError", "line_parameters", "resolution", "section_count", "realise",
-           "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "DC_STEP", "MAX_SECTIONS",
+__all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "NGSPICE_FORMS", "LineParameters", "LossyLineError",
+           "line_parameters", "resolution", "section_count", "realise", "realisation_note",
+           "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "LUMP_ECHO", "DC_STEP", "MAX_SECTIONS",
            "CPL_MIN_RESISTANCE", "TXL_RC_RATIO"]
 
 #: The element kinds this module realises.
@@ -81,13 +85,22 @@ NUMERICAL_CONTROLS = {"ltra": frozenset({"rel", "abs", "nocontrol", "steplimit",
                                          "quadinterp", "mixedinterp", "truncnr", "truncdontcut", "compactrel",
                                          "compactabs"})}
 #: Largest section delay of a line of lossless sections whose lumped losses reflect more than
-#: :data:`LUMP_REFLECTION` in all, and its sections' diffusion time, as a fraction of the
-#: circuit's time scale (:func:`resolution`).
+#: :data:`LUMP_REFLECTION` in all (less: unless its lumps reflect at most :data:`LUMP_ECHO`),
+#: and its sections' diffusion time, as a fraction of the circuit's time scale (:func:`resolution`).
 SECTION_FRACTION = 0.25
-#: The same for an RC line's ladder (its sections are lumped: finer).
-LADDER_FRACTION = 0.1
+#: The same for an RC line's ladder (its sections are lumped: finer; at 0.1 a ladder driven through
+#: 50 ohm by a step of four time scales erred by 0.8 of the tolerance 1e-3 at its near end, at
+#: 0.025, twice the sections, by 0.25: tests/test_lossy_lines.py).
+LADDER_FRACTION = 0.025
 #: Largest reflection of one section's lumped losses, ``(R len / (2 z0) + G len z0 / 2) / n``.
 LUMP_REFLECTION = 0.02
+#: Largest reflection of one section's lumped losses on a line whose losses reflect at most
+#: :data:`LUMP_REFLECTION` in all, when the section's delay is longer than
+#: :data:`SECTION_FRACTION` of the time scale: an edge then leaves one echo per lump, about a
+#: fifth of its reflection, and the line's error is that echo, first order in ``1 / n``
+#: (two coupled low-loss lines, ``R len / (2 z0) = 0.009``: 1.9e-3, 6.2e-4, 2.9e-4, 1.4e-4 of
+#: the step at 1, 3, 6, 12 sections; 5e-4 keeps it near 1e-4).
+LUMP_ECHO = 5e-4
 #: Largest ``sqrt(R G) len / n`` (the DC attenuation per section, trapezoidal error ~ its square / 12).
 DC_STEP = 0.1
 #: Most sections of one line (a line that needs more gets this many and a warning).
@@ -393,14 +406,58 @@ def section_count(p: LineParameters, scale: float | None) -> tuple[int, int]:
         need.append(p.reflection / LUMP_REFLECTION)
     if scale is not None:
         if p.form == "rc" or p.reflection > LUMP_REFLECTION:
-            # lumps a half wavelength apart reflect together: keep that frequency above the signals'
+            # sections short against the time scale: the lumps' echoes merge into the line's own,
+            # and lumps a half wavelength apart, which reflect together, stay above the signals'
+            # frequencies (the steps, at most a section's delay, follow the scale too)
             need.append(p.delay / (fraction * scale))
+        else:
+            # a low-loss line: either that, or sections so long that each lump's echo of an edge
+            # stands alone (about a fifth of its reflection), each lump reflecting at most LUMP_ECHO
+            need.append(min(p.delay / (fraction * scale), p.reflection / LUMP_ECHO))
         diffusion = max(float(np.max(np.diag(p.r))) * p.length, 0.0) * float(np.max(np.diag(p.c))) * p.length
         need.append(math.sqrt(diffusion / (fraction * scale)))
     elif p.form == "rc":
         need.append(2.0)
     wanted = int(math.ceil(max(need) - 1e-9))
     return min(wanted, MAX_SECTIONS), wanted
+
+
+#: What ngspice 39's own form of each line does, measured against the exact solution of the
+#: line equations (docs/netlist.md "Lossy transmission lines"), for the realisation's note.
+NGSPICE_FORMS = {
+    Kind.LTRA: "ngspice 39's LTRA convolves the line's impulse responses on its own time steps: its error "
+               "shrinks with the step only, not with its model's numerical controls (a lossy line driven by a "
+               "0.2 ns step: 4e-3 of the swing at reltol=1e-3, 1e-3 at 1e-5)",
+    Kind.TXL: "ngspice 39's TXL replaces the line's responses by Pade approximations of a few poles: its error "
+              "does not shrink with the tolerances (a lossy line driven by a 0.2 ns step: 3e-2 of the swing)",
+    Kind.CPL: "ngspice 39's CPL replaces the line's responses by Pade approximations of a few poles: its error "
+              "does not shrink with the tolerances (2 % of the swing on its four coupled lines cpl3_4_line, "
+              "70 % on one lossy conductor)",
+}
+
+
+def realisation_note(kind: str, lines: list[tuple[str, LineParameters, int]]) -> str:
+    """What netdae made of the lines of one kind and what to expect of ngspice 39's form of them.
+
+    Parameters
+    ----------
+    kind : str
+        ``"ltra"``, ``"txl"`` or ``"cpl"``.
+    lines : list of (str, LineParameters, int)
+        Each line's name, parameters and sections.
+
+    Returns
+    -------
+    str
+        One sentence for the runs' notes.
+    """
+    names = ", ".join(f"{name} ({n})" if p.form != "rg" else f"{name} (T network)" for name, p, n in lines[:6])
+    more = f" and {len(lines) - 6} more" if len(lines) > 6 else ""
+    text = (f"{kind.upper()} line{'s' if len(lines) > 1 else ''} {names}{more} realised as sections "
+            "(docs/netlist.md), within 3e-4 of the swing of the line equations' exact solution where measured")
+    if all(not p.r.any() and not p.g.any() or p.form == "rg" for _, p, _ in lines):
+        return text
+    return f"{text}; a larger difference from ngspice is ngspice's: {NGSPICE_FORMS[kind]}"
 
 
 def realise(el: Element, p: LineParameters, n: int) -> tuple[list[Element], list[str]]:
@@ -463,7 +520,12 @@ class _Builder:
 
 
 def _lc(made: _Builder, p: LineParameters, n: int) -> None:
-    """``n`` lossless lines, ``R/n`` and ``G/n`` lumped at the joints (half at each end)."""
+    """``n`` lossless lines, ``R/n`` and ``G/n`` lumped at the joints (half at each end).
+
+    Each joint is symmetric, half its shunt on either side of its series resistance (the
+    sections' trapezoidal lumps: a whole shunt on one side would err by ``R G len^2 / n^2`` per
+    joint, first order in ``1 / n`` over the line).
+    """
     a, ra, b, rb = made.el.nodes
     R, G = float(p.r[0, 0]) * p.length, float(p.g[0, 0]) * p.length
     z0, td = p.impedance, p.delay
@@ -474,10 +536,14 @@ def _lc(made: _Builder, p: LineParameters, n: int) -> None:
     for k in range(n):
         weight = 0.5 if k == 0 else 1.0
         if R > 0:
+            if k > 0:  # the joint's shunt split around its resistance: each section symmetric
+                made.shunt(f"{k}w", node, ra, 0.5 * G / n, 0.0)
             into = made.node(f"u{k}")
             made.add(f"r{k}", "resistor", (node, into), weight * R / n)
             node = into
-        made.shunt(str(k), node, ra, weight * G / n, 0.0)
+            made.shunt(str(k), node, ra, 0.5 * G / n, 0.0)
+        else:
+            made.shunt(str(k), node, ra, weight * G / n, 0.0)
         last = k == n - 1
         out = b if last and R == 0 else made.node(f"w{k + 1}")
         made.add(f"t{k + 1}", "tline", (node, ra, out, rb if last else ra), params={"z0": z0, "td": td / n})
@@ -595,12 +661,18 @@ def _modal(made: _Builder, p: LineParameters, n: int) -> None:
     _transform(made, "b", last, right, tv, port=True)
     for i in range(m):
         made.add(f"r{i + 1}_{n}", "resistor", (last[i], outs[i]), 0.5 * float(p.r[i, i]) * d)
-    _shunts(made, str(n), outs, 0.5 * p.g * d, None)
+    _shunts(made, str(n), last, 0.5 * p.g * d, None)  # inside the end's resistance, mirroring the start
 
 
 def _modal_lump(made: _Builder, tag: str, a: list[str], b: list[str], rm: np.ndarray, gm: np.ndarray) -> None:
     """A series resistance matrix from ``a`` to ``b`` (0 V sensing sources and CCVS chains:
-    ``v(a_i) - v(b_i) = sum_k rm[i, k] i_k``) and a shunt conductance matrix at ``b`` (VCCSs)."""
+    ``v(a_i) - v(b_i) = sum_k rm[i, k] i_k``) and a shunt conductance matrix, half at ``a`` and
+    half at ``b`` (VCCSs).
+
+    The halves make the joint symmetric, as the sections are: a joint with the whole shunt on
+    one side of the series resistance errs by ``R G len^2 / n^2``, and the ``n - 1`` joints add
+    that up to a first-order error in ``1 / n``.
+    """
     m = len(a)
     senses = []
     tops = []
@@ -616,8 +688,9 @@ def _modal_lump(made: _Builder, tag: str, a: list[str], b: list[str], rm: np.nda
             made.add(f"h{tag}_{i + 1}_{k + 1}", "ccvs", (top, below), float(rm[i, k]), controls=(senses[k],))
             top = below
         for k in range(m):
-            if gm[i, k] != 0.0:
-                made.add(f"g{tag}_{i + 1}_{k + 1}", "vccs", (b[i], "0", b[k], "0"), float(gm[i, k]))
+            if gm[i, k] != 0.0:  # half on each side of the series resistance: the joint symmetric
+                made.add(f"g{tag}_{i + 1}_{k + 1}", "vccs", (b[i], "0", b[k], "0"), 0.5 * float(gm[i, k]))
+                made.add(f"g{tag}a_{i + 1}_{k + 1}", "vccs", (a[i], "0", a[k], "0"), 0.5 * float(gm[i, k]))
 
 
 def _shunts(made: _Builder, tag: str, at: list[str], g: np.ndarray, c: np.ndarray | None) -> None:
