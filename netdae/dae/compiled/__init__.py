@@ -58,7 +58,7 @@ from typing import Callable, Mapping
 
 import numba
 
-__all__ = ["CACHE_DIR", "choose_cache_dir", "source_key", "kernel", "allocating_kernel"]
+__all__ = ["CACHE_DIR", "choose_cache_dir", "source_key", "kernel", "inlined_kernel", "allocating_kernel"]
 
 #: numba's environment variable for its cache directory.
 CACHE_ENV = "NUMBA_CACHE_DIR"
@@ -200,6 +200,19 @@ def kernel(fn: Callable) -> Callable:
     every call boundary).
     """
     return numba.njit(_nrt=False, cache=CACHE_DIR is not None, error_model="numpy")(fn)
+
+
+def inlined_kernel(fn: Callable) -> Callable:
+    """As :func:`kernel`, inlined by numba into every compiled caller (``inline="always"``).
+
+    For the step loop's per-iteration functions whose arguments are the whole system
+    (``sysd``, ``devd``: hundreds of machine words once numba flattens the tuples of
+    arrays). LLVM does not inline such large functions, and a call copies every word
+    onto the stack (about 750 pushes for the corrector's Newton, 700 for an evaluation),
+    which cost half the bridge rectifier's step; inlined, only the arrays used are read.
+    Called from Python, it compiles and runs as a :func:`kernel` does.
+    """
+    return numba.njit(_nrt=False, cache=CACHE_DIR is not None, error_model="numpy", inline="always")(fn)
 
 
 def allocating_kernel(fn: Callable) -> Callable:

@@ -65,7 +65,7 @@ from .events import CHATTER_EVENTS, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
                       landing_step, set_weights, update_differences, weighted_norm)
-from . import kernel
+from . import inlined_kernel, kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
 from .lu import refactor as lu_refactor
 from .lu import solve as lu_solve
@@ -239,7 +239,7 @@ def _matvec_add(indptr, indices, data, x, scale, out):
                 out[indices[p]] += data[p] * xj
 
 
-@kernel
+@inlined_kernel
 def _phi(t, x, sysd, u, out):
     """``out = H x + B u(t)``, plus the transmission lines' delayed waves."""
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
@@ -514,6 +514,11 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     return flags
 
 
+#: :func:`_evaluate` inlined, for the calls of every Newton iteration and every step (a call of
+#: :func:`_evaluate` copies the whole of ``sysd`` and ``devd`` onto the stack: :func:`inlined_kernel`)
+_evaluate_inlined = inlined_kernel(_evaluate.py_func)
+
+
 @kernel
 def _accept_state(I, devd):
     """The trial limiting state becomes the accepted one (after an accepted step)."""
@@ -557,7 +562,7 @@ def _reset_trial(I, devd):
     I[I_HAS_TRY] = I[I_HAS_ACC]
 
 
-@kernel
+@inlined_kernel
 def _rounding_floor(x, xp, qp, cj, qcol, every, absdq, indptr, indices, lus, signs, w, w_out, b1, b2):
     """Weights with every tolerance raised to the corrector's rounding level (see
     :meth:`netdae.dae.bdf.corrector.RoundingFloor.weights`): ``w_out`` from ``w``. ``absdq``:
@@ -937,7 +942,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
 
 
 # ------------------------------------------------------------------ the nonlinear corrector
-@kernel
+@inlined_kernel
 def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, evb, r, v):
     """The corrector's residual at ``x`` with the trial limiting state: ``cj (q(x) - q_pred) +
     q'_pred - phi(x, t_new)`` in the rows ``crows`` (charge form, the charges ``pred0[n:]``,
@@ -948,7 +953,7 @@ def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, 
     n = x.size
     m = crows.size
     state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
-    flags = _evaluate(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
+    flags = _evaluate_inlined(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
     I[I_HAS_TRY] = 1
     if m == n:
         for i in range(n):
@@ -966,7 +971,7 @@ def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, 
     return flags
 
 
-@kernel
+@inlined_kernel
 def _newton(F, I, t_new, cj, setup, full, x_pred, xp_pred, crows, weights, sysd, devd, lus, u, evb, x, d, r, v):
     """Modified Newton on the corrector (:func:`netdae.dae.newton.newton` with
     ``jacobian="first"`` when ``setup``, else ``"never"`` with IDA's ``cj`` scaling;
@@ -1256,23 +1261,25 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         for i in range(n):
                             w_se[i] = min(w_err[i], w_newton[i]) if w_newton[i] != w[i] else w_err[i]
                         w_step = w_se
-                outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, setup, False, pred0, pred1, crows,
-                                                            w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
-                if outcome == NEWTON_FAILED and not setup and reason != REASON_EVALUATION:
-                    # stale Jacobian: retry once with a fresh one at the same step size
+                # one call site of the inlined Newton: the first attempt, then (a stale Jacobian) once
+                # with a fresh one at the same step size, then (a fresh Jacobian failed too) full Newton,
+                # a model whose slope changes within the step (a MOS charge at its threshold), before a
+                # smaller step
+                fresh = setup
+                full = False
+                while True:
+                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, fresh, full, pred0, pred1, crows,
+                                                                w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
+                    if outcome != NEWTON_FAILED or full or reason == REASON_EVALUATION:
+                        break
+                    if fresh and reason == REASON_SINGULAR:
+                        break
                     I[I_NEWTON_FAILURES] += 1
                     I[I_NEWTON] += its
                     _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, False, pred0, pred1,
-                                                                crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
-                if outcome == NEWTON_FAILED and reason != REASON_EVALUATION and reason != REASON_SINGULAR:
-                    # a fresh Jacobian failed too: full Newton (a model whose slope changes
-                    # within the step, as a MOS charge at its threshold) before a smaller step
-                    I[I_NEWTON_FAILURES] += 1
-                    I[I_NEWTON] += its
-                    _reset_trial(I, devd)
-                    outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, True, True, pred0, pred1,
-                                                                crows, w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
+                    if fresh:
+                        full = True
+                    fresh = True
                 I[I_NEWTON] += its
                 if outcome == NEWTON_PIVOTS:
                     pivots = True
@@ -1282,7 +1289,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     F[F_RATE] = rate
                     # the charges at the new point, evaluated exactly (no limiting): the
                     # history must hold q(x_new) itself
-                    flags = _evaluate(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
+                    flags = _evaluate_inlined(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
                     if flags & FLAG_NONFINITE:
                         kind = 1
                         reason = REASON_EVALUATION
