@@ -1288,8 +1288,11 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 else:
                     F[F_RATE] = rate
                     # the charges at the new point, evaluated exactly (no limiting): the
-                    # history must hold q(x_new) itself
-                    flags = _evaluate_inlined(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
+                    # history must hold q(x_new) itself (a system whose devices store no
+                    # charge has none to hold: its linear charges E x are in correction form)
+                    flags = 0
+                    if crows.size > 0:
+                        flags = _evaluate_inlined(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
                     if flags & FLAG_NONFINITE:
                         kind = 1
                         reason = REASON_EVALUATION
