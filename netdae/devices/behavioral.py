@@ -90,6 +90,10 @@ class BehaviouralFamily(DeviceFamily):
                 raise CircuitError(f"{where}{el.name}: instance parameters ({names}) of behavioural sources "
                                    "are not supported by netdae", elements=(el.name,))
         self.groups: list[_Group] = []
+        #: The locked outcomes a transient holds (``kernels.behavioural``'s ``lock``), or None: every
+        #: evaluation then runs the compiled kernel with them (set by :class:`BehaviouralEvents`).
+        self.held = None
+        self._packed = None
         for kind in (_VOLTAGE, _CURRENT, _CHARGE):
             els = [el for el in self.elements if el.kind == kind]
             for idx in group_by_structure([el.expr for el in els]):
@@ -152,8 +156,6 @@ class BehaviouralFamily(DeviceFamily):
             grp.stamps.bind(slots, n)
         self._slots, self._n = slots, n
         self._packed = None
-        #: The locked outcomes a transient holds (``kernels.behavioural``'s ``lock``), or None: every
-        #: evaluation then runs the compiled kernel with them (set by :class:`BehaviouralEvents`).
         self.held = None
 
     def packed(self) -> tuple:
@@ -250,7 +252,7 @@ class BehaviouralFamily(DeviceFamily):
 
     # -- evaluation --------------------------------------------------------
     def evaluate(self, x, t, acc: Accumulator, state, jacobian):
-        if getattr(self, "held", None) is not None:
+        if self.held is not None:
             return self._evaluate_held(x, t, acc, jacobian)
         ok = True
         with np.errstate(all="ignore"):

@@ -222,7 +222,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     indptr, indices, e_data, h_data, b_rows, b_cols, b_vals = pack_matrices(system)
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
     switching = getattr(system, "switching", None)
-    locks = getattr(system, "behavioural_events", None)
+    locks = None  # the Python side of the behavioural sources' held comparisons, made when a right limit needs it
     devd = _pack_families(system, x0, switching)
 
     F = np.zeros(L.N_F)
@@ -410,8 +410,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 eps = float(F[L.F_RL_EPS])
                 if switching is not None:
                     switching.hold(devd[SWITCH_SLOT * 5 + 2])
-                if locks is not None:
-                    locks.hold(devd[LOCK_ARRAY])  # the behavioural sources' comparisons as the loop holds them
+                if devd[LOCK_ARRAY].shape[1] > 1:  # the behavioural sources' comparisons as the loop holds them
+                    locks = system.behavioural_events
+                    locks.hold(devd[LOCK_ARRAY])
                 if delays[0].size:
                     system.delay_history = _history(buf_t, buf_k, buf_x, segments, I, ns)
                 try:

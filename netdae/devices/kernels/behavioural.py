@@ -431,13 +431,12 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, lock, q, phi, dq, 
         nl = inst[k, B_NLEAF]
         l0 = inst[k, B_LEAF]
         m = inst[k, B_LEN]
-        value = run_tape(prog, inst[k, B_PROG], m, const, inst[k, B_CONST], x, leaf, l0, nl, t, val, der, lock,
-                         inst[k, B_LOCK], lockmode if inst[k, B_NLOCK] > 0 else LOCK_FREE)
+        value = _value(x, t, k, prog, const, inst, leaf, val, der, lock,
+                       lockmode if inst[k, B_NLOCK] > 0 else LOCK_FREE)
         if lockmode == LOCK_USE and inst[k, B_NLOCK] > 0 and not math.isfinite(value):
             # the held branch is undefined here (sqrt(v(a)) held past v(a) > 0): the outcomes of the
             # point instead, so that the step reaches the change and the event is located after it
-            value = run_tape(prog, inst[k, B_PROG], m, const, inst[k, B_CONST], x, leaf, l0, nl, t, val, der,
-                             lock, inst[k, B_LOCK], LOCK_FREE)
+            value = _value(x, t, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
         if bad < 0 and not math.isfinite(value):
             bad = k
         p = inst[k, B_P]
@@ -470,8 +469,7 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, lock, q, phi, dq, 
 @kernel
 def _probe(x, t, k, prog, const, inst, leaf, val, der, lock):
     """Instance ``k``'s outcomes at ``(x, t)`` into row ``LOCK_PROBED``; True when one differs from the held."""
-    run_tape(prog, inst[k, B_PROG], inst[k, B_LEN], const, inst[k, B_CONST], x, leaf, inst[k, B_LEAF],
-             inst[k, B_NLEAF], t, val, der, lock, inst[k, B_LOCK], LOCK_PROBE)
+    _value(x, t, k, prog, const, inst, leaf, val, der, lock, LOCK_PROBE)
     s0 = inst[k, B_LOCK]
     for s in range(s0, s0 + inst[k, B_NLOCK]):
         if lock[LOCK_PROBED, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
@@ -481,7 +479,7 @@ def _probe(x, t, k, prog, const, inst, leaf, val, der, lock):
 
 @kernel
 def _value(x, t, k, prog, const, inst, leaf, val, der, lock, lockmode):
-    """Instance ``k``'s value at ``(x, t)`` with its held outcomes (``LOCK_USE``) or the point's (``LOCK_FREE``)."""
+    """Instance ``k``'s tape run at ``(x, t)``, its locked instructions by ``lockmode`` (:func:`run_tape`)."""
     return run_tape(prog, inst[k, B_PROG], inst[k, B_LEN], const, inst[k, B_CONST], x, leaf, inst[k, B_LEAF],
                     inst[k, B_NLEAF], t, val, der, lock, inst[k, B_LOCK], lockmode)
 
@@ -660,11 +658,8 @@ def lock_step(P, kord, psi, t, t_new, t_cap, n, prog, const, inst, leaf, val, de
     limit = t_ev + EVENT_TOGETHER * h
     count = 0
     for k in range(inst.shape[0]):
-        s0 = inst[k, B_LOCK]
-        for s in range(s0, s0 + inst[k, B_NLOCK]):
-            if lock[LOCK_TIME, s] <= limit:
-                count += 1
-                break
+        if lock_changed(inst, lock, k, limit):
+            count += 1
     return t_ev, count
 
 
