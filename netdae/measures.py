@@ -43,24 +43,51 @@ LAST = -1
 
 @dataclass(frozen=True)
 class Probe:
-    """A measured quantity: a signal, for AC maybe through a prefix (``vdb(out)``).
+    """A measured quantity: a signal, for AC maybe through a prefix (``vdb(out)``), or an
+    expression of signals (ngspice's ``par('v(out)*i(vdd)')``).
 
     Attributes
     ----------
-    signal : Signal
-        ``v(node)``, ``v(a,b)`` or ``i(element)`` (:mod:`netdae.signals`).
+    signal : Signal or None
+        ``v(node)``, ``v(a,b)`` or ``i(element)`` (:mod:`netdae.signals`); None for an expression.
     part : str
         ``""`` (AC: the real part, as ngspice), or a key of :data:`AC_PREFIXES`.
+    expression : Expr or None
+        ``par('...')``: the tree (:mod:`netdae.netlist.expr`) of ``V()``, ``I()``, ``time`` and
+        numbers (parameters already replaced by their values), evaluated point by point on the
+        signals it reads (:meth:`reads`).
     """
 
-    signal: Signal
+    signal: Signal | None
     part: str = ""
+    expression: Any = None
 
     @property
     def name(self) -> str:
-        """As written canonically: ``v(out)``, ``vdb(out)``, ``v(a,b)``."""
+        """As written canonically: ``v(out)``, ``vdb(out)``, ``v(a,b)``, ``par('v(a)*2')``."""
+        if self.expression is not None:
+            from .netlist.expr import to_text
+
+            return f"par('{to_text(self.expression)}')"
         base = self.signal.name
         return base[0] + self.part + base[1:] if self.part else base
+
+    def reads(self) -> tuple[Signal, ...]:
+        """The signals the quantity is made of: its signal, or those its expression reads, in order."""
+        if self.expression is None:
+            return (self.signal,)
+        from .netlist import expr as ex
+
+        out: dict[str, Signal] = {}
+        for node in ex.walk(self.expression):
+            if isinstance(node, ex.Voltage):
+                sig = Signal("v", (node.pos,) if node.neg in (None, "0") else (node.pos, node.neg))
+            elif isinstance(node, ex.Current):
+                sig = Signal("i", (node.element,))
+            else:
+                continue
+            out.setdefault(sig.name, sig)
+        return tuple(out.values())
 
 
 @dataclass(frozen=True)
@@ -148,6 +175,10 @@ class MeasureSpec:
             if cond is not None:
                 out += [p for p in (cond.probe, cond.other) if p is not None]
         return out
+
+    def signals(self) -> list[str]:
+        """The names of the signals the measurement reads (an expression's each), without repeats."""
+        return list(dict.fromkeys(sig.name for probe in self.probes() for sig in probe.reads()))
 
 
 class MeasureStatus(StrEnum):

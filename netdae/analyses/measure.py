@@ -96,6 +96,41 @@ def _part(values: np.ndarray, part: str, analysis: str) -> np.ndarray:
         return 20.0 * np.log10(np.abs(z))
 
 
+def _values(result: Result, probe: Probe) -> np.ndarray:
+    """The probe's real values at the points of ``result`` (its signals' shape).
+
+    Raises
+    ------
+    MeasureFailure
+        A signal the result does not hold; an expression that is not finite at a point.
+    """
+    if probe.expression is None:
+        try:
+            return _part(result[probe.signal.name], probe.part, result.analysis)
+        except KeyError:
+            raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
+                                 "(not saved: add it to .save)") from None
+
+    def lookup(leaf):
+        if isinstance(leaf, ex.Time):
+            return np.asarray(result.axis, dtype=float)
+        name = (f"v({leaf.pos})" if leaf.neg is None else f"v({leaf.pos},{leaf.neg})") \
+            if isinstance(leaf, ex.Voltage) else f"i({leaf.element})"
+        try:
+            return np.asarray(result[name], dtype=float)
+        except KeyError:
+            raise MeasureFailure(f"{name} (in {probe.name}) is not in the {result.analysis} result "
+                                 "(not saved: add it to .save)") from None
+
+    y = ex.evaluate_arrays(probe.expression, lookup)
+    y = np.broadcast_to(y, np.shape(result.axis) if y.ndim == 0 else y.shape)
+    bad = ~np.isfinite(y)
+    if bad.any():
+        x = np.broadcast_to(np.asarray(result.axis, dtype=float), y.shape)[bad].ravel()[0]
+        raise MeasureFailure(f"{probe.name} is not finite at {result.axis_name}={x:g}")
+    return y
+
+
 class _Trace:
     """One real quantity of a transient with dense output: its values at the steps and between them.
 
@@ -105,15 +140,11 @@ class _Trace:
     def __init__(self, result: Result, probe: Probe) -> None:
         self.name = probe.name
         self.x = np.asarray(result.axis, dtype=float)
-        try:
-            self.y = _part(result[probe.signal.name], probe.part, result.analysis)
-        except KeyError:
-            raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
-                                 "(not saved: add it to .save)") from None
+        self.y = _values(result, probe)
+
         def dense(t, _r=result, _p=probe):
             t = np.atleast_1d(np.asarray(t, dtype=float))
-            view = Result("tran", axes={"time": t}, signals=_r.dense(t))
-            return _part(view[_p.signal.name], _p.part, "tran")
+            return _values(Result("tran", axes={"time": t}, signals=_r.dense(t)), _p)
         self.dense = dense
 
     @property
@@ -462,11 +493,7 @@ class _Lines:
     def __init__(self, result: Result, probe: Probe) -> None:
         self.name = probe.name
         self.x = np.asarray(result.axis, dtype=float)
-        try:
-            self.y = np.atleast_2d(_part(result[probe.signal.name], probe.part, result.analysis))
-        except KeyError:
-            raise MeasureFailure(f"{probe.signal.name} is not in the {result.analysis} result "
-                                 "(not saved: add it to .save)") from None
+        self.y = np.atleast_2d(_values(result, probe))
 
     @property
     def span(self) -> tuple[float, float]:

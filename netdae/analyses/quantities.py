@@ -195,7 +195,7 @@ def saved_currents(circuit: Circuit) -> list[Quantity]:
 
 def measured_quantities(circuit: Circuit) -> list[Quantity]:
     """The device quantities the circuit's ``.meas`` cards read (``i(c1)``, ``@r1[p]``)."""
-    names = list(dict.fromkeys(probe.signal.name for spec in circuit.measures for probe in spec.probes()))
+    names = list(dict.fromkeys(name for spec in circuit.measures for name in spec.signals()))
     return plan_quantities(circuit, names)[1]
 
 

@@ -399,8 +399,7 @@ def _with_measured(names: list[str] | None, circuit: Circuit) -> list[str] | Non
     have = {canonical(n) for n in names if not n.startswith("@")}
     extra = []
     for spec in circuit.measures:
-        for probe in spec.probes():
-            name = probe.signal.name
+        for name in spec.signals():
             if name not in have:
                 have.add(name)
                 extra.append(name)

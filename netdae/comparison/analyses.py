@@ -15,6 +15,8 @@ here, so every function can be tested on synthetic results.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ..errors import NetdaeError
@@ -102,8 +104,13 @@ def select_signals(netdae: list[str], ngspice: list[str], wanted=None, exclude=(
     compared = [n for n in netdae if n in theirs and chosen(n) and n not in drop]
     excluded = [n for n in netdae if n in theirs and chosen(n) and n in drop]
     only_netdae = [n for n in netdae if n not in theirs and chosen(n)]
-    only_ngspice = [n for n in ngspice if n not in ours and chosen(n)]
+    only_ngspice = [n for n in ngspice if n not in ours and chosen(n) and not _PAR_HELPER.match(n)]
     return compared, only_netdae, only_ngspice, excluded
+
+
+#: The node and source ngspice adds for each ``par('...')`` of a ``.meas`` card (``Bpa_00 pa_00 0
+#: V=...``): its own means of measuring an expression, not a signal of the circuit.
+_PAR_HELPER = re.compile(r"^(?:v\(pa_\d+\)|i\(bpa_\d+\))$")
 
 
 def _signals_or_error(item: AnalysisComparison, compared: list[str]) -> bool:

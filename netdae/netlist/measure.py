@@ -12,7 +12,9 @@ be numbers, ``{expressions}`` or parameter names)::
     .meas tran|ac|dc name MIN|MAX|PP|AVG|RMS|INTEG sig [TD=] [FROM=] [TO=]
     .meas tran|ac|dc name PARAM='expression of earlier measurements'
 
-Signals are ``v(node)``, ``v(a,b)``, ``i(vname)`` and, for ``ac``, ``vdb() vm()
+Signals are ``v(node)``, ``v(a,b)``, ``i(vname)``, ``@device[param]``, for ``tran`` and
+``dc`` ngspice's ``par('expression')`` (of ``v()``, ``i()``, ``time``, numbers and
+parameters, evaluated at every point of the result), and, for ``ac``, ``vdb() vm()
 vp() vr() vi()``. Nothing is evaluated here; errors are located at the token.
 
 Examples
@@ -82,11 +84,41 @@ class _Cursor:
         return tok is not None and tok.kind == WORD and tok.text in words
 
 
+def _starts_probe(cur: _Cursor) -> bool:
+    """A signal (``v(``, ``vdb(`` ..., ``par(``) begins at the cursor."""
+    tok, nxt = cur.peek(), cur.peek(1)
+    return (tok is not None and tok.kind == WORD and (tok.text in _PREFIXES or tok.text == "par")
+            and nxt is not None and nxt.text == "(")
+
+
+def _expression_probe(cur: _Cursor, analysis: str) -> tuple:
+    """``par('expression')`` (ngspice): ("par", "", (tree,), offset)."""
+    tok = cur.take()
+    if analysis == "ac":
+        raise cur.fail(tok.start, "par() expressions are measured on tran and dc results",
+                       hint="measure vdb(), vm(), vp(), vr() or vi() of an ac result, "
+                            "and combine measurements with PARAM='...'")
+    cur.i += 1  # '('
+    body, close = cur.peek(), cur.peek(1)
+    if body is None or body.kind not in (EXPR, WORD) or close is None or close.text != ")":
+        at = body.start if body is not None else cur.end()
+        raise cur.fail(at, "par() takes one quoted expression", hint="write par('v(out)*i(vdd)')")
+    cur.i += 2
+    tree = parse_expr(cur.card, body.text, body.start + (body.kind == EXPR), ex.BEHAVIOURAL, FORM)
+    for node in ex.walk(tree):
+        if isinstance(node, ex.Call) and node.func == "ddt":
+            raise cur.fail(body.start, "ddt() in a par() expression",
+                           hint="measure the slope with DERIV, or the signal itself")
+    return "par", "", (tree,), tok.start
+
+
 def _probe(cur: _Cursor, analysis: str, what: str) -> tuple:
-    """``v(a)``, ``v(a,b)``, ``i(v1)``, ``vdb(a)`` ... as (letter, part, nodes, offset)."""
+    """``v(a)``, ``v(a,b)``, ``i(v1)``, ``vdb(a)``, ``par('expr')`` ... as (letter, part, nodes, offset)."""
     tok = cur.peek()
     if tok is None:
         raise cur.fail(cur.end(), f"missing the signal {what}", hint="write v(node), v(a,b) or i(vname)")
+    if tok.kind == WORD and tok.text == "par" and cur.peek(1) is not None and cur.peek(1).text == "(":
+        return _expression_probe(cur, analysis)
     if tok.kind == WORD and tok.text.startswith("@"):  # a device quantity, @r1[p]
         from ..signals import parse_signal
 
@@ -98,8 +130,8 @@ def _probe(cur: _Cursor, analysis: str, what: str) -> tuple:
         return "@", "", sig.args, tok.start
     if tok.kind != WORD or tok.text not in _PREFIXES or not (cur.peek(1) and cur.peek(1).text == "("):
         raise cur.fail(tok.start, f"expected a signal {what}, found {tok.text!r}",
-                       hint="write v(node), v(a,b), i(vname) or @device[param]" + ("; for ac also vdb() vm() vp() vr() vi()"
-                                                                   if analysis == "ac" else ""))
+                       hint="write v(node), v(a,b), i(vname), @device[param] or par('expression')"
+                       + ("; for ac also vdb() vm() vp() vr() vi()" if analysis == "ac" else ""))
     letter, part = _PREFIXES[tok.text]
     if part and analysis != "ac":
         raise cur.fail(tok.start, f"{tok.text}() is for ac measurements, this is a .meas {analysis}",
@@ -177,7 +209,7 @@ def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> di
             nxt = cur.peek()
             if nxt is None:
                 raise cur.fail(eq.start, "missing the value after WHEN ...=")
-            if nxt.kind == WORD and nxt.text in _PREFIXES and cur.peek(1) is not None and cur.peek(1).text == "(":
+            if _starts_probe(cur):
                 cond["other"] = _probe(cur, analysis, "after '='")
             else:
                 cond["value"] = parse_value(cur.card, cur.take(), FORM, "WHEN value")
@@ -328,8 +360,44 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     seen: dict[str, MeasureCard] = {}
     out = []
 
-    def probe(sig, card) -> Probe:
+    def expression_probe(tree, offset, card, analysis) -> Probe:
+        """``par('...')``: parameters and .func calls replaced, every signal checked."""
+        if functions is not None:
+            try:
+                tree = inline_calls(tree, functions)
+            except UnknownName as exc:
+                raise error(card, offset, f"par(): unknown function '{exc.name}'", FORM,
+                            hint="define it with .func") from None
+            except ValueError as exc:
+                raise error(card, offset, f"par(): {exc}", FORM) from None
+
+        def leaf(node):
+            if isinstance(node, ex.Param):
+                if node.name not in circuit.params:
+                    raise error(card, offset, f"par(): '{node.name}' is not a top-level .param", FORM,
+                                hint="par() reads v(node), v(a,b), i(vname), time, numbers and parameters; "
+                                     "combine measurements with PARAM='...'")
+                return ex.Const(float(circuit.params[node.name]))
+            if isinstance(node, ex.Time) and analysis != "tran":
+                raise error(card, offset, f"par(): 'time' in a .meas {analysis}", FORM,
+                            hint="time is the axis of a transient only")
+            if isinstance(node, ex.Voltage):
+                names = tuple("0" if n == "gnd" else n for n in (node.pos, node.neg) if n is not None)
+                sig = probe(("v", "", names, offset), card).signal
+                return ex.Voltage(*sig.args) if len(sig.args) == 2 else ex.Voltage(sig.args[0])
+            if isinstance(node, ex.Current):
+                probe(("i", "", (node.element,), offset), card)
+            if isinstance(node, ex.Call) and node.func not in ex.FUNCTIONS:
+                raise error(card, offset, f"par(): unknown function '{node.func}'", FORM)
+            return None
+
+        tree = ex.fold_constants(ex.transform(tree, leaf))
+        return Probe(None, "", tree)
+
+    def probe(sig, card, analysis="tran") -> Probe:
         letter, part, names, offset = sig
+        if letter == "par":
+            return expression_probe(names[0], offset, card, analysis)
         if letter == "@":
             target = elements.get(names[0])
             if target is None:
@@ -359,10 +427,10 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     def number(val, card, what):
         return None if val is None else value(val, card, what)
 
-    def condition(c: dict, card) -> Condition:
-        return Condition(probe=probe(c["probe"], card) if c["probe"] else None,
+    def condition(c: dict, card, analysis) -> Condition:
+        return Condition(probe=probe(c["probe"], card, analysis) if c["probe"] else None,
                          value=number(c["value"], card, "VAL"),
-                         other=probe(c["other"], card) if c["other"] else None,
+                         other=probe(c["other"], card, analysis) if c["other"] else None,
                          edge=c["edge"], count=c["count"], td=number(c["td"], card, "TD") or 0.0,
                          at=number(c["at"], card, "AT"))
 
@@ -418,10 +486,10 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
                 raise error(card, m.offset, f"TO={stop:g} is before FROM={start:g}", FORM)
         spec = MeasureSpec(
             name=m.name, analysis=m.analysis, function=m.function,
-            probe=probe(m.probe, card) if m.probe else None,
-            trig=condition(m.trig, card) if m.trig else None,
-            targ=condition(m.targ, card) if m.targ else None,
-            when=condition(m.when, card) if m.when else None,
+            probe=probe(m.probe, card, m.analysis) if m.probe else None,
+            trig=condition(m.trig, card, m.analysis) if m.trig else None,
+            targ=condition(m.targ, card, m.analysis) if m.targ else None,
+            when=condition(m.when, card, m.analysis) if m.when else None,
             at=number(m.at, card, "AT"), start=start, stop=stop, expression=expression, params=params,
             location=card.location(0), text=card.raw,
         )

@@ -112,9 +112,9 @@ def _save_names(job: Job, circuit) -> list[str] | None:
     names = list(job.save)
     if not names:
         for spec in circuit.measures:
-            for probe in spec.probes():
-                if probe.signal.name not in names:
-                    names.append(probe.signal.name)
+            for name in spec.signals():
+                if name not in names:
+                    names.append(name)
     return names or None
 
 
