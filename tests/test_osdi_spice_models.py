@@ -408,3 +408,33 @@ def test_the_vbic_avalanche_differs_from_ngspice_39_by_vbic_1p3s_floor():
 def test_example_transients_agree_with_ngspice(name):
     comparison = netdae.compare(NETLISTS / name)
     assert comparison.passed, comparison
+
+
+def test_a_vbic_instance_temperature_is_its_device_temperature():
+    """``temp=`` on a VBIC instance is that device's temperature (ngspice's vbic instance parameter): the same
+    currents as the whole circuit at that temperature, ``dtemp=`` ignored beside it (as ngspice), and the other
+    instances at the circuit's."""
+    def run(inst: str, options: str = "") -> np.ndarray:
+        text = vbic_temp(27, VBIC_TESTS).replace("Q1 c b 0 qm", f"Q1 c b 0 qm {inst}")
+        if options:
+            text = text.replace(".options temp=27", options)
+        return np.asarray(netdae.run(text, **TIGHT)[0]["i(vc)"])
+
+    hot = run("", ".options temp=150")
+    assert np.array_equal(run("temp=150"), hot)
+    assert np.array_equal(run("temp=150 dtemp=40"), hot)
+    assert np.array_equal(run("dtemp=123"), hot)
+    assert np.array_equal(run("temp=27", ".options temp=150"), run(""))
+    assert not np.allclose(hot, run(""))
+    circuit = netdae.load(vbic_temp(27, VBIC_TESTS).replace("Q1 c b 0 qm", "Q1 c b 0 qm temp=150 dtemp=40"))
+    assert any("temp= given, dtemp= ignored" in w for w in warnings_of(circuit))
+
+
+@pytest.mark.ngspice
+def test_a_vbic_instance_temperature_equals_ngspice_with_the_card_at_it():
+    """As :func:`test_a_vbic_away_from_tnom_equals_ngspice_with_the_card_at_its_temperature`, the device's
+    temperature given on the instance."""
+    text = vbic_temp(27, VBIC_TESTS).replace("Q1 c b 0 qm", "Q1 c b 0 qm temp=150")
+    ours = np.asarray(netdae.run(text, **TIGHT)[0]["i(vc)"])
+    ref = np.asarray(ngspice(vbic_temp(150, vbic_at(VBIC_TESTS, 27, 150), tnom=150), "dc")["i(vc)"])
+    assert np.max(np.abs(ours - ref)) < 1e-6 * np.max(np.abs(ref))

@@ -19,6 +19,7 @@ from ...errors import NetlistError
 from ...kinds import Kind
 from .instance import KELVIN, OsdiInstance, OsdiModel, SimParameters
 from .library import OsdiModule, load_library
+from .spice_models import INSTANCE_TEMPERATURE
 
 __all__ = ["circuit_modules", "build", "check_circuit"]
 
@@ -52,8 +53,8 @@ def _module_of(el: Element, circuit: Circuit, modules: dict[str, OsdiModule]) ->
 
 def _instance_params(mod: OsdiModule, params: dict) -> dict:
     """ngspice's ``m=`` is OpenVAF's ``$mfactor`` when the module has no parameter ``m`` of its own."""
+    params = dict(params)
     if "m" in params and mod.parameter("m") is None and mod.parameter("$mfactor") is not None:
-        params = dict(params)
         params["$mfactor"] = params.pop("m")
     return params
 
@@ -83,8 +84,10 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
             card = circuit.models[el.model]
             model = models[el.model] = OsdiModel(mod, card.name, {**card.params, **card.strings}, sim=sim,
                                                  location=card.location, locations=card.locations)
-        instances.append(OsdiInstance(model, el.name, _instance_params(mod, el.params),
-                                      temperature=opts.temp + KELVIN, connected=len(el.nodes), location=el.location))
+        params = _instance_params(mod, el.params)
+        temp = params.pop(INSTANCE_TEMPERATURE, opts.temp)
+        instances.append(OsdiInstance(model, el.name, params, temperature=temp + KELVIN, connected=len(el.nodes),
+                                      location=el.location))
     return models, instances
 
 

@@ -88,6 +88,9 @@ NQS_NOTE = ("ngspice's .ac takes the non-quasi-static effect from acnqsmod alone
             "of its own (a transient NQS mode leaves its .ac quasi-static); netdae's .ac linearises the module's "
             "equations, so .ac results differ from ngspice's at high frequency (transients agree)")
 #: Instance values ngspice uses that the OSDI modules cannot take, and what they do in ngspice.
+#: The key of an instance's own temperature [degC] among its module parameters (ngspice's ``temp=``):
+#: :func:`netdae.devices.osdi.bind.build` gives it to the module's instance setup as its temperature.
+INSTANCE_TEMPERATURE = "$instance_temperature"
 UNSUPPORTED_INSTANCE = {
     "off": "ngspice starts the operating point's Newton with this device's voltages at 0",
     "icvds": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
@@ -249,7 +252,7 @@ _VBIC = ModuleMap("VBIC", "bjt", (4, 9), "vbic_1p3_4t.osdi", "vbic13_4t",
                            "Vbe = Vce = 0.6 V, docs/devices.md); netdae runs VBIC's temperature mapping, which "
                            "ngspice 39 gives when tnom is the device temperature",
                   thermal=("vbic_1p3_5t.osdi", "vbic13_5t"), unheated={"sw_et": 0}, area_as_m=True,
-                  form="{name} nc nb ne [ns [nt]] model [area] [m=..] [dtemp=..]")
+                  form="{name} nc nb ne [ns [nt]] model [area] [m=..] [temp=..] [dtemp=..]")
 #: The ngspice models netdae runs through OSDI, by (element kind, level).
 MAPS: dict[tuple[str, int], ModuleMap] = {
     (m.kind, level): m for m in (_BSIM4, _BSIM3, _MOS2, _MOS3, _MOS6, _MOS9, _JFET2, _MES, _VBIC) for level in m.levels}
@@ -469,7 +472,16 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
     known = m.known(level)
     scale = float(scale)
     form = m.form.format(name=el.name)
+    # the instance temperature temp= (where ngspice's model reads it and the module has no such
+    # parameter) is the OSDI instance's temperature; ngspice then ignores dtemp= (elaboration warns)
+    own_temp = "temp" in el.params and (known is None or "temp" in known[1]) and \
+        _instance_name(m, "temp", module) is None
     for raw, value in el.params.items():
+        if own_temp and raw == "temp":
+            out[INSTANCE_TEMPERATURE] = value
+            continue
+        if own_temp and raw == "dtemp":
+            continue  # elaboration warned: temp= given, dtemp= ignored (as ngspice does)
         if raw in UNSUPPORTED_INSTANCE:
             what = "ic=" if raw.startswith("ic") else raw
             _warn(notes, f"{el.name}: '{what}' ignored: {UNSUPPORTED_INSTANCE[raw]}; the {m.name} module "
@@ -603,11 +615,13 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                                     f"{module.name} ({library} of netdae[models])", card.location))
             done[key] = (m, module, name)
         if m.off_tnom is not None and key not in warned and (
-                "dtemp" in el.params or "dtemp" in card.params or
+                "dtemp" in el.params or "dtemp" in card.params or "temp" in el.params or
                 abs(circuit.options.temp - card.params.get("tnom", circuit.options.tnom)) > 1e-9):
             warned.add(key)
-            _warn(notes, f"{el.name}: model {card.name} at {circuit.options.temp:g} degC"
-                  f"{' plus dtemp' if 'dtemp' in el.params or 'dtemp' in card.params else ''}, tnom "
+            at = (f"{el.params['temp']:g} degC (its temp=)" if "temp" in el.params else
+                  f"{circuit.options.temp:g} degC" + (" plus dtemp" if "dtemp" in el.params or "dtemp" in card.params
+                                                       else ""))
+            _warn(notes, f"{el.name}: model {card.name} at {at}, tnom "
                   f"{card.params.get('tnom', circuit.options.tnom):g}: {m.off_tnom}", el.location)
         scale = option(circuit, "scale", 1.0, el) if m.scaled else 1.0
         el.params = _instance_params(m, el, module, notes, int(level_of(card)), scale)
