@@ -224,8 +224,8 @@ def test_an_unknown_instance_parameter_is_a_located_error():
         netdae.load(mosfet(2, "nmos", inst="l=2u w=10u nf=2"))
     assert "'nf' is not an instance parameter of ngspice's MOS2" in str(err.value)
     assert err.value.location.line == 4 and "nd ng ns nb" in err.value.expected
-    with pytest.raises(NetlistError, match="'temp' is an instance parameter of ngspice's VBIC"):
-        netdae.load(vbic("npn", inst="Q1 c b 0 qm temp=50"))
+    with pytest.raises(NetlistError, match="'foo' is not an instance parameter of ngspice's VBIC"):
+        netdae.load(vbic("npn", inst="Q1 c b 0 qm foo=50"))
 
 
 def test_off_and_ic_are_ignored_with_a_warning():

@@ -474,7 +474,7 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
     form = m.form.format(name=el.name)
     # the instance temperature temp= (where ngspice's model reads it and the module has no such
     # parameter) is the OSDI instance's temperature; ngspice then ignores dtemp= (elaboration warns)
-    own_temp = "temp" in el.params and (known is None or "temp" in known[1]) and \
+    own_temp = "temp" in el.params and known is not None and "temp" in known[1] and \
         _instance_name(m, "temp", module) is None
     for raw, value in el.params.items():
         if own_temp and raw == "temp":
