@@ -145,7 +145,7 @@ class MeasureSpec:
         ``FROM=``, ``TO=`` (for ``MIN`` ... ``INTEG`` also ``TD=``, folded into ``start``).
     expression : object or None
         ``PARAM='...'``: the expression tree (:mod:`netdae.netlist.expr`) whose
-        parameters are earlier measurements or top-level ``.param`` values.
+        parameters are measurements (every non-``PARAM`` one, earlier ``PARAM`` ones) or top-level ``.param`` values.
     params : dict
         The top-level parameter values a ``PARAM`` expression may use.
     location : SourceLocation or None

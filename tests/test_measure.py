@@ -319,3 +319,63 @@ def test_min_at_and_max_at_give_where_the_extreme_is():
     from netdae.measures import format_measure
 
     assert re.match(r"tmx\s+=\s+2\.500000e-04 with=\s+1\.000000e\+00", format_measure(by["tmx"]))
+
+
+# -- a name measured again (ngspice measures and prints each card) --------------------------------------------
+REPEATED = """sine measured twice under one name
+V1 in 0 SIN(0 1 1k)
+R1 in 0 1k
+.options reltol=1e-6
+.tran 1u 3m
+.meas tran t WHEN v(in)=0.5 RISE=1
+.meas tran first PARAM='t*2'
+.meas tran t WHEN v(in)=0.5 RISE=2
+.meas tran second PARAM='t*2'
+.end
+"""
+
+
+def test_a_repeated_name_is_measured_each_time_and_param_reads_the_last():
+    circuit = load(REPEATED)
+    assert any("measurement 't' is defined again" in d.message and d.location.line == 8
+               for d in circuit.diagnostics)
+    got = [(m.name, m.value) for r in run(REPEATED) for m in r.measures]
+    t1, t2 = math.asin(0.5) / (2 * math.pi * 1e3), 1e-3 + math.asin(0.5) / (2 * math.pi * 1e3)
+    assert [name for name, _ in got] == ["t", "first", "t", "second"]
+    assert got[0][1] == pytest.approx(t1, rel=1e-6) and got[2][1] == pytest.approx(t2, rel=1e-6)
+    # PARAM cards are measured after all the others (ngspice): both read the last t
+    assert got[1][1] == pytest.approx(2 * t2, rel=1e-6) and got[3][1] == pytest.approx(2 * t2, rel=1e-6)
+
+
+def test_param_cards_are_measured_after_the_others_as_in_ngspice():
+    text = REPEATED.replace(".meas tran first PARAM='t*2'", ".meas tran early PARAM='late*2'\n"
+                            ".meas tran bad PARAM='after+1'").replace(
+        ".meas tran second PARAM='t*2'", ".meas tran late WHEN v(in)=0.5 RISE=3\n.meas tran after PARAM='1'")
+    got = {m.name: m for r in run(text) for m in r.measures}
+    late = 2e-3 + math.asin(0.5) / (2 * math.pi * 1e3)
+    assert got["early"].value == pytest.approx(2 * late, rel=1e-6)
+    assert not got["bad"].ok and "'after' is a later PARAM measurement" in got["bad"].reason
+    assert got["after"].value == 1.0
+
+
+def test_ngspices_lines_of_a_repeated_name_go_to_its_cards_in_order():
+    from netdae.ngspice.measures import read_measures
+
+    stdout = ["t                   =  8.333333e-05", "first               =  1.666667e-04",
+              "t                   =  1.083333e-03", "second              =  2.166667e-03", "other text"]
+    measures, rest, _ = read_measures(REPEATED, stdout, [])
+    assert [(m.name, m.value) for m in measures] == [("t", 8.333333e-05), ("first", 1.666667e-04),
+                                                     ("t", 1.083333e-03), ("second", 2.166667e-03)]
+    assert rest == ["other text"]
+    measures, _, _ = read_measures(REPEATED, stdout[:2], [])
+    assert measures[2].name == "t" and not measures[2].ok and "no value" in measures[2].reason
+
+
+@pytest.mark.ngspice
+def test_compare_pairs_the_cards_of_a_repeated_name_in_order():
+    from netdae.comparison import compare
+
+    items = compare(REPEATED).measures
+    assert [m.name for m in items] == ["t", "first", "t", "second"]
+    for item in items:
+        assert item.ngspice.ok and item.netdae.value == pytest.approx(item.ngspice.value, rel=1e-5), item.name

@@ -665,6 +665,9 @@ def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
             if not m.ok:
                 raise MeasureFailure(f"PARAM: measurement '{name}' failed")
             return m.value
+        if name not in spec.params:
+            raise MeasureFailure(f"PARAM: '{name}' is a later PARAM measurement (PARAM= cards are measured in "
+                                 "order, after all the others, as in ngspice)")
         return spec.params[name]
 
     try:
@@ -729,8 +732,12 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
     """Per spec, the measure of each row (``rows`` None: one result of one row, dense output allowed)."""
     count = 1 if rows is None else rows
     done: list[dict[str, Measure]] = [{} for _ in range(count)]
-    out = []
-    for spec in specs:
+    out: list = [None] * len(specs)
+    # as ngspice: every measurement but PARAM first, in card order, then the PARAM cards in order
+    order = [i for i, s in enumerate(specs) if s.function != "param"] + \
+        [i for i, s in enumerate(specs) if s.function == "param"]
+    for i in order:
+        spec = specs[i]
         try:
             if spec.function == "param":
                 ms = [_param_or_failure(spec, d) for d in done]
@@ -751,7 +758,7 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
                   for _ in range(count)]
         for d, m in zip(done, ms):
             d[spec.name] = m
-        out.append(ms)
+        out[i] = ms
     return out
 
 

@@ -250,16 +250,22 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
 
 
 def _compare_measures(circuit: Circuit, netdae_results: dict[str, Result], ngspice_measures) -> list:
-    """netdae's measurements (on the results it compared) paired with ngspice's, by name."""
+    """netdae's measurements (on the results it compared) paired with ngspice's, by name (the k-th card
+    of a name with ngspice's k-th: ngspice measures each card of a repeated name)."""
     from ..analyses.measure import evaluate_measures
     from ..measures import STATUS_FAILED, Measure
 
     ours = evaluate_measures(circuit.measures, netdae_results)
-    theirs = {m.name: m for m in ngspice_measures}
+    theirs: dict[str, list] = {}
+    for m in ngspice_measures:
+        theirs.setdefault(m.name, []).append(m)
+    seen: dict[str, int] = {}
     out = []
     for m in ours:
-        ng = theirs.get(m.name) or Measure(m.name, m.analysis, m.function, None, status=STATUS_FAILED,
-                                           reason="ngspice did not run")
+        k = seen[m.name] = seen.get(m.name, -1) + 1
+        same = theirs.get(m.name, [])
+        ng = same[k] if k < len(same) else Measure(m.name, m.analysis, m.function, None, status=STATUS_FAILED,
+                                                   reason="ngspice did not run")
         out.append(MeasureComparison(m.name, m.analysis, m, ng))
     return out
 

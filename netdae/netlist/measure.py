@@ -10,7 +10,7 @@ be numbers, ``{expressions}`` or parameter names)::
     .meas tran|ac|dc name WHEN sig=v|sig [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=n|LAST]
     .meas tran|ac|dc name DERIV sig AT=x | DERIV sig WHEN ...
     .meas tran|ac|dc name MIN|MAX|PP|AVG|RMS|INTEG sig [TD=] [FROM=] [TO=]
-    .meas tran|ac|dc name PARAM='expression of earlier measurements'
+    .meas tran|ac|dc name PARAM='expression of measurements and parameters'
 
 Signals are ``v(node)``, ``v(a,b)``, ``i(vname)``, ``@device[param]``, for ``tran`` and
 ``dc`` ngspice's ``par('expression')`` (of ``v()``, ``i()``, ``time``, numbers and
@@ -347,9 +347,9 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     Raises
     ------
     NetlistError
-        A measurement of an analysis the netlist does not run, a name used
-        twice, a node or element that does not exist, a ``PARAM`` naming
-        something that is neither an earlier measurement nor a top-level
+        A measurement of an analysis the netlist does not run, a node or
+        element that does not exist, a ``PARAM`` naming
+        something that is neither a measurement nor a top-level
         ``.param``, a value that cannot be evaluated; each at its token.
     """
     from ..analyses.runner import analysis_name
@@ -358,6 +358,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
 
     kinds = {analysis_name(a) for a in circuit.analyses}
     seen: dict[str, MeasureCard] = {}
+    measured = {c.name for c in cards}  # the names a PARAM card may read (a later PARAM card's fails when measured)
     out = []
 
     def expression_probe(tree, offset, card, analysis) -> Probe:
@@ -437,9 +438,11 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     for m in cards:
         card = m.card
         if m.name in seen:
+            # ngspice 39 measures and prints each card of a name; later PARAM= read the last before them
             first = seen[m.name].card
-            raise error(card, m.offset, f"measurement '{m.name}' is defined twice (first at {first.file}:{first.line})",
-                        FORM)
+            card.warn(m.offset, f"measurement '{m.name}' is defined again (before at {first.file}:{first.line}): each "
+                      "card is measured and printed, as in ngspice; PARAM= expressions and a sweep's "
+                      "table read the last")
         if m.analysis not in kinds:
             raise error(card, card.text.index(m.analysis, len(card.text.split()[0])),
                         f"no .{m.analysis} card: a .meas {m.analysis} has nothing to measure", FORM,
@@ -460,12 +463,12 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
                 except ValueError as exc:
                     raise error(card, offset, f"PARAM: {exc}", FORM) from None
             for node in ex.walk(tree):
-                if isinstance(node, ex.Param) and node.name not in seen and node.name not in circuit.params:
-                    later = " (it is defined later: measurements are evaluated in netlist order)" \
-                        if any(c.name == node.name for c in cards) else ""
-                    raise error(card, offset, f"PARAM: '{node.name}' is neither an earlier measurement nor a "
-                                f"top-level .param{later}", FORM,
-                                hint="PARAM= combines earlier measurements and parameters, e.g. PARAM='tr/2'")
+                # as ngspice: every other measurement first, then the PARAM cards in order; one naming a
+                # later PARAM card fails when measured (ngspice prints it failed)
+                if isinstance(node, ex.Param) and node.name not in measured and node.name not in circuit.params:
+                    raise error(card, offset, f"PARAM: '{node.name}' is neither a measurement nor a "
+                                "top-level .param", FORM,
+                                hint="PARAM= combines measurements and parameters, e.g. PARAM='tr/2'")
                 if isinstance(node, ex.Call) and node.func not in ex.FUNCTIONS:
                     raise error(card, offset, f"PARAM: unknown function '{node.func}'", FORM)
             expression = tree

@@ -129,14 +129,15 @@ def read_measures(netlist: str, stdout: list[str], stderr: list[str]) -> tuple[l
     if not cards:
         return [], stdout, stderr
     names = {name for _, name, _ in cards}
-    values: dict[str, tuple[float | None, dict]] = {}
+    # the printed lines of each name in order (ngspice prints one per card, a name's cards in card order)
+    printed: dict[str, list[tuple[float | None, dict]]] = {}
     rest_out = []
     for line in stdout:
         m = _VALUE.match(line)
         if m is not None and m.group(1).lower() in names:
             number = None if m.group(2).lower() == "failed" else float(m.group(2))
             extra = {k.lower(): float(v) for k, v in _EXTRA.findall(m.group(3) or "")}
-            values[m.group(1).lower()] = (number, extra)
+            printed.setdefault(m.group(1).lower(), []).append((number, extra))
         else:
             rest_out.append(line)
     failed_out, rest_out = _failures(rest_out, names)
@@ -144,13 +145,16 @@ def read_measures(netlist: str, stdout: list[str], stderr: list[str]) -> tuple[l
     failed = {name: "; ".join(filter(None, (failed_out.get(name), failed_err.get(name))))
               for name in {*failed_out, *failed_err}}
     out = []
+    seen: dict[str, int] = {}
     for analysis, name, function in cards:
-        if name in values and values[name][0] is not None:
-            number, extra = values[name]
+        k = seen[name] = seen.get(name, -1) + 1
+        lines = printed.get(name, [])
+        if k < len(lines) and lines[k][0] is not None:
+            number, extra = lines[k][0], dict(lines[k][1])
             at = extra.pop("at", None)
             out.append(Measure(name, analysis, function, number, at=at, extra=extra))
             continue
-        reason = failed.get(name) or ("ngspice printed 'failed'" if name in values else
+        reason = failed.get(name) or ("ngspice printed 'failed'" if k < len(lines) else
                                       "ngspice could not make it" if name in failed else "ngspice printed no value")
         out.append(Measure(name, analysis, function, None, status=STATUS_FAILED, reason=reason))
     return out, rest_out, rest_err

@@ -341,6 +341,8 @@ def _measured(job: Job, circuit, freqs: np.ndarray, names, X: np.ndarray) -> lis
             out.measures[m.name] = float(m.value) if m.ok and m.value is not None else float("nan")
             if not m.ok:
                 out.reasons[m.name] = m.reason or "failed"
+            else:  # a name measured again: the last card counts (as PARAM= reads it)
+                out.reasons.pop(m.name, None)
         outs.append(out)
     return outs
 

@@ -174,6 +174,8 @@ def record(job: Job, circuit, results, out: Outcome) -> None:
             out.measures[m.name] = float(m.value) if m.ok and m.value is not None else float("nan")
             if not m.ok:
                 out.reasons[m.name] = m.reason or "failed"
+            else:  # a name measured again: the last card counts (as PARAM= reads it)
+                out.reasons.pop(m.name, None)
         if res.analysis == "noise":  # the integrated noise: measures of the row (the first .noise card's)
             for name in ("onoise_total", "inoise_total"):
                 if name in res.noise_totals:
