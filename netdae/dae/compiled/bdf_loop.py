@@ -52,7 +52,9 @@ import math
 import numpy as np
 
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
-from ...devices.kernels.behavioural import eval_behavioural, lock_changed, lock_flip, lock_record, lock_step
+from ...devices.kernels.behavioural import (LOCK_TIME, eval_behavioural, lock_changed, lock_flip, lock_record,
+                                            lock_step,
+                                            lock_undefined)
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.jfet import eval_jfet
@@ -61,7 +63,7 @@ from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_step
 from ...devices.kernels.mesa import eval_mesa
 from ...devices.kernels.vdmos import eval_vdmos
-from .events import CHATTER_EVENTS, EVENT_TOGETHER, interpolate_state
+from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
                       landing_step, set_weights, update_differences, weighted_norm)
@@ -107,6 +109,9 @@ from ..bdf import (  # noqa: E402
 from ..newton import FRESH_RATE_MAX, RATE_MAX, TINY_CORRECTION  # noqa: E402
 #: Unknowns named per recorded jump (the rest are counted).
 JUMP_NAMES = 32
+#: Attempts of one step that end past a change where a behavioural source's held branch is undefined
+#: (then the integration stops naming the source).
+UNDEFINED_TRIES = 60
 
 # --- float scalars F[...] ------------------------------------------------------------
 F_T = 0           # current time
@@ -133,7 +138,8 @@ F_RATE = 22             # Newton's contraction rate, carried from step to step
 F_RL_EPS = 23           # probe step of a pending right-limit request
 F_IMPASSE_T = 24        # the last t where Newton failures on every step size asked for a jump (impasse)
 F_RESTART_H = 25        # the probe step a restart stopped at to ask for new pivots (0: start at the cap)
-N_F = 26
+F_UNDEFINED_H = 26      # the step that first ended past a change where a held branch is undefined (0: none)
+N_F = 27
 
 # --- integer scalars I[...] ----------------------------------------------------------
 I_K = 0
@@ -209,6 +215,7 @@ FAIL_PROBE_NONFINITE = 6
 FAIL_MAX_STEPS = 7
 FAIL_START_NONFINITE = 8
 FAIL_CHATTER = 9         # a switch switches back right after each event (I_FAIL_WORST: the switch)
+FAIL_UNDEFINED = 10      # a behavioural source's held branch undefined past a change not located (I_FAIL_WORST)
 
 # what failed last inside a step (for messages): the names of netdae.dae.newton's INFO_*
 REASON_SINGULAR = 1
@@ -1174,6 +1181,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         # ---------------------------------------------------------------- one step
         ncf = 0
         nef = 0
+        nud = 0  # attempts past a change where a held branch is undefined
+        h_undefined = 0.0
+        flip = False
         t = F[F_T]
         h = F[F_H]
         accepted = False
@@ -1302,6 +1312,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                             ee[c] = xn[c] - pred0[c]
                         for c in range(crows.size):
                             ee[n + c] = qe[crows[c]] - q_pred[c]
+                        if locks and lock_undefined(h_lock) >= 0:
+                            kind = 3  # past a change where a held branch is undefined: no error test
             if pivots:
                 # undo phase 1 and return for new pivots; the attempt is repeated on the next call
                 _restore(P, psi, psi_saved, beta, ns, k)
@@ -1350,7 +1362,33 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 break
             _restore(P, psi, psi_saved, beta, ns, k)
             I[I_PHASE] = 1
-            if kind == 1:
+            if kind == 3:
+                # a behavioural source's held branch is undefined at the attempt's end (sqrt(v(a)) held
+                # past v(a) > 0): its comparison changed inside the step. The change located on the last
+                # step's polynomial continued (the predictor's), the step ends there; a change closer than
+                # EVENT_MIN_GAP of the first such attempt happens here and now (an event at t)
+                nud += 1
+                if F[F_UNDEFINED_H] == 0.0:
+                    F[F_UNDEFINED_H] = h  # the approach to the change begins (it may take several steps)
+                h_undefined = F[F_UNDEFINED_H]
+                t_lock, nlock = lock_step(P, I[I_KUSED], psi, t, t, t + h, n, h_prog, h_const, h_inst, h_leaf,
+                                          h_val, h_der, h_lock, h_xw)
+                if nlock > 0:
+                    t_lock = t + h  # the first change (t itself when the continued polynomial is past it at t)
+                    for sl in range(h_lock.shape[1] - 1):
+                        t_lock = min(t_lock, h_lock[LOCK_TIME, sl])
+                gap = t_lock - t
+                if nlock > 0 and gap <= EVENT_MIN_GAP * h_undefined:
+                    flip = True
+                    break
+                if nud > UNDEFINED_TRIES:
+                    _fail(F, I, t, h, FAIL_UNDEFINED * 256, s_par.shape[0] + lock_undefined(h_lock))
+                    return FAILED
+                I[I_REJECTED] += 1
+                # to the change the continued polynomial puts first; past it still (that polynomial leads the
+                # solution), just before it, then halving
+                eta = gap / h if nlock > 0 and gap < h else (0.9 if nud == 2 else 0.5)
+            elif kind == 1:
                 ncf += 1
                 I[I_NEWTON_FAILURES] += 1
                 if ncf >= MAX_NEWTON_FAILURES:
@@ -1378,6 +1416,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             # reduced step
             h_new = h * eta
             code = kind * 16 + (reason if kind == 1 else 0)
+            if kind == 3 and (h_new < F[F_MIN_STEP] or h_new <= ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
+                              or t + h_new == t):
+                _fail(F, I, t, h, FAIL_UNDEFINED * 256, s_par.shape[0] + lock_undefined(h_lock))
+                return FAILED
             if h_new < F[F_MIN_STEP]:
                 if h > F[F_MIN_STEP] * (1.0 + 1e-12):
                     h_new = F[F_MIN_STEP]
@@ -1394,6 +1436,38 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 for c in range(width):
                     P[1, c] *= h_new / h
             h = h_new
+        if flip:
+            # the change is here: the held outcomes take their new values at t (an event without a step),
+            # and the method restarts at order 1 from the right limit
+            F[F_UNDEFINED_H] = 0.0
+            lock_flip(h_lock, t_lock + EVENT_TOGETHER * h_undefined)
+            I[I_EVENTS] += 1
+            I[I_CHATTER] = I[I_CHATTER] + 1 if (I[I_NST] == 0 and I[I_AFTER_EVENT] != 0) else 0
+            j = I[I_NEVENTS]
+            event_t[j] = t
+            count = 0
+            for i in range(h_inst.shape[0]):
+                if lock_changed(h_inst, h_lock, i, t_lock + EVENT_TOGETHER * h_undefined):
+                    if count < JUMP_NAMES:
+                        event_idx[j, count] = s_par.shape[0] + i
+                    count += 1
+            event_count[j] = count
+            I[I_NEVENTS] = j + 1
+            if I[I_CHATTER] >= CHATTER_EVENTS:
+                _fail(F, I, t, h_undefined, FAIL_CHATTER * 256, event_idx[j, 0])
+                return FAILED
+            I[I_AFTER_EVENT] = 1
+            I[I_EVENT_RESTART] = 1
+            I[I_RESTARTS] += 1
+            restart_times[I[I_NRESTART_TIMES]] = t
+            I[I_NRESTART_TIMES] += 1
+            F[F_RESTART_CAP] = max(min(h_undefined, F[F_MAX_STEP], bps[I[I_IBP]] - t), F[F_MIN_STEP])
+            F[F_RESTART_FIXED] = 0.0
+            I[I_PENDING_RESTART] = 1
+            segments[I[I_NSEGMENTS]] = I[I_M] - 1
+            I[I_NSEGMENTS] += 1
+            F[F_H] = h_undefined
+            continue
         # phase 5: complete the step (IDACompleteStep)
         retried = ncf + nef > 0
         k = I[I_K]
@@ -1498,6 +1572,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             return FAILED
         if event:
             I[I_EVENTS] += 1
+            F[F_UNDEFINED_H] = 0.0
             # chattering: an event in the first step after an event's restart, again and again
             I[I_CHATTER] = I[I_CHATTER] + 1 if (I[I_NST] == 1 and I[I_AFTER_EVENT] != 0) else 0
             I[I_EVENT_RESTART] = 1

@@ -782,6 +782,13 @@ def _failure(system, F, I) -> IntegrationFailure:
         switch_count = len(system.switching.family.elements) if system.switching is not None else 0
         what, hint = chatter_message(names[k], behavioural=k >= switch_count)
         return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, None, hint)
+    elif outer == L.FAIL_UNDEFINED:
+        name = _event_elements(system)[int(I[L.I_FAIL_WORST])]
+        what = (f"the held branch of {name} is undefined past the change of one of its comparisons (its value "
+                "there is not finite), and the step could not end at the change")
+        hint = (f"write {name}'s branches so that each is defined a little past its condition "
+                "(e.g. sqrt(max(v(a), 0)) for v(a) > 0 ? sqrt(v(a)) : ...)")
+        return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, None, hint)
     elif outer == L.FAIL_MAX_STEPS:
         what = f"reached max_steps={int(I[L.I_MAX_STEPS])}"
         hint = "raise max_steps, or loosen the tolerances"

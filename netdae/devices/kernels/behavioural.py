@@ -75,7 +75,7 @@ from .tape import (
 )
 
 __all__ = ["eval_behavioural", "lock_record", "lock_step", "lock_flip", "lock_changed", "B_LOCK", "B_NLOCK", "LOCK_HELD",
-           "LOCK_PROBED", "LOCK_NEXT", "LOCK_TIME", "N_LOCK_ROWS", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
+           "LOCK_PROBED", "LOCK_NEXT", "LOCK_TIME", "N_LOCK_ROWS", "lock_undefined", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
            "B_S_VPM", "B_S_IB", "N_INST", "L_P", "L_M", "L_S", "N_LEAF", "KIND_CURRENT", "KIND_VOLTAGE",
            "KIND_CHARGE"]
 
@@ -426,7 +426,9 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, lock, q, phi, dq, 
         Jacobian as 0 (the residual, not the Jacobian, decides convergence).
     """
     bad = -1
-    lockmode = LOCK_USE if lock[LOCK_HELD, lock.shape[1] - 1] != 0.0 else LOCK_FREE
+    last = lock.shape[1] - 1
+    lockmode = LOCK_USE if lock[LOCK_HELD, last] != 0.0 else LOCK_FREE
+    lock[LOCK_TIME, last] = 0.0  # set below when a held branch is undefined at x
     for k in range(inst.shape[0]):
         nl = inst[k, B_NLEAF]
         l0 = inst[k, B_LEAF]
@@ -435,8 +437,11 @@ def eval_behavioural(x, t, prog, const, inst, leaf, val, der, lock, q, phi, dq, 
                        lockmode if inst[k, B_NLOCK] > 0 else LOCK_FREE)
         if lockmode == LOCK_USE and inst[k, B_NLOCK] > 0 and not math.isfinite(value):
             # the held branch is undefined here (sqrt(v(a)) held past v(a) > 0): the outcomes of the
-            # point instead, so that the step reaches the change and the event is located after it
+            # point instead, and the flag tells the step loop that its end is past a change
+            # (it ends the step there: :func:`lock_ahead`)
             value = _value(x, t, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
+            if lock[LOCK_TIME, last] == 0.0:
+                lock[LOCK_TIME, last] = k + 1.0
         if bad < 0 and not math.isfinite(value):
             bad = k
         p = inst[k, B_P]
@@ -497,15 +502,41 @@ def _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val
     equal at both, the change is *masked* (``a > b && c``, ``c`` false: the value does not depend on it
     now); a jump keeps its size; a corner's difference grows from zero with the distance from the change
     (at ``hi`` at most ``CORNER_RATIO`` of its growth over the rest of the step, extrapolated from the
-    probe past it, or ``CORNER_REL`` of the value).
+    probe past it, or ``CORNER_REL`` of the value). Where the held branch is undefined past the change
+    (``sqrt(v(a))`` held past ``v(a) > 0``) its value just before the change stands for it, and the
+    difference is weighed against how the held value moves approaching the change; undefined before
+    it too (an outcome changed early by the interpolant's error, taken back), the change is a jump.
     """
     interpolate_state(P, kord, psi, hi - t_new, n, xw)
     xw[n] = 0.0
     held = _value(xw, hi, k, prog, const, inst, leaf, val, der, lock, LOCK_USE)
     free = _value(xw, hi, k, prog, const, inst, leaf, val, der, lock, LOCK_FREE)
+    back = hi
+    for _ in range(8):
+        if math.isfinite(held):
+            break
+        # the held branch is undefined past the change (sqrt(v(a)) held past v(a) > 0): its value just
+        # before (the bisection brackets the change to 4 ulps of the time)
+        back -= 4.0 * (np.nextafter(abs(back), np.inf) - abs(back))
+        interpolate_state(P, kord, psi, back - t_new, n, xw)
+        xw[n] = 0.0
+        held = _value(xw, back, k, prog, const, inst, leaf, val, der, lock, LOCK_USE)
     if not math.isfinite(held):
-        return CHANGE_CORNER  # the held branch is undefined past the change: evaluated from the point from now on
+        # undefined before the change too (an outcome that changed early by the interpolant's error,
+        # taken back): a jump, held from now on (evaluated from the point, the change of the branch
+        # that is defined would come inside a step)
+        return CHANGE_JUMP
     step = abs(free - held)
+    if back != hi:
+        # the held branch is undefined past the change: the step against how the held value moves
+        # approaching it (over the same fraction of the rest of the step, before the change)
+        before = back - PAST_FRACTION * (t_cap - hi)
+        interpolate_state(P, kord, psi, before - t_new, n, xw)
+        xw[n] = 0.0
+        moved = abs(held - _value(xw, before, k, prog, const, inst, leaf, val, der, lock, LOCK_USE))
+        if step <= CORNER_REL * (abs(free) + abs(held)) or step <= CORNER_RATIO * moved / PAST_FRACTION:
+            return CHANGE_CORNER
+        return CHANGE_JUMP
     # just past the change (a fraction of the rest of the step: before the source's other outcomes move)
     past = hi + PAST_FRACTION * (t_cap - hi)
     interpolate_state(P, kord, psi, past - t_new, n, xw)
@@ -661,6 +692,13 @@ def lock_step(P, kord, psi, t, t_new, t_cap, n, prog, const, inst, leaf, val, de
         if lock_changed(inst, lock, k, limit):
             count += 1
     return t_ev, count
+
+
+@kernel
+def lock_undefined(lock):
+    """The first behavioural source (from 0) whose held branch was undefined at the last evaluation's
+    point, whose outcomes it then took (:func:`eval_behavioural`); -1: none."""
+    return int(lock[LOCK_TIME, lock.shape[1] - 1]) - 1
 
 
 @kernel
