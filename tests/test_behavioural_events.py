@@ -206,13 +206,10 @@ def test_a_comparison_masked_by_another_changes_without_an_event_and_stays_held(
 
 @pytest.mark.parametrize("law, branch", [("sqrt(v(in))", np.sqrt), ("0.5 + pow(v(in), 0.75)", lambda v: 0.5 + v ** 0.75)])
 def test_a_jump_where_the_held_branch_is_undefined_past_it_is_located(_engine, law, branch):
-    """``v(in) > 0 ? sqrt(v(in)) : -1``: held past the falling crossing, the branch is not finite. The
-    compiled engine ends the step at the change (located on the last step's polynomial continued, the
-    step retried to it until the change is that close, then an event there); the law holds at every
-    point away from the jumps, and every crossing of the sine is an event."""
-    if _engine == "python":
-        pytest.skip("the Python integrator stops there with a message naming the source "
-                    "(tests/test_recovery.py)")
+    """``v(in) > 0 ? sqrt(v(in)) : -1``: held past the falling crossing, the branch is not finite. Both
+    integrators end the step at the change (located on the last step's polynomial continued, the step
+    retried to it until the change is that close, then an event there); the law holds at every point away
+    from the jumps, and every crossing of the sine is an event."""
     text = (f"undefined held branch\nV1 in 0 SIN(0 1 1k)\nB1 out 0 V={{v(in) > 0 ? {law} : -1}}\nR1 out 0 1k\n"
             ".tran 10u 3m\n.end\n")
     r = transient(load(text))

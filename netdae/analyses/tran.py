@@ -861,12 +861,11 @@ def _jumping_source(circuit, worst: str) -> str:
         own = {f"i({el.name})"} | {f"v({node})" for node in el.nodes if node != "0"}
         if worst in own and jumps_with_state(el.expr):
             return (f" ({el.name}'s value jumps where a comparison of the circuit's voltages or currents in its "
-                    "expression changes; netdae holds such comparisons through each step and locates their changes, "
-                    "but not where the held branch is undefined past the change in the Python integrator (a sqrt or "
-                    "log of the compared quantity; the compiled engine ends its steps there), where the law is "
-                    "unbounded approaching the change, or where the comparison flips on rounding noise (a difference "
-                    "of large, nearly equal terms): write it as a smooth function (e.g. tanh of the difference over a "
-                    "small scale) or as an S/W switch)")
+                    "expression changes; netdae holds such comparisons through each step and locates their changes "
+                    "(also where the held branch is undefined past the change), but not where the law is unbounded "
+                    "approaching the change (a log of the compared quantity) or where the comparison flips on "
+                    "rounding noise (a difference of large, nearly equal terms): write it as a smooth function (e.g. "
+                    "tanh of the difference over a small scale) or as an S/W switch)")
     return ""
 
 

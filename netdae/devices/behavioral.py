@@ -362,6 +362,47 @@ class BehaviouralEvents:
                         if lock_changed(inst, self.lock, i, self._limit))
         return t_end, changed
 
+    def undefined(self) -> str | None:
+        """The source whose held branch was undefined at the last evaluation's point (None: none)."""
+        from .kernels.behavioural import lock_undefined
+
+        k = lock_undefined(self.lock)
+        return self.family.elements[k].name if k >= 0 else None
+
+    def ahead(self, P: np.ndarray, k: int, psi: np.ndarray, t: float, h: float,
+              together: float) -> tuple[float | None, tuple[str, ...]]:
+        """Before a step from ``t``: the first change of an outcome in ``(t, t + h]`` on the last step's
+        polynomial continued (``P`` and ``psi`` the history at ``t``; the compiled engine's twin is in
+        ``bdf_loop.run``).
+
+        Returns
+        -------
+        (t_change, changed)
+            The change's time (``t`` itself when the continued polynomial is past it at ``t``) and the
+            sources changing within ``together`` of it, or ``(None, ())``. :meth:`flip` makes them change.
+        """
+        from .kernels.behavioural import LOCK_TIME, lock_changed, lock_step
+
+        prog, const, inst, leaf, val, der, _ = self.family.packed()
+        _, count = lock_step(P, int(k), psi, float(t), float(t), float(t + h), self.n, prog, const, inst, leaf,
+                             val, der, self.lock, self._xw)
+        if not count:
+            return None, ()
+        first = float(min(t + h, self.lock[LOCK_TIME, :-1].min()))
+        self._limit = first + together
+        return first, tuple(el.name for i, el in enumerate(self.family.elements)
+                            if lock_changed(inst, self.lock, i, self._limit))
+
+    def at(self, x: np.ndarray, t: float) -> tuple[str, ...]:
+        """The outcomes at ``x`` that differ from the held ones change at ``t`` (``lock_at``); the sources
+        changing. :meth:`flip` makes them change."""
+        from .kernels.behavioural import lock_at, lock_changed
+
+        prog, const, inst, leaf, val, der, _ = self.family.packed()
+        lock_at(np.append(np.asarray(x, dtype=float), 0.0), float(t), prog, const, inst, leaf, val, der, self.lock)
+        self._limit = float(t)
+        return tuple(el.name for i, el in enumerate(self.family.elements) if lock_changed(inst, self.lock, i, t))
+
     def flip(self) -> None:
         """The outcomes :meth:`step` found changing take their new values."""
         from .kernels.behavioural import lock_flip

@@ -184,6 +184,7 @@ from .constants import (
     RATE_CJ_CHANGED,
     ROUNDING_FACTOR,
     ROUNDOFF_ULPS,
+    UNDEFINED_TRIES,
 )
 from .result import IntegrationResult
 from .run import _compiled_engine_enabled, integrate

@@ -105,3 +105,6 @@ DENSE_MATVEC_MAX = 48
 BUFFER_START = 1024
 #: Least wall time between two progress callbacks [s].
 PROGRESS_INTERVAL = 0.1
+#: Attempts of one step that end past a change where a behavioural source's held branch is undefined
+#: before the integration stops naming the source (the change is located on the predictor: a few suffice).
+UNDEFINED_TRIES = 60

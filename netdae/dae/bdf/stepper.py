@@ -59,6 +59,8 @@ from .constants import (
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
     RATE_AFTER_SETUP,
+    ROUNDOFF_ULPS,
+    UNDEFINED_TRIES,
 )
 from .corrector import LinearCorrector, NonlinearCorrector, RoundingFloor
 from .failures import Failure, error_hint, failure_record, newton_hint, worst_unknown
@@ -66,7 +68,7 @@ from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
 from .startup import event_right_limit, jump_of, probe, right_limit
-from ..compiled.events import CHATTER_EVENTS, chatter_message, interpolate_state
+from ..compiled.events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, chatter_message, interpolate_state
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF", "RunState"]
@@ -275,6 +277,7 @@ class BDF:
         self._impasse_tries = 0
         self._after_event = False  # the last restart was at a switching event
         self._chatter = 0  # consecutive events in the first step after an event
+        self._undefined_h = 0.0  # the step that first ended past a change where a held branch is undefined
         self._ee = None
         self.h = 0.0
         self._h_request = 0.0
@@ -550,7 +553,7 @@ class BDF:
     def _step_impl(self):
         """One step: the attempt loop of IDA's IDAStep."""
         hist = self._hist
-        ncf = nef = 0
+        ncf = nef = nud = 0
         t = self.t
         h = self._fixed_h if self._fixed else self.h
         while True:
@@ -564,7 +567,12 @@ class BDF:
                 break
             hist.restore()
             self._phase = 1
-            if kind == "newton":
+            if kind == "undefined":
+                nud += 1
+                eta = self._undefined_branch(t, h, nud, info)
+                if eta is None:
+                    return
+            elif kind == "newton":
                 ncf += 1
                 self.stats["newton_failures"] += 1
                 eta = self._newton_failure(t, h, ncf, info)
@@ -584,6 +592,52 @@ class BDF:
                 hist.rescale_first_step(h_new, h)
             h = h_new
         self._complete_step(t_new, h, landing, info, ncf + nef > 0)
+
+    def _undefined_branch(self, t, h, nud, info):
+        """After an attempt whose end is past a change where a behavioural source's held branch is undefined.
+
+        The twin of the compiled engine's (``bdf_loop.run``, docs/integrator.md): the change located on the
+        last step's polynomial continued; the step retried to end there (then at 0.9 and half of it), until
+        the change is within ``EVENT_MIN_GAP`` of the step that first met it: then it happens at ``t``, an
+        event without a step (returns None after the restart, or after a failure).
+        """
+        if self._undefined_h == 0.0:
+            self._undefined_h = h  # the approach to the change begins (it may take several steps)
+        first = self._undefined_h
+        hist = self._hist
+        t_change, changed = self._locks.ahead(hist.P, hist.kused, hist.psi, t, h, EVENT_TOGETHER * first)
+        roundoff = ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
+        if not changed and h <= max(EVENT_MIN_GAP * first, 4.0 * roundoff):
+            # the continued polynomial does not see the change the corrector met within this short a
+            # step: it changes here, to the outcomes at the attempt's end
+            t_change, changed = t, self._locks.at(info["x"], t)
+        if changed and t_change - t <= EVENT_MIN_GAP * first:
+            self._undefined_h = 0.0
+            self._locks.flip()
+            self.stats["events"] += 1
+            self._rec.events.append((float(t), changed))
+            self._chatter = self._chatter + 1 if (self._nst == 0 and self._after_event) else 0
+            if self._chatter >= CHATTER_EVENTS:
+                what, hint = chatter_message(changed[0], behavioural=True)
+                self._fail(t, first, what, None, hint)
+                return None
+            self._after_event = True
+            self._event_restart = True
+            self._restart(first)
+            self._event_restart = False
+            return None
+        if nud > UNDEFINED_TRIES:
+            self._fail_undefined(t, h, info["source"])
+            return None
+        self.stats["rejected"] += 1
+        gap = t_change - t if changed else h
+        return gap / h if gap < h else (0.9 if nud == 2 else 0.5)
+
+    def _fail_undefined(self, t, h, source):
+        self._fail(t, h, f"the held branch of {source} is undefined past the change of one of its comparisons (its "
+                   "value there is not finite), and the step could not end at the change", None,
+                   f"write {source}'s branches so that each is defined a little past its condition "
+                   "(e.g. sqrt(max(v(a), 0)) for v(a) > 0 ? sqrt(v(a)) : ...)")
 
     def _newton_failure(self, t, h, ncf, info):
         """Step-size factor after a Newton failure, or None after recording a final failure."""
@@ -653,6 +707,9 @@ class BDF:
         h_new, limit = ctl.reduced_step(t, h, eta, self.min_step)
         if limit is None:
             return h_new
+        if kind == "undefined":
+            self._fail_undefined(t, h, info["source"])
+            return None
         failures = "Newton failures" if kind == "newton" else "error-test failures"
         if limit == "min_step":
             what = (f"step size {h:.3g} at min_step {self.min_step:.3g} and the "
@@ -704,6 +761,9 @@ class BDF:
             ee = np.empty(pred.shape[1])
             np.subtract(x_new, pred[0, :n], out=ee[:n])
             np.subtract(q_new, pred[0, n:], out=ee[n:])
+            if self._locks is not None and self._locks.undefined() is not None:
+                # past a change where a behavioural source's held branch is undefined: not an error test's
+                return False, "undefined", {"source": self._locks.undefined(), "x": x_new}
         self._ee = ee
         if self._fixed:
             return True, "", {"knew": k, "err_k": 0.0, "err_km1": 0.0}
@@ -781,6 +841,7 @@ class BDF:
             return
         if event:
             self.stats["events"] += 1
+            self._undefined_h = 0.0
             self._rec.events.append((float(t_end), switched))
             self._chatter = self._chatter + 1 if (self._nst == 1 and self._after_event) else 0
             if self._chatter >= CHATTER_EVENTS:

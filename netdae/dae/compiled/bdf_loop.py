@@ -52,9 +52,8 @@ import math
 import numpy as np
 
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL, MODE_LIMIT
-from ...devices.kernels.behavioural import (LOCK_TIME, eval_behavioural, lock_changed, lock_flip, lock_record,
-                                            lock_step,
-                                            lock_undefined)
+from ...devices.kernels.behavioural import (LOCK_TIME, eval_behavioural, lock_at, lock_changed, lock_flip,
+                                            lock_record, lock_step, lock_undefined)
 from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.jfet import eval_jfet
@@ -105,13 +104,12 @@ from ..bdf import (  # noqa: E402
     RATE_CJ_CHANGED,
     ROUNDING_FACTOR,
     ROUNDOFF_ULPS,
+    UNDEFINED_TRIES,
 )
 from ..newton import FRESH_RATE_MAX, RATE_MAX, TINY_CORRECTION  # noqa: E402
 #: Unknowns named per recorded jump (the rest are counted).
 JUMP_NAMES = 32
-#: Attempts of one step that end past a change where a behavioural source's held branch is undefined
-#: (then the integration stops naming the source).
-UNDEFINED_TRIES = 60
+
 
 # --- float scalars F[...] ------------------------------------------------------------
 F_T = 0           # current time
@@ -1381,6 +1379,18 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 if nlock > 0 and gap <= EVENT_MIN_GAP * h_undefined:
                     flip = True
                     break
+                if nlock == 0 and h <= max(EVENT_MIN_GAP * h_undefined,
+                                           4.0 * ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))):
+                    # the continued polynomial does not see the change the corrector met within this
+                    # short a step (the right limit at t left the control on the threshold's other
+                    # side by its tolerance): it changes here, to the outcomes at the attempt's end
+                    for i in range(n):
+                        h_xw[i] = xn[i]
+                    h_xw[n] = 0.0
+                    if lock_at(h_xw, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock) > 0:
+                        t_lock = t
+                        flip = True
+                        break
                 if nud > UNDEFINED_TRIES:
                     _fail(F, I, t, h, FAIL_UNDEFINED * 256, s_par.shape[0] + lock_undefined(h_lock))
                     return FAILED

@@ -75,7 +75,7 @@ from .tape import (
 )
 
 __all__ = ["eval_behavioural", "lock_record", "lock_step", "lock_flip", "lock_changed", "B_LOCK", "B_NLOCK", "LOCK_HELD",
-           "LOCK_PROBED", "LOCK_NEXT", "LOCK_TIME", "N_LOCK_ROWS", "lock_undefined", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
+           "LOCK_PROBED", "LOCK_NEXT", "LOCK_TIME", "N_LOCK_ROWS", "lock_undefined", "lock_at", "B_PROG", "B_LEN", "B_LEAF", "B_NLEAF", "B_CONST", "B_KIND", "B_P", "B_M", "B_BR",
            "B_S_VPM", "B_S_IB", "N_INST", "L_P", "L_M", "L_S", "N_LEAF", "KIND_CURRENT", "KIND_VOLTAGE",
            "KIND_CHARGE"]
 
@@ -699,6 +699,32 @@ def lock_undefined(lock):
     """The first behavioural source (from 0) whose held branch was undefined at the last evaluation's
     point, whose outcomes it then took (:func:`eval_behavioural`); -1: none."""
     return int(lock[LOCK_TIME, lock.shape[1] - 1]) - 1
+
+
+@kernel
+def lock_at(x, t, prog, const, inst, leaf, val, der, lock):
+    """The outcomes at the extended point ``x`` (at ``t``) that differ from the held ones change at ``t``.
+
+    Rows ``LOCK_NEXT``/``LOCK_TIME`` of those slots (the rest: TIME infinite), as :func:`lock_step` leaves
+    them for :func:`lock_flip`: where a held branch is undefined past a change the step loop could not
+    bracket on the predictor (it met the change at a step of ``EVENT_MIN_GAP`` of the first). Returns
+    how many sources change.
+    """
+    count = 0
+    for k in range(inst.shape[0]):
+        nk = inst[k, B_NLOCK]
+        if nk == 0:
+            continue
+        s0 = inst[k, B_LOCK]
+        for s in range(s0, s0 + nk):
+            lock[LOCK_TIME, s] = math.inf
+        if _probe(x, t, k, prog, const, inst, leaf, val, der, lock):
+            count += 1
+            for s in range(s0, s0 + nk):
+                if lock[LOCK_PROBED, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
+                    lock[LOCK_NEXT, s] = lock[LOCK_PROBED, s]
+                    lock[LOCK_TIME, s] = t
+    return count
 
 
 @kernel
