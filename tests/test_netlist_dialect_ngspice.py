@@ -372,6 +372,16 @@ def test_outputs_netdae_does_not_compute_are_left_out_and_the_analyses_run(tmp_p
     assert netdae.run(c)[0].names() == ["v(2)"]
 
 
+def test_a_printed_expression_is_left_out_with_a_warning_and_the_rest_runs(tmp_path):
+    # ngspice prints par('v(1)*v(2)') as a column pa_00 (a B source it adds); netdae keeps no expression
+    # outputs: a warning naming .meas ... par() instead, the other signals kept and equal to ngspice's
+    netlist = "outputs\nV1 1 0 1\nR1 1 2 1k\nR2 2 0 1k\n.print dc v(2) par('v(1)*v(2)')\n"
+    c = _op_agrees(netlist, ["v(2)"], tmp_path)
+    assert c.saves == ["v(2)"]
+    (warning,) = _warnings(c)
+    assert warning.startswith("5:16 .print: par('v(1)*v(2)') left out") and ".meas tran NAME" in warning
+
+
 def test_braces_and_quotes_inside_a_behavioural_expression(tmp_path):
     # ngspice reads {...} and '...' inside a B expression as groups, circuit references and time included
     netlist = ("groups\n.param k=3 td=1m\nV1 1 0 2\n.func f1(y) = {y*k}\nB1 2 0 V={v(1)*k} + 'k*2'\nR1 2 0 1k\n"

@@ -747,6 +747,14 @@ def _save_entries(card: Card, toks: list[Token], net: Netlist) -> None:
             toks = toks[:i] + toks[i + 2:end + 1] + toks[end + 2:]
             n = len(toks)
             continue
+        if head == "par" and i + 3 < n and toks[i + 1].text == "(" and toks[i + 2].kind == EXPR \
+                and toks[i + 3].text == ")":
+            # ngspice's par('expression') column (its pa_00 node): not a signal netdae keeps
+            card.warn(tok.start, f"par('{toks[i + 2].text}') left out: netdae keeps no expressions of signals "
+                                 "as outputs (ngspice adds a node pa_00 for it); measure it with .meas tran NAME "
+                                 "FIND|AVG|MAX|... par('...'), or compute it from the saved signals")
+            i += 4
+            continue
         if head in _AC_PRINT_FORMS and i + 1 < n and toks[i + 1].text == "(":
             head = head[0]  # vdb(out), vm(out), ip(v1): SPICE2's AC print forms of v() and i()
         if i + 1 < n and toks[i + 1].text == "(":
