@@ -361,16 +361,21 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     measured = {c.name for c in cards}  # the names a PARAM card may read (a later PARAM card's fails when measured)
     out = []
 
+    def inlined(tree, offset, card, what: str):
+        """``tree`` with the top-level ``.func`` calls expanded (as ``.param`` does)."""
+        if functions is None:
+            return tree
+        try:
+            return inline_calls(tree, functions)
+        except UnknownName as exc:
+            raise error(card, offset, f"{what}: unknown function '{exc.name}'", FORM,
+                        hint="define it with .func") from None
+        except ValueError as exc:
+            raise error(card, offset, f"{what}: {exc}", FORM) from None
+
     def expression_probe(tree, offset, card, analysis) -> Probe:
         """``par('...')``: parameters and .func calls replaced, every signal checked."""
-        if functions is not None:
-            try:
-                tree = inline_calls(tree, functions)
-            except UnknownName as exc:
-                raise error(card, offset, f"par(): unknown function '{exc.name}'", FORM,
-                            hint="define it with .func") from None
-            except ValueError as exc:
-                raise error(card, offset, f"par(): {exc}", FORM) from None
+        tree = inlined(tree, offset, card, "par()")
 
         def leaf(node):
             if isinstance(node, ex.Param):
@@ -454,14 +459,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         params = {}
         if m.function == "param":
             tree, offset = m.expression
-            if functions is not None:
-                try:
-                    tree = inline_calls(tree, functions)
-                except UnknownName as exc:
-                    raise error(card, offset, f"PARAM: unknown function '{exc.name}'", FORM,
-                                hint="define it with .func") from None
-                except ValueError as exc:
-                    raise error(card, offset, f"PARAM: {exc}", FORM) from None
+            tree = inlined(tree, offset, card, "PARAM")
             for node in ex.walk(tree):
                 # as ngspice: every other measurement first, then the PARAM cards in order; one naming a
                 # later PARAM card fails when measured (ngspice prints it failed)

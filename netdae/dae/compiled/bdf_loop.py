@@ -378,6 +378,18 @@ def _impasse(F, I, t):
 
 
 @kernel
+def _lock_event_names(h_inst, h_lock, limit, event_idx, j, count, first):
+    """Name event ``j``'s behavioural sources (those changing by ``limit``), numbered from ``first`` (after
+    the switches) in row ``j`` of ``event_idx`` from position ``count``; returns the new count."""
+    for i in range(h_inst.shape[0]):
+        if lock_changed(h_inst, h_lock, i, limit):
+            if count < JUMP_NAMES:
+                event_idx[j, count] = first + i
+            count += 1
+    return count
+
+
+@kernel
 def _copy2(dst, src):
     """``dst[:, :] = src`` for two 2-D arrays of one shape (no temporary, so no allocation)."""
     for i in range(dst.shape[0]):
@@ -1455,13 +1467,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             I[I_CHATTER] = I[I_CHATTER] + 1 if (I[I_NST] == 0 and I[I_AFTER_EVENT] != 0) else 0
             j = I[I_NEVENTS]
             event_t[j] = t
-            count = 0
-            for i in range(h_inst.shape[0]):
-                if lock_changed(h_inst, h_lock, i, t_lock + EVENT_TOGETHER * h_undefined):
-                    if count < JUMP_NAMES:
-                        event_idx[j, count] = s_par.shape[0] + i
-                    count += 1
-            event_count[j] = count
+            event_count[j] = _lock_event_names(h_inst, h_lock, t_lock + EVENT_TOGETHER * h_undefined, event_idx, j,
+                                               0, s_par.shape[0])
             I[I_NEVENTS] = j + 1
             if I[I_CHATTER] >= CHATTER_EVENTS:
                 _fail(F, I, t, h_undefined, FAIL_CHATTER * 256, event_idx[j, 0])
@@ -1595,13 +1602,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         if count < JUMP_NAMES:
                             event_idx[j, count] = i
                         count += 1
-            # the behavioural sources that changed, numbered after the switches
             if nlock > 0:
-                for i in range(h_inst.shape[0]):
-                    if lock_changed(h_inst, h_lock, i, t_end + EVENT_TOGETHER * h):
-                        if count < JUMP_NAMES:
-                            event_idx[j, count] = s_par.shape[0] + i
-                        count += 1
+                count = _lock_event_names(h_inst, h_lock, t_end + EVENT_TOGETHER * h, event_idx, j, count,
+                                          s_par.shape[0])
             event_count[j] = count
             I[I_NEVENTS] = j + 1
             if I[I_CHATTER] >= CHATTER_EVENTS:
