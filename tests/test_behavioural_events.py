@@ -226,8 +226,11 @@ def test_a_jump_where_the_held_branch_is_undefined_past_it_is_located(_engine, l
     crossings = np.arange(1, 6) * 0.5e-3  # (the sixth is the end of the run)
     instants = np.array(_instants(r))
     assert instants[0] < 1e-9  # the sine starts on the comparison's threshold: it changes right after t = 0
+    # every crossing is an event, within the interpolant's error: reltol 1e-3 of 0.1 of v(in)'s largest
+    # magnitude (relref "mixed") is 1e-4 V, 1.6e-8 s on the sine's 6283 V/s at its crossings
     found = np.abs(instants[:, None] - crossings[None, :]).min(axis=0)
-    assert found.max() < 1e-9  # every crossing is an event, within the interpolant's error
+    assert found.max() < 2e-8
     # and no other (a change located early by the interpolant's error, where the branch taken is not
     # defined yet, is taken back at once: two events at one instant)
-    assert np.abs(instants[1:, None] - crossings[None, :]).min(axis=1).max() < 1e-9
+    allowed = np.append(crossings, 3e-3)  # (the last crossing is the run's end: it may end there)
+    assert np.abs(instants[1:, None] - allowed[None, :]).min(axis=1).max() < 2e-8

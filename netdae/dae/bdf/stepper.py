@@ -591,6 +591,8 @@ class BDF:
                 # first step after a (re)start: rescale the derivative term (IDA's IDAReset)
                 hist.rescale_first_step(h_new, h)
             h = h_new
+        if nud == 0:
+            self._undefined_h = 0.0  # an approach to a change where a held branch is undefined ended without it
         self._complete_step(t_new, h, landing, info, ncf + nef > 0)
 
     def _undefined_branch(self, t, h, nud, info):

@@ -1381,6 +1381,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 if F[F_UNDEFINED_H] == 0.0:
                     F[F_UNDEFINED_H] = h  # the approach to the change begins (it may take several steps)
                 h_undefined = F[F_UNDEFINED_H]
+                # (lock_step with t_new = t: the polynomial at t continued; its own step-relative floors
+                # vanish, so the first change is read from the slots' times)
                 t_lock, nlock = lock_step(P, I[I_KUSED], psi, t, t, t + h, n, h_prog, h_const, h_inst, h_leaf,
                                           h_val, h_der, h_lock, h_xw)
                 if nlock > 0:
@@ -1486,6 +1488,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             F[F_H] = h_undefined
             continue
         # phase 5: complete the step (IDACompleteStep)
+        if nud == 0:
+            F[F_UNDEFINED_H] = 0.0  # an approach to a change where a held branch is undefined ended without it
         retried = ncf + nef > 0
         k = I[I_K]
         I[I_NST] += 1

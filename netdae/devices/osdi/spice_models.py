@@ -87,10 +87,10 @@ SCALED = {"l": 1, "w": 1, "ad": 2, "as": 2, "pd": 1, "ps": 1}
 NQS_NOTE = ("ngspice's .ac takes the non-quasi-static effect from acnqsmod alone, with small-signal formulas "
             "of its own (a transient NQS mode leaves its .ac quasi-static); netdae's .ac linearises the module's "
             "equations, so .ac results differ from ngspice's at high frequency (transients agree)")
-#: Instance values ngspice uses that the OSDI modules cannot take, and what they do in ngspice.
 #: The key of an instance's own temperature [degC] among its module parameters (ngspice's ``temp=``):
 #: :func:`netdae.devices.osdi.bind.build` gives it to the module's instance setup as its temperature.
 INSTANCE_TEMPERATURE = "$instance_temperature"
+#: Instance values ngspice uses that the OSDI modules cannot take, and what they do in ngspice.
 UNSUPPORTED_INSTANCE = {
     "off": "ngspice starts the operating point's Newton with this device's voltages at 0",
     "icvds": "ngspice uses ic= as the device's initial voltages of a 'uic' transient",
