@@ -614,14 +614,8 @@ class BDF:
             # step: it changes here, to the outcomes at the attempt's end
             t_change, changed = t, self._locks.at(info["x"], t)
         if changed and t_change - t <= EVENT_MIN_GAP * first:
-            self._undefined_h = 0.0
             self._locks.flip()
-            self.stats["events"] += 1
-            self._rec.events.append((float(t), changed))
-            self._chatter = self._chatter + 1 if (self._nst == 0 and self._after_event) else 0
-            if self._chatter >= CHATTER_EVENTS:
-                what, hint = chatter_message(changed[0], behavioural=True)
-                self._fail(t, first, what, None, hint)
+            if not self._count_event(t, changed, self._nst == 0, first, True):
                 return None
             self._after_event = True
             self._event_restart = True
@@ -634,6 +628,20 @@ class BDF:
         self.stats["rejected"] += 1
         gap = t_change - t if changed else h
         return gap / h if gap < h else (0.9 if nud == 2 else 0.5)
+
+    def _count_event(self, t, names, fresh, h, behavioural) -> bool:
+        """Record an event of ``names`` at ``t``; ``fresh``: in the first step after the last restart (an event
+        there after an event's restart, again and again, is chattering: the run fails naming the first of
+        ``names``, a behavioural source when ``behavioural``). False after that failure."""
+        self.stats["events"] += 1
+        self._undefined_h = 0.0
+        self._rec.events.append((float(t), names))
+        self._chatter = self._chatter + 1 if (fresh and self._after_event) else 0
+        if self._chatter >= CHATTER_EVENTS:
+            what, hint = chatter_message(names[0], behavioural=behavioural)
+            self._fail(t, h, what, None, hint)
+            return False
+        return True
 
     def _fail_undefined(self, t, h, source):
         self._fail(t, h, f"the held branch of {source} is undefined past the change of one of its comparisons (its "
@@ -841,15 +849,8 @@ class BDF:
             self._fail(t_end, self.h, f"reached max_steps={self.max_steps}", None,
                        "raise max_steps, or loosen the tolerances")
             return
-        if event:
-            self.stats["events"] += 1
-            self._undefined_h = 0.0
-            self._rec.events.append((float(t_end), switched))
-            self._chatter = self._chatter + 1 if (self._nst == 1 and self._after_event) else 0
-            if self._chatter >= CHATTER_EVENTS:
-                what, hint = chatter_message(switched[0], behavioural=switched[0] in changed)
-                self._fail(t_end, h, what, None, hint)
-                return
+        if event and not self._count_event(t_end, switched, self._nst == 1, h, switched[0] in changed):
+            return
         if landed or event:
             self._after_event = event
         if landed:

@@ -378,6 +378,21 @@ def _impasse(F, I, t):
 
 
 @kernel
+def _schedule_restart(F, I, t, h, bps, restart_times, segments):
+    """An order-1 restart at ``t`` (at an event or a breakpoint: probed derivatives, the right limit where
+    the solution jumps), its probe capped by ``h``, the next breakpoint and the step bounds; the output's
+    segment ends at the last recorded point."""
+    I[I_RESTARTS] += 1
+    restart_times[I[I_NRESTART_TIMES]] = t
+    I[I_NRESTART_TIMES] += 1
+    F[F_RESTART_CAP] = max(min(h, F[F_MAX_STEP], bps[I[I_IBP]] - t), F[F_MIN_STEP])
+    F[F_RESTART_FIXED] = 0.0
+    I[I_PENDING_RESTART] = 1
+    segments[I[I_NSEGMENTS]] = I[I_M] - 1
+    I[I_NSEGMENTS] += 1
+
+
+@kernel
 def _lock_event_names(h_inst, h_lock, limit, event_idx, j, count, first):
     """Name event ``j``'s behavioural sources (those changing by ``limit``), numbered from ``first`` (after
     the switches) in row ``j`` of ``event_idx`` from position ``count``; returns the new count."""
@@ -1477,14 +1492,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 return FAILED
             I[I_AFTER_EVENT] = 1
             I[I_EVENT_RESTART] = 1
-            I[I_RESTARTS] += 1
-            restart_times[I[I_NRESTART_TIMES]] = t
-            I[I_NRESTART_TIMES] += 1
-            F[F_RESTART_CAP] = max(min(h_undefined, F[F_MAX_STEP], bps[I[I_IBP]] - t), F[F_MIN_STEP])
-            F[F_RESTART_FIXED] = 0.0
-            I[I_PENDING_RESTART] = 1
-            segments[I[I_NSEGMENTS]] = I[I_M] - 1
-            I[I_NSEGMENTS] += 1
+            _schedule_restart(F, I, t, h_undefined, bps, restart_times, segments)
             F[F_H] = h_undefined
             continue
         # phase 5: complete the step (IDACompleteStep)
@@ -1618,24 +1626,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             I[I_AFTER_EVENT] = 1 if event else 0
         if event and not landed:
             # order-1 restart at the event with probed derivatives (and the right limit, where it jumps)
-            I[I_RESTARTS] += 1
-            restart_times[I[I_NRESTART_TIMES]] = t_end
-            I[I_NRESTART_TIMES] += 1
-            F[F_RESTART_CAP] = max(min(h, F[F_MAX_STEP], bps[I[I_IBP]] - t_end), F[F_MIN_STEP])
-            F[F_RESTART_FIXED] = 0.0
-            I[I_PENDING_RESTART] = 1
-            segments[I[I_NSEGMENTS]] = I[I_M] - 1
-            I[I_NSEGMENTS] += 1
+            _schedule_restart(F, I, t_end, h, bps, restart_times, segments)
         if landed:
             I[I_IBP] += 1
             # order-1 restart on the breakpoint with probed derivatives
-            I[I_RESTARTS] += 1
-            restart_times[I[I_NRESTART_TIMES]] = t_new
-            I[I_NRESTART_TIMES] += 1
-            h_last = max(h, F[F_H_REQUEST])
-            F[F_RESTART_CAP] = max(min(h_last, F[F_MAX_STEP], bps[I[I_IBP]] - t_new), F[F_MIN_STEP])
-            F[F_RESTART_FIXED] = 0.0
-            I[I_PENDING_RESTART] = 1
-            segments[I[I_NSEGMENTS]] = I[I_M] - 1
-            I[I_NSEGMENTS] += 1
+            _schedule_restart(F, I, t_new, max(h, F[F_H_REQUEST]), bps, restart_times, segments)
     return I[I_STATUS]

@@ -675,9 +675,7 @@ def lock_step(P, kord, psi, t, t_new, t_cap, n, prog, const, inst, leaf, val, de
                     if lock[LOCK_NEXT, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
                         lock[LOCK_NEXT, s] = math.nan
             tc = max(hi, t + EVENT_MIN_GAP * h)
-            for s in range(s0, s0 + nk):
-                if lock[LOCK_NEXT, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
-                    lock[LOCK_TIME, s] = tc
+            _mark_changes(inst, lock, k, tc)
             found += 1
             if tc < t_ev:
                 t_ev = tc
@@ -702,6 +700,15 @@ def lock_undefined(lock):
 
 
 @kernel
+def _mark_changes(inst, lock, k, tc):
+    """Instance ``k``'s held slots whose row ``LOCK_NEXT`` differs change at ``tc`` (row ``LOCK_TIME``)."""
+    s0 = inst[k, B_LOCK]
+    for s in range(s0, s0 + inst[k, B_NLOCK]):
+        if lock[LOCK_NEXT, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
+            lock[LOCK_TIME, s] = tc
+
+
+@kernel
 def lock_at(x, t, prog, const, inst, leaf, val, der, lock):
     """The outcomes at the extended point ``x`` (at ``t``) that differ from the held ones change at ``t``.
 
@@ -721,9 +728,8 @@ def lock_at(x, t, prog, const, inst, leaf, val, der, lock):
         if _probe(x, t, k, prog, const, inst, leaf, val, der, lock):
             count += 1
             for s in range(s0, s0 + nk):
-                if lock[LOCK_PROBED, s] != lock[LOCK_HELD, s] and not math.isnan(lock[LOCK_HELD, s]):
-                    lock[LOCK_NEXT, s] = lock[LOCK_PROBED, s]
-                    lock[LOCK_TIME, s] = t
+                lock[LOCK_NEXT, s] = lock[LOCK_PROBED, s]
+            _mark_changes(inst, lock, k, t)
     return count
 
 
