@@ -27,7 +27,7 @@ from typing import Any
 from .signals import Signal
 
 __all__ = ["Probe", "Condition", "MeasureSpec", "Measure", "format_measure", "FUNCTIONS", "AC_PREFIXES",
-           "LAST", "MEASURE_ANALYSES", "MeasureStatus"]
+           "LAST", "MEASURE_ANALYSES", "MeasureStatus", "leaf_signal"]
 
 #: Analyses a measurement can refer to.
 MEASURE_ANALYSES = ("tran", "ac", "dc")
@@ -80,14 +80,19 @@ class Probe:
 
         out: dict[str, Signal] = {}
         for node in ex.walk(self.expression):
-            if isinstance(node, ex.Voltage):
-                sig = Signal("v", (node.pos,) if node.neg in (None, "0") else (node.pos, node.neg))
-            elif isinstance(node, ex.Current):
-                sig = Signal("i", (node.element,))
-            else:
-                continue
-            out.setdefault(sig.name, sig)
+            if isinstance(node, (ex.Voltage, ex.Current)):
+                sig = leaf_signal(node)
+                out.setdefault(sig.name, sig)
         return tuple(out.values())
+
+
+def leaf_signal(leaf) -> Signal:
+    """The signal a ``V()``/``I()`` leaf of an expression (:mod:`netdae.netlist.expr`) reads."""
+    from .netlist.expr import Current
+
+    if isinstance(leaf, Current):
+        return Signal("i", (leaf.element,))
+    return Signal("v", (leaf.pos,) if leaf.neg in (None, "0") else (leaf.pos, leaf.neg))
 
 
 @dataclass(frozen=True)

@@ -54,7 +54,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Probe
+from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Probe, leaf_signal
 from ..netlist import expr as ex
 from ..results import Result
 
@@ -114,8 +114,7 @@ def _values(result: Result, probe: Probe) -> np.ndarray:
     def lookup(leaf):
         if isinstance(leaf, ex.Time):
             return np.asarray(result.axis, dtype=float)
-        name = (f"v({leaf.pos})" if leaf.neg is None else f"v({leaf.pos},{leaf.neg})") \
-            if isinstance(leaf, ex.Voltage) else f"i({leaf.element})"
+        name = leaf_signal(leaf).name
         try:
             return np.asarray(result[name], dtype=float)
         except KeyError:

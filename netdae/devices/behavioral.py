@@ -350,7 +350,7 @@ class BehaviouralEvents:
             there (empty: none). Call :meth:`flip` after the point at ``t_end`` is evaluated.
         """
         from ..dae.compiled.events import EVENT_TOGETHER
-        from .kernels.behavioural import lock_changed, lock_step
+        from .kernels.behavioural import lock_step
 
         prog, const, inst, leaf, val, der, _ = self.family.packed()
         t_end, count = lock_step(P, int(k), psi, float(t), float(t_new), float(t_cap), self.n, prog, const, inst,
@@ -358,9 +358,7 @@ class BehaviouralEvents:
         if not count:
             return t_cap, ()
         self._limit = t_end + EVENT_TOGETHER * (t_new - t)
-        changed = tuple(el.name for i, el in enumerate(self.family.elements)
-                        if lock_changed(inst, self.lock, i, self._limit))
-        return t_end, changed
+        return t_end, self._changing(inst)
 
     def undefined(self) -> str | None:
         """The source whose held branch was undefined at the last evaluation's point (None: none)."""
@@ -381,7 +379,7 @@ class BehaviouralEvents:
             The change's time (``t`` itself when the continued polynomial is past it at ``t``) and the
             sources changing within ``together`` of it, or ``(None, ())``. :meth:`flip` makes them change.
         """
-        from .kernels.behavioural import LOCK_TIME, lock_changed, lock_step
+        from .kernels.behavioural import LOCK_TIME, lock_step
 
         prog, const, inst, leaf, val, der, _ = self.family.packed()
         _, count = lock_step(P, int(k), psi, float(t), float(t), float(t + h), self.n, prog, const, inst, leaf,
@@ -390,18 +388,24 @@ class BehaviouralEvents:
             return None, ()
         first = float(min(t + h, self.lock[LOCK_TIME, :-1].min()))
         self._limit = first + together
-        return first, tuple(el.name for i, el in enumerate(self.family.elements)
-                            if lock_changed(inst, self.lock, i, self._limit))
+        return first, self._changing(inst)
 
     def at(self, x: np.ndarray, t: float) -> tuple[str, ...]:
         """The outcomes at ``x`` that differ from the held ones change at ``t`` (``lock_at``); the sources
         changing. :meth:`flip` makes them change."""
-        from .kernels.behavioural import lock_at, lock_changed
+        from .kernels.behavioural import lock_at
 
         prog, const, inst, leaf, val, der, _ = self.family.packed()
         lock_at(np.append(np.asarray(x, dtype=float), 0.0), float(t), prog, const, inst, leaf, val, der, self.lock)
         self._limit = float(t)
-        return tuple(el.name for i, el in enumerate(self.family.elements) if lock_changed(inst, self.lock, i, t))
+        return self._changing(inst)
+
+    def _changing(self, inst) -> tuple[str, ...]:
+        """The sources with an outcome changing by the pending limit (what :meth:`flip` changes)."""
+        from .kernels.behavioural import lock_changed
+
+        return tuple(el.name for i, el in enumerate(self.family.elements)
+                     if lock_changed(inst, self.lock, i, self._limit))
 
     def flip(self) -> None:
         """The outcomes :meth:`step` found changing take their new values."""
