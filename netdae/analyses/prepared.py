@@ -22,6 +22,8 @@ Examples
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -30,7 +32,7 @@ from ..mna import assemble
 from ..mna.sources import MODE_DC
 from ..mna.system import MnaSystem
 
-__all__ = ["Prepared", "prepare"]
+__all__ = ["Prepared", "prepare", "reusing"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,13 +75,55 @@ class Prepared:
         return Prepared(self.circuit, system)
 
 
+#: The templates the analyses of this context assemble from (:func:`reusing`); None: assemble each circuit.
+_TEMPLATES: ContextVar[dict | None] = ContextVar("netdae_templates", default=None)
+
+
+@contextmanager
+def reusing(templates: dict):
+    """Within the block, :func:`prepare` assembles a circuit on the first one prepared with the same
+    arguments when the two differ only in linear values (:func:`netdae.mna.assemble.reassemble`).
+
+    ``templates`` is the caller's store (empty at first; kept to reuse across blocks, e.g. the rows
+    of one sweep in a process). A circuit so assembled gets the same system, value for value, as on
+    its own: results do not depend on which circuit came first.
+    """
+    token = _TEMPLATES.set(templates)
+    try:
+        yield templates
+    finally:
+        _TEMPLATES.reset(token)
+
+
 def prepare(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = None,
             tstop: float | None = None) -> Prepared:
     """Assemble ``circuit`` for one analysis (:func:`netdae.mna.assemble`, same arguments).
+
+    Within :func:`reusing`, on the template of the block's first circuit prepared with the same
+    arguments when only linear values differ (its topology shared too).
 
     Raises
     ------
     CircuitError
         What :func:`~netdae.mna.assemble` raises.
     """
-    return Prepared(circuit, assemble(circuit, mode=mode, tstep=tstep, tstop=tstop))
+    templates = _TEMPLATES.get()
+    if templates is None:
+        return Prepared(circuit, assemble(circuit, mode=mode, tstep=tstep, tstop=tstop))
+    from ..mna.assemble import Template, reassemble
+
+    key = (mode, tstep, tstop)
+    if key in templates:
+        found = templates[key]
+        if found is not None:
+            template, first = found
+            system = reassemble(template, circuit)
+            if system is not None:
+                if "topology" in first.__dict__:  # the same structure: the same topology
+                    return Prepared.known(circuit, system, first.__dict__["topology"])
+                return Prepared(circuit, system)
+        return Prepared(circuit, assemble(circuit, mode=mode, tstep=tstep, tstop=tstop))
+    prepared = Prepared(circuit, assemble(circuit, mode=mode, tstep=tstep, tstop=tstop))
+    template = Template.of(circuit, prepared.system, mode=mode, tstep=tstep, tstop=tstop)
+    templates[key] = None if template is None else (template, prepared)
+    return prepared

@@ -279,6 +279,11 @@ class DeviceFamily:
 
     #: Element kinds this family evaluates (read from their definitions).
     kinds = _KindsOf()
+    #: True when the family keeps nothing of a run between calls (only its parameters, slots and
+    #: scratch arrays), so that the systems of circuits with equal instances may share the object
+    #: (:func:`netdae.mna.assemble.reassemble`). Families with held states (switches, behavioural
+    #: comparisons) or foreign instance memory (OSDI) keep the default.
+    shareable = False
 
     def __init__(self, elements, circuit) -> None:
         self.elements = list(elements)

@@ -137,6 +137,8 @@ class BjtFamily(DeviceFamily):
         Missing or mistyped model, unsupported parameter or level.
     """
 
+    shareable = True
+
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -253,6 +253,8 @@ class DiodeFamily(DeviceFamily):
         Missing or mistyped model, unsupported parameter, level other than 1.
     """
 
+    shareable = True
+
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -156,6 +156,8 @@ class JfetFamily(GateJunctionLimits, DeviceFamily):
         factor divides by their difference).
     """
 
+    shareable = True
+
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

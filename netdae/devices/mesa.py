@@ -228,6 +228,8 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
         A level other than 2 (levels 3 and 4 are not implemented by netdae).
     """
 
+    shareable = True
+
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)
         opts = circuit.options

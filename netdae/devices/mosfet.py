@@ -264,6 +264,8 @@ class MosfetFamily(DeviceFamily):
         non-positive effective channel length, PHI <= 0, NSUB below ni.
     """
 
+    shareable = True
+
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

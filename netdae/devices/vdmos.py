@@ -243,6 +243,8 @@ class VdmosFamily(DeviceFamily):
         negative resistances or capacitances (:data:`~netdae.devices.modelcard.NONNEGATIVE`).
     """
 
+    shareable = True
+
 
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)

@@ -4,11 +4,19 @@ Done once per circuit and analysis: number the unknowns, stamp the linear
 elements into constant matrices, let every nonlinear family allocate its
 nodes/branches and declare its Jacobian entries, then fix the sparsity
 pattern (union of all entries plus the diagonal) for the whole run.
+
+A circuit that differs from an assembled one only in the values of its linear
+elements (a sweep's or a Monte Carlo run's rows) is assembled on that one's
+unknowns, pattern and device families (:func:`reassemble`): only its linear
+stamps are made again.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import dataclass
+
+import numpy as np
 
 from ..circuit import Circuit, Element
 from ..dae.sparse import SparsePattern
@@ -21,7 +29,7 @@ from .layout import Layout
 from .sources import MODE_DC, MODE_TRAN, SourceVector
 from .system import Delays, MnaSystem
 
-__all__ = ["assemble", "group_by_kind"]
+__all__ = ["assemble", "group_by_kind", "Template", "reassemble"]
 
 
 def group_by_kind(circuit: Circuit) -> dict[str, list[Element]]:
@@ -107,7 +115,6 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
         fam.add_branches(layout)
 
     stamps = stamp_linear(circuit, layout, by_kind)
-    n = layout.n
     rows = [stamps.E.coordinates()[0], stamps.H.coordinates()[0], stamps.D.coordinates()[0]]
     cols = [stamps.E.coordinates()[1], stamps.H.coordinates()[1], stamps.D.coordinates()[1]]
     for fam in families:
@@ -115,10 +122,17 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
         keep = (r >= 0) & (c >= 0)
         rows.append(r[keep])
         cols.append(c[keep])
-    pattern = SparsePattern.from_coo(n, rows, cols)
+    pattern = SparsePattern.from_coo(layout.n, rows, cols)
     slots = SlotMap(pattern)
     for fam in families:
-        fam.bind(slots, n)
+        fam.bind(slots, layout.n)
+    return _system(layout, stamps, families, pattern, mode, tstep, tstop)
+
+
+def _system(layout: Layout, stamps, families: list, pattern: SparsePattern, mode: str, tstep: float | None,
+            tstop: float | None) -> MnaSystem:
+    """The system of a circuit's linear stamps and bound families on its pattern."""
+    n = layout.n
     sources = SourceVector(stamps.sources, mode, tstep, tstop)
     return MnaSystem(
         layout,
@@ -132,3 +146,97 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
         stamps.H_ac.matrix(n),
         delays=Delays.of(stamps, n) if stamps.delay_rows else None,
     )
+
+
+# -- circuits that differ only in linear values ---------------------------------------------------
+def _coordinates(stamps) -> tuple[np.ndarray, ...]:
+    """Where the linear stamps write (E, H, B, H_ac, D): what two assemblies must share to share a pattern."""
+    return tuple(c for t in (stamps.E, stamps.H, stamps.B, stamps.H_ac, stamps.D) for c in t.coordinates())
+
+
+@dataclass(frozen=True, eq=False)
+class Template:
+    """An assembled circuit that circuits of the same structure are assembled from (:func:`reassemble`).
+
+    Attributes
+    ----------
+    circuit : Circuit
+    system : MnaSystem
+        Its system (families bound, pattern fixed).
+    mode : str
+    tstep, tstop : float or None
+        The arguments of its :func:`assemble`.
+    coordinates : tuple of ndarray
+        Where its linear stamps write.
+    """
+
+    circuit: Circuit
+    system: MnaSystem
+    mode: str
+    tstep: float | None
+    tstop: float | None
+    coordinates: tuple
+
+    @classmethod
+    def of(cls, circuit: Circuit, system: MnaSystem, *, mode: str = MODE_DC, tstep: float | None = None,
+           tstop: float | None = None) -> "Template | None":
+        """The template of ``circuit`` and its ``system`` (made by :func:`assemble` with these arguments),
+        or None when no other circuit may share its system's parts (a family with held states,
+        transmission lines)."""
+        if system.delays is not None or not all(f.shareable for f in system.families):
+            return None
+        stamps = stamp_linear(circuit, system.layout, group_by_kind(circuit))
+        return cls(circuit, system, mode, tstep, tstop, _coordinates(stamps))
+
+
+def _same_but_linear_values(base: Circuit, circuit: Circuit) -> bool:
+    """True when ``circuit`` has ``base``'s nodes, elements (names, kinds, nodes, controls, models),
+    models and options, and differs at most in values of elements that no device family evaluates."""
+    if (circuit.nodes != base.nodes or len(circuit.elements) != len(base.elements)
+            or circuit.options != base.options or circuit.models != base.models):
+        return False
+    for a, b in zip(circuit.elements, base.elements):
+        if a is b:
+            continue
+        if a.name != b.name or a.kind != b.kind or a.nodes != b.nodes or a.controls != b.controls \
+                or a.model != b.model:
+            return False
+        if family_for(a.kind) is not None and a != b:
+            return False
+    return True
+
+
+def reassemble(template: Template, circuit: Circuit) -> MnaSystem | None:
+    """The system of ``circuit`` assembled on ``template``'s, when they differ only in linear values.
+
+    The linear elements are stamped again (the same stamps :func:`assemble` makes, on the template's
+    unknowns); the layout, the pattern and the device families (whose instances are equal) are the
+    template's, shared. The result is the system :func:`assemble` would build for ``circuit``, value
+    for value, without building the families again.
+
+    Returns
+    -------
+    MnaSystem or None
+        None when the circuits differ in more than the values of linear elements (another node or
+        element, another device instance, model or option) or the stamps write elsewhere (a value
+        that became zero): assemble ``circuit`` on its own.
+
+    Raises
+    ------
+    CircuitError
+        What stamping ``circuit``'s linear elements raises in :func:`assemble`.
+
+    Notes
+    -----
+    Cost: the linear stamps and the matrices, O(elements + nnz log nnz); a sweep's rows pay this
+    instead of a whole assembly (the families' parameters, their node and slot bookkeeping).
+    """
+    if not _same_but_linear_values(template.circuit, circuit):
+        return None
+    base = template.system
+    stamps = stamp_linear(circuit, base.layout, group_by_kind(circuit))
+    got = _coordinates(stamps)
+    if len(got) != len(template.coordinates) or not all(
+            np.array_equal(a, b) for a, b in zip(got, template.coordinates)):
+        return None
+    return _system(base.layout, stamps, base.families, base.pattern, template.mode, template.tstep, template.tstop)

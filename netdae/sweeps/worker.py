@@ -214,9 +214,33 @@ def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
     list of Outcome
         One per row, in the order given.
     """
+    from ..analyses.prepared import reusing
     from .linear import ac_batch
 
     batched = ac_batch(job, rows)
     if batched is not None:
         return batched
-    return [run_row(job, row) for row in rows]
+    with reusing(_templates(job)):
+        return [run_row(job, row) for row in rows]
+
+
+#: The assembly templates of the sweeps run in this process (:func:`netdae.analyses.prepared.reusing`),
+#: by ``(Job.token, thread)``: a thread of its own, since the shared device families' scratch arrays
+#: are not for two threads at once. The last few.
+_TEMPLATES: dict[tuple[str, int], dict] = {}
+#: How many sweeps' templates a process keeps.
+KEEP_TEMPLATES = 4
+
+
+def _templates(job: Job) -> dict:
+    """The store of ``job``'s assembly templates in this thread (a new one for a job without a token)."""
+    import threading
+
+    if not job.token:
+        return {}
+    key = (job.token, threading.get_ident())
+    if key not in _TEMPLATES:
+        while len(_TEMPLATES) >= KEEP_TEMPLATES:
+            del _TEMPLATES[next(iter(_TEMPLATES))]
+        _TEMPLATES[key] = {}
+    return _TEMPLATES[key]

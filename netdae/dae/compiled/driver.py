@@ -587,8 +587,19 @@ class _Packed:
                          B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
         self.families = []
         if system.families:
-            slots = SlotMap(pattern)
-            self.families = [(_family_slot(f), f, f.compiled(slots, system.n)) for f in system.families]
+            slots = None
+            for f in system.families:
+                compiled = _COMPILED.get(f) if f.shareable else None
+                if compiled is None:
+                    slots = SlotMap(pattern) if slots is None else slots
+                    compiled = f.compiled(slots, system.n)
+                    if f.shareable:  # the systems sharing it share its pattern (netdae.mna.assemble.reassemble)
+                        _COMPILED[f] = compiled
+                self.families.append((_family_slot(f), f, compiled))
+
+
+#: The compiled arrays of each shareable family (:attr:`DeviceFamily.shareable`), for every system sharing it.
+_COMPILED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 #: The loop has run in this process (its machine code is loaded: no first call of no steps).

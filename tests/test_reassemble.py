@@ -1,0 +1,120 @@
+"""Circuits that differ only in linear values assembled on a template (netdae/mna/assemble.reassemble).
+
+A sweep's rows share their first row's unknowns, pattern and device families; each row's
+linear stamps are made again. The system must be the one ``assemble`` builds on its own,
+value for value, and a circuit that differs in anything else must be assembled on its own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.analyses.prepared import prepare, reusing
+from netdae.mna.assemble import Template, assemble, reassemble
+from netdae.mna.sources import MODE_TRAN
+
+BRIDGE = """bridge
+.param rl=1k cf=470u
+V1 ac 0 DC 12 SIN(0 12 50)
+RS ac acs 1
+D1 acs pos dm
+D2 0 pos dm
+D3 neg acs dm
+D4 neg 0 dm
+C1 pos neg {cf}
+RL pos neg {rl}
+.model dm d(is=7n rs=0.05 n=1.8 cjo=10p tt=100n)
+.tran 100u 40m
+.meas tran ripple pp v(pos,neg) from=20m to=40m
+"""
+
+ARGS = dict(mode=MODE_TRAN, tstep=100e-6, tstop=40e-3)
+
+
+def _same_system(a, b) -> None:
+    assert a.names == b.names
+    for name in ("E", "H", "B", "H_ac"):
+        ma, mb = getattr(a, name), getattr(b, name)
+        assert ma.shape == mb.shape
+        np.testing.assert_array_equal(ma.toarray(), mb.toarray())
+    np.testing.assert_array_equal(a.pattern.rows, b.pattern.rows)
+    np.testing.assert_array_equal(a.pattern.cols, b.pattern.cols)
+    x = np.linspace(-1.0, 1.0, a.n)
+    ea, eb = a.evaluate(x, 1e-3, jacobian=True, state=None), b.evaluate(x, 1e-3, jacobian=True, state=None)
+    for field in ("q", "phi", "dq", "dphi"):
+        np.testing.assert_array_equal(getattr(ea, field), getattr(eb, field))
+
+
+def test_other_linear_values_give_the_system_assemble_gives():
+    base = netdae.load(BRIDGE)
+    template = Template.of(base, assemble(base, **ARGS), **ARGS)
+    other = netdae.load(BRIDGE, params={"rl": 820.0, "cf": 330e-6})
+    system = reassemble(template, other)
+    assert system is not None and system.families == template.system.families
+    _same_system(system, assemble(other, **ARGS))
+    assert not np.array_equal(system.E.toarray(), template.system.E.toarray())
+
+
+@pytest.mark.parametrize("change", [
+    lambda text: text.replace("is=7n", "is=8n"),            # a device model parameter
+    lambda text: text.replace("D4 neg 0 dm", "D4 neg 0 dm area=2"),  # a device instance parameter
+    lambda text: text.replace("RL pos neg {rl}", "RL pos mid {rl}\nRM mid neg 1"),  # another node
+    lambda text: text.replace("RS ac acs 1", "LS ac acs 1u"),  # another element kind
+    lambda text: text + ".options gmin=1e-10\n",          # an option the families read
+])
+def test_a_circuit_that_differs_in_more_than_linear_values_is_assembled_on_its_own(change):
+    base = netdae.load(BRIDGE)
+    template = Template.of(base, assemble(base, **ARGS), **ARGS)
+    assert reassemble(template, netdae.load(change(BRIDGE))) is None
+
+
+def test_families_with_held_states_are_not_shared():
+    text = BRIDGE.replace("RS ac acs 1", "S1 ac acs ac 0 sw\n.model sw sw vt=-100")
+    base = netdae.load(text)
+    assert Template.of(base, assemble(base, **ARGS), **ARGS) is None
+
+
+def test_prepare_within_reusing_shares_the_first_circuits_parts_and_nothing_else():
+    store: dict = {}
+    with reusing(store):
+        first = prepare(netdae.load(BRIDGE), **ARGS)
+        row = prepare(netdae.load(BRIDGE, params={"rl": 900.0}), **ARGS)
+        dc = prepare(netdae.load(BRIDGE))  # other arguments: its own template
+        model = prepare(netdae.load(BRIDGE.replace("is=7n", "is=9n")), **ARGS)
+    assert row.system.families is first.system.families
+    assert dc.system.families is not first.system.families
+    assert model.system.families is not first.system.families
+    _same_system(row.system, assemble(netdae.load(BRIDGE, params={"rl": 900.0}), **ARGS))
+    assert prepare(netdae.load(BRIDGE), **ARGS).system.families is not first.system.families  # outside: none
+
+
+MC = BRIDGE.replace(".param rl=1k cf=470u", ".param rl={agauss(1k, 50, 1)} cf={agauss(470u, 23.5u, 1)}")
+
+
+@pytest.mark.parametrize("text, shared_rows", [
+    (MC, 4),                                                                  # every later row shares
+    (MC.replace("D4 neg 0 dm", "D4 neg 0 dm area={agauss(1, 0.05, 1)}"), 0),  # each row its own diode
+])
+def test_a_monte_carlo_sweep_gives_bit_for_bit_what_rows_assembled_on_their_own_give(monkeypatch, text,
+                                                                                      shared_rows):
+    import importlib
+
+    import netdae.sweeps.worker as worker
+
+    module = importlib.import_module("netdae.mna.assemble")
+    made = []
+    real = module.reassemble
+    monkeypatch.setattr(module, "reassemble", lambda t, c: made.append(real(t, c)) or made[-1])
+    circuit = netdae.load(text)
+    shared = netdae.sweep(circuit, samples=5, seed=3, workers=1, save=["v(pos,neg)"])
+    assert sum(system is not None for system in made) == shared_rows
+    monkeypatch.setattr(worker, "_templates", lambda job: None)
+    alone = netdae.sweep(circuit, samples=5, seed=3, workers=1, save=["v(pos,neg)"])
+    assert shared.failed == alone.failed == 0
+    np.testing.assert_array_equal(shared.measures["ripple"], alone.measures["ripple"])
+    np.testing.assert_array_equal(shared.waves[("tran", "v(pos,neg)")], alone.waves[("tran", "v(pos,neg)")])
+    assert np.unique(shared.measures["ripple"]).size == 5
