@@ -392,6 +392,19 @@ class SwitchEvents:
         """Stop holding: evaluations decide the states again (as an operating point does)."""
         self.family.held = None
 
+    def at(self, x: np.ndarray, t: float) -> tuple[str, ...]:
+        """The states at the point ``x`` at ``t``, where an event without a step happens (a behavioural
+        source's comparison changing at ``t``, its held branch undefined past it); the switches that change
+        conductance there, in that event (:func:`netdae.devices.kernels.switch.switch_at`)."""
+        ks = _kernels()
+        xe = np.append(np.asarray(x, dtype=float), 0.0)
+        changes = ks.switch_at(xe, float(t), self.par, self.idx, self.states, self._new, self._tcross)
+        self.hold(self.states)
+        if not changes:
+            return ()
+        self.events += 1
+        return tuple(el.name for el, tc in zip(self.family.elements, self._tcross) if tc <= t)
+
     def step(self, P: np.ndarray, k: int, psi: np.ndarray, t: float,
              t_new: float) -> tuple[float, tuple[str, ...], np.ndarray | None]:
         """After an accepted step (``P`` updated): where it ends and the switches' states there.

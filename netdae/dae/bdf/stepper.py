@@ -600,22 +600,35 @@ class BDF:
 
         The twin of the compiled engine's (``bdf_loop.run``, docs/integrator.md): the change located on the
         last step's polynomial continued; the step retried to end there (then at 0.9 and half of it), until
-        the change is within ``EVENT_MIN_GAP`` of the step that first met it: then it happens at ``t``, an
-        event without a step (returns None after the restart, or after a failure).
+        the change is within ``EVENT_MIN_GAP`` of the step that first met it, or within the rounding of ``t``
+        (``4 ROUNDOFF_ULPS`` units in its last place: no reduced step ends before it): then it happens at
+        ``t``, an event without a step (returns None after the restart, or after a failure).
         """
         if self._undefined_h == 0.0:
             self._undefined_h = h  # the approach to the change begins (it may take several steps)
         first = self._undefined_h
         hist = self._hist
         t_change, changed = self._locks.ahead(hist.P, hist.kused, hist.psi, t, h, EVENT_TOGETHER * first)
-        roundoff = ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
-        if not changed and h <= max(EVENT_MIN_GAP * first, 4.0 * roundoff):
+        x_change = None  # the change's point: on the continued polynomial, or the attempt's end
+        # (no shorter step ends between t and the change: the reduced steps stop at ROUNDOFF_ULPS)
+        at_t = max(EVENT_MIN_GAP * first, 4.0 * ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        if not changed and h <= at_t:
             # the continued polynomial does not see the change the corrector met within this short a
             # step: it changes here, to the outcomes at the attempt's end
             t_change, changed = t, self._locks.at(info["x"], t)
-        if changed and t_change - t <= EVENT_MIN_GAP * first:
+            x_change = info["x"]
+        if changed and t_change - t <= at_t:
             self._locks.flip()
-            if not self._count_event(t, changed, self._nst == 0, first, True):
+            switched = ()
+            if self._switching is not None:
+                # the switches settle at the change in the same event (one controlled by the same crossing
+                # would otherwise change a rounding later, as a second event): decided at the change's
+                # point, the continued polynomial's there (the attempt's end when that polynomial did not see it)
+                if x_change is None:
+                    x_change = np.zeros(self.n)
+                    interpolate_state(hist.P, hist.kused, hist.psi, t_change - t, self.n, x_change)
+                switched = self._switching.at(x_change, t)
+            if not self._count_event(t, switched + changed, self._nst == 0, first, not switched):
                 return None
             self._after_event = True
             self._event_restart = True

@@ -59,7 +59,7 @@ from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.jfet import eval_jfet
 from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.osdi import eval_osdi
-from ...devices.kernels.switch import eval_switch, switch_step
+from ...devices.kernels.switch import eval_switch, switch_at, switch_step
 from ...devices.kernels.mesa import eval_mesa
 from ...devices.kernels.vdmos import eval_vdmos
 from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
@@ -186,7 +186,9 @@ I_AFTER_EVENT = 42      # the last restart was at an event
 I_RESTART_CHECKED = 43  # the pending restart checked for a jump: 1; found one: 2 (kept across returns to Python)
 I_IMPASSE = 44          # 1: the pending restart continues from the right limit Python solved (an impasse)
 I_IMPASSE_TRIES = 45    # impasse restarts at F_IMPASSE_T so far
-N_I = 46
+I_UNDEFINED_STEP = 46   # the current step met an attempt past a change where a held branch is undefined (kept
+#                         across returns to Python: an attempt repeated with new pivots is the same step's)
+N_I = 47
 
 # statuses
 RUNNING = 0
@@ -752,17 +754,18 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     the devices limited against the previous iterate), converged when the last correction is
     below ``EVENT_RIGHT_LIMIT_TOL`` of the tolerances; ``xr = 2 y1 - y2`` (``y2`` for index-2
     unknowns). Returns False when a step does not converge (then Python's steady-state solver
-    takes over). Uses ``xp``, ``xpp``, ``b1``, ``qpb`` of ``ws`` as work (the derivatives are
-    probed again after a jump).
+    takes over). Uses ``x2``, ``work``, ``b1``, ``b2`` of ``ws`` as work: the probe's ``xp``,
+    ``xpp`` and ``qpb`` stay, for the restart when the converged right limit is ``x`` itself
+    (nothing jumped; they are probed again only after a jump).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
-    y = xp
-    y1 = xpp
-    q0 = qpb
+    y = x2
+    y1 = work
+    q0 = b2
     d = b1
     for i in range(n):
         y[i] = x[i]
@@ -1391,8 +1394,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 # a behavioural source's held branch is undefined at the attempt's end (sqrt(v(a)) held
                 # past v(a) > 0): its comparison changed inside the step. The change located on the last
                 # step's polynomial continued (the predictor's), the step ends there; a change closer than
-                # EVENT_MIN_GAP of the first such attempt happens here and now (an event at t)
+                # EVENT_MIN_GAP of the first such attempt, or than the rounding of t, happens here and now
+                # (an event at t)
                 nud += 1
+                I[I_UNDEFINED_STEP] = 1
                 if F[F_UNDEFINED_H] == 0.0:
                     F[F_UNDEFINED_H] = h  # the approach to the change begins (it may take several steps)
                 h_undefined = F[F_UNDEFINED_H]
@@ -1405,11 +1410,12 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     for sl in range(h_lock.shape[1] - 1):
                         t_lock = min(t_lock, h_lock[LOCK_TIME, sl])
                 gap = t_lock - t
-                if nlock > 0 and gap <= EVENT_MIN_GAP * h_undefined:
+                # (no shorter step ends between t and the change: the reduced steps stop at ROUNDOFF_ULPS)
+                at_t = max(EVENT_MIN_GAP * h_undefined, 4.0 * ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+                if nlock > 0 and gap <= at_t:
                     flip = True
                     break
-                if nlock == 0 and h <= max(EVENT_MIN_GAP * h_undefined,
-                                           4.0 * ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))):
+                if nlock == 0 and h <= at_t:
                     # the continued polynomial does not see the change the corrector met within this
                     # short a step (the right limit at t left the control on the threshold's other
                     # side by its tolerance): it changes here, to the outcomes at the attempt's end
@@ -1479,13 +1485,28 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             # the change is here: the held outcomes take their new values at t (an event without a step),
             # and the method restarts at order 1 from the right limit
             F[F_UNDEFINED_H] = 0.0
+            I[I_UNDEFINED_STEP] = 0
             lock_flip(h_lock, t_lock + EVENT_TOGETHER * h_undefined)
             I[I_EVENTS] += 1
             I[I_CHATTER] = I[I_CHATTER] + 1 if (I[I_NST] == 0 and I[I_AFTER_EVENT] != 0) else 0
             j = I[I_NEVENTS]
             event_t[j] = t
+            count = 0
+            if switches:
+                # the switches settle at the change in the same event (one controlled by the same crossing
+                # would otherwise change a rounding later, as a second event): decided at the change's point,
+                # the continued polynomial's there (the attempt's end when that polynomial did not see it)
+                if nlock > 0:
+                    interpolate_state(P, I[I_KUSED], psi, t_lock - t, n, h_xw)
+                h_xw[n] = 0.0
+                if switch_at(h_xw, t, s_par, s_idx, s_vacc, s_vtry, s_tc) > 0:
+                    for i in range(s_par.shape[0]):
+                        if s_tc[i] <= t:
+                            if count < JUMP_NAMES:
+                                event_idx[j, count] = i
+                            count += 1
             event_count[j] = _lock_event_names(h_inst, h_lock, t_lock + EVENT_TOGETHER * h_undefined, event_idx, j,
-                                               0, s_par.shape[0])
+                                               count, s_par.shape[0])
             I[I_NEVENTS] = j + 1
             if I[I_CHATTER] >= CHATTER_EVENTS:
                 _fail(F, I, t, h_undefined, FAIL_CHATTER * 256, event_idx[j, 0])
@@ -1496,8 +1517,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             F[F_H] = h_undefined
             continue
         # phase 5: complete the step (IDACompleteStep)
-        if nud == 0:
+        if I[I_UNDEFINED_STEP] == 0:
             F[F_UNDEFINED_H] = 0.0  # an approach to a change where a held branch is undefined ended without it
+        I[I_UNDEFINED_STEP] = 0
         retried = ncf + nef > 0
         k = I[I_K]
         I[I_NST] += 1

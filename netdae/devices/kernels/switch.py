@@ -38,7 +38,7 @@ from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .scatter import add_current, add_current_slope
 from .switch_states import HYST_OFF, HYST_ON, REALLY_OFF, REALLY_ON
 
-__all__ = ["eval_switch", "decide", "junction_state", "dc_state", "watch", "switched", "conducting",
+__all__ = ["eval_switch", "switch_at", "decide", "junction_state", "dc_state", "watch", "switched", "conducting",
            "switch_decide", "switch_step", "REALLY_OFF", "REALLY_ON", "HYST_OFF", "HYST_ON"]
 
 P_GON, P_GOFF, P_VT, P_VH, P_ON, P_DC_HOLD = range(6)
@@ -198,6 +198,24 @@ def switch_decide(x, par, idx, sold, snew):
         snew[k, V_HOLD] = sold[k, V_HOLD]
         if conducting(s) != conducting(sold[k, V_STATE]):
             changes += 1
+    return changes
+
+
+@kernel
+def switch_at(x, t, par, idx, sacc, snew, tcross):
+    """The switches' states at the extended point ``x`` at ``t``, where an event without a step happens.
+
+    A behavioural source's comparison changes at ``t`` itself (its held branch undefined past the
+    change, :func:`netdae.devices.kernels.behavioural.lock_at`): a switch controlled by the same crossing
+    settles in that event, not in a second one right after. The states are decided at ``x`` (the point
+    of the change) from the held ones ``sacc``; ``tcross`` gets ``t`` for those that change conductance
+    (inf for the others), and ``sacc`` the decided states. Returns how many change conductance.
+    """
+    changes = switch_decide(x, par, idx, sacc, snew)
+    for j in range(par.shape[0]):
+        tcross[j] = t if conducting(snew[j, V_STATE]) != conducting(sacc[j, V_STATE]) else math.inf
+        sacc[j, V_STATE] = snew[j, V_STATE]
+        sacc[j, V_HOLD] = snew[j, V_HOLD]
     return changes
 
 
