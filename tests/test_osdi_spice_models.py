@@ -249,11 +249,15 @@ def test_mesa_levels_are_refused_naming_the_level():
     assert err.value.location.line == 5
 
 
-def test_mos3_and_mos9_cards_need_nsub():
+def test_mos3_and_mos9_cards_without_nsub_stand_in_ngspices_defaults():
+    """Without nsub ngspice leaves the depletion-width coefficient at 0 and phi, gamma, vto at their defaults;
+    the ports get a huge nsub and those defaults written out (what the card gives stays)."""
     for level in (3, 9):
-        with pytest.raises(NetlistError, match=f"MOS{level}.* without nsub") as err:
-            netdae.load(mosfet(level, "nmos").replace(" nsub=1e15", ""))
-        assert err.value.location.line == 5
+        circuit = netdae.load(mosfet(level, "nmos").replace(" nsub=1e15", "").replace(" gamma=0.4 phi=0.65", ""))
+        params = circuit.models[circuit.element("m1").model].params
+        assert params["nsub"] == 1e40 and (params["phi"], params["gamma"], params["xj"]) == (0.6, 0.0, 0.0)
+        assert params["vto"] == pytest.approx(0.7, rel=1e-15)
+        assert not warnings_of(circuit)
 
 
 def test_sizes_follow_options_scale_as_in_ngspice():
@@ -305,6 +309,17 @@ def test_mosfet_output_characteristics_equal_ngspice(level):
     for mtype, s in (("nmos", 1), ("pmos", -1)):
         sweep = f".dc vg 0 {3 * s} {0.25 * s} vd {0.5 * s} {3 * s} {1.25 * s}"
         assert _agree(mosfet(level, mtype, sweep), "dc", "i(vd)") < 1e-6
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("level", (3, 9))
+@pytest.mark.parametrize("given", ("vto=0.7 kp=5e-5 tox=2e-8", MOS[3].replace(" nsub=1e15", "")))
+def test_mosfet_output_characteristics_without_nsub_equal_ngspice(level, given):
+    for mtype, s in (("nmos", 1), ("pmos", -1)):
+        sweep = f".dc vg 0 {3 * s} {0.25 * s} vd {0.5 * s} {3 * s} {1.25 * s}"
+        text = mosfet(level, mtype, sweep).replace(MOS[level], given)
+        assert "nsub" not in text
+        assert _agree(text, "dc", "i(vd)") < 1e-6
 
 
 @pytest.mark.ngspice

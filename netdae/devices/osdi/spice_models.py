@@ -142,9 +142,12 @@ class ModuleMap:
     off_tnom : str or None
         What differs from ngspice 39 when the device's temperature is not the card's ``tnom``
         (measured): warned about once per card; None: nothing.
-    needs : dict of str to str
-        Model parameters the module cannot do without although ngspice can, with why: a card without
-        one is a located error (rather than a module evaluating to NaN).
+    stand_ins : dict of str to (float, dict of str to float, dict of str to float)
+        Model parameters the module cannot do without although ngspice can: for a card without one,
+        the value that gives ngspice's result (measured); the parameters to write at ngspice's
+        defaults with it (those the module would otherwise compute from it) when the card does not
+        give them; and the parameters ngspice's model then does not use, written at the value that
+        leaves them out of the module too, whatever the card gives.
     differs : dict of str to str
         Model parameters whose effect the module computes otherwise than ngspice 39 (measured), with
         what differs: a non-zero value is warned about.
@@ -177,7 +180,7 @@ class ModuleMap:
     module_only: frozenset = frozenset()
     nqs: frozenset = frozenset()
     off_tnom: str | None = None
-    needs: dict[str, str] = field(default_factory=dict)
+    stand_ins: dict[str, tuple[float, dict[str, float], dict[str, float]]] = field(default_factory=dict)
     differs: dict[str, str] = field(default_factory=dict)
     defaults: dict[str, float] = field(default_factory=dict)
     thermal: tuple[str, str] | None = None
@@ -217,18 +220,24 @@ _BSIM3 = ModuleMap(
     nqs=frozenset({"nqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [name=value ...]",
 )
 _MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
-#: Measured: the MOS3/MOS9 ports evaluate to NaN without nsub (ngspice's mos3temp.c then leaves the
-#: depletion-width coefficient at 0; the ports compute it from nsub = 0).
-_NSUB = {"nsub": "the bundled port of this model computes its depletion-layer width from nsub and evaluates to "
-                 "NaN without it (ngspice 39 then takes the width coefficient as 0)"}
+#: The MOS3/MOS9 ports evaluate to NaN without nsub: they compute the depletion-layer width coefficient
+#: sqrt(2 eps_si / (q nsub)) from nsub = 0, where ngspice's mos3temp.c/mos9temp.c leave it (and alpha, its
+#: square) at 0 when nsub is not given. At nsub = 1e40 cm^-3 it is 3.6e-19 m (alpha 1.3e-37 m^2): the
+#: channel-length modulation terms it scales vanish against any channel length; ngspice's no-nsub defaults
+#: phi = 0.6, gamma = 0 and vto = 0 are written where the card gives none (the ports would compute them
+#: from nsub); and xj = 0, because ngspice's short-channel factor is 1 when the coefficient is 0 whatever xj
+#: is (mos3load.c), while its limit for a vanishing coefficient is 1 - 0.063 xj / L. Measured against
+#: ngspice 39 without nsub: output characteristics to 1e-6 (tests/test_osdi_spice_models.py), an inverter's
+#: transient as close as with the same nsub in both.
+_NSUB = {"nsub": (1e40, {"phi": 0.6, "gamma": 0.0, "vto": 0.0}, {"xj": 0.0})}
 _MOS2 = ModuleMap("MOS2", "mosfet", (2,), "spice/mos2.osdi", "sp_mos2", instance_names={"m": "$mfactor"},
                   module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
-_MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, needs=_NSUB,
+_MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
                   module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
 _MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance_names={"m": "$mfactor"},
                   model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
                   form=_MOS_SIZES)  # mos6par.c: no .options scale
-_MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, needs=_NSUB,
+_MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
                   module_only=frozenset({"type"}), form=_MOS_SIZES)  # mos9par.c: no .options scale
 _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
                    instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
@@ -415,13 +424,6 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Mo
                                         f"{', '.join(sorted(m.versions))})")
         _warn(notes, f"model {card.name}: version {version} runs ngspice's {runs}; netdae runs {m.name} "
               f"{m.implemented} ({m.module}): results can differ from ngspice's", where)
-    for name, why in m.needs.items():
-        if name not in card.params:
-            raise NetlistError(f"model {card.name}: {_describe(m, card)} without {name}: {why}", card.location,
-                               expected=f".model {card.name} {card.type} level={int(level_of(card))} "
-                                        f"{name}=<value> ...",
-                               hint=f"give {name} (ngspice's {m.name} computes phi, gamma and vto from it when they "
-                                    "are not given: write those too to keep ngspice's values)")
     known = m.known(int(level_of(card)))
     params: dict[str, object] = {"type": 1 if card.type == KINDS[m.kind].model_types[0] else -1}
     params.update(m.defaults)
@@ -448,6 +450,19 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Mo
             _warn(notes, f"model {card.name}: {raw}={value:g}: {m.differs[raw]}", loc)
         params[name_in] = value
         locations[name_in] = loc
+    for raw, (value, defaults, unused) in m.stand_ins.items():  # what ngspice does without it, through the module
+        name_in = _model_name(m, raw, module)
+        if name_in is not None and name_in not in params:
+            params[name_in] = value
+            for other, default in defaults.items():
+                other_in = _model_name(m, other, module)
+                if other_in is not None and other_in not in params:
+                    params[other_in] = default
+            for other, off in unused.items():
+                other_in = _model_name(m, other, module)
+                if other_in is not None:
+                    params[other_in] = off
+                    locations.pop(other_in, None)
     for raw, text in card.strings.items():
         if raw != "version" or m.implemented is None:
             _warn(notes, f"model {card.name}: string parameter {raw}=\"{text}\" ignored, as ngspice ignores it",
