@@ -157,15 +157,6 @@ def test_behavioural_sources_are_noiseless_and_switches_are_resistors():
     np.testing.assert_allclose(res["onoise_s1"], math.sqrt(4 * K * T / 100) * rp, rtol=1e-12)
 
 
-def test_osdi_devices_are_refused_with_their_location():
-    from netdae.devices.osdi.family import OsdiFamily
-
-    family = OsdiFamily.__new__(OsdiFamily)
-    family.elements = [load("t\nR1 a 0 1\n.op\n").elements[0]]
-    with pytest.raises(CircuitError, match=r":2:1: r1: \.noise of OSDI .* is not supported"):
-        family.noise(np.zeros(2), T)
-
-
 def test_save_print_csv_raw_and_control_block(tmp_path):
     from netdae.io.csv import read_csv
     from netdae.io.raw import read_raw, write_raw

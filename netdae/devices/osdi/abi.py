@@ -34,7 +34,8 @@ __all__ = [
     "JACOBIAN_ENTRY_RESIST_CONST", "JACOBIAN_ENTRY_REACT_CONST",
     "JACOBIAN_ENTRY_RESIST", "JACOBIAN_ENTRY_REACT",
     "CALC_RESIST_RESIDUAL", "CALC_REACT_RESIDUAL", "CALC_RESIST_JACOBIAN",
-    "CALC_REACT_JACOBIAN", "CALC_OP", "ENABLE_LIM", "INIT_LIM",
+    "CALC_REACT_JACOBIAN", "CALC_NOISE", "CALC_OP", "ENABLE_LIM", "INIT_LIM", "ANALYSIS_NOISE",
+    "NOISE_TYPE_WHITE", "NOISE_TYPE_FLICKER", "NOISE_TYPE_TABLE", "LOAD_NOISE",
     "ANALYSIS_DC", "ANALYSIS_AC", "ANALYSIS_TRAN", "ANALYSIS_IC", "ANALYSIS_STATIC",
     "EVAL_RET_FLAG_LIM", "EVAL_RET_FLAG_FATAL", "EVAL_RET_FLAG_FINISH", "EVAL_RET_FLAG_STOP",
     "LOG_LVL_MASK", "LOG_FMT_ERR", "INIT_ERR_OUT_OF_BOUNDS",
@@ -87,6 +88,11 @@ ANALYSIS_TRAN = 8192
 ANALYSIS_IC = 16384
 ANALYSIS_STATIC = 32768
 ANALYSIS_NODESET = 65536
+
+# noise source kinds (OSDI 0.5's noise_source_type): white_noise, flicker_noise, noise_table.
+NOISE_TYPE_WHITE = 0
+NOISE_TYPE_FLICKER = 1
+NOISE_TYPE_TABLE = 2
 
 # eval() return flags.
 EVAL_RET_FLAG_LIM = 1
@@ -192,7 +198,7 @@ class OsdiParamOpvar(C.Structure):
 
 
 class OsdiNoiseSource(C.Structure):
-    """A noise source between two nodes (read for completeness; netdae has no noise analysis)."""
+    """A noise source between two nodes (``UINT32_MAX`` as the second: ground)."""
 
     _fields_ = [("name", C.c_char_p), ("nodes", OsdiNodePair)]
 
@@ -297,3 +303,6 @@ EVAL = C.CFUNCTYPE(C.c_uint32, C.c_void_p, C.c_void_p, C.c_void_p, C.POINTER(Osd
 LOAD_RESIDUAL = C.CFUNCTYPE(None, C.c_void_p, C.c_void_p, C.c_void_p)
 LOAD_JACOBIAN_RESIST = C.CFUNCTYPE(None, C.c_void_p, C.c_void_p)
 LOAD_JACOBIAN_REACT = C.CFUNCTYPE(None, C.c_void_p, C.c_void_p, C.c_double)
+#: ``void load_noise(void *inst, void *model, double freq, double *noise_dens)``: every source's density
+#: [A^2/Hz] at ``freq``, from the operating point of the last ``eval`` with ``CALC_NOISE``.
+LOAD_NOISE = C.CFUNCTYPE(None, C.c_void_p, C.c_void_p, C.c_double, C.c_void_p)

@@ -63,6 +63,7 @@ class _Calls:
         self.jac_q = abi.LOAD_JACOBIAN_REACT(descriptor.load_jacobian_react)
         self.lim_f = abi.LOAD_RESIDUAL(descriptor.load_limit_rhs_resist)
         self.lim_q = abi.LOAD_RESIDUAL(descriptor.load_limit_rhs_react)
+        self.noise = abi.LOAD_NOISE(descriptor.load_noise)
 
 
 class OsdiFamily(DeviceFamily):
@@ -80,20 +81,94 @@ class OsdiFamily(DeviceFamily):
                 self._calls[key] = _Calls(inst.module.descriptor)
 
     def noise(self, x, temp):
-        """Refused: netdae does not evaluate the OSDI modules' noise contributions.
+        """The modules' noise sources at the operating point ``x`` (extended), as current generators.
+
+        Every instance is evaluated at ``x`` with ``CALC_NOISE`` (as ngspice's noise analysis
+        evaluates it) and its module's ``load_noise`` gives each source's density at a frequency.
+        A ``white_noise`` source is its density; a ``flicker_noise`` source ``c / f^a`` is read at
+        1 Hz and 10 Hz (``c`` and ``a``: its exponent may depend on the bias, not on the
+        frequency) and checked at 1 kHz. The instance's temperature is the one it was set up
+        at (``temp`` is not used). Generators are named ``<instance>_<source>`` after the
+        module's names of its sources (blanks as ``_``; a name used again in one module gets
+        ``_2``, ``_3`` ...).
+
+        Returns
+        -------
+        NoiseSources
 
         Raises
         ------
         CircuitError
-            Naming the first instance and where it is written.
+            A source given as a table (``noise_table``: no power law), or a density that is not
+            finite or not the white or power law its kind says, naming the instance and the source.
+
+        Notes
+        -----
+        Cost: one ``eval`` and three ``load_noise`` calls per instance.
         """
         from ...errors import CircuitError
+        from ..base import NoiseSources
 
-        el = self.elements[0]
-        where = f"{el.location}: " if el.location else ""
-        raise CircuitError(f"{where}{el.name}: .noise of OSDI (compiled Verilog-A) devices is not supported by "
-                           "netdae (it does not evaluate the modules' noise sources)", elements=(el.name,),
-                           hint="simulate this circuit's noise in ngspice, or replace the device by a built-in one")
+        out = NoiseSources()
+        if not self.instances:
+            return out
+        info = self.info
+        info.abstime = 0.0
+        info.flags = eval_flags("ac") | abi.CALC_NOISE | abi.ANALYSIS_NOISE
+        self.xbuf[:] = np.asarray(x, dtype=float)[: self.n + 1]
+        self.xbuf[self.n] = 0.0
+        self.next_state[:] = 0.0
+        ref = C.byref(info)
+        pos, neg, white, coef, expo = [], [], [], [], []
+        for el, inst, g in zip(self.elements, self.instances, self.glob):
+            mod = inst.module
+            if not mod.noise:
+                continue
+            calls = self._calls[id(mod)]
+            ret = calls.eval(inst.handle, inst.ptr, inst.model.ptr, ref)
+            dens = np.zeros((3, len(mod.noise)))
+            for row, f in enumerate((1.0, 10.0, 1e3)):
+                calls.noise(inst.ptr, inst.model.ptr, f, dens[row].ctypes.data)
+            seen: dict[str, int] = {}
+            for k, src in enumerate(mod.noise):
+                name = re.sub(r"\s+", "_", src.name.strip()) or str(k)
+                seen[name] = seen.get(name, 0) + 1
+                suffix = f"_{name}" if seen[name] == 1 else f"_{name}_{seen[name]}"
+                d1, d10, d1k = dens[:, k]
+
+                def refuse(why, _el=el, _src=src):
+                    where = f"{_el.location}: " if _el.location else ""
+                    return CircuitError(f"{where}{_el.name}: noise source '{_src.name}' of OSDI module {mod.name} "
+                                        f"{why}", elements=(_el.name,))
+
+                if ret & abi.EVAL_RET_FLAG_FATAL or not np.all(np.isfinite(dens[:, k])):
+                    raise refuse("has no finite density at the operating point")
+                if src.kind == abi.NOISE_TYPE_TABLE:
+                    raise refuse("is a table (noise_table), which netdae's noise analysis does not take "
+                                 "(it needs white or 1/f^a densities)")
+                if d1 == d10 == d1k or (src.kind == abi.NOISE_TYPE_WHITE and d1 == 0.0):
+                    w, c, a = d1, 0.0, 1.0
+                elif src.kind == abi.NOISE_TYPE_WHITE:
+                    raise refuse("is white but its density depends on the frequency")
+                elif d1 > 0.0 and d10 > 0.0:
+                    a = float(np.log10(d1 / d10))
+                    w, c = 0.0, d1
+                    if not np.isclose(d1k, c / 1e3 ** a, rtol=1e-9, atol=0.0):
+                        raise refuse("does not fall as a power of the frequency (white plus 1/f^a in one "
+                                     "source, or a table)")
+                else:
+                    raise refuse("has a density of changing sign or one vanishing at some frequencies only")
+                out.element.append(el.name)
+                out.suffix.append(suffix)
+                pos.append(-1 if src.pos >= len(g) else int(g[src.pos]))
+                neg.append(-1 if src.neg is None or src.neg >= len(g) else int(g[src.neg]))
+                white.append(w)
+                coef.append(c)
+                expo.append(a)
+        out.pos = np.array(pos, dtype=np.int64)
+        out.neg = np.array(neg, dtype=np.int64)
+        out.white, out.coefficient, out.exponent = np.array(white), np.array(coef), np.array(expo)
+        return out
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:

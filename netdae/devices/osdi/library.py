@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from ...errors import NetlistError, SourceLocation
 from . import abi
 
-__all__ = ["OsdiParam", "OsdiNodeInfo", "OsdiJacobianEntry", "OsdiModule", "OsdiLibrary", "load_library",
+__all__ = ["OsdiParam", "OsdiNodeInfo", "OsdiNoiseInfo", "OsdiJacobianEntry", "OsdiModule", "OsdiLibrary", "load_library",
            "drain_messages", "LOG_LEVELS"]
 
 #: Names of the ``osdi_log`` levels (``lvl & LOG_LVL_MASK``).
@@ -82,6 +82,20 @@ class OsdiNodeInfo:
 
 
 @dataclass(frozen=True)
+class OsdiNoiseInfo:
+    """A noise source of a module: a current between nodes ``pos`` and ``neg`` (None: ground).
+
+    ``kind`` is OSDI 0.5's ``noise_source_type`` (``abi.NOISE_TYPE_*``); None for an OSDI 0.4 module,
+    which does not say.
+    """
+
+    name: str
+    pos: int
+    neg: int | None
+    kind: int | None
+
+
+@dataclass(frozen=True)
 class OsdiJacobianEntry:
     """A Jacobian entry d(residual of ``row``)/d(unknown of ``col``).
 
@@ -117,6 +131,8 @@ class OsdiModule:
     jacobian : tuple of OsdiJacobianEntry
     num_states : int
         Limiting states per instance.
+    noise : tuple of OsdiNoiseInfo
+        The noise sources, in the order ``load_noise`` writes their densities.
     descriptor : ctypes structure
         The raw descriptor (kept for :mod:`.instance`).
     """
@@ -130,6 +146,7 @@ class OsdiModule:
     jacobian: tuple[OsdiJacobianEntry, ...]
     num_states: int
     descriptor: C.Structure = field(repr=False)
+    noise: tuple[OsdiNoiseInfo, ...] = ()
     _by_name: dict[str, OsdiParam] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -334,6 +351,11 @@ def _read_module(d, library: OsdiLibrary) -> OsdiModule:
             resist_const=bool(e.flags & abi.JACOBIAN_ENTRY_RESIST_CONST),
             react_const=bool(e.flags & abi.JACOBIAN_ENTRY_REACT_CONST),
             react_ptr_off=int(e.react_ptr_off)))
+    kinds = getattr(d, "noise_source_type", None)  # OSDI 0.5 only
+    noise = tuple(OsdiNoiseInfo(
+        _text(d.noise_sources[i].name).lower(), int(d.noise_sources[i].nodes.node_1),
+        None if d.noise_sources[i].nodes.node_2 == abi.UINT32_MAX else int(d.noise_sources[i].nodes.node_2),
+        int(kinds[i]) if kinds else None) for i in range(d.num_noise_src))
     return OsdiModule(name=_text(d.name).lower(), library=library, nodes=nodes, num_terminals=int(d.num_terminals),
                       collapsible=collapsible, params=tuple(params), jacobian=tuple(jac),
-                      num_states=int(d.num_states), descriptor=d)
+                      num_states=int(d.num_states), descriptor=d, noise=noise)

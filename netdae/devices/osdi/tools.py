@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import subprocess
 import tempfile
 
@@ -89,6 +90,10 @@ def osdi_cache_dir(environ=os.environ) -> str:
     raise OSError("no writable directory for compiled OSDI models")
 
 
+#: The terminal colour codes of a compiler's messages (not for a file or a log).
+_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+
+
 def compile_va(source: str, *, location: SourceLocation | None = None, cache_dir: str | None = None,
                timeout: float = 600.0) -> str:
     """Compile a Verilog-A file with the bundled ``openvaf-r``; the ``.osdi`` path.
@@ -117,7 +122,7 @@ def compile_va(source: str, *, location: SourceLocation | None = None, cache_dir
     proc = subprocess.run([vb.OPENVAF_CMD, os.path.abspath(source), "-o", partial], capture_output=True, text=True,
                           timeout=timeout, cwd=os.path.dirname(os.path.abspath(source)))
     if proc.returncode != 0 or not os.path.isfile(partial):
-        text = (proc.stderr or proc.stdout).strip()
+        text = _ANSI.sub("", proc.stderr or proc.stdout).strip()  # the compiler colours its messages
         raise NetlistError(f"openvaf-r could not compile {source}:\n{text}", location,
                            expected="a Verilog-A module OpenVAF accepts")
     os.replace(partial, target)

