@@ -151,6 +151,16 @@ def test_temper_is_the_circuit_temperature(tmp_path):
     _op_agrees(netlist, ["i(v1)", "v(2)", "i(v3)"], tmp_path)
 
 
+def test_several_temperatures_run_at_27_degrees_as_in_ngspice(tmp_path):
+    """ngspice 39 runs one temperature: ``.temp 0 27 100`` warns and runs at 27 degC, even with
+    ``.options temp=50`` (netdae warns at the second value and does the same)."""
+    netlist = "temps\nV1 a 0 1\nR1 a b 1k tc1=0.01\nD1 b 0 dd\n.model dd d is=1e-14\n.options temp=50\n.temp 0 27 100\n"
+    circuit = _op_agrees(netlist, ["v(b)", "i(v1)"], tmp_path)
+    assert circuit.options.temp == 27.0
+    (warning,) = [d for d in circuit.diagnostics if "several temperatures" in d.message]
+    assert warning.location.line == 7 and warning.location.column == 9
+
+
 def test_a_temperature_sweep_evaluates_temper_at_every_point():
     """ngspice's regression tests temper-2/-3: values written with 'temper' follow a .dc temp sweep.
 

@@ -676,11 +676,22 @@ def _options(card: Card, toks: list[Token], stack, net: Netlist) -> None:
             i += 1
 
 
+#: The temperature ngspice 39 runs at after a ``.temp`` card of several values (its default, 27 degC).
+NGSPICE_DEFAULT_TEMP = 27.0
+
+
 def _temp(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     vals = _values(card, toks, 1, DOT_CARDS[".temp"])
-    if len(vals) != 1:
-        raise error(card, vals[1][1] if vals else len(card.text),
-                    "expected one temperature (netdae runs one temperature per netlist)", DOT_CARDS[".temp"])
+    if not vals:
+        raise error(card, len(card.text), "expected a temperature", DOT_CARDS[".temp"])
+    if len(vals) > 1:
+        # ngspice 39: "Could not set temperature to 0 27 100 / Set to default 27 C instead", whatever
+        # .options temp says (measured); SPICE2's list of temperatures is not ngspice's
+        card.warn(vals[1][1], f"several temperatures: ngspice 39 runs one, and with several it runs at "
+                  f"{NGSPICE_DEFAULT_TEMP:g} degC (whatever .options temp says), as netdae does here; for "
+                  f"results at each temperature: '.dc temp ...', or '.step temp list ...' and 'netdae sweep'")
+        net.temps.append(((NGSPICE_DEFAULT_TEMP, vals[0][1]), card))
+        return
     net.temps.append((vals[0], card))
 
 
