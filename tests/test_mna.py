@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import netdae
 from netdae.analyses.op import operating_point
 from netdae.circuit import Element
 from netdae.errors import CircuitError
@@ -105,6 +106,26 @@ def test_coupling_matrix_entries_and_non_positive_definite_error():
         assemble(circuit(*els, Element("k1", "coupling", (), 1.2, controls=("l1", "l2"))))
     assert "l1" in str(exc.value) and "l2" in str(exc.value)
     assert "positive definite" in str(exc.value)
+
+
+@pytest.mark.parametrize("k", [1.0, -1.0])
+def test_a_perfect_coupling_is_an_ideal_transformer(k):
+    """|k| = 1 (ngspice 39 takes it): the inductance matrix is singular, one combination of the
+    currents is algebraic, and the secondary's voltage is the primary's times k sqrt(L2/L1) at every
+    instant (closed form); an indefinite matrix stays refused."""
+    l1, l2, rl = 10e-3, 2.5e-3, 100.0
+    text = (f"ideal transformer\nV1 in 0 SIN(0 10 1k)\nR1 in a 10\nL1 a 0 {l1:g}\nL2 b 0 {l2:g}\n"
+            f"K1 L1 L2 {k:g}\nRL b 0 {rl:g}\n.tran 10u 3m\n")
+    res = netdae.run(text)[0]
+    assert res.ok, res.message
+    ratio = k * np.sqrt(l2 / l1)
+    va, vb = np.asarray(res["v(a)"]), np.asarray(res["v(b)"])
+    np.testing.assert_allclose(vb, ratio * va, rtol=0, atol=1e-9 * np.max(np.abs(va)))
+    assert np.ptp(va) > 1.0
+    # three windings pairwise coupled by 0.9, 0.9 and -0.9: not a transformer (an eigenvalue of -0.8 L)
+    with pytest.raises(CircuitError, match="positive definite"):
+        assemble(netdae.load("t\nL1 a 0 1m\nL2 b 0 1m\nL3 c 0 1m\nK1 L1 L2 0.9\nK2 L1 L3 0.9\nK3 L2 L3 -0.9\n"
+                             "R1 a 0 1\nR2 b 0 1\nR3 c 0 1\n.op\n"))
 
 
 def test_differentiator_pencil_entry_by_entry():

@@ -151,6 +151,14 @@ def test_temper_is_the_circuit_temperature(tmp_path):
     _op_agrees(netlist, ["i(v1)", "v(2)", "i(v3)"], tmp_path)
 
 
+def test_a_perfect_coupling_runs_as_in_ngspice(tmp_path):
+    """K with k = 1 (an ideal transformer's coupling): ngspice 39 takes it, and so does netdae (its singular
+    inductance matrix makes one current combination algebraic)."""
+    netlist = ("k1\nV1 in 0 PULSE(0 10 0.1m 1u 1u 1m 2m)\nR1 in a 10\nL1 a 0 10m\nL2 b 0 2.5m\nK1 L1 L2 1\n"
+               "RL b 0 100\n.tran 10u 3m\n")
+    _tran_agrees(netlist, ["v(a)", "v(b)", "i(l1)"], [50, 120, 200, 280], tmp_path, 1e-3)
+
+
 def test_several_temperatures_run_at_27_degrees_as_in_ngspice(tmp_path):
     """ngspice 39 runs one temperature: ``.temp 0 27 100`` warns and runs at 27 degC, even with
     ``.options temp=50`` (netdae warns at the second value and does the same)."""

@@ -321,6 +321,11 @@ def _stamp_inductors(els, layout, st: LinearStamps, temp, tnom):
     st.E.add(k, k, inductances(els, temp, tnom) / _multiplier(els))
 
 
+#: An inductance matrix is refused when an eigenvalue is below -COUPLING_ROUNDING times the largest:
+#: a perfect coupling (|k| = 1) gives an eigenvalue of 0 up to the rounding of k sqrt(L1 L2).
+COUPLING_ROUNDING = 1e-12
+
+
 def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit, inductors: list[Element], temp, tnom):
     """Mutual inductances ``M = k sqrt(L1 L2)`` of the temperature-corrected inductances.
 
@@ -362,7 +367,8 @@ def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit, inductors:
         mat = np.array(
             [[value[p] if p == q else mutual.get((p, q), 0.0) for q in members] for p in members]
         )
-        if np.any(np.linalg.eigvalsh(mat) <= 0.0):
+        eig = np.linalg.eigvalsh(mat)
+        if np.any(eig < -COUPLING_ROUNDING * np.max(np.abs(eig))):
             couplings = sorted(el.name for el in els if set(el.controls) <= group)
             raise CircuitError(
                 f"the inductance matrix of the coupled inductors {', '.join(members)} is not positive definite "
