@@ -29,7 +29,7 @@ from ..errors import CircuitError, NetdaeError
 from ..mna import MODE_DC
 from ..netlist.steps import check_grid_size, grid
 from ..results import Result, Statistics
-from .op import op_result, solve_operating_point, steady_options
+from .op import circuit_operating_point, op_result, steady_options
 from .prepared import prepare
 
 __all__ = ["frequencies", "ac_analysis", "solve_ac", "linearize", "Linearization", "DENSE_AC_LIMIT"]
@@ -205,7 +205,7 @@ def linearize(circuit: Circuit, **overrides) -> Linearization:
     """
     prepared = prepare(circuit, mode=MODE_DC)
     opts = steady_options(circuit, **overrides)
-    op = solve_operating_point(prepared, options=opts)
+    op = circuit_operating_point(prepared, opts)
     E, H = prepared.system.steady_form().jacobians(op.x, 0.0)
     return Linearization(prepared, op, opts, E, H)
 

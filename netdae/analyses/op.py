@@ -24,6 +24,8 @@ from the null spaces of the matrix.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import time
 from dataclasses import replace
 
@@ -39,7 +41,8 @@ from ..netlist.expr import Voltage
 from ..results import Result, Statistics
 from .prepared import Prepared, prepare
 
-__all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result", "charge_groups"]
+__all__ = ["steady_options", "solve_operating_point", "operating_point", "op_result", "charge_groups",
+           "shared_operating_points", "circuit_operating_point"]
 
 #: The kinds whose gains can make the DC equations dependent (named in the hint of a singular operating point).
 _SOURCE_GROUPS = ("controlled sources", "charge-defined capacitors", "ideal op-amps")
@@ -359,6 +362,61 @@ def operating_point(circuit: Circuit, **overrides) -> Result:
     t0 = time.perf_counter()
     prepared = prepare(circuit, mode=MODE_DC)
     opts = steady_options(circuit, **overrides)
-    res = solve_operating_point(prepared, options=opts)
+    res = circuit_operating_point(prepared, opts)
     return op_result(prepared.system, res, time.perf_counter() - t0, opts)
+
+
+#: The operating points solved inside :func:`shared_operating_points` (None outside one).
+_SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("netdae_shared_operating_points",
+                                                                     default=None)
+
+
+@contextlib.contextmanager
+def shared_operating_points():
+    """Within the block, a circuit's own DC operating point is solved once per tolerances.
+
+    ``.op``, ``.ac``, ``.noise``, ``.tf``, ``.pz`` and ``.sens`` of one netlist
+    each solve the same problem: the circuit assembled with its DC source
+    values (``prepare(circuit, mode=MODE_DC)``), from the same initial guess,
+    at the same tolerances. The solution is a function of those alone, so
+    :func:`circuit_operating_point` hands the later analyses the first one's
+    (its unknowns copied), value for value what they would compute. A
+    circuit with switches is solved every time: a solve leaves the switch
+    states in its system, which the linearisation reads.
+    :func:`netdae.analyses.runner.run` runs a netlist's analyses inside one
+    block; a circuit whose operating point needs gmin or source stepping
+    (seconds in Python) pays it once instead of once per analysis.
+    """
+    token = _SHARED.set({})
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
+
+
+def circuit_operating_point(prepared: Prepared, opts: SteadyOptions) -> SteadyResult:
+    """The operating point of a circuit as elaborated (its DC source values), shared within a block.
+
+    Parameters
+    ----------
+    prepared : Prepared
+        ``prepare(circuit, mode=MODE_DC)``, its sources untouched.
+    opts : SteadyOptions
+
+    Returns
+    -------
+    SteadyResult
+        :func:`solve_operating_point`'s, or inside :func:`shared_operating_points`
+        the one solved there for the same circuit object and tolerances (a
+        copy: its ``x`` is the caller's).
+    """
+    store = _SHARED.get()
+    if store is None or prepared.system.switching is not None:
+        return solve_operating_point(prepared, options=opts)
+    key = (id(prepared.circuit), repr(opts))
+    entry = store.get(key)
+    if entry is None or entry[0] is not prepared.circuit:
+        entry = store[key] = (prepared.circuit, solve_operating_point(prepared, options=opts))
+    res = entry[1]
+    return replace(res, x=res.x.copy(), notes=list(res.notes))
 

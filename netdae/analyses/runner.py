@@ -260,6 +260,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     names = save if save is not None else circuit.saves
     from ..results import canonical_or
     from .noise import is_noise_name
+    from .op import shared_operating_points
     from .quantities import add_quantities, measured_quantities, plan_quantities, saved_currents
 
     noise_names = [n for n in names or () if is_noise_name(n)]  # only noise results have them
@@ -272,63 +273,65 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         quantities = saved_currents(circuit) + measured_quantities(circuit)
     unused = unused_options(circuit)
     results = []
-    for position, card in enumerate(circuit.analyses):
-        kind = analysis_name(card)
-        if kind == "tran":
-            from .tran import transient
+    # one operating point for .op, .ac, .noise, .tf, .pz and .sens of the circuit
+    with shared_operating_points():
+        for position, card in enumerate(circuit.analyses):
+            kind = analysis_name(card)
+            if kind == "tran":
+                from .tran import transient
 
-            stream = None if output is None or quantities else _stream(output, position, names, wanted)
-            try:
-                res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
-                                bounded=bounded and not circuit.measures, room=room, **options)
-            except KeyboardInterrupt as exc:
-                # Ctrl-C: hand on every result computed so far, the interrupted transient's last
-                partial = getattr(exc, "partial", None)
-                exc.results = _finish(circuit, results + ([partial] if partial is not None else []), names, wanted)
-                raise
-        else:
-            if kind == "op":
-                from .op import operating_point
-
-                res = operating_point(circuit, **options)
-            elif kind == "dc":
-                from .dc import dc_sweep
-
-                res = dc_sweep(circuit, card, **options)
-            elif kind == "pz":
-                from .pz import pz_analysis
-
-                res = pz_analysis(circuit, card, **options)
-            elif kind == "tf":
-                from .tf import tf_analysis
-
-                res = tf_analysis(circuit, card, **options)
-            elif kind == "noise":
-                from .noise import noise_analysis
-
-                res = noise_analysis(circuit, card, **options)
-            elif kind == "sens":
-                from .sens import sens_analysis
-
-                res = sens_analysis(circuit, card, **options)
+                stream = None if output is None or quantities else _stream(output, position, names, wanted)
+                try:
+                    res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
+                                    bounded=bounded and not circuit.measures, room=room, **options)
+                except KeyboardInterrupt as exc:
+                    # Ctrl-C: hand on every result computed so far, the interrupted transient's last
+                    partial = getattr(exc, "partial", None)
+                    exc.results = _finish(circuit, results + ([partial] if partial is not None else []), names, wanted)
+                    raise
             else:
-                from .ac import ac_analysis
+                if kind == "op":
+                    from .op import operating_point
 
-                res = ac_analysis(circuit, card, **options)
-        absent = add_quantities(circuit, res, quantities)
-        if quantities and kind == "tran":  # it kept what the quantities are computed from
-            res.notes = [n for n in res.notes if not n.startswith("saved: ")]
-            res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
-        if kind == "noise":
-            res = _noise_subset(res, noise_names)
-        elif names and kind not in ("pz", "tf", "sens"):  # their quantities are not signals to select
-            try:
-                res = res.subset([n for n in wanted if canonical_or(n) not in absent])
-            except KeyError as exc:
-                raise NetdaeError(f"cannot save: {exc.args[0]}") from None
-        if unused:
-            res.notes.append(unused)
-        results.append(res)
+                    res = operating_point(circuit, **options)
+                elif kind == "dc":
+                    from .dc import dc_sweep
+
+                    res = dc_sweep(circuit, card, **options)
+                elif kind == "pz":
+                    from .pz import pz_analysis
+
+                    res = pz_analysis(circuit, card, **options)
+                elif kind == "tf":
+                    from .tf import tf_analysis
+
+                    res = tf_analysis(circuit, card, **options)
+                elif kind == "noise":
+                    from .noise import noise_analysis
+
+                    res = noise_analysis(circuit, card, **options)
+                elif kind == "sens":
+                    from .sens import sens_analysis
+
+                    res = sens_analysis(circuit, card, **options)
+                else:
+                    from .ac import ac_analysis
+
+                    res = ac_analysis(circuit, card, **options)
+            absent = add_quantities(circuit, res, quantities)
+            if quantities and kind == "tran":  # it kept what the quantities are computed from
+                res.notes = [n for n in res.notes if not n.startswith("saved: ")]
+                res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
+            if kind == "noise":
+                res = _noise_subset(res, noise_names)
+            elif names and kind not in ("pz", "tf", "sens"):  # their quantities are not signals to select
+                try:
+                    res = res.subset([n for n in wanted if canonical_or(n) not in absent])
+                except KeyError as exc:
+                    raise NetdaeError(f"cannot save: {exc.args[0]}") from None
+            if unused:
+                res.notes.append(unused)
+            results.append(res)
     return _finish(circuit, results, names, wanted)
 
 
