@@ -146,3 +146,43 @@ def test_compare_passes_and_explains_ngspice_output_impedance():
     item = comparison.analysis("tf")
     assert comparison.passed and item.excluded == ["vl#output_impedance"]
     assert any("not judged" in n for n in item.notes)
+
+
+RL_SHORT = "rl\nV1 a 0 dc 1\nR1 a b 50\nL1 b 0 100u\nR2 b 0 1k\n.tf v(b) V1\n"
+
+
+def _tf_result(values):
+    from netdae.results import Result
+
+    return Result("tf", {}, {k: np.array([v]) for k, v in values.items()})
+
+
+def test_compare_floors_an_output_impedance_shorted_at_dc():
+    """An output node shorted by an inductor: Zout = 0 exactly, ngspice 39 prints 7.105427e-15 ohm.
+
+    Closed form: transfer function 0, input impedance R1 = 50 ohm, output impedance 0. The
+    rounding residue is compared against 1e-12 of the largest impedance (50 ohm), not against
+    itself (relative error 1 before); a real difference still fails.
+    """
+    from netdae.comparison.header import Tolerance
+    from netdae.comparison.smallsignal import TF_IMPEDANCE_FLOOR, compare_tf
+
+    ours = tf_of(RL_SHORT)
+    assert ours["transfer_function"] == pytest.approx(0.0, abs=1e-15)
+    assert ours["v1#input_impedance"] == pytest.approx(50.0, rel=1e-12)
+    assert ours["output_impedance_at_v(b)"] == pytest.approx(0.0, abs=1e-12)
+    nd = _tf_result(ours)
+    tol = Tolerance(rel=1e-3)
+    ngspice_printed = dict(ours, **{"output_impedance_at_v(b)": 7.105427e-15})
+    item = compare_tf(nd, _tf_result(ngspice_printed), tol=tol)
+    z = next(s for s in item.signals if s.name == "output_impedance_at_v(b)")
+    assert z.passed and z.scale == pytest.approx(TF_IMPEDANCE_FLOOR * 50.0)
+    assert any("rounding level" in n for n in item.notes)
+    wrong = dict(ours, **{"output_impedance_at_v(b)": 1e-3})  # a milliohm is no rounding residue
+    assert not next(s for s in compare_tf(nd, _tf_result(wrong), tol=tol).signals
+                    if s.name == "output_impedance_at_v(b)").passed
+
+
+@pytest.mark.ngspice
+def test_compare_passes_a_shorted_output_against_ngspice():
+    assert netdae.compare(RL_SHORT, backend="subprocess").passed

@@ -15,7 +15,10 @@ a double zero at 0 of a circuit with two coupling capacitors as
 note saying ngspice missed it) and does not fail the comparison; a root only
 ngspice finds fails it.
 
-``.tf``: the three numbers are compared as an operating point's values are.
+``.tf``: the three numbers are compared value by value, each relative to the
+larger of its two values; an impedance below :data:`TF_IMPEDANCE_FLOOR` of the
+largest finite impedance (an output node shorted at DC: 0 in one simulator,
+7e-15 ohm in the other) against that floor.
 The output impedance of a current output is not judged when ngspice reports
 1e20 and netdae a finite value: ngspice 39 computes it as
 ``1 / max(1e-20, i)``, which is 1e20 for every branch whose current per
@@ -38,7 +41,7 @@ from ..results import Result
 from .header import Tolerance
 from .model import AnalysisComparison, SignalComparison
 
-__all__ = ["ROOT_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf",
+__all__ = ["ROOT_FLOOR", "TF_IMPEDANCE_FLOOR", "MATCH_LIMIT", "NOISE_DYNAMIC_RANGE", "match_roots", "compare_pz", "compare_tf",
            "compare_sens", "compare_noise", "NGSPICE_WRONG_SENS"]
 
 #: Roots smaller than this fraction of the analysis's largest root are compared absolutely: a root at
@@ -54,6 +57,22 @@ MATCH_LIMIT = 1e-2
 NOISE_DYNAMIC_RANGE = 1e-9
 #: ngspice's infinite impedance.
 _INFINITE = 1e20
+#: A ``.tf`` impedance smaller than this fraction of the largest finite impedance of the analysis
+#: (input or output, either simulator) is compared absolutely: an output node shorted at DC (through
+#: an inductor) has the impedance 0 in one simulator and 7e-15 ohm in the other, a rounding error
+#: of the solve; the same floor as the roots' (:data:`ROOT_FLOOR`).
+TF_IMPEDANCE_FLOOR = ROOT_FLOOR
+
+
+def _is_impedance(name: str) -> bool:
+    return "impedance" in name  # src#input_impedance, x#output_impedance, output_impedance_at_v(...)
+
+
+def _largest_impedance(nd: Result, ng: Result, names) -> float:
+    """The largest finite ``.tf`` impedance either simulator reports (0 when there is none)."""
+    values = [abs(float(r.signals[n][0])) for r in (nd, ng) for n in names if _is_impedance(n) and n in r.signals]
+    finite = [v for v in values if np.isfinite(v) and v < _INFINITE]
+    return max(finite, default=0.0)
 
 
 def match_roots(a, b, *, floor: float) -> tuple[list[tuple[int, int, float]], list[int], list[int]]:
@@ -180,13 +199,23 @@ def compare_tf(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
         item.error = "no quantity is produced by both simulators (see only_netdae / only_ngspice)"
         return item
     signals = []
+    floor = TF_IMPEDANCE_FLOOR * _largest_impedance(nd, ng, compared)
+    floored = []
     for name in compared:
         a, b = float(nd.signals[name][0]), float(ng.signals[name][0])
         err = abs(a - b)
         scale = max(abs(a), abs(b)) or 1.0
+        how = "magnitude"
+        if _is_impedance(name) and floor > scale:
+            scale, how = floor, "floor"
+            floored.append(name)
         passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
-        signals.append(SignalComparison(name, err, err / scale, err, {}, scale, "magnitude", passed,
+        signals.append(SignalComparison(name, err, err / scale, err, {}, scale, how, passed,
                                         netdae=a, ngspice=b))
+    if floored:
+        item.notes.append(f"{', '.join(floored)}: at the rounding level of the circuit's impedances in one "
+                          f"simulator (a node shorted at DC); compared absolutely, against "
+                          f"{TF_IMPEDANCE_FLOOR:g} of the largest impedance ({floor / TF_IMPEDANCE_FLOOR:.6g} ohm)")
     item.signals = sorted(signals, key=lambda s: (-s.max_rel, s.name))
     return item
 

@@ -59,6 +59,15 @@ _PSPICE_MODEL_TYPES = {"vswitch": "PSpice's voltage-controlled switch (ngspice's
                        "iswitch": "PSpice's current-controlled switch (ngspice's csw)"}
 #: The PSpice switch model each switch kind runs in ngspice's PSpice mode (:func:`netdae.netlist.compat.realise_switch`).
 _PSPICE_SWITCHES = {Kind.VSWITCH: "vswitch", Kind.CSWITCH: "iswitch"}
+
+# ``m=`` on a subcircuit instance whose subcircuit declares no parameter ``m`` multiplies the
+# elements inside, as ngspice 39 does (``inp_fix_subckt_multiplier``: ``m={m}`` on every card of
+# the body but B, V, E and H): the kinds whose own ``m`` netdae applies take the product; a
+# coupling K relates two inductors that are both multiplied, so it stays; the other kinds are
+# refused when the product is not 1.
+_INSTANCE_MULTIPLIED = frozenset({Kind.RESISTOR, Kind.CAPACITOR, Kind.INDUCTOR, Kind.VCCS, Kind.CCCS,
+                                  Kind.DIODE, Kind.BJT, Kind.MOSFET, Kind.JFET, Kind.MESA, Kind.VDMOS})
+_INSTANCE_M_EXEMPT = frozenset("bveh")
 #: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
 _UNIMPLEMENTED_MODEL_TYPES = {"nhfet": "ngspice's N-channel HFET (heterostructure FET)",
                               "phfet": "ngspice's P-channel HFET (heterostructure FET)"}
@@ -90,6 +99,12 @@ class _Frame:
     def __init__(self, inst: InstanceCard, sub: Definition) -> None:
         self.inst = inst
         self.sub = sub
+
+
+def _multiplier_instance(inst: InstanceCard, sub: Definition) -> bool:
+    """True when the instance's ``m`` is ngspice's multiplier, not a parameter of the subcircuit."""
+    return "m" in inst.params and not any(d.name == "m" for d in sub.defaults) \
+        and not any(p.name == "m" for p in sub.params)
 
 
 class _Placed:
@@ -386,6 +401,8 @@ class _Elaborator:
             declared = {d.name for d in sub.defaults}
             local = {p.name for p in sub.params}
             for name, val in inst.params.items():
+                if name == "m" and _multiplier_instance(inst, sub):
+                    continue
                 if name not in declared and name not in local:
                     known = ", ".join(sorted(declared | local)) or "none"
                     raise error(inst.card, val[1], f"subcircuit '{sub.name}' has no parameter '{name}' "
@@ -965,8 +982,47 @@ class _Elaborator:
                 el.expr = self._temperature_scaled(el, env, card)
         if item.controls:
             el.controls = p.crefs[: len(item.controls)]
+        if p.frames:
+            self._instance_multiplier(el, item, p.frames)
         self._check_value(el, item)
         return el
+
+    def _instance_multiplier(self, el: Element, item: ElementCard, frames: tuple) -> None:
+        """Multiply an element inside subcircuit instances by their ``m=`` (ngspice 39's rule).
+
+        ngspice 39 adds ``m={m}`` to the body's cards (not to B, V, E, H) of a subcircuit one of
+        whose instances gives ``m=``: an element's or an inner instance's own ``m`` is then
+        replaced, not multiplied, and the subcircuit's other instances set it to 1. netdae
+        multiplies where that replacement cannot differ (one multiplier on the chain, the element
+        without its own ``m``) and refuses the rest rather than reproduce the replacement.
+        """
+        given = [(i, f) for i, f in enumerate(frames) if "m" in f.inst.params and _multiplier_instance(f.inst, f.sub)]
+        if not given or item.name[0] in _INSTANCE_M_EXEMPT or el.kind == Kind.COUPLING:
+            return
+        card = item.card
+        values = []
+        for i, f in given:
+            env = self.env(frames[:i]) if i else self.root
+            values.append(evaluate_val(f.inst.params["m"], env, f.inst.card, "multiplier m"))
+        mult = math.prod(values)
+        if len(given) > 1 or "m" in el.params:
+            own = "its own m=" if "m" in el.params else "another instance's m="
+            raise error(card, 0, f"{el.name} has {own} and sits in subcircuit instance "
+                        f"{given[-1][1].inst.name} with m=: ngspice 39 replaces the inner m by the instance's "
+                        f"(it does not multiply them); netdae does not reproduce that replacement",
+                        ELEMENTS.get(item.name[0]),
+                        hint="give m= on one level only: on the instance, or on the elements inside")
+        if mult == 1.0:
+            return
+        if el.kind not in _INSTANCE_MULTIPLIED:
+            raise error(card, 0, f"{el.name} ({el.kind}) sits in subcircuit instance {given[-1][1].inst.name} "
+                        f"with m={mult:g}: netdae multiplies resistors, capacitors, inductors, linear G and F, "
+                        f"diodes and transistors by an instance's m=, not this element",
+                        ELEMENTS.get(item.name[0]),
+                        hint="scale the element's value inside the subcircuit with a parameter instead")
+        el.params = dict(el.params) if el.params else {}
+        el.params["m"] = mult
+        self._bind(el.name, "param", "m")
 
     def _temperature_scaled(self, el: Element, env, card) -> ex.Expr:
         """A B source's expression times ``1 + tc1 dT + tc2 dT^2`` (divided by it with ``reciproctc``).
