@@ -16,7 +16,9 @@ The steps, each visible in the result's notes and ``transient`` (:class:`netdae.
    index and which unknowns depend on input derivatives (index 2).
 3. **Consistent initial values**: an index-2 circuit whose inputs change at
    t0 (the differentiator driven by a sine) has hidden constraints the DC
-   operating point violates; netdae replaces the nilpotent part of the start
+   operating point violates (a steady state of the inputs' values at t0, it
+   violates only what their derivatives there impose: nothing when they do
+   not change); netdae replaces the nilpotent part of the start
    by the one the decoupled solution (2.12) prescribes and reports what
    changed (``initial="ngspice"`` keeps the inconsistent start as ngspice
    does). A ``uic`` start keeps the given charges and fluxes and solves for
