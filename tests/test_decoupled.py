@@ -189,6 +189,39 @@ def test_differentiator_operating_point_is_inconsistent_when_the_source_moves():
     assert wf.check_consistency(exact, c_derivs).consistent
 
 
+def test_a_steady_start_violates_only_what_the_input_derivatives_make():
+    # an operating point solves the DC equations up to its solver's residual; judged as a steady state
+    # (steady=True) only the inputs' derivatives at t0 can make it inconsistent
+    G, L, omega, t0 = 1e-3, 1e-3, 100.0, 0.002
+    E, H, B, names = differentiator_cascade(1, G, L)
+    wf = weierstrass_form(E, H)
+    o1 = names.index("o1")
+
+    def moving(l):
+        return (B @ [sine_derivative(omega, t0, l)]).ravel()
+
+    exact = cascade_solution(1, G, L, omega, t0)[:, 0]
+    dc_like = exact.copy()
+    dc_like[o1] = 0.0  # the DC operating point of the source's value at t0: a steady state
+    full = wf.check_consistency(dc_like, moving)
+    steady = wf.check_consistency(dc_like, moving, steady=True)
+    assert steady.affected == full.affected == (o1,) and steady.affected_by_order == ((), (o1,))
+    assert np.max(np.abs(steady.x_consistent - full.x_consistent)) < 1e-12 * np.max(np.abs(exact))
+
+    value = moving(0)
+
+    def constant(l):  # the same value at t0, not changing there
+        return value if l == 0 else np.zeros_like(value)
+
+    # the steady state off by a residual in an explicit constraint (a Newton tolerance's worth): the
+    # full check measures it, the steady one leaves it (it is no hidden constraint the inputs impose)
+    off = dc_like.copy()
+    off[names.index("u1")] += 1e-7
+    assert not wf.check_consistency(off, constant).consistent
+    rep = wf.check_consistency(off, constant, steady=True)
+    assert rep.consistent and rep.violation_by_order == (0.0, 0.0) and np.all(rep.dx == 0.0)
+
+
 def test_index_one_consistency_keeps_the_inductor_flux():
     G, L, A, V0 = 1e-3, 1e-3, 20.0, 1.5
     E, H, B, names = differentiator_cascade(1, G, L, gain=A)

@@ -6,6 +6,9 @@ otherwise (``netdae.compare``).
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -134,3 +137,52 @@ def test_an_inconsistent_start_is_corrected_and_reported():
     assert res.t[0] == res.t[1] == 0.0 and res.x[1, 0] == pytest.approx(1.0)
     exact = 1.0 - np.exp(-res.t[-1] / 1e-3)
     assert abs(res.x[-1, 1] - exact) < 1e-4
+
+
+# -- an operating point is consistent when no input changes at t0 -----------------------------------------------
+TIA = Path("/work/corpus/examples/TransImpedanceAmp/output.net")  # ngspice's example: op-amp macromodels
+
+
+def _op177a() -> str:
+    """The OP177A macromodel of ngspice's transimpedance-amplifier example (Analog Devices'), as a library text."""
+    if not TIA.exists():
+        pytest.skip("the ngspice corpus is not here")
+    found = re.search(r"^\.SUBCKT OP177A.*?^\.ENDS", TIA.read_text(), flags=re.M | re.S | re.I)
+    assert found is not None
+    return found.group(0)
+
+
+@pytest.mark.ngspice
+def test_an_operating_point_is_kept_when_no_input_changes_at_t0(tmp_path):
+    # A capacitor loop through V3 makes i(v3) index 2; I1 is flat until 1 ns, so the DC operating point is
+    # a steady state of the transient and consistent. The OP177A's Weierstrass transformation has a
+    # condition of 1e19: its Newton residual (1e-9 A) read through it as violated constraints moved 48
+    # unknowns (the supply node v(vn) from -5 to -5.00002, i(e.xu.e3) by 12 A) and the transient failed at t = 0.
+    (tmp_path / "op177a.lib").write_text(_op177a() + "\n")
+    netlist = tmp_path / "loop.cir"
+    netlist.write_text("""OP177A inverting amplifier with a capacitor loop at its input
+.options gmin=1e-9 method=gear abstol=1e-11
+.include op177a.lib
+V1 vp 0 DC 5
+V2 vn 0 DC -5
+XU 0 inm vp vn out OP177A
+Rf out inm 10k
+Rin b inm 1k
+Cp 0 a 1p
+V3 b a DC 0
+Cb b 0 1p
+I1 0 a PWL(0 0 1n 0 1.01n 1u)
+.tran 0.05n 5n
+.end
+""")
+    ckt = netdae.load(str(netlist))
+    report = netdae.analyze_index(ckt)
+    assert report.index == 2 and report.consistent_initial_values
+    r = transient(ckt)
+    assert r.ok, r.message
+    assert r.transient.initial_correction is None and all(tj > 0.0 for tj, _ in r.transient.jumps)
+    start = r.transient.start
+    for name in ("v(vn)", "v(out)", "i(v3)", "i(e.xu.e3)"):
+        assert r[name][0] == start[name], name  # the transient starts from the operating point
+    cmp = netdae.compare(str(netlist), signals=["v(out)", "v(inm)", "i(v3)"], analyses=["tran"])
+    assert cmp.passed, "\n".join(format_analysis(a) for a in cmp.analyses)

@@ -236,6 +236,7 @@ def _consistency(prepared: Prepared, pencil: PencilReport, x0: np.ndarray | None
     tran = prepared if prepared.system.sources.mode == MODE_TRAN else \
         prepared.with_system(assemble(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop))
     tsys = tran.system
+    steady = x0 is None and not circuit.ic  # the operating point without .ic: a steady state of the inputs at t0
     if x0 is None:
         if card.uic:
             return None  # the uic start is judged by the transient itself
@@ -248,7 +249,7 @@ def _consistency(prepared: Prepared, pencil: PencilReport, x0: np.ndarray | None
     def c_derivs(k: int) -> np.ndarray:
         return c0 if k == 0 else tsys.source(0.0, k)
 
-    return H.check_consistency(x0, c_derivs)
+    return H.check_consistency(x0, c_derivs, steady=steady)
 
 
 def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
