@@ -248,3 +248,57 @@ def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert err.startswith(f"netdae: error: {bad}:3:7: c1: missing capacitance (expected: Cname")
+
+
+@pytest.mark.parametrize("data, line, column, what", [
+    ("t\nR1 a 0 1\n.op\n".encode("utf-16"), 1, 4, "it looks like text saved as UTF-16 or UTF-32"),
+    ("t\nR1 a 0 1\n.op\n".encode("utf-16-le"), 1, 2, "it looks like text saved as UTF-16 or UTF-32"),
+    (b"t\nR1 a 0 1\n\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 5, 1, "it looks like a binary file, not a text netlist"),
+    (b"t\nR\x001 a 0 1\n.op\n", 2, 2, "it looks like a binary file, not a text netlist"),
+])
+def test_file_with_a_nul_byte_is_refused_at_it(tmp_path, data, line, column, what):
+    """UTF-16 text and binary files read as cards of garbage ('unknown card ' v 1 '', a NUL inside an element
+    name accepted); a NUL byte is refused where it is, saying what the file seems to be."""
+    path = tmp_path / "bad.cir"
+    path.write_bytes(data)
+    with pytest.raises(NetlistError) as exc:
+        load(path)
+    err = exc.value
+    assert err.message == f"NUL byte in '{path}': {what}"
+    assert (err.location.file, err.location.line, err.location.column) == (str(path), line, column)
+    top = tmp_path / "top.cir"
+    top.write_text("t\n.include bad.cir\nV1 a 0 1\n.op\n")
+    with pytest.raises(NetlistError, match="NUL byte in") as exc:
+        load(top)
+    assert exc.value.location.file == str(path)
+
+
+def test_endless_include_is_refused(tmp_path, monkeypatch):
+    """.include /dev/zero read until the machine's memory ran out (23 GB, then the OOM killer)."""
+    import os
+
+    from netdae.netlist import reader
+
+    top = tmp_path / "top.cir"
+    if os.path.exists("/dev/zero"):
+        top.write_text("t\n.include /dev/zero\nR1 a 0 1\n.op\n")
+        with pytest.raises(NetlistError) as exc:
+            load(top)
+        assert str(exc.value).startswith(f"{top}:2:10: include file '/dev/zero' is larger than 256 MiB (or "
+                                         "endless, such as a device)")
+    monkeypatch.setattr(reader, "MAX_FILE_BYTES", 100)
+    (tmp_path / "big.lib").write_text("* big\n" + "R9 b 0 1\n" * 20)
+    top.write_text("t\n.include big.lib\nR1 a 0 1\n.op\n")
+    with pytest.raises(NetlistError, match=r":2:10: include file '.*big.lib' is larger than 0 MiB"):
+        load(top)
+
+
+def test_very_long_token_is_shown_by_its_ends():
+    """A 200,000-digit number on a very long line: the message shows its ends and its length, not all of it."""
+    text = "t\nR1 a 0 " + "1" * 200_000 + "\nV1 a 0 1\n.op\n"
+    with pytest.raises(NetlistError) as exc:
+        load(text)
+    err = exc.value
+    assert (err.location.line, err.location.column) == (2, 8)
+    assert err.message == "r1: value '" + "1" * 40 + "..." + "1" * 10 + "' (200,000 characters) is out of range"
+    assert len(str(err)) < 400
