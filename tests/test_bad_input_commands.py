@@ -10,11 +10,13 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
 import pytest
 
 import netdae
 from netdae.cli import EXIT_ERROR, main
 from netdae.errors import NetlistError
+from netdae.io.csv import read_csv
 
 PULSE_BEFORE_ZERO = """negative pulse delay
 v1 in 0 pulse(0 1 -1 1n 1n 1u 0)
@@ -285,3 +287,95 @@ def test_option_at_the_range_end_runs(capsys, tmp_path):
     text = "options\nv1 in 0 1\nr1 in out 1k\nd1 out 0 dm\n.model dm d\n.options gmin=1e-3\n.op\n.end\n"
     status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
     assert status == 0, err
+
+
+@pytest.mark.parametrize("card,message", [
+    (".dc v1 0 1 1e-300", ":6:1: .dc v1: the sweep would have 1e+300 points"),
+    (".dc v1 0 1e300 1e-300", ":6:1: .dc v1: the sweep would have infinitely many points"),
+    (".ac lin 1e300 1 2", ":6:1: .ac lin: the sweep would have 1e+300 points"),
+    (".step param rv 0 1e300 1e-300", ":6:16: .step: the sweep would have infinitely many points"),
+])
+def test_sweep_grid_of_astronomical_size(capsys, tmp_path, card, message):
+    """A count beyond 1e15 is shown in powers of ten (was three hundred digits), an infinite one named (was an
+    OverflowError from a .step), and .dc and .ac refusals are located at their card."""
+    status, err, path = _cli(capsys, tmp_path, GRID.format(card=card), "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert f"{path}{message}" in err and "more than netdae's limit of 10,000,000" in err
+    assert "bug in netdae" not in err and len(err) < 400
+
+
+def test_logarithmic_sweep_whose_ratio_overflows(capsys, tmp_path):
+    """.ac dec 1 1e-300 1e300: stop/start overflows, the decades do not: 600 decades, 601 points (was refused as
+    'infinitely many')."""
+    status, err, _ = _cli(capsys, tmp_path, GRID.format(card=".ac dec 1 1e-300 1e300"), "run", "-q", "--out",
+                          str(tmp_path / "o"))
+    assert status == 0, err
+    f = read_csv(tmp_path / "o" / "ac.csv").axes["frequency"]
+    assert f.size == 601
+    np.testing.assert_allclose(np.log10(f), np.arange(-300, 301), rtol=0, atol=1e-12)
+
+
+def test_transient_of_astronomical_size_is_refused_in_short_numbers(capsys, tmp_path):
+    text = "huge tran\nv1 in 0 1\nr1 in out 1k\nc1 out 0 1u\n.tran 1e-300 1\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert f"{path}:5:1: .tran: " in err and "at 1e+300 points or more" in err and "the run cannot finish" in err
+    assert len(err) < 600
+
+
+def test_operating_point_of_a_current_source_into_capacitors(capsys, tmp_path):
+    """A current source into a node of capacitors only: the charge-balance rows hold every Jacobian entry of the
+    circuit, and np.bincount of nothing returned integers (was a UFuncTypeError, 'a bug in netdae')."""
+    status, err, path = _cli(capsys, tmp_path, "t\nI1 a 0 1\nC1 a 0 1\n.op\n.end\n", "run", "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err
+    assert "i1 drives a net DC current of -1 A into node 'a'" in err and "add a resistor from node 'a'" in err
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_out_naming_a_file(capsys, tmp_path, command):
+    """--out onto a file: said in words (was '[Errno 17] File exists'); the sweep checks it before its rows run."""
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")
+    text = "t\nv1 in 0 1\nr1 in out 1k\nc1 out 0 1u\n.tran 1u 10u\n.meas tran x max v(out)\n.end\n"
+    extra = ["--step", "r1=1k,2k", "--workers", "1"] if command == "sweep" else []
+    status, err, _ = _cli(capsys, tmp_path, text, command, "-q", "--out", str(blocker), *extra)
+    assert status == EXIT_ERROR, err
+    assert err == f"netdae: error: cannot write {blocker}: --out names a file, not a directory (hint: give a " \
+                  "directory, which netdae creates if it does not exist)\n"
+    status, err, _ = _cli(capsys, tmp_path, text, command, "-q", "--out", str(blocker / "sub"), *extra)
+    assert status == EXIT_ERROR and "a part of the path is a file, not a directory" in err, err
+
+
+def test_differential_voltage_written_to_csv(capsys, tmp_path):
+    """--save v(in,out): the CSV header quotes the name holding a comma (was refused: 'contains a separator')."""
+    text = "t\nv1 in 0 1\nr1 in out 1k\nr2 out 0 3k\n.op\n.dc v1 0 2 1\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--save", "v(in,out),v(out)", "--out",
+                          str(tmp_path / "o"))
+    assert status == 0, err
+    dc = tmp_path / "o" / "dc.csv"
+    assert dc.read_text().splitlines()[0] == 'v1,"v(in,out)",v(out)'
+    res = read_csv(dc)
+    np.testing.assert_allclose(res.signals["v(in,out)"], 0.25 * res.axes["v1"], rtol=1e-9)  # divider 1k : 3k
+    op = read_csv(tmp_path / "o" / "op.csv")
+    assert op.signals["v(in,out)"][0] == pytest.approx(0.25, rel=1e-9)
+
+
+API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: netdae.load(API_RC, params="r=1"), r"params must be a mapping of parameter names to values"),
+    (lambda: netdae.load(API_RC, params=[("r", 1)]), r"params must be a mapping .* not list"),
+    (lambda: netdae.load(API_RC, max_elements="10"), r"max_elements must be an integer, not str"),
+    (lambda: netdae.run(API_RC, save="v(out)"), r"save must be a list of signal names, e.g. save=\['v\(out\)'\]"),
+    (lambda: netdae.run(API_RC, save=[3]), r"save: a signal name must be a string, not int"),
+    (lambda: netdae.run(API_RC, save=3), r"save must be a list of signal names, not int"),
+    (lambda: netdae.run(API_RC, reltol="1e-3"), r"reltol must be a number, not str"),
+    (lambda: netdae.run(API_RC, abstol=np.array([1e-12, 1e-9])), r"abstol must be a number, not ndarray"),
+])
+def test_api_arguments_of_the_wrong_type(call, message):
+    """Wrong argument types are TypeErrors that say what is expected (were AttributeErrors from inside, or a
+    numpy UFuncTypeError from the Newton iteration for reltol='1e-3')."""
+    with pytest.raises(TypeError, match=message):
+        call()

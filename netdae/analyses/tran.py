@@ -53,7 +53,7 @@ from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
-from ..errors import CircuitError, NetdaeError, SingularPencilError
+from ..errors import CircuitError, NetdaeError, SingularPencilError, count_text
 from ..kinds import KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
@@ -210,8 +210,9 @@ def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: i
         return None
     has = (f"of memory, this machine has {capacity / 2**30:,.1f} GiB" if room is None
            else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
-    what = (f"keeping {saved:,} of {total:,} unknowns at {points:,} points or more (tstop/tmax = "
-            f"{card.tstop:g}/{tmax:g}) needs at least {size / 2**30:,.1f} GiB {has}")
+    gib = size / 2**30
+    what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "
+            f"{card.tstop:g}/{tmax:g}) needs at least {f'{gib:,.1f}' if gib < 1e15 else f'{gib:.3g}'} GiB {has}")
     hint = "save only the signals you need (--save v(out),i(v1) or a .save card), or a larger tstep or tmax"
     if size > REFUSE_FRACTION * capacity:
         where = f"{card.location}: " if card.location is not None else ""

@@ -22,9 +22,8 @@ import json
 import logging
 import sys
 import time
-from pathlib import Path
 
-from . import add_ngbehavior, log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -178,6 +177,7 @@ def main(args) -> int:
 
     circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
+    out = output_directory(args.out)  # before the rows run: a bad --out is not found after hours
     executor, client = None, None
     if args.scheduler:
         client, executor = _dask_executor(args.scheduler)
@@ -197,8 +197,6 @@ def main(args) -> int:
         bar.close()
         if client is not None:
             client.close()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     files = write_sweep(out, result, waveforms=args.waveforms)
     if args.plot:
         from ..errors import NetdaeError

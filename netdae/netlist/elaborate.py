@@ -1423,6 +1423,7 @@ class _Elaborator:
                 elif name in ("temp", "tnom"):
                     self._check_temperature(number, card, value.start, f"option {name}")
                 setattr(opts, name, number)
+                opts.locations[name] = card.location(value.start)
             elif name == "method":
                 word = value.text if value is not True else ""
                 if word not in _METHODS:
@@ -1658,6 +1659,8 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
         ``.ic`` nodes ... each at its token; a circuit larger than
         ``max_elements`` (naming the subcircuit chain); an unknown name or
         a bad value in ``params``.
+    TypeError
+        ``params`` that is not a mapping, ``max_elements`` that is not an integer.
 
     Notes
     -----
@@ -1665,6 +1668,11 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
     expanded once and copied per instance; each parameter scope is
     evaluated once per instance chain.
     """
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(f"params must be a mapping of parameter names to values, e.g. params={{'r': 1e3}}, not "
+                        f"{type(params).__name__}")
+    if max_elements is not None and (isinstance(max_elements, bool) or not isinstance(max_elements, int)):
+        raise TypeError(f"max_elements must be an integer, not {type(max_elements).__name__}")
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
     for what, number in (("sample", sample), ("seed", seed)):
