@@ -183,6 +183,9 @@ CASES = [
     ("t\n.dc vx 0 1 0.1\n", r"sweep source 'vx' is no element", 2, "vx"),
     ("t\nV1 a 0 1\n.dc v1 0 1 -0.1\n", r"step -0.1 does not lead from 0 to 1", 3, "-0.1"),
     ("t\n.dc 1 0 1 0.1\n", r"expected a source name or temp", 2, "1"),
+    ("t\nV1 a 0 1\nR1 a 0 1\n.dc v1 0 1 0.1 V1 0 1 0.5\n", r"'v1' is swept twice: the outer sweep would "
+     r"overwrite", 4, "V1"),
+    ("t\nR1 a 0 1\n.dc temp 0 10 5 temp 0 10 5\n", r"'temp' is swept twice", 3, "temp", 2),
     ("t\nR1 a 0 1\n.ic v(b)=1\n", r"\.ic: unknown node 'b'", 3, "b"),
     ("t\nR1 a 0 1\n.ic a=1\n", r"expected v\(node\)=value, found 'a'", 3, "a"),
     ("t\nR1 a 0 1\n.nodeset v(a)\n", r"expected v\(node\)=value", 3, "v"),

@@ -1199,6 +1199,11 @@ class _Elaborator:
                 sweeps = []
                 for name, offset, start, stop, step in args["sweeps"]:
                     target = None
+                    if sweeps and sweeps[0].source == name:
+                        raise error(card, offset, f"'{name}' is swept twice: the outer sweep would overwrite the "
+                                    "inner one's values at every point", form,
+                                    hint="the second sweep steps another source, a resistor or temp; "
+                                         ".step or 'netdae sweep --step' steps anything else")
                     if name != "temp":
                         target = elements.get(name)
                         resistor = target is not None and target.kind == Kind.RESISTOR
