@@ -379,3 +379,13 @@ def test_api_arguments_of_the_wrong_type(call, message):
     numpy UFuncTypeError from the Newton iteration for reltol='1e-3')."""
     with pytest.raises(TypeError, match=message):
         call()
+
+
+def test_sweep_command_step_given_twice(capsys, tmp_path):
+    """--step r1=1,2 --step R1=3,4: the first was dropped without a word (a dict of the two)."""
+    text = "t\nv1 in 0 1\nr1 in out 1k\nc1 out 0 1u\n.tran 1u 10u\n.meas tran x max v(out)\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "sweep", "-q", "--out", str(tmp_path / "o"), "--step", "r1=1,2",
+                          "--step", "R1=3,4", "--workers", "1")
+    assert status == EXIT_ERROR, err
+    assert err.startswith("netdae: error: --step r1 is given twice (hint: give all its values in one --step")
+    assert not (tmp_path / "o").exists()

@@ -171,10 +171,17 @@ class _Progress:
 
 
 def main(args) -> int:
+    from ..errors import NetdaeError
     from ..io.sweep import write_sweep
     from ..netlist import load
     from ..sweeps import sweep
 
+    seen: set[str] = set()
+    for name, _ in args.step:  # a name stepped twice: one of the two would be dropped without a word
+        if name in seen:
+            raise NetdaeError(f"--step {name} is given twice (hint: give all its values in one --step, e.g. "
+                              "r1=1k,2k,3k,4k)")
+        seen.add(name)
     circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
     out = output_directory(args.out)  # before the rows run: a bad --out is not found after hours
@@ -199,7 +206,6 @@ def main(args) -> int:
             client.close()
     files = write_sweep(out, result, waveforms=args.waveforms)
     if args.plot:
-        from ..errors import NetdaeError
         from ..plotting import plot_sweep, save_figure
 
         try:
