@@ -57,6 +57,8 @@ CASES = [
     ("t\nR1 a b {f(1)}\n", r"unknown function 'f'", 2, "{f(1)}"),
     ("t\nR1 a b {1/0}\n", r"cannot evaluate value: division by zero", 2, "{1/0}"),
     ("t\nR1 a b {sqrt(-1)}\n", r"sqrt\(-1\) is undefined", 2, "{"),
+    ("t\nR1 a b {1%0}\n", r"r1: cannot evaluate value: 1 % 0 \(the remainder of a division by zero\) is undefined", 2,
+     "{"),
     ("t\n.param a={b} b={a}\nR1 x 0 {a}\n", r"parameter cycle: a -> b -> a", 2, "a={b}"),
     ("t\n.param time=1\n", r"'time' is reserved", 2, "time"),
     ("t\n.param a 1\n", r"expected '=' after parameter name 'a'", 2, "1"),
