@@ -307,3 +307,17 @@ def test_very_long_token_is_shown_by_its_ends():
     assert (err.location.line, err.location.column) == (2, 8)
     assert err.message == "r1: value '" + "1" * 40 + "..." + "1" * 10 + "' (200,000 characters) is out of range"
     assert len(str(err)) < 400
+
+
+def test_osdi_card_naming_a_directory_or_a_device(tmp_path):
+    """'.osdi DIR' said 'does not exist' (wrong blame); the directory or device is named as what it is."""
+    (tmp_path / "models").mkdir()
+    cases = [(str(tmp_path / "models"), "is a directory")]
+    if __import__("os").path.exists("/dev/zero"):
+        cases.append(("/dev/zero", "is not a regular file"))
+    for target, what in cases:
+        with pytest.raises(NetlistError) as exc:
+            load(f"t\n.osdi {target}\nN1 a 0 foo\n.model foo bar\nV1 a 0 1\n.op\n", path=str(tmp_path / "t.cir"))
+        err = exc.value
+        assert err.message == f"OSDI file {target} {what}"
+        assert (err.location.line, err.location.column) == (2, 7)
