@@ -36,7 +36,8 @@ CASES = [
     ("t\n.subckt s a a\n.ends\n", r"port 'a' listed twice", 2, "a", 2),
     ("t\n.subckt s a optional: b=0\n.ends\n", r"'optional:' ports are not read by ngspice 39", 2, "optional:"),
     ("t\n.control\nrun\n", r"\.control block without \.endc", 2, ".control"),
-    ("t\n.lib sec\nR1 a 0 1\n", r"\.lib section without \.endl", 2, ".lib"),
+    ("t\n.lib sec\nR1 a 0 1\n", r"\.lib section without \.endl: '\.lib sec' opens a library section named 'sec'",
+     2, ".lib"),
     ("t\n.endl\n", r"\.endl without a preceding \.lib", 2, ".endl"),
     ("t\n+ 1k\n", r"continuation line", 2, "+"),
     # nodes and values

@@ -326,8 +326,11 @@ def _skip_section(cards: list[Card], start: int) -> int:
             # a section opening inside a section (a .lib with a file name is a reference)
             raise NetlistError(".lib section inside another .lib section", cards[j].location(0),
                                hint=f"close the section opened at line {cards[start].line} with .endl first")
-    raise NetlistError(".lib section without .endl", cards[start].location(0),
-                       hint="close the section with a line '.endl'")
+    name = _arguments(cards[start])[1][1] if len(_arguments(cards[start])) > 1 else ""
+    raise NetlistError(f".lib section without .endl: '.lib {name}' opens a library section named {name!r}",
+                       cards[start].location(0),
+                       hint="close the section with a line '.endl'; to read a section of a library file, write "
+                            ".lib FILE SECTION")
 
 
 def _include(card: Card, at: int, target: str, section: str | None, chain: list, shown: list[str],
