@@ -389,3 +389,19 @@ def test_sweep_command_step_given_twice(capsys, tmp_path):
     assert status == EXIT_ERROR, err
     assert err.startswith("netdae: error: --step r1 is given twice (hint: give all its values in one --step")
     assert not (tmp_path / "o").exists()
+
+
+def test_pulse_train_cut_by_a_fractional_pulse_count():
+    """PULSE(... np=1.5) ends the train at td + 1.5 per, inside the second pulse (ngspice cuts it there too): the
+    cut is a breakpoint now (the transient failed there: 'step size below the roundoff of t'); the response
+    equals that of the same waveform written as a PWL with the jump."""
+    rc = "t\nV1 a 0 {src}\nR1 a b 1k\nC1 b 0 1n\n.tran 10n 6u\n.end\n"
+    pulse = netdae.simulate(rc.format(src="pulse(0 1 0.5u 1n 1n 1u 2u 1.5)"), save=["v(b)"], reltol=1e-6)
+    pwl = netdae.simulate(rc.format(src="pwl(0 0 0.5u 0 0.501u 1 1.501u 1 1.502u 0 2.5u 0 2.501u 1 3.5u 1 3.5u 0)"),
+                          save=["v(b)"], reltol=1e-6)
+    t = np.linspace(0.0, 6e-6, 601)
+    a = np.interp(t, pulse.t, pulse["v(b)"])
+    b = np.interp(t, pwl.t, pwl["v(b)"])
+    assert np.max(np.abs(a - b)) < 2e-4  # the two runs' own errors (reltol 1e-6) and the linear interpolation
+    assert np.interp(5e-6, pulse.t, pulse["v(b)"]) == pytest.approx(
+        np.interp(3.5e-6, pulse.t, pulse["v(b)"]) * math.exp(-1.5), rel=1e-3)  # decays with RC = 1 us after it
