@@ -405,3 +405,16 @@ def test_pulse_train_cut_by_a_fractional_pulse_count():
     assert np.max(np.abs(a - b)) < 2e-4  # the two runs' own errors (reltol 1e-6) and the linear interpolation
     assert np.interp(5e-6, pulse.t, pulse["v(b)"]) == pytest.approx(
         np.interp(3.5e-6, pulse.t, pulse["v(b)"]) * math.exp(-1.5), rel=1e-3)  # decays with RC = 1 us after it
+
+
+def test_impulses_of_a_square_wave_are_noted_a_few_times(capsys, tmp_path):
+    """A square wave across a capacitor (index 2) puts an impulse into i(v1) at every edge: one warning line each
+    flooded the terminal (12,000 lines for a fast pulse train); three are shown, the rest counted, all kept."""
+    text = ("t\nv1 a 0 pwl(0 0 0.5u 0 0.5u 1 1u 1 1u 0) r=0\nc1 a 0 1n\nr1 a 0 1k\n.tran 10n 20u\n.end\n")
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    lines = err.splitlines()
+    assert sum("contains an impulse (Dirac delta) in i(v1)" in line for line in lines) == 3, err
+    more = [line for line in lines if "more breakpoints where the inputs jump put impulses" in line]
+    assert len(more) == 1 and "(the last at t=1.95e-05; all in transient.impulses)" in more[0], err
+    res = netdae.simulate(text, save=["i(v1)"])
+    assert len(res.transient.impulses) == int(more[0].split("warning: ")[1].split(" more")[0].replace(",", "")) + 3
