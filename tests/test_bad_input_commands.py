@@ -418,3 +418,36 @@ def test_impulses_of_a_square_wave_are_noted_a_few_times(capsys, tmp_path):
     assert len(more) == 1 and "(the last at t=1.95e-05; all in transient.impulses)" in more[0], err
     res = netdae.simulate(text, save=["i(v1)"])
     assert len(res.transient.impulses) == int(more[0].split("warning: ")[1].split(" more")[0].replace(",", "")) + 3
+
+
+@pytest.mark.skipif(__import__("netdae.ngspice.shared", fromlist=["library_path"]).library_path() is None,
+                    reason="ngspice's shared library is not installed")
+def test_ctrl_c_while_ngspice_runs_in_its_shared_library(tmp_path):
+    """Ctrl-C during 'netdae compare' while ngspice's background thread ran: the circuit was removed under the
+    running thread, and the process died by SIGSEGV (status -11, two runs in three) after 'interrupted'; the
+    thread is halted first now, and the interrupt comes out as KeyboardInterrupt."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    child = tmp_path / "child.py"
+    child.write_text(
+        "import sys\nfrom netdae.ngspice import shared\n"
+        "netlist = 'long\\nV1 a 0 sin(0 1 1k)\\nR1 a b 1k\\nC1 b 0 1u\\nD1 b 0 dm\\n.model dm d\\n"
+        ".tran 1n 50m\\n.end\\n'\n"
+        "shared.version()\nprint('loaded', flush=True)\n"
+        "try:\n    shared.run(netlist, timeout=None)\nexcept KeyboardInterrupt:\n    sys.exit(130)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen([sys.executable, str(child)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.stdout.readline().strip() == "loaded"
+    time.sleep(2.0)  # ngspice's thread is integrating (the run takes minutes)
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise
+    assert proc.returncode == 130, (proc.returncode, err[-2000:])
