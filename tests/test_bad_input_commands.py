@@ -451,3 +451,15 @@ def test_ctrl_c_while_ngspice_runs_in_its_shared_library(tmp_path):
         proc.kill()
         raise
     assert proc.returncode == 130, (proc.returncode, err[-2000:])
+
+
+def test_initial_condition_a_source_overrides_is_named(capsys, tmp_path):
+    """.ic v(a)=5 at a node V1 fixes to 1 V: the transient starts at 1 V, as in ngspice, and a warning says the
+    value was not held (it was dropped without a word); a value a resistor pulls on is held (no warning)."""
+    text = "t\nV1 a 0 1\nR1 a b 1m\nC1 b 0 1u\n.ic v(a)=5 v(b)=2\n.tran 1n 1u\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == 0, err
+    assert err == ("netdae: warning: .ic v(a)=5 is not held: v(a) = 1 at t = 0, which the circuit fixes (a voltage "
+                   "source, or a node tied to one)\n")
+    res = netdae.simulate(text, save=["v(a)", "v(b)"])
+    assert res["v(a)"][0] == 1.0 and res["v(b)"][0] == pytest.approx(2.0, rel=1e-6)
