@@ -397,6 +397,9 @@ class Options:
     extra : dict
         Every other option as written (lower-case name to value), kept so that
         nothing is silently dropped; the analyses report the ones they ignore.
+    locations : dict
+        Where the netlist gives each numeric option (name to the location of its
+        value), so that a value the analyses refuse is located on its card.
     """
 
     reltol: float = 1e-3
@@ -413,6 +416,7 @@ class Options:
     interp: bool = False
     seed: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    locations: dict[str, SourceLocation] = field(default_factory=dict, repr=False, compare=False)
 
 
 @dataclass(slots=True)

@@ -44,7 +44,24 @@ __all__ = [
     "NgspiceError",
     "ResultFileError",
     "OutputFileError",
+    "count_text",
 ]
+
+
+def count_text(value: float) -> str:
+    """A count or size for an error message: digits grouped up to 1e15, then in powers of ten.
+
+    A refused sweep of ``1/1e-300`` points is shown as ``1e+300``, not as three
+    hundred digits.
+
+    Examples
+    --------
+    >>> count_text(1234567), count_text(2.5e30), count_text(float("inf"))
+    ('1,234,567', '2.5e+30', 'infinitely many')
+    """
+    if value != value or value in (float("inf"), float("-inf")):
+        return "infinitely many"
+    return f"{value:,.0f}" if abs(value) < 1e15 else f"{value:.3g}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,7 +113,7 @@ class NetlistError(NetdaeError, ValueError):
         expected: str | None = None,
         hint: str | None = None,
     ) -> None:
-        self.message = message
+        self.message = _elide_quoted(message)
         self.location = location
         self.expected = expected
         self.hint = hint
@@ -118,6 +135,30 @@ class NetlistError(NetdaeError, ValueError):
             _rebuild_netlist_error,
             (self.message, self.location, self.expected, self.hint),
         )
+
+
+#: Longest quoted text (a token, a file name) a message shows in full; a longer one, such as a
+#: 200,000-digit number on a very long line, is shown by its ends and its length.
+QUOTED_LIMIT = 500
+
+
+def _elide_quoted(message: str) -> str:
+    """``message`` with every quoted text or word longer than :data:`QUOTED_LIMIT` cut to its ends.
+
+    >>> _elide_quoted("value '" + "1" * 1000 + "' is out of range")
+    "value '1111111111111111111111111111111111111111...1111111111' (1,000 characters) is out of range"
+    """
+    import re
+
+    def cut(m: re.Match) -> str:
+        quoted = m.group(1) is not None
+        text = m.group(1) if quoted else m.group(0)
+        short = f"{text[:40]}...{text[-10:]}"
+        return f"'{short}' ({len(text):,} characters)" if quoted else short
+
+    if len(message) <= QUOTED_LIMIT:
+        return message
+    return re.sub(r"'([^'\n]{%d,})'|[^\s']{%d,}" % (QUOTED_LIMIT + 1, QUOTED_LIMIT + 1), cut, message)
 
 
 def _rebuild_netlist_error(message, location, expected, hint):

@@ -10,11 +10,13 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
 import pytest
 
 import netdae
 from netdae.cli import EXIT_ERROR, main
 from netdae.errors import NetlistError
+from netdae.io.csv import read_csv
 
 PULSE_BEFORE_ZERO = """negative pulse delay
 v1 in 0 pulse(0 1 -1 1n 1n 1u 0)
@@ -285,3 +287,179 @@ def test_option_at_the_range_end_runs(capsys, tmp_path):
     text = "options\nv1 in 0 1\nr1 in out 1k\nd1 out 0 dm\n.model dm d\n.options gmin=1e-3\n.op\n.end\n"
     status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
     assert status == 0, err
+
+
+@pytest.mark.parametrize("card,message", [
+    (".dc v1 0 1 1e-300", ":6:1: .dc v1: the sweep would have 1e+300 points"),
+    (".dc v1 0 1e300 1e-300", ":6:1: .dc v1: the sweep would have infinitely many points"),
+    (".ac lin 1e300 1 2", ":6:1: .ac lin: the sweep would have 1e+300 points"),
+    (".step param rv 0 1e300 1e-300", ":6:16: .step: the sweep would have infinitely many points"),
+])
+def test_sweep_grid_of_astronomical_size(capsys, tmp_path, card, message):
+    """A count beyond 1e15 is shown in powers of ten (was three hundred digits), an infinite one named (was an
+    OverflowError from a .step), and .dc and .ac refusals are located at their card."""
+    status, err, path = _cli(capsys, tmp_path, GRID.format(card=card), "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert f"{path}{message}" in err and "more than netdae's limit of 10,000,000" in err
+    assert "bug in netdae" not in err and len(err) < 400
+
+
+def test_logarithmic_sweep_whose_ratio_overflows(capsys, tmp_path):
+    """.ac dec 1 1e-300 1e300: stop/start overflows, the decades do not: 600 decades, 601 points (was refused as
+    'infinitely many')."""
+    status, err, _ = _cli(capsys, tmp_path, GRID.format(card=".ac dec 1 1e-300 1e300"), "run", "-q", "--out",
+                          str(tmp_path / "o"))
+    assert status == 0, err
+    f = read_csv(tmp_path / "o" / "ac.csv").axes["frequency"]
+    assert f.size == 601
+    np.testing.assert_allclose(np.log10(f), np.arange(-300, 301), rtol=0, atol=1e-12)
+
+
+def test_transient_of_astronomical_size_is_refused_in_short_numbers(capsys, tmp_path):
+    text = "huge tran\nv1 in 0 1\nr1 in out 1k\nc1 out 0 1u\n.tran 1e-300 1\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == EXIT_ERROR, err
+    assert f"{path}:5:1: .tran: " in err and "at 1e+300 points or more" in err and "the run cannot finish" in err
+    assert len(err) < 600
+
+
+def test_operating_point_of_a_current_source_into_capacitors(capsys, tmp_path):
+    """A current source into a node of capacitors only: the charge-balance rows hold every Jacobian entry of the
+    circuit, and np.bincount of nothing returned integers (was a UFuncTypeError, 'a bug in netdae')."""
+    status, err, path = _cli(capsys, tmp_path, "t\nI1 a 0 1\nC1 a 0 1\n.op\n.end\n", "run", "-q")
+    assert status == EXIT_ERROR, err
+    assert "bug in netdae" not in err
+    assert "i1 drives a net DC current of -1 A into node 'a'" in err and "add a resistor from node 'a'" in err
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_out_naming_a_file(capsys, tmp_path, command):
+    """--out onto a file: said in words (was '[Errno 17] File exists'); the sweep checks it before its rows run."""
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")
+    text = "t\nv1 in 0 1\nr1 in out 1k\nc1 out 0 1u\n.tran 1u 10u\n.meas tran x max v(out)\n.end\n"
+    extra = ["--step", "r1=1k,2k", "--workers", "1"] if command == "sweep" else []
+    status, err, _ = _cli(capsys, tmp_path, text, command, "-q", "--out", str(blocker), *extra)
+    assert status == EXIT_ERROR, err
+    assert err == f"netdae: error: cannot write {blocker}: --out names a file, not a directory (hint: give a " \
+                  "directory, which netdae creates if it does not exist)\n"
+    status, err, _ = _cli(capsys, tmp_path, text, command, "-q", "--out", str(blocker / "sub"), *extra)
+    assert status == EXIT_ERROR and "a part of the path is a file, not a directory" in err, err
+
+
+def test_differential_voltage_written_to_csv(capsys, tmp_path):
+    """--save v(in,out): the CSV header quotes the name holding a comma (was refused: 'contains a separator')."""
+    text = "t\nv1 in 0 1\nr1 in out 1k\nr2 out 0 3k\n.op\n.dc v1 0 2 1\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--save", "v(in,out),v(out)", "--out",
+                          str(tmp_path / "o"))
+    assert status == 0, err
+    dc = tmp_path / "o" / "dc.csv"
+    assert dc.read_text().splitlines()[0] == 'v1,"v(in,out)",v(out)'
+    res = read_csv(dc)
+    np.testing.assert_allclose(res.signals["v(in,out)"], 0.25 * res.axes["v1"], rtol=1e-9)  # divider 1k : 3k
+    op = read_csv(tmp_path / "o" / "op.csv")
+    assert op.signals["v(in,out)"][0] == pytest.approx(0.25, rel=1e-9)
+
+
+API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: netdae.load(API_RC, params="r=1"), r"params must be a mapping of parameter names to values"),
+    (lambda: netdae.load(API_RC, params=[("r", 1)]), r"params must be a mapping .* not list"),
+    (lambda: netdae.load(API_RC, max_elements="10"), r"max_elements must be an integer, not str"),
+    (lambda: netdae.run(API_RC, save="v(out)"), r"save must be a list of signal names, e.g. save=\['v\(out\)'\]"),
+    (lambda: netdae.run(API_RC, save=[3]), r"save: a signal name must be a string, not int"),
+    (lambda: netdae.run(API_RC, save=3), r"save must be a list of signal names, not int"),
+    (lambda: netdae.run(API_RC, reltol="1e-3"), r"reltol must be a number, not str"),
+    (lambda: netdae.run(API_RC, abstol=np.array([1e-12, 1e-9])), r"abstol must be a number, not ndarray"),
+])
+def test_api_arguments_of_the_wrong_type(call, message):
+    """Wrong argument types are TypeErrors that say what is expected (were AttributeErrors from inside, or a
+    numpy UFuncTypeError from the Newton iteration for reltol='1e-3')."""
+    with pytest.raises(TypeError, match=message):
+        call()
+
+
+def test_sweep_command_step_given_twice(capsys, tmp_path):
+    """--step r1=1,2 --step R1=3,4: the first was dropped without a word (a dict of the two)."""
+    text = "t\nv1 in 0 1\nr1 in out 1k\nc1 out 0 1u\n.tran 1u 10u\n.meas tran x max v(out)\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "sweep", "-q", "--out", str(tmp_path / "o"), "--step", "r1=1,2",
+                          "--step", "R1=3,4", "--workers", "1")
+    assert status == EXIT_ERROR, err
+    assert err.startswith("netdae: error: --step r1 is given twice (hint: give all its values in one --step")
+    assert not (tmp_path / "o").exists()
+
+
+def test_pulse_train_cut_by_a_fractional_pulse_count():
+    """PULSE(... np=1.5) ends the train at td + 1.5 per, inside the second pulse (ngspice cuts it there too): the
+    cut is a breakpoint now (the transient failed there: 'step size below the roundoff of t'); the response
+    equals that of the same waveform written as a PWL with the jump."""
+    rc = "t\nV1 a 0 {src}\nR1 a b 1k\nC1 b 0 1n\n.tran 10n 6u\n.end\n"
+    pulse = netdae.simulate(rc.format(src="pulse(0 1 0.5u 1n 1n 1u 2u 1.5)"), save=["v(b)"], reltol=1e-6)
+    pwl = netdae.simulate(rc.format(src="pwl(0 0 0.5u 0 0.501u 1 1.501u 1 1.502u 0 2.5u 0 2.501u 1 3.5u 1 3.5u 0)"),
+                          save=["v(b)"], reltol=1e-6)
+    t = np.linspace(0.0, 6e-6, 601)
+    a = np.interp(t, pulse.t, pulse["v(b)"])
+    b = np.interp(t, pwl.t, pwl["v(b)"])
+    assert np.max(np.abs(a - b)) < 2e-4  # the two runs' own errors (reltol 1e-6) and the linear interpolation
+    assert np.interp(5e-6, pulse.t, pulse["v(b)"]) == pytest.approx(
+        np.interp(3.5e-6, pulse.t, pulse["v(b)"]) * math.exp(-1.5), rel=1e-3)  # decays with RC = 1 us after it
+
+
+def test_impulses_of_a_square_wave_are_noted_a_few_times(capsys, tmp_path):
+    """A square wave across a capacitor (index 2) puts an impulse into i(v1) at every edge: one warning line each
+    flooded the terminal (12,000 lines for a fast pulse train); three are shown, the rest counted, all kept."""
+    text = ("t\nv1 a 0 pwl(0 0 0.5u 0 0.5u 1 1u 1 1u 0) r=0\nc1 a 0 1n\nr1 a 0 1k\n.tran 10n 20u\n.end\n")
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    lines = err.splitlines()
+    assert sum("contains an impulse (Dirac delta) in i(v1)" in line for line in lines) == 3, err
+    more = [line for line in lines if "more breakpoints where the inputs jump put impulses" in line]
+    assert len(more) == 1 and "(the last at t=1.95e-05; all in transient.impulses)" in more[0], err
+    res = netdae.simulate(text, save=["i(v1)"])
+    assert len(res.transient.impulses) == int(more[0].split("warning: ")[1].split(" more")[0].replace(",", "")) + 3
+
+
+@pytest.mark.skipif(__import__("netdae.ngspice.shared", fromlist=["library_path"]).library_path() is None,
+                    reason="ngspice's shared library is not installed")
+def test_ctrl_c_while_ngspice_runs_in_its_shared_library(tmp_path):
+    """Ctrl-C during 'netdae compare' while ngspice's background thread ran: the circuit was removed under the
+    running thread, and the process died by SIGSEGV (status -11, two runs in three) after 'interrupted'; the
+    thread is halted first now, and the interrupt comes out as KeyboardInterrupt."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    child = tmp_path / "child.py"
+    child.write_text(
+        "import sys\nfrom netdae.ngspice import shared\n"
+        "netlist = 'long\\nV1 a 0 sin(0 1 1k)\\nR1 a b 1k\\nC1 b 0 1u\\nD1 b 0 dm\\n.model dm d\\n"
+        ".tran 1n 50m\\n.end\\n'\n"
+        "shared.version()\nprint('loaded', flush=True)\n"
+        "try:\n    shared.run(netlist, timeout=None)\nexcept KeyboardInterrupt:\n    sys.exit(130)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.Popen([sys.executable, str(child)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.stdout.readline().strip() == "loaded"
+    time.sleep(2.0)  # ngspice's thread is integrating (the run takes minutes)
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise
+    assert proc.returncode == 130, (proc.returncode, err[-2000:])
+
+
+def test_initial_condition_a_source_overrides_is_named(capsys, tmp_path):
+    """.ic v(a)=5 at a node V1 fixes to 1 V: the transient starts at 1 V, as in ngspice, and a warning says the
+    value was not held (it was dropped without a word); a value a resistor pulls on is held (no warning)."""
+    text = "t\nV1 a 0 1\nR1 a b 1m\nC1 b 0 1u\n.ic v(a)=5 v(b)=2\n.tran 1n 1u\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == 0, err
+    assert err == ("netdae: warning: .ic v(a)=5 is not held: v(a) = 1 at t = 0, which the circuit fixes (a voltage "
+                   "source, or a node tied to one)\n")
+    res = netdae.simulate(text, save=["v(a)", "v(b)"])
+    assert res["v(a)"][0] == 1.0 and res["v(b)"][0] == pytest.approx(2.0, rel=1e-6)

@@ -94,7 +94,8 @@ def test_bad_netlist_options_exit_2(capsys, tmp_path, option):
     if name in ("temp", "tnom"):  # refused by the reader, located at the value
         assert err.startswith(f"netdae: error: {path}:5:") and "is not above absolute zero" in err
     else:
-        assert err.startswith(f"netdae: error: {path}: .options {name}") and "is out of range" in err
+        column = len(".options ") + len(name) + 2  # located at the value on its card
+        assert err.startswith(f"netdae: error: {path}:5:{column}: .options {name}") and "is out of range" in err
     assert err.count("\n") == 1 and "internal error" not in err
 
 

@@ -36,7 +36,8 @@ CASES = [
     ("t\n.subckt s a a\n.ends\n", r"port 'a' listed twice", 2, "a", 2),
     ("t\n.subckt s a optional: b=0\n.ends\n", r"'optional:' ports are not read by ngspice 39", 2, "optional:"),
     ("t\n.control\nrun\n", r"\.control block without \.endc", 2, ".control"),
-    ("t\n.lib sec\nR1 a 0 1\n", r"\.lib section without \.endl", 2, ".lib"),
+    ("t\n.lib sec\nR1 a 0 1\n", r"\.lib section without \.endl: '\.lib sec' opens a library section named 'sec'",
+     2, ".lib"),
     ("t\n.endl\n", r"\.endl without a preceding \.lib", 2, ".endl"),
     ("t\n+ 1k\n", r"continuation line", 2, "+"),
     # nodes and values
@@ -57,6 +58,8 @@ CASES = [
     ("t\nR1 a b {f(1)}\n", r"unknown function 'f'", 2, "{f(1)}"),
     ("t\nR1 a b {1/0}\n", r"cannot evaluate value: division by zero", 2, "{1/0}"),
     ("t\nR1 a b {sqrt(-1)}\n", r"sqrt\(-1\) is undefined", 2, "{"),
+    ("t\nR1 a b {1%0}\n", r"r1: cannot evaluate value: 1 % 0 \(the remainder of a division by zero\) is undefined", 2,
+     "{"),
     ("t\n.param a={b} b={a}\nR1 x 0 {a}\n", r"parameter cycle: a -> b -> a", 2, "a={b}"),
     ("t\n.param time=1\n", r"'time' is reserved", 2, "time"),
     ("t\n.param a 1\n", r"expected '=' after parameter name 'a'", 2, "1"),
@@ -96,6 +99,8 @@ CASES = [
     ("t\nL1 a 0 1m\nR2 b 0 1\nK1 L1 R2 0.5\n", r"'r2' is not an inductor name", 4, "R2"),
     ("t\nL1 a 0 1m\nK1 L1 L2 0.5\n", r"'l2' names no element", 3, "L2"),
     ("t\nL1 a 0 1m\nL2 b 0 1m\nK1 L1 L2 1.5\n", r"coupling factor 1.5 outside \[-1, 1\]", 4, "1.5"),
+    ("t\nL1 a 0 1m\nL2 b 0 3m\nK1 L1 L2 -1\n", r"k1: coupling factor -1: a perfect coupling makes the inductance "
+     r"matrix singular", 4, "-1"),
     ("t\nL1 a 0 1m\nK1 L1 L1 0.5\n", r"inductor 'l1' is named twice", 3, "L1", 2),
     ("t\nL1 a 0 1m\nK1 L1 0.5\n", r"at least two inductor names and a coupling factor", 3, None),
     ("t\nR1 a 0 1\nF1 b 0 r1 2\n", r"'r1' is a resistor, not a voltage source", 3, "r1"),
@@ -183,6 +188,9 @@ CASES = [
     ("t\n.dc vx 0 1 0.1\n", r"sweep source 'vx' is no element", 2, "vx"),
     ("t\nV1 a 0 1\n.dc v1 0 1 -0.1\n", r"step -0.1 does not lead from 0 to 1", 3, "-0.1"),
     ("t\n.dc 1 0 1 0.1\n", r"expected a source name or temp", 2, "1"),
+    ("t\nV1 a 0 1\nR1 a 0 1\n.dc v1 0 1 0.1 V1 0 1 0.5\n", r"'v1' is swept twice: the outer sweep would "
+     r"overwrite", 4, "V1"),
+    ("t\nR1 a 0 1\n.dc temp 0 10 5 temp 0 10 5\n", r"'temp' is swept twice", 3, "temp", 2),
     ("t\nR1 a 0 1\n.ic v(b)=1\n", r"\.ic: unknown node 'b'", 3, "b"),
     ("t\nR1 a 0 1\n.ic a=1\n", r"expected v\(node\)=value, found 'a'", 3, "a"),
     ("t\nR1 a 0 1\n.nodeset v(a)\n", r"expected v\(node\)=value", 3, "v"),
@@ -248,3 +256,71 @@ def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert err.startswith(f"netdae: error: {bad}:3:7: c1: missing capacitance (expected: Cname")
+
+
+@pytest.mark.parametrize("data, line, column, what", [
+    ("t\nR1 a 0 1\n.op\n".encode("utf-16"), 1, 4, "it looks like text saved as UTF-16 or UTF-32"),
+    ("t\nR1 a 0 1\n.op\n".encode("utf-16-le"), 1, 2, "it looks like text saved as UTF-16 or UTF-32"),
+    (b"t\nR1 a 0 1\n\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 5, 1, "it looks like a binary file, not a text netlist"),
+    (b"t\nR\x001 a 0 1\n.op\n", 2, 2, "it looks like a binary file, not a text netlist"),
+])
+def test_file_with_a_nul_byte_is_refused_at_it(tmp_path, data, line, column, what):
+    """UTF-16 text and binary files read as cards of garbage ('unknown card ' v 1 '', a NUL inside an element
+    name accepted); a NUL byte is refused where it is, saying what the file seems to be."""
+    path = tmp_path / "bad.cir"
+    path.write_bytes(data)
+    with pytest.raises(NetlistError) as exc:
+        load(path)
+    err = exc.value
+    assert err.message == f"NUL byte in '{path}': {what}"
+    assert (err.location.file, err.location.line, err.location.column) == (str(path), line, column)
+    top = tmp_path / "top.cir"
+    top.write_text("t\n.include bad.cir\nV1 a 0 1\n.op\n")
+    with pytest.raises(NetlistError, match="NUL byte in") as exc:
+        load(top)
+    assert exc.value.location.file == str(path)
+
+
+def test_endless_include_is_refused(tmp_path, monkeypatch):
+    """.include /dev/zero read until the machine's memory ran out (23 GB, then the OOM killer)."""
+    import os
+
+    from netdae.netlist import reader
+
+    top = tmp_path / "top.cir"
+    if os.path.exists("/dev/zero"):
+        top.write_text("t\n.include /dev/zero\nR1 a 0 1\n.op\n")
+        with pytest.raises(NetlistError) as exc:
+            load(top)
+        assert str(exc.value).startswith(f"{top}:2:10: include file '/dev/zero' is larger than 256 MiB (or "
+                                         "endless, such as a device)")
+    monkeypatch.setattr(reader, "MAX_FILE_BYTES", 100)
+    (tmp_path / "big.lib").write_text("* big\n" + "R9 b 0 1\n" * 20)
+    top.write_text("t\n.include big.lib\nR1 a 0 1\n.op\n")
+    with pytest.raises(NetlistError, match=r":2:10: include file '.*big.lib' is larger than 0 MiB"):
+        load(top)
+
+
+def test_very_long_token_is_shown_by_its_ends():
+    """A 200,000-digit number on a very long line: the message shows its ends and its length, not all of it."""
+    text = "t\nR1 a 0 " + "1" * 200_000 + "\nV1 a 0 1\n.op\n"
+    with pytest.raises(NetlistError) as exc:
+        load(text)
+    err = exc.value
+    assert (err.location.line, err.location.column) == (2, 8)
+    assert err.message == "r1: value '" + "1" * 40 + "..." + "1" * 10 + "' (200,000 characters) is out of range"
+    assert len(str(err)) < 400
+
+
+def test_osdi_card_naming_a_directory_or_a_device(tmp_path):
+    """'.osdi DIR' said 'does not exist' (wrong blame); the directory or device is named as what it is."""
+    (tmp_path / "models").mkdir()
+    cases = [(str(tmp_path / "models"), "is a directory")]
+    if __import__("os").path.exists("/dev/zero"):
+        cases.append(("/dev/zero", "is not a regular file"))
+    for target, what in cases:
+        with pytest.raises(NetlistError) as exc:
+            load(f"t\n.osdi {target}\nN1 a 0 foo\n.model foo bar\nV1 a 0 1\n.op\n", path=str(tmp_path / "t.cir"))
+        err = exc.value
+        assert err.message == f"OSDI file {target} {what}"
+        assert (err.location.line, err.location.column) == (2, 7)

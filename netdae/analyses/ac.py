@@ -70,7 +70,9 @@ def frequencies(card: AcAnalysis) -> np.ndarray:
             raise NetdaeError(f".ac {card.variation}: fstart must be positive (got {f0:g})")
         return grid(card.variation, f0, f1, n)
     except ValueError as exc:  # more points than a grid may have
-        raise NetdaeError(f".ac {card.variation}: {exc}") from None
+        where = getattr(card, "location", None)
+        raise NetdaeError(f"{where}: .ac {card.variation}: {exc}" if where is not None
+                          else f".ac {card.variation}: {exc}") from None
 
 
 def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, delays=()) -> np.ndarray:

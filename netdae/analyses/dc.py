@@ -173,11 +173,15 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     sweeps = list(card.sweeps)
     for sw in sweeps:
         _check_source(circuit, sw)
-    grids = [sweep_values(sw) for sw in sweeps]
+    where = f"{card.location}: " if card.location is not None else ""
+    try:
+        grids = [sweep_values(sw) for sw in sweeps]
+    except NetdaeError as exc:  # a sweep of too many points, located at its card
+        raise NetdaeError(f"{where}{exc}") from None
     try:
         check_grid_size(float(np.prod([g.size for g in grids], dtype=float)))
     except ValueError as exc:
-        raise NetdaeError(f".dc {' '.join(sw.source for sw in sweeps)}: {exc}") from None
+        raise NetdaeError(f"{where}.dc {' '.join(sw.source for sw in sweeps)}: {exc}") from None
     if len(sweeps) == 1:
         points = [(v,) for v in grids[0]]
     else:

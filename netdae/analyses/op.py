@@ -75,6 +75,21 @@ def _node_forcing(system: MnaSystem, values: dict[str, float], what: str) -> For
     return Forcing(np.array(idx, dtype=np.int64), np.array(val, dtype=float))
 
 
+def _unheld_initial_conditions(system: MnaSystem, forcing: Forcing, x, opts) -> list[str]:
+    """Warnings for ``.ic`` values the operating point could not hold (a node a voltage source fixes).
+
+    ngspice holds ``.ic`` nodes with a conductance, which a source's node overrides without a
+    word; netdae says so rather than drop the value silently.
+    """
+    out = []
+    for i, want in zip(forcing.index, forcing.value):
+        got = float(x[i])
+        if abs(got - want) > opts.reltol * max(abs(got), abs(want)) + opts.vntol:
+            out.append(f"warning: .ic {system.names[i]}={want:g} is not held: {system.names[i]} = {got:.6g} at "
+                       "t = 0, which the circuit fixes (a voltage source, or a node tied to one)")
+    return out
+
+
 def _describe_unknowns(system: MnaSystem, indices, x) -> str:
     return ", ".join(f"{system.names[i]} = {x[i]:.6g}" for i in indices)
 
@@ -301,6 +316,8 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
         if groups:
             _check_charge_balance(circuit, system, res, groups, used, t, opts)
             res.notes = [_charge_note(g) for g in used]
+        if forcing is not None:
+            res.notes = list(res.notes) + _unheld_initial_conditions(system, forcing, res.x, opts)
         return res
     if res.singular:
         raise _singular_error(circuit, system, res, topology)

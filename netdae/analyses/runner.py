@@ -14,6 +14,7 @@ The module imports no numerics at load time, so the command line can use
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -123,8 +124,12 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
         For an ``.options`` value out of range (``reltol=2``, ``temp=-300``).
     ValueError
         For an override out of range.
+    TypeError
+        For an override that is not a number (``reltol="1e-3"``).
     """
     for name, value in overrides.items():
+        if value is not None and (isinstance(value, (bool, str, bytes)) or not isinstance(value, numbers.Real)):
+            raise TypeError(f"{name} must be a number, not {type(value).__name__} ({value!r})")
         if value is not None and (problem := option_problem(name, value)) is not None:
             raise ValueError(f"{name}={value!r}: {problem}")
     o = circuit.options
@@ -134,9 +139,29 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
             continue
         if option_problem(name, value) is not None:
             card = ".options temp (or .temp)" if name == "temp" else f".options {name}"
-            raise NetlistError(f"{circuit.path}: {card}={value:g} is out of range",
+            where = o.locations.get(name)
+            raise NetlistError(f"{card}={value:g} is out of range" if where is not None
+                               else f"{circuit.path}: {card}={value:g} is out of range", where,
                                expected=f"{name}: {OPTION_RANGES[name][1]}",
                                hint=f"correct or remove {name} in the .options card")
+
+
+def _save_names(save: Any) -> list[str]:
+    """``save=`` as a list of signal names; a string or anything but names is a ``TypeError``.
+
+    >>> _save_names(("v(out)", "i(v1)"))
+    ['v(out)', 'i(v1)']
+    """
+    if isinstance(save, (str, bytes)):
+        raise TypeError(f"save must be a list of signal names, e.g. save=['v(out)'], not the string {save!r}")
+    try:
+        names = list(save)
+    except TypeError:
+        raise TypeError(f"save must be a list of signal names, not {type(save).__name__}") from None
+    for name in names:
+        if not isinstance(name, str):
+            raise TypeError(f"save: a signal name must be a string, not {type(name).__name__} ({name!r})")
+    return names
 
 
 def analysis_name(card: Any) -> str:
@@ -257,7 +282,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             "to run"
             + _skipped_analyses(circuit)
         )
-    names = save if save is not None else circuit.saves
+    names = _save_names(save) if save is not None else circuit.saves
     from ..results import canonical_or
     from .noise import is_noise_name
     from .op import shared_operating_points
@@ -493,7 +518,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)
     from .tran import transient
 
-    names = save if save is not None else circuit.saves
+    names = _save_names(save) if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
     from .quantities import add_quantities, measured_quantities, plan_quantities
 

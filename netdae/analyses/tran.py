@@ -55,7 +55,7 @@ from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
-from ..errors import CircuitError, NetdaeError, SingularPencilError
+from ..errors import CircuitError, NetdaeError, SingularPencilError, count_text
 from ..kinds import KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
@@ -212,8 +212,9 @@ def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: i
         return None
     has = (f"of memory, this machine has {capacity / 2**30:,.1f} GiB" if room is None
            else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
-    what = (f"keeping {saved:,} of {total:,} unknowns at {points:,} points or more (tstop/tmax = "
-            f"{card.tstop:g}/{tmax:g}) needs at least {size / 2**30:,.1f} GiB {has}")
+    gib = size / 2**30
+    what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "
+            f"{card.tstop:g}/{tmax:g}) needs at least {f'{gib:,.1f}' if gib < 1e15 else f'{gib:.3g}'} GiB {has}")
     hint = "save only the signals you need (--save v(out),i(v1) or a .save card), or a larger tstep or tmax"
     if size > REFUSE_FRACTION * capacity:
         where = f"{card.location}: " if card.location is not None else ""
@@ -383,15 +384,18 @@ def _c_derivatives(system: MnaSystem, x0: np.ndarray, t: float) -> Callable[[int
 def _one_sided(system: MnaSystem, tb: float, m: int, eps: float) -> tuple[np.ndarray, np.ndarray]:
     """Left and right limits of ``c^(m)`` at ``tb``.
 
-    The right limit is ``c^(m)(tb)`` (waveform derivatives are one-sided from
-    the right at corners); the left one is extrapolated linearly from
-    ``tb - eps`` with the next derivative, so a smooth input shows no jump
-    (error O(eps^2)). The independent sources only: the transmission lines'
+    Both are extrapolated linearly with the next derivative, from ``tb - eps``
+    and ``tb + eps``, so a smooth input shows no jump (error O(eps^2)) and a
+    corner that the waveform's own arithmetic puts a few roundoffs away from
+    its breakpoint (a repeated PWL's ``k * period + t``, a pulse train's
+    ``td + k * per``) is seen on its side (the value at ``tb`` itself missed
+    such jumps). The independent sources only: the transmission lines'
     delayed waves are known once the run has computed them (their corners are
     the sources' carried along the lines, among the breakpoints already).
     """
     left = system.source(tb - eps, m, waves=False) + eps * system.source(tb - eps, m + 1, waves=False)
-    return left, system.source(tb, m, waves=False)
+    right = system.source(tb + eps, m, waves=False) - eps * system.source(tb + eps, m + 1, waves=False)
+    return left, right
 
 
 def _impulses(system: MnaSystem, rep: IndexReport, t0: float, tstop: float) -> list[str]:
@@ -411,6 +415,7 @@ def _impulses(system: MnaSystem, rep: IndexReport, t0: float, tstop: float) -> l
     if bps.size == 0:
         return []
     eps = JUMP_PROBE * (tstop - t0)
+    bps = bps[np.concatenate([[True], np.diff(bps) > 2.0 * eps])]  # one corner computed twice, a roundoff apart
     powers = []  # V2 N^l U2 for l = 1 .. index-1
     Nl = np.eye(wf.n_infinite)
     for _ in range(wf.index - 1):
@@ -596,7 +601,10 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     x0, correction, more = _consistent_start(prepared, start, rep, settings)
     notes += more
     impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
-    notes += [f"warning: {w}" for w in impulses]
+    notes += [f"warning: {w}" for w in impulses[:JUMP_NOTES]]  # all of them in transient.impulses
+    if len(impulses) > JUMP_NOTES:
+        notes.append(f"warning: {len(impulses) - JUMP_NOTES:,} more breakpoints where the inputs jump put impulses "
+                     f"into the solution (the last at {impulses[-1].split(':', 1)[0]}; all in transient.impulses)")
     if rep.index is not None and rep.index >= 3:
         run = _decoupled_run(prepared, rep, start, x0, saved, settings, progress)
     else:

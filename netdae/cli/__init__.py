@@ -25,7 +25,8 @@ import math
 import os
 import sys
 
-__all__ = ["main", "parser", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity"]
+__all__ = ["main", "parser", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity",
+           "output_directory"]
 
 #: Subcommands in the order ``--help`` lists them.
 COMMANDS = ("check", "index", "run", "sweep", "compare", "demo", "osdi", "server")
@@ -146,6 +147,37 @@ def positive_float(text: str) -> float:
     if not (math.isfinite(value) and value > 0.0):
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return value
+
+
+def output_directory(path) -> "Path":
+    """The ``--out DIR`` of a command, created now, before anything runs.
+
+    Raises
+    ------
+    OutputFileError
+        When ``path`` (or a part of it) is a file, or the directory cannot be
+        created: said in words, naming the option, before a long run is lost
+        to it.
+    """
+    import errno
+    from pathlib import Path
+
+    from ..errors import OutputFileError
+
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise OutputFileError(str(out), "--out names a file, not a directory (hint: give a directory, "
+                                        "which netdae creates if it does not exist)", errno.ENOTDIR)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # a part of the path is a file
+        raise OutputFileError(str(out), "a part of the path is a file, not a directory", errno.ENOTDIR) from None
+    except NotADirectoryError:
+        raise OutputFileError(str(out), "a part of the path is a file, not a directory", errno.ENOTDIR) from None
+    except OSError as exc:
+        raise OutputFileError(str(out), f"cannot create the --out directory: {exc.strerror or exc}",
+                              exc.errno) from None
+    return out
 
 
 def add_ngbehavior(p: argparse.ArgumentParser) -> None:

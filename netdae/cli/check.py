@@ -77,7 +77,8 @@ def summarize(circuit) -> dict:
     kinds: dict[str, int] = {}
     for el in circuit.elements:
         kinds[el.kind] = kinds.get(el.kind, 0) + 1
-    options = {f.name: getattr(circuit.options, f.name) for f in dataclasses.fields(circuit.options)}
+    options = {f.name: getattr(circuit.options, f.name) for f in dataclasses.fields(circuit.options)
+               if f.name != "locations"}
     summary = {
         "title": circuit.title,
         "path": circuit.path,

@@ -13,7 +13,6 @@ Without ngspice the last part is replaced by the command that installs it.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 __all__ = ["add_parser", "main", "DEFAULT_NETLIST"]
 
@@ -46,12 +45,12 @@ def main(args) -> int:
     from ..netlist import load
     from ..plotting import plot_result
     from ..topology import analyze_topology
+    from . import output_directory
     from .check import format_summary, summarize, topology_lines
     from .index import format_report
     from .progress import ProgressBar
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_directory(args.out)
     circuit = load(args.file)
 
     _section("1. the netlist (netdae check)")

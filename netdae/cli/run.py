@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import add_ngbehavior, log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
 from ..signals import signal_unit
 
 __all__ = ["add_parser", "main", "stems"]
@@ -239,9 +239,7 @@ def main(args) -> int:
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))
     bar = ProgressBar(enabled=args.verbosity >= 0)
-    out_dir = Path(args.out) if args.out else None
-    if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = output_directory(args.out) if args.out else None
     streams: dict = {}  # a transient's position among the analyses -> its streamed file
 
     def output(position: int, start: int, block) -> str | None:

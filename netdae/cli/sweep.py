@@ -22,9 +22,8 @@ import json
 import logging
 import sys
 import time
-from pathlib import Path
 
-from . import add_ngbehavior, log_diagnostics, option_value, signal_names
+from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -172,12 +171,20 @@ class _Progress:
 
 
 def main(args) -> int:
+    from ..errors import NetdaeError
     from ..io.sweep import write_sweep
     from ..netlist import load
     from ..sweeps import sweep
 
+    seen: set[str] = set()
+    for name, _ in args.step:  # a name stepped twice: one of the two would be dropped without a word
+        if name in seen:
+            raise NetdaeError(f"--step {name} is given twice (hint: give all its values in one --step, e.g. "
+                              "r1=1k,2k,3k,4k)")
+        seen.add(name)
     circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)
+    out = output_directory(args.out)  # before the rows run: a bad --out is not found after hours
     executor, client = None, None
     if args.scheduler:
         client, executor = _dask_executor(args.scheduler)
@@ -197,11 +204,8 @@ def main(args) -> int:
         bar.close()
         if client is not None:
             client.close()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     files = write_sweep(out, result, waveforms=args.waveforms)
     if args.plot:
-        from ..errors import NetdaeError
         from ..plotting import plot_sweep, save_figure
 
         try:

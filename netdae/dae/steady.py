@@ -567,9 +567,12 @@ class _ChargeRows(DaeSystem):
         phi[self.first] = totals - source_scale * self.charge
         dq = dphi = None
         if ev.dphi is not None:
+            # np.bincount returns integers when its input is empty (a circuit whose only entries
+            # are in replaced rows, a current source into a node of capacitors): sum in floats
             nnz = self.pattern.nnz
-            dq = np.bincount(self.old_slots, weights=ev.dq, minlength=nnz)
-            dphi = np.bincount(self.old_slots[self.keep], weights=ev.dphi[self.keep], minlength=nnz)
+            dq = np.bincount(self.old_slots, weights=ev.dq, minlength=nnz).astype(float, copy=False)
+            dphi = np.bincount(self.old_slots[self.keep], weights=ev.dphi[self.keep],
+                               minlength=nnz).astype(float, copy=False)
             dphi += np.bincount(self.dst, weights=ev.dq[self.src], minlength=nnz)
         return Evaluation(q=ev.q, phi=phi, dq=dq, dphi=dphi, limited=ev.limited, state=ev.state, ok=ev.ok)
 

@@ -6,7 +6,8 @@ One header row of column names, then one row per point, comma separated:
 
 - the axis columns first: ``time`` (tran), ``frequency`` (ac), or the swept
   sources of a ``.dc`` (``v1``, then ``v2`` for a nested sweep);
-- then the signals in the result's order: ``v(node)``, ``i(element)``;
+- then the signals in the result's order: ``v(node)``, ``i(element)``; a name
+  holding a comma (a differential voltage ``v(in,out)``) in double quotes;
 - ac signals are complex and written losslessly as two columns,
   ``re(v(out))`` and ``im(v(out))``;
 - an operating point has no axis: its file is the header and **one row**, a
@@ -78,13 +79,24 @@ def format_csv(result: Result) -> str:
     ------
     NetdaeError
         When axes and signals have different lengths, an op result has an
-        axis, or a name contains a comma or a line break.
+        axis, or a name is empty or contains a line break or a double quote
+        (a name with a comma is written in double quotes).
     """
     if result.analysis in ("pz", "tf"):
         return _format_long(result)
     columns = _columns(result)
-    header = _SEPARATOR.join(name for name, _ in columns)
+    header = _header_line(columns)
     return "\n".join([header, *_rows(columns)]) + "\n"
+
+
+def _header_line(columns: list[tuple[str, np.ndarray]]) -> str:
+    """The header row: a name holding a comma (``v(in,out)``, a differential voltage) written in double quotes."""
+    import csv
+    import io
+
+    out = io.StringIO()
+    csv.writer(out, lineterminator="").writerow([name for name, _ in columns])
+    return out.getvalue()
 
 
 def _rows(columns: list[tuple[str, np.ndarray]]) -> list[str]:
@@ -113,8 +125,8 @@ def _columns(result: Result) -> list[tuple[str, np.ndarray]]:
         raise NetdaeError(f"cannot write CSV: the {result.analysis} result has no data")
     length = len(columns[0][1])
     for name, values in columns:
-        if _SEPARATOR in name or "\n" in name or "\r" in name or not name:
-            raise NetdaeError(f"cannot write CSV: column name {name!r} contains a separator or line break")
+        if "\n" in name or "\r" in name or '"' in name or not name:
+            raise NetdaeError(f"cannot write CSV: column name {name!r} is empty or contains a line break or a quote")
         if values.ndim != 1 or len(values) != length:
             raise NetdaeError(
                 f"cannot write CSV: {name!r} has shape {values.shape}, expected ({length},) "
@@ -176,7 +188,9 @@ def parse_csv(text: str, source: str = "<string>", *, analysis: str | None = Non
         res = _parse_long([_TF_HEADER] + lines[1:], source)
         return Result("noise", source=Provenance(path=source),
                       noise=NoiseInfo(totals={k: float(v[0]) for k, v in res.signals.items()}))
-    names = [n.strip().lower() for n in lines[0].split(_SEPARATOR)]
+    import csv
+
+    names = [n.strip().lower() for n in next(csv.reader([lines[0]]))]
     if len(set(names)) != len(names) or not all(names):
         raise ResultFileError(f"{source}:1: empty or repeated column names in the header: {lines[0]!r}")
     rows = []
@@ -356,7 +370,7 @@ class CsvStream(StreamedFile):
     """
 
     def _header(self, block: Result) -> tuple[bytes, None, list[str]]:
-        header = _SEPARATOR.join(name for name, _ in _columns(block)) + "\n"
+        header = _header_line(_columns(block)) + "\n"
         return header.encode("utf-8"), None, list(block.axes) + list(block.signals)
 
     def _rows(self, block: Result, first: int) -> bytes:

@@ -1058,6 +1058,10 @@ class _Elaborator:
                 item.card.location(item.params["dtemp"][1])))
         if el.kind == Kind.COUPLING and not -1.0 <= el.value <= 1.0:
             raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
+        if el.kind == Kind.COUPLING and abs(el.value) == 1.0:  # refused by the assembly, there without a location
+            raise error(item.card, item.value[1], f"coupling factor {el.value:g}: a perfect coupling makes the "
+                        "inductance matrix singular, and netdae needs it positive definite", ELEMENTS["k"],
+                        hint="use |k| < 1, e.g. 0.9999 (ngspice 39 accepts k = 1)")
         if el.kind == Kind.TLINE:
             self._check_tline(el, item)
 
@@ -1255,6 +1259,11 @@ class _Elaborator:
                 sweeps = []
                 for name, offset, start, stop, step in args["sweeps"]:
                     target = None
+                    if sweeps and sweeps[0].source == name:
+                        raise error(card, offset, f"'{name}' is swept twice: the outer sweep would overwrite the "
+                                    "inner one's values at every point", form,
+                                    hint="the second sweep steps another source, a resistor or temp; "
+                                         ".step or 'netdae sweep --step' steps anything else")
                     if name != "temp":
                         target = elements.get(name)
                         resistor = target is not None and target.kind == Kind.RESISTOR
@@ -1479,6 +1488,7 @@ class _Elaborator:
                 elif name in ("temp", "tnom"):
                     self._check_temperature(number, card, value.start, f"option {name}")
                 setattr(opts, name, number)
+                opts.locations[name] = card.location(value.start)
             elif name == "method":
                 word = value.text if value is not True else ""
                 if word not in _METHODS:
@@ -1714,6 +1724,8 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
         ``.ic`` nodes ... each at its token; a circuit larger than
         ``max_elements`` (naming the subcircuit chain); an unknown name or
         a bad value in ``params``.
+    TypeError
+        ``params`` that is not a mapping, ``max_elements`` that is not an integer.
 
     Notes
     -----
@@ -1721,6 +1733,11 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
     expanded once and copied per instance; each parameter scope is
     evaluated once per instance chain.
     """
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(f"params must be a mapping of parameter names to values, e.g. params={{'r': 1e3}}, not "
+                        f"{type(params).__name__}")
+    if max_elements is not None and (isinstance(max_elements, bool) or not isinstance(max_elements, int)):
+        raise TypeError(f"max_elements must be an integer, not {type(max_elements).__name__}")
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
     for what, number in (("sample", sample), ("seed", seed)):

@@ -937,6 +937,8 @@ def _binary(op: str, a: float, b: float) -> float:
     if op == "**":
         return abs(a) ** b
     if op == "%":
+        if b == 0:  # math.fmod's own word for it is "math domain error"
+            raise ValueError(f"{a:g} % 0 (the remainder of a division by zero) is undefined")
         return math.fmod(a, b)
     if op == "&&":
         return 1.0 if (a != 0 and b != 0) else 0.0

@@ -40,6 +40,10 @@ STRING_SOURCE = "<string>"
 #: Deepest chain of ``.include``/``.lib`` files (real libraries nest a few levels).
 MAX_INCLUDE_DEPTH = 64
 
+#: Largest netlist or included file read (bytes): far above any real library, and a bound
+#: on what an endless file (``/dev/zero``, a pipe that never closes) can take.
+MAX_FILE_BYTES = 256 * 2**20
+
 
 @dataclass
 class Deck:
@@ -108,9 +112,15 @@ def decode(data: bytes) -> str:
 
 
 def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
+    """The text of a netlist or included file, or a :class:`NetlistError` located at the card naming it.
+
+    A file larger than :data:`MAX_FILE_BYTES` (or endless, a device) is refused, and so is
+    one holding a NUL byte: a binary file, or text saved as UTF-16 or UTF-32, which would
+    otherwise read as cards of garbage.
+    """
     try:
         with open(display, "rb") as fh:
-            return decode(fh.read())
+            data = fh.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
         raise NetlistError(f"{what} '{display}' not found", location,
                            hint="check the file name; relative names are resolved against the "
@@ -121,6 +131,26 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
         raise NetlistError(f"cannot read {what} '{display}': {exc.strerror}", location) from None
     except ValueError:  # a NUL character in the name
         raise NetlistError(f"{what} name {display!r} contains a NUL character", location) from None
+    if len(data) > MAX_FILE_BYTES:
+        raise NetlistError(f"{what} '{display}' is larger than {MAX_FILE_BYTES // 2**20} MiB (or endless, such as "
+                           "a device): netdae does not read it", location,
+                           hint="name a regular text file; split a very large one")
+    if b"\0" in data:
+        return _binary(data, display)
+    return decode(data)
+
+
+def _binary(data: bytes, display: str):
+    """Refuse a file holding a NUL byte, located at its first one, saying what the file seems to be."""
+    first = data.index(b"\0")
+    line = data.count(b"\n", 0, first) + 1
+    column = first - (data.rfind(b"\n", 0, first) + 1) + 1
+    wide = data[:2] in (b"\xff\xfe", b"\xfe\xff") or data[1:16:2].count(0) >= 4 or data[0:16:2].count(0) >= 4
+    what = ("it looks like text saved as UTF-16 or UTF-32" if wide else
+            "it looks like a binary file, not a text netlist")
+    raise NetlistError(f"NUL byte in '{display}': {what}", SourceLocation(display, line, column),
+                       hint="save the netlist as plain text (ASCII or UTF-8)" if wide else
+                            "check the file name")
 
 
 def resolve_behavior(behavior, base: str) -> tuple[Behavior | None, list]:
@@ -296,8 +326,11 @@ def _skip_section(cards: list[Card], start: int) -> int:
             # a section opening inside a section (a .lib with a file name is a reference)
             raise NetlistError(".lib section inside another .lib section", cards[j].location(0),
                                hint=f"close the section opened at line {cards[start].line} with .endl first")
-    raise NetlistError(".lib section without .endl", cards[start].location(0),
-                       hint="close the section with a line '.endl'")
+    name = _arguments(cards[start])[1][1] if len(_arguments(cards[start])) > 1 else ""
+    raise NetlistError(f".lib section without .endl: '.lib {name}' opens a library section named {name!r}",
+                       cards[start].location(0),
+                       hint="close the section with a line '.endl'; to read a section of a library file, write "
+                            ".lib FILE SECTION")
 
 
 def _include(card: Card, at: int, target: str, section: str | None, chain: list, shown: list[str],

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SourceLocation
+from ..errors import SourceLocation, count_text
 from .elements import error, parse_value
 from .lines import PUNCT, WORD, Card, Token
 from .numbers import parse_number
@@ -162,7 +162,7 @@ def model_parameter(name: str) -> tuple[str, str] | None:
 def check_grid_size(count: float) -> None:
     """Refuse a sweep of more than :data:`MAX_GRID_POINTS` points (``ValueError``, before anything is allocated)."""
     if not count <= MAX_GRID_POINTS:
-        shown = f"{count:,.0f}" if math.isfinite(count) else "infinitely many"
+        shown = count_text(count)
         raise ValueError(f"the sweep would have {shown} points, more than netdae's limit of {MAX_GRID_POINTS:,} "
                          "(check the increment or the number of points)")
 
@@ -202,7 +202,8 @@ def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:
             return np.array([start])
         if step == 0 or (stop - start) * step < 0:
             raise ValueError(f"the increment {step:g} does not lead from {start:g} to {stop:g}")
-        count = math.floor((stop - start) / step * (1 + GRID_SLACK) + GRID_SLACK) + 1
+        span = (stop - start) / step * (1 + GRID_SLACK) + GRID_SLACK
+        count = math.floor(span) + 1 if math.isfinite(span) else span  # inf: refused before it meets an integer
         check_grid_size(count)
         return start + step * np.arange(count)
     if variation not in ("dec", "oct"):
@@ -215,10 +216,15 @@ def grid(variation: str, start: float, stop: float, step: float) -> np.ndarray:
     if stop < start:
         raise ValueError(f"stop ({stop:g}) is below start ({start:g})")
     base = 10.0 if variation == "dec" else 2.0
-    steps = math.log(stop / start) / math.log(base) * step
-    count = math.floor(steps * (1 + GRID_SLACK) + GRID_SLACK) + 1
+    ratio = stop / start
+    wide = not math.isfinite(ratio)  # 1e-300 to 1e300: the ratio overflows, its logarithm does not
+    steps = ((math.log(stop) - math.log(start)) if wide else math.log(ratio)) / math.log(base) * step
+    span = steps * (1 + GRID_SLACK) + GRID_SLACK
+    count = math.floor(span) + 1 if math.isfinite(span) else span
     check_grid_size(count)
     k = np.arange(count)
+    if wide:
+        return np.exp(math.log(start) + (k / step) * math.log(base))
     return start * base ** (k / step)
 
 

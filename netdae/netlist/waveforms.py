@@ -20,8 +20,8 @@ TRRANDOM  type ts td param1 param2                      td 0, param1 1, param2 0
 
 Formulas (time ``t``; phases in degrees) as in ngspice 39 ``vsrcload.c``:
 
-- PULSE: ``tau = t - td``; after ``np`` pulses (``tau > np*per``) the value
-  is v1; else ``tau`` is reduced modulo ``per`` when ``tau > per``; v1 for
+- PULSE: ``tau = t - td``; after ``np`` pulses (``tau > np*per``, inside the
+  last pulse when ``np`` is fractional: a breakpoint) the value is v1; else ``tau`` is reduced modulo ``per`` when ``tau > per``; v1 for
   ``tau <= 0`` or ``tau >= tr+pw+tf``, v2 on ``[tr, tr+pw]``, linear ramps
   in between.
 - SIN: ``vo + va*sin(phase)`` for ``t <= td``, else
@@ -410,7 +410,7 @@ class Pulse(Waveform):
         phase = np.where(wrap, 0.0, phase)
         top = tr + pw
         phase = _snap(_snap(_snap(phase, tr, scale), top, scale), top + tf, scale)
-        active = (time >= 0) & ~((npulse > 0) & (k >= npulse))
+        active = (time >= 0) & ~((npulse > 0) & ((k >= npulse) | (time > npulse * per)))
         if order > 1:
             return np.zeros(np.broadcast(t, v1).shape)
         slope = np.where((phase >= 0) & (phase < tr), (v2 - v1) / tr,
@@ -430,7 +430,11 @@ class Pulse(Waveform):
         k = kmin[src] + (np.arange(src.size) - first)
         base = td[src] + k * per[src]
         corners = np.stack([base, base + tr[src], base + tr[src] + pw[src], base + end[src]])
-        return corners.reshape(-1)
+        # the train ends at td + np*per (v1 after it): a jump when np is not a whole number, as ngspice cuts
+        # the last pulse there (or when a pulse outlasts its period)
+        cuts = (npulse > 0) & ((npulse != np.floor(npulse)) | (end > per))
+        cut = (td + npulse * per)[cuts]
+        return np.concatenate([corners.reshape(-1), cut])
 
 
 # ---------------------------------------------------------------------------

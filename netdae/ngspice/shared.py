@@ -161,7 +161,13 @@ class _Session:
             errors, _ = classify_output(stderr, [], strict=False)
             if not errors:
                 self.command("bg_run")
-                if not lib.finished.wait(timeout):  # None: no limit
+                try:
+                    finished = lib.finished.wait(timeout)  # None: no limit
+                except KeyboardInterrupt:  # Ctrl-C: ngspice's thread stops before its circuit is removed below
+                    with contextlib.suppress(BackendUnavailable):  # (or the process exits: a crash, status -11)
+                        self._halt()
+                    raise
+                if not finished:
                     self._halt()
                     raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
                 if lib.exit_status is not None:

@@ -275,7 +275,9 @@ def load_library(path: str, location: SourceLocation | None = None) -> OsdiLibra
     """
     real = os.path.realpath(path)
     if not os.path.isfile(real):
-        raise NetlistError(f"OSDI file {path} does not exist", location,
+        what = ("does not exist" if not os.path.exists(real) else "is a directory" if os.path.isdir(real)
+                else "is not a regular file")
+        raise NetlistError(f"OSDI file {path} {what}", location,
                            expected="a compiled Verilog-A model (.osdi), e.g. from openvaf-r model.va")
     key = (real, os.path.getmtime(real))
     if key in _CACHE:
