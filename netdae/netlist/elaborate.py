@@ -1058,10 +1058,6 @@ class _Elaborator:
                 item.card.location(item.params["dtemp"][1])))
         if el.kind == Kind.COUPLING and not -1.0 <= el.value <= 1.0:
             raise error(item.card, item.value[1], f"coupling factor {el.value:g} outside [-1, 1]", ELEMENTS["k"])
-        if el.kind == Kind.COUPLING and abs(el.value) == 1.0:  # refused by the assembly, there without a location
-            raise error(item.card, item.value[1], f"coupling factor {el.value:g}: a perfect coupling makes the "
-                        "inductance matrix singular, and netdae needs it positive definite", ELEMENTS["k"],
-                        hint="use |k| < 1, e.g. 0.9999 (ngspice 39 accepts k = 1)")
         if el.kind == Kind.TLINE:
             self._check_tline(el, item)
 
