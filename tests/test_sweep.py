@@ -301,10 +301,22 @@ def test_interrupt_keeps_the_finished_rows():
     ({"analyses": ["sens"]}, r"unknown analysis 'sens'"),
     ({"workers": 0}, r"workers must be a positive integer"),
     ({"params": {"r1": [1e3]}, "samples": 0}, r"samples must be a positive integer"),
+    ({"params": "r2"}, r"params must be a mapping"),
+    ({"params": {"r2": [1e3]}, "analyses": ["ac"]}, r"the netlist has no ac analysis \(it has: dc\)"),
+    ({"params": {"r2": [1e3]}, "save": 3}, r"save must be a string or a list of strings, not int"),
+    ({"params": {"r2": [1e3]}, "measures": [None]}, r"measures must hold strings, not NoneType"),
 ])
 def test_bad_sweep_arguments(kwargs, message):
     with pytest.raises(NetdaeError, match=message):
         netdae.sweep(DIVIDER, **kwargs)
+
+
+def test_one_string_is_one_entry():
+    """measures=, save= and analyses= given as one string are one entry, not its characters."""
+    res = netdae.sweep(DIVIDER, params={"r2": [1e3, 3e3]}, measures="dc vb2 find v(b) at=1m", save="v(b)",
+                       analyses="dc", workers=1)
+    np.testing.assert_allclose(res.measures["vb2"], [1.0, 3.0], rtol=1e-9)  # 1 mA through r2
+    assert res.waves[("dc", "v(b)")].shape[0] == 2
 
 
 def test_nothing_to_record_and_bad_measures():

@@ -72,6 +72,29 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
                      seed=circuit.seed)
 
 
+def _names(value, what: str) -> tuple | None:
+    """``measures=``, ``save=`` or ``analyses=`` as a tuple of strings (one string is one entry; None stays None).
+
+    Raises
+    ------
+    NetdaeError
+        Not a string nor an iterable of strings.
+    """
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return (value,)
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise NetdaeError(f"sweep: {what} must be a string or a list of strings, not {type(value).__name__}") \
+            from None
+    bad = [v for v in items if not isinstance(v, str)]
+    if bad:
+        raise NetdaeError(f"sweep: {what} must hold strings, not {type(bad[0]).__name__} ({bad[0]!r})")
+    return items
+
+
 def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
     """The ``save`` names in canonical spelling, each naming a node or an element of the circuit.
 
@@ -205,6 +228,11 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     from ..netlist import load
 
     t0 = time.perf_counter()
+    measures, save, analyses = (_names(value, what) for value, what in
+                                ((measures, "measures"), (save, "save"), (analyses, "analyses")))
+    if params is not None and not isinstance(params, Mapping):
+        raise NetdaeError(f"sweep: params must be a mapping of names to values (e.g. {{'r2': [1e3, 2e3]}}), "
+                          f"not {type(params).__name__}")
     if not isinstance(circuit, Circuit):
         circuit = load(circuit)
     if circuit.netlist is None:
@@ -220,10 +248,18 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         raise NetdaeError(f"sweep: {exc}") from None
     wanted = None
     if analyses is not None:
+        from ..analyses.runner import analysis_name
+
         wanted = tuple(str(a).lower() for a in analyses)
         bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran", "noise")]
         if bad:
             raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac, tran or noise)")
+        have = {analysis_name(a) for a in circuit.analyses}
+        missing = [a for a in wanted if a not in have]
+        if missing:
+            raise NetdaeError(f"sweep: the netlist has no {missing[0]} analysis (it has: "
+                              f"{', '.join(sorted(have)) or 'none'}): add a .{missing[0]} card or leave it out of "
+                              "analyses")
     save = tuple(_check_save(circuit, save or ()))
     noise = any(type(a).__name__ == "NoiseAnalysis" for a in circuit.analyses) and (wanted is None or "noise" in wanted)
     if not save and not circuit.measures and not noise:
