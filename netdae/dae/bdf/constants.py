@@ -87,6 +87,18 @@ EVENT_RIGHT_LIMIT_ULPS = 1000.0
 #: the last correction is below this fraction of the tolerances (maximum norm); failing that,
 #: by the steady-state solver with its gmin and source stepping.
 EVENT_RIGHT_LIMIT_TOL = 1e-3
+#: A row of the right limit's implicit-Euler matrix ``dq/eps - dphi`` whose charge entries
+#: (``sum |dq| / eps``) exceed what is left of the row once the charges of a capacitor attached
+#: to nothing else cancel (``|sum dq| / eps + sum |dphi|``) by more than this factor loses the
+#: equation that sets the nodes' common mode to rounding (a pair of nodes held only by the
+#: 1e-12 S of open switches, against C / eps = 2e5 S: the LU pivot of the common mode rounds to
+#: zero). Full Newton on that matrix then gives up, and the right limit is solved with the
+#: charge balance of each such group of nodes (:class:`~netdae.dae.bdf.startup.ImplicitEulerStep`
+#: with ``groups``): 1e10 keeps the common mode to 1e-6 of its value.
+RIGHT_LIMIT_CANCELLATION = 1e10
+#: Rows whose charges add up to a constant (``sum dq`` over the rows below this fraction of
+#: their largest ``|dq|`` in every column): the nodes of capacitors attached to nothing else.
+CONSERVED_CHARGE_RTOL = 1e-9
 #: A step may be stretched by this fraction to land on a breakpoint.
 BREAKPOINT_STRETCH = 0.1
 #: Breakpoints closer than this fraction of the interval are merged (no sliver steps).

@@ -14,6 +14,15 @@ full Newton from the left value (:func:`event_right_limit`, the compiled
 loop's ``_event_right_limit``; after a switching event with much shorter
 steps), failing that by the steady-state solver with its homotopies
 (:func:`right_limit`, also used by the compiled engine).
+
+A group of nodes attached to the rest only through capacitors and tiny
+conductances (a capacitor between two open switches) has a common mode that
+no charge holds: the implicit-Euler steps set it through the group's current
+balance, whose conductances (1e-12 S) vanish in the rounding of ``C / eps``
+(2e5 S). Full Newton gives up on such a matrix (:func:`cancelling_rows`) and
+:func:`right_limit` solves the steps with each group's first equation
+replaced by the sum of the group's equations, in which the charges cancel
+exactly (:func:`conserved_charge_groups`, ``ImplicitEulerStep(groups=...)``).
 """
 
 from __future__ import annotations
@@ -21,12 +30,94 @@ from __future__ import annotations
 import numpy as np
 
 from ..newton import INFO_SINGULAR
+from ..sparse import SparsePattern
 from ..steady import SteadyOptions, solve_steady
 from ..system import DaeSystem, Evaluation
-from .constants import EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP, JUMP_NEWTON_MAXITER
+from .constants import (CONSERVED_CHARGE_RTOL, EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP,
+                        JUMP_NEWTON_MAXITER, RIGHT_LIMIT_CANCELLATION)
 from .failures import Failure, newton_hint, nonfinite_unknown
 
-__all__ = ["ImplicitEulerStep", "right_limit", "event_right_limit", "Probe", "probe", "jump_of"]
+__all__ = ["ImplicitEulerStep", "right_limit", "event_right_limit", "conserved_charge_groups", "cancelling_rows",
+           "Probe", "probe", "jump_of"]
+
+
+def conserved_charge_groups(pattern: SparsePattern, dq) -> list[np.ndarray]:
+    """Groups of rows whose charges add up to a constant: the nodes of capacitors attached to nothing else.
+
+    Rows linked through the entries of ``dq`` (a row and the columns it has a charge
+    derivative in) form a group; the group's total charge ``sum(q[rows])`` is conserved
+    when ``sum(dq[rows, j])`` vanishes in every column ``j`` (up to
+    ``CONSERVED_CHARGE_RTOL`` of the group's largest ``|dq|``). Then the sum of the group's
+    implicit-Euler equations ``(q - q0) / eps - phi`` is ``-sum(phi[rows])`` exactly: the
+    current balance of the group, free of ``1 / eps``.
+
+    Parameters
+    ----------
+    pattern : SparsePattern
+    dq : ndarray, shape (nnz,)
+        ``dq/dx`` on the pattern.
+
+    Returns
+    -------
+    list of ndarray of int64
+        Each group's rows, sorted (rows without charge belong to none).
+
+    Examples
+    --------
+    >>> pat = SparsePattern.from_coo(3, [[0, 0, 1, 1, 2]], [[0, 1, 0, 1, 2]])
+    >>> dq = np.zeros(pat.nnz); c = 1e-12
+    >>> dq[pat.slots([0, 0, 1, 1, 2], [0, 1, 0, 1, 2])] = [c, -c, -c, c, c]
+    >>> [g.tolist() for g in conserved_charge_groups(pat, dq)]
+    [[0, 1]]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = pattern.n
+    dq = np.asarray(dq, dtype=float)[:pattern.nnz]
+    nz = np.flatnonzero(dq != 0.0)
+    if nz.size == 0:
+        return []
+    r, c = pattern.rows[nz], pattern.cols[nz]
+    graph = coo_matrix((np.ones(nz.size), (r, c + n)), shape=(2 * n, 2 * n))  # rows, then columns
+    count, label = connected_components(graph, directed=False)
+    comp = label[r]
+    keys, inverse = np.unique(comp * n + c, return_inverse=True)
+    column_sums = np.bincount(inverse, weights=dq[nz])
+    biggest = np.zeros(count)
+    np.maximum.at(biggest, comp, np.abs(dq[nz]))
+    leaks = np.zeros(count, dtype=bool)
+    kc = keys // n
+    leaks[kc[np.abs(column_sums) > CONSERVED_CHARGE_RTOL * biggest[kc]]] = True
+    charged = np.zeros(n, dtype=bool)
+    charged[r] = True
+    rows = np.flatnonzero(charged)
+    return [rows[label[rows] == k] for k in np.unique(label[rows]) if not leaks[k]]
+
+
+def cancelling_rows(pattern: SparsePattern, dq, dphi, eps: float) -> np.ndarray:
+    """Rows of ``dq/eps - dphi`` that lose their algebraic part to rounding.
+
+    Row ``i`` does when ``sum_j |dq_ij| / eps`` exceeds ``|sum_j dq_ij| / eps + sum_j |dphi_ij|``
+    by more than ``RIGHT_LIMIT_CANCELLATION``: the charge entries of capacitors between
+    nodes of the row cancel in the common mode of those nodes, and what is left to set it
+    (conductances, charges to ground) is below the rounding of the rest. Twin of the
+    compiled loop's ``_cancels``.
+
+    Returns
+    -------
+    ndarray of int64
+        The rows (empty when the matrix keeps every row's information).
+    """
+    n = pattern.n
+    m = pattern.nnz
+    rows = pattern.rows
+    dq = np.asarray(dq, dtype=float)[:m]
+    dphi = np.asarray(dphi, dtype=float)[:m]
+    charge = np.bincount(rows, weights=np.abs(dq), minlength=n) / eps
+    rest = np.abs(np.bincount(rows, weights=dq, minlength=n)) / eps + np.bincount(rows, weights=np.abs(dphi),
+                                                                                  minlength=n)
+    return np.flatnonzero(charge > RIGHT_LIMIT_CANCELLATION * rest)
 
 
 class ImplicitEulerStep(DaeSystem):
@@ -41,28 +132,57 @@ class ImplicitEulerStep(DaeSystem):
         Step size.
     t : float
         Time at which the inputs are taken (whatever time the solver passes).
+    groups : sequence of ndarray of int, optional
+        Groups of rows whose total charge is conserved (:func:`conserved_charge_groups`):
+        the first row of each becomes the sum of the group's equations, ``sum(phi[rows])``
+        (the charge terms cancel exactly), on a pattern extended by the group's entries.
 
     Notes
     -----
     Used for consistent values after a jump of the inputs (:class:`BDF`) and
     for a ``uic`` start (:mod:`netdae.analyses.tran`): as ``h -> 0`` the
     solution keeps the charges ``q0`` and satisfies the algebraic equations
-    at ``t``.
+    at ``t``. Without ``groups`` the algebraic equation of a group's common mode is
+    ``(c + g) - c^2 / (c + g)`` in the LU, ``c = C / h``: zero in floating point once
+    ``g / c`` is below the rounding (1e-12 S of open switches against 1 pF / 5e-18 s).
     """
 
-    def __init__(self, system: DaeSystem, q0, h: float, t: float):
+    def __init__(self, system: DaeSystem, q0, h: float, t: float, groups=()):
         self.inner = system
         self.q0, self.h, self.t = q0, h, t
         self.n, self.names, self.kinds, self.pattern = system.n, system.names, system.kinds, system.pattern
         self.linear = system.linear
+        self.groups = [np.asarray(g, dtype=np.int64) for g in groups if len(g)]
+        if self.groups:
+            old = system.pattern
+            target = np.full(self.n, -1, dtype=np.int64)  # row -> the first row of its group
+            self._label = np.full(self.n, -1, dtype=np.int64)
+            for k, g in enumerate(self.groups):
+                target[g] = g[0]
+                self._label[g] = k
+            self._first = np.array([int(g[0]) for g in self.groups], dtype=np.int64)
+            self._member = np.flatnonzero(self._label >= 0)
+            self._src = np.flatnonzero(target[old.rows] >= 0)  # entries that add into a first row
+            self.pattern = SparsePattern.from_coo(self.n, [old.rows, target[old.rows[self._src]]],
+                                                  [old.cols, old.cols[self._src]])
+            self._old_slots = self.pattern.slots(old.rows, old.cols)
+            self._keep = ~np.isin(old.rows, self._first)  # the first rows' own entries are replaced
+            self._dst = self.pattern.slots(target[old.rows[self._src]], old.cols[self._src])
 
     def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0):
         ev = self.inner.evaluate(x, self.t, jacobian=jacobian, state=state, source_scale=source_scale)
-        return Evaluation(
-            q=ev.q, phi=ev.phi - (ev.q - self.q0) / self.h,
-            dq=ev.dq, dphi=None if ev.dphi is None else ev.dphi - ev.dq / self.h,
-            limited=ev.limited, state=ev.state, ok=ev.ok,
-        )
+        phi = ev.phi - (ev.q - self.q0) / self.h
+        dq, dphi = ev.dq, None if ev.dphi is None else ev.dphi - ev.dq / self.h
+        if self.groups:
+            phi[self._first] = np.bincount(self._label[self._member], weights=ev.phi[self._member],
+                                           minlength=self._first.size)
+            if dphi is not None:
+                nnz = self.pattern.nnz
+                m = self._old_slots.size
+                dq = np.bincount(self._old_slots, weights=ev.dq[:m], minlength=nnz)
+                dphi = (np.bincount(self._old_slots[self._keep], weights=dphi[:m][self._keep], minlength=nnz)
+                        + np.bincount(self._dst, weights=ev.dphi[self._src], minlength=nnz))
+        return Evaluation(q=ev.q, phi=phi, dq=dq, dphi=dphi, limited=ev.limited, state=ev.state, ok=ev.ok)
 
     def initial_state(self):
         return self.inner.initial_state() if hasattr(self.inner, "initial_state") else None
@@ -77,7 +197,11 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     steady-state solver (damped Newton with device limiting, then gmin and
     source stepping): after a jump of the inputs the start can be far from
     the solution (a diode switched on by a step). Index-2 unknowns (``high``)
-    take the second step's value (they carry an impulse in the first).
+    take the second step's value (they carry an impulse in the first). The
+    groups of rows whose total charge is conserved (:func:`conserved_charge_groups`,
+    at ``x``) are solved through their current balance (``ImplicitEulerStep``'s
+    ``groups``): their common mode is algebraic, set by conductances the rounding
+    of ``C / eps`` would lose.
 
     Returns
     -------
@@ -89,10 +213,15 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     evaluations = 0
     y = np.asarray(x, dtype=float)
     ys = []
+    groups = ()
     for step in (1, 2):
-        q0 = system.evaluate(y, t + (step - 1) * eps, jacobian=False, state=state).q
+        ev = system.evaluate(y, t + (step - 1) * eps, jacobian=step == 1, state=state)
         evaluations += 1
-        res = solve_steady(ImplicitEulerStep(system, q0, eps, t + step * eps), t + step * eps, y, options=opts)
+        if step == 1 and ev.dq is not None:
+            groups = conserved_charge_groups(system.pattern, ev.dq)
+        q0 = ev.q
+        res = solve_steady(ImplicitEulerStep(system, q0, eps, t + step * eps, groups), t + step * eps, y,
+                           options=opts)
         iterations += res.iterations
         evaluations += res.iterations
         if not res.converged:
@@ -114,6 +243,8 @@ def event_right_limit(system: DaeSystem, t: float, x, eps: float, high, lu, weig
     devices limited against the previous iterate, from ``state``), converged when the last
     correction is below ``EVENT_RIGHT_LIMIT_TOL`` of the tolerances in the maximum norm
     (``weights``); the result is ``2 y1 - y2`` (``y2`` for the index-2 unknowns ``high``).
+    A matrix that loses a row's algebraic part to rounding (:func:`cancelling_rows`: the
+    common mode of nodes held by capacitors and tiny conductances) is not solved here.
     A switch changes one conductance, an input that moves little moves the solution little: from
     the left value Newton takes a few iterations, where :func:`right_limit`'s steady-state solver
     (with its homotopies) costs milliseconds.
@@ -135,7 +266,9 @@ def event_right_limit(system: DaeSystem, t: float, x, eps: float, high, lu, weig
             ev = system.evaluate(y, t + step * eps, jacobian=True, state=current)
             evaluations += 1
             current = ev.state
-            if not ev.ok or not lu.factor(ev.dq / eps - ev.dphi, tag=("right limit", eps)):
+            if not ev.ok or cancelling_rows(system.pattern, ev.dq, ev.dphi, eps).size:
+                return None, iterations, evaluations
+            if not lu.factor(ev.dq / eps - ev.dphi, tag=("right limit", eps)):
                 return None, iterations, evaluations
             d = lu.solve((ev.q - q0) / eps - ev.phi)
             iterations += 1

@@ -102,6 +102,7 @@ from ..bdf import (  # noqa: E402
     PROBE_RETRIES,
     RATE_AFTER_SETUP,
     RATE_CJ_CHANGED,
+    RIGHT_LIMIT_CANCELLATION,
     ROUNDING_FACTOR,
     ROUNDOFF_ULPS,
     UNDEFINED_TRIES,
@@ -746,6 +747,31 @@ def _record(I, t, k, x, rec):
 
 
 @kernel
+def _cancels(indptr, indices, dq, dphi, eps, charge, total, rest):
+    """Whether a row of ``dq/eps - dphi`` loses its algebraic part to rounding.
+
+    The twin of :func:`netdae.dae.bdf.startup.cancelling_rows`: row ``i`` does when
+    ``sum |dq| / eps > RIGHT_LIMIT_CANCELLATION * (|sum dq| / eps + sum |dphi|)`` (a capacitor
+    between nodes held only by tiny conductances: their common mode's pivot rounds to zero).
+    ``charge``, ``total``, ``rest``: work vectors of size n.
+    """
+    n = indptr.size - 1
+    charge[:] = 0.0
+    total[:] = 0.0
+    rest[:] = 0.0
+    for j in range(n):
+        for p in range(indptr[j], indptr[j + 1]):
+            i = indices[p]
+            charge[i] += abs(dq[p])
+            total[i] += dq[p]
+            rest[i] += abs(dphi[p])
+    for i in range(n):
+        if charge[i] / eps > RIGHT_LIMIT_CANCELLATION * (abs(total[i]) / eps + rest[i]):
+            return True
+    return False
+
+
+@kernel
 def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     """x(t+) into ``xr``: two implicit-Euler steps of ``eps`` by full Newton (tried first at every jump).
 
@@ -753,8 +779,10 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     ``(q(y) - q0) / eps - phi(y, t + k eps) = 0`` from the left value (the switches held,
     the devices limited against the previous iterate), converged when the last correction is
     below ``EVENT_RIGHT_LIMIT_TOL`` of the tolerances; ``xr = 2 y1 - y2`` (``y2`` for index-2
-    unknowns). Returns False when a step does not converge (then Python's steady-state solver
-    takes over). Uses ``x2``, ``work``, ``b1``, ``b2`` of ``ws`` as work: the probe's ``xp``,
+    unknowns). Returns False when a step does not converge, or when the matrix loses a row's
+    algebraic part to rounding (``_cancels``; then Python's steady-state solver takes over, with
+    the charge balance of the groups of nodes held by capacitors). Uses ``x2``, ``work``,
+    ``b1``, ``b2`` of ``ws`` as work (and ``xr``, ``rl_given`` for ``_cancels``): the probe's ``xp``,
     ``xpp`` and ``qpb`` stay, for the restart when the converged right limit is ``x`` itself
     (nothing jumped; they are probed again only after a jump).
     """
@@ -781,6 +809,8 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
             I[I_HAS_TRY] = 1
             state = STATE_TRIAL
             if flags & FLAG_NONFINITE:
+                return False
+            if _cancels(indptr, indices, dqe, dphie, eps, xr, rl_given, d):  # xr, rl_given: free until the end
                 return False
             for i in range(n):
                 d[i] = (qe[i] - q0[i]) / eps - phie[i]
