@@ -395,9 +395,11 @@ def test_compiled_engine_matches_the_python_integrator(monkeypatch, netlists_dir
     assert abs(comp.stats["steps"] - ref.stats["steps"]) <= max(2, 0.1 * ref.stats["steps"])
     tt = np.linspace(0.0, 30e-6, 3001)
     a, b = comp.dense(tt), ref.dense(tt)
-    for name in ("v(out)", "i(l1)", "v(gate)", "v(sw)"):
+    # the switch node rings after each edge: there the two engines' steps part by up to 1.3 % of its swing
+    # (measured; each is 6.5 % of the swing from the reltol=1e-6 solution at these default tolerances)
+    for name, within in (("v(out)", 1e-2), ("i(l1)", 1e-2), ("v(gate)", 1e-2), ("v(sw)", 2e-2)):
         scale = float(np.ptp(b[name]))
-        assert np.max(np.abs(a[name] - b[name])) / scale < 1e-2, name
+        assert np.max(np.abs(a[name] - b[name])) / scale < within, name
 
 
 #: A slow gate ramp through the triode region: the drain voltage, and with it the gate-drain
