@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..newton import INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, LuCache, newton
+from ..newton import (INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache, newton,
+                      residual_stalled)
 from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
 from .failures import nonfinite_unknown, worst_unknown
 
@@ -214,6 +215,11 @@ class NonlinearCorrector:
     rows : ndarray of int64, shape (m,), optional
         The charge-form rows (:func:`~netdae.dae.bdf.arguments.charge_columns`); every row
         when None. With fewer than ``n``, ``system.E`` is the constant ``dq/dx`` of the others.
+    rtol : float, optional
+        Relative tolerance of the residual check of an iterate accepted with a Jacobian from
+        an earlier step (with ``row_atol``; no check without them).
+    row_atol : ndarray, shape (n,), optional
+        Absolute tolerance of each row (:func:`~netdae.dae.bdf.arguments.row_tolerances`).
 
     Attributes
     ----------
@@ -234,13 +240,28 @@ class NonlinearCorrector:
     Newton the charges are evaluated exactly at the new point (one device
     pass without Jacobian): the history must hold ``q(x_new)`` itself, or
     every step injects the linearisation error into the charge of floating
-    node groups.
+    node groups. The same evaluation checks an iterate accepted with a
+    Jacobian from an earlier step: where its residual stalled
+    (:func:`~netdae.dae.newton.residual_stalled`: the Jacobian was made at another
+    operating point, a junction's conductance at a forward bias it has since
+    left, and the correction understated the error by the ratio of the two
+    conductances) the attempt is solved again with a fresh Jacobian, as after a
+    failure; else a node that only capacitors hold would keep the current-law
+    imbalance as a charge error.
     """
 
     def __init__(self, system, lu: LuCache, floor: RoundingFloor, stats: dict, maxiter: int, norm: str,
-                 rows=None) -> None:
+                 rows=None, *, rtol: float | None = None, row_atol=None) -> None:
         self.system, self.lu, self.floor, self.stats = system, lu, floor, stats
         self.maxiter, self.norm = maxiter, norm
+        self.rtol = rtol
+        self.row_atol = None if row_atol is None else np.asarray(row_atol, dtype=float)
+        # |E| and |H| on the pattern: the linear terms' magnitudes of the residual check (None: not linear-split)
+        try:
+            self._abs_eh = (abs(system.pattern.matrix(np.array(system.pattern.data_of(system.E), dtype=float))),
+                            abs(system.pattern.matrix(np.array(system.pattern.data_of(system.H), dtype=float))))
+        except NotImplementedError:
+            self._abs_eh = None
         self.rate = RATE_AFTER_SETUP
         self.state_try = None
         n = system.n
@@ -296,13 +317,7 @@ class NonlinearCorrector:
         e_matrix = self.e_matrix
         last = {}
 
-        def fun(x, jacobian):
-            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
-            st["evaluations"] += 1
-            self.state_try = ev.state
-            last["ev"] = ev
-            if jacobian:
-                floor.keep(ev.dq)
+        def residual(ev, x):
             if e_matrix is None:
                 r = ev.q - q_pred
                 r *= cj
@@ -318,31 +333,78 @@ class NonlinearCorrector:
                 rq += qp_pred
                 r[rows] = rq
             r -= ev.phi
+            return r
+
+        def fun(x, jacobian):
+            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
+            st["evaluations"] += 1
+            self.state_try = ev.state
+            last["ev"] = ev
+            if jacobian:
+                floor.keep(ev.dq)
+            r = residual(ev, x)
+            last["r"] = r.copy()  # the residual the next correction is computed from
             if not jacobian:
                 return r, None, ev.ok, ev.limited
             st["jacobian_evaluations"] += 1
             return r, cj * ev.dq - ev.dphi, ev.ok, ev.limited
 
+        check = self.row_atol is not None and self.rtol is not None
+
+        def stalled(x, ev):
+            """The residual check of an iterate accepted with a Jacobian from an earlier step.
+
+            The magnitudes of the rows' terms: the charge terms and the currents, and first the
+            linear part's ``(cj |E| + |H|) |x|``; only where that finds the residual stalled, the
+            Jacobian at ``x`` (``|cj dq - dphi| |x|``: a device's conductance there) confirms it.
+            """
+            r_new = residual(ev, x)
+            base = np.abs(r_new + ev.phi)
+            base += np.abs(ev.phi)
+            ax = np.abs(x)
+            if self._abs_eh is not None:
+                mag = base + cj * (self._abs_eh[0] @ ax) + self._abs_eh[1] @ ax
+                if not residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX):
+                    return False
+            ev_j = system.evaluate(x, t_new, jacobian=True, state=None)
+            st["evaluations"] += 1
+            st["jacobian_evaluations"] += 1
+            if not ev_j.ok:
+                return False
+            floor.keep(ev_j.dq)
+            mag = base + self.system.pattern.matrix(np.abs(cj * ev_j.dq - ev_j.dphi)) @ ax
+            return residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX)
+
+        def attempt(setup, full=False):
+            """One Newton solve; a converged one's charges evaluated, and its residual checked."""
+            self.state_try = state
+            res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton, full)
+            if not res.converged:
+                return res, None
+            ev = system.evaluate(res.x, t_new, jacobian=False, state=None)
+            st["evaluations"] += 1
+            if ev.ok and check and not setup and not full and stalled(res.x, ev):
+                # accepted with a Jacobian made at another operating point: not converged
+                res.converged = False
+            return res, ev
+
         lu = self.lu
-        self.state_try = state
         setup = (not lu.ready) or fresh
         if not setup:
             ratio = cj / lu.tag
             setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
-        res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton)
+        res, ev_new = attempt(setup)
         if not res.converged and not setup and res.info != INFO_EVALUATION:
             # stale Jacobian: retry once with a fresh one at the same step size
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            self.state_try = state
-            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton)
+            res, ev_new = attempt(True)
         if not res.converged and res.info not in (INFO_EVALUATION, INFO_SINGULAR):
             # a fresh Jacobian failed too: full Newton (a model whose slope changes within
             # the step, as a MOS charge at its threshold) before a smaller step
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            self.state_try = state
-            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton, full=True)
+            res, ev_new = attempt(True, full=True)
         st["newton_iterations"] += res.iterations
         st["factorizations"] = lu.factorizations
         if not res.converged:
@@ -351,8 +413,6 @@ class NonlinearCorrector:
                 worst = nonfinite_unknown(system.names, last["ev"]) or worst
             return False, {"info": res.info, "worst": worst}
         self.rate = res.rate
-        ev_new = system.evaluate(res.x, t_new, jacobian=False, state=None)
-        st["evaluations"] += 1
         if not ev_new.ok:
             return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
         return True, (res.x, ev_new.q if e_matrix is None else ev_new.q[rows])
