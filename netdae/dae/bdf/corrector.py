@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..newton import (INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache, newton,
-                      residual_stalled)
+from ..newton import (CONDUCTANCE_FALL, INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache,
+                      conductance_fell, newton, residual_stalled)
 from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
 from .failures import nonfinite_unknown, worst_unknown
 
@@ -216,10 +216,12 @@ class NonlinearCorrector:
         The charge-form rows (:func:`~netdae.dae.bdf.arguments.charge_columns`); every row
         when None. With fewer than ``n``, ``system.E`` is the constant ``dq/dx`` of the others.
     rtol : float, optional
-        Relative tolerance of the residual check of an iterate accepted with a Jacobian from
-        an earlier step (with ``row_atol``; no check without them).
+        Relative tolerance of the check of an iterate accepted with a Jacobian from an earlier
+        step (with ``row_atol`` and ``atol``; no check without them).
     row_atol : ndarray, shape (n,), optional
         Absolute tolerance of each row (:func:`~netdae.dae.bdf.arguments.row_tolerances`).
+    atol : ndarray, shape (n,), optional
+        Absolute tolerance of each unknown.
 
     Attributes
     ----------
@@ -240,28 +242,34 @@ class NonlinearCorrector:
     Newton the charges are evaluated exactly at the new point (one device
     pass without Jacobian): the history must hold ``q(x_new)`` itself, or
     every step injects the linearisation error into the charge of floating
-    node groups. The same evaluation checks an iterate accepted with a
-    Jacobian from an earlier step: where its residual stalled
-    (:func:`~netdae.dae.newton.residual_stalled`: the Jacobian was made at another
-    operating point, a junction's conductance at a forward bias it has since
-    left, and the correction understated the error by the ratio of the two
-    conductances) the attempt is solved again with a fresh Jacobian, as after a
-    failure; else a node that only capacitors hold would keep the current-law
-    imbalance as a charge error.
+    node groups. An iterate accepted with a Jacobian from an earlier step
+    is evaluated with its Jacobian (not factored) and checked: where an entry
+    of ``dphi/dx`` the factorisation holds fell by more than ``CONDUCTANCE_FALL``
+    (:func:`~netdae.dae.newton.conductance_fell`) or the residual stalled
+    (:func:`~netdae.dae.newton.residual_stalled`), the Jacobian was made at
+    another operating point (a junction's conductance at a forward bias it
+    has since left) and the correction understated the error by the ratio of
+    the two conductances: the attempt is solved again with a fresh Jacobian,
+    as after a failure; else a node that only capacitors hold would keep the
+    current-law imbalance as a charge error.
     """
 
     def __init__(self, system, lu: LuCache, floor: RoundingFloor, stats: dict, maxiter: int, norm: str,
-                 rows=None, *, rtol: float | None = None, row_atol=None) -> None:
+                 rows=None, *, rtol: float | None = None, row_atol=None, atol=None) -> None:
         self.system, self.lu, self.floor, self.stats = system, lu, floor, stats
         self.maxiter, self.norm = maxiter, norm
         self.rtol = rtol
         self.row_atol = None if row_atol is None else np.asarray(row_atol, dtype=float)
-        # |E| and |H| on the pattern: the linear terms' magnitudes of the residual check (None: not linear-split)
+        self.atol = None if atol is None else np.asarray(atol, dtype=float)
+        self._dphi_lu = None  # dphi/dx of the Jacobian the factorisation was made from
+        # E and H on the pattern (None: a system without a linear part): the check's magnitudes
         try:
-            self._abs_eh = (abs(system.pattern.matrix(np.array(system.pattern.data_of(system.E), dtype=float))),
-                            abs(system.pattern.matrix(np.array(system.pattern.data_of(system.H), dtype=float))))
+            self._eh = (np.array(system.pattern.data_of(system.E), dtype=float),
+                        np.array(system.pattern.data_of(system.H), dtype=float))
         except NotImplementedError:
-            self._abs_eh = None
+            self._eh = None
+        self._pattern_arrays = (np.asarray(system.pattern.indptr, dtype=np.int64),
+                                np.asarray(system.pattern.indices, dtype=np.int64))
         self.rate = RATE_AFTER_SETUP
         self.state_try = None
         n = system.n
@@ -342,6 +350,7 @@ class NonlinearCorrector:
             last["ev"] = ev
             if jacobian:
                 floor.keep(ev.dq)
+                self._dphi_lu = np.array(ev.dphi, dtype=float)
             r = residual(ev, x)
             last["r"] = r.copy()  # the residual the next correction is computed from
             if not jacobian:
@@ -349,43 +358,46 @@ class NonlinearCorrector:
             st["jacobian_evaluations"] += 1
             return r, cj * ev.dq - ev.dphi, ev.ok, ev.limited
 
-        check = self.row_atol is not None and self.rtol is not None
+        check = self.row_atol is not None and self.rtol is not None and self.atol is not None
 
-        def stalled(x, ev):
-            """The residual check of an iterate accepted with a Jacobian from an earlier step.
-
-            The magnitudes of the rows' terms: the charge terms and the currents, and first the
-            linear part's ``(cj |E| + |H|) |x|``; only where that finds the residual stalled, the
-            Jacobian at ``x`` (``|cj dq - dphi| |x|``: a device's conductance there) confirms it.
-            """
+        def stale(x, ev):
+            """The check of an iterate accepted with a Jacobian from an earlier step (``ev``: the
+            evaluation at ``x`` with its Jacobian): an entry of the factorisation's ``dphi/dx`` fell
+            by more than ``CONDUCTANCE_FALL``, or a row's residual stalled, measured against the
+            magnitude of its terms, the charge terms, the currents and ``(cj |E| + |H| + cj |dq - E|
+            + |dphi - H|) |x|``."""
+            indptr, indices = self._pattern_arrays
+            if self._dphi_lu is not None and conductance_fell(self._dphi_lu, ev.dphi, ev.dq, cj, indptr, indices,
+                                                              self.row_atol, self.atol, CONDUCTANCE_FALL):
+                return True
             r_new = residual(ev, x)
-            base = np.abs(r_new + ev.phi)
-            base += np.abs(ev.phi)
-            ax = np.abs(x)
-            if self._abs_eh is not None:
-                mag = base + cj * (self._abs_eh[0] @ ax) + self._abs_eh[1] @ ax
-                if not residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX):
-                    return False
-            ev_j = system.evaluate(x, t_new, jacobian=True, state=None)
-            st["evaluations"] += 1
-            st["jacobian_evaluations"] += 1
-            if not ev_j.ok:
-                return False
-            floor.keep(ev_j.dq)
-            mag = base + self.system.pattern.matrix(np.abs(cj * ev_j.dq - ev_j.dphi)) @ ax
+            mag = np.abs(r_new + ev.phi)
+            mag += np.abs(ev.phi)
+            if self._eh is None:
+                a = np.abs(cj * ev.dq - ev.dphi)
+            else:
+                # the linear elements' terms and the devices' apart (a resistor's current and a
+                # device's that cancel it in the Jacobian, at a fold, are both terms of the row)
+                e, h = self._eh
+                a = cj * (np.abs(e) + np.abs(ev.dq - e)) + np.abs(h) + np.abs(ev.dphi - h)
+            mag += self.system.pattern.matrix(a) @ np.abs(x)
             return residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX)
 
         def attempt(setup, full=False):
-            """One Newton solve; a converged one's charges evaluated, and its residual checked."""
+            """One Newton solve; a converged one's charges evaluated, and checked when its Jacobian is older."""
             self.state_try = state
             res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton, full)
             if not res.converged:
                 return res, None
-            ev = system.evaluate(res.x, t_new, jacobian=False, state=None)
+            checked = check and not setup and not full
+            ev = system.evaluate(res.x, t_new, jacobian=checked, state=None)
             st["evaluations"] += 1
-            if ev.ok and check and not setup and not full and stalled(res.x, ev):
-                # accepted with a Jacobian made at another operating point: not converged
-                res.converged = False
+            if checked and ev.ok:
+                st["jacobian_evaluations"] += 1
+                floor.keep(ev.dq)
+                if stale(res.x, ev):
+                    # accepted with a Jacobian made at another operating point: not converged
+                    res.converged = False
             return res, ev
 
         lu = self.lu

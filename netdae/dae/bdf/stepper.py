@@ -267,7 +267,7 @@ class BDF:
                            np.asarray(system.pattern.indices, dtype=np.int64))
         self._corrector = None if self._linear else NonlinearCorrector(
             system, self._lu, self._floor, self.stats, self.newton_maxiter, norm, self._crows,
-            rtol=self.rtol, row_atol=row_tolerances(system.kinds, self._atol, vntol, abstol))
+            rtol=self.rtol, row_atol=row_tolerances(system.kinds, self._atol, vntol, abstol), atol=self._atol)
         # the controller's state between steps
         self._phase = 0  # 0: start-up (order and step raised after every step), 1: normal
         self._nst = 0  # steps since the last (re)start

@@ -19,7 +19,8 @@ from . import kernel
 
 __all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "charge_error_norms",
            "charge_error_kp1", "update_differences", "landing_step",
-           "set_weights", "residual_stalled", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED"]
+           "set_weights", "residual_stalled", "conductance_fell", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL",
+           "RELREF_SIGNAL", "RELREF_MIXED"]
 
 NORM_RMS = 0
 NORM_MAX = 1
@@ -265,4 +266,44 @@ def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max):
         a = abs(r_new[i])
         if a > s and a > rate_max * abs(r_prev[i]):
             return True
+    return False
+
+
+@kernel
+def conductance_fell(dphi_lu, dphi, dq, cj, indptr, indices, r_atol, x_atol, factor):
+    """Whether an off-diagonal entry of ``dphi/dx`` the factorisation holds fell by more than ``factor`` since.
+
+    Entry ``(i, j)``, ``i != j``, of the Jacobian the modified-Newton matrix was made from,
+    ``dphi_lu``, is compared with the Jacobian at the accepted iterate: it fell when ``|dphi_lu|
+    > factor (|dphi| + cj |dq|) + r_atol_i / x_atol_j``. An off-diagonal entry is the
+    conductance of what joins the two unknowns (a junction between two nodes); a diagonal one
+    sums every element at a node, and one that falls towards zero is a fold of the node's
+    current law (an N-shaped conductance), where a fresh Jacobian is singular and the
+    impasse's jump takes over, not a stale matrix. A junction that conducted when the
+    matrix was made and is off now: its conductance (here with the charge's coupling
+    ``cj dq``, what the entry keeps of the two) is more than ``factor`` times too large in the
+    matrix, and the corrections understate the error in every direction it couples, the
+    common mode of a node group that only junction capacitances hold included, which no
+    single row's residual shows. ``r_atol_i / x_atol_j`` (abstol / vntol = 1e-6 S between two
+    nodes) is the conductance below which a change moves no current past its tolerance.
+
+    Parameters
+    ----------
+    dphi_lu, dphi, dq : ndarray, shape (>= nnz,)
+        Values on the CSC pattern ``(indptr, indices)``.
+    cj : float
+    indptr, indices : ndarray of int64
+    r_atol, x_atol : ndarray, shape (n,)
+        The rows' and the unknowns' absolute tolerances.
+    factor : float
+
+    Returns
+    -------
+    bool
+    """
+    for j in range(indptr.size - 1):
+        for p in range(indptr[j], indptr[j + 1]):
+            i = indices[p]
+            if i != j and abs(dphi_lu[p]) > factor * (abs(dphi[p]) + cj * abs(dq[p])) + r_atol[i] / x_atol[j]:
+                return True
     return False
