@@ -112,8 +112,8 @@ def test_the_gates_output_stages_balance_their_currents_at_every_accepted_point(
         worst = max(worst, max(abs(phi[g].sum()) for g in groups))
     # the currents into a group without capacitance sum to zero at a solution; the stages carry
     # up to about 30 mA (RC = 130 ohm from 5 V). Measured 2.05e-3 A before the check of iterates
-    # accepted with a Jacobian from an earlier step, 1.6e-3 A with it (9.3e-4 A with its residual
-    # test measured on the linear part's magnitudes alone, which failed the fold of test_impasse.py)
+    # accepted with a Jacobian from an earlier step, 1.6e-3 A with it (9.3e-4 A with a residual test
+    # measured on the linear part's magnitudes, confirmed on the Jacobian's: docs/integrator.md)
     assert worst < 1e-3, worst
 
 
