@@ -30,6 +30,22 @@ over it) differ only in the *stopping rule* they pass:
   ``reltol`` times the magnitude of the terms that make it up plus its
   absolute tolerance.
 
+A Jacobian reused from an earlier step (modified Newton, ``jacobian="never"``) can
+be made at another operating point: a junction's conductance at a forward bias it
+has since left, many orders of magnitude above its conductance now. Every
+correction ``A^-1 r`` is then tiny, the rate test accepts at once, and the
+iterate keeps the prediction's residual: a node that only capacitors hold
+integrates that current into a permanent charge error. The correctors therefore
+check an iterate accepted with such a Jacobian on a Jacobian evaluated there (not
+factored) and solve again with a fresh one when an entry of ``dphi/dx`` the
+factorisation holds off its diagonal fell by more than :data:`CONDUCTANCE_FALL`
+(:func:`~netdae.dae.compiled.control.conductance_fell`: a junction that conducted
+then and is off now, whose stale coupling can hide in the common mode of a node
+group, where no row's residual shows it) or when the residual stalled
+(:func:`~netdae.dae.compiled.control.residual_stalled`: not small in SPICE's sense
+and not below :data:`RESIDUAL_RATE_MAX` of the residual the correction was
+computed from).
+
 A rule is asked twice per iteration: :meth:`StoppingRule.at_point` after an
 evaluation, before the linear solve (SPICE decides there, with the residual
 of the new iterate), and :meth:`StoppingRule.after_update` after the
@@ -81,7 +97,7 @@ from typing import Callable, Protocol
 import numpy as np
 import scipy.sparse as sp
 
-from .compiled.control import NORM_MAX, NORM_RMS, weighted_norm
+from .compiled.control import NORM_MAX, NORM_RMS, conductance_fell, residual_stalled, weighted_norm
 from .compiled.lu import DEFAULT_PERMC_SPEC, PIVOT_REL_THRESHOLD, SparseLU
 from .sparse import SparsePattern
 
@@ -94,6 +110,10 @@ __all__ = [
     "RateTest",
     "SpiceTest",
     "newton",
+    "residual_stalled",
+    "RESIDUAL_RATE_MAX",
+    "conductance_fell",
+    "CONDUCTANCE_FALL",
     "INFO_CONVERGED",
     "INFO_DIVERGED",
     "INFO_MAXITER",
@@ -111,6 +131,22 @@ RATE_MAX = 0.9
 FRESH_RATE_MAX = 0.25
 #: A first correction this small (relative to ``tol``) converges at once.
 TINY_CORRECTION = 1e-4
+#: A Newton step with a fit matrix removes the residual's linear part; an iterate accepted with a
+#: Jacobian from an earlier step whose residual (SPICE's current test) is not small and fell by less
+#: than this factor was corrected with a matrix made at another operating point (a junction's
+#: conductance at a bias it has left): the correction understated the error, and the corrector
+#: solves again with a fresh Jacobian (``residual_stalled``). A matrix off by the factor ``f`` in a
+#: row leaves ``|1 - 1/f|`` of its residual: 0.5 is a matrix twice too stiff; the ``cj`` changes
+#: that modified Newton accepts (``DCJ``, with IDA's scaling of the correction) leave at most 0.25.
+RESIDUAL_RATE_MAX = 0.5
+#: An iterate accepted with a Jacobian from an earlier step is not converged when an off-diagonal
+#: entry of ``dphi/dx`` the factorisation holds is more than this factor above the same entry (with its
+#: ``cj dq/dx``) at the iterate (``conductance_fell``): a junction that conducted when the matrix
+#: was made and is off now. A stale coupling can hide in a direction no row's residual shows
+#: (the common mode of a node group held only by junction capacitances, its rows' currents
+#: cancelling); a conductance falling tenfold happens at a junction's turn-off, a few times a
+#: cycle, where modified Newton would otherwise keep the matrix for hundreds of steps.
+CONDUCTANCE_FALL = 10.0
 #: Armijo sufficient-decrease constant of the damped iteration.
 ARMIJO_C = 1e-4
 #: Step-length reduction per backtracking trial.

@@ -10,7 +10,7 @@ import numpy as np
 from ..system import KIND_CURRENT, KIND_VOLTAGE
 from .constants import MAX_ORDER
 
-__all__ = ["check_arguments", "absolute_tolerances", "index_mask", "save_indices"]
+__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices"]
 
 
 def check_arguments(t0: float, t_bound: float, x0, n: int, *, rtol: float, maxord: int, norm: str, relref: str,
@@ -66,6 +66,29 @@ def absolute_tolerances(kinds, n: int, atol, vntol: float, abstol: float) -> tup
     if np.any(~np.isfinite(vec)) or np.any(vec <= 0.0):
         raise ValueError("absolute tolerances must be positive and finite")
     return vec, label
+
+
+def row_tolerances(kinds, atol: np.ndarray, vntol: float, abstol: float) -> np.ndarray:
+    """Absolute tolerance of each equation row of the corrector's residual.
+
+    Row ``i`` of a circuit's system is the equation of unknown ``i``'s element: a node's
+    current law (amperes: ``abstol``) or a branch's voltage equation (volts: ``vntol``), so
+    the row tolerances swap the unknowns' kinds; a row of another kind keeps its unknown's
+    ``atol``.
+
+    Parameters
+    ----------
+    kinds : ndarray, shape (n,)
+    atol : ndarray, shape (n,)
+        The unknowns' absolute tolerances (:func:`absolute_tolerances`).
+    vntol, abstol : float
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    kinds = np.asarray(kinds)
+    return np.where(kinds == KIND_VOLTAGE, float(abstol), np.where(kinds == KIND_CURRENT, float(vntol), atol))
 
 
 def index_mask(names, n: int, index, norm: str) -> tuple[np.ndarray, np.ndarray | None, int]:

@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..newton import INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, LuCache, newton
+from ..newton import (CONDUCTANCE_FALL, INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache,
+                      conductance_fell, newton, residual_stalled)
 from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
 from .failures import nonfinite_unknown, worst_unknown
 
@@ -214,6 +215,13 @@ class NonlinearCorrector:
     rows : ndarray of int64, shape (m,), optional
         The charge-form rows (:func:`~netdae.dae.bdf.arguments.charge_columns`); every row
         when None. With fewer than ``n``, ``system.E`` is the constant ``dq/dx`` of the others.
+    rtol : float, optional
+        Relative tolerance of the check of an iterate accepted with a Jacobian from an earlier
+        step (with ``row_atol`` and ``atol``; no check without them).
+    row_atol : ndarray, shape (n,), optional
+        Absolute tolerance of each row (:func:`~netdae.dae.bdf.arguments.row_tolerances`).
+    atol : ndarray, shape (n,), optional
+        Absolute tolerance of each unknown.
 
     Attributes
     ----------
@@ -234,13 +242,34 @@ class NonlinearCorrector:
     Newton the charges are evaluated exactly at the new point (one device
     pass without Jacobian): the history must hold ``q(x_new)`` itself, or
     every step injects the linearisation error into the charge of floating
-    node groups.
+    node groups. An iterate accepted with a Jacobian from an earlier step
+    is evaluated with its Jacobian (not factored) and checked: where an entry
+    of ``dphi/dx`` the factorisation holds fell by more than ``CONDUCTANCE_FALL``
+    (:func:`~netdae.dae.newton.conductance_fell`) or the residual stalled
+    (:func:`~netdae.dae.newton.residual_stalled`), the Jacobian was made at
+    another operating point (a junction's conductance at a forward bias it
+    has since left) and the correction understated the error by the ratio of
+    the two conductances: the attempt is solved again with a fresh Jacobian,
+    as after a failure; else a node that only capacitors hold would keep the
+    current-law imbalance as a charge error.
     """
 
     def __init__(self, system, lu: LuCache, floor: RoundingFloor, stats: dict, maxiter: int, norm: str,
-                 rows=None) -> None:
+                 rows=None, *, rtol: float | None = None, row_atol=None, atol=None) -> None:
         self.system, self.lu, self.floor, self.stats = system, lu, floor, stats
         self.maxiter, self.norm = maxiter, norm
+        self.rtol = rtol
+        self.row_atol = None if row_atol is None else np.asarray(row_atol, dtype=float)
+        self.atol = None if atol is None else np.asarray(atol, dtype=float)
+        self._dphi_lu = None  # dphi/dx of the Jacobian the factorisation was made from
+        # E and H on the pattern (None: a system without a linear part): the check's magnitudes
+        try:
+            self._eh = (np.array(system.pattern.data_of(system.E), dtype=float),
+                        np.array(system.pattern.data_of(system.H), dtype=float))
+        except NotImplementedError:
+            self._eh = None
+        self._pattern_arrays = (np.asarray(system.pattern.indptr, dtype=np.int64),
+                                np.asarray(system.pattern.indices, dtype=np.int64))
         self.rate = RATE_AFTER_SETUP
         self.state_try = None
         n = system.n
@@ -296,13 +325,7 @@ class NonlinearCorrector:
         e_matrix = self.e_matrix
         last = {}
 
-        def fun(x, jacobian):
-            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
-            st["evaluations"] += 1
-            self.state_try = ev.state
-            last["ev"] = ev
-            if jacobian:
-                floor.keep(ev.dq)
+        def residual(ev, x):
             if e_matrix is None:
                 r = ev.q - q_pred
                 r *= cj
@@ -318,31 +341,82 @@ class NonlinearCorrector:
                 rq += qp_pred
                 r[rows] = rq
             r -= ev.phi
+            return r
+
+        def fun(x, jacobian):
+            ev = system.evaluate(x, t_new, jacobian=jacobian, state=self.state_try)
+            st["evaluations"] += 1
+            self.state_try = ev.state
+            last["ev"] = ev
+            if jacobian:
+                floor.keep(ev.dq)
+                self._dphi_lu = np.array(ev.dphi, dtype=float)
+            r = residual(ev, x)
+            last["r"] = r.copy()  # the residual the next correction is computed from
             if not jacobian:
                 return r, None, ev.ok, ev.limited
             st["jacobian_evaluations"] += 1
             return r, cj * ev.dq - ev.dphi, ev.ok, ev.limited
 
+        check = self.row_atol is not None and self.rtol is not None and self.atol is not None
+
+        def stale(x, ev):
+            """The check of an iterate accepted with a Jacobian from an earlier step (``ev``: the
+            evaluation at ``x`` with its Jacobian): an entry of the factorisation's ``dphi/dx`` fell
+            by more than ``CONDUCTANCE_FALL``, or a row's residual stalled, measured against the
+            magnitude of its terms, the charge terms, the currents and ``(cj |E| + |H| + cj |dq - E|
+            + |dphi - H|) |x|``."""
+            indptr, indices = self._pattern_arrays
+            if self._dphi_lu is not None and conductance_fell(self._dphi_lu, ev.dphi, ev.dq, cj, indptr, indices,
+                                                              self.row_atol, self.atol, CONDUCTANCE_FALL):
+                return True
+            r_new = residual(ev, x)
+            mag = np.abs(r_new + ev.phi)
+            mag += np.abs(ev.phi)
+            if self._eh is None:
+                a = np.abs(cj * ev.dq - ev.dphi)
+            else:
+                # the linear elements' terms and the devices' apart (a resistor's current and a
+                # device's that cancel it in the Jacobian, at a fold, are both terms of the row)
+                e, h = self._eh
+                a = cj * (np.abs(e) + np.abs(ev.dq - e)) + np.abs(h) + np.abs(ev.dphi - h)
+            mag += self.system.pattern.matrix(a) @ np.abs(x)
+            return residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX)
+
+        def attempt(setup, full=False):
+            """One Newton solve; a converged one's charges evaluated, and checked when its Jacobian is older."""
+            self.state_try = state
+            res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton, full)
+            if not res.converged:
+                return res, None
+            checked = check and not setup and not full
+            ev = system.evaluate(res.x, t_new, jacobian=checked, state=None)
+            st["evaluations"] += 1
+            if checked and ev.ok:
+                st["jacobian_evaluations"] += 1
+                floor.keep(ev.dq)
+                if stale(res.x, ev):
+                    # accepted with a Jacobian made at another operating point: not converged
+                    res.converged = False
+            return res, ev
+
         lu = self.lu
-        self.state_try = state
         setup = (not lu.ready) or fresh
         if not setup:
             ratio = cj / lu.tag
             setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
-        res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton)
+        res, ev_new = attempt(setup)
         if not res.converged and not setup and res.info != INFO_EVALUATION:
             # stale Jacobian: retry once with a fresh one at the same step size
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            self.state_try = state
-            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton)
+            res, ev_new = attempt(True)
         if not res.converged and res.info not in (INFO_EVALUATION, INFO_SINGULAR):
             # a fresh Jacobian failed too: full Newton (a model whose slope changes within
             # the step, as a MOS charge at its threshold) before a smaller step
             st["newton_failures"] += 1
             st["newton_iterations"] += res.iterations
-            self.state_try = state
-            res = self._newton(fun, x_pred, cj, cjlast, True, w_newton, full=True)
+            res, ev_new = attempt(True, full=True)
         st["newton_iterations"] += res.iterations
         st["factorizations"] = lu.factorizations
         if not res.converged:
@@ -351,8 +425,6 @@ class NonlinearCorrector:
                 worst = nonfinite_unknown(system.names, last["ev"]) or worst
             return False, {"info": res.info, "worst": worst}
         self.rate = res.rate
-        ev_new = system.evaluate(res.x, t_new, jacobian=False, state=None)
-        st["evaluations"] += 1
         if not ev_new.ok:
             return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
         return True, (res.x, ev_new.q if e_matrix is None else ev_new.q[rows])

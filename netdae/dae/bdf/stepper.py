@@ -40,7 +40,8 @@ from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache, NewtonInfo
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
-from .arguments import absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask, save_indices
+from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask,
+                        row_tolerances, save_indices)
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -265,7 +266,8 @@ class BDF:
         self._q_pattern = (np.asarray(system.pattern.indptr, dtype=np.int64),
                            np.asarray(system.pattern.indices, dtype=np.int64))
         self._corrector = None if self._linear else NonlinearCorrector(
-            system, self._lu, self._floor, self.stats, self.newton_maxiter, norm, self._crows)
+            system, self._lu, self._floor, self.stats, self.newton_maxiter, norm, self._crows,
+            rtol=self.rtol, row_atol=row_tolerances(system.kinds, self._atol, vntol, abstol), atol=self._atol)
         # the controller's state between steps
         self._phase = 0  # 0: start-up (order and step raised after every step), 1: normal
         self._nst = 0  # steps since the last (re)start

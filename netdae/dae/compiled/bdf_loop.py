@@ -65,7 +65,8 @@ from ...devices.kernels.vdmos import eval_vdmos
 from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
-                      landing_step, set_weights, update_differences, weighted_norm)
+                      conductance_fell, landing_step, residual_stalled, set_weights, update_differences,
+                      weighted_norm)
 from . import inlined_kernel, kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
 from .lu import refactor as lu_refactor
@@ -107,7 +108,7 @@ from ..bdf import (  # noqa: E402
     ROUNDOFF_ULPS,
     UNDEFINED_TRIES,
 )
-from ..newton import FRESH_RATE_MAX, RATE_MAX, TINY_CORRECTION  # noqa: E402
+from ..newton import CONDUCTANCE_FALL, FRESH_RATE_MAX, RATE_MAX, RESIDUAL_RATE_MAX, TINY_CORRECTION  # noqa: E402
 #: Unknowns named per recorded jump (the rest are counted).
 JUMP_NAMES = 32
 
@@ -1117,6 +1118,57 @@ def _newton(F, I, t_new, cj, setup, full, x_pred, xp_pred, crows, weights, sysd,
     return NEWTON_FAILED, REASON_MAXITER, _newton_worst(d, weights), maxiter, rate_out
 
 
+@inlined_kernel
+def _stalled(I, t_new, cj, x, pred0, pred1, crows, rtol, ratol, atol, dphi_lu, sysd, devd, u, evb, r, rn, v):
+    """The check of an iterate ``x`` accepted with a Jacobian from an earlier step (the Python
+    corrector's ``stale``).
+
+    Evaluates ``q``, ``phi`` and their Jacobian at ``x`` without limiting (the charges the
+    history takes; the Jacobian is not factored). Stale when an entry of ``dphi/dx`` the
+    factorisation holds (``dphi_lu``) fell by more than ``CONDUCTANCE_FALL``
+    (:func:`netdae.dae.compiled.control.conductance_fell`), or when a row's residual stalled
+    (:func:`netdae.dae.compiled.control.residual_stalled`): the corrector residual at ``x``
+    (into ``rn``; ``r`` is the residual the accepted correction was computed from, ``v`` work)
+    against the magnitude of the row's terms, the charge terms, the currents and
+    ``(cj |E| + |H| + cj |dq - E| + |dphi - H|) |x|`` (the linear elements' and the devices'
+    apart). Returns ``(stale, flags)``, the flags of the evaluation; ``qe`` and
+    ``phie`` hold ``q(x)`` and ``phi(x)`` on return.
+    """
+    indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
+    xe, qe, phie, dqe, dphie, absdq = evb
+    n = x.size
+    m = crows.size
+    flags = _evaluate_inlined(I, t_new, x, STATE_NONE, False, True, sysd, devd, u, evb)
+    if flags & FLAG_NONFINITE:
+        return False, flags
+    if conductance_fell(dphi_lu, dphie, dqe, cj, indptr, indices, ratol, atol, CONDUCTANCE_FALL):
+        return True, flags
+    # the residual at x (as _residual, from these q and phi)
+    if m == n:
+        for i in range(n):
+            rn[i] = cj * (qe[i] - pred0[n + i]) + pred1[n + i] - phie[i]
+    else:
+        for j in range(n):
+            v[j] = (x[j] - pred0[j]) * cj + pred1[j]
+        rn[:] = 0.0
+        _matvec_add(indptr, indices, e_data, v, 1.0, rn)
+        for c in range(m):
+            i = crows[c]
+            rn[i] = (qe[i] - pred0[n + c]) * cj + pred1[n + c]
+        for i in range(n):
+            rn[i] -= phie[i]
+    # the magnitudes: the linear elements' terms and the devices' apart (a resistor's current and
+    # a device's that cancel it in the Jacobian, at a fold, are both terms of the row)
+    for i in range(n):
+        v[i] = abs(rn[i] + phie[i]) + abs(phie[i])
+    for j in range(n):
+        ax = abs(x[j])
+        for p in range(indptr[j], indptr[j + 1]):
+            v[indices[p]] += (cj * (abs(e_data[p]) + abs(dqe[p] - e_data[p])) + abs(h_data[p])
+                              + abs(dphie[p] - h_data[p])) * ax
+    return residual_stalled(r, rn, v, rtol, ratol, RESIDUAL_RATE_MAX), flags
+
+
 @kernel
 def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol, sysd, devd, lus, evb, ws, wk,
         rec, max_chunk_steps):
@@ -1152,7 +1204,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     wk : tuple
         The step's work vectors ``(ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq, vw)``
         (the first three of the history's width, ``wq`` of the number of charge columns,
-        the others n).
+        the others n), then ``ratol``, the rows' absolute tolerances of the corrector's check
+        (:func:`netdae.dae.bdf.arguments.row_tolerances`), and ``dphi_lu`` (nnz + 1), ``dphi/dx``
+        of the Jacobian the factorisation was made from.
     rec : tuple
         The output: ``(save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments,
         restart_times, event_t, event_count, event_idx)`` (the events: their times and the
@@ -1174,7 +1228,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     n = atol.size
     linear = I[I_LINEAR] != 0
     maxord = I[I_MAXORD]
-    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq, vw = wk
+    ee, pred0, pred1, r, d, xn, w_newton, w_se, xs, wq, vw, ratol, dphi_lu = wk
     wq_count = 0
     rtol = F[F_RTOL]
     norm = I[I_NORM]
@@ -1333,11 +1387,30 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 # with a fresh one at the same step size, then (a fresh Jacobian failed too) full Newton,
                 # a model whose slope changes within the step (a MOS charge at its threshold), before a
                 # smaller step
+                # An iterate accepted with a Jacobian from an earlier step is checked on the Jacobian
+                # there (_stalled): a matrix made at another operating point (a junction's conductance
+                # at a bias it has left) understates the correction, and the attempt is solved again
+                # with a fresh Jacobian, as after a failure
                 fresh = setup
                 full = False
+                have_q = False  # qe, phie hold q and phi at xn (no limiting)
+                flags = 0
                 while True:
                     outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, fresh, full, pred0, pred1, crows,
                                                                 w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
+                    if fresh or full:
+                        # dphi/dx of the Jacobian just factored (the last one _newton evaluated)
+                        for p in range(dphi_lu.size):
+                            dphi_lu[p] = dphie[p]
+                    elif outcome == NEWTON_CONVERGED:
+                        stalled, sflags = _stalled(I, t_ev, cj, xn, pred0, pred1, crows, rtol, ratol, atol, dphi_lu,
+                                                   sysd, devd, u, evb, r, d, vw)
+                        if stalled:
+                            outcome = NEWTON_FAILED
+                            reason = REASON_DIVERGED
+                        else:
+                            have_q = True
+                            flags = sflags
                     if outcome != NEWTON_FAILED or full or reason == REASON_EVALUATION:
                         break
                     if fresh and reason == REASON_SINGULAR:
@@ -1358,9 +1431,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     # the charges at the new point, evaluated exactly (no limiting): the
                     # history must hold q(x_new) itself (a system whose devices store no
                     # charge has none to hold: its linear charges E x are in correction form)
-                    flags = 0
-                    if crows.size > 0:
-                        flags = _evaluate_inlined(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
+                    if not have_q:
+                        flags = 0
+                        if crows.size > 0:
+                            flags = _evaluate_inlined(I, t_ev, xn, STATE_NONE, False, False, sysd, devd, u, evb)
                     if flags & FLAG_NONFINITE:
                         kind = 1
                         reason = REASON_EVALUATION

@@ -19,7 +19,8 @@ from . import kernel
 
 __all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "charge_error_norms",
            "charge_error_kp1", "update_differences", "landing_step",
-           "set_weights", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED"]
+           "set_weights", "residual_stalled", "conductance_fell", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL",
+           "RELREF_SIGNAL", "RELREF_MIXED"]
 
 NORM_RMS = 0
 NORM_MAX = 1
@@ -220,3 +221,89 @@ def set_weights(x, rtol, atol, relref, xmax, mask, w, w_err):
             a = max(a, MIXED_FLOOR * xmax[i])
         w[i] = 1.0 / (rtol * a + atol[i])
         w_err[i] = w[i] * mask[i]
+
+
+@kernel
+def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max):
+    """Whether a modified-Newton iterate left the corrector's residual where it was (a stale Jacobian).
+
+    Each row of the residual is measured as SPICE measures a current (``NIconvTest``):
+    against ``rtol mag + r_atol``, ``mag`` the magnitude of the terms that make the row up at
+    the new iterate, ``nu_i = |r_i| / (rtol mag_i + r_atol_i)``. The iterate is stalled when
+    a row's residual is not small (``nu_new_i > 1``) and did not fall below ``rate_max`` of its
+    residual at the iterate the correction was computed from (``nu_new_i > rate_max
+    nu_prev_i``). Row by row: a stale matrix can leave one row where it was while it moves
+    another's residual, the current of a source into a node it overestimates; and a row whose
+    residual the correction made (a node group's balance moved by a matrix stale in its common
+    mode) is stalled as well.
+
+    A correction ``A^-1 r`` with a matrix ``A`` far stiffer than the residual's own Jacobian
+    ``J`` (a junction's conductance at a forward bias it has since left) is tiny in every
+    weighted norm, and the rate test accepts an iterate whose current law is as far off as
+    the prediction's. The residual shows it where the correction cannot: a Newton step with
+    a fit matrix removes the residual's linear part, ``r_new = (I - J A^-1) r_prev``.
+
+    Parameters
+    ----------
+    r_prev, r_new : ndarray, shape (n,)
+        The residual at the iterate the accepted correction was computed from, and at the
+        accepted iterate.
+    mag : ndarray, shape (n,)
+        The magnitude of each row's terms at the accepted iterate.
+    rtol : float
+    r_atol : ndarray, shape (n,)
+        Absolute tolerance of each row (a node row's current: abstol; a branch row's voltage:
+        vntol).
+    rate_max : float
+        Largest residual contraction of a fit matrix.
+
+    Returns
+    -------
+    bool
+    """
+    for i in range(r_new.size):
+        s = rtol * mag[i] + r_atol[i]
+        a = abs(r_new[i])
+        if a > s and a > rate_max * abs(r_prev[i]):
+            return True
+    return False
+
+
+@kernel
+def conductance_fell(dphi_lu, dphi, dq, cj, indptr, indices, r_atol, x_atol, factor):
+    """Whether an off-diagonal entry of ``dphi/dx`` the factorisation holds fell by more than ``factor`` since.
+
+    Entry ``(i, j)``, ``i != j``, of the Jacobian the modified-Newton matrix was made from,
+    ``dphi_lu``, is compared with the Jacobian at the accepted iterate: it fell when ``|dphi_lu|
+    > factor (|dphi| + cj |dq|) + r_atol_i / x_atol_j``. An off-diagonal entry is the
+    conductance of what joins the two unknowns (a junction between two nodes); a diagonal one
+    sums every element at a node, and one that falls towards zero is a fold of the node's
+    current law (an N-shaped conductance), where a fresh Jacobian is singular and the
+    impasse's jump takes over, not a stale matrix. A junction that conducted when the
+    matrix was made and is off now: its conductance (here with the charge's coupling
+    ``cj dq``, what the entry keeps of the two) is more than ``factor`` times too large in the
+    matrix, and the corrections understate the error in every direction it couples, the
+    common mode of a node group that only junction capacitances hold included, which no
+    single row's residual shows. ``r_atol_i / x_atol_j`` (abstol / vntol = 1e-6 S between two
+    nodes) is the conductance below which a change moves no current past its tolerance.
+
+    Parameters
+    ----------
+    dphi_lu, dphi, dq : ndarray, shape (>= nnz,)
+        Values on the CSC pattern ``(indptr, indices)``.
+    cj : float
+    indptr, indices : ndarray of int64
+    r_atol, x_atol : ndarray, shape (n,)
+        The rows' and the unknowns' absolute tolerances.
+    factor : float
+
+    Returns
+    -------
+    bool
+    """
+    for j in range(indptr.size - 1):
+        for p in range(indptr[j], indptr[j + 1]):
+            i = indices[p]
+            if i != j and abs(dphi_lu[p]) > factor * (abs(dphi[p]) + cj * abs(dq[p])) + r_atol[i] / x_atol[j]:
+                return True
+    return False

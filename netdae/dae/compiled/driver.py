@@ -181,6 +181,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         check_arguments,
         index_mask,
         right_limit,
+        row_tolerances,
         save_indices,
     )
     from ..bdf_kernels import merge_breakpoints
@@ -275,9 +276,10 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     rl_given = np.zeros(n)
     # u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given
     ws = (np.zeros(skind.size), *(np.zeros(n) for _ in range(9)), rl_given)
-    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs (n), wq (the charge columns), vw (n)
+    # ee, pred0, pred1 (the history's width), r, d, xn, w_newton, w_se, xs (n), wq (the charge columns), vw (n),
+    # then the rows' absolute tolerances of the corrector's check and dphi/dx of the factorisation's Jacobian
     wk = (*(np.zeros(P.shape[1]) for _ in range(3)), *(np.zeros(n) for _ in range(6)), np.zeros(crows.size),
-          np.zeros(n))
+          np.zeros(n), row_tolerances(system.kinds, atol, vntol, abstol), np.zeros(e_data.size + 1))
     # the first pivot order: of the first probe's matrix dq/dx / eps - dphi/dx (any degraded
     # pivot later sends the loop back here for a new one)
     F[L.F_PIVOT_THRESHOLD] = PIVOT_REL_THRESHOLD
