@@ -210,16 +210,17 @@ def test_compiled_engine_integrates_b_sources_as_the_python_integrator(name, mon
     integrator's own count on transamp moved by 5 % (2,605 -> 2,482) when only the order of a
     summation changed, and the compiled engine's, within 10 % of it on the machine these tests
     were first run on, is 3,237 (550 rejected, against the Python integrator's 372) on another,
-    with numba 0.62 and 0.68 alike. Its
-    transistors switch hard (exp(v/0.026) on a sine): its counts are compared within 35 %,
-    the smooth Van der Pol oscillators' within 10 %.
+    with numba 0.62 and 0.68 alike; with the corrector's check of a reused Jacobian
+    (docs/integrator.md) the Python integrator takes 1,956 steps there and the compiled engine
+    2,742. Its transistors switch hard (exp(v/0.026) on a sine): its counts are compared within
+    50 %, the smooth Van der Pol oscillators' within 10 %.
     """
     fast = _tran(NETLISTS / name, "compiled", monkeypatch)
     slow = _tran(NETLISTS / name, "python", monkeypatch)
     assert fast.ok and slow.ok
     assert fast.stats["integrator"]["engine"] == "compiled" and "engine" not in slow.stats["integrator"]
     s_fast, s_slow = fast.stats["steps"], slow.stats["steps"]
-    spread = 0.35 if name == "testset_transamp.cir" else 0.10
+    spread = 0.50 if name == "testset_transamp.cir" else 0.10
     assert abs(s_fast - s_slow) <= spread * s_slow + 2, (s_fast, s_slow)
     tt = np.linspace(0.0, float(slow.axes["time"][-1]), 401)
     a, b = fast.dense(tt), slow.dense(tt)
