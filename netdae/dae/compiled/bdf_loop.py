@@ -1016,15 +1016,24 @@ def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, 
     phi(x, t_new)`` in the others (correction form, ``dq/dx = E`` constant there; ``v`` is work)."""
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
-    n = x.size
-    m = crows.size
     state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
     flags = _evaluate_inlined(I, t_new, x, state, True, jacobian, sysd, devd, u, evb)
     I[I_HAS_TRY] = 1
+    _residual_of(cj, x, pred0, pred1, crows, e_data, indptr, indices, qe, phie, r, v)
+    return flags
+
+
+@inlined_kernel
+def _residual_of(cj, x, pred0, pred1, crows, e_data, indptr, indices, qe, phie, r, v):
+    """Into ``r``: the corrector's residual at ``x`` from the evaluated ``q`` (``qe``) and ``phi``
+    (``phie``): ``cj (q - q_pred) + q'_pred - phi`` in the rows ``crows`` (every row when they are all),
+    ``cj E (x - x_pred) + E x'_pred - phi`` in the others (``v`` is work)."""
+    n = x.size
+    m = crows.size
     if m == n:
         for i in range(n):
             r[i] = cj * (qe[i] - pred0[n + i]) + pred1[n + i] - phie[i]
-        return flags
+        return
     for j in range(n):
         v[j] = (x[j] - pred0[j]) * cj + pred1[j]
     r[:] = 0.0
@@ -1034,7 +1043,6 @@ def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, 
         r[i] = (qe[i] - pred0[n + c]) * cj + pred1[n + c]
     for i in range(n):
         r[i] -= phie[i]
-    return flags
 
 
 @inlined_kernel
@@ -1137,26 +1145,13 @@ def _stalled(I, t_new, cj, x, pred0, pred1, crows, rtol, ratol, atol, dphi_lu, s
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
-    m = crows.size
     flags = _evaluate_inlined(I, t_new, x, STATE_NONE, False, True, sysd, devd, u, evb)
     if flags & FLAG_NONFINITE:
         return False, flags
     if conductance_fell(dphi_lu, dphie, dqe, cj, indptr, indices, ratol, atol, CONDUCTANCE_FALL):
         return True, flags
     # the residual at x (as _residual, from these q and phi)
-    if m == n:
-        for i in range(n):
-            rn[i] = cj * (qe[i] - pred0[n + i]) + pred1[n + i] - phie[i]
-    else:
-        for j in range(n):
-            v[j] = (x[j] - pred0[j]) * cj + pred1[j]
-        rn[:] = 0.0
-        _matvec_add(indptr, indices, e_data, v, 1.0, rn)
-        for c in range(m):
-            i = crows[c]
-            rn[i] = (qe[i] - pred0[n + c]) * cj + pred1[n + c]
-        for i in range(n):
-            rn[i] -= phie[i]
+    _residual_of(cj, x, pred0, pred1, crows, e_data, indptr, indices, qe, phie, rn, v)
     # the magnitudes: the linear elements' terms and the devices' apart (a resistor's current and
     # a device's that cancel it in the Jacobian, at a fold, are both terms of the row)
     for i in range(n):
