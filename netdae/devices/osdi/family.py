@@ -66,6 +66,15 @@ class _Calls:
         self.noise = abi.LOAD_NOISE(descriptor.load_noise)
 
 
+def _noise_refused(el, mod, src, why: str):
+    """The located error of instance ``el``'s noise source ``src`` (of module ``mod``) that netdae cannot take."""
+    from ...errors import CircuitError
+
+    where = f"{el.location}: " if el.location else ""
+    return CircuitError(f"{where}{el.name}: noise source '{src.name}' of OSDI module {mod.name} {why}",
+                        elements=(el.name,))
+
+
 class OsdiFamily(DeviceFamily):
     """Every OSDI instance of a circuit (element kind ``osdi``)."""
 
@@ -106,7 +115,6 @@ class OsdiFamily(DeviceFamily):
         -----
         Cost: one ``eval`` and three ``load_noise`` calls per instance.
         """
-        from ...errors import CircuitError
         from ..base import NoiseSources
 
         out = NoiseSources()
@@ -136,28 +144,24 @@ class OsdiFamily(DeviceFamily):
                 suffix = f"_{name}" if seen[name] == 1 else f"_{name}_{seen[name]}"
                 d1, d10, d1k = dens[:, k]
 
-                def refuse(why, _el=el, _src=src):
-                    where = f"{_el.location}: " if _el.location else ""
-                    return CircuitError(f"{where}{_el.name}: noise source '{_src.name}' of OSDI module {mod.name} "
-                                        f"{why}", elements=(_el.name,))
-
                 if ret & abi.EVAL_RET_FLAG_FATAL or not np.all(np.isfinite(dens[:, k])):
-                    raise refuse("has no finite density at the operating point")
+                    raise _noise_refused(el, mod, src, "has no finite density at the operating point")
                 if src.kind == abi.NOISE_TYPE_TABLE:
-                    raise refuse("is a table (noise_table), which netdae's noise analysis does not take "
-                                 "(it needs white or 1/f^a densities)")
+                    raise _noise_refused(el, mod, src, "is a table (noise_table), which netdae's noise analysis "
+                                         "does not take (it needs white or 1/f^a densities)")
                 if d1 == d10 == d1k or (src.kind == abi.NOISE_TYPE_WHITE and d1 == 0.0):
                     w, c, a = d1, 0.0, 1.0
                 elif src.kind == abi.NOISE_TYPE_WHITE:
-                    raise refuse("is white but its density depends on the frequency")
+                    raise _noise_refused(el, mod, src, "is white but its density depends on the frequency")
                 elif d1 > 0.0 and d10 > 0.0:
                     a = float(np.log10(d1 / d10))
                     w, c = 0.0, d1
                     if not np.isclose(d1k, c / 1e3 ** a, rtol=1e-9, atol=0.0):
-                        raise refuse("does not fall as a power of the frequency (white plus 1/f^a in one "
-                                     "source, or a table)")
+                        raise _noise_refused(el, mod, src, "does not fall as a power of the frequency (white "
+                                             "plus 1/f^a in one source, or a table)")
                 else:
-                    raise refuse("has a density of changing sign or one vanishing at some frequencies only")
+                    raise _noise_refused(el, mod, src, "has a density of changing sign or one vanishing at some "
+                                         "frequencies only")
                 out.element.append(el.name)
                 out.suffix.append(suffix)
                 pos.append(-1 if src.pos >= len(g) else int(g[src.pos]))
