@@ -241,11 +241,12 @@ def test_an_unlabelled_mesfet_area_is_ignored_as_ngspice_ignores_it():
     assert any("unlabelled area 2 is ignored" in w and "area=2" in w for w in warnings_of(circuit))
 
 
-def test_mesa_levels_are_refused_naming_the_level():
+def test_unknown_mesfet_levels_are_refused_naming_the_levels_that_run():
     with pytest.raises(NetlistError) as err:
-        netdae.load(mesfet("nmf", level="level=3 "))
-    assert "MESFET level 3 (MESA in ngspice) is not implemented by netdae" in str(err.value)
-    assert "level 2 (MESA) with a device family of its own" in err.value.hint
+        netdae.load(mesfet("nmf", level="level=7 "))
+    assert "MESFET level 7 (a level ngspice 39 does not know either) is not implemented by netdae" in str(err.value)
+    assert "level 2, 3, 4 (MESA) with a device family of its own" in err.value.hint
+    assert err.value.expected == "a MESFET model of level 1, 2, 3, 4"
     assert err.value.location.line == 5
 
 

@@ -1,10 +1,10 @@
-"""ngspice's MESA MESFET (``Z`` cards, ``.model ... nmf level=2``) as ngspice 39 computes it.
+"""ngspice's MESA MESFET (``Z`` cards, ``.model ... nmf level=2, 3, 4``) as ngspice 39 computes it.
 
 Syntax: ``Zname d g s model [area] [off] [l=L] [w=W] [m=M] [ic=vds,vgs] [icvds=v] [icvgs=v] [td=T] [ts=T]
 [dtemp=dT]`` with ``.model name NMF level=2 (VTO LAMBDA BETA VS RD RS RG RI RF RDI RSI PHIB ASTAR GGR DEL
 XCHI N ETA M MC ALPHA SIGMA0 VSIGMAT VSIGMA MU THETA D ND DELTA TC ...)``. ngspice implements the N
 channel only: a ``pmf`` card runs as ``nmf`` (ngspice says "Only nmf model type supported, set to nmf").
-Levels 3 and 4 (the delta-doped forms of the same model) are refused.
+Levels 3 and 4 share everything but the channel (below: "Levels 3 and 4"); any other level is refused.
 
 Equations (level 2, ``mesaload.c``'s ``mesa1`` and ``mesatemp.c``)
 ------------------------------------------------------------------
@@ -58,6 +58,39 @@ Temperature: ``Ts``, ``Td`` the instance's ``ts``, ``td`` (Celsius), else ``.opt
 Ts/TETA0) + TETA1/Ts``, ``LAMBDA(T) = LAMBDA (1 - Ts/TLAMBDA)``, ``MU(T) = MU (Ts/TMU)^XTM0`` (with
 ``MU1``, ``MU2``: ``1/(1/MU(T) + 1/(MU1 (TMU/Ts)^XTM1 + MU2 (TMU/Ts)^XTM2))``).
 
+Levels 3 and 4 (``mesa2`` and ``mesa3`` of ``mesaload.c``)
+----------------------------------------------------------
+The same gate diodes, resistances, temperatures, mode exchange, ``vgt`` (with ``SIGMA``), capacitance
+partition (``cgs``, ``cgd`` from ``cgc``, ``vsate``, ``vdse``) and saturation law ``id = gch w (1 +
+LAMBDA w)/(1 + (w/vsate)^M)^(1/M)`` (``M`` alone: no ``ALPHA``); the mobility is ``MU(T)`` without
+``THETA`` and ``gchi = q W/L MU(T) ns``.
+
+Level 3 (the delta-doped channel): ``vgte`` as level 2; ``vpou = q NDU DU^2/(2 eps)``, ``vpod = q NDELTA
+TH (2 DU + TH)/(2 eps)``, ``vpo = vpou + vpod``; the doped layers' sheet charge ``nsa`` and capacitance
+``ca`` (four branches, chosen by ``vgt`` against ``vpod`` and ``vgte`` against ``vpo`` or ``vpod``:
+``NDELTA TH + NDU DU (1 - r)``, ``r = sqrt((vpo - vgte)/vpou)``, or ``NDELTA TH (1 - DU/TH (r - 1))``,
+``r = sqrt(1 + NDU/NDELTA (vpod - vgte)/vpou)``, ``ca = eps/(DU r)``; past the ends ``NDELTA TH +
+NDU DU`` and ``NDELTA (TH - DU)`` with ``ca = eps/DU``), in series with ``nsb = eps ETA vt/(q (DU +
+TH)) exp(vgt/(ETA vt))``: ``ns = nsa nsb/(nsa + nsb)``
+(off below ``1e-38``), ``cgc = W L ca cb/(ca + cb)``, ``cb = eps/(DU + TH) exp(vgt/(ETA vt))``;
+``isat = isata isatb/(isata + isatb)`` with level 2's ``isata`` but ``a = 2 BETA vgte`` (the card's
+``BETA``) and ``isatb = q n0 vt W/L exp(vgt/(ETA vt))``, ``n0 = eps ETA vt/(q DU)``.
+
+Level 4 (the sheet-charge-limited channel): ``vgte = vt (2 + u + sqrt(DELTA^2 + u^2))``, ``u = vgt/(2
+vt) - 1``; ``nsm = 2 n0 ln(1 + exp(vgt/(ETA vt))/2)`` (off below ``1e-38``), ``n0 = EPSI ETA vt/(2 q D)``;
+``ns = nsm/(1 + c)^(1/GAMMA)``, ``c = (nsm/NMAX)^GAMMA``; ``isatm = gchim vgte/(1 + gchim RSI + sqrt(1 +
+2 gchim RSI' + (vgte/vl)^2))`` with ``gchim = q W/L MU(T) nsm``, ``vl = VS L/MU(T)`` and ``RSI'`` the
+card's ``RSI`` without its temperature coefficients (ngspice writes ``model->MESArsi`` there);
+``isat = isatm/(1 + (isatm/imax)^GAMMA)^(1/GAMMA)``, ``imax = q NMAX VS W``; ``cgc = W L/(D/(CAS
+EPSI) + ETA vt/(CBS q n0) exp(-vgt/(ETA vt)))/(1 + c)^(1 + 1/GAMMA)``; the fringe ``CF = EPSI W/2``.
+
+ngspice's ``gm``, ``gds`` at levels 3 and 4 are the derivatives of its current in the normal mode, but
+for level 4's ``RSI'``: with ``RTC1``, ``RTC2`` and ``Ts != TNOM`` ngspice's ``gm`` differentiates as if
+``RSI' = RSI(T)`` (measured: 6e-3 off the slope of its own current at 120 degC). Its ``.ac`` at level
+4 loads ``gm = gds = 0``: ``mesaacl.c`` rebuilds them from fields (``delidgch0``, ``gm0`` ...) that only
+``mesa1`` and ``mesa2`` set, so a level-4 channel carries no small-signal current in ngspice's ``.ac``.
+netdae's small-signal matrix is the Jacobian at every level.
+
 ``m`` multiplies every current, conductance and charge (ngspice leaves it off the right-hand side of the
 charges' far nodes ``#gs``, ``#gd`` in a transient; netdae scales them consistently). An area on the Z
 card is refused, as ngspice 39 stops at it (MESA has no area parameter). ``KS`` (sidegating through the
@@ -77,7 +110,8 @@ from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_vo
 from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
-__all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "gate_diode", "EPS_GAAS", "NS_FLOOR", "STEP",
+__all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "mesa3_channel", "mesa4_channel", "mesa_channel",
+           "LEVELS", "gate_diode", "EPS_GAAS", "NS_FLOOR", "STEP",
            "OFF_DEPTH", "QUAD_PANELS", "QUAD_ABSCISSAE", "QUAD_WEIGHTS"]
 
 #: GaAs's permittivity as ngspice writes it [F/m].
@@ -89,7 +123,7 @@ NS_FLOOR = 1.0e-38
 _HUGE = 1.7976931348623157e308
 
 MESA_PARAMETERS = ParameterTable(
-    "MESFET (MESA, level 2)",
+    "MESFET (MESA, levels 2-4)",
     defaults={
         "level": 2.0, "vto": -1.26, "d": 0.12e-6, "du": 0.035e-6, "lambda": 0.045, "lambdahf": None, "vs": 1.5e5,
         "beta": 0.0085, "eta": 1.73, "m": 2.5, "mc": 3.0, "alpha": 0.0, "sigma0": 0.081, "vsigmat": 1.01,
@@ -193,6 +227,136 @@ def mesa2_channel(vg, w, p):
     return (np.where(off, zero, i), np.where(off, p["cf"] + zero, cgs), np.where(off, p["cf"] + zero, cgd))
 
 
+def _mode_bias(vg, w, p):
+    """The mode's ``vgt`` (threshold and ``SIGMA`` feedback applied) and ``ETA vt``, common to all levels."""
+    etavth = p["eta"] * p["vt"]
+    vgt0 = vg - p["vto"]
+    s = np.exp((vgt0 - p["vsigmat"]) / p["vsigma"])
+    return vgt0 + p["sigma0"] / (1.0 + s) * w, etavth
+
+
+def _saturation(gch, isat, w, lam, mc, mm, cgc, cf):
+    """The drain current and the gate capacitances from the channel's conductance and saturation current.
+
+    ``vsate = isat/gch``; ``id = gch w (1 + LAMBDA w)/(1 + (w/vsate)^mm)^(1/mm)``; ``cgs``, ``cgd`` the
+    Meyer-like partition of ``cgc`` with ``vdse = w (1 + (w/vsate)^MC)^(-1/MC)`` (every level's tail).
+    """
+    vsate = isat / gch
+    positive = w.real > 0.0
+    safe = np.where(positive, w / vsate, 1.0)
+    vdse = np.where(positive, w * (1.0 + safe ** mc) ** (-1.0 / mc), 0.0 * w)
+    g = np.where(positive, safe ** mm, 0.0 * w)
+    i = gch * w / (1.0 + g) ** (1.0 / mm) * (1.0 + lam * w)
+    den = 2.0 * vsate - vdse
+    cs = (vsate - vdse) / den
+    cd = vsate / den
+    return i, cf + 2.0 / 3.0 * cgc * (1.0 - cs * cs), cf + 2.0 / 3.0 * cgc * (1.0 - cd * cd)
+
+
+def mesa3_channel(vg, w, p):
+    """Level 3's drain current and gate capacitances of the mode (``mesa2`` of ngspice), vectorised.
+
+    The delta-doped channel: a sheet charge ``nsa`` of the doped layers (``NDELTA``, ``TH``, ``NDU``,
+    ``DU``) in series with the subthreshold ``nsb = nsb0 exp(vgt/(ETA vt))``; the mobility is ``MU(T)``
+    (no ``THETA``), the saturation current's ``beta`` the card's ``BETA``, no ``ALPHA``. Arguments and
+    returns as :func:`mesa2_channel`.
+    """
+    vt = p["vt"]
+    vgt, etavth = _mode_bias(vg, w, p)
+    t = vgt / vt - 1.0
+    vgte = 0.5 * vt * (2.0 + t + np.sqrt(p["delta2"] + t * t))
+    a = 2.0 * p["beta0"] * vgte
+    vpo, vpod, vpou = p["vpo"], p["vpod"], p["vpou"]
+    ndelta, th, ndu, du = p["ndelta"], p["th"], p["ndu"], p["du"]
+    upper = vgt.real > vpod
+    full = vgte.real > vpo  # above the doped layers' pinch-off: both layers fully open
+    r1 = np.sqrt(np.where(upper & ~full, (vpo - vgte) / vpou, 1.0))
+    nsa1 = np.where(full, ndelta * th + ndu * du, ndelta * th + ndu * du * (1.0 - r1))
+    ca1 = np.where(full, EPS_GAAS / du + 0.0 * vgte, EPS_GAAS / du / r1)
+    past = (vpod - vgte).real < 0.0
+    r2 = np.sqrt(np.where(~upper & ~past, 1.0 + ndu / ndelta * (vpod - vgte) / vpou, 1.0))
+    nsa2 = np.where(past, ndelta * th * (1.0 - du / th) + 0.0 * vgte, ndelta * th * (1.0 - du / th * (r2 - 1.0)))
+    ca2 = np.where(past, EPS_GAAS / du + 0.0 * vgte, EPS_GAAS / du / r2)
+    nsa = np.where(upper, nsa1, nsa2)
+    ca = np.where(upper, ca1, ca2)
+    b = np.exp(vgt / etavth)
+    cb = EPS_GAAS / (du + th) * b
+    nsb = p["nsb0"] * b
+    ns = nsa * nsb / (nsa + nsb)
+    off = ~(ns.real >= NS_FLOOR)
+    gchi = p["gchi0"] * p["mu"] * ns
+    gch = gchi / (1.0 + gchi * p["rt"])
+    rsi = p["rsi"]
+    dd = 1.0 + a * rsi + np.sqrt(1.0 + 2.0 * a * rsi)
+    e = 1.0 + p["tc"] * vgte
+    isata = a * vgte / (dd * e)
+    isatb = p["isatb0"] * b
+    isat = isata * isatb / (isata + isatb)
+    cgc = p["wl"] * ca * cb / (ca + cb)
+    i, cgs, cgd = _saturation(gch, isat, w, p["lambda"], p["mc"], p["m"], cgc, p["cf"])
+    zero = 0.0 * vg
+    return (np.where(off, zero, i), np.where(off, p["cf"] + zero, cgs), np.where(off, p["cf"] + zero, cgd))
+
+
+def mesa4_channel(vg, w, p):
+    """Level 4's drain current and gate capacitances of the mode (``mesa3`` of ngspice), vectorised.
+
+    The sheet charge ``nsm = 2 n0 ln(1 + exp(vgt/(ETA vt))/2)`` limited by ``NMAX`` (``ns = nsm/(1 +
+    (nsm/NMAX)^GAMMA)^(1/GAMMA)``); the saturation current ``gchim vgte/(1 + gchim RSI + sqrt(1 + 2
+    gchim RSI' + (vgte/vl)^2))`` (``RSI'``: the card's RSI without its temperature coefficients, as
+    ngspice writes it), limited by ``imax = q NMAX VS W`` the same way; ``vgte`` a smooth ``max(vgt, 2
+    vt)``; the permittivity ``EPSI``. Arguments and returns as :func:`mesa2_channel`.
+    """
+    vt = p["vt"]
+    vgt, etavth = _mode_bias(vg, w, p)
+    mu = p["mu"]
+    vl = p["vs"] / mu * p["l"]
+    u = 0.5 * vgt / vt - 1.0
+    vgte = vt * (2.0 + u + np.sqrt(p["delta2"] + u * u))
+    b = np.exp(vgt / etavth)
+    nsm = 2.0 * p["n0"] * np.log(1.0 + 0.5 * b)
+    off = ~(nsm.real >= NS_FLOOR)
+    nsm = np.where(off, 1.0, nsm)  # (off: any positive value, replaced below)
+    gamma = p["gamma"]
+    c = (nsm / p["nmax"]) ** gamma
+    ns = nsm / (1.0 + c) ** (1.0 / gamma)
+    gchi = p["gchi0"] * mu * ns
+    gch = gchi / (1.0 + gchi * p["rt"])
+    gchim = p["gchi0"] * mu * nsm
+    h = np.sqrt(1.0 + 2.0 * gchim * p["rsi0"] + vgte * vgte / (vl * vl))
+    isatm = gchim * vgte / (1.0 + gchim * p["rsi"] + h)
+    isat = isatm / (1.0 + (isatm / p["imax"]) ** gamma) ** (1.0 / gamma)
+    cgcm = 1.0 / (p["cgca"] + p["cgcb"] * np.exp(-vgt / etavth))
+    cgc = p["wl"] * cgcm / (1.0 + c) ** (1.0 + 1.0 / gamma)
+    i, cgs, cgd = _saturation(gch, isat, w, p["lambda"], p["mc"], p["m"], cgc, p["cf"])
+    zero = 0.0 * vg
+    return (np.where(off, zero, i), np.where(off, p["cf"] + zero, cgs), np.where(off, p["cf"] + zero, cgd))
+
+
+#: Each level's mode function.
+CHANNELS = {2: mesa2_channel, 3: mesa3_channel, 4: mesa4_channel}
+#: The MESA levels netdae evaluates (ngspice's 2, 3 and 4: one source file, three channel models).
+LEVELS = tuple(CHANNELS)
+
+
+def mesa_channel(vg, w, p):
+    """The mode's current and capacitances of every instance at its own level (:data:`CHANNELS`).
+
+    ``p["level"]`` chooses each instance's equations; only the levels present are evaluated.
+    Arguments and returns as :func:`mesa2_channel`.
+    """
+    level = np.broadcast_to(p["level"], np.broadcast(vg, p["level"]).shape)
+    present = [lv for lv in LEVELS if np.any(level == lv)]
+    if len(present) == 1:
+        return CHANNELS[present[0]](vg, w, p)
+    out = [np.zeros(level.shape, dtype=np.result_type(vg, w, float)) for _ in range(3)]
+    for lv in present:
+        parts = CHANNELS[lv](vg, w, p)
+        for k in range(3):
+            out[k] = np.where(level == lv, parts[k], out[k])
+    return tuple(out)
+
+
 def gate_diode(v, csat, ggrwl, vte, vtn, dl):
     """A gate diode's current (GMIN excluded) at ``v`` (float or complex, for the complex step).
 
@@ -202,7 +366,7 @@ def gate_diode(v, csat, ggrwl, vte, vtn, dl):
 
 
 def _read_params(model: Model) -> dict:
-    """The level-2 card's values as ngspice stores them (PHIB in joule, temperatures in kelvin)."""
+    """The card's values as ngspice stores them (PHIB in joule, temperatures in kelvin)."""
     mv = MESA_PARAMETERS.read(model)
     out = {k: mv[k] for k in MESA_PARAMETERS.defaults if MESA_PARAMETERS.defaults[k] is not None}
     for key in ("lambdahf", "tlambda", "teta0", "tf"):
@@ -218,14 +382,14 @@ def _read_params(model: Model) -> dict:
 
 
 class MesaFamily(GateJunctionLimits, DeviceFamily):
-    """All MESA (level 2) MESFETs of a circuit, evaluated in one vectorised pass.
+    """All MESA MESFETs of a circuit (levels 2, 3, 4, mixed), evaluated in one vectorised pass.
 
     Raises
     ------
     CircuitError
         Missing or mistyped model, non-positive ``l``, ``w`` or ``m``, non-zero ``KS``.
     NetlistError
-        A level other than 2 (levels 3 and 4 are not implemented by netdae).
+        A level other than 2, 3 or 4 (elaboration refuses it first, naming the levels that run).
     """
 
     shareable = True
@@ -240,10 +404,10 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
             where = f"{el.location}: " if el.location else ""
             model = resolve_model(el, circuit, ("nmf", "pmf"))
             level = model.params.get("level", 2.0)
-            if level != 2.0:
-                raise NetlistError(f"{el.name}: model {model.name}: MESFET level {level:g} (MESA in ngspice) is not "
-                                   "implemented by netdae", model.locations.get("level", model.location),
-                                   expected="a MESFET model of level 1 or 2")
+            if level not in LEVELS:
+                raise NetlistError(f"{el.name}: model {model.name}: MESFET level {level:g} is not a level of "
+                                   "ngspice's MESA", model.locations.get("level", model.location),
+                                   expected="a MESA model of level " + ", ".join(f"{lv}" for lv in LEVELS))
             mv = _read_params(model)
             if mv["ks"] != 0.0:
                 raise CircuitError(f"{where}{el.name}: model {model.name}: KS={mv['ks']:g} (sidegating through the "
@@ -279,10 +443,17 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
         mupo = g("mu1") * (g("tmu") / ts) ** g("xtm1") + g("mu2") * (g("tmu") / ts) ** g("xtm2")
         plain = (g("mu1") == 0.0) & (g("mu2") == 0.0)
         mu = np.where(plain, mu, 1.0 / (1.0 / mu + 1.0 / np.where(plain, 1.0, mupo)))
-        d = g("d")
-        vpo = CHARGE * g("nd") * d * d / 2.0 / EPS_GAAS
+        d, du, th = g("d"), g("du"), g("th")
+        level = g("level")
+        two = level == 2.0
+        # pinch-off: level 2's uniform layer; levels 3, 4: the undoped layer's and the delta layer's
+        vpou = CHARGE * g("ndu") * du * du / 2.0 / EPS_GAAS
+        vpod = CHARGE * g("ndelta") * th * (2.0 * du + th) / 2.0 / EPS_GAAS
+        vpo = np.where(two, CHARGE * g("nd") * d * d / 2.0 / EPS_GAAS, vpou + vpod)
         eta = g("eta") * (1.0 + ts / g("teta0")) + g("teta1") / ts
-        n0 = EPS_GAAS * eta * vt / CHARGE / d
+        epsi = g("epsi")
+        n0 = np.where(level == 4.0, epsi * eta * vt / 2.0 / CHARGE / d,
+                      EPS_GAAS * eta * vt / CHARGE / np.where(level == 3.0, du, d))
         self.vto = g("vto") - g("tvto") * (ts - tnom)
         phib = g("phib") - g("phib1") * (ts - tnom)
         lw = length * width
@@ -320,7 +491,12 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
             "d": d, "n0": n0, "gchi0": CHARGE * width / length, "rt": rsi + rdi, "rsi": rsi, "tc": g("tc"),
             "isatb0": CHARGE * n0 * vt * width / length, "mc": g("mc"), "m": g("m"), "alpha": g("alpha"),
             "lambda": g("lambda") * (1.0 - ts / g("tlambda")), "wl_eps_d": width * length * EPS_GAAS / d,
-            "cf": 0.5 * EPS_GAAS * width,
+            "cf": 0.5 * np.where(level == 4.0, epsi, EPS_GAAS) * width,
+            # levels 3 and 4
+            "level": level, "beta0": g("beta"), "vpod": vpod, "vpou": vpou, "ndelta": g("ndelta"), "th": th,
+            "ndu": g("ndu"), "du": du, "nsb0": EPS_GAAS * eta * vt / CHARGE / (du + th), "wl": width * length,
+            "nmax": g("nmax"), "gamma": g("gamma"), "imax": CHARGE * g("nmax") * g("vs") * width,
+            "rsi0": g("rsi"), "cgca": d / (g("cas") * epsi), "cgcb": eta * vt / (CHARGE * n0 * g("cbs")),
         }
         self._columns = {k: np.asarray(v)[:, None] for k, v in self.channel.items()}
         self.off = g("off") != 0.0
@@ -366,7 +542,7 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
         inverse = vds.real < 0.0
         vg = np.where(inverse, vgd, vgs)
         w = np.where(inverse, -vds, vds)
-        i, cgs, cgd = mesa2_channel(vg, w, self.channel if p is None else p)
+        i, cgs, cgd = mesa_channel(vg, w, self.channel if p is None else p)
         return np.where(inverse, -i, i), np.where(inverse, cgd, cgs), np.where(inverse, cgs, cgd)
 
     def _gate_charges(self, vgs, vgd, vgspp, vgdpp):
@@ -380,11 +556,14 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
         p = self.channel
         col = self._columns
         vds = vgs - vgd
-        low = self.vto - OFF_DEPTH * p["eta"] * p["vt"] - np.abs(p["sigma0"]) * np.abs(vds.real)
+        # the start and its dependence on the bias, kept in the complex step: the rule's nodes then move
+        # with the bias as they do in real arithmetic (the Jacobian is the derivative of this quadrature)
+        low = self.vto - OFF_DEPTH * p["eta"] * p["vt"] - np.abs(p["sigma0"]) * np.where(vds.real < 0.0, -vds, vds)
         out = []
         for branch, (far, here, ahead) in enumerate(((vgspp, vgs, -vds), (vgdpp, vgd, vds))):
             shift = here - far  # the branch's control less the charge's own voltage (RI, RF)
-            start = np.minimum(low - shift.real - np.maximum(ahead.real, 0.0), far.real)
+            below = low - shift - np.where(ahead.real > 0.0, ahead, 0.0 * ahead)
+            start = np.where(below.real < far.real, below, far)
             width = (far - start) / QUAD_PANELS
             u = start[..., None] + width[..., None] * QUAD_ABSCISSAE
             gs_u = u + (shift if branch == 0 else shift + vds)[..., None]

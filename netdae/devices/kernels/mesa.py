@@ -1,6 +1,7 @@
-"""The MESA MESFET (level 2) as one compiled kernel (the twin of :class:`netdae.devices.mesa.MesaFamily`).
+"""The MESA MESFET (levels 2, 3, 4) as one compiled kernel (the twin of :class:`netdae.devices.mesa.MesaFamily`).
 
-The same equations as the family (``mesa2_channel``, ``gate_diode``, the gate charges' quadrature), in
+The same equations as the family (``mesa2_channel``, ``mesa3_channel``, ``mesa4_channel`` chosen by the
+instance's level, ``gate_diode``, the gate charges' quadrature), in
 complex arithmetic for the complex-step derivatives, one instance at a time.
 
 Layout (packed by ``MesaFamily.compiled``)
@@ -22,7 +23,7 @@ import math
 import numpy as np
 
 from ...dae.compiled import kernel
-from ..mesa import NS_FLOOR, OFF_DEPTH, QUAD_ABSCISSAE, QUAD_PANELS, QUAD_WEIGHTS, STEP
+from ..mesa import EPS_GAAS, NS_FLOOR, OFF_DEPTH, QUAD_ABSCISSAE, QUAD_PANELS, QUAD_WEIGHTS, STEP
 
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .junction import gate_junction_limit
@@ -30,15 +31,18 @@ from .scatter import add_charge, add_charge_slope, add_current, add_current_slop
 
 __all__ = ["eval_mesa", "CHANNEL_KEYS", "mesa_dc", "mesa_charges"]
 
-#: The channel's constants in ``par``'s first columns.
+#: The channel's constants in ``par``'s first columns (level 2's, then those of levels 3 and 4).
 CHANNEL_KEYS = ("vt", "eta", "vpo", "vto", "vsigmat", "vsigma", "sigma0", "mu", "theta", "vs", "l", "beta",
                 "delta2", "nd", "d", "n0", "gchi0", "rt", "rsi", "tc", "isatb0", "mc", "m", "alpha", "lambda",
-                "wl_eps_d", "cf")
+                "wl_eps_d", "cf", "level", "beta0", "vpod", "vpou", "ndelta", "th", "ndu", "du", "nsb0", "wl",
+                "nmax", "gamma", "imax", "rsi0", "cgca", "cgcb")
 (P_VT, P_ETA, P_VPO, P_VTO, P_VSIGMAT, P_VSIGMA, P_SIGMA0, P_MU, P_THETA, P_VS, P_L, P_BETA, P_DELTA2, P_ND,
- P_D, P_N0, P_GCHI0, P_RT, P_RSI, P_TC, P_ISATB0, P_MC, P_M, P_ALPHA, P_LAMBDA, P_WLEPSD, P_CF) = range(27)
+ P_D, P_N0, P_GCHI0, P_RT, P_RSI, P_TC, P_ISATB0, P_MC, P_M, P_ALPHA, P_LAMBDA, P_WLEPSD, P_CF, P_LEVEL, P_BETA0,
+ P_VPOD, P_VPOU, P_NDELTA, P_TH, P_NDU, P_DU, P_NSB0, P_WL, P_NMAX, P_GAMMA, P_IMAX, P_RSI0, P_CGCA,
+ P_CGCB) = range(43)
 (P_MULT, P_CSATFS, P_CSATFD, P_GGRWL, P_VTES, P_VTED, P_VTS, P_VTD, P_DEL, P_AG, P_GMIN, P_VCRITS, P_VCRITD,
- P_GD, P_GS, P_GG, P_GI, P_GF) = range(27, 45)
-N_PAR = 45
+ P_GD, P_GS, P_GG, P_GI, P_GF) = range(43, 61)
+N_PAR = 61
 I_D, I_G, I_S, I_DP, I_SP, I_GP, I_SPP, I_DPP = range(8)
 S_CUR = 8
 N_CUR_DEPS = 9
@@ -52,8 +56,8 @@ _WTS = np.ascontiguousarray(QUAD_WEIGHTS)
 
 
 @kernel
-def _mode(vg, w, par, k):
-    """The mode's current and capacitances (``netdae.devices.mesa.mesa2_channel``), complex."""
+def _mode2(vg, w, par, k):
+    """Level 2's current and capacitances of the mode (``netdae.devices.mesa.mesa2_channel``), complex."""
     vt = par[k, P_VT]
     etavth = par[k, P_ETA] * vt
     vpo = par[k, P_VPO]
@@ -102,6 +106,119 @@ def _mode(vg, w, par, k):
 
 
 @kernel
+def _bias(vg, w, par, k):
+    """The mode's ``vgt`` and ``ETA vt`` (``netdae.devices.mesa._mode_bias``), complex."""
+    vgt0 = vg - par[k, P_VTO]
+    s = cmath.exp((vgt0 - par[k, P_VSIGMAT]) / par[k, P_VSIGMA])
+    return vgt0 + par[k, P_SIGMA0] / (1.0 + s) * w, par[k, P_ETA] * par[k, P_VT]
+
+
+@kernel
+def _saturation(gch, isat, w, par, k, cgc):
+    """Current and capacitances from ``gch``, ``isat`` and ``cgc`` (``netdae.devices.mesa._saturation``)."""
+    vsate = isat / gch
+    mc = par[k, P_MC]
+    mm = par[k, P_M]
+    if w.real > 0.0:
+        ratio = w / vsate
+        vdse = w * (1.0 + ratio ** mc) ** (-1.0 / mc)
+        g = ratio ** mm
+    else:
+        vdse = 0.0 * w
+        g = 0.0 * w
+    i = gch * w / (1.0 + g) ** (1.0 / mm) * (1.0 + par[k, P_LAMBDA] * w)
+    den = 2.0 * vsate - vdse
+    cs = (vsate - vdse) / den
+    cd = vsate / den
+    cf = par[k, P_CF]
+    return i, cf + 2.0 / 3.0 * cgc * (1.0 - cs * cs), cf + 2.0 / 3.0 * cgc * (1.0 - cd * cd)
+
+
+@kernel
+def _mode3(vg, w, par, k):
+    """Level 3's current and capacitances of the mode (``netdae.devices.mesa.mesa3_channel``), complex."""
+    vt = par[k, P_VT]
+    vgt, etavth = _bias(vg, w, par, k)
+    t = vgt / vt - 1.0
+    vgte = 0.5 * vt * (2.0 + t + cmath.sqrt(par[k, P_DELTA2] + t * t))
+    a = 2.0 * par[k, P_BETA0] * vgte
+    vpo, vpod, vpou = par[k, P_VPO], par[k, P_VPOD], par[k, P_VPOU]
+    ndelta, th, ndu, du = par[k, P_NDELTA], par[k, P_TH], par[k, P_NDU], par[k, P_DU]
+    if vgt.real > vpod:
+        if vgte.real > vpo:
+            nsa = ndelta * th + ndu * du + 0.0 * vgte
+            ca = EPS_GAAS / du + 0.0 * vgte
+        else:
+            r = cmath.sqrt((vpo - vgte) / vpou)
+            nsa = ndelta * th + ndu * du * (1.0 - r)
+            ca = EPS_GAAS / du / r
+    else:
+        if (vpod - vgte).real < 0.0:
+            nsa = ndelta * th * (1.0 - du / th) + 0.0 * vgte
+            ca = EPS_GAAS / du + 0.0 * vgte
+        else:
+            r = cmath.sqrt(1.0 + ndu / ndelta * (vpod - vgte) / vpou)
+            nsa = ndelta * th * (1.0 - du / th * (r - 1.0))
+            ca = EPS_GAAS / du / r
+    b = cmath.exp(vgt / etavth)
+    cb = EPS_GAAS / (du + th) * b
+    nsb = par[k, P_NSB0] * b
+    ns = nsa * nsb / (nsa + nsb)
+    cf = par[k, P_CF]
+    if not ns.real >= NS_FLOOR:
+        return 0.0j * vg, cf + 0.0j * vg, cf + 0.0j * vg
+    gchi = par[k, P_GCHI0] * par[k, P_MU] * ns
+    gch = gchi / (1.0 + gchi * par[k, P_RT])
+    rsi = par[k, P_RSI]
+    dd = 1.0 + a * rsi + cmath.sqrt(1.0 + 2.0 * a * rsi)
+    e = 1.0 + par[k, P_TC] * vgte
+    isata = a * vgte / (dd * e)
+    isatb = par[k, P_ISATB0] * b
+    isat = isata * isatb / (isata + isatb)
+    cgc = par[k, P_WL] * ca * cb / (ca + cb)
+    return _saturation(gch, isat, w, par, k, cgc)
+
+
+@kernel
+def _mode4(vg, w, par, k):
+    """Level 4's current and capacitances of the mode (``netdae.devices.mesa.mesa4_channel``), complex."""
+    vt = par[k, P_VT]
+    vgt, etavth = _bias(vg, w, par, k)
+    mu = par[k, P_MU]
+    vl = par[k, P_VS] / mu * par[k, P_L]
+    u = 0.5 * vgt / vt - 1.0
+    vgte = vt * (2.0 + u + cmath.sqrt(par[k, P_DELTA2] + u * u))
+    b = cmath.exp(vgt / etavth)
+    nsm = 2.0 * par[k, P_N0] * cmath.log(1.0 + 0.5 * b)
+    cf = par[k, P_CF]
+    if not nsm.real >= NS_FLOOR:
+        return 0.0j * vg, cf + 0.0j * vg, cf + 0.0j * vg
+    gamma = par[k, P_GAMMA]
+    c = (nsm / par[k, P_NMAX]) ** gamma
+    ns = nsm / (1.0 + c) ** (1.0 / gamma)
+    gchi = par[k, P_GCHI0] * mu * ns
+    gch = gchi / (1.0 + gchi * par[k, P_RT])
+    gchim = par[k, P_GCHI0] * mu * nsm
+    h = cmath.sqrt(1.0 + 2.0 * gchim * par[k, P_RSI0] + vgte * vgte / (vl * vl))
+    isatm = gchim * vgte / (1.0 + gchim * par[k, P_RSI] + h)
+    isat = isatm / (1.0 + (isatm / par[k, P_IMAX]) ** gamma) ** (1.0 / gamma)
+    cgcm = 1.0 / (par[k, P_CGCA] + par[k, P_CGCB] * cmath.exp(-vgt / etavth))
+    cgc = par[k, P_WL] * cgcm / (1.0 + c) ** (1.0 + 1.0 / gamma)
+    return _saturation(gch, isat, w, par, k, cgc)
+
+
+@kernel
+def _mode(vg, w, par, k):
+    """The mode's current and capacitances at the instance's level (``netdae.devices.mesa.mesa_channel``)."""
+    level = par[k, P_LEVEL]
+    if level == 3.0:
+        return _mode3(vg, w, par, k)
+    if level == 4.0:
+        return _mode4(vg, w, par, k)
+    return _mode2(vg, w, par, k)
+
+
+@kernel
 def _channel(vgs, vgd, par, k):
     """Current d'->s' (no AG) and the capacitances at (vgs, vgd), complex (``MesaFamily._channel``)."""
     vds = vgs - vgd
@@ -121,7 +238,8 @@ def _charges(vgs, vgd, vgspp, vgdpp, par, k):
     """The gate charges of one device (``MesaFamily._gate_charges``), complex."""
     vds = vgs - vgd
     eta_vt = par[k, P_ETA] * par[k, P_VT]
-    low = par[k, P_VTO] - OFF_DEPTH * eta_vt - abs(par[k, P_SIGMA0]) * abs(vds.real)
+    # complex throughout: the start moves with the bias in the complex step as in real arithmetic
+    low = par[k, P_VTO] - OFF_DEPTH * eta_vt - abs(par[k, P_SIGMA0]) * (-vds if vds.real < 0.0 else vds)
     cf = par[k, P_CF]
     qgs = 0.0j
     qgd = 0.0j
@@ -131,7 +249,8 @@ def _charges(vgs, vgd, vgspp, vgdpp, par, k):
         else:
             far, here, ahead = vgdpp, vgd, vds
         shift = here - far
-        start = min(low - shift.real - max(ahead.real, 0.0), far.real)
+        below = low - shift - (ahead if ahead.real > 0.0 else 0.0j)
+        start = below if below.real < far.real else far
         width = (far - start) / QUAD_PANELS
         acc = 0.0j
         for j in range(_ABS.size):

@@ -650,7 +650,7 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
 
 
 #: The MESFET levels netdae evaluates with a family of its own (:mod:`netdae.devices.mesa`).
-MESA_LEVELS = (2.0,)
+MESA_LEVELS = (2.0, 3.0, 4.0)
 #: The Z card of a MESA model.
 MESA_FORM = "{name} nd ng ns mname [off] [l=L] [w=W] [m=M] [ic=vds,vgs] [td=T] [ts=T] [dtemp=dT]"
 
