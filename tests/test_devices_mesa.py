@@ -145,6 +145,19 @@ def test_levels_3_and_4_operating_points_agree_with_ngspice(level, vgs, vds, tem
 
 
 @ngspice
+@pytest.mark.parametrize("vgs", [0.1, 0.15, 0.16, 0.2])
+def test_level_3_doped_layer_branches_agree_with_ngspice(vgs):
+    # a thin delta layer (vpod 0.458 V, vpo 0.471 V, VTO -0.3, SIGMA0 0): vgt 0.40 below vpod; 0.45 below
+    # vpod with vgte past it (ngspice's nsa = NDELTA (TH - DU) < 0: the channel is off); 0.46 past vpod with
+    # vgte below vpo; 0.50 past both
+    model = "nmf level=3 vto=-0.3 th=2e-9 du=3e-8 ndelta=5e24 ndu=2e22 sigma0=0"
+    text = held(vgs, 1.0, model=model)
+    ours, theirs = netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES)
+    for n in QUANTITIES:
+        assert ours[n] == pytest.approx(theirs[n], rel=2e-6, abs=1e-15 if n.startswith("q") else 1e-12), n
+
+
+@ngspice
 def test_level_4_reads_rsi_with_and_without_its_temperature_coefficients():
     # ngspice's mesa3 writes the card's RSI under the square root of the saturation current and the
     # temperature-scaled RSI beside it: the current follows both; its gm differentiates as if the two were
