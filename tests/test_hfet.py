@@ -1,0 +1,286 @@
+"""ngspice's HFET1 (``nhfet``/``phfet`` level 5) against ngspice 39, finite differences and the kernel.
+
+ngspice's numbers come from ``ngspice -b`` on the same netlist (``@z1[...]`` after ``.op``: its drain
+current ``cd``, ``gm``, ``gds``, the gate-drain current ``cgd`` and the gate capacitances it prints as
+``qgs``, ``qgd`` after an operating point) or through :func:`netdae.compare` (``.dc`` sweeps, ``.ac``,
+transients); tolerances are relative to each quantity's scale.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.devices.hfet import HfetFamily
+from netdae.errors import CircuitError, NetlistError
+from netdae.mna import assemble
+from netdae.netlist import load
+
+from test_devices_diode import assert_jacobians_match
+
+#: A level-5 card that exercises most of HFET1: series, intrinsic and gate-charge resistances (RI, RF:
+#: the charges' internal nodes), the gate leakage through RGS/RGD, the GGR term, CDS, the ETA2/D2 sheet
+#: charge, P, GAMMA and the temperature coefficients.
+MODEL = ("level=5 vto=0.13 rd=20 rs=15 rg=5 ri=10 rf=12 rdi=3 rsi=4 lambda=0.17 vs=1.5e5 mu=0.385 eta=1.32 "
+         "sigma0=0.04 vsigma=0.1 vsigmat=0.3 js1s=1e-3 js1d=2e-3 js2s=1e5 m1s=1.4 nmax=6e15 cds=3f eta2=2.2 "
+         "d2=0.15u p=0.8 ggr=30 del=0.05 klambda=1e-4 kmu=2e-4 kvto=5e-4 m=2.57")
+#: The corpus card (tests/hfet/id_vgs.cir), with no gate leakage.
+PLAIN = ("level=5 rdi=0 rsi=0 m=2.57 lambda=0.17 vs=1.5e5 mu=0.385 vt0=0.13 eta=1.32 sigma0=0.04 vsigma=0.1 "
+         "vsigmat=0.3 js1s=0 js1d=0 nmax=6e15")
+#: (vgs, vds) of an n device in its normal mode.
+BIASES = [(0.3, 1.0), (0.6, 0.2), (0.05, 1.5), (-0.2, 0.8), (0.5, 0.3), (0.9, 2.0)]
+TIGHT = {"reltol": 1e-10, "vntol": 1e-13, "abstol": 1e-16}
+QUANTITIES = ("cd", "gm", "gds", "cgd", "qgs", "qgd")
+
+ngspice = pytest.mark.skipif(shutil.which("ngspice") is None, reason="ngspice is not installed")
+
+
+def held(vgs: float, vds: float, model: str = MODEL, kind: str = "nhfet", inst: str = "l=1u w=10u",
+         extra: str = "") -> str:
+    return (f"hfet held\nVD d 0 {vds}\nVG g 0 {vgs}\nZ1 d g 0 hm {inst}\n.model hm {kind} {model}\n{extra}"
+            ".op\n.end\n")
+
+
+def ngspice_op(text: str, names) -> dict[str, float]:
+    """ngspice 39's values of ``@z1[name]`` at the operating point of ``text`` (solved tightly, as netdae's)."""
+    deck = text.replace(".op\n", ".options reltol=1e-9 abstol=1e-15 vntol=1e-12\n.op\n.control\nrun\nprint "
+                        + " ".join(f"@z1[{n}]" for n in names) + "\n.endc\n")
+    out = subprocess.run(["ngspice", "-b"], input=deck, capture_output=True, text=True, timeout=60).stdout
+    values = {}
+    for n in names:
+        m = re.search(rf"@z1\[{n}\] = (\S+)", out)
+        assert m, out
+        values[n] = float(m.group(1))
+    return values
+
+
+def netdae_op(text: str, names) -> dict[str, float]:
+    spelled = {"qgs": "capgs", "qgd": "capgd"}  # ngspice prints the capacitances as qgs, qgd after .op
+    r = netdae.run(text, save=[f"@z1[{spelled.get(n, n)}]" for n in names], **TIGHT)[0]
+    return {n: float(r[f"@z1[{spelled.get(n, n)}]"][0]) for n in names}
+
+
+def _agree(ours, theirs, rel=2e-6):
+    for n in ours:
+        assert ours[n] == pytest.approx(theirs[n], rel=rel, abs=1e-16 if n.startswith("q") else 1e-13), n
+
+
+@ngspice
+@pytest.mark.parametrize("vgs,vds", BIASES)
+@pytest.mark.parametrize("temp", [27.0, 80.0])
+def test_operating_point_quantities_agree_with_ngspice(vgs, vds, temp):
+    text = held(vgs, vds, extra=f".options temp={temp}\n")
+    _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
+
+
+@ngspice
+@pytest.mark.parametrize("vgs,vds", BIASES[:4])
+def test_p_channel_agrees_with_ngspice(vgs, vds):
+    # phfet: the card's VTO is multiplied by the type, every voltage and current too; P-channel defaults
+    text = held(-vgs, -vds, model=MODEL.replace("vto=0.13", "vto=-0.13"), kind="phfet")
+    _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
+    defaults = held(-vgs - 0.2, -vds, model="level=5 js1s=0 js1d=0", kind="phfet")
+    _agree(netdae_op(defaults, QUANTITIES), ngspice_op(defaults, QUANTITIES))
+
+
+@ngspice
+@pytest.mark.parametrize("inst", ["l=1u w=10u temp=60", "l=1u w=10u dtemp=30", "l=2u w=40u m=3",
+                                  "l=0.5u w=8u"])
+def test_instance_temperatures_and_sizes_agree_with_ngspice(inst):
+    text = held(0.35, 0.9, inst=inst)
+    _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
+
+
+@ngspice
+@pytest.mark.parametrize("card", ["gatemod=1", "gatemod=1 a1=0.02 a2=0.1", "vt1=0.9 eta1=1.7 d1=0.02u",
+                                  "gamma=2 delta=2 mc=2.5 m=2 rsi=10 rdi=5"])
+def test_model_options_agree_with_ngspice(card):
+    text = held(0.4, 1.1, model=PLAIN + " " + card)
+    _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
+
+
+@ngspice
+@pytest.mark.parametrize("kind,sign", [("nhfet", 1.0), ("phfet", -1.0)])
+def test_output_and_transfer_sweeps_agree_with_ngspice(kind, sign):
+    from netdae.comparison import compare
+
+    vto = 0.13 * sign
+    for sweep in (f".dc VD {-0.6 * sign} {2 * sign} {0.05 * sign} VG {-0.1 * sign} {0.7 * sign} {0.2 * sign}",
+                  f".dc VG {-0.5 * sign} {1 * sign} {0.02 * sign} VD {0.2 * sign} {1.4 * sign} {0.6 * sign}"):
+        text = (f"HFET characteristics\nVD d 0 0\nVG g 0 0\nZ1 d g 0 hm l=1u w=10u\n"
+                f".model hm {kind} {MODEL.replace('vto=0.13', f'vto={vto}')}\n.options temp=45\n{sweep}\n.end\n")
+        c = compare(text, tight=True, tol={"dc": 1e-5})
+        assert c.ngspice_error is None, c.ngspice_error
+        a = c.analysis("dc")
+        assert a.error is None and a.signals and a.points >= 3 * 50
+        # the terminal currents to 1e-6 of their range; the internal nodes to the Newton tolerance
+        currents = max(s.max_rel for s in a.signals if s.name.startswith("i("))
+        assert currents <= 1e-6, currents
+        assert all(s.max_abs <= 2e-6 for s in a.signals if s.name.startswith("v(")), a.worst.name
+
+
+@ngspice
+def test_corpus_transfer_characteristic_agrees_with_ngspice():
+    from netdae.comparison import compare
+
+    text = (f"HFET Id versus Vds\nz1 1 2 0 hfet l=1u w=10u\nvgs 2 0 dc 0.3\nvds 1 0 dc 1.0\n"
+            f".model hfet nhfet {PLAIN}\n.dc vds 0 1 0.01 vgs 0 0.6 0.1\n.end\n")
+    c = compare(text, tight=True)
+    a = c.analysis("dc")
+    assert c.ngspice_error is None and a.error is None
+    assert max(s.max_rel for s in a.signals if s.name.startswith("i(")) <= 1e-6
+
+
+CS_STAGE = """HFET common-source stage
+VDD vdd 0 2
+VIN in 0 dc 0.35 ac 1
+RG in g 1k
+RL vdd d 1.5k
+Z1 d g 0 hm l=1u w=10u
+CL d 0 20f
+.model hm nhfet {model}
+.ac dec 10 1e6 1e11
+.end
+"""
+
+
+@ngspice
+def test_common_source_stage_ac_agrees_with_ngspice():
+    from netdae.comparison import compare
+
+    c = compare(CS_STAGE.format(model=PLAIN), tight=True, tol={"ac": 1e-3}, signals=["v(d)", "v(g)"])
+    assert c.ngspice_error is None, c.ngspice_error
+    a = c.analysis("ac")
+    assert a.error is None and len(a.signals) >= 2
+    worst = max(s.max_rel for s in a.signals)
+    assert worst <= 1e-3, (a.worst.name, worst)
+
+
+@ngspice
+def test_inverter_transient_agrees_with_ngspice():
+    from netdae.comparison import compare
+
+    c = compare(open_corpus("inverter.cir"), tol={"tran": 1e-2})
+    assert c.ngspice_error is None, c.ngspice_error
+    a = c.analysis("tran")
+    assert a.error is None and a.signals
+    worst = max(s.max_rel for s in a.signals if s.name.startswith("v("))
+    assert worst <= 1e-2, (a.worst.name, worst)
+
+
+def open_corpus(name: str) -> str:
+    from pathlib import Path
+
+    path = Path("/work/corpus/tests/hfet") / name
+    if not path.exists():
+        pytest.skip("the public corpus is not on this machine")
+    return path.read_text()
+
+
+@pytest.mark.parametrize("vgs,vds", BIASES + [(0.4, -0.6)])
+def test_jacobians_are_the_derivatives_of_q_and_phi(vgs, vds):
+    circuit = load(held(vgs, vds))
+    system = assemble(circuit)
+    from netdae.analyses.op import operating_point
+
+    r = operating_point(circuit, **TIGHT)
+    x = np.array([float(r[name][0]) if name in r.signals else 0.0 for name in system.names])
+    x = x + 1e-3 * np.sin(np.arange(x.size) + 1.0)
+    # the charges' entries are differences of quadratures of 1e-14 C: 5e-6 of the largest entry
+    assert_jacobians_match(system, x, rtol=5e-6)
+
+
+def _family(text: str) -> HfetFamily:
+    system = assemble(load(text))
+    return next(f for f in system.families if isinstance(f, HfetFamily))
+
+
+@pytest.mark.parametrize("vgs,vds", BIASES)
+def test_gate_charges_have_ngspice_capacitances_along_the_gate(vgs, vds):
+    # the charge form: moving the gate alone, d qgs/d vgs'' is ngspice's capgs, d qgd/d vgd'' its capgd
+    fam = _family(held(vgs, vds))
+    vgs_a, vgd_a = np.array([vgs]), np.array([vgs - vds])
+    r = fam.dc(vgs_a, vgd_a)
+    _, _, dqs, dqd = fam.charges(vgs_a, vgd_a, vgs_a, vgd_a)
+    assert (dqs[0] + dqs[1] + dqs[2])[0] == pytest.approx(r["capgs"][0], rel=1e-6)
+    assert (dqd[0] + dqd[1] + dqd[2])[0] == pytest.approx(r["capgd"][0], rel=1e-6)
+
+
+def test_inverse_mode_is_ngspice_s():
+    # ngspice evaluates the inverse mode at vgs (not vgd) and |vds|: the current is odd in vds at fixed vgs
+    fam = _family(held(0.3, 1.0, model=PLAIN))
+    vgs, vds = np.array([0.45, 0.1, 0.3]), np.array([0.7, 0.05, 1.2])
+    fwd = fam.dc(vgs, vgs - vds)["ich"]
+    rev = fam.dc(vgs, vgs + vds)["ich"]
+    np.testing.assert_allclose(rev, -fwd, rtol=1e-14)
+
+
+@pytest.mark.parametrize("text, pattern, column_text", [
+    (held(0.2, 1.0, model="level=6"), r"level 6 is ngspice's HFET2, which netdae does not implement", "6"),
+    (held(0.2, 1.0, model="vto=0.1"), r"an nhfet model of level 1 is ngspice's Statz MESFET", ".model"),
+    (held(0.2, 1.0, inst="2 l=1u"), r"an area \(2\) on the card of an HFET model", "Z1"),
+    (held(0.2, 1.0, inst="ts=50"), r"'ts' is not an instance parameter of ngspice's HFET1", "Z1"),
+    (held(0.2, 1.0, model="level=5 type=1"), r"'type' is an output", "1"),
+])
+def test_bad_cards_are_located_errors(text, pattern, column_text):
+    with pytest.raises(NetlistError, match=pattern) as err:
+        assemble(load(text))
+    line = text.splitlines()[err.value.location.line - 1]
+    assert line[err.value.location.column - 1:].startswith(column_text)
+
+
+def test_unknown_parameters_are_warned_as_ngspice_does():
+    circuit = load(held(0.2, 1.0, model=PLAIN + " foo=3"))
+    text = " | ".join(d.message for d in circuit.diagnostics if d.severity == "warning")
+    assert "'foo'" in text
+    a = netdae_op(held(0.3, 1.0, model=PLAIN + " foo=3"), ("cd",))
+    b = netdae_op(held(0.3, 1.0, model=PLAIN), ("cd",))
+    assert a["cd"] == b["cd"] > 0.0
+
+
+def test_instance_errors_and_unsupported_parameters():
+    with pytest.raises(CircuitError, match="KAPPA with DELF=1e\\+09 .*not implemented"):
+        assemble(load(held(0.2, 1.0, model=PLAIN + " kappa=0.1 delf=1e9")))
+    with pytest.raises(CircuitError, match="w = 0 must be positive"):
+        assemble(load(held(0.2, 1.0, inst="w=0")))
+
+
+# --- the compiled kernel ----------------------------------------------------------------------
+
+def hfet_case(text):
+    from test_device_kernels import Case, diode_state
+
+    from netdae.devices.kernels.hfet import eval_hfet
+    return Case(text, HfetFamily, eval_hfet, diode_state)
+
+
+KERNEL_DECK = f"""three HFET devices, with and without the series and gate resistances, both types
+Z1 1 2 3 hm l=1u w=10u
+Z2 3 2 0 hp l=1.2u w=10u m=2
+Z3 4 1 2 hm l=0.8u w=15u off
+.model hm nhfet {MODEL}
+.model hp phfet level=5 vto=-0.3 lambda=0.05 cds=2f
+.end
+"""
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_kernel_equals_the_family(seed, monkeypatch):
+    import test_device_kernels
+    from test_device_kernels import exercise, scales
+
+    monkeypatch.setattr(test_device_kernels, "SPREAD", 1e-12)
+    case = hfet_case(KERNEL_DECK)
+    rng = np.random.default_rng(seed)
+    exercise(case, rng, scales(0.3, 1.0, 2.0), scales(0.2, 0.8), draws=4)
+
+
+def test_kernel_jacobians_match_differences():
+    case = hfet_case(KERNEL_DECK)
+    rng = np.random.default_rng(5)
+    case.jacobians_match_differences(rng.uniform(-0.3, 0.3, case.n), rtol=5e-6)
