@@ -153,24 +153,68 @@ CL d 0 20f
 def test_common_source_stage_ac_agrees_with_ngspice():
     from netdae.comparison import compare
 
-    c = compare(CS_STAGE.format(model=PLAIN), tight=True, tol={"ac": 1e-3}, signals=["v(d)", "v(g)"])
+    # the low-frequency gain (gm, gds and the load): ngspice's gm, gds are the derivatives netdae uses
+    low = CS_STAGE.format(model=PLAIN).replace(".ac dec 10 1e6 1e11", ".ac dec 5 1e4 1e6")
+    c = compare(low, tight=True, tol={"ac": 1e-4}, signals=["v(d)"])
     assert c.ngspice_error is None, c.ngspice_error
+    a = c.analysis("ac")
+    assert a.error is None and a.signals[0].max_rel <= 3e-5, a.signals[0].max_rel
+    # up to 100 GHz: netdae's gate charges have transcapacitances (d qgs/d vds) that ngspice's small-signal
+    # matrix, its capacitances alone, does not have: 1.4e-2 at most, near the stage's pole (3-10 GHz)
+    c = compare(CS_STAGE.format(model=PLAIN), tight=True, tol={"ac": 2e-2}, signals=["v(d)", "v(g)"])
     a = c.analysis("ac")
     assert a.error is None and len(a.signals) >= 2
     worst = max(s.max_rel for s in a.signals)
-    assert worst <= 1e-3, (a.worst.name, worst)
+    assert worst <= 2e-2, (a.worst.name, worst)
+
+
+def _ngspice_tran(text: str, names, extra: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """ngspice 39's transient of ``text``: the time axis and the named signals (rows)."""
+    deck = text.replace(".end\n", f"{extra}.control\nrun\nset width=300\nprint {' '.join(names)}\n.endc\n.end\n", 1)
+    out = subprocess.run(["ngspice", "-b"], input=deck, capture_output=True, text=True, timeout=300).stdout
+    rows = np.array([[float(v) for v in line.split()[1:]] for line in out.splitlines() if re.match(r"^\d+\s", line)])
+    return rows[:, 0], rows[:, 1:].T
+
+
+def _crossings(t, v, level):
+    k = np.nonzero((v[:-1] - level) * (v[1:] - level) < 0.0)[0]
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
 
 
 @ngspice
 def test_inverter_transient_agrees_with_ngspice():
-    from netdae.comparison import compare
+    # the public DCFL inverter pair (tests/hfet/inverter.cir): ngspice 39's operating point is a spurious
+    # one (v(3) = v(4) = -0.275 V with the drivers off and depletion loads), which its HFETAload's inverse
+    # flag, kept from a reverse-biased device to the devices after it, makes a solution; the physical one
+    # (v(3) = 1.956 V) is a solution of ngspice's equations too (every device forward), and a .nodeset
+    # near it makes ngspice find it. Against that run: the levels to 1e-5, the edges' 1 V crossings within
+    # 2 ps (first stage) and 8 ps (second stage, whose node has no capacitor: ngspice's Meyer currents
+    # against netdae's charges) of ngspice's at tight tolerances.
+    text = open_corpus("inverter.cir").replace(".print tran all\n", "")
+    text = text.replace("pwl(0,0V   1ns,0V 1.005ns,1V 2ns,1V)", "pwl(0,0V 1ns,0V 1.1ns,1V 2ns,1V 2.1ns,0)")
+    r = netdae.run(text, save=["v(3)", "v(4)"])[0]
+    ours = r.axis, np.asarray(r["v(3)"]), np.asarray(r["v(4)"])
+    spurious_t, spurious = _ngspice_tran(text, ["v(3)", "v(4)"])
+    assert abs(spurious[0][0] + 0.275) < 1e-3 and abs(ours[1][0] - 1.9557) < 1e-3
+    t, (v3, v4) = _ngspice_tran(text.replace(".tran 0.01n 3n", ".tran 0.01n 3n 0 0.2p"), ["v(3)", "v(4)"],
+                                ".nodeset v(3)=2 v(4)=0.05\n.options reltol=1e-5\n")
+    for when in (0.5e-9, 0.99e-9, 1.8e-9, 2.99e-9):
+        for mine, theirs in ((ours[1], v3), (ours[2], v4)):
+            assert np.interp(when, ours[0], mine) == pytest.approx(np.interp(when, t, theirs), rel=3e-5)
+    for mine, theirs, within in ((ours[1], v3, 2e-12), (ours[2], v4, 8e-12)):
+        a, b = _crossings(ours[0], mine, 1.0), _crossings(t, theirs, 1.0)
+        assert len(a) == len(b) == 2
+        assert np.max(np.abs(a - b)) <= within, (a, b)
 
-    c = compare(open_corpus("inverter.cir"), tol={"tran": 1e-2})
-    assert c.ngspice_error is None, c.ngspice_error
-    a = c.analysis("tran")
-    assert a.error is None and a.signals
-    worst = max(s.max_rel for s in a.signals if s.name.startswith("v("))
-    assert worst <= 1e-2, (a.worst.name, worst)
+
+@pytest.mark.parametrize("engine", ["python"])
+def test_compiled_engine_equals_the_python_integrator(engine, monkeypatch):
+    text = open_corpus("inverter.cir").replace(".print tran all\n", "").replace(".tran 0.01n 3n", ".tran 0.01n 1.5n")
+    compiled = netdae.run(text, save=["v(3)", "v(4)"])[0]
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    python = netdae.run(text, save=["v(3)", "v(4)"])[0]
+    for name in ("v(3)", "v(4)"):
+        np.testing.assert_allclose(np.interp(python.axis, compiled.axis, compiled[name]), python[name], atol=2e-3)
 
 
 def open_corpus(name: str) -> str:
