@@ -104,6 +104,44 @@ def test_model_options_agree_with_ngspice(card):
     _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
 
 
+#: An HFET2 (level 6) card with its series resistances, gate diodes (JS, N, GGR), CF, the ETA2/D2 sheet
+#: charge and the temperature coefficients, KNMAX included.
+MODEL6 = ("level=6 vto=0.13 rd=20 rs=15 rdi=3 rsi=4 js=1e-2 n=1.5 ggr=30 cf=1f lambda=0.17 mu=0.385 eta=1.32 "
+          "sigma0=0.04 nmax=6e15 eta2=2.2 d2=0.15u p=0.8 knmax=1e13 kvto=1e-3 kmu=2e-4 klambda=1e-4")
+
+
+@ngspice
+@pytest.mark.parametrize("vgs,vds", BIASES)
+@pytest.mark.parametrize("temp", [27.0, 80.0])
+def test_hfet2_operating_point_quantities_agree_with_ngspice(vgs, vds, temp):
+    text = held(vgs, vds, model=MODEL6, extra=f".options temp={temp}\n")
+    _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
+
+
+@ngspice
+@pytest.mark.parametrize("vgs,vds", BIASES[:3])
+def test_hfet2_p_channel_agrees_with_ngspice(vgs, vds):
+    # HFET2 sets the N channel's ETA, MU, VS defaults only: a phfet card gives them
+    model = MODEL6.replace("vto=0.13", "vto=-0.13") + " vs=0.8e5"
+    text = held(-vgs, -vds, model=model, kind="phfet", inst="l=1u w=10u dtemp=20")
+    _agree(netdae_op(text, QUANTITIES), ngspice_op(text, QUANTITIES))
+
+
+@ngspice
+@pytest.mark.parametrize("kind,sign", [("nhfet", 1.0), ("phfet", -1.0)])
+def test_hfet2_output_sweeps_agree_with_ngspice(kind, sign):
+    from netdae.comparison import compare
+
+    model = MODEL6.replace("vto=0.13", f"vto={0.13 * sign}") + " vs=1e5"
+    text = (f"HFET2 output characteristics\nVD d 0 0\nVG g 0 0\nZ1 d g 0 hm l=1u w=10u\n.model hm {kind} {model}\n"
+            f".dc VD {-0.6 * sign} {2 * sign} {0.05 * sign} VG {-0.1 * sign} {0.7 * sign} {0.2 * sign}\n.end\n")
+    c = compare(text, tight=True, tol={"dc": 1e-5})
+    assert c.ngspice_error is None, c.ngspice_error
+    a = c.analysis("dc")
+    assert a.error is None and a.points >= 3 * 50
+    assert max(s.max_rel for s in a.signals if s.name.startswith("i(")) <= 1e-6
+
+
 @ngspice
 @pytest.mark.parametrize("kind,sign", [("nhfet", 1.0), ("phfet", -1.0)])
 def test_output_and_transfer_sweeps_agree_with_ngspice(kind, sign):
@@ -207,6 +245,26 @@ def test_inverter_transient_agrees_with_ngspice():
         assert np.max(np.abs(a - b)) <= within, (a, b)
 
 
+@ngspice
+def test_hfet2_inverter_transient_agrees_with_ngspice():
+    # the public inverter pair with HFET2 cards (level 6; HFET2 clears its inverse flag per device, and
+    # ngspice finds the physical operating point): levels to 1e-5, crossings as for HFET1
+    text = open_corpus("inverter.cir").replace(".print tran all\n", "").replace("level=5", "level=6")
+    text = text.replace("js1s=1e-12 js1d=1e-12", "js=1e-12")
+    text = text.replace("pwl(0,0V   1ns,0V 1.005ns,1V 2ns,1V)", "pwl(0,0V 1ns,0V 1.1ns,1V 2ns,1V 2.1ns,0)")
+    r = netdae.run(text, save=["v(3)", "v(4)"])[0]
+    ours = r.axis, np.asarray(r["v(3)"]), np.asarray(r["v(4)"])
+    t, (v3, v4) = _ngspice_tran(text.replace(".tran 0.01n 3n", ".tran 0.01n 3n 0 0.2p"), ["v(3)", "v(4)"],
+                                ".options reltol=1e-5\n")
+    for when in (0.5e-9, 0.99e-9, 1.8e-9, 2.99e-9):
+        for mine, theirs in ((ours[1], v3), (ours[2], v4)):
+            assert np.interp(when, ours[0], mine) == pytest.approx(np.interp(when, t, theirs), rel=3e-5)
+    for mine, theirs, within in ((ours[1], v3, 2e-12), (ours[2], v4, 8e-12)):
+        a, b = _crossings(ours[0], mine, 1.0), _crossings(t, theirs, 1.0)
+        assert len(a) == len(b) == 2
+        assert np.max(np.abs(a - b)) <= within, (a, b)
+
+
 @pytest.mark.parametrize("engine", ["python"])
 def test_compiled_engine_equals_the_python_integrator(engine, monkeypatch):
     text = open_corpus("inverter.cir").replace(".print tran all\n", "").replace(".tran 0.01n 3n", ".tran 0.01n 1.5n")
@@ -265,10 +323,11 @@ def test_inverse_mode_is_ngspice_s():
 
 
 @pytest.mark.parametrize("text, pattern, column_text", [
-    (held(0.2, 1.0, model="level=6"), r"level 6 is ngspice's HFET2, which netdae does not implement", "6"),
+    (held(0.2, 1.0, model="level=7"), r"level 7 is not one ngspice 39 has", "7"),
+    (held(0.2, 1.0, model="level=3"), r"an nhfet model of level 3 is ngspice's MESA", "3"),
     (held(0.2, 1.0, model="vto=0.1"), r"an nhfet model of level 1 is ngspice's Statz MESFET", ".model"),
     (held(0.2, 1.0, inst="2 l=1u"), r"an area \(2\) on the card of an HFET model", "Z1"),
-    (held(0.2, 1.0, inst="ts=50"), r"'ts' is not an instance parameter of ngspice's HFET1", "Z1"),
+    (held(0.2, 1.0, inst="ts=50"), r"'ts' is not an instance parameter of ngspice's HFET", "Z1"),
     (held(0.2, 1.0, model="level=5 type=1"), r"'type' is an output", "1"),
 ])
 def test_bad_cards_are_located_errors(text, pattern, column_text):
@@ -309,6 +368,8 @@ Z2 3 2 0 hp l=1.2u w=10u m=2
 Z3 4 1 2 hm l=0.8u w=15u off
 .model hm nhfet {MODEL}
 .model hp phfet level=5 vto=-0.3 lambda=0.05 cds=2f
+Z4 1 4 0 h6 l=1u w=10u
+.model h6 nhfet {MODEL6}
 .end
 """
 

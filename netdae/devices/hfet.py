@@ -85,12 +85,12 @@ from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_vo
 from .junction import CHARGE, K_OVER_Q, KELVIN
 from .modelcard import ParameterTable, gather, instance_values, resolve_model
 
-__all__ = ["HfetFamily", "HFET_PARAMETERS", "HFET_LEVELS", "EPS_GAAS"]
+__all__ = ["HfetFamily", "HFET_PARAMETERS", "HFET2_PARAMETERS", "HFET_LEVELS", "EPS_GAAS"]
 
 #: GaAs's permittivity as ngspice writes it [F/m] (EPSI's default).
 EPS_GAAS = 12.244 * 8.85418e-12
-#: The HFET levels netdae implements (ngspice's HFET1).
-HFET_LEVELS = (5.0,)
+#: The HFET levels netdae implements (ngspice's HFET1 and HFET2).
+HFET_LEVELS = (5.0, 6.0)
 
 HFET_PARAMETERS = ParameterTable(
     "HFET (HFET1, level 5)",
@@ -111,6 +111,24 @@ HFET_PARAMETERS = ParameterTable(
     levels=frozenset({5}),
 )
 
+HFET2_PARAMETERS = ParameterTable(
+    "HFET (HFET2, level 6)",
+    defaults={
+        "level": 6.0, "vto": None, "cf": 0.0, "d1": 0.03e-6, "d2": 0.2e-6, "del": 0.04, "delta": 3.0,
+        "deltad": 4.5e-9, "di": 0.04e-6, "epsi": EPS_GAAS, "eta": None, "eta1": 2.0, "eta2": 2.0, "gamma": 3.0,
+        "ggr": 0.0, "js": 0.0, "klambda": 0.0, "kmu": 0.0, "knmax": 0.0, "kvto": 0.0, "lambda": 0.15, "m": 3.0,
+        "mc": 3.0, "mu": None, "n": 5.0, "nmax": 2e16, "p": 1.0, "rd": 0.0, "rdi": 0.0, "rs": 0.0, "rsi": 0.0,
+        "sigma0": 0.057, "vs": None, "vsigma": 0.1, "vsigmat": 0.3, "vt1": None, "vt2": None,
+    },
+    aliases={"vt0": "vto"},
+    inert=frozenset({"nhfet", "phfet"}),
+    family="hfet2",
+    levels=frozenset({6}),
+)
+#: HFET2's type-dependent defaults (``hfet2setup.c`` sets ETA, MU and VS for the N channel only: a P-channel
+#: card without them has zeros, as in ngspice).
+_TYPE_DEFAULTS2 = {1: {"vto": 0.15, "eta": 1.28, "mu": 0.4, "vs": 1.5e5}, -1: {"vto": -0.15, "eta": 0.0, "mu": 0.0,
+                                                                             "vs": 0.0}}
 #: The P channel's defaults where they differ from the N channel's (``hfetsetup.c``).
 _TYPE_DEFAULTS = {1: {"vto": 0.15, "eta": 1.28, "mu": 0.4, "vs": 1.5e5},
                   -1: {"vto": -0.15, "eta": 1.4, "mu": 0.03, "vs": 0.8e5}}
@@ -124,6 +142,17 @@ _ID, _IGS, _IGD, _IRD, _IRS, _IRG, _IRI, _IRF = range(8)
 _CURRENT_DEPS = [(_ID, _VGS), (_ID, _VGD), (_IGS, _VGS), (_IGS, _VGD), (_IGD, _VGS), (_IGD, _VGD),
                  (_IRD, _VRD), (_IRS, _VRS), (_IRG, _VRG), (_IRI, _VRI), (_IRF, _VRF)]
 _CHARGE_DEPS = [(0, _VGSPP), (0, _VGS), (0, _VGD), (1, _VGDPP), (1, _VGS), (1, _VGD), (2, _VGS), (2, _VGD)]
+
+
+def _as_hfet1_row(row: dict) -> dict:
+    """An HFET2 card's values in HFET1's names: no gate resistance nodes, no leakage, no GATEMOD; HFET2's
+    own ``cf``, ``js``, ``n``, ``knmax`` kept."""
+    out = dict(row)
+    out.update({"rg": 0.0, "ri": 0.0, "rf": 0.0, "js1s": 0.0, "js1d": 0.0, "js2s": 0.0, "js2d": 0.0,
+                "rgs": 0.0, "rgd": 0.0, "m1s": 1.0, "m1d": 1.0, "m2s": 1.0, "m2d": 1.0, "gatemod": 0.0,
+                "cds": 0.0, "a1": 0.0, "a2": 0.0, "mv1": 3.0, "cm3": 0.17, "ck1": 1.0, "ck2": 0.0, "cm1": 3.0,
+                "cm2": 0.0, "mt1": 3.5, "mt2": 9.9, "talpha": 1200.0, "phib": 0.5, "astar": 0.0})
+    return out
 
 
 class HfetFamily(GateJunctionLimits, DeviceFamily):
@@ -153,14 +182,17 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
                 raise NetlistError(f"{el.name}: model {model.name}: HFET level {level:g} is not implemented by "
                                    "netdae", model.locations.get("level", model.location),
                                    expected="an nhfet or phfet model of level 5 (HFET1)")
-            mv = HFET_PARAMETERS.read(model)
+            table, typed = (HFET_PARAMETERS, _TYPE_DEFAULTS) if level == 5.0 else (HFET2_PARAMETERS, _TYPE_DEFAULTS2)
+            mv = table.read(model)
             tp = -1 if model.type == "phfet" else 1
-            row = dict(_TYPE_DEFAULTS[tp])
-            row.update({k: v for k, v in HFET_PARAMETERS.defaults.items() if v is not None})
+            row = dict(typed[tp])
+            row.update({k: v for k, v in table.defaults.items() if v is not None})
             row.update(mv.given_values)
+            if level == 6.0:
+                row = _as_hfet1_row(row)
             row["type"] = float(tp)
             row["given"] = set(mv.given_values)
-            if row.get("kappa") is not None and row["delf"] != 0.0:
+            if row.get("kappa") is not None and row.get("delf", 0.0) != 0.0:
                 raise CircuitError(f"{where}{el.name}: model {model.name}: KAPPA with DELF={row['delf']:g} (a "
                                    "frequency-dependent output conductance of ngspice's AC analysis) is not "
                                    "implemented by netdae", elements=(el.name,), hint="remove KAPPA or DELF")
@@ -192,10 +224,15 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
         two = has("eta2") & has("d2")
         eta2 = np.array([r.get("eta2", 2.0) for r in rows])
         d2 = np.array([r.get("d2", 0.2e-6) for r in rows])
+        level = g("level")
+        six = level == 6.0
+        raw_vto = g("vto")  # HFET2's VT1, VT2 default to the card's VTO (not multiplied by the type)
         vt2 = np.array([r.get("vt2", math.nan) for r in rows])
-        vt2 = np.where(np.isnan(vt2), vto, vt2)
+        vt2 = np.where(np.isnan(vt2), np.where(six, raw_vto, vto), vt2)
         vt1 = np.array([r.get("vt1", math.nan) for r in rows])
-        vt1 = np.where(np.isnan(vt1), vto + CHARGE * g("nmax") * g("di") / epsi, vt1)
+        vt1 = np.where(np.isnan(vt1), np.where(six, raw_vto, vto) + CHARGE * g("nmax") * g("di") / epsi, vt1)
+        only6 = lambda name, default: gather(rows, name, default)  # noqa: E731  (HFET2's own names)
+        tnmax = g("nmax") - only6("knmax", 0.0) * dt
         tmu = g("mu") - g("kmu") * dt
         tvto = vto - g("kvto") * dt
         self.tvto = tvto
@@ -219,10 +256,10 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
             "sigma0": g("sigma0"), "delta2": g("delta") ** 2,
             "n0": epsi * eta * vt / 2.0 / CHARGE / (g("di") + g("deltad")),
             "n02": np.where(has("eta2"), epsi * eta2 * vt / 2.0 / CHARGE / d2, 0.0), "vt2": vt2, "eta2": eta2,
-            "two": two.astype(float), "nmax": g("nmax"), "gamma": g("gamma"), "gchi0": CHARGE * width * tmu / length,
+            "two": two.astype(float), "nmax": tnmax, "gamma": g("gamma"), "gchi0": CHARGE * width * tmu / length,
             "rt": g("rsi") + g("rdi"), "rsi": g("rsi"), "vl": g("vs") / tmu * length,
-            "imax": CHARGE * g("nmax") * g("vs") * width, "m": g("m"), "tlambda": g("lambda") + g("klambda") * dt,
-            "eta1": eta1, "d1": g("d1"), "epsi": epsi, "vt1": vt1, "wl": lw, "cf": 0.5 * epsi * width,
+            "imax": CHARGE * tnmax * g("vs") * width, "m": g("m"), "tlambda": g("lambda") + g("klambda") * dt,
+            "eta1": eta1, "d1": g("d1"), "epsi": epsi, "vt1": vt1, "wl": lw, "cf": np.where(six, only6("cf", 0.0), 0.5 * epsi * width),
             "mc": g("mc"), "pm": g("p"), "gatemod": g("gatemod"), "ck1": g("ck1"), "ck2": g("ck2"),
             "cm1": g("cm1"), "cm2": g("cm2"), "cm3": g("cm3"), "mt1": g("mt1"), "mt2": g("mt2"),
             "talpha": g("talpha"), "m2d": g("m2d"), "m2s": g("m2s"), "phib": g("phib") * CHARGE,
@@ -233,19 +270,28 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
             "type": tp, "cds": g("cds"), "gd": self.gd, "gs": self.gs, "gg": self.gg, "gi": self.gi,
             "gf": self.gf,
             "low": np.minimum(tvto, vt1) - 40.0 * np.maximum(eta, eta1) * vt,
+            "level": level, "jslw": only6("js", 0.0) * lw / 2.0, "nemit": only6("n", 1.0),
+            "vcrit": vt * np.log(vt / (math.sqrt(2.0) * 1e-11)),
         }
         from .kernels import hfet as kh
 
         self._par = np.ascontiguousarray(np.column_stack([np.broadcast_to(np.asarray(self.par[key], float),
                                                                           (count,)) for key in kh.PAR_KEYS]))
         self.off = g("off") != 0.0
-        self.lim_vto = np.tile(tvto, 2)  # limiting: fetlim alone (:meth:`limit`)
+        self.lim_vto = np.tile(tvto, 2)  # limiting (:meth:`limit`): HFET2's pnjlim first, then fetlim
+        self.lim_six = np.tile(six, 2)
+        self.lim_vcrit = np.tile(self.par["vcrit"], 2)
 
     def limit(self, vn: np.ndarray, vold: np.ndarray) -> tuple[np.ndarray, bool]:
-        """ngspice's HFET1 limiting of (vgs, vgd): ``fetlim`` against VTO(T) alone (no junction limiting)."""
-        from .junction import fetlim
+        """ngspice's limiting of (vgs, vgd): HFET1 ``fetlim`` against VTO(T) alone (no junction limiting);
+        HFET2 ``pnjlim`` (``CONSTvt0``, ``vt ln(vt/(sqrt(2) 1e-11))``) first."""
+        from .junction import fetlim, pnjlim
 
-        v = fetlim(vn.ravel(), vold.ravel(), self.lim_vto).reshape(vn.shape)
+        from .kernels.hfet import VT0
+
+        flat, old = vn.ravel(), vold.ravel()
+        v, _ = pnjlim(flat, old, np.full(flat.shape, VT0), self.lim_vcrit)
+        v = fetlim(np.where(self.lim_six, v, flat), old, self.lim_vto).reshape(vn.shape)
         return v, bool(np.any(v != vn))
 
     # -- topology ----------------------------------------------------------

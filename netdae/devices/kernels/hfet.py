@@ -1,9 +1,10 @@
-"""ngspice's HFET1 (``Z`` cards of ``nhfet``/``phfet`` models, level 5) as one compiled kernel.
+"""ngspice's HFET1 and HFET2 (``Z`` cards of ``nhfet``/``phfet`` models, levels 5 and 6) as one compiled kernel.
 
 These functions are the one statement of the model's equations: the compiled loop's kernel
 :func:`eval_hfet` and the numpy family :class:`netdae.devices.hfet.HfetFamily` (which calls
 :func:`hfet_dc` and :func:`hfet_charges` per instance) both evaluate them. The equations are
-ngspice 39's ``hfetload.c`` (``hfeta``, ``leak``, ``diode``), in complex arithmetic so that the
+ngspice 39's ``hfetload.c`` (``hfeta``, ``leak``, ``diode``; HFET2's ``hfet2load.c`` is the same channel
+with simpler gate diodes, selected by the ``level`` column), in complex arithmetic so that the
 derivatives are exact (the complex step), one instance at a time, in type-normalised voltages
 (``type * v``: +1 for ``nhfet``, -1 for ``phfet``).
 
@@ -26,7 +27,7 @@ import numpy as np
 from ...dae.compiled import kernel
 from ..junction import BOLTZMANN as _BOLTZ, CHARGE as _CHARGE
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
-from .junction import fetlim
+from .junction import fetlim, pnjlim
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
 
 __all__ = ["eval_hfet", "hfet_dc", "hfet_charges", "hfet_mode", "PAR_KEYS", "N_PAR", "N_IDX", "N_STATE",
@@ -50,13 +51,16 @@ PAR_KEYS = ("vt", "temp", "eta", "tvto", "vsigmat", "vsigma", "sigma0", "delta2"
             "two", "nmax", "gamma", "gchi0", "rt", "rsi", "vl", "imax", "m", "tlambda", "eta1", "d1", "epsi",
             "vt1", "wl", "cf", "mc", "pm", "gatemod", "ck1", "ck2", "cm1", "cm2", "cm3", "mt1", "mt2", "talpha",
             "m2d", "m2s", "phib", "iso", "a1", "a2", "mv1", "gmin", "is1s", "is2s", "m1s", "rgs", "is1d",
-            "is2d", "m1d", "rgd", "ggrwl", "del", "mult", "type", "cds", "gd", "gs", "gg", "gi", "gf", "low")
+            "is2d", "m1d", "rgd", "ggrwl", "del", "mult", "type", "cds", "gd", "gs", "gg", "gi", "gf", "low",
+            "level", "jslw", "nemit", "vcrit")
 (P_VT, P_TEMP, P_ETA, P_TVTO, P_VSIGMAT, P_VSIGMA, P_SIGMA0, P_DELTA2, P_N0, P_N02, P_VT2, P_ETA2, P_TWO, P_NMAX,
  P_GAMMA, P_GCHI0, P_RT, P_RSI, P_VL, P_IMAX, P_M, P_TLAMBDA, P_ETA1, P_D1, P_EPSI, P_VT1, P_WL, P_CF, P_MC,
  P_PM, P_GATEMOD, P_CK1, P_CK2, P_CM1, P_CM2, P_CM3, P_MT1, P_MT2, P_TALPHA, P_M2D, P_M2S, P_PHIB, P_ISO, P_A1,
  P_A2, P_MV1, P_GMIN, P_IS1S, P_IS2S, P_M1S, P_RGS, P_IS1D, P_IS2D, P_M1D, P_RGD, P_GGRWL, P_DEL, P_MULT, P_TYPE,
- P_CDS, P_GD, P_GS, P_GG, P_GI, P_GF, P_LOW) = range(66)
-N_PAR = 66
+ P_CDS, P_GD, P_GS, P_GG, P_GI, P_GF, P_LOW, P_LEVEL, P_JSLW, P_NEMIT, P_VCRIT) = range(70)
+N_PAR = 70
+#: ngspice's ``CONSTvt0`` (the thermal voltage at 27 degC), HFET2's junction limiting's.
+VT0 = _BOLTZ * (27.0 + 273.15) / _CHARGE
 I_D, I_G, I_S, I_DP, I_SP, I_GP, I_SPP, I_DPP = range(8)
 S_CUR = 8
 N_CUR_DEPS = 11
@@ -135,6 +139,19 @@ def _gate_currents0(vgs, vgd, par, k):
         igd = _leak(gmin, vt, vgd, par[k, P_RGD], par[k, P_IS1D], par[k, P_IS2D], par[k, P_M1D], par[k, P_M2D])
     igs = igs + ggrwl * vgs * cmath.exp(-vgs * dl / vt)
     igd = igd + ggrwl * vgd * cmath.exp(-vgd * dl / vt)
+    return igs, igd
+
+
+@kernel
+def _gate_currents6(vgs, vgd, par, k):
+    """HFET2's gate diodes: ``JS L W/2 (exp(v/(N vt)) - 1) + GGR L W/2 v exp(-DEL v/vt)``, complex."""
+    vt = par[k, P_VT]
+    vtn = par[k, P_NEMIT] * vt
+    jslw = par[k, P_JSLW]
+    ggrwl = par[k, P_GGRWL]
+    dl = par[k, P_DEL]
+    igs = jslw * (cmath.exp(vgs / vtn) - 1.0) + ggrwl * vgs * cmath.exp(-vgs * dl / vt)
+    igd = jslw * (cmath.exp(vgd / vtn) - 1.0) + ggrwl * vgd * cmath.exp(-vgd * dl / vt)
     return igs, igd
 
 
@@ -280,7 +297,9 @@ def _channel(vgs, vgd, par, k):
     w = -vds if inverse else vds
     vg = vgs if w.real > 0.0 else vgd
     cdrain, capgs, capgd, cgs1, cgd1 = hfet_mode(vg, w, par, k)
-    if par[k, P_GATEMOD] != 0.0:
+    if par[k, P_LEVEL] == 6.0:
+        igs, igd = _gate_currents6(vgs, vgd, par, k)
+    elif par[k, P_GATEMOD] != 0.0:
         igs, igd = cgs1, cgd1
     else:
         igs, igd = _gate_currents0(vgs, vgd, par, k)
@@ -352,8 +371,12 @@ def hfet_charges(vgs, vgd, vgspp, vgdpp, par, k):
 
 @kernel
 def hfet_limit(vgs_x, vgd_x, vgs_o, vgd_o, par, k):
-    """ngspice's HFET1 limiting: fetlim of vgs and vgd against VTO(T) (no junction limiting)."""
+    """ngspice's limiting: HFET1 fetlim of vgs and vgd against VTO(T); HFET2 pnjlim (``CONSTvt0``, its
+    vcrit) first."""
     tvto = par[k, P_TVTO]
+    if par[k, P_LEVEL] == 6.0:
+        vgs_x, _ = pnjlim(vgs_x, vgs_o, VT0, par[k, P_VCRIT])
+        vgd_x, _ = pnjlim(vgd_x, vgd_o, VT0, par[k, P_VCRIT])
     return fetlim(vgs_x, vgs_o, tvto), fetlim(vgd_x, vgd_o, tvto)
 
 

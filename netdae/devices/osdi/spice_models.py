@@ -696,7 +696,7 @@ def _to_hfet(el: Element, card: Model) -> None:
     """Give a Z element of an ``nhfet``/``phfet`` model of level 5 the ``hfet`` kind (its family reads the card).
 
     ngspice chooses the Z device by the model's level whatever the type: ``nhfet``/``phfet`` of level 5
-    is HFET1 (netdae's :mod:`netdae.devices.hfet`), level 6 HFET2, levels 1-4 (and none) the MESFETs.
+    is HFET1 and level 6 HFET2 (netdae's :mod:`netdae.devices.hfet`), levels 1-4 (and none) the MESFETs.
 
     Raises
     ------
@@ -708,13 +708,14 @@ def _to_hfet(el: Element, card: Model) -> None:
 
     level = level_of(card)
     if level not in HFET_LEVELS:
-        what = {6.0: "HFET2", 2.0: "MESA", 3.0: "MESA", 4.0: "MESA"}.get(level, "Statz MESFET")
-        raise NetlistError(f"{el.name}: model {card.name}: an {card.type} model of level {level:g} is ngspice's "
-                           f"{what}, which netdae does not implement for {card.type} cards",
+        what = {0.0: "Statz MESFET", 1.0: "Statz MESFET", 2.0: "MESA", 3.0: "MESA", 4.0: "MESA"}.get(level)
+        said = (f"is ngspice's {what}, which netdae does not implement for {card.type} cards" if what else
+                "is not one ngspice 39 has ('only mesfet device level 1-4 and hfet level 5-6 supported')")
+        raise NetlistError(f"{el.name}: model {card.name}: an {card.type} model of level {level:g} {said}",
                            card.locations.get("level", card.location),
-                           expected=f"an {card.type} model of level 5 (HFET1)",
-                           hint="netdae runs nhfet and phfet models of level 5 (ngspice's HFET1); write level=5 "
-                           "for HFET1, or an nmf model of level 1 or 2 for a MESFET")
+                           expected=f"an {card.type} model of level 5 (HFET1) or 6 (HFET2)",
+                           hint="netdae runs nhfet and phfet models of level 5 (ngspice's HFET1) and 6 (HFET2); "
+                           "write level=5 or 6 for an HFET, or an nmf model of level 1 or 2 for a MESFET")
     if UNLABELLED_AREA in el.params:
         raise NetlistError(f"{el.name}: an area ({el.params[UNLABELLED_AREA]:g}) on the card of an HFET model: "
                            "ngspice's reader gives it to the model, which has no area parameter (ngspice 39 stops "
@@ -723,9 +724,9 @@ def _to_hfet(el: Element, card: Model) -> None:
     allowed = level_parameters(Kind.HFET.value, int(level))[1]
     for raw in el.params:
         if raw not in allowed:
-            raise NetlistError(f"{el.name}: '{raw}' is not an instance parameter of ngspice's HFET1 model (ngspice "
+            raise NetlistError(f"{el.name}: '{raw}' is not an instance parameter of ngspice's HFET model (ngspice "
                                "39 stops at it too)", el.location, expected=HFET_FORM.format(name=el.name),
-                               hint="HFET1's instance parameters: " + " ".join(sorted(allowed)))
+                               hint="HFET's instance parameters: " + " ".join(sorted(allowed)))
     el.kind = Kind.HFET.value
 
 
