@@ -369,7 +369,7 @@ _DEFINITIONS = (
     ElementKind("mesa", "z", "MESFET (MESA)", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 family="netdae.devices.mesa:MesaFamily", controlled=True, group="transistors", solved_quantities=True,
                 device_ic=("icvds", "icvgs"), parameters="netdae.devices.mesa:MESA_PARAMETERS"),
-    # a Z card whose model is ngspice's HFET1 (nhfet/phfet, level 5): map_devices gives it this kind
+    # a Z card whose model is ngspice's HFET1 or HFET2 (nhfet/phfet, level 5 or 6): map_devices gives it this kind
     ElementKind("hfet", "z", "HFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 model_types=("nhfet", "phfet"), family="netdae.devices.hfet:HfetFamily", controlled=True,
                 group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs"),

@@ -1,12 +1,22 @@
-"""ngspice's HFET1 heterostructure FET (``Z`` cards, ``.model ... nhfet|phfet level=5``) as ngspice 39 computes it.
+"""ngspice's HFET1 and HFET2 heterostructure FETs (``Z`` cards, ``.model ... nhfet|phfet level=5|6``) as ngspice 39
+computes them.
 
 Syntax: ``Zname d g s model [off] [l=L] [w=W] [m=M] [ic=vds,vgs] [icvds=v] [icvgs=v] [temp=T] [dtemp=dT]``
 with ``.model name NHFET|PHFET level=5 (VTO LAMBDA RD RS RG RDI RSI RGS RGD RI RF ETA M MC GAMMA SIGMA0
 VSIGMAT VSIGMA MU DI DELTA VS NMAX DELTAD JS1D JS2D JS1S JS2S M1D M2D M1S M2S EPSI P CM3 A1 A2 MV1 KAPPA
 DELF FGDS TF CDS PHIB TALPHA MT1 MT2 CK1 CK2 CM1 CM2 ASTAR ETA1 D1 VT1 ETA2 D2 VT2 GGR DEL GATEMOD
 KLAMBDA KMU KVTO)``. ngspice chooses the device by the level, not the type: ``nhfet``/``phfet`` without a
-level is its Statz MESFET, level 6 its HFET2; netdae runs level 5 (HFET1) of the ``nhfet`` and ``phfet``
+level is its Statz MESFET; netdae runs levels 5 (HFET1) and 6 (HFET2) of the ``nhfet`` and ``phfet``
 types and refuses the others by name.
+
+HFET2 (level 6, ``hfet2load.c``; ``.model ... level=6 (VTO LAMBDA RD RS RDI RSI ETA ETA1 ETA2 D1 D2 VT1 VT2 M
+MC GAMMA SIGMA0 VSIGMAT VSIGMA MU DI DELTA DELTAD VS NMAX EPSI P CF JS N GGR DEL KLAMBDA KMU KNMAX KVTO)``) is
+HFET1's channel (below) with: no gate, ``RI``, ``RF`` resistances; gate diodes ``JS L W/2 (exp(v/(N vt)) - 1)
++ GGR L W/2 v exp(-DEL v/vt)`` (no GMIN); ``CF`` a parameter (default 0); ``NMAX(T) = NMAX - KNMAX (T -
+Tnom)`` in the channel; ``VT1``, ``VT2`` defaulting from the card's ``VTO`` (not multiplied by the type);
+ngspice's ``pnjlim`` (``CONSTvt0``, ``vcrit = vt ln(vt/(sqrt(2) 1e-11))``) before ``fetlim``; ``ETA``,
+``MU``, ``VS`` defaulted for the N channel only (zero for a ``phfet`` card that does not give them, as in
+ngspice); and its inverse flag cleared for every device.
 
 Equations (``hfetload.c``'s ``hfeta``, ``leak``, ``diode`` and ``hfettemp.c``)
 ----------------------------------------------------------------------------
@@ -156,14 +166,14 @@ def _as_hfet1_row(row: dict) -> dict:
 
 
 class HfetFamily(GateJunctionLimits, DeviceFamily):
-    """All HFET1 (level 5) devices of a circuit; the equations are :mod:`netdae.devices.kernels.hfet`'s.
+    """All HFET1 and HFET2 (levels 5, 6) devices of a circuit; the equations are :mod:`netdae.devices.kernels.hfet`'s.
 
     Raises
     ------
     CircuitError
         Non-positive ``l``, ``w`` or ``m``; ``KAPPA`` with a non-zero ``DELF``.
     NetlistError
-        A level other than 5.
+        A level other than 5 and 6.
     """
 
     shareable = True

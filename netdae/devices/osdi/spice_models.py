@@ -693,7 +693,7 @@ HFET_FORM = "{name} nd ng ns mname [off] [l=L] [w=W] [m=M] [ic=vds,vgs] [temp=T]
 
 
 def _to_hfet(el: Element, card: Model) -> None:
-    """Give a Z element of an ``nhfet``/``phfet`` model of level 5 the ``hfet`` kind (its family reads the card).
+    """Give a Z element of an ``nhfet``/``phfet`` model of level 5 or 6 the ``hfet`` kind (its family reads the card).
 
     ngspice chooses the Z device by the model's level whatever the type: ``nhfet``/``phfet`` of level 5
     is HFET1 and level 6 HFET2 (netdae's :mod:`netdae.devices.hfet`), levels 1-4 (and none) the MESFETs.
@@ -701,8 +701,8 @@ def _to_hfet(el: Element, card: Model) -> None:
     Raises
     ------
     NetlistError
-        Another level, at its value; an area (ngspice 39 stops at it: HFET1 has no area parameter); an
-        instance parameter HFET1 does not have.
+        Another level, at its value; an area (ngspice 39 stops at it: neither HFET has an area parameter);
+        an instance parameter the HFETs do not have.
     """
     from ..hfet import HFET_LEVELS
 
