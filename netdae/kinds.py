@@ -477,7 +477,8 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "qgs": "gate-source charge (netdae's charge form)", "qgd": "gate-drain charge (netdae's charge form)",
     },
     "hfet": {
-        "cd": "drain current (into the terminal, type-normalised as ngspice's; channel less gate-drain current, charge currents included)",
+        "cd": "drain current (into the terminal, type-normalised as ngspice's; channel less gate-drain current, "
+              "charge currents included)",
         "cg": "gate current (into the terminal)", "cs": "source current (into the terminal)",
         "vgs": "internal gate-source voltage (type-normalised)", "vgd": "internal gate-drain voltage (type-normalised)",
         "gm": "transconductance (of the mode)", "gds": "output conductance (of the mode)",

@@ -269,7 +269,8 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
             "two": two.astype(float), "nmax": tnmax, "gamma": g("gamma"), "gchi0": CHARGE * width * tmu / length,
             "rt": g("rsi") + g("rdi"), "rsi": g("rsi"), "vl": g("vs") / tmu * length,
             "imax": CHARGE * tnmax * g("vs") * width, "m": g("m"), "tlambda": g("lambda") + g("klambda") * dt,
-            "eta1": eta1, "d1": g("d1"), "epsi": epsi, "vt1": vt1, "wl": lw, "cf": np.where(six, only6("cf", 0.0), 0.5 * epsi * width),
+            "eta1": eta1, "d1": g("d1"), "epsi": epsi, "vt1": vt1, "wl": lw,
+            "cf": np.where(six, only6("cf", 0.0), 0.5 * epsi * width),
             "mc": g("mc"), "pm": g("p"), "gatemod": g("gatemod"), "ck1": g("ck1"), "ck2": g("ck2"),
             "cm1": g("cm1"), "cm2": g("cm2"), "cm3": g("cm3"), "mt1": g("mt1"), "mt2": g("mt2"),
             "talpha": g("talpha"), "m2d": g("m2d"), "m2s": g("m2s"), "phib": g("phib") * CHARGE,
@@ -427,9 +428,9 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
 
         ``cd`` is the drain current (channel less gate-drain current, as ngspice's ``cd``), ``cg`` the
         gate current, ``cs`` ``-(cd + cg)``, all into the device, times ``m``, and, as ngspice's, in
-        type-normalised sign (a ``phfet``'s are those of the N-channel device it computes); ``vgs``, ``vgd``
-        the internal voltages (type-normalised); ``gm``, ``gds`` the mode's derivatives of the channel current; ``ggs``, ``ggd``
-        the gate currents' conductances; ``cgd`` the gate-drain current (ngspice's name); ``capgs``,
+        type-normalised sign (a ``phfet``'s are those of the N-channel device it computes); ``vgs``,
+        ``vgd`` the internal voltages (type-normalised); ``gm``, ``gds`` the mode's derivatives of the
+        channel current; ``ggs``, ``ggd`` the gate currents' conductances; ``cgd`` the gate-drain current (ngspice's name); ``capgs``,
         ``capgd`` ngspice's gate capacitances; ``qgs``, ``qgd`` netdae's gate charges.
         """
         v = self.stamps.voltages_at(x)
