@@ -96,6 +96,7 @@ class Kind(enum.StrEnum):
     JFET = "jfet"
     MESFET = "mesfet"
     MESA = "mesa"
+    HFET = "hfet"
     VDMOS = "vdmos"
     VSWITCH = "vswitch"
     CSWITCH = "cswitch"
@@ -368,6 +369,11 @@ _DEFINITIONS = (
     ElementKind("mesa", "z", "MESFET (MESA)", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
                 family="netdae.devices.mesa:MesaFamily", controlled=True, group="transistors", solved_quantities=True,
                 device_ic=("icvds", "icvgs"), parameters="netdae.devices.mesa:MESA_PARAMETERS"),
+    # a Z card whose model is ngspice's HFET1 or HFET2 (nhfet/phfet, level 5 or 6): map_devices gives it this kind
+    ElementKind("hfet", "z", "HFET", "(d, g, s)", (3,), ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0)),
+                model_types=("nhfet", "phfet"), family="netdae.devices.hfet:HfetFamily", controlled=True,
+                group="transistors", solved_quantities=True, device_ic=("icvds", "icvgs"),
+                parameters="netdae.devices.hfet:HFET_PARAMETERS"),
     ElementKind("vdmos", "m", "power MOSFET (VDMOS)", "(d, g, s)", (3,), ((RESISTIVE, 0, 2),), ((1, "gate"),),
                 model_types=("vdmos",), family="netdae.devices.vdmos:VdmosFamily", controlled=True,
                 group="transistors", device_ic=("icvds", "icvgs")),
@@ -468,6 +474,16 @@ _QUANTITIES: dict[str, dict[str, str]] = {
         "ggs": "gate-source diode conductance", "ggd": "gate-drain diode conductance",
         "cgs": "gate-source capacitance (what ngspice prints as qgs after .op)",
         "cgdq": "gate-drain capacitance (what ngspice prints as qgd after .op)",
+        "qgs": "gate-source charge (netdae's charge form)", "qgd": "gate-drain charge (netdae's charge form)",
+    },
+    "hfet": {
+        "cd": "drain current (into the terminal, type-normalised as ngspice's; channel less gate-drain current, "
+              "charge currents included)",
+        "cg": "gate current (into the terminal)", "cs": "source current (into the terminal)",
+        "vgs": "internal gate-source voltage (type-normalised)", "vgd": "internal gate-drain voltage (type-normalised)",
+        "gm": "transconductance (of the mode)", "gds": "output conductance (of the mode)",
+        "ggs": "gate-source conductance", "ggd": "gate-drain conductance", "cgd": "gate-drain current",
+        "capgs": "gate-source capacitance (ngspice's)", "capgd": "gate-drain capacitance (ngspice's)",
         "qgs": "gate-source charge (netdae's charge form)", "qgd": "gate-drain charge (netdae's charge form)",
     },
     "vswitch": {"i": "current from n+ through the switch to n-", "p": "power absorbed"},

@@ -54,6 +54,7 @@ CIRCUITS = {
     "tline": "Vs a 0 1\nR1 a b 50\nTdut b 0 c 0 z0=50 td=1n\nR2 c 0 50\n",
     "mesfet": "Vd d 0 3\nVg g 0 -0.5\nZdut d g 0 zm\n.model zm nmf vto=-2 beta=1m\n",
     "mesa": "Vd d 0 3\nVg g 0 0.2\nZdut d g 0 zm l=1u w=10u\n.model zm nmf level=2 vto=0.1 rd=20 rs=20\n",
+    "hfet": "Vd d 0 1\nVg g 0 0.3\nZdut d g 0 zh l=1u w=10u\n.model zh nhfet level=5 rd=20 rs=20 ri=5\n",
 }
 #: Kinds that elaboration maps to compiled modules of the optional extra netdae[models].
 NEEDS_MODELS = {k for k, spec in KINDS.items() if spec.runs_as == "osdi"}

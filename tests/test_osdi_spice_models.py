@@ -270,11 +270,14 @@ def test_sizes_follow_options_scale_as_in_ngspice():
             (2 * factor, 10 * factor, 20 * factor ** 2), rel=1e-15)
 
 
-def test_hfet_cards_are_refused_by_name():
-    with pytest.raises(NetlistError, match=r"model 'hf' is of type 'nhfet', ngspice's N-channel HFET .* not "
-                                           "implemented by netdae") as err:
-        netdae.load("t\nVd d 0 1\nZ1 d 0 0 hf\n.model hf nhfet\n.op\n.end\n")
-    assert err.value.location.line == 3
+def test_hfet_cards_run_at_levels_5_and_6_and_other_levels_are_refused_by_name():
+    for level in (5, 6):
+        circuit = netdae.load(f"t\nVd d 0 1\nZ1 d 0 0 hf\n.model hf nhfet level={level}\n.op\n.end\n")
+        assert circuit.element("z1").kind == "hfet"
+    with pytest.raises(NetlistError, match=r"an nhfet model of level 1 is ngspice's Statz MESFET, which netdae "
+                                           "does not implement for nhfet cards") as err:
+        netdae.load("t\nVd d 0 1\nZ1 d 0 0 hf\n.model hf nhfet level=1\n.op\n.end\n")
+    assert err.value.location.line == 4
 
 
 def test_a_thermal_node_on_a_gummel_poon_model_is_refused():

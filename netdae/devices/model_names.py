@@ -75,11 +75,20 @@ NGSPICE_PARAMETERS: dict[str, frozenset] = {
                    "astar ggr del xchi tggr n eta m mc alpha sigma0 vsigmat vsigma mu theta mu1 mu2 d nd du ndu th "
                    "ndelta delta tc tvto alphat tlambda teta0 teta1 tmu xtm0 xtm1 xtm2 ks vsg tf flo delfo ag rtc1 "
                    "rtc2 zeta nmax gamma epsi cas cbs gd gs vcrit"),
+    # hfet.c: HFET1 (Z cards of nhfet/phfet models, level 5); 'nhfet', 'phfet' restate the type
+    "hfet": _names("level type nhfet phfet vt0 vto lambda rd rs rg rdi rsi rgs rgd ri rf eta m mc gamma sigma0 "
+                   "vsigmat vsigma mu di delta vs nmax deltad js1d js2d js1s js2s m1d m2d m1s m2s epsi p cm3 a1 a2 "
+                   "mv1 kappa delf fgds tf cds phib talpha mt1 mt2 ck1 ck2 cm1 cm2 astar eta1 d1 vt1 eta2 d2 vt2 "
+                   "ggr del gatemod klambda kmu kvto"),
+    # hfet2.c: HFET2 (level 6)
+    "hfet2": _names("level type nhfet phfet cf d1 d2 del delta deltad di epsi eta eta1 eta2 gamma ggr js klambda "
+                    "kmu knmax kvto lambda m mc mu n nmax p rd rdi rs rsi sigma0 vs vsigma vsigmat vt0 vt1 vt2 vto"),
 }
 
 #: The parameter table of a (family, level) whose table is not its family's (ngspice's MESA for the
 #: MESFET levels 2-4).
-LEVEL_TABLES: dict[tuple[str, int], str] = {("mesfet", 2): "mesa", ("mesfet", 3): "mesa", ("mesfet", 4): "mesa"}
+LEVEL_TABLES: dict[tuple[str, int], str] = {("mesfet", 2): "mesa", ("mesfet", 3): "mesa", ("mesfet", 4): "mesa",
+                                            ("hfet", 6): "hfet2"}
 
 
 def table_of(family: str, level: float) -> str:
@@ -129,11 +138,13 @@ OUTPUT_ONLY: dict[str, frozenset] = {
     "cswitch": _names("gon goff"),
     "mesfet": _names("type gd gs depl_cap vcrit"),
     "mesa": _names("type gd gs vcrit"),
+    "hfet": _names("type"),
+    "hfet2": _names("type"),
 }
 
 #: The model family of each element kind that uses a model card.
 MODEL_FAMILIES = {"diode": "diode", "bjt": "bjt", "mosfet": "mosfet", "jfet": "jfet", "vdmos": "vdmos",
-                  "mesfet": "mesfet", "vswitch": "vswitch", "cswitch": "cswitch",
+                  "mesfet": "mesfet", "hfet": "hfet", "vswitch": "vswitch", "cswitch": "cswitch",
                   "resistor": "resistor", "capacitor": "capacitor", "inductor": "inductor",
                   "ltra": "ltra", "txl": "txl", "cpl": "cpl", "urc": "urc"}
 
@@ -204,6 +215,10 @@ LEVEL_PARAMETERS: dict[tuple[str, int], tuple[frozenset, frozenset]] = {
 for _level in (2, 3, 4):
     LEVEL_PARAMETERS[("mesfet", _level)] = (NGSPICE_PARAMETERS["mesa"] - OUTPUT_ONLY["mesa"],
                                             _names("l w m off icvds icvgs td ts dtemp"))
+LEVEL_PARAMETERS[("hfet", 5)] = (NGSPICE_PARAMETERS["hfet"] - OUTPUT_ONLY["hfet"],
+                                 _names("off l w m icvds icvgs ic temp dtemp"))
+LEVEL_PARAMETERS[("hfet", 6)] = (NGSPICE_PARAMETERS["hfet2"] - OUTPUT_ONLY["hfet2"],
+                                 _names("off l w m icvds icvgs ic temp dtemp"))
 #: ngspice 39 reads BJT level 9 as VBIC too (its ``inpdomod.c``; measured: ``showmod`` lists VBIC models).
 LEVEL_PARAMETERS[("bjt", 9)] = LEVEL_PARAMETERS[("bjt", 4)]
 

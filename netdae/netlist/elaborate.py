@@ -66,11 +66,14 @@ _PSPICE_SWITCHES = {Kind.VSWITCH: "vswitch", Kind.CSWITCH: "iswitch"}
 # coupling K relates two inductors that are both multiplied, so it stays; the other kinds are
 # refused when the product is not 1.
 _INSTANCE_MULTIPLIED = frozenset({Kind.RESISTOR, Kind.CAPACITOR, Kind.INDUCTOR, Kind.VCCS, Kind.CCCS,
-                                  Kind.DIODE, Kind.BJT, Kind.MOSFET, Kind.JFET, Kind.MESA, Kind.VDMOS})
+                                  Kind.DIODE, Kind.BJT, Kind.MOSFET, Kind.JFET, Kind.MESA, Kind.HFET,
+                                  Kind.VDMOS})
 _INSTANCE_M_EXEMPT = frozenset("bveh")
 #: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
-_UNIMPLEMENTED_MODEL_TYPES = {"nhfet": "ngspice's N-channel HFET (heterostructure FET)",
-                              "phfet": "ngspice's P-channel HFET (heterostructure FET)"}
+_UNIMPLEMENTED_MODEL_TYPES: dict[str, str] = {}
+#: Model types a card of another kind reads (ngspice 39): a Z card (MESFET) takes ngspice's HFET models,
+#: which :func:`netdae.devices.osdi.spice_models.map_devices` gives the HFET kind.
+_ALSO_READS = {Kind.MESFET: (Kind.HFET,)}
 #: Bare names on a .model card that restate its type.
 _TYPE_FLAGS = frozenset({"npn", "pnp", "nmos", "pmos", "njf", "pjf", "sw", "csw", "pchan", "nchan"})
 #: LTspice's annotations on a VDMOS card (datasheet figures and the maker), which ngspice's reader drops.
@@ -1102,6 +1105,8 @@ class _Elaborator:
         allowed = MODEL_TYPES.get(item.kind)
         if item.kind == Kind.TXL:
             allowed = allowed + MODEL_TYPES[Kind.CPL]  # a Y card reads a CPL model as one conductor (ngspice 39)
+        for other in _ALSO_READS.get(item.kind, ()):
+            allowed = allowed + MODEL_TYPES[other]
         if (allowed is not None and mcard.type == _PSPICE_SWITCHES.get(item.kind) and item.card.compat
                 and mcard.card.compat):
             return p.model  # PSpice's switch in ngspice's PSpice mode: realised by _realise_pspice_switches

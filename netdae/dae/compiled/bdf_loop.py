@@ -25,7 +25,7 @@ Two correctors, one loop:
   the unknowns.
 
 The device families are the compiled kernels of :mod:`netdae.devices.kernels`
-(diode, BJT, MOSFET, JFET, switch, behavioural, VDMOS, MESA), each evaluating all its instances in one loop.
+(diode, BJT, MOSFET, JFET, switch, behavioural, VDMOS, MESA, HFET), each evaluating all its instances in one loop.
 
 Switches hold their states through a step; after each accepted step
 :func:`~netdae.devices.kernels.switch.switch_step` decides them at its end
@@ -61,6 +61,7 @@ from ...devices.kernels.mosfet import eval_mosfet
 from ...devices.kernels.osdi import eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_at, switch_step
 from ...devices.kernels.mesa import eval_mesa
+from ...devices.kernels.hfet import eval_hfet
 from ...devices.kernels.vdmos import eval_vdmos
 from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
@@ -478,6 +479,8 @@ def _family(ev, par, idx, vacc, vtry, vnew, state, keep, xe, qe, phie, dqe, dphi
         flags, bad = eval_vdmos(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     elif ev == 8:
         flags, bad = eval_mesa(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
+    elif ev == 9:
+        flags, bad = eval_hfet(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     else:
         flags, bad = eval_switch(xe, mode, par, idx, vold, vnew, qe, phie, dqe, dphie, jacobian)
     if keep:
@@ -499,7 +502,8 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
-     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew) = devd
+     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew,
+     f_par, f_idx, f_vacc, f_vtry, f_vnew) = devd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     for i in range(n):
@@ -522,6 +526,7 @@ def _evaluate(I, t, x, state, keep, jacobian, sysd, devd, u, evb):
     flags |= _family(4, s_par, s_idx, s_vacc, s_vtry, s_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(7, v_par, v_idx, v_vacc, v_vtry, v_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     flags |= _family(8, z_par, z_idx, z_vacc, z_vtry, z_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
+    flags |= _family(9, f_par, f_idx, f_vacc, f_vtry, f_vnew, state, keep, xe, qe, phie, dqe, dphie, jacobian)
     if h_inst.shape[0] > 0:
         hflags, hbad = eval_behavioural(xe, t, h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, qe, phie, dqe,
                                         dphie, jacobian)
@@ -563,7 +568,8 @@ def _accept_state(I, devd):
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
-     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew) = devd
+     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew,
+     f_par, f_idx, f_vacc, f_vtry, f_vnew) = devd
     if I[I_HAS_TRY] != 0:
         _copy2(d_vacc, d_vtry)
         _copy2(b_vacc, b_vtry)
@@ -572,6 +578,7 @@ def _accept_state(I, devd):
         _copy2(s_vacc, s_vtry)
         _copy2(v_vacc, v_vtry)
         _copy2(z_vacc, z_vtry)
+        _copy2(f_vacc, f_vtry)
         for i in range(o_vacc.size):
             o_vacc[i] = o_vtry[i]
         I[I_HAS_ACC] = 1
@@ -585,7 +592,8 @@ def _reset_trial(I, devd):
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
      h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
      o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
-     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew) = devd
+     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew,
+     f_par, f_idx, f_vacc, f_vtry, f_vnew) = devd
     _copy2(d_vtry, d_vacc)
     _copy2(b_vtry, b_vacc)
     _copy2(m_vtry, m_vacc)
@@ -593,6 +601,7 @@ def _reset_trial(I, devd):
     _copy2(s_vtry, s_vacc)
     _copy2(v_vtry, v_vacc)
     _copy2(z_vtry, z_vacc)
+    _copy2(f_vtry, f_vacc)
     for i in range(o_vtry.size):
         o_vtry[i] = o_vacc[i]
     I[I_HAS_TRY] = I[I_HAS_ACC]

@@ -74,8 +74,10 @@ BEHAVIOURAL_SLOT = 5
 OSDI_SLOT = 6
 #: Position of the VDMOS transistors in the loop's families (their arrays follow the OSDI devices' states).
 VDMOS_SLOT = 7
-#: Position of the MESA MESFETs in the loop's families (last; their arrays end ``devd``).
+#: Position of the MESA MESFETs in the loop's families (their arrays follow the VDMOS transistors').
 MESA_SLOT = 8
+#: Position of the HFET1 devices in the loop's families (last; their arrays end ``devd``).
+HFET_SLOT = 9
 #: Arrays of one family of the standard interface in ``devd``: ``(par, idx, vacc, vtry, vnew)``.
 _FAMILY_ARRAYS = 5
 #: Position in ``devd`` of the behavioural sources' locked outcomes (after the five families of the standard
@@ -96,10 +98,11 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 
 def _family_slot(family) -> int | None:
     """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, JFET, switch, behavioural, OSDI,
-    VDMOS, MESA), or None."""
+    VDMOS, MESA, HFET), or None."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
+    from ...devices.hfet import HfetFamily
     from ...devices.jfet import JfetFamily
     from ...devices.mesa import MesaFamily
     from ...devices.mosfet import MosfetFamily
@@ -108,7 +111,8 @@ def _family_slot(family) -> int | None:
 
     osdi = sys.modules.get("netdae.devices.osdi.family")  # imported only by circuits with N elements
     classes = (DiodeFamily, BjtFamily, MosfetFamily, JfetFamily, SwitchFamily, BehaviouralFamily,
-               osdi.OsdiFamily if osdi is not None else None, VdmosFamily, MesaFamily)
+               osdi.OsdiFamily if osdi is not None else None, VdmosFamily, MesaFamily,
+               HfetFamily)
     for slot, cls in enumerate(classes):
         if type(family) is cls:
             return slot
@@ -678,20 +682,21 @@ def _history(buf_t, buf_k, buf_x, segments, I, col0: int):
 def limiting_states(devd: tuple) -> tuple[int, ...]:
     """Positions in :func:`_pack_families`'s ``devd`` of the limiting states (``vacc``, ``vtry``,
     ``vnew`` of the diodes, BJTs, MOSFETs, JFETs and switches, of the OSDI devices, and of the VDMOS
-    transistors and the MESA MESFETs, which end it): what a new solve from the initial state must copy
-    rather than share."""
-    end = len(devd) - 2 * _FAMILY_ARRAYS
+    transistors, the MESA MESFETs and the HFETs, which end it): what a new solve from the initial state must
+    copy rather than share."""
+    end = len(devd) - 3 * _FAMILY_ARRAYS
     return (*(_FAMILY_ARRAYS * slot + k for slot in range(SWITCH_SLOT + 1) for k in (2, 3, 4)),
             *range(end - 3, end), *(end + k for k in (2, 3, 4)),
-            *(end + _FAMILY_ARRAYS + k for k in (2, 3, 4)))
+            *(end + _FAMILY_ARRAYS + k for k in (2, 3, 4)),
+            *(end + 2 * _FAMILY_ARRAYS + k for k in (2, 3, 4)))
 
 
 def _pack_families(system, x0, switching) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs, JFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
     val, der, lock, xw)`` (``lock`` copied, its outcomes not held; ``xw`` work of length n + 1), then
-    the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`) and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors and of the MESA
-    MESFETs.
+    the OSDI devices' arrays (:meth:`~netdae.devices.osdi.family.OsdiFamily.compiled`) and limiting states, then ``(par, idx, vacc, vtry, vnew)`` of the VDMOS transistors, of the MESA
+    MESFETs and of the HFETs.
 
     An absent family gets empty arrays (its kernel is then skipped). The switches start held in
     the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
@@ -699,6 +704,7 @@ def _pack_families(system, x0, switching) -> tuple:
     from ...devices.kernels import behavioural as kbh
     from ...devices.kernels import bjt as kb
     from ...devices.kernels import diode as kd
+    from ...devices.kernels import hfet as kf
     from ...devices.kernels import jfet as kj
     from ...devices.kernels import mesa as kz
     from ...devices.kernels import mosfet as km
@@ -711,6 +717,7 @@ def _pack_families(system, x0, switching) -> tuple:
     packed = [(np.zeros((0, p)), np.zeros((0, i), dtype=np.int64), np.zeros((0, v))) for p, i, v in shapes]
     vdmos = (np.zeros((0, kv.N_PAR)), np.zeros((0, kv.N_IDX), dtype=np.int64), np.zeros((0, kv.N_STATE)))
     mesa = (np.zeros((0, kz.N_PAR)), np.zeros((0, kz.N_IDX), dtype=np.int64), np.zeros((0, kz.N_STATE)))
+    hfet = (np.zeros((0, kf.N_PAR)), np.zeros((0, kf.N_IDX), dtype=np.int64), np.zeros((0, kf.N_STATE)))
     behavioural = (np.zeros((0, 4), dtype=np.int64), np.zeros(0), np.zeros((0, kbh.N_INST), dtype=np.int64),
                    np.zeros((0, kbh.N_LEAF), dtype=np.int64), np.zeros(1), np.zeros((1, 1)),
                    np.zeros((kbh.N_LOCK_ROWS, 1)))
@@ -737,6 +744,8 @@ def _pack_families(system, x0, switching) -> tuple:
                 vdmos = arrays
             elif slot == MESA_SLOT:
                 mesa = arrays
+            elif slot == HFET_SLOT:
+                hfet = arrays
             else:
                 packed[slot] = arrays
     out = []
@@ -746,13 +755,15 @@ def _pack_families(system, x0, switching) -> tuple:
     # the OSDI modules' limiting states (accepted, trial, new): none before the first accepted step
     par, idx, vold0 = vdmos
     zpar, zidx, zvold0 = mesa
+    fpar, fidx, fvold0 = hfet
     # the locked outcomes: a fresh copy per analysis, not held (a transient's loop holds them at its start),
     # and the work vector of their event location
     behavioural = (*behavioural[:6], behavioural[6].copy(), np.zeros(system.n + 1))
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
             + tuple(np.zeros(osdi_states) for _ in range(3))
             + (par, idx, vold0.copy(), vold0.copy(), vold0.copy())
-            + (zpar, zidx, zvold0.copy(), zvold0.copy(), zvold0.copy()))
+            + (zpar, zidx, zvold0.copy(), zvold0.copy(), zvold0.copy())
+            + (fpar, fidx, fvold0.copy(), fvold0.copy(), fvold0.copy()))
 
 
 def _event_elements(system) -> list[str]:

@@ -69,7 +69,7 @@ from dataclasses import dataclass, field
 
 from ...circuit import Circuit, Diagnostic, Element, Model
 from ...errors import NetlistError
-from ...kinds import KIND_OF_MODEL_TYPE, KINDS, Kind
+from ...kinds import KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, Kind
 from ...netlist.elements import UNLABELLED_AREA
 from ..model_names import level_parameters, level_words
 from .tools import EXTRA_HINT
@@ -599,6 +599,9 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
         if el.kind == Kind.MESFET and level_of(card) in MESA_LEVELS:
             _to_mesa(el, card, notes, warned)  # ngspice's MESA: netdae's own family
             continue
+        if el.kind == Kind.MESFET and card.type in MODEL_TYPES[Kind.HFET]:
+            _to_hfet(el, card)  # ngspice's HFET1: netdae's own family
+            continue
         m = mapped(card)
         _check_nodes(el, card, m)
         if m is None:
@@ -683,6 +686,48 @@ def _to_mesa(el: Element, card: Model, notes: list, warned: set) -> None:
                                "stops at it too)", el.location, expected=MESA_FORM.format(name=el.name),
                                hint="MESA's instance parameters: " + " ".join(sorted(allowed)))
     el.kind = Kind.MESA.value
+
+
+#: The Z card of an HFET model.
+HFET_FORM = "{name} nd ng ns mname [off] [l=L] [w=W] [m=M] [ic=vds,vgs] [temp=T] [dtemp=dT]"
+
+
+def _to_hfet(el: Element, card: Model) -> None:
+    """Give a Z element of an ``nhfet``/``phfet`` model of level 5 or 6 the ``hfet`` kind (its family reads the card).
+
+    ngspice chooses the Z device by the model's level whatever the type: ``nhfet``/``phfet`` of level 5
+    is HFET1 and level 6 HFET2 (netdae's :mod:`netdae.devices.hfet`), levels 1-4 (and none) the MESFETs.
+
+    Raises
+    ------
+    NetlistError
+        Another level, at its value; an area (ngspice 39 stops at it: neither HFET has an area parameter);
+        an instance parameter the HFETs do not have.
+    """
+    from ..hfet import HFET_LEVELS
+
+    level = level_of(card)
+    if level not in HFET_LEVELS:
+        what = {0.0: "Statz MESFET", 1.0: "Statz MESFET", 2.0: "MESA", 3.0: "MESA", 4.0: "MESA"}.get(level)
+        said = (f"is ngspice's {what}, which netdae does not implement for {card.type} cards" if what else
+                "is not one ngspice 39 has ('only mesfet device level 1-4 and hfet level 5-6 supported')")
+        raise NetlistError(f"{el.name}: model {card.name}: an {card.type} model of level {level:g} {said}",
+                           card.locations.get("level", card.location),
+                           expected=f"an {card.type} model of level 5 (HFET1) or 6 (HFET2)",
+                           hint="netdae runs nhfet and phfet models of level 5 (ngspice's HFET1) and 6 (HFET2); "
+                           "write level=5 or 6 for an HFET, or an nmf model of level 1 or 2 for a MESFET")
+    if UNLABELLED_AREA in el.params:
+        raise NetlistError(f"{el.name}: an area ({el.params[UNLABELLED_AREA]:g}) on the card of an HFET model: "
+                           "ngspice's reader gives it to the model, which has no area parameter (ngspice 39 stops "
+                           "at it: 'no such parameter on this device')", el.location,
+                           expected=HFET_FORM.format(name=el.name), hint="size an HFET with l= and w=")
+    allowed = level_parameters(Kind.HFET.value, int(level))[1]
+    for raw in el.params:
+        if raw not in allowed:
+            raise NetlistError(f"{el.name}: '{raw}' is not an instance parameter of ngspice's HFET model (ngspice "
+                               "39 stops at it too)", el.location, expected=HFET_FORM.format(name=el.name),
+                               hint="HFET's instance parameters: " + " ".join(sorted(allowed)))
+    el.kind = Kind.HFET.value
 
 
 def _refuse(el: Element, card: Model) -> None:
