@@ -596,11 +596,11 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                                    el.location, expected=f"a .model card named {written}")
             el.model = select_bin(el, circuit, candidates)
         card = originals.get(el.model) or circuit.models[el.model]
+        if el.kind == Kind.MESFET and card.type in MODEL_TYPES[Kind.HFET]:
+            _to_hfet(el, card)  # ngspice's HFET1 and HFET2: netdae's own family (other levels refused)
+            continue
         if el.kind == Kind.MESFET and level_of(card) in MESA_LEVELS:
             _to_mesa(el, card, notes, warned)  # ngspice's MESA: netdae's own family
-            continue
-        if el.kind == Kind.MESFET and card.type in MODEL_TYPES[Kind.HFET]:
-            _to_hfet(el, card)  # ngspice's HFET1: netdae's own family
             continue
         m = mapped(card)
         _check_nodes(el, card, m)
@@ -715,7 +715,7 @@ def _to_hfet(el: Element, card: Model) -> None:
                            card.locations.get("level", card.location),
                            expected=f"an {card.type} model of level 5 (HFET1) or 6 (HFET2)",
                            hint="netdae runs nhfet and phfet models of level 5 (ngspice's HFET1) and 6 (HFET2); "
-                           "write level=5 or 6 for an HFET, or an nmf model of level 1 or 2 for a MESFET")
+                           "write level=5 or 6 for an HFET, or an nmf model of level 1 to 4 for a MESFET")
     if UNLABELLED_AREA in el.params:
         raise NetlistError(f"{el.name}: an area ({el.params[UNLABELLED_AREA]:g}) on the card of an HFET model: "
                            "ngspice's reader gives it to the model, which has no area parameter (ngspice 39 stops "
