@@ -407,6 +407,35 @@ def test_pulse_train_cut_by_a_fractional_pulse_count():
         np.interp(3.5e-6, pulse.t, pulse["v(b)"]) * math.exp(-1.5), rel=1e-3)  # decays with RC = 1 us after it
 
 
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_pulse_longer_than_its_period_is_a_sawtooth(engine, monkeypatch):
+    """PULSE(0 1 0 1n 1n 1u 1n): the rise outlasts the period, so (as ngspice reads it) every period is a ramp
+    from 0 cut at 1 ns, a jump back to 0 at each td + k per. Both engines failed at t = 3 ns ('step size below
+    the roundoff of t'): floor(tau/per) put the jump a few ulps from the breakpoint td + k per, and the corners
+    of a cut pulse (base + tr, 2 ulps past the next base) were breakpoints too. Against the closed form of an
+    RC driven by the sawtooth (at each period's end v <- exp(-a) v + 1 - (1 - exp(-a))/a, a = per/RC)."""
+    from netdae.netlist.waveforms import Pulse
+
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    P = np.array([[0.0], [1.0], [0.0], [1e-9], [1e-9], [1e-6], [1e-9], [0.0]])
+    bps = np.unique(Pulse._breakpoints(P, np.array([0.0]), np.array([1e-6])))
+    assert bps.size >= 1000 and np.all(np.diff(bps) > 0.9e-9)  # one per period, nothing ulps apart
+    p = tuple(P[:, 0])
+    for b in bps[1:]:
+        assert Pulse._value_scalar(p, b) == 0.0 == Pulse._value(P, np.array([b]))[0]  # the right value at it
+        assert Pulse._value_scalar(p, np.nextafter(b, -1.0)) > 1.0 - 1e-5  # the ramp's end just before it
+    rc = "t\nV1 a 0 pulse(0 1 0 1n 1n 1u 1n)\nR1 a b 1k\nC1 b 0 1n\n.tran 10n 1u\n.end\n"
+    res = netdae.simulate(rc, save=["v(b)"], reltol=1e-6)
+    a = 1e-9 / 1e-6
+    v = 0.0
+    for _ in range(1000):
+        v = math.exp(-a) * v + 1.0 - (1.0 - math.exp(-a)) / a
+    assert res.t[-1] == pytest.approx(1e-6)
+    # two steps a period, each restarting at order 1 after the jump: local errors of ~1e-6 add up over the 2,000
+    # steps (the global error of a per-step error control, ~2e-4 here; 0.25 V at reltol 1e-3, ngspice 0.08 V)
+    assert abs(res["v(b)"][-1] - v) < 2000 * (1e-6 * v + 1e-6)
+
+
 def test_impulses_of_a_square_wave_are_noted_a_few_times(capsys, tmp_path):
     """A square wave across a capacitor (index 2) puts an impulse into i(v1) at every edge: one warning line each
     flooded the terminal (12,000 lines for a fast pulse train); three are shown, the rest counted, all kept."""
