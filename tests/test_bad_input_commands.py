@@ -368,9 +368,8 @@ API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
     (lambda: netdae.load(API_RC, params="r=1"), r"params must be a mapping of parameter names to values"),
     (lambda: netdae.load(API_RC, params=[("r", 1)]), r"params must be a mapping .* not list"),
     (lambda: netdae.load(API_RC, max_elements="10"), r"max_elements must be an integer, not str"),
-    (lambda: netdae.run(API_RC, save="v(out)"), r"save must be a list of signal names, e.g. save=\['v\(out\)'\]"),
-    (lambda: netdae.run(API_RC, save=[3]), r"save: a signal name must be a string, not int"),
-    (lambda: netdae.run(API_RC, save=3), r"save must be a list of signal names, not int"),
+    (lambda: netdae.run(API_RC, save=[3]), r"save must hold strings, not int"),
+    (lambda: netdae.run(API_RC, save=3), r"save must be a string or a list of strings, not int"),
     (lambda: netdae.run(API_RC, reltol="1e-3"), r"reltol must be a number, not str"),
     (lambda: netdae.run(API_RC, abstol=np.array([1e-12, 1e-9])), r"abstol must be a number, not ndarray"),
 ])
@@ -379,6 +378,13 @@ def test_api_arguments_of_the_wrong_type(call, message):
     numpy UFuncTypeError from the Newton iteration for reltol='1e-3')."""
     with pytest.raises(TypeError, match=message):
         call()
+
+
+def test_one_string_saved_is_one_signal():
+    """run(save="v(out)") saves v(out), as netdae.sweep(save="v(out)") does (it was a TypeError in run only)."""
+    (res,) = netdae.run(API_RC, save="v(out)")
+    assert res.names() == ["v(out)"]
+    assert res["v(out)"][0] == pytest.approx(1.0, rel=1e-12)
 
 
 def test_sweep_command_step_given_twice(capsys, tmp_path):
