@@ -427,8 +427,10 @@ def test_pulse_longer_than_its_period_is_a_sawtooth(engine, monkeypatch):
     bps = np.unique(Pulse._breakpoints(P, np.array([0.0]), np.array([1e-6])))
     assert bps.size >= 1000 and np.all(np.diff(bps) > 0.9e-9)  # one per period, nothing ulps apart
     p = tuple(P[:, 0])
-    for b in bps[1:]:
-        assert Pulse._value_scalar(p, b) == 0.0 == Pulse._value(P, np.array([b]))[0]  # the right value at it
+    # at td + per the first period's end (ngspice reduces tau only when tau > per), later the next period's start
+    assert Pulse._value_scalar(p, bps[1]) == 1.0 == Pulse._value(P, np.array([bps[1]]))[0]
+    for b in bps[2:]:
+        assert Pulse._value_scalar(p, b) == 0.0 == Pulse._value(P, np.array([b]))[0]
         assert Pulse._value_scalar(p, np.nextafter(b, -1.0)) > 1.0 - 1e-5  # the ramp's end just before it
     rc = "t\nV1 a 0 pulse(0 1 0 1n 1n 1u 1n)\nR1 a b 1k\nC1 b 0 1n\n.tran 10n 1u\n.end\n"
     res = netdae.simulate(rc, save=["v(b)"], reltol=1e-6)

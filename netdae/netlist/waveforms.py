@@ -354,11 +354,14 @@ def pulse_period(t, td, per):
     k : float or ndarray
         ``k`` with ``td + k*per <= t < td + (k+1)*per``, each bound computed in floating point as
         :meth:`Pulse._breakpoints` computes the corners (``floor((t - td)/per)`` corrected by one
-        where rounding puts it in the neighbouring period).
+        where rounding puts it in the neighbouring period); except that the first period ends
+        at ``td + per`` inclusive, as in ngspice (``tau`` is reduced only when ``tau > per``: a
+        pulse cut by its period, ``PULSE(-1 2)`` with ``per = tstop``, is ``v2`` at that instant).
     """
     k = np.floor((t - td) / per)
     k = np.where(td + k * per > t, k - 1.0, k)
-    return np.where(td + (k + 1.0) * per <= t, k + 1.0, k)
+    k = np.where(td + (k + 1.0) * per <= t, k + 1.0, k)
+    return np.where((k == 1.0) & (t == td + per), 0.0, k)
 
 
 def _pulse_phase_scalar(t, td, per):
@@ -368,7 +371,7 @@ def _pulse_phase_scalar(t, td, per):
         k -= 1
     elif td + (k + 1) * per <= t:
         k += 1
-    return t - td if k <= 0 else t - (td + k * per)
+    return t - td if k <= 0 or (k == 1 and t == td + per) else t - (td + k * per)
 
 
 def _snap(x: np.ndarray, corner, scale) -> np.ndarray:

@@ -97,7 +97,7 @@ def _pulse(p, t):
         k -= 1
     elif td + (k + 1) * per <= t:
         k += 1
-    if k >= 1:
+    if k >= 2 or (k == 1 and t != td + per):  # the first period ends at td + per inclusive, as in ngspice
         time = t - (td + k * per)
     top = tr + pw
     if time <= 0 or time >= top + tf:
