@@ -303,11 +303,19 @@ def test_interrupt_keeps_the_finished_rows():
     ({"params": {"r1": [1e3]}, "samples": 0}, r"samples must be a positive integer"),
     ({"params": "r2"}, r"params must be a mapping"),
     ({"params": {"r2": [1e3]}, "analyses": ["ac"]}, r"the netlist has no ac analysis \(it has: dc\)"),
-    ({"params": {"r2": [1e3]}, "save": 3}, r"save must be a string or a list of strings, not int"),
-    ({"params": {"r2": [1e3]}, "measures": [None]}, r"measures must hold strings, not NoneType"),
 ])
 def test_bad_sweep_arguments(kwargs, message):
     with pytest.raises(NetdaeError, match=message):
+        netdae.sweep(DIVIDER, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"params": {"r2": [1e3]}, "save": 3}, r"save must be a string or a list of strings, not int"),
+    ({"params": {"r2": [1e3]}, "measures": [None]}, r"measures must hold strings, not NoneType"),
+])
+def test_sweep_arguments_of_the_wrong_type(kwargs, message):
+    """Argument types are checked as netdae.run checks them (one rule: netdae.analyses.runner.string_entries)."""
+    with pytest.raises(TypeError, match=message):
         netdae.sweep(DIVIDER, **kwargs)
 
 

@@ -146,22 +146,37 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
                                hint=f"correct or remove {name} in the .options card")
 
 
-def _save_names(save: Any) -> list[str]:
-    """``save=`` as a list of signal names; a string or anything but names is a ``TypeError``.
+def string_entries(value: Any, what: str) -> tuple[str, ...] | None:
+    """An API argument that names things (``save=``, ``measures=``, ``analyses=``) as a tuple of strings.
 
-    >>> _save_names(("v(out)", "i(v1)"))
-    ['v(out)', 'i(v1)']
+    One string is one entry (``save="v(out)"`` saves ``v(out)``); None stays None.
+
+    Raises
+    ------
+    TypeError
+        Neither a string nor an iterable of strings.
+
+    Examples
+    --------
+    >>> string_entries(("v(out)", "i(v1)"), "save")
+    ('v(out)', 'i(v1)')
+    >>> string_entries("v(out)", "save")
+    ('v(out)',)
     """
-    if isinstance(save, (str, bytes)):
-        raise TypeError(f"save must be a list of signal names, e.g. save=['v(out)'], not the string {save!r}")
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return (value,)
+    if isinstance(value, bytes):
+        raise TypeError(f"{what} must be a string or a list of strings, not bytes ({value!r})")
     try:
-        names = list(save)
+        items = tuple(value)
     except TypeError:
-        raise TypeError(f"save must be a list of signal names, not {type(save).__name__}") from None
-    for name in names:
-        if not isinstance(name, str):
-            raise TypeError(f"save: a signal name must be a string, not {type(name).__name__} ({name!r})")
-    return names
+        raise TypeError(f"{what} must be a string or a list of strings, not {type(value).__name__}") from None
+    for item in items:
+        if not isinstance(item, str):
+            raise TypeError(f"{what} must hold strings, not {type(item).__name__} ({item!r})")
+    return items
 
 
 def analysis_name(card: Any) -> str:
@@ -282,7 +297,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
             "to run"
             + _skipped_analyses(circuit)
         )
-    names = _save_names(save) if save is not None else circuit.saves
+    names = list(string_entries(save, "save")) if save is not None else circuit.saves
     from ..results import canonical_or
     from .noise import is_noise_name
     from .op import shared_operating_points
@@ -518,7 +533,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)
     from .tran import transient
 
-    names = _save_names(save) if save is not None else circuit.saves
+    names = list(string_entries(save, "save")) if save is not None else circuit.saves
     wanted = _with_measured(names, circuit)
     from .quantities import add_quantities, measured_quantities, plan_quantities
 

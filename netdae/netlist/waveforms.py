@@ -20,10 +20,14 @@ TRRANDOM  type ts td param1 param2                      td 0, param1 1, param2 0
 
 Formulas (time ``t``; phases in degrees) as in ngspice 39 ``vsrcload.c``:
 
-- PULSE: ``tau = t - td``; after ``np`` pulses (``tau > np*per``, inside the
+- PULSE: ``tau = t - td``; after ``np`` pulses (``t > td + np*per``, inside the
   last pulse when ``np`` is fractional: a breakpoint) the value is v1; else ``tau`` is reduced modulo ``per`` when ``tau > per``; v1 for
   ``tau <= 0`` or ``tau >= tr+pw+tf``, v2 on ``[tr, tr+pw]``, linear ramps
-  in between.
+  in between. The period a time lies in is the ``k`` with ``td + k*per <= t < td + (k+1)*per``
+  computed as the breakpoints are (:func:`pulse_period`): where a pulse outlasts its period the
+  value jumps at ``td + k*per``, and it must jump exactly at that breakpoint (``floor(tau/per)``
+  alone puts it a few ulps to either side, and a step landing on the breakpoint would see the
+  jump inside it).
 - SIN: ``vo + va*sin(phase)`` for ``t <= td``, else
   ``vo + va*sin(2 pi freq (t-td) + phase) * exp(-theta (t-td))``.
 - EXP: v1 up to td1, then ``+ (v2-v1)(1 - exp(-(t-td1)/tau1))`` up to td2,
@@ -337,6 +341,39 @@ def _finish_breakpoints(points: np.ndarray, t0: float, t1: float) -> np.ndarray:
     return np.unique(points)
 
 
+def pulse_period(t, td, per):
+    """The period of a pulse train that time ``t`` lies in, in the breakpoints' arithmetic.
+
+    Parameters
+    ----------
+    t, td, per : float or ndarray
+        Times, the delay and the period (broadcast together; ``per > 0``).
+
+    Returns
+    -------
+    k : float or ndarray
+        ``k`` with ``td + k*per <= t < td + (k+1)*per``, each bound computed in floating point as
+        :meth:`Pulse._breakpoints` computes the corners (``floor((t - td)/per)`` corrected by one
+        where rounding puts it in the neighbouring period); except that the first period ends
+        at ``td + per`` inclusive, as in ngspice (``tau`` is reduced only when ``tau > per``: a
+        pulse cut by its period, ``PULSE(-1 2)`` with ``per = tstop``, is ``v2`` at that instant).
+    """
+    k = np.floor((t - td) / per)
+    k = np.where(td + k * per > t, k - 1.0, k)
+    k = np.where(td + (k + 1.0) * per <= t, k + 1.0, k)
+    return np.where((k == 1.0) & (t == td + per), 0.0, k)
+
+
+def _pulse_phase_scalar(t, td, per):
+    """Scalar :func:`pulse_period`: the time since the start of ``t``'s period (``t - td`` in the first)."""
+    k = math.floor((t - td) / per)
+    if td + k * per > t:
+        k -= 1
+    elif td + (k + 1) * per <= t:
+        k += 1
+    return t - td if k <= 0 or (k == 1 and t == td + per) else t - (td + k * per)
+
+
 def _snap(x: np.ndarray, corner, scale) -> np.ndarray:
     """``x`` moved onto ``corner`` where it is within the corner tolerance."""
     return np.where(np.abs(x - corner) <= CORNER_RTOL * scale, corner, x)
@@ -369,8 +406,9 @@ class Pulse(Waveform):
     def _value(P, t):
         v1, v2, td, tr, tf, pw, per, npulse = P
         time = t - td
-        after = (npulse > 0) & (time > npulse * per)
-        time = np.where(time > per, time - per * np.floor(time / per), time)
+        after = (npulse > 0) & (t > td + npulse * per)
+        k = pulse_period(t, td, per)
+        time = np.where(k >= 1, t - (td + k * per), time)
         top = tr + pw
         out = np.where(
             (time <= 0) | (time >= top + tf), v1,
@@ -382,11 +420,9 @@ class Pulse(Waveform):
     @staticmethod
     def _value_scalar(p, t):
         v1, v2, td, tr, tf, pw, per, npulse = p
-        time = t - td
-        if npulse > 0 and time > npulse * per:
+        if npulse > 0 and t > td + npulse * per:
             return v1
-        if time > per:
-            time = time - per * math.floor(time / per)
+        time = _pulse_phase_scalar(t, td, per)
         top = tr + pw
         if time <= 0 or time >= top + tf:
             return v1
@@ -430,11 +466,17 @@ class Pulse(Waveform):
         k = kmin[src] + (np.arange(src.size) - first)
         base = td[src] + k * per[src]
         corners = np.stack([base, base + tr[src], base + tr[src] + pw[src], base + end[src]])
+        # a corner at or past the period's end is not one: the next period has begun (a pulse cut by
+        # its period jumps at the next base instead; ulps from it, such a corner would be a step of ulps)
+        within = np.stack([np.ones_like(base, dtype=bool), tr[src] < per[src], tr[src] + pw[src] < per[src],
+                           end[src] < per[src]])
+        corners = np.where(within, corners, np.nan)
+        corners = corners[~np.isnan(corners)]
         # the train ends at td + np*per (v1 after it): a jump when np is not a whole number, as ngspice cuts
         # the last pulse there (or when a pulse outlasts its period)
         cuts = (npulse > 0) & ((npulse != np.floor(npulse)) | (end > per))
         cut = (td + npulse * per)[cuts]
-        return np.concatenate([corners.reshape(-1), cut])
+        return np.concatenate([corners, cut])
 
 
 # ---------------------------------------------------------------------------

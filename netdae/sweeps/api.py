@@ -31,6 +31,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 
 from ..circuit import Circuit
+from ..analyses.runner import string_entries
 from ..errors import NetdaeError
 from ..stats import Statistics
 from .plan import Plan, make_plan
@@ -70,29 +71,6 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
     net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
     return elaborate(net, params=circuit.overrides, max_elements=circuit.max_elements, sample=circuit.sample,
                      seed=circuit.seed)
-
-
-def _names(value, what: str) -> tuple | None:
-    """``measures=``, ``save=`` or ``analyses=`` as a tuple of strings (one string is one entry; None stays None).
-
-    Raises
-    ------
-    NetdaeError
-        Not a string nor an iterable of strings.
-    """
-    if value is None:
-        return None
-    if isinstance(value, str):
-        return (value,)
-    try:
-        items = tuple(value)
-    except TypeError:
-        raise NetdaeError(f"sweep: {what} must be a string or a list of strings, not {type(value).__name__}") \
-            from None
-    bad = [v for v in items if not isinstance(v, str)]
-    if bad:
-        raise NetdaeError(f"sweep: {what} must hold strings, not {type(bad[0]).__name__} ({bad[0]!r})")
-    return items
 
 
 def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
@@ -228,7 +206,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     from ..netlist import load
 
     t0 = time.perf_counter()
-    measures, save, analyses = (_names(value, what) for value, what in
+    measures, save, analyses = (string_entries(value, what) for value, what in
                                 ((measures, "measures"), (save, "save"), (analyses, "analyses")))
     if params is not None and not isinstance(params, Mapping):
         raise NetdaeError(f"sweep: params must be a mapping of names to values (e.g. {{'r2': [1e3, 2e3]}}), "

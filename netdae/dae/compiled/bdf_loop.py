@@ -865,9 +865,12 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     # an unknown of a linear system that is not index 2 jumps where the probe's first Euler step
-    # carries the move (JUMP_FIRST_STEP; x1 is the mean of xr and x2); after a switching event, and
-    # in a nonlinear system (a fast mode's boundary layer), every move counts
-    first_step = I[I_EVENT_RESTART] == 0 and I[I_LINEAR] != 0
+    # carries the move (JUMP_FIRST_STEP; x1 is the mean of xr and x2), and so does one of a nonlinear
+    # system at the start (no step taken: the operating point or a consistent initialization, where a
+    # continuous input moves nothing by a jump; a large x'' or a sqrt(t)-like solution made the
+    # extrapolation's error a jump); after a switching event, and at a nonlinear system's later
+    # restarts (a fast mode's boundary layer), every move counts
+    first_step = I[I_EVENT_RESTART] == 0 and (I[I_LINEAR] != 0 or I[I_STEPS] == 0)
     big = 0.0
     value_jump = False
     for i in range(n):

@@ -87,11 +87,18 @@ def pack_sources(sources) -> tuple:
 @kernel
 def _pulse(p, t):
     v1, v2, td, tr, tf, pw, per, npulse = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
-    time = t - td
-    if npulse > 0 and time > npulse * per:
+    if npulse > 0 and t > td + npulse * per:
         return v1
-    if time > per:
-        time = time - per * math.floor(time / per)
+    # the period t lies in, bounded as the breakpoints td + k*per are computed
+    # (netdae.netlist.waveforms.pulse_period): a pulse cut by its period jumps exactly there
+    time = t - td
+    k = math.floor(time / per)
+    if td + k * per > t:
+        k -= 1
+    elif td + (k + 1) * per <= t:
+        k += 1
+    if k >= 2 or (k == 1 and t != td + per):  # the first period ends at td + per inclusive, as in ngspice
+        time = t - (td + k * per)
     top = tr + pw
     if time <= 0 or time >= top + tf:
         return v1
