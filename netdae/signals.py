@@ -53,7 +53,7 @@ QUANTITY_UNITS: dict[str, str] = {
     "qbx": "C", "qsub": "C", "ig": "A", "ibd": "A", "ibs": "A", "vgs": "V", "vds": "V", "vbs": "V", "vbd": "V",
     "von": "V", "vdsat": "V", "gds": "S", "gmb": "S", "gmbs": "S", "gbd": "S", "gbs": "S", "cbd": "F",
     "cbs": "F", "cgs": "F", "cgd": "F", "cgb": "F", "igd": "A", "vgd": "V", "ggs": "S", "ggd": "S",
-    "qgs": "C", "qgd": "C", "cg": "A", "cs": "A", "cgdq": "F",
+    "qgs": "C", "qgd": "C", "cg": "A", "cs": "A", "cgdq": "F", "capgs": "F", "capgd": "F",
 }
 
 #: Kinds whose quantities are values at a solution of the nonlinear device equations (an OSDI

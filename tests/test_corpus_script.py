@@ -23,7 +23,7 @@ FILES = {
     "xspice.cir": "code model\nV1 a 0 1\na1 a b gain1\n.model gain1 gain(gain=2)\nR1 b 0 1k\n.op\n.end\n",
     "bsim.cir": "bsim\nV1 d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54\n.op\n.end\n",
     "missing.cir": "missing\n.include nowhere.inc\nV1 a 0 1\nR1 a 0 1\n.op\n.end\n",
-    "mesfet.cir": "mesfet\nV1 d 0 1\nZ1 d 0 0 zm\n.model zm nmf level=3\n.op\n.end\n",
+    "mesfet.cir": "mesfet\nV1 d 0 1\nZ1 d 0 0 zm\n.model zm nmf level=7\n.op\n.end\n",
     "vdmos.cir": "vdmos\nV1 d 0 1\nM1 d d 0 tj tc vm thermal\n.model vm vdmos\n.op\n.end\n",
     "loops.cir": "loop\nV1 a 0 1\nR1 a 0 1k\n.control\nrepeat 2\n  op\nend\n.endc\n.end\n",
 }
