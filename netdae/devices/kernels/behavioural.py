@@ -643,12 +643,9 @@ def lock_step(P, kord, psi, t, t_new, t_cap, n, prog, const, inst, leaf, val, de
     t_ev = t_cap
     found = 0
     for k in range(inst.shape[0]):
-        nk = inst[k, B_NLOCK]
+        s0, nk = _unmarked(inst, lock, k)
         if nk == 0:
             continue
-        s0 = inst[k, B_LOCK]
-        for s in range(s0, s0 + nk):
-            lock[LOCK_TIME, s] = math.inf
         start = t
         for _ in range(MASKED_CHANGES):
             if not _changed_at(P, kord, psi, t_cap, t_new, n, k, prog, const, inst, leaf, val, der, lock, xw):
@@ -700,6 +697,16 @@ def lock_undefined(lock):
 
 
 @kernel
+def _unmarked(inst, lock, k):
+    """Instance ``k``'s held slots, their change times cleared (``LOCK_TIME`` infinite): ``(first slot, count)``."""
+    s0 = inst[k, B_LOCK]
+    nk = inst[k, B_NLOCK]
+    for s in range(s0, s0 + nk):
+        lock[LOCK_TIME, s] = math.inf
+    return s0, nk
+
+
+@kernel
 def _mark_changes(inst, lock, k, tc):
     """Instance ``k``'s held slots whose row ``LOCK_NEXT`` differs change at ``tc`` (row ``LOCK_TIME``)."""
     s0 = inst[k, B_LOCK]
@@ -719,12 +726,9 @@ def lock_at(x, t, prog, const, inst, leaf, val, der, lock):
     """
     count = 0
     for k in range(inst.shape[0]):
-        nk = inst[k, B_NLOCK]
+        s0, nk = _unmarked(inst, lock, k)
         if nk == 0:
             continue
-        s0 = inst[k, B_LOCK]
-        for s in range(s0, s0 + nk):
-            lock[LOCK_TIME, s] = math.inf
         if _probe(x, t, k, prog, const, inst, leaf, val, der, lock):
             count += 1
             for s in range(s0, s0 + nk):
