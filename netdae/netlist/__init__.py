@@ -82,4 +82,10 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Ma
     NetlistError
         Anything wrong in the netlist, with its location.
     """
-    return elaborate(parse(path_or_text, path=path, behavior=behavior), params=params, max_elements=max_elements)
+    net = parse(path_or_text, path=path, behavior=behavior)
+    circuit = elaborate(net, params=params, max_elements=max_elements)
+    if net.scripts:  # .control blocks in the control language: run on the circuit's .csparam values
+        from .control import with_scripts
+
+        circuit = elaborate(with_scripts(net, circuit), params=params, max_elements=max_elements)
+    return circuit
