@@ -223,9 +223,13 @@ def test_unbounded_loops_are_refused_at_the_loop():
     with pytest.raises(NetlistError, match=f"more than {MAX_ITERATIONS:,} loop iterations") as info:
         load("t\nV1 a 0 1\nR1 a 0 1k\n.control\nlet i = 0\nwhile i < 1\n  op\nend\n.endc\n.end\n")
     assert info.value.location.line == 6
-    with pytest.raises(NetlistError, match="'repeat' without a count") as info:
+    with pytest.raises(NetlistError, match=f"more than {MAX_ITERATIONS:,} loop iterations") as info:
         load("t\nV1 a 0 1\nR1 a 0 1k\n.control\nrepeat\nop\nend\n.endc\n.end\n")
     assert info.value.location.line == 5
+    # repeat without a count runs until 'break' (ngspice's control_structs/repeat3.sp)
+    circuit = load("t\nV1 a 0 1\nR1 a 0 1k\n.control\nlet i = 0\nrepeat\nlet i = i + 1\nif i > 3\nbreak\nend\n"
+                   "op\nend\n.endc\n.end\n")
+    assert len(circuit.analyses) == 3
 
 
 def test_unknown_variable_is_located():

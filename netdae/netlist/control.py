@@ -504,9 +504,10 @@ class _Script:
             except _Refused as why:
                 self.refuse(step, str(why))
                 return
-            if count is None:
-                raise NetlistError(".control: 'repeat' without a count repeats forever; netdae runs only loops "
-                                   "that end", self.where(step), expected="repeat N")
+            if count is None:  # until 'break' (the iteration limit stops one that never comes)
+                while self.loop_body(step):
+                    pass
+                return
             for _ in range(max(int(count), 0)):
                 if not self.loop_body(step):
                     break
@@ -661,6 +662,8 @@ class _Script:
             if not isinstance(value, tuple):
                 raise NetlistError(f".control: '{step.text}': a source function's parameters are a vector "
                                    f"'[ v1 v2 ... ]'", self.where(step))
+            if issubclass(WAVEFORMS[param], RandomSource):
+                raise _Refused(f"netdae does not alter the random source function {param.upper()}")
             try:
                 waveform(param, value)
             except ValueError as exc:
@@ -753,13 +756,11 @@ def _variable_text(written: str) -> str:
 
 
 def waveform(kind: str, values: tuple[float, ...]):
-    """The source function ``kind`` with parameters ``values`` (ValueError when they do not fit it)."""
+    """The source function ``kind`` (not a random one) with parameters ``values`` (ValueError when they do not fit it)."""
     if kind == "pwl":
         if len(values) < 2 or len(values) % 2:
             raise ValueError(f"PWL needs time-value pairs, got {len(values)} number(s)")
         return WAVEFORMS[kind](values[0::2], values[1::2])
-    if issubclass(WAVEFORMS[kind], RandomSource):
-        raise ValueError(f"netdae does not alter the random source function {kind.upper()}")
     return WAVEFORMS[kind](*values)
 
 

@@ -31,6 +31,13 @@ writes it back as
   location;
 - a final ``.end``.
 
+A block in ngspice's control language (variables, loops, ``alter``), which
+netdae runs with its own interpreter, is not handed over either: in its place
+:func:`script_block` writes a control block of netdae's own, every analysis
+of the circuit in netdae's order, each preceded by the ``alter``/``altermod``
+commands netdae ran before it, with numbers only (the dot analysis cards move
+into it).
+
 Every skipped block and dropped card is a note. The backends run this text
 in a private temporary directory with the user's ``.spiceinit`` disabled
 (:mod:`netdae.ngspice.batch`, :mod:`netdae.ngspice.shared`).

@@ -521,7 +521,7 @@ class DcSweepCard:
 
 
 def dc_sweeps(text: str) -> list[DcSweepCard]:
-    """The ``.dc`` cards of a netlist, in order.
+    """The ``.dc`` cards of a netlist, in order (with the ``dc`` commands of netdae's control block after them).
 
     Examples
     --------
@@ -529,8 +529,9 @@ def dc_sweeps(text: str) -> list[DcSweepCard]:
     ('v1', 'i2')
     """
     found = []
-    for card in _circuit_cards(_cards(text.splitlines())):
-        if card.keyword != ".dc":
+    lines = text.splitlines()
+    for card in _circuit_cards(_cards(lines)) + _script_cards(lines):
+        if card.keyword not in (".dc", "dc"):
             continue
         tokens = card.tokens[1:]
         if tokens and tokens[0].lower() in ("lin", "dec", "oct"):
