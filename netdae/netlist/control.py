@@ -480,7 +480,16 @@ class _Script:
             return self.evaluate(step, self.substitute(step, text)) != 0.0
         except _Refused as why:
             self.refuse(step, f"netdae cannot evaluate its condition: {why}")
+            self.skip(step.body + (step.other or []))
             return None
+
+    def skip(self, steps: list[_Step]) -> None:
+        """A note for each analysis in a block not run."""
+        for step in steps:
+            if step.body is not None:
+                self.skip(step.body + (step.other or []))
+            elif step.word in ANALYSIS_COMMANDS:
+                self.note(step, f"it follows {self.refused}")
 
     def block(self, step: _Step) -> None:
         rest = step.text.split(None, 1)[1] if len(step.text.split(None, 1)) > 1 else ""
@@ -489,6 +498,7 @@ class _Script:
                 words = self.substitute(step, rest).split()
             except _Refused as why:
                 self.refuse(step, str(why))
+                self.skip(step.body)
                 return
             if not words:
                 raise NetlistError(".control: 'foreach' needs a variable and its values", self.where(step),
@@ -503,6 +513,7 @@ class _Script:
                 count = self.evaluate(step, self.substitute(step, rest)) if rest.strip() else None
             except _Refused as why:
                 self.refuse(step, str(why))
+                self.skip(step.body)
                 return
             if count is None:  # until 'break' (the iteration limit stops one that never comes)
                 while self.loop_body(step):

@@ -306,12 +306,18 @@ def script_block(text: str, path: str | None, behavior=None) -> list[str]:
     Returns
     -------
     list of str
+        The output and option cards the script made (``.save``, ``.print``, ``.options``),
         ``.control``, the commands, ``.endc``.
     """
-    from ..netlist import load
+    from ..netlist import elaborate, parse
+    from ..netlist.control import run_scripts, with_scripts
 
-    circuit = load(text, path=path, behavior=behavior)
-    block = [".control", SCRIPT_MARK, "set appendwrite"]
+    net = parse(text, path=path, behavior=behavior)
+    first = elaborate(net)
+    made, _ = run_scripts(net, first)
+    circuit = elaborate(with_scripts(net, first))
+    cards = [" ".join(c.raw.split()) for c in made if _first_word(c.text) not in ANALYSIS_CARDS]
+    block = [*cards, ".control", SCRIPT_MARK, "set appendwrite"]
     before: dict = {}
     for card, written in zip(circuit.analyses, circuit.netlist.analyses):
         now = {(c.target, c.name, c.param if c.target != "element" or c.param is None else "function"): c
