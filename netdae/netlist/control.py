@@ -422,8 +422,10 @@ class _Script:
         try:
             tree = parse_expression(text)
         except NetlistError as exc:
-            raise _Refused(f"'{text.strip()}' is not a number netdae evaluates (a vector of simulation results or "
-                           f"ngspice's vector functions: {exc.message})") from None
+            if "circuit reference" in exc.message:
+                raise _Refused(f"'{text.strip()}' reads simulation results, which netdae's script does not "
+                               "have") from None
+            raise _Refused(f"'{text.strip()}' is not an expression netdae's script evaluates ({exc.message})") from None
 
         def lookup(name: str) -> float:
             value = self.vectors.get(name)
