@@ -283,8 +283,9 @@ class _Session:
         return vtype, np.frombuffer(self.ffi.buffer(info.v_realdata, length * 8), dtype=np.float64).copy()
 
 
-#: The commands of netdae's control block run in ngspice's background thread.
-_SCRIPT_ANALYSES = frozenset({"op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
+#: The commands run in ngspice's background thread: ``run`` (a netlist's dot analyses) and the analyses of
+#: netdae's control block.
+_SCRIPT_ANALYSES = frozenset({"run", "op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
 
 
 def _split_script(netlist: str) -> tuple[str, list[str]]:
