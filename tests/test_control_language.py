@@ -333,3 +333,36 @@ def test_alter_of_an_instance_parameter_inside_a_subcircuit_is_refused():
     with pytest.raises(NetlistError, match="not the parameter 'area' of d.x1.d1") as info:
         load(text)
     assert info.value.location.line == 9
+
+
+SCRIPTED = """scripted
+V1 a 0 dc 0 pulse(0 1 0 1u 1u 1m 2m)
+R1 a b 1k
+C1 b 0 1u
+.control
+foreach rv 1k 2k
+  alter r1 = $rv
+  tran 10u 1m
+end
+.endc
+.end
+"""
+
+
+def test_cli_writes_one_file_per_run_and_check_names_the_changes(tmp_path, capsys):
+    from netdae.cli import main as cli_main
+
+    path = tmp_path / "s.cir"
+    path.write_text(SCRIPTED)
+    assert cli_main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "(after alter r1 = 1000.0)" in out and "(after alter r1 = 2000.0)" in out
+    assert cli_main(["run", "-q", str(path), "--out", str(tmp_path / "out")]) == 0
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["tran.csv", "tran2.csv"]
+
+
+def test_sweep_refuses_a_script_that_alters():
+    text = SCRIPTED.replace("R1 a b 1k", ".param c=1u\nR1 a b 1k").replace("C1 b 0 1u", "C1 b 0 {c}")
+    with pytest.raises(netdae.NetdaeError, match=r"the netlist's .control script alters the circuit \('alter r1 = "
+                                                 r"1000.0'\)"):
+        netdae.sweep(load(text), params={"c": [1e-6, 2e-6]})

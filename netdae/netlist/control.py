@@ -617,6 +617,13 @@ class _Script:
 
     def set(self, step: _Step) -> None:
         rest = step.text.split(None, 1)[1] if len(step.text.split(None, 1)) > 1 else ""
+        listed = re.match(r"\s*([^\s=]+)\s*=\s*\(", rest)
+        if listed:  # set name = ( w1 w2 ... ): a list variable
+            name = fold_case(listed.group(1))
+            self.variables[name] = _Refused(f"variable '{name}' ('{step.text}' at {self.where(step)}) is a list, "
+                                            "which netdae's script does not keep")
+            self.note(step, "netdae's script keeps no list variables")
+            return
         for m in re.finditer(r"([^\s=]+)\s*(?:=\s*(\"[^\"]*\"|'[^']*'|\S+))?", rest):
             name = fold_case(m.group(1))
             written = m.group(2)
