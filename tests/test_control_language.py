@@ -16,7 +16,7 @@ import netdae
 from netdae.errors import NetlistError
 from netdae.io.raw import read_raw
 from netdae.netlist import load
-from netdae.netlist.control import MAX_ITERATIONS
+from netdae.netlist.control import MAX_COMMAND_LENGTH, MAX_ITERATIONS, MAX_NESTING
 
 #: netdae's tolerances for the comparisons: reltol and the voltage floor.
 RELTOL, VNTOL = 1e-6, 1e-9
@@ -366,3 +366,15 @@ def test_sweep_refuses_a_script_that_alters():
     with pytest.raises(netdae.NetdaeError, match=r"the netlist's .control script alters the circuit \('alter r1 = "
                                                  r"1000.0'\)"):
         netdae.sweep(load(text), params={"c": [1e-6, 2e-6]})
+
+
+def test_growing_variables_and_deep_nesting_are_refused_at_their_line():
+    text = ("t\nV1 a 0 1\nR1 a 0 1k\n.control\nset x = ab\nrepeat 100\n  set x = \"$x $x\"\nend\nop\n"
+            ".endc\n.end\n")
+    with pytest.raises(NetlistError, match=f"more than netdae's limit of {MAX_COMMAND_LENGTH:,}") as info:
+        load(text)
+    assert info.value.location.line == 7
+    deep = "".join(f"if 1\n" for _ in range(MAX_NESTING + 1)) + "op\n" + "end\n" * (MAX_NESTING + 1)
+    with pytest.raises(NetlistError, match=f"nested deeper than {MAX_NESTING}") as info:
+        load(f"t\nV1 a 0 1\nR1 a 0 1k\n.control\n{deep}.endc\n.end\n")
+    assert info.value.location.line == 5 + MAX_NESTING

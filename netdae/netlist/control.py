@@ -52,7 +52,7 @@ from .syntax import UNSUPPORTED_DOT_CARDS
 from .waveforms import WAVEFORMS, RandomSource
 
 __all__ = ["read_block", "run_scripts", "with_scripts", "needs_script", "csparam_values", "waveform", "ANALYSIS_COMMANDS", "OPTION_VARIABLES",
-           "MAX_ITERATIONS"]
+           "MAX_ITERATIONS", "MAX_COMMAND_LENGTH", "MAX_NESTING"]
 
 #: Commands read as the dot card of the same name.
 ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
@@ -211,6 +211,10 @@ def _output(cmd: str, rest: str, text: str, file: str, line: int, col: int, card
 
 #: Most loop iterations a script may make, all its loops together: a loop that has not ended by then is refused.
 MAX_ITERATIONS = 10_000
+#: Longest command a substitution may make (``set x = "$x $x"`` in a loop doubles a variable each time).
+MAX_COMMAND_LENGTH = 100_000
+#: Deepest nesting of loops and conditionals.
+MAX_NESTING = 100
 #: Commands that make a block a script (with any ``$`` variable).
 _SCRIPT_COMMANDS = _BLOCK_OPEN | {"alter", "altermod"}
 #: Characters of a variable's name after ``$`` (ngspice's ``span_var_expr``, ``src/frontend/variable.c``).
@@ -282,6 +286,9 @@ def _structure(lines: list[tuple[int, int, str]], file: str) -> list[_Step]:
         target = stack[-1][1] if stack else top
         if word in _BLOCK_OPEN:
             step = _Step(line, col, text, word, body=[])
+            if len(stack) >= MAX_NESTING:
+                raise NetlistError(f".control: '{word}' nested deeper than {MAX_NESTING} loops and conditionals",
+                                   SourceLocation(file, line, col))
             target.append(step)
             stack.append((step, step.body))
         elif word == "else":
@@ -371,7 +378,11 @@ class _Script:
             out.append(text[pos:start])
             out.append(self.value_of(step, name))
             pos = end
-        return "".join(out)
+        made = "".join(out)
+        if len(made) > MAX_COMMAND_LENGTH:
+            raise NetlistError(f".control: '{step.text}' becomes {len(made):,} characters long after substitution, "
+                               f"more than netdae's limit of {MAX_COMMAND_LENGTH:,}", self.where(step))
+        return made
 
     def value_of(self, step: _Step, name: str) -> str:
         folded = fold_case(name)
