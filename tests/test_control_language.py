@@ -378,3 +378,53 @@ def test_growing_variables_and_deep_nesting_are_refused_at_their_line():
     with pytest.raises(NetlistError, match=f"nested deeper than {MAX_NESTING}") as info:
         load(f"t\nV1 a 0 1\nR1 a 0 1k\n.control\n{deep}.endc\n.end\n")
     assert info.value.location.line == 5 + MAX_NESTING
+
+
+@pytest.mark.ngspice
+def test_threshold_memristor_three_frequencies_against_ngspice():
+    """ngspice's memristor example (Pershin and Di Ventra's threshold model): .csparam values, let,
+    tran $&..., and alter @v1[sin] between three transients; compare pairs tran1..tran3.
+
+    The threshold function is written ``beta*y - (beta-alpha)*max(-vt, min(y, vt))``: the example's
+    ``beta*y + 0.5*(alpha-beta)*(abs(y+vt)-abs(y-vt))`` is the same function but, with beta = 2e12,
+    is rounding noise of +-2e-4 A inside the threshold (1e-9 gives -1.65e-4, 1e-8 gives +1.2e-4),
+    a current netdae's error test rejects down to h = 5e-46 s while ngspice's looks only at the 1 F
+    capacitor's charge.
+    """
+    from netdae.comparison import compare
+
+    text = """memristor with threshold
+.param stime=10n
+.param vmax = 3
+.csparam stime={stime}
+.csparam vmax={vmax}
+Xmem 1 0 memristor
+V1 0 1 DC 0 sin(0 'vmax' '1/stime')
+.subckt memristor plus minus PARAMS: Ron=1K Roff=10K Rinit=7.0K alpha=0 beta=20e3/stime Vt=1.6
+Bx 0 x I='((f1(V(plus)-V(minus))> 0) && (V(x) < Roff)) ? {f1(V(plus)-V(minus))}: ((((f1(V(plus)-V(minus)) < 0) && (V(x)>Ron)) ? {f1(V(plus)-V(minus))}: 0)) '
+Vx x x1 dc 0
+Cx x1 0 1 IC={Rinit}
+Rmem plus minus r={V(x)}
+.func f1(y)={beta*y-(beta-alpha)*max(-Vt,min(y,Vt))}
+.ends
+.control
+let deltime = stime/100
+tran $&deltime $&stime uic
+let newfreq = 1.1/stime
+let newstime = stime/1.1
+let deltime = newstime/100
+alter @V1[sin] [ 0 $&vmax $&newfreq ]
+tran $&deltime $&newstime uic
+let newfreq = 1.4/stime
+let newstime = stime/1.4
+let deltime = newstime/100
+alter @V1[sin] [ 0 $&vmax $&newfreq ]
+tran $&deltime $&newstime uic
+.endc
+.end
+"""
+    circuit = load(text)
+    assert [a.tstop for a in circuit.analyses] == [1e-8, float("9.09091E-09"), float("7.14286E-09")]
+    result = compare(text)
+    assert [(a.analysis, a.occurrence) for a in result.analyses] == [("tran", 0), ("tran", 1), ("tran", 2)]
+    assert all(a.passed for a in result.analyses), result
