@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 from ..circuit import Alteration, Diagnostic
 from ..errors import NetlistError, SourceLocation
-from ..kinds import STEPPABLE_KINDS
+from ..kinds import KINDS, STEPPABLE_KINDS
 from .expr import evaluate, parse_expression
 from .lines import Card, fold_case
 from .numbers import parse_number
@@ -224,10 +224,6 @@ _PLOT_VARIABLES = frozenset({"curplot", "curplotname", "curplottitle", "curplotd
 #: The control language's word operators as the expression parser spells them.
 _WORD_OPERATORS = {"gt": ">", "lt": "<", "ge": ">=", "le": "<=", "eq": "==", "ne": "!=", "and": "&&", "or": "||",
                    "not": "!"}
-#: An element's own value as ``alter`` names it (``alter @r1[resistance] = 2k``), by kind.
-_VALUE_PARAMETERS = {"resistor": ("resistance", "r"), "capacitor": ("capacitance", "cap", "c"),
-                     "inductor": ("inductance", "ind", "l"), "vsource": ("dc",), "isource": ("dc",),
-                     "vcvs": ("gain",), "vccs": ("gain",), "cccs": ("gain",), "ccvs": ("gain",)}
 #: ``$`` followed by a blank or the end of the line starts a comment in a control block.
 _DOLLAR_COMMENT = re.compile(r"(?:^|(?<=\s))\$(?=\s|$)")
 
@@ -701,10 +697,11 @@ class _Script:
                 raise NetlistError(f".control: '{step.text}': {exc}", self.where(step)) from None
             command = f"alter @{name}[{param}] [ {' '.join(repr(v) for v in value)} ]"
             return Alteration("element", name, param, value, self.where(step), command)
-        if param is not None and param not in _VALUE_PARAMETERS.get(el.kind, ()):
+        names = KINDS[el.kind].value_names  # an element's own value as alter names it (@r1[resistance])
+        if param is not None and param not in names:
             if el.instance_path or el.source is not None or isinstance(value, tuple):
                 raise NetlistError(f".control: '{step.text}': netdae alters an element's value ("
-                                   f"{', '.join(_VALUE_PARAMETERS.get(el.kind, ())) or 'none for ' + el.kind}), a "
+                                   f"{', '.join(names) or 'none for ' + el.kind}), a "
                                    "source's function, an instance parameter of a top-level element and model "
                                    f"parameters (altermod), not the parameter '{param}' of {name}", self.where(step))
             return Alteration("instance", name, param, value, self.where(step), f"alter @{name}[{param}] = {value!r}")
