@@ -233,8 +233,9 @@ def test_analyses_skipped_in_a_control_loop_are_named():
     assert len(c.analyses) == 1  # the op before the loop
     c.analyses.clear()
     with pytest.raises(NetdaeError, match=r"nothing to run \(the .control block's analyses are not read: 'op' at "
-                                          r"<string>:8:3 was skipped because it follows 'while x < 1' \(<string>:7:1\), "
-                                          r"which netdae does not run: netdae cannot evaluate its condition: vector 'x'"):
+                                          r"<string>:8:3 was skipped because it follows 'while x < 1' "
+                                          r"\(<string>:7:1\), which netdae does not run: netdae cannot evaluate "
+                                          r"its condition: vector 'x'"):
         netdae.run(c)
 
 

@@ -395,7 +395,8 @@ def _skipped_analyses(circuit: Circuit) -> str:
             if word in ANALYSIS_COMMANDS:
                 why = diag.message.split(": ", 2)[-1]
                 return (f" (the .control block's analyses are not read: '{command}' at {diag.location} was skipped "
-                        f"because {why}; netdae runs a subset of ngspice's control language: docs/netlist.md, Control blocks)")
+                        f"because {why}; netdae runs a subset of ngspice's control language: docs/netlist.md, "
+                        "Control blocks)")
     return ""
 
 

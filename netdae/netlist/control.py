@@ -51,8 +51,8 @@ from .numbers import parse_number
 from .syntax import UNSUPPORTED_DOT_CARDS
 from .waveforms import WAVEFORMS, RandomSource
 
-__all__ = ["read_block", "run_scripts", "with_scripts", "needs_script", "csparam_values", "waveform", "ANALYSIS_COMMANDS", "OPTION_VARIABLES",
-           "MAX_ITERATIONS", "MAX_COMMAND_LENGTH", "MAX_NESTING"]
+__all__ = ["read_block", "run_scripts", "with_scripts", "needs_script", "csparam_values", "waveform",
+           "ANALYSIS_COMMANDS", "OPTION_VARIABLES", "MAX_ITERATIONS", "MAX_COMMAND_LENGTH", "MAX_NESTING"]
 
 #: Commands read as the dot card of the same name.
 ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
@@ -784,7 +784,13 @@ def _variable_text(written: str) -> str:
 
 
 def waveform(kind: str, values: tuple[float, ...]):
-    """The source function ``kind`` (not a random one) with parameters ``values`` (ValueError when they do not fit it)."""
+    """The source function ``kind`` (not a random one) with parameters ``values``.
+
+    Raises
+    ------
+    ValueError
+        Parameters that do not fit it.
+    """
     if kind == "pwl":
         if len(values) < 2 or len(values) % 2:
             raise ValueError(f"PWL needs time-value pairs, got {len(values)} number(s)")
