@@ -255,7 +255,7 @@ class Alteration:
     param : str or None
         None: the element's value (what ``.step`` and ``values=`` set: R, C, L, the
         gains, a source's DC value); a source function (``"sin"``, ``"pulse"`` ...) whose
-        parameters ``value`` replaces; an instance parameter of a top-level element (``"area"``,
+        parameters ``value`` replaces; ``"acmag"``, a source's AC magnitude; an instance parameter of a top-level element (``"area"``,
         target ``"instance"``); a model parameter (``"vto"``).
     value : float or tuple of float
         A number, or a source function's parameters.

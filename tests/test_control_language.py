@@ -84,8 +84,8 @@ write out.raw
 
 @pytest.mark.ngspice
 def test_foreach_alter_element_ac_against_ngspice(tmp_path, ngspice_exe):
-    """``foreach`` with ``alter name = $var``, ``alter name value`` and ``alter @r1[resistance] =``: one
-    .ac per value, the k-th of netdae against ngspice's k-th (ac1, ac2, ...)."""
+    """``foreach`` with ``alter name = $var``, ``alter name value``, ``alter @r1[resistance] =`` and a source's
+    ``ac``: one .ac per value, the k-th of netdae against ngspice's k-th (ac1, ac2, ...)."""
     text = """foreach
 V1 a 0 dc 0 ac 1
 R1 a b 1k
@@ -105,12 +105,16 @@ write out.raw
 alter @r1[resistance] = 2k
 ac dec 5 10 1meg
 write out.raw
+alter v1 ac = 2
+ac dec 5 10 1meg
+write out.raw
 .endc
 .end
 """
     ng = ngspice_results(tmp_path, text, ngspice_exe)
     nd = netdae.run(load(text))
-    assert len(nd) == len(ng) == 5
+    assert len(nd) == len(ng) == 6
+    assert abs(nd[5]["v(b)"][0]) == pytest.approx(2 * abs(nd[4]["v(b)"][0]), rel=1e-12)
     for ours, theirs in zip(nd, ng):
         assert_close(ours, theirs, ["v(b)", "v(c)"], tol=1e-9)
     assert abs(nd[0]["v(b)"][-1]) != pytest.approx(abs(nd[2]["v(b)"][-1]))  # the values changed the circuit

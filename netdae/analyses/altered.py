@@ -8,7 +8,7 @@ parameters through ``values=`` (``{"r1": 2e3, "nmos1(vto)": 0.5}``), the same
 parameter overrides, Monte Carlo sample and seed; a source function's new
 parameters (``alter @v1[sin] [ 0 1 2k ]``, which a sweep cannot set) then
 replace that source's transient function, as ngspice's ``alter`` replaces its
-coefficients; an instance parameter of a top-level element (``alter d1 area = 2``)
+coefficients (``alter v1 ac = 2``: its AC magnitude); an instance parameter of a top-level element (``alter d1 area = 2``)
 is written on its card in a copy of the netlist, which elaboration reads as the
 card's own.
 """
@@ -81,7 +81,10 @@ def altered_circuit(circuit: Circuit, alter: tuple[Alteration, ...], cache: dict
     elements = {el.name: el for el in out.elements}
     for change in functions:
         el = elements[change.name]
-        el.source = dataclasses.replace(el.source, tran=waveform(change.param, change.value))
+        if change.param == "acmag":
+            el.source = dataclasses.replace(el.source, ac_mag=change.value, ac_given=True)
+        else:
+            el.source = dataclasses.replace(el.source, tran=waveform(change.param, change.value))
     out.diagnostics = list(circuit.diagnostics)
     if cache is not None:
         cache[alter] = out

@@ -51,7 +51,7 @@ from .numbers import parse_number
 from .syntax import UNSUPPORTED_DOT_CARDS
 from .waveforms import WAVEFORMS, RandomSource
 
-__all__ = ["read_block", "run_scripts", "with_scripts", "needs_script", "csparam_values", "waveform",
+__all__ = ["read_block", "run_scripts", "with_scripts", "needs_script", "csparam_values", "waveform", "change_key",
            "ANALYSIS_COMMANDS", "OPTION_VARIABLES", "MAX_ITERATIONS", "MAX_COMMAND_LENGTH", "MAX_NESTING"]
 
 #: Commands read as the dot card of the same name.
@@ -667,7 +667,7 @@ class _Script:
             change = self.model_change(step, name, param, value)
         else:
             change = self.element_change(step, name, param, value)
-        key = (change.target, change.name, "function" if change.param in WAVEFORMS else change.param)
+        key = change_key(change)
         self.alter.pop(key, None)
         self.alter[key] = change
 
@@ -697,6 +697,8 @@ class _Script:
                 raise NetlistError(f".control: '{step.text}': {exc}", self.where(step)) from None
             command = f"alter @{name}[{param}] [ {' '.join(repr(v) for v in value)} ]"
             return Alteration("element", name, param, value, self.where(step), command)
+        if param in ("ac", "acmag") and el.source is not None and not isinstance(value, tuple):
+            return Alteration("element", name, "acmag", value, self.where(step), f"alter @{name}[acmag] = {value!r}")
         names = KINDS[el.kind].value_names  # an element's own value as alter names it (@r1[resistance])
         if param is not None and param not in names:
             if el.instance_path or el.source is not None or isinstance(value, tuple):
@@ -730,6 +732,11 @@ class _Script:
         card = _card(self.substitute(step, step.text), self.file, step.line, step.col)
         card.alter = tuple(self.alter.values())
         self.cards.append(card)
+
+
+def change_key(change: Alteration) -> tuple:
+    """What a change sets: a later change with the same key replaces it (a source's function, whichever)."""
+    return change.target, change.name, "function" if change.param in WAVEFORMS else change.param
 
 
 def _span_name(text: str, pos: int) -> int:

@@ -310,7 +310,7 @@ def script_block(text: str, path: str | None, behavior=None) -> list[str]:
         ``.control``, the commands, ``.endc``.
     """
     from ..netlist import elaborate, parse
-    from ..netlist.control import run_scripts, with_scripts
+    from ..netlist.control import change_key, run_scripts, with_scripts
 
     net = parse(text, path=path, behavior=behavior)
     first = elaborate(net)
@@ -320,8 +320,7 @@ def script_block(text: str, path: str | None, behavior=None) -> list[str]:
     block = [*cards, ".control", SCRIPT_MARK, "set appendwrite"]
     before: dict = {}
     for card, written in zip(circuit.analyses, circuit.netlist.analyses):
-        now = {(c.target, c.name, c.param if c.target != "element" or c.param is None else "function"): c
-               for c in card.alter}
+        now = {change_key(c): c for c in card.alter}
         if any(key not in now for key in before):
             block.append("reset")
             before = {}
