@@ -398,11 +398,11 @@ class SensAnalysis:
     output: str
     location: SourceLocation | None = None
     written: str = ""
-    alter: tuple[Alteration, ...] = ()
     variation: str | None = None
     points: int = 0
     fstart: float = 0.0
     fstop: float = 0.0
+    alter: tuple[Alteration, ...] = ()
 
     @property
     def is_ac(self) -> bool:

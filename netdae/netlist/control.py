@@ -248,10 +248,6 @@ class _Refused(Exception):
     """A value netdae cannot know (a vector of simulation results, a random draw ...): the reason."""
 
 
-class _Unknown(Exception):
-    """A variable or vector never defined: the name."""
-
-
 @dataclass
 class _Step:
     """One command, or a loop/conditional with its body (and ``else`` part)."""
@@ -306,11 +302,11 @@ def _structure(lines: list[tuple[int, int, str]], file: str) -> list[_Step]:
 
 
 class _Break(Exception):
-    pass
+    """``break``: leave the innermost loop."""
 
 
 class _Continue(Exception):
-    pass
+    """``continue``: the innermost loop's next iteration."""
 
 
 class _Script:
