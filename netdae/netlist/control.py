@@ -1,9 +1,12 @@
-"""``.control`` ... ``.endc`` blocks: the commands netdae reads as cards, and the rest skipped.
+"""``.control`` ... ``.endc`` blocks: the commands netdae reads as cards, and a safe subset of the control language.
 
-ngspice runs a control block as a script. netdae never runs one; it reads
-the commands that ask for an analysis, an output or an option as the
-equivalent dot cards, in block order, and lists every other line as
-skipped (one located note each):
+ngspice runs a control block as a script. netdae reads a block in one of two ways.
+
+A block without the control language (:func:`needs_script` false: no ``$``
+variable, loop, conditional, ``alter`` or ``altermod``) is read by
+:func:`read_block`: the commands that ask for an analysis, an output or an
+option become the equivalent dot cards, in block order, and every other line
+is skipped (one located note each):
 
 =====================================  ======================================
 command                                read as
@@ -20,14 +23,25 @@ command                                read as
 option netdae reads)
 =====================================  ======================================
 
-``disto``, ``fourier`` ... are analyses
-netdae does not have: a located error names them. Lines inside loops and
-conditionals (``while``, ``repeat``, ``dowhile``, ``foreach``, ``if`` ...
-``end``), after a command that changes the circuit (``alter``, ``altermod``,
-``reset``, ``source`` ...) or after ``quit``/``exit`` are skipped whatever
-they are, and so is a line using a variable (``$x``): netdae would not run
-them as ngspice does. The ngspice bridge hands ngspice the cards, never the
-block (:mod:`netdae.ngspice.deck`).
+``disto``, ``fourier`` ... are analyses netdae does not have: a located error
+names them. Lines after ``quit``/``exit`` are skipped.
+
+A block in the control language is a script: :func:`read_block` hands it on
+as one ``.control`` card (``Card.script``), and after a first elaboration
+(the script reads the ``.csparam`` values, made of top-level ``.param``
+values, and checks ``alter`` against the circuit) :func:`run_scripts` runs it
+with netdae's own interpreter: scalar ``let`` vectors and ``set`` variables,
+``$name``/``$&name``/``{$name}`` substituted as ngspice's ``cp_variablesubst``
+does, ``foreach``, ``repeat``, ``while``, ``dowhile``, ``if``/``else``,
+``break``, ``continue`` (at most :data:`MAX_ITERATIONS` iterations in all),
+and ``alter``/``altermod`` between analyses, carried on the analysis cards
+(``Card.alter``, :class:`~netdae.circuit.Alteration`). Nothing outside this
+subset runs: no shell, file, environment or plot; what the script cannot
+know (a vector of simulation results, a function ``define`` makes, a random
+draw) skips the analyses that depend on it, each with a located note naming
+the command and the reason. The ngspice bridge hands ngspice the cards, or
+for a script a control block of netdae's own with the analyses and ``alter``
+commands netdae ran (:mod:`netdae.ngspice.deck`), never the user's block.
 
 Examples
 --------
@@ -109,7 +123,9 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
     -------
     cards : list of Card
         Dot cards (``.op``, ``.tran ...``, ``.save ...``, ``.options ...``) in
-        block order, located at the commands.
+        block order, located at the commands; for a block in the control language
+        (:func:`needs_script`) one ``.control`` card holding its lines (``Card.script``),
+        run later by :func:`run_scripts`.
     notes : list of Diagnostic
         One ``note`` per line not read, saying why.
 
