@@ -432,3 +432,12 @@ tran $&deltime $&newstime uic
     result = compare(text)
     assert [(a.analysis, a.occurrence) for a in result.analyses] == [("tran", 0), ("tran", 1), ("tran", 2)]
     assert all(a.passed for a in result.analyses), result
+
+
+def test_a_measurement_of_a_transient_only_the_script_runs():
+    """``.meas tran`` with the script's ``tran`` as the only transient: measured on the first (as ngspice's tran1)."""
+    text = ("t\nV1 a 0 pulse(0 1 0 1u 1u 1m 2m)\nR1 a b 1k\nC1 b 0 1u\n.meas tran vmax max v(b)\n.control\n"
+            "foreach rv 1k 2k\n  alter r1 = $rv\n  tran 10u 1m\nend\n.endc\n.end\n")
+    results = netdae.run(load(text), reltol=1e-6)
+    assert [m.name for m in results[0].measures] == ["vmax"] and not results[1].measures
+    assert results[0].measures[0].value == pytest.approx(1 - np.exp(-1), rel=1e-3)  # 1 - exp(-t/RC) at t = RC

@@ -83,9 +83,8 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Ma
         Anything wrong in the netlist, with its location.
     """
     net = parse(path_or_text, path=path, behavior=behavior)
-    circuit = elaborate(net, params=params, max_elements=max_elements)
     if net.scripts:  # .control blocks in the control language: run on the circuit's .csparam values
-        from .control import with_scripts
+        from .control import elaborate_scripted
 
-        circuit = elaborate(with_scripts(net, circuit), params=params, max_elements=max_elements)
-    return circuit
+        return elaborate_scripted(net, params=params, max_elements=max_elements)[1]
+    return elaborate(net, params=params, max_elements=max_elements)

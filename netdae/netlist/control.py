@@ -65,7 +65,7 @@ from .numbers import parse_number
 from .syntax import UNSUPPORTED_DOT_CARDS
 from .waveforms import WAVEFORMS, RandomSource
 
-__all__ = ["read_block", "run_scripts", "with_scripts", "needs_script", "csparam_values", "waveform", "change_key",
+__all__ = ["read_block", "run_scripts", "with_scripts", "elaborate_scripted", "needs_script", "csparam_values", "waveform", "change_key",
            "ANALYSIS_COMMANDS", "OPTION_VARIABLES", "MAX_ITERATIONS", "MAX_COMMAND_LENGTH", "MAX_NESTING"]
 
 #: Commands read as the dot card of the same name.
@@ -880,6 +880,34 @@ def run_scripts(net, circuit) -> tuple[list[Card], list[Diagnostic]]:
         cards += script.cards
         notes += list(script.notes.values())
     return cards, notes
+
+
+def elaborate_scripted(net, **options):
+    """Elaborate a netlist that has scripts: once without them (what they read: ``.csparam`` values,
+    elements, models), then with the cards they make (:func:`with_scripts`).
+
+    The first elaboration leaves the ``.meas`` cards out: a ``.meas tran`` may measure a
+    transient only the script asks for.
+
+    Parameters
+    ----------
+    net : Netlist
+    **options
+        For :func:`netdae.netlist.elaborate.elaborate` (``params``, ``max_elements``).
+
+    Returns
+    -------
+    first : Circuit
+        The elaboration without the scripts.
+    circuit : Circuit
+        The netlist's circuit.
+    """
+    import dataclasses
+
+    from .elaborate import elaborate
+
+    first = elaborate(dataclasses.replace(net, measures=[]), **options)
+    return first, elaborate(with_scripts(net, first), **options)
 
 
 def with_scripts(net, circuit):

@@ -309,13 +309,12 @@ def script_block(text: str, path: str | None, behavior=None) -> list[str]:
         The output and option cards the script made (``.save``, ``.print``, ``.options``),
         ``.control``, the commands, ``.endc``.
     """
-    from ..netlist import elaborate, parse
-    from ..netlist.control import change_key, run_scripts, with_scripts
+    from ..netlist import parse
+    from ..netlist.control import change_key, elaborate_scripted, run_scripts
 
     net = parse(text, path=path, behavior=behavior)
-    first = elaborate(net)
+    first, circuit = elaborate_scripted(net)
     made, _ = run_scripts(net, first)
-    circuit = elaborate(with_scripts(net, first))
     cards = [" ".join(c.raw.split()) for c in made if _first_word(c.text) not in ANALYSIS_CARDS]
     block = [*cards, ".control", SCRIPT_MARK, "set appendwrite"]
     before: dict = {}
