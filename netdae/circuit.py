@@ -675,8 +675,13 @@ class Circuit:
 
         merged = dict(self.overrides)
         merged.update({str(k).lower(): v for k, v in (params or {}).items()})
-        return elaborate(self.netlist, params=merged, max_elements=self.max_elements,
-                         sample=self.sample if sample is None else sample, seed=self.seed if seed is None else seed)
+        options = {"params": merged, "max_elements": self.max_elements,
+                   "sample": self.sample if sample is None else sample, "seed": self.seed if seed is None else seed}
+        if self.netlist.unscripted is not None:  # its .control scripts run again on the new .csparam values
+            from .netlist.control import elaborate_scripted
+
+            return elaborate_scripted(self.netlist.unscripted, **options)[1]
+        return elaborate(self.netlist, **options)
 
     def element(self, name: str) -> Element:
         """Element by full name (case-insensitive).

@@ -441,3 +441,13 @@ def test_a_measurement_of_a_transient_only_the_script_runs():
     results = netdae.run(load(text), reltol=1e-6)
     assert [m.name for m in results[0].measures] == ["vmax"] and not results[1].measures
     assert results[0].measures[0].value == pytest.approx(1 - np.exp(-1), rel=1e-3)  # 1 - exp(-t/RC) at t = RC
+
+
+def test_with_params_runs_the_script_again():
+    text = ("t\n.param tend=1m\n.csparam ts={tend}\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.control\nlet h = ts/100\n"
+            "tran $&h $&ts\nalter r1 = 2k\ntran $&h $&ts\n.endc\n.end\n")
+    c = load(text)
+    d = c.with_params(tend=2e-3)
+    assert [a.tstop for a in c.analyses] == [1e-3, 1e-3] and [a.tstop for a in d.analyses] == [2e-3, 2e-3]
+    assert [a.tstep for a in d.analyses] == [2e-5, 2e-5] and [x.command for x in d.analyses[1].alter] == \
+        ["alter r1 = 2000.0"]

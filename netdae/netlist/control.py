@@ -927,6 +927,7 @@ def with_scripts(net, circuit):
               if isinstance(getattr(net, f.name), list)}
     out = dataclasses.replace(net, **copies)
     out.scripts = []
+    out.unscripted = net
     out.diagnostics.extend(notes)
     add_cards(out, cards)
     return out

@@ -317,6 +317,9 @@ class Netlist:
         elaboration; empty once they ran.
     csparams : list of Card
         The ``.csparam`` cards: the values those scripts see.
+    unscripted : Netlist or None
+        For a netlist whose scripts ran: the netlist before (a variant with other
+        parameter values runs them again).
     """
 
     title: str
@@ -337,3 +340,4 @@ class Netlist:
     behavior: object = None
     scripts: list = field(default_factory=list)
     csparams: list = field(default_factory=list)
+    unscripted: object = None
