@@ -77,6 +77,7 @@ __all__ = [
     "Element",
     "SourceSpec",
     "Model",
+    "Alteration",
     "OpAnalysis",
     "TranAnalysis",
     "AcAnalysis",
@@ -238,11 +239,47 @@ class Model:
     vectors: dict[str, tuple[float, ...]] = field(default_factory=dict)
 
 
+@dataclass(frozen=True, slots=True)
+class Alteration:
+    """One change a ``.control`` block's ``alter`` or ``altermod`` makes to the circuit before an analysis.
+
+    An analysis card's ``alter`` holds every change in force when it runs, in
+    command order (a later change of the same target replaces an earlier one);
+    :func:`netdae.analyses.altered.altered_circuit` builds the circuit it runs on.
+
+    Parameters
+    ----------
+    target : {"element", "instance", "model"}
+    name : str
+        The element's or the model's full lower-case name (``"r1"``, ``"r.x1.r2"``, ``"nmos1"``).
+    param : str or None
+        None: the element's value (what ``.step`` and ``values=`` set: R, C, L, the
+        gains, a source's DC value); a source function (``"sin"``, ``"pulse"`` ...) whose
+        parameters ``value`` replaces; ``"acmag"``, a source's AC magnitude; an instance parameter of a top-level element (``"area"``,
+        target ``"instance"``); a model parameter (``"vto"``).
+    value : float or tuple of float
+        A number, or a source function's parameters.
+    location : SourceLocation or None
+        The command.
+    command : str
+        The change as an ngspice command with numbers (``"alter @v1[sin] [ 0 3 1.1e+08 ]"``),
+        what the ngspice bridge hands ngspice.
+    """
+
+    target: str
+    name: str
+    param: str | None
+    value: float | tuple[float, ...]
+    location: SourceLocation | None = field(default=None, compare=False)
+    command: str = field(default="", compare=False)
+
+
 @dataclass(slots=True)
 class OpAnalysis:
     """``.op``."""
 
     location: SourceLocation | None = None
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -255,6 +292,7 @@ class TranAnalysis:
     tmax: float | None = None
     uic: bool = False
     location: SourceLocation | None = None
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -266,6 +304,7 @@ class AcAnalysis:
     fstart: float
     fstop: float
     location: SourceLocation | None = None
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -284,6 +323,7 @@ class DcAnalysis:
 
     sweeps: list[DcSweep]
     location: SourceLocation | None = None
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -302,6 +342,7 @@ class PzAnalysis:
     input_type: str = "vol"
     what: str = "pz"
     location: SourceLocation | None = None
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -318,6 +359,7 @@ class TfAnalysis:
     source: str
     location: SourceLocation | None = None
     written: str = ""
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -340,6 +382,7 @@ class NoiseAnalysis:
     fstop: float
     summary: int = 0
     location: SourceLocation | None = None
+    alter: tuple[Alteration, ...] = ()
 
 
 @dataclass(slots=True)
@@ -359,6 +402,7 @@ class SensAnalysis:
     points: int = 0
     fstart: float = 0.0
     fstop: float = 0.0
+    alter: tuple[Alteration, ...] = ()
 
     @property
     def is_ac(self) -> bool:
@@ -631,8 +675,13 @@ class Circuit:
 
         merged = dict(self.overrides)
         merged.update({str(k).lower(): v for k, v in (params or {}).items()})
-        return elaborate(self.netlist, params=merged, max_elements=self.max_elements,
-                         sample=self.sample if sample is None else sample, seed=self.seed if seed is None else seed)
+        options = {"params": merged, "max_elements": self.max_elements,
+                   "sample": self.sample if sample is None else sample, "seed": self.seed if seed is None else seed}
+        if self.netlist.unscripted is not None:  # its .control scripts run again on the new .csparam values
+            from .netlist.control import elaborate_scripted
+
+            return elaborate_scripted(self.netlist.unscripted, **options)[1]
+        return elaborate(self.netlist, **options)
 
     def element(self, name: str) -> Element:
         """Element by full name (case-insensitive).

@@ -215,6 +215,9 @@ class ElementKind:
         ``"module:attribute"`` of the device's
         :class:`~netdae.devices.modelcard.ParameterTable` (a semiconductor
         device whose model parameters the sensitivity analysis changes).
+    value_names : tuple of str
+        The names ngspice's ``alter`` gives the value of a steppable element
+        (``alter @r1[resistance] = 2k``; :mod:`netdae.netlist.control`).
     """
 
     name: str
@@ -246,6 +249,7 @@ class ElementKind:
     sens: tuple[tuple[str, str, bool], ...] = ()
     parameters: str | None = None
     realised_by: str | None = None
+    value_names: tuple[str, ...] = ()
 
     @property
     def noun(self) -> str:
@@ -303,31 +307,34 @@ def _two(cls: int) -> tuple[tuple[int, int, int], ...]:
 
 _DEFINITIONS = (
     ElementKind("resistor", "r", "resistor", "(n+, n-)", (2,), _two(RESISTIVE), stamped=True,
-                model_types=("r", "res"), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_R),
+                model_types=("r", "res"), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_R,
+                value_names=("resistance", "r")),
     ElementKind("capacitor", "c", "capacitor", "(n+, n-)", (2,), _two(CAPACITIVE), stamped=True,
                 model_types=("c",), self_loop=True, stores="charge", steppable=True, current_is_quantity=True,
-                sens=_SENS_C),
+                sens=_SENS_C, value_names=("capacitance", "cap", "c")),
     ElementKind("inductor", "l", "inductor", "(n+, n-)", (2,), _two(INDUCTIVE), currents=("",), stamped=True,
-                model_types=("l",), self_loop=True, stores="flux", steppable=True, sens=_SENS_L),
+                model_types=("l",), self_loop=True, stores="flux", steppable=True, sens=_SENS_L,
+                value_names=("inductance", "ind", "l")),
     ElementKind("coupling", "k", "mutual inductance", "()", (0,), stamped=True, senses="inductor",
                 sens=(("", "value", True),)),
     ElementKind("vsource", "v", "voltage source", "(n+, n-)", (2,), _two(VOLTAGE), currents=("",), stamped=True,
-                independent=True, self_loop=True, steppable=True, sens=(("", "dc", False), ("_acmag", "ac", True))),
+                independent=True, self_loop=True, steppable=True, sens=(("", "dc", False), ("_acmag", "ac", True)),
+                value_names=("dc",)),
     ElementKind("isource", "i", "current source", "(n+, n-)", (2,), _two(CURRENT), stamped=True, independent=True,
                 self_loop=True, steppable=True,
-                sens=(("", "dc", False), ("_acmag", "ac", True), ("_m", "source_m", False))),
+                sens=(("", "dc", False), ("_acmag", "ac", True), ("_m", "source_m", False)), value_names=("dc",)),
     ElementKind("vcvs", "e", "voltage-controlled voltage source", "(n+, n-, nc+, nc-)", (4,), _two(VOLTAGE),
                 _CONTROL_INPUTS, currents=("",), stamped=True, controlled=True, group="controlled sources",
-                self_loop=True, steppable=True, sens=_SENS_GAIN),
+                self_loop=True, steppable=True, sens=_SENS_GAIN, value_names=("gain",)),
     ElementKind("vccs", "g", "voltage-controlled current source", "(n+, n-, nc+, nc-)", (4,), _two(CURRENT),
                 _CONTROL_INPUTS, stamped=True, controlled=True, group="controlled sources", self_loop=True,
-                steppable=True, sens=_SENS_GAIN),
+                steppable=True, sens=_SENS_GAIN, value_names=("gain",)),
     ElementKind("cccs", "f", "current-controlled current source", "(n+, n-)", (2,), _two(CURRENT), stamped=True,
                 senses="vsource", controlled=True, group="controlled sources", self_loop=True, steppable=True,
-                sens=_SENS_GAIN),
+                sens=_SENS_GAIN, value_names=("gain",)),
     ElementKind("ccvs", "h", "current-controlled voltage source", "(n+, n-)", (2,), _two(VOLTAGE), currents=("",),
                 stamped=True, senses="vsource", controlled=True, group="controlled sources", self_loop=True,
-                steppable=True, sens=_SENS_GAIN),
+                steppable=True, sens=_SENS_GAIN, value_names=("gain",)),
     ElementKind("opamp", "e", "ideal op-amp (nullor)", "(out+, out-, in+, in-)", (4,),
                 ((VOLTAGE, 0, 1), (NULLATOR, 2, 3)), ((2, "input"), (3, "input")), currents=("",), stamped=True,
                 controlled=True, group="ideal op-amps", self_loop=True),

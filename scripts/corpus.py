@@ -440,7 +440,8 @@ def feature(message: str) -> str:
     msg = _LOCATION.sub("", message)
     msg = re.split(r" \((?:expected|hint):", msg)[0]
     patterns = [
-        (r"was skipped because (.*?); netdae does not run", lambda m: f".control analyses skipped: {m.group(1)}"),
+        (r"was skipped because (.*?)(?:; netdae (?:does not run|runs a subset)|$)",
+         lambda m: f".control analyses skipped: {m.group(1)}"),
         (r"\.control: '(\w+)'", lambda m: f"{m.group(1)} analysis (.control)"),
         (r"(\.\w+) \(([^)]*)\) is not supported", lambda m: f"{m.group(2)} ({m.group(1)})"),
         (r"^\w+: (.*?) \((\w)\) (?:is not supported|element)", lambda m: f"{m.group(1)} ({m.group(2).upper()})"),

@@ -25,7 +25,7 @@ FILES = {
     "missing.cir": "missing\n.include nowhere.inc\nV1 a 0 1\nR1 a 0 1\n.op\n.end\n",
     "mesfet.cir": "mesfet\nV1 d 0 1\nZ1 d 0 0 zm\n.model zm nmf level=7\n.op\n.end\n",
     "vdmos.cir": "vdmos\nV1 d 0 1\nM1 d d 0 tj tc vm thermal\n.model vm vdmos\n.op\n.end\n",
-    "loops.cir": "loop\nV1 a 0 1\nR1 a 0 1k\n.control\nrepeat 2\n  op\nend\n.endc\n.end\n",
+    "loops.cir": "loop\nV1 a 0 1\nR1 a 0 1k\n.control\nlet x = v(a)\nwhile x < 1\n  op\nend\n.endc\n.end\n",
 }
 
 
@@ -46,7 +46,7 @@ def test_every_kind_of_file_lands_in_its_category(tmp_path):
     assert got["missing.cir"] == ("incomplete", "missing file nowhere.inc")
     assert got["mesfet.cir"][0] == "refused_named" and "MESFET level" in got["mesfet.cir"][1]
     assert got["vdmos.cir"][0] == "refused_named" and "VDMOS" in got["vdmos.cir"][1]
-    assert got["loops.cir"][0] == "refused_named" and "loops and conditionals" in got["loops.cir"][1]
+    assert got["loops.cir"][0] == "refused_named" and "cannot evaluate its condition" in got["loops.cir"][1]
     assert data["summary"]["in_scope"] == 4 and data["summary"]["runs"] == 1
 
 

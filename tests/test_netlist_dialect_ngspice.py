@@ -271,14 +271,14 @@ quit
 
 
 def test_control_block_commands_are_read_as_cards(tmp_path):
-    c = load(CONTROL)
-    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis"] and c.options.reltol == 1e-6
+    c = load(CONTROL)  # a script (foreach, alter): netdae's interpreter runs it
+    assert [type(a).__name__ for a in c.analyses] == ["OpAnalysis"] + ["TranAnalysis"] * 3
+    assert c.options.reltol == 1e-6
+    assert [[x.command for x in a.alter] for a in c.analyses] == [[], [], [], ["alter r1 = 2000.0"]]
     assert c.saves == ["v(out)", "i(v1)"]
     notes = [(d.location.line, d.message.split(":", 1)[1].split(" skipped")[0].strip())
              for d in c.diagnostics if d.severity == "note"]
-    assert notes == [(8, "'set numdgt=12'"), (13, "'let x = 2'"), (14, "'foreach v 1 2'"), (15, "'tran 1u 1m'"),
-                     (16, "'end'"), (17, "'alter r1 2k'"), (18, "'tran 1u 1m'"), (19, "'shell touch pwned'"),
-                     (20, "'quit'")]
+    assert notes == [(19, "'shell touch pwned'"), (20, "'quit'")]
     # the same values as ngspice running the block itself
     cir = tmp_path / "c.cir"
     cir.write_text(CONTROL)
@@ -294,10 +294,15 @@ def test_the_bridge_gets_cards_never_a_control_block(tmp_path):
 
     text, notes = translate_for_ngspice(CONTROL)
     lines = text.splitlines()
-    assert [ln for ln in lines if ln.startswith(".")] == [".param rr=3k", ".options reltol=1e-6",
-                                                            ".save v(out) i(v1)", ".op", ".print v(out) i(v1)",
-                                                            ".end"]
-    assert not any(w in text.lower() for w in (".control", ".endc", "shell", "let ", "alter", "foreach"))
+    assert [ln for ln in lines if ln.startswith(".")] == [".param rr=3k", ".options reltol=1E-06",
+                                                            ".save v(out) i(v1)", ".print v(out) i(v1)",
+                                                            ".control", ".endc", ".end"]
+    # the script's outcome as netdae's own block: analyses and alter commands with numbers, nothing else
+    block = lines[lines.index(".control") + 1: lines.index(".endc")]
+    assert block == ["* netdae: analyses and alter commands", "set appendwrite", "op", "write out.raw",
+                     "tran 1u 1m", "write out.raw", "tran 1u 1m", "write out.raw", "alter r1 = 2000.0",
+                     "tran 1u 1m", "write out.raw", "quit"]
+    assert not any(w in text.lower() for w in ("shell", "pwned", "let ", "foreach"))
     run = run_ngspice(CONTROL, backend="subprocess", workdir=tmp_path)
     assert run.result("op")["v(out)"][0] == pytest.approx(0.75, rel=1e-9)
     assert not (tmp_path / "pwned").exists()

@@ -229,10 +229,13 @@ def test_error_message_line_and_column(case):
 
 
 def test_analyses_skipped_in_a_control_loop_are_named():
-    c = load("t\nR1 a 0 1\nV1 a 0 1\n.control\nrepeat 2\n  op\nend\n.endc\n")
+    c = load("t\nR1 a 0 1\nV1 a 0 1\n.control\nop\nlet x = v(a)\nwhile x < 1\n  op\nend\n.endc\n")
+    assert len(c.analyses) == 1  # the op before the loop
+    c.analyses.clear()
     with pytest.raises(NetdaeError, match=r"nothing to run \(the .control block's analyses are not read: 'op' at "
-                                          r"<string>:6:3 was skipped because netdae does not run control-language "
-                                          r"loops and conditionals"):
+                                          r"<string>:8:3 was skipped because it follows 'while x < 1' "
+                                          r"\(<string>:7:1\), which netdae does not run: netdae cannot evaluate "
+                                          r"its condition: vector 'x'"):
         netdae.run(c)
 
 

@@ -313,10 +313,15 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         quantities = saved_currents(circuit) + measured_quantities(circuit)
     unused = unused_options(circuit)
     results = []
+    from .altered import altered_circuit
+
+    altered: dict = {}
+    original = circuit
     # one operating point for .op, .ac, .noise, .tf, .pz and .sens of the circuit
     with shared_operating_points():
-        for position, card in enumerate(circuit.analyses):
+        for position, card in enumerate(original.analyses):
             kind = analysis_name(card)
+            circuit = altered_circuit(original, card.alter, altered)  # after a .control script's alter commands
             if kind == "tran":
                 from .tran import transient
 
@@ -327,7 +332,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 except KeyboardInterrupt as exc:
                     # Ctrl-C: hand on every result computed so far, the interrupted transient's last
                     partial = getattr(exc, "partial", None)
-                    exc.results = _finish(circuit, results + ([partial] if partial is not None else []), names, wanted)
+                    exc.results = _finish(original, results + ([partial] if partial is not None else []), names, wanted)
                     raise
             else:
                 if kind == "op":
@@ -371,8 +376,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                     raise NetdaeError(f"cannot save: {exc.args[0]}") from None
             if unused:
                 res.notes.append(unused)
+            if card.alter:
+                res.notes.append("circuit altered: " + "; ".join(f"{c.command} ({c.location})" for c in card.alter))
             results.append(res)
-    return _finish(circuit, results, names, wanted)
+    return _finish(original, results, names, wanted)
 
 
 def _stream(output: Callable, position: int, names, wanted) -> Callable:
@@ -403,7 +410,8 @@ def _skipped_analyses(circuit: Circuit) -> str:
             if word in ANALYSIS_COMMANDS:
                 why = diag.message.split(": ", 2)[-1]
                 return (f" (the .control block's analyses are not read: '{command}' at {diag.location} was skipped "
-                        f"because {why}; netdae does not run ngspice's control language)")
+                        f"because {why}; netdae runs a subset of ngspice's control language: docs/netlist.md, "
+                        "Control blocks)")
     return ""
 
 

@@ -49,6 +49,10 @@ def _analysis(a) -> dict:
         value = getattr(a, f.name)
         if f.name == "sweeps":
             value = [dataclasses.asdict(s) for s in value]
+        if f.name == "alter":  # a .control script's changes in force: their commands (none: left out)
+            if not value:
+                continue
+            value = [c.command for c in value]
         out[f.name] = value
     if a.location is not None:
         out["line"] = a.location.line
@@ -108,6 +112,11 @@ def _fmt(value) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
+def _altered(a: dict) -> str:
+    """`` (after alter r1 = 2000.0, ...)`` for an analysis of a .control script that altered the circuit."""
+    return f" (after {', '.join(a['alter'])})" if a.get("alter") else ""
+
+
 def _analysis_text(a: dict) -> str:
     kind = a["type"]
     if kind == "op":
@@ -154,7 +163,7 @@ def format_summary(summary: dict) -> str:
     lines.append(f"  elements ({total}): {counts or 'none'}")
     if summary["models"]:
         lines.append("  models: " + ", ".join(f"{n} ({t})" for n, t in summary["models"].items()))
-    lines.append("  analyses: " + ("; ".join(_analysis_text(a) for a in summary["analyses"]) or "none"))
+    lines.append("  analyses: " + ("; ".join(_analysis_text(a) + _altered(a) for a in summary["analyses"]) or "none"))
     opts = summary["options"]
     shown = [f"{k}={_fmt(opts[k])}" for k in _MAIN_OPTIONS if opts.get(k) is not None]
     shown += [f"{k}={_fmt(v)}" for k, v in opts["extra"].items()]

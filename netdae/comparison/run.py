@@ -50,6 +50,7 @@ from ..analyses.runner import refuse_steps
 from ..circuit import Circuit, TranAnalysis
 from ..errors import NetdaeError, NgspiceError
 from ..ngspice import RUNS_LAST_TO_FIRST
+from ..ngspice.deck import SCRIPT_MARK
 from ..signals import parse_signal
 from ..results import Result
 from .analyses import compare_ac, compare_dc, compare_op, compare_transient
@@ -427,7 +428,10 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
 
     refuse_steps(circuit)
     if not circuit.analyses:
-        raise NetdaeError(f"{source}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to compare")
+        from ..analyses.runner import _skipped_analyses
+
+        raise NetdaeError(f"{source}: the netlist has no analysis card (.op, .dc, .ac or .tran); nothing to compare"
+                          + _skipped_analyses(circuit))
     wanted_kinds = set(ANALYSES) if analyses is None else {a.lower().lstrip(".") for a in analyses}
     if not wanted_kinds <= set(ANALYSES):
         raise NetdaeError(f"unknown analysis in {sorted(wanted_kinds - set(ANALYSES))}; choose from {', '.join(ANALYSES)}")
@@ -448,6 +452,7 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
         kwargs["opamp_gain"] = gain
     ng_results: list[Result] = []
     ng_measures: list = []
+    scripted = False  # ngspice ran the analyses as netdae's control block's commands, in netdae's order
     try:
         run = bridge.run_ngspice(text, **kwargs)
     except bridge.BackendUnavailable:
@@ -455,6 +460,7 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
     except NgspiceError as exc:
         comparison.ngspice_error = str(exc)
     else:
+        scripted = SCRIPT_MARK in run.netlist.split("\n")
         ng_results = run.results
         ng_measures = run.measures
         comparison.ngspice_version, comparison.backend = run.version, run.backend
@@ -464,6 +470,9 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
         comparison.ngspice_version = _version_or_empty(backend)
     seen: dict[str, int] = {}
     netdae_results: dict[str, Result] = {}
+    from ..analyses.altered import altered_circuit
+
+    altered: dict = {}
     for card in circuit.analyses:
         kind = analysis_name(card)
         occurrence = seen.get(kind, 0)
@@ -471,10 +480,11 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
         if kind not in wanted_kinds:
             continue
         ours = [r for r in ng_results if r.analysis == kind]
-        if kind in RUNS_LAST_TO_FIRST:  # netdae's k-th card of the kind pairs with ngspice's k-th from the end
+        if kind in RUNS_LAST_TO_FIRST and not scripted:  # netdae's k-th card of the kind: ngspice's k-th from the end
             ours.reverse()
         ng = ours[occurrence] if occurrence < len(ours) else None
-        item = _compare_card(kind, circuit, card, ng, tolerances[kind], nd_overrides, signals, exclude,
+        item = _compare_card(kind, altered_circuit(circuit, card.alter, altered), card, ng, tolerances[kind],
+                             nd_overrides, signals, exclude,
                              comparison.ngspice_error is not None, netdae_results=netdae_results)
         item.occurrence = occurrence
         comparison.analyses.append(item)

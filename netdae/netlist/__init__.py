@@ -82,4 +82,9 @@ def load(path_or_text: str | os.PathLike, *, path: str | None = None, params: Ma
     NetlistError
         Anything wrong in the netlist, with its location.
     """
-    return elaborate(parse(path_or_text, path=path, behavior=behavior), params=params, max_elements=max_elements)
+    net = parse(path_or_text, path=path, behavior=behavior)
+    if net.scripts:  # .control blocks in the control language: run on the circuit's .csparam values
+        from .control import elaborate_scripted
+
+        return elaborate_scripted(net, params=params, max_elements=max_elements)[1]
+    return elaborate(net, params=params, max_elements=max_elements)

@@ -1285,6 +1285,7 @@ class _Elaborator:
                         raise error(card, step[1], f"step {inc:g} does not lead from {lo:g} to {hi:g}", form)
                     sweeps.append(DcSweep(name, lo, hi, inc))
                 circuit.analyses.append(DcAnalysis(sweeps, loc))
+            circuit.analyses[-1].alter = card.alter  # the .control script's alter/altermod changes in force
 
     @staticmethod
     def _node(card, name: str, offset: int, form: str, nodes: set, what: str) -> str:

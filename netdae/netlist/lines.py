@@ -133,9 +133,16 @@ class Card:
     compat : bool
         True when the card is in the scope of ngspice's PSpice compatibility
         mode (:mod:`netdae.netlist.compat`).
+    alter : tuple of Alteration
+        On an analysis card a ``.control`` block's script made: the ``alter``/``altermod``
+        changes in force when it runs (:mod:`netdae.netlist.control`); empty otherwise.
+    script : list of (line, column, text) or None
+        On the ``.control`` card standing for a block that uses the control language
+        (variables, loops, ``alter``): the block's lines, run by
+        :func:`netdae.netlist.control.run_scripts` once the circuit's ``.csparam`` values are known.
     """
 
-    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat")
+    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat", "alter", "script")
 
     def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
         self.raw = raw
@@ -147,6 +154,8 @@ class Card:
         self.notes: list[Diagnostic] | None = None
         #: True when ngspice's PSpice compatibility mode translates this card (:mod:`netdae.netlist.compat`).
         self.compat = False
+        self.alter: tuple = ()
+        self.script: list[tuple[int, int, str]] | None = None
 
     def warn(self, offset: int, message: str) -> None:
         """Record a located warning about this card (its name prefixes ``message``)."""

@@ -27,7 +27,7 @@ from .statements import (AnalysisCard, Definition, ElementCard, FuncDef, Initial
                          ParamDef)
 from .syntax import DOT_ALIASES, DOT_CARDS, ELEMENTS, IGNORED_DOT_CARDS, UNSUPPORTED_DOT_CARDS
 
-__all__ = ["parse", "build"]
+__all__ = ["parse", "build", "add_cards"]
 
 _IN_SUBCKT = {".param", ".func", ".model", ".subckt", ".ends", ".global", ".ic", ".nodeset"}
 _PRINT_TYPES = {"tran", "ac", "dc", "op", "noise", "disto", "tf", "pz", "sens"}
@@ -94,6 +94,21 @@ def build(deck: Deck) -> Netlist:
     return net
 
 
+def add_cards(net: Netlist, cards: list[Card]) -> None:
+    """Parse top-level dot cards into ``net`` (the cards a ``.control`` block's script made).
+
+    Raises
+    ------
+    NetlistError
+        As :func:`build`, located at the command that made the card.
+    """
+    stack = [net.top]
+    for card in cards:
+        _dot_card(card, stack, net)
+        if card.notes:
+            net.diagnostics.extend(card.take_notes())
+
+
 #: Every model type name netdae knows (an AKO card may restate its base's).
 MODEL_TYPE_NAMES = frozenset(t for types in MODEL_TYPES.values() for t in types)
 
@@ -155,6 +170,11 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
                            card.location(0),
                            hint="netdae runs .op, .dc, .ac, .tran, .pz, .tf, .noise and .sens; remove the card or run it "
                                 "in ngspice")
+    if card.script is not None:  # a .control block that uses the control language: run after elaboration
+        net.scripts.append(card)
+        return
+    if word == ".csparam":
+        net.csparams.append(card)
     if word in IGNORED_DOT_CARDS:
         net.diagnostics.append(Diagnostic("note", f"{word} skipped: it sets {IGNORED_DOT_CARDS[word]}",
                                           card.location(0)))

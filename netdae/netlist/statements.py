@@ -311,6 +311,15 @@ class Netlist:
         OSDI libraries to load (``.osdi`` cards, ``pre_osdi`` commands), paths resolved.
     behavior : Behavior or None
         ngspice's compatibility mode the netlist was read in (:mod:`netdae.netlist.compat`).
+    scripts : list of Card
+        The ``.control`` blocks that use ngspice's control language (variables, loops,
+        ``alter``), run by :func:`netdae.netlist.control.run_scripts` after a first
+        elaboration; empty once they ran.
+    csparams : list of Card
+        The ``.csparam`` cards: the values those scripts see.
+    unscripted : Netlist or None
+        For a netlist whose scripts ran: the netlist before (a variant with other
+        parameter values runs them again).
     """
 
     title: str
@@ -329,3 +338,6 @@ class Netlist:
     files: list[str] = field(default_factory=list)
     osdi: list = field(default_factory=list)
     behavior: object = None
+    scripts: list = field(default_factory=list)
+    csparams: list = field(default_factory=list)
+    unscripted: object = None

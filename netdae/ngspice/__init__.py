@@ -301,7 +301,9 @@ def run_ngspice(
             "(.op, .dc, .ac, .tran, .pz, .tf, .noise or .sens)"
         )
     results = output.results
-    _name_dc_axes(results, dc_sweeps(netlist), notes)
+    from .deck import SCRIPT_MARK
+
+    _name_dc_axes(results, dc_sweeps(netlist), notes, in_order=SCRIPT_MARK in netlist.split("\n"))
     tolerances, method = effective_tolerances(netlist)
     for result in results:
         result.notes = [*notes, *(f"ngspice: {w}" for w in warnings), *result.notes]
@@ -418,8 +420,12 @@ def _sweep_values(start: float, stop: float, step: float) -> np.ndarray:
     return np.array(values)
 
 
-def _name_dc_axes(results: list[Result], cards: list[DcSweepCard], notes: list[str]) -> None:
-    """Rename dc axes after the swept sources; add the outer axis of a nested sweep."""
+def _name_dc_axes(results: list[Result], cards: list[DcSweepCard], notes: list[str], in_order: bool = False) -> None:
+    """Rename dc axes after the swept sources; add the outer axis of a nested sweep.
+
+    ngspice runs several ``.dc`` cards last to first, the ``dc`` commands of netdae's
+    control block (``in_order``) in order.
+    """
     dc_results = [r for r in results if r.analysis == "dc"]
     if not dc_results:
         return
@@ -428,7 +434,7 @@ def _name_dc_axes(results: list[Result], cards: list[DcSweepCard], notes: list[s
             f"{len(dc_results)} dc results but {len(cards)} .dc cards: dc axes keep ngspice's names (v-sweep ...)"
         )
         return
-    for result, card in zip(dc_results, reversed(cards)):  # ngspice ran the cards last to first
+    for result, card in zip(dc_results, cards if in_order else reversed(cards)):
         (old_name, inner), *_ = result.axes.items()
         axes = {card.sources[0]: inner}
         if len(card.sources) == 2:

@@ -16,7 +16,9 @@ ngspice 39 makes no measurement in batch mode with a raw file ("No .measure
 possible in batch mode (-b) with -r rawfile set!"): a netlist with ``.meas``
 cards is run a second time without ``-r`` (``ngspice -b -n netlist.cir``),
 whose printed output carries the measurements; the note ngspice printed about
-them in the first run is left out.
+them in the first run is left out. A netlist with netdae's control block
+(:func:`netdae.ngspice.deck.script_block`) runs once, without ``-r``: the
+block writes every analysis's plot to ``out.raw`` itself.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ import tempfile
 from ..errors import NetdaeError, NgspiceError
 from ..io.raw import read_raw
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
+from .deck import SCRIPT_MARK
 from .measures import measure_cards
 
 __all__ = ["run", "version", "executable"]
@@ -116,9 +119,11 @@ def run(netlist: str, *, timeout: float | None, ngbehavior: str | None = None) -
             with open(os.path.join(tmp, ".spiceinit"), "w", encoding="utf-8") as handle:
                 handle.write(spiceinit(ngbehavior))
             init = []
-        done = _run_killable([exe, "-b", *init, "-r", "out.raw", "netlist.cir"], tmp, env, timeout)
+        script = SCRIPT_MARK in netlist  # netdae's control block writes every plot to out.raw itself
+        raw_file = [] if script else ["-r", "out.raw"]
+        done = _run_killable([exe, "-b", *init, *raw_file, "netlist.cir"], tmp, env, timeout)
         stdout, stderr = done.stdout.splitlines(), done.stderr.splitlines()
-        if measure_cards(netlist):
+        if measure_cards(netlist) and not script:
             again = _run_killable([exe, "-b", *init, "netlist.cir"], tmp, env, timeout)
             stderr = [line for line in stderr if not _NO_MEASURE.search(line)]
             stdout += again.stdout.splitlines()

@@ -31,6 +31,13 @@ writes it back as
   location;
 - a final ``.end``.
 
+A block in ngspice's control language (variables, loops, ``alter``), which
+netdae runs with its own interpreter, is not handed over either: in its place
+:func:`script_block` writes a control block of netdae's own, every analysis
+of the circuit in netdae's order, each preceded by the ``alter``/``altermod``
+commands netdae ran before it, with numbers only (the dot analysis cards move
+into it).
+
 Every skipped block and dropped card is a note. The backends run this text
 in a private temporary directory with the user's ``.spiceinit`` disabled
 (:mod:`netdae.ngspice.batch`, :mod:`netdae.ngspice.shared`).
@@ -56,7 +63,7 @@ from ..netlist.lines import split_cards
 from ..netlist.reader import STRING_SOURCE, read_deck
 from ..netlist.syntax import ELEMENTS, IGNORED_DOT_CARDS
 
-__all__ = ["DOT_CARDS", "Origin", "self_contained"]
+__all__ = ["DOT_CARDS", "Origin", "self_contained", "script_block", "SCRIPT_MARK", "SCRIPT_RAW"]
 
 #: The dot cards handed to ngspice: those netdae's reader knows, none of which
 #: makes ngspice read a file or run a command (``.title`` becomes the title
@@ -216,9 +223,13 @@ def self_contained(
     notes = [f"{d.location}: {d.message}" if d.location else d.message for d in deck.notes]
     title = deck.title
     title_origin = origins[0]
+    script = None
     for card in deck.cards:
         word = _first_word(card.text)
         where = Origin(card.file, card.line, card.spans[-1][1], card.file == main, card)
+        if card.script is not None:  # a control-language block: its analyses and alter commands as netdae ran them
+            script = where
+            continue
         if word == ".title":
             title = card.raw[len(".title"):].strip()
             title_origin = where
@@ -257,7 +268,64 @@ def self_contained(
         line, count = after
         notes.append(f"line {line}: the {count} card(s) or block(s) after .end are not passed to ngspice "
                      "(netdae's reader ends the netlist at .end; ngspice 39 would read them)")
+    if script is not None:
+        kept = [(line, origin) for line, origin in zip(lines, origins)
+                if origin.card is None or _first_word(origin.card.text) not in ANALYSIS_CARDS]
+        lines, origins = [k[0] for k in kept], [k[1] for k in kept]
+        block = script_block(text, path, behavior)
+        lines += block
+        origins += [script] * len(block)
+        notes.append(f"{script}: the .control block's script is not passed to ngspice: netdae hands it every "
+                     "analysis in netdae's order, with the alter and altermod commands netdae ran before each, as a "
+                     "control block of its own")
     lines.append(".end")
     origins.append(Origin(main, len(text.splitlines()) + 1, len(text.splitlines()) + 1))
     return lines, origins, notes
+
+
+#: The analysis cards (written as commands in the control block of a netlist with a script).
+ANALYSIS_CARDS = frozenset(".op .dc .ac .tran .pz .tf .noise .sens".split())
+#: The first line of the control block netdae writes (:func:`script_block`), by which the backends know it.
+SCRIPT_MARK = "* netdae: analyses and alter commands"
+#: The raw file the batch backend's script appends each analysis to.
+SCRIPT_RAW = "out.raw"
+
+
+def script_block(text: str, path: str | None, behavior=None) -> list[str]:
+    """The control block netdae hands ngspice for a netlist with a control-language script.
+
+    netdae runs the script itself (:func:`netdae.netlist.control.run_scripts`); ngspice is
+    given its outcome, commands with numbers only: every analysis of the circuit in
+    netdae's order, each preceded by the ``alter``/``altermod`` commands that change the
+    circuit from the previous analysis's (``reset`` first when a change is undone), and
+    followed by ``write`` to :data:`SCRIPT_RAW` (``set appendwrite``: one file, every plot),
+    which the batch backend reads, and ``quit`` at the end (``ngspice -b`` would go on to run
+    the dot analyses, here none, and exit with status 1); the shared library's backend sends
+    the analyses and changes one by one instead (:mod:`netdae.ngspice.shared`).
+
+    Returns
+    -------
+    list of str
+        The output and option cards the script made (``.save``, ``.print``, ``.options``),
+        ``.control``, the commands, ``.endc``.
+    """
+    from ..netlist import parse
+    from ..netlist.control import change_key, elaborate_scripted, run_scripts
+
+    net = parse(text, path=path, behavior=behavior)
+    first, circuit = elaborate_scripted(net)
+    made, _ = run_scripts(net, first)
+    cards = [" ".join(c.raw.split()) for c in made if _first_word(c.text) not in ANALYSIS_CARDS]
+    block = [*cards, ".control", SCRIPT_MARK, "set appendwrite"]
+    before: dict = {}
+    for card, written in zip(circuit.analyses, circuit.netlist.analyses):
+        now = {change_key(c): c for c in card.alter}
+        if any(key not in now for key in before):
+            block.append("reset")
+            before = {}
+        block += [c.command for key, c in now.items() if before.get(key) != c]
+        before = now
+        block += [" ".join(written.card.raw.split())[1:], f"write {SCRIPT_RAW}"]
+    block += ["quit", ".endc"]  # (ngspice -b would run the netlist's, here no, dot analyses next and fail)
+    return block
 

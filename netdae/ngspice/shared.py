@@ -64,6 +64,7 @@ from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
 from .batch import spiceinit
+from .deck import SCRIPT_MARK
 from .translate import classify_output
 
 __all__ = ["run", "version", "library_path"]
@@ -156,22 +157,17 @@ class _Session:
         lib.lines.clear()
         lib.finished.clear()
         try:
-            self._load(netlist)
+            circuit, commands = _split_script(netlist)
+            self._load(circuit)
             stderr = [text for stream, text in lib.lines if stream == "stderr"]
             errors, _ = classify_output(stderr, [], strict=False)
             if not errors:
-                self.command("bg_run")
-                try:
-                    finished = lib.finished.wait(timeout)  # None: no limit
-                except KeyboardInterrupt:  # Ctrl-C: ngspice's thread stops before its circuit is removed below
-                    with contextlib.suppress(BackendUnavailable):  # (or the process exits: a crash, status -11)
-                        self._halt()
-                    raise
-                if not finished:
-                    self._halt()
-                    raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
-                if lib.exit_status is not None:
-                    raise BackendUnavailable(f"ngspice's shared library exited with status {lib.exit_status}")
+                deadline = None if timeout is None else time.monotonic() + timeout
+                for command in commands or ["run"]:
+                    if command.split()[0].lower() in _SCRIPT_ANALYSES:
+                        self._background(command, deadline, timeout)
+                    else:
+                        self.command(command)
             return BackendOutput(
                 results=[] if errors else self._collect(netlist),
                 stdout=[text for stream, text in lib.lines if stream != "stderr"],
@@ -181,6 +177,23 @@ class _Session:
         finally:
             if lib.exit_status is None:
                 self._clean()
+
+    def _background(self, command: str, deadline: float | None, timeout: float | None) -> None:
+        """Run ``command`` in ngspice's background thread (``bg_...``) and wait for it, up to ``deadline``."""
+        lib = self.library
+        lib.finished.clear()
+        self.command("bg_" + command)
+        try:
+            finished = lib.finished.wait(None if deadline is None else max(deadline - time.monotonic(), 0.0))
+        except KeyboardInterrupt:  # Ctrl-C: ngspice's thread stops before its circuit is removed below
+            with contextlib.suppress(BackendUnavailable):  # (or the process exits: a crash, status -11)
+                self._halt()
+            raise
+        if not finished:
+            self._halt()
+            raise NgspiceError(f"ngspice did not finish within {timeout:g} s (it was halted)")
+        if lib.exit_status is not None:
+            raise BackendUnavailable(f"ngspice's shared library exited with status {lib.exit_status}")
 
     def _load(self, netlist: str) -> None:
         ffi = self.ffi
@@ -268,6 +281,29 @@ class _Session:
         if length == 0:
             return vtype, np.zeros(0)
         return vtype, np.frombuffer(self.ffi.buffer(info.v_realdata, length * 8), dtype=np.float64).copy()
+
+
+#: The commands run in ngspice's background thread: ``run`` (a netlist's dot analyses) and the analyses of
+#: netdae's control block.
+_SCRIPT_ANALYSES = frozenset({"run", "op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
+
+
+def _split_script(netlist: str) -> tuple[str, list[str]]:
+    """The netlist without netdae's control block (:func:`netdae.ngspice.deck.script_block`), and the
+    block's commands to send one by one (its ``write``, ``set appendwrite`` and ``quit`` left out: the plots are
+    read from memory); no commands for a netlist without one.
+
+    >>> _split_script("t\\nR1 1 0 1\\n.control\\n" + SCRIPT_MARK + "\\nset appendwrite\\nop\\nwrite out.raw\\n"
+    ...               "alter r1 = 2.0\\nop\\nwrite out.raw\\nquit\\n.endc\\n.end")
+    ('t\\nR1 1 0 1\\n.end', ['op', 'alter r1 = 2.0', 'op'])
+    """
+    lines = netlist.split("\n")
+    if SCRIPT_MARK not in lines:
+        return netlist, []
+    start = lines.index(SCRIPT_MARK) - 1
+    end = lines.index(".endc", start)
+    commands = [c for c in lines[start + 2: end] if c not in ("set appendwrite", "quit") and not c.startswith("write ")]
+    return "\n".join(lines[:start] + lines[end + 1:]), commands
 
 
 @contextlib.contextmanager

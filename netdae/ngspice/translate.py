@@ -144,6 +144,17 @@ def _cards(lines: list[str]) -> list[_Card]:
     return cards
 
 
+def _script_cards(lines: list[str]) -> list[_Card]:
+    """The commands of netdae's own control block (:func:`netdae.ngspice.deck.script_block`), one line each."""
+    from .deck import SCRIPT_MARK
+
+    if SCRIPT_MARK not in lines:
+        return []
+    start = lines.index(SCRIPT_MARK)
+    end = lines.index(".endc", start)
+    return [_Card(index, index, lines[index].strip()) for index in range(start + 1, end)]
+
+
 def _apply(lines: list[str], edits: dict[int, tuple[int, str | None]]) -> str:
     """Replace line ranges ``first..last`` by one line (or nothing)."""
     out: list[str] = []
@@ -432,8 +443,8 @@ def override_options(text: str, **options: float | str | bool) -> tuple[str, lis
     edits: dict[int, tuple[int, str | None]] = {}
     notes: list[str] = []
     if maxstep is not None:
-        for card in cards:
-            if card.keyword == ".tran":
+        for card in cards + _script_cards(lines):
+            if card.keyword in (".tran", "tran"):
                 edits[card.first] = (card.last, _with_maxstep(card, maxstep))
                 notes.append(f"{_where(card)}: .tran maximum step set to {maxstep!r}: {edits[card.first][1]}")
         if not edits:
@@ -510,7 +521,7 @@ class DcSweepCard:
 
 
 def dc_sweeps(text: str) -> list[DcSweepCard]:
-    """The ``.dc`` cards of a netlist, in order.
+    """The ``.dc`` cards of a netlist, in order (with the ``dc`` commands of netdae's control block after them).
 
     Examples
     --------
@@ -518,8 +529,9 @@ def dc_sweeps(text: str) -> list[DcSweepCard]:
     ('v1', 'i2')
     """
     found = []
-    for card in _circuit_cards(_cards(text.splitlines())):
-        if card.keyword != ".dc":
+    lines = text.splitlines()
+    for card in _circuit_cards(_cards(lines)) + _script_cards(lines):
+        if card.keyword not in (".dc", "dc"):
             continue
         tokens = card.tokens[1:]
         if tokens and tokens[0].lower() in ("lin", "dec", "oct"):

@@ -215,6 +215,11 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         circuit = load(circuit)
     if circuit.netlist is None:
         raise NetdaeError("sweep: the circuit must come from a netlist (netdae.load), not be built by hand")
+    altering = next((a for a in circuit.analyses if a.alter), None)
+    if altering is not None:  # a row's values and the script's changes would both be element values
+        raise NetdaeError(f"sweep: {altering.alter[0].location}: the netlist's .control script alters the circuit "
+                          f"('{altering.alter[0].command}'); netdae sweeps netlists without alter and altermod "
+                          "(run it with 'netdae run', or step the values with .step)")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise NetdaeError(f"sweep: seed must be a non-negative integer, got {seed!r}")
     if measures:
