@@ -414,6 +414,12 @@ Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | Tf
     SensAnalysis
 
 
+#: The smallest absolute tolerance (``abstol``, ``vntol``, ``chgtol``) netdae takes: the error weight of an
+#: unknown at zero is ``1 / atol``, and below about 1e-25 (a branch current starting from 0 A) no step passes
+#: the error test; 1e-20 A is 62 electrons a second. ngspice takes smaller values (it tests only charges).
+TOLERANCE_MIN = 1e-20
+
+
 @dataclass(slots=True)
 class Options:
     """Simulator options (``.options``) with SPICE defaults.

@@ -380,6 +380,25 @@ def test_api_arguments_of_the_wrong_type(call, message):
         call()
 
 
+def test_an_absolute_tolerance_below_what_the_error_test_meets_is_refused(tmp_path):
+    """.options abstol=1e-30 (ngspice takes it) failed 'error test failed 10 times at t=0' blaming the solution's
+    smoothness, and abstol=1e-200 made a singular Newton matrix (compiled) or a ZeroDivisionError reported as a
+    bug (Python engine): the weight of a current at 0 A is 1/abstol. Refused below 1e-20 with the reason, at the
+    value; 1e-20 itself runs (the step from 0 A passes down to about 1e-25)."""
+    rc = "t\nV1 a 0 pulse(0 1 0 1n 1n 1u 2u)\nR1 a b 1k\nC1 b 0 1n\n{opt}.tran 10n 10u\n.end\n"
+    with pytest.raises(NetlistError, match=r"abstol=1e-30 is out of range .*from 1e-20") as err:
+        netdae.simulate(rc.format(opt=".options abstol=1e-30\n"))
+    assert (err.value.location.line, err.value.location.column) == (5, 17)
+    with pytest.raises(ValueError, match=r"abstol=1e-200: expected a current tolerance in amperes from 1e-20"):
+        netdae.simulate(rc.format(opt=""), abstol=1e-200)
+    with pytest.raises(ValueError, match=r"vntol=1e-21: expected a voltage tolerance"):
+        netdae.simulate(rc.format(opt=""), vntol=1e-21)
+    fine = netdae.simulate(rc.format(opt=".options abstol=1e-20\n"), save=["v(b)"])
+    ref = netdae.simulate(rc.format(opt=""), save=["v(b)"], reltol=1e-6)
+    assert fine.ok
+    assert np.max(np.abs(np.interp(ref.t, fine.t, fine["v(b)"]) - ref["v(b)"])) < 1e-2
+
+
 def test_one_string_saved_is_one_signal():
     """run(save="v(out)") saves v(out), as netdae.sweep(save="v(out)") does (it was a TypeError in run only)."""
     (res,) = netdae.run(API_RC, save="v(out)")

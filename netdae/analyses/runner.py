@@ -19,7 +19,7 @@ import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from ..circuit import STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, \
+from ..circuit import STAMP_MAGNITUDES, TOLERANCE_MIN, AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, \
     SensAnalysis, TfAnalysis, TranAnalysis
 from ..errors import NetdaeError, NetlistError
 from ..kinds import Kind
@@ -36,6 +36,10 @@ ABSOLUTE_ZERO = -273.15
 
 def _positive(v: float) -> bool:
     return math.isfinite(v) and 0.0 < v <= STAMP_MAGNITUDES[1]  # beyond, residuals and weights overflow
+
+
+def _tolerance(v: float) -> bool:
+    return math.isfinite(v) and TOLERANCE_MIN <= v <= STAMP_MAGNITUDES[1]  # below, no step from zero passes
 
 
 def _fraction(v: float) -> bool:
@@ -65,9 +69,10 @@ BSIM_OPTIONS = frozenset({"scale", "wnflag"})
 #: The options netdae uses, with their valid values: name -> (test, what is expected).
 OPTION_RANGES: dict[str, tuple[Callable[[float], bool], str]] = {
     "reltol": (_fraction, "a relative tolerance between 0 and 1 (exclusive), e.g. 1e-3"),
-    "abstol": (_positive, "a positive current tolerance in amperes up to 1e150, e.g. 1e-12"),
-    "vntol": (_positive, "a positive voltage tolerance in volts up to 1e150, e.g. 1e-6"),
-    "chgtol": (_positive, "a positive charge tolerance in coulombs up to 1e150, e.g. 1e-14"),
+    "abstol": (_tolerance, f"a current tolerance in amperes from {TOLERANCE_MIN:g} (netdae's error test meets no "
+                           "smaller one; ngspice, which tests only charges, takes it) up to 1e150, e.g. 1e-12"),
+    "vntol": (_tolerance, f"a voltage tolerance in volts from {TOLERANCE_MIN:g} up to 1e150, e.g. 1e-6"),
+    "chgtol": (_tolerance, f"a charge tolerance in coulombs from {TOLERANCE_MIN:g} up to 1e150, e.g. 1e-14"),
     "gmin": (_positive, "a positive conductance in siemens up to 1e150, e.g. 1e-12"),
     "temp": (_temperature, f"a temperature in degC above absolute zero ({ABSOLUTE_ZERO})"),
     "tnom": (_temperature, f"a temperature in degC above absolute zero ({ABSOLUTE_ZERO})"),

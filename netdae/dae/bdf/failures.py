@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ...circuit import TOLERANCE_MIN
 from ..newton import INFO_EVALUATION, INFO_SINGULAR
 
 __all__ = ["Failure", "IntegrationFailure", "worst_unknown", "nonfinite_unknown", "newton_hint", "error_hint",
@@ -55,10 +56,20 @@ def newton_hint(reason) -> str:
             "an inconsistent initial value, or too few newton_maxiter")
 
 
-def error_hint() -> str:
-    """The hint for repeated error-test failures."""
-    return ("the solution is not smooth here: an input discontinuity without a breakpoint, "
+def error_hint(worst_atol: float | None = None) -> str:
+    """The hint for repeated error-test failures (``worst_atol``: the failing unknown's absolute tolerance;
+    one below :data:`netdae.circuit.TOLERANCE_MIN`, given to the integrator directly, is named).
+
+    >>> error_hint(1e-30).startswith("the absolute tolerance of the worst unknown, 1e-30")
+    True
+    """
+    hint = ("the solution is not smooth here: an input discontinuity without a breakpoint, "
             "an inconsistent initial value, or an index-2 unknown not marked in `index`")
+    if worst_atol is not None and worst_atol < TOLERANCE_MIN:
+        return (f"the absolute tolerance of the worst unknown, {worst_atol:.3g}, is below what its values can be "
+                "computed to where they are near zero: raise .options abstol (currents) or vntol (voltages); "
+                "ngspice's defaults are 1e-12 A and 1e-6 V; or " + hint)
+    return hint
 
 
 @dataclass(frozen=True, slots=True)

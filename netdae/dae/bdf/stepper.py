@@ -726,10 +726,16 @@ class BDF:
     def _error_failure(self, t, h, nef, info):
         """Step-size factor (and new order) after an error-test failure, or None after the last one."""
         if nef >= MAX_ERROR_FAILURES:
-            self._fail(t, h, f"error test failed {nef} times", info.get("worst"), error_hint())
+            self._fail(t, h, f"error test failed {nef} times", info.get("worst"), error_hint(self._worst_atol(info)))
             return None
         self._hist.k, eta = ctl.error_failure(nef, self._hist.k, info["knew"], info["err_k"], info["err_km1"])
         return eta
+
+    def _worst_atol(self, info) -> float | None:
+        """The absolute tolerance of the unknown a failure names (None: it names none)."""
+        names = list(self.system.names)
+        worst = info.get("worst")
+        return float(self._atol[names.index(worst)]) if worst in names else None
 
     def _reduced_step(self, t, h, eta, kind, info):
         """``h * eta`` bounded by min_step and roundoff (:func:`controller.reduced_step`), or None after a failure."""
@@ -747,7 +753,7 @@ class BDF:
             what = f"step size below the roundoff of t ({failures})"
         if (kind == "error" or info.get("info") != NewtonInfo.EVALUATION) and self._impasse(t):
             return None  # continued from the jump
-        hint = newton_hint(info.get("info")) if kind == "newton" else error_hint()
+        hint = newton_hint(info.get("info")) if kind == "newton" else error_hint(self._worst_atol(info))
         self._fail(t, h, what, info.get("worst"), hint)
         return None
 

@@ -431,7 +431,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 I[L.I_EVALUATIONS] += evals
                 if x_right is None:
                     if I[L.I_IMPASSE] != 0:  # no jump found either: the Newton failure stands
-                        failure = _failure(system, F, I)
+                        failure = _failure(system, F, I, atol)
                     else:
                         failure = IntegrationFailure(float(F[L.F_T]), eps, what, None, BDF._newton_hint(None))
                     I[L.I_STATUS] = L.FAILED
@@ -517,7 +517,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         code = STATUS_OK
     elif status == L.FAILED:
         if failure is None:
-            failure = _failure(system, F, I)
+            failure = _failure(system, F, I, atol)
         message = failure.message
         code = STATUS_FAILED
     elif out_of_memory is not None:
@@ -781,10 +781,13 @@ def _event_elements(system) -> list[str]:
 MAX_RETURNS_WITHOUT_STEP = 50
 
 
-def _failure(system, F, I) -> IntegrationFailure:
-    """The failure record (what, t, h, worst, hint) from the engine's codes."""
+def _failure(system, F, I, atol) -> IntegrationFailure:
+    """The failure record (what, t, h, worst, hint) from the engine's codes (``atol``: the unknowns'
+    absolute tolerances, for the hint of an error-test failure)."""
     from ..bdf import BDF
 
+    wi = int(I[L.I_FAIL_WORST])
+    worst_atol = float(atol[wi]) if 0 <= wi < atol.size else None
     code = int(I[L.I_FAIL_CODE])
     outer, rest = divmod(code, 256) if code >= 256 else (0, code)
     kind, reason = divmod(rest, 16)
@@ -794,10 +797,10 @@ def _failure(system, F, I) -> IntegrationFailure:
     if outer == L.FAIL_MIN_STEP:
         what = (f"step size {h:.3g} at min_step {F[L.F_MIN_STEP]:.3g} and the "
                 + ("Newton iteration fails" if kind == 1 else "error test fails"))
-        hint = BDF._newton_hint(info) if kind == 1 else BDF._error_hint()
+        hint = BDF._newton_hint(info) if kind == 1 else BDF._error_hint(worst_atol)
     elif outer == L.FAIL_ROUNDOFF:
         what = f"step size below the roundoff of t ({what_kind})"
-        hint = BDF._newton_hint(info) if kind == 1 else BDF._error_hint()
+        hint = BDF._newton_hint(info) if kind == 1 else BDF._error_hint(worst_atol)
     elif outer == L.FAIL_CHATTER:
         from .events import chatter_message
 
@@ -827,7 +830,7 @@ def _failure(system, F, I) -> IntegrationFailure:
         hint = BDF._newton_hint(info)
     else:
         what = f"error test failed {L.MAX_ERROR_FAILURES} times"
-        hint = BDF._error_hint()
+        hint = BDF._error_hint(worst_atol)
     wi = int(I[L.I_FAIL_WORST])
     worst = system.names[wi] if 0 <= wi < system.n else None
     return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, worst, hint)
