@@ -42,6 +42,11 @@ def check_arguments(t0: float, t_bound: float, x0, n: int, *, rtol: float, maxor
     return x0
 
 
+#: The smallest absolute tolerance of any unknown (generic DAEs; circuits refuse below
+#: :data:`netdae.circuit.TOLERANCE_MIN` first): squared weights of smaller ones overflow the RMS norm.
+ATOL_MIN = 1e-100
+
+
 def absolute_tolerances(kinds, n: int, atol, vntol: float, abstol: float) -> tuple[np.ndarray, Any]:
     """Per-unknown absolute tolerances and their label for reports.
 
@@ -65,6 +70,9 @@ def absolute_tolerances(kinds, n: int, atol, vntol: float, abstol: float) -> tup
         raise ValueError("atol must be a scalar or a 1-D array")
     if np.any(~np.isfinite(vec)) or np.any(vec <= 0.0):
         raise ValueError("absolute tolerances must be positive and finite")
+    if np.any(vec < ATOL_MIN):
+        raise ValueError(f"absolute tolerances must be at least {ATOL_MIN:g}, got {float(vec.min()):g}: the error "
+                         "weights 1/atol of smaller ones overflow the norms (inf), and no first step is found")
     return vec, label
 
 
