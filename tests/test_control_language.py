@@ -223,6 +223,22 @@ tran 5u 2m
     assert all(a.passed for a in result.analyses), result
 
 
+@pytest.mark.ngspice
+@pytest.mark.parametrize("backend", ["shared", "subprocess"])
+def test_commands_naming_elements_in_upper_case_reach_ngspice(tmp_path, backend):
+    """ngspice lowercases a deck's control lines as it reads them, not the commands given to its library: the
+    shared backend sent 'dc VIN 0 10 5' as written and ngspice found no source VIN (ngspice's own example
+    new-check-3.sp, which agreed before the script ran on netdae's interpreter)."""
+    from netdae.comparison import compare
+
+    path = tmp_path / "c.cir"
+    path.write_text("upper case\nVIN 1 0 DC=0\nR1 1 2 1k\nR2 2 0 3k\n.control\nlet n = 2\n"
+                    "dc VIN 0 10 $&n\nalter R2 = 1k\ndc VIN 0 10 5\n.endc\n.end\n")
+    result = compare(str(path), backend=backend)
+    assert [(a.analysis, a.occurrence) for a in result.analyses] == [("dc", 0), ("dc", 1)]
+    assert all(a.passed for a in result.analyses), result
+
+
 def test_unbounded_loops_are_refused_at_the_loop():
     with pytest.raises(NetlistError, match=f"more than {MAX_ITERATIONS:,} loop iterations") as info:
         load("t\nV1 a 0 1\nR1 a 0 1k\n.control\nlet i = 0\nwhile i < 1\n  op\nend\n.endc\n.end\n")

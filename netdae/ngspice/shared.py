@@ -164,7 +164,10 @@ class _Session:
             if not errors:
                 deadline = None if timeout is None else time.monotonic() + timeout
                 for command in commands or ["run"]:
-                    if command.split()[0].lower() in _SCRIPT_ANALYSES:
+                    # ngspice lowercases a deck's control lines as it reads them (its names are lower case),
+                    # not the commands given to the library: 'dc VIN 0 10 5' found no source VIN
+                    command = command.lower()
+                    if command.split()[0] in _SCRIPT_ANALYSES:
                         self._background(command, deadline, timeout)
                     else:
                         self.command(command)
