@@ -239,6 +239,42 @@ def test_commands_naming_elements_in_upper_case_reach_ngspice(tmp_path, backend)
     assert all(a.passed for a in result.analyses), result
 
 
+@pytest.mark.ngspice
+def test_meas_commands_are_read_as_meas_cards(tmp_path):
+    """'meas tran vmax max v(out)' after 'run' (ngspice's common idiom) was skipped as control language; it is the
+    .meas card (one analysis of its kind: ngspice's last plot is it), compared with ngspice's control-block meas."""
+    from netdae.comparison import compare
+
+    path = tmp_path / "m.cir"
+    path.write_text("meas in control\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 2m\n.control\nrun\n"
+                    "meas tran vmax max v(out)\nmeasure tran tcross when v(out)=0.1 rise=1\n.endc\n.end\n")
+    circuit = netdae.load(str(path))
+    assert [c.name for c in circuit.measures] == ["vmax", "tcross"]
+    result = compare(str(path), tight=True)
+    values = {m.name: m for m in result.measures}
+    assert set(values) == {"vmax", "tcross"}
+    for m in values.values():
+        assert m.relative is not None and m.relative < 1e-4, m  # the difference is the simulators' at --tight
+
+
+def test_meas_commands_netdae_cannot_measure_are_skipped_not_refused():
+    """A control block's meas of a vector 'let' made, of an unknown function, or of an analysis the netlist does
+    not run is skipped with a located note or warning (ngspice reports such a command failed and goes on); the
+    netlist runs and measures the rest."""
+    text = ("t\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 2m\n.control\nrun\n"
+            "let gain = v(out)/v(in)\nmeas tran g1 max gain\nmeas tran bogus frobnicate v(out)\n"
+            "meas ac q find vdb(out) at=1k\nmeas tran vmax max v(out)\n.endc\n.end\n")
+    circuit = netdae.load(text)
+    assert [m.name for m in circuit.measures] == ["vmax"]
+    said = {str(d.location): d.message for d in circuit.diagnostics}
+    assert "expected a signal after MAX, found 'gain'" in said["<string>:9:1"]
+    assert "unknown measurement function 'frobnicate'" in said["<string>:10:1"]
+    assert "skipped (a .control block's meas command): no .ac card" in said["<string>:11:1"]
+    (res,) = netdae.run(circuit)
+    (vmax,) = res.measures
+    assert vmax.name == "vmax" and vmax.value == pytest.approx(np.max(res["v(out)"]), rel=1e-2)
+
+
 def test_unbounded_loops_are_refused_at_the_loop():
     with pytest.raises(NetlistError, match=f"more than {MAX_ITERATIONS:,} loop iterations") as info:
         load("t\nV1 a 0 1\nR1 a 0 1k\n.control\nlet i = 0\nwhile i < 1\n  op\nend\n.endc\n.end\n")

@@ -18,6 +18,7 @@ command                                read as
 ``print``, ``plot`` (signals only)     ``.print``, ``.plot``
 ``wrdata file sig...``,                ``.save sig...`` (the file is not
 ``write file sig...``                  written: netdae writes its own output)
+``meas(ure) ...``                      ``.meas ...``
 ``option(s) ...``                      ``.options ...``
 ``set name=value`` (a simulator        ``.options name=value``
 option netdae reads)
@@ -58,6 +59,7 @@ from dataclasses import dataclass
 
 from ..circuit import Alteration, Diagnostic
 from ..errors import NetlistError, SourceLocation
+from .measure import parse_measure
 from ..kinds import KINDS, STEPPABLE_KINDS
 from .expr import evaluate, parse_expression
 from .lines import Card, fold_case
@@ -185,6 +187,19 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
                 cards.append(_card(text, file, line, col))
         elif cmd in _OUTPUT_COMMANDS:
             _output(cmd, rest, text, file, line, col, cards, skip)
+        elif cmd in ("meas", "measure"):
+            # ngspice measures the last run's plot; netdae's .meas measures its analysis of the kind named. One
+            # netdae cannot read as a .meas card (a vector 'let' made, a form of the control language's own) is
+            # skipped, as the rest of the control language is
+            card = _card("meas " + rest, file, line, col + len(text) - len(rest) - 5)
+            card.from_control = True
+            try:
+                parse_measure(card)
+            except NetlistError as err:
+                skip(line, col, text, f"netdae reads meas as a .meas card, and this one is not one: "
+                     f"{err.message.removeprefix('.meas: ')}")
+            else:
+                cards.append(card)
         elif cmd == "set":
             assignment = re.fullmatch(r"([A-Za-z_]\w*)\s*=\s*(\S+)", rest.strip())
             name = fold_case(assignment.group(1)) if assignment else fold_case(rest.split("=")[0].strip())
@@ -200,7 +215,7 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
 #: Commands read as output requests and options.
 _OUTPUT_COMMANDS = frozenset({"save", "print", "plot", "wrdata", "write", "pre_osdi", "option", "options", "opt"})
 _NOT_READ = ("netdae does not run ngspice's control language (it reads op, tran, ac, dc, pz, tf, noise, sens, save, "
-             "print, plot, wrdata, write, option and set of options)")
+             "print, plot, wrdata, write, meas, option and set of options)")
 
 
 def _output(cmd: str, rest: str, text: str, file: str, line: int, col: int, cards: list[Card], skip) -> None:

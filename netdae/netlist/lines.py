@@ -142,7 +142,7 @@ class Card:
         :func:`netdae.netlist.control.run_scripts` once the circuit's ``.csparam`` values are known.
     """
 
-    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat", "alter", "script")
+    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat", "alter", "script", "from_control")
 
     def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
         self.raw = raw
@@ -156,6 +156,10 @@ class Card:
         self.compat = False
         self.alter: tuple = ()
         self.script: list[tuple[int, int, str]] | None = None
+        #: A ``.meas`` card made of a ``.control`` block's ``meas`` command: one netdae cannot measure (an
+        #: analysis the netlist does not run, a node it does not have) is skipped with a warning, as ngspice
+        #: goes on past a failed command, not refused.
+        self.from_control = False
 
     def warn(self, offset: int, message: str) -> None:
         """Record a located warning about this card (its name prefixes ``message``)."""

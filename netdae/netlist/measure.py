@@ -440,7 +440,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
                          edge=c["edge"], count=c["count"], td=number(c["td"], card, "TD") or 0.0,
                          at=number(c["at"], card, "AT"))
 
-    for m in cards:
+    def one(m):
         card = m.card
         if m.name in seen:
             # ngspice 39 measures and prints each card of a name; later PARAM= read the last before them
@@ -494,6 +494,17 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
             at=number(m.at, card, "AT"), start=start, stop=stop, expression=expression, params=params,
             location=card.location(0), text=card.raw,
         )
+        return spec
+
+    for m in cards:
+        try:
+            spec = one(m)
+        except NetlistError as err:
+            if not m.card.from_control:
+                raise
+            # a .control block's meas command: ngspice reports it failed and goes on
+            m.card.warn(0, f"skipped (a .control block's meas command): {err.message.removeprefix('.meas: ')}")
+            continue
         seen[m.name] = m
         out.append(spec)
     return out
