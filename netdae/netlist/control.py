@@ -59,7 +59,6 @@ from dataclasses import dataclass
 
 from ..circuit import Alteration, Diagnostic
 from ..errors import NetlistError, SourceLocation
-from .measure import parse_measure
 from ..kinds import KINDS, STEPPABLE_KINDS
 from .expr import evaluate, parse_expression
 from .lines import Card, fold_case
@@ -188,18 +187,11 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
         elif cmd in _OUTPUT_COMMANDS:
             _output(cmd, rest, text, file, line, col, cards, skip)
         elif cmd in ("meas", "measure"):
-            # ngspice measures the last run's plot; netdae's .meas measures its analysis of the kind named. One
-            # netdae cannot read as a .meas card (a vector 'let' made, a form of the control language's own) is
-            # skipped, as the rest of the control language is
-            card = _card("meas " + rest, file, line, col + len(text) - len(rest) - 5)
+            # ngspice measures the last run's plot; netdae's .meas measures its analysis of the kind named (one
+            # it cannot read or measure is skipped: Card.from_control)
+            card = _card(text, file, line, col)
             card.from_control = True
-            try:
-                parse_measure(card)
-            except NetlistError as err:
-                skip(line, col, text, f"netdae reads meas as a .meas card, and this one is not one: "
-                     f"{err.message.removeprefix('.meas: ')}")
-            else:
-                cards.append(card)
+            cards.append(card)
         elif cmd == "set":
             assignment = re.fullmatch(r"([A-Za-z_]\w*)\s*=\s*(\S+)", rest.strip())
             name = fold_case(assignment.group(1)) if assignment else fold_case(rest.split("=")[0].strip())

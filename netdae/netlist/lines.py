@@ -156,9 +156,9 @@ class Card:
         self.compat = False
         self.alter: tuple = ()
         self.script: list[tuple[int, int, str]] | None = None
-        #: A ``.meas`` card made of a ``.control`` block's ``meas`` command: one netdae cannot measure (an
-        #: analysis the netlist does not run, a node it does not have) is skipped with a warning, as ngspice
-        #: goes on past a failed command, not refused.
+        #: A ``.meas`` card made of a ``.control`` block's ``meas`` command: one netdae cannot read (the parser:
+        #: a located note) or measure (elaboration: an analysis the netlist does not run, a node it does not
+        #: have; a located warning) is skipped, as ngspice goes on past a failed command, not refused.
         self.from_control = False
 
     def warn(self, offset: int, message: str) -> None:

@@ -807,7 +807,18 @@ def _save_entries(card: Card, toks: list[Token], net: Netlist) -> None:
 
 
 def _meas(card: Card, toks: list[Token], stack, net: Netlist) -> None:
-    net.measures.append(parse_measure(card))
+    try:
+        measure = parse_measure(card)
+    except NetlistError as err:
+        if not card.from_control:
+            raise
+        # a .control block's meas command netdae cannot read as a .meas card (a vector 'let' made, a form of the
+        # control language's own) is skipped, as the rest of the control language is
+        net.diagnostics.append(Diagnostic(
+            "note", f".control: '{card.raw[1:]}' skipped: netdae reads meas as a .meas card, and this one is not "
+            f"one: {err.message.removeprefix('.meas: ')}", card.location(0)))
+        return
+    net.measures.append(measure)
 
 
 def _step(card: Card, toks: list[Token], stack, net: Netlist) -> None:
