@@ -831,6 +831,5 @@ def _failure(system, F, I, atol) -> IntegrationFailure:
     else:
         what = f"error test failed {L.MAX_ERROR_FAILURES} times"
         hint = BDF._error_hint(worst_atol)
-    wi = int(I[L.I_FAIL_WORST])
     worst = system.names[wi] if 0 <= wi < system.n else None
     return IntegrationFailure(float(F[L.F_FAIL_T]), h, what, worst, hint)
