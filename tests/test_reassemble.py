@@ -43,6 +43,11 @@ def _same_system(a, b) -> None:
         np.testing.assert_array_equal(ma.toarray(), mb.toarray())
     np.testing.assert_array_equal(a.pattern.rows, b.pattern.rows)
     np.testing.assert_array_equal(a.pattern.cols, b.pattern.cols)
+    for name in ("_dq_lin", "_dphi_lin", "_E_mv", "_H_mv", "_b_full"):  # what evaluate and the engine read
+        ma, mb = getattr(a, name), getattr(b, name)
+        ma, mb = (m.toarray() if hasattr(m, "toarray") else m for m in (ma, mb))
+        np.testing.assert_array_equal(ma, mb)
+        assert np.signbit(ma).tolist() == np.signbit(mb).tolist()
     x = np.linspace(-1.0, 1.0, a.n)
     ea, eb = a.evaluate(x, 1e-3, jacobian=True, state=None), b.evaluate(x, 1e-3, jacobian=True, state=None)
     for field in ("q", "phi", "dq", "dphi"):
@@ -55,6 +60,7 @@ def test_other_linear_values_give_the_system_assemble_gives():
     other = netdae.load(BRIDGE, params={"rl": 820.0, "cf": 330e-6})
     system = reassemble(template, other)
     assert system is not None and system.families == template.system.families
+    assert system.placement() is template.system.placement()  # filled on the template's structure
     _same_system(system, assemble(other, **ARGS))
     assert not np.array_equal(system.E.toarray(), template.system.E.toarray())
 

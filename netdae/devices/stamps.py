@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Triplets"]
+__all__ = ["Triplets", "CscSum"]
 
 
 class Triplets:
@@ -83,15 +83,59 @@ class Triplets:
 
     def matrix(self, n: int, m: int | None = None) -> sp.csc_matrix:
         """The summed matrix, shape (n, m) (m defaults to n)."""
-        m = n if m is None else m
+        return self.summation(n, m).matrix(self.values())
+
+    def summation(self, n: int, m: int | None = None) -> "CscSum":
+        """How these coordinates sum into an ``n x m`` CSC matrix (m defaults to n): kept, it sums the
+        values of any Triplets with the same coordinates (:class:`CscSum`).
+
+        Raises
+        ------
+        ValueError
+            An entry outside the matrix.
+        """
         rows, cols = self.coordinates()
-        if rows.size == 0:
-            return sp.csc_matrix((n, m))
-        if rows.max() >= n or cols.max() >= m:
+        return CscSum(rows, cols, n, n if m is None else m)
+
+
+class CscSum:
+    """How entries at fixed coordinates sum into a CSC matrix: made once, it sums any values given there.
+
+    Parameters
+    ----------
+    rows, cols : ndarray of int, shape (k,)
+        The entries' coordinates (duplicates allowed; they add up).
+    n, m : int
+        The matrix's shape.
+
+    Raises
+    ------
+    ValueError
+        An entry outside the matrix.
+
+    Notes
+    -----
+    The matrix keeps every coordinate's entry, also where the values sum to zero, so its
+    structure depends on the coordinates alone: matrices summed from the same coordinates
+    share it (a sweep's rows, :func:`netdae.mna.assemble.reassemble`). Cost: one sort of the
+    ``k`` keys here, then a ``bincount`` per :meth:`matrix`.
+    """
+
+    def __init__(self, rows: np.ndarray, cols: np.ndarray, n: int, m: int) -> None:
+        self.shape = (int(n), int(m))
+        self.size = int(rows.size)
+        if rows.size and (rows.max() >= n or cols.max() >= m):
             raise ValueError(f"an entry lies outside the {n} x {m} matrix")
         # duplicates summed in one sort (what scipy's COO -> CSC does, without its checks and copies)
-        keys, where = np.unique(cols * n + rows, return_inverse=True)
-        data = np.bincount(where, weights=self.values(), minlength=keys.size)
-        indptr = np.zeros(m + 1, dtype=np.int32)
-        np.cumsum(np.bincount(keys // n, minlength=m), out=indptr[1:])
-        return sp.csc_matrix((data, (keys % n).astype(np.int32), indptr), shape=(n, m))
+        keys, self._where = np.unique(cols * n + rows, return_inverse=True)
+        self._indices = (keys % max(n, 1)).astype(np.int32)
+        self._indptr = np.zeros(m + 1, dtype=np.int32)
+        np.cumsum(np.bincount(keys // max(n, 1), minlength=m), out=self._indptr[1:])
+        self._stored = int(keys.size)
+
+    def matrix(self, values: np.ndarray) -> sp.csc_matrix:
+        """The matrix of ``values`` (shape (k,), in the coordinates' order), duplicates summed."""
+        if self.size == 0:
+            return sp.csc_matrix(self.shape)
+        data = np.bincount(self._where, weights=values, minlength=self._stored)
+        return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=self.shape)

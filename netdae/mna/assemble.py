@@ -130,22 +130,26 @@ def assemble(circuit: Circuit, *, mode: str = MODE_DC, tstep: float | None = Non
 
 
 def _system(layout: Layout, stamps, families: list, pattern: SparsePattern, mode: str, tstep: float | None,
-            tstop: float | None) -> MnaSystem:
-    """The system of a circuit's linear stamps and bound families on its pattern."""
+            tstop: float | None, sums: tuple | None = None, like: MnaSystem | None = None) -> MnaSystem:
+    """The system of a circuit's linear stamps and bound families on its pattern.
+
+    ``sums``: the :class:`~netdae.devices.stamps.CscSum` of ``E``, ``H``, ``B`` and ``H_ac`` when the
+    stamps' coordinates are known (a template's); ``like``: a system of the same structure
+    (:class:`MnaSystem`'s shortcut).
+    """
     n = layout.n
     sources = SourceVector(stamps.sources, mode, tstep, tstop)
-    return MnaSystem(
-        layout,
-        stamps.E.matrix(n),
-        stamps.H.matrix(n),
-        stamps.B.matrix(n, len(stamps.sources)),
-        sources,
-        families,
-        pattern,
-        stamps.notes,
-        stamps.H_ac.matrix(n),
-        delays=Delays.of(stamps, n) if stamps.delay_rows else None,
-    )
+    if sums is None:
+        sums = _sums(stamps, n)
+    E, H, B, H_ac = (s.matrix(t.values()) for s, t in zip(sums, (stamps.E, stamps.H, stamps.B, stamps.H_ac)))
+    return MnaSystem(layout, E, H, B, sources, families, pattern, stamps.notes, H_ac,
+                     delays=Delays.of(stamps, n) if stamps.delay_rows else None, like=like)
+
+
+def _sums(stamps, n: int) -> tuple:
+    """How the stamps' entries sum into ``E``, ``H``, ``B`` and ``H_ac``."""
+    return (stamps.E.summation(n), stamps.H.summation(n), stamps.B.summation(n, len(stamps.sources)),
+            stamps.H_ac.summation(n))
 
 
 # -- circuits that differ only in linear values ---------------------------------------------------
@@ -168,6 +172,8 @@ class Template:
         The arguments of its :func:`assemble`.
     coordinates : tuple of ndarray
         Where its linear stamps write.
+    sums : tuple of CscSum
+        How they sum into ``E``, ``H``, ``B`` and ``H_ac``.
     """
 
     circuit: Circuit
@@ -176,6 +182,7 @@ class Template:
     tstep: float | None
     tstop: float | None
     coordinates: tuple
+    sums: tuple
 
     @classmethod
     def of(cls, circuit: Circuit, system: MnaSystem, *, mode: str = MODE_DC, tstep: float | None = None,
@@ -186,7 +193,7 @@ class Template:
         if system.delays is not None or not all(f.shareable for f in system.families):
             return None
         stamps = stamp_linear(circuit, system.layout, group_by_kind(circuit))
-        return cls(circuit, system, mode, tstep, tstop, _coordinates(stamps))
+        return cls(circuit, system, mode, tstep, tstop, _coordinates(stamps), _sums(stamps, system.n))
 
 
 def _same_but_linear_values(base: Circuit, circuit: Circuit) -> bool:
@@ -228,8 +235,9 @@ def reassemble(template: Template, circuit: Circuit) -> MnaSystem | None:
 
     Notes
     -----
-    Cost: the linear stamps and the matrices, O(elements + nnz log nnz); a sweep's rows pay this
-    instead of a whole assembly (the families' parameters, their node and slot bookkeeping).
+    Cost: the linear stamps, O(elements), and the matrices summed on the template's structure,
+    O(nnz); a sweep's rows pay this instead of a whole assembly (the families' parameters, their
+    node and slot bookkeeping, the sorts of the coordinates and the search of the pattern).
     """
     if not _same_but_linear_values(template.circuit, circuit):
         return None
@@ -239,4 +247,5 @@ def reassemble(template: Template, circuit: Circuit) -> MnaSystem | None:
     if len(got) != len(template.coordinates) or not all(
             np.array_equal(a, b) for a, b in zip(got, template.coordinates)):
         return None
-    return _system(base.layout, stamps, base.families, base.pattern, template.mode, template.tstep, template.tstop)
+    return _system(base.layout, stamps, base.families, base.pattern, template.mode, template.tstep, template.tstop,
+                   template.sums, base)

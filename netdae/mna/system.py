@@ -174,7 +174,7 @@ class MnaSystem(DaeSystem):
     def __init__(self, layout: Layout, E: sp.csc_matrix, H: sp.csc_matrix,
                  B: sp.csc_matrix, sources: SourceVector, families: list[DeviceFamily],
                  pattern: SparsePattern, notes: list[str], H_ac: sp.csc_matrix | None = None,
-                 delays: Delays | None = None):
+                 delays: Delays | None = None, like: "MnaSystem | None" = None):
         self.layout = layout
         self.n = layout.n
         self.names = layout.names
@@ -193,13 +193,19 @@ class MnaSystem(DaeSystem):
         self.delay_history: Callable[[np.ndarray], np.ndarray] | None = None
         self._delay_t0 = 0.0
         self._steady = None
-        self._dq_lin = pattern.data_of(E)
-        self._dphi_lin = pattern.data_of(H)
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._switching = None
         self._behavioural_events = False  # not looked for yet (None: there are none)
         self._charge_rows: np.ndarray | None = None
         self._xext = np.zeros(self.n + 1)
+        self._placement: _Placement | None = None
+        placed = like.placement() if like is not None and like.pattern is pattern else None
+        if placed is not None and placed.fits(E, H, B):
+            placed.fill(self, E, H, B)
+            self._placement = placed
+            return
+        self._dq_lin = pattern.data_of(E)
+        self._dphi_lin = pattern.data_of(H)
         dense = self.n <= DENSE_MATVEC_MAX
         self._E_mv = E.toarray() if dense else E
         self._H_mv = H.toarray() if dense else H
@@ -209,6 +215,13 @@ class MnaSystem(DaeSystem):
             self._b_rows, self._b_dense = rows, B.tocsr()[rows].toarray()
         else:
             self._b_rows, self._b_dense = None, None
+
+    def placement(self) -> "_Placement | None":
+        """Where this system's constant matrices lie in its pattern and dense copies, for systems of the
+        same structure built ``like`` it (made at the first call; None when there is no shortcut)."""
+        if self._placement is None:
+            self._placement = _Placement.of(self)
+        return self._placement or None
 
     def _add_sources(self, out: np.ndarray, u: np.ndarray) -> np.ndarray:
         """``out += B u`` (in place); returns ``out``."""
@@ -409,3 +422,69 @@ class MnaSystem(DaeSystem):
             "nnz": self.pattern.nnz,
             "linear": self.linear,
         }
+
+
+class _Placement:
+    """How a system's constant matrices ``E``, ``H`` and ``B`` lie in its pattern and dense copies.
+
+    A system assembled with matrices of the same structure (the same stored entries: matrices summed
+    from the same stamp coordinates, :class:`~netdae.devices.stamps.CscSum`) fills its derived arrays
+    from it: the pattern's data by one ``bincount``, the dense copies by one scatter, instead of
+    searching the pattern and converting the matrices again. The arrays come out as
+    :class:`MnaSystem`'s own construction makes them, value for value.
+    """
+
+    def __init__(self, system: "MnaSystem") -> None:
+        pattern = system.pattern
+        self.nnz = pattern.nnz
+        self.dense = system.n <= DENSE_MATVEC_MAX
+        self.structure = tuple((m.indptr.copy(), m.indices.copy(), m.shape) for m in (system.E, system.H, system.B))
+        self.slots = []
+        self.flat = []
+        for m in (system.E, system.H):
+            rows, cols = _entries(m)
+            self.slots.append(pattern.slots(rows, cols))
+            self.flat.append(rows * m.shape[1] + cols)
+        rows, cols = _entries(system.B)
+        self.b_flat = rows * system.B.shape[1] + cols
+
+    @classmethod
+    def of(cls, system: "MnaSystem") -> "_Placement | bool":
+        """The placement of ``system``, or False when its sources' incidence is kept sparse or by rows
+        (large circuits) or a matrix has an entry outside the pattern."""
+        if system._b_full is None or system.delays is not None:
+            return False
+        try:
+            return cls(system)
+        except ValueError:  # an entry outside the pattern (a zero that data_of left out)
+            return False
+
+    def fits(self, E: sp.csc_matrix, H: sp.csc_matrix, B: sp.csc_matrix) -> bool:
+        """True when the three matrices have the stored entries of the system placed."""
+        for m, (indptr, indices, shape) in zip((E, H, B), self.structure):
+            if not (sp.isspmatrix_csc(m) and m.shape == shape and np.array_equal(m.indptr, indptr)
+                    and np.array_equal(m.indices, indices)):
+                return False
+        return True
+
+    def fill(self, system: "MnaSystem", E: sp.csc_matrix, H: sp.csc_matrix, B: sp.csc_matrix) -> None:
+        """Set ``system``'s pattern data, dense copies and source incidence from the matrices' values."""
+        system._dq_lin = np.bincount(self.slots[0], weights=E.data, minlength=self.nnz)
+        system._dphi_lin = np.bincount(self.slots[1], weights=H.data, minlength=self.nnz)
+        system._E_mv = _scatter(self.flat[0], E) if self.dense else E
+        system._H_mv = _scatter(self.flat[1], H) if self.dense else H
+        system._b_full = _scatter(self.b_flat, B)
+        system._b_rows, system._b_dense = None, None
+
+
+def _entries(m: sp.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of a CSC matrix's stored entries, in storage order."""
+    cols = np.repeat(np.arange(m.shape[1], dtype=np.int64), np.diff(m.indptr))
+    return np.asarray(m.indices, dtype=np.int64), cols
+
+
+def _scatter(flat: np.ndarray, m: sp.csc_matrix) -> np.ndarray:
+    """The dense array of ``m`` from its stored entries' flat positions (as ``m.toarray()``)."""
+    out = np.zeros(m.shape)
+    out.flat[flat] = m.data
+    return out
