@@ -99,6 +99,18 @@ def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> 
 def _family_slot(family) -> int | None:
     """Position of a device family in the loop's ``devd`` (diode, BJT, MOSFET, JFET, switch, behavioural, OSDI,
     VDMOS, MESA, HFET), or None."""
+    kind = type(family)
+    if kind not in _SLOTS:
+        _SLOTS[kind] = _slot_of(kind)
+    return _SLOTS[kind]
+
+
+#: :func:`_family_slot` by family class.
+_SLOTS: dict = {}
+
+
+def _slot_of(kind) -> int | None:
+    """:func:`_family_slot` of a family class."""
     from ...devices.behavioral import BehaviouralFamily
     from ...devices.bjt import BjtFamily
     from ...devices.diode import DiodeFamily
@@ -114,7 +126,7 @@ def _family_slot(family) -> int | None:
                osdi.OsdiFamily if osdi is not None else None, VdmosFamily, MesaFamily,
                HfetFamily)
     for slot, cls in enumerate(classes):
-        if type(family) is cls:
+        if kind is cls:
             return slot
     return None
 
@@ -593,11 +605,18 @@ class _Packed:
         pattern = system.pattern
         e = getattr(system, "_dq_lin", None)  # an MnaSystem keeps E and H on its pattern already
         h = getattr(system, "_dphi_lin", None)
-        B = system.B.tocoo()
+        B = system.B
+        if B.format == "csc":  # its entries in storage order, as tocoo() gives them
+            b_rows = B.indices.astype(np.int64)
+            b_cols = np.repeat(np.arange(B.shape[1], dtype=np.int64), np.diff(B.indptr))
+            b_vals = B.data.astype(float)
+        else:
+            B = B.tocoo()
+            b_rows, b_cols, b_vals = B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float)
         self.matrices = (np.asarray(pattern.indptr, dtype=np.int64), np.asarray(pattern.indices, dtype=np.int64),
                          np.array(pattern.data_of(system.E) if e is None else e, dtype=float),
                          np.array(pattern.data_of(system.H) if h is None else h, dtype=float),
-                         B.row.astype(np.int64), B.col.astype(np.int64), B.data.astype(float))
+                         b_rows, b_cols, b_vals)
         self.families = []
         if system.families:
             slots = None
