@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..circuit import AcAnalysis, Circuit
 from ..errors import CircuitError, NetdaeError
@@ -100,7 +99,11 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, d
     Notes
     -----
     Dense batched solve (O(m n^3)) up to ``DENSE_AC_LIMIT`` unknowns; above,
-    one sparse LU per frequency with the column ordering of the first one.
+    the compiled sparse LU (:class:`netdae.dae.compiled.lu.SparseLU`, complex):
+    the pivot order SuperLU chooses at the first frequency, refactored at the
+    next ones (ngspice's reuse of its pivots) until a pivot falls below 1e-3
+    of its column, which chooses new ones. Cost per frequency: the
+    factorisation's flops and about 20 us of Python.
     """
     n = E.shape[0]
     w = 2j * np.pi * np.asarray(freqs, dtype=float)
@@ -115,33 +118,35 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, d
             return np.linalg.solve(mats, np.broadcast_to(b, (w.size, n))[..., None])[..., 0]
         except np.linalg.LinAlgError:
             pass  # fall through to the sparse path, which names the frequency
-    E = sp.csc_matrix(E, dtype=complex)
-    H = sp.csc_matrix(H, dtype=complex)
+    from ..dae.compiled.lu import SparseLU
+    from ..dae.sparse import SparsePattern
+
+    pattern = SparsePattern.from_matrices(E, H, *(D for _, D in delays))
+    e, h = _on(pattern, E), _on(pattern, H)
+    d = [(tau, _on(pattern, D)) for tau, D in delays]
+    lu = SparseLU(pattern, dtype=complex)
     out = np.empty((w.size, n), dtype=complex)
-    perm = None
-    delays = [(tau, sp.csc_matrix(D, dtype=complex)) for tau, D in delays]
+    rhs = np.asarray(b, dtype=complex)
     for k, wk in enumerate(w):
-        A = wk * E - H
-        for tau, D in delays:
-            A = A + (1.0 - np.exp(-wk * tau)) * D
-        A = A.tocsc()
-        try:
-            if perm is None:
-                lu = spla.splu(A, permc_spec="COLAMD")
-                perm = lu.perm_c
-                inv = np.empty_like(perm)
-                inv[perm] = np.arange(n)
-                out[k] = lu.solve(b)
-            else:
-                lu = spla.splu(A[:, inv], permc_spec="NATURAL")
-                out[k, inv] = lu.solve(b)
-        except RuntimeError:
+        a = wk * e - h
+        for tau, dk in d:
+            a += (1.0 - np.exp(-wk * tau)) * dk
+        if not lu.factor(a):
             raise CircuitError(
                 f"the AC matrix (j omega E - H) is singular at f = {freqs[k]:g} Hz",
                 hint="a loop of voltage sources/inductors or a cutset of current sources/capacitors, "
                 "or a pole of the circuit exactly at this frequency",
-            ) from None
+            )
+        out[k] = lu.solve(rhs)
     return out
+
+
+def _on(pattern, M) -> np.ndarray:
+    """The values of ``M`` (real or complex) laid out in ``pattern``."""
+    M = sp.csc_matrix(M)
+    if np.iscomplexobj(M.data):
+        return pattern.data_of(M.real.tocsc()) + 1j * pattern.data_of(M.imag.tocsc())
+    return pattern.data_of(M)
 
 
 @dataclass

@@ -124,11 +124,11 @@ def refactor(b_ptr, b_rows, b_slots, l_ptr, l_rows, u_ptr, u_rows, a_data, l_dat
         for ``p`` in ``b_ptr[j]:b_ptr[j + 1]``.
     l_ptr, l_rows, u_ptr, u_rows : ndarray
         Patterns of ``L`` and ``U`` (see the module docstring).
-    a_data : ndarray of float64, shape (nnz,)
+    a_data : ndarray of float64 (or complex128), shape (nnz,)
         Values of ``A`` on its pattern.
-    l_data, u_data : ndarray of float64
+    l_data, u_data : ndarray of a_data's type
         Output: the factors' values (overwritten).
-    work : ndarray of float64, shape (n,)
+    work : ndarray of a_data's type, shape (n,)
         All zero on entry; all zero on return (whatever the status).
     threshold : float
         Relative pivot threshold (:data:`PIVOT_REL_THRESHOLD`); 0 accepts any
@@ -206,9 +206,9 @@ def solve(perm_r, perm_c, l_ptr, l_rows, u_ptr, u_rows, l_data, u_data, b, work)
     perm_r, perm_c : ndarray of int32, shape (n,)
     l_ptr, l_rows, u_ptr, u_rows, l_data, u_data : ndarray
         The plan's patterns and the factors' values.
-    b : ndarray of float64, shape (n,)
+    b : ndarray of float64 (or complex128, with complex factors), shape (n,)
         Right-hand side; overwritten by the solution.
-    work : ndarray of float64, shape (n,)
+    work : ndarray of b's type, shape (n,)
         Scratch (any content).
     """
     n = b.size
@@ -440,6 +440,9 @@ class SparseLU:
     threshold : float
         Relative pivot threshold of the refactorisations
         (:data:`PIVOT_REL_THRESHOLD`).
+    dtype : {float, complex}
+        Of the matrices' values (complex: an ``.ac`` matrix ``j w E - H``; the
+        kernels are compiled for each type at its first use).
 
     Attributes
     ----------
@@ -460,18 +463,22 @@ class SparseLU:
     """
 
     def __init__(self, pattern: SparsePattern, *, permc_spec: str = DEFAULT_PERMC_SPEC,
-                 diag_pivot_thresh: float | None = None, threshold: float = PIVOT_REL_THRESHOLD) -> None:
+                 diag_pivot_thresh: float | None = None, threshold: float = PIVOT_REL_THRESHOLD,
+                 dtype=float) -> None:
         self.pattern = pattern
         self.permc_spec = permc_spec
         self.diag_pivot_thresh = diag_pivot_thresh
         self.threshold = float(threshold)
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float64), np.dtype(np.complex128)):
+            raise ValueError(f"dtype must be float or complex, not {self.dtype}")
         self.plan: LuPlan | None = None
         self.fresh_factorizations = 0
         self.refactorizations = 0
         self.status = STATUS_OK
         self._ok = False
-        self._x = np.zeros(pattern.n)
-        self._w = np.zeros(pattern.n)
+        self._x = np.zeros(pattern.n, dtype=self.dtype)
+        self._w = np.zeros(pattern.n, dtype=self.dtype)
         self._l = self._u = None
 
     @property
@@ -494,8 +501,8 @@ class SparseLU:
     def _use(self, plan: LuPlan) -> None:
         if plan is not self.plan:
             self.plan = plan
-            self._l = np.empty(plan.l_nnz)
-            self._u = np.empty(plan.u_nnz)
+            self._l = np.empty(plan.l_nnz, dtype=self.dtype)
+            self._u = np.empty(plan.u_nnz, dtype=self.dtype)
 
     def _refactor(self, data: np.ndarray, threshold: float) -> int:
         plan = self.plan
@@ -508,6 +515,7 @@ class SparseLU:
         Parameters
         ----------
         data : ndarray, shape (nnz,)
+            Of :attr:`dtype` (a real ``data`` for a complex LU is converted).
 
         Returns
         -------
@@ -516,7 +524,7 @@ class SparseLU:
             or the elimination meets a zero pivot or a non-finite value in
             the order it chose); :attr:`ready` is then false.
         """
-        data = np.ascontiguousarray(data, dtype=np.float64)
+        data = np.ascontiguousarray(data, dtype=self.dtype)
         self._ok = False
         if self.plan is not None and self._refactor(data, self.threshold) == STATUS_OK:
             self.refactorizations += 1
@@ -558,7 +566,7 @@ class SparseLU:
             raise RuntimeError("no factorisation: call factor() first")
         kern = solve_transposed if trans else solve
         args = self.plan.solve_args()
-        y = np.array(b, dtype=np.float64, order="F")
+        y = np.array(b, dtype=self.dtype, order="F")
         if y.ndim == 1:
             kern(*args, self._l, self._u, y, self._w)
         else:
