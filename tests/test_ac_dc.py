@@ -85,6 +85,20 @@ def test_sparse_path_with_reused_ordering_matches_dense():
         np.testing.assert_allclose(X[k], np.linalg.solve(A, b), rtol=1e-9, atol=1e-12)
 
 
+def test_sparse_path_names_the_frequency_where_the_matrix_is_singular():
+    """Above the dense limit a singular ``j w E - H`` is refused at its frequency (a cutset of
+    capacitors only: no DC path; here H has an empty row and E none at it, singular everywhere)."""
+    import scipy.sparse as sp
+
+    from netdae.errors import CircuitError
+
+    n = 40
+    H = sp.diags(np.r_[-np.ones(n - 1), 0.0]).tocsc()
+    E = sp.diags(np.r_[np.full(n - 1, 1e-9), 0.0]).tocsc()
+    with pytest.raises(CircuitError, match=r"singular at f = 10 Hz"):
+        solve_ac(E, H, np.ones(n, dtype=complex), np.array([10.0, 100.0]))
+
+
 def test_dc_sweep_divider_nested_and_reverse():
     ckt = circuit(mk("v1", "vsource", ("a", "0"), 0.0), mk("r1", "resistor", ("a", "b"), 1e3),
                   mk("r2", "resistor", ("b", "0"), 3e3), mk("i1", "isource", ("0", "b"), 0.0))

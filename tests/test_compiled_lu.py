@@ -131,6 +131,44 @@ def test_random_matrices_against_lapack_and_superlu(seed):
     assert forward_units(dense.T, xt, b) <= FORWARD_UNITS
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_complex_shifted_matrices_refactored_across_frequencies(seed):
+    """``j w E - H`` on one pattern (an .ac sweep): complex refactorisations in the first frequency's
+    order, each against LAPACK in units of eps * cond, solve and transposed solve."""
+    rng = np.random.default_rng(300 + seed)
+    n = int(rng.integers(5, 90))
+    h = random_matrix(rng, n, 0.08, zero_diag_fraction=0.3, cond_target=[None, 1e5][seed % 2])
+    e = sp.diags(np.where(rng.random(n) < 0.6, rng.uniform(0.1, 2.0, n), 0.0)).tocsc()
+    pat = SparsePattern.from_matrices(e, h)
+    ed, hd = pat.data_of(e), pat.data_of(h)
+    lu = SparseLU(pat, dtype=complex)
+    b = rng.standard_normal(n) + 1j * rng.standard_normal(n)
+    checked = 0
+    for w in np.geomspace(1e-3, 1e3, 13):
+        data = 1j * w * ed - hd
+        dense = pat.matrix(data).toarray()
+        if not nonsingular(dense):
+            continue
+        assert lu.factor(data)
+        checked += 1
+        x = lu.solve(b)
+        assert x.dtype == complex
+        assert backward_error(dense, x, b) <= BACKWARD_UNITS * n
+        assert forward_units(dense, x, b) <= FORWARD_UNITS
+        xt = lu.solve(b, trans=True)
+        assert backward_error(dense.T, xt, b) <= BACKWARD_UNITS * n
+    assert checked >= 10 and lu.refactorizations >= 1
+    assert lu.fresh_factorizations + lu.refactorizations == checked
+
+
+def test_complex_lu_refuses_a_singular_matrix_and_another_dtype():
+    pat = SparsePattern.from_matrices(np.ones((2, 2)))
+    lu = SparseLU(pat, dtype=complex)
+    assert not lu.factor(pat.data_of(np.ones((2, 2))) * (1 + 1j))
+    with pytest.raises(ValueError, match="float or complex"):
+        SparseLU(pat, dtype=np.float32)
+
+
 @pytest.mark.parametrize("seed", range(8))
 def test_refactorization_sequence_on_one_pattern(seed):
     """New values on the pattern: refactored in the kept order while the pivots stay good."""

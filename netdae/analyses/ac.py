@@ -33,8 +33,10 @@ from .prepared import prepare
 
 __all__ = ["frequencies", "ac_analysis", "solve_ac", "linearize", "Linearization", "DENSE_AC_LIMIT"]
 
-#: Up to this many unknowns, all frequencies are solved at once with dense LAPACK.
-DENSE_AC_LIMIT = 64
+#: Up to this many unknowns, :func:`solve_ac` solves all frequencies at once with dense LAPACK;
+#: above, one compiled sparse refactorisation per frequency is the faster (1,201 frequencies of
+#: RLC ladders: 14 unknowns 3.6 ms dense against 4.9 ms, 32: 13 against 6 ms, 62: 55 against 8 ms).
+DENSE_AC_LIMIT = 16
 
 
 def frequencies(card: AcAnalysis) -> np.ndarray:

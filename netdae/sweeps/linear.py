@@ -1,6 +1,6 @@
 """Rows of a linear circuit's ``.ac`` sweep solved together.
 
-When the circuit is linear and small (at most :data:`~netdae.analyses.ac.DENSE_AC_LIMIT`
+When the circuit is linear and small (at most :data:`BATCH_LIMIT`
 unknowns) and its only analyses are ``.ac``, the rows of a chunk are solved
 in one batched dense solve of ``(j w E_r - H_r) X = B_r U_r`` over all rows
 and frequencies (:func:`netdae.dae.shifted.shifted_solves`: one generalized
@@ -57,13 +57,17 @@ __all__ = ["ac_batch", "RANK_TOLERANCE", "MAX_BATCH_ENTRIES"]
 RANK_TOLERANCE = 1e3
 #: Largest number of complex solution entries one batched solve holds (about 320 MB).
 MAX_BATCH_ENTRIES = 20_000_000
+#: Most unknowns of a circuit whose rows are solved in one batched dense solve (above, each
+#: row's .ac runs on its own, with the sparse LU of :func:`netdae.analyses.ac.solve_ac`).
+BATCH_LIMIT = 64
+
 #: The stamp laws of a field: its stamp changes in proportion to the field or to its reciprocal.
 PROPORTIONAL, RECIPROCAL = "proportional", "reciprocal"
 
 
 def _linear_ac(job: Job, row: Row, trace=None):
     """``(circuit, system, frequencies)`` when the batch path applies to ``job``, else None."""
-    from ..analyses.ac import DENSE_AC_LIMIT, frequencies
+    from ..analyses.ac import frequencies
     from ..mna import assemble
 
     try:
@@ -77,7 +81,7 @@ def _linear_ac(job: Job, row: Row, trace=None):
         system = assemble(circuit)
     except NetdaeError:
         return None
-    if system.families or system.delays is not None or system.n > DENSE_AC_LIMIT or system.n == 0:
+    if system.families or system.delays is not None or system.n > BATCH_LIMIT or system.n == 0:
         return None
     return circuit, system, frequencies(cards[0])
 
