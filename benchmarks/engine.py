@@ -85,37 +85,21 @@ print(json.dumps(best))
 """
 
 
-_DC = """
-import json, sys, time
+_SWEEP = """
+import importlib, json, sys, time
 import netdae
-from netdae.analyses.dc import dc_sweep
-from netdae.circuit import DcAnalysis
+module, function, card_class = sys.argv[3].split(":")
+analysis = getattr(importlib.import_module(module), function)
+kind = getattr(importlib.import_module("netdae.circuit"), card_class)
 c = netdae.load(sys.argv[1])
-card = next(a for a in c.analyses if isinstance(a, DcAnalysis))
-dc_sweep(c, card)
+card = next(a for a in c.analyses if isinstance(a, kind))
+analysis(c, card)
 best = None
 for _ in range(int(sys.argv[2])):
     t0 = time.process_time()
-    r = dc_sweep(c, card)
-    row = {"cpu": time.process_time() - t0, "points": int(r.axis.size), "newton": int(r.stats["newton_iterations"])}
-    if best is None or row["cpu"] < best["cpu"]:
-        best = row
-print(json.dumps(best))
-"""
-
-_AC = """
-import json, sys, time
-import netdae
-from netdae.analyses.ac import ac_analysis
-from netdae.circuit import AcAnalysis
-c = netdae.load(sys.argv[1])
-card = next(a for a in c.analyses if isinstance(a, AcAnalysis))
-ac_analysis(c, card)
-best = None
-for _ in range(int(sys.argv[2])):
-    t0 = time.process_time()
-    r = ac_analysis(c, card)
-    row = {"cpu": time.process_time() - t0, "points": int(r.axis.size), "unknowns": int(r.stats["n_unknowns"])}
+    r = analysis(c, card)
+    row = {"cpu": time.process_time() - t0, "points": int(r.axis.size), "newton": int(r.stats["newton_iterations"]),
+           "unknowns": int(r.stats["n_unknowns"])}
     if best is None or row["cpu"] < best["cpu"]:
         best = row
 print(json.dumps(best))
@@ -133,20 +117,6 @@ def ac_netlist(simulator: str) -> str:
     lines += [".ac dec 200 1k 1g", f".save v(n{AC_SECTIONS})"]
     lines += ([".options acct"] if simulator == "ngspice" else []) + [".end"]
     return "\n".join(lines) + "\n"
-
-
-def ac_sweep(reps: int, tmp: Path) -> tuple[dict, float]:
-    """netdae's best CPU of the AC sweep in a warm process, and ngspice's best analysis time."""
-    nd_path, ng_path = tmp / "ac_netdae.cir", tmp / "ac_ngspice.cir"
-    nd_path.write_text(ac_netlist("netdae"))
-    ng_path.write_text(ac_netlist("ngspice"))
-    nd = _child(_AC, nd_path, reps)
-    exe = M.shutil.which("ngspice") or "ngspice"
-    times = []
-    for _ in range(reps):
-        done = M.run_child([exe, "-b", "-n", "-r", str(tmp / "ac.raw"), str(ng_path)], cwd=tmp, timeout=600)
-        times.append(M.parse_acct(done.stdout + done.stderr).get("analysis_time", float("nan")))
-    return nd, min(times)
 
 
 #: The DC sweep: the CMOS inverter's transfer curve, 10,001 points.
@@ -168,16 +138,23 @@ def dc_netlist(simulator: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def dc_sweep(reps: int, tmp: Path) -> tuple[dict, float]:
-    """netdae's best CPU of the DC sweep in a warm process, and ngspice's best analysis time."""
-    nd_path, ng_path = tmp / "dc_netdae.cir", tmp / "dc_ngspice.cir"
-    nd_path.write_text(dc_netlist("netdae"))
-    ng_path.write_text(dc_netlist("ngspice"))
-    nd = _child(_DC, nd_path, reps)
+#: What each sweep row of :func:`analysis_sweep` runs: its netlist, netdae's function and card class.
+SWEEPS = {"dc": (dc_netlist, "netdae.analyses.dc:dc_sweep:DcAnalysis"),
+          "ac": (ac_netlist, "netdae.analyses.ac:ac_analysis:AcAnalysis")}
+
+
+def analysis_sweep(name: str, reps: int, tmp: Path) -> tuple[dict, float]:
+    """netdae's best CPU of the ``.dc`` or ``.ac`` sweep (``name``) in a warm process, and ngspice's best
+    analysis time of the same netlist."""
+    netlist, target = SWEEPS[name]
+    nd_path, ng_path = tmp / f"{name}_netdae.cir", tmp / f"{name}_ngspice.cir"
+    nd_path.write_text(netlist("netdae"))
+    ng_path.write_text(netlist("ngspice"))
+    nd = _child(_SWEEP, nd_path, reps, target)
     exe = M.shutil.which("ngspice") or "ngspice"
     times = []
     for _ in range(reps):
-        done = M.run_child([exe, "-b", "-n", "-r", str(tmp / "dc.raw"), str(ng_path)], cwd=tmp, timeout=600)
+        done = M.run_child([exe, "-b", "-n", "-r", str(tmp / f"{name}.raw"), str(ng_path)], cwd=tmp, timeout=600)
         times.append(M.parse_acct(done.stdout + done.stderr).get("analysis_time", float("nan")))
     return nd, min(times)
 
@@ -248,12 +225,12 @@ def main(argv=None) -> int:
                       f"{nd['integration'] * 1e3:>10.1f} {nd['integration'] / nd['steps'] * 1e6:>8.2f} "
                       f"{nd['simulate'] * 1e3:>11.1f} {ng_steps:>13} {ng_t * 1e3:>10.1f} "
                       f"{ng_t / max(ng_steps, 1) * 1e6:>8.2f} {ratio:>6.2f}")
-        nd, ng_t = dc_sweep(args.reps, Path(tmp))
+        nd, ng_t = analysis_sweep("dc", args.reps, Path(tmp))
         print("\n.dc transfer curve of the CMOS inverter in a warm process (best CPU) against ngspice's analysis time:")
         print(f"  netdae {nd['cpu'] * 1e3:.0f} ms for {nd['points']} points ({nd['cpu'] / nd['points'] * 1e6:.0f} us "
               f"per point, {nd['newton']} Newton iterations); ngspice {ng_t * 1e3:.0f} ms "
               f"({ng_t / nd['points'] * 1e6:.1f} us per point); ratio {nd['cpu'] / ng_t:.1f}x")
-        nd, ng_t = ac_sweep(args.reps, Path(tmp))
+        nd, ng_t = analysis_sweep("ac", args.reps, Path(tmp))
         print(f"\n.ac of a {AC_SECTIONS:,}-section RC ladder in a warm process (best CPU) against ngspice's "
               "analysis time:")
         print(f"  netdae {nd['cpu'] * 1e3:.0f} ms for {nd['points']} frequencies of {nd['unknowns']} unknowns "
