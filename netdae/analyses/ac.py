@@ -33,6 +33,12 @@ from .prepared import prepare
 
 __all__ = ["frequencies", "ac_analysis", "solve_ac", "linearize", "Linearization", "DENSE_AC_LIMIT"]
 
+#: Relative pivot threshold of :func:`solve_ac`'s refactorisations: a pivot below this fraction of its
+#: column's largest entry chooses new pivots. Tighter than the transient's 1e-3 (Sparse 1.3's, where
+#: Newton's next iteration corrects a solve): an AC solution is used as solved. At 1e-3 a LAPLACE
+#: block's response was 6e-11 off its closed form where it had fallen to 1e-5 of its peak, 1e-2: 1.5e-12,
+#: 0.1: 6e-15 (dense LAPACK: 2.6e-15); the element growth per elimination step is at most 1/threshold.
+AC_PIVOT_THRESHOLD = 0.1
 #: Up to this many unknowns, :func:`solve_ac` solves all frequencies at once with dense LAPACK;
 #: above, one compiled sparse refactorisation per frequency is the faster (1,201 frequencies of
 #: RLC ladders: 14 unknowns 3.6 ms dense against 4.9 ms, 32: 13 against 6 ms, 62: 55 against 8 ms).
@@ -103,8 +109,8 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, d
     Dense batched solve (O(m n^3)) up to ``DENSE_AC_LIMIT`` unknowns; above,
     the compiled sparse LU (:class:`netdae.dae.compiled.lu.SparseLU`, complex):
     the pivot order SuperLU chooses at the first frequency, refactored at the
-    next ones (ngspice's reuse of its pivots) until a pivot falls below 1e-3
-    of its column, which chooses new ones. Cost per frequency: the
+    next ones (ngspice's reuse of its pivots) until a pivot falls below
+    :data:`AC_PIVOT_THRESHOLD` of its column, which chooses new ones. Cost per frequency: the
     factorisation's flops and about 20 us of Python.
     """
     n = E.shape[0]
@@ -126,7 +132,7 @@ def solve_ac(E: sp.spmatrix, H: sp.spmatrix, b: np.ndarray, freqs: np.ndarray, d
     pattern = SparsePattern.from_matrices(E, H, *(D for _, D in delays))
     e, h = _on(pattern, E), _on(pattern, H)
     d = [(tau, _on(pattern, D)) for tau, D in delays]
-    lu = SparseLU(pattern, dtype=complex)
+    lu = SparseLU(pattern, dtype=complex, threshold=AC_PIVOT_THRESHOLD)
     out = np.empty((w.size, n), dtype=complex)
     rhs = np.asarray(b, dtype=complex)
     for k, wk in enumerate(w):
