@@ -202,7 +202,6 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     )
     from ..bdf_kernels import merge_breakpoints
     from ..dense import Interpolant
-    from .steady_driver import kept_pivots
 
     if not supports(system, options):
         return None
@@ -303,21 +302,15 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     lu = SparseLU(pattern, threshold=PIVOT_REL_THRESHOLD)
     identity = np.where(pattern.rows == pattern.cols, 1.0, 0.0)
     eps0 = L.PROBE_FRACTION * min(L.H0_FRACTION * (bps[0] - t0), max_step)
-    kept = None if linear else kept_pivots(system)
-    if kept is not None:
-        # the operating point's pivot order, just chosen on this system's dphi/dx: the loop
-        # refactors its first matrix in it (a degraded pivot brings it back here for new ones)
-        lu.adopt(kept)
+    if linear:
+        first = e_data / eps0 - h_data
     else:
-        if linear:
-            first = e_data / eps0 - h_data
-        else:
-            ev = system.evaluate(x0, t0 + eps0, jacobian=True, state=None)
-            first = ev.dq / eps0 - ev.dphi
-        if not (np.all(np.isfinite(first)) and lu.factor(first)):
-            # a singular matrix shows again in the loop, which reports it; a plan in the
-            # identity order keeps the loop's arguments defined until then
-            lu.factor(identity)
+        ev = system.evaluate(x0, t0 + eps0, jacobian=True, state=None)
+        first = ev.dq / eps0 - ev.dphi
+    if not (np.all(np.isfinite(first)) and lu.factor(first)):
+        # a singular matrix shows again in the loop, which reports it; a plan in the
+        # identity order keeps the loop's arguments defined until then
+        lu.factor(identity)
     swork = np.zeros(n)
     restart_times = np.zeros(bps.size + 4)
     jump_t = np.zeros(bps.size + 4)

@@ -490,14 +490,6 @@ class SparseLU:
         """Forget the factorisation (the plan is kept)."""
         self._ok = False
 
-    def adopt(self, plan: LuPlan) -> None:
-        """Refactor in ``plan``'s pivot order from now on (another factorisation's on the same pattern);
-        nothing is factored yet (:attr:`ready` is false until :meth:`factor`)."""
-        if plan.n != self.pattern.n:
-            raise ValueError("the plan is of another pattern")
-        self._ok = False
-        self._use(plan)
-
     def _use(self, plan: LuPlan) -> None:
         if plan is not self.plan:
             self.plan = plan

@@ -148,13 +148,6 @@ def sweep_points(system, values: np.ndarray, columns: np.ndarray, x0: np.ndarray
     return X, its, int(p)
 
 
-def kept_pivots(system):
-    """The pivot order (:class:`~netdae.dae.compiled.lu.LuPlan`) of the last operating point solved for
-    ``system`` in this process, or None: a transient of the same system starts from it."""
-    pack = _PACKS.get(system)
-    return None if pack is None else pack.lu.plan
-
-
 def _pack(system, x, t) -> tuple["_Pack", int]:
     """The system's kept :class:`_Pack` (made at its first solve: then 1, the fresh pivot order)."""
     pack = _PACKS.get(system)
