@@ -134,6 +134,21 @@ def test_dc_divider():
     assert (got["top"].value, got["top"].at) == (pytest.approx(1.0), pytest.approx(2.0))
 
 
+
+def test_crossings_below_zero_of_a_dc_sweep_count_without_td():
+    # v(out) = v1 / 2 from -5 to 5: without TD= every crossing counts, the negative ones too
+    # (ngspice ignores TD in .dc; netdae took TD=0 and searched [0, 5] only)
+    text = DIVIDER.replace(".dc V1 0 5 0.1", ".dc V1 -5 5 0.1").split(".meas")[0] + (
+        ".meas dc vneg WHEN v(out)=-1\n"
+        ".meas dc vfind FIND v(out) WHEN v(in)=-3\n"
+        ".meas dc span TRIG v(out) VAL=-2 RISE=1 TARG v(out) VAL=2 RISE=1\n"
+        ".meas dc late WHEN v(out)=-1 TD=-1\n")
+    got = _measures(text)
+    assert got["vneg"].value == pytest.approx(-2.0, rel=1e-12)
+    assert got["vfind"].value == pytest.approx(-1.5, rel=1e-12)
+    assert got["span"].value == pytest.approx(8.0, rel=1e-12)
+    assert not got["late"].ok and "[-1, 5]" in got["late"].reason
+
 # -- on the interpolant, not on the output points ---------------------------------------------
 def _spec(text: str):
     return load("t\nV1 x 0 1\nR1 x 0 1\n.tran 1 2\n" + text + "\n").measures

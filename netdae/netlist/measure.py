@@ -28,6 +28,8 @@ Examples
 
 from __future__ import annotations
 
+import math
+
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import IDENT, error, parse_expr, parse_value
@@ -437,7 +439,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         return Condition(probe=probe(c["probe"], card, analysis) if c["probe"] else None,
                          value=number(c["value"], card, "VAL"),
                          other=probe(c["other"], card, analysis) if c["other"] else None,
-                         edge=c["edge"], count=c["count"], td=number(c["td"], card, "TD") or 0.0,
+                         edge=c["edge"], count=c["count"], td=-math.inf if c["td"] is None else number(c["td"], card, "TD"),
                          at=number(c["at"], card, "AT"))
 
     def one(m):
