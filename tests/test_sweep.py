@@ -363,6 +363,20 @@ def test_cli_sweep_writes_the_table_json_and_plot(tmp_path, capsys):
     assert data["dc:v(a)"].shape == (40, 3)
 
 
+def test_cli_sweep_keeps_why_a_measurement_failed_in_a_row_that_ran(tmp_path, capsys):
+    # v(b) = 1m * r2 at the last point: 0.5, 1, 2 V; WHEN v(b)=1.5 happens only for r2 = 2k (at 0.75 mA)
+    path = tmp_path / "d.cir"
+    path.write_text(DIVIDER + ".meas dc ihalf when v(b)=1.5\n.step param r2 list 0.5k 1k 2k\n")
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot"]) == 0
+    err = capsys.readouterr().err
+    assert "measure ihalf failed in 2 of 3 rows: 2 x WHEN: v(b) never crosses 1.5" in err
+    doc = json.loads((tmp_path / "o" / "measures.json").read_text())
+    assert doc["failed"] == 0 and doc["measure_failures"] == {"ihalf": {"WHEN: v(b) never crosses 1.5 in [0, 0.001]": 2}}
+    assert [row.get("reasons") for row in doc["rows"]] == [
+        {"ihalf": "WHEN: v(b) never crosses 1.5 in [0, 0.001]"}] * 2 + [None]
+    assert doc["rows"][2]["ihalf"] == pytest.approx(0.75e-3, rel=1e-12)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--step", "r1"], "expected NAME=SPEC"),
     (["--step", "r1=1:2:-1"], "does not lead"),

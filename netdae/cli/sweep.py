@@ -214,7 +214,8 @@ def main(args) -> int:
             LOG.info("note: no plot: %s", exc)
     summary = result.summary()
     if args.json:
-        json.dump({"rows": result.rows, "failed": result.failed, "failures": result.failures(), "seed": result.seed,
+        json.dump({"rows": result.rows, "failed": result.failed, "failures": result.failures(),
+                   "measure_failures": result.measure_failures(), "seed": result.seed,
                    "summary": summary, "stats": {k: v for k, v in result.stats.items()}, "files": files},
                   sys.stdout, indent=2, default=float)
         sys.stdout.write("\n")

@@ -306,4 +306,7 @@ def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str,
     if res.failed:
         res.notes.append(f"{res.failed} of {res.rows} rows failed: " +
                          "; ".join(f"{n} x {why}" for why, n in list(res.failures().items())[:3]))
+    for name, counts in res.measure_failures().items():  # the rows ran, the measurement could not be made
+        res.notes.append(f"measure {name} failed in {sum(counts.values())} of {res.rows} rows: " +
+                         "; ".join(f"{n} x {why}" for why, n in list(counts.items())[:3]))
     return res
