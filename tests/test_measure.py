@@ -149,6 +149,30 @@ def test_crossings_below_zero_of_a_dc_sweep_count_without_td():
     assert got["span"].value == pytest.approx(8.0, rel=1e-12)
     assert not got["late"].ok and "[-1, 5]" in got["late"].reason
 
+
+def test_a_decreasing_dc_sweep_is_measured_in_its_order():
+    # v(out) = v1 / 2 swept from 5 down to -5 (ngspice measures it too: crossings counted in the
+    # sweep's order, INTEG along the sweep): closed forms on the straight lines
+    text = DIVIDER.replace(".dc V1 0 5 0.1", ".dc V1 5 -5 -0.1").split(".meas")[0] + (
+        ".meas dc down WHEN v(out)=1 FALL=1\n"
+        ".meas dc up WHEN v(out)=1 RISE=1\n"
+        ".meas dc at3 FIND v(out) AT=3\n"
+        ".meas dc slope DERIV v(out) AT=1\n"
+        ".meas dc span TRIG v(out) VAL=2 FALL=1 TARG v(out) VAL=-1 FALL=1\n"
+        ".meas dc area INTEG v(out) FROM=0 TO=4\n"
+        ".meas dc mean AVG v(out) FROM=0 TO=4\n"
+        ".meas dc top MAX_AT v(out)\n")
+    got = _measures(text)
+    assert got["down"].value == pytest.approx(2.0, rel=1e-12)
+    assert not got["up"].ok and "never rises through 1 in [-5, 5]" in got["up"].reason
+    assert got["at3"].value == pytest.approx(1.5, rel=1e-12)
+    assert got["slope"].value == pytest.approx(0.5, rel=1e-12)
+    assert got["span"].value == pytest.approx(-6.0, rel=1e-12)
+    assert got["area"].value == pytest.approx(-4.0, rel=1e-12)  # the integral of x/2 from 4 down to 0
+    assert (got["area"].extra["from"], got["area"].extra["to"]) == (4.0, 0.0)
+    assert got["mean"].value == pytest.approx(1.0, rel=1e-12)
+    assert got["top"].value == pytest.approx(5.0, rel=1e-12)
+
 # -- on the interpolant, not on the output points ---------------------------------------------
 def _spec(text: str):
     return load("t\nV1 x 0 1\nR1 x 0 1\n.tran 1 2\n" + text + "\n").measures
