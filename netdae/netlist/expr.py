@@ -105,7 +105,7 @@ import numpy as np
 
 from ..errors import NetlistError, SourceLocation
 from .lines import fold_case
-from .montecarlo import RANDOM_FUNCTIONS, is_random_call
+from .montecarlo import RANDOM_FORMS, RANDOM_FUNCTIONS, is_random_call
 from .numbers import parse_number, scan_param_number
 
 __all__ = [
@@ -674,7 +674,9 @@ class _Parser:
 
     def arity(self, name: str, args: list, n: int, start: int) -> None:
         if len(args) != n:
-            raise self.error(f"{name}() takes {n} argument{'s' if n != 1 else ''}, got {len(args)}", start)
+            form = RANDOM_FORMS.get(name)
+            raise self.error(f"{name}() takes {n} argument{'s' if n != 1 else ''}, got {len(args)}", start,
+                             hint=f"write {form}, as ngspice's manual gives it" if form else None)
 
 
 def _negate(node: Expr) -> Expr:
