@@ -294,6 +294,7 @@ def test_interrupt_keeps_the_finished_rows():
 @pytest.mark.parametrize("kwargs, message", [
     ({"samples": 5}, r"draws nothing"),
     ({"params": {"nope": [1]}}, r"'nope' is neither a top-level .param"),
+    ({"params": {"rr2": [1]}}, r"hint: did you mean r2\? name a .param, an element"),
     ({"params": {"r2": []}}, r"no values"),
     ({"params": {"r2": ["x"]}}, r"must be numbers"),
     ({"seed": -1}, r"seed must be a non-negative integer"),
