@@ -173,6 +173,30 @@ def test_a_decreasing_dc_sweep_is_measured_in_its_order():
     assert got["mean"].value == pytest.approx(1.0, rel=1e-12)
     assert got["top"].value == pytest.approx(5.0, rel=1e-12)
 
+
+def test_a_transient_that_fails_part_way_is_measured_where_it_ran():
+    # v(out) = sqrt(v(in)), v(in) = 1 until 1 ms, then down to -1 at 2 ms: undefined after 1.5 ms,
+    # where the transient stops. What needs nothing after that is measured (closed forms), the rest
+    # fails with the analysis's failure.
+    text = ("partial\nV1 in 0 PWL(0 1 1m 1 2m -1)\nR0 in 0 1k\nB1 out 0 V=sqrt(v(in))\nR1 out 0 1k\n"
+            ".tran 1u 2m\n"
+            ".meas tran v05 FIND v(out) AT=0.5m\n"
+            ".meas tran half WHEN v(out)=0.5\n"
+            ".meas tran early MAX v(out) TO=1.2m\n"
+            ".meas tran whole MAX v(out)\n"
+            ".meas tran last WHEN v(out)=0.5 CROSS=LAST\n"
+            ".meas tran late FIND v(out) AT=1.8m\n"
+            ".meas tran never WHEN v(out)=2\n")
+    (res,) = run(text)
+    assert not res.ok and res.axis[-1] < 1.6e-3
+    got = {m.name: m for m in res.measures}
+    assert got["v05"].value == pytest.approx(1.0, rel=1e-9)
+    assert got["half"].value == pytest.approx(1.375e-3, rel=1e-3)  # v(in) = 0.25
+    assert got["early"].value == pytest.approx(1.0, rel=1e-9)
+    for name in ("whole", "last", "late", "never"):
+        assert not got[name].ok and got[name].reason.startswith("the tran analysis failed: ")
+        assert "before what this measurement needs" in got[name].reason
+
 # -- on the interpolant, not on the output points ---------------------------------------------
 def _spec(text: str):
     return load("t\nV1 x 0 1\nR1 x 0 1\n.tran 1 2\n" + text + "\n").measures

@@ -29,6 +29,9 @@ How a signal is read between points
   shape (rows, points)); one result is the case of one row, so a sweep's
   batched measures and a single run's are the same code.
 
+A transient that failed part way is measured on what it computed where the
+measurement needs nothing after its last point (:func:`_measure_partial`).
+
 Crossings are counted as ngspice counts them: a point is *above* when the
 signal is >= the value, a rise is a change from below to above, a fall from
 above to below; without ``RISE``/``FALL``/``CROSS`` the first crossing of
@@ -758,10 +761,12 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
                 result = results.get(spec.analysis)
                 if result is None:
                     raise MeasureFailure(f"no {spec.analysis} result to measure")
-                if not result.ok:
+                if not result.ok and not _partial(result, rows):
                     raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
                 _check_axis(result)
-                if rows is None and result.analysis == "tran" and result.dense is not None:
+                if not result.ok:
+                    ms = [_measure_partial(spec, result)]
+                elif rows is None and result.analysis == "tran" and result.dense is not None:
                     ms = [_measure(spec, result)]
                 else:
                     ms = _measure_rows(spec, result, count)
@@ -773,6 +778,41 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
             d[spec.name] = m
         out[i] = ms
     return out
+
+
+#: The measurements of a window (which runs to the end of the analysis unless TO= ends it).
+_WINDOWED = ("min", "max", "min_at", "max_at", "pp", "avg", "rms", "integ")
+
+
+def _partial(result: Result, rows: int | None) -> bool:
+    """Whether a failed result holds a part of the analysis to measure: a transient that stopped
+    after some steps (its dense output up to the failure)."""
+    return (rows is None and result.analysis == "tran" and result.dense is not None
+            and np.asarray(result.axis).size >= 2)
+
+
+def _measure_partial(spec: MeasureSpec, result: Result) -> Measure:
+    """A measurement of a transient that failed part way, made on what it computed when the
+    measurement needs nothing after its last point: ``AT=`` before it, a crossing counted from
+    the start and found before it (not ``LAST``), a window whose ``TO=`` is before it.
+    The value is the one the whole transient would have given.
+
+    Raises
+    ------
+    MeasureFailure
+        The measurement needs what the analysis did not reach (the analysis's failure, and where it stopped).
+    """
+    end = float(result.axis[-1])
+    failure = MeasureFailure(f"the {spec.analysis} analysis failed: {result.message} (it stopped at {end:g}, "
+                             "before what this measurement needs)")
+    conditions = [c for c in (spec.trig, spec.targ, spec.when) if c is not None and c.at is None]
+    if any(c.count == LAST for c in conditions) or (spec.at is not None and spec.at > end) or \
+            (spec.function in _WINDOWED and (spec.stop is None or spec.stop > end)):
+        raise failure
+    try:
+        return _measure(spec, result)
+    except MeasureFailure:  # a crossing not found in the part computed may come after it
+        raise failure from None
 
 
 def _param_or_failure(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
