@@ -140,15 +140,23 @@ def _probe(cur: _Cursor, analysis: str, what: str) -> tuple:
                        hint="use v(node) for tran and dc")
     cur.i += 2
     names: list[str] = []
+    comma = None  # the ',' after the last name, which another name must follow
+    what, form = ("an element name", "i(vname)") if letter == "i" else ("a node", "v(node) or v(a,b)")
     while True:
         t = cur.peek()
         if t is None:
             raise cur.fail(tok.start, f"{tok.text}(...): missing ')'")
         cur.i += 1
         if t.text == ")" and t.kind == PUNCT:
+            if comma is not None:
+                raise cur.fail(t.start, f"{tok.text}(...): {what} is missing after ','", hint=f"write {form}")
             break
         if t.kind == PUNCT and t.text == ",":
+            if not names or comma is not None:
+                raise cur.fail(t.start, f"{tok.text}(...): {what} is missing before ','", hint=f"write {form}")
+            comma = t
             continue
+        comma = None
         if t.kind != WORD:
             raise cur.fail(t.start, f"unexpected {t.text!r} in {tok.text}(...)")
         names.append("0" if t.text == "gnd" else t.text)
