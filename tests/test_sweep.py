@@ -383,6 +383,7 @@ def test_cli_sweep_keeps_why_a_measurement_failed_in_a_row_that_ran(tmp_path, ca
     (["--step", "r1=1:2:-1"], "does not lead"),
     (["--mc", "0"], "positive integer"),
     (["--seed", "-2"], "non-negative integer"),
+    (["--step", "r2=1k,abc"], "argument --step: r2=1k,abc: expected a number, got 'abc'"),
 ])
 def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):
     path = tmp_path / "d.cir"

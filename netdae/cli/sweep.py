@@ -71,7 +71,7 @@ def parse_step(text: str) -> tuple[str, list[float]]:
             if kind == "lin":
                 return name, grid("lin", _number(parts[1]), _number(parts[2]), _number(parts[3])).tolist()
             return name, grid(kind, _number(parts[2]), _number(parts[3]), _number(parts[1])).tolist()
-    except ValueError as exc:
+    except (ValueError, argparse.ArgumentTypeError) as exc:  # a bad number too: say which --step it is in
         raise argparse.ArgumentTypeError(f"{text}: {exc}") from None
     raise argparse.ArgumentTypeError(f"{text}: expected start:stop:incr, dec:points:start:stop, "
                                      "oct:points:start:stop or v1,v2,...")
