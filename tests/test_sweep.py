@@ -449,3 +449,8 @@ def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, m
     assert cli(["sweep", str(path), "--mc", "3", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 2
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in capsys.readouterr().err
     assert not (tmp_path / "measures.csv").exists()
+    for address, message in (("foo", "--scheduler 'foo' is not an address Dask can read"),
+                             ("", "--scheduler: the address is empty")):
+        assert cli(["sweep", str(path), "--mc", "3", "--scheduler", address, "--out", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "tcp://host:8786" in err and "bug in netdae" not in err

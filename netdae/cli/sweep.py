@@ -141,10 +141,15 @@ def _dask_executor(address: str):
     except ImportError:
         raise NetdaeError("--scheduler needs Dask's 'distributed', which is not installed: "
                           "pip install 'netdae[dask]'") from None
+    hint = "(hint: give the scheduler's address as Dask prints it, e.g. tcp://host:8786)"
+    if not address.strip():
+        raise NetdaeError(f"--scheduler: the address is empty {hint}")
     try:
         client = Client(address, timeout=f"{SCHEDULER_TIMEOUT}s")
     except (OSError, TimeoutError) as exc:
         raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    except ValueError as exc:  # distributed's word for an address it cannot read ('foo': no port)
+        raise NetdaeError(f"--scheduler {address!r} is not an address Dask can read: {exc} {hint}") from None
     return client, client.get_executor()
 
 
@@ -186,7 +191,7 @@ def main(args) -> int:
     log_diagnostics(circuit)
     out = output_directory(args.out)  # before the rows run: a bad --out is not found after hours
     executor, client = None, None
-    if args.scheduler:
+    if args.scheduler is not None:
         client, executor = _dask_executor(args.scheduler)
     bar = _Progress(args.verbosity >= 0)
     interrupted = False
