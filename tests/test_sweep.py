@@ -123,6 +123,16 @@ def test_bad_step_cards_are_located(card, message, token):
     assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
 
 
+def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():
+    # .dc sets V1 at each of its points: the step cannot change the .dc result (v(b) = v1/2 at v1=1 in every row)
+    text = "t\nV1 a 0 1\nR1 a b 1k\nR2 b 0 1k\n.dc V1 0 1 1\n.meas dc vb find v(b) at=1\n.step V1 0 1 0.5\n"
+    c = netdae.load(text)
+    (d,) = [d for d in c.diagnostics if "what the .dc card sweeps" in d.message]
+    assert d.severity == "warning" and (d.location.line, d.location.column) == (7, 7)
+    np.testing.assert_allclose(netdae.sweep(c, workers=1).measures["vb"], [0.5, 0.5, 0.5], rtol=1e-12)
+    assert not [d for d in netdae.load(text.replace(".step V1", ".step R1")).diagnostics if "sweeps" in d.message]
+
+
 def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
     with pytest.raises(NetdaeError, match=r"netdae sweep FILE --out DIR"):
         netdae.run(load(DIVIDER + ".step param r2 list 1k 2k\n"))
