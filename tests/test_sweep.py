@@ -388,6 +388,23 @@ def test_cli_sweep_keeps_why_a_measurement_failed_in_a_row_that_ran(tmp_path, ca
     assert doc["rows"][2]["ihalf"] == pytest.approx(0.75e-3, rel=1e-12)
 
 
+def test_cli_sweep_prints_the_summary_when_its_files_cannot_be_written(tmp_path, capsys, monkeypatch):
+    from netdae.errors import OutputFileError
+    import netdae.io.sweep as io_sweep
+
+    def full(out, result, waveforms=False):
+        raise OutputFileError(str(out / "measures.json"), "the disk is full")
+
+    monkeypatch.setattr(io_sweep, "write_sweep", full)
+    path = tmp_path / "d.cir"
+    path.write_text(DIVIDER + ".step param r2 list 1k 3k\n")
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o")]) == 2
+    captured = capsys.readouterr()
+    assert re.search(r"^vb\s+2\s+2\s+1\.414\s+1\s+3$", captured.out, re.M)  # v(b) = 1 mA * r2: 1 V and 3 V
+    assert "measures.json: the disk is full" in captured.err and "bug in netdae" not in captured.err
+    assert not (tmp_path / "o" / "sweep.png").exists()
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--step", "r1"], "expected NAME=SPEC"),
     (["--step", "r1=1:2:-1"], "does not lead"),

@@ -176,7 +176,7 @@ class _Progress:
 
 
 def main(args) -> int:
-    from ..errors import NetdaeError
+    from ..errors import NetdaeError, OutputFileError
     from ..io.sweep import write_sweep
     from ..netlist import load
     from ..sweeps import sweep
@@ -209,8 +209,13 @@ def main(args) -> int:
         bar.close()
         if client is not None:
             client.close()
-    files = write_sweep(out, result, waveforms=args.waveforms)
-    if args.plot:
+    files: list[str] = []
+    write_error = None
+    try:
+        files = write_sweep(out, result, waveforms=args.waveforms)
+    except OutputFileError as exc:  # a full disk: the summary and the notes are still printed, then the error
+        write_error = exc
+    if args.plot and write_error is None:
         from ..plotting import plot_sweep, save_figure
 
         try:
@@ -238,6 +243,8 @@ def main(args) -> int:
         LOG.warning("%s", note) if "failed" in note else LOG.info("note: %s", note)
     for path in files:
         LOG.info("wrote %s", path)
+    if write_error is not None:
+        raise write_error
     if interrupted:
         LOG.error("interrupted: %d of %d rows finished", result.stats.get("completed", 0), result.rows)
         return EXIT_INTERRUPTED
