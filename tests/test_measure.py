@@ -19,6 +19,7 @@ import pytest
 import netdae
 from netdae.analyses.measure import evaluate_measures
 from netdae.analyses.runner import run
+from netdae.errors import NetlistError
 from netdae.netlist import load
 from netdae.results import Result
 
@@ -196,6 +197,20 @@ def test_a_transient_that_fails_part_way_is_measured_where_it_ran():
     for name in ("whole", "last", "late", "never"):
         assert not got[name].ok and got[name].reason.startswith("the tran analysis failed: ")
         assert "before what this measurement needs" in got[name].reason
+
+
+def test_a_measurement_named_like_a_reserved_word_is_what_param_reads():
+    # ngspice 39 (measured): '.meas tran pi MAX v(out)' then PARAM='pi*2' gives twice the measurement,
+    # and a measurement named time is read the same way; netdae gave 2*3.14159 and refused 'time'
+    head = "t\nV1 out 0 SIN(0 1 1k)\nR1 out 0 1k\n.tran 1u 1m\n"
+    got = _measures(head + ".meas tran pi MAX v(out)\n.meas tran time MIN v(out)\n"
+                    ".meas tran y PARAM='pi*2'\n.meas tran z PARAM='time*2'\n")
+    assert got["pi"].value == pytest.approx(1.0, rel=1e-6)
+    assert got["y"].value == 2 * got["pi"].value and got["z"].value == 2 * got["time"].value
+    assert _measures(head + ".meas tran x MAX v(out)\n.meas tran y PARAM='pi*x'\n")["y"].value == \
+        pytest.approx(math.pi, rel=1e-6)
+    with pytest.raises(NetlistError, match="'time' is only available in behavioural sources"):
+        load(head + ".meas tran x MAX v(out)\n.meas tran y PARAM='time*2'\n")
 
 # -- on the interpolant, not on the output points ---------------------------------------------
 def _spec(text: str):

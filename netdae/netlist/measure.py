@@ -53,6 +53,8 @@ _PREFIXES = {"v": ("v", ""), "i": ("i", ""), "vdb": ("v", "db"), "vm": ("v", "m"
 _EDGES = ("rise", "fall", "cross")
 #: Keywords each clause accepts (besides the edges and LAST where crossings are counted).
 _WINDOW = ("td", "from", "to")
+#: Reserved words of parameter expressions that a measurement's name hides in PARAM= (as in ngspice).
+_SHADOWABLE = frozenset({"time", "pi", "hertz"})
 _HINT_FUNCTIONS = "TRIG/TARG, FIND, WHEN, DERIV, MIN, MAX, MIN_AT, MAX_AT, PP, AVG, RMS, INTEG, PARAM"
 
 
@@ -292,8 +294,11 @@ def parse_measure(card: Card) -> MeasureCard:
                            hint="write PARAM='expression'")
         if val is None or val.kind not in (WORD, EXPR):
             raise cur.fail(eq.start, "missing the expression after PARAM=")
-        body = parse_expr(card, val.text, val.start + (val.kind == EXPR), ex.PARAM, FORM)
-        m.expression = (body, val.start)
+        # a reserved word (time, pi) may be a measurement's name, which ngspice reads here: read as a
+        # name now, settled when the measurements are known (elaborate_measures)
+        base = val.start + (val.kind == EXPR)
+        body = parse_expr(card, val.text, base, ex.PARAM, FORM, params=_SHADOWABLE)
+        m.expression = (body, val.start, val.text, base)
         cur.i += 2
     elif function == "trig":
         m.trig = _condition(cur, analysis, "TRIG", "targ")
@@ -468,7 +473,10 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         expression = None
         params = {}
         if m.function == "param":
-            tree, offset = m.expression
+            tree, offset, text, base = m.expression
+            if any(isinstance(node, ex.Param) and node.name in _SHADOWABLE for node in ex.walk(tree)):
+                # reserved words are what they are unless a measurement has the name (.meas tran pi ...)
+                tree = parse_expr(card, text, base, ex.PARAM, FORM, params=_SHADOWABLE & measured)
             tree = inlined(tree, offset, card, "PARAM")
             for node in ex.walk(tree):
                 # as ngspice: every other measurement first, then the PARAM cards in order; one naming a
