@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import json
+import math
 import multiprocessing
 import re
 
@@ -131,6 +132,15 @@ def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():
     assert d.severity == "warning" and (d.location.line, d.location.column) == (7, 7)
     np.testing.assert_allclose(netdae.sweep(c, workers=1).measures["vb"], [0.5, 0.5, 0.5], rtol=1e-12)
     assert not [d for d in netdae.load(text.replace(".step V1", ".step R1")).diagnostics if "sweeps" in d.message]
+
+
+def test_the_measurements_of_an_analysis_left_out_are_left_out_of_the_table():
+    text = ("rc\nV1 in 0 DC 0 AC 1 PULSE(0 1 0 1n 1n 1m 2m)\nR1 in out 1k\nC1 out 0 100n\n.ac dec 100 10 100k\n"
+            ".tran 1u 1m\n.meas ac f3 when vdb(out)=-3\n.meas tran tr when v(out)=0.5\n")
+    res = netdae.sweep(text, params={"r1": [1e3, 2e3]}, analyses=["ac"], workers=1)
+    assert list(res.measures) == ["f3"] and not res.notes  # no 'tr' column of empty cells, no warning
+    f3 = math.sqrt(10 ** 0.3 - 1) / (2 * math.pi * np.array([1e3, 2e3]) * 100e-9)  # |H| = 1/sqrt(1 + (w R C)^2)
+    np.testing.assert_allclose(res.measures["f3"], f3, rtol=1e-3)  # straight lines between 100 points a decade
 
 
 def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
