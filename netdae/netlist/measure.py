@@ -452,7 +452,8 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         return Condition(probe=probe(c["probe"], card, analysis) if c["probe"] else None,
                          value=number(c["value"], card, "VAL"),
                          other=probe(c["other"], card, analysis) if c["other"] else None,
-                         edge=c["edge"], count=c["count"], td=-math.inf if c["td"] is None else number(c["td"], card, "TD"),
+                         edge=c["edge"], count=c["count"],
+                         td=-math.inf if c["td"] is None else number(c["td"], card, "TD"),
                          at=number(c["at"], card, "AT"))
 
     def one(m):
