@@ -112,7 +112,8 @@ class Condition:
     count : int
         Which crossing, from 1; :data:`LAST` for the last.
     td : float
-        Crossings before this axis value are not counted.
+        Crossings before this axis value are not counted (``TD=``); without ``TD=`` minus
+        infinity, so that every crossing counts, below zero too (a ``.dc`` sweep of negative values).
     at : float or None
         ``TRIG AT=t``: the time itself.
     """
@@ -122,7 +123,7 @@ class Condition:
     other: Probe | None = None
     edge: str = ""
     count: int = 1
-    td: float = 0.0
+    td: float = -math.inf
     at: float | None = None
 
 

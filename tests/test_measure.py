@@ -19,6 +19,7 @@ import pytest
 import netdae
 from netdae.analyses.measure import evaluate_measures
 from netdae.analyses.runner import run
+from netdae.errors import NetlistError
 from netdae.netlist import load
 from netdae.results import Result
 
@@ -133,6 +134,83 @@ def test_dc_divider():
     assert got["avg"].value == pytest.approx(1.25, rel=1e-12)
     assert (got["top"].value, got["top"].at) == (pytest.approx(1.0), pytest.approx(2.0))
 
+
+
+def test_crossings_below_zero_of_a_dc_sweep_count_without_td():
+    # v(out) = v1 / 2 from -5 to 5: without TD= every crossing counts, the negative ones too
+    # (ngspice ignores TD in .dc; netdae took TD=0 and searched [0, 5] only)
+    text = DIVIDER.replace(".dc V1 0 5 0.1", ".dc V1 -5 5 0.1").split(".meas")[0] + (
+        ".meas dc vneg WHEN v(out)=-1\n"
+        ".meas dc vfind FIND v(out) WHEN v(in)=-3\n"
+        ".meas dc span TRIG v(out) VAL=-2 RISE=1 TARG v(out) VAL=2 RISE=1\n"
+        ".meas dc late WHEN v(out)=-1 TD=-1\n")
+    got = _measures(text)
+    assert got["vneg"].value == pytest.approx(-2.0, rel=1e-12)
+    assert got["vfind"].value == pytest.approx(-1.5, rel=1e-12)
+    assert got["span"].value == pytest.approx(8.0, rel=1e-12)
+    assert not got["late"].ok and "[-1, 5]" in got["late"].reason
+
+
+def test_a_decreasing_dc_sweep_is_measured_in_its_order():
+    # v(out) = v1 / 2 swept from 5 down to -5 (ngspice measures it too: crossings counted in the
+    # sweep's order, INTEG along the sweep): closed forms on the straight lines
+    text = DIVIDER.replace(".dc V1 0 5 0.1", ".dc V1 5 -5 -0.1").split(".meas")[0] + (
+        ".meas dc down WHEN v(out)=1 FALL=1\n"
+        ".meas dc up WHEN v(out)=1 RISE=1\n"
+        ".meas dc at3 FIND v(out) AT=3\n"
+        ".meas dc slope DERIV v(out) AT=1\n"
+        ".meas dc span TRIG v(out) VAL=2 FALL=1 TARG v(out) VAL=-1 FALL=1\n"
+        ".meas dc area INTEG v(out) FROM=0 TO=4\n"
+        ".meas dc mean AVG v(out) FROM=0 TO=4\n"
+        ".meas dc top MAX_AT v(out)\n")
+    got = _measures(text)
+    assert got["down"].value == pytest.approx(2.0, rel=1e-12)
+    assert not got["up"].ok and "never rises through 1 in [-5, 5]" in got["up"].reason
+    assert got["at3"].value == pytest.approx(1.5, rel=1e-12)
+    assert got["slope"].value == pytest.approx(0.5, rel=1e-12)
+    assert got["span"].value == pytest.approx(-6.0, rel=1e-12)
+    assert got["area"].value == pytest.approx(-4.0, rel=1e-12)  # the integral of x/2 from 4 down to 0
+    assert (got["area"].extra["from"], got["area"].extra["to"]) == (4.0, 0.0)
+    assert got["mean"].value == pytest.approx(1.0, rel=1e-12)
+    assert got["top"].value == pytest.approx(5.0, rel=1e-12)
+
+
+def test_a_transient_that_fails_part_way_is_measured_where_it_ran():
+    # v(out) = sqrt(v(in)), v(in) = 1 until 1 ms, then down to -1 at 2 ms: undefined after 1.5 ms,
+    # where the transient stops. What needs nothing after that is measured (closed forms), the rest
+    # fails with the analysis's failure.
+    text = ("partial\nV1 in 0 PWL(0 1 1m 1 2m -1)\nR0 in 0 1k\nB1 out 0 V=sqrt(v(in))\nR1 out 0 1k\n"
+            ".tran 1u 2m\n"
+            ".meas tran v05 FIND v(out) AT=0.5m\n"
+            ".meas tran half WHEN v(out)=0.5\n"
+            ".meas tran early MAX v(out) TO=1.2m\n"
+            ".meas tran whole MAX v(out)\n"
+            ".meas tran last WHEN v(out)=0.5 CROSS=LAST\n"
+            ".meas tran late FIND v(out) AT=1.8m\n"
+            ".meas tran never WHEN v(out)=2\n")
+    (res,) = run(text)
+    assert not res.ok and res.axis[-1] < 1.6e-3
+    got = {m.name: m for m in res.measures}
+    assert got["v05"].value == pytest.approx(1.0, rel=1e-9)
+    assert got["half"].value == pytest.approx(1.375e-3, rel=1e-3)  # v(in) = 0.25
+    assert got["early"].value == pytest.approx(1.0, rel=1e-9)
+    for name in ("whole", "last", "late", "never"):
+        assert not got[name].ok and got[name].reason.startswith("the tran analysis failed: ")
+        assert "before what this measurement needs" in got[name].reason
+
+
+def test_a_measurement_named_like_a_reserved_word_is_what_param_reads():
+    # ngspice 39 (measured): '.meas tran pi MAX v(out)' then PARAM='pi*2' gives twice the measurement,
+    # and a measurement named time is read the same way; netdae gave 2*3.14159 and refused 'time'
+    head = "t\nV1 out 0 SIN(0 1 1k)\nR1 out 0 1k\n.tran 1u 1m\n"
+    got = _measures(head + ".meas tran pi MAX v(out)\n.meas tran time MIN v(out)\n"
+                    ".meas tran y PARAM='pi*2'\n.meas tran z PARAM='time*2'\n")
+    assert got["pi"].value == pytest.approx(1.0, rel=1e-6)
+    assert got["y"].value == 2 * got["pi"].value and got["z"].value == 2 * got["time"].value
+    assert _measures(head + ".meas tran x MAX v(out)\n.meas tran y PARAM='pi*x'\n")["y"].value == \
+        pytest.approx(math.pi, rel=1e-6)
+    with pytest.raises(NetlistError, match="'time' is only available in behavioural sources"):
+        load(head + ".meas tran x MAX v(out)\n.meas tran y PARAM='time*2'\n")
 
 # -- on the interpolant, not on the output points ---------------------------------------------
 def _spec(text: str):

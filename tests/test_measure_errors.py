@@ -44,6 +44,10 @@ CASES = [
     (".meas tran x MAX v(out) extra", r"unexpected 'extra'", "extra"),
     (".meas tran 1x MAX v(out)", r"expected the measurement's name", "1x"),
     (".meas tran x MAX v(out) FROM=2m TO=1m", r"TO=0.001 is before FROM=0.002", "x"),
+    # ngspice 39: "no such vector as v(out,)"; netdae read v(out)
+    (".meas tran x WHEN v(out,)=0.5", r"v\(\.\.\.\): a node is missing after ','", ")"),
+    (".meas tran x MAX v(,out)", r"v\(\.\.\.\): a node is missing before ','", ","),
+    (".meas tran x MAX i(v1,)", r"i\(\.\.\.\): an element name is missing after ','", ")"),
 ]
 
 

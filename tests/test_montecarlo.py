@@ -10,7 +10,7 @@ import pytest
 
 from netdae.errors import NetlistError
 from netdae.netlist import load
-from netdae.netlist.montecarlo import Draws
+from netdae.netlist.montecarlo import RANDOM_FORMS, Draws
 
 N = 4000
 
@@ -119,6 +119,9 @@ def test_bad_monte_carlo_calls_are_located(text, message, column):
         load(f"t\nV1 a 0 1\n{text}\n.op\n")
     assert re.search(message, exc.value.message), exc.value.message
     assert exc.value.location.line == 3 and exc.value.location.column == column, str(exc.value)
+    name = re.match(r"\w+", text.split("{")[1]).group() if "{" in text else ""
+    if name in RANDOM_FORMS and "has no value" not in message:  # the call as ngspice's manual writes it
+        assert RANDOM_FORMS[name] in str(exc.value), str(exc.value)
 
 
 @pytest.mark.parametrize("option, message", [("seed=-1", "non-negative integer"), ("seed=1.5", "non-negative"),

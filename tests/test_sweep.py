@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import json
+import math
 import multiprocessing
 import re
 
@@ -121,6 +122,25 @@ def test_bad_step_cards_are_located(card, message, token):
     assert err.location.line == 9
     line = text.split("\n")[8]
     assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
+
+
+def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():
+    # .dc sets V1 at each of its points: the step cannot change the .dc result (v(b) = v1/2 at v1=1 in every row)
+    text = "t\nV1 a 0 1\nR1 a b 1k\nR2 b 0 1k\n.dc V1 0 1 1\n.meas dc vb find v(b) at=1\n.step V1 0 1 0.5\n"
+    c = netdae.load(text)
+    (d,) = [d for d in c.diagnostics if "what the .dc card sweeps" in d.message]
+    assert d.severity == "warning" and (d.location.line, d.location.column) == (7, 7)
+    np.testing.assert_allclose(netdae.sweep(c, workers=1).measures["vb"], [0.5, 0.5, 0.5], rtol=1e-12)
+    assert not [d for d in netdae.load(text.replace(".step V1", ".step R1")).diagnostics if "sweeps" in d.message]
+
+
+def test_the_measurements_of_an_analysis_left_out_are_left_out_of_the_table():
+    text = ("rc\nV1 in 0 DC 0 AC 1 PULSE(0 1 0 1n 1n 1m 2m)\nR1 in out 1k\nC1 out 0 100n\n.ac dec 100 10 100k\n"
+            ".tran 1u 1m\n.meas ac f3 when vdb(out)=-3\n.meas tran tr when v(out)=0.5\n")
+    res = netdae.sweep(text, params={"r1": [1e3, 2e3]}, analyses=["ac"], workers=1)
+    assert list(res.measures) == ["f3"] and not res.notes  # no 'tr' column of empty cells, no warning
+    f3 = math.sqrt(10 ** 0.3 - 1) / (2 * math.pi * np.array([1e3, 2e3]) * 100e-9)  # |H| = 1/sqrt(1 + (w R C)^2)
+    np.testing.assert_allclose(res.measures["f3"], f3, rtol=1e-3)  # straight lines between 100 points a decade
 
 
 def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
@@ -294,6 +314,7 @@ def test_interrupt_keeps_the_finished_rows():
 @pytest.mark.parametrize("kwargs, message", [
     ({"samples": 5}, r"draws nothing"),
     ({"params": {"nope": [1]}}, r"'nope' is neither a top-level .param"),
+    ({"params": {"rr2": [1]}}, r"hint: did you mean r2\? name a .param, an element"),
     ({"params": {"r2": []}}, r"no values"),
     ({"params": {"r2": ["x"]}}, r"must be numbers"),
     ({"seed": -1}, r"seed must be a non-negative integer"),
@@ -363,11 +384,43 @@ def test_cli_sweep_writes_the_table_json_and_plot(tmp_path, capsys):
     assert data["dc:v(a)"].shape == (40, 3)
 
 
+def test_cli_sweep_keeps_why_a_measurement_failed_in_a_row_that_ran(tmp_path, capsys):
+    # v(b) = 1m * r2 at the last point: 0.5, 1, 2 V; WHEN v(b)=1.5 happens only for r2 = 2k (at 0.75 mA)
+    path = tmp_path / "d.cir"
+    path.write_text(DIVIDER + ".meas dc ihalf when v(b)=1.5\n.step param r2 list 0.5k 1k 2k\n")
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot"]) == 0
+    err = capsys.readouterr().err
+    assert "measure ihalf failed in 2 of 3 rows: 2 x WHEN: v(b) never crosses 1.5" in err
+    doc = json.loads((tmp_path / "o" / "measures.json").read_text())
+    assert doc["failed"] == 0 and doc["measure_failures"] == {"ihalf": {"WHEN: v(b) never crosses 1.5 in [0, 0.001]": 2}}
+    assert [row.get("reasons") for row in doc["rows"]] == [
+        {"ihalf": "WHEN: v(b) never crosses 1.5 in [0, 0.001]"}] * 2 + [None]
+    assert doc["rows"][2]["ihalf"] == pytest.approx(0.75e-3, rel=1e-12)
+
+
+def test_cli_sweep_prints_the_summary_when_its_files_cannot_be_written(tmp_path, capsys, monkeypatch):
+    from netdae.errors import OutputFileError
+    import netdae.io.sweep as io_sweep
+
+    def full(out, result, waveforms=False):
+        raise OutputFileError(str(out / "measures.json"), "the disk is full")
+
+    monkeypatch.setattr(io_sweep, "write_sweep", full)
+    path = tmp_path / "d.cir"
+    path.write_text(DIVIDER + ".step param r2 list 1k 3k\n")
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o")]) == 2
+    captured = capsys.readouterr()
+    assert re.search(r"^vb\s+2\s+2\s+1\.414\s+1\s+3$", captured.out, re.M)  # v(b) = 1 mA * r2: 1 V and 3 V
+    assert "measures.json: the disk is full" in captured.err and "bug in netdae" not in captured.err
+    assert not (tmp_path / "o" / "sweep.png").exists()
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--step", "r1"], "expected NAME=SPEC"),
     (["--step", "r1=1:2:-1"], "does not lead"),
     (["--mc", "0"], "positive integer"),
     (["--seed", "-2"], "non-negative integer"),
+    (["--step", "r2=1k,abc"], "argument --step: r2=1k,abc: expected a number, got 'abc'"),
 ])
 def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):
     path = tmp_path / "d.cir"
@@ -433,3 +486,8 @@ def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, m
     assert cli(["sweep", str(path), "--mc", "3", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 2
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in capsys.readouterr().err
     assert not (tmp_path / "measures.csv").exists()
+    for address, message in (("foo", "--scheduler 'foo' is not an address Dask can read"),
+                             ("", "--scheduler: the address is empty")):
+        assert cli(["sweep", str(path), "--mc", "3", "--scheduler", address, "--out", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "tcp://host:8786" in err and "bug in netdae" not in err

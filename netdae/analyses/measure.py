@@ -29,6 +29,9 @@ How a signal is read between points
   shape (rows, points)); one result is the case of one row, so a sweep's
   batched measures and a single run's are the same code.
 
+A transient that failed part way is measured on what it computed where the
+measurement needs nothing after its last point (:func:`_measure_partial`).
+
 Crossings are counted as ngspice counts them: a point is *above* when the
 signal is >= the value, a rise is a change from below to above, a fall from
 above to below; without ``RISE``/``FALL``/``CROSS`` the first crossing of
@@ -301,7 +304,7 @@ def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: s
 
 
 def _inside(result: Result, x: float, what: str) -> None:
-    x0, x1 = float(result.axis[0]), float(result.axis[-1])
+    x0, x1 = sorted((float(result.axis[0]), float(result.axis[-1])))
     fuzz = 1e-12 * max(abs(x0), abs(x1), x1 - x0)
     if not (x0 - fuzz <= x <= x1 + fuzz):
         raise MeasureFailure(f"{what}={x:g} is outside the {result.analysis} analysis ({x0:g} to {x1:g})")
@@ -487,34 +490,46 @@ def _interp(xq, x: np.ndarray, y: np.ndarray, per_row: bool = False) -> np.ndarr
 
 
 class _Lines:
-    """One real quantity of one or many rows on straight lines between the points of the axis."""
+    """One real quantity of one or many rows on straight lines between the points of the axis.
+
+    The axis increases, or decreases (a ``.dc`` sweep written from its top, ``.dc v1 5 0 -0.1``):
+    then the lines are kept on the increasing axis ``-x`` (``sense`` -1), every argument and
+    result is in ``x``, and :meth:`samples` gives the points in the sweep's order, so that
+    crossings are counted as the sweep meets them (as ngspice counts them).
+    """
 
     def __init__(self, result: Result, probe: Probe) -> None:
         self.name = probe.name
-        self.x = np.asarray(result.axis, dtype=float)
+        x = np.asarray(result.axis, dtype=float)
+        self.sense = -1.0 if x.size > 1 and x[-1] < x[0] else 1.0
+        self.x = self.sense * x  # increasing
         self.y = np.atleast_2d(_values(result, probe))
 
     @property
     def span(self) -> tuple[float, float]:
-        return float(self.x[0]), float(self.x[-1])
+        """The axis's lowest and highest value."""
+        ends = sorted((self.sense * float(self.x[0]), self.sense * float(self.x[-1])))
+        return ends[0], ends[1]
 
     def at(self, xq, per_row: bool = False) -> np.ndarray:
         """Values at ``xq``: shape (rows, q), or (rows,) with one point per row (``per_row``)."""
-        return _interp(xq, self.x, self.y, per_row)
+        return _interp(self.sense * np.asarray(xq, dtype=float), self.x, self.y, per_row)
 
     def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """The points in [lo, hi], ends included: axis (s,), values (rows, s)."""
+        """The points in [lo, hi], ends included, in the sweep's order: axis (s,), values (rows, s)."""
+        a, b = sorted((self.sense * lo, self.sense * hi))
         x = self.x
-        keep = (x > lo) & (x < hi)
-        ends = self.at([lo, hi])
-        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([ends[:, :1], self.y[:, keep], ends[:, 1:]],
-                                                                     axis=1)
+        keep = (x > a) & (x < b)
+        ends = _interp([a, b], x, self.y)
+        return (self.sense * np.concatenate([[a], x[keep], [b]]),
+                np.concatenate([ends[:, :1], self.y[:, keep], ends[:, 1:]], axis=1))
 
     def integral(self, lo: float, hi: float, power: int) -> np.ndarray:
         """The integral of ``y**power`` over [lo, hi] of each row (exact for the lines)."""
+        lo, hi = sorted((self.sense * lo, self.sense * hi))
         knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
         a, b = knots[:-1], knots[1:]
-        ya, yb = self.at(a), self.at(b)
+        ya, yb = _interp(a, self.x, self.y), _interp(b, self.x, self.y)
         if power == 1:
             return np.sum((b - a) * (ya + yb) / 2.0, axis=1)
         return np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0, axis=1)
@@ -522,7 +537,7 @@ class _Lines:
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
         """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
         x = self.x
-        i = np.clip(np.searchsorted(x, xq, side="left"), 1, x.size - 1)
+        i = np.clip(np.searchsorted(x, self.sense * np.asarray(xq, dtype=float), side="left"), 1, x.size - 1)
         while True:
             same = (i < x.size - 1) & (x[i] == x[i - 1])
             if not same.any():
@@ -531,7 +546,7 @@ class _Lines:
         a, b = x[i - 1], x[i]
         rows = np.arange(self.y.shape[0])
         with np.errstate(invalid="ignore", divide="ignore"):
-            slope = (self.y[rows, i] - self.y[rows, i - 1]) / (b - a)
+            slope = self.sense * (self.y[rows, i] - self.y[rows, i - 1]) / (b - a)
         reasons = [f"{self.name} jumps at {q:g}: no derivative there" if jump else None
                    for q, jump in zip(np.atleast_1d(xq).tolist(), (b == a).tolist())]
         return slope, reasons
@@ -635,14 +650,14 @@ def _measure_rows(spec: MeasureSpec, result: Result, rows: int) -> list[Measure]
             elif f == "pp":
                 samples = trace.samples(lo, hi)
                 value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
-            elif f == "integ":
-                value = trace.integral(lo, hi, 1)
+            elif f == "integ":  # along the sweep, as ngspice: a decreasing .dc sweep integrates from hi to lo
+                value = trace.sense * trace.integral(lo, hi, 1)
             elif f == "avg":
                 value = trace.integral(lo, hi, 1) / (hi - lo)
             else:  # rms
                 value = np.sqrt(np.maximum(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
             if f in ("pp", "integ", "avg", "rms"):
-                extra = {"from": lo, "to": hi}
+                extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
     out = []
     for r in range(rows):
         if reasons[r] is not None:
@@ -682,8 +697,10 @@ def _check_axis(result: Result) -> None:
     x = np.asarray(result.axis, dtype=float)
     if x.size < 2:
         raise MeasureFailure(f"the {result.analysis} result has {x.size} point(s)")
-    if np.any(np.diff(x) < 0):
-        raise MeasureFailure(f"the {result.axis_name} axis decreases (netdae measures increasing sweeps)")
+    step = np.diff(x)
+    if np.any(step < 0) and not (result.analysis == "dc" and np.all(step < 0)):
+        raise MeasureFailure(f"the {result.axis_name} axis goes back (netdae measures a sweep that only increases "
+                             "or, for .dc, only decreases)")
 
 
 def evaluate_measures(specs: list[MeasureSpec], results: Mapping[str, Result]) -> list[Measure]:
@@ -744,10 +761,12 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
                 result = results.get(spec.analysis)
                 if result is None:
                     raise MeasureFailure(f"no {spec.analysis} result to measure")
-                if not result.ok:
+                if not result.ok and not _partial(result, rows):
                     raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
                 _check_axis(result)
-                if rows is None and result.analysis == "tran" and result.dense is not None:
+                if not result.ok:
+                    ms = [_measure_partial(spec, result)]
+                elif rows is None and result.analysis == "tran" and result.dense is not None:
                     ms = [_measure(spec, result)]
                 else:
                     ms = _measure_rows(spec, result, count)
@@ -759,6 +778,41 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
             d[spec.name] = m
         out[i] = ms
     return out
+
+
+#: The measurements of a window (which runs to the end of the analysis unless TO= ends it).
+_WINDOWED = ("min", "max", "min_at", "max_at", "pp", "avg", "rms", "integ")
+
+
+def _partial(result: Result, rows: int | None) -> bool:
+    """Whether a failed result holds a part of the analysis to measure: a transient that stopped
+    after some steps (its dense output up to the failure)."""
+    return (rows is None and result.analysis == "tran" and result.dense is not None
+            and np.asarray(result.axis).size >= 2)
+
+
+def _measure_partial(spec: MeasureSpec, result: Result) -> Measure:
+    """A measurement of a transient that failed part way, made on what it computed when the
+    measurement needs nothing after its last point: ``AT=`` before it, a crossing counted from
+    the start and found before it (not ``LAST``), a window whose ``TO=`` is before it.
+    The value is the one the whole transient would have given.
+
+    Raises
+    ------
+    MeasureFailure
+        The measurement needs what the analysis did not reach (the analysis's failure, and where it stopped).
+    """
+    end = float(result.axis[-1])
+    failure = MeasureFailure(f"the {spec.analysis} analysis failed: {result.message} (it stopped at {end:g}, "
+                             "before what this measurement needs)")
+    conditions = [c for c in (spec.trig, spec.targ, spec.when) if c is not None and c.at is None]
+    if any(c.count == LAST for c in conditions) or (spec.at is not None and spec.at > end) or \
+            (spec.function in _WINDOWED and (spec.stop is None or spec.stop > end)):
+        raise failure
+    try:
+        return _measure(spec, result)
+    except MeasureFailure:  # a crossing not found in the part computed may come after it
+        raise failure from None
 
 
 def _param_or_failure(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:

@@ -71,7 +71,7 @@ def parse_step(text: str) -> tuple[str, list[float]]:
             if kind == "lin":
                 return name, grid("lin", _number(parts[1]), _number(parts[2]), _number(parts[3])).tolist()
             return name, grid(kind, _number(parts[2]), _number(parts[3]), _number(parts[1])).tolist()
-    except ValueError as exc:
+    except (ValueError, argparse.ArgumentTypeError) as exc:  # a bad number too: say which --step it is in
         raise argparse.ArgumentTypeError(f"{text}: {exc}") from None
     raise argparse.ArgumentTypeError(f"{text}: expected start:stop:incr, dec:points:start:stop, "
                                      "oct:points:start:stop or v1,v2,...")
@@ -141,10 +141,15 @@ def _dask_executor(address: str):
     except ImportError:
         raise NetdaeError("--scheduler needs Dask's 'distributed', which is not installed: "
                           "pip install 'netdae[dask]'") from None
+    hint = "(hint: give the scheduler's address as Dask prints it, e.g. tcp://host:8786)"
+    if not address.strip():
+        raise NetdaeError(f"--scheduler: the address is empty {hint}")
     try:
         client = Client(address, timeout=f"{SCHEDULER_TIMEOUT}s")
     except (OSError, TimeoutError) as exc:
         raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    except ValueError as exc:  # distributed's word for an address it cannot read ('foo': no port)
+        raise NetdaeError(f"--scheduler {address!r} is not an address Dask can read: {exc} {hint}") from None
     return client, client.get_executor()
 
 
@@ -171,7 +176,7 @@ class _Progress:
 
 
 def main(args) -> int:
-    from ..errors import NetdaeError
+    from ..errors import NetdaeError, OutputFileError
     from ..io.sweep import write_sweep
     from ..netlist import load
     from ..sweeps import sweep
@@ -186,7 +191,7 @@ def main(args) -> int:
     log_diagnostics(circuit)
     out = output_directory(args.out)  # before the rows run: a bad --out is not found after hours
     executor, client = None, None
-    if args.scheduler:
+    if args.scheduler is not None:
         client, executor = _dask_executor(args.scheduler)
     bar = _Progress(args.verbosity >= 0)
     interrupted = False
@@ -204,8 +209,13 @@ def main(args) -> int:
         bar.close()
         if client is not None:
             client.close()
-    files = write_sweep(out, result, waveforms=args.waveforms)
-    if args.plot:
+    files: list[str] = []
+    write_error = None
+    try:
+        files = write_sweep(out, result, waveforms=args.waveforms)
+    except OutputFileError as exc:  # a full disk: the summary and the notes are still printed, then the error
+        write_error = exc
+    if args.plot and write_error is None:
         from ..plotting import plot_sweep, save_figure
 
         try:
@@ -214,7 +224,8 @@ def main(args) -> int:
             LOG.info("note: no plot: %s", exc)
     summary = result.summary()
     if args.json:
-        json.dump({"rows": result.rows, "failed": result.failed, "failures": result.failures(), "seed": result.seed,
+        json.dump({"rows": result.rows, "failed": result.failed, "failures": result.failures(),
+                   "measure_failures": result.measure_failures(), "seed": result.seed,
                    "summary": summary, "stats": {k: v for k, v in result.stats.items()}, "files": files},
                   sys.stdout, indent=2, default=float)
         sys.stdout.write("\n")
@@ -232,6 +243,8 @@ def main(args) -> int:
         LOG.warning("%s", note) if "failed" in note else LOG.info("note: %s", note)
     for path in files:
         LOG.info("wrote %s", path)
+    if write_error is not None:
+        raise write_error
     if interrupted:
         LOG.error("interrupted: %d of %d rows finished", result.stats.get("completed", 0), result.rows)
         return EXIT_INTERRUPTED

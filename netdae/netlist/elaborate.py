@@ -1431,6 +1431,7 @@ class _Elaborator:
         """The ``.step`` cards: what each sets, and its points."""
         out: list[StepSpec] = []
         seen: dict[str, Card] = {}
+        swept = {s.source for a in circuit.analyses if isinstance(a, DcAnalysis) for s in a.sweeps}
         for st in self.net.steps:
             card, form = st.card, DOT_CARDS[".step"]
             name = st.name
@@ -1460,6 +1461,10 @@ class _Elaborator:
             if name in seen:
                 raise error(card, st.name_offset, f"'{name}' is already stepped (line {seen[name].line})", form)
             seen[name] = card
+            if target in ("element", "temp") and name in swept:
+                card.warn(st.name_offset, f"'{name}' is what the .dc card sweeps: .dc sets it at each of its points, "
+                          "so this step changes nothing in the .dc result (it does in the other analyses)")
+                self.diagnostics.extend(card.take_notes())
             numbers = [self._value(v, card, "step value") for v in st.values]
             values = step_values(st, numbers)
             if target == "temp":

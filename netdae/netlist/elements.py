@@ -37,11 +37,13 @@ def error(card: Card, offset: int, message: str, syntax: ElementSyntax | str | N
     return NetlistError(f"{name}: {message}", card.location(offset), expected=expected, hint=hint)
 
 
-def parse_expr(card: Card, text: str, base: int, context: str, syntax=None) -> ex.Expr:
-    """Parse expression ``text`` found at offset ``base`` of ``card``; errors name the card."""
+def parse_expr(card: Card, text: str, base: int, context: str, syntax=None,
+               params: frozenset[str] = frozenset()) -> ex.Expr:
+    """Parse expression ``text`` found at offset ``base`` of ``card``; errors name the card
+    (``params``: names read as parameters even where reserved, :func:`~netdae.netlist.expr.parse_expression`)."""
     try:
         return ex.parse_expression(text, context=context, locate=lambda o: card.location(base + o),
-                                   warn=lambda o, message: card.warn(base + o, message))
+                                   warn=lambda o, message: card.warn(base + o, message), params=params)
     except NetlistError as exc:
         name = card.text.split(None, 1)[0]
         expected = syntax.form if isinstance(syntax, ElementSyntax) else syntax

@@ -105,7 +105,7 @@ import numpy as np
 
 from ..errors import NetlistError, SourceLocation
 from .lines import fold_case
-from .montecarlo import RANDOM_FUNCTIONS, is_random_call
+from .montecarlo import RANDOM_FORMS, RANDOM_FUNCTIONS, is_random_call
 from .numbers import parse_number, scan_param_number
 
 __all__ = [
@@ -442,9 +442,11 @@ class _Parser:
     """Precedence-climbing parser over one expression text."""
 
     def __init__(self, text: str, context: str, locate: Callable[[int], SourceLocation | None],
-                 warn: Callable[[int, str], None] | None = None):
+                 warn: Callable[[int, str], None] | None = None, params: frozenset[str] = frozenset()):
         self.text = text
         self.context = context
+        #: Names that are parameters here even where they are reserved words (a measurement named pi).
+        self.params = params
         self.locate = locate
         self.warn = warn
         self.pos = 0
@@ -592,6 +594,8 @@ class _Parser:
         raise self.error(f"unexpected {value!r} where a value is expected")
 
     def name(self, name: str, start: int) -> Expr:
+        if name in self.params:
+            return Param(name)
         if name == "time":
             if self.context != BEHAVIOURAL and not self.behavioural_group:
                 raise self.error("'time' is only available in behavioural sources (B, E/G value=)", start)
@@ -674,7 +678,9 @@ class _Parser:
 
     def arity(self, name: str, args: list, n: int, start: int) -> None:
         if len(args) != n:
-            raise self.error(f"{name}() takes {n} argument{'s' if n != 1 else ''}, got {len(args)}", start)
+            form = RANDOM_FORMS.get(name)
+            raise self.error(f"{name}() takes {n} argument{'s' if n != 1 else ''}, got {len(args)}", start,
+                             hint=f"write {form}, as ngspice's manual gives it" if form else None)
 
 
 def _negate(node: Expr) -> Expr:
@@ -689,6 +695,7 @@ def parse_expression(
     context: str = PARAM,
     locate: Callable[[int], SourceLocation | None] | None = None,
     warn: Callable[[int, str], None] | None = None,
+    params: frozenset[str] = frozenset(),
 ) -> Expr:
     """Parse an expression into a tree.
 
@@ -704,6 +711,10 @@ def parse_expression(
         ``warn(offset, message)`` receives ngspice's lenient readings that
         are accepted with a warning (``max(x)`` in a parameter expression is
         ``max(x, 1)``); without it they are errors.
+    params : frozenset of str, optional
+        Names read as parameters even where they are reserved words
+        (``time``, ``pi`` ...): a ``.meas`` ``PARAM`` expression reads a
+        measurement of that name, as ngspice does.
 
     Returns
     -------
@@ -722,7 +733,7 @@ def parse_expression(
     """
     locate = locate or (lambda offset: None)
     try:
-        tree = _Parser(fold_case(text), context, locate, warn).parse()
+        tree = _Parser(fold_case(text), context, locate, warn, params).parse()
     except RecursionError:
         tree = None
     if tree is None or depth(tree) > MAX_DEPTH:

@@ -28,6 +28,8 @@ Examples
 
 from __future__ import annotations
 
+import math
+
 from ..errors import NetlistError
 from . import expr as ex
 from .elements import IDENT, error, parse_expr, parse_value
@@ -51,6 +53,8 @@ _PREFIXES = {"v": ("v", ""), "i": ("i", ""), "vdb": ("v", "db"), "vm": ("v", "m"
 _EDGES = ("rise", "fall", "cross")
 #: Keywords each clause accepts (besides the edges and LAST where crossings are counted).
 _WINDOW = ("td", "from", "to")
+#: Reserved words of parameter expressions that a measurement's name hides in PARAM= (as in ngspice).
+_SHADOWABLE = frozenset({"time", "pi", "hertz"})
 _HINT_FUNCTIONS = "TRIG/TARG, FIND, WHEN, DERIV, MIN, MAX, MIN_AT, MAX_AT, PP, AVG, RMS, INTEG, PARAM"
 
 
@@ -138,15 +142,23 @@ def _probe(cur: _Cursor, analysis: str, what: str) -> tuple:
                        hint="use v(node) for tran and dc")
     cur.i += 2
     names: list[str] = []
+    comma = None  # the ',' after the last name, which another name must follow
+    what, form = ("an element name", "i(vname)") if letter == "i" else ("a node", "v(node) or v(a,b)")
     while True:
         t = cur.peek()
         if t is None:
             raise cur.fail(tok.start, f"{tok.text}(...): missing ')'")
         cur.i += 1
         if t.text == ")" and t.kind == PUNCT:
+            if comma is not None:
+                raise cur.fail(t.start, f"{tok.text}(...): {what} is missing after ','", hint=f"write {form}")
             break
         if t.kind == PUNCT and t.text == ",":
+            if not names or comma is not None:
+                raise cur.fail(t.start, f"{tok.text}(...): {what} is missing before ','", hint=f"write {form}")
+            comma = t
             continue
+        comma = None
         if t.kind != WORD:
             raise cur.fail(t.start, f"unexpected {t.text!r} in {tok.text}(...)")
         names.append("0" if t.text == "gnd" else t.text)
@@ -282,8 +294,11 @@ def parse_measure(card: Card) -> MeasureCard:
                            hint="write PARAM='expression'")
         if val is None or val.kind not in (WORD, EXPR):
             raise cur.fail(eq.start, "missing the expression after PARAM=")
-        body = parse_expr(card, val.text, val.start + (val.kind == EXPR), ex.PARAM, FORM)
-        m.expression = (body, val.start)
+        # a reserved word (time, pi) may be a measurement's name, which ngspice reads here: read as a
+        # name now, settled when the measurements are known (elaborate_measures)
+        base = val.start + (val.kind == EXPR)
+        body = parse_expr(card, val.text, base, ex.PARAM, FORM, params=_SHADOWABLE)
+        m.expression = (body, val.start, val.text, base)
         cur.i += 2
     elif function == "trig":
         m.trig = _condition(cur, analysis, "TRIG", "targ")
@@ -437,7 +452,8 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         return Condition(probe=probe(c["probe"], card, analysis) if c["probe"] else None,
                          value=number(c["value"], card, "VAL"),
                          other=probe(c["other"], card, analysis) if c["other"] else None,
-                         edge=c["edge"], count=c["count"], td=number(c["td"], card, "TD") or 0.0,
+                         edge=c["edge"], count=c["count"],
+                         td=-math.inf if c["td"] is None else number(c["td"], card, "TD"),
                          at=number(c["at"], card, "AT"))
 
     def one(m):
@@ -458,7 +474,10 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         expression = None
         params = {}
         if m.function == "param":
-            tree, offset = m.expression
+            tree, offset, text, base = m.expression
+            if any(isinstance(node, ex.Param) and node.name in _SHADOWABLE for node in ex.walk(tree)):
+                # reserved words are what they are unless a measurement has the name (.meas tran pi ...)
+                tree = parse_expr(card, text, base, ex.PARAM, FORM, params=_SHADOWABLE & measured)
             tree = inlined(tree, offset, card, "PARAM")
             for node in ex.walk(tree):
                 # as ngspice: every other measurement first, then the PARAM cards in order; one naming a

@@ -43,6 +43,10 @@ __all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "rando
 #: The Monte Carlo functions and their argument counts.
 RANDOM_FUNCTIONS: dict[str, int] = {"gauss": 3, "agauss": 3, "unif": 2, "aunif": 2, "limit": 2}
 
+#: Each function as ngspice's manual writes its arguments (shown in errors).
+RANDOM_FORMS: dict[str, str] = {"gauss": "gauss(nom, rvar, sigma)", "agauss": "agauss(nom, avar, sigma)",
+                                "unif": "unif(nom, rvar)", "aunif": "aunif(nom, avar)", "limit": "limit(nom, avar)"}
+
 #: The seed used when the netlist gives no ``.options seed=`` (ngspice's default rndseed is 1 too).
 DEFAULT_SEED = 1
 
@@ -173,14 +177,16 @@ class Draws:
         """
         arity = RANDOM_FUNCTIONS[name]
         if len(args) != arity:
-            raise ValueError(f"{name}() takes {arity} arguments, got {len(args)}")
+            raise ValueError(f"{name}() takes {arity} arguments, got {len(args)}: write {RANDOM_FORMS[name]}")
         rng = self._generator()
         self.count += 1
         nom, var = args[0], args[1]
         if arity == 3:
             sig = args[2]
             if not sig > 0.0:
-                raise ValueError(f"{name}(): sigma (the third argument) must be positive, got {sig:g}")
+                raise ValueError(f"{name}(): sigma (the third argument) must be positive, got {sig:g}: write "
+                                 f"{RANDOM_FORMS[name]}, the variation being sigma standard deviations "
+                                 f"(e.g. {name}(1k, {'0.1' if name == 'gauss' else '100'}, 3))")
             spread = (nom * var if name == "gauss" else var) / sig
             return nom + spread * float(rng.standard_normal())
         u = float(rng.uniform(-1.0, 1.0))

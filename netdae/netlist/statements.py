@@ -283,7 +283,7 @@ class MeasureCard:
     when: dict | None = None
     at: Val | None = None
     window: dict = field(default_factory=dict)  # td, from, to -> Val
-    expression: tuple | None = None  # (Expr, offset) of PARAM=
+    expression: tuple | None = None  # PARAM=: (Expr, offset, text, offset of the text)
 
 
 @dataclass

@@ -298,7 +298,9 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
 
 def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str, count: int, t0: float,
             interrupted: bool = False) -> SweepResult:
-    res = SweepResult.collect(job.plan, job.seed, outcomes, [m.name for m in circuit.measures], job.save)
+    # the measurements of the analyses that run (those of an analysis left out of analyses= are not made)
+    names = [m.name for m in circuit.measures if job.analyses is None or m.analysis in job.analyses]
+    res = SweepResult.collect(job.plan, job.seed, outcomes, names, job.save)
     res.stats = Statistics(wall_time=time.perf_counter() - t0, row_seconds=sum(o.seconds for o in outcomes.values()),
                            executor=name, workers=count, completed=len(outcomes))
     if interrupted:
@@ -306,4 +308,7 @@ def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str,
     if res.failed:
         res.notes.append(f"{res.failed} of {res.rows} rows failed: " +
                          "; ".join(f"{n} x {why}" for why, n in list(res.failures().items())[:3]))
+    for name, counts in res.measure_failures().items():  # the rows ran, the measurement could not be made
+        res.notes.append(f"measure {name} failed in {sum(counts.values())} of {res.rows} rows: " +
+                         "; ".join(f"{n} x {why}" for why, n in list(counts.items())[:3]))
     return res

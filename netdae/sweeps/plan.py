@@ -10,6 +10,8 @@ numbers: differences between points are not blurred by different draws).
 
 from __future__ import annotations
 
+import difflib
+
 import itertools
 import math
 from collections.abc import Iterable, Mapping
@@ -99,7 +101,12 @@ def _target(circuit: Circuit, name: str) -> str:
         el = circuit.element(name)
     except KeyError:
         known = ", ".join(sorted(circuit.params)) or "none"
-        raise NetdaeError(f"sweep: '{name}' is neither a top-level .param ({known}), an element, nor temp") from None
+        names = dict.fromkeys([*circuit.params, *(e.name for e in circuit.elements), "temp"])
+        near = difflib.get_close_matches(name, list(names), n=3)
+        hint = (f"did you mean {' or '.join(near)}? " if near else "") + \
+            "name a .param, an element (r1), a model parameter as model(param) (dmod(is)) or temp"
+        raise NetdaeError(f"sweep: '{name}' is neither a top-level .param ({known}), an element, nor temp "
+                          f"(hint: {hint})") from None
     if el.kind not in STEPPABLE_KINDS:
         raise NetdaeError(f"sweep: cannot step '{name}', a {el.kind}: step a .param used in its value or model")
     return "element"

@@ -126,6 +126,26 @@ class SweepResult:
                 counts[key] = counts.get(key, 0) + 1
         return dict(sorted(counts.items(), key=lambda kv: -kv[1]))
 
+    def measure_failures(self) -> dict[str, dict[str, int]]:
+        """Per measure, how many rows that ran could not make it, by reason.
+
+        A row that failed as a whole is counted by :meth:`failures`, not here.
+
+        Returns
+        -------
+        dict of str to dict of str to int
+            Only the measures that failed somewhere, their reasons most frequent first.
+        """
+        out: dict[str, dict[str, int]] = {}
+        for name, why in self.reasons.items():
+            counts: dict[str, int] = {}
+            for k, reason in enumerate(why):
+                if self.errors[k] is None and reason:
+                    counts[reason] = counts.get(reason, 0) + 1
+            if counts:
+                out[name] = dict(sorted(counts.items(), key=lambda kv: -kv[1]))
+        return out
+
     def table(self) -> list[dict[str, Any]]:
         """One dict per row: ``row``, each axis, ``sample`` (Monte Carlo), each measure, ``error``."""
         out = []
@@ -168,10 +188,18 @@ class SweepResult:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: seed, axes, rows (the table), failures, summary, stats, notes."""
+        """JSON-ready: seed, axes, rows (the table; a row that ran with failed measurements also has
+        ``reasons``, measure to why), failures, measure_failures, summary, stats, notes."""
+        rows = self.table()
+        for k, row in enumerate(rows):
+            if self.errors[k] is None:
+                why = {m: r[k] for m, r in self.reasons.items() if r[k]}
+                if why:
+                    row["reasons"] = why
         return {"seed": self.seed, "samples": self.plan.samples,
                 "axes": [{"target": a.target, "name": a.name, "values": list(a.values)} for a in self.plan.axes],
-                "rows": self.table(), "failed": self.failed, "failures": self.failures(),
+                "rows": rows, "failed": self.failed, "failures": self.failures(),
+                "measure_failures": self.measure_failures(),
                 "summary": {k: {s: (None if isinstance(x, float) and math.isnan(x) else x) for s, x in v.items()}
                             for k, v in self.summary().items()},
                 "stats": {k: v for k, v in self.stats.items() if isinstance(v, (int, float, str))},
