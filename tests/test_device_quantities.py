@@ -164,3 +164,20 @@ def test_measurements_of_quantities():
         assert got["pmax"] == pytest.approx(1e-3 * np.exp(-0.2), rel=2e-3)  # i^2 R at t = 0.1 ms
     with pytest.raises(netdae.NetlistError, match=r"'r1' is a resistor, which has no quantity 'zz'"):
         netdae.load(deck.replace("@r1[p]", "@r1[zz]"))
+
+
+@pytest.mark.parametrize("read", ["avg v(in)", "integ i(c1)"])
+def test_the_saved_note_says_what_the_result_holds_when_a_measurement_reads_more(read):
+    """A .meas reading a signal outside ``save`` (a node, a device current computed after the run):
+    the run keeps it for the measurement, the result holds the selection, and its note says so;
+    without a selection the note says every unknown is kept. Closed form: the RC's charge current
+    over the first millisecond integrates to C (1 - e^-1)."""
+    text = ("rc\nv1 in 0 pulse(0 1 0 1n 1n 1m 2m)\nr1 in out 1k\nc1 out 0 1u\n.tran 1u 2m\n"
+            f".meas tran m {read} from=0 to=1m\n.end\n")
+    r = netdae.run(netdae.load(text), save=["v(out)"])[0]
+    assert r.names() == ["v(out)"]
+    assert [n for n in r.notes if n.startswith("saved: ")] == ["saved: v(out)"]
+    expected = 1e-6 * (1 - np.exp(-1)) if read.startswith("integ") else 1.0
+    assert r.measures[0].value == pytest.approx(expected, rel=1e-3)
+    every = netdae.run(netdae.load(text))[0]
+    assert [n for n in every.notes if n.startswith("saved: ")] == ["saved: all unknowns"]

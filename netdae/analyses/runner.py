@@ -369,7 +369,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
                     res = ac_analysis(circuit, card, **options)
             absent = add_quantities(circuit, res, quantities)
-            if quantities and kind == "tran":  # it kept what the quantities are computed from
+            if quantities and kind == "tran" and names:  # it kept what the quantities are computed from
                 res.notes = [n for n in res.notes if not n.startswith("saved: ")]
                 res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
             if kind == "noise":
@@ -425,7 +425,14 @@ def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Resu
     measure(circuit, results)
     if wanted == names:
         return results
-    return [r if r.analysis in ("pz", "tf", "noise", "sens") else r.subset(names) for r in results]
+    kept = []
+    for r in results:
+        if r.analysis not in ("pz", "tf", "noise", "sens"):
+            r = r.subset(names)
+            # the note said what the run kept for the measurements too; the result holds the selection
+            r.notes = [f"saved: {', '.join(names)}" if n.startswith("saved: ") else n for n in r.notes]
+        kept.append(r)
+    return kept
 
 
 def _noise_subset(res: Result, names: list[str]) -> Result:
