@@ -159,3 +159,55 @@ def test_dc_sweep_whose_stop_ngspice_drops_is_compared_at_its_points():
     item = compare("t\nv1 a 0 1\nr1 a b 1k\nr2 b 0 2k\n.dc v1 0 60 0.1\n.end\n").analyses[0]
     assert item.passed and item.points == 600 and item.error is None
     assert any("leaves out 1 of netdae's" in n for n in item.notes)
+
+
+# ngspice stops its transient here (sqrt of a negative control, "timestep too small" at 1.5 ms);
+# its .ac runs. netdae's own run is made and measured: the .ac gain is 0.5 (the divider), the
+# transient's value at 0.5 ms is 1 V (sqrt(1) before the input falls below zero at 1 ms + ...).
+NGSPICE_FAILS = """transient that fails midway
+v1 in 0 dc 1 ac 1 pwl(0 1 1m 1 2m -1)
+r1 in a 1k
+r2 a 0 1k
+b1 out 0 v=sqrt(v(in))
+r3 out 0 1k
+.ac lin 3 1k 3k
+.tran 10u 2m
+.meas ac g find vm(a) at=2k
+.meas tran v05 find v(out) at=0.5m
+.end
+"""
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_where_ngspice_fails_netdae_still_runs_and_measures(backend):
+    c = compare(NGSPICE_FAILS, backend=backend)
+    assert not c.passed and c.ngspice_error
+    for a in c.analyses:  # not judged: ngspice has no result; netdae's run is said
+        assert a.error.startswith("ngspice failed on the netlist")
+        assert any(n.startswith("netdae ran on its own") for n in a.notes), a.notes
+    got = {m.name: m.netdae for m in c.measures}
+    assert got["v05"].value == pytest.approx(1.0, rel=1e-9)
+    assert got["g"].value == pytest.approx(0.5, rel=1e-12)
+
+
+# a PARAM measurement of one that failed: ngspice cannot substitute it, says so in numparam's
+# words and goes on (the run is fine, the measurement 'failed')
+PARAM_OF_FAILED = """param of a failed measurement
+v1 1 0 pulse(0 1 0 1n 1n 1m 2m)
+r1 1 2 1k
+c1 2 0 1u
+.tran 1u 2m
+.meas tran t1 when v(2)=5
+.meas tran e param='t1*2'
+.end
+"""
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_param_of_a_failed_measurement_does_not_fail_ngspice_s_run(backend):
+    c = compare(PARAM_OF_FAILED, backend=backend)
+    assert c.ngspice_error is None, c.ngspice_error
+    assert c.passed
+    e = next(m for m in c.measures if m.name == "e")
+    assert e.ngspice.status == "failed" and "Undefined parameter [t1]" in e.ngspice.reason
+    assert "cannot compute substitute" not in e.ngspice.reason.lower()

@@ -221,7 +221,7 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
                                                                "(the bridge removed it; see its notes)"])
     if ng is None:
         reason = "ngspice failed on the netlist" if ngspice_failed else f"ngspice produced no {kind} result"
-        return AnalysisComparison(kind, tolerance=tol, error=reason)
+        return _netdae_alone(kind, circuit, card, tol, overrides, reason, netdae_results)
     try:
         if kind == "ac":
             nd = _netdae_ac_at(circuit, ng.axis, overrides)
@@ -247,6 +247,26 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     item.netdae_tolerances = dict(nd.tolerances)
     item.ngspice_tolerances = {**ng.tolerances, "method": (ng.source.method if ng.source is not None and ng.source.method else "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
+    return item
+
+
+def _netdae_alone(kind: str, circuit: Circuit, card, tol, overrides, reason: str,
+                  netdae_results: dict | None) -> AnalysisComparison:
+    """An analysis ngspice gave no result for: not judged, but netdae's own run is made (its
+    measurements reported beside ngspice's failure, its failure said with ngspice's)."""
+    item = AnalysisComparison(kind, tolerance=tol, error=reason)
+    try:
+        nd = _run_netdae(circuit, card, overrides)
+    except (NetdaeError, ModuleNotFoundError) as exc:
+        if isinstance(exc, ModuleNotFoundError) and not (exc.name or "").startswith("netdae"):
+            raise
+        item.error = f"{reason}; netdae: {_netdae_error(exc)}"
+        return item
+    if netdae_results is not None:
+        netdae_results.setdefault(kind, nd)
+    item.netdae_tolerances = dict(nd.tolerances)
+    item.notes = [f"netdae ran on its own ({len(nd.axis) if nd.axis is not None else 0} points): "
+                  f"{nd.message or 'ok'}"] + [f"netdae: {note}" for note in nd.notes]
     return item
 
 

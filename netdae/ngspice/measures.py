@@ -47,6 +47,8 @@ _ERROR_NAME = re.compile(r"^\s*error:\s*measure\s+(\S+)", re.I)
 _CARD = re.compile(r"^\s*\.meas(?:ure)?\s+(\S+)\s+(\S+)\s+(\S+)", re.I)
 #: Error lines looked back for above a ``failed!`` line (the reason).
 _REASON_LINES = 3
+#: The head of a message of ngspice's parameter substitution (numparam): the deck's line it is about.
+_NUMPARAM_AT = re.compile(r"^\s*(?:netlist line no\.\s*(\d+)|original line no\.:\s*(\d+)[^:]*):\s*$", re.I)
 
 
 def measure_cards(netlist: str) -> list[tuple[str, str, str]]:
@@ -68,6 +70,37 @@ def _reason(lines: list[str]) -> str:
         if text:
             parts.append(text.rstrip("."))
     return "; ".join(parts)
+
+
+def _substitutions(lines: list[str], netlist: str) -> tuple[dict[str, str], list[str]]:
+    """The messages of ngspice's parameter substitution about ``.meas`` cards, and the other lines.
+
+    A ``PARAM`` measurement of a measurement that failed (or of one of another analysis) cannot
+    be substituted after the run: ngspice prints ``Netlist line no. N:`` before each line of its
+    complaint (``Undefined parameter [t1]``, ``Expression err: ...``, ``Cannot compute
+    substitute``), then the measurement as ``failed``, and goes on. Returns the complaint by
+    measurement name (the card on line N of ``netlist``, the title line 1) and the lines left.
+    """
+    card_at = {}
+    for number, line in enumerate(netlist.splitlines(), start=1):
+        m = _CARD.match(line)
+        if m is not None:
+            card_at[number] = m.group(2).lower()
+    reasons: dict[str, list[str]] = {}
+    rest = []
+    i = 0
+    while i < len(lines):
+        m = _NUMPARAM_AT.match(lines[i])
+        name = card_at.get(int(m.group(1) or m.group(2))) if m is not None else None
+        if name is None or i + 1 >= len(lines):
+            rest.append(lines[i])
+            i += 1
+            continue
+        text = lines[i + 1].strip()
+        if text and text.lower() != "cannot compute substitute":
+            reasons.setdefault(name, []).append(text)
+        i += 2
+    return {name: "; ".join(texts) for name, texts in reasons.items()}, rest
 
 
 def _failures(lines: list[str], names: set[str]) -> tuple[dict[str, str], list[str]]:
@@ -142,8 +175,9 @@ def read_measures(netlist: str, stdout: list[str], stderr: list[str]) -> tuple[l
             rest_out.append(line)
     failed_out, rest_out = _failures(rest_out, names)
     failed_err, rest_err = _failures(list(stderr), names)
-    failed = {name: "; ".join(filter(None, (failed_out.get(name), failed_err.get(name))))
-              for name in {*failed_out, *failed_err}}
+    substituted, rest_err = _substitutions(rest_err, netlist)
+    failed = {name: "; ".join(filter(None, (failed_out.get(name), failed_err.get(name), substituted.get(name))))
+              for name in {*failed_out, *failed_err, *substituted}}
     out = []
     seen: dict[str, int] = {}
     for analysis, name, function in cards:
