@@ -145,7 +145,7 @@ References
 from __future__ import annotations
 
 from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask,
-                        row_tolerances, save_indices)
+                        rounding_signs, row_tolerances, save_indices)
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -194,4 +194,4 @@ from .startup import ImplicitEulerStep, right_limit
 from .stepper import BDF
 
 __all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate", "check_arguments", "absolute_tolerances",
-           "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit"]
+           "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit", "rounding_signs"]

@@ -10,7 +10,7 @@ import numpy as np
 from ..system import KIND_CURRENT, KIND_VOLTAGE
 from .constants import MAX_ORDER
 
-__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices"]
+__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices", "rounding_signs"]
 
 
 def check_arguments(t0: float, t_bound: float, x0, n: int, *, rtol: float, maxord: int, norm: str, relref: str,
@@ -225,3 +225,21 @@ def charge_rows(indptr, indices, high: np.ndarray, column: np.ndarray) -> np.nda
             rows[np.asarray(indices[indptr[j]:indptr[j + 1]])] = True
         rows[high] = False
     return np.where(rows & (column >= 0), column, -1).astype(np.int64)
+
+
+#: :func:`rounding_signs` of each size asked for (read by the integrators, never written).
+_SIGNS: dict[int, np.ndarray] = {}
+
+
+def rounding_signs(n: int) -> np.ndarray:
+    """Fixed pseudo-random signs +-1, shape (n,), of the rounding floor's second right-hand side.
+
+    Rounding errors have no fixed sign: the floor takes the larger response to its
+    non-negative right-hand side and to the same with these signs (a single non-negative one
+    can cancel, e.g. across a capacitor between two nodes). The same signs for every run of a
+    size (seeded), so that a run does not depend on what ran before it; a new array each call.
+    """
+    signs = _SIGNS.get(n)
+    if signs is None:
+        signs = _SIGNS[n] = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
+    return signs.copy()

@@ -17,6 +17,7 @@ import scipy.sparse as sp
 
 from ..newton import (CONDUCTANCE_FALL, INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache,
                       conductance_fell, newton, residual_stalled)
+from .arguments import rounding_signs
 from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
 from .failures import nonfinite_unknown, worst_unknown
 
@@ -117,7 +118,7 @@ class RoundingFloor:
         n = w.size
         if rhs is None:
             rhs = self._rhs = np.empty((n, 2))
-            self._signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
+            self._signs = rounding_signs(n)
         rhs[:, 0] = noise
         np.multiply(noise, self._signs, out=rhs[:, 1])
         floor = np.abs(lu.solve(rhs)).max(axis=1)

@@ -57,6 +57,9 @@ _SUPPORTED = frozenset({"rtol", "atol", "vntol", "abstol", "index", "maxord", "m
                         "output", "window"})
 #: Initial capacity of the output buffers (they double when full).
 BUFFER_START = 1024
+#: Without ``output``, the buffers start with room for the points the step bound implies at least (and
+#: a quarter more), within this many bytes: a run then rarely returns to Python to grow them.
+BUFFER_START_BYTES = 16 * 2**20
 #: Wall time between two returns to Python [s] (progress, Ctrl-C).
 PROGRESS_INTERVAL = 0.1
 #: Bytes of output a bounded run keeps in memory at most (``window``), and the fewest points.
@@ -83,6 +86,16 @@ _FAMILY_ARRAYS = 5
 #: Position in ``devd`` of the behavioural sources' locked outcomes (after the five families of the standard
 #: interface, the switches' crossing times and the behavioural sources' prog, const, inst, leaf, val, der).
 LOCK_ARRAY = 5 * _FAMILY_ARRAYS + 1 + 6
+
+
+def _buffer_start(span: float, max_step: float, columns: int) -> int:
+    """Points the output buffers start with: :data:`BUFFER_START`, or room for ``span / max_step``
+    points and a quarter more (a power of two) within :data:`BUFFER_START_BYTES`."""
+    fewest = span / max_step if max_step > 0.0 else math.inf
+    if not math.isfinite(fewest) or fewest > 1e12:
+        return BUFFER_START
+    want = 1 << max(0, math.ceil(math.log2(1.25 * fewest + 64)))
+    return max(BUFFER_START, min(want, BUFFER_START_BYTES // (8 * (columns + 2))))
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -197,6 +210,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         check_arguments,
         index_mask,
         right_limit,
+        rounding_signs,
         row_tolerances,
         save_indices,
     )
@@ -281,8 +295,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     sysd = (indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)
     delays = pack_delays(system)
     ns = save_idx.size
-    # fixed pseudo-random signs of the rounding floor's second right-hand side (as BDF's)
-    signs = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
+    signs = rounding_signs(n)  # of the rounding floor's second right-hand side (as BDF's)
     # rows whose charge error joins the error test (coupled to index-2 unknowns): their charge columns
     qrows = charge_rows(indptr, indices, high, qcol)
     tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)
@@ -327,7 +340,12 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         return (*plan.refactor_args(), plan.perm_r, plan.perm_c, lu._l, lu._u, lu._x, swork)
 
     window = bool(options.get("window")) and options.get("output") is not None and delays[0].size == 0
-    cap = max(WINDOW_MIN, min(BUFFER_START, WINDOW_BYTES // (8 * (ns + 2)))) if window else BUFFER_START
+    if window:
+        cap = max(WINDOW_MIN, min(BUFFER_START, WINDOW_BYTES // (8 * (ns + 2))))
+    elif options.get("output") is not None:  # blocks of at most BUFFER_START points to write as they come
+        cap = BUFFER_START
+    else:
+        cap = _buffer_start(t_bound - t0, max_step, ns + delays[0].size)
     buf_t = np.empty(cap)
     buf_k = np.zeros(cap, dtype=np.int8)
     buf_x = np.empty((cap, ns + delays[0].size))  # the saved unknowns, then the lines' waves
