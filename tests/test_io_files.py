@@ -73,7 +73,8 @@ CHILD = textwrap.dedent(
 
 
 def _child(args, *, size_limit=None, drop_override=False):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    # no bytecode written under the file-size limit: a truncated .pyc would break every later import
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg", PYTHONDONTWRITEBYTECODE="1")
     command = [sys.executable, "-c", CHILD, *map(str, args)]
     if drop_override:
         command = [shutil.which("setpriv"), "--bounding-set", "-dac_override,-dac_read_search", *command]
