@@ -323,7 +323,7 @@ def _window(spec: MeasureSpec, trace: _Trace) -> tuple[float, float]:
 
 
 #: Points per step where :func:`_peaks` looks for the largest value before Newton refines it.
-_PEAK_GRID = tuple(float(u) for u in np.linspace(0.0, 1.0, 33))
+_PEAK_GRID = np.linspace(0.0, 1.0, 33)
 
 
 def _peaks(coef: np.ndarray, s_lo: np.ndarray, s_hi: np.ndarray, sign: float) -> tuple[np.ndarray, np.ndarray]:
@@ -349,40 +349,18 @@ def _peaks(coef: np.ndarray, s_lo: np.ndarray, s_hi: np.ndarray, sign: float) ->
 
     Notes
     -----
-    About 30 us a step in Python floats, where a polynomial root finder cost
-    about 120 us (the numpy calls on arrays of six entries are the cost).
+    In compiled code (:func:`netdae.dae.compiled.dense.polynomial_peaks`, a
+    transient's measurement runs where the engine is loaded): about 1 us a
+    step, where Python floats cost about 30 us and a polynomial root finder
+    about 120 us.
     """
-    m = coef.shape[0]
-    s_out = np.zeros(m)
-    for i in range(m):  # a few steps each time: Python floats beat numpy calls on arrays of six
-        c = [float(v) for v in coef[i]]
-        deg = len(c) - 1
-        d1 = [c[k] * (deg - k) for k in range(deg)]
-        d2 = [d1[k] * (deg - 1 - k) for k in range(deg - 1)]
-        lo, hi = float(s_lo[i]), float(s_hi[i])
-        start, best = lo, -math.inf
-        for u in _PEAK_GRID:
-            x = lo + (hi - lo) * u
-            v = sign * _horner(c, x)
-            if v > best:
-                start, best = x, v
-        x = start
-        for _ in range(8):
-            curve = _horner(d2, x)
-            if curve == 0.0 or not math.isfinite(curve):
-                break
-            x = min(max(x - _horner(d1, x) / curve, lo), hi)
-        # Newton gone astray (a flat or degenerate peak): the grid's best stands
-        s_out[i] = x if sign * _horner(c, x) >= best else start
+    from ..dae.compiled.dense import polynomial_peaks
+
+    s_lo = np.ascontiguousarray(s_lo, dtype=float)
+    s_hi = np.ascontiguousarray(s_hi, dtype=float)
+    s_out = np.zeros(coef.shape[0])
+    polynomial_peaks(np.ascontiguousarray(coef, dtype=float), s_lo, s_hi, float(sign), _PEAK_GRID, s_out)
     return s_out, (s_out > s_lo) & (s_out < s_hi)
-
-
-def _horner(c: list, x: float) -> float:
-    """``np.polyval(c, x)`` for a short list of floats (highest power first)."""
-    out = 0.0
-    for a in c:
-        out = out * x + a
-    return out
 
 
 def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> tuple[float, float]:

@@ -10,9 +10,11 @@ numpy form costs about a microsecond per time in temporaries.
 
 from __future__ import annotations
 
+import math
+
 from . import kernel
 
-__all__ = ["lagrange_eval", "lagrange_weight", "locate"]
+__all__ = ["lagrange_eval", "lagrange_weight", "locate", "polynomial_peaks"]
 
 
 @kernel
@@ -76,3 +78,63 @@ def lagrange_eval(t, orders, x, cols, tq, out):
             w = lagrange_weight(t, i, k, a, v)
             for c in range(cols.size):
                 out[p, c] += w * x[i - a, cols[c]]
+
+
+@kernel
+def _horner(coef, i, x, order):
+    """``p(x)`` (order 0), ``p'(x)`` (1) or ``p''(x)`` (2) of the polynomial ``coef[i]`` (highest power
+    first), the derivatives' coefficients formed as a list of Python floats would form them."""
+    deg = coef.shape[1] - 1
+    out = 0.0
+    for k in range(deg + 1 - order):
+        c = coef[i, k]
+        if order >= 1:
+            c = c * (deg - k)
+        if order == 2:
+            c = c * (deg - 1 - k)
+        out = out * x + c
+    return out
+
+
+@kernel
+def polynomial_peaks(coef, s_lo, s_hi, sign, grid, out):
+    """The largest ``sign * p_i(s)`` of each polynomial ``p_i`` on ``[s_lo[i], s_hi[i]]``: ``out[i]``.
+
+    The best of the ``grid`` points (fractions of the interval), refined by up to eight Newton
+    steps on ``p'`` kept inside the interval; the grid's best stands where Newton ends lower (a
+    flat or degenerate peak). :func:`netdae.analyses.measure._peaks` is its caller.
+
+    Parameters
+    ----------
+    coef : ndarray, shape (m, d + 1)
+        Coefficients, highest power first.
+    s_lo, s_hi : ndarray, shape (m,)
+    sign : float
+        +1 for a maximum, -1 for a minimum.
+    grid : ndarray, shape (g,)
+        Points in [0, 1].
+    out : ndarray, shape (m,)
+    """
+    for i in range(coef.shape[0]):
+        lo = s_lo[i]
+        hi = s_hi[i]
+        start = lo
+        best = -math.inf
+        for u in grid:
+            x = lo + (hi - lo) * u
+            v = sign * _horner(coef, i, x, 0)
+            if v > best:
+                start = x
+                best = v
+        x = start
+        for _ in range(8):
+            curve = _horner(coef, i, x, 2)
+            if curve == 0.0 or not math.isfinite(curve):
+                break
+            y = x - _horner(coef, i, x, 1) / curve
+            if lo > y:  # max(y, lo), then min(., hi), as Python's builtins order them
+                y = lo
+            if hi < y:
+                y = hi
+            x = y
+        out[i] = x if sign * _horner(coef, i, x, 0) >= best else start
