@@ -66,3 +66,25 @@ C2 d 0 1u
     assert rep.x[list(rep.system.names).index("v(b)")] == 0.4
     assert any(m.startswith(f"linearised at {POINT_NETLIST} because the DC operating point cannot be computed "
                             "(no DC operating point: i1 drives") for m in rep.messages)
+
+
+def test_empty_circuit_has_no_index(tmp_path, capsys):
+    """A netlist without elements has no unknowns: no DAE, so no index (it was reported as "index 0, an ODE")."""
+    import pytest
+
+    from netdae.errors import CircuitError
+    from netdae.topology import analyze_topology
+
+    for text in ("only a title\n", "only the end card\n.end\n"):
+        circuit = netdae.load(text)
+        with pytest.raises(CircuitError, match="the circuit has no elements: it has no unknowns"):
+            analyze_index(circuit)
+        topo = analyze_topology(circuit)
+        assert topo.topological_index is None and topo.index_message.startswith("no index: the circuit has no "
+                                                                               "elements")
+    path = tmp_path / "empty.cir"
+    path.write_text("only the end card\n.end\n")
+    assert cli_main(["index", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: the circuit has no elements" in err and "Traceback" not in err
+

@@ -384,7 +384,9 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
     NetdaeError
         For an unknown ``at`` or ``method``, or ``method="kronecker"`` above the dense limit.
     CircuitError, ConvergenceError
-        When the operating point cannot be computed.
+        When the operating point cannot be computed, or the circuit has no
+        unknowns (no elements, or none off ground): an empty system has no
+        index to report.
     """
     t_start = time.perf_counter()
     if at not in ("op", "t0"):
@@ -400,6 +402,13 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         prepared = (prepare(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop) if at == "t0"
                     else prepare(circuit, mode=MODE_DC))
     circuit, system, topo = prepared.circuit, prepared.system, prepared.topology
+    if system.n == 0:
+        raise CircuitError(
+            f"{circuit.path}: the circuit has {'no elements' if not circuit.elements else 'no node other than ground'}"
+            ": it has no unknowns, so there is no DAE to analyse",
+            elements=tuple(el.name for el in circuit.elements),
+            hint="connect elements between nodes and ground (0); an empty netlist may come from a wrong file "
+                 "or a .include or .lib that brought nothing")
     use_dense = method == "kronecker" or (method == "auto" and system.n <= DENSE_LIMIT)
     if method == "kronecker" and system.n > DENSE_LIMIT:
         raise NetdaeError(
