@@ -88,3 +88,30 @@ def test_empty_circuit_has_no_index(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{path}: the circuit has no elements" in err and "Traceback" not in err
 
+
+def test_json_floating_nodes_are_only_the_unconnected_ones(tmp_path, capsys):
+    """A node attached only through capacitors has no DC path but is not floating: the pencil is regular.
+
+    ``index --json`` listed it under ``floating_nodes`` (with the singular pencils' floating sub-networks);
+    the reference MNA's pencil is regular of index 1, so it belongs under ``no_dc_path`` alone.
+    """
+    text = """capacitive divider off a resistive node
+V1 in 0 SIN(0 1 1k)
+R1 in a 1k
+R2 a 0 1k
+C1 a x 1u
+C2 x 0 1u
+R3 y z 1k
+.end
+"""
+    E, H, _, _ = reference_mna(netdae.load(text.replace("R3 y z 1k\n", "")))
+    assert pencil_structure(E, H) == (True, 1)
+    path = tmp_path / "divider.cir"
+    path.write_text(text.replace("R3 y z 1k\n", ""))
+    assert cli_main(["index", "--json", str(path)]) == 0
+    topo = json.loads(capsys.readouterr().out)["topology"]
+    assert topo["floating_nodes"] == [] and topo["no_dc_path"] == [["x"]]
+    path.write_text(text)  # y, z float: a singular pencil, listed under both
+    assert cli_main(["index", "--json", str(path)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["regular"] is False and doc["topology"]["floating_nodes"] == [["y", "z"]]

@@ -146,8 +146,11 @@ class IndexReport:
                 "i_cutsets": [cs["elements"] for cs in topo.get("i_cutsets", [])],
                 "cv_loops": [lp["elements"] for lp in topo.get("cv_loops", [])],
                 "li_cutsets": [cs["elements"] for cs in topo.get("li_cutsets", [])],
-                "floating_nodes": [g["nodes"] for g in topo.get("floating_groups", [])]
-                + [g["nodes"] for g in topo.get("no_dc_path", [])],
+                # floating: no connection to ground at all (a singular pencil); a node set without a DC
+                # path (a capacitive divider's middle node, an integrator's output) is no reason for a
+                # singular pencil and is listed apart
+                "floating_nodes": [g["nodes"] for g in topo.get("floating_groups", [])],
+                "no_dc_path": [g["nodes"] for g in topo.get("no_dc_path", [])],
                 "applicable": topo.get("applicable"),
                 "topological_index": topo.get("topological_index"),
                 "findings": topo.get("findings", []),
