@@ -115,3 +115,29 @@ R3 y z 1k
     assert cli_main(["index", "--json", str(path)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["regular"] is False and doc["topology"]["floating_nodes"] == [["y", "z"]]
+
+
+def test_controlled_suspicions_refuted_by_the_numerical_pencil_are_not_reported_as_singular():
+    """A cutset of current-type sources through a VCCS that reads its own node (a conductance), and a
+    gyrator (two VCCSs) turning C1 into an inductor fed by I1: the topology can only say *likely*
+    singular; the reference MNA's pencil is regular (index 1 and 2) and its DC matrix has full rank, so
+    the report must not say "likely singular" next to the regular index, but that the suspicion failed.
+    """
+    import numpy as np
+
+    conductance = "vccs as a conductance\nI1 0 x DC 1m\nG1 x 0 x 0 1m\n.end\n"
+    gyrator = "gyrator\nI1 0 a SIN(0 1m 1k)\nG1 a 0 b 0 1m\nG2 0 b a 0 1m\nC1 b 0 1u\n.end\n"
+    for text, index in ((conductance, 1), (gyrator, 2)):
+        circuit = netdae.load(text)
+        E, H, _, _ = reference_mna(circuit)
+        assert pencil_structure(E, H) == (True, index)
+        assert np.linalg.matrix_rank(H) == H.shape[0]  # the DC matrix (-H) is regular
+        rep = analyze_index(circuit)
+        assert (rep.regular, rep.index) == (True, index)
+        assert not any("likely singular" in m for m in rep.messages), rep.messages
+        assert any(m.startswith("not confirmed: the loops or cutsets through controlled sources (i1, g1) suggested "
+                                "a singular pencil: the pencil is regular") for m in rep.messages)
+        assert any("suggested a singular DC matrix: the DC matrix has full rank" in m for m in rep.messages)
+    # a cutset of a CCCS alone stays singular, and its DC suspicion stays
+    rep = analyze_index(netdae.load("cccs\nV1 in 0 DC 1\nVs in c 0\nR1 c 0 1k\nF1 0 b Vs 2\n.end\n"))
+    assert rep.regular is False and any("DC operating point likely singular" in m for m in rep.messages)

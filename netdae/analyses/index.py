@@ -271,9 +271,46 @@ def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
     return str(err)
 
 
-def _messages(rep: IndexReport) -> list[str]:
+#: Findings that claim a singular pencil, and those that claim a singular DC matrix.
+_PENCIL_SINGULAR = ("v_loop", "floating", "i_cutset")
+_DC_SINGULAR = ("dc_loop", "no_dc_path")
+
+
+def _refuted(rep: IndexReport, f, dc_regular: bool | None) -> bool:
+    """Whether the numerical analysis refutes a topological suspicion that rests on controlled sources.
+
+    A loop of voltage-type branches or a cutset of current-type branches through a controlled
+    source is reported as *likely* singular: the controlled source's law may fix what the
+    topology leaves free (a CCVS reading the current of the loop's other source, a VCCS reading
+    its own node: a conductance, a gyrator). Where the dense pencil is regular, a likely singular
+    pencil is refuted; where the DC matrix has full rank, a likely singular DC point is; where
+    the index is below 2, a likely index-2 loop or cutset is.
+    """
+    if not f.controlled or f.severity == "note" or rep.method != "kronecker":
+        return False
+    if f.kind in _PENCIL_SINGULAR:
+        return rep.regular is True
+    if f.kind in _DC_SINGULAR:
+        return dc_regular is True
+    if f.kind in ("cv_loop", "li_cutset"):
+        return rep.index is not None and rep.index < 2
+    return False
+
+
+def _dc_regular(system: MnaSystem, topo, x: np.ndarray) -> bool | None:
+    """Whether the DC matrix at ``x`` has full rank, decided only where a controlled finding doubts it."""
+    if not any(f.controlled and f.kind in _DC_SINGULAR and f.severity != "note" for f in topo.findings):
+        return None
+    from ..dae.kronecker import matrix_rank
+
+    H = system.jacobians(x, 0.0)[1]
+    return matrix_rank(H, what="rank of the DC matrix").decision.rank == system.n
+
+
+def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
     out = []
     topo = rep.topology
+    refuted = []
     if rep.regular is False:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")
     elif rep.index is not None:
@@ -291,8 +328,20 @@ def _messages(rep: IndexReport) -> list[str]:
             if f.kind in ("not_applicable", "truncated", "element_note") or (
                     f.severity == "note" and f.kind != "no_dc_path"):
                 continue
+            if _refuted(rep, f, dc_regular):
+                refuted.append(f)
+                continue
             singular = f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path") and f.severity != "note"
             out.append(f"{f.message} (hint: {f.hint})" if singular and f.hint else f.message)
+        for kinds, what in ((_PENCIL_SINGULAR, "a singular pencil: the pencil is regular"),
+                            (_DC_SINGULAR, "a singular DC matrix: the DC matrix has full rank"),
+                            (("cv_loop", "li_cutset"), f"index 2: the index is {rep.index}")):
+            hit = [f for f in refuted if f.kind in kinds]
+            if hit:
+                names = list(dict.fromkeys(e for f in hit for e in f.elements))
+                out.append(f"not confirmed: the loops or cutsets through controlled sources ("
+                           f"{', '.join(names[:8])}{' ...' if len(names) > 8 else ''}) suggested {what}, so the "
+                           "controlled sources' laws determine what the topology leaves free")
         if not topo.applicable and topo.not_applicable_reason:
             out.append(topo.not_applicable_reason)
         elif topo.topological_index is not None and rep.index is not None and rep.method == "kronecker" \
@@ -457,7 +506,7 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
             at=at, system=system,
         )
     rep.point = point
-    rep.messages = _messages(rep)
+    rep.messages = _messages(rep, _dc_regular(system, topo, xlin) if pencil is not None else None)
     reason = _singular_reason(prepared, xlin) if rep.regular is False and pencil is not None else None
     if reason is not None:
         rep.messages.insert(1, reason)
