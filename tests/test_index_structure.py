@@ -141,3 +141,28 @@ def test_controlled_suspicions_refuted_by_the_numerical_pencil_are_not_reported_
     # a cutset of a CCCS alone stays singular, and its DC suspicion stays
     rep = analyze_index(netdae.load("cccs\nV1 in 0 DC 1\nVs in c 0\nR1 c 0 1k\nF1 0 b Vs 2\n.end\n"))
     assert rep.regular is False and any("DC operating point likely singular" in m for m in rep.messages)
+
+
+def test_singular_at_a_large_tolerance_does_not_call_a_full_rank_dc_matrix_singular():
+    """A singular pencil has a singular DC matrix (det(sE - H) = 0 at s = 0), so the index report explains a
+    singular pencil by the DC matrix's null space. At a user's large ``tol`` the pencil can be judged singular
+    while the DC matrix keeps full rank; the DC rank was decided at the default tolerance, and the report said
+    "the DC operating-point matrix is singular (the DC matrix has rank 5 of 5 ...)".
+    """
+    import numpy as np
+
+    text = """finite-gain differentiator
+V1 in 0 SIN(0 1 1k)
+C1 in m 100n
+R1 m out 1k
+E1 out 0 0 m 1e4
+.end
+"""
+    circuit = netdae.load(text)
+    E, H, _, _ = reference_mna(circuit)
+    assert pencil_structure(E, H) == (True, 1) and np.linalg.matrix_rank(H) == H.shape[0]
+    rep = analyze_index(circuit, tol=1e-3)
+    assert rep.regular is False  # at that tolerance
+    assert not any("matrix is singular" in m or "rank 5 of 5" in m for m in rep.messages), rep.messages
+    assert rep.messages[1].startswith("no structural reason: the DC matrix has full rank at this tolerance")
+    assert analyze_index(circuit).index == 1

@@ -255,8 +255,14 @@ def _consistency(prepared: Prepared, pencil: PencilReport, x0: np.ndarray | None
     return H.check_consistency(x0, c_derivs, steady=steady)
 
 
-def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
-    """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements."""
+def _singular_reason(prepared: Prepared, x: np.ndarray, tol: float | None = None) -> str | None:
+    """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements.
+
+    The DC matrix's rank is decided at the pencil's relative tolerance ``tol``. Exactly, a singular
+    pencil's DC matrix is singular (``det(s E - H) = 0`` for every ``s``, so at ``s = 0``); a DC
+    matrix of full rank at that tolerance means the pencil was judged singular only by rank
+    decisions at the edge of the tolerance (a large ``--tol``), and the message says so instead.
+    """
     from ..dae.kronecker import matrix_rank
     from ..dae.steady import SteadyResult
     from .op import _singular_error
@@ -266,7 +272,11 @@ def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
            for f in topo.findings):
         return None  # the topological reason is among the messages already
     H = system.jacobians(x, 0.0)[1]
-    rank = matrix_rank(H, what="rank of the DC matrix")
+    rank = matrix_rank(H, rtol=tol, what="rank of the DC matrix")
+    if rank.rank == system.n:
+        return ("no structural reason: the DC matrix has full rank at this tolerance, so the pencil was judged "
+                "singular by a rank decision near the tolerance (see the rank decisions and their margins; a "
+                "smaller --tol decides them again)")
     err = _singular_error(prepared.circuit, system, SteadyResult(x, False, singular=True, rank=rank), topo)
     return str(err)
 
@@ -507,7 +517,7 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         )
     rep.point = point
     rep.messages = _messages(rep, _dc_regular(system, topo, xlin) if pencil is not None else None)
-    reason = _singular_reason(prepared, xlin) if rep.regular is False and pencil is not None else None
+    reason = _singular_reason(prepared, xlin, tol) if rep.regular is False and pencil is not None else None
     if reason is not None:
         rep.messages.insert(1, reason)
     if fallback is not None:
