@@ -472,3 +472,31 @@ def test_small_overlap_capacitance_does_not_raise_the_index(overlap):
     assert rep.index == 2
     assert rep.unknowns["i(vdd)"] == "index2" and rep.unknowns["i(vin)"] == "index2"
     assert rep.unknowns["v(d1#internal)"] == "differential"
+
+
+def test_close_call_is_not_won_by_a_rounding_value_the_unbalanced_tolerance_cannot_see():
+    """A V source and a CCVS reading it in parallel (n2-n4), tied by R6 and V5 to node n3, which an
+    inductor alone joins to ground: the cutset {L1} forces i(l1) = 0 and v(n3) = L1 i(l1)' = 0, so
+    the pencil has index 2 and no finite eigenvalue (SLICOT agrees). Balanced, the last E block's
+    singular value is rounding 4 times below the tolerance (a close call); the unbalanced re-decision
+    kept 4.3e-17 (143 eps of ||E||, leaked from the compression of H, whose entries span 1513 ohm to
+    2 mS) as an inductance with margin 17.9 and was reported: index 1, a pole at -1.2e16 1/s.
+    """
+    L, g, r = 0.001342, 1 / 483.1, 1513.0
+    # unknowns v(n3) v(n2) v(n4) v(n1) i(l1) i(v3) i(h4) i(v5); node rows are the currents entering
+    E = np.zeros((8, 8))
+    E[4, 4] = L  # L1 from 0 to n3: L i' = v(0) - v(n3)
+    H = np.zeros((8, 8))
+    H[0, 4], H[0, 7] = 1, -1                              # n3: i(l1) in, i(v5) out
+    H[1, [1, 3, 5, 6]] = -g, g, -1, -1                    # n2: R6 to n1, V3 and H4 out
+    H[2, [5, 6]] = 1, 1                                   # n4: V3 and H4 in
+    H[3, [1, 3, 7]] = g, -g, 1                            # n1: R6, i(v5) in
+    H[4, 0] = -1                                          # L1: L i' = -v(n3)
+    H[5, [1, 2]] = 1, -1                                  # V3: v(n2) - v(n4) = V
+    H[6, [1, 2, 5]] = 1, -1, -r                           # H4: v(n2) - v(n4) = r i(v3)
+    H[7, [0, 3]] = 1, -1                                  # V5: v(n3) - v(n1) = V
+    ref = ag08bd_structure(E, H)
+    assert index_from_infe(ref["infe"]) == 2 and ref["nfz"] == 0
+    rep = analyze_pencil(E, H)
+    assert rep.regular and rep.index == 2 and rep.n_dynamic == 0, rep.warnings
+    assert rep.finite_eigenvalues.size == 0

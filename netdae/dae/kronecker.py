@@ -469,6 +469,14 @@ class Staircase:
     first_svd : tuple
         ``(P, s, WT)``, the SVD of the whole E at step 1 (reused for the SVD
         form (2.3)).
+    leaks : tuple of float
+        Per E-block decision (step 1, 2, ...), how large a singular value of
+        that block rounding in H alone can make: 0 at step 1; at step ``i > 1``
+        the E rows the compression of H at step ``i - 1`` mixes in when a
+        perturbation of H of its rounding (``tol_h``) turns that compression's
+        null space (Wedin: towards the j-th kept left singular vector by up to
+        ``tol_h / s_j``). A kept singular value below its leak may be rounding
+        that ``tol_e`` alone does not see (:attr:`KroneckerStructure.robust_margin`).
     """
 
     A: np.ndarray
@@ -482,6 +490,7 @@ class Staircase:
     decisions: list
     neglected: float
     first_svd: tuple = field(repr=False, default=None)
+    leaks: tuple = ()
 
     @property
     def right_indices(self) -> list[int]:
@@ -537,6 +546,7 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
     neglected_sq = 0.0
     first_svd = None
     step = 0
+    leaks = [0.0]
     while c0 < k:
         step += 1
         mi, ki = m - r0, k - c0
@@ -562,6 +572,8 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
         decisions.append(dec2)
         rho = dec2.rank
         neglected_sq += float(np.sum(s2[rho:] ** 2))
+        kept_rows = np.linalg.norm(P2[:, :rho].T @ A[r0:, c0:], axis=1)  # the E rows paired with H's kept ones
+        leaks.append(float(tol_h * np.linalg.norm(kept_rows / s2[:rho])) if rho else 0.0)
         # rows r0: are zero in columns :c0, so only the active columns change
         A[r0:, c0:] = P2.T @ A[r0:, c0:]
         B[r0:, c0:] = P2.T @ B[r0:, c0:]
@@ -577,7 +589,8 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
         rows.append(rho)
         r0 += rho
         c0 += ns
-    return Staircase(A, B, QT, Z, cols, rows, r0, c0, decisions, float(np.sqrt(neglected_sq)), first_svd)
+    return Staircase(A, B, QT, Z, cols, rows, r0, c0, decisions, float(np.sqrt(neglected_sq)), first_svd,
+                     tuple(leaks[: sum(1 for d in decisions if " of E block " in d.what)]))
 
 
 # ---------------------------------------------------------------------------
@@ -672,6 +685,25 @@ class KroneckerStructure:
     def margin(self) -> float:
         """Worst :attr:`RankDecision.margin` of the structure's decisions."""
         return min((d.margin for d in self.decisions), default=float("inf"))
+
+    @property
+    def robust_margin(self) -> float:
+        """:attr:`margin` with each kept singular value of an E block measured against its leak too.
+
+        A kept singular value of the E block of staircase step ``i > 1`` counts only by how far it
+        exceeds both ``tol_e`` and what rounding in H can put there (:attr:`Staircase.leaks`): the
+        worst-case distance from a structure of rounding, for choosing between two scalings of one
+        pencil that disagree.
+        """
+        worst = self.margin
+        for st in (self.first, self.second):
+            if st is None:
+                continue
+            blocks = [d for d in st.decisions if " of E block " in d.what]
+            for d, leak in zip(blocks, st.leaks):
+                if d.kept and leak > d.tol:
+                    worst = min(worst, d.kept[-1] / leak)
+        return float(worst)
 
     def summary(self) -> tuple:
         """The structure as comparable data."""

@@ -216,7 +216,11 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
         differ = plain.ks.summary() != best.ks.summary()
         if not (close or differ):
             return best, rtol
-        chosen = plain if plain.ks.margin > best.ks.margin else best
+        # where the two disagree, a kept singular value counts only by how far it exceeds what rounding in H
+        # can leak into its E block: the unbalanced pencil's tolerance of n eps ||E|| does not see that
+        # leak, which grows with the spread of H's entries (robust_margin)
+        score = (lambda d: d.ks.robust_margin) if differ else (lambda d: d.ks.margin)
+        chosen = plain if score(plain) > score(best) else best
         why = ("the closest rank decision on the balanced pencil" if (close or not stretched)
                else f"the balanced pencil spans {bal.spread_after:.1f} decades; its closest rank decision")
         note = (
@@ -227,7 +231,9 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
         if differ:
             note += (
                 f"; they disagree: balanced {best.ks.summary()}, unbalanced {plain.ks.summary()} "
-                "(regular, infinite blocks, right and left minimal indices)"
+                "(regular, infinite blocks, right and left minimal indices); margins against what rounding "
+                f"in H can leak into the E blocks: balanced {best.ks.robust_margin:.3g}, unbalanced "
+                f"{plain.ks.robust_margin:.3g}"
             )
         chosen.notes.append(note)
         best = chosen
