@@ -500,3 +500,26 @@ def test_close_call_is_not_won_by_a_rounding_value_the_unbalanced_tolerance_cann
     rep = analyze_pencil(E, H)
     assert rep.regular and rep.index == 2 and rep.n_dynamic == 0, rep.warnings
     assert rep.finite_eigenvalues.size == 0
+
+
+def test_close_call_is_not_won_by_a_rounding_value_in_an_h_block():
+    """Nodes n1, n2, n3 reach ground only through the current source I3 (G1 between n3 and n1 reads
+    v(n2) against ground, L4 from n3 to n2, R2 between n2 and n1, I5 between n1 and n2): the three
+    current laws add up to a row without unknowns, 0 = I3, so the pencil is singular for any element
+    values. Balanced, that is a close call (margin 8); unbalanced, the H block of staircase step 2 kept
+    5.3e-13 (rounding of 1/R2 - g1, turned by a compression of H whose kept singular values go down to
+    4.9e-4) with margin 300, and the pencil was reported regular of index 2.
+    """
+    g, G, L = 0.0006335, 1 / 1101, 0.004111
+    # unknowns v(n3) v(n1) v(n2) i(l4); node rows are the currents entering
+    E = np.zeros((4, 4))
+    E[3, 3] = L
+    H = np.array([
+        [0.0, 0.0, g, -1.0],       # n3: G1 (g v(n2) in), L4 out (I3 in: a source term)
+        [0.0, -G, G - g, 0.0],     # n1: R2, G1 (-g v(n2) in)
+        [0.0, G, -G, 1.0],         # n2: R2, L4 in
+        [1.0, 0.0, -1.0, 0.0],     # L4: L i' = v(n3) - v(n2)
+    ])
+    assert abs(H[:3].sum(axis=0)).max() < 1e-18  # the cutset's current laws add up to zero (to rounding)
+    rep = analyze_pencil(E, H)
+    assert rep.regular is False and rep.index is None, rep.warnings

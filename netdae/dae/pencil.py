@@ -232,7 +232,7 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
             note += (
                 f"; they disagree: balanced {best.ks.summary()}, unbalanced {plain.ks.summary()} "
                 "(regular, infinite blocks, right and left minimal indices); margins against what rounding "
-                f"in H can leak into the E blocks: balanced {best.ks.robust_margin:.3g}, unbalanced "
+                f"in H can leak into the blocks: balanced {best.ks.robust_margin:.3g}, unbalanced "
                 f"{plain.ks.robust_margin:.3g}"
             )
         chosen.notes.append(note)
