@@ -523,3 +523,34 @@ def test_close_call_is_not_won_by_a_rounding_value_in_an_h_block():
     assert abs(H[:3].sum(axis=0)).max() < 1e-18  # the cutset's current laws add up to zero (to rounding)
     rep = analyze_pencil(E, H)
     assert rep.regular is False and rep.index is None, rep.warnings
+
+
+def test_unexcited_nilpotent_part_does_not_label_unknowns_index2():
+    """Nodes n1, n2, n4 reach the rest only through L1 (n3-n4): the cutset forces i(l1) = 0, so
+    v(n4) = v(n3), v(n2) = v(n4) (R3 carries no current) and v(n1) = v(n2) - (the C6-L5 loop's state),
+    where v(n3) = integral of I8 / C4: index 2, three states, but no unknown depends on an input's
+    derivative (I7 runs inside the cut-off set, I8 outside it). The classification measured
+    V2 N U2 B against a threshold scaled by ||U2 B||, which is rounding when no input excites the
+    nilpotent part, and labelled v(n4), v(n2), v(n1) index2 (weights 1e11 to 3e11).
+    """
+    C4, C6, L1, L5, g = 3.309e-08, 4.805e-06, 0.3096, 0.09246, 1 / 8.858
+    # unknowns v(n3) v(n4) v(n2) v(n1) i(l1) i(l5); node rows are the currents entering; inputs I7, I8
+    E = np.zeros((6, 6))
+    E[0, 0] = C4
+    E[2:4, 2:4] = [[C6, -C6], [-C6, C6]]
+    E[4, 4], E[5, 5] = L1, L5
+    H = np.zeros((6, 6))
+    H[0, 4] = -1                        # n3: L1 out (C4 to ground, I8 in)
+    H[1, [1, 2, 4]] = -g, g, 1          # n4: R3, L1 in
+    H[2, [1, 2, 5]] = g, -g, -1         # n2: R3, L5 out (C6, I7 out)
+    H[3, 5] = 1                         # n1: L5 in (C6, I7 in)
+    H[4, [0, 1]] = 1, -1                # L1: L i' = v(n3) - v(n4)
+    H[5, [2, 3]] = 1, -1                # L5: L i' = v(n2) - v(n1)
+    B = np.zeros((6, 2))
+    B[2, 0], B[3, 0], B[0, 1] = -1, 1, 1
+    names = ["v(n3)", "v(n4)", "v(n2)", "v(n1)", "i(l1)", "i(l5)"]
+    rep = analyze_pencil(E, H, B=B, names=names)
+    assert rep.regular and rep.index == 2 and rep.n_dynamic == 3
+    labels = dict(zip(names, rep.labels))
+    assert labels == {"v(n3)": "differential", "v(n4)": "differential", "v(n2)": "differential",
+                      "v(n1)": "differential", "i(l1)": "algebraic", "i(l5)": "differential"}, labels
