@@ -166,3 +166,22 @@ E1 out 0 0 m 1e4
     assert not any("matrix is singular" in m or "rank 5 of 5" in m for m in rep.messages), rep.messages
     assert rep.messages[1].startswith("no structural reason: the DC matrix has full rank at this tolerance")
     assert analyze_index(circuit).index == 1
+
+
+def test_certain_topological_singularity_overrules_a_close_regular_decision():
+    """No element joins n1, n2, n3 to ground (E1 only reads v(n2) against it), so their current laws add
+    up to zero for any element values: a singular pencil. The dense analysis kept an H singular value 1.2
+    times its tolerance (the unbalanced pencil too) and reported regular, index 2, next to the topology's
+    certain "no connection to ground at all"; the report contradicted itself.
+    """
+    import numpy as np
+
+    text = "floating\nE1 n2 n3 0 n2 0.04173\nL2 n1 n3 0.000432\nC3 n3 n2 1.111e-06\n.end\n"
+    circuit = netdae.load(text)
+    E, H, _, names = reference_mna(circuit)
+    nodes = [i for i, nm in enumerate(names) if nm.startswith("v(")]
+    assert not E[nodes].sum(axis=0).any() and np.abs(H[nodes].sum(axis=0)).max() < 1e-15  # dependent rows
+    rep = analyze_index(circuit)
+    assert rep.regular is False and rep.index is None and rep.unknowns == {}
+    assert "the circuit's structure makes it singular for any element values" in rep.messages[1]
+    assert any("no connection to ground at all" in m for m in rep.messages)

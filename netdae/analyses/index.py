@@ -490,8 +490,15 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         labels = dict(zip(names, pencil.labels)) if pencil.labels is not None else {}
         orders = ({nm: int(d) for nm, d in zip(names, pencil.derivative_order)}
                   if pencil.derivative_order is not None else {})
+        # A certain topological singularity (a loop of independent voltage sources, a cutset of current
+        # sources, a floating sub-network) holds for any element values: where the dense analysis finds
+        # the pencil regular anyway, one of its rank decisions kept rounding, and the structure wins.
+        overruled = topo.singular and pencil.regular
+        if overruled:
+            labels, orders = {}, {}
         rep = IndexReport(
-            regular=pencil.regular, index=pencil.index, method="kronecker", n_unknowns=system.n,
+            regular=False if overruled else pencil.regular, index=None if overruled else pencil.index,
+            method="kronecker", n_unknowns=system.n,
             n_dynamic=pencil.n_dynamic, rank_E=pencil.rank_E, infinite_blocks=list(pencil.infinite_blocks),
             finite_eigenvalues=pencil.finite_eigenvalues,
             tolerance={"rtol": pencil.rtol, "tol_E": pencil.tol_E, "tol_H": pencil.tol_H},
@@ -499,7 +506,7 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
             pencil=pencil, system=system, x=xlin,
         )
         start_missing = None
-        if check_consistency and pencil.regular:
+        if check_consistency and rep.regular:
             try:
                 rep.consistency = _consistency(prepared, pencil, None)
             except (CircuitError, ConvergenceError) as exc:
@@ -517,6 +524,13 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         )
     rep.point = point
     rep.messages = _messages(rep, _dc_regular(system, topo, xlin) if pencil is not None else None)
+    if pencil is not None and pencil.regular and rep.regular is False:
+        rep.messages.insert(1, (
+            "the dense analysis found the pencil regular (index "
+            f"{pencil.index}), by rank decisions as close as a margin of "
+            f"{min((d.margin for d in pencil.evidence if 'staircase' in d.what), default=float('inf')):.3g} "
+            "to its tolerance, "
+            "but the circuit's structure makes it singular for any element values: the structure is reported"))
     reason = _singular_reason(prepared, xlin, tol) if rep.regular is False and pencil is not None else None
     if reason is not None:
         rep.messages.insert(1, reason)
