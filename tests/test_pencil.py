@@ -554,3 +554,44 @@ def test_unexcited_nilpotent_part_does_not_label_unknowns_index2():
     labels = dict(zip(names, rep.labels))
     assert labels == {"v(n3)": "differential", "v(n4)": "differential", "v(n2)": "differential",
                       "v(n1)": "differential", "i(l1)": "algebraic", "i(l5)": "differential"}, labels
+
+
+def test_a_kept_value_within_the_leak_of_rounding_is_a_close_call():
+    """V1 (n3-n4) and a VCVS E6 (n4-n3, reading v(n4) - v(n1)) in a loop, a CCVS H2 reading i(v1): the two
+    voltage laws fix v(n1) - v(n4) = V / g, so the current law of n1 fixes i(l7) = -V / (g R8) while L7
+    needs L i(l7)' = V (1/g - 1): no solution for a generic V, a singular pencil. Balanced, the staircase
+    kept a step-2 E singular value of 2.1e-12 with margin 178 against the tolerance, but the compression of
+    H before it can leak 6.8e-10 of rounding into that block; no close call was seen, the unbalanced pencil
+    (singular, margin 11.9) was not consulted, and the pencil was reported regular of index 1.
+    """
+    G3, C5, g, L, G8, r = 1 / 2.093e4, 3.953e-07, 0.05568, 0.01229, 1 / 3.216e4, 10.22
+    # unknowns v(n1) v(n2) v(n3) v(n4) i(v1) i(h2) i(e6) i(l7); node rows are the currents entering
+    E = np.zeros((8, 8))
+    E[2, 2], E[7, 7] = C5, L
+    H = np.zeros((8, 8))
+    H[0, [0, 3, 7]] = -G8, G8, -1                 # n1: R8, L7 out
+    H[1, [1, 5]] = -G3, -1                        # n2: R3, H2 out
+    H[2, [4, 6, 7]] = -1, 1, 1                    # n3: V1 out, E6 in, L7 in (C5 to ground)
+    H[3, [0, 3, 4, 5, 6]] = G8, -G8, 1, 1, -1     # n4: R8, V1 in, H2 in, E6 out
+    H[4, [2, 3]] = 1, -1                          # V1: v(n3) - v(n4) = V
+    H[5, [1, 3, 4]] = 1, -1, -r                   # H2: v(n2) - v(n4) = r i(v1)
+    H[6, [0, 2, 3]] = g, -1, 1 - g                # E6: v(n4) - v(n3) = g (v(n4) - v(n1))
+    H[7, [0, 2]] = 1, -1                          # L7: L i' = v(n1) - v(n3)
+    out = slycot.ag08bd(8, 8, 0, 0, np.asfortranarray(H), np.asfortranarray(E), np.zeros((8, 1)),
+                        np.zeros((1, 8)), np.zeros((1, 1)))
+    assert out[2] == 7  # SLICOT: normal rank 7, a singular pencil
+    assert analyze_pencil(E, H).regular is False
+    # the same circuit as netdae assembles it (its own scaling of rows and unknowns)
+    from netdae.analyses.index import analyze_index
+
+    rep = analyze_index(netdae.load("""loop of V1 and E6, H2 reading i(v1)
+V1 n3 n4 SIN(0 1 1k)
+H2 n2 n4 V1 10.22
+R3 n2 0 2.093e+04
+C5 n3 0 3.953e-07
+E6 n4 n3 n4 n1 0.05568
+L7 n1 n3 0.01229
+R8 n1 n4 3.216e+04
+.end
+"""))
+    assert rep.regular is False and rep.index is None, rep.pencil.warnings
