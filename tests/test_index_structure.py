@@ -66,3 +66,122 @@ C2 d 0 1u
     assert rep.x[list(rep.system.names).index("v(b)")] == 0.4
     assert any(m.startswith(f"linearised at {POINT_NETLIST} because the DC operating point cannot be computed "
                             "(no DC operating point: i1 drives") for m in rep.messages)
+
+
+def test_empty_circuit_has_no_index(tmp_path, capsys):
+    """A netlist without elements has no unknowns: no DAE, so no index (it was reported as "index 0, an ODE")."""
+    import pytest
+
+    from netdae.errors import CircuitError
+    from netdae.topology import analyze_topology
+
+    for text in ("only a title\n", "only the end card\n.end\n"):
+        circuit = netdae.load(text)
+        with pytest.raises(CircuitError, match="the circuit has no elements: it has no unknowns"):
+            analyze_index(circuit)
+        topo = analyze_topology(circuit)
+        assert topo.topological_index is None and topo.index_message.startswith("no index: the circuit has no "
+                                                                               "elements")
+    path = tmp_path / "empty.cir"
+    path.write_text("only the end card\n.end\n")
+    assert cli_main(["index", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: the circuit has no elements" in err and "Traceback" not in err
+
+
+def test_json_floating_nodes_are_only_the_unconnected_ones(tmp_path, capsys):
+    """A node attached only through capacitors has no DC path but is not floating: the pencil is regular.
+
+    ``index --json`` listed it under ``floating_nodes`` (with the singular pencils' floating sub-networks);
+    the reference MNA's pencil is regular of index 1, so it belongs under ``no_dc_path`` alone.
+    """
+    text = """capacitive divider off a resistive node
+V1 in 0 SIN(0 1 1k)
+R1 in a 1k
+R2 a 0 1k
+C1 a x 1u
+C2 x 0 1u
+R3 y z 1k
+.end
+"""
+    E, H, _, _ = reference_mna(netdae.load(text.replace("R3 y z 1k\n", "")))
+    assert pencil_structure(E, H) == (True, 1)
+    path = tmp_path / "divider.cir"
+    path.write_text(text.replace("R3 y z 1k\n", ""))
+    assert cli_main(["index", "--json", str(path)]) == 0
+    topo = json.loads(capsys.readouterr().out)["topology"]
+    assert topo["floating_nodes"] == [] and topo["no_dc_path"] == [["x"]]
+    path.write_text(text)  # y, z float: a singular pencil, listed under both
+    assert cli_main(["index", "--json", str(path)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["regular"] is False and doc["topology"]["floating_nodes"] == [["y", "z"]]
+
+
+def test_controlled_suspicions_refuted_by_the_numerical_pencil_are_not_reported_as_singular():
+    """A cutset of current-type sources through a VCCS that reads its own node (a conductance), and a
+    gyrator (two VCCSs) turning C1 into an inductor fed by I1: the topology can only say *likely*
+    singular; the reference MNA's pencil is regular (index 1 and 2) and its DC matrix has full rank, so
+    the report must not say "likely singular" next to the regular index, but that the suspicion failed.
+    """
+    import numpy as np
+
+    conductance = "vccs as a conductance\nI1 0 x DC 1m\nG1 x 0 x 0 1m\n.end\n"
+    gyrator = "gyrator\nI1 0 a SIN(0 1m 1k)\nG1 a 0 b 0 1m\nG2 0 b a 0 1m\nC1 b 0 1u\n.end\n"
+    for text, index in ((conductance, 1), (gyrator, 2)):
+        circuit = netdae.load(text)
+        E, H, _, _ = reference_mna(circuit)
+        assert pencil_structure(E, H) == (True, index)
+        assert np.linalg.matrix_rank(H) == H.shape[0]  # the DC matrix (-H) is regular
+        rep = analyze_index(circuit)
+        assert (rep.regular, rep.index) == (True, index)
+        assert not any("likely singular" in m for m in rep.messages), rep.messages
+        assert any(m.startswith("not confirmed: the loops or cutsets through controlled sources (i1, g1) suggested "
+                                "a singular pencil: the pencil is regular") for m in rep.messages)
+        assert any("suggested a singular DC matrix: the DC matrix has full rank" in m for m in rep.messages)
+    # a cutset of a CCCS alone stays singular, and its DC suspicion stays
+    rep = analyze_index(netdae.load("cccs\nV1 in 0 DC 1\nVs in c 0\nR1 c 0 1k\nF1 0 b Vs 2\n.end\n"))
+    assert rep.regular is False and any("DC operating point likely singular" in m for m in rep.messages)
+
+
+def test_singular_at_a_large_tolerance_does_not_call_a_full_rank_dc_matrix_singular():
+    """A singular pencil has a singular DC matrix (det(sE - H) = 0 at s = 0), so the index report explains a
+    singular pencil by the DC matrix's null space. At a user's large ``tol`` the pencil can be judged singular
+    while the DC matrix keeps full rank; the DC rank was decided at the default tolerance, and the report said
+    "the DC operating-point matrix is singular (the DC matrix has rank 5 of 5 ...)".
+    """
+    import numpy as np
+
+    text = """finite-gain differentiator
+V1 in 0 SIN(0 1 1k)
+C1 in m 100n
+R1 m out 1k
+E1 out 0 0 m 1e4
+.end
+"""
+    circuit = netdae.load(text)
+    E, H, _, _ = reference_mna(circuit)
+    assert pencil_structure(E, H) == (True, 1) and np.linalg.matrix_rank(H) == H.shape[0]
+    rep = analyze_index(circuit, tol=1e-3)
+    assert rep.regular is False  # at that tolerance
+    assert not any("matrix is singular" in m or "rank 5 of 5" in m for m in rep.messages), rep.messages
+    assert rep.messages[1].startswith("no structural reason: the DC matrix has full rank at this tolerance")
+    assert analyze_index(circuit).index == 1
+
+
+def test_certain_topological_singularity_overrules_a_close_regular_decision():
+    """No element joins n1, n2, n3 to ground (E1 only reads v(n2) against it), so their current laws add
+    up to zero for any element values: a singular pencil. The dense analysis kept an H singular value 1.2
+    times its tolerance (the unbalanced pencil too) and reported regular, index 2, next to the topology's
+    certain "no connection to ground at all"; the report contradicted itself.
+    """
+    import numpy as np
+
+    text = "floating\nE1 n2 n3 0 n2 0.04173\nL2 n1 n3 0.000432\nC3 n3 n2 1.111e-06\n.end\n"
+    circuit = netdae.load(text)
+    E, H, _, names = reference_mna(circuit)
+    nodes = [i for i, nm in enumerate(names) if nm.startswith("v(")]
+    assert not E[nodes].sum(axis=0).any() and np.abs(H[nodes].sum(axis=0)).max() < 1e-15  # dependent rows
+    rep = analyze_index(circuit)
+    assert rep.regular is False and rep.index is None and rep.unknowns == {}
+    assert "the circuit's structure makes it singular for any element values" in rep.messages[1]
+    assert any("no connection to ground at all" in m for m in rep.messages)

@@ -472,3 +472,126 @@ def test_small_overlap_capacitance_does_not_raise_the_index(overlap):
     assert rep.index == 2
     assert rep.unknowns["i(vdd)"] == "index2" and rep.unknowns["i(vin)"] == "index2"
     assert rep.unknowns["v(d1#internal)"] == "differential"
+
+
+def test_close_call_is_not_won_by_a_rounding_value_the_unbalanced_tolerance_cannot_see():
+    """A V source and a CCVS reading it in parallel (n2-n4), tied by R6 and V5 to node n3, which an
+    inductor alone joins to ground: the cutset {L1} forces i(l1) = 0 and v(n3) = L1 i(l1)' = 0, so
+    the pencil has index 2 and no finite eigenvalue (SLICOT agrees). Balanced, the last E block's
+    singular value is rounding 4 times below the tolerance (a close call); the unbalanced re-decision
+    kept 4.3e-17 (143 eps of ||E||, leaked from the compression of H, whose entries span 1513 ohm to
+    2 mS) as an inductance with margin 17.9 and was reported: index 1, a pole at -1.2e16 1/s.
+    """
+    L, g, r = 0.001342, 1 / 483.1, 1513.0
+    # unknowns v(n3) v(n2) v(n4) v(n1) i(l1) i(v3) i(h4) i(v5); node rows are the currents entering
+    E = np.zeros((8, 8))
+    E[4, 4] = L  # L1 from 0 to n3: L i' = v(0) - v(n3)
+    H = np.zeros((8, 8))
+    H[0, 4], H[0, 7] = 1, -1                              # n3: i(l1) in, i(v5) out
+    H[1, [1, 3, 5, 6]] = -g, g, -1, -1                    # n2: R6 to n1, V3 and H4 out
+    H[2, [5, 6]] = 1, 1                                   # n4: V3 and H4 in
+    H[3, [1, 3, 7]] = g, -g, 1                            # n1: R6, i(v5) in
+    H[4, 0] = -1                                          # L1: L i' = -v(n3)
+    H[5, [1, 2]] = 1, -1                                  # V3: v(n2) - v(n4) = V
+    H[6, [1, 2, 5]] = 1, -1, -r                           # H4: v(n2) - v(n4) = r i(v3)
+    H[7, [0, 3]] = 1, -1                                  # V5: v(n3) - v(n1) = V
+    ref = ag08bd_structure(E, H)
+    assert index_from_infe(ref["infe"]) == 2 and ref["nfz"] == 0
+    rep = analyze_pencil(E, H)
+    assert rep.regular and rep.index == 2 and rep.n_dynamic == 0, rep.warnings
+    assert rep.finite_eigenvalues.size == 0
+
+
+def test_close_call_is_not_won_by_a_rounding_value_in_an_h_block():
+    """Nodes n1, n2, n3 reach ground only through the current source I3 (G1 between n3 and n1 reads
+    v(n2) against ground, L4 from n3 to n2, R2 between n2 and n1, I5 between n1 and n2): the three
+    current laws add up to a row without unknowns, 0 = I3, so the pencil is singular for any element
+    values. Balanced, that is a close call (margin 8); unbalanced, the H block of staircase step 2 kept
+    5.3e-13 (rounding of 1/R2 - g1, turned by a compression of H whose kept singular values go down to
+    4.9e-4) with margin 300, and the pencil was reported regular of index 2.
+    """
+    g, G, L = 0.0006335, 1 / 1101, 0.004111
+    # unknowns v(n3) v(n1) v(n2) i(l4); node rows are the currents entering
+    E = np.zeros((4, 4))
+    E[3, 3] = L
+    H = np.array([
+        [0.0, 0.0, g, -1.0],       # n3: G1 (g v(n2) in), L4 out (I3 in: a source term)
+        [0.0, -G, G - g, 0.0],     # n1: R2, G1 (-g v(n2) in)
+        [0.0, G, -G, 1.0],         # n2: R2, L4 in
+        [1.0, 0.0, -1.0, 0.0],     # L4: L i' = v(n3) - v(n2)
+    ])
+    assert abs(H[:3].sum(axis=0)).max() < 1e-18  # the cutset's current laws add up to zero (to rounding)
+    rep = analyze_pencil(E, H)
+    assert rep.regular is False and rep.index is None, rep.warnings
+
+
+def test_unexcited_nilpotent_part_does_not_label_unknowns_index2():
+    """Nodes n1, n2, n4 reach the rest only through L1 (n3-n4): the cutset forces i(l1) = 0, so
+    v(n4) = v(n3), v(n2) = v(n4) (R3 carries no current) and v(n1) = v(n2) - (the C6-L5 loop's state),
+    where v(n3) = integral of I8 / C4: index 2, three states, but no unknown depends on an input's
+    derivative (I7 runs inside the cut-off set, I8 outside it). The classification measured
+    V2 N U2 B against a threshold scaled by ||U2 B||, which is rounding when no input excites the
+    nilpotent part, and labelled v(n4), v(n2), v(n1) index2 (weights 1e11 to 3e11).
+    """
+    C4, C6, L1, L5, g = 3.309e-08, 4.805e-06, 0.3096, 0.09246, 1 / 8.858
+    # unknowns v(n3) v(n4) v(n2) v(n1) i(l1) i(l5); node rows are the currents entering; inputs I7, I8
+    E = np.zeros((6, 6))
+    E[0, 0] = C4
+    E[2:4, 2:4] = [[C6, -C6], [-C6, C6]]
+    E[4, 4], E[5, 5] = L1, L5
+    H = np.zeros((6, 6))
+    H[0, 4] = -1                        # n3: L1 out (C4 to ground, I8 in)
+    H[1, [1, 2, 4]] = -g, g, 1          # n4: R3, L1 in
+    H[2, [1, 2, 5]] = g, -g, -1         # n2: R3, L5 out (C6, I7 out)
+    H[3, 5] = 1                         # n1: L5 in (C6, I7 in)
+    H[4, [0, 1]] = 1, -1                # L1: L i' = v(n3) - v(n4)
+    H[5, [2, 3]] = 1, -1                # L5: L i' = v(n2) - v(n1)
+    B = np.zeros((6, 2))
+    B[2, 0], B[3, 0], B[0, 1] = -1, 1, 1
+    names = ["v(n3)", "v(n4)", "v(n2)", "v(n1)", "i(l1)", "i(l5)"]
+    rep = analyze_pencil(E, H, B=B, names=names)
+    assert rep.regular and rep.index == 2 and rep.n_dynamic == 3
+    labels = dict(zip(names, rep.labels))
+    assert labels == {"v(n3)": "differential", "v(n4)": "differential", "v(n2)": "differential",
+                      "v(n1)": "differential", "i(l1)": "algebraic", "i(l5)": "differential"}, labels
+
+
+def test_a_kept_value_within_the_leak_of_rounding_is_a_close_call():
+    """V1 (n3-n4) and a VCVS E6 (n4-n3, reading v(n4) - v(n1)) in a loop, a CCVS H2 reading i(v1): the two
+    voltage laws fix v(n1) - v(n4) = V / g, so the current law of n1 fixes i(l7) = -V / (g R8) while L7
+    needs L i(l7)' = V (1/g - 1): no solution for a generic V, a singular pencil. Balanced, the staircase
+    kept a step-2 E singular value of 2.1e-12 with margin 178 against the tolerance, but the compression of
+    H before it can leak 6.8e-10 of rounding into that block; no close call was seen, the unbalanced pencil
+    (singular, margin 11.9) was not consulted, and the pencil was reported regular of index 1.
+    """
+    G3, C5, g, L, G8, r = 1 / 2.093e4, 3.953e-07, 0.05568, 0.01229, 1 / 3.216e4, 10.22
+    # unknowns v(n1) v(n2) v(n3) v(n4) i(v1) i(h2) i(e6) i(l7); node rows are the currents entering
+    E = np.zeros((8, 8))
+    E[2, 2], E[7, 7] = C5, L
+    H = np.zeros((8, 8))
+    H[0, [0, 3, 7]] = -G8, G8, -1                 # n1: R8, L7 out
+    H[1, [1, 5]] = -G3, -1                        # n2: R3, H2 out
+    H[2, [4, 6, 7]] = -1, 1, 1                    # n3: V1 out, E6 in, L7 in (C5 to ground)
+    H[3, [0, 3, 4, 5, 6]] = G8, -G8, 1, 1, -1     # n4: R8, V1 in, H2 in, E6 out
+    H[4, [2, 3]] = 1, -1                          # V1: v(n3) - v(n4) = V
+    H[5, [1, 3, 4]] = 1, -1, -r                   # H2: v(n2) - v(n4) = r i(v1)
+    H[6, [0, 2, 3]] = g, -1, 1 - g                # E6: v(n4) - v(n3) = g (v(n4) - v(n1))
+    H[7, [0, 2]] = 1, -1                          # L7: L i' = v(n1) - v(n3)
+    out = slycot.ag08bd(8, 8, 0, 0, np.asfortranarray(H), np.asfortranarray(E), np.zeros((8, 1)),
+                        np.zeros((1, 8)), np.zeros((1, 1)))
+    assert out[2] == 7  # SLICOT: normal rank 7, a singular pencil
+    assert analyze_pencil(E, H).regular is False
+    # the same circuit as netdae assembles it (its own scaling of rows and unknowns)
+    from netdae.analyses.index import analyze_index
+
+    rep = analyze_index(netdae.load("""loop of V1 and E6, H2 reading i(v1)
+V1 n3 n4 SIN(0 1 1k)
+H2 n2 n4 V1 10.22
+R3 n2 0 2.093e+04
+C5 n3 0 3.953e-07
+E6 n4 n3 n4 n1 0.05568
+L7 n1 n3 0.01229
+R8 n1 n4 3.216e+04
+.end
+"""))
+    assert rep.regular is False and rep.index is None, rep.pencil.warnings

@@ -146,8 +146,11 @@ class IndexReport:
                 "i_cutsets": [cs["elements"] for cs in topo.get("i_cutsets", [])],
                 "cv_loops": [lp["elements"] for lp in topo.get("cv_loops", [])],
                 "li_cutsets": [cs["elements"] for cs in topo.get("li_cutsets", [])],
-                "floating_nodes": [g["nodes"] for g in topo.get("floating_groups", [])]
-                + [g["nodes"] for g in topo.get("no_dc_path", [])],
+                # floating: no connection to ground at all (a singular pencil); a node set without a DC
+                # path (a capacitive divider's middle node, an integrator's output) is no reason for a
+                # singular pencil and is listed apart
+                "floating_nodes": [g["nodes"] for g in topo.get("floating_groups", [])],
+                "no_dc_path": [g["nodes"] for g in topo.get("no_dc_path", [])],
                 "applicable": topo.get("applicable"),
                 "topological_index": topo.get("topological_index"),
                 "findings": topo.get("findings", []),
@@ -252,8 +255,14 @@ def _consistency(prepared: Prepared, pencil: PencilReport, x0: np.ndarray | None
     return H.check_consistency(x0, c_derivs, steady=steady)
 
 
-def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
-    """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements."""
+def _singular_reason(prepared: Prepared, x: np.ndarray, tol: float | None = None) -> str | None:
+    """A singular pencil has a singular DC matrix: its null spaces name the unknowns, equations and elements.
+
+    The DC matrix's rank is decided at the pencil's relative tolerance ``tol``. Exactly, a singular
+    pencil's DC matrix is singular (``det(s E - H) = 0`` for every ``s``, so at ``s = 0``); a DC
+    matrix of full rank at that tolerance means the pencil was judged singular only by rank
+    decisions at the edge of the tolerance (a large ``--tol``), and the message says so instead.
+    """
     from ..dae.kronecker import matrix_rank
     from ..dae.steady import SteadyResult
     from .op import _singular_error
@@ -263,14 +272,55 @@ def _singular_reason(prepared: Prepared, x: np.ndarray) -> str | None:
            for f in topo.findings):
         return None  # the topological reason is among the messages already
     H = system.jacobians(x, 0.0)[1]
-    rank = matrix_rank(H, what="rank of the DC matrix")
+    rank = matrix_rank(H, rtol=tol, what="rank of the DC matrix")
+    if rank.rank == system.n:
+        return ("no structural reason: the DC matrix has full rank at this tolerance, so the pencil was judged "
+                "singular by a rank decision near the tolerance (see the rank decisions and their margins; a "
+                "smaller --tol decides them again)")
     err = _singular_error(prepared.circuit, system, SteadyResult(x, False, singular=True, rank=rank), topo)
     return str(err)
 
 
-def _messages(rep: IndexReport) -> list[str]:
+#: Findings that claim a singular pencil, and those that claim a singular DC matrix.
+_PENCIL_SINGULAR = ("v_loop", "floating", "i_cutset")
+_DC_SINGULAR = ("dc_loop", "no_dc_path")
+
+
+def _refuted(rep: IndexReport, f, dc_regular: bool | None) -> bool:
+    """Whether the numerical analysis refutes a topological suspicion that rests on controlled sources.
+
+    A loop of voltage-type branches or a cutset of current-type branches through a controlled
+    source is reported as *likely* singular: the controlled source's law may fix what the
+    topology leaves free (a CCVS reading the current of the loop's other source, a VCCS reading
+    its own node: a conductance, a gyrator). Where the dense pencil is regular, a likely singular
+    pencil is refuted; where the DC matrix has full rank, a likely singular DC point is; where
+    the index is below 2, a likely index-2 loop or cutset is.
+    """
+    if not f.controlled or f.severity == "note" or rep.method != "kronecker":
+        return False
+    if f.kind in _PENCIL_SINGULAR:
+        return rep.regular is True
+    if f.kind in _DC_SINGULAR:
+        return dc_regular is True
+    if f.kind in ("cv_loop", "li_cutset"):
+        return rep.index is not None and rep.index < 2
+    return False
+
+
+def _dc_regular(system: MnaSystem, topo, x: np.ndarray) -> bool | None:
+    """Whether the DC matrix at ``x`` has full rank, decided only where a controlled finding doubts it."""
+    if not any(f.controlled and f.kind in _DC_SINGULAR and f.severity != "note" for f in topo.findings):
+        return None
+    from ..dae.kronecker import matrix_rank
+
+    H = system.jacobians(x, 0.0)[1]
+    return matrix_rank(H, what="rank of the DC matrix").decision.rank == system.n
+
+
+def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
     out = []
     topo = rep.topology
+    refuted = []
     if rep.regular is False:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")
     elif rep.index is not None:
@@ -288,8 +338,20 @@ def _messages(rep: IndexReport) -> list[str]:
             if f.kind in ("not_applicable", "truncated", "element_note") or (
                     f.severity == "note" and f.kind != "no_dc_path"):
                 continue
+            if _refuted(rep, f, dc_regular):
+                refuted.append(f)
+                continue
             singular = f.kind in ("v_loop", "floating", "i_cutset", "dc_loop", "no_dc_path") and f.severity != "note"
             out.append(f"{f.message} (hint: {f.hint})" if singular and f.hint else f.message)
+        for kinds, what in ((_PENCIL_SINGULAR, "a singular pencil: the pencil is regular"),
+                            (_DC_SINGULAR, "a singular DC matrix: the DC matrix has full rank"),
+                            (("cv_loop", "li_cutset"), f"index 2: the index is {rep.index}")):
+            hit = [f for f in refuted if f.kind in kinds]
+            if hit:
+                names = list(dict.fromkeys(e for f in hit for e in f.elements))
+                out.append(f"not confirmed: the loops or cutsets through controlled sources ("
+                           f"{', '.join(names[:8])}{' ...' if len(names) > 8 else ''}) suggested {what}, so the "
+                           "controlled sources' laws determine what the topology leaves free")
         if not topo.applicable and topo.not_applicable_reason:
             out.append(topo.not_applicable_reason)
         elif topo.topological_index is not None and rep.index is not None and rep.method == "kronecker" \
@@ -384,7 +446,9 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
     NetdaeError
         For an unknown ``at`` or ``method``, or ``method="kronecker"`` above the dense limit.
     CircuitError, ConvergenceError
-        When the operating point cannot be computed.
+        When the operating point cannot be computed, or the circuit has no
+        unknowns (no elements, or none off ground): an empty system has no
+        index to report.
     """
     t_start = time.perf_counter()
     if at not in ("op", "t0"):
@@ -400,6 +464,13 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         prepared = (prepare(circuit, mode=MODE_TRAN, tstep=card.tstep, tstop=card.tstop) if at == "t0"
                     else prepare(circuit, mode=MODE_DC))
     circuit, system, topo = prepared.circuit, prepared.system, prepared.topology
+    if system.n == 0:
+        raise CircuitError(
+            f"{circuit.path}: the circuit has {'no elements' if not circuit.elements else 'no node other than ground'}"
+            ": it has no unknowns, so there is no DAE to analyse",
+            elements=tuple(el.name for el in circuit.elements),
+            hint="connect elements between nodes and ground (0); an empty netlist may come from a wrong file "
+                 "or a .include or .lib that brought nothing")
     use_dense = method == "kronecker" or (method == "auto" and system.n <= DENSE_LIMIT)
     if method == "kronecker" and system.n > DENSE_LIMIT:
         raise NetdaeError(
@@ -419,8 +490,15 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         labels = dict(zip(names, pencil.labels)) if pencil.labels is not None else {}
         orders = ({nm: int(d) for nm, d in zip(names, pencil.derivative_order)}
                   if pencil.derivative_order is not None else {})
+        # A certain topological singularity (a loop of independent voltage sources, a cutset of current
+        # sources, a floating sub-network) holds for any element values: where the dense analysis finds
+        # the pencil regular anyway, one of its rank decisions kept rounding, and the structure wins.
+        overruled = topo.singular and pencil.regular
+        if overruled:
+            labels, orders = {}, {}
         rep = IndexReport(
-            regular=pencil.regular, index=pencil.index, method="kronecker", n_unknowns=system.n,
+            regular=False if overruled else pencil.regular, index=None if overruled else pencil.index,
+            method="kronecker", n_unknowns=system.n,
             n_dynamic=pencil.n_dynamic, rank_E=pencil.rank_E, infinite_blocks=list(pencil.infinite_blocks),
             finite_eigenvalues=pencil.finite_eigenvalues,
             tolerance={"rtol": pencil.rtol, "tol_E": pencil.tol_E, "tol_H": pencil.tol_H},
@@ -428,7 +506,7 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
             pencil=pencil, system=system, x=xlin,
         )
         start_missing = None
-        if check_consistency and pencil.regular:
+        if check_consistency and rep.regular:
             try:
                 rep.consistency = _consistency(prepared, pencil, None)
             except (CircuitError, ConvergenceError) as exc:
@@ -445,8 +523,15 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
             at=at, system=system,
         )
     rep.point = point
-    rep.messages = _messages(rep)
-    reason = _singular_reason(prepared, xlin) if rep.regular is False and pencil is not None else None
+    rep.messages = _messages(rep, _dc_regular(system, topo, xlin) if pencil is not None else None)
+    if pencil is not None and pencil.regular and rep.regular is False:
+        rep.messages.insert(1, (
+            "the dense analysis found the pencil regular (index "
+            f"{pencil.index}), by rank decisions as close as a margin of "
+            f"{min((d.margin for d in pencil.evidence if 'staircase' in d.what), default=float('inf')):.3g} "
+            "to its tolerance, "
+            "but the circuit's structure makes it singular for any element values: the structure is reported"))
+    reason = _singular_reason(prepared, xlin, tol) if rep.regular is False and pencil is not None else None
     if reason is not None:
         rep.messages.insert(1, reason)
     if fallback is not None:

@@ -499,7 +499,7 @@ class WeierstrassForm:
         Notes
         -----
         Decided in balanced coordinates (rows and columns of comparable scale),
-        with threshold ``CLASSIFY_SAFETY * rtol * ||V2|| ||N^m|| ||G||``
+        with threshold ``CLASSIFY_SAFETY * rtol * ||V2|| ||N^m|| ||U2|| ||B||``
         (Frobenius norms; B's columns normalised first). Cost O(k n^2 p).
         """
         bal = self.balancing
@@ -510,6 +510,7 @@ class WeierstrassForm:
         V1b, V2b = Vb[:, :nf], Vb[:, nf:]
         U2b = self.U2 / dl[None, :]
         Nb = self.N * bal.time_scale
+        Bb = None
         if B is None:
             G = U2b
         else:
@@ -529,7 +530,9 @@ class WeierstrassForm:
         W = G
         Nm_norm = 1.0
         norm_v2 = np.linalg.norm(V2b)
-        norm_g = np.linalg.norm(G) if G.size else 0.0
+        # the product of the factors' norms, ||U2|| ||B||, not ||U2 B||: where the inputs do not excite the
+        # nilpotent part, U2 B is rounding, and a threshold scaled by it turns rounding into dependence
+        norm_g = (np.linalg.norm(U2b) * (1.0 if Bb is None else np.linalg.norm(Bb))) if G.size else 0.0
         Nm = np.eye(self.n_infinite)
         for m in range(k):
             thr = tol * norm_v2 * Nm_norm * norm_g

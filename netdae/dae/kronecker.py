@@ -469,6 +469,16 @@ class Staircase:
     first_svd : tuple
         ``(P, s, WT)``, the SVD of the whole E at step 1 (reused for the SVD
         form (2.3)).
+    leaks : tuple of float
+        Per decision (in the order of ``decisions``), how large a singular value
+        of that block rounding in H alone can make: 0 at step 1; at step
+        ``i > 1`` the rows of E (for an E block) or of H's remaining columns
+        (for an H block) that the compression of H at step ``i - 1`` mixes in
+        when a perturbation of H of its rounding (``tol_h``) turns that
+        compression's null space (Wedin: towards the j-th kept left singular
+        vector by up to ``tol_h / s_j``). A kept singular value below its leak
+        may be rounding that the tolerances alone do not see
+        (:attr:`KroneckerStructure.robust_margin`).
     """
 
     A: np.ndarray
@@ -482,6 +492,7 @@ class Staircase:
     decisions: list
     neglected: float
     first_svd: tuple = field(repr=False, default=None)
+    leaks: tuple = ()
 
     @property
     def right_indices(self) -> list[int]:
@@ -537,6 +548,8 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
     neglected_sq = 0.0
     first_svd = None
     step = 0
+    leaks: list[float] = []
+    leak_e = leak_h = 0.0  # what rounding in H can leak into the next E block and H block
     while c0 < k:
         step += 1
         mi, ki = m - r0, k - c0
@@ -546,6 +559,7 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
             s = _svdvals(A[r0:, c0:])
         dec = rank_decision(s, tol_e, f"{label}rank of E block (staircase step {step})", (mi, ki))
         decisions.append(dec)
+        leaks.append(leak_e)
         ns = ki - dec.rank
         if ns == 0:
             break
@@ -560,8 +574,13 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
         P2, s2, W2T = _svd(B[r0:, c0 : c0 + ns])
         dec2 = rank_decision(s2, tol_h, f"{label}rank of H on null space of E (staircase step {step})", (mi, ns))
         decisions.append(dec2)
+        leaks.append(leak_h)
         rho = dec2.rank
         neglected_sq += float(np.sum(s2[rho:] ** 2))
+        if rho:  # the rows paired with H's kept singular values, weighted by how far rounding turns them
+            kept = P2[:, :rho].T
+            leak_e = float(tol_h * np.linalg.norm(np.linalg.norm(kept @ A[r0:, c0:], axis=1) / s2[:rho]))
+            leak_h = float(tol_h * np.linalg.norm(np.linalg.norm(kept @ B[r0:, c0 + ns:], axis=1) / s2[:rho]))
         # rows r0: are zero in columns :c0, so only the active columns change
         A[r0:, c0:] = P2.T @ A[r0:, c0:]
         B[r0:, c0:] = P2.T @ B[r0:, c0:]
@@ -577,7 +596,8 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
         rows.append(rho)
         r0 += rho
         c0 += ns
-    return Staircase(A, B, QT, Z, cols, rows, r0, c0, decisions, float(np.sqrt(neglected_sq)), first_svd)
+    return Staircase(A, B, QT, Z, cols, rows, r0, c0, decisions, float(np.sqrt(neglected_sq)), first_svd,
+                     tuple(leaks))
 
 
 # ---------------------------------------------------------------------------
@@ -672,6 +692,24 @@ class KroneckerStructure:
     def margin(self) -> float:
         """Worst :attr:`RankDecision.margin` of the structure's decisions."""
         return min((d.margin for d in self.decisions), default=float("inf"))
+
+    @property
+    def robust_margin(self) -> float:
+        """:attr:`margin` with each kept singular value measured against its leak too.
+
+        A kept singular value of a block of staircase step ``i > 1`` counts only by how far it
+        exceeds both its tolerance and what rounding in H can put there (:attr:`Staircase.leaks`):
+        the worst-case distance from a structure of rounding, for choosing between two scalings of
+        one pencil that disagree.
+        """
+        worst = self.margin
+        for st in (self.first, self.second):
+            if st is None:
+                continue
+            for d, leak in zip(st.decisions, st.leaks):
+                if d.kept and leak > d.tol:
+                    worst = min(worst, d.kept[-1] / leak)
+        return float(worst)
 
     def summary(self) -> tuple:
         """The structure as comparable data."""

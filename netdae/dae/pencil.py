@@ -203,22 +203,35 @@ def _decide(E, H, bal: Balancing, rtol: float) -> _Decided:
 def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
     """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call (margin below
     ``MARGIN_RETRY``: the clearer of the two is reported), a doubtful one (below ``MARGIN_CHECK``) or a
-    balanced pencil still spread over more than ``SPREAD_RETRY`` decades (in these two the unbalanced structure
-    is reported only when it differs and is clearer: where the two agree the balanced one gives the better
-    eigenvalues)."""
+    balanced pencil still spread over more than ``SPREAD_RETRY`` decades, or a balanced structure keeping a
+    singular value within what rounding in H can leak into its block (``KroneckerStructure.robust_margin``
+    below ``MARGIN_RETRY``; in these three the unbalanced structure is reported only when it differs and is
+    clearer: where the two agree the balanced one gives the better eigenvalues)."""
     E, H, bal, _, _, rtol = _prepare(E, H, tol, balance)
     best = _decide(E, H, bal, rtol)
     close = best.ks.margin < MARGIN_RETRY
     stretched = bal.spread_after > SPREAD_RETRY
     doubtful = best.ks.margin < MARGIN_CHECK
-    if bal.applied and (close or stretched or doubtful):
+    # a kept singular value within what rounding in H can leak into its block is a close call that the
+    # margin against the tolerance does not show (reported only when the unbalanced pencil disagrees)
+    leaky = best.ks.robust_margin < MARGIN_RETRY
+    if bal.applied and (close or stretched or doubtful or leaky):
         plain = _decide(E, H, balance_pencil(E, H, enabled=False), rtol)
         differ = plain.ks.summary() != best.ks.summary()
         if not (close or differ):
             return best, rtol
-        chosen = plain if plain.ks.margin > best.ks.margin else best
-        why = ("the closest rank decision on the balanced pencil" if (close or not stretched)
-               else f"the balanced pencil spans {bal.spread_after:.1f} decades; its closest rank decision")
+        # where the two disagree, a kept singular value counts only by how far it exceeds what rounding in H
+        # can leak into its E block: the unbalanced pencil's tolerance of n eps ||E|| does not see that
+        # leak, which grows with the spread of H's entries (robust_margin)
+        score = (lambda d: d.ks.robust_margin) if differ else (lambda d: d.ks.margin)
+        chosen = plain if score(plain) > score(best) else best
+        if close or doubtful or not (stretched or leaky):
+            why = "the closest rank decision on the balanced pencil"
+        elif stretched:
+            why = f"the balanced pencil spans {bal.spread_after:.1f} decades; its closest rank decision"
+        else:
+            why = ("a singular value the balanced pencil keeps is within what rounding in H can leak into its "
+                   f"block (margin {best.ks.robust_margin:.3g} against that); its closest rank decision")
         note = (
             f"{why} had margin {best.ks.margin:.3g}; decided again "
             f"on the unbalanced pencil (margin {plain.ks.margin:.3g}); reporting the "
@@ -227,7 +240,9 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
         if differ:
             note += (
                 f"; they disagree: balanced {best.ks.summary()}, unbalanced {plain.ks.summary()} "
-                "(regular, infinite blocks, right and left minimal indices)"
+                "(regular, infinite blocks, right and left minimal indices); margins against what rounding "
+                f"in H can leak into the blocks: balanced {best.ks.robust_margin:.3g}, unbalanced "
+                f"{plain.ks.robust_margin:.3g}"
             )
         chosen.notes.append(note)
         best = chosen

@@ -395,10 +395,15 @@ def _index(ctx: Context, report: TopologyReport) -> None:
         first = next(f for f in report.findings if f.severity == "error")
         report.index_message = f"no index, the DAE is singular: {first.message.removeprefix('singular: ')}"
         return
+    g = ctx.g
+    if ctx.n <= 1 and not np.any((g.cls == VOLTAGE) | (g.cls == INDUCTIVE)):
+        # no node off ground and no branch current: no unknowns, no equations (an empty netlist)
+        what = "no elements" if not len(ctx.elems) else "no node other than ground"
+        report.index_message = f"no index: the circuit has {what}, so it has no unknowns and no DAE"
+        return
     if not report.applicable:
         report.index_message = f"no topological index: {report.not_applicable_reason}"
         return
-    g = ctx.g
     cv_count, li_count = report.counts["cv_loops"], report.counts["li_cutsets"]
     if cv_count or li_count:
         report.topological_index = 2
