@@ -123,3 +123,54 @@ def test_reverse_base_current_sweep_converges():
 def test_reverse_base_current_sweep_agrees_with_ngspice():
     comparison = netdae.compare(REVERSE_BASE, backend="subprocess")
     assert comparison.passed, comparison
+
+
+def _chain(stages: int, analysis: str) -> str:
+    """A chain of saturating BJT inverters (each collector drives the next base through 10 kOhm): at an
+    input above the first stage's threshold every stage switches, each the opposite of the one before."""
+    lines = ["bjt inverter chain", ".model qn npn bf=100 is=1e-15 vaf=50", "VCC vcc 0 5", "VIN in 0 1.5"]
+    prev = "in"
+    for k in range(stages):
+        lines += [f"RB{k} {prev} b{k} 10k", f"Q{k} c{k} b{k} 0 qn", f"RC{k} vcc c{k} 1k"]
+        prev = f"c{k}"
+    return "\n".join(lines + [analysis, ".end"]) + "\n"
+
+
+def _alternates(x_c: np.ndarray) -> None:
+    """Stage k saturated (its collector low) for even k, off for odd k: then its collector sits where
+    the next base's current through 10 kOhm pulls it from 5 V through 1 kOhm, or at 5 V for the last."""
+    low, high = x_c[0::2], x_c[1::2]
+    assert np.all(low < 0.2), low.max()
+    assert np.all(high[:-1] > 4.5) and np.all(high[:-1] < 4.7), (high.min(), high.max())
+    assert high[-1] == pytest.approx(5.0, abs=1e-6)
+    # an off stage's collector feeds the next base: 5 V - 1k (v_c - v_be)/10k; v_be of a saturated stage
+    # is where is exp(v/vt) bf carries that current: the high collectors are equal to 1e-9 of each other
+    assert np.ptp(high[:-1]) < 1e-6
+
+
+def test_a_chain_whose_stages_all_switch_is_solved_by_pseudo_transient_continuation(monkeypatch):
+    """60 stages: Newton from the initial junction voltages, gmin stepping and source stepping all
+    stall (each moves many stages at once between the chain's states); implicit-Euler steps in a
+    pseudo-time switch it a stage at a time. Without that stage the operating point is refused."""
+    import netdae.dae.steady as steady
+
+    op = netdae.run(netdae.load(_chain(60, ".op")))[0]
+    assert op.message == "converged with pseudo-transient continuation"
+    _alternates(np.array([float(op[f"v(c{k})"][0]) for k in range(60)]))
+    monkeypatch.setattr(steady.PseudoTransient, "__call__", lambda self, newton, x: (x, False))
+    with pytest.raises(ConvergenceError, match="did not converge"):
+        netdae.run(netdae.load(_chain(60, ".op")))
+
+
+def test_a_dc_sweep_point_that_fails_from_the_previous_one_is_solved_again_and_else_named(monkeypatch):
+    """The sweep's point past the chain's switching: from the previous point's solution, then from
+    scratch (ngspice's CKTop after its itl2 iterations); where both fail the error names the point."""
+    import netdae.dae.steady as steady
+
+    text = _chain(60, ".dc VIN 0 2 0.5")
+    res = netdae.run(netdae.load(text))[0]
+    _alternates(np.array([float(res[f"v(c{k})"][-1]) for k in range(60)]))
+    monkeypatch.setattr(steady.PseudoTransient, "__call__", lambda self, newton, x: (x, False))
+    with pytest.raises(ConvergenceError, match=r"^\.dc at vin = [0-9.]+: .*from the previous point's solution "
+                                               r"and from scratch"):
+        netdae.run(netdae.load(text))

@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..circuit import Circuit, DcAnalysis, DcSweep
-from ..errors import CircuitError, NetdaeError
+from ..errors import CircuitError, ConvergenceError, NetdaeError
 from ..kinds import KINDS, Kind
 from ..mna import MODE_DC, assemble
 from ..netlist.steps import check_grid_size
@@ -138,6 +138,33 @@ def _compiled_sweep(system, circuit: Circuit, names: list[str], points: list[tup
     return fast
 
 
+def _solve_point(prepared: Prepared, opts, x, names, values):
+    """One point of the sweep: from the previous point's solution, and where that fails from scratch
+    (ngspice's sweep does the same: ``CKTop`` from the junctions' initial voltages once its itl2
+    iterations from the previous point fail). A point where the solution jumps far from the
+    previous one (a chain of stages that all switch: every stage is limited on its way) is
+    often reached from scratch only.
+
+    Raises
+    ------
+    ConvergenceError
+        Neither converged; the message names the point.
+    """
+    try:
+        return solve_operating_point(prepared, options=opts, x0=x)
+    except ConvergenceError as exc:
+        failure = exc
+    if x is not None:
+        try:
+            return solve_operating_point(prepared, options=opts, x0=None)
+        except ConvergenceError as exc:
+            failure = exc
+    where = ", ".join(f"{name} = {value:g}" for name, value in zip(names, values))
+    raise ConvergenceError(f".dc at {where}: {failure.message}" + (" (from the previous point's solution and from "
+                           "scratch)" if x is not None else ""), t=failure.t, h=failure.h, worst=failure.worst,
+                           hint=failure.hint) from None
+
+
 def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
     """Run a ``.dc`` sweep.
 
@@ -222,7 +249,7 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         for name, v in zip(names, values):
             if name != "temp" and name not in resistors:
                 system.sources.set_value(name, v)
-        res = solve_operating_point(prepared, options=opts, x0=x)
+        res = _solve_point(prepared, opts, x, names, values)
         iterations += res.iterations
         x = res.x
         system.remember_switches(x)

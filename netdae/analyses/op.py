@@ -202,7 +202,7 @@ def _not_finite_error(circuit: Circuit, system: MnaSystem, res: SteadyResult) ->
                     continue
                 if i >= 0 and i not in shown:
                     shown.append(i)
-    text += (", so Newton, gmin stepping and source stepping stopped"
+    text += (", so Newton, gmin stepping, source stepping and pseudo-transient continuation stopped"
              + (f"; values there: {_describe_unknowns(system, shown[:2 * NAMED], res.x)}" if shown else ""))
     return ConvergenceError(
         text, worst=system.names[rows[0]] if rows.size else None,
@@ -301,7 +301,7 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
         undetermined unknowns and the elements involved), or when a group
         attached only through capacitors receives a net DC current.
     ConvergenceError
-        When Newton, gmin stepping and source stepping all fail; names the
+        When Newton, gmin stepping, source stepping and pseudo-transient continuation all fail; names the
         unknowns that did not settle and their last values.
     """
     circuit = prepared.circuit
@@ -326,7 +326,7 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
     worst = _describe_unknowns(system, res.worst, res.x)
     raise ConvergenceError(
         f"operating point did not converge after {res.iterations} Newton iterations "
-        f"(plain Newton, gmin stepping, source stepping); last values: {worst}",
+        f"(plain Newton, gmin stepping, source stepping, pseudo-transient continuation); last values: {worst}",
         worst=system.names[res.worst[0]] if res.worst else None,
         hint="check device models and connections near these unknowns; .nodeset values close to "
         "the expected solution help; so does a larger itl1 in .options",

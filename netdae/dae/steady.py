@@ -40,6 +40,9 @@ References
    circuits*, UCB/ERL M520, 1975 (Newton with limiting, convergence test).
 .. [2] ngspice manual, Section 15.1 (gmin stepping, source stepping), and
    ``cktop.c`` for the adaptive schedules.
+.. [3] C. T. Kelley and D. E. Keyes, "Convergence analysis of pseudo-transient
+   continuation", SIAM J. Numer. Anal. 35(2), 1998 (the last strategy,
+   :class:`PseudoTransient`).
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ from .sparse import SparsePattern
 from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
-           "Homotopy", "GminStepping", "SourceStepping", "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
+           "Homotopy", "GminStepping", "SourceStepping", "PseudoTransient", "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
 
 #: gmin stepping starts one factor below this conductance [S] and, when a step
 #: fails, moves back towards it (ngspice's dynamic gmin: OldGmin = 1e-2).
@@ -77,6 +80,16 @@ SOURCE_RAISE_GROWTH = 1.5
 FORCING_CONDUCTANCE = 1e10
 #: Newton iteration limit inside each homotopy step (ngspice's itl3 default... itl1/4 is a fair share).
 HOMOTOPY_MAXITER = 50
+#: Pseudo-transient continuation: the first capacitance-over-step conductance to the last pseudo-time
+#: point [S], the largest it may rise to after failures, and its step factor's start, largest and
+#: smallest values; a bound on pseudo-time steps and on their Newton iterations.
+PTRAN_G_START = 1e-2
+PTRAN_G_MAX = 1e4
+PTRAN_FACTOR_START = 2.0
+PTRAN_FACTOR_MAX = 16.0
+PTRAN_FACTOR_MIN = 1.5
+PTRAN_MAX_STEPS = 1000
+PTRAN_MAX_ITERATIONS = 20_000
 #: LU pivots are judged on the *equilibrated* Jacobian: every row, then every
 #: column, scaled by a power of two so that its largest entry lies in (1/2, 1]
 #: (so a 1e10 S forcing next to a 1e-12 S junction does not look singular,
@@ -112,6 +125,8 @@ class SteadyOptions:
     maxiter: int = 100
     gmin_stepping: bool = True
     source_stepping: bool = True
+    #: After gmin and source stepping: pseudo-transient continuation (:class:`PseudoTransient`).
+    pseudo_transient: bool = True
     #: Judge the Jacobian at the solution by an SVD rank decision when a pivot is small (a
     #: DC operating point). Off for an implicit-Euler step of a tiny size h, whose matrix
     #: ``dq/dx / h - dphi/dx`` spans many orders of magnitude while it is regular.
@@ -450,15 +465,15 @@ class _Newton:
         self.ill_conditioned = False  # an iteration met an ill-conditioned Jacobian
         self.not_finite = None  # rows not finite where the last solve could not evaluate its iterate (x, rows)
 
-    def _residual(self, x, gdiag, scale, state):
+    def _residual(self, x, gdiag, scale, state, anchor=None):
         ev = self.system.evaluate(x, self.t, jacobian=True, state=state, source_scale=scale)
         if not ev.ok:
             self.not_finite = (np.array(x, dtype=float), _non_finite_rows(self.pattern, ev))
             return None
         F = ev.phi.copy()
         jac = ev.dphi.copy()
-        if gdiag:
-            F[self.volt] -= gdiag * x[self.volt]
+        if gdiag:  # a conductance from every node to ground, or to its value at ``anchor``
+            F[self.volt] -= gdiag * (x[self.volt] if anchor is None else x[self.volt] - anchor[self.volt])
             jac[self.pattern.diag[self.volt]] -= gdiag
         for frc in self.forcing:
             F[frc.index] -= frc.conductance * (x[frc.index] - scale * frc.value)
@@ -468,12 +483,14 @@ class _Newton:
     def _residual_small(self, F, jac, x) -> bool:
         return bool(np.all(np.abs(F) <= self.opts.reltol * self.pattern.row_magnitudes(jac, x) + self.r_atol))
 
-    def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None, init=False) -> tuple[np.ndarray, bool]:
+    def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None, init=False, anchor=None) -> tuple[np.ndarray, bool]:
         """Iterate from x; returns (x, converged). Raises _Singular.
 
         ``init`` starts the devices from their initial junction voltages
         (SPICE's MODEINITJCT), for a solve from scratch; otherwise they are
-        evaluated at x (continuation from a previous solution).
+        evaluated at x (continuation from a previous solution). ``gdiag`` adds
+        a conductance from every node to ground, or with ``anchor`` (shape
+        (n,)) to the node's value there (a pseudo-time step).
         """
         if self.system.linear:
             return self._solve_linear(np.array(x, dtype=float), gdiag, scale)
@@ -489,7 +506,7 @@ class _Newton:
         counted = lu.cache.factorizations
 
         def fun(xv, jacobian):
-            out = self._residual(xv, gdiag, scale, state[0])
+            out = self._residual(xv, gdiag, scale, state[0], anchor)
             if out is None:
                 return None, None, False, False
             ev, F, jac = out
@@ -726,7 +743,8 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
             return singular_result(x, f"singular Jacobian ({exc.args[0]})", exc.rank)
         singular = exc  # a nonlinear Jacobian may be singular at this point only: try the homotopies
     homotopies = [h for h, on in ((GminStepping(opts.gmin), opts.gmin_stepping),
-                                  (SourceStepping(opts.gmin), opts.source_stepping)) if on]
+                                  (SourceStepping(opts.gmin), opts.source_stepping),
+                                  (PseudoTransient(opts.gmin, init), opts.pseudo_transient)) if on]
     try:
         for homotopy in homotopies:
             x_h, ok = homotopy(newton, x)
@@ -739,15 +757,16 @@ def solve_steady(system: DaeSystem, t: float = 0.0, x0: np.ndarray | None = None
     if newton.ill_conditioned:  # the iterations met near-singular Jacobians: is the last iterate's singular?
         _, rank, is_singular = _judge(newton, x_new)
         if is_singular:
-            return singular_result(x_new, "singular Jacobian (Newton, gmin stepping and source stepping failed)",
-                                   rank)
+            return singular_result(x_new, "singular Jacobian (Newton, gmin stepping, source stepping and "
+                                   "pseudo-transient continuation failed)", rank)
     if newton.not_finite is not None:  # the last solve could not evaluate its iterate: say so, with where
         x_bad, rows = newton.not_finite
-        out = result(x_bad, False, "newton", "the equations are not finite at the iterate (Newton, gmin stepping "
-                     "and source stepping stopped there)")
+        out = result(x_bad, False, "newton", "the equations are not finite at the iterate (Newton, gmin stepping, "
+                     "source stepping and pseudo-transient continuation stopped there)")
         out.not_finite = rows
         return out
-    return result(x_new, False, "newton", "no convergence (Newton, gmin stepping and source stepping failed)")
+    return result(x_new, False, "newton", "no convergence (Newton, gmin stepping, source stepping and "
+                  "pseudo-transient continuation failed)")
 
 
 def _compiled(system: DaeSystem) -> bool:
@@ -880,3 +899,84 @@ class SourceStepping:
                 return cur, False
             gdiag /= GMIN_FACTOR_START
         return newton.solve(cur, scale=0.0)
+
+
+@dataclass(frozen=True)
+class PseudoTransient:
+    """Pseudo-transient continuation: implicit-Euler steps in a pseudo-time towards the steady state.
+
+    Every node gets a capacitance ``C`` to ground and each step solves
+    ``phi(x) - (C / h) (x - x_prev) = 0`` by Newton from the last point
+    ``x_prev`` (the start: the devices' initial junction voltages): the
+    conductance ``g = C / h`` to the last point regularises the Jacobian as gmin
+    does, and unlike gmin it does not pull the solution towards ground, so the
+    circuit moves towards its equilibrium as it would in time, a stage at a time
+    through a chain whose stages all switch (where Newton from a far start, gmin
+    and source stepping jump between the chain's states and stall). ``g``
+    starts at :data:`PTRAN_G_START` and falls by a factor (the step grows) that
+    doubles after a quick step and halves after a slow one; a failed step
+    raises ``g`` eightfold from the last point. Where a step moved the solution
+    by less than its tolerance, plain Newton is tried from there; it also ends
+    the schedule when ``g`` has fallen to ``gmin``. Gives up after
+    :data:`PTRAN_MAX_STEPS` steps, :data:`PTRAN_MAX_ITERATIONS` Newton
+    iterations or ``g`` above :data:`PTRAN_G_MAX`.
+
+    Parameters
+    ----------
+    gmin : float
+        The conductance [S] below which the schedule ends with plain Newton.
+    from_scratch : bool
+        Start the devices from their initial junction voltages (a solve from
+        scratch); else from ``x`` (a ``.dc`` sweep's previous point: the
+        circuit then moves from there, as after a step of its input).
+
+    Notes
+    -----
+    ngspice has no such stage in its operating point (its ``optran`` is a
+    separate option); Xyce and HSPICE end their DC strategies with it. Cost: a
+    Newton solve per pseudo-time step, usually a few iterations each.
+
+    References
+    ----------
+    .. [1] C. T. Kelley and D. E. Keyes, "Convergence analysis of
+       pseudo-transient continuation", SIAM J. Numer. Anal. 35(2), 1998.
+    """
+
+    gmin: float
+    from_scratch: bool = True
+    name: str = "pseudo-transient continuation"
+
+    def __call__(self, newton: _Newton, x: np.ndarray) -> tuple[np.ndarray, bool]:
+        if newton.system.linear:
+            return x, False
+        g, factor = PTRAN_G_START, PTRAN_FACTOR_START
+        cur = np.asarray(x, dtype=float)
+        fresh = self.from_scratch  # the devices from their initial junction voltages, else from x
+        start = newton.iterations
+        for _ in range(PTRAN_MAX_STEPS):
+            if newton.iterations - start > PTRAN_MAX_ITERATIONS:
+                break
+            x_new, ok = newton.solve(cur, gdiag=g, anchor=cur, maxiter=HOMOTOPY_MAXITER, init=fresh)
+            if not ok:
+                g *= 8.0
+                factor = PTRAN_FACTOR_START
+                if g > PTRAN_G_MAX:
+                    break
+                continue
+            fresh = False
+            moved = np.max(np.abs(x_new - cur) / (newton.opts.reltol * np.maximum(np.abs(x_new), np.abs(cur))
+                                                 + newton.x_atol))
+            cur = x_new
+            if moved <= 1.0 or g <= self.gmin:
+                x_end, ok = newton.solve(cur, maxiter=HOMOTOPY_MAXITER)
+                if ok:
+                    return x_end, True
+                if g <= self.gmin:
+                    break
+            used = newton.last_used
+            if used <= HOMOTOPY_MAXITER // 10:
+                factor = min(2.0 * factor, PTRAN_FACTOR_MAX)
+            elif used > HOMOTOPY_MAXITER // 2:
+                factor = max(factor / 2.0, PTRAN_FACTOR_MIN)
+            g = max(g / factor, self.gmin)
+        return cur, False

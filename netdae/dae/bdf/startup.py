@@ -208,7 +208,9 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     (x_right, iterations, evaluations, message)
         ``x_right`` is None when a step did not converge (``message`` says why).
     """
-    opts = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False)
+    # an implicit-Euler step is itself a time step: no pseudo-time continuation on top of it (a failure
+    # cuts the step instead)
+    opts = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False, pseudo_transient=False)
     iterations = 0
     evaluations = 0
     y = np.asarray(x, dtype=float)
