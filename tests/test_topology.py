@@ -423,3 +423,27 @@ def test_pencil_explanation_ignores_dc_only_causes():
         mk("c1", "capacitor", ("a", "x"), 1e-6))
     assert pencil_singularity_explanation(c) is None
     assert dc_singularity_explanation(c).elements == ("v1", "l1")
+
+
+@pytest.mark.parametrize("text, expected", [
+    # a loop of V1 and the CCVS reading i(v1): regular, index 1, every unknown algebraic; no capacitor in it
+    ("V1 a 0 DC 1\nH1 a 0 V1 1k\nR1 a 0 1k\n", []),
+    # C1 across V1: a CV-loop, i(v1) depends on dV1/dt
+    ("V1 a 0 SIN(0 1 1k)\nC1 a 0 1n\nR1 a b 1k\nC2 b 0 1n\n", ["i(v1)"]),
+    # both: only the loop through a capacitor labels its source
+    ("V1 a 0 DC 1\nH1 a 0 V1 1k\nR1 a 0 1k\nV2 c 0 SIN(0 1 1k)\nC3 c 0 1n\nR3 c 0 1k\n", ["i(v2)"]),
+    # a capacitor reached through another source: V2 + C4 close a loop with V1 (i(v1), i(v2) both index 2)
+    ("V1 a 0 SIN(0 1 1k)\nV2 a d DC 1\nC4 d 0 1n\nR4 d 0 1k\n", ["i(v1)", "i(v2)"]),
+])
+def test_index2_currents_are_those_of_sources_on_a_loop_through_a_capacitor(text, expected):
+    """A source's current depends on a derivative only when a loop through it holds a capacitor
+    (the capacitor's voltage is then fixed by the sources of the loop); a loop of sources alone (a
+    V-loop, regular through controlled sources) labels none. Checked against the pencil's labels."""
+    from netdae import load
+    from netdae.analyses.index import analyze_index
+
+    circuit = load("t\n" + text + ".tran 1u 10u\n.end\n")
+    rep = analyze_topology(circuit)
+    assert sorted(rep.index2_signals) == sorted(expected)
+    dense = analyze_index(circuit)  # the pencil's: the currents that depend on an input's derivative
+    assert sorted(n for n, d in dense.derivative_order.items() if d >= 1 and n.startswith("i(")) == sorted(expected)

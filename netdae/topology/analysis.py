@@ -60,7 +60,7 @@ from ..kinds import GROUPS, KINDS, Kind
 from .context import EMPTY, Context, Partition, loops_through
 from .dc import dc_loops, no_dc_path, unfixed_potentials
 from .graph import CAPACITIVE, CURRENT, INDUCTIVE, NULLATOR, RESISTIVE, ROLES, VOLTAGE, build_graph, structure_key
-from .kernels import components, on_cycle
+from .kernels import blocks, components, on_cycle
 from .report import Cutset, Finding, Loop, NodeGroup, TopologyReport
 from .text import PATH_LIMIT, name_list, node_phrase, plural, with_inputs
 
@@ -292,9 +292,32 @@ def _cv_loops(ctx: Context) -> tuple[list[Loop], int, list[Loop], int, list[str]
                     "state fewer; this does not raise the index)")
         ctx.add(Finding("c_loop", "note", text, lp.elements, lp.nodes, controlled=lp.controlled))
     probe = g.fixes_voltage & (g.cls == VOLTAGE)
-    hit = np.flatnonzero(probe)[on_cycle(ctx.n, g.u, g.v, (g.cls == CAPACITIVE) | (g.cls == NULLATOR), probe)]
+    base = (g.cls == CAPACITIVE) | (g.cls == NULLATOR)
+    hit = np.flatnonzero(probe)[on_cycle(ctx.n, g.u, g.v, base, probe)]
+    hit = hit[_through_a_capacitor(ctx, base | probe, hit)]
     signals = [f"i({e})" for e in ctx.elem_arr[np.unique(g.element[hit])]] + op_signals
     return [lp for lp, _ in c_loops], n_c, [lp for lp, _ in cv_loops], n_cv, signals
+
+
+def _through_a_capacitor(ctx: Context, within: np.ndarray, hit: np.ndarray) -> np.ndarray:
+    """Which of the edges ``hit`` (voltage sources on a cycle of ``within``: capacitors, op-amp inputs and
+    sources) lie on a cycle through a capacitor: a loop of sources (and op-amp inputs) alone fixes no
+    capacitor voltage, and its currents depend on no derivative (a V-loop: singular, or regular through
+    controlled sources). An edge and a capacitor lie on a common cycle iff they share a block
+    (:func:`~netdae.topology.kernels.blocks`), computed on the components of ``within`` that hold a hit."""
+    if not hit.size:
+        return np.zeros(0, dtype=bool)
+    g = ctx.g
+    edges = np.flatnonzero(within & (g.u != g.v))
+    labels = components(ctx.n, g.u[edges], g.v[edges])
+    edges = edges[np.isin(labels[g.u[edges]], labels[g.u[hit]])]
+    nodes, inv = np.unique(np.concatenate([g.u[edges], g.v[edges]]), return_inverse=True)
+    label = blocks(len(nodes), inv[: edges.size], inv[edges.size:])
+    charged = np.unique(label[g.cls[edges] == CAPACITIVE])
+    out = np.zeros(hit.size, dtype=bool)
+    looped = g.u[hit] != g.v[hit]  # a source from a node to itself closes a loop of its own
+    out[looped] = np.isin(label[np.searchsorted(edges, hit[looped])], charged)
+    return out
 
 
 def _li_cutsets(ctx: Context) -> tuple[list[Cutset], list[str]]:

@@ -25,6 +25,7 @@ __all__ = [
     "fundamental_cycle",
     "on_cycle",
     "bridges",
+    "blocks",
 ]
 
 
@@ -295,6 +296,89 @@ def bridges(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
                     if low[node] > disc[parent]:
                         out[top[1]] = True
     return out
+
+
+def blocks(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The biconnected component (block) of every edge of an undirected multigraph.
+
+    Two edges lie on a common simple cycle iff they are in the same block; a
+    bridge is a block of its own, and parallel edges share one.
+
+    Parameters
+    ----------
+    n : int
+        Number of vertices.
+    a, b : ndarray of int, shape (m,)
+        Edge end points, no self-loops; parallel edges are allowed.
+
+    Returns
+    -------
+    ndarray of int, shape (m,)
+        Block labels ``0..k-1``.
+
+    Notes
+    -----
+    Tarjan's low-link depth-first search with a stack of edges (Hopcroft and
+    Tarjan, *Commun. ACM* 16 (1973) 372-378), iterative, with edge identities
+    as :func:`bridges`: when a child's low link does not reach above its
+    parent, the edges stacked since the tree edge to it form a block.
+    O(n + m) Python steps, once per topological analysis.
+
+    Examples
+    --------
+    >>> blocks(4, np.array([0, 1, 2, 2]), np.array([1, 2, 0, 3])).tolist()  # a triangle and a pendant edge
+    [1, 1, 1, 0]
+    """
+    m = len(a)
+    ends = np.concatenate([a, b])
+    order = np.argsort(ends, kind="stable")
+    nbr = np.concatenate([b, a])[order].tolist()
+    eid = np.concatenate([np.arange(m), np.arange(m)])[order].tolist()
+    start = np.searchsorted(ends[order], np.arange(n + 1)).tolist()
+    disc = [-1] * n
+    low = [0] * n
+    label = np.full(m, -1, dtype=np.int64)
+    edges: list[int] = []
+    count = 0
+    timer = 0
+    for root in range(n):
+        if disc[root] >= 0:
+            continue
+        disc[root] = low[root] = timer
+        timer += 1
+        stack = [[root, -1, start[root]]]  # vertex, edge it was reached by, next adjacency slot
+        while stack:
+            top = stack[-1]
+            node, pos = top[0], top[2]
+            if pos < start[node + 1]:
+                top[2] = pos + 1
+                e = eid[pos]
+                if e == top[1]:
+                    continue
+                w = nbr[pos]
+                if disc[w] < 0:
+                    edges.append(e)
+                    disc[w] = low[w] = timer
+                    timer += 1
+                    stack.append([w, e, start[w]])
+                elif disc[w] < disc[node]:  # a way back to an ancestor (each back edge stacked once)
+                    edges.append(e)
+                    if disc[w] < low[node]:
+                        low[node] = disc[w]
+            else:
+                stack.pop()
+                if stack:
+                    parent = stack[-1][0]
+                    if low[node] < low[parent]:
+                        low[parent] = low[node]
+                    if low[node] >= disc[parent]:  # the edges since the tree edge to node: one block
+                        while True:
+                            f = edges.pop()
+                            label[f] = count
+                            if f == top[1]:
+                                break
+                        count += 1
+    return label
 
 
 def on_cycle(n: int, u: np.ndarray, v: np.ndarray, base: np.ndarray, probe: np.ndarray) -> np.ndarray:
