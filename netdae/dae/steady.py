@@ -59,7 +59,8 @@ from .sparse import SparsePattern
 from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
-           "Homotopy", "GminStepping", "SourceStepping", "PseudoTransient", "PIVOT_SUSPECT", "PIVOT_SAFETY", "RANK_CHECK_LIMIT"]
+           "Homotopy", "GminStepping", "SourceStepping", "PseudoTransient", "PIVOT_SUSPECT", "PIVOT_SAFETY",
+           "RANK_CHECK_LIMIT"]
 
 #: gmin stepping starts one factor below this conductance [S] and, when a step
 #: fails, moves back towards it (ngspice's dynamic gmin: OldGmin = 1e-2).

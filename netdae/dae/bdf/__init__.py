@@ -194,4 +194,5 @@ from .startup import ImplicitEulerStep, right_limit
 from .stepper import BDF
 
 __all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate", "check_arguments", "absolute_tolerances",
-           "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit", "rounding_signs"]
+           "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit",
+           "rounding_signs"]
