@@ -250,52 +250,16 @@ def bridges(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
     Notes
     -----
-    Tarjan's low-link depth-first search, iterative, with edge identities so
-    that a parallel edge counts as a way back (R. E. Tarjan, A note on finding
-    the bridges of a graph, *Inf. Process. Lett.* 2 (1974) 160-161). O(n + m)
-    Python steps: it runs once per topological analysis, never in a solver
-    loop.
+    A bridge is a block of one edge (:func:`blocks`: Tarjan's low-link
+    depth-first search, where a parallel edge counts as a way back; R. E.
+    Tarjan, A note on finding the bridges of a graph, *Inf. Process. Lett.* 2
+    (1974) 160-161). O(n + m) Python steps: it runs once per topological
+    analysis, never in a solver loop.
     """
-    m = len(a)
-    ends = np.concatenate([a, b])
-    order = np.argsort(ends, kind="stable")
-    nbr = np.concatenate([b, a])[order].tolist()
-    eid = np.concatenate([np.arange(m), np.arange(m)])[order].tolist()
-    start = np.searchsorted(ends[order], np.arange(n + 1)).tolist()
-    disc = [-1] * n
-    low = [0] * n
-    out = np.zeros(m, dtype=bool)
-    timer = 0
-    for root in range(n):
-        if disc[root] >= 0:
-            continue
-        disc[root] = low[root] = timer
-        timer += 1
-        stack = [[root, -1, start[root]]]  # vertex, edge it was reached by, next adjacency slot
-        while stack:
-            top = stack[-1]
-            node, pos = top[0], top[2]
-            if pos < start[node + 1]:
-                top[2] = pos + 1
-                e = eid[pos]
-                if e == top[1]:
-                    continue
-                w = nbr[pos]
-                if disc[w] < 0:
-                    disc[w] = low[w] = timer
-                    timer += 1
-                    stack.append([w, e, start[w]])
-                elif disc[w] < low[node]:
-                    low[node] = disc[w]
-            else:
-                stack.pop()
-                if stack:
-                    parent = stack[-1][0]
-                    if low[node] < low[parent]:
-                        low[parent] = low[node]
-                    if low[node] > disc[parent]:
-                        out[top[1]] = True
-    return out
+    label = blocks(n, a, b)
+    if not label.size:
+        return np.zeros(0, dtype=bool)
+    return np.bincount(label)[label] == 1
 
 
 def blocks(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -320,8 +284,9 @@ def blocks(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     -----
     Tarjan's low-link depth-first search with a stack of edges (Hopcroft and
     Tarjan, *Commun. ACM* 16 (1973) 372-378), iterative, with edge identities
-    as :func:`bridges`: when a child's low link does not reach above its
-    parent, the edges stacked since the tree edge to it form a block.
+    so that a parallel edge counts as a way back: when a child's low link does
+    not reach above its parent, the edges stacked since the tree edge to it
+    form a block.
     O(n + m) Python steps, once per topological analysis.
 
     Examples
