@@ -184,7 +184,10 @@ def _netdae_ac_at(circuit: Circuit, freqs: np.ndarray, overrides: dict) -> Resul
 
 
 def _netdae_error(exc: BaseException) -> str:
+    """What netdae's failure to run an analysis says; a missing module outside netdae is raised again."""
     if isinstance(exc, ModuleNotFoundError):
+        if not (exc.name or "").startswith("netdae"):
+            raise exc
         return f"netdae cannot run this analysis in this build: module {exc.name} is missing"
     return f"netdae failed: {exc}"
 
@@ -232,8 +235,6 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
         else:
             nd = _run_netdae(circuit, card, overrides)
     except (NetdaeError, ModuleNotFoundError) as exc:
-        if isinstance(exc, ModuleNotFoundError) and not (exc.name or "").startswith("netdae"):
-            raise
         return AnalysisComparison(kind, tolerance=tol, error=_netdae_error(exc),
                                   ngspice_tolerances=dict(ng.tolerances))
     if netdae_results is not None:
@@ -258,8 +259,6 @@ def _netdae_alone(kind: str, circuit: Circuit, card, tol, overrides, reason: str
     try:
         nd = _run_netdae(circuit, card, overrides)
     except (NetdaeError, ModuleNotFoundError) as exc:
-        if isinstance(exc, ModuleNotFoundError) and not (exc.name or "").startswith("netdae"):
-            raise
         item.error = f"{reason}; netdae: {_netdae_error(exc)}"
         return item
     if netdae_results is not None:
