@@ -343,3 +343,22 @@ V1 a 0 1
     assert nested.tolerance("tran") == Tolerance(1e-3) and nested.tolerance("op") == Tolerance(1e-6)
     with pytest.raises(NetdaeError, match="compare tolerance"):
         parse_header("t\n* compare tolerance: tight enough\n")
+
+
+def test_ngspice_points_a_rounding_off_a_jump_take_the_closer_of_netdaes_two_values():
+    # netdae records the step at tj twice (left value, right limit); its dense output gives the left value at
+    # tj and the right one after. ngspice reports the left value both at tj and a rounding later (its breakpoint
+    # time plus a few ulps): both are netdae's left value, not a disagreement of the whole step.
+    tj = 2e-11
+    after = np.nextafter(np.nextafter(tj, 1.0), 1.0)
+    step = lambda t: np.where(np.asarray(t) > tj, 1.0, 0.0)  # noqa: E731
+    t_own = np.concatenate([np.linspace(0.0, tj, 50), [tj], np.linspace(tj, 1e-10, 60)[1:]])
+    x_own = np.where(np.arange(t_own.size) >= 50, 1.0, 0.0)  # the left value at tj first, then the right limit
+    nd = Result("tran", axes={"time": t_own}, signals={"v(a)": x_own},
+                dense=lambda t: {"v(a)": step(t)},
+                transient=TransientInfo(jumps=[(tj, ["v(a)"])]))
+    t_ng = np.concatenate([np.linspace(0.0, tj, 40), [after], np.linspace(tj, 1e-10, 45)[2:]])
+    ng = ngspice_result({"v(a)": lambda t: np.where(t > after, 1.0, 0.0)}, t_ng)
+    item = compare_transient(nd, ng, tol=Tolerance(1e-3))
+    (m,) = item.signals
+    assert m.max_abs == 0.0 and item.passed

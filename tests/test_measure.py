@@ -338,6 +338,22 @@ def test_compare_reports_each_measure_against_ngspice():
     assert c.passed  # the waveforms: '.save all' kept every vector in ngspice
 
 
+@pytest.mark.ngspice
+def test_compare_measures_signals_the_selection_leaves_out_and_compares_the_selection():
+    # ngspice measures its vectors whatever .save/.print select; netdae's compared run keeps what the .meas
+    # cards read (i(v1) here) for them, and its waveforms are compared on the selection only
+    from netdae.comparison import compare
+
+    text = RC_STEP.replace(".end\n", ".print tran v(out)\n.end\n")
+    c = compare(text)
+    by = {m.name: m for m in c.measures}
+    # i(v1) when v(out) = 0.5: -(1 - 0.5) / 1k
+    assert by["iat"].netdae.ok and by["iat"].netdae.value == pytest.approx(-0.5e-3, rel=1e-5)
+    assert by["iat"].relative < 1e-5
+    (tran,) = c.analyses
+    assert [s.name for s in tran.signals] == ["v(out)"] and "i(v1)" in tran.only_ngspice
+
+
 # -- ngspice's printed measurements read back (no ngspice needed) ------------------------------
 def test_ngspice_measure_lines_are_read_and_not_taken_for_errors():
     from netdae.ngspice.measures import read_measures

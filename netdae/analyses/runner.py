@@ -425,14 +425,20 @@ def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Resu
     measure(circuit, results)
     if wanted == names:
         return results
-    kept = []
-    for r in results:
-        if r.analysis not in ("pz", "tf", "noise", "sens"):
-            r = r.subset(names)
-            # the note said what the run kept for the measurements too; the result holds the selection
-            r.notes = [f"saved: {', '.join(names)}" if n.startswith("saved: ") else n for n in r.notes]
-        kept.append(r)
-    return kept
+    return [selection(r, names) for r in results]
+
+
+def selection(result: Result, names: list[str]) -> Result:
+    """``result`` holding the signals ``names`` only (pz, tf, noise and sens results as they are).
+
+    Its ``saved:`` note, which said what the run kept for the ``.meas`` cards too, says what the
+    result holds.
+    """
+    if result.analysis in ("pz", "tf", "noise", "sens"):
+        return result
+    r = result.subset(names)
+    r.notes = [f"saved: {', '.join(names)}" if n.startswith("saved: ") else n for n in r.notes]
+    return r
 
 
 def _noise_subset(res: Result, names: list[str]) -> Result:

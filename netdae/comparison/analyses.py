@@ -324,8 +324,9 @@ def _either_side_of_jumps(nd: Result, t: np.ndarray, a: dict, b: dict) -> int:
 
     Where the solution jumps (a switch changes, an input steps), netdae records
     the value from the left and the right limit at the same time, and its dense
-    output returns the left one there; a simulator that reports a point at that
-    very time may give either (ngspice's switch at a control exactly on its
+    output returns the left one there (and the right one a rounding after it); a
+    simulator that reports a point at that very time, or a rounding off it, may give
+    either (ngspice's switch at a control exactly on its
     threshold, for one, is already switched when the hysteresis is not
     positive). Returns how many points were affected.
     """
@@ -340,13 +341,13 @@ def _either_side_of_jumps(nd: Result, t: np.ndarray, a: dict, b: dict) -> int:
         right = np.flatnonzero(own_t == tj)
         if pts.size == 0 or right.size < 2:
             continue
-        r = right[-1]
         for name in a:
             if name not in nd.signals:
                 continue
-            alt = float(np.asarray(nd.signals[name])[r])
-            closer = np.abs(alt - b[name][pts]) < np.abs(a[name][pts] - b[name][pts])
-            a[name][pts[closer]] = alt
+            for side in (right[0], right[-1]):  # the left value, the right limit
+                alt = float(np.asarray(nd.signals[name])[side])
+                closer = np.abs(alt - b[name][pts]) < np.abs(a[name][pts] - b[name][pts])
+                a[name][pts[closer]] = alt
         count += pts.size
     return count
 

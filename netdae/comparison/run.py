@@ -163,12 +163,21 @@ def _settings(circuit: Circuit, tight: bool, reltol: float | None) -> tuple[dict
     return {}, {}, None
 
 
-def _run_netdae(circuit: Circuit, card, overrides: dict) -> Result:
-    """One analysis card through :func:`netdae.analyses.runner.run`."""
-    from ..analyses.runner import run
+def _run_netdae(circuit: Circuit, card, overrides: dict) -> tuple[Result, Result]:
+    """One analysis card through :func:`netdae.analyses.runner.run`: ``(compared, measured)``.
 
-    (result,) = run(replace(circuit, analyses=[card]), **overrides)
-    return result
+    When the netlist selects signals (``.save``, ``.print``, a control block's ``plot``),
+    ``compared`` holds the selection and ``measured`` also what the ``.meas`` cards read:
+    the comparison measures netdae's result (:func:`_compare_measures`) as ngspice measures
+    its vectors, which a selection does not drop. Else both are the one result.
+    """
+    from ..analyses.runner import _with_measured, run, selection
+
+    save = _with_measured(circuit.saves, circuit) if circuit.saves else None
+    (result,) = run(replace(circuit, analyses=[card]), save=save, **overrides)
+    if save is None or len(save) == len(circuit.saves):
+        return result, result
+    return selection(result, circuit.saves), result
 
 
 def _netdae_ac_at(circuit: Circuit, freqs: np.ndarray, overrides: dict) -> Result:
@@ -227,18 +236,19 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
         return _netdae_alone(kind, circuit, card, tol, overrides, reason, netdae_results)
     try:
         if kind == "ac":
-            nd = _netdae_ac_at(circuit, ng.axis, overrides)
+            nd = measured = _netdae_ac_at(circuit, ng.axis, overrides)
         elif kind == "noise" and card.summary <= 1 and ng.axis is not None and ng.axis.size:
             from ..analyses.noise import noise_analysis
 
-            nd = noise_analysis(circuit, card, freqs=ng.axis, **overrides)  # ngspice's grid: its integration too
+            # ngspice's grid: its integration too
+            nd = measured = noise_analysis(circuit, card, freqs=ng.axis, **overrides)
         else:
-            nd = _run_netdae(circuit, card, overrides)
+            nd, measured = _run_netdae(circuit, card, overrides)
     except (NetdaeError, ModuleNotFoundError) as exc:
         return AnalysisComparison(kind, tolerance=tol, error=_netdae_error(exc),
                                   ngspice_tolerances=dict(ng.tolerances))
     if netdae_results is not None:
-        netdae_results.setdefault(kind, nd)
+        netdae_results.setdefault(kind, measured)
     ng = _with_differences(ng, nd.names())
     if kind == "tran":
         item = compare_transient(nd, ng, tol=tol, wanted=wanted, exclude=exclude)
@@ -257,12 +267,12 @@ def _netdae_alone(kind: str, circuit: Circuit, card, tol, overrides, reason: str
     measurements reported beside ngspice's failure, its failure said with ngspice's)."""
     item = AnalysisComparison(kind, tolerance=tol, error=reason)
     try:
-        nd = _run_netdae(circuit, card, overrides)
+        nd, measured = _run_netdae(circuit, card, overrides)
     except (NetdaeError, ModuleNotFoundError) as exc:
         item.error = f"{reason}; netdae: {_netdae_error(exc)}"
         return item
     if netdae_results is not None:
-        netdae_results.setdefault(kind, nd)
+        netdae_results.setdefault(kind, measured)
     item.netdae_tolerances = dict(nd.tolerances)
     item.notes = [f"netdae ran on its own ({len(nd.axis) if nd.axis is not None else 0} points): "
                   f"{nd.message or 'ok'}"] + [f"netdae: {note}" for note in nd.notes]
