@@ -103,3 +103,50 @@ def test_compensated_divider_agrees_with_ngspice():
         assert _close(float(ours[name][0]), float(theirs[name][0]), v), name
     with pytest.raises(NgspiceError, match="singular matrix"):  # without the leaks ngspice gives up
         run_ngspice("chain\n" + caps + ".op\n.end\n").result("op")
+
+
+# -- combinations of charges that controlled sources make conserved ----------------------------------------------
+def _transformer(n: float, c1: float, c2: float, v: float, extra: str = "", analysis: str = ".op") -> str:
+    """An ideal transformer of controlled sources between nodes attached only through capacitors.
+
+    E1 sets v(e) = n v(s); the current of E1 (through VS, V1 and R1 into C1 at node a) is fed to
+    node s by F1, so ``C2 v(s)' = n C1 v(a)'``: no node group is attached only through capacitors,
+    the DC matrix is singular, and ``C2 v(s) - n C1 v(a)`` is conserved. At DC ``v(a) = n v(s) - V``;
+    with the combination zero at t = 0, ``v(s) = -n C1 V / (C2 - n^2 C1)``.
+    """
+    return (f"transformer\nE1 e 0 s 0 {n}\nVS e p 0\nV1 p m {v}\nR1 m a 1k\nC1 a 0 {c1}\nF1 0 s VS {n}\n"
+            f"C2 s 0 {c2}\n{extra}{analysis}\n.end\n")
+
+
+@pytest.mark.parametrize("n, c1, c2, v", [(2.0, 1e-6, 3e-6, 1.0), (3.0, 2e-6, 5e-6, 1.5), (0.5, 1e-9, 1e-9, -2.0)])
+def test_conserved_combination_of_charges_fixes_the_operating_point(n, c1, c2, v):
+    r = operating_point(netdae.load(_transformer(n, c1, c2, v)))
+    vs = -n * c1 * v / (c2 - n * n * c1)
+    assert _close(r["v(s)"][0], vs, abs(v) + abs(vs)) and _close(r["v(a)"][0], n * vs - v, abs(v) + abs(vs))
+    assert any("are dependent" in note and "charge conservation" in note and "f1" in note for note in r.notes)
+    rep = analyze_index(netdae.load(_transformer(n, c1, c2, v)), check_consistency=False)
+    assert rep.regular and rep.index == 1
+
+
+def test_conserved_combination_holds_through_a_transient():
+    # the start is the operating point by the conservation law; the transient, driven by a pulse on V1,
+    # keeps the combination C2 v(s) - n C1 v(a) at zero (an invariant of the equations, not of netdae)
+    n, c1, c2 = 2.0, 1e-6, 3e-6
+    text = _transformer(n, c1, c2, "PULSE(1 3 1m 0.2m 0.2m 2m 5m)", analysis=".tran 10u 8m")
+    res = transient(netdae.load(text), reltol=1e-6)
+    s, a = res["v(s)"], res["v(a)"]
+    assert _close(s[0], 2.0, 3.0) and _close(a[0], 3.0, 3.0)
+    assert np.max(np.abs(c2 * s - n * c1 * a)) <= 1e-6 * c2 * np.max(np.abs(s))
+    assert np.ptp(s) > 1.0  # it moved
+
+
+def test_a_net_current_into_a_conserved_combination_is_refused():
+    with pytest.raises(CircuitError) as info:
+        operating_point(netdae.load(_transformer(2.0, 1e-6, 3e-6, 1.0, extra="I1 0 a 1m\n")))
+    assert "no DC path" in str(info.value) and "f1" in str(info.value)
+
+
+def test_an_inductor_loop_stays_refused():
+    # the flux of a loop of inductors is conserved too, but ngspice and netdae refuse the loop at DC
+    with pytest.raises(CircuitError):
+        operating_point(netdae.load("lloop\nV1 a 0 1\nR1 a b 1k\nL1 b c 1m\nL2 c b 2m\nR2 c 0 1k\n.op\n.end\n"))

@@ -129,23 +129,41 @@ def _involved_elements(circuit: Circuit, system: MnaSystem, unknowns) -> list[st
     return out
 
 
+def _undetermined(res: SteadyResult) -> np.ndarray:
+    """The unknowns a singular solve leaves undetermined (the support of its right null vectors)."""
+    if res.rank is not None:
+        return _support(res.rank.right)
+    return _support(res.null_vector) if res.null_vector is not None else np.zeros(0, dtype=int)
+
+
+def _topological_reason(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo):
+    """The topological analysis's explanation of a singular solve (None when it has none)."""
+    from ..topology import dc_singularity_explanation
+
+    undetermined = _undetermined(res)
+    signal = system.names[undetermined[0]] if undetermined.size else None
+    return dc_singularity_explanation(circuit, signal, report=topo)
+
+
+def _certain_topological_reason(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> bool:
+    """A singular solve has a reason in the topology that holds for any element values."""
+    found = _topological_reason(circuit, system, res, topo)
+    return found is not None and not any(f.controlled and f.message == found.message for f in topo.findings)
+
+
 def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> CircuitError:
     """The best explanation of a singular DC matrix, in circuit terms, naming the elements.
 
     ``system`` is the circuit's steady form, ``topo`` its topological analysis.
     """
-    from ..topology import dc_singularity_explanation
-
     rank = res.rank
     evidence = ""
     if rank is not None:
         dropped = rank.decision.dropped[0] if rank.decision.dropped else 0.0
         evidence = (f" (the DC matrix has rank {rank.rank} of {system.n}: smallest singular value {dropped:.3g} "
                     f"<= tolerance {rank.decision.tol:.3g} of the balanced matrix)")
-    undetermined = _support(rank.right) if rank is not None else (
-        _support(res.null_vector) if res.null_vector is not None else np.zeros(0, dtype=int))
-    signal = system.names[undetermined[0]] if undetermined.size else None
-    found = dc_singularity_explanation(circuit, signal, report=topo)
+    undetermined = _undetermined(res)
+    found = _topological_reason(circuit, system, res, topo)
     if found is not None and not any(f.controlled and f.message == found.message for f in topo.findings):
         return found  # a certain topological reason
     if found is not None:  # a structural reason that relies on controlled sources, confirmed numerically
@@ -269,6 +287,125 @@ def _check_charge_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult
             )
 
 
+#: A weight of a conservation law below this fraction of its largest is rounding (left out).
+LAW_WEIGHT_FLOOR = 1e-12
+#: The conservation laws carry charge independently when the smallest singular value of their charge
+#: rows ``Y^T E`` is above this fraction of the largest.
+LAW_CHARGE_RTOL = 1e-8
+
+
+def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGroup],
+                      forcing: Forcing | None) -> list[ChargeGroup]:
+    """Conservation laws that fix an operating point the DC equations leave undetermined.
+
+    When the DC Jacobian is singular with left null vectors ``Y`` (``Y^T dphi/dx = 0``: a
+    combination of the equations adds up to zero, as controlled sources make the current laws of
+    a network attached to the rest only through capacitors and those sources dependent) and the
+    same combinations of the charges are independent (``Y^T dq/dx`` of full rank), then
+    ``d/dt (Y^T q) = Y^T phi = 0``: the combinations of the charges are conserved, and, as for a
+    group of nodes attached only through capacitors (:func:`charge_groups`), their values at
+    t = 0 (zero) pick the operating point. The null vectors are made unit at pivot rows chosen
+    by a column-pivoted QR (rows held by ``.ic`` or already replaced by a charge group are not
+    chosen; a law that needs them is not made).
+
+    Parameters
+    ----------
+    system : MnaSystem
+        The steady form solved.
+    res : SteadyResult
+        A singular solve, with its rank decision (``res.rank``: up to the dense SVD's limit).
+    t : float
+    groups : list of ChargeGroup
+        The topological charge groups already in the solve.
+    forcing : Forcing or None
+
+    Returns
+    -------
+    list of ChargeGroup
+        One per null vector, weighted; empty when the rank is unknown or some combination
+        carries no charge (the equations are then undetermined for good).
+
+    Notes
+    -----
+    Cost: one evaluation, a product with the sparse ``dq`` and a QR and an SVD of ``d x n``
+    matrices (``d`` the rank deficiency).
+    """
+    import scipy.linalg
+
+    rank = res.rank
+    if rank is None or rank.left.ndim != 2 or rank.left.shape[1] == 0:
+        return []
+    Y = np.asarray(rank.left, dtype=float)
+    d = Y.shape[1]
+    taken = np.zeros(system.n, dtype=bool)
+    for g in groups:
+        taken[np.asarray(g.rows, dtype=np.int64)] = True
+    if forcing is not None:
+        taken[forcing.index] = True
+    if np.any(np.abs(Y[taken]) > LAW_WEIGHT_FLOOR * np.abs(Y).max()):
+        return []
+    ev = system.evaluate(res.x, t, jacobian=True)
+    E = system.pattern.matrix(ev.dq)
+    nodes = np.asarray(system.kinds) == 0
+    YE = np.asarray((E.T @ np.where(nodes[:, None], Y, 0.0)).T)  # the node charges of the combinations
+    flux = np.asarray((E.T @ np.where(nodes[:, None], 0.0, Y)).T)  # the inductor fluxes
+    sv = np.linalg.svd(YE, compute_uv=False)
+    if not sv.size or not np.isfinite(sv).all() or sv[0] == 0.0 or sv[-1] <= LAW_CHARGE_RTOL * sv[0]:
+        return []
+    if np.abs(flux).max(initial=0.0) > LAW_CHARGE_RTOL * np.abs(YE).max():
+        return []  # a loop of inductors: a conserved flux, not charge (refused, as ngspice's singular matrix)
+    _, _, order = scipy.linalg.qr(Y.T, mode="economic", pivoting=True)
+    pivots = order[:d]
+    W = Y @ np.linalg.inv(Y[pivots])
+    laws = []
+    for k in range(d):
+        col = W[:, k]
+        rows = np.flatnonzero(np.abs(col) > LAW_WEIGHT_FLOOR * np.abs(col).max())
+        rows = np.concatenate([[pivots[k]], rows[rows != pivots[k]]]).astype(np.int64)
+        laws.append(ChargeGroup(rows, 0.0, col[rows]))
+    return laws
+
+
+def _check_law_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult, laws: list[ChargeGroup], t: float,
+                       opts: SteadyOptions, singular: SteadyResult, topo) -> None:
+    """The dropped equation of each conservation law must hold: no net DC "current" into its combination.
+
+    Raises
+    ------
+    CircuitError
+        Where one does not: with the topology's explanation of the ``singular`` solve when it
+        has one (a node attached only through capacitors and controlled sources), else naming
+        the equations and the net current.
+    """
+    ev = system.evaluate(res.x, t, jacobian=True)
+    scale = system.pattern.matrix(np.abs(ev.dphi)) @ np.abs(res.x) + np.abs(ev.phi)
+    for law in laws:
+        w = np.abs(law.row_weights())
+        net = float(law.row_weights() @ ev.phi[law.rows])
+        if abs(net) > opts.reltol * float(w @ scale[law.rows]) + opts.abstol * float(w.sum()):
+            if _topological_reason(circuit, system, singular, topo) is not None:
+                raise _singular_error(circuit, system, singular, topo)
+            elements = _involved_elements(circuit, system, law.rows)
+            raise CircuitError(
+                f"no DC operating point: {_names(_row_names(system, law.rows))} are dependent at DC, and the "
+                f"sources drive a net DC current of {net:.6g} A into their combination, whose charge "
+                f"(attached only through capacitors and controlled sources) then grows without bound; "
+                f"elements involved: {_names(elements)}",
+                elements=tuple(elements),
+                hint="add a resistance to ground from the nodes of these elements, or start the transient with uic",
+            )
+
+
+def _law_note(circuit: Circuit, system: MnaSystem, laws: list[ChargeGroup]) -> str:
+    rows = np.unique(np.concatenate([law.rows for law in laws]))
+    elements = _involved_elements(circuit, system, rows)
+    k = len(laws)
+    return (f"the DC equations ({_names(_row_names(system, rows))}) are dependent (elements involved: "
+            f"{_names(elements)}), and {'a combination' if k == 1 else f'{k} combinations'} of the charges "
+            f"there {'is' if k == 1 else 'are'} conserved: the operating point follows from charge conservation, "
+            "total charge zero at t = 0")
+
+
 def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool = False,
                           options: SteadyOptions | None = None, x0: np.ndarray | None = None) -> SteadyResult:
     """Operating point of an assembled circuit.
@@ -312,10 +449,21 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
     nodeset = _node_forcing(system, circuit.nodeset, ".nodeset")
     groups, used = charge_groups(system, topology, None if forcing is None else forcing.index)
     res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset, charges=groups)
+    laws: list[ChargeGroup] = []
+    if res.singular and not _certain_topological_reason(circuit, system, res, topology):
+        laws = conservation_laws(system, res, t, groups, forcing)
+        if laws:
+            again = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset,
+                                 charges=groups + laws)
+            if again.converged:
+                _check_law_balance(circuit, system, again, laws, t, opts, res, topology)
+                res = again
+            else:
+                laws = []
     if res.converged:
         if groups:
             _check_charge_balance(circuit, system, res, groups, used, t, opts)
-            res.notes = [_charge_note(g) for g in used]
+        res.notes = [_charge_note(g) for g in used] + ([_law_note(circuit, system, laws)] if laws else [])
         if forcing is not None:
             res.notes = list(res.notes) + _unheld_initial_conditions(system, forcing, res.x, opts)
         return res

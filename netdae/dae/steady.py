@@ -207,20 +207,31 @@ class SteadyResult:
 class ChargeGroup:
     """Equations whose right-hand sides add up to zero at steady state, and their conserved charge.
 
-    When the rows ``rows`` of ``phi`` sum to zero identically (the current
-    laws of a set of nodes attached to the rest only through capacitors:
-    at DC no current enters the set), the steady state is not unique; the
-    total ``sum(q[rows])``, conserved by ``d/dt q = phi``, picks one. The
-    first row's equation is replaced by ``sum(q[rows]) = charge``.
+    When the rows ``rows`` of ``phi``, weighted by ``weights``, sum to zero
+    identically (the current laws of a set of nodes attached to the rest only
+    through capacitors, all weights 1: at DC no current enters the set; or a
+    combination of current laws that controlled sources make dependent), the
+    steady state is not unique; the weighted total ``sum(weights * q[rows])``,
+    conserved by ``d/dt q = phi``, picks one. The first row's equation is
+    replaced by ``sum(weights * q[rows]) = charge``.
 
     Attributes
     ----------
     rows : ndarray of int
+        The group's rows; the first is the replaced one (distinct between groups; the other rows
+        may be shared by several weighted groups).
     charge : float
+    weights : ndarray of float, optional
+        One per row (default: all 1).
     """
 
     rows: np.ndarray
     charge: float = 0.0
+    weights: np.ndarray | None = None
+
+    def row_weights(self) -> np.ndarray:
+        """The weights, one per row (ones when none were given)."""
+        return np.ones(len(self.rows)) if self.weights is None else np.asarray(self.weights, dtype=float)
 
 
 class _Singular(Exception):
@@ -552,36 +563,45 @@ class _Newton:
 class _ChargeRows(DaeSystem):
     """``system`` with the first row of each :class:`ChargeGroup` replaced by its charge balance.
 
-    Row ``r`` of a group becomes ``sum(q[rows]) - charge`` (scaled by the
+    Row ``r`` of a group becomes ``sum(w * q[rows]) - charge`` (scaled by the
     source scale, so that source stepping starts from zero charge); its
-    Jacobian row is the sum of the ``dq`` rows of the group, laid out on a
-    pattern that extends the system's by those entries.
+    Jacobian row is the weighted sum of the ``dq`` rows of the group, laid out
+    on a pattern that extends the system's by those entries.
     """
 
     def __init__(self, system: DaeSystem, groups: list[ChargeGroup]):
         self.inner = system
         self.n, self.names, self.kinds, self.linear = system.n, system.names, system.kinds, system.linear
         old = system.pattern
-        target = np.full(system.n, -1, dtype=np.int64)  # row -> the replaced row of its group
         self.first = np.array([int(g.rows[0]) for g in groups], dtype=np.int64)
         self.charge = np.array([float(g.charge) for g in groups])
-        self.label = np.full(system.n, -1, dtype=np.int64)
+        members, labels, weights = [], [], []
+        src, dst_rows, src_w = [], [], []
         for k, g in enumerate(groups):
-            target[g.rows] = g.rows[0]
-            self.label[g.rows] = k
-        src = np.flatnonzero(target[old.rows] >= 0)  # dq entries that add into a replaced row
-        self.pattern = SparsePattern.from_coo(system.n, [old.rows, target[old.rows[src]]],
-                                              [old.cols, old.cols[src]])
+            rows = np.asarray(g.rows, dtype=np.int64)
+            w = g.row_weights()
+            members.append(rows)
+            labels.append(np.full(rows.size, k, dtype=np.int64))
+            weights.append(w)
+            weight_of = np.zeros(system.n)
+            weight_of[rows] = w
+            e = np.flatnonzero(weight_of[old.rows] != 0.0)  # dq entries that add into the replaced row
+            src.append(e)
+            dst_rows.append(np.full(e.size, rows[0], dtype=np.int64))
+            src_w.append(weight_of[old.rows[e]])
+        cat = (lambda parts, dtype: np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype))
+        self.member, self.label, self.weight = cat(members, np.int64), cat(labels, np.int64), cat(weights, float)
+        self.src, self.src_w = cat(src, np.int64), cat(src_w, float)
+        dst_rows = cat(dst_rows, np.int64)
+        self.pattern = SparsePattern.from_coo(system.n, [old.rows, dst_rows], [old.cols, old.cols[self.src]])
         self.old_slots = self.pattern.slots(old.rows, old.cols)
         self.keep = ~np.isin(old.rows, self.first)  # dphi entries of replaced rows are dropped
-        self.src = src
-        self.dst = self.pattern.slots(target[old.rows[src]], old.cols[src])
-        self.member = np.flatnonzero(self.label >= 0)
+        self.dst = self.pattern.slots(dst_rows, old.cols[self.src])
 
     def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
         ev = self.inner.evaluate(x, t, jacobian=jacobian, state=state, source_scale=source_scale)
         phi = ev.phi.copy()
-        totals = np.bincount(self.label[self.member], weights=ev.q[self.member], minlength=self.first.size)
+        totals = np.bincount(self.label, weights=self.weight * ev.q[self.member], minlength=self.first.size)
         phi[self.first] = totals - source_scale * self.charge
         dq = dphi = None
         if ev.dphi is not None:
@@ -591,7 +611,7 @@ class _ChargeRows(DaeSystem):
             dq = np.bincount(self.old_slots, weights=ev.dq, minlength=nnz).astype(float, copy=False)
             dphi = np.bincount(self.old_slots[self.keep], weights=ev.dphi[self.keep],
                                minlength=nnz).astype(float, copy=False)
-            dphi += np.bincount(self.dst, weights=ev.dq[self.src], minlength=nnz)
+            dphi += np.bincount(self.dst, weights=self.src_w * ev.dq[self.src], minlength=nnz)
         return Evaluation(q=ev.q, phi=phi, dq=dq, dphi=dphi, limited=ev.limited, state=ev.state, ok=ev.ok)
 
     def initial_guess(self):
