@@ -279,7 +279,9 @@ C1 out 0 1u
     assert len(seen["ordinary"]) == len(negative) + 1  # and the reference row
 
 
-@pytest.mark.parametrize("key", [(0, 0), (1, 5), (2**31, 7), (2**32 - 1, 2**32 - 1), (2**32, 3), (5, 2**40)])
+@pytest.mark.parametrize("key", [(0, 0), (1, 5), (2**31, 7), (2**32 - 1, 2**32 - 1), (2**32, 3), (5, 2**40), (3,), (0,),
+                                 (7, 0), (1, 0, 0), (1, 2, 3), (0, 0, 0, 9), (2**32 - 1,) * 4, (1, 2, 3, 4, 5),
+                                 (1, 2, 0, 0, 0)])
 def test_the_sample_stream_is_numpys_seed_sequence_of_the_key(key):
     from netdae.netlist.montecarlo import generator
 
@@ -325,3 +327,76 @@ C1 out 0 1u
     batched = netdae.sweep(text, samples=6, workers=1)
     _same(batched, ordinary)
     assert len(seen["elaborated"]) == 6 and seen["ordinary"] == [0]
+
+
+def test_rows_the_vectorised_replay_leaves_to_their_own_replay_equal_the_ordinary_path(monkeypatch):
+    # the rows on the other branch of the conditional than the chunk's first replayed row are replayed one by
+    # one (Replay.values), the others together (Replay.rows): every row as the ordinary path has it
+    text = """branches
+.param x={agauss(1, 0.5, 1)}
+.param y={x > 1 ? aunif(10, 1) : 2*aunif(3, 1)}
+V1 in 0 AC 1
+R1 in out {y*100}
+C1 out 0 1u
+.ac dec 20 1 100k
+.meas ac f3 when vdb(out)=-3.0103
+.meas ac g find vm(out) at=200
+"""
+    from netdae.netlist.montecarlo import Draws
+
+    ordinary = _ordinary(monkeypatch, text, samples=30, seed=4)
+    seen = _spy(monkeypatch)
+    alone = []
+    values = Replay.values
+    monkeypatch.setattr(Replay, "values", lambda self, k, params=None: alone.append(k) or values(self, k, params))
+    batched = netdae.sweep(text, samples=30, seed=4, workers=1)
+    _same(batched, ordinary)
+    assert seen["ordinary"] == [0] and seen["elaborated"] == [0]
+    branch = [Draws(4, k).draw("agauss", [1.0, 0.5, 1.0]) > 1 for k in range(30)]
+    assert alone == [k for k in range(1, 30) if branch[k] != branch[1]] and alone
+
+
+def test_the_regularity_screen_decides_as_the_singular_values_do():
+    rng = np.random.default_rng(7)
+    n = 5
+    threshold = linear.RANK_TOLERANCE * n * np.finfo(float).eps
+    H = rng.standard_normal((60, n, n))
+    for k, ratio in enumerate(np.logspace(-18, -6, 40)):  # sigma_min / sigma_max from far below to far above
+        u, _, vt = np.linalg.svd(H[k])
+        H[k] = u @ np.diag(np.r_[np.ones(n - 1), ratio]) @ vt
+    H[45, :, 2] = 0.0  # exactly singular: the batched inverse refuses the stack
+    sv = np.linalg.svd(H, compute_uv=False)
+    want = sv[:, -1] > threshold * sv[:, 0]
+    assert want.any() and not want.all()
+    np.testing.assert_array_equal(linear._regular(H), want)
+    np.testing.assert_array_equal(linear._regular(np.delete(H, 45, axis=0)), np.delete(want, 45))
+    for k in range(H.shape[0]):  # alone as in any stack
+        assert linear._regular(H[k:k + 1])[0] == want[k]
+
+
+def test_measure_columns_are_the_measures_of_each_row():
+    from netdae.analyses.measure import evaluate_measure_columns, evaluate_measure_rows
+    from netdae.results import Result
+
+    specs = load(MC_ALL).measures
+    rng = np.random.default_rng(2)
+    f = np.logspace(2, 5, 61)
+    rows = 25
+    # band-pass magnitudes around 0.05, some rows never reaching the level, one row not finite
+    gain = (0.02 + 0.1 * rng.random((rows, 1))) / (1 + (np.log10(f)[None, :] - 3.0 - 0.3 * rng.random((rows, 1))) ** 2)
+    X = gain * np.exp(1j * rng.random((rows, f.size)))
+    X[3, 10] = np.nan
+    res = Result("ac", axes={"frequency": f}, signals={"v(out)": X}, message="ok")
+    columns = evaluate_measure_columns(specs, {"ac": res}, rows)
+    per_row = evaluate_measure_rows(specs, {"ac": res}, rows)
+    assert [c.name for c in columns] == [s.name for s in specs]
+    failures = 0
+    for r, measures in enumerate(per_row):
+        for c, m in zip(columns, measures):
+            assert (c.reasons[r] is None) == m.ok, (c.name, r)
+            if m.ok:
+                assert c.values[r] == m.value, (c.name, r)
+            else:
+                assert c.reasons[r] == m.reason and np.isnan(c.values[r])
+                failures += 1
+    assert 0 < failures < rows * len(specs)

@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -61,7 +62,7 @@ from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Pro
 from ..netlist import expr as ex
 from ..results import Result
 
-__all__ = ["evaluate_measures", "evaluate_measure_rows", "MeasureFailure"]
+__all__ = ["evaluate_measures", "evaluate_measure_rows", "evaluate_measure_columns", "MeasureColumn", "MeasureFailure"]
 
 #: Inner sample points per step of a transient (fractions of the step).
 _INNER = np.array([0.25, 0.5, 0.75])
@@ -594,6 +595,32 @@ def _measure_rows(spec: MeasureSpec, result: Result, rows: int) -> list[Measure]
         What fails for every row.
     """
     f = spec.function
+    value, at, extra, reasons = _measure_columns(spec, result, rows)
+    out = []
+    for r in range(rows):
+        if reasons[r] is not None:
+            out.append(Measure(spec.name, spec.analysis, f, None, status=STATUS_FAILED, reason=reasons[r]))
+            continue
+        m = Measure(spec.name, spec.analysis, f, float(value[r]))
+        if at is not None:
+            m.at = float(at[r])
+        if extra:
+            m.extra = {k: float(v) if np.ndim(v) == 0 else float(v[r]) for k, v in extra.items()}
+        out.append(m)
+    return out
+
+
+def _measure_columns(spec: MeasureSpec, result: Result, rows: int) -> tuple[np.ndarray, np.ndarray | None, dict,
+                                                                            list]:
+    """The arrays of :func:`_measure_rows`: ``(value, at, extra, reasons)``, ``reasons[r]`` None where row r has
+    its value.
+
+    Raises
+    ------
+    MeasureFailure
+        What fails for every row.
+    """
+    f = spec.function
     at = None
     extra: dict = {}
     reasons: list = [None] * rows
@@ -636,18 +663,7 @@ def _measure_rows(spec: MeasureSpec, result: Result, rows: int) -> list[Measure]
                 value = np.sqrt(np.maximum(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
             if f in ("pp", "integ", "avg", "rms"):
                 extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
-    out = []
-    for r in range(rows):
-        if reasons[r] is not None:
-            out.append(Measure(spec.name, spec.analysis, f, None, status=STATUS_FAILED, reason=reasons[r]))
-            continue
-        m = Measure(spec.name, spec.analysis, f, float(value[r]))
-        if at is not None:
-            m.at = float(at[r])
-        if extra:
-            m.extra = {k: float(v) if np.ndim(v) == 0 else float(v[r]) for k, v in extra.items()}
-        out.append(m)
-    return out
+    return value, at, extra, reasons
 
 
 def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
@@ -720,6 +736,94 @@ def evaluate_measure_rows(specs: list[MeasureSpec], results: Mapping[str, Result
     """
     per_spec = _evaluate(specs, results, rows)
     return [[ms[r] for ms in per_spec] for r in range(rows)]
+
+
+@dataclass
+class MeasureColumn:
+    """One measurement of many rows: the values and failures :func:`evaluate_measure_rows` gives, as arrays.
+
+    Attributes
+    ----------
+    name, analysis, function : str
+        As :class:`~netdae.measures.Measure`'s.
+    values : ndarray of float, shape (rows,)
+        Each row's value, NaN where it failed.
+    reasons : list of (str or None)
+        Why each row's measurement failed, None where it did not.
+    """
+
+    name: str
+    analysis: str
+    function: str
+    values: np.ndarray
+    reasons: list
+
+
+def evaluate_measure_columns(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int) -> list[MeasureColumn]:
+    """:func:`evaluate_measure_rows` as one :class:`MeasureColumn` per spec, without a ``Measure`` per row.
+
+    Parameters
+    ----------
+    specs : list of MeasureSpec
+    results : mapping of str to Result
+        Each result without dense output (ac, dc), its signals of shape (rows, points).
+    rows : int
+
+    Returns
+    -------
+    list of MeasureColumn
+        One per spec, in order: row r's value and reason are those of the measure
+        :func:`evaluate_measure_rows` gives row r (the same code, not a copy of it).
+    """
+    out: list = [None] * len(specs)
+    done: dict[str, MeasureColumn] = {}
+    order = [i for i, s in enumerate(specs) if s.function != "param"] + \
+        [i for i, s in enumerate(specs) if s.function == "param"]
+    for i in order:
+        spec = specs[i]
+        try:
+            if spec.function == "param":
+                col = _param_column(spec, done, rows)
+            else:
+                result = results.get(spec.analysis)
+                if result is None:
+                    raise MeasureFailure(f"no {spec.analysis} result to measure")
+                if not result.ok:
+                    raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
+                _check_axis(result)
+                value, _, _, reasons = _measure_columns(spec, result, rows)
+                col = _finite_column(spec, np.asarray(value, dtype=float), reasons)
+        except MeasureFailure as exc:
+            col = MeasureColumn(spec.name, spec.analysis, spec.function, np.full(rows, np.nan), [str(exc)] * rows)
+        done[spec.name] = col
+        out[i] = col
+    return out
+
+
+def _finite_column(spec: MeasureSpec, value: np.ndarray, reasons: list) -> MeasureColumn:
+    """The column of :func:`_finite` applied to each row's measure."""
+    values = np.where([why is None for why in reasons], value, np.nan)
+    reasons = list(reasons)
+    for r in np.flatnonzero(~np.isfinite(values)).tolist():
+        if reasons[r] is None:
+            reasons[r] = _finite(Measure(spec.name, spec.analysis, spec.function, float(value[r]))).reason
+    return MeasureColumn(spec.name, spec.analysis, spec.function, values, reasons)
+
+
+def _param_column(spec: MeasureSpec, done: dict[str, MeasureColumn], rows: int) -> MeasureColumn:
+    """A PARAM measurement of every row, each from the row's measures done before it."""
+    values = np.full(rows, np.nan)
+    reasons: list = [None] * rows
+    for r in range(rows):
+        row = {name: Measure(c.name, c.analysis, c.function, None, status=STATUS_FAILED, reason=c.reasons[r])
+               if c.reasons[r] is not None else Measure(c.name, c.analysis, c.function, float(c.values[r]))
+               for name, c in done.items()}
+        m = _finite(_param_or_failure(spec, row))
+        if m.ok:
+            values[r] = m.value
+        else:
+            reasons[r] = m.reason
+    return MeasureColumn(spec.name, spec.analysis, spec.function, values, reasons)
 
 
 def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int | None) -> list[list[Measure]]:

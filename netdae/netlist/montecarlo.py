@@ -65,6 +65,8 @@ def is_random_call(name: str, nargs: int) -> bool:
 
 #: numpy's SeedSequence takes an integer below this as one 32-bit word of entropy.
 _WORD = 2**32
+#: The words of numpy's SeedSequence pool (its ``pool_size``): entropy that fits is mixed in word by word.
+_POOL_WORDS = 4
 
 #: Tag of the transient noise sources' streams in their keys (so that no key equals a sample's).
 _SOURCE_STREAM = 0x7472_6E6F
@@ -91,8 +93,14 @@ def generator(key):
     import numpy as np
 
     words = [int(k) for k in key]
-    if all(0 <= w < _WORD for w in words):  # the same entropy as the list (one 32-bit word per integer), 3x faster
-        return np.random.Generator(np.random.PCG64(np.random.SeedSequence(np.array(words, dtype=np.uint32))))
+    if len(words) <= _POOL_WORDS and all(0 <= w < _WORD for w in words):
+        # the same entropy as the list, as one integer (its 32-bit words, least significant first): SeedSequence
+        # hashes the words missing from its pool as zeros, so dropping trailing zero words changes nothing;
+        # an integer takes SeedSequence's quickest path (a sample's stream is made once per row of a sweep)
+        entropy = 0
+        for w in reversed(words):
+            entropy = (entropy << 32) | w
+        return np.random.Generator(np.random.PCG64(np.random.SeedSequence(entropy)))
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(words)))
 
 

@@ -16,6 +16,10 @@ expansion does.
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from ..circuit import Diagnostic
 from ..errors import NetlistError
 from . import expr as ex
@@ -482,3 +486,303 @@ class Replay:
             raise ReplayMismatch(f"sample {sample} draws {draws.count} values, the recorded elaboration "
                                  f"{self.draws}")
         return out
+
+    def rows(self, samples, params: list[dict[str, float]] | None = None) -> tuple[list, "np.ndarray"]:
+        """:meth:`values` for many rows at once, the expression arithmetic on arrays over the rows.
+
+        Parameters
+        ----------
+        samples : sequence of int
+            Each row's Monte Carlo sample; its draws come from that sample's own
+            stream (:class:`~netdae.netlist.montecarlo.Draws` ``(seed, sample)``), in
+            the recorded order.
+        params : list of dict, optional
+            Each row's top-level parameter values (as :meth:`values` takes them);
+            every row must give the same names.
+
+        Returns
+        -------
+        values : list
+            Per recorded evaluation, in event order: an array over the rows, a
+            float (the same in every row), or None (it failed, as recorded).
+        ok : ndarray of bool
+            The rows whose values are those :meth:`values` gives, bit for bit:
+            the rows that took the branches the first of them took at every
+            ``c ? a : b``, and where every intermediate value is finite and every
+            sigma positive (where :meth:`values` could raise). For the other rows
+            call :meth:`values`.
+
+        Notes
+        -----
+        The evaluations, lookups, memoisation and draws follow :meth:`values` step
+        for step; ``+ - * /``, comparisons and logic are numpy's on arrays (the same
+        IEEE operations as on floats); ``**`` and the built-in functions run their
+        scalar definitions at each row (a vectorised ``sin`` or ``pow`` need not
+        round as the scalar one does). Anything else that could make a row's
+        evaluation differ (an evaluation that fails where the recorded one did
+        not, the draws in another place) leaves every row to :meth:`values`.
+        """
+        m = len(samples)
+        try:
+            return _RowsPass(self, [int(s) for s in samples], params).run()
+        except _Fallback:
+            return [None] * len(self._recorded), np.zeros(m, dtype=bool)
+
+
+def _power(a: float, b: float) -> float:
+    return ex._binary("**", a, b)
+
+
+class _Fallback(Exception):
+    """The vectorised pass of :meth:`Replay.rows` cannot stand for the rows' own replays."""
+
+
+class _Scope:
+    """A scope of :meth:`Replay.rows`: a replayed :class:`Env`'s definitions with values over rows."""
+
+    __slots__ = ("env", "parent", "values", "active")
+
+    def __init__(self, env: Env | None, parent: "_Scope | None") -> None:
+        self.env = env  # None: a function call's scope (its arguments only)
+        self.parent = parent
+        self.values: dict[str, object] = {}
+        self.active: list[str] = []
+
+
+class _RowsPass:
+    """One pass of :meth:`Replay.rows` over a set of rows (arrays of shape (rows,))."""
+
+    def __init__(self, replay: Replay, samples: list[int], params: list[dict] | None) -> None:
+        self.replay = replay
+        self.samples = samples
+        self.m = len(samples)
+        self.bad = np.zeros(self.m, dtype=bool)
+        self.count = 0  # draws made, in every row alike
+        self.generators: list | None = None
+        self.scopes: dict[int, _Scope] = {}
+        for env in replay._envs:
+            self._scope(env)
+        root = self.scopes[id(replay._root)] if replay._root is not None else None
+        if root is not None:
+            given = dict(replay.trace.initial)
+            if params:
+                names = set(params[0])
+                if any(set(p) != names for p in params):
+                    raise _Fallback
+                for name in names:
+                    given[name] = np.array([float(p[name]) for p in params])
+            root.values = given
+
+    def _scope(self, env: Env) -> _Scope:
+        scope = self.scopes.get(id(env))
+        if scope is None:
+            parent = self._scope(env.parent) if env.parent is not None else None
+            scope = self.scopes[id(env)] = _Scope(env, parent)
+        return scope
+
+    def run(self):
+        replay = self.replay
+        out: list = list(replay._recorded)
+        for k, env, what, drawn, error in replay._steps:
+            scope = self.scopes[id(env)]
+            try:
+                out[k] = self.val(what[1], scope, what[2], what[3]) if what[0] == "val" else self.lookup(scope,
+                                                                                                       what[1])
+            except _Fallback:
+                raise
+            except Exception as exc:
+                if error is not None and isinstance(exc, error):
+                    out[k] = None
+                    continue
+                raise _Fallback from None
+            if error is not None or self.count != drawn:
+                raise _Fallback
+        if self.count != replay.draws or bool(np.all(self.bad)):
+            raise _Fallback
+        return out, ~self.bad
+
+    # -- the scalar evaluation's steps over rows ---------------------------------------------------
+    def lookup(self, scope: _Scope, name: str):
+        s: _Scope | None = scope
+        while s is not None:
+            v = s.values.get(name)
+            if v is not None:
+                return v
+            if s.env is not None:
+                d = s.env.defs.get(name)
+                if d is not None:
+                    return self._compute(s, name, d)
+            s = s.parent
+        raise UnknownName(name)
+
+    def _compute(self, s: _Scope, name: str, d):
+        pdef, where = d
+        if name in s.active:
+            raise _Fallback  # a cycle: the rows' own replays say which
+        s.active.append(name)
+        try:
+            v = self.val(pdef.value, self._scope(where), pdef.card, f"parameter '{name}'")
+        finally:
+            s.active.pop()
+        s.values[name] = v
+        return v
+
+    def val(self, val, scope: _Scope, card, what: str):
+        value, offset = val
+        if type(value) is float:
+            return value
+        try:
+            return self.expr(value, scope, 0)
+        except (NetlistError, _Fallback):
+            raise
+        except UnknownName as exc:
+            raise NetlistError(f"{_card_name(card)}: unknown {exc.kind} '{exc.name}' in {what}",
+                               card.location(offset)) from None
+        except ValueError as exc:
+            raise NetlistError(f"{_card_name(card)}: cannot evaluate {what}: {exc}", card.location(offset)) from None
+
+    def _checked(self, v):
+        """``v`` with the rows where it is not finite marked (their own evaluation may raise there)."""
+        if type(v) is not float:
+            self.bad |= ~np.isfinite(v)
+        elif not math.isfinite(v):
+            self.bad[:] = True
+        return v
+
+    def _pointwise(self, func, args: list):
+        if all(type(a) is float for a in args):
+            try:
+                return float(func(*args))
+            except (ValueError, ZeroDivisionError, OverflowError):
+                return math.nan
+        rows = [np.broadcast_to(a, (self.m,)) if type(a) is float else a for a in args]
+        out = np.empty(self.m)
+        for r in range(self.m):
+            if self.bad[r]:
+                out[r] = math.nan
+                continue
+            try:
+                out[r] = func(*[float(a[r]) for a in rows])
+            except (ValueError, ZeroDivisionError, OverflowError):
+                out[r] = math.nan
+        return out
+
+    def expr(self, node, scope: _Scope, depth: int):
+        t = type(node)
+        if t is ex.Const:
+            return node.value
+        if t is ex.Param:
+            v = self.lookup(scope, node.name)
+            return float(v) if type(v) is not np.ndarray else v
+        if t is ex.Binary:
+            a, b = self.expr(node.left, scope, depth), self.expr(node.right, scope, depth)
+            op = node.op
+            if op in ("+", "-", "*", "/", "%"):
+                if op == "/" or op == "%":
+                    zero = b == 0
+                    if type(zero) is bool:
+                        if zero:
+                            raise _Fallback  # every row divides by zero: its own evaluation raises
+                    else:
+                        self.bad |= zero
+                with np.errstate(all="ignore"):
+                    v = (a + b if op == "+" else a - b if op == "-" else a * b if op == "*" else a / b if op == "/"
+                         else np.fmod(a, b))
+                if type(v) is not float and type(v) is not np.ndarray:
+                    v = float(v)
+                return self._checked(v)
+            if op == "**":
+                return self._checked(self._pointwise(_power, [a, b]))
+            if type(a) is float and type(b) is float:
+                return ex._binary(op, a, b)
+            return self._logic(op, a, b)
+        if t is ex.Unary:
+            v = self.expr(node.operand, scope, depth)
+            if node.op == "-":
+                return -v
+            return (1.0 if v == 0 else 0.0) if type(v) is float else (v == 0).astype(float)
+        if t is ex.Ternary:
+            c = self.expr(node.cond, scope, depth)
+            if type(c) is float:
+                take = c != 0
+            else:
+                good = np.flatnonzero(~self.bad)
+                if good.size == 0:
+                    raise _Fallback
+                take = bool(c[good[0]] != 0)
+                self.bad |= (c != 0) != take
+            return self.expr(node.then if take else node.other, scope, depth)
+        if t is ex.Call:
+            args = [self.expr(a, scope, depth) for a in node.args]
+            spec = ex.FUNCTIONS.get(node.func)
+            if spec is None or is_random_call(node.func, len(args)):
+                return self._call(node.func, args, scope, depth)
+            return self._checked(self._pointwise(spec[1], args))
+        if t is ex.Time:
+            raise ValueError("'time' has no value here")
+        raise ValueError(f"circuit reference {ex.to_text(node)} has no value here")
+
+    def _logic(self, op: str, a, b):
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        if op == "&&":
+            return ((a != 0) & (b != 0)).astype(float)
+        if op == "||":
+            return ((a != 0) | (b != 0)).astype(float)
+        test = {"==": np.equal, "!=": np.not_equal, "<": np.less, "<=": np.less_equal, ">": np.greater}
+        return test.get(op, np.greater_equal)(a, b).astype(float)
+
+    def _call(self, name: str, args: list, scope: _Scope, depth: int):
+        if is_random_call(name, len(args)):
+            return self._draw(name, args)
+        if depth >= MAX_CALL_DEPTH:
+            raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}'?)")
+        f = self._func(scope, name)
+        if f.circuit:
+            raise ValueError(circuit_function_message(f))
+        if len(args) != len(f.args):
+            raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
+        local = _Scope(None, scope)
+        local.values.update(zip(f.args, args))
+        return self._checked(self.expr(f.body, local, depth + 1))
+
+    @staticmethod
+    def _func(scope: _Scope, name: str) -> FuncDef:
+        s: _Scope | None = scope
+        while s is not None:
+            if s.env is not None:
+                f = s.env.funcs.get(name)
+                if f is not None:
+                    return f
+            s = s.parent
+        raise UnknownName(name, "function")
+
+    def _draw(self, name: str, args: list):
+        """:meth:`~netdae.netlist.montecarlo.Draws.draw` in every row, each from its own sample's stream."""
+        from .montecarlo import RANDOM_FUNCTIONS, generator
+
+        arity = RANDOM_FUNCTIONS[name]
+        if len(args) != arity:
+            raise _Fallback
+        if self.generators is None:
+            seed = self.replay.seed
+            self.generators = [None if bad else generator((seed, s)) for s, bad in zip(self.samples, self.bad)]
+        self.count += 1
+        gens = self.generators
+        nom, var = args[0], args[1]
+        if arity == 3:
+            sig = args[2]
+            positive = sig > 0.0
+            if type(positive) is bool:
+                if not positive:
+                    raise _Fallback
+            else:
+                self.bad |= ~positive
+            z = np.array([0.0 if g is None else float(g.standard_normal()) for g in gens])
+            with np.errstate(all="ignore"):
+                spread = (nom * var if name == "gauss" else var) / sig
+                return self._checked(nom + spread * z)
+        u = np.array([0.0 if g is None else float(g.uniform(-1.0, 1.0)) for g in gens])
+        with np.errstate(all="ignore"):
+            if name == "limit":
+                return self._checked(nom + np.where(u >= 0.0, var, -var))
+            return self._checked(nom + (nom * var if name == "unif" else var) * u)

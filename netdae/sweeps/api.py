@@ -22,13 +22,12 @@ never change a result.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
-import multiprocessing
 import os
 import secrets
 import time
 from collections.abc import Callable, Iterable, Mapping
+from typing import TYPE_CHECKING
 
 from ..circuit import Circuit
 from ..analyses.runner import string_entries
@@ -37,6 +36,9 @@ from ..stats import Statistics
 from .plan import Plan, make_plan
 from .result import SweepResult
 from .worker import Job, Outcome, run_rows
+
+if TYPE_CHECKING:  # the pools' modules are imported when a pool is used (a serial sweep needs neither)
+    import concurrent.futures as cf
 
 __all__ = ["sweep", "add_measures", "CHUNKS_PER_WORKER"]
 
@@ -104,6 +106,8 @@ def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
 def _executor(executor: cf.Executor | None, workers: int | None, rows: int) -> tuple[cf.Executor | None, int, str]:
     """The executor to use (None: this process), its worker count, and its name for the stats."""
     if executor is not None:
+        import concurrent.futures as cf  # imported by whoever made the executor
+
         if not isinstance(executor, cf.Executor):
             raise NetdaeError(f"sweep: executor must be a concurrent.futures.Executor, not {type(executor).__name__}")
         count = getattr(executor, "_max_workers", None) or workers or os.cpu_count() or 1
@@ -119,6 +123,9 @@ def _executor(executor: cf.Executor | None, workers: int | None, rows: int) -> t
     count = min(count, max(rows // MIN_ROWS_PER_WORKER, 1))
     if count <= 1:
         return None, 1, "serial"
+    import concurrent.futures as cf
+    import multiprocessing
+
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
     return cf.ProcessPoolExecutor(max_workers=count, mp_context=context), count, "ProcessPoolExecutor"
@@ -279,6 +286,8 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
             if progress is not None:
                 progress(len(outcomes), total)
         return
+    import concurrent.futures as cf
+
     if isinstance(pool, cf.ProcessPoolExecutor):  # the first row here: forked workers then start warm
         for o in run_rows(job, rows[:1]):
             outcomes[o.row] = o

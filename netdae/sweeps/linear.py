@@ -200,6 +200,57 @@ class _Values:
         return np.array([events[where[1]] if where[0] == "event" else float(stepped[where[1]])
                          for where in self.source])
 
+    def rows(self, rows: list[Row]) -> tuple[np.ndarray, list[Row], list[Row]]:
+        """The fields of many rows (rows x fields, in :attr:`fields` order), the rows they are of, and the
+        rows whose replay is not the recorded one.
+
+        The rows' expressions are evaluated together (:meth:`~netdae.netlist.params.Replay.rows`); a row
+        the vectorised pass cannot vouch for is replayed on its own (:meth:`row`). Each row's fields are
+        the numbers :meth:`row` gives it, bit for bit, whatever rows are computed with it.
+        """
+        got: list[Row] = []
+        rest: list[Row] = []
+        stepped_rows, params_rows = [], []
+        for row in rows:
+            params, stepped = self.job.plan.overrides(row)
+            params_rows.append({**self.job.overrides, **params})
+            stepped_rows.append(stepped)
+        F = np.empty((len(rows), len(self.source)))
+        replayed = same = np.zeros(len(rows), dtype=bool)
+        if rows:
+            events, replayed = self.replay.rows([row.sample if row.sample is not None else 0 for row in rows],
+                                                params_rows)
+            same = np.ones(len(rows), dtype=bool)  # the values that must not move did not
+            nominal = self.nominal
+            for k in self.checked:
+                value = events[k]
+                if value is None or nominal[k] is None:
+                    same &= value is None and nominal[k] is None
+                else:
+                    same &= np.asarray(value) == nominal[k]
+            for j, where in enumerate(self.source):
+                if where[0] == "event":
+                    value = events[where[1]]
+                    F[:, j] = np.nan if value is None else value
+                else:
+                    F[:, j] = [float(stepped[where[1]]) for stepped in stepped_rows]
+        fields = []
+        for r, row in enumerate(rows):
+            if replayed[r]:  # its own replay: the same numbers
+                if same[r]:
+                    got.append(row)
+                    fields.append(F[r])
+                else:
+                    rest.append(row)
+                continue
+            f = self.row(row)
+            if f is None:
+                rest.append(row)
+            else:
+                got.append(row)
+                fields.append(f)
+        return np.array(fields).reshape(len(got), len(self.source)), got, rest
+
 
 @dataclass
 class _Law:
@@ -290,63 +341,86 @@ class _LinearMap:
 
 @dataclass
 class _Stamped:
-    """A row ready for the batched solve: its circuit and dense matrices."""
+    """Rows ready for the batched solve: their circuit and their dense matrices, stacked."""
 
-    row: Row
-    circuit: object
-    E: np.ndarray
+    rows: list[Row]
+    circuit: object  # every row's (the first row's circuit for replayed rows)
+    E: np.ndarray     # (rows, n, n)
     H: np.ndarray
     H_ac: np.ndarray
-    b: np.ndarray
-    seconds: float
+    b: np.ndarray     # (rows, n)
+    seconds: float    # per row
 
 
 def _replayed(job: Job, rows: list[Row], values: _Values | None, linear: _LinearMap | None, circuit0, n: int):
-    """The rows the linear map covers as :class:`_Stamped` (one shared circuit), and the others."""
+    """The rows the linear map covers as one :class:`_Stamped` of the first row's circuit (None: no row), and
+    the others."""
     if values is None or linear is None or not rows:
-        return [], rows
+        return None, rows
     t0 = time.perf_counter()
-    fields, got, rest = [], [], []
-    for row in rows:
-        f = values.row(row)
-        if f is None:
-            rest.append(row)
-        else:
-            fields.append(f)
-            got.append(row)
+    F, got, rest = values.rows(rows)
     if not got:
-        return [], rest
-    ok, M = linear.matrices(np.array(fields).reshape(len(got), len(values.fields)))
+        return None, rest
+    ok, M = linear.matrices(F)
     nn = n * n
-    share = (time.perf_counter() - t0) / len(rows)
-    out = []
-    for row, m in zip([r for r, good in zip(got, ok) if good], M):
-        out.append(_Stamped(row, circuit0, m[:nn].real.reshape(n, n), m[nn:2 * nn].real.reshape(n, n),
-                            m[2 * nn:3 * nn].real.reshape(n, n), m[3 * nn:], share))
+    k = M.shape[0]
     rest.extend(r for r, good in zip(got, ok) if not good)
     rest.sort(key=lambda r: r.index)
-    return out, rest
+    if k == 0:
+        return None, rest
+    block = _Stamped([r for r, good in zip(got, ok) if good], circuit0, M[:, :nn].real.reshape(k, n, n),
+                     M[:, nn:2 * nn].real.reshape(k, n, n), M[:, 2 * nn:3 * nn].real.reshape(k, n, n),
+                     M[:, 3 * nn:], (time.perf_counter() - t0) / len(rows))
+    return block, rest
+
+
+def _regular(H: np.ndarray) -> np.ndarray:
+    """Which DC matrices ``H`` (stacked) are not numerically singular (:data:`RANK_TOLERANCE`).
+
+    The test is on the singular values, ``sigma_min > RANK_TOLERANCE * n * eps * sigma_max``. A matrix
+    whose ``|H|_F |H^-1|_F`` (a bound of ``sigma_max / sigma_min`` from above) is far below the
+    threshold's reciprocal passes without its SVD: its inverse, computed to about that ratio times eps,
+    cannot be wrong enough to matter (a factor 2 kept for it). The others are decided by their SVD.
+    """
+    m, n = H.shape[0], H.shape[-1]
+    threshold = RANK_TOLERANCE * n * np.finfo(float).eps
+    undecided = np.ones(m, dtype=bool)
+    try:
+        with np.errstate(all="ignore"):
+            inverse = np.linalg.inv(H)
+            bound = np.sqrt(np.einsum("rij,rij->r", H, H) * np.einsum("rij,rij->r", inverse, inverse))
+        undecided = ~(bound < 0.5 / threshold)  # NaN and inf undecided
+    except np.linalg.LinAlgError:  # an exactly singular one among them: every one by its SVD
+        pass
+    regular = ~undecided
+    if undecided.any():
+        sv = np.linalg.svd(H[undecided], compute_uv=False)
+        regular[undecided] = sv[:, -1] > threshold * sv[:, 0]
+    return regular
 
 
 def _measured(job: Job, circuit, freqs: np.ndarray, names, X: np.ndarray) -> list[Outcome]:
     """The outcomes of rows of ``circuit`` from their phasors ``X`` (rows, frequencies, unknowns), measured
-    together (:func:`netdae.analyses.measure.evaluate_measure_rows`); only measures, no waveforms."""
-    from ..analyses.measure import evaluate_measure_rows
+    together (:func:`netdae.analyses.measure.evaluate_measure_columns`); only measures, no waveforms."""
+    from ..analyses.measure import evaluate_measure_columns
     from ..results import Result
 
     res = Result("ac", axes={"frequency": freqs}, signals={name: X[:, :, i] for i, name in enumerate(names)},
                  message="ok")
+    # as the runner attaches measures: to a result of their analysis; a name measured again: the last card
+    # counts (as PARAM= reads it)
+    columns = [c for c in evaluate_measure_columns(circuit.measures, {"ac": res}, X.shape[0]) if c.analysis == "ac"]
+    values = [c.values.tolist() for c in columns]
     outs = []
-    for r, ms in enumerate(evaluate_measure_rows(circuit.measures, {"ac": res}, X.shape[0])):
+    for r in range(X.shape[0]):
         out = Outcome(-1)
-        for m in ms:
-            if m.analysis != "ac":  # as the runner attaches measures: to a result of their analysis
-                continue
-            out.measures[m.name] = float(m.value) if m.ok and m.value is not None else float("nan")
-            if not m.ok:
-                out.reasons[m.name] = m.reason or "failed"
-            else:  # a name measured again: the last card counts (as PARAM= reads it)
-                out.reasons.pop(m.name, None)
+        for c, v in zip(columns, values):
+            why = c.reasons[r]
+            out.measures[c.name] = v[r]  # NaN where it failed
+            if why is not None:
+                out.reasons[c.name] = why or "failed"
+            else:
+                out.reasons.pop(c.name, None)
         outs.append(out)
     return outs
 
@@ -422,7 +496,8 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     rows_left = [row for row in rows if row.index not in outcomes]
     circuit0, freqs, key, n, names = prep.circuit, prep.freqs, prep.key, prep.system.n, prep.system.names
     with prep.lock:
-        batch, rest = _replayed(job, rows_left, prep.values, prep.linear, circuit0, n)
+        block, rest = _replayed(job, rows_left, prep.values, prep.linear, circuit0, n)
+    blocks = [block] if block is not None else []
     for row in rest:
         t0 = time.perf_counter()
         try:
@@ -434,47 +509,45 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
             outcomes[row.index] = run_row(job, row)
             continue
         E, H, H_ac, b = _matrices(circuit, prep.system.layout, n)
-        batch.append(_Stamped(row, circuit, E, H, H_ac, b, time.perf_counter() - t0))
-    if batch:
-        sv = np.linalg.svd(np.stack([item.H for item in batch]), compute_uv=False)
-        singular = sv[:, -1] <= RANK_TOLERANCE * n * np.finfo(float).eps * sv[:, 0]
-        keep = []
-        for item, bad in zip(batch, singular):
-            if bad:
-                outcomes[item.row.index] = run_row(job, item.row)
-            else:
-                keep.append(item)
+        blocks.append(_Stamped([row], circuit, E[None], H[None], H_ac[None], b[None], time.perf_counter() - t0))
+    if blocks:
+        batch = [row for blk in blocks for row in blk.rows]
+        circuits = [blk.circuit for blk in blocks for _ in blk.rows]
+        seconds = np.concatenate([np.full(len(blk.rows), blk.seconds) for blk in blocks])
+        E, H, H_ac, b = (np.concatenate([getattr(blk, name) for blk in blocks]) for name in ("E", "H", "H_ac", "b"))
+        regular = _regular(H)
+        for k in np.flatnonzero(~regular):
+            outcomes[batch[k].index] = run_row(job, batch[k])
+        keep = np.flatnonzero(regular)
         w = 2j * np.pi * freqs
         per = max(1, MAX_BATCH_ENTRIES // max(w.size * n, 1))
-        for start in range(0, len(keep), per):
+        for start in range(0, keep.size, per):
             part = keep[start:start + per]
             t0 = time.perf_counter()
-            X, singular = shifted_solves(np.stack([item.E for item in part]), np.stack([item.H_ac for item in part]),
-                                         np.stack([item.b for item in part]), w)
-            for item, bad in zip(part, singular):
-                if bad:
-                    outcomes[item.row.index] = run_row(job, item.row)
-            share = (time.perf_counter() - t0) / len(part)
-            good = [k for k, item in enumerate(part) if not singular[k]]
-            shared = [k for k in good if part[k].circuit is circuit0]
+            X, singular = shifted_solves(E[part], H_ac[part], b[part], w)
+            for k in np.flatnonzero(singular):
+                outcomes[batch[part[k]].index] = run_row(job, batch[part[k]])
+            share = (time.perf_counter() - t0) / part.size
+            good = [k for k in range(part.size) if not singular[k]]
+            shared = [k for k in good if circuits[part[k]] is circuit0]
             if shared and not job.save:  # one measurement of all rows of the first row's circuit
                 t1 = time.perf_counter()
-                for k, out in zip(shared, _measured(job, circuit0, freqs, names, X[shared])):
-                    out.row = part[k].row.index
-                    outcomes[out.row] = out
+                outs = _measured(job, circuit0, freqs, names, X[shared])
                 each = (time.perf_counter() - t1) / len(shared)
-                for k in shared:
-                    outcomes[part[k].row.index].seconds = part[k].seconds + share + each
+                for k, out in zip(shared, outs):
+                    out.row = batch[part[k]].index
+                    out.seconds = seconds[part[k]] + share + each
+                    outcomes[out.row] = out
                 good = sorted(set(good) - set(shared))
             for k in good:
-                item = part[k]
+                row, circuit = batch[part[k]], circuits[part[k]]
                 t1 = time.perf_counter()
                 res = Result("ac", axes={"frequency": freqs},
                              signals={name: X[k, :, i] for i, name in enumerate(names)},
-                             stats=Statistics(points=int(freqs.size), batched=len(part)), message="ok")
-                measure(item.circuit, [res])
-                out = Outcome(item.row.index)
-                record(job, item.circuit, [res], out)
-                out.seconds = item.seconds + share + time.perf_counter() - t1
-                outcomes[item.row.index] = out
+                             stats=Statistics(points=int(freqs.size), batched=int(part.size)), message="ok")
+                measure(circuit, [res])
+                out = Outcome(row.index)
+                record(job, circuit, [res], out)
+                out.seconds = seconds[part[k]] + share + time.perf_counter() - t1
+                outcomes[row.index] = out
     return [outcomes[row.index] for row in rows]

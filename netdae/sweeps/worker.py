@@ -218,11 +218,12 @@ def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
     from ..analyses.prepared import reusing
     from .linear import ac_batch
 
-    batched = ac_batch(job, rows)
-    if batched is not None:
-        return batched
-    with reusing(_templates(job)), _fewer_collections():
-        return [run_row(job, row) for row in rows]
+    with _fewer_collections():
+        batched = ac_batch(job, rows)
+        if batched is not None:
+            return batched
+        with reusing(_templates(job)):
+            return [run_row(job, row) for row in rows]
 
 
 #: The cyclic garbage collector's first threshold while rows run (Python's default: 700 allocations).
