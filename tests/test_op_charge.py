@@ -150,3 +150,92 @@ def test_an_inductor_loop_stays_refused():
     # the flux of a loop of inductors is conserved too, but ngspice and netdae refuse the loop at DC
     with pytest.raises(CircuitError):
         operating_point(netdae.load("lloop\nV1 a 0 1\nR1 a b 1k\nL1 b c 1m\nL2 c b 2m\nR2 c 0 1k\n.op\n.end\n"))
+
+
+# -- random linear circuits against a dense oracle of the conservation laws -------------------------------------
+def _random_capacitive_circuit(rng: np.random.Generator):
+    """R, C, V, I and one to three VCVS/VCCS on up to five nodes: capacitors often, resistors rarely, so that
+    networks attached only through capacitors and controlled sources are frequent."""
+    from helpers import circuit, mk
+
+    nodes = ["0", "n1", "n2", "n3", "n4", "n5"][: rng.integers(2, 7)]
+
+    def pair():
+        a, b = rng.choice(nodes, 2, replace=False)
+        return str(a), str(b)
+
+    elements = []
+    for k in range(rng.integers(1, 8)):
+        kind = str(rng.choice(["capacitor", "capacitor", "resistor", "vsource", "isource"]))
+        value = float(rng.uniform(-2.0, 2.0)) if kind in ("vsource", "isource") else float(
+            rng.choice([0.5, 1.0, 2.0, 3.0]))
+        elements.append(mk(f"{kind[0]}{k}", kind, pair(), value))
+    for k in range(rng.integers(1, 4)):
+        kind = str(rng.choice(["vcvs", "vccs"]))
+        elements.append(mk(f"{'e' if kind == 'vcvs' else 'g'}x{k}", kind, pair() + pair(),
+                           float(rng.choice([0.5, 1.0, 2.0, -1.0]))))
+    return circuit(*elements)
+
+
+def _conservation_oracle(c):
+    """``(verdict, x by name)``: the operating point of a linear circuit whose DC matrix ``H`` may be singular.
+
+    Regular ``H``: ``x = -H^-1 c``. Singular: ``Y`` its left null space; when ``Y^T E`` has full row rank,
+    ``Y^T c = 0`` and ``[H; Y^T E]`` full column rank, the unique ``x`` with ``H x = -c`` and ``Y^T E x = 0``
+    ("determined"); otherwise "refused"; close calls None (no claim). Independent of netdae: the dense MNA of
+    tests/test_topology_helpers.py and numpy's SVD.
+    """
+    from test_topology_helpers import reference_mna
+
+    E, H, B, names = reference_mna(c)
+    if H.shape[0] == 0:
+        return None, {}
+    u = np.array([el.source.dc for el in c.elements if el.kind in ("vsource", "isource")])
+    rhs = -(B @ u) if B.size else np.zeros(H.shape[0])
+    U, s, _ = np.linalg.svd(H)
+    if s[-1] > 1e-8 * s[0]:
+        return "determined", dict(zip(names, np.linalg.solve(H, rhs)))
+    if s[-1] > 1e-12 * s[0]:
+        return None, {}
+    d = int(np.count_nonzero(s <= 1e-12 * s[0]))
+    Y = U[:, -d:]
+    ye = np.linalg.svd(Y.T @ E, compute_uv=False)
+    if ye[0] == 0.0 or ye[-1] <= 1e-12 * ye[0]:
+        return "refused", {}
+    if ye[-1] < 1e-6 * ye[0]:
+        return None, {}
+    balance = np.abs(Y.T @ rhs).max()
+    if balance > 1e-6 * (np.abs(rhs).max() + 1.0):
+        return "refused", {}
+    if balance > 1e-12 * (np.abs(rhs).max() + 1.0):
+        return None, {}
+    A = np.vstack([H, Y.T @ E])
+    sa = np.linalg.svd(A, compute_uv=False)
+    if sa[-1] <= 1e-12 * sa[0]:
+        return "refused", {}
+    if sa[-1] < 1e-8 * sa[0]:
+        return None, {}
+    x = np.linalg.lstsq(A, np.concatenate([rhs, np.zeros(d)]), rcond=None)[0]
+    return "determined", dict(zip(names, x))
+
+
+def test_random_capacitive_circuits_against_the_conservation_oracle():
+    rng = np.random.default_rng(20261128)
+    seen = {"determined": 0, "refused": 0, "laws": 0}
+    for _ in range(400):
+        c = _random_capacitive_circuit(rng)
+        verdict, ref = _conservation_oracle(c)
+        if verdict is None:
+            continue
+        seen[verdict] += 1
+        if verdict == "refused":
+            with pytest.raises(CircuitError):
+                operating_point(c)
+            continue
+        res = operating_point(c)
+        scale = max(1.0, max(abs(v) for v in ref.values()))
+        for name, v in ref.items():
+            assert abs(res[name][0] - v) <= 1e-6 * scale, (name, res[name][0], v, [str(e) for e in c.elements])
+        seen["laws"] += any("are dependent" in n for n in res.notes)
+    # the draw exercises every branch: plain, topological groups and laws, refusals
+    assert seen["determined"] > 100 and seen["refused"] > 20 and seen["laws"] >= 3, seen

@@ -305,8 +305,8 @@ def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGr
     ``d/dt (Y^T q) = Y^T phi = 0``: the combinations of the charges are conserved, and, as for a
     group of nodes attached only through capacitors (:func:`charge_groups`), their values at
     t = 0 (zero) pick the operating point. The null vectors are made unit at pivot rows chosen
-    by a column-pivoted QR (rows held by ``.ic`` or already replaced by a charge group are not
-    chosen; a law that needs them is not made).
+    by a column-pivoted QR among the rows of no charge group and no ``.ic`` (a law weighing a
+    row that a group or ``.ic`` replaced, or that the free rows cannot carry, is not made).
 
     Parameters
     ----------
@@ -337,12 +337,15 @@ def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGr
         return []
     Y = np.asarray(rank.left, dtype=float)
     d = Y.shape[1]
-    taken = np.zeros(system.n, dtype=bool)
+    replaced = np.zeros(system.n, dtype=bool)  # rows that are charge balances in the solve, not equations
+    taken = np.zeros(system.n, dtype=bool)  # rows a law may not replace
     for g in groups:
+        replaced[int(g.rows[0])] = True
         taken[np.asarray(g.rows, dtype=np.int64)] = True
     if forcing is not None:
+        replaced[forcing.index] = True
         taken[forcing.index] = True
-    if np.any(np.abs(Y[taken]) > LAW_WEIGHT_FLOOR * np.abs(Y).max()):
+    if np.any(np.abs(Y[replaced]) > LAW_WEIGHT_FLOOR * np.abs(Y).max()):
         return []
     ev = system.evaluate(res.x, t, jacobian=True)
     E = system.pattern.matrix(ev.dq)
@@ -354,8 +357,10 @@ def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGr
         return []
     if np.abs(flux).max(initial=0.0) > LAW_CHARGE_RTOL * np.abs(YE).max():
         return []  # a loop of inductors: a conserved flux, not charge (refused, as ngspice's singular matrix)
-    _, _, order = scipy.linalg.qr(Y.T, mode="economic", pivoting=True)
+    _, R, order = scipy.linalg.qr(np.where(taken[None, :], 0.0, Y.T), mode="economic", pivoting=True)
     pivots = order[:d]
+    if np.abs(R[d - 1, d - 1]) <= LAW_CHARGE_RTOL * np.abs(R[0, 0]):
+        return []  # the free rows cannot carry every law
     W = Y @ np.linalg.inv(Y[pivots])
     laws = []
     for k in range(d):
