@@ -13,9 +13,12 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import netdae
+from netdae.analyses.tran import transient
+from netdae.dae.bdf.failures import RUNAWAY_FACTOR, runaway
 
 TIA = Path("/work/corpus/examples/TransImpedanceAmp/output.net")  # ngspice's example: op-amp macromodels
 
@@ -63,3 +66,59 @@ def test_the_current_of_a_source_on_a_capacitor_loop_is_index_2_in_a_macromodel_
     assert report.index == 2 and report.method == "kronecker"
     for name in ("i(v3)", "i(e.xu1.eref)", "i(e.xu2.eref)"):  # the example's loops through V3 and the AD8009s
         assert report.derivative_order[name] == 1, name
+
+
+NEGATIVE_C = """negative capacitance across a divider: a pole at +(1/R1 + 1/R2)/|C1| = +2e9 1/s
+V1 a 0 DC 1
+R1 a b 1
+C1 a b -1n
+R2 b 0 1
+V2 c 0 DC 1
+D1 c d DX
+R3 d 0 1k
+.model DX D(IS=1e-15)
+.ic v(a)=1 v(b)=0.51
+.tran 1n 400n uic
+.end
+"""
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_an_unstable_mode_is_followed_and_its_runaway_named(engine, monkeypatch):
+    # v(b) = 1/2 + (v(b)(0) - 1/2) exp(lambda t), lambda = 2e9 1/s: followed (the rate within 2 %) until the
+    # values overflow; the failure names v(b)'s growth instead of the Newton iterates it spoiled.
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    r = netdae.simulate(NEGATIVE_C, save=["v(b)"])
+    assert not r.ok
+    assert "the solution ran away: v(b) = " in r.message, r.message
+    t, v = np.asarray(r.axis), np.asarray(r["v(b)"]) - 0.5
+    grown = (np.abs(v) > 0.1) & (np.abs(v) < 1e3)
+    assert grown.sum() >= 10
+    rate = np.polyfit(t[grown], np.log(np.abs(v[grown])), 1)[0]
+    assert rate == pytest.approx(2e9, rel=0.02)
+
+
+def test_runaway_is_measured_against_the_start_values_of_its_kind():
+    names, kinds = ["v(a)", "v(b)", "i(v1)"], np.array([0, 0, 1])
+    start = np.array([100.0, 1.0, 1e-3])
+    assert runaway(names, kinds, start, np.array([100.0, 0.5 * RUNAWAY_FACTOR * 100, 1e-3])) is None
+    text = runaway(names, kinds, start, np.array([100.0, 2 * RUNAWAY_FACTOR * 100, 1e-3]))
+    assert text.startswith("the solution ran away: v(b) = 2e+08 V")
+    text = runaway(names, kinds, start, np.array([100.0, 1.0, np.inf]))
+    assert text.startswith("the solution ran away: i(v1) = inf A")
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_the_transimpedance_amplifier_passes_its_input_corner_and_names_the_runaway(engine, monkeypatch, tmp_path):
+    # Before: the compiled engine stopped at the corner (t = 1e-9, h = 0, a singular probe), the Python one at
+    # 1.0021 ns naming v(xu200.38). The DAE's solution diverges past the corner: the OP177As' pole at
+    # +2.5e13 1/s grows (i(e.xu100.e3) from 5.8e4 A to 1e15-1e16 A) once the steps fall below 2/lambda = 8e-14 s;
+    # ngspice's steps stay above 1.4e-13 s, and with steps of at most 2e-14 s ngspice diverges too.
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
+    net = tmp_path / "tia.net"
+    net.write_text(_tia())
+    r = transient(netdae.load(str(net)))
+    assert not r.ok
+    failure = r.transient.failure
+    assert failure.t > 1.0001e-9
+    assert re.search(r"the solution ran away: i\(e\.xu[12]00\.e3\)", r.message), r.message
