@@ -416,6 +416,52 @@ def check_magnitudes(E, H, names, what: str) -> None:
                  "at these nodes")
 
 
+def _index2_from_topology(labels: dict[str, str], orders: dict[str, int], index: int | None,
+                          topo) -> tuple[dict[str, str], dict[str, int]]:
+    """The pencil's per-unknown labels, with the topology's index-2 unknowns added where the pencil has index 2.
+
+    The pencil's index is a rank count and holds; its per-unknown labels
+    (:meth:`netdae.dae.decoupled.WeierstrassForm.classify`) compare each row
+    of ``V2 N U2 B`` with a threshold made of the factors' Frobenius norms,
+    which grow with the number of infinite directions and inputs. In a
+    macromodel circuit the current of a source on a capacitor loop falls
+    below it: ngspice's transimpedance amplifier (245 infinite directions)
+    has index 2 and no unknown labelled so, i(v3) weighing 4.8e-4 of the
+    threshold, and one OP177A with a capacitor loop at its input labels seven
+    of its input stage's unknowns and not the loop's source current. The
+    transient then tests the error of that current, a derivative of the
+    inputs, and its steps collapse at every input corner (to a probe whose
+    Newton matrix is singular in rounding). The topology's capacitor-source
+    loops and inductor-source cutsets name those unknowns structurally; where
+    the pencil finds index 2 they are of index 2, and are added.
+
+    Parameters
+    ----------
+    labels : dict of str to str
+        The pencil's labels by unknown name.
+    orders : dict of str to int
+        The pencil's derivative orders by unknown name.
+    index : int or None
+        The pencil's index.
+    topo : TopologyReport
+        The circuit's topology (``index2_signals``).
+
+    Returns
+    -------
+    labels, orders : dict
+        New dicts when an unknown was added, else the arguments.
+    """
+    if index != 2:
+        return labels, orders
+    sig2 = [nm for nm in topo.index2_signals if nm in orders and orders[nm] < 1]
+    if not sig2:
+        return labels, orders
+    labels, orders = dict(labels), dict(orders)
+    for nm in sig2:
+        labels[nm], orders[nm] = "index2", 1
+    return labels, orders
+
+
 def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | None = None,
                   x: np.ndarray | None = None, method: str = "auto", check_consistency: bool = True) -> IndexReport:
     """The structure of a circuit's DAE and the reasons for it.
@@ -496,6 +542,8 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         overruled = topo.singular and pencil.regular
         if overruled:
             labels, orders = {}, {}
+        else:
+            labels, orders = _index2_from_topology(labels, orders, pencil.index, topo)
         rep = IndexReport(
             regular=False if overruled else pencil.regular, index=None if overruled else pencil.index,
             method="kronecker", n_unknowns=system.n,

@@ -10,7 +10,12 @@ from ...circuit import TOLERANCE_MIN
 from ..newton import INFO_EVALUATION, INFO_SINGULAR
 
 __all__ = ["Failure", "IntegrationFailure", "worst_unknown", "nonfinite_unknown", "newton_hint", "error_hint",
-           "failure_record"]
+           "failure_record", "runaway", "with_runaway", "RUNAWAY_FACTOR"]
+
+#: An unknown this many times the largest start value of its kind (volts, amperes; at least 1 V or 1 A)
+#: has run away: a failure there is named after the growth, not after the Newton iterates it spoiled.
+RUNAWAY_FACTOR = 1e6
+_UNITS = {0: "V", 1: "A"}
 
 
 class Failure(Exception):
@@ -72,6 +77,66 @@ def error_hint(worst_atol: float | None = None) -> str:
     return hint
 
 
+def runaway(names, kinds, x_start: np.ndarray, x: np.ndarray) -> str | None:
+    """The sentence that names a solution grown without bound, or None.
+
+    A circuit whose DAE has a mode growing as ``exp(lambda t)`` with
+    ``lambda > 0`` (a negative capacitance or resistance, positive feedback
+    through a controlled source) reaches values no part of the circuit had at
+    the start; the integrator, following it, then fails where the rounding of
+    those values exceeds the tolerances of the unknowns that are their small
+    differences (a node current balancing terms of 1e16 A is known to about
+    1 A), and the unknown its Newton test blames is a bystander. This names
+    the unknown that grew most, against the largest start value of its kind.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The unknowns' names.
+    kinds : ndarray of int
+        ``KIND_VOLTAGE`` (0), ``KIND_CURRENT`` (1) or other, per unknown.
+    x_start, x : ndarray, shape (n,)
+        The solution at the start and at the last accepted point.
+
+    Returns
+    -------
+    str or None
+        None when every volt and ampere unknown stays within
+        :data:`RUNAWAY_FACTOR` times the largest start value of its kind
+        (at least 1 V or 1 A).
+
+    Examples
+    --------
+    >>> runaway(["v(a)", "i(v1)"], np.array([0, 1]), np.array([1.0, 1e-3]), np.array([2e9, 1e-3]))[:37]
+    'the solution ran away: v(a) = 2e+09 V'
+    >>> runaway(["v(a)"], np.array([0]), np.array([1.0]), np.array([5.0])) is None
+    True
+    """
+    x_start = np.abs(np.asarray(x_start, dtype=float))
+    x = np.abs(np.asarray(x, dtype=float))
+    kinds = np.asarray(kinds)
+    best, ratio_best = None, RUNAWAY_FACTOR
+    for kind in _UNITS:
+        sel = np.flatnonzero(kinds == kind)
+        if not sel.size:
+            continue
+        scale = max(1.0, float(np.max(x_start[sel])))
+        i = sel[int(np.argmax(np.where(np.isfinite(x[sel]), x[sel], np.inf)))]
+        ratio = x[i] / scale
+        if ratio > ratio_best:
+            best, ratio_best = (i, kind, scale), ratio
+    if best is None:
+        return None
+    i, kind, scale = best
+    u = _UNITS[kind]
+    return (f"the solution ran away: {names[i]} = {x[i]:.3g} {u} ({x_start[i]:.3g} {u} at the start, where no "
+            f"{'voltage' if kind == 0 else 'current'} exceeded {scale:.3g} {u}): a mode of the circuit grows without "
+            "bound (a pole in the right half-plane: a negative capacitance or resistance, positive feedback through "
+            "a controlled source), so the DAE has no bounded solution here, and Newton fails where the rounding of "
+            "such values exceeds the tolerances; SPICE steps longer than 2/lambda damp such a mode (implicit Euler "
+            "multiplies it by 1/(1 - h lambda)) and show a bounded waveform the DAE does not have")
+
+
 @dataclass(frozen=True, slots=True)
 class IntegrationFailure:
     """Where and why an integration stopped (``IntegrationResult.failure``, ``TransientInfo.failure``).
@@ -119,3 +184,25 @@ def failure_record(t: float, h: float, what: str, worst, hint: str) -> tuple[str
     """The failure message and record of ``IntegrationResult``."""
     rec = IntegrationFailure(float(t), float(h), what, worst, hint)
     return rec.message, rec
+
+
+def with_runaway(failure: IntegrationFailure, names, kinds, x_start, x) -> IntegrationFailure:
+    """``failure`` with :func:`runaway`'s sentence before its hint when the solution ran away.
+
+    Parameters
+    ----------
+    failure : IntegrationFailure
+    names, kinds, x_start, x
+        As :func:`runaway`'s (``x`` None: the failure as it is).
+
+    Returns
+    -------
+    IntegrationFailure
+    """
+    if x is None or x_start is None:
+        return failure
+    sentence = runaway(names, kinds, x_start, x)
+    if sentence is None:
+        return failure
+    return IntegrationFailure(failure.t, failure.h, failure.what, failure.worst,
+                              f"{sentence}; {failure.hint}")

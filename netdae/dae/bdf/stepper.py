@@ -64,7 +64,7 @@ from .constants import (
     UNDEFINED_TRIES,
 )
 from .corrector import LinearCorrector, NonlinearCorrector, RoundingFloor
-from .failures import Failure, error_hint, failure_record, newton_hint, worst_unknown
+from .failures import Failure, error_hint, failure_record, newton_hint, with_runaway, worst_unknown
 from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
@@ -287,6 +287,7 @@ class BDF:
         self._w_err = np.empty(n)
         self._w_step_err = self._w_err
         self._xmax = np.abs(x0)
+        self._x_start = np.array(x0, dtype=float)
         self._failure = None
         self.status = RunState.RUNNING
         self.message = ""
@@ -342,7 +343,11 @@ class BDF:
 
     def _fail(self, t, h, what, worst, hint):
         self.status = RunState.FAILED
-        self.message, self._failure = failure_record(t, h, what, worst, hint)
+        _, failure = failure_record(t, h, what, worst, hint)
+        # the last accepted point against the start: a mode grown without bound is named as such
+        self._failure = with_runaway(failure, self.system.names, self.system.kinds, self._x_start,
+                                     self._hist.P[0, : self.n])
+        self.message = self._failure.message
 
     # Kept as static methods: the compiled engine's driver words its failures with them.
     _newton_hint = staticmethod(newton_hint)

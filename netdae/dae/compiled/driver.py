@@ -45,7 +45,7 @@ import numpy as np
 from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
-from ..bdf.failures import IntegrationFailure
+from ..bdf.failures import IntegrationFailure, with_runaway
 from ..newton import NewtonInfo
 from .sources import pack_sources
 
@@ -288,6 +288,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     psi = np.zeros(MAX_ORDER + 1)
     coef = [np.zeros(MAX_ORDER + 1) for _ in range(5)]
     xmax = np.abs(x0)
+    x_start = np.array(x0, dtype=float)
     w = np.empty(n)
     w_err = np.empty(n)
     set_weights(x0, rtol, atol, relref, xmax, mask, w, w_err)
@@ -548,6 +549,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     elif status == L.FAILED:
         if failure is None:
             failure = _failure(system, F, I, atol)
+        failure = with_runaway(failure, system.names, system.kinds, x_start, P[0, :n])
         message = failure.message
         code = STATUS_FAILED
     elif out_of_memory is not None:
