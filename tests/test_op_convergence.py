@@ -174,3 +174,20 @@ def test_a_dc_sweep_point_that_fails_from_the_previous_one_is_solved_again_and_e
     with pytest.raises(ConvergenceError, match=r"^\.dc at vin = [0-9.]+: .*from the previous point's solution "
                                                r"and from scratch"):
         netdae.run(netdae.load(text))
+
+
+def test_a_point_no_strategy_reaches_runs_pseudo_transient_continuation_once(monkeypatch):
+    """The attempt from scratch leaves out pseudo-transient continuation, whose budget the attempt from the
+    previous point has spent: a hopeless point costs one budget (it cost two)."""
+    import netdae.dae.steady as steady
+
+    calls = []
+
+    def fails(self, newton, x):
+        calls.append(1)
+        return x, False
+
+    monkeypatch.setattr(steady.PseudoTransient, "__call__", fails)
+    with pytest.raises(ConvergenceError, match=r"^\.dc at vin = "):
+        netdae.run(netdae.load(_chain(60, ".dc VIN 0 2 0.5")))
+    assert len(calls) == 1

@@ -143,7 +143,10 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
     (ngspice's sweep does the same: ``CKTop`` from the junctions' initial voltages once its itl2
     iterations from the previous point fail). A point where the solution jumps far from the
     previous one (a chain of stages that all switch: every stage is limited on its way) is
-    often reached from scratch only.
+    often reached from scratch only. The attempt from scratch runs Newton, gmin and source
+    stepping only: pseudo-transient continuation, the slowest strategy, has had its budget in
+    the first attempt (a point that no strategy reaches costs one budget, not two); the error
+    is the first attempt's.
 
     Raises
     ------
@@ -155,10 +158,10 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
     except ConvergenceError as exc:
         failure = exc
     if x is not None:
-        try:
-            return solve_operating_point(prepared, options=opts, x0=None)
-        except ConvergenceError as exc:
-            failure = exc
+        try:  # without pseudo-transient continuation, which the first attempt ran to its budget
+            return solve_operating_point(prepared, options=replace(opts, pseudo_transient=False), x0=None)
+        except ConvergenceError:
+            pass
     where = ", ".join(f"{name} = {value:g}" for name, value in zip(names, values))
     raise ConvergenceError(f".dc at {where}: {failure.message}" + (" (from the previous point's solution and from "
                            "scratch)" if x is not None else ""), t=failure.t, h=failure.h, worst=failure.worst,
