@@ -152,15 +152,8 @@ def _op177a() -> str:
     return found.group(0)
 
 
-@pytest.mark.ngspice
-def test_an_operating_point_is_kept_when_no_input_changes_at_t0(tmp_path):
-    # A capacitor loop through V3 makes i(v3) index 2; I1 is flat until 1 ns, so the DC operating point is
-    # a steady state of the transient and consistent. The OP177A's Weierstrass transformation has a
-    # condition of 1e19: its Newton residual (1e-9 A) read through it as violated constraints moved 48
-    # unknowns (the supply node v(vn) from -5 to -5.00002, i(e.xu.e3) by 12 A) and the transient failed at t = 0.
-    (tmp_path / "op177a.lib").write_text(_op177a() + "\n")
-    netlist = tmp_path / "loop.cir"
-    netlist.write_text("""OP177A inverting amplifier with a capacitor loop at its input
+#: An OP177A inverting amplifier with a capacitor loop (Cp, V3, Cb) at its input; I1 flat until 1 ns.
+OP177A_LOOP = """OP177A inverting amplifier with a capacitor loop at its input
 .options gmin=1e-9 method=gear abstol=1e-11
 .include op177a.lib
 V1 vp 0 DC 5
@@ -174,7 +167,24 @@ Cb b 0 1p
 I1 0 a PWL(0 0 1n 0 1.01n 1u)
 .tran 0.05n 5n
 .end
-""")
+"""
+
+
+def op177a_loop(tmp_path: Path) -> Path:
+    """:data:`OP177A_LOOP` written with its library in ``tmp_path`` (skips without the ngspice corpus)."""
+    (tmp_path / "op177a.lib").write_text(_op177a() + "\n")
+    netlist = tmp_path / "loop.cir"
+    netlist.write_text(OP177A_LOOP)
+    return netlist
+
+
+@pytest.mark.ngspice
+def test_an_operating_point_is_kept_when_no_input_changes_at_t0(tmp_path):
+    # A capacitor loop through V3 makes i(v3) index 2; I1 is flat until 1 ns, so the DC operating point is
+    # a steady state of the transient and consistent. The OP177A's Weierstrass transformation has a
+    # condition of 1e19: its Newton residual (1e-9 A) read through it as violated constraints moved 48
+    # unknowns (the supply node v(vn) from -5 to -5.00002, i(e.xu.e3) by 12 A) and the transient failed at t = 0.
+    netlist = op177a_loop(tmp_path)
     ckt = netdae.load(str(netlist))
     report = netdae.analyze_index(ckt)
     assert report.index == 2 and report.consistent_initial_values

@@ -777,20 +777,13 @@ def evaluate_measure_columns(specs: list[MeasureSpec], results: Mapping[str, Res
     """
     out: list = [None] * len(specs)
     done: dict[str, MeasureColumn] = {}
-    order = [i for i, s in enumerate(specs) if s.function != "param"] + \
-        [i for i, s in enumerate(specs) if s.function == "param"]
-    for i in order:
+    for i in _measure_order(specs):
         spec = specs[i]
         try:
             if spec.function == "param":
                 col = _param_column(spec, done, rows)
             else:
-                result = results.get(spec.analysis)
-                if result is None:
-                    raise MeasureFailure(f"no {spec.analysis} result to measure")
-                if not result.ok:
-                    raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
-                _check_axis(result)
+                result = _measured_result(spec, results, rows)
                 value, _, _, reasons = _measure_columns(spec, result, rows)
                 col = _finite_column(spec, np.asarray(value, dtype=float), reasons)
         except MeasureFailure as exc:
@@ -826,26 +819,42 @@ def _param_column(spec: MeasureSpec, done: dict[str, MeasureColumn], rows: int) 
     return MeasureColumn(spec.name, spec.analysis, spec.function, values, reasons)
 
 
+def _measure_order(specs: list[MeasureSpec]) -> list[int]:
+    """The order ngspice measures in: every measurement but PARAM, in card order, then the PARAM cards."""
+    return [i for i, s in enumerate(specs) if s.function != "param"] + \
+        [i for i, s in enumerate(specs) if s.function == "param"]
+
+
+def _measured_result(spec: MeasureSpec, results: Mapping[str, Result], rows: int | None) -> Result:
+    """The result ``spec`` measures, checked: present, finished (or, one result of one row, a transient
+    that failed part way: :func:`_partial`).
+
+    Raises
+    ------
+    MeasureFailure
+        No result of the analysis, a failed one, or one whose axis cannot be measured.
+    """
+    result = results.get(spec.analysis)
+    if result is None:
+        raise MeasureFailure(f"no {spec.analysis} result to measure")
+    if not result.ok and not _partial(result, rows):
+        raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
+    _check_axis(result)
+    return result
+
+
 def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int | None) -> list[list[Measure]]:
     """Per spec, the measure of each row (``rows`` None: one result of one row, dense output allowed)."""
     count = 1 if rows is None else rows
     done: list[dict[str, Measure]] = [{} for _ in range(count)]
     out: list = [None] * len(specs)
-    # as ngspice: every measurement but PARAM first, in card order, then the PARAM cards in order
-    order = [i for i, s in enumerate(specs) if s.function != "param"] + \
-        [i for i, s in enumerate(specs) if s.function == "param"]
-    for i in order:
+    for i in _measure_order(specs):
         spec = specs[i]
         try:
             if spec.function == "param":
                 ms = [_param_or_failure(spec, d) for d in done]
             else:
-                result = results.get(spec.analysis)
-                if result is None:
-                    raise MeasureFailure(f"no {spec.analysis} result to measure")
-                if not result.ok and not _partial(result, rows):
-                    raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
-                _check_axis(result)
+                result = _measured_result(spec, results, rows)
                 if not result.ok:
                     ms = [_measure_partial(spec, result)]
                 elif rows is None and result.analysis == "tran" and result.dense is not None:

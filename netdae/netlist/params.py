@@ -695,7 +695,7 @@ class _RowsPass:
                 return self._checked(self._pointwise(_power, [a, b]))
             if type(a) is float and type(b) is float:
                 return ex._binary(op, a, b)
-            return self._logic(op, a, b)
+            return ex._binary_arrays(op, np.asarray(a, dtype=float), np.asarray(b, dtype=float))
         if t is ex.Unary:
             v = self.expr(node.operand, scope, depth)
             if node.op == "-":
@@ -721,15 +721,6 @@ class _RowsPass:
         if t is ex.Time:
             raise ValueError("'time' has no value here")
         raise ValueError(f"circuit reference {ex.to_text(node)} has no value here")
-
-    def _logic(self, op: str, a, b):
-        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        if op == "&&":
-            return ((a != 0) & (b != 0)).astype(float)
-        if op == "||":
-            return ((a != 0) | (b != 0)).astype(float)
-        test = {"==": np.equal, "!=": np.not_equal, "<": np.less, "<=": np.less_equal, ">": np.greater}
-        return test.get(op, np.greater_equal)(a, b).astype(float)
 
     def _call(self, name: str, args: list, scope: _Scope, depth: int):
         if is_random_call(name, len(args)):
