@@ -145,10 +145,14 @@ def _topological_reason(circuit: Circuit, system: MnaSystem, res: SteadyResult, 
     return dc_singularity_explanation(circuit, signal, report=topo)
 
 
+def _is_certain(found, topo) -> bool:
+    """The topology's explanation ``found`` holds for any element values (it relies on no controlled source)."""
+    return found is not None and not any(f.controlled and f.message == found.message for f in topo.findings)
+
+
 def _certain_topological_reason(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> bool:
     """A singular solve has a reason in the topology that holds for any element values."""
-    found = _topological_reason(circuit, system, res, topo)
-    return found is not None and not any(f.controlled and f.message == found.message for f in topo.findings)
+    return _is_certain(_topological_reason(circuit, system, res, topo), topo)
 
 
 def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> CircuitError:
@@ -164,8 +168,8 @@ def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo
                     f"<= tolerance {rank.decision.tol:.3g} of the balanced matrix)")
     undetermined = _undetermined(res)
     found = _topological_reason(circuit, system, res, topo)
-    if found is not None and not any(f.controlled and f.message == found.message for f in topo.findings):
-        return found  # a certain topological reason
+    if _is_certain(found, topo):
+        return found
     if found is not None:  # a structural reason that relies on controlled sources, confirmed numerically
         text = found.message
         for prefix in ("DC operating point likely singular (controlled sources): ", "likely singular "):

@@ -70,8 +70,28 @@ def main(args: argparse.Namespace) -> int:
         return 0
     answered = {sock for sock in _sockets(directory) if client.request("stop", sock) is not None}
     stopped = len(answered) + _stop_warming(directory, answered)
+    _wait_gone(answered)
     print(f"stopped {stopped} netdae server{'s' if stopped != 1 else ''}")
     return 0
+
+
+#: Seconds ``netdae server stop`` waits for the servers it stopped to stop answering.
+STOP_WAIT = 10.0
+
+
+def _wait_gone(sockets: set[str]) -> None:
+    """Return once none of ``sockets`` answers (a server answers ``stop`` before it closes its socket),
+    or after :data:`STOP_WAIT` seconds: a ``status`` right after ``stop`` then finds no server."""
+    import time
+
+    from ..server import client
+
+    deadline = time.monotonic() + STOP_WAIT
+    left = set(sockets)
+    while left and time.monotonic() < deadline:
+        left = {sock for sock in left if client.request("status", sock, timeout=1.0) is not None}
+        if left:
+            time.sleep(0.05)
 
 
 def _stop_warming(directory: str, stopped: set[str]) -> int:
