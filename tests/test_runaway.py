@@ -45,6 +45,29 @@ def test_the_current_of_a_source_on_a_capacitor_loop_is_index_2_in_a_macromodel_
         assert report.derivative_order[name] == 1, name
 
 
+def _loop_among_stages(stages: int) -> str:
+    """A capacitor loop through V3 (Cp, V3, Cb) driving a chain of VCVS stages of gain 1e6, each into 1e-6 ohm and
+    1 nF, each stage's node also fed from its own DC source through 1 Gohm: i(v3) is index 2 (it carries the
+    derivative of V3's voltage) for any values, the pencil's infinite directions grow with the chain."""
+    lines = ["cv loop at the input of a chain of stages", "Cp 0 a 1p", "V3 b a DC 0", "Cb b 0 1p", "Rb b 0 1k",
+             "I1 0 a PWL(0 0 1n 0 1.01n 1u)"]
+    prev = "b"
+    for j in range(stages):
+        lines += [f"E{j} o{j} 0 {prev} 0 1e6", f"R{j} o{j} m{j} 1e-6", f"C{j} m{j} 0 1n", f"V{j}x s{j} 0 DC 1",
+                  f"RS{j} s{j} m{j} 1e9"]
+        prev = f"m{j}"
+    return "\n".join(lines + [".tran 0.05n 5n", ".end"]) + "\n"
+
+
+@pytest.mark.parametrize("stages", [5, 40])
+def test_the_loop_current_is_index_2_however_many_stages_follow(stages):
+    # with 40 stages (203 unknowns) the pencil's classification weighs i(v3)'s dependence on V3's derivative at
+    # 5e-8 of its threshold (with 5 stages, 7e6 times above it): the topology's loop labels it
+    report = netdae.analyze_index(netdae.load(_loop_among_stages(stages)))
+    assert report.index == 2 and report.method == "kronecker"
+    assert report.derivative_order["i(v3)"] == 1 and report.unknowns["i(v3)"] == "index2"
+
+
 NEGATIVE_C = """negative capacitance across a divider: a pole at +(1/R1 + 1/R2)/|C1| = +2e9 1/s
 V1 a 0 DC 1
 R1 a b 1
