@@ -46,9 +46,11 @@ def test_the_current_of_a_source_on_a_capacitor_loop_is_index_2_in_a_macromodel_
 
 
 def _loop_among_stages(stages: int) -> str:
-    """A capacitor loop through V3 (Cp, V3, Cb) driving a chain of VCVS stages of gain 1e6, each into 1e-6 ohm and
-    1 nF, each stage's node also fed from its own DC source through 1 Gohm: i(v3) is index 2 (it carries the
-    derivative of V3's voltage) for any values, the pencil's infinite directions grow with the chain."""
+    """A capacitor loop through V3 (Cp, V3, Cb) driving an open chain of VCVS stages of gain 1e6, each into 1e-6 ohm
+    and 1 nF, each stage's node also fed from its own DC source through 1 Gohm: i(v3) is index 2 (it carries the
+    derivative of V3's voltage) for any values. Not a circuit to build (its DC values grow by 1e6 a stage): a
+    linear pencil whose infinite directions and scales grow with the chain, as the classification's threshold
+    does (closed-loop stages of the same gain keep i(v3) above it)."""
     lines = ["cv loop at the input of a chain of stages", "Cp 0 a 1p", "V3 b a DC 0", "Cb b 0 1p", "Rb b 0 1k",
              "I1 0 a PWL(0 0 1n 0 1.01n 1u)"]
     prev = "b"
