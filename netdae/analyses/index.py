@@ -329,6 +329,12 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
             f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}")))
     else:
         out.append("index unknown: " + (topo.index_message if topo is not None else "no analysis"))
+    if rep.pencil is not None and rep.pencil.disputed and rep.regular is not None:
+        out.append("uncertain: double precision does not decide this structure (the balanced and the unbalanced "
+                   "pencil disagree, each with a rank decision within what rounding can change: see the warning "
+                   "under the rank decisions); element values whose ratios approach the limit of double precision "
+                   "(gains of 1e9 and more, resistances of micro-ohms beside giga-ohms) make a finite value "
+                   "indistinguishable from an ideal one")
     hi = [nm for nm, lb in rep.unknowns.items() if lb.startswith("index")]
     if hi:
         shown = ", ".join(f"{nm} ({rep.unknowns[nm]})" for nm in hi[:8])
@@ -353,7 +359,10 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
                            f"{', '.join(names[:8])}{' ...' if len(names) > 8 else ''}) suggested {what}, so the "
                            "controlled sources' laws determine what the topology leaves free")
         if not topo.applicable and topo.not_applicable_reason:
-            out.append(topo.not_applicable_reason)
+            reason = topo.not_applicable_reason
+            if rep.pencil is not None and rep.pencil.disputed:  # nothing is authoritative then
+                reason = reason.replace("; the numerical index is authoritative", "")
+            out.append(reason)
         elif topo.topological_index is not None and rep.index is not None and rep.method == "kronecker" \
                 and topo.topological_index != rep.index:
             out.append(f"note: the topological index {topo.topological_index} differs from the numerical "

@@ -191,6 +191,9 @@ class _Decided:
     tol_h: float
     ks: KroneckerStructure
     notes: list
+    #: The balanced and the unbalanced pencil gave different structures, each keeping a singular value within
+    #: what rounding in H can leak into its block: double precision does not decide the structure.
+    disputed: bool = False
 
 
 def _decide(E, H, bal: Balancing, rtol: float) -> _Decided:
@@ -245,6 +248,7 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
                 f"{plain.ks.robust_margin:.3g}"
             )
         chosen.notes.append(note)
+        chosen.disputed = differ and max(best.ks.robust_margin, plain.ks.robust_margin) < 1.0
         best = chosen
     return best, rtol
 
@@ -633,6 +637,10 @@ class PencilReport:
     svd : SvdForm
     shift_check : ShiftCheck or None
     warnings : tuple of str
+    disputed : bool
+        The structure is not decided in double precision: the balanced and the unbalanced pencil
+        disagree, and each keeps a singular value within what rounding in H can leak into its
+        block (``warnings`` says how); the reported one is the clearer of the two.
     """
 
     regular: bool
@@ -659,6 +667,7 @@ class PencilReport:
     svd: SvdForm
     shift_check: ShiftCheck | None
     warnings: tuple
+    disputed: bool = False
 
     @property
     def labels(self) -> tuple | None:
@@ -695,6 +704,7 @@ class PencilReport:
             "svd_form": {"n_y": self.svd.n_y, "n_z": self.svd.n_z, "orthogonal": self.svd.orthogonal},
             "shift_check": None if self.shift_check is None else self.shift_check.to_dict(),
             "warnings": list(self.warnings),
+            "disputed": self.disputed,
         }
 
 
@@ -811,6 +821,7 @@ def analyze_pencil(
         svd=svd,
         shift_check=shift,
         warnings=tuple(dec.notes + _structure_warnings(ks, shift)),
+        disputed=dec.disputed,
     )
 
 
