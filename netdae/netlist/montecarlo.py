@@ -38,7 +38,8 @@ from __future__ import annotations
 import hashlib
 import secrets
 
-__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "random_seed", "generator"]
+__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "random_seed", "generator", "deviate",
+           "random_value"]
 
 #: The Monte Carlo functions and their argument counts.
 RANDOM_FUNCTIONS: dict[str, int] = {"gauss": 3, "agauss": 3, "unif": 2, "aunif": 2, "limit": 2}
@@ -188,16 +189,40 @@ class Draws:
             raise ValueError(f"{name}() takes {arity} arguments, got {len(args)}: write {RANDOM_FORMS[name]}")
         rng = self._generator()
         self.count += 1
-        nom, var = args[0], args[1]
-        if arity == 3:
-            sig = args[2]
-            if not sig > 0.0:
-                raise ValueError(f"{name}(): sigma (the third argument) must be positive, got {sig:g}: write "
-                                 f"{RANDOM_FORMS[name]}, the variation being sigma standard deviations "
-                                 f"(e.g. {name}(1k, {'0.1' if name == 'gauss' else '100'}, 3))")
-            spread = (nom * var if name == "gauss" else var) / sig
-            return nom + spread * float(rng.standard_normal())
-        u = float(rng.uniform(-1.0, 1.0))
-        if name == "limit":
-            return nom + (var if u >= 0.0 else -var)
-        return nom + (nom * var if name == "unif" else var) * u
+        if arity == 3 and not args[2] > 0.0:
+            raise ValueError(f"{name}(): sigma (the third argument) must be positive, got {args[2]:g}: write "
+                             f"{RANDOM_FORMS[name]}, the variation being sigma standard deviations "
+                             f"(e.g. {name}(1k, {'0.1' if name == 'gauss' else '100'}, 3))")
+        return random_value(name, args, deviate(name, rng))
+
+
+def deviate(name: str, rng) -> float:
+    """The one deviate a draw of the Monte Carlo function ``name`` takes from ``rng``: a standard normal
+    for ``gauss``/``agauss``, a uniform one in [-1, 1) for ``unif``/``aunif``/``limit``."""
+    return float(rng.standard_normal()) if RANDOM_FUNCTIONS[name] == 3 else float(rng.uniform(-1.0, 1.0))
+
+
+def random_value(name: str, args, d):
+    """The value of the Monte Carlo function ``name`` at ``args`` for the deviate ``d`` (:func:`deviate`).
+
+    ngspice's conventions: ``gauss(nom, rvar, sigma)`` and ``agauss(nom, avar, sigma)`` are
+    ``nom + (nom rvar or avar) / sigma * d``; ``unif(nom, rvar)`` and ``aunif(nom, avar)``
+    ``nom + (nom rvar or avar) * d``; ``limit(nom, avar)`` ``nom + avar`` or ``nom - avar`` by the
+    sign of ``d``. ``args`` and ``d`` are floats or arrays over rows (the same IEEE operations).
+
+    Examples
+    --------
+    >>> random_value("agauss", [1.0, 0.1, 2.0], 1.0), random_value("limit", [1.0, 0.5], -0.3)
+    (1.05, 0.5)
+    """
+    nom, var = args[0], args[1]
+    if RANDOM_FUNCTIONS[name] == 3:
+        spread = (nom * var if name == "gauss" else var) / args[2]
+        return nom + spread * d
+    if name == "limit":
+        if isinstance(d, float):
+            return nom + (var if d >= 0.0 else -var)
+        import numpy as np
+
+        return nom + np.where(d >= 0.0, var, -var)
+    return nom + (nom * var if name == "unif" else var) * d

@@ -749,7 +749,7 @@ class _RowsPass:
 
     def _draw(self, name: str, args: list):
         """:meth:`~netdae.netlist.montecarlo.Draws.draw` in every row, each from its own sample's stream."""
-        from .montecarlo import RANDOM_FUNCTIONS, generator
+        from .montecarlo import RANDOM_FUNCTIONS, deviate, generator, random_value
 
         arity = RANDOM_FUNCTIONS[name]
         if len(args) != arity:
@@ -758,22 +758,13 @@ class _RowsPass:
             seed = self.replay.seed
             self.generators = [None if bad else generator((seed, s)) for s, bad in zip(self.samples, self.bad)]
         self.count += 1
-        gens = self.generators
-        nom, var = args[0], args[1]
         if arity == 3:
-            sig = args[2]
-            positive = sig > 0.0
+            positive = args[2] > 0.0
             if type(positive) is bool:
                 if not positive:
                     raise _Fallback
             else:
                 self.bad |= ~positive
-            z = np.array([0.0 if g is None else float(g.standard_normal()) for g in gens])
-            with np.errstate(all="ignore"):
-                spread = (nom * var if name == "gauss" else var) / sig
-                return self._checked(nom + spread * z)
-        u = np.array([0.0 if g is None else float(g.uniform(-1.0, 1.0)) for g in gens])
+        d = np.array([0.0 if g is None else deviate(name, g) for g in self.generators])
         with np.errstate(all="ignore"):
-            if name == "limit":
-                return self._checked(nom + np.where(u >= 0.0, var, -var))
-            return self._checked(nom + (nom * var if name == "unif" else var) * u)
+            return self._checked(random_value(name, args, d))
