@@ -270,14 +270,27 @@ def _charge_note(grp) -> str:
             "charge conservation, total charge zero at t = 0")
 
 
+def _imbalances(system: MnaSystem, res: SteadyResult, groups: list[ChargeGroup], t: float,
+                opts: SteadyOptions) -> list[float | None]:
+    """Per group, the net DC current into its (weighted) rows at the solution where it exceeds their
+    tolerance (``reltol`` of the rows' terms plus ``abstol`` a row, weighted), else None: the dropped
+    equation of a charge group or conservation law must hold."""
+    ev = system.evaluate(res.x, t, jacobian=True)
+    scale = system.pattern.matrix(np.abs(ev.dphi)) @ np.abs(res.x) + np.abs(ev.phi)
+    out = []
+    for g in groups:
+        w = g.row_weights()
+        net = float(w @ ev.phi[g.rows])
+        aw = np.abs(w)
+        out.append(net if abs(net) > opts.reltol * float(aw @ scale[g.rows]) + opts.abstol * float(aw.sum()) else None)
+    return out
+
+
 def _check_charge_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult, groups, used, t: float,
                           opts: SteadyOptions) -> None:
     """The dropped current law of each charge group must hold: no net DC current into the group."""
-    ev = system.evaluate(res.x, t, jacobian=True)
-    scale = system.pattern.matrix(np.abs(ev.dphi)) @ np.abs(res.x) + np.abs(ev.phi)
-    for grp, ng in zip(groups, used):
-        net = float(ev.phi[grp.rows].sum())
-        if abs(net) > opts.reltol * float(scale[grp.rows].sum()) + opts.abstol * grp.rows.size:
+    for net, ng in zip(_imbalances(system, res, groups, t, opts), used):
+        if net is not None:
             sources = [e for e in ng.elements if KINDS[circuit.element(e).kind].stores != "charge"]
             k = len(ng.nodes)
             raise CircuitError(
@@ -386,12 +399,8 @@ def _check_law_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult, l
         has one (a node attached only through capacitors and controlled sources), else naming
         the equations and the net current.
     """
-    ev = system.evaluate(res.x, t, jacobian=True)
-    scale = system.pattern.matrix(np.abs(ev.dphi)) @ np.abs(res.x) + np.abs(ev.phi)
-    for law in laws:
-        w = np.abs(law.row_weights())
-        net = float(law.row_weights() @ ev.phi[law.rows])
-        if abs(net) > opts.reltol * float(w @ scale[law.rows]) + opts.abstol * float(w.sum()):
+    for net, law in zip(_imbalances(system, res, laws, t, opts), laws):
+        if net is not None:
             if _topological_reason(circuit, system, singular, topo) is not None:
                 raise _singular_error(circuit, system, singular, topo)
             elements = _involved_elements(circuit, system, law.rows)
