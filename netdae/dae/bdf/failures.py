@@ -193,14 +193,12 @@ def with_runaway(failure: IntegrationFailure, names, kinds, x_start, x) -> Integ
     ----------
     failure : IntegrationFailure
     names, kinds, x_start, x
-        As :func:`runaway`'s (``x`` None: the failure as it is).
+        As :func:`runaway`'s.
 
     Returns
     -------
     IntegrationFailure
     """
-    if x is None or x_start is None:
-        return failure
     sentence = runaway(names, kinds, x_start, x)
     if sentence is None:
         return failure
