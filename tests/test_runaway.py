@@ -138,18 +138,24 @@ def _inverting_stages(stages: int, gain: float) -> str:
     return "\n".join(lines + [".tran 0.05n 5n", ".end"]) + "\n"
 
 
-def test_a_structure_double_precision_cannot_decide_is_reported_uncertain():
+def test_a_structure_double_precision_cannot_decide_is_decided_in_exact_arithmetic():
     # 40 stages of gain 1e9: the balanced pencil says index 3, the unbalanced one a singular pencil, each with a
-    # kept singular value far within what rounding in H can leak into its block; the exact pencil has index 2.
-    # The report says the structure is undecided instead of calling the numerical index authoritative.
-    rep = netdae.analyze_index(netdae.load(_inverting_stages(40, 1e9)))
-    assert rep.pencil.disputed
-    assert any(m.startswith("uncertain: double precision does not decide this structure") for m in rep.messages)
-    assert not any("authoritative" in m for m in rep.messages)
-    # (with 5 stages of gain 1e9 the balanced pencil happens to say 2, as undecided: also disputed)
-    assert netdae.analyze_index(netdae.load(_inverting_stages(5, 1e9))).pencil.disputed
-    # decided clearly: index 2, nothing uncertain (5 stages of gain 1e6 are disputed too, reported index 3)
+    # kept singular value far within what rounding in H can leak into its block; 5 stages of gain 1e6: the
+    # balanced pencil says index 3 (blocks [3, 2, 2, 2, 2, 1, ...]). The exact pencil has index 2 with one block
+    # of size 2 per capacitor loop (V3's and each VCVS's): ranks over prime fields decide it, the staircase
+    # follows them, and the report says so instead of calling the structure uncertain.
+    for stages, gain in ((40, 1e9), (5, 1e6), (5, 1e9)):
+        rep = netdae.analyze_index(netdae.load(_inverting_stages(stages, gain)))
+        assert rep.pencil.decided_exactly and not rep.pencil.disputed
+        assert rep.index == 2 and rep.pencil.regular
+        assert rep.pencil.infinite_blocks == (2,) * (stages + 1) + (1,) * stages
+        assert rep.pencil.n_dynamic == 1
+        assert any(m.startswith("decided exactly") for m in rep.messages)
+        assert not any(m.startswith("uncertain") for m in rep.messages)
+        labels = rep.unknowns
+        assert {nm for nm, lb in labels.items() if lb == "index2"} == {"i(v3)"} | {f"i(e{j})" for j in range(stages)}
+    # decided clearly in double precision: index 2, no arbitration
     for text in (_inverting_stages(2, 1e6), _inverting_stages(5, 1e3), _inverting_stages(40, 1e6)):
         rep = netdae.analyze_index(netdae.load(text))
-        assert rep.index == 2 and not rep.pencil.disputed
-        assert not any(m.startswith("uncertain") for m in rep.messages)
+        assert rep.index == 2 and not rep.pencil.disputed and rep.pencil.exact is None
+        assert not any(m.startswith(("uncertain", "decided exactly")) for m in rep.messages)

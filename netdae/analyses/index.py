@@ -329,12 +329,26 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
             f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}")))
     else:
         out.append("index unknown: " + (topo.index_message if topo is not None else "no analysis"))
-    if rep.pencil is not None and rep.pencil.disputed and rep.regular is not None:
-        out.append("uncertain: double precision does not decide this structure (the balanced and the unbalanced "
-                   "pencil disagree, each with a rank decision within what rounding can change: see the warning "
-                   "under the rank decisions); element values whose ratios approach the limit of double precision "
-                   "(gains of 1e9 and more, resistances of micro-ohms beside giga-ohms) make a finite value "
-                   "indistinguishable from an ideal one")
+    pen = rep.pencil
+    if pen is not None and pen.disputed and rep.regular is not None:
+        ex = pen.exact
+        if ex is not None and ex.regular and rep.regular and ex.index == rep.index:
+            out.append(f"uncertain in its details: double precision does not decide this structure (the balanced "
+                       f"and the unbalanced pencil disagree, each with a rank decision within what rounding can "
+                       f"change); exact arithmetic on the matrices as stored confirms a regular pencil of index "
+                       f"{ex.index}, with {ex.n_finite} dynamic states where the report has {pen.n_dynamic}, a "
+                       f"difference only singular values below rounding can show (see the warnings under the rank "
+                       f"decisions)")
+        else:
+            out.append("uncertain: double precision does not decide this structure (the balanced and the "
+                       "unbalanced pencil disagree, each with a rank decision within what rounding can change: see "
+                       "the warning under the rank decisions); element values whose ratios approach the limit of "
+                       "double precision (gains of 1e9 and more, resistances of micro-ohms beside giga-ohms) make a "
+                       "finite value indistinguishable from an ideal one")
+    if pen is not None and pen.decided_exactly:
+        out.append("decided exactly: double precision does not decide this structure (the balanced and the "
+                   "unbalanced pencil disagree within what rounding can change); ranks in exact arithmetic on the "
+                   "matrices as stored decide it (see the warnings under the rank decisions)")
     hi = [nm for nm, lb in rep.unknowns.items() if lb.startswith("index")]
     if hi:
         shown = ", ".join(f"{nm} ({rep.unknowns[nm]})" for nm in hi[:8])

@@ -62,6 +62,7 @@ def _decision_line(d) -> str:
 
 def format_report(rep, title: str = "") -> str:
     """The text diagnosis of an :class:`~netdae.analyses.index.IndexReport`."""
+    from ..dae.kronecker import format_sizes
     lines = []
     if title:
         lines.append(title)
@@ -76,7 +77,7 @@ def format_report(rep, title: str = "") -> str:
     lines.append(f"index: {idx}   method: {rep.method} ({how}), {rep.n_unknowns} unknowns")
     if rep.method == "kronecker":
         lines.append(f"  pencil: {'regular' if rep.regular else 'singular'}; rank E = {rep.rank_E}; "
-                     f"dynamic states = {rep.n_dynamic}; infinite blocks = {list(rep.infinite_blocks) or 'none'}")
+                     f"dynamic states = {rep.n_dynamic}; infinite blocks = {format_sizes(rep.infinite_blocks)}")
         if rep.finite_eigenvalues.size:
             eig = ", ".join(_fmt_eig(z) for z in rep.finite_eigenvalues[:12])
             more = " ..." if rep.finite_eigenvalues.size > 12 else ""

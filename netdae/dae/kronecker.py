@@ -162,7 +162,7 @@ class RankDecision:
         }
 
 
-def rank_decision(sigma: np.ndarray, tol: float, what: str, shape) -> RankDecision:
+def rank_decision(sigma: np.ndarray, tol: float, what: str, shape, rank: int | None = None) -> RankDecision:
     """Decide the numerical rank from singular values.
 
     Parameters
@@ -174,13 +174,17 @@ def rank_decision(sigma: np.ndarray, tol: float, what: str, shape) -> RankDecisi
     what : str
         Description kept in the evidence.
     shape : tuple of int
+    rank : int, optional
+        The rank, when it was decided otherwise (in exact arithmetic: :mod:`netdae.dae.exact`); the
+        evidence then shows how far the singular values are from the tolerance, and
+        :attr:`RankDecision.margin` may fall below 1.
 
     Returns
     -------
     RankDecision
     """
     sigma = np.asarray(sigma, dtype=float)
-    r = int(np.count_nonzero(sigma > tol))
+    r = int(np.count_nonzero(sigma > tol)) if rank is None else int(rank)
     kept = tuple(float(v) for v in sigma[max(r - 2, 0) : r])
     dropped = tuple(float(v) for v in sigma[r : r + 2])
     if kept and dropped:
@@ -512,7 +516,9 @@ class Staircase:
         return sorted(out, reverse=True)
 
 
-def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label: str = "") -> Staircase:
+def staircase(
+    E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label: str = "", null_dims=None
+) -> Staircase:
     """Staircase reduction of ``lambda E - H`` deflating the null space of E.
 
     Parameters
@@ -523,6 +529,11 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
         Absolute tolerances of the rank decisions on E blocks and H blocks.
     label : str
         Prefix of the evidence strings (e.g. ``"transposed remainder: "``).
+    null_dims : sequence of int, optional
+        For a pencil known to be regular: the null-space dimension of the active E block at every
+        step (``s_i``, the number of infinite Jordan blocks of size at least ``i``; from
+        :func:`netdae.dae.exact.exact_structure`). The rank decisions then take these ranks instead
+        of comparing with the tolerances, which only measure them.
 
     Returns
     -------
@@ -557,7 +568,10 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
             P, s, WT = first_svd = _svd(A[r0:, c0:])
         else:  # singular values first: the last step (full column rank) needs no vectors
             s = _svdvals(A[r0:, c0:])
-        dec = rank_decision(s, tol_e, f"{label}rank of E block (staircase step {step})", (mi, ki))
+        forced = None
+        if null_dims is not None:
+            forced = ki - (int(null_dims[step - 1]) if step <= len(null_dims) else 0)
+        dec = rank_decision(s, tol_e, f"{label}rank of E block (staircase step {step})", (mi, ki), forced)
         decisions.append(dec)
         leaks.append(leak_e)
         ns = ki - dec.rank
@@ -572,7 +586,8 @@ def staircase(E: np.ndarray, H: np.ndarray, tol_e: float, tol_h: float, *, label
         Z[:, c0:] = Z[:, c0:] @ W
         A[r0:, c0 : c0 + ns] = 0.0
         P2, s2, W2T = _svd(B[r0:, c0 : c0 + ns])
-        dec2 = rank_decision(s2, tol_h, f"{label}rank of H on null space of E (staircase step {step})", (mi, ns))
+        dec2 = rank_decision(s2, tol_h, f"{label}rank of H on null space of E (staircase step {step})", (mi, ns),
+                             None if null_dims is None else ns)
         decisions.append(dec2)
         leaks.append(leak_h)
         rho = dec2.rank
@@ -715,8 +730,34 @@ class KroneckerStructure:
         """The structure as comparable data."""
         return (self.regular, tuple(self.infinite_blocks), tuple(self.right_indices), tuple(self.left_indices))
 
+    def describe(self) -> str:
+        """The structure in words, lists of sizes compressed (:func:`format_sizes`)."""
+        if self.regular:
+            return f"regular, infinite blocks {format_sizes(self.infinite_blocks)}"
+        return (f"singular, infinite blocks {format_sizes(self.infinite_blocks)}, right minimal indices "
+                f"{format_sizes(self.right_indices)}, left {format_sizes(self.left_indices)}")
 
-def kronecker_structure(Eb: np.ndarray, Hb: np.ndarray, tol_e: float, tol_h: float) -> KroneckerStructure:
+
+def format_sizes(sizes) -> str:
+    """A list of block sizes or minimal indices for people: short lists as they are, long ones with repeats
+    counted (``[3, 2 x4, 1 x722]``, in the given order); ``none`` when empty."""
+    sizes = [int(v) for v in sizes]
+    if not sizes:
+        return "none"
+    if len(sizes) <= 8:
+        return str(sizes)
+    runs: list[list[int]] = []
+    for v in sizes:
+        if runs and runs[-1][0] == v:
+            runs[-1][1] += 1
+        else:
+            runs.append([v, 1])
+    return "[" + ", ".join(str(v) if c == 1 else f"{v} x{c}" for v, c in runs) + "]"
+
+
+def kronecker_structure(
+    Eb: np.ndarray, Hb: np.ndarray, tol_e: float, tol_h: float, *, null_dims=None
+) -> KroneckerStructure:
     """Regularity and Kronecker structure of the square pencil ``lambda Eb - Hb``.
 
     Parameters
@@ -725,6 +766,9 @@ def kronecker_structure(Eb: np.ndarray, Hb: np.ndarray, tol_e: float, tol_h: flo
         The (balanced) pencil.
     tol_e, tol_h : float
         Absolute tolerances of the rank decisions on E and on H.
+    null_dims : sequence of int, optional
+        The staircase's null-space dimensions of a pencil known to be regular (see
+        :func:`staircase`).
 
     Returns
     -------
@@ -740,7 +784,7 @@ def kronecker_structure(Eb: np.ndarray, Hb: np.ndarray, tol_e: float, tol_h: flo
     square regular part with the finite eigenvalues.
     """
     n = Eb.shape[0]
-    first = staircase(Eb, Hb, tol_e, tol_h)
+    first = staircase(Eb, Hb, tol_e, tol_h, null_dims=null_dims)
     right = first.right_indices
     decisions = list(first.decisions)
     warnings: list[str] = []

@@ -72,12 +72,14 @@ import scipy.sparse as sp
 
 from ..errors import SingularPencilError
 from .decoupled import Classification, WeierstrassForm, weierstrass_from_staircase
+from .exact import EXACT_LIMIT, ExactStructure, exact_structure
 from .kronecker import (
     Balancing,
     KroneckerStructure,
     RankDecision,
     balance_pencil,
     default_rtol,
+    format_sizes,
     kronecker_structure,
     rank_decision,
 )
@@ -127,6 +129,11 @@ MARGIN_RETRY = 10.0
 #: where the unbalanced pencil keeps it with a margin of 5e9 (index 2, as with ten
 #: times the capacitance on both; tests/test_pencil.py).
 MARGIN_CHECK = 100.0
+
+#: A structure decided in exact arithmetic is adopted through a staircase that drops singular values
+#: up to this factor above their tolerance (rounding in H can leak more than the tolerance into a
+#: block: ``Staircase.leaks``), never one that keeps a singular value at or below it.
+EXACT_DROP = 1e3
 
 #: A balanced pencil whose significant entries still span more than this many
 #: decades is decided again on the unbalanced pencil too (the clearer of the two
@@ -194,13 +201,75 @@ class _Decided:
     #: The balanced and the unbalanced pencil gave different structures, each keeping a singular value within
     #: what rounding in H can leak into its block: double precision does not decide the structure.
     disputed: bool = False
+    #: The structure of the stored matrices in exact arithmetic, where a dispute asked for it
+    #: (:mod:`netdae.dae.exact`); adopted unless ``disputed`` stays set.
+    exact: ExactStructure | None = None
 
 
-def _decide(E, H, bal: Balancing, rtol: float) -> _Decided:
+def _decide(E, H, bal: Balancing, rtol: float, null_dims=None) -> _Decided:
     Eb, Hb = bal.apply(E, H)
     tol_e = rtol * float(np.linalg.norm(Eb))
     tol_h = rtol * float(np.linalg.norm(Hb))
-    return _Decided(bal, Eb, Hb, tol_e, tol_h, kronecker_structure(Eb, Hb, tol_e, tol_h), [])
+    ks = kronecker_structure(Eb, Hb, tol_e, tol_h, null_dims=null_dims)
+    return _Decided(bal, Eb, Hb, tol_e, tol_h, ks, [])
+
+
+def _follows(ks: KroneckerStructure) -> bool:
+    """A staircase steered by exact null-space dimensions stays within double precision: it keeps no singular
+    value at or below its tolerance and drops none above ``EXACT_DROP`` times it (the structure is then that of
+    a pencil within rounding-sized perturbations of the stored one)."""
+    for d in ks.decisions:
+        if d.kept and d.kept[-1] <= d.tol:
+            return False
+        if d.dropped and d.dropped[0] > EXACT_DROP * d.tol:
+            return False
+    return True
+
+
+def _arbitrate(E, H, rtol: float, chosen: _Decided, other: _Decided) -> _Decided:
+    """A structure double precision does not decide, decided in exact arithmetic where it can be.
+
+    The exact structure (:func:`netdae.dae.exact.exact_structure`) of the stored matrices is adopted when one
+    of the two floating-point decisions has it, or, for a regular pencil, when the staircase steered by its
+    null-space dimensions on ``chosen``'s scaling stays within double precision (:func:`_follows`). Otherwise
+    (a structure that needs singular values below rounding, a singular pencil neither decision matches, or
+    more than ``EXACT_LIMIT`` unknowns) ``chosen`` stays disputed, with the exact structure noted.
+    """
+    n = E.shape[0]
+    chosen.disputed = True
+    if n > EXACT_LIMIT:
+        chosen.notes.append(f"not decided in exact arithmetic either: it is limited to {EXACT_LIMIT} unknowns "
+                            f"(O(n^3) integer operations), the pencil has {n}")
+        return chosen
+    ex = exact_structure(E, H)
+    chosen.exact = ex
+    what = ("the ranks in exact arithmetic (over two prime fields) of the matrices as stored (every double is a "
+            "binary fraction) give ")
+    if ex.regular:
+        found = f"a regular pencil of index {ex.index}, infinite blocks {format_sizes(ex.infinite_blocks)}"
+    else:
+        found = f"a singular pencil of normal rank {ex.normal_rank}"
+    match = [d for d in (chosen, other) if d.ks.regular == ex.regular and (
+        tuple(d.ks.infinite_blocks) == ex.infinite_blocks if ex.regular else d.ks.normal_rank == ex.normal_rank)]
+    if match:
+        decided = match[0]
+        how = "; reporting the decision that has it"
+    elif ex.regular:
+        decided = _decide(E, H, chosen.bal, rtol, null_dims=ex.null_dims)
+        how = "; the staircase's rank decisions follow them"
+        if not _follows(decided.ks):
+            chosen.notes.append(what + found + ", which needs singular values below rounding in double precision "
+                                "(a finer structure than the element values can show): not adopted")
+            return chosen
+    else:
+        chosen.notes.append(what + found + ", which neither floating-point decision has: not adopted")
+        return chosen
+    if decided is not chosen:
+        decided.notes[:0] = chosen.notes
+    decided.notes.append("decided in exact arithmetic: " + what + found + how)
+    decided.exact = ex
+    decided.disputed = False
+    return decided
 
 
 def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
@@ -242,13 +311,14 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
         )
         if differ:
             note += (
-                f"; they disagree: balanced {best.ks.summary()}, unbalanced {plain.ks.summary()} "
-                "(regular, infinite blocks, right and left minimal indices); margins against what rounding "
+                f"; they disagree: balanced {best.ks.describe()}, unbalanced {plain.ks.describe()}; "
+                "margins against what rounding "
                 f"in H can leak into the blocks: balanced {best.ks.robust_margin:.3g}, unbalanced "
                 f"{plain.ks.robust_margin:.3g}"
             )
         chosen.notes.append(note)
-        chosen.disputed = differ and max(best.ks.robust_margin, plain.ks.robust_margin) < 1.0
+        if differ and max(best.ks.robust_margin, plain.ks.robust_margin) < 1.0:  # not decided in double precision
+            chosen = _arbitrate(E, H, rtol, chosen, best if chosen is plain else plain)
         best = chosen
     return best, rtol
 
@@ -640,7 +710,13 @@ class PencilReport:
     disputed : bool
         The structure is not decided in double precision: the balanced and the unbalanced pencil
         disagree, and each keeps a singular value within what rounding in H can leak into its
-        block (``warnings`` says how); the reported one is the clearer of the two.
+        block (``warnings`` says how), and the structure in exact arithmetic was not adopted either
+        (``exact``); the reported one is the clearer of the two.
+    exact : ExactStructure or None
+        Where double precision did not decide the structure: its structure in exact arithmetic on the
+        stored matrices (:func:`netdae.dae.exact.exact_structure`). It is the reported structure
+        unless ``disputed`` (it then needs singular values below rounding, or no floating-point
+        decision matches a singular one); ``warnings`` says which.
     """
 
     regular: bool
@@ -668,6 +744,12 @@ class PencilReport:
     shift_check: ShiftCheck | None
     warnings: tuple
     disputed: bool = False
+    exact: ExactStructure | None = None
+
+    @property
+    def decided_exactly(self) -> bool:
+        """The reported structure is the one exact arithmetic found where double precision could not decide."""
+        return self.exact is not None and not self.disputed
 
     @property
     def labels(self) -> tuple | None:
@@ -705,6 +787,9 @@ class PencilReport:
             "shift_check": None if self.shift_check is None else self.shift_check.to_dict(),
             "warnings": list(self.warnings),
             "disputed": self.disputed,
+            "exact": None if self.exact is None else {
+                "regular": self.exact.regular, "index": self.exact.index, "normal_rank": self.exact.normal_rank,
+                "infinite_blocks": list(self.exact.infinite_blocks), "adopted": self.decided_exactly},
         }
 
 
@@ -822,6 +907,7 @@ def analyze_pencil(
         shift_check=shift,
         warnings=tuple(dec.notes + _structure_warnings(ks, shift)),
         disputed=dec.disputed,
+        exact=dec.exact,
     )
 
 
