@@ -366,6 +366,8 @@ def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGr
         return []
     ev = system.evaluate(res.x, t, jacobian=True)
     E = system.pattern.matrix(ev.dq)
+    if getattr(system, "line_charge", None) is not None:  # what transmission lines hold at DC
+        E = E + system.line_charge
     nodes = np.asarray(system.kinds) == 0
     YE = np.asarray((E.T @ np.where(nodes[:, None], Y, 0.0)).T)  # the node charges of the combinations
     flux = np.asarray((E.T @ np.where(nodes[:, None], 0.0, Y)).T)  # the inductor fluxes
@@ -414,13 +416,35 @@ def _check_law_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult, l
             )
 
 
+def _collapse_parts(names: list[str], what: str) -> list[str]:
+    """Names of the parts of realised elements (``p1#va_1``: a coupled line's sections, docs/netlist.md) counted
+    under their element; other names as they are."""
+    out, parts = [], {}
+    for nm in names:
+        owner, sep, _ = nm.partition("#")
+        if sep:
+            if owner not in parts:
+                parts[owner] = 0
+                out.append(owner)
+            parts[owner] += 1
+        else:
+            out.append(nm)
+    return [f"{parts[nm]} {what} of {nm}'s realisation" if nm in parts else nm for nm in out]
+
+
 def _law_note(circuit: Circuit, system: MnaSystem, laws: list[ChargeGroup]) -> str:
     rows = np.unique(np.concatenate([law.rows for law in laws]))
     elements = _involved_elements(circuit, system, rows)
+    equations = [f"the current law at node '{name}'" if what == "node" and "#" not in name else
+                 (name if "#" in name else f"the equation of {name}")
+                 for what, name in (system.layout.target(int(i)) for i in rows)]
     k = len(laws)
-    return (f"the DC equations ({_names(_row_names(system, rows))}) are dependent (elements involved: "
-            f"{_names(elements)}), and {'a combination' if k == 1 else f'{k} combinations'} of the charges "
-            f"there {'is' if k == 1 else 'are'} conserved: the operating point follows from charge conservation, "
+    lines = " (with the charge the transmission lines hold)" if getattr(system, "line_charge", None) is not None \
+        else ""
+    return (f"the DC equations ({_names(_collapse_parts(equations, 'equations'))}) are dependent (elements "
+            f"involved: {_names(_collapse_parts(elements, 'parts'))}), and "
+            f"{'a combination' if k == 1 else f'{k} combinations'} of the charges there "
+            f"{'is' if k == 1 else 'are'} conserved{lines}: the operating point follows from charge conservation, "
             "total charge zero at t = 0")
 
 

@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
+import scipy.sparse as sp
 
 from .kronecker import EPS, MatrixRank, default_rtol, matrix_rank, rank_decision
 from .sparse import SparsePattern
@@ -396,6 +397,10 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> Matri
     toward one; next to the 1e3 S contact resistances of a compact MOS model,
     the 1e-12 S gate slopes of an off transistor pull it to a scaling whose
     Frobenius norm hides a regular matrix (a BSIM-BULK inverter's DC matrix).
+    When the max-equilibrated matrix is deficient too but has the higher
+    rank, its verdict and null spaces are returned: singular values above the
+    tolerance on either scaling are not rounding (ngspice's
+    ``cpl_ibm1.sp``: 2 floating conductors, where Ward's scaling dropped 34).
 
     Parameters
     ----------
@@ -416,10 +421,16 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> Matri
     c = _power_of_two_scale(np.abs(r[:, None] * a).max(axis=0))
     scaled = r[:, None] * a * c[None, :]
     sigma = np.linalg.svd(scaled, compute_uv=False)
-    decision = rank_decision(sigma, default_rtol(n) * float(np.linalg.norm(scaled)), what + " (max-equilibrated)",
-                             a.shape)
+    tol = default_rtol(n) * float(np.linalg.norm(scaled))
+    decision = rank_decision(sigma, tol, what + " (max-equilibrated)", a.shape)
     if decision.rank == n:
         return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
+    if decision.rank > rank.rank:
+        # fewer null directions on this scaling: the others are independent columns, whatever the scaling, and
+        # the null spaces come from its SVD (two balanced DC lines' floating conductors: 2 null directions where
+        # Ward's scaling, pulled by the lines' modal sources, dropped 34)
+        P, sigma, WT = np.linalg.svd(scaled)
+        return MatrixRank(decision, c[:, None] * WT[decision.rank:].T, r[:, None] * P[:, decision.rank:])
     return rank
 
 
@@ -566,7 +577,9 @@ class _ChargeRows(DaeSystem):
     Row ``r`` of a group becomes ``sum(w * q[rows]) - charge`` (scaled by the
     source scale, so that source stepping starts from zero charge); its
     Jacobian row is the weighted sum of the ``dq`` rows of the group, laid out
-    on a pattern that extends the system's by those entries.
+    on a pattern that extends the system's by those entries. A system with a
+    ``line_charge`` matrix (a steady form's transmission lines) adds
+    ``line_charge @ x`` to ``q`` there.
     """
 
     def __init__(self, system: DaeSystem, groups: list[ChargeGroup]):
@@ -593,15 +606,25 @@ class _ChargeRows(DaeSystem):
         self.member, self.label, self.weight = cat(members, np.int64), cat(labels, np.int64), cat(weights, float)
         self.src, self.src_w = cat(src, np.int64), cat(src_w, float)
         dst_rows = cat(dst_rows, np.int64)
-        self.pattern = SparsePattern.from_coo(system.n, [old.rows, dst_rows], [old.cols, old.cols[self.src]])
+        # the charge transmission lines hold at DC (a steady form's ``line_charge``): constant rows
+        self.line = getattr(system, "line_charge", None)
+        line_rows, line_cols, self.line_val = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+        if self.line is not None and groups:
+            W = sp.csr_matrix((self.weight, (self.label, self.member)), shape=(len(groups), system.n))
+            G = (W @ self.line).tocoo()
+            line_rows, line_cols, self.line_val = self.first[G.row], G.col.astype(np.int64), G.data
+        self.pattern = SparsePattern.from_coo(system.n, [old.rows, dst_rows, line_rows],
+                                              [old.cols, old.cols[self.src], line_cols])
         self.old_slots = self.pattern.slots(old.rows, old.cols)
         self.keep = ~np.isin(old.rows, self.first)  # dphi entries of replaced rows are dropped
         self.dst = self.pattern.slots(dst_rows, old.cols[self.src])
+        self.line_dst = self.pattern.slots(line_rows, line_cols)
 
     def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
         ev = self.inner.evaluate(x, t, jacobian=jacobian, state=state, source_scale=source_scale)
         phi = ev.phi.copy()
-        totals = np.bincount(self.label, weights=self.weight * ev.q[self.member], minlength=self.first.size)
+        q = ev.q if self.line is None else ev.q + self.line @ np.asarray(x, dtype=float)
+        totals = np.bincount(self.label, weights=self.weight * q[self.member], minlength=self.first.size)
         phi[self.first] = totals - source_scale * self.charge
         dq = dphi = None
         if ev.dphi is not None:
@@ -612,6 +635,8 @@ class _ChargeRows(DaeSystem):
             dphi = np.bincount(self.old_slots[self.keep], weights=ev.dphi[self.keep],
                                minlength=nnz).astype(float, copy=False)
             dphi += np.bincount(self.dst, weights=self.src_w * ev.dq[self.src], minlength=nnz)
+            if self.line_dst.size:
+                dphi += np.bincount(self.line_dst, weights=self.line_val, minlength=nnz)
         return Evaluation(q=ev.q, phi=phi, dq=dq, dphi=dphi, limited=ev.limited, state=ev.state, ok=ev.ok)
 
     def initial_guess(self):

@@ -84,6 +84,11 @@ class LinearStamps:
         The rows of ``D`` and each one's delay.
     delay_ic : list of float
         Each row's wave at the start of a ``uic`` transient (from the lines' ``ic=``).
+    C_line : Triplets
+        The lines' capacitance at DC, ``td / z0`` per line, half between each port's nodes: the
+        charge a line holds at a uniform voltage. Not in the DAE (a line's charge travels in its
+        waves), but conserved where a net is attached to the rest only through lines and
+        capacitors (:mod:`netdae.analyses.op`).
     """
 
     E: Triplets
@@ -96,6 +101,7 @@ class LinearStamps:
     delay_rows: list = field(default_factory=list)
     delay_tau: list = field(default_factory=list)
     delay_ic: list = field(default_factory=list)
+    C_line: Triplets = field(default_factory=Triplets)
 
 
 def _temperature_factor(els: list[Element], temp: float, tnom: float) -> np.ndarray:
@@ -460,6 +466,8 @@ def _stamp_tlines(els, layout, st: LinearStamps):
                                                                                        np.ones(len(els)), -z0]))
         st.delay_rows.extend(k.tolist())
         st.delay_tau.extend(el.params["td"] for el in els)
+        half = np.array([el.params["td"] / (2.0 * el.params["z0"]) for el in els])
+        st.C_line.add_conductance(a, b, half)
         v, i = ("v2", "i2") if port == 0 else ("v1", "i1")
         st.delay_ic.extend(-(el.params.get(v, 0.0) + el.params["z0"] * el.params.get(i, 0.0)) for el in els)
 

@@ -68,6 +68,9 @@ class Delays:
         Each row's wave before a ``uic`` transient starts (the lines' ``ic=``).
     W : scipy.sparse.csr_matrix, shape (R, n)
         ``D``'s delayed rows (sorted indices): ``W x`` are the waves (what the compiled loop records).
+    C : scipy.sparse.csr_matrix, shape (n, n), optional
+        The lines' capacitance at DC (``td / z0`` each, half at each port): ``C x`` is the charge they
+        hold at a steady state, where a line's voltage is uniform.
     """
 
     D: sp.csr_matrix
@@ -75,6 +78,7 @@ class Delays:
     tau: np.ndarray
     ic: np.ndarray
     W: sp.csr_matrix = None
+    C: sp.csr_matrix = None
 
     def __post_init__(self) -> None:
         if self.W is None:
@@ -85,7 +89,8 @@ class Delays:
     def of(cls, stamps, n: int) -> "Delays":
         """From :class:`~netdae.devices.linear.LinearStamps` with lines."""
         return cls(stamps.D.matrix(n).tocsr(), np.asarray(stamps.delay_rows, dtype=np.int64),
-                   np.asarray(stamps.delay_tau, dtype=float), np.asarray(stamps.delay_ic, dtype=float))
+                   np.asarray(stamps.delay_tau, dtype=float), np.asarray(stamps.delay_ic, dtype=float),
+                   C=stamps.C_line.matrix(n).tocsr())
 
     def waves(self, x: np.ndarray) -> np.ndarray:
         """``(D x)[rows]``: the waves the rows receive when ``x`` is their delayed solution, shape (R,)."""
@@ -193,6 +198,8 @@ class MnaSystem(DaeSystem):
         self.delay_history: Callable[[np.ndarray], np.ndarray] | None = None
         self._delay_t0 = 0.0
         self._steady = None
+        #: The steady form's transmission lines' capacitance at DC (``Delays.C``), None elsewhere.
+        self.line_charge = None
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._switching = None
         self._behavioural_events = False  # not looked for yet (None: there are none)
@@ -335,6 +342,7 @@ class MnaSystem(DaeSystem):
             s._acc = Accumulator(self.n, self.pattern.nnz) if self.families else None
             s._xext = np.zeros(self.n + 1)
             s.delays = None
+            s.line_charge = self.delays.C  # the lines' charge, conserved with the capacitors' (op.py)
             s._steady = s
             self._steady = s
         return self._steady
