@@ -346,9 +346,9 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
                        "double precision (gains of 1e9 and more, resistances of micro-ohms beside giga-ohms) make a "
                        "finite value indistinguishable from an ideal one")
     if pen is not None and pen.decided_exactly:
-        out.append("decided exactly: double precision does not decide this structure (the balanced and the "
-                   "unbalanced pencil disagree within what rounding can change); ranks in exact arithmetic on the "
-                   "matrices as stored decide it (see the warnings under the rank decisions)")
+        out.append("decided exactly: a rank decision of this structure is close in double precision (or the "
+                   "balanced and the unbalanced pencil disagree); ranks in exact arithmetic on the matrices as "
+                   "stored decide it (see the warnings under the rank decisions)")
     hi = [nm for nm, lb in rep.unknowns.items() if lb.startswith("index")]
     if hi:
         shown = ", ".join(f"{nm} ({rep.unknowns[nm]})" for nm in hi[:8])

@@ -135,6 +135,9 @@ MARGIN_CHECK = 100.0
 #: block: ``Staircase.leaks``), never one that keeps a singular value at or below it.
 EXACT_DROP = 1e3
 
+#: A close call (not a dispute) is checked in exact arithmetic up to this many unknowns (about 0.05 s).
+EXACT_ROUTINE_LIMIT = 150
+
 #: A balanced pencil whose significant entries still span more than this many
 #: decades is decided again on the unbalanced pencil too (the clearer of the two
 #: is reported when the two differ): a rank tolerance of ``n eps`` of its norm cannot tell its
@@ -201,9 +204,11 @@ class _Decided:
     #: The balanced and the unbalanced pencil gave different structures, each keeping a singular value within
     #: what rounding in H can leak into its block: double precision does not decide the structure.
     disputed: bool = False
-    #: The structure of the stored matrices in exact arithmetic, where a dispute asked for it
-    #: (:mod:`netdae.dae.exact`); adopted unless ``disputed`` stays set.
+    #: The structure of the stored matrices in exact arithmetic, where a close call asked for it and it was
+    #: adopted or is noted (:mod:`netdae.dae.exact`); adopted unless ``disputed``.
     exact: ExactStructure | None = None
+    #: The exact structure changed what double precision reported, or settled a dispute.
+    exact_changed: bool = False
 
 
 def _decide(E, H, bal: Balancing, rtol: float, null_dims=None) -> _Decided:
@@ -226,48 +231,65 @@ def _follows(ks: KroneckerStructure) -> bool:
     return True
 
 
-def _arbitrate(E, H, rtol: float, chosen: _Decided, other: _Decided) -> _Decided:
-    """A structure double precision does not decide, decided in exact arithmetic where it can be.
+def _arbitrate(E, H, rtol: float, chosen: _Decided, other: _Decided | None) -> _Decided:
+    """A structure the rank decisions found close, settled in exact arithmetic where it can be.
 
-    The exact structure (:func:`netdae.dae.exact.exact_structure`) of the stored matrices is adopted when one
-    of the two floating-point decisions has it, or, for a regular pencil, when the staircase steered by its
-    null-space dimensions on ``chosen``'s scaling stays within double precision (:func:`_follows`). Otherwise
-    (a structure that needs singular values below rounding, a singular pencil neither decision matches, or
-    more than ``EXACT_LIMIT`` unknowns) ``chosen`` stays disputed, with the exact structure noted.
+    The exact structure (:func:`netdae.dae.exact.exact_structure`) of the stored matrices is adopted when
+    ``chosen`` or ``other`` (the decision on the other scaling, when made) has it, or, for a regular pencil,
+    through the staircase steered by its null-space dimensions on ``chosen``'s scaling when that stays
+    within double precision (:func:`_follows`). Otherwise ``chosen`` stays: disputed, with the exact
+    structure noted, when double precision does not decide it (the two scalings decided different
+    structures, each within what rounding can leak into its blocks); as it is else, since the exact
+    structure of the stored matrices may hold rounding residues (the sum of two capacitances at a node no
+    longer cancels their off-diagonal entries exactly) that a decision within double precision rightly
+    ignores. Up to ``EXACT_LIMIT`` unknowns for an undecided structure, ``EXACT_ROUTINE_LIMIT`` for a close
+    one (the cost grows as n^3).
     """
     n = E.shape[0]
-    chosen.disputed = True
-    if n > EXACT_LIMIT:
-        chosen.notes.append(f"not decided in exact arithmetic either: it is limited to {EXACT_LIMIT} unknowns "
-                            f"(O(n^3) integer operations), the pencil has {n}")
+    undecided = other is not None and other.ks.summary() != chosen.ks.summary() and \
+        max(chosen.ks.robust_margin, other.ks.robust_margin) < 1.0
+    chosen.disputed = undecided
+    if n > (EXACT_LIMIT if undecided else EXACT_ROUTINE_LIMIT):
+        if undecided:
+            chosen.notes.append(f"not decided in exact arithmetic either: it is limited to {EXACT_LIMIT} "
+                                f"unknowns (O(n^3) integer operations), the pencil has {n}")
         return chosen
     ex = exact_structure(E, H)
-    chosen.exact = ex
     what = ("the ranks in exact arithmetic (over two prime fields) of the matrices as stored (every double is a "
             "binary fraction) give ")
     if ex.regular:
         found = f"a regular pencil of index {ex.index}, infinite blocks {format_sizes(ex.infinite_blocks)}"
     else:
         found = f"a singular pencil of normal rank {ex.normal_rank}"
-    match = [d for d in (chosen, other) if d.ks.regular == ex.regular and (
+    match = [d for d in (chosen, other) if d is not None and d.ks.regular == ex.regular and (
         tuple(d.ks.infinite_blocks) == ex.infinite_blocks if ex.regular else d.ks.normal_rank == ex.normal_rank)]
     if match:
         decided = match[0]
-        how = "; reporting the decision that has it"
+        if decided is chosen:
+            decided.exact = ex
+            decided.exact_changed = undecided
+            decided.disputed = False
+            decided.notes.append("confirmed in exact arithmetic: " + what + found)
+            return decided
+        how = "; reporting the " + ("balanced" if decided.bal.applied else "unbalanced") + " pencil's decision"
     elif ex.regular:
         decided = _decide(E, H, chosen.bal, rtol, null_dims=ex.null_dims)
         how = "; the staircase's rank decisions follow them"
         if not _follows(decided.ks):
-            chosen.notes.append(what + found + ", which needs singular values below rounding in double precision "
-                                "(a finer structure than the element values can show): not adopted")
+            if undecided:
+                chosen.exact = ex
+                chosen.notes.append(what + found + ", which needs singular values below rounding in double "
+                                    "precision (a finer structure than the element values can show): not adopted")
             return chosen
     else:
-        chosen.notes.append(what + found + ", which neither floating-point decision has: not adopted")
+        if undecided:
+            chosen.exact = ex
+            chosen.notes.append(what + found + ", which neither floating-point decision has: not adopted")
         return chosen
-    if decided is not chosen:
-        decided.notes[:0] = chosen.notes
+    decided.notes[:0] = chosen.notes
     decided.notes.append("decided in exact arithmetic: " + what + found + how)
     decided.exact = ex
+    decided.exact_changed = True
     decided.disputed = False
     return decided
 
@@ -291,7 +313,7 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
         plain = _decide(E, H, balance_pencil(E, H, enabled=False), rtol)
         differ = plain.ks.summary() != best.ks.summary()
         if not (close or differ):
-            return best, rtol
+            return (_arbitrate(E, H, rtol, best, plain) if doubtful or leaky else best), rtol
         # where the two disagree, a kept singular value counts only by how far it exceeds what rounding in H
         # can leak into its E block: the unbalanced pencil's tolerance of n eps ||E|| does not see that
         # leak, which grows with the spread of H's entries (robust_margin)
@@ -317,9 +339,9 @@ def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
                 f"{plain.ks.robust_margin:.3g}"
             )
         chosen.notes.append(note)
-        if differ and max(best.ks.robust_margin, plain.ks.robust_margin) < 1.0:  # not decided in double precision
-            chosen = _arbitrate(E, H, rtol, chosen, best if chosen is plain else plain)
-        best = chosen
+        best = _arbitrate(E, H, rtol, chosen, best if chosen is plain else plain)
+    elif close or doubtful or leaky:
+        best = _arbitrate(E, H, rtol, best, None)
     return best, rtol
 
 
@@ -713,10 +735,14 @@ class PencilReport:
         block (``warnings`` says how), and the structure in exact arithmetic was not adopted either
         (``exact``); the reported one is the clearer of the two.
     exact : ExactStructure or None
-        Where double precision did not decide the structure: its structure in exact arithmetic on the
-        stored matrices (:func:`netdae.dae.exact.exact_structure`). It is the reported structure
-        unless ``disputed`` (it then needs singular values below rounding, or no floating-point
-        decision matches a singular one); ``warnings`` says which.
+        Where a rank decision was close: the structure in exact arithmetic on the stored matrices
+        (:func:`netdae.dae.exact.exact_structure`) when it was adopted (it is then the reported
+        structure) or when a dispute could not be settled by it (``disputed``: it needs singular
+        values below rounding, or no floating-point decision matches a singular one); ``warnings``
+        says which.
+    exact_changed : bool
+        The exact structure changed the structure double precision would have reported, or settled
+        a dispute (:attr:`decided_exactly`).
     """
 
     regular: bool
@@ -745,11 +771,12 @@ class PencilReport:
     warnings: tuple
     disputed: bool = False
     exact: ExactStructure | None = None
+    exact_changed: bool = False
 
     @property
     def decided_exactly(self) -> bool:
-        """The reported structure is the one exact arithmetic found where double precision could not decide."""
-        return self.exact is not None and not self.disputed
+        """Exact arithmetic changed the reported structure, or settled one double precision left undecided."""
+        return self.exact is not None and not self.disputed and self.exact_changed
 
     @property
     def labels(self) -> tuple | None:
@@ -789,7 +816,8 @@ class PencilReport:
             "disputed": self.disputed,
             "exact": None if self.exact is None else {
                 "regular": self.exact.regular, "index": self.exact.index, "normal_rank": self.exact.normal_rank,
-                "infinite_blocks": list(self.exact.infinite_blocks), "adopted": self.decided_exactly},
+                "infinite_blocks": list(self.exact.infinite_blocks), "adopted": not self.disputed,
+                "changed": self.exact_changed},
         }
 
 
@@ -908,6 +936,7 @@ def analyze_pencil(
         warnings=tuple(dec.notes + _structure_warnings(ks, shift)),
         disputed=dec.disputed,
         exact=dec.exact,
+        exact_changed=dec.exact_changed,
     )
 
 
