@@ -151,6 +151,8 @@ def test_a_structure_double_precision_cannot_decide_is_decided_in_exact_arithmet
         assert rep.pencil.infinite_blocks == (2,) * (stages + 1) + (1,) * stages
         assert rep.pencil.n_dynamic == 1
         assert any(m.startswith("decided exactly") for m in rep.messages)
+        doc = rep.to_dict()
+        assert doc["exact"]["changed"] and doc["exact"]["index"] == 2 and not doc["disputed"]
         assert not any(m.startswith("uncertain") for m in rep.messages)
         labels = rep.unknowns
         assert {nm for nm, lb in labels.items() if lb == "index2"} == {"i(v3)"} | {f"i(e{j})" for j in range(stages)}

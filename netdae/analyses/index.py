@@ -161,6 +161,9 @@ class IndexReport:
             else self.consistency.to_dict(list(self.system.names) if self.system is not None else None),
             "evidence": [] if self.pencil is None else [d.to_dict() for d in self.pencil.evidence],
             "warnings": [] if self.pencil is None else list(self.pencil.warnings),
+            # the structure undecided in double precision, and what exact arithmetic said (docs/index-theory.md)
+            "disputed": self.pencil is not None and self.pencil.disputed,
+            "exact": None if self.pencil is None else self.pencil.to_dict()["exact"],
             "messages": list(self.messages),
             "wall_time": self.wall_time,
         }
