@@ -247,64 +247,18 @@ def test_two_scalings_that_disagree_are_settled_by_the_exact_structure():
     rep = netdae.analyze_index(netdae.load(_PARALLEL_CAPS))
     assert rep.pencil.decided_exactly and not rep.pencil.disputed
     assert rep.index == 1 and rep.pencil.infinite_blocks == (1,) * 5 and rep.pencil.n_dynamic == 3
-    assert _rational_mna_structure(_PARALLEL_CAPS) == (1, (1,) * 5)
+    # the structure of the circuit itself: its MNA in rational arithmetic from the values as written
+    true = _fuzz_index().true_structure(_PARALLEL_CAPS)
+    assert true.regular and true.index == 1 and true.infinite_blocks == (1,) * 5
 
 
-def _rational_mna_structure(text):
-    """(index, infinite blocks) of a netlist of R, C, L, V, E and G cards, its MNA assembled in rational arithmetic
-    from the element values as written (no rounding anywhere) and decided by ranks of (s0 E - H)^-1 E."""
-    nodes, branches, cards = {}, [], []
-    for ln in text.splitlines()[1:]:
-        t = ln.split()
-        if not t or t[0].startswith("."):
-            continue
-        cards.append(t)
-        for nd in t[1:3] + (t[3:5] if t[0][0] in "EG" else []):
-            if nd != "0":
-                nodes.setdefault(nd, len(nodes))
-        if t[0][0] in "VEL":
-            branches.append(t[0])
-    n = len(nodes) + len(branches)
-    E = [[Fraction(0)] * n for _ in range(n)]
-    H = [[Fraction(0)] * n for _ in range(n)]
-    at = {b: len(nodes) + k for k, b in enumerate(branches)}
+def _fuzz_index():
+    """scripts/fuzz_index.py as a module (its rational MNA of R, C, L, V, E and G cards)."""
+    import importlib.util
+    from pathlib import Path
 
-    def add(M, i, j, v):
-        if i >= 0 and j >= 0:
-            M[i][j] += v
-
-    for t in cards:
-        kind, a, b = t[0][0], nodes.get(t[1], -1), nodes.get(t[2], -1)
-        if kind in "RC":
-            M, g = (H, -1 / Fraction(t[3])) if kind == "R" else (E, Fraction(t[3]))
-            add(M, a, a, g), add(M, b, b, g), add(M, a, b, -g), add(M, b, a, -g)
-        elif kind == "G":
-            c, d, g = nodes.get(t[3], -1), nodes.get(t[4], -1), Fraction(t[5])
-            add(H, a, c, -g), add(H, a, d, g), add(H, b, c, g), add(H, b, d, -g)
-        else:
-            k = at[t[0]]
-            add(H, a, k, -1), add(H, b, k, 1), add(H, k, a, 1), add(H, k, b, -1)
-            if kind == "E":
-                c, d, g = nodes.get(t[3], -1), nodes.get(t[4], -1), Fraction(t[5])
-                add(H, k, c, -g), add(H, k, d, g)
-            elif kind == "L":
-                E[k][k] += Fraction(t[3])
-    s0 = next(s for s in (3, 17, 1234567) if not _rational_det_is_zero(
-        [[Fraction(s) * E[i][j] - H[i][j] for j in range(n)] for i in range(n)]))
-    dims = _rational_null_dims_exact(E, H, s0)
-    blocks = []
-    ext = list(dims) + [0]
-    for i in range(len(dims)):
-        blocks += [i + 1] * (ext[i] - ext[i + 1])
-    return len(dims), tuple(sorted(blocks, reverse=True))
-
-
-def _rational_null_dims_exact(E, H, s0):
-    """:func:`_rational_null_dims` for matrices of fractions."""
-    n = len(E)
-    Ed = np.empty((n, n), dtype=object)
-    Hd = np.empty((n, n), dtype=object)
-    for i in range(n):
-        for j in range(n):
-            Ed[i, j], Hd[i, j] = E[i][j], H[i][j]
-    return _rational_null_dims(Ed, Hd, s0)
+    path = Path(__file__).resolve().parents[1] / "scripts" / "fuzz_index.py"
+    spec = importlib.util.spec_from_file_location("fuzz_index", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
