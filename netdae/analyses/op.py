@@ -107,12 +107,16 @@ def _support(v: np.ndarray) -> np.ndarray:
     return np.flatnonzero(w > 1e-3 * w.max()) if w.size and w.max() > 0 else np.zeros(0, dtype=int)
 
 
-def _row_names(system: MnaSystem, rows) -> list[str]:
-    """Equations by name: the current law of a node, or the equation of an element's branch."""
+def _row_names(system: MnaSystem, rows, parts: bool = False) -> list[str]:
+    """Equations by name: the current law of a node, or the equation of an element's branch (with ``parts``, a
+    realised element's internal node or branch by its bare name, for :func:`_collapse_parts`)."""
     out = []
     for i in rows:
         what, name = system.layout.target(int(i))
-        out.append(f"the current law at node '{name}'" if what == "node" else f"the equation of {name}")
+        if parts and "#" in name:
+            out.append(name)
+        else:
+            out.append(f"the current law at node '{name}'" if what == "node" else f"the equation of {name}")
     return out
 
 
@@ -435,9 +439,7 @@ def _collapse_parts(names: list[str], what: str) -> list[str]:
 def _law_note(circuit: Circuit, system: MnaSystem, laws: list[ChargeGroup]) -> str:
     rows = np.unique(np.concatenate([law.rows for law in laws]))
     elements = _involved_elements(circuit, system, rows)
-    equations = [f"the current law at node '{name}'" if what == "node" and "#" not in name else
-                 (name if "#" in name else f"the equation of {name}")
-                 for what, name in (system.layout.target(int(i)) for i in rows)]
+    equations = _row_names(system, rows, parts=True)
     k = len(laws)
     lines = " (with the charge the transmission lines hold)" if getattr(system, "line_charge", None) is not None \
         else ""

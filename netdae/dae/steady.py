@@ -427,8 +427,8 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> Matri
         return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
     if decision.rank > rank.rank:
         # fewer null directions on this scaling: the others are independent columns, whatever the scaling, and
-        # the null spaces come from its SVD (two balanced DC lines' floating conductors: 2 null directions where
-        # Ward's scaling, pulled by the lines' modal sources, dropped 34)
+        # the null spaces come from its SVD (a coupled line's two floating conductors, cpl_ibm1.sp: 2 null
+        # directions where Ward's scaling, pulled by the line's modal sources, dropped 34)
         P, sigma, WT = np.linalg.svd(scaled)
         return MatrixRank(decision, c[:, None] * WT[decision.rank:].T, r[:, None] * P[:, decision.rank:])
     return rank
