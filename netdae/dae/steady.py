@@ -278,7 +278,8 @@ def _check_pivot(pattern: SparsePattern, data: np.ndarray, min_pivot: float, lin
     if min_pivot > PIVOT_SAFETY * n * EPS:
         return True
     # the SVD's decision where it is affordable, else the small pivot's
-    rank = jacobian_rank(pattern.matrix(data)) \
+    # inside a nonlinear solve only the verdict is used (singular values alone: a third of the SVD's cost)
+    rank = jacobian_rank(pattern.matrix(data), vectors=linear) \
         if n <= (RANK_CHECK_LIMIT if linear else ITERATION_RANK_CHECK_LIMIT) else None
     if rank is not None and not rank.deficient:
         return True
@@ -383,7 +384,7 @@ class _EquilibratedLU:
         return self.c * self.cache.solve(self.r * b)
 
 
-def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> MatrixRank:
+def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian", *, vectors: bool = True) -> MatrixRank:
     """The SVD rank decision of a steady-state Jacobian.
 
     First as the index analysis decides it (:func:`~netdae.dae.kronecker.matrix_rank`,
@@ -407,12 +408,15 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> Matri
     mat : ndarray or sparse matrix, shape (n, n)
     what : str
         Description kept in the decision.
+    vectors : bool
+        Compute the null spaces (default); the verdict alone costs about a third.
 
     Returns
     -------
     MatrixRank
+        Without ``vectors``, with empty null spaces.
     """
-    rank = matrix_rank(mat, what=what)
+    rank = matrix_rank(mat, what=what, vectors=vectors)
     if not rank.deficient:
         return rank
     a = mat.toarray() if hasattr(mat, "toarray") else np.array(mat, dtype=float)
@@ -424,6 +428,8 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian") -> Matri
     tol = default_rtol(n) * float(np.linalg.norm(scaled))
     decision = rank_decision(sigma, tol, what + " (max-equilibrated)", a.shape)
     if decision.rank == n:
+        return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
+    if decision.rank > rank.rank and not vectors:
         return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
     if decision.rank > rank.rank:
         # fewer null directions on this scaling: the others are independent columns, whatever the scaling, and
