@@ -1,6 +1,6 @@
 """Operating points of nets that float at DC behind transmission lines: the charge a line holds at DC is
 conserved with the capacitors' (netdae.analyses.op.conservation_laws, Delays.C), against closed forms and the
-transient's own charge conservation."""
+transient's own charge conservation; and the DC rank decision that finds such nets (steady.jacobian_rank)."""
 
 import numpy as np
 import pytest
@@ -107,3 +107,18 @@ def test_the_rank_decision_of_the_floating_conductor_is_clear():
     n = rank.decision.shape[0]
     assert rank.rank == n - 1 and rank.right.shape == (n, 1) and rank.left.shape == (n, 1)
     assert rank.decision.margin > 100
+
+
+def test_the_verdict_alone_is_the_same_decision():
+    # jacobian_rank(vectors=False), used inside nonlinear solves, decides as the full SVD does
+    from netdae.dae.steady import jacobian_rank
+
+    rng = np.random.default_rng(5)
+    for deficiency in (0, 1, 3):
+        A = rng.standard_normal((30, 30)) * np.logspace(-6, 3, 30)[None, :]
+        if deficiency:
+            A[:, :deficiency] = A[:, deficiency:2 * deficiency] * 2.0 ** np.arange(1, deficiency + 1)
+        full, fast = jacobian_rank(A), jacobian_rank(A, vectors=False)
+        assert full.rank == fast.rank == 30 - deficiency
+        assert full.decision.tol == fast.decision.tol
+        assert full.right.shape == (30, deficiency) and fast.right.shape == (30, 0)
