@@ -262,3 +262,49 @@ def _fuzz_index():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+_UNRESOLVABLE = """a gain of 1e9 beside tera-ohm leaks
+V1 n0 0 PULSE(0 1 1n 1n 1n 5n 20n)
+C1 n2 n1 1e-09
+V2 n0 n2 DC 0
+G3 0 n0 0 n2 1000000000.0
+Rgn0 n0 0 1e12
+Rgn1 n1 0 1e12
+Rgn2 n2 0 1e12
+.tran 1n 20n
+.end
+"""
+
+
+def test_a_structure_double_precision_cannot_resolve_is_reported_uncertain_not_silently_wrong():
+    # The 1e-12 S leaks sit at 1e-21 of the 1e9 S entries in their rows: double precision decides a singular pencil
+    # (clearly, by its margins), the circuit is regular of index 1 (its rational MNA). The exact structure of the
+    # stamps' unsummed entries says so, no staircase in double precision can follow it, and the report is
+    # disputed instead of silently wrong.
+    import netdae
+
+    rep = netdae.analyze_index(netdae.load(_UNRESOLVABLE))
+    true = _fuzz_index().true_structure(_UNRESOLVABLE)
+    assert true.regular and true.index == 1
+    assert rep.pencil.disputed and rep.regular is False
+    assert rep.pencil.exact.regular and rep.pencil.exact.index == 1
+    assert any(m.startswith("uncertain: double precision does not decide this structure") and
+               "in exact arithmetic it is regular, of index 1" in m for m in rep.messages)
+    assert rep.to_dict()["disputed"] and rep.to_dict()["exact"]["index"] == 1
+
+
+def test_the_stamps_unsummed_entries_have_no_rounding_residue():
+    # Two capacitances at a node, 1e-6 and 1e-9: their rounded sum on the diagonal no longer cancels the two
+    # off-diagonal entries, and the stored C matrix gains a rank (a capacitor of about 1e-22 F to ground); the
+    # unsummed stamps, summed exactly, keep the circuit's rank.
+    import netdae
+    from netdae.analyses.prepared import prepare
+
+    text = "caps\nV1 a 0 1\nR1 a b 1k\nC1 b c 1e-6\nC2 c d 1e-9\nR2 d 0 1k\nR3 c 0 1k\n.tran 1n 1u\n.end\n"
+    system = prepare(netdae.load(text)).system
+    E, H = system._E.toarray(), system._H.toarray()
+    stored = exact_structure(E, H)
+    circuit = exact_structure(E, H, terms=system.linear_terms)
+    assert circuit.n_finite == 2  # C1 and C2
+    assert stored.n_finite == 3  # the residue's spurious state

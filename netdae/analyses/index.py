@@ -336,18 +336,17 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
     if pen is not None and pen.disputed and rep.regular is not None:
         ex = pen.exact
         if ex is not None and ex.regular and rep.regular and ex.index == rep.index:
-            out.append(f"uncertain in its details: double precision does not decide this structure (the balanced "
-                       f"and the unbalanced pencil disagree, each with a rank decision within what rounding can "
-                       f"change); exact arithmetic on the matrices as stored confirms a regular pencil of index "
-                       f"{ex.index}, with {ex.n_finite} dynamic states where the report has {pen.n_dynamic}, a "
-                       f"difference only singular values below rounding can show (see the warnings under the rank "
-                       f"decisions)")
+            out.append(f"uncertain in its details: double precision does not decide this structure; exact "
+                       f"arithmetic confirms a regular pencil of index {ex.index}, with {ex.n_finite} dynamic states "
+                       f"where the report has {pen.n_dynamic}, a difference only singular values below rounding can "
+                       f"show (see the warnings under the rank decisions)")
         else:
-            out.append("uncertain: double precision does not decide this structure (the balanced and the "
-                       "unbalanced pencil disagree, each with a rank decision within what rounding can change: see "
-                       "the warning under the rank decisions); element values whose ratios approach the limit of "
-                       "double precision (gains of 1e9 and more, resistances of micro-ohms beside giga-ohms) make a "
-                       "finite value indistinguishable from an ideal one")
+            out.append("uncertain: double precision does not decide this structure (see the warnings under the "
+                       "rank decisions)" + (f"; in exact arithmetic it is {'regular, of index ' + str(ex.index) if ex.regular else 'singular'}"
+                                            if ex is not None else "")
+                       + "; element values whose ratios approach the limit of double precision (gains of 1e9 and "
+                       "more, resistances of milli-ohms beside tera-ohms) make a finite value indistinguishable "
+                       "from an ideal one")
     if pen is not None and pen.decided_exactly:
         out.append("decided exactly: a rank decision of this structure is close in double precision (or the "
                    "balanced and the unbalanced pencil disagree); ranks in exact arithmetic on the matrices as "
@@ -556,7 +555,8 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         xlin, point, fallback = _linearization_point(prepared, at, x)
         E, H = system.jacobians(xlin, 0.0)
         check_magnitudes(E, H, system.names, "the index analysis")
-        pencil = analyze_pencil(E, H, B=system.B.toarray(), names=system.names, tol=tol)
+        terms = getattr(system, "linear_terms", None) if system.linear else None
+        pencil = analyze_pencil(E, H, B=system.B.toarray(), names=system.names, tol=tol, terms=terms)
     names = system.names
     if pencil is not None:
         labels = dict(zip(names, pencil.labels)) if pencil.labels is not None else {}

@@ -202,7 +202,17 @@ def _null_dims(Ep: np.ndarray, Hp: np.ndarray, p: int, rng: np.random.Generator)
     return False, best, ()
 
 
-def exact_structure(E, H, *, seed: int = 0) -> ExactStructure:
+def _field_of_terms(terms, n: int, p: int) -> np.ndarray:
+    """The residue matrix of unsummed entries ``(rows, cols, values)``: each value reduced exactly, then summed
+    modulo ``p`` (no rounding in the sums)."""
+    rows, cols, vals = (np.asarray(a) for a in terms)
+    out = np.zeros((n, n), dtype=np.int64)
+    if vals.size:
+        np.add.at(out, (rows.astype(np.int64), cols.astype(np.int64)), to_field(vals.reshape(1, -1), p)[0])
+    return out % p
+
+
+def exact_structure(E, H, *, seed: int = 0, terms=None) -> ExactStructure:
     """Regularity and infinite Jordan structure of ``lambda E - H`` in exact arithmetic.
 
     Parameters
@@ -213,6 +223,12 @@ def exact_structure(E, H, *, seed: int = 0) -> ExactStructure:
     seed : int
         Seed of the random shifts (the result does not depend on it, except with a probability
         below 1e-25).
+    terms : tuple, optional
+        ``((rows, cols, values), (rows, cols, values))``: E and H as the unsummed entries they are
+        sums of (a circuit's element stamps). Their structure is then decided with the sums exact
+        too, free of the residues that rounded sums leave (two capacitances at a node whose sum no
+        longer cancels their off-diagonal entries): the structure of the elements' values as
+        stored. ``E`` and ``H`` then give only the shape.
 
     Returns
     -------
@@ -234,15 +250,21 @@ def exact_structure(E, H, *, seed: int = 0) -> ExactStructure:
     H = np.asarray(H, dtype=float)
     if E.ndim != 2 or E.shape[0] != E.shape[1] or E.shape != H.shape:
         raise ValueError(f"E and H must be square of one shape, got {E.shape} and {H.shape}")
-    if not (np.all(np.isfinite(E)) and np.all(np.isfinite(H))):
+    if terms is None and not (np.all(np.isfinite(E)) and np.all(np.isfinite(H))):
         raise ValueError("E and H must be finite")
+    if terms is not None and not all(np.all(np.isfinite(np.asarray(t[2], dtype=float))) for t in terms):
+        raise ValueError("the terms of E and H must be finite")
     n = E.shape[0]
     if n > EXACT_LIMIT:
         raise ValueError(f"exact structure is limited to {EXACT_LIMIT} unknowns, got {n}")
     rng = np.random.default_rng(seed)
     found = []
     for p in PRIMES:
-        found.append(_null_dims(to_field(E, p), to_field(H, p), p, rng))
+        if terms is None:
+            Ep, Hp = to_field(E, p), to_field(H, p)
+        else:
+            Ep, Hp = _field_of_terms(terms[0], n, p), _field_of_terms(terms[1], n, p)
+        found.append(_null_dims(Ep, Hp, p, rng))
     if any(reg for reg, _, _ in found):
         # ranks of F^k over GF(p) are lower bounds of the rational ones: r_k = n - (s_1 + ... + s_k)
         ranks = []

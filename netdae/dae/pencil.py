@@ -294,7 +294,49 @@ def _arbitrate(E, H, rtol: float, chosen: _Decided, other: _Decided | None) -> _
     return decided
 
 
-def _structure(E, H, tol, balance) -> tuple[_Decided, float]:
+def _structure(E, H, tol, balance, terms=None) -> tuple[_Decided, float]:
+    """:func:`_decided_structure`, then, given the unsummed ``terms`` of E and H (a linear circuit's stamps), the
+    structure checked against theirs in exact arithmetic (:func:`_check_terms`)."""
+    best, rtol = _decided_structure(E, H, tol, balance)
+    if terms is not None and best.Eb.shape[0] <= EXACT_ROUTINE_LIMIT:
+        best = _check_terms(*_pair(E, H), rtol, best, terms)
+    return best, rtol
+
+
+def _check_terms(E, H, rtol: float, best: _Decided, terms) -> _Decided:
+    """The reported structure against the exact structure of the stamps' unsummed entries (the elements'
+    values as stored, their sums without rounding): adopted through either scaling's steered staircase
+    when double precision can follow it, else the report is disputed, with the exact structure noted."""
+    ex = exact_structure(E, H, terms=terms)
+    same = best.ks.regular == ex.regular and (
+        tuple(best.ks.infinite_blocks) == ex.infinite_blocks if ex.regular else best.ks.normal_rank == ex.normal_rank)
+    if same:
+        if best.exact is not None or best.disputed:  # a close call or a dispute: say what settled it
+            best.exact, best.exact_changed = ex, best.exact_changed or best.disputed
+            best.disputed = False
+            best.notes.append("confirmed in exact arithmetic on the elements' values as stored (their sums "
+                              "without rounding)")
+        return best
+    found = (f"a regular pencil of index {ex.index}, infinite blocks {format_sizes(ex.infinite_blocks)}"
+             if ex.regular else f"a singular pencil of normal rank {ex.normal_rank}")
+    what = "the circuit's structure in exact arithmetic (the elements' values as stored, summed without rounding) is "
+    if ex.regular:
+        for bal in (best.bal, balance_pencil(E, H, enabled=not best.bal.applied)):
+            steered = _decide(E, H, bal, rtol, null_dims=ex.null_dims)
+            if _follows(steered.ks):
+                steered.notes = best.notes + ["decided in exact arithmetic: " + what + found + "; the "
+                                              + ("balanced" if bal.applied else "unbalanced")
+                                              + " staircase's rank decisions follow it"]
+                steered.exact, steered.exact_changed = ex, True
+                return steered
+    best.exact, best.disputed = ex, True
+    best.notes.append(what + found + ", which double precision cannot resolve (it needs singular values "
+                      "below rounding: element values whose ratios approach the limit of double precision); "
+                      f"the floating-point structure is reported")
+    return best
+
+
+def _decided_structure(E, H, tol, balance) -> tuple[_Decided, float]:
     """Decide the structure on the balanced pencil, re-deciding unbalanced on a close call (margin below
     ``MARGIN_RETRY``: the clearer of the two is reported), a doubtful one (below ``MARGIN_CHECK``) or a
     balanced pencil still spread over more than ``SPREAD_RETRY`` decades, or a balanced structure keeping a
@@ -843,6 +885,7 @@ def analyze_pencil(
     finite_method: str = "auto",
     shift_check: bool | None = None,
     seed: int = 0,
+    terms=None,
 ) -> PencilReport:
     """Regularity, index and Kronecker structure of ``E x' = H x + c``.
 
@@ -866,6 +909,12 @@ def analyze_pencil(
         ``n <= SHIFT_CHECK_LIMIT``); a disagreement becomes a warning.
     seed : int
         Seed of the random shifts.
+    terms : tuple, optional
+        E and H as the unsummed entries they are sums of (``((rows, cols, values), (rows, cols,
+        values))``: a linear circuit's element stamps, ``MnaSystem.linear_terms``). Up to
+        ``EXACT_ROUTINE_LIMIT`` unknowns every structure is then checked in exact arithmetic on
+        them (:func:`netdae.dae.exact.exact_structure`): one that double precision can follow
+        is adopted, one it cannot resolve makes the report ``disputed``.
 
     Returns
     -------
@@ -881,7 +930,7 @@ def analyze_pencil(
     -----
     O(n^3) time and O(n^2) memory; see :data:`DENSE_LIMIT`.
     """
-    dec, rtol = _structure(E, H, tol, balance)
+    dec, rtol = _structure(E, H, tol, balance, terms)
     bal, Eb, Hb, tol_e, tol_h, ks = dec.bal, dec.Eb, dec.Hb, dec.tol_e, dec.tol_h, dec.ks
     n = Eb.shape[0]
     names = tuple(names) if names is not None else tuple(f"x{i}" for i in range(n))

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..circuit import Circuit, Element
+from ..dae.exact import EXACT_LIMIT
 from ..dae.sparse import SparsePattern
 from ..devices.base import SlotMap
 from ..devices.linear import branch_names, stamp_linear
@@ -142,8 +143,11 @@ def _system(layout: Layout, stamps, families: list, pattern: SparsePattern, mode
     if sums is None:
         sums = _sums(stamps, n)
     E, H, B, H_ac = (s.matrix(t.values()) for s, t in zip(sums, (stamps.E, stamps.H, stamps.B, stamps.H_ac)))
-    return MnaSystem(layout, E, H, B, sources, families, pattern, stamps.notes, H_ac,
-                     delays=Delays.of(stamps, n) if stamps.delay_rows else None, like=like)
+    system = MnaSystem(layout, E, H, B, sources, families, pattern, stamps.notes, H_ac,
+                       delays=Delays.of(stamps, n) if stamps.delay_rows else None, like=like)
+    if not families and not stamps.delay_rows and n <= EXACT_LIMIT:
+        system.linear_terms = tuple((*t.coordinates(), t.values()) for t in (stamps.E, stamps.H))
+    return system
 
 
 def _sums(stamps, n: int) -> tuple:

@@ -200,6 +200,10 @@ class MnaSystem(DaeSystem):
         self._steady = None
         #: The steady form's transmission lines' capacitance at DC (``Delays.C``), None elsewhere.
         self.line_charge = None
+        #: A small linear system's E and H as their elements' unsummed entries, ``((rows, cols, values),
+        #: (rows, cols, values))``: the index analysis decides their structure in exact arithmetic without
+        #: the rounding of the sums (:func:`netdae.dae.exact.exact_structure`); None elsewhere.
+        self.linear_terms = None
         self._acc = Accumulator(self.n, pattern.nnz) if families else None
         self._switching = None
         self._behavioural_events = False  # not looked for yet (None: there are none)
