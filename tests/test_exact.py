@@ -292,6 +292,12 @@ def test_a_structure_double_precision_cannot_resolve_is_reported_uncertain_not_s
     assert any(m.startswith("uncertain: double precision does not decide this structure") and
                "in exact arithmetic it is regular, of index 1" in m for m in rep.messages)
     assert rep.to_dict()["disputed"] and rep.to_dict()["exact"]["index"] == 1
+    assert rep.messages[0].startswith("singular pencil in double precision, regular in exact arithmetic")
+    # the transient refuses it, saying why
+    with pytest.raises(netdae.NetdaeError, match="singular in double precision, though regular of index 1 in "
+                                                 "exact arithmetic") as err:
+        netdae.run(netdae.load(_UNRESOLVABLE))
+    assert "closer together" in err.value.hint
 
 
 def test_the_stamps_unsummed_entries_have_no_rounding_residue():

@@ -324,7 +324,10 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
     out = []
     topo = rep.topology
     refuted = []
-    if rep.regular is False:
+    if rep.regular is False and rep.pencil is not None and rep.pencil.disputed and rep.pencil.exact is not None \
+            and rep.pencil.exact.regular:
+        out.append("singular pencil in double precision, regular in exact arithmetic (see 'uncertain' below)")
+    elif rep.regular is False:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")
     elif rep.index is not None:
         kind = {0: "an ODE (E is invertible)", 1: "every algebraic unknown follows from the states and the inputs"}
