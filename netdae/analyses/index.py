@@ -351,9 +351,9 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
                        "more, resistances of milli-ohms beside tera-ohms) make a finite value indistinguishable "
                        "from an ideal one")
     if pen is not None and pen.decided_exactly:
-        out.append("decided exactly: a rank decision of this structure is close in double precision (or the "
-                   "balanced and the unbalanced pencil disagree); ranks in exact arithmetic on the matrices as "
-                   "stored decide it (see the warnings under the rank decisions)")
+        out.append("decided exactly: double precision decided this structure otherwise, or only closely; ranks in "
+                   "exact arithmetic decide it (see the warnings under the rank decisions for what they were "
+                   "computed on)")
     hi = [nm for nm, lb in rep.unknowns.items() if lb.startswith("index")]
     if hi:
         shown = ", ".join(f"{nm} ({rep.unknowns[nm]})" for nm in hi[:8])
