@@ -127,8 +127,7 @@ def main(argv=None) -> int:
             continue
         true = true_structure(text)
         count["analysed"] += 1
-        ok = true.regular == p.regular and (tuple(p.infinite_blocks) == true.infinite_blocks if true.regular
-                                            else p.normal_rank == true.normal_rank)
+        ok = true.agrees(p)
         if p.decided_exactly:
             count["exact_right" if ok else "exact_wrong"] += 1
         elif p.disputed:

@@ -163,7 +163,7 @@ class IndexReport:
             "warnings": [] if self.pencil is None else list(self.pencil.warnings),
             # the structure undecided in double precision, and what exact arithmetic said (docs/index-theory.md)
             "disputed": self.pencil is not None and self.pencil.disputed,
-            "exact": None if self.pencil is None else self.pencil.to_dict()["exact"],
+            "exact": None if self.pencil is None else self.pencil.exact_dict(),
             "messages": list(self.messages),
             "wall_time": self.wall_time,
         }
@@ -324,8 +324,7 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
     out = []
     topo = rep.topology
     refuted = []
-    if rep.regular is False and rep.pencil is not None and rep.pencil.disputed and rep.pencil.exact is not None \
-            and rep.pencil.exact.regular:
+    if rep.pencil is not None and rep.pencil.singular_by_rounding:
         out.append("singular pencil in double precision, regular in exact arithmetic (see 'uncertain' below)")
     elif rep.regular is False:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")

@@ -365,11 +365,10 @@ def _structure(prepared: Prepared, x0: np.ndarray, uic: bool) -> IndexReport | N
         why = pencil_singularity_explanation(prepared.circuit)
         if why is not None:
             raise SingularPencilError(why.message, elements=why.elements, nodes=why.nodes, hint=why.hint)
-        pen = rep.pencil
-        if pen is not None and pen.disputed and pen.exact is not None and pen.exact.regular:
+        if rep.pencil is not None and rep.pencil.singular_by_rounding:
             raise SingularPencilError(
                 "the circuit's pencil (E, H) is singular in double precision, though regular of index "
-                f"{pen.exact.index} in exact arithmetic: element values whose ratios approach the limit of double "
+                f"{rep.pencil.exact.index} in exact arithmetic: element values whose ratios approach the limit of double "
                 "precision make the transient unsolvable as written (netdae index shows the rank decisions)",
                 hint="bring the extreme values closer together (a gain of 1e9 beside tera-ohm leaks, milli-ohms "
                      "beside giga-ohms), so that their ratios stay well within double precision (about 1e-16)",

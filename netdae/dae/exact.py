@@ -46,6 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kronecker import blocks_from_counts, format_sizes
+
 #: Primes below 2^31: products of two residues fit in a signed 64-bit integer.
 PRIMES = (2147483647, 2147483629)
 
@@ -82,11 +84,7 @@ class ExactStructure:
     @property
     def infinite_blocks(self) -> tuple:
         """Sizes of the infinite Jordan blocks, descending (regular pencils)."""
-        s = list(self.null_dims) + [0]
-        out: list[int] = []
-        for i in range(len(self.null_dims)):
-            out += [i + 1] * (s[i] - s[i + 1])
-        return tuple(sorted(out, reverse=True))
+        return blocks_from_counts(self.null_dims)
 
     @property
     def index(self) -> int | None:
@@ -97,6 +95,22 @@ class ExactStructure:
     def n_finite(self) -> int:
         """Number of finite eigenvalues (regular pencils)."""
         return self.n - sum(self.infinite_blocks) if self.regular else 0
+
+    def agrees(self, structure) -> bool:
+        """The same structure as ``structure`` (anything with ``regular``, ``infinite_blocks`` and
+        ``normal_rank``: a :class:`~netdae.dae.kronecker.KroneckerStructure`, a pencil report): the infinite
+        blocks of a regular pencil, the normal rank of a singular one."""
+        if structure.regular != self.regular:
+            return False
+        if self.regular:
+            return tuple(structure.infinite_blocks) == self.infinite_blocks
+        return structure.normal_rank == self.normal_rank
+
+    def describe(self) -> str:
+        """The structure in words."""
+        if self.regular:
+            return f"a regular pencil of index {self.index}, infinite blocks {format_sizes(self.infinite_blocks)}"
+        return f"a singular pencil of normal rank {self.normal_rank}"
 
 
 def to_field(M: np.ndarray, p: int) -> np.ndarray:

@@ -744,6 +744,22 @@ class KroneckerStructure:
                 f"{format_sizes(self.right_indices)}, left {format_sizes(self.left_indices)}")
 
 
+def blocks_from_counts(at_least) -> tuple[int, ...]:
+    """Jordan block sizes (descending) from ``at_least[i - 1]``, the number of blocks of size at least ``i``
+    (non-increasing): ``at_least[i - 1] - at_least[i]`` blocks of size exactly ``i``.
+
+    Examples
+    --------
+    >>> blocks_from_counts([3, 1, 1])
+    (3, 1, 1)
+    """
+    counts = [int(c) for c in at_least] + [0]
+    out: list[int] = []
+    for i in range(1, len(counts)):
+        out += [i] * (counts[i - 1] - counts[i])
+    return tuple(sorted(out, reverse=True))
+
+
 def format_sizes(sizes) -> str:
     """A list of block sizes or minimal indices for people: short lists as they are, long ones with repeats
     counted (``[3, 2 x4, 1 x722]``, in the given order); ``none`` when empty."""

@@ -78,8 +78,8 @@ from .kronecker import (
     KroneckerStructure,
     RankDecision,
     balance_pencil,
+    blocks_from_counts,
     default_rtol,
-    format_sizes,
     kronecker_structure,
     rank_decision,
 )
@@ -257,12 +257,8 @@ def _arbitrate(E, H, rtol: float, chosen: _Decided, other: _Decided | None) -> _
     ex = exact_structure(E, H)
     what = ("the ranks in exact arithmetic (over two prime fields) of the matrices as stored (every double is a "
             "binary fraction) give ")
-    if ex.regular:
-        found = f"a regular pencil of index {ex.index}, infinite blocks {format_sizes(ex.infinite_blocks)}"
-    else:
-        found = f"a singular pencil of normal rank {ex.normal_rank}"
-    match = [d for d in (chosen, other) if d is not None and d.ks.regular == ex.regular and (
-        tuple(d.ks.infinite_blocks) == ex.infinite_blocks if ex.regular else d.ks.normal_rank == ex.normal_rank)]
+    found = ex.describe()
+    match = [d for d in (chosen, other) if d is not None and ex.agrees(d.ks)]
     if match:
         decided = match[0]
         if decided is chosen:
@@ -308,17 +304,14 @@ def _check_terms(E, H, rtol: float, best: _Decided, terms) -> _Decided:
     values as stored, their sums without rounding): adopted through either scaling's steered staircase
     when double precision can follow it, else the report is disputed, with the exact structure noted."""
     ex = exact_structure(E, H, terms=terms)
-    same = best.ks.regular == ex.regular and (
-        tuple(best.ks.infinite_blocks) == ex.infinite_blocks if ex.regular else best.ks.normal_rank == ex.normal_rank)
-    if same:
+    if ex.agrees(best.ks):
         if best.exact is not None or best.disputed:  # a close call or a dispute: say what settled it
             best.exact, best.exact_changed = ex, best.exact_changed or best.disputed
             best.disputed = False
             best.notes.append("confirmed in exact arithmetic on the elements' values as stored (their sums "
                               "without rounding)")
         return best
-    found = (f"a regular pencil of index {ex.index}, infinite blocks {format_sizes(ex.infinite_blocks)}"
-             if ex.regular else f"a singular pencil of normal rank {ex.normal_rank}")
+    found = ex.describe()
     what = "the circuit's structure in exact arithmetic (the elements' values as stored, summed without rounding) is "
     if ex.regular:
         for bal in (best.bal, balance_pencil(E, H, enabled=not best.bal.applied)):
@@ -706,15 +699,10 @@ def nilpotent_rank_sequence(N: np.ndarray, tol: float | None = None) -> tuple[tu
 def blocks_from_ranks(ranks) -> tuple[int, ...]:
     """Jordan block sizes of a nilpotent matrix from ``rank N^j`` (descending sizes).
 
-    There are ``r_{j-1} - r_j`` blocks of size >= j, so
-    ``(r_{j-1} - r_j) - (r_j - r_{j+1})`` blocks of size exactly j.
+    There are ``r_{j-1} - r_j`` blocks of size >= j (:func:`~netdae.dae.kronecker.blocks_from_counts`).
     """
-    r = list(ranks) + [0, 0]
-    out: list[int] = []
-    for j in range(1, len(ranks)):
-        count = (r[j - 1] - r[j]) - (r[j] - r[j + 1])
-        out += [j] * count
-    return tuple(sorted(out, reverse=True))
+    r = list(ranks) + [0]
+    return blocks_from_counts([r[j - 1] - r[j] for j in range(1, len(ranks))])
 
 
 # ---------------------------------------------------------------------------
@@ -821,6 +809,21 @@ class PencilReport:
         return self.exact is not None and not self.disputed and self.exact_changed
 
     @property
+    def singular_by_rounding(self) -> bool:
+        """Singular as reported, in double precision, but regular in exact arithmetic (a dispute it could not
+        settle)."""
+        return not self.regular and self.disputed and self.exact is not None and self.exact.regular
+
+    def exact_dict(self) -> dict | None:
+        """``exact`` in JSON form (with whether it was ``adopted`` and ``changed`` the report), or None."""
+        if self.exact is None:
+            return None
+        ex = self.exact
+        return {"regular": ex.regular, "index": ex.index, "normal_rank": ex.normal_rank,
+                "infinite_blocks": list(ex.infinite_blocks), "adopted": not self.disputed,
+                "changed": self.exact_changed}
+
+    @property
     def labels(self) -> tuple | None:
         """Per-unknown labels (``"differential"``, ``"algebraic"``, ``"index2"``, ...)."""
         return None if self.classification is None else self.classification.labels
@@ -856,10 +859,7 @@ class PencilReport:
             "shift_check": None if self.shift_check is None else self.shift_check.to_dict(),
             "warnings": list(self.warnings),
             "disputed": self.disputed,
-            "exact": None if self.exact is None else {
-                "regular": self.exact.regular, "index": self.exact.index, "normal_rank": self.exact.normal_rank,
-                "infinite_blocks": list(self.exact.infinite_blocks), "adopted": not self.disputed,
-                "changed": self.exact_changed},
+            "exact": self.exact_dict(),
         }
 
 

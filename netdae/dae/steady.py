@@ -425,11 +425,9 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian", *, vecto
     c = _power_of_two_scale(np.abs(r[:, None] * a).max(axis=0))
     scaled = r[:, None] * a * c[None, :]
     sigma = np.linalg.svd(scaled, compute_uv=False)
-    tol = default_rtol(n) * float(np.linalg.norm(scaled))
-    decision = rank_decision(sigma, tol, what + " (max-equilibrated)", a.shape)
-    if decision.rank == n:
-        return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
-    if decision.rank > rank.rank and not vectors:
+    decision = rank_decision(sigma, default_rtol(n) * float(np.linalg.norm(scaled)), what + " (max-equilibrated)",
+                             a.shape)
+    if decision.rank == n or (decision.rank > rank.rank and not vectors):
         return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
     if decision.rank > rank.rank:
         # fewer null directions on this scaling: the others are independent columns, whatever the scaling, and

@@ -466,8 +466,7 @@ def _stamp_tlines(els, layout, st: LinearStamps):
                                                                                        np.ones(len(els)), -z0]))
         st.delay_rows.extend(k.tolist())
         st.delay_tau.extend(el.params["td"] for el in els)
-        half = np.array([el.params["td"] / (2.0 * el.params["z0"]) for el in els])
-        st.C_line.add_conductance(a, b, half)
+        st.C_line.add_conductance(a, b, np.array([el.params["td"] for el in els]) / (2.0 * z0))
         v, i = ("v2", "i2") if port == 0 else ("v1", "i1")
         st.delay_ic.extend(-(el.params.get(v, 0.0) + el.params["z0"] * el.params.get(i, 0.0)) for el in els)
 
