@@ -80,3 +80,44 @@ def test_initial_conditions_agree_with_ngspice(variant):
     text = RC.format(cic=variant.get("cic", ""), cards=variant.get("cards", ""), uic=variant.get("uic", ""))
     comparison = netdae.compare(text, tol=1e-3, signals=["v(out)"])
     assert comparison.passed, comparison
+
+
+ASTABLE = """relaxation oscillator: a switch with hysteresis discharges the capacitor it senses
+V1 vcc 0 5
+R1 vcc c 10k
+C1 c 0 10n
+S1 c d c 0 SHYST
+RD d 0 100
+.model SHYST SW(VT=2.5 VH=0.8 RON=1 ROFF=1G)
+{tran}
+.end
+"""
+
+
+def test_a_circuit_without_a_dc_operating_point_starts_as_with_uic():
+    """The switch turns on above VT + VH = 3.3 V and off below 1.7 V. Off, the capacitor would settle at
+    5 V; on, at 5 RON' / (R + RON') = 0.05 V: no DC state is consistent, so .op refuses, and the transient
+    starts as ngspice's uic would (C1 at 0 V), saying why (ngspice starts from its optran state). Its
+    waveform is the closed form: the first charge from 0 V reaches 3.3 V at RC ln(5/1.7), and the period
+    is RC ln(3.3/1.7) + (R || RON') C ln((3.3 - V') / (1.7 - V')), RON' = RON + RD, V' = 5 RON' / (R + RON')."""
+    with pytest.raises(netdae.ConvergenceError, match="did not converge"):
+        operating_point(netdae.load(ASTABLE.format(tran=".op")))
+    r = transient(netdae.load(ASTABLE.format(tran=".tran 1u 1m")))
+    assert r.ok, r.message
+    assert any(n.startswith("no DC operating point") and "starts as with uic" in n for n in r.notes), r.notes
+    R, C, ron = 10e3, 10e-9, 101.0
+    assert abs(r["v(c)"][0]) < 1e-12  # the uic charge: 0 V (to the consistency solve's rounding)
+    t, v = np.asarray(r.t), np.asarray(r["v(c)"])
+
+    def crossings(level, rising=True):
+        k = np.flatnonzero((v[:-1] < level) & (v[1:] >= level)) if rising else \
+            np.flatnonzero((v[:-1] > level) & (v[1:] <= level))
+        return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+    first = R * C * np.log(5.0 / 1.7)
+    assert crossings(3.3 - 1e-6)[0] == pytest.approx(first, rel=1e-3)
+    v_on, r_on = 5.0 * ron / (R + ron), R * ron / (R + ron)
+    period = R * C * np.log(3.3 / 1.7) + r_on * C * np.log((3.3 - v_on) / (1.7 - v_on))
+    periods = np.diff(crossings(2.5))
+    assert periods.size >= 10
+    np.testing.assert_allclose(periods, period, rtol=1e-3)

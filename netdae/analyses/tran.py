@@ -6,7 +6,11 @@ The steps, each visible in the result's notes and ``transient`` (:class:`netdae.
    t = 0 and ``.ic`` nodes held (ngspice's rule); with ``uic``, no operating
    point: node voltages from ``.ic`` (else 0), capacitor voltages and
    inductor currents from their ``ic=`` (else from the node voltages), as
-   ngspice does.
+   ngspice does. A circuit without a DC operating point (an astable
+   multivibrator: Newton, gmin stepping, source stepping and pseudo-transient
+   continuation do not converge) starts as with ``uic``, and a note says so;
+   ngspice starts such a circuit from the end of its own pseudo-transient
+   (``optran``), so the first cycle of the two can differ.
 2. **Structure**: the pencil of the linearisation at the start
    (:func:`netdae.analyses.index.analyze_index`; dense up to
    :data:`TRAN_PENCIL_LIMIT` unknowns, topological above, and topological
@@ -55,7 +59,7 @@ from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
-from ..errors import CircuitError, NetdaeError, SingularPencilError, count_text
+from ..errors import CircuitError, ConvergenceError, NetdaeError, SingularPencilError, count_text
 from ..kinds import KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
@@ -109,6 +113,7 @@ class _Start:
     op_iterations: int = 0
     notes: list[str] = field(default_factory=list)
     correction: dict | None = None
+    uic: bool = False  # a uic start although the card has no uic (no DC operating point)
 
 
 def _card(circuit: Circuit, card: TranAnalysis | None) -> TranAnalysis:
@@ -602,6 +607,9 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
         notes.append(size_warning)
     settings = _line_delays(prepared, settings)
     start = _start(prepared, settings)
+    if start.uic:  # no operating point: the rest of the run is a uic run
+        settings = replace(settings, card=replace(settings.card, uic=True))
+        card = settings.card
     notes += start.notes
     system.start_delays(start.x, uic=card.uic)
     rep = _structure(prepared, start.x, card.uic)
@@ -701,12 +709,32 @@ def _line_delays(prepared: Prepared, settings: _Settings) -> _Settings:
 
 
 def _start(prepared: Prepared, settings: _Settings) -> _Start:
-    """The values at t = 0: ngspice's ``uic`` state, else the operating point with ``.ic`` held."""
+    """The values at t = 0: ngspice's ``uic`` state, else the operating point with ``.ic`` held.
+
+    An operating point that does not converge (every strategy of
+    :func:`~netdae.analyses.op.solve_operating_point` failed: a circuit with no
+    DC steady state, such as an astable multivibrator, or one netdae cannot
+    find) gives way to the ``uic`` state, with a note naming the failure
+    (``_Start.uic``). A singular or otherwise ill-posed circuit is still
+    refused: those errors are not :class:`~netdae.errors.ConvergenceError`.
+    """
     if settings.card.uic:
         return _uic_start(prepared)
     from .op import solve_operating_point
 
-    op = solve_operating_point(prepared, transient=True, options=settings.steady)
+    try:
+        op = solve_operating_point(prepared, transient=True, options=settings.steady)
+    except ConvergenceError as exc:
+        start = _uic_start(prepared)
+        start.uic = True
+        start.notes.insert(0, (
+            f"no DC operating point: {exc.message}; the transient starts as with uic (node voltages from .ic, "
+            "capacitor voltages and inductor currents from their ic= or the node voltages, else 0; the other "
+            "unknowns made consistent), as a circuit without a steady state (an astable) needs. ngspice starts "
+            "from the end of its transient operating point (optran) instead, so the first cycle can differ; "
+            ".nodeset values lead the operating point to a solution where one exists, .tran ... uic with .ic "
+            "chooses the start"))
+        return start
     return _Start(x=op.x, op_iterations=op.iterations, notes=list(op.notes))
 
 
