@@ -585,7 +585,9 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         if check_consistency and rep.regular:
             try:
                 rep.consistency = _consistency(prepared, pencil, None)
-            except (CircuitError, ConvergenceError) as exc:
+            except ConvergenceError as exc:  # no DC operating point: the transient starts as with uic
+                start_missing = f"no DC operating point ({exc.message}): the transient starts as with uic"
+            except CircuitError as exc:
                 start_missing = str(exc)
     else:
         idx = topo.topological_index if topo.applicable and not topo.singular else None
