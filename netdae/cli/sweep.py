@@ -147,7 +147,9 @@ def _dask_executor(address: str):
     try:
         client = Client(address, timeout=f"{SCHEDULER_TIMEOUT}s")
     except (OSError, TimeoutError) as exc:
-        raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc} (hint: start one there "
+                          "('dask scheduler' prints its address) and check the host and port, or leave out "
+                          "--scheduler to run on this machine's cores)") from None
     except ValueError as exc:  # distributed's word for an address it cannot read ('foo': no port)
         raise NetdaeError(f"--scheduler {address!r} is not an address Dask can read: {exc} {hint}") from None
     return client, client.get_executor()
