@@ -187,6 +187,23 @@ def test_wrong_osdi_version_is_located(tmp_path):
     assert e.location.line == 2 and "OSDI version 0.3" in e.message
 
 
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_model_undefined_in_a_transient_is_named(monkeypatch, engine):
+    """Its current is sqrt(-1 - v) above vbad = 0.3 V: the step is cut there, the instance named, the points kept."""
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    lib = compile_va(str(DATA / "nanres.va"))
+    (res,) = netdae.run(f"nan\n.osdi {lib}\nV1 in 0 PULSE(0 1 1u 1u 1u 10u 20u)\nR1 in a 1k\nN1 a 0 nm\n"
+                        "C1 a 0 1n\n.model nm nanres r=1k vbad=0.3\n.tran 10n 10u\n")
+    assert not res.ok
+    assert "the equations of v(a) are not finite there; devices writing into them: n1 (model nm, nanres)" \
+        in res.message
+    assert "square root or logarithm of a negative number" in res.message
+    t, v = res.t, res["v(a)"]
+    # v(a) of the RC (tau = 0.5 us, final value 0.5 V) reaches 0.3 V at 1 us + ramp + tau ln(2.5)
+    assert t[-1] > 1.5e-6 and np.all(np.isfinite(v)) and v[-1] == pytest.approx(0.3, abs=0.01)
+
+
 # --- the compiled engine ----------------------------------------------------------------------
 
 INVERTER = (f"inv\n.osdi {MOD}/spice/bsim4v8.osdi\nVdd vdd 0 1.2\nVin in 0 PULSE(0 1.2 1n 0.1n 0.1n 2n 5n)\n"

@@ -83,6 +83,8 @@ JUMP_TOLERANCE = 1e-6
 #: Jumps of the solution (inputs that jump, index-2 unknowns at corners) noted one by one
 #: up to this many; the rest are counted (all are in ``transient.jumps``).
 JUMP_NOTES = 3
+#: Devices named when a transient stops on equations that are not finite.
+NAMED_DEVICES = 4
 #: A transient whose output needs more than this fraction of the machine's memory at its fewest
 #: points is refused (it could not finish); above ADVISE_FRACTION it runs with a warning.
 REFUSE_FRACTION = 1.0
@@ -868,8 +870,51 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         message += _instability(rep, res.t[-1] - card.tstart)
     if res.failure is not None and res.failure.worst:
         message += _jumping_source(prepared.circuit, res.failure.worst)
+        message += _undefined_devices(prepared.circuit, system, res.failure)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
+
+
+def _undefined_devices(circuit: Circuit, system: MnaSystem, failure) -> str:
+    """Which devices' equations a failure on a non-finite evaluation comes from, else ``""``.
+
+    The integrators stop when the equations are not finite at every step size
+    (a model's square root or logarithm of a negative number, a division by
+    zero, an overflow) and name the first unknown whose row is not finite.
+    Here that row becomes the devices writing into it: the elements touching
+    its node or owning its branch, the nonlinear ones (those evaluated by a
+    device family: diodes, transistors, OSDI modules, behavioural sources)
+    first, since constant stamps are always finite.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    system : MnaSystem
+    failure : IntegrationFailure
+        The run's failure; its ``worst`` names the non-finite row.
+
+    Returns
+    -------
+    str
+        ``" (not finite in the equations of ...: n1 (model nm, module nanres) ...)"`` or ``""``.
+    """
+    from .op import _involved_elements
+
+    if "not finite" not in f"{failure.what} {failure.hint}" or failure.worst not in system.names:
+        return ""
+    names = _involved_elements(circuit, system, [system.names.index(failure.worst)])
+    devices = [n for n in names if not KINDS[circuit.element(n).kind].stamped] or names
+    if not devices:
+        return ""
+    shown = []
+    for name in devices[:NAMED_DEVICES]:
+        el = circuit.element(name)
+        model = circuit.models.get(el.model) if el.model else None
+        shown.append(f"{name} (model {el.model}, {model.type})" if model is not None else name)
+    more = f" and {len(devices) - NAMED_DEVICES} more" if len(devices) > NAMED_DEVICES else ""
+    return (f" (the equations of {failure.worst} are not finite there; devices writing into them: "
+            f"{', '.join(shown)}{more}: one of them is undefined at these values, e.g. the square root or logarithm "
+            "of a negative number, a division by zero or an overflow in its model or expression)")
 
 
 def _jumping_source(circuit, worst: str) -> str:
