@@ -513,9 +513,52 @@ def test_initial_condition_a_source_overrides_is_named(capsys, tmp_path):
     """.ic v(a)=5 at a node V1 fixes to 1 V: the transient starts at 1 V, as in ngspice, and a warning says the
     value was not held (it was dropped without a word); a value a resistor pulls on is held (no warning)."""
     text = "t\nV1 a 0 1\nR1 a b 1m\nC1 b 0 1u\n.ic v(a)=5 v(b)=2\n.tran 1n 1u\n.end\n"
-    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
     assert status == 0, err
-    assert err == ("netdae: warning: .ic v(a)=5 is not held: v(a) = 1 at t = 0, which the circuit fixes (a voltage "
-                   "source, or a node tied to one)\n")
+    assert err == (f"netdae: warning: {path}:5:7: .ic v(a)=5 is not held: v(a) = 1 at t = 0, which v1 (voltage "
+                   "source) fixes (hint: drop the .ic of v(a), or change v1's value)\n")
     res = netdae.simulate(text, save=["v(a)", "v(b)"])
     assert res["v(a)"][0] == 1.0 and res["v(b)"][0] == pytest.approx(2.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("uic", ["", " uic"])
+def test_initial_condition_across_a_chain_of_sources_names_them(capsys, tmp_path, uic):
+    """.ic v(a)=5 where V1 + V2 fix v(a) = 3 V: with or without uic the start is 3 V (the sources hold), and the
+    warning at the .ic value names both sources and the value used."""
+    text = f"t\nV1 a b 1\nV2 b 0 2\nC1 a 0 1u\nR1 a 0 1k\n.ic v(a)=5\n.tran 1u 10u{uic}\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    when = " by the uic start" if uic else ""
+    assert (f"{path}:6:7: .ic v(a)=5 is not held{when}: v(a) = 3 at t = 0, which v1 (voltage source), v2 (voltage "
+            "source) fix (in series from the node to ground) (hint: drop the .ic of v(a), or change v1's value)") in err
+    res = netdae.simulate(text, save=["v(a)"])
+    assert res["v(a)"][0] == pytest.approx(3.0, rel=1e-12)
+
+
+def test_uic_initial_condition_of_a_node_no_capacitor_holds_is_named(capsys, tmp_path):
+    """uic with .ic v(b)=3 on a resistive divider: b follows from its current law (0.5 V), said at the .ic value."""
+    text = "t\nV1 a 0 1\nR1 a b 1k\nR2 b 0 1k\nC1 a 0 1u\n.ic v(b)=3\n.tran 1u 10u uic\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    assert (f"{path}:6:7: .ic v(b)=3 is not held by the uic start: v(b) = 0.5 at t = 0, which the circuit's "
+            "equations fix there (no capacitor alone holds v(b); elements at b: r1, r2) (hint: give .ic values only "
+            "to nodes a capacitor holds, or leave out uic to start from the operating point)") in err
+    assert netdae.simulate(text, save=["v(b)"])["v(b)"][0] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_initial_condition_given_twice_is_a_warning_at_the_second(capsys, tmp_path):
+    """The last value holds, as in ngspice (measured: v(b)[0] = 2); netdae says one was replaced."""
+    text = "t\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(b)=1 v(b)=2\n.tran 1u 10u\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    assert (f"{path}:5:14: .ic: v(b) is given twice: 2 here replaces 1 (at {path}:5:7) (the last value holds, "
+            "as in ngspice)") in err
+    assert netdae.simulate(text, save=["v(b)"])["v(b)"][0] == pytest.approx(2.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("command", ["check", "run", "index"])
+def test_initial_condition_on_a_missing_node_through_every_command(capsys, tmp_path, command):
+    text = "t\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(zz)=2\n.tran 1u 10u\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, command)
+    assert status == EXIT_ERROR and "bug in netdae" not in err and "Traceback" not in err
+    assert f"{path}:5:7: .ic: unknown node 'zz'" in err and "hint: subcircuit nodes are named" in err

@@ -75,19 +75,85 @@ def _node_forcing(system: MnaSystem, values: dict[str, float], what: str) -> For
     return Forcing(np.array(idx, dtype=np.int64), np.array(val, dtype=float))
 
 
-def _unheld_initial_conditions(system: MnaSystem, forcing: Forcing, x, opts) -> list[str]:
+def _unheld_initial_conditions(circuit: Circuit, system: MnaSystem, forcing: Forcing, x, opts) -> list[str]:
     """Warnings for ``.ic`` values the operating point could not hold (a node a voltage source fixes).
 
     ngspice holds ``.ic`` nodes with a conductance, which a source's node overrides without a
-    word; netdae says so rather than drop the value silently.
+    word; netdae says so rather than drop the value silently, at the ``.ic`` value, naming what
+    fixes the node.
     """
     out = []
     for i, want in zip(forcing.index, forcing.value):
         got = float(x[i])
         if abs(got - want) > opts.reltol * max(abs(got), abs(want)) + opts.vntol:
-            out.append(f"warning: .ic {system.names[i]}={want:g} is not held: {system.names[i]} = {got:.6g} at "
-                       "t = 0, which the circuit fixes (a voltage source, or a node tied to one)")
+            out.append(unheld_initial_condition(circuit, system.layout.target(int(i))[1], want, got))
     return out
+
+
+def voltage_path(circuit: Circuit, node: str) -> list[str]:
+    """The voltage-defining elements (V, E, H, B voltage sources, op-amp outputs) that tie ``node`` to ground.
+
+    A shortest chain of such elements from the node to ground, in order from the
+    node; empty when no chain reaches ground (the node's voltage is then not fixed by
+    sources alone).
+
+    Examples
+    --------
+    >>> from netdae.netlist import load
+    >>> voltage_path(load("t\\nV1 a b 1\\nV2 b 0 2\\nR1 a c 1k\\nR2 c 0 1k\\n"), "a")
+    ['v1', 'v2']
+    >>> voltage_path(load("t\\nV1 a b 1\\nV2 b 0 2\\nR1 a c 1k\\nR2 c 0 1k\\n"), "c")
+    []
+    """
+    from ..kinds import VOLTAGE
+
+    links: dict[str, list[tuple[str, str]]] = {}
+    for el in circuit.elements:
+        for cls, a, b in KINDS[el.kind].branches:
+            if cls == VOLTAGE and max(a, b) < len(el.nodes):
+                na, nb = el.nodes[a], el.nodes[b]
+                links.setdefault(na, []).append((el.name, nb))
+                links.setdefault(nb, []).append((el.name, na))
+    came: dict[str, tuple[str, str] | None] = {node: None}
+    queue = [node]
+    for here in queue:
+        if here == "0":
+            path = []
+            while came[here] is not None:
+                name, here = came[here]
+                path.append(name)
+            return path[::-1]
+        for name, other in links.get(here, ()):
+            if other not in came:
+                came[other] = (name, here)
+                queue.append(other)
+    return []
+
+
+def unheld_initial_condition(circuit: Circuit, node: str, want: float, got: float, when: str = "",
+                             uic: bool = False) -> str:
+    """The warning for an ``.ic v(node)=want`` the transient's start does not hold (it starts from ``got``).
+
+    Located at the ``.ic`` value; names the sources that fix the node when there are,
+    else the elements whose equations at the node decide its value.
+    """
+    where = circuit.ic_locations.get(node)
+    text = f"{where}: " if where is not None else ""
+    text += f".ic v({node})={want:g} is not held{when}: v({node}) = {got:.6g} at t = 0"
+    path = voltage_path(circuit, node)
+    if path:
+        named = [f"{n} ({KINDS[circuit.element(n).kind].summary})" for n in path]
+        text += (f", which {_names(named)} fix{'es' if len(path) == 1 else ''}"
+                 f"{'' if len(path) == 1 else ' (in series from the node to ground)'}")
+        sources = [n for n in path if KINDS[circuit.element(n).kind].independent]
+        hint = f"drop the .ic of v({node})" + (f", or change {sources[0]}'s value" if sources else "")
+    else:
+        at = [el.name for el in circuit.elements if node in el.nodes]
+        text += (f", which the circuit's equations fix there (no capacitor alone holds v({node}); elements at "
+                 f"{node}: {_names(at)})")
+        hint = "give .ic values only to nodes a capacitor holds" + (
+            ", or leave out uic to start from the operating point" if uic else "")
+    return f"warning: {text} (hint: {hint})"
 
 
 def _describe_unknowns(system: MnaSystem, indices, x) -> str:
@@ -509,7 +575,7 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
             _check_charge_balance(circuit, system, res, groups, used, t, opts)
         res.notes = [_charge_note(g) for g in used] + ([_law_note(circuit, system, laws)] if laws else [])
         if forcing is not None:
-            res.notes = list(res.notes) + _unheld_initial_conditions(system, forcing, res.x, opts)
+            res.notes = list(res.notes) + _unheld_initial_conditions(circuit, system, forcing, res.x, opts)
         return res
     if res.singular:
         raise _singular_error(circuit, system, res, topology)

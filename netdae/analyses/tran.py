@@ -745,9 +745,10 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
         x0 = _consistent_from_charges(system, start, rep, card.tstop, settings.steady)
         text, detail = _correction_note(system, start.x, x0, "uic: algebraic unknowns made consistent with the "
                                         "initial capacitor voltages and inductor currents")
+        warnings = _moved_initial_conditions(prepared.circuit, system, x0, settings, " by the uic start")
         if detail:
-            return x0, {"reason": "uic", "changed": detail}, [text]
-        return x0, None, []
+            return x0, {"reason": "uic", "changed": detail}, warnings + [text]
+        return x0, None, warnings
     if not (rep.pencil is not None and rep.pencil.weierstrass is not None and (rep.index or 0) >= 2):
         return x0, None, []
     # Without .ic the start is the DC operating point, a steady state of the inputs' values at t0: it
@@ -770,7 +771,38 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
     if not detail:  # moved by rounding only (below 1e-9 of each value): nothing to report
         return x0, None, []
     text += "" if system.linear else " (from the linearisation at the operating point)"
-    return x0, {"reason": "hidden constraints", "changed": detail}, [text]
+    warnings = _moved_initial_conditions(prepared.circuit, system, x0, settings,
+                                         " by the hidden constraints of the start", held=start.x)
+    return x0, {"reason": "hidden constraints", "changed": detail}, warnings + [text]
+
+
+def _moved_initial_conditions(circuit: Circuit, system: MnaSystem, x0: np.ndarray, settings: _Settings,
+                              when: str, held: np.ndarray | None = None) -> list[str]:
+    """Located warnings for the ``.ic`` values a consistent start ``x0`` does not keep.
+
+    A ``uic`` start keeps the capacitor voltages and inductor currents; a node a
+    voltage source fixes, or one no capacitor holds, takes the value the circuit's
+    equations give it at t = 0 (ngspice starts from the ``.ic`` value there and
+    jumps in its first step). Each such value is named at its ``.ic`` card with
+    what fixes it and the value used. ``held``: the operating point the start
+    corrects; a value it did not hold either has had its warning there.
+    """
+    from .op import unheld_initial_condition
+
+    def differs(got: float, want: float) -> bool:
+        return abs(got - want) > settings.rtol * max(abs(got), abs(want)) + settings.vntol
+
+    out = []
+    for node, want in circuit.ic.items():
+        try:
+            i = system.node_index(node)
+        except KeyError:
+            continue
+        if i < 0 or (held is not None and differs(float(held[i]), want)):
+            continue
+        if differs(float(x0[i]), want):
+            out.append(unheld_initial_condition(circuit, node, want, float(x0[i]), when, uic=settings.card.uic))
+    return out
 
 
 @dataclass

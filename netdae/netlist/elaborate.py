@@ -1534,13 +1534,14 @@ class _Elaborator:
         return value
 
     def _initial(self, circuit: Circuit, nodes: dict) -> None:
+        where: dict[str, dict] = {".ic": circuit.ic_locations, ".nodeset": {}}
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
             for node, val, offset, card in entries:
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
-                target[node] = self._initial_number(self._value(val, card, f"initial value of v({node})"), card,
-                                                    val[1], what)
+                value = self._initial_number(self._value(val, card, f"initial value of v({node})"), card, val[1], what)
+                self._set_initial(target, where[what], what, node, value, card.location(offset))
         for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
             item: InitialCard = p.item
             target = circuit.ic if item.name == ".ic" else circuit.nodeset
@@ -1550,9 +1551,21 @@ class _Elaborator:
                     raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
                                 DOT_CARDS[item.name])
                 if node != "0":
-                    target[node] = self._initial_number(
-                        evaluate_val(val, env, item.card, f"initial value of v({written})"), item.card, val[1],
-                        item.name)
+                    value = self._initial_number(evaluate_val(val, env, item.card, f"initial value of v({written})"),
+                                                 item.card, val[1], item.name)
+                    self._set_initial(target, where[item.name], item.name, node, value, item.card.location(offset))
+
+    def _set_initial(self, target: dict, where: dict, what: str, node: str, value: float, location) -> None:
+        """One ``.ic``/``.nodeset`` value; a node given again takes the later value (as in ngspice), with a
+        warning at it naming the earlier one, rather than dropping one of the two without a word."""
+        if node in target and (node not in where or where[node] != location):
+            before = where.get(node)
+            self.diagnostics.append(Diagnostic(
+                "warning", f"{what}: v({node}) is given twice: {value:g} here replaces {target[node]:g}"
+                + (f" (at {before})" if before is not None else "") + " (the last value holds, as in ngspice)",
+                location))
+        target[node] = value
+        where[node] = location
 
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
