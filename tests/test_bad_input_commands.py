@@ -562,3 +562,13 @@ def test_initial_condition_on_a_missing_node_through_every_command(capsys, tmp_p
     status, err, path = _cli(capsys, tmp_path, text, command)
     assert status == EXIT_ERROR and "bug in netdae" not in err and "Traceback" not in err
     assert f"{path}:5:7: .ic: unknown node 'zz'" in err and "hint: subcircuit nodes are named" in err
+
+
+@pytest.mark.parametrize("command", ["run", "index"])
+@pytest.mark.parametrize("instance, shown", [("m=-1", "m = -1"), ("area=0", "area = 0")])
+def test_diode_multiplicity_or_area_not_positive_is_located(capsys, tmp_path, command, instance, shown):
+    """As the JFET's, MESFET's and VDMOS's: at the element's card, with the value (it was neither)."""
+    text = f"t\nV1 a 0 1\nR1 a b 1k\nD1 b 0 dd {instance}\n.model dd d\n.op\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, command)
+    assert status == EXIT_ERROR and "bug in netdae" not in err
+    assert f"{path}:4:1: d1: {shown} must be positive (hint: give" in err
