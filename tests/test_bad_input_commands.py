@@ -572,3 +572,25 @@ def test_diode_multiplicity_or_area_not_positive_is_located(capsys, tmp_path, co
     status, err, path = _cli(capsys, tmp_path, text, command)
     assert status == EXIT_ERROR and "bug in netdae" not in err
     assert f"{path}:4:1: d1: {shown} must be positive (hint: give" in err
+
+
+@pytest.mark.parametrize("elements, warning, signal, used", [
+    # a capacitor across a source: its ic= contradicts the source, which holds (v(a) = 1)
+    ("V1 a 0 1\nC1 a 0 1u ic=2\nR1 a 0 1k\n",
+     "3:1: c1: ic=2 is not held by the uic start: v(a) = 1 at t = 0, which the loop of v1 with c1 fixes", "v(a)", 1.0),
+    # two capacitors in a loop with a source: the loop fixes the sum, the charge at b the split (1/2, 1/2)
+    ("V1 a 0 1\nC1 a b 1u ic=0.3\nC2 b 0 1u ic=0.3\nR1 b 0 1meg\n",
+     "4:1: c2: ic=0.3 is not held by the uic start: v(b) = 0.5 at t = 0, which the loop of c1, v1 with c2 fixes",
+     "v(b)", 0.5),
+    # an inductor in series with a current source: the source's current holds
+    ("I1 0 a 1m\nL1 a b 1m ic=2m\nC1 b 0 1u\n",
+     "3:1: l1: ic=0.002 is not held by the uic start: i(l1) = 0.001 at t = 0, which the current sources and "
+     "inductors at its nodes (i1) fix", "i(l1)", 1e-3),
+])
+def test_uic_element_initial_conditions_a_loop_or_cutset_fixes_are_named(capsys, tmp_path, elements, warning,
+                                                                         signal, used):
+    text = f"t\n{elements}.tran 1u 10u uic\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    assert f"{path}:{warning} (hint: drop ic=" in err
+    assert netdae.simulate(text, save=[signal])[signal][0] == pytest.approx(used, rel=1e-6)

@@ -107,17 +107,41 @@ def voltage_path(circuit: Circuit, node: str) -> list[str]:
     """
     from ..kinds import VOLTAGE
 
+    return branch_path(circuit, node, "0", (VOLTAGE,))
+
+
+def branch_path(circuit: Circuit, a: str, b: str, classes: tuple[int, ...], skip: str = "") -> list[str]:
+    """A shortest chain from node ``a`` to node ``b`` of elements whose branches are of ``classes``.
+
+    The elements in order from ``a``; ``skip`` is left out (the element whose own
+    constraint is asked about); empty when no chain joins them. With ``VOLTAGE``
+    alone: the sources that fix ``v(a) - v(b)``; with ``VOLTAGE`` and
+    ``CAPACITIVE``: a loop of capacitors and sources that fixes a capacitor's
+    voltage at a ``uic`` start.
+
+    Examples
+    --------
+    >>> from netdae.kinds import CAPACITIVE, VOLTAGE
+    >>> from netdae.netlist import load
+    >>> c = load("t\\nV1 a 0 1\\nC1 a b 1u\\nC2 b 0 1u\\n")
+    >>> branch_path(c, "a", "b", (VOLTAGE, CAPACITIVE), skip="c1")
+    ['v1', 'c2']
+    >>> branch_path(c, "a", "b", (VOLTAGE,))
+    []
+    """
     links: dict[str, list[tuple[str, str]]] = {}
     for el in circuit.elements:
-        for cls, a, b in KINDS[el.kind].branches:
-            if cls == VOLTAGE and max(a, b) < len(el.nodes):
-                na, nb = el.nodes[a], el.nodes[b]
-                links.setdefault(na, []).append((el.name, nb))
-                links.setdefault(nb, []).append((el.name, na))
-    came: dict[str, tuple[str, str] | None] = {node: None}
-    queue = [node]
+        if el.name == skip:
+            continue
+        for cls, i, j in KINDS[el.kind].branches:
+            if cls in classes and max(i, j) < len(el.nodes):
+                ni, nj = el.nodes[i], el.nodes[j]
+                links.setdefault(ni, []).append((el.name, nj))
+                links.setdefault(nj, []).append((el.name, ni))
+    came: dict[str, tuple[str, str] | None] = {a: None}
+    queue = [a]
     for here in queue:
-        if here == "0":
+        if here == b:
             path = []
             while came[here] is not None:
                 name, here = came[here]

@@ -746,6 +746,7 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
         text, detail = _correction_note(system, start.x, x0, "uic: algebraic unknowns made consistent with the "
                                         "initial capacitor voltages and inductor currents")
         warnings = _moved_initial_conditions(prepared.circuit, system, x0, settings, " by the uic start")
+        warnings += _unheld_element_ics(prepared.circuit, system, x0, settings)
         if detail:
             return x0, {"reason": "uic", "changed": detail}, warnings + [text]
         return x0, None, warnings
@@ -774,6 +775,51 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
     warnings = _moved_initial_conditions(prepared.circuit, system, x0, settings,
                                          " by the hidden constraints of the start", held=start.x)
     return x0, {"reason": "hidden constraints", "changed": detail}, warnings + [text]
+
+
+def _unheld_element_ics(circuit: Circuit, system: MnaSystem, x0: np.ndarray, settings: _Settings) -> list[str]:
+    """Located warnings for the capacitors' and inductors' ``ic=`` a ``uic`` start cannot keep.
+
+    A capacitor in a loop with voltage sources and other capacitors (across a
+    source, say) has its voltage fixed by the loop, an inductor in a cutset with
+    current sources by the cutset; the consistent start takes those values, and
+    the warning at the element names the loop (or the current sources and
+    inductors at its nodes) and the value used.
+    """
+    from ..kinds import CAPACITIVE, CURRENT, INDUCTIVE, VOLTAGE
+    from .op import branch_path
+
+    def voltage(node: str) -> float:
+        i = system.node_index(node) if node != "0" else -1
+        return float(x0[i]) if i >= 0 else 0.0
+
+    out = []
+    for el in circuit.elements:
+        if "ic" not in el.params or el.kind not in (Kind.CAPACITOR, Kind.INDUCTOR):
+            continue
+        want = float(el.params["ic"])
+        where = f"{el.location}: " if el.location else ""
+        if el.kind == Kind.CAPACITOR:
+            a, b = el.nodes[0], el.nodes[1]
+            got = voltage(a) - voltage(b)
+            if abs(got - want) <= settings.rtol * max(abs(got), abs(want)) + settings.vntol:
+                continue
+            what = f"v({a})" if b == "0" else f"v({a},{b})" if a != "0" else f"-v({b})"
+            loop = branch_path(circuit, a, b, (VOLTAGE, CAPACITIVE), skip=el.name)
+            why = (f"which the loop of {', '.join(loop)} with {el.name} fixes" if loop else
+                   "which the circuit's equations fix there")
+        else:
+            got = float(x0[system.layout.branch(el.name)])
+            if abs(got - want) <= settings.rtol * max(abs(got), abs(want)) + settings.abstol:
+                continue
+            what = f"i({el.name})"
+            cut = [o.name for o in circuit.elements if o.name != el.name and set(o.nodes) & set(el.nodes)
+                   and any(cls in (CURRENT, INDUCTIVE) for cls, _, _ in KINDS[o.kind].branches)]
+            why = (f"which the current sources and inductors at its nodes ({', '.join(cut[:NAMED_DEVICES])}) fix"
+                   if cut else "which the circuit's equations fix there")
+        out.append(f"warning: {where}{el.name}: ic={want:g} is not held by the uic start: {what} = {got:.6g} at "
+                   f"t = 0, {why} (hint: drop ic= on {el.name}, or give values that agree)")
+    return out
 
 
 def _moved_initial_conditions(circuit: Circuit, system: MnaSystem, x0: np.ndarray, settings: _Settings,
