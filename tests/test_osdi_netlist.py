@@ -164,6 +164,17 @@ def test_fewer_nodes_leave_the_last_terminals_unconnected():
     assert 0 < ids[0] < ids[1] < ids[2] and ids[2] > 1e-5
 
 
+def test_fewer_nodes_than_terminals_is_noted_at_the_card():
+    """Allowed (BSIM-BULK's thermal terminal), but a forgotten node is said: a resistor's b left floating."""
+    c = netdae.load(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a rm\n.model rm resistor\n")
+    (note,) = [d for d in c.diagnostics if "left unconnected" in d.message]
+    assert note.severity == "note" and note.location.line == 4
+    assert note.message == ("n1: connects 1 of OSDI module resistor's 2 terminals (a, b); b is left unconnected "
+                            "(nodes of the instance's own)")
+    full = netdae.load(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor\n")
+    assert not [d for d in full.diagnostics if "left unconnected" in d.message]
+
+
 def test_unknown_model_parameter_is_located_at_the_parameter():
     e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=1k bogus=2\n")
     assert (e.location.line, e.location.column) == (5, 31)  # at the value, as for every model parameter

@@ -532,7 +532,7 @@ class _Elaborator:
                         hint="connect elements between nodes and ground (0)")
         if circuit.osdi_files or any(el.kind == Kind.OSDI for el in circuit.elements):
             from ..devices.osdi.bind import check_circuit  # loads the libraries (ctypes): only when used
-            check_circuit(circuit)
+            self.diagnostics.extend(check_circuit(circuit))
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
         circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value,
