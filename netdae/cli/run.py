@@ -296,7 +296,10 @@ def main(args) -> int:
     if args.export:
         from ..io.matrices import export_matrices
 
-        exported = [str(f) for f in export_matrices(circuit, args.export)]
+        try:
+            exported = [str(f) for f in export_matrices(circuit, args.export)]
+        except OutputFileError as exc:
+            write_errors.append(exc)
     if args.json:
         doc: dict = {}
         for key, res, files in zip(keys, results, written):
