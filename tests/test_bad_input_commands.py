@@ -594,3 +594,19 @@ def test_uic_element_initial_conditions_a_loop_or_cutset_fixes_are_named(capsys,
     assert status == 0, err
     assert f"{path}:{warning} (hint: drop ic=" in err
     assert netdae.simulate(text, save=[signal])[signal][0] == pytest.approx(used, rel=1e-6)
+
+
+def test_an_initial_condition_the_circuit_overrides_leaves_no_forcing_current_in_the_start():
+    """.ic v(out)=5 on an ideal differentiator's output, which the op-amp fixes: the operating point first held
+    it with the 1e10 S forcing, whose 5e10 A stayed in i(e1) and, through the hidden-constraint correction,
+    moved v(in) (fixed by V1 at 0) to 0.0068 V and v(out) to -6.3047. The start is the closed form:
+    v(out) = -R C dv(in)/dt = -2 pi (1k * 1u * 1 kHz * 1 V), v(in) = 0, i(e1) = -i(v1) = C dv/dt."""
+    text = ("ic on an op-amp output\nV1 in 0 SIN(0 1 1k)\nC1 in m 1u\nR1 m out 1k\nE1 out 0 0 m OPAMP\n"
+            ".ic v(out)=5\n.tran 1u 1m\n.end\n")
+    res = netdae.simulate(text, save=["v(in)", "v(out)", "i(e1)"])
+    assert res["v(in)"][0] == 0.0
+    assert res["v(out)"][0] == pytest.approx(-2 * math.pi, rel=1e-6)
+    assert res["i(e1)"][0] == pytest.approx(2 * math.pi * 1e-3, rel=1e-6)
+    held, moved = [n for n in res.notes if n.startswith("warning: <string>:6:7: .ic v(out)=5 is not held")]
+    assert "v(out) = 0 at t = 0, which e1 (ideal op-amp (nullor)) fixes" in held
+    assert "by the hidden constraints of the start: v(out) = -6.28319 at t = 0" in moved

@@ -82,12 +82,14 @@ def _unheld_initial_conditions(circuit: Circuit, system: MnaSystem, forcing: For
     word; netdae says so rather than drop the value silently, at the ``.ic`` value, naming what
     fixes the node.
     """
-    out = []
-    for i, want in zip(forcing.index, forcing.value):
-        got = float(x[i])
-        if abs(got - want) > opts.reltol * max(abs(got), abs(want)) + opts.vntol:
-            out.append(unheld_initial_condition(circuit, system.layout.target(int(i))[1], want, got))
-    return out
+    return [unheld_initial_condition(circuit, system.layout.target(int(i))[1], float(want), float(x[i]))
+            for i, want in zip(forcing.index[_unheld(forcing, x, opts)], forcing.value[_unheld(forcing, x, opts)])]
+
+
+def _unheld(forcing: Forcing, x, opts) -> np.ndarray:
+    """Which forced values the solution ``x`` does not hold (a mask over ``forcing.index``)."""
+    got = np.asarray(x)[forcing.index]
+    return np.abs(got - forcing.value) > opts.reltol * np.maximum(np.abs(got), np.abs(forcing.value)) + opts.vntol
 
 
 def voltage_path(circuit: Circuit, node: str) -> list[str]:
@@ -599,7 +601,20 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
             _check_charge_balance(circuit, system, res, groups, used, t, opts)
         res.notes = [_charge_note(g) for g in used] + ([_law_note(circuit, system, laws)] if laws else [])
         if forcing is not None:
-            res.notes = list(res.notes) + _unheld_initial_conditions(circuit, system, forcing, res.x, opts)
+            warnings = _unheld_initial_conditions(circuit, system, forcing, res.x, opts)
+            unheld = _unheld(forcing, res.x, opts)
+            if unheld.any():
+                # The forcing conductance of a value the circuit overrides carries (value - v) * 1e10 A into
+                # the source that fixes the node (5e10 A into an op-amp's output for .ic 5 V against 0 V):
+                # the transient would start from that current. Solved again without those values.
+                keep = ~unheld
+                held = Forcing(forcing.index[keep], forcing.value[keep]) if keep.any() else None
+                again = solve_steady(system, t, res.x, options=opts, forcing=held, nodeset=nodeset,
+                                     charges=groups + laws)
+                if again.converged:
+                    again.notes = res.notes
+                    res = again
+            res.notes = list(res.notes) + warnings
         return res
     if res.singular:
         raise _singular_error(circuit, system, res, topology)

@@ -831,7 +831,8 @@ def _moved_initial_conditions(circuit: Circuit, system: MnaSystem, x0: np.ndarra
     equations give it at t = 0 (ngspice starts from the ``.ic`` value there and
     jumps in its first step). Each such value is named at its ``.ic`` card with
     what fixes it and the value used. ``held``: the operating point the start
-    corrects; a value it did not hold either has had its warning there.
+    corrects; a value it did not hold has had its warning there, repeated here
+    only when the correction moves it again (the value the transient starts from).
     """
     from .op import unheld_initial_condition
 
@@ -844,8 +845,9 @@ def _moved_initial_conditions(circuit: Circuit, system: MnaSystem, x0: np.ndarra
             i = system.node_index(node)
         except KeyError:
             continue
-        if i < 0 or (held is not None and differs(float(held[i]), want)):
-            continue
+        if i < 0 or (held is not None and differs(float(held[i]), want)
+                     and not differs(float(x0[i]), float(held[i]))):
+            continue  # the operating point's warning said it, and the start keeps that value
         if differs(float(x0[i]), want):
             out.append(unheld_initial_condition(circuit, node, want, float(x0[i]), when, uic=settings.card.uic))
     return out
