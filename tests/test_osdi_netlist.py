@@ -175,6 +175,24 @@ def test_fewer_nodes_than_terminals_is_noted_at_the_card():
     assert not [d for d in full.diagnostics if "left unconnected" in d.message]
 
 
+def test_stepping_an_osdi_model_parameter_checks_the_modules_table():
+    """.step rm(bogus) failed every row at elaboration, located at the .model card that never wrote 'bogus';
+    it is refused at the .step card, as a built-in model's unknown parameter is. rm(r) steps."""
+    base = (f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nR0 a b 1k\nN1 b 0 rm\n.model rm resistor r=1k\n"
+            ".op\n.meas dc vb find v(b) at=1\n")
+    e = _error(base + ".step rm(bogus) list 1 2\n")
+    assert (e.location.line, e.location.column) == (9, 7)
+    assert "model 'rm' (OSDI module resistor) has no parameter 'bogus'" in e.message and "r, noisy" in e.hint
+    res = netdae.sweep(base + ".dc v1 0 1 1\n.step rm(r) list 1k 3k\n", analyses=["dc"], workers=1)
+    np.testing.assert_allclose(res.measures["vb"], [0.5, 0.75], rtol=1e-9)
+
+
+def test_the_current_of_an_osdi_device_in_a_measure_is_named_in_words():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor\n.tran 1n 10n\n"
+               ".meas tran x find i(n1) at=5n\n")
+    assert "'n1' is a compiled Verilog-A device (OSDI), whose current netdae does not compute" in e.message
+
+
 def test_unknown_model_parameter_is_located_at_the_parameter():
     e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=1k bogus=2\n")
     assert (e.location.line, e.location.column) == (5, 31)  # at the value, as for every model parameter

@@ -1385,6 +1385,15 @@ class _Elaborator:
         if where is not None and where[2] is not None and where[2] != mod.type:
             raise fail(f"model '{model}' is of type '{mod.type}', not '{where[2]}'")
         family = KIND_OF_MODEL_TYPE.get(mod.type)
+        if family is None and circuit.osdi_files:  # a compiled module's model: its own parameter table
+            from ..devices.osdi.bind import circuit_modules  # loads the libraries (ctypes): only when used
+
+            module = circuit_modules(circuit).get(mod.type)
+            if module is not None and module.parameter(param) is None:
+                names = [p.name for p in module.parameters]
+                raise fail(f"model '{model}' (OSDI module {module.name}) has no parameter '{param}'",
+                           hint=f"the module's parameters: {', '.join(names[:12])}{' ...' if len(names) > 12 else ''}"
+                           f" (netdae osdi {module.library.path} --params lists them)")
         known = NGSPICE_PARAMETERS.get(family or "", frozenset())
         if known and param not in known:
             raise fail(f"model '{model}' ({mod.type}) has no parameter '{param}'",
