@@ -372,6 +372,10 @@ API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
     (lambda: netdae.run(API_RC, save=3), r"save must be a string or a list of strings, not int"),
     (lambda: netdae.run(API_RC, reltol="1e-3"), r"reltol must be a number, not str"),
     (lambda: netdae.run(API_RC, abstol=np.array([1e-12, 1e-9])), r"abstol must be a number, not ndarray"),
+    # a callback that is not callable: refused before the work, not when first called after it
+    (lambda: netdae.run(API_RC, progress=3), r"progress must be a function called as progress\(t, tstop, steps\)"),
+    (lambda: netdae.simulate(API_RC.replace(".op", ".tran 1u 1m"), progress="bar"), r"not str \('bar'\)"),
+    (lambda: netdae.sweep(API_RC, params={"r1": [1e3]}, save=["v(out)"], progress=3), r"progress must be a function called as progress\(done, total\), not int"),
 ])
 def test_api_arguments_of_the_wrong_type(call, message):
     """Wrong argument types are TypeErrors that say what is expected (were AttributeErrors from inside, or a

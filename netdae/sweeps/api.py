@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING
 
 from ..circuit import Circuit
-from ..analyses.runner import string_entries
+from ..analyses.runner import check_callable, string_entries
 from ..errors import NetdaeError
 from ..stats import Statistics
 from .plan import Plan, make_plan
@@ -229,6 +229,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
                           "(run it with 'netdae run', or step the values with .step)")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise NetdaeError(f"sweep: seed must be a non-negative integer, got {seed!r}")
+    check_callable(progress, "progress", "progress(done, total)")
     if measures:
         circuit = add_measures(circuit, measures)
     options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
