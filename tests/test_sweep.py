@@ -531,6 +531,37 @@ def test_plots_draw_a_histogram_per_point_and_a_curve_per_row():
     assert [ln.get_label() for ln in ax.get_lines()] == ["c=1e-06", "c=2e-06", "c=3e-06"]
 
 
+def test_cli_sweep_rows_are_kept_when_the_out_directory_fills_up(tmp_path, capsys, monkeypatch):
+    """The rows ran, --out then takes no file (the disk is full): they go to a temporary directory, said so."""
+    import errno
+    import tempfile
+
+    import netdae.io.sweep as io_sweep
+    from netdae.errors import OutputFileError
+
+    real, calls = io_sweep.write_sweep, []
+
+    def write_sweep(out, result, **kwargs):
+        calls.append(out)
+        if len(calls) == 1:
+            raise OutputFileError(str(out / "measures.csv"), "the disk is full", errno.ENOSPC)
+        return real(out, result, **kwargs)
+
+    monkeypatch.setattr(io_sweep, "write_sweep", write_sweep)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    path = tmp_path / "mc.cir"
+    path.write_text(MC)
+    out = tmp_path / "out"
+    assert cli(["sweep", str(path), "--mc", "3", "--workers", "1", "--out", str(out), "--no-plot"]) == 2
+    err = capsys.readouterr().err
+    (rescued,) = (tmp_path / "tmp").iterdir()
+    assert f"cannot write {out / 'measures.csv'}: the disk is full; the rows were written to {rescued} instead" in err
+    assert err.strip().splitlines()[-1] == f"netdae: error: cannot write {out / 'measures.csv'}: the disk is full"
+    rows = (rescued / "measures.csv").read_text().splitlines()
+    assert len(rows) == 4 and rows[0].startswith("row,")
+
+
 def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, monkeypatch):
     pytest.importorskip("distributed")
     import netdae.cli.sweep as cli_sweep
