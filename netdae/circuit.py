@@ -577,6 +577,8 @@ class Circuit:
         OSDI libraries the netlist loads (``.osdi``, ``pre_osdi``), paths resolved.
     steps : list of StepSpec
         The ``.step`` cards (netdae's extension), in netlist order.
+    ic_locations : dict of str to SourceLocation
+        Where each ``.ic`` value was written (the last one, when a node is given twice).
     """
 
     title: str
@@ -601,6 +603,7 @@ class Circuit:
     uses_temper: bool = False
     steps: list[Any] = field(default_factory=list)
     osdi_files: list[tuple[str, SourceLocation | None]] = field(default_factory=list)
+    ic_locations: dict[str, SourceLocation] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, Params):

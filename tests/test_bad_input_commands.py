@@ -372,6 +372,10 @@ API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
     (lambda: netdae.run(API_RC, save=3), r"save must be a string or a list of strings, not int"),
     (lambda: netdae.run(API_RC, reltol="1e-3"), r"reltol must be a number, not str"),
     (lambda: netdae.run(API_RC, abstol=np.array([1e-12, 1e-9])), r"abstol must be a number, not ndarray"),
+    # a callback that is not callable: refused before the work, not when first called after it
+    (lambda: netdae.run(API_RC, progress=3), r"progress must be a function called as progress\(t, tstop, steps\)"),
+    (lambda: netdae.simulate(API_RC.replace(".op", ".tran 1u 1m"), progress="bar"), r"not str \('bar'\)"),
+    (lambda: netdae.sweep(API_RC, params={"r1": [1e3]}, save=["v(out)"], progress=3), r"progress must be a function called as progress\(done, total\), not int"),
 ])
 def test_api_arguments_of_the_wrong_type(call, message):
     """Wrong argument types are TypeErrors that say what is expected (were AttributeErrors from inside, or a
@@ -513,9 +517,100 @@ def test_initial_condition_a_source_overrides_is_named(capsys, tmp_path):
     """.ic v(a)=5 at a node V1 fixes to 1 V: the transient starts at 1 V, as in ngspice, and a warning says the
     value was not held (it was dropped without a word); a value a resistor pulls on is held (no warning)."""
     text = "t\nV1 a 0 1\nR1 a b 1m\nC1 b 0 1u\n.ic v(a)=5 v(b)=2\n.tran 1n 1u\n.end\n"
-    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
     assert status == 0, err
-    assert err == ("netdae: warning: .ic v(a)=5 is not held: v(a) = 1 at t = 0, which the circuit fixes (a voltage "
-                   "source, or a node tied to one)\n")
+    assert err == (f"netdae: warning: {path}:5:7: .ic v(a)=5 is not held: v(a) = 1 at t = 0, which v1 (voltage "
+                   "source) fixes (hint: drop the .ic of v(a), or change v1's value)\n")
     res = netdae.simulate(text, save=["v(a)", "v(b)"])
     assert res["v(a)"][0] == 1.0 and res["v(b)"][0] == pytest.approx(2.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("uic", ["", " uic"])
+def test_initial_condition_across_a_chain_of_sources_names_them(capsys, tmp_path, uic):
+    """.ic v(a)=5 where V1 + V2 fix v(a) = 3 V: with or without uic the start is 3 V (the sources hold), and the
+    warning at the .ic value names both sources and the value used."""
+    text = f"t\nV1 a b 1\nV2 b 0 2\nC1 a 0 1u\nR1 a 0 1k\n.ic v(a)=5\n.tran 1u 10u{uic}\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    when = " by the uic start" if uic else ""
+    assert (f"{path}:6:7: .ic v(a)=5 is not held{when}: v(a) = 3 at t = 0, which v1 (voltage source), v2 (voltage "
+            "source) fix (in series from the node to ground) (hint: drop the .ic of v(a), or change v1's value)") in err
+    res = netdae.simulate(text, save=["v(a)"])
+    assert res["v(a)"][0] == pytest.approx(3.0, rel=1e-12)
+
+
+def test_uic_initial_condition_of_a_node_no_capacitor_holds_is_named(capsys, tmp_path):
+    """uic with .ic v(b)=3 on a resistive divider: b follows from its current law (0.5 V), said at the .ic value."""
+    text = "t\nV1 a 0 1\nR1 a b 1k\nR2 b 0 1k\nC1 a 0 1u\n.ic v(b)=3\n.tran 1u 10u uic\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    assert (f"{path}:6:7: .ic v(b)=3 is not held by the uic start: v(b) = 0.5 at t = 0, which the circuit's "
+            "equations fix there (no capacitor alone holds v(b); elements at b: r1, r2) (hint: give .ic values only "
+            "to nodes a capacitor holds, or leave out uic to start from the operating point)") in err
+    assert netdae.simulate(text, save=["v(b)"])["v(b)"][0] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_initial_condition_given_twice_is_a_warning_at_the_second(capsys, tmp_path):
+    """The last value holds, as in ngspice (measured: v(b)[0] = 2); netdae says one was replaced."""
+    text = "t\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(b)=1 v(b)=2\n.tran 1u 10u\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    assert (f"{path}:5:14: .ic: v(b) is given twice: 2 here replaces 1 (at {path}:5:7) (the last value holds, "
+            "as in ngspice)") in err
+    assert netdae.simulate(text, save=["v(b)"])["v(b)"][0] == pytest.approx(2.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("command", ["check", "run", "index"])
+def test_initial_condition_on_a_missing_node_through_every_command(capsys, tmp_path, command):
+    text = "t\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(zz)=2\n.tran 1u 10u\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, command)
+    assert status == EXIT_ERROR and "bug in netdae" not in err and "Traceback" not in err
+    assert f"{path}:5:7: .ic: unknown node 'zz'" in err and "hint: subcircuit nodes are named" in err
+
+
+@pytest.mark.parametrize("command", ["run", "index"])
+@pytest.mark.parametrize("instance, shown", [("m=-1", "m = -1"), ("area=0", "area = 0")])
+def test_diode_multiplicity_or_area_not_positive_is_located(capsys, tmp_path, command, instance, shown):
+    """As the JFET's, MESFET's and VDMOS's: at the element's card, with the value (it was neither)."""
+    text = f"t\nV1 a 0 1\nR1 a b 1k\nD1 b 0 dd {instance}\n.model dd d\n.op\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, command)
+    assert status == EXIT_ERROR and "bug in netdae" not in err
+    assert f"{path}:4:1: d1: {shown} must be positive (hint: give" in err
+
+
+@pytest.mark.parametrize("elements, warning, signal, used", [
+    # a capacitor across a source: its ic= contradicts the source, which holds (v(a) = 1)
+    ("V1 a 0 1\nC1 a 0 1u ic=2\nR1 a 0 1k\n",
+     "3:1: c1: ic=2 is not held by the uic start: v(a) = 1 at t = 0, which the loop of v1 with c1 fixes", "v(a)", 1.0),
+    # two capacitors in a loop with a source: the loop fixes the sum, the charge at b the split (1/2, 1/2)
+    ("V1 a 0 1\nC1 a b 1u ic=0.3\nC2 b 0 1u ic=0.3\nR1 b 0 1meg\n",
+     "4:1: c2: ic=0.3 is not held by the uic start: v(b) = 0.5 at t = 0, which the loop of c1, v1 with c2 fixes",
+     "v(b)", 0.5),
+    # an inductor in series with a current source: the source's current holds
+    ("I1 0 a 1m\nL1 a b 1m ic=2m\nC1 b 0 1u\n",
+     "3:1: l1: ic=0.002 is not held by the uic start: i(l1) = 0.001 at t = 0, which the current sources and "
+     "inductors at its nodes (i1) fix", "i(l1)", 1e-3),
+])
+def test_uic_element_initial_conditions_a_loop_or_cutset_fixes_are_named(capsys, tmp_path, elements, warning,
+                                                                         signal, used):
+    text = f"t\n{elements}.tran 1u 10u uic\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == 0, err
+    assert f"{path}:{warning} (hint: drop ic=" in err
+    assert netdae.simulate(text, save=[signal])[signal][0] == pytest.approx(used, rel=1e-6)
+
+
+def test_an_initial_condition_the_circuit_overrides_leaves_no_forcing_current_in_the_start():
+    """.ic v(out)=5 on an ideal differentiator's output, which the op-amp fixes: the operating point first held
+    it with the 1e10 S forcing, whose 5e10 A stayed in i(e1) and, through the hidden-constraint correction,
+    moved v(in) (fixed by V1 at 0) to 0.0068 V and v(out) to -6.3047. The start is the closed form:
+    v(out) = -R C dv(in)/dt = -2 pi (1k * 1u * 1 kHz * 1 V), v(in) = 0, i(e1) = -i(v1) = C dv/dt."""
+    text = ("ic on an op-amp output\nV1 in 0 SIN(0 1 1k)\nC1 in m 1u\nR1 m out 1k\nE1 out 0 0 m OPAMP\n"
+            ".ic v(out)=5\n.tran 1u 1m\n.end\n")
+    res = netdae.simulate(text, save=["v(in)", "v(out)", "i(e1)"])
+    assert res["v(in)"][0] == 0.0
+    assert res["v(out)"][0] == pytest.approx(-2 * math.pi, rel=1e-6)
+    assert res["i(e1)"][0] == pytest.approx(2 * math.pi * 1e-3, rel=1e-6)
+    held, moved = [n for n in res.notes if n.startswith("warning: <string>:6:7: .ic v(out)=5 is not held")]
+    assert "v(out) = 0 at t = 0, which e1 (ideal op-amp (nullor)) fixes" in held
+    assert "by the hidden constraints of the start: v(out) = -6.28319 at t = 0" in moved

@@ -8,6 +8,8 @@ ngspice differs by the finite-gain factor 1/(1 + 11/A), i.e. 1.1e-5 relative.
 from __future__ import annotations
 
 import json
+import os
+import stat
 
 import pytest
 
@@ -113,6 +115,19 @@ def test_png_written(tmp_path, capsys):
     assert status == 0 and f"wrote {png}" in err
     data = png.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 1000
+
+
+@pytest.mark.ngspice
+@pytest.mark.skipif(not os.path.exists("/dev/full") or not stat.S_ISCHR(os.stat("/dev/full").st_mode),
+                    reason="no /dev/full device")
+def test_a_plot_onto_a_full_disk_still_prints_the_comparison(tmp_path, capsys):
+    netlist = tmp_path / "bode.cir"
+    netlist.write_text(BODE)
+    status, out, err = run_cli(capsys, netlist, "--plot", "/dev/full")
+    assert status == 2 and "bug in netdae" not in err
+    assert ".ac: pass" in out
+    assert err.strip().splitlines()[-1] == "netdae: error: cannot write /dev/full: the disk is full"
+    assert stat.S_ISCHR(os.stat("/dev/full").st_mode)  # written into, not replaced by the plot
 
 
 @pytest.mark.ngspice

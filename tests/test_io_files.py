@@ -16,6 +16,7 @@ import json
 import os
 import resource
 import shutil
+import stat
 import subprocess
 import sys
 import textwrap
@@ -145,6 +146,38 @@ def test_a_read_only_directory_is_reported_as_such(tmp_path, kind, name):
     assert outcome["type"] == "OutputFileError", outcome
     assert outcome["message"] == f"cannot write {folder / name}: permission denied"
     assert os.listdir(folder) == []
+
+
+def test_a_read_only_out_directory_is_refused_before_the_run(tmp_path):
+    """netdae run --out DIR on an existing directory the user cannot write: said before the transient runs,
+    not by cutting it at its first point (and a sweep's rows are not lost to the measures file)."""
+    folder, drop = _read_only_directory(tmp_path)
+    try:
+        done = _child(["cli", folder, RC], drop_override=drop)
+    finally:
+        folder.chmod(0o755)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip() == (f"netdae: error: cannot write {folder}: the --out directory does not take files: "
+                                   "Permission denied (hint: give a directory you can write into)")
+    assert done.stdout == "" and os.listdir(folder) == []
+
+
+@pytest.mark.skipif(not (os.path.exists("/dev/full") and stat.S_ISCHR(os.stat("/dev/full").st_mode)),
+                    reason="no /dev/full device")
+def test_a_device_is_written_into_never_replaced():
+    """/dev/full as the output file: 'the disk is full', and /dev/full stays the device (a rename over it, as a
+    regular file's atomic write does, replaced it with the plot for every process on the machine)."""
+    with pytest.raises(OutputFileError, match=r"^cannot write /dev/full: the disk is full$"):
+        write_bytes("/dev/full", b"x" * 10_000)
+    assert stat.S_ISCHR(os.stat("/dev/full").st_mode)
+    write_bytes("/dev/null", b"abc")
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
+def test_a_directory_as_the_output_file_is_refused(tmp_path):
+    with pytest.raises(OutputFileError, match=r"it is a directory"):
+        write_bytes(tmp_path, b"abc")
+    assert tmp_path.is_dir()
 
 
 def test_a_file_written_whole_reads_back_and_has_the_usual_permissions(tmp_path):

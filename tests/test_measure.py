@@ -274,7 +274,7 @@ def test_failed_measures_say_why():
     assert "has 1 rise(s)" in got["third"].reason and "third" in got["third"].reason
     assert "outside the tran analysis" in got["late"].reason
     assert "'never' failed" in got["dep"].reason
-    assert "holds no part of the analysis" in got["empty"].reason
+    assert "the window FROM=0.006 TO=0.007 holds no part of the analysis (0 to 0.005)" in got["empty"].reason
     assert got["thalf"].ok  # the others are unaffected
 
 

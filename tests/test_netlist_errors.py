@@ -198,6 +198,10 @@ CASES = [
     ("t\n.options method=euler\n", r"unknown integration method 'euler'", 2, "method"),
     ("t\n.temp\n", r"expected a temperature", 2, None),
     ("t\n.op 1\n", r"unexpected '1'", 2, "1"),
+    # a quoted value on an instance: it was 'missing value after r=' although a value is there
+    ("t\nV1 a 0 1\nR1 a 0 r=\"1k\"\n", r"'r=' takes a number or an expression, not the string '1k'", 3, '"1k"'),
+    ("t\nD1 a 0 dd area=\"x\"\n.model dd d\n", r"'area=' takes a number or an expression, not the string 'x'",
+     2, '"x"'),
     # files
     ("t\n.include nothere.cir\n", r"include file 'nothere.cir' not found", 2, "nothere.cir"),
     ("t\n.lib nothere.lib fast\n", r"library file 'nothere.lib' not found", 2, "nothere.lib"),

@@ -165,6 +165,17 @@ def test_an_instance_parameter_ngspice_does_not_know_is_an_error():
         assert err.value.location.line == 3 and bad.split("=")[0] in str(err.value)
 
 
+@needs_vacask
+def test_a_real_for_an_integer_instance_parameter_names_the_written_parameter():
+    """rgatemod=1.5 was refused as 'instance_rgatemod' (the module's name), which the card never wrote."""
+    with pytest.raises(NetlistError) as err:
+        netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch l=1u w=1u rgatemod=1.5\n.model nch nmos level=54\n.op\n")
+    assert err.value.location.line == 3 and "instance_" not in str(err.value)
+    assert err.value.message == "m1: 'rgatemod' takes an integer value, not 1.5"
+    assert err.value.expected == "rgatemod=<int>"
+    netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch l=1u w=1u rgatemod=1\n.model nch nmos level=54\n.op\n")
+
+
 def test_without_the_extra_a_bsim4_card_names_it(without_vacask):
     with pytest.raises(NetlistError) as err:
         netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=54 vth0=0.4\n.op\n")

@@ -164,6 +164,35 @@ def test_fewer_nodes_leave_the_last_terminals_unconnected():
     assert 0 < ids[0] < ids[1] < ids[2] and ids[2] > 1e-5
 
 
+def test_fewer_nodes_than_terminals_is_noted_at_the_card():
+    """Allowed (BSIM-BULK's thermal terminal), but a forgotten node is said: a resistor's b left floating."""
+    c = netdae.load(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a rm\n.model rm resistor\n")
+    (note,) = [d for d in c.diagnostics if "left unconnected" in d.message]
+    assert note.severity == "note" and note.location.line == 4
+    assert note.message == ("n1: connects 1 of OSDI module resistor's 2 terminals (a, b); b is left unconnected "
+                            "(nodes of the instance's own)")
+    full = netdae.load(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor\n")
+    assert not [d for d in full.diagnostics if "left unconnected" in d.message]
+
+
+def test_stepping_an_osdi_model_parameter_checks_the_modules_table():
+    """.step rm(bogus) failed every row at elaboration, located at the .model card that never wrote 'bogus';
+    it is refused at the .step card, as a built-in model's unknown parameter is. rm(r) steps."""
+    base = (f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nR0 a b 1k\nN1 b 0 rm\n.model rm resistor r=1k\n"
+            ".op\n.meas dc vb find v(b) at=1\n")
+    e = _error(base + ".step rm(bogus) list 1 2\n")
+    assert (e.location.line, e.location.column) == (9, 7)
+    assert "model 'rm' (OSDI module resistor) has no parameter 'bogus'" in e.message and "r, noisy" in e.hint
+    res = netdae.sweep(base + ".dc v1 0 1 1\n.step rm(r) list 1k 3k\n", analyses=["dc"], workers=1)
+    np.testing.assert_allclose(res.measures["vb"], [0.5, 0.75], rtol=1e-9)
+
+
+def test_the_current_of_an_osdi_device_in_a_measure_is_named_in_words():
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor\n.tran 1n 10n\n"
+               ".meas tran x find i(n1) at=5n\n")
+    assert "'n1' is a compiled Verilog-A device (OSDI), whose current netdae does not compute" in e.message
+
+
 def test_unknown_model_parameter_is_located_at_the_parameter():
     e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=1k bogus=2\n")
     assert (e.location.line, e.location.column) == (5, 31)  # at the value, as for every model parameter
@@ -185,6 +214,23 @@ def test_wrong_osdi_version_is_located(tmp_path):
     path = _fake_osdi(tmp_path, 0, 3)
     e = _error(f"t\n.osdi {path}\nV1 a 0 1\nR1 a 0 1k\n")
     assert e.location.line == 2 and "OSDI version 0.3" in e.message
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_model_undefined_in_a_transient_is_named(monkeypatch, engine):
+    """Its current is sqrt(-1 - v) above vbad = 0.3 V: the step is cut there, the instance named, the points kept."""
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    lib = compile_va(str(DATA / "nanres.va"))
+    (res,) = netdae.run(f"nan\n.osdi {lib}\nV1 in 0 PULSE(0 1 1u 1u 1u 10u 20u)\nR1 in a 1k\nN1 a 0 nm\n"
+                        "C1 a 0 1n\n.model nm nanres r=1k vbad=0.3\n.tran 10n 10u\n")
+    assert not res.ok
+    assert "the equations of v(a) are not finite there; devices writing into them: n1 (model nm, nanres)" \
+        in res.message
+    assert "square root or logarithm of a negative number" in res.message
+    t, v = res.t, res["v(a)"]
+    # v(a) of the RC (tau = 0.5 us, final value 0.5 V) reaches 0.3 V at 1 us + ramp + tau ln(2.5)
+    assert t[-1] > 1.5e-6 and np.all(np.isfinite(v)) and v[-1] == pytest.approx(0.3, abs=0.01)
 
 
 # --- the compiled engine ----------------------------------------------------------------------

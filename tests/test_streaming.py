@@ -175,6 +175,30 @@ def test_a_full_disk_stops_the_run_and_keeps_a_valid_file(tmp_path):
     np.testing.assert_array_equal(part["i(v1)"], full["i(v1)"][: part.points])
 
 
+def test_a_full_disk_still_prints_what_was_computed(tmp_path):
+    """The .op before the transient, the transient's message and its measurement on the points it reached are
+    printed, the .op's file written; the error about the transient's file comes last (exit status 2)."""
+    out = tmp_path / "res"
+    out.mkdir()
+    path = tmp_path / "rc.cir"
+    path.write_text(NETLIST.replace(".meas tran vmax max v(out)", ".meas tran vmax max v(out) to=2m"))
+    done = _child(["cli", out, path], size_limit=40_000)
+    assert done.returncode == 2, done.stderr
+    assert "bug" not in done.stderr and "Traceback" not in done.stderr
+    error = done.stderr.strip().splitlines()[-1]
+    assert error.startswith(f"netdae: error: cannot write {out / 'tran.raw'}: the file-size limit was reached")
+    (part,) = read_raw(out / "tran.raw")
+    (op,) = read_raw(out / "op.raw")
+    assert op["v(out)"][0] == 0.0
+    assert ".op: converged" in done.stdout and re.search(r"^v\(out\)\s+0 V$", done.stdout, re.M)
+    assert f".tran: stopped at t=" in done.stdout and "the file-size limit was reached" in done.stdout
+    # the sine's first maximum through the RC (tau = 0.1 ms): the measurement made on the points reached
+    vmax = float(re.search(r"^vmax\s+=\s+(\S+)", done.stdout, re.M).group(1))
+    full = _full_tran(NETLIST)
+    assert part.t[-1] > 2e-3
+    assert vmax == pytest.approx(full["v(out)"][full.t <= 2e-3].max(), rel=1e-3)
+
+
 def test_a_file_killed_mid_run_is_refused_unless_read_partially(tmp_path):
     circuit = netdae.load(NETLIST)
     stream = RawStream(tmp_path / "tran.raw", title=circuit.title, date="today")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import concurrent.futures as cf
+import concurrent.futures.process
 import json
 import math
 import multiprocessing
@@ -311,6 +312,60 @@ def test_interrupt_keeps_the_finished_rows():
     assert res.errors[-1].startswith("not run") and "interrupted" in res.notes[0]
 
 
+class _LosingExecutor(cf.Executor):
+    """Runs tasks in this process, but the second task's worker is lost (killed, or its cluster gone)."""
+
+    def __init__(self, lost: BaseException) -> None:
+        self.lost, self.calls = lost, 0
+
+    def submit(self, fn, /, *args, **kwargs):
+        fut = cf.Future()
+        self.calls += 1
+        if self.calls == 2:
+            fut.set_exception(self.lost)
+        else:
+            fut.set_result(fn(*args, **kwargs))
+        return fut
+
+
+@pytest.mark.parametrize("lost, reason", [
+    (cf.process.BrokenProcessPool("A process in the process pool was terminated abruptly"),
+     "a worker process ended abruptly (killed, or out of memory)"),
+    (OSError("Timed out trying to connect to tcp://127.0.0.1:8786"),
+     "the task failed on its worker: OSError: Timed out trying to connect"),
+    (MemoryError(), "the worker ran out of memory"),
+])
+def test_a_lost_worker_fails_its_rows_and_keeps_the_others(lost, reason):
+    """A worker killed (the out-of-memory killer) or a cluster gone: those rows failed, never a lost sweep."""
+    res = netdae.sweep(MC, samples=12, executor=_LosingExecutor(lost))
+    lost_rows = [k for k, e in enumerate(res.errors) if e is not None]
+    assert 0 < len(lost_rows) < 12 and all(reason in res.errors[k] for k in lost_rows)
+    assert all(res.errors[k].startswith("not run") and "hint:" in res.errors[k] for k in lost_rows)
+    kept = [k for k in range(12) if k not in lost_rows]
+    serial = netdae.sweep(MC, samples=12, workers=1)
+    np.testing.assert_array_equal(res.measures["va"][kept], serial.measures["va"][kept])
+    assert np.isnan(res.measures["va"][lost_rows]).all()
+    assert f"{len(lost_rows)} of 12 rows failed" in res.notes[0] and reason in res.notes[0]
+
+
+def test_a_row_out_of_memory_is_a_failed_row(monkeypatch):
+    """MemoryError in one row is that row's failure; the rows after it still run."""
+    import netdae.analyses.runner as runner
+
+    real, calls = runner.run, []
+
+    def run(circuit, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise MemoryError
+        return real(circuit, **kwargs)
+
+    monkeypatch.setattr(runner, "run", run)
+    res = netdae.sweep(MC, samples=3, workers=1)
+    assert res.failed == 1 and res.errors[1].startswith("out of memory") and "hint:" in res.errors[1]
+    assert np.isfinite(res.measures["va"][[0, 2]]).all()
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"samples": 5}, r"draws nothing"),
     ({"params": {"nope": [1]}}, r"'nope' is neither a top-level .param"),
@@ -476,6 +531,37 @@ def test_plots_draw_a_histogram_per_point_and_a_curve_per_row():
     assert [ln.get_label() for ln in ax.get_lines()] == ["c=1e-06", "c=2e-06", "c=3e-06"]
 
 
+def test_cli_sweep_rows_are_kept_when_the_out_directory_fills_up(tmp_path, capsys, monkeypatch):
+    """The rows ran, --out then takes no file (the disk is full): they go to a temporary directory, said so."""
+    import errno
+    import tempfile
+
+    import netdae.io.sweep as io_sweep
+    from netdae.errors import OutputFileError
+
+    real, calls = io_sweep.write_sweep, []
+
+    def write_sweep(out, result, **kwargs):
+        calls.append(out)
+        if len(calls) == 1:
+            raise OutputFileError(str(out / "measures.csv"), "the disk is full", errno.ENOSPC)
+        return real(out, result, **kwargs)
+
+    monkeypatch.setattr(io_sweep, "write_sweep", write_sweep)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    path = tmp_path / "mc.cir"
+    path.write_text(MC)
+    out = tmp_path / "out"
+    assert cli(["sweep", str(path), "--mc", "3", "--workers", "1", "--out", str(out), "--no-plot"]) == 2
+    err = capsys.readouterr().err
+    (rescued,) = (tmp_path / "tmp").iterdir()
+    assert f"cannot write {out / 'measures.csv'}: the disk is full; the rows were written to {rescued} instead" in err
+    assert err.strip().splitlines()[-1] == f"netdae: error: cannot write {out / 'measures.csv'}: the disk is full"
+    rows = (rescued / "measures.csv").read_text().splitlines()
+    assert len(rows) == 4 and rows[0].startswith("row,")
+
+
 def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, monkeypatch):
     pytest.importorskip("distributed")
     import netdae.cli.sweep as cli_sweep
@@ -484,7 +570,8 @@ def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, m
     path = tmp_path / "mc.cir"
     path.write_text(MC)
     assert cli(["sweep", str(path), "--mc", "3", "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 2
-    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in err and "hint: start one there" in err
     assert not (tmp_path / "measures.csv").exists()
     for address, message in (("foo", "--scheduler 'foo' is not an address Dask can read"),
                              ("", "--scheduler: the address is empty")):

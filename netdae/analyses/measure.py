@@ -318,8 +318,10 @@ def _window(spec: MeasureSpec, trace: _Trace) -> tuple[float, float]:
     x0, x1 = trace.span
     lo = x0 if spec.start is None else max(x0, spec.start)
     hi = x1 if spec.stop is None else min(x1, spec.stop)
-    if not lo < hi:
-        raise MeasureFailure(f"the window FROM={lo:g} TO={hi:g} holds no part of the analysis ({x0:g} to {x1:g})")
+    if not lo < hi:  # the window as written (FROM=2m TO=3m beyond a 1 ms run, not the clipped FROM=2m TO=1m)
+        start = lo if spec.start is None else spec.start
+        stop = hi if spec.stop is None else spec.stop
+        raise MeasureFailure(f"the window FROM={start:g} TO={stop:g} holds no part of the analysis ({x0:g} to {x1:g})")
     return lo, hi
 
 

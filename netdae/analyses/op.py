@@ -75,19 +75,111 @@ def _node_forcing(system: MnaSystem, values: dict[str, float], what: str) -> For
     return Forcing(np.array(idx, dtype=np.int64), np.array(val, dtype=float))
 
 
-def _unheld_initial_conditions(system: MnaSystem, forcing: Forcing, x, opts) -> list[str]:
+def _unheld_initial_conditions(circuit: Circuit, system: MnaSystem, forcing: Forcing, x, opts) -> list[str]:
     """Warnings for ``.ic`` values the operating point could not hold (a node a voltage source fixes).
 
     ngspice holds ``.ic`` nodes with a conductance, which a source's node overrides without a
-    word; netdae says so rather than drop the value silently.
+    word; netdae says so rather than drop the value silently, at the ``.ic`` value, naming what
+    fixes the node.
     """
-    out = []
-    for i, want in zip(forcing.index, forcing.value):
-        got = float(x[i])
-        if abs(got - want) > opts.reltol * max(abs(got), abs(want)) + opts.vntol:
-            out.append(f"warning: .ic {system.names[i]}={want:g} is not held: {system.names[i]} = {got:.6g} at "
-                       "t = 0, which the circuit fixes (a voltage source, or a node tied to one)")
-    return out
+    return [unheld_initial_condition(circuit, system.layout.target(int(i))[1], float(want), float(x[i]))
+            for i, want in zip(forcing.index[_unheld(forcing, x, opts)], forcing.value[_unheld(forcing, x, opts)])]
+
+
+def _unheld(forcing: Forcing, x, opts) -> np.ndarray:
+    """Which forced values the solution ``x`` does not hold (a mask over ``forcing.index``)."""
+    got = np.asarray(x)[forcing.index]
+    return np.abs(got - forcing.value) > opts.reltol * np.maximum(np.abs(got), np.abs(forcing.value)) + opts.vntol
+
+
+def voltage_path(circuit: Circuit, node: str) -> list[str]:
+    """The voltage-defining elements (V, E, H, B voltage sources, op-amp outputs) that tie ``node`` to ground.
+
+    A shortest chain of such elements from the node to ground, in order from the
+    node; empty when no chain reaches ground (the node's voltage is then not fixed by
+    sources alone).
+
+    Examples
+    --------
+    >>> from netdae.netlist import load
+    >>> voltage_path(load("t\\nV1 a b 1\\nV2 b 0 2\\nR1 a c 1k\\nR2 c 0 1k\\n"), "a")
+    ['v1', 'v2']
+    >>> voltage_path(load("t\\nV1 a b 1\\nV2 b 0 2\\nR1 a c 1k\\nR2 c 0 1k\\n"), "c")
+    []
+    """
+    from ..kinds import VOLTAGE
+
+    return branch_path(circuit, node, "0", (VOLTAGE,))
+
+
+def branch_path(circuit: Circuit, a: str, b: str, classes: tuple[int, ...], skip: str = "") -> list[str]:
+    """A shortest chain from node ``a`` to node ``b`` of elements whose branches are of ``classes``.
+
+    The elements in order from ``a``; ``skip`` is left out (the element whose own
+    constraint is asked about); empty when no chain joins them. With ``VOLTAGE``
+    alone: the sources that fix ``v(a) - v(b)``; with ``VOLTAGE`` and
+    ``CAPACITIVE``: a loop of capacitors and sources that fixes a capacitor's
+    voltage at a ``uic`` start.
+
+    Examples
+    --------
+    >>> from netdae.kinds import CAPACITIVE, VOLTAGE
+    >>> from netdae.netlist import load
+    >>> c = load("t\\nV1 a 0 1\\nC1 a b 1u\\nC2 b 0 1u\\n")
+    >>> branch_path(c, "a", "b", (VOLTAGE, CAPACITIVE), skip="c1")
+    ['v1', 'c2']
+    >>> branch_path(c, "a", "b", (VOLTAGE,))
+    []
+    """
+    links: dict[str, list[tuple[str, str]]] = {}
+    for el in circuit.elements:
+        if el.name == skip:
+            continue
+        for cls, i, j in KINDS[el.kind].branches:
+            if cls in classes and max(i, j) < len(el.nodes):
+                ni, nj = el.nodes[i], el.nodes[j]
+                links.setdefault(ni, []).append((el.name, nj))
+                links.setdefault(nj, []).append((el.name, ni))
+    came: dict[str, tuple[str, str] | None] = {a: None}
+    queue = [a]
+    for here in queue:
+        if here == b:
+            path = []
+            while came[here] is not None:
+                name, here = came[here]
+                path.append(name)
+            return path[::-1]
+        for name, other in links.get(here, ()):
+            if other not in came:
+                came[other] = (name, here)
+                queue.append(other)
+    return []
+
+
+def unheld_initial_condition(circuit: Circuit, node: str, want: float, got: float, when: str = "",
+                             uic: bool = False) -> str:
+    """The warning for an ``.ic v(node)=want`` the transient's start does not hold (it starts from ``got``).
+
+    Located at the ``.ic`` value; names the sources that fix the node when there are,
+    else the elements whose equations at the node decide its value.
+    """
+    where = circuit.ic_locations.get(node)
+    text = f"{where}: " if where is not None else ""
+    text += f".ic v({node})={want:g} is not held{when}: v({node}) = {got:.6g} at t = 0"
+    path = voltage_path(circuit, node)
+    if path:
+        named = [f"{n} ({KINDS[circuit.element(n).kind].summary})" for n in path]
+        text += (f", which {_names(named)} fix{'es' if len(path) == 1 else ''}"
+                 f"{'' if len(path) == 1 else ' (in series from the node to ground)'}")
+        sources = [n for n in path if KINDS[circuit.element(n).kind].independent]
+        hint = f"drop the .ic of v({node})" + (f", or change {sources[0]}'s value" if sources else "")
+    else:
+        at = [el.name for el in circuit.elements if node in el.nodes]
+        text += (f", which the circuit's equations fix there (no capacitor alone holds v({node}); elements at "
+                 f"{node}: {_names(at)})")
+        hint = "give .ic values only to nodes a capacitor holds" + (
+            ", or leave out uic to start from the operating point" if uic else "")
+    return f"warning: {text} (hint: {hint})"
 
 
 def _describe_unknowns(system: MnaSystem, indices, x) -> str:
@@ -509,7 +601,20 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
             _check_charge_balance(circuit, system, res, groups, used, t, opts)
         res.notes = [_charge_note(g) for g in used] + ([_law_note(circuit, system, laws)] if laws else [])
         if forcing is not None:
-            res.notes = list(res.notes) + _unheld_initial_conditions(system, forcing, res.x, opts)
+            warnings = _unheld_initial_conditions(circuit, system, forcing, res.x, opts)
+            unheld = _unheld(forcing, res.x, opts)
+            if unheld.any():
+                # The forcing conductance of a value the circuit overrides carries (value - v) * 1e10 A into
+                # the source that fixes the node (5e10 A into an op-amp's output for .ic 5 V against 0 V):
+                # the transient would start from that current. Solved again without those values.
+                keep = ~unheld
+                held = Forcing(forcing.index[keep], forcing.value[keep]) if keep.any() else None
+                again = solve_steady(system, t, res.x, options=opts, forcing=held, nodeset=nodeset,
+                                     charges=groups + laws)
+                if again.converged:
+                    again.notes = res.notes
+                    res = again
+            res.notes = list(res.notes) + warnings
         return res
     if res.singular:
         raise _singular_error(circuit, system, res, topology)

@@ -151,6 +151,25 @@ def check_options(circuit: Circuit, **overrides: Any) -> None:
                                hint=f"correct or remove {name} in the .options card")
 
 
+def check_callable(value, name: str, form: str) -> None:
+    """Refuse an argument that should be a callback before anything runs (not when it is first called, after
+    the work it reports on).
+
+    Raises
+    ------
+    TypeError
+        ``value`` is neither None nor callable.
+
+    >>> check_callable(print, "progress", "progress(done, total)")
+    >>> check_callable(3, "progress", "progress(done, total)")
+    Traceback (most recent call last):
+    ...
+    TypeError: progress must be a function called as progress(done, total), not int (3)
+    """
+    if value is not None and not callable(value):
+        raise TypeError(f"{name} must be a function called as {form}, not {type(value).__name__} ({value!r})")
+
+
 def string_entries(value: Any, what: str) -> tuple[str, ...] | None:
     """An API argument that names things (``save=``, ``measures=``, ``analyses=``) as a tuple of strings.
 
@@ -294,6 +313,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     """
     circuit = _circuit(circuit)
     refuse_steps(circuit)
+    check_callable(progress, "progress", "progress(t, tstop, steps)")
     options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
     check_options(circuit, **options)
     if not circuit.analyses:
@@ -556,6 +576,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     refuse_steps(circuit)
     if initial not in ("consistent", "ngspice"):
         raise ValueError(f"initial must be 'consistent' or 'ngspice', not {initial!r}")
+    check_callable(progress, "progress", "progress(t, tstop, steps)")
     check_options(circuit, reltol=reltol, abstol=abstol, vntol=vntol, maxord=maxord, max_step=max_step)
     from .tran import transient
 

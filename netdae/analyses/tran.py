@@ -87,6 +87,8 @@ JUMP_TOLERANCE = 1e-6
 #: Jumps of the solution (inputs that jump, index-2 unknowns at corners) noted one by one
 #: up to this many; the rest are counted (all are in ``transient.jumps``).
 JUMP_NOTES = 3
+#: Devices named when a transient stops on equations that are not finite.
+NAMED_DEVICES = 4
 #: A transient whose output needs more than this fraction of the machine's memory at its fewest
 #: points is refused (it could not finish); above ADVISE_FRACTION it runs with a warning.
 REFUSE_FRACTION = 1.0
@@ -771,9 +773,11 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
         x0 = _consistent_from_charges(system, start, rep, card.tstop, settings.steady)
         text, detail = _correction_note(system, start.x, x0, "uic: algebraic unknowns made consistent with the "
                                         "initial capacitor voltages and inductor currents")
+        warnings = _moved_initial_conditions(prepared.circuit, system, x0, settings, " by the uic start")
+        warnings += _unheld_element_ics(prepared.circuit, system, x0, settings)
         if detail:
-            return x0, {"reason": "uic", "changed": detail}, [text]
-        return x0, None, []
+            return x0, {"reason": "uic", "changed": detail}, warnings + [text]
+        return x0, None, warnings
     if not (rep.pencil is not None and rep.pencil.weierstrass is not None and (rep.index or 0) >= 2):
         return x0, None, []
     # Without .ic the start is the DC operating point, a steady state of the inputs' values at t0: it
@@ -796,7 +800,85 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
     if not detail:  # moved by rounding only (below 1e-9 of each value): nothing to report
         return x0, None, []
     text += "" if system.linear else " (from the linearisation at the operating point)"
-    return x0, {"reason": "hidden constraints", "changed": detail}, [text]
+    warnings = _moved_initial_conditions(prepared.circuit, system, x0, settings,
+                                         " by the hidden constraints of the start", held=start.x)
+    return x0, {"reason": "hidden constraints", "changed": detail}, warnings + [text]
+
+
+def _unheld_element_ics(circuit: Circuit, system: MnaSystem, x0: np.ndarray, settings: _Settings) -> list[str]:
+    """Located warnings for the capacitors' and inductors' ``ic=`` a ``uic`` start cannot keep.
+
+    A capacitor in a loop with voltage sources and other capacitors (across a
+    source, say) has its voltage fixed by the loop, an inductor in a cutset with
+    current sources by the cutset; the consistent start takes those values, and
+    the warning at the element names the loop (or the current sources and
+    inductors at its nodes) and the value used.
+    """
+    from ..kinds import CAPACITIVE, CURRENT, INDUCTIVE, VOLTAGE
+    from .op import branch_path
+
+    def voltage(node: str) -> float:
+        i = system.node_index(node) if node != "0" else -1
+        return float(x0[i]) if i >= 0 else 0.0
+
+    out = []
+    for el in circuit.elements:
+        if "ic" not in el.params or el.kind not in (Kind.CAPACITOR, Kind.INDUCTOR):
+            continue
+        want = float(el.params["ic"])
+        where = f"{el.location}: " if el.location else ""
+        if el.kind == Kind.CAPACITOR:
+            a, b = el.nodes[0], el.nodes[1]
+            got = voltage(a) - voltage(b)
+            if abs(got - want) <= settings.rtol * max(abs(got), abs(want)) + settings.vntol:
+                continue
+            what = f"v({a})" if b == "0" else f"v({a},{b})" if a != "0" else f"-v({b})"
+            loop = branch_path(circuit, a, b, (VOLTAGE, CAPACITIVE), skip=el.name)
+            why = (f"which the loop of {', '.join(loop)} with {el.name} fixes" if loop else
+                   "which the circuit's equations fix there")
+        else:
+            got = float(x0[system.layout.branch(el.name)])
+            if abs(got - want) <= settings.rtol * max(abs(got), abs(want)) + settings.abstol:
+                continue
+            what = f"i({el.name})"
+            cut = [o.name for o in circuit.elements if o.name != el.name and set(o.nodes) & set(el.nodes)
+                   and any(cls in (CURRENT, INDUCTIVE) for cls, _, _ in KINDS[o.kind].branches)]
+            why = (f"which the current sources and inductors at its nodes ({', '.join(cut[:NAMED_DEVICES])}) fix"
+                   if cut else "which the circuit's equations fix there")
+        out.append(f"warning: {where}{el.name}: ic={want:g} is not held by the uic start: {what} = {got:.6g} at "
+                   f"t = 0, {why} (hint: drop ic= on {el.name}, or give values that agree)")
+    return out
+
+
+def _moved_initial_conditions(circuit: Circuit, system: MnaSystem, x0: np.ndarray, settings: _Settings,
+                              when: str, held: np.ndarray | None = None) -> list[str]:
+    """Located warnings for the ``.ic`` values a consistent start ``x0`` does not keep.
+
+    A ``uic`` start keeps the capacitor voltages and inductor currents; a node a
+    voltage source fixes, or one no capacitor holds, takes the value the circuit's
+    equations give it at t = 0 (ngspice starts from the ``.ic`` value there and
+    jumps in its first step). Each such value is named at its ``.ic`` card with
+    what fixes it and the value used. ``held``: the operating point the start
+    corrects; a value it did not hold has had its warning there, repeated here
+    only when the correction moves it again (the value the transient starts from).
+    """
+    from .op import unheld_initial_condition
+
+    def differs(got: float, want: float) -> bool:
+        return abs(got - want) > settings.rtol * max(abs(got), abs(want)) + settings.vntol
+
+    out = []
+    for node, want in circuit.ic.items():
+        try:
+            i = system.node_index(node)
+        except KeyError:
+            continue
+        if i < 0 or (held is not None and differs(float(held[i]), want)
+                     and not differs(float(x0[i]), float(held[i]))):
+            continue  # the operating point's warning said it, and the start keeps that value
+        if differs(float(x0[i]), want):
+            out.append(unheld_initial_condition(circuit, node, want, float(x0[i]), when, uic=settings.card.uic))
+    return out
 
 
 @dataclass
@@ -896,8 +978,51 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         message += _instability(rep, res.t[-1] - card.tstart)
     if res.failure is not None and res.failure.worst:
         message += _jumping_source(prepared.circuit, res.failure.worst)
+        message += _undefined_devices(prepared.circuit, system, res.failure)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
+
+
+def _undefined_devices(circuit: Circuit, system: MnaSystem, failure) -> str:
+    """Which devices' equations a failure on a non-finite evaluation comes from, else ``""``.
+
+    The integrators stop when the equations are not finite at every step size
+    (a model's square root or logarithm of a negative number, a division by
+    zero, an overflow) and name the first unknown whose row is not finite.
+    Here that row becomes the devices writing into it: the elements touching
+    its node or owning its branch, the nonlinear ones (those evaluated by a
+    device family: diodes, transistors, OSDI modules, behavioural sources)
+    first, since constant stamps are always finite.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    system : MnaSystem
+    failure : IntegrationFailure
+        The run's failure; its ``worst`` names the non-finite row.
+
+    Returns
+    -------
+    str
+        ``" (not finite in the equations of ...: n1 (model nm, module nanres) ...)"`` or ``""``.
+    """
+    from .op import _involved_elements
+
+    if "not finite" not in f"{failure.what} {failure.hint}" or failure.worst not in system.names:
+        return ""
+    names = _involved_elements(circuit, system, [system.names.index(failure.worst)])
+    devices = [n for n in names if not KINDS[circuit.element(n).kind].stamped] or names
+    if not devices:
+        return ""
+    shown = []
+    for name in devices[:NAMED_DEVICES]:
+        el = circuit.element(name)
+        model = circuit.models.get(el.model) if el.model else None
+        shown.append(f"{name} (model {el.model}, {model.type})" if model is not None else name)
+    more = f" and {len(devices) - NAMED_DEVICES} more" if len(devices) > NAMED_DEVICES else ""
+    return (f" (the equations of {failure.worst} are not finite there; devices writing into them: "
+            f"{', '.join(shown)}{more}: one of them is undefined at these values, e.g. the square root or logarithm "
+            "of a negative number, a division by zero or an overflow in its model or expression)")
 
 
 def _jumping_source(circuit, worst: str) -> str:

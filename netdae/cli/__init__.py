@@ -156,7 +156,8 @@ def output_directory(path) -> "Path":
     ------
     OutputFileError
         When ``path`` (or a part of it) is a file, or the directory cannot be
-        created: said in words, naming the option, before a long run is lost
+        created or does not take a file (no write permission, a read-only file
+        system): said in words, naming the option, before a long run is lost
         to it.
     """
     import errno
@@ -177,6 +178,14 @@ def output_directory(path) -> "Path":
     except OSError as exc:
         raise OutputFileError(str(out), f"cannot create the --out directory: {exc.strerror or exc}",
                               exc.errno) from None
+    import tempfile
+
+    try:  # an existing directory this user cannot write into (or a read-only file system): found now, not after
+        with tempfile.TemporaryFile(dir=out, prefix=".netdae-"):  # the run, as the files are written
+            pass
+    except OSError as exc:
+        raise OutputFileError(str(out), f"the --out directory does not take files: {exc.strerror or exc} "
+                              "(hint: give a directory you can write into)", exc.errno) from None
     return out
 
 

@@ -14,7 +14,7 @@ import json
 import logging
 import sys
 
-from . import add_ngbehavior, option_value, positive_float, signal_names
+from . import EXIT_ERROR, add_ngbehavior, option_value, positive_float, signal_names
 
 __all__ = ["add_parser", "main"]
 
@@ -67,7 +67,9 @@ def main(args) -> int:
         timeout=args.timeout,
         behavior=args.ngbehavior,
     )
-    written = None
+    from ..errors import OutputFileError
+
+    written, write_error = None, None
     if args.plot:
         from ..comparison.plot import plot_comparison
 
@@ -75,7 +77,10 @@ def main(args) -> int:
         if comparison.points:
             LOG.info("note: --plot draws the first point of the .step cards (%s)",
                      ", ".join(f"{k}={v:g}" for k, v in drawn.point.items()))
-        written = str(plot_comparison(drawn, args.plot))
+        try:
+            written = str(plot_comparison(drawn, args.plot))
+        except OutputFileError as exc:  # a full disk: the comparison is still printed, then the error
+            write_error = exc
     if args.json:
         doc = comparison.to_dict()
         if written:
@@ -86,4 +91,7 @@ def main(args) -> int:
         sys.stdout.write(format_comparison(comparison))
     if written:
         LOG.info("wrote %s", written)
+    if write_error is not None:
+        LOG.error("%s", write_error)
+        return EXIT_ERROR
     return 0 if comparison.passed else 1

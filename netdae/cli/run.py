@@ -37,6 +37,7 @@ from types import SimpleNamespace
 
 from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
 from ..signals import signal_unit
+from ..errors import OutputFileError
 
 __all__ = ["add_parser", "main", "stems"]
 
@@ -44,6 +45,8 @@ LOG = logging.getLogger("netdae")
 
 #: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
+#: A result file that cannot be written (a full disk): the results are still printed, then the error.
+EXIT_ERROR = 2
 #: Matrix file formats of ``--export``, by suffix.
 EXPORT_SUFFIXES = (".npz", ".mtx")
 
@@ -265,9 +268,17 @@ def main(args) -> int:
     finally:
         bar.close()
     keys = stems(results)
+    # A file that cannot be written (a full disk) does not lose what was computed: the other files are
+    # written, the results and measurements printed, and the error said last (exit status 2).
+    write_errors: list[OutputFileError] = []
+    written: list[list[str]] = []
     try:
-        written = [_write(res, stem, args, out_dir, circuit.title, circuit, streams.get(position))
-                   for position, (res, stem) in enumerate(zip(results, keys))]
+        for position, (res, stem) in enumerate(zip(results, keys)):
+            try:
+                written.append(_write(res, stem, args, out_dir, circuit.title, circuit, streams.get(position)))
+            except OutputFileError as exc:
+                write_errors.append(exc)
+                written.append([])
     finally:
         _close_streams(streams)  # those a failed write left open
 
@@ -276,13 +287,19 @@ def main(args) -> int:
     if out_dir is not None and measures:
         from ..io.measures import write_measures
 
-        measures_file = str(out_dir / "measures.csv")
-        write_measures(measures_file, measures)
+        try:
+            write_measures(out_dir / "measures.csv", measures)
+            measures_file = str(out_dir / "measures.csv")
+        except OutputFileError as exc:
+            write_errors.append(exc)
     exported = []
     if args.export:
         from ..io.matrices import export_matrices
 
-        exported = [str(f) for f in export_matrices(circuit, args.export)]
+        try:
+            exported = [str(f) for f in export_matrices(circuit, args.export)]
+        except OutputFileError as exc:
+            write_errors.append(exc)
     if args.json:
         doc: dict = {}
         for key, res, files in zip(keys, results, written):
@@ -322,9 +339,13 @@ def main(args) -> int:
         LOG.info("wrote %s", measures_file)
     for path in exported:
         LOG.info("wrote %s", path)
+    for exc in write_errors:
+        LOG.error("%s", exc)
     if interrupted is not None:
         LOG.error("interrupted: %s", results[-1].message)
         return EXIT_INTERRUPTED
+    if write_errors:
+        return EXIT_ERROR
     return 0 if all(r.ok for r in results) else 1
 
 

@@ -22,6 +22,7 @@ import json
 import logging
 import sys
 import time
+from pathlib import Path
 
 from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
 
@@ -147,10 +148,38 @@ def _dask_executor(address: str):
     try:
         client = Client(address, timeout=f"{SCHEDULER_TIMEOUT}s")
     except (OSError, TimeoutError) as exc:
-        raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        raise NetdaeError(f"cannot reach the Dask scheduler at {address}: {exc} (hint: start one there "
+                          "('dask scheduler' prints its address) and check the host and port, or leave out "
+                          "--scheduler to run on this machine's cores)") from None
     except ValueError as exc:  # distributed's word for an address it cannot read ('foo': no port)
         raise NetdaeError(f"--scheduler {address!r} is not an address Dask can read: {exc} {hint}") from None
     return client, client.get_executor()
+
+
+def _rescue(result, waveforms: bool, exc) -> list[str]:
+    """The rows' files written to a fresh temporary directory when ``--out`` could not take them.
+
+    A sweep's rows are hours of computation and the summary printed is not
+    them: when ``--out`` fills up (or stops taking files) after the rows ran,
+    the same files go to the system's temporary directory, another file system
+    more often than not, and the log says where. Nothing is written there when
+    that fails too (the original error is raised either way).
+    """
+    import tempfile
+
+    from ..errors import OutputFileError
+    from ..io.sweep import write_sweep
+
+    try:
+        folder = Path(tempfile.mkdtemp(prefix="netdae-sweep-"))
+    except OSError:
+        return []
+    try:
+        files = write_sweep(folder, result, waveforms=waveforms)
+    except OutputFileError:
+        return []
+    LOG.warning("%s; the rows were written to %s instead", exc, folder)
+    return files
 
 
 class _Progress:
@@ -215,6 +244,7 @@ def main(args) -> int:
         files = write_sweep(out, result, waveforms=args.waveforms)
     except OutputFileError as exc:  # a full disk: the summary and the notes are still printed, then the error
         write_error = exc
+        files = _rescue(result, args.waveforms, exc)
     if args.plot and write_error is None:
         from ..plotting import plot_sweep, save_figure
 

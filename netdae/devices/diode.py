@@ -276,10 +276,11 @@ class DiodeFamily(DeviceFamily):
             row["area"] = inst.get("area", mv["area"])
             row["mult"] = inst["m"]
             row["off"] = inst["off"]
-            for key in ("area", "mult"):
-                if row[key] <= 0.0:
-                    raise CircuitError(f"{el.name}: {key if key == 'area' else 'm'} must be positive",
-                                       elements=(el.name,))
+            for key, shown in (("area", "area"), ("mult", "m")):
+                if not row[key] > 0.0:  # located as the other devices' (a NaN is refused too)
+                    where = f"{el.location}: " if el.location else ""
+                    raise CircuitError(f"{where}{el.name}: {shown} = {row[key]:g} must be positive",
+                                       elements=(el.name,), hint=f"give {shown} a positive value (the default is 1)")
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             row["series"], row["charge"] = (float(fact) for fact in diode_structure(mv))
             rows.append(row)

@@ -105,11 +105,17 @@ def atomic_output(path: str | os.PathLike) -> Iterator[BinaryIO]:
 
     Notes
     -----
-    The data are flushed with ``fsync`` before the rename, so that a disk that
+    A target that exists and is not a regular file (a device such as
+    ``/dev/full`` or ``/dev/null``, a FIFO) is written into directly, never
+    replaced; a directory is refused. The data are flushed with ``fsync`` before the rename, so that a disk that
     fills up while the operating system writes its cache back is reported here
     rather than leaving a short file behind.
     """
     target = os.fspath(path)
+    special = _special_file(target)
+    if special is not None:
+        yield from _write_through(target, special)
+        return
     try:
         temporary, descriptor = _create_temporary(target)
     except OSError as exc:
@@ -128,6 +134,40 @@ def atomic_output(path: str | os.PathLike) -> Iterator[BinaryIO]:
     except BaseException:
         _remove(temporary)
         raise
+
+
+def _special_file(target: str) -> str | None:
+    """What ``target`` is when it exists and is not a regular file (None: a regular file or nothing yet).
+
+    A device (``/dev/null``, ``/dev/full``, ``/dev/stdout``), a FIFO or a socket
+    is written into, never renamed over: replacing ``/dev/full`` with a plot
+    would break the system for everyone.
+    """
+    import stat
+
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "directory"
+    return "device"
+
+
+def _write_through(target: str, special: str) -> Iterator[BinaryIO]:
+    """:func:`atomic_output` on a device or FIFO: the bytes go straight into it, errors said as for a file."""
+    if special == "directory":
+        raise OutputFileError(target, reason_of(OSError(_errno.EISDIR, "Is a directory")), _errno.EISDIR)
+    try:
+        with open(target, "wb") as handle:
+            yield handle
+            handle.flush()
+    except OSError as exc:
+        if isinstance(exc, OutputFileError):
+            raise
+        raise OutputFileError(target, reason_of(exc), exc.errno) from None
 
 
 def write_bytes(path: str | os.PathLike, data: bytes) -> None:

@@ -532,7 +532,7 @@ class _Elaborator:
                         hint="connect elements between nodes and ground (0)")
         if circuit.osdi_files or any(el.kind == Kind.OSDI for el in circuit.elements):
             from ..devices.osdi.bind import check_circuit  # loads the libraries (ctypes): only when used
-            check_circuit(circuit)
+            self.diagnostics.extend(check_circuit(circuit))
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
         circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value,
@@ -1385,6 +1385,15 @@ class _Elaborator:
         if where is not None and where[2] is not None and where[2] != mod.type:
             raise fail(f"model '{model}' is of type '{mod.type}', not '{where[2]}'")
         family = KIND_OF_MODEL_TYPE.get(mod.type)
+        if family is None and circuit.osdi_files:  # a compiled module's model: its own parameter table
+            from ..devices.osdi.bind import circuit_modules  # loads the libraries (ctypes): only when used
+
+            module = circuit_modules(circuit).get(mod.type)
+            if module is not None and module.parameter(param) is None:
+                names = [p.name for p in module.parameters]
+                raise fail(f"model '{model}' (OSDI module {module.name}) has no parameter '{param}'",
+                           hint=f"the module's parameters: {', '.join(names[:12])}{' ...' if len(names) > 12 else ''}"
+                           f" (netdae osdi {module.library.path} --params lists them)")
         known = NGSPICE_PARAMETERS.get(family or "", frozenset())
         if known and param not in known:
             raise fail(f"model '{model}' ({mod.type}) has no parameter '{param}'",
@@ -1534,13 +1543,14 @@ class _Elaborator:
         return value
 
     def _initial(self, circuit: Circuit, nodes: dict) -> None:
+        where: dict[str, dict] = {".ic": circuit.ic_locations, ".nodeset": {}}
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
             for node, val, offset, card in entries:
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
-                target[node] = self._initial_number(self._value(val, card, f"initial value of v({node})"), card,
-                                                    val[1], what)
+                value = self._initial_number(self._value(val, card, f"initial value of v({node})"), card, val[1], what)
+                self._set_initial(target, where[what], what, node, value, card.location(offset))
         for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
             item: InitialCard = p.item
             target = circuit.ic if item.name == ".ic" else circuit.nodeset
@@ -1550,9 +1560,21 @@ class _Elaborator:
                     raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
                                 DOT_CARDS[item.name])
                 if node != "0":
-                    target[node] = self._initial_number(
-                        evaluate_val(val, env, item.card, f"initial value of v({written})"), item.card, val[1],
-                        item.name)
+                    value = self._initial_number(evaluate_val(val, env, item.card, f"initial value of v({written})"),
+                                                 item.card, val[1], item.name)
+                    self._set_initial(target, where[item.name], item.name, node, value, item.card.location(offset))
+
+    def _set_initial(self, target: dict, where: dict, what: str, node: str, value: float, location) -> None:
+        """One ``.ic``/``.nodeset`` value; a node given again takes the later value (as in ngspice), with a
+        warning at it naming the earlier one, rather than dropping one of the two without a word."""
+        if node in target and (node not in where or where[node] != location):
+            before = where.get(node)
+            self.diagnostics.append(Diagnostic(
+                "warning", f"{what}: v({node}) is given twice: {value:g} here replaces {target[node]:g}"
+                + (f" (at {before})" if before is not None else "") + " (the last value holds, as in ngspice)",
+                location))
+        target[node] = value
+        where[node] = location
 
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}

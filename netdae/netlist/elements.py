@@ -120,6 +120,11 @@ def split_args(card: Card, toks: list[Token], start: int, syntax, *, allow_paren
         if tok.kind == WORD and i + 1 < n and toks[i + 1].kind == PUNCT and toks[i + 1].text == "=":
             values = []
             j = i + 2
+            if j < n and toks[j].kind == STRING:  # a value is there, of a kind instance parameters do not take
+                raise error(card, toks[j].start, f"'{tok.text}=' takes a number or an expression, not the string "
+                            f"{toks[j].text!r}", syntax,
+                            hint="write the value without quotes (strings are for a compiled model's string "
+                                 "parameters, on its .model card)")
             if j >= n or toks[j].kind not in (WORD, EXPR):
                 raise error(card, toks[i + 1].start, f"missing value after '{tok.text}='", syntax)
             values.append(toks[j])

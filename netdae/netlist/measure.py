@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 
 from ..errors import NetlistError
+from ..kinds import KINDS
 from . import expr as ex
 from .elements import IDENT, error, parse_expr, parse_value
 from .lines import EXPR, PUNCT, WORD, Card, Token
@@ -87,6 +88,16 @@ class _Cursor:
         tok = self.peek()
         return tok is not None and tok.kind == WORD and tok.text in words
 
+
+
+def _article(noun: str) -> str:
+    """``noun`` with "a" or "an" (by its first letter).
+
+    >>> _article("compiled Verilog-A device (OSDI)"), _article("MOSFET"), _article("ideal op-amp (nullor)")
+    ('a compiled Verilog-A device (OSDI)', 'a MOSFET', 'an ideal op-amp (nullor)')
+    """
+    vowel = noun[:1].lower() in ("a", "e", "i", "o", "u")
+    return f"{'an' if vowel else 'a'} {noun}"
 
 def _starts_probe(cur: _Cursor) -> bool:
     """A signal (``v(``, ``vdb(`` ..., ``par(``) begins at the cursor."""
@@ -432,7 +443,8 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
             target = elements.get(names[0])
             if target is None or (target.kind not in branch_kinds
                                   and device_quantity(Signal("i", names), target.kind) is None):
-                what = "no element" if target is None else f"a {target.kind}, whose current netdae does not compute"
+                what = ("no element" if target is None else
+                        f"{_article(KINDS[target.kind].summary)}, whose current netdae does not compute")
                 raise error(card, offset, f"i({names[0]}): '{names[0]}' is {what}", FORM,
                             hint="i() names an R, C, V source, inductor, E/H source or B voltage source "
                                  "(elements in subcircuits by their full name, e.g. v.x1.v1)")

@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING
 
 from ..circuit import Circuit
-from ..analyses.runner import string_entries
+from ..analyses.runner import check_callable, string_entries
 from ..errors import NetdaeError
 from ..stats import Statistics
 from .plan import Plan, make_plan
@@ -229,6 +229,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
                           "(run it with 'netdae run', or step the values with .step)")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise NetdaeError(f"sweep: seed must be a non-negative integer, got {seed!r}")
+    check_callable(progress, "progress", "progress(done, total)")
     if measures:
         circuit = add_measures(circuit, measures)
     options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
@@ -292,10 +293,14 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
         for o in run_rows(job, rows[:1]):
             outcomes[o.row] = o
         rows = rows[1:]
-    futures = {pool.submit(run_rows, job, chunk) for chunk in _chunks(rows, count)}
+    futures = {pool.submit(run_rows, job, chunk): chunk for chunk in _chunks(rows, count)}
     try:
         for fut in cf.as_completed(futures):
-            for o in fut.result():
+            try:
+                done = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a lost worker fails its rows, never the sweep
+                done = [Outcome(row.index, error=lost_worker(exc)) for row in futures[fut]]
+            for o in done:
                 outcomes[o.row] = o
             if progress is not None:
                 progress(len(outcomes), total)
@@ -303,6 +308,42 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
         for fut in futures:
             fut.cancel()
         raise
+
+
+def lost_worker(exc: BaseException) -> str:
+    """Why the rows of a task whose worker failed have no result (a row's error message).
+
+    A worker process that ends abruptly (killed, or by the operating system's
+    out-of-memory killer) breaks the process pool, so every task still pending
+    there fails the same way; a Dask cluster whose scheduler or worker goes away
+    fails its tasks with a communication error. Those rows are failed rows, the
+    finished ones are kept.
+
+    Parameters
+    ----------
+    exc : BaseException
+        What the task's future raised.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> lost_worker(MemoryError())
+    'not run: the worker ran out of memory (hint: fewer workers, or a smaller circuit or save= list per row)'
+    """
+    import concurrent.futures.process as cfp
+
+    if isinstance(exc, cfp.BrokenProcessPool):
+        return ("not run: a worker process ended abruptly (killed, or out of memory) "
+                "(hint: rerun with fewer workers, or run the failed rows again)")
+    if isinstance(exc, MemoryError):
+        return "not run: the worker ran out of memory (hint: fewer workers, or a smaller circuit or save= list per row)"
+    if isinstance(exc, NetdaeError):
+        return f"not run: {exc}"
+    text = str(exc) or "no message"
+    return f"not run: the task failed on its worker: {type(exc).__name__}: {text} (hint: check the executor's workers)"
 
 
 def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str, count: int, t0: float,

@@ -143,6 +143,8 @@ def elaborate_row(job: Job, row: Row, trace=None):
 def run_row(job: Job, row: Row) -> Outcome:
     """Elaborate and simulate one row; failures become the outcome's ``error``.
 
+    A row that runs out of memory is a failed row too (its message says so).
+
     Raises
     ------
     KeyboardInterrupt
@@ -159,6 +161,9 @@ def run_row(job: Job, row: Row) -> Outcome:
         out.error = str(exc)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:  # numerics refusing a sample's values
         out.error = f"{type(exc).__name__}: {exc}"
+    except MemoryError:  # this row's values need more than the machine has: the other rows still run
+        out.error = ("out of memory (hint: save fewer signals (save=, --save), simulate a shorter interval, "
+                     "or run fewer workers)")
     else:
         record(job, circuit, results, out)
     out.seconds = time.perf_counter() - t0

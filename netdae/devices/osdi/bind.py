@@ -14,7 +14,7 @@ anything is simulated.
 
 from __future__ import annotations
 
-from ...circuit import Circuit, Element
+from ...circuit import Circuit, Diagnostic, Element
 from ...errors import NetlistError
 from ...kinds import Kind
 from .instance import KELVIN, OsdiInstance, OsdiModel, SimParameters
@@ -91,6 +91,27 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
     return models, instances
 
 
-def check_circuit(circuit: Circuit) -> None:
-    """Load the circuit's OSDI libraries and set up every model and instance once (raising what is wrong)."""
+def check_circuit(circuit: Circuit) -> list[Diagnostic]:
+    """Load the circuit's OSDI libraries and set up every model and instance once (raising what is wrong).
+
+    Returns
+    -------
+    list of Diagnostic
+        A note at each ``N`` card that connects fewer nodes than its module has
+        terminals: which terminals it leaves to the module (allowed, as in
+        ngspice and VACASK, but a forgotten node should not pass unseen).
+    """
     build(circuit)
+    modules = circuit_modules(circuit)
+    notes = []
+    for el in circuit.elements:
+        if el.kind != Kind.OSDI or not el.name.startswith("n"):  # M, Q, J ... cards of ngspice's models: mapped
+            continue
+        mod = modules[circuit.models[el.model].type]
+        if len(el.nodes) < mod.num_terminals:
+            free = mod.terminals[len(el.nodes):]
+            notes.append(Diagnostic(
+                "note", f"{el.name}: connects {len(el.nodes)} of OSDI module {mod.name}'s {mod.num_terminals} "
+                f"terminals ({', '.join(mod.terminals)}); {', '.join(free)} {'is' if len(free) == 1 else 'are'} "
+                "left unconnected (nodes of the instance's own)", el.location))
+    return notes

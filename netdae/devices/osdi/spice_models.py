@@ -521,6 +521,11 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
                 hint=(f"'netdae osdi {m.library} --params' lists the module's instance parameters"
                       + (" (names prefixed instance_ are written without the prefix)"
                          if any(v.startswith("instance_") for v in m.instance_names.values()) else "")))
+        param = module.parameter(name)
+        if param is not None and param.type == "int" and isinstance(value, float) and value != int(value):
+            # said here in the card's own name: the module's (instance_rgatemod) would name a parameter never written
+            raise NetlistError(f"{el.name}: '{raw}' takes an integer value, not {value:g}", el.location,
+                               expected=f"{raw}=<int>", hint=f"ngspice's {m.name} reads {raw} as a flag or count")
         if raw in m.nqs and value:
             _warn(notes, f"{el.name}: {raw}={value:g}: {NQS_NOTE}", el.location)
         factor = scale ** SCALED.get(raw, 0) if m.scaled else 1.0
