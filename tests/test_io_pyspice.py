@@ -64,7 +64,8 @@ def test_cards_reach_a_pyspice_simulator_whose_text_ends_with_end():
     # ("no analysis card"), while ngspice reads on past '.end'
     from netdae import simulate
 
-    simulator = _rc().simulator(temperature=25, nominal_temperature=25)
+    # the subprocess simulator: its text is the same, and it loads no ngspice library in this process
+    simulator = _rc().simulator(simulator="ngspice-subprocess", temperature=25, nominal_temperature=25)
     assert str(simulator).split()[-1] == ".end"
     circuit = from_pyspice(simulator, ".tran 10u 5m uic")
     result = simulate(circuit)
