@@ -59,6 +59,26 @@ def test_errors_name_the_pyspice_circuit_and_the_line_of_its_text():
         from_pyspice(_rc(), [".options reltol=1e-4", ".tran 10u"])
 
 
+def test_cards_reach_a_pyspice_simulator_whose_text_ends_with_end():
+    # str(circuit.simulator()) ends with '.end': cards appended after it were never read
+    # ("no analysis card"), while ngspice reads on past '.end'
+    from netdae import simulate
+
+    # the subprocess simulator: its text is the same, and it loads no ngspice library in this process
+    simulator = _rc().simulator(simulator="ngspice-subprocess", temperature=25, nominal_temperature=25)
+    assert str(simulator).split()[-1] == ".end"
+    circuit = from_pyspice(simulator, ".tran 10u 5m uic")
+    result = simulate(circuit)
+    t = np.linspace(0.0, 5 * TAU, 501)
+    exact = 1 - np.exp(-t / TAU)
+    reltol, vntol = result.tolerances["reltol"], result.tolerances["vntol"]
+    assert np.max(np.abs(result.dense(t)["v(out)"] - exact) / (reltol * np.abs(exact) + vntol)) < 10
+    # the cards keep their line numbers: str(simulator)'s lines, then the cards
+    second_card = len(str(simulator).splitlines()) + 2
+    with pytest.raises(NetlistError, match=rf"^<PySpice circuit 'RC from PySpice'>:{second_card}:\d+: \.tran"):
+        from_pyspice(simulator, [".options reltol=1e-4", ".tran 10u"])
+
+
 def test_only_pyspice_objects_are_accepted():
     with pytest.raises(NetdaeError, match="expected a PySpice Circuit, got str .for netlist text or a file use netdae.load"):
         from_pyspice("R1 a 0 1\n")

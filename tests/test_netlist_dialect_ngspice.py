@@ -92,6 +92,15 @@ def test_source_value_followed_by_a_function(tmp_path):
     _tran_agrees(SOURCES + ".tran 0.1n 12n\n", ["v(1)", "v(2)", "v(3)", "v(4)"], [3, 7, 20, 40], tmp_path, 1e-9)
 
 
+def test_parenthesised_node_pairs_as_ngspice_reads_them(tmp_path):
+    # PySpice's small-signal-amplifier.cir: 'E1 (amp_out 0) (amp_in 0) -10' was refused
+    # ("expected 4 nodes, found 0"); ngspice reads node names past '(' ')' ','
+    _op_agrees("t\nV1 in 0 DC 0.3\nR1 (in a) 1k\nR2 a 0 2k\nE1 (out 0) (a, 0) -10\nRL out 0 1k\n"
+               "G1 (g 0) a 0 1m\nRG g 0 1k\nE2 e 0 poly(1) (a, 0) 0.1 2\nRE e 0 1k\n"
+               "V2 s 0 sin(0 1 1k)\nRS s 0 1k\n",
+               ["v(out)", "v(g)", "v(e)", "v(a)"], tmp_path)
+
+
 def test_repeated_model_parameter_and_param_values_with_blanks(tmp_path):
     netlist = ("blanks\n.param a = 1 + 2\n.param b = (a+1)*2 c=5\n.param d = 3 * 2\n"
                "V1 1 0 {a}\nV2 2 0 {b}\nV3 5 0 {c}\nV4 6 0 {d}\nD1 1 3 dm\nR3 3 0 1k\n"

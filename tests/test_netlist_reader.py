@@ -116,3 +116,20 @@ def test_end_followed_by_punctuation_ends_the_netlist(end):
 def test_ends_and_endc_are_not_end():
     with pytest.raises(NetlistError, match="ends"):
         load("title\nV1 1 0 1\nR1 1 0 1k\n.ends\n.end\n")
+
+
+@pytest.mark.ngspice
+def test_cards_after_end_are_not_read_and_a_warning_says_ngspice_reads_them(tmp_path):
+    # ngspice 39 reads on past .end (PySpice's astable.cir has its .control block there):
+    # netdae reads nothing after .end, and says so at the .end instead of a bare 'no analysis card'
+    import subprocess
+
+    text = "t\nV1 a 0 1\nR1 a b 1k\nR3 b 0 1k\n.op\n.end\nR2 b 0 1k\n.control\nset numdgt=12\nop\nprint v(b)\n.endc\n"
+    (tmp_path / "e.cir").write_text(text)
+    out = subprocess.run(["ngspice", "-b", "e.cir"], capture_output=True, text=True, cwd=tmp_path, timeout=60).stdout
+    ngspice_vb = float(next(line for line in out.splitlines() if line.startswith("v(b) = ")).split("=")[1])
+    assert abs(ngspice_vb - 1 / 3) < 1e-9  # R2 after .end is in ngspice's circuit: 1 * (1k||1k) / (1k + 1k||1k)
+    circuit = load(text)
+    warnings = [d for d in circuit.diagnostics if d.severity == "warning" and "after .end" in d.message]
+    assert len(warnings) == 1 and warnings[0].location.line == 6 and "'R2 b 0 1k'" in warnings[0].message
+    assert sorted(e.name for e in circuit.elements) == ["r1", "r3", "v1"]

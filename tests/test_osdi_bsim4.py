@@ -158,6 +158,20 @@ def test_other_versions_warn_and_unknown_ones_are_refused():
 
 
 @needs_vacask
+def test_a_whole_number_version_is_read_with_its_decimal_as_ngspice_reads_the_text():
+    # PTM's cards (PySpice's ptm_65nm_nmos_bulk.mod) write 'version = 4.0': ngspice runs BSIM4v5
+    # (inpdomod.c matches the text's prefix "4.0"); the number 4.0 was read back as "4" and refused
+    text = inverter(0.6).replace("level=54 version=4.8", "level=54\n+ version = 4.0")
+    c = netdae.load(text)
+    assert sum("version 4.0 runs ngspice's BSIM4v5" in w for w in warnings_of(c)) == 2
+    bsim3 = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 nch\n.model nch nmos level=8 version=3.0\n.op\n")
+    assert any("version 3.0 runs ngspice's BSIM3v0" in w for w in warnings_of(bsim3))
+    ours, ref = netdae.run(c, **TIGHT)[0], ngspice(text, "op")
+    for name in ("v(out)", "i(vdd)"):  # BSIM4v5 and 4.8 differ slightly on these cards: 1e-3 of the value
+        assert abs(ours[name][0] - ref[name][0]) <= 1e-3 * abs(ref[name][0]), name
+
+
+@needs_vacask
 def test_an_instance_parameter_ngspice_does_not_know_is_an_error():
     for bad in ("ketac=1", "dtemp=3", "temp=30"):
         with pytest.raises(NetlistError) as err:

@@ -29,7 +29,9 @@ def pyspice_netlist(circuit, cards=()) -> tuple[str, str]:
         Anything of PySpice's whose ``str()`` is a netlist.
     cards : str or sequence of str
         Further cards appended to the text (analyses such as ``.tran 10u 5m``,
-        ``.options``, ``.save``).
+        ``.options``, ``.save``). When the text ends with ``.end`` (``str()``
+        of a ``CircuitSimulator``), the cards go before it and that line
+        becomes a comment (``* .end``), so every line keeps its number.
 
     Returns
     -------
@@ -70,9 +72,32 @@ def pyspice_netlist(circuit, cards=()) -> tuple[str, str]:
         lines[0] = lines[0].strip()[len(_TITLE_CARD):].strip()
     if isinstance(cards, str):
         cards = [cards]
-    lines += [card for card in cards]
+    cards = list(cards)
+    end = _end_line(lines)
+    if cards and end is not None:
+        # a simulator's text ends with '.end': the cards go before it (netdae's reader stops
+        # there), and the '.end' line becomes a comment so the lines keep their numbers
+        lines[end:] = ["* " + line if k == 0 else line for k, line in enumerate(lines[end:])]
+        lines += cards + [".end"]
+    else:
+        lines += cards
     title = getattr(circuit, "title", None) or (lines[0] if lines else "")
     return "\n".join(lines) + "\n", f"<PySpice circuit {str(title)!r}>"
+
+
+def _end_line(lines: list[str]) -> int | None:
+    """The index of the last ``.end`` line (``str()`` of a PySpice simulator ends with one), or None.
+
+    Examples
+    --------
+    >>> _end_line(["t", "R1 a 0 1", ".options TEMP = 27C", ".end", ""]), _end_line(["t", ".ends sub"])
+    (3, None)
+    """
+    for k in range(len(lines) - 1, -1, -1):
+        words = lines[k].split()
+        if words and words[0].lower() == ".end":
+            return k
+    return None
 
 
 def from_pyspice(circuit, cards=()):

@@ -164,6 +164,55 @@ def _end(card: Card) -> int:
     return len(card.text)
 
 
+#: How many nodes an element letter's cards start with, where a pair of them may be
+#: parenthesised (``E1 (out 0) (in 0) -10``): the E and G linear forms have two pairs.
+_PAIRED_NODES = {**dict.fromkeys("rclvibdfh", 2), **dict.fromkeys("eg", 4)}
+
+
+def _unparenthesised_nodes(toks: list[Token], letter: str) -> list[Token]:
+    """``toks`` with the parentheses (and a comma) around pairs of leading nodes removed.
+
+    ngspice reads a node name skipping the ``(``, ``)`` and ``,`` around it
+    (``INPgetNetTok``), so ``E1 (out 0) (in 0) -10`` is ``E1 out 0 in 0 -10``.
+    Only a group of exactly two names that starts at an even node position
+    (the pair n+ n-, or nc+ nc-), within the letter's leading nodes, is taken
+    as nodes: ``POLY(1)``, ``SIN(0 1 1k)`` and TABLE points keep their
+    parentheses.
+
+    Examples
+    --------
+    >>> from netdae.netlist.lines import Card
+    >>> toks = Card("e1 (o 0) (i, 0) -10", "<string>", [(0, 1, 1)]).tokens()
+    >>> [t.text for t in _unparenthesised_nodes(toks, "e")]
+    ['e1', 'o', '0', 'i', '0', '-10']
+    >>> toks = Card("v1 a 0 sin(0 1)", "<string>", [(0, 1, 1)]).tokens()
+    >>> len(_unparenthesised_nodes(toks, "v")) == len(toks)
+    True
+    """
+    limit = _PAIRED_NODES.get(letter, 0)
+    out, i, seen, changed = [toks[0]], 1, 0, False
+    while i < len(toks) and seen < limit:
+        tok = toks[i]
+        if tok.kind == WORD:
+            out.append(tok)
+            seen += 1
+            i += 1
+            continue
+        if not (tok.kind == PUNCT and tok.text == "(" and seen % 2 == 0):
+            break
+        names, j = [], i + 1
+        while j < len(toks) and (toks[j].kind == WORD or (toks[j].kind == PUNCT and toks[j].text == ",")):
+            if toks[j].kind == WORD:
+                names.append(toks[j])
+            j += 1
+        if not (len(names) == 2 and j < len(toks) and toks[j].kind == PUNCT and toks[j].text == ")"
+                and seen + 2 <= limit):
+            break
+        out.extend(names)
+        seen, i, changed = seen + 2, j + 1, True
+    return out + toks[i:] if changed else toks
+
+
 def _nodes(card: Card, toks: list[Token], count: int, syntax) -> tuple[str, ...]:
     words = toks[1 : 1 + count]
     if len(words) == count and all([t.kind == WORD for t in words]):
@@ -1184,6 +1233,7 @@ def _parse_element(card: Card, calls=None) -> ElementCard | InstanceCard | list[
                 hint=f"netdae reads {supported_letters()}; replace it by an equivalent circuit of these")
         raise NetlistError(f"unknown card '{card.text.split(None, 1)[0]}'", card.location(0),
                            hint=f"element names start with one of {supported_letters()}; dot cards with '.'")
+    toks = _unparenthesised_nodes(toks, letter)
     if letter == "c" and len(toks) > 4 and toks[3].kind == WORD and toks[3].text == "q" and toks[4].text == "=":
         # ngspice's charge-defined capacitor: Cname n+ n- Q={expr}
         return ElementCard(toks[0].text, "bcharge", card, _nodes(card, toks, 2, syntax),

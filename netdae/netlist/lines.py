@@ -295,6 +295,27 @@ def _is_dot(stripped_lower: str, word: str) -> bool:
     return not (nxt.isalnum() or nxt in "_.")
 
 
+#: The words of the warning at a top-level ``.end`` that cards follow (the ngspice bridge,
+#: which says what it passes to ngspice, replaces it with its own note).
+AFTER_END = "after .end are not read by netdae"
+
+
+def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None:
+    """A warning at ``.end`` when cards follow it: netdae reads none of them, ngspice 39 reads them all.
+
+    ngspice's reader turns the top-level ``.end`` into a comment and goes on
+    (``inpcom.c``): an element, an analysis or a ``.control`` block after it is
+    part of ngspice's circuit. A file that relies on it is then not the same
+    circuit in netdae; the warning names the first such line.
+    """
+    after = [k for k, line in enumerate(rest) if line.strip() and line.strip()[0] != "*"]
+    if after:
+        first = rest[after[0]].strip()
+        notes.append(Diagnostic(
+            "warning", f"{len(after)} line(s) {AFTER_END} (the first: {first[:40]!r}); "
+            "ngspice 39 reads on past .end: move them before .end to keep them", where))
+
+
 def split_cards(
     text: str, file: str, *, title: bool = True, pspice: bool = False
 ) -> tuple[str | None, list[Card], list[Diagnostic]]:
@@ -394,6 +415,7 @@ def split_cards(
                                    SourceLocation(file, lineno, line.index(".") + 1))
             if _is_dot(head, ".end"):
                 if title:
+                    _note_after_end(lines[index + 1:], SourceLocation(file, lineno, line.index(".") + 1), notes)
                     break
                 notes.append(Diagnostic("note", ".end inside an included file ignored (as ngspice does)",
                                         SourceLocation(file, lineno, line.index(".") + 1)))

@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 from ..errors import NetlistError
 from ..netlist.elements import parse_element
-from ..netlist.lines import split_cards
+from ..netlist.lines import AFTER_END, split_cards
 from ..netlist.reader import STRING_SOURCE, read_deck
 from ..netlist.syntax import ELEMENTS, IGNORED_DOT_CARDS
 
@@ -266,6 +266,8 @@ def self_contained(
     after = _after_end(text, max(main_lines, default=1), main)
     if after is not None:
         line, count = after
+        # the reader's warning at .end says the same for netdae alone: this note replaces it
+        notes = [n for n in notes if AFTER_END not in n]
         notes.append(f"line {line}: the {count} card(s) or block(s) after .end are not passed to ngspice "
                      "(netdae's reader ends the netlist at .end; ngspice 39 would read them)")
     if script is not None:

@@ -190,11 +190,20 @@ class ModuleMap:
     form: str = ""
 
     def version_of(self, model: Model) -> str | None:
-        """The version as ngspice reads it (the card's text; None: not given)."""
+        """The version as ngspice reads it (the card's text; None: not given).
+
+        ngspice picks the implementation by the text's prefix (``4.0`` ..
+        ``4.5``: BSIM4v5). A number reaches netdae as a float, so a whole
+        number is written with its decimal: ``version=4.0`` (PTM's cards,
+        ``version = 4.0``) is ``"4.0"``, not ``"4"``, which no prefix matches.
+        """
         if "version" in model.strings:
             return model.strings["version"].strip()
         value = model.params.get("version")
-        return None if value is None else f"{value:.6g}"
+        if value is None:
+            return None
+        text = f"{value:.6g}"
+        return text if any(c in text for c in ".en") else f"{text}.0"
 
     def known(self, level: int) -> tuple[frozenset, frozenset] | None:
         """ngspice 39's model and instance names of this model (None: BSIM, whose tables are the module's)."""
