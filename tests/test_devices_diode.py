@@ -231,3 +231,61 @@ def test_missing_or_mistyped_model_is_an_error():
     circuit.element("d1").model = "dmissing"
     with pytest.raises(CircuitError, match="dmissing"):
         assemble(circuit)
+
+
+@pytest.mark.parametrize("area,mult", [(1, 1), (2, 1), (1, 3)])
+def test_forward_knee_current_closed_form(area, mult):
+    """ngspice's high injection: c / (1 + sqrt(c / IKF)) with IKF times area and m; ngspice 39 gives
+    v(out) = 0.56424, 0.528155 and 0.507021 V on this card (the closed form's 0.564240, 0.528155,
+    0.507021)."""
+    text = (f"t\nV1 in 0 0.9\nR1 in out 1k\nD1 out 0 dd area={area} m={mult}\n"
+            ".model dd d is=21.91n n=2.233 ikf=19.23m\n.end\n")
+    vte = 2.233 * vt_at(27.0)
+
+    def current(v):
+        c = 21.91e-9 * area * mult * math.expm1(v / vte)
+        return c / (1.0 + math.sqrt(c / (19.23e-3 * area * mult))) + GMIN * v
+
+    v = brentq(lambda v: (0.9 - v) / 1e3 - current(v), 0.0, 0.9, xtol=1e-15)
+    assert op(text)["v(out)"] == pytest.approx(v, abs=1e-10)
+
+
+def test_reverse_knee_current_in_breakdown_closed_form():
+    """12 V through 100 ohm into a 6 V zener with IKR = 2 mA: the breakdown current c = -Is exp(-(BV' + vd)
+    / vt) becomes c / (1 + sqrt(-c / IKR)); the resistor's current equals it at the solution."""
+    text = "t\nV1 n 0 12\nR1 n r 100\nD1 0 r dz\n.model dz d is=1e-14 bv=6 ibv=1u ikr=2m\n.end\n"
+    x = op(text)
+    vd = -x["v(r)"]  # anode at ground, cathode at r
+    i_d = -(12.0 - x["v(r)"]) / 100.0
+    assert i_d < -5e-3  # deep in breakdown, beyond IKR
+    vt = vt_at(27.0)
+    bvp = float(breakdown_voltage(np.array([6.0]), np.array([1e-6]), np.array([1e-14]), np.array([vt]),
+                                  np.array([vt]), 1e-3)[0])
+    c = -1e-14 * math.exp(-(bvp + vd) / vt)
+    assert c / (1.0 + math.sqrt(-c / 2e-3)) + GMIN * vd == pytest.approx(i_d, rel=1e-7)
+
+
+@pytest.mark.parametrize("vd", [-7.0, -3.0, 0.3, 0.62, 0.8])
+def test_jacobians_with_knee_currents_are_derivatives(vd):
+    system = assemble(load(CHARGED.replace("bv=30 ibv=1e-4", "bv=5 ibv=1e-4 ikf=2m ikr=1m")))
+    x = np.zeros(system.n)
+    names = system.names
+    x[names.index("v(b)")] = vd + 0.1
+    x[names.index("v(d1#internal)")] = vd + 0.05
+    x[names.index("v(c)")] = 0.05
+    assert_jacobians_match(system, x)
+
+
+def test_the_diffusion_charge_follows_the_current_with_the_knee():
+    # TT id with id after the knee, as ngspice 39 (tests/test_devices_ngspice.py checks a transient)
+    system = assemble(load(CHARGED.replace("bv=30 ibv=1e-4", "bv=30 ibv=1e-4 ikf=1u")))
+    vd = 0.6
+    x = np.zeros(system.n)
+    x[system.names.index("v(d1#internal)")] = vd
+    ev = system.evaluate(x, 0.0)
+    vt = vt_at(27.0)
+    c = 1.5e-13 * math.expm1(vd / (1.3 * vt))
+    i = c / (1.0 + math.sqrt(c / 1.5e-6)) + GMIN * vd
+    cj0, vj, m = 1.5 * 3e-12, 0.8, 0.4
+    qdep = vj * cj0 * (1 - (1 - vd / vj) ** (1 - m)) / (1 - m)
+    assert ev.q[system.names.index("v(d1#internal)")] == pytest.approx(5e-9 * i + qdep, rel=1e-12)

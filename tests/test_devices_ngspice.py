@@ -192,8 +192,23 @@ R7 k 0 10k
 """
 
 
-@pytest.mark.parametrize("text", [DIODES, BJTS, MOSFETS, JFETS, BEHAVIOURAL],
-                         ids=["diodes", "bjts", "mosfets", "jfets", "behavioural"])
+KNEES = """diodes at high injection: IKF (alias IK) forward, IKR in breakdown, scaled by area and m
+V1 a 0 0.9
+R1 a b 100
+D1 b 0 dk area=2 m=3
+R2 a c 1k
+D2 c 0 dk2
+V2 n 0 12
+R3 n r 100
+D3 0 r dk
+.model dk d is=21.91n n=2.233 rs=0.5 ikf=19.23m ikr=2m bv=6 ibv=1u tt=10n cjo=2p
+.model dk2 d is=1e-12 n=1.5 ik=1m
+.end
+"""
+
+
+@pytest.mark.parametrize("text", [DIODES, BJTS, MOSFETS, JFETS, BEHAVIOURAL, KNEES],
+                         ids=["diodes", "bjts", "mosfets", "jfets", "behavioural", "diode knees"])
 def test_operating_point_of_device_corner_cases(text):
     assert_op_agrees(text)
 
@@ -230,3 +245,30 @@ def test_homotopy_rescues_what_plain_newton_cannot():
     result = operating_point(load(HARD), **TIGHT)
     assert result.stats["strategy"] != "newton"
     assert_op_agrees(HARD)
+
+
+def test_dc_sweep_and_transient_of_diodes_with_knee_currents():
+    """IKF and IKR through forward conduction, the reverse region and breakdown (``.dc``), and a
+    transient through breakdown and forward recovery whose diffusion charge ``TT id`` follows the current
+    with the knee (ngspice 39; with the current without it, v(b) was 17 mV off on the plateaus)."""
+    from netdae.analyses.tran import transient
+    from netdae.ngspice import run_ngspice
+
+    sweep = KNEES.replace(".end", ".dc V1 -9 1.5 0.05\n.end")
+    ours = dc_sweep(load(sweep), next(a for a in load(sweep).analyses if isinstance(a, DcAnalysis)), **TIGHT)
+    ref = run_ngspice(sweep, options=TIGHT).result("dc")
+    for name in ("v(b)", "v(c)", "i(v1)"):
+        np.testing.assert_allclose(ours[name], ref[name], rtol=REL, atol=ABS, err_msg=name)
+    assert float(np.min(ref["v(b)"])) < -6.0  # D1 was driven into breakdown
+    pulse = KNEES.replace("V1 a 0 0.9", "V1 a 0 PULSE(-8 1.2 10n 5n 5n 40n 100n)").replace(
+        ".end", ".tran 0.1n 200n\n.end")
+    tight = {"reltol": 1e-7, "abstol": 1e-14, "vntol": 1e-10}
+    ours = transient(load(pulse), **tight)
+    ref = run_ngspice(pulse, options=dict(tight, method="gear")).result("tran")
+    t = np.asarray(ref.axes["time"])
+    corners = np.array([10, 15, 55, 60, 110, 115, 155, 160]) * 1e-9
+    keep = np.min(np.abs(t[:, None] - corners[None, :]), axis=1) > 8e-9  # the recovery's snap included
+    for name in ("v(b)", "v(c)"):
+        v_ref = np.asarray(ref[name])[keep]
+        v_ours = ours.dense(t[keep])[name]
+        assert np.max(np.abs(v_ours - v_ref)) < 1e-4 * np.ptp(v_ref), name

@@ -4,8 +4,9 @@ Layout (packed by ``DiodeFamily.compiled``)
 -------------------------------------------
 ``par`` columns ``P_*``: the saturation current, ``N vt``, ``vcrit``, the
 reverse knee ``-3 N vt``, GMIN, the breakdown flag, ``BV'``, ``NBV vt``,
-TT, the series conductance, the family's charge flag and the nine
-depletion coefficients from ``P_DEP``.
+TT, the series conductance, the family's charge flag, the nine
+depletion coefficients from ``P_DEP``, and the knee currents IKF and IKR
+(area and m included; 0: none).
 ``idx`` columns: anode ``I_A``, internal anode ``I_I`` (the anode itself
 without RS), cathode ``I_K``; slots ``S_J`` of the junction (current and
 charge on ``vd``) and ``S_R`` of the series resistance.
@@ -18,15 +19,18 @@ import math
 
 from ...dae.compiled import kernel
 
+from ..diode import KNEE_MIN_CURRENT
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_EVALUATE, MODE_INITIAL
 from .junction import depletion, ideal_junction, pnjlim
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope, is_zero
 
-__all__ = ["eval_diode", "diode_limit", "diode_current", "junction_limit", "junction_current"]
+__all__ = ["eval_diode", "diode_limit", "diode_current", "junction_limit", "junction_current", "knee_current"]
 
 P_ISAT, P_VTE, P_VCRIT, P_KNEE, P_GMIN, P_HAS_BV, P_BV, P_VTEBRK, P_TT, P_GS, P_CHARGE, P_DEP = range(12)
-#: The depletion coefficients take nine columns from P_DEP.
-N_PAR = P_DEP + 9
+#: The depletion coefficients take nine columns from P_DEP; the knee currents follow.
+P_IKF = P_DEP + 9
+P_IKR = P_IKF + 1
+N_PAR = P_IKR + 1
 I_A, I_I, I_K, S_J, S_R = 0, 1, 2, 3, 7
 N_IDX = S_R + 4
 V_VD = 0
@@ -59,6 +63,25 @@ def junction_current(vd, isat, vte, knee, has_bv, bv, vtebrk, gmin):
     else:
         cd, gd = ideal_junction(vd, isat, vte, knee)
     return cd + gmin * vd, gd + gmin
+
+
+@kernel
+def knee_current(cd, gd, vd, gmin, knee, ikf, ikr):
+    """High injection: the junction current ``c`` (GMIN's part set apart) becomes ``c / (1 + sqrt(c / IKF))``
+    forward (``vd >= knee``), ``c / (1 + sqrt(c / -IKR))`` reverse, with its conductance by the chain
+    rule (see :func:`netdae.devices.diode.knee_current`)."""
+    c = cd - gmin * vd
+    g = gd - gmin
+    if vd >= knee:
+        if ikf > 0.0 and c > KNEE_MIN_CURRENT:
+            s = math.sqrt(c / ikf)
+            g = ((1.0 + s) * g - c * g / (2.0 * s * ikf)) / (1.0 + 2.0 * s + c / ikf)
+            c = c / (1.0 + s)
+    elif ikr > 0.0 and c < -KNEE_MIN_CURRENT:
+        s = math.sqrt(-c / ikr)
+        g = ((1.0 + s) * g + c * g / (2.0 * s * ikr)) / (1.0 + 2.0 * s - c / ikr)
+        c = c / (1.0 + s)
+    return c + gmin * vd, g + gmin
 
 
 @kernel
@@ -97,6 +120,8 @@ def eval_diode(x, mode, par, idx, vold, vnew, q, phi, dq, dphi, jacobian):
         a, i, c = idx[k, I_A], idx[k, I_I], idx[k, I_K]
         vd = vnew[k, V_VD]
         cd, gd = diode_current(vd, par, k)
+        if par[k, P_IKF] > 0.0 or par[k, P_IKR] > 0.0:
+            cd, gd = knee_current(cd, gd, vd, par[k, P_GMIN], par[k, P_KNEE], par[k, P_IKF], par[k, P_IKR])
         charged = par[k, P_CHARGE] != 0.0
         qd = 0.0
         cq = 0.0
