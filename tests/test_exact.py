@@ -277,7 +277,7 @@ Rgn2 n2 0 1e12
 """
 
 
-def test_a_structure_double_precision_cannot_resolve_is_reported_uncertain_not_silently_wrong():
+def test_a_structure_double_precision_cannot_resolve_is_reported_uncertain_and_run_as_the_exact_one():
     # The 1e-12 S leaks sit at 1e-21 of the 1e9 S entries in their rows: double precision decides a singular pencil
     # (clearly, by its margins), the circuit is regular of index 1 (its rational MNA). The exact structure of the
     # stamps' unsummed entries says so, no staircase in double precision can follow it, and the report is
@@ -293,11 +293,20 @@ def test_a_structure_double_precision_cannot_resolve_is_reported_uncertain_not_s
                "in exact arithmetic it is regular, of index 1" in m for m in rep.messages)
     assert rep.to_dict()["disputed"] and rep.to_dict()["exact"]["index"] == 1
     assert rep.messages[0].startswith("singular pencil in double precision, regular in exact arithmetic")
-    # the transient refuses it, saying why
-    with pytest.raises(netdae.NetdaeError, match="singular in double precision, though regular of index 1 in "
-                                                 "exact arithmetic") as err:
-        netdae.run(netdae.load(_UNRESOLVABLE))
-    assert "closer together" in err.value.hint
+    # the transient runs as the exact structure says (index 1), with a warning; at the pulse's corner its
+    # Newton matrices lose the leaks' direction to rounding, the run stops there and its message says why
+    res = netdae.simulate(netdae.load(_UNRESOLVABLE))
+    assert any(n.startswith("warning: the circuit's pencil (E, H) is singular in double precision, though regular "
+                            "of index 1 in exact arithmetic") for n in res.notes)
+    if not res.ok:
+        assert "singular in double precision" in res.message and "closer together" in res.message
+    # with a smooth input it reaches the end, on the closed form: v(n1) = v(n2) = v(n0) = sin (C1 holds no
+    # charge through its 1e12-ohm leak on this time scale)
+    smooth = netdae.simulate(netdae.load(_UNRESOLVABLE.replace("PULSE(0 1 1n 1n 1n 5n 20n)", "SIN(0 1 50meg)")))
+    assert smooth.ok, smooth.message
+    t = np.asarray(smooth.t)
+    for name in ("v(n1)", "v(n2)"):
+        assert np.max(np.abs(np.asarray(smooth[name]) - np.sin(2 * np.pi * 50e6 * t))) < 1e-9, name
 
 
 def test_the_stamps_unsummed_entries_have_no_rounding_residue():

@@ -372,19 +372,47 @@ def _structure(prepared: Prepared, x0: np.ndarray, uic: bool) -> IndexReport | N
         why = pencil_singularity_explanation(prepared.circuit)
         if why is not None:
             raise SingularPencilError(why.message, elements=why.elements, nodes=why.nodes, hint=why.hint)
+        if rep.pencil is not None and rep.pencil.singular_by_rounding and rep.pencil.exact.index <= 2:
+            return _rounding_regular(prepared, rep)
         if rep.pencil is not None and rep.pencil.singular_by_rounding:
             raise SingularPencilError(
                 "the circuit's pencil (E, H) is singular in double precision, though regular of index "
                 f"{rep.pencil.exact.index} in exact arithmetic: element values whose ratios approach the limit of double "
                 "precision make the transient unsolvable as written (netdae index shows the rank decisions)",
-                hint="bring the extreme values closer together (a gain of 1e9 beside tera-ohm leaks, milli-ohms "
-                     "beside giga-ohms), so that their ratios stay well within double precision (about 1e-16)",
+                hint=ROUNDING_HINT,
             )
         raise SingularPencilError(
             "the circuit's pencil (E, H) is singular: the transient has no or infinitely many solutions",
             hint="look for loops of voltage sources or cutsets of current sources",
         )
     return rep
+
+
+def _rounding_regular(prepared: Prepared, rep: IndexReport) -> IndexReport:
+    """The report of a pencil singular only in double precision, of index <= 2 in exact arithmetic, made runnable.
+
+    The exact structure (:func:`netdae.dae.exact.exact_structure`) says the solution is unique; double
+    precision cannot tell which directions carry the index, so the index is the exact one, the index-2
+    unknowns are the topological statement's where it names them (else none: every unknown is
+    error-tested), and a warning says that unknowns in the unresolved directions may carry rounding noise.
+    ngspice simulates such circuits (vendor op-amp macromodels with 1e12-ohm leaks beside 1e-12 F) without
+    a word; a run whose Newton matrices lose the directions to rounding fails, and its message says why
+    (:data:`ROUNDING_NOTE`).
+    """
+    topo = prepared.topology
+    index = rep.pencil.exact.index
+    index2 = set(topo.index2_signals) if index == 2 and topo.topological_index == 2 else set()
+    orders = {name: (1 if name in index2 else 0) for name in prepared.system.names}
+    labels = {name: ("index2" if name in index2 else "differential") for name in prepared.system.names}
+    return replace(rep, regular=True, index=index, derivative_order=orders, unknowns=labels)
+
+
+#: Why a pencil singular only by rounding is suspect (a note of its run, and of its failure).
+ROUNDING_NOTE = ("the circuit's pencil (E, H) is singular in double precision, though regular of index {index} in "
+                 "exact arithmetic: element values whose ratios approach the limit of double precision")
+#: What to do about it.
+ROUNDING_HINT = ("bring the extreme values closer together (a gain of 1e9 beside tera-ohm leaks, milli-ohms beside "
+                 "giga-ohms), so that their ratios stay well within double precision (about 1e-16)")
 
 
 def _c_derivatives(system: MnaSystem, x0: np.ndarray, t: float) -> Callable[[int], np.ndarray]:
@@ -757,6 +785,10 @@ def _index_notes(prepared: Prepared, rep: IndexReport) -> list[str]:
             "only for linear circuits, through their decoupled form",
             hint="replace an ideal element in the chain (e.g. give an op-amp a finite gain) to lower the index",
         )
+    if rep.pencil is not None and rep.pencil.singular_by_rounding:  # made runnable by _rounding_regular
+        return [f"warning: {ROUNDING_NOTE.format(index=index)}; the transient runs as the exact structure says, and "
+                "unknowns in the directions double precision cannot resolve may carry rounding noise (netdae index "
+                "shows the rank decisions)"]
     if index is None and rep.method == "topological":
         return [f"index not determined ({system.n} unknowns, above the dense limit of {TRAN_PENCIL_LIMIT} "
                 "for a transient, and the topological statement does not apply): every unknown is error-tested"]
@@ -970,7 +1002,10 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
     tolerances = {"reltol": settings.rtol, "vntol": settings.vntol, "abstol": settings.abstol,
                   "maxord": settings.order, "max_step": settings.tmax,
                   "index_excluded": res.tolerances.get("index_excluded", 0)}
-    if res.failure is not None and rep.topology is not None:
+    if res.failure is not None and rep.pencil is not None and rep.pencil.singular_by_rounding:
+        message += (f" ({ROUNDING_NOTE.format(index=rep.index)}, whose Newton matrices lose some directions to "
+                    f"rounding; {ROUNDING_HINT})")
+    elif res.failure is not None and rep.topology is not None:
         reasons = [f.message for f in rep.topology.findings if f.severity in ("error", "warning")]
         if reasons:
             message += f" (circuit structure: {reasons[0]})"
