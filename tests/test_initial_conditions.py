@@ -121,3 +121,33 @@ def test_a_circuit_without_a_dc_operating_point_starts_as_with_uic():
     periods = np.diff(crossings(2.5))
     assert periods.size >= 10
     np.testing.assert_allclose(periods, period, rtol=1e-3)
+
+
+def test_pseudo_transient_continuation_recognises_the_astable_cycle():
+    """The astable goes round in pseudo-time as in time: the continuation recognises the return to a
+    point it left and gives the operating point up at once (it spent its whole budget, 20,041 Newton
+    iterations, before: about 1.2 s of the 1.6 s the failing operating point took; now 2,226 in all)."""
+    import re
+
+    with pytest.raises(netdae.ConvergenceError) as err:
+        operating_point(netdae.load(ASTABLE.format(tran=".op")))
+    iterations = int(re.search(r"after (\d+) Newton iterations", str(err.value)).group(1))
+    assert iterations < 5_000
+
+
+def test_a_return_is_a_cycle_only_after_an_excursion():
+    from netdae.dae.steady import PTRAN_CYCLE_MEMORY, _returned
+
+    atol = np.full(2, 1e-6)
+    ring = np.empty((PTRAN_CYCLE_MEMORY, 2))
+    path = [np.array([0.0, 1.0]), np.array([1.0, 0.5]), np.array([2.0, 0.0]), np.array([1.0, -0.5]),
+            np.array([0.5, 0.2]), np.array([0.2, 0.6])]
+    for k, p in enumerate(path):
+        ring[k] = p
+    assert _returned(ring, len(path), np.array([0.0, 1.0]), 1e-3, atol)  # back at the first point
+    assert not _returned(ring, len(path), np.array([5.0, 5.0]), 1e-3, atol)  # somewhere new
+    # a path converging to its steady state comes close to recent points only, never back after an excursion
+    steady = np.empty((PTRAN_CYCLE_MEMORY, 2))
+    for k in range(10):
+        steady[k] = [1.0 + 0.5 ** k, 0.0]
+    assert not _returned(steady, 10, np.array([1.0 + 0.5 ** 10, 0.0]), 1e-3, atol)

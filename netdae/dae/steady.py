@@ -92,6 +92,12 @@ PTRAN_FACTOR_MAX = 16.0
 PTRAN_FACTOR_MIN = 1.5
 PTRAN_MAX_STEPS = 1000
 PTRAN_MAX_ITERATIONS = 20_000
+#: Accepted points of the pseudo-transient kept to recognise a cycle (:func:`_returned`).
+PTRAN_CYCLE_MEMORY = 64
+#: A return counts only to a point at least this many accepted steps back ...
+PTRAN_CYCLE_GAP = 4
+#: ... with a point in between at least this many tolerances away from it.
+PTRAN_CYCLE_EXCURSION = 100.0
 #: LU pivots are judged on the *equilibrated* Jacobian: every row, then every
 #: column, scaled by a power of two so that its largest entry lies in (1/2, 1]
 #: (so a 1e10 S forcing next to a 1e-12 S junction does not look singular,
@@ -951,6 +957,30 @@ class SourceStepping:
         return newton.solve(cur, scale=0.0)
 
 
+def _returned(visited: np.ndarray, count: int, x: np.ndarray, rtol: float, x_atol: np.ndarray) -> bool:
+    """Whether pseudo-transient continuation came back to a point it left: a cycle, not a way to a steady state.
+
+    ``visited`` holds the last accepted points (a ring of :data:`PTRAN_CYCLE_MEMORY`, ``count`` written);
+    ``x`` returned when it is within tolerance (``rtol`` of the larger magnitude plus ``x_atol``, as
+    the steps' "moved" test) of a point at least :data:`PTRAN_CYCLE_GAP` steps back, and a point in
+    between was :data:`PTRAN_CYCLE_EXCURSION` tolerances away from it. A relaxation oscillator (a
+    switch or comparator that contradicts every DC state) goes round in pseudo-time as in time, and
+    without this test spent the whole budget (20,000 Newton iterations, 1.2-3.6 s of CPU on a switch
+    with hysteresis discharging the capacitor it senses) before the operating point was given up;
+    a path to a steady state (a chain whose stages switch one at a time) never returns.
+    """
+    m = min(count, PTRAN_CYCLE_MEMORY)
+    if m <= PTRAN_CYCLE_GAP:
+        return False
+    order = (np.arange(count - m, count) % PTRAN_CYCLE_MEMORY)  # oldest first
+    pts = visited[order]
+    dist = np.max(np.abs(pts - x) / (rtol * np.maximum(np.abs(pts), np.abs(x)) + x_atol), axis=1)
+    for j in range(m - PTRAN_CYCLE_GAP):
+        if dist[j] <= 1.0 and np.max(dist[j + 1:]) > PTRAN_CYCLE_EXCURSION:
+            return True
+    return False
+
+
 @dataclass(frozen=True)
 class PseudoTransient:
     """Pseudo-transient continuation: implicit-Euler steps in a pseudo-time towards the steady state.
@@ -1003,6 +1033,8 @@ class PseudoTransient:
         cur = np.asarray(x, dtype=float)
         fresh = self.from_scratch  # the devices from their initial junction voltages, else from x
         start = newton.iterations
+        visited = np.empty((PTRAN_CYCLE_MEMORY, cur.size))  # the last accepted points, a ring
+        count = 0
         for _ in range(PTRAN_MAX_STEPS):
             if newton.iterations - start > PTRAN_MAX_ITERATIONS:
                 break
@@ -1016,6 +1048,10 @@ class PseudoTransient:
             fresh = False
             moved = np.max(np.abs(x_new - cur) / (newton.opts.reltol * np.maximum(np.abs(x_new), np.abs(cur))
                                                  + newton.x_atol))
+            if _returned(visited, count, x_new, newton.opts.reltol, newton.x_atol):
+                return x_new, False  # a cycle in pseudo-time: no steady state along this path (an astable)
+            visited[count % PTRAN_CYCLE_MEMORY] = x_new
+            count += 1
             cur = x_new
             if moved <= 1.0 or g <= self.gmin:
                 x_end, ok = newton.solve(cur, maxiter=HOMOTOPY_MAXITER)
