@@ -75,15 +75,16 @@ def _node_forcing(system: MnaSystem, values: dict[str, float], what: str) -> For
     return Forcing(np.array(idx, dtype=np.int64), np.array(val, dtype=float))
 
 
-def _unheld_initial_conditions(circuit: Circuit, system: MnaSystem, forcing: Forcing, x, opts) -> list[str]:
-    """Warnings for ``.ic`` values the operating point could not hold (a node a voltage source fixes).
+def _unheld_initial_conditions(circuit: Circuit, system: MnaSystem, forcing: Forcing, x,
+                               unheld: np.ndarray) -> list[str]:
+    """Warnings for ``.ic`` values the operating point could not hold (``unheld``: :func:`_unheld`'s mask).
 
     ngspice holds ``.ic`` nodes with a conductance, which a source's node overrides without a
     word; netdae says so rather than drop the value silently, at the ``.ic`` value, naming what
     fixes the node.
     """
     return [unheld_initial_condition(circuit, system.layout.target(int(i))[1], float(want), float(x[i]))
-            for i, want in zip(forcing.index[_unheld(forcing, x, opts)], forcing.value[_unheld(forcing, x, opts)])]
+            for i, want in zip(forcing.index[unheld], forcing.value[unheld])]
 
 
 def _unheld(forcing: Forcing, x, opts) -> np.ndarray:
@@ -601,8 +602,8 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
             _check_charge_balance(circuit, system, res, groups, used, t, opts)
         res.notes = [_charge_note(g) for g in used] + ([_law_note(circuit, system, laws)] if laws else [])
         if forcing is not None:
-            warnings = _unheld_initial_conditions(circuit, system, forcing, res.x, opts)
             unheld = _unheld(forcing, res.x, opts)
+            warnings = _unheld_initial_conditions(circuit, system, forcing, res.x, unheld)
             if unheld.any():
                 # The forcing conductance of a value the circuit overrides carries (value - v) * 1e10 A into
                 # the source that fixes the node (5e10 A into an op-amp's output for .ic 5 V against 0 V):

@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
+from . import EXIT_ERROR, add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
 from ..signals import signal_unit
 from ..errors import OutputFileError
 
@@ -45,8 +45,6 @@ LOG = logging.getLogger("netdae")
 
 #: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
-#: A result file that cannot be written (a full disk): the results are still printed, then the error.
-EXIT_ERROR = 2
 #: Matrix file formats of ``--export``, by suffix.
 EXPORT_SUFFIXES = (".npz", ".mtx")
 
