@@ -415,19 +415,23 @@ VG g 0 PWL(0 -3 1 3)
 """
 
 
-@pytest.mark.xfail(strict=True, reason="a Jacobian kept for hundreds of steps of one size: the error test on "
-                   "i(vg) fails at t = 0.697 s (docs/integrator.md, Known limitations)")
 def test_slow_gate_ramp_finishes():
-    """The ramp finishes, and the gate current is the derivative of the gate charge."""
+    """The ramp finishes, and the gate current is the derivative of the gate charge.
+
+    It stopped at t = 0.697 s (the error test on i(vg)) while one Jacobian served hundreds of steps of
+    one size; a Jacobian now serves at most ``JAC_AGE_MAX`` accepted steps (docs/integrator.md).
+    """
     import netdae
 
     r = netdae.simulate(load(GATE_RAMP))
     assert r.ok, r.message
     t = r.axes["time"]
+    right = np.flatnonzero(np.diff(t) > 0)[0]  # t = 0 twice: the start's jump (left and right values)
+    t = t[right:]
     keep = (t > 0.05) & (t < 0.95)
-    vgi, vdi, vsi = (r[f"v(m1#{node})"] for node in ("gate", "drain", "source"))
+    vgi, vdi, vsi = (r[f"v(m1#{node})"][right:] for node in ("gate", "drain", "source"))
     s = (2e-9 - 5e-12) / (1.0 + math.pi / 2.0)
     _, cgd = gate_drain_charge(vgi - vdi, s, 2e-9 - s, 1.0)
     want = -(2e-9 * np.gradient(vgi - vsi, t) + cgd * np.gradient(vgi - vdi, t))
     # within 3e-3: the central differences of np.gradient on 1 ms steps
-    assert np.max(np.abs(r["i(vg)"][keep] - want[keep])) <= 3e-3 * np.max(np.abs(want[keep]))
+    assert np.max(np.abs(r["i(vg)"][right:][keep] - want[keep])) <= 3e-3 * np.max(np.abs(want[keep]))

@@ -62,3 +62,22 @@ def test_an_operating_point_newton_cannot_reach_is_a_convergence_error_not_a_sin
 def test_a_smooth_circuit_has_no_impasse():
     res = netdae.simulate(netdae.load(FOLD.replace("PWL(0 -3 1 3)", "PWL(0 -3 1 1.9)")), reltol=1e-6)
     assert res.ok and res.stats["integrator"]["impasses"] == 0
+
+
+def test_the_right_limit_at_a_fold_leaves_it_by_pseudo_transient_continuation():
+    # left value on the fold's branch end, a hair past the fold's time: no root near it (v^3 - 3 v = I > 2 has
+    # only v > 2), and Newton, gmin and source stepping (which follows the lower branch to the same fold) stall
+    # there; only at an impasse is the pseudo-time's continuation tried, and it carries v to the upper branch
+    from netdae.dae.bdf import right_limit
+    from netdae.mna import MODE_TRAN, assemble
+
+    system = assemble(netdae.load(FOLD), mode=MODE_TRAN, tstep=1e-3, tstop=1.0)
+    t = T_FOLD + 2e-12
+    x = np.array([-1.00000024])
+    high = np.zeros(1, dtype=bool)
+    plain = right_limit(system, t, x, 3.47e-12, high, 1e-6, 1e-6, 1e-12)
+    at_impasse = right_limit(system, t, x, 3.47e-12, high, 1e-6, 1e-6, 1e-12, impasse=True)
+    assert at_impasse[0] is not None, at_impasse[3]
+    want = branch_root(-3.0 + 6.0 * (t + 3.47e-12), lower=False)
+    assert at_impasse[0][0] == pytest.approx(want, rel=1e-6)
+    assert plain[0] is None  # what the impasse met before (the homotopies alone)

@@ -169,6 +169,7 @@ from .constants import (
     H0_ERROR_TARGET,
     H0_FRACTION,
     IMPASSE_TRIES,
+    JAC_AGE_MAX,
     JUMP_DETECT,
     JUMP_FIRST_STEP,
     JUMP_NEWTON_MAXITER,

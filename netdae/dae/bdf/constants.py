@@ -25,6 +25,14 @@ RATE_CJ_CHANGED = 100.0 / 101.0
 #: A nonlinear system keeps its factorisation while cj/cj_lu stays in
 #: [(1-DCJ)/(1+DCJ), (1+DCJ)/(1-DCJ)] = [0.6, 1.67] (IDA's dcj).
 DCJ = 0.25
+#: ... and for at most this many accepted steps: a Jacobian evaluated longer ago is renewed
+#: (CVODE's msbp, 20 there). IDA renews only when cj leaves its window or Newton fails; a step
+#: held constant (a slow input, an error estimate that allows no growth) then keeps one
+#: Jacobian for thousands of steps while the devices drift from it, and the iterates it
+#: accepts carry errors that hold the step where it is (docs/integrator.md, "Known
+#: limitations": a Schmitt-trigger oscillator took 137,000 steps instead of 12,300, a VDMOS
+#: gate ramp failed its error test).
+JAC_AGE_MAX = 50
 #: The step grows only when the error allows at least this factor (IDA's eta_max_fx) ...
 ETA_GROW_MIN = 2.0
 #: ... and then by at most this factor (IDA's eta_max).

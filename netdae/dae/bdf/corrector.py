@@ -18,7 +18,8 @@ import scipy.sparse as sp
 from ..newton import (CONDUCTANCE_FALL, INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache,
                       conductance_fell, newton, residual_stalled)
 from .arguments import rounding_signs
-from .constants import DCJ, DENSE_MATVEC_MAX, EPCON, EPS, RATE_AFTER_SETUP, RATE_CJ_CHANGED, ROUNDING_FACTOR
+from .constants import (DCJ, DENSE_MATVEC_MAX, EPCON, EPS, JAC_AGE_MAX, RATE_AFTER_SETUP, RATE_CJ_CHANGED,
+                        ROUNDING_FACTOR)
 from .failures import nonfinite_unknown, worst_unknown
 
 __all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector"]
@@ -228,13 +229,16 @@ class NonlinearCorrector:
     ----------
     rate : float
         The convergence rate carried from step to step (IDA).
+    age : int
+        Accepted steps since the factorised Jacobian was evaluated (the stepper counts them).
     state_try : object
         The devices' limiting state of the last attempt (the driver keeps it when the step is accepted).
 
     Notes
     -----
     The factorisation is kept while ``cj / cj_lu`` stays within
-    ``[(1 - DCJ)/(1 + DCJ), (1 + DCJ)/(1 - DCJ)]``; a failure with a stale one
+    ``[(1 - DCJ)/(1 + DCJ), (1 + DCJ)/(1 - DCJ)]`` and for at most ``JAC_AGE_MAX``
+    accepted steps (CVODE's ``msbp``); a failure with a stale one
     is retried once with a fresh Jacobian at the same step size, and a failure
     with a fresh one once with full Newton (a Jacobian at every iterate: where a
     model's slope changes inside the step, as a MOS charge at its threshold, the
@@ -272,6 +276,7 @@ class NonlinearCorrector:
         self._pattern_arrays = (np.asarray(system.pattern.indptr, dtype=np.int64),
                                 np.asarray(system.pattern.indices, dtype=np.int64))
         self.rate = RATE_AFTER_SETUP
+        self.age = 0
         self.state_try = None
         n = system.n
         self.rows = np.arange(n, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
@@ -388,6 +393,8 @@ class NonlinearCorrector:
             """One Newton solve; a converged one's charges evaluated, and checked when its Jacobian is older."""
             self.state_try = state
             res = self._newton(fun, x_pred, cj, cjlast, setup, w_newton, full)
+            if setup or full:
+                self.age = 0
             if not res.converged:
                 return res, None
             checked = check and not setup and not full
@@ -406,6 +413,7 @@ class NonlinearCorrector:
         if not setup:
             ratio = cj / lu.tag
             setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
+            setup = setup or self.age >= JAC_AGE_MAX
         res, ev_new = attempt(setup)
         if not res.converged and not setup and res.info != INFO_EVALUATION:
             # stale Jacobian: retry once with a fresh one at the same step size

@@ -189,7 +189,7 @@ class ImplicitEulerStep(DaeSystem):
 
 
 def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, *,
-                state=None) -> tuple[np.ndarray | None, int, int, str]:
+                state=None, impasse: bool = False) -> tuple[np.ndarray | None, int, int, str]:
     """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
 
     The charges are continuous across t (no impulse), so the steps start from
@@ -203,6 +203,13 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     ``groups``): their common mode is algebraic, set by conductances the rounding
     of ``C / eps`` would lose.
 
+    With ``impasse`` (the integrator's attempts failed on every step size) a step the
+    homotopies do not solve is solved again with pseudo-transient continuation: at a fold
+    the left value sits where the branch ends, no solution is near it, and Newton, gmin and
+    source stepping (whose continuation follows the same branch to the same fold) can all
+    stall there; the pseudo-time's capacitors carry the unknowns off the fold as the
+    circuit's own small capacitances would.
+
     Returns
     -------
     (x_right, iterations, evaluations, message)
@@ -211,6 +218,7 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     # an implicit-Euler step is itself a time step: no pseudo-time continuation on top of it (a failure
     # cuts the step instead)
     opts = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False, pseudo_transient=False)
+    last = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False, pseudo_transient=True)
     iterations = 0
     evaluations = 0
     y = np.asarray(x, dtype=float)
@@ -222,10 +230,14 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
         if step == 1 and ev.dq is not None:
             groups = conserved_charge_groups(system.pattern, ev.dq)
         q0 = ev.q
-        res = solve_steady(ImplicitEulerStep(system, q0, eps, t + step * eps, groups), t + step * eps, y,
-                           options=opts)
+        problem = ImplicitEulerStep(system, q0, eps, t + step * eps, groups)
+        res = solve_steady(problem, t + step * eps, y, options=opts)
         iterations += res.iterations
         evaluations += res.iterations
+        if not res.converged and impasse:
+            res = solve_steady(problem, t + step * eps, y, options=last)
+            iterations += res.iterations
+            evaluations += res.iterations
         if not res.converged:
             return None, iterations, evaluations, ("the inputs jump at t, and no values consistent with them "
                                                    f"right of it were found ({res.message})")

@@ -715,7 +715,7 @@ class BDF:
                   EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
         tol = self._tolerances
         out, iterations, evaluations, _ = right_limit(self.system, t, x, eps, self._high, self.rtol,
-                                                      tol["vntol"], tol["abstol"], state=self._state)
+                                                      tol["vntol"], tol["abstol"], state=self._state, impasse=True)
         self.stats["newton_iterations"] += iterations
         self.stats["evaluations"] += evaluations
         if out is None:
@@ -835,6 +835,8 @@ class BDF:
         k = hist.k
         t = self.t
         self._nst += 1
+        if not self._linear:
+            self._corrector.age += 1
         count_step(self.stats, h, k)
         kdiff = hist.accept(h)
         eta = self._select_order_and_step(k, kdiff, info)

@@ -92,6 +92,7 @@ from ..bdf import (  # noqa: E402
     EVENT_RIGHT_LIMIT_TOL,
     EVENT_RIGHT_LIMIT_ULPS,
     IMPASSE_TRIES,
+    JAC_AGE_MAX,
     H0_ERROR_TARGET,
     H0_FRACTION,
     JUMP_DETECT,
@@ -191,7 +192,8 @@ I_IMPASSE = 44          # 1: the pending restart continues from the right limit 
 I_IMPASSE_TRIES = 45    # impasse restarts at F_IMPASSE_T so far
 I_UNDEFINED_STEP = 46   # the current step met an attempt past a change where a held branch is undefined (kept
 #                         across returns to Python: an attempt repeated with new pivots is the same step's)
-N_I = 47
+I_JAC_AGE = 47          # accepted steps since the factorised Jacobian was evaluated
+N_I = 48
 
 # statuses
 RUNNING = 0
@@ -1382,6 +1384,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 if not setup:
                     ratio = cj / F[F_LU_TAG]
                     setup = ratio < (1.0 - DCJ) / (1.0 + DCJ) or ratio > (1.0 + DCJ) / (1.0 - DCJ)
+                    setup = setup or I[I_JAC_AGE] >= JAC_AGE_MAX
                 w_nt = w
                 if I[I_HAS_ABSDQ] != 0 and ready:
                     if _rounding_floor(pred0[:n], pred1[:n], qp_pred, cj, qcol, False, absdq, indptr, indices, lus,
@@ -1406,6 +1409,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                     outcome, reason, worst, its, rate = _newton(F, I, t_ev, cj, fresh, full, pred0, pred1, crows,
                                                                 w_nt, sysd, devd, lus, u, evb, xn, d, r, vw)
                     if fresh or full:
+                        I[I_JAC_AGE] = 0
                         # dphi/dx of the Jacobian just factored (the last one _newton evaluated)
                         for p in range(dphi_lu.size):
                             dphi_lu[p] = dphie[p]
@@ -1635,6 +1639,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         k = I[I_K]
         I[I_NST] += 1
         I[I_STEPS] += 1
+        I[I_JAC_AGE] += 1
         if h < F[F_H_MIN]:
             F[F_H_MIN] = h
         if h > F[F_H_MAX]:

@@ -454,7 +454,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                     system.delay_history = _history(buf_t, buf_k, buf_x, segments, I, ns)
                 try:
                     x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high,
-                                                            rtol, vntol, abstol)
+                                                            rtol, vntol, abstol, impasse=I[L.I_IMPASSE] != 0)
                 finally:
                     if delays[0].size:
                         system.delay_history = None
