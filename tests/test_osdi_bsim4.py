@@ -438,6 +438,80 @@ def test_bsim4_features_equal_ngspice(feature):
     assert np.max(np.abs(gain - ref) / np.abs(ref)) < 1e-9  # measured: 2e-13 at most
 
 
+
+# -- ngspice's reading of a card that the modules read otherwise --------------------------------------------------
+@needs_vacask
+def test_doping_densities_above_ngspices_limits_are_read_in_per_cubic_metre():
+    # b4mpar.c, b3mpar.c: ndep (BSIM3: nch) above 1e20, nsd and ngate above 1.000001e24, their l/w/p terms above
+    # 1e23 (ndep's 1e20) are m^-3, taken times 1e-6; the modules read every value in cm^-3
+    c = netdae.load("t\nVdd d 0 1\nM1 d d 0 0 n4 l=1u w=1u\nM2 d d 0 0 n3 l=1u w=1u\n"
+                    ".model n4 nmos level=54 ndep=2e24 nsd=1e26 ngate=3e26 lndep=2e20 lnsd=2e23 wngate=9e22 "
+                    "pndep=9e19\n.model n3 nmos level=49 nch=1.7e23 ngate=1e24 pngate=5e23\n.op\n")
+    n4, n3 = c.models["n4"].params, c.models["n3"].params
+    assert n4["ndep"] == pytest.approx(2e18, rel=1e-15) and n4["nsd"] == pytest.approx(1e20, rel=1e-15)
+    assert n4["ngate"] == pytest.approx(3e20, rel=1e-15) and n4["lndep"] == pytest.approx(2e14, rel=1e-15)
+    assert n4["lnsd"] == pytest.approx(2e17, rel=1e-15)
+    assert (n4["wngate"], n4["pndep"]) == (9e22, 9e19)  # below the limits: cm^-3, kept
+    assert n3["nch"] == pytest.approx(1.7e17, rel=1e-15) and n3["ngate"] == 1e24
+    assert n3["pngate"] == pytest.approx(5e17, rel=1e-15)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_card_in_per_cubic_metre_equals_ngspice():
+    per_m3 = inverter(0.6).replace("ndep=2e18", "ndep=2e24 nsd=2e26 ngate=3e26").replace(
+        "mjsws=0.3 pbsws=0.8\n.model pch", "mjsws=0.3 pbsws=0.8 lndep=1e23\n.model pch")
+    assert per_m3.count("ndep=2e24") == 2 and "lndep=1e23" in per_m3
+    per_cm3 = per_m3.replace("ndep=2e24", "ndep=2e18").replace("nsd=2e26", "nsd=2e20").replace(
+        "ngate=3e26", "ngate=3e20").replace("lndep=1e23", "lndep=1e17")
+    ours, same, ref = netdae.run(per_m3, **TIGHT)[0], netdae.run(per_cm3, **TIGHT)[0], ngspice(per_m3, "op")
+    for name in ("v(out)", "i(vdd)"):
+        assert_close(ours[name], ref[name], 1e-6, 1e-9 if name[0] == "v" else 1e-15, name)
+        assert_close(ours[name], same[name], 1e-12, 1e-18, name)
+    text = (f"bsim3\nVdd vdd 0 1.2\nVin in 0 0.6\nM1 out in 0 0 n3 l=0.5u w=1u\nM2 out in vdd vdd p3 l=0.5u w=2u\n"
+            f"{BSIM3_CARDS.replace('k1=0.5 cgso', 'k1=0.5 nch=3e23 ngate=5e25 cgso', 1)}.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    for name in ("v(out)", "i(vdd)"):
+        assert_close(ours[name], ref[name], 1e-6, 1e-9 if name[0] == "v" else 1e-15, name)
+
+
+def poly_depleted(vgs: float, ngate: float, toxe: float, vfb_phi: float) -> float:
+    """BSIM4's poly-depleted gate voltage ``Vgs_eff`` (``BSIM4polyDepletion``, ngspice's constants)."""
+    coxe = 3.9 * 8.85418e-12 / toxe
+    t1 = 1e6 * 1.6021766208e-19 * 1.03594e-10 * ngate / coxe**2
+    t8 = vgs - vfb_phi
+    t2 = 2 * t8 / (np.sqrt(1 + 2 * t8 / t1) + 1)
+    t7 = 1.12 - 0.5 * t2 * t2 / t1 - 0.05
+    return vgs - (1.12 - 0.5 * (t7 + np.sqrt(t7 * t7 + 0.224)))
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("vgs, vds", [(0.6, 1.1), (1.1, 1.1), (1.1, 0.0), (1.5, 0.1)])
+def test_gate_tunnelling_through_a_depleted_poly_gate_is_bsim4_8_3s(vgs, vds):
+    # The module ports BSIM4.8.3, whose Igc takes Vgs where ngspice 39's BSIM4.8.2 takes the poly-depleted
+    # Vgs_eff (b4ld.c: T2 = Vgs_eff * Vaux there, Vgs * Vaux from ngspice 45): the ratio of the two is
+    # Vgs / Vgs_eff, from BSIM4's defaults (vth0 not given: vfb = -1; phi from ndep = 1.7e17 at 27 degC).
+    card = ".model n1 nmos level=54 version=4.8 igcmod=1 toxp=1.2e-09 ngate=2e+020 pigcd=1"
+    save = ["i(vg)", "@m1[id]", "@m1[igcs]", "@m1[igcd]"]
+    text = f"igc\nVg g 0 {vgs}\nVd d 0 {vds}\nM1 d g 0 0 n1\n{card}\n.save {' '.join(save)}\n.op\n.end\n"
+    c = netdae.load(text)
+    assert sum("Vgs/Vgs_eff times ngspice 39's" in w for w in warnings_of(c)) == 1
+    ours, ref = netdae.run(c, **TIGHT)[0], ngspice(text, "op")
+    vtm0 = 8.617087e-5 * 300.15
+    ni = 1.45e10 * np.exp(21.5565981 - (1.16 - 7.02e-4 * 300.15**2 / (300.15 + 1108.0)) / (2 * vtm0))
+    ratio = vgs / poly_depleted(vgs, 2e20, 1.2e-9, -1.0 + vtm0 * np.log(1.7e17 / ni) + 0.4)
+    assert 1.1 < ratio < 1.2
+    for name in ("i(vg)", "@m1[igcs]", "@m1[igcd]"):
+        assert float(ours[name][0]) / float(ref[name][0]) == pytest.approx(ratio, rel=1e-5), name
+    assert_close(ours["@m1[id]"], ref["@m1[id]"], 1e-6, 1e-15, "id")  # the channel current agrees
+    # without poly depletion the two releases are one model
+    plain = text.replace(" ngate=2e+020", "")
+    assert not any("Vgs_eff" in w for w in warnings_of(netdae.load(plain)))
+    ours, ref = netdae.run(plain, **TIGHT)[0], ngspice(plain, "op")
+    for name in save:
+        assert_close(ours[name], ref[name], 1e-6, 1e-18, name)
+
 def crossings(t, v, level=0.6):
     """The times ``v`` crosses ``level`` either way (linear interpolation between points)."""
     s = v - level
