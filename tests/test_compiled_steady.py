@@ -18,6 +18,7 @@ from netdae.analyses.dc import dc_sweep
 from netdae.analyses.op import operating_point
 from netdae.circuit import DcAnalysis
 from netdae.dae.compiled import steady_driver as compiled
+from netdae.errors import CircuitError
 from netdae.netlist import load
 
 CIRCUITS = ["bridge_rectifier.cir", "ce_amplifier.cir", "cmos_inverter.cir", "diff_pair.cir",
@@ -127,3 +128,59 @@ def test_a_point_plain_newton_cannot_solve_goes_to_the_homotopies_and_the_sweep_
     _, single = _point_by_point(monkeypatch, lambda: dc_sweep(circuit, card))
     for nm in single.signals:
         np.testing.assert_array_equal(swept[nm], single[nm])
+
+
+BJT_CURVES = """BJT output characteristics: the base current steps from zero
+VCE c 0 0
+IB 0 b 0
+Q1 c b 0 QN
+.model QN NPN(IS=1e-15 BF=150 VAF=60 BR=3 RB=50 RC=2 IKF=50m)
+.dc VCE 0 10 0.05 IB 0 50u 10u
+.end
+"""
+
+
+def test_a_pivot_proven_regular_lets_the_compiled_sweep_take_its_neighbours(monkeypatch):
+    # at IB = 0 the base hangs on the junctions' leakage and gmin: every point's smallest equilibrated pivot
+    # (6e-11 at VCE = 0 to 1e-8 at 10 V) is below PIVOT_SUSPECT, so each went to the full solver and its SVD,
+    # which judged it regular; now the first judgement clears the points whose pivots stay within
+    # PROVEN_PIVOT_FRACTION of it, and the values are the point-by-point solver's within its tolerance
+    import netdae.analyses.dc as dc
+
+    circuit = load(BJT_CURVES)
+    card = circuit.analyses[0]
+    full = []
+    original = dc._solve_point
+
+    def counting(prepared, opts, x, names, values):
+        res = original(prepared, opts, x, names, values)
+        full.append((values, res.min_pivot))
+        return res
+
+    monkeypatch.setattr(dc, "_solve_point", counting)
+    swept = dc_sweep(circuit, card)
+    assert len(full) == 1 and full[0][1] < 1e-9  # the first point only, judged by the SVD
+    monkeypatch.setattr(dc, "PROVEN_PIVOT_FRACTION", np.inf)  # every suspect pivot to the full solver, as before
+    full.clear()
+    judged = dc_sweep(circuit, card)
+    at_zero = [p for values, p in full if values[1] == 0.0]
+    assert len(at_zero) == 201 and all(p < 1e-6 for p in at_zero)  # the whole IB = 0 curve
+    for nm in ("v(b)", "i(vce)"):
+        a, b = swept[nm], judged[nm]
+        np.testing.assert_array_less(np.abs(a - b), 1e-3 * np.maximum(np.abs(a), np.abs(b)) + 1e-9)
+
+
+def test_a_sweep_point_whose_matrix_becomes_singular_is_still_refused():
+    # G1's transconductance is the only path of node a, and it is proportional to the swept v(c): at
+    # v(c) = 0 node a floats, whatever the pivots of the points before
+    text = """floating at one point of the sweep
+V1 c 0 1
+B1 a 0 I=v(a)*v(c)
+R1 c 0 1k
+.dc V1 1 -1 -0.25
+.end
+"""
+    circuit = load(text)
+    with pytest.raises(CircuitError) as info:
+        dc_sweep(circuit, circuit.analyses[0])
+    assert str(info.value).lower().startswith(".dc at v1 = 0: dc operating point singular")
