@@ -70,7 +70,7 @@ from .junction import (
     thermal_voltage,
     vcrit,
 )
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage", "junction_limit", "junction_current", "knee_current",
            "diode_structure", "diode_branches"]
@@ -323,11 +323,7 @@ class DiodeFamily(DeviceFamily):
             row["area"] = inst.get("area", mv["area"])
             row["mult"] = inst["m"]
             row["off"] = inst["off"]
-            for key, shown in (("area", "area"), ("mult", "m")):
-                if not row[key] > 0.0:  # located as the other devices' (a NaN is refused too)
-                    where = f"{el.location}: " if el.location else ""
-                    raise CircuitError(f"{where}{el.name}: {shown} = {row[key]:g} must be positive",
-                                       elements=(el.name,), hint=f"give {shown} a positive value (the default is 1)")
+            require_positive(el, row, (("area", "area"), ("mult", "m")))
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             row["series"], row["charge"] = (float(fact) for fact in diode_structure(mv))
             rows.append(row)

@@ -27,8 +27,8 @@ from ..errors import CircuitError, NetlistError
 from ..kinds import KINDS
 from .model_names import LEVELS, NGSPICE_PARAMETERS, level_words, table_of
 
-__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "ignored_parameters",
-           "unimplemented_level"]
+__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "require_positive",
+           "ignored_parameters", "unimplemented_level"]
 
 #: What runs a model netdae does not implement.
 OSDI_HINT = ("netdae implements level 1 itself and runs M cards of BSIM3 (level 8/49) and BSIM4 (level 14/54) "
@@ -213,6 +213,44 @@ def instance_values(element: Element, allowed: dict[str, float | None], device: 
         if name not in out and default is not None:
             out[name] = default
     return out
+
+
+#: Instance parameters that scale a device (its multiplier and areas): ngspice 39 runs them when they are not
+#: positive (0: a device that conducts nothing, negative: one whose currents are reversed; checked with BJT,
+#: MOSFET levels 1-3, diode and JFET cards), netdae refuses them and its hint says so.
+SCALE_PARAMETERS = frozenset({"m", "area", "areab", "areac"})
+
+
+def require_positive(element: Element, values: dict[str, float], names) -> None:
+    """Refuse an instance parameter of ``element`` that is not positive, located at its line.
+
+    Parameters
+    ----------
+    element : Element
+        The instance (its location and name start the message).
+    values : dict
+        Its values, by the keys of ``names``.
+    names : iterable of (str, str)
+        ``(key, shown)``: the key in ``values`` and the parameter's name on
+        the card. A NaN is refused too.
+
+    Raises
+    ------
+    CircuitError
+        For the first value that is not positive; for a multiplier or an
+        area (:data:`SCALE_PARAMETERS`) the hint says what ngspice does instead.
+    """
+    for key, shown in names:
+        value = values[key]
+        if value > 0.0:
+            continue
+        where = f"{element.location}: " if element.location else ""
+        hint = f"give {shown} a positive value"
+        if shown in SCALE_PARAMETERS:
+            hint += (f", 1 by default (ngspice 39 runs {shown} = 0 as a device that conducts nothing and "
+                     f"{shown} < 0 as one whose currents are reversed)")
+        raise CircuitError(f"{where}{element.name}: {shown} = {value:g} must be positive",
+                           elements=(element.name,), hint=hint)
 
 
 def gather(rows: list[dict[str, float]], name: str, default: float = np.nan) -> np.ndarray:
