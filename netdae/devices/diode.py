@@ -91,6 +91,8 @@ DIODE_PARAMETERS = ParameterTable(
 _INSTANCE = {"area": None, "m": 1.0, "off": 0.0, "temp": None, "dtemp": 0.0, "ic": None}
 #: ngspice caps the grading coefficient at 0.9 (``DIOgradingCoeffMax``).
 GRADING_MAX = 0.9
+#: ngspice caps the forward-bias depletion coefficient FC at 0.95 (diotemp.c; ln(1 - fc) needs fc < 1).
+FC_MAX = 0.95
 #: Breakdown adjustment: ngspice's iteration limit.
 BREAKDOWN_ITERATIONS = 25
 #: ngspice starts limiting in breakdown 10 (NBV vt) above -BV.
@@ -340,7 +342,7 @@ class DiodeFamily(DeviceFamily):
         cj, vj = scale_junction(g("cjo") * area, grading, g("vj"), tnom, temp)
         self.isat = np.maximum(g("is"), EPSMIN) * area * np.exp(saturation_exponent(g("eg"), g("xti"), tnom, temp) / n)
         self.vcrit = vcrit(self.vte, self.isat)
-        fc = g("fc")
+        fc = np.minimum(g("fc"), FC_MAX)
         self.depletion = Depletion(cj, np.where(fc * vj > 1.0, 1.0 / fc, vj), grading, fc)
         self.tt = g("tt")
         rs, series = g("rs"), g("series") != 0.0

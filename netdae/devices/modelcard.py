@@ -112,7 +112,7 @@ class ParameterTable:
                          "else than ngspice",
                 )
             given[name] = float(value)
-            _check_value(model, raw, name, float(value), self.device)
+            _check_value(model, raw, name, float(value), self.device, self.family)
         return ModelValues(model, given, self.defaults)
 
 
@@ -129,10 +129,40 @@ NONNEGATIVE = frozenset({
 POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "ron", "roff"})
 
 
-def _check_value(model: Model, raw: str, name: str, value: float, device: str) -> None:
+#: Junction potentials (a subset of :data:`POSITIVE`): below this [V] the depletion charge's ``v / vj``
+#: overflows for ordinary voltages (``vj=1e-300``); ngspice's BSIM3 and BSIM4 clamp theirs at 0.01 V too.
+JUNCTION_POTENTIALS = frozenset({"vj", "vje", "vjc", "vjs", "pb"})
+JUNCTION_POTENTIAL_MIN = 0.01
+#: Grading coefficients of the junction capacitances, by model family (the diode's and the VDMOS body diode's
+#: is M). A negative one is a typing error (the capacitance would fall towards forward bias; ``exp(-m ln(1 -
+#: v/vj))`` overflows in reverse bias); the diode and the BJT clamp large ones (as ngspice's diotemp.c does,
+#: at 0.9, and netdae's BJT at 0.999), the VDMOS refuses 1 and more (:mod:`netdae.devices.vdmos`); the
+#: MOSFET, which ngspice does not clamp, takes at most :data:`GRADING_LIMIT` and not 1, where the charge
+#: ``vj cj0 (1 - (1 - v/vj)^(1-m)) / (1 - m)`` divides by zero (ngspice 39 stops there: "Timestep too small;
+#: initial timepoint").
+GRADING = {"diode": frozenset({"m"}), "bjt": frozenset({"mje", "mjc", "mjs"}), "mosfet": frozenset({"mj", "mjsw"}),
+           "vdmos": frozenset({"m"})}
+#: Largest grading coefficient of the MOSFET: hyperabrupt junctions reach 2; with ``fc < 1`` the
+#: capacitance above ``fc vj``, ``cj0 / (1 - fc)^(1 + m)``, then stays finite (``mjsw=1e300`` overflowed).
+GRADING_LIMIT = 10.0
+#: Families whose forward-bias coefficient FC ngspice does not clamp: ``ln(1 - fc)`` needs ``fc < 1``.
+FC_UNCLAMPED = frozenset({"mosfet"})
+
+
+def _check_value(model: Model, raw: str, name: str, value: float, device: str, family: str = "") -> None:
     """Refuse a value no device can have, at the value's location."""
     if name == "tnom":
         bad, need = not value > ABSOLUTE_ZERO, f"above absolute zero ({ABSOLUTE_ZERO:g} degC)"
+    elif name in JUNCTION_POTENTIALS:
+        bad, need = not value >= JUNCTION_POTENTIAL_MIN, f">= {JUNCTION_POTENTIAL_MIN:g} V"
+    elif name in GRADING.get(family, ()):
+        if family == "mosfet":
+            bad = not 0.0 <= value <= GRADING_LIMIT or value == 1.0
+            need = f"between 0 and {GRADING_LIMIT:g}, and not 1"
+        else:
+            bad, need = not value >= 0.0, ">= 0"
+    elif name == "fc" and family in FC_UNCLAMPED:
+        bad, need = not 0.0 <= value < 1.0, "between 0 and 1 (1 excluded)"
     elif name in POSITIVE:
         bad, need = not value > 0.0, "> 0"
     elif name in NONNEGATIVE:
