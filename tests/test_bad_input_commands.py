@@ -578,6 +578,39 @@ def test_diode_multiplicity_or_area_not_positive_is_located(capsys, tmp_path, co
     assert f"{path}:4:1: d1: {shown} must be positive (hint: give" in err
 
 
+#: An instance of each family that takes a multiplier (and the BJT's areas), with its model card.
+_SCALED = {
+    "bjt": ("Q1 b a 0 qn {}", ".model qn npn"),
+    "mos1": ("M1 b a 0 0 nm {}", ".model nm nmos level=1"),
+    "mos2": ("M1 b a 0 0 nm {}", ".model nm nmos level=2"),
+    "mos3": ("M1 b a 0 0 nm {}", ".model nm nmos level=3 nsub=1e16"),
+    "diode": ("D1 b 0 dd {}", ".model dd d"),
+    "jfet": ("J1 b a 0 jm {}", ".model jm njf"),
+    "mesa": ("Z1 b a 0 zm l=1u w=10u {}", ".model zm nmf level=2"),
+    "hfet": ("Z1 b a 0 hm l=1u w=10u {}", ".model hm nhfet level=5"),
+    "vdmos": ("M1 b a 0 vm {}", ".model vm vdmos"),
+}
+
+
+@pytest.mark.parametrize("family, instance, shown", [
+    ("bjt", "m=0", "m = 0"), ("bjt", "m=-1", "m = -1"), ("bjt", "area=0", "area = 0"), ("bjt", "area=-2", "area = -2"),
+    ("mos1", "m=0", "m = 0"), ("mos1", "m=-1", "m = -1"), ("mos2", "m=0", "m = 0"), ("mos3", "m=-1", "m = -1"),
+    ("diode", "m=0", "m = 0"), ("jfet", "m=-1", "m = -1"), ("mesa", "m=0", "m = 0"), ("hfet", "m=-1", "m = -1"),
+    ("vdmos", "m=0", "m = 0"),
+])
+def test_a_multiplier_or_area_not_positive_is_located_in_every_family(capsys, tmp_path, family, instance, shown):
+    """ngspice 39 runs m=0 as a device that conducts nothing and m=-1 as one whose currents are reversed (BJT,
+    MOSFET levels 1-3, diode, JFET: checked with ngspice -b); netdae refuses them at the instance's card, with
+    what ngspice does in the hint (the BJT and the MOSFETs took them silently)."""
+    card, model = _SCALED[family]
+    text = f"t\nV1 a 0 1\nR1 a b 1k\n{card.format(instance)}\n{model}\n.op\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run")
+    assert status == EXIT_ERROR and "bug in netdae" not in err and "Traceback" not in err
+    assert f"{path}:4:1: {card[:2].lower()}: {shown} must be positive (hint: give {shown.split()[0]} a positive" in err
+    if shown.startswith(("m ", "area ")):
+        assert "ngspice 39 runs" in err and "currents are reversed" in err
+
+
 @pytest.mark.parametrize("elements, warning, signal, used", [
     # a capacitor across a source: its ic= contradicts the source, which holds (v(a) = 1)
     ("V1 a 0 1\nC1 a 0 1u ic=2\nR1 a 0 1k\n",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from netdae.dae.bdf.constants import BUFFER_START
+from netdae.dae.bdf.constants import BUFFER_START, BUFFER_START_BYTES
 from netdae.dae.bdf.recorder import Recorder
 from netdae.results import STATUS_OK
 
@@ -13,6 +13,17 @@ from netdae.results import STATUS_OK
 def _result(rec):
     return rec.result(stats={"steps": rec.m - 1}, status=STATUS_OK, message="ok", tolerances={"rtol": 1e-3},
                       failure=None)
+
+
+def test_a_recorder_of_many_unknowns_starts_within_the_byte_budget():
+    """200,001 saved unknowns: 16 points (25.6 MB), not BUFFER_START (1.6 GB); it still grows when full."""
+    n = 200_001
+    rec = Recorder([f"v({k})" for k in range(n)], np.arange(n), True)
+    row = 8 * n
+    assert rec.x.nbytes <= max(BUFFER_START_BYTES, 16 * row) < BUFFER_START * row
+    for i in range(rec.t.size + 1):
+        rec.record(float(i), np.zeros(n), 1)
+    assert rec.m == rec.t.size // 2 + 1 and rec.x.shape[0] == rec.t.size
 
 
 def test_records_saved_components_and_grows_its_buffers():

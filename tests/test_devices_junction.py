@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 
+import netdae
 from netdae.devices.junction import (
     BOLTZMANN,
     CHARGE,
@@ -23,6 +25,7 @@ from netdae.devices.junction import (
     thermal_voltage,
     vcrit,
 )
+from netdae.errors import NetlistError
 
 VT = 0.025852  # thermal voltage near 300 K
 
@@ -219,3 +222,72 @@ def test_saturation_current_scaling_at_two_temperatures():
 def test_vcrit_definition():
     vte = float(thermal_voltage(300.15))
     assert float(vcrit(vte, 1e-14)) == pytest.approx(vte * math.log(vte / (math.sqrt(2) * 1e-14)), rel=1e-15)
+
+
+#: A transient through each family's junction capacitances, with ``{}`` on the model card.
+_JUNCTIONS = {
+    "mosfet": ("V1 d 0 PULSE(0 5 1n 1n 1n 5n 10n)\nV2 g 0 2\nM1 d g 0 0 nm l=1u w=10u ad=1p as=1p pd=4u ps=4u\n"
+               ".model nm nmos level=1 vto=0.7 kp=1e-4 cj=1e-4 cjsw=1e-10 {}"),
+    "bjt": "V1 c 0 PULSE(0 5 1n 1n 1n 5n 10n)\nV2 b 0 0.7\nQ1 c b 0 qn\n.model qn npn cje=1p cjc=1p cjs=1p {}",
+    "diode": "V1 a 0 PULSE(-1 1 1n 1n 1n 5n 10n)\nR1 a b 1k\nD1 b 0 dm\n.model dm d cjo=1p {}",
+    "jfet": "V1 d 0 PULSE(0 5 1n 1n 1n 5n 10n)\nV2 g 0 0\nJ1 d g 0 jm\n.model jm njf vto=-2 cgs=1p cgd=1p {}",
+    "vdmos": "V1 d 0 PULSE(0 5 1n 1n 1n 5n 10n)\nV2 g 0 3\nM1 d g 0 vm\n.model vm vdmos cjo=1p {}",
+}
+
+
+def _junction_card(family: str, values: str) -> str:
+    return f"t\n{_JUNCTIONS[family].format(values)}\n.tran 0.1n 10n\n.end\n"
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("family, values, need", [
+    ("mosfet", "mjsw=1e300", "mjsw must be between 0 and 10, and not 1"),
+    ("mosfet", "mj=1e300", "mj must be between 0 and 10, and not 1"),
+    ("mosfet", "mj=-1e300", "mj must be between 0 and 10, and not 1"),
+    ("mosfet", "mjsw=1", "mjsw must be between 0 and 10, and not 1"),  # (1 - m) divides the charge
+    ("mosfet", "fc=1e300", "fc must be between 0 and 1 (1 excluded)"),
+    ("mosfet", "fc=1", "fc must be between 0 and 1 (1 excluded)"),
+    ("mosfet", "pb=1e-300", "pb must be >= 0.01 V"),
+    ("bjt", "mje=-1e300", "mje must be >= 0"),
+    ("bjt", "mjc=-1e300", "mjc must be >= 0"),
+    ("bjt", "vje=1e-300", "vje must be >= 0.01 V"),
+    ("bjt", "vjs=1e-300", "vjs must be >= 0.01 V"),
+    ("diode", "mj=-1e300", "mj must be >= 0"),
+    ("diode", "vj=1e-300", "vj must be >= 0.01 V"),
+    ("jfet", "pb=1e-300", "pb must be >= 0.01 V"),
+    ("vdmos", "m=-1e300", "m must be >= 0"),
+])
+def test_absurd_junction_parameters_are_refused_at_the_value(family, values, need):
+    """They overflowed numpy's power and exponential in the depletion charge (RuntimeWarnings, then non-finite
+    equations or a failed run); ngspice 39 stops on them too (mjsw=1e300: NaN currents; mj=1, mj=-1e300 and
+    pb=1e-300: "Timestep too small"). Located at the value, naming the parameter and its valid range."""
+    text = _junction_card(family, values)
+    with pytest.raises(NetlistError, match=re.escape(need)) as err:
+        netdae.simulate(text)
+    raw = values.split("=")[0]
+    assert err.value.location is not None and "model " in str(err.value)
+    line = text.splitlines()[err.value.location.line - 1]
+    assert line[err.value.location.column - 1:].startswith(values.split("=")[1])  # at the value
+    assert raw in str(err.value)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("family, values", [
+    ("mosfet", "mj=10 mjsw=10 fc=0.9999999999"),  # the limits themselves: finite, no warning
+    ("mosfet", "pb=0.01"),
+    ("bjt", "mje=1e300 fc=1e300 vjc=0.01"),  # clamped (grading 0.999, fc 0.9999)
+    ("diode", "m=1e300 vj=0.01"),  # clamped at 0.9, as ngspice
+    ("jfet", "pb=0.01 fc=1e300"),
+])
+def test_junction_parameters_at_their_limits_run_without_warnings(family, values):
+    assert netdae.simulate(_junction_card(family, values)).ok
+
+
+@pytest.mark.filterwarnings("error")
+def test_the_diode_clamps_fc_at_095_as_ngspice():
+    """ngspice's diotemp.c limits FC to 0.95 ("coefficient Fc too large"); netdae took ln(1 - fc) of fc=1e300
+    (NaN, a RuntimeWarning and a failed run)."""
+    clamped = netdae.simulate(_junction_card("diode", "fc=1e300"))
+    at_limit = netdae.simulate(_junction_card("diode", "fc=0.95"))
+    assert clamped.ok
+    np.testing.assert_array_equal(clamped["v(b)"], at_limit["v(b)"])

@@ -312,6 +312,85 @@ def test_interrupt_keeps_the_finished_rows():
     assert res.errors[-1].startswith("not run") and "interrupted" in res.notes[0]
 
 
+def test_interrupt_inside_a_chunk_keeps_the_rows_it_finished(monkeypatch):
+    """Ctrl-C in the third row of a chunk run in this process: the first two are kept (the chunk's list was
+    lost with the interrupt)."""
+    import netdae.sweeps.worker as worker
+
+    real, calls = worker.run_row, []
+
+    def interrupted(job, row):
+        calls.append(row.index)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(job, row)
+
+    monkeypatch.setattr(worker, "run_row", interrupted)
+    with pytest.raises(KeyboardInterrupt) as exc:
+        netdae.sweep(MC, samples=5, workers=1)
+    res = exc.value.result
+    assert res.stats["completed"] == 2 and res.failed == 3
+    assert np.isfinite(res.measures["va"][:2]).all() and np.isnan(res.measures["va"][2:]).all()
+    assert "interrupted: 2 of 5 rows finished, 3 not run" in res.notes[0]
+
+
+#: A sweep of fast rows (tend=1u) and then slow ones (10 ms of 1 ns steps: seconds each), printing its
+#: progress (rows done) on stdout so that the test interrupts it once the fast rows are done.
+_SLOW = "slow rows\n.param tend=1u\nV1 in 0 SIN(0 1 1meg)\nR1 in out 1k\nC1 out 0 1n\n.tran 1n {tend}\n" \
+        ".meas tran vmax max v(out)\n.end\n"
+_REPORTING = """
+import sys
+import netdae.cli.sweep as command
+class Reporting(command._Progress):
+    def __call__(self, done, total):
+        print("done", done, flush=True)
+command._Progress = Reporting
+from netdae.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "killpg") or "fork" not in multiprocessing.get_all_start_methods(),
+                    reason="POSIX process groups")
+def test_ctrl_c_stops_the_running_workers_and_writes_the_finished_rows(tmp_path):
+    """Ctrl-C (SIGINT to the process group, as a terminal sends it) while two workers run rows of seconds: the
+    sweep stops within a few seconds, not when those rows end, and writes the six rows finished (the sixth
+    finished inside a task whose second row was running), the four others as not run, and says so."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    path = tmp_path / "slow.cir"
+    path.write_text(_SLOW)
+    values = ",".join(["1u"] * 6 + ["10m"] * 4)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-c", _REPORTING, "sweep", str(path), "--out", str(tmp_path / "out"),
+                             "--step", f"tend={values}", "--workers", "2", "--no-plot"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, start_new_session=True)
+    try:
+        # rows 0 (here, before the pool) and 1-4 (two tasks of two) are reported; row 5 shares a task with row 6
+        for line in proc.stdout:
+            if line.startswith("done") and int(line.split()[1]) >= 5:
+                break
+        time.sleep(0.5)  # row 5 (microseconds of circuit time) ends; rows 6 and 7 run for seconds
+        sent = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+        elapsed = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert elapsed < 6.0, elapsed
+    assert "interrupted: 6 of 10 rows finished, 4 not run" in err and "Traceback" not in err
+    rows = (tmp_path / "out" / "measures.csv").read_text().splitlines()
+    assert len(rows) == 11
+    assert sum("not run" in r for r in rows[1:]) == 4 and all("not run" not in r for r in rows[1:7])
+
+
 class _LosingExecutor(cf.Executor):
     """Runs tasks in this process, but the second task's worker is lost (killed, or its cluster gone)."""
 

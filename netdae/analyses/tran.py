@@ -71,7 +71,7 @@ from .prepared import Prepared, prepare
 if TYPE_CHECKING:
     from ..dae.bdf.failures import IntegrationFailure
 
-__all__ = ["transient", "output_size", "physical_memory", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
+__all__ = ["transient", "output_size", "physical_memory", "memory_room", "TRAN_PENCIL_LIMIT", "UIC_PROBE_FRACTION"]
 
 #: Circuits up to this many unknowns get the dense pencil analysis before a
 #: transient (measured with one BLAS thread: 0.02 s at 100 unknowns, 0.11 s at
@@ -184,6 +184,50 @@ def physical_memory() -> int | None:
         return None
 
 
+def address_space_room() -> int | None:
+    """Bytes this process may still map under its address-space limit, or None without one.
+
+    ``ulimit -v`` (``RLIMIT_AS``) bounds all the process maps, the numerical
+    libraries' code and arenas included: the room is the limit less what the
+    process maps already (``/proc/self/statm``; on a system without it the
+    whole limit). None where there is no limit or the system does not say.
+    """
+    import os
+
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, AttributeError, ValueError, OSError):
+        return None
+    if soft == resource.RLIM_INFINITY or soft < 0:
+        return None
+    try:
+        with open("/proc/self/statm") as f:
+            mapped = int(f.read().split()[0]) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, IndexError, AttributeError):
+        mapped = 0
+    return max(0, int(soft) - mapped)
+
+
+def memory_room() -> tuple[int | None, str]:
+    """The memory a transient's output can have [bytes] and the words that say where the bound comes from.
+
+    The smaller of the machine's memory (:func:`physical_memory`) and the
+    room left under the process's address-space limit
+    (:func:`address_space_room`, ``ulimit -v``): a run refused by the first
+    only would otherwise fail later with an allocation error. None (and no
+    words) where neither is known.
+    """
+    machine = physical_memory()
+    limit = address_space_room()
+    if limit is not None and (machine is None or limit < machine):
+        return limit, f"this process may map {limit / 2**30:,.1f} GiB more (ulimit -v)"
+    if machine is None:
+        return None, ""
+    return machine, f"this machine has {machine / 2**30:,.1f} GiB"
+
+
 def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
     """The fewest points a transient records and the bytes its output then needs at least.
 
@@ -202,22 +246,23 @@ def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
 def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: int | None = None) -> str | None:
     """Refuse a transient whose output cannot fit; a warning when it fills much of the room it has.
 
-    The room is the machine's memory, or with ``room`` (a run that keeps
-    only its last points in memory and writes all to a file) the free space
-    where the file goes.
+    The room is the machine's memory or, when smaller, what the process's
+    address-space limit leaves (:func:`memory_room`), or with ``room`` (a run
+    that keeps only its last points in memory and writes all to a file) the
+    free space where the file goes.
 
     Raises
     ------
     NetdaeError
         When the fewest points the run records need more than that room.
     """
-    capacity = physical_memory() if room is None else room
+    capacity, source = memory_room() if room is None else (room, "")
     if not capacity:
         return None
     points, size = output_size(saved, card.tstop, tmax)
     if size <= ADVISE_FRACTION * capacity:
         return None
-    has = (f"of memory, this machine has {capacity / 2**30:,.1f} GiB" if room is None
+    has = (f"of memory, {source}" if room is None
            else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
     gib = size / 2**30
     what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "

@@ -276,6 +276,7 @@ def main(args) -> int:
     if write_error is not None:
         raise write_error
     if interrupted:
-        LOG.error("interrupted: %d of %d rows finished", result.stats.get("completed", 0), result.rows)
+        completed = result.stats.get("completed", 0)
+        LOG.error("interrupted: %d of %d rows finished, %d not run", completed, result.rows, result.rows - completed)
         return EXIT_INTERRUPTED
     return 0 if result.failed == 0 else 1

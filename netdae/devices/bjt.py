@@ -74,7 +74,7 @@ from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noi
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["BjtFamily", "BJT_PARAMETERS"]
 
@@ -172,6 +172,7 @@ class BjtFamily(DeviceFamily):
             row["areac"] = inst.get("areac", inst["area"])
             row["mult"] = inst["m"]
             row["off"] = inst["off"]
+            require_positive(el, row, (("area", "area"), ("areab", "areab"), ("areac", "areac"), ("mult", "m")))
             for key in ("ise", "isc"):
                 if row[key] > LEAK_AS_FACTOR:
                     row[key] *= row["is"]

@@ -70,7 +70,7 @@ from .junction import (
     thermal_voltage,
     vcrit,
 )
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["DiodeFamily", "DIODE_PARAMETERS", "breakdown_voltage", "junction_limit", "junction_current", "knee_current",
            "diode_structure", "diode_branches"]
@@ -91,6 +91,8 @@ DIODE_PARAMETERS = ParameterTable(
 _INSTANCE = {"area": None, "m": 1.0, "off": 0.0, "temp": None, "dtemp": 0.0, "ic": None}
 #: ngspice caps the grading coefficient at 0.9 (``DIOgradingCoeffMax``).
 GRADING_MAX = 0.9
+#: ngspice caps the forward-bias depletion coefficient FC at 0.95 (diotemp.c; ln(1 - fc) needs fc < 1).
+FC_MAX = 0.95
 #: Breakdown adjustment: ngspice's iteration limit.
 BREAKDOWN_ITERATIONS = 25
 #: ngspice starts limiting in breakdown 10 (NBV vt) above -BV.
@@ -323,11 +325,7 @@ class DiodeFamily(DeviceFamily):
             row["area"] = inst.get("area", mv["area"])
             row["mult"] = inst["m"]
             row["off"] = inst["off"]
-            for key, shown in (("area", "area"), ("mult", "m")):
-                if not row[key] > 0.0:  # located as the other devices' (a NaN is refused too)
-                    where = f"{el.location}: " if el.location else ""
-                    raise CircuitError(f"{where}{el.name}: {shown} = {row[key]:g} must be positive",
-                                       elements=(el.name,), hint=f"give {shown} a positive value (the default is 1)")
+            require_positive(el, row, (("area", "area"), ("mult", "m")))
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             row["series"], row["charge"] = (float(fact) for fact in diode_structure(mv))
             rows.append(row)
@@ -344,7 +342,7 @@ class DiodeFamily(DeviceFamily):
         cj, vj = scale_junction(g("cjo") * area, grading, g("vj"), tnom, temp)
         self.isat = np.maximum(g("is"), EPSMIN) * area * np.exp(saturation_exponent(g("eg"), g("xti"), tnom, temp) / n)
         self.vcrit = vcrit(self.vte, self.isat)
-        fc = g("fc")
+        fc = np.minimum(g("fc"), FC_MAX)
         self.depletion = Depletion(cj, np.where(fc * vj > 1.0, 1.0 / fc, vj), grading, fc)
         self.tt = g("tt")
         rs, series = g("rs"), g("series") != 0.0

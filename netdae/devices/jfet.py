@@ -72,7 +72,7 @@ from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noi
 from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, ideal_junction, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["JfetFamily", "JFET_PARAMETERS", "channel_current"]
 
@@ -189,10 +189,7 @@ class JfetFamily(GateJunctionLimits, DeviceFamily):
             row["off"] = inst["off"]
             for key, default in (("kf", 0.0), ("af", 1.0), ("nlev", NOISE_LEVEL), ("gdsnoi", 1.0)):
                 row[key] = model.params.get(key, default)
-            for key, shown in (("area", "area"), ("mult", "m")):
-                if not row[key] > 0.0:
-                    raise CircuitError(f"{where}{el.name}: {shown} = {row[key]:g} must be positive",
-                                       elements=(el.name,))
+            require_positive(el, row, (("area", "area"), ("mult", "m")))
             rows.append(row)
         self._setup(rows)
 

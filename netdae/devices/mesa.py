@@ -108,7 +108,7 @@ from ..errors import CircuitError, NetlistError
 from .base import Accumulator, DeviceFamily, SlotMap, series_nodes
 from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_voltages
 from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "mesa3_channel", "mesa4_channel", "mesa_channel",
            "LEVELS", "gate_diode", "EPS_GAAS", "NS_FLOOR", "STEP",
@@ -424,10 +424,7 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
                 row["tf"] = opts.temp + KELVIN
             row["tnom"] = tnom
             row["l"], row["w"], row["mult"], row["off"] = inst["l"], inst["w"], inst["m"], inst["off"]
-            for key, shown in (("l", "l"), ("w", "w"), ("mult", "m")):
-                if not row[key] > 0.0:
-                    raise CircuitError(f"{where}{el.name}: {shown} = {row[key]:g} must be positive",
-                                       elements=(el.name,))
+            require_positive(el, row, (("l", "l"), ("w", "w"), ("mult", "m")))
             rows.append(row)
         self._setup(rows)
 

@@ -27,8 +27,8 @@ from ..errors import CircuitError, NetlistError
 from ..kinds import KINDS
 from .model_names import LEVELS, NGSPICE_PARAMETERS, level_words, table_of
 
-__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "ignored_parameters",
-           "unimplemented_level"]
+__all__ = ["ParameterTable", "ModelValues", "resolve_model", "gather", "instance_values", "require_positive",
+           "ignored_parameters", "unimplemented_level"]
 
 #: What runs a model netdae does not implement.
 OSDI_HINT = ("netdae implements level 1 itself and runs M cards of BSIM3 (level 8/49) and BSIM4 (level 14/54) "
@@ -112,7 +112,7 @@ class ParameterTable:
                          "else than ngspice",
                 )
             given[name] = float(value)
-            _check_value(model, raw, name, float(value), self.device)
+            _check_value(model, raw, name, float(value), self.device, self.family)
         return ModelValues(model, given, self.defaults)
 
 
@@ -129,10 +129,40 @@ NONNEGATIVE = frozenset({
 POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "ron", "roff"})
 
 
-def _check_value(model: Model, raw: str, name: str, value: float, device: str) -> None:
+#: Junction potentials (a subset of :data:`POSITIVE`): below this [V] the depletion charge's ``v / vj``
+#: overflows for ordinary voltages (``vj=1e-300``); ngspice's BSIM3 and BSIM4 clamp theirs at 0.01 V too.
+JUNCTION_POTENTIALS = frozenset({"vj", "vje", "vjc", "vjs", "pb"})
+JUNCTION_POTENTIAL_MIN = 0.01
+#: Grading coefficients of the junction capacitances, by model family (the diode's and the VDMOS body diode's
+#: is M). A negative one is a typing error (the capacitance would fall towards forward bias; ``exp(-m ln(1 -
+#: v/vj))`` overflows in reverse bias); the diode and the BJT clamp large ones (as ngspice's diotemp.c does,
+#: at 0.9, and netdae's BJT at 0.999), the VDMOS refuses 1 and more (:mod:`netdae.devices.vdmos`); the
+#: MOSFET, which ngspice does not clamp, takes at most :data:`GRADING_LIMIT` and not 1, where the charge
+#: ``vj cj0 (1 - (1 - v/vj)^(1-m)) / (1 - m)`` divides by zero (ngspice 39 stops there: "Timestep too small;
+#: initial timepoint").
+GRADING = {"diode": frozenset({"m"}), "bjt": frozenset({"mje", "mjc", "mjs"}), "mosfet": frozenset({"mj", "mjsw"}),
+           "vdmos": frozenset({"m"})}
+#: Largest grading coefficient of the MOSFET: hyperabrupt junctions reach 2; with ``fc < 1`` the
+#: capacitance above ``fc vj``, ``cj0 / (1 - fc)^(1 + m)``, then stays finite (``mjsw=1e300`` overflowed).
+GRADING_LIMIT = 10.0
+#: Families whose forward-bias coefficient FC ngspice does not clamp: ``ln(1 - fc)`` needs ``fc < 1``.
+FC_UNCLAMPED = frozenset({"mosfet"})
+
+
+def _check_value(model: Model, raw: str, name: str, value: float, device: str, family: str = "") -> None:
     """Refuse a value no device can have, at the value's location."""
     if name == "tnom":
         bad, need = not value > ABSOLUTE_ZERO, f"above absolute zero ({ABSOLUTE_ZERO:g} degC)"
+    elif name in JUNCTION_POTENTIALS:
+        bad, need = not value >= JUNCTION_POTENTIAL_MIN, f">= {JUNCTION_POTENTIAL_MIN:g} V"
+    elif name in GRADING.get(family, ()):
+        if family == "mosfet":
+            bad = not 0.0 <= value <= GRADING_LIMIT or value == 1.0
+            need = f"between 0 and {GRADING_LIMIT:g}, and not 1"
+        else:
+            bad, need = not value >= 0.0, ">= 0"
+    elif name == "fc" and family in FC_UNCLAMPED:
+        bad, need = not 0.0 <= value < 1.0, "between 0 and 1 (1 excluded)"
     elif name in POSITIVE:
         bad, need = not value > 0.0, "> 0"
     elif name in NONNEGATIVE:
@@ -213,6 +243,44 @@ def instance_values(element: Element, allowed: dict[str, float | None], device: 
         if name not in out and default is not None:
             out[name] = default
     return out
+
+
+#: Instance parameters that scale a device (its multiplier and areas): ngspice 39 runs them when they are not
+#: positive (0: a device that conducts nothing, negative: one whose currents are reversed; checked with BJT,
+#: MOSFET levels 1-3, diode and JFET cards), netdae refuses them and its hint says so.
+SCALE_PARAMETERS = frozenset({"m", "area", "areab", "areac"})
+
+
+def require_positive(element: Element, values: dict[str, float], names) -> None:
+    """Refuse an instance parameter of ``element`` that is not positive, located at its line.
+
+    Parameters
+    ----------
+    element : Element
+        The instance (its location and name start the message).
+    values : dict
+        Its values, by the keys of ``names``.
+    names : iterable of (str, str)
+        ``(key, shown)``: the key in ``values`` and the parameter's name on
+        the card. A NaN is refused too.
+
+    Raises
+    ------
+    CircuitError
+        For the first value that is not positive; for a multiplier or an
+        area (:data:`SCALE_PARAMETERS`) the hint says what ngspice does instead.
+    """
+    for key, shown in names:
+        value = values[key]
+        if value > 0.0:
+            continue
+        where = f"{element.location}: " if element.location else ""
+        hint = f"give {shown} a positive value"
+        if shown in SCALE_PARAMETERS:
+            hint += (f", 1 by default (ngspice 39 runs {shown} = 0 as a device that conducts nothing and "
+                     f"{shown} < 0 as one whose currents are reversed)")
+        raise CircuitError(f"{where}{element.name}: {shown} = {value:g} must be positive",
+                           elements=(element.name,), hint=hint)
 
 
 def gather(rows: list[dict[str, float]], name: str, default: float = np.nan) -> np.ndarray:

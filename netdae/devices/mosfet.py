@@ -82,7 +82,7 @@ from .junction import (
     pnjlim,
     scale_junction,
 )
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["MosfetFamily", "MOS1_PARAMETERS", "gate_charges", "drain_current"]
 
@@ -290,6 +290,7 @@ class MosfetFamily(DeviceFamily):
             row.update({k: inst[k] for k in ("l", "w", "ad", "as", "pd", "ps", "nrd", "nrs", "off",
                                               "icvds", "icvgs", "icvbs")})
             row["mult"] = inst["m"]
+            require_positive(el, row, (("mult", "m"),))
             row["temp"] = inst.get("temp", opts.temp + inst["dtemp"]) + KELVIN
             row["leff"] = row["l"] - 2.0 * row["ld"]
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)

@@ -79,7 +79,7 @@ from .companion import BranchStamps, LimitState, starting_voltages
 from .diode import breakdown_voltage, junction_current, junction_limit
 from .junction import EPSMIN, KELVIN, Depletion, fet_mode_limit, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
-from .modelcard import ParameterTable, gather, instance_values, resolve_model
+from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["VdmosFamily", "VDMOS_PARAMETERS", "channel_current", "gate_drain_charge"]
 
@@ -278,8 +278,7 @@ class VdmosFamily(DeviceFamily):
             row["mult"] = inst["m"]
             row["off"] = inst["off"]
             row["icvds"], row["icvgs"] = inst["icvds"], inst["icvgs"]
-            if not row["mult"] > 0.0:
-                raise CircuitError(f"{where}{el.name}: m = {row['mult']:g} must be positive", elements=(el.name,))
+            require_positive(el, row, (("mult", "m"),))
             rows.append(row)
         self._setup(rows, opts.reltol)
         corner = self.depletion.vfc

@@ -35,7 +35,7 @@ from ..errors import NetdaeError
 from ..stats import Statistics
 from .plan import Plan, make_plan
 from .result import SweepResult
-from .worker import Job, Outcome, run_rows
+from .worker import Job, Outcome, pool_worker, run_rows
 
 if TYPE_CHECKING:  # the pools' modules are imported when a pool is used (a serial sweep needs neither)
     import concurrent.futures as cf
@@ -48,6 +48,9 @@ CHUNKS_PER_WORKER = 4
 MIN_ROWS_PER_WORKER = 4
 #: Rows per chunk in this process: progress is reported per chunk, linear AC rows are solved per chunk.
 SERIAL_CHUNK = 100
+#: Ctrl-C: how long the sweep's own workers have to hand back the rows they finished [s] (the compiled
+#: engine returns to Python every 0.1 s) before they are terminated.
+INTERRUPT_GRACE = 2.0
 
 
 def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
@@ -128,7 +131,10 @@ def _executor(executor: cf.Executor | None, workers: int | None, rows: int) -> t
 
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-    return cf.ProcessPoolExecutor(max_workers=count, mp_context=context), count, "ProcessPoolExecutor"
+    stop = context.Event()  # set on Ctrl-C: the workers start no new row (_interrupt)
+    pool = cf.ProcessPoolExecutor(max_workers=count, mp_context=context, initializer=pool_worker, initargs=(stop,))
+    pool.netdae_stop = stop
+    return pool, count, "ProcessPoolExecutor"
 
 
 def _chunks(rows: list, count: int) -> list[list]:
@@ -266,7 +272,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     owned = executor is None and pool is not None
     outcomes: dict[int, Outcome] = {}
     try:
-        _run(job, plan, pool, count, outcomes, progress)
+        _run(job, plan, pool, count, outcomes, progress, owned)
     except KeyboardInterrupt as exc:
         exc.result = _finish(job, circuit, outcomes, name, count, t0, interrupted=True)
         raise
@@ -277,12 +283,13 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
 
 
 def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: dict[int, Outcome],
-         progress: Callable[[int, int], None] | None) -> None:
+         progress: Callable[[int, int], None] | None, owned: bool = False) -> None:
+    """Run the plan's rows into ``outcomes``; on Ctrl-C the rows finished so far are there (:func:`_interrupt`)."""
     rows = list(plan.rows)
     total = len(rows)
     if pool is None:
         for chunk in [rows[k:k + SERIAL_CHUNK] for k in range(0, total, SERIAL_CHUNK)]:
-            for o in run_rows(job, chunk):
+            for o in _rows(job, chunk, outcomes):
                 outcomes[o.row] = o
             if progress is not None:
                 progress(len(outcomes), total)
@@ -290,24 +297,86 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
     import concurrent.futures as cf
 
     if isinstance(pool, cf.ProcessPoolExecutor):  # the first row here: forked workers then start warm
-        for o in run_rows(job, rows[:1]):
+        for o in _rows(job, rows[:1], outcomes):
             outcomes[o.row] = o
         rows = rows[1:]
     futures = {pool.submit(run_rows, job, chunk): chunk for chunk in _chunks(rows, count)}
     try:
         for fut in cf.as_completed(futures):
-            try:
-                done = fut.result()
-            except Exception as exc:  # noqa: BLE001 - a lost worker fails its rows, never the sweep
-                done = [Outcome(row.index, error=lost_worker(exc)) for row in futures[fut]]
-            for o in done:
-                outcomes[o.row] = o
+            _collect(fut, futures[fut], outcomes)
             if progress is not None:
                 progress(len(outcomes), total)
+    except KeyboardInterrupt:
+        _interrupt(pool, futures, outcomes, owned)
+        raise
     except BaseException:
         for fut in futures:
             fut.cancel()
         raise
+
+
+def _rows(job: Job, rows: list, outcomes: dict[int, Outcome]) -> list[Outcome]:
+    """:func:`run_rows` in this process; on Ctrl-C the rows it finished go into ``outcomes`` first."""
+    try:
+        return run_rows(job, rows)
+    except KeyboardInterrupt as exc:
+        for o in getattr(exc, "finished", ()):
+            outcomes[o.row] = o
+        raise
+
+
+def _collect(fut, chunk: list, outcomes: dict[int, Outcome]) -> None:
+    """The outcomes of a finished task into ``outcomes``: its rows', a lost worker's failed rows, or those an
+    interrupted task finished."""
+    try:
+        done = fut.result()
+    except KeyboardInterrupt as exc:  # a worker stopped by Ctrl-C: the rows it finished
+        done = getattr(exc, "finished", [])
+    except Exception as exc:  # noqa: BLE001 - a lost worker fails its rows, never the sweep
+        done = [Outcome(row.index, error=lost_worker(exc)) for row in chunk]
+    for o in done:
+        outcomes[o.row] = o
+
+
+def _interrupt(pool: cf.Executor, futures: dict, outcomes: dict[int, Outcome], owned: bool) -> None:
+    """Ctrl-C: stop the rows promptly, keeping every row finished.
+
+    The tasks that have not started are cancelled (any executor). The
+    sweep's own process pool is stopped as well: its stop event tells the
+    workers to start no new row (the tasks already queued to them), its
+    running workers are interrupted (SIGINT; they ignore it between tasks,
+    :func:`~netdae.sweeps.worker.pool_worker`) and hand back the rows they
+    finished within :data:`INTERRUPT_GRACE` seconds; then every worker
+    still alive is terminated, so that shutting the pool down does not wait
+    for a row. An executor the caller gave keeps running what it started
+    (its workers are the caller's).
+    """
+    import concurrent.futures as cf
+    import signal
+
+    for fut in futures:
+        fut.cancel()
+    for fut in futures:  # finished while the interrupt arrived
+        if fut.done() and not fut.cancelled():
+            _collect(fut, futures[fut], outcomes)
+    if not (owned and hasattr(pool, "netdae_stop")):
+        return
+    pool.netdae_stop.set()
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in processes:
+        try:
+            os.kill(proc.pid, signal.SIGINT)
+        except (OSError, TypeError):  # ended already
+            pass
+    running = [fut for fut in futures if not fut.done()]
+    if running:
+        finished, _ = cf.wait(running, timeout=INTERRUPT_GRACE)
+        for fut in finished:
+            if not fut.cancelled():
+                _collect(fut, futures[fut], outcomes)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
 
 
 def lost_worker(exc: BaseException) -> str:
@@ -354,7 +423,8 @@ def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str,
     res.stats = Statistics(wall_time=time.perf_counter() - t0, row_seconds=sum(o.seconds for o in outcomes.values()),
                            executor=name, workers=count, completed=len(outcomes))
     if interrupted:
-        res.notes.append(f"interrupted: {len(outcomes)} of {res.rows} rows finished")
+        res.notes.append(f"interrupted: {len(outcomes)} of {res.rows} rows finished, {res.rows - len(outcomes)} "
+                         "not run")
     if res.failed:
         res.notes.append(f"{res.failed} of {res.rows} rows failed: " +
                          "; ".join(f"{n} x {why}" for why, n in list(res.failures().items())[:3]))

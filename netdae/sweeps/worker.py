@@ -26,7 +26,7 @@ from ..circuit import TranAnalysis
 from ..errors import NetdaeError
 from .plan import Plan, Row
 
-__all__ = ["Job", "Outcome", "run_rows", "run_row", "elaborate_row", "record", "tran_grid"]
+__all__ = ["Job", "Outcome", "run_rows", "run_row", "elaborate_row", "record", "tran_grid", "pool_worker"]
 
 
 @dataclass(frozen=True)
@@ -219,16 +219,76 @@ def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
     -------
     list of Outcome
         One per row, in the order given.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Ctrl-C (in a local pool's worker: the sweep's, :func:`pool_worker`): a
+        new one, whose ``finished`` attribute lists the outcomes of the rows
+        that ended before it (small to send back from a worker, unlike the
+        interrupted analysis's partial results).
     """
     from ..analyses.prepared import reusing
     from .linear import ac_batch
 
-    with _fewer_collections():
-        batched = ac_batch(job, rows)
-        if batched is not None:
-            return batched
-        with reusing(_templates(job)):
-            return [run_row(job, row) for row in rows]
+    out: list[Outcome] = []
+    try:
+        with _interruptible(), _fewer_collections():
+            batched = ac_batch(job, rows)
+            if batched is not None:
+                return batched
+            with reusing(_templates(job)):
+                for row in rows:
+                    if _STOP is not None and _STOP.is_set():  # the sweep was interrupted: no new row
+                        raise KeyboardInterrupt
+                    out.append(run_row(job, row))
+                return out
+    except KeyboardInterrupt:
+        stop = KeyboardInterrupt()
+        stop.finished = out
+        raise stop from None
+
+
+#: True in a worker process of the sweep's own pool (:func:`pool_worker`), and the pool's stop event.
+_POOL_WORKER = False
+_STOP = None
+
+
+def pool_worker(stop=None) -> None:
+    """Initializer of the sweep's local worker processes: Ctrl-C only while rows run.
+
+    The terminal's Ctrl-C goes to the whole process group, and the sweep
+    interrupts its workers itself: a worker waiting for a task ignores it
+    (it would end printing a traceback, and a pool that lost a process is
+    broken); one running rows stops at the next return of the compiled
+    engine to Python and hands back the rows it finished (:func:`run_rows`).
+
+    Parameters
+    ----------
+    stop : multiprocessing.Event, optional
+        Set by the interrupted sweep: a task taken after it runs no row
+        (the tasks already queued to the workers cannot be cancelled).
+    """
+    import signal
+
+    global _POOL_WORKER, _STOP
+    _POOL_WORKER, _STOP = True, stop
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextmanager
+def _interruptible():
+    """SIGINT raises KeyboardInterrupt inside (in a pool worker; elsewhere nothing changes)."""
+    if not _POOL_WORKER:
+        yield
+        return
+    import signal
+
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 #: The cyclic garbage collector's first threshold while rows run (Python's default: 700 allocations).

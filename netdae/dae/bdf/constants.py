@@ -121,8 +121,10 @@ ROUNDING_FACTOR = 10.0
 EPS = float(np.finfo(float).eps)
 #: Linear systems up to this size form their residual with a dense matrix-vector product.
 DENSE_MATVEC_MAX = 48
-#: Initial capacity of the output buffers (they double when full).
+#: Initial capacity of the output buffers (they double when full), within BUFFER_START_BYTES (but 16 points
+#: at least): a circuit of many unknowns that records few points does not reserve room for a thousand.
 BUFFER_START = 1024
+BUFFER_START_BYTES = 16 * 2**20
 #: Least wall time between two progress callbacks [s].
 PROGRESS_INTERVAL = 0.1
 #: Attempts of one step that end past a change where a behavioural source's held branch is undefined

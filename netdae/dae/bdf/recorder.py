@@ -5,10 +5,20 @@ from __future__ import annotations
 import numpy as np
 
 from ..dense import Interpolant
-from .constants import BUFFER_START
+from .constants import BUFFER_START, BUFFER_START_BYTES
 from .result import IntegrationResult
 
 __all__ = ["Recorder"]
+
+
+def start_capacity(saved: int) -> int:
+    """Points the output buffers start with: :data:`BUFFER_START` within :data:`BUFFER_START_BYTES` of rows
+    of ``saved`` doubles, but 16 at least.
+
+    >>> start_capacity(3), start_capacity(200_001)
+    (1024, 16)
+    """
+    return max(16, min(BUFFER_START, BUFFER_START_BYTES // (8 * (saved + 2))))
 
 
 class Recorder:
@@ -46,9 +56,10 @@ class Recorder:
         self.names = tuple(names)
         self.save = save
         self.save_all = save_all
-        self.t = np.empty(BUFFER_START)
-        self.k = np.zeros(BUFFER_START, dtype=np.int8)
-        self.x = np.empty((BUFFER_START, save.size))
+        cap = start_capacity(save.size)
+        self.t = np.empty(cap)
+        self.k = np.zeros(cap, dtype=np.int8)
+        self.x = np.empty((cap, save.size))
         self.m = 0
         self.segments: list[int] = [0]
         self.restart_times: list[float] = []

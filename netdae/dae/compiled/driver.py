@@ -55,10 +55,12 @@ __all__ = ["integrate_compiled", "supports"]
 _SUPPORTED = frozenset({"rtol", "atol", "vntol", "abstol", "index", "maxord", "max_step", "min_step",
                         "first_step", "breakpoints", "save", "norm", "relref", "max_steps", "newton_maxiter",
                         "output", "window"})
-#: Initial capacity of the output buffers (they double when full).
+#: Fewest points the output buffers start with when their bytes allow (they double when full), and the most
+#: when ``output`` takes the points in blocks.
 BUFFER_START = 1024
-#: Without ``output``, the buffers start with room for the points the step bound implies at least (and
-#: a quarter more), within this many bytes: a run then rarely returns to Python to grow them.
+#: The output buffers start with room for the points the step bound implies (and a quarter more), within this
+#: many bytes (but room for :data:`WINDOW_MIN` points): a run rarely returns to Python to grow them, and a
+#: circuit of many unknowns that records few points does not reserve room for a thousand.
 BUFFER_START_BYTES = 16 * 2**20
 #: Wall time between two returns to Python [s] (progress, Ctrl-C).
 PROGRESS_INTERVAL = 0.1
@@ -88,14 +90,29 @@ _FAMILY_ARRAYS = 5
 LOCK_ARRAY = 5 * _FAMILY_ARRAYS + 1 + 6
 
 
-def _buffer_start(span: float, max_step: float, columns: int) -> int:
-    """Points the output buffers start with: :data:`BUFFER_START`, or room for ``span / max_step``
-    points and a quarter more (a power of two) within :data:`BUFFER_START_BYTES`."""
-    fewest = span / max_step if max_step > 0.0 else math.inf
-    if not math.isfinite(fewest) or fewest > 1e12:
-        return BUFFER_START
-    want = 1 << max(0, math.ceil(math.log2(1.25 * fewest + 64)))
-    return max(BUFFER_START, min(want, BUFFER_START_BYTES // (8 * (columns + 2))))
+def _buffer_start(span: float, max_step: float, columns: int, most: int | None = None) -> int:
+    """Points the output buffers start with (they double when full).
+
+    Room for the fewest points the step bound implies, ``span / max_step``,
+    a quarter more and 64 (a power of two), and for :data:`BUFFER_START`
+    at least, at most ``most`` points; all within
+    :data:`BUFFER_START_BYTES` bytes of rows of ``columns`` doubles, but at
+    least :data:`WINDOW_MIN` points. The bytes decide for a circuit of many
+    unknowns: its first allocation follows what it records, not a fixed
+    count of rows it could not afford.
+
+    Examples
+    --------
+    >>> _buffer_start(1e-3, 1e-5, 2)  # a small circuit, 100 steps at least
+    1024
+    >>> _buffer_start(1e-3, 1e-5, 400_000)  # 400,000 saved unknowns: the byte budget decides
+    16
+    """
+    fewest = span / max_step if 0.0 < max_step < math.inf else 0.0
+    want = BUFFER_START if fewest > 1e12 else max(BUFFER_START, 1 << math.ceil(math.log2(1.25 * fewest + 64)))
+    if most is not None:
+        want = min(want, most)
+    return max(WINDOW_MIN, min(want, BUFFER_START_BYTES // (8 * (columns + 2))))
 
 
 def _grow(buf_t: np.ndarray, buf_k: np.ndarray, buf_x: np.ndarray, cap: int) -> tuple[np.ndarray, ...]:
@@ -343,10 +360,9 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     window = bool(options.get("window")) and options.get("output") is not None and delays[0].size == 0
     if window:
         cap = max(WINDOW_MIN, min(BUFFER_START, WINDOW_BYTES // (8 * (ns + 2))))
-    elif options.get("output") is not None:  # blocks of at most BUFFER_START points to write as they come
-        cap = BUFFER_START
-    else:
-        cap = _buffer_start(t_bound - t0, max_step, ns + delays[0].size)
+    else:  # with output: blocks of at most BUFFER_START points to write as they come
+        most = BUFFER_START if options.get("output") is not None else None
+        cap = _buffer_start(t_bound - t0, max_step, ns + delays[0].size, most)
     buf_t = np.empty(cap)
     buf_k = np.zeros(cap, dtype=np.int8)
     buf_x = np.empty((cap, ns + delays[0].size))  # the saved unknowns, then the lines' waves

@@ -78,6 +78,7 @@ from ...errors import NetlistError
 from ...kinds import KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, Kind
 from ...netlist.elements import UNLABELLED_AREA
 from ..model_names import level_parameters, level_words
+from ..modelcard import require_positive
 from .tools import EXTRA_HINT
 
 __all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "bin_number", "first_bin", "select_bin", "map_devices",
@@ -546,6 +547,8 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
     NetlistError
         A name ngspice does not know for the model (ngspice stops at it), or
         one ngspice uses that the module cannot take.
+    CircuitError
+        A multiplier ``m`` (or an ``area`` taken as one) that is not positive.
     """
     out = {}
     known = m.known(level)
@@ -571,6 +574,8 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
                   f"for a {m.name} model (it gives it to MESA and HFET models only); write area={value:g}",
                   el.location)
             continue
+        if raw == "area" and m.area_as_m or m.instance_names.get(raw) == "$mfactor":
+            require_positive(el, {raw: value}, ((raw, raw),))  # a multiplier ngspice would run reversed
         if raw == "area" and m.area_as_m:
             out["$mfactor"] = out.get("$mfactor", 1.0) * value
             continue
