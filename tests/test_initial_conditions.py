@@ -151,3 +151,72 @@ def test_a_return_is_a_cycle_only_after_an_excursion():
     for k in range(10):
         steady[k] = [1.0 + 0.5 ** k, 0.0]
     assert not _returned(steady, 10, np.array([1.0 + 0.5 ** 10, 0.0]), 1e-3, atol)
+
+
+#: A 555-style astable: comparators at 1/3 and 2/3 of the supply set and reset a latch node held by a
+#: capacitor and two clamps; the latch's output discharges the timing capacitor through a switch. No DC
+#: state is consistent (the capacitor open: discharge on pulls th low and sets the latch, discharge off lets
+#: th rise to the supply and resets it).
+ASTABLE_555 = """555-style astable from behavioural sources
+VCC vcc 0 DC 5
+RA vcc dis 1k
+RB dis th 10k
+C1 th 0 10n
+BQ q 0 V = V(qs) > 2.5 ? 5 : 0
+RQS qs 0 1MEG
+BSET 0 qs I = (V(th) < 1.6667 ? 1e-3 : 0) - (V(th) > 3.3333 ? 1e-3 : 0)
+CQS qs 0 1n
+DQ1 qs vcc DCLAMP
+DQ2 0 qs DCLAMP
+S1 dis 0 qn 0 SDIS
+BQN qn 0 V = 5 - V(q)
+.model SDIS SW(VT=2.5 VH=0.2 RON=10 ROFF=1G)
+.model DCLAMP D(IS=1e-14)
+{tran}
+.end
+"""
+
+
+def test_pseudo_transient_continuation_recognises_a_sustained_oscillation():
+    """The 555's pseudo-time trajectory never comes back within tolerance of a point it left (the
+    pseudo-time step grows from turn to turn), so the continuation spent its budget: 17,897 Newton
+    iterations, 3.7 s, before the transient started as with uic (ngspice gives its operating point up
+    in 10 ms). The threshold node turns back after every swing between the comparators' levels: eight
+    such turns end it (2,280 iterations in all, with a pseudo-time step cut after 15 iterations instead
+    of 50). The transient then oscillates with the RC period."""
+    import re
+
+    with pytest.raises(netdae.ConvergenceError) as err:
+        operating_point(netdae.load(ASTABLE_555.format(tran=".op")))
+    iterations = int(re.search(r"after (\d+) Newton iterations", str(err.value)).group(1))
+    assert iterations < 5_000
+    r = transient(netdae.load(ASTABLE_555.format(tran=".tran 1u 1m")))
+    assert r.ok, r.message
+    t, v = np.asarray(r.t), np.asarray(r["v(th)"])
+    up = t[np.flatnonzero((v[:-1] < 2.5) & (v[1:] >= 2.5))]
+    # charging through RA + RB from 1/3 to 2/3 of the supply, discharging through RB (+ RON) to 1/3
+    period = (11e3 * np.log(2.0) + 10.01e3 * np.log(2.0)) * 10e-9
+    np.testing.assert_allclose(np.diff(up)[1:], period, rtol=2e-2)
+
+
+def test_swings_that_do_not_decay_are_a_cycle_and_a_ringing_is_not():
+    from netdae.dae.steady import PTRAN_SWING_REVERSALS, _Swings
+
+    atol = np.full(2, 1e-6)
+    # a triangle wave between 1.6 and 3.4 on the first unknown, a constant second
+    wave = [np.array([1.6 + 1.8 * abs(((k / 6.0) % 2.0) - 1.0), 5.0]) for k in range(200)]
+    sw = _Swings(wave[0], 1e-3, atol)
+    turned_at = None
+    for k, x in enumerate(wave[1:], 1):
+        sw.add(x)
+        if sw.cycling():
+            turned_at = k
+            break
+    assert turned_at is not None and turned_at < 6 * (PTRAN_SWING_REVERSALS + 2)
+    # a ringing that halves each half-period, and a monotone approach: not cycles
+    for path in ([np.array([2.0 + 2.0 * (-0.5) ** k, 1.0]) for k in range(60)],
+                 [np.array([3.0 - 2.0 * 0.8 ** k, 1.0 + k]) for k in range(60)]):
+        sw = _Swings(path[0], 1e-3, atol)
+        for x in path[1:]:
+            sw.add(x)
+            assert not sw.cycling()

@@ -92,12 +92,22 @@ PTRAN_FACTOR_MAX = 16.0
 PTRAN_FACTOR_MIN = 1.5
 PTRAN_MAX_STEPS = 1000
 PTRAN_MAX_ITERATIONS = 20_000
+#: Newton iterations of one pseudo-time step (ngspice's ITL4 for a transient step is 10): a step is a
+#: small move from a converged point and converges in a few where it converges at all; one where a
+#: comparator or switch flips within it oscillates between the two states until cut
+PTRAN_STEP_MAXITER = 15
 #: Accepted points of the pseudo-transient kept to recognise a cycle (:func:`_returned`).
 PTRAN_CYCLE_MEMORY = 64
 #: A return counts only to a point at least this many accepted steps back ...
 PTRAN_CYCLE_GAP = 4
 #: ... with a point in between at least this many tolerances away from it.
 PTRAN_CYCLE_EXCURSION = 100.0
+#: An unknown that has turned back this many times, each after a swing of at least
+#: PTRAN_CYCLE_EXCURSION tolerances, ...
+PTRAN_SWING_REVERSALS = 8
+#: ... its last swing at least this fraction of its largest: an oscillation that does not decay
+#: (:class:`_Swings`).
+PTRAN_SWING_SUSTAINED = 0.5
 #: LU pivots are judged on the *equilibrated* Jacobian: every row, then every
 #: column, scaled by a power of two so that its largest entry lies in (1/2, 1]
 #: (so a 1e10 S forcing next to a 1e-12 S junction does not look singular,
@@ -981,6 +991,64 @@ def _returned(visited: np.ndarray, count: int, x: np.ndarray, rtol: float, x_ato
     return False
 
 
+class _Swings:
+    """Each unknown's swings along the pseudo-transient's accepted points: a sustained oscillation.
+
+    A zigzag of every unknown: a turn is counted where it moved back from its extreme by more than
+    :data:`PTRAN_CYCLE_EXCURSION` tolerances (``rtol`` of its magnitude plus ``x_atol``), its swing
+    being the distance between the two last extremes. :meth:`cycling` says whether an unknown has
+    turned :data:`PTRAN_SWING_REVERSALS` times with its last swing at least
+    :data:`PTRAN_SWING_SUSTAINED` of its largest: an astable goes round in pseudo-time as in time
+    (a 555's comparators and latch; the threshold node swings between 1/3 and 2/3 of the supply on
+    every turn), without coming back within tolerance of a point it left, since the pseudo-time
+    step grows from turn to turn (:func:`_returned` misses it). A way to a steady state turns each
+    unknown a few times at most, and a ringing the implicit-Euler steps damp has decaying swings.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        The first accepted point.
+    rtol : float
+    x_atol : ndarray, shape (n,)
+    """
+
+    def __init__(self, x: np.ndarray, rtol: float, x_atol: np.ndarray):
+        self.rtol, self.x_atol = rtol, x_atol
+        self.pivot = np.array(x, dtype=float)  # the last extreme turned at
+        self.extreme = self.pivot.copy()  # the running extreme in the current direction
+        self.direction = np.zeros(self.pivot.size)  # +1 rising, -1 falling, 0 not moved yet
+        self.turns = np.zeros(self.pivot.size, dtype=np.int64)
+        self.last = np.zeros(self.pivot.size)
+        self.largest = np.zeros(self.pivot.size)
+
+    def add(self, x: np.ndarray) -> None:
+        """Take the next accepted point. Cost: a few vector operations of length n."""
+        thr = PTRAN_CYCLE_EXCURSION * (self.rtol * np.abs(x) + self.x_atol)
+        d = self.direction
+        start = d == 0
+        up = start & (x - self.pivot > thr)
+        down = start & (self.pivot - x > thr)
+        d[up], d[down] = 1.0, -1.0
+        self.extreme[up | down] = x[up | down]
+        moving = ~start
+        further = moving & ((x - self.extreme) * d > 0.0)
+        self.extreme[further] = x[further]
+        turned = moving & ~further & (np.abs(self.extreme - x) > thr)
+        if turned.any():
+            swing = np.abs(self.extreme[turned] - self.pivot[turned])
+            self.last[turned] = swing
+            self.largest[turned] = np.maximum(self.largest[turned], swing)
+            self.turns[turned] += 1
+            self.pivot[turned] = self.extreme[turned]
+            self.extreme[turned] = x[turned]
+            d[turned] = -d[turned]
+
+    def cycling(self) -> bool:
+        """An unknown turned often, its swings not decaying."""
+        hit = (self.turns >= PTRAN_SWING_REVERSALS) & (self.last >= PTRAN_SWING_SUSTAINED * self.largest)
+        return bool(hit.any())
+
+
 @dataclass(frozen=True)
 class PseudoTransient:
     """Pseudo-transient continuation: implicit-Euler steps in a pseudo-time towards the steady state.
@@ -1035,10 +1103,11 @@ class PseudoTransient:
         start = newton.iterations
         visited = np.empty((PTRAN_CYCLE_MEMORY, cur.size))  # the last accepted points, a ring
         count = 0
+        swings = None
         for _ in range(PTRAN_MAX_STEPS):
             if newton.iterations - start > PTRAN_MAX_ITERATIONS:
                 break
-            x_new, ok = newton.solve(cur, gdiag=g, anchor=cur, maxiter=HOMOTOPY_MAXITER, init=fresh)
+            x_new, ok = newton.solve(cur, gdiag=g, anchor=cur, maxiter=PTRAN_STEP_MAXITER, init=fresh)
             if not ok:
                 g *= 8.0
                 factor = PTRAN_FACTOR_START
@@ -1050,6 +1119,12 @@ class PseudoTransient:
                                                  + newton.x_atol))
             if _returned(visited, count, x_new, newton.opts.reltol, newton.x_atol):
                 return x_new, False  # a cycle in pseudo-time: no steady state along this path (an astable)
+            if swings is None:
+                swings = _Swings(x_new, newton.opts.reltol, newton.x_atol)
+            else:
+                swings.add(x_new)
+                if swings.cycling():
+                    return x_new, False  # an oscillation that does not decay: no steady state along this path
             visited[count % PTRAN_CYCLE_MEMORY] = x_new
             count += 1
             cur = x_new
@@ -1060,9 +1135,9 @@ class PseudoTransient:
                 if g <= self.gmin:
                     break
             used = newton.last_used
-            if used <= HOMOTOPY_MAXITER // 10:
+            if used <= PTRAN_STEP_MAXITER // 3:
                 factor = min(2.0 * factor, PTRAN_FACTOR_MAX)
-            elif used > HOMOTOPY_MAXITER // 2:
+            elif used > 2 * PTRAN_STEP_MAXITER // 3:
                 factor = max(factor / 2.0, PTRAN_FACTOR_MIN)
             g = max(g / factor, self.gmin)
         return cur, False
