@@ -94,6 +94,7 @@ BJT_PARAMETERS = ParameterTable(
     inert=frozenset({"npn", "pnp", "kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max",
                      "te_max"}),
     family="bjt",
+    grading=frozenset({"mje", "mjc", "mjs"}),
 )
 
 _INSTANCE = {"area": 1.0, "areab": None, "areac": None, "m": 1.0, "off": 0.0, "temp": None, "dtemp": 0.0,

@@ -85,6 +85,7 @@ DIODE_PARAMETERS = ParameterTable(
     aliases={"js": "is", "cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "ib": "ibv", "tref": "tnom", "ik": "ikf"},
     inert=frozenset({"kf", "af", "fv_max", "bv_max", "id_max", "pd_max", "te_max"}),
     family="diode",
+    grading=frozenset({"m"}),
 )
 
 #: Instance parameters and their defaults (None: absent unless given).

@@ -58,6 +58,14 @@ class ParameterTable:
         it are ignored. Empty: every unknown name is an error.
     levels : frozenset of int
         The ``level=`` values netdae implements.
+    grading : frozenset of str
+        The junction capacitances' grading coefficients (canonical names): at least 0
+        (:data:`GRADING_LIMIT` says why).
+    grading_max : float or None
+        With a number, the grading coefficients also stay at or below it and differ from 1 (a
+        family whose model ngspice does not clamp; :data:`GRADING_LIMIT`).
+    fc_below_one : bool
+        The forward-bias coefficient ``fc`` must lie in [0, 1) (ngspice does not clamp it for this family).
     """
 
     device: str
@@ -66,6 +74,9 @@ class ParameterTable:
     inert: frozenset[str] = frozenset()
     family: str = ""
     levels: frozenset = frozenset({1})
+    grading: frozenset = frozenset()
+    grading_max: float | None = None
+    fc_below_one: bool = False
 
     def canonical(self, name: str) -> str:
         return self.aliases.get(name, name)
@@ -112,7 +123,7 @@ class ParameterTable:
                          "else than ngspice",
                 )
             given[name] = float(value)
-            _check_value(model, raw, name, float(value), self.device, self.family)
+            _check_value(model, raw, name, float(value), self)
         return ModelValues(model, given, self.defaults)
 
 
@@ -133,35 +144,33 @@ POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vj
 #: overflows for ordinary voltages (``vj=1e-300``); ngspice's BSIM3 and BSIM4 clamp theirs at 0.01 V too.
 JUNCTION_POTENTIALS = frozenset({"vj", "vje", "vjc", "vjs", "pb"})
 JUNCTION_POTENTIAL_MIN = 0.01
-#: Grading coefficients of the junction capacitances, by model family (the diode's and the VDMOS body diode's
-#: is M). A negative one is a typing error (the capacitance would fall towards forward bias; ``exp(-m ln(1 -
-#: v/vj))`` overflows in reverse bias); the diode and the BJT clamp large ones (as ngspice's diotemp.c does,
-#: at 0.9, and netdae's BJT at 0.999), the VDMOS refuses 1 and more (:mod:`netdae.devices.vdmos`); the
-#: MOSFET, which ngspice does not clamp, takes at most :data:`GRADING_LIMIT` and not 1, where the charge
+#: Largest grading coefficient of a family whose model ngspice does not clamp (the MOSFET's
+#: ``ParameterTable.grading_max``). Every family's grading coefficients (``ParameterTable.grading``) are at
+#: least 0: a negative one is a typing error (the capacitance would fall towards forward bias;
+#: ``exp(-m ln(1 - v/vj))`` overflows in reverse bias). The diode and the BJT clamp large ones (as ngspice's
+#: diotemp.c does, at 0.9, and netdae's BJT at 0.999), the VDMOS refuses 1 and more
+#: (:mod:`netdae.devices.vdmos`); the MOSFET takes at most this and not 1, where the charge
 #: ``vj cj0 (1 - (1 - v/vj)^(1-m)) / (1 - m)`` divides by zero (ngspice 39 stops there: "Timestep too small;
-#: initial timepoint").
-GRADING = {"diode": frozenset({"m"}), "bjt": frozenset({"mje", "mjc", "mjs"}), "mosfet": frozenset({"mj", "mjsw"}),
-           "vdmos": frozenset({"m"})}
-#: Largest grading coefficient of the MOSFET: hyperabrupt junctions reach 2; with ``fc < 1`` the
-#: capacitance above ``fc vj``, ``cj0 / (1 - fc)^(1 + m)``, then stays finite (``mjsw=1e300`` overflowed).
+#: initial timepoint"). Hyperabrupt junctions reach 2; with ``fc < 1`` the capacitance above ``fc vj``,
+#: ``cj0 / (1 - fc)^(1 + m)``, then stays finite (``mjsw=1e300`` overflowed).
 GRADING_LIMIT = 10.0
-#: Families whose forward-bias coefficient FC ngspice does not clamp: ``ln(1 - fc)`` needs ``fc < 1``.
-FC_UNCLAMPED = frozenset({"mosfet"})
 
 
-def _check_value(model: Model, raw: str, name: str, value: float, device: str, family: str = "") -> None:
+def _check_value(model: Model, raw: str, name: str, value: float, table: ParameterTable) -> None:
     """Refuse a value no device can have, at the value's location."""
+    device = table.device
     if name == "tnom":
         bad, need = not value > ABSOLUTE_ZERO, f"above absolute zero ({ABSOLUTE_ZERO:g} degC)"
     elif name in JUNCTION_POTENTIALS:
         bad, need = not value >= JUNCTION_POTENTIAL_MIN, f">= {JUNCTION_POTENTIAL_MIN:g} V"
-    elif name in GRADING.get(family, ()):
-        if family == "mosfet":
-            bad = not 0.0 <= value <= GRADING_LIMIT or value == 1.0
-            need = f"between 0 and {GRADING_LIMIT:g}, and not 1"
+    elif name in table.grading:
+        top = table.grading_max
+        if top is not None:
+            bad = not 0.0 <= value <= top or value == 1.0
+            need = f"between 0 and {top:g}, and not 1"
         else:
             bad, need = not value >= 0.0, ">= 0"
-    elif name == "fc" and family in FC_UNCLAMPED:
+    elif name == "fc" and table.fc_below_one:
         bad, need = not 0.0 <= value < 1.0, "between 0 and 1 (1 excluded)"
     elif name in POSITIVE:
         bad, need = not value > 0.0, "> 0"

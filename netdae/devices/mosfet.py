@@ -82,7 +82,7 @@ from .junction import (
     pnjlim,
     scale_junction,
 )
-from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
+from .modelcard import GRADING_LIMIT, ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["MosfetFamily", "MOS1_PARAMETERS", "gate_charges", "drain_current"]
 
@@ -97,6 +97,9 @@ MOS1_PARAMETERS = ParameterTable(
     aliases={"vt0": "vto", "uo": "u0", "tref": "tnom"},
     inert=frozenset({"nmos", "pmos", "kf", "af"}),
     family="mosfet",
+    grading=frozenset({"mj", "mjsw"}),
+    grading_max=GRADING_LIMIT,
+    fc_below_one=True,
 )
 
 _INSTANCE = {"l": None, "w": None, "ad": None, "as": None, "pd": 0.0, "ps": 0.0, "nrd": 1.0, "nrs": 1.0,

@@ -99,6 +99,7 @@ VDMOS_PARAMETERS = ParameterTable(
                      "vgd_max", "vds_max", "vgsr_max", "vgdr_max", "pd_max", "id_max", "idr_max", "te_max",
                      "rth_ext", "derating"}),
     family="vdmos",
+    grading=frozenset({"m"}),
 )
 
 #: Instance parameters and their defaults (None: absent unless given).

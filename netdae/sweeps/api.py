@@ -330,8 +330,12 @@ def _collect(fut, chunk: list, outcomes: dict[int, Outcome]) -> None:
     interrupted task finished."""
     try:
         done = fut.result()
-    except KeyboardInterrupt as exc:  # a worker stopped by Ctrl-C: the rows it finished
-        done = getattr(exc, "finished", [])
+    except KeyboardInterrupt as exc:
+        if not hasattr(exc, "finished"):
+            # this process's own Ctrl-C, raised while it took the result (the terminal's SIGINT reaches the
+            # workers and the sweep together, and a worker's stopped task can complete first): not swallowed
+            raise
+        done = exc.finished  # a worker stopped by Ctrl-C: the rows it finished
     except Exception as exc:  # noqa: BLE001 - a lost worker fails its rows, never the sweep
         done = [Outcome(row.index, error=lost_worker(exc)) for row in chunk]
     for o in done:
