@@ -213,6 +213,22 @@ class ConsistencyReport:
         }
 
 
+def _norm(a: np.ndarray, axis: int | None = None):
+    """Frobenius (or row, column) norm without overflow: of ``a / max|a|``, times ``max|a|``.
+
+    ``np.linalg.norm`` squares the entries, and balanced coordinates of a badly scaled pencil hold
+    entries above 1e154 (a 40-stage chain of gain stages): their squares overflow to inf and a
+    threshold made of them decides nothing.
+    """
+    a = np.asarray(a, dtype=float)
+    if a.size == 0:
+        return np.linalg.norm(a, axis=axis)
+    top = float(np.max(np.abs(a)))
+    if top == 0.0 or not np.isfinite(top):
+        return np.linalg.norm(a, axis=axis)
+    return top * np.linalg.norm(a / top, axis=axis)
+
+
 @dataclass(frozen=True)
 class WeierstrassForm:
     """The decoupling ``U E V = diag(I, N)``, ``U H V = diag(C, I)`` of a regular pencil.
@@ -519,28 +535,28 @@ class WeierstrassForm:
             if B.ndim != 2 or B.shape[0] != self.n:
                 raise ValueError(f"B must have shape ({self.n}, p), got {B.shape}")
             Bb = dl[:, None] * B
-            norms = np.linalg.norm(Bb, axis=0)
+            norms = _norm(Bb, axis=0)
             Bb = Bb[:, norms > 0] / norms[norms > 0]
             G = U2b @ Bb
         tol = CLASSIFY_SAFETY * self.rtol
         k = self.index
         weights = np.zeros((self.n, k + 1))
-        thr_y = tol * np.linalg.norm(V1b)
-        weights[:, 0] = np.linalg.norm(V1b, axis=1) / thr_y if thr_y > 0 else 0.0
+        thr_y = tol * _norm(V1b)
+        weights[:, 0] = _norm(V1b, axis=1) / thr_y if thr_y > 0 else 0.0
         W = G
         Nm_norm = 1.0
-        norm_v2 = np.linalg.norm(V2b)
+        norm_v2 = _norm(V2b)
         # the product of the factors' norms, ||U2|| ||B||, not ||U2 B||: where the inputs do not excite the
         # nilpotent part, U2 B is rounding, and a threshold scaled by it turns rounding into dependence
-        norm_g = (np.linalg.norm(U2b) * (1.0 if Bb is None else np.linalg.norm(Bb))) if G.size else 0.0
+        norm_g = (_norm(U2b) * (1.0 if Bb is None else _norm(Bb))) if G.size else 0.0
         Nm = np.eye(self.n_infinite)
         for m in range(k):
             thr = tol * norm_v2 * Nm_norm * norm_g
-            rows = np.linalg.norm(V2b @ W, axis=1) if W.size else np.zeros(self.n)
+            rows = _norm(V2b @ W, axis=1) if W.size else np.zeros(self.n)
             weights[:, m + 1] = rows / thr if thr > 0 else 0.0
             W = Nb @ W
             Nm = Nb @ Nm
-            Nm_norm = np.linalg.norm(Nm)
+            Nm_norm = _norm(Nm)
         dep = weights[:, 1:] > 1.0
         if k:
             order = np.where(dep.any(axis=1), k - 1 - np.argmax(dep[:, ::-1], axis=1), 0)
