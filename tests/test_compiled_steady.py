@@ -184,3 +184,42 @@ R1 c 0 1k
     with pytest.raises(CircuitError) as info:
         dc_sweep(circuit, circuit.analyses[0])
     assert str(info.value).lower().startswith(".dc at v1 = 0: dc operating point singular")
+
+
+HYSTERESIS = """positive feedback: the sweep leaves the .nodeset state on its branch
+V1 in 0 0
+R1 in p 10k
+R2 p out 100k
+B1 out 0 V = 5*tanh(100*v(p))
+.nodeset v(out)=5
+.dc V1 -1 1 0.05
+.end
+"""
+
+
+def test_nodesets_act_at_the_first_point_and_the_compiled_sweep_takes_the_rest(monkeypatch):
+    # ngspice applies .nodeset in its junction-initialisation modes only (the first point, a point solved
+    # from scratch); from the previous point's solution it does not: netdae's sweep went point by point
+    # through the full solver with the nodeset pulling each one. At in = -1 only the lower state exists
+    # (out = -5), and the sweep follows it up to the branch's end at in = 0.5 (v(p) = (10 in + out) / 11
+    # reaches 0), whatever the nodeset says, as ngspice's sweep does
+    import netdae.analyses.dc as dc
+
+    circuit = load(HYSTERESIS)
+    full = []
+    original = dc._solve_point
+
+    def counting(prepared, opts, x, names, values):
+        full.append(values)
+        return original(prepared, opts, x, names, values)
+
+    monkeypatch.setattr(dc, "_solve_point", counting)
+    res = dc_sweep(circuit, circuit.analyses[0])
+    assert len(full) == 1  # the first point
+    vin, out = np.asarray(res.axes["v1"]), np.asarray(res["v(out)"])
+    for x, y in zip(vin, out):
+        # the stable state on the branch: out = 5 tanh(100 v(p)) iterated from the rail (a contraction there)
+        root = -5.0 if x < 0.5 - 1e-9 else 5.0
+        for _ in range(200):
+            root = 5.0 * np.tanh(100.0 * (10.0 * x + root) / 11.0)
+        assert y == pytest.approx(root, abs=1e-6), (x, y, root)

@@ -116,7 +116,8 @@ def _compiled_sweep(system, circuit: Circuit, names: list[str], points: list[tup
 
     It applies where every point's solve would be plain Newton in the compiled engine
     (:func:`netdae.dae.steady.solve_steady`'s first phase): an eligible nonlinear system,
-    no ``.nodeset``, no group of nodes attached only through capacitors. The first point
+    no group of nodes attached only through capacitors (``.nodeset`` values act at the first
+    point only, as in ngspice's sweep). The first point
     and any point plain Newton does not clearly solve (no convergence, a small pivot)
     go through :func:`~netdae.analyses.op.solve_operating_point` as before, so the
     results, failures and messages are those of the point-by-point sweep. ``fast(x, p,
@@ -129,7 +130,7 @@ def _compiled_sweep(system, circuit: Circuit, names: list[str], points: list[tup
     from .op import charge_groups
 
     system = system.steady_form()
-    if circuit.nodeset or not _compiled(system):
+    if not _compiled(system):
         return None
     if charge_groups(system, topo, None)[0]:
         return None
@@ -161,7 +162,9 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
     often reached from scratch only. The attempt from scratch runs Newton, gmin and source
     stepping only: pseudo-transient continuation, the slowest strategy, has had its budget in
     the first attempt (a point that no strategy reaches costs one budget, not two); the error
-    is the first attempt's.
+    is the first attempt's. ``.nodeset`` values act at the first point and in the attempts from
+    scratch only (ngspice applies them in its junction-initialisation modes, not from the
+    previous point's solution).
 
     Raises
     ------
@@ -172,8 +175,8 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
     """
     where = ", ".join(f"{name} = {value:g}" for name, value in zip(names, values))
     try:
-        try:
-            return solve_operating_point(prepared, options=opts, x0=x)
+        try:  # from the previous point's solution without the .nodeset values (ngspice's MODEINITPRED)
+            return solve_operating_point(prepared, options=opts, x0=x, nodesets=x is None)
         except ConvergenceError as exc:
             failure = exc
         if x is not None:

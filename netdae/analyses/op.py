@@ -544,7 +544,8 @@ def _law_note(circuit: Circuit, system: MnaSystem, laws: list[ChargeGroup]) -> s
 
 
 def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool = False,
-                          options: SteadyOptions | None = None, x0: np.ndarray | None = None) -> SteadyResult:
+                          options: SteadyOptions | None = None, x0: np.ndarray | None = None,
+                          nodesets: bool = True) -> SteadyResult:
     """Operating point of an assembled circuit.
 
     Parameters
@@ -561,6 +562,11 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
         Defaults from the circuit's ``.options``.
     x0 : ndarray, optional
         Initial guess (continuation in sweeps).
+    nodesets : bool
+        Apply the circuit's ``.nodeset`` values (default). A ``.dc`` sweep's point solved from the
+        previous point's solution does not, as ngspice's sweep does not (its nodesets act in the
+        junction-initialisation modes only, ``MODEINITJCT``/``MODEINITFIX``: the first point and a
+        point solved again from scratch).
 
     Returns
     -------
@@ -583,7 +589,7 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
     topology = prepared.topology
     opts = options or steady_options(circuit)
     forcing = _node_forcing(system, circuit.ic, ".ic") if transient else None
-    nodeset = _node_forcing(system, circuit.nodeset, ".nodeset")
+    nodeset = _node_forcing(system, circuit.nodeset, ".nodeset") if nodesets else None
     groups, used = charge_groups(system, topology, None if forcing is None else forcing.index)
     res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset, charges=groups)
     laws: list[ChargeGroup] = []
