@@ -339,7 +339,11 @@ def test_interrupt_inside_a_chunk_keeps_the_rows_it_finished(monkeypatch):
 _SLOW = "slow rows\n.param tend=1u\nV1 in 0 SIN(0 1 1meg)\nR1 in out 1k\nC1 out 0 1n\n.tran 1n {tend}\n" \
         ".meas tran vmax max v(out)\n.end\n"
 _REPORTING = """
+import signal
 import sys
+# a command started from a terminal: Ctrl-C raises KeyboardInterrupt (a test run in the background by a shell
+# without job control inherits SIGINT ignored, and Python then leaves it ignored)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import netdae.cli.sweep as command
 class Reporting(command._Progress):
     def __call__(self, done, total):

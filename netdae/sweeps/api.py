@@ -303,7 +303,7 @@ def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: d
     futures = {pool.submit(run_rows, job, chunk): chunk for chunk in _chunks(rows, count)}
     try:
         for fut in cf.as_completed(futures):
-            _collect(fut, futures[fut], outcomes)
+            _collect(fut, futures[fut], outcomes, stopping=False)
             if progress is not None:
                 progress(len(outcomes), total)
     except KeyboardInterrupt:
@@ -325,17 +325,25 @@ def _rows(job: Job, rows: list, outcomes: dict[int, Outcome]) -> list[Outcome]:
         raise
 
 
-def _collect(fut, chunk: list, outcomes: dict[int, Outcome]) -> None:
+def _collect(fut, chunk: list, outcomes: dict[int, Outcome], stopping: bool = True) -> None:
     """The outcomes of a finished task into ``outcomes``: its rows', a lost worker's failed rows, or those an
-    interrupted task finished."""
+    interrupted task finished.
+
+    A task a worker stopped on Ctrl-C (its KeyboardInterrupt carries the rows it finished) raises
+    KeyboardInterrupt here too unless the sweep is ``stopping`` already: the terminal's SIGINT reaches the
+    workers and the sweep together, and whichever sees it first, the sweep ends as interrupted (measured:
+    now and then the sweep went on to a normal end with the stopped rows missing and exit status 1).
+    """
     try:
         done = fut.result()
     except KeyboardInterrupt as exc:
         if not hasattr(exc, "finished"):
-            # this process's own Ctrl-C, raised while it took the result (the terminal's SIGINT reaches the
-            # workers and the sweep together, and a worker's stopped task can complete first): not swallowed
-            raise
-        done = exc.finished  # a worker stopped by Ctrl-C: the rows it finished
+            raise  # this process's own Ctrl-C, raised while it took the result: not swallowed
+        for o in exc.finished:  # a worker stopped by Ctrl-C: the rows it finished
+            outcomes[o.row] = o
+        if not stopping:
+            raise KeyboardInterrupt from None
+        return
     except Exception as exc:  # noqa: BLE001 - a lost worker fails its rows, never the sweep
         done = [Outcome(row.index, error=lost_worker(exc)) for row in chunk]
     for o in done:

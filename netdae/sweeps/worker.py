@@ -252,6 +252,8 @@ def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
 #: True in a worker process of the sweep's own pool (:func:`pool_worker`), and the pool's stop event.
 _POOL_WORKER = False
 _STOP = None
+#: The worker was forked from a sweep that ignores SIGINT (:func:`pool_worker`).
+_SIGINT_IGNORED = False
 
 
 def pool_worker(stop=None) -> None:
@@ -268,18 +270,26 @@ def pool_worker(stop=None) -> None:
     stop : multiprocessing.Event, optional
         Set by the interrupted sweep: a task taken after it runs no row
         (the tasks already queued to the workers cannot be cancelled).
+
+    Notes
+    -----
+    A sweep that ignores SIGINT (started in the background by a shell without job control,
+    or under ``nohup``-like wrappers that ignore it) cannot be interrupted, and its workers,
+    forked with that disposition, keep ignoring it while rows run too: the rows are not stopped
+    behind the back of a sweep that goes on.
     """
     import signal
 
-    global _POOL_WORKER, _STOP
+    global _POOL_WORKER, _STOP, _SIGINT_IGNORED
     _POOL_WORKER, _STOP = True, stop
+    _SIGINT_IGNORED = signal.getsignal(signal.SIGINT) == signal.SIG_IGN
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @contextmanager
 def _interruptible():
     """SIGINT raises KeyboardInterrupt inside (in a pool worker; elsewhere nothing changes)."""
-    if not _POOL_WORKER:
+    if not _POOL_WORKER or _SIGINT_IGNORED:
         yield
         return
     import signal
