@@ -417,9 +417,9 @@ def _structure(prepared: Prepared, x0: np.ndarray, uic: bool) -> IndexReport | N
         why = pencil_singularity_explanation(prepared.circuit)
         if why is not None:
             raise SingularPencilError(why.message, elements=why.elements, nodes=why.nodes, hint=why.hint)
-        if rep.pencil is not None and rep.pencil.singular_by_rounding and rep.pencil.exact.index <= 2:
-            return _rounding_regular(prepared, rep)
         if rep.pencil is not None and rep.pencil.singular_by_rounding:
+            if rep.pencil.exact.index <= 2:
+                return _rounding_regular(prepared, rep)
             raise SingularPencilError(
                 "the circuit's pencil (E, H) is singular in double precision, though regular of index "
                 f"{rep.pencil.exact.index} in exact arithmetic: element values whose ratios approach the limit of double "

@@ -967,6 +967,11 @@ class SourceStepping:
         return newton.solve(cur, scale=0.0)
 
 
+def _distance(a: np.ndarray, b: np.ndarray, rtol: float, x_atol: np.ndarray) -> np.ndarray:
+    """``|a - b|`` in tolerances (``rtol`` of the larger magnitude plus ``x_atol``), entry by entry."""
+    return np.abs(a - b) / (rtol * np.maximum(np.abs(a), np.abs(b)) + x_atol)
+
+
 def _returned(visited: np.ndarray, count: int, x: np.ndarray, rtol: float, x_atol: np.ndarray) -> bool:
     """Whether pseudo-transient continuation came back to a point it left: a cycle, not a way to a steady state.
 
@@ -984,7 +989,7 @@ def _returned(visited: np.ndarray, count: int, x: np.ndarray, rtol: float, x_ato
         return False
     order = (np.arange(count - m, count) % PTRAN_CYCLE_MEMORY)  # oldest first
     pts = visited[order]
-    dist = np.max(np.abs(pts - x) / (rtol * np.maximum(np.abs(pts), np.abs(x)) + x_atol), axis=1)
+    dist = np.max(_distance(pts, x, rtol, x_atol), axis=1)
     for j in range(m - PTRAN_CYCLE_GAP):
         if dist[j] <= 1.0 and np.max(dist[j + 1:]) > PTRAN_CYCLE_EXCURSION:
             return True
@@ -1115,8 +1120,7 @@ class PseudoTransient:
                     break
                 continue
             fresh = False
-            moved = np.max(np.abs(x_new - cur) / (newton.opts.reltol * np.maximum(np.abs(x_new), np.abs(cur))
-                                                 + newton.x_atol))
+            moved = np.max(_distance(x_new, cur, newton.opts.reltol, newton.x_atol))
             if _returned(visited, count, x_new, newton.opts.reltol, newton.x_atol):
                 return x_new, False  # a cycle in pseudo-time: no steady state along this path (an astable)
             if swings is None:

@@ -45,6 +45,7 @@ import numpy as np
 from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
+from ..bdf.constants import BUFFER_START, BUFFER_START_BYTES
 from ..bdf.failures import IntegrationFailure, with_runaway
 from ..newton import NewtonInfo
 from .sources import pack_sources
@@ -55,13 +56,11 @@ __all__ = ["integrate_compiled", "supports"]
 _SUPPORTED = frozenset({"rtol", "atol", "vntol", "abstol", "index", "maxord", "max_step", "min_step",
                         "first_step", "breakpoints", "save", "norm", "relref", "max_steps", "newton_maxiter",
                         "output", "window"})
-#: Fewest points the output buffers start with when their bytes allow (they double when full), and the most
-#: when ``output`` takes the points in blocks.
-BUFFER_START = 1024
-#: The output buffers start with room for the points the step bound implies (and a quarter more), within this
-#: many bytes (but room for :data:`WINDOW_MIN` points): a run rarely returns to Python to grow them, and a
-#: circuit of many unknowns that records few points does not reserve room for a thousand.
-BUFFER_START_BYTES = 16 * 2**20
+# The output buffers (BUFFER_START, BUFFER_START_BYTES: netdae.dae.bdf's, the Python integrator's too) start
+# with room for the points the step bound implies (and a quarter more), BUFFER_START at least (and at most
+# when ``output`` takes the points in blocks), within BUFFER_START_BYTES (but room for WINDOW_MIN points): a
+# run rarely returns to Python to grow them, and a circuit of many unknowns that records few points does not
+# reserve room for a thousand.
 #: Wall time between two returns to Python [s] (progress, Ctrl-C).
 PROGRESS_INTERVAL = 0.1
 #: Bytes of output a bounded run keeps in memory at most (``window``), and the fewest points.
