@@ -99,7 +99,7 @@ import scipy.sparse as sp
 
 from .compiled.control import NORM_MAX, NORM_RMS, conductance_fell, residual_stalled, weighted_norm
 from .compiled.lu import DEFAULT_PERMC_SPEC, PIVOT_REL_THRESHOLD, SparseLU
-from .sparse import SparsePattern
+from .sparse import SparsePattern, residual_small
 
 __all__ = [
     "DEFAULT_PERMC_SPEC",
@@ -415,8 +415,20 @@ class SpiceTest:
     Converged at an iterate ``x_k+1`` when the update that reached it was
     below ``reltol * max(|x_k|, |x_k+1|) + x_atol`` for every unknown, no
     device limited in the evaluation at ``x_k+1``, and every equation's
-    residual is below ``reltol * (|J| |x_k+1|) + r_atol`` (the magnitude of
-    the terms that make the equation up).
+    residual is below ``reltol * m + r_atol``, ``m`` the magnitude of the
+    terms that make the equation up (:meth:`SparsePattern.row_magnitudes`:
+    ``|J| |x_k+1|``, or with ``paired`` a node row's branch currents measured
+    from its own potential), plus the rounding of their sum
+    (``RESIDUAL_ROUNDING |J| |x_k+1|``).
+
+    SPICE measures the update against ``reltol |x| + vntol``, which on a node
+    at 50 V is 50 mV, two thermal voltages: a junction's current may still be
+    off by a factor of seven there. The residual test must then see the
+    current law's error against the currents that flow, not against
+    ``|J| |x|``, which counts a junction's conductance times both node
+    potentials (``0.1 S x 100 V``, where the junction carries 2 mA): measured
+    so, a reverse-biased diode at 50 V passed as forward-biased at 0.56 V with
+    its current law 2.5 mA off (ngspice 39 stops at the same point).
 
     Parameters
     ----------
@@ -425,6 +437,9 @@ class SpiceTest:
     reltol : float
     x_atol, r_atol : ndarray, shape (n,)
         Absolute tolerances of the unknowns and of the equations.
+    paired : ndarray of bool, shape (n,), optional
+        Rows that are the current law of the node whose potential is the
+        unknown of the same position (an MNA system's voltage unknowns).
 
     Attributes
     ----------
@@ -433,8 +448,10 @@ class SpiceTest:
         did not settle).
     """
 
-    def __init__(self, pattern: SparsePattern, reltol: float, x_atol: np.ndarray, r_atol: np.ndarray) -> None:
+    def __init__(self, pattern: SparsePattern, reltol: float, x_atol: np.ndarray, r_atol: np.ndarray,
+                 paired: np.ndarray | None = None) -> None:
         self.pattern, self.reltol, self.x_atol, self.r_atol = pattern, float(reltol), x_atol, r_atol
+        self.paired = None if paired is None else np.asarray(paired, dtype=bool)
         self.rate = math.nan
         self.last_dx = np.zeros(pattern.n)
         self.begin()
@@ -444,7 +461,7 @@ class SpiceTest:
 
     def residual_small(self, r: np.ndarray, jac: np.ndarray, x: np.ndarray) -> bool:
         """Every equation's residual within ``reltol`` of its terms' magnitude plus its tolerance."""
-        return bool(np.all(np.abs(r) <= self.reltol * self.pattern.row_magnitudes(jac, x) + self.r_atol))
+        return residual_small(self.pattern, r, jac, x, self.reltol, self.r_atol, self.paired)
 
     def at_point(self, m, x, r, jac, limited):
         if self._small and not limited and jac is not None and self.residual_small(r, jac, x):

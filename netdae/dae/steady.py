@@ -56,7 +56,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .kronecker import EPS, MatrixRank, default_rtol, matrix_rank, rank_decision
-from .sparse import SparsePattern
+from .sparse import SparsePattern, residual_small
 from .system import KIND_CURRENT, KIND_VOLTAGE, DaeSystem, Evaluation
 
 __all__ = ["SteadyOptions", "SteadyResult", "Forcing", "ChargeGroup", "solve_steady", "jacobian_rank",
@@ -494,7 +494,8 @@ class _Newton:
         self.opts = opts
         self.forcing = forcing
         self.pattern = system.pattern
-        self.volt = np.flatnonzero(system.kinds == KIND_VOLTAGE)
+        self.paired = np.asarray(system.kinds == KIND_VOLTAGE)  # a node's potential and its current law
+        self.volt = np.flatnonzero(self.paired)
         if self.volt.size == 0:  # generic DAE: regularise every unknown
             self.volt = np.arange(system.n)
         self.x_atol, self.r_atol = _tolerances(system.kinds, opts)
@@ -524,7 +525,7 @@ class _Newton:
         return ev, F, jac
 
     def _residual_small(self, F, jac, x) -> bool:
-        return bool(np.all(np.abs(F) <= self.opts.reltol * self.pattern.row_magnitudes(jac, x) + self.r_atol))
+        return residual_small(self.pattern, F, jac, x, self.opts.reltol, self.r_atol, self.paired)
 
     def solve(self, x, *, gdiag=0.0, scale=1.0, maxiter=None, init=False, anchor=None) -> tuple[np.ndarray, bool]:
         """Iterate from x; returns (x, converged). Raises _Singular.
@@ -541,7 +542,7 @@ class _Newton:
 
         if self._lu is None:
             self._lu = _EquilibratedLU(self.system)
-            self._stop = SpiceTest(self.pattern, self.opts.reltol, self.x_atol, self.r_atol)
+            self._stop = SpiceTest(self.pattern, self.opts.reltol, self.x_atol, self.r_atol, self.paired)
         lu = self._lu
         maxiter = self.opts.maxiter if maxiter is None else maxiter
         self.not_finite = None

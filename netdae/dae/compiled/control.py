@@ -16,11 +16,12 @@ from __future__ import annotations
 import math
 
 from . import kernel
+from ..sparse import RESIDUAL_ROUNDING
 
 __all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "charge_error_norms",
            "charge_error_kp1", "update_differences", "landing_step",
-           "set_weights", "residual_stalled", "conductance_fell", "NORM_RMS", "NORM_MAX", "RELREF_LOCAL",
-           "RELREF_SIGNAL", "RELREF_MIXED"]
+           "set_weights", "residual_stalled", "conductance_fell", "row_magnitudes", "NORM_RMS", "NORM_MAX",
+           "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED", "RESIDUAL_ROUNDING"]
 
 NORM_RMS = 0
 NORM_MAX = 1
@@ -29,6 +30,52 @@ RELREF_SIGNAL = 1
 RELREF_MIXED = 2
 #: See :data:`netdae.dae.bdf.MIXED_FLOOR`.
 MIXED_FLOOR = 0.1
+
+
+@kernel
+def row_magnitudes(indptr, indices, data, x, paired, mag, absjx):
+    """The magnitude of each row's terms (into ``mag``) and ``|J| |x|`` (into ``absjx``).
+
+    The compiled twin of :meth:`netdae.dae.sparse.SparsePattern.row_magnitudes` with
+    ``paired``: a paired row measures the entries of its paired columns from its own
+    potential, ``sum_{j != i} |a_ij| |x_j - x_i| + |sum_j a_ij| |x_i|``, an unpaired
+    column or row as ``|a_ij| |x_j|``.
+
+    Parameters
+    ----------
+    indptr, indices : ndarray of int
+        The CSC pattern.
+    data : ndarray, shape (>= nnz,)
+    x : ndarray, shape (n,)
+    paired : ndarray of int8, shape (n,)
+        1 where row ``i`` is the current law of the node whose potential is unknown ``i``.
+    mag, absjx : ndarray, shape (n,)
+        Written. ``mag`` also serves as the work array of the paired rows' sums: it is
+        complete on return.
+    """
+    n = x.size
+    for i in range(n):
+        mag[i] = 0.0
+        absjx[i] = 0.0
+    # the paired rows' sums over paired columns first (into absjx, moved below)
+    for j in range(n):
+        if paired[j] != 0:
+            for p in range(indptr[j], indptr[j + 1]):
+                if paired[indices[p]] != 0:
+                    absjx[indices[p]] += data[p]
+    for i in range(n):
+        mag[i] = abs(absjx[i]) * abs(x[i]) if paired[i] != 0 else 0.0
+        absjx[i] = 0.0
+    for j in range(n):
+        xj = x[j]
+        for p in range(indptr[j], indptr[j + 1]):
+            i = indices[p]
+            a = abs(data[p])
+            absjx[i] += a * abs(xj)
+            if paired[i] != 0 and paired[j] != 0:
+                mag[i] += a * abs(xj - x[i])
+            else:
+                mag[i] += a * abs(xj)
 
 
 @kernel

@@ -33,6 +33,7 @@ import math
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE
 from . import kernel
 from . import bdf_loop as L
+from .control import RESIDUAL_ROUNDING, row_magnitudes
 
 __all__ = ["newton_dc", "sweep_dc", "CONVERGED", "NOT_CONVERGED", "NEED_PIVOTS", "ILL_CONDITIONED", "S_ITER", "S_FIRST", "N_S"]
 
@@ -91,14 +92,15 @@ def _min_equilibrated_pivot(indptr, indices, a_data, lus, r, c):
 
 
 @kernel
-def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, singular_pivot, sysd, devd, lus, u, evb,
-              dx, absjx, pivot):
+def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd, devd, lus, u,
+              evb, dx, absjx, pivot):
     """Newton iterations on ``phi(x, t) = 0`` in place on ``x`` (see the module docstring).
 
     Returns ``CONVERGED``, ``NOT_CONVERGED``, ``ILL_CONDITIONED`` or ``NEED_PIVOTS`` (then
     ``a_data`` holds the matrix; call again after new pivots: the state ``S`` resumes).
     Counts iterations in ``S[S_ITER]`` and evaluations and factorisations in ``I``;
-    ``pivot[0]`` is the smallest equilibrated pivot of the last factorisation.
+    ``pivot[0]`` is the smallest equilibrated pivot of the last factorisation; ``paired``
+    (int8, shape (n,)) marks the rows that are the current law of their unknown's node.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
@@ -119,17 +121,12 @@ def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, singular_piv
             if not math.isfinite(phie[i]):
                 return NOT_CONVERGED
         if S[S_SMALL] != 0 and (flags & FLAG_LIMITED) == 0:
-            # SPICE's residual test: |phi| <= reltol |J| |x| + the row's absolute tolerance
-            for i in range(n):
-                absjx[i] = 0.0
-            for j in range(n):
-                xj = abs(x[j])
-                if xj != 0.0:
-                    for p in range(indptr[j], indptr[j + 1]):
-                        absjx[indices[p]] += abs(dphie[p]) * xj
+            # SPICE's residual test: |phi| <= reltol m + RESIDUAL_ROUNDING |J| |x| + the row's
+            # absolute tolerance, m the magnitude of the row's currents (netdae.dae.newton.residual_small)
+            row_magnitudes(indptr, indices, dphie, x, paired, dx, absjx)
             small = True
             for i in range(n):
-                if not (abs(phie[i]) <= reltol * absjx[i] + r_atol[i]):
+                if not (abs(phie[i]) <= reltol * dx[i] + RESIDUAL_ROUNDING * absjx[i] + r_atol[i]):
                     small = False
                     break
             if small:
@@ -163,8 +160,8 @@ def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, singular_piv
 
 
 @kernel
-def sweep_dc(F, I, S, x, X, its, values, cols, p0, maxiter, reltol, x_atol, r_atol, singular_pivot, clear_pivot,
-             threshold, sysd, devd, lus, u, evb, dx, absjx, pivot):
+def sweep_dc(F, I, S, x, X, its, values, cols, p0, maxiter, reltol, x_atol, r_atol, paired, singular_pivot,
+             clear_pivot, threshold, sysd, devd, lus, u, evb, dx, absjx, pivot):
     """A ``.dc`` sweep's points ``p0, p0 + 1, ...`` by plain Newton, each from the previous solution.
 
     Point ``p`` sets the swept sources' DC values (``spar[cols[s], 0] = values[p, s]``),
@@ -186,8 +183,8 @@ def sweep_dc(F, I, S, x, X, its, values, cols, p0, maxiter, reltol, x_atol, r_at
         if S[S_FIRST] != 0 and S[S_ITER] == 0:  # a fresh point (not a resumed one)
             for s in range(cols.size):
                 spar[cols[s], 0] = values[p, s]
-        status = newton_dc(F, I, S, 0.0, x, False, maxiter, reltol, x_atol, r_atol, singular_pivot, sysd, devd,
-                           lus, u, evb, dx, absjx, pivot)
+        status = newton_dc(F, I, S, 0.0, x, False, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd,
+                           devd, lus, u, evb, dx, absjx, pivot)
         if status != CONVERGED:
             return status, p
         if not pivot[0] > clear_pivot:

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import bdf_loop as L
 from .lu import PIVOT_REL_THRESHOLD
+from ..system import KIND_VOLTAGE
 from .sources import pack_sources
 from .steady import CONVERGED, ILL_CONDITIONED, N_S, NEED_PIVOTS, NOT_CONVERGED, S_FIRST, S_ITER, newton_dc, sweep_dc
 
@@ -83,7 +84,8 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     r_atol = np.ascontiguousarray(r_atol, dtype=float)
     while True:
         status = newton_dc(w.F, w.I, w.S, float(t), x, bool(init), int(maxiter), float(reltol), x_atol, r_atol,
-                           float(singular_pivot), w.sysd, w.devd, w.lus(), w.u, w.evb, w.dx, w.absjx, w.pivot)
+                           w.paired, float(singular_pivot), w.sysd, w.devd, w.lus(), w.u, w.evb, w.dx, w.absjx,
+                           w.pivot)
         if status != NEED_PIVOTS:
             break
         if not lu.factor(pack.a_data):
@@ -141,8 +143,8 @@ def sweep_points(system, values: np.ndarray, columns: np.ndarray, x0: np.ndarray
     p = p0
     while True:
         status, p = sweep_dc(w.F, w.I, w.S, x, X, its, values, cols, p, int(maxiter), float(reltol), x_atol, r_atol,
-                             float(singular_pivot), float(clear_pivot), PIVOT_REL_THRESHOLD, w.sysd, w.devd, w.lus(),
-                             w.u, w.evb, w.dx, w.absjx, w.pivot)
+                             w.paired, float(singular_pivot), float(clear_pivot), PIVOT_REL_THRESHOLD, w.sysd, w.devd,
+                             w.lus(), w.u, w.evb, w.dx, w.absjx, w.pivot)
         if status != NEED_PIVOTS or not pack.lu.factor(pack.a_data):
             break
     return X, its, int(p)
@@ -183,6 +185,8 @@ class _Work:
         self.u = np.zeros(skind.size)
         self.dx = np.zeros(n)
         self.absjx = np.zeros(n)
+        # a node's potential and its current law (the residual test's measure of a row)
+        self.paired = np.ascontiguousarray(np.asarray(system.kinds) == KIND_VOLTAGE, dtype=np.int8)
         self.swork = np.zeros(n)
         self.pivot = np.full(1, math.nan)
         self._lu = pack.lu
