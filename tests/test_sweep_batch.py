@@ -400,3 +400,28 @@ def test_measure_columns_are_the_measures_of_each_row():
                 assert c.reasons[r] == m.reason and np.isnan(c.values[r])
                 failures += 1
     assert 0 < failures < rows * len(specs)
+
+
+def test_ctrl_c_in_a_batch_keeps_the_rows_it_finished(monkeypatch):
+    """Ctrl-C during the third part of a batched AC sweep: the reference row and the two parts solved and
+    measured before it are in the result, with the measures of the ordinary path; the rest are 'not run'."""
+    import netdae.dae.shifted as shifted
+
+    real, calls = shifted.shifted_solves, []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    ordinary = _ordinary(monkeypatch, MC_ALL, samples=8, seed=5)
+    monkeypatch.setattr(linear, "MAX_BATCH_ENTRIES", 1)  # one row per part
+    monkeypatch.setattr(shifted, "shifted_solves", interrupted)
+    with pytest.raises(KeyboardInterrupt) as exc:
+        netdae.sweep(MC_ALL, samples=8, seed=5, workers=1)
+    res = exc.value.result
+    assert res.stats["completed"] == 3 and res.failed == 5
+    assert "interrupted: 3 of 8 rows finished, 5 not run" in res.notes[0]
+    np.testing.assert_allclose(res.measures["peak"][:3], ordinary.measures["peak"][:3], rtol=RTOL)
+    assert np.isnan(res.measures["peak"][3:]).all()

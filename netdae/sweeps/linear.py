@@ -470,15 +470,27 @@ def ac_batch(job: Job, rows: list[Row]) -> list[Outcome] | None:
     Raises
     ------
     KeyboardInterrupt
-        Passed on.
+        Ctrl-C: a new one whose ``finished`` attribute lists the outcomes of the rows done
+        before it (the reference row, rows run one by one, the parts of the batch solved and
+        measured), as :func:`netdae.sweeps.worker.run_rows` hands them on.
     """
+    outcomes: dict[int, Outcome] = {}
+    try:
+        return _ac_batch(job, rows, outcomes)
+    except KeyboardInterrupt:
+        stop = KeyboardInterrupt()
+        stop.finished = list(outcomes.values())
+        raise stop from None
+
+
+def _ac_batch(job: Job, rows: list[Row], outcomes: dict[int, Outcome]) -> list[Outcome] | None:
+    """:func:`ac_batch`, each row's outcome put into ``outcomes`` as soon as it is known."""
     from ..analyses.ac import frequencies
     from ..analyses.runner import measure
     from ..dae.shifted import shifted_solves
     from ..results import Result, Statistics
     from ..topology.graph import structure_key
 
-    outcomes: dict[int, Outcome] = {}
     prep = _PREPARED.get(job.token) if job.token else None
     if prep is None:
         if len(rows) < 2 or job.token in _PREPARED:

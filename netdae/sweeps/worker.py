@@ -243,9 +243,9 @@ def run_rows(job: Job, rows: list[Row]) -> list[Outcome]:
                         raise KeyboardInterrupt
                     out.append(run_row(job, row))
                 return out
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         stop = KeyboardInterrupt()
-        stop.finished = out
+        stop.finished = exc.finished if hasattr(exc, "finished") else out  # the batch's rows, or these
         raise stop from None
 
 
