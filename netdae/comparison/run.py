@@ -255,6 +255,13 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     else:
         extra = {"circuit": circuit} if kind == "sens" else {}
         item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude, **extra)
+    if kind == "op" and any(sig.passed is False for sig in item.signals):
+        from .currentlaw import current_law_note
+
+        note = current_law_note(circuit, {n: float(measured.signals[n][0]) for n in measured.names()},
+                                {n: float(ng.signals[n][0]) for n in ng.names()}, overrides)
+        if note is not None:
+            item.notes.append(note)
     item.netdae_tolerances = dict(nd.tolerances)
     item.ngspice_tolerances = {**ng.tolerances, "method": (ng.source.method if ng.source is not None and ng.source.method else "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]

@@ -1,0 +1,126 @@
+"""Which of two disagreeing operating points satisfies netdae's equations (the current-law check).
+
+When ``netdae compare`` finds netdae's ``.op`` and ngspice's apart, the two
+points are put into netdae's own DC equations ``phi(x) = 0``: each row's
+residual is measured, as the operating point's stopping test measures it
+(:func:`netdae.dae.sparse.residual_small`), against ``reltol`` times the
+magnitude of the row's branch currents plus ``abstol`` (a branch row: its
+voltages plus ``vntol``). A point whose residual is within that in every row
+is a solution of netdae's equations; one whose current law is off by a large
+multiple of its tolerance at a node is not a solution of them: a Newton
+iteration that stopped early (SPICE's update test on a node at a high
+potential allows several thermal voltages) or a model that differs. The note
+says which rows, by how much, and in whose equations: netdae's models, so a
+model difference shows up too and the note does not judge ngspice's own
+equations.
+
+Only a point that gives every unknown of netdae's system a value can be put
+in: ngspice does not write the internal nodes of devices with series
+resistances, and then no note is made.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["current_law_note", "current_law_errors"]
+
+#: Rows named in a note.
+MOST_NAMED = 3
+
+
+def current_law_errors(system, x: np.ndarray, reltol: float, abstol: float,
+                       vntol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's residual of ``phi(x, 0) = 0``, and in units of its tolerance.
+
+    Parameters
+    ----------
+    system : MnaSystem
+        A DC system (:func:`netdae.analyses.prepared.prepare` with ``MODE_DC``).
+    x : ndarray, shape (n,)
+    reltol, abstol, vntol : float
+
+    Returns
+    -------
+    residual : ndarray, shape (n,)
+        ``phi(x, 0)`` (amperes in a node's row, volts in a branch's).
+    ratio : ndarray, shape (n,)
+        ``|phi_i| / (reltol m_i + RESIDUAL_ROUNDING (|J| |x|)_i + atol_i)``, ``m`` the
+        magnitude of the row's branch currents (:meth:`SparsePattern.row_magnitudes`);
+        inf where the equations are not finite at ``x``.
+    """
+    from ..dae.sparse import RESIDUAL_ROUNDING
+    from ..dae.system import KIND_VOLTAGE
+
+    x = np.asarray(x, dtype=float)
+    ev = system.evaluate(x, 0.0, jacobian=True)
+    paired = np.asarray(system.kinds == KIND_VOLTAGE)
+    if not (ev.ok and np.all(np.isfinite(ev.phi)) and np.all(np.isfinite(ev.dphi))):
+        return np.asarray(ev.phi, dtype=float), np.full(system.n, np.inf)
+    pattern = system.pattern
+    tol = (reltol * pattern.row_magnitudes(ev.dphi, x, paired)
+           + RESIDUAL_ROUNDING * pattern.row_magnitudes(ev.dphi, x)
+           + np.where(paired, abstol, vntol))
+    return np.asarray(ev.phi, dtype=float), np.abs(ev.phi) / tol
+
+
+def current_law_note(circuit, netdae_point: dict, ngspice_point: dict, overrides: dict) -> str | None:
+    """A note on which of the two points solves netdae's DC equations, or None.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    netdae_point, ngspice_point : dict of str to float
+        Each simulator's operating point by signal name (``v(node)``, ``i(source)``).
+    overrides : dict
+        The comparison's tolerance overrides (``reltol``, ``abstol``, ``vntol``).
+
+    Returns
+    -------
+    str or None
+        None when ngspice's point lacks an unknown of netdae's system (an internal
+        node), when the system cannot be built, or when both points solve the equations
+        (then the difference is not in the current laws).
+    """
+    from ..analyses.op import steady_options
+    from ..analyses.prepared import prepare
+    from ..errors import NetdaeError
+
+    try:
+        system = prepare(circuit).system
+        opts = steady_options(circuit, **overrides)
+    except NetdaeError:
+        return None
+    names = list(system.names)
+    if any(name not in ngspice_point or name not in netdae_point for name in names):
+        return None
+    errors, residuals = {}, {}
+    for side, point in (("netdae", netdae_point), ("ngspice", ngspice_point)):
+        x = np.array([float(point[name]) for name in names])
+        residuals[side], errors[side] = current_law_errors(system, x, opts.reltol, opts.abstol, opts.vntol)
+    off = {side: np.flatnonzero(e > 1.0) for side, e in errors.items()}
+    if not any(rows.size for rows in off.values()):
+        return None
+    parts = []
+    for side in ("ngspice", "netdae"):
+        e, r, rows = errors[side], residuals[side], off[side]
+        if not rows.size:
+            parts.append(f"{side}'s point solves them (every row within its tolerance)")
+            continue
+        worst = rows[np.argsort(-e[rows])][:MOST_NAMED]
+        named = ", ".join(f"{_row(names[i])} off by {abs(r[i]):.3g} {'A' if names[i].startswith('v(') else 'V'} "
+                          f"({e[i]:.3g}x its tolerance)" for i in worst)
+        more = f" and {rows.size - worst.size} more" if rows.size > worst.size else ""
+        parts.append(f"{side}'s point leaves {named}{more}")
+    return ("current-law check in netdae's equations (its models, reltol times each row's branch currents): "
+            + "; ".join(parts) + " (a point off by many tolerances is not a solution of these equations: a "
+            "Newton iteration that stopped early, or a model that differs)")
+
+
+def _row(name: str) -> str:
+    """How a row is named: a node's current law, or a branch's voltage equation."""
+    if name.startswith("v(") and name.endswith(")"):
+        return f"the current law of node {name[2:-1]}"
+    if name.startswith("i(") and name.endswith(")"):
+        return f"the voltage equation of {name[2:-1]}"
+    return f"row {name}"

@@ -1,0 +1,89 @@
+"""``netdae compare`` on disagreeing operating points: which point solves netdae's DC equations.
+
+The reverse-biased diode on a 50 V node is a circuit where SPICE's update test
+(reltol |v| + vntol, 50 mV there) lets Newton stop with the diode forward-biased:
+ngspice 39 reports v(sw) = 50.559 V, netdae (whose residual test measures a node row
+against its branch currents) 5.1e-5 V. The check puts both points into netdae's
+equations and says which rows each leaves off, in amperes and tolerances.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+import netdae
+from netdae.analyses.op import operating_point
+from netdae.comparison.currentlaw import current_law_errors, current_law_note
+from netdae.netlist import load
+
+DIODE = """a diode reverse-biased from a source at 50 V through 1 MOhm
+vout out 0 50
+d1 sw out ds
+roff sw 0 1e6
+.model ds d(is=1e-12)
+.op
+.end
+"""
+
+#: The point ngspice 39 stops at (its .op output): the diode forward at 0.559 V.
+NGSPICE_POINT = {"v(out)": 50.0, "v(sw)": 50.5591808, "i(vout)": -5.05591808e-05}
+
+
+def _netdae_point(circuit):
+    res = operating_point(circuit)
+    return {name: float(res[name][0]) for name in res.names()}
+
+
+def test_a_point_off_its_current_law_is_named_with_its_residual():
+    circuit = load(DIODE)
+    note = current_law_note(circuit, _netdae_point(circuit), NGSPICE_POINT, {})
+    assert note is not None
+    ngspice_part, netdae_part = note.split("; ")[:2]
+    # the diode's current at 0.559 V minus Roff's: Is (exp(vd / vt) - 1) - v / Roff, at 27 C
+    vt = 1.380649e-23 * 300.15 / 1.602176634e-19
+    leak = 1e-12 * math.expm1(0.5591808 / vt) + 1e-12 * 0.5591808 + 50.5591808 / 1e6
+    assert "ngspice's point leaves the current law of node" in ngspice_part and "node sw off by" in ngspice_part
+    got = float(ngspice_part.split("node sw off by ")[1].split(" A")[0])
+    assert abs(got - leak) <= 0.01 * leak, (got, leak)
+    assert netdae_part.startswith("netdae's point solves them")
+
+
+def test_points_that_both_solve_the_equations_get_no_note():
+    circuit = load(DIODE)
+    point = _netdae_point(circuit)
+    moved = {**point, "v(sw)": point["v(sw)"] * (1 + 1e-6)}
+    assert current_law_note(circuit, point, moved, {}) is None
+
+
+def test_a_point_without_a_value_for_an_internal_node_gets_no_note():
+    circuit = load(DIODE.replace("d(is=1e-12)", "d(is=1e-12 rs=10)"))
+    point = _netdae_point(circuit)
+    assert any("#" in name for name in point)
+    outer = {name: value for name, value in point.items() if "#" not in name}
+    assert current_law_note(circuit, point, outer, {}) is None
+
+
+def test_the_errors_are_in_units_of_each_row_s_tolerance():
+    from netdae.analyses.prepared import prepare
+
+    circuit = load(DIODE)
+    system = prepare(circuit).system
+    x = [NGSPICE_POINT[name] for name in system.names]
+    residual, ratio = current_law_errors(system, x, 1e-3, 1e-12, 1e-6)
+    k = list(system.names).index("v(sw)")
+    # the row's branch currents: the diode's conductance times its voltage and Roff's current
+    vt = 1.380649e-23 * 300.15 / 1.602176634e-19
+    gd = 1e-12 * math.exp(0.5591808 / vt) / vt + 1e-12
+    magnitude = gd * 0.5591808 + 50.5591808 / 1e6
+    assert ratio[k] == pytest.approx(abs(residual[k]) / (1e-3 * magnitude + 1e-12), rel=1e-3)
+
+
+@pytest.mark.ngspice
+def test_compare_says_which_point_solves_the_equations():
+    comparison = netdae.compare(DIODE, backend="subprocess")
+    (op,) = comparison.analyses
+    assert op.passed is False  # ngspice 39 stops at the forward-biased point
+    (note,) = [n for n in op.notes if n.startswith("current-law check")]
+    assert "ngspice's point leaves the current law of node" in note and "netdae's point solves them" in note
