@@ -57,12 +57,22 @@ def test_points_that_both_solve_the_equations_get_no_note():
     assert current_law_note(circuit, point, moved, {}) is None
 
 
-def test_a_point_without_a_value_for_an_internal_node_gets_no_note():
+def test_a_point_without_its_internal_nodes_gets_them_from_their_own_rows():
+    # rs = 10: the diode's internal node; ngspice's point (no internal node) is completed from its
+    # current law and then still leaves node sw's off; netdae's own outer values need no note
     circuit = load(DIODE.replace("d(is=1e-12)", "d(is=1e-12 rs=10)"))
     point = _netdae_point(circuit)
     assert any("#" in name for name in point)
     outer = {name: value for name, value in point.items() if "#" not in name}
     assert current_law_note(circuit, point, outer, {}) is None
+    note = current_law_note(circuit, point, NGSPICE_POINT, {})
+    assert note is not None and "ngspice's point leaves the current law of node sw off by" in note
+
+
+def test_a_point_without_an_outer_node_gets_no_note():
+    circuit = load(DIODE)
+    point = _netdae_point(circuit)
+    assert current_law_note(circuit, point, {"v(out)": 50.0, "i(vout)": -5.06e-5}, {}) is None
 
 
 def test_the_errors_are_in_units_of_each_row_s_tolerance():
