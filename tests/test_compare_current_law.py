@@ -97,3 +97,26 @@ def test_compare_says_which_point_solves_the_equations():
     assert op.passed is False  # ngspice 39 stops at the forward-biased point
     (note,) = [n for n in op.notes if n.startswith("current-law check")]
     assert "ngspice's point leaves the current law of node" in note and "netdae's point solves them" in note
+
+
+def test_the_worst_sweep_point_is_where_the_two_differ_most_in_each_signal_s_scale():
+    import numpy as np
+
+    from netdae.comparison.currentlaw import worst_sweep_point
+
+    curves = {"values": {"v(a)": (np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.5, 3.0])),
+                         "i(v1)": (np.array([0.0, 0.0, 1e-3]), np.array([0.0, 0.0, 3e-3]))}}
+    # v(a): 0.5 V of 10 V at point 1; i(v1): 2 mA of 10 mA at point 2
+    assert worst_sweep_point(curves, [("v(a)", 10.0), ("i(v1)", 0.01)]) == 2
+    assert worst_sweep_point(curves, [("v(a)", 1.0), ("i(v1)", 0.01)]) == 1
+
+
+@pytest.mark.ngspice
+def test_compare_checks_a_source_sweep_at_its_worst_point():
+    # from 50 V on, ngspice starts the sweep at the forward-biased point and keeps it
+    comparison = netdae.compare(DIODE.replace(".op", ".dc vout 50 100 10"), backend="subprocess")
+    (dc,) = comparison.analyses
+    assert dc.passed is False
+    (note,) = [n for n in dc.notes if "current-law check" in n]
+    assert note.startswith("at vout = ") and "(the sweep's largest difference)" in note
+    assert "ngspice's point leaves the current law of node" in note and "netdae's point solves them" in note

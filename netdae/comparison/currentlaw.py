@@ -1,6 +1,7 @@
 """Which of two disagreeing operating points satisfies netdae's equations (the current-law check).
 
-When ``netdae compare`` finds netdae's ``.op`` and ngspice's apart, the two
+When ``netdae compare`` finds netdae's ``.op`` and ngspice's apart (or a source
+sweep's ``.dc``, at the point where they differ most), the two
 points are put into netdae's own DC equations ``phi(x) = 0``: each row's
 residual is measured, as the operating point's stopping test measures it
 (:func:`netdae.dae.sparse.residual_small`), against ``reltol`` times the
@@ -26,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["current_law_note", "current_law_errors"]
+__all__ = ["current_law_note", "current_law_errors", "worst_sweep_point"]
 
 #: Rows named in a note.
 MOST_NAMED = 3
@@ -67,7 +68,8 @@ def current_law_errors(system, x: np.ndarray, reltol: float, abstol: float,
     return np.asarray(ev.phi, dtype=float), np.abs(ev.phi) / tol
 
 
-def current_law_note(circuit, netdae_point: dict, ngspice_point: dict, overrides: dict) -> str | None:
+def current_law_note(circuit, netdae_point: dict, ngspice_point: dict, overrides: dict,
+                     sources: dict | None = None) -> str | None:
     """A note on which of the two points solves netdae's DC equations, or None.
 
     Parameters
@@ -77,6 +79,8 @@ def current_law_note(circuit, netdae_point: dict, ngspice_point: dict, overrides
         Each simulator's operating point by signal name (``v(node)``, ``i(source)``).
     overrides : dict
         The comparison's tolerance overrides (``reltol``, ``abstol``, ``vntol``).
+    sources : dict of str to float, optional
+        Independent sources' DC values at the point (a ``.dc`` sweep's point).
 
     Returns
     -------
@@ -92,7 +96,9 @@ def current_law_note(circuit, netdae_point: dict, ngspice_point: dict, overrides
     try:
         system = prepare(circuit).system
         opts = steady_options(circuit, **overrides)
-    except NetdaeError:
+        for name, value in (sources or {}).items():
+            system.sources.set_value(name, float(value))
+    except (NetdaeError, KeyError):
         return None
     names = list(system.names)
     if any(name not in netdae_point for name in names):
@@ -127,6 +133,28 @@ def current_law_note(circuit, netdae_point: dict, ngspice_point: dict, overrides
     return ("current-law check in netdae's equations (its models, reltol times each row's branch currents): "
             + "; ".join(parts) + " (a point off by many tolerances is not a solution of these equations: a "
             "Newton iteration that stopped early, or a model that differs)")
+
+
+def worst_sweep_point(curves: dict, names: list) -> int:
+    """The point of a ``.dc`` comparison where the two sweeps differ most, in each signal's scale.
+
+    Parameters
+    ----------
+    curves : dict
+        The comparison's ``curves``: ``values`` maps a signal to its ``(netdae, ngspice)`` arrays.
+    names : list of (str, float)
+        The compared signals and their scales.
+
+    Returns
+    -------
+    int
+    """
+    worst = None
+    for name, scale in names:
+        a, b = curves["values"][name]
+        err = np.abs(np.asarray(a, dtype=float) - np.asarray(b, dtype=float)) / scale
+        worst = err if worst is None else np.maximum(worst, err)
+    return int(np.argmax(worst))
 
 
 #: Newton iterations for the internal nodes of a point that lacks them.

@@ -255,17 +255,45 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     else:
         extra = {"circuit": circuit} if kind == "sens" else {}
         item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude, **extra)
-    if kind == "op" and any(sig.passed is False for sig in item.signals):
-        from .currentlaw import current_law_note
-
-        note = current_law_note(circuit, {n: float(measured.signals[n][0]) for n in measured.names()},
-                                {n: float(ng.signals[n][0]) for n in ng.names()}, overrides)
+    if kind in ("op", "dc") and any(sig.passed is False for sig in item.signals):
+        note = _current_law(kind, circuit, item, measured, ng, overrides)
         if note is not None:
             item.notes.append(note)
     item.netdae_tolerances = dict(nd.tolerances)
     item.ngspice_tolerances = {**ng.tolerances, "method": (ng.source.method if ng.source is not None and ng.source.method else "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
     return item
+
+
+def _current_law(kind: str, circuit: Circuit, item, measured: Result, ng: Result, overrides: dict) -> str | None:
+    """The current-law check of two disagreeing operating points (:mod:`netdae.comparison.currentlaw`):
+    the ``.op``'s, or a source sweep's at the point where the two differ most (not a sweep of the
+    temperature or of a resistor, whose system is another at every point)."""
+    from ..kinds import kind_of
+    from .currentlaw import current_law_note, worst_sweep_point
+
+    if kind == "op":
+        return current_law_note(circuit, {n: float(measured.signals[n][0]) for n in measured.names()},
+                                {n: float(ng.signals[n][0]) for n in ng.names()}, overrides)
+    axes = dict(ng.axes)
+    sources = {el.name.lower() for el in circuit.elements if kind_of(el.kind).independent}
+    if (not axes or not item.curves or measured.axis is None
+            or any(name.lower() not in sources or name not in measured.axes for name in axes)):
+        return None
+    k = worst_sweep_point(item.curves, [(sig.name, sig.scale) for sig in item.signals])
+    at = {name: float(np.asarray(values)[k]) for name, values in axes.items()}
+    mine = np.all([np.isclose(np.asarray(measured.axes[name]), v, rtol=1e-9, atol=1e-15) for name, v in at.items()],
+                  axis=0)
+    hits = np.flatnonzero(mine)
+    if hits.size != 1:
+        return None
+    j = int(hits[0])
+    note = current_law_note(circuit, {n: float(measured.signals[n][j]) for n in measured.names()},
+                            {n: float(ng.signals[n][k]) for n in ng.names()}, overrides, sources=at)
+    if note is None:
+        return None
+    where = ", ".join(f"{name} = {value:g}" for name, value in at.items())
+    return f"at {where} (the sweep's largest difference): {note}"
 
 
 def _netdae_alone(kind: str, circuit: Circuit, card, tol, overrides, reason: str,
