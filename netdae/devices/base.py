@@ -284,6 +284,12 @@ class DeviceFamily:
     #: (:func:`netdae.mna.assemble.reassemble`). Families with held states (switches, behavioural
     #: comparisons) or foreign instance memory (OSDI) keep the default.
     shareable = False
+    #: True when the family's limiting state (:class:`~netdae.devices.companion.LimitState`) is its
+    #: controlling voltages: a transient step takes the state of its evaluation without limiting at
+    #: the accepted point, and the next step limits from there (as ngspice from the converged point)
+    #: rather than from the iterate the last correction was computed at. Switches (held states),
+    #: behavioural comparisons and OSDI devices keep the default.
+    limits_from_point = False
 
     def __init__(self, elements, circuit) -> None:
         self.elements = list(elements)

@@ -138,6 +138,8 @@ class BjtFamily(DeviceFamily):
         Missing or mistyped model, unsupported parameter or level.
     """
 
+    limits_from_point = True
+
     shareable = True
 
 

@@ -302,6 +302,8 @@ class DiodeFamily(DeviceFamily):
         Missing or mistyped model, unsupported parameter, level other than 1.
     """
 
+    limits_from_point = True
+
     shareable = True
 
 

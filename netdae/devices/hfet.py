@@ -176,6 +176,8 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
         A level other than 5 and 6.
     """
 
+    limits_from_point = True
+
     shareable = True
 
     def __init__(self, elements, circuit) -> None:

@@ -156,6 +156,8 @@ class JfetFamily(GateJunctionLimits, DeviceFamily):
         factor divides by their difference).
     """
 
+    limits_from_point = True
+
     shareable = True
 
 

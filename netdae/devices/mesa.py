@@ -392,6 +392,8 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
         A level other than 2, 3 or 4 (elaboration refuses it first, naming the levels that run).
     """
 
+    limits_from_point = True
+
     shareable = True
 
     def __init__(self, elements, circuit) -> None:

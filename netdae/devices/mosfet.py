@@ -267,6 +267,8 @@ class MosfetFamily(DeviceFamily):
         non-positive effective channel length, PHI <= 0, NSUB below ni.
     """
 
+    limits_from_point = True
+
     shareable = True
 
 

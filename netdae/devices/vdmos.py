@@ -244,6 +244,8 @@ class VdmosFamily(DeviceFamily):
         negative resistances or capacitances (:data:`~netdae.devices.modelcard.NONNEGATIVE`).
     """
 
+    limits_from_point = True
+
     shareable = True
 
 

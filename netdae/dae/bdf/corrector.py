@@ -22,7 +22,7 @@ from .constants import (DCJ, DENSE_MATVEC_MAX, EPCON, EPS, JAC_AGE_MAX, RATE_AFT
                         ROUNDING_FACTOR)
 from .failures import nonfinite_unknown, worst_unknown
 
-__all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector"]
+__all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector", "point_state"]
 
 
 class RoundingFloor:
@@ -185,6 +185,24 @@ class LinearCorrector:
         if check_finite and not np.all(np.isfinite(x_new)):
             return False, {"info": INFO_NONFINITE, "worst": worst_unknown(self.system.names, d, w, w)}
         return True, x_new
+
+
+def point_state(system, state, point):
+    """A limiting state re-based on a point: each family whose state is its controlling voltages
+    (``limits_from_point``) takes its state from ``point`` (an evaluation without limiting there), the
+    others keep ``state`` (switches' held states, behavioural comparisons, OSDI devices).
+
+    After a Newton failure the stepper re-bases the accepted state on the accepted point (ngspice limits
+    from the last converged point; the compiled loop's ``_point_state``). The state a step accepts is that
+    of its last Newton evaluation, the iterate the last correction was computed at: a boost converter's
+    diode accepted after one correction from 0.29 V to 0.69 V (tests/test_recovery.py) kept 0.29 V, and
+    every later attempt limited the junction from there, about 0.1 V per iteration, failing on every
+    step size.
+    """
+    families = getattr(system, "families", None)
+    if state is None or point is None or not families or len(families) != len(state):
+        return state
+    return tuple(p if getattr(f, "limits_from_point", False) else s for f, s, p in zip(families, state, point))
 
 
 class NonlinearCorrector:

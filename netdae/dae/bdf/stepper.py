@@ -63,7 +63,7 @@ from .constants import (
     ROUNDOFF_ULPS,
     UNDEFINED_TRIES,
 )
-from .corrector import LinearCorrector, NonlinearCorrector, RoundingFloor
+from .corrector import LinearCorrector, NonlinearCorrector, RoundingFloor, point_state
 from .failures import Failure, error_hint, failure_record, newton_hint, with_runaway, worst_unknown
 from .history import History, sampled_history
 from .recorder import Recorder
@@ -334,6 +334,12 @@ class BDF:
     def _normf(self, v, w):
         return weighted_norm(v, w, self._norm_kind)
 
+    def _evaluate_at(self, x, t):
+        """An evaluation without limiting (no Jacobian), counted."""
+        ev = self.system.evaluate(x, t, jacobian=False, state=None)
+        self.stats["evaluations"] += 1
+        return ev
+
     def _evaluate(self, x, t, jacobian=False):
         ev = self.system.evaluate(x, t, jacobian=jacobian, state=self._state)
         self.stats["evaluations"] += 1
@@ -586,6 +592,11 @@ class BDF:
             elif kind == "newton":
                 ncf += 1
                 self.stats["newton_failures"] += 1
+                if ncf == 1 and not self._linear:
+                    # the junctions are limited from the accepted point in the next attempts, not from
+                    # the iterate its last correction was computed at (ngspice; the compiled loop's _point_state)
+                    self._state = point_state(self.system, self._state,
+                                              self._evaluate_at(hist.P[0, : self.n], t).state)
                 eta = self._newton_failure(t, h, ncf, info)
             else:
                 nef += 1

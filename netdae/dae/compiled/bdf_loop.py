@@ -587,6 +587,33 @@ def _accept_state(I, devd):
 
 
 @kernel
+def _point_state(devd):
+    """The accepted limiting state of the junction families becomes their voltages at the point the last
+    evaluation without limiting was made at (``vnew``). Called after a Newton failure with the accepted
+    point evaluated: the next attempts limit from there (ngspice limits from the last converged point),
+    not from the state the step accepted, that of its last Newton evaluation, the iterate its last
+    correction was computed at. A boost converter's diode accepted after one correction from 0.29 V to
+    0.69 V (tests/test_recovery.py) kept 0.29 V, and every later attempt limited the junction from
+    there, about 0.1 V per iteration (0.41, 0.52, 0.62, 0.66 V, each limited, so never converged),
+    failing on every step size. The switches keep their held states, the OSDI devices their own
+    (Python: ``netdae.dae.bdf.corrector.point_state``)."""
+    (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
+     m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
+     s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
+     h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock, h_xw,
+     o_inst, o_fns, o_slots, o_info_i, o_info_f, o_xbuf, o_fbuf, o_qbuf, o_jr, o_jc, o_vacc, o_vtry, o_vnew,
+     v_par, v_idx, v_vacc, v_vtry, v_vnew, z_par, z_idx, z_vacc, z_vtry, z_vnew,
+     f_par, f_idx, f_vacc, f_vtry, f_vnew) = devd
+    _copy2(d_vacc, d_vnew)
+    _copy2(b_vacc, b_vnew)
+    _copy2(m_vacc, m_vnew)
+    _copy2(j_vacc, j_vnew)
+    _copy2(v_vacc, v_vnew)
+    _copy2(z_vacc, z_vnew)
+    _copy2(f_vacc, f_vnew)
+
+
+@kernel
 def _reset_trial(I, devd):
     """The corrector starts from the accepted limiting state."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
@@ -1551,6 +1578,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             elif kind == 1:
                 ncf += 1
                 I[I_NEWTON_FAILURES] += 1
+                if ncf == 1 and not linear:
+                    # the junctions are limited from the accepted point in the next attempts
+                    _evaluate(I, t, P[0, :n], STATE_NONE, False, False, sysd, devd, u, evb)
+                    _point_state(devd)
                 if ncf >= MAX_NEWTON_FAILURES:
                     _fail(F, I, t, h, FAIL_NEWTON * 16 + reason, worst)
                     if reason != REASON_EVALUATION and _impasse(F, I, t):
