@@ -50,8 +50,8 @@ def row_magnitudes(indptr, indices, data, x, paired, mag, absjx):
     paired : ndarray of int8, shape (n,)
         1 where row ``i`` is the current law of the node whose potential is unknown ``i``.
     mag, absjx : ndarray, shape (n,)
-        Written. ``mag`` also serves as the work array of the paired rows' sums: it is
-        complete on return.
+        Written. ``absjx`` first holds the paired rows' sums over the paired columns (work),
+        then ``|J| |x|``.
     """
     n = x.size
     for i in range(n):
