@@ -49,11 +49,12 @@ def current_law_errors(system, x: np.ndarray, reltol: float, abstol: float,
     residual : ndarray, shape (n,)
         ``phi(x, 0)`` (amperes in a node's row, volts in a branch's).
     ratio : ndarray, shape (n,)
-        ``|phi_i| / (reltol m_i + RESIDUAL_ROUNDING (|J| |x|)_i + atol_i)``, ``m`` the
-        magnitude of the row's branch currents (:meth:`SparsePattern.row_magnitudes`);
-        inf where the equations are not finite at ``x``.
+        ``|phi_i|`` over its tolerance in the operating point's residual test
+        (:func:`netdae.dae.sparse.residual_tolerance`: ``reltol m_i + RESIDUAL_ROUNDING (|J| |x|)_i +
+        atol_i``, ``m`` the magnitude of the row's branch currents); inf where the equations are not
+        finite at ``x``.
     """
-    from ..dae.sparse import RESIDUAL_ROUNDING
+    from ..dae.sparse import residual_tolerance
     from ..dae.system import KIND_VOLTAGE
 
     x = np.asarray(x, dtype=float)
@@ -61,10 +62,7 @@ def current_law_errors(system, x: np.ndarray, reltol: float, abstol: float,
     paired = np.asarray(system.kinds == KIND_VOLTAGE)
     if not (ev.ok and np.all(np.isfinite(ev.phi)) and np.all(np.isfinite(ev.dphi))):
         return np.asarray(ev.phi, dtype=float), np.full(system.n, np.inf)
-    pattern = system.pattern
-    tol = (reltol * pattern.row_magnitudes(ev.dphi, x, paired)
-           + RESIDUAL_ROUNDING * pattern.row_magnitudes(ev.dphi, x)
-           + np.where(paired, abstol, vntol))
+    tol = residual_tolerance(system.pattern, ev.dphi, x, reltol, np.where(paired, abstol, vntol), paired)
     return np.asarray(ev.phi, dtype=float), np.abs(ev.phi) / tol
 
 
@@ -165,10 +163,13 @@ def _internal_nodes(system, x: np.ndarray, rows: np.ndarray, opts) -> np.ndarray
     """``x`` with the unknowns ``rows`` (internal nodes) solved from their own current laws, the others held.
 
     Each starts at the potential of the held node its row is most strongly tied to (the
-    terminal behind a series resistance); then Newton's method on ``phi[rows](x) = 0`` over ``x[rows]`` (a dense solve of the sub-Jacobian),
-    each update at most 0.1 V per unknown (a junction's exponential); converged when every update is
-    below ``reltol |x| + vntol``. Returns None when it does not converge.
+    terminal behind a series resistance); then netdae's Newton iteration
+    (:func:`netdae.dae.newton.newton`, full Newton, SPICE's stopping test) on ``phi[rows](x) = 0``
+    over ``x[rows]``, the devices limiting their junctions as in an operating point. Returns None
+    when it does not converge.
     """
+    from ..dae.newton import LuCache, SpiceTest, newton
+    from ..dae.sparse import SparsePattern
     from ..dae.system import KIND_VOLTAGE
 
     x = x.copy()
@@ -176,7 +177,9 @@ def _internal_nodes(system, x: np.ndarray, rows: np.ndarray, opts) -> np.ndarray
     pos = np.full(system.n, -1)
     pos[rows] = np.arange(rows.size)
     slots = np.flatnonzero((pos[pattern.rows] >= 0) & (pos[pattern.cols] >= 0))
-    at = (pos[pattern.rows[slots]], pos[pattern.cols[slots]])
+    sub_rows, sub_cols = pos[pattern.rows[slots]], pos[pattern.cols[slots]]
+    sub = SparsePattern.from_coo(rows.size, [sub_rows], [sub_cols])
+    sub_slots = sub.slots(sub_rows, sub_cols)
     # start each at the node it is most strongly tied to among the held ones (a series resistance)
     ev = system.evaluate(x, 0.0, jacobian=True)
     volts = np.asarray(system.kinds == KIND_VOLTAGE)
@@ -186,21 +189,23 @@ def _internal_nodes(system, x: np.ndarray, rows: np.ndarray, opts) -> np.ndarray
         ties = held[pattern.rows[held] == r]
         if ties.size:
             x[r] = x[pattern.cols[ties[np.argmax(np.abs(ev.dphi[ties]))]]]
-    for _ in range(INTERNAL_MAXITER):
-        ev = system.evaluate(x, 0.0, jacobian=True)
+    state = [None]  # the devices' limiting, from the starting point on
+
+    def fun(xs, jacobian):
+        x[rows] = xs
+        ev = system.evaluate(x, 0.0, jacobian=True, state=state[0])
         if not (ev.ok and np.all(np.isfinite(ev.phi[rows])) and np.all(np.isfinite(ev.dphi))):
-            return None
-        jac = np.zeros((rows.size, rows.size))
-        np.add.at(jac, at, ev.dphi[slots])
-        try:
-            dx = np.linalg.solve(jac, -ev.phi[rows])
-        except np.linalg.LinAlgError:
-            return None
-        dx = np.clip(dx, -0.1, 0.1)
-        x[rows] += dx
-        if np.all(np.abs(dx) <= opts.reltol * np.abs(x[rows]) + opts.vntol):
-            return x
-    return None
+            return None, None, False, False
+        state[0] = ev.state
+        return ev.phi[rows], sub.scatter(sub_slots, ev.dphi[slots]), True, bool(ev.limited)
+
+    x_atol = np.full(rows.size, opts.vntol)
+    stop = SpiceTest(sub, opts.reltol, x_atol, np.full(rows.size, opts.abstol), np.ones(rows.size, dtype=bool))
+    res = newton(fun, x[rows], LuCache(sub), 1.0 / x_atol, maxiter=INTERNAL_MAXITER, jacobian="always", stop=stop)
+    if not res.converged:
+        return None
+    x[rows] = res.x
+    return x
 
 
 def _row(name: str) -> str:

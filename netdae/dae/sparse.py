@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SparsePattern", "residual_small", "RESIDUAL_ROUNDING"]
+__all__ = ["SparsePattern", "residual_small", "residual_tolerance", "RESIDUAL_ROUNDING"]
 
 #: The rounding of a residual row's sum, per ``|J| |x|``: SPICE's residual test allows it beside
 #: ``reltol`` times the row's currents (:func:`residual_small`), since a row whose branch currents
@@ -228,7 +228,17 @@ def residual_small(pattern: SparsePattern, r: np.ndarray, jac: np.ndarray, x: np
     -------
     bool
     """
+    return bool(np.all(np.abs(r) <= residual_tolerance(pattern, jac, x, reltol, r_atol, paired)))
+
+
+def residual_tolerance(pattern: SparsePattern, jac: np.ndarray, x: np.ndarray, reltol: float, r_atol: np.ndarray,
+                       paired: np.ndarray | None = None) -> np.ndarray:
+    """Each row's tolerance in :func:`residual_small`: ``reltol m + RESIDUAL_ROUNDING |J| |x| + r_atol``, shape (n,).
+
+    Without ``paired``, ``reltol |J| |x| + r_atol`` (no rounding term). Arguments as
+    :func:`residual_small`'s.
+    """
     tol = reltol * pattern.row_magnitudes(jac, x, paired) + r_atol
     if paired is not None:
         tol += RESIDUAL_ROUNDING * pattern.row_magnitudes(jac, x)
-    return bool(np.all(np.abs(r) <= tol))
+    return tol
