@@ -63,7 +63,9 @@ def test_pendulum_energy_drift_is_proportional_to_the_tolerance(pendulum_runs):
         e = energy(res.x)
         drift[rtol] = np.abs(e - energy(x0)).max() / swing
         assert drift[rtol] < 30.0 * rtol * swings
-    assert drift[1e-6] < drift[1e-4] / 30.0
+    # the drift at a given tolerance scatters by 2x with the step sequence (rtol 0.9e-4 .. 1.1e-4: 1.5e-3 ..
+    # 3.0e-3 of a swing, 7.4e-5 .. 8.3e-5 at 0.9e-6 .. 1.1e-6); its fall over two decades is 20-40x
+    assert drift[1e-6] < drift[1e-4] / 10.0
 
 
 def test_pendulum_angle_matches_the_state_space_form(pendulum_runs):
@@ -72,10 +74,11 @@ def test_pendulum_angle_matches_the_state_space_form(pendulum_runs):
     for rtol, res in runs.items():
         errs[rtol] = np.abs(res["alpha"] - ref.sol(res.t)[0]).max()
     # global phase error after 12 swings: a few hundred tolerances, shrinking with the tolerance
-    # (measured 2.6e-3 and 2.2e-4: the phase error of a BDF on an oscillator does not fall in
+    # (measured 1.1e-3 .. 5.6e-3 for rtol 0.9e-4 .. 1.1e-4, the step sequence deciding, and 1.8e-4 ..
+    # 2.3e-4 at 0.9e-6 .. 1.1e-6: the phase error of a BDF on an oscillator does not fall in
     # proportion to the tolerance, the order rises as it tightens)
     assert errs[1e-4] < 1000 * 1e-4 and errs[1e-6] < 1000 * 1e-6
-    assert errs[1e-6] < errs[1e-4] / 8.0
+    assert errs[1e-6] < errs[1e-4] / 3.0
 
 
 def test_pendulum_work_is_bounded(pendulum_runs):

@@ -25,6 +25,7 @@ import pytest
 from netdae.analyses.op import operating_point
 from netdae.analyses.tran import transient
 from netdae.netlist import load
+from netdae.dae.compiled.events import EVENT_MIN_GAP
 
 COMPARATOR = """comparator on a sine driving an RC
 V1 in 0 SIN(0 1 1k)
@@ -94,9 +95,13 @@ def test_an_astable_multivibrator_oscillates_with_the_analytic_period(rtol):
     assert events[0] == pytest.approx(rc * math.log(1.0 / (1.0 - beta)), rel=3 * rtol)
     half = rc * math.log((1.0 + beta) / (1.0 - beta))
     np.testing.assert_allclose(np.diff(events), half, rtol=3 * rtol)
-    # at each event v(n) is on the threshold +-beta * 5 V of the held output (to the interpolant's rounding)
+    # at each event v(n) is on the threshold +-beta * 5 V of the held output, to the interpolant's rounding, or
+    # to what v(n) moves in EVENT_MIN_GAP of a step: a change that close to a step's start happens at the start
+    # (the held branch's approach stops there, docs/integrator.md), where v(n) rises at (5 - 2.5) V / rc
     vn = np.asarray(r.dense(events)["v(n)"])
-    np.testing.assert_allclose(np.abs(vn), beta * 5.0, rtol=1e-9)
+    slope = (1.0 - beta) * 5.0 / rc
+    gap = slope * EVENT_MIN_GAP * float(np.max(np.diff(r.t)))
+    np.testing.assert_allclose(np.abs(vn), beta * 5.0, rtol=1e-9, atol=gap)
 
 
 def test_a_staircase_of_a_ramp_steps_at_the_integers():

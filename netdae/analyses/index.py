@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..circuit import STAMP_MAGNITUDES, Circuit, TranAnalysis
+from ..dae.algebraic import GROUP_LIMIT, AlgebraicPart, algebraic_part
 from ..dae.pencil import DENSE_LIMIT, PencilReport, analyze_pencil
 from ..errors import CircuitError, ConvergenceError, NetdaeError
 from ..mna import MODE_DC, MODE_TRAN, MnaSystem, assemble
@@ -65,7 +66,9 @@ class IndexReport:
         Nilpotency index of the linearisation (None: singular, or unknown
         above the dense limit when the topological theorem does not apply).
     method : str
-        ``"kronecker"`` (numerical, exact at the tolerance) or ``"topological"``.
+        ``"kronecker"`` (numerical, exact at the tolerance), ``"topological"`` or ``"sparse"`` (the
+        algebraic part at the point, :func:`netdae.dae.algebraic.algebraic_part`: index and index-2 unknowns
+        only).
     n_unknowns : int
     n_dynamic : int or None
         Number of finite eigenvalues (dynamic states).
@@ -96,6 +99,8 @@ class IndexReport:
     x : ndarray
         The linearisation point.
     wall_time : float
+    algebraic : AlgebraicPart or None
+        The sparse analysis of the algebraic part, where it was made.
     """
 
     regular: bool | None
@@ -118,6 +123,7 @@ class IndexReport:
     system: MnaSystem | None = None
     x: np.ndarray | None = None
     wall_time: float = 0.0
+    algebraic: AlgebraicPart | None = None
 
     @property
     def consistent_initial_values(self) -> bool | None:
@@ -505,8 +511,13 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         Relative tolerance of every rank decision (default ``n * eps``).
     x : ndarray, optional
         Linearisation point (default: the operating point; zeros for linear circuits).
-    method : {"auto", "kronecker", "topological"}
-        ``auto`` uses the dense Kronecker analysis up to DENSE_LIMIT unknowns.
+    method : {"auto", "kronecker", "topological", "sparse"}
+        ``auto`` uses the dense Kronecker analysis up to DENSE_LIMIT unknowns, and ``sparse`` above.
+        ``sparse`` takes the index from the circuit's structure where the topological statement gives it,
+        else from the algebraic part at the linearisation point
+        (:func:`netdae.dae.algebraic.algebraic_part`: index 0, 1 or 2 and the unknowns carrying the
+        inputs' derivatives, in about linear time; 3 or more is left undetermined). ``topological``
+        takes the structure only.
     check_consistency : bool
         Check the transient's initial point against the hidden constraints.
 
@@ -526,8 +537,8 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
     t_start = time.perf_counter()
     if at not in ("op", "t0"):
         raise NetdaeError(f"--at must be 'op' or 't0', not {at!r}")
-    if method not in ("auto", "kronecker", "topological"):
-        raise NetdaeError(f"method must be auto, kronecker or topological, not {method!r}")
+    if method not in ("auto", "kronecker", "topological", "sparse"):
+        raise NetdaeError(f"method must be auto, kronecker, topological or sparse, not {method!r}")
     if isinstance(circuit, Prepared):
         prepared = circuit
     else:
@@ -545,14 +556,13 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
             hint="connect elements between nodes and ground (0); an empty netlist may come from a wrong file "
                  "or a .include or .lib that brought nothing")
     use_dense = method == "kronecker" or (method == "auto" and system.n <= DENSE_LIMIT)
+    xlin, point, fallback = None, "", None
     if method == "kronecker" and system.n > DENSE_LIMIT:
         raise NetdaeError(
             f"the dense Kronecker analysis is limited to {DENSE_LIMIT} unknowns (this circuit has {system.n}); "
             "use the topological method"
         )
     pencil = None
-    xlin = None
-    point, fallback = "", None
     if use_dense and not (topo.singular and system.n == 0):
         xlin, point, fallback = _linearization_point(prepared, at, x)
         E, H = system.jacobians(xlin, 0.0)
@@ -592,14 +602,23 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
     else:
         idx = topo.topological_index if topo.applicable and not topo.singular else None
         sig2 = set(topo.index2_signals) if idx == 2 else set()
+        how, part = "topological", None
+        if idx is None and not topo.singular and method in ("auto", "sparse"):
+            xlin, point, fallback = _linearization_point(prepared, at, x)
+            E, H = system.jacobians(xlin, 0.0)
+            part = algebraic_part(E, H, system.B)
+            if part.determined and part.index is not None:
+                idx, how = part.index, "sparse"
+                sig2 = {names[i] for i in part.support}
         labels = {nm: ("index2" if nm in sig2 else "unclassified") for nm in names}
         rep = IndexReport(
             regular=False if topo.singular else (True if idx is not None else None), index=idx,
-            method="topological", n_unknowns=system.n, n_dynamic=None, rank_E=None, infinite_blocks=[],
+            method=how, n_unknowns=system.n, n_dynamic=None, rank_E=None, infinite_blocks=[],
             finite_eigenvalues=np.zeros(0, dtype=complex), tolerance={}, unknowns=labels,
             derivative_order={nm: (1 if nm in sig2 else 0) for nm in names}, topology=topo, consistency=None,
-            at=at, system=system,
+            at=at, system=system, x=xlin,
         )
+        rep.algebraic = part
     rep.point = point
     rep.messages = _messages(rep, _dc_regular(system, topo, xlin) if pencil is not None else None)
     if pencil is not None and pencil.regular and rep.regular is False:
@@ -616,13 +635,23 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
         rep.messages.insert(1, f"linearised at {point} because {fallback}")
     if pencil is not None and start_missing is not None:
         rep.messages.append(f"the transient's initial point was not checked for consistency: {start_missing}")
-    if rep.method == "topological":
+    if rep.method in ("topological", "sparse"):
         why = (f"{system.n} unknowns is above the dense limit of {DENSE_LIMIT}" if system.n > DENSE_LIMIT
                else "requested")
-        rep.messages.append(
-            f"method: topological ({why}); "
-            + ("the index follows from the circuit's structure" if rep.index is not None
-               else "no exact index can be given")
-        )
+        part = rep.algebraic
+        if rep.method == "sparse":
+            how = (f"the circuit's structure does not give it, the algebraic part does (linearised at {point}: "
+                   f"{part.kernel_dim} algebraic directions, {part.impulsive_dim} impulsive, decided group by "
+                   f"group, the largest {part.largest_group} wide)")
+        elif part is not None and not part.determined:
+            how = (f"no exact index can be given (the algebraic part has a group wider than {GROUP_LIMIT}, too "
+                   "large for its dense decisions)")
+        elif part is not None:
+            how = ("no exact index can be given (the algebraic part has impulsive directions, linearised at "
+                   f"{point}, but not index 2: index 3 or more, or a singular pencil)")
+        else:
+            how = ("the index follows from the circuit's structure" if rep.index is not None
+                   else "no exact index can be given")
+        rep.messages.append(f"method: {rep.method} ({why}); {how}")
     rep.wall_time = time.perf_counter() - t_start
     return rep

@@ -64,6 +64,7 @@ from ..kinds import KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
+from ..dae.algebraic import GROUP_LIMIT
 from .index import IndexReport, analyze_index
 from .prepared import Prepared, prepare
 
@@ -409,7 +410,7 @@ def _structure(prepared: Prepared, x0: np.ndarray, uic: bool) -> IndexReport | N
     system, topo = prepared.system, prepared.topology
     idx = topo.topological_index
     exact = topo.applicable and not topo.singular and idx is not None and idx <= 1 and not (uic and system.linear)
-    method = "topological" if exact or system.n > TRAN_PENCIL_LIMIT else "auto"
+    method = "topological" if exact else ("sparse" if system.n > TRAN_PENCIL_LIMIT else "auto")
     rep = analyze_index(prepared, x=x0, method=method, check_consistency=False)
     if rep.regular is False:
         from ..topology import pencil_singularity_explanation
@@ -834,9 +835,19 @@ def _index_notes(prepared: Prepared, rep: IndexReport) -> list[str]:
         return [f"warning: {ROUNDING_NOTE.format(index=index)}; the transient runs as the exact structure says, and "
                 "unknowns in the directions double precision cannot resolve may carry rounding noise (netdae index "
                 "shows the rank decisions)"]
-    if index is None and rep.method == "topological":
+    part = rep.algebraic
+    if index is None and rep.method in ("topological", "sparse"):
+        why = ("" if part is None else
+               f"; the algebraic part has a group wider than {GROUP_LIMIT}" if not part.determined else
+               "; the algebraic part has impulsive directions but not index 2")
         return [f"index not determined ({system.n} unknowns, above the dense limit of {TRAN_PENCIL_LIMIT} "
-                "for a transient, and the topological statement does not apply): every unknown is error-tested"]
+                f"for a transient, and the topological statement does not apply{why}): every unknown is "
+                "error-tested"]
+    if rep.method == "sparse" and index == 2:
+        index2 = [nm for nm, d in rep.derivative_order.items() if d >= 1]
+        return [f"index 2 from the algebraic part ({system.n} unknowns, above the dense limit of {TRAN_PENCIL_LIMIT} "
+                f"for a transient): {', '.join(index2[:6])}{' and more' if len(index2) > 6 else ''} carry the "
+                "inputs' derivatives and are left out of the error test"]
     return []
 
 

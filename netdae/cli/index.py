@@ -35,8 +35,10 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="linearise at the DC operating point (default) or at the transient's initial point")
     p.add_argument("--tol", type=_rank_tol, help="relative tolerance of the rank decisions, between 0 and 1 "
                    "(default n*eps)")
-    p.add_argument("--method", choices=("auto", "kronecker", "topological"), default="auto",
-                   help="auto: dense Kronecker analysis up to the dense limit, topological above")
+    p.add_argument("--method", choices=("auto", "kronecker", "topological", "sparse"), default="auto",
+                   help="auto: dense Kronecker analysis up to the dense limit, sparse above; sparse: the circuit's "
+                   "structure where it gives the index, else the algebraic part (index 0-2 and the index-2 "
+                   "unknowns); topological: the structure only")
     add_ngbehavior(p)
     return p
 

@@ -372,16 +372,16 @@ def balance_pencil(E: np.ndarray, H: np.ndarray, *, enabled: bool = True) -> Bal
 # ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MatrixRank:
-    """Numerical rank of a square matrix, with its null spaces.
+    """Numerical rank of a matrix, with its null spaces.
 
     Attributes
     ----------
     decision : RankDecision
         On the balanced matrix ``Dl M Dr`` (exact powers of two).
-    right : ndarray, shape (n, n - rank)
-        Orthonormal-before-scaling basis of the right null space of ``M``
+    right : ndarray, shape (k, k - rank)
+        Orthonormal-before-scaling basis of the right null space of the ``m x k`` matrix ``M``
         (columns, in the original unknowns: ``M @ right ~ 0``).
-    left : ndarray, shape (n, n - rank)
+    left : ndarray, shape (m, m - rank)
         Basis of the left null space (``left.T @ M ~ 0``): which equations
         depend on each other.
     """
@@ -396,11 +396,12 @@ class MatrixRank:
 
     @property
     def deficient(self) -> bool:
-        return self.decision.rank < self.decision.shape[0]
+        """Rank below the smaller dimension."""
+        return self.decision.rank < min(self.decision.shape)
 
 
 def matrix_rank(M, rtol: float | None = None, what: str = "rank of the matrix", *, vectors: bool = True) -> MatrixRank:
-    """Numerical rank of a square matrix, decided as the pencil analysis decides ranks.
+    """Numerical rank of a matrix, decided as the pencil analysis decides ranks.
 
     The matrix is balanced by :func:`balance_pencil` (rows and columns by
     powers of two, as the pencil ``(0, M)``), and a singular value of the
@@ -410,8 +411,9 @@ def matrix_rank(M, rtol: float | None = None, what: str = "rank of the matrix", 
 
     Parameters
     ----------
-    M : ndarray or sparse matrix, shape (n, n)
+    M : ndarray or sparse matrix, shape (m, k)
     rtol : float, optional
+        Default ``default_rtol(max(m, k))``.
     what : str
         Description kept in the decision.
     vectors : bool
@@ -433,14 +435,13 @@ def matrix_rank(M, rtol: float | None = None, what: str = "rank of the matrix", 
     (1, True, True)
     """
     A = M.toarray() if hasattr(M, "toarray") else np.array(M, dtype=float)
-    n = A.shape[0]
-    rt = default_rtol(n) if rtol is None else float(rtol)
+    rt = default_rtol(max(A.shape)) if rtol is None else float(rtol)
     bal = balance_pencil(np.zeros_like(A), A)
     dl, dr = bal.row_scale, bal.col_scale
     Ab = dl[:, None] * A * dr[None, :]
     if not vectors:
         dec = rank_decision(_svdvals(Ab), rt * np.linalg.norm(Ab), what, A.shape)
-        return MatrixRank(dec, np.zeros((n, 0)), np.zeros((n, 0)))
+        return MatrixRank(dec, np.zeros((A.shape[1], 0)), np.zeros((A.shape[0], 0)))
     P, s, WT = _svd(Ab)
     dec = rank_decision(s, rt * np.linalg.norm(Ab), what, A.shape)
     right = dr[:, None] * WT[dec.rank:].T

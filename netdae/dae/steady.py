@@ -400,6 +400,11 @@ class _EquilibratedLU:
         return self.c * self.cache.solve(self.r * b)
 
 
+#: A rank decision with a singular value within this factor of its tolerance is unclear: at the same rank,
+#: the other scaling's clearer decision gives the null spaces (:func:`jacobian_rank`).
+UNCLEAR_MARGIN = 10.0
+
+
 def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian", *, vectors: bool = True) -> MatrixRank:
     """The SVD rank decision of a steady-state Jacobian.
 
@@ -417,7 +422,10 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian", *, vecto
     When the max-equilibrated matrix is deficient too but has the higher
     rank, its verdict and null spaces are returned: singular values above the
     tolerance on either scaling are not rounding (ngspice's
-    ``cpl_ibm1.sp``: 2 floating conductors, where Ward's scaling dropped 34).
+    ``cpl_ibm1.sp``: 2 floating conductors, where Ward's scaling dropped 34);
+    at the same rank, where Ward's decision is unclear (a
+    :attr:`~netdae.dae.kronecker.RankDecision.margin` below
+    :data:`UNCLEAR_MARGIN`), those of the clearer one.
 
     Parameters
     ----------
@@ -443,12 +451,17 @@ def jacobian_rank(mat, what: str = "rank of the steady-state Jacobian", *, vecto
     sigma = np.linalg.svd(scaled, compute_uv=False)
     decision = rank_decision(sigma, default_rtol(n) * float(np.linalg.norm(scaled)), what + " (max-equilibrated)",
                              a.shape)
-    if decision.rank == n or (decision.rank > rank.rank and not vectors):
+    better = decision.rank > rank.rank or (decision.rank == rank.rank and rank.decision.margin < UNCLEAR_MARGIN
+                                           and decision.margin > rank.decision.margin)
+    if decision.rank == n or (better and not vectors):
         return MatrixRank(decision, np.zeros((n, 0)), np.zeros((n, 0)))
-    if decision.rank > rank.rank:
+    if better:
         # fewer null directions on this scaling: the others are independent columns, whatever the scaling, and
         # the null spaces come from its SVD (a coupled line's two floating conductors, cpl_ibm1.sp: 2 null
-        # directions where Ward's scaling, pulled by the line's modal sources, dropped 34)
+        # directions where Ward's scaling, pulled by the line's modal sources, dropped 34). At the same rank
+        # the clearer decision gives the null spaces: a kept singular value at the tolerance (a floating
+        # conductor of tests/test_line_charge.py, 1.09 times it on Ward's scaling with one BLAS kernel, below
+        # it with another) leaves the null vector mixed with its direction
         P, sigma, WT = np.linalg.svd(scaled)
         return MatrixRank(decision, c[:, None] * WT[decision.rank:].T, r[:, None] * P[:, decision.rank:])
     return rank

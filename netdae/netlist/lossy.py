@@ -579,6 +579,10 @@ def _rg(made: _Builder, p: LineParameters) -> None:
     made.add("g", "resistor", (mid, ra), zc / math.sinh(gamma))
 
 
+#: Entries of a mode's voltage vector (scaled to a largest entry of 1) at or below this are rounding.
+MODE_ROUNDING = 64.0 * np.finfo(float).eps
+
+
 def modes(l: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The propagation modes of coupled lossless lines: ``T_v``, the modes' ``L_m``, ``C_m``.
 
@@ -591,6 +595,10 @@ def modes(l: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     _, q = np.linalg.eigh(k.T @ l @ k)
     tv = np.linalg.solve(k.T, q)
     tv = tv / np.max(np.abs(tv), axis=0)
+    # an entry at the rounding of the column's largest (1) is an exact zero of the mode (a symmetric
+    # line's odd mode on its middle conductor): kept, it would couple a floating conductor to the rest
+    # by 1e-15 and make its DC matrix's rank a matter of the BLAS kernel's rounding
+    tv[np.abs(tv) <= MODE_ROUNDING] = 0.0
     inv = np.linalg.inv(tv)
     return tv, np.diag(inv @ l @ inv.T).copy(), np.diag(tv.T @ c @ tv).copy()
 
