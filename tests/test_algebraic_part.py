@@ -138,3 +138,47 @@ def test_a_transient_above_the_dense_limit_names_its_index_2_current(monkeypatch
     assert dense.transient.index_method == "kronecker" and dense.transient.index2 == ["i(v1)"]
     np.testing.assert_array_equal(np.asarray(dense.t), t)
     assert TRAN_PENCIL_LIMIT < LADDER_SECTIONS + 4
+
+
+LOOP = """source loop copied by a CCVS
+V1 in 0 PULSE(0 1 1n 1n 1n 5n 20n)
+C1 in 0 2p
+H1 b 0 V1 1k
+R1 b 0 10k
+.tran 0.1n 10n
+"""
+
+
+def test_netdae_index_sparse_names_the_copied_current_and_says_how(tmp_path, capsys):
+    from netdae.cli import main
+
+    rep = analyze_index(netdae.load(LOOP), method="sparse")
+    assert (rep.method, rep.index, rep.regular) == ("sparse", 2, True)
+    assert {nm for nm, d in rep.derivative_order.items() if d} == {"i(v1)", "v(b)", "i(h1)"}
+    assert rep.algebraic.impulsive_dim == 1
+    path = tmp_path / "loop.cir"
+    path.write_text(LOOP)
+    assert main(["index", "--method", "sparse", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "index: 2   method: sparse" in out and "the algebraic part does" in out
+
+
+def test_index_3_is_left_undetermined_by_the_sparse_method():
+    """A CCVS copies the current of a capacitor-source loop onto a capacitor measured by a 0 V source:
+    i(vm) = C3 d/dt(1k i(v1)) = -1k C1 C3 V1'', index 3 (the dense analysis says so); the sparse
+    method gives no index rather than a wrong one, and names the unknowns it found impulsive."""
+    text = """index 3
+V1 in 0 SIN(0 1 1k)
+C1 in 0 1u
+H2 y 0 V1 1k
+VM y z 0
+C3 z 0 1u
+.tran 10u 1m
+"""
+    circuit = netdae.load(text)
+    assert analyze_index(circuit, method="kronecker").index == 3
+    sparse = analyze_index(circuit, method="sparse")
+    assert sparse.index is None and sparse.regular is None
+    assert sparse.algebraic.determined and sparse.algebraic.impulsive_dim >= 1 and not sparse.algebraic.index2
+    assert any("no exact index can be given (the algebraic part has impulsive directions" in m
+               for m in sparse.messages)

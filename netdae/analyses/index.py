@@ -640,15 +640,16 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
                else "requested")
         part = rep.algebraic
         if rep.method == "sparse":
-            how = (f"the circuit's structure does not give it, the algebraic part does (linearised at {point}: "
+            where = "a linear circuit" if point == POINT_LINEAR else f"linearised at {point}"
+            how = (f"the circuit's structure does not give it, the algebraic part does ({where}: "
                    f"{part.kernel_dim} algebraic directions, {part.impulsive_dim} impulsive, decided group by "
                    f"group, the largest {part.largest_group} wide)")
         elif part is not None and not part.determined:
             how = (f"no exact index can be given (the algebraic part has a group wider than {GROUP_LIMIT}, too "
                    "large for its dense decisions)")
         elif part is not None:
-            how = ("no exact index can be given (the algebraic part has impulsive directions, linearised at "
-                   f"{point}, but not index 2: index 3 or more, or a singular pencil)")
+            how = ("no exact index can be given (the algebraic part has impulsive directions but is not of "
+                   "index 2: index 3 or more, or a singular pencil)")
         else:
             how = ("the index follows from the circuit's structure" if rep.index is not None
                    else "no exact index can be given")

@@ -74,7 +74,7 @@ def format_report(rep, title: str = "") -> str:
         where = "no operating point: the circuit is linear"
     elif getattr(rep, "point", ""):
         where = rep.point
-    how = (where if where.startswith("no ") else f"linearised at {where}") if rep.method == "kronecker" \
+    how = (where if where.startswith("no ") else f"linearised at {where}") if rep.method in ("kronecker", "sparse") \
         else "circuit structure"
     lines.append(f"index: {idx}   method: {rep.method} ({how}), {rep.n_unknowns} unknowns")
     if rep.method == "kronecker":
