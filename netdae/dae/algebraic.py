@@ -41,9 +41,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
-
 from .kronecker import RankDecision, matrix_rank
+from .sparse import bipartite_components
 
 __all__ = ["AlgebraicPart", "algebraic_part", "GROUP_LIMIT"]
 
@@ -100,18 +99,6 @@ class AlgebraicPart:
         return 2 if self.index2 else None
 
 
-def _groups(a: sp.csr_matrix) -> tuple[int, np.ndarray, np.ndarray]:
-    """Connected components of the bipartite graph of ``a``'s nonzeros: ``(count, row_label, col_label)``.
-
-    A row or column without nonzeros is a group of its own.
-    """
-    m, k = a.shape
-    coo = a.tocoo()
-    g = sp.coo_matrix((np.ones(coo.nnz), (coo.row, m + coo.col)), shape=(m + k, m + k))
-    count, labels = connected_components(g, directed=False)
-    return count, labels[:m], labels[m:]
-
-
 class _Blocks:
     """A sparse matrix taken apart into its independent groups of rows and columns.
 
@@ -139,13 +126,14 @@ class _Blocks:
     def __init__(self, a: sp.spmatrix, what: str):
         a = sp.csr_matrix(a)
         m, k = a.shape
-        self.a = a
-        count, rlab, clab = _groups(a)
+        coo = a.tocoo()
+        count, rlab, clab = bipartite_components(coo.row, coo.col, m, k)
+        self._coo = coo
         rows_of = np.argsort(rlab, kind="stable")
         cols_of = np.argsort(clab, kind="stable")
         rstart = np.searchsorted(rlab[rows_of], np.arange(count + 1))
         cstart = np.searchsorted(clab[cols_of], np.arange(count + 1))
-        self.groups: list[tuple[np.ndarray, np.ndarray]] = []  # groups of more than one entry
+        self._groups: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (rows, cols, block) of the larger groups
         right: list[tuple[np.ndarray, np.ndarray]] = []  # (indices, values) of each kernel vector
         left: list[tuple[np.ndarray, np.ndarray]] = []
         self.decisions: list[RankDecision] = []
@@ -165,8 +153,9 @@ class _Blocks:
                 self.determined = False
                 return
             self.largest = max(self.largest, p, q)
-            self.groups.append((rows, cols))
-            rank = matrix_rank(a[rows][:, cols].toarray(), what=f"rank of {what} on a group of {p} x {q}")
+            block = a[rows][:, cols].toarray()
+            self._groups.append((rows, cols, block))
+            rank = matrix_rank(block, what=f"rank of {what} on a group of {p} x {q}")
             if rank.deficient:
                 self.decisions.append(rank.decision)
             right += [(cols, v) for v in rank.right.T]
@@ -185,16 +174,15 @@ class _Blocks:
         -------
         ndarray, shape (k, d)
         """
-        a = self.a
-        y = np.zeros((a.shape[1], z.shape[1]))
-        coo = a.tocoo()
-        single = np.ones(a.shape[0], dtype=bool)
-        for rows, _ in self.groups:
+        coo = self._coo
+        y = np.zeros((coo.shape[1], z.shape[1]))
+        single = np.ones(coo.shape[0], dtype=bool)
+        for rows, _, _ in self._groups:
             single[rows] = False
         one = single[coo.row]
         y[coo.col[one]] = z[coo.row[one]] / coo.data[one][:, None]
-        for rows, cols in self.groups:
-            y[cols] = np.linalg.lstsq(a[rows][:, cols].toarray(), z[rows], rcond=None)[0]
+        for rows, cols, block in self._groups:
+            y[cols] = np.linalg.lstsq(block, z[rows], rcond=None)[0]
         return y
 
 
@@ -277,12 +265,12 @@ def algebraic_part(E, H, B=None) -> AlgebraicPart:
     largest = max(eb.largest, mb.largest)
     nm, y = mb.right, mb.left
     d = nm.shape[1]
-    if d:  # one step of refinement: remove from each kernel vector its part a group's rounding left in M's row space
-        nm = np.asarray(nm.todense())
-        nm = nm - mb.solve(np.asarray(m @ nm))
     if d == 0:
         return AlgebraicPart(determined=True, n=n, kernel_dim=k0.shape[1], decisions=decisions,
                              largest_group=largest)
+    # one step of refinement: remove from each kernel vector the part its group's rounding left in M's row space
+    nm = np.asarray(nm.todense())
+    nm = nm - mb.solve(np.asarray(m @ nm))
     w = np.asarray(k0 @ nm)
     hw = np.asarray(H @ w)
     s_mat = np.asarray(y.T @ (lh @ eb.solve(hw)))

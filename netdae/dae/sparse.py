@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SparsePattern", "residual_small", "residual_tolerance", "RESIDUAL_ROUNDING"]
+__all__ = ["SparsePattern", "residual_small", "residual_tolerance", "RESIDUAL_ROUNDING", "bipartite_components"]
 
 #: The rounding of a residual row's sum, per ``|J| |x|``: SPICE's residual test allows it beside
 #: ``reltol`` times the row's currents (:func:`residual_small`), since a row whose branch currents
@@ -242,3 +242,24 @@ def residual_tolerance(pattern: SparsePattern, jac: np.ndarray, x: np.ndarray, r
     if paired is not None:
         tol += RESIDUAL_ROUNDING * pattern.row_magnitudes(jac, x)
     return tol
+
+
+def bipartite_components(rows: np.ndarray, cols: np.ndarray, m: int, k: int) -> tuple[int, np.ndarray, np.ndarray]:
+    """The independent groups of rows and columns of an ``m x k`` sparsity pattern.
+
+    Connected components of the bipartite graph whose edges are the entries ``(rows[e], cols[e])``; a row
+    or column without entries is a group of its own.
+
+    Returns
+    -------
+    count : int
+    row_label : ndarray of int, shape (m,)
+    col_label : ndarray of int, shape (k,)
+        The group of each row and column (labels in ``range(count)``).
+    """
+    from scipy.sparse.csgraph import connected_components
+
+    rows = np.asarray(rows)
+    graph = sp.coo_matrix((np.ones(rows.size), (rows, m + np.asarray(cols))), shape=(m + k, m + k))
+    count, labels = connected_components(graph, directed=False)
+    return count, labels[:m], labels[m:]

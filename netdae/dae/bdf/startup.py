@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..newton import INFO_SINGULAR
-from ..sparse import SparsePattern
+from ..sparse import SparsePattern, bipartite_components
 from ..steady import SteadyOptions, solve_steady
 from ..system import DaeSystem, Evaluation
 from .constants import (CONSERVED_CHARGE_RTOL, EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP,
@@ -70,17 +70,13 @@ def conserved_charge_groups(pattern: SparsePattern, dq) -> list[np.ndarray]:
     >>> [g.tolist() for g in conserved_charge_groups(pat, dq)]
     [[0, 1]]
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     n = pattern.n
     dq = np.asarray(dq, dtype=float)[:pattern.nnz]
     nz = np.flatnonzero(dq != 0.0)
     if nz.size == 0:
         return []
     r, c = pattern.rows[nz], pattern.cols[nz]
-    graph = coo_matrix((np.ones(nz.size), (r, c + n)), shape=(2 * n, 2 * n))  # rows, then columns
-    count, label = connected_components(graph, directed=False)
+    count, label, _ = bipartite_components(r, c, n, n)
     comp = label[r]
     keys, inverse = np.unique(comp * n + c, return_inverse=True)
     column_sums = np.bincount(inverse, weights=dq[nz])
