@@ -205,3 +205,23 @@ def test_stub_ac_agrees_with_ngspice():
     ref = run_ngspice(text).result("ac")
     (ours,) = netdae.run(text)
     np.testing.assert_allclose(ours["v(b)"], np.asarray(ref["v(b)"]), rtol=1e-6, atol=1e-9)
+
+
+def test_the_right_limits_history_holds_the_last_wave_past_the_record():
+    # the Python right limit reads the lines' recorded waves; at an impasse its implicit-Euler
+    # steps grow tenfold each try and can ask for t + 2 eps - tau past the last recorded point:
+    # the delayed input is then held at its latest value (a ValueError of the dense output before)
+    from netdae.dae.compiled import bdf_loop as L
+    from netdae.dae.compiled.driver import _history
+
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    buf_x = np.column_stack([np.zeros(4), 2.0 * t, t ** 2])  # a saved unknown, then two waves
+    I = np.zeros(L.N_I, dtype=np.int64)
+    I[L.I_M] = 4
+    I[L.I_NSEGMENTS] = 1
+    history = _history(t, np.array([0, 1, 2, 2], dtype=np.int8), buf_x, np.zeros(4, dtype=np.int64), I, 1)
+    # inside the record: the interpolating polynomials (exact for these waves)
+    assert np.allclose(history(np.array([1.5, 2.5])), [3.0, 6.25], rtol=0, atol=1e-12)
+    # past it: the last recorded values, each row at its own time
+    assert np.array_equal(history(np.array([3.5, 40.0])), [6.0, 9.0])
+    assert np.allclose(history(np.array([3.5, 2.5])), [6.0, 6.25], rtol=0, atol=1e-12)

@@ -719,16 +719,24 @@ def no_delays(I) -> tuple:
 
 
 def _history(buf_t, buf_k, buf_x, segments, I, col0: int):
-    """``history(tq)`` of the recorded waves so far, for the Python right limit (the loop's rule)."""
+    """``history(tq)`` of the recorded waves so far, for the Python right limit (the loop's rule).
+
+    A time past the last recorded point gets the last recorded wave: the right limit at an
+    impasse takes implicit-Euler steps ten times longer at each try, and they can outgrow a
+    line's delay (``t + 2 eps - tau`` past ``t``, where nothing is recorded yet). The delayed
+    input is then held at its latest value for the right limit, as the limit ``eps -> 0``
+    reads it near ``t - tau``; the step loop's own steps never exceed the shortest delay.
+    """
     from ..dense import Interpolant
 
     m = int(I[L.I_M])
     nw = buf_x.shape[1] - col0
     ip = Interpolant(buf_t[:m].copy(), buf_k[:m].astype(np.int64), buf_x[:m, col0:].copy(),
                      [f"w{r}" for r in range(nw)], segments=segments[: int(I[L.I_NSEGMENTS])].copy())
+    t_last = float(buf_t[m - 1])
 
     def history(tq):
-        return np.diagonal(ip(np.asarray(tq, dtype=float))).copy()
+        return np.diagonal(ip(np.minimum(np.asarray(tq, dtype=float), t_last))).copy()
 
     return history
 
