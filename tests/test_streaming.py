@@ -276,6 +276,21 @@ def test_a_save_set_too_large_for_the_memory_is_refused_before_the_run(tmp_path,
     assert "warning: keeping 2 of 202" in tran_module._check_size(2, 202, card, 1e-9)
 
 
+def test_a_tstop_whose_point_count_overflows_is_refused_by_the_size_check(tmp_path):
+    # .tran 2ns 1e300: tstop / tmax overflows to infinity, which math.ceil could not make an integer
+    # (an OverflowError traceback before); it counts as tran.MOST_POINTS points, refused by name
+    import netdae.analyses.tran as tran_module
+    from netdae.cli import main
+
+    assert tran_module.output_size(3, 1e300, 2e-9) == (tran_module.MOST_POINTS, tran_module.MOST_POINTS * 33)
+    path = tmp_path / "far.cir"
+    path.write_text("far\nV1 a 0 PULSE(0 1 2n 2n 2n 80n)\nR1 a b 1k\nC1 b 0 1p\n.tran 2ns 1e300\n.end\n")
+    with pytest.raises(NetdaeError, match=r"far.cir:5:1: \.tran: keeping 3 of 3 unknowns at 4\.61e\+18 points or "
+                                          r"more \(tstop/tmax = 1e\+300/2e-09\) .* the run cannot finish"):
+        netdae.simulate(str(path))
+    assert main(["run", str(path)]) == 2
+
+
 def test_a_block_cut_short_by_ctrl_c_is_written_again_whole(tmp_path, monkeypatch):
     import netdae.io.files as files
     from netdae.results import Result

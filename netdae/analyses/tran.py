@@ -231,6 +231,10 @@ def memory_room() -> tuple[int | None, str]:
     return machine, f"this machine has {machine / 2**30:,.1f} GiB"
 
 
+#: The most points :func:`output_size` counts (a bound for the ratios that overflow).
+MOST_POINTS = 2**62
+
+
 def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
     """The fewest points a transient records and the bytes its output then needs at least.
 
@@ -239,10 +243,16 @@ def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
     every corner of the inputs), each a time, an order byte and the
     ``saved`` unknowns as doubles; a lower bound, not a forecast.
 
+    A ratio ``tstop / tmax`` past :data:`MOST_POINTS` (or overflowing to infinity, ``tstop =
+    1e300``) counts as that many points: far beyond any memory, and an integer still.
+
     >>> output_size(100_000, 1e-3, 1e-9)  # every node of 100,000 at 1e6 points at least
     (1000001, 800009800009)
+    >>> output_size(1, 1e300, 1e-12)[0] == MOST_POINTS
+    True
     """
-    points = int(math.ceil(tstop / tmax)) + 1
+    ratio = tstop / tmax
+    points = int(math.ceil(ratio)) + 1 if ratio < MOST_POINTS else MOST_POINTS
     return points, points * (8 * (saved + 1) + 1)
 
 
