@@ -459,3 +459,49 @@ def test_kernel_jacobians_match_differences():
     rng = np.random.default_rng(5)
     # within +-0.3 V: away from the model's kinks (vgt at vpo, where ngspice's sheet charge stops)
     case.jacobians_match_differences(rng.uniform(-0.3, 0.3, case.n), rtol=5e-6)
+
+
+#: A MESFET inverter whose DIBL parameter ``sigma0`` is far out of range: near vin = 1 V the level-2
+#: kernel's gate capacitance meets ``tq + b = 0`` (``b = exp(-vgt / (eta vt))`` underflows), and numba's
+#: complex division raises where real arithmetic would give a non-finite value.
+FAR_SIGMA0 = """MESFET inverter, DIBL parameter sigma0 far out of range
+z1 out in 0 mfet l=0.7u w=20u
+rl vdd out 2k
+vdd vdd 0 1.6
+vin in 0 0
+.model mfet nmf level=2 n=1.44 rd=20 rs=20 ri=10 rf=10 vs=1.9e5 mu=0.25 d=1e-7 vto=0.15 m=2 lambda=0.15
++ sigma0=99 vsigmat=0.5
+.dc vin 0 1 0.01
+.end
+"""
+
+
+@ngspice
+def test_a_division_by_zero_in_the_compiled_kernel_leaves_the_point_to_the_python_solver():
+    # the compiled Newton stops there as not converged (it raised ZeroDivisionError through `netdae run`,
+    # "a bug in netdae", before); the point is then solved by the Python path, whose numpy arithmetic has
+    # no such exception, and the sweep agrees with ngspice
+    comparison = netdae.compare(FAR_SIGMA0, backend="subprocess")
+    dc = comparison.analyses[0]
+    assert dc.error is None and dc.passed, dc
+
+
+def test_a_transient_whose_kernel_divides_by_zero_ends_with_its_points_and_a_message(monkeypatch):
+    from netdae.dae.compiled import bdf_loop
+    from netdae.dae.compiled.driver import MODEL_DIVISION
+
+    calls = []
+    run = bdf_loop.run
+
+    def dividing(*args):  # the loop's first return, then the exception a complex division raises
+        calls.append(1)
+        if len(calls) > 2:
+            raise ZeroDivisionError("complex division by zero")
+        return run(*args)
+
+    monkeypatch.setattr(bdf_loop, "run", dividing)
+    text = FAR_SIGMA0.replace("sigma0=99", "sigma0=0.1").replace(".dc vin 0 1 0.01", ".tran 1n 100n")
+    text = text.replace("vin in 0 0", "vin in 0 pulse(0 1 10n 10n 10n 20n 60n)")
+    res = [r for r in netdae.run(netdae.load(text)) if r.analysis == "tran"][0]
+    assert not res.ok and MODEL_DIVISION in res.message and "MESFETs" in res.message
+    assert res.t.size >= 2 and np.all(np.isfinite(np.asarray(res["v(out)"])))

@@ -68,6 +68,12 @@ WINDOW_BYTES = 32 * 2**20
 WINDOW_MIN = 16
 #: Steps of the first chunk (later chunks are sized from the measured rate).
 FIRST_CHUNK = 64
+#: Why a run ended when a device kernel met a zero denominator in complex arithmetic (the MESA and HFET
+#: kernels take their derivatives by complex steps; numba's complex division raises ZeroDivisionError
+#: whatever the error model, where real arithmetic gives a non-finite value the loop handles).
+MODEL_DIVISION = "a device model divided by zero (its parameters or this bias put it outside the model's domain)"
+MODEL_DIVISION_HINT = ("check the model cards of the circuit's MESFETs (MESA levels 2-4) and HFETs, whose "
+                       "derivatives are taken in complex arithmetic, for values far outside their usual range")
 
 
 #: Position of the switches in the loop's families (after diode, BJT, MOSFET, JFET).
@@ -415,8 +421,15 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
             rec = (save_idx, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
                    event_t, event_count, event_idx, *delays[4:])
             sysd_c = (*sysd, delay_args(delays, I, buf_t, buf_k, buf_x, segments, ns))
-            status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd_c, devd,
-                           lus(), evb, ws, wk, rec, chunk)
+            try:
+                status = L.run(F, I, P, psi, coef[0], coef[1], coef[2], coef[3], coef[4], bps, fs, tol, sysd_c,
+                               devd, lus(), evb, ws, wk, rec, chunk)
+            except ZeroDivisionError:  # the points accepted so far are kept
+                failure = IntegrationFailure(float(F[L.F_T]), float(F[L.F_H]), MODEL_DIVISION, None,
+                                             MODEL_DIVISION_HINT)
+                I[L.I_STATUS] = L.FAILED
+                status = L.FAILED
+                break
             if not _LOADED:
                 _loaded()
             if fresh:

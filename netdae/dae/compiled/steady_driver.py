@@ -83,9 +83,13 @@ def solve_dc(system, t: float, x0: np.ndarray, *, init: bool, maxiter: int, relt
     x_atol = np.ascontiguousarray(x_atol, dtype=float)
     r_atol = np.ascontiguousarray(r_atol, dtype=float)
     while True:
-        status = newton_dc(w.F, w.I, w.S, float(t), x, bool(init), int(maxiter), float(reltol), x_atol, r_atol,
-                           w.paired, float(singular_pivot), w.sysd, w.devd, w.lus(), w.u, w.evb, w.dx, w.absjx,
-                           w.pivot)
+        try:
+            status = newton_dc(w.F, w.I, w.S, float(t), x, bool(init), int(maxiter), float(reltol), x_atol,
+                               r_atol, w.paired, float(singular_pivot), w.sysd, w.devd, w.lus(), w.u, w.evb, w.dx,
+                               w.absjx, w.pivot)
+        except ZeroDivisionError:  # a model's complex arithmetic (driver.MODEL_DIVISION): not converged, as non-finite
+            status = NOT_CONVERGED
+            break
         if status != NEED_PIVOTS:
             break
         if not lu.factor(pack.a_data):
@@ -142,9 +146,12 @@ def sweep_points(system, values: np.ndarray, columns: np.ndarray, x0: np.ndarray
     r_atol = np.ascontiguousarray(r_atol, dtype=float)
     p = p0
     while True:
-        status, p = sweep_dc(w.F, w.I, w.S, x, X, its, values, cols, p, int(maxiter), float(reltol), x_atol, r_atol,
-                             w.paired, float(singular_pivot), float(clear_pivot), PIVOT_REL_THRESHOLD, w.sysd, w.devd,
-                             w.lus(), w.u, w.evb, w.dx, w.absjx, w.pivot)
+        try:
+            status, p = sweep_dc(w.F, w.I, w.S, x, X, its, values, cols, p, int(maxiter), float(reltol), x_atol,
+                                 r_atol, w.paired, float(singular_pivot), float(clear_pivot), PIVOT_REL_THRESHOLD,
+                                 w.sysd, w.devd, w.lus(), w.u, w.evb, w.dx, w.absjx, w.pivot)
+        except ZeroDivisionError:  # a model's complex arithmetic (driver.MODEL_DIVISION): Python solves from point p on
+            break
         if status != NEED_PIVOTS or not pack.lu.factor(pack.a_data):
             break
     return X, its, int(p)
