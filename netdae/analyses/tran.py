@@ -47,6 +47,7 @@ dense output). Integration method: netdae integrates with BDF (ngspice's
 from __future__ import annotations
 
 import math
+import sys
 import re
 import time
 from dataclasses import dataclass, field, replace
@@ -231,11 +232,11 @@ def memory_room() -> tuple[int | None, str]:
     return machine, f"this machine has {machine / 2**30:,.1f} GiB"
 
 
-#: The most points :func:`output_size` counts (a bound for the ratios that overflow).
+#: Past this many points :func:`output_size` counts in floating point.
 MOST_POINTS = 2**62
 
 
-def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
+def output_size(saved: int, tstop: float, tmax: float) -> tuple[int | float, int | float]:
     """The fewest points a transient records and the bytes its output then needs at least.
 
     The integrator never steps further than ``tmax``, so it records at least
@@ -243,16 +244,18 @@ def output_size(saved: int, tstop: float, tmax: float) -> tuple[int, int]:
     every corner of the inputs), each a time, an order byte and the
     ``saved`` unknowns as doubles; a lower bound, not a forecast.
 
-    A ratio ``tstop / tmax`` past :data:`MOST_POINTS` (or overflowing to infinity, ``tstop =
-    1e300``) counts as that many points: far beyond any memory, and an integer still.
+    Integers up to :data:`MOST_POINTS` points, floats past it: infinity where ``tstop / tmax``
+    overflows (``tstop = 1e300``), which no integer can hold.
 
     >>> output_size(100_000, 1e-3, 1e-9)  # every node of 100,000 at 1e6 points at least
     (1000001, 800009800009)
-    >>> output_size(1, 1e300, 1e-12)[0] == MOST_POINTS
-    True
+    >>> output_size(1, 1e300, 1e-12)
+    (inf, inf)
     """
     ratio = tstop / tmax
-    points = int(math.ceil(ratio)) + 1 if ratio < MOST_POINTS else MOST_POINTS
+    if not ratio < MOST_POINTS:
+        return ratio + 1.0, (ratio + 1.0) * (8 * (saved + 1) + 1)
+    points = int(math.ceil(ratio)) + 1
     return points, points * (8 * (saved + 1) + 1)
 
 
@@ -278,8 +281,12 @@ def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: i
     has = (f"of memory, {source}" if room is None
            else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
     gib = size / 2**30
-    what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "
-            f"{card.tstop:g}/{tmax:g}) needs at least {f'{gib:,.1f}' if gib < 1e15 else f'{gib:.3g}'} GiB {has}")
+    if math.isfinite(size):
+        what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "
+                f"{card.tstop:g}/{tmax:g}) needs at least {f'{gib:,.1f}' if gib < 1e15 else f'{gib:.3g}'} GiB {has}")
+    else:  # tstop/tmax overflows: more points than a double counts
+        what = (f"keeping {saved:,} of {total:,} unknowns at tstop/tmax = {card.tstop:g}/{tmax:g} points or more "
+                f"(beyond {count_text(sys.float_info.max)}) needs more than any memory or disk holds")
     hint = "save only the signals you need (--save v(out),i(v1) or a .save card), or a larger tstep or tmax"
     if size > REFUSE_FRACTION * capacity:
         where = f"{card.location}: " if card.location is not None else ""
