@@ -647,3 +647,22 @@ def test_an_initial_condition_the_circuit_overrides_leaves_no_forcing_current_in
     held, moved = [n for n in res.notes if n.startswith("warning: <string>:6:7: .ic v(out)=5 is not held")]
     assert "v(out) = 0 at t = 0, which e1 (ideal op-amp (nullor)) fixes" in held
     assert "by the hidden constraints of the start: v(out) = -6.28319 at t = 0" in moved
+
+
+@pytest.mark.parametrize("command", ["run", "index"])
+def test_the_command_line_keeps_numpys_floating_point_warnings_quiet(capsys, tmp_path, command):
+    """A MESFET at .temp 1e6 overflows numpy's exp in its temperature scaling: the command says in words
+    that the equations are not finite, and numpy's RuntimeWarning (with netdae's source line) is not shown."""
+    import warnings
+
+    text = ("hot mesfet\nz1 out in 0 mfet l=0.7u w=20u\nrl vdd out 2k\nvdd vdd 0 1.6\nvin in 0 0.5\n"
+            ".model mfet nmf level=2 vto=0.15 lambda=0.15\n.temp 1e6\n.op\n.end\n")
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        status, err, _ = _cli(capsys, tmp_path, text, command, "-q")
+    assert [str(w.message) for w in seen if issubclass(w.category, RuntimeWarning)] == []
+    assert status == EXIT_ERROR and "bug in netdae" not in err
+    # run: the operating point's equations "are not finite"; index: the linearisation's "non-finite entries"
+    # (a NaN among them was said as "entries of magnitude 0 (above 1e+150 ...)")
+    assert ("are not finite at the initial guess" if command == "run" else "has non-finite entries in the "
+            "equations of v(out), v(in)") in err, err

@@ -35,6 +35,7 @@ When that point does not exist the check is skipped and a message says why.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -435,13 +436,16 @@ def check_magnitudes(E, H, names, what: str) -> None:
         bad = ~np.isfinite(v) | (np.abs(v) > limit)
         if bad.any():
             rows.update(int(i) for i in r[bad])
-            largest = max(largest, float(np.max(np.abs(v[bad]))))
+            found = np.abs(v[bad])
+            # (a NaN is not larger than anything: max() would keep the magnitude found before it)
+            largest = math.inf if not np.all(np.isfinite(found)) else max(largest, float(np.max(found)))
     if rows:
         unknowns = [names[i] for i in sorted(rows)]
-        size = "non-finite" if not np.isfinite(largest) else f"of magnitude {largest:.3g}"
+        size = ("non-finite entries" if not np.isfinite(largest)
+                else f"entries of magnitude {largest:.3g} (above {limit:g}, which the dense analysis cannot square)")
         raise CircuitError(
-            f"{what}: the circuit linearised at its operating point has entries {size} (above {limit:g}, which the "
-            f"dense analysis cannot square) in the equations of {', '.join(unknowns[:6])}"
+            f"{what}: the circuit linearised at its operating point has {size} "
+            f"in the equations of {', '.join(unknowns[:6])}"
             + (" ..." if len(unknowns) > 6 else ""),
             nodes=tuple(unknowns),
             hint="a device model parameter out of range (a junction capacitance or current of 1e300, say) "

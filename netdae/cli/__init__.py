@@ -256,8 +256,14 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help, --version (0) or a usage error (2), already printed
         return exc.code if isinstance(exc.code, int) else EXIT_ERROR
     _configure_logging(args.verbosity)
+    import numpy as np
+
     try:
-        return int(args._main(args) or 0)
+        # numpy's floating-point warnings (an exp that overflows at .temp 1e6, a norm of 1e300 currents)
+        # would print its own source lines on the terminal: netdae checks what it computes for finiteness
+        # and says in words where a value is not finite, so the command line keeps them quiet
+        with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
+            return int(args._main(args) or 0)
     except NetdaeError as exc:
         LOG.error("%s", exc)
         return EXIT_ERROR
