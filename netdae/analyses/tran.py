@@ -47,8 +47,8 @@ dense output). Integration method: netdae integrates with BDF (ngspice's
 from __future__ import annotations
 
 import math
-import sys
 import re
+import sys
 import time
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Callable
