@@ -601,6 +601,9 @@ def main(argv=None) -> int:
             for cmd in commands:
                 argv = [cmd, str(path)] + EXTRA_ARGUMENTS.get(cmd, []) + (
                     ["--out", str(tmp / "out")] if cmd in ("run", "sweep") else [])
+                if cmd == "sweep":  # three temperatures recording a node of the mutant (else, without a .meas
+                    # card or a random draw, the sweep refuses at once: nothing to record, nothing to vary)
+                    argv += ["--step", "temp=0:50:25", "--save", f"v({_nodes(mutant)[0]})"]
                 rec = run_command(argv, tmp, args.cpu, args.memory_gb, args.spawn)
                 rec.update(number=number, source=str(base), mutation=done)
                 counts[rec["verdict"]] += 1

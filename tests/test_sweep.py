@@ -495,7 +495,7 @@ def test_nothing_to_record_and_bad_measures():
 
 def test_tables_and_arrays():
     res = netdae.sweep(RC, params={"c": [1e-6, 2e-6]}, save=["v(out)"], workers=1)
-    assert repr(res) == "<SweepResult 2 rows (c x2); measures: t63; 1 waveforms; 0 failed>"
+    assert repr(res) == "<SweepResult 2 rows (c x2); measures: t63; 1 waveform; 0 failed>"
     frame = res.to_pandas()
     assert list(frame.columns) == ["c", "t63", "error"] and len(frame) == 2
     ds = res.to_xarray()

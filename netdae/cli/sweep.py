@@ -261,7 +261,8 @@ def main(args) -> int:
         sys.stdout.write("\n")
     else:
         print(circuit.title)
-        print(f"{result.rows} rows ({result.stats['executor']}, {result.stats['workers']} workers, "
+        workers = result.stats['workers']
+        print(f"{result.rows} rows ({result.stats['executor']}, {workers} worker{'' if workers == 1 else 's'}, "
               f"{result.stats['wall_time']:.3g} s); {result.failed} failed; seed {result.seed}")
         if summary:
             width = max(len(n) for n in summary)

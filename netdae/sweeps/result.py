@@ -247,4 +247,4 @@ class SweepResult:
         what = "; ".join(p for p in (axes, mc) if p) or "one point"
         meas = ", ".join(list(self.measures)[:4]) + (" ..." if len(self.measures) > 4 else "")
         return (f"<SweepResult {self.rows} rows ({what}); measures: {meas or 'none'}; "
-                f"{len(self.waves)} waveforms; {self.failed} failed>")
+                f"{len(self.waves)} waveform{'' if len(self.waves) == 1 else 's'}; {self.failed} failed>")
