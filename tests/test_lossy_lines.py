@@ -351,6 +351,11 @@ def test_section_count_follows_the_time_scale_and_the_losses():
      "not positive definite"),
     ("P1 a b 0 c d 0 pm\n.model pm cpl r=1 0 1 l=1n 0 1n g=0 0 0 c=1p 0 1p\n", "3:1", "length= is missing"),
     ("P1 a b 0 c d 0 pm\n.model pm cpl r=1 0 1 l=1n 0 g=0 0 0 c=1p 0 1p length=1\n", "3:25", "upper triangle"),
+    # a total beyond netdae's element values: the section count's diffusion rule overflowed (OverflowError)
+    ("O1 a 0 b 0 lm\n.model lm ltra r=1 l=1n c=1e300 len=16\n", "3:27",
+     "the line's capacitance of 1.6e+301 is beyond netdae's range of element values"),
+    ("Y1 a 0 b 0 ym\n.model ym txl r=1e-160 l=1n g=0 c=1p length=1\n", "3:17",
+     "the line's resistance of 1e-160 is beyond"),
 ])
 def test_bad_lines_are_located(text, where, words):
     with pytest.raises(NetlistError) as info:

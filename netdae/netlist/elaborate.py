@@ -675,6 +675,7 @@ class _Elaborator:
                 if el.kind == Kind.TXL and model.type in MODEL_TYPES[Kind.CPL]:
                     el.kind = Kind.CPL.value  # ngspice 39 reads a Y card with a CPL model as a one-conductor CPL
                 line, notes = lossy.line_parameters(el, model)
+                lossy.check_magnitudes(line)
             except lossy.LossyLineError as exc:
                 if exc.on_card:
                     where = item.card.location(item.params[exc.param][1])

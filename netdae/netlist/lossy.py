@@ -62,11 +62,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..circuit import AcAnalysis, Element, NoiseAnalysis, SourceSpec, TranAnalysis
+from ..circuit import STAMP_MAGNITUDES, AcAnalysis, Element, NoiseAnalysis, SourceSpec, TranAnalysis
 from ..kinds import KINDS, Kind
 
 __all__ = ["LINE_KINDS", "MODEL_FORMS", "NUMERICAL_CONTROLS", "NGSPICE_FORMS", "LineParameters", "LossyLineError",
-           "line_parameters", "resolution", "section_count", "realise", "realisation_note",
+           "line_parameters", "check_magnitudes", "resolution", "section_count", "realise", "realisation_note",
            "SECTION_FRACTION", "LADDER_FRACTION", "LUMP_REFLECTION", "LUMP_ECHO", "DC_STEP", "MAX_SECTIONS",
            "CPL_MIN_RESISTANCE", "TXL_RC_RATIO"]
 
@@ -218,6 +218,31 @@ def _length(el: Element, model, name: str) -> float:
 
 def _one(v: float) -> np.ndarray:
     return np.array([[float(v)]])
+
+
+def check_magnitudes(p: LineParameters) -> None:
+    """Refuse a line whose whole resistance, inductance, conductance or capacitance (per unit length times
+    the length) lies outside netdae's range of element values (:data:`netdae.circuit.STAMP_MAGNITUDES`).
+
+    The sections' elements are these totals divided by at most :data:`MAX_SECTIONS`, and the rules of
+    :func:`section_count` multiply two of them (the diffusion time ``R C len^2``): ``c=1e300`` made that
+    product infinite.
+
+    Raises
+    ------
+    LossyLineError
+        Naming the model parameter.
+    """
+    low, high = STAMP_MAGNITUDES
+    what = {"r": "resistance", "l": "inductance", "g": "conductance", "c": "capacitance"}
+    for name in "rlgc":
+        per = float(np.max(np.abs(getattr(p, name))))
+        total = per * p.length
+        if per != 0.0 and not low <= total <= high:
+            raise LossyLineError(f"{name}={per:g} per unit length over a length of {p.length:g}: the line's "
+                                 f"{what[name]} of {total:g} is beyond netdae's range of element values "
+                                 f"({low:g} to {high:g})", name,
+                                 hint="check the value and its unit: r, l, g, c are per unit of the length")
 
 
 def line_parameters(el: Element, model) -> tuple[LineParameters, list[tuple[str, str | None]]]:
