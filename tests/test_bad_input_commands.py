@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import netdae
-from netdae.cli import EXIT_ERROR, main
+from netdae.cli import EXIT_ERROR, EXIT_FAIL, main
 from netdae.errors import NetlistError
 from netdae.io.csv import read_csv
 
@@ -666,3 +666,15 @@ def test_the_command_line_keeps_numpys_floating_point_warnings_quiet(capsys, tmp
     # (a NaN among them was said as "entries of magnitude 0 (above 1e+150 ...)")
     assert ("are not finite at the initial guess" if command == "run" else "has non-finite entries in the "
             "equations of v(out), v(in)") in err, err
+
+
+def test_a_sin_growing_past_the_largest_double_ends_the_transient_in_words(capsys, tmp_path):
+    """SIN with a damping factor of -1e9 grows past 1e308 within a microsecond: the scalar waveform's
+    math.exp raised OverflowError ("a bug in netdae"), and the impulse check of the index-2 source current
+    then named no unknown at the breakpoints where the input is infinite ("in ;")."""
+    text = ("grow\nV1 a 0 sin(0 1 1meg 0 -1e9)\nC1 a 0 1n\nR1 a 0 1k\nV2 b 0 pulse(0 1 1u 1n 1n 1u 4u)\n"
+            "C2 b 0 1n\nR2 b 0 1k\n.tran 10n 2u\n.end\n")
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "--out", str(tmp_path / "o"))
+    assert status == EXIT_FAIL, err
+    assert "bug in netdae" not in err and "Dirac delta) in ;" not in err
+    assert "BDF failed" in err and "the solution ran away" in err and "points up to t=" in err
