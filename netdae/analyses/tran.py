@@ -532,18 +532,16 @@ def _impulses(system: MnaSystem, rep: IndexReport, t0: float, tstop: float) -> l
     # a jump of the m-th derivative acts through every N^l with l > m
     gains = [np.abs(np.stack(powers[m:])) for m in range(len(powers))]
     limits = [[_one_sided(system, tb, m, eps) for m in range(len(gains))] for tb in bps]
-
-    def finite(side):
-        return np.all(np.isfinite(side[0])) and np.all(np.isfinite(side[1]))
-
     # (an input that overflows, a SIN growing with a negative damping factor, is not finite at some
     # breakpoints: no jump is measured there, and the largest magnitude is the finite ones')
-    amplitude = [max((max(np.max(np.abs(lim[m][0])), np.max(np.abs(lim[m][1]))) for lim in limits
-                      if finite(lim[m])), default=0.0) for m in range(len(gains))]
+    finite = [[bool(np.all(np.isfinite(left)) and np.all(np.isfinite(right))) for left, right in lim]
+              for lim in limits]
+    amplitude = [max((max(np.max(np.abs(lim[m][0])), np.max(np.abs(lim[m][1]))) for lim, ok in zip(limits, finite)
+                      if ok[m]), default=0.0) for m in range(len(gains))]
     out = []
-    for tb, lim in zip(bps, limits):
+    for tb, lim, ok in zip(bps, limits, finite):
         for m, G in enumerate(gains):
-            if not finite(lim[m]):
+            if not ok[m]:
                 continue
             jump = lim[m][1] - lim[m][0]
             if amplitude[m] == 0.0 or np.max(np.abs(jump)) <= JUMP_TOLERANCE * amplitude[m]:

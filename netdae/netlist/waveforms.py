@@ -106,24 +106,17 @@ _PWL_EQUAL_ULPS = 3
 _PWL_LIST_POINTS = 4096
 
 _TWO_PI = 2.0 * math.pi
-
-
-def _exp(x: float) -> float:
-    """``math.exp`` that overflows to infinity, as the waveforms' numpy forms do (``math.exp`` raises):
-    a SIN whose damping factor is negative grows, and ``theta = -1e9`` passes 1e308 within a microsecond."""
-    try:
-        return math.exp(x)
-    except OverflowError:
-        return math.inf
-
-
-def _expm1(x: float) -> float:
-    """``math.expm1`` that overflows to infinity (see :func:`_exp`)."""
-    try:
-        return math.expm1(x)
-    except OverflowError:
-        return math.inf
 _DEG = math.pi / 180.0
+
+
+def _overflowing(fn, x: float) -> float:
+    """``fn(x)`` (``math.exp``, ``math.expm1``), infinity where it overflows, as the waveforms' numpy forms
+    give (``math`` raises): a SIN whose damping factor is negative grows, and ``theta = -1e9`` passes 1e308
+    within a microsecond."""
+    try:
+        return fn(x)
+    except OverflowError:
+        return math.inf
 
 
 def _as_times(t) -> tuple[np.ndarray, tuple]:
@@ -531,7 +524,7 @@ class Sin(Waveform):
         ph = phase * _DEG
         if tau <= 0:
             return vo + va * math.sin(ph)
-        return vo + va * math.sin(_TWO_PI * freq * tau + ph) * _exp(-tau * theta)
+        return vo + va * math.sin(_TWO_PI * freq * tau + ph) * _overflowing(math.exp, -tau * theta)
 
     @staticmethod
     def _derivative(P, t, order):
@@ -584,10 +577,10 @@ class Exp(Waveform):
         v1, v2, td1, tau1, td2, tau2 = p
         if t <= td1:
             return v1
-        rise = (v2 - v1) * -_expm1(-(t - td1) / tau1)
+        rise = (v2 - v1) * -_overflowing(math.expm1, -(t - td1) / tau1)
         if t <= td2:
             return v1 + rise
-        return v1 + rise + (v1 - v2) * -_expm1(-(t - td2) / tau2)
+        return v1 + rise + (v1 - v2) * -_overflowing(math.expm1, -(t - td2) / tau2)
 
     @staticmethod
     def _derivative(P, t, order):
