@@ -58,7 +58,7 @@ import numpy as np
 from ..circuit import Circuit, TranAnalysis
 from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
 from ..dae.steady import SteadyOptions, solve_steady
-from ..dae.system import LinearDae
+from ..dae.system import KIND_VOLTAGE, LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
 from ..errors import CircuitError, ConvergenceError, NetdaeError, SingularPencilError, count_text
 from ..kinds import KINDS, Kind
@@ -67,6 +67,7 @@ from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from ..dae.algebraic import GROUP_LIMIT
 from .index import IndexReport, analyze_index
+from .instability import growth_note, held_equilibrium_note, stayed
 from .prepared import Prepared, prepare
 
 
@@ -398,28 +399,6 @@ def _correction_note(system: MnaSystem, x_old: np.ndarray, x_new: np.ndarray, wh
 
 
 # -- structure ----------------------------------------------------------------------
-#: Growth ``Re(lambda) t`` beyond which a linear circuit's failure is put down to its instability
-#: (e^30 = 1e13: the solution has left every scale the tolerances were set for).
-UNSTABLE_GROWTH = 30.0
-
-
-def _instability(rep, span: float) -> str:
-    """A failure note for a linear circuit that is unstable: its pencil has eigenvalues with positive real part.
-
-    Empty when no finite eigenvalue ``lambda`` grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``.
-    """
-    eig = rep.finite_eigenvalues
-    if eig is None or not np.size(eig) or span <= 0.0:
-        return ""
-    worst = eig[np.argmax(np.real(eig))]
-    if np.real(worst) * span <= UNSTABLE_GROWTH:
-        return ""
-    where = f"{np.real(worst):.4g}" + (f" +- {abs(np.imag(worst)):.4g}j" if np.imag(worst) != 0.0 else "")
-    return (f" (the circuit is unstable: its pencil has the eigenvalue {where} 1/s in the right half-plane, so "
-            f"its solution grows as exp({np.real(worst):.4g} t), by e^{np.real(worst) * span:.0f} up to "
-            "this time; look for a controlled source whose gain makes the circuit active)")
-
-
 def _structure(prepared: Prepared, x0: np.ndarray, uic: bool) -> IndexReport | None:
     """Index report at the start: topological when the topological statement is exact for the circuit and
     gives index 0 or 1 (the dense analysis could only confirm it), or above the dense limit; else dense.
@@ -1091,12 +1070,35 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         if reasons:
             message += f" (circuit structure: {reasons[0]})"
     if res.failure is not None and system.linear:
-        message += _instability(rep, res.t[-1] - card.tstart)
+        message += growth_note(rep.finite_eigenvalues, res.t[-1] - card.tstart)
     if res.failure is not None and res.failure.worst:
         message += _jumping_source(prepared.circuit, res.failure.worst)
         message += _undefined_devices(prepared.circuit, system, res.failure)
+    if status == STATUS_OK and interrupted is None:
+        note = _held_equilibrium(prepared, x0, saved, settings, res)
+        if note is not None:
+            notes.append(note)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
+
+
+def _held_equilibrium(prepared: Prepared, x0: np.ndarray, saved: _Saved, settings: _Settings, res) -> str | None:
+    """A warning when the run stayed at its operating point and that point is unstable (an astable built
+    symmetric stays on it in exact arithmetic; :func:`~netdae.analyses.instability.held_equilibrium_note`).
+
+    Only for a start at the DC operating point (no ``uic``, no ``.ic``: otherwise the start is not an
+    equilibrium) of a circuit within the dense limit, and only when every saved unknown stayed within its
+    tolerances of its starting value at every kept point (the check costs an eigenvalue analysis, done
+    only then).
+    """
+    system, card = prepared.system, settings.card
+    if card.uic or prepared.circuit.ic or system.n > TRAN_PENCIL_LIMIT or not saved.keep.size or res.t.size < 2:
+        return None
+    atol = np.where(system.kinds[saved.keep] == KIND_VOLTAGE, settings.vntol, settings.abstol)
+    if not stayed(res.x, x0[saved.keep], settings.rtol, atol):
+        return None
+    E, H = system.jacobians(x0, 0.0)
+    return held_equilibrium_note(E, H, system.names, x0, float(res.t[-1] - res.t[0]))
 
 
 def _undefined_devices(circuit: Circuit, system: MnaSystem, failure) -> str:

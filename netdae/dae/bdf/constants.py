@@ -82,6 +82,13 @@ JUMP_DETECT = 1.0
 #: PULSE whose slope is 1e4 times its time constant's scale). A jump counts when the second
 #: step moves the unknown by at most JUMP_FIRST_STEP of the first.
 JUMP_FIRST_STEP = 0.5
+#: At the start of a nonlinear system, a right limit that moves the solution is confirmed with
+#: the short steps of EVENT_RIGHT_LIMIT_FRACTION when the probe's two Euler steps move some
+#: unknown in opposite directions, the second by more than JUMP_OSCILLATION of the first:
+#: implicit Euler damps a mode that grows faster than its step as it damps a decaying one, with
+#: a negative factor ``1 / (1 - h lambda)`` (an op-amp loop at its unstable operating point:
+#: -0.48), where a jump is done in the first step and a decaying mode moves both steps one way.
+JUMP_OSCILLATION = 0.1
 #: Newton iterations allowed for each implicit-Euler step of the right-limit solve.
 JUMP_NEWTON_MAXITER = 25
 #: After a switching event the right limit is solved with implicit-Euler steps of this

@@ -68,7 +68,7 @@ from .failures import Failure, error_hint, failure_record, newton_hint, with_run
 from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
-from .startup import event_right_limit, jump_of, probe, right_limit
+from .startup import event_right_limit, jump_of, oscillates, probe, right_limit
 from ..compiled.events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, chatter_message, interpolate_state
 from .statistics import count_step, new_statistics
 
@@ -450,6 +450,15 @@ class BDF:
             x_right = self._right_limit(x, eps)
             if x_right is None:
                 return None
+            if (at_start and not self._event_restart and oscillates(x, p.x_right, p.x_2, p.w_floor)
+                    and np.any(np.abs(x_right - x) * p.w_floor > JUMP_DETECT)):
+                # where the probe's steps oscillated, a move is confirmed with the short steps: a mode
+                # growing faster than the probe's step (implicit Euler damps it, with a negative factor)
+                # moves nothing there, an input that jumps at t0 or an .ic released there moves the
+                # solution within the first of them
+                x_right = self._right_limit(x, eps, short=True)
+                if x_right is None:
+                    return None
         moved = np.abs(x_right - x) * p.w_floor
         names = tuple(self.system.names[i] for i in np.flatnonzero(moved > JUMP_DETECT))
         if not names:
@@ -470,17 +479,17 @@ class BDF:
         if names:
             self._rec.jump(self.t, x_right, names)
 
-    def _right_limit(self, x, eps):
+    def _right_limit(self, x, eps, short=False):
         """x(t+) of a nonlinear system; None after a failure.
 
         Full Newton on the two implicit-Euler steps first
         (:func:`~netdae.dae.bdf.startup.event_right_limit`: a few iterations from the left
         value when the inputs or a switch change little), failing that the steady-state
         solver with its homotopies (:func:`~netdae.dae.bdf.startup.right_limit`: a diode
-        switched on by a step). After a switching event the steps are much shorter than the
-        probe's (``EVENT_RIGHT_LIMIT_*``).
+        switched on by a step). After a switching event, and with ``short`` (a start's move
+        confirmed), the steps are much shorter than the probe's (``EVENT_RIGHT_LIMIT_*``).
         """
-        if self._event_restart:
+        if self._event_restart or short:
             eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
         out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,

@@ -98,6 +98,7 @@ from ..bdf import (  # noqa: E402
     JUMP_DETECT,
     JUMP_FIRST_STEP,
     JUMP_NEWTON_MAXITER,
+    JUMP_OSCILLATION,
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
     PROBE_FRACTION,
@@ -902,8 +903,13 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     first_step = I[I_EVENT_RESTART] == 0 and (I[I_LINEAR] != 0 or I[I_STEPS] == 0)
     big = 0.0
     value_jump = False
+    oscillates = False  # the probe's two steps move an unknown both ways (see JUMP_OSCILLATION)
     for i in range(n):
         m = abs(xr[i] - x[i]) * wf[i]
+        if m > JUMP_DETECT:
+            x1 = 0.5 * (xr[i] + x2[i])
+            if (x1 - x[i]) * (x2[i] - x1) < 0.0 and abs(x2[i] - x1) > JUMP_OSCILLATION * abs(x1 - x[i]):
+                oscillates = True
         if first_step and not high[i] and m > JUMP_DETECT:
             x1 = 0.5 * (xr[i] + x2[i])
             if abs(x2[i] - x1) > JUMP_FIRST_STEP * abs(x1 - x[i]):
@@ -929,11 +935,10 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
             # a nonlinear system: converged implicit-Euler steps, by full Newton here (steps much
             # shorter than the probe's after a switching event), failing that from Python's steady
             # solver with its homotopies
+            short = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
+                        EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
             if I[I_RL_READY] == 0:
-                F[F_RL_EPS] = eps
-                if I[I_EVENT_RESTART] != 0:
-                    F[F_RL_EPS] = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
-                                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+                F[F_RL_EPS] = short if I[I_EVENT_RESTART] != 0 else eps
                 solved = _event_right_limit(F, I, t, x, F[F_RL_EPS], tol, sysd, devd, lus, evb, ws)
                 if not solved:
                     return FACTOR_NEED_RIGHT_LIMIT
@@ -941,6 +946,20 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
                 I[I_RL_READY] = 0
                 for i in range(n):
                     xr[i] = rl_given[i]
+            if I[I_STEPS] == 0 and I[I_EVENT_RESTART] == 0 and oscillates and F[F_RL_EPS] > short:
+                # at the start, where the probe's steps oscillated, a move is confirmed with the short
+                # steps: a mode growing faster than the probe's step (implicit Euler damps it, with a
+                # negative factor) moves nothing there, an input that jumps at t0 or an .ic released
+                # there moves the solution within the first of them
+                moved = False
+                for i in range(n):
+                    if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
+                        moved = True
+                if moved:
+                    F[F_RL_EPS] = short
+                    solved = _event_right_limit(F, I, t, x, short, tol, sysd, devd, lus, evb, ws)
+                    if not solved:
+                        return FACTOR_NEED_RIGHT_LIMIT
     count = 0
     for i in range(n):
         if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
@@ -1279,6 +1298,15 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
 
     if I[I_STARTED] == 0:
         I[I_STARTED] = 1
+        if not linear and crows.size:
+            # the history's charges at t0 from the loop's own evaluation, as everywhere after: Python's
+            # sums them in another order (a dense product whose rounding depends on where BLAS finds its
+            # arrays in memory), and a start's right limit divides them by steps of 1e-14 s
+            for i in range(n):
+                xs[i] = P[0, i]
+            _evaluate(I, F[F_T], xs, STATE_NONE, False, False, sysd, devd, u, evb)
+            for c in range(crows.size):
+                P[0, n + c] = qe[crows[c]]
         if locks:
             # the behavioural sources' comparisons held from here on, in their outcomes at t0
             for i in range(n):

@@ -1,0 +1,144 @@
+"""Unstable circuits in the transient: the notes that say so.
+
+Two situations, both read from the pencil ``(dq/dx, dphi/dx)`` at a point:
+
+- a **linear circuit whose run failed** because its solution grows without
+  bound (an eigenvalue in the right half-plane; :func:`growth_note`);
+- a **run that stayed at an unstable operating point** (an astable
+  multivibrator, a latch, an oscillator built symmetric): the DC operating
+  point is an equilibrium, so the exact solution from it stays there, and
+  netdae's arithmetic, which adds no noise to a symmetric circuit, keeps it
+  there; a real circuit (and ngspice, through the rounding noise of its
+  trapezoidal steps, often) leaves it within some tens of the growing mode's
+  time constant (:func:`held_equilibrium_note`).
+
+Numerics only: the functions take arrays and return text.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: A mode counts as growing over a run when it grows by more than e**UNSTABLE_GROWTH over it
+#: (rounding noise of 1e-16 reaches any tolerance after about e**37).
+UNSTABLE_GROWTH = 30.0
+
+#: How many node voltages of the growing mode the note names, and the smallest share of its largest
+#: component a named one has (a node a source fixes has rounding noise there).
+MODE_NODES = 3
+MODE_SHARE = 1e-3
+
+
+def _eigenvalue_text(lam: complex) -> str:
+    return f"{lam.real:.4g}" + (f" +- {abs(lam.imag):.4g}j" if lam.imag != 0.0 else "")
+
+
+def growth_note(eigenvalues, span: float) -> str:
+    """A failure note for a linear circuit that is unstable: an eigenvalue with positive real part.
+
+    Parameters
+    ----------
+    eigenvalues : array_like of complex or None
+        The pencil's finite eigenvalues (1/s).
+    span : float
+        The time integrated (s).
+
+    Returns
+    -------
+    str
+        ``""`` when no eigenvalue grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``, else a text
+        to append to the failure message (it starts with a space).
+
+    Examples
+    --------
+    >>> growth_note([-1.0, 2e3], 1e-3)
+    ''
+    >>> "the eigenvalue 2e+05 1/s in the right half-plane" in growth_note([-1.0, 2e5], 1e-3)
+    True
+    """
+    eig = np.asarray([] if eigenvalues is None else eigenvalues, dtype=complex)
+    if not eig.size or span <= 0.0:
+        return ""
+    worst = complex(eig[np.argmax(eig.real)])
+    if worst.real * span <= UNSTABLE_GROWTH:
+        return ""
+    return (f" (the circuit is unstable: its pencil has the eigenvalue {_eigenvalue_text(worst)} 1/s in the right "
+            f"half-plane, so its solution grows as exp({worst.real:.4g} t), by e^{worst.real * span:.0f} up to "
+            "this time; look for a controlled source whose gain makes the circuit active)")
+
+
+def stayed(X, x0, rtol: float, atol) -> bool:
+    """Whether every point of ``X`` lies within the tolerances of ``x0``.
+
+    Parameters
+    ----------
+    X : ndarray, shape (m, k)
+        Recorded values of k unknowns.
+    x0 : ndarray, shape (k,)
+        Their values at the start.
+    rtol : float
+    atol : ndarray, shape (k,)
+        Absolute tolerances (vntol for voltages, abstol for currents).
+
+    Examples
+    --------
+    >>> stayed(np.array([[1.0, 2.0], [1.0, 2.0005]]), np.array([1.0, 2.0]), 1e-3, np.array([1e-6, 1e-6]))
+    True
+    """
+    X = np.asarray(X, dtype=float)
+    x0 = np.asarray(x0, dtype=float)
+    if X.size == 0:
+        return False
+    return bool(np.all(np.abs(X - x0) <= rtol * np.abs(x0) + atol))
+
+
+def held_equilibrium_note(E, H, names, x0, span: float) -> str | None:
+    """A warning for a run that stayed at its operating point when that point is unstable.
+
+    Parameters
+    ----------
+    E, H : array_like or sparse, shape (n, n)
+        ``dq/dx`` and ``dphi/dx`` at the operating point ``x0``.
+    names : sequence of str, length n
+        The unknowns' names (``v(node)``, ``i(branch)``).
+    x0 : ndarray, shape (n,)
+    span : float
+        The time the run covered (s).
+
+    Returns
+    -------
+    str or None
+        None when no finite eigenvalue grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``.
+
+    Notes
+    -----
+    Cost: the pencil's finite eigenvalues (a staircase and QZ, O(n^3)) and, when one grows, an SVD of
+    ``H - lambda E`` for its mode (O(n^3)); meant for the dense sizes of the transient's structure
+    analysis.
+    """
+    from ..dae.pencil import finite_eigenvalues
+
+    E = E.toarray() if hasattr(E, "toarray") else np.asarray(E, dtype=float)
+    H = H.toarray() if hasattr(H, "toarray") else np.asarray(H, dtype=float)
+    spec = finite_eigenvalues(E, H)
+    eig = spec.eigenvalues
+    if not spec.regular or not eig.size:
+        return None
+    lam = complex(eig[np.argmax(eig.real)])
+    if not lam.real * span > UNSTABLE_GROWTH:
+        return None
+    # the mode: the right singular vector of H - lambda E with the smallest singular value
+    _, _, vh = np.linalg.svd(H - lam * E)
+    mode = np.abs(vh[-1].conj())
+    big = MODE_SHARE * float(mode.max())
+    nodes = [i for i in np.argsort(-mode) if names[i].startswith("v(") and mode[i] > big][:MODE_NODES]
+    where = f"; mostly {', '.join(names[i] for i in nodes)}" if nodes else ""
+    first = names[nodes[0]] if nodes else None
+    hint = (f"give {first} an initial value off its {x0[nodes[0]]:.6g} V: .ic {first}=... is held in the operating "
+            "point and released at t = 0; or kick the circuit with a source that changes after t = 0"
+            if first else "kick the circuit with a source that changes after t = 0, or start it with .ic values")
+    return (f"warning: the transient stayed at the DC operating point, which is unstable: a mode grows there as "
+            f"exp(t / {1.0 / lam.real:.3g} s) (the pencil's eigenvalue {_eigenvalue_text(lam)} 1/s{where}), by "
+            f"e^{lam.real * span:.3g} over the run, but the circuit starts exactly on the equilibrium and netdae adds "
+            "no noise to leave it; a real circuit leaves it within some tens of that time, and ngspice's "
+            f"rounding noise often starts it too (hint: {hint})")
