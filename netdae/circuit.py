@@ -80,6 +80,7 @@ __all__ = [
     "Alteration",
     "OpAnalysis",
     "TranAnalysis",
+    "FourierSpec",
     "AcAnalysis",
     "SensAnalysis",
     "DcSweep",
@@ -293,6 +294,24 @@ class TranAnalysis:
     uic: bool = False
     location: SourceLocation | None = None
     alter: tuple[Alteration, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class FourierSpec:
+    """``.four freq signal ...``: the Fourier components of transient signals over their last period.
+
+    Attributes
+    ----------
+    frequency : float
+        The fundamental (Hz).
+    signals : tuple of str
+        Normalised signal names (``v(out)``, ``v(a,b)``, ``i(v1)``).
+    location : SourceLocation, optional
+    """
+
+    frequency: float
+    signals: tuple[str, ...]
+    location: SourceLocation | None = None
 
 
 @dataclass(slots=True)
@@ -548,6 +567,8 @@ class Circuit:
         ``"i(v1)"``); empty means all.
     measures : list of MeasureSpec
         The ``.meas`` cards in netlist order (:mod:`netdae.measures`).
+    fouriers : list of FourierSpec
+        The ``.four`` cards: Fourier analyses of transient signals.
     params : Params
         Top-level ``.param`` values after evaluation (read-only: change them
         with :meth:`with_params`).
@@ -591,6 +612,7 @@ class Circuit:
     nodeset: dict[str, float] = field(default_factory=dict)
     saves: list[str] = field(default_factory=list)
     measures: list[Any] = field(default_factory=list)
+    fouriers: list[Any] = field(default_factory=list)
     params: Params = field(default_factory=Params)
     diagnostics: list[Diagnostic] = field(default_factory=list)
     path: str = "<string>"

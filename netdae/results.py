@@ -88,6 +88,8 @@ class Result:
     measures : list of Measure
         The ``.meas`` measurements made on this result, in netlist order
         (:class:`netdae.measures.Measure`: name, value, status, reason ...).
+    fourier : list of Fourier
+        The ``.four`` analyses of this transient (:class:`netdae.fourier.Fourier`).
     operating_point : Result, optional
         The operating point a small-signal analysis (``ac``, ``pz``, ``tf``,
         ``noise``) linearised at.
@@ -122,6 +124,7 @@ class Result:
     dense: Callable[[Any], dict[str, np.ndarray]] | None = None
     notes: list[str] = field(default_factory=list)
     measures: list[Any] = field(default_factory=list)
+    fourier: list[Any] = field(default_factory=list)
     operating_point: "Result | None" = None
     poles: np.ndarray | None = None
     zeros: np.ndarray | None = None

@@ -20,7 +20,7 @@ CASES = [
      r"either\) is not implemented by netdae", 3, "7"),
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
     # dot cards netdae does not implement
-    ("t\nR1 a 0 1\n.four 1k v(a)\n", r"\.four: Fourier analysis is not supported", 3, ".four"),
+    ("t\nR1 a 0 1\n.disto dec 10 1k 100meg\n", r"\.disto: distortion analysis is not supported", 3, ".disto"),
     ("t\nR1 a 0 1\n.noise v(a) v1 dec 10 1 1k\n", r"\.noise: input source 'v1' names no element", 3, "v1"),
     ("t\nR1 a b 1\nR2 b 0 1\n.pz a 0 c 0 vol pz\n", r"\.pz: output node 'c' is not a node", 4, "c"),
     ("t\nR1 b 0 1\n.sens v(a)\n", r"\.sens: output node 'a'", 3, "a"),

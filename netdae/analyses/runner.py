@@ -27,7 +27,7 @@ from ..kinds import Kind
 if TYPE_CHECKING:
     from ..results import Result
 
-__all__ = ["run", "simulate", "measure", "analysis_name", "unused_options", "option_problem", "check_options",
+__all__ = ["run", "simulate", "measure", "fourier", "analysis_name", "unused_options", "option_problem", "check_options",
            "OPTION_RANGES", "USED_EXTRA_OPTIONS", "ABSOLUTE_ZERO", "refuse_steps"]
 
 #: Absolute zero in degrees Celsius: the lowest ``temp``/``tnom``.
@@ -441,8 +441,9 @@ def _skipped_analyses(circuit: Circuit) -> str:
 
 
 def _finish(circuit: Circuit, results: list[Result], names, wanted) -> list[Result]:
-    """Measure ``results`` (the ``.meas`` cards), then keep only the signals asked for."""
+    """Measure ``results`` (the ``.meas`` and ``.four`` cards), then keep only the signals asked for."""
     measure(circuit, results)
+    fourier(circuit, results)
     if wanted == names:
         return results
     return [selection(r, names) for r in results]
@@ -487,11 +488,12 @@ def _with_measured(names: list[str] | None, circuit: Circuit) -> list[str] | Non
 
     have = {canonical(n) for n in names if not n.startswith("@")}
     extra = []
-    for spec in circuit.measures:
-        for name in spec.signals():
-            if name not in have:
-                have.add(name)
-                extra.append(name)
+    read = [name for spec in circuit.measures for name in spec.signals()]
+    read += [name for spec in circuit.fouriers for name in spec.signals if not name.startswith("@")]
+    for name in read:
+        if name not in have:
+            have.add(name)
+            extra.append(name)
     return list(names) + extra
 
 
@@ -513,6 +515,22 @@ def measure(circuit: Circuit, results: list[Result]) -> None:
         target = first.get(m.analysis)
         if target is not None:
             target.measures.append(m)
+
+
+def fourier(circuit: Circuit, results: list[Result]) -> None:
+    """Evaluate the circuit's ``.four`` cards on the first transient of ``results`` (``result.fourier``).
+
+    Does nothing for a circuit without ``.four`` cards or without a transient (ngspice: "no transient
+    data available for fourier analysis"; the run's notes say so).
+    """
+    if not circuit.fouriers:
+        return
+    tran = next((r for r in results if r.analysis == "tran"), None)
+    if tran is None:
+        return
+    from .fourier import evaluate_fouriers
+
+    tran.fourier.extend(evaluate_fouriers(circuit.fouriers, tran))
 
 
 def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None = None,
@@ -596,6 +614,7 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
             result = result.subset(wanted)
     if card is None or card is next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None):
         measure(circuit, [result])  # the .meas tran cards measure the first .tran
+        fourier(circuit, [result])
     return result.subset(names) if wanted != names else result
 
 

@@ -1098,7 +1098,10 @@ def _held_equilibrium(prepared: Prepared, x0: np.ndarray, saved: _Saved, setting
     if not stayed(res.x, x0[saved.keep], settings.rtol, atol):
         return None
     E, H = system.jacobians(x0, 0.0)
-    return held_equilibrium_note(E, H, system.names, x0, float(res.t[-1] - res.t[0]))
+    try:
+        return held_equilibrium_note(E, H, system.names, x0, float(res.t[-1] - res.t[0]))
+    except np.linalg.LinAlgError:  # QZ or the SVD did not converge: a note less, the run stands
+        return None
 
 
 def _undefined_devices(circuit: Circuit, system: MnaSystem, failure) -> str:

@@ -305,6 +305,9 @@ def main(args) -> int:
             doc[key] = {**res.to_dict(values=every), "files": files}
         if measures:
             doc["measures"] = {"file": measures_file, "values": [m.to_dict() for m in measures]}
+        fouriers = [f for res in results for f in res.fourier]
+        if fouriers:
+            doc["fourier"] = [f.to_dict() for f in fouriers]
         if args.export:
             doc["export"] = exported
         json.dump(doc, sys.stdout, indent=2)
@@ -330,6 +333,10 @@ def main(args) -> int:
 
                 print(f"  Measurements for .{res.analysis}")
                 print("\n".join(format_measure(m) for m in res.measures))
+            if res.fourier:
+                from ..fourier import format_fourier
+
+                print("\n\n".join(format_fourier(f) for f in res.fourier))
             _log_notes(res.notes)
             for path in files:
                 LOG.info("wrote %s", path)

@@ -71,9 +71,13 @@ __all__ = ["read_block", "run_scripts", "with_scripts", "elaborate_scripted", "n
 
 #: Commands read as the dot card of the same name.
 ANALYSIS_COMMANDS = frozenset({"op", "tran", "ac", "dc", "pz", "tf", "noise", "sens"})
-#: Analyses netdae does not have (refused by name).
-_UNSUPPORTED = {"disto": ".disto",
-                "fourier": ".fourier", "four": ".four", "sp": ".sp", "pss": ".pss", "hb": ".hb"}
+#: Analyses netdae does not run as commands (refused by name), and what they are.
+_UNSUPPORTED = {"disto": UNSUPPORTED_DOT_CARDS[".disto"], "fourier": "Fourier analysis", "four": "Fourier analysis",
+                "sp": UNSUPPORTED_DOT_CARDS[".sp"], "pss": UNSUPPORTED_DOT_CARDS[".pss"],
+                "hb": UNSUPPORTED_DOT_CARDS[".hb"]}
+#: Extra hints for the commands that have a card of their own in netdae.
+_UNSUPPORTED_HINT = {"fourier": " (a .four card outside the block analyses the first .tran)",
+                     "four": " (a .four card outside the block analyses the first .tran)"}
 #: ``set`` variables that are simulator options netdae reads.
 OPTION_VARIABLES = frozenset({"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom", "itl1", "itl4",
                               "maxord", "method"})
@@ -161,11 +165,10 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
             skip(line, col, text, "netdae does not run control-language loops and conditionals")
             continue
         if cmd in _UNSUPPORTED:
-            what = UNSUPPORTED_DOT_CARDS[_UNSUPPORTED[cmd]]
-            raise NetlistError(f".control: '{cmd}' ({what}) is not supported by netdae",
+            raise NetlistError(f".control: '{cmd}' ({_UNSUPPORTED[cmd]}) is not supported by netdae",
                                SourceLocation(file, line, col),
                                hint="netdae runs op, dc, ac, tran, pz, tf, noise and sens; remove the command or run the "
-                                    "netlist in ngspice")
+                                    f"netlist in ngspice{_UNSUPPORTED_HINT.get(cmd, '')}")
         if cmd in _STOP:
             stopped = cmd
             skip(line, col, text, "netdae reads the netlist to its end")
@@ -574,10 +577,9 @@ class _Script:
             self.note(step, "netdae reads the netlist to its end")
             return
         if word in _UNSUPPORTED:
-            what = UNSUPPORTED_DOT_CARDS[_UNSUPPORTED[word]]
-            raise NetlistError(f".control: '{word}' ({what}) is not supported by netdae", self.where(step),
+            raise NetlistError(f".control: '{word}' ({_UNSUPPORTED[word]}) is not supported by netdae", self.where(step),
                                hint="netdae runs op, dc, ac, tran, pz, tf, noise and sens; remove the command or run "
-                                    "the netlist in ngspice")
+                                    f"the netlist in ngspice{_UNSUPPORTED_HINT.get(word, '')}")
         if word == "define":
             m = re.match(r"define\s+([A-Za-z_]\w*)", text, re.I)
             if m:

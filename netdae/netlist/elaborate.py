@@ -28,7 +28,7 @@ import math
 from collections.abc import Mapping
 
 from ..circuit import (ABSOLUTE_ZERO, STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic,
-                       Element, Model, NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis,
+                       Element, FourierSpec, Model, NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis,
                        SourceSpec, TfAnalysis, TranAnalysis)
 from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY, table_of
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
@@ -535,6 +535,7 @@ class _Elaborator:
             self.diagnostics.extend(check_circuit(circuit))
         self._initial(circuit, nodes)
         self._saves(circuit, nodes, elements)
+        self._fouriers(circuit, nodes, elements)
         circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value,
                                               BRANCH_CURRENT_KINDS, functions=self.root)
         for m in self.net.measures:
@@ -1580,37 +1581,9 @@ class _Elaborator:
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
         for signal, offset, card in self.net.saves:
-            if signal.endswith("#branch") and "(" not in signal:
-                signal = f"i({signal[:-len('#branch')]})"  # ngspice's vector name of a branch current
-            text = signal
-            problem = None
-            if "(" in signal:
-                head, args = signal[:-1].split("(", 1)
-                parts = [_ground(a) for a in args.split(",")]
-                if head not in ("v", "i"):
-                    problem = (f"{head}() is an ngspice .probe quantity (vd: a voltage across a device, p: its "
-                               "power) that netdae does not compute")
-                elif head == "v":
-                    if len(parts) == 2 and parts[1] == "0":
-                        parts = parts[:1]
-                    text = f"v({','.join(parts)})"
-                    problem = next((f"no node '{n}'" for n in parts if n != "0" and n not in nodes), None)
-                elif head == "i":
-                    target = elements.get(parts[0]) if len(parts) == 1 else None
-                    if target is None:
-                        problem = f"no element '{parts[0]}'"
-                    elif target.kind not in BRANCH_CURRENT_KINDS and not KINDS[target.kind].current_is_quantity:
-                        problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
-            elif signal == "all":
+            text, problem = _save_signal(signal, nodes, elements)
+            if text is None:
                 continue
-            elif signal.startswith(("onoise_", "inoise_")):
-                pass  # a noise vector: the .noise results keep it (netdae.analyses.noise)
-            elif signal[0] == "@":
-                problem = _device_quantity_problem(signal, elements)
-            else:
-                text = f"v({_ground(signal)})"
-                if _ground(signal) not in nodes:
-                    problem = f"no node '{signal}'"
             if problem is not None:
                 # ngspice skips an output it cannot make too; the analyses run without it
                 self.diagnostics.append(Diagnostic("warning", f"{card.text.split()[0]} {signal}: {problem} "
@@ -1618,6 +1591,60 @@ class _Elaborator:
                 continue
             seen.setdefault(text, None)
         circuit.saves = list(seen)
+
+    def _fouriers(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
+        """The ``.four`` cards: the fundamental evaluated, the signals named as the saves name them (one
+        the saves could not keep has had its warning there and is left out here too)."""
+        form = DOT_CARDS[".four"]
+        for freq, signals, card in self.net.fouriers:
+            f = self._value(freq, card, "the fundamental frequency")
+            if not (math.isfinite(f) and f > 0.0):
+                raise error(card, freq[1], f"the fundamental frequency must be positive, got {f:g}", form)
+            names = []
+            for signal, offset in signals:
+                text, problem = _save_signal(signal, nodes, elements)
+                if text is not None and problem is None and (text.startswith(("v(", "i(")) or text[0] == "@"):
+                    names.append(text)
+            if names:
+                circuit.fouriers.append(FourierSpec(f, tuple(dict.fromkeys(names)), card.location(0)))
+
+
+def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, str | None]:
+    """``(name, problem)`` of a ``.save``/``.print``/``.four`` signal: its normalised name (``v(a)``,
+    ``v(a,b)``, ``i(v1)``, ``@q1[ic]``, a noise vector) and why netdae cannot keep it (None when it can);
+    ``(None, None)`` for ``all``."""
+    if signal.endswith("#branch") and "(" not in signal:
+        signal = f"i({signal[:-len('#branch')]})"  # ngspice's vector name of a branch current
+    text = signal
+    problem = None
+    if "(" in signal:
+        head, args = signal[:-1].split("(", 1)
+        parts = [_ground(a) for a in args.split(",")]
+        if head not in ("v", "i"):
+            problem = (f"{head}() is an ngspice .probe quantity (vd: a voltage across a device, p: its "
+                       "power) that netdae does not compute")
+        elif head == "v":
+            if len(parts) == 2 and parts[1] == "0":
+                parts = parts[:1]
+            text = f"v({','.join(parts)})"
+            problem = next((f"no node '{n}'" for n in parts if n != "0" and n not in nodes), None)
+        elif head == "i":
+            target = elements.get(parts[0]) if len(parts) == 1 else None
+            if target is None:
+                problem = f"no element '{parts[0]}'"
+            elif target.kind not in BRANCH_CURRENT_KINDS and not KINDS[target.kind].current_is_quantity:
+                problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
+    elif signal == "all":
+        return None, None
+    elif signal.startswith(("onoise_", "inoise_")):
+        pass  # a noise vector: the .noise results keep it (netdae.analyses.noise)
+    elif signal[0] == "@":
+        problem = _device_quantity_problem(signal, elements)
+    else:
+        text = f"v({_ground(signal)})"
+        if _ground(signal) not in nodes:
+            problem = f"no node '{signal}'"
+    return text, problem
 
 
 def _capacitance_from_model(el: Element, model) -> float:

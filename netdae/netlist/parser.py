@@ -821,6 +821,18 @@ def _meas(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.measures.append(measure)
 
 
+def _four(card: Card, toks: list[Token], stack, net: Netlist) -> None:
+    form = DOT_CARDS[".four"]
+    if len(toks) < 2:
+        raise error(card, len(card.text), "expected the fundamental frequency", form)
+    if len(toks) < 3:
+        raise error(card, len(card.text), "expected a signal after the frequency", form)
+    freq = parse_value(card, toks[1], form)
+    start = len(net.saves)  # ngspice saves what .four reads, as .print's signals
+    _save_entries(card, [toks[0], *toks[2:]], net)
+    net.fouriers.append((freq, [(signal, offset) for signal, offset, _ in net.saves[start:]], card))
+
+
 def _step(card: Card, toks: list[Token], stack, net: Netlist) -> None:
     net.steps.append(parse_step(card, toks))
 
@@ -831,7 +843,7 @@ _HANDLERS = {
     ".sens": _sens,
     ".noise": _noise,
     ".ic": _ic, ".nodeset": _ic, ".options": _options, ".temp": _temp, ".save": _saves,
-    ".print": _saves, ".probe": _saves, ".plot": _saves, ".meas": _meas,
+    ".print": _saves, ".probe": _saves, ".plot": _saves, ".meas": _meas, ".four": _four,
     ".step": _step,
 }
 

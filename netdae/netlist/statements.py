@@ -302,6 +302,8 @@ class Netlist:
     ic, nodeset : list of (node, Val, offset, Card)
     saves : list of (signal, offset, Card)
     measures : list of MeasureCard
+    fouriers : list of (Val, list of (signal, offset), Card)
+        The ``.four`` cards: the fundamental frequency and the signals.
     steps : list of StepCard
         The ``.step`` cards (:mod:`netdae.netlist.steps`).
     globals : dict of str to (Card, offset)
@@ -332,6 +334,7 @@ class Netlist:
     nodeset: list = field(default_factory=list)
     saves: list = field(default_factory=list)
     measures: list = field(default_factory=list)
+    fouriers: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     globals: dict = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)

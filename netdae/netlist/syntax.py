@@ -182,6 +182,7 @@ DOT_CARDS: dict[str, str] = {
     ".print": ".print [tran|ac|dc|op] signal ...",
     ".probe": ".probe signal ...",
     ".plot": ".plot [tran|ac|dc|op] signal ...",
+    ".four": ".four freq signal [signal ...]  (Fourier analysis of the last period of a .tran)",
     ".meas": ".meas tran|ac|dc name TRIG ... TARG ... | FIND ... | WHEN ... | DERIV ... | "
              "MIN|MAX|PP|AVG|RMS|INTEG sig [FROM=] [TO=] | PARAM='expr'",
     ".step": ".step [lin|dec|oct] [param] name start stop incr|points | .step [param] name list v1 v2 ...",
@@ -191,7 +192,7 @@ DOT_CARDS: dict[str, str] = {
 
 #: Spellings that mean the same dot card.
 DOT_ALIASES = {".option": ".options", ".opt": ".options", ".inc": ".include", ".subcircuit": ".subckt",
-               ".measure": ".meas"}
+               ".measure": ".meas", ".fourier": ".four"}
 
 #: Dot cards that only shape ngspice's own output or its control script: read and skipped with a note.
 IGNORED_DOT_CARDS: dict[str, str] = {
@@ -201,8 +202,6 @@ IGNORED_DOT_CARDS: dict[str, str] = {
 
 #: Dot cards ngspice knows and netdae does not implement.
 UNSUPPORTED_DOT_CARDS: dict[str, str] = {
-    ".four": "Fourier analysis",
-    ".fourier": "Fourier analysis",
     ".disto": "distortion analysis",
     ".sp": "S-parameter analysis",
     ".pss": "periodic steady-state analysis",

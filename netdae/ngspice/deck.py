@@ -70,7 +70,7 @@ __all__ = ["DOT_CARDS", "Origin", "self_contained", "script_block", "SCRIPT_MARK
 #: line; ``.include``, ``.lib`` and ``.control`` never reach ngspice).
 DOT_CARDS = frozenset(
     ".param .func .subckt .ends .model .global .op .dc .ac .tran .pz .tf .noise .sens .ic .nodeset .options .option .opt "
-    ".temp .save .print .plot .probe .meas .measure".split()
+    ".temp .save .print .plot .probe .meas .measure .four .fourier".split()
 )
 #: Title prefix when the title could be read by ngspice as a command or a card.
 TITLE_PREFIX = "netdae: "
