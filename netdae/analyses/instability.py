@@ -92,7 +92,7 @@ def stayed(X, x0, rtol: float, atol) -> bool:
     return bool(np.all(np.abs(X - x0) <= rtol * np.abs(x0) + atol))
 
 
-def held_equilibrium_note(E, H, names, x0, span: float) -> str | None:
+def held_equilibrium_note(E, H, names, x0, span: float, watched=None) -> str | None:
     """A warning for a run that stayed at its operating point when that point is unstable.
 
     Parameters
@@ -104,11 +104,15 @@ def held_equilibrium_note(E, H, names, x0, span: float) -> str | None:
     x0 : ndarray, shape (n,)
     span : float
         The time the run covered (s).
+    watched : array_like of int, optional
+        The unknowns seen to stay (the saved ones); the growing mode's largest component must be one
+        of them (else the run may have left the point where nobody looked).
 
     Returns
     -------
     str or None
-        None when no finite eigenvalue grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``.
+        None when no finite eigenvalue grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``, or
+        when the mode's largest component is not watched.
 
     Notes
     -----
@@ -130,6 +134,8 @@ def held_equilibrium_note(E, H, names, x0, span: float) -> str | None:
     # the mode: the right singular vector of H - lambda E with the smallest singular value
     _, _, vh = np.linalg.svd(H - lam * E)
     mode = np.abs(vh[-1].conj())
+    if watched is not None and int(np.argmax(mode)) not in set(np.asarray(watched).tolist()):
+        return None
     big = MODE_SHARE * float(mode.max())
     nodes = [i for i in np.argsort(-mode) if names[i].startswith("v(") and mode[i] > big][:MODE_NODES]
     where = f"; mostly {', '.join(names[i] for i in nodes)}" if nodes else ""

@@ -1089,7 +1089,7 @@ def _held_equilibrium(prepared: Prepared, x0: np.ndarray, saved: _Saved, setting
     Only for a start at the DC operating point (no ``uic``, no ``.ic``: otherwise the start is not an
     equilibrium) of a circuit within the dense limit, and only when every saved unknown stayed within its
     tolerances of its starting value at every kept point (the check costs an eigenvalue analysis, done
-    only then).
+    only then) and the growing mode's largest component is one of them.
     """
     system, card = prepared.system, settings.card
     if card.uic or prepared.circuit.ic or system.n > TRAN_PENCIL_LIMIT or not saved.keep.size or res.t.size < 2:
@@ -1099,7 +1099,7 @@ def _held_equilibrium(prepared: Prepared, x0: np.ndarray, saved: _Saved, setting
         return None
     E, H = system.jacobians(x0, 0.0)
     try:
-        return held_equilibrium_note(E, H, system.names, x0, float(res.t[-1] - res.t[0]))
+        return held_equilibrium_note(E, H, system.names, x0, float(res.t[-1] - res.t[0]), watched=saved.keep)
     except np.linalg.LinAlgError:  # QZ or the SVD did not converge: a note less, the run stands
         return None
 
