@@ -98,3 +98,27 @@ def test_no_warning_when_the_growing_mode_is_not_among_the_saved_signals():
     assert _warning(res) is None
     res = netdae.simulate(netdae.load(text.replace(".save v(d)", ".save v(d) v(c1) v(c2) v(b1) v(b2)")))
     assert _warning(res) is not None
+
+
+#: A Wien-bridge oscillator (loop gain 3.2 against the 3 it needs) at rest: ngspice's run stays at 0 V too.
+WIEN = """wien bridge
+B1 out 0 V=12*tanh(1e5*(v(p)-v(n))/12)
+R1 out a 10k
+C1 a p 16n
+R2 p 0 10k
+C2 p 0 16n
+Rf out n 22k
+Rg n 0 10k
+.tran 10u 20m
+.end
+"""
+
+
+def test_a_slowly_growing_oscillator_at_rest_is_warned_about_too():
+    res = netdae.simulate(netdae.load(WIEN))
+    assert res.ok and np.max(np.abs(res["v(out)"])) == 0.0
+    note = _warning(res)
+    assert note is not None
+    # growth 1/(R C) (A - 3) / 2 ... about 625 1/s at 6.2 krad/s: e^12.5 over the 20 ms
+    growth = float(re.search(r"by e\^([0-9.e+]+) over the run", note).group(1))
+    assert 10.0 < growth < 15.0

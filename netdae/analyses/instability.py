@@ -19,9 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
-#: A mode counts as growing over a run when it grows by more than e**UNSTABLE_GROWTH over it
-#: (rounding noise of 1e-16 reaches any tolerance after about e**37).
+#: A linear circuit's failed run is put down to its instability when a mode grows by more than
+#: e**UNSTABLE_GROWTH over it (1e13: the solution has left every scale the tolerances were set for).
 UNSTABLE_GROWTH = 30.0
+
+#: A run that stayed at its operating point is warned about when a mode there grows by more than
+#: e**HELD_GROWTH over the run (150 times): visibly unstable on the run's time scale, whatever started it.
+HELD_GROWTH = 5.0
 
 #: How many node voltages of the growing mode the note names, and the smallest share of its largest
 #: component a named one has (a node a source fixes has rounding noise there).
@@ -111,7 +115,7 @@ def held_equilibrium_note(E, H, names, x0, span: float, watched=None) -> str | N
     Returns
     -------
     str or None
-        None when no finite eigenvalue grows by more than ``exp(UNSTABLE_GROWTH)`` over ``span``, or
+        None when no finite eigenvalue grows by more than ``exp(HELD_GROWTH)`` over ``span``, or
         when the mode's largest component is not watched.
 
     Notes
@@ -129,7 +133,7 @@ def held_equilibrium_note(E, H, names, x0, span: float, watched=None) -> str | N
     if not spec.regular or not eig.size:
         return None
     lam = complex(eig[np.argmax(eig.real)])
-    if not lam.real * span > UNSTABLE_GROWTH:
+    if not lam.real * span > HELD_GROWTH:
         return None
     # the mode: the right singular vector of H - lambda E with the smallest singular value
     _, _, vh = np.linalg.svd(H - lam * E)
