@@ -130,3 +130,12 @@ def test_run_keeps_the_signals_a_four_card_reads_and_the_cli_prints_and_writes_t
     (f,) = doc["fourier"]
     assert f["signal"] == "v(a)" and f["thd_percent"] == pytest.approx(11.18, abs=0.01)
     assert f["harmonics"][2]["phase_deg"] == pytest.approx(90.0, abs=1e-3)
+
+
+def test_a_failed_transient_is_not_analysed():
+    # a behavioural source whose law is unbounded at 1 ms: the run stops there, before the analysed period
+    res = netdae.simulate(netdae.load(HARMONICS.replace("R1 a 0 1k", "R1 a 0 1k\nB2 b 0 V=1/(1m-time)\nR2 b 0 1k")
+                                      .replace(".four 1k v(a)", ".four 1k v(a) v(b)")))
+    assert not res.ok
+    assert [f.status for f in res.fourier] == ["failed", "failed"]
+    assert res.fourier[0].reason.startswith("the transient failed: ")

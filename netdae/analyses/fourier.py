@@ -106,7 +106,7 @@ def evaluate_fouriers(specs, result: Result, *, nfreqs: int = NFREQS, gridsize: 
 
     A signal the result does not hold, a period longer than the computed interval or a failed run
     give a failed :class:`~netdae.fourier.Fourier` with the reason (ngspice prints an error and goes
-    on), never an exception.
+    on, and analyses nothing after a failed transient), never an exception.
 
     Cost: the dense output at ``gridsize`` times and ``nfreqs x gridsize`` products per signal.
     """
@@ -115,6 +115,9 @@ def evaluate_fouriers(specs, result: Result, *, nfreqs: int = NFREQS, gridsize: 
     for spec in specs:
         f = spec.frequency
         for signal in spec.signals:
+            if not result.ok:  # its last period is not the circuit's (ngspice analyses nothing then)
+                out.append(_failed(signal, f, f"the transient failed: {result.message}"))
+                continue
             if t.size < 2:
                 out.append(_failed(signal, f, "the transient computed no interval"))
                 continue
