@@ -123,13 +123,19 @@ def test_run_keeps_the_signals_a_four_card_reads_and_the_cli_prints_and_writes_t
     assert [f.signal for f in tran.fourier] == ["v(a)"] and tran.fourier[0].ok
     path = tmp_path / "h.cir"
     path.write_text(HARMONICS)
-    cli = subprocess.run([sys.executable, "-m", "netdae", "run", str(path), "--json"], capture_output=True,
-                         text=True, timeout=300, env={**os.environ, "NETDAE_SERVER": "0"})
+    cli = subprocess.run([sys.executable, "-m", "netdae", "run", str(path), "--json", "--out", str(tmp_path / "o")],
+                         capture_output=True, text=True, timeout=300, env={**os.environ, "NETDAE_SERVER": "0"})
     assert cli.returncode == 0, cli.stderr
     doc = json.loads(cli.stdout)
-    (f,) = doc["fourier"]
+    (f,) = doc["fourier"]["values"]
     assert f["signal"] == "v(a)" and f["thd_percent"] == pytest.approx(11.18, abs=0.01)
     assert f["harmonics"][2]["phase_deg"] == pytest.approx(90.0, abs=1e-3)
+    # the same numbers in fourier.csv, one row per harmonic
+    assert doc["fourier"]["file"] == str(tmp_path / "o" / "fourier.csv")
+    rows = (tmp_path / "o" / "fourier.csv").read_text().splitlines()
+    assert rows[0].startswith("signal,fundamental,harmonic,frequency,magnitude,phase_deg") and len(rows) == 11
+    cells = rows[3].split(",")  # the second harmonic
+    assert cells[:3] == ["v(a)", "1000.0", "2"] and float(cells[5]) == pytest.approx(90.0, abs=1e-3)
 
 
 def test_a_failed_transient_is_not_analysed():

@@ -10,7 +10,9 @@ analysis). The analyses' notes and the files written are logged on stderr.
 Measurements (``.meas`` cards) are printed as ngspice prints them
 (``name = value``, with ``at=``, ``from= to=`` or ``targ= trig=``), go into the
 JSON (``measures`` of each analysis) and, with ``--out``, into
-``measures.csv`` (:mod:`netdae.io.measures`).
+``measures.csv`` (:mod:`netdae.io.measures`); Fourier analyses (``.four``) are
+printed as ngspice's tables, go into the JSON (``fourier``) and into
+``fourier.csv`` (:mod:`netdae.io.fourier`).
 
 Ctrl-C during a transient keeps what was computed: the results of the
 analyses before it and the transient up to where it stopped are written and
@@ -290,6 +292,16 @@ def main(args) -> int:
             measures_file = str(out_dir / "measures.csv")
         except OutputFileError as exc:
             write_errors.append(exc)
+    fouriers = [f for res in results for f in res.fourier]
+    fourier_file = None
+    if out_dir is not None and fouriers:
+        from ..io.fourier import write_fourier
+
+        try:
+            write_fourier(out_dir / "fourier.csv", fouriers)
+            fourier_file = str(out_dir / "fourier.csv")
+        except OutputFileError as exc:
+            write_errors.append(exc)
     exported = []
     if args.export:
         from ..io.matrices import export_matrices
@@ -305,9 +317,8 @@ def main(args) -> int:
             doc[key] = {**res.to_dict(values=every), "files": files}
         if measures:
             doc["measures"] = {"file": measures_file, "values": [m.to_dict() for m in measures]}
-        fouriers = [f for res in results for f in res.fourier]
         if fouriers:
-            doc["fourier"] = [f.to_dict() for f in fouriers]
+            doc["fourier"] = {"file": fourier_file, "values": [f.to_dict() for f in fouriers]}
         if args.export:
             doc["export"] = exported
         json.dump(doc, sys.stdout, indent=2)
@@ -342,6 +353,8 @@ def main(args) -> int:
                 LOG.info("wrote %s", path)
     if measures_file is not None:
         LOG.info("wrote %s", measures_file)
+    if fourier_file is not None:
+        LOG.info("wrote %s", fourier_file)
     for path in exported:
         LOG.info("wrote %s", path)
     for exc in write_errors:
