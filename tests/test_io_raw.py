@@ -447,3 +447,21 @@ def test_what_pyspice_cannot_read_is_refused(kwargs, message):
         results = Result("dc", axes={"res-sweep": np.arange(3.0)}, signals={"v(out)": np.arange(3.0)})
     with pytest.raises(NetdaeError, match=message):
         format_raw(results, flavour="pyspice", **kwargs)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_an_ac_scale_with_an_infinite_imaginary_part_keeps_its_frequencies(binary):
+    # ngspice 39 leaves the imaginary part of the ac scale uninitialised; where that memory held an
+    # infinity, re + 1j * im made the real part NaN too (1j * inf is nan + inf j): every frequency NaN
+    freqs, imag = [10.0, 100.0], [float("inf"), float("-inf")]
+    head = (b"Title: t\nDate: x\nPlotname: AC Analysis\nFlags: complex\nNo. Variables: 2\nNo. Points: 2\n"
+            b"Variables:\n\t0\tfrequency\tfrequency\n\t1\tv(out)\tvoltage\n")
+    if binary:
+        body = b"Binary:\n" + np.array([[f, i, 0.5, -0.25] for f, i in zip(freqs, imag)], dtype="<f8").tobytes()
+    else:
+        body = b"Values:\n" + b"".join(f" {k}\t{f!r},{i!r}\n\t0.5,-0.25\n".encode() for k, (f, i) in
+                                       enumerate(zip(freqs, imag)))
+    (ac,) = parse_raw(head + body)
+    np.testing.assert_array_equal(ac.axis, freqs)
+    np.testing.assert_array_equal(ac["v(out)"], [0.5 - 0.25j, 0.5 - 0.25j])
+    assert any("imaginary part" in n for n in ac.notes)

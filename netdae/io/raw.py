@@ -79,6 +79,7 @@ __all__ = [
     "signal_name",
     "quantity_name",
     "sens_name",
+    "complex_from_parts",
     "PLOTNAMES",
     "PLOTNAME_OF",
     "FLAVOURS",
@@ -533,7 +534,7 @@ def _binary_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]
             have = int(mask.sum()) * width
         flat = np.frombuffer(reader.data, dtype=_DOUBLE, count=have, offset=start)
         reader.pos = start + have * _DOUBLE.itemsize if have == count else len(reader.data)
-    values = flat[0::2] + 1j * flat[1::2] if head.complex else flat
+    values = complex_from_parts(flat[0::2], flat[1::2]) if head.complex else flat
     table = np.full(mask.shape, np.nan, dtype=values.dtype)
     table[mask] = values
     return table, notes
@@ -595,8 +596,26 @@ def _ascii_table(reader: _Reader, head: _Header) -> tuple[np.ndarray, list[str]]
     if not np.array_equal(index, np.arange(npoints)):
         bad = int(np.argmax(index != np.arange(npoints)))
         raise reader.error(f"point {bad} is numbered {index[bad]} in 'Values:'", first_line)
-    table = numbers[:, 0::2] + 1j * numbers[:, 1::2] if head.complex else numbers
+    table = complex_from_parts(numbers[:, 0::2], numbers[:, 1::2]) if head.complex else numbers
     return table, notes
+
+
+def complex_from_parts(re: np.ndarray, im: np.ndarray) -> np.ndarray:
+    """``re + j im`` part by part, shape of ``re``.
+
+    ``re + 1j * im`` makes the real part NaN where ``im`` is infinite (``1j * inf`` is
+    ``nan + inf j``), and ngspice 39 leaves the imaginary part of an ac scale uninitialised,
+    sometimes infinite: its frequencies read as NaN (raw files, and the shared library's vectors).
+
+    Examples
+    --------
+    >>> complex_from_parts(np.array([10.0]), np.array([np.inf]))
+    array([10.+infj])
+    """
+    out = np.empty(np.shape(re), dtype=complex)
+    out.real = re
+    out.imag = im
+    return out
 
 
 def _to_result(head: _Header, table: np.ndarray, notes: list[str], source: str) -> Result:

@@ -59,7 +59,7 @@ import time
 import numpy as np
 
 from ..errors import NgspiceError
-from ..io.raw import PLOTNAME_OF, quantity_name, sens_name, signal_name
+from ..io.raw import PLOTNAME_OF, complex_from_parts, quantity_name, sens_name, signal_name
 from ..metadata import NoiseInfo, Provenance
 from ..results import Result
 from . import INSTALL_HINT, BackendOutput, BackendUnavailable
@@ -280,7 +280,7 @@ class _Session:
         vtype = _VECTOR_TYPES.get(info.v_type, "notype")
         if info.v_compdata != self.ffi.NULL:
             pairs = np.frombuffer(self.ffi.buffer(info.v_compdata, length * 16), dtype=np.float64)
-            return vtype, pairs[0::2] + 1j * pairs[1::2]
+            return vtype, complex_from_parts(pairs[0::2], pairs[1::2])  # an ac scale's imaginary part may be inf
         if length == 0:
             return vtype, np.zeros(0)
         return vtype, np.frombuffer(self.ffi.buffer(info.v_realdata, length * 8), dtype=np.float64).copy()
