@@ -86,19 +86,23 @@ def _failed(signal: str, f: float, reason: str) -> Fourier:
     return Fourier(signal, f, empty, empty, empty, empty, empty, math.nan, 0, math.nan, math.nan, "failed", reason)
 
 
-def _samples(result: Result, signal: str, grid: np.ndarray) -> np.ndarray | None:
-    """The signal on ``grid``: from the dense output where it has the signal, else linearly between points."""
+def _samples(result: Result, signals, grid: np.ndarray) -> dict:
+    """The signals on ``grid`` (those the result holds): the dense output's where it has them, else linear
+    between the points."""
+    dense = {}
     if result.dense is not None:
         try:
-            values = result.dense(grid)
+            dense = result.dense(grid)
         except (KeyError, ValueError):
-            values = {}
-        if signal in values:
-            return np.asarray(values[signal], dtype=float)
-    if signal not in result.signals:
-        return None
+            dense = {}
     t = np.asarray(result.axes["time"], dtype=float)
-    return np.interp(grid, t, np.asarray(result.signals[signal], dtype=float))
+    out = {}
+    for signal in signals:
+        if signal in dense:
+            out[signal] = np.asarray(dense[signal], dtype=float)
+        elif signal in result.signals:
+            out[signal] = np.interp(grid, t, np.asarray(result.signals[signal], dtype=float))
+    return out
 
 
 def evaluate_fouriers(specs, result: Result, *, nfreqs: int = NFREQS, gridsize: int = GRIDSIZE) -> list[Fourier]:
@@ -114,29 +118,30 @@ def evaluate_fouriers(specs, result: Result, *, nfreqs: int = NFREQS, gridsize: 
     out = []
     for spec in specs:
         f = spec.frequency
-        for signal in spec.signals:
-            if not result.ok:  # its last period is not the circuit's (ngspice analyses nothing then)
-                out.append(_failed(signal, f, f"the transient failed: {result.message}"))
-                continue
-            if t.size < 2:
-                out.append(_failed(signal, f, "the transient computed no interval"))
-                continue
+        reason, samples = None, {}
+        if not result.ok:  # its last period is not the circuit's (ngspice analyses nothing then)
+            reason = f"the transient failed: {result.message}"
+        elif t.size < 2:
+            reason = "the transient computed no interval"
+        else:
             stop, first = float(t[-1]), float(t[0])
             start = stop - 1.0 / f
             if start < first - 1e-9 * (stop - first):
-                out.append(_failed(signal, f, f"its period {1.0 / f:g} s is longer than the transient's interval "
-                                              f"[{first:g}, {stop:g}] s"))
-                continue
-            start = max(start, first)
-            grid = start + (stop - start) * np.arange(gridsize) / gridsize
-            values = _samples(result, signal, grid)
-            if values is None:
+                reason = f"its period {1.0 / f:g} s is longer than the transient's interval [{first:g}, {stop:g}] s"
+            else:
+                start = max(start, first)
+                # one grid and one evaluation of the dense output for all the card's signals
+                samples = _samples(result, spec.signals, start + (stop - start) * np.arange(gridsize) / gridsize)
+        for signal in spec.signals:
+            values = samples.get(signal)
+            if reason is not None:
+                out.append(_failed(signal, f, reason))
+            elif values is None:
                 out.append(_failed(signal, f, "the transient result does not hold this signal"))
-                continue
-            if not np.all(np.isfinite(values)):
+            elif not np.all(np.isfinite(values)):
                 out.append(_failed(signal, f, "the signal is not finite over the period"))
-                continue
-            mag, ph, nmag, nph, thd = components(values, nfreqs)
-            freq = f * np.arange(nfreqs, dtype=float)
-            out.append(Fourier(signal, f, freq, mag, ph, nmag, nph, thd, gridsize, start, stop))
+            else:
+                mag, ph, nmag, nph, thd = components(values, nfreqs)
+                out.append(Fourier(signal, f, f * np.arange(nfreqs, dtype=float), mag, ph, nmag, nph, thd, gridsize,
+                                   start, stop))
     return out

@@ -223,6 +223,19 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None,
     return files
 
 
+def _write_table(path, items: list, write, errors: list) -> str | None:
+    """``write(path, items)`` when there are items: the path written, or None (nothing to write, or the
+    failure appended to ``errors``)."""
+    if not items:
+        return None
+    try:
+        write(path, items)
+    except OutputFileError as exc:
+        errors.append(exc)
+        return None
+    return str(path)
+
+
 def _log_notes(notes) -> None:
     for note in notes:
         if note.startswith("warning: "):
@@ -283,25 +296,14 @@ def main(args) -> int:
         _close_streams(streams)  # those a failed write left open
 
     measures = [m for res in results for m in res.measures]
-    measures_file = None
-    if out_dir is not None and measures:
+    fouriers = [f for res in results for f in res.fourier]
+    measures_file = fourier_file = None
+    if out_dir is not None:
+        from ..io.fourier import write_fourier
         from ..io.measures import write_measures
 
-        try:
-            write_measures(out_dir / "measures.csv", measures)
-            measures_file = str(out_dir / "measures.csv")
-        except OutputFileError as exc:
-            write_errors.append(exc)
-    fouriers = [f for res in results for f in res.fourier]
-    fourier_file = None
-    if out_dir is not None and fouriers:
-        from ..io.fourier import write_fourier
-
-        try:
-            write_fourier(out_dir / "fourier.csv", fouriers)
-            fourier_file = str(out_dir / "fourier.csv")
-        except OutputFileError as exc:
-            write_errors.append(exc)
+        measures_file = _write_table(out_dir / "measures.csv", measures, write_measures, write_errors)
+        fourier_file = _write_table(out_dir / "fourier.csv", fouriers, write_fourier, write_errors)
     exported = []
     if args.export:
         from ..io.matrices import export_matrices

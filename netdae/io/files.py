@@ -33,7 +33,7 @@ from typing import BinaryIO, Iterator
 
 from ..errors import OutputFileError
 
-__all__ = ["atomic_output", "write_bytes", "reason_of", "StreamedFile"]
+__all__ = ["atomic_output", "write_bytes", "csv_text", "reason_of", "StreamedFile"]
 
 #: Plain words for the operating system's reasons a write fails.
 _REASONS = {
@@ -180,6 +180,25 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> None:
     """
     with atomic_output(path) as handle:
         handle.write(data)
+
+
+def csv_text(columns, rows) -> str:
+    """A header row ``columns`` and then ``rows`` as CSV text (the ``csv`` module's quoting, ``\\n`` line ends).
+
+    Examples
+    --------
+    >>> print(csv_text(["name", "reason"], [["x", "never, at all"]]), end="")
+    name,reason
+    x,"never, at all"
+    """
+    import csv
+    import io
+
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(columns)
+    writer.writerows(rows)
+    return out.getvalue()
 
 
 def _remove(temporary: str) -> None:

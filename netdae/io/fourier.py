@@ -23,12 +23,10 @@ v(a),1000.0,1,1000.0,1.0,90.0,1.0,0.0,0.0,ok,
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import os
 
-from .files import write_bytes
+from .files import csv_text, write_bytes
 
 __all__ = ["format_fourier_csv", "write_fourier", "COLUMNS"]
 
@@ -42,20 +40,19 @@ def _number(value) -> str:
     return repr(value) if math.isfinite(value) else ""
 
 
+def _rows(f):
+    if not f.ok:
+        yield [f.signal, _number(f.fundamental), "", "", "", "", "", "", "", f.status, f.reason]
+        return
+    for k in range(f.frequency.size):
+        yield [f.signal, _number(f.fundamental), k, _number(f.frequency[k]), _number(f.magnitude[k]),
+               _number(f.phase[k]), _number(f.norm_magnitude[k]), _number(f.norm_phase[k]), _number(f.thd),
+               f.status, ""]
+
+
 def format_fourier_csv(fouriers) -> str:
     """The Fourier analyses (:class:`netdae.fourier.Fourier`) as CSV text (see the module docstring)."""
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(COLUMNS)
-    for f in fouriers:
-        if not f.ok:
-            writer.writerow([f.signal, _number(f.fundamental), "", "", "", "", "", "", "", f.status, f.reason])
-            continue
-        for k in range(f.frequency.size):
-            writer.writerow([f.signal, _number(f.fundamental), k, _number(f.frequency[k]), _number(f.magnitude[k]),
-                             _number(f.phase[k]), _number(f.norm_magnitude[k]), _number(f.norm_phase[k]),
-                             _number(f.thd), f.status, ""])
-    return out.getvalue()
+    return csv_text(COLUMNS, (row for f in fouriers for row in _rows(f)))
 
 
 def write_fourier(path: str | os.PathLike, fouriers) -> None:

@@ -21,11 +21,9 @@ x,tran,when,,failed,,,,,,"never, at all"
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 
-from .files import write_bytes
+from .files import csv_text, write_bytes
 
 __all__ = ["format_measures", "write_measures", "COLUMNS"]
 
@@ -39,13 +37,9 @@ def _number(value) -> str:
 
 def format_measures(measures) -> str:
     """The measurements as CSV text (see the module docstring)."""
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(COLUMNS)
-    for m in measures:
-        writer.writerow([m.name, m.analysis, m.function, _number(m.value), m.status, _number(m.at),
-                         *(_number(m.extra.get(k)) for k in ("from", "to", "trig", "targ")), m.reason])
-    return out.getvalue()
+    return csv_text(COLUMNS, ([m.name, m.analysis, m.function, _number(m.value), m.status, _number(m.at),
+                               *(_number(m.extra.get(k)) for k in ("from", "to", "trig", "targ")), m.reason]
+                              for m in measures))
 
 
 def write_measures(path: str | os.PathLike, measures) -> None:

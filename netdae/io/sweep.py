@@ -12,7 +12,6 @@ Every file is written whole or not at all (:mod:`netdae.io.files`).
 
 from __future__ import annotations
 
-import csv
 import io
 import json
 import os
@@ -20,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .files import write_bytes
+from .files import csv_text, write_bytes
 
 __all__ = ["format_table", "write_sweep"]
 
@@ -29,13 +28,8 @@ def format_table(result) -> str:
     """The sweep's table as CSV text (see the module docstring)."""
     rows = result.table()
     columns = list(rows[0]) if rows else ["row", "error"]
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(columns)
-    for row in rows:
-        writer.writerow(["" if row[c] is None else (repr(row[c]) if isinstance(row[c], float) else row[c])
-                         for c in columns])
-    return out.getvalue()
+    return csv_text(columns, (["" if row[c] is None else (repr(row[c]) if isinstance(row[c], float) else row[c])
+                               for c in columns] for row in rows))
 
 
 def write_sweep(out_dir: str | os.PathLike, result, *, waveforms: bool = False) -> list[str]:
