@@ -19,6 +19,9 @@ CASES = [
     ("t\nZ1 d g s zm\n.model zm nmf level=7\n", r"z1: model zm: MESFET level 7 \(a level ngspice 39 does not know "
      r"either\) is not implemented by netdae", 3, "7"),
     ("t\n?1 a b\n", r"unknown card '\?1'", 2, "?1"),
+    # a Unicode space between words: ngspice reads no blank there (one name), so it is refused
+    ("t\nV1 in 0 1\nR1 in\u00a0a 1k\n", r"no-break space \(U\+00A0\) in the card", 3, "\u00a0"),
+    ("t\nR1 a 0 1k\nR2 a\u2003b 2k\n", r"em space \(U\+2003\)", 3, "\u2003"),
     # dot cards netdae does not implement
     ("t\nR1 a 0 1\n.disto dec 10 1k 100meg\n", r"\.disto: distortion analysis is not supported", 3, ".disto"),
     ("t\nR1 a 0 1\n.noise v(a) v1 dec 10 1 1k\n", r"\.noise: input source 'v1' names no element", 3, "v1"),

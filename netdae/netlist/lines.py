@@ -316,6 +316,32 @@ def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None
             "ngspice 39 reads on past .end: move them before .end to keep them", where))
 
 
+#: Characters that look like a blank (or like nothing) but are not one to ngspice, whose reader
+#: separates words at ASCII blanks only: a no-break space between two names makes one name.
+_ODD_SPACE = re.compile("[\u0085\u00a0\u1680\u2000-\u200b\u2028\u2029\u202f\u205f\u2060\u3000\ufeff]")
+
+
+def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
+    """Refuse a card holding a Unicode space (a no-break space copied from a web page or a document).
+
+    netdae would split words at it and ngspice would not (it reads ``in\u00a0a`` as one node
+    name): the two would simulate different circuits, so neither reading is guessed.
+    """
+    m = _ODD_SPACE.search(stripped)
+    if m is None:
+        return
+    import unicodedata
+
+    ch = m.group()
+    what = unicodedata.name(ch, "a space character").lower()
+    raise NetlistError(
+        f"a {what} (U+{ord(ch):04X}) in the card: ngspice does not read it as a blank (the words on both "
+        "sides would make one name), netdae refuses to guess",
+        SourceLocation(file, lineno, line.find(ch) + 1),
+        hint="replace it with a plain space (text copied from a web page or a document often holds such "
+             "characters)")
+
+
 def split_cards(
     text: str, file: str, *, title: bool = True, pspice: bool = False
 ) -> tuple[str | None, list[Card], list[Diagnostic]]:
@@ -421,6 +447,8 @@ def split_cards(
                                         SourceLocation(file, lineno, line.index(".") + 1)))
                 continue
         col = len(line) - len(line.lstrip()) + 1
+        if not stripped.isascii():
+            _refuse_odd_space(stripped, line, file, lineno)
         if stripped[0] == "+":
             if cur_raw is None:
                 raise NetlistError("continuation line '+' with no card to continue",
