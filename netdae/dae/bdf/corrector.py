@@ -416,12 +416,15 @@ class NonlinearCorrector:
             if not res.converged:
                 return res, None
             checked = check and not setup and not full
-            ev = system.evaluate(res.x, t_new, jacobian=checked, state=None)
+            # the check evaluates with the devices' limiting against the last iterate: a junction the
+            # accepted correction moved further than its limiting allows is not converged (as SPICE,
+            # which counts every limited iterate as not converged); unlimited, the values are x's own
+            ev = system.evaluate(res.x, t_new, jacobian=checked, state=self.state_try if checked else None)
             st["evaluations"] += 1
             if checked and ev.ok:
                 st["jacobian_evaluations"] += 1
                 floor.keep(ev.dq)
-                if stale(res.x, ev):
+                if ev.limited or stale(res.x, ev):
                     # accepted with a Jacobian made at another operating point: not converged
                     res.converged = False
             return res, ev

@@ -1191,8 +1191,11 @@ def _stalled(I, t_new, cj, x, pred0, pred1, crows, rtol, ratol, atol, dphi_lu, s
     """The check of an iterate ``x`` accepted with a Jacobian from an earlier step (the Python
     corrector's ``stale``).
 
-    Evaluates ``q``, ``phi`` and their Jacobian at ``x`` without limiting (the charges the
-    history takes; the Jacobian is not factored). Stale when an entry of ``dphi/dx`` the
+    Evaluates ``q``, ``phi`` and their Jacobian at ``x`` (the charges the history takes; the
+    Jacobian is not factored) with the devices' limiting against the last iterate, not kept.
+    Stale when a device limited (the correction moved a junction further than its limiting
+    allows: a Jacobian from another step let a one-iteration correction carry a clamp diode
+    from -0.8 V to +11 V), when an entry of ``dphi/dx`` the
     factorisation holds (``dphi_lu``) fell by more than ``CONDUCTANCE_FALL``
     (:func:`netdae.dae.compiled.control.conductance_fell`), or when a row's residual stalled
     (:func:`netdae.dae.compiled.control.residual_stalled`): the corrector residual at ``x``
@@ -1205,9 +1208,15 @@ def _stalled(I, t_new, cj, x, pred0, pred1, crows, rtol, ratol, atol, dphi_lu, s
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
-    flags = _evaluate_inlined(I, t_new, x, STATE_NONE, False, True, sysd, devd, u, evb)
+    # with the devices' limiting against the last iterate (not kept): a junction the accepted
+    # correction moved further than its limiting allows is not converged, as in SPICE; unlimited,
+    # the values are x's own
+    state = STATE_TRIAL if I[I_HAS_TRY] != 0 else STATE_NONE
+    flags = _evaluate_inlined(I, t_new, x, state, False, True, sysd, devd, u, evb)
     if flags & FLAG_NONFINITE:
         return False, flags
+    if flags & FLAG_LIMITED:
+        return True, flags
     if conductance_fell(dphi_lu, dphie, dqe, cj, indptr, indices, ratol, atol, CONDUCTANCE_FALL):
         return True, flags
     # the residual at x (as _residual, from these q and phi)
