@@ -51,6 +51,9 @@ EXPRESSIONS = [
     "-v(a) * (v(b) - -v(c))",
     "4.25",
     "pwl(v(a), -1, 0.5, 0, 0, 0.5, 2, 2, 2.5) * v(b) + pwl(time*1e8 + v(c), 0, 0, 1, 1)",
+    # a law that is exactly 0 for |v(a)| < 1.6 and computes as rounding noise there: a tie, both sides
+    "(2e12*v(a) - 1e12*(abs(v(a) + 1.6) - abs(v(a) - 1.6)) > 0) ? 5*v(b) : ((1e12*(abs(v(c) + 1.6) - "
+    "abs(v(c) - 1.6)) - 2e12*v(c) <= 0) ? -3*v(c) : v(a))",
 ]
 
 #: E/G TABLE cards (ngspice 39's smoothed, flat-ended table), written between b and c.

@@ -54,6 +54,18 @@ LOG_OF_ZERO = -1e99
 #: ngspice's PTfudge_factor (``gmin * 1e-20`` at the default gmin of 1e-12): what a division adds to a
 #: non-negative denominator (subtracts from a negative one), and to the ``b**2`` of its derivative.
 DIVISION_FUDGE = 1e-32
+#: Relative width of a tie in a comparison ``<``, ``<=``, ``>``, ``>=``: operands
+#: closer than this times the magnitude of the terms they were computed from (32 roundings) compare as
+#: equal. A memristor's threshold law ``beta y + (alpha - beta)/2 (|y + Vt| - |y - Vt|)`` is exactly 0 for
+#: ``|y| < Vt`` but computes as +-4e-4 with ``beta = 2e12``: compared as signed, ``f(y) > 0`` changed at
+#: every evaluation (ngspice's ``memristor.sp`` failed at t = 3e-18 s). Each intermediate carries that
+#: magnitude (first-order running error analysis): 0 for a number, ``time`` or a circuit quantity (the
+#: inputs), ``m_a + m_b + |a +- b|`` for ``+``/``-``, ``m_a |b| + |a| m_b + |a b|`` for ``*``,
+#: ``|f'| m + |f|`` for a function, the selected operand's for a choice, 0 for a logical value. Only
+#: comparisons of the circuit's state are ties (those the transient holds and locates as events);
+#: ``time`` comparisons, whose corners are computed exactly, and ``==``, ``!=``, ``u``, ``sgn`` keep
+#: their exact definitions (a tie of ``u`` would be a third value, 0.5, and two events at each crossing).
+ROUNDING_TIE = 32.0 * 2.220446049250313e-16
 
 
 def structure_key(node: Expr) -> tuple:
@@ -153,6 +165,41 @@ def _power(a, da, b, db):
     if db is not None:
         d = _add(d, _scale(db, np.where(absa != 0.0, val * np.log(np.where(absa != 0.0, absa, 1.0)), 0.0)))
     return val, d
+
+
+def _binary_magnitude(op, a, ma, b, mb, val):
+    """The magnitude of the terms of ``a op b`` (see :data:`ROUNDING_TIE`)."""
+    if op == "+" or op == "-":
+        return ma + mb + np.abs(val)
+    if op == "*":
+        return ma * np.abs(b) + np.abs(a) * mb + np.abs(val)
+    if op == "/":
+        den = b + np.where(b >= 0.0, DIVISION_FUDGE, -DIVISION_FUDGE)
+        return (ma + np.abs(val) * mb) / np.abs(den) + np.abs(val)
+    if op == "**":
+        return _power_magnitude(a, ma, b, mb)
+    if op == "%":
+        return ma + np.abs(np.trunc(a / b)) * mb + np.abs(val)
+    return np.zeros_like(np.asarray(val, dtype=float))
+
+
+def _power_magnitude(a, ma, b, mb):
+    """``|d/da| m_a + |d/db| m_b + |a|^b`` of ``|a| ** b``."""
+    absa = np.abs(a)
+    val = absa ** b
+    safe = np.where(absa != 0.0, absa, 1.0)
+    fa = np.where(absa != 0.0, b * val / safe, 0.0)
+    fb = np.where(absa != 0.0, val * np.log(safe), 0.0)
+    return np.abs(fa) * ma + np.abs(fb) * mb + val
+
+
+def _tie(op, a, ma, b, mb, result):
+    """``result`` of a comparison of the circuit's state, operands within their rounding (:data:`ROUNDING_TIE`)
+    a tie."""
+    if op not in ("<", "<=", ">", ">="):
+        return result
+    tie = np.abs(a - b) <= ROUNDING_TIE * (ma + mb)
+    return np.where(tie, 1.0 if op in ("<=", ">=") else 0.0, result)
 
 
 def _binary(op, a, da, b, db):
@@ -266,6 +313,63 @@ def _call(func, args):
     raise ValueError(f"function {func}() cannot be evaluated in a behavioural source")
 
 
+def _call_magnitude(func, args):
+    """``_call`` on ``(value, derivative, magnitude)`` operands: its value, derivative and magnitude."""
+    if func in _UNARY:
+        (u, du, mu), = args
+        f, df = _UNARY[func]
+        val = f(u)
+        if df is None:
+            return val, None, np.zeros_like(np.asarray(val, dtype=float))
+        return val, (None if du is None else _scale(du, df(u))), np.abs(df(u)) * mu + np.abs(val)
+    if func in ("min", "max"):
+        (a, da, ma), (b, db, mb) = args
+        val, d = _call(func, [(a, da), (b, db)])
+        take_b = (a > b) if func == "min" else (a <= b)
+        return val, d, np.where(take_b, mb, ma)
+    if func == "limit":
+        (x, dx, mx), (a, da, ma), (b, db, mb) = args
+        val, d = _call(func, [(x, dx), (a, da), (b, db)])
+        lo_is_a = a <= b
+        lo, hi = np.where(lo_is_a, a, b), np.where(lo_is_a, b, a)
+        mlo, mhi = np.where(lo_is_a, ma, mb), np.where(lo_is_a, mb, ma)
+        return val, d, np.where(x > hi, mhi, np.where(x < lo, mlo, mx))
+    if func == "pow":
+        (a, da, ma), (b, db, mb) = args
+        val, d = _call(func, [(a, da), (b, db)])
+        fa = b * np.power(a, b - 1.0)
+        fb = val * np.log(np.where(a > 0.0, a, np.nan))
+        return val, d, np.abs(fa) * ma + np.where(np.isfinite(fb), np.abs(fb) * mb, 0.0) + np.abs(val)
+    if func == "pwr":
+        (a, da, ma), (b, db, mb) = args
+        val, d = _call(func, [(a, da), (b, db)])
+        return val, d, _power_magnitude(a, ma, b, mb)
+    val, d = _call(func, [(v, dv) for v, dv, _ in args])  # table, pwl: the looked-up value
+    return val, d, np.abs(val)
+
+
+def _state_comparisons(tree: Expr) -> set:
+    """``id`` of every comparison ``<``, ``<=``, ``>``, ``>=`` in ``tree`` whose operands read a circuit quantity
+    (the comparisons the compiled tape marks locked, :mod:`netdae.devices.kernels.tape`)."""
+    out: set = set()
+
+    def reads(node) -> bool:
+        typ = type(node)
+        if typ is Voltage or typ is Current:
+            return True
+        children = [getattr(node, name) for name in ("operand", "left", "right", "cond", "then", "other")
+                    if hasattr(node, name)] + list(getattr(node, "args", ()) or ())
+        found = False
+        for child in children:
+            found = reads(child) or found  # every child visited: comparisons deeper are marked too
+        if found and typ is Binary and node.op in ("<", "<=", ">", ">="):
+            out.add(id(node))
+        return found
+
+    reads(tree)
+    return out
+
+
 class ExpressionGroup:
     """Many expressions of one structure, evaluated together with their derivatives.
 
@@ -312,6 +416,7 @@ class ExpressionGroup:
         self.tree = exprs[0]
         self.leaves = [list(col) for col in zip(*per_leaf)] if per_leaf[0] else []
         self.constants = np.array(per_const, dtype=float).T.reshape(len(per_const[0]), self.n)
+        self._state_comparisons = _state_comparisons(self.tree)
 
     @property
     def n_leaves(self) -> int:
@@ -347,35 +452,39 @@ class ExpressionGroup:
             if typ is Const:
                 k = state["const"]
                 state["const"] += 1
-                return self.constants[k], None
+                return self.constants[k], None, np.zeros(self.n)
             if typ is Voltage or typ is Current:
                 k = state["leaf"]
                 state["leaf"] += 1
                 d = np.zeros((n_leaves, self.n))
                 d[k] = 1.0
-                return leaf_values[k], d
+                return leaf_values[k], d, np.zeros(self.n)
             if typ is Time:
-                return np.full(self.n, float(t)), None
+                return np.full(self.n, float(t)), None, np.zeros(self.n)
             if typ is Unary:
-                v, d = visit(node.operand)
+                v, d, m = visit(node.operand)
                 if node.op == "-":
-                    return -v, _scale(d, -1.0)
-                return (v == 0.0).astype(float), None
+                    return -v, _scale(d, -1.0), m
+                return (v == 0.0).astype(float), None, np.zeros(self.n)
             if typ is Binary:
-                a, da = visit(node.left)
-                b, db = visit(node.right)
-                return _binary(node.op, a, da, b, db)
+                a, da, ma = visit(node.left)
+                b, db, mb = visit(node.right)
+                v, d = _binary(node.op, a, da, b, db)
+                if id(node) in self._state_comparisons:
+                    v = _tie(node.op, a, ma, b, mb, v)
+                return v, d, _binary_magnitude(node.op, a, ma, b, mb, v)
             if typ is Ternary:
-                c, _ = visit(node.cond)
-                v1, d1 = visit(node.then)
-                v2, d2 = visit(node.other)
-                return _select(c != 0.0, v1, d1, v2, d2)
+                c, _, _ = visit(node.cond)
+                v1, d1, m1 = visit(node.then)
+                v2, d2, m2 = visit(node.other)
+                v, d = _select(c != 0.0, v1, d1, v2, d2)
+                return v, d, np.where(c != 0.0, m1, m2)
             if typ is Call:
-                return _call(node.func, [visit(a) for a in node.args])
+                return _call_magnitude(node.func, [visit(a) for a in node.args])
             raise ValueError(f"cannot evaluate {node!r}")
 
         with np.errstate(all="ignore"):
-            value, deriv = visit(self.tree)
+            value, deriv, _ = visit(self.tree)
         value = np.broadcast_to(np.asarray(value, dtype=float), (self.n,))
         if deriv is None:
             deriv = np.zeros((n_leaves, self.n))

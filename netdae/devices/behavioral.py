@@ -235,7 +235,7 @@ class BehaviouralFamily(DeviceFamily):
             widest = max(widest, len(leaves))
             longest = max(longest, len(ops))
         return (np.array(prog, dtype=np.int64).reshape(-1, 4), np.array(consts, dtype=float),
-                inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(longest),
+                inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(2 * longest),
                 np.zeros((longest, widest)), np.zeros((kb.N_LOCK_ROWS, slots_used + 1)))
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:

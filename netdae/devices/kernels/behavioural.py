@@ -63,13 +63,13 @@ import numpy as np
 from ...dae.compiled import kernel
 from ...dae.compiled.events import CROSSING_ITERATIONS, CROSSING_SAMPLES, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
 from ...netlist.expr import TABLE_DOMAIN  # the smoothing domain of a TABLE's corners
-from ..autodiff import (  # ngspice's PTexp saturation, PTlog(0), PTdivide's fudge
-    DIVISION_FUDGE, EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO,
+from ..autodiff import (  # ngspice's PTexp saturation, PTlog(0), PTdivide's fudge; a comparison's tie
+    DIVISION_FUDGE, EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO, ROUNDING_TIE,
 )
 from . import FLAG_NONFINITE
 from .scatter import add_charge, add_charge_slope, add_current, add_current_slope
 from .tape import (
-    OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
+    OP_ADD, OP_AND, OP_CONST, OP_CPOW, OP_DIV, OP_EQ, OP_FUNC1, OP_GE, OP_GT, OP_LE, OP_LEAF, OP_LIMIT, OP_LT,
     OP_MAX, OP_MIN, OP_MOD, OP_MUL, OP_NE, OP_NEG, OP_NOT, OP_OR, OP_POW, OP_PWL, OP_PWR, OP_SELECT, OP_SUB,
     OP_TABLE, OP_TIME, LOCKED,
 )
@@ -260,7 +260,13 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der, lock, s0, loc
     The locked instructions use slots ``s0, s0 + 1, ...`` of ``lock`` by ``lockmode``: ``LOCK_FREE``
     evaluates them, ``LOCK_USE`` reads their held outcomes, ``LOCK_PROBE`` evaluates them and writes
     the outcomes into row ``LOCK_PROBED``.
+
+    ``val`` holds two registers per instruction: the value in ``val[r]`` and, in ``val[h + r]``
+    (``h = val.size // 2``), the magnitude of the terms it was computed from (the rules of
+    :data:`netdae.devices.autodiff.ROUNDING_TIE`). A comparison of the circuit's state (locked)
+    whose operands differ by less than ``ROUNDING_TIE`` times their magnitudes is a tie.
     """
+    h = val.size // 2
     slot = s0
     for r in range(m):
         op = prog[p0 + r, 0]
@@ -269,35 +275,45 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der, lock, s0, loc
         c = prog[p0 + r, 3]
         if op == OP_CONST:
             val[r] = const[c0 + a]
+            val[h + r] = 0.0
             _zero_der(der, r, nl)
         elif op == OP_TIME:
             val[r] = t
+            val[h + r] = 0.0
             _zero_der(der, r, nl)
         elif op == OP_LEAF:
             val[r] = x[leaf[l0 + a, L_P]] - x[leaf[l0 + a, L_M]]
+            val[h + r] = 0.0
             _zero_der(der, r, nl)
             der[r, a] = 1.0
         elif op == OP_NEG:
             val[r] = -val[a]
+            val[h + r] = val[h + a]
             for j in range(nl):
                 der[r, j] = -der[a, j]
         elif op == OP_NOT:
             val[r] = 1.0 if val[a] == 0.0 else 0.0
+            val[h + r] = 0.0
             _zero_der(der, r, nl)
         elif op == OP_ADD:
             val[r] = val[a] + val[b]
+            val[h + r] = val[h + a] + val[h + b] + abs(val[r])
             _combine(der, r, a, 1.0, b, 1.0, nl)
         elif op == OP_SUB:
             val[r] = val[a] - val[b]
+            val[h + r] = val[h + a] + val[h + b] + abs(val[r])
             _combine(der, r, a, 1.0, b, -1.0, nl)
         elif op == OP_MUL:
             val[r] = val[a] * val[b]
+            val[h + r] = val[h + a] * abs(val[b]) + abs(val[a]) * val[h + b] + abs(val[r])
             _combine(der, r, a, val[b], b, val[a], nl)
         elif op == OP_DIV:  # ngspice's fudged division (netdae.devices.autodiff: DIVISION_FUDGE)
             va = val[a]
             vb = val[b]
             square = vb * vb + DIVISION_FUDGE
-            val[r] = va / (vb + (DIVISION_FUDGE if vb >= 0.0 else -DIVISION_FUDGE))
+            den = vb + (DIVISION_FUDGE if vb >= 0.0 else -DIVISION_FUDGE)
+            val[r] = va / den
+            val[h + r] = (val[h + a] + abs(val[r]) * val[h + b]) / abs(den) + abs(val[r])
             _combine(der, r, a, vb / square, b, -va / square, nl)
         elif op == OP_POW or op == OP_PWR:
             va = val[a]
@@ -308,24 +324,32 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der, lock, s0, loc
             fb = v * math.log(absa) if absa != 0.0 else 0.0
             sign = -1.0 if (op == OP_PWR and va < 0.0) else 1.0
             val[r] = sign * v
+            val[h + r] = abs(fa) * val[h + a] + abs(fb) * val[h + b] + v
             _combine(der, r, a, sign * fa, b, sign * fb, nl)
         elif op == OP_CPOW:
             va = val[a]
             vb = val[b]
             v = va ** vb
             val[r] = v
-            _combine(der, r, a, vb * va ** (vb - 1.0), b, v * (math.log(va) if va > 0.0 else math.nan), nl)
+            fa = vb * va ** (vb - 1.0)
+            fb = v * (math.log(va) if va > 0.0 else math.nan)
+            val[h + r] = abs(fa) * val[h + a] + (abs(fb) * val[h + b] if math.isfinite(fb) else 0.0) + abs(v)
+            _combine(der, r, a, fa, b, fb, nl)
         elif op == OP_MOD:
             val[r] = np.fmod(val[a], val[b])
-            _combine(der, r, a, 1.0, b, -np.trunc(val[a] / val[b]), nl)
+            quotient = np.trunc(val[a] / val[b])
+            val[h + r] = val[h + a] + abs(quotient) * val[h + b] + abs(val[r])
+            _combine(der, r, a, 1.0, b, -quotient, nl)
         elif op == OP_SELECT:
             src = b if val[a] != 0.0 else c
             val[r] = val[src]
+            val[h + r] = val[h + src]
             _copy_der(der, r, src, nl)
         elif op == OP_MIN or op == OP_MAX:
             take_b = (val[a] > val[b]) if op == OP_MIN else (val[a] <= val[b])
             src = b if take_b else a
             val[r] = val[src]
+            val[h + r] = val[h + src]
             _copy_der(der, r, src, nl)
         elif op == OP_LIMIT:
             lo, hi = (b, c) if val[b] <= val[c] else (c, b)
@@ -335,6 +359,7 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der, lock, s0, loc
             if val[a] > val[hi]:
                 src = hi
             val[r] = val[src]
+            val[h + r] = val[h + src]
             _copy_der(der, r, src, nl)
         elif op == OP_TABLE or op == OP_PWL:
             if op == OP_TABLE:
@@ -342,31 +367,37 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der, lock, s0, loc
             else:
                 v, slope = _pwl(val[a], const, c0 + b, c)
             val[r] = v
+            val[h + r] = abs(v)  # a looked-up value (the autodiff reference's rule)
             for j in range(nl):
                 der[r, j] = _scaled(der[a, j], slope)
         elif op >= OP_FUNC1:
-            if c == LOCKED and op - OP_FUNC1 >= F_SGN:
+            f = op - OP_FUNC1
+            if c == LOCKED and f >= F_SGN:
                 # a jump of the state (u, sgn, floor, ceil, int, nint): held or probed
                 if lockmode == LOCK_USE and not math.isnan(lock[LOCK_HELD, slot]):
                     val[r] = lock[LOCK_HELD, slot]
+                    val[h + r] = 0.0
                     _zero_der(der, r, nl)
                     slot += 1
                     continue
-                v, slope, has_slope = _function(op - OP_FUNC1, val[a])
+                v, slope, has_slope = _function(f, val[a])
                 if lockmode == LOCK_PROBE:
                     lock[LOCK_PROBED, slot] = v
                 slot += 1
             else:
-                v, slope, has_slope = _function(op - OP_FUNC1, val[a])
+                v, slope, has_slope = _function(f, val[a])
             val[r] = v
             if has_slope:
+                val[h + r] = abs(slope) * val[h + a] + abs(v)
                 for j in range(nl):
                     der[r, j] = _scaled(der[a, j], slope)
             else:
+                val[h + r] = 0.0
                 _zero_der(der, r, nl)
         else:
             # comparisons and logic: 0/1 without slope
             locked = c == LOCKED and op >= OP_LT
+            val[h + r] = 0.0
             if locked and lockmode == LOCK_USE and not math.isnan(lock[LOCK_HELD, slot]):
                 val[r] = lock[LOCK_HELD, slot]
                 _zero_der(der, r, nl)
@@ -382,6 +413,8 @@ def run_tape(prog, p0, m, const, c0, x, leaf, l0, nl, t, val, der, lock, s0, loc
                 res = va == vb
             elif op == OP_NE:
                 res = va != vb
+            elif locked and abs(va - vb) <= ROUNDING_TIE * (val[h + a] + val[h + b]):
+                res = op == OP_LE or op == OP_GE  # a tie within the operands' rounding
             elif op == OP_LT:
                 res = va < vb
             elif op == OP_LE:
