@@ -387,13 +387,26 @@ def _consistent_from_charges(system: MnaSystem, start: _Start, rep: IndexReport 
     return 2.0 * xs[0] - xs[1]
 
 
+def _change(old: float, new: float) -> str:
+    """``old -> new`` with the digits that show the change (six at least: -0.0004128 -> -0.0004128 said nothing).
+
+    >>> _change(-4.1280001e-4, -4.1280003e-4), _change(0.0, 1.7)
+    ('-0.00041280001 -> -0.00041280003', '0 -> 1.7')
+    """
+    digits = 6
+    scale = max(abs(old), abs(new))
+    if old != new and scale > 0.0:
+        digits = min(17, max(6, int(math.ceil(math.log10(scale / abs(new - old)))) + 1))
+    return f"{old:.{digits}g} -> {new:.{digits}g}"
+
+
 def _correction_note(system: MnaSystem, x_old: np.ndarray, x_new: np.ndarray, why: str) -> tuple[str, dict]:
     names = system.names
     scale = np.maximum(np.abs(x_old), np.abs(x_new))
     tol = np.where(system.kinds == 0, 1e-9, 1e-15) + 1e-9 * scale
     changed = np.flatnonzero(np.abs(x_new - x_old) > tol)
     detail = {names[i]: [float(x_old[i]), float(x_new[i])] for i in changed}
-    shown = ", ".join(f"{names[i]}: {x_old[i]:.6g} -> {x_new[i]:.6g}" for i in changed[:6])
+    shown = ", ".join(f"{names[i]}: {_change(x_old[i], x_new[i])}" for i in changed[:6])
     more = f" and {len(changed) - 6} more" if len(changed) > 6 else ""
     return f"{why}: {shown}{more}", detail
 
@@ -885,10 +898,11 @@ def _consistent_start(prepared: Prepared, start: _Start, rep: IndexReport,
                           "expect a jump in the first step"]
     changed = list(check.affected)
     x0[changed] = check.x_consistent[changed]  # the rest moved by rounding only
+    why = ("the .ic values hold nodes off the DC equilibrium" if prepared.circuit.ic else
+           "the inputs change at t0")
     text, detail = _correction_note(
         system, start.x, x0,
-        "initial values made consistent (the DC operating point violates hidden constraints because "
-        "the inputs change at t0)")
+        f"initial values made consistent (the DC operating point violates hidden constraints because {why})")
     if not detail:  # moved by rounding only (below 1e-9 of each value): nothing to report
         return x0, None, []
     text += "" if system.linear else " (from the linearisation at the operating point)"

@@ -211,6 +211,11 @@ def read_block(lines: list[tuple[int, int, str]], file: str) -> tuple[list[Card]
 _OUTPUT_COMMANDS = frozenset({"save", "print", "plot", "wrdata", "write", "pre_osdi", "option", "options", "opt"})
 _NOT_READ = ("netdae does not run ngspice's control language (it reads op, tran, ac, dc, pz, tf, noise, sens, save, "
              "print, plot, wrdata, write, meas, option and set of options)")
+#: A ``meas`` command of a script (a loop or a conditional): a script's analyses run in netdae's order, so a
+#: measure there has no single analysis to read.
+_MEAS_IN_SCRIPT = ("netdae reads meas commands outside loops and conditionals only (as .meas cards); for a "
+                   "measure at each value of a loop, step the value with .step and measure with a .meas card "
+                   "(netdae sweep)")
 
 
 def _output(cmd: str, rest: str, text: str, file: str, line: int, col: int, cards: list[Card], skip) -> None:
@@ -616,6 +621,8 @@ class _Script:
                 words = sub.split(None, 1)
                 _output(word, words[1] if len(words) > 1 else "", sub, self.file, step.line, step.col,
                         self.cards, lambda line, col, _text, why, done="skipped": self.note(step, why, done))
+            elif word == "meas":
+                self.note(step, _MEAS_IN_SCRIPT)
             else:
                 self.note(step, _NOT_READ)
         except _Refused as why:
