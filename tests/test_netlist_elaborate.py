@@ -266,7 +266,8 @@ def test_options_and_temperature():
     assert (o.reltol, o.abstol, o.vntol, o.gmin, o.method, o.maxord, o.itl1, o.interp) == (
         1e-4, 1e-12, 1e-6, 1e-15, "gear", 3, 200, True)
     assert (o.temp, o.tnom, o.chgtol, o.itl4) == (85.0, 25.0, 1e-14, 10)
-    assert o.extra == {"filetype": "ascii", "noacct": True, "rshunt": 1e12}
+    assert o.extra == {"filetype": "ascii", "noacct": True}
+    assert o.rshunt == 1e12
     assert load("t\nR1 a 0 1\n.options method=trapezoidal\n").options.method == "trap"
 
 
