@@ -325,6 +325,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     names = list(string_entries(save, "save")) if save is not None else circuit.saves
     from ..results import canonical_or
     from .noise import is_noise_name
+    from .magnitude import absurd_values_note
     from .op import shared_operating_points
     from .quantities import add_quantities, measured_quantities, plan_quantities, saved_currents
 
@@ -389,6 +390,9 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
                     res = ac_analysis(circuit, card, **options)
             absent = add_quantities(circuit, res, quantities)
+            absurd = absurd_values_note(circuit, res.signals) if kind in ("op", "dc", "tran") else None
+            if absurd:
+                res.notes.append(absurd)
             if quantities and kind == "tran" and names:  # it kept what the quantities are computed from
                 res.notes = [n for n in res.notes if not n.startswith("saved: ")]
                 res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
