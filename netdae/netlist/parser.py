@@ -67,6 +67,7 @@ def build(deck: Deck) -> Netlist:
                   files=list(deck.files), osdi=list(deck.osdi), behavior=deck.behavior)
     stack = [top]
     calls = circuit_function_calls(card for card in deck.cards if card.text[0] == ".")
+    net.diagnostics.extend(_title_like_a_card(deck, calls))
     for card in deck.cards:
         if card.text[0] == ".":
             _dot_card(card, stack, net)
@@ -92,6 +93,33 @@ def build(deck: Deck) -> Netlist:
     _resolve_ako(top, top)
     _settle(top)
     return net
+
+
+def _title_like_a_card(deck: Deck, calls) -> list[Diagnostic]:
+    """A warning when the title line (the first line, as in ngspice) reads as a dot card or an element card.
+
+    A netlist without its title line loses its first card so, silently in ngspice.
+    """
+    title = deck.title
+    if not title or not deck.path or title[0] == "*":
+        return []
+    card = Card(title, deck.path, [(0, 1, 1)])
+    word = title.split()[0].lower()
+    if word[0] == ".":
+        what = f"a {word} card" if DOT_ALIASES.get(word, word) in DOT_CARDS else None
+    elif word[0] in ELEMENTS:
+        try:
+            parse_element(card, calls)
+            what = f"an element card ({word})"
+        except NetlistError:
+            what = None
+    else:
+        what = None
+    if what is None:
+        return []
+    return [Diagnostic("warning", f"the first line is the title (as in ngspice), but '{title}' reads as {what}: it is "
+                       "not part of the circuit; if it is meant as a card, add a title line above it",
+                       card.location(0))]
 
 
 def add_cards(net: Netlist, cards: list[Card]) -> None:
