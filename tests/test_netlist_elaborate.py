@@ -342,3 +342,18 @@ def test_poly_f_h_controls_must_be_voltage_sources():
 def test_tc_and_tc1_together_are_an_error():
     with pytest.raises(NetlistError, match=r"tc1 given twice \(tc= sets tc1 and tc2\)"):
         load("t\nV1 a 0 1\nR1 a 0 1k tc1=0.1 tc=0.2\n.end\n")
+
+
+def test_a_source_without_a_value_gets_ngspices_note():
+    c = load("t\nV1 in 0 ac 1\nR1 in a 1k\nI2 a 0\nV3 b 0 sin(0 1 1k)\nR3 b 0 1\n.op\n.end\n")
+    notes = [(d.severity, d.message, d.location.line, d.location.column) for d in c.diagnostics
+             if "has no value" in d.message]
+    assert notes == [("note", "v1: has no value, DC 0 assumed (as ngspice 39 notes)", 2, 13),
+                     ("note", "i2: has no value, DC 0 assumed (as ngspice 39 notes)", 4, 7)]
+
+
+def test_a_second_k_card_on_the_same_inductors_is_warned_about():
+    c = load("k\nV1 in 0 1\nR1 in a 1\nL1 a 0 1m\nL2 b 0 1m\nR2 b 0 1k\nK1 L1 L2 0.3\nK2 L2 L1 0.3\n.op\n.end\n")
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert w.message.startswith("k2: couples l2 and l1 as k1 does: the coupling factors add")
+    assert (w.location.line, w.location.column) == (8, 1)

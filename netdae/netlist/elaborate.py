@@ -504,6 +504,7 @@ class _Elaborator:
             circuit.elements.append(el)
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
+        self._check_duplicate_couplings(circuit.elements)
         if any(el.kind in LAPLACE_KINDS for el in circuit.elements):
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind in LAPLACE_KINDS}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
@@ -844,6 +845,21 @@ class _Elaborator:
             raise NetlistError(f"{el.name}: model {model.name} gives the resistance {value:g} (from rsh, l, w, "
                                "short and narrow)", el.location, hint="the resistance must be positive")
         return value
+
+    def _check_duplicate_couplings(self, elements: list[Element]) -> None:
+        """A warning at each K card coupling a pair of inductors an earlier K card couples (the factors add)."""
+        first: dict[frozenset, Element] = {}
+        for el in elements:
+            if el.kind != Kind.COUPLING:
+                continue
+            pair = frozenset(el.controls)
+            if pair in first:
+                a, b = el.controls
+                self.diagnostics.append(Diagnostic(
+                    "warning", f"{el.name}: couples {a} and {b} as {first[pair].name} does: the coupling factors "
+                    "add (ngspice 39 warns 'duplicate K instances' and adds them too)", el.location))
+            else:
+                first[pair] = el
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""

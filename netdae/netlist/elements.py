@@ -542,6 +542,8 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
             raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
                         hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
         first = False
+    if spec.dc is None and spec.tran is None:
+        card.warn(_end(card), "has no value, DC 0 assumed (as ngspice 39 notes)", severity="note")
     return ElementCard(toks[0].text, kind, card, nodes, source=spec)
 
 
