@@ -32,6 +32,9 @@ CASES = [
     ("t\n.step param r 1 2 1\nV1 a 0 1\n", r"no top-level .param defines .r.", 2, "r", 2),
     ("t\n.foo\n", r"unknown dot card '\.foo'", 2, ".foo"),
     ("t\n.subckt s a\n.tran 1u 1m\n.ends\n", r"\.tran is not allowed inside \.subckt s", 3, ".tran"),
+    # a number below the smallest double reads as 0: out of range as 1e400 is
+    ("t\nI1 0 a 1\nR1 a 0 1e-400\n", r"r1: value '1e-400' is out of range", 3, "1e-400"),
+    ("t\nV1 a 0 1\nC1 a 0 1e-400\n", r"c1: value '1e-400' is out of range", 3, "1e-400"),
     # structure
     ("t\n.subckt s a b\nR1 a b 1\n", r"\.subckt s: no matching \.ends", 2, ".subckt"),
     ("t\n.ends\n", r"\.ends without a matching \.subckt", 2, ".ends"),

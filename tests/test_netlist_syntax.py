@@ -208,3 +208,13 @@ def test_expression_errors_point_at_the_problem(text, message, column):
 def test_evaluation_errors(text, message):
     with pytest.raises(ValueError, match=message):
         ev(text)
+
+
+def test_a_dangling_exponent_is_warned_about_as_other_ignored_text():
+    from netdae.netlist import load
+
+    c = load("t\nV1 a 0 1\nR1 a 0 1e\nR2 a 0 1E+\nR3 a 0 1e3\n.op\n.end\n")
+    assert [(d.location.line, d.message) for d in c.diagnostics if d.severity == "warning"] == [
+        (3, "r1: value '1e' read as 1: 'e' ignored, as ngspice ignores what follows a number and its scale suffix"),
+        (4, "r2: value '1e+' read as 1: 'e+' ignored, as ngspice ignores what follows a number and its scale "
+            "suffix")]
