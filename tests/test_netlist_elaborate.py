@@ -357,3 +357,11 @@ def test_a_second_k_card_on_the_same_inductors_is_warned_about():
     (w,) = [d for d in c.diagnostics if d.severity == "warning"]
     assert w.message.startswith("k2: couples l2 and l1 as k1 does: the coupling factors add")
     assert (w.location.line, w.location.column) == (8, 1)
+
+
+def test_tran_with_tstep_above_tstop_warns_and_tmax_zero_is_not_given():
+    c = load("t\nV1 in 0 1\nR1 in a 1k\nC1 a 0 1n\n.tran 1m 1u\n.tran 1u 1m 0 0\n.end\n")
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert w.message.startswith(".tran: tstep 0.001 is larger than tstop 1e-06: swapped?")
+    assert (w.location.line, w.location.column) == (5, 7)
+    assert c.analyses[1].tmax is None  # ngspice 39 takes tmax = 0 as not given

@@ -1290,8 +1290,12 @@ class _Elaborator:
                 tstart = v.get("tstart", 0.0)
                 if not 0 <= tstart < v["tstop"]:
                     raise error(card, args["tstart"][1], f"tstart must be in [0, tstop), got {tstart:g}", form)
-                tmax = v.get("tmax")
-                if tmax is not None and tmax <= 0:
+                if v["tstep"] > v["tstop"]:
+                    self.diagnostics.append(Diagnostic(
+                        "warning", f".tran: tstep {v['tstep']:g} is larger than tstop {v['tstop']:g}: swapped? "
+                        "(.tran tstep tstop: the print step comes first)", card.location(args["tstep"][1])))
+                tmax = v.get("tmax") or None  # tmax = 0: not given, as ngspice 39 reads it
+                if tmax is not None and tmax < 0:
                     raise error(card, args["tmax"][1], f"tmax must be > 0, got {tmax:g}", form)
                 circuit.analyses.append(TranAnalysis(v["tstep"], v["tstop"], tstart, tmax, args["uic"], loc))
             elif a.kind == "ac":
