@@ -209,6 +209,10 @@ def read_deck(source, *, path: str | None = None, behavior=None, translate: bool
         display = path if path is not None else STRING_SOURCE
     else:
         raise TypeError(f"source must be a file name or netlist text, not {type(source).__name__}")
+    if not text.strip():
+        raise NetlistError(f"the netlist {'file ' if display != STRING_SOURCE else ''}is empty"
+                           f"{' (0 bytes)' if not text else ' (only blanks)'}", SourceLocation(display, 1, 1),
+                           hint="a netlist is a title line, then element cards and an analysis card such as .op")
     base = os.path.dirname(display) if display != STRING_SOURCE else ""
     mode, mode_notes = resolve_behavior(behavior, base)
     title, cards, notes = split_cards(text, display, title=True, pspice=bool(mode and mode.pspice))
