@@ -211,9 +211,11 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
         raise NetlistError(f"unknown dot card '{toks[0].text}'", card.location(0),
                            hint="netdae reads " + " ".join(sorted(DOT_CARDS)))
     if scope.name is not None and word not in _IN_SUBCKT:
-        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}", card.location(0),
-                           hint="move it to the top level (name subcircuit nodes hierarchically, "
-                                "e.g. v(x1.mid))")
+        where = f" (line {scope.card.line})" if scope.card is not None else ""
+        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}: .subckt {scope.name}{where} has no "
+                           f".ends before this card", card.location(0),
+                           hint=f"close .subckt {scope.name} with '.ends' before this card, or move the card to the "
+                                "top level (name subcircuit nodes hierarchically, e.g. v(x1.mid))")
     _HANDLERS[word](card, toks, stack, net)
 
 
