@@ -338,3 +338,11 @@ def test_osdi_card_naming_a_directory_or_a_device(tmp_path):
         err = exc.value
         assert err.message == f"OSDI file {target} {what}"
         assert (err.location.line, err.location.column) == (2, 7)
+
+
+@pytest.mark.parametrize("bv", ["-5", "0"])
+def test_a_breakdown_voltage_that_is_not_positive_is_refused_at_the_value(bv):
+    # ngspice 39 fails to converge with either (gmin stepping fails; 'timestep too small')
+    with pytest.raises(NetlistError, match=rf"model dd: bv={bv} is impossible for a diode.*bv must be > 0") as info:
+        netdae.run(f"t\nV1 in 0 -10\nR1 in a 1k\nD1 a 0 dd\n.model dd d is=1e-14 bv={bv}\n.op\n.end\n")
+    assert (info.value.location.line, info.value.location.column) == (5, 25)
