@@ -365,3 +365,10 @@ def test_tran_with_tstep_above_tstop_warns_and_tmax_zero_is_not_given():
     assert w.message.startswith(".tran: tstep 0.001 is larger than tstop 1e-06: swapped?")
     assert (w.location.line, w.location.column) == (5, 7)
     assert c.analyses[1].tmax is None  # ngspice 39 takes tmax = 0 as not given
+
+
+def test_a_double_quoted_param_value_is_its_expression_as_in_ngspice():
+    c = load('t\nV1 in 0 1\nR1 in a 1k\nR2 a 0 {rv}\n.param rv="1k" rw="rv*2"\n.op\n.end\n')
+    assert c.element("r2").value == 1e3 and c.params["rw"] == 2e3
+    with pytest.raises(NetlistError, match="unknown parameter 'abc'"):  # ngspice: 'unknown parameter (abc)'
+        load('t\nV1 in 0 1\nR2 in 0 {rv}\n.param rv="abc"\n.op\n.end\n')

@@ -311,6 +311,8 @@ def _param(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
                         f"expected '=' after parameter name '{tok.text}'", form,
                         hint="write name=value; a value with blanks needs {braces} or 'quotes'")
         end = _value_end(toks, i + 2)
+        if end == i + 3 and toks[i + 2].kind == STRING:  # "1k": ngspice 39 reads the text inside as the expression
+            toks[i + 2] = Token(toks[i + 2].text, EXPR, toks[i + 2].start, toks[i + 2].end)
         if end == i + 2 or toks[i + 2].kind not in (WORD, EXPR, PUNCT) or toks[i + 2].text in ",)=":
             raise error(card, toks[i + 1].start, f"missing value for parameter '{tok.text}'", form)
         if end == i + 3:
