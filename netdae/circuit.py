@@ -463,6 +463,11 @@ class Options:
     seed : int or None
         ``.options seed=``: the seed of the Monte Carlo functions as used
         (``seed=random`` resolved to the number drawn); None when not given.
+    rshunt, cshunt, rseries : float or None
+        ``.options rshunt=``, ``cshunt=``, ``rseries=``: the resistance and
+        capacitance from every node to ground and in series with every inductor
+        (elaboration adds them as elements, :mod:`netdae.netlist.shunts`); None
+        when not given.
     extra : dict
         Every other option as written (lower-case name to value), kept so that
         nothing is silently dropped; the analyses report the ones they ignore.
@@ -484,6 +489,9 @@ class Options:
     itl4: int = 10
     interp: bool = False
     seed: int | None = None
+    rshunt: float | None = None
+    cshunt: float | None = None
+    rseries: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     locations: dict[str, SourceLocation] = field(default_factory=dict, repr=False, compare=False)
 

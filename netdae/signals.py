@@ -198,6 +198,30 @@ def device_quantity(sig: Signal, kind: str) -> str | None:
     return param
 
 
+def missing_name(sig: Signal, nodes, elements) -> str | None:
+    """What a signal names that the circuit lacks (``"no node 'zz' in the circuit"``), or None.
+
+    Parameters
+    ----------
+    sig : Signal
+    nodes, elements : container of str
+        The circuit's node names (ground ``"0"`` included) and element names.
+
+    Examples
+    --------
+    >>> missing_name(parse_signal("v(zz)"), {"0", "a"}, {"r1"})
+    "no node 'zz' in the circuit"
+    >>> missing_name(parse_signal("i(r1)"), {"0", "a"}, {"r1"}) is None
+    True
+    """
+    missing = [n for n in sig.nodes if n not in nodes and "#" not in n]
+    if sig.kind in ("i", "@") and sig.args[0] not in elements:
+        missing = [sig.args[0]]
+    if not missing:
+        return None
+    return f"no {'node' if sig.kind == 'v' else 'element'} '{missing[0]}' in the circuit"
+
+
 def signal_unit(name: str) -> str:
     """The unit of a signal: ``"V"``, ``"A"``, ``"W"`` (powers ``@d[p]``), ``"S"``, ``"F"``, ``"C"`` or ``""``.
 

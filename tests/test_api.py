@@ -89,6 +89,17 @@ def test_unused_options_leaves_out_the_mosfet_defaults():
     assert unused_options(c) == "options not used by netdae: itl4, trtol"
 
 
+def test_a_division_by_zero_in_a_b_source_is_warned_about_after_the_operating_point():
+    # ngspice's fudge (a zero denominator is 1e-32) gives v(b) = 3e32 V, "converged": kept, and warned about
+    (op,) = netdae.run("b\nV1 in 0 3\nR1 in a 1k\nB1 b 0 V=v(a)/0\nR2 b 0 1k\n.op\n.end\n")
+    assert float(op["v(b)"][0]) == pytest.approx(3e32)
+    (note,) = [n for n in op.notes if "beyond any physical circuit" in n]
+    assert note.startswith("warning: v(b) reaches 3e+32, i(b1) reaches 3e+29, beyond any physical circuit")
+    assert "divides in b1 (<string>:4:1)" in note
+    (fine,) = netdae.run("b\nV1 in 0 3\nR1 in a 1k\nB1 b 0 V=v(a)/2\nR2 b 0 1k\n.op\n.end\n")
+    assert not [n for n in fine.notes if "beyond" in n]
+
+
 def test_simulate_accepts_a_path():
     r = netdae.simulate(Path(NETLISTS / "rc_lowpass.cir"), save=["v(out)"])
     assert r.names() == ["v(out)"] and r.ok

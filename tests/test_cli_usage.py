@@ -77,11 +77,32 @@ def test_help_is_fast():
     (["index", RC, "--tol", "2"], "argument --tol: expected a relative tolerance between 0 and 1"),
     (["index", RC, "--tol=-1e-9"], "argument --tol: expected a positive number"),
     (["check", RC, "-q", "-v"], "argument -v/--verbose: not allowed with argument -q/--quiet"),
+    (["run", RC, "--out", ""], "argument --out: expected a directory name, got an empty one"),
+    (["sweep", RC, "--out", " "], "argument --out: expected a directory name, got an empty one"),
 ])
 def test_bad_values_are_usage_errors(capsys, argv, message):
     status, out, err = cli(capsys, *argv)
     assert status == 2 and out == ""
     assert err.startswith("usage: netdae ") and message in err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["run", RC, "--save", "v(zz)"], "netdae: error: cannot save 'v(zz)': no node 'zz' in the circuit"),
+    (["run", RC, "--save", "i(r9)"], "netdae: error: cannot save 'i(r9)': no element 'r9' in the circuit"),
+    (["compare", RC, "--signals", ""], "netdae: error: compare: --signals is empty: nothing to compare"),
+    (["compare", RC, "--signals", "v(out)", "--exclude", "v(out)"],
+     "netdae: error: compare: --signals names only signals --exclude leaves out: nothing to compare"),
+])
+def test_selections_that_name_nothing_are_errors_before_any_run(capsys, argv, message):
+    status, out, err = cli(capsys, *argv)
+    assert status == 2 and out == "" and err.startswith(message)
+
+
+def test_an_empty_netlist_file_is_an_error(capsys, tmp_path):
+    path = tmp_path / "empty.cir"
+    path.write_text("")
+    status, out, err = cli(capsys, "check", path)
+    assert status == 2 and err.startswith(f"netdae: error: {path}:1:1: the netlist file is empty (0 bytes)")
 
 
 @pytest.mark.parametrize("option", ["reltol=2", "reltol=1", "temp=-300", "tnom=-274", "maxord=6"])

@@ -652,3 +652,34 @@ def test_an_unused_subcircuit_whose_model_is_defined_nowhere_is_ignored_as_ngspi
     with pytest.raises(NetlistError, match="no model 's', 'dt' or 'qnowhere' defined") as exc:
         load(text.replace("X1 1 0 used", "X2 1 0 1 0 0 lone"))
     assert exc.value.location.line == 5
+
+
+# ---------------------------------------------------------------------------
+def test_options_rshunt_and_rseries_change_the_circuit_as_in_ngspice(tmp_path):
+    """``rshunt=R`` puts 1/R from every node to ground; ``rseries`` (alone: 1e-3 ohm) a resistor after
+    every inductor, at ngspice's internal node ``<name>_intern__`` (an inductor loop then solves)."""
+    _op_agrees("rshunt\nV1 in 0 1\nR1 in a 1k\nR2 a 0 1k\n.options rshunt=1k\n", ["v(a)", "i(v1)"], tmp_path)
+    _op_agrees("rseries\nV1 in 0 1\nL1 in a 1u\nR1 a 0 1\nL2 a 0 1u\n.options rseries=1\n",
+               ["v(a)", "v(l1_intern__)", "i(l1)", "i(l2)"], tmp_path)
+    c = _op_agrees("rseries default\nV1 in 0 1\nX1 in a s\n.subckt s p q\nL1 p q 1u\n.ends\nR1 a 0 1\n"
+                   ".options rseries\n", ["v(a)", "v(x1.l1_intern__)"], tmp_path)
+    assert "r.x1.rl1_intern__" in [el.name for el in c.elements]
+
+
+def test_options_cshunt_adds_a_capacitor_at_every_node(tmp_path):
+    netlist = ("cshunt\nV1 in 0 pulse(0 1 0 1u 1u 1 2)\nR1 in a 1k\nR2 a b 1k\n.options cshunt=1n\n"
+               ".tran 0.1u 5u\n")
+    _tran_agrees(netlist, ["v(b)"], [20, 40], tmp_path, 2e-3)
+    c = load(netlist + ".end\n")
+    assert sorted(el.name for el in c.elements if el.name.startswith("cshunt")) == \
+        ["cshunt(a)", "cshunt(b)", "cshunt(in)"]
+
+
+def test_option_typo_and_options_that_change_the_circuit_warn_at_the_option():
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\n.options reltoll=1e-6 ramptime=1u foo trtol=7\n.op\n.end\n")
+    warned = _warnings(c)
+    assert warned[0] == "4:10 unknown option 'reltoll' (neither netdae nor ngspice 39 knows it; ngspice 39 " \
+                        "ignores it): did you mean 'reltol'?"
+    assert warned[1].startswith("4:23 option 'ramptime' is not applied by netdae: ngspice 39 ramps")
+    assert warned[2].startswith("4:35 unknown option 'foo'") and "did you mean" not in warned[2]
+    assert len(warned) == 3  # trtol: a tolerance, only noted as unused

@@ -266,7 +266,8 @@ def test_options_and_temperature():
     assert (o.reltol, o.abstol, o.vntol, o.gmin, o.method, o.maxord, o.itl1, o.interp) == (
         1e-4, 1e-12, 1e-6, 1e-15, "gear", 3, 200, True)
     assert (o.temp, o.tnom, o.chgtol, o.itl4) == (85.0, 25.0, 1e-14, 10)
-    assert o.extra == {"filetype": "ascii", "noacct": True, "rshunt": 1e12}
+    assert o.extra == {"filetype": "ascii", "noacct": True}
+    assert o.rshunt == 1e12
     assert load("t\nR1 a 0 1\n.options method=trapezoidal\n").options.method == "trap"
 
 
@@ -341,3 +342,33 @@ def test_poly_f_h_controls_must_be_voltage_sources():
 def test_tc_and_tc1_together_are_an_error():
     with pytest.raises(NetlistError, match=r"tc1 given twice \(tc= sets tc1 and tc2\)"):
         load("t\nV1 a 0 1\nR1 a 0 1k tc1=0.1 tc=0.2\n.end\n")
+
+
+def test_a_source_without_a_value_gets_ngspices_note():
+    c = load("t\nV1 in 0 ac 1\nR1 in a 1k\nI2 a 0\nV3 b 0 sin(0 1 1k)\nR3 b 0 1\n.op\n.end\n")
+    notes = [(d.severity, d.message, d.location.line, d.location.column) for d in c.diagnostics
+             if "has no value" in d.message]
+    assert notes == [("note", "v1: has no value, DC 0 assumed (as ngspice 39 notes)", 2, 13),
+                     ("note", "i2: has no value, DC 0 assumed (as ngspice 39 notes)", 4, 7)]
+
+
+def test_a_second_k_card_on_the_same_inductors_is_warned_about():
+    c = load("k\nV1 in 0 1\nR1 in a 1\nL1 a 0 1m\nL2 b 0 1m\nR2 b 0 1k\nK1 L1 L2 0.3\nK2 L2 L1 0.3\n.op\n.end\n")
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert w.message.startswith("k2: couples l2 and l1 as k1 does: the coupling factors add")
+    assert (w.location.line, w.location.column) == (8, 1)
+
+
+def test_tran_with_tstep_above_tstop_warns_and_tmax_zero_is_not_given():
+    c = load("t\nV1 in 0 1\nR1 in a 1k\nC1 a 0 1n\n.tran 1m 1u\n.tran 1u 1m 0 0\n.end\n")
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert w.message.startswith(".tran: tstep 0.001 is larger than tstop 1e-06: swapped?")
+    assert (w.location.line, w.location.column) == (5, 7)
+    assert c.analyses[1].tmax is None  # ngspice 39 takes tmax = 0 as not given
+
+
+def test_a_double_quoted_param_value_is_its_expression_as_in_ngspice():
+    c = load('t\nV1 in 0 1\nR1 in a 1k\nR2 a 0 {rv}\n.param rv="1k" rw="rv*2"\n.op\n.end\n')
+    assert c.element("r2").value == 1e3 and c.params["rw"] == 2e3
+    with pytest.raises(NetlistError, match="unknown parameter 'abc'"):  # ngspice: 'unknown parameter (abc)'
+        load('t\nV1 in 0 1\nR2 in 0 {rv}\n.param rv="abc"\n.op\n.end\n')

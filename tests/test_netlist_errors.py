@@ -32,6 +32,12 @@ CASES = [
     ("t\n.step param r 1 2 1\nV1 a 0 1\n", r"no top-level .param defines .r.", 2, "r", 2),
     ("t\n.foo\n", r"unknown dot card '\.foo'", 2, ".foo"),
     ("t\n.subckt s a\n.tran 1u 1m\n.ends\n", r"\.tran is not allowed inside \.subckt s", 3, ".tran"),
+    # a missing .ends: the open .subckt is named, not only the card that shows it
+    ("t\n.subckt s p q\nR1 p q 1k\n.subckt t p q\nR1 p q 2k\n.ends\nV1 in 0 1\nX1 in 0 s\n.op\n",
+     r"\.op is not allowed inside \.subckt s: \.subckt s \(line 2\) has no \.ends before this card", 9, ".op"),
+    # a number below the smallest double reads as 0: out of range as 1e400 is
+    ("t\nI1 0 a 1\nR1 a 0 1e-400\n", r"r1: value '1e-400' is out of range", 3, "1e-400"),
+    ("t\nV1 a 0 1\nC1 a 0 1e-400\n", r"c1: value '1e-400' is out of range", 3, "1e-400"),
     # structure
     ("t\n.subckt s a b\nR1 a b 1\n", r"\.subckt s: no matching \.ends", 2, ".subckt"),
     ("t\n.ends\n", r"\.ends without a matching \.subckt", 2, ".ends"),
@@ -332,3 +338,11 @@ def test_osdi_card_naming_a_directory_or_a_device(tmp_path):
         err = exc.value
         assert err.message == f"OSDI file {target} {what}"
         assert (err.location.line, err.location.column) == (2, 7)
+
+
+@pytest.mark.parametrize("bv", ["-5", "0"])
+def test_a_breakdown_voltage_that_is_not_positive_is_refused_at_the_value(bv):
+    # ngspice 39 fails to converge with either (gmin stepping fails; 'timestep too small')
+    with pytest.raises(NetlistError, match=rf"model dd: bv={bv} is impossible for a diode.*bv must be > 0") as info:
+        netdae.run(f"t\nV1 in 0 -10\nR1 in a 1k\nD1 a 0 dd\n.model dd d is=1e-14 bv={bv}\n.op\n.end\n")
+    assert (info.value.location.line, info.value.location.column) == (5, 25)

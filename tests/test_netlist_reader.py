@@ -67,6 +67,17 @@ def test_lib_section_may_pull_another_section_of_its_file(tmp_path):
 def test_section_definitions_in_the_main_file_are_skipped():
     c = load("t\n.lib unused\nR9 a 0 9\n.endl\nR1 a 0 1\n.end\n")
     assert [e.name for e in c.elements] == ["r1"]
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert (w.location.line, w.location.column) == (2, 6)
+    assert w.message.startswith(".lib unused: no '.lib FILE unused' reads this library section, so its cards "
+                                "(up to .endl) are not part of the circuit")
+
+
+def test_a_section_of_the_main_file_read_through_a_reference_is_not_warned_about(tmp_path):
+    (tmp_path / "top.cir").write_text("t\n.lib top.cir s\nR1 a 0 1\n.lib s\nR9 a 0 9\n.endl\n.end\n")
+    c = load(tmp_path / "top.cir")
+    assert [e.name for e in c.elements] == ["r9", "r1"]
+    assert not [d for d in c.diagnostics if d.severity == "warning"]
 
 
 def test_missing_section_lists_the_sections():

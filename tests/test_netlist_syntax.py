@@ -88,6 +88,25 @@ def test_included_files_have_no_title_and_ignore_end():
     assert "ignored" in notes[0].message
 
 
+@pytest.mark.parametrize("first, warned", [
+    ("V1 in 0 1", "reads as an element card (v1)"),
+    (".op", "reads as a .op card"),
+    ("RC filter test", None),  # an R card without a value: a title
+    ("Diode test circuit", None),
+])
+def test_a_title_line_that_reads_as_a_card_is_warned_about(first, warned):
+    from netdae.netlist import load
+
+    c = load(f"{first}\nV1 in 0 1\nR1 in a 1k\nR2 a 0 1k\n.op\n.end\n", path="t.cir")
+    titles = [d for d in c.diagnostics if d.severity == "warning" and "the first line is the title" in d.message]
+    if warned is None:
+        assert not titles
+    else:
+        (w,) = titles
+        assert warned in w.message and "add a title line above it" in w.message
+        assert (w.location.file, w.location.line, w.location.column) == ("t.cir", 1, 1)
+
+
 def test_tokens_keep_expressions_and_strings():
     _, cards, _ = split_cards("t\nR1 a b {x * 2} tc=1, 2\n.include \"My File.cir\"\n", "f.cir")
     toks = cards[0].tokens()
@@ -189,3 +208,13 @@ def test_expression_errors_point_at_the_problem(text, message, column):
 def test_evaluation_errors(text, message):
     with pytest.raises(ValueError, match=message):
         ev(text)
+
+
+def test_a_dangling_exponent_is_warned_about_as_other_ignored_text():
+    from netdae.netlist import load
+
+    c = load("t\nV1 a 0 1\nR1 a 0 1e\nR2 a 0 1E+\nR3 a 0 1e3\n.op\n.end\n")
+    assert [(d.location.line, d.message) for d in c.diagnostics if d.severity == "warning"] == [
+        (3, "r1: value '1e' read as 1: 'e' ignored, as ngspice ignores what follows a number and its scale suffix"),
+        (4, "r2: value '1e+' read as 1: 'e+' ignored, as ngspice ignores what follows a number and its scale "
+            "suffix")]

@@ -325,12 +325,15 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     names = list(string_entries(save, "save")) if save is not None else circuit.saves
     from ..results import canonical_or
     from .noise import is_noise_name
+    from .magnitude import absurd_values_note
     from .op import shared_operating_points
     from .quantities import add_quantities, measured_quantities, plan_quantities, saved_currents
 
     noise_names = [n for n in names or () if is_noise_name(n)]  # only noise results have them
     if noise_names:
         names = [n for n in names if not is_noise_name(n)]
+    if save is not None:
+        check_saved_names(circuit, names)
     wanted = _with_measured(names, circuit)
 
     computed_from, quantities = plan_quantities(circuit, wanted)
@@ -389,6 +392,9 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
                     res = ac_analysis(circuit, card, **options)
             absent = add_quantities(circuit, res, quantities)
+            absurd = absurd_values_note(circuit, res.signals) if kind in ("op", "dc", "tran") else None
+            if absurd:
+                res.notes.append(absurd)
             if quantities and kind == "tran" and names:  # it kept what the quantities are computed from
                 res.notes = [n for n in res.notes if not n.startswith("saved: ")]
                 res.notes.append("saved: " + ", ".join(n for n in wanted if canonical_or(n) not in absent))
@@ -599,6 +605,8 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     from .tran import transient
 
     names = list(string_entries(save, "save")) if save is not None else circuit.saves
+    if save is not None:
+        check_saved_names(circuit, names)
     wanted = _with_measured(names, circuit)
     from .quantities import add_quantities, measured_quantities, plan_quantities
 
@@ -616,6 +624,28 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
         measure(circuit, [result])  # the .meas tran cards measure the first .tran
         fourier(circuit, [result])
     return result.subset(names) if wanted != names else result
+
+
+def check_saved_names(circuit: Circuit, names) -> None:
+    """Refuse a ``save=`` name of a node or element the circuit does not have, before anything runs.
+
+    Raises
+    ------
+    NetdaeError
+        ``cannot save 'v(zz)': no node 'zz' in the circuit`` (the message of ``netdae sweep``).
+    """
+    from ..signals import missing_name, parse_signal
+
+    nodes = set(circuit.nodes) | {"0"}
+    elements = {el.name for el in circuit.elements}
+    for text in names:
+        try:
+            sig = parse_signal(text)
+        except ValueError:
+            continue  # not a signal name: the analyses say what they cannot keep
+        missing = missing_name(sig, nodes, elements)
+        if missing:
+            raise NetdaeError(f"cannot save {text!r}: {missing}")
 
 
 def unused_options(circuit: Circuit) -> str | None:

@@ -118,6 +118,17 @@ def signal_names(text: str) -> list[str]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def directory_name(text: str) -> str:
+    """An argparse type: a directory name, not empty (``--out ""`` would write nothing and say nothing).
+
+    >>> directory_name("out")
+    'out'
+    """
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a directory name, got an empty one")
+    return text
+
+
 def _number(text: str) -> float:
     try:
         return float(text)

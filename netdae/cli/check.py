@@ -24,7 +24,8 @@ from . import add_ngbehavior
 __all__ = ["add_parser", "main", "summarize", "format_summary", "topology_lines"]
 
 #: Options shown in the text summary even at their default values.
-_MAIN_OPTIONS = ("reltol", "abstol", "vntol", "chgtol", "gmin", "method", "maxord", "temp", "tnom")
+_MAIN_OPTIONS = ("reltol", "abstol", "vntol", "chgtol", "gmin", "method", "maxord", "temp", "tnom", "rshunt", "cshunt",
+                 "rseries")
 
 
 def add_parser(sub) -> argparse.ArgumentParser:

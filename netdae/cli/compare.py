@@ -53,9 +53,26 @@ def add_parser(sub) -> argparse.ArgumentParser:
     return p
 
 
+def _check_selection(signals: list[str] | None, exclude: list[str]) -> None:
+    """Refuse a ``--signals`` list that leaves nothing to compare (an empty one, or all excluded).
+
+    Raises
+    ------
+    NetdaeError
+        A usage error (exit status 2), not a comparison that fails.
+    """
+    from ..errors import NetdaeError
+
+    if signals is not None and not [s for s in signals if s not in exclude]:
+        why = "is empty" if not signals else "names only signals --exclude leaves out"
+        raise NetdaeError(f"compare: --signals {why}: nothing to compare (hint: name signals such as "
+                          "'v(out),i(v1)', or leave --signals out to compare every common signal)")
+
+
 def main(args) -> int:
     from ..comparison import compare, format_comparison
 
+    _check_selection(args.signals, args.exclude)
     comparison = compare(
         args.file,
         tight=args.tight,

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import directory_name
+
 __all__ = ["add_parser", "main", "DEFAULT_NETLIST"]
 
 #: The bundled netlist the demo runs when none is given.
@@ -28,7 +30,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "it with ngspice, writing the results and plots into --out.",
     )
     p.add_argument("file", nargs="?", default=DEFAULT_NETLIST, help=f"netlist (default {DEFAULT_NETLIST})")
-    p.add_argument("--out", metavar="DIR", default="out", help="directory for results and plots (default: out)")
+    p.add_argument("--out", metavar="DIR", type=directory_name, default="out", help="directory for results and plots (default: out)")
     return p
 
 

@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import EXIT_ERROR, add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
+from . import EXIT_ERROR, add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, signal_names
 from ..signals import signal_unit
 from ..errors import OutputFileError
 
@@ -64,7 +64,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         description="Run every analysis in the netlist, print a summary and write the results.",
     )
     p.add_argument("file", help="netlist file")
-    p.add_argument("--out", metavar="DIR", help="write one file per analysis into DIR")
+    p.add_argument("--out", metavar="DIR", type=directory_name, help="write one file per analysis into DIR")
     p.add_argument("--format", choices=("csv", "raw"), default="csv",
                    help="result file format: csv (default) or ngspice raw (binary)")
     p.add_argument("--ascii", action="store_true", help="with --format raw: write ascii raw files")

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import add_ngbehavior, log_diagnostics, option_value, output_directory, signal_names
+from . import add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, signal_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -106,7 +106,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
         "optionally with Monte Carlo samples, and write a table of its measurements.",
     )
     p.add_argument("file", help="netlist file")
-    p.add_argument("--out", metavar="DIR", required=True, help="write measures.csv/.json and sweep.png into DIR")
+    p.add_argument("--out", metavar="DIR", type=directory_name, required=True, help="write measures.csv/.json and sweep.png into DIR")
     p.add_argument("--step", metavar="NAME=SPEC", action="append", type=parse_step, default=[],
                    help="step a top-level .param, an element or temp: start:stop:incr, "
                    "dec:points:start:stop, oct:points:start:stop or v1,v2,... (repeatable: all combinations)")

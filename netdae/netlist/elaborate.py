@@ -35,7 +35,8 @@ from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_lev
 from ..errors import NetlistError
 from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS, Kind
 from . import expr as ex
-from . import lossy, urc
+from . import lossy, shunts, urc
+from .shunts import DEFAULT_RSERIES
 from .elements import error, parse_value
 from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
@@ -44,6 +45,7 @@ from .measure import elaborate_measures
 from .montecarlo import DEFAULT_SEED, Draws, random_seed
 from .steps import StepSpec, model_parameter, step_values
 from .numbers import parse_number
+from .option_names import option_warning
 from .params import Env, Trace, UnknownName, evaluate_val, resolve_behavioural
 from .size import DEFAULT_MAX_ELEMENTS, check_size
 from .statements import Definition, ElementCard, InitialCard, InstanceCard, ModelCard, Netlist, ParamDef
@@ -91,7 +93,11 @@ ASRC_REFERENCE_TEMPERATURE = 27.0
 TEMPER = "temper"
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
+#: The options that add elements (:mod:`netdae.netlist.shunts`).
+_SHUNT_OPTIONS = {"rshunt", "cshunt", "rseries"}
 _METHODS = {"gear": "gear", "trap": "trap", "trapezoidal": "trap"}
+#: The options netdae reads (:func:`netdae.netlist.option_names.option_warning` compares typos with them).
+_KNOWN_OPTIONS = frozenset(_INT_OPTIONS | _FLOAT_OPTIONS | _SHUNT_OPTIONS | {"method", "interp", "seed"})
 
 
 class _Frame:
@@ -498,6 +504,7 @@ class _Elaborator:
             circuit.elements.append(el)
         for el, p in pending:
             self._check_references(el, p, elements, nodes)
+        self._check_duplicate_couplings(circuit.elements)
         if any(el.kind in LAPLACE_KINDS for el in circuit.elements):
             cards = {el.name: (p.item.card, p.item.expr[1]) for el, p in pending if el.kind in LAPLACE_KINDS}
             circuit.elements = self._realise_laplace(circuit.elements, elements, nodes, cards)
@@ -509,6 +516,7 @@ class _Elaborator:
         self._apply_models(circuit)
         if any(el.kind == Kind.URC for el in circuit.elements):
             self._realise_urc(circuit, elements, nodes)
+        self._realise_shunts(circuit, elements, nodes)
         circuit.nodes = list(nodes)
         self._check_zero_capacitor_nodes(circuit.elements)
         circuit.params = Params(self._top_params())
@@ -649,6 +657,30 @@ class _Elaborator:
                 nodes.setdefault(n, None)
             out.extend(parts)
         circuit.elements = out
+
+    @staticmethod
+    def _realise_shunts(circuit: Circuit, elements: dict, nodes: dict) -> None:
+        """The resistors and capacitors of ``.options rseries``, ``rshunt`` and ``cshunt`` added.
+
+        Raises
+        ------
+        NetlistError
+            A series resistor's name (``rl1_intern__``) or its node that the circuit already has.
+        """
+        o = circuit.options
+        if o.rseries is not None:
+            circuit.elements, added, inner = shunts.series_resistors(circuit.elements, o.rseries)
+            for part, node in zip(added, inner):
+                if part.name in elements or node in nodes:
+                    what = f"element name '{part.name}'" if part.name in elements else f"node name '{node}'"
+                    raise NetlistError(f"{part.name[1:]}: .options rseries: the internal {what} is taken",
+                                       part.location, hint="rename it (ngspice 39 names them so too)")
+                elements[part.name] = part
+                nodes[node] = None
+        extra = shunts.shunt_elements([n for n in nodes], o.rshunt, o.cshunt)
+        for part in extra:
+            elements[part.name] = part
+        circuit.elements.extend(extra)
 
     def _realise_lines(self, circuit: Circuit, elements: dict, cards: dict) -> None:
         """Every lossy line (O, Y, P) replaced by its sections (:mod:`netdae.netlist.lossy`).
@@ -813,6 +845,21 @@ class _Elaborator:
             raise NetlistError(f"{el.name}: model {model.name} gives the resistance {value:g} (from rsh, l, w, "
                                "short and narrow)", el.location, hint="the resistance must be positive")
         return value
+
+    def _check_duplicate_couplings(self, elements: list[Element]) -> None:
+        """A warning at each K card coupling a pair of inductors an earlier K card couples (the factors add)."""
+        first: dict[frozenset, Element] = {}
+        for el in elements:
+            if el.kind != Kind.COUPLING:
+                continue
+            pair = frozenset(el.controls)
+            if pair in first:
+                a, b = el.controls
+                self.diagnostics.append(Diagnostic(
+                    "warning", f"{el.name}: couples {a} and {b} as {first[pair].name} does: the coupling factors "
+                    "add (ngspice 39 warns 'duplicate K instances' and adds them too)", el.location))
+            else:
+                first[pair] = el
 
     def _check_zero_capacitor_nodes(self, elements: list[Element]) -> None:
         """A node reached only through zero capacitances has no equation (ngspice: singular matrix)."""
@@ -1243,8 +1290,12 @@ class _Elaborator:
                 tstart = v.get("tstart", 0.0)
                 if not 0 <= tstart < v["tstop"]:
                     raise error(card, args["tstart"][1], f"tstart must be in [0, tstop), got {tstart:g}", form)
-                tmax = v.get("tmax")
-                if tmax is not None and tmax <= 0:
+                if v["tstep"] > v["tstop"]:
+                    self.diagnostics.append(Diagnostic(
+                        "warning", f".tran: tstep {v['tstep']:g} is larger than tstop {v['tstop']:g}: swapped? "
+                        "(.tran tstep tstop: the print step comes first)", card.location(args["tstep"][1])))
+                tmax = v.get("tmax") or None  # tmax = 0: not given, as ngspice 39 reads it
+                if tmax is not None and tmax < 0:
                     raise error(card, args["tmax"][1], f"tmax must be > 0, got {tmax:g}", form)
                 circuit.analyses.append(TranAnalysis(v["tstep"], v["tstop"], tstart, tmax, args["uic"], loc))
             elif a.kind == "ac":
@@ -1488,7 +1539,10 @@ class _Elaborator:
         opts = Options()
         for name, value, offset, card in self.net.options:
             form = DOT_CARDS[".options"]
-            if name in _FLOAT_OPTIONS or name in _INT_OPTIONS:
+            if name == "rseries" and value is True:
+                opts.rseries = DEFAULT_RSERIES
+                continue
+            if name in _FLOAT_OPTIONS or name in _INT_OPTIONS or name in _SHUNT_OPTIONS:
                 if value is True or value.kind == STRING:
                     raise error(card, offset, f"option '{name}' needs a number", form)
                 number = self._option_number(value, card)
@@ -1517,18 +1571,27 @@ class _Elaborator:
                 opts.interp = True
             elif name == "seed":
                 opts.seed = self.root.draws.seed  # read (and checked) before the parameters, by _seed
-            elif value is True:
-                opts.extra[name] = True
-            elif value.kind == EXPR or (value.kind == WORD and parse_number(value.text) is not None):
-                opts.extra[name] = self._option_number(value, card)
             else:
-                opts.extra[name] = value.text
+                opts.extra[name] = self._extra_option(circuit, name, value, offset, card)
         for val, card in self.net.temps:
             opts.temp = self._value(val, card, "temperature")
             self._check_temperature(opts.temp, card, val[1], ".temp")
         if TEMPER in self.overrides:
             opts.temp = float(self.overrides[TEMPER])
         circuit.options = opts
+
+    def _extra_option(self, circuit: Circuit, name: str, value, offset: int, card):
+        """The value of an option netdae keeps as written; a located warning when ngspice 39
+        simulates another circuit with it, or when the name is unknown to both (a typo)."""
+        bsim = name == "scale" and any(el.kind == Kind.OSDI and el.letter == "m" for el in circuit.elements)
+        text = None if bsim else option_warning(name, _KNOWN_OPTIONS)
+        if text is not None:
+            self.diagnostics.append(Diagnostic("warning", text, card.location(offset)))
+        if value is True:
+            return True
+        if value.kind == EXPR or (value.kind == WORD and parse_number(value.text) is not None):
+            return self._option_number(value, card)
+        return value.text
 
     def _option_number(self, tok, card) -> float:
         val = parse_value(card, tok, DOT_CARDS[".options"], "option value")

@@ -15,7 +15,7 @@ from ..errors import NetlistError
 from ..kinds import KINDS, MAX_CPL_CONDUCTORS, Kind
 from . import expr as ex
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
-from .numbers import ignored_text, parse_number
+from .numbers import ignored_text, parse_number, underflows
 from .statements import ElementCard, InstanceCard, SourceCard, Val
 from .syntax import ELEMENTS, SOURCE_FUNCTIONS, UNSUPPORTED_ELEMENTS, ElementSyntax, supported_letters
 from .waveforms import WAVEFORMS
@@ -82,7 +82,7 @@ def parse_value(card: Card, tok: Token, syntax=None, what: str = "value", *, num
     else:
         number = None
     if number is not None:
-        if not math.isfinite(number):
+        if not math.isfinite(number) or (tok.kind == WORD and number == 0.0 and underflows(tok.text)):
             raise error(card, tok.start, f"{what} '{tok.text}' is out of range", syntax)
         return number, tok.start
     if tok.kind == WORD:
@@ -542,6 +542,8 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
             raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
                         hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
         first = False
+    if spec.dc is None and spec.tran is None:
+        card.warn(_end(card), "has no value, DC 0 assumed (as ngspice 39 notes)", severity="note")
     return ElementCard(toks[0].text, kind, card, nodes, source=spec)
 
 

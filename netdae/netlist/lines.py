@@ -161,12 +161,12 @@ class Card:
         #: have; a located warning) is skipped, as ngspice goes on past a failed command, not refused.
         self.from_control = False
 
-    def warn(self, offset: int, message: str) -> None:
-        """Record a located warning about this card (its name prefixes ``message``)."""
+    def warn(self, offset: int, message: str, severity: str = "warning") -> None:
+        """Record a located warning (or note) about this card (its name prefixes ``message``)."""
         name = self.text.split(None, 1)[0] if self.text else ""
         if self.notes is None:
             self.notes = []
-        self.notes.append(Diagnostic("warning", f"{name}: {message}", self.location(offset)))
+        self.notes.append(Diagnostic(severity, f"{name}: {message}", self.location(offset)))
 
     def take_notes(self) -> list[Diagnostic]:
         """The recorded warnings, removed from the card."""

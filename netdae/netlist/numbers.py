@@ -50,7 +50,7 @@ import math
 import re
 from functools import lru_cache
 
-__all__ = ["SCALE", "MICRO", "parse_number", "ignored_text", "scan_param_number"]
+__all__ = ["SCALE", "MICRO", "parse_number", "ignored_text", "underflows", "scan_param_number"]
 
 #: Scale factors of the one-letter suffixes (``m`` is milli; ``meg`` and
 #: ``mil`` are recognised before ``m``).
@@ -168,10 +168,19 @@ def ignored_text(token: str) -> str:
     --------
     >>> ignored_text("1.2.3k"), ignored_text("4k7"), ignored_text("10kOhm"), ignored_text("1meg")
     ('.3k', '7', '', '')
+
+    An exponent without digits (``1e``, ``1E+``) is ignored text too:
+
+    >>> ignored_text("1e"), ignored_text("1E+"), ignored_text("1e3")
+    ('e', 'E+', '')
     """
     m = _SPICE_NUMBER.match(token)
     rest = m.group(6)
-    if not rest or not (m.group(2) or m.group(3)):
+    if not (m.group(2) or m.group(3)):
+        return ""
+    if m.group(4) is not None and not m.group(5):  # a dangling exponent: '1e', '1E+'
+        return token[m.start(4) - 1:]
+    if not rest:
         return ""
     c = rest[0].lower()
     if c == "m":
@@ -180,6 +189,19 @@ def ignored_text(token: str) -> str:
     elif c in SCALE:
         rest = rest[1:]
     return rest if _DIGIT_OR_POINT.search(rest) else ""
+
+
+def underflows(token: str) -> bool:
+    """Whether a number token with a nonzero mantissa reads as 0 (``1e-400``: below the smallest double).
+
+    Examples
+    --------
+    >>> underflows("1e-400"), underflows("0e-400"), underflows("1e-300")
+    (True, False, False)
+    """
+    m = _SPICE_NUMBER.match(token)
+    digits = (m.group(2) or "") + (m.group(3) or "")
+    return parse_number(token) == 0.0 and any(d != "0" for d in digits)
 
 
 def scan_param_number(text: str, pos: int) -> tuple[float, int] | None:

@@ -67,6 +67,7 @@ def build(deck: Deck) -> Netlist:
                   files=list(deck.files), osdi=list(deck.osdi), behavior=deck.behavior)
     stack = [top]
     calls = circuit_function_calls(card for card in deck.cards if card.text[0] == ".")
+    net.diagnostics.extend(_title_like_a_card(deck, calls))
     for card in deck.cards:
         if card.text[0] == ".":
             _dot_card(card, stack, net)
@@ -92,6 +93,33 @@ def build(deck: Deck) -> Netlist:
     _resolve_ako(top, top)
     _settle(top)
     return net
+
+
+def _title_like_a_card(deck: Deck, calls) -> list[Diagnostic]:
+    """A warning when the title line (the first line, as in ngspice) reads as a dot card or an element card.
+
+    A netlist without its title line loses its first card so, silently in ngspice.
+    """
+    title = deck.title
+    if not title or not deck.path or title[0] == "*":
+        return []
+    card = Card(title, deck.path, [(0, 1, 1)])
+    word = title.split()[0].lower()
+    if word[0] == ".":
+        what = f"a {word} card" if DOT_ALIASES.get(word, word) in DOT_CARDS else None
+    elif word[0] in ELEMENTS:
+        try:
+            parse_element(card, calls)
+            what = f"an element card ({word})"
+        except NetlistError:
+            what = None
+    else:
+        what = None
+    if what is None:
+        return []
+    return [Diagnostic("warning", f"the first line is the title (as in ngspice), but '{title}' reads as {what}: it is "
+                       "not part of the circuit; if it is meant as a card, add a title line above it",
+                       card.location(0))]
 
 
 def add_cards(net: Netlist, cards: list[Card]) -> None:
@@ -183,9 +211,11 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
         raise NetlistError(f"unknown dot card '{toks[0].text}'", card.location(0),
                            hint="netdae reads " + " ".join(sorted(DOT_CARDS)))
     if scope.name is not None and word not in _IN_SUBCKT:
-        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}", card.location(0),
-                           hint="move it to the top level (name subcircuit nodes hierarchically, "
-                                "e.g. v(x1.mid))")
+        where = f" (line {scope.card.line})" if scope.card is not None else ""
+        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}: .subckt {scope.name}{where} has no "
+                           f".ends before this card", card.location(0),
+                           hint=f"close .subckt {scope.name} with '.ends' before this card, or move the card to the "
+                                "top level (name subcircuit nodes hierarchically, e.g. v(x1.mid))")
     _HANDLERS[word](card, toks, stack, net)
 
 
@@ -281,6 +311,8 @@ def _param(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
                         f"expected '=' after parameter name '{tok.text}'", form,
                         hint="write name=value; a value with blanks needs {braces} or 'quotes'")
         end = _value_end(toks, i + 2)
+        if end == i + 3 and toks[i + 2].kind == STRING:  # "1k": ngspice 39 reads the text inside as the expression
+            toks[i + 2] = Token(toks[i + 2].text, EXPR, toks[i + 2].start, toks[i + 2].end)
         if end == i + 2 or toks[i + 2].kind not in (WORD, EXPR, PUNCT) or toks[i + 2].text in ",)=":
             raise error(card, toks[i + 1].start, f"missing value for parameter '{tok.text}'", form)
         if end == i + 3:

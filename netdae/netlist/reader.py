@@ -68,6 +68,8 @@ class Deck:
         Whether the mode's PSpice translations were applied (False: the deck for ngspice).
     predefined : set of str
         The modes (``"ps"``, ``"lt"``) whose parameters and functions are defined (once per netlist).
+    sections_read : set of (str, str)
+        The library sections read, as (real path of the file, section name).
     """
 
     title: str
@@ -79,6 +81,7 @@ class Deck:
     behavior: Behavior | None = None
     translate: bool = True
     predefined: set = field(default_factory=set)
+    sections_read: set = field(default_factory=set)
 
 
 def _first_word(card: Card) -> str:
@@ -206,6 +209,10 @@ def read_deck(source, *, path: str | None = None, behavior=None, translate: bool
         display = path if path is not None else STRING_SOURCE
     else:
         raise TypeError(f"source must be a file name or netlist text, not {type(source).__name__}")
+    if not text.strip():
+        raise NetlistError(f"the netlist {'file ' if display != STRING_SOURCE else ''}is empty"
+                           f"{' (0 bytes)' if not text else ' (only blanks)'}", SourceLocation(display, 1, 1),
+                           hint="a netlist is a title line, then element cards and an analysis card such as .op")
     base = os.path.dirname(display) if display != STRING_SOURCE else ""
     mode, mode_notes = resolve_behavior(behavior, base)
     title, cards, notes = split_cards(text, display, title=True, pspice=bool(mode and mode.pspice))
@@ -218,7 +225,23 @@ def read_deck(source, *, path: str | None = None, behavior=None, translate: bool
         cards = _translate(cards, deck, main=True)
     root_key = (os.path.realpath(display) if display != STRING_SOURCE else STRING_SOURCE, None)
     deck.cards = _expand(cards, base, [root_key], [display], deck)
+    deck.notes.extend(_unread_sections(cards, root_key[0], deck))
     return deck
+
+
+def _unread_sections(cards: list[Card], path: str, deck: Deck) -> list[Diagnostic]:
+    """A warning for each ``.lib section`` of the main netlist no ``.lib file section`` reads."""
+    out = []
+    if deck.behavior is not None and deck.behavior.reads_lib_as_include:
+        return out
+    for card in cards:
+        args = _arguments(card)[1:] if _first_word(card) == ".lib" else []
+        if len(args) == 1 and (path, args[0][0]) not in deck.sections_read:
+            out.append(Diagnostic("warning", f".lib {args[0][1]}: no '.lib FILE {args[0][1]}' reads this library "
+                                  "section, so its cards (up to .endl) are not part of the circuit (ngspice 39 "
+                                  "refuses a .lib section in the netlist itself: 'unimplemented control card')",
+                                  card.location(args[0][2])))
+    return out
 
 
 def _translate(cards: list[Card], deck: Deck, *, main: bool) -> list[Card]:
@@ -357,6 +380,7 @@ def _include(card: Card, at: int, target: str, section: str | None, chain: list,
         deck.files.append(target)
     if section is not None:
         cards = _section(cards, section, card, at, target)
+        deck.sections_read.add(key)
     return _expand(cards, os.path.dirname(target), chain + [key], shown + [target], deck)
 
 

@@ -86,7 +86,7 @@ def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
     NetdaeError
         A malformed name, or one naming no node or element (checked once, not per row).
     """
-    from ..signals import parse_signal
+    from ..signals import missing_name, parse_signal
 
     nodes = set(circuit.nodes) | {"0"}
     names = {el.name for el in circuit.elements}
@@ -96,12 +96,9 @@ def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
             sig = parse_signal(text)
         except ValueError as exc:
             raise NetdaeError(f"sweep: save: {exc}") from None
-        missing = [n for n in sig.nodes if n not in nodes and "#" not in n]
-        if sig.kind in ("i", "@") and sig.args[0] not in names:
-            missing = [sig.args[0]]
+        missing = missing_name(sig, nodes, names)
         if missing:
-            what = "node" if sig.kind == "v" else "element"
-            raise NetdaeError(f"sweep: save: no {what} '{missing[0]}' in the circuit (in {text!r})")
+            raise NetdaeError(f"sweep: save: {missing} (in {text!r})")
         out.append(sig.name)
     return out
 
