@@ -312,6 +312,14 @@ def test_a_variable_outside_control_is_a_comment_and_the_card_is_refused():
     assert info.value.location is not None and info.value.location.line == 3
 
 
+@pytest.mark.parametrize("command", ["alter r1 foo = 5", "alter @r1[foo] = 5"])
+def test_alter_of_a_parameter_the_element_does_not_have_is_located(command):
+    # ngspice: "Error: no such parameter foo."; netdae said the circuit was altered and changed nothing
+    with pytest.raises(NetlistError, match=r"no such parameter 'foo' of r1 \(a resistor\)") as info:
+        load(f"t\nV1 in 0 1\nR1 in a 1k\nR2 a 0 1k\n.control\n{command}\nop\n.endc\n.end\n")
+    assert (info.value.location.line, info.value.location.column) == (6, 1)
+
+
 def test_alter_of_a_missing_element_is_located():
     with pytest.raises(NetlistError, match="no element 'r9'") as info:
         load("t\nV1 a 0 1\nR1 a 0 1k\n.control\nop\nalter r9 = 2k\nop\n.endc\n.end\n")

@@ -683,3 +683,23 @@ def test_option_typo_and_options_that_change_the_circuit_warn_at_the_option():
     assert warned[1].startswith("4:23 option 'ramptime' is not applied by netdae: ngspice 39 ramps")
     assert warned[2].startswith("4:35 unknown option 'foo'") and "did you mean" not in warned[2]
     assert len(warned) == 3  # trtol: a tolerance, only noted as unused
+
+
+def test_maxstep_is_warned_with_where_the_largest_step_goes():
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\n.options maxstep=1u\n.op\n.end\n")
+    (warned,) = _warnings(c)
+    assert "option 'maxstep' of other SPICEs is ignored" in warned and "fourth argument of .tran" in warned
+
+
+def test_a_diode_with_ngspices_thermal_node_reads_as_ngspice_39_reads_it():
+    # 'D a k t mname': ngspice 39's thermal node, unconnected without the instance flag 'thermal' (ngspice
+    # 39: v(b) = 0.9534642 V, as the two-node diode); it was read as model 't' with the area 'dm'
+    two = netdae.run(load("d\n.model dm d is=1e-14 n=1.5 rs=1\nV1 a 0 1\nR1 a b 100\nD3 b 0 dm\n.op\n.end\n"))
+    three = netdae.run(load("d\n.model dm d is=1e-14 n=1.5 rs=1\nV1 a 0 1\nR1 a b 100\nD3 b 0 tj dm 2\n"
+                            ".op\n.end\n"))
+    area2 = netdae.run(load("d\n.model dm d is=1e-14 n=1.5 rs=1\nV1 a 0 1\nR1 a b 100\nD3 b 0 dm 2\n.op\n.end\n"))
+    assert two[0]["v(b)"][0] == pytest.approx(0.9534642, abs=1e-7)
+    assert three[0]["v(b)"][0] == area2[0]["v(b)"][0]  # the area after the model, as with two nodes
+    with pytest.raises(NetlistError, match=r"d3: no model 'zz' or 'yy' defined") as info:
+        load("d\nV1 a 0 1\nR1 a b 100\nD3 b 0 zz yy\n.op\n.end\n")
+    assert (info.value.location.line, info.value.location.column) == (4, 8)

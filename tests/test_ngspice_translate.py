@@ -79,7 +79,9 @@ def test_includes_and_library_sections_are_expanded_by_netdae(tmp_path):
     out, notes = translate_for_ngspice(text, base_dir=tmp_path)
     assert out.splitlines() == ["t", ".model dm d is=1e-14 n=1.5", ".param rval=1k", f"E1 o 0 a b {OPAMP_GAIN!r}",
                                 "R1 a o {rval}", ".op", ".end"]
-    assert notes[0].startswith("line 4: E1")
+    assert any(n.startswith("line 4: E1") for n in notes)
+    # the main file's own section, which nothing reads, is left out with a warning (ngspice 39 refuses it)
+    assert any("no '.lib FILE section' reads" in n for n in notes)
     with pytest.raises(NetlistError, match="not found"):
         translate_for_ngspice("t\n.include missing.lib\n.op\n", base_dir=tmp_path)
 

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..circuit import STAMP_MAGNITUDES, TOLERANCE_MIN, AcAnalysis, Circuit, DcAnalysis, NoiseAnalysis, OpAnalysis, PzAnalysis, \
     SensAnalysis, TfAnalysis, TranAnalysis
-from ..errors import NetdaeError, NetlistError
+from ..errors import CircuitError, NetdaeError, NetlistError
 from ..kinds import Kind
 
 if TYPE_CHECKING:
@@ -631,7 +631,7 @@ def check_saved_names(circuit: Circuit, names) -> None:
 
     Raises
     ------
-    NetdaeError
+    CircuitError
         ``cannot save 'v(zz)': no node 'zz' in the circuit`` (the message of ``netdae sweep``).
     """
     from ..signals import missing_name, parse_signal
@@ -645,7 +645,7 @@ def check_saved_names(circuit: Circuit, names) -> None:
             continue  # not a signal name: the analyses say what they cannot keep
         missing = missing_name(sig, nodes, elements)
         if missing:
-            raise NetdaeError(f"cannot save {text!r}: {missing}")
+            raise CircuitError(f"cannot save {text!r}: {missing}")
 
 
 def unused_options(circuit: Circuit) -> str | None:

@@ -63,7 +63,7 @@ from ..kinds import KINDS, STEPPABLE_KINDS
 from .expr import evaluate, parse_expression
 from .lines import Card, fold_case
 from .numbers import parse_number
-from .syntax import UNSUPPORTED_DOT_CARDS
+from .syntax import ELEMENTS, UNSUPPORTED_DOT_CARDS
 from .waveforms import WAVEFORMS, RandomSource
 
 __all__ = ["read_block", "run_scripts", "with_scripts", "elaborate_scripted", "needs_script", "csparam_values", "waveform", "change_key",
@@ -734,6 +734,11 @@ class _Script:
                                    f"{', '.join(names) or 'none for ' + el.kind}), a "
                                    "source's function, an instance parameter of a top-level element and model "
                                    f"parameters (altermod), not the parameter '{param}' of {name}", self.where(step))
+            syntax = ELEMENTS.get(name[0])
+            if syntax is not None and syntax.keywords and param not in syntax.keywords:
+                raise NetlistError(f".control: '{step.text}': no such parameter '{param}' of {name} (a "
+                                   f"{syntax.description})", self.where(step),
+                                   hint=f"known parameters: {' '.join(sorted(syntax.keywords))}")
             return Alteration("instance", name, param, value, self.where(step), f"alter @{name}[{param}] = {value!r}")
         if isinstance(value, tuple) or el.kind not in STEPPABLE_KINDS:
             raise NetlistError(f".control: '{step.text}': {name} ({el.kind}) takes no "

@@ -512,8 +512,12 @@ class _Elaborator:
                and circuit.models[el.model].type == _PSPICE_SWITCHES[el.kind] for el in circuit.elements):
             circuit.elements = self._realise_pspice_switches(circuit, elements)
         circuit.osdi_files = list(net.osdi)
+        self._scale_warning = None
         self._options(circuit)  # (BSIM binning and sizes read .options scale and wnflag)
         self._apply_models(circuit)
+        if self._scale_warning is not None and not any(el.kind == Kind.OSDI and el.letter == "m"
+                                                       for el in circuit.elements):
+            self.diagnostics.append(self._scale_warning)
         if any(el.kind == Kind.URC for el in circuit.elements):
             self._realise_urc(circuit, elements, nodes)
         self._realise_shunts(circuit, elements, nodes)
@@ -1583,9 +1587,11 @@ class _Elaborator:
     def _extra_option(self, circuit: Circuit, name: str, value, offset: int, card):
         """The value of an option netdae keeps as written; a located warning when ngspice 39
         simulates another circuit with it, or when the name is unknown to both (a typo)."""
-        bsim = name == "scale" and any(el.kind == Kind.OSDI and el.letter == "m" for el in circuit.elements)
-        text = None if bsim else option_warning(name, _KNOWN_OPTIONS)
-        if text is not None:
+        text = option_warning(name, _KNOWN_OPTIONS)
+        if text is not None and name == "scale":
+            # BSIM M elements read it (binning, sizes): judged once the models made them OSDI instances
+            self._scale_warning = Diagnostic("warning", text, card.location(offset))
+        elif text is not None:
             self.diagnostics.append(Diagnostic("warning", text, card.location(offset)))
         if value is True:
             return True

@@ -870,6 +870,12 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
     return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
 
+def _numeric(text: str) -> bool:
+    """Whether a word starts as a number does (a digit, or a sign or point and a digit)."""
+    head = text.lstrip("+-")
+    return bool(head) and (head[0].isdigit() or (head[0] == "." and len(head) > 1 and head[1].isdigit()))
+
+
 def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, count: int) -> ElementCard:
     positional, keywords = split_args(card, toks, 1, syntax)
     params = _keyword_params(card, keywords, syntax, kind)
@@ -893,6 +899,12 @@ def _device(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str, cou
     if kind == Kind.MOSFET and len(words) in (count, count + 2) and all(t.kind == WORD for t in words):
         # three nodes and a model is ngspice 39's VDMOS, five nodes and a model its self-heating form;
         # judged when the models are known (parser._settle)
+        el.positional = words
+        return el
+    if (kind == Kind.DIODE and len(words) in (count + 2, count + 3) and all(t.kind == WORD for t in words[:count + 2])
+            and not _numeric(words[count + 1].text)):
+        # 'D a k t mname [area]': ngspice 39's third node (its diode's thermal node) or 'D a k mname pname'
+        # (an area given as a parameter's name): judged when the models are known (parser._settle)
         el.positional = words
         return el
     if len(words) < count + 1 or any(t.kind != WORD for t in words[: count + 1]):

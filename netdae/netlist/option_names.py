@@ -32,6 +32,13 @@ CIRCUIT_OPTIONS = {
 }
 
 
+#: Options of other SPICEs that ngspice 39 ignores, and where ngspice takes what they mean.
+OTHER_SPICE_OPTIONS = {
+    "maxstep": "the largest time step is the fourth argument of .tran (tmax)",
+    "delmax": "the largest time step is the fourth argument of .tran (tmax)",
+}
+
+
 def option_warning(name: str, known: frozenset[str] | set[str]) -> str | None:
     """The warning an option netdae does not apply deserves, or None.
 
@@ -49,12 +56,16 @@ def option_warning(name: str, known: frozenset[str] | set[str]) -> str | None:
     "unknown option 'reltoll' (neither netdae nor ngspice 39 knows it; ngspice 39 ignores it): did you mean 'reltol'?"
     >>> option_warning("trtol", {"reltol"}) is None
     True
+    >>> option_warning("maxstep", {"reltol"})
+    "option 'maxstep' of other SPICEs is ignored by ngspice 39 and netdae: the largest time step is the fourth argument of .tran (tmax)"
     """
     if name in CIRCUIT_OPTIONS:
         return f"option '{name}' is not applied by netdae: {CIRCUIT_OPTIONS[name]}, so its results are those of " \
                "another circuit"
     if name in NGSPICE_OPTIONS or name in known:
         return None
+    if name in OTHER_SPICE_OPTIONS:
+        return f"option '{name}' of other SPICEs is ignored by ngspice 39 and netdae: {OTHER_SPICE_OPTIONS[name]}"
     text = f"unknown option '{name}' (neither netdae nor ngspice 39 knows it; ngspice 39 ignores it)"
     close = difflib.get_close_matches(name, sorted(NGSPICE_OPTIONS | set(known)), n=1)
     return text + (f": did you mean '{close[0]}'?" if close else "")

@@ -912,6 +912,8 @@ def _settle_card(item: ElementCard, scope: Definition) -> None:
         _settle_bjt(item, scope)
     elif item.kind == Kind.MOSFET and item.positional is not None:
         _settle_three_node_mosfet(item, scope)
+    elif item.kind == Kind.DIODE and item.positional is not None:
+        _settle_diode(item, scope)
     elif KINDS[item.kind].passive and item.model is None:
         value = item.value[0] if item.value is not None else None
         if (item.kind != Kind.INDUCTOR and isinstance(value, ex.Param)
@@ -956,6 +958,30 @@ def _settle_three_node_mosfet(el: ElementCard, scope: Definition) -> None:
     el.kind = Kind.VDMOS.value
     el.nodes = tuple("0" if t.text == "gnd" else t.text for t in words[:3])
     el.model = (words[3].text, words[3].start)
+    el.positional = None
+
+
+def _settle_diode(el: ElementCard, scope: Definition) -> None:
+    """A D card whose third word is not its model: ``D a k t mname [area]``, ngspice 39's diode with its
+    thermal node ``t`` (used only with the instance flag ``thermal``, refused by netdae: without it ngspice
+    leaves the node unconnected, and so does netdae), or ``D a k mname pname`` (an area by name)."""
+    syntax, card = ELEMENTS["d"], el.card
+    words = el.positional
+    names = [t.text for t in words]
+    if scope.lookup_model(names[2]) is not None:
+        count = 2
+    elif scope.lookup_model(names[3]) is not None:
+        count = 3
+    else:
+        raise error(card, words[2].start, f"no model '{names[2]}' or '{names[3]}' defined", syntax,
+                    hint="define it with .model mname d (...)")
+    el.nodes = tuple("0" if n == "gnd" else n for n in names[:2])
+    el.model = (names[count], words[count].start)
+    extra = words[count + 1:]
+    if extra:
+        el.params["area"] = parse_value(card, extra[0], syntax, "area")
+    if len(extra) > 1:
+        raise error(card, extra[1].start, f"unexpected {extra[1].text!r}", syntax)
     el.positional = None
 
 
