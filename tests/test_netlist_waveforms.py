@@ -227,3 +227,18 @@ def test_bank_needs_resolved_waveforms():
     with pytest.raises(ValueError, match="not resolved"):
         SourceBank([Sin(0, 1)])
     assert SourceBank([]).values(1.0).shape == (0,)
+
+
+@pytest.mark.parametrize("inside, outside", [
+    ("PWL(0 0 1u 1 50u 1 51u 0 r=0)", "PWL(0 0 1u 1 50u 1 51u 0) r=0"),
+    ("PWL(0 0 1u 1 2u 0 td=5u r=1u)", "PWL(0 0 1u 1 2u 0) td=5u r=1u"),
+])
+def test_pwl_repeat_and_delay_inside_the_parentheses(inside, outside):
+    # ngspice 39 reads r= and td= inside PWL's parentheses too; netdae refused them ("bad PWL parameter '='")
+    from netdae.netlist import load
+
+    def wave(card):
+        c = load(f"t\nV1 a 0 {card}\nR1 a 0 1k\n.tran 1u 200u\n.end\n")
+        return c.elements[0].source.tran
+
+    assert wave(inside) == wave(outside)

@@ -560,6 +560,7 @@ def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -
     n = len(toks)
     j = i + 1
     vals: list[Val] = []
+    extras: dict = {}
     if j < n and toks[j].kind == PUNCT and toks[j].text == "(":
         j += 1
         while True:
@@ -571,6 +572,9 @@ def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -
                 break
             if t.kind == PUNCT and t.text == ",":
                 j += 1
+                continue
+            if kind == "pwl" and _pwl_extra(card, toks, j, extras, syntax):
+                j += 3  # 'PWL(t1 v1 ... r=0 td=1u)': ngspice 39 reads them inside the parentheses too
                 continue
             vals.append(parse_value(card, t, syntax, f"{kind.upper()} parameter"))
             j += 1
@@ -584,15 +588,21 @@ def _waveform(card: Card, toks: list[Token], i: int, spec: SourceCard, syntax) -
             j += 1
             if j < n and toks[j].kind == PUNCT and toks[j].text == ",":
                 j += 1
-    extras: dict = {}
     if kind == "pwl":
-        while j + 2 < n and toks[j].kind == WORD and toks[j].text in ("r", "td") and toks[j + 1].text == "=":
-            if toks[j].text in extras:
-                raise error(card, toks[j].start, f"PWL {toks[j].text}= given twice", syntax)
-            extras[toks[j].text] = parse_value(card, toks[j + 2], syntax)
+        while _pwl_extra(card, toks, j, extras, syntax):
             j += 3
     spec.tran = (kind, vals, extras, name_tok.start)
     return j
+
+
+def _pwl_extra(card: Card, toks: list[Token], j: int, extras: dict, syntax: ElementSyntax) -> bool:
+    """Read a PWL's ``r=value`` or ``td=value`` at token ``j`` into ``extras``; False when there is none."""
+    if not (j + 2 < len(toks) and toks[j].kind == WORD and toks[j].text in ("r", "td") and toks[j + 1].text == "="):
+        return False
+    if toks[j].text in extras:
+        raise error(card, toks[j].start, f"PWL {toks[j].text}= given twice", syntax)
+    extras[toks[j].text] = parse_value(card, toks[j + 2], syntax)
+    return True
 
 
 def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
