@@ -192,3 +192,16 @@ def test_title_card_on_the_first_line(first, title, tmp_path):
     c = load(text)
     assert c.title.lower() == shown.lower() == title.lower()
     assert [e.name for e in c.elements] == ["v1", "r1"]
+
+
+def test_a_three_argument_limit_is_the_clamp_with_a_warning_about_ngspice():
+    # ngspice 39: limit(2, -0.5, 0.8) in a .param is its Monte Carlo limit(nom, avar) (1.5 or 2.5), and
+    # limit(v(x), -0.5, 0.8) in a B source is 0; netdae clamps, and says so where it is written
+    from netdae.netlist import load
+
+    c = load("t\n.param lp={limit(2, -0.5, 0.8)}\nV1 x 0 1\nB1 o 0 V=limit(v(x), -0.5, 0.8)\nR1 o 0 1k\n"
+             "R2 x 0 {lp}\n.op\n.end\n")
+    warned = [(d.location.line, d.message) for d in c.diagnostics if d.severity == "warning"]
+    assert [line for line, _ in warned] == [2, 4]
+    assert all("is the clamp in netdae, but not in ngspice 39" in text for _, text in warned)
+    assert next(el for el in c.elements if el.name == "r2").value == 0.8

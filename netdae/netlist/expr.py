@@ -664,6 +664,11 @@ class _Parser:
                 raise self.error(f"pwl() takes the input and at least two (x, y) pairs, got {len(args)} "
                                  "argument(s)", start, hint="write pwl(expr, x0, y0, x1, y1, ...)")
             return Call(name, tuple(args))
+        if name == "limit" and len(args) == 3 and self.warn is not None:
+            self.warn(start, "limit(x, lo, hi) is the clamp in netdae, but not in ngspice 39: its parameter "
+                             "expressions read ngspice's Monte Carlo limit(nom, avar) (x + lo or x - lo at random, "
+                             "hi ignored) and its behavioural sources give 0; write min(max(x, lo), hi) for a clamp "
+                             "both simulators compute")
         if name in ("min", "max") and len(args) == 1 and self.context == PARAM and self.warn is not None:
             # ngspice's parameter evaluator reads a missing second operand of min/max as 1
             self.warn(start, f"{name}() with one argument: read as {name}(x, 1), as ngspice 39 reads it "
