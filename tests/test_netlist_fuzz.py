@@ -207,7 +207,18 @@ def test_deep_nesting_is_an_error_not_a_crash():
     with pytest.raises(NetlistError, match="nested deeper"):
         load("t\nR1 a 0 {" + "(" * 2000 + "1" + ")" * 2000 + "}\n")
     with pytest.raises(NetlistError, match="nested deeper"):
-        load("t\nB1 a 0 V=" + "+".join(["v(a)"] * 2000) + "\n")
+        load("t\nB1 a 0 V=" + "*".join(["v(a)"] * 2000) + "\n")
+
+
+def test_a_long_flat_sum_is_not_nesting():
+    # a generated netlist's sum of hundreds of terms was refused as 'nested deeper than 300 levels' (ngspice
+    # computes it): beyond 64 terms a chain of + and - is a balanced tree
+    c = load("t\nV1 in 0 1\nR1 in 0 {" + "+".join(["1"] * 350) + "-1}\nB1 a 0 V=" + "+".join(["v(in)"] * 2000)
+             + "\nR2 a 0 1k\n.op\n.end\n")
+    assert next(el for el in c.elements if el.name == "r1").value == 349.0
+    from netdae.netlist.expr import depth
+
+    assert depth(next(el for el in c.elements if el.name == "b1").expr) < 20
 
 
 def test_end_card_followed_by_a_comment():

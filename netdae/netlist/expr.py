@@ -147,6 +147,8 @@ BEHAVIOURAL = "behavioural"
 #: Deepest expression tree accepted (evaluators walk trees recursively, and
 #: Python's recursion limit is about 1000 frames).
 MAX_DEPTH = 300
+#: Longer chains of ``+``/``-`` are summed as balanced trees (:meth:`_Parser.sum`).
+BALANCED_SUM = 64
 
 
 @dataclass(frozen=True, slots=True)
@@ -534,11 +536,30 @@ class _Parser:
             return self.unary()
         ops = self._LEVELS[level]
         left = self.binary(level + 1)
+        if ops == ("+", "-"):
+            return self.sum(left, level)
         while self.is_op(*ops):
             op = self.value
             self.advance()
             left = Binary(op, left, self.binary(level + 1))
         return left
+
+    def sum(self, first: Expr, level: int) -> Expr:
+        """A chain of ``+`` and ``-``: left to right, as ngspice adds; beyond :data:`BALANCED_SUM` terms a
+        balanced tree of the terms (``a - b`` as ``a + -b``, the same number), so a generated netlist's
+        sum of hundreds of terms is not a tree hundreds of levels deep (its order of additions, and so
+        its last bits, differ from ngspice's there)."""
+        terms: list[tuple[str, Expr]] = [("+", first)]
+        while self.is_op("+", "-"):
+            op = self.value
+            self.advance()
+            terms.append((op, self.binary(level + 1)))
+        if len(terms) <= BALANCED_SUM:
+            left = first
+            for op, term in terms[1:]:
+                left = Binary(op, left, term)
+            return left
+        return _balanced([term if op == "+" else _negate(term) for op, term in terms])
 
     def unary(self) -> Expr:
         if self.is_op("-", "+", "!"):
@@ -686,6 +707,14 @@ class _Parser:
             form = RANDOM_FORMS.get(name)
             raise self.error(f"{name}() takes {n} argument{'s' if n != 1 else ''}, got {len(args)}", start,
                              hint=f"write {form}, as ngspice's manual gives it" if form else None)
+
+
+def _balanced(terms: list[Expr]) -> Expr:
+    """The sum of ``terms`` as a tree of depth ``log2(len(terms))``."""
+    if len(terms) == 1:
+        return terms[0]
+    mid = len(terms) // 2
+    return Binary("+", _balanced(terms[:mid]), _balanced(terms[mid:]))
 
 
 def _negate(node: Expr) -> Expr:
