@@ -261,7 +261,8 @@ def ac_metrics(a, b, *, floor: float) -> AcMetrics:
     ----------
     a, b : array_like of complex, shape (m,)
     floor : float
-        Smallest magnitude a relative error is measured against (positive).
+        Smallest magnitude a relative error is measured against (positive); where both
+        magnitudes are below it the two agree (rounding noise on both sides).
 
     Returns
     -------
@@ -280,6 +281,8 @@ def ac_metrics(a, b, *, floor: float) -> AcMetrics:
     diff = np.abs(a - b)
     ma, mb = np.abs(a), np.abs(b)
     rel = diff / np.maximum(np.maximum(ma, mb), floor)
+    # both below the floor: each side's rounding noise (a current that cancels exactly), equal
+    rel[(ma <= floor) & (mb <= floor)] = 0.0
     worst = int(np.argmax(rel))
     both = (ma > floor) & (mb > floor)
     if np.any(both):
