@@ -975,8 +975,14 @@ def _settle_diode(el: ElementCard, scope: Definition) -> None:
     else:
         raise error(card, words[2].start, f"no model '{names[2]}' or '{names[3]}' defined", syntax,
                     hint="define it with .model mname d (...)")
-    el.nodes = tuple("0" if n == "gnd" else n for n in names[:2])
-    el.model = (names[count], words[count].start)
+    _settled(el, names[:2], count, syntax)
+
+
+def _settled(el: ElementCard, nodes: list[str], count: int, syntax) -> None:
+    """A device card's words judged: its ``nodes``, the model at word ``count`` and an optional area after it."""
+    words, card = el.positional, el.card
+    el.nodes = tuple("0" if n == "gnd" else n for n in nodes)
+    el.model = (words[count].text, words[count].start)
     extra = words[count + 1:]
     if extra:
         el.params["area"] = parse_value(card, extra[0], syntax, "area")
@@ -1003,11 +1009,4 @@ def _settle_bjt(el: ElementCard, scope: Definition) -> None:
         tried = ", ".join(tried[:-1]) + " or " + tried[-1] if len(tried) > 1 else tried[0]
         raise error(card, words[3].start, f"no model {tried} defined", syntax,
                     hint="define it with .model mname npn|pnp (...)")
-    el.nodes = tuple("0" if n == "gnd" else n for n in names[:count])
-    el.model = (names[count], words[count].start)
-    extra = words[count + 1 :]
-    if extra:
-        el.params["area"] = parse_value(card, extra[0], syntax, "area")
-    if len(extra) > 1:
-        raise error(card, extra[1].start, f"unexpected {extra[1].text!r}", syntax)
-    el.positional = None
+    _settled(el, names[:count], count, syntax)
