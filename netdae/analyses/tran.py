@@ -1067,7 +1067,8 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         notes.append(f"Newton failed on every step size at {stats['impasses']} instant(s): the solution continued "
                      "from implicit-Euler steps right of each solved by the steady-state solver (damped Newton, "
                      "limiting, gmin and source stepping), recorded as a jump (an impasse: the circuit snaps "
-                     "to another state, as a latch or a trigger with feedback does)")
+                     "to another state, as a latch or a trigger with feedback does, or as an inductor's current "
+                     "does when a switch cuts its path)")
     if events:
         first_t, first_w = events[0]
         notes.append(f"switches or behavioural sources' comparisons changed at {len(events)} instant(s), located "
