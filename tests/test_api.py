@@ -98,6 +98,9 @@ def test_a_division_by_zero_in_a_b_source_is_warned_about_after_the_operating_po
     assert "divides in b1 (<string>:4:1)" in note
     (fine,) = netdae.run("b\nV1 in 0 3\nR1 in a 1k\nB1 b 0 V=v(a)/2\nR2 b 0 1k\n.op\n.end\n")
     assert not [n for n in fine.notes if "beyond" in n]
+    # the transient of netdae.simulate says the same
+    tran = netdae.simulate("b\nV1 in 0 3\nR1 in a 1k\nB1 b 0 V=v(a)/0\nR2 b 0 1k\n.tran 1u 10u\n.end\n")
+    assert [n for n in tran.notes if "beyond any physical circuit" in n]
 
 
 def test_simulate_accepts_a_path():

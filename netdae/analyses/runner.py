@@ -620,6 +620,11 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
         add_quantities(circuit, result, quantities)
         if names:
             result = result.subset(wanted)
+    from .magnitude import absurd_values_note
+
+    absurd = absurd_values_note(circuit, result.signals)
+    if absurd:
+        result.notes.append(absurd)
     if card is None or card is next((a for a in circuit.analyses if isinstance(a, TranAnalysis)), None):
         measure(circuit, [result])  # the .meas tran cards measure the first .tran
         fourier(circuit, [result])
