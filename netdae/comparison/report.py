@@ -85,14 +85,29 @@ def format_analysis(item: AnalysisComparison) -> str:
                 lines.append(f"  over the whole interval (jump included): worst {worst_whole.name} "
                              f"{worst_whole.whole['max_rel']:.3e} of its scale")
     if item.only_netdae:
-        lines.append(f"  only in netdae (not compared): {', '.join(item.only_netdae)}")
+        lines.append(f"  only in netdae (not compared): {_listed(item.only_netdae)}")
     if item.only_ngspice:
-        lines.append(f"  only in ngspice (not compared): {', '.join(item.only_ngspice)}")
+        lines.append(f"  only in ngspice (not compared): {_listed(item.only_ngspice)}")
     if item.excluded:
-        lines.append(f"  excluded: {', '.join(item.excluded)}")
+        lines.append(f"  excluded: {_listed(item.excluded)}")
     for note in item.notes:
         lines.append(f"  note: {note}")
     return "\n".join(lines)
+
+
+#: Names a report line lists before it counts the rest (a lossy line's 1,200 internal unknowns).
+LISTED_NAMES = 12
+
+
+def _listed(names: list[str]) -> str:
+    """The names joined, the first :data:`LISTED_NAMES` of a long list and how many more (the JSON has all).
+
+    >>> _listed(["v(a)", "v(b)"]), _listed([f"v(n{k})" for k in range(14)]).split(", ")[-1]
+    ('v(a), v(b)', 'v(n11) and 2 more')
+    """
+    if len(names) <= LISTED_NAMES:
+        return ", ".join(names)
+    return ", ".join(names[:LISTED_NAMES]) + f" and {len(names) - LISTED_NAMES} more"
 
 
 def _tolerance_line(name: str, values: dict) -> str:
