@@ -296,7 +296,7 @@ def test_a_transient_with_lossy_lines_says_what_they_are_and_what_ngspice_does()
     (note,) = [n for n in r.notes if "LTRA" in n]  # one note for the kind
     p = lossy.LineParameters("ltra", *(np.array([[v]]) for v in (12.45, 8.972e-9, 0.0, 0.468e-12)), length=16.0)
     n = lossy.section_count(p, 0.1e-9)[0]  # the time scale: 5 ns / 50
-    assert f"o1 ({n}), o2 ({n})" in note and "ngspice 39's LTRA" in note and "numerical controls" in note
+    assert f"o1 ({n} sections), o2 ({n} sections)" in note and "ngspice 39's LTRA" in note and "numerical controls" in note
 
 
 # -- reading ------------------------------------------------------------------------------------

@@ -476,7 +476,8 @@ def realisation_note(kind: str, lines: list[tuple[str, LineParameters, int]]) ->
     str
         One sentence for the runs' notes.
     """
-    names = ", ".join(f"{name} ({n})" if p.form != "rg" else f"{name} (T network)" for name, p, n in lines[:6])
+    names = ", ".join(f"{name} ({n} sections)" if p.form != "rg" else f"{name} (T network)"
+                      for name, p, n in lines[:6])
     more = f" and {len(lines) - 6} more" if len(lines) > 6 else ""
     text = (f"{kind.upper()} line{'s' if len(lines) > 1 else ''} {names}{more} realised as sections "
             "(docs/netlist.md), within 3e-4 of the swing of the line equations' exact solution where measured")
