@@ -542,7 +542,7 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
             raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
                         hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
         first = False
-    if spec.dc is None and spec.tran is None:
+    if spec.dc is None and spec.tran is None and spec.ac_mag is None:  # ngspice 39 notes it (not for 'ac 1')
         card.warn(_end(card), "has no value, DC 0 assumed (as ngspice 39 notes)", severity="note")
     return ElementCard(toks[0].text, kind, card, nodes, source=spec)
 
