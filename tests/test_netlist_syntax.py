@@ -93,6 +93,11 @@ def test_included_files_have_no_title_and_ignore_end():
     (".op", "reads as a .op card"),
     ("RC filter test", None),  # an R card without a value: a title
     ("Diode test circuit", None),
+    # cards that parse but connect to nothing the circuit names: titles
+    ("Ring oscillator 5 stages", None),
+    ("V1 step response", None),
+    ("Q1 amplifier", None),
+    ("R9 a 0 2k", "reads as an element card (r9)"),
 ])
 def test_a_title_line_that_reads_as_a_card_is_warned_about(first, warned):
     from netdae.netlist import load

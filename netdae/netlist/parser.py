@@ -95,6 +95,18 @@ def build(deck: Deck) -> Netlist:
     return net
 
 
+def _connects(item, deck: Deck) -> bool:
+    """Whether every node of a parsed element card (ground aside) is a word of the deck's other element cards."""
+    nodes = getattr(item, "nodes", None) or ()
+    if not nodes:  # forms judged with the models (a transistor's words): its first two words
+        nodes = tuple(t.text for t in (getattr(item, "positional", None) or ())[:2])
+    nodes = [n for n in nodes if n not in ("0", "gnd")]
+    if not nodes:
+        return False
+    words = {w.lower() for c in deck.cards if c.text[0] != "." for w in c.text.split()[1:]}
+    return all(n in words for n in nodes)
+
+
 def _title_like_a_card(deck: Deck, calls) -> list[Diagnostic]:
     """A warning when the title line (the first line, as in ngspice) reads as a dot card or an element card.
 
@@ -109,10 +121,12 @@ def _title_like_a_card(deck: Deck, calls) -> list[Diagnostic]:
         what = f"a {word} card" if DOT_ALIASES.get(word, word) in DOT_CARDS else None
     elif word[0] in ELEMENTS:
         try:
-            parse_element(card, calls)
-            what = f"an element card ({word})"
+            item = parse_element(card, calls)
         except NetlistError:
-            what = None
+            item = None
+        # an element only when it would connect to the circuit ('V1 in 0 1' above 'R1 in a 1k'); a title
+        # such as 'Ring oscillator 5 stages' reads as a resistor too, between nodes nothing else names
+        what = f"an element card ({word})" if item is not None and _connects(item, deck) else None
     else:
         what = None
     if what is None:
