@@ -72,3 +72,65 @@ def test_netdae_run_writes_the_partial_results_and_exits_130(tmp_path, monkeypat
     assert 2e-3 <= last_t < 20e-3
     assert (tmp_path / "out" / "op.csv").exists()
     assert "interrupted at t=" in capsys.readouterr().err
+
+
+DC_NETLIST = """Diode curve, many points
+V1 in 0 0
+D1 in out dd
+R1 out 0 1k
+.model dd d is=1e-14
+.op
+.dc V1 0 1 1e-4
+.end
+"""
+
+
+def test_an_interrupted_dc_sweep_keeps_the_points_solved(monkeypatch):
+    """Ctrl-C during a long .dc: the operating point and the sweep's points up to it are handed on."""
+    from netdae.analyses import dc
+    from netdae.dae.compiled import steady_driver
+
+    calls = []
+    solve = steady_driver.sweep_points
+
+    def interrupted_third_chunk(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(dc, "SWEEP_CHUNK", 1000)
+    monkeypatch.setattr(steady_driver, "sweep_points", interrupted_third_chunk)
+    with pytest.raises(KeyboardInterrupt) as info:
+        netdae.run(netdae.load(DC_NETLIST), save=["v(out)"])
+    op, sweep = info.value.results
+    assert op.analysis == "op" and op.ok
+    # the first point by the full solver, then two chunks of 1,000 compiled points
+    v1 = sweep.axes["v1"]
+    assert sweep.analysis == "dc" and not sweep.ok and v1.size == 2001
+    assert "interrupted at v1 = 0.2, point 2001 of 10001" in sweep.message
+    assert sweep.names() == ["v(out)"]
+    # the kept points are the sweep's: the same values as the whole sweep's first 2,001
+    full = netdae.run(netdae.load(DC_NETLIST), save=["v(out)"])[1]
+    np.testing.assert_array_equal(sweep["v(out)"], full["v(out)"][:2001])
+
+
+def test_sigterm_and_sighup_stop_a_command_as_ctrl_c_does():
+    """On the command line SIGTERM and SIGHUP raise Terminated (a KeyboardInterrupt) in the command, so that
+    what was computed is written; the exit status is 128 + the signal, and the handlers are restored."""
+    import os
+    import signal
+    import time
+
+    from netdae.cli import Terminated, _termination_as_interrupt, interruption
+
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        before = signal.getsignal(signum)
+        with pytest.raises(Terminated) as info:
+            with _termination_as_interrupt():
+                os.kill(os.getpid(), signum)
+                time.sleep(5)
+        assert isinstance(info.value, KeyboardInterrupt) and info.value.signum == signum
+        assert interruption(info.value) == (f"terminated ({signal.Signals(signum).name})", 128 + signum)
+        assert signal.getsignal(signum) == before
+    assert interruption(KeyboardInterrupt()) == ("interrupted", 130)

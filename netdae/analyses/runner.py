@@ -300,9 +300,10 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         transient that fails mid-way returns a Result with a failure status
         instead.
     KeyboardInterrupt
-        Ctrl-C during a transient; its ``results`` attribute holds the results
-        of the analyses before it and the transient up to where it stopped
-        (status failed, the message saying so).
+        Ctrl-C (or, on the command line, SIGTERM or SIGHUP) during an analysis;
+        its ``results`` attribute holds the results of the analyses before it
+        and a transient or ``.dc`` sweep up to where it stopped (status
+        failed, the message saying so).
 
     Examples
     --------
@@ -363,34 +364,16 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                     exc.results = _finish(original, results + ([partial] if partial is not None else []), names, wanted)
                     raise
             else:
-                if kind == "op":
-                    from .op import operating_point
-
-                    res = operating_point(circuit, **options)
-                elif kind == "dc":
-                    from .dc import dc_sweep
-
-                    res = dc_sweep(circuit, card, **options)
-                elif kind == "pz":
-                    from .pz import pz_analysis
-
-                    res = pz_analysis(circuit, card, **options)
-                elif kind == "tf":
-                    from .tf import tf_analysis
-
-                    res = tf_analysis(circuit, card, **options)
-                elif kind == "noise":
-                    from .noise import noise_analysis
-
-                    res = noise_analysis(circuit, card, **options)
-                elif kind == "sens":
-                    from .sens import sens_analysis
-
-                    res = sens_analysis(circuit, card, **options)
-                else:
-                    from .ac import ac_analysis
-
-                    res = ac_analysis(circuit, card, **options)
+                try:
+                    res = _other_analysis(kind, circuit, card, options)
+                except KeyboardInterrupt as exc:
+                    # Ctrl-C (or SIGTERM) during a .dc sweep, an .ac, ...: the results before it, and the
+                    # sweep's points solved so far
+                    partial = getattr(exc, "partial", None)
+                    if partial is not None and names:
+                        partial = partial.subset([n for n in wanted if canonical_or(n) in partial.signals])
+                    exc.results = _finish(original, results + ([partial] if partial is not None else []), names, wanted)
+                    raise
             absent = add_quantities(circuit, res, quantities)
             absurd = absurd_values_note(circuit, res.signals) if kind in ("op", "dc", "tran") else None
             if absurd:
@@ -411,6 +394,37 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 res.notes.append("circuit altered: " + "; ".join(f"{c.command} ({c.location})" for c in card.alter))
             results.append(res)
     return _finish(original, results, names, wanted)
+
+
+def _other_analysis(kind: str, circuit: Circuit, card, options: dict) -> Result:
+    """The analysis ``card`` of ``kind`` (any but ``tran``) on ``circuit``."""
+    if kind == "op":
+        from .op import operating_point
+
+        return operating_point(circuit, **options)
+    if kind == "dc":
+        from .dc import dc_sweep
+
+        return dc_sweep(circuit, card, **options)
+    if kind == "pz":
+        from .pz import pz_analysis
+
+        return pz_analysis(circuit, card, **options)
+    if kind == "tf":
+        from .tf import tf_analysis
+
+        return tf_analysis(circuit, card, **options)
+    if kind == "noise":
+        from .noise import noise_analysis
+
+        return noise_analysis(circuit, card, **options)
+    if kind == "sens":
+        from .sens import sens_analysis
+
+        return sens_analysis(circuit, card, **options)
+    from .ac import ac_analysis
+
+    return ac_analysis(circuit, card, **options)
 
 
 def _stream(output: Callable, position: int, names, wanted) -> Callable:

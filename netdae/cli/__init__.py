@@ -19,6 +19,7 @@ status 2; a bug inside netdae is reported as an internal error in one line
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import logging
 import math
@@ -260,13 +261,82 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     _limit_blas_threads()
-    from ..errors import NetdaeError
-
     try:
         args = parser().parse_args(argv)
     except SystemExit as exc:  # --help, --version (0) or a usage error (2), already printed
         return exc.code if isinstance(exc.code, int) else EXIT_ERROR
     _configure_logging(args.verbosity)
+    try:
+        with _termination_as_interrupt():
+            return _main(args)
+    except Terminated as exc:  # SIGTERM or SIGHUP: what was computed was written, as on Ctrl-C
+        word, status = interruption(exc)
+        LOG.error("%s", word)
+        return status
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where Ctrl-C raises ``KeyboardInterrupt``.
+
+    The command line treats them as Ctrl-C: a transient or a sweep writes what
+    it computed, a sweep stops its workers; the exit status is 128 plus the
+    signal's number.
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = int(signum)
+        import signal
+
+        self.name = signal.Signals(signum).name
+
+
+def interruption(exc: KeyboardInterrupt) -> tuple[str, int]:
+    """How a command reports ``exc``: ``("interrupted", 130)`` for Ctrl-C, ``("terminated (SIGTERM)", 143)``
+    for a :class:`Terminated`."""
+    if isinstance(exc, Terminated):
+        return f"terminated ({exc.name})", 128 + exc.signum
+    return "interrupted", 130
+
+
+@contextlib.contextmanager
+def _termination_as_interrupt():
+    """SIGTERM and SIGHUP raise :class:`Terminated` in this process while the command runs.
+
+    Only in the main thread and where the signal is not ignored (``nohup``); a
+    process forked meanwhile (a sweep's pool worker) keeps the default action.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pid = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != pid:  # a forked child: die as it would have
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        raise Terminated(signum)
+
+    previous = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        signum = getattr(signal, name, None)
+        if signum is None or signal.getsignal(signum) == signal.SIG_IGN:
+            continue
+        previous[signum] = signal.signal(signum, handler)
+    try:
+        yield
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+
+
+def _main(args) -> int:
+    """Run the parsed command; errors become messages and exit statuses."""
+    from ..errors import NetdaeError
     import numpy as np
 
     try:
@@ -283,6 +353,8 @@ def main(argv: list[str] | None = None) -> int:
             return EXIT_OK
         LOG.error("%s", exc)
         return EXIT_ERROR
+    except Terminated:
+        raise
     except KeyboardInterrupt:
         LOG.error("interrupted")
         return 130

@@ -46,7 +46,6 @@ __all__ = ["add_parser", "main", "stems"]
 LOG = logging.getLogger("netdae")
 
 #: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
-EXIT_INTERRUPTED = 130
 #: Matrix file formats of ``--export``, by suffix.
 EXPORT_SUFFIXES = (".npz", ".mtx")
 
@@ -362,8 +361,11 @@ def main(args) -> int:
     for exc in write_errors:
         LOG.error("%s", exc)
     if interrupted is not None:
-        LOG.error("interrupted: %s", results[-1].message)
-        return EXIT_INTERRUPTED
+        from . import interruption
+
+        word, status = interruption(interrupted)
+        LOG.error("%s: %s", word, results[-1].message)
+        return status
     if write_errors:
         return EXIT_ERROR
     return 0 if all(r.ok for r in results) else 1

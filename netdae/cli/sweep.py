@@ -29,7 +29,6 @@ from . import add_ngbehavior, directory_name, log_diagnostics, option_value, out
 __all__ = ["add_parser", "main", "parse_step"]
 
 LOG = logging.getLogger("netdae")
-EXIT_INTERRUPTED = 130
 #: Seconds to wait for a Dask scheduler before saying it cannot be reached.
 SCHEDULER_TIMEOUT = 10.0
 
@@ -223,7 +222,7 @@ def main(args) -> int:
     if args.scheduler is not None:
         client, executor = _dask_executor(args.scheduler)
     bar = _Progress(args.verbosity >= 0)
-    interrupted = False
+    interrupted = None
     try:
         result = sweep(circuit, params=dict(args.step) or None, samples=args.mc, seed=args.seed,
                        analyses=args.analysis, save=args.save, measures=args.meas, executor=executor,
@@ -233,7 +232,7 @@ def main(args) -> int:
         result = getattr(exc, "result", None)
         if result is None:
             raise
-        interrupted = True
+        interrupted = exc
     finally:
         bar.close()
         if client is not None:
@@ -276,8 +275,11 @@ def main(args) -> int:
         LOG.info("wrote %s", path)
     if write_error is not None:
         raise write_error
-    if interrupted:
+    if interrupted is not None:
+        from . import interruption
+
+        word, status = interruption(interrupted)
         completed = result.stats.get("completed", 0)
-        LOG.error("interrupted: %d of %d rows finished, %d not run", completed, result.rows, result.rows - completed)
-        return EXIT_INTERRUPTED
+        LOG.error("%s: %d of %d rows finished, %d not run", word, completed, result.rows, result.rows - completed)
+        return status
     return 0 if result.failed == 0 else 1

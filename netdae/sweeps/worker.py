@@ -283,22 +283,33 @@ def pool_worker(stop=None) -> None:
     global _POOL_WORKER, _STOP, _SIGINT_IGNORED
     _POOL_WORKER, _STOP = True, stop
     _SIGINT_IGNORED = signal.getsignal(signal.SIGINT) == signal.SIG_IGN
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for signum in _stopping_signals():
+        signal.signal(signum, signal.SIG_IGN)
+
+
+def _stopping_signals() -> list:
+    """SIGINT, and SIGTERM and SIGHUP where the platform has them: a signal to the whole process group
+    (``timeout``, a closed terminal) reaches the workers as Ctrl-C does, and the sweep stops them."""
+    import signal
+
+    return [getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)]
 
 
 @contextmanager
 def _interruptible():
-    """SIGINT raises KeyboardInterrupt inside (in a pool worker; elsewhere nothing changes)."""
+    """SIGINT (SIGTERM, SIGHUP) raises KeyboardInterrupt inside (in a pool worker; elsewhere nothing changes)."""
     if not _POOL_WORKER or _SIGINT_IGNORED:
         yield
         return
     import signal
 
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    for signum in _stopping_signals():
+        signal.signal(signum, signal.default_int_handler)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        for signum in _stopping_signals():
+            signal.signal(signum, signal.SIG_IGN)
 
 
 #: The cyclic garbage collector's first threshold while rows run (Python's default: 700 allocations).
