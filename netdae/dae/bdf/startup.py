@@ -425,10 +425,10 @@ def jump_of(x, x_right, x_2, w_floor, high, *, first_step: bool = True):
     high : ndarray of bool, shape (n,)
     first_step : bool
         An unknown that is not index 2 jumps only where the probe's first Euler
-        step carries the move (:data:`JUMP_FIRST_STEP`): a linear system's
-        restarts. False after a switching event and in a nonlinear system
-        (every move counts; the right limit is solved again, and a fast mode's
-        boundary layer, which the two steps resolve only in part, is a jump).
+        step carries the move (:data:`JUMP_FIRST_STEP`): every restart but a
+        switching event's. False after a switching event (phi itself changed:
+        every move counts, and a nonlinear system's right limit is solved
+        again).
 
     Returns
     -------

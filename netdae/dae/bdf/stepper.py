@@ -438,12 +438,12 @@ class BDF:
         converged Newton iterations (the one-iteration probe is accurate only
         near a consistent point).
         """
-        # at the start (no step taken) the first-step criterion holds in a nonlinear system too: the start is
-        # the operating point or a consistent initialization, where a continuous input moves nothing by a jump
-        # (a solution with a large x'', or sqrt(t)-like, made the extrapolation's error a jump there)
+        # the first-step criterion holds in a nonlinear system too: where the inputs are continuous the
+        # extrapolation's error (a large x'', a sqrt(t)-like solution) moves nothing by a jump; after a
+        # switching event (phi itself changed) every move counts
         at_start = self.stats["steps"] == 0
         jumped, value_jump, x_right = jump_of(x, p.x_right, p.x_2, p.w_floor, self._high,
-                                              first_step=(self._linear or at_start) and not self._event_restart)
+                                              first_step=not self._event_restart)
         if not jumped:
             return x, False
         if value_jump and not self._linear:

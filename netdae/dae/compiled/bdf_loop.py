@@ -894,13 +894,12 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
-    # an unknown of a linear system that is not index 2 jumps where the probe's first Euler step
-    # carries the move (JUMP_FIRST_STEP; x1 is the mean of xr and x2), and so does one of a nonlinear
-    # system at the start (no step taken: the operating point or a consistent initialization, where a
-    # continuous input moves nothing by a jump; a large x'' or a sqrt(t)-like solution made the
-    # extrapolation's error a jump); after a switching event, and at a nonlinear system's later
-    # restarts (a fast mode's boundary layer), every move counts
-    first_step = I[I_EVENT_RESTART] == 0 and (I[I_LINEAR] != 0 or I[I_STEPS] == 0)
+    # an unknown that is not index 2 jumps where the probe's first Euler step carries the move
+    # (JUMP_FIRST_STEP; x1 is the mean of xr and x2): where the inputs are continuous the
+    # extrapolation's error (a large x'', a sqrt(t)-like solution) moves nothing by a jump, and a
+    # curvature taken for one is carried on by the transmission lines' delayed waves as a real
+    # jump; after a switching event (phi itself changed) every move counts
+    first_step = I[I_EVENT_RESTART] == 0
     big = 0.0
     value_jump = False
     oscillates = False  # the probe's two steps move an unknown both ways (see JUMP_OSCILLATION)
