@@ -202,7 +202,12 @@ class Result:
         ------
         KeyError
             For a name the result does not hold (the message lists what it has).
+        TypeError
+            For a name that is not a string.
         """
+        if not isinstance(name, str):
+            raise TypeError(f"a signal is named by a string such as 'v(out)' or 'i(v1)', not {name!r} "
+                            f"(hint: r.names() lists them; r.signals maps each to its values)")
         key = name.strip().lower()
         if key in self.signals:
             return self.signals[key]

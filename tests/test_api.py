@@ -138,3 +138,34 @@ def test_split_signals():
     assert split_signals(None) is None
     with pytest.raises(ValueError, match="unbalanced"):
         split_signals("v(a,b")
+
+
+_DIVIDER = "divider\nV1 in 0 1\nR1 in out 1k\nR2 out 0 1k\nC1 out 0 1n\n.op\n.tran 1u 10u\n.end\n"
+
+
+def test_api_arguments_of_the_wrong_kind_are_said_so():
+    """Misused API arguments raise TypeError or ValueError naming the argument, not an error from inside."""
+    circuit = netdae.load(_DIVIDER)
+    with pytest.raises(TypeError, match="card must be a TranAnalysis"):
+        netdae.simulate(circuit, card=".ac dec 10 1 1k")
+    op = netdae.run(circuit)[0]
+    with pytest.raises(TypeError, match="a signal is named by a string"):
+        op[5]
+    assert op["v(out)"][0] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="backend must be one of 'auto', 'shared', 'subprocess', not 'x'"):
+        netdae.compare(_DIVIDER, backend="x")
+    with pytest.raises(ValueError, match=r"x must hold one value per unknown, shape \(3,\)"):
+        netdae.analyze_index(circuit, x=[0.0, 1.0])
+    with pytest.raises(netdae.NetdaeError, match="analyses= is empty"):
+        netdae.sweep(circuit, params={"r": [1.0]}, analyses=[])
+
+
+def test_compare_takes_one_signal_name_as_one_signal():
+    from netdae.analyses.runner import string_entries
+
+    assert string_entries("v(out)", "signals") == ("v(out)",)
+    pytest.importorskip("PySpice")
+    c = netdae.compare(_DIVIDER, signals="v(out)", analyses="op")
+    assert c.passed, c.report()
+    names = [s.name for a in c.analyses for s in a.signals]
+    assert names == ["v(out)"]

@@ -536,6 +536,34 @@ def test_cli_sweep_keeps_why_a_measurement_failed_in_a_row_that_ran(tmp_path, ca
     assert doc["rows"][2]["ihalf"] == pytest.approx(0.75e-3, rel=1e-12)
 
 
+def test_cli_sweep_json_is_strict_json_when_a_measure_failed_in_every_row(tmp_path, capsys):
+    """A statistic of a measure that failed in every row is null on stdout as in measures.json, not NaN
+    (which JSON does not have: strict parsers refuse it)."""
+    path = tmp_path / "d.cir"
+    path.write_text(DIVIDER + ".meas dc never when v(b)=99\n.step param r2 list 0.5k 1k\n")
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot", "--json"]) == 0
+
+    def refuse(constant):
+        raise ValueError(f"not JSON: {constant}")
+
+    doc = json.loads(capsys.readouterr().out, parse_constant=refuse)
+    assert doc["summary"]["never"]["count"] == 0 and doc["summary"]["never"]["mean"] is None
+
+
+def test_cli_sweep_runs_only_the_noise_analysis_when_asked(tmp_path, capsys):
+    path = tmp_path / "n.cir"
+    path.write_text("noise of a divider\nV1 a 0 dc 1 ac 1\nR1 a b {r}\nR2 b 0 1k\n.param r=1k\n.op\n"
+                    ".noise v(b) V1 dec 2 1k 10k\n.step param r list 1k 4k\n.end\n")
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot",
+                "--analysis", "noise"]) == 0
+    doc = json.loads((tmp_path / "o" / "measures.json").read_text())
+    # the output noise of R1 || R2 at 300.15 K: sqrt(4 k T R1 R2 / (R1 + R2)) over 1k..10k
+    k, temp = 1.380649e-23, 300.15
+    for row, r in zip(doc["rows"], (1e3, 4e3)):
+        expected = math.sqrt(4 * k * temp * r * 1e3 / (r + 1e3) * 9e3)
+        assert row["onoise_total"] == pytest.approx(expected, rel=1e-6)
+
+
 def test_cli_sweep_prints_the_summary_when_its_files_cannot_be_written(tmp_path, capsys, monkeypatch):
     from netdae.errors import OutputFileError
     import netdae.io.sweep as io_sweep

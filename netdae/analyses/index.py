@@ -213,7 +213,13 @@ def _linearization_point(prepared: Prepared, at: str, x: np.ndarray | None):
 
     circuit, system = prepared.circuit, prepared.system
     if x is not None:
-        return np.asarray(x, dtype=float), POINT_GIVEN, None
+        x = np.asarray(x, dtype=float)
+        if x.shape != (system.n,):
+            raise ValueError(f"x must hold one value per unknown, shape ({system.n},) in the order of the "
+                             f"system's names, not shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ValueError("x must be finite")
+        return x, POINT_GIVEN, None
     if system.linear:
         return np.zeros(system.n), POINT_LINEAR, None
     try:

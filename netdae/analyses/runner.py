@@ -612,6 +612,9 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     """
     circuit = _circuit(circuit)
     refuse_steps(circuit)
+    if card is not None and not isinstance(card, TranAnalysis):
+        raise TypeError(f"card must be a TranAnalysis (a .tran card: netdae.load(...).analyses holds them), not "
+                        f"{card!r} (hint: netdae.run runs every analysis card of a netlist)")
     if initial not in ("consistent", "ngspice"):
         raise ValueError(f"initial must be 'consistent' or 'ngspice', not {initial!r}")
     check_callable(progress, "progress", "progress(t, tstop, steps)")

@@ -113,7 +113,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, help="Monte Carlo seed (default .options seed=, else 1)")
     p.add_argument("--meas", metavar="CARD", action="append", default=[],
                    help="one more .meas card, e.g. 'tran ripple pp v(out) from=5m to=10m' (repeatable)")
-    p.add_argument("--analysis", metavar="NAME", action="append", choices=("op", "dc", "ac", "tran"),
+    p.add_argument("--analysis", metavar="NAME", action="append", choices=("op", "dc", "ac", "tran", "noise"),
                    help="run only this analysis of the netlist (repeatable; default all)")
     p.add_argument("--save", metavar="SIGNALS", type=signal_names,
                    help="comma-separated signals whose waveforms every row keeps (for --waveforms and the plot)")
@@ -253,10 +253,13 @@ def main(args) -> int:
             LOG.info("note: no plot: %s", exc)
     summary = result.summary()
     if args.json:
-        json.dump({"rows": result.rows, "failed": result.failed, "failures": result.failures(),
-                   "measure_failures": result.measure_failures(), "seed": result.seed,
-                   "summary": summary, "stats": {k: v for k, v in result.stats.items()}, "files": files},
-                  sys.stdout, indent=2, default=float)
+        from ..comparison.model import jsonable
+
+        # JSON has no NaN: a statistic of a measure that failed in every row is null, as in measures.json
+        json.dump(jsonable({"rows": result.rows, "failed": result.failed, "failures": result.failures(),
+                            "measure_failures": result.measure_failures(), "seed": result.seed,
+                            "summary": summary, "stats": {k: v for k, v in result.stats.items()}, "files": files}),
+                  sys.stdout, indent=2, default=float, allow_nan=False)
         sys.stdout.write("\n")
     else:
         print(circuit.title)

@@ -399,6 +399,14 @@ def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "aut
     Cost: one netdae run and one ngspice run per analysis card, plus one
     dense evaluation of netdae's transient at ngspice's time points.
     """
+    from ..analyses.runner import string_entries
+    from ..ngspice import BACKENDS
+
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(repr(b) for b in BACKENDS)}, not {backend!r}")
+    signals = string_entries(signals, "signals")  # one string is one signal
+    exclude = string_entries(exclude, "exclude") or ()
+    analyses = string_entries(analyses, "analyses")
     circuit, text, source, workdir = _read(netlist, behavior)
     options = {"tight": tight, "tol": tol, "backend": backend, "signals": signals, "exclude": exclude,
                "reltol": reltol, "analyses": analyses, "timeout": timeout}

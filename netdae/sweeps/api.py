@@ -244,7 +244,10 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if analyses is not None:
         from ..analyses.runner import analysis_name
 
-        wanted = tuple(str(a).lower() for a in analyses)
+        wanted = tuple(str(a).lower() for a in string_entries(analyses, "analyses"))
+        if not wanted:
+            raise NetdaeError("sweep: analyses= is empty (name the analyses to run, e.g. analyses=['tran'], or leave "
+                              "it out to run them all)")
         bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran", "noise")]
         if bad:
             raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac, tran or noise)")
