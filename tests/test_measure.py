@@ -495,3 +495,47 @@ def test_the_step_polynomials_peaks_are_their_exact_maxima_and_minima():
             scale = np.abs(coef[i]).sum()
             assert sign * np.polyval(coef[i], s[i]) >= best - 1e-12 * scale
             assert a[i] <= s[i] <= b[i] and inside[i] == (a[i] < s[i] < b[i])
+
+
+def _measured(netlist: str) -> dict:
+    return {m.name: m for r in netdae.run(netlist) for m in r.measures}
+
+
+def test_a_level_reached_within_rounding_is_crossed_where_it_is_reached():
+    # the plateau of the pulse is 1 to rounding (0.9999999999999999 at some points of the interpolant):
+    # the crossing of 1 is where the ramp ends, 2 ms (ngspice 39, ngspice -b: t50_100 = 5.000000e-04
+    # targ= 2.000000e-03 trig= 1.500000e-03); the plateau is left at 4 ms (ngspice 39 fails FALL=1 there:
+    # it counts the plateau's second point as a fall and interpolates 0/0)
+    m = _measured("pulse\nV1 in 0 pulse(0 1 1m 1m 1m 2m)\nR1 in 0 1k\n.tran 10u 5m\n"
+                  ".meas tran t50_100 trig v(in) val=0.5 rise=1 targ v(in) val=1 rise=1\n"
+                  ".meas tran top when v(in)=1 fall=1\n.meas tran again when v(in)=1 rise=2\n")
+    assert m["t50_100"].value == pytest.approx(5e-4, rel=1e-12)
+    assert m["t50_100"].extra["targ"] == pytest.approx(2e-3, rel=1e-12)
+    assert m["top"].value == pytest.approx(4e-3, rel=1e-12)
+    assert not m["again"].ok and "has 1 rise(s)" in m["again"].reason  # the plateau is one arrival
+
+
+def test_a_fall_that_ends_on_the_level_is_a_fall():
+    # ngspice 39 (ngspice -b): t0 = 2.00000e-03, t0f = 2.00000e-03, t0c2 failed
+    m = _measured("pwl\nV1 in 0 pwl(0 1 1m 1 2m 0 5m 0)\nR1 in 0 1k\n.tran 10u 5m\n"
+                  ".meas tran t0 when v(in)=0\n.meas tran t0f when v(in)=0 fall=1\n"
+                  ".meas tran t0c2 when v(in)=0 cross=2\n")
+    assert m["t0"].value == pytest.approx(2e-3, rel=1e-12) and m["t0f"].value == pytest.approx(2e-3, rel=1e-12)
+    assert not m["t0c2"].ok
+    # on a dc sweep: ngspice 39 (ngspice -b): w = 2.00000e+00, wf = 2.00000e+00
+    m = _measured("dc\nV1 in 0 0\nB1 out 0 V=max(2-V(in),0)\nR1 out 0 1k\n.dc V1 0 4 0.1\n"
+                  ".meas dc w when v(out)=0\n.meas dc wf when v(out)=0 fall=1\n.meas dc wl when v(out)=0 cross=last\n")
+    assert m["w"].value == pytest.approx(2.0, rel=1e-12) and m["wf"].value == pytest.approx(2.0, rel=1e-12)
+    assert m["wl"].value == pytest.approx(2.0, rel=1e-12)
+
+
+def test_a_touch_of_the_level_is_a_rise_and_a_fall_and_a_pass_over_a_plateau_one_crossing():
+    # lines between the points: 0 1 0 touches 1 at x=1 (ngspice 39 gives 1 for both, its interpolation
+    # from the touching point); 0 1 1 2 reaches 1 at x=1 and passes on (one rise)
+    r = Result("dc", axes={"v1": np.arange(4.0)}, signals={"v(a)": np.array([0.0, 1.0, 0.0, -1.0]),
+                                                             "v(b)": np.array([0.0, 1.0, 1.0, 2.0])})
+    c = load("t\nV1 a 0 1\nR1 a 0 1\nR2 b 0 1\n.dc V1 0 3 1\n.meas dc r WHEN v(a)=1 rise=1\n"
+             ".meas dc f WHEN v(a)=1 fall=1\n.meas dc n WHEN v(b)=1 cross=2\n.meas dc u WHEN v(b)=1 rise=1\n")
+    m = {x.name: x for x in evaluate_measures(c.measures, {"dc": r})}
+    assert m["r"].value == 1.0 and m["f"].value == 1.0 and m["u"].value == 1.0
+    assert not m["n"].ok

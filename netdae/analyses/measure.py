@@ -32,10 +32,14 @@ How a signal is read between points
 A transient that failed part way is measured on what it computed where the
 measurement needs nothing after its last point (:func:`_measure_partial`).
 
-Crossings are counted as ngspice counts them: a point is *above* when the
-signal is >= the value, a rise is a change from below to above, a fall from
-above to below; without ``RISE``/``FALL``/``CROSS`` the first crossing of
-either kind counts. ``FROM``, ``TO`` and ``TD`` bound the window (window edges
+Crossings are counted as ngspice counts them: a rise is reaching the value
+(``>=``) from below, a fall reaching it (``<=``) from above, so a signal that
+ends on the value has crossed it (:func:`_events`); a point within 32
+roundings of the value (:data:`~netdae.devices.autodiff.ROUNDING_TIE` times the
+larger magnitude) is on it, and the crossing is where the signal first gets
+that close. A stretch on the value is one arrival (ngspice 39 counts its later
+points as crossings back and forth). Without ``RISE``/``FALL``/``CROSS`` the
+first crossing of either kind counts. ``FROM``, ``TO`` and ``TD`` bound the window (window edges
 are interpolated: ngspice 39 takes ``MIN``, ``MAX`` and ``AVG`` over the points
 inside the window only).
 
@@ -58,6 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..devices.autodiff import ROUNDING_TIE
 from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Probe, leaf_signal
 from ..netlist import expr as ex
 from ..results import Result
@@ -233,33 +238,76 @@ def _root(g, a: float, b: float, ga: float, gb: float) -> float:
     return float(brentq(wrapped, a, b, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200))
 
 
-def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
-    """Every crossing in [lo, hi]: (axis value, "rise" | "fall")."""
-    xs, ys = trace.samples(lo, hi)
-    d = ys - (other.at(xs) if other is not None else cond.value)
-    above = d >= 0
-    nonzero = np.flatnonzero(d != 0)
-    if nonzero.size and nonzero[0] > 0:  # starting on the value is not a crossing: the side is where it goes
-        above[: nonzero[0]] = above[nonzero[0]]
-    change = np.flatnonzero(above[1:] != above[:-1])
+def _sides(d: np.ndarray, tie: np.ndarray) -> np.ndarray:
+    """Each point's side of the value: +1 above, -1 below, 0 on it (``|d| <= tie``)."""
+    return np.where(d > tie, 1, np.where(d < -tie, -1, 0)).astype(np.int8)
 
-    def g(t):
+
+def _events(side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The crossings between consecutive points, from their sides (:func:`_sides`).
+
+    A rise is reaching the value (``>=``) from below, a fall reaching it (``<=``)
+    from above, as ngspice 39 counts them: a signal that ends on the value has
+    crossed it. A stretch on the value is one arrival: where it leaves back to
+    the side it came from, that is the opposite crossing (a touch from below is a
+    rise and a fall); where it goes on to the other side, nothing more. A start on
+    the value is no crossing.
+
+    Parameters
+    ----------
+    side : ndarray of int, shape (rows, s)
+
+    Returns
+    -------
+    kind : ndarray of int, shape (rows, s - 1)
+        Between points k and k + 1: +1 a rise, -1 a fall, 0 none.
+    where : ndarray of int, shape (rows, s - 1)
+        Where that crossing is: 0 between the points, 1 where the signal
+        reaches the value (at or before point k + 1), 2 where it leaves it
+        (at or after point k).
+    """
+    prev, cur = side[:, :-1], side[:, 1:]
+    n = side.shape[1]
+    last = np.maximum.accumulate(np.where(side != 0, np.arange(n)[None, :], -1), axis=1)
+    came = np.where(last >= 0, np.take_along_axis(side, np.maximum(last, 0), axis=1), 0)[:, :-1]
+    through = (prev != 0) & (cur != 0) & (prev != cur)
+    reach = (prev != 0) & (cur == 0)
+    leave = (prev == 0) & (cur != 0) & (came == cur)
+    kind = np.where(through | leave, cur, np.where(reach, -prev, 0)).astype(np.int8)
+    where = np.where(reach, 1, np.where(leave, 2, 0)).astype(np.int8)
+    return kind, where
+
+
+def _tie(*values) -> np.ndarray:
+    """Half the width of a tie with the value (:data:`~netdae.devices.autodiff.ROUNDING_TIE` times the
+    larger magnitude)."""
+    return ROUNDING_TIE * np.maximum.reduce([np.abs(np.asarray(v, dtype=float)) for v in values])
+
+
+def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
+    """Every crossing in [lo, hi]: (axis value, "rise" | "fall") (:func:`_events`)."""
+    xs, ys = trace.samples(lo, hi)
+    ref = other.at(xs) if other is not None else np.full_like(ys, cond.value)
+    d = ys - ref
+    kind, where = (a[0] for a in _events(_sides(d, _tie(ys, ref))[None, :]))
+
+    def g(t, shift):
         value = trace.at([t])[0]
-        return value - (other.at([t])[0] if other is not None else cond.value)
+        ref = other.at([t])[0] if other is not None else cond.value
+        return value - ref + shift * float(_tie(value, ref))
 
     out = []
-    for k in change:
-        a, b, da, db = xs[k], xs[k + 1], d[k], d[k + 1]
-        kind = "rise" if above[k + 1] else "fall"
+    for k in np.flatnonzero(kind).tolist():
+        a, b = xs[k], xs[k + 1]
+        up = kind[k] > 0
         if a == b:
             t = a
-        elif kind == "rise" and db == 0:
-            t = b
-        elif kind == "fall" and da == 0:
-            t = a
         else:
-            t = _root(g, a, b, da, db)
-        out.append((float(t), kind))
+            # between: d's zero; reaching: the first point within the tie; leaving: the last
+            shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
+            ga, gb = g(a, shift), g(b, shift)
+            t = a if ga == 0 else b if gb == 0 or ga * gb > 0 else _root(lambda u: g(u, shift), a, b, ga, gb)
+        out.append((float(t), "rise" if up else "fall"))
     return out
 
 
@@ -537,8 +585,8 @@ def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: s
                    rows: int) -> tuple[np.ndarray, list]:
     """Each row's crossing asked by ``cond`` (NaN where it fails) and why a row has none (None: it has).
 
-    Crossings are counted as in the module docstring: ``above`` is ``y >= value``,
-    points on the value before the first point off it take that point's side.
+    Crossings are counted as in the module docstring (:func:`_events`); one reaching the value is
+    at the point that reaches it, one leaving it at the last point on it.
 
     Raises
     ------
@@ -551,22 +599,20 @@ def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: s
     other = _Lines(result, cond.other) if cond.other is not None else None
     lo, hi = _search_window(spec, cond, clause, trace.span)
     xs, ys = trace.samples(lo, hi)
-    d = ys - (other.at(xs) if other is not None else cond.value)
-    first = np.argmax(d != 0, axis=1)  # before the first point off the value, the side it goes to
-    above = np.take_along_axis(d >= 0, np.maximum(np.arange(d.shape[1])[None, :], first[:, None]), axis=1)
-    rise = above[:, 1:]
-    change = rise != above[:, :-1]
-    wanted = change & rise if cond.edge == "rise" else change & ~rise if cond.edge == "fall" else change
+    ref = other.at(xs) if other is not None else np.full_like(ys, cond.value)
+    d = ys - ref
+    edges, where = _events(_sides(d, _tie(ys, ref)))
+    wanted = edges > 0 if cond.edge == "rise" else edges < 0 if cond.edge == "fall" else edges != 0
     counts = wanted.sum(axis=1)
     if cond.count == LAST:
         k = wanted.shape[1] - 1 - np.argmax(wanted[:, ::-1], axis=1)
     else:
         k = np.argmax(np.cumsum(wanted, axis=1) >= cond.count, axis=1)
     r = np.arange(d.shape[0])
-    a, b, da, db, up = xs[k], xs[k + 1], d[r, k], d[r, k + 1], rise[r, k]
+    a, b, da, db, at = xs[k], xs[k + 1], d[r, k], d[r, k + 1], where[r, k]
     with np.errstate(invalid="ignore", divide="ignore"):
         t = a + (0.0 - da) * (b - a) / (db - da)
-    t = np.where(a == b, a, np.where(up & (db == 0), b, np.where(~up & (da == 0), a, t)))
+    t = np.where((a == b) | (at == 2), a, np.where(at == 1, b, t))
     target = other.name if other is not None else f"{cond.value:g}"
     kind = {"rise": "rises through", "fall": "falls through"}.get(cond.edge, "crosses")
     reasons: list = []
