@@ -539,3 +539,36 @@ def test_a_touch_of_the_level_is_a_rise_and_a_fall_and_a_pass_over_a_plateau_one
     m = {x.name: x for x in evaluate_measures(c.measures, {"dc": r})}
     assert m["r"].value == 1.0 and m["f"].value == 1.0 and m["u"].value == 1.0
     assert not m["n"].ok
+
+
+TD_WINDOW = """td
+V1 out 0 pwl(0 0 1m 2 2m 1 3m 0)
+R1 out 0 1k
+.tran 10u 3m
+.meas tran m max v(out) td=1.5m
+.meas tran a avg v(out) td=1m to=2m
+.meas tran ig integ v(out) td=1m to=2m
+.meas tran r rms v(out) td=1m
+.meas tran p pp v(out) td=1.5m
+.meas tran x max v(out) td=2.5m from=1m to=2m
+.end
+"""
+
+
+def test_td_does_not_start_the_window_of_min_max_avg_rms_integ_as_in_ngspice():
+    # ngspice 39 (ngspice -b on TD_WINDOW): m = 2.000000e+00 at= 1.000000e-03, a = 1.250000e+00,
+    # ig = 2.50000e-03, r = 1.15470e+00, p = 2.000000e+00, x = 2.000000e+00 at= 1.000000e-03:
+    # TD is not read; the closed forms of the triangle 0 -> 2 (1 ms) -> 1 (2 ms) -> 0 (3 ms) from 0
+    circuit = load(TD_WINDOW)
+    warned = [d for d in circuit.diagnostics if "TD= has no effect" in d.message]
+    lines = TD_WINDOW.splitlines()
+    assert [(d.location.line, d.location.column) for d in warned] == \
+        [(k + 1, line.index("td=") + 1) for k, line in enumerate(lines) if "td=" in line]
+    assert "FROM=" in warned[0].message and "MAX" in warned[0].message
+    m = {x.name: x for r in run(TD_WINDOW) for x in r.measures}
+    assert m["m"].value == pytest.approx(2.0, rel=1e-12) and m["m"].at == pytest.approx(1e-3, rel=1e-9)
+    assert m["a"].value == pytest.approx(1.25, rel=1e-9)
+    assert m["ig"].value == pytest.approx(2.5e-3, rel=1e-9)
+    assert m["r"].value == pytest.approx(math.sqrt(4 / 3), rel=1e-9)
+    assert m["p"].value == pytest.approx(2.0, rel=1e-12)
+    assert m["x"].value == pytest.approx(2.0, rel=1e-12)  # was refused: "TO=0.002 is before FROM=0.0025"

@@ -39,8 +39,9 @@ roundings of the value (:data:`~netdae.devices.autodiff.ROUNDING_TIE` times the
 larger magnitude) is on it, and the crossing is where the signal first gets
 that close. A stretch on the value is one arrival (ngspice 39 counts its later
 points as crossings back and forth). Without ``RISE``/``FALL``/``CROSS`` the
-first crossing of either kind counts. ``FROM``, ``TO`` and ``TD`` bound the window (window edges
-are interpolated: ngspice 39 takes ``MIN``, ``MAX`` and ``AVG`` over the points
+first crossing of either kind counts. ``FROM`` and ``TO`` bound the window
+(``TD`` starts the search of a crossing only, as in ngspice 39); window edges
+are interpolated (ngspice 39 takes ``MIN``, ``MAX`` and ``AVG`` over the points
 inside the window only).
 
 Examples
