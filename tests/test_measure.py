@@ -572,3 +572,63 @@ def test_td_does_not_start_the_window_of_min_max_avg_rms_integ_as_in_ngspice():
     assert m["r"].value == pytest.approx(math.sqrt(4 / 3), rel=1e-9)
     assert m["p"].value == pytest.approx(2.0, rel=1e-12)
     assert m["x"].value == pytest.approx(2.0, rel=1e-12)  # was refused: "TO=0.002 is before FROM=0.0025"
+
+
+SQUARE_DC = """integ dc
+V1 in 0 0
+B1 out 0 V=V(in)*V(in)
+R1 out 0 1k
+.dc V1 0 1 0.5
+.meas dc ig integ v(out)
+.meas dc rm rms v(out)
+.end
+"""
+CUBE_DC = """integ dc fine
+V1 in 0 0
+B1 out 0 V=V(in)*V(in)*V(in)
+R1 out 0 1k
+.dc V1 {start} {stop} {step}
+.meas dc ig integ v(out)
+.meas dc rm rms v(out)
+.meas dc igw integ v(out) from=0.25 to=0.75
+.meas dc rmw rms v(out) from=0.25 to=0.75
+.meas dc igp integ v(out) from=0.3 to=0.8
+.end
+"""
+#: v(out) = f**2 (two differentiators, C = 1/(2 pi), the second inverted).
+SQUARE_AC = """integ ac
+V1 in 0 dc 0 ac 1
+Vs1 in a 0
+C1 a 0 0.15915494309189535
+H1 x 0 Vs1 1
+Vs2 x b 0
+C2 b 0 0.15915494309189535
+H2 out 0 Vs2 -1
+.ac {grid}
+.meas ac ig integ v(out)
+.meas ac rm rms v(out)
+.end
+"""
+
+
+def test_dc_and_ac_integ_and_rms_use_ngspices_simpson_and_trapezoid_panels():
+    # the values ngspice 39 prints for these netlists (ngspice -b), 6 digits
+    m = _measured(SQUARE_DC)  # Simpson's 1/3 on 0, 0.5, 1: exact for x**2 (1/3); RMS integrates x**4 so
+    assert m["ig"].value == pytest.approx(1 / 3, rel=1e-14)  # ngspice: 3.33333e-01 (netdae's lines gave 0.375)
+    assert m["rm"].value == pytest.approx(math.sqrt((0 + 4 * 0.0625 + 1) / 6), rel=1e-14)  # ngspice: 4.56435e-01
+    # 0 .. 1 by 0.1: three 3/8 panels (exact for x**3 to 0.9) and a trapezoid; windows: the first point inside
+    # moved to FROM=, the first past TO= to TO=, as ngspice does
+    m = _measured(CUBE_DC.format(start=0, stop=1, step=0.1))
+    assert m["ig"].value == pytest.approx(0.9 ** 4 / 4 + 0.1 * (0.729 + 1) / 2, rel=1e-13)  # ngspice: 2.50475e-01
+    for name, ngspice in (("rm", 3.80799e-01), ("igw", 7.90000e-02), ("rmw", 1.97040e-01), ("igp", 1.00375e-01)):
+        assert m[name].value == pytest.approx(ngspice, rel=6e-6), name
+    # a sweep from its top: along the sweep (3/8, 3/8, 1/3 panels of -0.125), ngspice: -2.50000e-01, 3.78436e-01
+    m = _measured(CUBE_DC.format(start=1, stop=0, step=-0.125).split(".meas dc igw")[0] + ".end\n")
+    assert m["ig"].value == pytest.approx(-0.25, rel=1e-13) and m["rm"].value == pytest.approx(3.78436e-01, rel=6e-6)
+    # ac: lin 3 (Simpson 1/3, exact 26/3), lin 8 (3/8, 3/8, trapezoid), dec and oct (uneven: trapezoids of y, y**2)
+    for grid, integ, rms in (("lin 3 1 3", 8.66667e+00, 4.93288e+00), ("lin 8 1 8", 1.70500e+02, 3.07327e+01),
+                             ("dec 5 1 100", 3.44520e+05, 4.89813e+03), ("oct 3 1 16", 1.37698e+03, 1.21258e+02)):
+        m = _measured(SQUARE_AC.format(grid=grid))
+        assert m["ig"].value == pytest.approx(integ, rel=6e-6), grid
+        assert m["rm"].value == pytest.approx(rms, rel=6e-6), grid
+    assert _measured(SQUARE_AC.format(grid="lin 3 1 3"))["ig"].value == pytest.approx(26 / 3, rel=1e-13)

@@ -23,8 +23,11 @@ How a signal is read between points
   step's polynomial.
 - ``ac`` and ``dc`` (any result without dense output): straight lines
   between the analysis points, as ngspice (``vdb``, ``vm``, ``vp`` ... are
-  formed at the points, then interpolated linearly in frequency); integrals
-  are exact for those lines. These are evaluated for many rows at once
+  formed at the points, then interpolated linearly in frequency); ``AVG`` is
+  the mean of those lines, ``INTEG`` and ``RMS`` integrate the points by
+  ngspice 39's rule (Simpson's 3/8 and 1/3 rules where the points are evenly
+  spaced, trapezoids elsewhere, ``y**2`` formed at the points:
+  :meth:`_Lines.panels`). These are evaluated for many rows at once
   (:func:`evaluate_measure_rows`: the signals of a sweep's rows stacked,
   shape (rows, points)); one result is the case of one row, so a sweep's
   batched measures and a single run's are the same code.
@@ -554,16 +557,44 @@ class _Lines:
         return (self.sense * np.concatenate([[a], x[keep], [b]]),
                 np.concatenate([ends[:, :1], self.y[:, keep], ends[:, 1:]], axis=1))
 
-    def integral(self, lo: float, hi: float, power: int) -> np.ndarray:
-        """The integral of ``y**power`` over [lo, hi] of each row (exact for the lines)."""
+    def integral(self, lo: float, hi: float) -> np.ndarray:
+        """The integral over [lo, hi] of each row's lines (exact)."""
         lo, hi = sorted((self.sense * lo, self.sense * hi))
         knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
         a, b = knots[:-1], knots[1:]
         ya, yb = _interp(a, self.x, self.y), _interp(b, self.x, self.y)
-        if power == 1:
-            return np.sum((b - a) * (ya + yb) / 2.0, axis=1)
-        return np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0, axis=1)
+        return np.sum((b - a) * (ya + yb) / 2.0, axis=1)
 
+    def panels(self, lo: float, hi: float, power: int) -> np.ndarray:
+        """The integral of ``y**power`` over [lo, hi] of each row by ngspice 39's rule (INTEG, RMS).
+
+        ngspice's ``measure_rms_integral`` integrates the points, not the lines:
+        the first point at or after the window's start is moved to it (its value
+        interpolated; not where it is within 100 ulps of it), the points follow
+        up to the window's end, and the first point past the end is moved to
+        it. Then, from the first point, three intervals of equal width
+        (:func:`_same_width`) take Simpson's 3/8 rule, else two Simpson's 1/3
+        rule, else one a trapezoid. ``y**power`` is formed at the points. Along
+        the increasing axis (:attr:`x`): a sweep written from its top is
+        integrated from its top, and :meth:`panels` of it is the negative of
+        ngspice's value.
+        """
+        x = self.x
+        a, b = sorted((self.sense * lo, self.sense * hi))
+        first = int(np.searchsorted(x, a, side="left"))
+        after = int(np.searchsorted(x, b, side="right"))  # the first point past the end
+        keep = list(range(first, min(after, x.size)))
+        xs = x[keep].astype(float)
+        ys = self.y[:, keep]
+        if keep and keep[0] > 0 and not _same_width(xs[0], a):
+            xs[0], ys[:, 0] = a, _interp([a], x, self.y)[:, 0]
+        if after < x.size:
+            tail = (x[after], self.y[:, after]) if _same_width(x[after], b) else (b, _interp([b], x, self.y)[:, 0])
+            xs, ys = np.append(xs, tail[0]), np.concatenate([ys, tail[1][:, None]], axis=1)
+        if xs.size < 2:  # the window between two points: its interpolated ends
+            xs = np.array([a, b])
+            ys = _interp(xs, x, self.y)
+        return (ys ** power) @ _panel_weights(xs)
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
         """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
         x = self.x
@@ -580,6 +611,37 @@ class _Lines:
         reasons = [f"{self.name} jumps at {q:g}: no derivative there" if jump else None
                    for q, jump in zip(np.atleast_1d(xq).tolist(), (b == a).tolist())]
         return slope, reasons
+
+
+def _same_width(a, b, ulps: int = 100) -> np.ndarray:
+    """Whether ``a`` and ``b`` are within ``ulps`` units in the last place (ngspice's ``AlmostEqualUlps``:
+    the doubles' bits as ordered integers)."""
+    def ordered(v):
+        i = np.asarray(v, dtype=float).view(np.int64)
+        return np.where(i < 0, np.iinfo(np.int64).min - i, i)
+
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    with np.errstate(over="ignore"):
+        return (a == b) | (np.abs(ordered(a) - ordered(b)) <= ulps)
+
+
+def _panel_weights(x: np.ndarray) -> np.ndarray:
+    """The weights of ngspice 39's integration rule on the points ``x`` (:meth:`_Lines.panels`)."""
+    h = np.concatenate([np.diff(x), [0.0, 0.0]])
+    next1, next2 = _same_width(h[:-2], h[1:-1]).tolist(), _same_width(h[:-2], h[2:]).tolist()
+    w = np.zeros(x.size + 3)  # a panel over the zero widths past the last point reaches beyond it (weight 0)
+    i, n = 0, x.size - 1
+    while i < n:
+        if next1[i] and next2[i]:
+            w[i:i + 4] += 3.0 * h[i] / 8.0 * np.array([1.0, 3.0, 3.0, 1.0])
+            i += 3
+        elif next1[i]:
+            w[i:i + 3] += h[i] / 3.0 * np.array([1.0, 4.0, 1.0])
+            i += 2
+        else:
+            w[i:i + 2] += h[i] / 2.0
+            i += 1
+    return w[:x.size]
 
 
 def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: str,
@@ -705,11 +767,11 @@ def _measure_columns(spec: MeasureSpec, result: Result, rows: int) -> tuple[np.n
                 samples = trace.samples(lo, hi)
                 value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
             elif f == "integ":  # along the sweep, as ngspice: a decreasing .dc sweep integrates from hi to lo
-                value = trace.sense * trace.integral(lo, hi, 1)
+                value = trace.sense * trace.panels(lo, hi, 1)
             elif f == "avg":
-                value = trace.integral(lo, hi, 1) / (hi - lo)
+                value = trace.integral(lo, hi) / (hi - lo)
             else:  # rms
-                value = np.sqrt(np.maximum(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
+                value = np.sqrt(np.maximum(trace.panels(lo, hi, 2), 0.0) / (hi - lo))
             if f in ("pp", "integ", "avg", "rms"):
                 extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
     return value, at, extra, reasons
