@@ -632,3 +632,33 @@ def test_dc_and_ac_integ_and_rms_use_ngspices_simpson_and_trapezoid_panels():
         assert m["ig"].value == pytest.approx(integ, rel=6e-6), grid
         assert m["rm"].value == pytest.approx(rms, rel=6e-6), grid
     assert _measured(SQUARE_AC.format(grid="lin 3 1 3"))["ig"].value == pytest.approx(26 / 3, rel=1e-13)
+
+
+ONE_POINT = """one point
+V1 in 0 dc 0 ac 1
+R1 in out 1k
+R2 out 0 1k
+{analysis}
+.meas {kind} m max v(out)
+.meas {kind} mn min v(out)
+.meas {kind} p pp v(out)
+.meas {kind} ma max_at v(out)
+.meas {kind} ig integ v(out)
+.meas {kind} a avg v(out)
+.meas {kind} f find v(out) at={at}
+.meas {kind} out max v(out) from={beyond}
+.end
+"""
+
+
+@pytest.mark.parametrize("analysis, kind, at", [(".dc V1 1 1 1", "dc", 1), (".ac lin 1 10 10", "ac", 10)])
+def test_min_max_pp_integ_of_a_one_point_sweep_are_its_value_as_in_ngspice(analysis, kind, at):
+    # ngspice 39 (ngspice -b, both analyses): m = 5.000000e-01 at= 1.000000e+00 (at= 1.000000e+01 for ac),
+    # mn = 5.000000e-01, p = 0.000000e+00, ma = 1.000000e+00 with= 5.000000e-01, ig = 0.00000e+00;
+    # avg and find ... at= failed ("out of interval")
+    m = _measured(ONE_POINT.format(analysis=analysis, kind=kind, at=at, beyond=2 * at))
+    assert (m["m"].value, m["m"].at, m["mn"].value, m["p"].value) == (0.5, at, 0.5, 0.0)
+    assert (m["ma"].value, m["ma"].extra["with"], m["ig"].value) == (at, 0.5, 0.0)
+    assert not m["a"].ok and "has 1 point(s)" in m["a"].reason
+    assert not m["f"].ok
+    assert not m["out"].ok and "holds no part of the analysis" in m["out"].reason

@@ -757,24 +757,53 @@ def _measure_columns(spec: MeasureSpec, result: Result, rows: int) -> tuple[np.n
                 value, why = trace.derivative(at)
                 reasons = [a or b for a, b in zip(reasons, why)]
         else:
-            lo, hi = _window(spec, trace)
-            if f in ("min", "max"):
-                value, at = _extreme_rows(trace, 1.0 if f == "max" else -1.0, trace.samples(lo, hi))
-            elif f in ("min_at", "max_at"):
-                top, at = _extreme_rows(trace, 1.0 if f == "max_at" else -1.0, trace.samples(lo, hi))
-                value, extra = at, {"with": top}
-            elif f == "pp":
-                samples = trace.samples(lo, hi)
-                value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
-            elif f == "integ":  # along the sweep, as ngspice: a decreasing .dc sweep integrates from hi to lo
-                value = trace.sense * trace.panels(lo, hi, 1)
-            elif f == "avg":
-                value = trace.integral(lo, hi) / (hi - lo)
-            else:  # rms
-                value = np.sqrt(np.maximum(trace.panels(lo, hi, 2), 0.0) / (hi - lo))
-            if f in ("pp", "integ", "avg", "rms"):
-                extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
+            if trace.x.size == 1:
+                value, at, extra = _one_point(spec, trace)
+            else:
+                lo, hi = _window(spec, trace)
+                if f in ("min", "max"):
+                    value, at = _extreme_rows(trace, 1.0 if f == "max" else -1.0, trace.samples(lo, hi))
+                elif f in ("min_at", "max_at"):
+                    top, at = _extreme_rows(trace, 1.0 if f == "max_at" else -1.0, trace.samples(lo, hi))
+                    value, extra = at, {"with": top}
+                elif f == "pp":
+                    samples = trace.samples(lo, hi)
+                    value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
+                elif f == "integ":  # along the sweep, as ngspice: a decreasing .dc sweep integrates from hi to lo
+                    value = trace.sense * trace.panels(lo, hi, 1)
+                elif f == "avg":
+                    value = trace.integral(lo, hi) / (hi - lo)
+                else:  # rms
+                    value = np.sqrt(np.maximum(trace.panels(lo, hi, 2), 0.0) / (hi - lo))
+                if f in ("pp", "integ", "avg", "rms"):
+                    extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
     return value, at, extra, reasons
+
+
+#: The functions ngspice 39 evaluates on a sweep of one point (AVG, RMS, FIND, WHEN fail there).
+_ONE_POINT = ("min", "max", "min_at", "max_at", "pp", "integ")
+
+
+def _one_point(spec: MeasureSpec, trace: _Lines) -> tuple[np.ndarray, np.ndarray | None, dict]:
+    """``(value, at, extra)`` of a window function on a sweep of one point (:data:`_ONE_POINT`), as
+    ngspice 39 gives them: the extreme is the point's value, ``PP`` and ``INTEG`` are 0.
+
+    Raises
+    ------
+    MeasureFailure
+        The point is outside the window.
+    """
+    x = trace.sense * float(trace.x[0])
+    if (spec.start is not None and x < spec.start) or (spec.stop is not None and x > spec.stop):
+        start, stop = (x if v is None else v for v in (spec.start, spec.stop))
+        raise MeasureFailure(f"the window FROM={start:g} TO={stop:g} holds no part of the analysis (one point, {x:g})")
+    f, y, rows = spec.function, trace.y[:, 0], trace.y.shape[0]
+    where = np.full(rows, x)
+    if f in ("min", "max"):
+        return y, where, {}
+    if f in ("min_at", "max_at"):
+        return where, where, {"with": y}
+    return np.zeros(rows), None, {"from": x, "to": x}
 
 
 def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
@@ -796,11 +825,11 @@ def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
     return Measure(spec.name, spec.analysis, "param", value)
 
 
-def _check_axis(result: Result) -> None:
+def _check_axis(result: Result, function: str) -> None:
     if len(result.axes) > 1:
         raise MeasureFailure("a nested .dc sweep (two sources) is not measured by netdae")
     x = np.asarray(result.axis, dtype=float)
-    if x.size < 2:
+    if x.size < 2 and not (x.size == 1 and result.dense is None and function in _ONE_POINT):
         raise MeasureFailure(f"the {result.analysis} result has {x.size} point(s)")
     step = np.diff(x)
     if np.any(step < 0) and not (result.analysis == "dc" and np.all(step < 0)):
@@ -950,7 +979,7 @@ def _measured_result(spec: MeasureSpec, results: Mapping[str, Result], rows: int
         raise MeasureFailure(f"no {spec.analysis} result to measure")
     if not result.ok and not _partial(result, rows):
         raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
-    _check_axis(result)
+    _check_axis(result, spec.function)
     return result
 
 
