@@ -594,7 +594,8 @@ class _Lines:
         if xs.size < 2:  # the window between two points: its interpolated ends
             xs = np.array([a, b])
             ys = _interp(xs, x, self.y)
-        return (ys ** power) @ _panel_weights(xs)
+        # summed row by row: a matrix product's rounding would depend on how many rows are stacked
+        return np.sum(np.ascontiguousarray(ys) ** power * _panel_weights(xs), axis=1)
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
         """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
         x = self.x
