@@ -310,7 +310,10 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
             # between: d's zero; reaching: the first point within the tie; leaving: the last
             shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
             ga, gb = g(a, shift), g(b, shift)
-            t = a if ga == 0 else b if gb == 0 or ga * gb > 0 else _root(lambda u: g(u, shift), a, b, ga, gb)
+            if ga * gb > 0:  # the interpolant at the sample points disagrees with the samples by rounding
+                t = a if where[k] == 2 else b
+            else:
+                t = a if ga == 0 else b if gb == 0 else _root(lambda u: g(u, shift), a, b, ga, gb)
         out.append((float(t), "rise" if up else "fall"))
     return out
 
