@@ -689,3 +689,21 @@ def test_cli_sweep_says_when_the_scheduler_cannot_be_reached(tmp_path, capsys, m
         assert cli(["sweep", str(path), "--mc", "3", "--scheduler", address, "--out", str(tmp_path)]) == 2
         err = capsys.readouterr().err
         assert message in err and "tcp://host:8786" in err and "bug in netdae" not in err
+
+
+@pytest.mark.parametrize("name, step, column", [
+    ("r2", ".step param r2 list 1k 2k", "the swept param r2"),
+    ("row", "", "the row number"), ("error", "", "why a row failed"), ("sample", "", "the Monte Carlo sample"),
+])
+def test_a_measure_named_like_a_column_of_the_table_is_a_located_error(name, step, column):
+    # it overwrote the column: measures.csv lost the stepped values (r2 = 1k, 2k read back as the measure)
+    text = DIVIDER + f"{step}\n.meas dc {name} find v(b) at=0.5m\n"
+    params = None if step else {"r2": [1e3, 2e3]}
+    with pytest.raises(NetlistError) as exc:
+        netdae.sweep(text, params=params, workers=1)
+    line = text.splitlines().index(f".meas dc {name} find v(b) at=0.5m") + 1
+    assert (exc.value.location.line, exc.value.location.column) == (line, len(".meas dc ") + 1)
+    assert f"column '{name}' ({column})" in exc.value.message and "rename" in exc.value.hint
+    # added measures are checked too, at their place in <measures>
+    with pytest.raises(NetlistError, match=r"<measures>:1:.*column 'r2'"):
+        netdae.sweep(DIVIDER, params={"r2": [1e3, 2e3]}, measures=["dc r2 find v(b) at=0.5m"], workers=1)

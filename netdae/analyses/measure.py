@@ -23,8 +23,11 @@ How a signal is read between points
   step's polynomial.
 - ``ac`` and ``dc`` (any result without dense output): straight lines
   between the analysis points, as ngspice (``vdb``, ``vm``, ``vp`` ... are
-  formed at the points, then interpolated linearly in frequency); integrals
-  are exact for those lines. These are evaluated for many rows at once
+  formed at the points, then interpolated linearly in frequency); ``AVG`` is
+  the mean of those lines, ``INTEG`` and ``RMS`` integrate the points by
+  ngspice 39's rule (Simpson's 3/8 and 1/3 rules where the points are evenly
+  spaced, trapezoids elsewhere, ``y**2`` formed at the points:
+  :meth:`_Lines.panels`). These are evaluated for many rows at once
   (:func:`evaluate_measure_rows`: the signals of a sweep's rows stacked,
   shape (rows, points)); one result is the case of one row, so a sweep's
   batched measures and a single run's are the same code.
@@ -32,11 +35,16 @@ How a signal is read between points
 A transient that failed part way is measured on what it computed where the
 measurement needs nothing after its last point (:func:`_measure_partial`).
 
-Crossings are counted as ngspice counts them: a point is *above* when the
-signal is >= the value, a rise is a change from below to above, a fall from
-above to below; without ``RISE``/``FALL``/``CROSS`` the first crossing of
-either kind counts. ``FROM``, ``TO`` and ``TD`` bound the window (window edges
-are interpolated: ngspice 39 takes ``MIN``, ``MAX`` and ``AVG`` over the points
+Crossings are counted as ngspice counts them: a rise is reaching the value
+(``>=``) from below, a fall reaching it (``<=``) from above, so a signal that
+ends on the value has crossed it (:func:`_events`); a point within 32
+roundings of the value (:data:`~netdae.devices.autodiff.ROUNDING_TIE` times the
+larger magnitude) is on it, and the crossing is where the signal first gets
+that close. A stretch on the value is one arrival (ngspice 39 counts its later
+points as crossings back and forth). Without ``RISE``/``FALL``/``CROSS`` the
+first crossing of either kind counts. ``FROM`` and ``TO`` bound the window
+(``TD`` starts the search of a crossing only, as in ngspice 39); window edges
+are interpolated (ngspice 39 takes ``MIN``, ``MAX`` and ``AVG`` over the points
 inside the window only).
 
 Examples
@@ -58,6 +66,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..devices.autodiff import ROUNDING_TIE
 from ..measures import LAST, STATUS_FAILED, Condition, Measure, MeasureSpec, Probe, leaf_signal
 from ..netlist import expr as ex
 from ..results import Result
@@ -233,33 +242,79 @@ def _root(g, a: float, b: float, ga: float, gb: float) -> float:
     return float(brentq(wrapped, a, b, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200))
 
 
-def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
-    """Every crossing in [lo, hi]: (axis value, "rise" | "fall")."""
-    xs, ys = trace.samples(lo, hi)
-    d = ys - (other.at(xs) if other is not None else cond.value)
-    above = d >= 0
-    nonzero = np.flatnonzero(d != 0)
-    if nonzero.size and nonzero[0] > 0:  # starting on the value is not a crossing: the side is where it goes
-        above[: nonzero[0]] = above[nonzero[0]]
-    change = np.flatnonzero(above[1:] != above[:-1])
+def _sides(d: np.ndarray, tie: np.ndarray) -> np.ndarray:
+    """Each point's side of the value: +1 above, -1 below, 0 on it (``|d| <= tie``)."""
+    return np.where(d > tie, 1, np.where(d < -tie, -1, 0)).astype(np.int8)
 
-    def g(t):
+
+def _events(side: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The crossings between consecutive points, from their sides (:func:`_sides`).
+
+    A rise is reaching the value (``>=``) from below, a fall reaching it (``<=``)
+    from above, as ngspice 39 counts them: a signal that ends on the value has
+    crossed it. A stretch on the value is one arrival: where it leaves back to
+    the side it came from, that is the opposite crossing (a touch from below is a
+    rise and a fall); where it goes on to the other side, nothing more. A start on
+    the value is no crossing.
+
+    Parameters
+    ----------
+    side : ndarray of int, shape (rows, s)
+
+    Returns
+    -------
+    kind : ndarray of int, shape (rows, s - 1)
+        Between points k and k + 1: +1 a rise, -1 a fall, 0 none.
+    where : ndarray of int, shape (rows, s - 1)
+        Where that crossing is: 0 between the points, 1 where the signal
+        reaches the value (at or before point k + 1), 2 where it leaves it
+        (at or after point k).
+    """
+    prev, cur = side[:, :-1], side[:, 1:]
+    n = side.shape[1]
+    last = np.maximum.accumulate(np.where(side != 0, np.arange(n)[None, :], -1), axis=1)
+    came = np.where(last >= 0, np.take_along_axis(side, np.maximum(last, 0), axis=1), 0)[:, :-1]
+    through = (prev != 0) & (cur != 0) & (prev != cur)
+    reach = (prev != 0) & (cur == 0)
+    leave = (prev == 0) & (cur != 0) & (came == cur)
+    kind = np.where(through | leave, cur, np.where(reach, -prev, 0)).astype(np.int8)
+    where = np.where(reach, 1, np.where(leave, 2, 0)).astype(np.int8)
+    return kind, where
+
+
+def _tie(*values) -> np.ndarray:
+    """Half the width of a tie with the value (:data:`~netdae.devices.autodiff.ROUNDING_TIE` times the
+    larger magnitude)."""
+    return ROUNDING_TIE * np.maximum.reduce([np.abs(np.asarray(v, dtype=float)) for v in values])
+
+
+def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
+    """Every crossing in [lo, hi]: (axis value, "rise" | "fall") (:func:`_events`)."""
+    xs, ys = trace.samples(lo, hi)
+    ref = other.at(xs) if other is not None else np.full_like(ys, cond.value)
+    d = ys - ref
+    kind, where = (a[0] for a in _events(_sides(d, _tie(ys, ref))[None, :]))
+
+    def g(t, shift):
         value = trace.at([t])[0]
-        return value - (other.at([t])[0] if other is not None else cond.value)
+        ref = other.at([t])[0] if other is not None else cond.value
+        return value - ref + shift * float(_tie(value, ref))
 
     out = []
-    for k in change:
-        a, b, da, db = xs[k], xs[k + 1], d[k], d[k + 1]
-        kind = "rise" if above[k + 1] else "fall"
+    for k in np.flatnonzero(kind).tolist():
+        a, b = xs[k], xs[k + 1]
+        up = kind[k] > 0
         if a == b:
             t = a
-        elif kind == "rise" and db == 0:
-            t = b
-        elif kind == "fall" and da == 0:
-            t = a
         else:
-            t = _root(g, a, b, da, db)
-        out.append((float(t), kind))
+            # between: d's zero; reaching: the first point within the tie; leaving: the last
+            shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
+            ga, gb = g(a, shift), g(b, shift)
+            if ga * gb > 0:  # the interpolant at the sample points disagrees with the samples by rounding
+                t = a if where[k] == 2 else b
+            else:
+                t = a if ga == 0 else b if gb == 0 else _root(lambda u: g(u, shift), a, b, ga, gb)
+        out.append((float(t), "rise" if up else "fall"))
     return out
 
 
@@ -505,16 +560,45 @@ class _Lines:
         return (self.sense * np.concatenate([[a], x[keep], [b]]),
                 np.concatenate([ends[:, :1], self.y[:, keep], ends[:, 1:]], axis=1))
 
-    def integral(self, lo: float, hi: float, power: int) -> np.ndarray:
-        """The integral of ``y**power`` over [lo, hi] of each row (exact for the lines)."""
+    def integral(self, lo: float, hi: float) -> np.ndarray:
+        """The integral over [lo, hi] of each row's lines (exact)."""
         lo, hi = sorted((self.sense * lo, self.sense * hi))
         knots = np.unique(np.concatenate([[lo], self.x[(self.x > lo) & (self.x < hi)], [hi]]))
         a, b = knots[:-1], knots[1:]
         ya, yb = _interp(a, self.x, self.y), _interp(b, self.x, self.y)
-        if power == 1:
-            return np.sum((b - a) * (ya + yb) / 2.0, axis=1)
-        return np.sum((b - a) * (ya * ya + ya * yb + yb * yb) / 3.0, axis=1)
+        return np.sum((b - a) * (ya + yb) / 2.0, axis=1)
 
+    def panels(self, lo: float, hi: float, power: int) -> np.ndarray:
+        """The integral of ``y**power`` over [lo, hi] of each row by ngspice 39's rule (INTEG, RMS).
+
+        ngspice's ``measure_rms_integral`` integrates the points, not the lines:
+        the first point at or after the window's start is moved to it (its value
+        interpolated; not where it is within 100 ulps of it), the points follow
+        up to the window's end, and the first point past the end is moved to
+        it. Then, from the first point, three intervals of equal width
+        (:func:`_same_width`) take Simpson's 3/8 rule, else two Simpson's 1/3
+        rule, else one a trapezoid. ``y**power`` is formed at the points. Along
+        the increasing axis (:attr:`x`): a sweep written from its top is
+        integrated from its top, and :meth:`panels` of it is the negative of
+        ngspice's value.
+        """
+        x = self.x
+        a, b = sorted((self.sense * lo, self.sense * hi))
+        first = int(np.searchsorted(x, a, side="left"))
+        after = int(np.searchsorted(x, b, side="right"))  # the first point past the end
+        keep = list(range(first, min(after, x.size)))
+        xs = x[keep].astype(float)
+        ys = self.y[:, keep]
+        if keep and keep[0] > 0 and not _same_width(xs[0], a):
+            xs[0], ys[:, 0] = a, _interp([a], x, self.y)[:, 0]
+        if after < x.size:
+            tail = (x[after], self.y[:, after]) if _same_width(x[after], b) else (b, _interp([b], x, self.y)[:, 0])
+            xs, ys = np.append(xs, tail[0]), np.concatenate([ys, tail[1][:, None]], axis=1)
+        if xs.size < 2:  # the window between two points: its interpolated ends
+            xs = np.array([a, b])
+            ys = _interp(xs, x, self.y)
+        # summed row by row: a matrix product's rounding would depend on how many rows are stacked
+        return np.sum(np.ascontiguousarray(ys) ** power * _panel_weights(xs), axis=1)
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
         """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
         x = self.x
@@ -533,12 +617,43 @@ class _Lines:
         return slope, reasons
 
 
+def _same_width(a, b, ulps: int = 100) -> np.ndarray:
+    """Whether ``a`` and ``b`` are within ``ulps`` units in the last place (ngspice's ``AlmostEqualUlps``:
+    the doubles' bits as ordered integers)."""
+    def ordered(v):
+        i = np.asarray(v, dtype=float).view(np.int64)
+        return np.where(i < 0, np.iinfo(np.int64).min - i, i)
+
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    with np.errstate(over="ignore"):
+        return (a == b) | (np.abs(ordered(a) - ordered(b)) <= ulps)
+
+
+def _panel_weights(x: np.ndarray) -> np.ndarray:
+    """The weights of ngspice 39's integration rule on the points ``x`` (:meth:`_Lines.panels`)."""
+    h = np.concatenate([np.diff(x), [0.0, 0.0]])
+    next1, next2 = _same_width(h[:-2], h[1:-1]).tolist(), _same_width(h[:-2], h[2:]).tolist()
+    w = np.zeros(x.size + 3)  # a panel over the zero widths past the last point reaches beyond it (weight 0)
+    i, n = 0, x.size - 1
+    while i < n:
+        if next1[i] and next2[i]:
+            w[i:i + 4] += 3.0 * h[i] / 8.0 * np.array([1.0, 3.0, 3.0, 1.0])
+            i += 3
+        elif next1[i]:
+            w[i:i + 3] += h[i] / 3.0 * np.array([1.0, 4.0, 1.0])
+            i += 2
+        else:
+            w[i:i + 2] += h[i] / 2.0
+            i += 1
+    return w[:x.size]
+
+
 def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: str,
                    rows: int) -> tuple[np.ndarray, list]:
     """Each row's crossing asked by ``cond`` (NaN where it fails) and why a row has none (None: it has).
 
-    Crossings are counted as in the module docstring: ``above`` is ``y >= value``,
-    points on the value before the first point off it take that point's side.
+    Crossings are counted as in the module docstring (:func:`_events`); one reaching the value is
+    at the point that reaches it, one leaving it at the last point on it.
 
     Raises
     ------
@@ -551,22 +666,20 @@ def _crossing_rows(spec: MeasureSpec, result: Result, cond: Condition, clause: s
     other = _Lines(result, cond.other) if cond.other is not None else None
     lo, hi = _search_window(spec, cond, clause, trace.span)
     xs, ys = trace.samples(lo, hi)
-    d = ys - (other.at(xs) if other is not None else cond.value)
-    first = np.argmax(d != 0, axis=1)  # before the first point off the value, the side it goes to
-    above = np.take_along_axis(d >= 0, np.maximum(np.arange(d.shape[1])[None, :], first[:, None]), axis=1)
-    rise = above[:, 1:]
-    change = rise != above[:, :-1]
-    wanted = change & rise if cond.edge == "rise" else change & ~rise if cond.edge == "fall" else change
+    ref = other.at(xs) if other is not None else np.full_like(ys, cond.value)
+    d = ys - ref
+    edges, where = _events(_sides(d, _tie(ys, ref)))
+    wanted = edges > 0 if cond.edge == "rise" else edges < 0 if cond.edge == "fall" else edges != 0
     counts = wanted.sum(axis=1)
     if cond.count == LAST:
         k = wanted.shape[1] - 1 - np.argmax(wanted[:, ::-1], axis=1)
     else:
         k = np.argmax(np.cumsum(wanted, axis=1) >= cond.count, axis=1)
     r = np.arange(d.shape[0])
-    a, b, da, db, up = xs[k], xs[k + 1], d[r, k], d[r, k + 1], rise[r, k]
+    a, b, da, db, at = xs[k], xs[k + 1], d[r, k], d[r, k + 1], where[r, k]
     with np.errstate(invalid="ignore", divide="ignore"):
         t = a + (0.0 - da) * (b - a) / (db - da)
-    t = np.where(a == b, a, np.where(up & (db == 0), b, np.where(~up & (da == 0), a, t)))
+    t = np.where((a == b) | (at == 2), a, np.where(at == 1, b, t))
     target = other.name if other is not None else f"{cond.value:g}"
     kind = {"rise": "rises through", "fall": "falls through"}.get(cond.edge, "crosses")
     reasons: list = []
@@ -648,24 +761,53 @@ def _measure_columns(spec: MeasureSpec, result: Result, rows: int) -> tuple[np.n
                 value, why = trace.derivative(at)
                 reasons = [a or b for a, b in zip(reasons, why)]
         else:
-            lo, hi = _window(spec, trace)
-            if f in ("min", "max"):
-                value, at = _extreme_rows(trace, 1.0 if f == "max" else -1.0, trace.samples(lo, hi))
-            elif f in ("min_at", "max_at"):
-                top, at = _extreme_rows(trace, 1.0 if f == "max_at" else -1.0, trace.samples(lo, hi))
-                value, extra = at, {"with": top}
-            elif f == "pp":
-                samples = trace.samples(lo, hi)
-                value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
-            elif f == "integ":  # along the sweep, as ngspice: a decreasing .dc sweep integrates from hi to lo
-                value = trace.sense * trace.integral(lo, hi, 1)
-            elif f == "avg":
-                value = trace.integral(lo, hi, 1) / (hi - lo)
-            else:  # rms
-                value = np.sqrt(np.maximum(trace.integral(lo, hi, 2), 0.0) / (hi - lo))
-            if f in ("pp", "integ", "avg", "rms"):
-                extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
+            if trace.x.size == 1:
+                value, at, extra = _one_point(spec, trace)
+            else:
+                lo, hi = _window(spec, trace)
+                if f in ("min", "max"):
+                    value, at = _extreme_rows(trace, 1.0 if f == "max" else -1.0, trace.samples(lo, hi))
+                elif f in ("min_at", "max_at"):
+                    top, at = _extreme_rows(trace, 1.0 if f == "max_at" else -1.0, trace.samples(lo, hi))
+                    value, extra = at, {"with": top}
+                elif f == "pp":
+                    samples = trace.samples(lo, hi)
+                    value = _extreme_rows(trace, 1.0, samples)[0] - _extreme_rows(trace, -1.0, samples)[0]
+                elif f == "integ":  # along the sweep, as ngspice: a decreasing .dc sweep integrates from hi to lo
+                    value = trace.sense * trace.panels(lo, hi, 1)
+                elif f == "avg":
+                    value = trace.integral(lo, hi) / (hi - lo)
+                else:  # rms
+                    value = np.sqrt(np.maximum(trace.panels(lo, hi, 2), 0.0) / (hi - lo))
+                if f in ("pp", "integ", "avg", "rms"):
+                    extra = {"from": lo, "to": hi} if trace.sense > 0 else {"from": hi, "to": lo}
     return value, at, extra, reasons
+
+
+#: The functions ngspice 39 evaluates on a sweep of one point (AVG, RMS, FIND, WHEN fail there).
+_ONE_POINT = ("min", "max", "min_at", "max_at", "pp", "integ")
+
+
+def _one_point(spec: MeasureSpec, trace: _Lines) -> tuple[np.ndarray, np.ndarray | None, dict]:
+    """``(value, at, extra)`` of a window function on a sweep of one point (:data:`_ONE_POINT`), as
+    ngspice 39 gives them: the extreme is the point's value, ``PP`` and ``INTEG`` are 0.
+
+    Raises
+    ------
+    MeasureFailure
+        The point is outside the window.
+    """
+    x = trace.sense * float(trace.x[0])
+    if (spec.start is not None and x < spec.start) or (spec.stop is not None and x > spec.stop):
+        start, stop = (x if v is None else v for v in (spec.start, spec.stop))
+        raise MeasureFailure(f"the window FROM={start:g} TO={stop:g} holds no part of the analysis (one point, {x:g})")
+    f, y, rows = spec.function, trace.y[:, 0], trace.y.shape[0]
+    where = np.full(rows, x)
+    if f in ("min", "max"):
+        return y, where, {}
+    if f in ("min_at", "max_at"):
+        return where, where, {"with": y}
+    return np.zeros(rows), None, {"from": x, "to": x}
 
 
 def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
@@ -687,11 +829,11 @@ def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
     return Measure(spec.name, spec.analysis, "param", value)
 
 
-def _check_axis(result: Result) -> None:
+def _check_axis(result: Result, function: str) -> None:
     if len(result.axes) > 1:
         raise MeasureFailure("a nested .dc sweep (two sources) is not measured by netdae")
     x = np.asarray(result.axis, dtype=float)
-    if x.size < 2:
+    if x.size < 2 and not (x.size == 1 and result.dense is None and function in _ONE_POINT):
         raise MeasureFailure(f"the {result.analysis} result has {x.size} point(s)")
     step = np.diff(x)
     if np.any(step < 0) and not (result.analysis == "dc" and np.all(step < 0)):
@@ -841,7 +983,7 @@ def _measured_result(spec: MeasureSpec, results: Mapping[str, Result], rows: int
         raise MeasureFailure(f"no {spec.analysis} result to measure")
     if not result.ok and not _partial(result, rows):
         raise MeasureFailure(f"the {spec.analysis} analysis failed: {result.message}")
-    _check_axis(result)
+    _check_axis(result, spec.function)
     return result
 
 

@@ -16,6 +16,8 @@ Signals are ``v(node)``, ``v(a,b)``, ``i(vname)``, ``@device[param]``, for ``tra
 ``dc`` ngspice's ``par('expression')`` (of ``v()``, ``i()``, ``time``, numbers and
 parameters, evaluated at every point of the result), and, for ``ac``, ``vdb() vm()
 vp() vr() vi()``. Nothing is evaluated here; errors are located at the token.
+``TD=`` of MIN ... INTEG is kept and, at elaboration, ignored with a warning, as
+ngspice 39 does not read it there.
 
 Examples
 --------
@@ -338,6 +340,7 @@ def parse_measure(card: Card) -> MeasureCard:
                 if m.window.get(key) is not None:
                     raise cur.fail(offset, f"{key.upper()}= given twice")
                 m.window[key] = value
+                m.window_at[key] = offset
     if not cur.done:
         tok = cur.peek()
         raise cur.fail(tok.start, f"unexpected {tok.text!r} after the measurement")
@@ -507,9 +510,10 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
             window.setdefault("from", m.when.get("from"))
             window.setdefault("to", m.when.get("to"))
         start = number(window.get("from"), card, "FROM")
-        td = number(window.get("td"), card, "TD")
-        if td is not None:
-            start = td if start is None else max(start, td)
+        if "td" in m.window:  # ngspice 39's measure_minMaxAvg and measure_rms_integral do not read it
+            card.warn(m.window_at["td"], f"TD= has no effect on {m.function.upper()} in ngspice 39 (netdae "
+                      "ignores it too): the window starts at FROM= or the analysis's start; write FROM= "
+                      "to start it later")
         stop = number(window.get("to"), card, "TO")
         if start is not None and stop is not None and stop < start:
             if m.analysis == "dc":

@@ -269,7 +269,9 @@ class MeasureCard:
     for ``vdb(out)``. ``trig``, ``targ`` and ``when`` are dicts with the keys
     ``probe``, ``value`` (Val), ``other`` (a signal), ``edge``
     (``"rise"``/``"fall"``/``"cross"``/``""``), ``count`` (-1: LAST), ``td``,
-    ``at``, ``from``, ``to`` (Val or None) and ``offset``.
+    ``at``, ``from``, ``to`` (Val or None) and ``offset``. ``window`` holds a
+    window function's ``TD=``, ``FROM=``, ``TO=`` (Val), ``window_at`` where each
+    keyword is on the card.
     """
 
     analysis: str
@@ -283,6 +285,7 @@ class MeasureCard:
     when: dict | None = None
     at: Val | None = None
     window: dict = field(default_factory=dict)  # td, from, to -> Val
+    window_at: dict = field(default_factory=dict)  # td, from, to -> offset of the keyword
     expression: tuple | None = None  # PARAM=: (Expr, offset, text, offset of the text)
 
 

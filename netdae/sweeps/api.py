@@ -34,7 +34,7 @@ from ..analyses.runner import check_callable, string_entries
 from ..errors import NetdaeError
 from ..stats import Statistics
 from .plan import Plan, make_plan
-from .result import SweepResult
+from .result import SweepResult, reserved_columns
 from .worker import Job, Outcome, pool_worker, run_rows
 
 if TYPE_CHECKING:  # the pools' modules are imported when a pool is used (a serial sweep needs neither)
@@ -76,6 +76,26 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
     net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
     return elaborate(net, params=circuit.overrides, max_elements=circuit.max_elements, sample=circuit.sample,
                      seed=circuit.seed)
+
+
+def _check_measure_names(circuit: Circuit, plan: Plan, analyses: tuple[str, ...] | None) -> None:
+    """Refuse a recorded measure named like a column of the sweep's table (it would overwrite the column).
+
+    Raises
+    ------
+    NetlistError
+        At the measure's name on its ``.meas`` card: the column and what it holds.
+    """
+    from ..netlist.elements import error
+
+    reserved = reserved_columns(plan)
+    recorded = {m.name for m in circuit.measures if analyses is None or m.analysis in analyses}
+    for card in circuit.netlist.measures:
+        what = reserved.get(card.name.lower())
+        if what is not None and card.name in recorded:
+            raise error(card.card, card.offset, f"the measurement '{card.name}' is named like the sweep table's "
+                        f"column '{card.name.lower()}' ({what}), which its values would overwrite",
+                        hint=f"rename the measurement (e.g. {card.name}_m)")
 
 
 def _check_save(circuit: Circuit, save: Iterable[str]) -> list[str]:
@@ -193,7 +213,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     Raises
     ------
     NetlistError
-        Bad input in the netlist or in ``measures``.
+        Bad input in the netlist or in ``measures``; a measurement named like a
+        column of the table (``row``, ``sample``, ``error``, ``reasons``, an axis).
     NetdaeError
         An unknown name to step, no values, a bad sample count or seed,
         nothing to record (no measure and no ``save``), a netlist without
@@ -262,6 +283,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if not save and not circuit.measures and not noise:
         raise NetdaeError("sweep: nothing to record: give measures (.meas cards or measures=) or save= signals")
     plan = make_plan(circuit, params, samples)
+    _check_measure_names(circuit, plan, wanted)
     seed = circuit.seed if seed is None else seed
     if samples is not None and circuit.draws == 0:
         raise NetdaeError(f"sweep: {samples} Monte Carlo samples asked, but the netlist draws nothing: use gauss, "

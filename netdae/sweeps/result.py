@@ -13,7 +13,29 @@ from ..stats import Statistics
 from .plan import Plan
 from .worker import Outcome
 
-__all__ = ["SweepResult"]
+__all__ = ["SweepResult", "TABLE_COLUMNS", "reserved_columns"]
+
+#: The columns of a sweep's table (:meth:`SweepResult.table`, ``measures.csv``) besides its axes and
+#: measures, and ``reasons``, a key of its rows in ``measures.json`` (:meth:`SweepResult.to_dict`): what each holds.
+TABLE_COLUMNS = {"row": "the row number", "sample": "the Monte Carlo sample", "error": "why a row failed",
+                 "reasons": "the reasons of a row's failed measurements"}
+
+
+def reserved_columns(plan: Plan) -> dict[str, str]:
+    """The names a measure of a sweep cannot take: the table's own columns and the axes, with what each holds.
+
+    Parameters
+    ----------
+    plan : Plan
+
+    Returns
+    -------
+    dict of str to str
+        Column name (lower case) to a description of it.
+    """
+    out = dict(TABLE_COLUMNS)
+    out.update({a.name.lower(): f"the swept {a.target} {a.name}" for a in plan.axes})
+    return out
 
 
 @dataclass
@@ -147,7 +169,8 @@ class SweepResult:
         return out
 
     def table(self) -> list[dict[str, Any]]:
-        """One dict per row: ``row``, each axis, ``sample`` (Monte Carlo), each measure, ``error``."""
+        """One dict per row: ``row``, each axis, ``sample`` (Monte Carlo), each measure, ``error``
+        (no measure is named like another column: :func:`reserved_columns`)."""
         out = []
         for k in range(self.rows):
             row: dict[str, Any] = {"row": k}
