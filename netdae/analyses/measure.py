@@ -599,6 +599,7 @@ class _Lines:
             ys = _interp(xs, x, self.y)
         # summed row by row: a matrix product's rounding would depend on how many rows are stacked
         return np.sum(np.ascontiguousarray(ys) ** power * _panel_weights(xs), axis=1)
+
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
         """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
         x = self.x
