@@ -176,6 +176,32 @@ class OsdiModule:
         """The parameter called ``name`` (any alias, any case), or None."""
         return self._by_name.get(name.lower())
 
+    def lookup(self, name: str, who: str, location: SourceLocation | None = None) -> OsdiParam:
+        """The parameter called ``name``, or a NetlistError saying the module has none.
+
+        Parameters
+        ----------
+        name : str
+            Any alias, any case.
+        who : str
+            The model or instance that gives it (the message starts with it).
+        location : SourceLocation, optional
+            Where it is given.
+
+        Raises
+        ------
+        NetlistError
+            ``who: OSDI module M (file) has no parameter 'name'``, with the
+            first parameters as what was expected.
+        """
+        p = self.parameter(name)
+        if p is None:
+            names = ", ".join(q.name for q in self.parameters[:12])
+            more = ", ..." if len(self.parameters) > 12 else ""
+            raise NetlistError(f"{who}: OSDI module {self.name} ({self.library.path}) has no parameter {name!r}",
+                               location, expected=f"one of {names}{more}")
+        return p
+
     def describe(self) -> str:
         """A one-line summary: ``bsim4(d, g, s, b) 4 internal nodes, 893 parameters``."""
         return (f"{self.name}({', '.join(self.terminals)}) {len(self.internal_nodes)} internal nodes, "
