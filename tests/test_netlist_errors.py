@@ -295,6 +295,45 @@ def test_file_with_a_nul_byte_is_refused_at_it(tmp_path, data, line, column, wha
     assert exc.value.location.file == str(path)
 
 
+@pytest.mark.parametrize("data, line, column, byte", [
+    (b"latin1 two nodes\nV1 \xe9 0 1\nR1 \xe9 \xe8 1k\nR2 \xe8 0 1k\n.op\n.end\n", 2, 4, "E9"),
+    (b"t\nV1 a 0 1\nR1 a 0 1k\n.control\nprint v(\xe8)\n.endc\n", 5, 9, "E8"),
+    (b"t\nV1 a 0 1\nR1 a\n+ b\xff 1k\n.op\n", 4, 4, "FF"),
+])
+def test_a_byte_that_is_not_utf8_is_refused_at_it(tmp_path, data, line, column, byte):
+    """Latin-1 node names became U+FFFD and merged: \xe9 and \xe8 were one node (ngspice 39 refuses the
+    file: 'UTF-8 syntax error in line 2')."""
+    path = tmp_path / "latin1.cir"
+    path.write_bytes(data)
+    with pytest.raises(NetlistError) as exc:
+        load(path)
+    err = exc.value
+    assert err.message.startswith(f"byte 0x{byte} is not UTF-8") and "save the file as UTF-8" in err.hint
+    assert (err.location.file, err.location.line, err.location.column) == (str(path), line, column)
+
+
+def test_bytes_that_are_not_utf8_in_comments_and_the_title_are_read_as_ngspice_reads_them(tmp_path):
+    path = tmp_path / "latin1.cir"
+    path.write_bytes(b"caf\xe9 title\n* r\xe9sistance\nV1 a 0 1\nR1 a 0 2k ; r\xe9sistance\nC1 a 0 1\xb5\n.op\n")
+    c = load(path)
+    assert c.title == "caf\ufffd title" and not c.diagnostics
+    assert c.element("r1").value == 2e3 and c.element("c1").value == pytest.approx(1e-6)
+
+
+@pytest.mark.parametrize("text, what, name, line, column", [
+    ("unicode two\nV1 \u00e9 0 1\nR1 \u00e9 \u00fc 1k\nR2 \u00fc 0 1k\n.op\n", "node", "\u00e9", 3, 4),
+    ("unicode case\nV1 a 0 1\nR1 a \u00c4 1k\nR2 \u00e4 0 1k\n.op\n", "node", "\u00c4", 4, 6),
+    ("t\nV1 a 0 1\nR\u00e9 a 0 1k\n.op\n", "element", "r\u00e9", 4, 1),
+])
+def test_a_name_outside_ascii_is_warned_about_once_as_ngspice_reads_it_otherwise(text, what, name, line, column):
+    """ngspice 39 reads each byte of a non-ASCII character as '_': \u00e9 and \u00fc are both node '__'."""
+    c = load("t\n* caf\u00e9\n" + text.split("\n", 1)[1])
+    (w,) = [d for d in c.diagnostics if "outside ASCII" in d.message]
+    assert w.severity == "warning" and w.message.startswith(f"{what} name '{name}' has characters outside")
+    assert (w.location.line, w.location.column) == (line, column) and "'_'" in w.message
+    assert not load("caf\u00e9 \u00fc title\nV1 a 0 1\nR1 a 0 1k ; \u00e9\n* \u00fc\n.op\n").diagnostics
+
+
 def test_endless_include_is_refused(tmp_path, monkeypatch):
     """.include /dev/zero read until the machine's memory ran out (23 GB, then the OOM killer)."""
     import os

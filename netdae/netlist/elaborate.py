@@ -246,6 +246,7 @@ class _Elaborator:
         self.local_initial: list[_Placed] = []
         self.model_cards: dict[str, ModelCard] = {}
         self.model_words: dict[str, dict[str, tuple[str, int]]] = {}
+        self._non_ascii_warned = False
         self.root = self._scope(None, net.top, None)
         self.root.draws = Draws(self._seed(net) if seed is None else seed, sample)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
@@ -494,6 +495,8 @@ class _Elaborator:
                 raise _duplicate(el, p, first[el.name])
             elements[el.name] = el
             first[el.name] = p
+            if not self._non_ascii_warned and not (el.name.isascii() and all(n.isascii() for n in el.nodes)):
+                self._warn_non_ascii_name(p)
             for n in el.nodes:
                 if n != "0" and n not in nodes:
                     nodes[n] = None
@@ -949,6 +952,27 @@ class _Elaborator:
         strings = {k: text for k, (text, _) in item.strings.items() if not (vdmos and k in VDMOS_ANNOTATIONS)}
         locations.update({k: item.card.location(offset) for k, (_, offset) in item.strings.items() if k in strings})
         return Model(p.name, item.type, params, item.card.location(0), locations, strings, vectors)
+
+    def _warn_non_ascii_name(self, p: _Placed) -> None:
+        """One warning, at the first element or node name with characters outside ASCII.
+
+        ngspice 39 reads each byte of such a character (UTF-8) as ``_``: ``é``
+        and ``ü`` are both the node ``__`` there, two nodes in netdae; the
+        circuits then differ without a word. Comments and titles are not names.
+        """
+        item = p.item
+        names = [item.name, *getattr(item, "nodes", ())]
+        name = next((n for n in names if not n.isascii()), None)
+        if name is None:
+            return
+        self._non_ascii_warned = True
+        offset = 0 if name == item.name else max(item.card.text.find(name, len(item.name)), 0)
+        ngspice = "".join(c if c.isascii() else "_" * len(c.encode("utf-8", "replace")) for c in name)
+        what = "element" if name == item.name else "node"
+        self.diagnostics.append(Diagnostic(
+            "warning", f"{what} name '{name}' has characters outside ASCII: ngspice 39 reads each of their "
+            f"bytes as '_' ('{ngspice}'), so names that differ only there are one name in ngspice and two in "
+            "netdae (the first such name; use ASCII names for the same circuit in both)", item.card.location(offset)))
 
     def _compiled_reads(self, model: Model, name: str) -> bool:
         """The card runs through a compiled (OSDI) module that reads the parameter ``name``.

@@ -310,7 +310,7 @@ def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None
     """
     after = [k for k, line in enumerate(rest) if line.strip() and line.strip()[0] != "*"]
     if after:
-        first = rest[after[0]].strip()
+        first = shown(rest[after[0]].strip())
         notes.append(Diagnostic(
             "warning", f"{len(after)} line(s) {AFTER_END} (the first: {first[:40]!r}); "
             "ngspice 39 reads on past .end: move them before .end to keep them", where))
@@ -321,12 +321,42 @@ def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None
 _ODD_SPACE = re.compile("[\u0085\u00a0\u1680\u2000-\u200b\u2028\u2029\u202f\u205f\u2060\u3000\ufeff]")
 
 
-def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
-    """Refuse a card holding a Unicode space (a no-break space copied from a web page or a document).
+#: A byte that is not UTF-8, as :func:`netdae.netlist.reader.decode` leaves it (``surrogateescape``).
+_NOT_UTF8 = re.compile("[\udc80-\udcff]")
 
-    netdae would split words at it and ngspice would not (it reads ``in\u00a0a`` as one node
-    name): the two would simulate different circuits, so neither reading is guessed.
+
+def shown(text: str) -> str:
+    """``text`` with each byte that is not UTF-8 shown as U+FFFD (a title, a line quoted in a message)."""
+    return _NOT_UTF8.sub("\ufffd", text) if not text.isascii() else text
+
+
+def _refuse_not_utf8(stripped: str, line: str, file: str, lineno: int) -> None:
+    """Refuse a card (or a command) holding a byte that is not UTF-8, located at the byte.
+
+    It has no reading: ngspice 39 refuses the file ("UTF-8 syntax error"), and
+    replacing it (U+FFFD) would make two different names one (Latin-1 ``é``
+    and ``è``). Comments and the title may hold such bytes, as in ngspice.
     """
+    bad = _NOT_UTF8.search(stripped)
+    if bad is not None:
+        column = line.find(bad.group()) + 1
+        raise NetlistError(
+            f"byte 0x{ord(bad.group()) - 0xDC00:02X} is not UTF-8 (text saved in another "
+            "encoding, such as Latin-1 or Windows-1252): ngspice 39 refuses the file too (\"UTF-8 syntax error\")",
+            SourceLocation(file, lineno, column),
+            hint="save the file as UTF-8 (most editors offer the encoding when saving; iconv -f latin1 -t utf-8 "
+                 "converts it)")
+
+
+def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
+    """Refuse a card holding a byte that is not UTF-8 (:func:`_refuse_not_utf8`) or a Unicode space.
+
+    A Unicode space (a no-break space copied from a web page or a document):
+    netdae would split words at it and ngspice would not (it reads
+    ``in\u00a0a`` as one node name): the two would simulate different
+    circuits, so neither reading is guessed.
+    """
+    _refuse_not_utf8(stripped, line, file, lineno)
     m = _ODD_SPACE.search(stripped)
     if m is None:
         return
@@ -394,7 +424,7 @@ def split_cards(
     title_text = None
     start = 0
     if title:
-        title_text = lines[0].strip() if lines else ""
+        title_text = shown(lines[0].strip()) if lines else ""
         if _is_dot(fold_case(title_text[:7]), ".title"):  # ngspice: '.title text' as the first line
             title_text = title_text[len(".title"):].strip()
         start = 1
@@ -419,6 +449,8 @@ def split_cards(
             else:
                 command = re.split(r";|//", stripped, maxsplit=1)[0].rstrip()  # '$' is a variable there
                 if command and command[0] != "#":
+                    if not command.isascii():
+                        _refuse_not_utf8(command, line, file, lineno)
                     control_lines.append((lineno, len(line) - len(line.lstrip()) + 1, command))
             continue
         if ";" in stripped or ("$" in stripped and not pspice) or "//" in stripped:
