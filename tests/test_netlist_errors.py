@@ -334,6 +334,30 @@ def test_a_name_outside_ascii_is_warned_about_once_as_ngspice_reads_it_otherwise
     assert not load("caf\u00e9 \u00fc title\nV1 a 0 1\nR1 a 0 1k ; \u00e9\n* \u00fc\n.op\n").diagnostics
 
 
+def test_a_file_with_cr_line_ends_only_is_refused_at_line_1(tmp_path):
+    """ngspice 39 reads such a file as one title line and simulates nothing; netdae split it and ran."""
+    path = tmp_path / "cronly.cir"
+    path.write_bytes(b"cr only\rV1 a 0 1\rR1 a 0 2k\r.op\r.end\r")
+    with pytest.raises(NetlistError) as exc:
+        load(path)
+    err = exc.value
+    assert (err.location.line, err.location.column) == (1, 8)
+    assert "carriage return (CR) alone" in err.message and "one title line (5 lines here)" in err.message
+    assert "convert the line endings to LF or CRLF" in err.hint
+
+
+def test_a_carriage_return_inside_a_line_is_refused_and_crlf_is_read():
+    with pytest.raises(NetlistError, match=r"carriage return \(CR\) inside the line") as exc:
+        load("t\nV1 a 0 1\nR1 a 0 2k\rR2 a 0 2k\n.op\n")
+    assert (exc.value.location.line, exc.value.location.column) == (3, 10)
+    lf = load("t\nV1 a 0 1\nR1 a 0 2k\n+ m=2\nR2 a 0 2k\n.op\n")
+    for crlf in ("t\r\nV1 a 0 1\r\nR1 a 0 2k\r\n+ m=2\r\nR2 a 0 2k\r\n.op\r\n",
+                 "t\r\nV1 a 0 1\r\r\nR1 a 0 2k \r\n+ m=2\r\nR2 a 0 2k\r\n.op"):
+        c = load(crlf)
+        assert [(e.name, e.nodes, e.value, e.params) for e in c.elements] == \
+            [(e.name, e.nodes, e.value, e.params) for e in lf.elements]
+
+
 def test_endless_include_is_refused(tmp_path, monkeypatch):
     """.include /dev/zero read until the machine's memory ran out (23 GB, then the OOM killer)."""
     import os

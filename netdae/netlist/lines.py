@@ -372,6 +372,36 @@ def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
              "characters)")
 
 
+def _line_feeds(text: str, file: str) -> str:
+    """``text`` with its CRLF line ends as LF; a carriage return inside a line is refused.
+
+    ngspice 39 ends lines at LF only (a CR before it is a blank): a file whose
+    lines end in CR alone (classic Mac OS) is one title line there, and
+    ``a\rb`` one line. Splitting at the CR would simulate another circuit.
+
+    Raises
+    ------
+    NetlistError
+        At line 1 for a file with CR line ends only; else at the first CR
+        followed by more text on its line.
+    """
+    text = re.sub("\r+(?=\n|$)", "", text)
+    at = text.find("\r")
+    if at < 0:
+        return text
+    if "\n" not in text:
+        raise NetlistError(
+            f"the lines end in a carriage return (CR) alone, the line ends of classic Mac OS: ngspice 39 reads "
+            f"the whole file as one title line ({text.count(chr(13)) + 1} lines here) and simulates nothing",
+            SourceLocation(file, 1, at + 1), hint="convert the line endings to LF or CRLF (e.g. with "
+                                                "'tr \"\\r\" \"\\n\"' or an editor's line-ending setting)")
+    start = text.rfind("\n", 0, at) + 1
+    raise NetlistError(
+        "a carriage return (CR) inside the line: ngspice 39 reads the text after it as part of the same line",
+        SourceLocation(file, text.count("\n", 0, at) + 1, at - start + 1),
+        hint="end the line with LF or CRLF, or remove the stray CR")
+
+
 def split_cards(
     text: str, file: str, *, title: bool = True, pspice: bool = False
 ) -> tuple[str | None, list[Card], list[Diagnostic]]:
@@ -413,7 +443,7 @@ def split_cards(
     from .control import read_block  # control.py builds Cards: imported here, not at the top (a cycle)
 
     if "\r" in text:
-        text = text.replace("\r\n", "\n").replace("\r", "\n")
+        text = _line_feeds(text, file)
     if text.rstrip().endswith("\x1a"):  # a DOS end-of-file mark (Ctrl-Z) after the last card
         text = text.rstrip().rstrip("\x1a")
     lines = text.split("\n")
