@@ -295,6 +295,69 @@ def test_file_with_a_nul_byte_is_refused_at_it(tmp_path, data, line, column, wha
     assert exc.value.location.file == str(path)
 
 
+@pytest.mark.parametrize("data, line, column, byte", [
+    (b"latin1 two nodes\nV1 \xe9 0 1\nR1 \xe9 \xe8 1k\nR2 \xe8 0 1k\n.op\n.end\n", 2, 4, "E9"),
+    (b"t\nV1 a 0 1\nR1 a 0 1k\n.control\nprint v(\xe8)\n.endc\n", 5, 9, "E8"),
+    (b"t\nV1 a 0 1\nR1 a\n+ b\xff 1k\n.op\n", 4, 4, "FF"),
+])
+def test_a_byte_that_is_not_utf8_is_refused_at_it(tmp_path, data, line, column, byte):
+    """Latin-1 node names became U+FFFD and merged: \xe9 and \xe8 were one node (ngspice 39 refuses the
+    file: 'UTF-8 syntax error in line 2')."""
+    path = tmp_path / "latin1.cir"
+    path.write_bytes(data)
+    with pytest.raises(NetlistError) as exc:
+        load(path)
+    err = exc.value
+    assert err.message.startswith(f"byte 0x{byte} is not UTF-8") and "save the file as UTF-8" in err.hint
+    assert (err.location.file, err.location.line, err.location.column) == (str(path), line, column)
+
+
+def test_bytes_that_are_not_utf8_in_comments_and_the_title_are_read_as_ngspice_reads_them(tmp_path):
+    path = tmp_path / "latin1.cir"
+    path.write_bytes(b"caf\xe9 title\n* r\xe9sistance\nV1 a 0 1\nR1 a 0 2k ; r\xe9sistance\nC1 a 0 1\xb5\n.op\n")
+    c = load(path)
+    assert c.title == "caf\ufffd title" and not c.diagnostics
+    assert c.element("r1").value == 2e3 and c.element("c1").value == pytest.approx(1e-6)
+
+
+@pytest.mark.parametrize("text, what, name, line, column", [
+    ("unicode two\nV1 \u00e9 0 1\nR1 \u00e9 \u00fc 1k\nR2 \u00fc 0 1k\n.op\n", "node", "\u00e9", 3, 4),
+    ("unicode case\nV1 a 0 1\nR1 a \u00c4 1k\nR2 \u00e4 0 1k\n.op\n", "node", "\u00c4", 4, 6),
+    ("t\nV1 a 0 1\nR\u00e9 a 0 1k\n.op\n", "element", "r\u00e9", 4, 1),
+])
+def test_a_name_outside_ascii_is_warned_about_once_as_ngspice_reads_it_otherwise(text, what, name, line, column):
+    """ngspice 39 reads each byte of a non-ASCII character as '_': \u00e9 and \u00fc are both node '__'."""
+    c = load("t\n* caf\u00e9\n" + text.split("\n", 1)[1])
+    (w,) = [d for d in c.diagnostics if "outside ASCII" in d.message]
+    assert w.severity == "warning" and w.message.startswith(f"{what} name '{name}' has characters outside")
+    assert (w.location.line, w.location.column) == (line, column) and "'_'" in w.message
+    assert not load("caf\u00e9 \u00fc title\nV1 a 0 1\nR1 a 0 1k ; \u00e9\n* \u00fc\n.op\n").diagnostics
+
+
+def test_a_file_with_cr_line_ends_only_is_refused_at_line_1(tmp_path):
+    """ngspice 39 reads such a file as one title line and simulates nothing; netdae split it and ran."""
+    path = tmp_path / "cronly.cir"
+    path.write_bytes(b"cr only\rV1 a 0 1\rR1 a 0 2k\r.op\r.end\r")
+    with pytest.raises(NetlistError) as exc:
+        load(path)
+    err = exc.value
+    assert (err.location.line, err.location.column) == (1, 8)
+    assert "carriage return (CR) alone" in err.message and "one title line (5 lines here)" in err.message
+    assert "convert the line endings to LF or CRLF" in err.hint
+
+
+def test_a_carriage_return_inside_a_line_is_refused_and_crlf_is_read():
+    with pytest.raises(NetlistError, match=r"carriage return \(CR\) inside the line") as exc:
+        load("t\nV1 a 0 1\nR1 a 0 2k\rR2 a 0 2k\n.op\n")
+    assert (exc.value.location.line, exc.value.location.column) == (3, 10)
+    lf = load("t\nV1 a 0 1\nR1 a 0 2k\n+ m=2\nR2 a 0 2k\n.op\n")
+    for crlf in ("t\r\nV1 a 0 1\r\nR1 a 0 2k\r\n+ m=2\r\nR2 a 0 2k\r\n.op\r\n",
+                 "t\r\nV1 a 0 1\r\r\nR1 a 0 2k \r\n+ m=2\r\nR2 a 0 2k\r\n.op"):
+        c = load(crlf)
+        assert [(e.name, e.nodes, e.value, e.params) for e in c.elements] == \
+            [(e.name, e.nodes, e.value, e.params) for e in lf.elements]
+
+
 def test_endless_include_is_refused(tmp_path, monkeypatch):
     """.include /dev/zero read until the machine's memory ran out (23 GB, then the OOM killer)."""
     import os

@@ -17,6 +17,7 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -207,6 +208,39 @@ def test_a_file_that_is_not_a_library_is_refused(tmp_path):
     with pytest.raises(NetlistError, match="not a loadable OSDI library") as err:
         load_library(str(bad))
     assert "model.osdi" in str(err.value)
+
+
+@pytest.mark.parametrize("keep", [0.5, 64, 10])
+def test_a_truncated_library_is_refused_before_dlopen(tmp_path, keep):
+    """dlopen maps the segments a truncated library's headers promise; the first read past the
+    end of the file was a bus error that killed the process without a message."""
+    whole = Path(bundled_model("resistor.osdi")).read_bytes()
+    cut = tmp_path / "trunc_res.osdi"
+    cut.write_bytes(whole[:int(len(whole) * keep) if isinstance(keep, float) else keep])
+    with pytest.raises(NetlistError, match="trunc_res.osdi is not a loadable OSDI library: truncated") as err:
+        load_library(str(cut))
+    assert f"the file has {cut.stat().st_size}" in str(err.value) and "hint: the file is incomplete" in str(err.value)
+
+
+def test_a_truncated_library_is_a_located_error_from_the_command_line(tmp_path):
+    whole = Path(bundled_model("resistor.osdi")).read_bytes()
+    (tmp_path / "trunc_res.osdi").write_bytes(whole[:len(whole) // 2])
+    (tmp_path / "t.cir").write_text("osdi truncated\n.osdi trunc_res.osdi\nV1 a 0 1\nN1 a 0 rmod\n"
+                                    ".model rmod resistor r=1k\n.op\n.end\n")
+    env = dict(os.environ, NETDAE_SERVER="0")
+    for args in (["osdi", "trunc_res.osdi"], ["check", "t.cir"], ["run", "t.cir"]):
+        done = subprocess.run([sys.executable, "-m", "netdae", *args], cwd=tmp_path, env=env,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 2, (args, done.returncode, done.stderr)
+        assert "is not a loadable OSDI library: truncated" in done.stderr
+    assert "t.cir:2:7: trunc_res.osdi" in done.stderr
+
+
+def test_complete_libraries_pass_the_elf_check():
+    from netdae.devices.osdi.library import elf_problem
+
+    for name in ("resistor.osdi", "spice/bsim4v8.osdi"):
+        assert elf_problem(bundled_model(name)) is None
 
 
 def test_a_library_without_osdi_symbols_is_refused():

@@ -199,6 +199,34 @@ def test_unknown_model_parameter_is_located_at_the_parameter():
     assert "OSDI module resistor" in e.message and "no parameter 'bogus'" in e.message
 
 
+@pytest.mark.parametrize("params, column, message", [
+    ("r=abc", 22, "unknown parameter 'abc' in model parameter 'r'"),
+    ("r={nan}", 22, "unknown parameter 'nan' in model parameter 'r'"),
+    ("r=inf", 22, "unknown parameter 'inf' in model parameter 'r'"),
+    ("r", 20, "model parameter 'r' needs a value (r=value)"),
+    ("r=5 junk", 24, "rm: OSDI module resistor"),
+])
+def test_a_bad_value_on_a_module_card_is_refused_as_on_a_built_in_card(params, column, message):
+    """They ran with the module's default r: the undefined word and the bare word were dropped."""
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor {params}\n.op\n")
+    assert (e.location.line, e.location.column) == (5, column)
+    assert message in e.message
+    if params.endswith("junk"):
+        assert "has no parameter 'junk'" in e.message
+
+
+def test_an_undefined_word_on_a_mapped_ngspice_card_is_refused_where_the_model_reads_it():
+    """ngspice 39 stops at 'Undefined parameter [abc]'; netdae ran with the default toxe. A name the
+    model does not read is ignored with the built-in models' warning."""
+    card = "t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.1u w=1u\n.model nch nmos level=54 {}\n.op\n"
+    e = _error(card.format("toxe=abc"))
+    assert (e.location.line, e.location.column) == (5, 31)
+    assert "unknown parameter 'abc' in model parameter 'toxe'" in e.message
+    c = netdae.load(card.format("mfg=OnSemi"))
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert "parameter mfg=OnSemi ignored, as ngspice ignores 'mfg'" in w.message and w.location.column == 30
+
+
 def test_unknown_instance_parameter_names_the_element():
     e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm w=2\n.model rm resistor\n")
     assert e.location.line == 4 and e.message.startswith("n1: OSDI module resistor")

@@ -246,6 +246,7 @@ class _Elaborator:
         self.local_initial: list[_Placed] = []
         self.model_cards: dict[str, ModelCard] = {}
         self.model_words: dict[str, dict[str, tuple[str, int]]] = {}
+        self._non_ascii_warned = False
         self.root = self._scope(None, net.top, None)
         self.root.draws = Draws(self._seed(net) if seed is None else seed, sample)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
@@ -494,6 +495,8 @@ class _Elaborator:
                 raise _duplicate(el, p, first[el.name])
             elements[el.name] = el
             first[el.name] = p
+            if not self._non_ascii_warned and not (el.name.isascii() and all(n.isascii() for n in el.nodes)):
+                self._warn_non_ascii_name(p)
             for n in el.nodes:
                 if n != "0" and n not in nodes:
                     nodes[n] = None
@@ -782,6 +785,11 @@ class _Elaborator:
             self.diagnostics.extend(map_devices(circuit, flags))
         seen: set[str] = set()
         for el in circuit.elements:
+            if el.model is not None and el.kind == Kind.OSDI:
+                name = el.model.split("#", 1)[0]  # (map_devices names a card's second module model#module)
+                if name not in seen:
+                    self._screen_compiled_model(circuit, name)
+                    seen.add(name)
             if el.model is None or el.kind == Kind.OSDI:
                 continue
             model = circuit.models.get(el.model)
@@ -915,14 +923,19 @@ class _Elaborator:
         vdmos = item.type in MODEL_TYPES[Kind.VDMOS]
         if vdmos and "pchan" in item.flags:
             params["pchan"] = 1.0  # ngspice's reader: 'pchan' after 'vdmos' makes a p-channel VDMOS
+        words = {}
         for k, v in item.params.items():
             if vdmos and k in VDMOS_ANNOTATIONS:
                 continue
             if type(v[0]) is ex.Param and k not in known and _undefined(env, v[0]):
-                word = item.card.raw[v[1] : v[1] + len(v[0].name)]
-                self.model_words.setdefault(p.name, {})[k] = (word, v[1])  # LTspice's mfg=OnSemi
+                words[k] = v  # LTspice's mfg=OnSemi: ignored where the model does not read the name
                 continue
             params[k] = evaluate_val(v, env, item.card, f"model parameter '{k}'")
+        for k, v in words.items():
+            if self._compiled_reads(Model(p.name, item.type, params, item.card.location(0)), k):
+                evaluate_val(v, env, item.card, f"model parameter '{k}'")  # raises: the word names nothing
+            word = item.card.raw[v[1] : v[1] + len(v[0].name)]
+            self.model_words.setdefault(p.name, {})[k] = (word, v[1])
         for key, value in self.values.items():  # stepped model parameters (.step NPN 2N2222(VAF) ...)
             mp = model_parameter(key)
             if mp is not None and mp[0] == p.name:
@@ -939,6 +952,79 @@ class _Elaborator:
         strings = {k: text for k, (text, _) in item.strings.items() if not (vdmos and k in VDMOS_ANNOTATIONS)}
         locations.update({k: item.card.location(offset) for k, (_, offset) in item.strings.items() if k in strings})
         return Model(p.name, item.type, params, item.card.location(0), locations, strings, vectors)
+
+    def _warn_non_ascii_name(self, p: _Placed) -> None:
+        """One warning, at the first element or node name with characters outside ASCII.
+
+        ngspice 39 reads each byte of such a character (UTF-8) as ``_``: ``é``
+        and ``ü`` are both the node ``__`` there, two nodes in netdae; the
+        circuits then differ without a word. Comments and titles are not names.
+        """
+        item = p.item
+        names = [item.name, *getattr(item, "nodes", ())]
+        name = next((n for n in names if not n.isascii()), None)
+        if name is None:
+            return
+        self._non_ascii_warned = True
+        offset = 0 if name == item.name else max(item.card.text.find(name, len(item.name)), 0)
+        ngspice = "".join(c if c.isascii() else "_" * len(c.encode("utf-8", "replace")) for c in name)
+        what = "element" if name == item.name else "node"
+        self.diagnostics.append(Diagnostic(
+            "warning", f"{what} name '{name}' has characters outside ASCII: ngspice 39 reads each of their "
+            f"bytes as '_' ('{ngspice}'), so names that differ only there are one name in ngspice and two in "
+            "netdae (the first such name; use ASCII names for the same circuit in both)", item.card.location(offset)))
+
+    def _compiled_reads(self, model: Model, name: str) -> bool:
+        """The card runs through a compiled (OSDI) module that reads the parameter ``name``.
+
+        A card whose type is no ngspice model type, in a netlist that loads
+        ``.osdi`` libraries, is a module's: the module's table checks every
+        name, so each one is read. A card of ngspice's that runs through a
+        bundled port reads the names ngspice's model of that level has
+        (:func:`~netdae.devices.osdi.spice_models.reads_parameter`).
+        """
+        if KIND_OF_MODEL_TYPE.get(model.type) is None:
+            return bool(self.net.osdi)
+        from ..devices.osdi.spice_models import reads_parameter  # the mapping's owner (only for undefined words)
+
+        return reads_parameter(model, name)
+
+    def _warn_model_words(self, name: str, item: ModelCard) -> None:
+        """One warning per parameter of model ``name`` whose value is an undefined word (ignored, as in ngspice)."""
+        for param, (text, offset) in self.model_words.get(name, {}).items():
+            self.diagnostics.append(Diagnostic(
+                "warning", f"model {name}: parameter {param}={text} ignored, as ngspice ignores '{param}' (but "
+                f"ngspice 39 stops at the undefined word '{text}': write {param}=\"{text}\")",
+                item.card.location(offset)))
+
+    def _screen_compiled_model(self, circuit: Circuit, name: str) -> None:
+        """What :meth:`_screen_model` checks, for a model that runs through an OSDI module.
+
+        The card's undefined words are warned about; on a card of a module
+        loaded with ``.osdi`` a bare word is refused: a parameter of the
+        module needs a value, any other name is not the module's.
+
+        Raises
+        ------
+        NetlistError
+            A bare word on a module's card.
+        """
+        item = self.model_cards.get(name)
+        if item is None:
+            return
+        self._warn_model_words(name, item)
+        if KIND_OF_MODEL_TYPE.get(item.type) is not None or not item.flags:
+            return  # ngspice's model through a bundled port: map_devices screens its flags
+        from ..devices.osdi.bind import circuit_modules  # loads the libraries (ctypes): only when used
+
+        module = circuit_modules(circuit).get(item.type)
+        if module is None:
+            return  # no such module: refused where the model is bound
+        for flag, offset in item.flags.items():
+            where = item.card.location(offset)
+            module.lookup(flag, name, where)
+            raise error(item.card, offset, f"model parameter '{flag}' needs a value ({flag}=value)",
+                        DOT_CARDS[".model"])
 
     def _screen_model(self, model: Model, item: ModelCard) -> None:
         """Warn about the parameters ngspice ignores for this model (one located warning each).
@@ -961,11 +1047,7 @@ class _Elaborator:
             self.diagnostics.append(Diagnostic(
                 "warning", f"model {model.name}: parameter '{name}' is not a parameter of ngspice's {family} "
                 "model: ignored, as ngspice ignores it", model.locations.get(name, model.location)))
-        for name, (text, offset) in self.model_words.get(model.name, {}).items():
-            self.diagnostics.append(Diagnostic(
-                "warning", f"model {model.name}: parameter {name}={text} ignored, as ngspice ignores '{name}' (but "
-                f"ngspice 39 stops at the undefined word '{text}': write {name}=\"{text}\")",
-                item.card.location(offset)))
+        self._warn_model_words(model.name, item)
         outputs = OUTPUT_ONLY.get(table, frozenset())
         dropped = VDMOS_ANNOTATIONS if family == Kind.VDMOS else frozenset()
         for name in (*item.params, *item.strings, *item.flags):

@@ -310,7 +310,7 @@ def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None
     """
     after = [k for k, line in enumerate(rest) if line.strip() and line.strip()[0] != "*"]
     if after:
-        first = rest[after[0]].strip()
+        first = shown(rest[after[0]].strip())
         notes.append(Diagnostic(
             "warning", f"{len(after)} line(s) {AFTER_END} (the first: {first[:40]!r}); "
             "ngspice 39 reads on past .end: move them before .end to keep them", where))
@@ -321,12 +321,42 @@ def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None
 _ODD_SPACE = re.compile("[\u0085\u00a0\u1680\u2000-\u200b\u2028\u2029\u202f\u205f\u2060\u3000\ufeff]")
 
 
-def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
-    """Refuse a card holding a Unicode space (a no-break space copied from a web page or a document).
+#: A byte that is not UTF-8, as :func:`netdae.netlist.reader.decode` leaves it (``surrogateescape``).
+_NOT_UTF8 = re.compile("[\udc80-\udcff]")
 
-    netdae would split words at it and ngspice would not (it reads ``in\u00a0a`` as one node
-    name): the two would simulate different circuits, so neither reading is guessed.
+
+def shown(text: str) -> str:
+    """``text`` with each byte that is not UTF-8 shown as U+FFFD (a title, a line quoted in a message)."""
+    return _NOT_UTF8.sub("\ufffd", text) if not text.isascii() else text
+
+
+def _refuse_not_utf8(stripped: str, line: str, file: str, lineno: int) -> None:
+    """Refuse a card (or a command) holding a byte that is not UTF-8, located at the byte.
+
+    It has no reading: ngspice 39 refuses the file ("UTF-8 syntax error"), and
+    replacing it (U+FFFD) would make two different names one (Latin-1 ``é``
+    and ``è``). Comments and the title may hold such bytes, as in ngspice.
     """
+    bad = _NOT_UTF8.search(stripped)
+    if bad is not None:
+        column = line.find(bad.group()) + 1
+        raise NetlistError(
+            f"byte 0x{ord(bad.group()) - 0xDC00:02X} is not UTF-8 (text saved in another "
+            "encoding, such as Latin-1 or Windows-1252): ngspice 39 refuses the file too (\"UTF-8 syntax error\")",
+            SourceLocation(file, lineno, column),
+            hint="save the file as UTF-8 (most editors offer the encoding when saving; iconv -f latin1 -t utf-8 "
+                 "converts it)")
+
+
+def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
+    """Refuse a card holding a byte that is not UTF-8 (:func:`_refuse_not_utf8`) or a Unicode space.
+
+    A Unicode space (a no-break space copied from a web page or a document):
+    netdae would split words at it and ngspice would not (it reads
+    ``in\u00a0a`` as one node name): the two would simulate different
+    circuits, so neither reading is guessed.
+    """
+    _refuse_not_utf8(stripped, line, file, lineno)
     m = _ODD_SPACE.search(stripped)
     if m is None:
         return
@@ -340,6 +370,36 @@ def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
         SourceLocation(file, lineno, line.find(ch) + 1),
         hint="replace it with a plain space (text copied from a web page or a document often holds such "
              "characters)")
+
+
+def _line_feeds(text: str, file: str) -> str:
+    """``text`` with its CRLF line ends as LF; a carriage return inside a line is refused.
+
+    ngspice 39 ends lines at LF only (a CR before it is a blank): a file whose
+    lines end in CR alone (classic Mac OS) is one title line there, and
+    ``a\rb`` one line. Splitting at the CR would simulate another circuit.
+
+    Raises
+    ------
+    NetlistError
+        At line 1 for a file with CR line ends only; else at the first CR
+        followed by more text on its line.
+    """
+    text = re.sub("\r+(?=\n|$)", "", text)
+    at = text.find("\r")
+    if at < 0:
+        return text
+    if "\n" not in text:
+        raise NetlistError(
+            f"the lines end in a carriage return (CR) alone, the line ends of classic Mac OS: ngspice 39 reads "
+            f"the whole file as one title line ({text.count(chr(13)) + 1} lines here) and simulates nothing",
+            SourceLocation(file, 1, at + 1), hint="convert the line endings to LF or CRLF (e.g. with "
+                                                "'tr \"\\r\" \"\\n\"' or an editor's line-ending setting)")
+    start = text.rfind("\n", 0, at) + 1
+    raise NetlistError(
+        "a carriage return (CR) inside the line: ngspice 39 reads the text after it as part of the same line",
+        SourceLocation(file, text.count("\n", 0, at) + 1, at - start + 1),
+        hint="end the line with LF or CRLF, or remove the stray CR")
 
 
 def split_cards(
@@ -383,7 +443,7 @@ def split_cards(
     from .control import read_block  # control.py builds Cards: imported here, not at the top (a cycle)
 
     if "\r" in text:
-        text = text.replace("\r\n", "\n").replace("\r", "\n")
+        text = _line_feeds(text, file)
     if text.rstrip().endswith("\x1a"):  # a DOS end-of-file mark (Ctrl-Z) after the last card
         text = text.rstrip().rstrip("\x1a")
     lines = text.split("\n")
@@ -394,7 +454,7 @@ def split_cards(
     title_text = None
     start = 0
     if title:
-        title_text = lines[0].strip() if lines else ""
+        title_text = shown(lines[0].strip()) if lines else ""
         if _is_dot(fold_case(title_text[:7]), ".title"):  # ngspice: '.title text' as the first line
             title_text = title_text[len(".title"):].strip()
         start = 1
@@ -419,6 +479,8 @@ def split_cards(
             else:
                 command = re.split(r";|//", stripped, maxsplit=1)[0].rstrip()  # '$' is a variable there
                 if command and command[0] != "#":
+                    if not command.isascii():
+                        _refuse_not_utf8(command, line, file, lineno)
                     control_lines.append((lineno, len(line) - len(line.lstrip()) + 1, command))
             continue
         if ";" in stripped or ("$" in stripped and not pspice) or "//" in stripped:

@@ -109,14 +109,45 @@ class Env:
             env = env.parent
         raise UnknownName(name)
 
-    def _compute(self, name: str, d: tuple[ParamDef, "Env"]) -> float:
-        pdef, where = d
+    def _definition(self, name: str) -> "tuple[Env, tuple[ParamDef, Env]] | None":
+        """The scope that defines ``name`` and its definition, None when it has a value or no definition."""
+        env: Env | None = self
+        while env is not None:
+            if name in env.values:
+                return None
+            d = env.defs.get(name)
+            if d is not None:
+                return env, d
+            env = env.parent
+        return None
+
+    def _enter(self, name: str, pdef: ParamDef) -> None:
+        """Mark ``name`` as being evaluated; a NetlistError naming the cycle when it already is."""
         if name in self._active:
             chain = self._active[self._active.index(name):] + [name]
+            if len(chain) > 12:
+                chain = [*chain[:5], f"... ({len(chain) - 1} parameters) ...", *chain[-5:]]
             raise NetlistError(f"parameter cycle: {' -> '.join(chain)}", pdef.card.location(pdef.offset),
                                hint="a parameter cannot depend on itself")
         self._active.append(name)
+
+    def _compute(self, name: str, d: tuple[ParamDef, "Env"]) -> float:
+        """Evaluate and memoise ``name`` (defined here as ``d``), its dependencies first.
+
+        The parameters a definition reads before anything that may draw a
+        random number, call a ``.func`` or choose a branch (:func:`_read_first`)
+        are evaluated first, deepest first, with a stack of their own: a chain
+        of thousands of ``.param`` cards, each reading the one before, nests no
+        calls (evaluated one inside the other it exceeded Python's recursion
+        limit at about 120 cards). They are the parameters the evaluation
+        would read first anyway, in the same order, so the values, the random
+        draws and their order are the same.
+        """
+        pdef, where = d
+        self._enter(name, pdef)
         try:
+            if type(pdef.value[0]) is not float:
+                _settle(pdef.value[0], where)
             v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
         finally:
             self._active.pop()
@@ -135,6 +166,69 @@ class Env:
     def all_values(self) -> dict[str, float]:
         """Every parameter of this scope (not its parents), evaluated."""
         return {name: self.value(name) for name in self.defs}
+
+
+def _read_first(node) -> list[str]:
+    """The parameters evaluating ``node`` reads before anything else can happen, in the order it reads them.
+
+    The walk follows :func:`netdae.netlist.expr.evaluate` (operands left to
+    right, a call's arguments before the call) and stops at the first step
+    whose outcome decides what is read next or draws: a conditional (after its
+    condition) and a call that is not a built-in function (a ``.func``, a
+    random function).
+    """
+    out: list[str] = []
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        t = type(n)
+        if t is ex.Param:
+            out.append(n.name)
+        elif t is ex.Binary:
+            stack.extend((n.right, n.left))
+        elif t is ex.Unary:
+            stack.append(n.operand)
+        elif t is ex.Ternary:
+            out.extend(_read_first(n.cond))
+            return out
+        elif t is ex.Call:
+            if n.func not in ex.FUNCTIONS or is_random_call(n.func, len(n.args)):
+                for a in n.args:
+                    out.extend(_read_first(a))  # (shallow: a .func's or a random function's arguments)
+                return out
+            stack.extend(reversed(n.args))
+    return out
+
+
+def _settle(node, env: Env) -> None:
+    """Evaluate the not yet evaluated parameters ``node`` reads first in ``env``, deepest first, without recursion.
+
+    Each one's own first reads are settled before it (a depth-first walk on an
+    explicit stack), so evaluating it afterwards reads only values; a cycle
+    among them is the error :meth:`Env._compute` gives.
+    """
+    frames: list = [(None, "", None, iter(_read_first(node)), env)]
+    try:
+        while frames:
+            owner, name, pdef, todo, where = frames[-1]
+            for dep in todo:
+                found = where._definition(dep)
+                if found is not None:
+                    dep_owner, (dep_def, dep_where) = found
+                    dep_owner._enter(dep, dep_def)
+                    value = dep_def.value[0]
+                    frames.append((dep_owner, dep, dep_def, iter(() if type(value) is float else _read_first(value)),
+                                   dep_where))
+                    break
+            else:
+                if owner is not None:
+                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
+                    owner._active.pop()
+                frames.pop()
+    finally:
+        for owner, *_ in reversed(frames):  # after an error: the names still being evaluated
+            if owner is not None:
+                owner._active.pop()
 
 
 def _call(env: Env, depth: int):

@@ -94,24 +94,28 @@ def _first_word(card: Card) -> str:
     return text[:end]
 
 
-#: Bytes that are not UTF-8 arrive as lone surrogates (``surrogateescape``): the
-#: Latin-1 micro sign (0xB5) is read as U+00B5, as ngspice reads it; any other
-#: such byte becomes U+FFFD.
-_UNDECODABLE = {0xDC00 + b: "\ufffd" for b in range(0x80, 0x100)} | {0xDCB5: MICRO}
+#: The Latin-1 micro sign (0xB5), which arrives as a lone surrogate (``surrogateescape``):
+#: read as U+00B5, as ngspice reads it.
+_LATIN1_MICRO = {0xDCB5: MICRO}
 
 
 def decode(data: bytes) -> str:
     """Netlist bytes as text: UTF-8, with the Latin-1 micro sign kept.
 
+    Any other byte that is not UTF-8 stays a lone surrogate (U+DC80 to
+    U+DCFF, Python's ``surrogateescape``): :func:`~netdae.netlist.lines.split_cards`
+    refuses it in a card, located at the byte, and shows it as U+FFFD in a
+    title (comments are not read).
+
     Examples
     --------
-    >>> decode(b"2\\xc2\\xb5") == decode(b"2\\xb5") == "2\\u00b5", decode(b"2\\xff") == "2\\ufffd"
+    >>> decode(b"2\\xc2\\xb5") == decode(b"2\\xb5") == "2\\u00b5", decode(b"2\\xff") == "2\\udcff"
     (True, True)
     """
     text = data.decode("utf-8", errors="surrogateescape")
     if text.isascii():
         return text
-    return text.translate(_UNDECODABLE)
+    return text.translate(_LATIN1_MICRO)
 
 
 def _read_text(display: str, location: SourceLocation | None, what: str) -> str:

@@ -154,13 +154,7 @@ class _ParameterHolder:
     _keep: list
 
     def _lookup(self, key: str, location) -> OsdiParam:
-        p = self.module.parameter(key)
-        if p is None:
-            names = ", ".join(q.name for q in self.module.parameters[:12])
-            more = ", ..." if len(self.module.parameters) > 12 else ""
-            raise NetlistError(f"{self.name}: OSDI module {self.module.name} ({self.module.library.path}) has no "
-                               f"parameter {key!r}", location, expected=f"one of {names}{more}")
-        return p
+        return self.module.lookup(key, self.name, location)
 
 
 class OsdiModel(_ParameterHolder):

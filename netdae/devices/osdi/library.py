@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ctypes as C
 import os
+import struct
 import threading
 from collections import deque
 from dataclasses import dataclass, field
@@ -175,6 +176,32 @@ class OsdiModule:
         """The parameter called ``name`` (any alias, any case), or None."""
         return self._by_name.get(name.lower())
 
+    def lookup(self, name: str, who: str, location: SourceLocation | None = None) -> OsdiParam:
+        """The parameter called ``name``, or a NetlistError saying the module has none.
+
+        Parameters
+        ----------
+        name : str
+            Any alias, any case.
+        who : str
+            The model or instance that gives it (the message starts with it).
+        location : SourceLocation, optional
+            Where it is given.
+
+        Raises
+        ------
+        NetlistError
+            ``who: OSDI module M (file) has no parameter 'name'``, with the
+            first parameters as what was expected.
+        """
+        p = self.parameter(name)
+        if p is None:
+            names = ", ".join(q.name for q in self.parameters[:12])
+            more = ", ..." if len(self.parameters) > 12 else ""
+            raise NetlistError(f"{who}: OSDI module {self.name} ({self.library.path}) has no parameter {name!r}",
+                               location, expected=f"one of {names}{more}")
+        return p
+
     def describe(self) -> str:
         """A one-line summary: ``bsim4(d, g, s, b) 4 internal nodes, 893 parameters``."""
         return (f"{self.name}({', '.join(self.terminals)}) {len(self.internal_nodes)} internal nodes, "
@@ -252,6 +279,96 @@ def _u32(lib: C.CDLL, name: str) -> int | None:
         return None
 
 
+_ELF_MAGIC = b"\x7fELF"
+_ET_DYN = 3
+_SHT_NOBITS = 8
+
+
+def elf_problem(path: str) -> str | None:
+    """What makes a file unfit to hand to ``dlopen``, read from its ELF headers alone.
+
+    ``dlopen`` maps a library's segments without checking that the file
+    holds them: a truncated library maps pages past the end of the file, and
+    the first read of one kills the process with a bus error (no message, no
+    exception). This reads the ELF header, the program headers and the
+    section headers with :mod:`struct` and checks that each of them, and every
+    segment and section that has bytes in the file, lies within the file.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+
+    Returns
+    -------
+    str or None
+        None for a complete ELF shared object; else what is wrong, e.g.
+        ``"truncated: ... program header 2 needs bytes up to 14336, the file
+        has 8192"``.
+    """
+    try:
+        with open(path, "rb") as f:
+            return _elf_problem(f, os.fstat(f.fileno()).st_size)
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+
+
+def _elf_problem(f, size: int) -> str | None:
+    """:func:`elf_problem` of an open file of ``size`` bytes (reads the headers only)."""
+
+    def read(offset: int, count: int) -> bytes:
+        f.seek(offset)
+        return f.read(count)
+
+    data = read(0, 64)
+    if data[:4] != _ELF_MAGIC:
+        return "no ELF header (not a compiled shared library)"
+    if size < 16:
+        return f"truncated: the ELF identification needs 16 bytes, the file has {size}"
+    if data[4] not in (1, 2) or data[5] not in (1, 2):
+        return "damaged ELF header (unknown class or byte order)"
+    wide, order = data[4] == 2, "<" if data[5] == 1 else ">"
+    head = order + ("HHIQQQIHHHHHH" if wide else "HHIIIIIHHHHHH")
+    if size < 16 + struct.calcsize(head):
+        return f"truncated: the ELF header needs {16 + struct.calcsize(head)} bytes, the file has {size}"
+    (e_type, _machine, _version, _entry, phoff, shoff, _flags, _ehsize, phentsize, phnum, shentsize, shnum,
+     _shstrndx) = struct.unpack_from(head, data, 16)
+    if e_type != _ET_DYN:
+        return f"an ELF file of type {e_type}, not a shared object (type {_ET_DYN})"
+
+    def beyond(what: str, end: int) -> str | None:
+        return f"truncated: {what} needs bytes up to {end}, the file has {size}" if end > size else None
+
+    ph = order + ("IIQQQQQQ" if wide else "IIIIIIII")
+    if phnum and phentsize < struct.calcsize(ph):
+        return f"damaged ELF header (program headers of {phentsize} bytes)"
+    if (msg := beyond("the program header table", phoff + phnum * phentsize)) is not None:
+        return msg
+    table = read(phoff, phnum * phentsize)
+    for i in range(phnum):
+        fields = struct.unpack_from(ph, table, i * phentsize)
+        offset, filesz = (fields[2], fields[5]) if wide else (fields[1], fields[4])
+        if (msg := beyond(f"program header {i} (a segment)", offset + filesz)) is not None:
+            return msg
+    sh = order + ("IIQQQQIIQQ" if wide else "IIIIIIIIII")
+    if shoff == 0:
+        return None
+    if shentsize < struct.calcsize(sh):
+        return f"damaged ELF header (section headers of {shentsize} bytes)"
+    if (msg := beyond("the section header table", shoff + max(shnum, 1) * shentsize)) is not None:
+        return msg
+    if shnum == 0:  # more than 0xff00 sections: the count is section 0's size
+        shnum = struct.unpack_from(sh, read(shoff, shentsize))[5]
+        if (msg := beyond("the section header table", shoff + shnum * shentsize)) is not None:
+            return msg
+    table = read(shoff, shnum * shentsize)
+    for i in range(shnum):
+        fields = struct.unpack_from(sh, table, i * shentsize)
+        if fields[1] != _SHT_NOBITS and (msg := beyond(f"section {i}", fields[4] + fields[5])) is not None:
+            return msg
+    return None
+
+
 def load_library(path: str, location: SourceLocation | None = None) -> OsdiLibrary:
     """Open an OSDI library and read its modules.
 
@@ -282,6 +399,12 @@ def load_library(path: str, location: SourceLocation | None = None) -> OsdiLibra
     key = (real, os.path.getmtime(real))
     if key in _CACHE:
         return _CACHE[key]
+    problem = elf_problem(real)
+    if problem is not None:
+        raise NetlistError(f"{path} is not a loadable OSDI library: {problem}", location,
+                           expected="a shared library compiled by OpenVAF (.osdi)",
+                           hint=("the file is incomplete (an interrupted copy, download or compilation?): "
+                                 "compile or copy it again" if problem.startswith(("truncated", "damaged")) else None))
     try:
         lib = C.CDLL(real, mode=os.RTLD_NOW | os.RTLD_LOCAL)
     except OSError as exc:

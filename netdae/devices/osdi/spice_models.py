@@ -342,6 +342,23 @@ def mapped(model: Model | None) -> ModuleMap | None:
     return MAPS.get((kind, int(level)))
 
 
+def reads_parameter(card: Model, raw: str) -> bool:
+    """Whether the model ngspice runs for ``card`` has the parameter ``raw`` (False: not a mapped card).
+
+    ngspice's table of the card's level decides; for BSIM, whose tables are
+    the module's, the bundled module does (as :func:`_model_card` maps the
+    card's names).
+    """
+    m = mapped(card)
+    if m is None:
+        return False
+    known = m.known(int(level_of(card)))
+    if known is not None:
+        return raw in known[0]
+    _, module = _module(m, card)
+    return _model_name(m, raw, module) is not None
+
+
 def bin_number(candidate: str, name: str) -> int | None:
     """``k`` when ``candidate`` is ``name.k`` (digits only: ngspice's ``model_name_match``), else None."""
     if len(candidate) <= len(name) + 1 or not candidate.startswith(name) or candidate[len(name)] != ".":
