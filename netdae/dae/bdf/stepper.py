@@ -30,6 +30,7 @@ from ..compiled.control import (
     RELREF_SIGNAL,
     charge_error_kp1,
     charge_error_norms,
+    charge_newton_weights,
     charge_weights,
     error_norms,
     landing_step,
@@ -286,7 +287,8 @@ class BDF:
         self._w = np.empty(n)
         self._w_err = np.empty(n)
         self._w_step_err = self._w_err
-        self._xmax = np.abs(x0)
+        self._xmax = np.zeros(n + self._crows.size)  # the unknowns', then the charges' largest magnitudes so far
+        self._xmax[:n] = np.abs(x0)
         self._x_start = np.array(x0, dtype=float)
         self._failure = None
         self.status = RunState.RUNNING
@@ -328,8 +330,17 @@ class BDF:
 
     # ------------------------------------------------------------- helpers
     def _set_weights(self, x):
-        """Error weights at x (the compiled ``set_weights``): ``_w`` for Newton, ``_w_err`` for the error test."""
+        """Error weights at x (the compiled ``set_weights``): ``_w`` for Newton, ``_w_err`` for the error test.
+
+        A nonlinear system's Newton weights are raised to the accuracy of its charges
+        (:func:`~netdae.dae.compiled.control.charge_newton_weights`, from the history's charges
+        at x and the last Jacobian's ``|dq/dx|``).
+        """
         set_weights(x, self.rtol, self._atol, _RELREF[self.relref], self._xmax, self._mask, self._w, self._w_err)
+        abs_dq = self._floor.abs_dq
+        if not self._linear and abs_dq is not None and self._crows.size:
+            charge_newton_weights(self._hist.P[0, self.n:], self._xmax[self.n:], self._qcol, abs_dq.data,
+                                  abs_dq.indptr, abs_dq.indices, self.rtol, self._atol, self._w, np.empty(self.n))
 
     def _normf(self, v, w):
         return weighted_norm(v, w, self._norm_kind)

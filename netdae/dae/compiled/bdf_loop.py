@@ -65,7 +65,8 @@ from ...devices.kernels.hfet import eval_hfet
 from ...devices.kernels.vdmos import eval_vdmos
 from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
-from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_weights, error_norms, flc_coefficients,
+from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_newton_weights, charge_weights,
+                      error_norms, flc_coefficients,
                       conductance_fell, landing_step, residual_stalled, set_weights, update_differences,
                       weighted_norm)
 from . import inlined_kernel, kernel
@@ -1003,6 +1004,9 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
         for c in range(crows.size):
             P[0, n + c] = qe[crows[c]]
     set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
+    if I[I_LINEAR] == 0 and I[I_HAS_ABSDQ] != 0:
+        indptr, indices = sysd[0], sysd[1]
+        charge_newton_weights(P[0, n:], xmax[n:], qcol, absdq, indptr, indices, rtol, atol, w, work)
     _record(I, t, 0, x, rec)
     if I[I_NSEGMENTS] < segments.size:
         segments[I[I_NSEGMENTS]] = I[I_M] - 1
@@ -1240,7 +1244,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     Parameters
     ----------
     tol : tuple
-        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)``: absolute tolerances,
+        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)`` (``xmax``: shape (n + m,), the
+        unknowns' then the charges' largest magnitudes): absolute tolerances,
         the error-test mask and index-2 flags, the largest values so far, the weights,
         the rounding floor's fixed signs, the charge columns of the rows whose charge error
         is tested (-1: not tested; :func:`netdae.dae.bdf.charge_rows`), the charge-form rows
@@ -1795,6 +1800,8 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         if switches:
             _copy2(s_vacc, s_vtry)
         set_weights(P[0, :n], rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
+        if not linear and I[I_HAS_ABSDQ] != 0:
+            charge_newton_weights(P[0, n:], xmax[n:], qcol, absdq, indptr, indices, rtol, atol, w, work)
         _record(I, t_end, k, P[0], rec)
         F[F_H] = max(min(h * eta, F[F_MAX_STEP]), F[F_MIN_STEP])
         landed = landing and t_end == t_new

@@ -309,7 +309,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         P[0, n:] = ev0.q[crows]
     psi = np.zeros(MAX_ORDER + 1)
     coef = [np.zeros(MAX_ORDER + 1) for _ in range(5)]
-    xmax = np.abs(x0)
+    # the largest magnitudes so far: of the unknowns, then of the charges (charge_newton_weights)
+    xmax = np.concatenate([np.abs(x0), np.abs(P[0, n:])])
     x_start = np.array(x0, dtype=float)
     w = np.empty(n)
     w_err = np.empty(n)
