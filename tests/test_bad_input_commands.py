@@ -649,6 +649,17 @@ def test_an_initial_condition_the_circuit_overrides_leaves_no_forcing_current_in
     assert "by the hidden constraints of the start: v(out) = -6.28319 at t = 0" in moved
 
 
+def test_an_initial_condition_held_against_a_large_current_is_kept():
+    """.ic v(ph)=0 on a 1 F capacitor fed by 2e4 A (1e12 ohm to ground): the forcing conductance (1e10 S) holds the
+    node 2 uV off 0 V, which used to count as "not held" (and "no capacitor alone holds v(ph)"), and the transient
+    started from the node's DC value without the .ic, 2e16 V. The capacitor holds it: v(ph) = I t / C."""
+    text = ("ic against a large current\nI1 0 ph 2e4\nC1 ph 0 1\nR1 ph 0 1e12\n.ic v(ph)=0\n.tran 10n 10u\n.end\n")
+    res = netdae.simulate(text, save=["v(ph)"])
+    assert abs(res["v(ph)"][0]) <= 2.1e-6
+    assert res["v(ph)"][-1] == pytest.approx(2e4 * 10e-6, rel=1e-4)
+    assert not [n for n in res.notes if "is not held" in n]
+
+
 @pytest.mark.parametrize("command", ["run", "index"])
 def test_the_command_line_keeps_numpys_floating_point_warnings_quiet(capsys, tmp_path, command):
     """A MESFET at .temp 1e6 overflows numpy's exp in its temperature scaling: the command says in words
@@ -678,3 +689,15 @@ def test_a_sin_growing_past_the_largest_double_ends_the_transient_in_words(capsy
     assert status == EXIT_FAIL, err
     assert "bug in netdae" not in err and "Dirac delta) in ;" not in err
     assert "BDF failed" in err and "the solution ran away" in err and "points up to t=" in err
+
+
+def test_an_output_file_name_taken_by_a_directory_is_refused_before_the_run(capsys, tmp_path):
+    """--out DIR with DIR/tran.csv a directory: the streamed transient stopped after its first chunk of points (64
+    steps, 'nothing was left'); now refused before anything runs, with the file named."""
+    (tmp_path / "o" / "tran.csv").mkdir(parents=True)
+    text = "rc\nV1 a 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 a b 1k\nC1 b 0 1u\n.tran 10u 10m\n.end\n"
+    status, err, path = _cli(capsys, tmp_path, text, "run", "-q", "--out", str(tmp_path / "o"))
+    assert status == 2
+    assert err.strip() == (f"netdae: error: cannot write {tmp_path / 'o' / 'tran.csv'}: it is a directory (hint: "
+                           "remove or rename it, or give another --out)")
+    assert list((tmp_path / "o").iterdir()) == [tmp_path / "o" / "tran.csv"]

@@ -93,6 +93,25 @@ def _unheld(forcing: Forcing, x, opts) -> np.ndarray:
     return np.abs(got - forcing.value) > opts.reltol * np.maximum(np.abs(got), np.abs(forcing.value)) + opts.vntol
 
 
+#: An ``.ic`` value the forcing conductance moved its node to within this fraction of where the circuit alone
+#: puts it is held (the conductance carries the node's current); a source that fixes the node leaves it where
+#: the circuit puts it (the fraction is 1).
+HELD_FRACTION = 1e-3
+
+
+def _overridden(forcing: Forcing, x_forced, x_free, unheld: np.ndarray) -> np.ndarray:
+    """Which of the ``unheld`` forced values the circuit overrides (a mask over ``forcing.index``).
+
+    ``x_forced`` is the solution with every value forced, ``x_free`` the one without the
+    ``unheld`` ones: a value the forcing holds against a large current stays within
+    :data:`HELD_FRACTION` of its distance from where the circuit alone puts the node.
+    """
+    want = forcing.value
+    off_forced = np.abs(np.asarray(x_forced)[forcing.index] - want)
+    off_free = np.abs(np.asarray(x_free)[forcing.index] - want)
+    return unheld & ~(off_forced <= HELD_FRACTION * off_free)
+
+
 def voltage_path(circuit: Circuit, node: str) -> list[str]:
     """The voltage-defining elements (V, E, H, B voltage sources, op-amp outputs) that tie ``node`` to ground.
 
@@ -609,7 +628,7 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
         res.notes = [_charge_note(g) for g in used] + ([_law_note(circuit, system, laws)] if laws else [])
         if forcing is not None:
             unheld = _unheld(forcing, res.x, opts)
-            warnings = _unheld_initial_conditions(circuit, system, forcing, res.x, unheld)
+            forced = res
             if unheld.any():
                 # The forcing conductance of a value the circuit overrides carries (value - v) * 1e10 A into
                 # the source that fixes the node (5e10 A into an op-amp's output for .ic 5 V against 0 V):
@@ -619,9 +638,20 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
                 again = solve_steady(system, t, res.x, options=opts, forcing=held, nodeset=nodeset,
                                      charges=groups + laws)
                 if again.converged:
-                    again.notes = res.notes
-                    res = again
-            res.notes = list(res.notes) + warnings
+                    # a value the forcing moved its node to, against a large current (a capacitor's node fed by
+                    # 2e4 A stops 2 uV short of .ic 0 V), is held: the circuit alone puts the node elsewhere
+                    # (2e16 V through 1e12 ohm), a source that fixes the node puts it where the forcing did
+                    overridden = _overridden(forcing, forced.x, again.x, unheld)
+                    if overridden.sum() < unheld.sum():
+                        unheld = overridden
+                        keep = ~unheld
+                        held = Forcing(forcing.index[keep], forcing.value[keep]) if keep.any() else None
+                        again = (solve_steady(system, t, res.x, options=opts, forcing=held, nodeset=nodeset,
+                                              charges=groups + laws) if unheld.any() else forced)
+                    if again.converged:
+                        again.notes = res.notes
+                        res = again
+            res.notes = list(res.notes) + _unheld_initial_conditions(circuit, system, forcing, forced.x, unheld)
         return res
     if res.singular:
         raise _singular_error(circuit, system, res, topology)

@@ -222,6 +222,27 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None,
     return files
 
 
+def _check_output_files(out_dir: Path, circuit, args) -> None:
+    """Refuse, before anything runs, an output file whose name is taken by a directory.
+
+    A transient streams its file as it runs: a directory in its place stopped it after its first
+    chunk of points. The other files would fail only after the run.
+
+    Raises
+    ------
+    OutputFileError
+    """
+    from ..analyses.runner import analysis_name
+
+    names = [f"{stem}.{args.format}" for stem in stems([SimpleNamespace(analysis=analysis_name(card))
+                                                          for card in circuit.analyses])]
+    names += ["measures.csv", "fourier.csv"]
+    for name in names:
+        path = out_dir / name
+        if path.is_dir():
+            raise OutputFileError(str(path), "it is a directory (hint: remove or rename it, or give another --out)")
+
+
 def _write_table(path, items: list, write, errors: list) -> str | None:
     """``write(path, items)`` when there are items: the path written, or None (nothing to write, or the
     failure appended to ``errors``)."""
@@ -255,6 +276,8 @@ def main(args) -> int:
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))
     bar = ProgressBar(enabled=args.verbosity >= 0)
     out_dir = output_directory(args.out) if args.out else None
+    if out_dir is not None:
+        _check_output_files(out_dir, circuit, args)
     streams: dict = {}  # a transient's position among the analyses -> its streamed file
 
     def output(position: int, start: int, block) -> str | None:
