@@ -437,3 +437,17 @@ def test_compare_outputs_and_subcircuits(tmp_path, text):
     path.write_text(text)
     item, = [a for a in netdae.compare(path).analyses if a.analysis == "sens"]
     assert item.passed, [(s.name, s.max_rel) for s in item.signals if not s.passed]
+
+
+def test_a_resistors_temperature_coefficients_are_listed_when_its_card_gives_them():
+    """ngspice 39 lists r1_tc and r1_tc2 for a resistor whose card gives tc1 and tc2 (and none for one without):
+    closed form at .temp 77 (dT = 50 K), R1 = 1k (1 + tc1 dT + tc2 dT^2) = 1225 ohm against R2 || R3 = 500 ohm:
+    dv(out)/dtc1 = -V Rp R1 dT / (R1' + Rp)^2 = -8.40160, dv(out)/dtc2 = dT times that (ngspice: -8.40159e+00,
+    -4.20080e+02)."""
+    text = ("tc sensitivity\n.temp 77\nV1 in 0 1\nR1 in out 1k tc1=0.004 tc2=1e-5\nR2 out 0 1k\nR3 out 0 1k\n"
+            ".sens v(out)\n.end\n")
+    res = next(r for r in netdae.run(netdae.load(text)) if r.analysis == "sens")
+    dv = -1.0 * 500.0 * 1000.0 * 50.0 / (1225.0 + 500.0) ** 2
+    assert res.signals["r1_tc"][0] == pytest.approx(dv, rel=1e-6)
+    assert res.signals["r1_tc2"][0] == pytest.approx(50.0 * dv, rel=1e-6)
+    assert "r3_tc" not in res.signals and "r2_tc2" not in res.signals

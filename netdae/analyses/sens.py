@@ -244,6 +244,8 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                     out.append(SensParameter(name, el.name, how, float(el.source.ac_mag)))
                 else:  # source_m
                     out.append(SensParameter(name, el.name, how, 1.0))
+            if el.kind == Kind.RESISTOR:
+                out.extend(_temperature_coefficients(circuit, el))
         elif kind.parameters is not None:
             model = circuit.models.get(el.model or "")
             if model is None or el.kind == Kind.MOSFET and int(model.params.get("level", 1.0)) != 1:
@@ -263,6 +265,20 @@ def sens_parameters(circuit: Circuit, ac: bool = False) -> tuple[list[SensParame
                          "list some)")
     out.sort(key=lambda p: p.name)
     return out, notes
+
+
+def _temperature_coefficients(circuit: Circuit, el: Element) -> list[SensParameter]:
+    """A resistor's ``tc1`` and ``tc2`` given on its card, as ngspice 39 lists them (``r1_tc``, ``r1_tc2``).
+
+    ngspice lists an instance's temperature coefficients where the card gives them; a value
+    that comes from the resistor's model (the same in both) is not an instance parameter.
+    """
+    model = circuit.models.get(el.model or "")
+    out = []
+    for key, suffix in (("tc1", "_tc"), ("tc2", "_tc2")):
+        if key in el.params and not (model is not None and model.params.get(key) == el.params[key]):
+            out.append(SensParameter(el.name + suffix, el.name, "param:" + key, float(el.params[key])))
+    return out
 
 
 def _perturbed(circuit: Circuit, p: SensParameter, value: float) -> Circuit:

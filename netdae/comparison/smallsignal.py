@@ -75,7 +75,7 @@ def _largest_impedance(nd: Result, ng: Result, names) -> float:
     return max(finite, default=0.0)
 
 
-def match_roots(a, b, *, floor: float) -> tuple[list[tuple[int, int, float]], list[int], list[int]]:
+def match_roots(a, b, *, floor: float, origin: float = 0.0) -> tuple[list[tuple[int, int, float]], list[int], list[int]]:
     """Pair the roots of two sets, one to one, minimising the total relative distance.
 
     Parameters
@@ -83,6 +83,10 @@ def match_roots(a, b, *, floor: float) -> tuple[list[tuple[int, int, float]], li
     a, b : array_like of complex
     floor : float
         Smallest scale of a relative distance (absolute units).
+    origin : float
+        Smallest scale of the distance to a root exactly at the origin (a multiple root
+        there splits by this much in the other simulator's rounding: :data:`ORIGIN` of the
+        largest root).
 
     Returns
     -------
@@ -97,6 +101,11 @@ def match_roots(a, b, *, floor: float) -> tuple[list[tuple[int, int, float]], li
     >>> pairs, only_a, only_b = match_roots([-1 + 1j, -1 - 1j, -5], [-1 - 1j, -1 + 1j], floor=1e-9)
     >>> [(i, j) for i, j, _ in pairs], only_a, only_b
     ([(0, 1), (1, 0)], [2], [])
+
+    A root computed as 1.8e-10 in one and exactly 0 in the other, beside a root of 1e4:
+
+    >>> [(i, j, round(d, 9)) for i, j, d in match_roots([1.8e-10, -1e4], [0.0, -1e4], floor=1e-8, origin=1.5e-4)[0]]
+    [(0, 0, 1.2e-06), (1, 1, 0.0)]
     """
     from scipy.optimize import linear_sum_assignment
 
@@ -105,6 +114,8 @@ def match_roots(a, b, *, floor: float) -> tuple[list[tuple[int, int, float]], li
     if a.size == 0 or b.size == 0:
         return [], list(range(a.size)), list(range(b.size))
     scale = np.maximum(np.maximum(np.abs(a)[:, None], np.abs(b)[None, :]), floor)
+    at_origin = (a[:, None] == 0) | (b[None, :] == 0)
+    scale = np.where(at_origin, np.maximum(scale, origin), scale)
     cost = np.abs(a[:, None] - b[None, :]) / scale
     rows, cols = linear_sum_assignment(cost)
     pairs = [(int(i), int(j), float(cost[i, j])) for i, j in zip(rows, cols) if cost[i, j] <= MATCH_LIMIT]
@@ -140,7 +151,7 @@ def compare_pz(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     for kind in ("pole", "zero"):
         names_a, a = _roots(nd, kind)
         names_b, b = _roots(ng, kind)
-        pairs, only_a, only_b = match_roots(a, b, floor=floor)
+        pairs, only_a, only_b = match_roots(a, b, floor=floor, origin=ORIGIN * top)
         for i, j, _ in pairs:
             err = abs(a[i] - b[j])
             scale = max(abs(a[i]), abs(b[j]), floor)
