@@ -45,12 +45,15 @@ def test_clamp_diode_with_transit_time_stays_bounded(engine, monkeypatch):
     assert np.max(v) < 220.0
     # the clamp at the end of the dump, against the run converged in the tolerance: within 2 % at the
     # default reltol (ngspice's own default run is 9 % low there). Later the diode's junction capacitance
-    # rings with the inductor (11 MHz, Q about 3,500) and the default run ends 3-5 % low at 8 us (184-189 V
-    # against 194.2 V): the accuracy of that ringing at reltol 1e-3, not a runaway
+    # rings with the inductor (11 MHz, Q about 3,500) and the default run ends 0.3 % (compiled) to 5 % low at
+    # 8 us (193.8 V; before the charges' Newton weights 184-189 V, against 194.2 V): the accuracy of that
+    # ringing at reltol 1e-3, not a runaway
     assert abs(np.interp(0.5e-6, r.t, v) - 208.5) < 0.02 * 208.5
     assert 170.0 < v[-1] < 200.0
-    # the inductor's current is continuous and ends near zero (the clamp took its energy)
-    assert abs(r["i(l1)"][-1]) < 0.05
+    # the clamp took the inductor's energy: what is left rings at 0.11-0.12 A in the last microsecond of the
+    # runs converged in the tolerance (reltol 1e-4, 1e-5), its value at 8 us is the ringing's phase
+    late = np.asarray(r.t) > 7e-6
+    assert np.abs(np.asarray(r["i(l1)"])[late]).max() < 0.15
 
 
 @pytest.mark.parametrize("reltol", [1e-4, 1e-5])
