@@ -144,6 +144,26 @@ def test_the_measurements_of_an_analysis_left_out_are_left_out_of_the_table():
     np.testing.assert_allclose(res.measures["f3"], f3, rtol=1e-3)  # straight lines between 100 points a decade
 
 
+def test_the_cards_a_sweep_does_not_run_are_named_in_a_note(tmp_path, capsys):
+    # .tf, .pz, .sens and .four give no measure of a row: they were left out without a word
+    text = ("rc\n.param r=1k\nV1 in 0 1\nR1 in out {r}\nR2 out 0 1k\nC1 out 0 1n\n.tf v(out) V1\n"
+            ".pz in 0 out 0 vol pz\n.sens v(out)\n.four 100k v(out)\n.tran 1u 10u\n.meas tran x find v(out) at=10u\n"
+            ".step param r list 1k 3k\n")
+    res = netdae.sweep(text, workers=1)
+    np.testing.assert_allclose(res.measures["x"], [0.5, 0.25], rtol=1e-6)  # 1k / (r + 1k), settled after 20 tau
+    assert res.errors == [None, None]
+    (note,) = res.notes
+    assert note.startswith("not run in the sweep: .tf (<string>:7:1), .pz (<string>:8:1), .sens (<string>:9:1), "
+                           ".four (<string>:10:1): a sweep records measures per row")
+    assert not netdae.sweep(text, workers=1, analyses=["tran"]).notes[0].count(".tf")  # asked: tran only
+    assert not netdae.sweep(text.replace(".four 100k v(out)\n", ""), workers=1, analyses=["tran"]).notes
+    path = tmp_path / "tf.cir"
+    path.write_text(text)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot"]) == 0
+    assert "not run in the sweep: .tf" in capsys.readouterr().err
+    assert json.loads((tmp_path / "o" / "measures.json").read_text())["notes"] == [note.replace("<string>", str(path))]
+
+
 def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
     with pytest.raises(NetdaeError, match=r"netdae sweep FILE --out DIR"):
         netdae.run(load(DIVIDER + ".step param r2 list 1k 2k\n"))

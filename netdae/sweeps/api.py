@@ -35,12 +35,12 @@ from ..errors import NetdaeError
 from ..stats import Statistics
 from .plan import Plan, make_plan
 from .result import SweepResult, reserved_columns
-from .worker import Job, Outcome, pool_worker, run_rows
+from .worker import SWEPT_ANALYSES, Job, Outcome, pool_worker, run_rows
 
 if TYPE_CHECKING:  # the pools' modules are imported when a pool is used (a serial sweep needs neither)
     import concurrent.futures as cf
 
-__all__ = ["sweep", "add_measures", "CHUNKS_PER_WORKER"]
+__all__ = ["sweep", "add_measures", "left_out", "CHUNKS_PER_WORKER"]
 
 #: Tasks per worker: enough to balance uneven rows, few enough to keep the overhead per task small.
 CHUNKS_PER_WORKER = 4
@@ -76,6 +76,46 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
     net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
     return elaborate(net, params=circuit.overrides, max_elements=circuit.max_elements, sample=circuit.sample,
                      seed=circuit.seed)
+
+
+def left_out(circuit: Circuit, analyses: tuple[str, ...] | None = None) -> str | None:
+    """The note naming the cards of ``circuit`` a sweep does not run, and why; None when there are none.
+
+    A sweep records measures per row: the ``.meas`` cards of the analyses it runs
+    (:data:`~netdae.sweeps.worker.SWEPT_ANALYSES`) and a ``.noise`` card's integrated
+    noise. A ``.pz``, ``.tf`` or ``.sens`` card gives none (when ``analyses`` is None:
+    a list of analyses names what runs), nor does a ``.four`` card (when the transient runs).
+
+    Parameters
+    ----------
+    circuit : Circuit
+    analyses : tuple of str, optional
+        The analyses the sweep runs (None: all of its kinds).
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> from netdae import load
+    >>> c = load("t\\nR1 a 0 1k\\nI1 0 a 1m\\n.tran 1u 10u\\n.tf v(a) I1\\n.four 100k v(a)\\n.end\\n")
+    >>> print(left_out(c))
+    not run in the sweep: .tf (<string>:5:1), .four (<string>:6:1): a sweep records measures per row (its .meas cards, a .noise card's integrated noise), which these cards do not give (run them with 'netdae run')
+    """
+    from ..analyses.runner import analysis_name
+
+    cards = []
+    if analyses is None:
+        cards = [(f".{analysis_name(a)}", a.location) for a in circuit.analyses
+                 if analysis_name(a) not in SWEPT_ANALYSES]
+    if analyses is None or "tran" in analyses:
+        cards += [(".four", f.location) for f in circuit.fouriers]
+    if not cards:
+        return None
+    named = ", ".join(f"{what} ({where})" if where is not None else what for what, where in cards)
+    return (f"not run in the sweep: {named}: a sweep records measures per row (its .meas cards, a .noise card's "
+            "integrated noise), which these cards do not give (run them with 'netdae run')")
 
 
 def _check_measure_names(circuit: Circuit, plan: Plan, analyses: tuple[str, ...] | None) -> None:
@@ -269,7 +309,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         if not wanted:
             raise NetdaeError("sweep: analyses= is empty (name the analyses to run, e.g. analyses=['tran'], or leave "
                               "it out to run them all)")
-        bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran", "noise")]
+        bad = [a for a in wanted if a not in SWEPT_ANALYSES]
         if bad:
             raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac, tran or noise)")
         have = {analysis_name(a) for a in circuit.analyses}
@@ -456,6 +496,9 @@ def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str,
     res = SweepResult.collect(job.plan, job.seed, outcomes, names, job.save)
     res.stats = Statistics(wall_time=time.perf_counter() - t0, row_seconds=sum(o.seconds for o in outcomes.values()),
                            executor=name, workers=count, completed=len(outcomes))
+    cards = left_out(circuit, job.analyses)
+    if cards is not None:
+        res.notes.append(cards)
     if interrupted:
         res.notes.append(f"interrupted: {len(outcomes)} of {res.rows} rows finished, {res.rows - len(outcomes)} "
                          "not run")
