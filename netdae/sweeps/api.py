@@ -40,7 +40,7 @@ from .worker import SWEPT_ANALYSES, Job, Outcome, pool_worker, run_rows
 if TYPE_CHECKING:  # the pools' modules are imported when a pool is used (a serial sweep needs neither)
     import concurrent.futures as cf
 
-__all__ = ["sweep", "add_measures", "left_out", "CHUNKS_PER_WORKER"]
+__all__ = ["sweep", "add_measures", "left_out", "measure_warnings", "MEASURES_FILE", "CHUNKS_PER_WORKER"]
 
 #: Tasks per worker: enough to balance uneven rows, few enough to keep the overhead per task small.
 CHUNKS_PER_WORKER = 4
@@ -48,6 +48,8 @@ CHUNKS_PER_WORKER = 4
 MIN_ROWS_PER_WORKER = 4
 #: Rows per chunk in this process: progress is reported per chunk, linear AC rows are solved per chunk.
 SERIAL_CHUNK = 100
+#: The file name locating the cards given as ``measures=`` (``--meas``): the k-th card is line k.
+MEASURES_FILE = "<measures>"
 #: Ctrl-C: how long the sweep's own workers have to hand back the rows they finished [s] (the compiled
 #: engine returns to Python every 0.1 s) before they are terminated.
 INTERRUPT_GRACE = 2.0
@@ -70,7 +72,7 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
         text = str(text).strip()
         if not text.lower().startswith(".meas"):
             text = ".meas " + text
-        cards.append(parse_measure(Card(text, "<measures>", [(0, k + 1, 1)])))
+        cards.append(parse_measure(Card(text, MEASURES_FILE, [(0, k + 1, 1)])))
     if not cards:
         return circuit
     net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
@@ -116,6 +118,36 @@ def left_out(circuit: Circuit, analyses: tuple[str, ...] | None = None) -> str |
     named = ", ".join(f"{what} ({where})" if where is not None else what for what, where in cards)
     return (f"not run in the sweep: {named}: a sweep records measures per row (its .meas cards, a .noise card's "
             "integrated noise), which these cards do not give (run them with 'netdae run')")
+
+
+def measure_warnings(circuit: Circuit, analyses: tuple[str, ...] | None) -> list[str]:
+    """The warnings about the cards given as ``measures=``, as notes of the sweep (``location: warning: ...``).
+
+    Those made adding them (:func:`add_measures`: a name the netlist's ``.meas``
+    cards, or an earlier added card, measure already, whose values the table then
+    holds), and a card whose analysis the sweep does not run (not made).
+
+    Parameters
+    ----------
+    circuit : Circuit
+        With the cards added.
+    analyses : tuple of str, optional
+        The analyses the sweep runs (None: all).
+
+    Returns
+    -------
+    list of str
+    """
+    from ..circuit import Diagnostic
+
+    out = [str(d) for d in circuit.diagnostics if d.location is not None and d.location.file == MEASURES_FILE]
+    for card in circuit.netlist.measures:
+        if analyses is not None and card.card.file == MEASURES_FILE and card.analysis not in analyses:
+            runs = ", ".join(analyses)
+            out.append(str(Diagnostic("warning", f".meas: measurement '{card.name}' measures the .{card.analysis} "
+                                      f"analysis, which the sweep does not run (it runs {runs}): it is not made",
+                                      card.card.location(card.offset))))
+    return out
 
 
 def _check_measure_names(circuit: Circuit, plan: Plan, analyses: tuple[str, ...] | None) -> None:
@@ -319,6 +351,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
                               f"{', '.join(sorted(have)) or 'none'}): add a .{missing[0]} card or leave it out of "
                               "analyses")
     save = tuple(_check_save(circuit, save or ()))
+    warnings = measure_warnings(circuit, wanted) if measures else []
     noise = any(type(a).__name__ == "NoiseAnalysis" for a in circuit.analyses) and (wanted is None or "noise" in wanted)
     if not save and not circuit.measures and not noise:
         raise NetdaeError("sweep: nothing to record: give measures (.meas cards or measures=) or save= signals")
@@ -336,12 +369,12 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     try:
         _run(job, plan, pool, count, outcomes, progress, owned)
     except KeyboardInterrupt as exc:
-        exc.result = _finish(job, circuit, outcomes, name, count, t0, interrupted=True)
+        exc.result = _finish(job, circuit, outcomes, name, count, t0, warnings, interrupted=True)
         raise
     finally:
         if owned:
             pool.shutdown(wait=True, cancel_futures=True)
-    return _finish(job, circuit, outcomes, name, count, t0)
+    return _finish(job, circuit, outcomes, name, count, t0, warnings)
 
 
 def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: dict[int, Outcome],
@@ -490,12 +523,13 @@ def lost_worker(exc: BaseException) -> str:
 
 
 def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str, count: int, t0: float,
-            interrupted: bool = False) -> SweepResult:
+            warnings: list[str], interrupted: bool = False) -> SweepResult:
     # the measurements of the analyses that run (those of an analysis left out of analyses= are not made)
     names = [m.name for m in circuit.measures if job.analyses is None or m.analysis in job.analyses]
     res = SweepResult.collect(job.plan, job.seed, outcomes, names, job.save)
     res.stats = Statistics(wall_time=time.perf_counter() - t0, row_seconds=sum(o.seconds for o in outcomes.values()),
                            executor=name, workers=count, completed=len(outcomes))
+    res.notes.extend(warnings)
     cards = left_out(circuit, job.analyses)
     if cards is not None:
         res.notes.append(cards)
