@@ -113,6 +113,11 @@ def test_step_cards(card, target, values):
     (".step nope 1 2 1", r"no parameter or element 'nope'", "nope"),
     (".step param temp 1 2 1", r"no top-level .param defines 'temp'", "temp"),
     (".step temp -300 0 100", r"temperature .*absolute zero|below absolute zero|-273", "-300"),
+    # a draw would be made once: every row and Monte Carlo sample the same value
+    (".step param r2 list 1k {agauss(1k,500,1)}", r"a .step value draws a random number \(agauss\(\)\)", "{agauss"),
+    (".step param r2 1k {rr} 1k\n.param rr={2*q}\n.param q=unif(3k,0.1)",
+     r"\(unif\(\) through .param q through .param rr\)", "{rr}"),
+    (".step r1 list {f(1k)}\n.func f(x)={x*limit(1,0.1)}", r"\(limit\(\) through .func f\)", "{f"),
 ])
 def test_bad_step_cards_are_located(card, message, token):
     text = DIVIDER + card + "\n"
@@ -123,6 +128,16 @@ def test_bad_step_cards_are_located(card, message, token):
     assert err.location.line == 9
     line = text.split("\n")[8]
     assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
+
+
+def test_a_random_step_value_is_refused_with_a_hint_and_a_fixed_one_steps():
+    text = DIVIDER + ".step param r2 list {agauss(1k,500,1)} 2k\n"
+    with pytest.raises(NetlistError) as exc:  # was: --mc 3 ran three identical samples of one draw
+        netdae.sweep(text, samples=3, workers=1)
+    assert "--mc N" in exc.value.hint and "put the draw in a .param" in exc.value.hint
+    # a parameter given a value draws nothing; limit(x, lo, hi) is the clamp, no draw
+    c = load(DIVIDER + ".param rr=agauss(1k,500,1)\n.step param r2 list {rr} {limit(5k,1k,2k)}\n", params={"rr": 3e3})
+    assert c.steps[0].values == (3e3, 2e3)
 
 
 def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():

@@ -42,7 +42,7 @@ from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
-from .montecarlo import DEFAULT_SEED, Draws, random_seed
+from .montecarlo import DEFAULT_SEED, Draws, is_random_call, random_seed
 from .steps import StepSpec, model_parameter, step_values
 from .numbers import parse_number
 from .option_names import option_warning
@@ -250,6 +250,7 @@ class _Elaborator:
         self.root.draws = Draws(self._seed(net) if seed is None else seed, sample)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
+        self.given = frozenset(overrides)  # top-level parameters the caller fixed
         self.trace = trace
         if trace is not None:
             trace.start(self.root)
@@ -1531,6 +1532,14 @@ class _Elaborator:
                 card.warn(st.name_offset, f"'{name}' is what the .dc card sweeps: .dc sets it at each of its points, "
                           "so this step changes nothing in the .dc result (it does in the other analyses)")
                 self.diagnostics.extend(card.take_notes())
+            for val in st.values:
+                drawn = self._draw_in(val[0])
+                if drawn is not None:
+                    raise error(card, val[1], f"a .step value draws a random number ({drawn}): it would be drawn "
+                                "once, and every row and Monte Carlo sample would get that one value", form,
+                                hint="the values of a step are fixed numbers: put the draw in a .param the "
+                                     "circuit uses and step something else, or vary it per row with Monte Carlo "
+                                     "samples (--mc N, samples=N)")
             numbers = [self._value(v, card, "step value") for v in st.values]
             values = step_values(st, numbers)
             if target == "temp":
@@ -1538,6 +1547,35 @@ class _Elaborator:
                     self._check_temperature(v, card, offset, "step temperature")
             out.append(StepSpec(target, name, values, card.location(st.name_offset)))
         return out
+
+    def _draw_in(self, tree, seen: set[tuple[str, str]] | None = None) -> str | None:
+        """The Monte Carlo function a top-level value calls (``"agauss()"``, ``"unif() through .param r"``),
+        directly or through top-level ``.param`` and ``.func`` definitions; None when it draws nothing.
+
+        A parameter the caller gives a value (``params=``) draws nothing.
+        """
+        if type(tree) is float:
+            return None
+        seen = set() if seen is None else seen
+        for node in ex.walk(tree):
+            if type(node) is ex.Call:
+                if is_random_call(node.func, len(node.args)):
+                    return f"{node.func}()"
+                f = self.root.funcs.get(node.func)
+                if f is not None and (".func", f.name) not in seen:
+                    seen.add((".func", f.name))
+                    body = ex.transform(f.body, lambda n: ex.Const(0.0) if type(n) is ex.Param
+                                        and n.name in f.args else None)
+                    inner = self._draw_in(body, seen)
+                    if inner is not None:
+                        return f"{inner} through .func {f.name}"
+            elif type(node) is ex.Param and (".param", node.name) not in seen and node.name not in self.given:
+                seen.add((".param", node.name))
+                d = self.root.defs.get(node.name)
+                inner = None if d is None else self._draw_in(d[0].value[0], seen)
+                if inner is not None:
+                    return f"{inner} through .param {node.name}"
+        return None
 
     def _options(self, circuit: Circuit) -> None:
         opts = Options()
