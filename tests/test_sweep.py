@@ -150,6 +150,35 @@ def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():
     assert not [d for d in netdae.load(text.replace(".step V1", ".step R1")).diagnostics if "sweeps" in d.message]
 
 
+def test_stepping_the_dc_value_of_a_source_with_a_transient_function_is_a_located_warning(tmp_path, capsys):
+    # the transient follows the PULSE: three identical rows, and nothing said
+    text = ("pulse\nV1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 1m\n"
+            ".meas tran x find v(out) at=1m\n.step V1 list 1 5 10\n")
+    c = netdae.load(text)
+    (d,) = [d for d in c.diagnostics if "transient function" in d.message]
+    assert d.severity == "warning" and (d.location.line, d.location.column) == (7, 7)
+    assert d.message.startswith(".step: 'v1' has a PULSE transient function: the step sets its DC value, which the "
+                                "operating point and the .dc, .ac and .noise analyses use")
+    assert "changes nothing in the .tran result" in d.message
+    res = netdae.sweep(text, workers=1)  # a netlist the sweep loads: its warnings are the result's notes
+    np.testing.assert_allclose(res.measures["x"], [1 - math.exp(-1)] * 3, rtol=1e-3)
+    assert res.notes == [str(d)]
+    # the same axis given to the sweep: the same warning, without a place
+    bare = text.replace(".step V1 list 1 5 10\n", "")
+    assert netdae.sweep(bare, params={"V1": [1, 5]}, workers=1).notes == ["warning: " + d.message[len(".step: "):]]
+    path = tmp_path / "p.cir"
+    path.write_text(bare)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot",
+                "--step", "v1=1,5"]) == 0
+    assert "netdae: warning: 'v1' has a PULSE transient function" in capsys.readouterr().err
+    # no warning where the step does reach the analyses: a DC source, no .tran, TRNOISE (adds its DC value)
+    for other in (text.replace("PULSE(0 1 0 1u 1u 1m 2m)", "1"),
+                  text.replace(".tran 10u 1m\n.meas tran x find v(out) at=1m",
+                               ".ac dec 2 1 10\n.meas ac x find vm(out) at=1"),
+                  text.replace("PULSE(0 1 0 1u 1u 1m 2m)", "DC 0 TRNOISE(1m 10u 0 0)")):
+        assert not [d for d in netdae.load(other).diagnostics if "transient function" in d.message]
+
+
 def test_the_measurements_of_an_analysis_left_out_are_left_out_of_the_table():
     text = ("rc\nV1 in 0 DC 0 AC 1 PULSE(0 1 0 1n 1n 1m 2m)\nR1 in out 1k\nC1 out 0 100n\n.ac dec 100 10 100k\n"
             ".tran 1u 1m\n.meas ac f3 when vdb(out)=-3\n.meas tran tr when v(out)=0.5\n")

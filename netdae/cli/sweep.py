@@ -273,9 +273,9 @@ def main(args) -> int:
                 print(f"{name:<{width}}  {s['count']:>6}  {s['mean']:>12.6g}  {s['std']:>10.4g}  "
                       f"{s['min']:>12.6g}  {s['max']:>12.6g}")
     for note in result.notes:
-        where, warned, message = note.partition(": warning: ")  # a located warning (measures given here)
-        if warned:
-            LOG.warning("%s: %s", where, message)
+        where, warned, message = note.partition("warning: ")  # a warning, located or not ("FILE:L:C: warning: ")
+        if warned and (not where or where.endswith(": ")):
+            LOG.warning("%s%s", where, message)
         else:
             LOG.warning("%s", note) if "failed" in note else LOG.info("note: %s", note)
     for path in files:

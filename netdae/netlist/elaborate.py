@@ -43,7 +43,7 @@ from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
 from .montecarlo import DEFAULT_SEED, Draws, is_random_call, random_seed
-from .steps import StepSpec, model_parameter, step_values
+from .steps import StepSpec, model_parameter, step_values, unseen_step
 from .numbers import parse_number
 from .option_names import option_warning
 from .params import Env, Trace, UnknownName, evaluate_val, resolve_behavioural
@@ -1531,6 +1531,10 @@ class _Elaborator:
             if target in ("element", "temp") and name in swept:
                 card.warn(st.name_offset, f"'{name}' is what the .dc card sweeps: .dc sets it at each of its points, "
                           "so this step changes nothing in the .dc result (it does in the other analyses)")
+                self.diagnostics.extend(card.take_notes())
+            why = unseen_step(elements[name], circuit.analyses) if target == "element" else None
+            if why is not None:
+                card.warn(st.name_offset, why)
                 self.diagnostics.extend(card.take_notes())
             for val in st.values:
                 drawn = self._draw_in(val[0])

@@ -150,6 +150,25 @@ def measure_warnings(circuit: Circuit, analyses: tuple[str, ...] | None) -> list
     return out
 
 
+def _step_warnings(circuit: Circuit, plan: Plan, params: Mapping | None,
+                   analyses: tuple[str, ...] | None) -> list[str]:
+    """The warnings about the axes given as ``params=`` (``--step``) that a ``.step`` card would get at the card
+    (:func:`netdae.netlist.steps.unseen_step`: a source's DC value stepped under a transient function); an axis
+    a card steps too has its warning at the card."""
+    from ..analyses.runner import analysis_name
+    from ..netlist.steps import unseen_step
+
+    given = {str(name).lower() for name in params or ()} - {s.name for s in circuit.steps}
+    cards = [a for a in circuit.analyses if analyses is None or analysis_name(a) in analyses]
+    out = []
+    for axis in plan.axes:
+        if axis.target == "element" and axis.name in given:
+            why = unseen_step(circuit.element(axis.name), cards)
+            if why is not None:
+                out.append(f"warning: {why}")
+    return out
+
+
 def _check_measure_names(circuit: Circuit, plan: Plan, analyses: tuple[str, ...] | None) -> None:
     """Refuse a recorded measure named like a column of the sweep's table (it would overwrite the column).
 
@@ -242,7 +261,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     Parameters
     ----------
     circuit : Circuit, str or path-like
-        An elaborated circuit (:func:`netdae.load`) or a netlist file or text.
+        An elaborated circuit (:func:`netdae.load`) or a netlist file or text
+        (whose warnings, when the sweep loads it, are notes of the result).
         Its ``.step`` cards are the sweep's axes.
     params : mapping, optional
         More axes: a top-level ``.param``, an element (full name) or ``temp``
@@ -314,8 +334,10 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if params is not None and not isinstance(params, Mapping):
         raise NetdaeError(f"sweep: params must be a mapping of names to values (e.g. {{'r2': [1e3, 2e3]}}), "
                           f"not {type(params).__name__}")
+    loaded: list[str] = []
     if not isinstance(circuit, Circuit):
         circuit = load(circuit)
+        loaded = [str(d) for d in circuit.diagnostics if d.severity == "warning"]  # nobody else shows them
     if circuit.netlist is None:
         raise NetdaeError("sweep: the circuit must come from a netlist (netdae.load), not be built by hand")
     altering = next((a for a in circuit.analyses if a.alter), None)
@@ -351,11 +373,12 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
                               f"{', '.join(sorted(have)) or 'none'}): add a .{missing[0]} card or leave it out of "
                               "analyses")
     save = tuple(_check_save(circuit, save or ()))
-    warnings = measure_warnings(circuit, wanted) if measures else []
     noise = any(type(a).__name__ == "NoiseAnalysis" for a in circuit.analyses) and (wanted is None or "noise" in wanted)
     if not save and not circuit.measures and not noise:
         raise NetdaeError("sweep: nothing to record: give measures (.meas cards or measures=) or save= signals")
     plan = make_plan(circuit, params, samples)
+    warnings = loaded + (measure_warnings(circuit, wanted) if measures else []) + _step_warnings(circuit, plan, params,
+                                                                                                 wanted)
     _check_measure_names(circuit, plan, wanted)
     seed = circuit.seed if seed is None else seed
     if samples is not None and circuit.draws == 0:
