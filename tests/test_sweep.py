@@ -16,6 +16,7 @@ import netdae
 from netdae.cli import main as cli
 from netdae.errors import NetdaeError, NetlistError
 from netdae.netlist import load
+from netdae.netlist.montecarlo import generator
 
 DIVIDER = """divider
 .param r2=1k
@@ -545,7 +546,8 @@ def test_a_row_out_of_memory_is_a_failed_row(monkeypatch):
     ({"params": {"rr2": [1]}}, r"hint: did you mean r2\? name a .param, an element"),
     ({"params": {"r2": []}}, r"no values"),
     ({"params": {"r2": ["x"]}}, r"must be numbers"),
-    ({"seed": -1}, r"seed must be a non-negative integer"),
+    ({"seed": -1}, r"seed: a seed is an integer from 0 to 18446744073709551615, not -1"),
+    ({"seed": 2**64}, r"seed: a seed is an integer from 0 to 18446744073709551615, not 18446744073709551616"),
     ({"save": ["v(zz)"]}, r"no node 'zz'"),
     ({"analyses": ["sens"]}, r"unknown analysis 'sens'"),
     ({"workers": 0}, r"workers must be a positive integer"),
@@ -592,6 +594,27 @@ def test_tables_and_arrays():
     assert ds["v(out)"].shape == (2, 61) and list(ds["c"].values) == [1e-6, 2e-6]
     doc = res.to_dict()
     assert doc["summary"]["t63"]["count"] == 2 and json.dumps(doc)
+
+
+def test_a_seed_gives_the_same_draws_from_the_options_card_and_from_the_sweep(tmp_path, capsys):
+    # .options seed=12345678901234567 was read through a float (...568) while seed= kept the integer
+    seed = 12345678901234567
+    text = ("mc\n.param r=agauss(1k,100,1)\nV1 in 0 1\nR1 in out {r}\nR2 out 0 1k\n.tran 1u 10u\n"
+            ".meas tran x find v(out) at=10u\n")
+    card = netdae.sweep(text + f".options seed={seed}\n", samples=4, workers=1)
+    given = netdae.sweep(text, samples=4, seed=seed, workers=1)
+    assert card.seed == given.seed == seed
+    assert card.measures["x"].tobytes() == given.measures["x"].tobytes()
+    other = netdae.sweep(text, samples=4, seed=seed + 1, workers=1).measures["x"]
+    assert np.all(np.isfinite(other)) and not np.array_equal(other, given.measures["x"])
+    r = 1e3 + 100 * np.array([generator((seed, k)).standard_normal() for k in range(4)])
+    np.testing.assert_allclose(given.measures["x"], 1e3 / (r + 1e3), rtol=1e-9)  # the divider of each draw
+    path = tmp_path / "mc.cir"
+    path.write_text(text)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot", "--mc", "4",
+                "--seed", str(seed)]) == 0
+    doc = json.loads((tmp_path / "o" / "measures.json").read_text())
+    assert doc["seed"] == seed and [row["x"] for row in doc["rows"]] == given.measures["x"].tolist()
 
 
 # -- command line ----------------------------------------------------------------------------------
@@ -675,7 +698,9 @@ def test_cli_sweep_prints_the_summary_when_its_files_cannot_be_written(tmp_path,
     (["--step", "r1"], "expected NAME=SPEC"),
     (["--step", "r1=1:2:-1"], "does not lead"),
     (["--mc", "0"], "positive integer"),
-    (["--seed", "-2"], "non-negative integer"),
+    (["--seed", "-2"], "argument --seed: a seed is an integer from 0 to 18446744073709551615, not -2"),
+    (["--seed", "1.5"], "argument --seed: a seed is an integer from 0 to 18446744073709551615, not '1.5'"),
+    (["--seed", "18446744073709551616"], "not 18446744073709551616"),
     (["--step", "r2=1k,abc"], "argument --step: r2=1k,abc: expected a number, got 'abc'"),
 ])
 def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):

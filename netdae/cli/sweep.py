@@ -94,7 +94,19 @@ def _integer(minimum: int, what: str):
 
 
 _count = _integer(1, "a positive integer")
-_seed = _integer(0, "a non-negative integer")
+
+
+def _seed(text: str) -> int:
+    """An argparse type: a Monte Carlo seed (:func:`netdae.netlist.montecarlo.seed_problem`)."""
+    from ..netlist.montecarlo import seed_problem
+
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or seed_problem(value) is not None:
+        raise argparse.ArgumentTypeError(seed_problem(value if value is not None else text))
+    return value
 
 
 def add_parser(sub) -> argparse.ArgumentParser:

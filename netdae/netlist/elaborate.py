@@ -42,7 +42,7 @@ from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
-from .montecarlo import DEFAULT_SEED, Draws, is_random_call, random_seed
+from .montecarlo import DEFAULT_SEED, MAX_SEED, Draws, is_random_call, random_seed, seed_problem
 from .steps import StepSpec, model_parameter, step_values, unseen_step
 from .numbers import parse_number
 from .option_names import option_warning
@@ -286,11 +286,23 @@ class _Elaborator:
                 return seed
             if value is True or value.kind == STRING:
                 raise error(card, offset, "option 'seed' needs a non-negative integer or 'random'", form)
-            number = self._value(parse_value(card, value, form, "option value"), card, "option value")
-            if number != int(number) or number < 0:
-                raise error(card, value.start, f"option 'seed' needs a non-negative integer or 'random', "
-                            f"not {number:g}", form)
-            return int(number)
+            hint = f"a seed is an integer from 0 to {MAX_SEED}, or 'random'"
+            if value.kind == WORD and value.text.lstrip("+").isdigit() and value.text.isascii():
+                seed = int(value.text)  # exactly as written (a float holds integers exactly up to 2**53 only)
+            else:
+                number = self._value(parse_value(card, value, form, "option value"), card, "option value")
+                if not math.isfinite(number) or number != int(number) or number < 0:
+                    raise error(card, value.start, f"option 'seed' needs a non-negative integer or 'random', "
+                                f"not {number:g}", form, hint=hint)
+                if number > 2**53:
+                    raise error(card, value.start, f"option 'seed' = {number:g} is computed in floating point, "
+                                "which holds integers exactly only up to 2**53 = 9007199254740992", form,
+                                hint="write a larger seed as its digits (seed=12345678901234567)")
+                seed = int(number)
+            if seed_problem(seed) is not None:
+                raise error(card, value.start, f"option 'seed' = {seed} is beyond the largest seed, {MAX_SEED}",
+                            form, hint=hint)
+            return seed
         return DEFAULT_SEED
 
     @staticmethod
@@ -1908,9 +1920,10 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
         raise TypeError(f"max_elements must be an integer, not {type(max_elements).__name__}")
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
-    for what, number in (("sample", sample), ("seed", seed)):
-        if number is not None and (isinstance(number, bool) or not isinstance(number, int) or number < 0):
-            raise NetlistError(f"{what}: expected a non-negative integer, got {number!r}")
+    if sample is not None and (isinstance(sample, bool) or not isinstance(sample, int) or sample < 0):
+        raise NetlistError(f"sample: expected a non-negative integer, got {sample!r}")
+    if seed is not None and seed_problem(seed) is not None:
+        raise NetlistError(f"seed: {seed_problem(seed)}")
     with no_gc():
         return _Elaborator(netlist, overrides, limit, sample, seed,
                            {str(k).lower(): v for k, v in (values or {}).items()}, trace).run()

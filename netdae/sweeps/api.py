@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 from ..circuit import Circuit
 from ..analyses.runner import check_callable, string_entries
 from ..errors import NetdaeError
+from ..netlist.montecarlo import seed_problem
 from ..stats import Statistics
 from .plan import Plan, make_plan
 from .result import SweepResult, reserved_columns
@@ -345,8 +346,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         raise NetdaeError(f"sweep: {altering.alter[0].location}: the netlist's .control script alters the circuit "
                           f"('{altering.alter[0].command}'); netdae sweeps netlists without alter and altermod "
                           "(run it with 'netdae run', or step the values with .step)")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-        raise NetdaeError(f"sweep: seed must be a non-negative integer, got {seed!r}")
+    if seed is not None and seed_problem(seed) is not None:
+        raise NetdaeError(f"sweep: seed: {seed_problem(seed)}")
     check_callable(progress, "progress", "progress(done, total)")
     if measures:
         circuit = add_measures(circuit, measures)
