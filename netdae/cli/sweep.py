@@ -122,7 +122,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="step a top-level .param, an element or temp: start:stop:incr, "
                    "dec:points:start:stop, oct:points:start:stop or v1,v2,... (repeatable: all combinations)")
     p.add_argument("--mc", metavar="N", type=_count, help="Monte Carlo samples per point")
-    p.add_argument("--seed", type=_seed, help="Monte Carlo seed (default .options seed=, else 1)")
+    p.add_argument("--seed", type=_seed, help="Monte Carlo seed, 0 to 2**64-1 (default .options seed=, else 1)")
     p.add_argument("--meas", metavar="CARD", action="append", default=[],
                    help="one more .meas card, e.g. 'tran ripple pp v(out) from=5m to=10m' (repeatable)")
     p.add_argument("--analysis", metavar="NAME", action="append", choices=("op", "dc", "ac", "tran", "noise"),

@@ -1880,7 +1880,8 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
     sample : int
         The Monte Carlo sample to draw (:mod:`netdae.netlist.montecarlo`).
     seed : int, optional
-        The Monte Carlo seed (default: ``.options seed=``, else 1).
+        The Monte Carlo seed, an integer from 0 to :data:`~netdae.netlist.montecarlo.MAX_SEED`
+        (default: ``.options seed=``, else 1).
     values : mapping of str to float, optional
         Element values that replace the netlist's, by full element name: the
         value of R, C, L, the gain of E, F, G, H, the DC value of V and I

@@ -86,8 +86,8 @@ def left_out(circuit: Circuit, analyses: tuple[str, ...] | None = None) -> str |
 
     A sweep records measures per row: the ``.meas`` cards of the analyses it runs
     (:data:`~netdae.sweeps.worker.SWEPT_ANALYSES`) and a ``.noise`` card's integrated
-    noise. A ``.pz``, ``.tf`` or ``.sens`` card gives none (when ``analyses`` is None:
-    a list of analyses names what runs), nor does a ``.four`` card (when the transient runs).
+    noise. A ``.pz``, ``.tf`` or ``.sens`` card gives none (named unless ``analyses``
+    chose what runs), nor does a ``.four`` card (named when the transient runs).
 
     Parameters
     ----------
@@ -273,7 +273,9 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         Monte Carlo samples per point: sample k draws the netlist's
         ``gauss``/``agauss``/``unif``/``aunif``/``limit`` from the stream ``(seed, k)``.
     seed : int, optional
-        The Monte Carlo seed (default the netlist's ``.options seed=``, else 1).
+        The Monte Carlo seed, an integer from 0 to
+        :data:`~netdae.netlist.montecarlo.MAX_SEED` (default the netlist's
+        ``.options seed=``, else 1).
     analyses : iterable of str, optional
         Which of the netlist's analyses to run (``"op"``, ``"dc"``, ``"ac"``,
         ``"tran"``, ``"noise"``; default all). A ``.noise`` card's integrated
