@@ -124,12 +124,32 @@ def test_bad_monte_carlo_calls_are_located(text, message, column):
         assert RANDOM_FORMS[name] in str(exc.value), str(exc.value)
 
 
-@pytest.mark.parametrize("option, message", [("seed=-1", "non-negative integer"), ("seed=1.5", "non-negative"),
-                                             ("seed", "non-negative integer or 'random'")])
+@pytest.mark.parametrize("option, message", [
+    ("seed=-1", "non-negative integer"), ("seed=1.5", "non-negative"), ("seed", "non-negative integer or 'random'"),
+    # was rounded through a float (to 1e26 + 21944598528, or to a neighbour of a 17-digit seed)
+    ("seed=99999999999999999999999999", r"= 99999999999999999999999999 is beyond the largest seed, 18446744073709551615"),
+    ("seed=18446744073709551616", "beyond the largest seed"),
+    ("seed=1e17", r"floating point, which holds integers exactly only up to 2\*\*53"),
+    ("seed={2**60}", "floating point"),
+])
 def test_bad_seed_is_located(option, message):
     with pytest.raises(NetlistError, match=message) as exc:
         load(f"t\n.options {option}\nV1 a 0 1\nR1 a 0 1k\n.op\n")
     assert exc.value.location.line == 2
+    if "=" in option and option != "seed=-1":  # at the value
+        assert exc.value.location.column == len(".options seed=") + 1
+        assert "integer from 0 to 18446744073709551615" in exc.value.hint or "digits" in exc.value.hint
+
+
+def test_an_integer_seed_is_read_exactly():
+    text = "t\n.options seed={}\nV1 a 0 1\nR1 a 0 {{agauss(1k, 100, 1)}}\n.op\n"
+    assert load(text.format("12345678901234567")).seed == 12345678901234567  # float(...) is ...568
+    assert load(text.format("+18446744073709551615")).seed == 2**64 - 1
+    assert load(text.format("1e3")).seed == 1000 and load(text.format("{2**53}")).seed == 2**53
+    assert load(text.format("12345678901234567")).element("r1").value != \
+        load(text.format("12345678901234568")).element("r1").value
+    with pytest.raises(NetlistError, match="seed: a seed is an integer from 0 to 18446744073709551615"):
+        load(text.format("1")).variant(seed=2**64)
 
 
 @pytest.mark.ngspice

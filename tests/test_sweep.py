@@ -16,6 +16,7 @@ import netdae
 from netdae.cli import main as cli
 from netdae.errors import NetdaeError, NetlistError
 from netdae.netlist import load
+from netdae.netlist.montecarlo import generator
 
 DIVIDER = """divider
 .param r2=1k
@@ -113,6 +114,11 @@ def test_step_cards(card, target, values):
     (".step nope 1 2 1", r"no parameter or element 'nope'", "nope"),
     (".step param temp 1 2 1", r"no top-level .param defines 'temp'", "temp"),
     (".step temp -300 0 100", r"temperature .*absolute zero|below absolute zero|-273", "-300"),
+    # a draw would be made once: every row and Monte Carlo sample the same value
+    (".step param r2 list 1k {agauss(1k,500,1)}", r"a .step value draws a random number \(agauss\(\)\)", "{agauss"),
+    (".step param r2 1k {rr} 1k\n.param rr={2*q}\n.param q=unif(3k,0.1)",
+     r"\(unif\(\) through .param q through .param rr\)", "{rr}"),
+    (".step r1 list {f(1k)}\n.func f(x)={x*limit(1,0.1)}", r"\(limit\(\) through .func f\)", "{f"),
 ])
 def test_bad_step_cards_are_located(card, message, token):
     text = DIVIDER + card + "\n"
@@ -125,6 +131,16 @@ def test_bad_step_cards_are_located(card, message, token):
     assert err.location.column == (line.index(token, 6) + 1 if token else len(line) + 1), str(err)
 
 
+def test_a_random_step_value_is_refused_with_a_hint_and_a_fixed_one_steps():
+    text = DIVIDER + ".step param r2 list {agauss(1k,500,1)} 2k\n"
+    with pytest.raises(NetlistError) as exc:  # was: --mc 3 ran three identical samples of one draw
+        netdae.sweep(text, samples=3, workers=1)
+    assert "--mc N" in exc.value.hint and "put the draw in a .param" in exc.value.hint
+    # a parameter given a value draws nothing; limit(x, lo, hi) is the clamp, no draw
+    c = load(DIVIDER + ".param rr=agauss(1k,500,1)\n.step param r2 list {rr} {limit(5k,1k,2k)}\n", params={"rr": 3e3})
+    assert c.steps[0].values == (3e3, 2e3)
+
+
 def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():
     # .dc sets V1 at each of its points: the step cannot change the .dc result (v(b) = v1/2 at v1=1 in every row)
     text = "t\nV1 a 0 1\nR1 a b 1k\nR2 b 0 1k\n.dc V1 0 1 1\n.meas dc vb find v(b) at=1\n.step V1 0 1 0.5\n"
@@ -135,6 +151,35 @@ def test_stepping_what_the_dc_card_sweeps_is_a_located_warning():
     assert not [d for d in netdae.load(text.replace(".step V1", ".step R1")).diagnostics if "sweeps" in d.message]
 
 
+def test_stepping_the_dc_value_of_a_source_with_a_transient_function_is_a_located_warning(tmp_path, capsys):
+    # the transient follows the PULSE: three identical rows, and nothing said
+    text = ("pulse\nV1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 1m\n"
+            ".meas tran x find v(out) at=1m\n.step V1 list 1 5 10\n")
+    c = netdae.load(text)
+    (d,) = [d for d in c.diagnostics if "transient function" in d.message]
+    assert d.severity == "warning" and (d.location.line, d.location.column) == (7, 7)
+    assert d.message.startswith(".step: 'v1' has a PULSE transient function: the step sets its DC value, which the "
+                                "operating point and the .dc, .ac and .noise analyses use")
+    assert "changes nothing in the .tran result" in d.message
+    res = netdae.sweep(text, workers=1)  # a netlist the sweep loads: its warnings are the result's notes
+    np.testing.assert_allclose(res.measures["x"], [1 - math.exp(-1)] * 3, rtol=1e-3)
+    assert res.notes == [str(d)]
+    # the same axis given to the sweep: the same warning, without a place
+    bare = text.replace(".step V1 list 1 5 10\n", "")
+    assert netdae.sweep(bare, params={"V1": [1, 5]}, workers=1).notes == ["warning: " + d.message[len(".step: "):]]
+    path = tmp_path / "p.cir"
+    path.write_text(bare)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot",
+                "--step", "v1=1,5"]) == 0
+    assert "netdae: warning: 'v1' has a PULSE transient function" in capsys.readouterr().err
+    # no warning where the step does reach the analyses: a DC source, no .tran, TRNOISE (adds its DC value)
+    for other in (text.replace("PULSE(0 1 0 1u 1u 1m 2m)", "1"),
+                  text.replace(".tran 10u 1m\n.meas tran x find v(out) at=1m",
+                               ".ac dec 2 1 10\n.meas ac x find vm(out) at=1"),
+                  text.replace("PULSE(0 1 0 1u 1u 1m 2m)", "DC 0 TRNOISE(1m 10u 0 0)")):
+        assert not [d for d in netdae.load(other).diagnostics if "transient function" in d.message]
+
+
 def test_the_measurements_of_an_analysis_left_out_are_left_out_of_the_table():
     text = ("rc\nV1 in 0 DC 0 AC 1 PULSE(0 1 0 1n 1n 1m 2m)\nR1 in out 1k\nC1 out 0 100n\n.ac dec 100 10 100k\n"
             ".tran 1u 1m\n.meas ac f3 when vdb(out)=-3\n.meas tran tr when v(out)=0.5\n")
@@ -142,6 +187,52 @@ def test_the_measurements_of_an_analysis_left_out_are_left_out_of_the_table():
     assert list(res.measures) == ["f3"] and not res.notes  # no 'tr' column of empty cells, no warning
     f3 = math.sqrt(10 ** 0.3 - 1) / (2 * math.pi * np.array([1e3, 2e3]) * 100e-9)  # |H| = 1/sqrt(1 + (w R C)^2)
     np.testing.assert_allclose(res.measures["f3"], f3, rtol=1e-3)  # straight lines between 100 points a decade
+
+
+def test_the_cards_a_sweep_does_not_run_are_named_in_a_note(tmp_path, capsys):
+    # .tf, .pz, .sens and .four give no measure of a row: they were left out without a word
+    text = ("rc\n.param r=1k\nV1 in 0 1\nR1 in out {r}\nR2 out 0 1k\nC1 out 0 1n\n.tf v(out) V1\n"
+            ".pz in 0 out 0 vol pz\n.sens v(out)\n.four 100k v(out)\n.tran 1u 10u\n.meas tran x find v(out) at=10u\n"
+            ".step param r list 1k 3k\n")
+    res = netdae.sweep(text, workers=1)
+    np.testing.assert_allclose(res.measures["x"], [0.5, 0.25], rtol=1e-6)  # 1k / (r + 1k), settled after 20 tau
+    assert res.errors == [None, None]
+    (note,) = res.notes
+    assert note.startswith("not run in the sweep: .tf (<string>:7:1), .pz (<string>:8:1), .sens (<string>:9:1), "
+                           ".four (<string>:10:1): a sweep records measures per row")
+    assert not netdae.sweep(text, workers=1, analyses=["tran"]).notes[0].count(".tf")  # asked: tran only
+    assert not netdae.sweep(text.replace(".four 100k v(out)\n", ""), workers=1, analyses=["tran"]).notes
+    path = tmp_path / "tf.cir"
+    path.write_text(text)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot"]) == 0
+    assert "not run in the sweep: .tf" in capsys.readouterr().err
+    assert json.loads((tmp_path / "o" / "measures.json").read_text())["notes"] == [note.replace("<string>", str(path))]
+
+
+def test_a_measure_given_to_the_sweep_that_replaces_or_is_not_made_is_a_located_warning(tmp_path, capsys):
+    text = ("rc\nV1 in 0 DC 1 AC 1 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out {r}\nC1 out 0 1u\n.param r=1k\n"
+            ".tran 10u 1m\n.ac dec 5 1k 1meg\n.meas tran x max v(out)\n.meas ac g find vm(out) at=1k\n")
+    # the added x (the minimum, 0 at t=0) replaced the netlist's x (the maximum, 1 - exp(-1)) without a word
+    res = netdae.sweep(text, measures=["tran x min v(out)"], params={"r": [1e3, 2e3]}, workers=1)
+    np.testing.assert_allclose(res.measures["x"], [0, 0], atol=1e-12)
+    (warning,) = res.notes
+    assert warning.startswith("<measures>:1:12: warning: .meas: measurement 'x' is defined again (before at "
+                              "<string>:8)") and "a sweep's table read the last" in warning
+    # a measure of an analysis the sweep does not run is not made: said, at its card
+    res = netdae.sweep(text, measures=["ac g2 find vm(out) at=10k", "tran y min v(out)"], analyses=["ac"],
+                       params={"r": [1e3, 2e3]}, workers=1)
+    assert list(res.measures) == ["g", "g2"]
+    np.testing.assert_allclose(res.measures["g"], 1 / np.sqrt(1 + (2 * np.pi * 1e3 * np.array([1e-3, 2e-3])) ** 2),
+                               rtol=1e-9)
+    assert res.notes == ["<measures>:2:12: warning: .meas: measurement 'y' measures the .tran analysis, which the "
+                         "sweep does not run (it runs ac): it is not made"]
+    path = tmp_path / "rc.cir"
+    path.write_text(text)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot", "--step", "r=1k",
+                "--analysis", "ac", "--meas", "tran y min v(out)", "--meas", "ac g find vm(out) at=2k"]) == 0
+    err = capsys.readouterr().err
+    assert "netdae: warning: <measures>:1:12: .meas: measurement 'y' measures the .tran analysis" in err
+    assert "netdae: warning: <measures>:2:10: .meas: measurement 'g' is defined again (before at " in err
 
 
 def test_run_refuses_a_stepped_netlist_and_names_the_sweep():
@@ -455,7 +546,8 @@ def test_a_row_out_of_memory_is_a_failed_row(monkeypatch):
     ({"params": {"rr2": [1]}}, r"hint: did you mean r2\? name a .param, an element"),
     ({"params": {"r2": []}}, r"no values"),
     ({"params": {"r2": ["x"]}}, r"must be numbers"),
-    ({"seed": -1}, r"seed must be a non-negative integer"),
+    ({"seed": -1}, r"seed: a seed is an integer from 0 to 18446744073709551615, not -1"),
+    ({"seed": 2**64}, r"seed: a seed is an integer from 0 to 18446744073709551615, not 18446744073709551616"),
     ({"save": ["v(zz)"]}, r"no node 'zz'"),
     ({"analyses": ["sens"]}, r"unknown analysis 'sens'"),
     ({"workers": 0}, r"workers must be a positive integer"),
@@ -502,6 +594,27 @@ def test_tables_and_arrays():
     assert ds["v(out)"].shape == (2, 61) and list(ds["c"].values) == [1e-6, 2e-6]
     doc = res.to_dict()
     assert doc["summary"]["t63"]["count"] == 2 and json.dumps(doc)
+
+
+def test_a_seed_gives_the_same_draws_from_the_options_card_and_from_the_sweep(tmp_path, capsys):
+    # .options seed=12345678901234567 was read through a float (...568) while seed= kept the integer
+    seed = 12345678901234567
+    text = ("mc\n.param r=agauss(1k,100,1)\nV1 in 0 1\nR1 in out {r}\nR2 out 0 1k\n.tran 1u 10u\n"
+            ".meas tran x find v(out) at=10u\n")
+    card = netdae.sweep(text + f".options seed={seed}\n", samples=4, workers=1)
+    given = netdae.sweep(text, samples=4, seed=seed, workers=1)
+    assert card.seed == given.seed == seed
+    assert card.measures["x"].tobytes() == given.measures["x"].tobytes()
+    other = netdae.sweep(text, samples=4, seed=seed + 1, workers=1).measures["x"]
+    assert np.all(np.isfinite(other)) and not np.array_equal(other, given.measures["x"])
+    r = 1e3 + 100 * np.array([generator((seed, k)).standard_normal() for k in range(4)])
+    np.testing.assert_allclose(given.measures["x"], 1e3 / (r + 1e3), rtol=1e-9)  # the divider of each draw
+    path = tmp_path / "mc.cir"
+    path.write_text(text)
+    assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot", "--mc", "4",
+                "--seed", str(seed)]) == 0
+    doc = json.loads((tmp_path / "o" / "measures.json").read_text())
+    assert doc["seed"] == seed and [row["x"] for row in doc["rows"]] == given.measures["x"].tolist()
 
 
 # -- command line ----------------------------------------------------------------------------------
@@ -585,7 +698,9 @@ def test_cli_sweep_prints_the_summary_when_its_files_cannot_be_written(tmp_path,
     (["--step", "r1"], "expected NAME=SPEC"),
     (["--step", "r1=1:2:-1"], "does not lead"),
     (["--mc", "0"], "positive integer"),
-    (["--seed", "-2"], "non-negative integer"),
+    (["--seed", "-2"], "argument --seed: a seed is an integer from 0 to 18446744073709551615, not -2"),
+    (["--seed", "1.5"], "argument --seed: a seed is an integer from 0 to 18446744073709551615, not '1.5'"),
+    (["--seed", "18446744073709551616"], "not 18446744073709551616"),
     (["--step", "r2=1k,abc"], "argument --step: r2=1k,abc: expected a number, got 'abc'"),
 ])
 def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):

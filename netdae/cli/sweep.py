@@ -94,7 +94,19 @@ def _integer(minimum: int, what: str):
 
 
 _count = _integer(1, "a positive integer")
-_seed = _integer(0, "a non-negative integer")
+
+
+def _seed(text: str) -> int:
+    """An argparse type: a Monte Carlo seed (:func:`netdae.netlist.montecarlo.seed_problem`)."""
+    from ..netlist.montecarlo import seed_problem
+
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or seed_problem(value) is not None:
+        raise argparse.ArgumentTypeError(seed_problem(value if value is not None else text))
+    return value
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
@@ -110,7 +122,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="step a top-level .param, an element or temp: start:stop:incr, "
                    "dec:points:start:stop, oct:points:start:stop or v1,v2,... (repeatable: all combinations)")
     p.add_argument("--mc", metavar="N", type=_count, help="Monte Carlo samples per point")
-    p.add_argument("--seed", type=_seed, help="Monte Carlo seed (default .options seed=, else 1)")
+    p.add_argument("--seed", type=_seed, help="Monte Carlo seed, 0 to 2**64-1 (default .options seed=, else 1)")
     p.add_argument("--meas", metavar="CARD", action="append", default=[],
                    help="one more .meas card, e.g. 'tran ripple pp v(out) from=5m to=10m' (repeatable)")
     p.add_argument("--analysis", metavar="NAME", action="append", choices=("op", "dc", "ac", "tran", "noise"),
@@ -273,7 +285,11 @@ def main(args) -> int:
                 print(f"{name:<{width}}  {s['count']:>6}  {s['mean']:>12.6g}  {s['std']:>10.4g}  "
                       f"{s['min']:>12.6g}  {s['max']:>12.6g}")
     for note in result.notes:
-        LOG.warning("%s", note) if "failed" in note else LOG.info("note: %s", note)
+        where, warned, message = note.partition("warning: ")  # a warning, located or not ("FILE:L:C: warning: ")
+        if warned and (not where or where.endswith(": ")):
+            LOG.warning("%s%s", where, message)
+        else:
+            LOG.warning("%s", note) if "failed" in note else LOG.info("note: %s", note)
     for path in files:
         LOG.info("wrote %s", path)
     if write_error is not None:

@@ -42,8 +42,8 @@ from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
 from .measure import elaborate_measures
-from .montecarlo import DEFAULT_SEED, Draws, random_seed
-from .steps import StepSpec, model_parameter, step_values
+from .montecarlo import DEFAULT_SEED, MAX_SEED, Draws, is_random_call, random_seed, seed_problem
+from .steps import StepSpec, model_parameter, step_values, unseen_step
 from .numbers import parse_number
 from .option_names import option_warning
 from .params import Env, Trace, UnknownName, evaluate_val, resolve_behavioural
@@ -251,6 +251,7 @@ class _Elaborator:
         self.root.draws = Draws(self._seed(net) if seed is None else seed, sample)
         self.root.defs[TEMPER] = (self._temper(net), self.root)
         self._override(self.root, overrides)
+        self.given = frozenset(overrides)  # top-level parameters the caller fixed
         self.trace = trace
         if trace is not None:
             trace.start(self.root)
@@ -286,11 +287,23 @@ class _Elaborator:
                 return seed
             if value is True or value.kind == STRING:
                 raise error(card, offset, "option 'seed' needs a non-negative integer or 'random'", form)
-            number = self._value(parse_value(card, value, form, "option value"), card, "option value")
-            if number != int(number) or number < 0:
-                raise error(card, value.start, f"option 'seed' needs a non-negative integer or 'random', "
-                            f"not {number:g}", form)
-            return int(number)
+            hint = f"a seed is an integer from 0 to {MAX_SEED}, or 'random'"
+            if value.kind == WORD and value.text.lstrip("+").isdigit() and value.text.isascii():
+                seed = int(value.text)  # exactly as written (a float holds integers exactly up to 2**53 only)
+            else:
+                number = self._value(parse_value(card, value, form, "option value"), card, "option value")
+                if not math.isfinite(number) or number != int(number) or number < 0:
+                    raise error(card, value.start, f"option 'seed' needs a non-negative integer or 'random', "
+                                f"not {number:g}", form, hint=hint)
+                if number > 2**53:
+                    raise error(card, value.start, f"option 'seed' = {number:g} is computed in floating point, "
+                                "which holds integers exactly only up to 2**53 = 9007199254740992", form,
+                                hint="write a larger seed as its digits (seed=12345678901234567)")
+                seed = int(number)
+            if seed_problem(seed) is not None:
+                raise error(card, value.start, f"option 'seed' = {seed} is beyond the largest seed, {MAX_SEED}",
+                            form, hint=hint)
+            return seed
         return DEFAULT_SEED
 
     @staticmethod
@@ -1613,6 +1626,18 @@ class _Elaborator:
                 card.warn(st.name_offset, f"'{name}' is what the .dc card sweeps: .dc sets it at each of its points, "
                           "so this step changes nothing in the .dc result (it does in the other analyses)")
                 self.diagnostics.extend(card.take_notes())
+            why = unseen_step(elements[name], circuit.analyses) if target == "element" else None
+            if why is not None:
+                card.warn(st.name_offset, why)
+                self.diagnostics.extend(card.take_notes())
+            for val in st.values:
+                drawn = self._draw_in(val[0])
+                if drawn is not None:
+                    raise error(card, val[1], f"a .step value draws a random number ({drawn}): it would be drawn "
+                                "once, and every row and Monte Carlo sample would get that one value", form,
+                                hint="the values of a step are fixed numbers: put the draw in a .param the "
+                                     "circuit uses and step something else, or vary it per row with Monte Carlo "
+                                     "samples (--mc N, samples=N)")
             numbers = [self._value(v, card, "step value") for v in st.values]
             values = step_values(st, numbers)
             if target == "temp":
@@ -1620,6 +1645,35 @@ class _Elaborator:
                     self._check_temperature(v, card, offset, "step temperature")
             out.append(StepSpec(target, name, values, card.location(st.name_offset)))
         return out
+
+    def _draw_in(self, tree, seen: set[tuple[str, str]] | None = None) -> str | None:
+        """The Monte Carlo function a top-level value calls (``"agauss()"``, ``"unif() through .param r"``),
+        directly or through top-level ``.param`` and ``.func`` definitions; None when it draws nothing.
+
+        A parameter the caller gives a value (``params=``) draws nothing.
+        """
+        if type(tree) is float:
+            return None
+        seen = set() if seen is None else seen
+        for node in ex.walk(tree):
+            if type(node) is ex.Call:
+                if is_random_call(node.func, len(node.args)):
+                    return f"{node.func}()"
+                f = self.root.funcs.get(node.func)
+                if f is not None and (".func", f.name) not in seen:
+                    seen.add((".func", f.name))
+                    body = ex.transform(f.body, lambda n: ex.Const(0.0) if type(n) is ex.Param
+                                        and n.name in f.args else None)
+                    inner = self._draw_in(body, seen)
+                    if inner is not None:
+                        return f"{inner} through .func {f.name}"
+            elif type(node) is ex.Param and (".param", node.name) not in seen and node.name not in self.given:
+                seen.add((".param", node.name))
+                d = self.root.defs.get(node.name)
+                inner = None if d is None else self._draw_in(d[0].value[0], seen)
+                if inner is not None:
+                    return f"{inner} through .param {node.name}"
+        return None
 
     def _options(self, circuit: Circuit) -> None:
         opts = Options()
@@ -1908,7 +1962,8 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
     sample : int
         The Monte Carlo sample to draw (:mod:`netdae.netlist.montecarlo`).
     seed : int, optional
-        The Monte Carlo seed (default: ``.options seed=``, else 1).
+        The Monte Carlo seed, an integer from 0 to :data:`~netdae.netlist.montecarlo.MAX_SEED`
+        (default: ``.options seed=``, else 1).
     values : mapping of str to float, optional
         Element values that replace the netlist's, by full element name: the
         value of R, C, L, the gain of E, F, G, H, the DC value of V and I
@@ -1948,9 +2003,10 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
         raise TypeError(f"max_elements must be an integer, not {type(max_elements).__name__}")
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
-    for what, number in (("sample", sample), ("seed", seed)):
-        if number is not None and (isinstance(number, bool) or not isinstance(number, int) or number < 0):
-            raise NetlistError(f"{what}: expected a non-negative integer, got {number!r}")
+    if sample is not None and (isinstance(sample, bool) or not isinstance(sample, int) or sample < 0):
+        raise NetlistError(f"sample: expected a non-negative integer, got {sample!r}")
+    if seed is not None and seed_problem(seed) is not None:
+        raise NetlistError(f"seed: {seed_problem(seed)}")
     with no_gc():
         return _Elaborator(netlist, overrides, limit, sample, seed,
                            {str(k).lower(): v for k, v in (values or {}).items()}, trace).run()

@@ -38,8 +38,8 @@ from __future__ import annotations
 import hashlib
 import secrets
 
-__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "Draws", "is_random_call", "random_seed", "generator", "deviate",
-           "random_value"]
+__all__ = ["RANDOM_FUNCTIONS", "DEFAULT_SEED", "MAX_SEED", "Draws", "is_random_call", "random_seed", "seed_problem",
+           "generator", "deviate", "random_value"]
 
 #: The Monte Carlo functions and their argument counts.
 RANDOM_FUNCTIONS: dict[str, int] = {"gauss": 3, "agauss": 3, "unif": 2, "aunif": 2, "limit": 2}
@@ -50,6 +50,23 @@ RANDOM_FORMS: dict[str, str] = {"gauss": "gauss(nom, rvar, sigma)", "agauss": "a
 
 #: The seed used when the netlist gives no ``.options seed=`` (ngspice's default rndseed is 1 too).
 DEFAULT_SEED = 1
+#: The largest seed (an unsigned 64-bit integer), however it is given (``.options seed=``, ``seed=``, ``--seed``).
+MAX_SEED = 2**64 - 1
+
+
+def seed_problem(seed) -> str | None:
+    """Why ``seed`` is not a Monte Carlo seed (an integer from 0 to :data:`MAX_SEED`), or None.
+
+    Examples
+    --------
+    >>> seed_problem(12345678901234567) is None, seed_problem(2**64)
+    (True, 'a seed is an integer from 0 to 18446744073709551615, not 18446744073709551616')
+    >>> seed_problem(1.0)
+    'a seed is an integer from 0 to 18446744073709551615, not 1.0'
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        return f"a seed is an integer from 0 to {MAX_SEED}, not {seed!r}"
+    return None
 
 
 def is_random_call(name: str, nargs: int) -> bool:

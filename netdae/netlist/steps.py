@@ -32,7 +32,8 @@ from .lines import PUNCT, WORD, Card, Token
 from .numbers import parse_number
 from .syntax import DOT_CARDS
 
-__all__ = ["StepCard", "StepSpec", "parse_step", "model_parameter", "grid", "GRID_SLACK", "VARIATIONS"]
+__all__ = ["StepCard", "StepSpec", "parse_step", "model_parameter", "unseen_step", "grid", "GRID_SLACK",
+           "VARIATIONS"]
 
 #: Relative slack that keeps the stop value in a grid despite rounding.
 GRID_SLACK = 1e-9
@@ -157,6 +158,41 @@ def model_parameter(name: str) -> tuple[str, str] | None:
         model, _, param = name[:-1].partition("(")
         return model, param
     return None
+
+
+def unseen_step(element, analyses) -> str | None:
+    """Why stepping ``element`` changes nothing in the transient, or None.
+
+    Stepping a V or I source sets its DC value. A source with a transient
+    function (PULSE, SIN, EXP, PWL, SFFM, AM) follows that function in the
+    transient and in the operating point it starts from (ngspice's rule,
+    :class:`~netdae.circuit.SourceSpec`); the DC value enters the ``.op``,
+    ``.dc``, ``.ac`` and ``.noise`` analyses only. (TRNOISE and TRRANDOM add
+    the DC value to their random value: their steps do reach the transient.)
+
+    Parameters
+    ----------
+    element : Element
+    analyses : list
+        The circuit's analysis cards (a netlist without ``.tran`` gives None).
+
+    Returns
+    -------
+    str or None
+        The warning's text.
+    """
+    from ..circuit import TranAnalysis
+    from .waveforms import RandomSource
+
+    source = element.source
+    if (source is None or source.tran is None or isinstance(source.tran, RandomSource)
+            or not any(isinstance(a, TranAnalysis) for a in analyses)):
+        return None
+    function = source.tran.kind.upper()
+    return (f"'{element.name}' has a {function} transient function: the step sets its DC value, which the operating "
+            f"point and the .dc, .ac and .noise analyses use, but the transient (and the operating point it starts "
+            f"from) follows the {function} function, so this step changes nothing in the .tran result (to step the "
+            f"{function}, step a .param used in its values)")
 
 
 def check_grid_size(count: float) -> None:

@@ -32,15 +32,16 @@ from typing import TYPE_CHECKING
 from ..circuit import Circuit
 from ..analyses.runner import check_callable, string_entries
 from ..errors import NetdaeError
+from ..netlist.montecarlo import seed_problem
 from ..stats import Statistics
 from .plan import Plan, make_plan
 from .result import SweepResult, reserved_columns
-from .worker import Job, Outcome, pool_worker, run_rows
+from .worker import SWEPT_ANALYSES, Job, Outcome, pool_worker, run_rows
 
 if TYPE_CHECKING:  # the pools' modules are imported when a pool is used (a serial sweep needs neither)
     import concurrent.futures as cf
 
-__all__ = ["sweep", "add_measures", "CHUNKS_PER_WORKER"]
+__all__ = ["sweep", "add_measures", "left_out", "measure_warnings", "MEASURES_FILE", "CHUNKS_PER_WORKER"]
 
 #: Tasks per worker: enough to balance uneven rows, few enough to keep the overhead per task small.
 CHUNKS_PER_WORKER = 4
@@ -48,6 +49,8 @@ CHUNKS_PER_WORKER = 4
 MIN_ROWS_PER_WORKER = 4
 #: Rows per chunk in this process: progress is reported per chunk, linear AC rows are solved per chunk.
 SERIAL_CHUNK = 100
+#: The file name locating the cards given as ``measures=`` (``--meas``): the k-th card is line k.
+MEASURES_FILE = "<measures>"
 #: Ctrl-C: how long the sweep's own workers have to hand back the rows they finished [s] (the compiled
 #: engine returns to Python every 0.1 s) before they are terminated.
 INTERRUPT_GRACE = 2.0
@@ -70,12 +73,101 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
         text = str(text).strip()
         if not text.lower().startswith(".meas"):
             text = ".meas " + text
-        cards.append(parse_measure(Card(text, "<measures>", [(0, k + 1, 1)])))
+        cards.append(parse_measure(Card(text, MEASURES_FILE, [(0, k + 1, 1)])))
     if not cards:
         return circuit
     net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
     return elaborate(net, params=circuit.overrides, max_elements=circuit.max_elements, sample=circuit.sample,
                      seed=circuit.seed)
+
+
+def left_out(circuit: Circuit, analyses: tuple[str, ...] | None = None) -> str | None:
+    """The note naming the cards of ``circuit`` a sweep does not run, and why; None when there are none.
+
+    A sweep records measures per row: the ``.meas`` cards of the analyses it runs
+    (:data:`~netdae.sweeps.worker.SWEPT_ANALYSES`) and a ``.noise`` card's integrated
+    noise. A ``.pz``, ``.tf`` or ``.sens`` card gives none (named unless ``analyses``
+    chose what runs), nor does a ``.four`` card (named when the transient runs).
+
+    Parameters
+    ----------
+    circuit : Circuit
+    analyses : tuple of str, optional
+        The analyses the sweep runs (None: all of its kinds).
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> from netdae import load
+    >>> c = load("t\\nR1 a 0 1k\\nI1 0 a 1m\\n.tran 1u 10u\\n.tf v(a) I1\\n.four 100k v(a)\\n.end\\n")
+    >>> print(left_out(c))
+    not run in the sweep: .tf (<string>:5:1), .four (<string>:6:1): a sweep records measures per row (its .meas cards, a .noise card's integrated noise), which these cards do not give (run them with 'netdae run')
+    """
+    from ..analyses.runner import analysis_name
+
+    cards = []
+    if analyses is None:
+        cards = [(f".{analysis_name(a)}", a.location) for a in circuit.analyses
+                 if analysis_name(a) not in SWEPT_ANALYSES]
+    if analyses is None or "tran" in analyses:
+        cards += [(".four", f.location) for f in circuit.fouriers]
+    if not cards:
+        return None
+    named = ", ".join(f"{what} ({where})" if where is not None else what for what, where in cards)
+    return (f"not run in the sweep: {named}: a sweep records measures per row (its .meas cards, a .noise card's "
+            "integrated noise), which these cards do not give (run them with 'netdae run')")
+
+
+def measure_warnings(circuit: Circuit, analyses: tuple[str, ...] | None) -> list[str]:
+    """The warnings about the cards given as ``measures=``, as notes of the sweep (``location: warning: ...``).
+
+    Those made adding them (:func:`add_measures`: a name the netlist's ``.meas``
+    cards, or an earlier added card, measure already, whose values the table then
+    holds), and a card whose analysis the sweep does not run (not made).
+
+    Parameters
+    ----------
+    circuit : Circuit
+        With the cards added.
+    analyses : tuple of str, optional
+        The analyses the sweep runs (None: all).
+
+    Returns
+    -------
+    list of str
+    """
+    from ..circuit import Diagnostic
+
+    out = [str(d) for d in circuit.diagnostics if d.location is not None and d.location.file == MEASURES_FILE]
+    for card in circuit.netlist.measures:
+        if analyses is not None and card.card.file == MEASURES_FILE and card.analysis not in analyses:
+            runs = ", ".join(analyses)
+            out.append(str(Diagnostic("warning", f".meas: measurement '{card.name}' measures the .{card.analysis} "
+                                      f"analysis, which the sweep does not run (it runs {runs}): it is not made",
+                                      card.card.location(card.offset))))
+    return out
+
+
+def _step_warnings(circuit: Circuit, plan: Plan, params: Mapping | None,
+                   analyses: tuple[str, ...] | None) -> list[str]:
+    """The warnings about the axes given as ``params=`` (``--step``) that a ``.step`` card would get at the card
+    (:func:`netdae.netlist.steps.unseen_step`: a source's DC value stepped under a transient function); an axis
+    a card steps too has its warning at the card."""
+    from ..analyses.runner import analysis_name
+    from ..netlist.steps import unseen_step
+
+    given = {str(name).lower() for name in params or ()} - {s.name for s in circuit.steps}
+    cards = [a for a in circuit.analyses if analyses is None or analysis_name(a) in analyses]
+    out = []
+    for axis in plan.axes:
+        if axis.target == "element" and axis.name in given:
+            why = unseen_step(circuit.element(axis.name), cards)
+            if why is not None:
+                out.append(f"warning: {why}")
+    return out
 
 
 def _check_measure_names(circuit: Circuit, plan: Plan, analyses: tuple[str, ...] | None) -> None:
@@ -170,7 +262,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     Parameters
     ----------
     circuit : Circuit, str or path-like
-        An elaborated circuit (:func:`netdae.load`) or a netlist file or text.
+        An elaborated circuit (:func:`netdae.load`) or a netlist file or text
+        (whose warnings, when the sweep loads it, are notes of the result).
         Its ``.step`` cards are the sweep's axes.
     params : mapping, optional
         More axes: a top-level ``.param``, an element (full name) or ``temp``
@@ -180,7 +273,9 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         Monte Carlo samples per point: sample k draws the netlist's
         ``gauss``/``agauss``/``unif``/``aunif``/``limit`` from the stream ``(seed, k)``.
     seed : int, optional
-        The Monte Carlo seed (default the netlist's ``.options seed=``, else 1).
+        The Monte Carlo seed, an integer from 0 to
+        :data:`~netdae.netlist.montecarlo.MAX_SEED` (default the netlist's
+        ``.options seed=``, else 1).
     analyses : iterable of str, optional
         Which of the netlist's analyses to run (``"op"``, ``"dc"``, ``"ac"``,
         ``"tran"``, ``"noise"``; default all). A ``.noise`` card's integrated
@@ -242,8 +337,10 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if params is not None and not isinstance(params, Mapping):
         raise NetdaeError(f"sweep: params must be a mapping of names to values (e.g. {{'r2': [1e3, 2e3]}}), "
                           f"not {type(params).__name__}")
+    loaded: list[str] = []
     if not isinstance(circuit, Circuit):
         circuit = load(circuit)
+        loaded = [str(d) for d in circuit.diagnostics if d.severity == "warning"]  # nobody else shows them
     if circuit.netlist is None:
         raise NetdaeError("sweep: the circuit must come from a netlist (netdae.load), not be built by hand")
     altering = next((a for a in circuit.analyses if a.alter), None)
@@ -251,8 +348,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         raise NetdaeError(f"sweep: {altering.alter[0].location}: the netlist's .control script alters the circuit "
                           f"('{altering.alter[0].command}'); netdae sweeps netlists without alter and altermod "
                           "(run it with 'netdae run', or step the values with .step)")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-        raise NetdaeError(f"sweep: seed must be a non-negative integer, got {seed!r}")
+    if seed is not None and seed_problem(seed) is not None:
+        raise NetdaeError(f"sweep: seed: {seed_problem(seed)}")
     check_callable(progress, "progress", "progress(done, total)")
     if measures:
         circuit = add_measures(circuit, measures)
@@ -269,7 +366,7 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
         if not wanted:
             raise NetdaeError("sweep: analyses= is empty (name the analyses to run, e.g. analyses=['tran'], or leave "
                               "it out to run them all)")
-        bad = [a for a in wanted if a not in ("op", "dc", "ac", "tran", "noise")]
+        bad = [a for a in wanted if a not in SWEPT_ANALYSES]
         if bad:
             raise NetdaeError(f"sweep: unknown analysis {bad[0]!r} (op, dc, ac, tran or noise)")
         have = {analysis_name(a) for a in circuit.analyses}
@@ -283,6 +380,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if not save and not circuit.measures and not noise:
         raise NetdaeError("sweep: nothing to record: give measures (.meas cards or measures=) or save= signals")
     plan = make_plan(circuit, params, samples)
+    warnings = loaded + (measure_warnings(circuit, wanted) if measures else []) + _step_warnings(circuit, plan, params,
+                                                                                                 wanted)
     _check_measure_names(circuit, plan, wanted)
     seed = circuit.seed if seed is None else seed
     if samples is not None and circuit.draws == 0:
@@ -296,12 +395,12 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     try:
         _run(job, plan, pool, count, outcomes, progress, owned)
     except KeyboardInterrupt as exc:
-        exc.result = _finish(job, circuit, outcomes, name, count, t0, interrupted=True)
+        exc.result = _finish(job, circuit, outcomes, name, count, t0, warnings, interrupted=True)
         raise
     finally:
         if owned:
             pool.shutdown(wait=True, cancel_futures=True)
-    return _finish(job, circuit, outcomes, name, count, t0)
+    return _finish(job, circuit, outcomes, name, count, t0, warnings)
 
 
 def _run(job: Job, plan: Plan, pool: cf.Executor | None, count: int, outcomes: dict[int, Outcome],
@@ -450,12 +549,16 @@ def lost_worker(exc: BaseException) -> str:
 
 
 def _finish(job: Job, circuit: Circuit, outcomes: dict[int, Outcome], name: str, count: int, t0: float,
-            interrupted: bool = False) -> SweepResult:
+            warnings: list[str], interrupted: bool = False) -> SweepResult:
     # the measurements of the analyses that run (those of an analysis left out of analyses= are not made)
     names = [m.name for m in circuit.measures if job.analyses is None or m.analysis in job.analyses]
     res = SweepResult.collect(job.plan, job.seed, outcomes, names, job.save)
     res.stats = Statistics(wall_time=time.perf_counter() - t0, row_seconds=sum(o.seconds for o in outcomes.values()),
                            executor=name, workers=count, completed=len(outcomes))
+    res.notes.extend(warnings)
+    cards = left_out(circuit, job.analyses)
+    if cards is not None:
+        res.notes.append(cards)
     if interrupted:
         res.notes.append(f"interrupted: {len(outcomes)} of {res.rows} rows finished, {res.rows - len(outcomes)} "
                          "not run")

@@ -26,7 +26,13 @@ from ..circuit import TranAnalysis
 from ..errors import NetdaeError
 from .plan import Plan, Row
 
-__all__ = ["Job", "Outcome", "run_rows", "run_row", "elaborate_row", "record", "tran_grid", "pool_worker"]
+__all__ = ["Job", "Outcome", "run_rows", "run_row", "elaborate_row", "record", "tran_grid", "pool_worker",
+           "SWEPT_ANALYSES"]
+
+#: The analyses a sweep runs in its rows: those that give measures of a row (their ``.meas`` cards, a
+#: ``.noise`` card's integrated noise). A netlist's ``.pz``, ``.tf`` and ``.sens`` cards and its ``.four``
+#: cards are left out (the sweep's notes name them, :func:`netdae.sweeps.api.left_out`).
+SWEPT_ANALYSES = ("op", "dc", "ac", "tran", "noise")
 
 
 @dataclass(frozen=True)
@@ -44,7 +50,8 @@ class Job:
         The Monte Carlo seed.
     plan : Plan
     analyses : tuple of str or None
-        The analyses to run (``"op"``, ``"dc"``, ``"ac"``, ``"tran"``); None: every card.
+        The analyses to run (``"op"``, ``"dc"``, ``"ac"``, ``"tran"``, ``"noise"``); None: every card of
+        those kinds (:data:`SWEPT_ANALYSES`).
     save : tuple of str
         Signals whose waveforms are kept.
     options : dict
@@ -122,6 +129,8 @@ def _save_names(job: Job, circuit) -> list[str] | None:
 def elaborate_row(job: Job, row: Row, trace=None):
     """The circuit of ``row``: its parameter and element values, its Monte Carlo sample, the job's analyses.
 
+    Only analyses of :data:`SWEPT_ANALYSES` run, and no ``.four`` card is evaluated (a row records measures).
+
     ``trace``, a :class:`~netdae.netlist.params.Trace`, records the elaboration (:mod:`netdae.sweeps.linear`).
 
     Raises
@@ -136,8 +145,9 @@ def elaborate_row(job: Job, row: Row, trace=None):
     circuit = elaborate(job.netlist, params={**job.overrides, **params}, values=values,
                         max_elements=job.max_elements, sample=row.sample if row.sample is not None else 0,
                         seed=job.seed, trace=trace)
-    return dataclasses.replace(circuit, steps=[], analyses=[
-        a for a in circuit.analyses if job.analyses is None or analysis_name(a) in job.analyses])
+    wanted = SWEPT_ANALYSES if job.analyses is None else job.analyses
+    return dataclasses.replace(circuit, steps=[], fouriers=[],
+                               analyses=[a for a in circuit.analyses if analysis_name(a) in wanted])
 
 
 def run_row(job: Job, row: Row) -> Outcome:
