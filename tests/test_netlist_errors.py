@@ -277,6 +277,10 @@ def test_check_command_reports_one_line_and_exit_status_2(tmp_path, capsys):
     ("t\nR1 a 0 1\n.op\n".encode("utf-16-le"), 1, 2, "it looks like text saved as UTF-16 or UTF-32"),
     (b"t\nR1 a 0 1\n\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", 5, 1, "it looks like a binary file, not a text netlist"),
     (b"t\nR\x001 a 0 1\n.op\n", 2, 2, "it looks like a binary file, not a text netlist"),
+    # an ELF header's second half-words are zeros too: it was called UTF-16 text
+    (b"\x7fELF\x02\x01\x01\x00\x00\x00\x00\x00\x00\x00\x00\x00\x03\x00>\x00", 1, 8,
+     "it is an ELF executable or shared library (a compiled .osdi model is one: load it with .osdi or pre_osdi), "
+     "not a text netlist"),
 ])
 def test_file_with_a_nul_byte_is_refused_at_it(tmp_path, data, line, column, what):
     """UTF-16 text and binary files read as cards of garbage ('unknown card ' v 1 '', a NUL inside an element

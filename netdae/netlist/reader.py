@@ -147,14 +147,23 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
     return decode(data)
 
 
+#: The first bytes of binary files a netlist's name may point at by mistake, and what they are.
+_BINARY_MAGIC = ((b"\x7fELF", "an ELF executable or shared library (a compiled .osdi model is one: load it with "
+                  ".osdi or pre_osdi)"), (b"MZ", "a Windows executable or library"),
+                 (b"PK\x03\x04", "a zip archive"), (b"\x1f\x8b", "a gzip-compressed file"),
+                 (b"\x93NUMPY", "a numpy array file"))
+
+
 def _binary(data: bytes, display: str):
     """Refuse a file holding a NUL byte, located at its first one, saying what the file seems to be."""
     first = data.index(b"\0")
     line = data.count(b"\n", 0, first) + 1
     column = first - (data.rfind(b"\n", 0, first) + 1) + 1
-    wide = data[:2] in (b"\xff\xfe", b"\xfe\xff") or data[1:16:2].count(0) >= 4 or data[0:16:2].count(0) >= 4
+    kind = next((name for magic, name in _BINARY_MAGIC if data.startswith(magic)), None)
+    wide = kind is None and (data[:2] in (b"\xff\xfe", b"\xfe\xff") or data[1:16:2].count(0) >= 4
+                             or data[0:16:2].count(0) >= 4)
     what = ("it looks like text saved as UTF-16 or UTF-32" if wide else
-            "it looks like a binary file, not a text netlist")
+            f"it is {kind}, not a text netlist" if kind else "it looks like a binary file, not a text netlist")
     raise NetlistError(f"NUL byte in '{display}': {what}", SourceLocation(display, line, column),
                        hint="save the netlist as plain text (ASCII or UTF-8)" if wide else
                             "check the file name")
