@@ -34,7 +34,7 @@ CASES = [
     ("t\n.subckt s a\n.tran 1u 1m\n.ends\n", r"\.tran is not allowed inside \.subckt s", 3, ".tran"),
     # a missing .ends: the open .subckt is named, not only the card that shows it
     ("t\n.subckt s p q\nR1 p q 1k\n.subckt t p q\nR1 p q 2k\n.ends\nV1 in 0 1\nX1 in 0 s\n.op\n",
-     r"\.op is not allowed inside \.subckt s: \.subckt s \(line 2\) has no \.ends before this card", 9, ".op"),
+     r"\.op is not allowed inside \.subckt s \(line 2\): it acts on the whole circuit", 9, ".op"),
     # a number below the smallest double reads as 0: out of range as 1e400 is
     ("t\nI1 0 a 1\nR1 a 0 1e-400\n", r"r1: value '1e-400' is out of range", 3, "1e-400"),
     ("t\nV1 a 0 1\nC1 a 0 1e-400\n", r"c1: value '1e-400' is out of range", 3, "1e-400"),

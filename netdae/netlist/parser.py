@@ -226,10 +226,11 @@ def _dot_card(card: Card, stack: list[Definition], net: Netlist) -> None:
                            hint="netdae reads " + " ".join(sorted(DOT_CARDS)))
     if scope.name is not None and word not in _IN_SUBCKT:
         where = f" (line {scope.card.line})" if scope.card is not None else ""
-        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}: .subckt {scope.name}{where} has no "
-                           f".ends before this card", card.location(0),
-                           hint=f"close .subckt {scope.name} with '.ends' before this card, or move the card to the "
-                                "top level (name subcircuit nodes hierarchically, e.g. v(x1.mid))")
+        raise NetlistError(f"{word} is not allowed inside .subckt {scope.name}{where}: it acts on the whole circuit",
+                           card.location(0),
+                           hint=f"move the card to the top level, after .subckt {scope.name}'s '.ends' (or close the "
+                                ".subckt before this card if its '.ends' is missing); name subcircuit nodes "
+                                "hierarchically there, e.g. v(x1.mid)")
     _HANDLERS[word](card, toks, stack, net)
 
 
