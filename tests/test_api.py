@@ -169,3 +169,10 @@ def test_compare_takes_one_signal_name_as_one_signal():
     assert c.passed, c.report()
     names = [s.name for a in c.analyses for s in a.signals]
     assert names == ["v(out)"]
+
+
+def test_dense_output_refuses_a_time_that_is_not_a_number():
+    r = netdae.simulate(netdae.load(_DIVIDER))
+    with pytest.raises(ValueError, match="dense output times must be finite numbers, not nan"):
+        r.dense([1e-6, float("nan")])
+    assert r.dense(5e-6)["v(out)"][0] == pytest.approx(0.5, rel=1e-9)

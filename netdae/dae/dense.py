@@ -122,12 +122,14 @@ class Interpolant:
         Raises
         ------
         ValueError
-            For times outside the covered range or unknown component names.
+            For times outside the covered range or not finite, or unknown component names.
         """
         tq = np.asarray(t, dtype=float)
         scalar = tq.ndim == 0
         tq = np.atleast_1d(tq).ravel()
         cols = self._columns(components)
+        if not np.all(np.isfinite(tq)):
+            raise ValueError(f"dense output times must be finite numbers, not {float(tq[~np.isfinite(tq)][0])}")
         span = self.t[-1] - self.t[0]
         fuzz = 1e-12 * max(abs(self.t[0]), abs(self.t[-1]), span)
         if tq.size and (tq.min() < self.t[0] - fuzz or tq.max() > self.t[-1] + fuzz):
