@@ -103,6 +103,12 @@ EVENT_RIGHT_LIMIT_ULPS = 1000.0
 #: the last correction is below this fraction of the tolerances (maximum norm); failing that,
 #: by the steady-state solver with its gmin and source stepping.
 EVENT_RIGHT_LIMIT_TOL = 1e-3
+#: A right limit whose implicit-Euler steps fail is tried again up to this many times, with steps this many
+#: times longer each time: steps so short that ``C / eps`` and ``L / eps`` swamp every conductance give a
+#: matrix singular in floating point (the index-2 node voltages of an inductor cutset, fixed only through
+#: the inductors' derivatives, at a switch's event with steps of 1e-19 s).
+RIGHT_LIMIT_RETRIES = 3
+RIGHT_LIMIT_STRETCH = 1000.0
 #: A row of the right limit's implicit-Euler matrix ``dq/eps - dphi`` whose charge entries
 #: (``sum |dq| / eps``) exceed what is left of the row once the charges of a capacitor attached
 #: to nothing else cancel (``|sum dq| / eps + sum |dphi|``) by more than this factor loses the
