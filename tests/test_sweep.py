@@ -212,11 +212,12 @@ def test_the_cards_a_sweep_does_not_run_are_named_in_a_note(tmp_path, capsys):
 def test_a_measure_given_to_the_sweep_that_replaces_or_is_not_made_is_a_located_warning(tmp_path, capsys):
     text = ("rc\nV1 in 0 DC 1 AC 1 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out {r}\nC1 out 0 1u\n.param r=1k\n"
             ".tran 10u 1m\n.ac dec 5 1k 1meg\n.meas tran x max v(out)\n.meas ac g find vm(out) at=1k\n")
+    # columns are those of the text as given (the name x at 6), without the ".meas " netdae puts before it.
     # the added x (the minimum, 0 at t=0) replaced the netlist's x (the maximum, 1 - exp(-1)) without a word
     res = netdae.sweep(text, measures=["tran x min v(out)"], params={"r": [1e3, 2e3]}, workers=1)
     np.testing.assert_allclose(res.measures["x"], [0, 0], atol=1e-12)
     (warning,) = res.notes
-    assert warning.startswith("<measures>:1:12: warning: .meas: measurement 'x' is defined again (before at "
+    assert warning.startswith("<measures>:1:6: warning: .meas: measurement 'x' is defined again (before at "
                               "<string>:8)") and "a sweep's table read the last" in warning
     # a measure of an analysis the sweep does not run is not made: said, at its card
     res = netdae.sweep(text, measures=["ac g2 find vm(out) at=10k", "tran y min v(out)"], analyses=["ac"],
@@ -224,15 +225,15 @@ def test_a_measure_given_to_the_sweep_that_replaces_or_is_not_made_is_a_located_
     assert list(res.measures) == ["g", "g2"]
     np.testing.assert_allclose(res.measures["g"], 1 / np.sqrt(1 + (2 * np.pi * 1e3 * np.array([1e-3, 2e-3])) ** 2),
                                rtol=1e-9)
-    assert res.notes == ["<measures>:2:12: warning: .meas: measurement 'y' measures the .tran analysis, which the "
+    assert res.notes == ["<measures>:2:6: warning: .meas: measurement 'y' measures the .tran analysis, which the "
                          "sweep does not run (it runs ac): it is not made"]
     path = tmp_path / "rc.cir"
     path.write_text(text)
     assert cli(["sweep", str(path), "--workers", "1", "--out", str(tmp_path / "o"), "--no-plot", "--step", "r=1k",
                 "--analysis", "ac", "--meas", "tran y min v(out)", "--meas", "ac g find vm(out) at=2k"]) == 0
     err = capsys.readouterr().err
-    assert "netdae: warning: <measures>:1:12: .meas: measurement 'y' measures the .tran analysis" in err
-    assert "netdae: warning: <measures>:2:10: .meas: measurement 'g' is defined again (before at " in err
+    assert "netdae: warning: <measures>:1:6: .meas: measurement 'y' measures the .tran analysis" in err
+    assert "netdae: warning: <measures>:2:4: .meas: measurement 'g' is defined again (before at " in err
 
 
 def test_run_refuses_a_stepped_netlist_and_names_the_sweep():

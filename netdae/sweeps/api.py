@@ -71,9 +71,12 @@ def add_measures(circuit: Circuit, measures: Iterable[str]) -> Circuit:
     cards = []
     for k, text in enumerate(measures):
         text = str(text).strip()
+        spans = [(0, k + 1, 1)]
         if not text.lower().startswith(".meas"):
+            # the columns are the text's as given: the added word maps to its first column
             text = ".meas " + text
-        cards.append(parse_measure(Card(text, MEASURES_FILE, [(0, k + 1, 1)])))
+            spans.append((len(".meas "), k + 1, 1))
+        cards.append(parse_measure(Card(text, MEASURES_FILE, spans)))
     if not cards:
         return circuit
     net = dataclasses.replace(circuit.netlist, measures=list(circuit.netlist.measures) + cards)
