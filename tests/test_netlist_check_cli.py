@@ -67,3 +67,16 @@ def test_large_hierarchical_ladder(tmp_path):
     assert len(c.elements) == 2 * n + 1 and len(c.nodes) == n + 1
     assert c.element(f"r.x{n - 1}.r1").value == n and c.element(f"r.x{n - 1}.r1").nodes == (f"n{n - 1}", f"n{n}")
     assert c.element("c.x7.c1").nodes == ("n8", "0")
+
+
+def test_check_shows_the_step_axes(tmp_path, capsys):
+    """A stepped netlist's axes and their values (they were not shown: nothing told what netdae sweep would run)."""
+    path = tmp_path / "s.cir"
+    path.write_text("rc\nV1 a 0 1\nR1 a b {r}\nC1 b 0 1u\n.param r=1k\n.step param r list 1k 2k 3k\n"
+                    ".step temp 0 50 25\n.tran 1u 1m\n.end\n")
+    assert cli_main(["check", str(path)]) == 0
+    assert "  .step (9 rows, netdae sweep): r (param): 1000 2000 3000; temp (temp): 0 25 50" in capsys.readouterr().out
+    assert cli_main(["check", str(path), "--json"]) == 0
+    steps = json.loads(capsys.readouterr().out)["steps"]
+    assert steps == [{"target": "param", "name": "r", "values": [1000.0, 2000.0, 3000.0]},
+                     {"target": "temp", "name": "temp", "values": [0.0, 25.0, 50.0]}]

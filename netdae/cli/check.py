@@ -106,6 +106,11 @@ def summarize(circuit) -> dict:
     if circuit.measures:
         summary["measures"] = [{"name": m.name, "analysis": m.analysis, "function": m.function,
                                 "signals": [p.name for p in m.probes()]} for m in circuit.measures]
+    if circuit.steps:
+        from ..sweeps.plan import make_plan
+
+        plan = make_plan(circuit)
+        summary["steps"] = [{"target": a.target, "name": a.name, "values": list(a.values)} for a in plan.axes]
     return summary
 
 
@@ -150,7 +155,7 @@ def _analysis_text(a: dict) -> str:
 
 
 _STANDARD = {"title", "path", "nodes", "elements", "kinds", "models", "analyses", "options", "params",
-             "ic", "nodeset", "saves", "diagnostics", "measures"}
+             "ic", "nodeset", "saves", "diagnostics", "measures", "steps"}
 
 
 def format_summary(summary: dict) -> str:
@@ -178,6 +183,13 @@ def format_summary(summary: dict) -> str:
             lines.append(f"  .{key}: " + " ".join(f"v({n})={_fmt(v)}" for n, v in summary[key].items()))
     if summary["saves"]:
         lines.append("  saves: " + " ".join(summary["saves"]))
+    if summary.get("steps"):
+        rows = 1
+        for axis in summary["steps"]:
+            rows *= len(axis["values"])
+        lines.append(f"  .step ({rows} rows, netdae sweep): " + "; ".join(
+            f"{a['name']} ({a['target']}): " + " ".join(_fmt(v) for v in a["values"][:8])
+            + (f" ... ({len(a['values'])} values)" if len(a["values"]) > 8 else "") for a in summary["steps"]))
     if summary.get("measures"):
         lines.append("  measures: " + "; ".join(
             f"{m['name']} ({m['analysis']} {m['function']}{' ' if m['signals'] else ''}{' '.join(m['signals'])})"
