@@ -28,6 +28,13 @@ Examples
 ...     ["Error: measure  b  when(WHEN) : out of interval", " .meas tran b when v(x)=2 failed!"])
 >>> [(m.name, m.value, m.status, m.reason) for m in ms], out, err
 ([('a', 1.5, 'ok', ''), ('b', None, 'failed', 'out of interval')], ['done'], [])
+
+A value ngspice prints as ``-inf`` (with ``Error: Bad value.`` on stderr; the run itself finished):
+
+>>> ms, out, err = read_measures(".meas tran t1 WHEN v(x)=0.5 RISE=1\\n", ["t1                  =   -inf"],
+...                              ["Error: Bad value."])
+>>> [(m.name, m.value, m.status, m.reason) for m in ms], err
+([('t1', None, 'failed', "ngspice printed -inf ('Error: Bad value.')")], [])
 """
 
 from __future__ import annotations
@@ -39,7 +46,9 @@ from ..measures import STATUS_FAILED, Measure
 __all__ = ["read_measures", "measure_cards"]
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_VALUE = re.compile(rf"^\s*(\S+)\s*=\s*({_NUMBER}|failed)((?:\s+\w+=\s*{_NUMBER})*)\s*$", re.I)
+_VALUE = re.compile(rf"^\s*(\S+)\s*=\s*({_NUMBER}|failed|[-+]?inf|[-+]?nan)((?:\s+\w+=\s*{_NUMBER})*)\s*$", re.I)
+#: What ngspice 39 prints on stderr where a measurement's value is not finite (``t1 = -inf``).
+_BAD_VALUE = re.compile(r"^\s*error:\s*bad value\.?\s*$", re.I)
 _EXTRA = re.compile(rf"(\w+)=\s*({_NUMBER})")
 _FAILED_CARD = re.compile(r"^\s*\.meas(?:ure)?\s+\S+\s+(\S+).*\bfailed!\s*$", re.I)
 _FAILED_NAME = re.compile(r"^\s*measure\s+'([^']+)'\s+failed", re.I)
@@ -165,10 +174,14 @@ def read_measures(netlist: str, stdout: list[str], stderr: list[str]) -> tuple[l
     # the printed lines of each name in order (ngspice prints one per card, a name's cards in card order)
     printed: dict[str, list[tuple[float | None, dict]]] = {}
     rest_out = []
+    infinite: dict[str, str] = {}  # a value printed as -inf, inf or nan: the measurement failed
     for line in stdout:
         m = _VALUE.match(line)
         if m is not None and m.group(1).lower() in names:
-            number = None if m.group(2).lower() == "failed" else float(m.group(2))
+            word = m.group(2).lower()
+            number = None if word == "failed" or word.lstrip("+-") in ("inf", "nan") else float(m.group(2))
+            if word.lstrip("+-") in ("inf", "nan"):
+                infinite[m.group(1).lower()] = f"ngspice printed {m.group(2)}"
             extra = {k.lower(): float(v) for k, v in _EXTRA.findall(m.group(3) or "")}
             printed.setdefault(m.group(1).lower(), []).append((number, extra))
         else:
@@ -176,8 +189,13 @@ def read_measures(netlist: str, stdout: list[str], stderr: list[str]) -> tuple[l
     failed_out, rest_out = _failures(rest_out, names)
     failed_err, rest_err = _failures(list(stderr), names)
     substituted, rest_err = _substitutions(rest_err, netlist)
-    failed = {name: "; ".join(filter(None, (failed_out.get(name), failed_err.get(name), substituted.get(name))))
-              for name in {*failed_out, *failed_err, *substituted}}
+    if infinite and any(_BAD_VALUE.match(line) for line in rest_err):
+        # ngspice's 'Error: Bad value.' is about such a value, not the run (its analysis finished)
+        rest_err = [line for line in rest_err if not _BAD_VALUE.match(line)]
+        infinite = {name: f"{why} ('Error: Bad value.')" for name, why in infinite.items()}
+    failed = {name: "; ".join(filter(None, (failed_out.get(name), failed_err.get(name), substituted.get(name),
+                                            infinite.get(name))))
+              for name in {*failed_out, *failed_err, *substituted, *infinite}}
     out = []
     seen: dict[str, int] = {}
     for analysis, name, function in cards:
