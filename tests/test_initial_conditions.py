@@ -220,3 +220,17 @@ def test_swings_that_do_not_decay_are_a_cycle_and_a_ringing_is_not():
         for x in path[1:]:
             sw.add(x)
             assert not sw.cycling()
+
+
+def test_uic_starts_a_junction_behind_a_series_resistance_from_its_terminals_ic():
+    """ngspice takes a device's initial junction voltages from its terminals' .ic under uic (BJTgetic, DIOgetic):
+    a BJT with rb started its internal base at 0 V, reset .ic v(b)=0.8 V ('no capacitor alone holds v(b)') and its
+    collector rose to 3.7 V in 2 ns; ngspice 39 (same netlist): v(c) = 1.840252e-02 V at 10 ps, 1.847977e-02 V at
+    100 ps, v(b) = 8.004204e-01 V at 10 ps."""
+    text = ("BJT junction states from node .ic under uic\nVcc vcc 0 5\nRc vcc c 1k\nRb vcc b 47k\nQ1 c b 0 qn\n"
+            ".model qn npn is=1e-14 bf=100 cje=5p cjc=2p tf=0.3n rb=10\n.ic v(b)=0.8 v(c)=0.1\n.tran 1p 2n uic\n.end\n")
+    r = netdae.simulate(text, save=["v(c)", "v(b)"])
+    assert r.ok, r.message
+    d = r.dense([10e-12, 100e-12])
+    np.testing.assert_allclose(d["v(c)"], [1.840252e-02, 1.847977e-02], rtol=1e-4)
+    assert d["v(b)"][0] == pytest.approx(8.004204e-01, rel=1e-5)

@@ -349,6 +349,11 @@ def _uic_start(prepared: Prepared) -> _Start:
             raise CircuitError(f".ic names node '{node}', which is not in the circuit", nodes=(node,)) from None
         if i >= 0:
             x[i] = v
+    # ngspice takes a device's initial junction voltages from its terminals' .ic (BJTgetic, DIOgetic,
+    # MOS1getic): a node behind a series resistance (a BJT's rb, a diode's rs) starts at its terminal's value
+    for inner, outer in system.layout.beside.items():
+        if outer in circuit.ic and inner not in circuit.ic:
+            x[system.node_index(inner)] = x[system.node_index(outer)]
     initial_currents(circuit, system.layout, x)
     q0 = system.evaluate(x, 0.0, jacobian=False).q.copy()
     add_initial_charges(circuit, system.layout, x, q0)

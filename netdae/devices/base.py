@@ -254,7 +254,7 @@ def series_nodes(layout, elements, outer: np.ndarray, conductance, suffix: str) 
     -------
     ndarray of int64, shape (N,)
     """
-    return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True) if g > 0.0 else node
+    return np.array([layout.add_node(f"{el.name}#{suffix}", internal=True, beside=int(node)) if g > 0.0 else node
                      for el, g, node in zip(elements, conductance, outer)], dtype=np.int64)
 
 

@@ -370,7 +370,7 @@ class DiodeFamily(DeviceFamily):
     def add_nodes(self, layout) -> None:
         self.anode = layout.nodes_of([el.nodes[0] for el in self.elements])
         self.cathode = layout.nodes_of([el.nodes[1] for el in self.elements])
-        inner = [layout.add_node(f"{el.name}#internal", internal=True) if gs > 0.0 else a
+        inner = [layout.add_node(f"{el.name}#internal", internal=True, beside=int(a)) if gs > 0.0 else a
                  for el, gs, a in zip(self.elements, self.gs, self.anode)]
         self.inner = np.array(inner, dtype=np.int64)
 

@@ -33,11 +33,15 @@ class Layout:
         Element names whose current is an unknown, in order after the nodes.
     internal : set of str
         Nodes created by device models (e.g. the node behind a series resistance).
+    beside : dict of str to str
+        An internal node behind a series resistance, and the terminal's node in front of it
+        (ngspice takes a device's initial junction voltages from its terminals' ``.ic``).
     """
 
     nodes: list[str] = field(default_factory=list)
     branches: list[str] = field(default_factory=list)
     internal: set[str] = field(default_factory=set)
+    beside: dict[str, str] = field(default_factory=dict)
     _node_index: dict[str, int] = field(default_factory=dict)
     _branch_index: dict[str, int] = field(default_factory=dict)
 
@@ -49,8 +53,9 @@ class Layout:
             lay.add_node(name)
         return lay
 
-    def add_node(self, name: str, *, internal: bool = False) -> int:
-        """Index of node ``name``, creating it if new."""
+    def add_node(self, name: str, *, internal: bool = False, beside: int | None = None) -> int:
+        """Index of node ``name``, creating it if new (``beside``: the index of the terminal's node in front of
+        an internal node behind a series resistance)."""
         if name == GROUND:
             return GND
         idx = self._node_index.get(name)
@@ -62,6 +67,8 @@ class Layout:
             self._node_index[name] = idx
             if internal:
                 self.internal.add(name)
+                if beside is not None and beside != GND:
+                    self.beside[name] = self.nodes[beside]
         return idx
 
     def add_branch(self, element: str) -> int:
