@@ -140,6 +140,19 @@ def test_demo_tells_the_whole_story(tmp_path, capsys):
         assert (tmp_path / name).stat().st_size > 0
 
 
+def test_demo_finds_its_netlist_from_any_directory(tmp_path, monkeypatch):
+    """netdae demo without a file, run outside the repository, looked for netlists/differentiator.cir in the working
+    directory ('not found'); it takes netdae's own copy."""
+    from netdae.cli.demo import DEFAULT_NETLIST, _default_netlist
+
+    monkeypatch.chdir(tmp_path)
+    assert _default_netlist(DEFAULT_NETLIST) == str(NETLISTS / "differentiator.cir")
+    (tmp_path / "netlists").mkdir()
+    (tmp_path / "netlists" / "differentiator.cir").write_text("mine\n")
+    assert _default_netlist(DEFAULT_NETLIST) == DEFAULT_NETLIST  # a file of that name here is the user's
+    assert _default_netlist("other.cir") == "other.cir"
+
+
 def test_export_matrices_npz_and_matrix_market(tmp_path, capsys):
     import scipy.io
 

@@ -34,6 +34,17 @@ def add_parser(sub) -> argparse.ArgumentParser:
     return p
 
 
+def _default_netlist(name: str) -> str:
+    """``name`` as given when it exists, else the differentiator of netdae's own tree (an installation from
+    the repository), so that ``netdae demo`` runs from any directory."""
+    from pathlib import Path
+
+    if name != DEFAULT_NETLIST or Path(name).exists():
+        return name
+    bundled = Path(__file__).resolve().parents[2] / DEFAULT_NETLIST
+    return str(bundled) if bundled.exists() else name
+
+
 def _section(title: str) -> None:
     print()
     print(f"== {title} " + "=" * max(0, 74 - len(title)))
@@ -53,6 +64,7 @@ def main(args) -> int:
     from .progress import ProgressBar
 
     out = output_directory(args.out)
+    args.file = _default_netlist(args.file)
     circuit = load(args.file)
 
     _section("1. the netlist (netdae check)")
