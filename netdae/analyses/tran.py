@@ -351,9 +351,11 @@ def _uic_start(prepared: Prepared) -> _Start:
             x[i] = v
     # ngspice takes a device's initial junction voltages from its terminals' .ic (BJTgetic, DIOgetic,
     # MOS1getic): a node behind a series resistance (a BJT's rb, a diode's rs) starts at its terminal's value
-    for inner, outer in system.layout.beside.items():
-        if outer in circuit.ic and inner not in circuit.ic:
+    given = set(circuit.ic)
+    for inner, outer in system.layout.beside.items():  # in the order made: a node behind an internal one follows
+        if outer in given and inner not in given:
             x[system.node_index(inner)] = x[system.node_index(outer)]
+            given.add(inner)
     initial_currents(circuit, system.layout, x)
     q0 = system.evaluate(x, 0.0, jacobian=False).q.copy()
     add_initial_charges(circuit, system.layout, x, q0)
