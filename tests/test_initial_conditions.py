@@ -234,3 +234,21 @@ def test_uic_starts_a_junction_behind_a_series_resistance_from_its_terminals_ic(
     d = r.dense([10e-12, 100e-12])
     np.testing.assert_allclose(d["v(c)"], [1.840252e-02, 1.847977e-02], rtol=1e-4)
     assert d["v(b)"][0] == pytest.approx(8.004204e-01, rel=1e-5)
+
+
+def test_uic_starts_a_bjts_junctions_at_its_own_initial_conditions():
+    """Q1 ... ic=0.8,0.1 (icvbe, icvce) under uic, no .ic: ngspice 39 starts the junctions there (BJTicVBE,
+    BJTicVCE), v(c) = 1.840252e-02 V at 10 ps and v(b) = 8.004204e-01 V; netdae noted 'not used' and started from
+    0 V. A diode's ic changes no waveform of ngspice 39 (v(k) stays 0): it stays noted as not used."""
+    text = ("BJT junction states from its ic= under uic\nVcc vcc 0 5\nRc vcc c 1k\nRb vcc b 47k\nQ1 c b 0 qn ic=0.8,0.1\n"
+            ".model qn npn is=1e-14 bf=100 cje=5p cjc=2p tf=0.3n rb=10\n.tran 1p 2n uic\n.end\n")
+    r = netdae.simulate(text, save=["v(c)", "v(b)"])
+    d = r.dense([10e-12, 100e-12])
+    np.testing.assert_allclose(d["v(c)"], [1.840252e-02, 1.847977e-02], rtol=1e-4)
+    assert d["v(b)"][0] == pytest.approx(8.004204e-01, rel=1e-5)
+    assert not [n for n in r.notes if "are not used" in n]
+    diode = ("diode ic under uic\nV1 a 0 0\nR1 a k 1k\nD1 k 0 dm ic=0.7\nC1 k 0 1n\n"
+             ".model dm d is=1e-14 cjo=10p tt=10n\n.tran 0.1n 50n uic\n.end\n")
+    r = netdae.simulate(diode, save=["v(k)"])
+    assert np.max(np.abs(r["v(k)"])) < 1e-9
+    assert any("device initial conditions of d1 are not used" in n for n in r.notes)

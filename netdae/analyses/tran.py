@@ -338,7 +338,8 @@ def _signals(kept_names, requested, values: np.ndarray, diffs) -> dict[str, np.n
 
 # -- the start --------------------------------------------------------------------
 def _uic_start(prepared: Prepared) -> _Start:
-    """ngspice's ``uic`` state: .ic node voltages (else 0), element ic= for C and L."""
+    """ngspice's ``uic`` state: .ic node voltages (else 0), element ic= for C and L, device ic= where the family
+    supports it (:meth:`netdae.devices.base.DeviceFamily.uic_start`)."""
     circuit, system = prepared.circuit, prepared.system
     x = np.zeros(system.n)
     notes = []
@@ -356,10 +357,14 @@ def _uic_start(prepared: Prepared) -> _Start:
         if outer in given and inner not in given:
             x[system.node_index(inner)] = x[system.node_index(outer)]
             given.add(inner)
+    # and a device's own ic= (a BJT's icvbe, icvce) sets its junctions, as in ngspice
+    fixed = {system.node_index(node) for node in circuit.ic if system.node_index(node) >= 0}
+    started = {name for family in system.families for name in family.uic_start(x, fixed)}
     initial_currents(circuit, system.layout, x)
     q0 = system.evaluate(x, 0.0, jacobian=False).q.copy()
     add_initial_charges(circuit, system.layout, x, q0)
-    ignored = [el.name for el in circuit.elements if any(p in el.params for p in KINDS[el.kind].device_ic)]
+    ignored = [el.name for el in circuit.elements
+               if el.name not in started and any(p in el.params for p in KINDS[el.kind].device_ic)]
     if ignored:
         notes.append(f"uic: device initial conditions of {', '.join(ignored[:5])} are not used; the devices start "
                      "from their node voltages")

@@ -324,6 +324,17 @@ class DeviceFamily:
         """Limiting state before the first Newton iteration (``None`` if unused)."""
         return None
 
+    def uic_start(self, x: np.ndarray, given: set[int]) -> list[str]:
+        """Set ``x`` (the ``uic`` start, node potentials first) from the instances' initial conditions.
+
+        ngspice starts a BJT's junctions at its ``icvbe``/``icvce`` under ``uic``. A family that
+        supports its instances' initial conditions sets the nodes behind its junctions so that the
+        junction voltages are those values, leaving the nodes in ``given`` (an ``.ic`` of their own)
+        alone, and returns the names of the instances it started so. The default supports none (a
+        diode's ``ic`` changes no waveform of ngspice 39: it serves its first Newton iteration only).
+        """
+        return []
+
     def evaluate(self, x: np.ndarray, t: float, acc: Accumulator, state: Any, jacobian: bool) -> Any:
         """Add the family's q, phi (and Jacobians) at extended ``x`` into ``acc``.
 

@@ -247,6 +247,22 @@ class BjtFamily(DeviceFamily):
         self.has_charge = bool(self.depletion.active or self.has_tf or np.any(self.tr != 0))
 
     # -- topology ----------------------------------------------------------
+    def uic_start(self, x: np.ndarray, given: set[int]) -> list[str]:
+        """The base and collector behind their resistances at ``icvbe`` and ``icvce`` above the emitter (ngspice's
+        BJTicVBE, BJTicVCE)."""
+        done = []
+        for k, el in enumerate(self.elements):
+            e = int(self.ei[k])
+            ve = x[e] if e >= 0 else 0.0
+            used = False
+            for key, node in (("icvbe", int(self.bi[k])), ("icvce", int(self.ci[k]))):
+                if key in el.params and node >= 0 and node not in given:
+                    x[node] = ve + float(el.params[key])
+                    used = True
+            if used:
+                done.append(el.name)
+        return done
+
     def add_nodes(self, layout) -> None:
         els = self.elements
         self.c = layout.nodes_of([el.nodes[0] for el in els])
