@@ -252,3 +252,16 @@ def test_uic_starts_a_bjts_junctions_at_its_own_initial_conditions():
     r = netdae.simulate(diode, save=["v(k)"])
     assert np.max(np.abs(r["v(k)"])) < 1e-9
     assert any("device initial conditions of d1 are not used" in n for n in r.notes)
+
+
+def test_uic_starts_a_level_1_mosfet_at_its_own_initial_conditions():
+    """M1 ... ic=3,1 (icvds, icvgs) under uic: ngspice 39 starts the drain and gate there (without ic=: v(d) =
+    0.5152 V at 1 ns); ngspice (same netlist): v(d) = 3.359612 V and v(g) = 1.199295 V at 1 ns, v(d) = 4.329421 V
+    at 50 ns (its trapezoidal rule's error at the default tolerance is a few 1e-4 of these)."""
+    text = ("mos ic under uic\nVd vdd 0 5\nR2 vdd d 10k\nRg vdd g 1meg\nM1 d g 0 0 mm ic=3,1\n"
+            ".model mm nmos level=1 vto=0.7 kp=50u cgso=1n cgdo=1n cbd=1p cbs=1p\n.tran 1n 100n uic\n.end\n")
+    r = netdae.simulate(text, save=["v(d)", "v(g)"])
+    d = r.dense([1e-9, 50e-9])
+    np.testing.assert_allclose(d["v(d)"], [3.359612, 4.329421], rtol=1e-3)
+    assert d["v(g)"][0] == pytest.approx(1.199295, rel=1e-3)
+    assert not [n for n in r.notes if "are not used" in n]

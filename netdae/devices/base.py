@@ -327,7 +327,8 @@ class DeviceFamily:
     def uic_start(self, x: np.ndarray, given: set[int]) -> list[str]:
         """Set ``x`` (the ``uic`` start, node potentials first) from the instances' initial conditions.
 
-        ngspice starts a BJT's junctions at its ``icvbe``/``icvce`` under ``uic``. A family that
+        ngspice starts a BJT's junctions at its ``icvbe``/``icvce`` under ``uic``, a level-1 MOSFET's at
+        ``icvds``/``icvgs``/``icvbs``. A family that
         supports its instances' initial conditions sets the nodes behind its junctions so that the
         junction voltages are those values, leaving the nodes in ``given`` (an ``.ic`` of their own)
         alone, and returns the names of the instances it started so. The default supports none (a

@@ -417,6 +417,22 @@ class MosfetFamily(DeviceFamily):
         by_sheet = np.where(sheet != 0.0, m / np.where(sheet != 0.0, sheet, 1.0), 0.0)
         return np.where(r_given != 0.0, by_r, by_sheet)
 
+    def uic_start(self, x: np.ndarray, given: set[int]) -> list[str]:
+        """The drain (behind its resistance), gate and bulk at ``icvds``, ``icvgs``, ``icvbs`` above the source
+        (behind its resistance), as ngspice 39 starts a level-1 MOSFET under ``uic`` (MOS1icVDS ...)."""
+        done = []
+        for k, el in enumerate(self.elements):
+            s = int(self.si[k])
+            vs = x[s] if s >= 0 else 0.0
+            used = False
+            for key, node in (("icvds", int(self.di[k])), ("icvgs", int(self.g[k])), ("icvbs", int(self.b[k]))):
+                if key in el.params and node >= 0 and node not in given:
+                    x[node] = vs + float(el.params[key])
+                    used = True
+            if used:
+                done.append(el.name)
+        return done
+
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
         els = self.elements
