@@ -258,6 +258,42 @@ def series_nodes(layout, elements, outer: np.ndarray, conductance, suffix: str) 
                      for el, g, node in zip(elements, conductance, outer)], dtype=np.int64)
 
 
+def start_from_device_ic(elements, x: np.ndarray, given: set[int], reference: np.ndarray,
+                         targets: list[tuple[str, np.ndarray]]) -> list[str]:
+    """A ``uic`` start from the instances' own initial conditions: each target node at its ``ic`` above the reference.
+
+    Parameters
+    ----------
+    elements : list of Element
+    x : ndarray, shape (n,)
+        The start (node potentials first), set in place.
+    given : set of int
+        Nodes with an ``.ic`` of their own, left alone.
+    reference : ndarray of int, shape (N,)
+        Each instance's node the voltages are measured from (a BJT's emitter, a MOSFET's source).
+    targets : list of (str, ndarray of int, shape (N,))
+        The instance parameter (``icvbe`` ...) and the node it sets.
+
+    Returns
+    -------
+    list of str
+        The instances with at least one value applied (:meth:`DeviceFamily.uic_start`).
+    """
+    done = []
+    for k, el in enumerate(elements):
+        ref = int(reference[k])
+        base = x[ref] if ref >= 0 else 0.0
+        used = False
+        for key, nodes in targets:
+            node = int(nodes[k])
+            if key in el.params and node >= 0 and node not in given:
+                x[node] = base + float(el.params[key])
+                used = True
+        if used:
+            done.append(el.name)
+    return done
+
+
 class _KindsOf:
     """``Family.kinds``: the element kinds whose definition (:mod:`netdae.kinds`) names this family."""
 

@@ -70,7 +70,8 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, shot, thermal
+from .base import (Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, shot,
+                   start_from_device_ic, thermal)
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
     thermal_voltage, vcrit
@@ -250,18 +251,7 @@ class BjtFamily(DeviceFamily):
     def uic_start(self, x: np.ndarray, given: set[int]) -> list[str]:
         """The base and collector behind their resistances at ``icvbe`` and ``icvce`` above the emitter (ngspice's
         BJTicVBE, BJTicVCE)."""
-        done = []
-        for k, el in enumerate(self.elements):
-            e = int(self.ei[k])
-            ve = x[e] if e >= 0 else 0.0
-            used = False
-            for key, node in (("icvbe", int(self.bi[k])), ("icvce", int(self.ci[k]))):
-                if key in el.params and node >= 0 and node not in given:
-                    x[node] = ve + float(el.params[key])
-                    used = True
-            if used:
-                done.append(el.name)
-        return done
+        return start_from_device_ic(self.elements, x, given, self.ei, [("icvbe", self.bi), ("icvce", self.ci)])
 
     def add_nodes(self, layout) -> None:
         els = self.elements

@@ -68,7 +68,8 @@ import math
 import numpy as np
 
 from ..errors import CircuitError
-from .base import Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, thermal
+from .base import (Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes,
+                   start_from_device_ic, thermal)
 from .companion import BranchStamps, LimitState, starting_voltages
 from .junction import (
     CHARGE,
@@ -420,18 +421,8 @@ class MosfetFamily(DeviceFamily):
     def uic_start(self, x: np.ndarray, given: set[int]) -> list[str]:
         """The drain (behind its resistance), gate and bulk at ``icvds``, ``icvgs``, ``icvbs`` above the source
         (behind its resistance), as ngspice 39 starts a level-1 MOSFET under ``uic`` (MOS1icVDS ...)."""
-        done = []
-        for k, el in enumerate(self.elements):
-            s = int(self.si[k])
-            vs = x[s] if s >= 0 else 0.0
-            used = False
-            for key, node in (("icvds", int(self.di[k])), ("icvgs", int(self.g[k])), ("icvbs", int(self.b[k]))):
-                if key in el.params and node >= 0 and node not in given:
-                    x[node] = vs + float(el.params[key])
-                    used = True
-            if used:
-                done.append(el.name)
-        return done
+        return start_from_device_ic(self.elements, x, given, self.si,
+                                    [("icvds", self.di), ("icvgs", self.g), ("icvbs", self.b)])
 
     # -- topology ----------------------------------------------------------
     def add_nodes(self, layout) -> None:
