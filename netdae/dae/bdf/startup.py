@@ -34,7 +34,8 @@ from ..sparse import SparsePattern, bipartite_components
 from ..steady import SteadyOptions, solve_steady
 from ..system import DaeSystem, Evaluation
 from .constants import (CONSERVED_CHARGE_RTOL, EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP,
-                        JUMP_NEWTON_MAXITER, JUMP_OSCILLATION, RIGHT_LIMIT_CANCELLATION)
+                        JUMP_NEWTON_MAXITER, JUMP_OSCILLATION, RIGHT_LIMIT_CANCELLATION, RIGHT_LIMIT_RETRIES,
+                        RIGHT_LIMIT_STRETCH)
 from .failures import Failure, newton_hint, nonfinite_unknown
 
 __all__ = ["ImplicitEulerStep", "right_limit", "event_right_limit", "conserved_charge_groups", "cancelling_rows",
@@ -206,11 +207,30 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     stall there; the pseudo-time's capacitors carry the unknowns off the fold as the
     circuit's own small capacitances would.
 
+    Without ``impasse``, steps that do not converge are tried again up to
+    ``RIGHT_LIMIT_RETRIES`` times, ``RIGHT_LIMIT_STRETCH`` times longer each time: steps so
+    short that ``C / eps`` and ``L / eps`` swamp every conductance give a matrix singular in
+    floating point (the index-2 node voltages of an inductor cutset at a switch's event).
+
     Returns
     -------
     (x_right, iterations, evaluations, message)
         ``x_right`` is None when a step did not converge (``message`` says why).
     """
+    iterations = evaluations = 0
+    for attempt in range(1 + (0 if impasse else RIGHT_LIMIT_RETRIES)):
+        out, its, evals, message = _two_steps(system, t, x, eps * RIGHT_LIMIT_STRETCH ** attempt, high, rtol, vntol,
+                                              abstol, state, impasse)
+        iterations += its
+        evaluations += evals
+        if out is not None:
+            break
+    return out, iterations, evaluations, message
+
+
+def _two_steps(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, state,
+               impasse: bool) -> tuple[np.ndarray | None, int, int, str]:
+    """:func:`right_limit` with steps of ``eps``, tried once."""
     # an implicit-Euler step is itself a time step: no pseudo-time continuation on top of it (a failure
     # cuts the step instead)
     opts = SteadyOptions(reltol=rtol, vntol=vntol, abstol=abstol, judge_singular=False, pseudo_transient=False)

@@ -61,8 +61,6 @@ from .constants import (
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
     RATE_AFTER_SETUP,
-    RIGHT_LIMIT_RETRIES,
-    RIGHT_LIMIT_STRETCH,
     ROUNDOFF_ULPS,
     UNDEFINED_TRIES,
 )
@@ -515,15 +513,6 @@ class BDF:
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
                                                             tol["vntol"], tol["abstol"], state=self._state)
-        for _ in range(RIGHT_LIMIT_RETRIES):
-            if out is not None:
-                break
-            # steps too short for floating point (C / eps and L / eps swamp every conductance): longer ones
-            self.stats["newton_iterations"] += iterations
-            self.stats["evaluations"] += evaluations
-            eps *= RIGHT_LIMIT_STRETCH
-            out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
-                                                                tol["vntol"], tol["abstol"], state=self._state)
         self.stats["newton_iterations"] += iterations
         self.stats["evaluations"] += evaluations
         if out is None:

@@ -45,7 +45,7 @@ import numpy as np
 from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
-from ..bdf.constants import BUFFER_START, BUFFER_START_BYTES, RIGHT_LIMIT_RETRIES, RIGHT_LIMIT_STRETCH
+from ..bdf.constants import BUFFER_START, BUFFER_START_BYTES
 from ..bdf.failures import IntegrationFailure, with_runaway
 from ..newton import NewtonInfo
 from .sources import pack_sources
@@ -484,17 +484,6 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 try:
                     x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high,
                                                             rtol, vntol, abstol, impasse=I[L.I_IMPASSE] != 0)
-                    for _ in range(RIGHT_LIMIT_RETRIES if I[L.I_IMPASSE] == 0 else 0):
-                        if x_right is not None:
-                            break
-                        # steps so short that C / eps and L / eps swamp every conductance leave a matrix that
-                        # is singular in floating point (an inductor cutset's index-2 node voltages, fixed
-                        # only through the inductors' derivatives): longer implicit-Euler steps
-                        eps *= RIGHT_LIMIT_STRETCH
-                        x_right, its2, evals2, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps,
-                                                                  high, rtol, vntol, abstol)
-                        its += its2
-                        evals += evals2
                 finally:
                     if delays[0].size:
                         system.delay_history = None
