@@ -351,29 +351,23 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         for position, card in enumerate(original.analyses):
             kind = analysis_name(card)
             circuit = altered_circuit(original, card.alter, altered)  # after a .control script's alter commands
-            if kind == "tran":
-                from .tran import transient
+            try:
+                if kind == "tran":
+                    from .tran import transient
 
-                stream = None if output is None or quantities else _stream(output, position, names, wanted)
-                try:
+                    stream = None if output is None or quantities else _stream(output, position, names, wanted)
                     res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
                                     bounded=bounded and not circuit.measures, room=room, **options)
-                except KeyboardInterrupt as exc:
-                    # Ctrl-C: hand on every result computed so far, the interrupted transient's last
-                    partial = getattr(exc, "partial", None)
-                    exc.results = _finish(original, results + ([partial] if partial is not None else []), names, wanted)
-                    raise
-            else:
-                try:
+                else:
                     res = _other_analysis(kind, circuit, card, options)
-                except KeyboardInterrupt as exc:
-                    # Ctrl-C (or SIGTERM) during a .dc sweep, an .ac, ...: the results before it, and the
-                    # sweep's points solved so far
-                    partial = getattr(exc, "partial", None)
-                    if partial is not None and names:
-                        partial = partial.subset([n for n in wanted if canonical_or(n) in partial.signals])
-                    exc.results = _finish(original, results + ([partial] if partial is not None else []), names, wanted)
-                    raise
+            except KeyboardInterrupt as exc:
+                # Ctrl-C (or SIGTERM): hand on every result computed so far, and the interrupted transient or
+                # .dc sweep up to where it stopped (a sweep's partial holds every unknown: the saved ones kept)
+                partial = getattr(exc, "partial", None)
+                if partial is not None and names and kind != "tran":
+                    partial = partial.subset([n for n in wanted if canonical_or(n) in partial.signals])
+                exc.results = _finish(original, results + ([partial] if partial is not None else []), names, wanted)
+                raise
             absent = add_quantities(circuit, res, quantities)
             absurd = absurd_values_note(circuit, res.signals) if kind in ("op", "dc", "tran") else None
             if absurd:
