@@ -34,8 +34,7 @@ from ..sparse import SparsePattern, bipartite_components
 from ..steady import SteadyOptions, solve_steady
 from ..system import DaeSystem, Evaluation
 from .constants import (CONSERVED_CHARGE_RTOL, EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP,
-                        JUMP_NEWTON_MAXITER, JUMP_OSCILLATION, RIGHT_LIMIT_CANCELLATION, RIGHT_LIMIT_RETRIES,
-                        RIGHT_LIMIT_STRETCH)
+                        JUMP_NEWTON_MAXITER, JUMP_OSCILLATION, RIGHT_LIMIT_CANCELLATION, RIGHT_LIMIT_STRETCH)
 from .failures import Failure, newton_hint, nonfinite_unknown
 
 __all__ = ["ImplicitEulerStep", "right_limit", "event_right_limit", "conserved_charge_groups", "cancelling_rows",
@@ -186,7 +185,7 @@ class ImplicitEulerStep(DaeSystem):
 
 
 def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, *,
-                state=None, impasse: bool = False) -> tuple[np.ndarray | None, int, int, str]:
+                state=None, impasse: bool = False, retries: int = 0) -> tuple[np.ndarray | None, int, int, str]:
     """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
 
     The charges are continuous across t (no impulse), so the steps start from
@@ -207,10 +206,11 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     stall there; the pseudo-time's capacitors carry the unknowns off the fold as the
     circuit's own small capacitances would.
 
-    Without ``impasse``, steps that do not converge are tried again up to
-    ``RIGHT_LIMIT_RETRIES`` times, ``RIGHT_LIMIT_STRETCH`` times longer each time: steps so
-    short that ``C / eps`` and ``L / eps`` swamp every conductance give a matrix singular in
-    floating point (the index-2 node voltages of an inductor cutset at a switch's event).
+    Steps that do not converge are tried again up to ``retries`` times (the integrators pass
+    ``RIGHT_LIMIT_RETRIES``; none at an impasse), ``RIGHT_LIMIT_STRETCH`` times longer each
+    time: steps so short that ``C / eps`` and ``L / eps`` swamp every conductance give a matrix
+    singular in floating point (the index-2 node voltages of an inductor cutset at a switch's
+    event).
 
     Returns
     -------
@@ -218,7 +218,7 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
         ``x_right`` is None when a step did not converge (``message`` says why).
     """
     iterations = evaluations = 0
-    for attempt in range(1 + (0 if impasse else RIGHT_LIMIT_RETRIES)):
+    for attempt in range(1 + (0 if impasse else retries)):
         out, its, evals, message = _two_steps(system, t, x, eps * RIGHT_LIMIT_STRETCH ** attempt, high, rtol, vntol,
                                               abstol, state, impasse)
         iterations += its

@@ -61,6 +61,7 @@ from .constants import (
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
     RATE_AFTER_SETUP,
+    RIGHT_LIMIT_RETRIES,
     ROUNDOFF_ULPS,
     UNDEFINED_TRIES,
 )
@@ -512,7 +513,8 @@ class BDF:
             return out
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
-                                                            tol["vntol"], tol["abstol"], state=self._state)
+                                                            tol["vntol"], tol["abstol"], state=self._state,
+                                                            retries=RIGHT_LIMIT_RETRIES)
         self.stats["newton_iterations"] += iterations
         self.stats["evaluations"] += evaluations
         if out is None:

@@ -45,7 +45,7 @@ import numpy as np
 from . import bdf_loop as L
 from .control import NORM_MAX, NORM_RMS, RELREF_LOCAL, RELREF_MIXED, RELREF_SIGNAL, set_weights
 from .lu import PIVOT_REL_THRESHOLD, SparseLU
-from ..bdf.constants import BUFFER_START, BUFFER_START_BYTES
+from ..bdf.constants import BUFFER_START, BUFFER_START_BYTES, RIGHT_LIMIT_RETRIES
 from ..bdf.failures import IntegrationFailure, with_runaway
 from ..newton import NewtonInfo
 from .sources import pack_sources
@@ -483,7 +483,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                     system.delay_history = _history(buf_t, buf_k, buf_x, segments, I, ns)
                 try:
                     x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high,
-                                                            rtol, vntol, abstol, impasse=I[L.I_IMPASSE] != 0)
+                                                            rtol, vntol, abstol, impasse=I[L.I_IMPASSE] != 0,
+                                                            retries=RIGHT_LIMIT_RETRIES)
                 finally:
                     if delays[0].size:
                         system.delay_history = None
