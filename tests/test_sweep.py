@@ -823,3 +823,10 @@ def test_a_measure_named_like_a_column_of_the_table_is_a_located_error(name, ste
     # added measures are checked too, at their place in <measures>
     with pytest.raises(NetlistError, match=r"<measures>:1:.*column 'r2'"):
         netdae.sweep(DIVIDER, params={"r2": [1e3, 2e3]}, measures=["dc r2 find v(b) at=0.5m"], workers=1)
+
+
+def test_the_command_lines_analyses_are_the_sweeps():
+    from netdae.cli.sweep import ANALYSES
+    from netdae.sweeps.worker import SWEPT_ANALYSES
+
+    assert ANALYSES == SWEPT_ANALYSES

@@ -29,6 +29,9 @@ from . import add_ngbehavior, directory_name, log_diagnostics, option_value, out
 __all__ = ["add_parser", "main", "parse_step"]
 
 LOG = logging.getLogger("netdae")
+#: ``--analysis``: netdae.sweeps.worker.SWEPT_ANALYSES, written out here because building the parser imports no
+#: numerics (``netdae --help``); tests/test_sweep.py holds the two equal.
+ANALYSES = ("op", "dc", "ac", "tran", "noise")
 #: Seconds to wait for a Dask scheduler before saying it cannot be reached.
 SCHEDULER_TIMEOUT = 10.0
 
@@ -125,7 +128,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, help="Monte Carlo seed, 0 to 2**64-1 (default .options seed=, else 1)")
     p.add_argument("--meas", metavar="CARD", action="append", default=[],
                    help="one more .meas card, e.g. 'tran ripple pp v(out) from=5m to=10m' (repeatable)")
-    p.add_argument("--analysis", metavar="NAME", action="append", choices=("op", "dc", "ac", "tran", "noise"),
+    p.add_argument("--analysis", metavar="NAME", action="append", choices=ANALYSES,
                    help="run only this analysis of the netlist (repeatable; default all)")
     p.add_argument("--save", metavar="SIGNALS", type=signal_names,
                    help="comma-separated signals whose waveforms every row keeps (for --waveforms and the plot)")
