@@ -366,7 +366,7 @@ class BDF:
         _, failure = failure_record(t, h, what, worst, hint)
         # the last accepted point against the start: a mode grown without bound is named as such
         self._failure = with_runaway(failure, self.system.names, self.system.kinds, self._x_start,
-                                     self._hist.P[0, : self.n])
+                                     self._hist.P[0, : self.n], self.stats["max_order_used"])
         self.message = self._failure.message
 
     # Kept as static methods: the compiled engine's driver words its failures with them.

@@ -581,7 +581,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     elif status == L.FAILED:
         if failure is None:
             failure = _failure(system, F, I, atol)
-        failure = with_runaway(failure, system.names, system.kinds, x_start, P[0, :n])
+        failure = with_runaway(failure, system.names, system.kinds, x_start, P[0, :n], int(I[L.I_MAX_ORDER_USED]))
         message = failure.message
         code = STATUS_FAILED
     elif out_of_memory is not None:
