@@ -103,29 +103,10 @@ def test_set_weights_matches_the_formula(relref):
     atol = np.full(5, 1e-6)
     mask = np.array([1.0, 1.0, 0.0, 1.0, 1.0])
     w, w_err, xm = np.empty(5), np.empty(5), xmax.copy()
-    no_groups = (np.full(5, -1, dtype=np.int64), np.ones(5), np.zeros(0))
-    set_weights(x, 1e-3, atol, relref, xm, mask, w, w_err, *no_groups)
+    set_weights(x, 1e-3, atol, relref, xm, mask, w, w_err)
     ref = [np.abs(x), np.maximum(xmax, np.abs(x)), np.maximum(np.abs(x), 0.1 * np.maximum(xmax, np.abs(x)))][relref]
     np.testing.assert_array_equal(w, 1.0 / (1e-3 * ref + atol))
     np.testing.assert_array_equal(w_err, w * mask)
-
-
-@pytest.mark.parametrize("relref", [0, 1, 2])
-def test_set_weights_refers_coupled_currents_to_their_group(relref):
-    # unknowns 1, 2, 4: windings of one transformer (self-inductances 1, 0.01, 0.04: scales 1, 0.1, 0.2);
-    # winding 2 carries 17 A so far, winding 1 microamperes
-    x = np.array([5.0, 1e-6, 17.0, 3.0, -2e-6])
-    xmax = np.array([5.0, 2e-6, 17.0, 3.0, 3e-6])
-    group = np.array([-1, 0, 0, -1, 0], dtype=np.int64)
-    scale = np.array([1.0, 1.0, 0.1, 1.0, 0.2])
-    atol = np.full(5, 1e-12)
-    w, w_err, xm = np.empty(5), np.empty(5), xmax.copy()
-    set_weights(x, 1e-3, atol, relref, xm, np.ones(5), w, w_err, group, scale, np.zeros(1))
-    own = [np.abs(x), xmax, np.maximum(np.abs(x), 0.1 * xmax)][relref]
-    turns = 17.0 * 0.1 / scale  # the group's largest ampere-turns, in each winding's own turns
-    grouped = [np.abs(x), np.maximum(xmax, turns), np.maximum(np.abs(x), 0.1 * turns)][relref]
-    ref = np.where(group >= 0, np.maximum(own, grouped), own)
-    np.testing.assert_allclose(w, 1.0 / (1e-3 * ref + atol), rtol=1e-15)
 
 
 def test_predictor_weights_rows():

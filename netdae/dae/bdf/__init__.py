@@ -144,8 +144,8 @@ References
 
 from __future__ import annotations
 
-from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, coupled_current_groups,
-                        index_mask, rounding_signs, row_tolerances, save_indices)
+from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask,
+                        rounding_signs, row_tolerances, save_indices)
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -196,5 +196,5 @@ from .startup import ImplicitEulerStep, right_limit
 from .stepper import BDF
 
 __all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate", "check_arguments", "absolute_tolerances",
-           "index_mask", "row_tolerances", "coupled_current_groups", "charge_columns", "charge_rows", "save_indices", "right_limit",
+           "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit",
            "rounding_signs"]

@@ -10,8 +10,7 @@ import numpy as np
 from ..system import KIND_CURRENT, KIND_VOLTAGE
 from .constants import MAX_ORDER
 
-__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "coupled_current_groups", "index_mask",
-           "save_indices", "rounding_signs"]
+__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices", "rounding_signs"]
 
 
 def check_arguments(t0: float, t_bound: float, x0, n: int, *, rtol: float, maxord: int, norm: str, relref: str,
@@ -98,73 +97,6 @@ def row_tolerances(kinds, atol: np.ndarray, vntol: float, abstol: float) -> np.n
     """
     kinds = np.asarray(kinds)
     return np.where(kinds == KIND_VOLTAGE, float(abstol), np.where(kinds == KIND_CURRENT, float(vntol), atol))
-
-
-def coupled_current_groups(system) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The currents that the constant part of ``E`` couples (mutual inductances), grouped, with their turns.
-
-    Two current unknowns ``i``, ``j`` are coupled when ``E[i, j]`` or ``E[j, i]`` is not zero:
-    in a circuit, the fluxes of inductors joined by a ``K`` element. The windings of one
-    transformer carry currents in the ratio of their turns, ``sqrt(L_j / L_i)``, so a winding's
-    current is referred to the group's largest ampere-turns: ``scale_i = sqrt(E[i, i])``
-    (its self-inductance, up to a common factor), and ``xmax_j scale_j / scale_i`` is winding
-    ``j``'s largest current seen from winding ``i`` (:func:`netdae.dae.compiled.control.set_weights`
-    floors ``i``'s relative tolerance with it). Without it the winding that does not conduct
-    (the off half of a centre-tapped rectifier's secondary, a flyback's secondary while the
-    switch is on) has a tolerance of ``reltol`` times its own microamperes, and the steps
-    resolve its ringing with the junction capacitance (MHz) through a 60 Hz simulation.
-
-    Parameters
-    ----------
-    system : DaeSystem
-        Its ``kinds`` and, when it has one, its constant ``E`` (sparse or dense, (n, n); a system
-        whose ``E`` is not constant has no groups).
-
-    Returns
-    -------
-    (group, scale, gmax)
-        ``group``: int64 (n,), each coupled current's group number (-1: not in a group);
-        ``scale``: float (n,), ``sqrt(|E[i, i]|)`` for a grouped unknown (1 elsewhere);
-        ``gmax``: float, shape (number of groups,), the kernel's work space.
-
-    Notes
-    -----
-    Cost O(nnz(E)) once per integration; a circuit without ``K`` gives empty groups.
-    """
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    n = int(system.n)
-    group = np.full(n, -1, dtype=np.int64)
-    scale = np.ones(n)
-    none = (group, scale, np.zeros(0))
-    kinds = getattr(system, "kinds", None)
-    if kinds is None or n == 0:
-        return none
-    current = np.asarray(kinds) == KIND_CURRENT
-    if np.count_nonzero(current) < 2:
-        return none
-    try:
-        E = system.E
-    except NotImplementedError:  # a generic nonlinear system has no constant E
-        return none
-    coo = sp.coo_matrix(E)
-    off = (coo.row != coo.col) & (coo.data != 0.0) & current[coo.row] & current[coo.col]
-    if not np.any(off):
-        return none
-    r, c = coo.row[off], coo.col[off]
-    graph = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
-    _, labels = connected_components(graph, directed=False)
-    members = np.zeros(n, dtype=bool)
-    members[r] = members[c] = True
-    diag = np.abs(np.asarray(sp.csr_matrix(E).diagonal(), dtype=float))
-    members &= diag > 0.0
-    if not np.any(members):
-        return none
-    _, numbered = np.unique(labels[members], return_inverse=True)
-    group[members] = numbered
-    scale[members] = np.sqrt(diag[members])
-    return group, scale, np.zeros(int(numbered.max()) + 1)
 
 
 def index_mask(names, n: int, index, norm: str) -> tuple[np.ndarray, np.ndarray | None, int]:

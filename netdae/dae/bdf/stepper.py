@@ -41,8 +41,8 @@ from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache, NewtonInfo
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
-from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, coupled_current_groups,
-                        index_mask, row_tolerances, save_indices)
+from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask,
+                        row_tolerances, save_indices)
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -290,7 +290,6 @@ class BDF:
         self._w_step_err = self._w_err
         self._xmax = np.zeros(n + self._crows.size)  # the unknowns', then the charges' largest magnitudes so far
         self._xmax[:n] = np.abs(x0)
-        self._groups = coupled_current_groups(system)  # coupled inductors' currents: (group, scale, work)
         self._x_start = np.array(x0, dtype=float)
         self._failure = None
         self.status = RunState.RUNNING
@@ -338,8 +337,7 @@ class BDF:
         (:func:`~netdae.dae.compiled.control.charge_newton_weights`, from the history's charges
         at x and the last Jacobian's ``|dq/dx|``).
         """
-        set_weights(x, self.rtol, self._atol, _RELREF[self.relref], self._xmax, self._mask, self._w, self._w_err,
-                    *self._groups)
+        set_weights(x, self.rtol, self._atol, _RELREF[self.relref], self._xmax, self._mask, self._w, self._w_err)
         abs_dq = self._floor.abs_dq
         if not self._linear and abs_dq is not None and self._crows.size:
             charge_newton_weights(self._hist.P[0, self.n:], self._xmax[self.n:], self._qcol, abs_dq.data,

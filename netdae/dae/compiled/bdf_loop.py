@@ -690,7 +690,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -828,7 +828,7 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     (nothing jumped; they are probed again only after a jump).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -889,7 +889,7 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     ``rl_given``). On a jump ``x`` becomes the right limit, which is recorded a second time
     at ``t`` and starts a new segment.
     """
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -978,7 +978,7 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
     """Continue from the right limit ``xr`` (in ``ws``) at ``t``: record the unknowns that jump,
     make it ``x`` and the history's value (and charges), record it a second time at ``t`` and
     start a new segment."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1003,7 +1003,7 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
         _evaluate(I, t, x, state, False, False, sysd, devd, u, evb)
         for c in range(crows.size):
             P[0, n + c] = qe[crows[c]]
-    set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err, group, scale, gmax)
+    set_weights(x, rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
     if I[I_LINEAR] == 0 and I[I_HAS_ABSDQ] != 0:
         indptr, indices = sysd[0], sysd[1]
         charge_newton_weights(P[0, n:], xmax[n:], qcol, absdq, indptr, indices, rtol, atol, w, work)
@@ -1018,7 +1018,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     """Probe the derivatives at (t, x), continue from the right limit where the solution
     jumps, and start at order 1 with a step <= cap (returns as _probe, or
     FACTOR_NEED_RIGHT_LIMIT)."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     h = cap
     # a restart repeated after a return to Python for new pivots has checked already
@@ -1244,14 +1244,13 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     Parameters
     ----------
     tol : tuple
-        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax)``
-        (``xmax``: shape (n + m,), the unknowns' then the charges' largest magnitudes): absolute
-        tolerances, the error-test mask and index-2 flags, the largest values so far, the weights,
+        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)`` (``xmax``: shape (n + m,), the
+        unknowns' then the charges' largest magnitudes): absolute tolerances,
+        the error-test mask and index-2 flags, the largest values so far, the weights,
         the rounding floor's fixed signs, the charge columns of the rows whose charge error
         is tested (-1: not tested; :func:`netdae.dae.bdf.charge_rows`), the charge-form rows
         and each row's column among them (-1: correction form;
-        :func:`netdae.dae.bdf.charge_columns`), and the coupled inductors' current groups, turns
-        and work space (:func:`netdae.dae.bdf.coupled_current_groups`).
+        :func:`netdae.dae.bdf.charge_columns`).
     sysd : tuple
         The system's linear part: ``(indptr, indices, e_data, h_data, a_data, b_rows,
         b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it,
@@ -1288,7 +1287,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         A status code of this module (RUNNING is never returned).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1800,7 +1799,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             _accept_state(I, devd)
         if switches:
             _copy2(s_vacc, s_vtry)
-        set_weights(P[0, :n], rtol, atol, I[I_RELREF], xmax, mask, w, w_err, group, scale, gmax)
+        set_weights(P[0, :n], rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
         if not linear and I[I_HAS_ABSDQ] != 0:
             charge_newton_weights(P[0, n:], xmax[n:], qcol, absdq, indptr, indices, rtol, atol, w, work)
         _record(I, t_end, k, P[0], rec)

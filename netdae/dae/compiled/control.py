@@ -323,42 +323,18 @@ def landing_step(h, remaining, stretch, split):
 
 
 @kernel
-def set_weights(x, rtol, atol, relref, xmax, mask, w, w_err, group, scale, gmax):
-    """Error weights ``1 / (rtol |x|_ref + atol)``; ``w_err = w * mask`` (index-2 unknowns out).
-
-    With ``relref`` "signal" or "mixed" the reference of an unknown in a group (the currents of
-    coupled inductors, :func:`netdae.dae.bdf.coupled_current_groups`) is also the group's
-    largest ampere-turns so far, ``max_j xmax_j scale_j``, read in the unknown's own turns
-    (divided by ``scale_i``): "mixed" floors ``|x_i|`` at ``MIXED_FLOOR`` of it, "signal" takes
-    it whole. ``gmax`` is work space, shape (number of groups,); an empty one turns groups off.
-    """
-    n = x.size
-    if relref != RELREF_LOCAL:
-        for i in range(n):
-            a = abs(x[i])
-            if a > xmax[i]:
-                xmax[i] = a
-    grouped = gmax.size > 0 and relref != RELREF_LOCAL
-    if grouped:
-        for g in range(gmax.size):
-            gmax[g] = 0.0
-        for i in range(n):
-            g = group[i]
-            if g >= 0:
-                v = xmax[i] * scale[i]
-                if v > gmax[g]:
-                    gmax[g] = v
-    for i in range(n):
+def set_weights(x, rtol, atol, relref, xmax, mask, w, w_err):
+    """Error weights ``1 / (rtol |x|_ref + atol)``; ``w_err = w * mask`` (index-2 unknowns out)."""
+    for i in range(x.size):
         a = abs(x[i])
         if relref == RELREF_SIGNAL:
+            if a > xmax[i]:
+                xmax[i] = a
             a = xmax[i]
         elif relref == RELREF_MIXED:
+            if a > xmax[i]:
+                xmax[i] = a
             a = max(a, MIXED_FLOOR * xmax[i])
-        if grouped and group[i] >= 0:
-            ref = gmax[group[i]] / scale[i]
-            if relref == RELREF_MIXED:
-                ref *= MIXED_FLOOR
-            a = max(a, ref)
         w[i] = 1.0 / (rtol * a + atol[i])
         w_err[i] = w[i] * mask[i]
 

@@ -230,7 +230,6 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         charge_columns,
         charge_rows,
         check_arguments,
-        coupled_current_groups,
         index_mask,
         right_limit,
         rounding_signs,
@@ -315,8 +314,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     x_start = np.array(x0, dtype=float)
     w = np.empty(n)
     w_err = np.empty(n)
-    group, scale, gmax = coupled_current_groups(system)  # coupled inductors' currents
-    set_weights(x0, rtol, atol, relref, xmax, mask, w, w_err, group, scale, gmax)
+    set_weights(x0, rtol, atol, relref, xmax, mask, w, w_err)
     a_data = np.zeros(e_data.size)
     sysd = (indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)
     delays = pack_delays(system)
@@ -324,7 +322,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     signs = rounding_signs(n)  # of the rounding floor's second right-hand side (as BDF's)
     # rows whose charge error joins the error test (coupled to index-2 unknowns): their charge columns
     qrows = charge_rows(indptr, indices, high, qcol)
-    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, group, scale, gmax)
+    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)
     nnz = e_data.size
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
            np.abs(e_data))

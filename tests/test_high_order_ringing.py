@@ -1,0 +1,55 @@
+"""BDF orders 3-5 can grow a lightly damped resonance that the steps follow; orders 1-2 cannot.
+
+A 60 Hz centre-tapped rectifier (K = 0.999, diodes with transit time and junction capacitance):
+at 20.69 ms a diode's reverse recovery snaps off and rings with the leakage inductance at
+about 16 MHz. At the default orders (up to 5) the ringing grew in the integration and the run
+failed with "the solution ran away"; the message says to try ``maxord=2``, and that run agrees
+with ngspice's converged values (docs/integrator.md, "Known limitations").
+
+Reference: ngspice 39 at ``reltol=1e-7`` on the same netlist (``.meas`` in a ``.control`` block):
+average 15.45278 V, ripple 2.444196 V over 30-40 ms.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import netdae
+from netdae.dae.bdf.failures import runaway
+
+RINGING = """Full-wave rectifier, centre-tapped transformer, diodes with tt and cjo
+Vac ac 0 SIN(0 170 60)
+Rp ac p 1
+Lp p 0 1
+Ls1 s1 0 0.01
+Ls2 0 s2 0.01
+K1 Lp Ls1 0.999
+K2 Lp Ls2 0.999
+K3 Ls1 Ls2 0.999
+D1 s1 out dr
+D2 s2 out dr
+C1 out 0 2200u
+Rl out 0 20
+.model dr d is=1e-9 rs=0.02 cjo=200p tt=5u
+.options maxord=2
+.tran 10u 40m
+.meas tran vavg avg v(out) from=30m to=40m
+.meas tran vpp pp v(out) from=30m to=40m
+.end
+"""
+
+
+def test_a_ringing_rectifier_at_the_a_stable_orders_gives_the_converged_ripple():
+    tran = next(r for r in netdae.run(netdae.load(RINGING)) if r.analysis == "tran")
+    assert tran.ok, tran.message
+    m = {x.name: x.value for x in tran.measures}
+    assert m["vavg"] == pytest.approx(15.45278, rel=3e-4)
+    assert m["vpp"] == pytest.approx(2.444196, rel=2e-3)
+
+
+def test_the_runaway_message_names_the_high_orders():
+    names, kinds = ["v(a)", "i(l1)"], np.array([0, 1])
+    start, end = np.array([1.0, 1e-3]), np.array([3e18, 2e12])
+    assert "maxord=2" in runaway(names, kinds, start, end, max_order=5)
+    assert "maxord=2" not in runaway(names, kinds, start, end, max_order=2)
