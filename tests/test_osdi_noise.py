@@ -104,7 +104,8 @@ Vdd vdd 0 1.2
 Vin in 0 dc 0.55 ac 1
 M1 out in 0 0 nk l=0.3u w=2u
 R1 vdd out 3k
-.model nk nmos level=54 version=4.8 toxe=2.5n vth0=0.4 u0=0.03 fnoimod=0 kf=1e-26 af=1.2 ef=0.9 tnoimod={tnoimod} rdsw=150
+.model nk nmos level=54 version=4.8 toxe=2.5n vth0=0.4 u0=0.03 fnoimod=0 kf=1e-26 af=1.2 ef=0.9
++ tnoimod={tnoimod} rdsw=150
 .noise v(out) Vin dec 1 1e6 1e6 1
 .end
 """

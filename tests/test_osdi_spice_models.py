@@ -268,7 +268,8 @@ Vdd vdd 0 5
 Vin in 0 dc 1.2 ac 1
 M1 out in 0 0 mm l=2u w=10u {inst}
 R1 vdd out 50k
-.model mm nmos level={level} vto=0.7 kp=60u gamma=0.5 phi=0.7 nsub=1e16 uo=600 kf=1e-26 af=1.2 cgso=3e-10 cgdo=3e-10 {card}
+.model mm nmos level={level} vto=0.7 kp=60u gamma=0.5 phi=0.7 nsub=1e16 uo=600 kf=1e-26 af=1.2 cgso=3e-10
++ cgdo=3e-10 {card}
 .noise v(out) Vin dec 1 1 1k
 .end
 """

@@ -366,7 +366,8 @@ _MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance
                   model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
                   form=_MOS_SIZES)  # mos6par.c: no .options scale
 _MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
-                  module_only=frozenset({"type"}), rewrites=(_spice3_flicker(1, False),), form=_MOS_SIZES)  # mos9par.c: no .options scale
+                  module_only=frozenset({"type"}), rewrites=(_spice3_flicker(1, False),),
+                  form=_MOS_SIZES)  # mos9par.c: no .options scale
 _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
                    instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
                    form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
