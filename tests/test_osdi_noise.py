@@ -96,3 +96,36 @@ M1 out in 0 0 nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u
     flicker = np.asarray(ours["onoise_m1_flicker"])
     assert flicker[0] ** 2 > 0.5 * np.asarray(ours["onoise_spectrum"])[0] ** 2
     np.testing.assert_allclose(flicker[0] / flicker[5], 10 ** (0.9 / 2), rtol=1e-6)
+
+
+#: A common-source stage near threshold whose card selects BSIM4's holistic thermal noise (tnoimod=1).
+HOLISTIC = """bsim4 tnoimod={tnoimod}
+Vdd vdd 0 1.2
+Vin in 0 dc 0.55 ac 1
+M1 out in 0 0 nk l=0.3u w=2u
+R1 vdd out 3k
+.model nk nmos level=54 version=4.8 toxe=2.5n vth0=0.4 u0=0.03 fnoimod=0 kf=1e-26 af=1.2 ef=0.9
++ tnoimod={tnoimod} rdsw=150
+.noise v(out) Vin dec 1 1e6 1e6 1
+.end
+"""
+
+
+def test_holistic_thermal_noise_is_warned_about_and_differs_as_the_warning_says():
+    """tnoimod=1 reads the port's gm, gmbs, gds, which are not the current's derivatives.
+
+    ngspice 39 on HOLISTIC (tnoimod=1; 'noise v(out) Vin dec 1 1e6 1e6 1', numdgt=9): onoise.m1.id
+    1.503078646e-09, onoise.m1.rs 2.914670047e-09, onoise.m1.1overf 9.702905248e-09 V/sqrt(Hz),
+    onoise_spectrum 1.242327346e-08; its @m1[gm] 9.16958669e-05 S against the port's 2.8553369e-05.
+    The sources that do not read gm agree; the channel's is 8.7 times smaller in power. tnoimod=0
+    and 2 are not warned about (both equal to ngspice 39: netdae compare).
+    """
+    circuit = netdae.load(HOLISTIC.format(tnoimod=1))
+    assert [w for w in (d.message for d in circuit.diagnostics if d.severity == "warning") if "tnoimod=1" in w]
+    for other in (0, 2):
+        assert not [d for d in netdae.load(HOLISTIC.format(tnoimod=other)).diagnostics if "tnoimod" in d.message]
+    ours = netdae.run(HOLISTIC.format(tnoimod=1))[0]
+    assert abs(ours["onoise_m1_rs"][0]) == pytest.approx(2.914670047e-09, rel=1e-6)
+    assert abs(ours["onoise_m1_flicker"][0]) == pytest.approx(9.702905248e-09, rel=1e-6)
+    assert (1.503078646e-09 / abs(ours["onoise_m1_id"][0])) ** 2 == pytest.approx(8.7, rel=0.01)
+    assert abs(ours["onoise_spectrum"][0]) == pytest.approx(1.242327346e-08 * (1 - 0.0065), rel=1e-3)

@@ -261,6 +261,54 @@ def test_mos3_and_mos9_cards_without_nsub_stand_in_ngspices_defaults():
         assert not warnings_of(circuit)
 
 
+#: A common-source stage (50 kOhm load) whose output noise at 1 Hz is its transistor's flicker noise
+#: (kf=1e-26 af=1.2: 99.7 % of the power).
+FLICKER_STAGE = """flicker noise
+Vdd vdd 0 5
+Vin in 0 dc 1.2 ac 1
+M1 out in 0 0 mm l=2u w=10u {inst}
+R1 vdd out 50k
+.model mm nmos level={level} vto=0.7 kp=60u gamma=0.5 phi=0.7 nsub=1e16 uo=600 kf=1e-26 af=1.2 cgso=3e-10
++ cgdo=3e-10 {card}
+.noise v(out) Vin dec 1 1 1k
+.end
+"""
+
+
+@pytest.mark.parametrize("level, card, inst, ngspice", [
+    # ngspice 39, the same netlists ('noise v(out) Vin dec 1 1 1k', print onoise_spectrum, numdgt=9), 1 Hz
+    (2, "tox=20n lambda=0.02", "", 1.248226066e-03),
+    (2, "lambda=0.02", "", 6.241130320e-03),  # tox 1e-7 m when not given
+    (2, "tox=20n lambda=0.02", "m=2", 1.276182674e-03),
+    (2, "tox=20n lambda=0.02", "m=3", 1.274545211e-03),
+    (3, "tox=20n", "", 1.362348435e-03),
+    (3, "", "", 6.811742167e-03),
+    (3, "tox=20n", "m=3", 3.755992778e-04),
+    (9, "tox=20n", "", 1.362348435e-03),
+    (9, "tox=20n", "m=3", 2.168523445e-04),
+])
+def test_mos_flicker_noise_is_ngspice_39s(level, card, inst, ngspice):
+    """ngspice 39's MOS2/3/9 flicker density ``kf |id|^af / (f W m^k Leff Cox^2)`` (k = 1, 0, 1).
+
+    Before, MOS2 and MOS3 ran the modules' default ``nlev=2`` (``kf gm^2 / (f^af W Leff Cox)``):
+    3.31e-6 V/sqrt(Hz) against ngspice's 1.248e-3 at 1 Hz (MOS2), a slope of f^-1.2 against f^-1;
+    and every level multiplied one device's density by ``m`` (MOS2 with m=2: 1.684e-3 against 1.276e-3).
+    """
+    result = netdae.run(FLICKER_STAGE.format(level=level, card=card, inst=inst))[0]
+    assert result["onoise_spectrum"][0] == pytest.approx(ngspice, rel=1e-5)
+
+
+def test_one_flicker_card_is_translated_once_per_m_and_warned_about_once():
+    circuit = netdae.load(FLICKER_STAGE.format(level=2, card="tox=20n foo=1", inst="m=2")
+                          .replace("R1 vdd", "M2 out in 0 0 mm l=2u w=10u\nR1 vdd"))
+    models = {circuit.element(n).model for n in ("m1", "m2")}
+    assert len(models) == 2
+    kf = sorted(circuit.models[name].params["kf"] for name in models)
+    assert kf[0] == pytest.approx(kf[1] * 2.0 ** (1.2 - 2.0), rel=1e-14)  # MOS2: kf m^(af-2)
+    assert all(circuit.models[name].params["nlev"] == 1 for name in models)
+    assert sum("foo" in w for w in warnings_of(circuit)) == 1
+
+
 def test_sizes_follow_options_scale_as_in_ngspice():
     """MOS2 and MOS3 multiply l, w (and ad, as by its square) by .options scale; ngspice's MOS6 and MOS9 do not."""
     for level, factor in ((2, 1e-6), (3, 1e-6), (6, 1.0), (9, 1.0)):

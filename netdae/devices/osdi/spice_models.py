@@ -162,6 +162,11 @@ class ModuleMap:
         Differences from ngspice 39 that a combination of a card's values brings out: each takes the
         translated card (the module's names and values) and returns what differs (warned about at the
         card) or None.
+    rewrites : tuple of callables
+        ngspice 39's computation written in the module's parameters where the module computes
+        otherwise: each takes the translated card (the module's names and values, ngspice's defaults
+        included) and the instances' ``m`` and changes the card in place (:func:`_spice3_flicker`);
+        a card with ``kf`` is translated once per ``m`` of its instances.
     densities : dict of str to float
         Doping densities ngspice's parameter reader (``b4mpar.c``, ``b3mpar.c``) takes in cm^-3 below the
         given value and in m^-3 above it (it multiplies such a value by 1e-6); the modules read every
@@ -198,6 +203,7 @@ class ModuleMap:
     stand_ins: dict[str, tuple[float, dict[str, float], dict[str, float]]] = field(default_factory=dict)
     differs: dict[str, str] = field(default_factory=dict)
     card_checks: tuple = ()
+    rewrites: tuple = ()
     densities: dict[str, float] = field(default_factory=dict)
     defaults: dict[str, float] = field(default_factory=dict)
     thermal: tuple[str, str] | None = None
@@ -258,6 +264,23 @@ def _bsim4_tunnelling_through_depleted_poly(params: dict) -> str | None:
             "drain current agrees; docs/devices.md)")
 
 
+def _bsim4_holistic_thermal_noise(params: dict) -> str | None:
+    """What differs from ngspice 39 for a card with BSIM4's holistic thermal noise (``tnoimod=1``).
+
+    Its channel noise ``4 k T ((beta (gm + gmbs) + gds)^2 - theta^2 (gm + gmbs + gds)^2) / IdovVds``
+    takes the module's ``gm``, ``gmbs``, ``gds``, which the port computes by the C code's hand-written
+    derivatives, and those are not the drain current's (docs/api.md: the port's ``@m1[gm]`` is a
+    fraction of the true one); the small-signal equations take the exact derivatives and agree
+    with ngspice. ``tnoimod=0`` and ``2`` do not read them (measured equal to ngspice 39).
+    """
+    if params.get("tnoimod") != 1:
+        return None
+    return ("tnoimod=1: the module's holistic channel noise reads its own gm, gmbs and gds, which are not "
+            "the drain current's derivatives, so netdae's .noise differs from ngspice 39's (measured: the "
+            "channel source 8.7 times smaller in power, the output noise density up to 1.7 % low, at vgs = 0.55 V, "
+            "docs/devices.md); the other analyses and tnoimod=0, 2 agree")
+
+
 _MOS_FORM = "{name} nd ng ns nb model [l=..] [w=..] [ad=..] [as=..] [pd=..] [ps=..] [nrd=..] [nrs=..] [m=..]"
 _BSIM4 = ModuleMap(
     "BSIM4", "mosfet", (14, 54), "spice/bsim4v8.osdi", "sp_bsim4v8", "4.8",
@@ -268,7 +291,8 @@ _BSIM4 = ModuleMap(
     model_names={"rgeomod": "instance_rgeomod"},
     module_only=frozenset("type dtemp mult_i mult_q mult_fn ketac lketac wketac pketac".split()),
     nqs=frozenset({"trnqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [nf=..] [name=value ...]",
-    card_checks=(_bsim4_tunnelling_through_depleted_poly,), densities=_BSIM4_DENSITIES,
+    card_checks=(_bsim4_tunnelling_through_depleted_poly, _bsim4_holistic_thermal_noise),
+    densities=_BSIM4_DENSITIES,
 )
 _BSIM3 = ModuleMap(
     "BSIM3", "mosfet", (8, 49), "spice/bsim3v3.osdi", "sp_bsim3v3", "3.3",
@@ -289,15 +313,61 @@ _MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
 #: ngspice 39 without nsub: output characteristics to 1e-6 (tests/test_osdi_spice_models.py), an inverter's
 #: transient as close as with the same nsub in both.
 _NSUB = {"nsub": (1e40, {"phi": 0.6, "gamma": 0.0, "vto": 0.0}, {"xj": 0.0})}
+#: ngspice's MOS oxide permittivity, 3.9 times its vacuum permittivity (mos2temp.c, mos3temp.c) [F/m].
+EPS_OX = 3.9 * 8.854214871e-12
+
+
+def _spice3_flicker(m_exponent: int, through_nlev: bool):
+    """A rewrite giving a MOS2, MOS3 or MOS9 module ngspice 39's flicker noise (:attr:`ModuleMap.rewrites`).
+
+    ngspice 39 (``mos2noi.c``, ``mos3noi.c``, ``mos9noi.c``: SPICE3's formula, no ``nlev``) gives the
+    drain current of an instance the density ``kf |id|^af / (f W m^k Leff Cox^2)``, ``id`` the
+    instance's whole current (``m`` devices), ``k`` = 1 for MOS2 and MOS9, 0 for MOS3 (measured). The
+    MOS2 and MOS3 modules port ngspice 45, whose default ``nlev=2`` is another formula
+    (``kf gm^2 / (f^af W Leff Cox)``) and whose ``nlev=1`` is ``kf |id|^af / (f W Leff Cox)``; the MOS9
+    module's only one has ``Cox^2``; each is one device's, which the simulator multiplies by ``m``, of
+    the current ``id / m``. So ``nlev=1`` (MOS2, MOS3), ``kf`` divided by ``Cox = EPS_OX / tox`` (``tox``
+    1e-7 m when not given, in both) there, and ``kf`` times ``m^(af - 1 - k)`` give ngspice 39's
+    density; ``kf`` enters nothing else.
+
+    Parameters
+    ----------
+    m_exponent : int
+        ``k`` above.
+    through_nlev : bool
+        The module has ngspice 45's ``nlev`` (MOS2, MOS3).
+
+    Returns
+    -------
+    callable
+        ``rewrite(params, mfactor)``, changing the translated card in place.
+    """
+    def rewrite(params: dict, mfactor: float) -> None:
+        kf = params.get("kf", 0.0)
+        if through_nlev:
+            params["nlev"] = 1
+            tox = params.get("tox", 1e-7)
+            if kf and tox > 0.0:
+                kf = kf * tox / EPS_OX
+        if kf and mfactor != 1.0 and mfactor > 0.0:
+            kf = kf * mfactor ** (params.get("af", 1.0) - 1.0 - m_exponent)
+        if kf:
+            params["kf"] = kf
+    return rewrite
+
+
 _MOS2 = ModuleMap("MOS2", "mosfet", (2,), "spice/mos2.osdi", "sp_mos2", instance_names={"m": "$mfactor"},
-                  module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
+                  module_only=frozenset({"type", "nlev", "gdsnoi"}), rewrites=(_spice3_flicker(1, True),),
+                  scaled=True, form=_MOS_SIZES)
 _MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
-                  module_only=frozenset({"type", "nlev", "gdsnoi"}), scaled=True, form=_MOS_SIZES)
+                  module_only=frozenset({"type", "nlev", "gdsnoi"}), rewrites=(_spice3_flicker(0, True),),
+                  scaled=True, form=_MOS_SIZES)
 _MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance_names={"m": "$mfactor"},
                   model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
                   form=_MOS_SIZES)  # mos6par.c: no .options scale
 _MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
-                  module_only=frozenset({"type"}), form=_MOS_SIZES)  # mos9par.c: no .options scale
+                  module_only=frozenset({"type"}), rewrites=(_spice3_flicker(1, False),),
+                  form=_MOS_SIZES)  # mos9par.c: no .options scale
 _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
                    instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
                    form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
@@ -487,8 +557,9 @@ def _instance_name(m: ModuleMap, raw: str, module) -> str | None:
     return name if p is not None and p.kind == "instance" else None
 
 
-def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Model:
-    """The card as a model of the module (named ``name``): names mapped, ngspice's ignored names warned about."""
+def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfactor: float = 1.0) -> Model:
+    """The card as a model of the module (named ``name``) for instances of ``m`` = ``mfactor``: names mapped,
+    ngspice's ignored names warned about."""
     version = m.version_of(card) if m.implemented is not None else None
     where = card.locations.get("version", card.location)
     if version is not None and not version.startswith(m.implemented):
@@ -541,6 +612,8 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str) -> Mo
                 if other_in is not None:
                     params[other_in] = off
                     locations.pop(other_in, None)
+    for rewrite in m.rewrites:
+        rewrite(params, mfactor)
     for check in m.card_checks:
         differs = check(params)
         if differs is not None:
@@ -700,7 +773,9 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                 _refuse(el, card)
             continue
         thermal = _needs_thermal(m, el)
-        key = (el.model, thermal)
+        # a rewrite that reads m (ngspice 39's flicker noise): one translation per m
+        mfactor = float(el.params.get("m", 1.0)) if m.rewrites and card.params.get("kf") else 1.0
+        key = (el.model, thermal, mfactor)
         if key in done:
             m, module, name = done[key]
         else:
@@ -709,8 +784,10 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                 libraries.add(path)
                 circuit.osdi_files.append((path, card.location))
             originals.setdefault(el.model, card)
-            name = el.model if not any(k[0] == el.model for k in done) else f"{el.model}#{module.name}"
-            circuit.models[name] = _model_card(m, card, module, notes, name)
+            name = el.model if not any(k[0] == el.model for k in done) else (
+                f"{el.model}#{module.name}" + (f"#m={mfactor:g}" if mfactor != 1.0 else ""))
+            again = any(k[:2] == key[:2] for k in done)  # the same module for another m: warned already
+            circuit.models[name] = _model_card(m, card, module, [] if again else notes, name, mfactor)
             if not any(k[0] == el.model for k in done):
                 for flag, where in (flags or {}).get(el.model, ()):
                     if flag not in KINDS[m.kind].model_types:
@@ -720,8 +797,9 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                         _warn(notes, f"model {card.name}: flag '{flag}' contradicts the card's type {card.type}: "
                               f"netdae runs it as {card.type}", where)
             library = m.thermal[0] if thermal else m.library
-            notes.append(Diagnostic("note", f"model {card.name}: {_describe(m, card)} runs as the OSDI module "
-                                    f"{module.name} ({library} of netdae[models])", card.location))
+            if not again:
+                notes.append(Diagnostic("note", f"model {card.name}: {_describe(m, card)} runs as the OSDI module "
+                                        f"{module.name} ({library} of netdae[models])", card.location))
             done[key] = (m, module, name)
         if m.off_tnom is not None and key not in warned and (
                 "dtemp" in el.params or "dtemp" in card.params or "temp" in el.params or
