@@ -99,6 +99,22 @@ def test_linear_controlled_sources_and_the_opamp():
     assert (op.kind, op.nodes, op.value) == ("opamp", ("out", "0", "in", "n"), None)
 
 
+def test_hspice_keyword_forms_of_linear_controlled_sources():
+    """ngspice 39 drops VCVS, VCCS, CCCS, CCVS after the output nodes when the card has exactly 7 (E, G)
+    or 6 (F, H) words (inp_compat's replace_token), and runs them as the plain forms (compared: equal);
+    netdae refused them ("unexpected '2.5'")."""
+    c = net("V1 in 0 1\nE1 a 0 VCVS in 0 2.5\nG1 b 0 vccs in a 2m\nF1 c 0 CCCS v1 3\nH1 d 0 ccvs V1 1k\n"
+            "R1 a 0 1\nR2 b 0 1\nR3 c 0 1\nR4 d 0 1")
+    e1, g1, f1, h1 = c.elements[1:5]
+    assert (e1.kind, e1.nodes, e1.value) == ("vcvs", ("a", "0", "in", "0"), 2.5)
+    assert (g1.kind, g1.nodes, g1.value) == ("vccs", ("b", "0", "in", "a"), 2e-3)
+    assert (f1.kind, f1.nodes, f1.value, f1.controls) == ("cccs", ("c", "0"), 3.0, ("v1",))
+    assert (h1.kind, h1.nodes, h1.value, h1.controls) == ("ccvs", ("d", "0"), 1e3, ("v1",))
+    # another length: the word is a node, as in ngspice ('E2 a 0 vcvs 0 2' senses node vcvs)
+    e2 = net("V1 vcvs 0 1\nE2 a 0 vcvs 0 2\nR1 a 0 1").elements[1]
+    assert (e2.kind, e2.nodes, e2.value) == ("vcvs", ("a", "0", "vcvs", "0"), 2.0)
+
+
 def test_behavioural_sources():
     c = net(".param k=3\nV1 in 0 1\nB1 a 0 V=V(in)*k + time\nB2 b 0 I = {2*v(in, a)}\n"
             "E1 c 0 value={V(in)**2}\nG1 d 0 cur='i(v1)*10'\nE2 e 0 vol={V(in, gnd)}")

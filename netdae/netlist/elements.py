@@ -605,8 +605,16 @@ def _pwl_extra(card: Card, toks: list[Token], j: int, extras: dict, syntax: Elem
     return True
 
 
+#: HSPICE's keyword after the output nodes of a linear controlled source, and the card's length with it:
+#: ngspice 39 drops the keyword when the card has exactly that many words (``inp_compat``'s ``replace_token``).
+_HSPICE_KEYWORDS = {"e": ("vcvs", 7), "g": ("vccs", 7), "f": ("cccs", 6), "h": ("ccvs", 6)}
+
+
 def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
     name = toks[0].text
+    keyword, length = _HSPICE_KEYWORDS[letter]
+    if len(toks) == length and toks[3].kind == WORD and toks[3].text == keyword:
+        toks = toks[:3] + toks[4:]  # 'E1 out 0 VCVS in 0 2' is 'E1 out 0 in 0 2'
     # behavioural form: value= (vol= for E, cur= for G)
     keys = {"e": ("value", "vol"), "g": ("value", "cur")}.get(letter, ())
     for k, tok in enumerate(toks):
