@@ -388,3 +388,29 @@ def test_a_double_quoted_param_value_is_its_expression_as_in_ngspice():
     assert c.element("r2").value == 1e3 and c.params["rw"] == 2e3
     with pytest.raises(NetlistError, match="unknown parameter 'abc'"):  # ngspice: 'unknown parameter (abc)'
         load('t\nV1 in 0 1\nR2 in 0 {rv}\n.param rv="abc"\n.op\n.end\n')
+
+
+def test_multiplier_m_of_b_sources_behavioural_e_g_and_linear_g_f():
+    """ngspice 39 multiplies a B source's voltage or current by its m= (asrcload.c), hands an E value='s m=
+    to the B source it makes, makes a G value='s m= the gain of its G, and has m= on VCCS and CCCS (their
+    parallel multiplier); it printed these nine voltages (netdae refused every m= here)."""
+    from netdae.analyses.op import operating_point
+
+    text = ("m\n.param k=1.5\nV1 in 0 2\n"
+            "B1 o1 0 V=V(in) m=2\nB2 0 o2 I=1m*V(in)*V(in) m={k*2}\nG3 0 o3 in 0 1m m=3\n"
+            "G4 0 o4 VALUE={1m*V(in)} m=2\nE5 o5 0 VALUE={V(in)*V(in)} m=2\nG6 0 o6 cur={1m*V(in)} m={k}\n"
+            "E7 o7 0 vol={V(in)+1} m=0.5\nB8 o8 0 V=V(in) tc1=1e-2 m=3\nVs in s 0\nRs s 0 1k\nF9 0 o9 Vs 2 m=3\n"
+            + "".join(f"R{i} o{i} 0 1k\n" for i in range(1, 10)) + ".end\n")
+    r = operating_point(load(text))
+    ngspice = {"o1": 4.0, "o2": 12.0, "o3": 6.0, "o4": 4.0, "o5": 8.0, "o6": 3.0, "o7": 1.5, "o8": 6.0, "o9": 12.0}
+    for node, volts in ngspice.items():
+        assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
+    with pytest.raises(NetlistError, match="unexpected parameter 'm'"):
+        net("V1 in 0 1\nE1 a 0 in 0 2 m=3\nR1 a 0 1")  # the VCVS has no m in ngspice 39
+
+
+def test_own_m_of_a_g_inside_an_instance_with_m_is_refused_as_other_elements_own_m():
+    """ngspice 39 replaces an element's m by its subcircuit instance's (it printed 2 V here, not 6 V)."""
+    text = ".subckt gs in out\nG1 0 out in 0 1m m=3\nR1 out 0 1k\n.ends\nV1 in 0 2\nX1 in o1 gs m=2\n.op"
+    with pytest.raises(NetlistError, match="has its own m= and sits in subcircuit instance x1"):
+        net(text)

@@ -626,7 +626,9 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
             nodes = _nodes(card, toks, 2, syntax)
             kind = "bvoltage" if letter == "e" else "bcurrent"
             start = k + 2 if toks[k + 1].text == "=" else k + 1
-            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, start, syntax))
+            end, mult = _trailing_multiplier(card, toks, start, syntax)
+            return ElementCard(name, kind, card, nodes,
+                               expr=_multiplied(_behavioural(card, toks, start, syntax, end), mult))
     if letter in "eg":
         table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
         if table is not None:
@@ -643,6 +645,7 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
     if letter in "eg":
         nodes = _nodes(card, toks, 4, syntax)
         positional, keywords = split_args(card, toks, 5, syntax)
+        mult, keywords = _parallel_multiplier(card, keywords, syntax, letter)
         if keywords:
             raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
         if letter == "e" and positional and positional[0].kind == WORD and positional[0].text == "opamp":
@@ -655,9 +658,11 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
         if len(positional) > 1:
             raise error(card, positional[1].start, f"unexpected {positional[1].text!r}", syntax)
         kind = "vcvs" if letter == "e" else "vccs"
-        return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[0], syntax))
+        return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[0], syntax),
+                           params={} if mult is None else {"m": mult})
     nodes = _nodes(card, toks, 2, syntax)
     positional, keywords = split_args(card, toks, 3, syntax)
+    mult, keywords = _parallel_multiplier(card, keywords, syntax, letter)
     if keywords:
         raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
     if not positional or positional[0].kind != WORD or parse_number(positional[0].text) is not None:
@@ -670,7 +675,23 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
         raise error(card, positional[2].start, f"unexpected {positional[2].text!r}", syntax)
     kind = "cccs" if letter == "f" else "ccvs"
     return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[1], syntax),
-                       controls=((positional[0].text, positional[0].start),))
+                       params={} if mult is None else {"m": mult}, controls=((positional[0].text, positional[0].start),))
+
+
+def _parallel_multiplier(card: Card, keywords, syntax, letter: str):
+    """``(m, other keywords)``: the ``m=`` of a linear G or F (ngspice 39's VCCS and CCCS ``m``, the parallel
+    multiplier of their current; E and H have none), else ``(None, keywords)``."""
+    if letter not in "gf":
+        return None, keywords
+    found = [kv for kv in keywords if kv[0].text == "m"]
+    if not found:
+        return None, keywords
+    if len(found) > 1:
+        raise error(card, found[1][0].start, "multiplier m given twice", syntax)
+    values = found[0][1]
+    if len(values) > 1:
+        raise error(card, values[1].start, f"unexpected {values[1].text!r} after m=", syntax)
+    return parse_value(card, values[0], syntax, "multiplier m"), [kv for kv in keywords if kv[0].text != "m"]
 
 
 def _behavioural(card: Card, toks: list[Token], k: int, syntax, end: int | None = None) -> tuple:
@@ -856,7 +877,27 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
 #: Instance parameters ngspice 39's B source takes after its expression (netdae reads tc1 and tc2: the value times
 #: ``1 + tc1 (T - 27) + tc2 (T - 27)^2``, ``_Elaborator._temperature_scaled``).
 _B_INSTANCE = {"tc1": "temperature coefficient", "tc2": "temperature coefficient", "temp": "instance temperature",
-               "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier"}
+               "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier",
+               "m": "multiplier"}
+
+
+def _multiplied(expr: tuple, mult) -> tuple:
+    """A behavioural expression ``(node, offset)`` times the multiplier ``m=`` (a parsed value), as ngspice's
+    B source applies it (``asrcload.c``: its voltage or current times m)."""
+    if mult is None:
+        return expr
+    m = ex.Const(mult[0]) if isinstance(mult[0], float) else mult[0]
+    return ex.Binary("*", m, expr[0]), expr[1]
+
+
+def _trailing_multiplier(card: Card, toks: list[Token], start: int, syntax):
+    """``(end, m)``: a ``m=value`` closing an E/G ``value={expr}`` card (ngspice 39 hands it to the B source it
+    makes of an E, and makes it the gain of the G it makes of a G), else ``(len(toks), None)``."""
+    n = len(toks)
+    if n - 3 > start and toks[n - 3].kind == WORD and toks[n - 3].text == "m" and toks[n - 2].text == "=" \
+            and toks[n - 4].kind == EXPR:
+        return n - 3, parse_value(card, toks[n - 1], syntax, "multiplier m")
+    return n, None
 
 
 def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
@@ -873,7 +914,7 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
                 and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"
                                                  or toks[k - 1].kind == EXPR or k > end):
             word = toks[k].text
-            if word not in ("tc1", "tc2"):
+            if word not in ("tc1", "tc2", "m"):
                 raise error(card, toks[k].start, f"{word}= on a B source ({_B_INSTANCE[word]}) is not supported "
                             "by netdae", syntax,
                             hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
@@ -884,7 +925,7 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
             k += 3
             continue
         k += 1
-    expr = _behavioural(card, toks, 5, syntax, end)
+    expr = _multiplied(_behavioural(card, toks, 5, syntax, end), params.pop("m", None))
     return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
 
