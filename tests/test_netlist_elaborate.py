@@ -414,3 +414,21 @@ def test_own_m_of_a_g_inside_an_instance_with_m_is_refused_as_other_elements_own
     text = ".subckt gs in out\nG1 0 out in 0 1m m=3\nR1 out 0 1k\n.ends\nV1 in 0 2\nX1 in o1 gs m=2\n.op"
     with pytest.raises(NetlistError, match="has its own m= and sits in subcircuit instance x1"):
         net(text)
+
+
+def test_b_source_temperature_coefficients_at_its_instance_temperature():
+    """ngspice 39's B source scales by 1 + tc1 dT + tc2 dT^2 with dT = (temp=, else the circuit's plus dtemp=)
+    - 27 C, and ignores dtemp= beside temp= (asrctemp.c); `temper` stays the circuit's. ngspice printed these
+    four voltages at .temp 60 (netdae refused temp= and dtemp=)."""
+    from netdae.analyses.op import operating_point
+
+    text = ("t\n.temp 60\n.param tt=80\nV1 in 0 2\nB1 o1 0 V=V(in) tc1=1e-2 temp=100\n"
+            "B2 o2 0 V=V(in) tc1=1e-2 tc2=1e-4 dtemp=-20\nB3 0 o3 I=1m*V(in) tc1=2e-3 temp={tt} dtemp=5\n"
+            "B4 o4 0 V=V(in)*temper/100 temp=0\n" + "".join(f"R{i} o{i} 0 1k\n" for i in range(1, 5)) + ".end\n")
+    circuit = load(text)
+    r = operating_point(circuit)
+    expected = {"o1": 2 * (1 + 1e-2 * 73), "o2": 2 * (1 + 1e-2 * 13 + 1e-4 * 13**2), "o3": 2 * (1 + 2e-3 * 53),
+                "o4": 1.2}
+    for node, volts in expected.items():
+        assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
+    assert any("dtemp= ignored" in d.message for d in circuit.diagnostics)

@@ -914,7 +914,7 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
                 and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"
                                                  or toks[k - 1].kind == EXPR or k > end):
             word = toks[k].text
-            if word not in ("tc1", "tc2", "m"):
+            if word not in ("tc1", "tc2", "m", "temp", "dtemp"):
                 raise error(card, toks[k].start, f"{word}= on a B source ({_B_INSTANCE[word]}) is not supported "
                             "by netdae", syntax,
                             hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
@@ -925,6 +925,12 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
             k += 3
             continue
         k += 1
+    if "temp" in params and "dtemp" in params:
+        card.warn(params["dtemp"][1], "dtemp= ignored: the instance temperature temp= is given (as ngspice 39 "
+                  "ignores it)")
+        del params["dtemp"]
+    if not ("tc1" in params or "tc2" in params):
+        params.pop("temp", None), params.pop("dtemp", None)  # they enter only the tc1, tc2 factor
     expr = _multiplied(_behavioural(card, toks, 5, syntax, end), params.pop("m", None))
     return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
