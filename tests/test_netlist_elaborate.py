@@ -432,3 +432,17 @@ def test_b_source_temperature_coefficients_at_its_instance_temperature():
     for node, volts in expected.items():
         assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
     assert any("dtemp= ignored" in d.message for d in circuit.diagnostics)
+
+
+def test_e_and_g_value_cards_read_the_b_source_parameters_ngspice_hands_on():
+    """ngspice 39 makes 'E1 o1 0 value={...} tc1=1e-2' a B source with the rest of the card (tc1, tc2, m ...)
+    and a G value='s m= its G's gain; at .temp 77 it printed 1.5, 1.5, 3 and 4.5 V (netdae refused tc1 there:
+    "unexpected 'tc1' in expression")."""
+    from netdae.analyses.op import operating_point
+
+    text = ("t\n.temp 77\nV1 in 0 1\nE1 o1 0 value={V(in)} tc1=1e-2\nG1 0 o2 cur={1m*V(in)} tc1=1e-2\n"
+            "E3 o3 0 vol={V(in)} tc1=1e-2 m=2\nG4 0 o4 value={1m*V(in)} tc1=1e-2 m=3\n"
+            + "".join(f"R{i} o{i} 0 1k\n" for i in range(1, 5)) + ".end\n")
+    r = operating_point(load(text))
+    for node, volts in {"o1": 1.5, "o2": 1.5, "o3": 3.0, "o4": 4.5}.items():
+        assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node

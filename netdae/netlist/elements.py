@@ -626,9 +626,9 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
             nodes = _nodes(card, toks, 2, syntax)
             kind = "bvoltage" if letter == "e" else "bcurrent"
             start = k + 2 if toks[k + 1].text == "=" else k + 1
-            end, mult = _trailing_multiplier(card, toks, start, syntax)
-            return ElementCard(name, kind, card, nodes,
-                               expr=_multiplied(_behavioural(card, toks, start, syntax, end), mult))
+            end, params = _b_instance_parameters(card, toks, start + 1, syntax)
+            expr = _multiplied(_behavioural(card, toks, start, syntax, end), params.pop("m", None))
+            return ElementCard(name, kind, card, nodes, params=params, expr=expr)
     if letter in "eg":
         table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
         if table is not None:
@@ -890,25 +890,18 @@ def _multiplied(expr: tuple, mult) -> tuple:
     return ex.Binary("*", m, expr[0]), expr[1]
 
 
-def _trailing_multiplier(card: Card, toks: list[Token], start: int, syntax):
-    """``(end, m)``: a ``m=value`` closing an E/G ``value={expr}`` card (ngspice 39 hands it to the B source it
-    makes of an E, and makes it the gain of the G it makes of a G), else ``(len(toks), None)``."""
-    n = len(toks)
-    if n - 3 > start and toks[n - 3].kind == WORD and toks[n - 3].text == "m" and toks[n - 2].text == "=" \
-            and toks[n - 4].kind == EXPR:
-        return n - 3, parse_value(card, toks[n - 1], syntax, "multiplier m")
-    return n, None
+def _b_instance_parameters(card: Card, toks: list[Token], first: int, syntax) -> tuple[int, dict]:
+    """``(end, params)``: the instance parameters (``tc1= tc2= temp= dtemp= m=``) closing a B source's
+    expression, searched from token ``first`` on, and the token where the expression ends.
 
-
-def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
-    nodes = _nodes(card, toks, 2, syntax)
-    if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
-        at = toks[3].start if len(toks) > 3 else _end(card)
-        raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
-    kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
+    ngspice 39 hands the rest of an ``E ... value={expr} ...`` card to the B source it makes (and the
+    ``m=`` of a G's to its G), so E and G ``value=``, ``vol=``, ``cur=`` cards read them too. ``temp=``
+    and ``dtemp=`` enter only the tc1, tc2 factor (dropped without one); ``dtemp=`` beside ``temp=`` is
+    ignored with a warning, as ngspice ignores it.
+    """
     params: dict = {}
     end = len(toks)
-    k = 6
+    k = first
     while k < len(toks) - 1:
         if toks[k].kind == WORD and toks[k].text in _B_INSTANCE and toks[k + 1].kind == PUNCT \
                 and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"
@@ -931,6 +924,16 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
         del params["dtemp"]
     if not ("tc1" in params or "tc2" in params):
         params.pop("temp", None), params.pop("dtemp", None)  # they enter only the tc1, tc2 factor
+    return end, params
+
+
+def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    nodes = _nodes(card, toks, 2, syntax)
+    if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
+        at = toks[3].start if len(toks) > 3 else _end(card)
+        raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
+    kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
+    end, params = _b_instance_parameters(card, toks, 6, syntax)
     expr = _multiplied(_behavioural(card, toks, 5, syntax, end), params.pop("m", None))
     return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
