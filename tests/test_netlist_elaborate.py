@@ -446,3 +446,14 @@ def test_e_and_g_value_cards_read_the_b_source_parameters_ngspice_hands_on():
     r = operating_point(load(text))
     for node, volts in {"o1": 1.5, "o2": 1.5, "o3": 3.0, "o4": 4.5}.items():
         assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
+
+
+def test_a_capacitor_value_reading_temper_without_c_key_is_warned():
+    """ngspice 39 turns 'C1 a 0 {1n*(1+2e-3*(temper-27))}' into a charge-defined capacitor of constant charge
+    (inp_compat's b_transformation_wanted matches temper): in ngspice the capacitor carries no current (an RC
+    with it followed its input at once at .temp 75, netdae's charges with tau = 1.1 us)."""
+    warned = load("t\n.temp 75\nV1 in 0 1\nR1 in a 1k\nC1 a 0 {1n*(1+2e-3*(temper-27))}\n.end\n")
+    assert warned.element("c1").value == pytest.approx(1.096e-9)
+    assert any("carries no current there" in d.message for d in warned.diagnostics)
+    keyed = load("t\n.temp 75\nV1 in 0 1\nR1 in a 1k\nC1 a 0 C={1n*(1+2e-3*(temper-27))}\n.end\n")
+    assert not any("carries no current" in d.message for d in keyed.diagnostics)

@@ -270,6 +270,7 @@ UNLABELLED_AREA = "area#unlabelled"
 #: (ngspice's b_transformation_wanted, without ``temper``, which netdae evaluates once).
 _BEHAVIOURAL_VALUE = re.compile(r"(?<![a-z0-9_.])(?:[vi]\s*\(|time(?![a-z0-9_])|hertz(?![a-z0-9_]))")
 _VALUE_KEY = {"resistor": "r", "capacitor": "c", "inductor": "l"}
+_TEMPER = re.compile(r"(?<![a-z0-9_.])temper(?![a-z0-9_])")
 
 
 def circuit_function_calls(cards) -> "re.Pattern | None":
@@ -419,6 +420,10 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
         positional.reverse()  # 'R1 a b RMOD 2k': the model name, then the value (ngspice accepts both orders)
     if positional:
         el.value = parse_value(card, positional[0], syntax)
+        if kind == Kind.CAPACITOR and positional[0].kind == EXPR and _TEMPER.search(positional[0].text):
+            card.warn(positional[0].start, "ngspice 39 makes a capacitor whose value {expr} reads temper, written "
+                      "without c=, the charge expr, a constant: it carries no current there; netdae keeps the "
+                      "capacitance (write c={expr} for both to agree)")
         if len(positional) > 1:
             tok = positional[1]
             if tok.kind != WORD or parse_number(tok.text) is not None:
