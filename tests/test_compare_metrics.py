@@ -274,6 +274,27 @@ def test_dc_nested_sweep_point_and_location():
     assert "differ" in compare_dc(moved, ng, tol=Tolerance(1e-3)).error
 
 
+def test_dc_jump_at_a_point_ngspice_reached_by_adding_its_step_gets_a_note():
+    """`.dc V1 -2 2 0.1` with B1 V=u(V(x)): ngspice's point near 0 is not 0 (it adds the step 20 times; it
+    reported 1.64e-15), netdae's is (start + k step), so u() is 1 in ngspice, 0.5 in netdae, and the points
+    around agree."""
+    mine = -2.0 + np.arange(41) * 0.1
+    theirs = np.empty(41)
+    value = -2.0
+    for k in range(41):
+        theirs[k], value = value, value + 0.1
+    assert theirs[20] != 0.0 and mine[20] == 0.0
+    u = lambda x: np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))  # noqa: E731
+    nd = Result("dc", axes={"v1": mine}, signals={"v(o)": u(mine), "v(x)": mine})
+    ng = Result("dc", axes={"v1": theirs}, signals={"v(o)": u(theirs), "v(x)": theirs})
+    item = compare_dc(nd, ng, tol=Tolerance(1e-3))
+    assert item.passed is False
+    (note,) = [n for n in item.notes if "adds the step" in n]
+    assert note.startswith(f"v(o): at ngspice's point v1 = {theirs[20]:.17g} where netdae's is 0 ")
+    smooth = Result("dc", axes={"v1": mine}, signals={"v(o)": u(theirs) + 0.01 * mine, "v(x)": mine})
+    assert not any("adds the step" in n for n in compare_dc(smooth, ng, tol=Tolerance(1e-3)).notes)
+
+
 def test_ac_needs_the_same_frequencies_and_floors_by_kind():
     f = np.logspace(1, 5, 9)
     h = 1 / (1 + 1j * f / 1e3)

@@ -225,6 +225,14 @@ def test_unsupported_or_wrong_models_are_errors(card, message):
         assemble(load(f"t\nV1 a 0 1\nD1 a 0 dm\n{card}\n.end\n"))
 
 
+def test_an_unknown_instance_parameter_names_the_ones_read():
+    """A misspelt 'are=2' (ngspice 39: 'unknown parameter (are)') lists the parameters netdae reads."""
+    with pytest.raises(CircuitError) as info:
+        assemble(load("t\nV1 a 0 1\nD1 a 0 dm are=2\n.model dm d\n.end\n"))
+    assert "instance parameter 'are' of the diode" in str(info.value)
+    assert info.value.hint == "the diode's instance parameters netdae reads: area, m, off, temp, dtemp, ic"
+
+
 def test_missing_or_mistyped_model_is_an_error():
     # the netlist reader checks models; a circuit built otherwise is checked by the family
     circuit = load("t\nV1 a 0 1\nD1 a 0 dm\n.model dm d\n.end\n")

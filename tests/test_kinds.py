@@ -177,6 +177,7 @@ _ALLOWED_TABLES = {
     ("netdae/netlist/lossy.py", "MODEL_FORMS"),  # the .model forms of ngspice's line models, by model type
     ("netdae/netlist/elaborate.py", "_PASSIVE_MODEL_PARAMS"),  # R, C, L model parameters (ngspice's res.c ...)
     ("netdae/netlist/elements.py", "_VALUE_KEY"),  # the value keyword of R, C, L cards
+    ("netdae/netlist/elements.py", "_HSPICE_KEYWORDS"),  # HSPICE's VCVS ... keywords of E, G, F, H cards, by letter
     ("netdae/netlist/syntax.py", "ELEMENTS"),  # the card syntax per letter
 }
 

@@ -99,6 +99,22 @@ def test_linear_controlled_sources_and_the_opamp():
     assert (op.kind, op.nodes, op.value) == ("opamp", ("out", "0", "in", "n"), None)
 
 
+def test_hspice_keyword_forms_of_linear_controlled_sources():
+    """ngspice 39 drops VCVS, VCCS, CCCS, CCVS after the output nodes when the card has exactly 7 (E, G)
+    or 6 (F, H) words (inp_compat's replace_token), and runs them as the plain forms (compared: equal);
+    netdae refused them ("unexpected '2.5'")."""
+    c = net("V1 in 0 1\nE1 a 0 VCVS in 0 2.5\nG1 b 0 vccs in a 2m\nF1 c 0 CCCS v1 3\nH1 d 0 ccvs V1 1k\n"
+            "R1 a 0 1\nR2 b 0 1\nR3 c 0 1\nR4 d 0 1")
+    e1, g1, f1, h1 = c.elements[1:5]
+    assert (e1.kind, e1.nodes, e1.value) == ("vcvs", ("a", "0", "in", "0"), 2.5)
+    assert (g1.kind, g1.nodes, g1.value) == ("vccs", ("b", "0", "in", "a"), 2e-3)
+    assert (f1.kind, f1.nodes, f1.value, f1.controls) == ("cccs", ("c", "0"), 3.0, ("v1",))
+    assert (h1.kind, h1.nodes, h1.value, h1.controls) == ("ccvs", ("d", "0"), 1e3, ("v1",))
+    # another length: the word is a node, as in ngspice ('E2 a 0 vcvs 0 2' senses node vcvs)
+    e2 = net("V1 vcvs 0 1\nE2 a 0 vcvs 0 2\nR1 a 0 1").elements[1]
+    assert (e2.kind, e2.nodes, e2.value) == ("vcvs", ("a", "0", "vcvs", "0"), 2.0)
+
+
 def test_behavioural_sources():
     c = net(".param k=3\nV1 in 0 1\nB1 a 0 V=V(in)*k + time\nB2 b 0 I = {2*v(in, a)}\n"
             "E1 c 0 value={V(in)**2}\nG1 d 0 cur='i(v1)*10'\nE2 e 0 vol={V(in, gnd)}")
@@ -372,3 +388,72 @@ def test_a_double_quoted_param_value_is_its_expression_as_in_ngspice():
     assert c.element("r2").value == 1e3 and c.params["rw"] == 2e3
     with pytest.raises(NetlistError, match="unknown parameter 'abc'"):  # ngspice: 'unknown parameter (abc)'
         load('t\nV1 in 0 1\nR2 in 0 {rv}\n.param rv="abc"\n.op\n.end\n')
+
+
+def test_multiplier_m_of_b_sources_behavioural_e_g_and_linear_g_f():
+    """ngspice 39 multiplies a B source's voltage or current by its m= (asrcload.c), hands an E value='s m=
+    to the B source it makes, makes a G value='s m= the gain of its G, and has m= on VCCS and CCCS (their
+    parallel multiplier); it printed these nine voltages (netdae refused every m= here)."""
+    from netdae.analyses.op import operating_point
+
+    text = ("m\n.param k=1.5\nV1 in 0 2\n"
+            "B1 o1 0 V=V(in) m=2\nB2 0 o2 I=1m*V(in)*V(in) m={k*2}\nG3 0 o3 in 0 1m m=3\n"
+            "G4 0 o4 VALUE={1m*V(in)} m=2\nE5 o5 0 VALUE={V(in)*V(in)} m=2\nG6 0 o6 cur={1m*V(in)} m={k}\n"
+            "E7 o7 0 vol={V(in)+1} m=0.5\nB8 o8 0 V=V(in) tc1=1e-2 m=3\nVs in s 0\nRs s 0 1k\nF9 0 o9 Vs 2 m=3\n"
+            + "".join(f"R{i} o{i} 0 1k\n" for i in range(1, 10)) + ".end\n")
+    r = operating_point(load(text))
+    ngspice = {"o1": 4.0, "o2": 12.0, "o3": 6.0, "o4": 4.0, "o5": 8.0, "o6": 3.0, "o7": 1.5, "o8": 6.0, "o9": 12.0}
+    for node, volts in ngspice.items():
+        assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
+    with pytest.raises(NetlistError, match="unexpected parameter 'm'"):
+        net("V1 in 0 1\nE1 a 0 in 0 2 m=3\nR1 a 0 1")  # the VCVS has no m in ngspice 39
+
+
+def test_own_m_of_a_g_inside_an_instance_with_m_is_refused_as_other_elements_own_m():
+    """ngspice 39 replaces an element's m by its subcircuit instance's (it printed 2 V here, not 6 V)."""
+    text = ".subckt gs in out\nG1 0 out in 0 1m m=3\nR1 out 0 1k\n.ends\nV1 in 0 2\nX1 in o1 gs m=2\n.op"
+    with pytest.raises(NetlistError, match="has its own m= and sits in subcircuit instance x1"):
+        net(text)
+
+
+def test_b_source_temperature_coefficients_at_its_instance_temperature():
+    """ngspice 39's B source scales by 1 + tc1 dT + tc2 dT^2 with dT = (temp=, else the circuit's plus dtemp=)
+    - 27 C, and ignores dtemp= beside temp= (asrctemp.c); `temper` stays the circuit's. ngspice printed these
+    four voltages at .temp 60 (netdae refused temp= and dtemp=)."""
+    from netdae.analyses.op import operating_point
+
+    text = ("t\n.temp 60\n.param tt=80\nV1 in 0 2\nB1 o1 0 V=V(in) tc1=1e-2 temp=100\n"
+            "B2 o2 0 V=V(in) tc1=1e-2 tc2=1e-4 dtemp=-20\nB3 0 o3 I=1m*V(in) tc1=2e-3 temp={tt} dtemp=5\n"
+            "B4 o4 0 V=V(in)*temper/100 temp=0\n" + "".join(f"R{i} o{i} 0 1k\n" for i in range(1, 5)) + ".end\n")
+    circuit = load(text)
+    r = operating_point(circuit)
+    expected = {"o1": 2 * (1 + 1e-2 * 73), "o2": 2 * (1 + 1e-2 * 13 + 1e-4 * 13**2), "o3": 2 * (1 + 2e-3 * 53),
+                "o4": 1.2}
+    for node, volts in expected.items():
+        assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
+    assert any("dtemp= ignored" in d.message for d in circuit.diagnostics)
+
+
+def test_e_and_g_value_cards_read_the_b_source_parameters_ngspice_hands_on():
+    """ngspice 39 makes 'E1 o1 0 value={...} tc1=1e-2' a B source with the rest of the card (tc1, tc2, m ...)
+    and a G value='s m= its G's gain; at .temp 77 it printed 1.5, 1.5, 3 and 4.5 V (netdae refused tc1 there:
+    "unexpected 'tc1' in expression")."""
+    from netdae.analyses.op import operating_point
+
+    text = ("t\n.temp 77\nV1 in 0 1\nE1 o1 0 value={V(in)} tc1=1e-2\nG1 0 o2 cur={1m*V(in)} tc1=1e-2\n"
+            "E3 o3 0 vol={V(in)} tc1=1e-2 m=2\nG4 0 o4 value={1m*V(in)} tc1=1e-2 m=3\n"
+            + "".join(f"R{i} o{i} 0 1k\n" for i in range(1, 5)) + ".end\n")
+    r = operating_point(load(text))
+    for node, volts in {"o1": 1.5, "o2": 1.5, "o3": 3.0, "o4": 4.5}.items():
+        assert float(r.signals[f"v({node})"][0]) == pytest.approx(volts, rel=1e-12), node
+
+
+def test_a_capacitor_value_reading_temper_without_c_key_is_warned():
+    """ngspice 39 turns 'C1 a 0 {1n*(1+2e-3*(temper-27))}' into a charge-defined capacitor of constant charge
+    (inp_compat's b_transformation_wanted matches temper): in ngspice the capacitor carries no current (an RC
+    with it followed its input at once at .temp 75, netdae's charges with tau = 1.1 us)."""
+    warned = load("t\n.temp 75\nV1 in 0 1\nR1 in a 1k\nC1 a 0 {1n*(1+2e-3*(temper-27))}\n.end\n")
+    assert warned.element("c1").value == pytest.approx(1.096e-9)
+    assert any("carries no current there" in d.message for d in warned.diagnostics)
+    keyed = load("t\n.temp 75\nV1 in 0 1\nR1 in a 1k\nC1 a 0 C={1n*(1+2e-3*(temper-27))}\n.end\n")
+    assert not any("carries no current" in d.message for d in keyed.diagnostics)

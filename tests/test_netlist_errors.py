@@ -166,8 +166,8 @@ CASES = [
      r"supported", 2, "thermal"),
     ("t\nQ1 c b 0 s tj qm\n.model qm npn\n", r"q1: 5 nodes \(with a thermal node\) need a self-heating model; "
      r"model qm is npn level 1", 2, "Q1"),
-    ("t\nB1 1 0 V=v(2)*2 tc1=1m temp=50\n", r"temp= on a B source \(instance temperature\) is not supported", 2,
-     "temp"),
+    ("t\nB1 1 0 V=v(2)*2 tc1=1m reciprocm=1\n", r"reciprocm= on a B source \(multiplier\) is not supported", 2,
+     "reciprocm"),
     ("t\nB1 1 0 V=(v(2)>1) | (v(2)<0)\n", r"'\|' \(PSpice's logical or\) is not supported by netdae", 2, "|"),
     ("t\n.param p={(1>0) & (2>1)}\n", r"'&' \(PSpice's logical and\) is not supported by netdae", 2, "&"),
     ("t\nS1 1 0 2 0 sm\n.model sm vswitch(ron=1)\n", r"model 'sm' is of type 'vswitch', PSpice's voltage-controlled "

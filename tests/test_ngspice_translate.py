@@ -220,3 +220,22 @@ K1 L1 L2 L3 0.8
 """
     comparison = netdae.compare(text, tight=True, tol=1e-3)
     assert comparison.passed, comparison
+
+
+@pytest.mark.parametrize("func", [
+    ".func fact(n) {n <= 1 ? 1 : n*fact(n-1)}",
+    ".FUNC Fact (n) = {n <= 1 ? 1 : n * FACT(n - 1)}",
+])
+def test_a_self_calling_func_is_not_handed_to_ngspice(func):
+    """ngspice 39 expands such a .func without end and stops with a segmentation fault (measured: exit
+    status 139 in batch mode; the shared library took `netdae compare` down with it)."""
+    text = f"t\n{func}\nV1 in 0 1\nR1 in 0 {{fact(4)*10}}\n.op\n.end\n"
+    with pytest.raises(NgspiceError, match=r"line 2: \.func fact calls itself: .*segmentation fault"):
+        translate_for_ngspice(text)
+
+
+def test_funcs_calling_each_other_are_left_to_ngspice():
+    """ngspice 39 refuses those itself ("Undefined parameter [g]"), without crashing."""
+    text = "t\n.func f(x) {x > 1 ? g(x-1) : 1}\n.func g(x) {2*f(x)}\n.func h(x) {sqrt(x)}\nR1 a 0 1k\n.end\n"
+    out, _ = translate_for_ngspice(text)
+    assert ".func g(x) {2*f(x)}" in out

@@ -137,8 +137,8 @@ def _model_parameters(circuit: Circuit, el: Element, ac: bool) -> list[SensParam
     back = {v: k for k, v in spelling.items()}
     given = {_canonical(table, k): v for k, v in model.params.items()}
     names = [_canonical(table, back.get(n, n)) for n in SENS_MODEL_PARAMETERS[family]]
-    for key in given:
-        if key in names or key == "level" or key in table.inert and key not in names:
+    for key in given:  # the equation selectors (integers) are not listed by ngspice
+        if key in names or key in ("level", "tlev") or key in table.inert and key not in names:
             continue
         if key in SENS_AC_ONLY[family] and not ac:
             continue

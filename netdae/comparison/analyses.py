@@ -359,6 +359,11 @@ def _failed_first(item: AnalysisComparison, failed: str | None) -> AnalysisCompa
     return item
 
 
+#: A .dc signal that disagrees at one point by this many times its difference at the points around, where
+#: ngspice's sweep value is not netdae's, gets a note saying that an expression may jump there.
+JUMP_RATIO = 100.0
+
+
 def _sweep_point(axes: dict[str, np.ndarray], k: int) -> dict[str, float]:
     return {name: float(values[k]) for name, values in axes.items()}
 
@@ -428,13 +433,28 @@ def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     item.points = int(m)
     item.curves = {"axis": ng.axis, "axes": ng.axes, "start": 0, "values": {n: (a[n], b[n]) for n in compared}}
     signals = []
+    shifted: dict[int, list[str]] = {}
     for k, name in enumerate(compared):
         mm = waveform_metrics(index, a[name], b[name], scale=scales[k], weighted=False)
+        verdict = _verdict(tol, mm.max_abs, scales[k])
         signals.append(SignalComparison(
             name, mm.max_abs, mm.max_rel, mm.rms, _sweep_point(ng.axes, mm.worst), float(scales[k]),
-            "floor" if floored[k] else "range", _verdict(tol, mm.max_abs, scales[k]),
+            "floor" if floored[k] else "range", verdict,
             netdae=float(a[name][mm.worst]), ngspice=float(b[name][mm.worst]),
         ))
+        j = int(mm.worst)
+        if verdict is False and any(nd.axes[n][j] != ng.axes[n][j] for n in ng.axes):
+            around = float(np.max(np.abs(a[name] - b[name])[[i for i in (j - 1, j + 1) if 0 <= i < m]],
+                                  initial=0.0))
+            if _verdict(tol, around, scales[k]) and mm.max_abs > JUMP_RATIO * around:  # one point off: a jump
+                shifted.setdefault(j, []).append(name)
+    for j, names in shifted.items():
+        values = ", ".join(f"{n} = {ng.axes[n][j]:.17g} where netdae's is {nd.axes[n][j]:.17g}"
+                           for n in ng.axes if nd.axes[n][j] != ng.axes[n][j])
+        item.notes.append(f"{', '.join(names)}: at ngspice's point {values} (ngspice adds the step repeatedly, "
+                          "netdae computes start + k step): an expression that jumps at that value (u(), sgn(), "
+                          "a comparison, floor, ceil, nint) can be on different sides of its jump in each, while the points "
+                          "around agree")
     item.signals = _sorted(signals)
     return item
 

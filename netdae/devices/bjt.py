@@ -47,6 +47,10 @@ are taken as multiples of IS (SPICE2's C2/C4). As in ngspice 39 the
 base-collector saturation current is ``IS * area * areab`` (vertical) or
 ``IS * area * areac`` (lateral): with ``area != 1`` it scales with area
 twice. The instance multiplier ``m`` multiplies every current and charge.
+``TLEV=1`` makes XTB's factor ``1 + XTB dT``; the coefficients of
+:data:`TEMPERATURE_COEFFICIENTS` multiply their parameter by
+``1 + c1 dT + c2 dT^2`` (``dT = T - Tnom``), BF and BR only when one of theirs
+is given (then instead of XTB's factor).
 
 Newton: ``pnjlim`` on vbe and vbc (``vt``, ``vcrit = vt ln(vt/(sqrt 2 IS area))``)
 and on vsub (critical voltage 50 V, as ngspice without ISS); the first
@@ -54,7 +58,7 @@ iteration from a zero iterate starts at ``vbe = vcrit``, ``vbc = 0``
 (all 0 for ``off``).
 
 Not implemented (rejected with an error): excess phase PTF, quasi-saturation
-(RCO ...), ISS/NS, IBE/IBC, temperature coefficients (TLEV ...).
+(RCO ...), ISS/NS, IBE/IBC, ``TLEV=3``, ``TLEVC``.
 Noise (``.noise``, :meth:`BjtFamily.noise`, ngspice's ``bjtnoise.c``): thermal
 noise of RC, RB (the bias-dependent ``1/gx``) and RE, shot noise of ``ic``
 and ``ib``, flicker noise ``KF |ib|^AF / f`` (times m). Accepted without
@@ -79,6 +83,19 @@ from .modelcard import ParameterTable, gather, instance_values, require_positive
 
 __all__ = ["BjtFamily", "BJT_PARAMETERS"]
 
+#: The parameters ngspice 39 scales by ``1 + c1 dT + c2 dT^2`` (``dT = T - Tnom``, ``bjttemp.c``), each with the
+#: names of its two coefficients. BF and BR take this factor instead of ``XTB``'s only when one of theirs is given.
+TEMPERATURE_COEFFICIENTS = tuple(
+    f"t{p}{k}" for p in ("bf", "br", "ikf", "ikr", "irb", "nc", "ne", "nf", "nr", "rb", "rc", "re", "rm",
+                         "vaf", "var", "itf", "tf", "tr", "mje", "mjc", "mjs") for k in (1, 2)
+)
+
+
+def _temperature_factor(g, name: str, dt: np.ndarray) -> np.ndarray:
+    """ngspice's ``1 + t<name>1 dT + t<name>2 dT^2`` of a model parameter at the device temperature."""
+    return 1.0 + g(f"t{name}1") * dt + g(f"t{name}2") * dt * dt
+
+
 BJT_PARAMETERS = ParameterTable(
     "bipolar transistor (Gummel-Poon, level 1)",
     defaults={
@@ -87,11 +104,12 @@ BJT_PARAMETERS = ParameterTable(
         "rbm": None, "re": 0.0, "rc": 0.0, "cje": 0.0, "vje": 0.75, "mje": 0.33, "tf": 0.0, "xtf": 0.0,
         "vtf": 0.0, "itf": 0.0, "ptf": 0.0, "cjc": 0.0, "vjc": 0.75, "mjc": 0.33, "xcjc": 1.0, "tr": 0.0,
         "cjs": 0.0, "vjs": 0.75, "mjs": 0.0, "xtb": 0.0, "eg": 1.11, "xti": 3.0, "fc": 0.5, "nkf": None,
-        "subs": None, "tnom": None,
+        "subs": None, "tnom": None, "tlev": 0.0,
+        **{name: 0.0 for name in TEMPERATURE_COEFFICIENTS},
     },
     aliases={"va": "vaf", "ik": "ikf", "c2": "ise", "vb": "var", "c4": "isc", "pe": "vje", "me": "mje",
              "pc": "vjc", "mc": "mjc", "csub": "cjs", "ccs": "cjs", "ps": "vjs", "ms": "mjs", "tref": "tnom",
-             "nk": "nkf"},
+             "nk": "nkf", "trb": "trb1", "trc": "trc1", "tre": "tre1"},
     inert=frozenset({"npn", "pnp", "kf", "af", "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max",
                      "te_max"}),
     family="bjt",
@@ -158,6 +176,9 @@ class BjtFamily(DeviceFamily):
             if mv["ptf"] != 0.0:
                 raise CircuitError(f"{el.name}: model {model.name}: excess phase (PTF) is not supported by netdae",
                                    elements=(el.name,), hint="remove PTF")
+            if mv["tlev"] not in (0.0, 1.0):
+                raise CircuitError(f"{el.name}: model {model.name} has tlev={mv['tlev']:g}; netdae implements tlev=0 "
+                                   "and tlev=1", elements=(el.name,))
             if len(el.nodes) not in (3, 4):
                 raise CircuitError(f"{el.name}: a bipolar transistor has 3 or 4 nodes", elements=(el.name,))
             inst = instance_values(el, _INSTANCE, "bipolar transistor")
@@ -181,6 +202,9 @@ class BjtFamily(DeviceFamily):
                 if row[key] > LEAK_AS_FACTOR:
                     row[key] *= row["is"]
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
+            # BF, BR follow their own coefficients when one is given (even 0), else XTB's factor (bjttemp.c)
+            row["own_bf"] = float(mv.given("tbf1") or mv.given("tbf2"))
+            row["own_br"] = float(mv.given("tbr1") or mv.given("tbr2"))
             rows.append(row)
         self._setup(rows)
 
@@ -198,25 +222,29 @@ class BjtFamily(DeviceFamily):
         self.kf, self.af = g("kf"), g("af")
         self.vt = thermal_voltage(temp)
         factlog = saturation_exponent(g("eg"), g("xti"), tnom, temp)
-        bfactor = np.exp(np.log(temp / tnom) * g("xtb"))
+        dt = temp - tnom
+        tf = lambda name: _temperature_factor(g, name, dt)  # noqa: E731
+        bfactor = np.where(g("tlev") == 0.0, np.exp(np.log(temp / tnom) * g("xtb")), 1.0 + g("xtb") * dt)
         self.is_be = area * g("is") * np.exp(factlog)
         self.is_bc = self.is_be * area_bc
+        # the leakage currents' temperature exponents use NE, NC at tnom, their emission voltages NE, NC at T
         self.ise = area * g("ise") * np.exp(factlog / g("ne")) / bfactor
         self.isc = g("isc") * np.exp(factlog / g("nc")) / bfactor * area_bc
-        self.vtf, self.vtr = g("nf") * self.vt, g("nr") * self.vt
-        self.vte, self.vtc = g("ne") * self.vt, g("nc") * self.vt
-        self.bf, self.br = g("bf") * bfactor, g("br") * bfactor
-        self.inv_vaf, self.inv_var = _inverse(g("vaf")), _inverse(g("var"))
-        self.inv_ikf, self.inv_ikr = _inverse(g("ikf"), area), _inverse(g("ikr"), area)
+        self.vtf, self.vtr = g("nf") * tf("nf") * self.vt, g("nr") * tf("nr") * self.vt
+        self.vte, self.vtc = g("ne") * tf("ne") * self.vt, g("nc") * tf("nc") * self.vt
+        self.bf = g("bf") * np.where(g("own_bf") != 0.0, tf("bf"), bfactor)
+        self.br = g("br") * np.where(g("own_br") != 0.0, tf("br"), bfactor)
+        self.inv_vaf, self.inv_var = _inverse(g("vaf") * tf("vaf")), _inverse(g("var") * tf("var"))
+        self.inv_ikf, self.inv_ikr = _inverse(g("ikf") * tf("ikf"), area), _inverse(g("ikr") * tf("ikr"), area)
         self.nkf = g("nkf")
-        self.gc = self.mult * _inverse(g("rc")) * area
-        self.ge = self.mult * _inverse(g("re")) * area
-        self.rb, self.rbm = g("rb") / area, g("rbm") / area
-        self.irb = g("irb") * area
+        self.gc = self.mult * _inverse(g("rc") * tf("rc")) * area
+        self.ge = self.mult * _inverse(g("re") * tf("re")) * area
+        self.rb, self.rbm = g("rb") * tf("rb") / area, g("rbm") * tf("rm") / area
+        self.irb = g("irb") * tf("irb") * area
         self.vcrit = vcrit(self.vt, self.is_be)
         fc = g("fc")
         self.fc = fc
-        mje, mjc, mjs = (np.minimum(g(k), GRADING_MAX) for k in ("mje", "mjc", "mjs"))
+        mje, mjc, mjs = (np.minimum(g(k) * tf(k), GRADING_MAX) for k in ("mje", "mjc", "mjs"))
         cje, self.vje = scale_junction(g("cje"), mje, g("vje"), tnom, temp)
         cjc, self.vjc = scale_junction(g("cjc"), mjc, g("vjc"), tnom, temp)
         cjs, self.vjs = scale_junction(g("cjs"), mjs, g("vjs"), tnom, temp)
@@ -228,11 +256,11 @@ class BjtFamily(DeviceFamily):
             np.concatenate([mje, mjc, mjc, mjs]),
             np.concatenate([fc, fc, fc, np.zeros_like(fc)]),
         )
-        self.tf, self.tr = g("tf"), g("tr")
+        self.tf, self.tr = g("tf") * tf("tf"), g("tr") * tf("tr")
         self.xtf = g("xtf")
         vtf = g("vtf")
         self.ovtf = _inverse(vtf, VTF_SCALE)
-        self.itf = g("itf") * area
+        self.itf = g("itf") * tf("itf") * area
         self.off = g("off") != 0.0
         self.rb_varies = bool(np.any((self.rb != self.rbm) & (self.rb > 0.0)))
         # the four junction currents of all devices stacked: cbe, cben, cbc, cbcn

@@ -28,6 +28,10 @@ Temperature (device ``temp``, else ``.options temp`` + ``dtemp``; ``TNOM``
 else ``.options tnom``): ``Is ~ exp((T/Tnom - 1) EG/(N vt) + XTI/N ln(T/Tnom))``,
 ``VJ``/``CJO`` by :func:`~netdae.devices.junction.scale_junction`. As
 ngspice: ``IS >= 1e-28``, ``M <= 0.9``, ``VJ`` at temperature at most ``1/FC``.
+Temperature coefficients (``dT = T - Tnom``): ``RS``, ``TT``, ``M`` times
+``1 + c1 dT + c2 dT^2`` (``TRS``/``TRS1`` and ``TRS2``, ``TTT1``/``TTT2``,
+``TM1``/``TM2``); ``BV - TCV dT`` (``TLEV=0``) or ``BV (1 - TCV dT)``
+(``TLEV=1``) before the IBV adjustment.
 
 Newton: ``pnjlim`` on ``vd`` with ``vcrit = vte ln(vte / (sqrt 2 Is))``,
 in the breakdown region on ``-(vd + BV')`` with ``NBV vt``; the first
@@ -46,8 +50,7 @@ current with the knee, as in ngspice 39 (a transient through breakdown and
 forward recovery agrees with it to its printed digits; with the current
 without the knee, the ``cdb`` of older ngspice sources, it was 17 mV off).
 Any other parameter (sidewall,
-tunnelling, recombination, level 3, temperature coefficients) is rejected
-with an error.
+tunnelling, recombination, level 3, ``TLEVC``) is rejected with an error.
 """
 
 from __future__ import annotations
@@ -80,9 +83,11 @@ DIODE_PARAMETERS = ParameterTable(
     defaults={
         "level": 1.0, "is": 1e-14, "n": 1.0, "rs": 0.0, "tt": 0.0, "cjo": 0.0, "vj": 1.0, "m": 0.5,
         "fc": 0.5, "bv": None, "ibv": 1e-3, "nbv": None, "eg": 1.11, "xti": 3.0, "tnom": None, "area": 1.0,
-        "ikf": 0.0, "ikr": 0.0,
+        "ikf": 0.0, "ikr": 0.0, "tlev": 0.0, "tcv": 0.0, "trs": 0.0, "trs2": 0.0, "ttt1": 0.0, "ttt2": 0.0,
+        "tm1": 0.0, "tm2": 0.0,
     },
-    aliases={"js": "is", "cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "ib": "ibv", "tref": "tnom", "ik": "ikf"},
+    aliases={"js": "is", "cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "ib": "ibv", "tref": "tnom", "ik": "ikf",
+             "trs1": "trs"},
     inert=frozenset({"kf", "af", "fv_max", "bv_max", "id_max", "pd_max", "te_max"}),
     family="diode",
     grading=frozenset({"m"}),
@@ -102,6 +107,11 @@ _BREAKDOWN_LIMIT_MARGIN = 10.0
 _REVERSE_KNEE = 3.0
 #: ngspice applies a knee current only to a junction current beyond this magnitude [A].
 KNEE_MIN_CURRENT = 1e-18
+
+
+def _quadratic(t1, t2, dt):
+    """ngspice's temperature factor ``1 + t1 dT + t2 dT^2`` of a diode parameter (``diotemp.c``)."""
+    return 1.0 + t1 * dt + t2 * dt * dt
 
 
 def breakdown_voltage(bv, ibv, isat, nbv_vt, vt, reltol):
@@ -319,8 +329,12 @@ class DiodeFamily(DeviceFamily):
                 raise CircuitError(f"{el.name}: diode model {model.name} has level {mv['level']:g}; "
                                    "netdae implements level 1", elements=(el.name,))
             inst = instance_values(el, _INSTANCE, "diode")
+            if mv["tlev"] not in (0.0, 1.0):
+                raise CircuitError(f"{el.name}: diode model {model.name} has tlev={mv['tlev']:g}; netdae implements "
+                                   "tlev=0 and tlev=1 (as ngspice 39: they differ only in TCV's breakdown voltage)",
+                                   elements=(el.name,))
             row = {k: mv[k] for k in ("is", "n", "rs", "tt", "cjo", "vj", "m", "fc", "ibv", "eg", "xti", "ikf",
-                                      "ikr")}
+                                      "ikr", "tlev", "tcv", "trs", "trs2", "ttt1", "ttt2", "tm1", "tm2")}
             row["bv"] = mv.get("bv", np.nan)
             row["nbv"] = mv.get("nbv", mv["n"])
             row["tnom"] = mv.get("tnom", opts.tnom) + KELVIN
@@ -337,20 +351,22 @@ class DiodeFamily(DeviceFamily):
     def _setup(self, rows, reltol: float) -> None:
         g = lambda name: gather(rows, name)  # noqa: E731
         temp, tnom = g("temp"), g("tnom")
+        dt = temp - tnom
         area = g("area") * g("mult")
         n = g("n")
         self.vt = thermal_voltage(temp)
         self.vte = n * self.vt
-        grading = np.minimum(g("m"), GRADING_MAX)
+        grading = np.minimum(g("m") * _quadratic(g("tm1"), g("tm2"), dt), GRADING_MAX)
         cj, vj = scale_junction(g("cjo") * area, grading, g("vj"), tnom, temp)
         self.isat = np.maximum(g("is"), EPSMIN) * area * np.exp(saturation_exponent(g("eg"), g("xti"), tnom, temp) / n)
         self.vcrit = vcrit(self.vte, self.isat)
         fc = np.minimum(g("fc"), FC_MAX)
         self.depletion = Depletion(cj, np.where(fc * vj > 1.0, 1.0 / fc, vj), grading, fc)
-        self.tt = g("tt")
-        rs, series = g("rs"), g("series") != 0.0
+        self.tt = g("tt") * _quadratic(g("ttt1"), g("ttt2"), dt)
+        rs, series = g("rs") * _quadratic(g("trs"), g("trs2"), dt), g("series") != 0.0
         self.gs = np.where(series, area / np.where(series, rs, 1.0), 0.0)
-        bv = g("bv")
+        bv, tcv = g("bv"), g("tcv")
+        bv = np.where(g("tlev") == 0.0, bv - tcv * dt, bv * (1.0 - tcv * dt))
         self.has_bv = np.isfinite(bv)
         self.vtebrk = g("nbv") * self.vt
         self.knee = -_REVERSE_KNEE * self.vte

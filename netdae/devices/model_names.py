@@ -118,7 +118,7 @@ SENS_MODEL_PARAMETERS: dict[str, tuple[str, ...]] = {
 }
 #: Given model parameters the sensitivity analysis lists in its AC form alone (they enter the charges only).
 SENS_AC_ONLY: dict[str, frozenset] = {
-    "diode": frozenset({"cjo", "tt"}),
+    "diode": frozenset({"cjo", "tt", "ttt1", "ttt2"}),
     "bjt": frozenset({"cje", "vje", "mje", "tf", "xtf", "vtf", "itf", "ptf", "cjc", "vjc", "mjc", "xcjc", "tr",
                       "cjs", "vjs", "mjs"}),
     "mosfet": frozenset({"cbd", "cbs", "cgso", "cgdo", "cgbo", "cj", "cjsw"}),

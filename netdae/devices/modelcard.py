@@ -247,6 +247,7 @@ def instance_values(element: Element, allowed: dict[str, float | None], device: 
             raise CircuitError(
                 f"{where}{element.name}: instance parameter '{name}' of the {device} is not supported by netdae",
                 elements=(element.name,),
+                hint=f"the {device}'s instance parameters netdae reads: {', '.join(allowed)}",
             )
         out[name] = float(value)
     for name, default in allowed.items():

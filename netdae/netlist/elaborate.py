@@ -1178,13 +1178,15 @@ class _Elaborator:
     def _temperature_scaled(self, el: Element, env, card) -> ex.Expr:
         """A B source's expression times ``1 + tc1 dT + tc2 dT^2`` (divided by it with ``reciproctc``).
 
-        ``dT`` is the circuit temperature minus 27 C, as ngspice 39's ASRC device scales its
+        ``dT`` is the instance temperature (``temp=``, else the circuit temperature plus
+        ``dtemp=``) minus 27 C, as ngspice 39's ASRC device scales its
         value (``asrcload.c`` measures from 300.15 K whatever ``tnom`` is); ngspice gives a
         resistor whose value is an expression, turned into a B source, ``reciproctc=1``:
         its resistance is scaled.
         """
         temper = evaluate_val((ex.Param(TEMPER), 0), env, card, "temper")
-        dt = temper - ASRC_REFERENCE_TEMPERATURE
+        temp = el.params.pop("temp", None)  # the instance's temperature: temp=, else the circuit's plus dtemp=
+        dt = (temp if temp is not None else temper + el.params.pop("dtemp", 0.0)) - ASRC_REFERENCE_TEMPERATURE
         factor = 1.0 + el.params.pop("tc1", 0.0) * dt + el.params.pop("tc2", 0.0) * dt * dt
         reciprocal = el.params.pop("reciproctc", 0.0) != 0.0
         return ex.Binary("/" if reciprocal else "*", el.expr, ex.Const(factor))

@@ -270,6 +270,7 @@ UNLABELLED_AREA = "area#unlabelled"
 #: (ngspice's b_transformation_wanted, without ``temper``, which netdae evaluates once).
 _BEHAVIOURAL_VALUE = re.compile(r"(?<![a-z0-9_.])(?:[vi]\s*\(|time(?![a-z0-9_])|hertz(?![a-z0-9_]))")
 _VALUE_KEY = {"resistor": "r", "capacitor": "c", "inductor": "l"}
+_TEMPER = re.compile(r"(?<![a-z0-9_.])temper(?![a-z0-9_])")
 
 
 def circuit_function_calls(cards) -> "re.Pattern | None":
@@ -419,6 +420,10 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
         positional.reverse()  # 'R1 a b RMOD 2k': the model name, then the value (ngspice accepts both orders)
     if positional:
         el.value = parse_value(card, positional[0], syntax)
+        if kind == Kind.CAPACITOR and positional[0].kind == EXPR and _TEMPER.search(positional[0].text):
+            card.warn(positional[0].start, "ngspice 39 makes a capacitor whose value {expr} reads temper, written "
+                      "without c=, the charge expr, a constant: it carries no current there; netdae keeps the "
+                      "capacitance (write c={expr} for both to agree)")
         if len(positional) > 1:
             tok = positional[1]
             if tok.kind != WORD or parse_number(tok.text) is not None:
@@ -605,8 +610,16 @@ def _pwl_extra(card: Card, toks: list[Token], j: int, extras: dict, syntax: Elem
     return True
 
 
+#: HSPICE's keyword after the output nodes of a linear controlled source, and the card's length with it:
+#: ngspice 39 drops the keyword when the card has exactly that many words (``inp_compat``'s ``replace_token``).
+_HSPICE_KEYWORDS = {"e": ("vcvs", 7), "g": ("vccs", 7), "f": ("cccs", 6), "h": ("ccvs", 6)}
+
+
 def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: str) -> ElementCard:
     name = toks[0].text
+    keyword, length = _HSPICE_KEYWORDS[letter]
+    if len(toks) == length and toks[3].kind == WORD and toks[3].text == keyword:
+        toks = toks[:3] + toks[4:]  # 'E1 out 0 VCVS in 0 2' is 'E1 out 0 in 0 2'
     # behavioural form: value= (vol= for E, cur= for G)
     keys = {"e": ("value", "vol"), "g": ("value", "cur")}.get(letter, ())
     for k, tok in enumerate(toks):
@@ -618,7 +631,9 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
             nodes = _nodes(card, toks, 2, syntax)
             kind = "bvoltage" if letter == "e" else "bcurrent"
             start = k + 2 if toks[k + 1].text == "=" else k + 1
-            return ElementCard(name, kind, card, nodes, expr=_behavioural(card, toks, start, syntax))
+            end, params = _b_instance_parameters(card, toks, start + 1, syntax)
+            expr = _multiplied(_behavioural(card, toks, start, syntax, end), params.pop("m", None))
+            return ElementCard(name, kind, card, nodes, params=params, expr=expr)
     if letter in "eg":
         table = next((k for k, t in enumerate(toks[:6]) if t.kind == WORD and t.text == "table"), None)
         if table is not None:
@@ -635,6 +650,7 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
     if letter in "eg":
         nodes = _nodes(card, toks, 4, syntax)
         positional, keywords = split_args(card, toks, 5, syntax)
+        mult, keywords = _parallel_multiplier(card, keywords, syntax, letter)
         if keywords:
             raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
         if letter == "e" and positional and positional[0].kind == WORD and positional[0].text == "opamp":
@@ -647,9 +663,11 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
         if len(positional) > 1:
             raise error(card, positional[1].start, f"unexpected {positional[1].text!r}", syntax)
         kind = "vcvs" if letter == "e" else "vccs"
-        return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[0], syntax))
+        return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[0], syntax),
+                           params={} if mult is None else {"m": mult})
     nodes = _nodes(card, toks, 2, syntax)
     positional, keywords = split_args(card, toks, 3, syntax)
+    mult, keywords = _parallel_multiplier(card, keywords, syntax, letter)
     if keywords:
         raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
     if not positional or positional[0].kind != WORD or parse_number(positional[0].text) is not None:
@@ -662,7 +680,23 @@ def _controlled(card: Card, toks: list[Token], syntax: ElementSyntax, letter: st
         raise error(card, positional[2].start, f"unexpected {positional[2].text!r}", syntax)
     kind = "cccs" if letter == "f" else "ccvs"
     return ElementCard(name, kind, card, nodes, value=parse_value(card, positional[1], syntax),
-                       controls=((positional[0].text, positional[0].start),))
+                       params={} if mult is None else {"m": mult}, controls=((positional[0].text, positional[0].start),))
+
+
+def _parallel_multiplier(card: Card, keywords, syntax, letter: str):
+    """``(m, other keywords)``: the ``m=`` of a linear G or F (ngspice 39's VCCS and CCCS ``m``, the parallel
+    multiplier of their current; E and H have none), else ``(None, keywords)``."""
+    if letter not in "gf":
+        return None, keywords
+    found = [kv for kv in keywords if kv[0].text == "m"]
+    if not found:
+        return None, keywords
+    if len(found) > 1:
+        raise error(card, found[1][0].start, "multiplier m given twice", syntax)
+    values = found[0][1]
+    if len(values) > 1:
+        raise error(card, values[1].start, f"unexpected {values[1].text!r} after m=", syntax)
+    return parse_value(card, values[0], syntax, "multiplier m"), [kv for kv in keywords if kv[0].text != "m"]
 
 
 def _behavioural(card: Card, toks: list[Token], k: int, syntax, end: int | None = None) -> tuple:
@@ -848,24 +882,37 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
 #: Instance parameters ngspice 39's B source takes after its expression (netdae reads tc1 and tc2: the value times
 #: ``1 + tc1 (T - 27) + tc2 (T - 27)^2``, ``_Elaborator._temperature_scaled``).
 _B_INSTANCE = {"tc1": "temperature coefficient", "tc2": "temperature coefficient", "temp": "instance temperature",
-               "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier"}
+               "dtemp": "instance temperature", "reciproctc": "temperature coefficient", "reciprocm": "multiplier",
+               "m": "multiplier"}
 
 
-def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
-    nodes = _nodes(card, toks, 2, syntax)
-    if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
-        at = toks[3].start if len(toks) > 3 else _end(card)
-        raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
-    kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
+def _multiplied(expr: tuple, mult) -> tuple:
+    """A behavioural expression ``(node, offset)`` times the multiplier ``m=`` (a parsed value), as ngspice's
+    B source applies it (``asrcload.c``: its voltage or current times m)."""
+    if mult is None:
+        return expr
+    m = ex.Const(mult[0]) if isinstance(mult[0], float) else mult[0]
+    return ex.Binary("*", m, expr[0]), expr[1]
+
+
+def _b_instance_parameters(card: Card, toks: list[Token], first: int, syntax) -> tuple[int, dict]:
+    """``(end, params)``: the instance parameters (``tc1= tc2= temp= dtemp= m=``) closing a B source's
+    expression, searched from token ``first`` on, and the token where the expression ends.
+
+    ngspice 39 hands the rest of an ``E ... value={expr} ...`` card to the B source it makes (and the
+    ``m=`` of a G's to its G), so E and G ``value=``, ``vol=``, ``cur=`` cards read them too. ``temp=``
+    and ``dtemp=`` enter only the tc1, tc2 factor (dropped without one); ``dtemp=`` beside ``temp=`` is
+    ignored with a warning, as ngspice ignores it.
+    """
     params: dict = {}
     end = len(toks)
-    k = 6
+    k = first
     while k < len(toks) - 1:
         if toks[k].kind == WORD and toks[k].text in _B_INSTANCE and toks[k + 1].kind == PUNCT \
                 and toks[k + 1].text == "=" and (toks[k - 1].kind != PUNCT or toks[k - 1].text == ")"
                                                  or toks[k - 1].kind == EXPR or k > end):
             word = toks[k].text
-            if word not in ("tc1", "tc2"):
+            if word not in ("tc1", "tc2", "m", "temp", "dtemp"):
                 raise error(card, toks[k].start, f"{word}= on a B source ({_B_INSTANCE[word]}) is not supported "
                             "by netdae", syntax,
                             hint="fold the factor into the expression, e.g. V={(1 + tc1*(temper - 27)) * (...)}")
@@ -876,7 +923,23 @@ def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCa
             k += 3
             continue
         k += 1
-    expr = _behavioural(card, toks, 5, syntax, end)
+    if "temp" in params and "dtemp" in params:
+        card.warn(params["dtemp"][1], "dtemp= ignored: the instance temperature temp= is given (as ngspice 39 "
+                  "ignores it)")
+        del params["dtemp"]
+    if not ("tc1" in params or "tc2" in params):
+        params.pop("temp", None), params.pop("dtemp", None)  # they enter only the tc1, tc2 factor
+    return end, params
+
+
+def _b_source(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
+    nodes = _nodes(card, toks, 2, syntax)
+    if len(toks) < 5 or toks[3].kind != WORD or toks[3].text not in ("v", "i") or toks[4].text != "=":
+        at = toks[3].start if len(toks) > 3 else _end(card)
+        raise error(card, at, "expected V={expr} or I={expr} after the nodes", syntax)
+    kind = "bvoltage" if toks[3].text == "v" else "bcurrent"
+    end, params = _b_instance_parameters(card, toks, 6, syntax)
+    expr = _multiplied(_behavioural(card, toks, 5, syntax, end), params.pop("m", None))
     return ElementCard(toks[0].text, kind, card, nodes, params=params, expr=expr)
 
 

@@ -209,6 +209,39 @@ def _is_options(card: _Card) -> bool:
     return card.keyword in (".options", ".option", ".opt", ".opts")
 
 
+_FUNC = re.compile(r"^\.func\s+([a-z_][\w.]*)\s*\(([^)]*)\)\s*=?(.*)$", re.IGNORECASE | re.DOTALL)
+_CALL = re.compile(r"([a-z_][\w.]*)\s*\(", re.IGNORECASE)
+
+
+def _recursive_func(cards: list[_Card]) -> tuple[_Card, str] | None:
+    """The first ``.func`` card whose body calls the function itself, and its name.
+
+    ngspice 39 expands such a function without end, even one whose recursion a ternary ends
+    (``.func fact(n) {n <= 1 ? 1 : n*fact(n-1)}``), called in a parameter or in a B source, and stops
+    with a segmentation fault (measured, batch and shared library alike). Functions calling each other
+    (``f`` calls ``g``, ``g`` calls ``f``) it refuses with an error ("Undefined parameter"), so they are
+    left to it.
+
+    Examples
+    --------
+    >>> card, name = _recursive_func(_cards(["t", ".func h(x) {x*x}", ".FUNC Fact(n) = {n <= 1 ? 1 : n*fact(n-1)}"]))
+    >>> card.first, name
+    (2, 'fact')
+    >>> _recursive_func(_cards(["t", ".func f(x) {g(x)+1}", ".func g(x) {x > 1 ? f(x-1) : 1}"])) is None
+    True
+    """
+    for card in cards:
+        if card.keyword != ".func":
+            continue
+        match = _FUNC.match(card.text.strip())
+        if match is None:
+            continue
+        name = match.group(1).lower()
+        if any(m.group(1).lower() == name for m in _CALL.finditer(match.group(3))):
+            return card, name
+    return None
+
+
 # ---------------------------------------------------------------------------
 # translation
 # ---------------------------------------------------------------------------
@@ -252,6 +285,9 @@ def translate_for_ngspice(
     NetlistError
         When an op-amp card is malformed, and for every card netdae does not
         hand to ngspice (:func:`netdae.ngspice.deck.self_contained`).
+    NgspiceError
+        For a ``.func`` that calls itself, on which ngspice 39 crashes (its
+        segmentation fault would take the process down with the shared library).
 
     Notes
     -----
@@ -288,6 +324,13 @@ def translate_for_ngspice(
         edits[end.first] = (old[0], ".save all\n" + old[1])
         notes.append(f"{origins[analyses[0].first]}: '.save all' added: with .save cards, ngspice 39 saves no "
                      f"{analyses[0].keyword} result ('no data saved for ... analysis; analysis not run')")
+    recursive = _recursive_func(cards)
+    if recursive is not None:
+        card, name = recursive
+        raise NgspiceError(
+            f"{origins[card.first]}: .func {name} calls itself: ngspice 39 expands it without end and stops "
+            "with a segmentation fault (measured), so netdae does not hand it this netlist"
+        )
     bjt = any(card.keyword[:1] == "q" for card in cards)
     sens_seen = False
     for card in cards:
