@@ -145,7 +145,8 @@ def runaway(names, kinds, x_start: np.ndarray, x: np.ndarray, max_order: int = 0
                f"; or the steps followed a lightly damped resonance (an LC ringing) for many periods at BDF order "
                f"{max_order}: orders 3-5 are not A-stable, their error per step can outweigh a high-Q mode's "
                "damping and it grows in the integration while it decays in the circuit (.options maxord=2 keeps "
-               "the A-stable orders 1-2; if the run then finishes, this was the cause)"))
+               "the A-stable orders 1-2; they also damp a true right-half-plane mode at long steps, so a run "
+               "that then finishes shows this cause only where the circuit has no such pole: check with .pz)"))
 
 
 @dataclass(frozen=True, slots=True)
