@@ -329,20 +329,12 @@ class Probe:
         The second Euler step (the right limit of index-2 unknowns when an input value jumps).
     w_floor : ndarray, shape (n,)
         The weights with every tolerance raised to the probe's rounding level.
-    w_err_floor : ndarray, shape (n,)
-        The error-test weights raised likewise: the first step's curvature norm. An unknown
-        known only to the probe's rounding (a common mode held by a large resistance alone)
-        has an ``x''`` of rounding noise that grows like ``1/eps^2``; weighed at its own
-        tolerance it chased each shorter probe's step down (a push-pull converter's restart
-        at a gate corner: 3e-11, 5e-13, 9e-18 s, and Newton then failed on the numerically
-        singular matrices of such steps).
     """
 
-    __slots__ = ("xp", "qp", "xpp", "x_right", "x_2", "w_floor", "w_err_floor")
+    __slots__ = ("xp", "qp", "xpp", "x_right", "x_2", "w_floor")
 
-    def __init__(self, xp, qp, xpp, x_right, x_2, w_floor, w_err_floor):
-        self.xp, self.qp, self.xpp, self.x_right, self.x_2 = xp, qp, xpp, x_right, x_2
-        self.w_floor, self.w_err_floor = w_floor, w_err_floor
+    def __init__(self, xp, qp, xpp, x_right, x_2, w_floor):
+        self.xp, self.qp, self.xpp, self.x_right, self.x_2, self.w_floor = xp, qp, xpp, x_right, x_2, w_floor
 
 
 def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *, after_jump: bool = False) -> Probe:
@@ -400,7 +392,7 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *
         raise Failure("the derivative estimate at the (re)start is not finite", None, newton_hint(INFO_SINGULAR))
     x_right, x_2 = x1 - eps * xp1, x1 + eps * xp1
     qp = np.array(ev.phi, dtype=float)
-    w_floor, w_err_floor = floor.weights(w, w_err, x, qp, 1.0 / eps)
+    w_floor, _ = floor.weights(w, w_err, x, qp, 1.0 / eps)
     if after_jump:
         # phi with the index-2 unknowns the first Euler step solved, not their right limit, which
         # need not be consistent (an index-2 current's right limit after a corner of the inputs)
@@ -409,7 +401,7 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *
         qp += np.bincount(pat.indices, weights=ev.dphi * np.repeat(move, np.diff(pat.indptr)), minlength=x.size)
     xp[high] = 0.0
     xpp[high] = 0.0
-    return Probe(xp, qp, xpp, x_right, x_2, w_floor, w_err_floor)
+    return Probe(xp, qp, xpp, x_right, x_2, w_floor)
 
 
 def oscillates(x, x_right, x_2, w_floor) -> bool:

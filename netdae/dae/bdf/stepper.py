@@ -418,7 +418,7 @@ class BDF:
                     continue  # derivatives from the right limit
             if fixed:
                 break
-            h_new = ctl.first_step_from_curvature(self._normf(p.xpp, p.w_err_floor), cap, self.min_step)
+            h_new = ctl.first_step_from_curvature(self._normf(p.xpp, self._w_err), cap, self.min_step)
             converged = eps <= PROBE_MAX_RATIO * h_new
             h = h_new
             retries += 1

@@ -1053,12 +1053,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
                 continue  # derivatives from the right limit
         if fixed:
             break
-        # the error-test weights raised to the probe's rounding level (``wf`` lowered a Newton
-        # weight there), as startup.Probe.w_err_floor: the curvature of an unknown known only to
-        # rounding is noise growing like 1/eps^2 and would chase each shorter probe's step down
-        for i in range(x.size):
-            b1[i] = w_err[i] if wf[i] == w[i] else min(w_err[i], wf[i])
-        curv = weighted_norm(xpp, b1, I[I_NORM])
+        curv = weighted_norm(xpp, w_err, I[I_NORM])
         if curv * cap * cap <= 2.0 * H0_ERROR_TARGET:
             h_new = cap
         else:
