@@ -77,8 +77,8 @@ from ..errors import CircuitError
 from .base import (Accumulator, DeviceFamily, NoiseSources, SlotMap, flicker, noise_sources, series_nodes, shot,
                    start_from_device_ic, thermal)
 from .companion import BranchStamps, LimitState, starting_voltages
-from .junction import KELVIN, Depletion, ideal_junction, pnjlim, saturation_exponent, scale_junction, \
-    thermal_voltage, vcrit
+from .junction import KELVIN, Depletion, ideal_junction, pnjlim, quadratic_factor, saturation_exponent, \
+    scale_junction, thermal_voltage, vcrit
 from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["BjtFamily", "BJT_PARAMETERS"]
@@ -89,11 +89,6 @@ TEMPERATURE_COEFFICIENTS = tuple(
     f"t{p}{k}" for p in ("bf", "br", "ikf", "ikr", "irb", "nc", "ne", "nf", "nr", "rb", "rc", "re", "rm",
                          "vaf", "var", "itf", "tf", "tr", "mje", "mjc", "mjs") for k in (1, 2)
 )
-
-
-def _temperature_factor(g, name: str, dt: np.ndarray) -> np.ndarray:
-    """ngspice's ``1 + t<name>1 dT + t<name>2 dT^2`` of a model parameter at the device temperature."""
-    return 1.0 + g(f"t{name}1") * dt + g(f"t{name}2") * dt * dt
 
 
 BJT_PARAMETERS = ParameterTable(
@@ -223,7 +218,7 @@ class BjtFamily(DeviceFamily):
         self.vt = thermal_voltage(temp)
         factlog = saturation_exponent(g("eg"), g("xti"), tnom, temp)
         dt = temp - tnom
-        tf = lambda name: _temperature_factor(g, name, dt)  # noqa: E731
+        tf = lambda name: quadratic_factor(g(f"t{name}1"), g(f"t{name}2"), dt)  # noqa: E731
         bfactor = np.where(g("tlev") == 0.0, np.exp(np.log(temp / tnom) * g("xtb")), 1.0 + g("xtb") * dt)
         self.is_be = area * g("is") * np.exp(factlog)
         self.is_bc = self.is_be * area_bc

@@ -68,6 +68,7 @@ from .junction import (
     Depletion,
     ideal_junction,
     pnjlim,
+    quadratic_factor,
     saturation_exponent,
     scale_junction,
     thermal_voltage,
@@ -107,11 +108,6 @@ _BREAKDOWN_LIMIT_MARGIN = 10.0
 _REVERSE_KNEE = 3.0
 #: ngspice applies a knee current only to a junction current beyond this magnitude [A].
 KNEE_MIN_CURRENT = 1e-18
-
-
-def _quadratic(t1, t2, dt):
-    """ngspice's temperature factor ``1 + t1 dT + t2 dT^2`` of a diode parameter (``diotemp.c``)."""
-    return 1.0 + t1 * dt + t2 * dt * dt
 
 
 def breakdown_voltage(bv, ibv, isat, nbv_vt, vt, reltol):
@@ -356,14 +352,14 @@ class DiodeFamily(DeviceFamily):
         n = g("n")
         self.vt = thermal_voltage(temp)
         self.vte = n * self.vt
-        grading = np.minimum(g("m") * _quadratic(g("tm1"), g("tm2"), dt), GRADING_MAX)
+        grading = np.minimum(g("m") * quadratic_factor(g("tm1"), g("tm2"), dt), GRADING_MAX)
         cj, vj = scale_junction(g("cjo") * area, grading, g("vj"), tnom, temp)
         self.isat = np.maximum(g("is"), EPSMIN) * area * np.exp(saturation_exponent(g("eg"), g("xti"), tnom, temp) / n)
         self.vcrit = vcrit(self.vte, self.isat)
         fc = np.minimum(g("fc"), FC_MAX)
         self.depletion = Depletion(cj, np.where(fc * vj > 1.0, 1.0 / fc, vj), grading, fc)
-        self.tt = g("tt") * _quadratic(g("ttt1"), g("ttt2"), dt)
-        rs, series = g("rs") * _quadratic(g("trs"), g("trs2"), dt), g("series") != 0.0
+        self.tt = g("tt") * quadratic_factor(g("ttt1"), g("ttt2"), dt)
+        rs, series = g("rs") * quadratic_factor(g("trs"), g("trs2"), dt), g("series") != 0.0
         self.gs = np.where(series, area / np.where(series, rs, 1.0), 0.0)
         bv, tcv = g("bv"), g("tcv")
         bv = np.where(g("tlev") == 0.0, bv - tcv * dt, bv * (1.0 - tcv * dt))

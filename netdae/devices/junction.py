@@ -45,6 +45,7 @@ __all__ = [
     "pb_factor",
     "scale_junction",
     "saturation_exponent",
+    "quadratic_factor",
     "vcrit",
     "ideal_junction",
     "Depletion",
@@ -163,6 +164,15 @@ def saturation_exponent(eg, xti, tnom_k, temp_k):
     temp_k = np.asarray(temp_k, dtype=float)
     ratio = temp_k / tnom_k
     return (ratio - 1.0) * np.asarray(eg, dtype=float) / thermal_voltage(temp_k) + np.asarray(xti, dtype=float) * np.log(ratio)
+
+
+def quadratic_factor(c1, c2, dt):
+    """ngspice's temperature factor ``1 + c1 dT + c2 dT^2`` of a parameter (``TC1``/``TC2``, ``TRS1``/``TRS2`` ...).
+
+    ``dT`` is the device temperature minus its nominal one; the coefficients
+    and ``dT`` are scalars or arrays (broadcast).
+    """
+    return 1.0 + c1 * dt + c2 * dt * dt
 
 
 def vcrit(vte, isat):

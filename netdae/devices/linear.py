@@ -39,6 +39,7 @@ import numpy as np
 from ..circuit import Circuit, Element
 from ..errors import CircuitError
 from ..kinds import KINDS, Kind
+from .junction import quadratic_factor
 from .stamps import Triplets
 
 #: The transmission line's two port currents (ngspice's names: ``t1#i1``, ``t1#i2``).
@@ -118,7 +119,7 @@ def _temperature_factor(els: list[Element], temp: float, tnom: float) -> np.ndar
     tc2 = np.array([el.params.get("tc2", 0.0) for el in els])
     t = np.array([el.params["temp"] if "temp" in el.params else temp + el.params.get("dtemp", 0.0) for el in els])
     dt = t - np.array([el.params.get("tnom", tnom) for el in els])
-    factor = 1.0 + tc1 * dt + tc2 * dt * dt
+    factor = quadratic_factor(tc1, tc2, dt)
     if any("tce" in el.params for el in els):
         has = np.array(["tce" in el.params for el in els])
         tce = np.array([el.params.get("tce", 0.0) for el in els])

@@ -107,7 +107,7 @@ from ..circuit import Model
 from ..errors import CircuitError, NetlistError
 from .base import Accumulator, DeviceFamily, SlotMap, series_nodes
 from .companion import BranchStamps, GateJunctionLimits, LimitState, starting_voltages
-from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN
+from .junction import BOLTZMANN, CHARGE, K_OVER_Q, KELVIN, quadratic_factor
 from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["MesaFamily", "MESA_PARAMETERS", "mesa2_channel", "mesa3_channel", "mesa4_channel", "mesa_channel",
@@ -468,7 +468,7 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
 
         def scaled(r, t):
             dt = t - tnom
-            return np.where(r != 0.0, r * (1.0 + g("rtc1") * dt + g("rtc2") * dt * dt), 0.0)
+            return np.where(r != 0.0, r * quadratic_factor(g("rtc1"), g("rtc2"), dt), 0.0)
 
         def conductance(r):
             nz = r != 0.0

@@ -77,8 +77,8 @@ from ..errors import CircuitError, NetlistError
 from .base import Accumulator, DeviceFamily, SlotMap, series_nodes
 from .companion import BranchStamps, LimitState, starting_voltages
 from .diode import breakdown_voltage, junction_current, junction_limit
-from .junction import EPSMIN, KELVIN, Depletion, fet_mode_limit, saturation_exponent, scale_junction, \
-    thermal_voltage, vcrit
+from .junction import EPSMIN, KELVIN, Depletion, fet_mode_limit, quadratic_factor, saturation_exponent, \
+    scale_junction, thermal_voltage, vcrit
 from .modelcard import ParameterTable, gather, instance_values, require_positive, resolve_model
 
 __all__ = ["VdmosFamily", "VDMOS_PARAMETERS", "channel_current", "gate_drain_charge"]
@@ -316,7 +316,7 @@ class VdmosFamily(DeviceFamily):
         self.beta = g("kp") * mult * ratio ** g("mu")
         self.von = tp * (g("vto") - tp * g("tcvth") * dt)
         self.init_vgs = tp * g("vto") + INIT_OVERDRIVE
-        self.ksub = g("ksubthres") * (1.0 + g("tksubthres1") * dt + g("tksubthres2") * dt * dt)
+        self.ksub = g("ksubthres") * quadratic_factor(g("tksubthres1"), g("tksubthres2"), dt)
         self.shift = g("subshift")
         self.lam = g("lambda")
         self.theta = g("theta")
@@ -325,7 +325,7 @@ class VdmosFamily(DeviceFamily):
         rd = g("rd")
         texp0 = g("texp0")
         rd_factor = np.where(np.isfinite(texp0), ratio ** np.where(np.isfinite(texp0), texp0, 0.0),
-                             1.0 + g("trd1") * dt + g("trd2") * dt * dt)
+                             quadratic_factor(g("trd1"), g("trd2"), dt))
         self.rd0 = rd / mult * rd_factor
         has_rd = rd > 0.0
         self.gd0 = np.where(has_rd, np.where(self.rd0 > 0.0, 1.0 / np.where(self.rd0 > 0.0, self.rd0, 1.0),
@@ -333,9 +333,9 @@ class VdmosFamily(DeviceFamily):
         self.qs = g("qs") != 0.0
         self.rq = g("rq") / mult * ratio ** g("texp1")
         self.vq = g("vq")
-        self.gs = self._conductance(g("rs"), mult, 1.0 + g("trs1") * dt + g("trs2") * dt * dt)
-        self.gg = self._conductance(g("rg"), mult, 1.0 + g("trg1") * dt + g("trg2") * dt * dt)
-        self.gb = self._conductance(g("rb"), mult, 1.0 + g("trb1") * dt + g("trb2") * dt * dt)
+        self.gs = self._conductance(g("rs"), mult, quadratic_factor(g("trs1"), g("trs2"), dt))
+        self.gg = self._conductance(g("rg"), mult, quadratic_factor(g("trg1"), g("trg2"), dt))
+        self.gb = self._conductance(g("rb"), mult, quadratic_factor(g("trb1"), g("trb2"), dt))
         rds = g("rds")
         self.gds = np.where(np.isfinite(rds) & (rds > 0.0), mult / np.where(rds > 0.0, rds, 1.0),
                             RDS_DEFAULT_CONDUCTANCE)
