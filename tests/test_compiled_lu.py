@@ -464,6 +464,27 @@ def test_cache_key_follows_every_kernel_source(tmp_path):
     assert Path(compiled.CACHE_DIR).name == compiled.ENGINE_PREFIX + compiled.source_key()
 
 
+def test_cache_key_follows_the_constants_a_kernel_imports_and_only_them(tmp_path):
+    """A kernel reads an imported constant when it is compiled: the key follows that definition (and what it is
+    computed from), not the rest of the module it comes from."""
+    pkg = tmp_path / "pkg"
+    (pkg / "kernels").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "kernels" / "__init__.py").write_text("")
+    (pkg / "kernels" / "diode.py").write_text("from ..model import (KNEE,  # the knee\n    helper)\n"
+                                              "def eval(v):\n    return v * KNEE\n")
+    model = pkg / "model.py"
+    model.write_text("BASE = 2.0\nKNEE = 1e-18 * BASE\n\n\ndef helper():\n    return 1\n\n\nOTHER = 3\n")
+    key = compiled.source_key((pkg / "kernels",))
+    model.write_text("BASE = 2.0\nKNEE = 1e-18 * BASE\n\n\ndef helper():\n    return 1\n\n\nOTHER = 4\n")
+    assert compiled.source_key((pkg / "kernels",)) == key  # a definition no kernel imports
+    model.write_text("BASE = 3.0\nKNEE = 1e-18 * BASE\n\n\ndef helper():\n    return 1\n\n\nOTHER = 4\n")
+    assert compiled.source_key((pkg / "kernels",)) != key  # what the imported constant is computed from
+    key = compiled.source_key((pkg / "kernels",))
+    model.write_text("BASE = 3.0\nKNEE = 1e-18 * BASE\n\n\ndef helper():\n    return 2\n\n\nOTHER = 4\n")
+    assert compiled.source_key((pkg / "kernels",)) != key  # an imported function
+
+
 def test_child_processes_share_the_parents_cache_directory():
     import subprocess
     import sys

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -65,9 +66,12 @@ CACHE_ENV = "NUMBA_CACHE_DIR"
 _PACKAGE_DIR = Path(__file__).resolve().parent
 #: Where the compiled code comes from: the modules defining kernels (this package but its pure-Python
 #: driver and warm-up, the device kernels) and those whose constants the kernels read at compile time
-#: (the integrator's, netdae.dae.bdf and netdae.dae.newton). A file or a directory of modules each.
-_KERNEL_SOURCES = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels", _PACKAGE_DIR.parent / "bdf",
-                   _PACKAGE_DIR.parent / "newton.py")
+#: (the integrator's, netdae.dae.bdf.constants and netdae.dae.newton). A file or a directory of modules
+#: each. What these modules import by name from other netdae modules counts too (:func:`source_key`).
+_KERNEL_SOURCES = (_PACKAGE_DIR, _PACKAGE_DIR.parent.parent / "devices" / "kernels",
+                   _PACKAGE_DIR.parent / "bdf" / "constants.py", _PACKAGE_DIR.parent / "newton.py")
+#: The directory of the ``netdae`` package (absolute ``netdae.`` imports resolve from its parent).
+_NETDAE_DIR = _PACKAGE_DIR.parent.parent
 #: Modules of the listed directories that define no kernel (editing them needs no recompilation).
 _NOT_KERNELS = frozenset({"driver.py", "steady_driver.py", "warm.py"})
 #: Prefix of the cache's content-keyed subdirectories.
@@ -130,6 +134,12 @@ def choose_cache_dir(package_dir: str | os.PathLike, environ: Mapping[str, str],
 def source_key(sources=_KERNEL_SOURCES, skip=_NOT_KERNELS) -> str:
     """A hash of the compiled code's sources, 16 hex digits.
 
+    The files of ``sources`` count whole; of the other modules they import names from at their
+    top level (``from ..junction import BOLTZMANN``, ``from ...netlist.expr import TABLE_DOMAIN``)
+    only the definitions of those names count (:func:`_imported_definitions`): a kernel reads
+    such a constant when it is compiled, and an edited constant must select a new cache, while
+    the rest of its module does not.
+
     Parameters
     ----------
     sources : sequence of path
@@ -139,17 +149,118 @@ def source_key(sources=_KERNEL_SOURCES, skip=_NOT_KERNELS) -> str:
 
     Notes
     -----
-    Cost: reading about 300 kB, about a millisecond.
+    Cost: reading about 400 kB and scanning it for imports and definitions, a few milliseconds.
     """
     digest = hashlib.sha256()
+    cache: dict = {}
+    files = []
     for src in sources:
         src = Path(src)
-        files = sorted(p for p in src.glob("*.py") if p.name not in skip) if src.is_dir() else \
+        files += sorted(p for p in src.glob("*.py") if p.name not in skip) if src.is_dir() else \
             [src] if src.is_file() else []
-        for path in files:
-            digest.update(path.name.encode())
-            digest.update(path.read_bytes())
+    counted = {path.resolve() for path in files}
+    for path in files:
+        digest.update(path.name.encode())
+        text = path.read_bytes()
+        digest.update(text)
+        for part in _imported_definitions(path, text, counted, cache):
+            digest.update(part)
     return digest.hexdigest()[:16]
+
+
+def _module_file(path: Path, module: str | None, level: int) -> Path | None:
+    """The file of the module ``from <level dots><module> import`` names in ``path`` (None: not netdae's)."""
+    if level:
+        base = path.parent
+        for _ in range(level - 1):
+            base = base.parent
+    elif module and module.split(".")[0] == _NETDAE_DIR.name:
+        base, module = _NETDAE_DIR.parent, module
+    else:
+        return None  # numpy, numba, math: their versions are numba's concern
+    target = base.joinpath(*module.split(".")) if module else base
+    if target.with_suffix(".py").is_file():
+        return target.with_suffix(".py")
+    if (target / "__init__.py").is_file():
+        return target / "__init__.py"
+    return None
+
+
+#: A top-level ``from <dots><module> import <names>`` (names in parentheses over several lines, or on one).
+_IMPORT = re.compile(r"^from\s+(\.*)([\w.]*)\s+import\s+(\([^)]*\)|[^\n]*)", re.MULTILINE)
+
+
+def _statements(text: str) -> dict:
+    """The module's top-level statements by first line: ``{first line: statement text}`` in order."""
+    out, current = {}, []
+    for line in text.splitlines(keepends=True):
+        if line[:1] not in ("", " ", "\t", "\n", "\r", "#", ")", "]", "}") and current:
+            out.setdefault(current[0], "".join(current))
+            current = []
+        current.append(line)
+    if current:
+        out.setdefault(current[0], "".join(current))
+    return out
+
+
+def _imported_names(text: str):
+    """``(dots, module, [(name, asname)])`` of each top-level ``from ... import`` in ``text``."""
+    for m in _IMPORT.finditer(re.sub(r"#[^\n]*", "", text)):  # (an import's lines hold no string)
+        names = []
+        for item in m.group(3).strip("() \n").replace("\n", " ").split(","):
+            item = item.strip()
+            if item and item != "*":
+                parts = item.split()
+                names.append((parts[0], parts[-1]))
+        yield len(m.group(1)), m.group(2) or None, names
+
+
+def _imported_definitions(path: Path, text: bytes, counted: set, cache: dict | None = None):
+    """The source of each definition ``path`` imports by name at its top level from a module not ``counted``.
+
+    A name defined by assignment, ``def`` or ``class`` gives its statement's source (an assignment with
+    those of the module's names its value is computed from); one the module imports in turn is followed
+    (to a few levels); a submodule, or a name not found, gives its module's whole text (what cannot be
+    narrowed counts whole). Text only, no parsing: the key is computed at every start.
+    """
+    cache = {} if cache is None else cache
+    for level, module, names in _imported_names(text.decode()):
+        target = _module_file(path, module, level)
+        if target is None or target.resolve() in counted or target.resolve() == path.resolve():
+            continue
+        for name, _ in names:
+            sub = target.parent / f"{name}.py"
+            if target.name == "__init__.py" and sub.is_file():
+                yield sub.read_bytes()
+                continue
+            yield from _definition(target, name, counted, 0, cache)
+
+
+def _definition(target: Path, name: str, counted: set, depth: int, cache: dict, whole: bool = True):
+    """The source of the top-level definition of ``name`` in ``target`` (see :func:`_imported_definitions`);
+    ``whole``: the module's whole text when ``name`` is not defined there (else nothing: ``np``, a built-in)."""
+    if target not in cache:
+        text = target.read_text()
+        cache[target] = (text, _statements(text), list(_imported_names(text)))
+    text, statements, imports = cache[target]
+    defined = re.compile(rf"^(?:(?:async\s+)?def|class)\s+{re.escape(name)}\b|^{re.escape(name)}\s*(?::[^=\n]*)?=(?!=)")
+    for first, statement in statements.items():
+        if defined.match(first):
+            yield statement.encode()
+            if depth < 4 and not first.startswith(("def", "class", "async")):
+                value = statement.split("=", 1)[1]
+                for used in sorted(set(re.findall(r"\b[A-Za-z_]\w*\b", value)) - {name}):
+                    yield from _definition(target, used, counted, depth + 1, cache, whole=False)
+            return
+    for level, module, names in imports:
+        for original, alias in names:
+            if alias == name:
+                inner = _module_file(target, module, level)
+                if inner is not None and inner.resolve() not in counted and depth < 4:
+                    yield from _definition(inner, original, counted, depth + 1, cache)
+                return
+    if whole:
+        yield text.encode()
 
 
 def _prune(base: str, keep: str) -> None:
