@@ -55,7 +55,7 @@ from typing import Any
 __all__ = [
     "CAPACITIVE", "INDUCTIVE", "RESISTIVE", "VOLTAGE", "CURRENT", "NULLATOR", "BRANCH_CLASSES", "ROLES", "STORES",
     "Kind", "ElementKind", "KINDS", "kind_of", "resolve",
-    "BRANCH_CURRENT_KINDS", "STAMPED_KINDS", "CONTROLLED_KINDS", "STEPPABLE_KINDS", "MODEL_TYPES", "KIND_OF_MODEL_TYPE",
+    "BRANCH_CURRENT_KINDS", "STAMPED_KINDS", "CONTROLLED_KINDS", "STEPPABLE_KINDS", "NO_GAIN_KINDS", "MODEL_TYPES", "KIND_OF_MODEL_TYPE",
     "GROUPS",
 ]
 
@@ -196,6 +196,11 @@ class ElementKind:
     senses : str or None
         The kind of element its controls name (``"branch"``: any kind in
         :data:`BRANCH_CURRENT_KINDS`).
+    no_gain : bool
+        Has no gain: a resistance, capacitance, inductance or their coupling, a junction, a
+        switch's resistance, a line, or an independent source (its input does not depend on
+        the circuit). With positive values a circuit of such elements only has no mode that
+        grows: what it stores can only fall, between what the sources put in.
     runs_as : str or None
         The kind elaboration rewrites every element of this kind into
         (``"osdi"``: an ngspice model netdae runs as a bundled compiled
@@ -245,6 +250,7 @@ class ElementKind:
     module_quantities: bool = False
     independent: bool = False
     senses: str | None = None
+    no_gain: bool = False
     runs_as: str | None = None
     sens: tuple[tuple[str, str, bool], ...] = ()
     parameters: str | None = None
@@ -308,21 +314,21 @@ def _two(cls: int) -> tuple[tuple[int, int, int], ...]:
 _DEFINITIONS = (
     ElementKind("resistor", "r", "resistor", "(n+, n-)", (2,), _two(RESISTIVE), stamped=True,
                 model_types=("r", "res"), self_loop=True, steppable=True, current_is_quantity=True, sens=_SENS_R,
-                value_names=("resistance", "r")),
+                value_names=("resistance", "r"), no_gain=True),
     ElementKind("capacitor", "c", "capacitor", "(n+, n-)", (2,), _two(CAPACITIVE), stamped=True,
                 model_types=("c",), self_loop=True, stores="charge", steppable=True, current_is_quantity=True,
-                sens=_SENS_C, value_names=("capacitance", "cap", "c")),
+                sens=_SENS_C, value_names=("capacitance", "cap", "c"), no_gain=True),
     ElementKind("inductor", "l", "inductor", "(n+, n-)", (2,), _two(INDUCTIVE), currents=("",), stamped=True,
                 model_types=("l",), self_loop=True, stores="flux", steppable=True, sens=_SENS_L,
-                value_names=("inductance", "ind", "l")),
+                value_names=("inductance", "ind", "l"), no_gain=True),
     ElementKind("coupling", "k", "mutual inductance", "()", (0,), stamped=True, senses="inductor",
-                sens=(("", "value", True),)),
+                sens=(("", "value", True),), no_gain=True),
     ElementKind("vsource", "v", "voltage source", "(n+, n-)", (2,), _two(VOLTAGE), currents=("",), stamped=True,
                 independent=True, self_loop=True, steppable=True, sens=(("", "dc", False), ("_acmag", "ac", True)),
-                value_names=("dc",)),
+                value_names=("dc",), no_gain=True),
     ElementKind("isource", "i", "current source", "(n+, n-)", (2,), _two(CURRENT), stamped=True, independent=True,
                 self_loop=True, steppable=True,
-                sens=(("", "dc", False), ("_acmag", "ac", True), ("_m", "source_m", False)), value_names=("dc",)),
+                sens=(("", "dc", False), ("_acmag", "ac", True), ("_m", "source_m", False)), value_names=("dc",), no_gain=True),
     ElementKind("vcvs", "e", "voltage-controlled voltage source", "(n+, n-, nc+, nc-)", (4,), _two(VOLTAGE),
                 _CONTROL_INPUTS, currents=("",), stamped=True, controlled=True, group="controlled sources",
                 self_loop=True, steppable=True, sens=_SENS_GAIN, value_names=("gain",)),
@@ -350,7 +356,7 @@ _DEFINITIONS = (
     ElementKind("diode", "d", "diode", "(anode, cathode)", (2,), model_types=("d",),
                 family="netdae.devices.diode:DiodeFamily", topology="netdae.devices.diode:diode_branches",
                 self_loop=True, stores="junction charge", solved_quantities=True, device_ic=("ic",),
-                sens=_sens_instance("area", "m", "temp"), parameters="netdae.devices.diode:DIODE_PARAMETERS"),
+                sens=_sens_instance("area", "m", "temp"), parameters="netdae.devices.diode:DIODE_PARAMETERS", no_gain=True),
     ElementKind("bjt", "q", "bipolar transistor", "(c, b, e[, substrate])", (3, 4),
                 ((RESISTIVE, 0, 2), (RESISTIVE, 1, 2), (RESISTIVE, 1, 0), (RESISTIVE, 3, 0)),
                 model_types=("npn", "pnp"), family="netdae.devices.bjt:BjtFamily", controlled=True,
@@ -386,14 +392,14 @@ _DEFINITIONS = (
                 group="transistors", device_ic=("icvds", "icvgs")),
     ElementKind("vswitch", "s", "voltage-controlled switch", "(n+, n-, nc+, nc-)", (4,), _two(RESISTIVE),
                 _CONTROL_INPUTS, model_types=("sw",), family="netdae.devices.switch:SwitchFamily", controlled=True,
-                group="switches", self_loop=True, solved_quantities=True),
+                group="switches", self_loop=True, solved_quantities=True, no_gain=True),
     ElementKind("cswitch", "w", "current-controlled switch", "(n+, n-)", (2,), _two(RESISTIVE),
                 model_types=("csw",), family="netdae.devices.switch:SwitchFamily", controlled=True, senses="branch",
-                group="switches", self_loop=True, solved_quantities=True),
+                group="switches", self_loop=True, solved_quantities=True, no_gain=True),
     # a lossless line's ports: in the transient each is a resistance z0 in series with the delayed wave (an
     # input); at DC the line joins the ports (both views have this topology)
     ElementKind("tline", "t", "lossless transmission line", "(p1+, p1-, p2+, p2-)", (4,),
-                ((RESISTIVE, 0, 1), (RESISTIVE, 2, 3)), currents=("#i1", "#i2"), stamped=True),
+                ((RESISTIVE, 0, 1), (RESISTIVE, 2, 3)), currents=("#i1", "#i2"), stamped=True, no_gain=True),
     ElementKind("osdi", "nm", "compiled Verilog-A device (OSDI)", "(terminals of the module)",
                 tuple(range(1, OSDI_MAX_TERMINALS + 1)),
                 tuple((RESISTIVE, 0, k) for k in range(1, OSDI_MAX_TERMINALS)),
@@ -402,14 +408,14 @@ _DEFINITIONS = (
     # ngspice's lossy lines: elaboration replaces each by its sections (netdae.netlist.lossy); never assembled.
     # At DC each is a path between its ports (the sections' series resistances), which the sections show.
     ElementKind("ltra", "o", "lossy transmission line (LTRA)", "(p1+, p1-, p2+, p2-)", (4,), model_types=("ltra",),
-                realised_by=_LINES),
+                realised_by=_LINES, no_gain=True),
     ElementKind("txl", "y", "single lossy transmission line (TXL)", "(in, ref1, out, ref2)", (4,),
-                model_types=("txl",), realised_by=_LINES),
+                model_types=("txl",), realised_by=_LINES, no_gain=True),
     ElementKind("cpl", "py", "coupled multiconductor line (CPL)", "(in1 .. inN, ref1, out1 .. outN, ref2)",
-                tuple(range(4, 2 * MAX_CPL_CONDUCTORS + 3, 2)), model_types=("cpl",), realised_by=_LINES),
+                tuple(range(4, 2 * MAX_CPL_CONDUCTORS + 3, 2)), model_types=("cpl",), realised_by=_LINES, no_gain=True),
     # ngspice's uniform RC line: elaboration replaces it by ngspice's lumped network (netdae.netlist.urc)
     ElementKind("urc", "u", "uniform distributed RC line (URC)", "(n1, n2, ref)", (3,), model_types=("urc",),
-                realised_by="netdae.netlist.urc"),
+                realised_by="netdae.netlist.urc", no_gain=True),
     # E/G LAPLACE: elaboration replaces it by its state-space block (netdae.netlist.laplace); never assembled
     ElementKind("laplace", "eg", "Laplace-transfer source", "(n+, n-)", (2,), realised_by="netdae.netlist.laplace"),
 )
@@ -514,6 +520,8 @@ STAMPED_KINDS = frozenset(k.name for k in _DEFINITIONS if k.stamped)
 CONTROLLED_KINDS = frozenset(k.name for k in _DEFINITIONS if k.controlled)
 #: Kinds whose value a ``.step`` (or ``values=``) can set directly.
 STEPPABLE_KINDS = frozenset(k.name for k in _DEFINITIONS if k.steppable)
+#: The kinds without gain (:attr:`ElementKind.no_gain`).
+NO_GAIN_KINDS = frozenset(k.name for k in _DEFINITIONS if k.no_gain)
 #: Model types each kind accepts (kinds without models left out).
 MODEL_TYPES: dict[str, tuple[str, ...]] = {k.name: k.model_types for k in _DEFINITIONS if k.model_types}
 #: The kind of element each model type belongs to.

@@ -3,8 +3,10 @@
 A 60 Hz centre-tapped rectifier (K = 0.999, diodes with transit time and junction capacitance):
 at 20.69 ms a diode's reverse recovery snaps off and rings with the leakage inductance at
 about 16 MHz. At the default orders (up to 5) the ringing grew in the integration and the run
-failed with "the solution ran away"; the message says to try ``maxord=2``, and that run agrees
-with ngspice's converged values (docs/integrator.md, "Known limitations").
+failed with "the solution ran away". The circuit is passive (its pencil at the start has no
+eigenvalue in the right half-plane), so the growth is the integrator's: netdae runs such a
+transient again at orders 1-2 and says so, and that run agrees with ngspice's converged values
+(docs/integrator.md, "Known limitations"). A maximum order the user set is kept.
 
 Reference: ngspice 39 at ``reltol=1e-7`` on the same netlist (``.meas`` in a ``.control`` block):
 average 15.45278 V, ripple 2.444196 V over 30-40 ms.
@@ -46,6 +48,24 @@ def test_a_ringing_rectifier_at_the_a_stable_orders_gives_the_converged_ripple()
     m = {x.name: x.value for x in tran.measures}
     assert m["vavg"] == pytest.approx(15.45278, rel=3e-4)
     assert m["vpp"] == pytest.approx(2.444196, rel=2e-3)
+
+
+def test_a_passive_circuit_that_ran_away_at_high_orders_is_run_again_at_orders_1_2():
+    text = RINGING.replace(".options maxord=2\n", "")
+    tran = next(r for r in netdae.run(netdae.load(text)) if r.analysis == "tran")
+    assert tran.ok, tran.message
+    assert any("run again from the start at orders 1-2" in n for n in tran.notes), tran.notes
+    assert tran.tolerances["maxord"] == 2
+    m = {x.name: x.value for x in tran.measures}
+    assert m["vavg"] == pytest.approx(15.45278, rel=3e-4)
+    assert m["vpp"] == pytest.approx(2.444196, rel=2e-3)
+
+
+def test_a_maximum_order_the_user_set_is_kept():
+    text = RINGING.replace(".options maxord=2", ".options maxord=5")
+    tran = next(r for r in netdae.run(netdae.load(text)) if r.analysis == "tran")
+    assert not tran.ok
+    assert "the solution ran away" in tran.message and "maxord=2" in tran.message
 
 
 def test_the_runaway_message_names_the_high_orders():

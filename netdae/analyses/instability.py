@@ -27,6 +27,11 @@ UNSTABLE_GROWTH = 30.0
 #: e**HELD_GROWTH over the run (150 times): visibly unstable on the run's time scale, whatever started it.
 HELD_GROWTH = 5.0
 
+#: A run that ran away at BDF orders 3-5 is run again at the A-stable orders 1-2 only when no eigenvalue of
+#: the circuit's pencil at its start grows by more than e**PASSIVE_GROWTH over the run: then no mode of the
+#: circuit there can make its solution grow, and the growth was the integrator's.
+PASSIVE_GROWTH = 1.0
+
 #: How many node voltages of the growing mode the note names, and the smallest share of its largest
 #: component a named one has (a node a source fixes has rounding noise there).
 MODE_NODES = 3
@@ -69,6 +74,53 @@ def growth_note(eigenvalues, span: float) -> str:
     return (f" (the circuit is unstable: its pencil has the eigenvalue {_eigenvalue_text(worst)} 1/s in the right "
             f"half-plane, so its solution grows as exp({worst.real:.4g} t), by e^{worst.real * span:.0f} up to "
             "this time; look for a controlled source whose gain makes the circuit active)")
+
+
+def growing_eigenvalue(E, H, span: float, growth: float = PASSIVE_GROWTH) -> complex | None:
+    """The eigenvalue of the pencil ``lambda E - H`` that grows most over ``span``, when it grows by more than
+    ``exp(growth)``; else None.
+
+    Parameters
+    ----------
+    E, H : array_like or sparse, shape (n, n)
+        ``dq/dx`` and ``dphi/dx`` at a point.
+    span : float
+        The time (s).
+    growth : float
+        The exponent of the growth that counts.
+
+    Returns
+    -------
+    complex or None
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When QZ or the staircase's SVD does not converge.
+
+    Notes
+    -----
+    Cost: the pencil's finite eigenvalues (a staircase and QZ, O(n^3)).
+
+    Examples
+    --------
+    An RLC tank with a 1 ohm series resistance (unknowns v, i; C = 1u, L = 1m) decays; with -1 ohm it grows:
+
+    >>> E = [[1e-6, 0.0], [0.0, 1e-3]]
+    >>> growing_eigenvalue(E, [[0.0, -1.0], [1.0, -1.0]], 1e-2) is None
+    True
+    >>> round(growing_eigenvalue(E, [[0.0, -1.0], [1.0, 1.0]], 1e-2).real)
+    500
+    """
+    from ..dae.pencil import finite_eigenvalues
+
+    E = E.toarray() if hasattr(E, "toarray") else np.asarray(E, dtype=float)
+    H = H.toarray() if hasattr(H, "toarray") else np.asarray(H, dtype=float)
+    eig = finite_eigenvalues(E, H).eigenvalues
+    if not eig.size:
+        return None
+    worst = complex(eig[np.argmax(eig.real)])
+    return worst if worst.real * span > growth else None
 
 
 def stayed(X, x0, rtol: float, atol) -> bool:

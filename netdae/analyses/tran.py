@@ -57,17 +57,18 @@ import numpy as np
 
 from ..circuit import Circuit, TranAnalysis
 from ..dae.bdf import MAX_ORDER, ImplicitEulerStep, integrate
+from ..dae.bdf.failures import RUNAWAY_FACTOR
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import KIND_VOLTAGE, LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
 from ..errors import CircuitError, ConvergenceError, NetdaeError, SingularPencilError, count_text
-from ..kinds import KINDS, Kind
+from ..kinds import KINDS, NO_GAIN_KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
 from ..results import STATUS_FAILED, STATUS_OK, Result, Statistics
 from ..dae.algebraic import GROUP_LIMIT
 from .index import IndexReport, analyze_index
-from .instability import growth_note, held_equilibrium_note, stayed
+from .instability import growing_eigenvalue, growth_note, held_equilibrium_note, stayed
 from .prepared import Prepared, prepare
 
 
@@ -751,6 +752,7 @@ class _Settings:
     tmax: float
     steady: SteadyOptions
     initial: str
+    order_given: bool = False
 
 
 def _settings(circuit: Circuit, card: TranAnalysis | None, *, reltol, abstol, vntol, maxord, max_step,
@@ -782,7 +784,8 @@ def _settings(circuit: Circuit, card: TranAnalysis | None, *, reltol, abstol, vn
     if tmax is None or tmax <= 0.0:
         tmax = min(card.tstep, (card.tstop - card.tstart) / TMAX_DIVISOR)
     steady = SteadyOptions(reltol=rtol, vntol=vntol_, abstol=abstol_, gmin=o.gmin, maxiter=o.itl1)
-    return _Settings(card, rtol, vntol_, abstol_, order, tmax, steady, initial)
+    return _Settings(card, rtol, vntol_, abstol_, order, tmax, steady, initial,
+                     order_given=maxord is not None or o.maxord is not None)
 
 
 @dataclass(frozen=True)
@@ -1048,15 +1051,30 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         opts["output"] = _blocks(output, card.tstart, saved.kept_names, saved.requested, saved.diffs, streamed)
         opts["window"] = bounded
     interrupted = None
+    notes = []
     try:
-        res = integrate(system, (0.0, card.tstop), x0, progress=progress, raise_on_failure=raise_on_failure,
-                        **opts)
+        res = integrate(system, (0.0, card.tstop), x0, progress=progress, **opts)
+        if _high_order_runaway(prepared, x0, settings, res):
+            first = res.failure
+            opts.pop("output", None)
+            opts.pop("window", None)
+            opts["maxord"] = 2
+            streamed[0] = 0
+            res = integrate(system, (0.0, card.tstop), x0, progress=progress, **opts)
+            notes.append(f"warning: at BDF orders up to {settings.order} the solution ran away at t={first.t:.6g} "
+                         "in a circuit without gain (resistances, capacitances, inductances, junctions, switches, "
+                         "lines and independent sources only), which has no growing mode: orders 3-5, not "
+                         "A-stable, grew a lightly damped resonance the steps followed; the transient was run "
+                         "again from the start at orders 1-2 (.options maxord=2), which damp it as the circuit "
+                         "does")
     except KeyboardInterrupt as exc:
         # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
         res = getattr(exc, "partial", None)
         if res is None or res.t.size == 0:
             raise
         interrupted = exc
+    if raise_on_failure and interrupted is None and not res.ok:
+        raise res.failure.error() if res.failure is not None else ConvergenceError(res.message)
     message, status = res.message, res.status
     if interrupted is not None:
         message = f"interrupted at t={res.t[-1]:.9g} of {card.tstop:.9g} (the results up to there are kept)"
@@ -1064,7 +1082,6 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
     stats = Statistics.from_counts(res.stats)
     jumps = [(t, list(w)) for t, w in res.jumps]
     events = [(t, list(w)) for t, w in res.events]
-    notes = []
     for tj, who in jumps[:JUMP_NOTES]:
         if not who:  # an event whose right limit moved no unknown beyond its tolerance
             notes.append(f"t={tj:.6g}: both the value from the left and the right limit are reported at this "
@@ -1087,7 +1104,7 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
                      f"where their controls cross the thresholds (the first: t={first_t:.6g}, "
                      f"{', '.join(first_w[:5])}; all in transient.events)")
     tolerances = {"reltol": settings.rtol, "vntol": settings.vntol, "abstol": settings.abstol,
-                  "maxord": settings.order, "max_step": settings.tmax,
+                  "maxord": opts["maxord"], "max_step": settings.tmax,
                   "index_excluded": res.tolerances.get("index_excluded", 0)}
     if res.failure is not None and rep.pencil is not None and rep.pencil.singular_by_rounding:
         message += (f" ({ROUNDING_NOTE.format(index=rep.index)}, whose Newton matrices lose some directions to "
@@ -1107,6 +1124,47 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
             notes.append(note)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
+
+
+def _high_order_runaway(prepared: Prepared, x0: np.ndarray, settings: _Settings, res) -> bool:
+    """Whether a failed run is to be run again at BDF orders 1-2: its solution ran away at orders 3-5 in a
+    circuit that has no gain.
+
+    Orders 3-5 are not A-stable: where the steps follow a lightly damped resonance (a transformer's leakage
+    inductance ringing with a diode's junction capacitance after its reverse recovery), their error per step
+    can outweigh the mode's damping and the integration grows it while the circuit damps it. A circuit with
+    gain can have a mode in the right half-plane (a transimpedance amplifier's op-amp models, past its input
+    corner; an oscillator's start), and orders 1-2 at long steps would damp its growth into a bounded
+    waveform the circuit does not have: such a circuit keeps its failure. So only a circuit whose elements
+    all have no gain (:data:`netdae.kinds.NO_GAIN_KINDS`), with positive resistances, capacitances and
+    inductances, whose inputs stayed within :data:`~netdae.dae.bdf.failures.RUNAWAY_FACTOR` of their start
+    (a source whose waveform grows without bound is no resonance), whose pencil at the start has no growing
+    mode (within :data:`TRAN_PENCIL_LIMIT` unknowns, a dense eigenvalue analysis), and whose maximum order
+    the user did not choose.
+    """
+    failure = res.failure
+    if failure is None or failure.runaway_order < 3 or settings.order_given or settings.order < 3:
+        return False
+    for el in prepared.circuit.elements:
+        if el.kind not in NO_GAIN_KINDS:
+            return False
+        if el.kind in (Kind.RESISTOR, Kind.CAPACITOR, Kind.INDUCTOR) and el.value is not None and not el.value > 0:
+            return False
+    system = prepared.system
+    try:  # an input that grows without bound itself (SIN with a negative damping factor) is no resonance
+        u0 = float(np.max(np.abs(system.source(0.0, waves=False)), initial=0.0))
+        uf = float(np.max(np.abs(system.source(failure.t, waves=False)), initial=0.0))
+    except (OverflowError, FloatingPointError, ValueError):
+        return False
+    if not uf <= RUNAWAY_FACTOR * max(1.0, u0):
+        return False
+    if system.n > TRAN_PENCIL_LIMIT:
+        return True
+    E, H = system.jacobians(x0, 0.0)
+    try:
+        return growing_eigenvalue(E, H, float(res.t[-1] - res.t[0]) if res.t.size else 0.0) is None
+    except np.linalg.LinAlgError:  # QZ or the SVD did not converge: the failure stands
+        return False
 
 
 def _held_equilibrium(prepared: Prepared, x0: np.ndarray, saved: _Saved, settings: _Settings, res) -> str | None:

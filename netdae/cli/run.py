@@ -182,7 +182,9 @@ def _finish_stream(res, stream) -> bool:
         from ..errors import OutputFileError
 
         raise OutputFileError(stream.path, stream.failure())
-    if stream.points != (res.stats.points or res.points) or stream.names != list(res.axes) + list(res.signals):
+    axis = res.axis
+    if (stream.points != (res.stats.points or res.points) or stream.names != list(res.axes) + list(res.signals)
+            or (axis is not None and axis.size and stream.last != float(axis[-1]))):  # e.g. a run run again
         LOG.debug("%s: the streamed points differ from the result's; written whole", stream.path)
         return False
     if not res.ok:
