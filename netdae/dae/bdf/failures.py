@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -168,9 +168,6 @@ class IntegrationFailure:
     runaway_order : int
         When the solution ran away (:func:`runaway`), the highest BDF order the run used;
         0 otherwise.
-    x : ndarray or None, shape (n,)
-        When the solution ran away, every unknown at the last accepted point (not in
-        :meth:`as_dict`).
     """
 
     t: float
@@ -179,7 +176,6 @@ class IntegrationFailure:
     worst: str | None
     hint: str
     runaway_order: int = 0
-    x: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def message(self) -> str:
@@ -196,10 +192,8 @@ class IntegrationFailure:
         return ConvergenceError(self.what, t=self.t, h=self.h, worst=self.worst, hint=self.hint)
 
     def as_dict(self) -> dict:
-        """The fields but ``x`` as a plain dict (for JSON)."""
-        d = asdict(self)
-        d.pop("x")
-        return d
+        """The fields as a plain dict (for JSON)."""
+        return asdict(self)
 
 
 def failure_record(t: float, h: float, what: str, worst, hint: str) -> tuple[str, IntegrationFailure]:
@@ -220,12 +214,10 @@ def with_runaway(failure: IntegrationFailure, names, kinds, x_start, x, max_orde
     Returns
     -------
     IntegrationFailure
-        With ``runaway_order`` set to ``max_order`` (at least 1) and ``x`` to a copy of ``x`` when the
-        solution ran away.
+        With ``runaway_order`` set to ``max_order`` (at least 1) when the solution ran away.
     """
     sentence = runaway(names, kinds, x_start, x, max_order)
     if sentence is None:
         return failure
     return IntegrationFailure(failure.t, failure.h, failure.what, failure.worst,
-                              f"{sentence}; {failure.hint}", max(int(max_order), 1),
-                              np.array(x, dtype=float))
+                              f"{sentence}; {failure.hint}", max(int(max_order), 1))
