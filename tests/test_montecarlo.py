@@ -171,3 +171,24 @@ def test_ngspice_draws_the_same_distributions(tmp_path, ngspice_exe):
         assert x.size == count
         assert abs(x.mean() - mean) < 4.5 * std / np.sqrt(count), key
         assert abs(x.std(ddof=1) - std) < 6 * std / np.sqrt(2 * count), key
+
+
+def test_the_streams_are_numpys_seed_sequence_bit_for_bit_computed_for_many_keys_at_once():
+    """A sweep seeds a thousand samples' streams in one pass (``seed_states``): the same PCG64 states, and so
+    the same draws, as numpy's SeedSequence of each key, for keys of every length (a sample's two words, a
+    noise source's five, a key whose integers need two words each)."""
+    import numpy as np
+
+    from netdae.netlist.montecarlo import Draws, _words, generators, seed_states
+
+    rng = np.random.default_rng(11)
+    keys = [tuple(int(v) for v in k) for k in rng.integers(0, 2**32, size=(50, 2))]
+    keys += [(0, 0), (0,), (2**32 - 1, 2**32 - 1), (1, 2, 3, 4, 5, 6), (2**40 + 3, 7)]
+    keys += [Draws(7, k).source_key(f"v.x{k}.vn") for k in range(20)]
+    for key in keys:
+        assert np.array_equal(seed_states([_words(key)])[0],
+                              np.random.SeedSequence(list(key)).generate_state(4, np.uint64)), key
+    made = generators(keys[:30] + keys[-5:])
+    for key, g in zip(keys[:30] + keys[-5:], made):
+        ref = np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key))))
+        assert np.array_equal(g.standard_normal(4), ref.standard_normal(4))

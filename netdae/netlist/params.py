@@ -843,14 +843,15 @@ class _RowsPass:
 
     def _draw(self, name: str, args: list):
         """:meth:`~netdae.netlist.montecarlo.Draws.draw` in every row, each from its own sample's stream."""
-        from .montecarlo import RANDOM_FUNCTIONS, deviate, generator, random_value
+        from .montecarlo import RANDOM_FUNCTIONS, deviate, generators, random_value
 
         arity = RANDOM_FUNCTIONS[name]
         if len(args) != arity:
             raise _Fallback
         if self.generators is None:
             seed = self.replay.seed
-            self.generators = [None if bad else generator((seed, s)) for s, bad in zip(self.samples, self.bad)]
+            made = iter(generators([(seed, s) for s, bad in zip(self.samples, self.bad) if not bad]))
+            self.generators = [None if bad else next(made) for bad in self.bad]
         self.count += 1
         if arity == 3:
             positive = args[2] > 0.0
