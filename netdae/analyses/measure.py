@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -970,6 +970,46 @@ def _measure_order(specs: list[MeasureSpec]) -> list[int]:
         [i for i, s in enumerate(specs) if s.function == "param"]
 
 
+def _from_tstart(result: Result) -> Result:
+    """A transient's result read from its ``tstart`` on: with the point at ``tstart`` itself put first.
+
+    A transient keeps the points its integrator accepted at or after ``tstart``, and the first of
+    them lies a part of a step after it; the measurements are of the analysis from ``tstart`` on
+    (``INTEG``, ``AVG``, ``RMS`` without ``FROM=``, ``FROM=`` before the first point, ``AT=tstart``),
+    as ngspice's converge to when its steps shrink. The integrator's interpolant covers the whole
+    run, so the value at ``tstart`` is the one the step through it computed.
+
+    Parameters
+    ----------
+    result : Result
+        Any result; only a transient with dense output whose first point is after its card's
+        ``tstart`` is changed.
+
+    Returns
+    -------
+    Result
+        ``result`` itself, or a copy whose axis and signals start with the point at ``tstart``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from netdae.circuit import TranAnalysis
+    >>> r = Result("tran", axes={"time": np.array([1.5, 2.0])}, signals={"v(a)": np.array([3.0, 4.0])},
+    ...            dense=lambda t: {"v(a)": 2.0 * np.asarray(t)}, card=TranAnalysis(0.1, 2.0, 1.0))
+    >>> _from_tstart(r).signals["v(a)"].tolist(), _from_tstart(r).axis.tolist()
+    ([2.0, 3.0, 4.0], [1.0, 1.5, 2.0])
+    """
+    card, x = result.card, result.axis
+    tstart = float(getattr(card, "tstart", 0.0) or 0.0)
+    if result.analysis != "tran" or result.dense is None or x is None or x.size == 0 or not x[0] > tstart:
+        return result
+    first = result.dense(np.array([tstart]))
+    signals = {name: np.concatenate([np.atleast_1d(np.asarray(first[name]))[:1].astype(np.asarray(v).dtype),
+                                     np.asarray(v)])
+               for name, v in result.signals.items()}
+    return replace(result, axes={result.axis_name: np.concatenate([[tstart], x])}, signals=signals)
+
+
 def _measured_result(spec: MeasureSpec, results: Mapping[str, Result], rows: int | None) -> Result:
     """The result ``spec`` measures, checked: present, finished (or, one result of one row, a transient
     that failed part way: :func:`_partial`).
@@ -1000,6 +1040,8 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
                 ms = [_param_or_failure(spec, d) for d in done]
             else:
                 result = _measured_result(spec, results, rows)
+                if rows is None:
+                    result = _from_tstart(result)
                 if not result.ok:
                     ms = [_measure_partial(spec, result)]
                 elif rows is None and result.analysis == "tran" and result.dense is not None:
