@@ -54,3 +54,37 @@ def test_window_starts_at_tstart():
     t = 1e-3
     exact = 0.2 * (1 - math.exp(-t / TAU)) + A * math.sin(W * t - PHI) + K * math.exp(-t / TAU)
     assert m["start"].value == pytest.approx(exact, abs=1e-4)
+
+
+TRIANGLE = """trig and targ windows
+V1 in 0 PWL(0 0 1m 1 2m 0 3m 1 4m 0 5m 1 6m 0)
+R1 in 0 1k
+.tran 10u 6m
+.meas tran a TRIG v(in) VAL=0.5 RISE=1 FROM=2m TARG v(in) VAL=0.5 FALL=1
+.meas tran b TRIG v(in) VAL=0.5 RISE=1 TARG v(in) VAL=0.5 FALL=1 FROM=2m
+.meas tran c TRIG v(in) VAL=0.5 RISE=LAST TARG v(in) VAL=0.5 FALL=1 TO=4m
+.meas tran d TRIG v(in) VAL=0.5 RISE=LAST TO=4m TARG v(in) VAL=0.5 FALL=LAST
+.meas tran e TRIG v(in) VAL=0.5 RISE=1 FROM=1m TD=3m TARG v(in) VAL=0.5 FALL=1 FROM=2m TO=3m
+.meas tran f TRIG v(in) VAL=0.5 RISE=2 TARG v(in) VAL=0.5 FALL=1 FROM=4m
+.end
+"""
+
+
+def test_trig_targ_from_to():
+    """FROM= and TO= in TRIG and TARG clauses, as ngspice 39 reads them (measured: a clause without
+    FROM= takes the other clause's FROM=, TO= is the clause's own, TD= and FROM= both hold).
+
+    The triangle rises through 0.5 at 0.5, 2.5 and 4.5 ms and falls through it at 1.5, 3.5 and 5.5 ms.
+    """
+    (res,) = run(TRIANGLE)
+    m = {x.name: x for x in res.measures}
+    expect = {"a": (2.5e-3, 3.5e-3), "b": (2.5e-3, 3.5e-3), "c": (4.5e-3, 1.5e-3), "d": (2.5e-3, 5.5e-3)}
+    for name, (trig, targ) in expect.items():
+        assert m[name].ok, (name, m[name].reason)
+        assert m[name].extra["trig"] == pytest.approx(trig, abs=1e-12), name
+        assert m[name].extra["targ"] == pytest.approx(targ, abs=1e-12), name
+        assert m[name].value == pytest.approx(targ - trig, abs=1e-12), name
+    # TD=3m and FROM=1m: the trigger's window starts at 3 ms; no fall in the target's [2m, 3m]
+    assert not m["e"].ok and "TARG" in m["e"].reason and "[0.002, 0.003]" in m["e"].reason
+    # the trigger counts its rises from the target's FROM=4m: one, the second asked
+    assert not m["f"].ok and "TRIG" in m["f"].reason and "the second was asked" in m["f"].reason

@@ -323,7 +323,12 @@ def _ordinal(n: int) -> str:
 
 
 def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[float, float]) -> tuple[float, float]:
-    """Where a condition is looked for: after its TD, within FROM/TO for a WHEN clause, inside ``span``.
+    """Where a condition is looked for: after its TD, within its FROM/TO, inside ``span``.
+
+    A ``WHEN`` clause's ``FROM=``/``TO=`` are the measurement's; a ``TRIG`` or ``TARG`` clause's are
+    written in it, and one without ``FROM=`` takes the other clause's (ngspice 39 does so: ``TRIG
+    v(a) VAL=0.5 RISE=2 TARG v(b) VAL=0.5 RISE=1 FROM=30u`` counts the trigger's rises from 30 us too,
+    while ``TO=`` stays the clause's own).
 
     Raises
     ------
@@ -331,8 +336,16 @@ def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[
         The window is empty.
     """
     x0, x1 = span
-    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
-    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
+    if clause == "WHEN":
+        start, stop = spec.start, spec.stop
+    else:  # TRIG, TARG: the clause's own FROM= (else the other clause's, as ngspice 39) and TO=
+        other = spec.targ if clause == "TRIG" else spec.trig
+        start = cond.start if cond.start is not None else other.start if other is not None else None
+        stop = cond.stop
+        if spec.analysis == "dc" and start is not None and stop is not None and stop < start:
+            start, stop = stop, start  # as a dc measurement's window: ordered
+    lo = max(x0, cond.td, start if start is not None else x0)
+    hi = min(x1, stop) if stop is not None else x1
     if lo > hi:
         raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
     return lo, hi

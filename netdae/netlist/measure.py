@@ -3,7 +3,7 @@
 The forms, as ngspice's manual gives them (keywords in any case, values may
 be numbers, ``{expressions}`` or parameter names)::
 
-    .meas tran|ac|dc name TRIG sig VAL=v [TD=t] RISE=n|FALL=n|CROSS=n|LAST  TARG sig VAL=v ...
+    .meas tran|ac|dc name TRIG sig VAL=v [TD=t] [FROM=] [TO=] RISE=n|FALL=n|CROSS=n|LAST  TARG sig VAL=v ...
     .meas tran|ac|dc name TRIG AT=t TARG sig VAL=v ...
     .meas tran|ac|dc name FIND sig AT=x
     .meas tran|ac|dc name FIND sig WHEN sig=v|sig [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=n|LAST]
@@ -238,7 +238,7 @@ def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> di
                 cond["other"] = _probe(cur, analysis, "after '='")
             else:
                 cond["value"] = parse_value(cur.card, cur.take(), FORM, "WHEN value")
-    allowed = ("val", "td", "last") + _EDGES + (("from", "to") if when else ())
+    allowed = ("val", "td", "last", "from", "to") + _EDGES
     edge_at = None
     while not cur.done and not cur.word_is(stop or "\0"):
         key, value, offset = _keyword(cur, allowed, clause)
@@ -463,13 +463,15 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     def number(val, card, what):
         return None if val is None else value(val, card, what)
 
-    def condition(c: dict, card, analysis) -> Condition:
+    def condition(c: dict, card, analysis, when: bool = False) -> Condition:
         return Condition(probe=probe(c["probe"], card, analysis) if c["probe"] else None,
                          value=number(c["value"], card, "VAL"),
                          other=probe(c["other"], card, analysis) if c["other"] else None,
                          edge=c["edge"], count=c["count"],
                          td=-math.inf if c["td"] is None else number(c["td"], card, "TD"),
-                         at=number(c["at"], card, "AT"))
+                         at=number(c["at"], card, "AT"),
+                         start=number(c["from"], card, "FROM") if not when else None,
+                         stop=number(c["to"], card, "TO") if not when else None)
 
     def one(m):
         card = m.card
@@ -525,7 +527,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
             probe=probe(m.probe, card, m.analysis) if m.probe else None,
             trig=condition(m.trig, card, m.analysis) if m.trig else None,
             targ=condition(m.targ, card, m.analysis) if m.targ else None,
-            when=condition(m.when, card, m.analysis) if m.when else None,
+            when=condition(m.when, card, m.analysis, when=True) if m.when else None,
             at=number(m.at, card, "AT"), start=start, stop=stop, expression=expression, params=params,
             location=card.location(0), text=card.raw,
         )
