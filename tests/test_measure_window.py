@@ -88,3 +88,26 @@ def test_trig_targ_from_to():
     assert not m["e"].ok and "TARG" in m["e"].reason and "[0.002, 0.003]" in m["e"].reason
     # the trigger counts its rises from the target's FROM=4m: one, the second asked
     assert not m["f"].ok and "TRIG" in m["f"].reason and "the second was asked" in m["f"].reason
+
+
+PLATEAU = """extremes on a plateau
+V1 in 0 PULSE(0 1 1u 1u 1u 5u 12u)
+R1 in out 1k
+C1 out 0 1n
+.tran 0.05u 40u
+.meas tran top MAX_AT v(in)
+.meas tran top2 MAX v(in) FROM=10u
+.meas tran low MIN_AT v(in) FROM=9u
+.end
+"""
+
+
+def test_extreme_on_a_plateau_is_where_it_begins():
+    """A pulse's plateau is one value to rounding; the interpolant's last bits there used to pick
+    an arbitrary point of it (15.2 us, in the second pulse). The extreme is where the stretch begins."""
+    (res,) = run(PLATEAU)
+    m = {x.name: x for x in res.measures}
+    assert m["top"].value == pytest.approx(2e-6, abs=1e-15)      # the first plateau starts at 2 us
+    assert m["top2"].value == pytest.approx(1.0, abs=1e-12)
+    assert m["top2"].at == pytest.approx(14e-6, abs=1e-15)       # the first at or after FROM=10u
+    assert m["low"].value == pytest.approx(9e-6, abs=1e-15)      # the fall ends at 8 us: the window's start

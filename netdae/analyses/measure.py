@@ -441,7 +441,8 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
     on a transient's dense output: the stationary points of the step
     polynomials next to it (:meth:`_Trace.polynomials`), each then evaluated on
     the dense output itself, so the value is always the solution's. Two dense
-    evaluations in all.
+    evaluations in all. On a stretch at the extreme, where is where the stretch
+    begins (:func:`_first_arrival`).
     """
     xs, ys = trace.samples(lo, hi) if samples is None else samples
     k = int(np.argmax(sign * ys))
@@ -464,7 +465,20 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
         j = int(np.argmax(sign * yc))
         if sign * yc[j] > sign * best:
             best, where = float(yc[j]), float(tc[j])
-    return best, where
+    return best, _first_arrival(xs, ys, best, where, sign)
+
+
+def _first_arrival(xs: np.ndarray, ys: np.ndarray, best: float, where: float, sign: float) -> float:
+    """Where the samples first come within rounding of the extreme ``best`` (found at ``where``).
+
+    A stretch at the extreme (a pulse's plateau, a clipped output) is one value to rounding, and the
+    interpolant's last bits on it decide which of its points is largest: the extreme is where the
+    stretch begins, its first sample within :func:`_tie` of ``best``, ``where`` itself when no sample
+    before it is that close. (ngspice 39 takes the point its last bits make largest: on a pulse's
+    plateau of values 1.0 to 15 digits, its last point.)
+    """
+    close = np.flatnonzero(sign * ys >= sign * best - _tie(best))
+    return float(xs[close[0]]) if close.size and xs[close[0]] < where else where
 
 
 def _measure(spec: MeasureSpec, result: Result) -> Measure:
