@@ -628,7 +628,12 @@ class _Lines:
         return np.sum(np.ascontiguousarray(ys) ** power * _panel_weights(xs), axis=1)
 
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
-        """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
+        """The slope of the line at each row's ``xq``, and why a row has none (None: it has).
+
+        At an inner point of the axis, where the line on its left and the line on its right meet,
+        the slope is the derivative of the parabola through the point and its two neighbours
+        (with equal spacing: the central difference), not the left line's.
+        """
         x = self.x
         i = np.clip(np.searchsorted(x, self.sense * np.asarray(xq, dtype=float), side="left"), 1, x.size - 1)
         while True:
@@ -638,8 +643,21 @@ class _Lines:
             i = i + same
         a, b = x[i - 1], x[i]
         rows = np.arange(self.y.shape[0])
+        y = self.y
         with np.errstate(invalid="ignore", divide="ignore"):
-            slope = self.sense * (self.y[rows, i] - self.y[rows, i - 1]) / (b - a)
+            slope = self.sense * (y[rows, i] - y[rows, i - 1]) / (b - a)
+            # on an inner point of the axis (to rounding) the lines have two slopes: take the derivative
+            # of the parabola through the point and its neighbours, second order as a line's slope is
+            # between two points
+            xs = self.sense * np.asarray(xq, dtype=float)
+            k = np.where(np.abs(xs - a) <= np.abs(xs - b), i - 1, i)
+            km, kp = np.clip(k - 1, 0, x.size - 1), np.clip(k + 1, 0, x.size - 1)
+            h1, h2 = x[k] - x[km], x[kp] - x[k]
+            on = ((k > 0) & (k < x.size - 1) & (h1 > 0) & (h2 > 0)
+                  & (np.abs(xs - x[k]) <= _tie(x[k], h1 + h2)))
+            if np.any(on):
+                d = (h1 ** 2 * (y[rows, kp] - y[rows, k]) + h2 ** 2 * (y[rows, k] - y[rows, km])) / (h1 * h2 * (h1 + h2))
+                slope = np.where(on, self.sense * d, slope)
         reasons = [f"{self.name} jumps at {q:g}: no derivative there" if jump else None
                    for q, jump in zip(np.atleast_1d(xq).tolist(), (b == a).tolist())]
         return slope, reasons
