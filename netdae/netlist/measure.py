@@ -211,7 +211,21 @@ def _keyword(cur: _Cursor, allowed: tuple[str, ...], where: str) -> tuple[str, o
         if not isinstance(parsed[0], float) or parsed[0] != int(parsed[0]) or parsed[0] < 1:
             raise cur.fail(val.start, f"{tok.text.upper()}= takes a positive whole number or LAST, got {val.text!r}")
         return tok.text, int(parsed[0]), tok.start
-    return tok.text, parse_value(cur.card, val, FORM, f"{tok.text.upper()} value"), tok.start
+    return tok.text, _meas_value(cur.card, val, f"{tok.text.upper()} value"), tok.start
+
+
+def _meas_value(card: Card, tok: Token, what: str):
+    """A value of a ``.meas`` card: a number, ``{expr}``/``'expr'``, a parameter name, or, as ngspice
+    reads it, an expression without braces or blanks (``VAL=vdd*0.5``)."""
+    try:
+        return parse_value(card, tok, FORM, what)
+    except NetlistError as first:
+        if tok.kind != WORD:
+            raise
+        try:
+            return parse_value(card, tok, FORM, what, numparam=True)
+        except NetlistError:
+            raise first from None
 
 
 def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> dict:
@@ -237,7 +251,7 @@ def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> di
             if _starts_probe(cur):
                 cond["other"] = _probe(cur, analysis, "after '='")
             else:
-                cond["value"] = parse_value(cur.card, cur.take(), FORM, "WHEN value")
+                cond["value"] = _meas_value(cur.card, cur.take(), "WHEN value")
     allowed = ("val", "td", "last", "from", "to") + _EDGES
     edge_at = None
     while not cur.done and not cur.word_is(stop or "\0"):
