@@ -143,6 +143,21 @@ def _values(result: Result, probe: Probe) -> np.ndarray:
     return y
 
 
+class _Traces:
+    """The traces of one evaluation, one per result and quantity: a quantity that several measurements
+    read (``MAX``, ``MIN``, ``PP``, a ``WHEN`` of ``v(out)``) is read and sampled once."""
+
+    def __init__(self) -> None:
+        self._traces: dict = {}
+
+    def get(self, result: Result, probe: Probe) -> "_Trace":
+        key = (id(result), probe.name)
+        trace = self._traces.get(key)
+        if trace is None:
+            trace = self._traces[key] = _Trace(result, probe)
+        return trace
+
+
 class _Trace:
     """One real quantity of a transient with dense output: its values at the steps and between them.
 
@@ -153,6 +168,7 @@ class _Trace:
         self.name = probe.name
         self.x = np.asarray(result.axis, dtype=float)
         self.y = _values(result, probe)
+        self._whole: tuple[np.ndarray, np.ndarray] | None = None
 
         def dense(t, _r=result, _p=probe):
             t = np.atleast_1d(np.asarray(t, dtype=float))
@@ -168,13 +184,28 @@ class _Trace:
         return self.dense(np.atleast_1d(np.asarray(xq, dtype=float)))
 
     def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """Points in [lo, hi] in order (ends included, and inner points of every step)."""
+        """Points in [lo, hi] in order (ends included, and inner points of every step).
+
+        The sample grid of the whole run is made once and kept (the measurements of a quantity
+        that look at all of it share it); a window inside the run samples its own steps.
+        """
         x, y = self.x, self.y
         if x.size > 1:
             # only the steps that overlap [lo, hi]
             first = max(int(np.searchsorted(x, lo, side="right")) - 1, 0)
             last = min(int(np.searchsorted(x, hi, side="left")) + 1, x.size)
-            x, y = x[first:last], y[first:last]
+            if first == 0 and last == x.size:
+                if self._whole is None:
+                    self._whole = self._grid(x, y)
+                x, y = self._whole
+            else:
+                x, y = self._grid(x[first:last], y[first:last])
+        keep = (x > lo) & (x < hi)
+        ends = self.at([lo, hi])
+        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([[ends[0]], y[keep], [ends[1]]])
+
+    def _grid(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The points ``x`` and the inner points of every step between them, with their values."""
         if x.size > 1:
             h = np.diff(x)
             xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
@@ -186,9 +217,7 @@ class _Trace:
             ys[~inner, 1:] = y[:-1][~inner, None]
             x = np.append(xs.ravel(), x[-1])
             y = np.append(ys.ravel(), y[-1])
-        keep = (x > lo) & (x < hi)
-        ends = self.at([lo, hi])
-        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([[ends[0]], y[keep], [ends[1]]])
+        return x, y
 
     def integral(self, lo: float, hi: float, power: int) -> float:
         """The integral of ``y**power`` over [lo, hi]."""
@@ -288,8 +317,18 @@ def _tie(*values) -> np.ndarray:
     return ROUNDING_TIE * np.maximum.reduce([np.abs(np.asarray(v, dtype=float)) for v in values])
 
 
-def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
-    """Every crossing in [lo, hi]: (axis value, "rise" | "fall") (:func:`_events`)."""
+def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None):
+    """Every crossing in [lo, hi], in order, and where one is.
+
+    Returns
+    -------
+    events : list of (int, str)
+        Each crossing's sample interval and ``"rise"`` or ``"fall"`` (:func:`_events`).
+    locate : callable
+        ``locate(event) -> float``: the crossing's axis value, solved on the interpolant. Only the
+        crossing a measurement asks for is solved (a long transient crosses its value thousands of
+        times, and counting them needs only the samples).
+    """
     xs, ys = trace.samples(lo, hi)
     ref = other.at(xs) if other is not None else np.full_like(ys, cond.value)
     d = ys - ref
@@ -300,22 +339,21 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
         ref = other.at([t])[0] if other is not None else cond.value
         return value - ref + shift * float(_tie(value, ref))
 
-    out = []
-    for k in np.flatnonzero(kind).tolist():
+    def locate(event) -> float:
+        k, edge = event
         a, b = xs[k], xs[k + 1]
-        up = kind[k] > 0
+        up = edge == "rise"
         if a == b:
-            t = a
-        else:
-            # between: d's zero; reaching: the first point within the tie; leaving: the last
-            shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
-            ga, gb = g(a, shift), g(b, shift)
-            if ga * gb > 0:  # the interpolant at the sample points disagrees with the samples by rounding
-                t = a if where[k] == 2 else b
-            else:
-                t = a if ga == 0 else b if gb == 0 else _root(lambda u: g(u, shift), a, b, ga, gb)
-        out.append((float(t), "rise" if up else "fall"))
-    return out
+            return float(a)
+        # between: d's zero; reaching: the first point within the tie; leaving: the last
+        shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
+        ga, gb = g(a, shift), g(b, shift)
+        if ga * gb > 0:  # the interpolant at the sample points disagrees with the samples by rounding
+            return float(a if where[k] == 2 else b)
+        return float(a if ga == 0 else b if gb == 0 else _root(lambda u: g(u, shift), a, b, ga, gb))
+
+    events = [(k, "rise" if kind[k] > 0 else "fall") for k in np.flatnonzero(kind).tolist()]
+    return events, locate
 
 
 def _ordinal(n: int) -> str:
@@ -351,25 +389,27 @@ def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[
     return lo, hi
 
 
-def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: str) -> float:
+def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: str,
+                   traces: _Traces | None = None) -> float:
     if cond.at is not None:
         return cond.at
-    trace = _Trace(result, cond.probe)
-    other = _Trace(result, cond.other) if cond.other is not None else None
+    traces = _Traces() if traces is None else traces
+    trace = traces.get(result, cond.probe)
+    other = traces.get(result, cond.other) if cond.other is not None else None
     lo, hi = _search_window(spec, cond, clause, trace.span)
-    events = _crossings(trace, cond, lo, hi, other)
+    events, locate = _crossings(trace, cond, lo, hi, other)
     wanted = [e for e in events if cond.edge in ("", "cross") or e[1] == cond.edge]
     target = other.name if other is not None else f"{cond.value:g}"
     if not wanted:
         kind = {"rise": "rises through", "fall": "falls through"}.get(cond.edge, "crosses")
         raise MeasureFailure(f"{clause}: {trace.name} never {kind} {target} in [{lo:g}, {hi:g}]")
     if cond.count == LAST:
-        return wanted[-1][0]
+        return locate(wanted[-1])
     if cond.count > len(wanted):
         edge = cond.edge or "cross"
         raise MeasureFailure(f"{clause}: {trace.name} has {len(wanted)} {edge}(s) through {target} in "
                              f"[{lo:g}, {hi:g}], the {_ordinal(cond.count)} was asked")
-    return wanted[cond.count - 1][0]
+    return locate(wanted[cond.count - 1])
 
 
 def _inside(result: Result, x: float, what: str) -> None:
@@ -481,22 +521,25 @@ def _first_arrival(xs: np.ndarray, ys: np.ndarray, best: float, where: float, si
     return float(xs[close[0]]) if close.size and xs[close[0]] < where else where
 
 
-def _measure(spec: MeasureSpec, result: Result) -> Measure:
-    """One measurement of a transient with dense output (:func:`_measure_rows` reads the others)."""
+def _measure(spec: MeasureSpec, result: Result, traces: _Traces | None = None) -> Measure:
+    """One measurement of a transient with dense output (:func:`_measure_rows` reads the others).
+
+    ``traces`` holds the quantities read so far in this evaluation (:class:`_Traces`)."""
+    traces = _Traces() if traces is None else traces
     f = spec.function
     out = Measure(spec.name, spec.analysis, f, None)
     if f == "trig":
-        trig = _find_crossing(spec, result, spec.trig, "TRIG")
-        targ = _find_crossing(spec, result, spec.targ, "TARG")
+        trig = _find_crossing(spec, result, spec.trig, "TRIG", traces)
+        targ = _find_crossing(spec, result, spec.targ, "TARG", traces)
         out.value, out.extra = targ - trig, {"targ": targ, "trig": trig}
         return out
     if f == "when":
-        out.value = out.at = _find_crossing(spec, result, spec.when, "WHEN")
+        out.value = out.at = _find_crossing(spec, result, spec.when, "WHEN", traces)
         return out
-    trace = _Trace(result, spec.probe)
+    trace = traces.get(result, spec.probe)
     if f in ("find", "deriv"):
         if spec.when is not None:
-            x = _find_crossing(spec, result, spec.when, "WHEN")
+            x = _find_crossing(spec, result, spec.when, "WHEN", traces)
         else:
             x = spec.at
             _inside(result, x, "AT")
@@ -1078,6 +1121,8 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
     count = 1 if rows is None else rows
     done: list[dict[str, Measure]] = [{} for _ in range(count)]
     out: list = [None] * len(specs)
+    started: dict[int, Result] = {}  # each transient read from its tstart (_from_tstart), once
+    traces = _Traces()
     for i in _measure_order(specs):
         spec = specs[i]
         try:
@@ -1086,11 +1131,13 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
             else:
                 result = _measured_result(spec, results, rows)
                 if rows is None:
-                    result = _from_tstart(result)
+                    if id(result) not in started:
+                        started[id(result)] = _from_tstart(result)
+                    result = started[id(result)]
                 if not result.ok:
-                    ms = [_measure_partial(spec, result)]
+                    ms = [_measure_partial(spec, result, traces)]
                 elif rows is None and result.analysis == "tran" and result.dense is not None:
-                    ms = [_measure(spec, result)]
+                    ms = [_measure(spec, result, traces)]
                 else:
                     ms = _measure_rows(spec, result, count)
             ms = [_finite(m) for m in ms]
@@ -1114,7 +1161,7 @@ def _partial(result: Result, rows: int | None) -> bool:
             and np.asarray(result.axis).size >= 2)
 
 
-def _measure_partial(spec: MeasureSpec, result: Result) -> Measure:
+def _measure_partial(spec: MeasureSpec, result: Result, traces: _Traces | None = None) -> Measure:
     """A measurement of a transient that failed part way, made on what it computed when the
     measurement needs nothing after its last point: ``AT=`` before it, a crossing counted from
     the start and found before it (not ``LAST``), a window whose ``TO=`` is before it.
@@ -1133,7 +1180,7 @@ def _measure_partial(spec: MeasureSpec, result: Result) -> Measure:
             (spec.function in _WINDOWED and (spec.stop is None or spec.stop > end)):
         raise failure
     try:
-        return _measure(spec, result)
+        return _measure(spec, result, traces)
     except MeasureFailure:  # a crossing not found in the part computed may come after it
         raise failure from None
 
