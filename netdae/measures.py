@@ -112,8 +112,8 @@ class Condition:
     count : int
         Which crossing, from 1; :data:`LAST` for the last.
     td : float
-        Crossings before this axis value are not counted (``TD=``); without ``TD=`` minus
-        infinity, so that every crossing counts, below zero too (a ``.dc`` sweep of negative values).
+        Crossings of a transient before this time are not counted (``TD=``); without ``TD=`` minus
+        infinity. A ``.meas ac`` or ``.meas dc`` does not read it (ngspice 39 does not).
     at : float or None
         ``TRIG AT=t``: the time itself.
     start, stop : float or None

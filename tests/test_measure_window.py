@@ -111,3 +111,37 @@ def test_extreme_on_a_plateau_is_where_it_begins():
     assert m["top2"].value == pytest.approx(1.0, abs=1e-12)
     assert m["top2"].at == pytest.approx(14e-6, abs=1e-15)       # the first at or after FROM=10u
     assert m["low"].value == pytest.approx(9e-6, abs=1e-15)      # the fall ends at 8 us: the window's start
+
+
+SWEEPS = """td in sweeps
+V1 in 0 0 AC 1
+R1 in a 1k
+R2 a 0 1k
+C1 a 0 100n
+.dc V1 5 -5 -0.5
+.ac dec 20 10 1meg
+.meas dc w1 WHEN v(a)=1 TD=3
+.meas dc w2 TRIG v(a) VAL=-1 FALL=1 TD=-4 TARG v(a) VAL=-2 FALL=1
+.meas dc w3 WHEN v(a)=1 FROM=3
+.meas ac f3 WHEN vdb(a)=-9 TD=100k
+.end
+"""
+
+
+def test_td_is_not_read_in_ac_and_dc_measurements():
+    """ngspice 39 reads TD= in a transient's measurements only (measured: ``.dc V1 -5 5 0.5``,
+    ``WHEN v(a)=1 TD=3`` gives 2, and ``.meas ac ... TD=10k`` the crossing at 1.6 kHz); netdae
+    ignores it there too, with a warning at TD= that names FROM=."""
+    from netdae.netlist import load
+
+    circuit = load(SWEEPS)
+    warned = [d.message for d in circuit.diagnostics if "TD= has no effect on a .meas" in d.message]
+    assert len(warned) == 3 and "FROM=" in warned[0]
+    results = run(circuit)
+    m = {x.name: x for r in results for x in r.measures}
+    assert m["w1"].value == pytest.approx(2.0, rel=1e-12)         # v(a) = v1/2 falls through 1 at v1 = 2
+    assert m["w2"].value == pytest.approx(-4.0 - -2.0, rel=1e-12)  # trig at v1 = -2, targ at -4: TD=-4 not read
+    assert not m["w3"].ok                                        # FROM= holds: [3, 5] has no crossing of 1
+    # 1/(1 + j w R C/2) / 2 at -9 dB (|.| = 0.3548): w RC/2 = sqrt((0.5/0.3548)^2 - 1)
+    f = ((0.5 / 10 ** (-9 / 20)) ** 2 - 1) ** 0.5 / (3.141592653589793 * 1e3 * 100e-9)
+    assert m["f3"].value == pytest.approx(f, rel=2e-3)

@@ -361,7 +361,7 @@ def _ordinal(n: int) -> str:
 
 
 def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[float, float]) -> tuple[float, float]:
-    """Where a condition is looked for: after its TD, within its FROM/TO, inside ``span``.
+    """Where a condition is looked for: after its TD (a transient's only), within its FROM/TO, inside ``span``.
 
     A ``WHEN`` clause's ``FROM=``/``TO=`` are the measurement's; a ``TRIG`` or ``TARG`` clause's are
     written in it, and one without ``FROM=`` takes the other clause's (ngspice 39 does so: ``TRIG
@@ -382,7 +382,8 @@ def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[
         stop = cond.stop
         if spec.analysis == "dc" and start is not None and stop is not None and stop < start:
             start, stop = stop, start  # as a dc measurement's window: ordered
-    lo = max(x0, cond.td, start if start is not None else x0)
+    td = cond.td if spec.analysis == "tran" else -math.inf  # ngspice 39 reads TD= in transients only
+    lo = max(x0, td, start if start is not None else x0)
     hi = min(x1, stop) if stop is not None else x1
     if lo > hi:
         raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")

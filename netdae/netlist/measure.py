@@ -270,6 +270,7 @@ def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> di
             if cond[slot] is not None:
                 raise cur.fail(offset, f"{key.upper()}= given twice")
             cond[slot] = value
+            cond[f"{slot}_at"] = offset
     if cond["at"] is None and not when:
         if cond["value"] is None:
             raise cur.fail(start, f"{clause} needs VAL=", hint=f"e.g. {clause} v(out) VAL=0.5 RISE=1")
@@ -521,6 +522,12 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
                     raise error(card, offset, f"PARAM: unknown function '{node.func}'", FORM)
             expression = tree
             params = dict(circuit.params)
+        for clause in (m.trig, m.targ, m.when):
+            if m.analysis != "tran" and clause is not None and clause["td"] is not None:
+                # ngspice 39 reads TD= in a transient's measurements only (measured: .dc and .ac ignore it)
+                card.warn(clause.get("td_at", m.offset), f"TD= has no effect on a .meas {m.analysis} in ngspice 39 "
+                          "(netdae ignores it too): crossings are counted over the whole sweep; write FROM= to "
+                          "start the search later")
         window = dict(m.window)
         if m.when is not None:
             window.setdefault("from", m.when.get("from"))
