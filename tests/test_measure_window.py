@@ -145,3 +145,13 @@ def test_td_is_not_read_in_ac_and_dc_measurements():
     # 1/(1 + j w R C/2) / 2 at -9 dB (|.| = 0.3548): w RC/2 = sqrt((0.5/0.3548)^2 - 1)
     f = ((0.5 / 10 ** (-9 / 20)) ** 2 - 1) ** 0.5 / (3.141592653589793 * 1e3 * 100e-9)
     assert m["f3"].value == pytest.approx(f, rel=2e-3)
+
+
+def test_peak_to_peak_of_a_plateau_is_zero():
+    """The interpolant's last bits wander on a pulse's plateau (1 +- 2 ulps): PP read 1.1e-15 there,
+    ngspice 0; extremes within 32 roundings of each other are one value."""
+    (res,) = run(PLATEAU.replace(".end", ".meas tran flat PP v(in) FROM=2u TO=6u\n"
+                                          ".meas tran edge PP v(in) FROM=1.5u TO=6u\n.end"))
+    m = {x.name: x for x in res.measures}
+    assert m["flat"].value == 0.0
+    assert m["edge"].value == pytest.approx(0.5, abs=1e-12)  # from 0.5 at 1.5 us up to the plateau

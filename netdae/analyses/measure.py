@@ -557,7 +557,9 @@ def _measure(spec: MeasureSpec, result: Result, traces: _Traces | None = None) -
         samples = trace.samples(lo, hi)
         top, _ = _extreme(trace, lo, hi, 1.0, samples)
         bottom, _ = _extreme(trace, lo, hi, -1.0, samples)
-        out.value = top - bottom
+        # a stretch constant to rounding (a pulse's plateau, whose interpolant's last bits wander) has
+        # no swing: extremes within 32 roundings of each other are one value, as the crossings read them
+        out.value = top - bottom if top - bottom > float(_tie(top, bottom)) else 0.0
     elif f == "integ":
         out.value = trace.integral(lo, hi, 1)
     elif f == "avg":
