@@ -112,10 +112,16 @@ class Condition:
     count : int
         Which crossing, from 1; :data:`LAST` for the last.
     td : float
-        Crossings before this axis value are not counted (``TD=``); without ``TD=`` minus
-        infinity, so that every crossing counts, below zero too (a ``.dc`` sweep of negative values).
+        Crossings of a transient before this time are not counted (``TD=``); without ``TD=`` minus
+        infinity. A ``.meas ac`` or ``.meas dc`` does not read it (ngspice 39 does not).
     at : float or None
         ``TRIG AT=t``: the time itself.
+    start, stop : float or None
+        ``FROM=`` and ``TO=`` written in a ``TRIG`` or ``TARG`` clause: the stretch of the
+        axis its crossings are looked for in (a ``WHEN``'s are the measurement's
+        :attr:`MeasureSpec.start` and :attr:`MeasureSpec.stop`). As in ngspice 39, a ``TRIG``
+        or ``TARG`` without ``FROM=`` takes the other clause's ``FROM=``; ``TO=`` is the
+        clause's own.
     """
 
     probe: Probe | None
@@ -125,6 +131,8 @@ class Condition:
     count: int = 1
     td: float = -math.inf
     at: float | None = None
+    start: float | None = None
+    stop: float | None = None
 
 
 @dataclass(frozen=True)

@@ -148,7 +148,7 @@ def test_crossings_below_zero_of_a_dc_sweep_count_without_td():
     assert got["vneg"].value == pytest.approx(-2.0, rel=1e-12)
     assert got["vfind"].value == pytest.approx(-1.5, rel=1e-12)
     assert got["span"].value == pytest.approx(8.0, rel=1e-12)
-    assert not got["late"].ok and "[-1, 5]" in got["late"].reason
+    assert got["late"].value == pytest.approx(-2.0, rel=1e-12)  # ngspice 39 does not read TD= in .dc: neither does netdae
 
 
 def test_a_decreasing_dc_sweep_is_measured_in_its_order():

@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -143,6 +143,21 @@ def _values(result: Result, probe: Probe) -> np.ndarray:
     return y
 
 
+class _Traces:
+    """The traces of one evaluation, one per result and quantity: a quantity that several measurements
+    read (``MAX``, ``MIN``, ``PP``, a ``WHEN`` of ``v(out)``) is read and sampled once."""
+
+    def __init__(self) -> None:
+        self._traces: dict = {}
+
+    def get(self, result: Result, probe: Probe) -> "_Trace":
+        key = (id(result), probe.name)
+        trace = self._traces.get(key)
+        if trace is None:
+            trace = self._traces[key] = _Trace(result, probe)
+        return trace
+
+
 class _Trace:
     """One real quantity of a transient with dense output: its values at the steps and between them.
 
@@ -153,6 +168,7 @@ class _Trace:
         self.name = probe.name
         self.x = np.asarray(result.axis, dtype=float)
         self.y = _values(result, probe)
+        self._whole: tuple[np.ndarray, np.ndarray] | None = None
 
         def dense(t, _r=result, _p=probe):
             t = np.atleast_1d(np.asarray(t, dtype=float))
@@ -168,13 +184,28 @@ class _Trace:
         return self.dense(np.atleast_1d(np.asarray(xq, dtype=float)))
 
     def samples(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """Points in [lo, hi] in order (ends included, and inner points of every step)."""
+        """Points in [lo, hi] in order (ends included, and inner points of every step).
+
+        The sample grid of the whole run is made once and kept (the measurements of a quantity
+        that look at all of it share it); a window inside the run samples its own steps.
+        """
         x, y = self.x, self.y
         if x.size > 1:
             # only the steps that overlap [lo, hi]
             first = max(int(np.searchsorted(x, lo, side="right")) - 1, 0)
             last = min(int(np.searchsorted(x, hi, side="left")) + 1, x.size)
-            x, y = x[first:last], y[first:last]
+            if first == 0 and last == x.size:
+                if self._whole is None:
+                    self._whole = self._grid(x, y)
+                x, y = self._whole
+            else:
+                x, y = self._grid(x[first:last], y[first:last])
+        keep = (x > lo) & (x < hi)
+        ends = self.at([lo, hi])
+        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([[ends[0]], y[keep], [ends[1]]])
+
+    def _grid(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The points ``x`` and the inner points of every step between them, with their values."""
         if x.size > 1:
             h = np.diff(x)
             xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
@@ -186,9 +217,7 @@ class _Trace:
             ys[~inner, 1:] = y[:-1][~inner, None]
             x = np.append(xs.ravel(), x[-1])
             y = np.append(ys.ravel(), y[-1])
-        keep = (x > lo) & (x < hi)
-        ends = self.at([lo, hi])
-        return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([[ends[0]], y[keep], [ends[1]]])
+        return x, y
 
     def integral(self, lo: float, hi: float, power: int) -> float:
         """The integral of ``y**power`` over [lo, hi]."""
@@ -288,8 +317,18 @@ def _tie(*values) -> np.ndarray:
     return ROUNDING_TIE * np.maximum.reduce([np.abs(np.asarray(v, dtype=float)) for v in values])
 
 
-def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None) -> list:
-    """Every crossing in [lo, hi]: (axis value, "rise" | "fall") (:func:`_events`)."""
+def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Trace | None):
+    """Every crossing in [lo, hi], in order, and where one is.
+
+    Returns
+    -------
+    events : list of (int, str)
+        Each crossing's sample interval and ``"rise"`` or ``"fall"`` (:func:`_events`).
+    locate : callable
+        ``locate(event) -> float``: the crossing's axis value, solved on the interpolant. Only the
+        crossing a measurement asks for is solved (a long transient crosses its value thousands of
+        times, and counting them needs only the samples).
+    """
     xs, ys = trace.samples(lo, hi)
     ref = other.at(xs) if other is not None else np.full_like(ys, cond.value)
     d = ys - ref
@@ -300,22 +339,21 @@ def _crossings(trace: _Trace, cond: Condition, lo: float, hi: float, other: _Tra
         ref = other.at([t])[0] if other is not None else cond.value
         return value - ref + shift * float(_tie(value, ref))
 
-    out = []
-    for k in np.flatnonzero(kind).tolist():
+    def locate(event) -> float:
+        k, edge = event
         a, b = xs[k], xs[k + 1]
-        up = kind[k] > 0
+        up = edge == "rise"
         if a == b:
-            t = a
-        else:
-            # between: d's zero; reaching: the first point within the tie; leaving: the last
-            shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
-            ga, gb = g(a, shift), g(b, shift)
-            if ga * gb > 0:  # the interpolant at the sample points disagrees with the samples by rounding
-                t = a if where[k] == 2 else b
-            else:
-                t = a if ga == 0 else b if gb == 0 else _root(lambda u: g(u, shift), a, b, ga, gb)
-        out.append((float(t), "rise" if up else "fall"))
-    return out
+            return float(a)
+        # between: d's zero; reaching: the first point within the tie; leaving: the last
+        shift = (0.0, 1.0 if up else -1.0, -1.0 if up else 1.0)[where[k]]
+        ga, gb = g(a, shift), g(b, shift)
+        if ga * gb > 0:  # the interpolant at the sample points disagrees with the samples by rounding
+            return float(a if where[k] == 2 else b)
+        return float(a if ga == 0 else b if gb == 0 else _root(lambda u: g(u, shift), a, b, ga, gb))
+
+    events = [(k, "rise" if kind[k] > 0 else "fall") for k in np.flatnonzero(kind).tolist()]
+    return events, locate
 
 
 def _ordinal(n: int) -> str:
@@ -323,7 +361,12 @@ def _ordinal(n: int) -> str:
 
 
 def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[float, float]) -> tuple[float, float]:
-    """Where a condition is looked for: after its TD, within FROM/TO for a WHEN clause, inside ``span``.
+    """Where a condition is looked for: after its TD (a transient's only), within its FROM/TO, inside ``span``.
+
+    A ``WHEN`` clause's ``FROM=``/``TO=`` are the measurement's; a ``TRIG`` or ``TARG`` clause's are
+    written in it, and one without ``FROM=`` takes the other clause's (ngspice 39 does so: ``TRIG
+    v(a) VAL=0.5 RISE=2 TARG v(b) VAL=0.5 RISE=1 FROM=30u`` counts the trigger's rises from 30 us too,
+    while ``TO=`` stays the clause's own).
 
     Raises
     ------
@@ -331,32 +374,43 @@ def _search_window(spec: MeasureSpec, cond: Condition, clause: str, span: tuple[
         The window is empty.
     """
     x0, x1 = span
-    lo = max(x0, cond.td, spec.start if clause == "WHEN" and spec.start is not None else x0)
-    hi = min(x1, spec.stop) if clause == "WHEN" and spec.stop is not None else x1
+    if clause == "WHEN":
+        start, stop = spec.start, spec.stop
+    else:  # TRIG, TARG: the clause's own FROM= (else the other clause's, as ngspice 39) and TO=
+        other = spec.targ if clause == "TRIG" else spec.trig
+        start = cond.start if cond.start is not None else other.start if other is not None else None
+        stop = cond.stop
+        if spec.analysis == "dc" and start is not None and stop is not None and stop < start:
+            start, stop = stop, start  # as a dc measurement's window: ordered
+    td = cond.td if spec.analysis == "tran" else -math.inf  # ngspice 39 reads TD= in transients only
+    lo = max(x0, td, start if start is not None else x0)
+    hi = min(x1, stop) if stop is not None else x1
     if lo > hi:
         raise MeasureFailure(f"{clause}: the window [{lo:g}, {hi:g}] is empty (the analysis covers {x0:g} to {x1:g})")
     return lo, hi
 
 
-def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: str) -> float:
+def _find_crossing(spec: MeasureSpec, result: Result, cond: Condition, clause: str,
+                   traces: _Traces | None = None) -> float:
     if cond.at is not None:
         return cond.at
-    trace = _Trace(result, cond.probe)
-    other = _Trace(result, cond.other) if cond.other is not None else None
+    traces = _Traces() if traces is None else traces
+    trace = traces.get(result, cond.probe)
+    other = traces.get(result, cond.other) if cond.other is not None else None
     lo, hi = _search_window(spec, cond, clause, trace.span)
-    events = _crossings(trace, cond, lo, hi, other)
+    events, locate = _crossings(trace, cond, lo, hi, other)
     wanted = [e for e in events if cond.edge in ("", "cross") or e[1] == cond.edge]
     target = other.name if other is not None else f"{cond.value:g}"
     if not wanted:
         kind = {"rise": "rises through", "fall": "falls through"}.get(cond.edge, "crosses")
         raise MeasureFailure(f"{clause}: {trace.name} never {kind} {target} in [{lo:g}, {hi:g}]")
     if cond.count == LAST:
-        return wanted[-1][0]
+        return locate(wanted[-1])
     if cond.count > len(wanted):
         edge = cond.edge or "cross"
         raise MeasureFailure(f"{clause}: {trace.name} has {len(wanted)} {edge}(s) through {target} in "
                              f"[{lo:g}, {hi:g}], the {_ordinal(cond.count)} was asked")
-    return wanted[cond.count - 1][0]
+    return locate(wanted[cond.count - 1])
 
 
 def _inside(result: Result, x: float, what: str) -> None:
@@ -428,7 +482,8 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
     on a transient's dense output: the stationary points of the step
     polynomials next to it (:meth:`_Trace.polynomials`), each then evaluated on
     the dense output itself, so the value is always the solution's. Two dense
-    evaluations in all.
+    evaluations in all. On a stretch at the extreme, where is where the stretch
+    begins (:func:`_first_arrival`).
     """
     xs, ys = trace.samples(lo, hi) if samples is None else samples
     k = int(np.argmax(sign * ys))
@@ -451,25 +506,41 @@ def _extreme(trace: _Trace, lo: float, hi: float, sign: float, samples=None) -> 
         j = int(np.argmax(sign * yc))
         if sign * yc[j] > sign * best:
             best, where = float(yc[j]), float(tc[j])
-    return best, where
+    return best, _first_arrival(xs, ys, best, where, sign)
 
 
-def _measure(spec: MeasureSpec, result: Result) -> Measure:
-    """One measurement of a transient with dense output (:func:`_measure_rows` reads the others)."""
+def _first_arrival(xs: np.ndarray, ys: np.ndarray, best: float, where: float, sign: float) -> float:
+    """Where the samples first come within rounding of the extreme ``best`` (found at ``where``).
+
+    A stretch at the extreme (a pulse's plateau, a clipped output) is one value to rounding, and the
+    interpolant's last bits on it decide which of its points is largest: the extreme is where the
+    stretch begins, its first sample within :func:`_tie` of ``best``, ``where`` itself when no sample
+    before it is that close. (ngspice 39 takes the point its last bits make largest: on a pulse's
+    plateau of values 1.0 to 15 digits, its last point.)
+    """
+    close = np.flatnonzero(sign * ys >= sign * best - _tie(best))
+    return float(xs[close[0]]) if close.size and xs[close[0]] < where else where
+
+
+def _measure(spec: MeasureSpec, result: Result, traces: _Traces | None = None) -> Measure:
+    """One measurement of a transient with dense output (:func:`_measure_rows` reads the others).
+
+    ``traces`` holds the quantities read so far in this evaluation (:class:`_Traces`)."""
+    traces = _Traces() if traces is None else traces
     f = spec.function
     out = Measure(spec.name, spec.analysis, f, None)
     if f == "trig":
-        trig = _find_crossing(spec, result, spec.trig, "TRIG")
-        targ = _find_crossing(spec, result, spec.targ, "TARG")
+        trig = _find_crossing(spec, result, spec.trig, "TRIG", traces)
+        targ = _find_crossing(spec, result, spec.targ, "TARG", traces)
         out.value, out.extra = targ - trig, {"targ": targ, "trig": trig}
         return out
     if f == "when":
-        out.value = out.at = _find_crossing(spec, result, spec.when, "WHEN")
+        out.value = out.at = _find_crossing(spec, result, spec.when, "WHEN", traces)
         return out
-    trace = _Trace(result, spec.probe)
+    trace = traces.get(result, spec.probe)
     if f in ("find", "deriv"):
         if spec.when is not None:
-            x = _find_crossing(spec, result, spec.when, "WHEN")
+            x = _find_crossing(spec, result, spec.when, "WHEN", traces)
         else:
             x = spec.at
             _inside(result, x, "AT")
@@ -486,7 +557,9 @@ def _measure(spec: MeasureSpec, result: Result) -> Measure:
         samples = trace.samples(lo, hi)
         top, _ = _extreme(trace, lo, hi, 1.0, samples)
         bottom, _ = _extreme(trace, lo, hi, -1.0, samples)
-        out.value = top - bottom
+        # a stretch constant to rounding (a pulse's plateau, whose interpolant's last bits wander) has
+        # no swing: extremes within 32 roundings of each other are one value, as the crossings read them
+        out.value = top - bottom if top - bottom > float(_tie(top, bottom)) else 0.0
     elif f == "integ":
         out.value = trace.integral(lo, hi, 1)
     elif f == "avg":
@@ -601,7 +674,12 @@ class _Lines:
         return np.sum(np.ascontiguousarray(ys) ** power * _panel_weights(xs), axis=1)
 
     def derivative(self, xq: np.ndarray) -> tuple[np.ndarray, list]:
-        """The slope of the line at each row's ``xq``, and why a row has none (None: it has)."""
+        """The slope of the line at each row's ``xq``, and why a row has none (None: it has).
+
+        At an inner point of the axis, where the line on its left and the line on its right meet,
+        the slope is the derivative of the parabola through the point and its two neighbours
+        (with equal spacing: the central difference), not the left line's.
+        """
         x = self.x
         i = np.clip(np.searchsorted(x, self.sense * np.asarray(xq, dtype=float), side="left"), 1, x.size - 1)
         while True:
@@ -611,8 +689,21 @@ class _Lines:
             i = i + same
         a, b = x[i - 1], x[i]
         rows = np.arange(self.y.shape[0])
+        y = self.y
         with np.errstate(invalid="ignore", divide="ignore"):
-            slope = self.sense * (self.y[rows, i] - self.y[rows, i - 1]) / (b - a)
+            slope = self.sense * (y[rows, i] - y[rows, i - 1]) / (b - a)
+            # on an inner point of the axis (to rounding) the lines have two slopes: take the derivative
+            # of the parabola through the point and its neighbours, second order as a line's slope is
+            # between two points
+            xs = self.sense * np.asarray(xq, dtype=float)
+            k = np.where(np.abs(xs - a) <= np.abs(xs - b), i - 1, i)
+            km, kp = np.clip(k - 1, 0, x.size - 1), np.clip(k + 1, 0, x.size - 1)
+            h1, h2 = x[k] - x[km], x[kp] - x[k]
+            on = ((k > 0) & (k < x.size - 1) & (h1 > 0) & (h2 > 0)
+                  & (np.abs(xs - x[k]) <= _tie(x[k], h1 + h2)))
+            if np.any(on):
+                d = (h1 ** 2 * (y[rows, kp] - y[rows, k]) + h2 ** 2 * (y[rows, k] - y[rows, km])) / (h1 * h2 * (h1 + h2))
+                slope = np.where(on, self.sense * d, slope)
         reasons = [f"{self.name} jumps at {q:g}: no derivative there" if jump else None
                    for q, jump in zip(np.atleast_1d(xq).tolist(), (b == a).tolist())]
         return slope, reasons
@@ -970,6 +1061,46 @@ def _measure_order(specs: list[MeasureSpec]) -> list[int]:
         [i for i, s in enumerate(specs) if s.function == "param"]
 
 
+def _from_tstart(result: Result) -> Result:
+    """A transient's result read from its ``tstart`` on: with the point at ``tstart`` itself put first.
+
+    A transient keeps the points its integrator accepted at or after ``tstart``, and the first of
+    them lies a part of a step after it; the measurements are of the analysis from ``tstart`` on
+    (``INTEG``, ``AVG``, ``RMS`` without ``FROM=``, ``FROM=`` before the first point, ``AT=tstart``),
+    as ngspice's converge to when its steps shrink. The integrator's interpolant covers the whole
+    run, so the value at ``tstart`` is the one the step through it computed.
+
+    Parameters
+    ----------
+    result : Result
+        Any result; only a transient with dense output whose first point is after its card's
+        ``tstart`` is changed.
+
+    Returns
+    -------
+    Result
+        ``result`` itself, or a copy whose axis and signals start with the point at ``tstart``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from netdae.circuit import TranAnalysis
+    >>> r = Result("tran", axes={"time": np.array([1.5, 2.0])}, signals={"v(a)": np.array([3.0, 4.0])},
+    ...            dense=lambda t: {"v(a)": 2.0 * np.asarray(t)}, card=TranAnalysis(0.1, 2.0, 1.0))
+    >>> _from_tstart(r).signals["v(a)"].tolist(), _from_tstart(r).axis.tolist()
+    ([2.0, 3.0, 4.0], [1.0, 1.5, 2.0])
+    """
+    card, x = result.card, result.axis
+    tstart = float(getattr(card, "tstart", 0.0) or 0.0)
+    if result.analysis != "tran" or result.dense is None or x is None or x.size == 0 or not x[0] > tstart:
+        return result
+    first = result.dense(np.array([tstart]))
+    signals = {name: np.concatenate([np.atleast_1d(np.asarray(first[name]))[:1].astype(np.asarray(v).dtype),
+                                     np.asarray(v)])
+               for name, v in result.signals.items()}
+    return replace(result, axes={result.axis_name: np.concatenate([[tstart], x])}, signals=signals)
+
+
 def _measured_result(spec: MeasureSpec, results: Mapping[str, Result], rows: int | None) -> Result:
     """The result ``spec`` measures, checked: present, finished (or, one result of one row, a transient
     that failed part way: :func:`_partial`).
@@ -993,6 +1124,8 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
     count = 1 if rows is None else rows
     done: list[dict[str, Measure]] = [{} for _ in range(count)]
     out: list = [None] * len(specs)
+    started: dict[int, Result] = {}  # each transient read from its tstart (_from_tstart), once
+    traces = _Traces()
     for i in _measure_order(specs):
         spec = specs[i]
         try:
@@ -1000,10 +1133,14 @@ def _evaluate(specs: list[MeasureSpec], results: Mapping[str, Result], rows: int
                 ms = [_param_or_failure(spec, d) for d in done]
             else:
                 result = _measured_result(spec, results, rows)
+                if rows is None:
+                    if id(result) not in started:
+                        started[id(result)] = _from_tstart(result)
+                    result = started[id(result)]
                 if not result.ok:
-                    ms = [_measure_partial(spec, result)]
+                    ms = [_measure_partial(spec, result, traces)]
                 elif rows is None and result.analysis == "tran" and result.dense is not None:
-                    ms = [_measure(spec, result)]
+                    ms = [_measure(spec, result, traces)]
                 else:
                     ms = _measure_rows(spec, result, count)
             ms = [_finite(m) for m in ms]
@@ -1027,7 +1164,7 @@ def _partial(result: Result, rows: int | None) -> bool:
             and np.asarray(result.axis).size >= 2)
 
 
-def _measure_partial(spec: MeasureSpec, result: Result) -> Measure:
+def _measure_partial(spec: MeasureSpec, result: Result, traces: _Traces | None = None) -> Measure:
     """A measurement of a transient that failed part way, made on what it computed when the
     measurement needs nothing after its last point: ``AT=`` before it, a crossing counted from
     the start and found before it (not ``LAST``), a window whose ``TO=`` is before it.
@@ -1046,7 +1183,7 @@ def _measure_partial(spec: MeasureSpec, result: Result) -> Measure:
             (spec.function in _WINDOWED and (spec.stop is None or spec.stop > end)):
         raise failure
     try:
-        return _measure(spec, result)
+        return _measure(spec, result, traces)
     except MeasureFailure:  # a crossing not found in the part computed may come after it
         raise failure from None
 

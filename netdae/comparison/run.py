@@ -332,7 +332,40 @@ def _compare_measures(circuit: Circuit, netdae_results: dict[str, Result], ngspi
         ng = same[k] if k < len(same) else Measure(m.name, m.analysis, m.function, None, status=STATUS_FAILED,
                                                    reason="ngspice did not run")
         out.append(MeasureComparison(m.name, m.analysis, m, ng))
-    return out
+    return _one_analysis_measured(out)
+
+
+#: ngspice's reason for a card it printed nothing about (netdae.ngspice.measures).
+_SILENT = "ngspice printed no value"
+
+
+def _one_analysis_measured(pairs: list) -> list:
+    """The pairs, with the reason of ngspice's silence said where it is ngspice 39's batch mode.
+
+    With cards of several analyses (``.meas tran`` and ``.meas ac``), ``ngspice -b`` makes the
+    measurements of one analysis only and prints nothing for the others' cards. When every card of an
+    analysis got no word from ngspice while another analysis's cards did, that is the reason.
+
+    Examples
+    --------
+    >>> from netdae.measures import Measure
+    >>> from netdae.comparison.model import MeasureComparison
+    >>> tr = MeasureComparison("tr", "tran", Measure("tr", "tran", "trig", 1.0), Measure("tr", "tran", "trig", 1.0))
+    >>> f = MeasureComparison("f", "ac", Measure("f", "ac", "when", 2.0),
+    ...                       Measure("f", "ac", "when", None, status="failed", reason=_SILENT))
+    >>> _one_analysis_measured([tr, f])[1].ngspice.reason[:60]
+    'ngspice printed no value: ngspice 39 -b measures the .meas c'
+    """
+    from dataclasses import replace
+
+    spoke = {p.analysis for p in pairs if p.ngspice.reason != _SILENT}
+    silent = {p.analysis for p in pairs} - spoke
+    if not spoke or not silent:
+        return pairs
+    kinds = ", ".join(f".meas {k}" for k in sorted(silent))
+    why = (f"{_SILENT}: ngspice 39 -b measures the .meas cards of one analysis when a netlist runs several "
+           f"(here those of {', '.join(sorted(spoke))}); run the {kinds} cards on a netlist with that analysis alone")
+    return [replace(p, ngspice=replace(p.ngspice, reason=why)) if p.analysis in silent else p for p in pairs]
 
 
 def compare(netlist, *, tight: bool | None = None, tol=None, backend: str = "auto", signals=None,

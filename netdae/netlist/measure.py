@@ -3,7 +3,7 @@
 The forms, as ngspice's manual gives them (keywords in any case, values may
 be numbers, ``{expressions}`` or parameter names)::
 
-    .meas tran|ac|dc name TRIG sig VAL=v [TD=t] RISE=n|FALL=n|CROSS=n|LAST  TARG sig VAL=v ...
+    .meas tran|ac|dc name TRIG sig VAL=v [TD=t] [FROM=] [TO=] RISE=n|FALL=n|CROSS=n|LAST  TARG sig VAL=v ...
     .meas tran|ac|dc name TRIG AT=t TARG sig VAL=v ...
     .meas tran|ac|dc name FIND sig AT=x
     .meas tran|ac|dc name FIND sig WHEN sig=v|sig [TD=] [FROM=] [TO=] [RISE=|FALL=|CROSS=n|LAST]
@@ -211,7 +211,21 @@ def _keyword(cur: _Cursor, allowed: tuple[str, ...], where: str) -> tuple[str, o
         if not isinstance(parsed[0], float) or parsed[0] != int(parsed[0]) or parsed[0] < 1:
             raise cur.fail(val.start, f"{tok.text.upper()}= takes a positive whole number or LAST, got {val.text!r}")
         return tok.text, int(parsed[0]), tok.start
-    return tok.text, parse_value(cur.card, val, FORM, f"{tok.text.upper()} value"), tok.start
+    return tok.text, _meas_value(cur.card, val, f"{tok.text.upper()} value"), tok.start
+
+
+def _meas_value(card: Card, tok: Token, what: str):
+    """A value of a ``.meas`` card: a number, ``{expr}``/``'expr'``, a parameter name, or, as ngspice
+    reads it, an expression without braces or blanks (``VAL=vdd*0.5``)."""
+    try:
+        return parse_value(card, tok, FORM, what)
+    except NetlistError as first:
+        if tok.kind != WORD:
+            raise
+        try:
+            return parse_value(card, tok, FORM, what, numparam=True)
+        except NetlistError:
+            raise first from None
 
 
 def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> dict:
@@ -237,8 +251,8 @@ def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> di
             if _starts_probe(cur):
                 cond["other"] = _probe(cur, analysis, "after '='")
             else:
-                cond["value"] = parse_value(cur.card, cur.take(), FORM, "WHEN value")
-    allowed = ("val", "td", "last") + _EDGES + (("from", "to") if when else ())
+                cond["value"] = _meas_value(cur.card, cur.take(), "WHEN value")
+    allowed = ("val", "td", "last", "from", "to") + _EDGES
     edge_at = None
     while not cur.done and not cur.word_is(stop or "\0"):
         key, value, offset = _keyword(cur, allowed, clause)
@@ -256,6 +270,7 @@ def _condition(cur: _Cursor, analysis: str, clause: str, stop: str | None) -> di
             if cond[slot] is not None:
                 raise cur.fail(offset, f"{key.upper()}= given twice")
             cond[slot] = value
+            cond[f"{slot}_at"] = offset
     if cond["at"] is None and not when:
         if cond["value"] is None:
             raise cur.fail(start, f"{clause} needs VAL=", hint=f"e.g. {clause} v(out) VAL=0.5 RISE=1")
@@ -463,13 +478,15 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     def number(val, card, what):
         return None if val is None else value(val, card, what)
 
-    def condition(c: dict, card, analysis) -> Condition:
+    def condition(c: dict, card, analysis, when: bool = False) -> Condition:
         return Condition(probe=probe(c["probe"], card, analysis) if c["probe"] else None,
                          value=number(c["value"], card, "VAL"),
                          other=probe(c["other"], card, analysis) if c["other"] else None,
                          edge=c["edge"], count=c["count"],
                          td=-math.inf if c["td"] is None else number(c["td"], card, "TD"),
-                         at=number(c["at"], card, "AT"))
+                         at=number(c["at"], card, "AT"),
+                         start=number(c["from"], card, "FROM") if not when else None,
+                         stop=number(c["to"], card, "TO") if not when else None)
 
     def one(m):
         card = m.card
@@ -505,6 +522,12 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
                     raise error(card, offset, f"PARAM: unknown function '{node.func}'", FORM)
             expression = tree
             params = dict(circuit.params)
+        for clause in (m.trig, m.targ, m.when):
+            if m.analysis != "tran" and clause is not None and clause["td"] is not None:
+                # ngspice 39 reads TD= in a transient's measurements only (measured: .dc and .ac ignore it)
+                card.warn(clause.get("td_at", m.offset), f"TD= has no effect on a .meas {m.analysis} in ngspice 39 "
+                          "(netdae ignores it too): crossings are counted over the whole sweep; write FROM= to "
+                          "start the search later")
         window = dict(m.window)
         if m.when is not None:
             window.setdefault("from", m.when.get("from"))
@@ -525,7 +548,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
             probe=probe(m.probe, card, m.analysis) if m.probe else None,
             trig=condition(m.trig, card, m.analysis) if m.trig else None,
             targ=condition(m.targ, card, m.analysis) if m.targ else None,
-            when=condition(m.when, card, m.analysis) if m.when else None,
+            when=condition(m.when, card, m.analysis, when=True) if m.when else None,
             at=number(m.at, card, "AT"), start=start, stop=stop, expression=expression, params=params,
             location=card.location(0), text=card.raw,
         )

@@ -173,6 +173,70 @@ def _step_warnings(circuit: Circuit, plan: Plan, params: Mapping | None,
     return out
 
 
+def _swept_value(circuit: Circuit, axis) -> float | None:
+    """The value a parameter or element axis replaces in ``circuit`` (None for other axes or none)."""
+    if axis.target == "param":
+        value = circuit.params.get(axis.name)
+        return None if value is None else float(value)
+    if axis.target == "element":
+        el = circuit.element(axis.name)
+        if el.source is not None:
+            return float(el.source.dc or 0.0)
+        return None if el.value is None else float(el.value)
+    return None
+
+
+def stepped_draws(circuit: Circuit, plan: Plan, seed: int) -> list[str]:
+    """Warnings for the axes of a Monte Carlo sweep whose values vary from sample to sample.
+
+    A stepped ``.param`` or element whose own value draws (``.param r={gauss(1k,0.1,3)}`` stepped
+    as ``r``) is set to the step's fixed values in every row: its variation is gone from the
+    samples, silently. It is found by elaborating the netlist for a second sample and comparing
+    the axis's value with the first sample's.
+
+    Parameters
+    ----------
+    circuit : Circuit
+        The sweep's circuit (sample 0, without the axes' values).
+    plan : Plan
+    seed : int
+        The sweep's seed.
+
+    Returns
+    -------
+    list of str
+        One ``"warning: ..."`` per such axis.
+
+    Examples
+    --------
+    >>> import netdae
+    >>> from netdae.sweeps.plan import make_plan
+    >>> c = netdae.load("t\\n.param r={gauss(1k,0.1,3)}\\nV1 a 0 1\\nR1 a 0 {r}\\n.op\\n")
+    >>> print(stepped_draws(c, make_plan(c, {"r": [1e3, 2e3]}, 4), 1)[0][:69])
+    warning: the stepped r varies from one Monte Carlo sample to the next
+    """
+    axes = [a for a in plan.axes if a.target in ("param", "element")]
+    if not axes or circuit.netlist is None:
+        return []
+    try:
+        other = circuit.variant(sample=1, seed=seed)
+        first = circuit.variant(sample=0, seed=seed)
+    except NetdaeError:  # the sample's own elaboration fails: its rows say so
+        return []
+    out = []
+    for axis in axes:
+        a, b = _swept_value(first, axis), _swept_value(other, axis)
+        if a is None or b is None or a == b:
+            continue
+        what = "a .param" if axis.target == "param" else "an element"
+        out.append(f"warning: the stepped {axis.name} varies from one Monte Carlo sample to the next ({what} whose "
+                   f"value draws: {a:g} in sample 0, {b:g} in sample 1); each row sets it to the step's value, so its "
+                   "variation is not in the samples (hint: to vary it around each stepped value, step its nominal "
+                   "through a .param the draw uses, e.g. .param rnom=1k r={gauss(rnom,0.1,3)} and .step param "
+                   "rnom ...)")
+    return out
+
+
 def _check_measure_names(circuit: Circuit, plan: Plan, analyses: tuple[str, ...] | None) -> None:
     """Refuse a recorded measure named like a column of the sweep's table (it would overwrite the column).
 
@@ -390,6 +454,8 @@ def sweep(circuit: Circuit | str | os.PathLike, *, params: Mapping[str, Iterable
     if samples is not None and circuit.draws == 0:
         raise NetdaeError(f"sweep: {samples} Monte Carlo samples asked, but the netlist draws nothing: use gauss, "
                           "agauss, unif, aunif or limit in a .param or an element value")
+    if samples is not None:
+        warnings += stepped_draws(circuit, plan, seed)
     job = Job(circuit.netlist, dict(circuit.overrides), circuit.max_elements, seed, plan, wanted, save, options,
               secrets.token_hex(8))
     pool, count, name = _executor(executor, workers, len(plan.rows))
