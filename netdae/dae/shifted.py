@@ -10,8 +10,7 @@ all pencils and shifts at once (numpy arrays of shape (pencils, shifts)).
 Unitary transformations and a triangular solve are backward stable, and no
 inverse of ``H`` is formed, so a pencil whose ``H`` is singular is solved as
 well as any. Cost: O(n^3) per pencil plus O(n^2) per shift, where a dense
-LU per shift costs O(n^3) and a LAPACK call (about 2 us) each; the back
-substitution is compiled (:mod:`netdae.dae.compiled.shifted`).
+LU per shift costs O(n^3) and a LAPACK call (about 2 us) each.
 """
 
 from __future__ import annotations
@@ -74,10 +73,24 @@ def shifted_solves(E: np.ndarray, H: np.ndarray, b: np.ndarray, s: np.ndarray) -
             continue
         S[r], P[r], Z[r] = s_r, p_r, z
         c[r] = q.conj().T @ b[r]
-    # the back substitution over all pencils and shifts, compiled (numpy's passes over (m, f) arrays were
-    # half the cost of a Monte Carlo of an RLC filter's response)
-    from .compiled.shifted import triangular_pencil_solves
-
-    X = np.zeros((m, s.size, n), dtype=complex)
-    triangular_pencil_solves(S, P, Z, c, s, X, failed, np.zeros(n, dtype=complex))
+    # back substitution, component by component over all pencils and shifts: arrays (m, f), in place
+    Pt = np.ascontiguousarray(P.transpose(1, 2, 0))[..., None]  # (n, n, m, 1)
+    St = np.ascontiguousarray(S.transpose(1, 2, 0))[..., None]
+    Y = np.empty((n, m, s.size), dtype=complex)
+    term = np.empty((m, s.size), dtype=complex)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for i in range(n - 1, -1, -1):
+            acc = Y[i]
+            acc[...] = c[:, i, None]
+            for j in range(i + 1, n):
+                np.multiply(s, Pt[i, j], out=term)
+                np.subtract(term, St[i, j], out=term)
+                np.multiply(term, Y[j], out=term)
+                np.subtract(acc, term, out=acc)
+            np.multiply(s, Pt[i, i], out=term)
+            np.subtract(term, St[i, i], out=term)
+            failed |= np.any(term == 0, axis=1)
+            np.divide(acc, term, out=acc)
+        X = np.matmul(Y.transpose(1, 2, 0), Z.transpose(0, 2, 1))
+    failed |= ~np.all(np.isfinite(X), axis=(1, 2))
     return X, failed

@@ -53,17 +53,7 @@ def warm() -> float:
     netdae.simulate(netdae.load(_WARM_NETLIST))
     netdae.run(netdae.load(_WARM_NONLINEAR))
     netdae.run(netdae.load(_WARM_AC))
-    _warm_shifted()
     return time.perf_counter() - t0
-
-
-def _warm_shifted() -> None:
-    """The batched pencil solves of a sweep's linear AC rows (:func:`netdae.dae.shifted.shifted_solves`)."""
-    import numpy as np
-
-    from ..shifted import shifted_solves
-
-    shifted_solves(np.eye(2)[None], -np.eye(2)[None], np.ones((1, 2)), np.array([1j]))
 
 
 def bytecode() -> bool:
