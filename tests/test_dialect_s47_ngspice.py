@@ -91,3 +91,82 @@ def test_ngspice_reads_the_nested_conditional_otherwise_and_the_parenthesised_on
     got = op_values("t\nV2 n2 0 {1 ? (0 ? 10 : 20) : 30}\nV3 n3 0 {0 ? 2 : 0 ? 4 : 5}\n"
                     "R2 n2 0 1\nR3 n3 0 1\n.op\n", ["v(n2)", "v(n3)"])
     assert got == {"v(n2)": 20.0, "v(n3)": 5.0}
+
+
+# -- instance parameters are evaluated in the instance's scope, in ngspice's order ----------------
+
+SCOPE = """instance parameter scope
+.param r1=5k r2=7k g=100 rint=1k
+.subckt s a params: {defaults}
+.param rint={body}
+Ra a 0 {{r1}}
+Rb a 0 {{r2}}
+Rc a 0 {{rint}}
+.ends
+V1 x 0 1
+X1 x s {inst}
+.op
+"""
+
+# (defaults, body rint, instance parameters, ngspice 39's resistances Ra, Rb, Rc)
+SCOPE_CASES = [
+    ("r1=1k r2=1k", "4k", "r1=2k r2={r1}", 2e3, 2e3, 4e3),        # the instance's r1, not the caller's 5k
+    ("r1=1k r2=1k", "4k", "r1={r2} r2=3k", 3e3, 3e3, 4e3),        # a number is assigned first
+    ("r1=1k r2=1k", "4k", "r1={r1*2}", 10e3, 1e3, 4e3),           # its own name: the caller's r1
+    ("r1=1k r2=1k", "4k", "r1={rint}", 4e3, 1e3, 4e3),            # the body's .param, not the caller's rint
+    ("r1=1k r2=1k", "4k", "rint={r1*3}", 1e3, 1e3, 3e3),          # an instance value replacing a body .param
+    ("r1=1k r2=1k", "4k", "r1={r2} r2={r2*2}", 7e3, 14e3, 4e3),   # r2 is assigned after r1: the caller's
+    ("r2=1k r1=1k", "4k", "r1={r2} r2={r2*2}", 14e3, 14e3, 4e3),  # ... before it: the instance's
+    ("r1={r2} r2={g*20}", "4k", "", 2e3, 2e3, 4e3),               # defaults sorted by what they read
+    ("r1=1k r2={g*20}", "4k", "r1={r2}", 7e3, 2e3, 4e3),          # ... an instance's value keeps the place
+    ("r1={rint*2} r2=1k", "{g*20}", "", 4e3, 1e3, 2e3),           # body .params sorted with the defaults
+]
+
+
+@pytest.mark.parametrize("defaults, body, inst, ra, rb, rc", SCOPE_CASES)
+def test_instance_values_follow_ngspice_assignment_order(defaults, body, inst, ra, rb, rc):
+    value = op_values(SCOPE.format(defaults=defaults, body=body, inst=inst), ["i(v1)"])["i(v1)"]
+    assert value == pytest.approx(-(1 / ra + 1 / rb + 1 / rc), rel=1e-12)
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("defaults, body, inst, ra, rb, rc", SCOPE_CASES)
+def test_instance_scope_cases_are_ngspice_s(defaults, body, inst, ra, rb, rc, tmp_path):
+    ref = ngspice_print(SCOPE.format(defaults=defaults, body=body, inst=inst), ["i(v1)"], tmp_path)["i(v1)"]
+    assert ref == pytest.approx(-(1 / ra + 1 / rb + 1 / rc), rel=1e-9)
+
+
+@pytest.mark.parametrize("defaults, body", [("r1={r1*3} r2=1k", ""), ("r1=1k r2=1k", ".param r1={r1*3}")])
+def test_a_default_or_body_param_reading_its_own_name_reads_the_caller(defaults, body):
+    # ngspice 39: 3 * the caller's r1 (5k); netdae called this a cycle
+    text = (f"t\n.param r1=5k\n.subckt s a params: {defaults}\n{body}\nRa a 0 {{r1}}\nRb a 0 {{r2}}\n.ends\n"
+            "V1 x 0 1\nX1 x s\n.op\n")
+    assert op_values(text, ["i(v1)"])["i(v1)"] == pytest.approx(-(1 / 15e3 + 1 / 1e3), rel=1e-12)
+
+
+@pytest.mark.parametrize("inst", ["r2={r2*3}", "r1={r2} r2={g*2}"])
+def test_a_name_read_before_assignment_without_a_caller_value_is_an_error(inst):
+    with pytest.raises(NetlistError, match="unknown parameter 'r2' in parameter 'r"):
+        load(f"t\n.param g=1\n.subckt s a params: r1=1 r2=1k\nRb a 0 {{r2}}\n.ends\nV1 x 0 1\nX1 x s {inst}\n.op\n")
+
+
+def test_nested_instances_pass_formals_and_caller_values():
+    text = """nested
+.param p=1k
+.subckt inner a params: r=1 p=1
+Ra a 0 {r}
+Rb a 0 {p}
+.ends
+.subckt outer a params: p=3k q=2
+X1 a inner r={p} p={p*q}
+X2 a inner r={p+q}
+.ends
+V1 x 0 1
+X1 x outer
+X2 x outer p={p*5}
+.op
+"""
+    # inner's r is assigned before its p: r={p} reads outer's p; in X2 inner's p is the number 1
+    x1 = 1 / 3e3 + 1 / 6e3 + 1 / 3 + 1
+    x2 = 1 / 5e3 + 1 / 10e3 + 1 / 3 + 1
+    assert op_values(text, ["i(v1)"])["i(v1)"] == pytest.approx(-(x1 + x2), rel=1e-12)

@@ -148,7 +148,7 @@ class Env:
         try:
             if type(pdef.value[0]) is not float:
                 _settle(pdef.value[0], where)
-            v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
+            v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name.partition('#')[0]}'")
         finally:
             self._active.pop()
         self.values[name] = v
@@ -222,7 +222,8 @@ def _settle(node, env: Env) -> None:
                     break
             else:
                 if owner is not None:
-                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
+                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card,
+                                                      f"parameter '{name.partition('#')[0]}'")
                     owner._active.pop()
                 frames.pop()
     finally:
@@ -715,7 +716,7 @@ class _RowsPass:
             raise _Fallback  # a cycle: the rows' own replays say which
         s.active.append(name)
         try:
-            v = self.val(pdef.value, self._scope(where), pdef.card, f"parameter '{name}'")
+            v = self.val(pdef.value, self._scope(where), pdef.card, f"parameter '{name.partition('#')[0]}'")
         finally:
             s.active.pop()
         s.values[name] = v
