@@ -10,6 +10,7 @@ import re
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import netdae
@@ -170,3 +171,40 @@ X2 x outer p={p*5}
     x1 = 1 / 3e3 + 1 / 6e3 + 1 / 3 + 1
     x2 = 1 / 5e3 + 1 / 10e3 + 1 / 3 + 1
     assert op_values(text, ["i(v1)"])["i(v1)"] == pytest.approx(-(x1 + x2), rel=1e-12)
+
+
+# -- .nodeset under uic ---------------------------------------------------------------------------
+
+NODESET_UIC = """nodeset with uic
+R1 0 a 10k
+C1 a 0 1n
+R2 0 b 10k
+C2 b 0 1n
+.nodeset v(a)=0.2 v(b)=0.3
+.ic v(b)=0.5
+.tran 1u 20u uic
+"""
+
+
+def test_a_nodeset_is_the_initial_voltage_of_a_uic_transient():
+    # ngspice (CKTic) starts a uic transient from the .nodeset values, .ic overriding them:
+    # C1 starts at 0.2 V, C2 at its .ic 0.5 V, and both decay with tau = 10 us
+    (result,) = netdae.run(load(NODESET_UIC))
+    t = result.axis
+    for node, v0 in (("v(a)", 0.2), ("v(b)", 0.5)):
+        assert result.signals[node][0] == pytest.approx(v0, abs=1e-12)
+        expected = v0 * np.exp(-t / 1e-5)
+        assert np.max(np.abs(result.signals[node] - expected)) < 2e-3 * v0
+
+
+@pytest.mark.ngspice
+def test_nodeset_under_uic_is_ngspice_s(tmp_path):
+    text = NODESET_UIC.replace(".tran 1u 20u uic", ".tran 1u 20u 0 0.1u uic")
+    cir = tmp_path / "u.cir"
+    cir.write_text(text + ".control\nset numdgt=12\nrun\nmeas tran va find v(a) at=10u\n"
+                   "meas tran vb find v(b) at=10u\n.endc\n.end\n")
+    proc = subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    ref = {m.group(1): float(m.group(2)) for m in re.finditer(r"^(va|vb)\s*=\s*(\S+)", proc.stdout, re.M)}
+    assert ref["va"] == pytest.approx(0.2 * np.exp(-1), rel=2e-3), proc.stdout
+    assert ref["vb"] == pytest.approx(0.5 * np.exp(-1), rel=2e-3), proc.stdout
+
