@@ -208,3 +208,44 @@ def test_nodeset_under_uic_is_ngspice_s(tmp_path):
     assert ref["va"] == pytest.approx(0.2 * np.exp(-1), rel=2e-3), proc.stdout
     assert ref["vb"] == pytest.approx(0.5 * np.exp(-1), rel=2e-3), proc.stdout
 
+
+# -- a definition repeated identically (a library section included twice) ---------------------------
+
+LIBRARY = """.lib tt
+.model dlib d is=1e-14
+.subckt clamp a
+D1 a 0 dlib
+.ends
+.endl tt
+"""
+
+
+def test_a_library_section_included_twice_is_read_once_with_warnings(tmp_path):
+    # ngspice 39 keeps the first .subckt ("redefinition of .subckt clamp, ignored") and the first .model
+    (tmp_path / "m.lib").write_text(LIBRARY)
+    text = "t\n.lib m.lib tt\n.lib m.lib tt\nV1 in 0 0.6\nX1 in clamp\n.op\n"
+    circuit = load(text, path=tmp_path / "t.cir")
+    warnings = [d.message for d in circuit.diagnostics if d.severity == "warning"]
+    assert any("model 'dlib' is defined again, identically" in w for w in warnings)
+    assert any("subcircuit 'clamp' is defined again, identically" in w for w in warnings)
+    assert [e.name for e in circuit.elements] == ["v1", "d.x1.d1"]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("t\n.subckt s a\nR1 a 0 1k\n.ends\n.subckt s a\nR1 a 0 2k\n.ends\nX1 n s\n", "subcircuit 's' is defined twice"),
+    ("t\n.subckt s a\nR1 a 0 1k\n.ends\n.subckt s b\nR1 b 0 1k\n.ends\nX1 n s\n", "subcircuit 's' is defined twice"),
+    ("t\n.model dm d is=1e-14\n.model dm d is=1e-13\nD1 a 0 dm\n", "model 'dm' is defined twice"),
+])
+def test_a_different_repetition_is_still_an_error_naming_ngspice_s_choice(text, message):
+    with pytest.raises(NetlistError, match=message) as info:
+        load(text)
+    assert "first definition" in info.value.hint
+
+
+@pytest.mark.ngspice
+def test_ngspice_reads_an_identical_repetition_as_one_definition(tmp_path):
+    (tmp_path / "m.lib").write_text(LIBRARY)
+    text = "t\n.lib m.lib tt\n.lib m.lib tt\nV1 in 0 0.6\nX1 in clamp\n.op"
+    ref = ngspice_print(text, ["i(v1)"], tmp_path)["i(v1)"]
+    (result,) = netdae.run(load(text + "\n", path=tmp_path / "t.cir"))
+    assert float(result.signals["i(v1)"][-1]) == pytest.approx(ref, rel=1e-6)

@@ -195,6 +195,12 @@ class Definition:
         Element cards of this body that cannot be read: raised when the
         subcircuit is instantiated; a subcircuit never instantiated keeps
         them as a warning (ngspice reads only the subcircuits it expands).
+    first : Definition or None
+        The earlier definition of the same name in the same scope that this
+        one repeats (ngspice 39 keeps the first): compared at ``.ends``, an
+        identical repetition is dropped with a warning, another is an error.
+    span : tuple of int
+        Indexes of the ``.subckt`` card and of its ``.ends`` card in the deck.
     """
 
     name: str | None
@@ -208,6 +214,8 @@ class Definition:
     parent: "Definition | None" = None
     card: Card | None = None
     errors: list = field(default_factory=list)
+    first: "Definition | None" = None
+    span: tuple = ()
 
     def lookup_model(self, name: str) -> "tuple[ModelCard, Definition] | None":
         """The model a card in this body means by ``name`` (innermost first)."""
