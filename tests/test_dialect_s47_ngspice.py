@@ -249,3 +249,32 @@ def test_ngspice_reads_an_identical_repetition_as_one_definition(tmp_path):
     ref = ngspice_print(text, ["i(v1)"], tmp_path)["i(v1)"]
     (result,) = netdae.run(load(text + "\n", path=tmp_path / "t.cir"))
     assert float(result.signals["i(v1)"][-1]) == pytest.approx(ref, rel=1e-6)
+
+
+# -- ngspice's other names of R, C and L instance parameters ----------------------------------------
+
+OTHER_NAMES = """other names
+V1 in 0 1
+R1 in 0 resistance=2k
+R2 in 0 1k noise=0 bv_max=10
+C1 in 0 cap=3u bv_max=5
+C2 in 0 capacitance=4u
+L1 in x inductance=5m
+R3 x 0 100
+.op
+"""
+
+
+def test_other_names_of_instance_parameters_are_read():
+    circuit = load(OTHER_NAMES)
+    got = {e.name: e.value for e in circuit.elements}
+    assert got["r1"] == 2e3 and got["c1"] == 3e-6 and got["c2"] == 4e-6 and got["l1"] == 5e-3
+    assert next(e for e in circuit.elements if e.name == "r2").params["noisy"] == 0.0
+    notes = [d.message for d in circuit.diagnostics if d.severity == "note" and "bv_max" in d.message]
+    assert len(notes) == 2
+
+
+@pytest.mark.ngspice
+def test_other_names_agree_with_ngspice(tmp_path):
+    ref = ngspice_print(OTHER_NAMES, ["i(v1)"], tmp_path)["i(v1)"]
+    assert op_values(OTHER_NAMES, ["i(v1)"])["i(v1)"] == pytest.approx(ref, rel=1e-9)

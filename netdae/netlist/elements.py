@@ -228,10 +228,24 @@ def _nodes(card: Card, toks: list[Token], count: int, syntax) -> tuple[str, ...]
     raise error(card, at, f"expected {count} nodes, found {found}", syntax)
 
 
+#: ngspice 39's other names of R, C and L instance parameters (its res.c, cap.c, ind.c tables), read as netdae's.
+_OTHER_NAMES = {Kind.RESISTOR: {"resistance": "r", "noise": "noisy"},
+                Kind.CAPACITOR: {"capacitance": "c", "cap": "c"},
+                Kind.INDUCTOR: {"inductance": "l"}}
+#: R and C instance parameters of ngspice's safe-operating-area check, which only prints warnings.
+_SOA_LIMITS = {Kind.RESISTOR: "bv_max", Kind.CAPACITOR: "bv_max"}
+
+
 def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
     params: dict = {}
+    other_names = _OTHER_NAMES.get(kind, {})
     for key, values in keywords:
-        name = key.text
+        name = other_names.get(key.text, key.text)
+        if name == _SOA_LIMITS.get(kind) and len(values) == 1:
+            parse_value(card, values[0], syntax)
+            card.warn(key.start, f"{name}= (the voltage limit of ngspice's safe-operating-area check, which "
+                      "only warns) is not used by netdae", severity="note")
+            continue
         if syntax.keywords and name not in syntax.keywords:
             known = " ".join(sorted(syntax.keywords))
             raise error(card, key.start, f"unknown parameter '{name}' for a {syntax.description}", syntax,
