@@ -278,3 +278,31 @@ def test_other_names_of_instance_parameters_are_read():
 def test_other_names_agree_with_ngspice(tmp_path):
     ref = ngspice_print(OTHER_NAMES, ["i(v1)"], tmp_path)["i(v1)"]
     assert op_values(OTHER_NAMES, ["i(v1)"])["i(v1)"] == pytest.approx(ref, rel=1e-9)
+
+
+# -- a coupling factor written k= or coefficient= ---------------------------------------------------
+
+COUPLED = """coupling by name
+V1 in0 0 AC 1
+R1 in0 in 1
+L1 in 0 1m
+L2 s 0 1m
+R2 s 0 10
+K1 L1 L2 {key}0.5
+.ac lin 1 1k 1k
+"""
+
+
+@pytest.mark.parametrize("key", ["k=", "coefficient=", "K = "])
+def test_a_coupling_factor_may_be_named(key):
+    (k1,) = [e for e in load(COUPLED.format(key=key)).elements if e.name == "k1"]
+    assert k1.value == 0.5
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("key", ["k=", "coefficient="])
+def test_a_named_coupling_factor_is_ngspice_s(key, tmp_path):
+    text = COUPLED.format(key=key)
+    ref = ngspice_print(text, ["mag(i(v1))"], tmp_path)["mag(i(v1))"]
+    (result,) = netdae.run(load(text))
+    assert abs(complex(result.signals["i(v1)"][0])) == pytest.approx(ref, rel=1e-6)

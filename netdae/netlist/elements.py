@@ -454,8 +454,11 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
 
 def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
     positional, keywords = split_args(card, toks, 1, syntax)
-    if keywords:
-        raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+    for key, values in keywords:
+        # ngspice 39 reads the factor written k= or coefficient= too (its mutual inductor's parameter names)
+        if key.text not in ("k", "coefficient") or len(keywords) > 1 or len(values) != 1:
+            raise error(card, key.start, f"unexpected parameter '{key.text}'", syntax)
+        positional = [*positional, values[0]]
     if len(positional) < 3:
         raise error(card, _end(card), f"expected at least two inductor names and a coupling factor, found {len(positional)} "
                     "item(s)", syntax)
