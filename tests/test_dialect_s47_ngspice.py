@@ -6,6 +6,7 @@ same netlist in ``ngspice -b`` (``print`` with 12 digits) and in netdae.
 
 from __future__ import annotations
 
+import math
 import re
 import subprocess
 from pathlib import Path
@@ -306,3 +307,36 @@ def test_a_named_coupling_factor_is_ngspice_s(key, tmp_path):
     ref = ngspice_print(text, ["mag(i(v1))"], tmp_path)["mag(i(v1))"]
     (result,) = netdae.run(load(text))
     assert abs(complex(result.signals["i(v1)"][0])) == pytest.approx(ref, rel=1e-6)
+
+
+# -- the constant e of behavioural expressions ----------------------------------------------------
+
+CONSTANT_E = """constant e
+.param e=4
+V1 x 0 1
+B1 n1 0 V=e*v(x)
+R1 n1 0 1k
+E1 n2 0 value={e*v(x)}
+R2 n2 0 1k
+R3 n3 0 {e}
+V3 n3 0 1
+.op
+"""
+
+
+def test_e_is_the_constant_in_behavioural_expressions_and_a_name_in_parameters():
+    # ngspice 39's B-source parser reads e as 2.71828... even where a .param e exists; numparam reads the .param
+    values = op_values(CONSTANT_E, ["v(n1)", "v(n2)", "i(v3)"])
+    assert values["v(n1)"] == pytest.approx(math.e, rel=1e-12)
+    assert values["v(n2)"] == pytest.approx(math.e, rel=1e-12)
+    assert values["i(v3)"] == pytest.approx(-0.25, rel=1e-12)
+    assert op_values("t\nV1 x 0 1\nB1 n1 0 V=2*e*v(x)\nR1 n1 0 1\n.op\n", ["v(n1)"])["v(n1)"] == \
+        pytest.approx(2 * math.e, rel=1e-12)
+
+
+@pytest.mark.ngspice
+def test_constant_e_is_ngspice_s(tmp_path):
+    ref = ngspice_print(CONSTANT_E, ["v(n1)", "v(n2)", "i(v3)"], tmp_path)
+    got = op_values(CONSTANT_E, ["v(n1)", "v(n2)", "i(v3)"])
+    for name in ref:
+        assert got[name] == pytest.approx(ref[name], rel=1e-9)

@@ -639,6 +639,9 @@ class _Parser:
             return Param(name)
         if name == "pi":
             return Const(math.pi)
+        if name == "e" and (self.context == BEHAVIOURAL or self.behavioural_group):
+            # ngspice's B-source parser knows the constants e and pi (inpptree.c), before any .param e
+            return Const(math.e)
         return Param(name)
 
     def branch_reference(self, which: str, start: int) -> Expr:
