@@ -340,3 +340,35 @@ def test_constant_e_is_ngspice_s(tmp_path):
     got = op_values(CONSTANT_E, ["v(n1)", "v(n2)", "i(v3)"])
     for name in ref:
         assert got[name] == pytest.approx(ref[name], rel=1e-9)
+
+
+PDK_LIKE = """a wrapper subcircuit whose instance values read each other
+.param w=10u wtot=8u
+.subckt rwrap a b params: w=1u l=1u nf=1
+.param weff={w/nf}
+.param rsq={l/weff}
+R1 a b {rsq*1k}
+.ends
+.subckt cell a b params: w=4u
+X1 a m rwrap w={w} l={w/2} nf=2
+X2 m b rwrap w={wtot} l=2u nf={1+1}
+.ends
+V1 in 0 1
+X1 in 0 cell
+X2 in 0 rwrap w=3u l={w*2}
+.op
+"""
+
+
+def test_instance_values_reading_each_other_in_a_wrapper():
+    # top X2: l = 2 * its own w (3u) -> 2k; cell's X1: w = cell's w (4u), l = that w / 2 -> 1k;
+    # cell's X2: w = wtot (8u), nf = 2 -> 500 ohm; as ngspice 39 computes it (netdae read l={w*2} with the
+    # caller's w=10u before)
+    value = op_values(PDK_LIKE, ["i(v1)"])["i(v1)"]
+    assert value == pytest.approx(-(1 / 2e3 + 1 / 1.5e3), rel=1e-12)
+
+
+@pytest.mark.ngspice
+def test_wrapper_is_ngspice_s(tmp_path):
+    ref = ngspice_print(PDK_LIKE, ["i(v1)"], tmp_path)["i(v1)"]
+    assert op_values(PDK_LIKE, ["i(v1)"])["i(v1)"] == pytest.approx(ref, rel=1e-9)
