@@ -71,7 +71,7 @@ def test_unparenthesised_conditional_in_a_true_branch_is_refused_in_parameters(c
     # whenever the outer condition holds), where C reads 20: netdae refuses the form
     with pytest.raises(NetlistError, match="unparenthesised in the true branch") as info:
         load(f"t\n{card}\nR1 n 0 1k\n.op\n")
-    assert "c1 ? (c2 ? a : b) : e" in info.value.hint
+    assert "c1 ? (c2 ? a : b) : e" in (info.value.hint or info.value.message)
 
 
 def test_conditionals_that_both_read_alike_are_accepted():
@@ -372,3 +372,44 @@ def test_instance_values_reading_each_other_in_a_wrapper():
 def test_wrapper_is_ngspice_s(tmp_path):
     ref = ngspice_print(PDK_LIKE, ["i(v1)"], tmp_path)["i(v1)"]
     assert op_values(PDK_LIKE, ["i(v1)"])["i(v1)"] == pytest.approx(ref, rel=1e-9)
+
+
+# -- a .func body expanded into a behavioural expression is read by the behavioural rules -------------
+
+FUNC_IN_B = """func bodies in B sources
+.func fp(x) {pwr(x, 2)}
+.func fm(x) {x*1mil}
+.func h(x) = {x > 1 ? x < 5 ? 10 : 20 : 30}
+.param p={fp(-2)}
+V1 x 0 -2
+B1 n1 0 V=fp(v(x))
+R1 n1 0 1k
+B2 n2 0 V=fm(1)
+R2 n2 0 1k
+B3 n3 0 V=h(7)
+R3 n3 0 1k
+V4 n4 0 {p}
+R4 n4 0 1k
+.op
+"""
+
+
+def test_a_func_body_in_a_behavioural_expression_follows_the_behavioural_rules():
+    # ngspice expands the call textually: its B-source parser reads pwr(x, 2) as sgn(x) |x|**2 and 1mil as
+    # 25.4e-6, and the nested conditional as C does; a parameter expression reads pwr as |x|**2 (numparam)
+    values = op_values(FUNC_IN_B, ["v(n1)", "v(n2)", "v(n3)", "v(n4)"])
+    assert values == pytest.approx({"v(n1)": -4.0, "v(n2)": 25.4e-6, "v(n3)": 20.0, "v(n4)": 4.0}, rel=1e-12)
+
+
+def test_a_func_with_a_nested_conditional_is_refused_where_a_parameter_calls_it():
+    with pytest.raises(NetlistError, match=r"unparenthesised in the true branch.*\.func at"):
+        load("t\n.func h(x) = {x > 1 ? x < 5 ? 10 : 20 : 30}\nR1 a 0 {h(7)}\nV1 a 0 1\n.op\n")
+
+
+@pytest.mark.ngspice
+def test_func_bodies_in_b_sources_are_ngspice_s(tmp_path):
+    names = ["v(n1)", "v(n2)", "v(n3)", "v(n4)"]
+    ref = ngspice_print(FUNC_IN_B, names, tmp_path)
+    got = op_values(FUNC_IN_B, names)
+    for name in names:
+        assert got[name] == pytest.approx(ref[name], rel=1e-6)

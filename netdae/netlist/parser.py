@@ -426,25 +426,39 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
     else:
         text, base = card.text[body_tok.start:], body_tok.start
     circuit = False
+    refusal = None
     try:
         body = parse_expr(card, text, base, ex.PARAM, form)
     except NetlistError as exc:
-        if "is only allowed in behavioural" not in exc.message and "'time' is only available" not in exc.message:
+        nested = "unparenthesised in the true branch" in exc.message
+        if not nested and "is only allowed in behavioural" not in exc.message \
+                and "'time' is only available" not in exc.message:
             raise
         # ngspice expands a .func like a macro, so its body may read the circuit where a behavioural
         # expression calls it: such a body is read by the behavioural rules it is expanded into
         body = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
-        circuit = True
+        circuit = any(type(node) in (ex.Voltage, ex.Current, ex.Time) for node in ex.walk(body))
+        if nested:
+            # ngspice's parameter evaluator reads such a body otherwise, its B-source parser as C does:
+            # an error where a parameter expression calls the function, not where a behavioural one does
+            refusal = f"{exc.message} (.func at {card.file}:{card.line}; hint: {exc.hint})"
         for node in ex.walk(body):
             if type(node) is ex.Call and node.func == "ddt":
                 raise error(card, base, "ddt() in a .func body is not supported by netdae", form,
                             hint="write ddt(...) into the B source and pass it to the function as an argument")
+    if refusal is None and not circuit:
+        try:
+            behavioural = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
+        except NetlistError:
+            behavioural = None
+    else:
+        behavioural = body
     scope = stack[-1]
     if name in scope.funcs:
         first = scope.funcs[name].card
         raise error(card, toks[1].start, f"function '{name}' is defined twice (first at {first.file}:"
                     f"{first.line})", form)
-    scope.funcs[name] = FuncDef(name, tuple(args), body, card, circuit)
+    scope.funcs[name] = FuncDef(name, tuple(args), body, card, circuit, behavioural, refusal)
 
 
 def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:

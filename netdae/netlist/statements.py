@@ -157,6 +157,13 @@ class FuncDef:
     body: Expr
     card: Card
     circuit: bool = False
+    #: The body read by the behavioural rules (``pwr``, ``pow``, ``1mil`` as a B source reads them): ngspice
+    #: expands a .func call textually, so in a behavioural expression its B-source parser reads the body.
+    #: None when those rules cannot read it (the body then serves as it is).
+    behavioural: "Expr | None" = None
+    #: Why the body has no value in a parameter expression though a behavioural one reads it (a
+    #: conditional ngspice's parameter evaluator reads otherwise), else None.
+    param_refusal: str | None = None
 
 
 @dataclass(slots=True)
