@@ -95,7 +95,7 @@ CASES = [
     ("t\nQ1 c b e nomodel\n", r"no model 'nomodel' defined", 2, "nomodel"),
     ("t\nQ1 c b\n", r"expected 3 or 4 nodes and a model name", 2, None),
     ("t\nM1 d g s nm\n.model nm nmos\n", r"expected 4 nodes and a model name", 2, None),
-    ("t\n.model dm d\n.model dm d\n", r"model 'dm' is defined twice", 3, "dm"),
+    ("t\n.model dm d\n.model dm d is=2e-14\n", r"model 'dm' is defined twice", 3, "dm"),
     ("t\nD1 a 0 dm\n.model dm d is\n", r"model parameter 'is' needs a value", 3, "is"),
     ("t\nD1 a 0 dm\n.model dm d is=\"big\"\n", r"model parameter 'is' needs a number, found the string", 3,
      '"big"'),

@@ -339,21 +339,25 @@ def _signals(kept_names, requested, values: np.ndarray, diffs) -> dict[str, np.n
 
 # -- the start --------------------------------------------------------------------
 def _uic_start(prepared: Prepared) -> _Start:
-    """ngspice's ``uic`` state: .ic node voltages (else 0), element ic= for C and L, device ic= where the family
-    supports it (:meth:`netdae.devices.base.DeviceFamily.uic_start`)."""
+    """ngspice's ``uic`` state: .ic node voltages (else .nodeset's, else 0), element ic= for C and L, device ic=
+    where the family supports it (:meth:`netdae.devices.base.DeviceFamily.uic_start`)."""
     circuit, system = prepared.circuit, prepared.system
     x = np.zeros(system.n)
     notes = []
-    for node, v in circuit.ic.items():
+    # ngspice (CKTic) writes the .nodeset values, then the .ic values, into the solution the uic state
+    # starts from: a node's .nodeset is its initial voltage unless an .ic gives one
+    initial = {**circuit.nodeset, **circuit.ic}
+    for node, v in initial.items():
         try:
             i = system.node_index(node)
         except KeyError:
-            raise CircuitError(f".ic names node '{node}', which is not in the circuit", nodes=(node,)) from None
+            card = ".ic" if node in circuit.ic else ".nodeset"
+            raise CircuitError(f"{card} names node '{node}', which is not in the circuit", nodes=(node,)) from None
         if i >= 0:
             x[i] = v
     # ngspice takes a device's initial junction voltages from its terminals' .ic (BJTgetic, DIOgetic,
     # MOS1getic): a node behind a series resistance (a BJT's rb, a diode's rs) starts at its terminal's value
-    given = set(circuit.ic)
+    given = set(initial)
     for inner, outer in system.layout.beside.items():  # in the order made: a node behind an internal one follows
         if outer in given and inner not in given:
             x[system.node_index(inner)] = x[system.node_index(outer)]

@@ -110,6 +110,80 @@ class _Frame:
         self.sub = sub
 
 
+#: Suffix of the name under which a subcircuit scope keeps the caller's value of a parameter that
+#: one of its definitions reads before the scope assigns it; '#' is in no parameter name.
+OUTER = "#outer"
+
+
+def _local_order(defn: Definition) -> dict[str, int]:
+    """The position of each parameter of ``defn`` in ngspice 39's order of its ``.subckt`` line.
+
+    ngspice appends the body's ``.param`` cards to the subcircuit's parameters
+    (a later definition of a name replacing an earlier one) and sorts the list
+    by dependency, on the texts of the definition (``inp_sort_params``): a
+    parameter comes after those it reads (its own name aside), ties in the
+    written order.
+    """
+    written: dict[str, ParamDef] = {}
+    for d in (*defn.defaults, *defn.params):
+        written.pop(d.name, None)
+        written[d.name] = d
+    reads = {name: {n.name for n in ex.walk(d.value[0]) if type(n) is ex.Param and n.name in written
+                    and n.name != name} if type(d.value[0]) is not float else set()
+             for name, d in written.items()}
+    level: dict[str, int] = {}
+    for start in written:
+        stack, seen = [start], {start}
+        while stack:  # depth first, without recursion; a cycle (netdae's error later) counts as level 0
+            name = stack[-1]
+            todo = [n for n in reads[name] if n not in level and n not in seen]
+            if todo:
+                seen.update(todo)
+                stack.extend(todo)
+                continue
+            stack.pop()
+            level[name] = 1 + max((level.get(n, -1) for n in reads[name]), default=-1)
+    names = sorted(written, key=lambda n: level[n])  # stable: ties in the written order
+    return {name: k for k, name in enumerate(names)}
+
+
+def _unassigned_reads_outward(env: Env, parent: Env, defn: Definition) -> None:
+    """Make each definition of ``env`` read the caller's value of every local name not yet assigned.
+
+    ngspice 39 assigns an instance's parameters one after the other in its
+    scope (``nupa_subcktcall``): first those whose value is a plain number,
+    then the others in the order of :func:`_local_order`, each expression
+    reading the names assigned before it and, for every other name, the value
+    visible where the subcircuit is called. An instance's ``r2={r1}`` thus
+    reads the instance's ``r1`` when that is a number or comes first, a
+    definition ``r={r*2}`` the caller's ``r``. A name read that way is read as
+    ``name#outer``, defined in ``env`` as ``name`` evaluated in ``parent``.
+    """
+    position = _local_order(defn)
+
+    def plain(pdef: ParamDef) -> bool:
+        value = pdef.value[0]
+        return type(value) is float or type(value) is ex.Const
+
+    numbers = {name for name, (pdef, _) in env.defs.items() if plain(pdef)}
+    for name, (pdef, where) in list(env.defs.items()):
+        tree = pdef.value[0]
+        if where is not env or plain(pdef):
+            continue
+        at = position.get(name, len(position))
+        outside = {n.name for n in ex.walk(tree) if type(n) is ex.Param and n.name in env.defs
+                   and n.name not in numbers and (n.name == name or position.get(n.name, len(position)) >= at)}
+        if not outside:
+            continue
+        for other in outside:
+            alias = other + OUTER
+            if alias not in env.defs:
+                env.defs[alias] = (ParamDef(alias, (ex.Param(other), pdef.value[1]), pdef.card, pdef.offset), parent)
+        tree = ex.transform(tree, lambda n: ex.Param(n.name + OUTER)
+                            if type(n) is ex.Param and n.name in outside else None)
+        env.defs[name] = (ParamDef(name, (tree, pdef.value[1]), pdef.card, pdef.offset), env)
+
+
 def _multiplier_instance(inst: InstanceCard, sub: Definition) -> bool:
     """True when the instance's ``m`` is ngspice's multiplier, not a parameter of the subcircuit."""
     return "m" in inst.params and not any(d.name == "m" for d in sub.defaults) \
@@ -326,21 +400,33 @@ class _Elaborator:
 
     # -- parameter scopes -------------------------------------------------
     def _scope(self, parent: Env | None, defn: Definition, frame: _Frame | None) -> Env:
+        """The parameter scope of one instance of ``defn`` (the top level: ``frame`` None).
+
+        As ngspice 39 evaluates them, the subcircuit's parameters (the instance's
+        values, else the defaults) and its body's ``.param`` cards (the instance's
+        value replacing one of the same name) are one set of definitions evaluated
+        in the instance's own scope, in ngspice's order: an instance value ``r2={r1}``
+        reads the instance's ``r1``, not the caller's; a name not yet assigned there
+        (its own, above all) is read where the subcircuit is called
+        (:func:`_unassigned_reads_outward`).
+        """
         env = Env(parent, dict(defn.funcs))
         if frame is not None:
             for d in defn.defaults:
                 if d.name in frame.inst.params:
                     val = frame.inst.params[d.name]
-                    env.define(ParamDef(d.name, val, frame.inst.card, val[1]), parent)
+                    env.define(ParamDef(d.name, val, frame.inst.card, val[1]), env)
                 else:
                     env.define(d, env)
         for p in defn.params:
             if frame is not None and p.name in frame.inst.params:
                 # ngspice: the instance's value replaces the body's .param of that name too
                 val = frame.inst.params[p.name]
-                env.define(ParamDef(p.name, val, frame.inst.card, val[1]), parent)
+                env.define(ParamDef(p.name, val, frame.inst.card, val[1]), env)
             else:
                 env.define(p, env, self.diagnostics)
+        if frame is not None:
+            _unassigned_reads_outward(env, parent, defn)
         return env
 
     def env(self, frames: tuple) -> Env:

@@ -228,10 +228,24 @@ def _nodes(card: Card, toks: list[Token], count: int, syntax) -> tuple[str, ...]
     raise error(card, at, f"expected {count} nodes, found {found}", syntax)
 
 
+#: ngspice 39's other names of R, C and L instance parameters (its res.c, cap.c, ind.c tables), read as netdae's.
+_OTHER_NAMES = {Kind.RESISTOR: {"resistance": "r", "noise": "noisy"},
+                Kind.CAPACITOR: {"capacitance": "c", "cap": "c"},
+                Kind.INDUCTOR: {"inductance": "l"}}
+#: R and C instance parameters of ngspice's safe-operating-area check, which only prints warnings.
+_SOA_LIMITS = {Kind.RESISTOR: "bv_max", Kind.CAPACITOR: "bv_max"}
+
+
 def _keyword_params(card: Card, keywords, syntax, kind: str) -> dict:
     params: dict = {}
+    other_names = _OTHER_NAMES.get(kind, {})
     for key, values in keywords:
-        name = key.text
+        name = other_names.get(key.text, key.text)
+        if name == _SOA_LIMITS.get(kind) and len(values) == 1:
+            parse_value(card, values[0], syntax)
+            card.warn(key.start, f"{name}= (the voltage limit of ngspice's safe-operating-area check, which "
+                      "only warns) is not used by netdae", severity="note")
+            continue
         if syntax.keywords and name not in syntax.keywords:
             known = " ".join(sorted(syntax.keywords))
             raise error(card, key.start, f"unknown parameter '{name}' for a {syntax.description}", syntax,
@@ -440,8 +454,11 @@ def _two_terminal(card: Card, toks: list[Token], syntax: ElementSyntax, kind: st
 
 def _coupling(card: Card, toks: list[Token], syntax: ElementSyntax) -> ElementCard:
     positional, keywords = split_args(card, toks, 1, syntax)
-    if keywords:
-        raise error(card, keywords[0][0].start, f"unexpected parameter '{keywords[0][0].text}'", syntax)
+    for key, values in keywords:
+        # ngspice 39 reads the factor written k= or coefficient= too (its mutual inductor's parameter names)
+        if key.text not in ("k", "coefficient") or len(keywords) > 1 or len(values) != 1:
+            raise error(card, key.start, f"unexpected parameter '{key.text}'", syntax)
+        positional = [*positional, values[0]]
     if len(positional) < 3:
         raise error(card, _end(card), f"expected at least two inductor names and a coupling factor, found {len(positional)} "
                     "item(s)", syntax)

@@ -521,13 +521,25 @@ class _Parser:
 
     def expr(self) -> Expr:
         cond = self.binary(0)
+        if not self.is_op("?"):
+            return cond
+        self.advance()
+        inner = self.start
+        then = self.binary(0)
         if self.is_op("?"):
+            if self.context == PARAM and not self.behavioural_group:
+                raise self.error(
+                    "a conditional c2 ? a : b written unparenthesised in the true branch of another "
+                    "(c1 ? c2 ? a : b : e) is not read as written by ngspice 39's parameter evaluator "
+                    "(it gives a whenever c1 holds)", inner,
+                    hint="put the inner conditional in parentheses: c1 ? (c2 ? a : b) : e")
             self.advance()
-            then = self.expr()
+            inner_then = self.expr()
             self.expect(":")
-            other = self.expr()
-            return Ternary(cond, then, other)
-        return cond
+            then = Ternary(then, inner_then, self.expr())
+        self.expect(":")
+        other = self.expr()
+        return Ternary(cond, then, other)
 
     _LEVELS = (("||",), ("&&",), ("==", "!=", "<", "<=", ">", ">="), ("+", "-"), ("*", "/", "%"))
 
@@ -627,6 +639,9 @@ class _Parser:
             return Param(name)
         if name == "pi":
             return Const(math.pi)
+        if name == "e" and (self.context == BEHAVIOURAL or self.behavioural_group):
+            # ngspice's B-source parser knows the constants e and pi (inpptree.c), before any .param e
+            return Const(math.e)
         return Param(name)
 
     def branch_reference(self, which: str, start: int) -> Expr:

@@ -148,7 +148,7 @@ class Env:
         try:
             if type(pdef.value[0]) is not float:
                 _settle(pdef.value[0], where)
-            v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
+            v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name.partition('#')[0]}'")
         finally:
             self._active.pop()
         self.values[name] = v
@@ -222,7 +222,8 @@ def _settle(node, env: Env) -> None:
                     break
             else:
                 if owner is not None:
-                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name}'")
+                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card,
+                                                      f"parameter '{name.partition('#')[0]}'")
                     owner._active.pop()
                 frames.pop()
     finally:
@@ -242,6 +243,8 @@ def _call(env: Env, depth: int):
         f = env.func(name)
         if f.circuit:
             raise ValueError(circuit_function_message(f))
+        if f.param_refusal is not None:
+            raise ValueError(f.param_refusal)
         if len(args) != len(f.args):
             raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
         local = Env(env)
@@ -295,8 +298,21 @@ def _card_name(card) -> str:
     return card.text.split(None, 1)[0]
 
 
-def inline_calls(node: ex.Expr, env: Env, depth: int = 0) -> ex.Expr:
+def inline_calls(node: ex.Expr, env: Env, depth: int = 0, behavioural: bool = False) -> ex.Expr:
     """Replace calls of user functions by their bodies with the arguments substituted.
+
+    Parameters
+    ----------
+    node : Expr
+        The expression.
+    env : Env
+        The scope whose functions the calls name.
+    depth : int
+        Calls already being expanded around ``node``.
+    behavioural : bool
+        Expand the bodies as read by the behavioural rules (``FuncDef.behavioural``):
+        ngspice expands a call textually, so in a B source its B-source parser reads
+        the body (``pwr(x, 2)`` is ``sgn(x) x**2`` there, ``1mil`` 25.4e-6).
 
     Raises
     ------
@@ -314,9 +330,10 @@ def inline_calls(node: ex.Expr, env: Env, depth: int = 0) -> ex.Expr:
         f = env.func(m.func)
         if len(m.args) != len(f.args):
             raise ValueError(f"{m.func}() takes {len(f.args)} argument(s), got {len(m.args)}")
-        bound = dict(zip(f.args, (inline_calls(a, env, depth) for a in m.args)))
-        body = ex.transform(f.body, lambda q: bound.get(q.name) if type(q) is ex.Param else None)
-        return inline_calls(body, env, depth + 1)
+        bound = dict(zip(f.args, (inline_calls(a, env, depth, behavioural) for a in m.args)))
+        tree = f.behavioural if behavioural and f.behavioural is not None else f.body
+        body = ex.transform(tree, lambda q: bound.get(q.name) if type(q) is ex.Param else None)
+        return inline_calls(body, env, depth + 1, behavioural)
     return ex.transform(node, leaf)
 
 
@@ -360,7 +377,7 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
         return None
 
     try:
-        tree = ex.fold_constants(ex.transform(inline_calls(node, env), leaf))
+        tree = ex.fold_constants(ex.transform(inline_calls(node, env, behavioural=True), leaf))
     except NetlistError:
         raise
     except RecursionError:
@@ -715,7 +732,7 @@ class _RowsPass:
             raise _Fallback  # a cycle: the rows' own replays say which
         s.active.append(name)
         try:
-            v = self.val(pdef.value, self._scope(where), pdef.card, f"parameter '{name}'")
+            v = self.val(pdef.value, self._scope(where), pdef.card, f"parameter '{name.partition('#')[0]}'")
         finally:
             s.active.pop()
         s.values[name] = v
@@ -824,6 +841,8 @@ class _RowsPass:
         f = self._func(scope, name)
         if f.circuit:
             raise ValueError(circuit_function_message(f))
+        if f.param_refusal is not None:
+            raise ValueError(f.param_refusal)
         if len(args) != len(f.args):
             raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
         local = _Scope(None, scope)

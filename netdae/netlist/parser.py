@@ -68,9 +68,18 @@ def build(deck: Deck) -> Netlist:
     stack = [top]
     calls = circuit_function_calls(card for card in deck.cards if card.text[0] == ".")
     net.diagnostics.extend(_title_like_a_card(deck, calls))
-    for card in deck.cards:
+    for index, card in enumerate(deck.cards):
         if card.text[0] == ".":
+            depth = len(stack)
+            closed = stack[-1]
             _dot_card(card, stack, net)
+            if len(stack) > depth:  # a .subckt
+                stack[-1].span = (index,)
+            elif len(stack) < depth:  # an .ends
+                closed.span = (*closed.span, index)
+                if closed.first is not None:
+                    _repeated(closed, deck)
+                    net.diagnostics.extend(closed.card.take_notes())
         else:
             try:
                 item = parse_element(card, calls)
@@ -267,11 +276,7 @@ def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist
         raise error(card, positional[0].start, f"unexpected {positional[0].text!r} among the parameters",
                     form, hint="subcircuit parameters are written name=default")
     parent = stack[-1]
-    if name in parent.subckts:
-        first = parent.subckts[name].card
-        raise error(card, toks[1].start, f"subcircuit '{name}' is defined twice "
-                    f"(first at {first.file}:{first.line})", form)
-    sub = Definition(name, tuple(ports), parent=parent, card=card)
+    sub = Definition(name, tuple(ports), parent=parent, card=card, first=parent.subckts.get(name))
     seen = set()
     for key, values in keywords:
         _check_param_name(card, key, form)
@@ -282,7 +287,8 @@ def _subckt(card: Card, toks: list[Token], stack: list[Definition], net: Netlist
         seen.add(key.text)
         sub.defaults.append(ParamDef(key.text, parse_value(card, values[0], form, numparam=True), card,
                                      key.start))
-    parent.subckts[name] = sub
+    if sub.first is None:
+        parent.subckts[name] = sub
     stack.append(sub)
 
 
@@ -299,6 +305,31 @@ def _ends(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         if len(toks) > 2:
             raise error(card, toks[2].start, f"unexpected {toks[2].text!r}", DOT_CARDS[".ends"])
     stack.pop()
+
+
+def _same_text(first, second) -> bool:
+    """Whether two sequences of cards read alike (case and blanks aside)."""
+    def words(cards):
+        return [" ".join(c.text.lower().split()) for c in cards]
+    return len(first) == len(second) and words(first) == words(second)
+
+
+def _repeated(sub: Definition, deck: Deck) -> None:
+    """Judge a subcircuit defined again in the same scope, at its ``.ends``: ngspice 39 keeps the first
+    definition ("redefinition of .subckt ..., ignored"); a repetition card for card (a library section
+    included twice) is dropped with a warning, another is an error."""
+    first = sub.first
+    a, b = first.span, sub.span
+    # the .subckt cards read alike after their keyword, the bodies card for card; the .ends cards do not matter
+    header = [" ".join(c.text.lower().split()[1:]) for c in (first.card, sub.card)]
+    if header[0] == header[1] and _same_text(deck.cards[a[0] + 1:a[1]], deck.cards[b[0] + 1:b[1]]):
+        sub.card.warn(0, f"subcircuit '{sub.name}' is defined again, identically (first at {first.card.file}:"
+                      f"{first.card.line}): the first definition is used, as ngspice 39 does")
+        return
+    name_at = sub.card.text.lower().find(sub.name, len(".subckt"))
+    raise error(sub.card, max(name_at, 0), f"subcircuit '{sub.name}' is defined twice (first at "
+                f"{first.card.file}:{first.card.line})", DOT_CARDS[".subckt"],
+                hint="ngspice 39 uses the first definition and ignores this one: remove or rename one")
 
 
 def _check_param_name(card: Card, tok: Token, form: str) -> None:
@@ -395,25 +426,39 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
     else:
         text, base = card.text[body_tok.start:], body_tok.start
     circuit = False
+    refusal = None
     try:
         body = parse_expr(card, text, base, ex.PARAM, form)
     except NetlistError as exc:
-        if "is only allowed in behavioural" not in exc.message and "'time' is only available" not in exc.message:
+        nested = "unparenthesised in the true branch" in exc.message
+        if not nested and "is only allowed in behavioural" not in exc.message \
+                and "'time' is only available" not in exc.message:
             raise
         # ngspice expands a .func like a macro, so its body may read the circuit where a behavioural
         # expression calls it: such a body is read by the behavioural rules it is expanded into
         body = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
-        circuit = True
+        circuit = any(type(node) in (ex.Voltage, ex.Current, ex.Time) for node in ex.walk(body))
+        if nested:
+            # ngspice's parameter evaluator reads such a body otherwise, its B-source parser as C does:
+            # an error where a parameter expression calls the function, not where a behavioural one does
+            refusal = f"{exc.message} (.func at {card.file}:{card.line}; hint: {exc.hint})"
         for node in ex.walk(body):
             if type(node) is ex.Call and node.func == "ddt":
                 raise error(card, base, "ddt() in a .func body is not supported by netdae", form,
                             hint="write ddt(...) into the B source and pass it to the function as an argument")
+    if refusal is None and not circuit:
+        try:
+            behavioural = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
+        except NetlistError:
+            behavioural = None
+    else:
+        behavioural = body
     scope = stack[-1]
     if name in scope.funcs:
         first = scope.funcs[name].card
         raise error(card, toks[1].start, f"function '{name}' is defined twice (first at {first.file}:"
                     f"{first.line})", form)
-    scope.funcs[name] = FuncDef(name, tuple(args), body, card, circuit)
+    scope.funcs[name] = FuncDef(name, tuple(args), body, card, circuit, behavioural, refusal)
 
 
 def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) -> None:
@@ -484,8 +529,12 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
     scope = stack[-1]
     if name in scope.models:
         first = scope.models[name].card
+        if _same_text([first], [card]):
+            card.warn(toks[1].start, f"model '{name}' is defined again, identically (first at {first.file}:"
+                      f"{first.line}): the first definition is used, as ngspice 39 does")
+            return
         raise error(card, toks[1].start, f"model '{name}' is defined twice (first at {first.file}:{first.line})",
-                    form)
+                    form, hint="ngspice 39 silently uses the first definition: remove or rename one")
     model = ModelCard(name, mtype, card, params, strings, flags, vectors)
     scope.models[name] = model
     scope.items.append(model)

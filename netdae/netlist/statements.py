@@ -157,6 +157,13 @@ class FuncDef:
     body: Expr
     card: Card
     circuit: bool = False
+    #: The body read by the behavioural rules (``pwr``, ``pow``, ``1mil`` as a B source reads them): ngspice
+    #: expands a .func call textually, so in a behavioural expression its B-source parser reads the body.
+    #: None when those rules cannot read it (the body then serves as it is).
+    behavioural: "Expr | None" = None
+    #: Why the body has no value in a parameter expression though a behavioural one reads it (a
+    #: conditional ngspice's parameter evaluator reads otherwise), else None.
+    param_refusal: str | None = None
 
 
 @dataclass(slots=True)
@@ -195,6 +202,12 @@ class Definition:
         Element cards of this body that cannot be read: raised when the
         subcircuit is instantiated; a subcircuit never instantiated keeps
         them as a warning (ngspice reads only the subcircuits it expands).
+    first : Definition or None
+        The earlier definition of the same name in the same scope that this
+        one repeats (ngspice 39 keeps the first): compared at ``.ends``, an
+        identical repetition is dropped with a warning, another is an error.
+    span : tuple of int
+        Indexes of the ``.subckt`` card and of its ``.ends`` card in the deck.
     """
 
     name: str | None
@@ -208,6 +221,8 @@ class Definition:
     parent: "Definition | None" = None
     card: Card | None = None
     errors: list = field(default_factory=list)
+    first: "Definition | None" = None
+    span: tuple = ()
 
     def lookup_model(self, name: str) -> "tuple[ModelCard, Definition] | None":
         """The model a card in this body means by ``name`` (innermost first)."""
