@@ -75,3 +75,19 @@ def test_the_runaway_message_names_the_high_orders():
     start, end = np.array([1.0, 1e-3]), np.array([3e18, 2e12])
     assert "maxord=2" in runaway(names, kinds, start, end, max_order=5)
     assert "maxord=2" not in runaway(names, kinds, start, end, max_order=2)
+
+
+def test_a_file_streamed_by_the_run_that_ran_away_holds_the_second_run(tmp_path):
+    """``netdae run --out`` streams the first run's points to the file as they come; the run again replaces
+    them: the file ends at tstop and agrees with the second run's result."""
+    from netdae.cli import main
+    from netdae.io.csv import read_csv
+
+    net = tmp_path / "ringing.cir"
+    net.write_text(RINGING.replace(".options maxord=2\n", ""))
+    assert main(["run", str(net), "--out", str(tmp_path / "o"), "-q"]) == 0
+    res = read_csv(tmp_path / "o" / "tran.csv")
+    t, v = np.asarray(res.axis), np.asarray(res["v(out)"])
+    assert t[-1] == pytest.approx(40e-3) and np.all(np.diff(t) >= 0)
+    late = t >= 30e-3
+    assert np.ptp(v[late]) == pytest.approx(2.444196, rel=5e-3)

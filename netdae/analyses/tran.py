@@ -1059,18 +1059,19 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
     try:
         res = integrate(system, (0.0, card.tstop), x0, progress=progress, **opts)
         if _high_order_runaway(prepared, x0, settings, res):
-            first = res.failure
+            notes.append(f"warning: at BDF orders up to {settings.order} the solution ran away at "
+                         f"t={res.failure.t:.6g} in a circuit without gain (resistances, capacitances, inductances, "
+                         "junctions, switches, lines and independent sources only), which has no growing mode: "
+                         "orders 3-5, not A-stable, grew a lightly damped resonance the steps followed; the "
+                         "transient was run again from the start at orders 1-2 (.options maxord=2), which damp "
+                         "it as the circuit does")
+            # a streamed file is written again whole from this run's result, which keeps every point (a run
+            # too long for memory then ends with what fitted, and says so)
             opts.pop("output", None)
             opts.pop("window", None)
             opts["maxord"] = 2
             streamed[0] = 0
             res = integrate(system, (0.0, card.tstop), x0, progress=progress, **opts)
-            notes.append(f"warning: at BDF orders up to {settings.order} the solution ran away at t={first.t:.6g} "
-                         "in a circuit without gain (resistances, capacitances, inductances, junctions, switches, "
-                         "lines and independent sources only), which has no growing mode: orders 3-5, not "
-                         "A-stable, grew a lightly damped resonance the steps followed; the transient was run "
-                         "again from the start at orders 1-2 (.options maxord=2), which damp it as the circuit "
-                         "does")
     except KeyboardInterrupt as exc:
         # Ctrl-C: keep what was integrated (the compiled engine attaches it), raise after the Result
         res = getattr(exc, "partial", None)
