@@ -413,3 +413,31 @@ def test_func_bodies_in_b_sources_are_ngspice_s(tmp_path):
     got = op_values(FUNC_IN_B, names)
     for name in names:
         assert got[name] == pytest.approx(ref[name], rel=1e-6)
+
+
+FUNC_ARGUMENT_E = """a .func whose argument is named e, called in B sources
+.func f(e) {e*2}
+.func g(x) {x*e}
+B1 n1 0 V=f(3)
+R1 n1 0 1k
+B2 n2 0 V=g(2)
+R2 n2 0 1k
+.op
+.end
+"""
+
+
+def test_a_func_argument_named_e_is_the_argument_in_a_behavioural_expression():
+    # ngspice substitutes the arguments as text before its B-source parser reads e as the constant: f(3) = 6;
+    # a body's e that is no argument stays the constant: g(2) = 2e
+    values = op_values(FUNC_ARGUMENT_E, ["v(n1)", "v(n2)"])
+    assert values == pytest.approx({"v(n1)": 6.0, "v(n2)": 2 * math.e}, rel=1e-12)
+
+
+@pytest.mark.ngspice
+def test_a_func_argument_named_e_is_ngspice_s(tmp_path):
+    names = ["v(n1)", "v(n2)"]
+    ref = ngspice_print(FUNC_ARGUMENT_E, names, tmp_path)
+    got = op_values(FUNC_ARGUMENT_E, names)
+    for name in names:
+        assert got[name] == pytest.approx(ref[name], rel=1e-6)

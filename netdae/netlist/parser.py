@@ -427,8 +427,11 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
         text, base = card.text[body_tok.start:], body_tok.start
     circuit = False
     refusal = None
+    # the arguments are the body's names, whatever the rules: ngspice substitutes them as text before its
+    # B-source parser would read an argument named e as the constant
+    locals_ = frozenset(args)
     try:
-        body = parse_expr(card, text, base, ex.PARAM, form)
+        body = parse_expr(card, text, base, ex.PARAM, form, locals_)
     except NetlistError as exc:
         nested = "unparenthesised in the true branch" in exc.message
         if not nested and "is only allowed in behavioural" not in exc.message \
@@ -436,7 +439,7 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
             raise
         # ngspice expands a .func like a macro, so its body may read the circuit where a behavioural
         # expression calls it: such a body is read by the behavioural rules it is expanded into
-        body = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
+        body = parse_expr(card, text, base, ex.BEHAVIOURAL, form, locals_)
         circuit = any(type(node) in (ex.Voltage, ex.Current, ex.Time) for node in ex.walk(body))
         if nested:
             # ngspice's parameter evaluator reads such a body otherwise, its B-source parser as C does:
@@ -448,7 +451,7 @@ def _func(card: Card, toks: list[Token], stack: list[Definition], net: Netlist) 
                             hint="write ddt(...) into the B source and pass it to the function as an argument")
     if refusal is None and not circuit:
         try:
-            behavioural = parse_expr(card, text, base, ex.BEHAVIOURAL, form)
+            behavioural = parse_expr(card, text, base, ex.BEHAVIOURAL, form, locals_)
         except NetlistError:
             behavioural = None
     else:
