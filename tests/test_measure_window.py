@@ -155,3 +155,24 @@ def test_peak_to_peak_of_a_plateau_is_zero():
     m = {x.name: x for x in res.measures}
     assert m["flat"].value == 0.0
     assert m["edge"].value == pytest.approx(0.5, abs=1e-12)  # from 0.5 at 1.5 us up to the plateau
+
+
+def test_a_window_beside_find_at_is_not_read_as_in_ngspice():
+    """ngspice 39 accepts ``FIND sig AT=x`` followed by ``FROM=``, ``TO=`` or ``TD=`` and gives the value at x
+    whatever the window (measured: all equal to the card without it); with both ``FROM=`` and ``TO=`` it prints
+    no value. netdae reads the same value with a warning at the keyword, and refuses both together."""
+    from netdae.errors import NetlistError
+    from netdae.netlist import load
+
+    text = NETLIST.replace(".meas tran start FIND v(out) AT=1m",
+                           ".meas tran start FIND v(out) AT=1m\n.meas tran s1 FIND v(out) AT=1m FROM=2m\n"
+                           ".meas tran s2 FIND v(out) AT=1m TD=2m\n.meas tran s3 DERIV v(out) AT=1m TO=0.5m")
+    circuit = load(text)
+    warned = [d.message for d in circuit.diagnostics if "has no effect on" in d.message and "AT=" in d.message]
+    assert len(warned) == 3 and warned[0].startswith(".meas: FROM=") and warned[2].startswith(".meas: TO=")
+    (res,) = run(circuit)
+    m = {x.name: x for x in res.measures}
+    assert m["s1"].value == m["start"].value and m["s2"].value == m["start"].value and m["s3"].ok
+    with pytest.raises(NetlistError, match=r"AT= with both FROM= and TO=") as info:
+        load(NETLIST.replace("AT=1m", "AT=1m FROM=0.5m TO=2m"))
+    assert info.value.location is not None and info.value.location.line == 9

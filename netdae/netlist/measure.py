@@ -344,6 +344,7 @@ def parse_measure(card: Card) -> MeasureCard:
                 m.when = _condition(cur, analysis, "WHEN", None)
             elif cur.word_is("at"):
                 _, m.at, _ = _keyword(cur, ("at",), head.text.upper())
+                _window_beside_at(cur, head.text.upper())
             else:
                 tok = cur.peek()
                 raise cur.fail(tok.start if tok is not None else cur.end(),
@@ -360,6 +361,26 @@ def parse_measure(card: Card) -> MeasureCard:
         tok = cur.peek()
         raise cur.fail(tok.start, f"unexpected {tok.text!r} after the measurement")
     return m
+
+
+def _window_beside_at(cur: _Cursor, where: str) -> None:
+    """Read the ``FROM=``, ``TO=`` or ``TD=`` after ``FIND|DERIV sig AT=x``, which ngspice 39 accepts and does not
+    read (measured: the value at x whatever the window), with a warning; ``FROM=`` and ``TO=`` together make
+    ngspice print no value at all, and are refused."""
+    seen: dict[str, int] = {}
+    while not cur.done:
+        tok = cur.peek()
+        if tok.kind != WORD or tok.text not in _WINDOW:
+            return
+        key, _, offset = _keyword(cur, _WINDOW, where)
+        if key in seen:
+            raise cur.fail(offset, f"{key.upper()}= given twice")
+        seen[key] = offset
+        if "from" in seen and "to" in seen:
+            raise cur.fail(offset, f"{where} ... AT= with both FROM= and TO=: ngspice 39 prints no value for such a "
+                           "card, and AT= alone says where", hint="remove FROM= and TO= (AT= gives the point)")
+        cur.card.warn(offset, f"{key.upper()}= has no effect on {where} ... AT= (as in ngspice 39): the value is "
+                      "the one at AT=")
 
 
 # ---------------------------------------------------------------------------
