@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 import re
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,35 +16,7 @@ import pytest
 import netdae
 from netdae.errors import NetlistError
 from netdae.netlist import load
-
-
-def ngspice_print(netlist: str, names: list[str], tmp_path: Path) -> dict[str, float]:
-    """Run ``netlist`` in ``ngspice -b`` and return the printed real values of ``names``.
-
-    Parameters
-    ----------
-    netlist : str
-        The netlist without ``.end``.
-    names : list of str
-        ngspice vector names to print.
-    tmp_path : Path
-        Directory for the netlist file.
-
-    Returns
-    -------
-    dict of str to float
-    """
-    text = netlist.rstrip() + "\n.control\nset numdgt=12\nrun\nprint " + " ".join(names) + "\n.endc\n.end\n"
-    cir = tmp_path / "p.cir"
-    cir.write_text(text)
-    proc = subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, text=True, timeout=60, cwd=tmp_path)
-    out: dict[str, float] = {}
-    for line in proc.stdout.splitlines():
-        m = re.match(r"\s*(\S+) = (\S+?)\s*$", line)
-        if m and m.group(1) in names:
-            out[m.group(1)] = float(m.group(2))
-    assert set(out) == set(names), proc.stdout + proc.stderr
-    return out
+from test_netlist_dialect_ngspice import ngspice_print
 
 
 def op_values(netlist: str, names: list[str]) -> dict[str, float]:
