@@ -112,15 +112,20 @@ def growing_eigenvalue(E, H, span: float, growth: float = PASSIVE_GROWTH) -> com
     >>> round(growing_eigenvalue(E, [[0.0, -1.0], [1.0, 1.0]], 1e-2).real)
     500
     """
+    worst = _largest_real_part(E, H)[3]
+    return worst if worst is not None and worst.real * span > growth else None
+
+
+def _largest_real_part(E, H) -> tuple[np.ndarray, np.ndarray, bool, complex | None]:
+    """``(E, H)`` as dense arrays, whether the pencil is regular, and its finite eigenvalue of the largest real
+    part (None: it has none), from :func:`netdae.dae.pencil.finite_eigenvalues`."""
     from ..dae.pencil import finite_eigenvalues
 
     E = E.toarray() if hasattr(E, "toarray") else np.asarray(E, dtype=float)
     H = H.toarray() if hasattr(H, "toarray") else np.asarray(H, dtype=float)
-    eig = finite_eigenvalues(E, H).eigenvalues
-    if not eig.size:
-        return None
-    worst = complex(eig[np.argmax(eig.real)])
-    return worst if worst.real * span > growth else None
+    spec = finite_eigenvalues(E, H)
+    eig = spec.eigenvalues
+    return E, H, spec.regular, complex(eig[np.argmax(eig.real)]) if eig.size else None
 
 
 def stayed(X, x0, rtol: float, atol) -> bool:
@@ -176,15 +181,9 @@ def held_equilibrium_note(E, H, names, x0, span: float, watched=None) -> str | N
     ``H - lambda E`` for its mode (O(n^3)); meant for the dense sizes of the transient's structure
     analysis.
     """
-    from ..dae.pencil import finite_eigenvalues
-
-    E = E.toarray() if hasattr(E, "toarray") else np.asarray(E, dtype=float)
-    H = H.toarray() if hasattr(H, "toarray") else np.asarray(H, dtype=float)
-    spec = finite_eigenvalues(E, H)
-    eig = spec.eigenvalues
-    if not spec.regular or not eig.size:
+    E, H, regular, lam = _largest_real_part(E, H)
+    if not regular or lam is None:
         return None
-    lam = complex(eig[np.argmax(eig.real)])
     if not lam.real * span > HELD_GROWTH:
         return None
     # the mode: the right singular vector of H - lambda E with the smallest singular value
