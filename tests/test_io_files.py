@@ -215,3 +215,16 @@ def test_what_a_failed_write_would_have_left_is_refused_by_read_raw(tmp_path):
     (tmp_path / "short.raw").write_bytes(data[:2000])
     with pytest.raises(NetdaeError, match="announces 2000 points, the file holds"):
         read_raw(tmp_path / "short.raw")
+
+
+@pytest.mark.skipif(not (os.path.exists("/dev/full") and stat.S_ISCHR(os.stat("/dev/full").st_mode)),
+                    reason="no /dev/full device")
+def test_a_full_standard_output_is_said_in_words():
+    """``netdae run --json > /dev/full``: the output has no file name, and the message said ``[Errno 28] No space
+    left on device``; now it says what could not be written and why, as for a file."""
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "netdae", "run", str(NETLISTS / "rc_lowpass.cir"), "--json"],
+                              stdout=full, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                              env={**os.environ, "NETDAE_SERVER": "0"}, timeout=300)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == "netdae: error: cannot write the output: the disk is full"

@@ -351,6 +351,12 @@ def _main(args) -> int:
     except OSError as exc:  # a file that cannot be read or written: the user's to fix
         if isinstance(exc, BrokenPipeError):
             return EXIT_OK
+        if exc.filename is None and not isinstance(exc, NetdaeError) and exc.errno is not None:
+            # a write to the standard output (`netdae run --json > /dev/full`): no file name to give
+            from ..io.files import reason_of
+
+            LOG.error("cannot write the output: %s", reason_of(exc))
+            return EXIT_ERROR
         LOG.error("%s", exc)
         return EXIT_ERROR
     except Terminated:
