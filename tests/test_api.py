@@ -108,6 +108,17 @@ def test_simulate_accepts_a_path():
     assert r.names() == ["v(out)"] and r.ok
 
 
+def test_analyze_index_accepts_a_path_and_the_netlist_text():
+    # the user guide: `circuit` may be a Circuit or anything load takes; analyze_index failed on a path with
+    # "'str' object has no attribute 'analyses'"
+    path = NETLISTS / "cv_loop_sin.cir"
+    by_circuit = netdae.analyze_index(netdae.load(str(path)))
+    for given in (path, str(path), path.read_text()):
+        rep = netdae.analyze_index(given)
+        assert rep.index == by_circuit.index == 2 and rep.unknowns == by_circuit.unknowns
+        assert rep.unknowns["i(v1)"] == "index2"
+
+
 # -- signal names -----------------------------------------------------------------------
 @pytest.mark.parametrize("text, kind, args, name", [
     ("v(out)", "v", ("out",), "v(out)"),

@@ -36,6 +36,7 @@ When that point does not exist the check is skipped and a message says why.
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -505,15 +506,16 @@ def _index2_from_topology(labels: dict[str, str], orders: dict[str, int], index:
     return labels, orders
 
 
-def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | None = None,
+def analyze_index(circuit: Circuit | Prepared | str | os.PathLike, *, at: str = "op", tol: float | None = None,
                   x: np.ndarray | None = None, method: str = "auto", check_consistency: bool = True) -> IndexReport:
     """The structure of a circuit's DAE and the reasons for it.
 
     Parameters
     ----------
-    circuit : Circuit or Prepared
+    circuit : Circuit, Prepared, str or os.PathLike
         An elaborated circuit (or one already assembled:
-        :func:`~netdae.analyses.prepared.prepare`; its topology is reused).
+        :func:`~netdae.analyses.prepared.prepare`; its topology is reused), or
+        what :func:`netdae.load` takes (a file name or the netlist text).
     at : {"op", "t0"}
         Linearise at the DC operating point (``.op`` source values) or at the
         initial point of the transient (source values at t0, ``.ic`` applied).
@@ -552,6 +554,10 @@ def analyze_index(circuit: Circuit | Prepared, *, at: str = "op", tol: float | N
     if isinstance(circuit, Prepared):
         prepared = circuit
     else:
+        if not isinstance(circuit, Circuit):  # a file name or the netlist text, as netdae.load takes them
+            from ..netlist import load
+
+            circuit = load(circuit)
         card = _transient_card(circuit)
         if at == "t0" and card is None:
             raise NetdaeError("--at t0 needs a .tran card (the initial point of a transient)")
