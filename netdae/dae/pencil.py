@@ -158,6 +158,10 @@ def _dense(M, name: str) -> np.ndarray:
     a = M.toarray() if sp.issparse(M) else np.asarray(M)
     if a.ndim != 2 or a.shape[0] != a.shape[1]:
         raise ValueError(f"{name} must be a square matrix, got shape {a.shape}")
+    if np.iscomplexobj(a):
+        if np.any(a.imag != 0):  # a cast to float would drop the imaginary parts without a word
+            raise ValueError(f"{name} must be real: the pencil of a DAE E x' = H x + c has real matrices")
+        a = a.real
     a = np.array(a, dtype=float)
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} has non-finite entries")
@@ -1078,8 +1082,16 @@ def analyze_dae(system, x, t: float, *, B=None, **options) -> PencilReport:
     Returns
     -------
     PencilReport
+
+    Raises
+    ------
+    ValueError
+        When ``x`` is not of shape ``(system.n,)``, or as :func:`analyze_pencil`.
     """
-    E, H = system.jacobians(np.asarray(x, dtype=float), t)
+    x = np.asarray(x, dtype=float)
+    if x.shape != (system.n,):
+        raise ValueError(f"x must hold one value per unknown, shape ({system.n},), not shape {x.shape}")
+    E, H = system.jacobians(x, t)
     return analyze_pencil(E, H, B=B, names=system.names, **options)
 
 

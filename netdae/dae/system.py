@@ -278,6 +278,8 @@ class LinearDae(DaeSystem):
         n = self._E.shape[0]
         if self._E.shape != (n, n) or self._H.shape != (n, n):
             raise ValueError("E and H must be square and of the same size")
+        if not (np.all(np.isfinite(self._E.data)) and np.all(np.isfinite(self._H.data))):
+            raise ValueError("E and H must be finite (an entry is nan or inf)")
         self.n = n
         self.names = _as_names(names, n)
         self.kinds = _as_kinds(kinds, n)
@@ -298,9 +300,8 @@ class LinearDae(DaeSystem):
     def source(self, t: float, derivative: int = 0) -> np.ndarray:
         if self._c is None:
             return np.zeros(self.n)
-        if derivative == 0:
-            return np.asarray(self._c(t), dtype=float)
-        return np.asarray(self._c(t, derivative=derivative), dtype=float)
+        c = self._c(t) if derivative == 0 else self._c(t, derivative=derivative)
+        return _vector(c, self.n, "c(t)" if derivative == 0 else f"c(t, derivative={derivative})")
 
     def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
         x = np.asarray(x, dtype=float)
@@ -349,18 +350,30 @@ class FunctionDae(DaeSystem):
         self.names = _as_names(names, self.n)
         self.kinds = _as_kinds(kinds, self.n)
 
-    def _values(self, m) -> np.ndarray:
+    def _values(self, m, what: str) -> np.ndarray:
         m = np.asarray(m.toarray() if sp.issparse(m) else m, dtype=float)
+        if m.shape != (self.n, self.n):
+            raise ValueError(f"{what} must return an array of shape ({self.n}, {self.n}), not shape {m.shape}")
         return m[self.pattern.rows, self.pattern.cols]
 
     def evaluate(self, x, t, *, jacobian=True, state=None, source_scale=1.0) -> Evaluation:
         x = np.asarray(x, dtype=float)
-        q = np.asarray(self._q(x), dtype=float)
-        phi = np.asarray(self._phi(x, t), dtype=float)
+        q = _vector(self._q(x), self.n, "q(x)")
+        phi = _vector(self._phi(x, t), self.n, "phi(x, t)")
         ok = bool(np.all(np.isfinite(q)) and np.all(np.isfinite(phi)))
         if not jacobian:
             return Evaluation(q=q, phi=phi, ok=ok)
-        return Evaluation(q=q, phi=phi, dq=self._values(self._dq(x)), dphi=self._values(self._dphi(x, t)), ok=ok)
+        return Evaluation(q=q, phi=phi, dq=self._values(self._dq(x), "dq(x)"),
+                          dphi=self._values(self._dphi(x, t), "dphi(x, t)"), ok=ok)
+
+
+def _vector(value, n: int, what: str) -> np.ndarray:
+    """``value`` as a float array of shape (n,); a user's callable that returns another shape is a ValueError
+    (a wrong length reached the compiled LU's solve, which does not check sizes)."""
+    v = np.asarray(value, dtype=float)
+    if v.shape != (n,):
+        raise ValueError(f"{what} must return an array of shape ({n},), not shape {v.shape}")
+    return v
 
 
 def names_index(names: Sequence[str]) -> dict[str, int]:

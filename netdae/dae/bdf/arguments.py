@@ -10,7 +10,30 @@ import numpy as np
 from ..system import KIND_CURRENT, KIND_VOLTAGE
 from .constants import MAX_ORDER
 
-__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices", "rounding_signs"]
+__all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices", "rounding_signs",
+           "breakpoint_times"]
+
+
+def breakpoint_times(system, t0: float, t_bound: float, breakpoints) -> np.ndarray:
+    """The times to land on: the system's breakpoints in ``[t0, t_bound]`` and the caller's ``breakpoints``.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Unsorted, unmerged (:func:`netdae.dae.bdf_kernels.merge_breakpoints` does that).
+
+    Raises
+    ------
+    ValueError
+        When a given breakpoint is not a finite number (a nan was dropped without a word).
+    """
+    times = np.asarray(system.breakpoints(t0, t_bound), dtype=float).ravel()
+    if breakpoints is None:
+        return times
+    given = np.asarray(breakpoints, dtype=float).ravel()
+    if not np.all(np.isfinite(given)):
+        raise ValueError(f"breakpoints must be finite times, got {float(given[~np.isfinite(given)][0])!r}")
+    return np.concatenate([times, given])
 
 
 def check_arguments(t0: float, t_bound: float, x0, n: int, *, rtol: float, maxord: int, norm: str, relref: str,

@@ -41,7 +41,7 @@ from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache, NewtonInfo
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
-from .arguments import (absolute_tolerances, charge_columns, charge_rows, check_arguments, index_mask,
+from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments, index_mask,
                         row_tolerances, save_indices)
 from .constants import (
     BREAKPOINT_MERGE,
@@ -236,10 +236,8 @@ class BDF:
         self._high, mask_factor, self._tolerances["index_excluded"] = index_mask(system.names, n, index, norm)
         self._mask = np.ones(n) if mask_factor is None else mask_factor
         save_idx = save_indices(n, save)
-        extra = [np.asarray(system.breakpoints(self.t0, self.t_bound), dtype=float).ravel()]
-        if breakpoints is not None:
-            extra.append(np.asarray(breakpoints, dtype=float).ravel())
-        self._breakpoints = merge_breakpoints(self.t0, self.t_bound, np.concatenate(extra),
+        self._breakpoints = merge_breakpoints(self.t0, self.t_bound,
+                                              breakpoint_times(system, self.t0, self.t_bound, breakpoints),
                                               BREAKPOINT_MERGE * (self.t_bound - self.t0))
         self._ibp = 0
 

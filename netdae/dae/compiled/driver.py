@@ -227,6 +227,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         NEWTON_MAXITER,
         IntegrationResult,
         absolute_tolerances,
+        breakpoint_times,
         charge_columns,
         charge_rows,
         check_arguments,
@@ -265,10 +266,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     high, factor, excluded = index_mask(system.names, n, options.get("index"), norm_name)
     mask = np.ones(n) if factor is None else factor
     save_idx = save_indices(n, options.get("save"))
-    extra = [np.asarray(system.breakpoints(t0, t_bound), dtype=float).ravel()]
-    if options.get("breakpoints") is not None:
-        extra.append(np.asarray(options["breakpoints"], dtype=float).ravel())
-    bps = merge_breakpoints(t0, t_bound, np.concatenate(extra), BREAKPOINT_MERGE * (t_bound - t0))
+    bps = merge_breakpoints(t0, t_bound, breakpoint_times(system, t0, t_bound, options.get("breakpoints")),
+                            BREAKPOINT_MERGE * (t_bound - t0))
 
     pattern = system.pattern
     linear = not system.families
