@@ -69,6 +69,8 @@ def test_help_is_fast():
     (["run", RC, "--save", "v(out"], "argument --save: unbalanced parentheses"),
     (["run", RC, "--save", "vdb(out)"], "argument --save: bad signal name 'vdb(out)'"),
     (["run", RC, "--export", "m.txt"], "argument --export: expected a .npz or .mtx path"),
+    (["run", RC, "--save", ",,"], "argument --save: expected signal names separated by commas"),  # kept all
+    (["sweep", RC, "--out", "o", "--save", " "], "argument --save: expected signal names separated by commas"),
     (["compare", RC, "--tol", "abc"], "argument --tol: expected a number"),
     (["compare", RC, "--tol", "0"], "argument --tol: expected a positive number"),
     (["compare", RC, "--reltol", "1"], "argument --reltol: expected a relative tolerance"),
@@ -96,6 +98,27 @@ def test_bad_values_are_usage_errors(capsys, argv, message):
 def test_selections_that_name_nothing_are_errors_before_any_run(capsys, argv, message):
     status, out, err = cli(capsys, *argv)
     assert status == 2 and out == "" and err.startswith(message)
+
+
+@pytest.mark.parametrize("argv, message", [
+    # each changed nothing and said nothing: no file was written, or a csv file instead of a raw one
+    (["run", RC, "--format", "raw"], "netdae: error: --format raw chooses the format of the files --out writes, "
+                                     "and no --out was given (hint: add --out DIR)"),
+    (["run", RC, "--ascii"], "netdae: error: --ascii writes raw files as text, and the files are not raw "
+                             "(hint: add --format raw and --out DIR)"),
+    (["run", RC, "--ascii", "--out", "{tmp}"], "netdae: error: --ascii writes raw files as text, and the files are "
+                                               "not raw (hint: add --format raw)"),
+])
+def test_output_options_that_would_change_nothing_are_refused(capsys, tmp_path, argv, message):
+    status, out, err = cli(capsys, *[str(a).replace("{tmp}", str(tmp_path / "o")) for a in argv])
+    assert status == 2 and out == "" and err.strip() == message
+    assert not (tmp_path / "o").exists()
+
+
+def test_ascii_raw_files_are_written_with_both_options(capsys, tmp_path):
+    status, out, err = cli(capsys, "run", RC, "--format", "raw", "--ascii", "--out", tmp_path)
+    raw = (tmp_path / "tran.raw").read_bytes()
+    assert status == 0 and raw.startswith(b"Title:") and b"Values:" in raw  # ascii, not "Binary:"
 
 
 def test_an_empty_netlist_file_is_an_error(capsys, tmp_path):

@@ -119,6 +119,21 @@ def signal_names(text: str) -> list[str]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def saved_names(text: str) -> list[str]:
+    """An argparse type: the signals ``--save`` keeps, as :func:`signal_names`, at least one.
+
+    An empty list is refused: ``--save ,,`` kept every signal without a word.
+
+    >>> saved_names("v(out),i(V1)")
+    ['v(out)', 'i(v1)']
+    """
+    names = signal_names(text)
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected signal names separated by commas, e.g. 'v(out),i(v1)', "
+                                         f"got none in {text!r}")
+    return names
+
+
 def directory_name(text: str) -> str:
     """An argparse type: a directory name, not empty (``--out ""`` would write nothing and say nothing).
 

@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import EXIT_ERROR, add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, signal_names
+from . import EXIT_ERROR, add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, saved_names
 from ..signals import signal_unit
 from ..errors import OutputFileError
 
@@ -64,8 +64,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     )
     p.add_argument("file", help="netlist file")
     p.add_argument("--out", metavar="DIR", type=directory_name, help="write one file per analysis into DIR")
-    p.add_argument("--format", choices=("csv", "raw"), default="csv",
-                   help="result file format: csv (default) or ngspice raw (binary)")
+    p.add_argument("--format", choices=("csv", "raw"), default=None,
+                   help="with --out: the result files' format, csv (default) or ngspice raw (binary)")
     p.add_argument("--ascii", action="store_true", help="with --format raw: write ascii raw files")
     p.add_argument("--plot", action="store_true", help="also write a PNG plot per analysis (into --out or .)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
@@ -73,7 +73,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="relative tolerance, between 0 and 1 (overrides .options reltol)")
     p.add_argument("--abstol", type=option_value("abstol"), help="absolute current tolerance [A], positive")
     p.add_argument("--vntol", type=option_value("vntol"), help="absolute voltage tolerance [V], positive")
-    p.add_argument("--save", metavar="SIGNALS", type=signal_names,
+    p.add_argument("--save", metavar="SIGNALS", type=saved_names,
                    help="comma-separated signals every analysis keeps, e.g. 'v(out),v(a,b),i(v1)' "
                    "(default: the .save/.print/.probe signals, else all)")
     p.add_argument("--export", metavar="PATH", type=_export_path,
@@ -266,11 +266,32 @@ def _log_notes(notes) -> None:
             LOG.info("note: %s", note)
 
 
+def _check_format_options(args) -> None:
+    """``--format`` and ``--ascii`` choose how ``--out`` writes: given where they change nothing, they are refused
+    (a ``--format raw`` without ``--out`` wrote no file and said nothing). Sets the default format, csv.
+
+    Raises
+    ------
+    NetdaeError
+        Naming the option and what it needs.
+    """
+    from ..errors import NetdaeError
+
+    if args.format is not None and not args.out:
+        raise NetdaeError(f"--format {args.format} chooses the format of the files --out writes, and no --out was "
+                          "given (hint: add --out DIR)")
+    if args.ascii and args.format != "raw":
+        raise NetdaeError("--ascii writes raw files as text, and the files are not raw (hint: add --format raw"
+                          + (")" if args.out else " and --out DIR)"))
+    args.format = args.format or "csv"
+
+
 def main(args) -> int:
     from ..analyses.runner import analysis_name, run
     from ..netlist import load
     from .progress import ProgressBar
 
+    _check_format_options(args)
     t0 = time.perf_counter()
     circuit = load(args.file, behavior=args.ngbehavior)
     log_diagnostics(circuit)

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, signal_names
+from . import add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, saved_names
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -130,7 +130,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="one more .meas card, e.g. 'tran ripple pp v(out) from=5m to=10m' (repeatable)")
     p.add_argument("--analysis", metavar="NAME", action="append", choices=ANALYSES,
                    help="run only this analysis of the netlist (repeatable; default all)")
-    p.add_argument("--save", metavar="SIGNALS", type=signal_names,
+    p.add_argument("--save", metavar="SIGNALS", type=saved_names,
                    help="comma-separated signals whose waveforms every row keeps (for --waveforms and the plot)")
     p.add_argument("--waveforms", action="store_true", help="write the saved waveforms to waveforms.npz")
     p.add_argument("--no-plot", dest="plot", action="store_false", help="do not write sweep.png")
