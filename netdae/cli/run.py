@@ -410,7 +410,9 @@ def main(args) -> int:
         from . import interruption
 
         word, status = interruption(interrupted)
-        LOG.error("%s: %s", word, results[-1].message)
+        message = results[-1].message
+        # "interrupted at t=... of ..." says it already (it read "interrupted: interrupted at ...")
+        LOG.error("%s", message if message.startswith(word) else f"{word}: {message}")
         return status
     if write_errors:
         return EXIT_ERROR
