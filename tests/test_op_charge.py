@@ -146,10 +146,45 @@ def test_a_net_current_into_a_conserved_combination_is_refused():
     assert "no DC path" in str(info.value) and "f1" in str(info.value)
 
 
-def test_an_inductor_loop_stays_refused():
-    # the flux of a loop of inductors is conserved too, but ngspice and netdae refuse the loop at DC
-    with pytest.raises(CircuitError):
-        operating_point(netdae.load("lloop\nV1 a 0 1\nR1 a b 1k\nL1 b c 1m\nL2 c b 2m\nR2 c 0 1k\n.op\n.end\n"))
+def test_an_inductor_loop_conserves_its_flux():
+    # the dual of a node set attached only through capacitors: the flux around a loop of inductors alone is
+    # conserved (ngspice refuses the singular matrix; netdae did too). v(b) = v(c) = 0.5 V and i(l1) - i(l2) =
+    # 0.5 mA through the dividers; zero flux around b -l1- c -l2- b: 1m i(l1) + 2m i(l2) = 0
+    res = operating_point(netdae.load("lloop\nV1 a 0 1\nR1 a b 1k\nL1 b c 1m\nL2 c b 2m\nR2 c 0 1k\n.op\n.end\n"))
+    assert res["v(b)"][0] == pytest.approx(0.5, rel=1e-9) and res["v(c)"][0] == pytest.approx(0.5, rel=1e-9)
+    assert res["i(l1)"][0] == pytest.approx(1e-3 / 3, rel=1e-9)
+    assert res["i(l2)"][0] == pytest.approx(-1e-3 / 6, rel=1e-9)
+    assert any("flux conservation, total flux zero at t = 0" in note for note in res.notes)
+
+
+def test_inductor_loops_with_a_coupling_keep_their_flux_through_a_transient():
+    # three inductors in parallel, two of them coupled (k = 0.5): two loops, each of zero flux at the start
+    # (L1 i1 + M i2 = L2 i2 + M i1 = L3 i3), and so at every time; the total current is a first-order step
+    # response of R1 and the parallel inductance 1 / sum(inverse inductance matrix)
+    text = ("three\nV1 in 0 PULSE(0 1 0 1n 1n 1 2)\nR1 in b 1k\nL1 b 0 1m\nL2 b 0 2m\nL3 b 0 3m\n"
+            "K1 L1 L2 0.5\n.tran 10n 3u\n.end\n")
+    r = netdae.simulate(netdae.load(text))
+    assert r.ok and any("l1, l2, l3 form 2 loops" in note for note in r.notes)
+    M = 0.5 * np.sqrt(1e-3 * 2e-3)
+    i1, i2, i3 = r["i(l1)"], r["i(l2)"], r["i(l3)"]
+    f1, f2, f3 = 1e-3 * i1 + M * i2, 2e-3 * i2 + M * i1, 3e-3 * i3
+    assert np.max(np.abs(f1 - f2)) < 1e-12 * np.max(np.abs(f1)) and np.max(np.abs(f1 - f3)) < 1e-12 * np.max(np.abs(f1))
+    tau = 1.0 / (np.linalg.inv([[1e-3, M], [M, 2e-3]]).sum() + 1.0 / 3e-3) / 1e3
+    tr = 1e-9
+
+    def ramp(t):  # the response to a unit ramp of slope 1/tr
+        t = np.maximum(t, 0.0)
+        return (t - tau * (1.0 - np.exp(-t / tau))) / tr
+
+    exact = (ramp(r.t) - ramp(r.t - tr)) / 1e3
+    assert np.max(np.abs(i1 + i2 + i3 - exact)) < 0.1 * r.tolerances["reltol"] * 1e-3  # of the final 1 mA
+
+
+def test_a_loop_of_inductors_and_a_source_stays_refused():
+    # a voltage source in the loop: its voltage drives the loop's flux without bound at DC (no operating point)
+    with pytest.raises(CircuitError, match="l1 and l2 form a loop with the source v2"):
+        operating_point(netdae.load("vl\nV1 a 0 1\nR1 a b 1k\nL1 b c 1m\nV2 c d 1\nL2 d b 2m\nR2 c 0 1k\n"
+                                    ".op\n.end\n"))
 
 
 # -- random linear circuits against a dense oracle of the conservation laws -------------------------------------

@@ -11,7 +11,10 @@ matrix (entries O(1)):
 
 - ``s_min <= SINGULAR_RTOL * s_max``: singular; ``.op``, ``.dc`` must raise
   :class:`~netdae.errors.CircuitError`, and ``netdae index`` must find the
-  pencil singular when the circuit has no inductor (then ``E = 0``);
+  pencil singular when the circuit has no inductor (then ``E = 0``); unless
+  every dependent equation is an inductor's (loops of inductors alone): then
+  the loops' fluxes are conserved, and the operating point is the one without
+  flux in them (the dense solve with those conditions added);
 - ``s_min >= REGULAR_RTOL * s_max``: regular; ``.op`` must agree with the
   dense solve to ``VALUE_RTOL`` relative to the largest unknown;
 - in between (not drawn in practice): no claim.
@@ -75,17 +78,33 @@ def resistive_circuits(draw):
 
 def _oracle(c):
     """(verdict, x_ref by name): verdict 'singular', 'regular' or None (no claim)."""
-    _, H, B, names = reference_mna(c)
+    E, H, B, names = reference_mna(c)
     if H.shape[0] == 0:
         return None, {}
-    s = np.linalg.svd(H, compute_uv=False)
+    U, s, _ = np.linalg.svd(H)
     ratio = s[-1] / s[0] if s[0] > 0 else 0.0
+    u = np.array([el.source.dc for el in c.elements if el.kind in ("vsource", "isource")])
+    rhs = -(B @ u) if B.size else np.zeros(H.shape[0])
     if ratio <= SINGULAR_RTOL:
-        return "singular", {}
+        return _flux_loops(E, H, U[:, s <= SINGULAR_RTOL * s[0]], rhs, names)
     if ratio < REGULAR_RTOL:
         return None, {}
-    u = np.array([el.source.dc for el in c.elements if el.kind in ("vsource", "isource")])
-    x = np.linalg.solve(H, -(B @ u)) if B.size else np.zeros(H.shape[0])
+    return "regular", dict(zip(names, np.linalg.solve(H, rhs)))
+
+
+def _flux_loops(E, H, Y, rhs, names):
+    """A singular DC matrix whose dependent equations are all inductors' (``Y``, its left null space, lives on
+    their rows: loops of inductors alone): the operating point is the one whose loop fluxes ``Y^T E x`` are zero
+    (flux conservation from a start without flux); any other singular matrix is refused."""
+    inductors = np.array([nm.startswith("i(l") for nm in names])
+    if np.abs(Y[~inductors]).max(initial=0.0) > 1e-9 * np.abs(Y).max():
+        return "singular", {}
+    A = np.vstack([H, Y.T @ E])
+    b = np.concatenate([rhs, np.zeros(Y.shape[1])])
+    sv = np.linalg.svd(A, compute_uv=False)
+    if sv[-1] < REGULAR_RTOL * sv[0]:
+        return None, {}
+    x = np.linalg.lstsq(A, b, rcond=None)[0]
     return "regular", dict(zip(names, x))
 
 

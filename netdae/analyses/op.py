@@ -266,6 +266,13 @@ def _is_certain(found, topo) -> bool:
     return found is not None and not any(f.controlled and f.message == found.message for f in topo.findings)
 
 
+def _flux_loop(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> bool:
+    """The topology explains a singular solve by a loop of inductors alone, whose flux is conserved (a note)."""
+    found = _topological_reason(circuit, system, res, topo)
+    return found is not None and any(f.kind == "dc_loop" and f.severity == "note" and f.message == found.message
+                                     for f in topo.findings)
+
+
 def _certain_topological_reason(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> bool:
     """A singular solve has a reason in the topology that holds for any element values."""
     return _is_certain(_topological_reason(circuit, system, res, topo), topo)
@@ -428,7 +435,7 @@ LAW_CHARGE_RTOL = 1e-8
 
 
 def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGroup],
-                      forcing: Forcing | None) -> list[ChargeGroup]:
+                      forcing: Forcing | None, *, fluxes: bool = False) -> list[ChargeGroup]:
     """Conservation laws that fix an operating point the DC equations leave undetermined.
 
     When the DC Jacobian is singular with left null vectors ``Y`` (``Y^T dphi/dx = 0``: a
@@ -451,6 +458,10 @@ def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGr
     groups : list of ChargeGroup
         The topological charge groups already in the solve.
     forcing : Forcing or None
+    fluxes : bool
+        Count the inductors' fluxes among the conserved quantities (a loop of inductors alone,
+        whose branch equations add up to zero at DC: the topology found one); else a
+        combination that weighs a flux is refused, as ngspice's singular matrix.
 
     Returns
     -------
@@ -487,10 +498,12 @@ def conservation_laws(system, res: SteadyResult, t: float, groups: list[ChargeGr
     nodes = np.asarray(system.kinds) == 0
     YE = np.asarray((E.T @ np.where(nodes[:, None], Y, 0.0)).T)  # the node charges of the combinations
     flux = np.asarray((E.T @ np.where(nodes[:, None], 0.0, Y)).T)  # the inductor fluxes
+    if fluxes:
+        YE = YE + flux  # the conserved quantities: charges and fluxes together
     sv = np.linalg.svd(YE, compute_uv=False)
     if not sv.size or not np.isfinite(sv).all() or sv[0] == 0.0 or sv[-1] <= LAW_CHARGE_RTOL * sv[0]:
         return []
-    if np.abs(flux).max(initial=0.0) > LAW_CHARGE_RTOL * np.abs(YE).max():
+    if not fluxes and np.abs(flux).max(initial=0.0) > LAW_CHARGE_RTOL * np.abs(YE).max():
         return []  # a loop of inductors: a conserved flux, not charge (refused, as ngspice's singular matrix)
     _, R, order = scipy.linalg.qr(np.where(taken[None, :], 0.0, Y.T), mode="economic", pivoting=True)
     pivots = order[:d]
@@ -555,9 +568,18 @@ def _law_note(circuit: Circuit, system: MnaSystem, laws: list[ChargeGroup]) -> s
     k = len(laws)
     lines = " (with the charge the transmission lines hold)" if getattr(system, "line_charge", None) is not None \
         else ""
+    branches = np.asarray(system.kinds)[rows] != 0
+    if branches.all():  # inductors' branch equations: a loop of inductors
+        inductors = [name for what, name in (system.layout.target(int(i)) for i in rows) if what == "branch"]
+        return (f"the DC equations ({_names(_collapse_parts(equations, 'equations'))}) are dependent (at DC the "
+                f"inductors are shorts, and {_names(_collapse_parts(inductors, 'parts'))} form "
+                f"{'a loop' if k == 1 else f'{k} loops'}), and the total flux around "
+                f"{'it' if k == 1 else 'each'} is conserved: the operating point follows from flux conservation, "
+                "total flux zero at t = 0")
+    what = "the charges and fluxes" if branches.any() else "the charges"
     return (f"the DC equations ({_names(_collapse_parts(equations, 'equations'))}) are dependent (elements "
             f"involved: {_names(_collapse_parts(elements, 'parts'))}), and "
-            f"{'a combination' if k == 1 else f'{k} combinations'} of the charges there "
+            f"{'a combination' if k == 1 else f'{k} combinations'} of {what} there "
             f"{'is' if k == 1 else 'are'} conserved{lines}: the operating point follows from charge conservation, "
             "total charge zero at t = 0")
 
@@ -612,8 +634,9 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
     groups, used = charge_groups(system, topology, None if forcing is None else forcing.index)
     res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset, charges=groups)
     laws: list[ChargeGroup] = []
-    if res.singular and not _certain_topological_reason(circuit, system, res, topology):
-        laws = conservation_laws(system, res, t, groups, forcing)
+    loop = res.singular and _flux_loop(circuit, system, res, topology)
+    if res.singular and (loop or not _certain_topological_reason(circuit, system, res, topology)):
+        laws = conservation_laws(system, res, t, groups, forcing, fluxes=loop)
         if laws:
             again = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset,
                                  charges=groups + laws)

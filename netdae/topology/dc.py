@@ -11,7 +11,12 @@ current sources) is singular at DC but has a well-defined operating point
 all the same: its total charge is conserved (``d/dt`` of it is the sum of
 the currents entering the set, zero at DC), so its value at t = 0 fixes the
 set's potential. Such sets are listed as *charge groups*; the operating
-point replaces one current law of each by the charge balance.
+point replaces one current law of each by the charge balance. The dual: a
+loop of inductors alone conserves its total flux (``d/dt`` of it is the sum
+of the voltages around the loop, zero), whose value at t = 0 fixes the
+current circulating in it; such a loop is a note, and the operating point
+finds the conserved combination from the DC matrix's left null space
+(:func:`netdae.analyses.op.conservation_laws`).
 """
 
 from __future__ import annotations
@@ -28,6 +33,8 @@ __all__ = ["no_dc_path", "dc_loops", "unfixed_potentials"]
 
 #: What fixes the DC potential of a charge group, in the findings ({} is "it" or "them").
 CHARGE_PHRASE = "charge conservation (the total charge on {} at t = 0 is zero, or what .ic sets)"
+#: What fixes the circulating current of a loop of inductors at DC, in the findings.
+FLUX_PHRASE = "flux conservation (the total flux around it at t = 0 is zero)"
 
 
 def no_dc_path(ctx: Context, floating_labels: np.ndarray) -> tuple[list[NodeGroup], np.ndarray, list[NodeGroup]]:
@@ -125,6 +132,15 @@ def dc_loops(ctx: Context) -> tuple[list[Loop], int]:
     for lp, _ in listed:
         ctx.want("dc_loop")
         plain, opamps = ctx.split(lp)
+        flux = len(lp.elements) > 1 and not opamps and not lp.controlled and all(
+            ctx.stores[e] == "flux" for e in plain)
+        if flux:  # inductors only: the loop's total flux is conserved, and its value at t = 0 fixes the current
+            what = (f"at DC the inductors are shorts, and {name_list(plain)} form a loop ({lp.path(PATH_LIMIT)}): "
+                    f"the current circulating in it follows from {FLUX_PHRASE}")
+            ctx.add(Finding("dc_loop", "note", f"DC operating point: {what}", lp.elements, lp.nodes,
+                            hint="to set the current otherwise, add a small resistance in series with one of the "
+                            "inductors"))
+            continue
         if len(lp.elements) == 1:
             what = f"{lp.elements[0]} is shorted (both terminals on node '{lp.nodes[0]}'): at DC its current"
         else:
