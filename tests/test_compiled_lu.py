@@ -485,6 +485,40 @@ def test_cache_key_follows_the_constants_a_kernel_imports_and_only_them(tmp_path
     assert compiled.source_key((pkg / "kernels",)) != key  # an imported function
 
 
+def test_the_key_is_kept_while_the_files_it_read_are_unchanged(tmp_path, monkeypatch):
+    """The scan costs 0.1-0.2 s at each start: its result is kept with the state of every file it read, and
+    computed again when one changed, a module appeared next to one, or a kept file went."""
+    import os
+
+    pkg, base = tmp_path / "pkg", tmp_path / "cache"
+    (pkg / "kernels").mkdir(parents=True)
+    base.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "kernels" / "__init__.py").write_text("")
+    (pkg / "kernels" / "diode.py").write_text("from ..model import KNEE\ndef eval(v):\n    return v * KNEE\n")
+    model = pkg / "model.py"
+    model.write_text("KNEE = 2.0\n")
+    sources = (pkg / "kernels",)
+    scans = []
+    real = compiled.source_key
+    monkeypatch.setattr(compiled, "source_key", lambda *a, **k: scans.append(1) or real(*a, **k))
+    key = compiled.cached_source_key(str(base), sources, frozenset())
+    assert key == real(sources, frozenset()) and len(scans) == 1
+    assert compiled.cached_source_key(str(base), sources, frozenset()) == key and len(scans) == 1  # kept
+    model.write_text("KNEE = 3.0\n")  # the same size: the modification time tells
+    st = os.stat(model)
+    os.utime(model, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    changed = compiled.cached_source_key(str(base), sources, frozenset())
+    assert changed != key and changed == real(sources, frozenset()) and len(scans) == 2
+    (pkg / "kernels" / "mosfet.py").write_text("def eval(v):\n    return v\n")  # a new kernel module
+    assert compiled.cached_source_key(str(base), sources, frozenset()) == real(sources, frozenset()) != changed
+    assert len(scans) == 3
+    (base / compiled.KEY_FILE).write_text("{not json")  # a damaged file is computed again, and replaced
+    assert compiled.cached_source_key(str(base), sources, frozenset()) == real(sources, frozenset())
+    assert len(scans) == 4 and compiled.cached_source_key(str(base), sources, frozenset()) and len(scans) == 4
+    assert compiled.cached_source_key(None, sources, frozenset()) and len(scans) == 5  # nowhere to keep it
+
+
 def test_child_processes_share_the_parents_cache_directory():
     import subprocess
     import sys
