@@ -402,8 +402,8 @@ def _failure_message(source: str, errors: list[str], strict: bool) -> str:
     if strict and any("singular matrix" in e.lower() for e in errors):
         text += (
             "\n(hint: ngspice found a singular matrix, typically a node without a DC path to ground or a "
-            "loop of voltage sources; it may continue with gmin stepping, pass strict=False to accept "
-            "such a result)"
+            "loop of voltage sources or inductors; 'netdae check FILE' names the elements; ngspice may go on "
+            "with gmin stepping, whose result netdae.ngspice.run(..., strict=False) accepts)"
         )
     return text
 
