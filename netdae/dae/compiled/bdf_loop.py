@@ -597,8 +597,16 @@ def _point_state(devd):
     correction was computed at. A boost converter's diode accepted after one correction from 0.29 V to
     0.69 V (tests/test_recovery.py) kept 0.29 V, and every later attempt limited the junction from
     there, about 0.1 V per iteration (0.41, 0.52, 0.62, 0.66 V, each limited, so never converged),
-    failing on every step size. The switches keep their held states, the OSDI devices their own
-    (Python: ``netdae.dae.bdf.corrector.point_state``)."""
+    failing on every step size. The switches keep their held states. The OSDI devices take the states
+    their modules wrote at the point (``o_vnew``: every ``$limit`` call's value there, evaluated
+    without limiting): with limiting enabled a module writes only the states of the branch it takes
+    (a MOSFET's normal or reversed mode), so a state of the other branch keeps the value of the last
+    evaluation that took it, however long ago, and a transistor entering that branch again limited
+    its junction from there on every iteration. A level-3 CMOS Schmitt trigger (MOS3 as OSDI) failed
+    Newton on every step size at t = 549.1273 ns, its states 1.5-3 V off the point's, and continued
+    through 23,000 impasses without reaching 550 ns (tests/test_limit_state_rebase.py). The Python
+    integrator gives its OSDI devices no limiting state in a transient
+    (:func:`netdae.dae.bdf.corrector.point_state`)."""
     (d_par, d_idx, d_vacc, d_vtry, d_vnew, b_par, b_idx, b_vacc, b_vtry, b_vnew,
      m_par, m_idx, m_vacc, m_vtry, m_vnew, j_par, j_idx, j_vacc, j_vtry, j_vnew,
      s_par, s_idx, s_vacc, s_vtry, s_vnew, s_tc,
@@ -613,6 +621,9 @@ def _point_state(devd):
     _copy2(v_vacc, v_vnew)
     _copy2(z_vacc, z_vnew)
     _copy2(f_vacc, f_vnew)
+    if o_inst.shape[0] > 0:
+        for i in range(o_vacc.size):
+            o_vacc[i] = o_vnew[i]
 
 
 @kernel
