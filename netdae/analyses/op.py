@@ -33,6 +33,7 @@ import numpy as np
 
 from ..circuit import Circuit
 from ..devices.autodiff import leaves
+from ..dae.kronecker import EPS
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
 from ..kinds import KINDS
@@ -278,10 +279,47 @@ def _certain_topological_reason(circuit: Circuit, system: MnaSystem, res: Steady
     return _is_certain(_topological_reason(circuit, system, res, topo), topo)
 
 
-def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> CircuitError:
+#: A right null vector ``v`` of a singular DC matrix ``J`` (unit largest entry) whose currents ``|J v|`` exceed this
+#: many roundings of the matrix (``eps * max|J|``) is not a dependence but a weak hold: nodes that move together
+#: against junction leakage and gmin, next to conductances that rounding cannot resolve them against.
+WEAK_HOLD_ROUNDINGS = 10.0
+
+
+def _weak_hold(system: MnaSystem, res: SteadyResult, t: float) -> tuple[float, float] | None:
+    """``(A per volt, largest conductance)`` when the one undetermined direction of a singular solve is held by
+    currents well above rounding (:data:`WEAK_HOLD_ROUNDINGS`), else None.
+
+    An H-bridge with every switch off (nodes between reverse-biased body diodes with 0.01 ohm series resistances):
+    the rank decision calls the DC matrix singular (smallest singular value 1.2e-14 against a tolerance of 2.6e-14),
+    yet moving those nodes together changes their currents by 2e-12 A per volt, 100 times what rounding makes of a
+    matrix with 100 S entries: the equations are not dependent, their solution is only lost to rounding.
+    """
+    rank = res.rank
+    if rank is None or rank.right.ndim != 2 or rank.right.shape[1] != 1 or res.x is None:
+        return None
+    v = np.asarray(rank.right[:, 0], dtype=float)
+    top = np.abs(v).max(initial=0.0)
+    if not top > 0.0:
+        return None
+    v = v / top
+    try:
+        ev = system.evaluate(np.asarray(res.x, dtype=float), t, jacobian=True)
+    except (ArithmeticError, ValueError):
+        return None
+    if not (ev.ok and np.all(np.isfinite(ev.dphi))):
+        return None
+    J = system.pattern.matrix(ev.dphi)
+    largest = float(np.abs(ev.dphi).max(initial=0.0))
+    held = float(np.abs(J @ v).max(initial=0.0))
+    if not largest > 0.0 or held <= WEAK_HOLD_ROUNDINGS * EPS * largest:
+        return None
+    return held, largest
+
+
+def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo, t: float = 0.0) -> CircuitError:
     """The best explanation of a singular DC matrix, in circuit terms, naming the elements.
 
-    ``system`` is the circuit's steady form, ``topo`` its topological analysis.
+    ``system`` is the circuit's steady form, ``topo`` its topological analysis, ``t`` the time of its sources.
     """
     rank = res.rank
     evidence = ""
@@ -310,6 +348,20 @@ def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo
     dependent = _support(rank.left) if rank is not None else np.zeros(0, dtype=int)
     elements = _involved_elements(circuit, system, np.union1d(undetermined, dependent))
     controlled = [e for e in elements if KINDS[circuit.element(e).kind].group in _SOURCE_GROUPS]
+    weak = _weak_hold(system, res, t)
+    if weak is not None:
+        held, largest = weak
+        k = undetermined.size
+        text = (f"no DC operating point netdae can trust{evidence}: {_names(system.names[i] for i in undetermined)} "
+                f"{'moves' if k == 1 else 'move together'} against only about {held:.2g} A per volt (junctions in "
+                f"reverse, gmin), while conductances up to {largest:.3g} S act among {'it' if k == 1 else 'them'}: "
+                "a matrix too close to singular for its rank decision to trust the solution; elements involved: "
+                f"{_names(elements)}")
+        targets = [system.layout.target(int(i)) for i in undetermined]
+        return CircuitError(text, elements=tuple(elements),
+                            nodes=tuple(name for what, name in targets if what == "node"),
+                            hint="give these nodes a DC path to ground (a resistor, e.g. 1G), raise .options gmin "
+                            "(e.g. 1e-10), or start the transient with uic")
     text = f"no unique DC operating point{evidence}: {_names(system.names[i] for i in undetermined)} " \
         f"{'is' if undetermined.size == 1 else 'are'} undetermined"
     if dependent.size:
@@ -533,7 +585,7 @@ def _check_law_balance(circuit: Circuit, system: MnaSystem, res: SteadyResult, l
     for net, law in zip(_imbalances(system, res, laws, t, opts), laws):
         if net is not None:
             if _topological_reason(circuit, system, singular, topo) is not None:
-                raise _singular_error(circuit, system, singular, topo)
+                raise _singular_error(circuit, system, singular, topo, t)
             elements = _involved_elements(circuit, system, law.rows)
             raise CircuitError(
                 f"no DC operating point: {_names(_row_names(system, law.rows))} are dependent at DC, and the "
@@ -677,7 +729,7 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
             res.notes = list(res.notes) + _unheld_initial_conditions(circuit, system, forcing, forced.x, unheld)
         return res
     if res.singular:
-        raise _singular_error(circuit, system, res, topology)
+        raise _singular_error(circuit, system, res, topology, t)
     if res.not_finite is not None:
         raise _not_finite_error(circuit, system, res)
     worst = _describe_unknowns(system, res.worst, res.x)
