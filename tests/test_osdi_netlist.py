@@ -467,3 +467,47 @@ def test_a_terminal_collapsed_into_ground_may_be_wired_to_ground():
 def test_a_terminal_collapsed_into_ground_but_wired_elsewhere_is_a_short():
     with pytest.raises(NetlistError, match="shorts t and ground"):
         netdae.run(netdae.load(_VDMOS.format(mod=MOD, inst="N1 d g 0 tj 0 pw thermal_enabled=0\nRT tj 0 1")))
+
+
+# --- slopes and messages of a module's own ------------------------------------------------------
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_an_infinite_slope_at_a_finite_value_is_taken_as_zero(monkeypatch, engine):
+    """``g sqrt(V)`` from 1 V through 1 kOhm (g R = 1): v + sqrt(v) = 1, v = ((sqrt(5) - 1) / 2)^2.
+
+    The first iterate, 0 V, has a finite current and an infinite slope. Before, the compiled kernel
+    called that evaluation not finite and the numpy family passed the infinity to the LU, and the
+    operating point failed ("did not converge after 0 Newton iterations"); the same circuit with a
+    behavioural source solved, its infinite slopes taken as 0.
+    """
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    lib = compile_va(str(DATA / "sqrtcond.va"))
+    text = f"sqrt\n.osdi {lib}\nV1 a 0 1\nR1 a b 1k\nN1 b 0 sm\n.model sm sqrtcond g=1m\n.op\n"
+    (op,) = netdae.run(text, reltol=1e-9, vntol=1e-12)
+    exact = ((math.sqrt(5.0) - 1.0) / 2.0) ** 2
+    assert abs(op["v(b)"][0] - exact) < 10 * (1e-9 * exact + 1e-12)
+
+
+def test_the_kernel_and_the_family_take_an_infinite_slope_alike():
+    from netdae.devices.base import Accumulator, SlotMap
+    from netdae.devices.kernels import FLAG_NONFINITE, MODE_EVALUATE
+    from netdae.devices.kernels.osdi import eval_osdi
+    from netdae.devices.osdi.family import OsdiFamily
+    from netdae.mna import assemble
+
+    lib = compile_va(str(DATA / "sqrtcond.va"))
+    system = assemble(netdae.load(f"sqrt\n.osdi {lib}\nV1 a 0 1\nR1 a b 1k\nN1 b 0 sm\n.model sm sqrtcond\n.op\n"))
+    fam = next(f for f in system.families if isinstance(f, OsdiFamily))
+    n, nnz = system.n, system.pattern.nnz
+    packed = fam.compiled(SlotMap(system.pattern), n)
+    for vb in (0.0, 0.25, -0.25):  # infinite slope; finite; a square root of a negative number
+        x = np.zeros(n + 1)
+        x[system.node_index("b")] = vb
+        acc = Accumulator(n, nnz)
+        fam.evaluate(x, 0.0, acc, None, True)
+        q, phi, dq, dphi = np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1)
+        flags, _ = eval_osdi(x, 0.0, MODE_EVALUATE, np.zeros(0), np.zeros(0), *packed, q, phi, dq, dphi, True)
+        assert bool(flags & FLAG_NONFINITE) == (not acc.ok) == (vb < 0)
+        assert np.array_equal(dphi, acc.dphi, equal_nan=True) and np.array_equal(phi, acc.phi, equal_nan=True)
+        assert np.isfinite(acc.dphi).all() or vb < 0

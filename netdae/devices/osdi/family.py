@@ -456,8 +456,11 @@ class OsdiFamily(DeviceFamily):
         acc.phi -= self.fbuf
         acc.q += self.qbuf
         if jacobian and len(self.slots):
-            acc.add_dphi(self.slots, -self.jr[: len(self.slots)])
-            acc.add_dq(self.slots, self.jc[: len(self.slots)])
+            jr, jc = self.jr[: len(self.slots)], self.jc[: len(self.slots)]
+            if not (np.isfinite(jr).all() and np.isfinite(jc).all()):  # an infinite slope at a finite value: 0
+                jr, jc = np.where(np.isfinite(jr), jr, 0.0), np.where(np.isfinite(jc), jc, 0.0)
+            acc.add_dphi(self.slots, -jr)
+            acc.add_dq(self.slots, jc)
         if not (np.isfinite(self.fbuf).all() and np.isfinite(self.qbuf).all()):
             acc.ok = False
         if limited:
