@@ -511,3 +511,32 @@ def test_the_kernel_and_the_family_take_an_infinite_slope_alike():
         assert bool(flags & FLAG_NONFINITE) == (not acc.ok) == (vb < 0)
         assert np.array_equal(dphi, acc.dphi, equal_nan=True) and np.array_equal(phi, acc.phi, equal_nan=True)
         assert np.isfinite(acc.dphi).all() or vb < 0
+
+
+def _says(how: int, analysis: str) -> str:
+    lib = compile_va(str(DATA / "says.va"))
+    return (f"says\n.osdi {lib}\nV1 a 0 PULSE(0 2 1u 1u 1u 1u 10u)\nR1 a b 1k\nN1 b 0 sm\n"
+            f".model sm says how={how}\n{analysis}\n")
+
+
+@pytest.mark.parametrize("how, level", [(1, "error"), (2, "warning"), (3, "display")])
+def test_what_a_module_says_is_a_note_of_the_result(how, level):
+    """``$error``, ``$warning``, ``$strobe`` were recorded and never shown: one note per instance and level."""
+    (res,) = netdae.run(_says(how, ".tran 0.1u 5u"))
+    assert res.ok
+    said = [n for n in res.notes if n.startswith(f"OSDI n1 {level}: too much: ")]
+    assert len(said) == 1 and "messages" in said[0], res.notes
+    (res,) = netdae.run(_says(how, ".op"))  # 0 V at the operating point: silent, and nothing of the last run
+    assert not [n for n in res.notes if n.startswith("OSDI")]
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_modules_fatal_error_is_quoted_where_the_transient_stops(monkeypatch, engine):
+    """``$fatal`` ends each evaluation above 0.5 V: the run stops there, and says what the module said."""
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    (res,) = netdae.run(_says(0, ".tran 0.1u 5u"))
+    assert not res.ok
+    assert "an OSDI module stopped its evaluation; n1 (OSDI) said fatal: too much: " in res.message
+    # v(b) = v(a) / 2 reaches 0.5 V on the ramp at 1.5 us
+    assert res["v(b)"][-1] == pytest.approx(0.5, abs=0.01) and res.t[-1] == pytest.approx(1.5e-6, rel=0.01)

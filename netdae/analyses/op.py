@@ -35,7 +35,7 @@ from ..circuit import Circuit
 from ..devices.autodiff import leaves
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
-from ..kinds import KINDS
+from ..kinds import KINDS, Kind
 from ..mna import MODE_DC, MnaSystem
 from ..netlist.expr import Voltage
 from ..results import Result, Statistics
@@ -318,6 +318,24 @@ def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo
                         hint=hint)
 
 
+def fatal_messages(circuit: Circuit, levels: tuple[str, ...] = ("fatal", "error")) -> str:
+    """``"; n1 (OSDI) said: ..."``: the errors an OSDI module logged (``$fatal``, ``$error``), else ``""``.
+
+    A module's ``$fatal`` stops its evaluation as a non-finite value does;
+    what it said is the reason, so the failure's message quotes it (the last
+    of each instance). The messages stay for the result's notes.
+    """
+    if not any(el.kind == Kind.OSDI for el in circuit.elements):
+        return ""
+    from ..devices.osdi.library import peek_messages
+
+    last: dict[str, str] = {}
+    for who, level, text in peek_messages():
+        if level in levels and text.strip():
+            last[who] = f"{level}: {text.strip()}"
+    return "".join(f"; {who} (OSDI) said {text}" for who, text in list(last.items())[:NAMED])
+
+
 def _not_finite_error(circuit: Circuit, system: MnaSystem, res: SteadyResult) -> ConvergenceError:
     """The solve stopped where the circuit's equations are not finite: which equations, which elements, where."""
     rows = res.not_finite
@@ -341,7 +359,8 @@ def _not_finite_error(circuit: Circuit, system: MnaSystem, res: SteadyResult) ->
                 if i >= 0 and i not in shown:
                     shown.append(i)
     text += (", so Newton, gmin stepping, source stepping and pseudo-transient continuation stopped"
-             + (f"; values there: {_describe_unknowns(system, shown[:2 * NAMED], res.x)}" if shown else ""))
+             + (f"; values there: {_describe_unknowns(system, shown[:2 * NAMED], res.x)}" if shown else "")
+             + fatal_messages(circuit))
     return ConvergenceError(
         text, worst=system.names[rows[0]] if rows.size else None,
         hint="an expression of these elements divides by zero, or takes the square root or logarithm of a "

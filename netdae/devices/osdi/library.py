@@ -27,7 +27,7 @@ from ...errors import NetlistError, SourceLocation
 from . import abi
 
 __all__ = ["OsdiParam", "OsdiNodeInfo", "OsdiNoiseInfo", "OsdiJacobianEntry", "OsdiModule", "OsdiLibrary", "load_library",
-           "drain_messages", "LOG_LEVELS"]
+           "drain_messages", "peek_messages", "message_notes", "LOG_LEVELS"]
 
 #: Names of the ``osdi_log`` levels (``lvl & LOG_LVL_MASK``).
 LOG_LEVELS = ("debug", "display", "info", "warning", "error", "fatal")
@@ -261,6 +261,55 @@ def drain_messages() -> list[tuple[str, str, str]]:
     out = list(_MESSAGES)
     _MESSAGES.clear()
     return out
+
+
+def peek_messages() -> list[tuple[str, str, str]]:
+    """The messages OSDI modules logged since the last :func:`drain_messages`, left in place."""
+    return list(_MESSAGES)
+
+
+#: Groups of messages (instance and level) :func:`message_notes` shows; the others are counted.
+SHOWN_MESSAGE_GROUPS = 5
+
+
+def message_notes(messages: list[tuple[str, str, str]]) -> list[str]:
+    """What the modules said, as notes for a result: one per instance and level, the first text and a count.
+
+    A module's ``$strobe``, ``$display``, ``$warning``, ``$error`` and
+    ``$fatal`` during an analysis are messages netdae would otherwise never
+    show; a model printing at every evaluation says the same thing thousands
+    of times, so each instance's messages of one level become one note (its
+    first and last texts and how many there were).
+
+    Parameters
+    ----------
+    messages : list of (str, str, str)
+        ``(who, level, text)`` as :func:`drain_messages` returns them.
+
+    Returns
+    -------
+    list of str
+        ``"OSDI n1 error: g too large: 2 (3 messages, the last: ...)"``; at most
+        :data:`SHOWN_MESSAGE_GROUPS` notes and one counting the rest.
+    """
+    groups: dict[tuple[str, str], list[str]] = {}
+    for who, level, text in messages:
+        text = text.strip()
+        if text:
+            groups.setdefault((who, level), []).append(text)
+    notes = []
+    for (who, level), texts in list(groups.items())[:SHOWN_MESSAGE_GROUPS]:
+        more = ""
+        if len(texts) > 1:
+            more = f" ({len(texts)} messages" + (f", the last: {texts[-1]}" if texts[-1] != texts[0] else "") + ")"
+        notes.append(f"OSDI {who} {level}: {texts[0]}{more}")
+    if len(groups) > SHOWN_MESSAGE_GROUPS:
+        rest = sum(len(t) for t in list(groups.values())[SHOWN_MESSAGE_GROUPS:])
+        notes.append(f"OSDI modules: {rest} more messages of {len(groups) - SHOWN_MESSAGE_GROUPS} more instances or "
+                     "levels (netdae.devices.osdi.drain_messages() in Python has them)")
+    if len(messages) >= MAX_MESSAGES:
+        notes.append(f"OSDI modules: only the last {MAX_MESSAGES} messages were kept")
+    return notes
 
 
 # --- reading ----------------------------------------------------------------------------------
