@@ -540,3 +540,26 @@ def test_a_modules_fatal_error_is_quoted_where_the_transient_stops(monkeypatch, 
     assert "an OSDI module stopped its evaluation; n1 (OSDI) said fatal: too much: " in res.message
     # v(b) = v(a) / 2 reaches 0.5 V on the ramp at 1.5 us
     assert res["v(b)"][-1] == pytest.approx(0.5, abs=0.01) and res.t[-1] == pytest.approx(1.5e-6, rel=0.01)
+
+
+def test_a_module_with_absolute_delays_is_refused_at_its_card():
+    """``absdelay`` needs a history netdae does not keep (OSDI 0.5's delays). Before, the bundled ideal
+    line ran with none: its operating point was 'no unique DC operating point' (rank 8 of 10) blaming
+    the circuit, a ``uic`` transient 'the circuit's pencil is singular'."""
+    text = (f"tline\n.osdi {MOD}/tline_ideal.osdi\nV1 a 0 PULSE(0 1 0 0.1n 0.1n 2n 10n)\nR1 a b 50\n"
+            "N1 b 0 c 0 tl z0=50 td=1n\nR2 c 0 50\n.model tl tline_ideal\n.tran 0.05n 5n\n")
+    e = _error(text)
+    assert e.location.line == 5 and "absdelay" in e.message and "T element" in e.hint
+    from netdae.cli.osdi import describe_library
+
+    (mod,) = describe_library(str(MOD / "tline_ideal.osdi"))["modules"]
+    assert mod["absolute_delays"] == 2
+
+
+def test_a_compiled_module_with_absdelay_is_refused(tmp_path):
+    va = tmp_path / "dly.va"
+    va.write_text('`include "disciplines.vams"\nmodule dly(a, b);\n  inout a, b;\n  electrical a, b;\n'
+                  "  analog I(a, b) <+ absdelay(V(a, b), 1n) / 1k;\nendmodule\n")
+    lib = compile_va(str(va), cache_dir=str(tmp_path))
+    e = _error(f"dly\n.osdi {lib}\nV1 a 0 1\nN1 a 0 dm\n.model dm dly\n.op\n")
+    assert e.location.line == 4 and "delays 1 quantity with absdelay()" in e.message

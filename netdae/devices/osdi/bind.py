@@ -42,6 +42,12 @@ def _module_of(el: Element, circuit: Circuit, modules: dict[str, OsdiModule]) ->
                            f"loaded OSDI library", model.location or el.location,
                            expected=f"an OSDI module name: {loaded}",
                            hint="load the compiled model with '.osdi file.osdi' (or 'pre_osdi file.osdi' in .control)")
+    if mod.num_delays:
+        raise NetlistError(f"{el.name}: model {model.name} is OSDI module {mod.name} ({mod.library.path}), which "
+                           f"delays {mod.num_delays} quantit{'y' if mod.num_delays == 1 else 'ies'} with absdelay(); "
+                           "netdae does not evaluate absolute delays in compiled models", el.location,
+                           expected="an OSDI module without absdelay()",
+                           hint="a lossless transmission line is netdae's T element (Tname p1 n1 p2 n2 z0=50 td=1n)")
     nt = mod.num_terminals
     if len(el.nodes) > nt:
         raise NetlistError(f"{el.name}: model {model.name} is OSDI module {mod.name} ({mod.library.path}) with {nt} "

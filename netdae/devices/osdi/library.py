@@ -134,6 +134,9 @@ class OsdiModule:
         Limiting states per instance.
     noise : tuple of OsdiNoiseInfo
         The noise sources, in the order ``load_noise`` writes their densities.
+    num_delays : int
+        The module's absolute delays (``absdelay``; OSDI 0.5), which need a
+        history netdae does not keep: such a module is refused when used.
     descriptor : ctypes structure
         The raw descriptor (kept for :mod:`.instance`).
     """
@@ -148,6 +151,7 @@ class OsdiModule:
     num_states: int
     descriptor: C.Structure = field(repr=False)
     noise: tuple[OsdiNoiseInfo, ...] = ()
+    num_delays: int = 0
     _by_name: dict[str, OsdiParam] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -532,4 +536,5 @@ def _read_module(d, library: OsdiLibrary) -> OsdiModule:
         int(kinds[i]) if kinds else None) for i in range(d.num_noise_src))
     return OsdiModule(name=_text(d.name).lower(), library=library, nodes=nodes, num_terminals=int(d.num_terminals),
                       collapsible=collapsible, params=tuple(params), jacobian=tuple(jac),
-                      num_states=int(d.num_states), descriptor=d, noise=noise)
+                      num_states=int(d.num_states), descriptor=d, noise=noise,
+                      num_delays=int(getattr(d, "num_delay", 0)))
