@@ -563,3 +563,22 @@ def test_a_compiled_module_with_absdelay_is_refused(tmp_path):
     lib = compile_va(str(va), cache_dir=str(tmp_path))
     e = _error(f"dly\n.osdi {lib}\nV1 a 0 1\nN1 a 0 dm\n.model dm dly\n.op\n")
     assert e.location.line == 4 and "delays 1 quantity with absdelay()" in e.message
+
+
+def test_a_floating_unknown_of_an_instance_names_the_instance(tmp_path):
+    """An unconnected terminal the module leaves alone when ``$port_connected`` says so is a node of
+    the instance's own that nothing holds: the DC matrix is singular there. The message named no
+    element ('elements involved: ' and nothing), the instance's own unknowns being on no card."""
+    from netdae.errors import CircuitError
+
+    va = tmp_path / "pc.va"
+    va.write_text('`include "disciplines.vams"\nmodule pc(a, b, c);\n  inout a, b, c;\n  electrical a, b, c;\n'
+                  "  analog begin\n    I(a, b) <+ V(a, b) / 1k;\n    if ($port_connected(c)) I(b, c) <+ V(b, c) / 1k;\n"
+                  "    else I(b) <+ V(b) / 2k;\n  end\nendmodule\n")
+    lib = compile_va(str(va), cache_dir=str(tmp_path))
+    (op,) = netdae.run(f"pc\n.osdi {lib}\nV1 a 0 1\nN1 a b 0 pm\n.model pm pc\n.op\n")
+    assert op["v(b)"][0] == pytest.approx(0.5, rel=1e-9)  # c connected to ground: 1k over 1k
+    with pytest.raises(CircuitError) as err:
+        netdae.run(f"pc\n.osdi {lib}\nV1 a 0 1\nN1 a b pm\n.model pm pc\n.op\n")
+    assert "v(n1#c) is undetermined" in str(err.value) and "elements involved: n1 " in str(err.value)
+    assert err.value.elements == ("n1",)

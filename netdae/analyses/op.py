@@ -233,14 +233,20 @@ def _row_names(system: MnaSystem, rows, parts: bool = False) -> list[str]:
 
 
 def _involved_elements(circuit: Circuit, system: MnaSystem, unknowns) -> list[str]:
-    """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes."""
+    """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes.
+
+    A device's own unknowns (``d1#internal``, an OSDI instance's ``n1#c`` and its
+    flows ``n1#br``) are on no element's card: the device that made them is named.
+    """
     targets = [system.layout.target(int(i)) for i in unknowns]
     nodes = {name for what, name in targets if what == "node"}
     branches = {name for what, name in targets if what == "branch"}
+    owners = {name.split("#", 1)[0] for name in nodes & system.layout.internal}
+    owners |= {name.split("#", 1)[0] for name in branches if "#" in name}
     out = []
     for el in circuit.elements:
-        if el.name in branches or nodes.intersection(el.nodes) or branches.intersection(el.controls) \
-                or nodes.intersection(el.controls):
+        if el.name in branches or el.name in owners or nodes.intersection(el.nodes) \
+                or branches.intersection(el.controls) or nodes.intersection(el.controls):
             out.append(el.name)
     return out
 
