@@ -582,3 +582,12 @@ def test_a_floating_unknown_of_an_instance_names_the_instance(tmp_path):
         netdae.run(f"pc\n.osdi {lib}\nV1 a 0 1\nN1 a b pm\n.model pm pc\n.op\n")
     assert "v(n1#c) is undetermined" in str(err.value) and "elements involved: n1 " in str(err.value)
     assert err.value.elements == ("n1",)
+
+
+@pytest.mark.ngspice
+def test_compare_says_why_ngspice_cannot_run_n_cards():
+    """ngspice 39 stops at an N card with 'unknown device type'; that was all compare said."""
+    c = netdae.compare(f"osdi\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=2k\n.op\n")
+    assert not c.passed and "unknown device type" in c.ngspice_error
+    assert "n1 is an OSDI device (an N card): ngspice 39 runs none" in c.ngspice_error
+    assert "OSDI devices" not in (netdae.compare("r\nV1 a 0 1\nR1 a 0 1k\n.op\n").ngspice_error or "")
