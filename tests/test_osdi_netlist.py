@@ -591,3 +591,13 @@ def test_compare_says_why_ngspice_cannot_run_n_cards():
     assert not c.passed and "unknown device type" in c.ngspice_error
     assert "n1 is an OSDI device (an N card): ngspice 39 runs none" in c.ngspice_error
     assert "OSDI devices" not in (netdae.compare("r\nV1 a 0 1\nR1 a 0 1k\n.op\n").ngspice_error or "")
+
+
+def test_an_osdi_device_in_a_subcircuit_instance_with_m_is_multiplied():
+    """ngspice adds m={m} to the body's N cards too (OpenVAF's $mfactor); netdae refused the element.
+    Four 1 kOhm Verilog-A resistors in parallel across 1 V: 4 mA; beside them, four instances."""
+    text = (f"xm\n.osdi {MOD}/resistor.osdi\n.subckt two a b\nN1 a b rm\n.ends\n.model rm resistor r=1k\n"
+            "V1 e 0 1\nX1 e 0 two m=4\nV2 f 0 1\n" + "".join(f"X{k} f 0 two\n" for k in range(2, 6)) + ".op\n")
+    (op,) = netdae.run(text)
+    assert op["i(v1)"][0] == pytest.approx(-4e-3, rel=1e-12)
+    assert op["i(v1)"][0] == pytest.approx(op["i(v2)"][0], rel=1e-12)

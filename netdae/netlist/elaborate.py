@@ -69,7 +69,7 @@ _PSPICE_SWITCHES = {Kind.VSWITCH: "vswitch", Kind.CSWITCH: "iswitch"}
 # refused when the product is not 1.
 _INSTANCE_MULTIPLIED = frozenset({Kind.RESISTOR, Kind.CAPACITOR, Kind.INDUCTOR, Kind.VCCS, Kind.CCCS,
                                   Kind.DIODE, Kind.BJT, Kind.MOSFET, Kind.JFET, Kind.MESA, Kind.HFET,
-                                  Kind.VDMOS})
+                                  Kind.VDMOS, Kind.OSDI})
 _INSTANCE_M_EXEMPT = frozenset("bveh")
 #: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
 _UNIMPLEMENTED_MODEL_TYPES: dict[str, str] = {}
@@ -1254,7 +1254,7 @@ class _Elaborator:
         if el.kind not in _INSTANCE_MULTIPLIED:
             raise error(card, 0, f"{el.name} ({el.kind}) sits in subcircuit instance {given[-1][1].inst.name} "
                         f"with m={mult:g}: netdae multiplies resistors, capacitors, inductors, linear G and F, "
-                        f"diodes and transistors by an instance's m=, not this element",
+                        f"diodes, transistors and OSDI devices by an instance's m=, not this element",
                         ELEMENTS.get(item.name[0]),
                         hint="scale the element's value inside the subcircuit with a parameter instead")
         el.params = dict(el.params) if el.params else {}
