@@ -601,3 +601,13 @@ def test_an_osdi_device_in_a_subcircuit_instance_with_m_is_multiplied():
     (op,) = netdae.run(text)
     assert op["i(v1)"][0] == pytest.approx(-4e-3, rel=1e-12)
     assert op["i(v1)"][0] == pytest.approx(op["i(v2)"][0], rel=1e-12)
+
+
+@pytest.mark.parametrize("value, message", [
+    ("1e10", "is a 32-bit integer, and 10000000000 is beyond its range"),  # was: 'takes an integer value, not 1e10'
+    ("1.5", "takes an integer value, not 1.5"),
+])
+def test_an_integer_parameter_says_what_is_wrong_with_its_value(value, message):
+    lib = compile_va(str(DATA / "says.va"))
+    e = _error(f"t\n.osdi {lib}\nV1 a 0 1\nN1 a 0 sm\n.model sm says how={value}\n")
+    assert e.location.line == 5 and message in e.message

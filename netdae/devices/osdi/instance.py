@@ -87,8 +87,12 @@ def _store(ptr: int, param: OsdiParam, value, keep: list, who: str, module: Osdi
         if isinstance(value, str) or isinstance(value, bool):
             raise _type_error(param, value, who, module, location)
         v = float(value)
-        if not math.isfinite(v) or v != round(v) or abs(v) >= 2**31:
+        if not math.isfinite(v) or v != round(v):
             raise _type_error(param, value, who, module, location)
+        if abs(v) >= 2**31:  # a whole number all the same: say what is wrong with it
+            raise NetlistError(f"{who}: parameter {param.name!r} of OSDI module {module.name} ({module.library.path}) "
+                               f"is a 32-bit integer, and {v:.0f} is beyond its range", location,
+                               expected=f"{param.name}=<int between -2147483647 and 2147483647>")
         C.c_int32.from_address(ptr).value = int(round(v))
     elif param.type == "real":
         if isinstance(value, str):
