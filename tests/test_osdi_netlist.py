@@ -611,3 +611,13 @@ def test_an_integer_parameter_says_what_is_wrong_with_its_value(value, message):
     lib = compile_va(str(DATA / "says.va"))
     e = _error(f"t\n.osdi {lib}\nV1 a 0 1\nN1 a 0 sm\n.model sm says how={value}\n")
     assert e.location.line == 5 and message in e.message
+
+
+def test_a_flag_after_the_model_of_an_n_card_is_named():
+    """``N1 a 0 rm off``: the last bare word is read as the model; the message said 'undefined model
+    'off'' with the hint to define it, though rm is defined and off is the mistake."""
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm off\n.model rm resistor r=2k\n.op\n")
+    assert (e.location.line, e.location.column) == (4, 11)
+    assert "'off' after the model 'rm'" in e.message and "remove 'off'" in e.hint
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 nothere\n.op\n")  # a real undefined model
+    assert "undefined model 'nothere'" in e.message

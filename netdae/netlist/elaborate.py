@@ -1335,6 +1335,12 @@ class _Elaborator:
             mcard = self.net.top.models.get(p.model)
             if mcard is None and item.kind == Kind.MOSFET:
                 mcard = _first_bin(p.model, self.net.top.models)  # binned: the bin is chosen with the models
+            if mcard is None and item.kind == Kind.OSDI and item.nodes and item.nodes[-1] in self.net.top.models:
+                # N a 0 rm off: the last bare word is read as the model, and the real one as a node
+                raise error(item.card, item.model[1], f"'{item.model[0]}' after the model '{item.nodes[-1]}': "
+                            "an N card takes name=value parameters after its model, no flags",
+                            ELEMENTS[item.name[0]], hint=f"remove '{item.model[0]}' (OSDI modules have no off or "
+                            "ic= of ngspice's built-in devices)")
             if mcard is None:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")
