@@ -621,3 +621,15 @@ def test_a_flag_after_the_model_of_an_n_card_is_named():
     assert "'off' after the model 'rm'" in e.message and "remove 'off'" in e.hint
     e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 nothere\n.op\n")  # a real undefined model
     assert "undefined model 'nothere'" in e.message
+
+
+def test_instances_saying_the_same_share_a_note():
+    from netdae.devices.osdi.library import message_notes
+
+    said = [("m1", "warning", "k2 should be specified with k1."), ("m2", "warning", "k2 should be specified with k1."),
+            ("n1", "display", "v=1"), ("n1", "display", "v=2"), ("n1", "display", "v=3")]
+    assert message_notes(said) == ["OSDI m1, m2 warning: k2 should be specified with k1.",
+                                   "OSDI n1 display: v=1 (3 messages, the last: v=3)"]
+    many = [(f"m{k}", "warning", f"w{k}") for k in range(8)]
+    notes = message_notes(many)
+    assert len(notes) == 6 and notes[-1].startswith("OSDI modules: 3 more messages (3 more kinds")

@@ -283,7 +283,8 @@ def message_notes(messages: list[tuple[str, str, str]]) -> list[str]:
     ``$fatal`` during an analysis are messages netdae would otherwise never
     show; a model printing at every evaluation says the same thing thousands
     of times, so each instance's messages of one level become one note (its
-    first and last texts and how many there were).
+    first and last texts and how many there were), and instances whose notes
+    would read alike (a card's warning at each of its instances) share one.
 
     Parameters
     ----------
@@ -293,24 +294,32 @@ def message_notes(messages: list[tuple[str, str, str]]) -> list[str]:
     Returns
     -------
     list of str
-        ``"OSDI n1 error: g too large: 2 (3 messages, the last: ...)"``; at most
-        :data:`SHOWN_MESSAGE_GROUPS` notes and one counting the rest.
+        ``"OSDI n1 error: g too large: 2 (3 messages, the last: ...)"``,
+        ``"OSDI m1, m2 warning: ..."``; at most :data:`SHOWN_MESSAGE_GROUPS`
+        notes and one counting the rest.
     """
     groups: dict[tuple[str, str], list[str]] = {}
     for who, level, text in messages:
         text = text.strip()
         if text:
             groups.setdefault((who, level), []).append(text)
-    notes = []
-    for (who, level), texts in list(groups.items())[:SHOWN_MESSAGE_GROUPS]:
+    said: dict[str, list[str]] = {}  # instances saying the same thing (a card's warning at every instance) together
+    counts: dict[str, int] = {}
+    for (who, level), texts in groups.items():
         more = ""
         if len(texts) > 1:
             more = f" ({len(texts)} messages" + (f", the last: {texts[-1]}" if texts[-1] != texts[0] else "") + ")"
-        notes.append(f"OSDI {who} {level}: {texts[0]}{more}")
-    if len(groups) > SHOWN_MESSAGE_GROUPS:
-        rest = sum(len(t) for t in list(groups.values())[SHOWN_MESSAGE_GROUPS:])
-        notes.append(f"OSDI modules: {rest} more messages of {len(groups) - SHOWN_MESSAGE_GROUPS} more instances or "
-                     "levels (netdae.devices.osdi.drain_messages() in Python has them)")
+        key = f"{level}: {texts[0]}{more}"
+        said.setdefault(key, []).append(who)
+        counts[key] = counts.get(key, 0) + len(texts)
+    notes = []
+    for key, whos in list(said.items())[:SHOWN_MESSAGE_GROUPS]:
+        named = ", ".join(whos[:4]) + (f" and {len(whos) - 4} more" if len(whos) > 4 else "")
+        notes.append(f"OSDI {named} {key}")
+    if len(said) > SHOWN_MESSAGE_GROUPS:
+        rest = sum(counts[k] for k in list(said)[SHOWN_MESSAGE_GROUPS:])
+        notes.append(f"OSDI modules: {rest} more messages ({len(said) - SHOWN_MESSAGE_GROUPS} more kinds; "
+                     "netdae.devices.osdi.drain_messages() in Python has them)")
     if len(messages) >= MAX_MESSAGES:
         notes.append(f"OSDI modules: only the last {MAX_MESSAGES} messages were kept")
     return notes
