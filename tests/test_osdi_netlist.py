@@ -633,3 +633,22 @@ def test_instances_saying_the_same_share_a_note():
     many = [(f"m{k}", "warning", f"w{k}") for k in range(8)]
     notes = message_notes(many)
     assert len(notes) == 6 and notes[-1].startswith("OSDI modules: 3 more messages (3 more kinds")
+
+
+def test_a_module_name_two_libraries_define_is_warned_about(tmp_path):
+    """The first library's module is used; the second's was ignored without a word. Here the second
+    one's resistor is three times the first's: the current is the first one's, 1 V / 1 kOhm."""
+    src = ('`include "disciplines.vams"\nmodule myres(p, n);\n  inout p, n;\n  electrical p, n;\n'
+           "  parameter real r = 1k;\n  analog I(p, n) <+ V(p, n) / ({k} * r);\nendmodule\n")
+    libs = []
+    for k in (1, 3):
+        (tmp_path / f"r{k}").mkdir()
+        va = tmp_path / f"r{k}" / "myres.va"
+        va.write_text(src.format(k=k))
+        libs.append(compile_va(str(va), cache_dir=str(tmp_path / f"r{k}")))
+    text = f"t\n.osdi {libs[0]}\n.osdi {libs[1]}\n.osdi {libs[0]}\nV1 a 0 1\nN1 a 0 rm\n.model rm myres\n.op\n"
+    c = netdae.load(text)
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert w.location.line == 3 and f"OSDI module myres of {libs[1]} is ignored" in w.message
+    (op,) = netdae.run(c)
+    assert op["i(v1)"][0] == pytest.approx(-1e-3, rel=1e-12)
