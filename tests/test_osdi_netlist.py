@@ -652,3 +652,19 @@ def test_a_module_name_two_libraries_define_is_warned_about(tmp_path):
     assert w.location.line == 3 and f"OSDI module myres of {libs[1]} is ignored" in w.message
     (op,) = netdae.run(c)
     assert op["i(v1)"][0] == pytest.approx(-1e-3, rel=1e-12)
+
+
+def test_a_changed_include_compiles_the_source_again(tmp_path):
+    """The cache was named by the source text alone: after an included header changed, compile_va
+    returned the library of the old header. The resistance comes from the header here: 1 k, then 3 k."""
+    (tmp_path / "val.vams").write_text("`define RVAL 1k\n")
+    va = tmp_path / "ir.va"
+    va.write_text('`include "disciplines.vams"\n`include "val.vams"\nmodule ir(p, n);\n  inout p, n;\n'
+                  "  electrical p, n;\n  analog I(p, n) <+ V(p, n) / `RVAL;\nendmodule\n")
+    currents = []
+    for value in ("1k", "3k", "1k"):
+        (tmp_path / "val.vams").write_text(f"`define RVAL {value}\n")
+        lib = compile_va(str(va), cache_dir=str(tmp_path))
+        (op,) = netdae.run(f"t\n.osdi {lib}\nV1 a 0 1\nN1 a 0 im\n.model im ir\n.op\n")
+        currents.append(-op["i(v1)"][0])
+    assert currents == pytest.approx([1e-3, 1e-3 / 3, 1e-3], rel=1e-12)
