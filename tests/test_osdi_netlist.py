@@ -668,3 +668,14 @@ def test_a_changed_include_compiles_the_source_again(tmp_path):
         (op,) = netdae.run(f"t\n.osdi {lib}\nV1 a 0 1\nN1 a 0 im\n.model im ir\n.op\n")
         currents.append(-op["i(v1)"][0])
     assert currents == pytest.approx([1e-3, 1e-3 / 3, 1e-3], rel=1e-12)
+
+
+def test_compile_va_creates_its_cache_directory(tmp_path):
+    """A cache_dir that did not exist yet made the compiler fail, reported as 'openvaf-r could not
+    compile ...' with 'expected: a Verilog-A module OpenVAF accepts', blaming a valid source."""
+    lib = compile_va(str(DATA / "sqrtcond.va"), cache_dir=str(tmp_path / "new" / "cache"))
+    assert Path(lib).parent == tmp_path / "new" / "cache" and Path(lib).is_file()
+    (tmp_path / "file").write_text("")
+    with pytest.raises(NetlistError) as err:
+        compile_va(str(DATA / "sqrtcond.va"), cache_dir=str(tmp_path / "file" / "cache"))
+    assert "cannot create the directory" in err.value.message

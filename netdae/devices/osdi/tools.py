@@ -164,6 +164,11 @@ def compile_va(source: str, *, location: SourceLocation | None = None, cache_dir
         raise NetlistError(f"Verilog-A file {source} does not exist", location, expected="a .va file")
     digest = source_digest(source, vb.OPENVAF_CMD)
     out_dir = cache_dir or osdi_cache_dir()
+    try:
+        os.makedirs(out_dir, exist_ok=True)  # the compiler writes into it; it does not create it
+    except OSError as exc:
+        raise NetlistError(f"cannot create the directory {out_dir} for the compiled {source}: {exc.strerror}",
+                           location, expected="a writable cache directory") from None
     stem = os.path.splitext(os.path.basename(source))[0]
     target = os.path.join(out_dir, f"{stem}-{digest}.osdi")
     if os.path.isfile(target):
