@@ -679,3 +679,12 @@ def test_compile_va_creates_its_cache_directory(tmp_path):
     with pytest.raises(NetlistError) as err:
         compile_va(str(DATA / "sqrtcond.va"), cache_dir=str(tmp_path / "file" / "cache"))
     assert "cannot create the directory" in err.value.message
+
+
+def test_a_value_out_of_a_modules_range_is_located_at_the_parameter():
+    """It was located at the card's first column and did not say the value."""
+    e = _error(f"t\n.osdi {MOD}/psp103v4.osdi\nV1 a 0 2\nN1 a a 0 0 pn\n.model pn psp103va toxo=-1n\n.op\n")
+    assert (e.location.line, e.location.column) == (5, 25)  # at the value, as other errors of a model parameter
+    assert "parameter 'toxo' out of its allowed range (toxo=-1e-09)" in e.message
+    e = _error(f"t\n.osdi {MOD}/psp103v4.osdi\nV1 a 0 2\nN1 a a 0 0 pn w=-1u\n.model pn psp103va\n.op\n")
+    assert e.location.line == 4 and "(w=-1e-06)" in e.message
