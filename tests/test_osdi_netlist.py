@@ -688,3 +688,8 @@ def test_a_value_out_of_a_modules_range_is_located_at_the_parameter():
     assert "parameter 'toxo' out of its allowed range (toxo=-1e-09)" in e.message
     e = _error(f"t\n.osdi {MOD}/psp103v4.osdi\nV1 a 0 2\nN1 a a 0 0 pn w=-1u\n.model pn psp103va\n.op\n")
     assert e.location.line == 4 and "(w=-1e-06)" in e.message
+
+
+def test_a_verilog_a_source_on_an_osdi_card_says_to_compile_it():
+    e = _error(f"t\n.osdi {DATA / 'sqrtcond.va'}\nV1 a 0 1\nR1 a 0 1k\n.op\n")
+    assert e.location.line == 2 and "no ELF header" in e.message and "this is Verilog-A source" in e.hint

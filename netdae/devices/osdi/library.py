@@ -463,10 +463,14 @@ def load_library(path: str, location: SourceLocation | None = None) -> OsdiLibra
         return _CACHE[key]
     problem = elf_problem(real)
     if problem is not None:
+        source = real.lower().endswith((".va", ".vams"))
         raise NetlistError(f"{path} is not a loadable OSDI library: {problem}", location,
                            expected="a shared library compiled by OpenVAF (.osdi)",
                            hint=("the file is incomplete (an interrupted copy, download or compilation?): "
-                                 "compile or copy it again" if problem.startswith(("truncated", "damaged")) else None))
+                                 "compile or copy it again" if problem.startswith(("truncated", "damaged")) else
+                                 "this is Verilog-A source: compile it first (openvaf-r model.va, or in Python "
+                                 "netdae.devices.osdi.compile_va('model.va'), which caches the result) and load "
+                                 "the .osdi file" if source else None))
     try:
         lib = C.CDLL(real, mode=os.RTLD_NOW | os.RTLD_LOCAL)
     except OSError as exc:
