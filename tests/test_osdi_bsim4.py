@@ -576,3 +576,27 @@ def test_a_pdk_style_wrapper_with_scale_and_bins_equals_ngspice():
     assert_close(ours["i(vdd)"], ref["i(vdd)"], 1e-6, 1e-15, "supply current")
     longer = PDK.replace("X1 out in 0 0 nfet_01v2 l=0.13", "X1 out in 0 0 nfet_01v2 l=0.8")
     assert netdae.load(longer).element("m.x1.mmain").model == "x1:nfet_01v2__model.1"
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("card, instance, said", [
+    ("toxm=0", "", "Toxm = 0 is not positive"),
+    ("toxe=-1n", "", "Toxe = -1e-09 is not positive"),
+    ("", "nf=0.5", "Number of finger = 0.5 is smaller than one"),
+])
+def test_values_ngspices_parameter_check_stops_at_are_refused(card, instance, said):
+    """ngspice 39's BSIM4 check stops at them; the port ran nf=0.5 (and toxm=0) without a word, and
+    nf=0 or toxe<0 into 'equations not finite at the initial guess'."""
+    from netdae.errors import NgspiceError
+    from netdae.ngspice import run_ngspice
+
+    text = f"t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.1u w=1u {instance}\n.model nch nmos level=54 version=4.8 {card}\n.op\n"
+    with pytest.raises(NgspiceError) as ng:  # a fresh ngspice: the shared library checks a model once per process
+        run_ngspice(text, backend="subprocess")
+    assert said.split(" = ")[0] in str(ng.value) and "Fatal" in str(ng.value)
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    written = card or instance
+    assert f"{written.replace('-1n', '-1e-09')} is " in err.value.message
+    assert err.value.location.line == (5 if card else 4)

@@ -467,3 +467,229 @@ def test_a_terminal_collapsed_into_ground_may_be_wired_to_ground():
 def test_a_terminal_collapsed_into_ground_but_wired_elsewhere_is_a_short():
     with pytest.raises(NetlistError, match="shorts t and ground"):
         netdae.run(netdae.load(_VDMOS.format(mod=MOD, inst="N1 d g 0 tj 0 pw thermal_enabled=0\nRT tj 0 1")))
+
+
+# --- slopes and messages of a module's own ------------------------------------------------------
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_an_infinite_slope_at_a_finite_value_is_taken_as_zero(monkeypatch, engine):
+    """``g sqrt(V)`` from 1 V through 1 kOhm (g R = 1): v + sqrt(v) = 1, v = ((sqrt(5) - 1) / 2)^2.
+
+    The first iterate, 0 V, has a finite current and an infinite slope. Before, the compiled kernel
+    called that evaluation not finite and the numpy family passed the infinity to the LU, and the
+    operating point failed ("did not converge after 0 Newton iterations"); the same circuit with a
+    behavioural source solved, its infinite slopes taken as 0.
+    """
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    lib = compile_va(str(DATA / "sqrtcond.va"))
+    text = f"sqrt\n.osdi {lib}\nV1 a 0 1\nR1 a b 1k\nN1 b 0 sm\n.model sm sqrtcond g=1m\n.op\n"
+    (op,) = netdae.run(text, reltol=1e-9, vntol=1e-12)
+    exact = ((math.sqrt(5.0) - 1.0) / 2.0) ** 2
+    assert abs(op["v(b)"][0] - exact) < 10 * (1e-9 * exact + 1e-12)
+
+
+def test_the_kernel_and_the_family_take_an_infinite_slope_alike():
+    from netdae.devices.base import Accumulator, SlotMap
+    from netdae.devices.kernels import FLAG_NONFINITE, MODE_EVALUATE
+    from netdae.devices.kernels.osdi import eval_osdi
+    from netdae.devices.osdi.family import OsdiFamily
+    from netdae.mna import assemble
+
+    lib = compile_va(str(DATA / "sqrtcond.va"))
+    system = assemble(netdae.load(f"sqrt\n.osdi {lib}\nV1 a 0 1\nR1 a b 1k\nN1 b 0 sm\n.model sm sqrtcond\n.op\n"))
+    fam = next(f for f in system.families if isinstance(f, OsdiFamily))
+    n, nnz = system.n, system.pattern.nnz
+    packed = fam.compiled(SlotMap(system.pattern), n)
+    for vb in (0.0, 0.25, -0.25):  # infinite slope; finite; a square root of a negative number
+        x = np.zeros(n + 1)
+        x[system.node_index("b")] = vb
+        acc = Accumulator(n, nnz)
+        fam.evaluate(x, 0.0, acc, None, True)
+        q, phi, dq, dphi = np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1)
+        flags, _ = eval_osdi(x, 0.0, MODE_EVALUATE, np.zeros(0), np.zeros(0), *packed, q, phi, dq, dphi, True)
+        assert bool(flags & FLAG_NONFINITE) == (not acc.ok) == (vb < 0)
+        assert np.array_equal(dphi, acc.dphi, equal_nan=True) and np.array_equal(phi, acc.phi, equal_nan=True)
+        assert np.isfinite(acc.dphi).all() or vb < 0
+
+
+def _says(how: int, analysis: str) -> str:
+    lib = compile_va(str(DATA / "says.va"))
+    return (f"says\n.osdi {lib}\nV1 a 0 PULSE(0 2 1u 1u 1u 1u 10u)\nR1 a b 1k\nN1 b 0 sm\n"
+            f".model sm says how={how}\n{analysis}\n")
+
+
+@pytest.mark.parametrize("how, level", [(1, "error"), (2, "warning"), (3, "display")])
+def test_what_a_module_says_is_a_note_of_the_result(how, level):
+    """``$error``, ``$warning``, ``$strobe`` were recorded and never shown: one note per instance and level."""
+    (res,) = netdae.run(_says(how, ".tran 0.1u 5u"))
+    assert res.ok
+    said = [n for n in res.notes if n.startswith(f"OSDI n1 {level}: too much: ")]
+    assert len(said) == 1 and "messages" in said[0], res.notes
+    (res,) = netdae.run(_says(how, ".op"))  # 0 V at the operating point: silent, and nothing of the last run
+    assert not [n for n in res.notes if n.startswith("OSDI")]
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_modules_fatal_error_is_quoted_where_the_transient_stops(monkeypatch, engine):
+    """``$fatal`` ends each evaluation above 0.5 V: the run stops there, and says what the module said."""
+    if engine == "python":
+        monkeypatch.setenv("NETDAE_ENGINE", "python")
+    (res,) = netdae.run(_says(0, ".tran 0.1u 5u"))
+    assert not res.ok
+    assert "an OSDI module stopped its evaluation; n1 (OSDI) said fatal: too much: " in res.message
+    # v(b) = v(a) / 2 reaches 0.5 V on the ramp at 1.5 us
+    assert res["v(b)"][-1] == pytest.approx(0.5, abs=0.01) and res.t[-1] == pytest.approx(1.5e-6, rel=0.01)
+
+
+def test_a_module_with_absolute_delays_is_refused_at_its_card():
+    """``absdelay`` needs a history netdae does not keep (OSDI 0.5's delays). Before, the bundled ideal
+    line ran with none: its operating point was 'no unique DC operating point' (rank 8 of 10) blaming
+    the circuit, a ``uic`` transient 'the circuit's pencil is singular'."""
+    text = (f"tline\n.osdi {MOD}/tline_ideal.osdi\nV1 a 0 PULSE(0 1 0 0.1n 0.1n 2n 10n)\nR1 a b 50\n"
+            "N1 b 0 c 0 tl z0=50 td=1n\nR2 c 0 50\n.model tl tline_ideal\n.tran 0.05n 5n\n")
+    e = _error(text)
+    assert e.location.line == 5 and "absdelay" in e.message and "T element" in e.hint
+    from netdae.cli.osdi import describe_library
+
+    (mod,) = describe_library(str(MOD / "tline_ideal.osdi"))["modules"]
+    assert mod["absolute_delays"] == 2
+
+
+def test_a_compiled_module_with_absdelay_is_refused(tmp_path):
+    va = tmp_path / "dly.va"
+    va.write_text('`include "disciplines.vams"\nmodule dly(a, b);\n  inout a, b;\n  electrical a, b;\n'
+                  "  analog I(a, b) <+ absdelay(V(a, b), 1n) / 1k;\nendmodule\n")
+    lib = compile_va(str(va), cache_dir=str(tmp_path))
+    e = _error(f"dly\n.osdi {lib}\nV1 a 0 1\nN1 a 0 dm\n.model dm dly\n.op\n")
+    assert e.location.line == 4 and "delays 1 quantity with absdelay()" in e.message
+
+
+def test_a_floating_unknown_of_an_instance_names_the_instance(tmp_path):
+    """An unconnected terminal the module leaves alone when ``$port_connected`` says so is a node of
+    the instance's own that nothing holds: the DC matrix is singular there. The message named no
+    element ('elements involved: ' and nothing), the instance's own unknowns being on no card."""
+    from netdae.errors import CircuitError
+
+    va = tmp_path / "pc.va"
+    va.write_text('`include "disciplines.vams"\nmodule pc(a, b, c);\n  inout a, b, c;\n  electrical a, b, c;\n'
+                  "  analog begin\n    I(a, b) <+ V(a, b) / 1k;\n    if ($port_connected(c)) I(b, c) <+ V(b, c) / 1k;\n"
+                  "    else I(b) <+ V(b) / 2k;\n  end\nendmodule\n")
+    lib = compile_va(str(va), cache_dir=str(tmp_path))
+    (op,) = netdae.run(f"pc\n.osdi {lib}\nV1 a 0 1\nN1 a b 0 pm\n.model pm pc\n.op\n")
+    assert op["v(b)"][0] == pytest.approx(0.5, rel=1e-9)  # c connected to ground: 1k over 1k
+    with pytest.raises(CircuitError) as err:
+        netdae.run(f"pc\n.osdi {lib}\nV1 a 0 1\nN1 a b pm\n.model pm pc\n.op\n")
+    assert "v(n1#c) is undetermined" in str(err.value) and "elements involved: n1 " in str(err.value)
+    assert err.value.elements == ("n1",)
+
+
+@pytest.mark.ngspice
+def test_compare_says_why_ngspice_cannot_run_n_cards():
+    """ngspice 39 stops at an N card with 'unknown device type'; that was all compare said."""
+    c = netdae.compare(f"osdi\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm\n.model rm resistor r=2k\n.op\n")
+    assert not c.passed and "unknown device type" in c.ngspice_error
+    assert "n1 is an OSDI device (an N card): ngspice 39 runs none" in c.ngspice_error
+    assert "OSDI devices" not in (netdae.compare("r\nV1 a 0 1\nR1 a 0 1k\n.op\n").ngspice_error or "")
+
+
+def test_an_osdi_device_in_a_subcircuit_instance_with_m_is_multiplied():
+    """ngspice adds m={m} to the body's N cards too (OpenVAF's $mfactor); netdae refused the element.
+    Four 1 kOhm Verilog-A resistors in parallel across 1 V: 4 mA; beside them, four instances."""
+    text = (f"xm\n.osdi {MOD}/resistor.osdi\n.subckt two a b\nN1 a b rm\n.ends\n.model rm resistor r=1k\n"
+            "V1 e 0 1\nX1 e 0 two m=4\nV2 f 0 1\n" + "".join(f"X{k} f 0 two\n" for k in range(2, 6)) + ".op\n")
+    (op,) = netdae.run(text)
+    assert op["i(v1)"][0] == pytest.approx(-4e-3, rel=1e-12)
+    assert op["i(v1)"][0] == pytest.approx(op["i(v2)"][0], rel=1e-12)
+
+
+@pytest.mark.parametrize("value, message", [
+    ("1e10", "is a 32-bit integer, and 10000000000 is beyond its range"),  # was: 'takes an integer value, not 1e10'
+    ("1.5", "takes an integer value, not 1.5"),
+])
+def test_an_integer_parameter_says_what_is_wrong_with_its_value(value, message):
+    lib = compile_va(str(DATA / "says.va"))
+    e = _error(f"t\n.osdi {lib}\nV1 a 0 1\nN1 a 0 sm\n.model sm says how={value}\n")
+    assert e.location.line == 5 and message in e.message
+
+
+def test_a_flag_after_the_model_of_an_n_card_is_named():
+    """``N1 a 0 rm off``: the last bare word is read as the model; the message said 'undefined model
+    'off'' with the hint to define it, though rm is defined and off is the mistake."""
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 rm off\n.model rm resistor r=2k\n.op\n")
+    assert (e.location.line, e.location.column) == (4, 11)
+    assert "'off' after the model 'rm'" in e.message and "remove 'off'" in e.hint
+    e = _error(f"t\n.osdi {MOD}/resistor.osdi\nV1 a 0 1\nN1 a 0 nothere\n.op\n")  # a real undefined model
+    assert "undefined model 'nothere'" in e.message
+
+
+def test_instances_saying_the_same_share_a_note():
+    from netdae.devices.osdi.library import message_notes
+
+    said = [("m1", "warning", "k2 should be specified with k1."), ("m2", "warning", "k2 should be specified with k1."),
+            ("n1", "display", "v=1"), ("n1", "display", "v=2"), ("n1", "display", "v=3")]
+    assert message_notes(said) == ["OSDI m1, m2 warning: k2 should be specified with k1.",
+                                   "OSDI n1 display: v=1 (3 messages, the last: v=3)"]
+    many = [(f"m{k}", "warning", f"w{k}") for k in range(8)]
+    notes = message_notes(many)
+    assert len(notes) == 6 and notes[-1].startswith("OSDI modules: 3 more messages (3 more kinds")
+
+
+def test_a_module_name_two_libraries_define_is_warned_about(tmp_path):
+    """The first library's module is used; the second's was ignored without a word. Here the second
+    one's resistor is three times the first's: the current is the first one's, 1 V / 1 kOhm."""
+    src = ('`include "disciplines.vams"\nmodule myres(p, n);\n  inout p, n;\n  electrical p, n;\n'
+           "  parameter real r = 1k;\n  analog I(p, n) <+ V(p, n) / ({k} * r);\nendmodule\n")
+    libs = []
+    for k in (1, 3):
+        (tmp_path / f"r{k}").mkdir()
+        va = tmp_path / f"r{k}" / "myres.va"
+        va.write_text(src.format(k=k))
+        libs.append(compile_va(str(va), cache_dir=str(tmp_path / f"r{k}")))
+    text = f"t\n.osdi {libs[0]}\n.osdi {libs[1]}\n.osdi {libs[0]}\nV1 a 0 1\nN1 a 0 rm\n.model rm myres\n.op\n"
+    c = netdae.load(text)
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert w.location.line == 3 and f"OSDI module myres of {libs[1]} is ignored" in w.message
+    (op,) = netdae.run(c)
+    assert op["i(v1)"][0] == pytest.approx(-1e-3, rel=1e-12)
+
+
+def test_a_changed_include_compiles_the_source_again(tmp_path):
+    """The cache was named by the source text alone: after an included header changed, compile_va
+    returned the library of the old header. The resistance comes from the header here: 1 k, then 3 k."""
+    (tmp_path / "val.vams").write_text("`define RVAL 1k\n")
+    va = tmp_path / "ir.va"
+    va.write_text('`include "disciplines.vams"\n`include "val.vams"\nmodule ir(p, n);\n  inout p, n;\n'
+                  "  electrical p, n;\n  analog I(p, n) <+ V(p, n) / `RVAL;\nendmodule\n")
+    currents = []
+    for value in ("1k", "3k", "1k"):
+        (tmp_path / "val.vams").write_text(f"`define RVAL {value}\n")
+        lib = compile_va(str(va), cache_dir=str(tmp_path))
+        (op,) = netdae.run(f"t\n.osdi {lib}\nV1 a 0 1\nN1 a 0 im\n.model im ir\n.op\n")
+        currents.append(-op["i(v1)"][0])
+    assert currents == pytest.approx([1e-3, 1e-3 / 3, 1e-3], rel=1e-12)
+
+
+def test_compile_va_creates_its_cache_directory(tmp_path):
+    """A cache_dir that did not exist yet made the compiler fail, reported as 'openvaf-r could not
+    compile ...' with 'expected: a Verilog-A module OpenVAF accepts', blaming a valid source."""
+    lib = compile_va(str(DATA / "sqrtcond.va"), cache_dir=str(tmp_path / "new" / "cache"))
+    assert Path(lib).parent == tmp_path / "new" / "cache" and Path(lib).is_file()
+    (tmp_path / "file").write_text("")
+    with pytest.raises(NetlistError) as err:
+        compile_va(str(DATA / "sqrtcond.va"), cache_dir=str(tmp_path / "file" / "cache"))
+    assert "cannot create the directory" in err.value.message
+
+
+def test_a_value_out_of_a_modules_range_is_located_at_the_parameter():
+    """It was located at the card's first column and did not say the value."""
+    e = _error(f"t\n.osdi {MOD}/psp103v4.osdi\nV1 a 0 2\nN1 a a 0 0 pn\n.model pn psp103va toxo=-1n\n.op\n")
+    assert (e.location.line, e.location.column) == (5, 25)  # at the value, as other errors of a model parameter
+    assert "parameter 'toxo' out of its allowed range (toxo=-1e-09)" in e.message
+    e = _error(f"t\n.osdi {MOD}/psp103v4.osdi\nV1 a 0 2\nN1 a a 0 0 pn w=-1u\n.model pn psp103va\n.op\n")
+    assert e.location.line == 4 and "(w=-1e-06)" in e.message
+
+
+def test_a_verilog_a_source_on_an_osdi_card_says_to_compile_it():
+    e = _error(f"t\n.osdi {DATA / 'sqrtcond.va'}\nV1 a 0 1\nR1 a 0 1k\n.op\n")
+    assert e.location.line == 2 and "no ELF header" in e.message and "this is Verilog-A source" in e.hint

@@ -36,7 +36,7 @@ from ..devices.autodiff import leaves
 from ..dae.kronecker import EPS
 from ..dae.steady import ChargeGroup, Forcing, SteadyOptions, SteadyResult, solve_steady
 from ..errors import CircuitError, ConvergenceError
-from ..kinds import KINDS
+from ..kinds import KINDS, Kind
 from ..mna import MODE_DC, MnaSystem
 from ..netlist.expr import Voltage
 from ..results import Result, Statistics
@@ -234,14 +234,20 @@ def _row_names(system: MnaSystem, rows, parts: bool = False) -> list[str]:
 
 
 def _involved_elements(circuit: Circuit, system: MnaSystem, unknowns) -> list[str]:
-    """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes."""
+    """Elements owning a branch among the unknowns, or touching (or sensing) one of their nodes.
+
+    A device's own unknowns (``d1#internal``, an OSDI instance's ``n1#c`` and its
+    flows ``n1#br``) are on no element's card: the device that made them is named.
+    """
     targets = [system.layout.target(int(i)) for i in unknowns]
     nodes = {name for what, name in targets if what == "node"}
     branches = {name for what, name in targets if what == "branch"}
+    owners = {name.split("#", 1)[0] for name in nodes & system.layout.internal}
+    owners |= {name.split("#", 1)[0] for name in branches if "#" in name}
     out = []
     for el in circuit.elements:
-        if el.name in branches or nodes.intersection(el.nodes) or branches.intersection(el.controls) \
-                or nodes.intersection(el.controls):
+        if el.name in branches or el.name in owners or nodes.intersection(el.nodes) \
+                or branches.intersection(el.controls) or nodes.intersection(el.controls):
             out.append(el.name)
     return out
 
@@ -377,6 +383,24 @@ def _singular_error(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo
                         hint=hint)
 
 
+def fatal_messages(circuit: Circuit, levels: tuple[str, ...] = ("fatal", "error")) -> str:
+    """``"; n1 (OSDI) said: ..."``: the errors an OSDI module logged (``$fatal``, ``$error``), else ``""``.
+
+    A module's ``$fatal`` stops its evaluation as a non-finite value does;
+    what it said is the reason, so the failure's message quotes it (the last
+    of each instance). The messages stay for the result's notes.
+    """
+    if not any(el.kind == Kind.OSDI for el in circuit.elements):
+        return ""
+    from ..devices.osdi.library import peek_messages
+
+    last: dict[str, str] = {}
+    for who, level, text in peek_messages():
+        if level in levels and text.strip():
+            last[who] = f"{level}: {text.strip()}"
+    return "".join(f"; {who} (OSDI) said {text}" for who, text in list(last.items())[:NAMED])
+
+
 def _not_finite_error(circuit: Circuit, system: MnaSystem, res: SteadyResult) -> ConvergenceError:
     """The solve stopped where the circuit's equations are not finite: which equations, which elements, where."""
     rows = res.not_finite
@@ -400,7 +424,8 @@ def _not_finite_error(circuit: Circuit, system: MnaSystem, res: SteadyResult) ->
                 if i >= 0 and i not in shown:
                     shown.append(i)
     text += (", so Newton, gmin stepping, source stepping and pseudo-transient continuation stopped"
-             + (f"; values there: {_describe_unknowns(system, shown[:2 * NAMED], res.x)}" if shown else ""))
+             + (f"; values there: {_describe_unknowns(system, shown[:2 * NAMED], res.x)}" if shown else "")
+             + fatal_messages(circuit))
     return ConvergenceError(
         text, worst=system.names[rows[0]] if rows.size else None,
         hint="an expression of these elements divides by zero, or takes the square root or logarithm of a "

@@ -346,6 +346,8 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
     altered: dict = {}
     original = circuit
+    said = _module_messages(circuit)  # what compiled models say ($strobe, $error ...): notes of each analysis
+    said()  # earlier runs' messages are not this one's
     # one operating point for .op, .ac, .noise, .tf, .pz and .sens of the circuit
     with shared_operating_points():
         for position, card in enumerate(original.analyses):
@@ -386,8 +388,25 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
                 res.notes.append(unused)
             if card.alter:
                 res.notes.append("circuit altered: " + "; ".join(f"{c.command} ({c.location})" for c in card.alter))
+            res.notes.extend(said())
             results.append(res)
     return _finish(original, results, names, wanted)
+
+
+def _module_messages(circuit: Circuit) -> Callable[[], list[str]]:
+    """A function giving, as notes, what the circuit's OSDI modules logged since its last call.
+
+    A Verilog-A model's ``$strobe``, ``$display``, ``$warning``, ``$error`` and
+    ``$fatal`` reach netdae through the OSDI log callback
+    (:func:`netdae.devices.osdi.drain_messages`); without this they were never
+    shown. A circuit without OSDI devices gets a function returning nothing
+    (and no ctypes import).
+    """
+    if not any(el.kind == Kind.OSDI for el in circuit.elements):
+        return list
+    from ..devices.osdi.library import drain_messages, message_notes
+
+    return lambda: message_notes(drain_messages())
 
 
 def _other_analysis(kind: str, circuit: Circuit, card, options: dict) -> Result:
@@ -624,9 +643,12 @@ def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None 
     computed_from, quantities = plan_quantities(circuit, wanted)
     if not names:
         quantities = measured_quantities(circuit)
+    said = _module_messages(circuit)
+    said()  # earlier runs' messages are not this one's
     result = transient(circuit, card, save=computed_from, reltol=reltol, abstol=abstol, vntol=vntol,
                        maxord=maxord, initial=initial, max_step=max_step, raise_on_failure=raise_on_failure,
                        progress=progress)
+    result.notes.extend(said())
     if quantities:
         add_quantities(circuit, result, quantities)
         if names:

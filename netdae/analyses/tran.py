@@ -1122,6 +1122,7 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         message += growth_note(rep.finite_eigenvalues, res.t[-1] - card.tstart)
     if res.failure is not None and res.failure.worst:
         message += _jumping_source(prepared.circuit, res.failure.worst)
+    if res.failure is not None:  # a module's $fatal names no unknown
         message += _undefined_devices(prepared.circuit, system, res.failure)
     if status == STATUS_OK and interrupted is None:
         note = _held_equilibrium(prepared, x0, saved, settings, res)
@@ -1217,9 +1218,14 @@ def _undefined_devices(circuit: Circuit, system: MnaSystem, failure) -> str:
     str
         ``" (not finite in the equations of ...: n1 (model nm, module nanres) ...)"`` or ``""``.
     """
-    from .op import _involved_elements
+    from .op import _involved_elements, fatal_messages
 
-    if "not finite" not in f"{failure.what} {failure.hint}" or failure.worst not in system.names:
+    if "not finite" not in f"{failure.what} {failure.hint}":
+        return ""
+    said = fatal_messages(circuit, ("fatal",))
+    if said:  # a module's $fatal: its words are the reason
+        return f" (an OSDI module stopped its evaluation{said})"
+    if failure.worst not in system.names:
         return ""
     names = _involved_elements(circuit, system, [system.names.index(failure.worst)])
     devices = [n for n in names if not KINDS[circuit.element(n).kind].stamped] or names

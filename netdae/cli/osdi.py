@@ -49,6 +49,7 @@ def describe_library(path: str, module: str | None = None, params: bool = False)
                             for a, b in mod.collapsible],
             "parameters": len(mod.parameters),
             "limiting_states": mod.num_states,
+            "absolute_delays": mod.num_delays,  # absdelay(): refused by netdae's N cards
             # the device quantities an instance gives (@m1[gm] ...)
             "operating_point_variables": [p.name for p in mod.params if p.kind == "opvar"],
         }
@@ -74,6 +75,9 @@ def main(args) -> int:
         if m["collapsible"]:
             print("  collapsible: " + ", ".join(f"{a}-{b}" for a, b in m["collapsible"]))
         print(f"  parameters: {m['parameters']}; limiting states: {m['limiting_states']}")
+        if m["absolute_delays"]:
+            print(f"  absolute delays (absdelay): {m['absolute_delays']}; netdae does not evaluate them, an N card "
+                  "of this module is an error")
         if m["operating_point_variables"]:
             print("  operating-point variables (@name[var]): " + ", ".join(m["operating_point_variables"]))
         for p in m.get("parameter_list", []):

@@ -147,6 +147,26 @@ def _tight_maxstep(circuit: Circuit) -> float | None:
     return min(bounds)
 
 
+def _osdi_note(circuit) -> str:
+    """Why ngspice fails on a netlist with ``N`` (OSDI) cards, else ``""``.
+
+    ngspice 39 reads ``.osdi`` as no card of its own and knows no ``N`` element
+    without OSDI support (and with it, OSDI 0.3 only: the models compiled by
+    ``openvaf-r`` are 0.5): its "unknown device type" would otherwise be the
+    whole story. BSIM3/BSIM4 ``M`` cards, which netdae runs through OSDI, are
+    ngspice's own and compare.
+    """
+    from ..kinds import Kind
+
+    names = [el.name for el in circuit.elements if el.kind == Kind.OSDI and el.name.startswith("n")]
+    if not names:
+        return ""
+    what = "is an OSDI device (an N card)" if len(names) == 1 else "are OSDI devices (N cards)"
+    return (f"\n(hint: {', '.join(names[:3])}{' ...' if len(names) > 3 else ''} {what}: "
+            "ngspice 39 runs none (it reads OSDI 0.3 only, openvaf-r writes 0.5), so a netlist with N cards "
+            "cannot be compared; BSIM3/BSIM4 M cards can, ngspice runs its own models for them)")
+
+
 def _settings(circuit: Circuit, tight: bool, reltol: float | None) -> tuple[dict, dict, float | None]:
     """netdae overrides, ngspice option overrides, op-amp gain (None: the bridge's)."""
     if tight:
@@ -563,7 +583,7 @@ def _compare_one(circuit: Circuit, text: str, source: str, workdir: str, *, tigh
     except bridge.BackendUnavailable:
         raise
     except NgspiceError as exc:
-        comparison.ngspice_error = str(exc)
+        comparison.ngspice_error = str(exc) + _osdi_note(circuit)
     else:
         scripted = SCRIPT_MARK in run.netlist.split("\n")
         ng_results = run.results

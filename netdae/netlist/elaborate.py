@@ -69,7 +69,7 @@ _PSPICE_SWITCHES = {Kind.VSWITCH: "vswitch", Kind.CSWITCH: "iswitch"}
 # refused when the product is not 1.
 _INSTANCE_MULTIPLIED = frozenset({Kind.RESISTOR, Kind.CAPACITOR, Kind.INDUCTOR, Kind.VCCS, Kind.CCCS,
                                   Kind.DIODE, Kind.BJT, Kind.MOSFET, Kind.JFET, Kind.MESA, Kind.HFET,
-                                  Kind.VDMOS})
+                                  Kind.VDMOS, Kind.OSDI})
 _INSTANCE_M_EXEMPT = frozenset("bveh")
 #: Model types ngspice 39 has for an element letter netdae reads, whose models netdae does not implement.
 _UNIMPLEMENTED_MODEL_TYPES: dict[str, str] = {}
@@ -1254,7 +1254,7 @@ class _Elaborator:
         if el.kind not in _INSTANCE_MULTIPLIED:
             raise error(card, 0, f"{el.name} ({el.kind}) sits in subcircuit instance {given[-1][1].inst.name} "
                         f"with m={mult:g}: netdae multiplies resistors, capacitors, inductors, linear G and F, "
-                        f"diodes and transistors by an instance's m=, not this element",
+                        f"diodes, transistors and OSDI devices by an instance's m=, not this element",
                         ELEMENTS.get(item.name[0]),
                         hint="scale the element's value inside the subcircuit with a parameter instead")
         el.params = dict(el.params) if el.params else {}
@@ -1335,6 +1335,12 @@ class _Elaborator:
             mcard = self.net.top.models.get(p.model)
             if mcard is None and item.kind == Kind.MOSFET:
                 mcard = _first_bin(p.model, self.net.top.models)  # binned: the bin is chosen with the models
+            if mcard is None and item.kind == Kind.OSDI and item.nodes and item.nodes[-1] in self.net.top.models:
+                # N a 0 rm off: the last bare word is read as the model, and the real one as a node
+                raise error(item.card, item.model[1], f"'{item.model[0]}' after the model '{item.nodes[-1]}': "
+                            "an N card takes name=value parameters after its model, no flags",
+                            ELEMENTS[item.name[0]], hint=f"remove '{item.model[0]}' (OSDI modules have no off or "
+                            "ic= of ngspice's built-in devices)")
             if mcard is None:
                 raise error(item.card, item.model[1], f"undefined model '{item.model[0]}'",
                             ELEMENTS[item.name[0]], hint="define it with .model (in this subcircuit or above)")

@@ -198,8 +198,12 @@ def eval_osdi(x, t, mode, vold, vnew, inst, fns, slots, info_i, info_f, xbuf, fb
             s = slots[e]
             g = jr[e]
             c = jc[e]
-            if not (math.isfinite(g) and math.isfinite(c)):
-                flags |= FLAG_NONFINITE
+            # an infinite slope at a finite value (a square root at 0) is taken as 0, as the behavioural
+            # sources take theirs: Newton goes on with the other entries; a non-finite value stops it above
+            if not math.isfinite(g):
+                g = 0.0
+            if not math.isfinite(c):
+                c = 0.0
             dphi[s] -= g
             dq[s] += c
     return flags, bad

@@ -42,6 +42,12 @@ def _module_of(el: Element, circuit: Circuit, modules: dict[str, OsdiModule]) ->
                            f"loaded OSDI library", model.location or el.location,
                            expected=f"an OSDI module name: {loaded}",
                            hint="load the compiled model with '.osdi file.osdi' (or 'pre_osdi file.osdi' in .control)")
+    if mod.num_delays:
+        raise NetlistError(f"{el.name}: model {model.name} is OSDI module {mod.name} ({mod.library.path}), which "
+                           f"delays {mod.num_delays} quantit{'y' if mod.num_delays == 1 else 'ies'} with absdelay(); "
+                           "netdae does not evaluate absolute delays in compiled models", el.location,
+                           expected="an OSDI module without absdelay()",
+                           hint="a lossless transmission line is netdae's T element (Tname p1 n1 p2 n2 z0=50 td=1n)")
     nt = mod.num_terminals
     if len(el.nodes) > nt:
         raise NetlistError(f"{el.name}: model {model.name} is OSDI module {mod.name} ({mod.library.path}) with {nt} "
@@ -91,19 +97,42 @@ def build(circuit: Circuit, elements: list[Element] | None = None) -> tuple[dict
     return models, instances
 
 
+def _shadowed_modules(circuit: Circuit) -> list[Diagnostic]:
+    """A warning at each ``.osdi`` card whose library defines a module an earlier card's library defines too.
+
+    The first definition is the one models use (:func:`circuit_modules`); a second
+    library with a module of the same name (a user's ``diode`` beside another
+    ``diode``) is otherwise ignored without a word.
+    """
+    import os
+
+    first: dict[str, str] = {}
+    notes = []
+    for path, location in circuit.osdi_files:
+        lib = load_library(path, location)
+        for name in lib.modules:
+            earlier = first.setdefault(name, lib.path)
+            if earlier != lib.path and os.path.realpath(earlier) != os.path.realpath(lib.path):
+                notes.append(Diagnostic("warning", f"OSDI module {name} of {lib.path} is ignored: {earlier}, loaded "
+                                        f"before it, defines a module {name} too, and models of type {name} use "
+                                        "that one", location))
+    return notes
+
+
 def check_circuit(circuit: Circuit) -> list[Diagnostic]:
     """Load the circuit's OSDI libraries and set up every model and instance once (raising what is wrong).
 
     Returns
     -------
     list of Diagnostic
-        A note at each ``N`` card that connects fewer nodes than its module has
-        terminals: which terminals it leaves to the module (allowed, as in
+        A warning at an ``.osdi`` card whose library defines a module an earlier
+        card's library defines too, and a note at each ``N`` card that connects fewer nodes
+        than its module has terminals: which terminals it leaves to the module (allowed, as in
         ngspice and VACASK, but a forgotten node should not pass unseen).
     """
     build(circuit)
     modules = circuit_modules(circuit)
-    notes = []
+    notes = _shadowed_modules(circuit)
     for el in circuit.elements:
         if el.kind != Kind.OSDI or not el.name.startswith("n"):  # M, Q, J ... cards of ngspice's models: mapped
             continue

@@ -75,6 +75,41 @@ def _noise_refused(el, mod, src, why: str):
                         elements=(el.name,))
 
 
+def _flow_noise_scale(inst) -> np.ndarray:
+    """Per noise source of ``inst``'s module, the factor that makes its density right under ``$mfactor``.
+
+    A module scales every noise density by its instance's ``$mfactor`` ``m``,
+    as it scales the currents its branches put into the nodes: right for a
+    source between nodes (``m`` independent generators in parallel). A source
+    in the equation of a flow unknown (the current of a branch the module
+    probes, ``I(br) <+ white_noise(...)`` beside ``I(d, s) <+ k * I(br)``:
+    PSP103's correlated gate-drain noise, BSIM4's ``tnoimod=2``) is different:
+    that equation is not scaled, the one flow stands for each of the ``m``
+    devices' own, and the nodes receive ``m`` times it. ``m`` devices put
+    ``m k^2 S`` into a node, the one flow of density ``D`` puts ``m^2 k^2 D``,
+    so ``D`` must be ``S / m``, where the module gives ``m S``: such a source's
+    density is divided by ``m^2``.
+
+    Returns
+    -------
+    ndarray of float
+        One factor per source of the module (1 where the source touches no
+        flow unknown, or ``m`` is 1 or 0).
+    """
+    mod = inst.module
+    scale = np.ones(len(mod.noise))
+    if mod.parameter("$mfactor") is None:
+        return scale
+    m = float(inst.value("$mfactor"))
+    if m in (0.0, 1.0):
+        return scale
+    for k, src in enumerate(mod.noise):
+        ends = [src.pos] + ([] if src.neg is None else [src.neg])
+        if any(i < len(mod.nodes) and mod.nodes[i].is_flow for i in ends):
+            scale[k] = 1.0 / (m * m)
+    return scale
+
+
 class OsdiFamily(DeviceFamily):
     """Every OSDI instance of a circuit (element kind ``osdi``)."""
 
@@ -137,6 +172,7 @@ class OsdiFamily(DeviceFamily):
             dens = np.zeros((3, len(mod.noise)))
             for row, f in enumerate((1.0, 10.0, 1e3)):
                 calls.noise(inst.ptr, inst.model.ptr, f, dens[row].ctypes.data)
+            dens *= _flow_noise_scale(inst)[None, :]
             seen: dict[str, int] = {}
             for k, src in enumerate(mod.noise):
                 name = re.sub(r"\s+", "_", src.name.strip()) or str(k)
@@ -420,8 +456,11 @@ class OsdiFamily(DeviceFamily):
         acc.phi -= self.fbuf
         acc.q += self.qbuf
         if jacobian and len(self.slots):
-            acc.add_dphi(self.slots, -self.jr[: len(self.slots)])
-            acc.add_dq(self.slots, self.jc[: len(self.slots)])
+            jr, jc = self.jr[: len(self.slots)], self.jc[: len(self.slots)]
+            if not (np.isfinite(jr).all() and np.isfinite(jc).all()):  # an infinite slope at a finite value: 0
+                jr, jc = np.where(np.isfinite(jr), jr, 0.0), np.where(np.isfinite(jc), jc, 0.0)
+            acc.add_dphi(self.slots, -jr)
+            acc.add_dq(self.slots, jc)
         if not (np.isfinite(self.fbuf).all() and np.isfinite(self.qbuf).all()):
             acc.ok = False
         if limited:

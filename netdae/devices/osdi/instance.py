@@ -87,8 +87,12 @@ def _store(ptr: int, param: OsdiParam, value, keep: list, who: str, module: Osdi
         if isinstance(value, str) or isinstance(value, bool):
             raise _type_error(param, value, who, module, location)
         v = float(value)
-        if not math.isfinite(v) or v != round(v) or abs(v) >= 2**31:
+        if not math.isfinite(v) or v != round(v):
             raise _type_error(param, value, who, module, location)
+        if abs(v) >= 2**31:  # a whole number all the same: say what is wrong with it
+            raise NetlistError(f"{who}: parameter {param.name!r} of OSDI module {module.name} ({module.library.path}) "
+                               f"is a 32-bit integer, and {v:.0f} is beyond its range", location,
+                               expected=f"{param.name}=<int between -2147483647 and 2147483647>")
         C.c_int32.from_address(ptr).value = int(round(v))
     elif param.type == "real":
         if isinstance(value, str):
@@ -112,13 +116,23 @@ def _buffer(nbytes: int) -> np.ndarray:
     return np.zeros(max(1, (nbytes + 7) // 8 + 1), dtype=np.float64)
 
 
-def _check_init(info: abi.OsdiInitInfo, module: OsdiModule, who: str, location) -> None:
-    """Turn a setup's error list into a NetlistError (and free it)."""
+def _check_init(info: abi.OsdiInitInfo, module: OsdiModule, who: str, location, given: dict | None = None) -> None:
+    """Turn a setup's error list into a NetlistError (and free it).
+
+    ``given`` maps the parameters written on the card to ``(value, location)``: a
+    parameter out of its range is then named with its value, at its place.
+    """
     problems = []
     for i in range(info.num_errors):
         err = info.errors[i]
         if err.code == abi.INIT_ERR_OUT_OF_BOUNDS and err.parameter_id < len(module.params):
-            problems.append(f"parameter {module.params[err.parameter_id].name!r} out of its allowed range")
+            pname = module.params[err.parameter_id].name
+            value, at = (given or {}).get(pname, (None, None))
+            if at is not None and not problems:
+                location = at
+            shown = f"{value:g}" if isinstance(value, (int, float)) else repr(value)
+            problems.append(f"parameter {pname!r} out of its allowed range"
+                            + (f" ({pname}={shown})" if value is not None else ""))
         else:
             problems.append(f"setup error code {err.code}")
     if info.num_errors:
@@ -194,14 +208,16 @@ class OsdiModel(_ParameterHolder):
         self.handle = register_handle(name)
         self._access = abi.ACCESS(d.access)
         self.given: dict[str, object] = {}
+        at: dict[str, tuple] = {}
         for key, value in (params or {}).items():
             loc = (locations or {}).get(key, location)
             p = self._lookup(key, loc)
             _store(self._access(None, self.ptr, p.id, abi.ACCESS_FLAG_SET), p, value, self._keep, name, module, loc)
             self.given[p.name] = value
+            at[p.name] = (value, (locations or {}).get(key))
         info = abi.OsdiInitInfo()
         abi.SETUP_MODEL(d.setup_model)(self.handle, self.ptr, C.byref(self.sim.struct), C.byref(info))
-        _check_init(info, module, name, location)
+        _check_init(info, module, name, location, at)
 
     def value(self, name: str):
         """A parameter's value after setup (the module's default when not given)."""
@@ -255,9 +271,11 @@ class OsdiInstance(_ParameterHolder):
         self.ptr = self.memory.ctypes.data
         self.handle = register_handle(name)
         access = model._access
+        at: dict[str, tuple] = {}
         for key, value in (params or {}).items():
             loc = (locations or {}).get(key, location)
             p = self._lookup(key, loc)
+            at[p.name] = (value, (locations or {}).get(key))
             if p.kind != "instance":
                 raise NetlistError(f"{name}: {p.name!r} is a model parameter of OSDI module {module.name}", loc,
                                    expected=f"{p.name}=... on the .model card of {model.name}")
@@ -266,7 +284,7 @@ class OsdiInstance(_ParameterHolder):
         info = abi.OsdiInitInfo()
         abi.SETUP_INSTANCE(d.setup_instance)(self.handle, self.ptr, model.ptr, float(temperature),
                                              self.connected, C.byref(model.sim.struct), C.byref(info))
-        _check_init(info, module, name, location)
+        _check_init(info, module, name, location, at)
         self.mapping: np.ndarray | None = None
 
     def value(self, name: str):

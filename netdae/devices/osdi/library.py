@@ -27,7 +27,7 @@ from ...errors import NetlistError, SourceLocation
 from . import abi
 
 __all__ = ["OsdiParam", "OsdiNodeInfo", "OsdiNoiseInfo", "OsdiJacobianEntry", "OsdiModule", "OsdiLibrary", "load_library",
-           "drain_messages", "LOG_LEVELS"]
+           "drain_messages", "peek_messages", "message_notes", "LOG_LEVELS"]
 
 #: Names of the ``osdi_log`` levels (``lvl & LOG_LVL_MASK``).
 LOG_LEVELS = ("debug", "display", "info", "warning", "error", "fatal")
@@ -134,6 +134,9 @@ class OsdiModule:
         Limiting states per instance.
     noise : tuple of OsdiNoiseInfo
         The noise sources, in the order ``load_noise`` writes their densities.
+    num_delays : int
+        The module's absolute delays (``absdelay``; OSDI 0.5), which need a
+        history netdae does not keep: such a module is refused when used.
     descriptor : ctypes structure
         The raw descriptor (kept for :mod:`.instance`).
     """
@@ -148,6 +151,7 @@ class OsdiModule:
     num_states: int
     descriptor: C.Structure = field(repr=False)
     noise: tuple[OsdiNoiseInfo, ...] = ()
+    num_delays: int = 0
     _by_name: dict[str, OsdiParam] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -261,6 +265,64 @@ def drain_messages() -> list[tuple[str, str, str]]:
     out = list(_MESSAGES)
     _MESSAGES.clear()
     return out
+
+
+def peek_messages() -> list[tuple[str, str, str]]:
+    """The messages OSDI modules logged since the last :func:`drain_messages`, left in place."""
+    return list(_MESSAGES)
+
+
+#: Groups of messages (instance and level) :func:`message_notes` shows; the others are counted.
+SHOWN_MESSAGE_GROUPS = 5
+
+
+def message_notes(messages: list[tuple[str, str, str]]) -> list[str]:
+    """What the modules said, as notes for a result: one per instance and level, the first text and a count.
+
+    A module's ``$strobe``, ``$display``, ``$warning``, ``$error`` and
+    ``$fatal`` during an analysis are messages netdae would otherwise never
+    show; a model printing at every evaluation says the same thing thousands
+    of times, so each instance's messages of one level become one note (its
+    first and last texts and how many there were), and instances whose notes
+    would read alike (a card's warning at each of its instances) share one.
+
+    Parameters
+    ----------
+    messages : list of (str, str, str)
+        ``(who, level, text)`` as :func:`drain_messages` returns them.
+
+    Returns
+    -------
+    list of str
+        ``"OSDI n1 error: g too large: 2 (3 messages, the last: ...)"``,
+        ``"OSDI m1, m2 warning: ..."``; at most :data:`SHOWN_MESSAGE_GROUPS`
+        notes and one counting the rest.
+    """
+    groups: dict[tuple[str, str], list[str]] = {}
+    for who, level, text in messages:
+        text = text.strip()
+        if text:
+            groups.setdefault((who, level), []).append(text)
+    said: dict[str, list[str]] = {}  # instances saying the same thing (a card's warning at every instance) together
+    counts: dict[str, int] = {}
+    for (who, level), texts in groups.items():
+        more = ""
+        if len(texts) > 1:
+            more = f" ({len(texts)} messages" + (f", the last: {texts[-1]}" if texts[-1] != texts[0] else "") + ")"
+        key = f"{level}: {texts[0]}{more}"
+        said.setdefault(key, []).append(who)
+        counts[key] = counts.get(key, 0) + len(texts)
+    notes = []
+    for key, whos in list(said.items())[:SHOWN_MESSAGE_GROUPS]:
+        named = ", ".join(whos[:4]) + (f" and {len(whos) - 4} more" if len(whos) > 4 else "")
+        notes.append(f"OSDI {named} {key}")
+    if len(said) > SHOWN_MESSAGE_GROUPS:
+        rest = sum(counts[k] for k in list(said)[SHOWN_MESSAGE_GROUPS:])
+        notes.append(f"OSDI modules: {rest} more messages ({len(said) - SHOWN_MESSAGE_GROUPS} more kinds; "
+                     "netdae.devices.osdi.drain_messages() in Python has them)")
+    if len(messages) >= MAX_MESSAGES:
+        notes.append(f"OSDI modules: only the last {MAX_MESSAGES} messages were kept")
+    return notes
 
 
 # --- reading ----------------------------------------------------------------------------------
@@ -401,10 +463,14 @@ def load_library(path: str, location: SourceLocation | None = None) -> OsdiLibra
         return _CACHE[key]
     problem = elf_problem(real)
     if problem is not None:
+        source = real.lower().endswith((".va", ".vams"))
         raise NetlistError(f"{path} is not a loadable OSDI library: {problem}", location,
                            expected="a shared library compiled by OpenVAF (.osdi)",
                            hint=("the file is incomplete (an interrupted copy, download or compilation?): "
-                                 "compile or copy it again" if problem.startswith(("truncated", "damaged")) else None))
+                                 "compile or copy it again" if problem.startswith(("truncated", "damaged")) else
+                                 "this is Verilog-A source: compile it first (openvaf-r model.va, or in Python "
+                                 "netdae.devices.osdi.compile_va('model.va'), which caches the result) and load "
+                                 "the .osdi file" if source else None))
     try:
         lib = C.CDLL(real, mode=os.RTLD_NOW | os.RTLD_LOCAL)
     except OSError as exc:
@@ -483,4 +549,5 @@ def _read_module(d, library: OsdiLibrary) -> OsdiModule:
         int(kinds[i]) if kinds else None) for i in range(d.num_noise_src))
     return OsdiModule(name=_text(d.name).lower(), library=library, nodes=nodes, num_terminals=int(d.num_terminals),
                       collapsible=collapsible, params=tuple(params), jacobian=tuple(jac),
-                      num_states=int(d.num_states), descriptor=d, noise=noise)
+                      num_states=int(d.num_states), descriptor=d, noise=noise,
+                      num_delays=int(getattr(d, "num_delay", 0)))

