@@ -44,6 +44,19 @@ def noise_of(text: str, **kw):
     return res
 
 
+def noise_as_ngspice(text: str):
+    """netdae's ``.noise`` of ``text`` at tight tolerances, its output and input spectra checked against ngspice 39's
+    to 1e-9 relative; returns netdae's result."""
+    from netdae.ngspice import run_ngspice
+
+    tight = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
+    ours = noise_of(text, **tight)
+    ref = run_ngspice(text, options=tight).result("noise")
+    for name in ("onoise_spectrum", "inoise_spectrum"):
+        np.testing.assert_allclose(ours[name], ref[name], rtol=1e-9)
+    return ours
+
+
 def test_a_verilog_a_resistor_divider_has_the_closed_form_thermal_noise():
     r1, r2 = 1e3, 3e3
     res = noise_of(f"div\n.osdi {MOD}/resistor.osdi\nV1 in 0 dc 0 ac 1\nN1 in out rmod r={r1:g}\nN2 out 0 rmod "
@@ -73,8 +86,6 @@ def test_white_and_flicker_sources_of_a_compiled_module(tmp_path):
 
 @pytest.mark.ngspice
 def test_a_bsim4_stage_has_ngspices_noise():
-    from netdae.ngspice import run_ngspice
-
     text = """bsim4 common-source noise, current-source load
 Vdd vdd 0 1.2
 Vin in 0 DC 0.55 AC 1
@@ -87,11 +98,7 @@ M1 out in 0 0 nch l=0.13u w=1u ad=0.5p as=0.5p pd=3u ps=3u
 .noise v(out) vin dec 5 1 1g 1
 .end
 """
-    tight = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
-    ours = noise_of(text, **tight)
-    ref = run_ngspice(text, options=tight).result("noise")
-    for name in ("onoise_spectrum", "inoise_spectrum"):
-        np.testing.assert_allclose(ours[name], ref[name], rtol=1e-9)
+    ours = noise_as_ngspice(text)
     # the channel's flicker noise falls as 1/f^ef: at 1 Hz it is most of the output noise
     flicker = np.asarray(ours["onoise_m1_flicker"])
     assert flicker[0] ** 2 > 0.5 * np.asarray(ours["onoise_spectrum"])[0] ** 2
@@ -165,8 +172,6 @@ def test_bsim4_correlated_noise_of_m_devices_equals_ngspice():
     Measured before the fix: the output density 1.7e-3 above ngspice's at 316 MHz (four ``m=1``
     instances agreed to 2e-12).
     """
-    from netdae.ngspice import run_ngspice
-
     text = """bsim4 tnoimod=2 m=4
 Vdd vdd 0 1.2
 Vg g 0 dc 0.6 ac 1
@@ -177,8 +182,4 @@ R1 vdd d 200
 .noise v(d) Vg dec 2 1k 1g 1
 .end
 """
-    tight = {"reltol": 1e-9, "abstol": 1e-15, "vntol": 1e-12}
-    ours = noise_of(text, **tight)
-    ref = run_ngspice(text, options=tight).result("noise")
-    for name in ("onoise_spectrum", "inoise_spectrum"):
-        np.testing.assert_allclose(ours[name], ref[name], rtol=1e-9)
+    noise_as_ngspice(text)
