@@ -148,7 +148,7 @@ class Env:
         try:
             if type(pdef.value[0]) is not float:
                 _settle(pdef.value[0], where)
-            v = evaluate_val(pdef.value, where, pdef.card, f"parameter '{name.partition('#')[0]}'")
+            v = evaluate_val(pdef.value, where, pdef.card, _what(name))
         finally:
             self._active.pop()
         self.values[name] = v
@@ -222,8 +222,7 @@ def _settle(node, env: Env) -> None:
                     break
             else:
                 if owner is not None:
-                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card,
-                                                      f"parameter '{name.partition('#')[0]}'")
+                    owner.values[name] = evaluate_val(pdef.value, where, pdef.card, _what(name))
                     owner._active.pop()
                 frames.pop()
     finally:
@@ -260,6 +259,12 @@ def circuit_function_message(f: FuncDef) -> str:
     return (f"function {f.name}() reads the circuit ({ex.to_text(ref)}, .func at {where.file}:{where.line}): "
             "ngspice 39 expands it only into behavioural expressions (B sources, E/G value=, an R, C or L "
             "value, which it makes behavioural) and has no value where a number is needed")
+
+
+def _what(name: str) -> str:
+    """How a message names the parameter ``name``: an alias a subcircuit scope keeps for the caller's value
+    (``r#outer``, :data:`netdae.netlist.elaborate.OUTER`) is named as the parameter it reads."""
+    return f"parameter '{name.partition('#')[0]}'"
 
 
 def evaluate_val(val, env: Env, card, what: str = "value") -> float:
@@ -732,7 +737,7 @@ class _RowsPass:
             raise _Fallback  # a cycle: the rows' own replays say which
         s.active.append(name)
         try:
-            v = self.val(pdef.value, self._scope(where), pdef.card, f"parameter '{name.partition('#')[0]}'")
+            v = self.val(pdef.value, self._scope(where), pdef.card, _what(name))
         finally:
             s.active.pop()
         s.values[name] = v
