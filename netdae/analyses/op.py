@@ -273,16 +273,10 @@ def _is_certain(found, topo) -> bool:
     return found is not None and not any(f.controlled and f.message == found.message for f in topo.findings)
 
 
-def _flux_loop(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> bool:
-    """The topology explains a singular solve by a loop of inductors alone, whose flux is conserved (a note)."""
-    found = _topological_reason(circuit, system, res, topo)
+def _is_flux_loop(found, topo) -> bool:
+    """The topology's explanation ``found`` is a loop of inductors alone, whose flux is conserved (a note)."""
     return found is not None and any(f.kind == "dc_loop" and f.severity == "note" and f.message == found.message
                                      for f in topo.findings)
-
-
-def _certain_topological_reason(circuit: Circuit, system: MnaSystem, res: SteadyResult, topo) -> bool:
-    """A singular solve has a reason in the topology that holds for any element values."""
-    return _is_certain(_topological_reason(circuit, system, res, topo), topo)
 
 
 #: A right null vector ``v`` of a singular DC matrix ``J`` (unit largest entry) whose currents ``|J v|`` exceed this
@@ -711,8 +705,9 @@ def solve_operating_point(prepared: Prepared, *, t: float = 0.0, transient: bool
     groups, used = charge_groups(system, topology, None if forcing is None else forcing.index)
     res = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset, charges=groups)
     laws: list[ChargeGroup] = []
-    loop = res.singular and _flux_loop(circuit, system, res, topology)
-    if res.singular and (loop or not _certain_topological_reason(circuit, system, res, topology)):
+    found = _topological_reason(circuit, system, res, topology) if res.singular else None
+    loop = _is_flux_loop(found, topology)
+    if res.singular and (loop or not _is_certain(found, topology)):
         laws = conservation_laws(system, res, t, groups, forcing, fluxes=loop)
         if laws:
             again = solve_steady(system, t, x0, options=opts, forcing=forcing, nodeset=nodeset,
