@@ -526,3 +526,21 @@ def test_child_processes_share_the_parents_cache_directory():
     done = subprocess.run([sys.executable, "-c", "from netdae.dae import compiled; print(compiled.CACHE_DIR)"],
                           capture_output=True, text=True, check=True)
     assert done.stdout.strip() == compiled.CACHE_DIR
+
+
+def test_a_key_that_cannot_be_kept_leaves_no_partial_file(tmp_path, monkeypatch):
+    """A write of the kept key that fails (a full disk) keeps nothing and leaves no temporary file behind."""
+    import json
+
+    (tmp_path / "k").mkdir()
+    (tmp_path / "k" / "loop.py").write_text("def run(): pass\n")
+    base = tmp_path / "cache"
+    base.mkdir()
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(json, "dump", full)
+    key = compiled.cached_source_key(str(base), (tmp_path / "k",), frozenset())
+    assert key == compiled.source_key((tmp_path / "k",), frozenset())
+    assert list(base.iterdir()) == []

@@ -232,14 +232,19 @@ def cached_source_key(base: str | None, sources=_KERNEL_SOURCES, skip=_NOT_KERNE
     read: set = set()
     key = source_key(sources, skip, read)
     if where is not None:
+        tmp = None
         try:
             record = {"key": key, "sources": names, "skip": sorted(skip), "signature": _signature(read)}
             fd, tmp = tempfile.mkstemp(dir=base, prefix=".netdae-key-")
             with os.fdopen(fd, "w", encoding="utf-8") as fh:
                 json.dump(record, fh)
             os.replace(tmp, where)
-        except OSError:
-            pass
+        except OSError:  # a full disk: no key kept, and no partial file left behind either
+            if tmp is not None:
+                try:
+                    os.unlink(tmp)
+                except OSError:
+                    pass
     return key
 
 
