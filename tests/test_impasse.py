@@ -81,3 +81,67 @@ def test_the_right_limit_at_a_fold_leaves_it_by_pseudo_transient_continuation():
     want = branch_root(-3.0 + 6.0 * (t + 3.47e-12), lower=False)
     assert at_impasse[0][0] == pytest.approx(want, rel=1e-6)
     assert plain[0] is None  # what the impasse met before (the homotopies alone)
+
+
+def _crawling_dae(bad: dict):
+    """``y' = -y``, ``0 = cos t - z``, to which ``z^2 + 1`` is added past ``bad["t"]``.
+
+    No real root is left there (``z^2 - z + 1 + cos t > 0``): Newton fails on every
+    step that ends past that time, however short, the failure an impasse meets. The
+    fake right limit below moves that time a few steps further each time, as a model
+    whose state is stale after the jump would (a crawl).
+    """
+    from netdae.dae.system import FunctionDae
+
+    def phi(x, t):
+        extra = x[1] ** 2 + 1.0 if t > bad["t"] else 0.0
+        return np.array([-x[0], np.cos(t) - x[1] + extra])
+
+    def dphi(x, t):
+        return np.array([[-1.0, 0.0], [0.0, -1.0 + (2.0 * x[1] if t > bad["t"] else 0.0)]])
+
+    return FunctionDae(2, lambda x: np.array([x[0], 0.0]), lambda x: np.diag([1.0, 0.0]), phi, dphi,
+                       names=["y", "z"])
+
+
+def test_impasses_that_make_no_progress_end_in_a_failure_not_a_crawl(monkeypatch):
+    # each impasse got its tries counted from 1 again when its t differed from the last one by a few
+    # ulps: 23,000 impasses a few ulps apart ran for ten minutes on a Schmitt trigger. A failure within
+    # IMPASSE_NEAR of the last impasse's steps is now one more try at it, with a step ten times longer
+    from netdae.dae.bdf import IMPASSE_TRIES, integrate, stepper
+
+    bad = {"t": 0.5}
+    calls = []
+
+    def fake_right_limit(system, t, x, eps, *args, **kwargs):
+        calls.append(eps)
+        assert len(calls) <= 3 * IMPASSE_TRIES, "impasses crawl on without end"
+        bad["t"] = t + 3.0 * eps  # steps succeed a little further, then fail again
+        return np.array([np.exp(-(t + eps)), np.cos(t + eps)]), 1, 1, ""
+
+    monkeypatch.setattr(stepper, "right_limit", fake_right_limit)
+    res = integrate(_crawling_dae(bad), (0.0, 1.0), np.array([1.0, 1.0]), rtol=1e-6)
+    assert not res.ok and "Newton" in res.message
+    assert len(calls) == IMPASSE_TRIES
+    np.testing.assert_allclose(calls[1:], 10.0 * np.array(calls[:-1]), rtol=1e-12)  # each try ten times longer
+
+
+def test_the_compiled_loop_counts_a_crawl_of_impasses_as_one_place():
+    # the compiled loop's rule (bdf_loop._impasse), called as the loop calls it: the first impasse at t,
+    # then failures a few of its steps later escalate the tries (each step ten times the last); after
+    # IMPASSE_TRIES the failure stands. A failure far from the last impasse starts a new count
+    from netdae.dae.bdf import IMPASSE_NEAR, IMPASSE_TRIES
+    from netdae.dae.compiled import bdf_loop as L
+
+    F, I = np.zeros(L.N_F), np.zeros(L.N_I, dtype=np.int64)
+    F[L.F_IMPASSE_T], F[L.F_H] = np.nan, 1e-12
+    t, steps = 0.5, []
+    for _ in range(IMPASSE_TRIES):
+        assert L._impasse(F, I, t)
+        steps.append(F[L.F_RL_EPS])
+        t += 3.0 * F[L.F_RL_EPS]  # a little progress, then the next failure
+    assert not L._impasse(F, I, t)  # was a fresh impasse each time: tries back at 1, without end
+    np.testing.assert_allclose(steps[1:], 10.0 * np.array(steps[:-1]), rtol=1e-12)
+    assert steps[0] == 1e-12 and int(I[L.I_IMPASSE_TRIES]) == IMPASSE_TRIES
+    far = float(F[L.F_IMPASSE_T]) + 2.0 * IMPASSE_NEAR * F[L.F_IMPASSE_EPS]
+    assert L._impasse(F, I, far) and int(I[L.I_IMPASSE_TRIES]) == 1 and F[L.F_RL_EPS] == 1e-12

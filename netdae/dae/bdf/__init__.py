@@ -168,6 +168,7 @@ from .constants import (
     H0_DERIVATIVE_BOUND,
     H0_ERROR_TARGET,
     H0_FRACTION,
+    IMPASSE_NEAR,
     IMPASSE_TRIES,
     JAC_AGE_MAX,
     JUMP_DETECT,

@@ -55,6 +55,10 @@ MAX_NEWTON_FAILURES = 10
 #: Impasse restarts at one t after the attempts failed on every step size (each from implicit-Euler
 #: steps ten times longer than the last; BDF._impasse, the compiled loop's _impasse).
 IMPASSE_TRIES = 4
+#: A failure within this many of the last impasse's implicit-Euler steps after it is "at one t" with
+#: it: the tries escalate rather than restart at 1, so a crawl of impasses a few ulps apart (no
+#: progress between them) ends in a failure message instead of running forever.
+IMPASSE_NEAR = 100.0
 MAX_ERROR_FAILURES = 10
 #: First step at t0: at most this fraction of the distance to the first breakpoint (IDA's 0.001 * tout).
 H0_FRACTION = 1e-3

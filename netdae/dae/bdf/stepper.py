@@ -50,6 +50,7 @@ from .constants import (
     ETA_NEWTON_FAIL,
     EVENT_RIGHT_LIMIT_FRACTION,
     EVENT_RIGHT_LIMIT_ULPS,
+    IMPASSE_NEAR,
     IMPASSE_TRIES,
     H0_FRACTION,
     JUMP_DETECT,
@@ -277,6 +278,7 @@ class BDF:
         self._event_restart = False  # the pending restart follows a switching event
         self._impasse_t = math.nan  # the last t where Newton failed on every step size (an impasse)
         self._impasse_tries = 0
+        self._impasse_eps = 0.0  # the implicit-Euler step of the last impasse
         self._after_event = False  # the last restart was at a switching event
         self._chatter = 0  # consecutive events in the first step after an event
         self._undefined_h = 0.0  # the step that first ended past a change where a held branch is undefined
@@ -729,12 +731,14 @@ class BDF:
         the attempts began with, solved by the steady-state solver with its homotopies
         (:func:`right_limit`), give the state right of t; it is recorded as a jump and
         the method restarts there at order 1. Failing again right after, up to
-        ``IMPASSE_TRIES`` times at one t with steps ten times longer each. Returns
+        ``IMPASSE_TRIES`` times at one t with steps ten times longer each; a failure
+        within ``IMPASSE_NEAR`` of the last impasse's steps after it counts as one at
+        its t (a crawl of impasses a few ulps apart would otherwise never end). Returns
         False (nothing changed) when that solve fails too, or for a linear system.
         """
         if self._linear:
             return False
-        if self._impasse_t == t:
+        if self._impasse_t <= t <= self._impasse_t + IMPASSE_NEAR * self._impasse_eps:
             if self._impasse_tries >= IMPASSE_TRIES:
                 return False
             self._impasse_tries += 1  # still failing right after the jump: a ten times longer step
@@ -742,8 +746,10 @@ class BDF:
             self._impasse_t, self._impasse_tries = t, 1
         n = self.n
         x = self._hist.P[0, :n].copy()
-        eps = max(self.h * 10.0 ** (self._impasse_tries - 1),
-                  EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        eps = max(self.h, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        if self._impasse_tries > 1:  # ten times the last try's step (the failed step h may be far shorter)
+            eps = max(eps, 10.0 * self._impasse_eps)
+        self._impasse_eps = eps
         tol = self._tolerances
         out, iterations, evaluations, _ = right_limit(self.system, t, x, eps, self._high, self.rtol,
                                                       tol["vntol"], tol["abstol"], state=self._state, impasse=True)

@@ -92,6 +92,7 @@ from ..bdf import (  # noqa: E402
     EVENT_RIGHT_LIMIT_FRACTION,
     EVENT_RIGHT_LIMIT_TOL,
     EVENT_RIGHT_LIMIT_ULPS,
+    IMPASSE_NEAR,
     IMPASSE_TRIES,
     JAC_AGE_MAX,
     H0_ERROR_TARGET,
@@ -143,7 +144,8 @@ F_RL_EPS = 23           # probe step of a pending right-limit request
 F_IMPASSE_T = 24        # the last t where Newton failures on every step size asked for a jump (impasse)
 F_RESTART_H = 25        # the probe step a restart stopped at to ask for new pivots (0: start at the cap)
 F_UNDEFINED_H = 26      # the step that first ended past a change where a held branch is undefined (0: none)
-N_F = 27
+F_IMPASSE_EPS = 27      # the implicit-Euler step of the last impasse
+N_F = 28
 
 # --- integer scalars I[...] ----------------------------------------------------------
 I_K = 0
@@ -363,11 +365,13 @@ def _impasse(F, I, t):
     restart from them (recorded as a jump). No solution near the last one exists there, or one
     faster than t can resolve: an impasse, where the circuit snaps to another state (a latch, a
     trigger with feedback, a transistor without capacitances). Failing again right after, up to
-    IMPASSE_TRIES times at one t with steps ten times longer each. True when the request is made
-    (the recorded failure stands when Python finds no such steps)."""
+    IMPASSE_TRIES times at one t with steps ten times longer each; a failure within IMPASSE_NEAR of
+    the last impasse's steps after it counts as one at its t (no progress between them: a crawl of
+    impasses a few ulps apart would otherwise never end). True when the request is made (the
+    recorded failure stands when Python finds no such steps)."""
     if I[I_LINEAR] != 0:
         return False
-    if F[F_IMPASSE_T] == t:
+    if F[F_IMPASSE_T] <= t <= F[F_IMPASSE_T] + IMPASSE_NEAR * F[F_IMPASSE_EPS]:
         if I[I_IMPASSE_TRIES] >= IMPASSE_TRIES:
             return False
         I[I_IMPASSE_TRIES] += 1  # still failing right after the jump: a ten times longer step
@@ -375,8 +379,11 @@ def _impasse(F, I, t):
         I[I_IMPASSE_TRIES] = 1
     I[I_STATUS] = RUNNING
     F[F_IMPASSE_T] = t
-    F[F_RL_EPS] = max(F[F_H] * 10.0 ** (I[I_IMPASSE_TRIES] - 1),
-                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+    eps = max(F[F_H], EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+    if I[I_IMPASSE_TRIES] > 1:  # ten times the last try's step (the failed step F_H may be far shorter)
+        eps = max(eps, 10.0 * F[F_IMPASSE_EPS])
+    F[F_RL_EPS] = eps
+    F[F_IMPASSE_EPS] = eps
     I[I_IMPASSE] = 1
     I[I_PENDING_RESTART] = 1
     I[I_RESTART_CHECKED] = 0
