@@ -107,7 +107,7 @@ def _crawling_dae(bad: dict):
 def test_impasses_that_make_no_progress_end_in_a_failure_not_a_crawl(monkeypatch):
     # each impasse got its tries counted from 1 again when its t differed from the last one by a few
     # ulps: 23,000 impasses a few ulps apart ran for ten minutes on a Schmitt trigger. A failure within
-    # IMPASSE_NEAR of the last impasse's steps is now one more try at it, with a step ten times longer
+    # IMPASSE_NEAR of the last impasse's steps is now one more try at it
     from netdae.dae.bdf import IMPASSE_TRIES, integrate, stepper
 
     bad = {"t": 0.5}
@@ -123,12 +123,11 @@ def test_impasses_that_make_no_progress_end_in_a_failure_not_a_crawl(monkeypatch
     res = integrate(_crawling_dae(bad), (0.0, 1.0), np.array([1.0, 1.0]), rtol=1e-6)
     assert not res.ok and "Newton" in res.message
     assert len(calls) == IMPASSE_TRIES
-    np.testing.assert_allclose(calls[1:], 10.0 * np.array(calls[:-1]), rtol=1e-12)  # each try ten times longer
 
 
 def test_the_compiled_loop_counts_a_crawl_of_impasses_as_one_place():
     # the compiled loop's rule (bdf_loop._impasse), called as the loop calls it: the first impasse at t,
-    # then failures a few of its steps later escalate the tries (each step ten times the last); after
+    # then failures a few of its steps later escalate the tries (ten times the step each); after
     # IMPASSE_TRIES the failure stands. A failure far from the last impasse starts a new count
     from netdae.dae.bdf import IMPASSE_NEAR, IMPASSE_TRIES
     from netdae.dae.compiled import bdf_loop as L

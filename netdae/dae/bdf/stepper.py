@@ -746,9 +746,8 @@ class BDF:
             self._impasse_t, self._impasse_tries = t, 1
         n = self.n
         x = self._hist.P[0, :n].copy()
-        eps = max(self.h, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
-        if self._impasse_tries > 1:  # ten times the last try's step (the failed step h may be far shorter)
-            eps = max(eps, 10.0 * self._impasse_eps)
+        eps = max(self.h * 10.0 ** (self._impasse_tries - 1),
+                  EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
         self._impasse_eps = eps
         tol = self._tolerances
         out, iterations, evaluations, _ = right_limit(self.system, t, x, eps, self._high, self.rtol,

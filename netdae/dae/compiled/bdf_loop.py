@@ -379,11 +379,9 @@ def _impasse(F, I, t):
         I[I_IMPASSE_TRIES] = 1
     I[I_STATUS] = RUNNING
     F[F_IMPASSE_T] = t
-    eps = max(F[F_H], EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
-    if I[I_IMPASSE_TRIES] > 1:  # ten times the last try's step (the failed step F_H may be far shorter)
-        eps = max(eps, 10.0 * F[F_IMPASSE_EPS])
-    F[F_RL_EPS] = eps
-    F[F_IMPASSE_EPS] = eps
+    F[F_RL_EPS] = max(F[F_H] * 10.0 ** (I[I_IMPASSE_TRIES] - 1),
+                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+    F[F_IMPASSE_EPS] = F[F_RL_EPS]
     I[I_IMPASSE] = 1
     I[I_PENDING_RESTART] = 1
     I[I_RESTART_CHECKED] = 0
