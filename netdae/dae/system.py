@@ -49,6 +49,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
+import math
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -168,6 +170,22 @@ class DaeSystem:
         The integrator lands exactly on each and restarts at low order.
         """
         return np.empty(0)
+
+    def step_bound(self) -> float:
+        """The longest next step the system's devices allow after the last evaluation (inf: no bound).
+
+        Read by the integrator after each accepted step (a Verilog-A module's
+        ``$bound_step``); the evaluation it reads is the accepted point's.
+        """
+        return math.inf
+
+    def ended(self) -> str | None:
+        """Why a device ended the analysis at the last evaluation (None: none did).
+
+        Read by the integrator after each accepted step (a Verilog-A module's
+        ``$finish`` or ``$stop``): the run stops there, its result kept.
+        """
+        return None
 
     def initial_guess(self) -> np.ndarray:
         """Starting point for the operating-point Newton iteration."""

@@ -14,6 +14,7 @@ directly (``E x' = H x + c(t)``, the form of the lecture notes (2.8)).
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -314,6 +315,14 @@ class MnaSystem(DaeSystem):
         if self.delays is None:
             return corners
         return self.delays.breakpoints(corners, t0, t1)[0]
+
+    def step_bound(self) -> float:
+        """The shortest ``$bound_step`` of the OSDI devices at their last evaluation (inf: none)."""
+        return min((f.step_bound for f in self.families if hasattr(f, "step_bound")), default=math.inf)
+
+    def ended(self) -> str | None:
+        """The ``$finish`` / ``$stop`` an OSDI device raised at its last evaluation (None: none)."""
+        return next((f.ended for f in self.families if getattr(f, "ended", None)), None)
 
     def nonlinear_charge_rows(self) -> np.ndarray:
         """The rows to which a device family adds charges (sorted); every other row's charge is ``E x``.

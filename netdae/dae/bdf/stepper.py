@@ -374,7 +374,7 @@ class BDF:
     # --------------------------------------------------------------- (re)start
     def _start(self, x0, ev0, first_step, xp0):
         """Derivatives and first step at t0 (order 1)."""
-        cap = min(H0_FRACTION * (self._breakpoints[0] - self.t0), self.max_step)
+        cap = min(H0_FRACTION * (self._breakpoints[0] - self.t0), self.max_step, self.system.step_bound())
         if self._fixed:
             p = self._probe_or_fail(self.t0, x0, PROBE_FRACTION * self._fixed_h)
             if p is not None:
@@ -907,7 +907,12 @@ class BDF:
         self._state = self._corrector.state_try
         self._set_weights(x_new)
         self._rec.record(t_end, x_new, k)
-        self.h = max(min(h * eta, self.max_step), self.min_step)
+        self.h = max(min(h * eta, self.max_step, self.system.step_bound()), self.min_step)
+        ended = self.system.ended()
+        if ended is not None:
+            self.status = RunState.FINISHED
+            self.message = f"stopped at t={t_end:.9g}: {ended}, after {self.stats['steps']} steps"
+            return
         landed = landing and t_end == t_new
         if landed and self._ibp == self._breakpoints.size - 1:
             self.status = RunState.FINISHED

@@ -58,7 +58,7 @@ from ...devices.kernels.bjt import eval_bjt
 from ...devices.kernels.diode import eval_diode
 from ...devices.kernels.jfet import eval_jfet
 from ...devices.kernels.mosfet import eval_mosfet
-from ...devices.kernels.osdi import eval_osdi
+from ...devices.kernels.osdi import W_BOUND, W_STOP, W_STOP_INST, eval_osdi
 from ...devices.kernels.switch import eval_switch, switch_at, switch_step
 from ...devices.kernels.mesa import eval_mesa
 from ...devices.kernels.hfet import eval_hfet
@@ -197,7 +197,9 @@ I_IMPASSE_TRIES = 45    # impasse restarts at F_IMPASSE_T so far
 I_UNDEFINED_STEP = 46   # the current step met an attempt past a change where a held branch is undefined (kept
 #                         across returns to Python: an attempt repeated with new pivots is the same step's)
 I_JAC_AGE = 47          # accepted steps since the factorised Jacobian was evaluated
-N_I = 48
+I_OSDI_END = 48         # an OSDI module's $finish / $stop at the last accepted point (EVAL_RET_FLAG_*; 0: none)
+I_OSDI_END_INST = 49    # the OSDI instance that raised it
+N_I = 50
 
 # statuses
 RUNNING = 0
@@ -346,6 +348,28 @@ def _nonfinite_worst(qe, phie, n):
         if not (math.isfinite(qe[i]) and math.isfinite(phie[i])):
             return i
     return -1
+
+
+@kernel
+def _osdi_bound(devd):
+    """The shortest ``$bound_step`` the OSDI modules asked for at their last evaluation (inf: none), the
+    cap of the next step (ngspice's ``OSDItrunc``)."""
+    o_inst, o_info_f = devd[34], devd[38]
+    if o_inst.shape[0] == 0 or not o_info_f[W_BOUND] > 0.0:  # no module, or none evaluated yet
+        return math.inf
+    return o_info_f[W_BOUND]
+
+
+@kernel
+def _osdi_end(I, devd):
+    """True when an OSDI module called ``$finish`` or ``$stop`` at its last evaluation (the accepted
+    point's): the run ends there (ngspice pauses at a ``$stop``), the flags and instance kept in I."""
+    o_inst, o_info_i = devd[34], devd[37]
+    if o_inst.shape[0] == 0 or o_info_i[W_STOP] == 0:
+        return False
+    I[I_OSDI_END] = o_info_i[W_STOP]
+    I[I_OSDI_END_INST] = o_info_i[W_STOP_INST]
+    return True
 
 
 @kernel
@@ -1327,7 +1351,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
 
     if I[I_STARTED] == 0:
         I[I_STARTED] = 1
-        if not linear and crows.size:
+        if not linear and (crows.size or devd[34].shape[0] > 0):  # (the OSDI modules' $bound_step at t0)
             # the history's charges at t0 from the loop's own evaluation, as everywhere after: Python's
             # sums them in another order (a dense product whose rounding depends on where BLAS finds its
             # arrays in memory), and a start's right limit divides them by steps of 1e-14 s
@@ -1344,7 +1368,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             lock_record(xe, F[F_T], h_prog, h_const, h_inst, h_leaf, h_val, h_der, h_lock)
         # the record at t0, then the start: an order-1 restart with probed derivatives
         _record(I, F[F_T], 0, P[0], rec)
-        cap = min(H0_FRACTION * (bps[0] - F[F_T]), F[F_MAX_STEP])
+        cap = min(H0_FRACTION * (bps[0] - F[F_T]), F[F_MAX_STEP], _osdi_bound(devd))
         I[I_PENDING_RESTART] = 1
         F[F_RESTART_FIXED] = 1.0 if first_step > 0.0 else 0.0
         F[F_RESTART_CAP] = first_step if first_step > 0.0 else cap
@@ -1819,7 +1843,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         if not linear and I[I_HAS_ABSDQ] != 0:
             charge_newton_weights(P[0, n:], xmax[n:], qcol, absdq, indptr, indices, rtol, atol, w, work)
         _record(I, t_end, k, P[0], rec)
-        F[F_H] = max(min(h * eta, F[F_MAX_STEP]), F[F_MIN_STEP])
+        F[F_H] = max(min(h * eta, F[F_MAX_STEP], _osdi_bound(devd)), F[F_MIN_STEP])
+        if _osdi_end(I, devd):
+            I[I_STATUS] = FINISHED
+            return FINISHED
         landed = landing and t_end == t_new
         if landed and I[I_IBP] == bps.size - 1:
             I[I_STATUS] = FINISHED

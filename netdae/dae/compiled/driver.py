@@ -571,7 +571,10 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     }
     tolerances = {"rtol": rtol, "vntol": vntol, "abstol": abstol, "atol": atol_label, "norm": norm_name,
                   "relref": relref_name, "newton_tol": 0.33, "maxord": maxord, "index_excluded": excluded}
-    if status == L.FINISHED:
+    if status == L.FINISHED and I[L.I_OSDI_END] != 0:
+        message = _osdi_end_message(system, F, I, stats)
+        code = STATUS_OK
+    elif status == L.FINISHED:
         message = (f"reached t={t_bound:.9g} in {stats['steps']} steps ({stats['rejected']} rejected, "
                    f"{stats['newton_failures']} Newton failures, {stats['factorizations']} factorizations)")
         code = STATUS_OK
@@ -835,11 +838,27 @@ def _pack_families(system, x0, switching) -> tuple:
     # the locked outcomes: a fresh copy per analysis, not held (a transient's loop holds them at its start),
     # and the work vector of their event location
     behavioural = (*behavioural[:6], behavioural[6].copy(), np.zeros(system.n + 1))
+    # no $bound_step or $finish / $stop from an earlier analysis on the family's shared words
+    osdi[4][ko.W_BOUND] = 0.0
+    osdi[3][ko.W_STOP] = 0
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
             + tuple(np.zeros(osdi_states) for _ in range(3))
             + (par, idx, vold0.copy(), vold0.copy(), vold0.copy())
             + (zpar, zidx, zvold0.copy(), zvold0.copy(), zvold0.copy())
             + (fpar, fidx, fvold0.copy(), fvold0.copy(), fvold0.copy()))
+
+
+def _osdi_end_message(system, F, I, stats) -> str:
+    """The message of a run an OSDI module ended (``$finish`` or ``$stop`` at an accepted point)."""
+    from ...devices.kernels.osdi import EVAL_RET_FLAGS_END
+    from ...devices.osdi.abi import EVAL_RET_FLAG_STOP
+    from ...devices.osdi.family import OsdiFamily
+
+    family = next(f for f in system.families if isinstance(f, OsdiFamily))
+    name = family.elements[int(I[L.I_OSDI_END_INST])].name
+    task = "$stop" if int(I[L.I_OSDI_END]) & EVAL_RET_FLAGS_END & EVAL_RET_FLAG_STOP else "$finish"
+    return (f"stopped at t={float(F[L.F_T]):.9g}: {task} in {name} (an OSDI module) ended the analysis "
+            f"there, after {stats['steps']} steps")
 
 
 def _event_elements(system) -> list[str]:

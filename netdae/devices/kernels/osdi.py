@@ -21,14 +21,19 @@ other kernel and serves any module loaded in any process.
   modules write their new state into ``vnew`` (float64[S], S >= 1);
 
 - ``inst``: int64[N, N_INST]: per instance its handle, the addresses of its
-  instance and model data, its module's row in ``fns`` and the range of its
-  Jacobian entries in ``jr``/``jc``/``slots``;
+  instance and model data, its module's row in ``fns``, the range of its
+  Jacobian entries in ``jr``/``jc``/``slots`` and the address of its
+  ``$bound_step`` value (0: its module has none);
 - ``fns``: int64[M, N_FNS]: per module the addresses of ``eval``,
   ``load_residual_resist``, ``load_residual_react``, ``load_jacobian_resist``
   and ``load_jacobian_react``;
 - ``slots``: int64[E]: every Jacobian entry's position in ``dq``/``dphi``;
 - ``info_i``, ``info_f``: the ``OsdiSimInfo`` the modules read, as int64 and
-  float64 views of one buffer (its parameter pointers set by the family);
+  float64 views of one buffer (its parameter pointers set by the family),
+  followed by netdae's words the modules do not see: the call's shortest
+  ``$bound_step`` (``info_f[W_BOUND]``, inf: none), and the ``$finish`` /
+  ``$stop`` flags of the call (``info_i[W_STOP]``) with the first instance
+  that raised one (``info_i[W_STOP_INST]``);
 - ``xbuf`` (the iterate the modules read through their node mapping),
   ``fbuf``, ``qbuf`` (residuals, float64[n + 1]), ``jr``, ``jc`` (Jacobian
   entries, float64[E]): the family's buffers, whose addresses the instances
@@ -50,19 +55,22 @@ from numba.extending import intrinsic
 from ...dae.compiled import kernel
 from . import FLAG_LIMITED, FLAG_NONFINITE, MODE_INITIAL, MODE_LIMIT
 
-__all__ = ["eval_osdi", "call_eval", "call_load", "call_jacobian_resist", "call_jacobian_react",
-           "N_INST", "N_FNS", "INFO_WORDS"]
+__all__ = ["eval_osdi", "call_eval", "call_load", "call_jacobian_resist", "call_jacobian_react", "load_double",
+           "N_INST", "N_FNS", "INFO_WORDS", "W_BOUND", "W_STOP", "W_STOP_INST"]
 
 # inst columns
-I_HANDLE, I_INST, I_MODEL, I_MODULE, I_JAC0, I_JAC1 = range(6)
-N_INST = 6
+I_HANDLE, I_INST, I_MODEL, I_MODULE, I_JAC0, I_JAC1, I_BOUND = range(7)
+N_INST = 7
 # fns columns
 F_EVAL, F_RES_RESIST, F_RES_REACT, F_JAC_RESIST, F_JAC_REACT, F_LIM_RESIST, F_LIM_REACT = range(7)
 N_FNS = 7
 # OsdiSimInfo as 8-byte words: paras (4 pointers), abstime, prev_solve, prev_state, next_state, flags,
 # history_ctx, query_past_state
 W_ABSTIME, W_PREV_SOLVE, W_PREV_STATE, W_NEXT_STATE, W_FLAGS = 4, 5, 6, 7, 8
-INFO_WORDS = 11
+# netdae's words after the OsdiSimInfo (11 words): the call's shortest $bound_step, its $finish/$stop flags
+# (EVAL_RET_FLAG_FINISH | EVAL_RET_FLAG_STOP) and the first instance that raised one
+W_BOUND, W_STOP, W_STOP_INST = 11, 12, 13
+INFO_WORDS = 14
 #: eval() flags: both residuals and Jacobians, a transient (abi.CALC_* | abi.ANALYSIS_TRAN)
 FLAGS_JACOBIAN = 1 | 2 | 4 | 8 | 8192
 FLAGS_RESIDUAL = 1 | 2 | 8192
@@ -71,6 +79,8 @@ FLAGS_LIMIT = 256 | 64 | 128
 FLAGS_LIMIT_INITIAL = FLAGS_LIMIT | 512
 EVAL_RET_FLAG_LIM = 1
 EVAL_RET_FLAG_FATAL = 2
+#: $finish, $stop (EVAL_RET_FLAG_FINISH | EVAL_RET_FLAG_STOP)
+EVAL_RET_FLAGS_END = 4 | 8
 
 _PTR = ir.IntType(8).as_pointer()
 
@@ -89,6 +99,17 @@ def call_eval(typingctx, addr, handle, inst, model, info):
         fn = builder.inttoptr(args[0], fnty.as_pointer())
         ret = builder.call(fn, _pointers(builder, args[1:]))
         return builder.zext(ret, ir.IntType(64))
+
+    return sig, codegen
+
+
+@intrinsic
+def load_double(typingctx, addr):
+    """The ``double`` at address ``addr`` (a module's ``$bound_step`` in its instance data)."""
+    sig = types.float64(types.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.load(builder.inttoptr(args[0], ir.DoubleType().as_pointer()))
 
     return sig, codegen
 
@@ -167,6 +188,9 @@ def eval_osdi(x, t, mode, vold, vnew, inst, fns, slots, info_i, info_f, xbuf, fb
     qptr = qbuf.ctypes.data
     flags = 0
     bad = -1
+    bound = math.inf
+    ends = 0
+    info_i[W_STOP_INST] = -1
     for k in range(inst.shape[0]):
         m = inst[k, I_MODULE]
         ip = inst[k, I_INST]
@@ -178,6 +202,14 @@ def eval_osdi(x, t, mode, vold, vnew, inst, fns, slots, info_i, info_f, xbuf, fb
                 bad = k
         if ret & EVAL_RET_FLAG_LIM:
             flags |= FLAG_LIMITED
+        if ret & EVAL_RET_FLAGS_END:
+            if ends == 0:
+                info_i[W_STOP_INST] = k
+            ends |= ret & EVAL_RET_FLAGS_END
+        if inst[k, I_BOUND] != 0:
+            b = load_double(inst[k, I_BOUND])
+            if b > 0.0 and b < bound:  # a module that set none this call leaves it at inf (or 0)
+                bound = b
         call_load(fns[m, F_RES_RESIST], ip, mp, fptr)
         call_load(fns[m, F_RES_REACT], ip, mp, qptr)
         if lim != 0:
@@ -206,4 +238,6 @@ def eval_osdi(x, t, mode, vold, vnew, inst, fns, slots, info_i, info_f, xbuf, fb
                 c = 0.0
             dphi[s] -= g
             dq[s] += c
+    info_f[W_BOUND] = bound
+    info_i[W_STOP] = ends
     return flags, bad

@@ -26,6 +26,7 @@ compiled twin, for the compiled transient engine, is
 from __future__ import annotations
 
 import ctypes as C
+import math
 import re
 
 import numpy as np
@@ -43,6 +44,18 @@ _NOT_NAME = re.compile(r"[^0-9a-z_]+")
 LIMIT_AGAINST = abi.ENABLE_LIM | abi.CALC_RESIST_LIM_RHS | abi.CALC_REACT_LIM_RHS
 #: ... and of a solve from scratch (the modules' initial values: SPICE's MODEINITJCT).
 LIMIT_INITIAL = LIMIT_AGAINST | abi.INIT_LIM
+
+
+def bound_step_address(inst) -> int:
+    """The address of an instance's ``$bound_step`` value in its data (0: its module has none).
+
+    OSDI keeps the step bound a module asks for (``$bound_step(dt)``) in the
+    instance data at the descriptor's ``bound_step_offset`` (``UINT32_MAX``:
+    the module never asks); the transient caps its next step by the shortest
+    one after each accepted point, as ngspice's ``OSDItrunc`` does.
+    """
+    offset = inst.module.descriptor.bound_step_offset
+    return 0 if offset == abi.UINT32_MAX else int(inst.ptr) + int(offset)
 
 
 def _name(node: str) -> str:
@@ -123,6 +136,10 @@ class OsdiFamily(DeviceFamily):
             key = id(inst.module)
             if key not in self._calls:
                 self._calls[key] = _Calls(inst.module.descriptor)
+        self._bounds = [bound_step_address(inst) for inst in self.instances]
+        #: the shortest $bound_step, and the $finish / $stop raised, at the last evaluation (inf, None: none)
+        self.step_bound: float = math.inf
+        self.ended: str | None = None
 
     def noise(self, x, temp):
         """The modules' noise sources at the operating point ``x`` (extended), as current generators.
@@ -312,7 +329,7 @@ class OsdiFamily(DeviceFamily):
                 fns.append((d.eval, d.load_residual_resist, d.load_residual_react, d.load_jacobian_resist,
                             d.load_jacobian_react, d.load_limit_rhs_resist, d.load_limit_rhs_react))
             nj = len(i.module.jacobian)
-            inst[k] = (i.handle, i.ptr, i.model.ptr, row, off, off + nj)
+            inst[k] = (i.handle, i.ptr, i.model.ptr, row, off, off + nj, bound_step_address(i))
             off += nj
         info_i = np.zeros(ko.INFO_WORDS, dtype=np.int64)
         if self.instances:
@@ -438,13 +455,21 @@ class OsdiFamily(DeviceFamily):
         fptr, qptr = self.fbuf.ctypes.data, self.qbuf.ctypes.data
         ref = C.byref(info)
         limited = 0
-        for inst in self.instances:
+        self.step_bound, self.ended = math.inf, None
+        for k, inst in enumerate(self.instances):
             calls = self._calls[id(inst.module)]
             mptr = inst.model.ptr
             ret = calls.eval(inst.handle, inst.ptr, mptr, ref)
             if ret & abi.EVAL_RET_FLAG_FATAL:
                 acc.ok = False
             limited |= ret & abi.EVAL_RET_FLAG_LIM
+            if ret & (abi.EVAL_RET_FLAG_FINISH | abi.EVAL_RET_FLAG_STOP) and self.ended is None:
+                task = "$stop" if ret & abi.EVAL_RET_FLAG_STOP else "$finish"
+                self.ended = f"{task} in {self.elements[k].name} (an OSDI module) ended the analysis there"
+            if self._bounds[k]:
+                b = C.c_double.from_address(self._bounds[k]).value
+                if 0.0 < b < self.step_bound:
+                    self.step_bound = b
             calls.res_f(inst.ptr, mptr, fptr)
             calls.res_q(inst.ptr, mptr, qptr)
             if lim:
