@@ -60,6 +60,9 @@ IMPASSE_TRIES = 4
 #: progress between them) ends in a failure message instead of running forever.
 IMPASSE_NEAR = 100.0
 MAX_ERROR_FAILURES = 10
+#: Error-test failures of the first step from a (re)start after which its derivatives are probed again
+#: on the shorter step (BDF._reprobe, the compiled loop's _reprobe): a mode faster than the probe's steps.
+REPROBE_ERROR_FAILURES = 3
 #: First step at t0: at most this fraction of the distance to the first breakpoint (IDA's 0.001 * tout).
 H0_FRACTION = 1e-3
 #: The first order-1 step aims at this fraction of the error-test bound.

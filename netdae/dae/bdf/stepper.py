@@ -61,6 +61,7 @@ from .constants import (
     PROBE_FRACTION,
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
+    REPROBE_ERROR_FAILURES,
     RATE_AFTER_SETUP,
     RIGHT_LIMIT_RETRIES,
     ROUNDOFF_ULPS,
@@ -426,6 +427,29 @@ class BDF:
                 break
         self._initialise_history(h, p.xp, p.qp)
 
+    def _reprobe(self, t, cap):
+        """The (re)start's derivatives probed again at ``t`` for a first step of at most ``cap``.
+
+        After the first step from a (re)start failed the error test
+        ``REPROBE_ERROR_FAILURES`` times: the probe's two
+        implicit-Euler steps (a thousandth of the step they were for) damp a mode faster
+        than themselves, and the derivatives they give are the ones after it; the
+        predictor then misses the mode's contribution and the error shrinks only in
+        proportion to the step, never below the tolerance in ten failures (a 1-ohm source
+        into 1 pF at a PULSE corner). Probed once more on the shorter step (never below the
+        rounding of t), the curvature shows the mode and sets the step, at most ``cap``
+        (:func:`~netdae.dae.bdf.controller.first_step_from_curvature`). Returns the step
+        (None after recording a failure).
+        """
+        x = self._hist.P[0, : self.n].copy()
+        eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        p = self._probe_or_fail(t, x, eps)
+        if p is None:
+            return None
+        h = ctl.first_step_from_curvature(self._normf(p.xpp, self._w_err), cap, self.min_step)
+        self._initialise_history(h, p.xp, p.qp)
+        return h
+
     def _probe_or_fail(self, t, x, eps, after_jump=False):
         """:func:`~netdae.dae.bdf.startup.probe` at (t, x); None after recording a failure."""
         self.stats["probes"] += 1
@@ -631,7 +655,14 @@ class BDF:
             h_new = self._reduced_step(t, h, eta, kind, info)
             if h_new is None:
                 return
-            if self._nst == 0:
+            if self._nst == 0 and kind == "error" and nef >= REPROBE_ERROR_FAILURES and not self._fixed:
+                # the first step after a (re)start failed the error test again and again: the probe's
+                # derivatives, measured on steps a thousandth of the longer step, may have missed a mode
+                # faster than them (a stiff RC at an input's corner); measured again on the shorter step
+                h_new = self._reprobe(t, h_new)
+                if h_new is None:
+                    return
+            elif self._nst == 0:
                 # first step after a (re)start: rescale the derivative term (IDA's IDAReset)
                 hist.rescale_first_step(h_new, h)
             h = h_new

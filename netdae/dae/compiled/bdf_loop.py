@@ -106,6 +106,7 @@ from ..bdf import (  # noqa: E402
     PROBE_FRACTION,
     PROBE_MAX_RATIO,
     PROBE_RETRIES,
+    REPROBE_ERROR_FAILURES,
     RATE_AFTER_SETUP,
     RATE_CJ_CHANGED,
     RIGHT_LIMIT_CANCELLATION,
@@ -1110,6 +1111,29 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     return FACTOR_OK
 
 
+@kernel
+def _reprobe(F, I, P, psi, t, x, cap, tol, sysd, devd, lus, evb, ws):
+    """The (re)start's derivatives probed again at (t, x) for a first step of at most ``cap``, after
+    the first step from it failed the error test REPROBE_ERROR_FAILURES times: the probe's implicit-Euler
+    steps (a thousandth of the step they were for) damp a mode faster than themselves, the predictor
+    misses its contribution and the error shrinks only in proportion to the step (a 1-ohm source into
+    1 pF at a PULSE corner). One probe on the shorter step (never below the rounding of t), the step
+    from its curvature; no jump check (the point stays). Returns as _probe (the step in F_H)."""
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
+    eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+    rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, False)
+    if rc != FACTOR_OK:
+        return rc
+    curv = weighted_norm(xpp, w_err, I[I_NORM])
+    if curv * cap * cap <= 2.0 * H0_ERROR_TARGET:
+        h = cap
+    else:
+        h = math.sqrt(2.0 * H0_ERROR_TARGET / curv)
+    _initialise_history(F, I, P, psi, max(h, F[F_MIN_STEP]), xp, qpb, crows)
+    return FACTOR_OK
+
+
 # ------------------------------------------------------------------ the nonlinear corrector
 @inlined_kernel
 def _residual(F, I, t_new, cj, x, jacobian, pred0, pred1, crows, sysd, devd, u, evb, r, v):
@@ -1703,7 +1727,23 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 if (kind == 2 or reason != REASON_EVALUATION) and _impasse(F, I, t):
                     return NEED_RIGHT_LIMIT
                 return FAILED
-            if I[I_NST] == 0:
+            if I[I_NST] == 0 and kind == 2 and nef >= REPROBE_ERROR_FAILURES:
+                # the first step from a (re)start failed the error test again and again: its derivatives
+                # probed again on the shorter step (_reprobe; BDF._reprobe)
+                for i in range(n):
+                    xs[i] = P[0, i]
+                rc = _reprobe(F, I, P, psi, t, xs, h_new, tol, sysd, devd, lus, evb, ws)
+                if rc == FACTOR_NEED_PIVOTS:  # resumed as a restart at t that has checked for a jump
+                    I[I_PENDING_RESTART] = 1
+                    I[I_RESTART_CHECKED] = 1
+                    F[F_RESTART_CAP] = h_new
+                    F[F_RESTART_FIXED] = 0.0
+                    F[F_RESTART_H] = h_new
+                    return NEED_PIVOTS
+                if rc != FACTOR_OK:
+                    return I[I_STATUS]
+                h_new = F[F_H]
+            elif I[I_NST] == 0:
                 psi[0] = h_new
                 for c in range(width):
                     P[1, c] *= h_new / h
