@@ -238,6 +238,15 @@ class BehaviouralFamily(DeviceFamily):
                 inst, np.array(leaf_rows, dtype=np.int64).reshape(-1, kb.N_LEAF), np.zeros(2 * longest),
                 np.zeros((longest, widest)), np.zeros((kb.N_LOCK_ROWS, slots_used + 1)))
 
+    def time_charge_rows(self) -> np.ndarray:
+        """The rows of the terminals of the charge sources whose expression reads ``time``
+        (``Q={1n*sin(2*pi*1k*time) + 1p*v(a)}``: a charge that moves at fixed unknowns; ground -1 dropped)."""
+        layout = self._layout
+        rows = [layout.node(node) for el in self.elements
+                if el.kind == _CHARGE and any(type(n) is Time for n in walk(el.expr)) for node in el.nodes[:2]]
+        rows = np.unique(np.asarray(rows, dtype=np.int64))
+        return rows[rows >= 0]
+
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         """Where an expression jumps or kinks in ``time`` (``time < 1m ? a : b``, ``u(time - td)``):
         :func:`netdae.netlist.expr.time_corners` of every expression that reads ``time``."""

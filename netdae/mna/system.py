@@ -209,6 +209,7 @@ class MnaSystem(DaeSystem):
         self._switching = None
         self._behavioural_events = False  # not looked for yet (None: there are none)
         self._charge_rows: np.ndarray | None = None
+        self._time_rows: np.ndarray | None = None
         self._xext = np.zeros(self.n + 1)
         self._placement: _Placement | None = None
         placed = like.placement() if like is not None and like.pattern is pattern else None
@@ -323,6 +324,18 @@ class MnaSystem(DaeSystem):
     def ended(self) -> str | None:
         """The ``$finish`` / ``$stop`` an OSDI device raised at its last evaluation (None: none)."""
         return next((f.ended for f in self.families if getattr(f, "ended", None)), None)
+
+    def time_charge_rows(self) -> np.ndarray:
+        """The rows whose charge reads time itself, not only through the unknowns (a ``Q`` source whose
+        expression reads ``time``; sorted, computed once). The integrators take ``dq/dt`` at fixed x
+        into account there: the start-up's derivative probe (:func:`netdae.dae.bdf.startup.probe`) and
+        the error test of those rows' charges (:func:`netdae.dae.compiled.control.time_charge_weights`)."""
+        if self._time_rows is None:
+            parts = [np.asarray(f.time_charge_rows(), dtype=np.int64) for f in self.families
+                     if hasattr(f, "time_charge_rows")]
+            rows = np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.int64)
+            self._time_rows = rows[rows >= 0]
+        return self._time_rows
 
     def nonlinear_charge_rows(self) -> np.ndarray:
         """The rows to which a device family adds charges (sorted); every other row's charge is ``E x``.

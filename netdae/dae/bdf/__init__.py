@@ -145,7 +145,7 @@ References
 from __future__ import annotations
 
 from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments, index_mask,
-                        rounding_signs, row_tolerances, save_indices)
+                        rounding_signs, row_tolerances, save_indices, time_charge_rows)
 from .constants import (
     BREAKPOINT_MERGE,
     BREAKPOINT_STRETCH,
@@ -199,4 +199,4 @@ from .stepper import BDF
 
 __all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate", "check_arguments", "absolute_tolerances",
            "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit",
-           "rounding_signs", "breakpoint_times"]
+           "rounding_signs", "breakpoint_times", "time_charge_rows"]

@@ -250,6 +250,25 @@ def charge_rows(indptr, indices, high: np.ndarray, column: np.ndarray) -> np.nda
     return np.where(rows & (column >= 0), column, -1).astype(np.int64)
 
 
+def time_charge_rows(system, column: np.ndarray) -> np.ndarray:
+    """Rows whose charge reads time itself, each with its column in the charge history (-1: other rows).
+
+    ``system.time_charge_rows()`` names them (a ``Q`` source whose expression reads ``time``;
+    none when the system does not say). Their charge errors join the error test
+    (:func:`netdae.dae.compiled.control.time_charge_residual`): the current ``dq/dt`` at fixed x
+    is the BDF's derivative of the charge history, which no unknown's error estimate measures.
+    A row without a charge history (a linear system's) has none.
+    """
+    n = column.size
+    out = np.full(n, -1, dtype=np.int64)
+    given = system.time_charge_rows() if hasattr(system, "time_charge_rows") else None
+    if given is not None and len(given):
+        rows = np.asarray(given, dtype=np.int64)
+        rows = rows[(rows >= 0) & (rows < n)]
+        out[rows] = column[rows]
+    return out
+
+
 #: :func:`rounding_signs` of each size asked for (read by the integrators, never written).
 _SIGNS: dict[int, np.ndarray] = {}
 

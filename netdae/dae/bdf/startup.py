@@ -185,7 +185,8 @@ class ImplicitEulerStep(DaeSystem):
 
 
 def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, *,
-                state=None, impasse: bool = False, retries: int = 0) -> tuple[np.ndarray | None, int, int, str]:
+                state=None, impasse: bool = False, retries: int = 0,
+                timed: bool = False) -> tuple[np.ndarray | None, int, int, str]:
     """x(t+) of a nonlinear system: two converged implicit-Euler steps of size eps, extrapolated.
 
     The charges are continuous across t (no impulse), so the steps start from
@@ -220,7 +221,7 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
     iterations = evaluations = 0
     for attempt in range(1 + (0 if impasse else retries)):
         out, its, evals, message = _two_steps(system, t, x, eps * RIGHT_LIMIT_STRETCH ** attempt, high, rtol, vntol,
-                                              abstol, state, impasse)
+                                              abstol, state, impasse, timed)
         iterations += its
         evaluations += evals
         if out is not None:
@@ -229,7 +230,7 @@ def right_limit(system: DaeSystem, t: float, x, eps: float, high, rtol: float, v
 
 
 def _two_steps(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vntol: float, abstol: float, state,
-               impasse: bool) -> tuple[np.ndarray | None, int, int, str]:
+               impasse: bool, timed: bool = False) -> tuple[np.ndarray | None, int, int, str]:
     """:func:`right_limit` with steps of ``eps``, tried once."""
     # an implicit-Euler step is itself a time step: no pseudo-time continuation on top of it (a failure
     # cuts the step instead)
@@ -246,6 +247,9 @@ def _two_steps(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vn
         if step == 1 and ev.dq is not None:
             groups = conserved_charge_groups(system.pattern, ev.dq)
         q0 = ev.q
+        if timed and step == 1:  # a charge that reads time: from the charges just before t (event_right_limit)
+            q0 = system.evaluate(y, np.nextafter(t, -np.inf), jacobian=False, state=state).q
+            evaluations += 1
         problem = ImplicitEulerStep(system, q0, eps, t + step * eps, groups)
         res = solve_steady(problem, t + step * eps, y, options=opts)
         iterations += res.iterations
@@ -266,7 +270,7 @@ def _two_steps(system: DaeSystem, t: float, x, eps: float, high, rtol: float, vn
 
 
 def event_right_limit(system: DaeSystem, t: float, x, eps: float, high, lu, weights, *,
-                      state=None) -> tuple[np.ndarray | None, int, int]:
+                      state=None, timed: bool = False) -> tuple[np.ndarray | None, int, int]:
     """x(t+) by full Newton: two implicit-Euler steps of size eps, extrapolated (tried first at every jump).
 
     Each step solves ``(q(y) - q0) / eps - phi(y, t + k eps) = 0`` from the left value (the
@@ -288,7 +292,10 @@ def event_right_limit(system: DaeSystem, t: float, x, eps: float, high, lu, weig
     y1 = y
     iterations = evaluations = 0
     for step in (1, 2):
-        q0 = system.evaluate(y, t + (step - 1) * eps, jacobian=False, state=state).q
+        # with a charge that reads time (``timed``), the first step from the charges just before t: the
+        # rows' charges are continuous where such a charge jumps
+        t_q = np.nextafter(t, -np.inf) if timed and step == 1 else t + (step - 1) * eps
+        q0 = system.evaluate(y, t_q, jacobian=False, state=state).q
         evaluations += 1
         current = state
         converged = False
@@ -337,7 +344,8 @@ class Probe:
         self.xp, self.qp, self.xpp, self.x_right, self.x_2, self.w_floor = xp, qp, xpp, x_right, x_2, w_floor
 
 
-def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *, after_jump: bool = False) -> Probe:
+def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *, after_jump: bool = False,
+          timed: bool = False) -> Probe:
     """x'(t+), q'(t+), x''(t+) and the right limit x(t+) from two implicit-Euler steps of size ``eps``.
 
     Each step is one Newton iteration (exact for a linear system; for a
@@ -366,6 +374,12 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *
         ``x`` is a right limit just taken: q'(t+) is then ``phi`` linearised at the index-2 unknowns
         of the first Euler step ``x_1``, not at their right limit, which need not be consistent
         with the derivatives (after a corner of the inputs).
+    timed : bool
+        A charge reads time itself (``system.time_charge_rows()``): each Euler step's Newton step
+        then has ``(q(x, t + eps) - q(x, t)) / eps`` on its right-hand side, the charge's change at
+        fixed x, where a charge of the unknowns alone has none (``dq/dt = dq/dx x'``); the first
+        step starts from the charges just before t (but after a jump): a charge that jumps in time
+        moves the unknowns so that the row's charge is continuous.
 
     Returns
     -------
@@ -383,10 +397,19 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *
     if not lu.factor(ev.dq / eps - ev.dphi, tag=1.0 / eps):
         raise Failure("the Newton matrix (alpha/h) dq/dx - dphi/dx is singular", None, newton_hint(INFO_SINGULAR))
     floor.keep(ev.dq)
-    xp = lu.solve(ev.phi) / eps
+    rhs = ev.phi
+    if timed:
+        # the charges before t (a charge that jumps in time at t moves x: the row's charge is conserved),
+        # at t itself after a right limit just taken
+        rhs = ev.phi - (ev.q - evaluate(x, t if after_jump else np.nextafter(t, -np.inf), False).q) / eps
+    xp = lu.solve(rhs) / eps
     x1 = x + eps * xp
+    q1 = evaluate(x1, t + eps, False).q if timed else None
     ev1 = evaluate(x1, t + 2.0 * eps, False)
-    xp1 = lu.solve(ev1.phi) / eps if ev1.ok else xp
+    rhs1 = ev1.phi
+    if timed and ev1.ok:
+        rhs1 = ev1.phi - (ev1.q - q1) / eps
+    xp1 = lu.solve(rhs1) / eps if ev1.ok else xp
     xpp = (xp1 - xp) / eps
     if not (np.all(np.isfinite(xp)) and np.all(np.isfinite(xpp))):
         raise Failure("the derivative estimate at the (re)start is not finite", None, newton_hint(INFO_SINGULAR))

@@ -32,6 +32,7 @@ from ..compiled.control import (
     charge_error_norms,
     charge_newton_weights,
     charge_weights,
+    time_charge_residual,
     error_norms,
     landing_step,
     set_weights,
@@ -42,6 +43,7 @@ from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
 from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments, index_mask,
+                        time_charge_rows,
                         row_tolerances, save_indices)
 from .constants import (
     BREAKPOINT_MERGE,
@@ -262,7 +264,12 @@ class BDF:
         self._floor = RoundingFloor(system.pattern, self._lu)
         # rows whose charge error joins the error test (coupled to index-2 unknowns): their columns
         self._qrows = charge_rows(system.pattern.indptr, system.pattern.indices, self._high, self._qcol)
+        # rows whose charge reads time itself: their charge errors join the error test too, and the probe
+        # takes dq/dt at fixed x
+        self._trows = time_charge_rows(system, self._qcol)
+        self._t_tested = bool((self._trows >= 0).any())
         self._q_tested = bool((self._qrows >= 0).any())
+        self._tq = np.zeros(n)  # the current error of those rows, then the unknowns' error it makes
         self._wq = np.zeros(self._crows.size)
         self._wq_count = 0
         self._q_pattern = (np.asarray(system.pattern.indptr, dtype=np.int64),
@@ -455,7 +462,7 @@ class BDF:
         self.stats["probes"] += 1
         try:
             return probe(self._evaluate, self._lu, self._floor, self.system.names, t, x, eps, self._high, self._w,
-                         self._w_err, after_jump=after_jump and not self._linear)
+                         self._w_err, after_jump=after_jump and not self._linear, timed=self._t_tested)
         except Failure as f:
             self._fail(t, eps, f.what, f.worst, f.hint)
             return None
@@ -529,7 +536,7 @@ class BDF:
             eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
                       EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
         out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,
-                                                         self._w, state=self._state)
+                                                         self._w, state=self._state, timed=self._t_tested)
         self.stats["newton_iterations"] += iterations
         self.stats["evaluations"] += evaluations
         self.stats["jacobian_evaluations"] += iterations
@@ -538,7 +545,7 @@ class BDF:
         tol = self._tolerances
         out, iterations, evaluations, message = right_limit(self.system, self.t, x, eps, self._high, self.rtol,
                                                             tol["vntol"], tol["abstol"], state=self._state,
-                                                            retries=RIGHT_LIMIT_RETRIES)
+                                                            retries=RIGHT_LIMIT_RETRIES, timed=self._t_tested)
         self.stats["newton_iterations"] += iterations
         self.stats["evaluations"] += evaluations
         if out is None:
@@ -881,6 +888,10 @@ class BDF:
             self._wq_count = charge_weights(self._qrows, self._floor.abs_dq.data, indptr, indices, self._w, self._wq)
             qn = charge_error_norms(ee, hist.P, k, self._wq, self._norm_kind, n, self._wq_count)
             norms = (max(norms[0], qn[0]), max(norms[1], qn[1]), max(norms[2], qn[2]))
+        if self._t_tested:
+            # at orders k, k-1, k-2 (error_norms' combinations)
+            norms = tuple(max(norms[j], self._time_charge_norm(ee, k + 1 - j, k, 1.0, cj, self._w_step_err))
+                          if k >= j + 1 else norms[j] for j in range(3))
         test = ctl.error_test(norms, hist.sigma, hist.ck, k)
         info = {"knew": test.knew, "err_k": test.err_k, "err_km1": test.err_km1}
         if test.passed:
@@ -890,6 +901,13 @@ class BDF:
                                      "worst": worst_unknown(self.system.names, ee[:n], self._w, self._w)}
         info["worst"] = worst_unknown(self.system.names, ee[:n], self._w_err, self._w)
         return False, "error", info
+
+    def _time_charge_norm(self, ee, rows_from, last, sign, cj, w):
+        """The error the charges that read time make in the unknowns: the charge history's estimate
+        ``ee + sign * sum(P[rows_from:last + 1])`` as the corrector's residual
+        (:func:`~netdae.dae.compiled.control.time_charge_residual`) solved with the Newton matrix."""
+        time_charge_residual(ee, self._hist.P, self.n, rows_from, last, sign, self._trows, cj, self._tq)
+        return self._normf(self._lu.solve(self._tq), w)
 
     def _complete_step(self, t_new, h, landing, info, retried):
         """Order and step-size selection, history update, switching events, recording (IDA's IDACompleteStep).
@@ -991,6 +1009,9 @@ class BDF:
             if self._wq_count:
                 err_kp1 = max(err_kp1, charge_error_kp1(self._ee, hist.P, k, self._wq, self._norm_kind, n,
                                                         self._wq_count) / (k + 2))
+            if self._t_tested:
+                err_kp1 = max(err_kp1, self._time_charge_norm(self._ee, k + 1, k + 1, -1.0, hist.cj,
+                                                              self._w_err) / (k + 2))
             hist.k, err_new = ctl.choose_order(k, info["err_km1"], info["err_k"], err_kp1)
         return ctl.step_factor(err_new, hist.k)
 

@@ -66,6 +66,7 @@ from ...devices.kernels.vdmos import eval_vdmos
 from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_newton_weights, charge_weights,
+                      time_charge_residual,
                       error_norms, flc_coefficients,
                       conductance_fell, landing_step, residual_stalled, set_weights, update_differences,
                       weighted_norm)
@@ -200,7 +201,9 @@ I_UNDEFINED_STEP = 46   # the current step met an attempt past a change where a 
 I_JAC_AGE = 47          # accepted steps since the factorised Jacobian was evaluated
 I_OSDI_END = 48         # an OSDI module's $finish / $stop at the last accepted point (EVAL_RET_FLAG_*; 0: none)
 I_OSDI_END_INST = 49    # the OSDI instance that raised it
-N_I = 50
+I_CHARGE_TIME = 50      # 1: a charge reads time itself (trows: the probe takes dq/dt at fixed x, their charge
+#                         errors are tested)
+N_I = 51
 
 # statuses
 RUNNING = 0
@@ -731,11 +734,14 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
     linear = I[I_LINEAR] != 0
+    # a charge that reads time (I_CHARGE_TIME, a nonlinear system): each Euler step's first Newton
+    # step has (q(x, t + eps) - q(x, t)) / eps on its right-hand side, dq/dt at fixed x
+    timed = I[I_CHARGE_TIME] != 0 and not linear
     I[I_PROBES] += 1
     state = STATE_ACCEPTED if I[I_HAS_ACC] != 0 else STATE_NONE
     if linear:
@@ -747,6 +753,10 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
                 _fail(F, I, t, eps, FAIL_PROBE_NONFINITE, i)
                 return FACTOR_SINGULAR
     else:
+        if timed:  # q(x, t-) into xr (free until the end); q(x, t) after a right limit just taken
+            _evaluate(I, t if after_jump else np.nextafter(t, -np.inf), x, state, False, False, sysd, devd, u, evb)
+            for i in range(n):
+                xr[i] = qe[i]
         flags = _evaluate(I, t + eps, x, state, False, True, sysd, devd, u, evb)
         bad = -1
         for i in range(n):
@@ -766,7 +776,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
         rc = _factor(F, I, 1.0 / eps, eps, dqe, dphie, lus, a_data)
     if rc == FACTOR_NEED_PIVOTS:
         I[I_PROBES] -= 1  # it will be repeated
-        I[I_EVALUATIONS] -= 1
+        I[I_EVALUATIONS] -= 2 if timed else 1
         I[I_JAC_EVALUATIONS] -= 1
         return rc
     if rc == FACTOR_SINGULAR:
@@ -775,6 +785,9 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
     for i in range(n):
         x2[i] = xp[i]  # phi(x, t + eps), for the rounding floor
         qpb[i] = xp[i]
+    if timed:
+        for i in range(n):  # qe: q(x, t + eps) still
+            xp[i] -= (qe[i] - xr[i]) / eps
     _solve(lus, xp)
     for i in range(n):
         xp[i] /= eps
@@ -790,10 +803,16 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
         I[I_EVALUATIONS] += 1
         _phi(t + 2.0 * eps, work, sysd, u, xpp)
     else:
+        if timed:  # q(x_1, t + eps) into xr
+            _evaluate(I, t + eps, work, state, False, False, sysd, devd, u, evb)
+            for i in range(n):
+                xr[i] = qe[i]
         flags = _evaluate(I, t + 2.0 * eps, work, state, False, False, sysd, devd, u, evb)
         ok1 = (flags & FLAG_NONFINITE) == 0
         for i in range(n):
             xpp[i] = phie[i]
+            if timed:
+                xpp[i] -= (qe[i] - xr[i]) / eps
     if ok1:
         _solve(lus, xpp)
     else:
@@ -869,7 +888,7 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     (nothing jumped; they are probed again only after a jump).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -881,7 +900,10 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
         y[i] = x[i]
     start = STATE_ACCEPTED if I[I_HAS_ACC] != 0 else STATE_NONE
     for step in range(1, 3):
-        _evaluate(I, t + (step - 1) * eps, y, start, False, False, sysd, devd, u, evb)
+        t_q = t + (step - 1) * eps
+        if step == 1 and I[I_CHARGE_TIME] != 0:
+            t_q = np.nextafter(t, -np.inf)  # a charge that reads time: from the charges just before t
+        _evaluate(I, t_q, y, start, False, False, sysd, devd, u, evb)
         for i in range(n):
             q0[i] = qe[i]
         state = start
@@ -930,7 +952,7 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     ``rl_given``). On a jump ``x`` becomes the right limit, which is recorded a second time
     at ``t`` and starts a new segment.
     """
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1019,7 +1041,7 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
     """Continue from the right limit ``xr`` (in ``ws``) at ``t``: record the unknowns that jump,
     make it ``x`` and the history's value (and charges), record it a second time at ``t`` and
     start a new segment."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1059,7 +1081,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     """Probe the derivatives at (t, x), continue from the right limit where the solution
     jumps, and start at order 1 with a step <= cap (returns as _probe, or
     FACTOR_NEED_RIGHT_LIMIT)."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     h = cap
     # a restart repeated after a return to Python for new pivots has checked already
@@ -1119,7 +1141,7 @@ def _reprobe(F, I, P, psi, t, x, cap, tol, sysd, devd, lus, evb, ws):
     misses its contribution and the error shrinks only in proportion to the step (a 1-ohm source into
     1 pF at a PULSE corner). One probe on the shorter step (never below the rounding of t), the step
     from its curvature; no jump check (the point stays). Returns as _probe (the step in F_H)."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
     rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, False)
@@ -1308,7 +1330,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     Parameters
     ----------
     tol : tuple
-        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)`` (``xmax``: shape (n + m,), the
+        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows)`` (``xmax``: shape (n + m,), the
         unknowns' then the charges' largest magnitudes): absolute tolerances,
         the error-test mask and index-2 flags, the largest values so far, the weights,
         the rounding floor's fixed signs, the charge columns of the rows whose charge error
@@ -1351,7 +1373,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         A status code of this module (RUNNING is never returned).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1609,6 +1631,19 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         e0 = max(e0, q0)
                         e1 = max(e1, q1)
                         e2 = max(e2, q2)
+                if I[I_CHARGE_TIME] != 0:
+                    # the charges that read time: the error of dq/dt at fixed x, the charge history's
+                    # derivative, in the unknowns (time_charge_residual solved with the Newton matrix)
+                    for j in range(min(k, 3)):
+                        time_charge_residual(ee, P, n, k + 1 - j, k, 1.0, trows, cj, work)
+                        _solve(lus, work)
+                        ej = weighted_norm(work, w_step, norm)
+                        if j == 0:
+                            e0 = max(e0, ej)
+                        elif j == 1:
+                            e1 = max(e1, ej)
+                        else:
+                            e2 = max(e2, ej)
                 err_k = sigma[k] * e0
                 terr_k = (k + 1) * err_k
                 knew = k
@@ -1821,6 +1856,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 err_kp1 = weighted_norm(work, w_err, norm) / (k + 2)
                 if wq_count > 0:
                     err_kp1 = max(err_kp1, charge_error_kp1(ee, P, k, wq, norm, n, wq_count) / (k + 2))
+                if I[I_CHARGE_TIME] != 0:
+                    time_charge_residual(ee, P, n, k + 1, k + 1, -1.0, trows, F[F_CJ], work)
+                    _solve(lus, work)
+                    err_kp1 = max(err_kp1, weighted_norm(work, w_err, norm) / (k + 2))
                 terr_k = (k + 1) * err_k
                 terr_kp1 = (k + 2) * err_kp1
                 if k == 1:

@@ -18,7 +18,8 @@ import math
 from . import kernel
 from ..sparse import RESIDUAL_ROUNDING
 
-__all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "charge_newton_weights",
+__all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights", "time_charge_residual",
+           "charge_newton_weights",
            "charge_error_norms",
            "charge_error_kp1", "update_differences", "landing_step",
            "set_weights", "residual_stalled", "conductance_fell", "row_magnitudes", "NORM_RMS", "NORM_MAX",
@@ -210,6 +211,33 @@ def charge_weights(qrows, absdq, indptr, indices, w, wq):
             wq[c] = w[i] / wq[c]
             count += 1
     return count
+
+
+@kernel
+def time_charge_residual(ee, P, n, rows_from, k, sign, trows, cj, out):
+    """The current error of the rows whose charge reads time itself, into ``out`` (shape (n,)).
+
+    A charge ``q(x, t)`` that depends on time at fixed x (``Q={1n*sin(2*pi*1k*time) + 1p*v(a)}``)
+    drives its row with ``dq/dt`` at fixed x, which the BDF takes from the charge history: no
+    unknown's error estimate measures that differentiation's error (``v(a) = -R dq/dt`` across a
+    resistor is algebraic, its own differences smooth for every history). Row ``r`` with
+    ``trows[r] = c >= 0`` gets ``cj (ee[n + c] + sign * sum_{i=rows_from}^{k} P[i, n + c])``, the
+    charge's error estimate (the combination :func:`charge_error_norms` takes at each order) as the
+    residual it leaves in the corrector; the other rows 0. The caller solves the Newton matrix
+    ``cj dq/dx - dphi/dx`` for it and measures the unknowns' error with their own weights: the
+    voltage error on the row's capacitance where that dominates, ``cj dq`` through the row's
+    conductance where that does, and further through what the row drives (a ``ddt()`` node read
+    by a source).
+    """
+    for i in range(out.size):
+        out[i] = 0.0
+    for r in range(trows.size):
+        c = trows[r]
+        if c >= 0:
+            a = ee[n + c]
+            for i in range(rows_from, k + 1):
+                a += sign * P[i, n + c]
+            out[r] = cj * a
 
 
 @kernel

@@ -231,6 +231,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         charge_columns,
         charge_rows,
         check_arguments,
+        time_charge_rows,
         index_mask,
         right_limit,
         rounding_signs,
@@ -321,7 +322,10 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     signs = rounding_signs(n)  # of the rounding floor's second right-hand side (as BDF's)
     # rows whose charge error joins the error test (coupled to index-2 unknowns): their charge columns
     qrows = charge_rows(indptr, indices, high, qcol)
-    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol)
+    # rows whose charge reads time itself: their charge errors are tested, the probe takes dq/dt at fixed x
+    trows = time_charge_rows(system, qcol)
+    I[L.I_CHARGE_TIME] = 1 if (trows >= 0).any() else 0
+    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows)
     nnz = e_data.size
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
            np.abs(e_data))
@@ -483,7 +487,8 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
                 try:
                     x_right, its, evals, what = right_limit(system, float(F[L.F_T]), P[0, :n].copy(), eps, high,
                                                             rtol, vntol, abstol, impasse=I[L.I_IMPASSE] != 0,
-                                                            retries=RIGHT_LIMIT_RETRIES)
+                                                            retries=RIGHT_LIMIT_RETRIES,
+                                                            timed=I[L.I_CHARGE_TIME] != 0)
                 finally:
                     if delays[0].size:
                         system.delay_history = None
