@@ -46,10 +46,9 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
-
-import math
 
 import numpy as np
 import scipy.sparse as sp

@@ -855,13 +855,12 @@ def _pack_families(system, x0, switching) -> tuple:
 
 def _osdi_end_message(system, F, I, stats) -> str:
     """The message of a run an OSDI module ended (``$finish`` or ``$stop`` at an accepted point)."""
-    from ...devices.kernels.osdi import EVAL_RET_FLAGS_END
     from ...devices.osdi.abi import EVAL_RET_FLAG_STOP
     from ...devices.osdi.family import OsdiFamily
 
     family = next(f for f in system.families if isinstance(f, OsdiFamily))
     name = family.elements[int(I[L.I_OSDI_END_INST])].name
-    task = "$stop" if int(I[L.I_OSDI_END]) & EVAL_RET_FLAGS_END & EVAL_RET_FLAG_STOP else "$finish"
+    task = "$stop" if int(I[L.I_OSDI_END]) & EVAL_RET_FLAG_STOP else "$finish"
     return (f"stopped at t={float(F[L.F_T]):.9g}: {task} in {name} (an OSDI module) ended the analysis "
             f"there, after {stats['steps']} steps")
 
