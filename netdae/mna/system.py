@@ -329,7 +329,7 @@ class MnaSystem(DaeSystem):
         """The rows whose charge reads time itself, not only through the unknowns (a ``Q`` source whose
         expression reads ``time``; sorted, computed once). The integrators take ``dq/dt`` at fixed x
         into account there: the start-up's derivative probe (:func:`netdae.dae.bdf.startup.probe`) and
-        the error test of those rows' charges (:func:`netdae.dae.compiled.control.time_charge_weights`)."""
+        the error test of those rows' charges (:func:`netdae.dae.compiled.control.time_charge_residual`)."""
         if self._time_rows is None:
             parts = [np.asarray(f.time_charge_rows(), dtype=np.int64) for f in self.families
                      if hasattr(f, "time_charge_rows")]

@@ -1077,6 +1077,14 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
 
 
 @kernel
+def _first_step_from_curvature(curv, cap, min_step):
+    """The first order-1 step ``sqrt(2 H0_ERROR_TARGET / |x''|_w)``, at most ``cap``, at least ``min_step``
+    (the loop's twin of :func:`netdae.dae.bdf.controller.first_step_from_curvature`)."""
+    h = cap if curv * cap * cap <= 2.0 * H0_ERROR_TARGET else math.sqrt(2.0 * H0_ERROR_TARGET / curv)
+    return max(h, min_step)
+
+
+@kernel
 def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, rec):
     """Probe the derivatives at (t, x), continue from the right limit where the solution
     jumps, and start at order 1 with a step <= cap (returns as _probe, or
@@ -1116,12 +1124,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
                 continue  # derivatives from the right limit
         if fixed:
             break
-        curv = weighted_norm(xpp, w_err, I[I_NORM])
-        if curv * cap * cap <= 2.0 * H0_ERROR_TARGET:
-            h_new = cap
-        else:
-            h_new = math.sqrt(2.0 * H0_ERROR_TARGET / curv)
-        h_new = max(h_new, F[F_MIN_STEP])
+        h_new = _first_step_from_curvature(weighted_norm(xpp, w_err, I[I_NORM]), cap, F[F_MIN_STEP])
         converged = eps <= PROBE_MAX_RATIO * h_new
         h = h_new
         retries += 1
@@ -1147,12 +1150,8 @@ def _reprobe(F, I, P, psi, t, x, cap, tol, sysd, devd, lus, evb, ws):
     rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, False)
     if rc != FACTOR_OK:
         return rc
-    curv = weighted_norm(xpp, w_err, I[I_NORM])
-    if curv * cap * cap <= 2.0 * H0_ERROR_TARGET:
-        h = cap
-    else:
-        h = math.sqrt(2.0 * H0_ERROR_TARGET / curv)
-    _initialise_history(F, I, P, psi, max(h, F[F_MIN_STEP]), xp, qpb, crows)
+    h = _first_step_from_curvature(weighted_norm(xpp, w_err, I[I_NORM]), cap, F[F_MIN_STEP])
+    _initialise_history(F, I, P, psi, h, xp, qpb, crows)
     return FACTOR_OK
 
 

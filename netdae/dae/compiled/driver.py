@@ -855,14 +855,11 @@ def _pack_families(system, x0, switching) -> tuple:
 
 def _osdi_end_message(system, F, I, stats) -> str:
     """The message of a run an OSDI module ended (``$finish`` or ``$stop`` at an accepted point)."""
-    from ...devices.osdi.abi import EVAL_RET_FLAG_STOP
-    from ...devices.osdi.family import OsdiFamily
+    from ...devices.osdi.family import OsdiFamily, end_message
 
     family = next(f for f in system.families if isinstance(f, OsdiFamily))
-    name = family.elements[int(I[L.I_OSDI_END_INST])].name
-    task = "$stop" if int(I[L.I_OSDI_END]) & EVAL_RET_FLAG_STOP else "$finish"
-    return (f"stopped at t={float(F[L.F_T]):.9g}: {task} in {name} (an OSDI module) ended the analysis "
-            f"there, after {stats['steps']} steps")
+    ended = end_message(int(I[L.I_OSDI_END]), family.elements[int(I[L.I_OSDI_END_INST])].name)
+    return f"stopped at t={float(F[L.F_T]):.9g}: {ended}, after {stats['steps']} steps"
 
 
 def _event_elements(system) -> list[str]:

@@ -58,6 +58,13 @@ def bound_step_address(inst) -> int:
     return 0 if offset == abi.UINT32_MAX else int(inst.ptr) + int(offset)
 
 
+def end_message(flags: int, name: str) -> str:
+    """What a module's ``$stop`` or ``$finish`` (``eval``'s return ``flags``) at instance ``name`` did to the
+    analysis (both integrators' messages say it this way)."""
+    task = "$stop" if flags & abi.EVAL_RET_FLAG_STOP else "$finish"
+    return f"{task} in {name} (an OSDI module) ended the analysis there"
+
+
 def _name(node: str) -> str:
     """A module's node name as part of an unknown's name: ``flow(br)`` -> ``br``."""
     if node.startswith("flow(") and node.endswith(")"):
@@ -464,8 +471,7 @@ class OsdiFamily(DeviceFamily):
                 acc.ok = False
             limited |= ret & abi.EVAL_RET_FLAG_LIM
             if ret & (abi.EVAL_RET_FLAG_FINISH | abi.EVAL_RET_FLAG_STOP) and self.ended is None:
-                task = "$stop" if ret & abi.EVAL_RET_FLAG_STOP else "$finish"
-                self.ended = f"{task} in {self.elements[k].name} (an OSDI module) ended the analysis there"
+                self.ended = end_message(ret, self.elements[k].name)
             if self._bounds[k]:
                 b = C.c_double.from_address(self._bounds[k]).value
                 if 0.0 < b < self.step_bound:
