@@ -64,7 +64,7 @@ from typing import Callable, Mapping
 import numba
 
 __all__ = ["CACHE_DIR", "choose_cache_dir", "source_key", "cached_source_key", "kernel", "inlined_kernel",
-           "allocating_kernel"]
+           "allocating_kernel", "entry_kernel"]
 
 #: numba's environment variable for its cache directory.
 CACHE_ENV = "NUMBA_CACHE_DIR"
@@ -393,6 +393,25 @@ def kernel(fn: Callable) -> Callable:
     every call boundary).
     """
     return numba.njit(_nrt=False, cache=CACHE_DIR is not None, error_model="numpy")(fn)
+
+
+def entry_kernel(fn: Callable) -> Callable:
+    """As :func:`kernel`, for a kernel that only Python calls: its disk cache keeps no IR for linking.
+
+    numba's cache of a function holds its machine code and the LLVM bitcode of
+    everything it contains, which every process that loads it parses (0.15-0.2 s
+    for the step loop, which inlines every device kernel). An entry kernel's
+    cache (:class:`~netdae.dae.compiled.entry_cache.EntryCache`) replaces that
+    bitcode by a stub of the same symbols whose bodies trap. No compiled
+    function may call an entry kernel (it would link the traps);
+    ``tests/test_entry_cache.py`` checks that none does.
+    """
+    dispatcher = numba.njit(_nrt=False, cache=False, error_model="numpy")(fn)
+    if CACHE_DIR is not None:
+        from .entry_cache import EntryCache
+
+        dispatcher._cache = EntryCache(dispatcher.py_func)
+    return dispatcher
 
 
 def inlined_kernel(fn: Callable) -> Callable:

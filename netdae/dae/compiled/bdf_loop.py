@@ -70,7 +70,7 @@ from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_new
                       error_norms, flc_coefficients,
                       conductance_fell, landing_step, residual_stalled, set_weights, update_differences,
                       weighted_norm)
-from . import inlined_kernel, kernel
+from . import entry_kernel, inlined_kernel, kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
 from .lu import refactor as lu_refactor
 from .lu import solve as lu_solve
@@ -1321,7 +1321,7 @@ def _stalled(I, t_new, cj, x, pred0, pred1, crows, rtol, ratol, atol, dphi_lu, s
     return residual_stalled(r, rn, v, rtol, ratol, RESIDUAL_RATE_MAX), flags
 
 
-@kernel
+@entry_kernel
 def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol, sysd, devd, lus, evb, ws, wk,
         rec, max_chunk_steps):
     """Advance the integration until it finishes, fails, fills the buffers or uses the chunk.

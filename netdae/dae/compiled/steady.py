@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 
 from ...devices.kernels import FLAG_LIMITED, FLAG_NONFINITE
-from . import kernel
+from . import entry_kernel, kernel
 from . import bdf_loop as L
 from .control import RESIDUAL_ROUNDING, row_magnitudes
 
@@ -92,8 +92,8 @@ def _min_equilibrated_pivot(indptr, indices, a_data, lus, r, c):
 
 
 @kernel
-def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd, devd, lus, u,
-              evb, dx, absjx, pivot):
+def _newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd, devd, lus, u,
+               evb, dx, absjx, pivot):
     """Newton iterations on ``phi(x, t) = 0`` in place on ``x`` (see the module docstring).
 
     Returns ``CONVERGED``, ``NOT_CONVERGED``, ``ILL_CONDITIONED`` or ``NEED_PIVOTS`` (then
@@ -159,7 +159,16 @@ def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, paired, sing
     return NOT_CONVERGED
 
 
-@kernel
+
+@entry_kernel
+def newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd, devd, lus, u,
+              evb, dx, absjx, pivot):
+    """:func:`_newton_dc` for Python callers (an entry kernel: its cache holds no IR for linking)."""
+    return _newton_dc(F, I, S, t, x, init, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd, devd,
+                      lus, u, evb, dx, absjx, pivot)
+
+
+@entry_kernel
 def sweep_dc(F, I, S, x, X, its, values, cols, p0, maxiter, reltol, x_atol, r_atol, paired, singular_pivot,
              clear_pivot, threshold, sysd, devd, lus, u, evb, dx, absjx, pivot):
     """A ``.dc`` sweep's points ``p0, p0 + 1, ...`` by plain Newton, each from the previous solution.
@@ -183,8 +192,8 @@ def sweep_dc(F, I, S, x, X, its, values, cols, p0, maxiter, reltol, x_atol, r_at
         if S[S_FIRST] != 0 and S[S_ITER] == 0:  # a fresh point (not a resumed one)
             for s in range(cols.size):
                 spar[cols[s], 0] = values[p, s]
-        status = newton_dc(F, I, S, 0.0, x, False, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd,
-                           devd, lus, u, evb, dx, absjx, pivot)
+        status = _newton_dc(F, I, S, 0.0, x, False, maxiter, reltol, x_atol, r_atol, paired, singular_pivot, sysd,
+                            devd, lus, u, evb, dx, absjx, pivot)
         if status != CONVERGED:
             return status, p
         if not pivot[0] > clear_pivot:
