@@ -261,7 +261,7 @@ def targets(doc) -> list[dict]:
         if nd.get("integration") and ng.get("integration") and nd["steps"] and ng["steps"]:
             per_nd, per_ng = nd["integration"] / nd["steps"], ng["integration"] / ng["steps"]
             whole = (nd["analysis"] / nd["steps"]) / (ng["analysis"] / ng["steps"])
-            measured = (f"{per_nd * 1e6:.0f} us vs {per_ng * 1e6:.1f} us per step = {per_nd / per_ng:.1f}x "
+            measured = (f"{per_nd * 1e6:.2g} us vs {per_ng * 1e6:.2g} us per step = {per_nd / per_ng:.1f}x "
                         f"({whole:.0f}x with start and structure analysis)")
             met = per_nd / per_ng <= STEP_TIME_RATIO
             if ng["integration"] < NGSPICE_TIMER_RESOLUTION * TIMER_RESOLUTIONS:
