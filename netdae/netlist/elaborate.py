@@ -37,7 +37,7 @@ from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES
 from . import expr as ex
 from . import lossy, shunts, urc
 from .shunts import DEFAULT_RSERIES
-from .elements import error, parse_value
+from .elements import error, parse_value, unknown_node_hint
 from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
@@ -331,6 +331,9 @@ class _Elaborator:
             trace.start(self.root)
         self.envs: dict[tuple, Env] = {(): self.root}
         self._used: set[int] = set()  # the subcircuit definitions instantiated (by id)
+        # ``x1.out`` -> the node instance x1 connects its port ``out`` to: the name a port is *not*
+        # known by (its hierarchical name), for the hint at a card that names it
+        self.port_nodes: dict[str, str] = {}
 
     @staticmethod
     def _temper(net: Netlist) -> ParamDef:
@@ -520,6 +523,9 @@ class _Elaborator:
         prefix = x.name
         ports = dict(zip(sub.ports, x.nodes))
         glob = self.globals
+        for port, connected in ports.items():
+            if port not in glob:
+                self.port_nodes.setdefault(f"{prefix}.{port}", connected)
         frames = x.frames + (frame,)
         path = x.path + (inst.name,)
         own_models = sub.models
@@ -651,7 +657,8 @@ class _Elaborator:
         self._saves(circuit, nodes, elements)
         self._fouriers(circuit, nodes, elements)
         circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value,
-                                              BRANCH_CURRENT_KINDS, functions=self.root)
+                                              BRANCH_CURRENT_KINDS, functions=self.root,
+                                              port_nodes=self.port_nodes)
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         self._unused_errors(self.net.top)
@@ -1849,7 +1856,8 @@ class _Elaborator:
             for node, val, offset, card in entries:
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
-                                hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
+                                hint=unknown_node_hint(node, self.port_nodes, "x1.mid",
+                                                       "ngspice 39 ignores the entry, with a warning"))
                 value = self._initial_number(self._value(val, card, f"initial value of v({node})"), card, val[1], what)
                 self._set_initial(target, where[what], what, node, value, card.location(offset))
         for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
@@ -1880,7 +1888,7 @@ class _Elaborator:
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
         for signal, offset, card in self.net.saves:
-            text, problem = _save_signal(signal, nodes, elements)
+            text, problem = _save_signal(signal, nodes, elements, self.port_nodes)
             if text is None:
                 continue
             if problem is not None:
@@ -1908,10 +1916,12 @@ class _Elaborator:
                 circuit.fouriers.append(FourierSpec(f, tuple(dict.fromkeys(names)), card.location(0)))
 
 
-def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, str | None]:
+def _save_signal(signal: str, nodes: dict, elements: dict,
+                 port_nodes: Mapping[str, str] | None = None) -> tuple[str | None, str | None]:
     """``(name, problem)`` of a ``.save``/``.print``/``.four`` signal: its normalised name (``v(a)``,
     ``v(a,b)``, ``i(v1)``, ``@q1[ic]``, a noise vector) and why netdae cannot keep it (None when it can);
-    ``(None, None)`` for ``all``."""
+    ``(None, None)`` for ``all``. A subcircuit port named hierarchically (``x1.out``, ``port_nodes``)
+    gets the node it is in the problem."""
     if signal.endswith("#branch") and "(" not in signal:
         signal = f"i({signal[:-len('#branch')]})"  # ngspice's vector name of a branch current
     text = signal
@@ -1926,7 +1936,7 @@ def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, 
             if len(parts) == 2 and parts[1] == "0":
                 parts = parts[:1]
             text = f"v({','.join(parts)})"
-            problem = next((f"no node '{n}'" for n in parts if n != "0" and n not in nodes), None)
+            problem = next((_no_node(n, port_nodes) for n in parts if n != "0" and n not in nodes), None)
         elif head == "i":
             target = elements.get(parts[0]) if len(parts) == 1 else None
             if target is None:
@@ -1942,8 +1952,17 @@ def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, 
     else:
         text = f"v({_ground(signal)})"
         if _ground(signal) not in nodes:
-            problem = f"no node '{signal}'"
+            problem = _no_node(signal, port_nodes)
     return text, problem
+
+
+def _no_node(node: str, port_nodes: Mapping[str, str] | None) -> str:
+    connected = (port_nodes or {}).get(node)
+    if connected is None:
+        return f"no node '{node}'"
+    instance, _, port = node.rpartition(".")
+    return (f"no node '{node}' ('{port}' is a port of {instance}, which connects "
+            f"{'ground' if connected == '0' else repr(connected)} to it: save v({connected}))")
 
 
 def _capacitance_from_model(el: Element, model) -> float:
