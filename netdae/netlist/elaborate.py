@@ -1808,6 +1808,7 @@ class _Elaborator:
                     raise error(card, offset, f"unknown integration method '{word}'", form,
                                 hint="method=gear or method=trap")
                 opts.method = _METHODS[word]
+                opts.locations[name] = card.location(value.start)
             elif name == "interp":
                 opts.interp = True
             elif name == "seed":
