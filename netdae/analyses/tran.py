@@ -786,8 +786,9 @@ def _settings(circuit: Circuit, card: TranAnalysis | None, *, reltol, abstol, vn
     abstol_ = abstol if abstol is not None else o.abstol
     order = maxord if maxord is not None else (o.maxord or MAX_ORDER)
     if not 1 <= order <= MAX_ORDER:
-        raise NetdaeError(f"maxord={order}: netdae's BDF has orders 1 to {MAX_ORDER} (BDF6 and beyond are not "
-                          "zero-stable); set .options maxord between 1 and 5")
+        raise NetdaeError(f"maxord={order}: netdae's BDF has orders 1 to {MAX_ORDER} (BDF7 and beyond are not "
+                          "zero-stable, and BDF6's stability region is too narrow for stiff circuits); set .options "
+                          "maxord between 1 and 5")
     tmax = max_step if max_step is not None else card.tmax
     if tmax is None or tmax <= 0.0:
         tmax = min(card.tstep, (card.tstop - card.tstart) / TMAX_DIVISOR)

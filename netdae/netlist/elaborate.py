@@ -92,6 +92,10 @@ ASRC_REFERENCE_TEMPERATURE = 27.0
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
+#: The highest integration order ngspice 39 takes (``.options maxord``, gear) and netdae's BDF's
+#: (``netdae.dae.bdf.MAX_ORDER``, not imported here: the reader loads no numerics).
+NGSPICE_MAXORD = 6
+NETDAE_MAXORD = 5
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
 #: The options that add elements (:mod:`netdae.netlist.shunts`).
 _SHUNT_OPTIONS = {"rshunt", "cshunt", "rseries"}
@@ -1791,6 +1795,14 @@ class _Elaborator:
                     if number != int(number) or number < 1:
                         raise error(card, value.start, f"option '{name}' needs a positive integer", form)
                     number = int(number)
+                    if name == "maxord" and number == NGSPICE_MAXORD:
+                        # ngspice 39's gear takes order 6 (it warns above it); netdae's BDF, as DASSL's and
+                        # IDA's, stops at 5 (BDF6's stability region is too narrow for stiff circuits)
+                        self.diagnostics.append(Diagnostic(
+                            "warning", f"option maxord={number}: netdae's BDF has orders 1 to {NETDAE_MAXORD}, "
+                            f"so it runs with maxord={NETDAE_MAXORD} (ngspice 39's gear takes order "
+                            f"{NGSPICE_MAXORD})", card.location(value.start)))
+                        number = NETDAE_MAXORD
                 elif name not in ("temp", "tnom") and number <= 0:
                     raise error(card, value.start, f"option '{name}' must be > 0", form)
                 elif name not in ("temp", "tnom") and number > STAMP_MAGNITUDES[1]:
