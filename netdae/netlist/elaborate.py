@@ -337,7 +337,7 @@ class _Elaborator:
         self._used: set[int] = set()  # the subcircuit definitions instantiated (by id)
         # ``x1.out`` -> the node instance x1 connects its port ``out`` to: the name a port is *not*
         # known by (its hierarchical name), for the hint at a card that names it
-        self.port_nodes: dict[str, str] = {}
+        self.port_nodes = PortNodes(self.globals)
 
     @staticmethod
     def _temper(net: Netlist) -> ParamDef:
@@ -527,9 +527,7 @@ class _Elaborator:
         prefix = x.name
         ports = dict(zip(sub.ports, x.nodes))
         glob = self.globals
-        for port, connected in ports.items():
-            if port not in glob:
-                self.port_nodes.setdefault(f"{prefix}.{port}", connected)
+        self.port_nodes.add(prefix, ports)
         frames = x.frames + (frame,)
         path = x.path + (inst.name,)
         own_models = sub.models
@@ -1967,6 +1965,32 @@ def _save_signal(signal: str, nodes: dict, elements: dict,
         if _ground(signal) not in nodes:
             problem = _no_node(signal, port_nodes)
     return text, problem
+
+
+class PortNodes(Mapping):
+    """``x1.out`` -> the node instance ``x1`` connects its port ``out`` to (a port has no hierarchical
+    name of its own), read only for the hint at a card that names one: one entry per instance (its
+    ports' mapping, made anyway), not per port, so a netlist of many instances pays nothing for it."""
+
+    def __init__(self, globals_: Mapping | set) -> None:
+        self._instances: dict[str, dict[str, str]] = {}
+        self._globals = globals_
+
+    def add(self, instance: str, ports: dict[str, str]) -> None:
+        self._instances.setdefault(instance, ports)
+
+    def __getitem__(self, name: str) -> str:
+        instance, _, port = name.rpartition(".")
+        ports = self._instances.get(instance)
+        if ports is None or port not in ports or port in self._globals:
+            raise KeyError(name)
+        return ports[port]
+
+    def __iter__(self):
+        return (f"{i}.{p}" for i, ports in self._instances.items() for p in ports if p not in self._globals)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
 
 
 def _no_node(node: str, port_nodes: Mapping[str, str] | None) -> str:
