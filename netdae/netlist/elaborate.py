@@ -1998,8 +1998,9 @@ def _no_node(node: str, port_nodes: Mapping[str, str] | None) -> str:
     if connected is None:
         return f"no node '{node}'"
     instance, _, port = node.rpartition(".")
-    return (f"no node '{node}' ('{port}' is a port of {instance}, which connects "
-            f"{'ground' if connected == '0' else repr(connected)} to it: save v({connected}))")
+    if connected == "0":
+        return f"no node '{node}' ('{port}' is a port of {instance}, which connects ground to it: 0 V)"
+    return f"no node '{node}' ('{port}' is a port of {instance}, which connects '{connected}' to it: save v({connected}))"
 
 
 def _capacitance_from_model(el: Element, model) -> float:

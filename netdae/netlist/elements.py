@@ -1386,6 +1386,10 @@ def unknown_node_hint(node: str, port_nodes: Mapping[str, str], example: str, ng
     if connected is None:
         return f"subcircuit nodes are named hierarchically, e.g. {example}"
     instance, _, port = node.rpartition(".")
-    there = "ground" if connected == "0" else f"node '{connected}'"
-    return (f"'{port}' is a port of subcircuit instance {instance}, which connects {there} to it, and a port "
-            f"has no name of its own inside the instance: write v({connected})" + (f"; {ngspice}" if ngspice else ""))
+    if connected == "0":
+        what = (f"'{port}' is a port of subcircuit instance {instance}, which connects ground to it: "
+                "the name is ground's, 0 V, so leave it out")
+    else:
+        what = (f"'{port}' is a port of subcircuit instance {instance}, which connects node '{connected}' to it, "
+                f"and a port has no name of its own inside the instance: write v({connected})")
+    return what + (f"; {ngspice}" if ngspice else "")
