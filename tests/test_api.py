@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import netdae
@@ -70,7 +71,7 @@ def test_bad_keyword_values_are_value_errors(option, value):
     # temperatures are refused by the reader, located at the value
     ("temp=-300", r":5:15: \.options: option temp = -300 degC is not above absolute zero"),
     ("tnom=-274", r":5:15: \.options: option tnom = -274 degC is not above absolute zero"),
-    ("maxord=6", r"\.options maxord.*out of range")])
+    ("maxord=7", r"\.options maxord.*out of range")])
 def test_bad_netlist_options_are_netlist_errors(card, pattern):
     text = f"rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.options {card}\n.op\n.tran 1u 10u\n.end\n"
     with pytest.raises(netdae.NetlistError, match=pattern):
@@ -187,3 +188,19 @@ def test_dense_output_refuses_a_time_that_is_not_a_number():
     with pytest.raises(ValueError, match="dense output times must be finite numbers, not nan"):
         r.dense([1e-6, float("nan")])
     assert r.dense(5e-6)["v(out)"][0] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_maxord_6_which_ngspice_takes_runs_as_5_with_a_warning():
+    """ngspice 39's gear takes ``.options maxord=6`` without a word; netdae refused the netlist ("out of
+    range"). It runs with netdae's highest order, 5, and says so at the option."""
+    text = "rc\nV1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out 1k\nC1 out 0 1u\n.options method=gear maxord=6\n.tran 1u 2m\n.end\n"
+    c = netdae.load(text)
+    assert c.options.maxord == 5
+    (w,) = [d for d in c.diagnostics if "maxord" in d.message]
+    assert w.severity == "warning" and (w.location.line, w.location.column) == (5, 29)
+    assert "runs with maxord=5" in w.message
+    r = netdae.simulate(c)
+    t = np.asarray(r.t)
+    exact = np.where(t < 1e-3, 1 - np.exp(-t / 1e-3), np.nan)  # the RC's rise (the 1 us ramp aside)
+    inside = (t > 0.1e-3) & (t < 1e-3)
+    np.testing.assert_allclose(np.asarray(r["v(out)"])[inside], exact[inside], atol=2e-3)

@@ -128,7 +128,7 @@ def test_an_empty_netlist_file_is_an_error(capsys, tmp_path):
     assert status == 2 and err.startswith(f"netdae: error: {path}:1:1: the netlist file is empty (0 bytes)")
 
 
-@pytest.mark.parametrize("option", ["reltol=2", "reltol=1", "temp=-300", "tnom=-274", "maxord=6"])
+@pytest.mark.parametrize("option", ["reltol=2", "reltol=1", "temp=-300", "tnom=-274", "maxord=7"])
 def test_bad_netlist_options_exit_2(capsys, tmp_path, option):
     path = tmp_path / "o.cir"
     path.write_text(f"rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.options {option}\n.op\n.end\n")

@@ -413,3 +413,41 @@ def test_a_breakdown_voltage_that_is_not_positive_is_refused_at_the_value(bv):
     with pytest.raises(NetlistError, match=rf"model dd: bv={bv} is impossible for a diode.*bv must be > 0") as info:
         netdae.run(f"t\nV1 in 0 -10\nR1 in a 1k\nD1 a 0 dd\n.model dd d is=1e-14 bv={bv}\n.op\n.end\n")
     assert (info.value.location.line, info.value.location.column) == (5, 25)
+
+
+_PORT_NET = ("t\n.subckt rc in out\nR1 in out 1k\nC1 out mid 1u\nR2 mid 0 1k\n.ends\n"
+             "V1 a 0 1\nXa a b rc\nXg b 0 rc\n")
+
+
+@pytest.mark.parametrize("card, column, written", [
+    (".ic v(xa.out)=0.5", 7, "v(b)"),
+    (".nodeset v(xa.out)=0.5", 12, "v(b)"),
+    (".ic v(xg.out)=0.5", 7, None),
+    (".tran 1u 1m\n.meas tran m FIND v(xa.out) AT=1u", 19, "v(b)"),
+])
+def test_a_subcircuit_port_named_hierarchically_gets_the_node_it_is(card, column, written):
+    """``x1.out`` names no node when ``out`` is a port of x1 (the port is the node x1 connects to it,
+    ngspice 39 ignores an .ic entry on it with a warning): the hint named hierarchical names, which the
+    card already used; it names the node to write."""
+    netlist = _PORT_NET + card + "\n"
+    with pytest.raises(NetlistError) as exc:
+        load(netlist)
+    err = exc.value
+    assert err.location.line == netlist.count("\n")
+    assert err.location.column == column
+    assert "is a port of subcircuit instance x" in err.hint, err.hint
+    if written is None:  # a port on ground: the name is ground's
+        assert "connects ground to it: the name is ground's, 0 V, so leave it out" in err.hint, err.hint
+    else:
+        assert f"write {written}" in err.hint, err.hint
+    # a node inside the instance keeps the hint on hierarchical names
+    with pytest.raises(NetlistError) as exc:
+        load(_PORT_NET + card.replace(".out", ".nothere") + "\n")
+    assert "named hierarchically" in exc.value.hint
+
+
+def test_a_save_of_a_subcircuit_port_named_hierarchically_names_the_node():
+    c = load(_PORT_NET + ".save v(xa.out) v(xa.mid)\n.tran 1u 1m\n")
+    text = " ".join(d.message for d in c.diagnostics)
+    assert "no node 'xa.out' ('out' is a port of xa, which connects 'b' to it: save v(b))" in text
+    assert c.saves == ["v(xa.mid)"]

@@ -14,7 +14,7 @@ import pytest
 
 import netdae
 from netdae.analyses.tran import transient
-from netdae.errors import NetdaeError
+from netdae.errors import NetdaeError, NetlistError
 
 TWO_PI = 2 * np.pi
 
@@ -359,3 +359,17 @@ def test_an_unstable_linear_circuit_fails_naming_its_growing_eigenvalue():
     assert res.status < 0
     lam = float(re.search(r"the eigenvalue (\S+) 1/s in the right half-plane", res.message).group(1))
     assert lam == pytest.approx((1e-3 - 1e-4 - 1e-6) / 1e-6, rel=1e-3)
+
+
+@pytest.mark.parametrize("written", ["trap", "trapezoidal", "TRAP"])
+def test_trap_is_refused_at_the_option(written):
+    """The refusal of ``method=trap`` (ngspice's default rule, which ngspice 39 takes) was a bare message
+    without the file, line and column of the option; it is located at the option's value."""
+    text = RC.format(src="SIN(0 1 500)", rtol=1e-3, tmax="10u").replace(
+        ".end", f".options reltol=1e-3 method={written}\n.end")
+    with pytest.raises(NetlistError) as exc:
+        run(text)
+    err = exc.value
+    line = text.split("\n").index(f".options reltol=1e-3 method={written}") + 1
+    assert (err.location.line, err.location.column) == (line, len(".options reltol=1e-3 method=") + 1)
+    assert "method=trap" in err.message and err.hint == "use method=gear or remove the option"

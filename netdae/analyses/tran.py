@@ -61,7 +61,7 @@ from ..dae.bdf.failures import RUNAWAY_FACTOR
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import KIND_VOLTAGE, LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
-from ..errors import CircuitError, ConvergenceError, NetdaeError, SingularPencilError, count_text
+from ..errors import CircuitError, ConvergenceError, NetdaeError, NetlistError, SingularPencilError, count_text
 from ..kinds import KINDS, NO_GAIN_KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
@@ -134,13 +134,17 @@ def _card(circuit: Circuit, card: TranAnalysis | None) -> TranAnalysis:
 
 
 def _check_method(circuit: Circuit) -> None:
+    """Refuse ``.options method=trap``, located at the option's value when the netlist gives it."""
     method = (circuit.options.method or "gear").lower()
     if method not in ("gear", "bdf"):
-        raise NetdaeError(
-            f".options method={method}: netdae integrates with variable-order BDF (method=gear) only; "
-            "the trapezoidal rule is not implemented (it rings on stiff and index-2 circuits, which BDF "
-            "damps) -- use method=gear or remove the option"
-        )
+        where = circuit.options.locations.get("method")
+        message = (f".options method={method}: netdae integrates with variable-order BDF (method=gear) only; "
+                   "the trapezoidal rule is not implemented (it rings on stiff and index-2 circuits, which BDF "
+                   "damps)")
+        hint = "use method=gear or remove the option"
+        if where is None:  # options set without a card (a Circuit built in Python)
+            raise NetdaeError(f"{message} -- {hint}")
+        raise NetlistError(message, where, expected=".options method=gear", hint=hint)
 
 
 def _save_request(system: MnaSystem, names: list[str]) -> tuple[np.ndarray, list[str], dict[str, tuple[int, int]]]:
@@ -782,8 +786,9 @@ def _settings(circuit: Circuit, card: TranAnalysis | None, *, reltol, abstol, vn
     abstol_ = abstol if abstol is not None else o.abstol
     order = maxord if maxord is not None else (o.maxord or MAX_ORDER)
     if not 1 <= order <= MAX_ORDER:
-        raise NetdaeError(f"maxord={order}: netdae's BDF has orders 1 to {MAX_ORDER} (BDF6 and beyond are not "
-                          "zero-stable); set .options maxord between 1 and 5")
+        raise NetdaeError(f"maxord={order}: netdae's BDF has orders 1 to {MAX_ORDER} (BDF7 and beyond are not "
+                          "zero-stable, and BDF6's stability region is too narrow for stiff circuits); set .options "
+                          "maxord between 1 and 5")
     tmax = max_step if max_step is not None else card.tmax
     if tmax is None or tmax <= 0.0:
         tmax = min(card.tstep, (card.tstop - card.tstart) / TMAX_DIVISOR)

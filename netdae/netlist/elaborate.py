@@ -37,7 +37,7 @@ from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES
 from . import expr as ex
 from . import lossy, shunts, urc
 from .shunts import DEFAULT_RSERIES
-from .elements import error, parse_value
+from .elements import error, parse_value, unknown_node_hint
 from .compat import MODE_HINT, realise_switch
 from .laplace import LAPLACE_KINDS, LaplaceError, realise
 from .lines import EXPR, STRING, WORD, Card, no_gc
@@ -92,6 +92,10 @@ ASRC_REFERENCE_TEMPERATURE = 27.0
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
+#: The highest integration order ngspice 39 takes (``.options maxord``, gear) and netdae's BDF's
+#: (``netdae.dae.bdf.MAX_ORDER``, not imported here: the reader loads no numerics).
+NGSPICE_MAXORD = 6
+NETDAE_MAXORD = 5
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
 #: The options that add elements (:mod:`netdae.netlist.shunts`).
 _SHUNT_OPTIONS = {"rshunt", "cshunt", "rseries"}
@@ -331,6 +335,9 @@ class _Elaborator:
             trace.start(self.root)
         self.envs: dict[tuple, Env] = {(): self.root}
         self._used: set[int] = set()  # the subcircuit definitions instantiated (by id)
+        # ``x1.out`` -> the node instance x1 connects its port ``out`` to: the name a port is *not*
+        # known by (its hierarchical name), for the hint at a card that names it
+        self.port_nodes = PortNodes(self.globals)
 
     @staticmethod
     def _temper(net: Netlist) -> ParamDef:
@@ -520,6 +527,7 @@ class _Elaborator:
         prefix = x.name
         ports = dict(zip(sub.ports, x.nodes))
         glob = self.globals
+        self.port_nodes.add(prefix, ports)
         frames = x.frames + (frame,)
         path = x.path + (inst.name,)
         own_models = sub.models
@@ -651,7 +659,8 @@ class _Elaborator:
         self._saves(circuit, nodes, elements)
         self._fouriers(circuit, nodes, elements)
         circuit.measures = elaborate_measures(self.net.measures, circuit, nodes, elements, self._value,
-                                              BRANCH_CURRENT_KINDS, functions=self.root)
+                                              BRANCH_CURRENT_KINDS, functions=self.root,
+                                              port_nodes=self.port_nodes)
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         self._unused_errors(self.net.top)
@@ -1784,6 +1793,14 @@ class _Elaborator:
                     if number != int(number) or number < 1:
                         raise error(card, value.start, f"option '{name}' needs a positive integer", form)
                     number = int(number)
+                    if name == "maxord" and number == NGSPICE_MAXORD:
+                        # ngspice 39's gear takes order 6 (it warns above it); netdae's BDF, as DASSL's and
+                        # IDA's, stops at 5 (BDF6's stability region is too narrow for stiff circuits)
+                        self.diagnostics.append(Diagnostic(
+                            "warning", f"option maxord={number}: netdae's BDF has orders 1 to {NETDAE_MAXORD}, "
+                            f"so it runs with maxord={NETDAE_MAXORD} (ngspice 39's gear takes order "
+                            f"{NGSPICE_MAXORD})", card.location(value.start)))
+                        number = NETDAE_MAXORD
                 elif name not in ("temp", "tnom") and number <= 0:
                     raise error(card, value.start, f"option '{name}' must be > 0", form)
                 elif name not in ("temp", "tnom") and number > STAMP_MAGNITUDES[1]:
@@ -1801,6 +1818,7 @@ class _Elaborator:
                     raise error(card, offset, f"unknown integration method '{word}'", form,
                                 hint="method=gear or method=trap")
                 opts.method = _METHODS[word]
+                opts.locations[name] = card.location(value.start)
             elif name == "interp":
                 opts.interp = True
             elif name == "seed":
@@ -1849,7 +1867,8 @@ class _Elaborator:
             for node, val, offset, card in entries:
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
-                                hint="subcircuit nodes are named hierarchically, e.g. x1.mid")
+                                hint=unknown_node_hint(node, self.port_nodes, "x1.mid",
+                                                       "ngspice 39 ignores the entry, with a warning"))
                 value = self._initial_number(self._value(val, card, f"initial value of v({node})"), card, val[1], what)
                 self._set_initial(target, where[what], what, node, value, card.location(offset))
         for p in self.local_initial:  # .ic/.nodeset cards inside subcircuits, one per instance
@@ -1880,7 +1899,7 @@ class _Elaborator:
     def _saves(self, circuit: Circuit, nodes: dict, elements: dict) -> None:
         seen: dict[str, None] = {}
         for signal, offset, card in self.net.saves:
-            text, problem = _save_signal(signal, nodes, elements)
+            text, problem = _save_signal(signal, nodes, elements, self.port_nodes)
             if text is None:
                 continue
             if problem is not None:
@@ -1908,10 +1927,12 @@ class _Elaborator:
                 circuit.fouriers.append(FourierSpec(f, tuple(dict.fromkeys(names)), card.location(0)))
 
 
-def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, str | None]:
+def _save_signal(signal: str, nodes: dict, elements: dict,
+                 port_nodes: Mapping[str, str] | None = None) -> tuple[str | None, str | None]:
     """``(name, problem)`` of a ``.save``/``.print``/``.four`` signal: its normalised name (``v(a)``,
     ``v(a,b)``, ``i(v1)``, ``@q1[ic]``, a noise vector) and why netdae cannot keep it (None when it can);
-    ``(None, None)`` for ``all``."""
+    ``(None, None)`` for ``all``. A subcircuit port named hierarchically (``x1.out``, ``port_nodes``)
+    gets the node it is in the problem."""
     if signal.endswith("#branch") and "(" not in signal:
         signal = f"i({signal[:-len('#branch')]})"  # ngspice's vector name of a branch current
     text = signal
@@ -1926,7 +1947,7 @@ def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, 
             if len(parts) == 2 and parts[1] == "0":
                 parts = parts[:1]
             text = f"v({','.join(parts)})"
-            problem = next((f"no node '{n}'" for n in parts if n != "0" and n not in nodes), None)
+            problem = next((_no_node(n, port_nodes) for n in parts if n != "0" and n not in nodes), None)
         elif head == "i":
             target = elements.get(parts[0]) if len(parts) == 1 else None
             if target is None:
@@ -1942,8 +1963,44 @@ def _save_signal(signal: str, nodes: dict, elements: dict) -> tuple[str | None, 
     else:
         text = f"v({_ground(signal)})"
         if _ground(signal) not in nodes:
-            problem = f"no node '{signal}'"
+            problem = _no_node(signal, port_nodes)
     return text, problem
+
+
+class PortNodes(Mapping):
+    """``x1.out`` -> the node instance ``x1`` connects its port ``out`` to (a port has no hierarchical
+    name of its own), read only for the hint at a card that names one: one entry per instance (its
+    ports' mapping, made anyway), not per port, so a netlist of many instances pays nothing for it."""
+
+    def __init__(self, globals_: Mapping | set) -> None:
+        self._instances: dict[str, dict[str, str]] = {}
+        self._globals = globals_
+
+    def add(self, instance: str, ports: dict[str, str]) -> None:
+        self._instances.setdefault(instance, ports)
+
+    def __getitem__(self, name: str) -> str:
+        instance, _, port = name.rpartition(".")
+        ports = self._instances.get(instance)
+        if ports is None or port not in ports or port in self._globals:
+            raise KeyError(name)
+        return ports[port]
+
+    def __iter__(self):
+        return (f"{i}.{p}" for i, ports in self._instances.items() for p in ports if p not in self._globals)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+
+def _no_node(node: str, port_nodes: Mapping[str, str] | None) -> str:
+    connected = (port_nodes or {}).get(node)
+    if connected is None:
+        return f"no node '{node}'"
+    instance, _, port = node.rpartition(".")
+    if connected == "0":
+        return f"no node '{node}' ('{port}' is a port of {instance}, which connects ground to it: 0 V)"
+    return f"no node '{node}' ('{port}' is a port of {instance}, which connects '{connected}' to it: save v({connected}))"
 
 
 def _capacitance_from_model(el: Element, model) -> float:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 import sys
+from collections.abc import Mapping
 
 from ..errors import NetlistError
 from ..kinds import KINDS, MAX_CPL_CONDUCTORS, Kind
@@ -1374,3 +1375,21 @@ def _parse_element(card: Card, calls=None) -> ElementCard | InstanceCard | list[
     if letter == "u":
         return _urc(card, toks, syntax)
     return _instance(card, toks, syntax)
+
+
+def unknown_node_hint(node: str, port_nodes: Mapping[str, str], example: str, ngspice: str = "") -> str:
+    """The hint at a card naming a node the circuit lacks: where ``node`` is the hierarchical name of a
+    subcircuit port (``x1.out``), which names no node (the port *is* the node the instance connects to
+    it), the node to write instead, then ``ngspice`` (what ngspice does with the name); else how
+    subcircuit nodes are named (``example``, e.g. ``x1.mid``)."""
+    connected = port_nodes.get(node)
+    if connected is None:
+        return f"subcircuit nodes are named hierarchically, e.g. {example}"
+    instance, _, port = node.rpartition(".")
+    if connected == "0":
+        what = (f"'{port}' is a port of subcircuit instance {instance}, which connects ground to it: "
+                "the name is ground's, 0 V, so leave it out")
+    else:
+        what = (f"'{port}' is a port of subcircuit instance {instance}, which connects node '{connected}' to it, "
+                f"and a port has no name of its own inside the instance: write v({connected})")
+    return what + (f"; {ngspice}" if ngspice else "")

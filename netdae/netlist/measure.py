@@ -35,7 +35,7 @@ import math
 from ..errors import NetlistError
 from ..kinds import KINDS
 from . import expr as ex
-from .elements import IDENT, error, parse_expr, parse_value
+from .elements import IDENT, error, parse_expr, parse_value, unknown_node_hint
 from .lines import EXPR, PUNCT, WORD, Card, Token
 from .params import UnknownName, inline_calls
 from .statements import MeasureCard
@@ -387,7 +387,7 @@ def _window_beside_at(cur: _Cursor, where: str) -> None:
 # elaboration: MeasureCard -> MeasureSpec
 # ---------------------------------------------------------------------------
 def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value, branch_kinds,
-                       functions=None) -> list:
+                       functions=None, port_nodes=None) -> list:
     """Evaluate and check the measurement cards against the flat circuit.
 
     Parameters
@@ -404,6 +404,9 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
     functions : Env, optional
         The top-level scope whose ``.func`` definitions ``PARAM=`` expressions
         may call (expanded here, as in ``.param``).
+    port_nodes : mapping, optional
+        ``x1.out`` -> the node instance x1 connects its port ``out`` to, for the
+        hint at a signal that names a port hierarchically (which names no node).
 
     Returns
     -------
@@ -491,7 +494,7 @@ def elaborate_measures(cards: list[MeasureCard], circuit, nodes, elements, value
         for nd in names:
             if nd != "0" and nd not in nodes:
                 raise error(card, offset, f"unknown node '{nd}' in a measured signal", FORM,
-                            hint="subcircuit nodes are named hierarchically, e.g. v(x1.mid)")
+                            hint=unknown_node_hint(nd, port_nodes or {}, "v(x1.mid)"))
         if len(names) == 2 and names[1] == "0":
             names = names[:1]
         return Probe(Signal("v", tuple(names)), part)
