@@ -574,8 +574,11 @@ class BDF:
         self._nst = k
         self.h = h
 
-    def _restart(self, h_last):
-        """Order-1 restart on a breakpoint: derivatives from the right by a probe."""
+    def _restart(self, h_last, final=False):
+        """Order-1 restart on a breakpoint: derivatives from the right by a probe.
+
+        ``final``: at ``t_bound`` itself (an event there), where no breakpoint lies ahead to bound the
+        probe's step: ``h_last`` and the step bounds do."""
         self.stats["restarts"] += 1
         self._rec.restart(self.t)
         x = self._hist.P[0, : self.n].copy()
@@ -584,7 +587,8 @@ class BDF:
             if p is not None:
                 self._initialise_history(self._fixed_h, p.xp, p.qp)
             return
-        cap = max(min(h_last, self.max_step, self._breakpoints[self._ibp] - self.t), self.min_step)
+        ahead = np.inf if final else self._breakpoints[self._ibp] - self.t
+        cap = max(min(h_last, self.max_step, ahead), self.min_step)
         self._restart_at(x, cap)
 
     # ------------------------------------------------------------- properties
@@ -963,15 +967,26 @@ class BDF:
             self.message = f"stopped at t={t_end:.9g}: {ended}, after {self.stats['steps']} steps"
             return
         landed = landing and t_end == t_new
-        if landed and self._ibp == self._breakpoints.size - 1:
+        final = landed and self._ibp == self._breakpoints.size - 1
+        if final and not event:
             self.status = RunState.FINISHED
             self.message = self._success_message()
             return
-        if self.max_steps is not None and self.stats["steps"] >= self.max_steps:
+        if not final and self.max_steps is not None and self.stats["steps"] >= self.max_steps:
             self._fail(t_end, self.h, f"reached max_steps={self.max_steps}", None,
                        "raise max_steps, or loosen the tolerances")
             return
         if event and not self._count_event(t_end, switched, self._nst == 1, h, switched[0] in changed):
+            return
+        if final:
+            # a switch or a comparison changes at the end itself: the event is recorded and so is the
+            # value after it (the right limit at t_bound, a jump's second point), then the run ends
+            self._event_restart = True
+            self._restart(h, final=True)
+            self._event_restart = False
+            if self.status == RunState.RUNNING:
+                self.status = RunState.FINISHED
+                self.message = self._success_message()
             return
         if landed or event:
             self._after_event = event

@@ -203,7 +203,8 @@ I_OSDI_END = 48         # an OSDI module's $finish / $stop at the last accepted 
 I_OSDI_END_INST = 49    # the OSDI instance that raised it
 I_CHARGE_TIME = 50      # 1: a charge reads time itself (trows: the probe takes dq/dt at fixed x, their charge
 #                         errors are tested)
-N_I = 51
+I_FINAL_RESTART = 51    # 1: the pending restart is at t_bound (an event there): the run ends after it
+N_I = 52
 
 # statuses
 RUNNING = 0
@@ -1447,6 +1448,10 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 return I[I_STATUS]
             I[I_PENDING_RESTART] = 0
             I[I_EVENT_RESTART] = 0
+            if I[I_FINAL_RESTART] != 0:
+                # the value after an event at t_bound is recorded (a jump's second point): the end
+                I[I_STATUS] = FINISHED
+                return FINISHED
         if I[I_M] >= buf_t.size:
             return BUFFER_FULL
         if chunk >= max_chunk_steps:
@@ -1926,10 +1931,11 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             I[I_STATUS] = FINISHED
             return FINISHED
         landed = landing and t_end == t_new
-        if landed and I[I_IBP] == bps.size - 1:
+        final = landed and I[I_IBP] == bps.size - 1
+        if final and not event:
             I[I_STATUS] = FINISHED
             return FINISHED
-        if I[I_MAX_STEPS] > 0 and I[I_STEPS] >= I[I_MAX_STEPS]:
+        if not final and I[I_MAX_STEPS] > 0 and I[I_STEPS] >= I[I_MAX_STEPS]:
             _fail(F, I, t_end, F[F_H], FAIL_MAX_STEPS * 256, -1)
             return FAILED
         if event:
@@ -1955,6 +1961,13 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             if I[I_CHATTER] >= CHATTER_EVENTS:
                 _fail(F, I, t_end, h, FAIL_CHATTER * 256, event_idx[j, 0])
                 return FAILED
+        if final:
+            # a switch or a comparison changes at t_bound itself: the event is recorded above, the value
+            # after it (the right limit) by the restart, which no breakpoint ahead bounds, then the run ends
+            _schedule_restart(F, I, t_end, h, bps, restart_times, segments)
+            F[F_RESTART_CAP] = max(min(h, F[F_MAX_STEP]), F[F_MIN_STEP])
+            I[I_FINAL_RESTART] = 1
+            continue
         if landed or event:
             I[I_AFTER_EVENT] = 1 if event else 0
         if event and not landed:
