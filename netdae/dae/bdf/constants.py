@@ -89,8 +89,10 @@ JUMP_DETECT = 1.0
 #: PULSE whose slope is 1e4 times its time constant's scale). A jump counts when the second
 #: step moves the unknown by at most JUMP_FIRST_STEP of the first.
 JUMP_FIRST_STEP = 0.5
-#: At the start of a nonlinear system, a right limit that moves the solution is confirmed with
-#: the short steps of EVENT_RIGHT_LIMIT_FRACTION when the probe's two Euler steps move some
+#: A nonlinear system's right limit that moves the solution at a restart after the start that is
+#: not a switching event is confirmed with the short steps of EVENT_RIGHT_LIMIT_FRACTION (a mode
+#: faster than the probe's step moves nothing within them: a base current cut at a PULSE corner,
+#: tests/test_fast_mode_at_corner.py); at the start only when the probe's two Euler steps move some
 #: unknown in opposite directions, the second by more than JUMP_OSCILLATION of the first:
 #: implicit Euler damps a mode that grows faster than its step as it damps a decaying one, with
 #: a negative factor ``1 / (1 - h lambda)`` (an op-amp loop at its unstable operating point:

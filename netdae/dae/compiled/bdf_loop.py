@@ -1010,11 +1010,11 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
                 I[I_RL_READY] = 0
                 for i in range(n):
                     xr[i] = rl_given[i]
-            if I[I_STEPS] == 0 and I[I_EVENT_RESTART] == 0 and oscillates and F[F_RL_EPS] > short:
-                # at the start, where the probe's steps oscillated, a move is confirmed with the short
-                # steps: a mode growing faster than the probe's step (implicit Euler damps it, with a
-                # negative factor) moves nothing there, an input that jumps at t0 or an .ic released
-                # there moves the solution within the first of them
+            if I[I_EVENT_RESTART] == 0 and (I[I_STEPS] > 0 or oscillates) and F[F_RL_EPS] > short:
+                # a move is confirmed with the short steps (see BDF._jump): a mode faster than the
+                # probe's step after the start (a base current cut at an input's corner), or at the
+                # start one growing faster (the probe's steps oscillated), moves nothing within them;
+                # an input that jumps moves the solution within the first of them
                 moved = False
                 for i in range(n):
                     if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
