@@ -344,8 +344,11 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")
     elif rep.index is not None:
         kind = {0: "an ODE (E is invertible)", 1: "every algebraic unknown follows from the states and the inputs"}
+        excited = rep.pencil is None or any(lb.startswith("index") for lb in rep.unknowns.values())
         out.append(f"index {rep.index} ({rep.method}): " + kind.get(rep.index, (
-            f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}")))
+            f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}" if excited else
+            f"the pencil has an infinite block of size {rep.index}, but no input drives it: no unknown depends on "
+            "the inputs' derivatives")))
     else:
         out.append("index unknown: " + (topo.index_message if topo is not None else "no analysis"))
     pen = rep.pencil
@@ -355,14 +358,17 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
             out.append(f"uncertain in its details: double precision does not decide this structure; exact "
                        f"arithmetic confirms a regular pencil of index {ex.index}, with {ex.n_finite} dynamic states "
                        f"where the report has {pen.n_dynamic}, a difference only singular values below rounding can "
-                       f"show (see the warnings under the rank decisions)")
+                       f"show (see the warnings under the rank decisions), or element values that satisfy a relation "
+                       f"exactly (inductors coupled with K = 1) which the stored, rounded values do not")
         else:
             out.append("uncertain: double precision does not decide this structure (see the warnings under the "
                        "rank decisions)" + (f"; in exact arithmetic it is {'regular, of index ' + str(ex.index) if ex.regular else 'singular'}"
                                             if ex is not None else "")
                        + "; element values whose ratios approach the limit of double precision (gains of 1e9 and "
                        "more, resistances of milli-ohms beside tera-ohms) make a finite value indistinguishable "
-                       "from an ideal one")
+                       "from an ideal one, and element values that satisfy a relation exactly (a loop gain of exactly "
+                       "1, inductors coupled with K = 1) no longer satisfy it once stored rounded (a resistor's "
+                       "conductance 1/R, a coupling's k sqrt(L1 L2)), which the exact arithmetic sees")
     if pen is not None and pen.decided_exactly:
         out.append("decided exactly: double precision decided this structure otherwise, or only closely; ranks in "
                    "exact arithmetic decide it (see the warnings under the rank decisions for what they were "
