@@ -205,6 +205,8 @@ E2 o2 0 0 n2 OPAMP
     sparse = analyze_index(circuit, method="sparse")
     assert sparse.index is None
     assert sparse.algebraic.determined and sparse.algebraic.impulsive_dim == 1 and not sparse.algebraic.index2
+    # the method line says what was asked for (it said 'topological (requested)' when sparse was)
+    assert any(m.startswith("method: topological (sparse requested); no exact index") for m in sparse.messages)
     # one differentiator alone is index 2, and the sparse method still says so
     one = netdae.load(text.split("C2")[0] + ".tran 1u 1m\n")
     assert analyze_index(one, method="sparse").index == 2

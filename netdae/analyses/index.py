@@ -659,7 +659,7 @@ def analyze_index(circuit: Circuit | Prepared | str | os.PathLike, *, at: str = 
         rep.messages.append(f"the transient's initial point was not checked for consistency: {start_missing}")
     if rep.method in ("topological", "sparse"):
         why = (f"{system.n} unknowns is above the dense limit of {DENSE_LIMIT}" if system.n > DENSE_LIMIT
-               else "requested")
+               else "requested" if method == rep.method else f"{method} requested")
         part = rep.algebraic
         if rep.method == "sparse":
             where = "a linear circuit" if point == POINT_LINEAR else f"linearised at {point}"
