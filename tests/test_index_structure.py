@@ -209,3 +209,17 @@ C2 out 0 1u
     assert not any("depend on derivatives of the inputs" in m for m in rep.messages)
     assert any(m.startswith("index 2 (kronecker): the pencil has an infinite block of size 2, but no input drives it")
                for m in rep.messages)
+
+
+def test_a_conserved_flux_is_a_natural_frequency_of_exactly_zero():
+    """Two inductors in parallel fed by a current source: the flux around the loop they form is conserved, a
+    natural frequency of 0; QZ gave 1.9e-15, a growing mode to the eye."""
+    text = """parallel inductors
+I1 0 1 DC 1m SIN(0 1m 1k)
+L1 1 0 1m
+L2 1 0 2m
+.tran 1u 1m
+.end
+"""
+    rep = analyze_index(netdae.load(text))
+    assert rep.index == 2 and rep.finite_eigenvalues.tolist() == [0j]

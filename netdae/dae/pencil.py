@@ -952,7 +952,7 @@ def analyze_pencil(
     if ks.regular:
         wf = weierstrass_from_staircase(ks.first, bal, rtol, finite_method=finite_method)
         cls = wf.classify(B)
-        lam = wf.eigenvalues
+        lam = exact_zeros(wf.eigenvalues, ks.finite_pencil[1], tol_h)
         index = wf.index
         fmethod = wf.finite_method
     else:
@@ -1024,6 +1024,31 @@ class FiniteSpectrum:
     notes: tuple
 
 
+def exact_zeros(lam: np.ndarray, fh: np.ndarray, tol_h: float) -> np.ndarray:
+    """The finite eigenvalues with those at the origin made exactly 0, by a rank decision on ``fh``.
+
+    The finite part ``lambda fe - fh`` (``fe`` invertible) has ``dim ker fh`` eigenvalues at 0; QZ gives
+    them as rounding of the size of the pencil's scale times eps, of either sign (a capacitor charged by a
+    current source, the flux of a loop of inductors: 1e-13 or -1e-26 rad/s). The singular values of ``fh``
+    at most ``tol_h`` (the tolerance of the staircase's decisions on H, ``n eps ||Hb||_F``) count as zero,
+    the mirror of the decisions on E that deflate the eigenvalues at infinity, and as many eigenvalues,
+    the smallest in magnitude, are set to 0 (a Jordan block at 0 of larger size leaves its other
+    eigenvalues split by rounding, as QZ gives them).
+
+    >>> exact_zeros(np.array([-1000.0 + 0j, 3e-14 + 0j]), np.array([[1.0, 0.0], [0.0, 1e-17]]), 1e-15).tolist()
+    [(-1000+0j), 0j]
+    """
+    lam = np.asarray(lam, dtype=complex)
+    if not lam.size or not fh.size:
+        return lam
+    zero = int(np.sum(sla.svdvals(fh) <= tol_h))
+    if zero == 0:
+        return lam
+    out = lam.copy()
+    out[np.argsort(np.abs(lam), kind="stable")[:zero]] = 0.0
+    return out
+
+
 def finite_eigenvalues(E, H, *, tol: float | None = None, balance: bool = True) -> FiniteSpectrum:
     """The finite eigenvalues of the pencil ``lambda E - H``, the infinite ones removed structurally.
 
@@ -1061,6 +1086,7 @@ def finite_eigenvalues(E, H, *, tol: float | None = None, balance: bool = True) 
     ks = dec.ks
     fe, fh = ks.finite_pencil
     lam = dec.bal.time_scale * sla.eigvals(fh, fe) if fe.size else np.zeros(0, dtype=complex)
+    lam = exact_zeros(lam, fh, dec.tol_h)
     return FiniteSpectrum(regular=ks.regular, eigenvalues=np.asarray(lam, dtype=complex),
                           n_infinite=int(sum(ks.infinite_blocks)), rtol=rtol, margin=float(ks.margin),
                           notes=tuple(dec.notes))
