@@ -284,3 +284,34 @@ def test_a_pole_at_the_origin_matches_ngspice():
     ng = run_ngspice(CHARGED, backend="subprocess").result("pz")
     item = compare_pz(pz_of(CHARGED), ng, tol=Tolerance(1e-6))
     assert item.passed and not item.only_netdae and not item.only_ngspice
+
+
+HIGHPASS2 = """two buffered CR high-pass sections: a double zero at the origin
+V1 in 0 dc 0 ac 1
+C1 in a 1u
+R1 a 0 1k
+E1 b 0 a 0 1
+C2 b out 1u
+R2 out 0 1k
+.pz in 0 out 0 vol pz
+.end
+"""
+
+
+def test_a_double_zero_at_the_origin_is_exactly_zero_twice():
+    # G(s) = (s RC / (1 + s RC))^2: zeros 0, 0 (a Jordan block: one null vector of H's finite part, so a rank
+    # of H_f alone finds one); poles -1000 twice. The reversed pencil's staircase counts both.
+    res = pz_of(HIGHPASS2)
+    zeros = [complex(res.signals[n][0]) for n in res.signals if n.startswith("zero")]
+    poles = [complex(res.signals[n][0]) for n in res.signals if n.startswith("pole")]
+    assert zeros == [0j, 0j]
+    assert np.allclose(poles, [-1000.0, -1000.0], rtol=1e-6)
+
+
+@pytest.mark.ngspice
+def test_a_double_zero_at_the_origin_matches_ngspice():
+    from netdae.ngspice import run_ngspice
+
+    ng = run_ngspice(HIGHPASS2, backend="subprocess").result("pz")
+    item = compare_pz(pz_of(HIGHPASS2), ng, tol=Tolerance(1e-3))
+    assert item.passed and not item.only_netdae and not item.only_ngspice
