@@ -155,7 +155,7 @@ def compare_pz(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
         for i, j, _ in pairs:
             err = abs(a[i] - b[j])
             scale = max(abs(a[i]), abs(b[j]), floor)
-            if (a[i] == 0 or b[j] == 0) and err <= ORIGIN * top:
+            if ((a[i] == 0) != (b[j] == 0)) and err <= ORIGIN * top:
                 scale = ORIGIN * top  # a root at the origin: a multiple one splits by sqrt(eps)
                 floored.append(names_a[i])
             passed = None if tol is None else bool(err <= tol.rel * scale or (tol.abs is not None and err <= tol.abs))
