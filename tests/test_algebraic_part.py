@@ -210,3 +210,21 @@ E2 o2 0 0 n2 OPAMP
     # one differentiator alone is index 2, and the sparse method still says so
     one = netdae.load(text.split("C2")[0] + ".tran 1u 1m\n")
     assert analyze_index(one, method="sparse").index == 2
+
+
+def test_the_sparse_method_names_a_behavioural_sources_loop_current_as_the_dense_one_does():
+    """A B source of time across a capacitor: i(b1) = -C V'(t), index 2. The source's time function is in its
+    device law, not in the input matrix, so the algebraic part's impulse support (from B) was empty: the
+    sparse method said index 2 and named no unknown (a transient above the dense limit then error-tests
+    i(b1)). It adds the structure's index-2 unknowns where the index is 2, as the dense method does."""
+    text = """b source of time on a capacitor
+B1 1 0 V=sin(2*3.14159*1k*time)
+C1 1 0 1u
+R1 1 0 1k
+.tran 1u 1m
+"""
+    circuit = netdae.load(text)
+    dense = analyze_index(circuit, method="kronecker")
+    sparse = analyze_index(circuit, method="sparse")
+    assert dense.index == sparse.index == 2
+    assert sparse.unknowns["i(b1)"] == dense.unknowns["i(b1)"] == "index2"

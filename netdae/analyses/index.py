@@ -632,6 +632,9 @@ def analyze_index(circuit: Circuit | Prepared | str | os.PathLike, *, at: str = 
             if part.determined and part.index is not None:
                 idx, how = part.index, "sparse"
                 sig2 = {names[i] for i in part.support}
+                if idx == 2:  # as the dense path does (_index2_from_topology): the structure's index-2 unknowns,
+                    # which the input matrix misses where a device's law holds the input (a B source of time)
+                    sig2 |= set(topo.index2_signals) & set(names)
         labels = {nm: ("index2" if nm in sig2 else "unclassified") for nm in names}
         rep = IndexReport(
             regular=False if topo.singular else (True if idx is not None else None), index=idx,
