@@ -211,3 +211,31 @@ def test_a_param_of_a_failed_measurement_does_not_fail_ngspice_s_run(backend):
     e = next(m for m in c.measures if m.name == "e")
     assert e.ngspice.status == "failed" and "Undefined parameter [t1]" in e.ngspice.reason
     assert "cannot compute substitute" not in e.ngspice.reason.lower()
+
+
+SWITCH_AC = """a switch that is on at the operating point, in .ac
+V1 in 0 DC 0 AC 1
+VC ctl 0 DC 2
+S1 in a ctl 0 sw
+R1 a 0 1k
+.model sw SW(VT=1 RON=10 ROFF=1meg)
+.ac lin 3 1k 3k
+.end
+"""
+
+
+@pytest.mark.ngspice
+def test_an_ac_disagreement_with_a_switch_on_names_ngspices_roff():
+    # the switch is on (VC = 2 > VT = 1): v(a) = 1k / (1k + RON) = 0.990 (netdae); ngspice 39 takes ROFF in its
+    # AC matrix whatever the state, 1k / (1k + 1meg) = 9.99e-4. The comparison fails, and now says why.
+    import numpy as np
+
+    (res,) = netdae.run(SWITCH_AC)
+    assert np.allclose(np.abs(np.asarray(res["v(a)"])), 1e3 / (1e3 + 10.0), rtol=1e-9)
+    comparison = netdae.compare(SWITCH_AC, backend="subprocess")
+    item = comparison.analysis("ac")
+    assert item.passed is False
+    ng = [s for s in item.signals if s.name == "v(a)"][0]
+    assert abs(ng.ngspice) == pytest.approx(1e3 / (1e3 + 1e6), rel=1e-6)
+    assert any(n.startswith("the circuit has switches (s1): ngspice 39's .ac takes each as open (ROFF)")
+               for n in item.notes)

@@ -323,3 +323,27 @@ def test_the_stamps_unsummed_entries_have_no_rounding_residue():
     circuit = exact_structure(E, H, terms=system.linear_terms)
     assert circuit.n_finite == 2  # C1 and C2
     assert stored.n_finite == 3  # the residue's spurious state
+
+
+def test_a_resistor_is_the_exact_reciprocal_of_its_resistance():
+    """A CCVS of 1k sensing a 0 V source in series with a 1k resistor, its output across both: v(2) = 1k
+    i(v2) = v(2), a loop gain of exactly 1, so the circuit is singular (no unique DC solution). The stored
+    conductance is 1/1000 rounded, and 1000 times it is not 1: the exact structure of the stored values was
+    regular, and `netdae index` called the singular pencil 'uncertain: regular in exact arithmetic'. The
+    stamps carry the resistance a conductance is the reciprocal of, and the exact structure reads 1/R."""
+    import netdae
+    from netdae.analyses.index import analyze_index
+    from netdae.analyses.prepared import prepare
+
+    text = ("ccvs loop of gain 1\nV1 in 0 1\nR1 in 2 3k\nH1 2 0 V2 1k\nV2 2 3 0\nR3 3 0 1k\n.op\n.end\n")
+    system = prepare(netdae.load(text)).system
+    E, H = system._E.toarray(), system._H.toarray()
+    assert exact_structure(E, H, terms=system.linear_terms).regular is False
+    # the value rounded, read as stored, is regular: the reciprocal is what decides it
+    assert exact_structure(E, H, terms=tuple(t[:3] for t in system.linear_terms)).regular is True
+    rep = analyze_index(netdae.load(text))
+    assert rep.regular is False and not rep.pencil.disputed
+    assert not any("uncertain" in m or "regular in exact arithmetic" in m for m in rep.messages)
+    # a gain of 999 is regular, in both arithmetics
+    other = prepare(netdae.load(text.replace("V2 1k", "V2 999"))).system
+    assert exact_structure(other._E.toarray(), other._H.toarray(), terms=other.linear_terms).regular is True

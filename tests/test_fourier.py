@@ -145,3 +145,23 @@ def test_a_failed_transient_is_not_analysed():
     assert not res.ok
     assert [f.status for f in res.fourier] == ["failed", "failed"]
     assert res.fourier[0].reason.startswith("the transient failed: ")
+
+
+def test_options_nfreqs_and_fourgridsize_are_read_as_ngspice_reads_them(tmp_path, ngspice_exe):
+    """ngspice's .options set the variables its .four reads: with nfreqs=15 fourgridsize=400 it prints 15
+    harmonics on 400 samples. netdae warned 'unknown option (neither netdae nor ngspice 39 knows it;
+    ngspice 39 ignores it)' and printed 10 on 200."""
+    text = CLIPPER.replace(".tran", ".options nfreqs=15 fourgridsize=400\n.tran")
+    path = tmp_path / "clipper.cir"
+    path.write_text(text)
+    out = subprocess.run([ngspice_exe, "-b", str(path)], capture_output=True, text=True, timeout=120).stdout
+    table = _ngspice_table(out.split("Fourier analysis for v(b)", 1)[1])
+    assert "No. Harmonics: 15" in out and "Gridsize: 400" in out and table.shape == (15, 5)
+    circuit = netdae.load(text)
+    assert not any("unknown option" in d.message for d in circuit.diagnostics)
+    (f,) = netdae.simulate(circuit).fourier
+    assert f.frequency.size == 15 and f.gridsize == 400
+    np.testing.assert_allclose(f.magnitude, table[:, 1], rtol=0, atol=1e-5 * table[1, 1])
+    # a value below 1 keeps ngspice's default
+    (g,) = netdae.simulate(netdae.load(CLIPPER.replace(".tran", ".options nfreqs=0\n.tran"))).fourier
+    assert g.frequency.size == 10 and g.gridsize == 200

@@ -185,3 +185,41 @@ def test_certain_topological_singularity_overrules_a_close_regular_decision():
     assert rep.regular is False and rep.index is None and rep.unknowns == {}
     assert "the circuit's structure makes it singular for any element values" in rep.messages[1]
     assert any("no connection to ground at all" in m for m in rep.messages)
+
+
+def test_an_index_2_block_no_input_drives_is_not_said_to_carry_input_derivatives():
+    """An ideal op-amp follower copies a capacitor node onto a second capacitor: v(out) = v(a) ties two
+    capacitor voltages, an infinite block of size 2, but i(e1) = C2 v(a)' is a derivative of a state, not of
+    the input (v(a)' = (v(in) - v(a)) / (R1 C1)). The report said 'some unknowns depend on derivatives of
+    the inputs' and then named none."""
+    text = """follower onto a capacitor
+V1 in 0 DC 0 SIN(0 1 1k)
+R1 in a 1k
+C1 a 0 1u
+E1 out 0 a out OPAMP
+C2 out 0 1u
+.tran 1u 1m
+.end
+"""
+    circuit = netdae.load(text)
+    rep = analyze_index(circuit)
+    E, H, _, _ = reference_mna(circuit)
+    assert (rep.regular, rep.index) == pencil_structure(E, H) == (True, 2)
+    assert not any(lb.startswith("index") for lb in rep.unknowns.values())
+    assert not any("depend on derivatives of the inputs" in m for m in rep.messages)
+    assert any(m.startswith("index 2 (kronecker): the pencil has an infinite block of size 2, but no input drives it")
+               for m in rep.messages)
+
+
+def test_a_conserved_flux_is_a_natural_frequency_of_exactly_zero():
+    """Two inductors in parallel fed by a current source: the flux around the loop they form is conserved, a
+    natural frequency of 0; QZ gave 1.9e-15, a growing mode to the eye."""
+    text = """parallel inductors
+I1 0 1 DC 1m SIN(0 1m 1k)
+L1 1 0 1m
+L2 1 0 2m
+.tran 1u 1m
+.end
+"""
+    rep = analyze_index(netdae.load(text))
+    assert rep.index == 2 and rep.finite_eigenvalues.tolist() == [0j]

@@ -465,3 +465,12 @@ def test_an_ac_scale_with_an_infinite_imaginary_part_keeps_its_frequencies(binar
     np.testing.assert_array_equal(ac.axis, freqs)
     np.testing.assert_array_equal(ac["v(out)"], [0.5 - 0.25j, 0.5 - 0.25j])
     assert any("imaginary part" in n for n in ac.notes)
+
+
+def test_a_plot_without_variables_is_an_empty_result():
+    # ngspice's .pz of a circuit without finite poles or zeros (a resistive divider) writes a plot of no
+    # vectors, 'No. Variables: 0', and nothing after 'Binary:'; it was refused as unreadable
+    header = ("Title: pz\nDate: d\nPlotname: Pole-Zero Analysis\nFlags: real\nNo. Variables: 0\nNo. Points: 1\n"
+              "Variables:\nBinary:\n")
+    (result,) = parse_raw(header.encode())
+    assert result.analysis == "pz" and not result.signals

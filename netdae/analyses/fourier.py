@@ -20,7 +20,7 @@ import numpy as np
 from ..fourier import Fourier
 from ..results import Result
 
-__all__ = ["NFREQS", "GRIDSIZE", "components", "evaluate_fouriers"]
+__all__ = ["NFREQS", "GRIDSIZE", "components", "evaluate_fouriers", "fourier_sizes"]
 
 #: Harmonics computed (the DC value and nine), ngspice's ``nfreqs``.
 NFREQS = 10
@@ -28,6 +28,25 @@ NFREQS = 10
 GRIDSIZE = 200
 #: A fundamental at most this fraction of the signal's largest value is rounding: no normalised values.
 FUNDAMENTAL_FLOOR = 1e-12
+
+
+def fourier_sizes(extra: dict) -> tuple[int, int]:
+    """``nfreqs`` and ``fourgridsize`` from a circuit's ``.options``, as ngspice 39's ``fourier.c`` reads them.
+
+    ngspice's ``.options`` set its variables too, and ``.four`` reads these two with ``cp_getvar``: a
+    number is truncated to an integer, and a value below 1 (or none, or one that is not a number) gives
+    the default, ten harmonics and 200 samples.
+
+    >>> fourier_sizes({"nfreqs": 15.0, "fourgridsize": 400.0}), fourier_sizes({"nfreqs": 0.0})
+    ((15, 400), (10, 200))
+    """
+    def read(name: str, default: int) -> int:
+        value = extra.get(name)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            return default
+        return int(value) if int(value) >= 1 else default
+
+    return read("nfreqs", NFREQS), read("fourgridsize", GRIDSIZE)
 
 
 def components(values, nfreqs: int = NFREQS):

@@ -344,8 +344,11 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
         out.append("singular pencil: the circuit equations have no or infinitely many solutions")
     elif rep.index is not None:
         kind = {0: "an ODE (E is invertible)", 1: "every algebraic unknown follows from the states and the inputs"}
+        excited = rep.pencil is None or any(lb.startswith("index") for lb in rep.unknowns.values())
         out.append(f"index {rep.index} ({rep.method}): " + kind.get(rep.index, (
-            f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}")))
+            f"some unknowns depend on derivatives of the inputs up to order {rep.index - 1}" if excited else
+            f"the pencil has an infinite block of size {rep.index}, but no input drives it: no unknown depends on "
+            "the inputs' derivatives")))
     else:
         out.append("index unknown: " + (topo.index_message if topo is not None else "no analysis"))
     pen = rep.pencil
@@ -355,14 +358,17 @@ def _messages(rep: IndexReport, dc_regular: bool | None = None) -> list[str]:
             out.append(f"uncertain in its details: double precision does not decide this structure; exact "
                        f"arithmetic confirms a regular pencil of index {ex.index}, with {ex.n_finite} dynamic states "
                        f"where the report has {pen.n_dynamic}, a difference only singular values below rounding can "
-                       f"show (see the warnings under the rank decisions)")
+                       f"show (see the warnings under the rank decisions), or element values that satisfy a relation "
+                       f"exactly (inductors coupled with K = 1) which the stored, rounded values do not")
         else:
             out.append("uncertain: double precision does not decide this structure (see the warnings under the "
                        "rank decisions)" + (f"; in exact arithmetic it is {'regular, of index ' + str(ex.index) if ex.regular else 'singular'}"
                                             if ex is not None else "")
                        + "; element values whose ratios approach the limit of double precision (gains of 1e9 and "
                        "more, resistances of milli-ohms beside tera-ohms) make a finite value indistinguishable "
-                       "from an ideal one")
+                       "from an ideal one, and element values that satisfy a relation exactly (a loop gain of exactly "
+                       "1, inductors coupled with K = 1) no longer satisfy it once stored rounded (a resistor's "
+                       "conductance 1/R, a coupling's k sqrt(L1 L2)), which the exact arithmetic sees")
     if pen is not None and pen.decided_exactly:
         out.append("decided exactly: double precision decided this structure otherwise, or only closely; ranks in "
                    "exact arithmetic decide it (see the warnings under the rank decisions for what they were "
@@ -626,6 +632,9 @@ def analyze_index(circuit: Circuit | Prepared | str | os.PathLike, *, at: str = 
             if part.determined and part.index is not None:
                 idx, how = part.index, "sparse"
                 sig2 = {names[i] for i in part.support}
+                if idx == 2:  # as the dense path does (_index2_from_topology): the structure's index-2 unknowns,
+                    # which the input matrix misses where a device's law holds the input (a B source of time)
+                    sig2 |= set(topo.index2_signals) & set(names)
         labels = {nm: ("index2" if nm in sig2 else "unclassified") for nm in names}
         rep = IndexReport(
             regular=False if topo.singular else (True if idx is not None else None), index=idx,
@@ -653,7 +662,7 @@ def analyze_index(circuit: Circuit | Prepared | str | os.PathLike, *, at: str = 
         rep.messages.append(f"the transient's initial point was not checked for consistency: {start_missing}")
     if rep.method in ("topological", "sparse"):
         why = (f"{system.n} unknowns is above the dense limit of {DENSE_LIMIT}" if system.n > DENSE_LIMIT
-               else "requested")
+               else "requested" if method == rep.method else f"{method} requested")
         part = rep.algebraic
         if rep.method == "sparse":
             where = "a linear circuit" if point == POINT_LINEAR else f"linearised at {point}"

@@ -61,7 +61,7 @@ def _count(v: float) -> bool:
 
 
 #: Options kept in ``Options.extra`` that netdae's devices read (the MOSFET defaults).
-USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas", "savecurrents"})
+USED_EXTRA_OPTIONS = frozenset({"defl", "defw", "defad", "defas", "savecurrents", "nfreqs", "fourgridsize"})
 #: Those the M elements run as bundled ports read (BSIM3, BSIM4, MOS2, MOS3 sizes; BSIM bins):
 #: :mod:`netdae.devices.osdi.spice_models`.
 BSIM_OPTIONS = frozenset({"scale", "wnflag"})
@@ -561,9 +561,10 @@ def fourier(circuit: Circuit, results: list[Result]) -> None:
     tran = next((r for r in results if r.analysis == "tran"), None)
     if tran is None:
         return
-    from .fourier import evaluate_fouriers
+    from .fourier import evaluate_fouriers, fourier_sizes
 
-    tran.fourier.extend(evaluate_fouriers(circuit.fouriers, tran))
+    nfreqs, gridsize = fourier_sizes(circuit.options.extra)
+    tran.fourier.extend(evaluate_fouriers(circuit.fouriers, tran, nfreqs=nfreqs, gridsize=gridsize))
 
 
 def simulate(circuit: Circuit | str | os.PathLike, *, card: TranAnalysis | None = None,

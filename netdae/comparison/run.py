@@ -275,6 +275,10 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     else:
         extra = {"circuit": circuit} if kind == "sens" else {}
         item = _COMPARERS[kind](nd, ng, tol=tol, wanted=wanted, exclude=exclude, **extra)
+    if kind == "ac" and any(sig.passed is False for sig in item.signals):
+        note = _switches_note(circuit)
+        if note is not None:
+            item.notes.append(note)
     if kind in ("op", "dc") and any(sig.passed is False for sig in item.signals):
         note = _current_law(kind, circuit, item, measured, ng, overrides)
         if note is not None:
@@ -283,6 +287,25 @@ def _compare_card(kind: str, circuit: Circuit, card, ng: Result | None, tol, ove
     item.ngspice_tolerances = {**ng.tolerances, "method": (ng.source.method if ng.source is not None and ng.source.method else "trap")}
     item.notes[:0] = [f"netdae: {note}" for note in nd.notes]
     return item
+
+
+def _switches_note(circuit: Circuit) -> str | None:
+    """Why an ``.ac`` of a circuit with switches can disagree: ngspice 39 takes every switch as ``ROFF`` in its
+    AC matrix whatever its state at the operating point (docs/ngspice.md, quirks); netdae takes the state's
+    resistance. None without switches.
+
+    >>> from netdae.circuit import Element
+    >>> print(_switches_note(Circuit("t", elements=[Element("s1", "vswitch", ("a", "b", "c", "0"))])))
+    the circuit has switches (s1): ngspice 39's .ac takes each as open (ROFF) whatever its state at the operating point, netdae with that state's resistance (docs/ngspice.md); a switch that is on there makes the two differ
+    """
+    from ..kinds import Kind
+
+    names = [el.name for el in circuit.elements if el.kind in (Kind.VSWITCH, Kind.CSWITCH)]
+    if not names:
+        return None
+    return (f"the circuit has switches ({', '.join(names[:6])}{' ...' if len(names) > 6 else ''}): ngspice 39's .ac "
+            "takes each as open (ROFF) whatever its state at the operating point, netdae with that state's "
+            "resistance (docs/ngspice.md); a switch that is on there makes the two differ")
 
 
 def _current_law(kind: str, circuit: Circuit, item, measured: Result, ng: Result, overrides: dict) -> str | None:

@@ -129,6 +129,8 @@ class _Blocks:
         coo = a.tocoo()
         count, rlab, clab = bipartite_components(coo.row, coo.col, m, k)
         self._coo = coo
+        self._csr = a
+        self._rlab, self._clab = rlab, clab
         rows_of = np.argsort(rlab, kind="stable")
         cols_of = np.argsort(clab, kind="stable")
         rstart = np.searchsorted(rlab[rows_of], np.arange(count + 1))
@@ -162,6 +164,46 @@ class _Blocks:
             left += [(rows, v) for v in rank.left.T]
         self.right = _columns(right, k)
         self.left = _columns(left, m)
+
+    def independent_beside(self, z: np.ndarray, what: str):
+        """Whether the columns of ``z`` are independent modulo the range of ``a``: ``rank [a | z] = rank a +
+        z.shape[1]``, decided as every other rank here on the groups ``z``'s rows reach (their rows and
+        columns; no other group shares a row with ``z``), or None when those groups together exceed
+        :data:`GROUP_LIMIT`.
+
+        ``Y^T z`` with ``Y`` a basis of ``ker a^T`` is nonsingular exactly then; deciding that small product's
+        rank against its own norm cannot tell a zero left by rounding from a value (a 1 x 1 product is
+        always 'full rank'), while ``[a | z]`` keeps the scale of the entries rounding acts on.
+
+        Parameters
+        ----------
+        z : ndarray, shape (m, d)
+        what : str
+            The decision's name in the evidence.
+
+        Returns
+        -------
+        tuple (bool or None, RankDecision or None)
+        """
+        d = z.shape[1]
+        mag = np.abs(z).max(axis=1) if d else np.zeros(z.shape[0])
+        top = mag.max() if mag.size else 0.0
+        if not top > 0.0:
+            return d == 0, None
+        # entries below SUPPORT_FRACTION of their column's largest are rounding (as in the kernel vectors); kept,
+        # balancing scales their column up against the rows they sit in and can hide a rank
+        colmax = np.abs(z).max(axis=0)
+        z = np.where(np.abs(z) > SUPPORT_FRACTION * colmax[None, :], z, 0.0)
+        mag = np.abs(z).max(axis=1)
+        reached = np.unique(self._rlab[mag > 0.0])
+        rows = np.flatnonzero(np.isin(self._rlab, reached))
+        cols = np.flatnonzero(np.isin(self._clab, reached))
+        if max(rows.size, cols.size + d) > GROUP_LIMIT:
+            return None, None
+        block = self._csr[rows][:, cols].toarray()
+        base = matrix_rank(block, vectors=False).rank if block.size else 0
+        aug = matrix_rank(np.hstack([block, z[rows]]), what=what, vectors=False)
+        return aug.rank - base == d, aug.decision
 
     def solve(self, z: np.ndarray) -> np.ndarray:
         """A solution ``y`` of ``a y = z`` for ``z`` in the range of ``a`` (least squares group by group).
@@ -230,7 +272,9 @@ def algebraic_part(E, H, B=None) -> AlgebraicPart:
     Notes
     -----
     With ``M = L0^T H K0`` and ``Y`` a basis of ``ker M^T``, the index is 2 exactly when
-    ``S = Y^T L0^T H E^+ H K0 N`` (``N`` a basis of ``ker M``) is nonsingular, and a step ``b`` of the
+    ``S = Y^T L0^T H E^+ H K0 N`` (``N`` a basis of ``ker M``) is nonsingular (decided as
+    ``rank [M | L0^T H E^+ H K0 N] = rank M + dim N`` on the groups it reaches, which keeps the scale
+    that a rank of the small ``S`` against its own norm loses), and a step ``b`` of the
     inputs then puts the impulse ``-K0 N S^-1 Y^T L0^T b`` into ``x``: its coefficient in ``E x'`` must
     vanish (``m`` in ``ker E``), its coefficient in ``x`` must be a jump of the charges (``H m`` in
     ``im E``), and the jump must carry the algebraic equations to their new right-hand side.
@@ -273,8 +317,16 @@ def algebraic_part(E, H, B=None) -> AlgebraicPart:
     nm = nm - mb.solve(np.asarray(m @ nm))
     w = np.asarray(k0 @ nm)
     hw = np.asarray(H @ w)
-    s_mat = np.asarray(y.T @ (lh @ eb.solve(hw)))
-    two = s_mat.shape[0] == d and not matrix_rank(s_mat, what="rank of the index-2 matrix S").deficient
+    z = np.asarray(lh @ eb.solve(hw))
+    s_mat = np.asarray(y.T @ z)
+    # S = Y^T z is nonsingular exactly when z's columns are independent modulo im M: decided on [M | z], whose
+    # entries carry the scale rounding acts on (S alone is decided against its own norm: a rounding residue
+    # of 1e-13 in a 1 x 1 S counted as full rank, and an index-3 circuit was reported as index 2)
+    two, decision = mb.independent_beside(z, "rank of [L0^T H K0 | L0^T H E^+ H W] (index 2: full)")
+    if two is None:  # the reached groups are too large to decide together: S's own rank
+        two = s_mat.shape[0] == d and not matrix_rank(s_mat, what="rank of the index-2 matrix S").deficient
+    elif not two and decision is not None:
+        decisions = decisions + (decision,)
     if B is not None and two:
         b = np.asarray(B.todense() if sp.issparse(B) else B, dtype=float).reshape(n, -1)
         w = w @ np.linalg.solve(s_mat, np.asarray(y.T @ (l0.T @ b)))

@@ -28,8 +28,9 @@ rationals whose denominators p does not divide); the ranks of the two primes are
 maximum.
 
 What this decides is the structure of the matrices *as stored*. A relation the element values
-satisfy exactly in real arithmetic but not after rounding (a gain of 3 in a loop with one of 1/3)
-is not seen; the floating-point decision, which treats rounding as zero, sees it. The exact
+satisfy exactly in real arithmetic but not after rounding (a gain of 3 in a loop with one of 1/3, a
+coupling ``k sqrt(L1 L2)``) is not seen, except that a resistor's conductance is read as the exact
+reciprocal of its resistance (a 1k resistor beside a CCVS of 1k is a loop gain of exactly 1); the floating-point decision, which treats rounding as zero, sees it. The exact
 decision is therefore an arbiter for pencils the floating-point decision leaves undecided, not a
 replacement for it.
 
@@ -217,12 +218,23 @@ def _null_dims(Ep: np.ndarray, Hp: np.ndarray, p: int, rng: np.random.Generator)
 
 
 def _field_of_terms(terms, n: int, p: int) -> np.ndarray:
-    """The residue matrix of unsummed entries ``(rows, cols, values)``: each value reduced exactly, then summed
-    modulo ``p`` (no rounding in the sums)."""
-    rows, cols, vals = (np.asarray(a) for a in terms)
+    """The residue matrix of unsummed entries ``(rows, cols, values)`` or ``(rows, cols, values, reciprocals)``:
+    each value reduced exactly, then summed modulo ``p`` (no rounding in the sums). A finite reciprocal ``w``
+    replaces its value by ``1 / w`` exactly (the inverse of ``w``'s residue): a resistor's conductance is then
+    the reciprocal of its resistance as written, not that reciprocal rounded."""
+    rows, cols, vals = (np.asarray(a) for a in terms[:3])
     out = np.zeros((n, n), dtype=np.int64)
     if vals.size:
-        np.add.at(out, (rows.astype(np.int64), cols.astype(np.int64)), to_field(vals.reshape(1, -1), p)[0])
+        res = to_field(vals.reshape(1, -1), p)[0]
+        if len(terms) > 3:
+            w = np.asarray(terms[3], dtype=float)
+            use = np.flatnonzero(np.isfinite(w) & (w != 0.0))
+            if use.size:
+                wr = to_field(w[use].reshape(1, -1), p)[0]
+                inv = np.array([pow(int(r), p - 2, p) for r in wr], dtype=np.int64)
+                ok = wr != 0  # p divides the numerator: keep the rounded value
+                res[use[ok]] = inv[ok]
+        np.add.at(out, (rows.astype(np.int64), cols.astype(np.int64)), res)
     return out % p
 
 
@@ -239,7 +251,8 @@ def exact_structure(E, H, *, seed: int = 0, terms=None) -> ExactStructure:
         below 1e-25).
     terms : tuple, optional
         ``((rows, cols, values), (rows, cols, values))``: E and H as the unsummed entries they are
-        sums of (a circuit's element stamps). Their structure is then decided with the sums exact
+        sums of (a circuit's element stamps); each may carry a fourth array, per value the ``w`` it is
+        the rounded reciprocal of (NaN where the value is exact), read as ``1 / w`` exactly. Their structure is then decided with the sums exact
         too, free of the residues that rounded sums leave (two capacitances at a node whose sum no
         longer cancels their off-diagonal entries): the structure of the elements' values as
         stored. ``E`` and ``H`` then give only the shape.

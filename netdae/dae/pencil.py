@@ -952,7 +952,7 @@ def analyze_pencil(
     if ks.regular:
         wf = weierstrass_from_staircase(ks.first, bal, rtol, finite_method=finite_method)
         cls = wf.classify(B)
-        lam = wf.eigenvalues
+        lam = exact_zeros(wf.eigenvalues, *ks.finite_pencil, tol_e, tol_h)
         index = wf.index
         fmethod = wf.finite_method
     else:
@@ -1024,6 +1024,31 @@ class FiniteSpectrum:
     notes: tuple
 
 
+def exact_zeros(lam: np.ndarray, fe: np.ndarray, fh: np.ndarray, tol_e: float, tol_h: float) -> np.ndarray:
+    """The finite eigenvalues with those at the origin made exactly 0, decided structurally.
+
+    The eigenvalues at 0 of the finite part ``lambda fe - fh`` (``fe`` invertible) are the infinite ones of
+    the reversed pencil ``mu fh - fe``; QZ gives them as rounding of the size of the pencil's scale times
+    eps, of either sign, and a multiple one (a Jordan block: two coupling capacitors, a double zero of a
+    second-order high-pass) split by sqrt(eps) of the scale. The staircase of the reversed pencil, with the
+    same tolerances (``n eps`` of the balanced matrices' norms: the mirror of the decisions that deflate the
+    eigenvalues at infinity), counts them, and as many eigenvalues, the smallest in magnitude, are set to 0.
+
+    >>> exact_zeros(np.array([-1000.0 + 0j, 3e-14 + 0j]), np.eye(2), np.array([[1.0, 0.0], [0.0, 1e-17]]),
+    ...             1e-15, 1e-15).tolist()
+    [(-1000+0j), 0j]
+    """
+    lam = np.asarray(lam, dtype=complex)
+    if not lam.size or not fh.size:
+        return lam
+    zero = int(sum(kronecker_structure(fh, fe, tol_h, tol_e).infinite_blocks))
+    if zero == 0:
+        return lam
+    out = lam.copy()
+    out[np.argsort(np.abs(lam), kind="stable")[:zero]] = 0.0
+    return out
+
+
 def finite_eigenvalues(E, H, *, tol: float | None = None, balance: bool = True) -> FiniteSpectrum:
     """The finite eigenvalues of the pencil ``lambda E - H``, the infinite ones removed structurally.
 
@@ -1061,6 +1086,7 @@ def finite_eigenvalues(E, H, *, tol: float | None = None, balance: bool = True) 
     ks = dec.ks
     fe, fh = ks.finite_pencil
     lam = dec.bal.time_scale * sla.eigvals(fh, fe) if fe.size else np.zeros(0, dtype=complex)
+    lam = exact_zeros(lam, fe, fh, dec.tol_e, dec.tol_h)
     return FiniteSpectrum(regular=ks.regular, eigenvalues=np.asarray(lam, dtype=complex),
                           n_infinite=int(sum(ks.infinite_blocks)), rtol=rtol, margin=float(ks.margin),
                           notes=tuple(dec.notes))

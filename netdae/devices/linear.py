@@ -177,6 +177,13 @@ def conductances(els: list[Element], temp: float, tnom: float, *, ac: bool = Fal
     return _multiplier(els) / (r * _temperature_factor(els, temp, tnom) * _scale(els))
 
 
+def _resistances_rounded(els: list[Element], temp: float, tnom: float) -> np.ndarray:
+    """``R factor scale`` as :func:`conductances` computes it before its one division."""
+    r = _values(els)
+    r = np.where(r == 0.0, ZERO_RESISTANCE, r)
+    return r * _temperature_factor(els, temp, tnom) * _scale(els)
+
+
 def resistor_noise(els: list[Element], circuit: Circuit, layout: Layout, x: np.ndarray):
     """The resistors' noise generators at the operating point (``.noise``), as ngspice 39's ``resnoise.c``.
 
@@ -246,7 +253,11 @@ def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):
             st.notes.append(f"{el.name}: resistance 0 replaced by {ZERO_RESISTANCE:g} ohm (as ngspice does)")
     g = conductances(els, temp, tnom)
     a, b = _two_nodes(els, layout)
-    st.H.add_conductance(a, b, -g)
+    # the exact structure reads a conductance as the reciprocal of the resistance it was rounded from (where
+    # no multiplier enters: g = 1 / (R factor scale), one rounding), so that 1k beside a gain of 1000 is a
+    # loop gain of exactly 1 there as in the netlist
+    st.H.add_conductance(a, b, -g, recip=np.where(_multiplier(els) == 1.0, -_resistances_rounded(els, temp, tnom),
+                                                  np.nan))
     with_ac = [k for k, el in enumerate(els) if "ac" in el.params]
     if with_ac:
         sub = [els[k] for k in with_ac]

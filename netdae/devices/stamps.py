@@ -30,9 +30,15 @@ class Triplets:
         self._rows: list[np.ndarray] = []
         self._cols: list[np.ndarray] = []
         self._vals: list[np.ndarray] = []
+        self._recips: list[np.ndarray | None] = []
 
-    def add(self, rows, cols, vals) -> None:
-        """Add entries; those with a ground (negative) row or column are dropped."""
+    def add(self, rows, cols, vals, recips=None) -> None:
+        """Add entries; those with a ground (negative) row or column are dropped.
+
+        ``recips``, optional: per entry a number ``w`` whose exact reciprocal the value stands for
+        (``vals = 1 / w`` rounded: a resistor's conductance), NaN where the value is itself exact;
+        only the exact structure reads it (:meth:`reciprocals`).
+        """
         rows = np.asarray(rows, dtype=np.int64).ravel()
         cols = np.asarray(cols, dtype=np.int64).ravel()
         vals = np.broadcast_to(np.asarray(vals, dtype=float), rows.shape).ravel()
@@ -40,13 +46,18 @@ class Triplets:
         self._rows.append(rows[keep])
         self._cols.append(cols[keep])
         self._vals.append(vals[keep])
+        self._recips.append(None if recips is None else
+                            np.broadcast_to(np.asarray(recips, dtype=float), rows.shape).ravel()[keep])
 
-    def add_conductance(self, a, b, g) -> None:
-        """The symmetric two-terminal pattern ``[[g, -g], [-g, g]]`` between nodes a and b."""
+    def add_conductance(self, a, b, g, recip=None) -> None:
+        """The symmetric two-terminal pattern ``[[g, -g], [-g, g]]`` between nodes a and b (``recip``: the
+        ``w`` with ``g = 1 / w`` exactly where known, NaN elsewhere; see :meth:`add`)."""
         a = np.asarray(a, dtype=np.int64)
         b = np.asarray(b, dtype=np.int64)
         g = np.asarray(g, dtype=float)
-        self.add(np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b]), np.concatenate([g, -g, -g, g]))
+        w = None if recip is None else np.broadcast_to(np.asarray(recip, dtype=float), g.shape)
+        self.add(np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b]), np.concatenate([g, -g, -g, g]),
+                 None if w is None else np.concatenate([w, -w, -w, w]))
 
     def add_incidence(self, a, b, k, *, row_sign: float, col_sign: float) -> None:
         """Branch ``k`` between nodes a (+) and b (-).
@@ -73,6 +84,12 @@ class Triplets:
     def values(self) -> np.ndarray:
         """All values added so far, in the order of :meth:`coordinates`."""
         return np.concatenate(self._vals) if self._vals else np.empty(0)
+
+    def reciprocals(self) -> np.ndarray:
+        """Per value, in the order of :meth:`values`, the ``w`` whose exact reciprocal it stands for, or NaN."""
+        if not self._vals:
+            return np.empty(0)
+        return np.concatenate([np.full(v.shape, np.nan) if w is None else w for v, w in zip(self._vals, self._recips)])
 
     def dense(self, n: int, m: int | None = None) -> np.ndarray:
         """The summed matrix as a dense array, shape (n, m) (m defaults to n); for small systems."""

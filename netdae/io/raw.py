@@ -254,6 +254,7 @@ class _Header:
     names: list[str] = field(default_factory=list)
     types: list[str] = field(default_factory=list)
     lengths: list[int | None] = field(default_factory=list)
+    names_read: bool = False  # 'Variables:' read with 'No. Variables: 0'
 
     @property
     def complex(self) -> bool:
@@ -353,7 +354,7 @@ class _Reader:
             elif key == "variables":
                 self._variables(head, value)
             elif key in ("binary", "values"):
-                if not head.names:
+                if not head.names and not head.names_read:
                     raise self.error(f"'{key}:' before 'Variables:'", self.line_no - 1)
                 return head, key
             else:
@@ -371,8 +372,9 @@ class _Reader:
     def _variables(self, head: _Header, rest: str) -> None:
         if head.nvars is None or head.npoints is None:
             raise self.error("'Variables:' before 'No. Variables:' and 'No. Points:'", self.line_no - 1)
-        if head.nvars == 0:
-            raise self.error("a plot without variables", self.line_no - 1)
+        if head.nvars == 0:  # ngspice's .pz without finite poles or zeros: a plot of no vectors
+            head.names_read = True
+            return
         lines = [rest] if rest else []
         while len(lines) < head.nvars:
             line = self.next_line()

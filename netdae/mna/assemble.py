@@ -146,7 +146,7 @@ def _system(layout: Layout, stamps, families: list, pattern: SparsePattern, mode
     system = MnaSystem(layout, E, H, B, sources, families, pattern, stamps.notes, H_ac,
                        delays=Delays.of(stamps, n) if stamps.delay_rows else None, like=like)
     if not families and not stamps.delay_rows and n <= EXACT_LIMIT:
-        system.linear_terms = tuple((*t.coordinates(), t.values()) for t in (stamps.E, stamps.H))
+        system.linear_terms = tuple((*t.coordinates(), t.values(), t.reciprocals()) for t in (stamps.E, stamps.H))
     return system
 
 

@@ -13,14 +13,15 @@ from __future__ import annotations
 
 import difflib
 
-#: ngspice 39's option names (its manual, chapter "Simulator Variables (.options)", and ``cktsopt.c``).
+#: ngspice 39's option names (its manual, chapter "Simulator Variables (.options)", and ``cktsopt.c``; and the
+#: variables its ``.four`` reads, which ``.options`` set too: ``nfreqs``, ``fourgridsize``, ``polydegree``).
 NGSPICE_OPTIONS = frozenset("""
 acct noacct noinit list nomod nopage node opts seed seedinfo temp tnom warn maxwarns savecurrents
 abstol gmin gminsteps gminfactor itl1 itl2 keepopinfo noopiter pivrel pivtol reltol rshunt vntol
 noopac autostop chgtol convstep convabsstep interp itl3 itl4 itl5 itl6 maxevitr maxevtiter maxopalter
 maxord method minbreak ramptime srcsteps trtol xmu badmos3 defad defas defl defw scale wnflag klu
 sparse cshunt rseries trytocompact bypass epsmin gshunt indverbosity norefvalue notrnoise filetype
-post ingold numdgt measdgt lvltim""".split())
+post ingold numdgt measdgt lvltim nfreqs fourgridsize polydegree""".split())
 
 #: Options with which ngspice 39 simulates another circuit, and what they do there.
 CIRCUIT_OPTIONS = {

@@ -222,7 +222,11 @@ class _Session:
         self.command("destroy all")
 
     def _strings(self, array) -> list[str]:
-        out = []
+        """The strings of a NULL-terminated ``char **``; none for a NULL array (ngSpice_AllVecs of a plot without
+        vectors: a .pz of a circuit without poles or zeros)."""
+        out: list[str] = []
+        if array == self.ffi.NULL:
+            return out
         index = 0
         while array[index] != self.ffi.NULL:
             out.append(self.ffi.string(array[index]).decode("utf-8", "replace"))
