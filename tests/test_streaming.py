@@ -365,3 +365,22 @@ def test_output_memory_exhausted_leaves_a_valid_file_of_what_was_computed(tmp_pa
     assert 0 < part.points <= driver.BUFFER_START and part.t[-1] < 20e-3
     message = next(r.getMessage() for r in caplog.records if "tran.raw holds the" in r.getMessage())
     assert "not enough memory to keep more output" in message and "--save" in message
+
+
+def test_a_fourier_card_keeps_the_transient_whole_in_memory(tmp_path, monkeypatch):
+    """``.four`` reads the last period of the run from the result in memory: a bounded run (``netdae run
+    --out``, no ``.meas``) kept only its last points and failed it ("its period 0.001 s is longer than the
+    transient's interval [0.0020455, 0.003] s"). With a ``.four`` card, as with ``.meas``, the run keeps its
+    points; the harmonics are those of the unbounded run."""
+    from netdae.dae.compiled import driver
+
+    netlist = ("four through a bounded run\nV1 in 0 SIN(0 1 1k)\nR1 in a 1k\nD1 a b dm\nR2 b 0 1k\n"
+               ".model dm D(IS=1e-14)\n.tran 1u 3m\n.four 1k v(b)\n.end\n")
+    monkeypatch.setattr(driver, "WINDOW_BYTES", 64 * 8 * 3)  # 64 points: far less than a period
+    full = run(netdae.load(netlist))[0]
+    (whole,) = full.fourier
+    assert whole.ok
+    tran = run(netdae.load(netlist), output=lambda position, start, block: None, bounded=True)[0]
+    (four,) = tran.fourier
+    assert four.ok, four.reason
+    np.testing.assert_allclose(four.magnitude, whole.magnitude, rtol=1e-12, atol=1e-15)

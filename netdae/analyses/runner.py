@@ -359,7 +359,8 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
 
                     stream = None if output is None or quantities else _stream(output, position, names, wanted)
                     res = transient(circuit, card, save=computed_from, progress=progress, output=stream,
-                                    bounded=bounded and not circuit.measures, room=room, **options)
+                                    bounded=bounded and not circuit.measures and not circuit.fouriers, room=room,
+                                    **options)
                 else:
                     res = _other_analysis(kind, circuit, card, options)
             except KeyboardInterrupt as exc:
