@@ -437,6 +437,10 @@ Analysis = OpAnalysis | TranAnalysis | AcAnalysis | DcAnalysis | PzAnalysis | Tf
 #: unknown at zero is ``1 / atol``, and below about 1e-25 (a branch current starting from 0 A) no step passes
 #: the error test; 1e-20 A is 62 electrons a second. ngspice takes smaller values (it tests only charges).
 TOLERANCE_MIN = 1e-20
+#: The highest BDF order netdae integrates with (``.options maxord``; netdae.dae.bdf reads it from here, as
+#: the reader does): BDF1-6 are zero-stable, but BDF6's stability region is too narrow for stiff circuits
+#: (DASSL's and IDA's limit too). ngspice 39's gear takes 6.
+MAX_ORDER = 5
 
 
 @dataclass(slots=True)

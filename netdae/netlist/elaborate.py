@@ -27,9 +27,9 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
-from ..circuit import (ABSOLUTE_ZERO, STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, DcSweep, Diagnostic,
-                       Element, FourierSpec, Model, NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis, SensAnalysis,
-                       SourceSpec, TfAnalysis, TranAnalysis)
+from ..circuit import (ABSOLUTE_ZERO, MAX_ORDER, STAMP_MAGNITUDES, AcAnalysis, Circuit, DcAnalysis, DcSweep,
+                       Diagnostic, Element, FourierSpec, Model, NoiseAnalysis, OpAnalysis, Options, Params, PzAnalysis,
+                       SensAnalysis, SourceSpec, TfAnalysis, TranAnalysis)
 from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ONLY, table_of
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
@@ -92,10 +92,9 @@ ASRC_REFERENCE_TEMPERATURE = 27.0
 #: The name expressions use for the circuit temperature.
 TEMPER = "temper"
 _INT_OPTIONS = {"maxord", "itl1", "itl4"}
-#: The highest integration order ngspice 39 takes (``.options maxord``, gear) and netdae's BDF's
-#: (``netdae.dae.bdf.MAX_ORDER``, not imported here: the reader loads no numerics).
+#: The highest integration order ngspice 39 takes (``.options maxord``, gear); netdae's is
+#: :data:`netdae.circuit.MAX_ORDER`.
 NGSPICE_MAXORD = 6
-NETDAE_MAXORD = 5
 _FLOAT_OPTIONS = {"reltol", "abstol", "vntol", "chgtol", "gmin", "temp", "tnom"}
 #: The options that add elements (:mod:`netdae.netlist.shunts`).
 _SHUNT_OPTIONS = {"rshunt", "cshunt", "rseries"}
@@ -1797,10 +1796,10 @@ class _Elaborator:
                         # ngspice 39's gear takes order 6 (it warns above it); netdae's BDF, as DASSL's and
                         # IDA's, stops at 5 (BDF6's stability region is too narrow for stiff circuits)
                         self.diagnostics.append(Diagnostic(
-                            "warning", f"option maxord={number}: netdae's BDF has orders 1 to {NETDAE_MAXORD}, "
-                            f"so it runs with maxord={NETDAE_MAXORD} (ngspice 39's gear takes order "
+                            "warning", f"option maxord={number}: netdae's BDF has orders 1 to {MAX_ORDER}, "
+                            f"so it runs with maxord={MAX_ORDER} (ngspice 39's gear takes order "
                             f"{NGSPICE_MAXORD})", card.location(value.start)))
-                        number = NETDAE_MAXORD
+                        number = MAX_ORDER
                 elif name not in ("temp", "tnom") and number <= 0:
                     raise error(card, value.start, f"option '{name}' must be > 0", form)
                 elif name not in ("temp", "tnom") and number > STAMP_MAGNITUDES[1]:

@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...circuit import MAX_ORDER  # noqa: F401  (owned by netdae.circuit, which the reader reads too)
 
 #: With relref="mixed" the relative tolerance refers to at least this fraction
 #: of the largest magnitude the unknown has had.
 MIXED_FLOOR = 0.1
-#: Highest order (BDF6 and beyond are not zero-stable).
-MAX_ORDER = 5
 #: Newton iterations per step (IDA's maxcor).
 NEWTON_MAXITER = 4
 #: Newton convergence tolerance as a fraction of the error-test bound 1 (IDA's EPCON).
