@@ -263,6 +263,20 @@ def test_a_bad_size_option_is_a_located_error(option):
     assert err.value.location.line == 4 and f"option '{option.split('=')[0]}'" in str(err.value)
 
 
+@needs_vacask
+@pytest.mark.ngspice
+def test_instances_sharing_a_bin_all_get_it_as_in_ngspice():
+    """The first instance's bin was translated into the module's model and then no longer counted as a bin:
+    a second instance on nch.1's boundary silently took nch.2, and a second one of nch.3 was refused."""
+    text = (f"t\nVg g 0 0.9\nVa a 0 1\nVb b 0 1\nVc c 0 1\nVd d 0 1\nM1 a g 0 0 nch l=0.2u w=1u\n"
+            f"M2 b g 0 0 nch l=0.2u w=1u\nM3 c g 0 0 nch l=0.5u w=4u\nM4 d g 0 0 nch l=0.5u w=4u\n{BINS}.op\n.end\n")
+    c = netdae.load(text)
+    assert [c.element(f"m{k}").model for k in range(1, 5)] == ["nch.1", "nch.1", "nch.3", "nch.3"]
+    ours, ref = netdae.run(c, **TIGHT)[0], ngspice(text, "op")
+    for name in ("i(va)", "i(vb)", "i(vc)", "i(vd)"):
+        assert_close(ours[name], ref[name], 1e-9, 1e-18, name)
+
+
 def test_bins_of_level_one_cards_are_refused():
     with pytest.raises(NetlistError) as err:
         netdae.load("t\nVdd d 0 1\nM1 d d 0 0 mm l=1u w=1u\n.model mm.1 nmos vto=0.5\n.op\n")

@@ -446,8 +446,13 @@ def _in_range(value: float, low: float, high: float) -> bool:
     return abs(value - low) < BIN_TOLERANCE or abs(value - high) < BIN_TOLERANCE or low < value < high
 
 
-def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
+def select_bin(el: Element, circuit: Circuit, candidates: list[str], cards=None) -> str:
     """The binned model ``el`` uses among ``candidates`` (ngspice's ``INPgetModBin``).
+
+    ``cards`` maps a candidate's name to its card as written (default:
+    ``circuit.models``); :func:`map_devices` passes the cards it has already
+    translated into a module's model as they were, so that every instance
+    chooses among the same bins.
 
     Raises
     ------
@@ -468,15 +473,16 @@ def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
     flag = el.params.get("wnflag", option(circuit, "wnflag", 0.0, el)) if "nf" in el.params else 0.0
     length = el.params["l"] * scale
     width = el.params["w"] / (nf if flag else 1.0) * scale
+    cards = circuit.models if cards is None else cards
     for name in candidates:
-        card = circuit.models[name]
+        card = cards[name]
         if mapped(card) is None or any(b not in card.params for b in BIN_BOUNDS):
             continue
         p = card.params
         if _in_range(length, p["lmin"], p["lmax"]) and _in_range(width, p["wmin"], p["wmax"]):
             return name
     ranges = "; ".join(
-        f"{c.rsplit(':', 1)[-1]}: l {_fmt_range(circuit.models[c], 'l')}, w {_fmt_range(circuit.models[c], 'w')}"
+        f"{c.rsplit(':', 1)[-1]}: l {_fmt_range(cards[c], 'l')}, w {_fmt_range(cards[c], 'w')}"
         for c in candidates[:6])
     per_finger = " (w/nf: wnflag=1)" if flag and nf != 1.0 else ""
     raise NetlistError(f"{el.name}: no bin of model '{written}' holds l={length:g} w={width:g}{per_finger} "
@@ -762,7 +768,8 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
     families: dict[str, list[str]] | None = None
     done: dict[tuple[str, bool], tuple[ModuleMap, object, str]] = {}
     libraries = {path for path, _ in circuit.osdi_files}
-    originals: dict[str, Model] = {}
+    originals: dict[str, Model] = {}  # the cards translated so far, as written
+    as_written = _Written(circuit.models, originals)
     warned: set = set()
     for el in circuit.elements:
         if el.model is None or not KINDS[el.kind].model_types:
@@ -775,14 +782,14 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
             candidates = families.get(el.model)
             if not candidates:
                 continue
-            if not any(mapped(circuit.models[c]) for c in candidates):
+            if not any(mapped(as_written[c]) for c in candidates):
                 written = el.model.rsplit(":", 1)[-1]
                 raise NetlistError(f"{el.name}: model '{written}' is not defined; the cards "
                                    f"{', '.join(c.rsplit(':', 1)[-1] for c in candidates[:4])} are bins, which "
                                    "ngspice selects for BSIM3 and BSIM4 models only (level 8/49, 14/54)",
                                    el.location, expected=f"a .model card named {written}")
-            el.model = select_bin(el, circuit, candidates)
-        card = originals.get(el.model) or circuit.models[el.model]
+            el.model = select_bin(el, circuit, candidates, as_written)
+        card = as_written[el.model]
         if el.kind == Kind.MESFET and card.type in MODEL_TYPES[Kind.HFET]:
             _to_hfet(el, card)  # ngspice's HFET1 and HFET2: netdae's own family (other levels refused)
             continue
@@ -935,6 +942,16 @@ def _refuse(el: Element, card: Model) -> None:
                        f"({level_words(spec.name, level)}) is not "
                        f"implemented by netdae", card.locations.get("level", card.location),
                        expected=f"a {spec.summary} model of level {', '.join([ported, *own])}", hint=hint)
+
+
+class _Written:
+    """A circuit's model cards as written: those :func:`map_devices` translated already, as they were."""
+
+    def __init__(self, models: dict, originals: dict) -> None:
+        self.models, self.originals = models, originals
+
+    def __getitem__(self, name: str) -> Model:
+        return self.originals.get(name) or self.models[name]
 
 
 def _families(circuit: Circuit) -> dict[str, list[str]]:
