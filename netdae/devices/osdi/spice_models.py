@@ -79,9 +79,10 @@ from ...kinds import KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, Kind
 from ...netlist.elements import UNLABELLED_AREA
 from ..model_names import level_parameters, level_words
 from ..modelcard import require_positive
+from .spice_quantities import SpiceQuantities
 from .tools import EXTRA_HINT
 
-__all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "bin_number", "first_bin", "select_bin", "map_devices",
+__all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "spice_quantities", "bin_number", "first_bin", "select_bin", "map_devices",
            "option", "BIN_TOLERANCE"]
 
 #: ngspice's binning tolerance on the bounds (``inpgmod.c``, ``is_equal``) [m].
@@ -184,6 +185,9 @@ class ModuleMap:
     area_as_m : bool
         ngspice's instance ``area`` multiplies the device as a parallel multiplier does (the module has
         no area of its own: it becomes part of ``$mfactor``).
+    quantities : SpiceQuantities or None
+        How ngspice reports the model's operating-point quantities (``@m1[gm]`` ...) in terms of the
+        module's op-vars (:mod:`netdae.devices.osdi.spice_quantities`); None: as the module does.
     form : str
         The instance card's form, for messages.
     """
@@ -210,6 +214,7 @@ class ModuleMap:
     unheated: dict[str, float] = field(default_factory=dict)
     scaled: bool = False
     area_as_m: bool = False
+    quantities: SpiceQuantities | None = None
     form: str = ""
 
     def version_of(self, model: Model) -> str | None:
@@ -281,6 +286,21 @@ def _bsim4_holistic_thermal_noise(params: dict) -> str | None:
             "docs/devices.md); the other analyses and tnoimod=0, 2 agree")
 
 
+#: ngspice's voltages among the BSIM op-vars: reported per device (b4ask.c, b3ask.c multiply the others by m).
+_BSIM_VOLTAGES = frozenset("vth vdsat vgs vds vbs".split())
+#: ngspice 39's BSIM4 op-vars (b4.c) that the port has; its others (vgsteff, weff ...) are the port's own.
+_BSIM4_QUANTITIES = SpiceQuantities(
+    per_device=_BSIM_VOLTAGES | {"qdef"},
+    names=frozenset("gmbs gm gds vdsat vth id ibd ibs gbd gbs isub igidl igisl igs igd igb igcs igcd vbs vgs vds "
+                    "cgg cgs cgd cbg cbd cbs cdg cdd cds csg csd css cgb cdb csb cbb capbd capbs qg qb qd qs qinv "
+                    "qdef gcrg gtau".split()),
+    derivatives={"gm": ("id", "g_int", "g_int"), "gds": ("id", "d_int", "s_int"), "gmbs": ("id", "b_int", "b_int")},
+    drain_source=("d_int", "s_int"))
+#: ngspice 39's BSIM3 op-vars (b3.c); the port's gm, gds, gmbs are ngspice's.
+_BSIM3_QUANTITIES = SpiceQuantities(
+    per_device=_BSIM_VOLTAGES,
+    names=frozenset("gmbs gm gds vdsat vth id vbs vgs vds ibd ibs gbd gbs qb qg qd cgg cgd cgs cdg cdd cds cbg "
+                    "cbd cbs capbd capbs".split()))
 _MOS_FORM = "{name} nd ng ns nb model [l=..] [w=..] [ad=..] [as=..] [pd=..] [ps=..] [nrd=..] [nrs=..] [m=..]"
 _BSIM4 = ModuleMap(
     "BSIM4", "mosfet", (14, 54), "spice/bsim4v8.osdi", "sp_bsim4v8", "4.8",
@@ -292,7 +312,7 @@ _BSIM4 = ModuleMap(
     module_only=frozenset("type dtemp mult_i mult_q mult_fn ketac lketac wketac pketac".split()),
     nqs=frozenset({"trnqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [nf=..] [name=value ...]",
     card_checks=(_bsim4_tunnelling_through_depleted_poly, _bsim4_holistic_thermal_noise),
-    densities=_BSIM4_DENSITIES,
+    densities=_BSIM4_DENSITIES, quantities=_BSIM4_QUANTITIES,
 )
 _BSIM3 = ModuleMap(
     "BSIM3", "mosfet", (8, 49), "spice/bsim3v3.osdi", "sp_bsim3v3", "3.3",
@@ -300,7 +320,7 @@ _BSIM3 = ModuleMap(
     instance_names={"m": "$mfactor", **_instance_renames("nqsmod acnqsmod")},
     module_only=frozenset({"type"}),
     nqs=frozenset({"nqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [name=value ...]",
-    densities=_BSIM3_DENSITIES,
+    densities=_BSIM3_DENSITIES, quantities=_BSIM3_QUANTITIES,
 )
 _MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
 #: The MOS3/MOS9 ports evaluate to NaN without nsub: they compute the depletion-layer width coefficient
@@ -394,6 +414,20 @@ _VBIC = ModuleMap("VBIC", "bjt", (4, 9), "vbic_1p3_4t.osdi", "vbic13_4t",
 #: The ngspice models netdae runs through OSDI, by (element kind, level).
 MAPS: dict[tuple[str, int], ModuleMap] = {
     (m.kind, level): m for m in (_BSIM4, _BSIM3, _MOS2, _MOS3, _MOS6, _MOS9, _JFET2, _MES, _VBIC) for level in m.levels}
+
+
+def spice_quantities(element: str, module: str) -> SpiceQuantities | None:
+    """How ngspice reports the quantities of ``element``, an instance of OSDI module ``module``.
+
+    None unless the element is a card of an ngspice model that runs as that
+    module (an ``M`` element of a BSIM4 card; an ``N`` element's quantities
+    are its module's own) and the model's quantities differ from the module's.
+    """
+    for m in MAPS.values():
+        if m.quantities is not None and module in (m.module, (m.thermal or ("", ""))[1]) and \
+                element[:1] in KINDS[m.kind].letters:
+            return m.quantities
+    return None
 
 
 def level_of(model: Model) -> float:
