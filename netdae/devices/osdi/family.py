@@ -380,10 +380,29 @@ class OsdiFamily(DeviceFamily):
         globs = self.glob if k is None else [self.glob[k]]
         return np.unique(np.concatenate([g for g in globs] or [np.zeros(0, np.int64)]))
 
-    def quantity_names(self, k: int) -> tuple[str, ...]:
+    def _opvars(self, k: int) -> tuple[str, ...]:
         """The operating-point variables (Verilog-A ``(*desc=...*)`` op-vars) of instance ``k``'s module."""
         return tuple(p.name for p in self.instances[k].module.params if p.kind == "opvar" and not p.length
                      and p.type in ("real", "int"))
+
+    def _spice_rules(self, k: int):
+        """How ngspice reports instance ``k``'s quantities (None: as its module does)."""
+        from .spice_models import spice_quantities
+
+        return spice_quantities(self.elements[k].name, self.instances[k].module.name)
+
+    def quantity_names(self, k: int) -> tuple[str, ...]:
+        """Instance ``k``'s quantities: its module's op-vars, and ngspice's names for some of them.
+
+        An element of an ngspice model run through its port (an ``M`` card of
+        MOS2 ...) also answers to ngspice's name of an op-var the port spells
+        otherwise (``id`` for the port's ``i_d``).
+        """
+        own = self._opvars(k)
+        rules = self._spice_rules(k)
+        if rules is None:
+            return own
+        return own + tuple(a for a, of in rules.aliases.items() if of in own and a not in own)
 
     def opvar_address(self, k: int, name: str):
         """The address of instance ``k``'s op-var ``name`` in its data, and its ctypes type."""
@@ -403,14 +422,13 @@ class OsdiFamily(DeviceFamily):
         (:mod:`netdae.devices.osdi.spice_quantities`). Shape (T, N) each;
         ``dxdt`` is not used (the modules compute their op-vars from the voltages).
         """
-        from .spice_models import spice_quantities
         from .spice_quantities import apply
 
         x = np.atleast_2d(x)
         count = len(self.instances)
         names = list(dict.fromkeys(q for k in range(count) for q in self.quantity_names(k)))
         out = {q: np.full((x.shape[0], count), np.nan) for q in names}
-        reads = [[(q, *self.opvar_address(k, q)) for q in self.quantity_names(k)] for k in range(count)]
+        reads = [[(q, *self.opvar_address(k, q)) for q in self._opvars(k)] for k in range(count)]
         info = self.info
         info.abstime = 0.0
         info.flags = eval_flags("dc", operating_point=True)
@@ -423,8 +441,8 @@ class OsdiFamily(DeviceFamily):
                 self._calls[id(inst.module)].eval(inst.handle, inst.ptr, inst.model.ptr, ref)
                 for q, address, ctype in reads[k]:
                     out[q][p, k] = ctype.from_address(address).value
-        for k, (el, inst) in enumerate(zip(self.elements, self.instances)):
-            rules = spice_quantities(el.name, inst.module.name)
+        for k in range(count):
+            rules = self._spice_rules(k)
             if rules is not None:
                 apply(self, k, x, rules, out)
         return out

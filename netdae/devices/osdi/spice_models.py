@@ -301,6 +301,17 @@ _BSIM3_QUANTITIES = SpiceQuantities(
     per_device=_BSIM_VOLTAGES,
     names=frozenset("gmbs gm gds vdsat vth id vbs vgs vds ibd ibs gbd gbs qb qg qd cgg cgd cgs cdg cdd cds cbg "
                     "cbd cbs capbd capbs".split()))
+#: MOS2, MOS3, MOS6, MOS9 (mos2.c ...): every op-var but the voltages times m; ngspice's names of the currents
+#: and junction capacitances the ports spell otherwise.
+_MOS_QUANTITIES = SpiceQuantities(
+    per_device=frozenset("vgs vds vbs vbd von vdsat sourcevcrit drainvcrit".split()),
+    names=frozenset("i_d ibd ibs i_s i_g i_b vgs vds vbs vbd von vdsat sourcevcrit drainvcrit sourceconductance "
+                    "drainconductance gm gds gmb gmbs gbd gbs c_bd c_bs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 cqgs cqgd "
+                    "cqgb cqbd cqbs qbd qbs".split()),
+    aliases={"id": "i_d", "is": "i_s", "ig": "i_g", "ib": "i_b", "cbd": "c_bd", "cbs": "c_bs"})
+#: JFET2 (jfet2.c): its conductances and capacitor currents times m (gd, gs: the model's, per device).
+_JFET2_QUANTITIES = SpiceQuantities(per_device=frozenset({"vgs", "vgd"}),
+                                    names=frozenset("vgs vgd gm gds ggs ggd cqgs cqgd".split()))
 _MOS_FORM = "{name} nd ng ns nb model [l=..] [w=..] [ad=..] [as=..] [pd=..] [ps=..] [nrd=..] [nrs=..] [m=..]"
 _BSIM4 = ModuleMap(
     "BSIM4", "mosfet", (14, 54), "spice/bsim4v8.osdi", "sp_bsim4v8", "4.8",
@@ -378,18 +389,19 @@ def _spice3_flicker(m_exponent: int, through_nlev: bool):
 
 _MOS2 = ModuleMap("MOS2", "mosfet", (2,), "spice/mos2.osdi", "sp_mos2", instance_names={"m": "$mfactor"},
                   module_only=frozenset({"type", "nlev", "gdsnoi"}), rewrites=(_spice3_flicker(1, True),),
-                  scaled=True, form=_MOS_SIZES)
+                  scaled=True, quantities=_MOS_QUANTITIES, form=_MOS_SIZES)
 _MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
                   module_only=frozenset({"type", "nlev", "gdsnoi"}), rewrites=(_spice3_flicker(0, True),),
-                  scaled=True, form=_MOS_SIZES)
+                  scaled=True, quantities=_MOS_QUANTITIES, form=_MOS_SIZES)
 _MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance_names={"m": "$mfactor"},
                   model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
-                  form=_MOS_SIZES)  # mos6par.c: no .options scale
+                  quantities=_MOS_QUANTITIES, form=_MOS_SIZES)  # mos6par.c: no .options scale
 _MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
                   module_only=frozenset({"type"}), rewrites=(_spice3_flicker(1, False),),
-                  form=_MOS_SIZES)  # mos9par.c: no .options scale
+                  quantities=_MOS_QUANTITIES, form=_MOS_SIZES)  # mos9par.c: no .options scale
 _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
                    instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
+                   quantities=_JFET2_QUANTITIES,
                    form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
 _MES = ModuleMap("MES (Statz)", "mesfet", (1,), "spice/mes1.osdi", "sp_mes1", instance_names={"m": "$mfactor"},
                  module_only=frozenset({"type"}), form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [m=..]")

@@ -2,11 +2,13 @@
 
 An ``M`` element with a BSIM4 card reports ``@m1[gm]``, ``@m1[id]`` ... as
 ngspice's ``b4ask.c`` does, and the bundled port's operating-point variables
-differ from that in two ways:
+differ from that in two ways (ports of MOS2, MOS3, MOS6, MOS9 and JFET2 in
+the first, and they spell some of ngspice's names otherwise: ``i_d`` for
+``id``, answered to by both names):
 
 - ngspice multiplies every current, conductance, charge and capacitance by
-  the instance's ``m``; the port reports one device's (its ``$mfactor`` acts
-  on the currents it loads, not on its op-vars);
+  the instance's ``m``; the ports report one device's (their ``$mfactor`` acts
+  on the currents they load, not on their op-vars);
 - the BSIM4 port's ``gm``, ``gds``, ``gmbs`` are computed from derivatives
   its Verilog-A code carries by hand, and those are not the drain current's
   (measured: ``gm`` 0.36, ``gds`` 0.87 of ngspice's on a 150 nm card);
@@ -52,12 +54,15 @@ class SpiceQuantities:
         whose voltage moves, the node that moves instead when the device runs reversed).
     drain_source : tuple of (str, str) or None
         The internal drain and source nodes: the device runs reversed where ``type (V(d) - V(s)) < 0``.
+    aliases : dict of str to str
+        ngspice's names of op-vars the module spells otherwise (``id`` for ``i_d``): the same values.
     """
 
     per_device: frozenset
     names: frozenset
     derivatives: dict[str, tuple[str, str, str]] = field(default_factory=dict)
     drain_source: tuple[str, str] | None = None
+    aliases: dict[str, str] = field(default_factory=dict)
 
 
 def _node(module, name: str) -> int:
@@ -126,3 +131,6 @@ def apply(family, k: int, rows: np.ndarray, rules: SpiceQuantities, out: dict) -
         for name in rules.names - rules.per_device:
             if name in out:
                 out[name][:, k] *= mfactor
+    for alias, name in rules.aliases.items():
+        if alias in out and name in out and alias not in rules.names:
+            out[alias][:, k] = out[name][:, k]
