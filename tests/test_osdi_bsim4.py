@@ -598,6 +598,13 @@ def test_a_pdk_style_wrapper_with_scale_and_bins_equals_ngspice():
     ("toxm=0", "", "Toxm = 0 is not positive"),
     ("toxe=-1n", "", "Toxe = -1e-09 is not positive"),
     ("", "nf=0.5", "Number of finger = 0.5 is smaller than one"),
+    # the port ran these without a word (pclm, dvt1, delta, toxref) or into non-finite equations (xj, ndep)
+    ("pclm=-0.1", "", "Pclm = -0.1 is not positive"),
+    ("dvt1=-0.1", "", "Dvt1 = -0.1 is negative"),
+    ("delta=-0.01", "", "Delta = -0.01 is less than zero"),
+    ("toxref=0", "", "Toxref = 0 is not positive"),
+    ("xj=0", "", "Xj = 0 is not positive"),
+    ("ndep=-1e17", "", "Ndep = -1e+17 is not positive"),
 ])
 def test_values_ngspices_parameter_check_stops_at_are_refused(card, instance, said):
     """ngspice 39's BSIM4 check stops at them; the port ran nf=0.5 (and toxm=0) without a word, and
@@ -612,8 +619,18 @@ def test_values_ngspices_parameter_check_stops_at_are_refused(card, instance, sa
     with pytest.raises(NetlistError) as err:
         netdae.load(text)
     written = card or instance
-    assert f"{written.replace('-1n', '-1e-09')} is " in err.value.message
+    assert f"{written.replace('-1n', '-1e-09').replace('-1e17', '-1e+17')} is " in err.value.message
     assert err.value.location.line == (5 if card else 4)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_size_dependent_value_ngspice_accepts_at_the_instances_size_runs():
+    """pclm=-0.1 with lpclm=0.1 is 0.9 at l=0.1u (binunit 1: the l term over Leff in um): ngspice runs it."""
+    text = ("t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.1u w=1u\n"
+            ".model nch nmos level=54 version=4.8 pclm=-0.1 lpclm=0.1\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")
 
 
 # -- device quantities, as ngspice reports them ------------------------------------------------------------------

@@ -609,25 +609,40 @@ def _instance_name(m: ModuleMap, raw: str, module) -> str | None:
     return name if p is not None and p.kind == "instance" else None
 
 
-#: Values ngspice 39's BSIM4 parameter check stops at ("Fatal: ... is not positive", "Fatal: Number of
-#: finger = ... is smaller than one"), which the port runs with or fails on with non-finite equations:
-#: card parameters that must be positive, and the instance's least number of fingers.
-BSIM4_POSITIVE = ("toxe", "toxp", "toxm")
+#: Values ngspice 39's BSIM4 parameter check stops at (``b4check.c``: "Fatal: ... is not positive", "Fatal:
+#: Number of finger = ... is smaller than one"), which the port runs with (a different model, without a
+#: word) or fails on with non-finite equations: card parameters that must be positive, or not negative ...
+BSIM4_POSITIVE = ("toxe", "toxp", "toxm", "toxref", "eot", "ni0sub")
+BSIM4_NONNEGATIVE = ("epsrgate", "epsrsub", "easub")
+#: ... the same for parameters ngspice checks at the instance's size (``pParam``: the card's value plus its
+#: ``l``, ``w``, ``p`` terms over the effective size): checked on a card without such terms, whose value is
+#: then the checked one whatever the size ...
+BSIM4_SIZED_POSITIVE = ("ndep", "nsub", "xj", "pclm")
+BSIM4_SIZED_NONNEGATIVE = ("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout")
+#: ... and the instance's least number of fingers.
 BSIM4_LEAST_FINGERS = 1.0
 
 
-def _fatal_in_ngspice(m: ModuleMap, el_or_card: str, raw: str, value, loc, expected: str) -> None:
-    """Refuse a value ngspice 39's BSIM4 check stops at (a NetlistError at ``loc``), as ngspice does."""
+def _fatal_in_ngspice(m: ModuleMap, el_or_card: str, raw: str, value, loc, expected: str,
+                      card: Model | None = None) -> None:
+    """Refuse a value ngspice 39's BSIM4 check stops at (a NetlistError at ``loc``), as ngspice does.
+
+    ``card`` is the model card of a model parameter (its size terms decide
+    whether a size-dependent value is checked).
+    """
     if m.name != "BSIM4" or isinstance(value, str):
         return
-    if raw in BSIM4_POSITIVE and value <= 0.0:
+    sized = card is not None and not any(card.params.get(f"{b}{raw}") for b in "lwp")
+    if (raw in BSIM4_POSITIVE or sized and raw in BSIM4_SIZED_POSITIVE) and value <= 0.0:
         why = "is not positive"
+    elif (raw in BSIM4_NONNEGATIVE or sized and raw in BSIM4_SIZED_NONNEGATIVE) and value < 0.0:
+        why = "is negative"
     elif raw == "nf" and value < BSIM4_LEAST_FINGERS:
         why = "is smaller than one (the number of fingers)"
     else:
         return
     raise NetlistError(f"{el_or_card}: {raw}={value:g} {why}; ngspice 39's BSIM4 parameter check stops at it "
-                       "('Fatal: ...'), and the module would run with it", loc, expected=expected)
+                       "('Fatal: ...'), and the module has no such check", loc, expected=expected)
 
 
 def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfactor: float = 1.0) -> Model:
@@ -664,7 +679,8 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfact
             _warn(notes, f"model {card.name}: parameter '{raw}' is {why} {m.name} model: ignored, as ngspice "
                   "ignores it", loc)
             continue
-        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a thickness > 0>")
+        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a value ngspice's BSIM4 accepts>",
+                          card)
         if raw in m.nqs and value:
             _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
         if raw in m.differs and value:
