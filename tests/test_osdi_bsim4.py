@@ -661,3 +661,27 @@ def test_device_quantities_are_ngspices(instance, bias):
         name = f"@m1[{q}]"
         # measured: gm, gds, gmbs (central differences) within 2e-9, the others equal
         assert_close(ours[name], ref[name], 1e-6, 1e-25, name)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("card, said", [
+    ("tox=0", "Tox = 0 is not positive"),
+    ("nch=-1e17", "Nch = -1e+17 is not positive"),
+    ("pclm=-0.1", "Pclm = -0.1 is not positive"),
+    ("dvt1=-0.1", "Dvt1 = -0.1 is negative"),
+])
+def test_values_ngspices_bsim3_check_stops_at_are_refused(card, said):
+    """ngspice 39's BSIM3 check (b3check.c) stops at them; the port ran pclm=-0.1 and dvt1=-0.1 without a
+    word and tox=0, nch<0 into non-finite equations."""
+    from netdae.errors import NgspiceError
+    from netdae.ngspice import run_ngspice
+
+    text = f"t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 n3 l=0.5u w=1u\n.model n3 nmos level=49 version=3.3 {card}\n.op\n"
+    with pytest.raises(NgspiceError) as ng:
+        run_ngspice(text, backend="subprocess")
+    assert said in str(ng.value) and "Fatal" in str(ng.value)
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    assert f"{card.replace('-1e17', '-1e+17')} is " in err.value.message and "BSIM3" in err.value.message
+    assert err.value.location.line == 5

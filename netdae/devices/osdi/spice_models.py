@@ -122,6 +122,43 @@ def _instance_renames(names: str) -> dict[str, str]:
 
 
 @dataclass(frozen=True)
+class ParameterCheck:
+    """Values ngspice 39's parameter check of a model stops at (``b4check.c``, ``b3check.c``: "Fatal: ...").
+
+    The ports have no such check: they run such a card (another model, without a word) or fail on it with
+    non-finite equations, so netdae refuses it at the value, as ngspice does.
+
+    Attributes
+    ----------
+    positive, nonnegative : tuple of str
+        Card parameters that must be positive, or not negative.
+    sized_positive, sized_nonnegative : tuple of str
+        The same for parameters ngspice checks at the instance's size (``pParam``: the card's value plus its
+        ``l``, ``w``, ``p`` terms over the effective size): checked on a card without such terms, whose value
+        is then the checked one whatever the size.
+    least_fingers : float or None
+        The instance's least number of fingers ``nf`` (None: no such check).
+    """
+
+    positive: tuple = ()
+    nonnegative: tuple = ()
+    sized_positive: tuple = ()
+    sized_nonnegative: tuple = ()
+    least_fingers: float | None = None
+
+
+#: BSIM4's (b4check.c).
+BSIM4_CHECK = ParameterCheck(positive=("toxe", "toxp", "toxm", "toxref", "eot", "ni0sub"),
+                             nonnegative=("epsrgate", "epsrsub", "easub"),
+                             sized_positive=("ndep", "nsub", "xj", "pclm"),
+                             sized_nonnegative=("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout"),
+                             least_fingers=1.0)
+#: BSIM3's (b3check.c; nch is its npeak).
+BSIM3_CHECK = ParameterCheck(positive=("tox", "toxm"), sized_positive=("nch", "nsub", "xj", "pclm"),
+                             sized_nonnegative=("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout"))
+
+
+@dataclass(frozen=True)
 class ModuleMap:
     """How one ngspice device model runs as a bundled OSDI module.
 
@@ -185,6 +222,8 @@ class ModuleMap:
     area_as_m : bool
         ngspice's instance ``area`` multiplies the device as a parallel multiplier does (the module has
         no area of its own: it becomes part of ``$mfactor``).
+    check : ParameterCheck or None
+        The values ngspice's parameter check stops at, refused (None: no such check).
     quantities : SpiceQuantities or None
         How ngspice reports the model's operating-point quantities (``@m1[gm]`` ...) in terms of the
         module's op-vars (:mod:`netdae.devices.osdi.spice_quantities`); None: as the module does.
@@ -214,6 +253,7 @@ class ModuleMap:
     unheated: dict[str, float] = field(default_factory=dict)
     scaled: bool = False
     area_as_m: bool = False
+    check: ParameterCheck | None = None
     quantities: SpiceQuantities | None = None
     form: str = ""
 
@@ -323,7 +363,7 @@ _BSIM4 = ModuleMap(
     module_only=frozenset("type dtemp mult_i mult_q mult_fn ketac lketac wketac pketac".split()),
     nqs=frozenset({"trnqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [nf=..] [name=value ...]",
     card_checks=(_bsim4_tunnelling_through_depleted_poly, _bsim4_holistic_thermal_noise),
-    densities=_BSIM4_DENSITIES, quantities=_BSIM4_QUANTITIES,
+    densities=_BSIM4_DENSITIES, quantities=_BSIM4_QUANTITIES, check=BSIM4_CHECK,
 )
 _BSIM3 = ModuleMap(
     "BSIM3", "mosfet", (8, 49), "spice/bsim3v3.osdi", "sp_bsim3v3", "3.3",
@@ -331,7 +371,7 @@ _BSIM3 = ModuleMap(
     instance_names={"m": "$mfactor", **_instance_renames("nqsmod acnqsmod")},
     module_only=frozenset({"type"}),
     nqs=frozenset({"nqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [name=value ...]",
-    densities=_BSIM3_DENSITIES, quantities=_BSIM3_QUANTITIES,
+    densities=_BSIM3_DENSITIES, quantities=_BSIM3_QUANTITIES, check=BSIM3_CHECK,
 )
 _MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
 #: The MOS3/MOS9 ports evaluate to NaN without nsub: they compute the depletion-layer width coefficient
@@ -609,39 +649,26 @@ def _instance_name(m: ModuleMap, raw: str, module) -> str | None:
     return name if p is not None and p.kind == "instance" else None
 
 
-#: Values ngspice 39's BSIM4 parameter check stops at (``b4check.c``: "Fatal: ... is not positive", "Fatal:
-#: Number of finger = ... is smaller than one"), which the port runs with (a different model, without a
-#: word) or fails on with non-finite equations: card parameters that must be positive, or not negative ...
-BSIM4_POSITIVE = ("toxe", "toxp", "toxm", "toxref", "eot", "ni0sub")
-BSIM4_NONNEGATIVE = ("epsrgate", "epsrsub", "easub")
-#: ... the same for parameters ngspice checks at the instance's size (``pParam``: the card's value plus its
-#: ``l``, ``w``, ``p`` terms over the effective size): checked on a card without such terms, whose value is
-#: then the checked one whatever the size ...
-BSIM4_SIZED_POSITIVE = ("ndep", "nsub", "xj", "pclm")
-BSIM4_SIZED_NONNEGATIVE = ("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout")
-#: ... and the instance's least number of fingers.
-BSIM4_LEAST_FINGERS = 1.0
-
-
 def _fatal_in_ngspice(m: ModuleMap, el_or_card: str, raw: str, value, loc, expected: str,
                       card: Model | None = None) -> None:
-    """Refuse a value ngspice 39's BSIM4 check stops at (a NetlistError at ``loc``), as ngspice does.
+    """Refuse a value ngspice 39's parameter check of ``m`` stops at (a NetlistError at ``loc``), as ngspice does.
 
     ``card`` is the model card of a model parameter (its size terms decide
-    whether a size-dependent value is checked).
+    whether a size-dependent value is checked, :class:`ParameterCheck`).
     """
-    if m.name != "BSIM4" or isinstance(value, str):
+    check = m.check
+    if check is None or isinstance(value, str):
         return
     sized = card is not None and not any(card.params.get(f"{b}{raw}") for b in "lwp")
-    if (raw in BSIM4_POSITIVE or sized and raw in BSIM4_SIZED_POSITIVE) and value <= 0.0:
+    if (raw in check.positive or sized and raw in check.sized_positive) and value <= 0.0:
         why = "is not positive"
-    elif (raw in BSIM4_NONNEGATIVE or sized and raw in BSIM4_SIZED_NONNEGATIVE) and value < 0.0:
+    elif (raw in check.nonnegative or sized and raw in check.sized_nonnegative) and value < 0.0:
         why = "is negative"
-    elif raw == "nf" and value < BSIM4_LEAST_FINGERS:
+    elif raw == "nf" and check.least_fingers is not None and value < check.least_fingers:
         why = "is smaller than one (the number of fingers)"
     else:
         return
-    raise NetlistError(f"{el_or_card}: {raw}={value:g} {why}; ngspice 39's BSIM4 parameter check stops at it "
+    raise NetlistError(f"{el_or_card}: {raw}={value:g} {why}; ngspice 39's {m.name} parameter check stops at it "
                        "('Fatal: ...'), and the module has no such check", loc, expected=expected)
 
 
@@ -679,7 +706,7 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfact
             _warn(notes, f"model {card.name}: parameter '{raw}' is {why} {m.name} model: ignored, as ngspice "
                   "ignores it", loc)
             continue
-        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a value ngspice's BSIM4 accepts>",
+        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a value ngspice's {m.name} accepts>",
                           card)
         if raw in m.nqs and value:
             _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
