@@ -685,3 +685,26 @@ def test_values_ngspices_bsim3_check_stops_at_are_refused(card, said):
         netdae.load(text)
     assert f"{card.replace('-1e17', '-1e+17')} is " in err.value.message and "BSIM3" in err.value.message
     assert err.value.location.line == 5
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_saturation_velocity_ngspice_finds_negative_at_the_temperature_is_refused():
+    """tempmod=1 reads at [1/K] where tempmod=0 reads it in m/s: BSIM4's default at=3.3e4 gives ngspice
+    vsat = -8.7e10 m/s at 60 degC, and it stops; the port ran it, into a drain current of the wrong sign."""
+    from netdae.errors import NgspiceError
+    from netdae.ngspice import run_ngspice
+
+    text = "t\n.temp 60\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.3u w=2u\n.model nch nmos level=54 version=4.8 tempmod=1\n.op\n"
+    with pytest.raises(NgspiceError) as ng:
+        run_ngspice(text, backend="subprocess")
+    said = re.search(r"Vsat at current temperature = (\S+) is not positive", str(ng.value))
+    assert said and "Fatal" in str(ng.value)
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    ours = re.search(r"saturation velocity of (\S+) m/s", err.value.message)
+    assert float(ours.group(1)) == pytest.approx(float(said.group(1)), rel=1e-5)  # -8.71199e+10 (6 digits each)
+    assert err.value.location.line == 6
+    fine = text.replace("tempmod=1", "tempmod=1 at=1e-3")  # a relative coefficient: both run it
+    ours, ref = netdae.run(fine, **TIGHT)[0], ngspice(fine, "op")
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")

@@ -138,6 +138,10 @@ class ParameterCheck:
         is then the checked one whatever the size.
     least_fingers : float or None
         The instance's least number of fingers ``nf`` (None: no such check).
+    at_temperature : callable or None
+        ``check(params, temp, tnom)``: what ngspice says of a value it derives at the circuit's
+        temperature (``temp``, ``tnom`` in degrees Celsius) from the card's (``params``, as written),
+        or None where it accepts it.
     """
 
     positive: tuple = ()
@@ -145,6 +149,29 @@ class ParameterCheck:
     sized_positive: tuple = ()
     sized_nonnegative: tuple = ()
     least_fingers: float | None = None
+    at_temperature: object = None
+
+
+#: Kelvin at 0 degrees Celsius (ngspice's CONSTCtoK).
+_KELVIN = 273.15
+
+
+def _bsim4_vsat_at_temperature(params: dict, temp: float, tnom: float) -> str | None:
+    """ngspice's ``Vsat at current temperature = ... is not positive`` (``b4temp.c``, ``b4check.c``).
+
+    ``vsat - at (T/Tnom - 1)`` with ``tempmod=0``, ``vsat (1 - at (T - Tnom))`` otherwise (``tnom`` the
+    card's, else the circuit's); checked on a card without size terms of ``vsat`` and ``at``.
+    """
+    if any(params.get(f"{b}{n}") for b in "lwp" for n in ("vsat", "at")):
+        return None
+    vsat, at = params.get("vsat", 8.0e4), params.get("at", 3.3e4)
+    t, t0 = temp + _KELVIN, params.get("tnom", tnom) + _KELVIN
+    value = vsat - at * (t / t0 - 1.0) if params.get("tempmod", 0) == 0 else vsat * (1.0 - at * (t - t0))
+    if value > 0.0:
+        return None
+    return (f"vsat={vsat:g} and at={at:g} (tempmod={params.get('tempmod', 0):g}) give a saturation velocity of "
+            f"{value:g} m/s at {temp:g} degC (tnom {params.get('tnom', tnom):g}): ngspice 39 stops there ('Fatal: "
+            "Vsat at current temperature ... is not positive')")
 
 
 #: BSIM4's (b4check.c).
@@ -152,7 +179,7 @@ BSIM4_CHECK = ParameterCheck(positive=("toxe", "toxp", "toxm", "toxref", "eot", 
                              nonnegative=("epsrgate", "epsrsub", "easub"),
                              sized_positive=("ndep", "nsub", "xj", "pclm"),
                              sized_nonnegative=("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout"),
-                             least_fingers=1.0)
+                             least_fingers=1.0, at_temperature=_bsim4_vsat_at_temperature)
 #: BSIM3's (b3check.c; nch is its npeak).
 BSIM3_CHECK = ParameterCheck(positive=("tox", "toxm"), sized_positive=("nch", "nsub", "xj", "pclm"),
                              sized_nonnegative=("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout"))
@@ -907,6 +934,14 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                 f"{el.model}#{module.name}" + (f"#m={mfactor:g}" if mfactor != 1.0 else ""))
             again = any(k[:2] == key[:2] for k in done)  # the same module for another m: warned already
             circuit.models[name] = _model_card(m, card, module, [] if again else notes, name, mfactor)
+            if m.check is not None and m.check.at_temperature is not None:
+                said = m.check.at_temperature(card.params, circuit.options.temp, circuit.options.tnom)
+                if said is not None:
+                    raise NetlistError(f"model {card.name}: {said}", card.location,
+                                       expected="a saturation velocity vsat - at (T/Tnom - 1) > 0 (tempmod=1, 2: "
+                                                "vsat (1 - at (T - Tnom)) > 0)",
+                                       hint="tempmod=1 and 2 read at as a relative coefficient [1/K], tempmod=0 "
+                                            "as one in m/s")
             if not any(k[0] == el.model for k in done):
                 for flag, where in (flags or {}).get(el.model, ()):
                     if flag not in KINDS[m.kind].model_types:
