@@ -938,9 +938,9 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                 said = m.check.at_temperature(card.params, circuit.options.temp, circuit.options.tnom)
                 if said is not None:
                     raise NetlistError(f"model {card.name}: {said}", card.location,
-                                       expected="a saturation velocity vsat - at (T/Tnom - 1) > 0 (tempmod=1, 2: "
+                                       expected="a saturation velocity vsat - at (T/Tnom - 1) > 0 (tempmod=1, 2, 3: "
                                                 "vsat (1 - at (T - Tnom)) > 0)",
-                                       hint="tempmod=1 and 2 read at as a relative coefficient [1/K], tempmod=0 "
+                                       hint="tempmod=1, 2 and 3 read at as a relative coefficient [1/K], tempmod=0 "
                                             "as one in m/s")
             if not any(k[0] == el.model for k in done):
                 for flag, where in (flags or {}).get(el.model, ()):
