@@ -708,3 +708,24 @@ def test_a_saturation_velocity_ngspice_finds_negative_at_the_temperature_is_refu
     fine = text.replace("tempmod=1", "tempmod=1 at=1e-3")  # a relative coefficient: both run it
     ours, ref = netdae.run(fine, **TIGHT)[0], ngspice(fine, "op")
     assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("behavior, instance, chosen", [
+    ("hsa", "nf=2", "nch.2"),            # HSPICE mode: w/nf = 2u
+    ("spe", "nf=2", "nch.2"),            # Spectre mode likewise
+    ("hsa", "nf=2 wnflag=0", "nch.3"),   # the instance's wnflag decides
+    ("", "nf=2", "nch.3"),               # no mode: w = 4u
+])
+def test_the_compatibility_mode_sets_the_bins_wnflag_as_in_ngspice(behavior, instance, chosen):
+    """ngspice's INPgetModBin defaults wnflag to 1 in its HSPICE and Spectre modes (a PDK's .spiceinit often
+    sets ngbehavior=hsa); netdae chose by w there, another bin than ngspice's."""
+    from netdae.ngspice import run_ngspice
+
+    text = f"t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.5u w=4u {instance}\n{BINS}.op\n.end\n"
+    c = netdae.load(text, behavior=behavior)
+    assert c.element("m1").model == chosen
+    ours = netdae.run(c, **TIGHT)[0]
+    ref = run_ngspice(text, options=TIGHT, behavior=behavior or None).result("op")
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")

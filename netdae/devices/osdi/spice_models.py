@@ -559,13 +559,14 @@ def _in_range(value: float, low: float, high: float) -> bool:
     return abs(value - low) < BIN_TOLERANCE or abs(value - high) < BIN_TOLERANCE or low < value < high
 
 
-def select_bin(el: Element, circuit: Circuit, candidates: list[str], cards=None) -> str:
+def select_bin(el: Element, circuit: Circuit, candidates: list[str], cards=None, wnflag: float = 0.0) -> str:
     """The binned model ``el`` uses among ``candidates`` (ngspice's ``INPgetModBin``).
 
     ``cards`` maps a candidate's name to its card as written (default:
     ``circuit.models``); :func:`map_devices` passes the cards it has already
     translated into a module's model as they were, so that every instance
-    chooses among the same bins.
+    chooses among the same bins. ``wnflag`` is the default of ``.options
+    wnflag`` (ngspice's: 1 in its HSPICE and Spectre modes, else 0).
 
     Raises
     ------
@@ -583,7 +584,7 @@ def select_bin(el: Element, circuit: Circuit, candidates: list[str], cards=None)
                                 "wmin <= w <= wmax)")
     scale = option(circuit, "scale", 1.0, el)
     nf = el.params.get("nf", 1.0)
-    flag = el.params.get("wnflag", option(circuit, "wnflag", 0.0, el)) if "nf" in el.params else 0.0
+    flag = el.params.get("wnflag", option(circuit, "wnflag", wnflag, el)) if "nf" in el.params else 0.0
     length = el.params["l"] * scale
     width = el.params["w"] / (nf if flag else 1.0) * scale
     cards = circuit.models if cards is None else cards
@@ -859,14 +860,17 @@ def _check_nodes(el: Element, card: Model, m: ModuleMap | None) -> None:
                        hint="ngspice's thermal node belongs to VBIC (.model ... npn level=4)")
 
 
-def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]:
+def map_devices(circuit: Circuit, flags: dict | None = None, behavior=None) -> list[Diagnostic]:
     """Rewrite the circuit's elements whose models run through bundled OSDI ports (in place, :data:`MAPS`).
 
     Elements naming a binned model get their bin first (:func:`select_bin`);
     each card used is translated once per module, the bundled library added
     to ``circuit.osdi_files``. ``flags`` maps a model's name to the bare words
     on its card, with their locations (the model types restate the type; any
-    other is ignored with a warning, as ngspice ignores it).
+    other is ignored with a warning, as ngspice ignores it). ``behavior`` is
+    ngspice's compatibility mode (:class:`netdae.netlist.compat.Behavior`;
+    None: none): in its HSPICE and Spectre modes a bin is chosen by ``w/nf``
+    unless ``wnflag`` says otherwise.
 
     Returns
     -------
@@ -904,7 +908,8 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                                    f"{', '.join(c.rsplit(':', 1)[-1] for c in candidates[:4])} are bins, which "
                                    "ngspice selects for BSIM3 and BSIM4 models only (level 8/49, 14/54)",
                                    el.location, expected=f"a .model card named {written}")
-            el.model = select_bin(el, circuit, candidates, as_written)
+            el.model = select_bin(el, circuit, candidates, as_written,
+                                  1.0 if behavior is not None and behavior.bins_by_finger else 0.0)
         card = as_written[el.model]
         if el.kind == Kind.MESFET and card.type in MODEL_TYPES[Kind.HFET]:
             _to_hfet(el, card)  # ngspice's HFET1 and HFET2: netdae's own family (other levels refused)
