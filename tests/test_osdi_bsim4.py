@@ -729,3 +729,17 @@ def test_the_compatibility_mode_sets_the_bins_wnflag_as_in_ngspice(behavior, ins
     ours = netdae.run(c, **TIGHT)[0]
     ref = run_ngspice(text, options=TIGHT, behavior=behavior or None).result("op")
     assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")
+
+
+@needs_vacask
+@pytest.mark.parametrize("version, runs", [("4.8.2", None), ("3.3.0", None), ("4.7.0", "BSIM4v7")])
+def test_a_version_with_two_points_is_read_as_text_as_ngspice_reads_it(version, runs):
+    """ngspice reads a BSIM card's version as text (inpdomod.c matches its prefix): 'version=4.8.2' was read as
+    the number 4.8 with a warning that ngspice ignores the '.2', which it does not."""
+    level = 49 if version.startswith("3") else 54
+    c = netdae.load(f"t\nVdd d 0 1\nM1 d d 0 0 nch l=1u w=1u\n.model nch nmos level={level} version={version}\n.op\n")
+    warned = warnings_of(c)
+    assert not any("read as" in w for w in warned), warned
+    assert [w for w in warned if "version" in w] == ([] if runs is None else [
+        f"model nch: version {version} runs ngspice's {runs}; netdae runs BSIM4 4.8 (sp_bsim4v8): results can "
+        "differ from ngspice's"])
