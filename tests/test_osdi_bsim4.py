@@ -743,3 +743,21 @@ def test_a_version_with_two_points_is_read_as_text_as_ngspice_reads_it(version, 
     assert [w for w in warned if "version" in w] == ([] if runs is None else [
         f"model nch: version {version} runs ngspice's {runs}; netdae runs BSIM4 4.8 (sp_bsim4v8): results can "
         "differ from ngspice's"])
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("card, saved", [
+    (".model mm nmos level=54 version=4.8 vth0=0.45", ["id"]),  # ngspice's is, ig, ib of a BSIM4: empty
+    (".model mm nmos level=49 version=3.3 vth0=0.5", ["id"]),
+    (".model mm nmos level=3 vto=0.7 kp=5e-5 tox=2e-8 nsub=1e16", ["id", "is", "ig", "ib"]),
+])
+def test_savecurrents_saves_the_mosfet_currents_ngspice_saves(card, saved):
+    """.options savecurrents saved nothing of an M element run through a port; ngspice 39 saves @m1[id] (and,
+    for the classic levels, [is] [ig] [ib]), times m."""
+    text = (f"sc\n.options savecurrents\nVdd vdd 0 1.8\nVg g 0 1.5\nVb b 0 -0.3\nR1 vdd d 5k\n"
+            f"M1 d g 0 b mm l=1u w=2u m=2\n{card}\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    assert [n for n in ours.names() if n.startswith("@m1")] == [f"@m1[{q}]" for q in saved]
+    for q in saved:
+        assert_close(ours[f"@m1[{q}]"], ref[f"@m1[{q}]"], 1e-9, 1e-20, q)

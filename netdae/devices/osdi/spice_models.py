@@ -362,12 +362,12 @@ _BSIM4_QUANTITIES = SpiceQuantities(
                     "cgg cgs cgd cbg cbd cbs cdg cdd cds csg csd css cgb cdb csb cbb capbd capbs qg qb qd qs qinv "
                     "qdef gcrg gtau".split()),
     derivatives={"gm": ("id", "g_int", "g_int"), "gds": ("id", "d_int", "s_int"), "gmbs": ("id", "b_int", "b_int")},
-    drain_source=("d_int", "s_int"))
+    drain_source=("d_int", "s_int"), saved=("id",))
 #: ngspice 39's BSIM3 op-vars (b3.c); the port's gm, gds, gmbs are ngspice's.
 _BSIM3_QUANTITIES = SpiceQuantities(
     per_device=_BSIM_VOLTAGES,
     names=frozenset("gmbs gm gds vdsat vth id vbs vgs vds ibd ibs gbd gbs qb qg qd cgg cgd cgs cdg cdd cds cbg "
-                    "cbd cbs capbd capbs".split()))
+                    "cbd cbs capbd capbs".split()), saved=("id",))
 #: MOS2, MOS3, MOS6, MOS9 (mos2.c ...): every op-var but the voltages times m; ngspice's names of the currents
 #: and junction capacitances the ports spell otherwise.
 _MOS_QUANTITIES = SpiceQuantities(
@@ -375,7 +375,8 @@ _MOS_QUANTITIES = SpiceQuantities(
     names=frozenset("i_d ibd ibs i_s i_g i_b vgs vds vbs vbd von vdsat sourcevcrit drainvcrit sourceconductance "
                     "drainconductance gm gds gmb gmbs gbd gbs c_bd c_bs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 cqgs cqgd "
                     "cqgb cqbd cqbs qbd qbs".split()),
-    aliases={"id": "i_d", "is": "i_s", "ig": "i_g", "ib": "i_b", "cbd": "c_bd", "cbs": "c_bs"})
+    aliases={"id": "i_d", "is": "i_s", "ig": "i_g", "ib": "i_b", "cbd": "c_bd", "cbs": "c_bs"},
+    saved=("id", "is", "ig", "ib"))
 #: JFET2 (jfet2.c): its conductances and capacitor currents times m (gd, gs: the model's, per device).
 _JFET2_QUANTITIES = SpiceQuantities(per_device=frozenset({"vgs", "vgd"}),
                                     names=frozenset("vgs vgd gm gds ggs ggd cqgs cqgd".split()))

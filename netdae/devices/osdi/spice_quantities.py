@@ -56,6 +56,9 @@ class SpiceQuantities:
         The internal drain and source nodes: the device runs reversed where ``type (V(d) - V(s)) < 0``.
     aliases : dict of str to str
         ngspice's names of op-vars the module spells otherwise (``id`` for ``i_d``): the same values.
+    saved : tuple of str
+        What ``.options savecurrents`` saves of such an element with values (ngspice 39 saves
+        ``@m1[id] [is] [ig] [ib]`` of every MOSFET, the last three empty for BSIM3 and BSIM4).
     """
 
     per_device: frozenset
@@ -63,6 +66,7 @@ class SpiceQuantities:
     derivatives: dict[str, tuple[str, str, str]] = field(default_factory=dict)
     drain_source: tuple[str, str] | None = None
     aliases: dict[str, str] = field(default_factory=dict)
+    saved: tuple = ()
 
 
 def _node(module, name: str) -> int:
