@@ -362,7 +362,7 @@ _BSIM4_QUANTITIES = SpiceQuantities(
                     "cgg cgs cgd cbg cbd cbs cdg cdd cds csg csd css cgb cdb csb cbb capbd capbs qg qb qd qs qinv "
                     "qdef gcrg gtau".split()),
     derivatives={"gm": ("id", "g_int", "g_int"), "gds": ("id", "d_int", "s_int"), "gmbs": ("id", "b_int", "b_int")},
-    drain_source=("d_int", "s_int"), saved=("id",))
+    drain_source=("d_int", "s_int"), one_sided=frozenset({"gds"}), saved=("id",))
 #: ngspice 39's BSIM3 op-vars (b3.c); the port's gm, gds, gmbs are ngspice's.
 _BSIM3_QUANTITIES = SpiceQuantities(
     per_device=_BSIM_VOLTAGES,

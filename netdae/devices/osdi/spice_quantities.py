@@ -17,8 +17,9 @@ the first, and they spell some of ngspice's names otherwise: ``i_d`` for
 :class:`SpiceQuantities` says so for one model (a field of
 :class:`netdae.devices.osdi.spice_models.ModuleMap`), and :func:`apply`
 turns the module's op-vars of such an element into ngspice's: the
-derivatives as central differences of the module's own ``id`` in the
-device's internal node voltages (ngspice's ``vgs``, ``vds``, ``vbs`` are
+derivatives as differences of the module's own ``id`` in the
+device's internal node voltages (central; ``gds`` one-sided, so as not to
+cross ``vds = 0``) (ngspice's ``vgs``, ``vds``, ``vbs`` are
 those of the internal gate, drain, source and body nodes), in the frame
 ngspice takes them (the source and drain exchanged when ``vds < 0``), then
 the ``m`` scaling.
@@ -54,6 +55,10 @@ class SpiceQuantities:
         whose voltage moves, the node that moves instead when the device runs reversed).
     drain_source : tuple of (str, str) or None
         The internal drain and source nodes: the device runs reversed where ``type (V(d) - V(s)) < 0``.
+    one_sided : frozenset of str
+        Derivatives along ``vds``, which a central difference would take across the exchange of source
+        and drain at ``vds = 0`` (where the current in ngspice's frame has a kink): taken one-sided
+        (second order), the moved node's ``type``-weighted voltage rising, in the frame of the point.
     aliases : dict of str to str
         ngspice's names of op-vars the module spells otherwise (``id`` for ``i_d``): the same values.
     saved : tuple of str
@@ -65,6 +70,7 @@ class SpiceQuantities:
     names: frozenset
     derivatives: dict[str, tuple[str, str, str]] = field(default_factory=dict)
     drain_source: tuple[str, str] | None = None
+    one_sided: frozenset = frozenset()
     aliases: dict[str, str] = field(default_factory=dict)
     saved: tuple = ()
 
@@ -118,14 +124,19 @@ def apply(family, k: int, rows: np.ndarray, rules: SpiceQuantities, out: dict) -
                     base = buf[saved[_node(mod, moved)]]
                     for i in group:
                         mapping[i] = spare
+                    one_sided = name in rules.one_sided
+                    steps = (0.0, sign * STEP, 2.0 * sign * STEP) if one_sided else (STEP, -STEP)
                     values = []
-                    for h in (STEP, -STEP):
+                    for h in steps:
                         buf[spare] = base + h
                         call(inst.handle, inst.ptr, inst.model.ptr, ref)
                         values.append(ctype.from_address(address).value)
                     for i in group:
                         mapping[i] = int(saved[i])
-                    out[name][p, k] = sign * (values[0] - values[1]) / (2.0 * STEP)
+                    if one_sided:  # (-3 f(0) + 4 f(h) - f(2h)) / 2h along type * V, times type: the same sign
+                        out[name][p, k] = (-3.0 * values[0] + 4.0 * values[1] - values[2]) / (2.0 * STEP)
+                    else:
+                        out[name][p, k] = sign * (values[0] - values[1]) / (2.0 * STEP)
         finally:
             for i, v in enumerate(saved):
                 mapping[i] = int(v)
