@@ -263,6 +263,20 @@ def test_a_bad_size_option_is_a_located_error(option):
     assert err.value.location.line == 4 and f"option '{option.split('=')[0]}'" in str(err.value)
 
 
+@needs_vacask
+@pytest.mark.ngspice
+def test_instances_sharing_a_bin_all_get_it_as_in_ngspice():
+    """The first instance's bin was translated into the module's model and then no longer counted as a bin:
+    a second instance on nch.1's boundary silently took nch.2, and a second one of nch.3 was refused."""
+    text = (f"t\nVg g 0 0.9\nVa a 0 1\nVb b 0 1\nVc c 0 1\nVd d 0 1\nM1 a g 0 0 nch l=0.2u w=1u\n"
+            f"M2 b g 0 0 nch l=0.2u w=1u\nM3 c g 0 0 nch l=0.5u w=4u\nM4 d g 0 0 nch l=0.5u w=4u\n{BINS}.op\n.end\n")
+    c = netdae.load(text)
+    assert [c.element(f"m{k}").model for k in range(1, 5)] == ["nch.1", "nch.1", "nch.3", "nch.3"]
+    ours, ref = netdae.run(c, **TIGHT)[0], ngspice(text, "op")
+    for name in ("i(va)", "i(vb)", "i(vc)", "i(vd)"):
+        assert_close(ours[name], ref[name], 1e-9, 1e-18, name)
+
+
 def test_bins_of_level_one_cards_are_refused():
     with pytest.raises(NetlistError) as err:
         netdae.load("t\nVdd d 0 1\nM1 d d 0 0 mm l=1u w=1u\n.model mm.1 nmos vto=0.5\n.op\n")
@@ -584,6 +598,13 @@ def test_a_pdk_style_wrapper_with_scale_and_bins_equals_ngspice():
     ("toxm=0", "", "Toxm = 0 is not positive"),
     ("toxe=-1n", "", "Toxe = -1e-09 is not positive"),
     ("", "nf=0.5", "Number of finger = 0.5 is smaller than one"),
+    # the port ran these without a word (pclm, dvt1, delta, toxref) or into non-finite equations (xj, ndep)
+    ("pclm=-0.1", "", "Pclm = -0.1 is not positive"),
+    ("dvt1=-0.1", "", "Dvt1 = -0.1 is negative"),
+    ("delta=-0.01", "", "Delta = -0.01 is less than zero"),
+    ("toxref=0", "", "Toxref = 0 is not positive"),
+    ("xj=0", "", "Xj = 0 is not positive"),
+    ("ndep=-1e17", "", "Ndep = -1e+17 is not positive"),
 ])
 def test_values_ngspices_parameter_check_stops_at_are_refused(card, instance, said):
     """ngspice 39's BSIM4 check stops at them; the port ran nf=0.5 (and toxm=0) without a word, and
@@ -598,5 +619,147 @@ def test_values_ngspices_parameter_check_stops_at_are_refused(card, instance, sa
     with pytest.raises(NetlistError) as err:
         netdae.load(text)
     written = card or instance
-    assert f"{written.replace('-1n', '-1e-09')} is " in err.value.message
+    assert f"{written.replace('-1n', '-1e-09').replace('-1e17', '-1e+17')} is " in err.value.message
     assert err.value.location.line == (5 if card else 4)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_size_dependent_value_ngspice_accepts_at_the_instances_size_runs():
+    """pclm=-0.1 with lpclm=0.1 is 0.9 at l=0.1u (binunit 1: the l term over Leff in um): ngspice runs it."""
+    text = ("t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.1u w=1u\n"
+            ".model nch nmos level=54 version=4.8 pclm=-0.1 lpclm=0.1\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")
+
+
+# -- device quantities, as ngspice reports them ------------------------------------------------------------------
+#: Biases of a BSIM4 (nmos, pmos) and BSIM3 device: forward and reversed, with m, fingers and internal nodes.
+QUANTITY_CASES = [
+    ("nch l=0.13u w=1u m=3", (1.0, 0.8, -0.2)),
+    ("nch l=0.13u w=1u", (-0.5, 0.8, -0.2)),                          # reversed: vds < 0
+    ("nch l=0.13u w=1u nf=2 rgatemod=1 rbodymod=1 m=2", (1.0, 0.8, -0.2)),  # internal gate and body nodes
+    ("pch l=0.13u w=2u m=2", (-1.0, -0.8, 0.2)),
+    ("pch l=0.13u w=2u", (0.5, -0.8, 0.7)),                            # pmos reversed
+    ("n3 l=0.5u w=2u m=2", (1.0, 0.8, -0.2)),                           # BSIM3
+    ("nch l=0.13u w=1u", (0.0, 0.8, -0.2)),                            # vds = 0: gds one-sided, not across it
+    ("pch l=0.13u w=2u", (0.0, -0.8, 0.2)),
+]
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("instance, bias", QUANTITY_CASES)
+def test_device_quantities_are_ngspices(instance, bias):
+    """``@m1[gm]`` ... of a BSIM card are ngspice's: the BSIM4 port's own gm, gds, gmbs are not the drain
+    current's derivatives (measured before: 0.36, 0.87, 0.35 of ngspice's), and neither port multiplied its
+    quantities by m (before: 1/m of ngspice's)."""
+    names = ["id", "gm", "gds", "gmbs", "cgg", "cgd", "capbd", "vth", "vdsat"]
+    vd, vg, vb = bias
+    text = (f"q\nVd d 0 {vd}\nVg g 0 {vg}\nVb b 0 {vb}\nM1 d g 0 b {instance}\n{CARDS}{BSIM3_CARDS}"
+            f".save {' '.join(f'@m1[{q}]' for q in names)}\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    for q in names:
+        name = f"@m1[{q}]"
+        # measured: gm, gds, gmbs (differences of id) within 4e-9, the others equal
+        assert_close(ours[name], ref[name], 1e-6, 1e-25, name)
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("card, said", [
+    ("tox=0", "Tox = 0 is not positive"),
+    ("nch=-1e17", "Nch = -1e+17 is not positive"),
+    ("pclm=-0.1", "Pclm = -0.1 is not positive"),
+    ("dvt1=-0.1", "Dvt1 = -0.1 is negative"),
+])
+def test_values_ngspices_bsim3_check_stops_at_are_refused(card, said):
+    """ngspice 39's BSIM3 check (b3check.c) stops at them; the port ran pclm=-0.1 and dvt1=-0.1 without a
+    word and tox=0, nch<0 into non-finite equations."""
+    from netdae.errors import NgspiceError
+    from netdae.ngspice import run_ngspice
+
+    text = f"t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 n3 l=0.5u w=1u\n.model n3 nmos level=49 version=3.3 {card}\n.op\n"
+    with pytest.raises(NgspiceError) as ng:
+        run_ngspice(text, backend="subprocess")
+    assert said in str(ng.value) and "Fatal" in str(ng.value)
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    assert f"{card.replace('-1e17', '-1e+17')} is " in err.value.message and "BSIM3" in err.value.message
+    assert err.value.location.line == 5
+
+
+@needs_vacask
+@pytest.mark.ngspice
+def test_a_saturation_velocity_ngspice_finds_negative_at_the_temperature_is_refused():
+    """tempmod=1 reads at [1/K] where tempmod=0 reads it in m/s: BSIM4's default at=3.3e4 gives ngspice
+    vsat = -8.7e10 m/s at 60 degC, and it stops; the port ran it, into a drain current of the wrong sign."""
+    from netdae.errors import NgspiceError
+    from netdae.ngspice import run_ngspice
+
+    text = "t\n.temp 60\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.3u w=2u\n.model nch nmos level=54 version=4.8 tempmod=1\n.op\n"
+    with pytest.raises(NgspiceError) as ng:
+        run_ngspice(text, backend="subprocess")
+    said = re.search(r"Vsat at current temperature = (\S+) is not positive", str(ng.value))
+    assert said and "Fatal" in str(ng.value)
+    with pytest.raises(NetlistError) as err:
+        netdae.load(text)
+    ours = re.search(r"saturation velocity of (\S+) m/s", err.value.message)
+    assert float(ours.group(1)) == pytest.approx(float(said.group(1)), rel=1e-5)  # -8.71199e+10 (6 digits each)
+    assert err.value.location.line == 6
+    fine = text.replace("tempmod=1", "tempmod=1 at=1e-3")  # a relative coefficient: both run it
+    ours, ref = netdae.run(fine, **TIGHT)[0], ngspice(fine, "op")
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("behavior, instance, chosen", [
+    ("hsa", "nf=2", "nch.2"),            # HSPICE mode: w/nf = 2u
+    ("spe", "nf=2", "nch.2"),            # Spectre mode likewise
+    ("hsa", "nf=2 wnflag=0", "nch.3"),   # the instance's wnflag decides
+    ("", "nf=2", "nch.3"),               # no mode: w = 4u
+])
+def test_the_compatibility_mode_sets_the_bins_wnflag_as_in_ngspice(behavior, instance, chosen):
+    """ngspice's INPgetModBin defaults wnflag to 1 in its HSPICE and Spectre modes (a PDK's .spiceinit often
+    sets ngbehavior=hsa); netdae chose by w there, another bin than ngspice's."""
+    from netdae.ngspice import run_ngspice
+
+    text = f"t\nVd d 0 1\nVg g 0 1\nM1 d g 0 0 nch l=0.5u w=4u {instance}\n{BINS}.op\n.end\n"
+    c = netdae.load(text, behavior=behavior)
+    assert c.element("m1").model == chosen
+    ours = netdae.run(c, **TIGHT)[0]
+    ref = run_ngspice(text, options=TIGHT, behavior=behavior or None).result("op")
+    assert_close(ours["i(vd)"], ref["i(vd)"], 1e-9, 1e-18, "i(vd)")
+
+
+@needs_vacask
+@pytest.mark.parametrize("version, runs", [("4.8.2", None), ("3.3.0", None), ("4.7.0", "BSIM4v7")])
+def test_a_version_with_two_points_is_read_as_text_as_ngspice_reads_it(version, runs):
+    """ngspice reads a BSIM card's version as text (inpdomod.c matches its prefix): 'version=4.8.2' was read as
+    the number 4.8 with a warning that ngspice ignores the '.2', which it does not."""
+    level = 49 if version.startswith("3") else 54
+    c = netdae.load(f"t\nVdd d 0 1\nM1 d d 0 0 nch l=1u w=1u\n.model nch nmos level={level} version={version}\n.op\n")
+    warned = warnings_of(c)
+    assert not any("read as" in w for w in warned), warned
+    assert [w for w in warned if "version" in w] == ([] if runs is None else [
+        f"model nch: version {version} runs ngspice's {runs}; netdae runs BSIM4 4.8 (sp_bsim4v8): results can "
+        "differ from ngspice's"])
+
+
+@needs_vacask
+@pytest.mark.ngspice
+@pytest.mark.parametrize("card, saved", [
+    (".model mm nmos level=54 version=4.8 vth0=0.45", ["id"]),  # ngspice's is, ig, ib of a BSIM4: empty
+    (".model mm nmos level=49 version=3.3 vth0=0.5", ["id"]),
+    (".model mm nmos level=3 vto=0.7 kp=5e-5 tox=2e-8 nsub=1e16", ["id", "is", "ig", "ib"]),
+])
+def test_savecurrents_saves_the_mosfet_currents_ngspice_saves(card, saved):
+    """.options savecurrents saved nothing of an M element run through a port; ngspice 39 saves @m1[id] (and,
+    for the classic levels, [is] [ig] [ib]), times m."""
+    text = (f"sc\n.options savecurrents\nVdd vdd 0 1.8\nVg g 0 1.5\nVb b 0 -0.3\nR1 vdd d 5k\n"
+            f"M1 d g 0 b mm l=1u w=2u m=2\n{card}\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    assert [n for n in ours.names() if n.startswith("@m1")] == [f"@m1[{q}]" for q in saved]
+    for q in saved:
+        assert_close(ours[f"@m1[{q}]"], ref[f"@m1[{q}]"], 1e-9, 1e-20, q)

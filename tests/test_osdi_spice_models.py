@@ -505,3 +505,42 @@ def test_a_vbic_instance_temperature_equals_ngspice_with_the_card_at_it():
     ours = np.asarray(netdae.run(text, **TIGHT)[0]["i(vc)"])
     ref = np.asarray(ngspice(vbic_temp(150, vbic_at(VBIC_TESTS, 27, 150), tnom=150), "dc")["i(vc)"])
     assert np.max(np.abs(ours - ref)) < 1e-6 * np.max(np.abs(ref))
+
+
+#: The classic models' quantities (ngspice's names) and a card giving every one of them a non-zero value.
+QUANTITIES = {
+    2: ("id is ib ibd ibs gm gds gmb gbd gbs cbd cbs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 vgs vds von vdsat",
+        "vto=0.7 kp=5e-5 tox=2e-8 nsub=1e16 cgso=1e-10 cgdo=1e-10 cgbo=1e-10 cj=1e-4 cjsw=1e-10 is=1e-14"),
+    3: ("id is ib ibd ibs gm gds gmb gbd gbs cbd cbs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 vgs vds von vdsat",
+        "vto=0.7 kp=5e-5 tox=2e-8 nsub=1e16 theta=0.05 cgso=1e-10 cgdo=1e-10 cgbo=1e-10 cj=1e-4 cjsw=1e-10"),
+    6: ("id is ib ibd ibs gm gds gmbs gbd gbs cbd cbs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 vgs vds von vdsat",
+        "vto=0.7 kv=2 nv=1.5 kc=5e-5 nc=1.2 lambda=0.02 gamma=0.4 phi=0.65 cgso=1e-10 cgdo=1e-10 cgbo=1e-10 cj=1e-4 cjsw=1e-10 tox=2e-8"),
+    9: ("id is ib ibd ibs gm gds gmb gbd gbs cbd cbs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 vgs vds von vdsat",
+        "vto=0.7 kp=5e-5 tox=2e-8 nsub=1e16 theta=0.05 cgso=1e-10 cgdo=1e-10 cgbo=1e-10 cj=1e-4 cjsw=1e-10"),
+}
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("level", sorted(QUANTITIES))
+def test_mosfet_quantities_of_m_devices_and_their_names_are_ngspices(level):
+    """Before, the ports' currents, conductances and capacitances were one device's (1/m of ngspice's), and
+    ngspice's names id, is, ib, cbd, cbs (the ports' i_d, i_s, i_b, c_bd, c_bs) were refused."""
+    names, card = QUANTITIES[level]
+    save = " ".join(f"@m1[{q}]" for q in names.split())
+    text = (f"q\nVd d 0 2\nVg g 0 1.5\nVb b 0 -0.5\nM1 d g 0 b mm l=2u w=10u ad=20p as=20p pd=24u ps=24u m=2\n"
+            f".model mm nmos level={level} {card}\n.save {save}\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    for q in names.split():
+        a, b = float(ours[f"@m1[{q}]"][0]), float(ref[f"@m1[{q}]"][0])
+        assert b != 0.0 and a == pytest.approx(b, rel=1e-6), q  # measured: equal
+
+
+@pytest.mark.ngspice
+def test_jfet2_quantities_of_m_devices_are_ngspices():
+    names = "gm gds ggs ggd vgs vgd".split()
+    text = (f"q\nVd d 0 2\nVg g 0 -0.5\nJ1 d g 0 jm m=2\n.model jm njf level=2 vto=-2 beta=1e-3 cgs=1p cgd=0.5p\n"
+            f".save {' '.join(f'@j1[{q}]' for q in names)}\n.op\n.end\n")
+    ours, ref = netdae.run(text, **TIGHT)[0], ngspice(text, "op")
+    for q in names:
+        a, b = float(ours[f"@j1[{q}]"][0]), float(ref[f"@j1[{q}]"][0])
+        assert b != 0.0 and a == pytest.approx(b, rel=1e-6), q

@@ -188,9 +188,17 @@ def saved_currents(circuit: Circuit) -> list[Quantity]:
     ``@q1[ic]`` ... (:data:`SAVECURRENTS`)."""
     if not circuit.options.extra.get("savecurrents"):
         return []
-    return [Quantity(f"@{el.name}[{q}]", el, q)
-            for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name
-            for q in SAVECURRENTS[el.kind]]
+    out = [Quantity(f"@{el.name}[{q}]", el, q)
+           for el in circuit.elements if el.kind in SAVECURRENTS and "#" not in el.name
+           for q in SAVECURRENTS[el.kind]]
+    if any(el.kind == Kind.OSDI for el in circuit.elements):
+        from ..devices.osdi.spice_models import spice_quantities  # an ngspice model's port: ngspice's currents
+
+        for el in circuit.elements:
+            rules = (spice_quantities(el.name, circuit.models[el.model].type)
+                     if el.kind == Kind.OSDI and "#" not in el.name else None)
+            out += [Quantity(f"@{el.name}[{q}]", el, q) for q in (rules.saved if rules else ())]
+    return out
 
 
 def measured_quantities(circuit: Circuit) -> list[Quantity]:

@@ -8,7 +8,8 @@ netdae never executes a ``.spiceinit`` (it is a control-language script): it rea
 (:func:`read_spiceinit`); :func:`find_behavior` says where it looks. The value is read as
 ngspice's ``set_compat_mode`` reads it: each two-letter code anywhere in it sets a flag
 (``ps`` PSpice, ``lt`` LTspice, ``a`` the whole netlist; ``hs``, ``xs``, ``ki``, ``eg``,
-``spe``, ``s3``, ``ll``, ``mc``: modes netdae knows by name and does not translate for).
+``spe``, ``s3``, ``ll``, ``mc``: modes netdae knows by name and does not translate for; ``hs``
+and ``spe`` choose BSIM bins by the finger's width, :attr:`Behavior.bins_by_finger`).
 Of LTspice's mode netdae does the functions and cards of :func:`translate_ltspice`.
 
 Scope (ngspice 39): in ``ps`` the translations apply to the cards of included files only
@@ -88,6 +89,15 @@ class Behavior:
     def translates_ltspice(self, *, main: bool) -> bool:
         """True when ngspice translates LTspice idioms in the cards of this file (the same scope rule)."""
         return self.ltspice and (self.all or not main)
+
+    @property
+    def bins_by_finger(self) -> bool:
+        """ngspice chooses a BSIM bin by the width of one finger (``w/nf``) unless ``wnflag`` says otherwise.
+
+        Its ``INPgetModBin`` defaults ``.options wnflag`` to 1 in the HSPICE and Spectre modes
+        (``hs``, ``spe``), to 0 otherwise.
+        """
+        return "hs" in self.others or "spe" in self.others
 
     @property
     def reads_lib_as_include(self) -> bool:

@@ -889,7 +889,7 @@ class _Elaborator:
             from ..devices.osdi.spice_models import map_devices  # ngspice's models as the bundled OSDI ports
             flags = {name: [(flag, card.card.location(offset)) for flag, offset in card.flags.items()]
                      for name, card in self.model_cards.items() if card.flags}
-            self.diagnostics.extend(map_devices(circuit, flags))
+            self.diagnostics.extend(map_devices(circuit, flags, behavior=self.net.behavior))
         seen: set[str] = set()
         for el in circuit.elements:
             if el.model is not None and el.kind == Kind.OSDI:

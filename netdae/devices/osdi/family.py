@@ -380,10 +380,36 @@ class OsdiFamily(DeviceFamily):
         globs = self.glob if k is None else [self.glob[k]]
         return np.unique(np.concatenate([g for g in globs] or [np.zeros(0, np.int64)]))
 
-    def quantity_names(self, k: int) -> tuple[str, ...]:
+    def _opvars(self, k: int) -> tuple[str, ...]:
         """The operating-point variables (Verilog-A ``(*desc=...*)`` op-vars) of instance ``k``'s module."""
         return tuple(p.name for p in self.instances[k].module.params if p.kind == "opvar" and not p.length
                      and p.type in ("real", "int"))
+
+    def _spice_rules(self, k: int):
+        """How ngspice reports instance ``k``'s quantities (None: as its module does)."""
+        from .spice_models import spice_quantities
+
+        return spice_quantities(self.elements[k].name, self.instances[k].module.name)
+
+    def quantity_names(self, k: int) -> tuple[str, ...]:
+        """Instance ``k``'s quantities: its module's op-vars, and ngspice's names for some of them.
+
+        An element of an ngspice model run through its port (an ``M`` card of
+        MOS2 ...) also answers to ngspice's name of an op-var the port spells
+        otherwise (``id`` for the port's ``i_d``).
+        """
+        own = self._opvars(k)
+        rules = self._spice_rules(k)
+        if rules is None:
+            return own
+        return own + tuple(a for a, of in rules.aliases.items() if of in own and a not in own)
+
+    def opvar_address(self, k: int, name: str):
+        """The address of instance ``k``'s op-var ``name`` in its data, and its ctypes type."""
+        inst = self.instances[k]
+        p = inst.module.parameter(name) or next(q for q in inst.module.params if q.name == name)
+        address = inst.model._access(inst.ptr, inst.model.ptr, p.id, abi.ACCESS_FLAG_INSTANCE)
+        return address, C.c_double if p.type == "real" else C.c_int32
 
     def quantities(self, x, dxdt=None):
         """The modules' operating-point variables (``@m1[gm]`` of a BSIM4 ...) at solutions ``x``.
@@ -391,20 +417,18 @@ class OsdiFamily(DeviceFamily):
         Every instance is evaluated at each point (``eval`` with ``CALC_OP``,
         as for ngspice's ``.op`` output) and its op-vars are read from its
         instance data; a variable another instance's module lacks is NaN
-        there. Shape (T, N) each; ``dxdt`` is not used (the modules compute
-        their op-vars from the voltages).
+        there. An element of an ngspice model netdae runs through its port
+        (an ``M`` card of BSIM4 ...) reports them as ngspice does
+        (:mod:`netdae.devices.osdi.spice_quantities`). Shape (T, N) each;
+        ``dxdt`` is not used (the modules compute their op-vars from the voltages).
         """
+        from .spice_quantities import apply
+
         x = np.atleast_2d(x)
         count = len(self.instances)
         names = list(dict.fromkeys(q for k in range(count) for q in self.quantity_names(k)))
         out = {q: np.full((x.shape[0], count), np.nan) for q in names}
-        reads = []
-        for k, inst in enumerate(self.instances):
-            model = inst.model
-            flags = abi.ACCESS_FLAG_INSTANCE
-            params = {p.name: p for p in inst.module.params}
-            reads.append([(q, model._access(inst.ptr, model.ptr, params[q].id, flags),
-                           C.c_double if params[q].type == "real" else C.c_int32) for q in self.quantity_names(k)])
+        reads = [[(q, *self.opvar_address(k, q)) for q in self._opvars(k)] for k in range(count)]
         info = self.info
         info.abstime = 0.0
         info.flags = eval_flags("dc", operating_point=True)
@@ -417,6 +441,10 @@ class OsdiFamily(DeviceFamily):
                 self._calls[id(inst.module)].eval(inst.handle, inst.ptr, inst.model.ptr, ref)
                 for q, address, ctype in reads[k]:
                     out[q][p, k] = ctype.from_address(address).value
+        for k in range(count):
+            rules = self._spice_rules(k)
+            if rules is not None:
+                apply(self, k, x, rules, out)
         return out
 
     # -- evaluation --------------------------------------------------------

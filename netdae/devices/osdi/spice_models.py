@@ -79,9 +79,10 @@ from ...kinds import KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, Kind
 from ...netlist.elements import UNLABELLED_AREA
 from ..model_names import level_parameters, level_words
 from ..modelcard import require_positive
+from .spice_quantities import SpiceQuantities
 from .tools import EXTRA_HINT
 
-__all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "bin_number", "first_bin", "select_bin", "map_devices",
+__all__ = ["ModuleMap", "MAPS", "NQS_NOTE", "mapped", "spice_quantities", "bin_number", "first_bin", "select_bin", "map_devices",
            "option", "BIN_TOLERANCE"]
 
 #: ngspice's binning tolerance on the bounds (``inpgmod.c``, ``is_equal``) [m].
@@ -118,6 +119,70 @@ NOT_IN_MODULE = {
 
 def _instance_renames(names: str) -> dict[str, str]:
     return {n: f"instance_{n}" for n in names.split()}
+
+
+@dataclass(frozen=True)
+class ParameterCheck:
+    """Values ngspice 39's parameter check of a model stops at (``b4check.c``, ``b3check.c``: "Fatal: ...").
+
+    The ports have no such check: they run such a card (another model, without a word) or fail on it with
+    non-finite equations, so netdae refuses it at the value, as ngspice does.
+
+    Attributes
+    ----------
+    positive, nonnegative : tuple of str
+        Card parameters that must be positive, or not negative.
+    sized_positive, sized_nonnegative : tuple of str
+        The same for parameters ngspice checks at the instance's size (``pParam``: the card's value plus its
+        ``l``, ``w``, ``p`` terms over the effective size): checked on a card without such terms, whose value
+        is then the checked one whatever the size.
+    least_fingers : float or None
+        The instance's least number of fingers ``nf`` (None: no such check).
+    at_temperature : callable or None
+        ``check(params, temp, tnom)``: what ngspice says of a value it derives at the circuit's
+        temperature (``temp``, ``tnom`` in degrees Celsius) from the card's (``params``, as written),
+        or None where it accepts it.
+    """
+
+    positive: tuple = ()
+    nonnegative: tuple = ()
+    sized_positive: tuple = ()
+    sized_nonnegative: tuple = ()
+    least_fingers: float | None = None
+    at_temperature: object = None
+
+
+#: Kelvin at 0 degrees Celsius (ngspice's CONSTCtoK).
+_KELVIN = 273.15
+
+
+def _bsim4_vsat_at_temperature(params: dict, temp: float, tnom: float) -> str | None:
+    """ngspice's ``Vsat at current temperature = ... is not positive`` (``b4temp.c``, ``b4check.c``).
+
+    ``vsat - at (T/Tnom - 1)`` with ``tempmod=0``, ``vsat (1 - at (T - Tnom))`` otherwise (``tnom`` the
+    card's, else the circuit's); checked on a card without size terms of ``vsat`` and ``at``.
+    """
+    if any(params.get(f"{b}{n}") for b in "lwp" for n in ("vsat", "at")):
+        return None
+    vsat, at = params.get("vsat", 8.0e4), params.get("at", 3.3e4)
+    t, t0 = temp + _KELVIN, params.get("tnom", tnom) + _KELVIN
+    value = vsat - at * (t / t0 - 1.0) if params.get("tempmod", 0) == 0 else vsat * (1.0 - at * (t - t0))
+    if value > 0.0:
+        return None
+    return (f"vsat={vsat:g} and at={at:g} (tempmod={params.get('tempmod', 0):g}) give a saturation velocity of "
+            f"{value:g} m/s at {temp:g} degC (tnom {params.get('tnom', tnom):g}): ngspice 39 stops there ('Fatal: "
+            "Vsat at current temperature ... is not positive')")
+
+
+#: BSIM4's (b4check.c).
+BSIM4_CHECK = ParameterCheck(positive=("toxe", "toxp", "toxm", "toxref", "eot", "ni0sub"),
+                             nonnegative=("epsrgate", "epsrsub", "easub"),
+                             sized_positive=("ndep", "nsub", "xj", "pclm"),
+                             sized_nonnegative=("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout"),
+                             least_fingers=1.0, at_temperature=_bsim4_vsat_at_temperature)
+#: BSIM3's (b3check.c; nch is its npeak).
+BSIM3_CHECK = ParameterCheck(positive=("tox", "toxm"), sized_positive=("nch", "nsub", "xj", "pclm"),
+                             sized_nonnegative=("ngate", "dvt1", "dvt1w", "dsub", "delta", "drout"))
 
 
 @dataclass(frozen=True)
@@ -184,6 +249,11 @@ class ModuleMap:
     area_as_m : bool
         ngspice's instance ``area`` multiplies the device as a parallel multiplier does (the module has
         no area of its own: it becomes part of ``$mfactor``).
+    check : ParameterCheck or None
+        The values ngspice's parameter check stops at, refused (None: no such check).
+    quantities : SpiceQuantities or None
+        How ngspice reports the model's operating-point quantities (``@m1[gm]`` ...) in terms of the
+        module's op-vars (:mod:`netdae.devices.osdi.spice_quantities`); None: as the module does.
     form : str
         The instance card's form, for messages.
     """
@@ -210,6 +280,8 @@ class ModuleMap:
     unheated: dict[str, float] = field(default_factory=dict)
     scaled: bool = False
     area_as_m: bool = False
+    check: ParameterCheck | None = None
+    quantities: SpiceQuantities | None = None
     form: str = ""
 
     def version_of(self, model: Model) -> str | None:
@@ -281,6 +353,33 @@ def _bsim4_holistic_thermal_noise(params: dict) -> str | None:
             "docs/devices.md); the other analyses and tnoimod=0, 2 agree")
 
 
+#: ngspice's voltages among the BSIM op-vars: reported per device (b4ask.c, b3ask.c multiply the others by m).
+_BSIM_VOLTAGES = frozenset("vth vdsat vgs vds vbs".split())
+#: ngspice 39's BSIM4 op-vars (b4.c) that the port has; its others (vgsteff, weff ...) are the port's own.
+_BSIM4_QUANTITIES = SpiceQuantities(
+    per_device=_BSIM_VOLTAGES | {"qdef"},
+    names=frozenset("gmbs gm gds vdsat vth id ibd ibs gbd gbs isub igidl igisl igs igd igb igcs igcd vbs vgs vds "
+                    "cgg cgs cgd cbg cbd cbs cdg cdd cds csg csd css cgb cdb csb cbb capbd capbs qg qb qd qs qinv "
+                    "qdef gcrg gtau".split()),
+    derivatives={"gm": ("id", "g_int", "g_int"), "gds": ("id", "d_int", "s_int"), "gmbs": ("id", "b_int", "b_int")},
+    drain_source=("d_int", "s_int"), one_sided=frozenset({"gds"}), saved=("id",))
+#: ngspice 39's BSIM3 op-vars (b3.c); the port's gm, gds, gmbs are ngspice's.
+_BSIM3_QUANTITIES = SpiceQuantities(
+    per_device=_BSIM_VOLTAGES,
+    names=frozenset("gmbs gm gds vdsat vth id vbs vgs vds ibd ibs gbd gbs qb qg qd cgg cgd cgs cdg cdd cds cbg "
+                    "cbd cbs capbd capbs".split()), saved=("id",))
+#: MOS2, MOS3, MOS6, MOS9 (mos2.c ...): every op-var but the voltages times m; ngspice's names of the currents
+#: and junction capacitances the ports spell otherwise.
+_MOS_QUANTITIES = SpiceQuantities(
+    per_device=frozenset("vgs vds vbs vbd von vdsat sourcevcrit drainvcrit".split()),
+    names=frozenset("i_d ibd ibs i_s i_g i_b vgs vds vbs vbd von vdsat sourcevcrit drainvcrit sourceconductance "
+                    "drainconductance gm gds gmb gmbs gbd gbs c_bd c_bs cgs cgd cgb cbd0 cbdsw0 cbs0 cbssw0 cqgs cqgd "
+                    "cqgb cqbd cqbs qbd qbs".split()),
+    aliases={"id": "i_d", "is": "i_s", "ig": "i_g", "ib": "i_b", "cbd": "c_bd", "cbs": "c_bs"},
+    saved=("id", "is", "ig", "ib"))
+#: JFET2 (jfet2.c): its conductances and capacitor currents times m (gd, gs: the model's, per device).
+_JFET2_QUANTITIES = SpiceQuantities(per_device=frozenset({"vgs", "vgd"}),
+                                    names=frozenset("vgs vgd gm gds ggs ggd cqgs cqgd".split()))
 _MOS_FORM = "{name} nd ng ns nb model [l=..] [w=..] [ad=..] [as=..] [pd=..] [ps=..] [nrd=..] [nrs=..] [m=..]"
 _BSIM4 = ModuleMap(
     "BSIM4", "mosfet", (14, 54), "spice/bsim4v8.osdi", "sp_bsim4v8", "4.8",
@@ -292,7 +391,7 @@ _BSIM4 = ModuleMap(
     module_only=frozenset("type dtemp mult_i mult_q mult_fn ketac lketac wketac pketac".split()),
     nqs=frozenset({"trnqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [nf=..] [name=value ...]",
     card_checks=(_bsim4_tunnelling_through_depleted_poly, _bsim4_holistic_thermal_noise),
-    densities=_BSIM4_DENSITIES,
+    densities=_BSIM4_DENSITIES, quantities=_BSIM4_QUANTITIES, check=BSIM4_CHECK,
 )
 _BSIM3 = ModuleMap(
     "BSIM3", "mosfet", (8, 49), "spice/bsim3v3.osdi", "sp_bsim3v3", "3.3",
@@ -300,7 +399,7 @@ _BSIM3 = ModuleMap(
     instance_names={"m": "$mfactor", **_instance_renames("nqsmod acnqsmod")},
     module_only=frozenset({"type"}),
     nqs=frozenset({"nqsmod", "acnqsmod"}), scaled=True, form=_MOS_FORM + " [name=value ...]",
-    densities=_BSIM3_DENSITIES,
+    densities=_BSIM3_DENSITIES, quantities=_BSIM3_QUANTITIES, check=BSIM3_CHECK,
 )
 _MOS_SIZES = _MOS_FORM + " [temp=..] [dtemp=..]"
 #: The MOS3/MOS9 ports evaluate to NaN without nsub: they compute the depletion-layer width coefficient
@@ -358,18 +457,19 @@ def _spice3_flicker(m_exponent: int, through_nlev: bool):
 
 _MOS2 = ModuleMap("MOS2", "mosfet", (2,), "spice/mos2.osdi", "sp_mos2", instance_names={"m": "$mfactor"},
                   module_only=frozenset({"type", "nlev", "gdsnoi"}), rewrites=(_spice3_flicker(1, True),),
-                  scaled=True, form=_MOS_SIZES)
+                  scaled=True, quantities=_MOS_QUANTITIES, form=_MOS_SIZES)
 _MOS3 = ModuleMap("MOS3", "mosfet", (3,), "spice/mos3.osdi", "sp_mos3", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
                   module_only=frozenset({"type", "nlev", "gdsnoi"}), rewrites=(_spice3_flicker(0, True),),
-                  scaled=True, form=_MOS_SIZES)
+                  scaled=True, quantities=_MOS_QUANTITIES, form=_MOS_SIZES)
 _MOS6 = ModuleMap("MOS6", "mosfet", (6,), "spice/mos6.osdi", "sp_mos6", instance_names={"m": "$mfactor"},
                   model_names={"ps": "ps_mod"}, module_only=frozenset({"type", "nlev", "kf", "af"}),
-                  form=_MOS_SIZES)  # mos6par.c: no .options scale
+                  quantities=_MOS_QUANTITIES, form=_MOS_SIZES)  # mos6par.c: no .options scale
 _MOS9 = ModuleMap("MOS9", "mosfet", (9,), "spice/mos9.osdi", "sp_mos9", instance_names={"m": "$mfactor"}, stand_ins=_NSUB,
                   module_only=frozenset({"type"}), rewrites=(_spice3_flicker(1, False),),
-                  form=_MOS_SIZES)  # mos9par.c: no .options scale
+                  quantities=_MOS_QUANTITIES, form=_MOS_SIZES)  # mos9par.c: no .options scale
 _JFET2 = ModuleMap("JFET2 (Parker-Skellern)", "jfet", (2,), "spice/jfet2.osdi", "sp_jfet2",
                    instance_names={"m": "$mfactor"}, module_only=frozenset({"type"}),
+                   quantities=_JFET2_QUANTITIES,
                    form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [temp=..] [dtemp=..] [m=..]")
 _MES = ModuleMap("MES (Statz)", "mesfet", (1,), "spice/mes1.osdi", "sp_mes1", instance_names={"m": "$mfactor"},
                  module_only=frozenset({"type"}), form="{name} nd ng ns model [area] [off] [ic=vds,vgs] [m=..]")
@@ -394,6 +494,20 @@ _VBIC = ModuleMap("VBIC", "bjt", (4, 9), "vbic_1p3_4t.osdi", "vbic13_4t",
 #: The ngspice models netdae runs through OSDI, by (element kind, level).
 MAPS: dict[tuple[str, int], ModuleMap] = {
     (m.kind, level): m for m in (_BSIM4, _BSIM3, _MOS2, _MOS3, _MOS6, _MOS9, _JFET2, _MES, _VBIC) for level in m.levels}
+
+
+def spice_quantities(element: str, module: str) -> SpiceQuantities | None:
+    """How ngspice reports the quantities of ``element``, an instance of OSDI module ``module``.
+
+    None unless the element is a card of an ngspice model that runs as that
+    module (an ``M`` element of a BSIM4 card; an ``N`` element's quantities
+    are its module's own) and the model's quantities differ from the module's.
+    """
+    for m in MAPS.values():
+        if m.quantities is not None and module in (m.module, (m.thermal or ("", ""))[1]) and \
+                element[:1] in KINDS[m.kind].letters:
+            return m.quantities
+    return None
 
 
 def level_of(model: Model) -> float:
@@ -446,8 +560,14 @@ def _in_range(value: float, low: float, high: float) -> bool:
     return abs(value - low) < BIN_TOLERANCE or abs(value - high) < BIN_TOLERANCE or low < value < high
 
 
-def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
+def select_bin(el: Element, circuit: Circuit, candidates: list[str], cards=None, wnflag: float = 0.0) -> str:
     """The binned model ``el`` uses among ``candidates`` (ngspice's ``INPgetModBin``).
+
+    ``cards`` maps a candidate's name to its card as written (default:
+    ``circuit.models``); :func:`map_devices` passes the cards it has already
+    translated into a module's model as they were, so that every instance
+    chooses among the same bins. ``wnflag`` is the default of ``.options
+    wnflag`` (ngspice's: 1 in its HSPICE and Spectre modes, else 0).
 
     Raises
     ------
@@ -465,18 +585,19 @@ def select_bin(el: Element, circuit: Circuit, candidates: list[str]) -> str:
                                 "wmin <= w <= wmax)")
     scale = option(circuit, "scale", 1.0, el)
     nf = el.params.get("nf", 1.0)
-    flag = el.params.get("wnflag", option(circuit, "wnflag", 0.0, el)) if "nf" in el.params else 0.0
+    flag = el.params.get("wnflag", option(circuit, "wnflag", wnflag, el)) if "nf" in el.params else 0.0
     length = el.params["l"] * scale
     width = el.params["w"] / (nf if flag else 1.0) * scale
+    cards = circuit.models if cards is None else cards
     for name in candidates:
-        card = circuit.models[name]
+        card = cards[name]
         if mapped(card) is None or any(b not in card.params for b in BIN_BOUNDS):
             continue
         p = card.params
         if _in_range(length, p["lmin"], p["lmax"]) and _in_range(width, p["wmin"], p["wmax"]):
             return name
     ranges = "; ".join(
-        f"{c.rsplit(':', 1)[-1]}: l {_fmt_range(circuit.models[c], 'l')}, w {_fmt_range(circuit.models[c], 'w')}"
+        f"{c.rsplit(':', 1)[-1]}: l {_fmt_range(cards[c], 'l')}, w {_fmt_range(cards[c], 'w')}"
         for c in candidates[:6])
     per_finger = " (w/nf: wnflag=1)" if flag and nf != 1.0 else ""
     raise NetlistError(f"{el.name}: no bin of model '{written}' holds l={length:g} w={width:g}{per_finger} "
@@ -557,25 +678,27 @@ def _instance_name(m: ModuleMap, raw: str, module) -> str | None:
     return name if p is not None and p.kind == "instance" else None
 
 
-#: Values ngspice 39's BSIM4 parameter check stops at ("Fatal: ... is not positive", "Fatal: Number of
-#: finger = ... is smaller than one"), which the port runs with or fails on with non-finite equations:
-#: card parameters that must be positive, and the instance's least number of fingers.
-BSIM4_POSITIVE = ("toxe", "toxp", "toxm")
-BSIM4_LEAST_FINGERS = 1.0
+def _fatal_in_ngspice(m: ModuleMap, el_or_card: str, raw: str, value, loc, expected: str,
+                      card: Model | None = None) -> None:
+    """Refuse a value ngspice 39's parameter check of ``m`` stops at (a NetlistError at ``loc``), as ngspice does.
 
-
-def _fatal_in_ngspice(m: ModuleMap, el_or_card: str, raw: str, value, loc, expected: str) -> None:
-    """Refuse a value ngspice 39's BSIM4 check stops at (a NetlistError at ``loc``), as ngspice does."""
-    if m.name != "BSIM4" or isinstance(value, str):
+    ``card`` is the model card of a model parameter (its size terms decide
+    whether a size-dependent value is checked, :class:`ParameterCheck`).
+    """
+    check = m.check
+    if check is None or isinstance(value, str):
         return
-    if raw in BSIM4_POSITIVE and value <= 0.0:
+    sized = card is not None and not any(card.params.get(f"{b}{raw}") for b in "lwp")
+    if (raw in check.positive or sized and raw in check.sized_positive) and value <= 0.0:
         why = "is not positive"
-    elif raw == "nf" and value < BSIM4_LEAST_FINGERS:
+    elif (raw in check.nonnegative or sized and raw in check.sized_nonnegative) and value < 0.0:
+        why = "is negative"
+    elif raw == "nf" and check.least_fingers is not None and value < check.least_fingers:
         why = "is smaller than one (the number of fingers)"
     else:
         return
-    raise NetlistError(f"{el_or_card}: {raw}={value:g} {why}; ngspice 39's BSIM4 parameter check stops at it "
-                       "('Fatal: ...'), and the module would run with it", loc, expected=expected)
+    raise NetlistError(f"{el_or_card}: {raw}={value:g} {why}; ngspice 39's {m.name} parameter check stops at it "
+                       "('Fatal: ...'), and the module has no such check", loc, expected=expected)
 
 
 def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfactor: float = 1.0) -> Model:
@@ -612,7 +735,8 @@ def _model_card(m: ModuleMap, card: Model, module, notes: list, name: str, mfact
             _warn(notes, f"model {card.name}: parameter '{raw}' is {why} {m.name} model: ignored, as ngspice "
                   "ignores it", loc)
             continue
-        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a thickness > 0>")
+        _fatal_in_ngspice(m, f"model {card.name}", raw, value, loc, f"{raw}=<a value ngspice's {m.name} accepts>",
+                          card)
         if raw in m.nqs and value:
             _warn(notes, f"model {card.name}: {raw}={value:g}: {NQS_NOTE}", loc)
         if raw in m.differs and value:
@@ -737,14 +861,17 @@ def _check_nodes(el: Element, card: Model, m: ModuleMap | None) -> None:
                        hint="ngspice's thermal node belongs to VBIC (.model ... npn level=4)")
 
 
-def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]:
+def map_devices(circuit: Circuit, flags: dict | None = None, behavior=None) -> list[Diagnostic]:
     """Rewrite the circuit's elements whose models run through bundled OSDI ports (in place, :data:`MAPS`).
 
     Elements naming a binned model get their bin first (:func:`select_bin`);
     each card used is translated once per module, the bundled library added
     to ``circuit.osdi_files``. ``flags`` maps a model's name to the bare words
     on its card, with their locations (the model types restate the type; any
-    other is ignored with a warning, as ngspice ignores it).
+    other is ignored with a warning, as ngspice ignores it). ``behavior`` is
+    ngspice's compatibility mode (:class:`netdae.netlist.compat.Behavior`;
+    None: none): in its HSPICE and Spectre modes a bin is chosen by ``w/nf``
+    unless ``wnflag`` says otherwise.
 
     Returns
     -------
@@ -762,7 +889,8 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
     families: dict[str, list[str]] | None = None
     done: dict[tuple[str, bool], tuple[ModuleMap, object, str]] = {}
     libraries = {path for path, _ in circuit.osdi_files}
-    originals: dict[str, Model] = {}
+    originals: dict[str, Model] = {}  # the cards translated so far, as written
+    as_written = _Written(circuit.models, originals)
     warned: set = set()
     for el in circuit.elements:
         if el.model is None or not KINDS[el.kind].model_types:
@@ -775,14 +903,15 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
             candidates = families.get(el.model)
             if not candidates:
                 continue
-            if not any(mapped(circuit.models[c]) for c in candidates):
+            if not any(mapped(as_written[c]) for c in candidates):
                 written = el.model.rsplit(":", 1)[-1]
                 raise NetlistError(f"{el.name}: model '{written}' is not defined; the cards "
                                    f"{', '.join(c.rsplit(':', 1)[-1] for c in candidates[:4])} are bins, which "
                                    "ngspice selects for BSIM3 and BSIM4 models only (level 8/49, 14/54)",
                                    el.location, expected=f"a .model card named {written}")
-            el.model = select_bin(el, circuit, candidates)
-        card = originals.get(el.model) or circuit.models[el.model]
+            el.model = select_bin(el, circuit, candidates, as_written,
+                                  1.0 if behavior is not None and behavior.bins_by_finger else 0.0)
+        card = as_written[el.model]
         if el.kind == Kind.MESFET and card.type in MODEL_TYPES[Kind.HFET]:
             _to_hfet(el, card)  # ngspice's HFET1 and HFET2: netdae's own family (other levels refused)
             continue
@@ -811,6 +940,14 @@ def map_devices(circuit: Circuit, flags: dict | None = None) -> list[Diagnostic]
                 f"{el.model}#{module.name}" + (f"#m={mfactor:g}" if mfactor != 1.0 else ""))
             again = any(k[:2] == key[:2] for k in done)  # the same module for another m: warned already
             circuit.models[name] = _model_card(m, card, module, [] if again else notes, name, mfactor)
+            if m.check is not None and m.check.at_temperature is not None:
+                said = m.check.at_temperature(card.params, circuit.options.temp, circuit.options.tnom)
+                if said is not None:
+                    raise NetlistError(f"model {card.name}: {said}", card.location,
+                                       expected="a saturation velocity vsat - at (T/Tnom - 1) > 0 (tempmod=1, 2, 3: "
+                                                "vsat (1 - at (T - Tnom)) > 0)",
+                                       hint="tempmod=1, 2 and 3 read at as a relative coefficient [1/K], tempmod=0 "
+                                            "as one in m/s")
             if not any(k[0] == el.model for k in done):
                 for flag, where in (flags or {}).get(el.model, ()):
                     if flag not in KINDS[m.kind].model_types:
@@ -935,6 +1072,16 @@ def _refuse(el: Element, card: Model) -> None:
                        f"({level_words(spec.name, level)}) is not "
                        f"implemented by netdae", card.locations.get("level", card.location),
                        expected=f"a {spec.summary} model of level {', '.join([ported, *own])}", hint=hint)
+
+
+class _Written:
+    """A circuit's model cards as written: those :func:`map_devices` translated already, as they were."""
+
+    def __init__(self, models: dict, originals: dict) -> None:
+        self.models, self.originals = models, originals
+
+    def __getitem__(self, name: str) -> Model:
+        return self.originals.get(name) or self.models[name]
 
 
 def _families(circuit: Circuit) -> dict[str, list[str]]:
