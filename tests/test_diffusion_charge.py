@@ -104,10 +104,23 @@ Ccl cl in 10n
 """
 
 
-def test_a_flybacks_clamp_diode_rings_as_the_converged_run():
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_a_flybacks_clamp_diode_rings_as_the_converged_run(engine, monkeypatch):
     """After turn-off the drain rings down to -570 V in spikes (netdae at reltol 1e-7: -570.7 V; ngspice at
     reltol 1e-5: -569.0 V) and is clamped at 158.6 V. The default tolerance gave -9,343 V (ngspice's default
-    -7,418 V): the clamp diode's diffusion charge drifted between the spikes."""
+    -7,418 V): the clamp diode's diffusion charge drifted between the spikes.
+
+    Near the default tolerance the deepest spike is not converged: the diode's reverse recovery at 4.35 us
+    ends in a snap whose depth the steps there decide, and the ringing after it keeps that error (both
+    engines, reltol 7e-4 to 2e-3: -566 to -585 V at most settings, -1,328 V at 1.2e-3, the compiled one
+    -872 V at 2e-3; not the orders: maxord=2 gives -969 V at 1e-3; docs/integrator.md, "Known
+    limitations"). So the default run is held to the drift's absence (within twice the converged depth),
+    and reltol 1e-4 to the converged depth.
+    """
+    monkeypatch.setenv("NETDAE_ENGINE", engine)
     m = _measures(FLYBACK)
+    assert -2 * 570.7 < m["vdmin"] < -0.97 * 570.7
+    assert m["vdmax"] == pytest.approx(158.6, rel=2e-3)
+    m = _measures(FLYBACK.replace(".tran", ".options reltol=1e-4\n.tran"))
     assert m["vdmin"] == pytest.approx(-570.7, rel=0.03)
     assert m["vdmax"] == pytest.approx(158.6, rel=2e-3)
