@@ -129,6 +129,9 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
         with open(display, "rb") as fh:
             data = fh.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
+        if display == "-":  # the shell's usual name of the standard input
+            raise NetlistError(f"{what} '-' not found: netdae reads netlists from files, not from the standard "
+                               "input", location, hint="save the netlist in a file and give its name") from None
         raise NetlistError(f"{what} '{display}' not found", location,
                            hint="check the file name; relative names are resolved against the "
                                 "directory of the file that names them") from None
