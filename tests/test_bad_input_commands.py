@@ -375,6 +375,8 @@ API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
     # a callback that is not callable: refused before the work, not when first called after it
     (lambda: netdae.run(API_RC, progress=3), r"progress must be a function called as progress\(t, tstop, steps\)"),
     (lambda: netdae.simulate(API_RC.replace(".op", ".tran 1u 1m"), progress="bar"), r"not str \('bar'\)"),
+    (lambda: netdae.run(API_RC.replace(".op", ".tran 1u 1m"), output=5),
+     r"output must be a function called as output\(position, start, block\), not int \(5\)"),
     (lambda: netdae.sweep(API_RC, params={"r1": [1e3]}, save=["v(out)"], progress=3), r"progress must be a function called as progress\(done, total\), not int"),
 ])
 def test_api_arguments_of_the_wrong_type(call, message):
