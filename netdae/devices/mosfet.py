@@ -301,8 +301,11 @@ class MosfetFamily(DeviceFamily):
             row["leff"] = row["l"] - 2.0 * row["ld"]
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             if row["leff"] <= 0.0:
-                raise CircuitError(f"{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not positive",
-                                   elements=(el.name,))
+                where = f"{el.location}: " if el.location else ""
+                raise CircuitError(f"{where}{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not "
+                                   f"positive (l = {row['l']:g} m, model {model.name}'s ld = {row['ld']:g} m)",
+                                   elements=(el.name,), hint="give l more than twice ld (ngspice 39 warns "
+                                   "'effective channel length less than zero' and does not converge)")
             rows.append(row)
         self._setup(rows)
 
