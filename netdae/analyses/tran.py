@@ -61,7 +61,8 @@ from ..dae.bdf.failures import RUNAWAY_FACTOR
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import KIND_VOLTAGE, LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
-from ..errors import CircuitError, ConvergenceError, NetdaeError, NetlistError, SingularPencilError, count_text
+from ..errors import (CircuitError, ConvergenceError, NetdaeError, NetlistError, SingularPencilError, count_text,
+                      size_text)
 from ..kinds import KINDS, NO_GAIN_KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
@@ -232,10 +233,10 @@ def memory_room() -> tuple[int | None, str]:
     machine = physical_memory()
     limit = address_space_room()
     if limit is not None and (machine is None or limit < machine):
-        return limit, f"this process may map {limit / 2**30:,.1f} GiB more (ulimit -v)"
+        return limit, f"this process may map {size_text(limit)} more (ulimit -v)"
     if machine is None:
         return None, ""
-    return machine, f"this machine has {machine / 2**30:,.1f} GiB"
+    return machine, f"this machine has {size_text(machine)}"
 
 
 #: Past this many points :func:`output_size` counts in floating point.
@@ -285,11 +286,10 @@ def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: i
     if size <= ADVISE_FRACTION * capacity:
         return None
     has = (f"of memory, {source}" if room is None
-           else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
-    gib = size / 2**30
+           else f"of disk space for its file, {size_text(capacity)} are free there")
     if math.isfinite(size):
         what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "
-                f"{card.tstop:g}/{tmax:g}) needs at least {f'{gib:,.1f}' if gib < 1e15 else f'{gib:.3g}'} GiB {has}")
+                f"{card.tstop:g}/{tmax:g}) needs at least {size_text(size)} {has}")
     else:  # tstop/tmax overflows: more points than a double counts
         what = (f"keeping {saved:,} of {total:,} unknowns at tstop/tmax = {card.tstop:g}/{tmax:g} points or more "
                 f"(beyond {count_text(sys.float_info.max)}) needs more than any memory or disk holds")
