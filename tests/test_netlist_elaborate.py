@@ -6,6 +6,8 @@ import math
 
 import pytest
 
+import netdae
+
 from netdae.circuit import AcAnalysis, DcAnalysis, OpAnalysis, TranAnalysis
 from netdae.errors import NetlistError
 from netdae.netlist import load
@@ -297,6 +299,21 @@ def test_initial_conditions_saves_and_title():
     assert c.saves == ["v(n)", "v(x1.m)", "i(v1)", "v(n,x1.m)", "@r.x1.r1[i]", "i(r.x1.r1)"]
     warnings = [d.message for d in c.diagnostics if d.severity == "warning"]
     assert warnings == [".plot v(nope): no node 'nope' (not kept)"]  # i(r.x1.r1) is computed after the analysis
+
+
+def test_an_element_named_by_its_instance_path_first_gets_its_ngspice_name():
+    """'.save i(x1.v9)' (and PSpice's x1:v9) was 'no element' without a word of the name that exists, v.x1.v9."""
+    c = net(".subckt s p q\nR1 p q 1k\nV9 p q 0\n.ends\nX1 a 0 s\nV1 a 0 1\nR2 a 0 1k\n"
+            ".save i(x1.v9) @x1:r1[i] i(x1.v8)\n.op")
+    warnings = [d.message for d in c.diagnostics if d.severity == "warning"]
+    assert warnings == [".save i(x1.v9): no element 'x1.v9': inside subcircuits it is named 'v.x1.v9' (ngspice's "
+                        "names) (not kept)",
+                        ".save @x1:r1[i]: no device 'x1:r1': inside subcircuits it is named 'r.x1.r1' (ngspice's "
+                        "names) (not kept)",
+                        ".save i(x1.v8): no element 'x1.v8' (not kept)"]
+    with pytest.raises(netdae.NetdaeError, match=r"cannot save 'i\(x1\.v9\)': no element 'x1\.v9' in the circuit: "
+                                                 r"inside subcircuits it is named 'v\.x1\.v9'"):
+        netdae.run(c, save=["i(x1.v9)"])
 
 
 def test_control_block_commands_become_cards_the_rest_located_notes():

@@ -34,6 +34,7 @@ from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ON
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
 from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS, Kind
+from ..signals import subcircuit_name_hint
 from . import expr as ex
 from . import lossy, shunts, urc
 from .shunts import DEFAULT_RSERIES
@@ -1950,7 +1951,7 @@ def _save_signal(signal: str, nodes: dict, elements: dict,
         elif head == "i":
             target = elements.get(parts[0]) if len(parts) == 1 else None
             if target is None:
-                problem = f"no element '{parts[0]}'"
+                problem = f"no element '{parts[0]}'" + subcircuit_name_hint(parts[0], elements)
             elif target.kind not in BRANCH_CURRENT_KINDS and not KINDS[target.kind].current_is_quantity:
                 problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
     elif signal == "all":
@@ -2060,7 +2061,7 @@ def _device_quantity_problem(signal: str, elements: dict) -> str | None:
         return str(exc)
     target = elements.get(sig.args[0])
     if target is None:
-        return f"no device '{sig.args[0]}'"
+        return f"no device '{sig.args[0]}'" + subcircuit_name_hint(sig.args[0], elements)
     try:
         device_quantity(sig, target.kind)
     except ValueError as exc:
