@@ -395,13 +395,21 @@ def _include(card: Card, at: int, target: str, section: str | None, chain: list,
     if target not in deck.files:
         deck.files.append(target)
     if section is not None:
-        cards = _section(cards, section, card, at, target)
+        cards, first, again = _section(cards, section, card, at, target)
+        if again is not None and key not in deck.sections_read:  # said once, however often the section is read
+            deck.notes.append(Diagnostic("warning", f".lib {section}: the library section is defined again in "
+                                         f"'{target}' (first at line {first.line}): the first is read and this "
+                                         "one ignored, as ngspice 39 does", again.location(0)))
         deck.sections_read.add(key)
     return _expand(cards, os.path.dirname(target), chain + [key], shown + [target], deck)
 
 
-def _section(cards: list[Card], section: str, card: Card, at: int, target: str) -> list[Card]:
+def _section(cards: list[Card], section: str, card: Card, at: int,
+             target: str) -> tuple[list[Card], Card, Card | None]:
+    """The cards of library section ``section`` of a file's ``cards`` (the first of that name, as ngspice 39
+    reads it), its ``.lib`` card, and the ``.lib`` card of a second section of that name (None: none)."""
     found = []
+    body = first = None
     j = 0
     while j < len(cards):
         c = cards[j]
@@ -410,11 +418,15 @@ def _section(cards: list[Card], section: str, card: Card, at: int, target: str) 
             if len(args) == 1:
                 end = _skip_section(cards, j)
                 if args[0][0] == section:
-                    return cards[j + 1 : end - 1]
+                    if body is not None:
+                        return body, first, c
+                    body, first = cards[j + 1 : end - 1], c
                 found.append(args[0][0])
                 j = end
                 continue
         j += 1
+    if body is not None:
+        return body, first, None
     listed = ", ".join(found) if found else "none"
     raise NetlistError(f".lib: section '{section}' not found in '{target}' (sections: {listed})",
                        card.location(at))
