@@ -141,6 +141,9 @@ CASES = [
     ("t\n.param p={ddt(1)}\n", r"ddt\(\) \(a time derivative outside a behavioural source\) is not supported", 2, "ddt"),
     ("t\nB1 a 0 V=v(a,b,c)\n", r"malformed V\(\.\.\.\) reference", 2, "v(a,b,c)"),
     # independent sources and waveforms
+    # ngspice multiplies a current source's current by m=; netdae said "unexpected 'm'"
+    ("t\nI1 0 b 1m m=2\nR1 b 0 1k\n", r"i1: m= \(ngspice's multiplier of a current source's current\) is not "
+     r"read by netdae", 2, "m", 2),
     ("t\nV1 a 0 pulse(1)\n", r"PULSE needs at least 2 parameters \(v1 v2\), got 1", 2, "pulse"),
     ("t\nV1 a 0 sin(0 1 2 3 4 5 6)\n", r"SIN takes at most 6 parameters", 2, "sin"),
     ("t\nV1 a 0 exp(0 1 0 -1)\n", r"EXP tau1 must be >= 0", 2, "exp"),

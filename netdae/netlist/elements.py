@@ -561,6 +561,10 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
         elif first and is_value(tok):
             spec.dc = parse_value(card, tok, syntax)
             i += 1
+        elif word == "m" and kind == Kind.ISOURCE and skip_eq(i + 1) > i + 1:
+            raise error(card, tok.start, "m= (ngspice's multiplier of a current source's current) is not read by "
+                        "netdae", syntax, hint="multiply the source's values instead (its DC value, AC magnitude "
+                        "and the levels of its function)")
         else:
             raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
                         hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
