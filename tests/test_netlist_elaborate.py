@@ -474,3 +474,14 @@ def test_a_capacitor_value_reading_temper_without_c_key_is_warned():
     assert any("carries no current there" in d.message for d in warned.diagnostics)
     keyed = load("t\n.temp 75\nV1 in 0 1\nR1 in a 1k\nC1 a 0 C={1n*(1+2e-3*(temper-27))}\n.end\n")
     assert not any("carries no current" in d.message for d in keyed.diagnostics)
+
+
+def test_a_dotted_model_version_is_text_as_ngspice_reads_it():
+    """ngspice's BSIM models read version=4.8.1 as text; netdae read the number 4.8 and warned on every such card
+    that '.1' was ignored."""
+    from netdae.netlist import parse
+
+    text = "t\nM1 d g 0 0 nm l=1u w=1u\n.model nm nmos level=14 version=4.8.1\n"
+    assert parse(text).top.models["nm"].strings["version"][0] == "4.8.1"
+    assert not [d for d in load(text).diagnostics if "ignored" in d.message]
+    assert parse(text.replace("4.8.1", "4.5")).top.models["nm"].params["version"][0] == 4.5  # a number stays one

@@ -19,7 +19,7 @@ from .elements import (IDENT, circuit_function_calls, error, parse_element, pars
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token, no_gc
 from .measure import parse_measure
 from .steps import parse_step
-from .numbers import parse_number
+from .numbers import ignored_text, parse_number
 from .compat import SWITCH_DEFAULTS, SWITCH_FORMS, switch_form
 from .reader import Deck, read_deck
 from .size import MAX_SUBCKT_DEPTH
@@ -494,7 +494,8 @@ def _model(card: Card, toks: list[Token], stack: list[Definition], net: Netlist)
                           "(as ngspice does)")
                 params.pop(tok.text, None)
                 strings.pop(tok.text, None)
-            if value.kind == STRING:
+            if value.kind == STRING or (tok.text == "version" and value.kind == WORD and ignored_text(value.text)):
+                # version=4.8.1: ngspice's BSIM models read the version as text (a number with ignored text else)
                 strings[tok.text] = (value.text, value.start)
             elif value.kind == WORD and parse_number(value.text) is None and not IDENT.match(value.text):
                 params[tok.text] = (parse_expr(card, value.text, value.start, ex.PARAM, form), value.start)  # is=isv*2
