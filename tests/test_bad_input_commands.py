@@ -386,6 +386,15 @@ def test_api_arguments_of_the_wrong_type(call, message):
         call()
 
 
+@pytest.mark.parametrize("kw, message", [
+    ({"at": "x"}, r"^at must be 'op' or 't0', not 'x'$"),  # was '--at must be', the command line's option
+    ({"method": "x"}, r"^method must be auto, kronecker, topological or sparse, not 'x'$"),
+])
+def test_analyze_index_names_its_own_arguments(kw, message):
+    with pytest.raises(netdae.NetdaeError, match=message):
+        netdae.analyze_index(API_RC, **kw)
+
+
 def test_an_absolute_tolerance_below_what_the_error_test_meets_is_refused(tmp_path):
     """.options abstol=1e-30 (ngspice takes it) failed 'error test failed 10 times at t=0' blaming the solution's
     smoothness, and abstol=1e-200 made a singular Newton matrix (compiled) or a ZeroDivisionError reported as a
