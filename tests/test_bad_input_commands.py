@@ -395,6 +395,14 @@ def test_analyze_index_names_its_own_arguments(kw, message):
         netdae.analyze_index(API_RC, **kw)
 
 
+@pytest.mark.parametrize("limit", [0, -1])
+def test_a_limit_of_no_elements_is_refused_as_such(limit):
+    """max_elements=-1 was 'the expanded circuit would have 3 elements, more than the limit of -1'."""
+    with pytest.raises(ValueError, match=rf"^max_elements must be a positive integer \(a limit on the expanded "
+                                         rf"circuit's elements\), not {limit}$"):
+        netdae.load(API_RC, max_elements=limit)
+
+
 def test_an_absolute_tolerance_below_what_the_error_test_meets_is_refused(tmp_path):
     """.options abstol=1e-30 (ngspice takes it) failed 'error test failed 10 times at t=0' blaming the solution's
     smoothness, and abstol=1e-200 made a singular Newton matrix (compiled) or a ZeroDivisionError reported as a

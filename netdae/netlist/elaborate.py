@@ -2152,6 +2152,9 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
                         f"{type(params).__name__}")
     if max_elements is not None and (isinstance(max_elements, bool) or not isinstance(max_elements, int)):
         raise TypeError(f"max_elements must be an integer, not {type(max_elements).__name__}")
+    if max_elements is not None and max_elements < 1:
+        raise ValueError(f"max_elements must be a positive integer (a limit on the expanded circuit's elements), "
+                         f"not {max_elements}")
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
     if sample is not None and (isinstance(sample, bool) or not isinstance(sample, int) or sample < 0):
