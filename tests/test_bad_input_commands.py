@@ -736,3 +736,17 @@ def test_a_resistance_that_scale_or_temperature_make_zero_is_located(capsys, tmp
     assert f"{path}:4:1: r2: its resistance 1000 ohm times its {shown}" in err
     assert "an infinite or undefined conductance (hint: check the element's scale= and temperature coefficients)" \
         in err
+
+
+def test_a_failed_start_without_an_operating_point_says_why_there_is_none(capsys, tmp_path):
+    """.tran without uic, no operating point (a level-1 MOSFET at 10,000 degC: phi(T) < 0, as ngspice's -nan):
+    the start as with uic that replaces it failed too, and the message began 'uic: could not find values
+    consistent ...', naming an option the card does not have and not the operating point's failure."""
+    text = "t\nV1 a 0 1\nR1 a b 1k\nM1 b a 0 0 mm\n.model mm nmos\n.temp 1e4\n.tran 1u 10u\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == EXIT_ERROR and "bug in netdae" not in err
+    assert err.startswith("netdae: error: no DC operating point (operating point: the circuit equations are not "
+                          "finite at the initial guess"), err
+    assert ("and the start without one (as with uic: capacitor voltages and inductor currents from their ic= or 0) "
+            "failed too: could not find values consistent with the initial capacitor voltages") in err
+    assert "(hint: an expression of these elements divides by zero" in err and "error: uic:" not in err

@@ -123,6 +123,7 @@ class _Start:
     notes: list[str] = field(default_factory=list)
     correction: dict | None = None
     uic: bool = False  # a uic start although the card has no uic (no DC operating point)
+    no_op: ConvergenceError | None = None  # then: why the operating point failed
 
 
 def _card(circuit: Circuit, card: TranAnalysis | None) -> TranAnalysis:
@@ -728,7 +729,15 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     system.start_delays(start.x, uic=card.uic)
     rep = _structure(prepared, start.x, card.uic)
     notes += _index_notes(prepared, rep)
-    x0, correction, more = _consistent_start(prepared, start, rep, settings)
+    try:
+        x0, correction, more = _consistent_start(prepared, start, rep, settings)
+    except NetdaeError as exc:
+        if start.no_op is None:
+            raise
+        # the card has no uic: say first why the operating point failed, then why its replacement did
+        raise ConvergenceError(f"no DC operating point ({start.no_op.message}), and the start without one (as "
+                               f"with uic: capacitor voltages and inductor currents from their ic= or 0) failed "
+                               f"too: {str(exc).removeprefix('uic: ')}", hint=start.no_op.hint) from None
     notes += more
     impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
     notes += [f"warning: {w}" for w in impulses[:JUMP_NOTES]]  # all of them in transient.impulses
@@ -843,7 +852,7 @@ def _start(prepared: Prepared, settings: _Settings) -> _Start:
         op = solve_operating_point(prepared, transient=True, options=settings.steady)
     except ConvergenceError as exc:
         start = _uic_start(prepared)
-        start.uic = True
+        start.uic, start.no_op = True, exc
         start.notes.insert(0, (
             f"no DC operating point: {exc.message}; the transient starts as with uic (node voltages from .ic, "
             "capacitor voltages and inductor currents from their ic= or the node voltages, else 0; the other "
