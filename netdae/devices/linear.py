@@ -184,16 +184,18 @@ def _resistances_rounded(els: list[Element], temp: float, tnom: float) -> np.nda
 def _scaled_resistances(els: list[Element], r: np.ndarray, temp: float, tnom: float) -> np.ndarray:
     """``R factor scale`` of resistances ``r`` (0 read as :data:`ZERO_RESISTANCE`).
 
+    An infinite resistance (a model's zero width) is an open circuit, as in ngspice.
+
     Raises
     ------
     CircuitError
-        Where the temperature factor or ``scale=`` makes the product zero or not finite (ngspice 39 divides
+        Where the temperature factor or ``scale=`` makes the product zero or undefined (ngspice 39 divides
         by it: an infinite conductance), located at the element's card.
     """
     r = np.where(r == 0.0, ZERO_RESISTANCE, r)
     factor, scale = _temperature_factor(els, temp, tnom), _scale(els)
     out = r * factor * scale
-    for k in np.flatnonzero(~(np.isfinite(out) & (out != 0.0))):
+    for k in np.flatnonzero((out == 0.0) | np.isnan(out)):
         el = els[k]
         where = f"{el.location}: " if el.location else ""
         raise CircuitError(f"{where}{el.name}: its resistance {r[k]:g} ohm times its temperature factor "
