@@ -279,7 +279,7 @@ def test_model_translations():
     text = ("t\n.model m1 nmos level=6 vto=0.7\n.model q1 npn(bf=100 dev=5% t_abs=50)\n"
             ".model q2 lpnp(bf=20)\n.op\n")
     cards = {m.name: m for m in parse(text, behavior="psa").top.models.values()}
-    assert cards["m1"].params["level"][0] == 8 and "version" in cards["m1"].params
+    assert cards["m1"].params["level"][0] == 8 and cards["m1"].strings["version"][0] == "3.2.4"
     assert "dev" not in cards["q1"].params and "temp" in cards["q1"].params and "t_abs" not in cards["q1"].params
     assert cards["q2"].type == "pnp" and cards["q2"].params["subs"][0] == -1
 
