@@ -1865,6 +1865,9 @@ class _Elaborator:
         where: dict[str, dict] = {".ic": circuit.ic_locations, ".nodeset": {}}
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
             for node, val, offset, card in entries:
+                if node == "0":
+                    self._ground_initial(what, "0", card.location(offset))
+                    continue
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint=unknown_node_hint(node, self.port_nodes, "x1.mid",
@@ -1876,13 +1879,24 @@ class _Elaborator:
             target = circuit.ic if item.name == ".ic" else circuit.nodeset
             env = self.env(p.frames)
             for (written, val, offset), node in zip(item.entries, p.nodes):
-                if node != "0" and node not in nodes:
+                if node == "0":
+                    self._ground_initial(item.name, written, item.card.location(offset))
+                    continue
+                if node not in nodes:
                     raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
                                 DOT_CARDS[item.name])
-                if node != "0":
-                    value = self._initial_number(evaluate_val(val, env, item.card, f"initial value of v({written})"),
-                                                 item.card, val[1], item.name)
-                    self._set_initial(target, where[item.name], item.name, node, value, item.card.location(offset))
+                value = self._initial_number(evaluate_val(val, env, item.card, f"initial value of v({written})"),
+                                             item.card, val[1], item.name)
+                self._set_initial(target, where[item.name], item.name, node, value, item.card.location(offset))
+
+    def _ground_initial(self, what: str, written: str, location) -> None:
+        """An ``.ic``/``.nodeset`` entry of the ground node (``v(0)``, or a subcircuit port an instance grounds):
+        ignored, as ngspice 39 ignores it, with a warning (its value was refused as an unknown node, or
+        dropped without a word inside a subcircuit)."""
+        whose = "the ground node is" if written == "0" else "the instance connects this node to ground,"
+        self.diagnostics.append(Diagnostic(
+            "warning", f"{what} v({written}): {whose} always 0 V: the entry is ignored, as ngspice 39 ignores it",
+            location))
 
     def _set_initial(self, target: dict, where: dict, what: str, node: str, value: float, location) -> None:
         """One ``.ic``/``.nodeset`` value; a node given again takes the later value (as in ngspice), with a
