@@ -362,6 +362,22 @@ def test_a_file_with_cr_line_ends_only_is_refused_at_line_1(tmp_path):
     assert "convert the line endings to LF or CRLF" in err.hint
 
 
+@pytest.mark.parametrize("char, shown", [("\x01", "0x01, Ctrl-A"), ("\x1c", "0x1C, Ctrl-\\"), ("\x7f", "0x7F, DEL")])
+def test_a_control_character_in_a_card_is_refused_at_it(char, shown):
+    """R1 a<Ctrl-A>0 1k read as nodes 'a\x010' and '1k' (ngspice 39: node a_0) and ended in 'missing resistance'."""
+    with pytest.raises(NetlistError) as exc:
+        load(f"t\nV1 a 0 1\nR1 a{char}0 1k\n.op\n")
+    assert (exc.value.location.line, exc.value.location.column) == (3, 5)
+    assert exc.value.message.startswith(f"a control character ({shown}) in the card: ngspice 39 does not read it "
+                                        "as a blank")
+
+
+def test_a_line_of_ctrl_z_is_skipped_as_ngspice_skips_it():
+    """A DOS end-of-file mark (Ctrl-Z) on a line of its own was refused as the unknown card '\x1a', shown as ''."""
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\n\x1a\n.op\n")
+    assert [e.name for e in c.elements] == ["v1", "r1"] and len(c.analyses) == 1
+
+
 def test_a_carriage_return_inside_a_line_is_refused_and_crlf_is_read():
     with pytest.raises(NetlistError, match=r"carriage return \(CR\) inside the line") as exc:
         load("t\nV1 a 0 1\nR1 a 0 2k\rR2 a 0 2k\n.op\n")
