@@ -231,8 +231,10 @@ def subcircuit_name_hint(written: str, elements) -> str:
 
     Examples
     --------
-    >>> subcircuit_name_hint("x1.v9", {"v.x1.v9"}), subcircuit_name_hint("x1:x2:r1", {"r.x1.x2.r1"})
-    (": inside subcircuits it is named 'v.x1.v9' (ngspice's names)", ": inside subcircuits it is named 'r.x1.x2.r1' (ngspice's names)")
+    >>> subcircuit_name_hint("x1.v9", {"v.x1.v9"})
+    ": inside subcircuits it is named 'v.x1.v9' (ngspice's names)"
+    >>> subcircuit_name_hint("x1:x2:r1", {"r.x1.x2.r1"})
+    ": inside subcircuits it is named 'r.x1.x2.r1' (ngspice's names)"
     >>> subcircuit_name_hint("x1.v8", {"v.x1.v9"})
     ''
     """
