@@ -180,6 +180,18 @@ def test_redefined_param_takes_the_last_value_with_a_warning():
     assert "parameter 'a' redefined" in w.message and w.location.line == 4
 
 
+def test_a_param_given_twice_on_one_card_is_warned_about_and_once_per_card_in_subcircuits():
+    """'.param r=1k r=2k' took 2k without a word (two cards warned); a redefinition inside a subcircuit was warned
+    about once per instance, the same warning at the same place each time."""
+    c = net(".param r=1k r=2k\nR1 x 0 {r}")
+    assert c.element("r1").value == 2e3
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert "parameter 'r' redefined" in w.message and (w.location.line, w.location.column) == (2, 13)
+    c = net(".subckt s p q\n.param r=1k\n.param r=2k\nR1 p q {r}\n.ends\nX1 a 0 s\nX2 a 0 s\nX3 a 0 s")
+    assert [(d.location.line, d.message.split(" (")[0]) for d in c.diagnostics if d.severity == "warning"] == [
+        (4, "parameter 'r' redefined")]
+
+
 def test_functions_with_and_without_equals_and_nesting():
     c = net(".param k=2\n.func f(x, y) = {x*y + k}\n.func g(x) {f(x, x) + 1}\nR1 a 0 {g(3)}\nB1 b 0 V=g(v(a))")
     assert c.element("r1").value == 12.0

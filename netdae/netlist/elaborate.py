@@ -664,7 +664,7 @@ class _Elaborator:
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         self._unused_errors(self.net.top)
-        circuit.diagnostics = self.diagnostics
+        circuit.diagnostics = _unique(self.diagnostics)
         draws = self.root.draws
         if self.trace is not None:
             self.trace.finish(draws)
@@ -2052,6 +2052,19 @@ def _capacitance_from_model(el: Element, model) -> float:
         raise NetlistError(f"{el.name}: model {model.name} gives the capacitance {value:g} (from cj, cjsw, l, w, "
                            "short and narrow)", el.location, hint="the capacitance must not be negative")
     return float(value)
+
+
+def _unique(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
+    """``diagnostics`` without repeats: a card inside a subcircuit is read once per instance, and a warning
+    about it (a .param redefined in the body) was said once per instance, alike."""
+    seen: set = set()
+    out = []
+    for d in diagnostics:
+        key = (d.severity, d.message, d.location, d.in_results)
+        if key not in seen:
+            seen.add(key)
+            out.append(d)
+    return out
 
 
 def _stepped_number(name: str, value) -> float:

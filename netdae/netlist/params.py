@@ -75,7 +75,7 @@ class Env:
     def define(self, pdef: ParamDef, where: "Env", diagnostics: list[Diagnostic] | None = None) -> None:
         """Add a definition evaluated lazily in ``where`` (last definition wins)."""
         old = self.defs.get(pdef.name)
-        if old is not None and diagnostics is not None and old[0].card is not pdef.card:
+        if old is not None and diagnostics is not None and old[0] is not pdef:
             first = old[0].card
             diagnostics.append(Diagnostic(
                 "warning", f"parameter '{pdef.name}' redefined (previous definition at {first.file}:"
