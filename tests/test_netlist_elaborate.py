@@ -192,6 +192,17 @@ def test_a_param_given_twice_on_one_card_is_warned_about_and_once_per_card_in_su
         (4, "parameter 'r' redefined")]
 
 
+def test_an_option_given_again_with_another_value_is_warned_about():
+    """.options reltol=1e-3 reltol=1e-4 (one card or two) took 1e-4 without a word (ngspice 39 says nothing)."""
+    for text in (".options reltol=1e-3 reltol=1e-4", ".options reltol=1e-3\n.options reltol=1e-4"):
+        c = net(text)
+        assert c.options.reltol == 1e-4
+        (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+        assert w.message.startswith("option reltol=0.0001 replaces reltol=0.001 given at <string>:2:17 (the last "
+                                    "value holds, as in ngspice)")
+    assert not [d for d in net(".options method=gear method=gear").diagnostics if d.severity == "warning"]
+
+
 def test_functions_with_and_without_equals_and_nesting():
     c = net(".param k=2\n.func f(x, y) = {x*y + k}\n.func g(x) {f(x, x) + 1}\nR1 a 0 {g(3)}\nB1 b 0 V=g(v(a))")
     assert c.element("r1").value == 12.0

@@ -1810,6 +1810,7 @@ class _Elaborator:
                                      "overflows them; check its unit suffix")
                 elif name in ("temp", "tnom"):
                     self._check_temperature(number, card, value.start, f"option {name}")
+                self._option_again(opts, name, number, getattr(opts, name), card.location(value.start))
                 setattr(opts, name, number)
                 opts.locations[name] = card.location(value.start)
             elif name == "method":
@@ -1817,6 +1818,7 @@ class _Elaborator:
                 if word not in _METHODS:
                     raise error(card, offset, f"unknown integration method '{word}'", form,
                                 hint="method=gear or method=trap")
+                self._option_again(opts, name, _METHODS[word], opts.method, card.location(value.start))
                 opts.method = _METHODS[word]
                 opts.locations[name] = card.location(value.start)
             elif name == "interp":
@@ -1831,6 +1833,16 @@ class _Elaborator:
         if TEMPER in self.overrides:
             opts.temp = float(self.overrides[TEMPER])
         circuit.options = opts
+
+    def _option_again(self, opts: Options, name: str, value, old, location) -> None:
+        """A located warning for an option given a second time with another value (the last value holds, as in
+        ngspice 39, which says nothing), naming the value it replaces and where that was given."""
+        before = opts.locations.get(name)
+        if before is not None and before != location and value != old:
+            shown = [f"{v:g}" if isinstance(v, (int, float)) else str(v) for v in (value, old)]
+            self.diagnostics.append(Diagnostic(
+                "warning", f"option {name}={shown[0]} replaces {name}={shown[1]} given at {before} (the last value "
+                "holds, as in ngspice)", location))
 
     def _extra_option(self, circuit: Circuit, name: str, value, offset: int, card):
         """The value of an option netdae keeps as written; a located warning when ngspice 39
