@@ -45,6 +45,7 @@ __all__ = [
     "ResultFileError",
     "OutputFileError",
     "count_text",
+    "size_text",
 ]
 
 
@@ -62,6 +63,30 @@ def count_text(value: float) -> str:
     if value != value or value in (float("inf"), float("-inf")):
         return "infinitely many"
     return f"{value:,.0f}" if abs(value) < 1e15 else f"{value:.3g}"
+
+
+#: Binary units of :func:`size_text`, each 1024 times the one before.
+_SIZE_UNITS = ("bytes", "KiB", "MiB", "GiB")
+
+
+def size_text(nbytes: float) -> str:
+    """A size in bytes for an error message, in the largest unit (up to GiB) in which it is at least 1.
+
+    A transient's file refused on a nearly full disk is shown as ``1.9 MiB``, not as ``0.0 GiB``.
+
+    Examples
+    --------
+    >>> size_text(2_000_000), size_text(745.1 * 2**30), size_text(512), size_text(2.5e30)
+    ('1.9 MiB', '745.1 GiB', '512 bytes', '2.33e+21 GiB')
+    """
+    if nbytes != nbytes or nbytes in (float("inf"), float("-inf")):
+        return "infinitely many bytes"
+    value, k = float(nbytes), 0
+    while k < len(_SIZE_UNITS) - 1 and abs(value) >= 1024.0:
+        value, k = value / 1024.0, k + 1
+    if k == 0:
+        return f"{value:,.0f} bytes"
+    return f"{value:,.1f} {_SIZE_UNITS[k]}" if abs(value) < 1e15 else f"{value:.3g} {_SIZE_UNITS[k]}"
 
 
 @dataclass(frozen=True, slots=True)

@@ -295,6 +295,8 @@ def plot(result: Result, *, title: str = "", signals=None, circuit=None, rails: 
         For an ``op`` result or a result without signals to draw.
     KeyError
         For a name in ``signals`` the result does not have.
+    TypeError
+        For a ``result`` that is not a :class:`~netdae.results.Result`, or ``signals`` that are not names.
 
     Examples
     --------
@@ -307,8 +309,12 @@ def plot(result: Result, *, title: str = "", signals=None, circuit=None, rails: 
     """
     from matplotlib.figure import Figure
 
+    from .analyses.runner import string_entries
     from .errors import NetdaeError
 
+    if not isinstance(result, Result):
+        raise TypeError(f"result must be a Result (of netdae.run or netdae.simulate), not {type(result).__name__}")
+    signals = string_entries(signals, "signals")
     if result.analysis not in ("tran", "ac", "dc", "noise") or result.axis is None:
         raise NetdaeError(f"cannot plot a '{result.analysis}' result: it has no axis (tran, ac, dc and noise have "
                           "one)")

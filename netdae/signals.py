@@ -31,7 +31,8 @@ from dataclasses import dataclass
 from .kinds import KINDS
 
 __all__ = ["Signal", "parse_signal", "split_signals", "canonical", "GROUND_NAMES", "SIGNAL_FORMS",
-           "DEVICE_QUANTITIES", "QUANTITY_UNITS", "NONLINEAR_QUANTITY_KINDS", "device_quantity", "signal_unit"]
+           "DEVICE_QUANTITIES", "QUANTITY_UNITS", "NONLINEAR_QUANTITY_KINDS", "device_quantity", "signal_unit",
+           "subcircuit_name_hint"]
 
 #: Node names that mean ground (ngspice accepts ``gnd`` for ``0``).
 GROUND_NAMES = frozenset({"0", "gnd"})
@@ -216,10 +217,30 @@ def missing_name(sig: Signal, nodes, elements) -> str | None:
     """
     missing = [n for n in sig.nodes if n not in nodes and "#" not in n]
     if sig.kind in ("i", "@") and sig.args[0] not in elements:
-        missing = [sig.args[0]]
+        return f"no element '{sig.args[0]}' in the circuit" + subcircuit_name_hint(sig.args[0], elements)
     if not missing:
         return None
-    return f"no {'node' if sig.kind == 'v' else 'element'} '{missing[0]}' in the circuit"
+    return f"no node '{missing[0]}' in the circuit"
+
+
+def subcircuit_name_hint(written: str, elements) -> str:
+    """Where an element named by its instance path first (``x1.v9``, PSpice's ``x1:v9``) is, in ngspice's names.
+
+    ngspice (and netdae) name an element inside a subcircuit instance by its letter, the instance path
+    and its own name (``v.x1.v9``); ``""`` when ``written`` is no such name of an element of ``elements``.
+
+    Examples
+    --------
+    >>> subcircuit_name_hint("x1.v9", {"v.x1.v9"})
+    ": inside subcircuits it is named 'v.x1.v9' (ngspice's names)"
+    >>> subcircuit_name_hint("x1:x2:r1", {"r.x1.x2.r1"})
+    ": inside subcircuits it is named 'r.x1.x2.r1' (ngspice's names)"
+    >>> subcircuit_name_hint("x1.v8", {"v.x1.v9"})
+    ''
+    """
+    *path, name = re.split(r"[.:]", written)
+    full = f"{name[0]}.{'.'.join(path)}.{name}" if path and name and all(path) else None
+    return f": inside subcircuits it is named '{full}' (ngspice's names)" if full in elements else ""
 
 
 def signal_unit(name: str) -> str:

@@ -375,6 +375,8 @@ API_RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.op\n.end\n"
     # a callback that is not callable: refused before the work, not when first called after it
     (lambda: netdae.run(API_RC, progress=3), r"progress must be a function called as progress\(t, tstop, steps\)"),
     (lambda: netdae.simulate(API_RC.replace(".op", ".tran 1u 1m"), progress="bar"), r"not str \('bar'\)"),
+    (lambda: netdae.run(API_RC.replace(".op", ".tran 1u 1m"), output=5),
+     r"output must be a function called as output\(position, start, block\), not int \(5\)"),
     (lambda: netdae.sweep(API_RC, params={"r1": [1e3]}, save=["v(out)"], progress=3), r"progress must be a function called as progress\(done, total\), not int"),
 ])
 def test_api_arguments_of_the_wrong_type(call, message):
@@ -382,6 +384,23 @@ def test_api_arguments_of_the_wrong_type(call, message):
     numpy UFuncTypeError from the Newton iteration for reltol='1e-3')."""
     with pytest.raises(TypeError, match=message):
         call()
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"at": "x"}, r"^at must be 'op' or 't0', not 'x'$"),  # was '--at must be', the command line's option
+    ({"method": "x"}, r"^method must be auto, kronecker, topological or sparse, not 'x'$"),
+])
+def test_analyze_index_names_its_own_arguments(kw, message):
+    with pytest.raises(netdae.NetdaeError, match=message):
+        netdae.analyze_index(API_RC, **kw)
+
+
+@pytest.mark.parametrize("limit", [0, -1])
+def test_a_limit_of_no_elements_is_refused_as_such(limit):
+    """max_elements=-1 was 'the expanded circuit would have 3 elements, more than the limit of -1'."""
+    with pytest.raises(ValueError, match=rf"^max_elements must be a positive integer \(a limit on the expanded "
+                                         rf"circuit's elements\), not {limit}$"):
+        netdae.load(API_RC, max_elements=limit)
 
 
 def test_an_absolute_tolerance_below_what_the_error_test_meets_is_refused(tmp_path):
@@ -701,3 +720,33 @@ def test_an_output_file_name_taken_by_a_directory_is_refused_before_the_run(caps
     assert err.strip() == (f"netdae: error: cannot write {tmp_path / 'o' / 'tran.csv'}: it is a directory (hint: "
                            "remove or rename it, or give another --out)")
     assert list((tmp_path / "o").iterdir()) == [tmp_path / "o" / "tran.csv"]
+
+
+@pytest.mark.parametrize("card, analysis, shown", [
+    ("R2 a 0 1k scale=0", ".op", "temperature factor 1 (tc1, tc2 or tce at its temperature) times scale=0 is 0"),
+    ("R2 a 0 1k tc1=-0.01 temp=127", ".op", "temperature factor 0 (tc1, tc2 or tce at its temperature) times "
+                                             "scale=1 is 0"),
+    ("R2 a 0 1k tc1=-0.01", ".dc temp 100 150 27", "temperature factor 0"),
+])
+def test_a_resistance_that_scale_or_temperature_make_zero_is_located(capsys, tmp_path, card, analysis, shown):
+    """R times its temperature factor times scale= of 0 was an infinite conductance: 'internal error:
+    ValueError: A has a NaN entry' from the structure's SVD (ngspice 39 prints -inf currents)."""
+    status, err, path = _cli(capsys, tmp_path, f"t\nV1 a 0 1\nR1 a 0 1k\n{card}\n{analysis}\n.end\n", "run", "-q")
+    assert status == EXIT_ERROR and "bug in netdae" not in err, err
+    assert f"{path}:4:1: r2: its resistance 1000 ohm times its {shown}" in err
+    assert "an infinite or undefined conductance (hint: check the element's scale= and temperature coefficients)" \
+        in err
+
+
+def test_a_failed_start_without_an_operating_point_says_why_there_is_none(capsys, tmp_path):
+    """.tran without uic, no operating point (a level-1 MOSFET at 10,000 degC: phi(T) < 0, as ngspice's -nan):
+    the start as with uic that replaces it failed too, and the message began 'uic: could not find values
+    consistent ...', naming an option the card does not have and not the operating point's failure."""
+    text = "t\nV1 a 0 1\nR1 a b 1k\nM1 b a 0 0 mm\n.model mm nmos\n.temp 1e4\n.tran 1u 10u\n.end\n"
+    status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
+    assert status == EXIT_ERROR and "bug in netdae" not in err
+    assert err.startswith("netdae: error: no DC operating point (operating point: the circuit equations are not "
+                          "finite at the initial guess"), err
+    assert ("and the start without one (as with uic: capacitor voltages and inductor currents from their ic= or 0) "
+            "failed too: could not find values consistent with the initial capacitor voltages") in err
+    assert "(hint: an expression of these elements divides by zero" in err and "error: uic:" not in err

@@ -128,6 +128,16 @@ def test_an_empty_netlist_file_is_an_error(capsys, tmp_path):
     assert status == 2 and err.startswith(f"netdae: error: {path}:1:1: the netlist file is empty (0 bytes)")
 
 
+@pytest.mark.parametrize("command", ["check", "run"])
+def test_a_dash_for_the_standard_input_is_said_to_be_unread(capsys, tmp_path, monkeypatch, command):
+    """'-' names the standard input to most tools; netdae reads files, and says so instead of blaming the name."""
+    monkeypatch.chdir(tmp_path)
+    status, out, err = cli(capsys, command, "-")
+    assert status == 2 and err.startswith("netdae: error: netlist file '-' not found: netdae reads netlists "
+                                          "from files, not from the standard input")
+    assert "hint: save the netlist in a file and give its name" in err
+
+
 @pytest.mark.parametrize("option", ["reltol=2", "reltol=1", "temp=-300", "tnom=-274", "maxord=7"])
 def test_bad_netlist_options_exit_2(capsys, tmp_path, option):
     path = tmp_path / "o.cir"

@@ -170,6 +170,16 @@ def test_unknown_signal_is_an_error(amplifier, capsys):
     assert status == 2 and "v(nowhere)" in err
 
 
+def test_a_netlist_that_cannot_be_read_is_said_as_every_command_says_it(tmp_path, capsys):
+    """compare read the file itself first, with its own words ('cannot read netlist: No such file or directory')."""
+    status, _, err = run_cli(capsys, tmp_path / "missing.cir")
+    assert status == 2 and f"netlist file '{tmp_path / 'missing.cir'}' not found (hint: check the file name" in err
+    status, _, err = run_cli(capsys, tmp_path)
+    assert status == 2 and f"netlist file '{tmp_path}' is a directory" in err
+    with pytest.raises(TypeError, match="source must be a file name or netlist text, not NoneType"):
+        netdae.compare(None)
+
+
 def test_netdae_compare_is_the_function_whatever_the_import_order():
     import netdae.comparison as package
 

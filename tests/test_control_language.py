@@ -440,6 +440,20 @@ def test_sweep_refuses_a_script_that_alters():
         netdae.sweep(load(text), params={"c": [1e-6, 2e-6]})
 
 
+@pytest.mark.parametrize("value, message", [
+    ("0", "zero resistance for 'r1'"),
+    ("1e300", "the value 1e+300 of 'r1' is outside the magnitudes netdae's matrices hold"),
+])
+def test_an_alter_to_a_value_the_element_cannot_take_is_located_at_the_command(value, message):
+    """'alter R1 = 0' was reported at R1's card as 'values: zero resistance for 'r1'' (the word of the internal
+    argument that carries it), not at the command that set it."""
+    text = f"t\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1n\n.control\nalter R1 = {value}\nop\n.endc\n.end\n"
+    with pytest.raises(NetlistError) as info:
+        netdae.run(load(text))
+    assert (info.value.location.line, info.value.location.column) == (6, 1)
+    assert info.value.message.startswith(f".control: 'alter r1 = {float(value)!r}': {message}")
+
+
 def test_growing_variables_and_deep_nesting_are_refused_at_their_line():
     text = ("t\nV1 a 0 1\nR1 a 0 1k\n.control\nset x = ab\nrepeat 100\n  set x = \"$x $x\"\nend\nop\n"
             ".endc\n.end\n")

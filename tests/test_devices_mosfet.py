@@ -186,3 +186,29 @@ def test_device_charges_sum_to_zero():
         q = system.evaluate(x, 0.0).q
         nodes = [system.names.index(f"v({n})") for n in ("d", "g", "s", "b")]
         assert abs(q[nodes].sum()) < 1e-28
+
+
+@pytest.mark.parametrize("card, shown", [("l=0", "l = 0 m, model mm's ld = 0 m"),
+                                         ("l=1u", "l = 1e-06 m, model mm's ld = 6e-07 m")])
+def test_a_channel_without_length_is_refused_at_the_card(card, shown):
+    """L - 2 LD <= 0 was an error without file and line (ngspice 39 warns and then does not converge)."""
+    from netdae.errors import CircuitError
+
+    ld = " ld=0.6u" if card == "l=1u" else ""
+    text = f"t\nV1 a 0 1\nR1 a b 1k\nM1 b a 0 0 mm {card} w=1u\n.model mm nmos{ld}\n.op\n.end\n"
+    with pytest.raises(CircuitError) as err:
+        assemble(load(text, path="m.cir"))
+    assert str(err.value).startswith(f"m.cir:4:1: m1: effective channel length L - 2 LD = ")
+    assert f"is not positive ({shown})" in str(err.value) and "give l more than twice ld" in str(err.value)
+
+
+@pytest.mark.parametrize("phi", ["0", "-1"])
+def test_a_surface_potential_that_is_not_positive_is_refused_at_the_value(phi):
+    """phi <= 0 was 'm1: model mm: PHI must be positive' without file, line or value."""
+    from netdae.errors import NetlistError
+
+    text = f"t\nV1 a 0 1\nR1 a b 1k\nM1 b a 0 0 mm l=1u w=1u\n.model mm nmos phi={phi}\n.op\n.end\n"
+    with pytest.raises(NetlistError) as err:
+        assemble(load(text, path="m.cir"))
+    assert str(err.value).startswith(f"m.cir:5:20: model mm: phi={phi} is impossible for a MOSFET (level 1): "
+                                     "phi must be > 0")

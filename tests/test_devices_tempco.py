@@ -121,5 +121,18 @@ def test_charge_coefficients_match_ngspice_ac():
 def test_other_equation_selectors_are_refused(model, message):
     element = "D1 a 0 dm" if " d " in model else "Q1 a a 0 dm"
     text = f"t\nV1 a 0 0.7\n{element}\n{model}\n.end\n"
+    with pytest.raises(CircuitError, match=message) as err:
+        operating_point(load(text, path="t.cir"))
+    assert str(err.value).startswith("t.cir:4:")  # at the model's tlev=, not without a place
+
+
+@pytest.mark.parametrize("model, element, message", [
+    (".model qm npn ptf=10", "Q1 b a 0 qm", r"t\.cir:4:19: q1: model qm: excess phase \(PTF\) is not supported"),
+    (".model mm nmos nsub=1e5 tox=1e-8", "M1 b a 0 0 mm",
+     r"t\.cir:4:21: m1: model mm: nsub=100000 cm\^-3 is below the intrinsic density of silicon"),
+])
+def test_model_values_netdae_refuses_are_located_at_the_value(model, element, message):
+    """Refusals made where the device family reads its model were without file and line."""
+    text = f"t\nV1 a 0 1\n{element}\n{model}\nR1 a b 1k\n.op\n.end\n"
     with pytest.raises(CircuitError, match=message):
-        operating_point(load(text))
+        operating_point(load(text, path="t.cir"))

@@ -119,7 +119,10 @@ def test_a_default_or_body_param_reading_its_own_name_reads_the_caller(defaults,
 
 @pytest.mark.parametrize("inst", ["r2={r2*3}", "r1={r2} r2={g*2}"])
 def test_a_name_read_before_assignment_without_a_caller_value_is_an_error(inst):
-    with pytest.raises(NetlistError, match="unknown parameter 'r2' in parameter 'r"):
+    # the message named the caller's value as "parameter 'r2'", as if the instance's own r2 were unknown
+    with pytest.raises(NetlistError, match="unknown parameter 'r2' in the value of 'r2' where the subcircuit is "
+                                           "called \\(the instance's own 'r2' is not assigned before the parameter "
+                                           "that reads it\\)"):
         load(f"t\n.param g=1\n.subckt s a params: r1=1 r2=1k\nRb a 0 {{r2}}\n.ends\nV1 x 0 1\nX1 x s {inst}\n.op\n")
 
 

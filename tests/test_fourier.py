@@ -100,6 +100,16 @@ def test_a_period_longer_than_the_run_fails_with_its_reason():
     assert f.to_dict() == {"signal": "v(a)", "fundamental": 1e3, "status": "failed", "reason": f.reason}
 
 
+def test_a_period_below_the_resolution_of_time_fails_with_its_reason():
+    """.four 1e300 (ngspice takes it and prints a table of noise) sampled one instant 200 times: the norm. magnitudes
+    and the THD were nan in a table that looked like a result."""
+    res = netdae.simulate(netdae.load(HARMONICS.replace(".four 1k", ".four 1e300")))
+    (f,) = res.fourier
+    assert res.ok and not f.ok
+    assert ("its period 1e-300 s is too short to sample at t = 0.003 s: 200 points over it are not distinct times"
+            in f.reason)
+
+
 @pytest.mark.parametrize("card, message", [
     (".four 0 v(a)", r":5:7: \.four: the fundamental frequency must be positive, got 0"),
     (".four 1k", r":5:9: \.four: expected a signal after the frequency"),

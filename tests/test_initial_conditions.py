@@ -265,3 +265,21 @@ def test_uic_starts_a_level_1_mosfet_at_its_own_initial_conditions():
     np.testing.assert_allclose(d["v(d)"], [3.359612, 4.329421], rtol=1e-3)
     assert d["v(g)"][0] == pytest.approx(1.199295, rel=1e-3)
     assert not [n for n in r.notes if "are not used" in n]
+
+
+def test_an_initial_value_of_ground_is_ignored_with_a_warning_as_ngspice_ignores_it():
+    """.ic v(0)=2 was refused as an 'unknown node '0'' with the hint about hierarchical names; a subcircuit's .ic
+    of a port its instance grounds was dropped without a word. ngspice 39 ignores both (v(b) starts at 0.5 there
+    too)."""
+    import netdae
+
+    text = ("t\n.subckt s p q\nR1 p q 1k\nC1 p q 1n\n.ic v(q)=1 v(p)=0.5\n.ends\nV1 a 0 1\nR9 a b 1k\nX1 b 0 s\n"
+            ".ic v(gnd)=2\n.tran 1u 10u\n.end\n")
+    c = netdae.load(text)
+    warnings = [(d.location.line, d.location.column, d.message) for d in c.diagnostics if d.severity == "warning"]
+    assert warnings == [
+        (10, 7, ".ic v(0): the ground node is always 0 V: the entry is ignored, as ngspice 39 ignores it"),
+        (5, 7, ".ic v(q): the instance connects this node to ground, always 0 V: the entry is ignored, as ngspice "
+               "39 ignores it")]
+    assert c.ic == {"b": 0.5}
+    assert netdae.run(c)[0]["v(b)"][0] == 0.5

@@ -450,6 +450,10 @@ def test_param_cards_are_measured_after_the_others_as_in_ngspice():
     assert got["early"].value == pytest.approx(2 * late, rel=1e-6)
     assert not got["bad"].ok and "'after' is a later PARAM measurement" in got["bad"].reason
     assert got["after"].value == 1.0
+    # its own name: said so, not called a later measurement
+    got = {m.name: m for r in run(text.replace("PARAM='1'", "PARAM='after+1'")) for m in r.measures}
+    assert not got["after"].ok and got["after"].reason == ("PARAM: 'after' is this measurement itself: its "
+                                                           "expression cannot use its own value")
 
 
 def test_ngspices_lines_of_a_repeated_name_go_to_its_cards_in_order():

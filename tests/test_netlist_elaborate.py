@@ -6,6 +6,8 @@ import math
 
 import pytest
 
+import netdae
+
 from netdae.circuit import AcAnalysis, DcAnalysis, OpAnalysis, TranAnalysis
 from netdae.errors import NetlistError
 from netdae.netlist import load
@@ -178,6 +180,29 @@ def test_redefined_param_takes_the_last_value_with_a_warning():
     assert "parameter 'a' redefined" in w.message and w.location.line == 4
 
 
+def test_a_param_given_twice_on_one_card_is_warned_about_and_once_per_card_in_subcircuits():
+    """'.param r=1k r=2k' took 2k without a word (two cards warned); a redefinition inside a subcircuit was warned
+    about once per instance, the same warning at the same place each time."""
+    c = net(".param r=1k r=2k\nR1 x 0 {r}")
+    assert c.element("r1").value == 2e3
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert "parameter 'r' redefined" in w.message and (w.location.line, w.location.column) == (2, 13)
+    c = net(".subckt s p q\n.param r=1k\n.param r=2k\nR1 p q {r}\n.ends\nX1 a 0 s\nX2 a 0 s\nX3 a 0 s")
+    assert [(d.location.line, d.message.split(" (")[0]) for d in c.diagnostics if d.severity == "warning"] == [
+        (4, "parameter 'r' redefined")]
+
+
+def test_an_option_given_again_with_another_value_is_warned_about():
+    """.options reltol=1e-3 reltol=1e-4 (one card or two) took 1e-4 without a word (ngspice 39 says nothing)."""
+    for text in (".options reltol=1e-3 reltol=1e-4", ".options reltol=1e-3\n.options reltol=1e-4"):
+        c = net(text)
+        assert c.options.reltol == 1e-4
+        (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+        assert w.message.startswith("option reltol=0.0001 replaces reltol=0.001 given at <string>:2:17 (the last "
+                                    "value holds, as in ngspice)")
+    assert not [d for d in net(".options method=gear method=gear").diagnostics if d.severity == "warning"]
+
+
 def test_functions_with_and_without_equals_and_nesting():
     c = net(".param k=2\n.func f(x, y) = {x*y + k}\n.func g(x) {f(x, x) + 1}\nR1 a 0 {g(3)}\nB1 b 0 V=g(v(a))")
     assert c.element("r1").value == 12.0
@@ -297,6 +322,21 @@ def test_initial_conditions_saves_and_title():
     assert c.saves == ["v(n)", "v(x1.m)", "i(v1)", "v(n,x1.m)", "@r.x1.r1[i]", "i(r.x1.r1)"]
     warnings = [d.message for d in c.diagnostics if d.severity == "warning"]
     assert warnings == [".plot v(nope): no node 'nope' (not kept)"]  # i(r.x1.r1) is computed after the analysis
+
+
+def test_an_element_named_by_its_instance_path_first_gets_its_ngspice_name():
+    """'.save i(x1.v9)' (and PSpice's x1:v9) was 'no element' without a word of the name that exists, v.x1.v9."""
+    c = net(".subckt s p q\nR1 p q 1k\nV9 p q 0\n.ends\nX1 a 0 s\nV1 a 0 1\nR2 a 0 1k\n"
+            ".save i(x1.v9) @x1:r1[i] i(x1.v8)\n.op")
+    warnings = [d.message for d in c.diagnostics if d.severity == "warning"]
+    assert warnings == [".save i(x1.v9): no element 'x1.v9': inside subcircuits it is named 'v.x1.v9' (ngspice's "
+                        "names) (not kept)",
+                        ".save @x1:r1[i]: no device 'x1:r1': inside subcircuits it is named 'r.x1.r1' (ngspice's "
+                        "names) (not kept)",
+                        ".save i(x1.v8): no element 'x1.v8' (not kept)"]
+    with pytest.raises(netdae.NetdaeError, match=r"cannot save 'i\(x1\.v9\)': no element 'x1\.v9' in the circuit: "
+                                                 r"inside subcircuits it is named 'v\.x1\.v9'"):
+        netdae.run(c, save=["i(x1.v9)"])
 
 
 def test_control_block_commands_become_cards_the_rest_located_notes():
@@ -457,3 +497,14 @@ def test_a_capacitor_value_reading_temper_without_c_key_is_warned():
     assert any("carries no current there" in d.message for d in warned.diagnostics)
     keyed = load("t\n.temp 75\nV1 in 0 1\nR1 in a 1k\nC1 a 0 C={1n*(1+2e-3*(temper-27))}\n.end\n")
     assert not any("carries no current" in d.message for d in keyed.diagnostics)
+
+
+def test_a_dotted_model_version_is_text_as_ngspice_reads_it():
+    """ngspice's BSIM models read version=4.8.1 as text; netdae read the number 4.8 and warned on every such card
+    that '.1' was ignored."""
+    from netdae.netlist import parse
+
+    text = "t\nM1 d g 0 0 nm l=1u w=1u\n.model nm nmos level=14 version=4.8.1\n"
+    assert parse(text).top.models["nm"].strings["version"][0] == "4.8.1"
+    assert not [d for d in load(text).diagnostics if "ignored" in d.message]
+    assert parse(text.replace("4.8.1", "4.5")).top.models["nm"].params["version"][0] == 4.5  # a number stays one

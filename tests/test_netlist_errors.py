@@ -126,12 +126,24 @@ CASES = [
     ("t\nE1 a 0 freq {v(b)} = (0, 0, 0)\n", r"the 'FREQ' form of E is not supported", 2, "freq"),
     ("t\nE1 a 0 poly(x) b 0 1\n", r"POLY dimension must be a positive integer", 2, "x"),
     ("t\nE1 a 0 poly(2) b 0 1\n", r"POLY\(2\) needs 4 controlling nodes and at least one coefficient", 2, None),
+    # a POLY control no written coefficient multiplies is read all the same, as ngspice reads it
+    ("t\nV9 z 0 1\nR9 z 0 1k\nF1 a 0 poly(2) v9 vx 0 1\nR1 a 0 1k\n",
+     r"f1: POLY control 'vx' names no element, not a voltage source", 4, "poly"),
+    ("t\nV9 z 0 1\nR9 z 0 1k\nH1 a 0 poly(1) vx 1\nR1 a 0 1k\n",
+     r"h1: POLY control 'vx' names no element, not a voltage source", 4, "poly"),
+    ("t\nV9 z 0 1\nR9 z 0 1k\nE1 a 0 poly(2) z 0 q 0 0 2\nR1 a 0 1k\n",
+     r"e1: V\(q\): no element connects node 'q'", 4, "poly"),
+    ("t\nV9 z 0 1\nR9 z 0 1k\nG1 0 a poly(1) q 0 1m\nR1 a 0 1k\n",
+     r"g1: V\(q\): no element connects node 'q'", 4, "poly"),
     ("t\nB1 a 0 X=1\n", r"expected V=\{expr\} or I=\{expr\} after the nodes", 2, "X"),
     ("t\nB1 a 0 V=\n", r"missing expression", 2, None),
     ("t\nB1 a 0 V=v(a)+\n", r"b1: expression ends where a value is expected", 2, None),
     ("t\n.param p={ddt(1)}\n", r"ddt\(\) \(a time derivative outside a behavioural source\) is not supported", 2, "ddt"),
     ("t\nB1 a 0 V=v(a,b,c)\n", r"malformed V\(\.\.\.\) reference", 2, "v(a,b,c)"),
     # independent sources and waveforms
+    # ngspice multiplies a current source's current by m=; netdae said "unexpected 'm'"
+    ("t\nI1 0 b 1m m=2\nR1 b 0 1k\n", r"i1: m= \(ngspice's multiplier of a current source's current\) is not "
+     r"read by netdae", 2, "m", 2),
     ("t\nV1 a 0 pulse(1)\n", r"PULSE needs at least 2 parameters \(v1 v2\), got 1", 2, "pulse"),
     ("t\nV1 a 0 sin(0 1 2 3 4 5 6)\n", r"SIN takes at most 6 parameters", 2, "sin"),
     ("t\nV1 a 0 exp(0 1 0 -1)\n", r"EXP tau1 must be >= 0", 2, "exp"),
@@ -348,6 +360,22 @@ def test_a_file_with_cr_line_ends_only_is_refused_at_line_1(tmp_path):
     assert (err.location.line, err.location.column) == (1, 8)
     assert "carriage return (CR) alone" in err.message and "one title line (5 lines here)" in err.message
     assert "convert the line endings to LF or CRLF" in err.hint
+
+
+@pytest.mark.parametrize("char, shown", [("\x01", "0x01, Ctrl-A"), ("\x1c", "0x1C, Ctrl-\\"), ("\x7f", "0x7F, DEL")])
+def test_a_control_character_in_a_card_is_refused_at_it(char, shown):
+    """R1 a<Ctrl-A>0 1k read as nodes 'a\x010' and '1k' (ngspice 39: node a_0) and ended in 'missing resistance'."""
+    with pytest.raises(NetlistError) as exc:
+        load(f"t\nV1 a 0 1\nR1 a{char}0 1k\n.op\n")
+    assert (exc.value.location.line, exc.value.location.column) == (3, 5)
+    assert exc.value.message.startswith(f"a control character ({shown}) in the card: ngspice 39 does not read it "
+                                        "as a blank")
+
+
+def test_a_line_of_ctrl_z_is_skipped_as_ngspice_skips_it():
+    """A DOS end-of-file mark (Ctrl-Z) on a line of its own was refused as the unknown card '\x1a', shown as ''."""
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\n\x1a\n.op\n")
+    assert [e.name for e in c.elements] == ["v1", "r1"] and len(c.analyses) == 1
 
 
 def test_a_carriage_return_inside_a_line_is_refused_and_crlf_is_read():

@@ -64,6 +64,33 @@ def test_lib_section_may_pull_another_section_of_its_file(tmp_path):
     assert load(tmp_path / "top.cir").element("r1").value == 3.0
 
 
+def test_a_section_defined_twice_reads_the_first_and_says_so(tmp_path):
+    """ngspice 39 reads the first of two sections of one name and says nothing; netdae read it silently too."""
+    (tmp_path / "corners.lib").write_text(".lib typ\nR2 a 0 1k\n.endl\n* again\n.lib typ\nR2 a 0 2k\n.endl\n")
+    (tmp_path / "top.cir").write_text("t\nV1 a 0 1\n.lib corners.lib typ\nR1 a 0 1k\n.op\n.end\n")
+    c = load(tmp_path / "top.cir")
+    assert c.element("r2").value == 1e3
+    (w,) = [d for d in c.diagnostics if d.severity == "warning"]
+    assert Path(w.location.file).name == "corners.lib" and (w.location.line, w.location.column) == (5, 1)
+    assert w.message == (f".lib typ: the library section is defined again in '{tmp_path / 'corners.lib'}' (first at "
+                         "line 1): the first is read and this one ignored, as ngspice 39 does")
+
+
+def test_words_after_the_file_name_are_ignored_with_a_warning(tmp_path):
+    """'.include my file.inc' read 'my' (ngspice 39 too) and dropped 'file.inc' without a word."""
+    (tmp_path / "r2.inc").write_text("R2 a 0 1k\n")
+    (tmp_path / "c.lib").write_text(".lib typ\nR3 a 0 1k\n.endl\n")
+    (tmp_path / "top.cir").write_text("t\nV1 a 0 1\n.include r2.inc extra\n.lib c.lib typ fast more\n.op\n.end\n")
+    c = load(tmp_path / "top.cir")
+    assert {e.name for e in c.elements} == {"v1", "r2", "r3"}
+    warnings = [(d.location.line, d.location.column, d.message) for d in c.diagnostics if d.severity == "warning"]
+    assert warnings == [
+        (3, 17, ".include: 'extra' and what follows it ignored, as ngspice 39 ignores them (a file name with "
+                "blanks needs quotes)"),
+        (4, 16, ".lib: 'fast' and what follows it ignored, as ngspice 39 ignores them (a file name with blanks "
+                "needs quotes)")]
+
+
 def test_section_definitions_in_the_main_file_are_skipped():
     c = load("t\n.lib unused\nR9 a 0 9\n.endl\nR1 a 0 1\n.end\n")
     assert [e.name for e in c.elements] == ["r1"]

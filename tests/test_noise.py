@@ -147,6 +147,19 @@ def test_summary_points_and_single_frequency():
         assert single.axis.tolist() == [100.0] and single.noise_totals == {}, sweep
 
 
+@pytest.mark.parametrize("summary", ["31", "1e99"])
+def test_a_summary_beyond_the_sweep_keeps_the_first_frequency(summary):
+    """ngspice writes the first frequency's spectra for a pts_per_summary not below the point count; 1e99 was an
+    OverflowError reported as a bug in netdae (numpy's modulus holds no integer that large)."""
+    text = f"t\nV1 in 0 dc 0 ac 1\nR1 in out 1k\nC1 out 0 1u\n.noise v(out) v1 dec 10 1 1k {summary}\n"
+    res = noise_of(text)
+    assert res.axis.tolist() == [1.0] and set(res.noise_totals) >= {"onoise_total", "inoise_total"}
+    every = noise_of(text.replace(f" {summary}\n", "\n"))
+    assert res.noise_totals["onoise_total"] == pytest.approx(every.noise_totals["onoise_total"], rel=1e-12)
+    assert any(f"is not below the sweep's 31 frequencies: the spectra hold the first one only" in n
+               for n in res.notes), res.notes
+
+
 def test_behavioural_sources_are_noiseless_and_switches_are_resistors():
     res = noise_of("b\nV1 in 0 dc 1 ac 1\nB1 out 0 V=2*V(in)\nR1 out 0 1k\n.noise v(out) v1 dec 1 1 10 1\n")
     assert not np.any(res["onoise_r1"])  # B1 is an ideal source across R1: nothing reaches the output

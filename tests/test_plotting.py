@@ -161,3 +161,14 @@ def test_an_operating_point_cannot_be_plotted():
 
     with pytest.raises(NetdaeError, match="cannot plot a 'op' result"):
         plot(Result("op", signals={"v(a)": np.array([1.0])}))
+
+
+def test_arguments_of_the_wrong_type_say_what_is_expected():
+    """plot(None) was an AttributeError ('NoneType' object has no attribute 'analysis'), signals=5 Python's
+    "'int' object is not iterable"; one signal's name may be given as a string, as save= takes it."""
+    with pytest.raises(TypeError, match=r"result must be a Result \(of netdae.run or netdae.simulate\), not NoneType"):
+        plot(None)
+    with pytest.raises(TypeError, match="signals must be a string or a list of strings, not int"):
+        plot(_lowpass(), signals=5)
+    fig = plot(_lowpass(), signals="v(out)")
+    assert _labels(fig.axes[0]) == ["v(out)"]

@@ -324,14 +324,18 @@ def test_a_block_cut_short_by_ctrl_c_is_written_again_whole(tmp_path, monkeypatc
 
 def test_a_bounded_run_is_sized_against_the_disk_not_the_memory(tmp_path, monkeypatch):
     import netdae.analyses.tran as tran_module
+    from netdae.errors import size_text
 
     netlist = NETLIST.replace(".meas tran vmax max v(out)\n", "")
     monkeypatch.setattr(tran_module, "physical_memory", lambda: 1)  # no memory at all
     with pytest.raises(NetdaeError, match="of memory, this machine has"):
         netdae.run(netlist)
     points, size = tran_module.output_size(3, 20e-3, 1e-6)  # v(out), i(v1) and v(in) kept
-    with pytest.raises(NetdaeError, match=rf"at {points:,} points or more .* of disk space for its file"):
+    with pytest.raises(NetdaeError, match=rf"at {points:,} points or more .* of disk space for its file") as err:
         run(netdae.load(netlist), output=lambda *args: None, bounded=True, room=size - 1)
+    # sizes in the unit that shows them: this file of 644.6 KiB was 'at least 0.0 GiB ..., 0.0 GiB are free there'
+    assert f"needs at least {size_text(size)} of disk space for its file, {size_text(size - 1)} are free there" \
+        in str(err.value) and "at least 644.6 KiB" in str(err.value)
     tran = run(netdae.load(netlist), output=lambda *args: None, bounded=True, room=4 * size)[1]
     assert tran.ok and tran.stats.points > points // 2
 

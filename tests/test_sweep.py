@@ -703,6 +703,12 @@ def test_cli_sweep_prints_the_summary_when_its_files_cannot_be_written(tmp_path,
     (["--seed", "1.5"], "argument --seed: a seed is an integer from 0 to 18446744073709551615, not '1.5'"),
     (["--seed", "18446744073709551616"], "not 18446744073709551616"),
     (["--step", "r2=1k,abc"], "argument --step: r2=1k,abc: expected a number, got 'abc'"),
+    # numbers a netlist would refuse or warn about: 1e999 was inf ('not finite (inf)' after the parse), 1e-999 a
+    # zero resistance in every row, 1k2 a silent 1000
+    (["--step", "r2=1e999"], "argument --step: r2=1e999: '1e999' is out of range (beyond a double)"),
+    (["--step", "r2=1:1e-999:1"], "argument --step: r2=1:1e-999:1: '1e-999' is out of range (beyond a double)"),
+    (["--step", "r2=1k2,2k"], "argument --step: r2=1k2,2k: expected a number, got '1k2' ('2' after the number "
+                              "would be ignored)"),
 ])
 def test_cli_sweep_usage_errors(tmp_path, capsys, argv, message):
     path = tmp_path / "d.cir"

@@ -72,7 +72,7 @@ def altered_circuit(circuit: Circuit, alter: tuple[Alteration, ...], cache: dict
         out = elaborate(_with_instance_parameters(circuit.netlist, instance), params=circuit.overrides,
                         values=values, max_elements=circuit.max_elements, sample=circuit.sample, seed=circuit.seed)
     except NetlistError as exc:
-        if exc.location is not None:
+        if not exc.message.startswith("values: "):  # a value the command set (else: located where it is wrong)
             raise
         change = next((c for c in alter if exc.message.startswith("values: ") and (
             f"'{c.name}'" in exc.message or f"{c.name}(" in exc.message)), alter[-1])

@@ -147,6 +147,9 @@ def evaluate_fouriers(specs, result: Result, *, nfreqs: int = NFREQS, gridsize: 
             start = stop - 1.0 / f
             if start < first - 1e-9 * (stop - first):
                 reason = f"its period {1.0 / f:g} s is longer than the transient's interval [{first:g}, {stop:g}] s"
+            elif not (stop - start) / gridsize > np.spacing(stop):
+                reason = (f"its period {1.0 / f:g} s is too short to sample at t = {stop:g} s: {gridsize} points over "
+                          "it are not distinct times in floating point")
             else:
                 start = max(start, first)
                 # one grid and one evaluation of the dense output for all the card's signals

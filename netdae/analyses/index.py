@@ -554,7 +554,7 @@ def analyze_index(circuit: Circuit | Prepared | str | os.PathLike, *, at: str = 
     """
     t_start = time.perf_counter()
     if at not in ("op", "t0"):
-        raise NetdaeError(f"--at must be 'op' or 't0', not {at!r}")
+        raise NetdaeError(f"at must be 'op' or 't0', not {at!r}")
     if method not in ("auto", "kronecker", "topological", "sparse"):
         raise NetdaeError(f"method must be auto, kronecker, topological or sparse, not {method!r}")
     if isinstance(circuit, Prepared):

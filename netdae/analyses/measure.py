@@ -909,6 +909,9 @@ def _param(spec: MeasureSpec, done: dict[str, Measure]) -> Measure:
             if not m.ok:
                 raise MeasureFailure(f"PARAM: measurement '{name}' failed")
             return m.value
+        if name not in spec.params and name == spec.name:
+            raise MeasureFailure(f"PARAM: '{name}' is this measurement itself: its expression cannot use its own "
+                                 "value")
         if name not in spec.params:
             raise MeasureFailure(f"PARAM: '{name}' is a later PARAM measurement (PARAM= cards are measured in "
                                  "order, after all the others, as in ngspice)")

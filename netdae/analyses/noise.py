@@ -44,7 +44,7 @@ import time
 import numpy as np
 
 from ..circuit import Circuit, NoiseAnalysis
-from ..errors import CircuitError
+from ..errors import CircuitError, count_text
 from ..kinds import Kind
 from ..metadata import NoiseInfo
 from ..results import Result, Statistics
@@ -236,8 +236,8 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overr
     # the spectra (with a summary: every generator and device first, every summary-th point)
     keep = np.arange(freqs.size)
     signals: dict[str, np.ndarray] = {}
-    if card.summary:
-        keep = keep[keep % card.summary == 0]
+    if card.summary:  # a summary beyond the sweep keeps its first frequency (a modulus numpy can hold)
+        keep = keep[keep % min(card.summary, freqs.size) == 0]
         for name, idx in groups:
             for k in idx:
                 signals[f"onoise_{name}{sources.suffix[k]}"] = np.sqrt(density[keep, k])
@@ -279,7 +279,11 @@ def noise_analysis(circuit: Circuit, card: NoiseAnalysis, *, freqs=None, **overr
         notes.append("largest contributors to the output noise power: " + ", ".join(named))
     if not len(sources):
         notes.append("no device of the circuit generates noise: every density is zero")
-    if card.summary > 1:
+    if card.summary >= freqs.size > 1:
+        notes.append(f"pts_per_summary = {count_text(card.summary)} is not below the sweep's {freqs.size} frequencies: "
+                     "the spectra hold the first one only, as ngspice writes them (the totals integrate over every "
+                     "frequency)")
+    elif card.summary > 1:
         notes.append(f"pts_per_summary = {card.summary}: the spectra hold every {card.summary}-th frequency, as "
                      "ngspice writes them (the totals integrate over every frequency)")
     return Result(

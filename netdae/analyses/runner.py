@@ -315,6 +315,7 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
     circuit = _circuit(circuit)
     refuse_steps(circuit)
     check_callable(progress, "progress", "progress(t, tstop, steps)")
+    check_callable(output, "output", "output(position, start, block)")
     options = {k: v for k, v in (("reltol", reltol), ("abstol", abstol), ("vntol", vntol)) if v is not None}
     check_options(circuit, **options)
     if not circuit.analyses:

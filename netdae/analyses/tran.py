@@ -61,7 +61,8 @@ from ..dae.bdf.failures import RUNAWAY_FACTOR
 from ..dae.steady import SteadyOptions, solve_steady
 from ..dae.system import KIND_VOLTAGE, LinearDae
 from ..devices.linear import add_initial_charges, initial_currents
-from ..errors import CircuitError, ConvergenceError, NetdaeError, NetlistError, SingularPencilError, count_text
+from ..errors import (CircuitError, ConvergenceError, NetdaeError, NetlistError, SingularPencilError, count_text,
+                      size_text)
 from ..kinds import KINDS, NO_GAIN_KINDS, Kind
 from ..mna import MODE_TRAN, MnaSystem
 from ..metadata import TransientInfo
@@ -122,6 +123,7 @@ class _Start:
     notes: list[str] = field(default_factory=list)
     correction: dict | None = None
     uic: bool = False  # a uic start although the card has no uic (no DC operating point)
+    no_op: ConvergenceError | None = None  # then: why the operating point failed
 
 
 def _card(circuit: Circuit, card: TranAnalysis | None) -> TranAnalysis:
@@ -232,10 +234,10 @@ def memory_room() -> tuple[int | None, str]:
     machine = physical_memory()
     limit = address_space_room()
     if limit is not None and (machine is None or limit < machine):
-        return limit, f"this process may map {limit / 2**30:,.1f} GiB more (ulimit -v)"
+        return limit, f"this process may map {size_text(limit)} more (ulimit -v)"
     if machine is None:
         return None, ""
-    return machine, f"this machine has {machine / 2**30:,.1f} GiB"
+    return machine, f"this machine has {size_text(machine)}"
 
 
 #: Past this many points :func:`output_size` counts in floating point.
@@ -285,11 +287,10 @@ def _check_size(saved: int, total: int, card: TranAnalysis, tmax: float, room: i
     if size <= ADVISE_FRACTION * capacity:
         return None
     has = (f"of memory, {source}" if room is None
-           else f"of disk space for its file, {capacity / 2**30:,.1f} GiB are free there")
-    gib = size / 2**30
+           else f"of disk space for its file, {size_text(capacity)} are free there")
     if math.isfinite(size):
         what = (f"keeping {saved:,} of {total:,} unknowns at {count_text(points)} points or more (tstop/tmax = "
-                f"{card.tstop:g}/{tmax:g}) needs at least {f'{gib:,.1f}' if gib < 1e15 else f'{gib:.3g}'} GiB {has}")
+                f"{card.tstop:g}/{tmax:g}) needs at least {size_text(size)} {has}")
     else:  # tstop/tmax overflows: more points than a double counts
         what = (f"keeping {saved:,} of {total:,} unknowns at tstop/tmax = {card.tstop:g}/{tmax:g} points or more "
                 f"(beyond {count_text(sys.float_info.max)}) needs more than any memory or disk holds")
@@ -728,7 +729,15 @@ def transient(circuit: Circuit, card: TranAnalysis | None = None, *, save: list[
     system.start_delays(start.x, uic=card.uic)
     rep = _structure(prepared, start.x, card.uic)
     notes += _index_notes(prepared, rep)
-    x0, correction, more = _consistent_start(prepared, start, rep, settings)
+    try:
+        x0, correction, more = _consistent_start(prepared, start, rep, settings)
+    except NetdaeError as exc:
+        if start.no_op is None:
+            raise
+        # the card has no uic: say first why the operating point failed, then why its replacement did
+        raise ConvergenceError(f"no DC operating point ({start.no_op.message}), and the start without one (as "
+                               f"with uic: capacitor voltages and inductor currents from their ic= or 0) failed "
+                               f"too: {str(exc).removeprefix('uic: ')}", hint=start.no_op.hint) from None
     notes += more
     impulses = _impulses(system, rep, 0.0, card.tstop) if rep.pencil is not None else []
     notes += [f"warning: {w}" for w in impulses[:JUMP_NOTES]]  # all of them in transient.impulses
@@ -843,7 +852,7 @@ def _start(prepared: Prepared, settings: _Settings) -> _Start:
         op = solve_operating_point(prepared, transient=True, options=settings.steady)
     except ConvergenceError as exc:
         start = _uic_start(prepared)
-        start.uic = True
+        start.uic, start.no_op = True, exc
         start.notes.insert(0, (
             f"no DC operating point: {exc.message}; the transient starts as with uic (node voltages from .ic, "
             "capacitor voltages and inductor currents from their ic= or the node voltages, else 0; the other "

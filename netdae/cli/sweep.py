@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 import time
 from pathlib import Path
@@ -37,11 +38,20 @@ SCHEDULER_TIMEOUT = 10.0
 
 
 def _number(text: str) -> float:
-    from ..netlist.numbers import parse_number
+    """A ``--step`` number, read as a netlist's (``4.7k``, ``1meg``); one the netlist reader would refuse or warn
+    about (``1e999``, ``1e-999`` that reads as 0, ``1k2`` whose ``2`` is ignored) is refused here."""
+    from ..netlist.numbers import ignored_text, parse_number, underflows
 
-    value = parse_number(text.strip().lower())
+    token = text.strip().lower()
+    value = parse_number(token)
     if value is None:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}")
+    if not math.isfinite(value) or (value == 0.0 and underflows(token)):
+        raise argparse.ArgumentTypeError(f"{text.strip()!r} is out of range (beyond a double)")
+    ignored = ignored_text(token)
+    if ignored:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r} ('{ignored}' after the number would "
+                                         "be ignored)")
     return value
 
 

@@ -98,9 +98,9 @@ def _read(netlist, behavior=None) -> tuple[Circuit, str, str, str]:
         return netlist, _read_file(path), path, os.path.dirname(os.path.abspath(path))
     if isinstance(netlist, str) and "\n" in netlist:
         return load(netlist, behavior=behavior), netlist, "<string>", os.getcwd()
+    circuit = load(netlist, behavior=behavior)  # first: the reader says what is wrong with the name or the file
     path = os.fspath(netlist)
-    text = _read_file(path)
-    return load(path, behavior=behavior), text, path, os.path.dirname(os.path.abspath(path))
+    return circuit, _read_file(path), path, os.path.dirname(os.path.abspath(path))
 
 
 def _behavior(circuit: Circuit):

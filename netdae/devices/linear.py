@@ -173,15 +173,36 @@ def conductances(els: list[Element], temp: float, tnom: float, *, ac: bool = Fal
     r = _values(els)
     if ac:
         r = np.array([el.params.get("ac", v) for el, v in zip(els, r)], dtype=float)
-    r = np.where(r == 0.0, ZERO_RESISTANCE, r)
-    return _multiplier(els) / (r * _temperature_factor(els, temp, tnom) * _scale(els))
+    return _multiplier(els) / _scaled_resistances(els, r, temp, tnom)
 
 
 def _resistances_rounded(els: list[Element], temp: float, tnom: float) -> np.ndarray:
     """``R factor scale`` as :func:`conductances` computes it before its one division."""
-    r = _values(els)
+    return _scaled_resistances(els, _values(els), temp, tnom)
+
+
+def _scaled_resistances(els: list[Element], r: np.ndarray, temp: float, tnom: float) -> np.ndarray:
+    """``R factor scale`` of resistances ``r`` (0 read as :data:`ZERO_RESISTANCE`).
+
+    An infinite resistance (a model's zero width) is an open circuit, as in ngspice.
+
+    Raises
+    ------
+    CircuitError
+        Where the temperature factor or ``scale=`` makes the product zero or undefined (ngspice 39 divides
+        by it: an infinite conductance), located at the element's card.
+    """
     r = np.where(r == 0.0, ZERO_RESISTANCE, r)
-    return r * _temperature_factor(els, temp, tnom) * _scale(els)
+    factor, scale = _temperature_factor(els, temp, tnom), _scale(els)
+    out = r * factor * scale
+    for k in np.flatnonzero((out == 0.0) | np.isnan(out)):
+        el = els[k]
+        where = f"{el.location}: " if el.location else ""
+        raise CircuitError(f"{where}{el.name}: its resistance {r[k]:g} ohm times its temperature factor "
+                           f"{factor[k]:g} (tc1, tc2 or tce at its temperature) times scale={scale[k]:g} is "
+                           f"{out[k]:g}: an infinite or undefined conductance", elements=(el.name,),
+                           hint="check the element's scale= and temperature coefficients")
+    return out
 
 
 def resistor_noise(els: list[Element], circuit: Circuit, layout: Layout, x: np.ndarray):

@@ -136,9 +136,9 @@ NONNEGATIVE = frozenset({
     "cjs", "cbd", "cbs", "cj", "cjsw", "cgso", "cgdo", "cgbo", "cgs", "cgd", "cgdmin", "cgdmax",
     "rg", "rds", "rq", "tt", "tf", "tr", "ikf", "ikr", "irb", "vaf", "var",
 })
-#: Model parameters that must be positive (emission coefficients, junction potentials, a switch's resistances,
-#: a breakdown voltage: ngspice 39 fails to converge with bv=-5 or bv=0).
-POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "ron", "roff", "bv"})
+#: Model parameters that must be positive (emission coefficients, junction potentials, a MOSFET's surface
+#: potential, a switch's resistances, a breakdown voltage: ngspice 39 fails to converge with bv=-5 or bv=0).
+POSITIVE = frozenset({"n", "nf", "nr", "ne", "nc", "ns", "vj", "vje", "vjc", "vjs", "pb", "phi", "ron", "roff", "bv"})
 
 
 #: Junction potentials (a subset of :data:`POSITIVE`): below this [V] the depletion charge's ``v / vj``

@@ -301,8 +301,11 @@ class MosfetFamily(DeviceFamily):
             row["leff"] = row["l"] - 2.0 * row["ld"]
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             if row["leff"] <= 0.0:
-                raise CircuitError(f"{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not positive",
-                                   elements=(el.name,))
+                where = f"{el.location}: " if el.location else ""
+                raise CircuitError(f"{where}{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not "
+                                   f"positive (l = {row['l']:g} m, model {model.name}'s ld = {row['ld']:g} m)",
+                                   elements=(el.name,), hint="give l more than twice ld (ngspice 39 warns "
+                                   "'effective channel length less than zero' and does not converge)")
             rows.append(row)
         self._setup(rows)
 
@@ -326,8 +329,11 @@ class MosfetFamily(DeviceFamily):
             vtnom = K_OVER_Q * tnom
             egfet1 = float(energy_gap(tnom))
             if nsub * PER_CM3 <= NI_SI:
-                raise CircuitError(f"{el.name}: model {mv.model.name}: NSUB is below the intrinsic density",
-                                   elements=(el.name,))
+                at = mv.model.locations.get("nsub", mv.model.location)
+                where = f"{at}: " if at else ""
+                raise CircuitError(f"{where}{el.name}: model {mv.model.name}: nsub={nsub:g} cm^-3 is below the "
+                                   f"intrinsic density of silicon ({NI_SI / PER_CM3:.3g} cm^-3)", elements=(el.name,),
+                                   hint="check the scale suffix: nsub is in cm^-3 (ngspice 39 stops at it too)")
             if not mv.given("phi"):
                 row["phi"] = max(PHI_MIN, 2.0 * vtnom * math.log(nsub * PER_CM3 / NI_SI))
             fermis = row["type"] * 0.5 * row["phi"]

@@ -34,6 +34,7 @@ from ..devices.model_names import FLAG_PARAMETERS, NGSPICE_PARAMETERS, OUTPUT_ON
 from ..devices.modelcard import OSDI_HINT, ignored_parameters, unimplemented_level
 from ..errors import NetlistError
 from ..kinds import BRANCH_CURRENT_KINDS, KIND_OF_MODEL_TYPE, KINDS, MODEL_TYPES, STEPPABLE_KINDS, Kind
+from ..signals import subcircuit_name_hint
 from . import expr as ex
 from . import lossy, shunts, urc
 from .shunts import DEFAULT_RSERIES
@@ -663,7 +664,7 @@ class _Elaborator:
         for m in self.net.measures:
             self.diagnostics.extend(m.card.take_notes())
         self._unused_errors(self.net.top)
-        circuit.diagnostics = self.diagnostics
+        circuit.diagnostics = _unique(self.diagnostics)
         draws = self.root.draws
         if self.trace is not None:
             self.trace.finish(draws)
@@ -1809,6 +1810,7 @@ class _Elaborator:
                                      "overflows them; check its unit suffix")
                 elif name in ("temp", "tnom"):
                     self._check_temperature(number, card, value.start, f"option {name}")
+                self._option_again(opts, name, number, getattr(opts, name), card.location(value.start))
                 setattr(opts, name, number)
                 opts.locations[name] = card.location(value.start)
             elif name == "method":
@@ -1816,6 +1818,7 @@ class _Elaborator:
                 if word not in _METHODS:
                     raise error(card, offset, f"unknown integration method '{word}'", form,
                                 hint="method=gear or method=trap")
+                self._option_again(opts, name, _METHODS[word], opts.method, card.location(value.start))
                 opts.method = _METHODS[word]
                 opts.locations[name] = card.location(value.start)
             elif name == "interp":
@@ -1830,6 +1833,16 @@ class _Elaborator:
         if TEMPER in self.overrides:
             opts.temp = float(self.overrides[TEMPER])
         circuit.options = opts
+
+    def _option_again(self, opts: Options, name: str, value, old, location) -> None:
+        """A located warning for an option given a second time with another value (the last value holds, as in
+        ngspice 39, which says nothing), naming the value it replaces and where that was given."""
+        before = opts.locations.get(name)
+        if before is not None and before != location and value != old:
+            shown = [f"{v:g}" if isinstance(v, (int, float)) else str(v) for v in (value, old)]
+            self.diagnostics.append(Diagnostic(
+                "warning", f"option {name}={shown[0]} replaces {name}={shown[1]} given at {before} (the last value "
+                "holds, as in ngspice)", location))
 
     def _extra_option(self, circuit: Circuit, name: str, value, offset: int, card):
         """The value of an option netdae keeps as written; a located warning when ngspice 39
@@ -1864,6 +1877,9 @@ class _Elaborator:
         where: dict[str, dict] = {".ic": circuit.ic_locations, ".nodeset": {}}
         for target, entries, what in ((circuit.ic, self.net.ic, ".ic"), (circuit.nodeset, self.net.nodeset, ".nodeset")):
             for node, val, offset, card in entries:
+                if node == "0":
+                    self._ground_initial(what, "0", card.location(offset))
+                    continue
                 if node not in nodes:
                     raise error(card, offset, f"unknown node '{node}'", DOT_CARDS[what],
                                 hint=unknown_node_hint(node, self.port_nodes, "x1.mid",
@@ -1875,13 +1891,24 @@ class _Elaborator:
             target = circuit.ic if item.name == ".ic" else circuit.nodeset
             env = self.env(p.frames)
             for (written, val, offset), node in zip(item.entries, p.nodes):
-                if node != "0" and node not in nodes:
+                if node == "0":
+                    self._ground_initial(item.name, written, item.card.location(offset))
+                    continue
+                if node not in nodes:
                     raise error(item.card, offset, f"unknown node '{written}' (looked for '{node}')",
                                 DOT_CARDS[item.name])
-                if node != "0":
-                    value = self._initial_number(evaluate_val(val, env, item.card, f"initial value of v({written})"),
-                                                 item.card, val[1], item.name)
-                    self._set_initial(target, where[item.name], item.name, node, value, item.card.location(offset))
+                value = self._initial_number(evaluate_val(val, env, item.card, f"initial value of v({written})"),
+                                             item.card, val[1], item.name)
+                self._set_initial(target, where[item.name], item.name, node, value, item.card.location(offset))
+
+    def _ground_initial(self, what: str, written: str, location) -> None:
+        """An ``.ic``/``.nodeset`` entry of the ground node (``v(0)``, or a subcircuit port an instance grounds):
+        ignored, as ngspice 39 ignores it, with a warning (its value was refused as an unknown node, or
+        dropped without a word inside a subcircuit)."""
+        whose = "the ground node is" if written == "0" else "the instance connects this node to ground,"
+        self.diagnostics.append(Diagnostic(
+            "warning", f"{what} v({written}): {whose} always 0 V: the entry is ignored, as ngspice 39 ignores it",
+            location))
 
     def _set_initial(self, target: dict, where: dict, what: str, node: str, value: float, location) -> None:
         """One ``.ic``/``.nodeset`` value; a node given again takes the later value (as in ngspice), with a
@@ -1950,7 +1977,7 @@ def _save_signal(signal: str, nodes: dict, elements: dict,
         elif head == "i":
             target = elements.get(parts[0]) if len(parts) == 1 else None
             if target is None:
-                problem = f"no element '{parts[0]}'"
+                problem = f"no element '{parts[0]}'" + subcircuit_name_hint(parts[0], elements)
             elif target.kind not in BRANCH_CURRENT_KINDS and not KINDS[target.kind].current_is_quantity:
                 problem = f"'{parts[0]}' is a {target.kind}, which has no current netdae computes"
     elif signal == "all":
@@ -2039,6 +2066,19 @@ def _capacitance_from_model(el: Element, model) -> float:
     return float(value)
 
 
+def _unique(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
+    """``diagnostics`` without repeats: a card inside a subcircuit is read once per instance, and a warning
+    about it (a .param redefined in the body) was said once per instance, alike."""
+    seen: set = set()
+    out = []
+    for d in diagnostics:
+        key = (d.severity, d.message, d.location, d.in_results)
+        if key not in seen:
+            seen.add(key)
+            out.append(d)
+    return out
+
+
 def _stepped_number(name: str, value) -> float:
     """A stepped value given through ``values=``: a finite number.
 
@@ -2060,7 +2100,7 @@ def _device_quantity_problem(signal: str, elements: dict) -> str | None:
         return str(exc)
     target = elements.get(sig.args[0])
     if target is None:
-        return f"no device '{sig.args[0]}'"
+        return f"no device '{sig.args[0]}'" + subcircuit_name_hint(sig.args[0], elements)
     try:
         device_quantity(sig, target.kind)
     except ValueError as exc:
@@ -2151,6 +2191,9 @@ def elaborate(netlist: Netlist, *, params: Mapping[str, float] | None = None,
                         f"{type(params).__name__}")
     if max_elements is not None and (isinstance(max_elements, bool) or not isinstance(max_elements, int)):
         raise TypeError(f"max_elements must be an integer, not {type(max_elements).__name__}")
+    if max_elements is not None and max_elements < 1:
+        raise ValueError(f"max_elements must be a positive integer (a limit on the expanded circuit's elements), "
+                         f"not {max_elements}")
     overrides = {str(k).lower(): v for k, v in (params or {}).items()}
     limit = DEFAULT_MAX_ELEMENTS if max_elements is None else max_elements
     if sample is not None and (isinstance(sample, bool) or not isinstance(sample, int) or sample < 0):

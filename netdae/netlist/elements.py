@@ -561,6 +561,10 @@ def _source(card: Card, toks: list[Token], syntax: ElementSyntax, kind: str) -> 
         elif first and is_value(tok):
             spec.dc = parse_value(card, tok, syntax)
             i += 1
+        elif word == "m" and kind == Kind.ISOURCE and skip_eq(i + 1) > i + 1:
+            raise error(card, tok.start, "m= (ngspice's multiplier of a current source's current) is not read by "
+                        "netdae", syntax, hint="multiply the source's values instead (its DC value, AC magnitude "
+                        "and the levels of its function)")
         else:
             raise error(card, tok.start, f"unexpected {tok.text!r}", syntax,
                         hint=f"after the nodes: [dc] value, ac mag [phase], {SOURCE_FUNCTIONS}")
@@ -874,6 +878,16 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
     Terms are ordered by degree, and within a degree by non-decreasing index
     tuples in lexicographic order (x1^2, x1 x2, ..., x2^2, ...), as SPICE2 and
     ngspice define ``POLY``.
+
+    An input that no written coefficient multiplies (``POLY(2) v1 vx 0 1``: only
+    ``c1 x1``) stays in the tree as ``0 * x``: the element reads every control it
+    names, as ngspice's does, so that a control source that does not exist is an
+    error there too, and a control node nothing else connects is a floating node.
+
+    Examples
+    --------
+    >>> ex.to_text(poly_expression([ex.Current("v1"), ex.Current("vx")], [0.0, 2.0]))
+    '(2.0 * i(v1)) + (0.0 * i(vx))'
     """
     terms: list = []
     dim = len(inputs)
@@ -882,13 +896,16 @@ def poly_expression(inputs: list, coeffs: list) -> ex.Expr:
     while len(index_tuples) < len(coeffs):
         degree_tuples = [t + (j,) for t in degree_tuples for j in range(t[-1] if t else 0, dim)]
         index_tuples.extend(degree_tuples)
+    read: set[int] = set()
     for coeff, idx in zip(coeffs, index_tuples):
         if isinstance(coeff, float) and coeff == 0.0:
             continue
         term = coeff if not isinstance(coeff, float) else ex.Const(coeff)
         for j in idx:
             term = ex.Binary("*", term, inputs[j])
+        read.update(idx)
         terms.append(term)
+    terms.extend(ex.Binary("*", ex.Const(0.0), x) for j, x in enumerate(inputs) if j not in read)
     if not terms:
         return ex.Const(0.0)
     out = terms[0]

@@ -318,6 +318,9 @@ def _note_after_end(rest: list[str], where: SourceLocation, notes: list) -> None
 
 #: Characters that look like a blank (or like nothing) but are not one to ngspice, whose reader
 #: separates words at ASCII blanks only: a no-break space between two names makes one name.
+#: ASCII control characters that are no blank in ngspice 39 (tab, form feed and vertical tab are; CR and LF end
+#: lines; NUL refuses the file): in a card they make names and values ngspice reads otherwise.
+_CONTROL = re.compile("[\x01-\x08\x0e-\x1f\x7f]")
 _ODD_SPACE = re.compile("[\u0085\u00a0\u1680\u2000-\u200b\u2028\u2029\u202f\u205f\u2060\u3000\ufeff]")
 
 
@@ -370,6 +373,26 @@ def _refuse_odd_space(stripped: str, line: str, file: str, lineno: int) -> None:
         SourceLocation(file, lineno, line.find(ch) + 1),
         hint="replace it with a plain space (text copied from a web page or a document often holds such "
              "characters)")
+
+
+def _refuse_control(stripped: str, line: str, file: str, lineno: int) -> None:
+    """Refuse a card holding an ASCII control character (:data:`_CONTROL`), located at it.
+
+    ngspice 39 reads none of them as a blank: ``a<Ctrl-A>0`` is one node name there (which it prints as
+    ``a_0``), where Python's ``split`` cuts at some of them (0x1C to 0x1F); neither reading is guessed.
+    """
+    if stripped.isprintable():
+        return
+    m = _CONTROL.search(stripped)
+    if m is None:
+        return
+    code = ord(m.group())
+    what = "DEL" if code == 0x7F else f"Ctrl-{chr(code + 64)}"
+    raise NetlistError(
+        f"a control character (0x{code:02X}, {what}) in the card: ngspice 39 does not read it as a blank (the "
+        "words on both sides would make one name), netdae refuses to guess",
+        SourceLocation(file, lineno, line.find(m.group()) + 1),
+        hint="remove it (a stray key press, or a file that went through a binary transfer)")
 
 
 def _line_feeds(text: str, file: str) -> str:
@@ -468,8 +491,8 @@ def split_cards(
         line = lines[index]
         lineno = index + 1
         stripped = line.strip()
-        if not stripped or stripped[0] == "*":
-            continue
+        if not stripped or stripped[0] == "*" or not stripped.strip("\x1a"):  # Ctrl-Z alone: DOS's end of file,
+            continue  # which ngspice 39 skips as a blank line
         if control_at is not None:
             if _is_dot(fold_case(stripped[:5]), ".endc"):
                 block_cards, block_notes = read_block(control_lines, file)
@@ -511,6 +534,7 @@ def split_cards(
         col = len(line) - len(line.lstrip()) + 1
         if not stripped.isascii():
             _refuse_odd_space(stripped, line, file, lineno)
+        _refuse_control(stripped, line, file, lineno)
         if stripped[0] == "+":
             if cur_raw is None:
                 raise NetlistError("continuation line '+' with no card to continue",

@@ -75,7 +75,7 @@ class Env:
     def define(self, pdef: ParamDef, where: "Env", diagnostics: list[Diagnostic] | None = None) -> None:
         """Add a definition evaluated lazily in ``where`` (last definition wins)."""
         old = self.defs.get(pdef.name)
-        if old is not None and diagnostics is not None and old[0].card is not pdef.card:
+        if old is not None and diagnostics is not None and old[0] is not pdef:
             first = old[0].card
             diagnostics.append(Diagnostic(
                 "warning", f"parameter '{pdef.name}' redefined (previous definition at {first.file}:"
@@ -263,8 +263,18 @@ def circuit_function_message(f: FuncDef) -> str:
 
 def _what(name: str) -> str:
     """How a message names the parameter ``name``: an alias a subcircuit scope keeps for the caller's value
-    (``r#outer``, :data:`netdae.netlist.elaborate.OUTER`) is named as the parameter it reads."""
-    return f"parameter '{name.partition('#')[0]}'"
+    (``r#outer``, :data:`netdae.netlist.elaborate.OUTER`) is named as the caller's parameter it reads.
+
+    >>> _what("r")
+    "parameter 'r'"
+    >>> _what("r#outer").startswith("the value of 'r' where the subcircuit is called (the instance's own 'r'")
+    True
+    """
+    base, alias, _ = name.partition("#")
+    if not alias:
+        return f"parameter '{name}'"
+    return (f"the value of '{base}' where the subcircuit is called (the instance's own '{base}' is not assigned "
+            "before the parameter that reads it)")
 
 
 def evaluate_val(val, env: Env, card, what: str = "value") -> float:

