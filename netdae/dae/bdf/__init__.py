@@ -144,7 +144,8 @@ References
 
 from __future__ import annotations
 
-from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments, index_mask,
+from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments,
+                        current_rows, index_mask,
                         rounding_signs, row_tolerances, save_indices, time_charge_rows)
 from .constants import (
     BREAKPOINT_MERGE,
@@ -199,4 +200,4 @@ from .stepper import BDF
 
 __all__ = ["BDF", "ImplicitEulerStep", "IntegrationResult", "integrate", "check_arguments", "absolute_tolerances",
            "index_mask", "row_tolerances", "charge_columns", "charge_rows", "save_indices", "right_limit",
-           "rounding_signs", "breakpoint_times", "time_charge_rows"]
+           "rounding_signs", "breakpoint_times", "time_charge_rows", "current_rows"]

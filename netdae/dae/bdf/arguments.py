@@ -6,12 +6,13 @@ import math
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..system import KIND_CURRENT, KIND_VOLTAGE
 from .constants import MAX_ORDER
 
 __all__ = ["check_arguments", "absolute_tolerances", "row_tolerances", "index_mask", "save_indices", "rounding_signs",
-           "breakpoint_times"]
+           "breakpoint_times", "current_rows"]
 
 
 def breakpoint_times(system, t0: float, t_bound: float, breakpoints) -> np.ndarray:
@@ -285,3 +286,72 @@ def rounding_signs(n: int) -> np.ndarray:
     if signs is None:
         signs = _SIGNS[n] = np.where(np.random.default_rng(1).random(n) < 0.5, -1.0, 1.0)
     return signs.copy()
+
+
+def current_rows(system, mask: np.ndarray, crows: np.ndarray) -> tuple:
+    """The algebraic currents whose error tolerance their resistive rows may raise, and those rows.
+
+    A candidate is a circuit current (``KIND_CURRENT``) in the error test (``mask > 0``) with no
+    charge of its own (no entry of ``E`` in its column: not an inductor's). Its rows are those where
+    the linear conductances ``H`` hold it and another unknown, without charge (no ``E`` entry, not in
+    ``crows``) and without delayed terms (a transmission line's port): the current laws of nodes
+    without capacitance, a controlled source's branch law. Each row's other entries are listed with
+    their gains ``|H_rj / H_ri|``, for :func:`netdae.dae.compiled.control.current_error_weights`.
+
+    Returns
+    -------
+    (cand, rptr, eptr, ecol, ecand, gain, tolc)
+        The candidates (int64); per candidate its rows ``rptr[c]:rptr[c+1]``, each with its other
+        entries ``eptr[r]:eptr[r+1]`` in columns ``ecol`` (``ecand``: the column's candidate number,
+        -1 for none) with ``gain`` (float64); ``tolc``: float64 work, one per candidate. All empty
+        when nothing qualifies (a system without constant ``E`` and ``H``).
+
+    Notes
+    -----
+    Cost: O(nnz) once per transient (a row view of ``H``).
+    """
+    n = int(system.n)
+    empty = np.empty(0, dtype=np.int64)
+    nothing = (empty, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), empty, empty, np.empty(0),
+               np.empty(0))
+    kinds = np.asarray(system.kinds)
+    currents = (kinds == KIND_CURRENT) & (np.asarray(mask) > 0)
+    if not currents.any():
+        return nothing
+    try:
+        E, H = sp.csr_matrix(system.E), sp.csr_matrix(system.H)
+    except (AttributeError, NotImplementedError):  # a system without constant E and H (no MNA)
+        return nothing
+    E.eliminate_zeros()
+    H.eliminate_zeros()
+    blocked = np.diff(E.indptr) > 0  # rows with a charge or a delayed term
+    blocked[np.asarray(crows, dtype=np.int64)] = True
+    delays = getattr(system, "delays", None)
+    if delays is not None:
+        D = sp.csr_matrix(delays.D)
+        D.eliminate_zeros()
+        blocked |= np.diff(D.indptr) > 0
+    charged = np.diff(sp.csc_matrix(E).indptr) > 0  # a current with a charge (flux) of its own: an inductor's
+    cand = np.flatnonzero(currents & ~charged).astype(np.int64)
+    if cand.size == 0:
+        return nothing
+    Hc = sp.csc_matrix(H)
+    number = np.full(n, -1, dtype=np.int64)
+    number[cand] = np.arange(cand.size)
+    rptr, eptr, ecol, gain = [0], [0], [], []
+    for i in cand:
+        for r, h_ri in zip(Hc.indices[Hc.indptr[i]:Hc.indptr[i + 1]], Hc.data[Hc.indptr[i]:Hc.indptr[i + 1]]):
+            if blocked[r]:
+                continue
+            lo, hi = H.indptr[r], H.indptr[r + 1]
+            cols, vals = H.indices[lo:hi], H.data[lo:hi]
+            others = cols != i
+            if not others.any():
+                continue
+            ecol.extend(cols[others].tolist())
+            gain.extend(np.abs(vals[others] / h_ri).tolist())
+            eptr.append(len(ecol))
+        rptr.append(len(eptr) - 1)
+    ecol_a = np.asarray(ecol, dtype=np.int64)
+    return (cand, np.asarray(rptr, dtype=np.int64), np.asarray(eptr, dtype=np.int64), ecol_a,
+            number[ecol_a] if ecol_a.size else empty, np.asarray(gain, dtype=float), np.zeros(cand.size))

@@ -32,6 +32,7 @@ from ..compiled.control import (
     charge_error_norms,
     charge_newton_weights,
     charge_weights,
+    current_error_weights,
     time_charge_residual,
     error_norms,
     landing_step,
@@ -42,7 +43,8 @@ from ..newton import DEFAULT_PERMC_SPEC, INFO_NONFINITE, LuCache, NewtonInfo
 from ...results import STATUS_FAILED, STATUS_OK
 from ..system import DaeSystem
 from . import controller as ctl
-from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments, index_mask,
+from .arguments import (absolute_tolerances, breakpoint_times, charge_columns, charge_rows, check_arguments,
+                        current_rows, index_mask,
                         time_charge_rows,
                         row_tolerances, save_indices)
 from .constants import (
@@ -268,6 +270,8 @@ class BDF:
         # takes dq/dt at fixed x
         self._trows = time_charge_rows(system, self._qcol)
         self._t_tested = bool((self._trows >= 0).any())
+        # the algebraic currents whose error tolerance their resistive rows raise
+        self._cur = current_rows(system, self._mask, self._crows)
         self._q_tested = bool((self._qrows >= 0).any())
         self._tq = np.zeros(n)  # the current error of those rows, then the unknowns' error it makes
         self._wq = np.zeros(self._crows.size)
@@ -338,14 +342,17 @@ class BDF:
         self.stats["wall_time"] = time.perf_counter() - wall0
 
     # ------------------------------------------------------------- helpers
-    def _set_weights(self, x):
+    def _set_weights(self, x, accepted=False):
         """Error weights at x (the compiled ``set_weights``): ``_w`` for Newton, ``_w_err`` for the error test.
 
-        A nonlinear system's Newton weights are raised to the accuracy of its charges
+        After an accepted step the algebraic currents' error tolerances are raised to what their
+        resistive rows give them (:func:`~netdae.dae.compiled.control.current_error_weights`). A nonlinear system's Newton weights are raised to the accuracy of its charges
         (:func:`~netdae.dae.compiled.control.charge_newton_weights`, from the history's charges
         at x and the last Jacobian's ``|dq/dx|``).
         """
         set_weights(x, self.rtol, self._atol, _RELREF[self.relref], self._xmax, self._mask, self._w, self._w_err)
+        if accepted and self._cur[0].size:
+            current_error_weights(self._w, self._w_err, self._mask, self._cur)
         abs_dq = self._floor.abs_dq
         if not self._linear and abs_dq is not None and self._crows.size:
             charge_newton_weights(self._hist.P[0, self.n:], self._xmax[self.n:], self._qcol, abs_dq.data,
@@ -960,7 +967,7 @@ class BDF:
         self.t = t_end
         x_new = hist.P[0, : self.n]
         self._state = self._corrector.state_try
-        self._set_weights(x_new)
+        self._set_weights(x_new, accepted=True)
         self._rec.record(t_end, x_new, k)
         self.h = max(min(h * eta, self.max_step, self.system.step_bound()), self.min_step)
         ended = self.system.ended()

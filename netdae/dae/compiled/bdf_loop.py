@@ -68,8 +68,8 @@ from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_newton_weights, charge_weights,
                       time_charge_residual,
                       error_norms, flc_coefficients,
-                      conductance_fell, landing_step, residual_stalled, set_weights, update_differences,
-                      weighted_norm)
+                      conductance_fell, current_error_weights, landing_step, residual_stalled, set_weights,
+                      update_differences, weighted_norm)
 from . import entry_kernel, inlined_kernel, kernel
 from .lu import STATUS_NONFINITE, STATUS_OK
 from .lu import refactor as lu_refactor
@@ -735,7 +735,7 @@ def _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, after_jump):
     Returns FACTOR_OK, FACTOR_NEED_PIVOTS, or FACTOR_SINGULAR after recording a failure.
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -889,7 +889,7 @@ def _event_right_limit(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws):
     (nothing jumped; they are probed again only after a jump).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     xe, qe, phie, dqe, dphie, absdq = evb
     n = x.size
@@ -953,7 +953,7 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     ``rl_given``). On a jump ``x`` becomes the right limit, which is recorded a second time
     at ``t`` and starts a new segment.
     """
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1042,7 +1042,7 @@ def _continue_from(F, I, t, x, P, rtol, tol, sysd, devd, evb, ws, rec):
     """Continue from the right limit ``xr`` (in ``ws``) at ``t``: record the unknowns that jump,
     make it ``x`` and the history's value (and charges), record it a second time at ``t`` and
     start a new segment."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1090,7 +1090,7 @@ def _restart_at(F, I, P, psi, t, x, cap, fixed, tol, sysd, devd, lus, evb, ws, r
     """Probe the derivatives at (t, x), continue from the right limit where the solution
     jumps, and start at order 1 with a step <= cap (returns as _probe, or
     FACTOR_NEED_RIGHT_LIMIT)."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     h = cap
     # a restart repeated after a return to Python for new pivots has checked already
@@ -1145,7 +1145,7 @@ def _reprobe(F, I, P, psi, t, x, cap, tol, sysd, devd, lus, evb, ws):
     misses its contribution and the error shrinks only in proportion to the step (a 1-ohm source into
     1 pF at a PULSE corner). One probe on the shorter step (never below the rounding of t), the step
     from its curvature; no jump check (the point stays). Returns as _probe (the step in F_H)."""
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
     rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, False)
@@ -1330,13 +1330,14 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
     Parameters
     ----------
     tol : tuple
-        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows)`` (``xmax``: shape (n + m,), the
+        ``(atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur)`` (``xmax``: shape (n + m,), the
         unknowns' then the charges' largest magnitudes): absolute tolerances,
         the error-test mask and index-2 flags, the largest values so far, the weights,
         the rounding floor's fixed signs, the charge columns of the rows whose charge error
         is tested (-1: not tested; :func:`netdae.dae.bdf.charge_rows`), the charge-form rows
         and each row's column among them (-1: correction form;
-        :func:`netdae.dae.bdf.charge_columns`).
+        :func:`netdae.dae.bdf.charge_columns`), the rows that raise the algebraic currents'
+        error tolerances (:func:`netdae.dae.bdf.arguments.current_rows`).
     sysd : tuple
         The system's linear part: ``(indptr, indices, e_data, h_data, a_data, b_rows,
         b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n)`` (pattern, E and H on it,
@@ -1373,7 +1374,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         A status code of this module (RUNNING is never returned).
     """
     indptr, indices, e_data, h_data, a_data, b_rows, b_cols, b_vals, skind, spar, spwl_t, spwl_v, spwl_n, dl = sysd
-    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows = tol
+    atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
     (save, buf_t, buf_k, buf_x, jump_t, jump_count, jump_idx, segments, restart_times,
      event_t, event_count, event_idx, w_ptr, w_idx, w_val) = rec
@@ -1923,6 +1924,9 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
         if switches:
             _copy2(s_vacc, s_vtry)
         set_weights(P[0, :n], rtol, atol, I[I_RELREF], xmax, mask, w, w_err)
+        if cur[0].size > 0:
+            # algebraic currents: no stricter than their resistive rows make them (current_error_weights)
+            current_error_weights(w, w_err, mask, cur)
         if not linear and I[I_HAS_ABSDQ] != 0:
             charge_newton_weights(P[0, n:], xmax[n:], qcol, absdq, indptr, indices, rtol, atol, w, work)
         _record(I, t_end, k, P[0], rec)

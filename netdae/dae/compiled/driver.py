@@ -231,6 +231,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
         charge_columns,
         charge_rows,
         check_arguments,
+        current_rows,
         time_charge_rows,
         index_mask,
         right_limit,
@@ -325,7 +326,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     # rows whose charge reads time itself: their charge errors are tested, the probe takes dq/dt at fixed x
     trows = time_charge_rows(system, qcol)
     I[L.I_CHARGE_TIME] = 1 if (trows >= 0).any() else 0
-    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows)
+    tol = (atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, current_rows(system, mask, crows))
     nnz = e_data.size
     evb = (np.zeros(n + 1), np.zeros(n + 1), np.zeros(n + 1), np.zeros(nnz + 1), np.zeros(nnz + 1),
            np.abs(e_data))
