@@ -80,3 +80,14 @@ def test_check_shows_the_step_axes(tmp_path, capsys):
     steps = json.loads(capsys.readouterr().out)["steps"]
     assert steps == [{"target": "param", "name": "r", "values": [1000.0, 2000.0, 3000.0]},
                      {"target": "temp", "name": "temp", "values": [0.0, 25.0, 50.0]}]
+
+
+def test_check_refuses_a_model_value_that_run_refuses(tmp_path, capsys):
+    """A MOSFET of zero length passed ``check`` with "diagnostics: none" while ``run`` refused it: ``check``
+    now builds the device models as a run does, and refuses it at the element, with the hint."""
+    path = tmp_path / "l0.cir"
+    path.write_text("t\nV1 a 0 1\nVd d 0 1\nR1 a b 1k\nM1 b d 0 0 mm l=0 w=1u\n.model mm nmos\n.op\n.end\n")
+    assert cli_main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}:5:1: m1: effective channel length L - 2 LD = 0 m is not positive" in err
+    assert "hint: give l more than twice ld" in err

@@ -1,7 +1,8 @@
 """``netdae check FILE [--json]``: read a netlist and summarise what netdae understood.
 
 Parses and elaborates the netlist (subcircuits expanded, parameters
-evaluated) and prints the title, nodes, element counts by letter, models,
+evaluated), builds its device models as a run does (a model value a run
+refuses is refused here), and prints the title, nodes, element counts by letter, models,
 analyses, options and diagnostics; ``--json`` prints the same as one JSON
 object. A netlist error is reported by the dispatcher as one line
 ``netdae: error: file:line:col: ...`` with exit status 2.
@@ -216,10 +217,14 @@ def topology_lines(topo) -> list[str]:
 
 
 def main(args) -> int:
+    from ..mna import assemble
     from ..netlist import load
     from ..topology import analyze_topology
 
     circuit = load(args.file, behavior=args.ngbehavior)
+    # the device models built as a run builds them: a value a run refuses (a MOSFET's l = 0, a model's
+    # phi = 0) is refused here too, not summarised as "diagnostics: none"
+    assemble(circuit)
     summary = summarize(circuit)
     topo = analyze_topology(circuit)
     summary["topology"] = topology_lines(topo)
