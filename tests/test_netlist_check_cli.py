@@ -91,3 +91,19 @@ def test_check_refuses_a_model_value_that_run_refuses(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{path}:5:1: m1: effective channel length L - 2 LD = 0 m is not positive" in err
     assert "hint: give l more than twice ld" in err
+
+
+def test_max_elements_on_the_command_line(capsys):
+    """The refusal of a netlist above the element limit named only netdae.load's max_elements, which the command
+    line did not have: --max-elements N sets it for check, index, run and sweep."""
+    rc = str(NETLISTS / "rc_lowpass.cir")  # 3 elements
+    assert cli_main(["check", rc, "--max-elements", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "3 elements, more than the limit of 2" in err and "--max-elements N on the command line" in err
+    assert cli_main(["check", rc, "--max-elements", "3"]) == 0
+    capsys.readouterr()
+    try:
+        cli_main(["run", rc, "--max-elements", "0"])
+    except SystemExit as stop:
+        assert stop.code == 2
+    assert "--max-elements: expected a whole number of at least 1, got '0'" in capsys.readouterr().err

@@ -27,7 +27,7 @@ import os
 import sys
 
 __all__ = ["main", "parser", "COMMANDS", "LOG", "signal_names", "option_value", "positive_float", "add_verbosity",
-           "output_directory"]
+           "output_directory", "positive_count", "add_max_elements"]
 
 #: Subcommands in the order ``--help`` lists them.
 COMMANDS = ("check", "index", "run", "sweep", "compare", "demo", "osdi", "server")
@@ -222,6 +222,28 @@ def add_ngbehavior(p: argparse.ArgumentParser) -> None:
                    help="ngspice's compatibility mode, as 'set ngbehavior=VALUE' in .spiceinit selects it: psa "
                         "(PSpice's idioms in every file), ps (in included files); '' for none (default: the "
                         "set ngbehavior line of the .spiceinit next to the netlist, else in the working directory)")
+
+
+def positive_count(text: str) -> int:
+    """An argparse type: a whole number of at least 1.
+
+    >>> positive_count("600000")
+    600000
+    """
+    try:
+        value = int(text.replace("_", ""))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number of at least 1, got {text!r}")
+    return value
+
+
+def add_max_elements(p: argparse.ArgumentParser) -> None:
+    """The ``--max-elements N`` option: the largest flat circuit read (:func:`netdae.load`'s ``max_elements``)."""
+    p.add_argument("--max-elements", metavar="N", type=positive_count, default=None,
+                   help="the largest expanded circuit read, in elements (netdae.load's max_elements; a netlist "
+                        "above the default limit is refused with the count; about 2 kB of memory per element)")
 
 
 def build_parser() -> argparse.ArgumentParser:

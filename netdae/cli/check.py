@@ -20,7 +20,7 @@ import argparse
 import dataclasses
 import json
 
-from . import add_ngbehavior
+from . import add_max_elements, add_ngbehavior
 
 __all__ = ["add_parser", "main", "summarize", "format_summary", "topology_lines"]
 
@@ -40,6 +40,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("file", help="netlist file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     add_ngbehavior(p)
+    add_max_elements(p)
     return p
 
 
@@ -221,7 +222,7 @@ def main(args) -> int:
     from ..netlist import load
     from ..topology import analyze_topology
 
-    circuit = load(args.file, behavior=args.ngbehavior)
+    circuit = load(args.file, behavior=args.ngbehavior, max_elements=args.max_elements)
     # the device models built as a run builds them: a value a run refuses (a MOSFET's l = 0, a model's
     # phi = 0) is refused here too, not summarised as "diagnostics: none"
     assemble(circuit)

@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from . import add_ngbehavior, positive_float
+from . import add_max_elements, add_ngbehavior, positive_float
 
 __all__ = ["add_parser", "main", "format_report"]
 
@@ -40,6 +40,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    "structure where it gives the index, else the algebraic part (index 0-2 and the index-2 "
                    "unknowns); topological: the structure only")
     add_ngbehavior(p)
+    add_max_elements(p)
     return p
 
 
@@ -119,7 +120,7 @@ def main(args) -> int:
     from ..analyses.index import analyze_index
     from ..netlist import load
 
-    circuit = load(args.file, behavior=args.ngbehavior)
+    circuit = load(args.file, behavior=args.ngbehavior, max_elements=args.max_elements)
     rep = analyze_index(circuit, at=args.at, tol=args.tol, method=args.method)
     if args.json:
         json.dump(rep.to_dict(), sys.stdout, indent=2)

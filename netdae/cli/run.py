@@ -37,7 +37,8 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-from . import EXIT_ERROR, add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, saved_names
+from . import (EXIT_ERROR, add_max_elements, add_ngbehavior, directory_name, log_diagnostics, option_value,
+               output_directory, saved_names)
 from ..signals import signal_unit
 from ..errors import OutputFileError
 
@@ -80,6 +81,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
                    help="write the matrices E, H, B of the (linearised) MNA system: PATH.npz, or "
                    "PATH's stem .E.mtx .H.mtx .B.mtx .names.txt (MatrixMarket) for a .mtx path")
     add_ngbehavior(p)
+    add_max_elements(p)
     return p
 
 
@@ -293,7 +295,7 @@ def main(args) -> int:
 
     _check_format_options(args)
     t0 = time.perf_counter()
-    circuit = load(args.file, behavior=args.ngbehavior)
+    circuit = load(args.file, behavior=args.ngbehavior, max_elements=args.max_elements)
     log_diagnostics(circuit)
     LOG.debug("read %s in %.3g s: %d nodes, %d elements, %d analyses", args.file, time.perf_counter() - t0,
               len(circuit.nodes), len(circuit.elements), len(circuit.analyses))

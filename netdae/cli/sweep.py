@@ -25,7 +25,8 @@ import sys
 import time
 from pathlib import Path
 
-from . import add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory, saved_names
+from . import (add_max_elements, add_ngbehavior, directory_name, log_diagnostics, option_value, output_directory,
+               saved_names)
 
 __all__ = ["add_parser", "main", "parse_step"]
 
@@ -154,6 +155,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--abstol", type=option_value("abstol"), help="absolute current tolerance [A], positive")
     p.add_argument("--vntol", type=option_value("vntol"), help="absolute voltage tolerance [V], positive")
     add_ngbehavior(p)
+    add_max_elements(p)
     return p
 
 
@@ -240,7 +242,7 @@ def main(args) -> int:
             raise NetdaeError(f"--step {name} is given twice (hint: give all its values in one --step, e.g. "
                               "r1=1k,2k,3k,4k)")
         seen.add(name)
-    circuit = load(args.file, behavior=args.ngbehavior)
+    circuit = load(args.file, behavior=args.ngbehavior, max_elements=args.max_elements)
     log_diagnostics(circuit)
     out = output_directory(args.out)  # before the rows run: a bad --out is not found after hours
     executor, client = None, None

@@ -147,4 +147,5 @@ def check_size(top: Definition, max_elements: int) -> int:
     if where is not None:
         message = f"{where.name}: {message}"
     raise NetlistError(message, where.card.location(where.subckt_offset) if where is not None else None,
-                       hint="if this size is intended, raise the limit: netdae.load(..., max_elements=N)")
+                       hint="if this size is intended, raise the limit: --max-elements N on the command line, "
+                            "netdae.load(..., max_elements=N) in Python")
