@@ -123,9 +123,11 @@ def test_a_perfect_coupling_is_an_ideal_transformer(k):
     np.testing.assert_allclose(vb, ratio * va, rtol=0, atol=1e-9 * np.max(np.abs(va)))
     assert np.ptp(va) > 1.0
     # three windings pairwise coupled by 0.9, 0.9 and -0.9: not a transformer (an eigenvalue of -0.8 L)
-    with pytest.raises(CircuitError, match="positive definite"):
+    with pytest.raises(CircuitError, match="positive definite") as exc:
         assemble(netdae.load("t\nL1 a 0 1m\nL2 b 0 1m\nL3 c 0 1m\nK1 L1 L2 0.9\nK2 L1 L3 0.9\nK3 L2 L3 -0.9\n"
                              "R1 a 0 1\nR2 b 0 1\nR3 c 0 1\n.op\n"))
+    # located at the coupling written last (it had no file and line)
+    assert str(exc.value).startswith("<string>:7:1: k3: the inductance matrix of the coupled inductors l1, l2, l3")
 
 
 def test_differentiator_pencil_entry_by_entry():

@@ -408,9 +408,14 @@ def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit, inductors:
         )
         eig = np.linalg.eigvalsh(mat)
         if np.any(eig < -COUPLING_ROUNDING * np.max(np.abs(eig))):
-            couplings = sorted(el.name for el in els if set(el.controls) <= group)
+            coupling_els = [el for el in els if set(el.controls) <= group]
+            couplings = sorted(el.name for el in coupling_els)
+            # located at the coupling written last: the one that closes the group
+            located = [el for el in coupling_els if el.location is not None]
+            last = max(located, key=lambda el: (el.location.file, el.location.line)) if located else None
+            where = f"{last.location}: {last.name}: " if last is not None else ""
             raise CircuitError(
-                f"the inductance matrix of the coupled inductors {', '.join(members)} is not positive definite "
+                f"{where}the inductance matrix of the coupled inductors {', '.join(members)} is not positive definite "
                 f"(couplings {', '.join(couplings)})",
                 elements=tuple(members) + tuple(couplings),
                 hint="coupling factors must satisfy |k| < 1 and together describe a physical transformer",
