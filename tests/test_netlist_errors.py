@@ -479,3 +479,22 @@ def test_a_save_of_a_subcircuit_port_named_hierarchically_names_the_node():
     text = " ".join(d.message for d in c.diagnostics)
     assert "no node 'xa.out' ('out' is a port of xa, which connects 'b' to it: save v(b))" in text
     assert c.saves == ["v(xa.mid)"]
+
+
+@pytest.mark.parametrize("ch, what", [("\u2013", "an en dash"), ("\u2212", "a minus sign"), ("\u2014", "an em dash")])
+def test_a_typographic_dash_in_a_value_is_named(ch, what):
+    """'bad value' without a word on why: the dash a word processor or a PDF makes looks like '-'."""
+    with pytest.raises(NetlistError) as exc:
+        load(f"t\nV1 a 0 1\nR1 a 0 {ch}1k\n.op\n.end\n")
+    assert f"bad value '{ch}1k'" in str(exc.value) and exc.value.location.line == 3
+    assert f"'{ch}' (U+{ord(ch):04X}) is {what}, not ASCII '-'" in exc.value.hint
+
+
+def test_a_greek_mu_after_a_number_is_warned_about():
+    """4.7\u03bc (a Greek mu, not the micro sign netdae reads as a scale) was read as 4.7 without a word
+    (ngspice ignores it too): a factor of a million."""
+    c = load("t\nV1 a 0 1\nR1 a 0 1k\nC1 a 0 4.7\u03bc\n.op\n.end\n")
+    (d,) = [d for d in c.diagnostics if "c1" in d.message]
+    assert d.location.line == 4 and "read as 4.7" in d.message
+    assert "'\u03bc' (U+03BC) is a Greek mu, not ASCII 'u'" in d.message
+    assert load("t\nV1 a 0 1\nR1 a 0 1k\nC1 a 0 4.7\u00b5\n.op\n.end\n").element("c1").value == pytest.approx(4.7e-6)

@@ -16,7 +16,7 @@ from ..errors import NetlistError
 from ..kinds import KINDS, MAX_CPL_CONDUCTORS, Kind
 from . import expr as ex
 from .lines import EXPR, PUNCT, STRING, WORD, Card, Token
-from .numbers import ignored_text, parse_number, underflows
+from .numbers import ignored_text, lookalike_hint, parse_number, underflows
 from .statements import ElementCard, InstanceCard, SourceCard, Val
 from .syntax import ELEMENTS, SOURCE_FUNCTIONS, UNSUPPORTED_ELEMENTS, ElementSyntax, supported_letters
 from .waveforms import WAVEFORMS
@@ -78,8 +78,9 @@ def parse_value(card: Card, tok: Token, syntax=None, what: str = "value", *, num
         if number is not None:
             ignored = ignored_text(tok.text)
             if ignored:
+                odd = lookalike_hint(ignored)
                 card.warn(tok.start, f"{what} '{tok.text}' read as {number:g}: '{ignored}' ignored, as ngspice "
-                          "ignores what follows a number and its scale suffix")
+                          "ignores what follows a number and its scale suffix" + (f" ({odd})" if odd else ""))
     else:
         number = None
     if number is not None:
@@ -94,7 +95,7 @@ def parse_value(card: Card, tok: Token, syntax=None, what: str = "value", *, num
                 raise error(card, tok.start, f"'{tok.text}' cannot be used as a {what}", syntax)
             return ex.Param(tok.text), tok.start
     raise error(card, tok.start, f"bad {what} '{tok.text}': expected a number, {{expression}} or parameter name",
-                syntax, hint="numbers look like 10k, 4.7u, 1e-3, 1meg (1m is milli)")
+                syntax, hint=lookalike_hint(tok.text) or "numbers look like 10k, 4.7u, 1e-3, 1meg (1m is milli)")
 
 
 def parse_node(card: Card, tok: Token, syntax) -> str:

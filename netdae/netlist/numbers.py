@@ -50,7 +50,7 @@ import math
 import re
 from functools import lru_cache
 
-__all__ = ["SCALE", "MICRO", "parse_number", "ignored_text", "underflows", "scan_param_number"]
+__all__ = ["SCALE", "MICRO", "parse_number", "ignored_text", "underflows", "scan_param_number", "lookalike_hint"]
 
 #: Scale factors of the one-letter suffixes (``m`` is milli; ``meg`` and
 #: ``mil`` are recognised before ``m``).
@@ -161,7 +161,8 @@ def ignored_text(token: str) -> str:
     Returns
     -------
     str
-        The ignored text when it contains a digit or a point, else ``""``
+        The ignored text when it contains a digit, a point or a typographic look-alike of an
+        ASCII character (``4.7\u03bc``: a Greek mu, not ``u``), else ``""``
         (also for a token that is not a number).
 
     Examples
@@ -188,7 +189,27 @@ def ignored_text(token: str) -> str:
         rest = rest[3:] if low in ("meg", "mil") else rest[1:]
     elif c in SCALE:
         rest = rest[1:]
-    return rest if _DIGIT_OR_POINT.search(rest) else ""
+    return rest if _DIGIT_OR_POINT.search(rest) or lookalike_hint(rest) else ""
+
+
+#: Characters a word processor or a PDF puts where a netlist needs ASCII, and what was meant.
+_LOOKALIKES = {"\u2013": ("an en dash", "-"), "\u2014": ("an em dash", "-"), "\u2212": ("a minus sign", "-"),
+               "\u2010": ("a hyphen", "-"), "\u2011": ("a non-breaking hyphen", "-"), "\u2012": ("a figure dash", "-"),
+               "\u03bc": ("a Greek mu", "u")}  # (the micro sign, MICRO, is a scale suffix)
+
+
+def lookalike_hint(text: str) -> str | None:
+    """The hint for the first typographic look-alike of an ASCII character in ``text`` (None: none).
+
+    >>> lookalike_hint("\u20131k")
+    "'\u2013' (U+2013) is an en dash, not ASCII '-': a word processor or a PDF put it there; type '-'"
+    """
+    for ch in text:
+        if ch in _LOOKALIKES:
+            what, meant = _LOOKALIKES[ch]
+            return (f"'{ch}' (U+{ord(ch):04X}) is {what}, not ASCII '{meant}': a word processor or a PDF put it "
+                    f"there; type '{meant}'")
+    return None
 
 
 def underflows(token: str) -> bool:
