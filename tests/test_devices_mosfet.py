@@ -212,3 +212,17 @@ def test_a_surface_potential_that_is_not_positive_is_refused_at_the_value(phi):
         assemble(load(text, path="m.cir"))
     assert str(err.value).startswith(f"m.cir:5:20: model mm: phi={phi} is impossible for a MOSFET (level 1): "
                                      "phi must be > 0")
+
+
+def test_a_temperature_beyond_the_surface_potentials_law_is_refused_at_the_element():
+    """At 280 degC PHI (0.6 V at 27 degC, ngspice's temperature law) is negative: the run said only 'the circuit
+    equations are not finite' (ngspice 39: NaN voltages); it now names the element, PHI and the temperature."""
+    import netdae
+    from netdae.errors import CircuitError
+
+    text = "t\nV1 a 0 1\nR1 a b 1k\nM1 b a 0 0 mm\n.model mm nmos\n.temp {}\n.op\n.end\n"
+    assert netdae.run(netdae.load(text.format(250)))[0].ok  # PHI still positive there
+    with pytest.raises(CircuitError) as exc:
+        netdae.run(netdae.load(text.format(280)))
+    assert str(exc.value).startswith("<string>:4:1: m1: the surface potential PHI at 280 degC is -0.00598")
+    assert "PHI = 0.6 V at tnom = 27 degC" in str(exc.value) and "check .temp" in exc.value.hint

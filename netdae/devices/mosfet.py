@@ -363,6 +363,15 @@ class MosfetFamily(DeviceFamily):
         phi = g("phi")
         phio = (phi - pb_factor(tnom)) / (tnom / REFTEMP)
         self.phi = (temp / REFTEMP) * phio + pb_factor(temp)
+        for k in np.flatnonzero(~(self.phi > 0.0)):
+            # the temperature law of PHI (mos1temp.c) leaves it negative far above tnom: sqrt(PHI) is undefined
+            el = self.elements[k]
+            where = f"{el.location}: " if el.location else ""
+            raise CircuitError(f"{where}{el.name}: the surface potential PHI at {temp[k] - KELVIN:g} degC is "
+                               f"{self.phi[k]:g} V, not positive (PHI = {phi[k]:g} V at tnom = "
+                               f"{tnom[k] - KELVIN:g} degC)", elements=(el.name,),
+                               hint="the level-1 model's temperature law does not reach this temperature "
+                                    "(ngspice 39 computes NaN currents there); check .temp, temp= and dtemp=")
         gamma = g("gamma")
         self.gamma = gamma
         vbi = g("vto") - self.type * gamma * np.sqrt(phi) + 0.5 * (egfet1 - egfet) + self.type * 0.5 * (self.phi - phi)
