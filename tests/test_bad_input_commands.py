@@ -739,10 +739,11 @@ def test_a_resistance_that_scale_or_temperature_make_zero_is_located(capsys, tmp
 
 
 def test_a_failed_start_without_an_operating_point_says_why_there_is_none(capsys, tmp_path):
-    """.tran without uic, no operating point (a level-1 MOSFET at 10,000 degC: phi(T) < 0, as ngspice's -nan):
+    """.tran without uic, no operating point (a B source's current sqrt(v(a) - 2) with v(a) = 1: not finite, as
+    ngspice's -nan; a level-1 MOSFET at 10,000 degC was the case found, now refused at the element for its PHI):
     the start as with uic that replaces it failed too, and the message began 'uic: could not find values
     consistent ...', naming an option the card does not have and not the operating point's failure."""
-    text = "t\nV1 a 0 1\nR1 a b 1k\nM1 b a 0 0 mm\n.model mm nmos\n.temp 1e4\n.tran 1u 10u\n.end\n"
+    text = "t\nV1 a 0 1\nR1 a b 1k\nB1 b 0 I=sqrt(v(a)-2)\n.tran 1u 10u\n.end\n"
     status, err, _ = _cli(capsys, tmp_path, text, "run", "-q")
     assert status == EXIT_ERROR and "bug in netdae" not in err
     assert err.startswith("netdae: error: no DC operating point (operating point: the circuit equations are not "
