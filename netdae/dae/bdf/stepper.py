@@ -346,7 +346,8 @@ class BDF:
         """Error weights at x (the compiled ``set_weights``): ``_w`` for Newton, ``_w_err`` for the error test.
 
         After an accepted step the algebraic currents' error tolerances are raised to what their
-        resistive rows give them (:func:`~netdae.dae.compiled.control.current_error_weights`). A nonlinear system's Newton weights are raised to the accuracy of its charges
+        resistive rows give them (:func:`~netdae.dae.compiled.control.current_error_weights`). A
+        nonlinear system's Newton weights are raised to the accuracy of its charges
         (:func:`~netdae.dae.compiled.control.charge_newton_weights`, from the history's charges
         at x and the last Jacobian's ``|dq/dx|``).
         """

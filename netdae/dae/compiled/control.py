@@ -22,7 +22,8 @@ __all__ = ["flc_coefficients", "weighted_norm", "error_norms", "charge_weights",
            "charge_newton_weights",
            "charge_error_norms",
            "charge_error_kp1", "update_differences", "landing_step",
-           "set_weights", "current_error_weights", "residual_stalled", "conductance_fell", "row_magnitudes", "NORM_RMS", "NORM_MAX",
+           "set_weights", "current_error_weights", "residual_stalled", "conductance_fell", "row_magnitudes",
+           "NORM_RMS", "NORM_MAX",
            "RELREF_LOCAL", "RELREF_SIGNAL", "RELREF_MIXED", "RESIDUAL_ROUNDING"]
 
 NORM_RMS = 0
