@@ -77,7 +77,7 @@ from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
 from .startup import event_right_limit, jump_of, oscillates, probe, right_limit
-from ..compiled.events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, chatter_message, interpolate_state
+from ..compiled.events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, chatter_message, interpolate_state, ulp
 from .statistics import count_step, new_statistics
 
 __all__ = ["BDF", "RunState"]
@@ -457,7 +457,7 @@ class BDF:
         (None after recording a failure).
         """
         x = self._hist.P[0, : self.n].copy()
-        eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * ulp(t))
         p = self._probe_or_fail(t, x, eps)
         if p is None:
             return None
@@ -544,7 +544,7 @@ class BDF:
         """
         if self._event_restart or short:
             eps = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
-                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(self.t), np.inf) - abs(self.t)))
+                      EVENT_RIGHT_LIMIT_ULPS * ulp(self.t))
         out, iterations, evaluations = event_right_limit(self.system, self.t, x, eps, self._high, self._lu,
                                                          self._w, state=self._state, timed=self._t_tested)
         self.stats["newton_iterations"] += iterations
@@ -707,7 +707,7 @@ class BDF:
         t_change, changed = self._locks.ahead(hist.P, hist.kused, hist.psi, t, h, EVENT_TOGETHER * first)
         x_change = None  # the change's point: on the continued polynomial, or the attempt's end
         # (no shorter step ends between t and the change: the reduced steps stop at ROUNDOFF_ULPS)
-        at_t = max(EVENT_MIN_GAP * first, 4.0 * ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+        at_t = max(EVENT_MIN_GAP * first, 4.0 * ROUNDOFF_ULPS * ulp(t))
         if not changed and h <= at_t:
             # the continued polynomial does not see the change the corrector met within this short a
             # step: it changes here, to the outcomes at the attempt's end
@@ -799,7 +799,7 @@ class BDF:
         n = self.n
         x = self._hist.P[0, :n].copy()
         eps = max(self.h * 10.0 ** (self._impasse_tries - 1),
-                  EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+                  EVENT_RIGHT_LIMIT_ULPS * ulp(t))
         self._impasse_eps = eps
         tol = self._tolerances
         out, iterations, evaluations, _ = right_limit(self.system, t, x, eps, self._high, self.rtol,

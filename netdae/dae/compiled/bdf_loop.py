@@ -63,7 +63,7 @@ from ...devices.kernels.switch import eval_switch, switch_at, switch_step
 from ...devices.kernels.mesa import eval_mesa
 from ...devices.kernels.hfet import eval_hfet
 from ...devices.kernels.vdmos import eval_vdmos
-from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
+from .events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state, ulp
 from .delays import add_delayed, record_waves
 from .control import (NORM_MAX, charge_error_kp1, charge_error_norms, charge_newton_weights, charge_weights,
                       time_charge_residual,
@@ -409,7 +409,7 @@ def _impasse(F, I, t):
     I[I_STATUS] = RUNNING
     F[F_IMPASSE_T] = t
     F[F_RL_EPS] = max(F[F_H] * 10.0 ** (I[I_IMPASSE_TRIES] - 1),
-                      EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+                      EVENT_RIGHT_LIMIT_ULPS * ulp(t))
     F[F_IMPASSE_EPS] = F[F_RL_EPS]
     I[I_IMPASSE] = 1
     I[I_PENDING_RESTART] = 1
@@ -1000,7 +1000,7 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
             # shorter than the probe's after a switching event), failing that from Python's steady
             # solver with its homotopies
             short = max(EVENT_RIGHT_LIMIT_FRACTION * eps,
-                        EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+                        EVENT_RIGHT_LIMIT_ULPS * ulp(t))
             if I[I_RL_READY] == 0:
                 F[F_RL_EPS] = short if I[I_EVENT_RESTART] != 0 else eps
                 solved = _event_right_limit(F, I, t, x, F[F_RL_EPS], tol, sysd, devd, lus, evb, ws)
@@ -1147,7 +1147,7 @@ def _reprobe(F, I, P, psi, t, x, cap, tol, sysd, devd, lus, evb, ws):
     from its curvature; no jump check (the point stays). Returns as _probe (the step in F_H)."""
     atol, mask, high, xmax, w, w_err, signs, qrows, crows, qcol, trows, cur = tol
     u, xp, xpp, xr, x2, wf, b1, b2, work, qpb, rl_given = ws
-    eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+    eps = max(PROBE_FRACTION * cap, EVENT_RIGHT_LIMIT_ULPS * ulp(t))
     rc = _probe(F, I, t, x, eps, tol, sysd, devd, lus, evb, ws, False)
     if rc != FACTOR_OK:
         return rc
@@ -1698,7 +1698,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                         t_lock = min(t_lock, h_lock[LOCK_TIME, sl])
                 gap = t_lock - t
                 # (no shorter step ends between t and the change: the reduced steps stop at ROUNDOFF_ULPS)
-                at_t = max(EVENT_MIN_GAP * h_undefined, 4.0 * ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)))
+                at_t = max(EVENT_MIN_GAP * h_undefined, 4.0 * ROUNDOFF_ULPS * ulp(t))
                 if nlock > 0 and gap <= at_t:
                     flip = True
                     break
@@ -1752,7 +1752,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
             # reduced step
             h_new = h * eta
             code = kind * 16 + (reason if kind == 1 else 0)
-            if kind == 3 and (h_new < F[F_MIN_STEP] or h_new <= ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t))
+            if kind == 3 and (h_new < F[F_MIN_STEP] or h_new <= ROUNDOFF_ULPS * ulp(t)
                               or t + h_new == t):
                 _fail(F, I, t, h, FAIL_UNDEFINED * 256, s_par.shape[0] + lock_undefined(h_lock))
                 return FAILED
@@ -1762,7 +1762,7 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 else:
                     _fail(F, I, t, h, FAIL_MIN_STEP * 256 + code, worst)
                     return FAILED
-            elif h_new <= ROUNDOFF_ULPS * (np.nextafter(abs(t), np.inf) - abs(t)) or t + h_new == t:
+            elif h_new <= ROUNDOFF_ULPS * ulp(t) or t + h_new == t:
                 _fail(F, I, t, h, FAIL_ROUNDOFF * 256 + code, worst)
                 if (kind == 2 or reason != REASON_EVALUATION) and _impasse(F, I, t):
                     return NEED_RIGHT_LIMIT

@@ -26,7 +26,7 @@ import numpy as np
 from . import kernel
 
 __all__ = ["interpolate_column", "interpolate_state", "crossing_time", "CROSSING_SAMPLES", "CROSSING_ITERATIONS",
-           "EVENT_MIN_GAP", "EVENT_TOGETHER", "CHATTER_EVENTS", "chatter_message"]
+           "EVENT_MIN_GAP", "EVENT_TOGETHER", "CHATTER_EVENTS", "chatter_message", "ulp"]
 
 #: The interpolant is sampled at this many equal subintervals of the step to bracket the first crossing.
 CROSSING_SAMPLES = 8
@@ -44,6 +44,17 @@ EVENT_TOGETHER = 1e-9
 #: which no sequence of isolated instants resolves): the integration stops and says so
 #: (ngspice stops with "timestep too small" there).
 CHATTER_EVENTS = 100
+
+
+@kernel
+def ulp(t):
+    """The spacing of doubles at ``|t|``: the rounding of a time ``t`` (``nextafter(|t|, inf) - |t|``).
+
+    >>> ulp(1.0) == 2.0 ** -52
+    True
+    """
+    a = abs(t)
+    return np.nextafter(a, np.inf) - a
 
 
 @kernel
@@ -117,7 +128,7 @@ def crossing_time(P, k, psi, t, t_new, a, b, n, theta, direction):
     side = 0
     for _ in range(CROSSING_ITERATIONS):
         width = hi - lo
-        if width <= 4.0 * (np.nextafter(abs(hi), np.inf) - abs(hi)):
+        if width <= 4.0 * ulp(hi):
             break
         tau = hi - f_hi * width / (f_hi - f_lo)
         if not (lo < tau < hi):

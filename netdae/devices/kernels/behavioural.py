@@ -61,7 +61,8 @@ import math
 import numpy as np
 
 from ...dae.compiled import kernel
-from ...dae.compiled.events import CROSSING_ITERATIONS, CROSSING_SAMPLES, EVENT_MIN_GAP, EVENT_TOGETHER, interpolate_state
+from ...dae.compiled.events import (CROSSING_ITERATIONS, CROSSING_SAMPLES, EVENT_MIN_GAP, EVENT_TOGETHER,
+                                    interpolate_state, ulp)
 from ...netlist.expr import TABLE_DOMAIN  # the smoothing domain of a TABLE's corners
 from ..autodiff import (  # ngspice's PTexp saturation, PTlog(0), PTdivide's fudge; a comparison's tie
     DIVISION_FUDGE, EXP_ARG_MAX, EXP_SATURATED, LOG_OF_ZERO, ROUNDING_TIE,
@@ -550,7 +551,7 @@ def _classify(P, kord, psi, hi, t_cap, t_new, n, k, prog, const, inst, leaf, val
             break
         # the held branch is undefined past the change (sqrt(v(a)) held past v(a) > 0): its value just
         # before (the bisection brackets the change to 4 ulps of the time)
-        back -= 4.0 * (np.nextafter(abs(back), np.inf) - abs(back))
+        back -= 4.0 * ulp(back)
         interpolate_state(P, kord, psi, back - t_new, n, xw)
         xw[n] = 0.0
         held = _value(xw, back, k, prog, const, inst, leaf, val, der, lock, LOCK_USE)
@@ -627,7 +628,7 @@ def _first_change(P, kord, psi, start, t_cap, t_new, n, k, prog, const, inst, le
             break
         lo = tau
     for _ in range(CROSSING_ITERATIONS):
-        if hi - lo <= 4.0 * (np.nextafter(abs(hi), np.inf) - abs(hi)):
+        if hi - lo <= 4.0 * ulp(hi):
             break
         mid = 0.5 * (lo + hi)
         if not (lo < mid < hi):
