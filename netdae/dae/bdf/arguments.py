@@ -319,7 +319,7 @@ def current_rows(system, mask: np.ndarray, crows: np.ndarray) -> tuple:
     if not currents.any():
         return nothing
     try:
-        E, H = sp.csr_matrix(system.E), sp.csr_matrix(system.H)
+        E, H = sp.csr_matrix(system.E, copy=True), sp.csr_matrix(system.H, copy=True)  # (zeros eliminated below)
     except (AttributeError, NotImplementedError):  # a system without constant E and H (no MNA)
         return nothing
     E.eliminate_zeros()
