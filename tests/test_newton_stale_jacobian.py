@@ -21,7 +21,7 @@ import pytest
 
 import netdae
 from netdae.dae.compiled.control import conductance_fell, residual_stalled
-from netdae.dae.newton import CONDUCTANCE_FALL, RESIDUAL_RATE_MAX
+from netdae.dae.newton import CONDUCTANCE_FALL, RESIDUAL_NU_MAX, RESIDUAL_RATE_MAX
 
 HALFWAVE = """Half-wave: a floating node held by two capacitors, diodes switching
 V1 in 0 SIN(0 17 60)
@@ -149,13 +149,16 @@ def test_residual_stalled_flags_a_row_left_where_it_was():
     rtol = 1e-3
     # row 0 kept its residual (a matrix far too stiff there), row 1 converged
     assert residual_stalled(np.array([1.3e-7, 1e-3]), np.array([1.3e-7, 1e-9]), mag, rtol, r_atol,
-                            RESIDUAL_RATE_MAX)
-    # contracted by a fit matrix: not stalled, however large
-    assert not residual_stalled(np.array([1.3e-7, 0.0]), np.array([1.3e-8, 0.0]), mag, rtol, r_atol,
-                                RESIDUAL_RATE_MAX)
+                            RESIDUAL_RATE_MAX, RESIDUAL_NU_MAX)
+    # contracted by a fit matrix: not stalled while within RESIDUAL_NU_MAX of its tolerance (1.001e-9)
+    assert not residual_stalled(np.array([1.3e-7, 0.0]), np.array([1.5e-9, 0.0]), mag, rtol, r_atol,
+                                RESIDUAL_RATE_MAX, RESIDUAL_NU_MAX)
+    # contracted tenfold but 13 tolerances off: not converged (the rate that accepted it was a stale matrix's)
+    assert residual_stalled(np.array([1.3e-7, 0.0]), np.array([1.3e-8, 0.0]), mag, rtol, r_atol,
+                            RESIDUAL_RATE_MAX, RESIDUAL_NU_MAX)
     # small in SPICE's sense (below rtol of its terms plus abstol): not stalled, however slow
     assert not residual_stalled(np.array([5e-10, 0.0]), np.array([5e-10, 0.0]), mag, rtol, r_atol,
-                                RESIDUAL_RATE_MAX)
+                                RESIDUAL_RATE_MAX, RESIDUAL_NU_MAX)
 
 
 SCHMITT = """BJT emitter-coupled Schmitt trigger closed into an RC relaxation oscillator

@@ -112,6 +112,7 @@ __all__ = [
     "newton",
     "residual_stalled",
     "RESIDUAL_RATE_MAX",
+    "RESIDUAL_NU_MAX",
     "conductance_fell",
     "CONDUCTANCE_FALL",
     "INFO_CONVERGED",
@@ -139,6 +140,11 @@ TINY_CORRECTION = 1e-4
 #: row leaves ``|1 - 1/f|`` of its residual: 0.5 is a matrix twice too stiff; the ``cj`` changes
 #: that modified Newton accepts (``DCJ``, with IDA's scaling of the correction) leave at most 0.25.
 RESIDUAL_RATE_MAX = 0.5
+#: An iterate accepted with a Jacobian from an earlier step whose residual is more than this many
+#: times its tolerance is not converged, however far the residual fell (``residual_stalled``): the
+#: rate that accepted it was measured with the stale matrix (a behavioural ``sqrt(abs(v))`` at its
+#: kink: a second correction's rate of 0.24 accepted an iterate 5 tolerances off its relation).
+RESIDUAL_NU_MAX = 2.0
 #: An iterate accepted with a Jacobian from an earlier step is not converged when an off-diagonal
 #: entry of ``dphi/dx`` the factorisation holds is more than this factor above the same entry (with its
 #: ``cj dq/dx``) at the iterate (``conductance_fell``): a junction that conducted when the matrix

@@ -21,6 +21,8 @@ EPCON = 0.33
 RATE_AFTER_SETUP = 20.0 / 21.0
 #: Rate assumed when cj changed but the old factorisation is reused: rate/(1-rate) = 100 (IDA).
 RATE_CJ_CHANGED = 100.0 / 101.0
+#: Solves in a row that converged at their first correction, after which the carried rate is assumed again.
+RATE_AGE_MAX = 10
 #: A nonlinear system keeps its factorisation while cj/cj_lu stays in
 #: [(1-DCJ)/(1+DCJ), (1+DCJ)/(1-DCJ)] = [0.6, 1.67] (IDA's dcj).
 DCJ = 0.25
@@ -88,15 +90,13 @@ JUMP_DETECT = 1.0
 #: PULSE whose slope is 1e4 times its time constant's scale). A jump counts when the second
 #: step moves the unknown by at most JUMP_FIRST_STEP of the first.
 JUMP_FIRST_STEP = 0.5
-#: A nonlinear system's right limit that moves the solution at a restart after the start that is
-#: not a switching event is confirmed with the short steps of EVENT_RIGHT_LIMIT_FRACTION (a mode
-#: faster than the probe's step moves nothing within them: a base current cut at a PULSE corner,
-#: tests/test_fast_mode_at_corner.py); at the start only when the probe's two Euler steps move some
-#: unknown in opposite directions, the second by more than JUMP_OSCILLATION of the first:
-#: implicit Euler damps a mode that grows faster than its step as it damps a decaying one, with
-#: a negative factor ``1 / (1 - h lambda)`` (an op-amp loop at its unstable operating point:
-#: -0.48), where a jump is done in the first step and a decaying mode moves both steps one way.
-JUMP_OSCILLATION = 0.1
+#: A nonlinear system's right limit that moves the solution at a restart that is not a switching
+#: event is confirmed with the short steps of EVENT_RIGHT_LIMIT_FRACTION: a mode faster than the
+#: probe's step moves nothing within them (a base current cut at a PULSE corner,
+#: tests/test_fast_mode_at_corner.py; a collector node 10 ps from its source at the start,
+#: tests/test_fast_mode_at_start.py), and one growing faster than the probe's step (implicit Euler
+#: damps it with a negative factor ``1 / (1 - h lambda)``: an op-amp loop at its unstable operating
+#: point, -0.48) gives no right limit by the probe's extrapolation.
 #: Newton iterations allowed for each implicit-Euler step of the right-limit solve.
 JUMP_NEWTON_MAXITER = 25
 #: After a switching event the right limit is solved with implicit-Euler steps of this

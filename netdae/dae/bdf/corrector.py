@@ -15,11 +15,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..newton import (CONDUCTANCE_FALL, INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_RATE_MAX, LuCache,
-                      conductance_fell, newton, residual_stalled)
+from ..newton import (CONDUCTANCE_FALL, INFO_EVALUATION, INFO_NONFINITE, INFO_SINGULAR, RESIDUAL_NU_MAX,
+                      RESIDUAL_RATE_MAX, LuCache, conductance_fell, newton, residual_stalled)
 from .arguments import rounding_signs
-from .constants import (DCJ, DENSE_MATVEC_MAX, EPCON, EPS, JAC_AGE_MAX, RATE_AFTER_SETUP, RATE_CJ_CHANGED,
-                        ROUNDING_FACTOR)
+from .constants import (DCJ, DENSE_MATVEC_MAX, EPCON, EPS, JAC_AGE_MAX, RATE_AFTER_SETUP, RATE_AGE_MAX,
+                        RATE_CJ_CHANGED, ROUNDING_FACTOR)
 from .failures import nonfinite_unknown, worst_unknown
 
 __all__ = ["RoundingFloor", "LinearCorrector", "NonlinearCorrector", "point_state"]
@@ -294,6 +294,7 @@ class NonlinearCorrector:
         self._pattern_arrays = (np.asarray(system.pattern.indptr, dtype=np.int64),
                                 np.asarray(system.pattern.indices, dtype=np.int64))
         self.rate = RATE_AFTER_SETUP
+        self.rate_age = 0
         self.age = 0
         self.state_try = None
         n = system.n
@@ -405,7 +406,8 @@ class NonlinearCorrector:
                 e, h = self._eh
                 a = cj * (np.abs(e) + np.abs(ev.dq - e)) + np.abs(h) + np.abs(ev.dphi - h)
             mag += self.system.pattern.matrix(a) @ np.abs(x)
-            return residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX)
+            return residual_stalled(last["r"], r_new, mag, self.rtol, self.row_atol, RESIDUAL_RATE_MAX,
+                                    RESIDUAL_NU_MAX)
 
         def attempt(setup, full=False):
             """One Newton solve; a converged one's charges evaluated, and checked when its Jacobian is older."""
@@ -454,7 +456,12 @@ class NonlinearCorrector:
             if res.info == INFO_EVALUATION and "ev" in last:
                 worst = nonfinite_unknown(system.names, last["ev"]) or worst
             return False, {"info": res.info, "worst": worst}
-        self.rate = res.rate
+        # a rate carried by solves that converged at their first correction was measured with an
+        # older Jacobian at another point: after RATE_AGE_MAX of them it is assumed again
+        self.rate_age = self.rate_age + 1 if res.iterations <= 1 else 0
+        self.rate = res.rate if self.rate_age < RATE_AGE_MAX else RATE_AFTER_SETUP
+        if self.rate_age >= RATE_AGE_MAX:
+            self.rate_age = 0
         if not ev_new.ok:
             return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
         return True, (res.x, ev_new.q if e_matrix is None else ev_new.q[rows])

@@ -34,7 +34,7 @@ from ..sparse import SparsePattern, bipartite_components
 from ..steady import SteadyOptions, solve_steady
 from ..system import DaeSystem, Evaluation
 from .constants import (CONSERVED_CHARGE_RTOL, EVENT_RIGHT_LIMIT_TOL, JUMP_DETECT, JUMP_FIRST_STEP,
-                        JUMP_NEWTON_MAXITER, JUMP_OSCILLATION, RIGHT_LIMIT_CANCELLATION, RIGHT_LIMIT_STRETCH)
+                        JUMP_NEWTON_MAXITER, RIGHT_LIMIT_CANCELLATION, RIGHT_LIMIT_STRETCH)
 from .failures import Failure, newton_hint, nonfinite_unknown
 
 __all__ = ["ImplicitEulerStep", "right_limit", "event_right_limit", "conserved_charge_groups", "cancelling_rows",
@@ -425,34 +425,6 @@ def probe(evaluate, lu, floor, names, t: float, x, eps: float, high, w, w_err, *
     xp[high] = 0.0
     xpp[high] = 0.0
     return Probe(xp, qp, xpp, x_right, x_2, w_floor)
-
-
-def oscillates(x, x_right, x_2, w_floor) -> bool:
-    """Whether the probe's two Euler steps move an unknown that moved beyond its tolerance both ways.
-
-    The second step against the first by more than :data:`JUMP_OSCILLATION` of it: implicit
-    Euler's factor ``1 / (1 - h lambda)`` is negative for a mode growing faster than its step,
-    where a jump is done in the first step and a decaying mode moves both steps one way.
-
-    Parameters
-    ----------
-    x, x_right, x_2 : ndarray, shape (n,)
-        The value reached, the probe's right limit ``2 x_1 - x_2`` and its second Euler step.
-    w_floor : ndarray, shape (n,)
-        Weights at the probe's rounding level.
-
-    Examples
-    --------
-    >>> x = np.zeros(1); w = np.ones(1)
-    >>> oscillates(x, np.array([3.0]), np.array([1.0]), w)   # x_1 = 2, then back to 1
-    True
-    >>> oscillates(x, np.array([3.0]), np.array([3.0]), w)   # a jump: x_1 = x_2 = 3
-    False
-    """
-    x_1 = 0.5 * (x_right + x_2)
-    first, second = x_1 - x, x_2 - x_1
-    moved = np.abs(x_right - x) * w_floor > JUMP_DETECT
-    return bool(np.any(moved & (first * second < 0.0) & (np.abs(second) > JUMP_OSCILLATION * np.abs(first))))
 
 
 def jump_of(x, x_right, x_2, w_floor, high, *, first_step: bool = True):

@@ -76,7 +76,7 @@ from .failures import Failure, error_hint, failure_record, newton_hint, with_run
 from .history import History, sampled_history
 from .recorder import Recorder
 from .result import IntegrationResult
-from .startup import event_right_limit, jump_of, oscillates, probe, right_limit
+from .startup import event_right_limit, jump_of, probe, right_limit
 from ..compiled.events import CHATTER_EVENTS, EVENT_MIN_GAP, EVENT_TOGETHER, chatter_message, interpolate_state, ulp
 from .statistics import count_step, new_statistics
 
@@ -492,7 +492,6 @@ class BDF:
         # the first-step criterion holds in a nonlinear system too: where the inputs are continuous the
         # extrapolation's error (a large x'', a sqrt(t)-like solution) moves nothing by a jump; after a
         # switching event (phi itself changed) every move counts
-        at_start = self.stats["steps"] == 0
         jumped, value_jump, x_right = jump_of(x, p.x_right, p.x_2, p.w_floor, self._high,
                                               first_step=not self._event_restart)
         if not jumped:
@@ -501,14 +500,13 @@ class BDF:
             x_right = self._right_limit(x, eps)
             if x_right is None:
                 return None
-            if (not self._event_restart and (not at_start or oscillates(x, p.x_right, p.x_2, p.w_floor))
+            if (not self._event_restart
                     and np.any(np.abs(x_right - x) * p.w_floor > JUMP_DETECT)):
                 # a move is confirmed with the short steps: a mode faster than the probe's step (a base
-                # current cut at an input's corner, settling in 0.1 ns against the probe's 0.1 ns), or
-                # at the start one growing faster (implicit Euler damps it with a negative factor), moves
-                # nothing within them; an input that jumps moves the solution within the first of them.
-                # At the start a mode faster than the probe's step is left to the jump (an .ic released
-                # or a gate charged through 2 ohm in 4 ns at a slow ramp's start: the run's right limit)
+                # current cut at an input's corner, settling in 0.1 ns against the probe's 0.1 ns; a
+                # collector node 10 ps from its source at the start), or one growing faster (implicit
+                # Euler damps it with a negative factor), moves nothing within them; an input that
+                # jumps, or an .ic released, moves the solution within the first of them
                 x_right = self._right_limit(x, eps, short=True)
                 if x_right is None:
                     return None
@@ -568,6 +566,7 @@ class BDF:
         self._nst = 0
         if not self._linear:
             self._corrector.rate = RATE_AFTER_SETUP
+            self._corrector.rate_age = 0
         self._growth_failed = False
         self.h = h
 

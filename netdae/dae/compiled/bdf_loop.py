@@ -101,7 +101,6 @@ from ..bdf import (  # noqa: E402
     JUMP_DETECT,
     JUMP_FIRST_STEP,
     JUMP_NEWTON_MAXITER,
-    JUMP_OSCILLATION,
     MAX_ERROR_FAILURES,
     MAX_NEWTON_FAILURES,
     PROBE_FRACTION,
@@ -110,12 +109,14 @@ from ..bdf import (  # noqa: E402
     REPROBE_ERROR_FAILURES,
     RATE_AFTER_SETUP,
     RATE_CJ_CHANGED,
+    RATE_AGE_MAX,
     RIGHT_LIMIT_CANCELLATION,
     ROUNDING_FACTOR,
     ROUNDOFF_ULPS,
     UNDEFINED_TRIES,
 )
-from ..newton import CONDUCTANCE_FALL, FRESH_RATE_MAX, RATE_MAX, RESIDUAL_RATE_MAX, TINY_CORRECTION  # noqa: E402
+from ..newton import (CONDUCTANCE_FALL, FRESH_RATE_MAX, RATE_MAX, RESIDUAL_NU_MAX, RESIDUAL_RATE_MAX,  # noqa: E402
+                      TINY_CORRECTION)
 #: Unknowns named per recorded jump (the rest are counted).
 JUMP_NAMES = 32
 
@@ -204,7 +205,8 @@ I_OSDI_END_INST = 49    # the OSDI instance that raised it
 I_CHARGE_TIME = 50      # 1: a charge reads time itself (trows: the probe takes dq/dt at fixed x, their charge
 #                         errors are tested)
 I_FINAL_RESTART = 51    # 1: the pending restart is at t_bound (an event there): the run ends after it
-N_I = 52
+I_RATE_AGE = 52         # Newton solves in a row that converged at the first correction (RATE_AGE_MAX)
+N_I = 53
 
 # statuses
 RUNNING = 0
@@ -483,6 +485,7 @@ def _initialise_history(F, I, P, psi, h, xp, qp, crows):
     I[I_NST] = 0
     F[F_CJ] = 1.0 / h
     F[F_RATE] = RATE_AFTER_SETUP
+    I[I_RATE_AGE] = 0
     I[I_GROWTH_FAILED] = 0
     F[F_H] = h
 
@@ -967,13 +970,8 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
     first_step = I[I_EVENT_RESTART] == 0
     big = 0.0
     value_jump = False
-    oscillates = False  # the probe's two steps move an unknown both ways (see JUMP_OSCILLATION)
     for i in range(n):
         m = abs(xr[i] - x[i]) * wf[i]
-        if m > JUMP_DETECT:
-            x1 = 0.5 * (xr[i] + x2[i])
-            if (x1 - x[i]) * (x2[i] - x1) < 0.0 and abs(x2[i] - x1) > JUMP_OSCILLATION * abs(x1 - x[i]):
-                oscillates = True
         if first_step and not high[i] and m > JUMP_DETECT:
             x1 = 0.5 * (xr[i] + x2[i])
             if abs(x2[i] - x1) > JUMP_FIRST_STEP * abs(x1 - x[i]):
@@ -1010,11 +1008,11 @@ def _jump(F, I, t, x, eps, P, rtol, tol, sysd, devd, lus, evb, ws, rec):
                 I[I_RL_READY] = 0
                 for i in range(n):
                     xr[i] = rl_given[i]
-            if I[I_EVENT_RESTART] == 0 and (I[I_STEPS] > 0 or oscillates) and F[F_RL_EPS] > short:
+            if I[I_EVENT_RESTART] == 0 and F[F_RL_EPS] > short:
                 # a move is confirmed with the short steps (see BDF._jump): a mode faster than the
-                # probe's step after the start (a base current cut at an input's corner), or at the
-                # start one growing faster (the probe's steps oscillated), moves nothing within them;
-                # an input that jumps moves the solution within the first of them
+                # probe's step (a base current cut at an input's corner, a collector node 10 ps from
+                # its source at the start), or one growing faster (the probe's steps oscillated),
+                # moves nothing within them; an input that jumps moves the solution within the first
                 moved = False
                 for i in range(n):
                     if abs(xr[i] - x[i]) * wf[i] > JUMP_DETECT:
@@ -1319,7 +1317,7 @@ def _stalled(I, t_new, cj, x, pred0, pred1, crows, rtol, ratol, atol, dphi_lu, s
         for p in range(indptr[j], indptr[j + 1]):
             v[indices[p]] += (cj * (abs(e_data[p]) + abs(dqe[p] - e_data[p])) + abs(h_data[p])
                               + abs(dphie[p] - h_data[p])) * ax
-    return residual_stalled(r, rn, v, rtol, ratol, RESIDUAL_RATE_MAX), flags
+    return residual_stalled(r, rn, v, rtol, ratol, RESIDUAL_RATE_MAX, RESIDUAL_NU_MAX), flags
 
 
 @entry_kernel
@@ -1597,7 +1595,13 @@ def run(F, I, P, psi, psi_saved, alpha, beta, gamma, sigma, bps, first_step, tol
                 elif outcome == NEWTON_FAILED:
                     kind = 1
                 else:
+                    # a rate carried by solves that converged at their first correction was measured
+                    # with an older Jacobian at another point: after RATE_AGE_MAX of them it is assumed again
+                    I[I_RATE_AGE] = I[I_RATE_AGE] + 1 if its <= 1 else 0
                     F[F_RATE] = rate
+                    if I[I_RATE_AGE] >= RATE_AGE_MAX:
+                        F[F_RATE] = RATE_AFTER_SETUP
+                        I[I_RATE_AGE] = 0
                     # the charges at the new point, evaluated exactly (no limiting): the
                     # history must hold q(x_new) itself (a system whose devices store no
                     # charge has none to hold: its linear charges E x are in correction form)

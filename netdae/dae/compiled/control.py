@@ -436,7 +436,7 @@ def current_error_weights(w, w_err, mask, cur):
 
 
 @kernel
-def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max):
+def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max, nu_max):
     """Whether a modified-Newton iterate left the corrector's residual where it was (a stale Jacobian).
 
     Each row of the residual is measured as SPICE measures a current (``NIconvTest``):
@@ -447,7 +447,9 @@ def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max):
     nu_prev_i``). Row by row: a stale matrix can leave one row where it was while it moves
     another's residual, the current of a source into a node it overestimates; and a row whose
     residual the correction made (a node group's balance moved by a matrix stale in its common
-    mode) is stalled as well.
+    mode) is stalled as well. A row whose residual is more than ``nu_max`` times its tolerance
+    is not converged however far it fell: a rate measured with a stale matrix (at a kink of a
+    behavioural source's function) can be small while the iterate is still tolerances off.
 
     A correction ``A^-1 r`` with a matrix ``A`` far stiffer than the residual's own Jacobian
     ``J`` (a junction's conductance at a forward bias it has since left) is tiny in every
@@ -468,6 +470,8 @@ def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max):
         vntol).
     rate_max : float
         Largest residual contraction of a fit matrix.
+    nu_max : float
+        Largest residual, in units of its tolerance, accepted whatever its contraction.
 
     Returns
     -------
@@ -476,7 +480,7 @@ def residual_stalled(r_prev, r_new, mag, rtol, r_atol, rate_max):
     for i in range(r_new.size):
         s = rtol * mag[i] + r_atol[i]
         a = abs(r_new[i])
-        if a > s and a > rate_max * abs(r_prev[i]):
+        if a > s and (a > rate_max * abs(r_prev[i]) or a > nu_max * s):
             return True
     return False
 
