@@ -192,7 +192,7 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
             except ConvergenceError:
                 pass
     except CircuitError as exc:
-        raise type(exc)(f".dc at {where}: {exc.message}", elements=exc.elements, nodes=exc.nodes,
+        raise type(exc)(f".dc at {where}: {exc.located_message}", elements=exc.elements, nodes=exc.nodes,
                         hint=exc.hint) from None
     raise ConvergenceError(f".dc at {where}: {failure.message}" + (" (from the previous point's solution and from "
                            "scratch)" if x is not None else ""), t=failure.t, h=failure.h, worst=failure.worst,
