@@ -250,9 +250,12 @@ def error_record(exc: NetdaeError) -> dict:
 'expected': 'Rname n+ n- value', 'hint': None}
     >>> error_record(NetdaeError("nothing to run"))
     {'type': 'NetdaeError', 'message': 'nothing to run', 'file': None, 'line': None, 'column': None}
+    >>> error_record(ConvergenceError("no convergence", t=1e-3))["message"]  # its text: the time is in it
+    'no convergence, at t=0.001'
     """
     location = getattr(exc, "location", None)
-    record = {"type": type(exc).__name__, "message": getattr(exc, "message", None) or str(exc),
+    located = isinstance(exc, (NetlistError, CircuitError))  # the message without the location in front
+    record = {"type": type(exc).__name__, "message": exc.message if located else str(exc),
               "file": location.file if location else None, "line": location.line if location else None,
               "column": location.column if location else None}
     if isinstance(exc, NetlistError):

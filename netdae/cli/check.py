@@ -231,12 +231,12 @@ def main(args) -> int:
         # the device models built as a run builds them: a value a run refuses (a MOSFET's l = 0, a model's
         # phi = 0) is refused here too, not summarised as "diagnostics: none"
         assemble(circuit)
+        topo = analyze_topology(circuit)
     except NetdaeError as exc:
         if args.json:  # the error as data too (its file, line and column); the dispatcher says it on stderr
             print(json.dumps({"path": args.file, "error": error_record(exc)}, indent=2))
         raise
     summary = summarize(circuit)
-    topo = analyze_topology(circuit)
     summary["topology"] = topology_lines(topo)
     if args.json:
         summary["topology"] = topo.to_dict()
