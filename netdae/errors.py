@@ -44,6 +44,7 @@ __all__ = [
     "NgspiceError",
     "ResultFileError",
     "OutputFileError",
+    "error_record",
     "count_text",
     "size_text",
 ]
@@ -203,15 +204,65 @@ class CircuitError(NetdaeError):
         Names of the nodes involved.
     hint : str, optional
         What the user might do about it.
+    location : SourceLocation, optional
+        Where the netlist writes what is wrong (the element's card, a model
+        parameter's value); kept as ``location`` and shown in front of the
+        message, as a :class:`NetlistError` shows its own.
+
+    Examples
+    --------
+    >>> err = CircuitError("d1: model 'dx' is not defined", elements=("d1",), location=SourceLocation("a.cir", 4),
+    ...                    hint="add a .model card of type d")
+    >>> print(err)
+    a.cir:4:1: d1: model 'dx' is not defined (hint: add a .model card of type d)
+    >>> err.message, err.location.line
+    ("d1: model 'dx' is not defined", 4)
     """
 
-    def __init__(self, message: str, *, elements=(), nodes=(), hint: str | None = None):
+    def __init__(self, message: str, *, elements=(), nodes=(), hint: str | None = None,
+                 location: SourceLocation | None = None):
         self.message = message
         self.elements = tuple(elements)
         self.nodes = tuple(nodes)
         self.hint = hint
-        text = message if not hint else f"{message} (hint: {hint})"
-        super().__init__(text)
+        self.location = location
+        text = self.located_message
+        super().__init__(text if not hint else f"{text} (hint: {hint})")
+
+    @property
+    def located_message(self) -> str:
+        """The message with its location in front and without the hint: what another message quotes."""
+        return f"{self.location}: {self.message}" if self.location else self.message
+
+
+def error_record(exc: NetdaeError) -> dict:
+    """An error as JSON-ready data: ``type``, ``message``, ``file``, ``line``, ``column`` and what it names.
+
+    The location is the error's own (:class:`NetlistError`, :class:`CircuitError`; ``None`` when it has
+    none), never read back from its text; a :class:`NetlistError` adds ``expected`` and ``hint``, a
+    :class:`CircuitError` ``hint``, ``elements`` and ``nodes``.
+
+    Examples
+    --------
+    >>> err = NetlistError("R1: expected a value", SourceLocation("rc.cir", 2, 4), expected="Rname n+ n- value")
+    >>> error_record(err)
+    {'type': 'NetlistError', 'message': 'R1: expected a value', 'file': 'rc.cir', 'line': 2, 'column': 4, \
+'expected': 'Rname n+ n- value', 'hint': None}
+    >>> error_record(NetdaeError("nothing to run"))
+    {'type': 'NetdaeError', 'message': 'nothing to run', 'file': None, 'line': None, 'column': None}
+    >>> error_record(ConvergenceError("no convergence", t=1e-3))["message"]  # its text: the time is in it
+    'no convergence, at t=0.001'
+    """
+    location = getattr(exc, "location", None)
+    located = isinstance(exc, (NetlistError, CircuitError))  # the message without the location in front
+    record = {"type": type(exc).__name__, "message": exc.message if located else str(exc),
+              "file": location.file if location else None, "line": location.line if location else None,
+              "column": location.column if location else None}
+    if isinstance(exc, NetlistError):
+        record.update(expected=exc.expected, hint=exc.hint)
+    elif isinstance(exc, CircuitError):
+        record.update(hint=exc.hint, elements=list(exc.elements), nodes=list(exc.nodes))
+    return record
 
 
 class SingularPencilError(CircuitError):

@@ -107,3 +107,43 @@ def test_max_elements_on_the_command_line(capsys):
     except SystemExit as stop:
         assert stop.code == 2
     assert "--max-elements: expected a whole number of at least 1, got '0'" in capsys.readouterr().err
+
+
+def test_a_circuit_error_of_an_element_carries_its_location(tmp_path, capsys):
+    """A CircuitError raised for an element carried its file:line:col only in its text; it keeps the location as
+    ``location`` (as a NetlistError does), its message without it, and ``netdae check --json`` reports the file,
+    line and column of the error as data."""
+    import pickle
+
+    import pytest
+
+    from netdae.errors import CircuitError, SourceLocation
+    from netdae.mna import assemble
+
+    path = tmp_path / "l0.cir"
+    path.write_text("t\nV1 a 0 1\nVd d 0 1\nR1 a b 1k\nM1 b d 0 0 mm l=0 w=1u\n.model mm nmos\n.op\n.end\n")
+    with pytest.raises(CircuitError) as info:
+        assemble(load(str(path)))
+    err = info.value
+    assert err.location == SourceLocation(str(path), 5, 1)
+    assert err.message.startswith("m1: effective channel length L - 2 LD = 0 m is not positive")
+    assert str(err) == f"{path}:5:1: {err.message} (hint: {err.hint})"
+    again = pickle.loads(pickle.dumps(err))
+    assert (str(again), again.location, again.message) == (str(err), err.location, err.message)
+
+    assert cli_main(["check", "--json", str(path)]) == 2
+    out, text = capsys.readouterr()
+    assert f"netdae: error: {path}:5:1: m1: effective channel length" in text
+    error = json.loads(out)["error"]
+    assert error == {"type": "CircuitError", "message": err.message, "file": str(path), "line": 5, "column": 1,
+                     "hint": err.hint, "elements": ["m1"], "nodes": []}
+
+
+def test_check_json_reports_a_netlist_error_as_data(tmp_path, capsys):
+    path = tmp_path / "bad.cir"
+    path.write_text("t\nR1 a 0\n.op\n.end\n")
+    assert cli_main(["check", "--json", str(path)]) == 2
+    out, text = capsys.readouterr()
+    error = json.loads(out)["error"]
+    assert error["type"] == "NetlistError" and (error["file"], error["line"]) == (str(path), 2)
+    assert error["message"] in text and error["expected"]

@@ -224,3 +224,25 @@ def test_a_cycle_through_2000_params_is_named_and_deep_expressions_stay_refused(
     assert info.value.location.line == 2001
     with pytest.raises(NetlistError, match="nested deeper than 300 levels"):
         load("t\n.param a={" + "(" * 400 + "1" + ")" * 400 + "}\nR1 x 0 {a}\n")
+
+
+def _func_chain(n: int, use: str) -> str:
+    """``n`` distinct functions, each calling the next, the last the identity; ``use`` applies the first."""
+    funcs = "".join(f".func f{j}(x) {{f{j + 1}(x)}}\n" for j in range(n - 1)) + f".func f{n - 1}(x) {{x}}\n"
+    return f"chain of functions\n{funcs}V1 a 0 1\n{use}\n.op\n.end\n"
+
+
+@pytest.mark.parametrize("use", ["R1 a 0 {f0(1)}", "B1 b 0 V={f0(v(a))}\nR1 b 0 1k"])
+def test_a_deep_chain_of_distinct_functions_is_not_called_recursive(use):
+    """2,000 functions each calling the next nest deeper than the limit without any recursion: the refusal
+    said 'recursive .func?'; it says how deep, and names recursion only where a name repeats in the chain."""
+    from netdae.netlist.params import MAX_CALL_DEPTH
+
+    with pytest.raises(NetlistError, match=f"function calls nested deeper than {MAX_CALL_DEPTH}") as info:
+        load(_func_chain(2000, use))
+    assert "recursive" not in str(info.value)
+    assert f"f0 -> f1 -> f2" in str(info.value)
+    recursive = "t\n.func f(x) {g(x)}\n.func g(x) {h(x)}\n.func h(x) {g(x)}\nV1 a 0 1\n" + use.replace("f0", "f")
+    with pytest.raises(NetlistError, match=f"function calls nested deeper than {MAX_CALL_DEPTH}") as info:
+        load(recursive)
+    assert "recursive .func 'g'" in str(info.value) and "g -> h -> g" in str(info.value)

@@ -180,7 +180,7 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
     CircuitError
         The point's matrix is singular (the message names the point).
     """
-    where = ", ".join(f"{name} = {value:g}" for name, value in zip(names, values))
+    where = _point_text(names, values)
     try:
         try:  # from the previous point's solution without the .nodeset values (ngspice's MODEINITPRED)
             return solve_operating_point(prepared, options=opts, x0=x, nodesets=x is None)
@@ -192,7 +192,7 @@ def _solve_point(prepared: Prepared, opts, x, names, values):
             except ConvergenceError:
                 pass
     except CircuitError as exc:
-        raise type(exc)(f".dc at {where}: {exc.message}", elements=exc.elements, nodes=exc.nodes,
+        raise type(exc)(f".dc at {where}: {exc.located_message}", elements=exc.elements, nodes=exc.nodes,
                         hint=exc.hint) from None
     raise ConvergenceError(f".dc at {where}: {failure.message}" + (" (from the previous point's solution and from "
                            "scratch)" if x is not None else ""), t=failure.t, h=failure.h, worst=failure.worst,
@@ -216,9 +216,16 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         ``analysis == "dc"``; axes: the swept values per point, named after the
         sources (``"v1"``, then ``"v2"``); signals per unknown.
 
+        A point that fails (no convergence, a singular matrix, a circuit
+        refused at that temperature) ends the sweep there, as in ngspice:
+        the result holds the points before it, ``status`` failed and its
+        ``message`` the error, naming the sweep value where it failed.
+
     Raises
     ------
     CircuitError, ConvergenceError, NetdaeError
+        A sweep that cannot start: its card refused, or its first point
+        failed (nothing was computed).
 
     Notes
     -----
@@ -261,8 +268,8 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
         system, topo = prepared.system, prepared.topology
     fast = None if sweeps_temp else _compiled_sweep(system, circuit, names, points, opts, topo)
     try:
-        rows, iterations, system = _sweep_points(points, names, resistors, sweeps_temp, circuit, prepared, system, topo,
-                                                 opts, fast)
+        rows, iterations, system, failure = _sweep_points(points, names, resistors, sweeps_temp, circuit, prepared,
+                                                          system, topo, opts, fast)
     except KeyboardInterrupt as exc:  # Ctrl-C: the points solved so far, as a failed result
         done, iterations, system = exc.done
         m = len(done)
@@ -273,11 +280,23 @@ def dc_sweep(circuit: Circuit, card: DcAnalysis, **overrides) -> Result:
                               message=f"interrupted at {at}, point {m} of {len(points)} (the results up to there "
                                       "are kept)")
         raise
+    if failure is not None:  # the points before it are the result (none: the sweep could not start)
+        error, text = failure
+        m = len(rows)
+        if m == 0 or system is None:
+            raise error
+        return _result(points[:m], names, rows, system, iterations, opts, t_start, status=-1,
+                       message=f"{text} (the sweep stopped at point {m + 1} of {len(points)}; the {m} points "
+                               "before it are kept)")
     return _result(points, names, rows, system, iterations, opts, t_start)
 
 
 def _sweep_points(points, names, resistors, sweeps_temp, circuit, prepared, system, topo, opts, fast):
-    """Solve the sweep's points in order: ``(rows, Newton iterations, the last point's system)``.
+    """Solve the sweep's points in order: ``(rows, Newton iterations, the last point's system, failure)``.
+
+    ``failure`` is None, or ``(error, text)``: the error of the point that failed and its text naming
+    the point; the rows are the points solved before it (ngspice's sweep stops at a point that fails
+    too).
 
     Raises
     ------
@@ -302,14 +321,23 @@ def _sweep_points(points, names, resistors, sweeps_temp, circuit, prepared, syst
                     p = stop
                     continue
             if sweeps_temp:
-                at_point = _at_point(circuit, names, values, resistors)
-                system = assemble(at_point, mode=MODE_DC)
+                try:
+                    at_point = _at_point(circuit, names, values, resistors)
+                    at_system = assemble(at_point, mode=MODE_DC)
+                except NetdaeError as exc:  # the circuit refused at this point (a device at this temperature)
+                    return rows, iterations, system, (exc, f".dc at {_point_text(names, values)}: {exc}")
+                system = at_system
                 prepared = Prepared.known(at_point, system, topo)
                 x = None if x is None or x.size != system.n else x
             for name, v in zip(names, values):
                 if name != "temp" and name not in resistors:
                     system.sources.set_value(name, v)
-            res = _solve_point(prepared, opts, x, names, values)
+            try:
+                res = _solve_point(prepared, opts, x, names, values)
+            except NetdaeError as exc:  # a ConvergenceError's or CircuitError's message names the point
+                named = isinstance(exc, (ConvergenceError, CircuitError))
+                return rows, iterations, system, (exc, str(exc) if named else f".dc at {_point_text(names, values)}: "
+                                                                               f"{exc}")
             iterations += res.iterations
             proven = res.min_pivot
             x = res.x
@@ -319,7 +347,12 @@ def _sweep_points(points, names, resistors, sweeps_temp, circuit, prepared, syst
     except KeyboardInterrupt as exc:
         exc.done = (rows, iterations, system)
         raise
-    return rows, iterations, system
+    return rows, iterations, system, None
+
+
+def _point_text(names, values) -> str:
+    """``v1 = 0.5, temp = 27``: a point of the sweep as its errors name it."""
+    return ", ".join(f"{name} = {value:g}" for name, value in zip(names, values))
 
 
 def _result(points, names, rows, system, iterations, opts, t_start, *, status=0, message="ok"):

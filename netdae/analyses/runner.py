@@ -297,8 +297,9 @@ def run(circuit: Circuit | str | os.PathLike, *, save: list[str] | None = None,
         cards (a sweep: :func:`netdae.sweep`).
     CircuitError, ConvergenceError
         A circuit that cannot be simulated, a failed operating point; a
-        transient that fails mid-way returns a Result with a failure status
-        instead.
+        transient that fails mid-way, and a ``.dc`` sweep whose point fails
+        after its first, return a Result with a failure status instead (the
+        points computed before it), and the analyses after it run.
     KeyboardInterrupt
         Ctrl-C (or, on the command line, SIGTERM or SIGHUP) during an analysis;
         its ``results`` attribute holds the results of the analyses before it

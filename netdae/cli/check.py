@@ -5,7 +5,10 @@ evaluated), builds its device models as a run does (a model value a run
 refuses is refused here), and prints the title, nodes, element counts by letter, models,
 analyses, options and diagnostics; ``--json`` prints the same as one JSON
 object. A netlist error is reported by the dispatcher as one line
-``netdae: error: file:line:col: ...`` with exit status 2.
+``netdae: error: file:line:col: ...`` with exit status 2; with ``--json``
+it is also printed as ``{"path": ..., "error": ...}``
+(:func:`netdae.errors.error_record`: its type, message, file, line, column,
+hint and what it names).
 
 The summary is built by :func:`summarize` (a plain dict) and printed by
 :func:`format_summary`; :func:`main` adds the topological findings
@@ -218,16 +221,22 @@ def topology_lines(topo) -> list[str]:
 
 
 def main(args) -> int:
+    from ..errors import NetdaeError, error_record
     from ..mna import assemble
     from ..netlist import load
     from ..topology import analyze_topology
 
-    circuit = load(args.file, behavior=args.ngbehavior, max_elements=args.max_elements)
-    # the device models built as a run builds them: a value a run refuses (a MOSFET's l = 0, a model's
-    # phi = 0) is refused here too, not summarised as "diagnostics: none"
-    assemble(circuit)
+    try:
+        circuit = load(args.file, behavior=args.ngbehavior, max_elements=args.max_elements)
+        # the device models built as a run builds them: a value a run refuses (a MOSFET's l = 0, a model's
+        # phi = 0) is refused here too, not summarised as "diagnostics: none"
+        assemble(circuit)
+        topo = analyze_topology(circuit)
+    except NetdaeError as exc:
+        if args.json:  # the error as data too (its file, line and column); the dispatcher says it on stderr
+            print(json.dumps({"path": args.file, "error": error_record(exc)}, indent=2))
+        raise
     summary = summarize(circuit)
-    topo = analyze_topology(circuit)
     summary["topology"] = topology_lines(topo)
     if args.json:
         summary["topology"] = topo.to_dict()

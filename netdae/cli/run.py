@@ -16,7 +16,10 @@ printed as ngspice's tables, go into the JSON (``fourier``) and into
 
 Ctrl-C during a transient keeps what was computed: the results of the
 analyses before it and the transient up to where it stopped are written and
-printed as usual, then ``netdae run`` exits with status 130.
+printed as usual, then ``netdae run`` exits with status 130. A transient that
+fails mid-way, and a ``.dc`` sweep whose point fails, are written with the
+points before the failure, the log saying where the file ends and why; the
+analyses after them run, and the exit status is 1.
 
 With ``--out``, a transient's file (``tran.raw`` or ``tran.csv``) is written
 while the run goes on (:class:`~netdae.io.raw.RawStream`,
@@ -195,6 +198,23 @@ def _finish_stream(res, stream) -> bool:
     return True
 
 
+def _partial(path, res) -> None:
+    """Say what the file of a failed result written whole holds: its points up to where it stopped, and why.
+
+    The streamed transient's file says the same (:func:`_finish_stream`); a ``.dc`` sweep whose point
+    failed ends at the point before (``dc.csv holds the 3 points up to v1 = 0: .dc at v1 = -0.5: ...``).
+    """
+    axes = {name: values for name, values in res.axes.items() if len(values)}
+    if res.ok or not axes:
+        return
+    if res.analysis == "tran":
+        last = f"t={float(res.t[-1]):.9g}"
+    else:
+        last = ", ".join(f"{name} = {float(values[-1]):.9g}" for name, values in axes.items())
+    LOG.warning("%s holds the %s up to %s: %s", path, f"{res.points:,} point" + "s" * (res.points != 1), last,
+                res.message)
+
+
 def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None, stream=None) -> list[str]:
     files = []
     if out_dir is not None and _finish_stream(res, stream):
@@ -217,6 +237,7 @@ def _write(res, stem: str, args, out_dir: Path | None, title: str, circuit=None,
             path = out_dir / f"{stem}.raw"
             write_raw(path, [res], binary=not args.ascii, title=title)
         files.append(str(path))
+        _partial(path, res)
     if args.plot and res.analysis not in ("op", "pz", "tf", "sens"):
         from ..plotting import plot_result
 

@@ -401,13 +401,16 @@ def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     kind; the RMS is over the points. The sweep points must agree (ngspice's
     outer axis of a nested sweep is rebuilt by the bridge), or ngspice's be
     netdae's without the stop values its accumulated step passed (compared
-    at ngspice's points, with a note).
+    at ngspice's points, with a note). A netdae sweep that stopped at a failed point (its
+    points before it) is the comparison's error, first.
     """
     item = AnalysisComparison("dc", tolerance=tol, axis=", ".join(ng.axes) or None)
+    # netdae's own failure comes first: a sweep of fewer points follows from it
+    failed = f"netdae's .dc failed: {nd.message}" if nd.status < 0 else None
     compared, item.only_netdae, item.only_ngspice, item.excluded = select_signals(
         nd.names(), ng.names(), wanted, exclude)
     if not _signals_or_error(item, compared):
-        return item
+        return _failed_first(item, failed)
     m = ng.axis.size if ng.axis is not None else 0
     take = None
     if nd.axis is not None and nd.axis.size > m > 0:
@@ -420,12 +423,12 @@ def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
     elif nd.axis is None or nd.axis.size != m:
         item.error = (f"the sweeps differ: netdae has {0 if nd.axis is None else nd.axis.size} points, "
                       f"ngspice {m}")
-        return item
+        return _failed_first(item, failed)
     for name, values in ng.axes.items():
         mine = nd.axes.get(name)
         if mine is None or not np.allclose(mine, values, rtol=1e-9, atol=1e-12 * max(np.ptp(values), 1.0)):
             item.error = f"the sweeps differ in {name}: netdae's points are not ngspice's"
-            return item
+            return _failed_first(item, failed)
     a = {n: np.asarray(nd.signals[n], dtype=float) for n in compared}
     b = {n: np.asarray(ng.signals[n], dtype=float) for n in compared}
     scales, floored = _ranges(compared, a, b)
@@ -456,6 +459,7 @@ def compare_dc(nd: Result, ng: Result, *, tol: Tolerance | None, wanted=None, ex
                           "a comparison, floor, ceil, nint) can be on different sides of its jump in each, while the points "
                           "around agree")
     item.signals = _sorted(signals)
+    item.error = failed
     return item
 
 

@@ -453,7 +453,7 @@ class DeviceFamily:
         from ..errors import CircuitError
 
         el = self.elements[0]
-        where = f"{el.location}: " if getattr(el, "location", None) else ""
-        raise CircuitError(f"{where}{el.name}: netdae has no noise model for a {el.kind} element, so .noise "
+        raise CircuitError(f"{el.name}: netdae has no noise model for a {el.kind} element, so .noise "
                            "cannot run", elements=(el.name,),
-                           hint="remove the .noise card, or simulate this circuit's noise in ngspice")
+                           hint="remove the .noise card, or simulate this circuit's noise in ngspice",
+                           location=getattr(el, "location", None))

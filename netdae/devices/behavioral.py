@@ -81,14 +81,13 @@ class BehaviouralFamily(DeviceFamily):
     def __init__(self, elements, circuit) -> None:
         super().__init__(elements, circuit)
         for el in self.elements:
-            where = f"{el.location}: " if el.location else ""
             if el.expr is None:
-                raise CircuitError(f"{where}{el.name}: behavioural source without an expression",
-                                   elements=(el.name,))
+                raise CircuitError(f"{el.name}: behavioural source without an expression",
+                                   elements=(el.name,), location=el.location)
             if el.params:
                 names = ", ".join(sorted(el.params))
-                raise CircuitError(f"{where}{el.name}: instance parameters ({names}) of behavioural sources "
-                                   "are not supported by netdae", elements=(el.name,))
+                raise CircuitError(f"{el.name}: instance parameters ({names}) of behavioural sources "
+                                   "are not supported by netdae", elements=(el.name,), location=el.location)
         self.groups: list[_Group] = []
         #: The locked outcomes a transient holds (``kernels.behavioural``'s ``lock``), or None: every
         #: evaluation then runs the compiled kernel with them (set by :class:`BehaviouralEvents`).
@@ -109,12 +108,12 @@ class BehaviouralFamily(DeviceFamily):
     def _leaf_pair(self, layout, leaf, owner) -> tuple[int, int]:
         if isinstance(leaf, Current):
             if not layout.has_branch(leaf.element):
-                where = f"{owner.location}: " if owner.location else ""
                 raise CircuitError(
-                    f"{where}{owner.name}: I({leaf.element}) refers to an element without a branch current",
+                    f"{owner.name}: I({leaf.element}) refers to an element without a branch current",
                     elements=(owner.name, leaf.element),
                     hint="only voltage sources, inductors, E/H sources and behavioural voltage sources "
                     "have a current unknown; measure a current with a 0 V source in series",
+                    location=owner.location,
                 )
             return layout.branch(leaf.element), GND
         return layout.node(leaf.pos), (GND if leaf.neg is None else layout.node(leaf.neg))

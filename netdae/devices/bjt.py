@@ -170,14 +170,12 @@ class BjtFamily(DeviceFamily):
                                    "netdae implements the Gummel-Poon level 1", elements=(el.name,))
             if mv["ptf"] != 0.0:
                 at = model.locations.get("ptf", model.location)
-                where = f"{at}: " if at else ""
-                raise CircuitError(f"{where}{el.name}: model {model.name}: excess phase (PTF) is not supported by "
-                                   "netdae", elements=(el.name,), hint="remove PTF")
+                raise CircuitError(f"{el.name}: model {model.name}: excess phase (PTF) is not supported by "
+                                   "netdae", elements=(el.name,), hint="remove PTF", location=at)
             if mv["tlev"] not in (0.0, 1.0):
                 at = model.locations.get("tlev", model.location)
-                where = f"{at}: " if at else ""
-                raise CircuitError(f"{where}{el.name}: model {model.name} has tlev={mv['tlev']:g}; netdae implements "
-                                   "tlev=0 and tlev=1", elements=(el.name,))
+                raise CircuitError(f"{el.name}: model {model.name} has tlev={mv['tlev']:g}; netdae implements "
+                                   "tlev=0 and tlev=1", elements=(el.name,), location=at)
             if len(el.nodes) not in (3, 4):
                 raise CircuitError(f"{el.name}: a bipolar transistor has 3 or 4 nodes", elements=(el.name,))
             inst = instance_values(el, _INSTANCE, "bipolar transistor")

@@ -327,10 +327,9 @@ class DiodeFamily(DeviceFamily):
             inst = instance_values(el, _INSTANCE, "diode")
             if mv["tlev"] not in (0.0, 1.0):
                 at = model.locations.get("tlev", model.location)
-                where = f"{at}: " if at else ""
-                raise CircuitError(f"{where}{el.name}: diode model {model.name} has tlev={mv['tlev']:g}; netdae "
+                raise CircuitError(f"{el.name}: diode model {model.name} has tlev={mv['tlev']:g}; netdae "
                                    "implements tlev=0 and tlev=1 (as ngspice 39: they differ only in TCV's breakdown "
-                                   "voltage)", elements=(el.name,))
+                                   "voltage)", elements=(el.name,), location=at)
             row = {k: mv[k] for k in ("is", "n", "rs", "tt", "cjo", "vj", "m", "fc", "ibv", "eg", "xti", "ikf",
                                       "ikr", "tlev", "tcv", "trs", "trs2", "ttt1", "ttt2", "tm1", "tm2")}
             row["bv"] = mv.get("bv", np.nan)

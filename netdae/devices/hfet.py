@@ -187,7 +187,6 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
         tnom = opts.tnom + KELVIN
         rows = []
         for el in self.elements:
-            where = f"{el.location}: " if el.location else ""
             model = resolve_model(el, circuit, ("nhfet", "phfet"))
             level = model.params.get("level", 1.0)
             if level not in HFET_LEVELS:
@@ -205,11 +204,12 @@ class HfetFamily(GateJunctionLimits, DeviceFamily):
             row["type"] = float(tp)
             row["given"] = set(mv.given_values)
             if row.get("kappa") is not None and row.get("delf", 0.0) != 0.0:
-                raise CircuitError(f"{where}{el.name}: model {model.name}: KAPPA with DELF={row['delf']:g} (a "
+                raise CircuitError(f"{el.name}: model {model.name}: KAPPA with DELF={row['delf']:g} (a "
                                    "frequency-dependent output conductance of ngspice's AC analysis) is not "
-                                   "implemented by netdae", elements=(el.name,), hint="remove KAPPA or DELF")
+                                   "implemented by netdae", elements=(el.name,), hint="remove KAPPA or DELF",
+                                   location=el.location)
             if len(el.nodes) != 3:
-                raise CircuitError(f"{where}{el.name}: an HFET has 3 nodes (d g s)", elements=(el.name,))
+                raise CircuitError(f"{el.name}: an HFET has 3 nodes (d g s)", elements=(el.name,), location=el.location)
             inst = instance_values(el, _INSTANCE, "HFET")
             row["temp"] = inst["temp"] + KELVIN if "temp" in inst else opts.temp + KELVIN + inst["dtemp"]
             row["tnom"] = tnom

@@ -167,18 +167,17 @@ class JfetFamily(GateJunctionLimits, DeviceFamily):
         self.gmin = float(opts.gmin)
         rows = []
         for el in self.elements:
-            where = f"{el.location}: " if el.location else ""
             model = resolve_model(el, circuit, ("njf", "pjf"))
             mv = JFET_PARAMETERS.read(model)
             if len(el.nodes) != 3:
-                raise CircuitError(f"{where}{el.name}: a JFET has 3 nodes (d g s)", elements=(el.name,))
+                raise CircuitError(f"{el.name}: a JFET has 3 nodes (d g s)", elements=(el.name,), location=el.location)
             inst = instance_values(el, _INSTANCE, "JFET")
             row = {k: mv[k] for k in ("vto", "beta", "lambda", "rd", "rs", "cgs", "cgd", "pb", "is", "fc", "b",
                                       "tcv", "bex", "eg")}
             if row["pb"] == row["vto"] and row["b"] != 1.0:
-                raise CircuitError(f"{where}{el.name}: model {model.name}: PB = VTO = {row['pb']:g} V; the doping-"
+                raise CircuitError(f"{el.name}: model {model.name}: PB = VTO = {row['pb']:g} V; the doping-"
                                    "tail factor (1 - B)/(PB - VTO) is undefined", elements=(el.name,),
-                                   hint="give PB above VTO (PB is the gate junction potential)")
+                                   hint="give PB above VTO (PB is the gate junction potential)", location=el.location)
             row["type"] = 1.0 if model.type.lower() == "njf" else -1.0
             row["vtotc"] = mv.get("vtotc", np.nan)
             row["betatce"] = mv.get("betatce", np.nan)

@@ -197,11 +197,10 @@ def _scaled_resistances(els: list[Element], r: np.ndarray, temp: float, tnom: fl
     out = r * factor * scale
     for k in np.flatnonzero((out == 0.0) | np.isnan(out)):
         el = els[k]
-        where = f"{el.location}: " if el.location else ""
-        raise CircuitError(f"{where}{el.name}: its resistance {r[k]:g} ohm times its temperature factor "
+        raise CircuitError(f"{el.name}: its resistance {r[k]:g} ohm times its temperature factor "
                            f"{factor[k]:g} (tc1, tc2 or tce at its temperature) times scale={scale[k]:g} is "
                            f"{out[k]:g}: an infinite or undefined conductance", elements=(el.name,),
-                           hint="check the element's scale= and temperature coefficients")
+                           hint="check the element's scale= and temperature coefficients", location=el.location)
     return out
 
 
@@ -255,10 +254,10 @@ def resistor_noise(els: list[Element], circuit: Circuit, layout: Layout, x: np.n
             width = el.params.get("w", mp.get("w", mp.get("defw", 10e-6)))
             short, narrow = mp.get("short", mp.get("dlr", 0.0)), mp.get("narrow", mp.get("dw", 0.0))
             if kf[k] != 0.0 and not (length - 2 * short > 0.0 and width - 2 * narrow > 0.0):
-                where = f"{el.location}: " if el.location else ""
-                raise CircuitError(f"{where}{el.name}: model {model.name} leaves no noise area (l - 2 short = "
+                raise CircuitError(f"{el.name}: model {model.name} leaves no noise area (l - 2 short = "
                                    f"{length - 2 * short:g} m, w - 2 narrow = {width - 2 * narrow:g} m) for its "
-                                   "flicker noise", elements=(el.name,), hint="give l and w above 2 short and 2 narrow")
+                                   "flicker noise", elements=(el.name,), hint="give l and w above 2 short and 2 narrow",
+                                   location=el.location)
             area[k] = (length - 2 * short) ** mp.get("lf", 1.0) * (width - 2 * narrow) ** mp.get("wf", 1.0)
     m_safe = np.where(m != 0.0, m, 1.0)
     coefficient = np.where(kf != 0.0, m * flicker(kf, current / m_safe, af) / area, 0.0)
@@ -413,12 +412,12 @@ def _stamp_couplings(els, layout, st: LinearStamps, circuit: Circuit, inductors:
             # located at the coupling written last: the one that closes the group
             located = [el for el in coupling_els if el.location is not None]
             last = max(located, key=lambda el: (el.location.file, el.location.line)) if located else None
-            where = f"{last.location}: {last.name}: " if last is not None else ""
             raise CircuitError(
-                f"{where}the inductance matrix of the coupled inductors {', '.join(members)} is not positive definite "
-                f"(couplings {', '.join(couplings)})",
+                f"{last.name + ': ' if last is not None else ''}the inductance matrix of the coupled inductors "
+                f"{', '.join(members)} is not positive definite (couplings {', '.join(couplings)})",
                 elements=tuple(members) + tuple(couplings),
                 hint="coupling factors must satisfy |k| < 1 and together describe a physical transformer",
+                location=last.location if last is not None else None,
             )
 
 

@@ -403,7 +403,6 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
         tnom = opts.tnom + KELVIN
         rows = []
         for el in self.elements:
-            where = f"{el.location}: " if el.location else ""
             model = resolve_model(el, circuit, ("nmf", "pmf"))
             level = model.params.get("level", 2.0)
             if level not in LEVELS:
@@ -412,11 +411,12 @@ class MesaFamily(GateJunctionLimits, DeviceFamily):
                                    expected="a MESA model of level " + ", ".join(f"{lv}" for lv in LEVELS))
             mv = _read_params(model)
             if mv["ks"] != 0.0:
-                raise CircuitError(f"{where}{el.name}: model {model.name}: KS={mv['ks']:g} (sidegating through the "
+                raise CircuitError(f"{el.name}: model {model.name}: KS={mv['ks']:g} (sidegating through the "
                                    "source node's absolute voltage) is not implemented by netdae",
-                                   elements=(el.name,), hint="remove KS (ngspice's default is 0)")
+                                   elements=(el.name,), hint="remove KS (ngspice's default is 0)", location=el.location)
             if len(el.nodes) != 3:
-                raise CircuitError(f"{where}{el.name}: a MESFET has 3 nodes (d g s)", elements=(el.name,))
+                raise CircuitError(f"{el.name}: a MESFET has 3 nodes (d g s)", elements=(el.name,),
+                                   location=el.location)
             inst = instance_values(el, _INSTANCE, "MESFET (MESA)")
             temp = opts.temp + KELVIN + inst["dtemp"]
             row = dict(mv)

@@ -115,12 +115,12 @@ class ParameterTable:
             if name not in self.defaults:
                 if known is not None and raw.lower() not in known:
                     continue  # ngspice ignores it too (warned when the circuit was elaborated)
-                where = f"{model.location}: " if model.location else ""
                 raise CircuitError(
-                    f"{where}model {model.name}: parameter '{raw}' of the {self.device} is used by ngspice but "
+                    f"model {model.name}: parameter '{raw}' of the {self.device} is used by ngspice but "
                     "not implemented by netdae",
                     hint="remove it only if its effect does not matter to you: netdae would compute something "
                          "else than ngspice",
+                    location=model.location,
                 )
             given[name] = float(value)
             _check_value(model, raw, name, float(value), self)
@@ -216,18 +216,19 @@ def resolve_model(element: Element, circuit: Circuit, types: tuple[str, ...]) ->
     CircuitError
         When the model is missing or of the wrong type.
     """
-    where = f"{element.location}: " if element.location else ""
     if element.model is None or element.model not in circuit.models:
         raise CircuitError(
-            f"{where}{element.name}: model '{element.model}' is not defined",
+            f"{element.name}: model '{element.model}' is not defined",
             elements=(element.name,),
             hint=f"add a .model card of type {'/'.join(types)}",
+            location=element.location,
         )
     model = circuit.models[element.model]
     if model.type.lower() not in types:
         raise CircuitError(
-            f"{where}{element.name}: model {model.name} has type '{model.type}', expected {'/'.join(types)}",
+            f"{element.name}: model {model.name} has type '{model.type}', expected {'/'.join(types)}",
             elements=(element.name,),
+            location=element.location,
         )
     return model
 
@@ -243,11 +244,11 @@ def instance_values(element: Element, allowed: dict[str, float | None], device: 
     out: dict[str, float] = {}
     for name, value in element.params.items():
         if name not in allowed:
-            where = f"{element.location}: " if element.location else ""
             raise CircuitError(
-                f"{where}{element.name}: instance parameter '{name}' of the {device} is not supported by netdae",
+                f"{element.name}: instance parameter '{name}' of the {device} is not supported by netdae",
                 elements=(element.name,),
                 hint=f"the {device}'s instance parameters netdae reads: {', '.join(allowed)}",
+                location=element.location,
             )
         out[name] = float(value)
     for name, default in allowed.items():
@@ -285,13 +286,12 @@ def require_positive(element: Element, values: dict[str, float], names) -> None:
         value = values[key]
         if value > 0.0:
             continue
-        where = f"{element.location}: " if element.location else ""
         hint = f"give {shown} a positive value"
         if shown in SCALE_PARAMETERS:
             hint += (f", 1 by default (ngspice 39 runs {shown} = 0 as a device that conducts nothing and "
                      f"{shown} < 0 as one whose currents are reversed)")
-        raise CircuitError(f"{where}{element.name}: {shown} = {value:g} must be positive",
-                           elements=(element.name,), hint=hint)
+        raise CircuitError(f"{element.name}: {shown} = {value:g} must be positive",
+                           elements=(element.name,), hint=hint, location=element.location)
 
 
 def gather(rows: list[dict[str, float]], name: str, default: float = np.nan) -> np.ndarray:

@@ -301,11 +301,11 @@ class MosfetFamily(DeviceFamily):
             row["leff"] = row["l"] - 2.0 * row["ld"]
             row["kf"], row["af"] = model.params.get("kf", 0.0), model.params.get("af", 1.0)
             if row["leff"] <= 0.0:
-                where = f"{el.location}: " if el.location else ""
-                raise CircuitError(f"{where}{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not "
+                raise CircuitError(f"{el.name}: effective channel length L - 2 LD = {row['leff']:g} m is not "
                                    f"positive (l = {row['l']:g} m, model {model.name}'s ld = {row['ld']:g} m)",
                                    elements=(el.name,), hint="give l more than twice ld (ngspice 39 warns "
-                                   "'effective channel length less than zero' and does not converge)")
+                                   "'effective channel length less than zero' and does not converge)",
+                                   location=el.location)
             rows.append(row)
         self._setup(rows)
 
@@ -330,10 +330,10 @@ class MosfetFamily(DeviceFamily):
             egfet1 = float(energy_gap(tnom))
             if nsub * PER_CM3 <= NI_SI:
                 at = mv.model.locations.get("nsub", mv.model.location)
-                where = f"{at}: " if at else ""
-                raise CircuitError(f"{where}{el.name}: model {mv.model.name}: nsub={nsub:g} cm^-3 is below the "
+                raise CircuitError(f"{el.name}: model {mv.model.name}: nsub={nsub:g} cm^-3 is below the "
                                    f"intrinsic density of silicon ({NI_SI / PER_CM3:.3g} cm^-3)", elements=(el.name,),
-                                   hint="check the scale suffix: nsub is in cm^-3 (ngspice 39 stops at it too)")
+                                   hint="check the scale suffix: nsub is in cm^-3 (ngspice 39 stops at it too)",
+                                   location=at)
             if not mv.given("phi"):
                 row["phi"] = max(PHI_MIN, 2.0 * vtnom * math.log(nsub * PER_CM3 / NI_SI))
             fermis = row["type"] * 0.5 * row["phi"]
@@ -366,12 +366,12 @@ class MosfetFamily(DeviceFamily):
         for k in np.flatnonzero(~(self.phi > 0.0)):
             # the temperature law of PHI (mos1temp.c) leaves it negative far above tnom: sqrt(PHI) is undefined
             el = self.elements[k]
-            where = f"{el.location}: " if el.location else ""
-            raise CircuitError(f"{where}{el.name}: the surface potential PHI at {temp[k] - KELVIN:g} degC is "
+            raise CircuitError(f"{el.name}: the surface potential PHI at {temp[k] - KELVIN:g} degC is "
                                f"{self.phi[k]:g} V, not positive (PHI = {phi[k]:g} V at tnom = "
                                f"{tnom[k] - KELVIN:g} degC)", elements=(el.name,),
                                hint="the level-1 model's temperature law does not reach this temperature "
-                                    "(ngspice 39 computes NaN currents there); check .temp, temp= and dtemp=")
+                                    "(ngspice 39 computes NaN currents there); check .temp, temp= and dtemp=",
+                                    location=el.location)
         gamma = g("gamma")
         self.gamma = gamma
         vbi = g("vto") - self.type * gamma * np.sqrt(phi) + 0.5 * (egfet1 - egfet) + self.type * 0.5 * (self.phi - phi)

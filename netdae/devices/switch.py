@@ -173,11 +173,11 @@ class SwitchFamily(DeviceFamily):
                 continue
             name = el.controls[0] if el.controls else None
             if name is None or not layout.has_branch(name):
-                where = f"{el.location}: " if el.location else ""
-                raise CircuitError(f"{where}{el.name}: the controlling element '{name}' has no branch current",
+                raise CircuitError(f"{el.name}: the controlling element '{name}' has no branch current",
                                    elements=(el.name,) + ((name,) if name else ()),
                                    hint="W senses the current of a V source, inductor, E/H source or B voltage "
-                                        "source; put a 0 V source in series with the branch and name it")
+                                        "source; put a 0 V source in series with the branch and name it",
+                                        location=el.location)
             cp.append(layout.branch(name))
             cm.append(GND)
         self.cp = np.array(cp, dtype=np.int64)

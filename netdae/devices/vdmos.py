@@ -255,11 +255,10 @@ class VdmosFamily(DeviceFamily):
         self.gmin = float(opts.gmin)
         rows = []
         for el in self.elements:
-            where = f"{el.location}: " if el.location else ""
             model = resolve_model(el, circuit, ("vdmos",))
             mv = VDMOS_PARAMETERS.read(model)
             if len(el.nodes) != 3:
-                raise CircuitError(f"{where}{el.name}: a VDMOS has 3 nodes (d g s)", elements=(el.name,))
+                raise CircuitError(f"{el.name}: a VDMOS has 3 nodes (d g s)", elements=(el.name,), location=el.location)
             self._check_model(model, mv)
             inst = instance_values(el, _INSTANCE, "VDMOS")
             row = {k: mv[k] for k in ("vto", "kp", "lambda", "theta", "rd", "rs", "rg", "mtriode", "tcvth", "mu",
@@ -287,11 +286,10 @@ class VdmosFamily(DeviceFamily):
         corner = self.depletion.vfc
         for el, c in zip(self.elements, corner):
             if c > DEPLETION_CORNER_MAX:
-                where = f"{el.location}: " if el.location else ""
-                raise CircuitError(f"{where}{el.name}: model {el.model}: the body diode's FC VJ = {c:g} V at "
+                raise CircuitError(f"{el.name}: model {el.model}: the body diode's FC VJ = {c:g} V at "
                                    f"temperature exceeds {DEPLETION_CORNER_MAX:g} V, where ngspice 39 limits VJ "
                                    "inconsistently", elements=(el.name,), hint="give a junction potential VJ "
-                                   "of a few tenths of a volt")
+                                   "of a few tenths of a volt", location=el.location)
 
     @staticmethod
     def _check_model(model, mv) -> None:

@@ -26,11 +26,49 @@ from . import expr as ex
 from .montecarlo import Draws, is_random_call
 from .statements import FuncDef, ParamDef
 
-__all__ = ["Env", "UnknownName", "evaluate_val", "inline_calls", "resolve_behavioural", "Trace", "Replay",
-           "ReplayMismatch", "INFO", "OTHER"]
+__all__ = ["Env", "UnknownName", "CallDepthError", "evaluate_val", "inline_calls", "resolve_behavioural", "Trace",
+           "Replay", "ReplayMismatch", "INFO", "OTHER"]
 
-#: Deepest nesting of user-function calls before netdae calls it recursion.
+#: Deepest nesting of user-function calls netdae evaluates or expands.
 MAX_CALL_DEPTH = 64
+
+
+class CallDepthError(ValueError):
+    """User-function calls nested deeper than :data:`MAX_CALL_DEPTH`: the one refusal of every evaluator.
+
+    The message says how deep, shows the chain of calls, and calls it recursion only when a
+    function repeats in it (a chain of distinct functions is only deep).
+
+    Parameters
+    ----------
+    calls : sequence of str
+        The functions being called, outermost first, the one refused last.
+
+    Examples
+    --------
+    >>> print(CallDepthError(["f", "g", "h", "g"]))
+    function calls nested deeper than 64 (recursive .func 'g': g -> h -> g)
+    >>> print(CallDepthError([f"f{j}" for j in range(65)]))
+    function calls nested deeper than 64: f0 -> f1 -> f2 -> ... -> f63 -> f64 (65 distinct functions)
+    """
+
+    def __init__(self, calls) -> None:
+        self.calls = tuple(calls)
+        seen: dict[str, int] = {}
+        for k, name in enumerate(self.calls):
+            if name in seen:
+                cycle = " -> ".join(self.calls[seen[name]:k + 1])
+                text = f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}': {cycle})"
+                break
+            seen[name] = k
+        else:
+            shown = self.calls if len(self.calls) <= 6 else (*self.calls[:3], "...", *self.calls[-2:])
+            text = (f"function calls nested deeper than {MAX_CALL_DEPTH}: {' -> '.join(shown)} "
+                    f"({len(self.calls)} distinct functions)")
+        super().__init__(text)
+
+    def __reduce__(self):
+        return (CallDepthError, (self.calls,))
 
 
 class UnknownName(Exception):
@@ -231,14 +269,16 @@ def _settle(node, env: Env) -> None:
                 owner._active.pop()
 
 
-def _call(env: Env, depth: int):
+def _call(env: Env, calls: tuple[str, ...]):
+    """The function-call hook of :func:`netdae.netlist.expr.evaluate` in ``env``, inside the user functions
+    ``calls`` (outermost first)."""
     def call(name: str, args: list[float]) -> float:
         if is_random_call(name, len(args)):
             if env.draws is None:
                 raise ValueError(f"the Monte Carlo function {name}() has no random stream here")
             return env.draws.draw(name, args)
-        if depth >= MAX_CALL_DEPTH:
-            raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}'?)")
+        if len(calls) >= MAX_CALL_DEPTH:
+            raise CallDepthError((*calls, name))
         f = env.func(name)
         if f.circuit:
             raise ValueError(circuit_function_message(f))
@@ -248,7 +288,7 @@ def _call(env: Env, depth: int):
             raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
         local = Env(env)
         local.values.update(zip(f.args, args))
-        return ex.evaluate(f.body, local.value, _call(local, depth + 1))
+        return ex.evaluate(f.body, local.value, _call(local, (*calls, name)))
     return call
 
 
@@ -297,7 +337,7 @@ def _evaluate_val(val, env: Env, card, what: str) -> float:
     if type(value) is float:
         return value
     try:
-        return ex.evaluate(value, env.value, _call(env, 0))
+        return ex.evaluate(value, env.value, _call(env, ()))
     except NetlistError:
         raise
     except UnknownName as exc:
@@ -313,7 +353,7 @@ def _card_name(card) -> str:
     return card.text.split(None, 1)[0]
 
 
-def inline_calls(node: ex.Expr, env: Env, depth: int = 0, behavioural: bool = False) -> ex.Expr:
+def inline_calls(node: ex.Expr, env: Env, calls: tuple[str, ...] = (), behavioural: bool = False) -> ex.Expr:
     """Replace calls of user functions by their bodies with the arguments substituted.
 
     Parameters
@@ -322,8 +362,8 @@ def inline_calls(node: ex.Expr, env: Env, depth: int = 0, behavioural: bool = Fa
         The expression.
     env : Env
         The scope whose functions the calls name.
-    depth : int
-        Calls already being expanded around ``node``.
+    calls : tuple of str
+        The user functions already being expanded around ``node``, outermost first.
     behavioural : bool
         Expand the bodies as read by the behavioural rules (``FuncDef.behavioural``):
         ngspice expands a call textually, so in a B source its B-source parser reads
@@ -334,21 +374,21 @@ def inline_calls(node: ex.Expr, env: Env, depth: int = 0, behavioural: bool = Fa
     UnknownName
         A function no scope defines.
     ValueError
-        Wrong argument count or recursion.
+        Wrong argument count; :class:`CallDepthError` for calls nested deeper than :data:`MAX_CALL_DEPTH`.
     """
     def leaf(m):
         if type(m) is not ex.Call or m.func in ex.FUNCTIONS or m.func == "laplace" or is_random_call(m.func,
                                                                                                      len(m.args)):
             return None
-        if depth >= MAX_CALL_DEPTH:
-            raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{m.func}'?)")
+        if len(calls) >= MAX_CALL_DEPTH:
+            raise CallDepthError((*calls, m.func))
         f = env.func(m.func)
         if len(m.args) != len(f.args):
             raise ValueError(f"{m.func}() takes {len(f.args)} argument(s), got {len(m.args)}")
-        bound = dict(zip(f.args, (inline_calls(a, env, depth, behavioural) for a in m.args)))
+        bound = dict(zip(f.args, (inline_calls(a, env, calls, behavioural) for a in m.args)))
         tree = f.behavioural if behavioural and f.behavioural is not None else f.body
         body = ex.transform(tree, lambda q: bound.get(q.name) if type(q) is ex.Param else None)
-        return inline_calls(body, env, depth + 1, behavioural)
+        return inline_calls(body, env, (*calls, m.func), behavioural)
     return ex.transform(node, leaf)
 
 
@@ -388,7 +428,7 @@ def resolve_behavioural(node: ex.Expr, env: Env, card, offset: int, node_map, el
                                  "outside the subcircuit that calls it: define the function where it is called")
             return ex.Current(elem_map[m.element])
         if t is ex.Call and is_random_call(m.func, len(m.args)):  # drawn once, when the card is elaborated
-            return ex.Const(ex.evaluate(m, env.value, _call(env, 0)))
+            return ex.Const(ex.evaluate(m, env.value, _call(env, ())))
         return None
 
     try:
@@ -758,7 +798,7 @@ class _RowsPass:
         if type(value) is float:
             return value
         try:
-            return self.expr(value, scope, 0)
+            return self.expr(value, scope, ())
         except (NetlistError, _Fallback):
             raise
         except UnknownName as exc:
@@ -793,7 +833,7 @@ class _RowsPass:
                 out[r] = math.nan
         return out
 
-    def expr(self, node, scope: _Scope, depth: int):
+    def expr(self, node, scope: _Scope, calls: tuple):
         t = type(node)
         if t is ex.Const:
             return node.value
@@ -801,7 +841,7 @@ class _RowsPass:
             v = self.lookup(scope, node.name)
             return float(v) if type(v) is not np.ndarray else v
         if t is ex.Binary:
-            a, b = self.expr(node.left, scope, depth), self.expr(node.right, scope, depth)
+            a, b = self.expr(node.left, scope, calls), self.expr(node.right, scope, calls)
             op = node.op
             if op in ("+", "-", "*", "/", "%"):
                 if op == "/" or op == "%":
@@ -823,12 +863,12 @@ class _RowsPass:
                 return ex._binary(op, a, b)
             return ex._binary_arrays(op, np.asarray(a, dtype=float), np.asarray(b, dtype=float))
         if t is ex.Unary:
-            v = self.expr(node.operand, scope, depth)
+            v = self.expr(node.operand, scope, calls)
             if node.op == "-":
                 return -v
             return (1.0 if v == 0 else 0.0) if type(v) is float else (v == 0).astype(float)
         if t is ex.Ternary:
-            c = self.expr(node.cond, scope, depth)
+            c = self.expr(node.cond, scope, calls)
             if type(c) is float:
                 take = c != 0
             else:
@@ -837,22 +877,22 @@ class _RowsPass:
                     raise _Fallback
                 take = bool(c[good[0]] != 0)
                 self.bad |= (c != 0) != take
-            return self.expr(node.then if take else node.other, scope, depth)
+            return self.expr(node.then if take else node.other, scope, calls)
         if t is ex.Call:
-            args = [self.expr(a, scope, depth) for a in node.args]
+            args = [self.expr(a, scope, calls) for a in node.args]
             spec = ex.FUNCTIONS.get(node.func)
             if spec is None or is_random_call(node.func, len(args)):
-                return self._call(node.func, args, scope, depth)
+                return self._call(node.func, args, scope, calls)
             return self._checked(self._pointwise(spec[1], args))
         if t is ex.Time:
             raise ValueError("'time' has no value here")
         raise ValueError(f"circuit reference {ex.to_text(node)} has no value here")
 
-    def _call(self, name: str, args: list, scope: _Scope, depth: int):
+    def _call(self, name: str, args: list, scope: _Scope, calls: tuple):
         if is_random_call(name, len(args)):
             return self._draw(name, args)
-        if depth >= MAX_CALL_DEPTH:
-            raise ValueError(f"function calls nested deeper than {MAX_CALL_DEPTH} (recursive .func '{name}'?)")
+        if len(calls) >= MAX_CALL_DEPTH:
+            raise CallDepthError((*calls, name))
         f = self._func(scope, name)
         if f.circuit:
             raise ValueError(circuit_function_message(f))
@@ -862,7 +902,7 @@ class _RowsPass:
             raise ValueError(f"{name}() takes {len(f.args)} argument(s), got {len(args)}")
         local = _Scope(None, scope)
         local.values.update(zip(f.args, args))
-        return self._checked(self.expr(f.body, local, depth + 1))
+        return self._checked(self.expr(f.body, local, (*calls, name)))
 
     @staticmethod
     def _func(scope: _Scope, name: str) -> FuncDef:

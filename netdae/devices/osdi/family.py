@@ -90,9 +90,8 @@ def _noise_refused(el, mod, src, why: str):
     """The located error of instance ``el``'s noise source ``src`` (of module ``mod``) that netdae cannot take."""
     from ...errors import CircuitError
 
-    where = f"{el.location}: " if el.location else ""
-    return CircuitError(f"{where}{el.name}: noise source '{src.name}' of OSDI module {mod.name} {why}",
-                        elements=(el.name,))
+    return CircuitError(f"{el.name}: noise source '{src.name}' of OSDI module {mod.name} {why}",
+                        elements=(el.name,), location=el.location)
 
 
 def _flow_noise_scale(inst) -> np.ndarray:
