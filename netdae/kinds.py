@@ -223,6 +223,12 @@ class ElementKind:
     value_names : tuple of str
         The names ngspice's ``alter`` gives the value of a steppable element
         (``alter @r1[resistance] = 2k``; :mod:`netdae.netlist.control`).
+    junctions : tuple of (int, int)
+        The terminal pairs that are semiconductor junctions (a BJT's base-emitter,
+        base-collector and substrate-collector, a MOSFET's source-bulk and drain-bulk,
+        a JFET's gate-source and gate-drain, a VDMOS's body diode; not the channels,
+        whose currents a gate bounds): what :mod:`netdae.topology.held` finds held
+        by voltage sources alone.
     """
 
     name: str
@@ -256,6 +262,7 @@ class ElementKind:
     parameters: str | None = None
     realised_by: str | None = None
     value_names: tuple[str, ...] = ()
+    junctions: tuple[tuple[int, int], ...] = ()
 
     @property
     def noun(self) -> str:
@@ -506,7 +513,12 @@ _QUANTITIES: dict[str, dict[str, str]] = {
 _SAVECURRENTS = {"resistor": ("i",), "capacitor": ("i",), "inductor": ("i",), "isource": ("current",),
                  "bjt": ("ic", "ie", "ib", "is"), "diode": ("id",), "mosfet": ("id", "is", "ig", "ib"),
                  "jfet": ("id", "is", "ig", "igd")}
-_DEFINITIONS = tuple(replace(k, quantities=_QUANTITIES.get(k.name, {}), saved_currents=_SAVECURRENTS.get(k.name, ()))
+#: The terminal pairs that are junctions (``ElementKind.junctions``; a diode's junction sits behind an internal
+#: node when its model has a series resistance, and its branch then joins other nodes).
+_JUNCTIONS = {"diode": ((0, 1),), "bjt": ((1, 2), (1, 0), (3, 0)), "mosfet": ((2, 3), (0, 3)),
+              "jfet": ((1, 2), (1, 0)), "mesa": ((1, 2), (1, 0)), "hfet": ((1, 2), (1, 0)), "vdmos": ((2, 0),)}
+_DEFINITIONS = tuple(replace(k, quantities=_QUANTITIES.get(k.name, {}), saved_currents=_SAVECURRENTS.get(k.name, ()),
+                             junctions=_JUNCTIONS.get(k.name, ()))
                      for k in _DEFINITIONS)
 
 #: Every element kind, by name.

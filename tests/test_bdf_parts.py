@@ -97,7 +97,8 @@ def test_failure_words():
     message, record = failure_record(1.5, 1e-9, "error test failed 10 times", "v(out)", "loosen")
     assert message == "BDF failed: error test failed 10 times at t=1.5, h=1e-09, worst unknown v(out) (hint: loosen)"
     assert record.as_dict() == {"t": 1.5, "h": 1e-9, "worst": "v(out)", "hint": "loosen",
-                                "what": "error test failed 10 times", "runaway_order": 0}
+                                "what": "error test failed 10 times", "runaway_order": 0, "runaway": "",
+                                "runaway_value": 0.0, "cause": ""}
     assert record.message == message
     err = record.error()
     assert (err.t, err.h, err.worst, err.hint) == (1.5, 1e-9, "v(out)", "loosen")

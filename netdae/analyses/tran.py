@@ -71,6 +71,7 @@ from ..dae.algebraic import GROUP_LIMIT
 from .index import IndexReport, analyze_index
 from .instability import growing_eigenvalue, growth_note, held_equilibrium_note, stayed
 from .prepared import Prepared, prepare
+from ..topology.held import held_junction_cause
 
 
 if TYPE_CHECKING:
@@ -1092,6 +1093,8 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
         if res is None or res.t.size == 0:
             raise
         interrupted = exc
+    if res.failure is not None and res.failure.runaway:
+        res = _held_junction_failure(prepared.circuit, res)
     if raise_on_failure and interrupted is None and not res.ok:
         raise res.failure.error() if res.failure is not None else ConvergenceError(res.message)
     message, status = res.message, res.status
@@ -1144,6 +1147,26 @@ def _integrated_run(prepared: Prepared, rep: IndexReport, x0: np.ndarray, saved:
             notes.append(note)
     return _Run(res.t, res.x, res.dense, stats, message, status, res.failure, tolerances, jumps, events, notes,
                 streamed[0], interrupted)
+
+
+def _held_junction_failure(circuit: Circuit, res):
+    """A failed run whose source current ran away through a junction the sources hold, its hint saying so
+    (:func:`netdae.topology.held.held_junction_cause` in place of the growing mode's sentence); else ``res``."""
+    failure = res.failure
+    index = {name.lower(): i for i, name in enumerate(res.names)}
+    last = res.x[-1] if res.x.shape[0] else None
+
+    def value(name: str) -> float | None:
+        i = index.get(name)
+        return None if i is None or last is None else float(last[i])
+
+    cause = held_junction_cause(circuit, failure.runaway, failure.runaway_value, lambda n: value(f"v({n})"))
+    if cause is None:
+        return res
+    rest = failure.hint[len(failure.cause):] if failure.cause and failure.hint.startswith(failure.cause) else \
+        f"; {failure.hint}"
+    failure = replace(failure, hint=cause + rest, cause=cause)
+    return replace(res, failure=failure, message=res.message.replace(res.failure.hint, failure.hint))
 
 
 def _high_order_runaway(prepared: Prepared, x0: np.ndarray, settings: _Settings, res) -> bool:

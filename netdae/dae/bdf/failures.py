@@ -10,7 +10,7 @@ from ...circuit import TOLERANCE_MIN
 from ..newton import INFO_EVALUATION, INFO_SINGULAR
 
 __all__ = ["Failure", "IntegrationFailure", "worst_unknown", "nonfinite_unknown", "newton_hint", "error_hint",
-           "failure_record", "runaway", "with_runaway", "RUNAWAY_FACTOR"]
+           "failure_record", "runaway", "runaway_unknown", "with_runaway", "RUNAWAY_FACTOR"]
 
 #: An unknown this many times the largest start value of its kind (volts, amperes; at least 1 V or 1 A)
 #: has run away: a failure there is named after the growth, not after the Newton iterates it spoiled.
@@ -118,22 +118,11 @@ def runaway(names, kinds, x_start: np.ndarray, x: np.ndarray, max_order: int = 0
     >>> runaway(["v(a)"], np.array([0]), np.array([1.0]), np.array([5.0])) is None
     True
     """
-    x_start = np.abs(np.asarray(x_start, dtype=float))
-    x = np.abs(np.asarray(x, dtype=float))
-    kinds = np.asarray(kinds)
-    best, ratio_best = None, RUNAWAY_FACTOR
-    for kind in _UNITS:
-        sel = np.flatnonzero(kinds == kind)
-        if not sel.size:
-            continue
-        scale = max(1.0, float(np.max(x_start[sel])))
-        i = sel[int(np.argmax(np.where(np.isfinite(x[sel]), x[sel], np.inf)))]
-        ratio = x[i] / scale
-        if ratio > ratio_best:
-            best, ratio_best = (i, kind, scale), ratio
+    best = runaway_unknown(kinds, x_start, x)
     if best is None:
         return None
     i, kind, scale = best
+    x_start, x = np.abs(np.asarray(x_start, dtype=float)), np.abs(np.asarray(x, dtype=float))
     u = _UNITS[kind]
     return (f"the solution ran away: {names[i]} = {x[i]:.3g} {u} ({x_start[i]:.3g} {u} at the start, where no "
             f"{'voltage' if kind == 0 else 'current'} exceeded {scale:.3g} {u}): a mode of the circuit grows without "
@@ -147,6 +136,36 @@ def runaway(names, kinds, x_start: np.ndarray, x: np.ndarray, max_order: int = 0
                "damping and it grows in the integration while it decays in the circuit (.options maxord=2 keeps "
                "the A-stable orders 1-2; they also damp a true right-half-plane mode at long steps, so a run "
                "that then finishes shows this cause only where the circuit has no such pole: check with .pz)"))
+
+
+def runaway_unknown(kinds, x_start: np.ndarray, x: np.ndarray) -> tuple[int, int, float] | None:
+    """The unknown that grew most against the largest start value of its kind (:func:`runaway`).
+
+    Returns
+    -------
+    (index, kind, scale) or None
+        ``scale``: the largest start value of the kind, at least 1 (V or A); None when no volt or
+        ampere unknown exceeds :data:`RUNAWAY_FACTOR` times its kind's scale.
+
+    Examples
+    --------
+    >>> runaway_unknown(np.array([0, 1]), np.array([1.0, 1e-3]), np.array([2.0, 4e19]))
+    (1, 1, 1.0)
+    """
+    x_start = np.abs(np.asarray(x_start, dtype=float))
+    x = np.abs(np.asarray(x, dtype=float))
+    kinds = np.asarray(kinds)
+    best, ratio_best = None, RUNAWAY_FACTOR
+    for kind in _UNITS:
+        sel = np.flatnonzero(kinds == kind)
+        if not sel.size:
+            continue
+        scale = max(1.0, float(np.max(x_start[sel])))
+        i = sel[int(np.argmax(np.where(np.isfinite(x[sel]), x[sel], np.inf)))]
+        ratio = x[i] / scale
+        if ratio > ratio_best:
+            best, ratio_best = (int(i), int(kind), scale), ratio
+    return best
 
 
 @dataclass(frozen=True, slots=True)
@@ -168,6 +187,12 @@ class IntegrationFailure:
     runaway_order : int
         When the solution ran away (:func:`runaway`), the highest BDF order the run used;
         0 otherwise.
+    runaway : str
+        When the solution ran away, the unknown that grew most (``"i(v1)"``); ``""`` otherwise.
+    runaway_value : float
+        Its value at the last accepted point (0 when it did not run away).
+    cause : str
+        When the solution ran away, the sentence that says so, the start of ``hint``.
     """
 
     t: float
@@ -176,6 +201,9 @@ class IntegrationFailure:
     worst: str | None
     hint: str
     runaway_order: int = 0
+    runaway: str = ""
+    runaway_value: float = 0.0
+    cause: str = ""
 
     @property
     def message(self) -> str:
@@ -214,10 +242,12 @@ def with_runaway(failure: IntegrationFailure, names, kinds, x_start, x, max_orde
     Returns
     -------
     IntegrationFailure
-        With ``runaway_order`` set to ``max_order`` (at least 1) when the solution ran away.
+        With ``runaway_order`` set to ``max_order`` (at least 1), ``runaway``, ``runaway_value`` and
+        ``cause`` when the solution ran away.
     """
     sentence = runaway(names, kinds, x_start, x, max_order)
     if sentence is None:
         return failure
+    i = runaway_unknown(kinds, x_start, x)[0]
     return IntegrationFailure(failure.t, failure.h, failure.what, failure.worst,
-                              f"{sentence}; {failure.hint}", max(int(max_order), 1))
+                              f"{sentence}; {failure.hint}", max(int(max_order), 1), names[i], float(x[i]), sentence)
