@@ -124,3 +124,48 @@ def test_a_monte_carlo_sweep_gives_bit_for_bit_what_rows_assembled_on_their_own_
     np.testing.assert_array_equal(shared.measures["ripple"], alone.measures["ripple"])
     np.testing.assert_array_equal(shared.waves[("tran", "v(pos,neg)")], alone.waves[("tran", "v(pos,neg)")])
     assert np.unique(shared.measures["ripple"]).size == 5
+
+
+@pytest.mark.parametrize("entries", [3, 0])
+def test_csc_sums_after_the_first_are_scipys_matrices_with_their_own_arrays(entries):
+    """A CscSum's later matrices copy its first one's checked structure: each equals the matrix scipy's
+    constructor makes of the same sums, dtypes included, and owns its arrays (changing one's indices or
+    values in place changes no other)."""
+    import scipy.sparse as sp
+
+    from netdae.devices.stamps import CscSum
+
+    rows = np.array([0, 2, 0, 1][:entries], dtype=np.int64)
+    cols = np.array([1, 1, 1, 0][:entries], dtype=np.int64)
+    s = CscSum(rows, cols, 3, 3)
+    made = [s.matrix(np.arange(entries, dtype=float) + k) for k in range(3)]
+    for k, m in enumerate(made):
+        want = sp.coo_matrix((np.arange(entries, dtype=float) + k, (rows, cols)), shape=(3, 3)).tocsc()
+        assert sp.isspmatrix_csc(m) and m.shape == (3, 3) and m.data.dtype == np.float64
+        assert np.array_equal(m.toarray(), want.toarray())
+        assert m.indices.dtype == made[0].indices.dtype and m.indptr.dtype == made[0].indptr.dtype
+    for a in made:
+        for b in made:
+            if a is not b:
+                assert not any(np.shares_memory(x, y) for x in (a.data, a.indices, a.indptr)
+                               for y in (b.data, b.indices, b.indptr))
+    if entries:
+        before = [m.toarray() for m in made]
+        made[1].data[:] = 0.0
+        made[1].eliminate_zeros()
+        assert made[1].nnz == 0 and made[0].nnz == made[2].nnz == 2
+        assert np.array_equal(made[0].toarray(), before[0]) and np.array_equal(made[2].toarray(), before[2])
+        # the next matrix still has every stored entry (the one changed in place shared no structure)
+        assert np.array_equal(s.matrix(np.ones(entries)).toarray(), [[0, 2, 0], [0, 0, 0], [0, 1, 0]])
+
+
+def test_a_cards_kept_locations_follow_its_file_and_spans():
+    from netdae.netlist.lines import Card
+
+    card = Card("r1 a b 1k", "one.cir", [(0, 3, 1)])
+    first = card.location(3)
+    assert card.location(3) is first and (first.file, first.line, first.column) == ("one.cir", 3, 4)
+    card.spans = [(0, 7, 2)]
+    assert (card.location(3).line, card.location(3).column) == (7, 5)
+    card.file = "two.cir"
+    assert card.location(3).file == "two.cir"
