@@ -63,6 +63,13 @@ def test_other_linear_values_give_the_system_assemble_gives():
     assert system.placement() is template.system.placement()  # filled on the template's structure
     _same_system(system, assemble(other, **ARGS))
     assert not np.array_equal(system.E.toarray(), template.system.E.toarray())
+    # the rows the shared families store charge in, found on the template's system once
+    alone = assemble(other, **ARGS)
+    rows, timed = template.system.nonlinear_charge_rows(), template.system.time_charge_rows()
+    again = reassemble(template, other)
+    assert again.nonlinear_charge_rows() is rows and again.time_charge_rows() is timed
+    assert np.array_equal(rows, alone.nonlinear_charge_rows()) and rows.size == 6  # the junctions: 4 inner nodes, 2 cathodes
+    assert np.array_equal(timed, alone.time_charge_rows())
 
 
 @pytest.mark.parametrize("change", [
