@@ -176,3 +176,41 @@ def test_a_cards_kept_locations_follow_its_file_and_spans():
     assert (card.location(3).line, card.location(3).column) == (7, 5)
     card.file = "two.cir"
     assert card.location(3).file == "two.cir"
+
+
+def _same_sources(a, b) -> None:
+    """Two systems' source vectors give the same values, made as made."""
+    assert a.names == b.names and a.sources.names == b.sources.names and a.kinds.tolist() == b.kinds.tolist()
+    for name in ("u0", "ac", "timed"):
+        np.testing.assert_array_equal(getattr(a.sources, name), getattr(b.sources, name))
+    for t in (0.0, 1.3e-3, 7.7e-3):
+        for d in (0, 1):
+            np.testing.assert_array_equal(a.sources.values(t, d), b.sources.values(t, d))
+    np.testing.assert_array_equal(a.sources.breakpoints(0.0, 0.04), b.sources.breakpoints(0.0, 0.04))
+
+
+def test_a_reassembled_row_shares_the_templates_waveforms_only_where_its_sources_are_the_same():
+    text = BRIDGE.replace("SIN(0 12 50)", "SIN(0 {amp} 50)").replace(".param rl=1k", ".param amp=12 rl=1k")
+    base = netdae.load(text)
+    template = Template.of(base, assemble(base, **ARGS), **ARGS)
+    same = netdae.load(text, params={"rl": 820.0})
+    system = reassemble(template, same)
+    assert system.sources.bank is template.system.sources.bank and system.sources is not template.system.sources
+    _same_sources(system, assemble(same, **ARGS))
+    moved = netdae.load(text, params={"amp": 10.0})  # the source's waveform differs: its own
+    system = reassemble(template, moved)
+    assert system is not None and system.sources.bank is not template.system.sources.bank
+    _same_sources(system, assemble(moved, **ARGS))
+    assert system.sources.values(5e-3)[0] != template.system.sources.values(5e-3)[0]
+
+
+def test_a_reassembled_row_gets_its_sources_values_as_made_after_a_dc_sweep_set_the_templates():
+    text = BRIDGE.replace("SIN(0 12 50)", "")
+    base = netdae.load(text)
+    dc = dict(mode="dc", tstep=None, tstop=None)
+    template = Template.of(base, assemble(base, **dc), **dc)
+    template.system.sources.set_value("v1", 3.0)  # a .dc sweep's point, in place
+    other = netdae.load(text, params={"rl": 820.0})
+    system = reassemble(template, other)
+    assert system.sources.u0.tolist() == [12.0]
+    _same_sources(system, assemble(other, **dc))
