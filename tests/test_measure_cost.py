@@ -37,3 +37,29 @@ def test_crossings_solve_only_the_one_asked_for_and_a_quantity_is_sampled_once()
     # each on the interpolant took thousands of evaluations. Now: one sampling of v(out), its
     # extremes refined, and the root of each crossing asked for (a few dozen evaluations each).
     assert len(calls) < 120, len(calls)  # (1,820 before)
+
+
+def test_a_windows_ends_come_with_its_steps_inner_points_and_have_their_own_values():
+    """A window inside the run samples its steps' inner points and its two ends in one dense evaluation,
+    and gets the values two separate evaluations give, bit for bit."""
+    import numpy as np
+
+    from netdae.analyses.measure import _Trace
+
+    circuit = load(SINE)
+    (res,) = run(dataclasses.replace(circuit, measures=[]))
+    calls = []
+
+    def counted(t, _dense=res.dense):
+        calls.append(1)
+        return _dense(t)
+
+    probe = circuit.measures[2].probe
+    trace = _Trace(dataclasses.replace(res, dense=counted), probe)
+    x, y = trace.samples(1.03e-3, 3.57e-3)
+    assert len(calls) == 1
+    alone = _Trace(res, probe)
+    assert x[0] == 1.03e-3 and x[-1] == 3.57e-3
+    assert np.array_equal(y[[0, -1]], alone.at([1.03e-3, 3.57e-3]))
+    inner = ~np.isin(x[1:-1], alone.x)  # the steps' inner points (the steps' own points are the results')
+    assert inner.sum() > 100 and np.array_equal(y[1:-1][inner], alone.dense(x[1:-1][inner]))

@@ -63,6 +63,13 @@ def test_other_linear_values_give_the_system_assemble_gives():
     assert system.placement() is template.system.placement()  # filled on the template's structure
     _same_system(system, assemble(other, **ARGS))
     assert not np.array_equal(system.E.toarray(), template.system.E.toarray())
+    # the rows the shared families store charge in, found on the template's system once
+    alone = assemble(other, **ARGS)
+    rows, timed = template.system.nonlinear_charge_rows(), template.system.time_charge_rows()
+    again = reassemble(template, other)
+    assert again.nonlinear_charge_rows() is rows and again.time_charge_rows() is timed
+    assert np.array_equal(rows, alone.nonlinear_charge_rows()) and rows.size == 6  # the junctions: 4 inner nodes, 2 cathodes
+    assert np.array_equal(timed, alone.time_charge_rows())
 
 
 @pytest.mark.parametrize("change", [
@@ -124,3 +131,86 @@ def test_a_monte_carlo_sweep_gives_bit_for_bit_what_rows_assembled_on_their_own_
     np.testing.assert_array_equal(shared.measures["ripple"], alone.measures["ripple"])
     np.testing.assert_array_equal(shared.waves[("tran", "v(pos,neg)")], alone.waves[("tran", "v(pos,neg)")])
     assert np.unique(shared.measures["ripple"]).size == 5
+
+
+@pytest.mark.parametrize("entries", [3, 0])
+def test_csc_sums_after_the_first_are_scipys_matrices_with_their_own_arrays(entries):
+    """A CscSum's later matrices copy its first one's checked structure: each equals the matrix scipy's
+    constructor makes of the same sums, dtypes included, and owns its arrays (changing one's indices or
+    values in place changes no other)."""
+    import scipy.sparse as sp
+
+    from netdae.devices.stamps import CscSum
+
+    rows = np.array([0, 2, 0, 1][:entries], dtype=np.int64)
+    cols = np.array([1, 1, 1, 0][:entries], dtype=np.int64)
+    s = CscSum(rows, cols, 3, 3)
+    made = [s.matrix(np.arange(entries, dtype=float) + k) for k in range(3)]
+    for k, m in enumerate(made):
+        want = sp.coo_matrix((np.arange(entries, dtype=float) + k, (rows, cols)), shape=(3, 3)).tocsc()
+        assert sp.isspmatrix_csc(m) and m.shape == (3, 3) and m.data.dtype == np.float64
+        assert np.array_equal(m.toarray(), want.toarray())
+        assert m.indices.dtype == made[0].indices.dtype and m.indptr.dtype == made[0].indptr.dtype
+    for a in made:
+        for b in made:
+            if a is not b:
+                assert not any(np.shares_memory(x, y) for x in (a.data, a.indices, a.indptr)
+                               for y in (b.data, b.indices, b.indptr))
+    if entries:
+        before = [m.toarray() for m in made]
+        made[1].data[:] = 0.0
+        made[1].eliminate_zeros()
+        assert made[1].nnz == 0 and made[0].nnz == made[2].nnz == 2
+        assert np.array_equal(made[0].toarray(), before[0]) and np.array_equal(made[2].toarray(), before[2])
+        # the next matrix still has every stored entry (the one changed in place shared no structure)
+        assert np.array_equal(s.matrix(np.ones(entries)).toarray(), [[0, 2, 0], [0, 0, 0], [0, 1, 0]])
+
+
+def test_a_cards_kept_locations_follow_its_file_and_spans():
+    from netdae.netlist.lines import Card
+
+    card = Card("r1 a b 1k", "one.cir", [(0, 3, 1)])
+    first = card.location(3)
+    assert card.location(3) is first and (first.file, first.line, first.column) == ("one.cir", 3, 4)
+    card.spans = [(0, 7, 2)]
+    assert (card.location(3).line, card.location(3).column) == (7, 5)
+    card.file = "two.cir"
+    assert card.location(3).file == "two.cir"
+
+
+def _same_sources(a, b) -> None:
+    """Two systems' source vectors give the same values, made as made."""
+    assert a.names == b.names and a.sources.names == b.sources.names and a.kinds.tolist() == b.kinds.tolist()
+    for name in ("u0", "ac", "timed"):
+        np.testing.assert_array_equal(getattr(a.sources, name), getattr(b.sources, name))
+    for t in (0.0, 1.3e-3, 7.7e-3):
+        for d in (0, 1):
+            np.testing.assert_array_equal(a.sources.values(t, d), b.sources.values(t, d))
+    np.testing.assert_array_equal(a.sources.breakpoints(0.0, 0.04), b.sources.breakpoints(0.0, 0.04))
+
+
+def test_a_reassembled_row_shares_the_templates_waveforms_only_where_its_sources_are_the_same():
+    text = BRIDGE.replace("SIN(0 12 50)", "SIN(0 {amp} 50)").replace(".param rl=1k", ".param amp=12 rl=1k")
+    base = netdae.load(text)
+    template = Template.of(base, assemble(base, **ARGS), **ARGS)
+    same = netdae.load(text, params={"rl": 820.0})
+    system = reassemble(template, same)
+    assert system.sources.bank is template.system.sources.bank and system.sources is not template.system.sources
+    _same_sources(system, assemble(same, **ARGS))
+    moved = netdae.load(text, params={"amp": 10.0})  # the source's waveform differs: its own
+    system = reassemble(template, moved)
+    assert system is not None and system.sources.bank is not template.system.sources.bank
+    _same_sources(system, assemble(moved, **ARGS))
+    assert system.sources.values(5e-3)[0] != template.system.sources.values(5e-3)[0]
+
+
+def test_a_reassembled_row_gets_its_sources_values_as_made_after_a_dc_sweep_set_the_templates():
+    text = BRIDGE.replace("SIN(0 12 50)", "")
+    base = netdae.load(text)
+    dc = dict(mode="dc", tstep=None, tstop=None)
+    template = Template.of(base, assemble(base, **dc), **dc)
+    template.system.sources.set_value("v1", 3.0)  # a .dc sweep's point, in place
+    other = netdae.load(text, params={"rl": 820.0})
+    system = reassemble(template, other)
+    assert system.sources.u0.tolist() == [12.0]
+    _same_sources(system, assemble(other, **dc))

@@ -172,7 +172,10 @@ class _Trace:
 
         def dense(t, _r=result, _p=probe):
             t = np.atleast_1d(np.asarray(t, dtype=float))
-            return _values(Result("tran", axes={"time": t}, signals=_r.dense(t)), _p)
+            signals = _r.dense(t)
+            if _p.expression is None and _p.signal.name in signals:  # what _values reads, without a Result
+                return _part(signals[_p.signal.name], _p.part, "tran")
+            return _values(Result("tran", axes={"time": t}, signals=signals), _p)
         self.dense = dense
 
     @property
@@ -190,22 +193,29 @@ class _Trace:
         that look at all of it share it); a window inside the run samples its own steps.
         """
         x, y = self.x, self.y
+        ends = None
         if x.size > 1:
             # only the steps that overlap [lo, hi]
             first = max(int(np.searchsorted(x, lo, side="right")) - 1, 0)
             last = min(int(np.searchsorted(x, hi, side="left")) + 1, x.size)
             if first == 0 and last == x.size:
                 if self._whole is None:
-                    self._whole = self._grid(x, y)
+                    self._whole = self._grid(x, y)[:2]
                 x, y = self._whole
-            else:
-                x, y = self._grid(x[first:last], y[first:last])
+            else:  # the window's ends in the same dense evaluation as its steps' inner points
+                x, y, ends = self._grid(x[first:last], y[first:last], np.array([lo, hi], dtype=float))
         keep = (x > lo) & (x < hi)
-        ends = self.at([lo, hi])
+        if ends is None:
+            ends = self.at([lo, hi])
         return np.concatenate([[lo], x[keep], [hi]]), np.concatenate([[ends[0]], y[keep], [ends[1]]])
 
-    def _grid(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The points ``x`` and the inner points of every step between them, with their values."""
+    def _grid(self, x: np.ndarray, y: np.ndarray,
+              extra: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """The points ``x`` and the inner points of every step between them, with their values; and the
+        values at the times ``extra`` (None without them), from the same dense evaluation (point by point:
+        the values are those of separate evaluations)."""
+        more = 0 if extra is None else extra.size
+        at_extra = None
         if x.size > 1:
             h = np.diff(x)
             xs = (x[:-1, None] + h[:, None] * np.concatenate([[0.0], _INNER])[None, :])
@@ -213,11 +223,16 @@ class _Trace:
             ys[:, 0] = y[:-1]
             inner = h > 0
             if inner.any():
-                ys[inner, 1:] = self.dense(xs[inner, 1:].ravel()).reshape(-1, _INNER.size)
+                tq = xs[inner, 1:].ravel()
+                values = self.dense(tq if not more else np.concatenate([tq, extra]))
+                ys[inner, 1:] = values[:tq.size].reshape(-1, _INNER.size)
+                at_extra = values[tq.size:] if more else None
             ys[~inner, 1:] = y[:-1][~inner, None]
             x = np.append(xs.ravel(), x[-1])
             y = np.append(ys.ravel(), y[-1])
-        return x, y
+        if more and at_extra is None:
+            at_extra = self.at(extra)
+        return x, y, at_extra
 
     def integral(self, lo: float, hi: float, power: int) -> float:
         """The integral of ``y**power`` over [lo, hi]."""

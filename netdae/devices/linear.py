@@ -271,13 +271,14 @@ def _stamp_resistors(els, layout, st: LinearStamps, temp, tnom):
     for el in els:
         if el.value == 0.0:
             st.notes.append(f"{el.name}: resistance 0 replaced by {ZERO_RESISTANCE:g} ohm (as ngspice does)")
-    g = conductances(els, temp, tnom)
+    rounded = _resistances_rounded(els, temp, tnom)
+    m = _multiplier(els)
+    g = m / rounded  # conductances(els, temp, tnom), from the one product it divides by
     a, b = _two_nodes(els, layout)
     # the exact structure reads a conductance as the reciprocal of the resistance it was rounded from (where
     # no multiplier enters: g = 1 / (R factor scale), one rounding), so that 1k beside a gain of 1000 is a
     # loop gain of exactly 1 there as in the netlist
-    st.H.add_conductance(a, b, -g, recip=np.where(_multiplier(els) == 1.0, -_resistances_rounded(els, temp, tnom),
-                                                  np.nan))
+    st.H.add_conductance(a, b, -g, recip=np.where(m == 1.0, -rounded, np.nan))
     with_ac = [k for k, el in enumerate(els) if "ac" in el.params]
     if with_ac:
         sub = [els[k] for k in with_ac]

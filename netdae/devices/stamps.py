@@ -7,10 +7,18 @@ element stamps need no branches.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import scipy.sparse as sp
 
 __all__ = ["Triplets", "CscSum"]
+
+
+def _spread(values, shape: tuple) -> np.ndarray:
+    """``values`` as floats of ``shape``, flat: a scalar repeated, an array of that shape as it is (a view)."""
+    v = np.asarray(values, dtype=float)
+    return v.ravel() if v.shape == shape else np.broadcast_to(v, shape).ravel()
 
 
 class Triplets:
@@ -41,13 +49,11 @@ class Triplets:
         """
         rows = np.asarray(rows, dtype=np.int64).ravel()
         cols = np.asarray(cols, dtype=np.int64).ravel()
-        vals = np.broadcast_to(np.asarray(vals, dtype=float), rows.shape).ravel()
         keep = (rows >= 0) & (cols >= 0)
         self._rows.append(rows[keep])
         self._cols.append(cols[keep])
-        self._vals.append(vals[keep])
-        self._recips.append(None if recips is None else
-                            np.broadcast_to(np.asarray(recips, dtype=float), rows.shape).ravel()[keep])
+        self._vals.append(_spread(vals, rows.shape)[keep])
+        self._recips.append(None if recips is None else _spread(recips, rows.shape)[keep])
 
     def add_conductance(self, a, b, g, recip=None) -> None:
         """The symmetric two-terminal pattern ``[[g, -g], [-g, g]]`` between nodes a and b (``recip``: the
@@ -149,10 +155,20 @@ class CscSum:
         self._indptr = np.zeros(m + 1, dtype=np.int32)
         np.cumsum(np.bincount(keys // max(n, 1), minlength=m), out=self._indptr[1:])
         self._stored = int(keys.size)
+        self._first: sp.csc_matrix | None = None  # the first matrix made, whose structure later ones copy
 
     def matrix(self, values: np.ndarray) -> sp.csc_matrix:
-        """The matrix of ``values`` (shape (k,), in the coordinates' order), duplicates summed."""
-        if self.size == 0:
-            return sp.csc_matrix(self.shape)
-        data = np.bincount(self._where, weights=values, minlength=self._stored)
-        return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=self.shape)
+        """The matrix of ``values`` (shape (k,), in the coordinates' order), duplicates summed.
+
+        The first matrix is made by scipy's constructor, which checks the structure; the later ones are
+        shallow copies of it with their own data and their own copies of the index arrays (the same
+        checked structure: 1-3 us instead of the constructor's 15-20 us, four times a sweep row).
+        """
+        data = np.bincount(self._where, weights=values, minlength=self._stored) if self.size else np.zeros(0)
+        if self._first is None:
+            self._first = (sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=self.shape)
+                           if self.size else sp.csc_matrix(self.shape))
+            return self._first.copy()
+        out = copy.copy(self._first)
+        out.data, out.indices, out.indptr = data, self._first.indices.copy(), self._first.indptr.copy()
+        return out

@@ -139,7 +139,7 @@ def _system(layout: Layout, stamps, families: list, pattern: SparsePattern, mode
     (:class:`MnaSystem`'s shortcut).
     """
     n = layout.n
-    sources = SourceVector(stamps.sources, mode, tstep, tstop)
+    sources = SourceVector(stamps.sources, mode, tstep, tstop, like=like.sources if like is not None else None)
     if sums is None:
         sums = _sums(stamps, n)
     E, H, B, H_ac = (s.matrix(t.values()) for s, t in zip(sums, (stamps.E, stamps.H, stamps.B, stamps.H_ac)))

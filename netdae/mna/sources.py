@@ -46,6 +46,15 @@ def _check_dc_values(sources: list[Element]) -> None:
             )
 
 
+def _same_sources(like: "SourceVector", names: list[str], made: tuple) -> bool:
+    """Whether ``like`` was made of sources of these names and equal values, with the same mode, tstep and
+    tstop (``made``: ``SourceVector._made``); False where the values do not compare (no sharing then)."""
+    try:
+        return like.names == names and like._made[:3] == made[:3] and bool(like._made[3] == made[3])
+    except (TypeError, ValueError):
+        return False
+
+
 class SourceVector:
     """Values of the independent sources in the column order of ``B``.
 
@@ -56,13 +65,26 @@ class SourceVector:
     mode : {"dc", "tran"}
     tstep, tstop : float, optional
         The transient's step and stop time (ngspice's waveform defaults depend on them).
+    like : SourceVector, optional
+        Another circuit's vector (a sweep's first row's): where its sources have the same names and
+        equal values and it was made with the same mode, tstep and tstop, this one shares its
+        waveforms (:class:`~netdae.netlist.waveforms.SourceBank`, read only) and copies its values
+        instead of resolving and grouping the waveforms again.
     """
 
     def __init__(self, sources: list[Element], mode: str = MODE_DC, tstep: float | None = None,
-                 tstop: float | None = None):
+                 tstop: float | None = None, like: "SourceVector | None" = None):
         self.names = [el.name for el in sources]
         self.mode = mode
         specs = [el.source for el in sources]
+        self._made = (mode, tstep, tstop, specs)  # what the vector is made of (for ``like``)
+        if like is not None and _same_sources(like, self.names, self._made):
+            # its values as made (a .dc sweep sets them in place afterwards: set_value)
+            self.m, self.ac, self.u0, self.timed = like.m, like.ac.copy(), like._u0_made.copy(), like.timed.copy()
+            self._u0_made = like._u0_made
+            self.bank, self._all_timed = like.bank, like._all_timed
+            self._cache_t, self._cache_u = None, None
+            return
         m = len(specs)
         self.m = m
         self.ac = np.array(
@@ -85,6 +107,7 @@ class SourceVector:
                 self.u0[self.timed] = 0.0
             else:
                 self.bank = None
+        self._u0_made = self.u0.copy()
         self._cache_t: float | None = None
         self._cache_u: np.ndarray | None = None
         # every source has a transient function (u0 is then all zero): u(t) is the bank's output

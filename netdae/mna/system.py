@@ -210,6 +210,8 @@ class MnaSystem(DaeSystem):
         self._behavioural_events = False  # not looked for yet (None: there are none)
         self._charge_rows: np.ndarray | None = None
         self._time_rows: np.ndarray | None = None
+        if like is not None and like.families is families:  # the same device families: the same rows
+            self._charge_rows, self._time_rows = like._charge_rows, like._time_rows
         self._xext = np.zeros(self.n + 1)
         self._placement: _Placement | None = None
         placed = like.placement() if like is not None and like.pattern is pattern else None

@@ -142,7 +142,8 @@ class Card:
         :func:`netdae.netlist.control.run_scripts` once the circuit's ``.csparam`` values are known.
     """
 
-    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat", "alter", "script", "from_control")
+    __slots__ = ("text", "raw", "file", "spans", "_tokens", "notes", "compat", "alter", "script", "from_control",
+                 "_located")
 
     def __init__(self, raw: str, file: str, spans: list[tuple[int, int, int]]) -> None:
         self.raw = raw
@@ -160,6 +161,8 @@ class Card:
         #: a located note) or measure (elaboration: an analysis the netlist does not run, a node it does not
         #: have; a located warning) is skipped, as ngspice goes on past a failed command, not refused.
         self.from_control = False
+        #: The locations made so far (:meth:`location`), with the file and spans they were made from.
+        self._located: tuple | None = None
 
     def warn(self, offset: int, message: str, severity: str = "warning") -> None:
         """Record a located warning (or note) about this card (its name prefixes ``message``)."""
@@ -179,13 +182,24 @@ class Card:
         return self.spans[0][1]
 
     def location(self, offset: int = 0) -> SourceLocation:
-        """The file position of character ``offset`` of :attr:`text`."""
+        """The file position of character ``offset`` of :attr:`text`.
+
+        Kept per offset (a location is immutable): every elaboration of the card (a sweep's rows) asks
+        for the same ones.
+        """
         spans = self.spans
+        located = getattr(self, "_located", None)
+        if located is None or located[0] is not spans or located[1] is not self.file:
+            located = self._located = (spans, self.file, {})
+        found = located[2].get(offset)
+        if found is not None:
+            return found
         if len(spans) == 1:
             start, line, col = spans[0]
         else:
             start, line, col = spans[bisect_right(spans, (offset, 1 << 62, 0)) - 1]
-        return SourceLocation(self.file, line, col + max(offset - start, 0))
+        found = located[2][offset] = SourceLocation(self.file, line, col + max(offset - start, 0))
+        return found
 
     def tokens(self) -> list[Token]:
         """The card split into tokens (computed once).
