@@ -22,8 +22,8 @@ C1 out 0 10n
 """
 
 
-def test_crossings_solve_only_the_one_asked_for_and_a_quantity_is_sampled_once():
-    circuit = load(SINE)
+def _counting(circuit):
+    """The circuit's transient without its measures, its dense output counting its calls: ``(result, calls)``."""
     (res,) = run(dataclasses.replace(circuit, measures=[]))
     calls = []
 
@@ -31,7 +31,13 @@ def test_crossings_solve_only_the_one_asked_for_and_a_quantity_is_sampled_once()
         calls.append(1)
         return _dense(t)
 
-    measures = evaluate_measures(circuit.measures, {"tran": dataclasses.replace(res, dense=counted)})
+    return dataclasses.replace(res, dense=counted), calls
+
+
+def test_crossings_solve_only_the_one_asked_for_and_a_quantity_is_sampled_once():
+    circuit = load(SINE)
+    res, calls = _counting(circuit)
+    measures = evaluate_measures(circuit.measures, {"tran": res})
     assert all(m.ok for m in measures), [m.reason for m in measures]
     # 50 periods: 50 rises through 0.3 and 80 crossings of 0.1 and 0.2 up to the 40th rise; solving
     # each on the interpolant took thousands of evaluations. Now: one sampling of v(out), its
@@ -47,15 +53,9 @@ def test_a_windows_ends_come_with_its_steps_inner_points_and_have_their_own_valu
     from netdae.analyses.measure import _Trace
 
     circuit = load(SINE)
-    (res,) = run(dataclasses.replace(circuit, measures=[]))
-    calls = []
-
-    def counted(t, _dense=res.dense):
-        calls.append(1)
-        return _dense(t)
-
+    res, calls = _counting(circuit)
     probe = circuit.measures[2].probe
-    trace = _Trace(dataclasses.replace(res, dense=counted), probe)
+    trace = _Trace(res, probe)
     x, y = trace.samples(1.03e-3, 3.57e-3)
     assert len(calls) == 1
     alone = _Trace(res, probe)
