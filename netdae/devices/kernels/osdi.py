@@ -48,7 +48,9 @@ The kernel ADDS ``-f`` to ``phi``, ``q`` to ``q`` and, when ``jacobian``,
 ``-df/dx`` and ``dq/dx`` through ``slots``; flags bit 0 marks a module that
 limited, bit 1 a non-finite value or a module's fatal error.
 
-Device bypass (``info_i[W_BYPASS]``, on unless ``NETDAE_OSDI_BYPASS=0``): an
+Device bypass (``info_i[W_BYPASS]``, set per analysis by
+:func:`netdae.devices.osdi.family.set_bypass` with the analysis' tolerances:
+a transient's, unless ``NETDAE_OSDI_BYPASS=0``): an
 instance whose nodes all moved less than ``reltol`` of their voltage plus
 ``vntol`` since its last evaluation *at the same time* ``t``, and whose
 currents and charges that evaluation's Jacobians then change by less than
