@@ -277,7 +277,7 @@ def integrate_compiled(system, t_span, x0, *, progress=None, raise_on_failure=Fa
     skind, spar, spwl_t, spwl_v, spwl_n = pack_sources(system.sources)
     switching = getattr(system, "switching", None)
     locks = None  # the Python side of the behavioural sources' held comparisons, made when a right limit needs it
-    devd = _pack_families(system, x0, switching)
+    devd = _pack_families(system, x0, switching, bypass=(rtol, vntol, abstol))
 
     F = np.zeros(L.N_F)
     I = np.zeros(L.N_I, dtype=np.int64)
@@ -776,7 +776,7 @@ def limiting_states(devd: tuple) -> tuple[int, ...]:
             *(end + 2 * _FAMILY_ARRAYS + k for k in (2, 3, 4)))
 
 
-def _pack_families(system, x0, switching) -> tuple:
+def _pack_families(system, x0, switching, bypass=None) -> tuple:
     """The loop's ``devd``: ``(par, idx, vacc, vtry, vnew)`` for diodes, BJTs, MOSFETs, JFETs and switches,
     the switches' crossing times (work), then the behavioural sources' ``(prog, const, inst, leaf,
     val, der, lock, xw)`` (``lock`` copied, its outcomes not held; ``xw`` work of length n + 1), then
@@ -785,6 +785,8 @@ def _pack_families(system, x0, switching) -> tuple:
 
     An absent family gets empty arrays (its kernel is then skipped). The switches start held in
     the operating point's states at ``x0`` (:meth:`~netdae.devices.switch.SwitchEvents.start`).
+    ``bypass``: the analysis' ``(reltol, vntol, abstol)`` for the OSDI devices' bypass, None: no
+    bypass (:func:`netdae.devices.osdi.family.set_bypass`).
     """
     from ...devices.kernels import behavioural as kbh
     from ...devices.kernels import bjt as kb
@@ -847,6 +849,10 @@ def _pack_families(system, x0, switching) -> tuple:
     # no $bound_step or $finish / $stop from an earlier analysis on the family's shared words
     osdi[4][ko.W_BOUND] = 0.0
     osdi[3][ko.W_STOP] = 0
+    if osdi[0].shape[0]:
+        from ...devices.osdi.family import set_bypass
+
+        set_bypass(osdi, bypass)
     return (tuple(out) + tuple(behavioural) + tuple(osdi)
             + tuple(np.zeros(osdi_states) for _ in range(3))
             + (par, idx, vold0.copy(), vold0.copy(), vold0.copy())

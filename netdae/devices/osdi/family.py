@@ -3,8 +3,9 @@
 Each instance is connected to the MNA system once (:meth:`OsdiFamily.bind`):
 its node mapping points at the global unknowns (ground at the extra slot
 ``n`` of the extended iterate, which is 0), its Jacobian pointers at the
-family's scratch arrays (one entry per Jacobian entry of every instance),
-whose values are scattered into the fixed sparsity pattern through
+family's scratch arrays (one place per distinct row and column of an
+instance's entries, its pairs: the module sums the entries of one pair
+there), whose values are scattered into the fixed sparsity pattern through
 precomputed slots. :meth:`OsdiFamily.evaluate` copies the iterate into the
 buffer ``eval`` reads, calls ``eval`` and the four ``load_*`` functions of
 every instance, and adds ``-f`` to ``phi`` and ``q`` to ``q`` (OSDI's
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import ctypes as C
 import math
+import os
 import re
 
 import numpy as np
@@ -44,6 +46,8 @@ _NOT_NAME = re.compile(r"[^0-9a-z_]+")
 LIMIT_AGAINST = abi.ENABLE_LIM | abi.CALC_RESIST_LIM_RHS | abi.CALC_REACT_LIM_RHS
 #: ... and of a solve from scratch (the modules' initial values: SPICE's MODEINITJCT).
 LIMIT_INITIAL = LIMIT_AGAINST | abi.INIT_LIM
+#: Set to ``0``, the compiled transient evaluates every instance at every call (no device bypass).
+BYPASS_ENV = "NETDAE_OSDI_BYPASS"
 
 
 def bound_step_address(inst) -> int:
@@ -56,6 +60,34 @@ def bound_step_address(inst) -> int:
     """
     offset = inst.module.descriptor.bound_step_offset
     return 0 if offset == abi.UINT32_MAX else int(inst.ptr) + int(offset)
+
+
+def set_bypass(compiled: tuple, tolerances: tuple[float, float, float] | None) -> None:
+    """Switch the compiled kernel's device bypass on for an analysis, or off (``tolerances`` None).
+
+    Parameters
+    ----------
+    compiled : tuple
+        The family's :meth:`OsdiFamily.compiled` arrays.
+    tolerances : (reltol, vntol, abstol) or None
+        The analysis' tolerances, which the bypass's tests take (the charges' is the
+        circuit's ``chgtol``, as the modules see it); None, or ``NETDAE_OSDI_BYPASS=0``
+        in the environment: off.
+
+    Every instance's last evaluation is forgotten (each analysis evaluates its
+    instances before it continues one) and the count of bypassed evaluations starts
+    at 0.
+    """
+    from ..kernels import osdi as ko
+
+    inst, info_i, info_f = compiled[0], compiled[3], compiled[4]
+    on = tolerances is not None and os.environ.get(BYPASS_ENV, "1") != "0" and inst.shape[0] > 0
+    info_i[ko.W_BYPASS] = int(on)
+    info_i[ko.W_BYPASSED] = 0
+    if inst.shape[0]:
+        info_f[inst[:, ko.I_REF] + ko.REF_OK] = 0.0
+    if on:
+        info_f[[ko.W_RTOL, ko.W_VTOL, ko.W_ITOL]] = tolerances
 
 
 def end_message(flags: int, name: str) -> str:
@@ -284,22 +316,22 @@ class OsdiFamily(DeviceFamily):
     def bind(self, slots: SlotMap, n: int) -> None:
         """Connect every instance: node mapping into the extended iterate, Jacobian pointers into scratch."""
         self.n = n
-        total = sum(len(inst.module.jacobian) for inst in self.instances)
+        self._pairs()
+        total = len(self._pair_rows)
         self.jr = np.zeros(max(total, 1))
         self.jc = np.zeros(max(total, 1))
-        self.slots = slots(np.concatenate(self._rows), np.concatenate(self._cols)) if total else np.zeros(0, np.int64)
+        self.slots = slots(self._pair_rows, self._pair_cols) if total else np.zeros(0, np.int64)
         self.nstates = nstates = sum(inst.module.num_states for inst in self.instances)
         self.prev_state = np.zeros(max(nstates, 1))
         self.next_state = np.zeros(max(nstates, 1))
         self.xbuf = np.zeros(n + 1)
         self.fbuf = np.zeros(n + 1)
         self.qbuf = np.zeros(n + 1)
-        off = soff = 0
-        for inst, g in zip(self.instances, self.glob):
-            nj, ns = len(inst.module.jacobian), inst.module.num_states
+        soff = 0
+        for inst, g, p0, places in zip(self.instances, self.glob, self._pair0, self._places):
+            ns = inst.module.num_states
             mapping = np.where(g < 0, n, g).astype(np.uint32)
-            inst.connect(mapping, self.jr[off:off + nj], self.jc[off:off + nj], np.arange(soff, soff + ns))
-            off += nj
+            inst.connect(mapping, self.jr[p0:], self.jc[p0:], np.arange(soff, soff + ns), places)
             soff += ns
         self.info = abi.OsdiSimInfo()
         if self.instances:  # the models of one circuit share their simulator parameters (bind.build)
@@ -309,6 +341,33 @@ class OsdiFamily(DeviceFamily):
         self.info.prev_state = self.prev_state.ctypes.data_as(C.POINTER(C.c_double))
         self.info.next_state = self.next_state.ctypes.data_as(C.POINTER(C.c_double))
         self._flags = (eval_flags("tran"), eval_flags("tran") & ~(abi.CALC_RESIST_JACOBIAN | abi.CALC_REACT_JACOBIAN))
+
+    def _pairs(self) -> None:
+        """Each instance's Jacobian entries on its distinct (row, column) pairs, one more for every entry
+        with a ground row or column: the modules load an instance's entries of one pair into one place
+        (``load_jacobian_*`` add them in the order of the entries), and the pairs are scattered into the
+        pattern, a few a transistor instead of its entries (BSIM4's 86 entries are 4 pairs on an
+        inverter's n-channel transistor). Sets per instance its first pair (``_pair0``), its entries'
+        places among its pairs (``_places``) and its pairs' (row, column) (``_distinct``); the pairs'
+        rows and columns (``_pair_rows``, ``_pair_cols``, ground as -1)."""
+        self._pair0, self._places, self._distinct = [], [], []
+        rows_all, cols_all, base = [], [], 0
+        for rows, cols in zip(self._rows, self._cols):
+            seen: dict[tuple[int, int], int] = {}
+            places = []
+            for r, c in zip(rows.tolist(), cols.tolist()):
+                key = (r, c) if r >= 0 and c >= 0 else (-1, -1)
+                if key not in seen:
+                    seen[key] = len(seen)
+                places.append(seen[key])
+            self._pair0.append(base)
+            self._places.append(np.asarray(places, dtype=np.int64))
+            self._distinct.append(list(seen))
+            rows_all += [r for r, _ in seen]
+            cols_all += [c for _, c in seen]
+            base += len(seen)
+        self._pair_rows = np.asarray(rows_all, dtype=np.int64)
+        self._pair_cols = np.asarray(cols_all, dtype=np.int64)
 
     def compiled(self, slots: SlotMap, n: int) -> tuple:
         """Pack the family for :func:`netdae.devices.kernels.osdi.eval_osdi` (after ``bind``).
@@ -326,28 +385,53 @@ class OsdiFamily(DeviceFamily):
         modules: dict[int, int] = {}
         fns = []
         inst = np.zeros((len(self.instances), ko.N_INST), dtype=np.int64)
-        off = 0
-        for k, i in enumerate(self.instances):
+        most = max([1] + [len({int(v) for v in g if v >= 0}) for g in self.glob])  # the most nodes of an instance
+        words: list[int] = [0] * most  # the work, then the instances' node lists and entries' places
+        blocks = 0  # the reference blocks' words, after those
+        soff = 0
+        for k, (i, g) in enumerate(zip(self.instances, self.glob)):
             d = i.module.descriptor
             row = modules.get(id(i.module))
             if row is None:
                 row = modules[id(i.module)] = len(fns)
                 fns.append((d.eval, d.load_residual_resist, d.load_residual_react, d.load_jacobian_resist,
                             d.load_jacobian_react, d.load_limit_rhs_resist, d.load_limit_rhs_react))
-            nj = len(i.module.jacobian)
-            inst[k] = (i.handle, i.ptr, i.model.ptr, row, off, off + nj, bound_step_address(i))
-            off += nj
-        info_i = np.zeros(ko.INFO_WORDS, dtype=np.int64)
+            ns = i.module.num_states
+            pairs = self._distinct[k]
+            nodes = sorted({int(v) for v in g if v >= 0})
+            position = {v: j for j, v in enumerate(nodes)}
+            # only an instance whose unknowns are all potentials in volts is bypassed (the tolerances are a
+            # voltage's): not one with a flow unknown (a branch current) or an implicit equation's unknown
+            nn = -1 if any(node.units != "V" and g[j] >= 0 for j, node in enumerate(i.module.nodes)) else len(nodes)
+            p0 = self._pair0[k]
+            inst[k, :ko.I_NODES] = (i.handle, i.ptr, i.model.ptr, row, p0, p0 + len(pairs), bound_step_address(i))
+            inst[k, ko.I_NODES] = ko.INFO_WORDS + len(words)
+            words += nodes
+            inst[k, ko.I_PLACE] = ko.INFO_WORDS + len(words)
+            words += [position[r] * len(nodes) + position[c] if r >= 0 else -1 for r, c in pairs]
+            inst[k, ko.I_NN] = nn
+            inst[k, ko.I_S0], inst[k, ko.I_NS] = soff, ns
+            inst[k, ko.I_REF] = blocks
+            blocks += ko.REF_V + 3 * len(nodes) + ns + 2 * len(pairs) + 2 * len(nodes)
+            soff += ns
+        npairs = len(self._pair_rows)
+        head = ko.INFO_WORDS + len(words)
+        inst[:, ko.I_REF] += head
+        info_i = np.zeros(head + blocks, dtype=np.int64)
+        info_i[ko.INFO_WORDS:head] = words
+        info_f = info_i.view(np.float64)
         if self.instances:
             sim = self.sim
             info_i[:4] = [C.addressof(sim.names), C.addressof(sim.vals), C.addressof(sim.names_str),
                           C.addressof(sim.vals_str)]
+            info_i[ko.W_MAXNODES] = most
+            info_f[ko.W_QTOL] = dict(zip((nm.decode() for nm in sim._names[:-1]), sim.vals))["chgtol"]
         info_i[ko.W_PREV_SOLVE] = self.xbuf.ctypes.data
         info_i[ko.W_PREV_STATE] = self.prev_state.ctypes.data
         info_i[ko.W_NEXT_STATE] = self.next_state.ctypes.data
         self._info_words = info_i  # the kernel's OsdiSimInfo (kept alive with the family)
         return (inst, np.array(fns, dtype=np.int64).reshape(-1, ko.N_FNS), np.asarray(self.slots, dtype=np.int64),
-                info_i, info_i.view(np.float64), self.xbuf, self.fbuf, self.qbuf, self.jr[:off], self.jc[:off])
+                info_i, info_f, self.xbuf, self.fbuf, self.qbuf, self.jr[:npairs], self.jc[:npairs])
 
     def junction_nodes(self) -> list[tuple[str, str]]:
         """Terminals joined through the module's resistive Jacobian entries (a DC path, structurally)."""

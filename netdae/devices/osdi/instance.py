@@ -361,7 +361,7 @@ class OsdiInstance(_ParameterHolder):
         return reps
 
     def connect(self, mapping: np.ndarray, resist: np.ndarray, react: np.ndarray,
-                states: np.ndarray | None = None) -> None:
+                states: np.ndarray | None = None, places: np.ndarray | None = None) -> None:
         """Tell the instance where its unknowns are and where its Jacobian goes.
 
         Parameters
@@ -375,6 +375,10 @@ class OsdiInstance(_ParameterHolder):
             (``load_jacobian_react``). The arrays must outlive the instance.
         states : uint32[num_states], optional
             Indices into the state vectors (default 0, 1, ...).
+        places : int array [num_jacobian_entries], optional
+            Entry ``k`` goes into ``resist[places[k]]`` (``react[places[k]]``)
+            instead: entries given one place are summed there, in the order of
+            the entries (default 0, 1, ...).
         """
         d = self.module.descriptor
         nn = d.num_nodes
@@ -387,9 +391,10 @@ class OsdiInstance(_ParameterHolder):
             rp = (C.c_void_p * nj).from_address(self.ptr + d.jacobian_ptr_resist_offset)
             base_r, base_c = resist.ctypes.data, react.ctypes.data
             for k, e in enumerate(self.module.jacobian):
-                rp[k] = base_r + 8 * k
+                at = k if places is None else int(places[k])
+                rp[k] = base_r + 8 * at
                 if e.react_ptr_off != abi.UINT32_MAX:
-                    C.c_void_p.from_address(self.ptr + e.react_ptr_off).value = base_c + 8 * k
+                    C.c_void_p.from_address(self.ptr + e.react_ptr_off).value = base_c + 8 * at
         self._jacobian_targets = (resist, react)
         if d.num_states:
             s = (C.c_uint32 * d.num_states).from_address(self.ptr + d.state_idx_off)
