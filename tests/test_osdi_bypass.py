@@ -153,3 +153,28 @@ def test_a_ring_oscillator_with_and_without_the_bypass(monkeypatch):
     error = {name: np.abs(runs[name] - runs["ref"]).max() for name in ("off", "on", "on_tight")}
     assert error["on"] < 2.0 * error["off"] + 1e-3
     assert error["on_tight"] < 1e-3
+
+
+def test_options_bypass_0_turns_it_off(monkeypatch):
+    """ngspice's ``.options bypass=0`` (its own default) evaluates every instance at every call, as
+    ``NETDAE_OSDI_BYPASS=0`` does: the same waveform bit for bit, no bypassed evaluation; and the option is
+    not reported as unused."""
+    infos = []
+    compiled = osdi_family.OsdiFamily.compiled
+
+    def keep(self, slots, n):
+        out = compiled(self, slots, n)
+        infos.append(out[3])
+        return out
+
+    monkeypatch.setattr(osdi_family.OsdiFamily, "compiled", keep)
+    text = _ring(3, "1n")
+    r_option = netdae.run(text.replace(".ic", ".options bypass=0\n.ic"))[0]
+    assert int(infos[-1][ko.W_BYPASSED]) == 0
+    assert not any("not used by netdae" in note and "bypass" in note for note in r_option.notes)
+    monkeypatch.setenv(osdi_family.BYPASS_ENV, "0")
+    r_env = netdae.run(text)[0]
+    assert np.array_equal(np.asarray(r_option["v(n2)"]), np.asarray(r_env["v(n2)"]))
+    monkeypatch.delenv(osdi_family.BYPASS_ENV)
+    netdae.run(text.replace(".ic", ".options bypass=1\n.ic"))
+    assert int(infos[-1][ko.W_BYPASSED]) > 0

@@ -697,8 +697,8 @@ def unused_options(circuit: Circuit) -> str | None:
     share (it controls the error of the unknowns, and its Newton iteration per
     step is limited by its own convergence test); the options netdae does not
     know are kept as written in ``Options.extra`` (those netdae's devices
-    read from there, :data:`USED_EXTRA_OPTIONS`, and with BSIM3/BSIM4 ``M``
-    elements :data:`BSIM_OPTIONS`, are used).
+    read from there, :data:`USED_EXTRA_OPTIONS`, with OSDI devices ``bypass``,
+    and with BSIM3/BSIM4 ``M`` elements :data:`BSIM_OPTIONS`, are used).
 
     Examples
     --------
@@ -709,6 +709,8 @@ def unused_options(circuit: Circuit) -> str | None:
     """
     o = circuit.options
     used = USED_EXTRA_OPTIONS
+    if any(el.kind == Kind.OSDI for el in circuit.elements):
+        used = used | {"bypass"}  # the compiled transient's bypass of OSDI instances (OsdiFamily.bypass_allowed)
     if any(el.kind == Kind.OSDI and el.letter == "m" for el in circuit.elements):
         used = used | BSIM_OPTIONS
     names = sorted(name for name in o.extra if name not in used)

@@ -821,6 +821,8 @@ def _pack_families(system, x0, switching, bypass=None) -> tuple:
             if slot == OSDI_SLOT:
                 osdi = compiled
                 osdi_states = max(1, family.nstates)
+                if not family.bypass_allowed:  # .options bypass=0
+                    bypass = None
                 continue
             par, idx, vold0 = compiled
             if slot == SWITCH_SLOT:

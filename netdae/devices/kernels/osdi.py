@@ -50,7 +50,7 @@ limited, bit 1 a non-finite value or a module's fatal error.
 
 Device bypass (``info_i[W_BYPASS]``, set per analysis by
 :func:`netdae.devices.osdi.family.set_bypass` with the analysis' tolerances:
-a transient's, unless ``NETDAE_OSDI_BYPASS=0``): an
+a transient's, unless ``.options bypass=0`` or ``NETDAE_OSDI_BYPASS=0``): an
 instance whose nodes all moved less than ``reltol`` of their voltage plus
 ``vntol`` since its last evaluation *at the same time* ``t``, and whose
 currents and charges that evaluation's Jacobians then change by less than

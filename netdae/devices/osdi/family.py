@@ -369,6 +369,13 @@ class OsdiFamily(DeviceFamily):
         self._pair_rows = np.asarray(rows_all, dtype=np.int64)
         self._pair_cols = np.asarray(cols_all, dtype=np.int64)
 
+    @property
+    def bypass_allowed(self) -> bool:
+        """Whether the netlist lets the compiled transient bypass these instances: ngspice's
+        ``.options bypass`` (``bypass=0`` turns it off; absent or nonzero, netdae's default, on;
+        ``NETDAE_OSDI_BYPASS=0`` in the environment turns it off too, :func:`set_bypass`)."""
+        return bool(self.circuit.options.extra.get("bypass", True))
+
     def compiled(self, slots: SlotMap, n: int) -> tuple:
         """Pack the family for :func:`netdae.devices.kernels.osdi.eval_osdi` (after ``bind``).
 
