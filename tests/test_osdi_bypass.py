@@ -128,10 +128,8 @@ def test_an_analysis_starts_without_references_and_only_a_transient_bypasses(pac
     osdi_family.set_bypass(pack, (1e-3, 1e-6, 1e-12))
 
 
-def test_a_ring_oscillator_with_and_without_the_bypass(monkeypatch):
-    """Against the same ring without the bypass at reltol 1e-6: the bypass adds less than the integration's
-    own error at the default tolerance (measured 2.0 mV against 8.5 mV without it), and less than 1 mV at
-    reltol 1e-6 (measured 0.18 mV); instances are bypassed."""
+def _kept_infos(monkeypatch) -> list:
+    """The OSDI families' kernel words of every analysis from now on (their bypass counts), in order."""
     infos = []
     compiled = osdi_family.OsdiFamily.compiled
 
@@ -141,6 +139,14 @@ def test_a_ring_oscillator_with_and_without_the_bypass(monkeypatch):
         return out
 
     monkeypatch.setattr(osdi_family.OsdiFamily, "compiled", keep)
+    return infos
+
+
+def test_a_ring_oscillator_with_and_without_the_bypass(monkeypatch):
+    """Against the same ring without the bypass at reltol 1e-6: the bypass adds less than the integration's
+    own error at the default tolerance (measured 2.0 mV against 8.5 mV without it), and less than 1 mV at
+    reltol 1e-6 (measured 0.18 mV); instances are bypassed."""
+    infos = _kept_infos(monkeypatch)
     text = _ring(5)
     t = np.linspace(0.0, 3e-9, 600)
     runs = {}
@@ -159,15 +165,7 @@ def test_options_bypass_0_turns_it_off(monkeypatch):
     """ngspice's ``.options bypass=0`` (its own default) evaluates every instance at every call, as
     ``NETDAE_OSDI_BYPASS=0`` does: the same waveform bit for bit, no bypassed evaluation; and the option is
     not reported as unused."""
-    infos = []
-    compiled = osdi_family.OsdiFamily.compiled
-
-    def keep(self, slots, n):
-        out = compiled(self, slots, n)
-        infos.append(out[3])
-        return out
-
-    monkeypatch.setattr(osdi_family.OsdiFamily, "compiled", keep)
+    infos = _kept_infos(monkeypatch)
     text = _ring(3, "1n")
     r_option = netdae.run(text.replace(".ic", ".options bypass=0\n.ic"))[0]
     assert int(infos[-1][ko.W_BYPASSED]) == 0
