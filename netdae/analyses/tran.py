@@ -1163,10 +1163,9 @@ def _held_junction_failure(circuit: Circuit, res):
     cause = held_junction_cause(circuit, failure.runaway, failure.runaway_value, lambda n: value(f"v({n})"))
     if cause is None:
         return res
-    rest = failure.hint[len(failure.cause):] if failure.cause and failure.hint.startswith(failure.cause) else \
-        f"; {failure.hint}"
-    failure = replace(failure, hint=cause + rest, cause=cause)
-    return replace(res, failure=failure, message=res.message.replace(res.failure.hint, failure.hint))
+    # a run that ran away has its hint begin with the runaway's sentence (its cause: with_runaway)
+    failure = replace(failure, hint=cause + failure.hint[len(failure.cause):], cause=cause)
+    return replace(res, failure=failure, message=failure.message)
 
 
 def _high_order_runaway(prepared: Prepared, x0: np.ndarray, settings: _Settings, res) -> bool:

@@ -459,9 +459,9 @@ class NonlinearCorrector:
         # a rate carried by solves that converged at their first correction was measured with an
         # older Jacobian at another point: after RATE_AGE_MAX of them it is assumed again
         self.rate_age = self.rate_age + 1 if res.iterations <= 1 else 0
-        self.rate = res.rate if self.rate_age < RATE_AGE_MAX else RATE_AFTER_SETUP
+        self.rate = res.rate
         if self.rate_age >= RATE_AGE_MAX:
-            self.rate_age = 0
+            self.rate, self.rate_age = RATE_AFTER_SETUP, 0
         if not ev_new.ok:
             return False, {"info": INFO_EVALUATION, "worst": nonfinite_unknown(system.names, ev_new)}
         return True, (res.x, ev_new.q if e_matrix is None else ev_new.q[rows])
