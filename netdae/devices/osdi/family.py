@@ -392,7 +392,8 @@ class OsdiFamily(DeviceFamily):
         modules: dict[int, int] = {}
         fns = []
         inst = np.zeros((len(self.instances), ko.N_INST), dtype=np.int64)
-        most = max([1] + [len({int(v) for v in g if v >= 0}) for g in self.glob])  # the most nodes of an instance
+        node_lists = [sorted({int(v) for v in g if v >= 0}) for g in self.glob]  # each instance's nodes
+        most = max([1] + [len(nodes) for nodes in node_lists])
         words: list[int] = [0] * most  # the work, then the instances' node lists and entries' places
         blocks = 0  # the reference blocks' words, after those
         soff = 0
@@ -405,7 +406,7 @@ class OsdiFamily(DeviceFamily):
                             d.load_jacobian_react, d.load_limit_rhs_resist, d.load_limit_rhs_react))
             ns = i.module.num_states
             pairs = self._distinct[k]
-            nodes = sorted({int(v) for v in g if v >= 0})
+            nodes = node_lists[k]
             position = {v: j for j, v in enumerate(nodes)}
             # only an instance whose unknowns are all potentials in volts is bypassed (the tolerances are a
             # voltage's): not one with a flow unknown (a branch current) or an implicit equation's unknown
@@ -432,7 +433,7 @@ class OsdiFamily(DeviceFamily):
             info_i[:4] = [C.addressof(sim.names), C.addressof(sim.vals), C.addressof(sim.names_str),
                           C.addressof(sim.vals_str)]
             info_i[ko.W_MAXNODES] = most
-            info_f[ko.W_QTOL] = dict(zip((nm.decode() for nm in sim._names[:-1]), sim.vals))["chgtol"]
+            info_f[ko.W_QTOL] = sim.value("chgtol")
         info_i[ko.W_PREV_SOLVE] = self.xbuf.ctypes.data
         info_i[ko.W_PREV_STATE] = self.prev_state.ctypes.data
         info_i[ko.W_NEXT_STATE] = self.next_state.ctypes.data

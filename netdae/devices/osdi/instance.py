@@ -62,6 +62,10 @@ class SimParameters:
         self.vals_str = (C.c_char_p * 1)(None)
         self.struct = abi.OsdiSimParas(self.names, self.vals, self.names_str, self.vals_str)
 
+    def value(self, name: str) -> float:
+        """The value of parameter ``name`` as the modules read it."""
+        return self.vals[self._names.index(name.encode())]
+
 
 def _type_error(param: OsdiParam, value, who: str, module: OsdiModule, location) -> NetlistError:
     return NetlistError(f"{who}: parameter {param.name!r} of OSDI module {module.name} ({module.library.path}) "
